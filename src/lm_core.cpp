@@ -1,1 +1,492 @@
-// placeholder
+// The one Levenberg-Marquardt core behind all six drivers (sba paper, Fig. 2 and Fig. 4):
+// the augmented normal equations are reduced to the cameras by the Schur complement
+// S = U* - W V*^-1 W^T, S is solved densely, and the point updates follow by
+// back-substitution. Motion-only problems have no W (S is block diagonal), structure-only
+// problems have no S; both fall out of the same code through the free camera/point counts.
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <vector>
+
+#include "core.h"
+#include "lapack.h"
+#include "small_dense.h"
+
+namespace sba {
+namespace {
+
+// sba 1.6's threshold for an "almost singular" augmented system: ||dp||^2 beyond
+// (||p||^2 + eps2) / 1e-24 means the step is numerically meaningless.
+constexpr double kSingularEpsSq = 1e-24;
+
+double sqnorm(const double *v, i64 len) {
+  double s = 0.0;
+  for (i64 k = 0; k < len; ++k) s += v[k] * v[k];
+  return s;
+}
+
+bool all_finite(const double *v, i64 len) {
+  for (i64 k = 0; k < len; ++k)
+    if (!std::isfinite(v[k])) return false;
+  return true;
+}
+
+// Everything a solve needs, sized once before iterating.
+struct Workspace {
+  explicit Workspace(const Layout &lay, bool weighted) {
+    const i64 nv = lay.nvis, mnp = lay.mnp;
+    nS = i64(lay.free_cams()) * lay.cnp;
+    hx.resize(size_t(nv * mnp));
+    e.resize(hx.size());
+    hxn.resize(hx.size());
+    en.resize(hx.size());
+    jac.resize(size_t(nv * lay.jblk()));
+    if (weighted) wts.resize(size_t(nv * mnp * mnp));
+    U.resize(size_t(i64(lay.m) * lay.cnp * lay.cnp));
+    ea.resize(size_t(i64(lay.m) * lay.cnp));
+    V.resize(size_t(i64(lay.n) * lay.pnp * lay.pnp));
+    eb.resize(size_t(i64(lay.n) * lay.pnp));
+    Vinv.resize(V.size());
+    S.resize(size_t(nS * nS));
+    dp.resize(size_t(lay.nvars()));
+    pn.resize(dp.size());
+    int maxtrack = 0;
+    for (int i = 0; i < lay.n; ++i) maxtrack = std::max(maxtrack, lay.rowptr[i + 1] - lay.rowptr[i]);
+    const size_t cp = size_t(lay.cnp) * lay.pnp;
+    Wt.resize(size_t(maxtrack) * cp);
+    Yt.resize(size_t(maxtrack) * cp);
+    track.resize(size_t(maxtrack));
+    blk.resize(size_t(std::max(lay.cnp, lay.pnp)) * std::max(lay.cnp, lay.pnp));
+    vec.resize(size_t(std::max(lay.cnp, lay.pnp)));
+  }
+  i64 nS = 0;
+  std::vector<double> hx, e, hxn, en, jac, wts, U, ea, V, eb, Vinv, S, dp, pn;
+  std::vector<double> Wt, Yt, blk, vec;  // per-point scratch of the Schur assembly
+  std::vector<int> track;                 // free cameras of the current point
+};
+
+// Weight matrices W_ij (upper triangular, W^T W = Sigma_ij^-1) from the covariances.
+bool make_weights(const Layout &lay, const double *covx, std::vector<double> &wts,
+                  const Logger &log) {
+  const int mnp = lay.mnp, m2 = mnp * mnp;
+  std::vector<double> a(static_cast<size_t>(m2)), tmp(static_cast<size_t>(m2));
+  for (int i = 0; i < lay.n; ++i)
+    for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+      const double *c = covx + i64(k) * m2;
+      std::copy(c, c + m2, a.begin());
+      bool ok = all_finite(c, m2);
+      for (int r = 0; ok && r < mnp; ++r)
+        for (int s = r + 1; s < mnp; ++s)
+          if (c[r * mnp + s] != c[s * mnp + r]) ok = false;
+      if (ok) ok = small::cholinv_upper(a.data(), wts.data() + i64(k) * m2, tmp.data(), mnp);
+      if (!ok) {
+        log.error("sba: the covariance of measurement %d (point %d, camera %d) is not a finite "
+                  "symmetric positive definite matrix",
+                  k, i, lay.colidx[k]);
+        return false;
+      }
+    }
+  return true;
+}
+
+// e = W (x - hx): the (weighted) residual.
+void residual(const Layout &lay, const double *x, const double *hx, const double *wts, double *e) {
+  const i64 len = lay.nvis * lay.mnp;
+  for (i64 q = 0; q < len; ++q) e[q] = x[q] - hx[q];
+  if (!wts) return;
+  const int mnp = lay.mnp;
+  std::vector<double> t(static_cast<size_t>(mnp));
+  for (i64 k = 0; k < lay.nvis; ++k) {
+    double *ek = e + k * mnp;
+    const double *w = wts + k * mnp * mnp;
+    for (int r = 0; r < mnp; ++r) {
+      double s = 0.0;
+      for (int c = r; c < mnp; ++c) s += w[r * mnp + c] * ek[c];
+      t[r] = s;
+    }
+    std::copy(t.begin(), t.end(), ek);
+  }
+}
+
+// Jacobian blocks A_ij, B_ij <- W_ij A_ij, W_ij B_ij.
+void weight_jacobian(const Layout &lay, const double *wts, double *jac) {
+  const int mnp = lay.mnp, ncol = lay.cnp + lay.pnp;
+  std::vector<double> t(size_t(mnp) * ncol);
+  for (i64 k = 0; k < lay.nvis; ++k) {
+    double *J = jac + k * lay.jblk();
+    const double *w = wts + k * mnp * mnp;
+    // The A and B blocks are stored one after the other, each row-major; view each row of
+    // the projection as its cnp entries in A followed by its pnp entries in B.
+    auto at = [&](int r, int c) -> double & {
+      return c < lay.cnp ? J[r * lay.cnp + c] : J[mnp * lay.cnp + r * lay.pnp + (c - lay.cnp)];
+    };
+    for (int r = 0; r < mnp; ++r)
+      for (int c = 0; c < ncol; ++c) {
+        double s = 0.0;
+        for (int q = r; q < mnp; ++q) s += w[r * mnp + q] * at(q, c);
+        t[size_t(r) * ncol + c] = s;
+      }
+    for (int r = 0; r < mnp; ++r)
+      for (int c = 0; c < ncol; ++c) at(r, c) = t[size_t(r) * ncol + c];
+  }
+}
+
+// A Jacobian entry that is not finite makes every later number meaningless. Only the blocks
+// of free cameras and points are looked at: the others are ignored by definition.
+bool jacobian_finite(const Layout &lay, const double *jac) {
+  const i64 asz = i64(lay.mnp) * lay.cnp, bsz = i64(lay.mnp) * lay.pnp;
+  for (int i = 0; i < lay.n; ++i)
+    for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+      const double *J = jac + i64(k) * lay.jblk();
+      if (lay.cam_free(lay.colidx[k]) && !all_finite(J, asz)) return false;
+      if (lay.pt_free(i) && !all_finite(J + asz, bsz)) return false;
+    }
+  return true;
+}
+
+// U_j, V_i (undamped) and e_a = A^T e, e_b = B^T e for the free cameras and points.
+void normal_equations(const Layout &lay, Workspace &w) {
+  const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp;
+  std::fill(w.U.begin(), w.U.end(), 0.0);
+  std::fill(w.V.begin(), w.V.end(), 0.0);
+  std::fill(w.ea.begin(), w.ea.end(), 0.0);
+  std::fill(w.eb.begin(), w.eb.end(), 0.0);
+  for (int i = 0; i < lay.n; ++i) {
+    const bool pfree = lay.pt_free(i);
+    for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+      const int j = lay.colidx[k];
+      const double *A = w.jac.data() + i64(k) * lay.jblk();
+      const double *B = A + mnp * cnp;
+      const double *ek = w.e.data() + i64(k) * mnp;
+      if (lay.cam_free(j)) {
+        double *U = w.U.data() + i64(j) * cnp * cnp, *ea = w.ea.data() + i64(j) * cnp;
+        for (int r = 0; r < mnp; ++r) {
+          const double *ar = A + r * cnp;
+          for (int a = 0; a < cnp; ++a) {
+            ea[a] += ar[a] * ek[r];
+            for (int b = a; b < cnp; ++b) U[a * cnp + b] += ar[a] * ar[b];
+          }
+        }
+      }
+      if (pfree) {
+        double *V = w.V.data() + i64(i) * pnp * pnp, *eb = w.eb.data() + i64(i) * pnp;
+        for (int r = 0; r < mnp; ++r) {
+          const double *br = B + r * pnp;
+          for (int a = 0; a < pnp; ++a) {
+            eb[a] += br[a] * ek[r];
+            for (int b = a; b < pnp; ++b) V[a * pnp + b] += br[a] * br[b];
+          }
+        }
+      }
+    }
+  }
+  // Only the upper triangles were accumulated; mirror them once.
+  auto mirror = [](double *M, int d) {
+    for (int a = 0; a < d; ++a)
+      for (int b = a + 1; b < d; ++b) M[b * d + a] = M[a * d + b];
+  };
+  for (int j = lay.mcon; j < lay.m && cnp; ++j) mirror(w.U.data() + i64(j) * cnp * cnp, cnp);
+  for (int i = lay.ncon; i < lay.n && pnp; ++i) mirror(w.V.data() + i64(i) * pnp * pnp, pnp);
+}
+
+// W_ij = A_ij^T B_ij (cnp x pnp) for projection k.
+inline void form_W(const Layout &lay, const double *jac, int k, double *W) {
+  const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp;
+  const double *A = jac + i64(k) * lay.jblk();
+  const double *B = A + mnp * cnp;
+  for (int a = 0; a < cnp; ++a)
+    for (int b = 0; b < pnp; ++b) {
+      double s = 0.0;
+      for (int r = 0; r < mnp; ++r) s += A[r * cnp + a] * B[r * pnp + b];
+      W[a * pnp + b] = s;
+    }
+}
+
+// Solve the dense S (nS x nS, upper block triangle filled row-major == lower triangle
+// column-major) for rhs in place with LAPACK's Cholesky.
+bool dense_cholesky_solve(double *S, i64 nS, double *rhs) {
+  const int n = int(nS), one = 1;
+  int info = 0;
+  SBA_F77(dpotrf, DPOTRF)("L", &n, S, &n, &info, 1);
+  if (info != 0) return false;
+  SBA_F77(dpotrs, DPOTRS)("L", &n, &one, S, &n, rhs, &n, &info, 1);
+  return info == 0;
+}
+
+// The damped step dp for damping mu, through the Schur complement. False when a V*_i or S
+// cannot be factored (the caller then increases the damping).
+bool compute_step(const Layout &lay, Workspace &w, double mu) {
+  const int cnp = lay.cnp, pnp = lay.pnp;
+  const i64 cp = i64(cnp) * pnp;
+  std::fill(w.dp.begin(), w.dp.end(), 0.0);
+
+  for (int i = lay.ncon; i < lay.n && pnp; ++i) {
+    double *blk = w.blk.data();
+    const double *V = w.V.data() + i64(i) * pnp * pnp;
+    std::copy(V, V + pnp * pnp, blk);
+    for (int a = 0; a < pnp; ++a) blk[a * pnp + a] += mu;
+    if (!small::spd_inverse(blk, w.Vinv.data() + i64(i) * pnp * pnp, pnp)) return false;
+  }
+
+  if (w.nS > 0) {
+    const i64 nS = w.nS;
+    double *da = w.dp.data() + lay.a_off(lay.mcon);
+    if (lay.free_pts() == 0) {
+      // No W: S is block diagonal, one small system per camera.
+      for (int j = lay.mcon; j < lay.m; ++j) {
+        double *blk = w.blk.data();
+        const double *U = w.U.data() + i64(j) * cnp * cnp;
+        std::copy(U, U + cnp * cnp, blk);
+        for (int a = 0; a < cnp; ++a) blk[a * cnp + a] += mu;
+        if (!small::chol(blk, cnp)) return false;
+        double *x = w.dp.data() + lay.a_off(j);
+        std::copy(w.ea.begin() + lay.a_off(j), w.ea.begin() + lay.a_off(j) + cnp, x);
+        small::chol_solve(blk, x, cnp);
+      }
+    } else {
+      double *S = w.S.data();
+      std::fill(w.S.begin(), w.S.end(), 0.0);
+      std::copy(w.ea.begin() + lay.a_off(lay.mcon), w.ea.end(), da);
+      for (int j = lay.mcon; j < lay.m; ++j) {
+        const i64 o = i64(j - lay.mcon) * cnp;
+        const double *U = w.U.data() + i64(j) * cnp * cnp;
+        for (int a = 0; a < cnp; ++a) {
+          for (int b = a; b < cnp; ++b) S[(o + a) * nS + o + b] = U[a * cnp + b];
+          S[(o + a) * nS + o + a] += mu;
+        }
+      }
+      for (int i = lay.ncon; i < lay.n; ++i) {
+        int nt = 0;
+        for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
+          if (lay.colidx[k] >= lay.mcon) w.track[nt++] = k;
+        if (nt == 0) continue;
+        const double *Vi = w.Vinv.data() + i64(i) * pnp * pnp;
+        const double *ebi = w.eb.data() + i64(i) * pnp;
+        for (int t = 0; t < nt; ++t) {
+          double *W = w.Wt.data() + t * cp, *Y = w.Yt.data() + t * cp;
+          form_W(lay, w.jac.data(), w.track[t], W);
+          for (int a = 0; a < cnp; ++a)
+            for (int b = 0; b < pnp; ++b) {
+              double s = 0.0;
+              for (int c = 0; c < pnp; ++c) s += W[a * pnp + c] * Vi[c * pnp + b];
+              Y[a * pnp + b] = s;
+            }
+        }
+        for (int t1 = 0; t1 < nt; ++t1) {
+          const i64 o1 = i64(lay.colidx[w.track[t1]] - lay.mcon) * cnp;
+          const double *Y = w.Yt.data() + t1 * cp;
+          for (int a = 0; a < cnp; ++a) {
+            double s = 0.0;
+            for (int c = 0; c < pnp; ++c) s += Y[a * pnp + c] * ebi[c];
+            da[o1 + a] -= s;
+          }
+          // Cameras ascend along a track, so t2 >= t1 fills S's upper block triangle.
+          for (int t2 = t1; t2 < nt; ++t2) {
+            const i64 o2 = i64(lay.colidx[w.track[t2]] - lay.mcon) * cnp;
+            const double *W2 = w.Wt.data() + t2 * cp;
+            for (int a = 0; a < cnp; ++a) {
+              double *Srow = S + (o1 + a) * nS + o2;
+              for (int b = (t2 == t1 ? a : 0); b < cnp; ++b) {
+                double s = 0.0;
+                for (int c = 0; c < pnp; ++c) s += Y[a * pnp + c] * W2[b * pnp + c];
+                Srow[b] -= s;
+              }
+            }
+          }
+        }
+      }
+      if (!dense_cholesky_solve(S, nS, da)) return false;
+    }
+  }
+
+  // db_i = V*_i^-1 (e_b,i - sum_j W_ij^T da_j)
+  std::vector<double> &t = w.vec;
+  for (int i = lay.ncon; i < lay.n && pnp; ++i) {
+    const double *ebi = w.eb.data() + i64(i) * pnp;
+    std::copy(ebi, ebi + pnp, t.begin());
+    for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+      const int j = lay.colidx[k];
+      if (!lay.cam_free(j)) continue;
+      double *W = w.Wt.data();
+      form_W(lay, w.jac.data(), k, W);
+      const double *daj = w.dp.data() + lay.a_off(j);
+      for (int b = 0; b < pnp; ++b) {
+        double s = 0.0;
+        for (int a = 0; a < cnp; ++a) s += W[a * pnp + b] * daj[a];
+        t[b] -= s;
+      }
+    }
+    const double *Vi = w.Vinv.data() + i64(i) * pnp * pnp;
+    double *dbi = w.dp.data() + lay.b_off(i);
+    for (int a = 0; a < pnp; ++a) {
+      double s = 0.0;
+      for (int b = 0; b < pnp; ++b) s += Vi[a * pnp + b] * t[b];
+      dbi[a] = s;
+    }
+  }
+  return all_finite(w.dp.data(), i64(w.dp.size()));
+}
+
+// max |g| and max diag(J^T J) over the free cameras and points.
+void gradient_stats(const Layout &lay, const Workspace &w, double *ginf, double *maxdiag) {
+  double g = 0.0, d = 0.0;
+  const int cnp = lay.cnp, pnp = lay.pnp;
+  for (int j = lay.mcon; j < lay.m && cnp; ++j)
+    for (int a = 0; a < cnp; ++a) {
+      g = std::max(g, std::fabs(w.ea[size_t(i64(j) * cnp + a)]));
+      d = std::max(d, w.U[size_t(i64(j) * cnp * cnp + a * (cnp + 1))]);
+    }
+  for (int i = lay.ncon; i < lay.n && pnp; ++i)
+    for (int a = 0; a < pnp; ++a) {
+      g = std::max(g, std::fabs(w.eb[size_t(i64(i) * pnp + a)]));
+      d = std::max(d, w.V[size_t(i64(i) * pnp * pnp + a * (pnp + 1))]);
+    }
+  *ginf = g;
+  *maxdiag = d;
+}
+
+// dp^T (mu dp + g) with g = J^T e: the reduction of the linear model.
+double predicted_reduction(const Layout &lay, const Workspace &w, double mu) {
+  double s = 0.0;
+  for (int j = lay.mcon; j < lay.m && lay.cnp; ++j)
+    for (int a = 0; a < lay.cnp; ++a) {
+      const double d = w.dp[size_t(lay.a_off(j) + a)];
+      s += d * (mu * d + w.ea[size_t(i64(j) * lay.cnp + a)]);
+    }
+  for (int i = lay.ncon; i < lay.n && lay.pnp; ++i)
+    for (int a = 0; a < lay.pnp; ++a) {
+      const double d = w.dp[size_t(lay.b_off(i) + a)];
+      s += d * (mu * d + w.eb[size_t(i64(i) * lay.pnp + a)]);
+    }
+  return s;
+}
+
+}  // namespace
+
+bool solve(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
+           const Options &opt, const Logger &log, Summary &sum) {
+  sum = Summary{};
+  Workspace w(lay, covx != nullptr);
+  const double *wts = nullptr;
+  if (covx) {
+    if (!make_weights(lay, covx, w.wts, log)) return false;
+    wts = w.wts.data();
+  }
+  const i64 nvars = lay.nvars(), nobs = lay.nvis * lay.mnp;
+  const double eps1 = opt.eps1, eps2sq = opt.eps2 * opt.eps2, eps3sq = opt.eps3 * opt.eps3;
+
+  model.eval(p, w.hx.data());
+  sum.nfev = 1;
+  if (!all_finite(w.hx.data(), nobs)) {
+    log.error("sba: the projection function returned NaN or Inf at the initial estimate");
+    sum.reason = kStopNonFinite;
+    return false;
+  }
+  residual(lay, x, w.hx.data(), wts, w.e.data());
+  double eps = sqnorm(w.e.data(), nobs);
+  sum.err0 = sum.err = eps;
+  if (!std::isfinite(eps)) {
+    log.error("sba: the initial error is not finite (check x and covx)");
+    sum.reason = kStopNonFinite;
+    return false;
+  }
+  log.info(1, "SBA: initial error %g, %g per measurement (%lld measurements, %lld variables)",
+           eps, eps / double(lay.nvis), static_cast<long long>(lay.nvis),
+           static_cast<long long>(nvars));
+
+  double mu = 0.0, maxdiag = 0.0;
+  int nu = 2, stop = kStopNone, it = 0;
+  // Failures mid-way still report where the solve stood: p and eps are the last accepted.
+  auto record = [&](int reason, int iterations) {
+    sum.err = eps;
+    sum.reason = reason;
+    sum.iterations = iterations;
+    sum.mu_ratio = maxdiag > 0 ? mu / maxdiag : 0.0;
+  };
+  for (it = 0; it < opt.itmax && !stop; ++it) {
+    if (model.has_jacobian()) {
+      model.jacobian(p, w.jac.data());
+    } else {
+      sum.nfev += model.fd_jacobian(p, w.hx.data(), w.jac.data());
+    }
+    ++sum.njev;
+    if (!jacobian_finite(lay, w.jac.data())) {
+      log.error("sba: the Jacobian has a NaN or Inf entry at iteration %d", it);
+      record(kStopNonFinite, it);
+      return false;
+    }
+    if (wts) weight_jacobian(lay, wts, w.jac.data());
+    normal_equations(lay, w);
+    gradient_stats(lay, w, &sum.grad_inf, &maxdiag);
+    if (it == 0) mu = opt.tau * maxdiag;
+
+    if (sum.grad_inf <= eps1) {
+      sum.dp2 = 0.0;
+      stop = kStopGradient;
+      continue;
+    }
+    const double p2 = sqnorm(p, nvars);
+    for (;;) {
+      ++sum.nlinsys;
+      if (compute_step(lay, w, mu)) {
+        const double dp2 = sqnorm(w.dp.data(), nvars);
+        sum.dp2 = dp2;
+        if (dp2 <= eps2sq * p2) {
+          stop = kStopStep;
+          break;
+        }
+        if (dp2 >= (p2 + opt.eps2) / kSingularEpsSq) {
+          log.error("sba: the augmented normal equations are almost singular (||dp||^2 = %g); "
+                    "the problem may be badly parametrized",
+                    dp2);
+          record(kStopSingular, it + 1);
+      return false;
+        }
+        for (i64 q = 0; q < nvars; ++q) w.pn[size_t(q)] = p[q] + w.dp[size_t(q)];
+        model.eval(w.pn.data(), w.hxn.data());
+        ++sum.nfev;
+        if (!all_finite(w.hxn.data(), nobs)) {
+          log.error("sba: the projection function returned NaN or Inf at iteration %d", it);
+          record(kStopNonFinite, it + 1);
+      return false;
+        }
+        residual(lay, x, w.hxn.data(), wts, w.en.data());
+        const double epsn = sqnorm(w.en.data(), nobs);
+        const double dL = predicted_reduction(lay, w, mu);
+        const double dF = eps - epsn;
+        log.info(2, "SBA: iteration %d: mu %g, error %g -> %g, ||dp||^2 %g, gain ratio %g", it, mu,
+                 eps, epsn, dp2, dL != 0.0 ? dF / dL : 0.0);
+        if (dL > 0.0 && dF > 0.0) {
+          if (std::sqrt(eps) - std::sqrt(epsn) < opt.eps4 * std::sqrt(eps)) stop = kStopReduction;
+          std::copy(w.pn.begin(), w.pn.end(), p);
+          w.hx.swap(w.hxn);
+          w.e.swap(w.en);
+          eps = epsn;
+          const double t = 2.0 * dF / dL - 1.0;
+          mu *= std::max(1.0 / 3.0, 1.0 - t * t * t);
+          nu = 2;
+          break;
+        }
+      } else {
+        log.warning("sba: the damped system could not be factored (mu = %g); increasing damping",
+                    mu);
+      }
+      mu *= nu;
+      if (nu > INT_MAX / 2) {  // 1.6's int nu would overflow on the next doubling
+        stop = kStopDamping;
+        break;
+      }
+      nu *= 2;
+    }
+    if (!stop && eps <= eps3sq) stop = kStopError;
+  }
+  if (!stop) stop = kStopItmax;
+
+  record(stop, it);
+  sum.ok = true;
+  log.info(1, "SBA: %d iterations, stop reason %d, final error %g, %g per measurement", it, stop,
+           eps, eps / double(lay.nvis));
+  return true;
+}
+
+}  // namespace sba

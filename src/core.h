@@ -1,0 +1,130 @@
+// Typed internals shared by the drivers: the problem layout, the callback models and the
+// single Levenberg-Marquardt core that all six 1.6 drivers run on.
+#ifndef SBA_SRC_CORE_H
+#define SBA_SRC_CORE_H
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "log.h"
+#include "sba.h"
+
+namespace sba {
+
+using i64 = std::int64_t;
+
+// What p holds: motion+structure, cameras only (sba_mot_*), or points only (sba_str_*).
+enum class Mode { MotStr, Mot, Str };
+
+// info[6] values. 1..7 are sba 1.6's; the rest are ours and documented in the README.
+enum StopReason : int {
+  kStopNone = 0,         // no iteration ran: bad arguments, invalid covariance, no memory
+  kStopGradient = 1,     // ||J^T e||_inf <= eps1
+  kStopStep = 2,         // ||dp||^2 <= eps2^2 ||p||^2
+  kStopItmax = 3,        // itmax iterations
+  kStopReduction = 4,    // relative RMS error reduction < eps4
+  kStopError = 5,        // ||e||^2 <= eps3^2
+  kStopDamping = 6,      // damping could not grow any more: too many failed attempts
+  kStopNonFinite = 7,    // f(p) or the Jacobian has a NaN or Inf
+  kStopSingular = 8,     // the augmented system is almost singular
+};
+
+// Sizes and the visibility index in the forms the core and the callbacks need.
+struct Layout {
+  Mode mode = Mode::MotStr;
+  int n = 0, m = 0;       // points, cameras
+  int cnp = 0, pnp = 0;   // parameters per camera / point held in p (0 when not in p)
+  int mnp = 0;            // coordinates per projection
+  int mcon = 0, ncon = 0; // leading fixed cameras / points
+  i64 nvis = 0;           // visible projections
+
+  // Row-compressed by point (cameras ascending); val[k] == k is the measurement ordinal.
+  std::vector<int> rowptr, colidx, val;
+  // Column-compressed by camera (points ascending): point index and measurement ordinal.
+  std::vector<int> colptr, colrow, colk;
+  sba_crsm idx{};  // views rowptr/colidx/val for the callbacks
+  std::vector<int> rcidxs, rcsubs;  // callback scratch, max(n, m) each
+
+  i64 nvars() const { return i64(m) * cnp + i64(n) * pnp; }
+  i64 a_off(int j) const { return i64(j) * cnp; }
+  i64 b_off(int i) const { return i64(m) * cnp + i64(i) * pnp; }
+  int jblk() const { return mnp * (cnp + pnp); }  // doubles per projection in the Jacobian
+  bool cam_free(int j) const { return cnp > 0 && j >= mcon; }
+  bool pt_free(int i) const { return pnp > 0 && i >= ncon; }
+  int free_cams() const { return cnp > 0 ? m - mcon : 0; }
+  int free_pts() const { return pnp > 0 ? n - ncon : 0; }
+  i64 free_vars() const { return i64(free_cams()) * cnp + i64(free_pts()) * pnp; }
+};
+
+// Builds the index from vmask. Returns false (with msg) on a problem too big for the int API.
+bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
+                  int mnp, const char *vmask, std::string *msg);
+
+// The caller's projection function and (optionally) its Jacobian, over the whole vector.
+class Model {
+ public:
+  virtual ~Model() = default;
+  // hx = f(p), every visible projection in measurement order.
+  virtual void eval(double *p, double *hx) = 0;
+  virtual bool has_jacobian() const = 0;
+  // jac = df/dp in the callback layout (per projection: A_ij then B_ij, row-major).
+  virtual void jacobian(double *p, double *jac) = 0;
+  // Forward-difference Jacobian at p, given hx = f(p); p is restored exactly on return.
+  // Returns the number of full-vector evaluations it cost (for info[7]).
+  virtual i64 fd_jacobian(double *p, const double *hx, double *jac) = 0;
+};
+
+// The expert drivers' func/fjac.
+using ExpertFunc = void (*)(double *p, sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx,
+                            void *adata);
+std::unique_ptr<Model> make_expert_model(Layout &lay, ExpertFunc func, ExpertFunc fjac,
+                                         void *adata);
+
+// The simple drivers' per-projection proj/projac, normalized to the motion+structure shape;
+// the adapters in drivers.cpp bridge the mot/str signatures onto it.
+using AnyFn = void (*)();  // a user callback of one of the three shapes, cast back to call
+struct SimpleCallbacks {
+  void (*proj)(const SimpleCallbacks &cb, int j, int i, double *aj, double *bi, double *xij);
+  void (*projac)(const SimpleCallbacks &cb, int j, int i, double *aj, double *bi, double *Aij,
+                 double *Bij);  // null: finite differences
+  AnyFn user_proj;
+  AnyFn user_projac;
+  void *adata;
+};
+std::unique_ptr<Model> make_simple_model(const Layout &lay, const SimpleCallbacks &cb);
+
+// Grouped forward differences (one evaluation per camera parameter and per point parameter,
+// all cameras / points perturbed together): what the expert drivers use without fjac.
+i64 fd_jacobian_grouped(const Layout &lay, Model &model, double *p, const double *hx,
+                        double *jac);
+
+struct Options {
+  double tau = SBA_INIT_MU;
+  double eps1 = SBA_STOP_THRESH, eps2 = SBA_STOP_THRESH, eps3 = SBA_STOP_THRESH, eps4 = 0.0;
+  int itmax = 0;
+};
+
+struct Summary {
+  double err0 = 0, err = 0, grad_inf = 0, dp2 = 0, mu_ratio = 0;
+  int iterations = 0;
+  int reason = kStopNone;
+  i64 nfev = 0, njev = 0, nlinsys = 0;
+  bool ok = false;
+
+  void to_info(double *info) const;
+};
+
+// Runs LM on p (updated in place with the last accepted estimate). x: measurements;
+// covx: null or per-measurement covariances. Returns false on failure (summary.ok too).
+bool solve(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
+           const Options &opt, const Logger &log, Summary &sum);
+
+// The itmax == 0 check of an analytic Jacobian against central differences. Reports every
+// suspicious entry and a one-line verdict through log. Returns the number of suspicious rows.
+i64 check_jacobian(const Layout &lay, Model &model, double *p, const Logger &log);
+
+}  // namespace sba
+
+#endif

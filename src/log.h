@@ -1,0 +1,42 @@
+// One logging sink for everything the library says. By default errors go to stderr and
+// progress (only when verbose) to stdout, as in sba 1.6; callers of the extension API can
+// redirect or silence both.
+#ifndef SBA_SRC_LOG_H
+#define SBA_SRC_LOG_H
+
+#include <cstdarg>
+
+namespace sba {
+
+enum class LogLevel { Error = 0, Warning = 1, Info = 2, Debug = 3 };
+
+// sink(ctx, level, line): line has no trailing newline.
+using LogSinkFn = void (*)(void *ctx, int level, const char *line);
+
+class Logger {
+ public:
+  Logger() = default;
+  Logger(int verbose, LogSinkFn sink, void *ctx) : verbose_(verbose), sink_(sink), ctx_(ctx) {}
+
+  int verbose() const { return verbose_; }
+
+  // Caller errors and failures: always reported (they are the reason for an SBA_ERROR).
+  void error(const char *fmt, ...) const __attribute__((format(printf, 2, 3)));
+  // Diagnostics that 1.6 printed only sometimes: shown when verbose >= 1.
+  void warning(const char *fmt, ...) const __attribute__((format(printf, 2, 3)));
+  // Progress: shown when verbose >= level.
+  void info(int level, const char *fmt, ...) const __attribute__((format(printf, 3, 4)));
+  // A message the caller explicitly asked for (e.g. the Jacobian check with itmax == 0).
+  void report(const char *fmt, ...) const __attribute__((format(printf, 2, 3)));
+
+ private:
+  void emit(LogLevel level, const char *fmt, va_list ap) const;
+
+  int verbose_ = 0;
+  LogSinkFn sink_ = nullptr;
+  void *ctx_ = nullptr;
+};
+
+}  // namespace sba
+
+#endif

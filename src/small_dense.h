@@ -1,0 +1,76 @@
+// Small dense kernels on row-major square blocks (the per-camera and per-point blocks of
+// the normal equations: 3x3 .. 16x16). Hand-written because LAPACK's per-call overhead
+// dominates at these sizes.
+#ifndef SBA_SRC_SMALL_DENSE_H
+#define SBA_SRC_SMALL_DENSE_H
+
+#include <cmath>
+
+namespace sba::small {
+
+// In-place Cholesky A = L L^T of an SPD n x n block; L ends in the lower triangle (the
+// strict upper triangle is left untouched). False when A is not numerically SPD.
+inline bool chol(double *a, int n) {
+  for (int j = 0; j < n; ++j) {
+    double d = a[j * n + j];
+    for (int k = 0; k < j; ++k) d -= a[j * n + k] * a[j * n + k];
+    if (!(d > 0.0)) return false;  // also catches NaN
+    d = std::sqrt(d);
+    a[j * n + j] = d;
+    const double inv = 1.0 / d;
+    for (int i = j + 1; i < n; ++i) {
+      double s = a[i * n + j];
+      for (int k = 0; k < j; ++k) s -= a[i * n + k] * a[j * n + k];
+      a[i * n + j] = s * inv;
+    }
+  }
+  return true;
+}
+
+// Solve L L^T x = b in place, L from chol().
+inline void chol_solve(const double *l, double *b, int n) {
+  for (int i = 0; i < n; ++i) {
+    double s = b[i];
+    for (int k = 0; k < i; ++k) s -= l[i * n + k] * b[k];
+    b[i] = s / l[i * n + i];
+  }
+  for (int i = n - 1; i >= 0; --i) {
+    double s = b[i];
+    for (int k = i + 1; k < n; ++k) s -= l[k * n + i] * b[k];
+    b[i] = s / l[i * n + i];
+  }
+}
+
+// inv = A^-1 for SPD A (n x n). a is overwritten by its Cholesky factor. False if not SPD.
+inline bool spd_inverse(double *a, double *inv, int n) {
+  if (!chol(a, n)) return false;
+  for (int c = 0; c < n; ++c) {
+    // Column c of the inverse solves A x = e_c; writing it as row c is the same by symmetry.
+    double *x = inv + c * n;
+    for (int i = 0; i < n; ++i) x[i] = (i == c) ? 1.0 : 0.0;
+    chol_solve(a, x, n);
+  }
+  // Symmetrize: the two triangles differ in the last bits, and the normal equations expect
+  // an exactly symmetric block.
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) {
+      const double v = 0.5 * (inv[i * n + j] + inv[j * n + i]);
+      inv[i * n + j] = inv[j * n + i] = v;
+    }
+  return true;
+}
+
+// Upper-triangular B with B^T B = A^-1 for SPD A (n x n); the weighting of the paper's
+// covariance-aware cost. a and tmp are work blocks (a is destroyed). False if not SPD.
+inline bool cholinv_upper(double *a, double *b, double *tmp, int n) {
+  if (!spd_inverse(a, tmp, n)) return false;
+  // A^-1 = U^T U: U^T is the lower Cholesky factor of A^-1.
+  if (!chol(tmp, n)) return false;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) b[i * n + j] = (j >= i) ? tmp[j * n + i] : 0.0;
+  return true;
+}
+
+}  // namespace sba::small
+
+#endif

@@ -1,0 +1,541 @@
+// The six drivers on synthetic problems with known ground truth.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "sba.h"
+#include "synth.h"
+
+namespace {
+
+using synth::kCnp;
+using synth::kMnp;
+using synth::kPnp;
+
+struct Result {
+  int ret = 0;
+  double info[SBA_INFOSZ] = {};
+  std::vector<double> p;
+};
+
+Result motstr_x(synth::Problem &pb, int ncon = 0, int mcon = 0, bool analytic = true,
+             double *covx = nullptr, int itmax = 150) {
+  Result r;
+  r.p = pb.p0;
+  r.ret = sba_motstr_levmar_x(pb.n, ncon, pb.m, mcon, pb.vmask.data(), r.p.data(), kCnp, kPnp,
+                              pb.x.data(), covx, kMnp, synth::func_motstr,
+                              analytic ? synth::fjac_motstr : nullptr, &pb, itmax, 0, nullptr, r.info);
+  return r;
+}
+
+Result motstr_simple(synth::Problem &pb, bool analytic = true) {
+  Result r;
+  r.p = pb.p0;
+  r.ret = sba_motstr_levmar(pb.n, 0, pb.m, 0, pb.vmask.data(), r.p.data(), kCnp, kPnp, pb.x.data(),
+                            nullptr, kMnp, synth::proj_motstr,
+                            analytic ? synth::projac_motstr : nullptr, &pb, 150, 0, nullptr, r.info);
+  return r;
+}
+
+// Motion only: points fixed at the truth, cameras start perturbed.
+Result mot(synth::Problem &pb, bool expert, bool analytic = true) {
+  Result r;
+  r.p.assign(pb.p0.begin(), pb.p0.begin() + pb.m * kCnp);
+  pb.fixed_points = pb.truth.data() + pb.m * kCnp;
+  if (expert)
+    r.ret = sba_mot_levmar_x(pb.n, pb.m, 0, pb.vmask.data(), r.p.data(), kCnp, pb.x.data(), nullptr,
+                             kMnp, synth::func_mot, analytic ? synth::fjac_mot : nullptr, &pb, 100,
+                             0, nullptr, r.info);
+  else
+    r.ret = sba_mot_levmar(pb.n, pb.m, 0, pb.vmask.data(), r.p.data(), kCnp, pb.x.data(), nullptr,
+                           kMnp, synth::proj_mot, analytic ? synth::projac_mot : nullptr, &pb, 100, 0,
+                           nullptr, r.info);
+  return r;
+}
+
+// Structure only: cameras fixed at the truth, points start perturbed.
+Result str(synth::Problem &pb, bool expert, bool analytic = true) {
+  Result r;
+  r.p.assign(pb.p0.begin() + pb.m * kCnp, pb.p0.end());
+  pb.fixed_cams = pb.truth.data();
+  if (expert)
+    r.ret = sba_str_levmar_x(pb.n, 0, pb.m, pb.vmask.data(), r.p.data(), kPnp, pb.x.data(), nullptr,
+                             kMnp, synth::func_str, analytic ? synth::fjac_str : nullptr, &pb, 100,
+                             0, nullptr, r.info);
+  else
+    r.ret = sba_str_levmar(pb.n, 0, pb.m, pb.vmask.data(), r.p.data(), kPnp, pb.x.data(), nullptr,
+                           kMnp, synth::proj_str, analytic ? synth::projac_str : nullptr, &pb, 100, 0,
+                           nullptr, r.info);
+  return r;
+}
+
+void expect_consistent_info(const Result &r) {
+  ASSERT_GE(r.ret, 1);
+  EXPECT_EQ(r.info[5], r.ret);
+  EXPECT_EQ(r.info[8], r.ret);  // one Jacobian per iteration
+  EXPECT_GE(r.info[7], r.ret);
+  EXPECT_GE(r.info[9], r.info[7] - 1);
+  EXPECT_GE(r.info[6], 1);
+  EXPECT_LE(r.info[6], 5);
+  EXPECT_LE(r.info[1], r.info[0]);
+}
+
+// ---------------------------------------------------------------- noise-free convergence
+
+TEST(Drivers, MotStrExpertNoiseFreeReachesZero) {
+  synth::Problem pb = synth::make(80, 6, 0.0, 0.05, 1);
+  Result r = motstr_x(pb);
+  expect_consistent_info(r);
+  EXPECT_GT(r.info[0] / pb.nvis, 1.0);  // the start is visibly off
+  EXPECT_LT(r.info[1] / pb.nvis, 1e-12);
+  EXPECT_LE(r.ret, 60);
+  EXPECT_NEAR(synth::sq_error(pb, r.p.data()), r.info[1], 1e-12);
+}
+
+TEST(Drivers, MotStrSimpleNoiseFreeReachesZero) {
+  synth::Problem pb = synth::make(80, 6, 0.0, 0.05, 1);
+  Result r = motstr_simple(pb);
+  expect_consistent_info(r);
+  EXPECT_LT(r.info[1] / pb.nvis, 1e-12);
+  // The simple driver is an adapter onto the same core: the same path, step by step.
+  Result e = motstr_x(pb);
+  EXPECT_EQ(r.ret, e.ret);
+  EXPECT_EQ(r.info[7], e.info[7]);
+  EXPECT_EQ(r.info[9], e.info[9]);
+}
+
+TEST(Drivers, MotionOnlyRecoversCameras) {
+  synth::Problem pb = synth::make(80, 6, 0.0, 0.05, 2);
+  for (bool expert : {true, false}) {
+    Result r = mot(pb, expert);
+    expect_consistent_info(r);
+    EXPECT_LT(r.info[1] / pb.nvis, 1e-12);
+    for (int q = 0; q < pb.m * kCnp; ++q) EXPECT_NEAR(r.p[q], pb.truth[q], 1e-6) << q;
+  }
+}
+
+TEST(Drivers, StructureOnlyRecoversPoints) {
+  synth::Problem pb = synth::make(80, 6, 0.0, 0.05, 3);
+  for (bool expert : {true, false}) {
+    Result r = str(pb, expert);
+    expect_consistent_info(r);
+    EXPECT_LT(r.info[1] / pb.nvis, 1e-12);
+    for (int q = 0; q < pb.n * kPnp; ++q) EXPECT_NEAR(r.p[q], pb.truth[pb.m * kCnp + q], 1e-6) << q;
+  }
+}
+
+// ---------------------------------------------------------------- noise
+
+TEST(Drivers, NoisyDataConvergesToTheNoiseLevel) {
+  const double sigma = 0.5;
+  synth::Problem pb = synth::make(200, 8, sigma, 0.05, 4);
+  Result r = motstr_x(pb);
+  expect_consistent_info(r);
+  // E||e||^2 = sigma^2 (measurements - effective unknowns); the gauge has 7 dimensions.
+  const double nobs = 2.0 * pb.nvis, nfree = pb.m * kCnp + pb.n * kPnp - 7;
+  const double expected = sigma * sigma * (nobs - nfree);
+  EXPECT_GT(r.info[1], 0.8 * expected);
+  EXPECT_LT(r.info[1], 1.2 * expected);
+  // And not below what the truth scores by more than the fit can explain.
+  EXPECT_LT(r.info[1], synth::sq_error(pb, pb.truth.data()));
+}
+
+TEST(Drivers, FiniteDifferencesReachTheAnalyticMinimum) {
+  synth::Problem pb = synth::make(120, 6, 0.5, 0.05, 5);
+  Result an = motstr_x(pb), fd = motstr_x(pb, 0, 0, false);
+  Result san = motstr_simple(pb), sfd = motstr_simple(pb, false);
+  ASSERT_GT(an.ret, 0);
+  ASSERT_GT(fd.ret, 0);
+  ASSERT_GT(sfd.ret, 0);
+  EXPECT_NEAR(fd.info[1] / an.info[1], 1.0, 1e-6);
+  EXPECT_NEAR(sfd.info[1] / san.info[1], 1.0, 1e-6);
+  // Grouped differences: cnp + pnp evaluations per Jacobian on top of one per step.
+  EXPECT_GE(fd.info[7], fd.info[8] * (kCnp + kPnp));
+  EXPECT_EQ(fd.info[0], an.info[0]);
+  for (bool expert : {true, false}) {
+    Result ma = mot(pb, expert), mf = mot(pb, expert, false);
+    EXPECT_NEAR(mf.info[1] / ma.info[1], 1.0, 1e-6);
+    Result sa = str(pb, expert), sf = str(pb, expert, false);
+    EXPECT_NEAR(sf.info[1] / sa.info[1], 1.0, 1e-6);
+  }
+}
+
+// ---------------------------------------------------------------- covariances
+
+TEST(Drivers, HugeCovarianceMeansTheMeasurementBarelyPulls) {
+  synth::Problem pb = synth::make(60, 6, 0.0, 0.02, 6);
+  const int bad = 17;  // one measurement moved by 30 pixels
+  pb.x[2 * bad] += 30.0;
+  std::vector<double> cov(size_t(pb.nvis) * 4, 0.0);
+  for (int k = 0; k < pb.nvis; ++k) cov[4 * k] = cov[4 * k + 3] = 1.0;
+  Result plain = motstr_x(pb, 0, 0, true, cov.data());
+  cov[4 * bad] = cov[4 * bad + 3] = 1e8;
+  Result down = motstr_x(pb, 0, 0, true, cov.data());
+  ASSERT_GT(plain.ret, 0);
+  ASSERT_GT(down.ret, 0);
+  // Residual left on the moved measurement: small when it is trusted (the others bend),
+  // nearly all 30 pixels when its variance is huge.
+  auto residual_x = [&](const Result &r) {
+    std::vector<double> hx(size_t(pb.nvis) * 2);
+    sba_crsm idx{};
+    std::vector<int> rowptr, colidx, val;
+    int k = 0;
+    for (int i = 0; i < pb.n; ++i) {
+      rowptr.push_back(k);
+      for (int j = 0; j < pb.m; ++j)
+        if (pb.vmask[size_t(i) * pb.m + j]) colidx.push_back(j), val.push_back(k++);
+    }
+    rowptr.push_back(k);
+    idx = {pb.n, pb.m, k, val.data(), colidx.data(), rowptr.data()};
+    std::vector<double> p = r.p;
+    synth::func_motstr(p.data(), &idx, nullptr, nullptr, hx.data(), &pb);
+    return pb.x[2 * bad] - hx[2 * bad];
+  };
+  EXPECT_LT(residual_x(plain), 25.0);
+  EXPECT_GT(residual_x(down), 29.9);
+  EXPECT_LT(down.info[1], 30.0 * 30.0 / 1e8 + 1e-6);  // the weighted error is tiny
+  // Identity covariances are the unweighted problem.
+  Result none = motstr_x(pb);
+  EXPECT_NEAR(none.info[1], plain.info[1], 1e-9 * plain.info[1]);
+}
+
+TEST(Drivers, NonPositiveDefiniteCovarianceIsRefused) {
+  synth::Problem pb = synth::make(30, 4, 0.0, 0.02, 7);
+  std::vector<double> cov(size_t(pb.nvis) * 4, 0.0);
+  for (int k = 0; k < pb.nvis; ++k) cov[4 * k] = cov[4 * k + 3] = 1.0;
+  cov[4 * 5 + 3] = -1.0;
+  testing::internal::CaptureStderr();
+  Result r = motstr_x(pb, 0, 0, true, cov.data());
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(r.ret, SBA_ERROR);
+  EXPECT_NE(err.find("covariance of measurement 5"), std::string::npos) << err;
+  EXPECT_EQ(r.p, pb.p0);
+}
+
+// ---------------------------------------------------------------- fixed cameras / points
+
+TEST(Drivers, FixedCamerasAndPointsStayBitForBit) {
+  synth::Problem pb = synth::make(100, 6, 0.3, 0.05, 8);
+  const int mcon = 2, ncon = 7;
+  for (bool analytic : {true, false}) {
+    Result r = motstr_x(pb, ncon, mcon, analytic);
+    ASSERT_GT(r.ret, 0);
+    EXPECT_LT(r.info[1], r.info[0]);
+    EXPECT_EQ(0, std::memcmp(r.p.data(), pb.p0.data(), sizeof(double) * mcon * kCnp));
+    EXPECT_EQ(0, std::memcmp(r.p.data() + pb.m * kCnp, pb.p0.data() + pb.m * kCnp,
+                             sizeof(double) * ncon * kPnp));
+    EXPECT_NE(0, std::memcmp(r.p.data() + mcon * kCnp, pb.p0.data() + mcon * kCnp, sizeof(double)));
+  }
+}
+
+TEST(Drivers, AllCamerasFixedRefinesStructureLikeTheStrDriver) {
+  synth::Problem pb = synth::make(60, 5, 0.3, 0.05, 9);
+  pb.p0.assign(pb.truth.begin(), pb.truth.begin() + pb.m * kCnp);  // cameras at the truth
+  synth::Problem start = synth::make(60, 5, 0.3, 0.05, 9);
+  pb.p0.insert(pb.p0.end(), start.p0.begin() + pb.m * kCnp, start.p0.end());
+  Result all = motstr_x(pb, 0, pb.m);
+  Result s = str(pb, true);
+  ASSERT_GT(all.ret, 0);
+  ASSERT_GT(s.ret, 0);
+  EXPECT_NEAR(all.info[1], s.info[1], 1e-9 * s.info[1]);
+  for (int q = 0; q < pb.n * kPnp; ++q) EXPECT_NEAR(all.p[pb.m * kCnp + q], s.p[q], 1e-7);
+}
+
+TEST(Drivers, AllPointsFixedRefinesMotionLikeTheMotDriver) {
+  synth::Problem pb = synth::make(60, 5, 0.3, 0.05, 10);
+  std::copy(pb.truth.begin() + pb.m * kCnp, pb.truth.end(), pb.p0.begin() + pb.m * kCnp);
+  Result all = motstr_x(pb, pb.n, 0);
+  Result m = mot(pb, true);
+  ASSERT_GT(all.ret, 0);
+  ASSERT_GT(m.ret, 0);
+  EXPECT_NEAR(all.info[1], m.info[1], 1e-9 * m.info[1]);
+  for (int q = 0; q < pb.m * kCnp; ++q) EXPECT_NEAR(all.p[q], m.p[q], 1e-7);
+}
+
+// ---------------------------------------------------------------- Jacobian check
+
+struct WrongJac {
+  synth::Problem *pb;
+  int point, camera;
+};
+
+void fjac_with_error(double *p, sba_crsm *idx, int *r, int *s, double *jac, void *adata) {
+  const WrongJac &w = *static_cast<WrongJac *>(adata);
+  synth::fjac_motstr(p, idx, r, s, jac, w.pb);
+  const int k = sba_crsm_elmidx(idx, w.point, w.camera);
+  jac[idx->val[k] * kMnp * (kCnp + kPnp) + 2] += 5.0;  // row 0 of A_ij, column 2
+}
+void func_wrapped(double *p, sba_crsm *idx, int *r, int *s, double *hx, void *adata) {
+  synth::func_motstr(p, idx, r, s, hx, static_cast<WrongJac *>(adata)->pb);
+}
+
+TEST(Drivers, JacobianCheckAcceptsACorrectJacobian) {
+  synth::Problem pb = synth::make(40, 4, 0.0, 0.05, 11);
+  testing::internal::CaptureStderr();
+  Result r = motstr_x(pb, 1, 1, true, nullptr, 0);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(r.ret, 0);
+  EXPECT_EQ(r.p, pb.p0);
+  EXPECT_NE(err.find("agree with finite differences"), std::string::npos) << err;
+  EXPECT_EQ(err.find("probably wrong"), std::string::npos) << err;
+}
+
+TEST(Drivers, JacobianCheckReportsAWrongEntry) {
+  synth::Problem pb = synth::make(40, 4, 0.0, 0.05, 11);
+  pb.vmask[size_t(3) * pb.m + 1] = 1;  // make sure (3,1) is visible
+  synth::Problem ok = synth::make(40, 4, 0.0, 0.05, 11);
+  (void)ok;
+  // Rebuild x for the changed mask.
+  pb.x.clear();
+  pb.nvis = 0;
+  for (int i = 0; i < pb.n; ++i)
+    for (int j = 0; j < pb.m; ++j)
+      if (pb.vmask[size_t(i) * pb.m + j]) {
+        double xij[2];
+        synth::project(pb.truth.data() + j * kCnp, pb.truth.data() + pb.m * kCnp + i * 3, xij, nullptr, nullptr);
+        pb.x.insert(pb.x.end(), xij, xij + 2);
+        ++pb.nvis;
+      }
+  WrongJac w{&pb, 3, 1};
+  std::vector<double> p = pb.p0;
+  double info[SBA_INFOSZ];
+  testing::internal::CaptureStderr();
+  const int ret = sba_motstr_levmar_x(pb.n, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp,
+                                      pb.x.data(), nullptr, kMnp, func_wrapped, fjac_with_error, &w,
+                                      0, 0, nullptr, info);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(ret, 0);
+  EXPECT_EQ(p, pb.p0);
+  EXPECT_NE(err.find("(element 0 of the projection of point 3 on camera 1) is probably wrong: "
+                     "d/d(camera 1 parameter 2)"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find("1 of "), std::string::npos) << err;
+}
+
+// ---------------------------------------------------------------- NaN during the solve
+
+struct NanAfter {
+  synth::Problem *pb;
+  int calls = 0, limit = 0;
+};
+void func_nan_after(double *p, sba_crsm *idx, int *r, int *s, double *hx, void *adata) {
+  NanAfter &w = *static_cast<NanAfter *>(adata);
+  synth::func_motstr(p, idx, r, s, hx, w.pb);
+  if (++w.calls > w.limit) hx[1] = std::numeric_limits<double>::quiet_NaN();
+}
+void fjac_nan_after(double *p, sba_crsm *idx, int *r, int *s, double *jac, void *adata) {
+  synth::fjac_motstr(p, idx, r, s, jac, static_cast<NanAfter *>(adata)->pb);
+}
+
+TEST(Drivers, NanFromFuncMidwayIsAnErrorWithReason7) {
+  synth::Problem pb = synth::make(60, 5, 0.3, 0.05, 12);
+  NanAfter w{&pb, 0, 3};
+  std::vector<double> p = pb.p0;
+  double info[SBA_INFOSZ];
+  testing::internal::CaptureStderr();
+  const int ret = sba_motstr_levmar_x(pb.n, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp,
+                                      pb.x.data(), nullptr, kMnp, func_nan_after, fjac_nan_after,
+                                      &w, 150, 0, nullptr, info);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(ret, SBA_ERROR);
+  EXPECT_EQ(info[6], 7);
+  EXPECT_NE(err.find("NaN"), std::string::npos);
+  // p is the last accepted estimate: finite, better than the start, and scored by info[1].
+  for (double v : p) ASSERT_TRUE(std::isfinite(v));
+  EXPECT_LT(info[1], info[0]);
+  EXPECT_NEAR(synth::sq_error(pb, p.data()), info[1], 1e-9 * info[1]);
+}
+
+TEST(Drivers, NanJacobianIsAnError) {
+  synth::Problem pb = synth::make(30, 4, 0.0, 0.05, 13);
+  std::vector<double> p = pb.p0;
+  double info[SBA_INFOSZ];
+  auto bad_jac = [](double *, sba_crsm *idx, int *, int *, double *jac, void *) {
+    for (int q = 0; q < idx->nnz * kMnp * (kCnp + kPnp); ++q) jac[q] = 1.0;
+    jac[3] = std::numeric_limits<double>::infinity();
+  };
+  testing::internal::CaptureStderr();
+  const int ret = sba_motstr_levmar_x(pb.n, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp,
+                                      pb.x.data(), nullptr, kMnp, synth::func_motstr, bad_jac, &pb,
+                                      50, 0, nullptr, info);
+  testing::internal::GetCapturedStderr();
+  EXPECT_EQ(ret, SBA_ERROR);
+  EXPECT_EQ(info[6], 7);
+  EXPECT_EQ(p, pb.p0);
+}
+
+// ---------------------------------------------------------------- bad arguments
+
+TEST(Drivers, BadArgumentsAreRefusedWithAMessage) {
+  synth::Problem pb = synth::make(20, 3, 0.0, 0.05, 14);
+  std::vector<double> p = pb.p0;
+  auto call = [&](int n, int ncon, int m, int mcon, char *vmask, double *pp, int cnp, int pnp,
+                  double *x, int mnp, bool func, int itmax) {
+    double info[SBA_INFOSZ];
+    for (double &v : info) v = -42;
+    testing::internal::CaptureStderr();
+    const int ret = sba_motstr_levmar_x(n, ncon, m, mcon, vmask, pp, cnp, pnp, x, nullptr, mnp,
+                                        func ? synth::func_motstr : nullptr, synth::fjac_motstr, &pb,
+                                        itmax, 0, nullptr, info);
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_EQ(ret, SBA_ERROR);
+    EXPECT_EQ(info[6], 0);  // filled, not left at -42
+    EXPECT_EQ(info[5], 0);
+    return err;
+  };
+  char *vm = pb.vmask.data();
+  double *x = pb.x.data();
+  EXPECT_NE(call(0, 0, pb.m, 0, vm, p.data(), 6, 3, x, 2, true, 10).find("n must be positive"), std::string::npos);
+  EXPECT_NE(call(pb.n, 0, -1, 0, vm, p.data(), 6, 3, x, 2, true, 10).find("m must be positive"), std::string::npos);
+  EXPECT_NE(call(pb.n, 0, pb.m, 0, vm, p.data(), 0, 3, x, 2, true, 10).find("cnp"), std::string::npos);
+  EXPECT_NE(call(pb.n, 0, pb.m, 0, vm, p.data(), 6, 0, x, 2, true, 10).find("pnp"), std::string::npos);
+  EXPECT_NE(call(pb.n, 0, pb.m, 0, vm, p.data(), 6, 3, x, 0, true, 10).find("mnp"), std::string::npos);
+  EXPECT_NE(call(pb.n, 0, pb.m, pb.m + 1, vm, p.data(), 6, 3, x, 2, true, 10).find("mcon"), std::string::npos);
+  EXPECT_NE(call(pb.n, -1, pb.m, 0, vm, p.data(), 6, 3, x, 2, true, 10).find("ncon"), std::string::npos);
+  EXPECT_NE(call(pb.n, pb.n + 1, pb.m, 0, vm, p.data(), 6, 3, x, 2, true, 10).find("ncon"), std::string::npos);
+  EXPECT_NE(call(pb.n, 0, pb.m, 0, nullptr, p.data(), 6, 3, x, 2, true, 10).find("vmask"), std::string::npos);
+  EXPECT_NE(call(pb.n, 0, pb.m, 0, vm, nullptr, 6, 3, x, 2, true, 10).find("p is NULL"), std::string::npos);
+  EXPECT_NE(call(pb.n, 0, pb.m, 0, vm, p.data(), 6, 3, nullptr, 2, true, 10).find("x is NULL"), std::string::npos);
+  EXPECT_NE(call(pb.n, 0, pb.m, 0, vm, p.data(), 6, 3, x, 2, false, 10).find("NULL"), std::string::npos);
+  EXPECT_NE(call(pb.n, 0, pb.m, 0, vm, p.data(), 6, 3, x, 2, true, -1).find("itmax"), std::string::npos);
+  EXPECT_NE(call(pb.n, pb.n, pb.m, pb.m, vm, p.data(), 6, 3, x, 2, true, 10).find("nothing to refine"), std::string::npos);
+  std::vector<char> empty(pb.vmask.size(), 0);
+  EXPECT_NE(call(pb.n, 0, pb.m, 0, empty.data(), p.data(), 6, 3, x, 2, true, 10).find("nvis"), std::string::npos);
+  p[4] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(call(pb.n, 0, pb.m, 0, vm, p.data(), 6, 3, x, 2, true, 10).find("p[4] is not finite"), std::string::npos);
+  p = pb.p0;
+  std::vector<double> xb = pb.x;
+  xb[7] = std::numeric_limits<double>::infinity();
+  EXPECT_NE(call(pb.n, 0, pb.m, 0, vm, p.data(), 6, 3, xb.data(), 2, true, 10).find("x[7] is not finite"), std::string::npos);
+  EXPECT_EQ(p, pb.p0);
+}
+
+TEST(Drivers, FewerMeasurementsThanUnknownsIsRefused) {
+  // 10 points seen twice each: 40 measurements for 12 + 30 unknowns.
+  synth::Problem pb = synth::make(10, 2, 0.0, 0.05, 15, 1.0);
+  std::vector<double> p = pb.p0;
+  testing::internal::CaptureStderr();
+  const int ret = sba_motstr_levmar_x(pb.n, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp,
+                                      pb.x.data(), nullptr, kMnp, synth::func_motstr, synth::fjac_motstr,
+                                      &pb, 10, 0, nullptr, nullptr);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(ret, SBA_ERROR);
+  EXPECT_NE(err.find("fewer measurements (40) than free parameters (42)"), std::string::npos) << err;
+}
+
+TEST(Drivers, SimpleAndMotStrDriversRejectBadArgumentsToo) {
+  synth::Problem pb = synth::make(20, 3, 0.0, 0.05, 16);
+  std::vector<double> p = pb.p0;
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(sba_motstr_levmar(pb.n, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(), nullptr,
+                              kMnp, nullptr, nullptr, &pb, 10, 0, nullptr, nullptr), SBA_ERROR);
+  EXPECT_EQ(sba_mot_levmar(pb.n, pb.m, -2, pb.vmask.data(), p.data(), kCnp, pb.x.data(), nullptr, kMnp,
+                           synth::proj_mot, nullptr, &pb, 10, 0, nullptr, nullptr), SBA_ERROR);
+  EXPECT_EQ(sba_str_levmar(pb.n, 0, pb.m, pb.vmask.data(), p.data(), 0, pb.x.data(), nullptr, kMnp,
+                           synth::proj_str, nullptr, &pb, 10, 0, nullptr, nullptr), SBA_ERROR);
+  EXPECT_EQ(sba_mot_levmar_x(pb.n, pb.m, 0, pb.vmask.data(), p.data(), kCnp, pb.x.data(), nullptr, 0,
+                             synth::func_mot, nullptr, &pb, 10, 0, nullptr, nullptr), SBA_ERROR);
+  EXPECT_EQ(sba_str_levmar_x(0, 0, pb.m, pb.vmask.data(), p.data(), kPnp, pb.x.data(), nullptr, kMnp,
+                             synth::func_str, nullptr, &pb, 10, 0, nullptr, nullptr), SBA_ERROR);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("sba_motstr_levmar: the projection function"), std::string::npos) << err;
+  EXPECT_NE(err.find("sba_mot_levmar: mcon"), std::string::npos) << err;
+  EXPECT_NE(err.find("sba_str_levmar: pnp"), std::string::npos) << err;
+  EXPECT_NE(err.find("sba_mot_levmar_x: mnp"), std::string::npos) << err;
+  EXPECT_NE(err.find("sba_str_levmar_x: n must"), std::string::npos) << err;
+  EXPECT_EQ(p, pb.p0);
+}
+
+// ---------------------------------------------------------------- options and quietness
+
+TEST(Drivers, OptsAndInfoMayBeNullAndNothingIsPrinted) {
+  synth::Problem pb = synth::make(50, 5, 0.2, 0.05, 17);
+  std::vector<double> p = pb.p0, q = pb.p0;
+  const double opts[SBA_OPTSSZ] = {SBA_INIT_MU, SBA_STOP_THRESH, SBA_STOP_THRESH, SBA_STOP_THRESH, 0.0};
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  const int r1 = sba_motstr_levmar_x(pb.n, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(),
+                                     nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb, 150, 0,
+                                     nullptr, nullptr);
+  const int r2 = sba_motstr_levmar_x(pb.n, 0, pb.m, 0, pb.vmask.data(), q.data(), kCnp, kPnp, pb.x.data(),
+                                     nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb, 150, 0,
+                                     opts, nullptr);
+  EXPECT_EQ(testing::internal::GetCapturedStdout(), "");
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  EXPECT_GT(r1, 0);
+  EXPECT_EQ(r1, r2);
+  EXPECT_EQ(p, q);
+}
+
+TEST(Drivers, ItmaxIsHonouredWithReason3) {
+  synth::Problem pb = synth::make(50, 5, 0.2, 0.2, 18);
+  Result r = motstr_x(pb, 0, 0, true, nullptr, 3);
+  EXPECT_EQ(r.ret, 3);
+  EXPECT_EQ(r.info[6], 3);
+  EXPECT_EQ(r.info[8], 3);
+}
+
+TEST(Drivers, LooseEps1StopsWithReason1) {
+  synth::Problem pb = synth::make(50, 5, 0.2, 0.05, 19);
+  std::vector<double> p = pb.p0;
+  double info[SBA_INFOSZ];
+  const double opts[SBA_OPTSSZ] = {1e-3, 1e12, 1e-12, 1e-12, 0.0};
+  const int ret = sba_motstr_levmar_x(pb.n, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(),
+                                      nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb, 50, 0,
+                                      opts, info);
+  EXPECT_EQ(ret, 1);
+  EXPECT_EQ(info[6], 1);
+  EXPECT_EQ(info[3], 0.0);
+  EXPECT_EQ(info[9], 0);
+  EXPECT_EQ(p, pb.p0);
+}
+
+TEST(Drivers, Eps4StopsOnSmallRelativeReductionWithReason4) {
+  synth::Problem pb = synth::make(50, 5, 0.5, 0.05, 20);
+  std::vector<double> p = pb.p0;
+  double info[SBA_INFOSZ];
+  const double opts[SBA_OPTSSZ] = {1e-3, 1e-12, 1e-12, 1e-12, 1e-2};
+  const int ret = sba_motstr_levmar_x(pb.n, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(),
+                                      nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb, 150, 0,
+                                      opts, info);
+  EXPECT_GT(ret, 0);
+  EXPECT_EQ(info[6], 4);
+  Result full = motstr_x(pb);
+  EXPECT_LT(ret, full.ret);
+}
+
+TEST(Drivers, VerboseProgressGoesToStdout) {
+  synth::Problem pb = synth::make(30, 4, 0.1, 0.05, 21);
+  std::vector<double> p = pb.p0;
+  testing::internal::CaptureStdout();
+  sba_motstr_levmar_x(pb.n, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(), nullptr, kMnp,
+                      synth::func_motstr, synth::fjac_motstr, &pb, 150, 1, nullptr, nullptr);
+  const std::string out = testing::internal::GetCapturedStdout();
+  EXPECT_NE(out.find("initial error"), std::string::npos) << out;
+}
+
+// ---------------------------------------------------------------- re-entrancy
+
+TEST(Drivers, FourConcurrentSolvesMatchASequentialOne) {
+  synth::Problem pb = synth::make(150, 8, 0.4, 0.05, 22);
+  Result ref = motstr_x(pb);
+  ASSERT_GT(ref.ret, 0);
+  std::vector<Result> runs(4);
+  std::vector<std::thread> th;
+  for (int t = 0; t < 4; ++t)
+    th.emplace_back([&, t] { runs[t] = t % 2 ? motstr_x(pb) : motstr_simple(pb); });
+  for (auto &t : th) t.join();
+  for (int t = 0; t < 4; ++t) {
+    EXPECT_EQ(runs[t].ret, ref.ret);
+    EXPECT_EQ(runs[t].p, ref.p) << "thread " << t;
+    for (int q = 0; q < SBA_INFOSZ; ++q) EXPECT_EQ(runs[t].info[q], ref.info[q]);
+  }
+}
+
+}  // namespace
