@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "log.h"
-#include "sba.h"
+#include "sba_export.h"
 
 namespace sba {
 

@@ -3,7 +3,7 @@
 // binary searches below valid.
 #include <cstdlib>
 
-#include "sba.h"
+#include "sba_export.h"
 
 namespace {
 

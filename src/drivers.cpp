@@ -8,7 +8,7 @@
 #include <string>
 
 #include "core.h"
-#include "sba.h"
+#include "sba_export.h"
 
 namespace sba {
 namespace {

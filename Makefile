@@ -1,0 +1,35 @@
+# Convenience front end to the CMake build in build/ (for people who just type make).
+#   make          build the library (and demo, tests)
+#   make demo     build and run eucsbademo on the bundled example problem
+#   make test     build and run the whole test suite
+#   make install  install into PREFIX (default /usr/local)
+BUILD ?= build
+PREFIX ?= /usr/local
+CMAKE_FLAGS ?=
+JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+
+.PHONY: all configure test demo install clean deps-build deps-test
+
+all: deps-test configure
+	cmake --build $(BUILD) -j $(JOBS)
+
+deps-build:
+	@sh scripts/deps.sh build
+
+deps-test:
+	@sh scripts/deps.sh test
+
+configure:
+	cmake -S . -B $(BUILD) -DCMAKE_INSTALL_PREFIX=$(PREFIX) -DSBA_BUILD_TESTS=ON $(CMAKE_FLAGS) >/dev/null
+
+test: deps-test configure
+	cmake --build $(BUILD) -j $(JOBS)
+	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
+
+install: deps-build
+	cmake -S . -B $(BUILD) -DCMAKE_INSTALL_PREFIX=$(PREFIX) -DSBA_BUILD_TESTS=OFF $(CMAKE_FLAGS) >/dev/null
+	cmake --build $(BUILD) -j $(JOBS)
+	cmake --install $(BUILD)
+
+clean:
+	rm -rf $(BUILD)

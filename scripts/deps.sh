@@ -1,0 +1,33 @@
+#!/bin/sh
+# Installs the Debian packages that sba needs for a purpose, when they are missing.
+#   scripts/deps.sh build   compiler, CMake, LAPACK/BLAS
+#   scripts/deps.sh test    build + GoogleTest
+# Run as root it installs them with apt-get; otherwise it prints the exact command and fails.
+set -eu
+
+purpose=${1:-build}
+pkgs="g++ make cmake pkg-config liblapack-dev libblas-dev"
+case "$purpose" in
+  build) ;;
+  test) pkgs="$pkgs libgtest-dev" ;;
+  *) echo "usage: $0 build|test" >&2; exit 2 ;;
+esac
+
+missing=""
+for p in $pkgs; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing="$missing $p"
+  fi
+done
+[ -z "$missing" ] && exit 0
+
+if [ "$(id -u)" -eq 0 ]; then
+  echo "deps: installing$missing" >&2
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends$missing >/dev/null
+else
+  echo "deps: missing Debian packages:$missing" >&2
+  echo "deps: install them with: sudo apt-get install -y$missing" >&2
+  exit 1
+fi

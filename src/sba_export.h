@@ -1,0 +1,15 @@
+// The library is compiled with hidden visibility; sba.h's declarations get default visibility
+// here, so that exactly its functions are exported (the version script src/sba.map agrees).
+// Every source file of the library includes this instead of sba.h.
+#ifndef SBA_SRC_SBA_EXPORT_H
+#define SBA_SRC_SBA_EXPORT_H
+
+#if defined(__GNUC__)
+#pragma GCC visibility push(default)
+#endif
+#include "sba.h"
+#if defined(__GNUC__)
+#pragma GCC visibility pop
+#endif
+
+#endif
