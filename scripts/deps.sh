@@ -6,7 +6,7 @@
 set -eu
 
 purpose=${1:-build}
-pkgs="g++ make cmake pkg-config liblapack-dev libblas-dev"
+pkgs="g++ make cmake pkg-config liblapack-dev libblas-dev libsuitesparse-dev"
 case "$purpose" in
   build) ;;
   test) pkgs="$pkgs libgtest-dev" ;;

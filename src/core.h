@@ -29,6 +29,7 @@ enum StopReason : int {
   kStopDamping = 6,      // damping could not grow any more: too many failed attempts
   kStopNonFinite = 7,    // f(p) or the Jacobian has a NaN or Inf
   kStopSingular = 8,     // the augmented system is almost singular
+  kStopUser = 9,         // the progress callback asked to stop
 };
 
 // Sizes and the visibility index in the forms the core and the callbacks need.
@@ -100,10 +101,29 @@ std::unique_ptr<Model> make_simple_model(const Layout &lay, const SimpleCallback
 i64 fd_jacobian_grouped(const Layout &lay, Model &model, double *p, const double *hx,
                         double *jac);
 
+// How the damped normal equations are solved (see linsolve.h).
+enum class LinSolver {
+  Chol,        // dense S, LAPACK Cholesky (sba 1.6's default)
+  LDLt,        // dense S, unpivoted LDL^T
+  BK,          // dense S, Bunch-Kaufman
+  LU,          // dense S, LU
+  QR,          // dense S, QR
+  QRnoQ,       // dense S, QR without Q (R^T R x = S^T b)
+  SVD,         // dense S, SVD
+  CG,          // dense S, Jacobi-preconditioned conjugate gradients
+  LdlAmd,      // no Schur complement: the whole system, AMD ordering + sparse LDL^T
+  SparseChol,  // sparse S (cameras sharing points), CHOLMOD supernodal Cholesky
+};
+
 struct Options {
+  LinSolver solver = LinSolver::Chol;
   double tau = SBA_INIT_MU;
   double eps1 = SBA_STOP_THRESH, eps2 = SBA_STOP_THRESH, eps3 = SBA_STOP_THRESH, eps4 = 0.0;
   int itmax = 0;
+  int nthreads = 1;
+  // Called after every outer iteration; nonzero stops with kStopUser.
+  int (*progress)(void *ctx, const sba_progress *state) = nullptr;
+  void *progress_ctx = nullptr;
 };
 
 struct Summary {

@@ -1,13 +1,17 @@
 // The C boundary: the six sba 1.6 drivers. Each one validates its arguments, builds the
 // typed layout and callback model, and runs the shared LM core. Nothing escapes this file
 // as an exception, and info is filled on every return path.
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <thread>
 #include <exception>
 #include <new>
 #include <string>
 
 #include "core.h"
+#include "linsolve.h"
 #include "sba_export.h"
 
 namespace sba {
@@ -23,6 +27,7 @@ struct DriverArgs {
   int itmax, verbose;
   const double *opts;
   double *info;
+  const sba_ext_options *ext;
 };
 
 // First non-finite entry of v, or -1.
@@ -76,27 +81,64 @@ std::string check_data(const DriverArgs &a, const Layout &lay) {
   return {};
 }
 
-Options make_options(const DriverArgs &a) {
-  Options o;
-  o.itmax = a.itmax;
-  if (a.opts) {
-    // 1.6 uses the magnitudes: a negative tolerance is not a request for something else.
-    o.tau = std::fabs(a.opts[0]);
-    o.eps1 = std::fabs(a.opts[1]);
-    o.eps2 = std::fabs(a.opts[2]);
-    o.eps3 = std::fabs(a.opts[3]);
-    o.eps4 = std::fabs(a.opts[4]);
+// The caller's extension options, read only as far as the caller's struct goes (older
+// programs pass a shorter one), the rest at their defaults.
+sba_ext_options read_ext(const sba_ext_options *ext) {
+  sba_ext_options o;
+  sba_ext_options_init(&o);
+  if (ext && ext->size >= sizeof(size_t)) {
+    const size_t n = std::min(ext->size, sizeof o);
+    std::memcpy(static_cast<void *>(&o), ext, n);
+    o.size = sizeof o;
   }
   return o;
+}
+
+void quiet_sink(void *, int, const char *) {}
+
+// Options from opts and the extension options; msg is set on a bad setting.
+void make_options(const DriverArgs &a, const sba_ext_options &ext, const Logger &log,
+                  Options *o, std::string *msg) {
+  o->itmax = a.itmax;
+  if (a.opts) {
+    // 1.6 uses the magnitudes: a negative tolerance is not a request for something else.
+    o->tau = std::fabs(a.opts[0]);
+    o->eps1 = std::fabs(a.opts[1]);
+    o->eps2 = std::fabs(a.opts[2]);
+    o->eps3 = std::fabs(a.opts[3]);
+    o->eps4 = std::fabs(a.opts[4]);
+  }
+  if (ext.linsolver) {
+    if (!linsolver_from_name(ext.linsolver, &o->solver)) {
+      *msg = std::string("unknown linear solver \"") + ext.linsolver + "\" (known: " +
+             linsolver_names() + ")";
+      return;
+    }
+  } else if (const char *env = std::getenv("SBA_LINSOLVER"); env && *env) {
+    // Unmodified 1.6 programs choose their solver this way; a typo must not stop them.
+    if (!linsolver_from_name(env, &o->solver))
+      log.error("%s: unknown SBA_LINSOLVER \"%s\" (known: %s); using chol", a.name, env,
+                linsolver_names());
+  }
+  int threads = ext.nthreads;
+  if (threads <= 0)
+    if (const char *env = std::getenv("SBA_NUM_THREADS"); env && *env) threads = std::atoi(env);
+  if (threads <= 0) threads = int(std::thread::hardware_concurrency());
+  o->nthreads = std::max(1, threads);
+  o->progress = ext.progress;
+  o->progress_ctx = ext.progress_ctx;
 }
 
 // make_model(Layout&) -> std::unique_ptr<Model>
 template <class MakeModel>
 int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
   Summary sum;
-  const Logger log(a.verbose, nullptr, nullptr);
+  const sba_ext_options ext = read_ext(a.ext);
+  const Logger log(a.verbose, ext.quiet ? quiet_sink : ext.log, ext.quiet ? nullptr : ext.log_ctx);
   try {
+    Options opt;
     std::string msg = check_scalars(a);
+    if (msg.empty()) make_options(a, ext, log, &opt, &msg);
     Layout lay;
     if (msg.empty() &&
         !build_layout(lay, a.mode, a.n, a.m, a.mcon, a.ncon, a.mode == Mode::Str ? 0 : a.cnp,
@@ -110,18 +152,16 @@ int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
       return SBA_ERROR;
     }
     std::unique_ptr<Model> model = make_model(lay);
+    // itmax == 0: check the Jacobian; the solve below then only scores p (info[0] == info[1]).
     if (a.itmax == 0) {
-      if (!model->has_jacobian()) {
+      if (!model->has_jacobian())
         log.report("%s: itmax == 0 asks for a Jacobian check, but no analytic Jacobian was "
                    "given: nothing to check",
                    a.name);
-      } else {
+      else
         check_jacobian(lay, *model, a.p, log);
-      }
-      sum.to_info(a.info);
-      return 0;
     }
-    const bool ok = solve(lay, *model, a.p, a.x, a.covx, make_options(a), log, sum);
+    const bool ok = solve(lay, *model, a.p, a.x, a.covx, opt, log, sum);
     sum.to_info(a.info);
     return ok ? sum.iterations : SBA_ERROR;
   } catch (const std::bad_alloc &) {
@@ -178,67 +218,127 @@ using sba::Mode;
 
 extern "C" {
 
+void sba_ext_options_init(struct sba_ext_options *opt) {
+  if (!opt) return;
+  std::memset(static_cast<void *>(opt), 0, sizeof *opt);
+  opt->size = sizeof *opt;
+}
+
+const char *sba_linsolver_names(void) { return sba::linsolver_names(); }
+
+int sba_motstr_levmar_x_ext(const int n, const int ncon, const int m, const int mcon, char *vmask,
+                            double *p, const int cnp, const int pnp, double *x, double *covx,
+                            const int mnp, sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata,
+                            const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+                            double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
+  const DriverArgs a{"sba_motstr_levmar_x", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp, vmask, p,
+                     x, covx, func != nullptr, itmax, verbose, opts, info, ext};
+  return sba::run_driver(
+      a, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+}
+
+int sba_mot_levmar_x_ext(const int n, const int m, const int mcon, char *vmask, double *p,
+                         const int cnp, double *x, double *covx, const int mnp,
+                         sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata, const int itmax,
+                         const int verbose, const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ],
+                         const struct sba_ext_options *ext) {
+  const DriverArgs a{"sba_mot_levmar_x", Mode::Mot, n, 0, m, mcon, cnp, 0, mnp, vmask, p,
+                     x, covx, func != nullptr, itmax, verbose, opts, info, ext};
+  return sba::run_driver(
+      a, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+}
+
+int sba_str_levmar_x_ext(const int n, const int ncon, const int m, char *vmask, double *p,
+                         const int pnp, double *x, double *covx, const int mnp,
+                         sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata, const int itmax,
+                         const int verbose, const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ],
+                         const struct sba_ext_options *ext) {
+  const DriverArgs a{"sba_str_levmar_x", Mode::Str, n, ncon, m, 0, 0, pnp, mnp, vmask, p,
+                     x, covx, func != nullptr, itmax, verbose, opts, info, ext};
+  return sba::run_driver(
+      a, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+}
+
+int sba_motstr_levmar_ext(const int n, const int ncon, const int m, const int mcon, char *vmask,
+                          double *p, const int cnp, const int pnp, double *x, double *covx,
+                          const int mnp, sba::MotStrProj proj, sba::MotStrJac projac, void *adata,
+                          const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+                          double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
+  const DriverArgs a{"sba_motstr_levmar", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp, vmask, p,
+                     x, covx, proj != nullptr, itmax, verbose, opts, info, ext};
+  return sba::run_simple(a, proj, projac, adata, sba::motstr_proj, sba::motstr_jac);
+}
+
+int sba_mot_levmar_ext(const int n, const int m, const int mcon, char *vmask, double *p,
+                       const int cnp, double *x, double *covx, const int mnp,
+                       sba::OneBlockProj proj, sba::OneBlockJac projac, void *adata,
+                       const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+                       double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
+  const DriverArgs a{"sba_mot_levmar", Mode::Mot, n, 0, m, mcon, cnp, 0, mnp, vmask, p,
+                     x, covx, proj != nullptr, itmax, verbose, opts, info, ext};
+  return sba::run_simple(a, proj, projac, adata, sba::mot_proj, sba::mot_jac);
+}
+
+int sba_str_levmar_ext(const int n, const int ncon, const int m, char *vmask, double *p,
+                       const int pnp, double *x, double *covx, const int mnp,
+                       sba::OneBlockProj proj, sba::OneBlockJac projac, void *adata,
+                       const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+                       double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
+  const DriverArgs a{"sba_str_levmar", Mode::Str, n, ncon, m, 0, 0, pnp, mnp, vmask, p,
+                     x, covx, proj != nullptr, itmax, verbose, opts, info, ext};
+  return sba::run_simple(a, proj, projac, adata, sba::str_proj, sba::str_jac);
+}
+
+// ---- the 1.6 entry points: the extension ones with the defaults ----
+
 int sba_motstr_levmar_x(const int n, const int ncon, const int m, const int mcon, char *vmask,
                         double *p, const int cnp, const int pnp, double *x, double *covx,
                         const int mnp, sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata,
                         const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
                         double info[SBA_INFOSZ]) {
-  const DriverArgs a{"sba_motstr_levmar_x", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp,
-                     vmask, p, x, covx, func != nullptr, itmax, verbose, opts, info};
-  return sba::run_driver(a, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+  return sba_motstr_levmar_x_ext(n, ncon, m, mcon, vmask, p, cnp, pnp, x, covx, mnp, func, fjac,
+                                 adata, itmax, verbose, opts, info, nullptr);
 }
 
 int sba_mot_levmar_x(const int n, const int m, const int mcon, char *vmask, double *p,
                      const int cnp, double *x, double *covx, const int mnp, sba::ExpertFunc func,
                      sba::ExpertFunc fjac, void *adata, const int itmax, const int verbose,
                      const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ]) {
-  const DriverArgs a{"sba_mot_levmar_x", Mode::Mot, n, 0, m, mcon, cnp, 0, mnp,
-                     vmask, p, x, covx, func != nullptr, itmax, verbose, opts, info};
-  return sba::run_driver(a, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+  return sba_mot_levmar_x_ext(n, m, mcon, vmask, p, cnp, x, covx, mnp, func, fjac, adata, itmax,
+                              verbose, opts, info, nullptr);
 }
 
 int sba_str_levmar_x(const int n, const int ncon, const int m, char *vmask, double *p,
                      const int pnp, double *x, double *covx, const int mnp, sba::ExpertFunc func,
                      sba::ExpertFunc fjac, void *adata, const int itmax, const int verbose,
                      const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ]) {
-  const DriverArgs a{"sba_str_levmar_x", Mode::Str, n, ncon, m, 0, 0, pnp, mnp,
-                     vmask, p, x, covx, func != nullptr, itmax, verbose, opts, info};
-  return sba::run_driver(a, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+  return sba_str_levmar_x_ext(n, ncon, m, vmask, p, pnp, x, covx, mnp, func, fjac, adata, itmax,
+                              verbose, opts, info, nullptr);
 }
 
 int sba_motstr_levmar(const int n, const int ncon, const int m, const int mcon, char *vmask,
                       double *p, const int cnp, const int pnp, double *x, double *covx,
-                      const int mnp,
-                      void (*proj)(int j, int i, double *aj, double *bi, double *xij, void *adata),
-                      void (*projac)(int j, int i, double *aj, double *bi, double *Aij,
-                                     double *Bij, void *adata),
-                      void *adata, const int itmax, const int verbose,
-                      const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ]) {
-  const DriverArgs a{"sba_motstr_levmar", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp,
-                     vmask, p, x, covx, proj != nullptr, itmax, verbose, opts, info};
-  return sba::run_simple(a, proj, projac, adata, sba::motstr_proj, sba::motstr_jac);
+                      const int mnp, sba::MotStrProj proj, sba::MotStrJac projac, void *adata,
+                      const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+                      double info[SBA_INFOSZ]) {
+  return sba_motstr_levmar_ext(n, ncon, m, mcon, vmask, p, cnp, pnp, x, covx, mnp, proj, projac,
+                               adata, itmax, verbose, opts, info, nullptr);
 }
 
 int sba_mot_levmar(const int n, const int m, const int mcon, char *vmask, double *p,
-                   const int cnp, double *x, double *covx, const int mnp,
-                   void (*proj)(int j, int i, double *aj, double *xij, void *adata),
-                   void (*projac)(int j, int i, double *aj, double *Aij, void *adata),
-                   void *adata, const int itmax, const int verbose,
+                   const int cnp, double *x, double *covx, const int mnp, sba::OneBlockProj proj,
+                   sba::OneBlockJac projac, void *adata, const int itmax, const int verbose,
                    const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ]) {
-  const DriverArgs a{"sba_mot_levmar", Mode::Mot, n, 0, m, mcon, cnp, 0, mnp,
-                     vmask, p, x, covx, proj != nullptr, itmax, verbose, opts, info};
-  return sba::run_simple(a, proj, projac, adata, sba::mot_proj, sba::mot_jac);
+  return sba_mot_levmar_ext(n, m, mcon, vmask, p, cnp, x, covx, mnp, proj, projac, adata, itmax,
+                            verbose, opts, info, nullptr);
 }
 
 int sba_str_levmar(const int n, const int ncon, const int m, char *vmask, double *p,
-                   const int pnp, double *x, double *covx, const int mnp,
-                   void (*proj)(int j, int i, double *bi, double *xij, void *adata),
-                   void (*projac)(int j, int i, double *bi, double *Bij, void *adata),
-                   void *adata, const int itmax, const int verbose,
+                   const int pnp, double *x, double *covx, const int mnp, sba::OneBlockProj proj,
+                   sba::OneBlockJac projac, void *adata, const int itmax, const int verbose,
                    const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ]) {
-  const DriverArgs a{"sba_str_levmar", Mode::Str, n, ncon, m, 0, 0, pnp, mnp,
-                     vmask, p, x, covx, proj != nullptr, itmax, verbose, opts, info};
-  return sba::run_simple(a, proj, projac, adata, sba::str_proj, sba::str_jac);
+  return sba_str_levmar_ext(n, ncon, m, vmask, p, pnp, x, covx, mnp, proj, projac, adata, itmax,
+                            verbose, opts, info, nullptr);
 }
 
 }  // extern "C"

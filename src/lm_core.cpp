@@ -4,12 +4,13 @@
 // back-substitution. Motion-only problems have no W (S is block diagonal), structure-only
 // problems have no S; both fall out of the same code through the free camera/point counts.
 #include <algorithm>
+#include <chrono>
 #include <climits>
 #include <cmath>
 #include <vector>
 
 #include "core.h"
-#include "lapack.h"
+#include "linsolve.h"
 #include "small_dense.h"
 
 namespace sba {
@@ -31,38 +32,28 @@ bool all_finite(const double *v, i64 len) {
   return true;
 }
 
-// Everything a solve needs, sized once before iterating.
+// Everything the LM loop itself needs, sized once before iterating (the linear solver
+// owns its own).
 struct Workspace {
-  explicit Workspace(const Layout &lay, bool weighted) {
-    const i64 nv = lay.nvis, mnp = lay.mnp;
-    nS = i64(lay.free_cams()) * lay.cnp;
-    hx.resize(size_t(nv * mnp));
+  Workspace(const Layout &lay, bool weighted) {
+    const i64 nobs = lay.nvis * lay.mnp;
+    hx.resize(size_t(nobs));
     e.resize(hx.size());
     hxn.resize(hx.size());
     en.resize(hx.size());
-    jac.resize(size_t(nv * lay.jblk()));
-    if (weighted) wts.resize(size_t(nv * mnp * mnp));
+    jac.resize(size_t(lay.nvis * lay.jblk()));
+    if (weighted) wts.resize(size_t(nobs * lay.mnp));
     U.resize(size_t(i64(lay.m) * lay.cnp * lay.cnp));
     ea.resize(size_t(i64(lay.m) * lay.cnp));
     V.resize(size_t(i64(lay.n) * lay.pnp * lay.pnp));
     eb.resize(size_t(i64(lay.n) * lay.pnp));
-    Vinv.resize(V.size());
-    S.resize(size_t(nS * nS));
     dp.resize(size_t(lay.nvars()));
     pn.resize(dp.size());
-    int maxtrack = 0;
-    for (int i = 0; i < lay.n; ++i) maxtrack = std::max(maxtrack, lay.rowptr[i + 1] - lay.rowptr[i]);
-    const size_t cp = size_t(lay.cnp) * lay.pnp;
-    Wt.resize(size_t(maxtrack) * cp);
-    Yt.resize(size_t(maxtrack) * cp);
-    track.resize(size_t(maxtrack));
-    blk.resize(size_t(std::max(lay.cnp, lay.pnp)) * std::max(lay.cnp, lay.pnp));
-    vec.resize(size_t(std::max(lay.cnp, lay.pnp)));
   }
-  i64 nS = 0;
-  std::vector<double> hx, e, hxn, en, jac, wts, U, ea, V, eb, Vinv, S, dp, pn;
-  std::vector<double> Wt, Yt, blk, vec;  // per-point scratch of the Schur assembly
-  std::vector<int> track;                 // free cameras of the current point
+  NormalEquations view(const Layout &lay) const {
+    return NormalEquations{&lay, jac.data(), U.data(), V.data(), ea.data(), eb.data()};
+  }
+  std::vector<double> hx, e, hxn, en, jac, wts, U, ea, V, eb, dp, pn;
 };
 
 // Weight matrices W_ij (upper triangular, W^T W = Sigma_ij^-1) from the covariances.
@@ -145,7 +136,7 @@ bool jacobian_finite(const Layout &lay, const double *jac) {
 }
 
 // U_j, V_i (undamped) and e_a = A^T e, e_b = B^T e for the free cameras and points.
-void normal_equations(const Layout &lay, Workspace &w) {
+void accumulate_normal_equations(const Layout &lay, Workspace &w) {
   const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp;
   std::fill(w.U.begin(), w.U.end(), 0.0);
   std::fill(w.V.begin(), w.V.end(), 0.0);
@@ -189,144 +180,6 @@ void normal_equations(const Layout &lay, Workspace &w) {
   for (int i = lay.ncon; i < lay.n && pnp; ++i) mirror(w.V.data() + i64(i) * pnp * pnp, pnp);
 }
 
-// W_ij = A_ij^T B_ij (cnp x pnp) for projection k.
-inline void form_W(const Layout &lay, const double *jac, int k, double *W) {
-  const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp;
-  const double *A = jac + i64(k) * lay.jblk();
-  const double *B = A + mnp * cnp;
-  for (int a = 0; a < cnp; ++a)
-    for (int b = 0; b < pnp; ++b) {
-      double s = 0.0;
-      for (int r = 0; r < mnp; ++r) s += A[r * cnp + a] * B[r * pnp + b];
-      W[a * pnp + b] = s;
-    }
-}
-
-// Solve the dense S (nS x nS, upper block triangle filled row-major == lower triangle
-// column-major) for rhs in place with LAPACK's Cholesky.
-bool dense_cholesky_solve(double *S, i64 nS, double *rhs) {
-  const int n = int(nS), one = 1;
-  int info = 0;
-  SBA_F77(dpotrf, DPOTRF)("L", &n, S, &n, &info, 1);
-  if (info != 0) return false;
-  SBA_F77(dpotrs, DPOTRS)("L", &n, &one, S, &n, rhs, &n, &info, 1);
-  return info == 0;
-}
-
-// The damped step dp for damping mu, through the Schur complement. False when a V*_i or S
-// cannot be factored (the caller then increases the damping).
-bool compute_step(const Layout &lay, Workspace &w, double mu) {
-  const int cnp = lay.cnp, pnp = lay.pnp;
-  const i64 cp = i64(cnp) * pnp;
-  std::fill(w.dp.begin(), w.dp.end(), 0.0);
-
-  for (int i = lay.ncon; i < lay.n && pnp; ++i) {
-    double *blk = w.blk.data();
-    const double *V = w.V.data() + i64(i) * pnp * pnp;
-    std::copy(V, V + pnp * pnp, blk);
-    for (int a = 0; a < pnp; ++a) blk[a * pnp + a] += mu;
-    if (!small::spd_inverse(blk, w.Vinv.data() + i64(i) * pnp * pnp, pnp)) return false;
-  }
-
-  if (w.nS > 0) {
-    const i64 nS = w.nS;
-    double *da = w.dp.data() + lay.a_off(lay.mcon);
-    if (lay.free_pts() == 0) {
-      // No W: S is block diagonal, one small system per camera.
-      for (int j = lay.mcon; j < lay.m; ++j) {
-        double *blk = w.blk.data();
-        const double *U = w.U.data() + i64(j) * cnp * cnp;
-        std::copy(U, U + cnp * cnp, blk);
-        for (int a = 0; a < cnp; ++a) blk[a * cnp + a] += mu;
-        if (!small::chol(blk, cnp)) return false;
-        double *x = w.dp.data() + lay.a_off(j);
-        std::copy(w.ea.begin() + lay.a_off(j), w.ea.begin() + lay.a_off(j) + cnp, x);
-        small::chol_solve(blk, x, cnp);
-      }
-    } else {
-      double *S = w.S.data();
-      std::fill(w.S.begin(), w.S.end(), 0.0);
-      std::copy(w.ea.begin() + lay.a_off(lay.mcon), w.ea.end(), da);
-      for (int j = lay.mcon; j < lay.m; ++j) {
-        const i64 o = i64(j - lay.mcon) * cnp;
-        const double *U = w.U.data() + i64(j) * cnp * cnp;
-        for (int a = 0; a < cnp; ++a) {
-          for (int b = a; b < cnp; ++b) S[(o + a) * nS + o + b] = U[a * cnp + b];
-          S[(o + a) * nS + o + a] += mu;
-        }
-      }
-      for (int i = lay.ncon; i < lay.n; ++i) {
-        int nt = 0;
-        for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
-          if (lay.colidx[k] >= lay.mcon) w.track[nt++] = k;
-        if (nt == 0) continue;
-        const double *Vi = w.Vinv.data() + i64(i) * pnp * pnp;
-        const double *ebi = w.eb.data() + i64(i) * pnp;
-        for (int t = 0; t < nt; ++t) {
-          double *W = w.Wt.data() + t * cp, *Y = w.Yt.data() + t * cp;
-          form_W(lay, w.jac.data(), w.track[t], W);
-          for (int a = 0; a < cnp; ++a)
-            for (int b = 0; b < pnp; ++b) {
-              double s = 0.0;
-              for (int c = 0; c < pnp; ++c) s += W[a * pnp + c] * Vi[c * pnp + b];
-              Y[a * pnp + b] = s;
-            }
-        }
-        for (int t1 = 0; t1 < nt; ++t1) {
-          const i64 o1 = i64(lay.colidx[w.track[t1]] - lay.mcon) * cnp;
-          const double *Y = w.Yt.data() + t1 * cp;
-          for (int a = 0; a < cnp; ++a) {
-            double s = 0.0;
-            for (int c = 0; c < pnp; ++c) s += Y[a * pnp + c] * ebi[c];
-            da[o1 + a] -= s;
-          }
-          // Cameras ascend along a track, so t2 >= t1 fills S's upper block triangle.
-          for (int t2 = t1; t2 < nt; ++t2) {
-            const i64 o2 = i64(lay.colidx[w.track[t2]] - lay.mcon) * cnp;
-            const double *W2 = w.Wt.data() + t2 * cp;
-            for (int a = 0; a < cnp; ++a) {
-              double *Srow = S + (o1 + a) * nS + o2;
-              for (int b = (t2 == t1 ? a : 0); b < cnp; ++b) {
-                double s = 0.0;
-                for (int c = 0; c < pnp; ++c) s += Y[a * pnp + c] * W2[b * pnp + c];
-                Srow[b] -= s;
-              }
-            }
-          }
-        }
-      }
-      if (!dense_cholesky_solve(S, nS, da)) return false;
-    }
-  }
-
-  // db_i = V*_i^-1 (e_b,i - sum_j W_ij^T da_j)
-  std::vector<double> &t = w.vec;
-  for (int i = lay.ncon; i < lay.n && pnp; ++i) {
-    const double *ebi = w.eb.data() + i64(i) * pnp;
-    std::copy(ebi, ebi + pnp, t.begin());
-    for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
-      const int j = lay.colidx[k];
-      if (!lay.cam_free(j)) continue;
-      double *W = w.Wt.data();
-      form_W(lay, w.jac.data(), k, W);
-      const double *daj = w.dp.data() + lay.a_off(j);
-      for (int b = 0; b < pnp; ++b) {
-        double s = 0.0;
-        for (int a = 0; a < cnp; ++a) s += W[a * pnp + b] * daj[a];
-        t[b] -= s;
-      }
-    }
-    const double *Vi = w.Vinv.data() + i64(i) * pnp * pnp;
-    double *dbi = w.dp.data() + lay.b_off(i);
-    for (int a = 0; a < pnp; ++a) {
-      double s = 0.0;
-      for (int b = 0; b < pnp; ++b) s += Vi[a * pnp + b] * t[b];
-      dbi[a] = s;
-    }
-  }
-  return all_finite(w.dp.data(), i64(w.dp.size()));
-}
-
 // max |g| and max diag(J^T J) over the free cameras and points.
 void gradient_stats(const Layout &lay, const Workspace &w, double *ginf, double *maxdiag) {
   double g = 0.0, d = 0.0;
@@ -366,7 +219,10 @@ double predicted_reduction(const Layout &lay, const Workspace &w, double mu) {
 bool solve(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
            const Options &opt, const Logger &log, Summary &sum) {
   sum = Summary{};
+  const auto t0 = std::chrono::steady_clock::now();
   Workspace w(lay, covx != nullptr);
+  std::unique_ptr<StepSolver> solver = make_step_solver(opt.solver, lay);
+  const NormalEquations ne = w.view(lay);
   const double *wts = nullptr;
   if (covx) {
     if (!make_weights(lay, covx, w.wts, log)) return false;
@@ -416,7 +272,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
       return false;
     }
     if (wts) weight_jacobian(lay, wts, w.jac.data());
-    normal_equations(lay, w);
+    accumulate_normal_equations(lay, w);
     gradient_stats(lay, w, &sum.grad_inf, &maxdiag);
     if (it == 0) mu = opt.tau * maxdiag;
 
@@ -428,7 +284,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
     const double p2 = sqnorm(p, nvars);
     for (;;) {
       ++sum.nlinsys;
-      if (compute_step(lay, w, mu)) {
+      if (solver->solve(ne, mu, w.dp.data()) && all_finite(w.dp.data(), nvars)) {
         const double dp2 = sqnorm(w.dp.data(), nvars);
         sum.dp2 = dp2;
         if (dp2 <= eps2sq * p2) {
@@ -479,6 +335,12 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
       nu *= 2;
     }
     if (!stop && eps <= eps3sq) stop = kStopError;
+    if (!stop && opt.progress) {
+      const sba_progress state{
+          it + 1, eps, mu, std::sqrt(sum.dp2),
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
+      if (opt.progress(opt.progress_ctx, &state) != 0) stop = kStopUser;
+    }
   }
   if (!stop) stop = kStopItmax;
 

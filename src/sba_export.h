@@ -1,6 +1,6 @@
-// The library is compiled with hidden visibility; sba.h's declarations get default visibility
+// The library is compiled with hidden visibility; sba.h's and sba_ext.h's declarations get default visibility
 // here, so that exactly its functions are exported (the version script src/sba.map agrees).
-// Every source file of the library includes this instead of sba.h.
+// Every source file of the library includes this instead of sba.h / sba_ext.h.
 #ifndef SBA_SRC_SBA_EXPORT_H
 #define SBA_SRC_SBA_EXPORT_H
 
@@ -8,6 +8,7 @@
 #pragma GCC visibility push(default)
 #endif
 #include "sba.h"
+#include "sba_ext.h"
 #if defined(__GNUC__)
 #pragma GCC visibility pop
 #endif

@@ -1,0 +1,301 @@
+// eucsbademo: Euclidean bundle adjustment of camera and point files with sba, keeping the
+// command line, file formats and printed lines of sba 1.6's demo
+// (spec: ../shared/spec/EUCSBADEMO.md). Options cover what 1.6 fixed at compile time.
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <new>
+#include <string>
+#include <vector>
+
+#include "eucsba_io.h"
+#include "eucsba_model.h"
+#include "eucsbademo_options.h"
+#include "sba.h"
+
+namespace eucsba {
+namespace {
+
+constexpr int kExitFailure = 1;  // unreadable input, failed write, solver failure
+constexpr int kExitUsage = 2;    // bad command line
+
+// 1.6 switches to motion and structure when motion alone leaves more than this mean squared
+// error (pixels^2).
+constexpr double kMotionOnlyErrorLimit = 4.0;
+
+// Everything one run of a driver needs.
+struct Solve {
+  const DemoOptions &options;
+  const CameraModel &model;
+  PointSet &points;  // sba takes x, covx and vmask as non-const pointers
+};
+
+struct Outcome {
+  Refinement refinement = Refinement::MotionStructure;
+  int ret = SBA_ERROR;
+  std::array<double, SBA_INFOSZ> info{};
+  std::vector<double> p;  // the refined parameters, laid out as refinement says
+};
+
+// The initial parameter vector for a refinement: cameras (v = 0) and/or points.
+std::vector<double> initial_params(const CameraModel &model, Refinement refinement) {
+  std::vector<double> p;
+  if (refinement != Refinement::Structure) p = model.initial_camera_params();
+  if (refinement != Refinement::Motion)
+    p.insert(p.end(), model.initial_points().begin(), model.initial_points().end());
+  return p;
+}
+
+const char *driver_name(Refinement r, bool expert) {
+  switch (r) {
+    case Refinement::MotionStructure: return expert ? "sba_motstr_levmar_x" : "sba_motstr_levmar";
+    case Refinement::Motion: return expert ? "sba_mot_levmar_x" : "sba_mot_levmar";
+    case Refinement::Structure: return expert ? "sba_str_levmar_x" : "sba_str_levmar";
+  }
+  return "";
+}
+
+Outcome run(const Solve &s, Refinement refinement, int itmax) {
+  const DemoOptions &o = s.options;
+  Outcome out;
+  out.refinement = refinement;
+  out.p = initial_params(s.model, refinement);
+  const int n = s.points.npoints(), m = s.points.ncameras;
+  const int cnp = s.model.cnp(), pnp = kPointParams, mnp = kMeasurementParams;
+  char *vmask = s.points.vmask.data();
+  double *p = out.p.data(), *x = s.points.x.data();
+  double *covx = s.points.has_covariances() ? s.points.covx.data() : nullptr;
+  void *adata = as_adata(s.model);
+  const double *opts = o.opts.data();
+  double *info = out.info.data();
+
+  if (o.expert) {
+    const ExpertCallbacks cb = expert_callbacks(s.model.kind(), refinement);
+    const auto fjac = o.analytic ? cb.fjac : nullptr;
+    switch (refinement) {
+      case Refinement::MotionStructure:
+        out.ret = sba_motstr_levmar_x(n, o.ncon, m, o.mcon, vmask, p, cnp, pnp, x, covx, mnp, cb.func,
+                                      fjac, adata, itmax, o.verbose, opts, info);
+        break;
+      case Refinement::Motion:
+        out.ret = sba_mot_levmar_x(n, m, o.mcon, vmask, p, cnp, x, covx, mnp, cb.func, fjac, adata,
+                                   itmax, o.verbose, opts, info);
+        break;
+      case Refinement::Structure:
+        out.ret = sba_str_levmar_x(n, o.ncon, m, vmask, p, pnp, x, covx, mnp, cb.func, fjac, adata,
+                                   itmax, o.verbose, opts, info);
+        break;
+    }
+    return out;
+  }
+  switch (refinement) {
+    case Refinement::MotionStructure: {
+      const MotStrCallbacks cb = motstr_callbacks(s.model.kind());
+      out.ret = sba_motstr_levmar(n, o.ncon, m, o.mcon, vmask, p, cnp, pnp, x, covx, mnp, cb.proj,
+                                  o.analytic ? cb.projac : nullptr, adata, itmax, o.verbose, opts, info);
+      break;
+    }
+    case Refinement::Motion: {
+      const MotCallbacks cb = mot_callbacks(s.model.kind());
+      out.ret = sba_mot_levmar(n, m, o.mcon, vmask, p, cnp, x, covx, mnp, cb.proj,
+                               o.analytic ? cb.projac : nullptr, adata, itmax, o.verbose, opts, info);
+      break;
+    }
+    case Refinement::Structure: {
+      const StrCallbacks cb = str_callbacks(s.model.kind());
+      out.ret = sba_str_levmar(n, o.ncon, m, vmask, p, pnp, x, covx, mnp, cb.proj,
+                               o.analytic ? cb.projac : nullptr, adata, itmax, o.verbose, opts, info);
+      break;
+    }
+  }
+  return out;
+}
+
+int itmax_for(const DemoOptions &o, Refinement r) {
+  if (o.check_jacobian) return 0;
+  if (o.itmax >= 0) return o.itmax;
+  return r == Refinement::MotionStructure ? 150 : 100;
+}
+
+const char *method_name(RefineMode mode) {
+  switch (mode) {
+    case RefineMode::MotionStructure: return "BA_MOTSTRUCT";
+    case RefineMode::Motion: return "BA_MOT";
+    case RefineMode::Structure: return "BA_STRUCT";
+    case RefineMode::MotionThenMotionStructure: return "BA_MOT_MOTSTRUCT";
+  }
+  return "";
+}
+
+const char *kind_banner(CameraKind kind) {
+  switch (kind) {
+    case CameraKind::FixedIntrinsics: return "Starting BA with fixed intrinsic parameters";
+    case CameraKind::VaryingIntrinsics: return "Starting BA with varying intrinsic parameters";
+    case CameraKind::VaryingIntrinsicsDistortion:
+      return "Starting BA with varying intrinsic parameters & distortion";
+  }
+  return "";
+}
+
+// Makes sure the files --write-* name can be written before a long solve, without truncating
+// an existing file and without leaving a new one behind.
+Status check_writable(const std::string &path) {
+  if (path.empty()) return {};
+  std::FILE *probe = std::fopen(path.c_str(), "r");
+  const bool existed = probe != nullptr;
+  if (probe) std::fclose(probe);
+  probe = std::fopen(path.c_str(), "a");
+  if (!probe) return Status::error(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
+  std::fclose(probe);
+  if (!existed) std::remove(path.c_str());
+  return {};
+}
+
+// Writes the files --write-* asked for, from the refined (or, for what a refinement left
+// alone, the initial) cameras and points.
+Status write_results(const DemoOptions &o, const CameraModel &model, const PointSet &points,
+                     CameraKind kind, const Outcome &out) {
+  const int m = model.ncameras(), cnp = model.cnp();
+  const bool has_cams = out.refinement != Refinement::Structure;
+  const bool has_pts = out.refinement != Refinement::Motion;
+  if (!o.write_cams.empty()) {
+    std::vector<Camera> cams;
+    cams.reserve(m);
+    for (int j = 0; j < m; ++j)
+      cams.push_back(model.camera(j, has_cams ? out.p.data() + j * cnp : model.initial_camera(j)));
+    if (Status s = write_cameras(o.write_cams, kind, cams); !s) return s;
+  }
+  std::vector<double> xyz = model.initial_points();
+  if (has_pts) std::copy(out.p.end() - xyz.size(), out.p.end(), xyz.begin());
+  if (!o.write_pts.empty())
+    if (Status s = write_points_xyz(o.write_pts, xyz); !s) return s;
+  if (!o.write_pts_tracks.empty())
+    if (Status s = write_points(o.write_pts_tracks, points, xyz); !s) return s;
+  return {};
+}
+
+int demo_main(int argc, char **argv) {
+  DemoOptions o;
+  std::string error;
+  if (!parse_command_line(argc, argv, &o, &error)) {
+    std::fprintf(stderr, "eucsbademo: %s\n", error.c_str());
+    return kExitUsage;
+  }
+  if (o.help) {
+    print_usage(stdout);
+    return 0;
+  }
+  if (o.version) {
+    std::printf("eucsbademo (sba %s)\n", SBA_VERSION);
+    return 0;
+  }
+
+  Problem problem;
+  if (Status s = load_problem(o.files[0], o.files[1], o.files.size() > 2 ? o.files[2] : "", &problem); !s) {
+    std::fprintf(stderr, "%s\n", s.to_string().c_str());
+    return kExitFailure;
+  }
+  PointSet &points = problem.points;
+  const int n = points.npoints(), m = points.ncameras, nprojs = points.nprojections();
+  if (o.mcon > m) {
+    std::fprintf(stderr, "eucsbademo: --mcon %d is more than the %d cameras\n", o.mcon, m);
+    return kExitUsage;
+  }
+  if (o.ncon > n) {
+    std::fprintf(stderr, "eucsbademo: --ncon %d is more than the %d points\n", o.ncon, n);
+    return kExitUsage;
+  }
+
+  for (const std::string *path : {&o.write_cams, &o.write_pts, &o.write_pts_tracks}) {
+    if (Status s = check_writable(*path); !s) {
+      std::fprintf(stderr, "%s\n", s.to_string().c_str());
+      return kExitFailure;
+    }
+  }
+
+  const CameraModel model(problem.kind, problem.cameras, points.xyz, o.nccalib, o.ncdist);
+  std::fprintf(stderr, "%s\n", kind_banner(problem.kind));
+
+  const Solve solve{o, model, points};
+  const auto start = std::chrono::steady_clock::now();
+  Outcome out;
+  switch (o.refine) {
+    case RefineMode::MotionStructure:
+      out = run(solve, Refinement::MotionStructure, itmax_for(o, Refinement::MotionStructure));
+      break;
+    case RefineMode::Motion: out = run(solve, Refinement::Motion, itmax_for(o, Refinement::Motion)); break;
+    case RefineMode::Structure:
+      out = run(solve, Refinement::Structure, itmax_for(o, Refinement::Structure));
+      break;
+    case RefineMode::MotionThenMotionStructure:
+      out = run(solve, Refinement::Motion, itmax_for(o, Refinement::Motion));
+      if (out.ret != SBA_ERROR && out.info[1] / nprojs > kMotionOnlyErrorLimit) {
+        if (o.verbose > 0)
+          std::fprintf(stderr, "motion only left a mean squared error of %g: refining motion and structure\n",
+                       out.info[1] / nprojs);
+        out = run(solve, Refinement::MotionStructure, itmax_for(o, Refinement::MotionStructure));
+      }
+      break;
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  if (out.ret == SBA_ERROR) {
+    std::fprintf(stderr, "eucsbademo: %s failed (SBA_ERROR): no result\n",
+                 driver_name(out.refinement, o.expert));
+    return kExitFailure;
+  }
+
+  // Files first: if one cannot be written, the run failed and says nothing that looks like
+  // success.
+  if (Status s = write_results(o, model, points, problem.kind, out); !s) {
+    std::fprintf(stderr, "%s\n", s.to_string().c_str());
+    return kExitFailure;
+  }
+
+  // The variables of the refinement that produced the result.
+  long long nvars = 0;
+  if (out.refinement != Refinement::Structure) nvars += static_cast<long long>(m) * model.cnp();
+  if (out.refinement != Refinement::Motion) nvars += static_cast<long long>(n) * kPointParams;
+
+  std::string distortion = "without distortion", intrinsics = "fixed intrinsics";
+  if (problem.kind == CameraKind::VaryingIntrinsicsDistortion)
+    distortion = "variable distortion (" + std::to_string(o.ncdist) + " fixed)";
+  if (problem.kind != CameraKind::FixedIntrinsics)
+    intrinsics = "variable intrinsics (" + std::to_string(o.nccalib) + " fixed)";
+
+  const std::array<double, SBA_INFOSZ> &info = out.info;
+  std::printf("SBA using %d 3D pts, %d frames and %d image projections, %lld variables\n", n, m, nprojs,
+              nvars);
+  std::printf("\nMethod %s, %s driver, %s Jacobian, %s covariances, %s, %s\n", method_name(o.refine),
+              o.expert ? "expert" : "simple", o.analytic ? "analytic" : "approximate",
+              points.has_covariances() ? "with" : "without", distortion.c_str(), intrinsics.c_str());
+  std::printf("\nSBA returned %d in %g iter, reason %g, error %g [initial %g], %d/%d func/fjac evals, "
+              "%d lin. systems\n",
+              out.ret, info[5], info[6], info[1] / nprojs, info[0] / nprojs, static_cast<int>(info[7]),
+              static_cast<int>(info[8]), static_cast<int>(info[9]));
+  std::printf("Elapsed time: %.2f seconds, %.2f msecs\n", seconds, seconds * 1000.0);
+  std::fflush(stdout);
+
+  return 0;
+}
+
+}  // namespace
+}  // namespace eucsba
+
+int main(int argc, char **argv) {
+  // Nothing may escape main: a bad file or a full memory is a message and a status.
+  try {
+    return eucsba::demo_main(argc, argv);
+  } catch (const std::bad_alloc &) {
+    std::fprintf(stderr, "eucsbademo: out of memory\n");
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "eucsbademo: %s\n", e.what());
+  } catch (...) {
+    std::fprintf(stderr, "eucsbademo: unexpected error\n");
+  }
+  return 1;
+}

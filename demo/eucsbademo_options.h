@@ -1,0 +1,45 @@
+// eucsbademo's command line: the sba 1.6 positional arguments plus GNU-style long options for
+// everything 1.6 fixed at compile time. Defaults are 1.6's.
+#ifndef EUCSBADEMO_OPTIONS_H
+#define EUCSBADEMO_OPTIONS_H
+
+#include <array>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+namespace eucsba {
+
+// 1.6's "howto": what is refined.
+enum class RefineMode {
+  MotionStructure,          // BA_MOTSTRUCT
+  Motion,                   // BA_MOT
+  Structure,                // BA_STRUCT
+  MotionThenMotionStructure // BA_MOT_MOTSTRUCT: motion, then both if the error stays high
+};
+
+struct DemoOptions {
+  RefineMode refine = RefineMode::MotionStructure;
+  bool expert = true;           // expert (func/fjac) or simple (proj/projac) driver
+  bool analytic = true;         // analytic Jacobian, or finite differences (fjac/projac NULL)
+  int itmax = -1;               // -1: 150 for motion+structure, 100 for motion or structure
+  std::array<double, 5> opts{1e-3, 1e-12, 1e-12, 1e-12, 0.0};  // tau, eps1..eps4
+  int verbose = 0;
+  int mcon = 0, ncon = 0;       // leading cameras / points held fixed
+  int nccalib = 2, ncdist = 3;  // trailing intrinsics / distortion terms held fixed
+  bool check_jacobian = false;  // itmax 0: the library compares fjac with finite differences
+  std::string write_cams, write_pts, write_pts_tracks;  // empty: not written
+  std::vector<std::string> files;  // cams.txt pts.txt [calib.txt]
+  bool help = false, version = false;
+};
+
+// Parses argv. On error returns false with a one-line message (no program name, no newline).
+// With --help or --version it returns true without requiring the file arguments.
+bool parse_command_line(int argc, const char *const *argv, DemoOptions *options, std::string *error);
+
+// The --help text.
+void print_usage(std::FILE *out);
+
+}  // namespace eucsba
+
+#endif  // EUCSBADEMO_OPTIONS_H

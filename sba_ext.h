@@ -1,0 +1,124 @@
+/*
+ * sba_ext.h: what this library offers beyond the sba 1.6 API. Everything here is additive:
+ * the 1.6 entry points of sba.h behave as in 1.6 (plus the documented improvements), and a
+ * program opts in by calling the _ext variants with an options struct.
+ *
+ *   struct sba_ext_options ext;
+ *   sba_ext_options_init(&ext);          (always: fills the defaults and the struct size)
+ *   ext.linsolver = "sparse-chol";
+ *   ret = sba_motstr_levmar_x_ext(..same arguments as sba_motstr_levmar_x.., &ext);
+ *
+ * A NULL ext means the defaults, i.e. exactly the 1.6 entry point.
+ */
+#ifndef SBA_EXT_H
+#define SBA_EXT_H
+
+#include <stddef.h>
+
+#include "sba.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* info[6] values beyond 1.6's 1..7 */
+#define SBA_STOP_NONE 0     /* nothing ran: bad arguments, invalid covariance, no memory */
+#define SBA_STOP_SINGULAR 8 /* the augmented normal equations are almost singular (SBA_ERROR) */
+#define SBA_STOP_USER 9     /* the progress callback asked to stop; p is the last accepted */
+
+/* log levels passed to the log sink */
+#define SBA_LOG_ERROR 0   /* why a call returns SBA_ERROR */
+#define SBA_LOG_WARNING 1 /* diagnostics (1.6 printed some unconditionally; we need verbose) */
+#define SBA_LOG_INFO 2    /* progress, when verbose */
+
+/* The state after each outer iteration, for the progress callback. */
+struct sba_progress {
+  int iteration;   /* iterations done so far (1, 2, ...) */
+  double error;    /* ||e||^2 at the current (last accepted) estimate */
+  double mu;       /* the damping that the next iteration starts from */
+  double dp_norm;  /* ||dp|| of the last step tried */
+  double elapsed;  /* seconds since the driver was called */
+};
+
+struct sba_ext_options {
+  /* sizeof(struct sba_ext_options) as the caller was compiled: lets later versions add
+   * fields at the end without breaking programs built against this one. */
+  size_t size;
+  /* Linear solver of the augmented normal equations, by name (see README):
+   * "chol" (default, dense S by LAPACK Cholesky as in 1.6), "ldlt", "bk", "lu", "qr",
+   * "qrnoq", "svd", "cg" (dense S), "ldl-amd" (whole system, AMD + sparse LDL^T),
+   * "sparse-chol" (sparse S, CHOLMOD). NULL: the environment variable SBA_LINSOLVER if set,
+   * else "chol". An unknown name here is a bad argument (SBA_ERROR). */
+  const char *linsolver;
+  /* Threads for the normal equations and the Schur complement; 0: the environment variable
+   * SBA_NUM_THREADS if set, else every hardware thread. Results do not depend on it. */
+  int nthreads;
+  /* Where messages go: log(log_ctx, level, line) with one line and no newline. NULL:
+   * errors and warnings to stderr, progress to stdout, as 1.6. */
+  void (*log)(void *log_ctx, int level, const char *line);
+  void *log_ctx;
+  /* Nonzero: print nothing at all, not even errors (info[6] still tells what happened). */
+  int quiet;
+  /* Called after every outer iteration; a nonzero return stops the solve cleanly with
+   * info[6] = SBA_STOP_USER and p at the last accepted estimate. NULL: not called. */
+  int (*progress)(void *progress_ctx, const struct sba_progress *state);
+  void *progress_ctx;
+};
+
+/* Fills *opt with the defaults (every field zero/NULL) and opt->size. */
+extern void sba_ext_options_init(struct sba_ext_options *opt);
+/* The known linear solver names, space-separated. */
+extern const char *sba_linsolver_names(void);
+
+/* The six drivers of sba.h with one more argument. */
+extern int sba_motstr_levmar_x_ext(
+    const int n, const int ncon, const int m, const int mcon, char *vmask, double *p, const int cnp,
+    const int pnp, double *x, double *covx, const int mnp,
+    void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
+    void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
+    void *adata, const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+    double info[SBA_INFOSZ], const struct sba_ext_options *ext);
+
+extern int sba_mot_levmar_x_ext(
+    const int n, const int m, const int mcon, char *vmask, double *p, const int cnp, double *x,
+    double *covx, const int mnp,
+    void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
+    void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
+    void *adata, const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+    double info[SBA_INFOSZ], const struct sba_ext_options *ext);
+
+extern int sba_str_levmar_x_ext(
+    const int n, const int ncon, const int m, char *vmask, double *p, const int pnp, double *x,
+    double *covx, const int mnp,
+    void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
+    void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
+    void *adata, const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+    double info[SBA_INFOSZ], const struct sba_ext_options *ext);
+
+extern int sba_motstr_levmar_ext(
+    const int n, const int ncon, const int m, const int mcon, char *vmask, double *p, const int cnp,
+    const int pnp, double *x, double *covx, const int mnp,
+    void (*proj)(int j, int i, double *aj, double *bi, double *xij, void *adata),
+    void (*projac)(int j, int i, double *aj, double *bi, double *Aij, double *Bij, void *adata),
+    void *adata, const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+    double info[SBA_INFOSZ], const struct sba_ext_options *ext);
+
+extern int sba_mot_levmar_ext(
+    const int n, const int m, const int mcon, char *vmask, double *p, const int cnp, double *x,
+    double *covx, const int mnp, void (*proj)(int j, int i, double *aj, double *xij, void *adata),
+    void (*projac)(int j, int i, double *aj, double *Aij, void *adata), void *adata,
+    const int itmax, const int verbose, const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ],
+    const struct sba_ext_options *ext);
+
+extern int sba_str_levmar_ext(
+    const int n, const int ncon, const int m, char *vmask, double *p, const int pnp, double *x,
+    double *covx, const int mnp, void (*proj)(int j, int i, double *bi, double *xij, void *adata),
+    void (*projac)(int j, int i, double *bi, double *Bij, void *adata), void *adata,
+    const int itmax, const int verbose, const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ],
+    const struct sba_ext_options *ext);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* SBA_EXT_H */

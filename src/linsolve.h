@@ -1,0 +1,44 @@
+// The linear solvers of the augmented normal equations, chosen at run time behind one
+// interface. Each LM iteration computes the undamped normal equations once; a StepSolver
+// turns them into the damped step for as many damping values as the iteration tries.
+#ifndef SBA_SRC_LINSOLVE_H
+#define SBA_SRC_LINSOLVE_H
+
+#include <memory>
+#include <string>
+
+#include "core.h"
+
+namespace sba {
+
+
+// "chol", "ldlt", ... ; false for an unknown name.
+bool linsolver_from_name(const std::string &name, LinSolver *out);
+const char *linsolver_name(LinSolver s);
+// Space-separated list of every name, for messages.
+const char *linsolver_names();
+
+// The normal equations of the current (weighted) Jacobian: the undamped U_j, V_i and
+// e_a = A^T e, e_b = B^T e. Blocks of fixed cameras and points are not meaningful.
+struct NormalEquations {
+  const Layout *lay = nullptr;
+  const double *jac = nullptr;  // callback layout: A_ij then B_ij per projection
+  const double *U = nullptr, *V = nullptr, *ea = nullptr, *eb = nullptr;
+};
+
+class StepSolver {
+ public:
+  virtual ~StepSolver() = default;
+  // dp (all nvars entries; fixed ones set to 0) solving (J^T J + mu I) dp = J^T e on the
+  // free parameters. False when the damped system cannot be solved at this mu.
+  virtual bool solve(const NormalEquations &ne, double mu, double *dp) = 0;
+};
+
+// The solver for a problem. Problems without free points or without free cameras (the
+// motion-only and structure-only drivers, mcon == m, ncon == n) are block diagonal and
+// always use per-block Cholesky, whatever `kind` says.
+std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const Layout &lay);
+
+}  // namespace sba
+
+#endif

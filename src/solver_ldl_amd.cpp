@@ -1,0 +1,165 @@
+// No Schur complement: the whole damped system (U*, W; W^T, V*) in compressed-column form,
+// ordered once per solve by AMD and factored by LDL^T for every damping value (the sba
+// paper's Table II comparison). The pattern and the symbolic factorization are fixed by the
+// visibility, so only the numeric factorization is repeated.
+#include <algorithm>
+#include <cmath>
+#include <new>
+#include <vector>
+
+#include "linsolve.h"
+#include "schur.h"
+
+extern "C" {
+#include <suitesparse/amd.h>
+#include <suitesparse/ldl.h>
+}
+
+namespace sba {
+namespace {
+
+using sslong = SuiteSparse_long;
+
+class LdlAmdSolver final : public StepSolver {
+ public:
+  explicit LdlAmdSolver(const Layout &lay) : lay_(lay) {
+    const int cnp = lay.cnp, pnp = lay.pnp;
+    nS_ = i64(lay.free_cams()) * cnp;
+    N_ = nS_ + i64(lay.free_pts()) * pnp;
+    pos_in_cam_.assign(size_t(lay.nvis), -1);
+    pos_in_pt_.assign(size_t(lay.nvis), -1);
+    // Position of each free-free projection's W block in its camera's and its point's column.
+    std::vector<int> ncam_pts(size_t(lay.m), 0);
+    for (int j = lay.mcon; j < lay.m; ++j)
+      for (int s = lay.colptr[j]; s < lay.colptr[j + 1]; ++s)
+        if (lay.colrow[s] >= lay.ncon) pos_in_cam_[size_t(lay.colk[s])] = ncam_pts[size_t(j)]++;
+    std::vector<int> npt_cams(size_t(lay.n), 0);
+    for (int i = lay.ncon; i < lay.n; ++i)
+      for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
+        if (lay.colidx[k] >= lay.mcon) pos_in_pt_[size_t(k)] = npt_cams[size_t(i)]++;
+
+    Ap_.assign(size_t(N_) + 1, 0);
+    for (int j = lay.mcon; j < lay.m; ++j)
+      for (int b = 0; b < cnp; ++b)
+        Ap_[size_t(cam_col(j, b)) + 1] = cnp + i64(ncam_pts[size_t(j)]) * pnp;
+    for (int i = lay.ncon; i < lay.n; ++i)
+      for (int b = 0; b < pnp; ++b)
+        Ap_[size_t(pt_col(i, b)) + 1] = i64(npt_cams[size_t(i)]) * cnp + pnp;
+    for (i64 c = 0; c < N_; ++c) Ap_[size_t(c) + 1] += Ap_[size_t(c)];
+    Ai_.resize(size_t(Ap_[size_t(N_)]));
+    Ax_.resize(Ai_.size());
+    for (int j = lay.mcon; j < lay.m; ++j)
+      for (int b = 0; b < cnp; ++b) {
+        sslong q = Ap_[size_t(cam_col(j, b))];
+        for (int a = 0; a < cnp; ++a) Ai_[size_t(q++)] = cam_col(j, a);
+        for (int s = lay.colptr[j]; s < lay.colptr[j + 1]; ++s)
+          if (lay.colrow[s] >= lay.ncon)
+            for (int c = 0; c < pnp; ++c) Ai_[size_t(q++)] = pt_col(lay.colrow[s], c);
+      }
+    for (int i = lay.ncon; i < lay.n; ++i)
+      for (int b = 0; b < pnp; ++b) {
+        sslong q = Ap_[size_t(pt_col(i, b))];
+        for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
+          if (lay.colidx[k] >= lay.mcon)
+            for (int a = 0; a < cnp; ++a) Ai_[size_t(q++)] = cam_col(lay.colidx[k], a);
+        for (int c = 0; c < pnp; ++c) Ai_[size_t(q++)] = pt_col(i, c);
+      }
+
+    P_.resize(size_t(N_));
+    Pinv_.resize(size_t(N_));
+    if (amd_l_order(N_, Ap_.data(), Ai_.data(), P_.data(), nullptr, nullptr) != AMD_OK)
+      throw std::bad_alloc();  // the pattern is valid by construction: only memory can fail
+    Lp_.resize(size_t(N_) + 1);
+    parent_.resize(size_t(N_));
+    lnz_.resize(size_t(N_));
+    flag_.resize(size_t(N_));
+    ldl_l_symbolic(N_, Ap_.data(), Ai_.data(), Lp_.data(), parent_.data(), lnz_.data(),
+                   flag_.data(), P_.data(), Pinv_.data());
+    Li_.resize(size_t(Lp_[size_t(N_)]));
+    Lx_.resize(Li_.size());
+    D_.resize(size_t(N_));
+    Y_.resize(size_t(N_));
+    pattern_.resize(size_t(N_));
+    x_.resize(size_t(N_));
+    W_.resize(size_t(cnp) * size_t(pnp));
+  }
+
+  bool solve(const NormalEquations &ne, double mu, double *dp) override {
+    const Layout &lay = lay_;
+    const int cnp = lay.cnp, pnp = lay.pnp;
+    std::fill(dp, dp + lay.nvars(), 0.0);
+    // Diagonal blocks U*_j, V*_i.
+    for (int j = lay.mcon; j < lay.m; ++j)
+      for (int b = 0; b < cnp; ++b) {
+        double *col = Ax_.data() + Ap_[size_t(cam_col(j, b))];
+        const double *U = ne.U + i64(j) * cnp * cnp;
+        for (int a = 0; a < cnp; ++a) col[a] = U[a * cnp + b] + (a == b ? mu : 0.0);
+      }
+    for (int i = lay.ncon; i < lay.n; ++i)
+      for (int b = 0; b < pnp; ++b) {
+        const sslong c = pt_col(i, b);
+        double *col = Ax_.data() + Ap_[size_t(c) + 1] - pnp;
+        const double *V = ne.V + i64(i) * pnp * pnp;
+        for (int a = 0; a < pnp; ++a) col[a] = V[a * pnp + b] + (a == b ? mu : 0.0);
+      }
+    // Off-diagonal W_ij in both triangles.
+    double *W = W_.data();
+    for (int i = lay.ncon; i < lay.n; ++i)
+      for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+        const int j = lay.colidx[k];
+        if (j < lay.mcon) continue;
+        schur::form_W(lay, ne.jac, k, W);
+        for (int b = 0; b < cnp; ++b) {
+          double *col = Ax_.data() + Ap_[size_t(cam_col(j, b))] + cnp + i64(pos_in_cam_[size_t(k)]) * pnp;
+          for (int c = 0; c < pnp; ++c) col[c] = W[b * pnp + c];
+        }
+        for (int b = 0; b < pnp; ++b) {
+          double *col = Ax_.data() + Ap_[size_t(pt_col(i, b))] + i64(pos_in_pt_[size_t(k)]) * cnp;
+          for (int a = 0; a < cnp; ++a) col[a] = W[a * pnp + b];
+        }
+      }
+    const sslong done =
+        ldl_l_numeric(N_, Ap_.data(), Ai_.data(), Ax_.data(), Lp_.data(), parent_.data(),
+                      lnz_.data(), Li_.data(), Lx_.data(), D_.data(), Y_.data(), pattern_.data(),
+                      flag_.data(), P_.data(), Pinv_.data());
+    if (done != N_) return false;
+    // The damped matrix is positive definite in exact arithmetic; a non-positive pivot
+    // means rounding has destroyed that, and the step would not be a descent direction.
+    for (i64 q = 0; q < N_; ++q)
+      if (!(D_[size_t(q)] > 0.0)) return false;
+    for (int j = lay.mcon; j < lay.m; ++j)
+      for (int a = 0; a < cnp; ++a) x_[size_t(cam_col(j, a))] = ne.ea[i64(j) * cnp + a];
+    for (int i = lay.ncon; i < lay.n; ++i)
+      for (int a = 0; a < pnp; ++a) x_[size_t(pt_col(i, a))] = ne.eb[i64(i) * pnp + a];
+    ldl_l_perm(N_, Y_.data(), x_.data(), P_.data());
+    ldl_l_lsolve(N_, Y_.data(), Lp_.data(), Li_.data(), Lx_.data());
+    ldl_l_dsolve(N_, Y_.data(), D_.data());
+    ldl_l_ltsolve(N_, Y_.data(), Lp_.data(), Li_.data(), Lx_.data());
+    ldl_l_permt(N_, x_.data(), Y_.data(), P_.data());
+    for (int j = lay.mcon; j < lay.m; ++j)
+      for (int a = 0; a < cnp; ++a) dp[lay.a_off(j) + a] = x_[size_t(cam_col(j, a))];
+    for (int i = lay.ncon; i < lay.n; ++i)
+      for (int a = 0; a < pnp; ++a) dp[lay.b_off(i) + a] = x_[size_t(pt_col(i, a))];
+    for (i64 q = 0; q < N_; ++q)
+      if (!std::isfinite(x_[size_t(q)])) return false;
+    return true;
+  }
+
+ private:
+  sslong cam_col(int j, int a) const { return sslong(j - lay_.mcon) * lay_.cnp + a; }
+  sslong pt_col(int i, int a) const { return nS_ + sslong(i - lay_.ncon) * lay_.pnp + a; }
+
+  const Layout &lay_;
+  i64 nS_ = 0, N_ = 0;
+  std::vector<int> pos_in_cam_, pos_in_pt_;
+  std::vector<sslong> Ap_, Ai_, P_, Pinv_, Lp_, parent_, lnz_, flag_, Li_, pattern_;
+  std::vector<double> Ax_, Lx_, D_, Y_, x_, W_;
+};
+
+}  // namespace
+
+std::unique_ptr<StepSolver> make_ldl_amd_solver(const Layout &lay) {
+  return std::make_unique<LdlAmdSolver>(lay);
+}
+
+}  // namespace sba

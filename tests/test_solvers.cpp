@@ -1,0 +1,268 @@
+// The run-time choice of linear solver (sba_ext.h, SBA_LINSOLVER) on synthetic problems:
+// every solver reaches chol's minimum, and the extension options behave as documented.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "sba_ext.h"
+#include "synth.h"
+
+namespace {
+
+using synth::kCnp;
+using synth::kMnp;
+using synth::kPnp;
+
+const char *const kAllSolvers[] = {"chol", "ldlt", "bk", "lu", "qr", "qrnoq",
+                                   "svd", "cg", "ldl-amd", "sparse-chol"};
+
+struct Outcome {
+  int ret = 0;
+  double info[SBA_INFOSZ] = {};
+  std::vector<double> p;
+};
+
+Outcome solve(synth::Problem &pb, const sba_ext_options *ext, int mcon = 0, int ncon = 0,
+              bool simple = false) {
+  Outcome o;
+  o.p = pb.p0;
+  if (simple)
+    o.ret = sba_motstr_levmar_ext(pb.n, ncon, pb.m, mcon, pb.vmask.data(), o.p.data(), kCnp, kPnp,
+                                  pb.x.data(), nullptr, kMnp, synth::proj_motstr, synth::projac_motstr,
+                                  &pb, 200, 0, nullptr, o.info, ext);
+  else
+    o.ret = sba_motstr_levmar_x_ext(pb.n, ncon, pb.m, mcon, pb.vmask.data(), o.p.data(), kCnp, kPnp,
+                                    pb.x.data(), nullptr, kMnp, synth::func_motstr, synth::fjac_motstr,
+                                    &pb, 200, 0, nullptr, o.info, ext);
+  return o;
+}
+
+Outcome solve_with(synth::Problem &pb, const char *solver, int mcon = 0, int ncon = 0) {
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.linsolver = solver;
+  return solve(pb, &ext, mcon, ncon);
+}
+
+class EverySolver : public ::testing::TestWithParam<const char *> {};
+
+// mcon = 0: the 7-dimensional gauge freedom makes J^T J, and S, singular without damping.
+TEST_P(EverySolver, ReachesCholsMinimumWithASingularUndampedS) {
+  synth::Problem pb = synth::make(150, 8, 0.5, 0.05, 31);
+  const Outcome ref = solve_with(pb, "chol");
+  const Outcome o = solve_with(pb, GetParam());
+  ASSERT_GT(ref.ret, 0);
+  ASSERT_GT(o.ret, 0) << GetParam();
+  EXPECT_NEAR(o.info[1] / ref.info[1], 1.0, 5e-7) << GetParam();
+  EXPECT_EQ(o.info[0], ref.info[0]);
+  EXPECT_GE(o.info[6], 1);
+  EXPECT_LE(o.info[6], 5);
+}
+
+TEST_P(EverySolver, ReachesCholsMinimumWithFixedCamerasAndPoints) {
+  synth::Problem pb = synth::make(120, 7, 0.3, 0.05, 32);
+  const Outcome ref = solve_with(pb, "chol", 2, 5);
+  const Outcome o = solve_with(pb, GetParam(), 2, 5);
+  ASSERT_GT(o.ret, 0) << GetParam();
+  EXPECT_NEAR(o.info[1] / ref.info[1], 1.0, 5e-7) << GetParam();
+  // Fixed blocks stay put whatever the solver.
+  for (int q = 0; q < 2 * kCnp; ++q) EXPECT_EQ(o.p[q], pb.p0[q]);
+  for (int q = 0; q < 5 * kPnp; ++q) EXPECT_EQ(o.p[pb.m * kCnp + q], pb.p0[pb.m * kCnp + q]);
+}
+
+TEST_P(EverySolver, NoiseFreeDataReachesZero) {
+  synth::Problem pb = synth::make(80, 6, 0.0, 0.05, 33);
+  const Outcome o = solve_with(pb, GetParam());
+  ASSERT_GT(o.ret, 0) << GetParam();
+  EXPECT_LT(o.info[1] / pb.nvis, 1e-12) << GetParam();
+}
+
+INSTANTIATE_TEST_SUITE_P(Solvers, EverySolver, ::testing::ValuesIn(kAllSolvers),
+                         [](const ::testing::TestParamInfo<const char *> &info) {
+                           std::string s = info.param;
+                           for (char &c : s)
+                             if (c == '-') c = '_';
+                           return s;
+                         });
+
+// A long sequence: each point seen by a few consecutive cameras, so S is banded.
+TEST(Solvers, SparseCholMatchesCholOnABandedProblem) {
+  synth::Problem pb = synth::make(200, 30, 0.5, 0.03, 34, 0.0);
+  // Replace the random visibility by runs of 3 consecutive cameras.
+  pb.vmask.assign(pb.vmask.size(), 0);
+  for (int i = 0; i < pb.n; ++i)
+    for (int d = 0; d < 3; ++d) pb.vmask[size_t(i) * pb.m + (i * (pb.m - 2) / pb.n + d)] = 1;
+  pb.x.clear();
+  pb.nvis = 0;
+  for (int i = 0; i < pb.n; ++i)
+    for (int j = 0; j < pb.m; ++j)
+      if (pb.vmask[size_t(i) * pb.m + j]) {
+        double xij[2];
+        synth::project(pb.truth.data() + j * kCnp, pb.truth.data() + pb.m * kCnp + i * 3, xij, nullptr, nullptr);
+        pb.x.insert(pb.x.end(), xij, xij + 2);
+        ++pb.nvis;
+      }
+  const Outcome ref = solve_with(pb, "chol", 1), sp = solve_with(pb, "sparse-chol", 1),
+                la = solve_with(pb, "ldl-amd", 1);
+  ASSERT_GT(ref.ret, 0);
+  EXPECT_NEAR(sp.info[1], ref.info[1], 1e-6 * ref.info[1] + 1e-12);
+  EXPECT_NEAR(la.info[1], ref.info[1], 1e-6 * ref.info[1] + 1e-12);
+}
+
+TEST(Solvers, UnknownNameInTheOptionsIsABadArgument) {
+  synth::Problem pb = synth::make(40, 4, 0.1, 0.05, 35);
+  testing::internal::CaptureStderr();
+  const Outcome o = solve_with(pb, "cholesky");
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(o.ret, SBA_ERROR);
+  EXPECT_EQ(o.info[6], SBA_STOP_NONE);
+  EXPECT_NE(err.find("unknown linear solver \"cholesky\" (known: chol ldlt"), std::string::npos) << err;
+  EXPECT_EQ(o.p, pb.p0);
+}
+
+// The legacy entry points read SBA_LINSOLVER: the solve is then the extension call's, bit
+// for bit, and an unknown name falls back to chol with a message.
+TEST(Solvers, EnvironmentVariableSwitchesTheLegacyEntryPoints) {
+  synth::Problem pb = synth::make(100, 6, 0.4, 0.05, 36);
+  const Outcome chol = solve_with(pb, "chol"), amd = solve_with(pb, "ldl-amd");
+  ASSERT_NE(chol.p, amd.p);  // different arithmetic, different last bits
+  auto legacy = [&] {
+    Outcome o;
+    o.p = pb.p0;
+    o.ret = sba_motstr_levmar_x(pb.n, 0, pb.m, 0, pb.vmask.data(), o.p.data(), kCnp, kPnp, pb.x.data(),
+                                nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb, 200, 0,
+                                nullptr, o.info);
+    return o;
+  };
+  ASSERT_EQ(setenv("SBA_LINSOLVER", "ldl-amd", 1), 0);
+  const Outcome viaenv = legacy();
+  EXPECT_EQ(viaenv.p, amd.p);
+  ASSERT_EQ(setenv("SBA_LINSOLVER", "nonsense", 1), 0);
+  testing::internal::CaptureStderr();
+  const Outcome fallback = legacy();
+  const std::string err = testing::internal::GetCapturedStderr();
+  unsetenv("SBA_LINSOLVER");
+  EXPECT_EQ(fallback.p, chol.p);
+  EXPECT_NE(err.find("unknown SBA_LINSOLVER \"nonsense\""), std::string::npos) << err;
+  EXPECT_NE(err.find("using chol"), std::string::npos) << err;
+  // An explicit choice in the options wins over the environment.
+  ASSERT_EQ(setenv("SBA_LINSOLVER", "ldl-amd", 1), 0);
+  const Outcome explicit_chol = solve_with(pb, "chol");
+  unsetenv("SBA_LINSOLVER");
+  EXPECT_EQ(explicit_chol.p, chol.p);
+}
+
+// ---------------------------------------------------------------- log sink, quiet, progress
+
+struct Captured {
+  std::vector<std::pair<int, std::string>> lines;
+};
+void capture(void *ctx, int level, const char *line) {
+  static_cast<Captured *>(ctx)->lines.emplace_back(level, line);
+}
+
+TEST(ExtOptions, LogSinkReceivesErrorsAndProgress) {
+  synth::Problem pb = synth::make(40, 4, 0.1, 0.05, 37);
+  Captured c;
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.log = capture;
+  ext.log_ctx = &c;
+  std::vector<double> p = pb.p0;
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  int ret = sba_motstr_levmar_x_ext(pb.n, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(),
+                                    nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb, 100, 2,
+                                    nullptr, nullptr, &ext);
+  ret = std::min(ret, sba_motstr_levmar_x_ext(pb.n, 0, pb.m, pb.m + 3, pb.vmask.data(), p.data(), kCnp,
+                                              kPnp, pb.x.data(), nullptr, kMnp, synth::func_motstr,
+                                              synth::fjac_motstr, &pb, 100, 0, nullptr, nullptr, &ext));
+  EXPECT_EQ(testing::internal::GetCapturedStdout(), "");
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  EXPECT_EQ(ret, SBA_ERROR);
+  ASSERT_GE(c.lines.size(), 3u);
+  EXPECT_EQ(c.lines.front().first, SBA_LOG_INFO);
+  EXPECT_NE(c.lines.front().second.find("initial error"), std::string::npos);
+  EXPECT_EQ(c.lines.back().first, SBA_LOG_ERROR);
+  EXPECT_NE(c.lines.back().second.find("mcon must be in [0, m]"), std::string::npos);
+}
+
+TEST(ExtOptions, QuietPrintsNothingEvenForErrors) {
+  synth::Problem pb = synth::make(40, 4, 0.1, 0.05, 38);
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.quiet = 1;
+  std::vector<double> p = pb.p0;
+  double info[SBA_INFOSZ];
+  testing::internal::CaptureStderr();
+  const int ret = sba_motstr_levmar_x_ext(-1, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp,
+                                          pb.x.data(), nullptr, kMnp, synth::func_motstr,
+                                          synth::fjac_motstr, &pb, 100, 3, nullptr, info, &ext);
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  EXPECT_EQ(ret, SBA_ERROR);
+  EXPECT_EQ(info[6], SBA_STOP_NONE);
+}
+
+struct Progress {
+  int calls = 0, stop_at = 0;
+  std::vector<double> errors;
+  double last_elapsed = -1;
+  bool elapsed_monotone = true;
+};
+int on_progress(void *ctx, const sba_progress *s) {
+  Progress &pr = *static_cast<Progress *>(ctx);
+  ++pr.calls;
+  EXPECT_EQ(s->iteration, pr.calls);
+  pr.errors.push_back(s->error);
+  if (s->elapsed < pr.last_elapsed) pr.elapsed_monotone = false;
+  pr.last_elapsed = s->elapsed;
+  return pr.calls == pr.stop_at;
+}
+
+TEST(ExtOptions, ProgressCallbackSeesEveryIterationAndCanStop) {
+  synth::Problem pb = synth::make(100, 6, 0.5, 0.1, 39);
+  Progress all;
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.progress = on_progress;
+  ext.progress_ctx = &all;
+  const Outcome full = solve(pb, &ext);
+  ASSERT_GT(full.ret, 3);
+  // Called after every iteration that did not stop the solve by itself.
+  EXPECT_EQ(all.calls, full.ret - 1);
+  EXPECT_TRUE(all.elapsed_monotone);
+  for (size_t q = 1; q < all.errors.size(); ++q) EXPECT_LE(all.errors[q], all.errors[q - 1]);
+
+  Progress early;
+  early.stop_at = 2;
+  ext.progress_ctx = &early;
+  const Outcome stopped = solve(pb, &ext, 0, 0, true);
+  EXPECT_EQ(stopped.ret, 2);
+  EXPECT_EQ(stopped.info[6], SBA_STOP_USER);
+  EXPECT_EQ(stopped.info[1], early.errors.back());
+  EXPECT_NEAR(synth::sq_error(pb, stopped.p.data()), stopped.info[1], 1e-9 * stopped.info[1]);
+}
+
+// A caller compiled against an older, shorter sba_ext_options: the fields it does not know
+// keep their defaults.
+TEST(ExtOptions, ShorterStructFromAnOlderCallerIsHonoured) {
+  synth::Problem pb = synth::make(40, 4, 0.1, 0.05, 40);
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.linsolver = "ldl-amd";
+  ext.quiet = 1;  // beyond the declared size: must be ignored
+  ext.size = offsetof(sba_ext_options, log);
+  const Outcome o = solve(pb, &ext);
+  const Outcome amd = solve_with(pb, "ldl-amd");
+  EXPECT_EQ(o.p, amd.p);
+  testing::internal::CaptureStderr();
+  ext.linsolver = "x";
+  const Outcome bad2 = solve(pb, &ext);
+  EXPECT_NE(testing::internal::GetCapturedStderr(), "");  // quiet was not read
+  EXPECT_EQ(bad2.ret, SBA_ERROR);
+}
+
+}  // namespace
