@@ -10,6 +10,9 @@ JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
 .PHONY: all configure test demo install clean deps-build deps-test
 
+# The main job: a generated 20-camera problem (data/README.md) through eucsbademo.
+DEMO_PROBLEM ?= data/orbit-fixedK
+
 all: deps-test configure
 	cmake --build $(BUILD) -j $(JOBS)
 
@@ -25,6 +28,10 @@ configure:
 test: deps-test configure
 	cmake --build $(BUILD) -j $(JOBS)
 	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
+
+demo: deps-test configure
+	cmake --build $(BUILD) -j $(JOBS) --target eucsbademo
+	$(BUILD)/demo/eucsbademo $(DEMO_PROBLEM)-cams.txt $(DEMO_PROBLEM)-pts.txt $(DEMO_PROBLEM)-calib.txt
 
 install: deps-build
 	cmake -S . -B $(BUILD) -DCMAKE_INSTALL_PREFIX=$(PREFIX) -DSBA_BUILD_TESTS=OFF $(CMAKE_FLAGS) >/dev/null

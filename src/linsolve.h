@@ -8,9 +8,10 @@
 #include <string>
 
 #include "core.h"
+#include "kernels.h"
+#include "parallel.h"
 
 namespace sba {
-
 
 // "chol", "ldlt", ... ; false for an unknown name.
 bool linsolver_from_name(const std::string &name, LinSolver *out);
@@ -21,9 +22,15 @@ const char *linsolver_names();
 // The normal equations of the current (weighted) Jacobian: the undamped U_j, V_i and
 // e_a = A^T e, e_b = B^T e. Blocks of fixed cameras and points are not meaningful.
 struct NormalEquations {
-  const Layout *lay = nullptr;
   const double *jac = nullptr;  // callback layout: A_ij then B_ij per projection
   const double *U = nullptr, *V = nullptr, *ea = nullptr, *eb = nullptr;
+};
+
+// What every solver works with: the problem, the threads, the block kernels.
+struct SolveContext {
+  const Layout &lay;
+  ThreadPool &pool;
+  const Kernels &kernels;
 };
 
 class StepSolver {
@@ -37,7 +44,12 @@ class StepSolver {
 // The solver for a problem. Problems without free points or without free cameras (the
 // motion-only and structure-only drivers, mcon == m, ncon == n) are block diagonal and
 // always use per-block Cholesky, whatever `kind` says.
-std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const Layout &lay);
+std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx);
+
+// Defined in solver_*.cpp.
+std::unique_ptr<StepSolver> make_dense_schur_solver(LinSolver kind, const SolveContext &ctx);
+std::unique_ptr<StepSolver> make_ldl_amd_solver(const SolveContext &ctx);
+std::unique_ptr<StepSolver> make_sparse_schur_solver(const SolveContext &ctx);
 
 }  // namespace sba
 

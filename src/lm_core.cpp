@@ -1,8 +1,9 @@
-// The one Levenberg-Marquardt core behind all six drivers (sba paper, Fig. 2 and Fig. 4):
-// the augmented normal equations are reduced to the cameras by the Schur complement
-// S = U* - W V*^-1 W^T, S is solved densely, and the point updates follow by
-// back-substitution. Motion-only problems have no W (S is block diagonal), structure-only
-// problems have no S; both fall out of the same code through the free camera/point counts.
+// The one Levenberg-Marquardt core behind all six drivers (sba paper, Fig. 2 and Fig. 4).
+// Each iteration computes the Jacobian and the normal equations once; the damped system is
+// solved by the chosen StepSolver (by default through the Schur complement on the cameras,
+// S = U* - W V*^-1 W^T, factored densely) until a step is accepted or a stop test fires.
+// Motion-only and structure-only problems fall out of the same code (no free points, or no
+// free cameras: block diagonal systems).
 #include <algorithm>
 #include <chrono>
 #include <climits>
@@ -10,7 +11,9 @@
 #include <vector>
 
 #include "core.h"
+#include "kernels.h"
 #include "linsolve.h"
+#include "parallel.h"
 #include "small_dense.h"
 
 namespace sba {
@@ -20,16 +23,20 @@ namespace {
 // (||p||^2 + eps2) / 1e-24 means the step is numerically meaningless.
 constexpr double kSingularEpsSq = 1e-24;
 
-double sqnorm(const double *v, i64 len) {
-  double s = 0.0;
-  for (i64 k = 0; k < len; ++k) s += v[k] * v[k];
-  return s;
+double sqnorm(ThreadPool &pool, const double *v, i64 len) {
+  return deterministic_sum(pool, len, [v](i64 k) { return v[k] * v[k]; });
 }
 
 bool all_finite(const double *v, i64 len) {
   for (i64 k = 0; k < len; ++k)
     if (!std::isfinite(v[k])) return false;
   return true;
+}
+
+bool all_finite(ThreadPool &pool, const double *v, i64 len) {
+  std::vector<char> ok(size_t(pool.size()), 1);
+  pool.for_range_t(len, [&](int t, i64 b, i64 e) { ok[size_t(t)] = all_finite(v + b, e - b); });
+  return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
 }
 
 // Everything the LM loop itself needs, sized once before iterating (the linear solver
@@ -50,8 +57,8 @@ struct Workspace {
     dp.resize(size_t(lay.nvars()));
     pn.resize(dp.size());
   }
-  NormalEquations view(const Layout &lay) const {
-    return NormalEquations{&lay, jac.data(), U.data(), V.data(), ea.data(), eb.data()};
+  NormalEquations view() const {
+    return NormalEquations{jac.data(), U.data(), V.data(), ea.data(), eb.data()};
   }
   std::vector<double> hx, e, hxn, en, jac, wts, U, ea, V, eb, dp, pn;
 };
@@ -80,104 +87,70 @@ bool make_weights(const Layout &lay, const double *covx, std::vector<double> &wt
   return true;
 }
 
-// e = W (x - hx): the (weighted) residual.
-void residual(const Layout &lay, const double *x, const double *hx, const double *wts, double *e) {
-  const i64 len = lay.nvis * lay.mnp;
-  for (i64 q = 0; q < len; ++q) e[q] = x[q] - hx[q];
-  if (!wts) return;
+// e = W (x - hx): the (weighted) residual. Returns ||e||^2.
+double residual(ThreadPool &pool, const Layout &lay, const double *x, const double *hx,
+                const double *wts, double *e) {
   const int mnp = lay.mnp;
-  std::vector<double> t(static_cast<size_t>(mnp));
-  for (i64 k = 0; k < lay.nvis; ++k) {
-    double *ek = e + k * mnp;
-    const double *w = wts + k * mnp * mnp;
-    for (int r = 0; r < mnp; ++r) {
-      double s = 0.0;
-      for (int c = r; c < mnp; ++c) s += w[r * mnp + c] * ek[c];
-      t[r] = s;
+  pool.for_range(lay.nvis, [&](i64 b, i64 end) {
+    for (i64 q = b * mnp; q < end * mnp; ++q) e[q] = x[q] - hx[q];
+    if (!wts) return;
+    std::vector<double> t(static_cast<size_t>(mnp));
+    for (i64 k = b; k < end; ++k) {
+      double *ek = e + k * mnp;
+      const double *w = wts + k * mnp * mnp;
+      for (int r = 0; r < mnp; ++r) {
+        double s = 0.0;
+        for (int c = r; c < mnp; ++c) s += w[r * mnp + c] * ek[c];
+        t[size_t(r)] = s;
+      }
+      std::copy(t.begin(), t.end(), ek);
     }
-    std::copy(t.begin(), t.end(), ek);
-  }
+  });
+  return sqnorm(pool, e, lay.nvis * mnp);
 }
 
 // Jacobian blocks A_ij, B_ij <- W_ij A_ij, W_ij B_ij.
-void weight_jacobian(const Layout &lay, const double *wts, double *jac) {
-  const int mnp = lay.mnp, ncol = lay.cnp + lay.pnp;
-  std::vector<double> t(size_t(mnp) * ncol);
-  for (i64 k = 0; k < lay.nvis; ++k) {
-    double *J = jac + k * lay.jblk();
-    const double *w = wts + k * mnp * mnp;
-    // The A and B blocks are stored one after the other, each row-major; view each row of
-    // the projection as its cnp entries in A followed by its pnp entries in B.
-    auto at = [&](int r, int c) -> double & {
-      return c < lay.cnp ? J[r * lay.cnp + c] : J[mnp * lay.cnp + r * lay.pnp + (c - lay.cnp)];
-    };
-    for (int r = 0; r < mnp; ++r)
-      for (int c = 0; c < ncol; ++c) {
-        double s = 0.0;
-        for (int q = r; q < mnp; ++q) s += w[r * mnp + q] * at(q, c);
-        t[size_t(r) * ncol + c] = s;
-      }
-    for (int r = 0; r < mnp; ++r)
-      for (int c = 0; c < ncol; ++c) at(r, c) = t[size_t(r) * ncol + c];
-  }
+void weight_jacobian(ThreadPool &pool, const Layout &lay, const double *wts, double *jac) {
+  const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp, ncol = cnp + pnp;
+  pool.for_range(lay.nvis, [&](i64 b, i64 end) {
+    std::vector<double> t(size_t(mnp) * size_t(ncol));
+    for (i64 k = b; k < end; ++k) {
+      double *J = jac + k * lay.jblk();
+      const double *w = wts + k * mnp * mnp;
+      // The A and B blocks lie one after the other, each row-major; row r of the
+      // projection is A's row r followed by B's row r.
+      auto at = [&](int r, int c) -> double & {
+        return c < cnp ? J[r * cnp + c] : J[mnp * cnp + r * pnp + (c - cnp)];
+      };
+      for (int r = 0; r < mnp; ++r)
+        for (int c = 0; c < ncol; ++c) {
+          double s = 0.0;
+          for (int q = r; q < mnp; ++q) s += w[r * mnp + q] * at(q, c);
+          t[size_t(r) * ncol + c] = s;
+        }
+      for (int r = 0; r < mnp; ++r)
+        for (int c = 0; c < ncol; ++c) at(r, c) = t[size_t(r) * ncol + c];
+    }
+  });
 }
 
 // A Jacobian entry that is not finite makes every later number meaningless. Only the blocks
 // of free cameras and points are looked at: the others are ignored by definition.
-bool jacobian_finite(const Layout &lay, const double *jac) {
+bool jacobian_finite(ThreadPool &pool, const Layout &lay, const double *jac) {
   const i64 asz = i64(lay.mnp) * lay.cnp, bsz = i64(lay.mnp) * lay.pnp;
-  for (int i = 0; i < lay.n; ++i)
-    for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
-      const double *J = jac + i64(k) * lay.jblk();
-      if (lay.cam_free(lay.colidx[k]) && !all_finite(J, asz)) return false;
-      if (lay.pt_free(i) && !all_finite(J + asz, bsz)) return false;
-    }
-  return true;
-}
-
-// U_j, V_i (undamped) and e_a = A^T e, e_b = B^T e for the free cameras and points.
-void accumulate_normal_equations(const Layout &lay, Workspace &w) {
-  const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp;
-  std::fill(w.U.begin(), w.U.end(), 0.0);
-  std::fill(w.V.begin(), w.V.end(), 0.0);
-  std::fill(w.ea.begin(), w.ea.end(), 0.0);
-  std::fill(w.eb.begin(), w.eb.end(), 0.0);
-  for (int i = 0; i < lay.n; ++i) {
-    const bool pfree = lay.pt_free(i);
-    for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
-      const int j = lay.colidx[k];
-      const double *A = w.jac.data() + i64(k) * lay.jblk();
-      const double *B = A + mnp * cnp;
-      const double *ek = w.e.data() + i64(k) * mnp;
-      if (lay.cam_free(j)) {
-        double *U = w.U.data() + i64(j) * cnp * cnp, *ea = w.ea.data() + i64(j) * cnp;
-        for (int r = 0; r < mnp; ++r) {
-          const double *ar = A + r * cnp;
-          for (int a = 0; a < cnp; ++a) {
-            ea[a] += ar[a] * ek[r];
-            for (int b = a; b < cnp; ++b) U[a * cnp + b] += ar[a] * ar[b];
-          }
+  std::vector<char> ok(size_t(pool.size()), 1);
+  pool.for_range_t(lay.n, [&](int t, i64 b, i64 end) {
+    for (i64 i = b; i < end; ++i)
+      for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+        const double *J = jac + i64(k) * lay.jblk();
+        if ((lay.cam_free(lay.colidx[k]) && !all_finite(J, asz)) ||
+            (lay.pt_free(int(i)) && !all_finite(J + asz, bsz))) {
+          ok[size_t(t)] = 0;
+          return;
         }
       }
-      if (pfree) {
-        double *V = w.V.data() + i64(i) * pnp * pnp, *eb = w.eb.data() + i64(i) * pnp;
-        for (int r = 0; r < mnp; ++r) {
-          const double *br = B + r * pnp;
-          for (int a = 0; a < pnp; ++a) {
-            eb[a] += br[a] * ek[r];
-            for (int b = a; b < pnp; ++b) V[a * pnp + b] += br[a] * br[b];
-          }
-        }
-      }
-    }
-  }
-  // Only the upper triangles were accumulated; mirror them once.
-  auto mirror = [](double *M, int d) {
-    for (int a = 0; a < d; ++a)
-      for (int b = a + 1; b < d; ++b) M[b * d + a] = M[a * d + b];
-  };
-  for (int j = lay.mcon; j < lay.m && cnp; ++j) mirror(w.U.data() + i64(j) * cnp * cnp, cnp);
-  for (int i = lay.ncon; i < lay.n && pnp; ++i) mirror(w.V.data() + i64(i) * pnp * pnp, pnp);
+  });
+  return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
 }
 
 // max |g| and max diag(J^T J) over the free cameras and points.
@@ -198,20 +171,15 @@ void gradient_stats(const Layout &lay, const Workspace &w, double *ginf, double 
   *maxdiag = d;
 }
 
-// dp^T (mu dp + g) with g = J^T e: the reduction of the linear model.
-double predicted_reduction(const Layout &lay, const Workspace &w, double mu) {
-  double s = 0.0;
-  for (int j = lay.mcon; j < lay.m && lay.cnp; ++j)
-    for (int a = 0; a < lay.cnp; ++a) {
-      const double d = w.dp[size_t(lay.a_off(j) + a)];
-      s += d * (mu * d + w.ea[size_t(i64(j) * lay.cnp + a)]);
-    }
-  for (int i = lay.ncon; i < lay.n && lay.pnp; ++i)
-    for (int a = 0; a < lay.pnp; ++a) {
-      const double d = w.dp[size_t(lay.b_off(i) + a)];
-      s += d * (mu * d + w.eb[size_t(i64(i) * lay.pnp + a)]);
-    }
-  return s;
+// dp^T (mu dp + g) with g = J^T e: the reduction of the linear model. g is e_a over the
+// camera part of p and e_b over the point part, laid out like p; fixed entries of dp are 0.
+double predicted_reduction(ThreadPool &pool, const Layout &lay, const Workspace &w, double mu) {
+  const i64 ncam = i64(lay.m) * lay.cnp;
+  const double *dp = w.dp.data(), *ea = w.ea.data(), *eb = w.eb.data();
+  return deterministic_sum(pool, lay.nvars(), [=](i64 q) {
+    const double g = q < ncam ? ea[q] : eb[q - ncam];
+    return dp[q] * (mu * dp[q] + g);
+  });
 }
 
 }  // namespace
@@ -220,9 +188,12 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
            const Options &opt, const Logger &log, Summary &sum) {
   sum = Summary{};
   const auto t0 = std::chrono::steady_clock::now();
+  ThreadPool pool(opt.nthreads);
   Workspace w(lay, covx != nullptr);
-  std::unique_ptr<StepSolver> solver = make_step_solver(opt.solver, lay);
-  const NormalEquations ne = w.view(lay);
+  const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());
+  const std::unique_ptr<StepSolver> solver =
+      make_step_solver(opt.solver, SolveContext{lay, pool, *kernels});
+  const NormalEquations ne = w.view();
   const double *wts = nullptr;
   if (covx) {
     if (!make_weights(lay, covx, w.wts, log)) return false;
@@ -233,13 +204,12 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
 
   model.eval(p, w.hx.data());
   sum.nfev = 1;
-  if (!all_finite(w.hx.data(), nobs)) {
+  if (!all_finite(pool, w.hx.data(), nobs)) {
     log.error("sba: the projection function returned NaN or Inf at the initial estimate");
     sum.reason = kStopNonFinite;
     return false;
   }
-  residual(lay, x, w.hx.data(), wts, w.e.data());
-  double eps = sqnorm(w.e.data(), nobs);
+  double eps = residual(pool, lay, x, w.hx.data(), wts, w.e.data());
   sum.err0 = sum.err = eps;
   if (!std::isfinite(eps)) {
     log.error("sba: the initial error is not finite (check x and covx)");
@@ -266,13 +236,14 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
       sum.nfev += model.fd_jacobian(p, w.hx.data(), w.jac.data());
     }
     ++sum.njev;
-    if (!jacobian_finite(lay, w.jac.data())) {
+    if (!jacobian_finite(pool, lay, w.jac.data())) {
       log.error("sba: the Jacobian has a NaN or Inf entry at iteration %d", it);
       record(kStopNonFinite, it);
       return false;
     }
-    if (wts) weight_jacobian(lay, wts, w.jac.data());
-    accumulate_normal_equations(lay, w);
+    if (wts) weight_jacobian(pool, lay, wts, w.jac.data());
+    kernels->normal_equations(pool, w.jac.data(), w.e.data(), w.U.data(), w.V.data(),
+                              w.ea.data(), w.eb.data());
     gradient_stats(lay, w, &sum.grad_inf, &maxdiag);
     if (it == 0) mu = opt.tau * maxdiag;
 
@@ -281,11 +252,11 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
       stop = kStopGradient;
       continue;
     }
-    const double p2 = sqnorm(p, nvars);
+    const double p2 = sqnorm(pool, p, nvars);
     for (;;) {
       ++sum.nlinsys;
-      if (solver->solve(ne, mu, w.dp.data()) && all_finite(w.dp.data(), nvars)) {
-        const double dp2 = sqnorm(w.dp.data(), nvars);
+      if (solver->solve(ne, mu, w.dp.data()) && all_finite(pool, w.dp.data(), nvars)) {
+        const double dp2 = sqnorm(pool, w.dp.data(), nvars);
         sum.dp2 = dp2;
         if (dp2 <= eps2sq * p2) {
           stop = kStopStep;
@@ -296,19 +267,20 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
                     "the problem may be badly parametrized",
                     dp2);
           record(kStopSingular, it + 1);
-      return false;
+          return false;
         }
-        for (i64 q = 0; q < nvars; ++q) w.pn[size_t(q)] = p[q] + w.dp[size_t(q)];
+        pool.for_range(nvars, [&](i64 b, i64 e) {
+          for (i64 q = b; q < e; ++q) w.pn[size_t(q)] = p[q] + w.dp[size_t(q)];
+        });
         model.eval(w.pn.data(), w.hxn.data());
         ++sum.nfev;
-        if (!all_finite(w.hxn.data(), nobs)) {
+        if (!all_finite(pool, w.hxn.data(), nobs)) {
           log.error("sba: the projection function returned NaN or Inf at iteration %d", it);
           record(kStopNonFinite, it + 1);
-      return false;
+          return false;
         }
-        residual(lay, x, w.hxn.data(), wts, w.en.data());
-        const double epsn = sqnorm(w.en.data(), nobs);
-        const double dL = predicted_reduction(lay, w, mu);
+        const double epsn = residual(pool, lay, x, w.hxn.data(), wts, w.en.data());
+        const double dL = predicted_reduction(pool, lay, w, mu);
         const double dF = eps - epsn;
         log.info(2, "SBA: iteration %d: mu %g, error %g -> %g, ||dp||^2 %g, gain ratio %g", it, mu,
                  eps, epsn, dp2, dL != 0.0 ? dF / dL : 0.0);

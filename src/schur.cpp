@@ -22,58 +22,6 @@ void form_W(const Layout &lay, const double *jac, i64 k, double *W) {
     }
 }
 
-Assembler::Assembler(const Layout &lay) : lay_(lay) {
-  int maxtrack = 0;
-  for (int i = 0; i < lay.n; ++i)
-    maxtrack = std::max(maxtrack, lay.rowptr[i + 1] - lay.rowptr[i]);
-  const size_t cp = size_t(lay.cnp) * size_t(lay.pnp);
-  Vinv_.resize(size_t(i64(lay.n) * lay.pnp * lay.pnp));
-  W_.resize(size_t(maxtrack) * cp);
-  Y_.resize(W_.size());
-  track_.resize(size_t(maxtrack));
-  tmp_.resize(size_t(lay.pnp) * size_t(lay.pnp) + size_t(lay.pnp));
-}
-
-bool Assembler::invert_damped_V(const NormalEquations &ne, double mu) {
-  const int pnp = lay_.pnp;
-  double *blk = tmp_.data();
-  for (int i = lay_.ncon; i < lay_.n; ++i) {
-    const double *V = ne.V + i64(i) * pnp * pnp;
-    std::copy(V, V + pnp * pnp, blk);
-    for (int a = 0; a < pnp; ++a) blk[a * pnp + a] += mu;
-    if (!small::spd_inverse(blk, Vinv_.data() + i64(i) * pnp * pnp, pnp)) return false;
-  }
-  return true;
-}
-
-void Assembler::back_substitute(const NormalEquations &ne, double *dp) {
-  const Layout &lay = lay_;
-  const int cnp = lay.cnp, pnp = lay.pnp;
-  double *t = tmp_.data(), *W = W_.data();
-  for (int i = lay.ncon; i < lay.n; ++i) {
-    const double *ebi = ne.eb + i64(i) * pnp;
-    std::copy(ebi, ebi + pnp, t);
-    for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
-      const int j = lay.colidx[k];
-      if (j < lay.mcon) continue;
-      form_W(lay, ne.jac, k, W);
-      const double *daj = dp + lay.a_off(j);
-      for (int b = 0; b < pnp; ++b) {
-        double s = 0.0;
-        for (int a = 0; a < cnp; ++a) s += W[a * pnp + b] * daj[a];
-        t[b] -= s;
-      }
-    }
-    const double *Vi = Vinv_.data() + i64(i) * pnp * pnp;
-    double *dbi = dp + lay.b_off(i);
-    for (int a = 0; a < pnp; ++a) {
-      double s = 0.0;
-      for (int b = 0; b < pnp; ++b) s += Vi[a * pnp + b] * t[b];
-      dbi[a] = s;
-    }
-  }
-}
-
 }  // namespace schur
 
 namespace {
@@ -82,27 +30,47 @@ namespace {
 // per free camera or point (the 1.6 motion-only and structure-only drivers).
 class BlockDiagonalSolver final : public StepSolver {
  public:
-  explicit BlockDiagonalSolver(const Layout &lay)
-      : lay_(lay), blk_(size_t(std::max(lay.cnp, lay.pnp)) * size_t(std::max(lay.cnp, lay.pnp))) {}
+  explicit BlockDiagonalSolver(const SolveContext &ctx) : lay_(ctx.lay), pool_(ctx.pool) {
+    const size_t d = size_t(std::max(lay_.cnp, lay_.pnp));
+    blk_.resize(size_t(pool_.size()) * d * d);
+  }
 
   bool solve(const NormalEquations &ne, double mu, double *dp) override {
     const Layout &lay = lay_;
     std::fill(dp, dp + lay.nvars(), 0.0);
-    for (int j = lay.mcon; j < lay.m && lay.cnp; ++j)
-      if (!one(ne.U + i64(j) * lay.cnp * lay.cnp, ne.ea + i64(j) * lay.cnp, lay.cnp, mu,
-               dp + lay.a_off(j)))
-        return false;
-    for (int i = lay.ncon; i < lay.n && lay.pnp; ++i)
-      if (!one(ne.V + i64(i) * lay.pnp * lay.pnp, ne.eb + i64(i) * lay.pnp, lay.pnp, mu,
-               dp + lay.b_off(i)))
-        return false;
+    if (lay.cnp > 0 && !all_blocks(lay.m - lay.mcon, [&](i64 q, double *scratch) {
+          const i64 j = q + lay.mcon;
+          return one(ne.U + j * lay.cnp * lay.cnp, ne.ea + j * lay.cnp, lay.cnp, mu,
+                     dp + lay.a_off(int(j)), scratch);
+        }))
+      return false;
+    if (lay.pnp > 0 && !all_blocks(lay.n - lay.ncon, [&](i64 q, double *scratch) {
+          const i64 i = q + lay.ncon;
+          return one(ne.V + i * lay.pnp * lay.pnp, ne.eb + i * lay.pnp, lay.pnp, mu,
+                     dp + lay.b_off(int(i)), scratch);
+        }))
+      return false;
     return true;
   }
 
  private:
-  bool one(const double *M, const double *g, int d, double mu, double *x) {
+  // fn(q, scratch) for q in [0, count) over the threads; false if any is.
+  template <class Fn>
+  bool all_blocks(i64 count, Fn fn) {
+    std::vector<char> ok(size_t(pool_.size()), 1);
+    const size_t d = size_t(std::max(lay_.cnp, lay_.pnp));
+    pool_.for_range_t(count, [&](int t, i64 b, i64 e) {
+      for (i64 q = b; q < e; ++q)
+        if (!fn(q, blk_.data() + size_t(t) * d * d)) {
+          ok[size_t(t)] = 0;
+          return;
+        }
+    });
+    return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
+  }
+
+  static bool one(const double *M, const double *g, int d, double mu, double *x, double *b) {
     if (d <= 0) return true;  // never: cnp, pnp > 0 here; tells the optimizer so
-    double *b = blk_.data();
     std::copy_n(M, size_t(d) * size_t(d), b);
     for (int a = 0; a < d; ++a) b[a * d + a] += mu;
     if (!small::chol(b, d)) return false;
@@ -114,7 +82,8 @@ class BlockDiagonalSolver final : public StepSolver {
   }
 
   const Layout &lay_;
-  std::vector<double> blk_;
+  ThreadPool &pool_;
+  std::vector<double> blk_;  // one d x d block per thread
 };
 
 struct NamedSolver {
@@ -129,11 +98,6 @@ constexpr NamedSolver kSolvers[] = {
 };
 
 }  // namespace
-
-// Defined in solver_*.cpp.
-std::unique_ptr<StepSolver> make_dense_schur_solver(LinSolver kind, const Layout &lay);
-std::unique_ptr<StepSolver> make_ldl_amd_solver(const Layout &lay);
-std::unique_ptr<StepSolver> make_sparse_schur_solver(const Layout &lay);
 
 bool linsolver_from_name(const std::string &name, LinSolver *out) {
   for (const NamedSolver &s : kSolvers)
@@ -154,16 +118,16 @@ const char *linsolver_names() {
   return "chol ldlt bk lu qr qrnoq svd cg ldl-amd sparse-chol";
 }
 
-std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const Layout &lay) {
-  if (lay.free_cams() == 0 || lay.free_pts() == 0)
-    return std::make_unique<BlockDiagonalSolver>(lay);
+std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx) {
+  if (ctx.lay.free_cams() == 0 || ctx.lay.free_pts() == 0)
+    return std::make_unique<BlockDiagonalSolver>(ctx);
   switch (kind) {
     case LinSolver::LdlAmd:
-      return make_ldl_amd_solver(lay);
+      return make_ldl_amd_solver(ctx);
     case LinSolver::SparseChol:
-      return make_sparse_schur_solver(lay);
+      return make_sparse_schur_solver(ctx);
     default:
-      return make_dense_schur_solver(kind, lay);
+      return make_dense_schur_solver(kind, ctx);
   }
 }
 

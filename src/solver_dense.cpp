@@ -6,35 +6,36 @@
 #include <vector>
 
 #include "lapack.h"
-#include "schur.h"
+#include "linsolve.h"
 
 namespace sba {
 namespace {
 
 class DenseSchurSolver final : public StepSolver {
  public:
-  DenseSchurSolver(LinSolver kind, const Layout &lay)
-      : kind_(kind), lay_(lay), asm_(lay), nS_(i64(lay.free_cams()) * lay.cnp),
-        S_(size_t(nS_ * nS_)), rhs_(size_t(nS_)) {}
+  DenseSchurSolver(LinSolver kind, const SolveContext &ctx)
+      : kind_(kind), ctx_(ctx), nS_(i64(ctx.lay.free_cams()) * ctx.lay.cnp),
+        Vinv_(size_t(i64(ctx.lay.n) * ctx.lay.pnp * ctx.lay.pnp)), S_(size_t(nS_ * nS_)),
+        rhs_(size_t(nS_)) {}
 
   bool solve(const NormalEquations &ne, double mu, double *dp) override {
-    std::fill(dp, dp + lay_.nvars(), 0.0);
-    if (!asm_.invert_damped_V(ne, mu)) return false;
-    std::fill(S_.begin(), S_.end(), 0.0);
-    const i64 nS = nS_, cnp = lay_.cnp;
-    double *S = S_.data();
-    asm_.assemble(
-        ne, mu,
-        [S, nS, cnp](int j, int k, i64 *ld) {
-          *ld = nS;
-          return S + j * cnp * nS + k * cnp;
-        },
-        rhs_.data());
-    double *da = dp + lay_.a_off(lay_.mcon);
+    const Layout &lay = ctx_.lay;
+    std::fill(dp, dp + lay.nvars(), 0.0);
+    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
+    const i64 nS = nS_;
+    ctx_.pool.for_range(nS, [&](i64 b, i64 e) {
+      std::fill(S_.begin() + b * nS, S_.begin() + e * nS, 0.0);
+    });
+    BlockMap map;
+    map.base = S_.data();
+    map.ld = nS;
+    map.cnp = lay.cnp;
+    ctx_.kernels.assemble(ctx_.pool, ne, Vinv_.data(), mu, map, rhs_.data());
+    double *da = dp + lay.a_off(lay.mcon);
     if (!factor_solve(da)) return false;
     for (i64 q = 0; q < nS; ++q)
       if (!std::isfinite(da[q])) return false;
-    asm_.back_substitute(ne, dp);
+    ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), dp);
     return true;
   }
 
@@ -78,16 +79,15 @@ class DenseSchurSolver final : public StepSolver {
   }
 
   LinSolver kind_;
-  const Layout &lay_;
-  schur::Assembler asm_;
+  SolveContext ctx_;
   i64 nS_;
-  std::vector<double> S_, rhs_;
+  std::vector<double> Vinv_, S_, rhs_;
 };
 
 }  // namespace
 
-std::unique_ptr<StepSolver> make_dense_schur_solver(LinSolver kind, const Layout &lay) {
-  return std::make_unique<DenseSchurSolver>(kind, lay);
+std::unique_ptr<StepSolver> make_dense_schur_solver(LinSolver kind, const SolveContext &ctx) {
+  return std::make_unique<DenseSchurSolver>(kind, ctx);
 }
 
 }  // namespace sba

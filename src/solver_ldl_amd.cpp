@@ -22,7 +22,8 @@ using sslong = SuiteSparse_long;
 
 class LdlAmdSolver final : public StepSolver {
  public:
-  explicit LdlAmdSolver(const Layout &lay) : lay_(lay) {
+  explicit LdlAmdSolver(const SolveContext &ctx) : lay_(ctx.lay) {
+    const Layout &lay = lay_;
     const int cnp = lay.cnp, pnp = lay.pnp;
     nS_ = i64(lay.free_cams()) * cnp;
     N_ = nS_ + i64(lay.free_pts()) * pnp;
@@ -158,8 +159,8 @@ class LdlAmdSolver final : public StepSolver {
 
 }  // namespace
 
-std::unique_ptr<StepSolver> make_ldl_amd_solver(const Layout &lay) {
-  return std::make_unique<LdlAmdSolver>(lay);
+std::unique_ptr<StepSolver> make_ldl_amd_solver(const SolveContext &ctx) {
+  return std::make_unique<LdlAmdSolver>(ctx);
 }
 
 }  // namespace sba

@@ -9,7 +9,6 @@
 #include <vector>
 
 #include "linsolve.h"
-#include "schur.h"
 
 extern "C" {
 #include <suitesparse/cholmod.h>
@@ -46,18 +45,23 @@ struct Cholmod {
 
 class SparseSchurSolver final : public StepSolver {
  public:
-  explicit SparseSchurSolver(const Layout &lay) : lay_(lay), asm_(lay) { build_pattern(); }
+  explicit SparseSchurSolver(const SolveContext &ctx)
+      : ctx_(ctx), lay_(ctx.lay), Vinv_(size_t(i64(lay_.n) * lay_.pnp * lay_.pnp)) {
+    build_pattern();
+  }
 
   bool solve(const NormalEquations &ne, double mu, double *dp) override {
     const int cnp = lay_.cnp;
     std::fill(dp, dp + lay_.nvars(), 0.0);
-    if (!asm_.invert_damped_V(ne, mu)) return false;
+    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
     std::fill(blocks_.begin(), blocks_.end(), 0.0);
-    auto block = [this, cnp](int j, int k, i64 *ld) {
-      *ld = cnp;
-      return blocks_.data() + block_index(j, k) * cnp * cnp;
-    };
-    asm_.assemble(ne, mu, block, rhs_.data());
+    BlockMap map;
+    map.base = blocks_.data();
+    map.ld = cnp;
+    map.cnp = cnp;
+    map.rows = rows_.data();
+    map.colstart = colstart_.data();
+    ctx_.kernels.assemble(ctx_.pool, ne, Vinv_.data(), mu, map, rhs_.data());
 
     // Blocks (row-major) into CHOLMOD's upper-triangular compressed columns.
     const int nc = lay_.free_cams();
@@ -87,7 +91,7 @@ class SparseSchurSolver final : public StepSolver {
     }
     cholmod_l_free_dense(&X, &chol_.cm);
     if (!finite) return false;
-    asm_.back_substitute(ne, dp);
+    ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), dp);
     return true;
   }
 
@@ -146,15 +150,9 @@ class SparseSchurSolver final : public StepSolver {
     if (!chol_.L) throw std::bad_alloc();
   }
 
-  // Index of block (j, k), j <= k, in blocks_.
-  i64 block_index(int j, int k) const {
-    const auto first = rows_.begin() + long(colstart_[size_t(k)]);
-    const auto last = rows_.begin() + long(colstart_[size_t(k) + 1]);
-    return i64(std::lower_bound(first, last, j) - rows_.begin());
-  }
-
+  SolveContext ctx_;
   const Layout &lay_;
-  schur::Assembler asm_;
+  std::vector<double> Vinv_;
   Cholmod chol_;
   std::vector<int> rows_;      // block row of every stored block, column by column
   std::vector<i64> colstart_;  // block column k's blocks: [colstart_[k], colstart_[k+1])
@@ -163,8 +161,8 @@ class SparseSchurSolver final : public StepSolver {
 
 }  // namespace
 
-std::unique_ptr<StepSolver> make_sparse_schur_solver(const Layout &lay) {
-  return std::make_unique<SparseSchurSolver>(lay);
+std::unique_ptr<StepSolver> make_sparse_schur_solver(const SolveContext &ctx) {
+  return std::make_unique<SparseSchurSolver>(ctx);
 }
 
 }  // namespace sba

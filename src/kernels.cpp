@@ -1,0 +1,280 @@
+#include "kernels.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "linsolve.h"
+#include "small_dense.h"
+
+namespace sba {
+
+double *BlockMap::block(int j, int k) const {
+  if (!rows) return base + i64(j) * cnp * ld + i64(k) * cnp;
+  const int *first = rows + colstart[k], *last = rows + colstart[k + 1];
+  return base + i64(std::lower_bound(first, last, j) - rows) * cnp * cnp;
+}
+
+namespace {
+
+// Block sizes as template arguments (0: take the run-time value), so that the loops of the
+// common sizes are fully unrolled and vectorized.
+template <int M, int C, int P>
+class KernelsT final : public Kernels {
+ public:
+  KernelsT(const Layout &lay, int threads) : lay_(lay) {
+    int maxtrack = 0;
+    for (int i = 0; i < lay.n; ++i) maxtrack = std::max(maxtrack, lay.rowptr[i + 1] - lay.rowptr[i]);
+    scratch_.resize(size_t(std::max(threads, 1)));
+    for (Scratch &s : scratch_) {
+      s.W.resize(size_t(maxtrack) * size_t(cnp()) * size_t(pnp()) + 1);
+      s.Y.resize(s.W.size());
+      s.blk.resize(size_t(pnp()) * size_t(pnp()) + size_t(std::max(cnp(), pnp())) + size_t(mnp()));
+    }
+    split_columns(std::max(threads, 1));
+  }
+
+  int mnp() const { return M ? M : lay_.mnp; }
+  int cnp() const { return C ? C : lay_.cnp; }
+  int pnp() const { return P ? P : lay_.pnp; }
+
+  void normal_equations(ThreadPool &pool, const double *jac, const double *e, double *U, double *V,
+                        double *ea, double *eb) const override {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
+    if (cn > 0) {
+      pool.for_range(lay.m - lay.mcon, [&](i64 b, i64 end) {
+        for (i64 j = b + lay.mcon; j < end + lay.mcon; ++j) {
+          double *Uj = U + j * cn * cn, *eaj = ea + j * cn;
+          std::fill(Uj, Uj + cn * cn, 0.0);
+          std::fill(eaj, eaj + cn, 0.0);
+          // Points ascending: the order of the terms is fixed by the index alone.
+          for (int s = lay.colptr[j]; s < lay.colptr[j + 1]; ++s) {
+            const i64 k = lay.colk[s];
+            const double *A = jac + k * jb, *ek = e + k * mn;
+            for (int r = 0; r < mn; ++r) {
+              const double *ar = A + r * cn;
+              for (int a = 0; a < cn; ++a) {
+                eaj[a] += ar[a] * ek[r];
+                for (int c = a; c < cn; ++c) Uj[a * cn + c] += ar[a] * ar[c];
+              }
+            }
+          }
+          for (int a = 0; a < cn; ++a)
+            for (int c = a + 1; c < cn; ++c) Uj[c * cn + a] = Uj[a * cn + c];
+        }
+      });
+    }
+    if (pn > 0) {
+      pool.for_range(lay.n - lay.ncon, [&](i64 b, i64 end) {
+        for (i64 i = b + lay.ncon; i < end + lay.ncon; ++i) {
+          double *Vi = V + i * pn * pn, *ebi = eb + i * pn;
+          std::fill(Vi, Vi + pn * pn, 0.0);
+          std::fill(ebi, ebi + pn, 0.0);
+          for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+            const double *B = jac + i64(k) * jb + mn * cn, *ek = e + i64(k) * mn;
+            for (int r = 0; r < mn; ++r) {
+              const double *br = B + r * pn;
+              for (int a = 0; a < pn; ++a) {
+                ebi[a] += br[a] * ek[r];
+                for (int c = a; c < pn; ++c) Vi[a * pn + c] += br[a] * br[c];
+              }
+            }
+          }
+          for (int a = 0; a < pn; ++a)
+            for (int c = a + 1; c < pn; ++c) Vi[c * pn + a] = Vi[a * pn + c];
+        }
+      });
+    }
+  }
+
+  bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const override {
+    const int pn = pnp();
+    std::vector<char> ok(scratch_.size(), 1);
+    pool.for_range_t(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
+      double *blk = scratch_[size_t(t)].blk.data();
+      for (i64 i = b + lay_.ncon; i < end + lay_.ncon; ++i) {
+        const double *Vi = V + i * pn * pn;
+        for (int a = 0; a < pn * pn; ++a) blk[a] = Vi[a];
+        for (int a = 0; a < pn; ++a) blk[a * pn + a] += mu;
+        if (!small::spd_inverse(blk, Vinv + i * pn * pn, pn)) {
+          ok[size_t(t)] = 0;
+          return;
+        }
+      }
+    });
+    return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
+  }
+
+  void assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
+                const BlockMap &S, double *rhs) const override {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
+    const int cp = cn * pn;
+    // Each thread owns a range of block columns [k0, k1) of S and of rhs's camera blocks,
+    // and adds the contributions of the points to them in ascending point order.
+    auto body = [&](int t) {
+      const int k0 = split_[size_t(t)], k1 = split_[size_t(t) + 1];
+      if (k0 >= k1) return;
+      Scratch &sc = scratch_[size_t(t)];
+      for (int k = k0; k < k1; ++k) {
+        double *Skk = S.block(k, k);
+        const double *Uk = ne.U + i64(k + lay.mcon) * cn * cn;
+        for (int a = 0; a < cn; ++a) {
+          for (int c = a; c < cn; ++c) Skk[a * S.ld + c] = Uk[a * cn + c];
+          Skk[a * S.ld + a] += mu;
+        }
+        const double *eak = ne.ea + i64(k + lay.mcon) * cn;
+        for (int a = 0; a < cn; ++a) rhs[i64(k) * cn + a] = eak[a];
+      }
+      for (int i = lay.ncon; i < lay.n; ++i) {
+        const int r0 = lay.rowptr[i], r1 = lay.rowptr[i + 1];
+        int f = r0;  // first free camera of the track (fixed ones come first)
+        while (f < r1 && lay.colidx[f] < lay.mcon) ++f;
+        int lo = f;  // first track entry in [k0, k1)
+        while (lo < r1 && lay.colidx[lo] - lay.mcon < k0) ++lo;
+        if (lo == r1 || lay.colidx[lo] - lay.mcon >= k1) continue;
+        int hi = lo;  // one past the last track entry in [k0, k1)
+        while (hi < r1 && lay.colidx[hi] - lay.mcon < k1) ++hi;
+        const double *Vi = Vinv + i64(i) * pn * pn;
+        const double *ebi = ne.eb + i64(i) * pn;
+        for (int q = f; q < hi; ++q) {
+          const double *A = ne.jac + i64(q) * jb, *B = A + mn * cn;
+          double *W = sc.W.data() + (q - f) * cp, *Y = sc.Y.data() + (q - f) * cp;
+          for (int a = 0; a < cn; ++a)
+            for (int c = 0; c < pn; ++c) {
+              double s = 0.0;
+              for (int r = 0; r < mn; ++r) s += A[r * cn + a] * B[r * pn + c];
+              W[a * pn + c] = s;
+            }
+          for (int a = 0; a < cn; ++a)
+            for (int c = 0; c < pn; ++c) {
+              double s = 0.0;
+              for (int d = 0; d < pn; ++d) s += W[a * pn + d] * Vi[d * pn + c];
+              Y[a * pn + c] = s;
+            }
+        }
+        for (int q2 = lo; q2 < hi; ++q2) {
+          const int k = lay.colidx[q2] - lay.mcon;
+          const double *W2 = sc.W.data() + (q2 - f) * cp;
+          const double *Y2 = sc.Y.data() + (q2 - f) * cp;
+          double *rk = rhs + i64(k) * cn;
+          for (int a = 0; a < cn; ++a) {
+            double s = 0.0;
+            for (int d = 0; d < pn; ++d) s += Y2[a * pn + d] * ebi[d];
+            rk[a] -= s;
+          }
+          for (int q1 = f; q1 <= q2; ++q1) {
+            const int j = lay.colidx[q1] - lay.mcon;
+            const double *Y1 = sc.Y.data() + (q1 - f) * cp;
+            double *Sjk = S.block(j, k);
+            if (q1 == q2) {
+              for (int a = 0; a < cn; ++a)
+                for (int c = a; c < cn; ++c) {
+                  double s = 0.0;
+                  for (int d = 0; d < pn; ++d) s += Y1[a * pn + d] * W2[c * pn + d];
+                  Sjk[a * S.ld + c] -= s;
+                }
+            } else {
+              for (int a = 0; a < cn; ++a)
+                for (int c = 0; c < cn; ++c) {
+                  double s = 0.0;
+                  for (int d = 0; d < pn; ++d) s += Y1[a * pn + d] * W2[c * pn + d];
+                  Sjk[a * S.ld + c] -= s;
+                }
+            }
+          }
+        }
+      }
+    };
+    if (pool.size() == 1 || split_.size() == 2)
+      body(0);
+    else
+      pool.run(body);
+  }
+
+  void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv,
+                       double *dp) const override {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
+    pool.for_range_t(lay.n - lay.ncon, [&](int th, i64 b, i64 end) {
+      double *t = scratch_[size_t(th)].blk.data(), *u = t + pn;
+      for (i64 i = b + lay.ncon; i < end + lay.ncon; ++i) {
+        const double *ebi = ne.eb + i * pn;
+        for (int c = 0; c < pn; ++c) t[c] = ebi[c];
+        for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+          const int j = lay.colidx[k];
+          if (j < lay.mcon) continue;
+          const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn;
+          const double *daj = dp + lay.a_off(j);
+          // W^T da = B^T (A da): two thin products instead of forming W.
+          for (int r = 0; r < mn; ++r) {
+            double s = 0.0;
+            for (int a = 0; a < cn; ++a) s += A[r * cn + a] * daj[a];
+            u[r] = s;
+          }
+          for (int c = 0; c < pn; ++c) {
+            double s = 0.0;
+            for (int r = 0; r < mn; ++r) s += B[r * pn + c] * u[r];
+            t[c] -= s;
+          }
+        }
+        const double *Vi = Vinv + i * pn * pn;
+        double *dbi = dp + lay.b_off(int(i));
+        for (int a = 0; a < pn; ++a) {
+          double s = 0.0;
+          for (int c = 0; c < pn; ++c) s += Vi[a * pn + c] * t[c];
+          dbi[a] = s;
+        }
+      }
+    });
+  }
+
+ private:
+  struct Scratch {
+    std::vector<double> W, Y, blk;
+  };
+
+  // Block columns of S split over the threads by the number of block products each takes.
+  void split_columns(int threads) {
+    const Layout &lay = lay_;
+    const int nc = lay.free_cams();
+    std::vector<double> work(size_t(nc), 1.0);
+    for (int i = lay.ncon; i < lay.n && nc > 0 && lay.pnp > 0; ++i) {
+      int rank = 0;
+      for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
+        if (lay.colidx[k] >= lay.mcon) work[size_t(lay.colidx[k] - lay.mcon)] += ++rank;
+    }
+    double total = 0.0;
+    for (double w : work) total += w;
+    split_.assign(size_t(threads) + 1, nc);
+    split_[0] = 0;
+    double acc = 0.0;
+    int t = 1;
+    for (int k = 0; k < nc && t < threads; ++k) {
+      acc += work[size_t(k)];
+      while (t < threads && acc >= total * t / threads) split_[size_t(t++)] = k + 1;
+    }
+  }
+
+  const Layout &lay_;
+  std::vector<int> split_;  // threads + 1 boundaries in free-camera indices
+  mutable std::vector<Scratch> scratch_;
+};
+
+}  // namespace
+
+std::unique_ptr<Kernels> make_kernels(const Layout &lay, int threads) {
+  if (lay.mnp == 2 && lay.pnp == 3) {
+    switch (lay.cnp) {
+      case 6: return std::make_unique<KernelsT<2, 6, 3>>(lay, threads);
+      case 7: return std::make_unique<KernelsT<2, 7, 3>>(lay, threads);
+      case 9: return std::make_unique<KernelsT<2, 9, 3>>(lay, threads);
+      case 11: return std::make_unique<KernelsT<2, 11, 3>>(lay, threads);
+      case 16: return std::make_unique<KernelsT<2, 16, 3>>(lay, threads);
+      default: break;
+    }
+  }
+  return std::make_unique<KernelsT<0, 0, 0>>(lay, threads);
+}
+
+}  // namespace sba

@@ -1,0 +1,94 @@
+// A small thread pool owned by one solve (no global state) and helpers for deterministic
+// parallel loops: work is split into ranges that do not depend on the thread count where
+// results are summed, so that any number of threads gives the same bits.
+#ifndef SBA_SRC_PARALLEL_H
+#define SBA_SRC_PARALLEL_H
+
+#include <condition_variable>
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace sba {
+
+class ThreadPool {
+ public:
+  // nthreads - 1 workers; the calling thread is the last member. If the system refuses
+  // threads, the pool makes do with those it got.
+  explicit ThreadPool(int nthreads);
+  ~ThreadPool();
+  ThreadPool(const ThreadPool &) = delete;
+  ThreadPool &operator=(const ThreadPool &) = delete;
+
+  int size() const { return int(workers_.size()) + 1; }
+  // fn(t) for every t in [0, size()), concurrently; returns when all are done. The first
+  // exception thrown by any of them is rethrown here.
+  void run(const std::function<void(int)> &fn);
+
+  // fn(t, begin, end) over [0, n) in size() contiguous ranges, t the range's thread slot.
+  template <class Fn>
+  void for_range_t(std::int64_t n, Fn fn) {
+    const int T = size();
+    if (T == 1 || n < 2) {
+      if (n > 0) fn(0, std::int64_t(0), n);
+      return;
+    }
+    run([&](int t) {
+      const std::int64_t b = n * t / T, e = n * (t + 1) / T;
+      if (b < e) fn(t, b, e);
+    });
+  }
+
+  // fn(begin, end) over [0, n) in size() contiguous ranges.
+  template <class Fn>
+  void for_range(std::int64_t n, Fn fn) {
+    if (size() == 1 || n < 2) {
+      if (n > 0) fn(std::int64_t(0), n);
+      return;
+    }
+    const int T = size();
+    run([&](int t) {
+      const std::int64_t b = n * t / T, e = n * (t + 1) / T;
+      if (b < e) fn(b, e);
+    });
+  }
+
+ private:
+  void work(int id);
+
+  std::vector<std::thread> workers_;
+  std::mutex mu_;
+  std::condition_variable wake_, done_;
+  const std::function<void(int)> *job_ = nullptr;
+  std::uint64_t generation_ = 0;
+  int pending_ = 0;
+  bool stop_ = false;
+  std::exception_ptr error_;
+};
+
+// sum_k f(k) over [0, n), summed in fixed blocks and then in block order: the same bits for
+// any thread count.
+template <class F>
+double deterministic_sum(ThreadPool &pool, std::int64_t n, F f) {
+  constexpr std::int64_t kBlock = 4096;
+  const std::int64_t nb = (n + kBlock - 1) / kBlock;
+  std::vector<double> partial(size_t(nb > 0 ? nb : 0), 0.0);
+  pool.for_range(nb, [&](std::int64_t b0, std::int64_t b1) {
+    for (std::int64_t b = b0; b < b1; ++b) {
+      double s = 0.0;
+      const std::int64_t e = b * kBlock + kBlock < n ? b * kBlock + kBlock : n;
+      for (std::int64_t k = b * kBlock; k < e; ++k) s += f(k);
+      partial[size_t(b)] = s;
+    }
+  });
+  double s = 0.0;
+  for (double v : partial) s += v;
+  return s;
+}
+
+}  // namespace sba
+
+#endif
