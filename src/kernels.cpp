@@ -16,8 +16,90 @@ double *BlockMap::block(int j, int k) const {
 
 namespace {
 
+// y[0..n) += s * x[0..n): the innermost step of every kernel below, over a contiguous row so
+// that it vectorizes; N > 0 fixes n at compile time.
+template <int N>
+inline __attribute__((always_inline)) void axpy(int n, double s, const double *__restrict x,
+                                                double *__restrict y) {
+  if constexpr (N > 0) {
+#pragma GCC unroll 16
+    for (int c = 0; c < N; ++c) y[c] += s * x[c];
+  } else {
+    for (int c = 0; c < n; ++c) y[c] += s * x[c];
+  }
+}
+
+// S_jk -= Y_ij W_ik^T for one pair of a track, with Y and W given transposed (pnp x n): row a
+// of S_jk loses sum_d Y^T[d][a] W^T[d][.]. W^T is loaded into locals once and every row is
+// accumulated in a local array, so the compiler sees no aliasing and keeps them in vector
+// registers.
+template <int N, int D>
+inline __attribute__((always_inline)) void pair_update(int n, int pn, const double *Yt,
+                                                       const double *Wt, double *S, i64 ld) {
+  if constexpr (N > 0 && D > 0) {
+    double w[D][N];
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d)
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) w[d][c] = Wt[d * N + c];
+#pragma GCC unroll 16
+    for (int a = 0; a < N; ++a) {
+      double acc[N];
+      double *row = S + a * ld;
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) acc[c] = row[c];
+#pragma GCC unroll 4
+      for (int d = 0; d < D; ++d) {
+        const double y = Yt[d * N + a];
+#pragma GCC unroll 16
+        for (int c = 0; c < N; ++c) acc[c] -= y * w[d][c];
+      }
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) row[c] = acc[c];
+    }
+  } else {
+    for (int a = 0; a < n; ++a)
+      for (int d = 0; d < pn; ++d) {
+        const double y = Yt[d * n + a];
+        for (int c = 0; c < n; ++c) S[a * ld + c] -= y * Wt[d * n + c];
+      }
+  }
+}
+
+// G += X^T X and g += X^T e for one projection's mnp x n block X (row-major): the
+// contribution of one measurement to U_j, e_a,j (X = A_ij) or to V_i, e_b,i (X = B_ij).
+template <int N>
+inline __attribute__((always_inline)) void gram_update(int mn, int n, const double *X,
+                                                       const double *e, double *G, double *g) {
+  if constexpr (N > 0) {
+    for (int r = 0; r < mn; ++r) {
+      double x[N];
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) x[c] = X[r * N + c];
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) g[c] += e[r] * x[c];
+#pragma GCC unroll 16
+      for (int a = 0; a < N; ++a) {
+        double row[N];
+#pragma GCC unroll 16
+        for (int c = 0; c < N; ++c) row[c] = G[a * N + c] + x[a] * x[c];
+#pragma GCC unroll 16
+        for (int c = 0; c < N; ++c) G[a * N + c] = row[c];
+      }
+    }
+  } else {
+    for (int r = 0; r < mn; ++r) {
+      const double *x = X + r * n;
+      for (int c = 0; c < n; ++c) g[c] += e[r] * x[c];
+      for (int a = 0; a < n; ++a)
+        for (int c = 0; c < n; ++c) G[a * n + c] += x[a] * x[c];
+    }
+  }
+}
+
 // Block sizes as template arguments (0: take the run-time value), so that the loops of the
-// common sizes are fully unrolled and vectorized.
+// common sizes are fully unrolled and vectorized. Blocks that the Schur assembly multiplies
+// are kept transposed (pnp x cnp) so that every inner loop runs along a cnp-long row.
 template <int M, int C, int P>
 class KernelsT final : public Kernels {
  public:
@@ -26,8 +108,8 @@ class KernelsT final : public Kernels {
     for (int i = 0; i < lay.n; ++i) maxtrack = std::max(maxtrack, lay.rowptr[i + 1] - lay.rowptr[i]);
     scratch_.resize(size_t(std::max(threads, 1)));
     for (Scratch &s : scratch_) {
-      s.W.resize(size_t(maxtrack) * size_t(cnp()) * size_t(pnp()) + 1);
-      s.Y.resize(s.W.size());
+      s.Wt.resize(size_t(maxtrack) * size_t(cnp()) * size_t(pnp()) + 1);
+      s.Yt.resize(s.Wt.size());
       s.blk.resize(size_t(pnp()) * size_t(pnp()) + size_t(std::max(cnp(), pnp())) + size_t(mnp()));
     }
     split_columns(std::max(threads, 1));
@@ -44,44 +126,27 @@ class KernelsT final : public Kernels {
     if (cn > 0) {
       pool.for_range(lay.m - lay.mcon, [&](i64 b, i64 end) {
         for (i64 j = b + lay.mcon; j < end + lay.mcon; ++j) {
-          double *Uj = U + j * cn * cn, *eaj = ea + j * cn;
+          double *__restrict Uj = U + j * cn * cn, *__restrict eaj = ea + j * cn;
           std::fill(Uj, Uj + cn * cn, 0.0);
           std::fill(eaj, eaj + cn, 0.0);
-          // Points ascending: the order of the terms is fixed by the index alone.
+          // Points ascending: the order of the terms is fixed by the index alone. Whole
+          // rows are accumulated (U_j[a][c] and U_j[c][a] get the same products in the same
+          // order, so U_j comes out exactly symmetric).
           for (int s = lay.colptr[j]; s < lay.colptr[j + 1]; ++s) {
             const i64 k = lay.colk[s];
-            const double *A = jac + k * jb, *ek = e + k * mn;
-            for (int r = 0; r < mn; ++r) {
-              const double *ar = A + r * cn;
-              for (int a = 0; a < cn; ++a) {
-                eaj[a] += ar[a] * ek[r];
-                for (int c = a; c < cn; ++c) Uj[a * cn + c] += ar[a] * ar[c];
-              }
-            }
+            gram_update<C>(mn, cn, jac + k * jb, e + k * mn, Uj, eaj);
           }
-          for (int a = 0; a < cn; ++a)
-            for (int c = a + 1; c < cn; ++c) Uj[c * cn + a] = Uj[a * cn + c];
         }
       });
     }
     if (pn > 0) {
       pool.for_range(lay.n - lay.ncon, [&](i64 b, i64 end) {
         for (i64 i = b + lay.ncon; i < end + lay.ncon; ++i) {
-          double *Vi = V + i * pn * pn, *ebi = eb + i * pn;
+          double *__restrict Vi = V + i * pn * pn, *__restrict ebi = eb + i * pn;
           std::fill(Vi, Vi + pn * pn, 0.0);
           std::fill(ebi, ebi + pn, 0.0);
-          for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
-            const double *B = jac + i64(k) * jb + mn * cn, *ek = e + i64(k) * mn;
-            for (int r = 0; r < mn; ++r) {
-              const double *br = B + r * pn;
-              for (int a = 0; a < pn; ++a) {
-                ebi[a] += br[a] * ek[r];
-                for (int c = a; c < pn; ++c) Vi[a * pn + c] += br[a] * br[c];
-              }
-            }
-          }
-          for (int a = 0; a < pn; ++a)
-            for (int c = a + 1; c < pn; ++c) Vi[c * pn + a] = Vi[a * pn + c];
+          for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
+            gram_update<P>(mn, pn, jac + i64(k) * jb + mn * cn, e + i64(k) * mn, Vi, ebi);
         }
       });
     }
@@ -96,7 +161,7 @@ class KernelsT final : public Kernels {
         const double *Vi = V + i * pn * pn;
         for (int a = 0; a < pn * pn; ++a) blk[a] = Vi[a];
         for (int a = 0; a < pn; ++a) blk[a * pn + a] += mu;
-        if (!small::spd_inverse(blk, Vinv + i * pn * pn, pn)) {
+        if (!small::spd_inverse<P>(blk, Vinv + i * pn * pn, pn)) {
           ok[size_t(t)] = 0;
           return;
         }
@@ -110,6 +175,7 @@ class KernelsT final : public Kernels {
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
     const int cp = cn * pn;
+    const i64 ld = S.ld;
     // Each thread owns a range of block columns [k0, k1) of S and of rhs's camera blocks,
     // and adds the contributions of the points to them in ascending point order.
     auto body = [&](int t) {
@@ -120,8 +186,8 @@ class KernelsT final : public Kernels {
         double *Skk = S.block(k, k);
         const double *Uk = ne.U + i64(k + lay.mcon) * cn * cn;
         for (int a = 0; a < cn; ++a) {
-          for (int c = a; c < cn; ++c) Skk[a * S.ld + c] = Uk[a * cn + c];
-          Skk[a * S.ld + a] += mu;
+          for (int c = 0; c < cn; ++c) Skk[a * ld + c] = Uk[a * cn + c];
+          Skk[a * ld + a] += mu;
         }
         const double *eak = ne.ea + i64(k + lay.mcon) * cn;
         for (int a = 0; a < cn; ++a) rhs[i64(k) * cn + a] = eak[a];
@@ -137,51 +203,30 @@ class KernelsT final : public Kernels {
         while (hi < r1 && lay.colidx[hi] - lay.mcon < k1) ++hi;
         const double *Vi = Vinv + i64(i) * pn * pn;
         const double *ebi = ne.eb + i64(i) * pn;
+        // W_ij^T = B^T A and Y_ij^T = V*_i^-1 W_ij^T for the track up to this range's end.
         for (int q = f; q < hi; ++q) {
           const double *A = ne.jac + i64(q) * jb, *B = A + mn * cn;
-          double *W = sc.W.data() + (q - f) * cp, *Y = sc.Y.data() + (q - f) * cp;
-          for (int a = 0; a < cn; ++a)
-            for (int c = 0; c < pn; ++c) {
-              double s = 0.0;
-              for (int r = 0; r < mn; ++r) s += A[r * cn + a] * B[r * pn + c];
-              W[a * pn + c] = s;
-            }
-          for (int a = 0; a < cn; ++a)
-            for (int c = 0; c < pn; ++c) {
-              double s = 0.0;
-              for (int d = 0; d < pn; ++d) s += W[a * pn + d] * Vi[d * pn + c];
-              Y[a * pn + c] = s;
-            }
+          double *__restrict Wt = sc.Wt.data() + (q - f) * cp;
+          double *__restrict Yt = sc.Yt.data() + (q - f) * cp;
+          std::fill(Wt, Wt + cp, 0.0);
+          std::fill(Yt, Yt + cp, 0.0);
+          for (int d = 0; d < pn; ++d)
+            for (int r = 0; r < mn; ++r) axpy<C>(cn, B[r * pn + d], A + r * cn, Wt + d * cn);
+          for (int d = 0; d < pn; ++d)
+            for (int e = 0; e < pn; ++e) axpy<C>(cn, Vi[d * pn + e], Wt + e * cn, Yt + d * cn);
         }
         for (int q2 = lo; q2 < hi; ++q2) {
           const int k = lay.colidx[q2] - lay.mcon;
-          const double *W2 = sc.W.data() + (q2 - f) * cp;
-          const double *Y2 = sc.Y.data() + (q2 - f) * cp;
-          double *rk = rhs + i64(k) * cn;
-          for (int a = 0; a < cn; ++a) {
-            double s = 0.0;
-            for (int d = 0; d < pn; ++d) s += Y2[a * pn + d] * ebi[d];
-            rk[a] -= s;
-          }
+          const double *Wt2 = sc.Wt.data() + (q2 - f) * cp;
+          const double *Yt2 = sc.Yt.data() + (q2 - f) * cp;
+          for (int d = 0; d < pn; ++d) axpy<C>(cn, -ebi[d], Yt2 + d * cn, rhs + i64(k) * cn);
+          // S_jk -= Y_ij W_ik^T, row by row: S_jk[a][.] -= sum_d Y^T[d][a] W^T[d][.]. The
+          // diagonal block is updated whole, like the others (its strict lower triangle is
+          // never read), which keeps the rows vectorized.
           for (int q1 = f; q1 <= q2; ++q1) {
-            const int j = lay.colidx[q1] - lay.mcon;
-            const double *Y1 = sc.Y.data() + (q1 - f) * cp;
-            double *Sjk = S.block(j, k);
-            if (q1 == q2) {
-              for (int a = 0; a < cn; ++a)
-                for (int c = a; c < cn; ++c) {
-                  double s = 0.0;
-                  for (int d = 0; d < pn; ++d) s += Y1[a * pn + d] * W2[c * pn + d];
-                  Sjk[a * S.ld + c] -= s;
-                }
-            } else {
-              for (int a = 0; a < cn; ++a)
-                for (int c = 0; c < cn; ++c) {
-                  double s = 0.0;
-                  for (int d = 0; d < pn; ++d) s += Y1[a * pn + d] * W2[c * pn + d];
-                  Sjk[a * S.ld + c] -= s;
-                }
-            }
+            const double *Yt1 = sc.Yt.data() + (q1 - f) * cp;
+            double *Sjk = S.block(lay.colidx[q1] - lay.mcon, k);
+            pair_update<C, P>(cn, pn, Yt1, Wt2, Sjk, ld);
           }
         }
       }
@@ -212,11 +257,7 @@ class KernelsT final : public Kernels {
             for (int a = 0; a < cn; ++a) s += A[r * cn + a] * daj[a];
             u[r] = s;
           }
-          for (int c = 0; c < pn; ++c) {
-            double s = 0.0;
-            for (int r = 0; r < mn; ++r) s += B[r * pn + c] * u[r];
-            t[c] -= s;
-          }
+          for (int r = 0; r < mn; ++r) axpy<P>(pn, -u[r], B + r * pn, t);
         }
         const double *Vi = Vinv + i * pn * pn;
         double *dbi = dp + lay.b_off(int(i));
@@ -231,7 +272,7 @@ class KernelsT final : public Kernels {
 
  private:
   struct Scratch {
-    std::vector<double> W, Y, blk;
+    std::vector<double> Wt, Yt, blk;  // one track's W_ij^T and Y_ij^T; small blocks
   };
 
   // Block columns of S split over the threads by the number of block products each takes.

@@ -40,7 +40,8 @@ class Kernels {
   // Vinv_i = (V_i + mu I)^-1 for the free points; false if one is not positive definite.
   virtual bool invert_damped_V(ThreadPool &pool, const double *V, double mu,
                                double *Vinv) const = 0;
-  // S = U* - W V*^-1 W^T into the upper block triangle of `S` (zeroed by the caller) and
+  // S = U* - W V*^-1 W^T into the upper block triangle of `S` (zeroed by the caller; the
+  // strict lower triangle of the diagonal blocks is left meaningless) and
   // rhs = e_a - W V*^-1 e_b, over the free cameras.
   virtual void assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                         const BlockMap &S, double *rhs) const = 0;

@@ -8,9 +8,14 @@
 
 namespace sba::small {
 
+// Each function takes the order n at run time, or at compile time as N (then n is ignored),
+// which lets the common 3x3 point blocks unroll completely.
+
 // In-place Cholesky A = L L^T of an SPD n x n block; L ends in the lower triangle (the
 // strict upper triangle is left untouched). False when A is not numerically SPD.
+template <int N = 0>
 inline bool chol(double *a, int n) {
+  if (N) n = N;
   for (int j = 0; j < n; ++j) {
     double d = a[j * n + j];
     for (int k = 0; k < j; ++k) d -= a[j * n + k] * a[j * n + k];
@@ -28,7 +33,9 @@ inline bool chol(double *a, int n) {
 }
 
 // Solve L L^T x = b in place, L from chol().
+template <int N = 0>
 inline void chol_solve(const double *l, double *b, int n) {
+  if (N) n = N;
   for (int i = 0; i < n; ++i) {
     double s = b[i];
     for (int k = 0; k < i; ++k) s -= l[i * n + k] * b[k];
@@ -42,13 +49,15 @@ inline void chol_solve(const double *l, double *b, int n) {
 }
 
 // inv = A^-1 for SPD A (n x n). a is overwritten by its Cholesky factor. False if not SPD.
+template <int N = 0>
 inline bool spd_inverse(double *a, double *inv, int n) {
-  if (!chol(a, n)) return false;
+  if (N) n = N;
+  if (!chol<N>(a, n)) return false;
   for (int c = 0; c < n; ++c) {
     // Column c of the inverse solves A x = e_c; writing it as row c is the same by symmetry.
     double *x = inv + c * n;
     for (int i = 0; i < n; ++i) x[i] = (i == c) ? 1.0 : 0.0;
-    chol_solve(a, x, n);
+    chol_solve<N>(a, x, n);
   }
   // Symmetrize: the two triangles differ in the last bits, and the normal equations expect
   // an exactly symmetric block.

@@ -266,3 +266,28 @@ TEST(ExtOptions, ShorterStructFromAnOlderCallerIsHonoured) {
 }
 
 }  // namespace
+
+namespace {
+
+// The threads split the work by fixed rules and every sum has a fixed order: the same bits
+// for any thread count, with every solver, with fixed cameras and points too.
+TEST_P(EverySolver, ResultsDoNotDependOnTheThreadCount) {
+  synth::Problem pb = synth::make(160, 9, 0.5, 0.05, 41);
+  auto with_threads = [&](int threads) {
+    sba_ext_options ext;
+    sba_ext_options_init(&ext);
+    ext.linsolver = GetParam();
+    ext.nthreads = threads;
+    return solve(pb, &ext, 1, 3);
+  };
+  const Outcome one = with_threads(1);
+  ASSERT_GT(one.ret, 0);
+  for (int threads : {2, 3, 5}) {
+    const Outcome o = with_threads(threads);
+    EXPECT_EQ(o.ret, one.ret) << threads;
+    EXPECT_EQ(o.p, one.p) << GetParam() << " with " << threads << " threads";
+    for (int q = 0; q < SBA_INFOSZ; ++q) EXPECT_EQ(o.info[q], one.info[q]) << q;
+  }
+}
+
+}  // namespace
