@@ -1,7 +1,8 @@
 #!/bin/sh
 # Installs the Debian packages that sba needs for a purpose, when they are missing.
 #   scripts/deps.sh build   compiler, CMake, LAPACK/BLAS
-#   scripts/deps.sh test    build + GoogleTest
+#   scripts/deps.sh test    build + GoogleTest + GNU Octave (the MEX interface's tests)
+#   scripts/deps.sh mex     build + GNU Octave with its MEX headers
 # Run as root it installs them with apt-get; otherwise it prints the exact command and fails.
 set -eu
 
@@ -9,8 +10,9 @@ purpose=${1:-build}
 pkgs="g++ make cmake pkg-config liblapack-dev libblas-dev libsuitesparse-dev"
 case "$purpose" in
   build) ;;
-  test) pkgs="$pkgs libgtest-dev" ;;
-  *) echo "usage: $0 build|test" >&2; exit 2 ;;
+  test) pkgs="$pkgs libgtest-dev octave octave-dev" ;;
+  mex) pkgs="$pkgs octave octave-dev" ;;
+  *) echo "usage: $0 build|test|mex" >&2; exit 2 ;;
 esac
 
 missing=""

@@ -1,0 +1,6 @@
+function sbatest_assert(cond, varargin)
+% SBATEST_ASSERT  Fails the running test with the message sprintf(varargin{:}) unless cond.
+  if ~cond
+    error('sbatest:failed', varargin{:});
+  end
+end

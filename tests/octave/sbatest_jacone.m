@@ -1,0 +1,4 @@
+function A = sbatest_jacone(j, i, aj, bi, qr0, cal)
+% A 'motstr' Jacobian that returns A only.
+  A = sbaeuc_projac(j, i, aj, bi, qr0, cal);
+end

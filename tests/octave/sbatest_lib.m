@@ -1,0 +1,10 @@
+function lib = sbatest_lib(name)
+% SBATEST_LIB  Full path of a callbacks library of the build: libsbaeuc_proj.so beside the
+% MEX file, or (name 'slow') the test library with the slow projection.
+  if nargin > 0 && strcmp(name, 'slow')
+    lib = fullfile(getenv('SBA_OCTAVE_TEST_DIR'), 'libsba_octave_slowproj.so');
+  else
+    lib = fullfile(getenv('SBA_MEX_DIR'), 'libsbaeuc_proj.so');
+  end
+  sbatest_assert(exist(lib, 'file') == 2, 'the callbacks library %s is missing', lib);
+end
