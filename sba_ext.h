@@ -40,6 +40,25 @@ struct sba_progress {
   double elapsed;  /* seconds since the driver was called */
 };
 
+/* What a solve did, beyond info[]: filled when sba_ext_options.result points to one. */
+struct sba_ext_result {
+  /* sizeof(struct sba_ext_result) as the caller was compiled; set by the caller (or by
+   * sba_ext_result_init). */
+  size_t size;
+  /* Sum of squared (covariance-weighted) residuals, never robustified: at the start and at
+   * the end. With a robust loss, info[0] and info[1] hold the robust cost instead. */
+  double sq_error_initial, sq_error_final;
+  /* The robust cost sum_k rho(||e_k||^2) at the start and at the end (the plain squared
+   * error when no loss is used). */
+  double cost_initial, cost_final;
+  /* Projections whose squared residual is beyond the loss scale squared at the end (0 without
+   * a loss): the ones the loss treats as outliers. */
+  long long outliers_final;
+  int nthreads;           /* threads used */
+  const char *linsolver;  /* linear solver used (a static string) */
+  int robust;             /* nonzero if a robust loss was used */
+};
+
 struct sba_ext_options {
   /* sizeof(struct sba_ext_options) as the caller was compiled: lets later versions add
    * fields at the end without breaking programs built against this one. */
@@ -63,10 +82,21 @@ struct sba_ext_options {
    * info[6] = SBA_STOP_USER and p at the last accepted estimate. NULL: not called. */
   int (*progress)(void *progress_ctx, const struct sba_progress *state);
   void *progress_ctx;
+  /* Robust loss applied to every projection's squared residual s = ||e_ij||^2 (after the
+   * covariance weighting): NULL or "none" (plain least squares, as 1.6), "huber", "cauchy",
+   * "soft-l1", "tukey", with scale loss_scale (residuals beyond about loss_scale count
+   * less; 0 means 1). Solved by iteratively reweighted least squares inside the same LM:
+   * info[0], info[1] and the progress error are then the robust cost sum rho(s). */
+  const char *loss;
+  double loss_scale;
+  /* Where to report what the solve did (NULL: nowhere). */
+  struct sba_ext_result *result;
 };
 
 /* Fills *opt with the defaults (every field zero/NULL) and opt->size. */
 extern void sba_ext_options_init(struct sba_ext_options *opt);
+/* Zeroes *res and sets res->size. */
+extern void sba_ext_result_init(struct sba_ext_result *res);
 /* The known linear solver names, space-separated. */
 extern const char *sba_linsolver_names(void);
 

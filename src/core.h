@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "log.h"
+#include "loss.h"
 #include "sba_export.h"
 
 namespace sba {
@@ -121,13 +122,18 @@ struct Options {
   double eps1 = SBA_STOP_THRESH, eps2 = SBA_STOP_THRESH, eps3 = SBA_STOP_THRESH, eps4 = 0.0;
   int itmax = 0;
   int nthreads = 1;
+  Loss loss;  // robust loss on each projection's squared residual (none: least squares)
   // Called after every outer iteration; nonzero stops with kStopUser.
   int (*progress)(void *ctx, const sba_progress *state) = nullptr;
   void *progress_ctx = nullptr;
 };
 
 struct Summary {
+  // err0, err: the cost minimized (the robust cost with a loss); sq_err0, sq_err: the plain
+  // sum of squared (covariance-weighted) residuals.
   double err0 = 0, err = 0, grad_inf = 0, dp2 = 0, mu_ratio = 0;
+  double sq_err0 = 0, sq_err = 0;
+  i64 outliers = 0;  // projections beyond the loss scale at the end
   int iterations = 0;
   int reason = kStopNone;
   i64 nfev = 0, njev = 0, nlinsys = 0;

@@ -127,6 +127,38 @@ void make_options(const DriverArgs &a, const sba_ext_options &ext, const Logger 
   o->nthreads = std::max(1, threads);
   o->progress = ext.progress;
   o->progress_ctx = ext.progress_ctx;
+  if (ext.loss) {
+    LossKind kind;
+    if (!loss_from_name(ext.loss, &kind)) {
+      *msg = std::string("unknown loss \"") + ext.loss +
+             "\" (known: none huber cauchy soft-l1 tukey)";
+      return;
+    }
+    const double scale = ext.loss_scale == 0.0 ? 1.0 : ext.loss_scale;
+    if (!(scale > 0.0) || !std::isfinite(scale)) {
+      *msg = "loss_scale must be positive and finite (got " + std::to_string(ext.loss_scale) + ")";
+      return;
+    }
+    o->loss = Loss(kind, scale);
+  }
+}
+
+// The caller's result struct, filled as far as the caller's struct goes.
+void write_result(const sba_ext_options &ext, const Options &opt, const Summary &sum) {
+  if (!ext.result || ext.result->size < sizeof(size_t)) return;
+  sba_ext_result r;
+  sba_ext_result_init(&r);
+  r.sq_error_initial = sum.sq_err0;
+  r.sq_error_final = sum.sq_err;
+  r.cost_initial = sum.err0;
+  r.cost_final = sum.err;
+  r.outliers_final = sum.outliers;
+  r.nthreads = opt.nthreads;
+  r.linsolver = linsolver_name(opt.solver);
+  r.robust = opt.loss.robust();
+  const size_t n = std::min(ext.result->size, sizeof r);
+  r.size = ext.result->size;
+  std::memcpy(static_cast<void *>(ext.result), &r, n);
 }
 
 // make_model(Layout&) -> std::unique_ptr<Model>
@@ -163,6 +195,7 @@ int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
     }
     const bool ok = solve(lay, *model, a.p, a.x, a.covx, opt, log, sum);
     sum.to_info(a.info);
+    write_result(ext, opt, sum);
     return ok ? sum.iterations : SBA_ERROR;
   } catch (const std::bad_alloc &) {
     log.error("%s: out of memory", a.name);
@@ -222,6 +255,12 @@ void sba_ext_options_init(struct sba_ext_options *opt) {
   if (!opt) return;
   std::memset(static_cast<void *>(opt), 0, sizeof *opt);
   opt->size = sizeof *opt;
+}
+
+void sba_ext_result_init(struct sba_ext_result *res) {
+  if (!res) return;
+  std::memset(static_cast<void *>(res), 0, sizeof *res);
+  res->size = sizeof *res;
 }
 
 const char *sba_linsolver_names(void) { return sba::linsolver_names(); }

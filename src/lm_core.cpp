@@ -42,7 +42,7 @@ bool all_finite(ThreadPool &pool, const double *v, i64 len) {
 // Everything the LM loop itself needs, sized once before iterating (the linear solver
 // owns its own).
 struct Workspace {
-  Workspace(const Layout &lay, bool weighted) {
+  Workspace(const Layout &lay, bool weighted, bool robust) {
     const i64 nobs = lay.nvis * lay.mnp;
     hx.resize(size_t(nobs));
     e.resize(hx.size());
@@ -56,11 +56,19 @@ struct Workspace {
     eb.resize(size_t(i64(lay.n) * lay.pnp));
     dp.resize(size_t(lay.nvars()));
     pn.resize(dp.size());
+    if (robust) {
+      rw.resize(size_t(lay.nvis));
+      rwn.resize(rw.size());
+      er.resize(e.size());
+    }
   }
   NormalEquations view() const {
     return NormalEquations{jac.data(), U.data(), V.data(), ea.data(), eb.data()};
   }
   std::vector<double> hx, e, hxn, en, jac, wts, U, ea, V, eb, dp, pn;
+  // With a robust loss: sqrt(rho') per projection at p and at the trial point, and the
+  // reweighted residual that the normal equations see.
+  std::vector<double> rw, rwn, er;
 };
 
 // Weight matrices W_ij (upper triangular, W^T W = Sigma_ij^-1) from the covariances.
@@ -87,26 +95,60 @@ bool make_weights(const Layout &lay, const double *covx, std::vector<double> &wt
   return true;
 }
 
-// e = W (x - hx): the (weighted) residual. Returns ||e||^2.
-double residual(ThreadPool &pool, const Layout &lay, const double *x, const double *hx,
-                const double *wts, double *e) {
+struct Cost {
+  double cost = 0;  // sum rho(s_k): what LM minimizes
+  double sq = 0;    // sum s_k
+};
+
+// e = W (x - hx), the (covariance-weighted) residual, and its cost. With a robust loss, rw
+// gets sqrt(rho'(s_k)) of every projection k (s_k = ||e_k||^2), the IRLS weights.
+Cost residual(ThreadPool &pool, const Layout &lay, const double *x, const double *hx,
+              const double *wts, const Loss &loss, double *e, double *rw) {
   const int mnp = lay.mnp;
   pool.for_range(lay.nvis, [&](i64 b, i64 end) {
     for (i64 q = b * mnp; q < end * mnp; ++q) e[q] = x[q] - hx[q];
-    if (!wts) return;
-    std::vector<double> t(static_cast<size_t>(mnp));
-    for (i64 k = b; k < end; ++k) {
-      double *ek = e + k * mnp;
-      const double *w = wts + k * mnp * mnp;
-      for (int r = 0; r < mnp; ++r) {
-        double s = 0.0;
-        for (int c = r; c < mnp; ++c) s += w[r * mnp + c] * ek[c];
-        t[size_t(r)] = s;
+    if (wts) {
+      std::vector<double> t(static_cast<size_t>(mnp));
+      for (i64 k = b; k < end; ++k) {
+        double *ek = e + k * mnp;
+        const double *w = wts + k * mnp * mnp;
+        for (int r = 0; r < mnp; ++r) {
+          double s = 0.0;
+          for (int c = r; c < mnp; ++c) s += w[r * mnp + c] * ek[c];
+          t[size_t(r)] = s;
+        }
+        std::copy(t.begin(), t.end(), ek);
       }
-      std::copy(t.begin(), t.end(), ek);
+    }
+    if (loss.robust())
+      for (i64 k = b; k < end; ++k) {
+        double s = 0.0;
+        for (int r = 0; r < mnp; ++r) s += e[k * mnp + r] * e[k * mnp + r];
+        rw[k] = std::sqrt(loss.weight(s));
+      }
+  });
+  Cost c;
+  c.sq = sqnorm(pool, e, lay.nvis * mnp);
+  c.cost = !loss.robust() ? c.sq : deterministic_sum(pool, lay.nvis, [&](i64 k) {
+    double s = 0.0;
+    for (int r = 0; r < mnp; ++r) s += e[k * mnp + r] * e[k * mnp + r];
+    return loss.rho(s);
+  });
+  return c;
+}
+
+// The IRLS step: J_k <- sqrt(rho'_k) J_k and er_k = sqrt(rho'_k) e_k, so that the normal
+// equations are those of sum rho'_k ||e_k - J_k dp||^2 (gradient exact, Hessian without the
+// second-order term of rho, which can make the system indefinite for redescending losses).
+void reweight(ThreadPool &pool, const Layout &lay, const double *rw, const double *e,
+              double *jac, double *er) {
+  const int mnp = lay.mnp, jb = lay.jblk();
+  pool.for_range(lay.nvis, [&](i64 b, i64 end) {
+    for (i64 k = b; k < end; ++k) {
+      for (int q = 0; q < jb; ++q) jac[k * jb + q] *= rw[k];
+      for (int r = 0; r < mnp; ++r) er[k * mnp + r] = rw[k] * e[k * mnp + r];
     }
   });
-  return sqnorm(pool, e, lay.nvis * mnp);
 }
 
 // Jacobian blocks A_ij, B_ij <- W_ij A_ij, W_ij B_ij.
@@ -189,7 +231,8 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   sum = Summary{};
   const auto t0 = std::chrono::steady_clock::now();
   ThreadPool pool(opt.nthreads);
-  Workspace w(lay, covx != nullptr);
+  const Loss &loss = opt.loss;
+  Workspace w(lay, covx != nullptr, loss.robust());
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());
   const std::unique_ptr<StepSolver> solver =
       make_step_solver(opt.solver, SolveContext{lay, pool, *kernels});
@@ -209,8 +252,10 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
     sum.reason = kStopNonFinite;
     return false;
   }
-  double eps = residual(pool, lay, x, w.hx.data(), wts, w.e.data());
+  const Cost c0 = residual(pool, lay, x, w.hx.data(), wts, loss, w.e.data(), w.rw.data());
+  double eps = c0.cost, sqe = c0.sq;
   sum.err0 = sum.err = eps;
+  sum.sq_err0 = sum.sq_err = sqe;
   if (!std::isfinite(eps)) {
     log.error("sba: the initial error is not finite (check x and covx)");
     sum.reason = kStopNonFinite;
@@ -225,6 +270,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   // Failures mid-way still report where the solve stood: p and eps are the last accepted.
   auto record = [&](int reason, int iterations) {
     sum.err = eps;
+    sum.sq_err = sqe;
     sum.reason = reason;
     sum.iterations = iterations;
     sum.mu_ratio = maxdiag > 0 ? mu / maxdiag : 0.0;
@@ -242,8 +288,9 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
       return false;
     }
     if (wts) weight_jacobian(pool, lay, wts, w.jac.data());
-    kernels->normal_equations(pool, w.jac.data(), w.e.data(), w.U.data(), w.V.data(),
-                              w.ea.data(), w.eb.data());
+    if (loss.robust()) reweight(pool, lay, w.rw.data(), w.e.data(), w.jac.data(), w.er.data());
+    kernels->normal_equations(pool, w.jac.data(), loss.robust() ? w.er.data() : w.e.data(),
+                              w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
     gradient_stats(lay, w, &sum.grad_inf, &maxdiag);
     if (it == 0) mu = opt.tau * maxdiag;
 
@@ -279,7 +326,8 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
           record(kStopNonFinite, it + 1);
           return false;
         }
-        const double epsn = residual(pool, lay, x, w.hxn.data(), wts, w.en.data());
+        const Cost cn = residual(pool, lay, x, w.hxn.data(), wts, loss, w.en.data(), w.rwn.data());
+        const double epsn = cn.cost;
         const double dL = predicted_reduction(pool, lay, w, mu);
         const double dF = eps - epsn;
         log.info(2, "SBA: iteration %d: mu %g, error %g -> %g, ||dp||^2 %g, gain ratio %g", it, mu,
@@ -289,7 +337,9 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
           std::copy(w.pn.begin(), w.pn.end(), p);
           w.hx.swap(w.hxn);
           w.e.swap(w.en);
+          w.rw.swap(w.rwn);
           eps = epsn;
+          sqe = cn.sq;
           const double t = 2.0 * dF / dL - 1.0;
           mu *= std::max(1.0 / 3.0, 1.0 - t * t * t);
           nu = 2;
@@ -318,6 +368,12 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
 
   record(stop, it);
   sum.ok = true;
+  if (loss.robust())
+    for (i64 k = 0; k < lay.nvis; ++k) {
+      double sk = 0.0;
+      for (int r = 0; r < lay.mnp; ++r) sk += w.e[size_t(k * lay.mnp + r)] * w.e[size_t(k * lay.mnp + r)];
+      sum.outliers += sk > loss.scale2();
+    }
   log.info(1, "SBA: %d iterations, stop reason %d, final error %g, %g per measurement", it, stop,
            eps, eps / double(lay.nvis));
   return true;
