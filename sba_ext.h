@@ -147,6 +147,45 @@ extern int sba_str_levmar_ext(
     const int itmax, const int verbose, const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ],
     const struct sba_ext_options *ext);
 
+/* ---- covariance of the solution ----
+ * At p (normally the minimum a motion-and-structure driver returned), the covariance of
+ * chosen cameras and points: sigma^2 (J^T J)^-1 restricted to their blocks, computed through
+ * the Schur complement (cameras: S^-1; points: V^-1 + V^-1 W^T S^-1 W V^-1), with
+ * sigma^2 = ||e||^2 / (measurements - rank), the residual variance. Fixed cameras and points
+ * (mcon, ncon) have zero covariance and fix the gauge; when they do not fix it completely, S
+ * is singular and its pseudo-inverse is used: the covariance is then the one of the
+ * minimum-norm camera update, and `rank` says how many directions are determined.
+ * With a robust loss in ext, J and e are reweighted as in the last iteration of the solve. */
+struct sba_covariance_request {
+  size_t size;           /* sizeof(struct sba_covariance_request); sba_covariance_request_init */
+  int ncams;             /* cameras wanted ... */
+  const int *cams;       /* ... their indices */
+  double *camcov;        /* out: ncams blocks cnp x cnp, row-major */
+  int npts;              /* points wanted ... */
+  const int *pts;        /* ... their indices */
+  double *ptcov;         /* out: npts blocks pnp x pnp, row-major */
+  double sigma2;         /* out: the residual variance the blocks are scaled by */
+  int rank;              /* out: rank of J^T J over the free parameters */
+  int nfree;             /* out: number of free parameters (full rank: rank == nfree) */
+};
+extern void sba_covariance_request_init(struct sba_covariance_request *req);
+
+/* Expert callbacks as sba_motstr_levmar_x (fjac NULL: finite differences). Returns 0 on
+ * success, SBA_ERROR on bad arguments or when a point is not determined by its projections. */
+extern int sba_motstr_covariance_x(
+    const int n, const int ncon, const int m, const int mcon, char *vmask, double *p, const int cnp,
+    const int pnp, double *x, double *covx, const int mnp,
+    void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
+    void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
+    void *adata, struct sba_covariance_request *req, const struct sba_ext_options *ext);
+/* Simple callbacks as sba_motstr_levmar (projac NULL: finite differences). */
+extern int sba_motstr_covariance(
+    const int n, const int ncon, const int m, const int mcon, char *vmask, double *p, const int cnp,
+    const int pnp, double *x, double *covx, const int mnp,
+    void (*proj)(int j, int i, double *aj, double *bi, double *xij, void *adata),
+    void (*projac)(int j, int i, double *aj, double *bi, double *Aij, double *Bij, void *adata),
+    void *adata, struct sba_covariance_request *req, const struct sba_ext_options *ext);
+
 #ifdef __cplusplus
 }
 #endif

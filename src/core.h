@@ -147,6 +147,32 @@ struct Summary {
 bool solve(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
            const Options &opt, const Logger &log, Summary &sum);
 
+class ThreadPool;
+class Kernels;
+
+// The normal equations at p, without iterating: for the covariance of the solution.
+struct Linearization {
+  std::vector<double> jac, U, V, ea, eb;  // as in an LM iteration (weighted, reweighted)
+  double sq_err = 0;                      // squared error of the (re)weighted residual
+};
+bool linearize(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
+               const Options &opt, const Logger &log, ThreadPool &pool, const Kernels &kernels,
+               Linearization *out);
+
+// What sba_motstr_covariance* computes (see sba_ext.h), with validated indices.
+struct CovarianceRequest {
+  int ncams = 0;
+  const int *cams = nullptr;
+  double *camcov = nullptr;
+  int npts = 0;
+  const int *pts = nullptr;
+  double *ptcov = nullptr;
+  double sigma2 = 0;
+  int rank = 0, nfree = 0;
+};
+bool covariance(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
+                const Options &opt, const Logger &log, CovarianceRequest &req);
+
 // The itmax == 0 check of an analytic Jacobian against central differences. Reports every
 // suspicious entry and a one-line verdict through log. Returns the number of suspicious rows.
 i64 check_jacobian(const Layout &lay, Model &model, double *p, const Logger &log);

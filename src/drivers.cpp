@@ -209,6 +209,64 @@ int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
   return SBA_ERROR;
 }
 
+// The covariance entry points: the drivers' validation, then sba::covariance.
+template <class MakeModel>
+int run_covariance(const DriverArgs &a, sba_covariance_request *user, MakeModel make_model) noexcept {
+  const sba_ext_options ext = read_ext(a.ext);
+  const Logger log(a.verbose, ext.quiet ? quiet_sink : ext.log, ext.quiet ? nullptr : ext.log_ctx);
+  try {
+    Options opt;
+    std::string msg = check_scalars(a);
+    if (msg.empty()) make_options(a, ext, log, &opt, &msg);
+    if (msg.empty() && (!user || user->size < sizeof(sba_covariance_request)))
+      msg = "req is NULL or not initialised by sba_covariance_request_init";
+    CovarianceRequest req;
+    if (msg.empty()) {
+      req.ncams = user->ncams;
+      req.cams = user->cams;
+      req.camcov = user->camcov;
+      req.npts = user->npts;
+      req.pts = user->pts;
+      req.ptcov = user->ptcov;
+      if (req.ncams < 0 || req.npts < 0)
+        msg = "req->ncams and req->npts must be >= 0";
+      else if (req.ncams > 0 && (!req.cams || !req.camcov))
+        msg = "req->cams and req->camcov must be given for ncams > 0";
+      else if (req.npts > 0 && (!req.pts || !req.ptcov))
+        msg = "req->pts and req->ptcov must be given for npts > 0";
+      for (int q = 0; msg.empty() && q < req.ncams; ++q)
+        if (req.cams[q] < 0 || req.cams[q] >= a.m)
+          msg = "req->cams[" + std::to_string(q) + "] is not a camera index";
+      for (int q = 0; msg.empty() && q < req.npts; ++q)
+        if (req.pts[q] < 0 || req.pts[q] >= a.n)
+          msg = "req->pts[" + std::to_string(q) + "] is not a point index";
+    }
+    Layout lay;
+    if (msg.empty() &&
+        !build_layout(lay, a.mode, a.n, a.m, a.mcon, a.ncon, a.cnp, a.pnp, a.mnp, a.vmask, &msg) &&
+        msg.empty())
+      msg = "invalid problem";
+    if (msg.empty()) msg = check_data(a, lay);
+    if (!msg.empty()) {
+      log.error("%s: %s", a.name, msg.c_str());
+      return SBA_ERROR;
+    }
+    std::unique_ptr<Model> model = make_model(lay);
+    if (!covariance(lay, *model, a.p, a.x, a.covx, opt, log, req)) return SBA_ERROR;
+    user->sigma2 = req.sigma2;
+    user->rank = req.rank;
+    user->nfree = req.nfree;
+    return 0;
+  } catch (const std::bad_alloc &) {
+    log.error("%s: out of memory", a.name);
+  } catch (const std::exception &e) {
+    log.error("%s: internal error: %s", a.name, e.what());
+  } catch (...) {
+    log.error("%s: unknown exception from a callback", a.name);
+  }
+  return SBA_ERROR;
+}
+
 // ---- simple-driver adapters: the three 1.6 callback shapes onto one ----
 using MotStrProj = void (*)(int, int, double *, double *, double *, void *);
 using MotStrJac = void (*)(int, int, double *, double *, double *, double *, void *);
@@ -235,11 +293,17 @@ void str_jac(const SimpleCallbacks &cb, int j, int i, double *, double *bi, doub
   reinterpret_cast<OneBlockJac>(cb.user_projac)(j, i, bi, B, cb.adata);
 }
 
+SimpleCallbacks simple_callbacks(AnyFn proj, AnyFn projac, void *adata,
+                                 decltype(SimpleCallbacks::proj) tproj,
+                                 decltype(SimpleCallbacks::projac) tjac) {
+  return SimpleCallbacks{tproj, projac ? tjac : nullptr, proj, projac, adata};
+}
+
 template <class Proj, class Jac>
 int run_simple(const DriverArgs &a, Proj proj, Jac projac, void *adata,
                decltype(SimpleCallbacks::proj) tproj, decltype(SimpleCallbacks::projac) tjac) {
-  SimpleCallbacks cb{tproj, projac ? tjac : nullptr, reinterpret_cast<AnyFn>(proj),
-                     reinterpret_cast<AnyFn>(projac), adata};
+  const SimpleCallbacks cb = simple_callbacks(reinterpret_cast<AnyFn>(proj),
+                                              reinterpret_cast<AnyFn>(projac), adata, tproj, tjac);
   return run_driver(a, [&](Layout &lay) { return make_simple_model(lay, cb); });
 }
 
@@ -264,6 +328,35 @@ void sba_ext_result_init(struct sba_ext_result *res) {
 }
 
 const char *sba_linsolver_names(void) { return sba::linsolver_names(); }
+
+void sba_covariance_request_init(struct sba_covariance_request *req) {
+  if (!req) return;
+  std::memset(static_cast<void *>(req), 0, sizeof *req);
+  req->size = sizeof *req;
+}
+
+int sba_motstr_covariance_x(const int n, const int ncon, const int m, const int mcon, char *vmask,
+                            double *p, const int cnp, const int pnp, double *x, double *covx,
+                            const int mnp, sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata,
+                            struct sba_covariance_request *req, const struct sba_ext_options *ext) {
+  const DriverArgs a{"sba_motstr_covariance_x", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp, vmask,
+                     p, x, covx, func != nullptr, 1, 0, nullptr, nullptr, ext};
+  return sba::run_covariance(
+      a, req, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+}
+
+int sba_motstr_covariance(const int n, const int ncon, const int m, const int mcon, char *vmask,
+                          double *p, const int cnp, const int pnp, double *x, double *covx,
+                          const int mnp, sba::MotStrProj proj, sba::MotStrJac projac, void *adata,
+                          struct sba_covariance_request *req, const struct sba_ext_options *ext) {
+  const DriverArgs a{"sba_motstr_covariance", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp, vmask,
+                     p, x, covx, proj != nullptr, 1, 0, nullptr, nullptr, ext};
+  const sba::SimpleCallbacks cb =
+      sba::simple_callbacks(reinterpret_cast<sba::AnyFn>(proj), reinterpret_cast<sba::AnyFn>(projac),
+                            adata, sba::motstr_proj, sba::motstr_jac);
+  return sba::run_covariance(a, req,
+                             [&](sba::Layout &lay) { return sba::make_simple_model(lay, cb); });
+}
 
 int sba_motstr_levmar_x_ext(const int n, const int ncon, const int m, const int mcon, char *vmask,
                             double *p, const int cnp, const int pnp, double *x, double *covx,

@@ -51,6 +51,10 @@ void SBA_F77(dsytrs, DSYTRS)(const char *uplo, const int *n, const int *nrhs, co
                              sba::lapack::flen);
 void SBA_F77(dsytri, DSYTRI)(const char *uplo, const int *n, double *a, const int *lda,
                              const int *ipiv, double *work, int *info, sba::lapack::flen);
+// Symmetric eigendecomposition (the pseudo-inverse of a gauge-deficient S)
+void SBA_F77(dsyev, DSYEV)(const char *jobz, const char *uplo, const int *n, double *a,
+                           const int *lda, double *w, double *work, const int *lwork, int *info,
+                           sba::lapack::flen, sba::lapack::flen);
 // BLAS used by the assembly kernels
 void SBA_F77(dgemm, DGEMM)(const char *transa, const char *transb, const int *m, const int *n,
                            const int *k, const double *alpha, const double *a, const int *lda,

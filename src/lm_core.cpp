@@ -226,6 +226,40 @@ double predicted_reduction(ThreadPool &pool, const Layout &lay, const Workspace 
 
 }  // namespace
 
+bool linearize(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
+               const Options &opt, const Logger &log, ThreadPool &pool, const Kernels &kernels,
+               Linearization *out) {
+  Workspace w(lay, covx != nullptr, opt.loss.robust());
+  if (covx && !make_weights(lay, covx, w.wts, log)) return false;
+  const double *wts = covx ? w.wts.data() : nullptr;
+  model.eval(p, w.hx.data());
+  if (!all_finite(pool, w.hx.data(), lay.nvis * lay.mnp)) {
+    log.error("sba: the projection function returned NaN or Inf");
+    return false;
+  }
+  const Cost c = residual(pool, lay, x, w.hx.data(), wts, opt.loss, w.e.data(), w.rw.data());
+  if (model.has_jacobian())
+    model.jacobian(p, w.jac.data());
+  else
+    model.fd_jacobian(p, w.hx.data(), w.jac.data());
+  if (!jacobian_finite(pool, lay, w.jac.data())) {
+    log.error("sba: the Jacobian has a NaN or Inf entry");
+    return false;
+  }
+  if (wts) weight_jacobian(pool, lay, wts, w.jac.data());
+  if (opt.loss.robust()) reweight(pool, lay, w.rw.data(), w.e.data(), w.jac.data(), w.er.data());
+  kernels.normal_equations(pool, w.jac.data(), opt.loss.robust() ? w.er.data() : w.e.data(),
+                           w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
+  out->jac.swap(w.jac);
+  out->U.swap(w.U);
+  out->V.swap(w.V);
+  out->ea.swap(w.ea);
+  out->eb.swap(w.eb);
+  // With a loss, the IRLS weights make sum rho' s the squared error the model sees.
+  out->sq_err = opt.loss.robust() ? sqnorm(pool, w.er.data(), lay.nvis * lay.mnp) : c.sq;
+  return true;
+}
+
 bool solve(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
            const Options &opt, const Logger &log, Summary &sum) {
   sum = Summary{};

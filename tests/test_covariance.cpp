@@ -1,0 +1,246 @@
+// Covariance of the solution (sba_motstr_covariance[_x]): against a brute-force
+// sigma^2 (J^T J)^-1 on small problems, against the spread of solutions over noisy
+// replicates, and the gauge handling.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "sba_ext.h"
+#include "synth.h"
+
+namespace {
+
+using synth::kCnp;
+using synth::kMnp;
+using synth::kPnp;
+
+// The index the drivers build, for calling the expert callbacks directly.
+struct Index {
+  std::vector<int> rowptr, colidx, val;
+  sba_crsm crsm{};
+  explicit Index(const synth::Problem &pb) {
+    int k = 0;
+    for (int i = 0; i < pb.n; ++i) {
+      rowptr.push_back(k);
+      for (int j = 0; j < pb.m; ++j)
+        if (pb.vmask[size_t(i) * pb.m + j]) colidx.push_back(j), val.push_back(k++);
+    }
+    rowptr.push_back(k);
+    crsm = {pb.n, pb.m, k, val.data(), colidx.data(), rowptr.data()};
+  }
+};
+
+int solve(synth::Problem &pb, std::vector<double> &p, int mcon) {
+  return sba_motstr_levmar_x(pb.n, 0, pb.m, mcon, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(),
+                             nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb, 200, 0,
+                             nullptr, nullptr);
+}
+
+struct Cov {
+  int ret = 0;
+  sba_covariance_request req{};
+  std::vector<int> cams, pts;
+  std::vector<double> camcov, ptcov;
+};
+
+Cov covariance(synth::Problem &pb, std::vector<double> &p, int mcon, int ncon, bool simple = false,
+               bool analytic = true) {
+  Cov c;
+  for (int j = 0; j < pb.m; ++j) c.cams.push_back(j);
+  for (int i = 0; i < pb.n; ++i) c.pts.push_back(i);
+  c.camcov.resize(size_t(pb.m) * kCnp * kCnp);
+  c.ptcov.resize(size_t(pb.n) * kPnp * kPnp);
+  sba_covariance_request_init(&c.req);
+  c.req.ncams = pb.m;
+  c.req.cams = c.cams.data();
+  c.req.camcov = c.camcov.data();
+  c.req.npts = pb.n;
+  c.req.pts = c.pts.data();
+  c.req.ptcov = c.ptcov.data();
+  if (simple)
+    c.ret = sba_motstr_covariance(pb.n, ncon, pb.m, mcon, pb.vmask.data(), p.data(), kCnp, kPnp,
+                                  pb.x.data(), nullptr, kMnp, synth::proj_motstr,
+                                  analytic ? synth::projac_motstr : nullptr, &pb, &c.req, nullptr);
+  else
+    c.ret = sba_motstr_covariance_x(pb.n, ncon, pb.m, mcon, pb.vmask.data(), p.data(), kCnp, kPnp,
+                                    pb.x.data(), nullptr, kMnp, synth::func_motstr,
+                                    analytic ? synth::fjac_motstr : nullptr, &pb, &c.req, nullptr);
+  return c;
+}
+
+// sigma^2 (J^T J)^-1 over the free parameters, formed densely.
+std::vector<double> brute_force(synth::Problem &pb, std::vector<double> &p, int mcon, int ncon,
+                                int *nfree_out) {
+  Index idx(pb);
+  const int nvis = idx.crsm.nnz, jb = kMnp * (kCnp + kPnp);
+  std::vector<double> jac(size_t(nvis) * jb), hx(size_t(nvis) * kMnp);
+  synth::fjac_motstr(p.data(), &idx.crsm, nullptr, nullptr, jac.data(), &pb);
+  synth::func_motstr(p.data(), &idx.crsm, nullptr, nullptr, hx.data(), &pb);
+  const int nfc = pb.m - mcon, nfp = pb.n - ncon, nfree = nfc * kCnp + nfp * kPnp;
+  std::vector<double> J(size_t(nvis) * kMnp * nfree, 0.0);
+  for (int i = 0; i < pb.n; ++i)
+    for (int k = idx.rowptr[i]; k < idx.rowptr[i + 1]; ++k) {
+      const int j = idx.colidx[k];
+      for (int r = 0; r < kMnp; ++r) {
+        double *row = J.data() + size_t(k * kMnp + r) * nfree;
+        if (j >= mcon)
+          for (int a = 0; a < kCnp; ++a) row[(j - mcon) * kCnp + a] = jac[size_t(k) * jb + r * kCnp + a];
+        if (i >= ncon)
+          for (int a = 0; a < kPnp; ++a)
+            row[nfc * kCnp + (i - ncon) * kPnp + a] = jac[size_t(k) * jb + kMnp * kCnp + r * kPnp + a];
+      }
+    }
+  std::vector<double> JtJ(size_t(nfree) * nfree, 0.0);
+  for (int r = 0; r < nvis * kMnp; ++r)
+    for (int a = 0; a < nfree; ++a) {
+      const double v = J[size_t(r) * nfree + a];
+      if (v == 0.0) continue;
+      for (int b = 0; b < nfree; ++b) JtJ[size_t(a) * nfree + b] += v * J[size_t(r) * nfree + b];
+    }
+  EXPECT_EQ(sba_symat_invert_Chol(JtJ.data(), nfree), 1);
+  double e2 = 0;
+  for (int q = 0; q < nvis * kMnp; ++q) e2 += (pb.x[size_t(q)] - hx[size_t(q)]) * (pb.x[size_t(q)] - hx[size_t(q)]);
+  const double sigma2 = e2 / (nvis * kMnp - nfree);
+  for (double &v : JtJ) v *= sigma2;
+  *nfree_out = nfree;
+  return JtJ;
+}
+
+TEST(Covariance, MatchesBruteForceInverseWhenTheGaugeIsFixed) {
+  synth::Problem pb = synth::make(25, 5, 0.5, 0.05, 51);
+  std::vector<double> p = pb.p0;
+  const int mcon = 2, ncon = 3;  // two fixed cameras fix rotation, translation and scale
+  ASSERT_GT(solve(pb, p, mcon), 0);
+  int nfree = 0;
+  const std::vector<double> ref = brute_force(pb, p, mcon, ncon, &nfree);
+  for (bool simple : {false, true}) {
+    Cov c = covariance(pb, p, mcon, ncon, simple);
+    ASSERT_EQ(c.ret, 0);
+    EXPECT_EQ(c.req.nfree, nfree);
+    EXPECT_EQ(c.req.rank, nfree);
+    const int nfc = pb.m - mcon;
+    double worst = 0;
+    for (int j = 0; j < pb.m; ++j)
+      for (int a = 0; a < kCnp; ++a)
+        for (int b = 0; b < kCnp; ++b) {
+          const double got = c.camcov[size_t(j) * kCnp * kCnp + a * kCnp + b];
+          if (j < mcon) {
+            EXPECT_EQ(got, 0.0);
+            continue;
+          }
+          const int ra = (j - mcon) * kCnp + a, rb = (j - mcon) * kCnp + b;
+          const double want = ref[size_t(ra) * nfree + rb];
+          const double scale = std::sqrt(ref[size_t(ra) * nfree + ra] * ref[size_t(rb) * nfree + rb]);
+          worst = std::max(worst, std::fabs(got - want) / scale);
+        }
+    for (int i = 0; i < pb.n; ++i)
+      for (int a = 0; a < kPnp; ++a)
+        for (int b = 0; b < kPnp; ++b) {
+          const double got = c.ptcov[size_t(i) * kPnp * kPnp + a * kPnp + b];
+          if (i < ncon) {
+            EXPECT_EQ(got, 0.0);
+            continue;
+          }
+          const int ra = nfc * kCnp + (i - ncon) * kPnp + a, rb = nfc * kCnp + (i - ncon) * kPnp + b;
+          const double want = ref[size_t(ra) * nfree + rb];
+          const double scale = std::sqrt(ref[size_t(ra) * nfree + ra] * ref[size_t(rb) * nfree + rb]);
+          worst = std::max(worst, std::fabs(got - want) / scale);
+        }
+    EXPECT_LT(worst, 1e-8) << (simple ? "simple" : "expert");
+  }
+}
+
+TEST(Covariance, AFreeGaugeGivesAPseudoInverseAndItsRank) {
+  synth::Problem pb = synth::make(40, 5, 0.5, 0.05, 52);
+  std::vector<double> p = pb.p0;
+  ASSERT_GT(solve(pb, p, 0), 0);
+  Cov c = covariance(pb, p, 0, 0);
+  ASSERT_EQ(c.ret, 0);
+  // Rotation, translation and scale of the whole scene are not determined.
+  EXPECT_EQ(c.req.rank, c.req.nfree - 7);
+  for (double v : c.camcov) ASSERT_TRUE(std::isfinite(v));
+  for (int j = 0; j < pb.m; ++j)
+    for (int a = 0; a < kCnp; ++a) EXPECT_GT(c.camcov[size_t(j) * kCnp * kCnp + a * (kCnp + 1)], 0.0);
+}
+
+TEST(Covariance, FiniteDifferenceJacobianGivesNearlyTheSameBlocks) {
+  synth::Problem pb = synth::make(25, 5, 0.5, 0.05, 51);
+  std::vector<double> p = pb.p0;
+  ASSERT_GT(solve(pb, p, 2), 0);
+  const Cov an = covariance(pb, p, 2, 0), fd = covariance(pb, p, 2, 0, false, false);
+  ASSERT_EQ(fd.ret, 0);
+  EXPECT_EQ(fd.req.rank, an.req.rank);
+  EXPECT_NEAR(fd.req.sigma2 / an.req.sigma2, 1.0, 1e-9);
+  // Forward differences are accurate to about 1e-4 relative here.
+  for (int j = 2; j < pb.m; ++j)
+    for (int a = 0; a < kCnp; ++a) {
+      const size_t d = size_t(j) * kCnp * kCnp + a * (kCnp + 1);
+      EXPECT_NEAR(fd.camcov[d] / an.camcov[d], 1.0, 1e-3) << j << "," << a;
+    }
+}
+
+// The predicted covariance describes how the solution scatters when the noise is drawn again.
+TEST(Covariance, PredictsTheSpreadOfSolutionsOverNoisyReplicates) {
+  const double sigma = 0.5;
+  synth::Problem pb = synth::make(40, 5, 0.0, 0.0, 53);  // exact projections of the truth
+  const std::vector<double> exact = pb.x;
+  const int mcon = 2, cam = 3, pt = 11;
+  std::mt19937_64 rng(99);
+  std::normal_distribution<double> N(0.0, sigma);
+  const int reps = 400;
+  std::vector<double> mean(kCnp + kPnp, 0.0), sq((kCnp + kPnp) * (kCnp + kPnp), 0.0);
+  std::vector<double> predicted_cam(kCnp * kCnp, 0.0), predicted_pt(kPnp * kPnp, 0.0);
+  for (int r = 0; r < reps; ++r) {
+    for (size_t q = 0; q < pb.x.size(); ++q) pb.x[q] = exact[q] + N(rng);
+    std::vector<double> p = pb.truth;
+    ASSERT_GT(solve(pb, p, mcon), 0);
+    double v[kCnp + kPnp];
+    for (int a = 0; a < kCnp; ++a) v[a] = p[size_t(cam) * kCnp + a];
+    for (int a = 0; a < kPnp; ++a) v[kCnp + a] = p[size_t(pb.m) * kCnp + pt * kPnp + a];
+    for (int a = 0; a < kCnp + kPnp; ++a) {
+      mean[a] += v[a];
+      for (int b = 0; b < kCnp + kPnp; ++b) sq[a * (kCnp + kPnp) + b] += v[a] * v[b];
+    }
+    if (r < 20) {  // the prediction varies little between replicates; average a few
+      Cov c = covariance(pb, p, mcon, 0);
+      ASSERT_EQ(c.ret, 0);
+      for (int q = 0; q < kCnp * kCnp; ++q) predicted_cam[q] += c.camcov[size_t(cam) * kCnp * kCnp + q] / 20;
+      for (int q = 0; q < kPnp * kPnp; ++q) predicted_pt[q] += c.ptcov[size_t(pt) * kPnp * kPnp + q] / 20;
+    }
+  }
+  // 400 replicates: the sample variances are within about 3 x sqrt(2/400) = 21% of the truth.
+  for (int a = 0; a < kCnp + kPnp; ++a) {
+    const double m = mean[a] / reps;
+    const double var = sq[a * (kCnp + kPnp) + a] / reps - m * m;
+    const double pred = a < kCnp ? predicted_cam[a * (kCnp + 1)] : predicted_pt[(a - kCnp) * (kPnp + 1)];
+    EXPECT_GT(var / pred, 0.75) << "parameter " << a;
+    EXPECT_LT(var / pred, 1.3) << "parameter " << a;
+  }
+}
+
+TEST(Covariance, BadRequestsAreRefused) {
+  synth::Problem pb = synth::make(20, 4, 0.5, 0.05, 54);
+  std::vector<double> p = pb.p0;
+  Cov c = covariance(pb, p, 2, 0);
+  ASSERT_EQ(c.ret, 0);
+  const int bad_cam = 7;
+  c.req.cams = &bad_cam;
+  c.req.ncams = 1;
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(sba_motstr_covariance_x(pb.n, 0, pb.m, 2, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(),
+                                    nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb, &c.req,
+                                    nullptr),
+            SBA_ERROR);
+  EXPECT_EQ(sba_motstr_covariance_x(pb.n, 0, pb.m, 2, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(),
+                                    nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb, nullptr,
+                                    nullptr),
+            SBA_ERROR);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("req->cams[0] is not a camera index"), std::string::npos) << err;
+  EXPECT_NE(err.find("req is NULL"), std::string::npos) << err;
+}
+
+}  // namespace
