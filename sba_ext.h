@@ -147,6 +147,36 @@ extern int sba_str_levmar_ext(
     const int itmax, const int verbose, const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ],
     const struct sba_ext_options *ext);
 
+/* ---- visibility as a list: problems whose dense n*m vmask would not fit ----
+ * A 20000-camera, 2-million-point problem needs a 40 GB vmask; these entry points take the
+ * visible (point, camera) pairs instead, in the order of x: sorted by point, then by camera,
+ * each pair once. Memory then grows with the number of observations only (with a sparse
+ * solver: the default linear solver of these entry points is "sparse-chol", since a dense S of
+ * many thousand cameras does not fit either). Callbacks receive the same struct sba_crsm
+ * index as with a vmask, but hx and the Jacobian may exceed 2^31 entries here: callbacks must
+ * compute their offsets in 64-bit arithmetic, e.g. (size_t)idxij->val[k] * blocksize. */
+struct sba_visibility {
+  long long nvis;     /* number of visible projections (at most INT_MAX) */
+  const int *point;   /* nvis point indices, ascending */
+  const int *camera;  /* nvis camera indices, ascending within a point */
+};
+
+extern int sba_motstr_levmar_x_vis(
+    const int n, const int ncon, const int m, const int mcon, const struct sba_visibility *vis,
+    double *p, const int cnp, const int pnp, double *x, double *covx, const int mnp,
+    void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
+    void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
+    void *adata, const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+    double info[SBA_INFOSZ], const struct sba_ext_options *ext);
+
+extern int sba_motstr_levmar_vis(
+    const int n, const int ncon, const int m, const int mcon, const struct sba_visibility *vis,
+    double *p, const int cnp, const int pnp, double *x, double *covx, const int mnp,
+    void (*proj)(int j, int i, double *aj, double *bi, double *xij, void *adata),
+    void (*projac)(int j, int i, double *aj, double *bi, double *Aij, double *Bij, void *adata),
+    void *adata, const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+    double info[SBA_INFOSZ], const struct sba_ext_options *ext);
+
 /* ---- covariance of the solution ----
  * At p (normally the minimum a motion-and-structure driver returned), the covariance of
  * chosen cameras and points: sigma^2 (J^T J)^-1 restricted to their blocks, computed through

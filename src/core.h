@@ -63,6 +63,11 @@ struct Layout {
 // Builds the index from vmask. Returns false (with msg) on a problem too big for the int API.
 bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
                   int mnp, const char *vmask, std::string *msg);
+// The same from a list of (point, camera) pairs sorted by point then camera (sba_ext.h's
+// sba_visibility); only nvis must fit an int: the callbacks of this API index hx and the
+// Jacobian with 64-bit offsets.
+bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
+                  int mnp, const sba_visibility &vis, std::string *msg);
 
 // The caller's projection function and (optionally) its Jacobian, over the whole vector.
 class Model {

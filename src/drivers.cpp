@@ -28,6 +28,8 @@ struct DriverArgs {
   const double *opts;
   double *info;
   const sba_ext_options *ext;
+  bool by_pairs = false;                // the _vis entry points: pairs instead of vmask
+  const sba_visibility *vis = nullptr;
 };
 
 // First non-finite entry of v, or -1.
@@ -53,7 +55,7 @@ std::string check_scalars(const DriverArgs &a) {
   if (a.ncon < 0 || a.ncon > a.n)
     return "ncon must be in [0, n] = [0, " + std::to_string(a.n) + "] (got " +
            std::to_string(a.ncon) + ")";
-  if (!a.vmask) return "vmask is NULL";
+  if (a.by_pairs ? !a.vis : !a.vmask) return a.by_pairs ? "vis is NULL" : "vmask is NULL";
   if (!a.p) return "p is NULL";
   if (!a.x) return "x is NULL";
   if (!a.have_func) return "the projection function (func or proj) is NULL";
@@ -79,6 +81,15 @@ std::string check_data(const DriverArgs &a, const Layout &lay) {
     if (bad >= 0) return "covx[" + std::to_string(bad) + "] is not finite";
   }
   return {};
+}
+
+// The index from vmask or from the pairs; msg set on failure.
+void make_layout(const DriverArgs &a, Layout &lay, std::string *msg) {
+  const int cnp = a.mode == Mode::Str ? 0 : a.cnp, pnp = a.mode == Mode::Mot ? 0 : a.pnp;
+  const bool ok = a.by_pairs
+                      ? build_layout(lay, a.mode, a.n, a.m, a.mcon, a.ncon, cnp, pnp, a.mnp, *a.vis, msg)
+                      : build_layout(lay, a.mode, a.n, a.m, a.mcon, a.ncon, cnp, pnp, a.mnp, a.vmask, msg);
+  if (!ok && msg->empty()) *msg = "invalid problem";
 }
 
 // The caller's extension options, read only as far as the caller's struct goes (older
@@ -108,7 +119,10 @@ void make_options(const DriverArgs &a, const sba_ext_options &ext, const Logger 
     o->eps3 = std::fabs(a.opts[3]);
     o->eps4 = std::fabs(a.opts[4]);
   }
-  if (ext.linsolver) {
+  if (a.by_pairs && !ext.linsolver) {
+    // A problem given by pairs is one whose dense structures would not fit.
+    o->solver = LinSolver::SparseChol;
+  } else if (ext.linsolver) {
     if (!linsolver_from_name(ext.linsolver, &o->solver)) {
       *msg = std::string("unknown linear solver \"") + ext.linsolver + "\" (known: " +
              linsolver_names() + ")";
@@ -172,11 +186,7 @@ int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
     std::string msg = check_scalars(a);
     if (msg.empty()) make_options(a, ext, log, &opt, &msg);
     Layout lay;
-    if (msg.empty() &&
-        !build_layout(lay, a.mode, a.n, a.m, a.mcon, a.ncon, a.mode == Mode::Str ? 0 : a.cnp,
-                      a.mode == Mode::Mot ? 0 : a.pnp, a.mnp, a.vmask, &msg) &&
-        msg.empty())
-      msg = "invalid problem";
+    if (msg.empty()) make_layout(a, lay, &msg);
     if (msg.empty()) msg = check_data(a, lay);
     if (!msg.empty()) {
       log.error("%s: %s", a.name, msg.c_str());
@@ -242,10 +252,7 @@ int run_covariance(const DriverArgs &a, sba_covariance_request *user, MakeModel 
           msg = "req->pts[" + std::to_string(q) + "] is not a point index";
     }
     Layout lay;
-    if (msg.empty() &&
-        !build_layout(lay, a.mode, a.n, a.m, a.mcon, a.ncon, a.cnp, a.pnp, a.mnp, a.vmask, &msg) &&
-        msg.empty())
-      msg = "invalid problem";
+    if (msg.empty()) make_layout(a, lay, &msg);
     if (msg.empty()) msg = check_data(a, lay);
     if (!msg.empty()) {
       log.error("%s: %s", a.name, msg.c_str());
@@ -419,6 +426,31 @@ int sba_str_levmar_ext(const int n, const int ncon, const int m, char *vmask, do
   const DriverArgs a{"sba_str_levmar", Mode::Str, n, ncon, m, 0, 0, pnp, mnp, vmask, p,
                      x, covx, proj != nullptr, itmax, verbose, opts, info, ext};
   return sba::run_simple(a, proj, projac, adata, sba::str_proj, sba::str_jac);
+}
+
+int sba_motstr_levmar_x_vis(const int n, const int ncon, const int m, const int mcon,
+                            const struct sba_visibility *vis, double *p, const int cnp,
+                            const int pnp, double *x, double *covx, const int mnp,
+                            sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata,
+                            const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+                            double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
+  const DriverArgs a{"sba_motstr_levmar_x_vis", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp,
+                     nullptr, p, x, covx, func != nullptr, itmax, verbose, opts, info, ext, true,
+                     vis};
+  return sba::run_driver(
+      a, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+}
+
+int sba_motstr_levmar_vis(const int n, const int ncon, const int m, const int mcon,
+                          const struct sba_visibility *vis, double *p, const int cnp,
+                          const int pnp, double *x, double *covx, const int mnp,
+                          sba::MotStrProj proj, sba::MotStrJac projac, void *adata,
+                          const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+                          double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
+  const DriverArgs a{"sba_motstr_levmar_vis", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp,
+                     nullptr, p, x, covx, proj != nullptr, itmax, verbose, opts, info, ext, true,
+                     vis};
+  return sba::run_simple(a, proj, projac, adata, sba::motstr_proj, sba::motstr_jac);
 }
 
 // ---- the 1.6 entry points: the extension ones with the defaults ----

@@ -8,8 +8,10 @@
 
 namespace sba {
 
-bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
-                  int mnp, const char *vmask, std::string *msg) {
+namespace {
+
+void set_sizes(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
+               int mnp) {
   lay.mode = mode;
   lay.n = n;
   lay.m = m;
@@ -18,7 +20,38 @@ bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int 
   lay.cnp = cnp;
   lay.pnp = pnp;
   lay.mnp = mnp;
+}
 
+// The column (camera) index and the callbacks' view, once rowptr/colidx/val are filled.
+void finish_layout(Layout &lay) {
+  const int n = lay.n, m = lay.m;
+  lay.colptr.assign(size_t(m) + 1, 0);
+  for (i64 k = 0; k < lay.nvis; ++k) ++lay.colptr[size_t(lay.colidx[size_t(k)]) + 1];
+  for (int j = 0; j < m; ++j) lay.colptr[size_t(j) + 1] += lay.colptr[size_t(j)];
+  lay.colrow.resize(size_t(lay.nvis));
+  lay.colk.resize(size_t(lay.nvis));
+  std::vector<int> fill(lay.colptr.begin(), lay.colptr.end() - 1);
+  for (int i = 0; i < n; ++i)
+    for (int kk = lay.rowptr[i]; kk < lay.rowptr[i + 1]; ++kk) {
+      const int slot = fill[size_t(lay.colidx[size_t(kk)])]++;
+      lay.colrow[size_t(slot)] = i;
+      lay.colk[size_t(slot)] = kk;
+    }
+  lay.idx.nr = n;
+  lay.idx.nc = m;
+  lay.idx.nnz = int(lay.nvis);
+  lay.idx.val = lay.val.data();
+  lay.idx.colidx = lay.colidx.data();
+  lay.idx.rowptr = lay.rowptr.data();
+  lay.rcidxs.assign(size_t(std::max(n, m)), 0);
+  lay.rcsubs.assign(size_t(std::max(n, m)), 0);
+}
+
+}  // namespace
+
+bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
+                  int mnp, const char *vmask, std::string *msg) {
+  set_sizes(lay, mode, n, m, mcon, ncon, cnp, pnp, mnp);
   const i64 cells = i64(n) * m;
   i64 nvis = 0;
   for (i64 c = 0; c < cells; ++c) nvis += vmask[c] != 0;
@@ -32,46 +65,60 @@ bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int 
   const i64 jac_len = nvis * lay.jblk();
   if (nvis * mnp > INT_MAX || jac_len > INT_MAX || lay.nvars() > INT_MAX) {
     *msg = "problem too large for the int-sized sba 1.6 API (" + std::to_string(nvis) +
-           " projections, " + std::to_string(lay.nvars()) + " parameters)";
+           " projections, " + std::to_string(lay.nvars()) +
+           " parameters): use the sba_*_vis entry points of sba_ext.h";
     return false;
   }
-
   lay.rowptr.assign(size_t(n) + 1, 0);
   lay.colidx.resize(size_t(nvis));
   lay.val.resize(size_t(nvis));
-  lay.colptr.assign(size_t(m) + 1, 0);
   int k = 0;
   for (int i = 0; i < n; ++i) {
-    lay.rowptr[i] = k;
+    lay.rowptr[size_t(i)] = k;
     const char *row = vmask + i64(i) * m;
     for (int j = 0; j < m; ++j) {
       if (!row[j]) continue;
-      lay.colidx[k] = j;
-      lay.val[k] = k;
-      ++lay.colptr[size_t(j) + 1];
+      lay.colidx[size_t(k)] = j;
+      lay.val[size_t(k)] = k;
       ++k;
     }
   }
-  lay.rowptr[n] = k;
-  for (int j = 0; j < m; ++j) lay.colptr[size_t(j) + 1] += lay.colptr[j];
-  lay.colrow.resize(size_t(nvis));
-  lay.colk.resize(size_t(nvis));
-  std::vector<int> fill(lay.colptr.begin(), lay.colptr.end() - 1);
-  for (int i = 0; i < n; ++i)
-    for (int kk = lay.rowptr[i]; kk < lay.rowptr[i + 1]; ++kk) {
-      const int slot = fill[lay.colidx[kk]]++;
-      lay.colrow[slot] = i;
-      lay.colk[slot] = kk;
-    }
+  lay.rowptr[size_t(n)] = k;
+  finish_layout(lay);
+  return true;
+}
 
-  lay.idx.nr = n;
-  lay.idx.nc = m;
-  lay.idx.nnz = int(nvis);
-  lay.idx.val = lay.val.data();
-  lay.idx.colidx = lay.colidx.data();
-  lay.idx.rowptr = lay.rowptr.data();
-  lay.rcidxs.assign(size_t(std::max(n, m)), 0);
-  lay.rcsubs.assign(size_t(std::max(n, m)), 0);
+bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
+                  int mnp, const sba_visibility &vis, std::string *msg) {
+  set_sizes(lay, mode, n, m, mcon, ncon, cnp, pnp, mnp);
+  if (vis.nvis <= 0 || vis.nvis > INT_MAX || !vis.point || !vis.camera) {
+    *msg = "vis must list between 1 and INT_MAX pairs (got " + std::to_string(vis.nvis) +
+           ") with non-NULL point and camera arrays";
+    return false;
+  }
+  const i64 nvis = vis.nvis;
+  lay.nvis = nvis;
+  lay.rowptr.assign(size_t(n) + 1, 0);
+  lay.colidx.resize(size_t(nvis));
+  lay.val.resize(size_t(nvis));
+  for (i64 k = 0; k < nvis; ++k) {
+    const int i = vis.point[k], j = vis.camera[k];
+    if (i < 0 || i >= n || j < 0 || j >= m) {
+      *msg = "vis pair " + std::to_string(k) + " (point " + std::to_string(i) + ", camera " +
+             std::to_string(j) + ") is out of range";
+      return false;
+    }
+    if (k > 0 && (i < vis.point[k - 1] || (i == vis.point[k - 1] && j <= vis.camera[k - 1]))) {
+      *msg = "vis pair " + std::to_string(k) +
+             " is out of order: pairs must be sorted by point, then camera, each once";
+      return false;
+    }
+    ++lay.rowptr[size_t(i) + 1];
+    lay.colidx[size_t(k)] = j;
+    lay.val[size_t(k)] = int(k);
+  }
+  for (int i = 0; i < n; ++i) lay.rowptr[size_t(i) + 1] += lay.rowptr[size_t(i)];
+  finish_layout(lay);
   return true;
 }
 
