@@ -16,6 +16,7 @@
 #include "eucsba_model.h"
 #include "eucsbademo_options.h"
 #include "sba.h"
+#include "sba_ext.h"
 
 namespace eucsba {
 namespace {
@@ -52,9 +53,9 @@ std::vector<double> initial_params(const CameraModel &model, Refinement refineme
 
 const char *driver_name(Refinement r, bool expert) {
   switch (r) {
-    case Refinement::MotionStructure: return expert ? "sba_motstr_levmar_x" : "sba_motstr_levmar";
-    case Refinement::Motion: return expert ? "sba_mot_levmar_x" : "sba_mot_levmar";
-    case Refinement::Structure: return expert ? "sba_str_levmar_x" : "sba_str_levmar";
+    case Refinement::MotionStructure: return expert ? "sba_motstr_levmar_x_ext" : "sba_motstr_levmar_ext";
+    case Refinement::Motion: return expert ? "sba_mot_levmar_x_ext" : "sba_mot_levmar_ext";
+    case Refinement::Structure: return expert ? "sba_str_levmar_x_ext" : "sba_str_levmar_ext";
   }
   return "";
 }
@@ -72,22 +73,28 @@ Outcome run(const Solve &s, Refinement refinement, int itmax) {
   void *adata = as_adata(s.model);
   const double *opts = o.opts.data();
   double *info = out.info.data();
+  // Always the extension drivers; with the defaults they are the 1.6 entry points. Without
+  // --solver, linsolver stays NULL so that SBA_LINSOLVER keeps working.
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  if (!o.linsolver.empty()) ext.linsolver = o.linsolver.c_str();
+  ext.nthreads = o.nthreads;
 
   if (o.expert) {
     const ExpertCallbacks cb = expert_callbacks(s.model.kind(), refinement);
     const auto fjac = o.analytic ? cb.fjac : nullptr;
     switch (refinement) {
       case Refinement::MotionStructure:
-        out.ret = sba_motstr_levmar_x(n, o.ncon, m, o.mcon, vmask, p, cnp, pnp, x, covx, mnp, cb.func,
-                                      fjac, adata, itmax, o.verbose, opts, info);
+        out.ret = sba_motstr_levmar_x_ext(n, o.ncon, m, o.mcon, vmask, p, cnp, pnp, x, covx, mnp,
+                                          cb.func, fjac, adata, itmax, o.verbose, opts, info, &ext);
         break;
       case Refinement::Motion:
-        out.ret = sba_mot_levmar_x(n, m, o.mcon, vmask, p, cnp, x, covx, mnp, cb.func, fjac, adata,
-                                   itmax, o.verbose, opts, info);
+        out.ret = sba_mot_levmar_x_ext(n, m, o.mcon, vmask, p, cnp, x, covx, mnp, cb.func, fjac, adata,
+                                       itmax, o.verbose, opts, info, &ext);
         break;
       case Refinement::Structure:
-        out.ret = sba_str_levmar_x(n, o.ncon, m, vmask, p, pnp, x, covx, mnp, cb.func, fjac, adata,
-                                   itmax, o.verbose, opts, info);
+        out.ret = sba_str_levmar_x_ext(n, o.ncon, m, vmask, p, pnp, x, covx, mnp, cb.func, fjac, adata,
+                                       itmax, o.verbose, opts, info, &ext);
         break;
     }
     return out;
@@ -95,20 +102,23 @@ Outcome run(const Solve &s, Refinement refinement, int itmax) {
   switch (refinement) {
     case Refinement::MotionStructure: {
       const MotStrCallbacks cb = motstr_callbacks(s.model.kind());
-      out.ret = sba_motstr_levmar(n, o.ncon, m, o.mcon, vmask, p, cnp, pnp, x, covx, mnp, cb.proj,
-                                  o.analytic ? cb.projac : nullptr, adata, itmax, o.verbose, opts, info);
+      out.ret = sba_motstr_levmar_ext(n, o.ncon, m, o.mcon, vmask, p, cnp, pnp, x, covx, mnp, cb.proj,
+                                      o.analytic ? cb.projac : nullptr, adata, itmax, o.verbose, opts,
+                                      info, &ext);
       break;
     }
     case Refinement::Motion: {
       const MotCallbacks cb = mot_callbacks(s.model.kind());
-      out.ret = sba_mot_levmar(n, m, o.mcon, vmask, p, cnp, x, covx, mnp, cb.proj,
-                               o.analytic ? cb.projac : nullptr, adata, itmax, o.verbose, opts, info);
+      out.ret = sba_mot_levmar_ext(n, m, o.mcon, vmask, p, cnp, x, covx, mnp, cb.proj,
+                                   o.analytic ? cb.projac : nullptr, adata, itmax, o.verbose, opts, info,
+                                   &ext);
       break;
     }
     case Refinement::Structure: {
       const StrCallbacks cb = str_callbacks(s.model.kind());
-      out.ret = sba_str_levmar(n, o.ncon, m, vmask, p, pnp, x, covx, mnp, cb.proj,
-                               o.analytic ? cb.projac : nullptr, adata, itmax, o.verbose, opts, info);
+      out.ret = sba_str_levmar_ext(n, o.ncon, m, vmask, p, pnp, x, covx, mnp, cb.proj,
+                                   o.analytic ? cb.projac : nullptr, adata, itmax, o.verbose, opts, info,
+                                   &ext);
       break;
     }
   }

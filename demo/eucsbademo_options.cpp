@@ -5,6 +5,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <sstream>
+
+#include "sba_ext.h"
 
 namespace eucsba {
 
@@ -122,6 +125,20 @@ const OptionSpec kOptions[] = {
      "hold the last N of the distortion terms (kc0..kc4) fixed: 0 none, 1 kc4, 2 kc4 and kc3,\n"
      "3 kc4 kc3 kc2 (the default), 4 all but kc0, 5 all; used with distortion",
      [](DemoOptions &o, const std::string &v) { return parse_int(v, 0, 5, &o.ncdist); }},
+    {"solver", "NAME",
+     "linear solver of the augmented normal equations, one of those listed below (default:\n"
+     "the environment variable SBA_LINSOLVER if set, else chol as in sba 1.6; this option\n"
+     "overrides SBA_LINSOLVER)",
+     [](DemoOptions &o, const std::string &v) -> std::string {
+       if (!is_linsolver_name(v)) return std::string("expected one of: ") + sba_linsolver_names();
+       o.linsolver = v;
+       return {};
+     }},
+    {"threads", "N",
+     "threads for the normal equations and the Schur complement; 0 (the default): the\n"
+     "environment variable SBA_NUM_THREADS if set, else every hardware thread. The result\n"
+     "does not depend on it",
+     [](DemoOptions &o, const std::string &v) { return parse_int(v, 0, kMaxThreads, &o.nthreads); }},
     {"check-jacobian", nullptr,
      "run with itmax 0: the library compares the analytic Jacobian with finite differences\n"
      "and reports suspicious gradients on stderr",
@@ -168,6 +185,13 @@ const OptionSpec *find_option(const std::string &name) {
 }
 
 }  // namespace
+
+bool is_linsolver_name(const std::string &name) {
+  std::istringstream names(sba_linsolver_names());
+  for (std::string known; names >> known;)
+    if (known == name) return true;
+  return false;
+}
 
 bool parse_command_line(int argc, const char *const *argv, DemoOptions *options, std::string *error) {
   DemoOptions o;
@@ -257,6 +281,7 @@ void print_usage(std::FILE *out) {
       text += len + (nl ? 1 : 0);
     }
   }
+  std::fprintf(out, "\nLinear solvers (--solver): %s\n", sba_linsolver_names());
   std::fputs(
       "\n"
       "Output: a 'Starting BA ...' line on stderr, then the sba 1.6 summary on stdout.\n"

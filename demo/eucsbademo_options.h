@@ -28,6 +28,9 @@ struct DemoOptions {
   int mcon = 0, ncon = 0;       // leading cameras / points held fixed
   int nccalib = 2, ncdist = 3;  // trailing intrinsics / distortion terms held fixed
   bool check_jacobian = false;  // itmax 0: the library compares fjac with finite differences
+  std::string linsolver;        // one of sba_linsolver_names(); empty: the library's choice
+                                // (SBA_LINSOLVER if set, else chol)
+  int nthreads = 0;             // 0: the library's choice (SBA_NUM_THREADS, else all cores)
   std::string write_cams, write_pts, write_pts_tracks;  // empty: not written
   std::vector<std::string> files;  // cams.txt pts.txt [calib.txt]
   bool help = false, version = false;
@@ -36,6 +39,12 @@ struct DemoOptions {
 // Parses argv. On error returns false with a one-line message (no program name, no newline).
 // With --help or --version it returns true without requiring the file arguments.
 bool parse_command_line(int argc, const char *const *argv, DemoOptions *options, std::string *error);
+
+// Largest --threads value accepted.
+constexpr int kMaxThreads = 256;
+
+// True when name is one of the space-separated names of sba_linsolver_names().
+bool is_linsolver_name(const std::string &name);
 
 // The --help text.
 void print_usage(std::FILE *out);
