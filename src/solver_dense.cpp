@@ -7,6 +7,7 @@
 
 #include "lapack.h"
 #include "linsolve.h"
+#include "small_dense.h"
 
 namespace sba {
 namespace {
@@ -16,7 +17,7 @@ class DenseSchurSolver final : public StepSolver {
   DenseSchurSolver(LinSolver kind, const SolveContext &ctx)
       : kind_(kind), ctx_(ctx), nS_(i64(ctx.lay.free_cams()) * ctx.lay.cnp),
         Vinv_(size_t(i64(ctx.lay.n) * ctx.lay.pnp * ctx.lay.pnp)), S_(size_t(nS_ * nS_)),
-        rhs_(size_t(nS_)) {}
+        rhs_(size_t(nS_)), scale_(size_t(nS_)) {}
 
   bool solve(const NormalEquations &ne, double mu, double *dp) override {
     const Layout &lay = ctx_.lay;
@@ -53,35 +54,165 @@ class DenseSchurSolver final : public StepSolver {
       SBA_F77(dpotrs, DPOTRS)("L", &n, &one, S, &n, da, &n, &info, 1);
       return info == 0;
     }
+    // The other factorizations see D S D y = D rhs with D = diag(S)^-1/2, da = D y. Camera
+    // parameters of very different units (focal lengths in pixels, rotations in radians)
+    // make S badly scaled; Cholesky and LU do not mind, but the normal-equation QR squares
+    // the condition number, the SVD cut-off and CG's convergence depend on it.
+    std::vector<double> &d = scale_;
+    for (int r = 0; r < n; ++r) {
+      const double v = S[i64(r) * n + r];
+      if (!(v > 0.0)) return false;  // the damped S is positive definite
+      d[size_t(r)] = 1.0 / std::sqrt(v);
+    }
     for (int r = 0; r < n; ++r)
-      for (int c = r + 1; c < n; ++c) S[i64(c) * n + r] = S[i64(r) * n + c];
+      for (int c = r; c < n; ++c) {
+        const double v = S[i64(r) * n + c] * d[size_t(r)] * d[size_t(c)];
+        S[i64(r) * n + c] = S[i64(c) * n + r] = v;
+      }
     double *b = rhs_.data();
+    for (int r = 0; r < n; ++r) b[r] *= d[size_t(r)];
+    bool ok = false;
     switch (kind_) {
       case LinSolver::LDLt:
-        return sba_Axb_LDLt(S, b, da, n, 0) == 1;
+        ok = sba_Axb_LDLt(S, b, da, n, 0) == 1;
+        break;
       case LinSolver::BK:
-        return sba_Axb_BK(S, b, da, n, 0) == 1;
+        ok = sba_Axb_BK(S, b, da, n, 0) == 1;
+        break;
       case LinSolver::LU:
-        return sba_Axb_LU(S, b, da, n, 0) == 1;
+        ok = sba_Axb_LU(S, b, da, n, 0) == 1;
+        break;
       case LinSolver::QR:
-        return sba_Axb_QR(S, b, da, n, 0) == 1;
+        ok = sba_Axb_QR(S, b, da, n, 0) == 1;
+        break;
       case LinSolver::QRnoQ:
-        return sba_Axb_QRnoQ(S, b, da, n, 0) == 1;
+        ok = qr_seminormal(S, b, da, n);
+        break;
       case LinSolver::SVD:
-        return sba_Axb_SVD(S, b, da, n, 0) == 1;
+        ok = sba_Axb_SVD(S, b, da, n, 0) == 1;
+        break;
       case LinSolver::CG:
-        // Converged to well below the accuracy that the LM gain ratio can tell apart;
-        // 2n iterations leave room for rounding on ill-conditioned S.
-        return sba_Axb_CG(S, b, da, n, 10 * n, 1e-9, SBA_CG_JACOBI, 0) > 0;
+        ok = block_jacobi_cg(S, b, da, n);
+        break;
       default:
-        return false;
+        break;
     }
+    for (int r = 0; r < n; ++r) da[r] *= d[size_t(r)];
+    return ok;
+  }
+
+  // QR without Q: S = QR, so R^T R = S^T S and S x = b becomes R^T R x = S^T b (the
+  // semi-normal equations: Q is never formed). That squares S's condition number, which the
+  // varying-intrinsics problems cannot afford; corrected semi-normal-equation refinement
+  // (x += (R^T R)^-1 S^T (b - S x), while the residual keeps shrinking, at most 10 times)
+  // recovers the accuracy of QR itself.
+  bool qr_seminormal(const double *S, const double *b, double *x, int n) {
+    std::vector<double> &R = qr_;  // S is symmetric: row-major S is column-major S too
+    R.assign(S, S + size_t(n) * size_t(n));
+    std::vector<double> tau(static_cast<size_t>(n));
+    int info = 0, lwork = -1;
+    double wq = 0.0;
+    SBA_F77(dgeqrf, DGEQRF)(&n, &n, R.data(), &n, tau.data(), &wq, &lwork, &info);
+    lwork = std::max(int(wq), n);
+    std::vector<double> work(static_cast<size_t>(lwork));
+    SBA_F77(dgeqrf, DGEQRF)(&n, &n, R.data(), &n, tau.data(), work.data(), &lwork, &info);
+    if (info != 0) return false;
+    for (int k = 0; k < n; ++k)
+      if (!(R[size_t(k) * n + k] != 0.0)) return false;
+    const int one = 1;
+    // y = (R^T R)^-1 S^T v, in place in v's copy.
+    auto seminormal = [&](const double *v, double *y) {
+      for (int a = 0; a < n; ++a) {
+        double t = 0.0;
+        for (int c = 0; c < n; ++c) t += S[i64(c) * n + a] * v[c];
+        y[a] = t;
+      }
+      int inf = 0;
+      SBA_F77(dtrtrs, DTRTRS)("U", "T", "N", &n, &one, R.data(), &n, y, &n, &inf, 1, 1, 1);
+      SBA_F77(dtrtrs, DTRTRS)("U", "N", "N", &n, &one, R.data(), &n, y, &n, &inf, 1, 1, 1);
+    };
+    seminormal(b, x);
+    std::vector<double> res(static_cast<size_t>(n)), dx(static_cast<size_t>(n));
+    double last = HUGE_VAL;
+    for (int step = 0; step < 10; ++step) {
+      double rn = 0.0;
+      for (int a = 0; a < n; ++a) {
+        double t = b[a];
+        for (int c = 0; c < n; ++c) t -= S[i64(a) * n + c] * x[c];
+        res[size_t(a)] = t;
+        rn += t * t;
+      }
+      if (!(rn < 0.25 * last)) break;  // no longer converging: rounding level reached
+      last = rn;
+      seminormal(res.data(), dx.data());
+      for (int a = 0; a < n; ++a) x[a] += dx[size_t(a)];
+    }
+    for (int a = 0; a < n; ++a)
+      if (!std::isfinite(x[a])) return false;
+    return true;
+  }
+
+  // Conjugate gradients on the scaled S with the camera blocks as preconditioner. As an
+  // inexact Newton step it need not converge fully: every CG iterate from 0 lowers the
+  // quadratic model, so the LM gain ratio stays meaningful; it stops at a relative residual
+  // of 1e-10 or after 2n iterations, and fails only if S shows non-positive curvature.
+  bool block_jacobi_cg(const double *S, const double *b, double *x, int n) {
+    const int cnp = ctx_.lay.cnp, nb = n / cnp;
+    std::vector<double> &M = cg_blocks_;  // Cholesky factors of the diagonal blocks
+    M.resize(size_t(nb) * cnp * cnp);
+    for (int k = 0; k < nb; ++k) {
+      double *blk = M.data() + size_t(k) * cnp * cnp;
+      for (int a = 0; a < cnp; ++a)
+        for (int c = 0; c < cnp; ++c) blk[a * cnp + c] = S[i64(k * cnp + a) * n + k * cnp + c];
+      if (!small::chol(blk, cnp)) return false;
+    }
+    const size_t nn = static_cast<size_t>(n);
+    std::vector<double> r(b, b + n), z(nn), pv(nn), q(nn);
+    auto precondition = [&]() {
+      z = r;
+      for (int k = 0; k < nb; ++k) small::chol_solve(M.data() + size_t(k) * cnp * cnp, z.data() + k * cnp, cnp);
+    };
+    std::fill(x, x + n, 0.0);
+    double bnorm = 0.0;
+    for (int q0 = 0; q0 < n; ++q0) bnorm += b[q0] * b[q0];
+    bnorm = std::sqrt(bnorm);
+    if (bnorm == 0.0) return true;
+    precondition();
+    pv = z;
+    double rz = 0.0;
+    for (int q0 = 0; q0 < n; ++q0) rz += r[size_t(q0)] * z[size_t(q0)];
+    for (int it = 0; it < 2 * n; ++it) {
+      double pq = 0.0;
+      for (int a = 0; a < n; ++a) {
+        double t = 0.0;
+        const double *row = S + i64(a) * n;
+        for (int c = 0; c < n; ++c) t += row[c] * pv[size_t(c)];
+        q[size_t(a)] = t;
+        pq += pv[size_t(a)] * t;
+      }
+      if (!(pq > 0.0)) return it > 0;  // curvature lost to rounding: keep what we have
+      const double alpha = rz / pq;
+      double rnorm = 0.0;
+      for (int a = 0; a < n; ++a) {
+        x[a] += alpha * pv[size_t(a)];
+        r[size_t(a)] -= alpha * q[size_t(a)];
+        rnorm += r[size_t(a)] * r[size_t(a)];
+      }
+      if (std::sqrt(rnorm) <= 1e-10 * bnorm) break;
+      precondition();
+      double rz_new = 0.0;
+      for (int a = 0; a < n; ++a) rz_new += r[size_t(a)] * z[size_t(a)];
+      const double beta = rz_new / rz;
+      rz = rz_new;
+      for (int a = 0; a < n; ++a) pv[size_t(a)] = z[size_t(a)] + beta * pv[size_t(a)];
+    }
+    return true;
   }
 
   LinSolver kind_;
   SolveContext ctx_;
   i64 nS_;
-  std::vector<double> Vinv_, S_, rhs_;
+  std::vector<double> Vinv_, S_, rhs_, scale_, cg_blocks_, qr_;
 };
 
 }  // namespace
