@@ -91,6 +91,14 @@ struct sba_ext_options {
   double loss_scale;
   /* Where to report what the solve did (NULL: nowhere). */
   struct sba_ext_result *result;
+  /* Nonzero: the callbacks may be called from several threads at once (the nthreads of the
+   * solve), which also spreads their work over the threads. Only for callbacks that are
+   * re-entrant, keep no shared mutable state, and, for func/fjac, walk the index by rows
+   * (rowptr), writing only the projections of the rows it lists: each thread is handed an
+   * index whose other rows are empty. The finite-difference Jacobian then also evaluates
+   * its cnp + pnp perturbed vectors concurrently. 0 (default): callbacks are only ever
+   * called from the thread that called the driver, one at a time. */
+  int parallel_callbacks;
 };
 
 /* Fills *opt with the defaults (every field zero/NULL) and opt->size. */

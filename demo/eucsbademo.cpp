@@ -79,6 +79,8 @@ Outcome run(const Solve &s, Refinement refinement, int itmax) {
   sba_ext_options_init(&ext);
   if (!o.linsolver.empty()) ext.linsolver = o.linsolver.c_str();
   ext.nthreads = o.nthreads;
+  // The model's callbacks are re-entrant and walk the index by rows: let the threads share them.
+  ext.parallel_callbacks = 1;
 
   if (o.expert) {
     const ExpertCallbacks cb = expert_callbacks(s.model.kind(), refinement);

@@ -70,15 +70,20 @@ bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int 
                   int mnp, const sba_visibility &vis, std::string *msg);
 
 // The caller's projection function and (optionally) its Jacobian, over the whole vector.
+class ThreadPool;
+
 class Model {
  public:
   virtual ~Model() = default;
+  // The pool of the solve; callbacks are called from several of its threads at once only if
+  // the caller allowed it (sba_ext_options.parallel_callbacks). Null: the calling thread only.
+  virtual void use_threads(ThreadPool *pool) = 0;
   // hx = f(p), every visible projection in measurement order.
   virtual void eval(double *p, double *hx) = 0;
   virtual bool has_jacobian() const = 0;
   // jac = df/dp in the callback layout (per projection: A_ij then B_ij, row-major).
   virtual void jacobian(double *p, double *jac) = 0;
-  // Forward-difference Jacobian at p, given hx = f(p); p is restored exactly on return.
+  // Forward-difference Jacobian at p, given hx = f(p); p is not modified.
   // Returns the number of full-vector evaluations it cost (for info[7]).
   virtual i64 fd_jacobian(double *p, const double *hx, double *jac) = 0;
 };
@@ -87,7 +92,7 @@ class Model {
 using ExpertFunc = void (*)(double *p, sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx,
                             void *adata);
 std::unique_ptr<Model> make_expert_model(Layout &lay, ExpertFunc func, ExpertFunc fjac,
-                                         void *adata);
+                                         void *adata, bool concurrent);
 
 // The simple drivers' per-projection proj/projac, normalized to the motion+structure shape;
 // the adapters in drivers.cpp bridge the mot/str signatures onto it.
@@ -100,12 +105,9 @@ struct SimpleCallbacks {
   AnyFn user_projac;
   void *adata;
 };
-std::unique_ptr<Model> make_simple_model(const Layout &lay, const SimpleCallbacks &cb);
+std::unique_ptr<Model> make_simple_model(const Layout &lay, const SimpleCallbacks &cb,
+                                         bool concurrent);
 
-// Grouped forward differences (one evaluation per camera parameter and per point parameter,
-// all cameras / points perturbed together): what the expert drivers use without fjac.
-i64 fd_jacobian_grouped(const Layout &lay, Model &model, double *p, const double *hx,
-                        double *jac);
 
 // How the damped normal equations are solved (see linsolve.h).
 enum class LinSolver {
@@ -127,6 +129,7 @@ struct Options {
   double eps1 = SBA_STOP_THRESH, eps2 = SBA_STOP_THRESH, eps3 = SBA_STOP_THRESH, eps4 = 0.0;
   int itmax = 0;
   int nthreads = 1;
+  bool parallel_callbacks = false;  // the caller's callbacks may run concurrently
   Loss loss;  // robust loss on each projection's squared residual (none: least squares)
   // Called after every outer iteration; nonzero stops with kStopUser.
   int (*progress)(void *ctx, const sba_progress *state) = nullptr;
@@ -152,7 +155,6 @@ struct Summary {
 bool solve(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
            const Options &opt, const Logger &log, Summary &sum);
 
-class ThreadPool;
 class Kernels;
 
 // The normal equations at p, without iterating: for the covariance of the solution.

@@ -141,6 +141,7 @@ void make_options(const DriverArgs &a, const sba_ext_options &ext, const Logger 
   o->nthreads = std::max(1, threads);
   o->progress = ext.progress;
   o->progress_ctx = ext.progress_ctx;
+  o->parallel_callbacks = ext.parallel_callbacks != 0;
   if (ext.loss) {
     LossKind kind;
     if (!loss_from_name(ext.loss, &kind)) {
@@ -175,7 +176,7 @@ void write_result(const sba_ext_options &ext, const Options &opt, const Summary 
   std::memcpy(static_cast<void *>(ext.result), &r, n);
 }
 
-// make_model(Layout&) -> std::unique_ptr<Model>
+// make_model(Layout&, bool concurrent) -> std::unique_ptr<Model>
 template <class MakeModel>
 int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
   Summary sum;
@@ -193,7 +194,7 @@ int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
       sum.to_info(a.info);
       return SBA_ERROR;
     }
-    std::unique_ptr<Model> model = make_model(lay);
+    std::unique_ptr<Model> model = make_model(lay, ext.parallel_callbacks != 0);
     // itmax == 0: check the Jacobian; the solve below then only scores p (info[0] == info[1]).
     if (a.itmax == 0) {
       if (!model->has_jacobian())
@@ -258,7 +259,7 @@ int run_covariance(const DriverArgs &a, sba_covariance_request *user, MakeModel 
       log.error("%s: %s", a.name, msg.c_str());
       return SBA_ERROR;
     }
-    std::unique_ptr<Model> model = make_model(lay);
+    std::unique_ptr<Model> model = make_model(lay, ext.parallel_callbacks != 0);
     if (!covariance(lay, *model, a.p, a.x, a.covx, opt, log, req)) return SBA_ERROR;
     user->sigma2 = req.sigma2;
     user->rank = req.rank;
@@ -311,7 +312,7 @@ int run_simple(const DriverArgs &a, Proj proj, Jac projac, void *adata,
                decltype(SimpleCallbacks::proj) tproj, decltype(SimpleCallbacks::projac) tjac) {
   const SimpleCallbacks cb = simple_callbacks(reinterpret_cast<AnyFn>(proj),
                                               reinterpret_cast<AnyFn>(projac), adata, tproj, tjac);
-  return run_driver(a, [&](Layout &lay) { return make_simple_model(lay, cb); });
+  return run_driver(a, [&](Layout &lay, bool conc) { return make_simple_model(lay, cb, conc); });
 }
 
 }  // namespace
@@ -349,7 +350,7 @@ int sba_motstr_covariance_x(const int n, const int ncon, const int m, const int 
   const DriverArgs a{"sba_motstr_covariance_x", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp, vmask,
                      p, x, covx, func != nullptr, 1, 0, nullptr, nullptr, ext};
   return sba::run_covariance(
-      a, req, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+      a, req, [&](sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
 }
 
 int sba_motstr_covariance(const int n, const int ncon, const int m, const int mcon, char *vmask,
@@ -362,7 +363,7 @@ int sba_motstr_covariance(const int n, const int ncon, const int m, const int mc
       sba::simple_callbacks(reinterpret_cast<sba::AnyFn>(proj), reinterpret_cast<sba::AnyFn>(projac),
                             adata, sba::motstr_proj, sba::motstr_jac);
   return sba::run_covariance(a, req,
-                             [&](sba::Layout &lay) { return sba::make_simple_model(lay, cb); });
+                             [&](sba::Layout &lay, bool conc) { return sba::make_simple_model(lay, cb, conc); });
 }
 
 int sba_motstr_levmar_x_ext(const int n, const int ncon, const int m, const int mcon, char *vmask,
@@ -373,7 +374,7 @@ int sba_motstr_levmar_x_ext(const int n, const int ncon, const int m, const int 
   const DriverArgs a{"sba_motstr_levmar_x", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp, vmask, p,
                      x, covx, func != nullptr, itmax, verbose, opts, info, ext};
   return sba::run_driver(
-      a, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+      a, [&](sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
 }
 
 int sba_mot_levmar_x_ext(const int n, const int m, const int mcon, char *vmask, double *p,
@@ -384,7 +385,7 @@ int sba_mot_levmar_x_ext(const int n, const int m, const int mcon, char *vmask, 
   const DriverArgs a{"sba_mot_levmar_x", Mode::Mot, n, 0, m, mcon, cnp, 0, mnp, vmask, p,
                      x, covx, func != nullptr, itmax, verbose, opts, info, ext};
   return sba::run_driver(
-      a, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+      a, [&](sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
 }
 
 int sba_str_levmar_x_ext(const int n, const int ncon, const int m, char *vmask, double *p,
@@ -395,7 +396,7 @@ int sba_str_levmar_x_ext(const int n, const int ncon, const int m, char *vmask, 
   const DriverArgs a{"sba_str_levmar_x", Mode::Str, n, ncon, m, 0, 0, pnp, mnp, vmask, p,
                      x, covx, func != nullptr, itmax, verbose, opts, info, ext};
   return sba::run_driver(
-      a, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+      a, [&](sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
 }
 
 int sba_motstr_levmar_ext(const int n, const int ncon, const int m, const int mcon, char *vmask,
@@ -438,7 +439,7 @@ int sba_motstr_levmar_x_vis(const int n, const int ncon, const int m, const int 
                      nullptr, p, x, covx, func != nullptr, itmax, verbose, opts, info, ext, true,
                      vis};
   return sba::run_driver(
-      a, [&](sba::Layout &lay) { return sba::make_expert_model(lay, func, fjac, adata); });
+      a, [&](sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
 }
 
 int sba_motstr_levmar_vis(const int n, const int ncon, const int m, const int mcon,

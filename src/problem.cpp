@@ -5,6 +5,7 @@
 #include <string>
 
 #include "core.h"
+#include "parallel.h"
 
 namespace sba {
 
@@ -126,68 +127,169 @@ namespace {
 
 double fd_step(double v) { return std::max(SBA_DELTA_SCALE * std::fabs(v), SBA_MIN_DELTA); }
 
+// Rows [rows[t], rows[t+1]) of the index for thread slot t: equal numbers of projections.
+std::vector<int> split_rows(const Layout &lay, int parts) {
+  std::vector<int> rows(size_t(parts) + 1, lay.n);
+  rows[0] = 0;
+  int t = 1;
+  for (int i = 0; i < lay.n && t < parts; ++i)
+    while (t < parts && lay.rowptr[size_t(i) + 1] >= lay.nvis * t / parts) rows[size_t(t++)] = i + 1;
+  return rows;
+}
+
 class ExpertModel final : public Model {
  public:
-  ExpertModel(Layout &lay, ExpertFunc func, ExpertFunc fjac, void *adata)
-      : lay_(lay), func_(func), fjac_(fjac), adata_(adata) {}
+  ExpertModel(Layout &lay, ExpertFunc func, ExpertFunc fjac, void *adata, bool concurrent)
+      : lay_(lay), func_(func), fjac_(fjac), adata_(adata), concurrent_(concurrent) {}
 
-  void eval(double *p, double *hx) override {
-    func_(p, &lay_.idx, lay_.rcidxs.data(), lay_.rcsubs.data(), hx, adata_);
+  void use_threads(ThreadPool *pool) override {
+    pool_ = concurrent_ && pool && pool->size() > 1 ? pool : nullptr;
+    if (!pool_) return;
+    // One index per thread that shows only its rows (the others are empty rows), so that a
+    // callback walking the index by rows computes exactly its share; plus its own scratch.
+    const int T = pool_->size();
+    const std::vector<int> rows = split_rows(lay_, T);
+    parts_.assign(size_t(T), Part{});
+    for (int t = 0; t < T; ++t) {
+      Part &part = parts_[size_t(t)];
+      part.rowptr.resize(size_t(lay_.n) + 1);
+      const int lo = lay_.rowptr[size_t(rows[size_t(t)])], hi = lay_.rowptr[size_t(rows[size_t(t) + 1])];
+      for (int i = 0; i <= lay_.n; ++i) part.rowptr[size_t(i)] = std::min(std::max(lay_.rowptr[size_t(i)], lo), hi);
+      part.idx = lay_.idx;
+      part.idx.rowptr = part.rowptr.data();
+      part.rcidxs.assign(lay_.rcidxs.size(), 0);
+      part.rcsubs.assign(lay_.rcsubs.size(), 0);
+    }
   }
+
+  void eval(double *p, double *hx) override { call(func_, p, hx); }
   bool has_jacobian() const override { return fjac_ != nullptr; }
-  void jacobian(double *p, double *jac) override {
-    fjac_(p, &lay_.idx, lay_.rcidxs.data(), lay_.rcsubs.data(), jac, adata_);
-  }
+  void jacobian(double *p, double *jac) override { call(fjac_, p, jac); }
+  // Grouped forward differences: perturbing parameter l of every free camera at once is exact
+  // for that column group because projection (i,j) depends on camera j alone; likewise for
+  // points. So cnp + pnp evaluations give the whole Jacobian. Each is made on a private copy
+  // of p (the caller's is never touched), and with concurrent calls allowed the groups are
+  // spread over the threads.
   i64 fd_jacobian(double *p, const double *hx, double *jac) override {
-    return fd_jacobian_grouped(lay_, *this, p, hx, jac);
+    const Layout &lay = lay_;
+    const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp, jblk = lay.jblk();
+    std::fill(jac, jac + lay.nvis * jblk, 0.0);
+    const int ncam = lay.free_cams() > 0 ? cnp : 0, npt = lay.free_pts() > 0 ? pnp : 0;
+    const int groups = ncam + npt, T = pool_ ? pool_->size() : 1;
+    auto work = [&](int t) {
+      std::vector<double> pg(p, p + lay.nvars()), hxp(size_t(lay.nvis * mnp));
+      for (int g = t; g < groups; g += T) {
+        const bool cams = g < ncam;
+        const int l = cams ? g : g - ncam;
+        const int first = cams ? lay.mcon : lay.ncon, last = cams ? lay.m : lay.n;
+        auto at = [&](int o) { return cams ? lay.a_off(o) + l : lay.b_off(o) + l; };
+        for (int o = first; o < last; ++o) pg[size_t(at(o))] += fd_step(p[at(o)]);
+        func_(pg.data(), &lay_.idx, scratch(t).rcidxs.data(), scratch(t).rcsubs.data(),
+              hxp.data(), adata_);
+        for (int o = first; o < last; ++o) pg[size_t(at(o))] = p[at(o)];
+        for (int i = 0; i < lay.n; ++i)
+          for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+            const int o = cams ? lay.colidx[k] : i;
+            if (o < first) continue;
+            const double d = fd_step(p[at(o)]);
+            double *col = jac + i64(k) * jblk + (cams ? l : mnp * cnp + l);
+            const int stride = cams ? cnp : pnp;
+            for (int r = 0; r < mnp; ++r)
+              col[r * stride] = (hxp[size_t(i64(k) * mnp + r)] - hx[i64(k) * mnp + r]) / d;
+          }
+      }
+    };
+    if (pool_)
+      pool_->run(work);
+    else
+      work(0);
+    return groups;
   }
 
  private:
+  struct Part {
+    std::vector<int> rowptr, rcidxs, rcsubs;
+    sba_crsm idx{};
+  };
+  struct Scratch {
+    std::vector<int> &rcidxs, &rcsubs;
+  };
+  Scratch scratch(int t) {
+    if (!pool_) return Scratch{lay_.rcidxs, lay_.rcsubs};
+    return Scratch{parts_[size_t(t)].rcidxs, parts_[size_t(t)].rcsubs};
+  }
+
+  void call(ExpertFunc f, double *p, double *out) {
+    if (!pool_) {
+      f(p, &lay_.idx, lay_.rcidxs.data(), lay_.rcsubs.data(), out, adata_);
+      return;
+    }
+    pool_->run([&](int t) {
+      Part &part = parts_[size_t(t)];
+      f(p, &part.idx, part.rcidxs.data(), part.rcsubs.data(), out, adata_);
+    });
+  }
+
   Layout &lay_;
   ExpertFunc func_, fjac_;
   void *adata_;
+  bool concurrent_;
+  ThreadPool *pool_ = nullptr;
+  std::vector<Part> parts_;
 };
 
 class SimpleModel final : public Model {
  public:
-  SimpleModel(const Layout &lay, const SimpleCallbacks &cb) : lay_(lay), cb_(cb) {}
+  SimpleModel(const Layout &lay, const SimpleCallbacks &cb, bool concurrent)
+      : lay_(lay), cb_(cb), concurrent_(concurrent) {}
+
+  void use_threads(ThreadPool *pool) override {
+    pool_ = concurrent_ && pool && pool->size() > 1 ? pool : nullptr;
+    rows_ = split_rows(lay_, pool_ ? pool_->size() : 1);
+  }
 
   void eval(double *p, double *hx) override {
-    for (int i = 0; i < lay_.n; ++i)
+    points([&](int, int i) {
       for (int k = lay_.rowptr[i]; k < lay_.rowptr[i + 1]; ++k) {
         const int j = lay_.colidx[k];
         cb_.proj(cb_, j, i, aj(p, j), bi(p, i), hx + i64(k) * lay_.mnp);
       }
+    });
   }
   bool has_jacobian() const override { return cb_.projac != nullptr; }
   void jacobian(double *p, double *jac) override {
     const int asz = lay_.mnp * lay_.cnp;
-    for (int i = 0; i < lay_.n; ++i)
+    points([&](int, int i) {
       for (int k = lay_.rowptr[i]; k < lay_.rowptr[i + 1]; ++k) {
         const int j = lay_.colidx[k];
         double *blk = jac + i64(k) * lay_.jblk();
         cb_.projac(cb_, j, i, aj(p, j), bi(p, i), blk, blk + asz);
       }
+    });
   }
   // A projection depends only on its own camera and point, so each is differenced against
-  // those blocks alone: cnp + pnp proj calls per projection.
+  // those blocks alone: cnp + pnp proj calls per projection. The perturbations are made in
+  // copies of a_j and b_i: other threads may be reading the same camera.
   i64 fd_jacobian(double *p, const double *hx, double *jac) override {
     const int mnp = lay_.mnp, cnp = lay_.cnp, pnp = lay_.pnp;
-    std::vector<double> xp(static_cast<size_t>(mnp));
-    for (int i = 0; i < lay_.n; ++i)
+    const size_t T = rows_.size() - 1;
+    std::vector<std::vector<double>> scratch(T, std::vector<double>(size_t(mnp + cnp + pnp)));
+    points([&](int t, int i) {
+      double *xp = scratch[size_t(t)].data(), *a = xp + mnp, *b = a + cnp;
       for (int k = lay_.rowptr[i]; k < lay_.rowptr[i + 1]; ++k) {
         const int j = lay_.colidx[k];
-        double *a = aj(p, j), *b = bi(p, i);
+        if (cnp) std::copy_n(p + lay_.a_off(j), cnp, a);
+        if (pnp) std::copy_n(p + lay_.b_off(i), pnp, b);
         const double *x0 = hx + i64(k) * mnp;
         double *blk = jac + i64(k) * lay_.jblk();
         std::fill(blk, blk + lay_.jblk(), 0.0);
         if (lay_.cam_free(j))
-          for (int l = 0; l < cnp; ++l)
-            diff_column(j, i, a, b, a + l, x0, xp.data(), blk + l, cnp);
+          for (int l = 0; l < cnp; ++l) diff_column(j, i, a, b, a + l, x0, xp, blk + l, cnp);
         if (lay_.pt_free(i))
           for (int l = 0; l < pnp; ++l)
-            diff_column(j, i, a, b, b + l, x0, xp.data(), blk + mnp * cnp + l, pnp);
+            diff_column(j, i, a, b, b + l, x0, xp, blk + mnp * cnp + l, pnp);
       }
+    });
     return i64(lay_.free_cams() > 0 ? cnp : 0) + (lay_.free_pts() > 0 ? pnp : 0);
   }
 
@@ -195,77 +297,45 @@ class SimpleModel final : public Model {
   double *aj(double *p, int j) const { return lay_.cnp ? p + lay_.a_off(j) : nullptr; }
   double *bi(double *p, int i) const { return lay_.pnp ? p + lay_.b_off(i) : nullptr; }
 
-  // One Jacobian column of one projection by a forward difference in *v.
+  // fn(t, i) for every point, over the threads when the caller allowed concurrent calls.
+  template <class Fn>
+  void points(Fn fn) {
+    if (!pool_) {
+      for (int i = 0; i < lay_.n; ++i) fn(0, i);
+      return;
+    }
+    pool_->run([&](int t) {
+      for (int i = rows_[size_t(t)]; i < rows_[size_t(t) + 1]; ++i) fn(t, i);
+    });
+  }
+
+  // One Jacobian column of one projection by a forward difference in *v (a copy).
   void diff_column(int j, int i, double *a, double *b, double *v, const double *x0, double *xp,
                    double *col, int stride) {
     const double saved = *v, d = fd_step(saved);
     *v = saved + d;
-    cb_.proj(cb_, j, i, a, b, xp);
+    cb_.proj(cb_, j, i, lay_.cnp ? a : nullptr, lay_.pnp ? b : nullptr, xp);
     *v = saved;
     for (int r = 0; r < lay_.mnp; ++r) col[r * stride] = (xp[r] - x0[r]) / d;
   }
 
   const Layout &lay_;
   SimpleCallbacks cb_;
+  bool concurrent_;
+  ThreadPool *pool_ = nullptr;
+  std::vector<int> rows_{0, 0};
 };
 
 }  // namespace
 
 std::unique_ptr<Model> make_expert_model(Layout &lay, ExpertFunc func, ExpertFunc fjac,
-                                         void *adata) {
-  return std::make_unique<ExpertModel>(lay, func, fjac, adata);
+                                         void *adata, bool concurrent) {
+  return std::make_unique<ExpertModel>(lay, func, fjac, adata, concurrent);
 }
 
-std::unique_ptr<Model> make_simple_model(const Layout &lay, const SimpleCallbacks &cb) {
-  return std::make_unique<SimpleModel>(lay, cb);
-}
-
-i64 fd_jacobian_grouped(const Layout &lay, Model &model, double *p, const double *hx,
-                        double *jac) {
-  const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp, jblk = lay.jblk();
-  std::fill(jac, jac + lay.nvis * jblk, 0.0);
-  std::vector<double> hxp(size_t(lay.nvis * mnp));
-  std::vector<double> saved(size_t(std::max(lay.n, lay.m))), delta(saved.size());
-  i64 evals = 0;
-
-  // Perturbing parameter l of every free camera at once is exact for a Jacobian column
-  // group because projection (i,j) depends on camera j alone; likewise for points.
-  for (int l = 0; l < cnp && lay.free_cams() > 0; ++l) {
-    for (int j = lay.mcon; j < lay.m; ++j) {
-      double &v = p[lay.a_off(j) + l];
-      saved[j] = v;
-      delta[j] = fd_step(v);
-      v += delta[j];
-    }
-    model.eval(p, hxp.data());
-    ++evals;
-    for (int j = lay.mcon; j < lay.m; ++j) p[lay.a_off(j) + l] = saved[j];
-    for (i64 k = 0; k < lay.nvis; ++k) {
-      const int j = lay.colidx[k];
-      if (j < lay.mcon) continue;
-      double *col = jac + k * jblk + l;
-      for (int r = 0; r < mnp; ++r)
-        col[r * cnp] = (hxp[k * mnp + r] - hx[k * mnp + r]) / delta[j];
-    }
-  }
-  for (int l = 0; l < pnp && lay.free_pts() > 0; ++l) {
-    for (int i = lay.ncon; i < lay.n; ++i) {
-      double &v = p[lay.b_off(i) + l];
-      saved[i] = v;
-      delta[i] = fd_step(v);
-      v += delta[i];
-    }
-    model.eval(p, hxp.data());
-    ++evals;
-    for (int i = lay.ncon; i < lay.n; ++i) p[lay.b_off(i) + l] = saved[i];
-    for (int i = lay.ncon; i < lay.n; ++i)
-      for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
-        double *col = jac + i64(k) * jblk + mnp * cnp + l;
-        for (int r = 0; r < mnp; ++r)
-          col[r * pnp] = (hxp[i64(k) * mnp + r] - hx[i64(k) * mnp + r]) / delta[i];
-      }
-  }
-  return evals;
+std::unique_ptr<Model> make_simple_model(const Layout &lay, const SimpleCallbacks &cb,
+                                         bool concurrent) {
+  return std::make_unique<SimpleModel>(lay, cb, concurrent);
 }
 
 void Summary::to_info(double *info) const {
