@@ -6,6 +6,7 @@
 #ifndef SBA_SRC_KERNELS_H
 #define SBA_SRC_KERNELS_H
 
+#include <algorithm>
 #include <memory>
 #include <vector>
 
@@ -27,7 +28,11 @@ struct BlockMap {
   const int *rows = nullptr;
   const i64 *colstart = nullptr;
 
-  double *block(int j, int k) const;
+  double *block(int j, int k) const {
+    if (!rows) return base + i64(j) * cnp * ld + i64(k) * cnp;
+    const int *first = rows + colstart[k], *last = rows + colstart[k + 1];
+    return base + i64(std::lower_bound(first, last, j) - rows) * cnp * cnp;
+  }
 };
 
 class Kernels {

@@ -176,23 +176,17 @@ void weight_jacobian(ThreadPool &pool, const Layout &lay, const double *wts, dou
   });
 }
 
-// A Jacobian entry that is not finite makes every later number meaningless. Only the blocks
-// of free cameras and points are looked at: the others are ignored by definition.
-bool jacobian_finite(ThreadPool &pool, const Layout &lay, const double *jac) {
-  const i64 asz = i64(lay.mnp) * lay.cnp, bsz = i64(lay.mnp) * lay.pnp;
-  std::vector<char> ok(size_t(pool.size()), 1);
-  pool.for_range_t(lay.n, [&](int t, i64 b, i64 end) {
-    for (i64 i = b; i < end; ++i)
-      for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
-        const double *J = jac + i64(k) * lay.jblk();
-        if ((lay.cam_free(lay.colidx[k]) && !all_finite(J, asz)) ||
-            (lay.pt_free(int(i)) && !all_finite(J + asz, bsz))) {
-          ok[size_t(t)] = 0;
-          return;
-        }
-      }
-  });
-  return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
+// A Jacobian entry that is not finite makes every later number meaningless. Rather than
+// scanning the whole Jacobian, look at the normal equations: every entry of a free camera's
+// or point's block appears squared on the diagonal of its U_j or V_i (fixed blocks are
+// ignored by definition), so a NaN or Inf there always shows up in U, V, e_a or e_b.
+bool normal_equations_finite(ThreadPool &pool, const Layout &lay, const Workspace &w) {
+  const i64 c2 = i64(lay.cnp) * lay.cnp, p2 = i64(lay.pnp) * lay.pnp;
+  const i64 fc = lay.free_cams(), fp = lay.free_pts();
+  return all_finite(pool, w.U.data() + lay.mcon * c2, fc * c2) &&
+         all_finite(pool, w.ea.data() + lay.mcon * i64(lay.cnp), fc * lay.cnp) &&
+         all_finite(pool, w.V.data() + lay.ncon * p2, fp * p2) &&
+         all_finite(pool, w.eb.data() + lay.ncon * i64(lay.pnp), fp * lay.pnp);
 }
 
 // max |g| and max diag(J^T J) over the free cameras and points.
@@ -242,14 +236,14 @@ bool linearize(const Layout &lay, Model &model, double *p, const double *x, cons
     model.jacobian(p, w.jac.data());
   else
     model.fd_jacobian(p, w.hx.data(), w.jac.data());
-  if (!jacobian_finite(pool, lay, w.jac.data())) {
-    log.error("sba: the Jacobian has a NaN or Inf entry");
-    return false;
-  }
   if (wts) weight_jacobian(pool, lay, wts, w.jac.data());
   if (opt.loss.robust()) reweight(pool, lay, w.rw.data(), w.e.data(), w.jac.data(), w.er.data());
   kernels.normal_equations(pool, w.jac.data(), opt.loss.robust() ? w.er.data() : w.e.data(),
                            w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
+  if (!normal_equations_finite(pool, lay, w)) {
+    log.error("sba: the Jacobian has a NaN or Inf entry (or overflows)");
+    return false;
+  }
   out->jac.swap(w.jac);
   out->U.swap(w.U);
   out->V.swap(w.V);
@@ -316,15 +310,15 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
       sum.nfev += model.fd_jacobian(p, w.hx.data(), w.jac.data());
     }
     ++sum.njev;
-    if (!jacobian_finite(pool, lay, w.jac.data())) {
-      log.error("sba: the Jacobian has a NaN or Inf entry at iteration %d", it);
-      record(kStopNonFinite, it);
-      return false;
-    }
     if (wts) weight_jacobian(pool, lay, wts, w.jac.data());
     if (loss.robust()) reweight(pool, lay, w.rw.data(), w.e.data(), w.jac.data(), w.er.data());
     kernels->normal_equations(pool, w.jac.data(), loss.robust() ? w.er.data() : w.e.data(),
                               w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
+    if (!normal_equations_finite(pool, lay, w)) {
+      log.error("sba: the Jacobian has a NaN or Inf entry (or overflows) at iteration %d", it);
+      record(kStopNonFinite, it);
+      return false;
+    }
     gradient_stats(lay, w, &sum.grad_inf, &maxdiag);
     if (it == 0) mu = opt.tau * maxdiag;
 

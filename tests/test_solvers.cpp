@@ -332,3 +332,21 @@ TEST(ParallelCallbacks, SameBitsAsSerialCallsForEveryDriverKind) {
 }
 
 }  // namespace
+
+namespace {
+
+// The AVX2+FMA build of the block kernels (chosen on CPUs that have them) and the portable
+// one round differently but solve the same problem: the same minimum.
+TEST(Kernels, PortableAndCpuSpecificBuildsReachTheSameMinimum) {
+  synth::Problem pb = synth::make(150, 8, 0.5, 0.05, 43);
+  const Outcome native = solve_with(pb, "chol");
+  ASSERT_EQ(setenv("SBA_KERNELS", "portable", 1), 0);
+  const Outcome portable = solve_with(pb, "chol");
+  unsetenv("SBA_KERNELS");
+  ASSERT_GT(native.ret, 0);
+  ASSERT_GT(portable.ret, 0);
+  EXPECT_NEAR(portable.info[1] / native.info[1], 1.0, 1e-10);
+  for (size_t q = 0; q < native.p.size(); ++q) EXPECT_NEAR(portable.p[q], native.p[q], 1e-6) << q;
+}
+
+}  // namespace

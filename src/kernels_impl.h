@@ -1,0 +1,337 @@
+// The block kernels' implementation, compiled twice: by kernels.cpp for any x86-64 (and other
+// targets), and by kernels_avx2.cpp with AVX2 and FMA enabled, each into its own namespace
+// SBA_KERNELS_NS. make_kernels picks the build the CPU can run.
+#ifndef SBA_KERNELS_NS
+#error "define SBA_KERNELS_NS before including kernels_impl.h"
+#endif
+
+#include <algorithm>
+#include <cmath>
+
+#include "kernels.h"
+#include "linsolve.h"
+#include "small_dense.h"
+
+namespace sba {
+namespace SBA_KERNELS_NS {
+namespace {
+
+// y[0..n) += s * x[0..n): the innermost step of every kernel below, over a contiguous row so
+// that it vectorizes; N > 0 fixes n at compile time.
+template <int N>
+inline __attribute__((always_inline)) void axpy(int n, double s, const double *__restrict x,
+                                                double *__restrict y) {
+  if constexpr (N > 0) {
+#pragma GCC unroll 16
+    for (int c = 0; c < N; ++c) y[c] += s * x[c];
+  } else {
+    for (int c = 0; c < n; ++c) y[c] += s * x[c];
+  }
+}
+
+// y[0..n) = s * x[0..n).
+template <int N>
+inline __attribute__((always_inline)) void scale_row(int n, double s, const double *__restrict x,
+                                                     double *__restrict y) {
+  if constexpr (N > 0) {
+#pragma GCC unroll 16
+    for (int c = 0; c < N; ++c) y[c] = s * x[c];
+  } else {
+    for (int c = 0; c < n; ++c) y[c] = s * x[c];
+  }
+}
+
+// S_jk -= Y_ij W_ik^T for one pair of a track, with Y and W given transposed (pnp x n): row a
+// of S_jk loses sum_d Y^T[d][a] W^T[d][.]. W^T is loaded into locals once and every row is
+// accumulated in a local array, so the compiler sees no aliasing and keeps them in vector
+// registers.
+template <int N, int D>
+inline __attribute__((always_inline)) void pair_update(int n, int pn, const double *Yt,
+                                                       const double *Wt, double *S, i64 ld) {
+  if constexpr (N > 0 && D > 0) {
+    double w[D][N];
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d)
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) w[d][c] = Wt[d * N + c];
+#pragma GCC unroll 16
+    for (int a = 0; a < N; ++a) {
+      double acc[N];
+      double *row = S + a * ld;
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) acc[c] = row[c];
+#pragma GCC unroll 4
+      for (int d = 0; d < D; ++d) {
+        const double y = Yt[d * N + a];
+#pragma GCC unroll 16
+        for (int c = 0; c < N; ++c) acc[c] -= y * w[d][c];
+      }
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) row[c] = acc[c];
+    }
+  } else {
+    for (int a = 0; a < n; ++a)
+      for (int d = 0; d < pn; ++d) {
+        const double y = Yt[d * n + a];
+        for (int c = 0; c < n; ++c) S[a * ld + c] -= y * Wt[d * n + c];
+      }
+  }
+}
+
+// G += X^T X and g += X^T e for one projection's mnp x n block X (row-major): the
+// contribution of one measurement to U_j, e_a,j (X = A_ij) or to V_i, e_b,i (X = B_ij).
+template <int N>
+inline __attribute__((always_inline)) void gram_update(int mn, int n, const double *X,
+                                                       const double *e, double *G, double *g) {
+  if constexpr (N > 0) {
+    for (int r = 0; r < mn; ++r) {
+      double x[N];
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) x[c] = X[r * N + c];
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) g[c] += e[r] * x[c];
+#pragma GCC unroll 16
+      for (int a = 0; a < N; ++a) {
+        double row[N];
+#pragma GCC unroll 16
+        for (int c = 0; c < N; ++c) row[c] = G[a * N + c] + x[a] * x[c];
+#pragma GCC unroll 16
+        for (int c = 0; c < N; ++c) G[a * N + c] = row[c];
+      }
+    }
+  } else {
+    for (int r = 0; r < mn; ++r) {
+      const double *x = X + r * n;
+      for (int c = 0; c < n; ++c) g[c] += e[r] * x[c];
+      for (int a = 0; a < n; ++a)
+        for (int c = 0; c < n; ++c) G[a * n + c] += x[a] * x[c];
+    }
+  }
+}
+
+// Block sizes as template arguments (0: take the run-time value), so that the loops of the
+// common sizes are fully unrolled and vectorized. Blocks that the Schur assembly multiplies
+// are kept transposed (pnp x cnp) so that every inner loop runs along a cnp-long row.
+template <int M, int C, int P>
+class KernelsT final : public Kernels {
+ public:
+  KernelsT(const Layout &lay, int threads) : lay_(lay) {
+    int maxtrack = 0;
+    for (int i = 0; i < lay.n; ++i) maxtrack = std::max(maxtrack, lay.rowptr[i + 1] - lay.rowptr[i]);
+    scratch_.resize(size_t(std::max(threads, 1)));
+    for (Scratch &s : scratch_) {
+      s.Wt.resize(size_t(maxtrack) * size_t(cnp()) * size_t(pnp()) + 1);
+      s.Yt.resize(s.Wt.size());
+      s.blk.resize(size_t(pnp()) * size_t(pnp()) + size_t(std::max(cnp(), pnp())) + size_t(mnp()));
+    }
+    split_columns(std::max(threads, 1));
+  }
+
+  int mnp() const { return M ? M : lay_.mnp; }
+  int cnp() const { return C ? C : lay_.cnp; }
+  int pnp() const { return P ? P : lay_.pnp; }
+
+  void normal_equations(ThreadPool &pool, const double *jac, const double *e, double *U, double *V,
+                        double *ea, double *eb) const override {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
+    if (cn > 0) {
+      pool.for_range(lay.m - lay.mcon, [&](i64 b, i64 end) {
+        for (i64 j = b + lay.mcon; j < end + lay.mcon; ++j) {
+          double *__restrict Uj = U + j * cn * cn, *__restrict eaj = ea + j * cn;
+          std::fill(Uj, Uj + cn * cn, 0.0);
+          std::fill(eaj, eaj + cn, 0.0);
+          // Points ascending: the order of the terms is fixed by the index alone. Whole
+          // rows are accumulated (U_j[a][c] and U_j[c][a] get the same products in the same
+          // order, so U_j comes out exactly symmetric).
+          for (int s = lay.colptr[j]; s < lay.colptr[j + 1]; ++s) {
+            const i64 k = lay.colk[s];
+            gram_update<C>(mn, cn, jac + k * jb, e + k * mn, Uj, eaj);
+          }
+        }
+      });
+    }
+    if (pn > 0) {
+      pool.for_range(lay.n - lay.ncon, [&](i64 b, i64 end) {
+        for (i64 i = b + lay.ncon; i < end + lay.ncon; ++i) {
+          double *__restrict Vi = V + i * pn * pn, *__restrict ebi = eb + i * pn;
+          std::fill(Vi, Vi + pn * pn, 0.0);
+          std::fill(ebi, ebi + pn, 0.0);
+          for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
+            gram_update<P>(mn, pn, jac + i64(k) * jb + mn * cn, e + i64(k) * mn, Vi, ebi);
+        }
+      });
+    }
+  }
+
+  bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const override {
+    const int pn = pnp();
+    std::vector<char> ok(scratch_.size(), 1);
+    pool.for_range_t(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
+      double *blk = scratch_[size_t(t)].blk.data();
+      for (i64 i = b + lay_.ncon; i < end + lay_.ncon; ++i) {
+        const double *Vi = V + i * pn * pn;
+        for (int a = 0; a < pn * pn; ++a) blk[a] = Vi[a];
+        for (int a = 0; a < pn; ++a) blk[a * pn + a] += mu;
+        if (!small::spd_inverse<P>(blk, Vinv + i * pn * pn, pn)) {
+          ok[size_t(t)] = 0;
+          return;
+        }
+      }
+    });
+    return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
+  }
+
+  void assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
+                const BlockMap &S, double *rhs) const override {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
+    const int cp = cn * pn;
+    const i64 ld = S.ld;
+    // Each thread owns a range of block columns [k0, k1) of S and of rhs's camera blocks,
+    // and adds the contributions of the points to them in ascending point order.
+    auto body = [&](int t) {
+      const int k0 = split_[size_t(t)], k1 = split_[size_t(t) + 1];
+      if (k0 >= k1) return;
+      Scratch &sc = scratch_[size_t(t)];
+      for (int k = k0; k < k1; ++k) {
+        double *Skk = S.block(k, k);
+        const double *Uk = ne.U + i64(k + lay.mcon) * cn * cn;
+        for (int a = 0; a < cn; ++a) {
+          for (int c = 0; c < cn; ++c) Skk[a * ld + c] = Uk[a * cn + c];
+          Skk[a * ld + a] += mu;
+        }
+        const double *eak = ne.ea + i64(k + lay.mcon) * cn;
+        for (int a = 0; a < cn; ++a) rhs[i64(k) * cn + a] = eak[a];
+      }
+      for (int i = lay.ncon; i < lay.n; ++i) {
+        const int r0 = lay.rowptr[i], r1 = lay.rowptr[i + 1];
+        int f = r0;  // first free camera of the track (fixed ones come first)
+        while (f < r1 && lay.colidx[f] < lay.mcon) ++f;
+        int lo = f;  // first track entry in [k0, k1)
+        while (lo < r1 && lay.colidx[lo] - lay.mcon < k0) ++lo;
+        if (lo == r1 || lay.colidx[lo] - lay.mcon >= k1) continue;
+        int hi = lo;  // one past the last track entry in [k0, k1)
+        while (hi < r1 && lay.colidx[hi] - lay.mcon < k1) ++hi;
+        const double *Vi = Vinv + i64(i) * pn * pn;
+        const double *ebi = ne.eb + i64(i) * pn;
+        // W_ij^T = B^T A and Y_ij^T = V*_i^-1 W_ij^T for the track up to this range's end.
+        for (int q = f; q < hi; ++q) {
+          const double *A = ne.jac + i64(q) * jb, *B = A + mn * cn;
+          double *__restrict Wt = sc.Wt.data() + (q - f) * cp;
+          double *__restrict Yt = sc.Yt.data() + (q - f) * cp;
+          // Each row starts from its first term rather than from zero.
+          for (int d = 0; d < pn; ++d) {
+            scale_row<C>(cn, B[d], A, Wt + d * cn);
+            for (int r = 1; r < mn; ++r) axpy<C>(cn, B[r * pn + d], A + r * cn, Wt + d * cn);
+          }
+          for (int d = 0; d < pn; ++d) {
+            scale_row<C>(cn, Vi[d * pn], Wt, Yt + d * cn);
+            for (int e = 1; e < pn; ++e) axpy<C>(cn, Vi[d * pn + e], Wt + e * cn, Yt + d * cn);
+          }
+        }
+        for (int q2 = lo; q2 < hi; ++q2) {
+          const int k = lay.colidx[q2] - lay.mcon;
+          const double *Wt2 = sc.Wt.data() + (q2 - f) * cp;
+          const double *Yt2 = sc.Yt.data() + (q2 - f) * cp;
+          for (int d = 0; d < pn; ++d) axpy<C>(cn, -ebi[d], Yt2 + d * cn, rhs + i64(k) * cn);
+          // S_jk -= Y_ij W_ik^T, row by row: S_jk[a][.] -= sum_d Y^T[d][a] W^T[d][.]. The
+          // diagonal block is updated whole, like the others (its strict lower triangle is
+          // never read), which keeps the rows vectorized.
+          for (int q1 = f; q1 <= q2; ++q1) {
+            const double *Yt1 = sc.Yt.data() + (q1 - f) * cp;
+            double *Sjk = S.block(lay.colidx[q1] - lay.mcon, k);
+            pair_update<C, P>(cn, pn, Yt1, Wt2, Sjk, ld);
+          }
+        }
+      }
+    };
+    if (pool.size() == 1 || split_.size() == 2)
+      body(0);
+    else
+      pool.run(body);
+  }
+
+  void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv,
+                       double *dp) const override {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
+    pool.for_range_t(lay.n - lay.ncon, [&](int th, i64 b, i64 end) {
+      double *t = scratch_[size_t(th)].blk.data(), *u = t + pn;
+      for (i64 i = b + lay.ncon; i < end + lay.ncon; ++i) {
+        const double *ebi = ne.eb + i * pn;
+        for (int c = 0; c < pn; ++c) t[c] = ebi[c];
+        for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+          const int j = lay.colidx[k];
+          if (j < lay.mcon) continue;
+          const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn;
+          const double *daj = dp + lay.a_off(j);
+          // W^T da = B^T (A da): two thin products instead of forming W.
+          for (int r = 0; r < mn; ++r) {
+            double s = 0.0;
+            for (int a = 0; a < cn; ++a) s += A[r * cn + a] * daj[a];
+            u[r] = s;
+          }
+          for (int r = 0; r < mn; ++r) axpy<P>(pn, -u[r], B + r * pn, t);
+        }
+        const double *Vi = Vinv + i * pn * pn;
+        double *dbi = dp + lay.b_off(int(i));
+        for (int a = 0; a < pn; ++a) {
+          double s = 0.0;
+          for (int c = 0; c < pn; ++c) s += Vi[a * pn + c] * t[c];
+          dbi[a] = s;
+        }
+      }
+    });
+  }
+
+ private:
+  struct Scratch {
+    std::vector<double> Wt, Yt, blk;  // one track's W_ij^T and Y_ij^T; small blocks
+  };
+
+  // Block columns of S split over the threads by the number of block products each takes.
+  void split_columns(int threads) {
+    const Layout &lay = lay_;
+    const int nc = lay.free_cams();
+    std::vector<double> work(size_t(nc), 1.0);
+    for (int i = lay.ncon; i < lay.n && nc > 0 && lay.pnp > 0; ++i) {
+      int rank = 0;
+      for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
+        if (lay.colidx[k] >= lay.mcon) work[size_t(lay.colidx[k] - lay.mcon)] += ++rank;
+    }
+    double total = 0.0;
+    for (double w : work) total += w;
+    split_.assign(size_t(threads) + 1, nc);
+    split_[0] = 0;
+    double acc = 0.0;
+    int t = 1;
+    for (int k = 0; k < nc && t < threads; ++k) {
+      acc += work[size_t(k)];
+      while (t < threads && acc >= total * t / threads) split_[size_t(t++)] = k + 1;
+    }
+  }
+
+  const Layout &lay_;
+  std::vector<int> split_;  // threads + 1 boundaries in free-camera indices
+  mutable std::vector<Scratch> scratch_;
+};
+
+}  // namespace
+
+std::unique_ptr<Kernels> make_kernels(const Layout &lay, int threads) {
+  if (lay.mnp == 2 && lay.pnp == 3) {
+    switch (lay.cnp) {
+      case 6: return std::make_unique<KernelsT<2, 6, 3>>(lay, threads);
+      case 7: return std::make_unique<KernelsT<2, 7, 3>>(lay, threads);
+      case 9: return std::make_unique<KernelsT<2, 9, 3>>(lay, threads);
+      case 11: return std::make_unique<KernelsT<2, 11, 3>>(lay, threads);
+      case 16: return std::make_unique<KernelsT<2, 16, 3>>(lay, threads);
+      default: break;
+    }
+  }
+  return std::make_unique<KernelsT<0, 0, 0>>(lay, threads);
+}
+
+}  // namespace SBA_KERNELS_NS
+}  // namespace sba
