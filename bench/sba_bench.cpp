@@ -1,0 +1,758 @@
+// sba_bench: one problem, solved from the same starting point by this library (each linear
+// solver asked for, at each thread count) and by Ceres Solver (Levenberg-Marquardt with
+// DENSE_SCHUR and SPARSE_SCHUR, same camera model, same analytic Jacobian, same parameters),
+// each run in a fresh child process so that its peak RSS is its own.
+//
+// Reported per run: the wall time of the solve (problem loading excluded; for Ceres the
+// construction of the ceres::Problem is included, as sba builds its own structures inside
+// the call), iterations, time per iteration, initial and final mean squared reprojection
+// error (sum of squared residuals / observations, sba's scale), peak RSS, the ratio to the
+// Ceres DENSE_SCHUR run with the same thread count, and the time at which the run's error
+// first came within (1 + 1e-6) of the best final error over all runs ("time to best").
+#include <fcntl.h>
+#include <malloc.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/time.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <chrono>
+#include <climits>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <exception>
+#include <memory>
+#include <new>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <ceres/ceres.h>
+
+#include "bench_problem.h"
+#include "ceres_models.h"
+#include "sba.h"
+#include "sba_ext.h"
+
+namespace sbabench {
+namespace {
+
+constexpr double kBestTolerance = 1e-6;  // "within 1e-6 relative of the best final error"
+
+const char kUsage[] =
+    "usage: sba_bench PROBLEM [options]\n"
+    "Solves one bundle adjustment problem with sba (each --solvers name at each --threads\n"
+    "count) and with Ceres (LM, DENSE_SCHUR / SPARSE_SCHUR), each run in a child process.\n"
+    "\n"
+    "PROBLEM, one of:\n"
+    "  --cams FILE --pts FILE [--calib FILE]   eucsbademo files (calib: fixed K)\n"
+    "  --bal FILE                              a BAL file (.txt or .bz2)\n"
+    "  --gen SPEC                              a sbagen scene, SPEC = key=value,... with keys\n"
+    "                                          cameras, points, track (MIN..MAX), trajectory\n"
+    "                                          (orbit|path), kind (fixed|varK|varKD), noise, seed\n"
+    "options:\n"
+    "  --name LABEL      problem name in the output (default: from the files / the spec)\n"
+    "  --solvers LIST    sba linear solvers, comma-separated, or none (default chol)\n"
+    "  --ceres LIST      dense,sparse (default), dense, sparse or none\n"
+    "  --threads LIST    thread counts, comma-separated; all = every hardware thread (default 1,all)\n"
+    "  --itmax N         iterations of every solver (default 150)\n"
+    "  --timeout SEC     a run taking longer is killed and reported as such (default 3600)\n"
+    "  --out FILE        append one JSON object per run to FILE (JSON lines)\n"
+    "  --no-fork         run in this process (peak RSS then is the process's)\n"
+    "  --help            this text\n";
+
+// ---- options ----
+
+struct Options {
+  std::string cams, pts, calib, bal, gen, name;
+  std::vector<std::string> solvers{"chol"};
+  std::vector<std::string> ceres{"dense", "sparse"};
+  std::vector<int> threads;
+  int itmax = 150;
+  double timeout = 3600;
+  std::string out;
+  bool fork = true;
+  bool help = false;
+};
+
+std::vector<std::string> split(const std::string &s) {
+  std::vector<std::string> items;
+  std::size_t start = 0;
+  while (start <= s.size()) {
+    std::size_t comma = s.find(',', start);
+    if (comma == std::string::npos) comma = s.size();
+    if (comma > start) items.push_back(s.substr(start, comma - start));
+    start = comma + 1;
+  }
+  return items;
+}
+
+int hardware_threads() { return std::max(1, static_cast<int>(std::thread::hardware_concurrency())); }
+
+bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
+  std::string threads = "1,all";
+  for (int k = 1; k < argc; ++k) {
+    const std::string arg = argv[k];
+    if (arg == "--help" || arg == "-h") {
+      o->help = true;
+      return true;
+    }
+    if (arg == "--no-fork") {
+      o->fork = false;
+      continue;
+    }
+    if (k + 1 >= argc) {
+      *error = arg.compare(0, 2, "--") == 0 ? "option " + arg + " needs a value" : "unexpected argument '" + arg + "'";
+      return false;
+    }
+    const std::string v = argv[++k];
+    if (arg == "--cams") o->cams = v;
+    else if (arg == "--pts") o->pts = v;
+    else if (arg == "--calib") o->calib = v;
+    else if (arg == "--bal") o->bal = v;
+    else if (arg == "--gen") o->gen = v;
+    else if (arg == "--name") o->name = v;
+    else if (arg == "--solvers") o->solvers = v == "none" ? std::vector<std::string>{} : split(v);
+    else if (arg == "--ceres") o->ceres = v == "none" ? std::vector<std::string>{} : split(v);
+    else if (arg == "--threads") threads = v;
+    else if (arg == "--out") o->out = v;
+    else if (arg == "--itmax" || arg == "--timeout") {
+      char *end = nullptr;
+      const double d = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end != '\0' || !(d >= 0) || d > INT_MAX) {
+        *error = "bad value '" + v + "' for " + arg;
+        return false;
+      }
+      if (arg == "--itmax") o->itmax = static_cast<int>(d);
+      else o->timeout = d;
+    } else {
+      *error = "unknown option '" + arg + "' (see --help)";
+      return false;
+    }
+  }
+  const int sources = !o->cams.empty() + !o->bal.empty() + !o->gen.empty();
+  if (sources != 1 || o->cams.empty() != o->pts.empty()) {
+    *error = "give exactly one problem: --cams/--pts[/--calib], --bal or --gen (see --help)";
+    return false;
+  }
+  for (const std::string &c : o->ceres)
+    if (c != "dense" && c != "sparse") {
+      *error = "--ceres: unknown '" + c + "' (dense, sparse or none)";
+      return false;
+    }
+  const std::string known = std::string(" ") + sba_linsolver_names() + " ";
+  for (const std::string &s : o->solvers)
+    if (known.find(" " + s + " ") == std::string::npos) {
+      *error = "--solvers: unknown solver '" + s + "' (known: " + sba_linsolver_names() + ")";
+      return false;
+    }
+  for (const std::string &t : split(threads)) {
+    int n = 0;
+    if (t == "all") n = hardware_threads();
+    else {
+      char *end = nullptr;
+      const long v = std::strtol(t.c_str(), &end, 10);
+      if (*end != '\0' || v < 1 || v > 4096) {
+        *error = "--threads: bad thread count '" + t + "'";
+        return false;
+      }
+      n = static_cast<int>(v);
+    }
+    if (std::find(o->threads.begin(), o->threads.end(), n) == o->threads.end()) o->threads.push_back(n);
+  }
+  if (o->threads.empty()) {
+    *error = "--threads: no thread count";
+    return false;
+  }
+  return true;
+}
+
+// ---- one run ----
+
+enum class Engine { Sba, Ceres };
+
+struct RunSpec {
+  Engine engine;
+  std::string solver;  // sba linsolver name, or "DENSE_SCHUR" / "SPARSE_SCHUR"
+  int threads;
+  std::string label() const { return (engine == Engine::Sba ? "sba " : "ceres ") + solver; }
+};
+
+// What a child sends back: plain data, then ntrace (seconds, ||e||^2) pairs.
+struct RunResult {
+  int ok = 0;             // 1: the solver returned a result
+  char status[64] = {};   // stop reason in a few words
+  char message[256] = {};  // Ceres's summary message
+  double reason = 0;      // sba info[6]; Ceres: termination type
+  int iterations = 0;     // sba: outer iterations (info[5]); Ceres: LM steps tried
+  int linear_solves = 0;  // sba info[9]; Ceres: successful + unsuccessful steps
+  int func_evals = 0, jac_evals = 0;
+  double seconds = 0;        // wall time of the solve
+  double setup_seconds = 0;  // Ceres: building the ceres::Problem (part of seconds)
+  double init_err = 0, final_err = 0;  // sum of squared residuals
+  long long peak_rss = 0;    // bytes: VmHWM after resetting it just before the solve
+  long long base_rss = 0;    // bytes: VmRSS just before the solve (program + inputs)
+  int hwm_reset = 0;         // 1 if the reset worked (else peak includes the loading)
+  int ntrace = 0;
+};
+
+struct Run {
+  RunSpec spec;
+  RunResult r;
+  std::vector<std::array<double, 2>> trace;  // (seconds since the solve started, ||e||^2)
+  long long child_maxrss = 0;                // ru_maxrss of the child, bytes (cross-check)
+  double ttb = NAN;                          // time to best, seconds (NaN: never)
+};
+
+long long status_kb(const char *field) {
+  std::FILE *f = std::fopen("/proc/self/status", "r");
+  if (!f) return -1;
+  char line[256];
+  long long kb = -1;
+  const std::size_t len = std::strlen(field);
+  while (std::fgets(line, sizeof line, f))
+    if (std::strncmp(line, field, len) == 0 && line[len] == ':') {
+      kb = std::atoll(line + len + 1);
+      break;
+    }
+  std::fclose(f);
+  return kb;
+}
+
+bool reset_peak_rss() {
+  const int fd = ::open("/proc/self/clear_refs", O_WRONLY);
+  if (fd < 0) return false;
+  const bool ok = ::write(fd, "5", 1) == 1;
+  ::close(fd);
+  return ok;
+}
+
+void set_status(RunResult *r, const std::string &s) {
+  std::snprintf(r->status, sizeof r->status, "%s", s.c_str());
+}
+
+// ---- sba ----
+
+struct SbaTrace {
+  std::vector<std::array<double, 2>> *trace;
+};
+
+// Keeps the library's first error line (why a call returned SBA_ERROR) for the report.
+void record_log(void *ctx, int level, const char *line) {
+  RunResult *r = static_cast<RunResult *>(ctx);
+  if (level == SBA_LOG_ERROR && r->message[0] == '\0') std::snprintf(r->message, sizeof r->message, "%s", line);
+}
+
+int record_progress(void *ctx, const sba_progress *state) {
+  static_cast<SbaTrace *>(ctx)->trace->push_back({state->elapsed, state->error});
+  return 0;
+}
+
+const char *sba_reason(double reason) {
+  switch (static_cast<int>(reason)) {
+    case 1: return "small gradient";
+    case 2: return "small dp";
+    case 3: return "itmax";
+    case 4: return "small error reduction";
+    case 5: return "small error";
+    case 6: return "too many failed attempts";
+    case 7: return "NaN or Inf";
+    case SBA_STOP_SINGULAR: return "singular";
+    case SBA_STOP_USER: return "stopped";
+    default: return "error";
+  }
+}
+
+void run_sba(Problem &prob, const RunSpec &spec, int itmax, RunResult *r,
+             std::vector<std::array<double, 2>> *trace) {
+  std::vector<double> p = prob.p0;
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.linsolver = spec.solver.c_str();
+  ext.nthreads = spec.threads;
+  // The demo and BAL models' callbacks are re-entrant and walk the index by rows.
+  ext.parallel_callbacks = 1;
+  ext.log = record_log;  // errors kept, nothing printed (verbose 0: no progress lines)
+  ext.log_ctx = r;
+  SbaTrace ctx{trace};
+  trace->reserve(static_cast<std::size_t>(itmax) + 2);
+  trace->push_back({0.0, NAN});  // the initial error, filled in below
+  ext.progress = record_progress;
+  ext.progress_ctx = &ctx;
+  std::array<double, SBA_INFOSZ> info{};
+  r->hwm_reset = reset_peak_rss();
+  r->base_rss = status_kb("VmRSS") * 1024;
+  const auto t0 = std::chrono::steady_clock::now();
+  // The visibility as (point, camera) pairs: no n*m vmask needed (see Problem::vmask).
+  const sba_visibility vis{static_cast<long long>(prob.obs_point.size()), prob.obs_point.data(),
+                           prob.obs_camera.data()};
+  const int ret = sba_motstr_levmar_x_vis(prob.n, 0, prob.m, 0, &vis, p.data(), prob.cnp, Problem::pnp,
+                                          prob.x.data(), nullptr, Problem::mnp, prob.func(), prob.fjac(),
+                                          prob.adata(), itmax, 0, nullptr, info.data(), &ext);
+  r->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r->peak_rss = status_kb("VmHWM") * 1024;
+  (*trace)[0][1] = info[0];
+  r->ok = ret != SBA_ERROR;
+  r->reason = info[6];
+  r->iterations = static_cast<int>(info[5]);
+  r->linear_solves = static_cast<int>(info[9]);
+  r->func_evals = static_cast<int>(info[7]);
+  r->jac_evals = static_cast<int>(info[8]);
+  r->init_err = info[0];
+  r->final_err = info[1];
+  if (ret == SBA_ERROR && info[6] == SBA_STOP_NONE) set_status(r, "SBA_ERROR");
+  else
+    set_status(r, std::string(ret == SBA_ERROR ? "SBA_ERROR: " : "") + sba_reason(info[6]) + " (" +
+                      std::to_string(static_cast<int>(info[6])) + ")");
+}
+
+// ---- Ceres ----
+
+class TraceCallback final : public ceres::IterationCallback {
+ public:
+  TraceCallback(std::vector<std::array<double, 2>> *trace, double offset)
+      : trace_(trace), offset_(offset) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary &s) override {
+    trace_->push_back({offset_ + s.cumulative_time_in_seconds, 2.0 * s.cost});
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  std::vector<std::array<double, 2>> *trace_;
+  double offset_;
+};
+
+template <int CNP>
+void add_eucsba_residuals(const Problem &prob, double *p, ceres::Problem *cp) {
+  const double *x = prob.x.data();
+  double *pb = p + static_cast<std::size_t>(prob.m) * CNP;
+  for (std::size_t k = 0; k < prob.nobs(); ++k) {
+    const int j = prob.obs_camera[k], i = prob.obs_point[k];
+    cp->AddResidualBlock(new EucsbaCost<CNP>(*prob.euc, j, x[2 * k], x[2 * k + 1]), nullptr,
+                         p + static_cast<std::size_t>(j) * CNP, pb + static_cast<std::size_t>(i) * 3);
+  }
+}
+
+void run_ceres(Problem &prob, const RunSpec &spec, int itmax, RunResult *r,
+               std::vector<std::array<double, 2>> *trace) {
+  std::vector<double> p = prob.p0;
+  trace->reserve(static_cast<std::size_t>(itmax) + 2);
+  r->hwm_reset = reset_peak_rss();
+  r->base_rss = status_kb("VmRSS") * 1024;
+  const auto t0 = std::chrono::steady_clock::now();
+
+  ceres::Problem::Options po;
+  po.enable_fast_removal = false;
+  auto cp = std::make_unique<ceres::Problem>(po);
+  const std::size_t m = static_cast<std::size_t>(prob.m), cnp = static_cast<std::size_t>(prob.cnp);
+  double *pb = p.data() + m * cnp;
+  if (prob.model_kind == ModelKind::Bal) {
+    for (std::size_t k = 0; k < prob.nobs(); ++k)
+      cp->AddResidualBlock(new BalCost(prob.x[2 * k], prob.x[2 * k + 1]), nullptr,
+                           p.data() + static_cast<std::size_t>(prob.obs_camera[k]) * cnp,
+                           pb + static_cast<std::size_t>(prob.obs_point[k]) * 3);
+  } else if (cnp == 6) {
+    add_eucsba_residuals<6>(prob, p.data(), cp.get());
+  } else if (cnp == 11) {
+    add_eucsba_residuals<11>(prob, p.data(), cp.get());
+  } else {
+    add_eucsba_residuals<16>(prob, p.data(), cp.get());
+  }
+  // Intrinsics the model holds (eucsbademo's nccalib / ncdist) are constants for Ceres too.
+  const std::vector<int> held = prob.held_camera_params();
+  if (!held.empty())
+    for (std::size_t j = 0; j < m; ++j)
+      cp->SetManifold(p.data() + j * cnp, new ceres::SubsetManifold(static_cast<int>(cnp), held));
+  // Points first (eliminated), then cameras: the Schur complement sba forms.
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  for (int i = 0; i < prob.n; ++i) ordering->AddElementToGroup(pb + static_cast<std::size_t>(i) * 3, 0);
+  for (std::size_t j = 0; j < m; ++j) ordering->AddElementToGroup(p.data() + j * cnp, 1);
+  r->setup_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  ceres::Solver::Options o;
+  o.minimizer_type = ceres::TRUST_REGION;
+  o.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  o.linear_solver_type = spec.solver == "DENSE_SCHUR" ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+  o.linear_solver_ordering = ordering;
+  o.num_threads = spec.threads;
+  o.max_num_iterations = itmax;
+  o.function_tolerance = 1e-12;
+  o.gradient_tolerance = 1e-12;
+  o.parameter_tolerance = 1e-12;
+  o.max_solver_time_in_seconds = 1e9;
+  o.logging_type = ceres::SILENT;
+  o.minimizer_progress_to_stdout = false;
+  TraceCallback cb(trace, r->setup_seconds);
+  o.callbacks.push_back(&cb);
+  ceres::Solver::Summary summary;
+  ceres::Solve(o, cp.get(), &summary);
+  cp.reset();  // part of the solve's cost, as sba frees its workspace before returning
+  r->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r->peak_rss = status_kb("VmHWM") * 1024;
+
+  r->ok = summary.IsSolutionUsable();
+  r->reason = summary.termination_type;
+  r->linear_solves = summary.num_successful_steps + summary.num_unsuccessful_steps;
+  r->iterations = r->linear_solves;
+  r->func_evals = summary.num_residual_evaluations;
+  r->jac_evals = summary.num_jacobian_evaluations;
+  r->init_err = 2.0 * summary.initial_cost;
+  r->final_err = 2.0 * summary.final_cost;
+  std::string msg = ceres::TerminationTypeToString(summary.termination_type);
+  if (summary.message.find("Maximum number of iterations") != std::string::npos) msg += " (itmax)";
+  set_status(r, msg);
+  std::snprintf(r->message, sizeof r->message, "%s", summary.message.c_str());
+}
+
+// ---- running in a child ----
+
+void execute(Problem &prob, const RunSpec &spec, int itmax, RunResult *r,
+             std::vector<std::array<double, 2>> *trace) {
+  try {
+    if (spec.engine == Engine::Sba) run_sba(prob, spec, itmax, r, trace);
+    else run_ceres(prob, spec, itmax, r, trace);
+  } catch (const std::bad_alloc &) {
+    r->ok = 0;
+    set_status(r, "out of memory");
+  } catch (const std::exception &e) {
+    r->ok = 0;
+    set_status(r, std::string("exception: ") + e.what());
+  }
+  r->ntrace = static_cast<int>(trace->size());
+}
+
+// Frees what the run does not use, so that the child's RSS is the run's: both sba (through
+// its _vis entry point) and Ceres take the observation index, neither the dense vmask.
+void release_unused(Problem &prob, Engine) {
+  std::vector<char>().swap(prob.vmask);
+  malloc_trim(0);
+}
+
+bool write_all(int fd, const void *data, std::size_t size) {
+  const char *p = static_cast<const char *>(data);
+  while (size > 0) {
+    const ssize_t w = ::write(fd, p, size);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) return false;
+    p += w;
+    size -= static_cast<std::size_t>(w);
+  }
+  return true;
+}
+
+Run run_forked(Problem &prob, const RunSpec &spec, int itmax, double timeout) {
+  Run run;
+  run.spec = spec;
+  int fds[2];
+  if (::pipe(fds) != 0) {
+    set_status(&run.r, std::string("pipe: ") + std::strerror(errno));
+    return run;
+  }
+  std::fflush(stdout);
+  std::fflush(stderr);
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    set_status(&run.r, std::string("fork: ") + std::strerror(errno));
+    ::close(fds[0]);
+    ::close(fds[1]);
+    return run;
+  }
+  if (pid == 0) {
+    ::close(fds[0]);
+    release_unused(prob, spec.engine);
+    RunResult r;
+    std::vector<std::array<double, 2>> trace;
+    execute(prob, spec, itmax, &r, &trace);
+    const bool ok = write_all(fds[1], &r, sizeof r) &&
+                    write_all(fds[1], trace.data(), trace.size() * sizeof(trace[0]));
+    ::close(fds[1]);
+    ::_exit(ok ? 0 : 3);
+  }
+  ::close(fds[1]);
+  std::vector<char> bytes;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout);
+  bool timed_out = false;
+  for (;;) {
+    const double left = std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
+    if (left <= 0) {
+      timed_out = true;
+      break;
+    }
+    pollfd pfd{fds[0], POLLIN, 0};
+    const int pr = ::poll(&pfd, 1, static_cast<int>(std::min(left * 1000.0 + 1, 60000.0)));
+    if (pr < 0 && errno == EINTR) continue;
+    if (pr <= 0) continue;
+    char buf[65536];
+    const ssize_t got = ::read(fds[0], buf, sizeof buf);
+    if (got < 0 && errno == EINTR) continue;
+    if (got <= 0) break;
+    bytes.insert(bytes.end(), buf, buf + got);
+  }
+  ::close(fds[0]);
+  if (timed_out) ::kill(pid, SIGKILL);
+  int wstatus = 0;
+  rusage ru{};
+  while (::wait4(pid, &wstatus, 0, &ru) < 0 && errno == EINTR) {
+  }
+  run.child_maxrss = static_cast<long long>(ru.ru_maxrss) * 1024;
+  if (timed_out) {
+    set_status(&run.r, "timeout after " + std::to_string(static_cast<long>(timeout)) + " s");
+    return run;
+  }
+  if (bytes.size() < sizeof(RunResult)) {
+    std::string why = "child failed";
+    if (WIFSIGNALED(wstatus)) why += std::string(": signal ") + strsignal(WTERMSIG(wstatus));
+    else if (WIFEXITED(wstatus)) why += ": exit " + std::to_string(WEXITSTATUS(wstatus));
+    set_status(&run.r, why);
+    return run;
+  }
+  std::memcpy(&run.r, bytes.data(), sizeof(RunResult));
+  const std::size_t ntrace = (bytes.size() - sizeof(RunResult)) / sizeof(run.trace[0]);
+  run.trace.resize(ntrace);
+  if (ntrace > 0) std::memcpy(run.trace.data(), bytes.data() + sizeof(RunResult), ntrace * sizeof(run.trace[0]));
+  return run;
+}
+
+Run run_inline(Problem &prob, const RunSpec &spec, int itmax) {
+  Run run;
+  run.spec = spec;
+  execute(prob, spec, itmax, &run.r, &run.trace);
+  return run;
+}
+
+// ---- output ----
+
+std::string json_string(const std::string &s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+
+std::string json_number(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+std::string fmt(const char *format, double v) {
+  if (!std::isfinite(v)) return "-";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, v);
+  return buf;
+}
+
+struct ProblemFacts {
+  long long pairs = 0;
+  double jac_bytes = 0, s_dense_bytes = 0, s_sparse_bytes = 0, input_bytes = 0;
+};
+
+const Run *find_run(const std::vector<Run> &runs, Engine e, const std::string &solver, int threads) {
+  for (const Run &r : runs)
+    if (r.spec.engine == e && r.spec.solver == solver && r.spec.threads == threads && r.r.ok) return &r;
+  return nullptr;
+}
+
+double ratio(double a, double b) { return (std::isfinite(a) && std::isfinite(b) && b > 0) ? a / b : NAN; }
+
+int bench_main(int argc, char **argv) {
+  Options o;
+  std::string error;
+  if (!parse_command_line(argc, argv, &o, &error)) {
+    std::fprintf(stderr, "sba_bench: %s\n", error.c_str());
+    return 2;
+  }
+  if (o.help) {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+
+  Problem prob;
+  prob.name = o.name;
+  const auto load_start = std::chrono::steady_clock::now();
+  bool loaded = false;
+  if (!o.bal.empty()) loaded = load_bal(o.bal, &prob, &error);
+  else if (!o.gen.empty()) loaded = generate(o.gen, &prob, &error);
+  else loaded = load_eucsba(o.cams, o.pts, o.calib, &prob, &error);
+  if (!loaded) {
+    std::fprintf(stderr, "sba_bench: %s\n", error.c_str());
+    return 1;
+  }
+  const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
+
+  ProblemFacts facts;
+  const double nobs = static_cast<double>(prob.nobs());
+  facts.pairs = prob.camera_pairs();
+  facts.jac_bytes = nobs * Problem::mnp * (prob.cnp + Problem::pnp) * 8.0;
+  facts.s_dense_bytes = std::pow(static_cast<double>(prob.m) * prob.cnp, 2) * 8.0;
+  facts.s_sparse_bytes = static_cast<double>(facts.pairs) * prob.cnp * prob.cnp * 8.0;
+  facts.input_bytes = static_cast<double>(prob.n) * prob.m + nobs * 2 * 8.0 + prob.nvars() * 8.0;
+  malloc_trim(0);
+
+  std::printf("problem %s (%s): %d cameras, %d points, %.0f observations, cnp %d, %lld variables\n",
+              prob.name.c_str(), prob.description.c_str(), prob.m, prob.n, nobs, prob.cnp, prob.nvars());
+  std::printf("  loaded in %.2f s; S has %lld nonzero camera blocks (upper, of %lld); J %.1f MB, dense S %.1f MB, "
+              "sparse S %.1f MB, inputs %.1f MB; %d hardware threads\n",
+              load_seconds, facts.pairs, static_cast<long long>(prob.m) * (prob.m + 1) / 2, facts.jac_bytes / 1e6,
+              facts.s_dense_bytes / 1e6, facts.s_sparse_bytes / 1e6, facts.input_bytes / 1e6, hardware_threads());
+  std::fflush(stdout);
+
+  std::vector<RunSpec> specs;
+  for (int t : o.threads) {
+    for (const std::string &s : o.solvers) specs.push_back({Engine::Sba, s, t});
+    for (const std::string &c : o.ceres) specs.push_back({Engine::Ceres, c == "dense" ? "DENSE_SCHUR" : "SPARSE_SCHUR", t});
+  }
+
+  std::vector<Run> runs;
+  for (const RunSpec &spec : specs) {
+    std::fprintf(stderr, "sba_bench: %s: %s, %d thread%s ... ", prob.name.c_str(), spec.label().c_str(),
+                 spec.threads, spec.threads == 1 ? "" : "s");
+    std::fflush(stderr);
+    runs.push_back(o.fork ? run_forked(prob, spec, o.itmax, o.timeout) : run_inline(prob, spec, o.itmax));
+    const Run &r = runs.back();
+    if (r.r.ok)
+      std::fprintf(stderr, "%s, %.3f s, final MSE %.6g\n", r.r.status, r.r.seconds, r.r.final_err / nobs);
+    else
+      std::fprintf(stderr, "%s%s%s\n", r.r.status, r.r.message[0] ? ": " : "", r.r.message);
+  }
+
+  // Time to the best final error over every run.
+  double best = INFINITY;
+  for (const Run &r : runs)
+    if (r.r.ok && std::isfinite(r.r.final_err)) best = std::min(best, r.r.final_err);
+  for (Run &r : runs) {
+    if (!r.r.ok) continue;
+    for (const auto &pt : r.trace)
+      if (pt[1] <= best * (1 + kBestTolerance)) {
+        r.ttb = pt[0];
+        break;
+      }
+  }
+
+  std::printf("  best final MSE %.8g; ratios are to Ceres DENSE_SCHUR with the same threads "
+              "(time, time to best), per-iteration ratio to sba chol\n",
+              best / nobs);
+  std::printf("  %-18s %3s %-26s %5s %6s %9s %9s %11s %11s %9s %8s %9s %9s %8s\n", "run", "thr", "status",
+              "iters", "linsys", "time[s]", "ms/iter", "init MSE", "final MSE", "RSS[MB]", "vsCerD", "ttb[s]",
+              "ttbvsCerD", "it/chol");
+  FILE *out = nullptr;
+  if (!o.out.empty()) {
+    out = std::fopen(o.out.c_str(), "a");
+    if (!out) std::fprintf(stderr, "sba_bench: %s: cannot open for appending: %s\n", o.out.c_str(), std::strerror(errno));
+  }
+  char stamp[32];
+  const std::time_t now = std::time(nullptr);
+  std::strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  for (const Run &r : runs) {
+    const RunResult &x = r.r;
+    const double per_iter = x.ok && x.iterations > 0 ? x.seconds / x.iterations : NAN;
+    const Run *cd = find_run(runs, Engine::Ceres, "DENSE_SCHUR", r.spec.threads);
+    const Run *chol = find_run(runs, Engine::Sba, "chol", r.spec.threads);
+    const double vs_cd = x.ok && cd ? ratio(x.seconds, cd->r.seconds) : NAN;
+    const double ttb_vs_cd = x.ok && cd ? ratio(r.ttb, cd->ttb) : NAN;
+    const double it_vs_chol =
+        x.ok && chol && r.spec.engine == Engine::Sba ? ratio(per_iter, chol->r.seconds / chol->r.iterations) : NAN;
+    const double peak = x.peak_rss > 0 ? static_cast<double>(x.peak_rss) : static_cast<double>(r.child_maxrss);
+    std::printf("  %-18s %3d %-26.26s %5d %6d %9s %9s %11s %11s %9s %8s %9s %9s %8s\n", r.spec.label().c_str(),
+                r.spec.threads, x.status, x.iterations, x.linear_solves, fmt("%.3f", x.ok ? x.seconds : NAN).c_str(),
+                fmt("%.2f", per_iter * 1e3).c_str(), fmt("%.6g", x.ok ? x.init_err / nobs : NAN).c_str(),
+                fmt("%.8g", x.ok ? x.final_err / nobs : NAN).c_str(), fmt("%.1f", peak / 1e6).c_str(),
+                fmt("%.2fx", vs_cd).c_str(), fmt("%.3f", r.ttb).c_str(), fmt("%.2fx", ttb_vs_cd).c_str(),
+                fmt("%.2fx", it_vs_chol).c_str());
+    if (!out) continue;
+    std::string j = "{";
+    auto field = [&j](const char *k, const std::string &v) {
+      if (j.size() > 1) j += ", ";
+      j += json_string(k) + ": " + v;
+    };
+    field("time", json_string(stamp));
+    field("problem", json_string(prob.name));
+    field("description", json_string(prob.description));
+    field("model", json_string(prob.model_kind == ModelKind::Bal ? "bal" : "eucsba"));
+    field("cameras", std::to_string(prob.m));
+    field("points", std::to_string(prob.n));
+    field("observations", json_number(nobs));
+    field("cnp", std::to_string(prob.cnp));
+    field("variables", std::to_string(prob.nvars()));
+    field("camera_pairs", std::to_string(facts.pairs));
+    field("jacobian_bytes", json_number(facts.jac_bytes));
+    field("dense_s_bytes", json_number(facts.s_dense_bytes));
+    field("sparse_s_bytes", json_number(facts.s_sparse_bytes));
+    field("input_bytes", json_number(facts.input_bytes));
+    field("load_seconds", json_number(load_seconds));
+    field("hardware_threads", std::to_string(hardware_threads()));
+    field("engine", json_string(r.spec.engine == Engine::Sba ? "sba" : "ceres"));
+    field("solver", json_string(r.spec.solver));
+    field("threads", std::to_string(r.spec.threads));
+    field("itmax", std::to_string(o.itmax));
+    field("ok", x.ok ? "true" : "false");
+    field("status", json_string(x.status));
+    field("message", json_string(x.message));
+    field("reason", json_number(x.reason));
+    field("iterations", std::to_string(x.iterations));
+    field("linear_solves", std::to_string(x.linear_solves));
+    field("func_evals", std::to_string(x.func_evals));
+    field("jac_evals", std::to_string(x.jac_evals));
+    field("seconds", json_number(x.ok ? x.seconds : NAN));
+    field("setup_seconds", json_number(x.setup_seconds));
+    field("seconds_per_iteration", json_number(per_iter));
+    field("seconds_per_linear_solve",
+          json_number(x.ok && x.linear_solves > 0 ? x.seconds / x.linear_solves : NAN));
+    field("initial_mse", json_number(x.ok ? x.init_err / nobs : NAN));
+    field("final_mse", json_number(x.ok ? x.final_err / nobs : NAN));
+    field("best_final_mse", json_number(best / nobs));
+    field("peak_rss_bytes", json_number(peak));
+    field("base_rss_bytes", json_number(static_cast<double>(x.base_rss)));
+    field("child_maxrss_bytes", json_number(static_cast<double>(r.child_maxrss)));
+    field("peak_rss_reset", x.hwm_reset ? "true" : "false");
+    field("ratio_time_vs_ceres_dense", json_number(vs_cd));
+    field("time_to_best_seconds", json_number(r.ttb));
+    field("ratio_time_to_best_vs_ceres_dense", json_number(ttb_vs_cd));
+    field("ratio_per_iteration_vs_chol", json_number(it_vs_chol));
+    std::string tr = "[";
+    for (std::size_t k = 0; k < r.trace.size(); ++k)
+      tr += (k ? ", [" : "[") + json_number(r.trace[k][0]) + ", " + json_number(r.trace[k][1] / nobs) + "]";
+    field("trace", tr + "]");
+    std::fprintf(out, "%s}\n", j.c_str());
+  }
+  if (out) std::fclose(out);
+  std::fflush(stdout);
+  for (const Run &r : runs)
+    if (!r.r.ok) return 1;
+  return 0;
+}
+
+}  // namespace
+}  // namespace sbabench
+
+int main(int argc, char **argv) {
+  google::InitGoogleLogging(argv[0]);
+  try {
+    return sbabench::bench_main(argc, argv);
+  } catch (const std::bad_alloc &) {
+    std::fprintf(stderr, "sba_bench: out of memory\n");
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "sba_bench: %s\n", e.what());
+  }
+  return 1;
+}
