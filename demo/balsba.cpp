@@ -3,6 +3,7 @@
 #include <array>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <climits>
 #include <cstdio>
 #include <cstdlib>
@@ -16,6 +17,7 @@
 #include "bal_model.h"
 #include "sba.h"
 #include "sba_ext.h"
+#include "tty_progress.h"
 
 namespace {
 
@@ -33,6 +35,9 @@ const char kUsage[] =
     "  --itmax N       most LM iterations (default 150)\n"
     "  --verbose N     sba's verbosity (default 0)\n"
     "  --write OUT     write the refined problem in BAL format (.bz2: compressed)\n"
+    "  --loss NAME     robust loss: none (default), huber, cauchy, soft-l1, tukey\n"
+    "  --loss-scale S  its scale in pixels (default 1)\n"
+    "  --no-progress   no progress line (shown on stderr when it is a terminal)\n"
     "  --help          this text\n"
     "\n"
     "Prints the sizes, the initial and final mean squared reprojection error (pixels^2 per\n"
@@ -46,6 +51,9 @@ struct Options {
   int itmax = 150;
   int verbose = 0;
   std::string write;
+  std::string loss;  // empty: least squares
+  double loss_scale = 1.0;
+  bool progress = true;
   bool help = false;
 };
 
@@ -66,9 +74,14 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
       o->help = true;
       return true;
     }
+    if (arg == "--no-progress") {
+      o->progress = false;
+      continue;
+    }
     if (arg.size() > 2 && arg.compare(0, 2, "--") == 0) {
       const std::string name = arg.substr(2);
-      if (name != "solver" && name != "threads" && name != "itmax" && name != "verbose" && name != "write") {
+      if (name != "solver" && name != "threads" && name != "itmax" && name != "verbose" && name != "write" &&
+          name != "loss" && name != "loss-scale") {
         *error = "unknown option '" + arg + "' (see --help)";
         return false;
       }
@@ -82,7 +95,14 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
       else if (name == "threads") ok = parse_int(value, 0, 4096, &o->threads);
       else if (name == "itmax") ok = parse_int(value, 0, INT_MAX, &o->itmax);
       else if (name == "verbose") ok = parse_int(value, 0, 10, &o->verbose);
-      else o->write = value;
+      else if (name == "loss") {
+        ok = value == "none" || value == "huber" || value == "cauchy" || value == "soft-l1" || value == "tukey";
+        o->loss = value == "none" ? std::string() : value;
+      } else if (name == "loss-scale") {
+        char *end = nullptr;
+        o->loss_scale = std::strtod(value.c_str(), &end);
+        ok = !value.empty() && *end == '\0' && std::isfinite(o->loss_scale) && o->loss_scale > 0;
+      } else o->write = value;
       if (!ok) {
         *error = "bad value '" + value + "' for " + arg;
         return false;
@@ -177,17 +197,27 @@ int bal_main(int argc, char **argv) {
   LogSink sink;
   ext.log = log_line;
   ext.log_ctx = &sink;
+  sba_ext_result result;
+  sba_ext_result_init(&result);
+  ext.result = &result;
+  if (!o.loss.empty()) {
+    ext.loss = o.loss.c_str();
+    ext.loss_scale = o.loss_scale;
+  }
 
   bal::CallbackData data;
   data.ncameras = s.m;
   std::array<double, SBA_INFOSZ> info{};
   const int nobs = s.nobservations();
+  sbademo::TtyProgress progress(o.progress, nobs);
+  progress.attach(&ext);
   const auto start = std::chrono::steady_clock::now();
   const int ret = sba_motstr_levmar_x_ext(s.n, 0, s.m, 0, s.vmask.data(), s.p.data(), bal::kCameraParams,
                                           bal::kPointParams, s.x.data(), nullptr, bal::kMeasurementParams,
                                           bal::motstr_func, bal::motstr_fjac, &data, o.itmax, o.verbose,
                                           nullptr, info.data(), &ext);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  progress.finish();
   if (ret == SBA_ERROR) {
     std::fprintf(stderr, "balsba: %s: the solve failed (SBA_ERROR, reason %g): %s\n", o.file.c_str(), info[6],
                  sink.first_error.empty() ? "no result" : sink.first_error.c_str());
@@ -214,6 +244,11 @@ int bal_main(int argc, char **argv) {
               static_cast<int>(info[8]), static_cast<int>(info[9]));
   std::printf("Elapsed time: %.2f seconds, %.2f msecs (reading the file: %.2f seconds)\n", seconds,
               seconds * 1000.0, read_seconds);
+  if (result.robust)
+    std::printf("Robust loss %s (scale %g): the errors above are its cost; squared error %g "
+                "[initial %g], %lld observations beyond the scale\n",
+                o.loss.c_str(), o.loss_scale, result.sq_error_final / nobs, result.sq_error_initial / nobs,
+                result.outliers_final);
   if (!o.write.empty()) std::printf("Wrote %s\n", o.write.c_str());
   std::fflush(stdout);
   return 0;

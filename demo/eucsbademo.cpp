@@ -5,6 +5,7 @@
 #include <array>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -16,6 +17,8 @@
 #include "eucsba_model.h"
 #include "eucsbademo_options.h"
 #include "sba.h"
+#include "sba_ext.h"
+#include "tty_progress.h"
 #include "sba_ext.h"
 
 namespace eucsba {
@@ -40,6 +43,7 @@ struct Outcome {
   int ret = SBA_ERROR;
   std::array<double, SBA_INFOSZ> info{};
   std::vector<double> p;  // the refined parameters, laid out as refinement says
+  sba_ext_result result{};
 };
 
 // The initial parameter vector for a refinement: cameras (v = 0) and/or points.
@@ -81,6 +85,14 @@ Outcome run(const Solve &s, Refinement refinement, int itmax) {
   ext.nthreads = o.nthreads;
   // The model's callbacks are re-entrant and walk the index by rows: let the threads share them.
   ext.parallel_callbacks = 1;
+  if (!o.loss.empty()) {
+    ext.loss = o.loss.c_str();
+    ext.loss_scale = o.loss_scale;
+  }
+  ext.result = &out.result;
+  sba_ext_result_init(&out.result);
+  sbademo::TtyProgress progress(o.progress, s.points.nprojections());
+  progress.attach(&ext);
 
   if (o.expert) {
     const ExpertCallbacks cb = expert_callbacks(s.model.kind(), refinement);
@@ -190,6 +202,56 @@ Status write_results(const DemoOptions &o, const CameraModel &model, const Point
   return {};
 }
 
+// --write-stddev: the square roots of the diagonal of the covariance of the solution, one
+// line per camera (cnp values) then one per point (3), after a motion-and-structure run.
+Status write_stddev(const DemoOptions &o, const CameraModel &model, PointSet &points,
+                    const Outcome &out) {
+  const std::string &path = o.write_stddev;
+  if (out.refinement != Refinement::MotionStructure)
+    return Status::error(path, 0, "standard deviations need a motion-and-structure refinement");
+  const int n = points.npoints(), m = points.ncameras, cnp = model.cnp();
+  std::vector<int> cams(static_cast<size_t>(m)), pts(static_cast<size_t>(n));
+  for (int j = 0; j < m; ++j) cams[size_t(j)] = j;
+  for (int i = 0; i < n; ++i) pts[size_t(i)] = i;
+  std::vector<double> camcov(size_t(m) * cnp * cnp), ptcov(size_t(n) * 9), p = out.p;
+  sba_covariance_request req;
+  sba_covariance_request_init(&req);
+  req.ncams = m;
+  req.cams = cams.data();
+  req.camcov = camcov.data();
+  req.npts = n;
+  req.pts = pts.data();
+  req.ptcov = ptcov.data();
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.nthreads = o.nthreads;
+  ext.parallel_callbacks = 1;
+  if (!o.loss.empty()) {
+    ext.loss = o.loss.c_str();
+    ext.loss_scale = o.loss_scale;
+  }
+  const ExpertCallbacks cb = expert_callbacks(model.kind(), Refinement::MotionStructure);
+  if (sba_motstr_covariance_x(n, o.ncon, m, o.mcon, points.vmask.data(), p.data(), cnp, kPointParams,
+                              points.x.data(), points.has_covariances() ? points.covx.data() : nullptr,
+                              kMeasurementParams, cb.func, cb.fjac, as_adata(model), &req, &ext) != 0)
+    return Status::error(path, 0, "the covariance of the solution could not be computed");
+  std::FILE *f = std::fopen(path.c_str(), "w");
+  if (!f) return Status::error(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
+  std::fprintf(f, "# standard deviations: sigma^2 = %.6e, rank %d of %d free parameters\n", req.sigma2,
+               req.rank, req.nfree);
+  std::fprintf(f, "# one line per camera (its %d parameters), then one per point (X Y Z)\n", cnp);
+  for (int j = 0; j < m; ++j) {
+    for (int a = 0; a < cnp; ++a)
+      std::fprintf(f, "%s%.6e", a ? " " : "", std::sqrt(std::max(0.0, camcov[size_t(j) * cnp * cnp + a * (cnp + 1)])));
+    std::fputc('\n', f);
+  }
+  for (int i = 0; i < n; ++i)
+    std::fprintf(f, "%.6e %.6e %.6e\n", std::sqrt(std::max(0.0, ptcov[size_t(i) * 9])),
+                 std::sqrt(std::max(0.0, ptcov[size_t(i) * 9 + 4])), std::sqrt(std::max(0.0, ptcov[size_t(i) * 9 + 8])));
+  if (std::fclose(f) != 0) return Status::error(path, 0, "write failed");
+  return {};
+}
+
 int demo_main(int argc, char **argv) {
   DemoOptions o;
   std::string error;
@@ -222,7 +284,7 @@ int demo_main(int argc, char **argv) {
     return kExitUsage;
   }
 
-  for (const std::string *path : {&o.write_cams, &o.write_pts, &o.write_pts_tracks}) {
+  for (const std::string *path : {&o.write_cams, &o.write_pts, &o.write_pts_tracks, &o.write_stddev}) {
     if (Status s = check_writable(*path); !s) {
       std::fprintf(stderr, "%s\n", s.to_string().c_str());
       return kExitFailure;
@@ -267,6 +329,11 @@ int demo_main(int argc, char **argv) {
     std::fprintf(stderr, "%s\n", s.to_string().c_str());
     return kExitFailure;
   }
+  if (!o.write_stddev.empty())
+    if (Status s = write_stddev(o, model, points, out); !s) {
+      std::fprintf(stderr, "%s\n", s.to_string().c_str());
+      return kExitFailure;
+    }
 
   // The variables of the refinement that produced the result.
   long long nvars = 0;
@@ -290,6 +357,11 @@ int demo_main(int argc, char **argv) {
               out.ret, info[5], info[6], info[1] / nprojs, info[0] / nprojs, static_cast<int>(info[7]),
               static_cast<int>(info[8]), static_cast<int>(info[9]));
   std::printf("Elapsed time: %.2f seconds, %.2f msecs\n", seconds, seconds * 1000.0);
+  if (out.result.robust)
+    std::printf("Robust loss %s (scale %g): the errors above are its cost; squared error %g "
+                "[initial %g], %lld projections beyond the scale\n",
+                o.loss.c_str(), o.loss_scale, out.result.sq_error_final / nprojs,
+                out.result.sq_error_initial / nprojs, out.result.outliers_final);
   std::fflush(stdout);
 
   return 0;

@@ -139,6 +139,34 @@ const OptionSpec kOptions[] = {
      "environment variable SBA_NUM_THREADS if set, else every hardware thread. The result\n"
      "does not depend on it",
      [](DemoOptions &o, const std::string &v) { return parse_int(v, 0, kMaxThreads, &o.nthreads); }},
+    {"loss", "NAME",
+     "robust loss on each projection's squared residual: none (least squares, the default),\n"
+     "huber, cauchy, soft-l1 or tukey; the errors printed are then the robust cost, and a\n"
+     "last line gives the plain squared error",
+     [](DemoOptions &o, const std::string &v) -> std::string {
+       if (v != "none" && v != "huber" && v != "cauchy" && v != "soft-l1" && v != "tukey")
+         return "expected none, huber, cauchy, soft-l1 or tukey";
+       o.loss = v == "none" ? std::string() : v;
+       return {};
+     }},
+    {"loss-scale", "S", "scale of the robust loss, in pixels (default 1)",
+     [](DemoOptions &o, const std::string &v) { return parse_real(v, 0.0, true, &o.loss_scale); }},
+    {"no-progress", nullptr,
+     "no one-line progress display (shown on stderr for runs over half a second when stderr is\n"
+     "a terminal)",
+     [](DemoOptions &o, const std::string &) -> std::string {
+       o.progress = false;
+       return {};
+     }},
+    {"write-stddev", "FILE",
+     "after refining motion and structure, write the standard deviation of every camera and\n"
+     "point parameter (square roots of the diagonal of the covariance of the solution, scaled\n"
+     "by the residual variance; mcon/ncon hold the gauge, else a pseudo-inverse is used)",
+     [](DemoOptions &o, const std::string &v) -> std::string {
+       if (v.empty()) return "expected a file name";
+       o.write_stddev = v;
+       return {};
+     }},
     {"check-jacobian", nullptr,
      "run with itmax 0: the library compares the analytic Jacobian with finite differences\n"
      "and reports suspicious gradients on stderr",

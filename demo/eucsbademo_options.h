@@ -31,6 +31,10 @@ struct DemoOptions {
   std::string linsolver;        // one of sba_linsolver_names(); empty: the library's choice
                                 // (SBA_LINSOLVER if set, else chol)
   int nthreads = 0;             // 0: the library's choice (SBA_NUM_THREADS, else all cores)
+  std::string loss;             // robust loss (sba_ext.h names); empty: least squares
+  double loss_scale = 1.0;      // its scale, in pixels
+  bool progress = true;         // one-line progress on stderr when it is a terminal
+  std::string write_stddev;     // per-camera and per-point standard deviations; empty: none
   std::string write_cams, write_pts, write_pts_tracks;  // empty: not written
   std::vector<std::string> files;  // cams.txt pts.txt [calib.txt]
   bool help = false, version = false;

@@ -1004,6 +1004,72 @@ TEST(Eucsbademo, HelpListsSolverAndThreads) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Beyond 1.6: a robust loss, the standard deviations of the solution, no progress line unless
+// stderr is a terminal.
+
+TEST(Eucsbademo, RobustLossAddsALineAndKeepsThe16Lines) {
+  REQUIRE_DEMO_DATA();
+  const DemoRun r = run_problem(k7cams, {"--loss=huber", "--loss-scale=1"});
+  // The six lines of 1.6, then one more.
+  DemoRun first_six = r;
+  first_six.out = r.out.substr(0, r.out.rfind("Robust loss"));
+  Summary s;
+  EXPECT_SUCCESSFUL_RUN(first_six, kFixedBanner, s);
+  // The robust cost is below the squared error, and the squared error of the Huber fit is
+  // above least squares' 0.675396 (it trades squared error for robustness).
+  double cost = std::stod(s.error), sq = 0, sq0 = 0;
+  long long beyond = -1;
+  const std::vector<std::string> lines = r.out_lines();
+  ASSERT_FALSE(lines.empty());
+  ASSERT_EQ(std::sscanf(lines.back().c_str(),
+                        "Robust loss huber (scale 1): the errors above are its cost; squared error %lf "
+                        "[initial %lf], %lld projections beyond the scale",
+                        &sq, &sq0, &beyond),
+            3)
+      << lines.back();
+  EXPECT_LT(cost, sq);
+  EXPECT_GT(sq, 0.675396);
+  EXPECT_NEAR(sq0, 19.0947, 1e-4);
+  EXPECT_GT(beyond, 0);
+  EXPECT_LT(beyond, 1916 / 5);
+  EXPECT_EQ(r.err.find('\r'), std::string::npos) << "no progress line on a pipe";
+}
+
+TEST(Eucsbademo, WritesStandardDeviationsOfTheSolution) {
+  REQUIRE_DEMO_DATA();
+  TempDir dir;
+  const std::string sd = dir.file("sd.txt");
+  const DemoRun r = run_problem(k7cams, {"--mcon=2", "--write-stddev=" + sd});
+  Summary s;
+  EXPECT_SUCCESSFUL_RUN(r, kFixedBanner, s);
+  std::istringstream in(read_text(sd));
+  std::string line;
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ls(line);
+    std::vector<double> v;
+    for (double d; ls >> d;) v.push_back(d);
+    rows.push_back(v);
+  }
+  ASSERT_EQ(rows.size(), 7u + 465u);
+  for (int j = 0; j < 7; ++j) {
+    ASSERT_EQ(rows[size_t(j)].size(), 6u);
+    for (double v : rows[size_t(j)]) {
+      if (j < 2) EXPECT_EQ(v, 0.0) << "camera " << j << " is fixed";
+      else EXPECT_GT(v, 0.0) << "camera " << j;
+    }
+  }
+  for (size_t i = 7; i < rows.size(); ++i) {
+    ASSERT_EQ(rows[i].size(), 3u);
+    for (double v : rows[i]) EXPECT_GT(v, 0.0);
+  }
+  // Mean squared error 0.675 per projection: sigma of a coordinate is about 0.6 pixel; points
+  // 1e-2 away at 850 pixels focal length move by about sigma / f * depth: well under 1e-3.
+  EXPECT_LT(rows[7][2], 1e-3);
+}
+
+// ---------------------------------------------------------------------------------------------
 // h. The option parser itself.
 
 struct Parsed {
