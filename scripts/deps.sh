@@ -1,18 +1,20 @@
 #!/bin/sh
 # Installs the Debian packages that sba needs for a purpose, when they are missing.
-#   scripts/deps.sh build   compiler, CMake, LAPACK/BLAS
+#   scripts/deps.sh build   compiler, CMake, LAPACK/BLAS (OpenBLAS), SuiteSparse, bzip2
+#   scripts/deps.sh bench   build + Ceres Solver, Google Benchmark and gnuplot (bench/)
 #   scripts/deps.sh test    build + GoogleTest + GNU Octave (the MEX interface's tests)
 #   scripts/deps.sh mex     build + GNU Octave with its MEX headers
 # Run as root it installs them with apt-get; otherwise it prints the exact command and fails.
 set -eu
 
 purpose=${1:-build}
-pkgs="g++ make cmake pkg-config liblapack-dev libblas-dev libsuitesparse-dev"
+pkgs="g++ make cmake pkg-config liblapack-dev libblas-dev libopenblas-dev libsuitesparse-dev libbz2-dev"
 case "$purpose" in
   build) ;;
   test) pkgs="$pkgs libgtest-dev octave octave-dev" ;;
   mex) pkgs="$pkgs octave octave-dev" ;;
-  *) echo "usage: $0 build|test|mex" >&2; exit 2 ;;
+  bench) pkgs="$pkgs libceres-dev libbenchmark-dev gnuplot-nox" ;;
+  *) echo "usage: $0 build|test|mex|bench" >&2; exit 2 ;;
 esac
 
 missing=""

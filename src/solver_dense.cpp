@@ -133,8 +133,9 @@ class DenseSchurSolver final : public StepSolver {
     };
     seminormal(b, x);
     std::vector<double> res(static_cast<size_t>(n)), dx(static_cast<size_t>(n));
-    double last = HUGE_VAL;
-    for (int step = 0; step < 10; ++step) {
+    double bn = 0.0;
+    for (int a = 0; a < n; ++a) bn += b[a] * b[a];
+    auto residual = [&]() {
       double rn = 0.0;
       for (int a = 0; a < n; ++a) {
         double t = b[a];
@@ -142,11 +143,24 @@ class DenseSchurSolver final : public StepSolver {
         res[size_t(a)] = t;
         rn += t * t;
       }
-      if (!(rn < 0.25 * last)) break;  // no longer converging: rounding level reached
-      last = rn;
+      return rn;
+    };
+    double rn = residual();
+    for (int step = 0; step < 10 && rn > 0.0; ++step) {
       seminormal(res.data(), dx.data());
       for (int a = 0; a < n; ++a) x[a] += dx[size_t(a)];
+      const double next = residual();
+      if (!(next < 0.25 * rn)) {  // no longer converging: rounding level reached, or diverging
+        if (!(next <= rn))
+          for (int a = 0; a < n; ++a) x[a] -= dx[size_t(a)];
+        rn = std::min(rn, next);
+        break;
+      }
+      rn = next;
     }
+    // When S is too ill-conditioned for the semi-normal equations even with refinement, the
+    // "solution" does not solve S x = b at all; report a failure so that LM damps more.
+    if (!(rn <= 1e-12 * bn)) return false;
     for (int a = 0; a < n; ++a)
       if (!std::isfinite(x[a])) return false;
     return true;
