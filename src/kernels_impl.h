@@ -80,24 +80,22 @@ inline __attribute__((always_inline)) void pair_update(int n, int pn, const doub
 
 // G += X^T X and g += X^T e for one projection's mnp x n block X (row-major): the
 // contribution of one measurement to U_j, e_a,j (X = A_ij) or to V_i, e_b,i (X = B_ij).
-template <int N>
+template <int M, int N>
 inline __attribute__((always_inline)) void gram_update(int mn, int n, const double *X,
                                                        const double *e, double *G, double *g) {
-  if constexpr (N > 0) {
-    for (int r = 0; r < mn; ++r) {
-      double x[N];
+  if constexpr (M == 2 && N > 0) {
+    // Both rows of a 2-D projection in one pass: each entry of G is loaded and stored once.
+    double x0[N], x1[N];
 #pragma GCC unroll 16
-      for (int c = 0; c < N; ++c) x[c] = X[r * N + c];
+    for (int c = 0; c < N; ++c) x0[c] = X[c], x1[c] = X[N + c];
 #pragma GCC unroll 16
-      for (int c = 0; c < N; ++c) g[c] += e[r] * x[c];
+    for (int c = 0; c < N; ++c) g[c] += e[0] * x0[c] + e[1] * x1[c];
 #pragma GCC unroll 16
-      for (int a = 0; a < N; ++a) {
-        double row[N];
+    for (int a = 0; a < N; ++a) {
+      const double s0 = x0[a], s1 = x1[a];
+      double *row = G + a * N;
 #pragma GCC unroll 16
-        for (int c = 0; c < N; ++c) row[c] = G[a * N + c] + x[a] * x[c];
-#pragma GCC unroll 16
-        for (int c = 0; c < N; ++c) G[a * N + c] = row[c];
-      }
+      for (int c = 0; c < N; ++c) row[c] += s0 * x0[c] + s1 * x1[c];
     }
   } else {
     for (int r = 0; r < mn; ++r) {
@@ -136,18 +134,21 @@ class KernelsT final : public Kernels {
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
     if (cn > 0) {
-      pool.for_range(lay.m - lay.mcon, [&](i64 b, i64 end) {
-        for (i64 j = b + lay.mcon; j < end + lay.mcon; ++j) {
-          double *__restrict Uj = U + j * cn * cn, *__restrict eaj = ea + j * cn;
-          std::fill(Uj, Uj + cn * cn, 0.0);
-          std::fill(eaj, eaj + cn, 0.0);
-          // Points ascending: the order of the terms is fixed by the index alone. Whole
-          // rows are accumulated (U_j[a][c] and U_j[c][a] get the same products in the same
-          // order, so U_j comes out exactly symmetric).
-          for (int s = lay.colptr[j]; s < lay.colptr[j + 1]; ++s) {
-            const i64 k = lay.colk[s];
-            gram_update<C>(mn, cn, jac + k * jb, e + k * mn, Uj, eaj);
-          }
+      // Each thread owns a range of cameras and walks the projections in memory order (point
+      // by point), taking those of its cameras: the Jacobian is streamed rather than visited
+      // camera by camera, and every U_j still adds its terms in ascending point order, the
+      // same for any number of threads. U_j[a][c] and U_j[c][a] get the same products in the
+      // same order, so U_j comes out exactly symmetric.
+      const i64 nc = lay.m - lay.mcon;
+      pool.for_range(nc, [&](i64 b, i64 end) {
+        const int j0 = int(b) + lay.mcon, j1 = int(end) + lay.mcon;
+        std::fill(U + i64(j0) * cn * cn, U + i64(j1) * cn * cn, 0.0);
+        std::fill(ea + i64(j0) * cn, ea + i64(j1) * cn, 0.0);
+        const int *colidx = lay.colidx.data();
+        for (i64 k = 0; k < lay.nvis; ++k) {
+          const int j = colidx[k];
+          if (j < j0 || j >= j1) continue;
+          gram_update<M, C>(mn, cn, jac + k * jb, e + k * mn, U + i64(j) * cn * cn, ea + i64(j) * cn);
         }
       });
     }
@@ -158,7 +159,7 @@ class KernelsT final : public Kernels {
           std::fill(Vi, Vi + pn * pn, 0.0);
           std::fill(ebi, ebi + pn, 0.0);
           for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
-            gram_update<P>(mn, pn, jac + i64(k) * jb + mn * cn, e + i64(k) * mn, Vi, ebi);
+            gram_update<M, P>(mn, pn, jac + i64(k) * jb + mn * cn, e + i64(k) * mn, Vi, ebi);
         }
       });
     }

@@ -1,0 +1,166 @@
+// Google Benchmark of the library's internal block kernels, one per step of an LM iteration,
+// on real problems: the normal equations (the Jacobian products U, V, e_a, e_b), the damped
+// point blocks V*^-1, the Schur complement S (dense), the back-substitution, and the dense
+// Cholesky of S. Linked against the library's objects (not its exported API), so it sees
+// src/. Both builds of the kernels are measured where the CPU has AVX2 (SBA_KERNELS).
+//   block_kernels_benchmark --benchmark_out=bench/results/block_kernels.json --benchmark_out_format=json
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bench_problem.h"
+#include "core.h"
+#include "kernels.h"
+#include "lapack.h"
+#include "linsolve.h"
+#include "parallel.h"
+
+namespace {
+
+using sbabench::Problem;
+
+const std::string kData = SBA_SHARED_DATA_DIR;
+
+// A problem with its layout, Jacobian and residual at the start, and the normal equations.
+struct Fixture {
+  Problem prob;
+  sba::Layout lay;
+  std::vector<double> jac, e, U, V, ea, eb, Vinv, S, rhs, dp;
+};
+
+Fixture *fixture(const std::string &key) {
+  static std::map<std::string, std::unique_ptr<Fixture>> cache;
+  if (auto it = cache.find(key); it != cache.end()) return it->second.get();
+  auto f = std::make_unique<Fixture>();
+  std::string error;
+  bool ok = key == "54cams"
+                ? sbabench::load_eucsba(kData + "/sba-demo/54cams.txt", kData + "/sba-demo/54pts.txt",
+                                        kData + "/sba-demo/calib.txt", &f->prob, &error)
+                : sbabench::load_bal(kData + "/bal/problem-49-7776-pre.txt.bz2", &f->prob, &error);
+  std::string msg;
+  Problem &p = f->prob;
+  ok = ok && sba::build_layout(f->lay, sba::Mode::MotStr, p.n, p.m, 0, 0, p.cnp, 3, 2, p.vmask.data(), &msg);
+  if (!ok) return (cache[key] = nullptr).get();
+  const sba::Layout &lay = f->lay;
+  std::vector<double> params = p.p0, hx(p.x.size());
+  f->jac.resize(size_t(lay.nvis * lay.jblk()));
+  p.func()(params.data(), &f->lay.idx, f->lay.rcidxs.data(), f->lay.rcsubs.data(), hx.data(), p.adata());
+  p.fjac()(params.data(), &f->lay.idx, f->lay.rcidxs.data(), f->lay.rcsubs.data(), f->jac.data(), p.adata());
+  f->e.resize(hx.size());
+  for (size_t q = 0; q < hx.size(); ++q) f->e[q] = p.x[q] - hx[q];
+  f->U.resize(size_t(p.m) * p.cnp * p.cnp);
+  f->ea.resize(size_t(p.m) * p.cnp);
+  f->V.resize(size_t(p.n) * 9);
+  f->eb.resize(size_t(p.n) * 3);
+  f->Vinv.resize(f->V.size());
+  const size_t nS = size_t(p.m) * p.cnp;
+  f->S.resize(nS * nS);
+  f->rhs.resize(nS);
+  f->dp.resize(size_t(lay.nvars()));
+  return (cache[key] = std::move(f)).get();
+}
+
+// The kernels of the build named by SBA_KERNELS ("portable"; unset: the CPU's best).
+std::unique_ptr<sba::Kernels> kernels(const sba::Layout &lay, int threads, bool portable) {
+  if (portable)
+    setenv("SBA_KERNELS", "portable", 1);
+  else
+    unsetenv("SBA_KERNELS");
+  auto k = sba::make_kernels(lay, threads);
+  unsetenv("SBA_KERNELS");
+  return k;
+}
+
+enum class Step { NormalEquations, InvertV, Assemble, BackSubstitute, DenseCholesky };
+
+void BM_Step(benchmark::State &state, std::string key, Step step, bool portable) {
+  Fixture *f = fixture(key);
+  if (!f) {
+    state.SkipWithError("shared data not found");
+    return;
+  }
+  const int threads = static_cast<int>(state.range(0));
+  sba::ThreadPool pool(threads);
+  const auto k = kernels(f->lay, pool.size(), portable);
+  const sba::NormalEquations ne{f->jac.data(), f->U.data(), f->V.data(), f->ea.data(), f->eb.data()};
+  k->normal_equations(pool, f->jac.data(), f->e.data(), f->U.data(), f->V.data(), f->ea.data(), f->eb.data());
+  double maxdiag = 0;
+  for (size_t q = 0; q < f->U.size(); q += f->lay.cnp + 1) maxdiag = std::max(maxdiag, f->U[q]);
+  const double mu = 1e-3 * maxdiag;
+  k->invert_damped_V(pool, f->V.data(), mu, f->Vinv.data());
+  const int nS = f->lay.m * f->lay.cnp;
+  sba::BlockMap map;
+  map.base = f->S.data();
+  map.ld = nS;
+  map.cnp = f->lay.cnp;
+  auto assemble = [&] {
+    std::fill(f->S.begin(), f->S.end(), 0.0);
+    k->assemble(pool, ne, f->Vinv.data(), mu, map, f->rhs.data());
+  };
+  assemble();
+  for (auto _ : state) {
+    switch (step) {
+      case Step::NormalEquations:
+        k->normal_equations(pool, f->jac.data(), f->e.data(), f->U.data(), f->V.data(), f->ea.data(),
+                            f->eb.data());
+        break;
+      case Step::InvertV:
+        k->invert_damped_V(pool, f->V.data(), mu, f->Vinv.data());
+        break;
+      case Step::Assemble:
+        assemble();
+        break;
+      case Step::BackSubstitute:
+        k->back_substitute(pool, ne, f->Vinv.data(), f->dp.data());
+        break;
+      case Step::DenseCholesky: {
+        state.PauseTiming();
+        assemble();
+        state.ResumeTiming();
+        int info = 0;
+        SBA_F77(dpotrf, DPOTRF)("L", &nS, f->S.data(), &nS, &info, 1);
+        break;
+      }
+    }
+    benchmark::ClobberMemory();
+  }
+  state.counters["projections"] = double(f->lay.nvis);
+}
+
+void register_all() {
+  const struct {
+    const char *name;
+    Step step;
+  } steps[] = {{"NormalEquations", Step::NormalEquations},
+               {"InvertDampedV", Step::InvertV},
+               {"AssembleS", Step::Assemble},
+               {"BackSubstitute", Step::BackSubstitute},
+               {"DenseCholeskyOfS", Step::DenseCholesky}};
+  const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  for (const char *key : {"54cams", "bal49"})
+    for (const auto &s : steps)
+      for (bool portable : {true, false}) {
+        if (!portable && !avx2) continue;
+        if (s.step == Step::DenseCholesky && !portable) continue;  // LAPACK: no kernel build
+        const std::string name = std::string(s.name) + "/" + key + (portable ? "/portable" : "/avx2");
+        benchmark::RegisterBenchmark(name.c_str(), BM_Step, std::string(key), s.step, portable)
+            ->Arg(1)
+            ->Arg(2)
+            ->Unit(benchmark::kMicrosecond);
+      }
+}
+
+}  // namespace
+
+int main(int argc, char **argv) {
+  register_all();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
