@@ -109,31 +109,51 @@ struct Kernel {
   static constexpr bool kHasIntrinsics = L::intr >= 0;
   static constexpr bool kHasDistortion = L::dist >= 0;
 
+  // Everything about camera j that does not depend on the point: set up once per camera by
+  // the whole-vector callbacks, rather than once per projection.
+  struct Frame {
+    int free_intr, free_dist;
+    double in[kIntrinsicParams];   // fu u0 v0 ar s, held ones from the input camera
+    double kc[kDistortionParams];  // likewise
+    const double *R0;              // R(q0_j)
+    Correction qs;                 // the correction and its derivatives
+    double Rs[9];                  // R(qs)
+    const double *t;
+  };
+
+  static void prepare(const CameraModel &model, int j, const double *a, Frame *f) {
+    const Camera &cam0 = model.cameras0_[j];
+    f->free_intr = kHasIntrinsics ? kIntrinsicParams - model.nccalib_ : 0;
+    const double in0[kIntrinsicParams] = {cam0.k.fu, cam0.k.u0, cam0.k.v0, cam0.k.ar, cam0.k.s};
+    for (int c = 0; c < kIntrinsicParams; ++c) f->in[c] = c < f->free_intr ? a[L::intr + c] : in0[c];
+    f->free_dist = kHasDistortion ? kDistortionParams - model.ncdist_ : 0;
+    for (int c = 0; c < kDistortionParams; ++c) f->kc[c] = c < f->free_dist ? a[L::dist + c] : cam0.kc[c];
+    f->R0 = model.R0_.data() + static_cast<std::size_t>(j) * 9;
+    f->qs = correction(a + L::rot);
+    rotation_matrix({f->qs.w, f->qs.u[0], f->qs.u[1], f->qs.u[2]}, f->Rs);
+    f->t = a + L::trans;
+  }
+
   static void eval(const CameraModel &model, int j, const double *a, const double *b, double *x,
                    double *A, double *B) {
-    const Camera &cam0 = model.cameras0_[j];
+    Frame f;
+    prepare(model, j, a, &f);
+    eval(f, b, x, A, B);
+  }
 
-    // Intrinsics and distortion: the free ones from a, the held ones from the input camera.
-    const int free_intr = kHasIntrinsics ? kIntrinsicParams - model.nccalib_ : 0;
-    const double in0[kIntrinsicParams] = {cam0.k.fu, cam0.k.u0, cam0.k.v0, cam0.k.ar, cam0.k.s};
-    double in[kIntrinsicParams];
-    for (int c = 0; c < kIntrinsicParams; ++c) in[c] = c < free_intr ? a[L::intr + c] : in0[c];
-    const double fu = in[0], u0 = in[1], v0 = in[2], ar = in[3], sk = in[4];
-    const int free_dist = kHasDistortion ? kDistortionParams - model.ncdist_ : 0;
-    double kc[kDistortionParams];
-    for (int c = 0; c < kDistortionParams; ++c) kc[c] = c < free_dist ? a[L::dist + c] : cam0.kc[c];
+  static void eval(const Frame &f, const double *b, double *x, double *A, double *B) {
+    const double fu = f.in[0], u0 = f.in[1], v0 = f.in[2], ar = f.in[3], sk = f.in[4];
+    const double *kc = f.kc;
+    const int free_intr = f.free_intr, free_dist = f.free_dist;
+    const Correction &qs = f.qs;
+    const double *Rs = f.Rs, *R0 = f.R0;
 
     // X_c = R(qs) Y + t with Y = R(q0) X: the correction acts after the input rotation.
-    const double *R0 = model.R0_.data() + static_cast<std::size_t>(j) * 9;
     double Y[3];
     mat3_vec(R0, b, Y);
-    const Correction qs = correction(a + L::rot);
-    double Rs[9];
-    rotation_matrix({qs.w, qs.u[0], qs.u[1], qs.u[2]}, Rs);
     double Xc[3];
     mat3_vec(Rs, Y, Xc);
-    const double *t = a + L::trans;
-    for (int r = 0; r < 3; ++r) Xc[r] += t[r];
+    for (int r = 0; r < 3; ++r) Xc[r] += f.t[r];
 
     const double iz = 1.0 / Xc[2];
     const double xn = Xc[0] * iz, yn = Xc[1] * iz;
@@ -333,37 +353,48 @@ struct Callbacks {
   static constexpr int cnp = Layout<K>::cnp;
   static constexpr int mnp = kMeasurementParams, pnp = kPointParams;
 
+  // The whole-vector callbacks see every camera's parameters at once: the per-camera part of
+  // the projection (intrinsics, the rotation and its derivatives) is set up once per camera,
+  // not once per projection.
+  static std::vector<typename Kern::Frame> frames(const CameraModel &model, const double *pa) {
+    std::vector<typename Kern::Frame> f(static_cast<std::size_t>(model.ncameras()));
+    for (int j = 0; j < model.ncameras(); ++j) Kern::prepare(model, j, pa + off(j, cnp), &f[size_t(j)]);
+    return f;
+  }
+
   // ---- expert: p = cameras then points ----
   static void motstr_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
     const CameraModel &model = model_of(adata);
     const double *pb = p + off(model.ncameras(), cnp);
+    const auto f = frames(model, p);
     for_each_projection(*idx, [&](int i, int j, int k) {
-      Kern::eval(model, j, p + off(j, cnp), pb + off(i, pnp), hx + off(k, mnp), nullptr, nullptr);
+      Kern::eval(f[size_t(j)], pb + off(i, pnp), hx + off(k, mnp), nullptr, nullptr);
     });
   }
   static void motstr_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adata) {
     const CameraModel &model = model_of(adata);
     const double *pb = p + off(model.ncameras(), cnp);
     constexpr int block = mnp * (cnp + pnp);
+    const auto f = frames(model, p);
     for_each_projection(*idx, [&](int i, int j, int k) {
       double *A = jac + off(k, block);
-      Kern::eval(model, j, p + off(j, cnp), pb + off(i, pnp), nullptr, A, A + mnp * cnp);
+      Kern::eval(f[size_t(j)], pb + off(i, pnp), nullptr, A, A + mnp * cnp);
     });
   }
 
   // ---- expert: p = cameras, points from the model ----
   static void mot_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
     const CameraModel &model = model_of(adata);
+    const auto f = frames(model, p);
     for_each_projection(*idx, [&](int i, int j, int k) {
-      Kern::eval(model, j, p + off(j, cnp), model.initial_point(i), hx + off(k, mnp), nullptr,
-                 nullptr);
+      Kern::eval(f[size_t(j)], model.initial_point(i), hx + off(k, mnp), nullptr, nullptr);
     });
   }
   static void mot_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adata) {
     const CameraModel &model = model_of(adata);
+    const auto f = frames(model, p);
     for_each_projection(*idx, [&](int i, int j, int k) {
-      Kern::eval(model, j, p + off(j, cnp), model.initial_point(i), nullptr,
-                 jac + off(k, mnp * cnp), nullptr);
+      Kern::eval(f[size_t(j)], model.initial_point(i), nullptr, jac + off(k, mnp * cnp), nullptr);
     });
   }
 
