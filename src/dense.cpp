@@ -42,6 +42,7 @@
 #include <limits>
 #include <vector>
 
+#include "dense.h"
 #include "sba_export.h"
 #include "lapack.h"
 
@@ -483,17 +484,22 @@ int conjugate_gradients(const View &A, const Vec &b, Vec &x, int niter, double e
 
 using Solver = bool (*)(const View &, Vec &);
 
+// The solve behind every helper; std::bad_alloc passes through.
+bool solve_checked(Solver solve, const double *A, const double *B, double *x, int m, int iscolmaj) {
+  const std::size_t n = std::size_t(m);
+  if (!all_finite(A, n * n) || !all_finite(B, n)) return false;
+  Vec sol(B, B + n);
+  if (!solve(View(A, m, iscolmaj != 0), sol) || !all_finite(sol)) return false;
+  std::copy(sol.begin(), sol.end(), x);
+  return true;
+}
+
 int run_solver(Solver solve, const double *A, const double *B, double *x, int m,
                int iscolmaj) noexcept {
   if (A == nullptr) return 1;
   if (m <= 0 || B == nullptr || x == nullptr) return 0;
   try {
-    const std::size_t n = std::size_t(m);
-    if (!all_finite(A, n * n) || !all_finite(B, n)) return 0;
-    Vec sol(B, B + n);
-    if (!solve(View(A, m, iscolmaj != 0), sol) || !all_finite(sol)) return 0;
-    std::copy(sol.begin(), sol.end(), x);
-    return 1;
+    return solve_checked(solve, A, B, x, m, iscolmaj) ? 1 : 0;
   } catch (...) {
     return 0;
   }
@@ -597,6 +603,19 @@ int run_cholinv(const double *A, double *B, int m) noexcept {
 }
 
 }  // namespace
+
+bool solve(Method method, const double *A, const double *B, double *x, int m) {
+  if (!A || !B || !x || m <= 0) return false;
+  switch (method) {
+    case Method::LDLt: return solve_checked(solve_ldlt, A, B, x, m, 0);
+    case Method::BK: return solve_checked(solve_bk, A, B, x, m, 0);
+    case Method::LU: return solve_checked(solve_lu, A, B, x, m, 0);
+    case Method::QR: return solve_checked(solve_qr, A, B, x, m, 0);
+    case Method::SVD: return solve_checked(solve_svd, A, B, x, m, 0);
+  }
+  return false;
+}
+
 }  // namespace sba::dense
 
 extern "C" {

@@ -1,10 +1,12 @@
 // Dense S: the reduced camera system assembled into an (m-mcon)cnp square matrix and
 // factored by LAPACK. Cholesky (the default, as in sba 1.6) factors in place; the other
-// factorizations go through the sba_Axb_* helpers on the mirrored full matrix.
+// factorizations are those of the sba_Axb_* helpers (src/dense.h), on the mirrored full
+// matrix.
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
+#include "dense.h"
 #include "lapack.h"
 #include "linsolve.h"
 #include "small_dense.h"
@@ -74,22 +76,22 @@ class DenseSchurSolver final : public StepSolver {
     bool ok = false;
     switch (kind_) {
       case LinSolver::LDLt:
-        ok = sba_Axb_LDLt(S, b, da, n, 0) == 1;
+        ok = dense::solve(dense::Method::LDLt, S, b, da, n);
         break;
       case LinSolver::BK:
-        ok = sba_Axb_BK(S, b, da, n, 0) == 1;
+        ok = dense::solve(dense::Method::BK, S, b, da, n);
         break;
       case LinSolver::LU:
-        ok = sba_Axb_LU(S, b, da, n, 0) == 1;
+        ok = dense::solve(dense::Method::LU, S, b, da, n);
         break;
       case LinSolver::QR:
-        ok = sba_Axb_QR(S, b, da, n, 0) == 1;
+        ok = dense::solve(dense::Method::QR, S, b, da, n);
         break;
       case LinSolver::QRnoQ:
         ok = qr_seminormal(S, b, da, n);
         break;
       case LinSolver::SVD:
-        ok = sba_Axb_SVD(S, b, da, n, 0) == 1;
+        ok = dense::solve(dense::Method::SVD, S, b, da, n);
         break;
       case LinSolver::CG:
         ok = block_jacobi_cg(S, b, da, n);
