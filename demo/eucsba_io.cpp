@@ -94,19 +94,33 @@ class DataLines {
   std::vector<std::string> tokens_;
 };
 
-// A finite double, or why the token is not one.
+// A token as an error message may show it: unprintable bytes (a NUL would cut the line short,
+// an escape sequence would reach the terminal) become '?', and a long token is shortened.
+std::string quoted(const std::string &tok) {
+  constexpr std::size_t kMax = 40;
+  std::string q = "'";
+  for (std::size_t k = 0; k < tok.size() && k < kMax; ++k) {
+    const unsigned char c = static_cast<unsigned char>(tok[k]);
+    q += (c >= 32 && c < 127) ? static_cast<char>(c) : '?';
+  }
+  if (tok.size() > kMax) q += "...";
+  return q + "'";
+}
+
+// A finite double, or why the token is not one. The whole token must be read: strtod stops at
+// a NUL inside it, which must not pass for the end of the token.
 bool parse_real(const std::string &tok, double *value, std::string *why) {
   const char *s = tok.c_str();
   char *end = nullptr;
   errno = 0;
   const double v = std::strtod(s, &end);
-  if (end == s || *end != '\0') {
-    *why = "'" + tok + "' is not a number";
+  if (end == s || end != s + tok.size()) {
+    *why = quoted(tok) + " is not a number";
     return false;
   }
   if (!std::isfinite(v)) {
     // strtod saturates overflow to inf with ERANGE; underflow to 0 or a denormal is fine.
-    *why = "'" + tok + "' is not a finite number";
+    *why = quoted(tok) + " is not a finite number";
     return false;
   }
   *value = v;
@@ -119,15 +133,14 @@ bool parse_integer(const std::string &tok, long long *value, std::string *why) {
   char *end = nullptr;
   errno = 0;
   const long long v = std::strtoll(s, &end, 10);
-  if (end == s || *end != '\0') {
+  if (end == s || end != s + tok.size()) {
     double ignored;
     std::string unused;
-    *why = parse_real(tok, &ignored, &unused) ? "'" + tok + "' is not an integer"
-                                              : "'" + tok + "' is not a number";
+    *why = quoted(tok) + (parse_real(tok, &ignored, &unused) ? " is not an integer" : " is not a number");
     return false;
   }
   if (errno == ERANGE) {
-    *why = "'" + tok + "' is out of range";
+    *why = quoted(tok) + " is out of range";
     return false;
   }
   *value = v;

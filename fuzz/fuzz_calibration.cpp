@@ -1,0 +1,23 @@
+// libFuzzer target: eucsbademo's calibration file reader (eucsba::read_calibration).
+#include <cstddef>
+#include <cstdint>
+
+#include "eucsba_io.h"
+#include "fuzz_common.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
+  static const sbafuzz::InputFile file("calib.txt");
+  if (!file.write(data, size)) return 0;
+  eucsba::Intrinsics k;
+  const eucsba::Status st = eucsba::read_calibration(file.path(), &k);
+  if (!st.ok()) {
+    sbafuzz::check_error_line(st.to_string(), file.path() + ":");
+    sbafuzz::require(st.line() > 0, "a format error without a line number: " + st.to_string());
+    return 0;
+  }
+  const double v[] = {k.fu, k.u0, k.v0, k.ar, k.s};
+  sbafuzz::require_finite(std::begin(v), std::end(v), "the calibration");
+  sbafuzz::require(k.fu != 0, "accepted fu == 0");
+  sbafuzz::require(k.ar != 0, "accepted fv == 0");
+  return 0;
+}

@@ -1,0 +1,27 @@
+// libFuzzer target: eucsbademo's camera file reader (eucsba::read_cameras).
+#include <cstddef>
+#include <cstdint>
+
+#include "eucsba_io.h"
+#include "fuzz_common.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
+  static const sbafuzz::InputFile file("cams.txt");
+  if (!file.write(data, size)) return 0;
+  eucsba::CameraFile cams;
+  const eucsba::Status st = eucsba::read_cameras(file.path(), &cams);
+  if (!st.ok()) {
+    sbafuzz::check_error_line(st.to_string(), file.path() + ":");
+    sbafuzz::require(st.line() > 0, "a format error without a line number: " + st.to_string());
+    return 0;
+  }
+  sbafuzz::require(!cams.cameras.empty(), "accepted a file without cameras");
+  sbafuzz::require(cams.first_line > 0, "first_line not set");
+  for (const eucsba::Camera &c : cams.cameras) {
+    const double v[] = {c.k.fu, c.k.u0, c.k.v0, c.k.ar, c.k.s, c.q.w, c.q.x, c.q.y, c.q.z, c.t[0], c.t[1], c.t[2]};
+    sbafuzz::require_finite(std::begin(v), std::end(v), "a camera");
+    sbafuzz::require_finite(c.kc.begin(), c.kc.end(), "a camera's distortion");
+    sbafuzz::require(c.q.w != 0 || c.q.x != 0 || c.q.y != 0 || c.q.z != 0, "accepted a zero quaternion");
+  }
+  return 0;
+}

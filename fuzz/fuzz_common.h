@@ -1,0 +1,70 @@
+// Shared by the fuzz targets: the eucsbademo readers take paths, so every input is first
+// written to a file (in SBA_FUZZ_TMPDIR, which scripts/run_fuzz.sh points at a directory in
+// /dev/shm, else /dev/shm or /tmp); and the checks of what the readers promise.
+#ifndef SBA_FUZZ_COMMON_H
+#define SBA_FUZZ_COMMON_H
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+namespace sbafuzz {
+
+// A file of this process for inputs of kind `what`, removed when the process exits normally.
+class InputFile {
+ public:
+  explicit InputFile(const char *what) {
+    const char *dir = std::getenv("SBA_FUZZ_TMPDIR");
+    if (!dir || !*dir) dir = access("/dev/shm", W_OK) == 0 ? "/dev/shm" : "/tmp";
+    path_ = std::string(dir) + "/sba-fuzz-" + std::to_string(getpid()) + "-" + what;
+  }
+  ~InputFile() { std::remove(path_.c_str()); }
+  InputFile(const InputFile &) = delete;
+  InputFile &operator=(const InputFile &) = delete;
+
+  const std::string &path() const { return path_; }
+
+  // Replaces the file's content with the input; false if it cannot be written.
+  bool write(const std::uint8_t *data, std::size_t size) const {
+    std::FILE *f = std::fopen(path_.c_str(), "wb");
+    if (!f) return false;
+    const bool ok = std::fwrite(data, 1, size, f) == size;
+    return std::fclose(f) == 0 && ok;
+  }
+
+ private:
+  std::string path_;
+};
+
+// A broken promise: libFuzzer records the input as a crash.
+[[noreturn]] inline void broken(const std::string &what) {
+  std::fprintf(stderr, "fuzz: broken promise: %s\n", what.c_str());
+  std::abort();
+}
+
+inline void require(bool ok, const std::string &what) {
+  if (!ok) broken(what);
+}
+
+// An error must be one non-empty line that starts with the file's name.
+inline void check_error_line(const std::string &msg, const std::string &prefix) {
+  require(!msg.empty(), "empty error message");
+  require(msg.find('\n') == std::string::npos && msg.find('\r') == std::string::npos,
+          "error message of more than one line: " + msg);
+  require(msg.compare(0, prefix.size(), prefix) == 0,
+          "error message does not start with '" + prefix + "': " + msg);
+  require(msg.size() > prefix.size() + 1, "error message without a message: " + msg);
+}
+
+template <class It>
+void require_finite(It begin, It end, const std::string &what) {
+  for (It it = begin; it != end; ++it) require(std::isfinite(*it), what + " holds a non-finite value");
+}
+
+}  // namespace sbafuzz
+
+#endif

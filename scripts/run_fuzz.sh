@@ -1,0 +1,88 @@
+#!/bin/sh
+# make check-fuzz: runs every libFuzzer target of fuzz/ for a bounded time, seeded with the
+# real input files, and fails if any of them finds a crash, a leak, a timeout, an
+# out-of-memory or a broken promise (see fuzz/fuzz_common.h). The seed corpora are assembled
+# at run time in a temporary directory from ../shared/data (the sba demo files and the BAL
+# problems), the project's data/ and tests/fuzz_regressions/; nothing of them is kept.
+#
+# usage: scripts/run_fuzz.sh FUZZ_BUILD_DIR [SECONDS_PER_TARGET] [SHARED_DATA_DIR]
+# Crashing inputs are kept in FUZZ_BUILD_DIR/artifacts/; to keep one as a regression test,
+# copy it to tests/fuzz_regressions/TARGET-SHORT-NAME (see the README there). With
+# SBA_FUZZ_KEEP_CORPUS=DIR the final corpora are copied to DIR/TARGET/ before cleaning up.
+set -eu
+
+build=$(cd "$1" && pwd)
+seconds=${2:-60}
+root=$(cd "$(dirname "$0")/.." && pwd)
+shared=${3:-$root/../shared/data}
+
+work=$(mktemp -d "${TMPDIR:-/tmp}/sba-fuzz.XXXXXX")
+# The eucsbademo readers take paths: each input is written to a file there (in memory).
+inputs=$(mktemp -d /dev/shm/sba-fuzz.XXXXXX 2>/dev/null || mktemp -d "$work/inputs.XXXXXX")
+trap 'rm -rf "$work" "$inputs"' EXIT INT TERM
+artifacts=$build/artifacts
+mkdir -p "$artifacts"
+
+seed() {  # seed TARGET FILE...: copies the files that exist into TARGET's corpus
+  target=$1
+  shift
+  mkdir -p "$work/corpus-$target"
+  for f in "$@"; do
+    [ -f "$f" ] && cp "$f" "$work/corpus-$target/$(basename "$f")"
+  done
+  return 0
+}
+
+if [ ! -d "$shared" ]; then
+  echo "check-fuzz: note: no shared data at $shared: seeding from data/ and tests/ only"
+fi
+seed cameras "$shared"/sba-demo/*cams*.txt "$root"/data/*-cams.txt
+seed points "$shared"/sba-demo/*pts.txt "$root"/data/*-pts.txt
+seed calibration "$shared"/sba-demo/calib.txt "$root"/data/*-calib.txt
+seed bal "$shared"/bal/dubrovnik-3-7-pre.txt.bz2
+# BAL text seeds: the smallest problem whole, and the beginnings of the others (they fail as
+# truncated files, but carry real observation and camera lines).
+for f in "$shared"/bal/*.txt.bz2; do
+  [ -f "$f" ] || continue
+  b=$(basename "$f" .bz2)
+  case "$b" in
+    dubrovnik-3-7-pre.txt) bzip2 -dc "$f" > "$work/corpus-bal/$b" ;;
+    *) bzip2 -dc "$f" 2>/dev/null | head -c 8192 > "$work/corpus-bal/head-$b" || true ;;
+  esac
+done
+# Earlier findings: tests/fuzz_regressions/TARGET-*.
+for t in cameras points calibration bal; do
+  seed "$t" "$root"/tests/fuzz_regressions/"$t"-*
+done
+
+status=0
+for t in cameras points calibration bal; do
+  case "$t" in
+    points) max_len=16384 dict=eucsba ;;  # the seeds are cut to their first 16 KB
+    bal) max_len=16384 dict=bal ;;
+    *) max_len=4096 dict=eucsba ;;
+  esac
+  log=$work/$t.log
+  rc=0
+  SBA_FUZZ_TMPDIR=$inputs "$build/fuzz_$t" -max_total_time="$seconds" -max_len="$max_len" \
+    -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 -dict="$root/fuzz/$dict.dict" \
+    -artifact_prefix="$artifacts/$t-" "$work/corpus-$t" >"$log" 2>&1 || rc=$?
+  runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
+  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -n 1 | cut -d' ' -f2)
+  corpus=$(ls "$work/corpus-$t" | wc -l)
+  if [ "$rc" -eq 0 ]; then
+    echo "check-fuzz: fuzz_$t: ${runs:-?} inputs in ${seconds} s, coverage ${cov:-?}, corpus $corpus: no failure"
+  else
+    echo "check-fuzz: fuzz_$t: FAILED (exit $rc); the input is in $artifacts; log:"
+    grep -v '^#[0-9]' "$log" | tail -n 60
+    status=1
+  fi
+done
+if [ -n "${SBA_FUZZ_KEEP_CORPUS:-}" ]; then
+  for t in cameras points calibration bal; do
+    mkdir -p "$SBA_FUZZ_KEEP_CORPUS/$t"
+    cp "$work/corpus-$t"/* "$SBA_FUZZ_KEEP_CORPUS/$t/"
+  done
+  echo "check-fuzz: corpora kept in $SBA_FUZZ_KEEP_CORPUS"
+fi
+exit $status

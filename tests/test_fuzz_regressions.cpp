@@ -1,0 +1,165 @@
+// Inputs found by the fuzz targets of fuzz/ (issue 7), kept in tests/fuzz_regressions/ as
+// TARGET-NAME with TARGET one of cameras, points, calibration, bal (see the README there).
+// Each must give a clean error: one line naming the file from the reader itself, and one
+// line on stderr with exit status 1 from the program that reads such files (eucsbademo,
+// balsba). Under `make check-sanitize` the same runs are checked by ASan and UBSan.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bal_io.h"
+#include "eucsba_io.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kDir = fs::path(SBA_PROJECT_DIR) / "tests" / "fuzz_regressions";
+const fs::path kData = fs::path(SBA_PROJECT_DIR) / "data";
+
+// The inputs for one target, sorted by name.
+std::vector<fs::path> inputs(const std::string &target) {
+  std::vector<fs::path> out;
+  if (!fs::is_directory(kDir)) return out;
+  for (const auto &e : fs::directory_iterator(kDir)) {
+    const std::string name = e.path().filename().string();
+    if (e.is_regular_file() && name.rfind(target + "-", 0) == 0) out.push_back(e.path());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+void expect_one_line(const std::string &msg, const std::string &prefix, const fs::path &input) {
+  EXPECT_FALSE(msg.empty()) << input;
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << input << ": " << msg;
+  EXPECT_EQ(msg.rfind(prefix, 0), 0u) << input << ": '" << msg << "' does not start with " << prefix;
+}
+
+std::string shell_quote(const std::string &s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+struct Run {
+  int status = -1;
+  std::string err;
+};
+
+// Runs a command with its stderr captured (stdout discarded).
+Run run(const std::string &cmd) {
+  const fs::path err = fs::temp_directory_path() / ("sba-fuzzreg-" + std::to_string(::getpid()) + ".err");
+  Run r;
+  const int st = std::system((cmd + " >/dev/null 2>" + shell_quote(err.string())).c_str());
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  std::ifstream in(err);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  r.err = ss.str();
+  fs::remove(err);
+  return r;
+}
+
+// The program's verdict: exit status 1 and exactly one line on stderr, about the input.
+void expect_program_refuses(const std::string &cmd, const fs::path &input) {
+  const Run r = run(cmd);
+  EXPECT_EQ(r.status, 1) << cmd << "\n" << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << cmd << "\n" << r.err;
+  EXPECT_NE(r.err.find(input.string()), std::string::npos) << cmd << "\n" << r.err;
+}
+
+TEST(FuzzRegressions, TheDirectoryHoldsInputs) {
+  ASSERT_TRUE(fs::is_directory(kDir)) << kDir;
+  EXPECT_FALSE(inputs("cameras").empty() && inputs("points").empty() && inputs("calibration").empty() &&
+               inputs("bal").empty());
+}
+
+TEST(FuzzRegressions, CameraFiles) {
+  for (const fs::path &in : inputs("cameras")) {
+    eucsba::CameraFile cams;
+    const eucsba::Status st = eucsba::read_cameras(in.string(), &cams);
+    EXPECT_FALSE(st.ok()) << in;
+    expect_one_line(st.to_string(), in.string() + ":", in);
+    expect_program_refuses(shell_quote(EUCSBADEMO_EXE) + " " + shell_quote(in.string()) + " " +
+                               shell_quote((kData / "orbit-fixedK-pts.txt").string()) + " " +
+                               shell_quote((kData / "orbit-fixedK-calib.txt").string()),
+                           in);
+  }
+}
+
+TEST(FuzzRegressions, PointsFiles) {
+  for (const fs::path &in : inputs("points")) {
+    eucsba::PointSet pts;
+    const eucsba::Status st = eucsba::read_points(in.string(), 64, &pts);
+    EXPECT_FALSE(st.ok()) << in;
+    expect_one_line(st.to_string(), in.string() + ":", in);
+    expect_program_refuses(shell_quote(EUCSBADEMO_EXE) + " " +
+                               shell_quote((kData / "orbit-fixedK-cams.txt").string()) + " " +
+                               shell_quote(in.string()) + " " +
+                               shell_quote((kData / "orbit-fixedK-calib.txt").string()),
+                           in);
+  }
+}
+
+TEST(FuzzRegressions, CalibrationFiles) {
+  for (const fs::path &in : inputs("calibration")) {
+    eucsba::Intrinsics k;
+    const eucsba::Status st = eucsba::read_calibration(in.string(), &k);
+    EXPECT_FALSE(st.ok()) << in;
+    expect_one_line(st.to_string(), in.string() + ":", in);
+    expect_program_refuses(shell_quote(EUCSBADEMO_EXE) + " " +
+                               shell_quote((kData / "orbit-fixedK-cams.txt").string()) + " " +
+                               shell_quote((kData / "orbit-fixedK-pts.txt").string()) + " " +
+                               shell_quote(in.string()),
+                           in);
+  }
+}
+
+TEST(FuzzRegressions, BalFiles) {
+  for (const fs::path &in : inputs("bal")) {
+    bal::Problem p;
+    std::string error;
+    EXPECT_FALSE(bal::read_problem(in.string(), &p, &error)) << in;
+    expect_one_line(error, in.string() + ": ", in);
+    expect_program_refuses(shell_quote(BALSBA_EXE) + " " + shell_quote(in.string()), in);
+  }
+}
+
+// Found in the fuzzers' corpora (not as a crash): a token with a NUL byte inside
+// ("500<NUL>zzz") must not be read as the number before the NUL, and no message may echo
+// a NUL, control bytes or escape sequences to the terminal.
+TEST(FuzzRegressions, NulAndControlBytesInATokenAreRefusedAndNotEchoed) {
+  const fs::path dir = fs::temp_directory_path();
+  auto write = [&](const std::string &name, const std::string &text) {
+    const fs::path p = dir / ("sba-fuzzreg-" + std::to_string(::getpid()) + "-" + name);
+    std::ofstream(p, std::ios::binary) << text;
+    return p;
+  };
+  auto printable = [](const std::string &msg) {
+    return std::all_of(msg.begin(), msg.end(), [](char c) { return c >= 32 && c <= 126; });
+  };
+  const fs::path calib = write("calib.txt", std::string("500\0zzz 0 320\n0 500 240\n0 0 1\n", 30));
+  eucsba::Intrinsics k;
+  const eucsba::Status st = eucsba::read_calibration(calib.string(), &k);
+  EXPECT_FALSE(st.ok()) << "'500<NUL>zzz' was read as " << k.fu;
+  EXPECT_TRUE(printable(st.to_string())) << st.to_string();
+  const fs::path pts = write("pts.txt", "1 2 3 1 0 4\x1b[2J 5\n");
+  eucsba::PointSet ps;
+  const eucsba::Status sp = eucsba::read_points(pts.string(), 64, &ps);
+  EXPECT_FALSE(sp.ok());
+  EXPECT_TRUE(printable(sp.to_string())) << sp.to_string();
+  fs::remove(calib);
+  fs::remove(pts);
+}
+
+}  // namespace
