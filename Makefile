@@ -9,7 +9,8 @@ PREFIX ?= /usr/local
 CMAKE_FLAGS ?=
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: all configure test demo install clean deps-build deps-test mex mex-test deps-mex
+.PHONY: all configure test demo install clean deps-build deps-test mex mex-test deps-mex \
+	check-sanitize check-valgrind check-tsan check-fuzz soak configure-asan clean-checks
 
 # The main job: a generated 20-camera problem (data/README.md) through eucsbademo.
 DEMO_PROBLEM ?= data/orbit-fixedK
@@ -52,3 +53,60 @@ install: deps-build
 
 clean:
 	rm -rf $(BUILD)
+
+# ---- reliability checks (README, "Reliability") ----
+#   make check-sanitize   the test suite under AddressSanitizer + UBSan + LeakSanitizer (build-asan/)
+#   make check-valgrind   eucsbademo on DEMO_PROBLEM under valgrind memcheck
+#   make check-tsan       the concurrency tests under ThreadSanitizer (build-tsan/)
+#   make check-fuzz       every libFuzzer target of fuzz/ for FUZZ_SECONDS each (build-fuzz/)
+#   make soak             SOAK_N random solves with random faults (and SOAK_ASAN_N under ASan)
+ASAN_BUILD ?= build-asan
+TSAN_BUILD ?= build-tsan
+FUZZ_BUILD ?= build-fuzz
+FUZZ_SECONDS ?= 60
+SOAK_N ?= 1000
+SOAK_ASAN_N ?= $(SOAK_N)
+SOAK_SEED ?= 1
+# The sanitizer builds: optimized enough to be quick, with line numbers; no MEX, no bench.
+SAN_CMAKE_FLAGS = -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSBA_BUILD_TESTS=ON -DSBA_BUILD_MEX=OFF \
+	-DSBA_BUILD_BENCH=OFF -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g"
+ASAN_FLAGS = -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
+TSAN_FLAGS = -fsanitize=thread -fno-omit-frame-pointer
+
+configure-asan: deps-test
+	cmake -S . -B $(ASAN_BUILD) $(SAN_CMAKE_FLAGS) -DCMAKE_C_FLAGS="$(ASAN_FLAGS)" \
+		-DCMAKE_CXX_FLAGS="$(ASAN_FLAGS)" -DCMAKE_EXE_LINKER_FLAGS="$(ASAN_FLAGS)" \
+		-DCMAKE_SHARED_LINKER_FLAGS="$(ASAN_FLAGS)" >/dev/null
+
+check-sanitize: configure-asan
+	cmake --build $(ASAN_BUILD) -j $(JOBS)
+	sh scripts/check_sanitize.sh $(ASAN_BUILD) $(JOBS)
+
+check-valgrind: deps-test configure
+	@sh scripts/check_tools.sh valgrind
+	cmake --build $(BUILD) -j $(JOBS) --target eucsbademo
+	sh scripts/check_valgrind.sh $(BUILD)/demo/eucsbademo $(DEMO_PROBLEM)
+
+check-tsan: deps-test
+	cmake -S . -B $(TSAN_BUILD) $(SAN_CMAKE_FLAGS) -DCMAKE_C_FLAGS="$(TSAN_FLAGS)" \
+		-DCMAKE_CXX_FLAGS="$(TSAN_FLAGS)" -DCMAKE_EXE_LINKER_FLAGS="$(TSAN_FLAGS)" \
+		-DCMAKE_SHARED_LINKER_FLAGS="$(TSAN_FLAGS)" >/dev/null
+	cmake --build $(TSAN_BUILD) -j $(JOBS) --target test_drivers test_solvers test_dense
+	sh scripts/check_tsan.sh $(TSAN_BUILD)
+
+check-fuzz: deps-build
+	@sh scripts/check_tools.sh fuzz
+	cmake -S fuzz -B $(FUZZ_BUILD) -DCMAKE_CXX_COMPILER=clang++-14 >/dev/null
+	cmake --build $(FUZZ_BUILD) -j $(JOBS)
+	sh scripts/run_fuzz.sh $(FUZZ_BUILD) $(FUZZ_SECONDS)
+
+# SOAK_N solves in the normal build (leaks counted by a counting operator new), then
+# SOAK_ASAN_N more under AddressSanitizer (leaks found by LeakSanitizer in every child).
+soak: configure configure-asan
+	cmake --build $(BUILD) -j $(JOBS) --target sba_soak
+	$(BUILD)/tests/sba_soak --solves $(SOAK_N) --seed $(SOAK_SEED)
+	cmake --build $(ASAN_BUILD) -j $(JOBS) --target sba_soak
+	ASAN_OPTIONS=detect_leaks=1 $(ASAN_BUILD)/tests/sba_soak --solves $(SOAK_ASAN_N) --seed $(SOAK_SEED)
+
+clean-checks:
+	rm -rf $(ASAN_BUILD) $(TSAN_BUILD) $(FUZZ_BUILD)
