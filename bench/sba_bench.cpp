@@ -606,7 +606,8 @@ int bench_main(int argc, char **argv) {
   facts.jac_bytes = nobs * Problem::mnp * (prob.cnp + Problem::pnp) * 8.0;
   facts.s_dense_bytes = std::pow(static_cast<double>(prob.m) * prob.cnp, 2) * 8.0;
   facts.s_sparse_bytes = static_cast<double>(facts.pairs) * prob.cnp * prob.cnp * 8.0;
-  facts.input_bytes = static_cast<double>(prob.n) * prob.m + nobs * 2 * 8.0 + prob.nvars() * 8.0;
+  // x, the (point, camera) pairs and p: both engines take the pairs, no n*m vmask is held.
+  facts.input_bytes = nobs * (2 * 8.0 + 2 * 4.0) + prob.nvars() * 8.0;
   malloc_trim(0);
 
   std::printf("problem %s (%s): %d cameras, %d points, %.0f observations, cnp %d, %lld variables\n",
