@@ -83,7 +83,7 @@ check-sanitize: configure-asan
 	sh scripts/check_sanitize.sh $(ASAN_BUILD) $(JOBS)
 
 check-valgrind: deps-test configure
-	@sh scripts/check_tools.sh valgrind
+	@sh scripts/deps.sh valgrind
 	cmake --build $(BUILD) -j $(JOBS) --target eucsbademo
 	sh scripts/check_valgrind.sh $(BUILD)/demo/eucsbademo $(DEMO_PROBLEM)
 
@@ -95,7 +95,7 @@ check-tsan: deps-test
 	sh scripts/check_tsan.sh $(TSAN_BUILD)
 
 check-fuzz: deps-build
-	@sh scripts/check_tools.sh fuzz
+	@sh scripts/deps.sh fuzz
 	cmake -S fuzz -B $(FUZZ_BUILD) -DCMAKE_CXX_COMPILER=clang++-14 >/dev/null
 	cmake --build $(FUZZ_BUILD) -j $(JOBS)
 	sh scripts/run_fuzz.sh $(FUZZ_BUILD) $(FUZZ_SECONDS)

@@ -4,6 +4,8 @@
 #   scripts/deps.sh bench   build + Ceres Solver, Google Benchmark and gnuplot (bench/)
 #   scripts/deps.sh test    build + GoogleTest + GNU Octave (the MEX interface's tests)
 #   scripts/deps.sh mex     build + GNU Octave with its MEX headers
+#   scripts/deps.sh valgrind  build + valgrind (make check-valgrind)
+#   scripts/deps.sh fuzz    build + clang-14 with its libFuzzer/sanitizer runtimes (make check-fuzz)
 # Run as root it installs them with apt-get; otherwise it prints the exact command and fails.
 set -eu
 
@@ -14,7 +16,9 @@ case "$purpose" in
   test) pkgs="$pkgs libgtest-dev octave octave-dev" ;;
   mex) pkgs="$pkgs octave octave-dev" ;;
   bench) pkgs="$pkgs libceres-dev libbenchmark-dev gnuplot-nox" ;;
-  *) echo "usage: $0 build|test|mex|bench" >&2; exit 2 ;;
+  valgrind) pkgs="$pkgs valgrind" ;;
+  fuzz) pkgs="$pkgs clang-14 libclang-rt-14-dev bzip2" ;;
+  *) echo "usage: $0 build|test|mex|bench|valgrind|fuzz" >&2; exit 2 ;;
 esac
 
 missing=""
