@@ -16,15 +16,6 @@
 #include "sba_ext.h"
 #include "synth.h"
 
-// SBA_TEST_SANITIZED: built with AddressSanitizer or ThreadSanitizer.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define SBA_TEST_SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-#define SBA_TEST_SANITIZED 1
-#endif
-#endif
-
 namespace faults {
 
 using synth::kCnp;
