@@ -88,6 +88,19 @@ class Model {
   virtual i64 fd_jacobian(double *p, const double *hx, double *jac) = 0;
 };
 
+// Lends the solve's pool to the model for the scope of a solve: the model must not keep a
+// pointer to a pool that is about to be destroyed.
+class ModelThreads {
+ public:
+  ModelThreads(Model &model, ThreadPool *pool) : model_(model) { model_.use_threads(pool); }
+  ~ModelThreads() { model_.use_threads(nullptr); }
+  ModelThreads(const ModelThreads &) = delete;
+  ModelThreads &operator=(const ModelThreads &) = delete;
+
+ private:
+  Model &model_;
+};
+
 // The expert drivers' func/fjac.
 using ExpertFunc = void (*)(double *p, sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx,
                             void *adata);

@@ -20,7 +20,7 @@ namespace sba {
 bool covariance(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
                 const Options &opt, const Logger &log, CovarianceRequest &req) {
   ThreadPool pool(opt.nthreads);
-  model.use_threads(&pool);
+  const ModelThreads lend(model, &pool);
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());
   Linearization lin;
   if (!linearize(lay, model, p, x, covx, opt, log, pool, *kernels, &lin)) return false;

@@ -259,6 +259,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   sum = Summary{};
   const auto t0 = std::chrono::steady_clock::now();
   ThreadPool pool(opt.nthreads);
+  const ModelThreads lend(model, &pool);
   const Loss &loss = opt.loss;
   Workspace w(lay, covx != nullptr, loss.robust());
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());

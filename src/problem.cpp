@@ -144,7 +144,10 @@ class ExpertModel final : public Model {
 
   void use_threads(ThreadPool *pool) override {
     pool_ = concurrent_ && pool && pool->size() > 1 ? pool : nullptr;
-    if (!pool_) return;
+    if (!pool_) {
+      parts_.clear();
+      return;
+    }
     // One index per thread that shows only its rows (the others are empty rows), so that a
     // callback walking the index by rows computes exactly its share; plus its own scratch.
     const int T = pool_->size();
@@ -245,7 +248,12 @@ class SimpleModel final : public Model {
 
   void use_threads(ThreadPool *pool) override {
     pool_ = concurrent_ && pool && pool->size() > 1 ? pool : nullptr;
-    rows_ = split_rows(lay_, pool_ ? pool_->size() : 1);
+    if (pool_) {
+      rows_ = split_rows(lay_, pool_->size());
+      return;
+    }
+    rows_.assign(2, 0);  // within the capacity rows_ was made with: never throws
+    rows_[1] = lay_.n;
   }
 
   void eval(double *p, double *hx) override {

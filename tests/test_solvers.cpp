@@ -4,7 +4,10 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <mutex>
+#include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "sba_ext.h"
@@ -295,37 +298,75 @@ TEST_P(EverySolver, ResultsDoNotDependOnTheThreadCount) {
 namespace {
 
 // Callbacks called concurrently (parallel_callbacks) compute exactly what the serial calls
-// compute: the same bits, for both driver kinds, analytic and finite-difference Jacobians.
+// compute: the same bits, for both driver kinds, analytic and finite-difference Jacobians;
+// and they are really called from more than one thread (and only then).
+struct SeenThreads {
+  const synth::Problem *pb;
+  std::mutex mu;
+  std::set<std::thread::id> ids;
+  void note() {
+    std::lock_guard<std::mutex> lock(mu);
+    ids.insert(std::this_thread::get_id());
+  }
+};
+void seen_func(double *p, sba_crsm *idx, int *r, int *c, double *hx, void *ad) {
+  static_cast<SeenThreads *>(ad)->note();
+  synth::func_motstr(p, idx, r, c, hx, const_cast<synth::Problem *>(static_cast<SeenThreads *>(ad)->pb));
+}
+void seen_fjac(double *p, sba_crsm *idx, int *r, int *c, double *jac, void *ad) {
+  static_cast<SeenThreads *>(ad)->note();
+  synth::fjac_motstr(p, idx, r, c, jac, const_cast<synth::Problem *>(static_cast<SeenThreads *>(ad)->pb));
+}
+void seen_proj(int j, int i, double *a, double *b, double *x, void *ad) {
+  static_cast<SeenThreads *>(ad)->note();
+  synth::proj_motstr(j, i, a, b, x, nullptr);
+}
+void seen_projac(int j, int i, double *a, double *b, double *A, double *B, void *ad) {
+  static_cast<SeenThreads *>(ad)->note();
+  synth::projac_motstr(j, i, a, b, A, B, nullptr);
+}
+
 TEST(ParallelCallbacks, SameBitsAsSerialCallsForEveryDriverKind) {
   synth::Problem pb = synth::make(150, 8, 0.5, 0.05, 42);
   for (bool simple : {false, true})
     for (bool analytic : {true, false}) {
-      auto run = [&](int threads, int parallel) {
+      auto run = [&](int threads, int parallel, size_t *nthreads_seen) {
         sba_ext_options ext;
         sba_ext_options_init(&ext);
         ext.nthreads = threads;
         ext.parallel_callbacks = parallel;
+        SeenThreads seen;
+        seen.pb = &pb;
         Outcome o;
         o.p = pb.p0;
         if (simple)
           o.ret = sba_motstr_levmar_ext(pb.n, 2, pb.m, 1, pb.vmask.data(), o.p.data(), kCnp, kPnp,
-                                        pb.x.data(), nullptr, kMnp, synth::proj_motstr,
-                                        analytic ? synth::projac_motstr : nullptr, &pb, 100, 0,
+                                        pb.x.data(), nullptr, kMnp, seen_proj,
+                                        analytic ? seen_projac : nullptr, &seen, 100, 0,
                                         nullptr, o.info, &ext);
         else
           o.ret = sba_motstr_levmar_x_ext(pb.n, 2, pb.m, 1, pb.vmask.data(), o.p.data(), kCnp, kPnp,
-                                          pb.x.data(), nullptr, kMnp, synth::func_motstr,
-                                          analytic ? synth::fjac_motstr : nullptr, &pb, 100, 0,
+                                          pb.x.data(), nullptr, kMnp, seen_func,
+                                          analytic ? seen_fjac : nullptr, &seen, 100, 0,
                                           nullptr, o.info, &ext);
+        *nthreads_seen = seen.ids.size();
         return o;
       };
-      const Outcome serial = run(1, 0);
+      const char *what = simple ? (analytic ? "simple analytic" : "simple fd")
+                                : (analytic ? "expert analytic" : "expert fd");
+      size_t seen = 0;
+      const Outcome serial = run(1, 0, &seen);
       ASSERT_GT(serial.ret, 0);
+      EXPECT_EQ(seen, 1u) << what;
+      // Threads without the opt-in: still only the caller's thread.
+      const Outcome unasked = run(3, 0, &seen);
+      EXPECT_EQ(seen, 1u) << what;
+      EXPECT_EQ(unasked.p, serial.p) << what;
       for (int threads : {2, 3}) {
-        const Outcome par = run(threads, 1);
+        const Outcome par = run(threads, 1, &seen);
+        EXPECT_EQ(seen, size_t(threads)) << what << " with " << threads << " threads";
         EXPECT_EQ(par.ret, serial.ret);
-        EXPECT_EQ(par.p, serial.p) << (simple ? "simple" : "expert") << (analytic ? " analytic" : " fd")
-                                   << " with " << threads << " threads";
+        EXPECT_EQ(par.p, serial.p) << what << " with " << threads << " threads";
         for (int q = 0; q < SBA_INFOSZ; ++q) EXPECT_EQ(par.info[q], serial.info[q]) << q;
       }
     }
