@@ -42,12 +42,17 @@ bool all_finite(ThreadPool &pool, const double *v, i64 len) {
 // Everything the LM loop itself needs, sized once before iterating (the linear solver
 // owns its own).
 struct Workspace {
-  Workspace(const Layout &lay, bool weighted, bool robust) {
+  // keep_hx: f(p) must outlive the residual (the finite-difference Jacobian needs it).
+  // Otherwise each residual is made in place over f's output, which saves two vectors as
+  // long as the measurements (7 MB at 225k projections).
+  Workspace(const Layout &lay, bool weighted, bool robust, bool keep_hx) {
     const i64 nobs = lay.nvis * lay.mnp;
-    hx.resize(size_t(nobs));
-    e.resize(hx.size());
-    hxn.resize(hx.size());
-    en.resize(hx.size());
+    e.resize(size_t(nobs));
+    en.resize(e.size());
+    if (keep_hx) {
+      hx.resize(e.size());
+      hxn.resize(e.size());
+    }
     jac.resize(size_t(lay.nvis * lay.jblk()));
     if (weighted) wts.resize(size_t(nobs * lay.mnp));
     U.resize(size_t(i64(lay.m) * lay.cnp * lay.cnp));
@@ -65,6 +70,9 @@ struct Workspace {
   NormalEquations view() const {
     return NormalEquations{jac.data(), U.data(), V.data(), ea.data(), eb.data()};
   }
+  // Where f(p) and f(p + dp) are written.
+  double *f_out() { return hx.empty() ? e.data() : hx.data(); }
+  double *fn_out() { return hxn.empty() ? en.data() : hxn.data(); }
   std::vector<double> hx, e, hxn, en, jac, wts, U, ea, V, eb, dp, pn;
   // With a robust loss: sqrt(rho') per projection at p and at the trial point, and the
   // reweighted residual that the normal equations see.
@@ -100,8 +108,9 @@ struct Cost {
   double sq = 0;    // sum s_k
 };
 
-// e = W (x - hx), the (covariance-weighted) residual, and its cost. With a robust loss, rw
-// gets sqrt(rho'(s_k)) of every projection k (s_k = ||e_k||^2), the IRLS weights.
+// e = W (x - hx), the (covariance-weighted) residual, and its cost; e may be hx itself. With
+// a robust loss, rw gets sqrt(rho'(s_k)) of every projection k (s_k = ||e_k||^2), the IRLS
+// weights.
 Cost residual(ThreadPool &pool, const Layout &lay, const double *x, const double *hx,
               const double *wts, const Loss &loss, double *e, double *rw) {
   const int mnp = lay.mnp;
@@ -223,15 +232,15 @@ double predicted_reduction(ThreadPool &pool, const Layout &lay, const Workspace 
 bool linearize(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
                const Options &opt, const Logger &log, ThreadPool &pool, const Kernels &kernels,
                Linearization *out) {
-  Workspace w(lay, covx != nullptr, opt.loss.robust());
+  Workspace w(lay, covx != nullptr, opt.loss.robust(), !model.has_jacobian());
   if (covx && !make_weights(lay, covx, w.wts, log)) return false;
   const double *wts = covx ? w.wts.data() : nullptr;
-  model.eval(p, w.hx.data());
-  if (!all_finite(pool, w.hx.data(), lay.nvis * lay.mnp)) {
+  model.eval(p, w.f_out());
+  if (!all_finite(pool, w.f_out(), lay.nvis * lay.mnp)) {
     log.error("sba: the projection function returned NaN or Inf");
     return false;
   }
-  const Cost c = residual(pool, lay, x, w.hx.data(), wts, opt.loss, w.e.data(), w.rw.data());
+  const Cost c = residual(pool, lay, x, w.f_out(), wts, opt.loss, w.e.data(), w.rw.data());
   if (model.has_jacobian())
     model.jacobian(p, w.jac.data());
   else
@@ -261,7 +270,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   ThreadPool pool(opt.nthreads);
   const ModelThreads lend(model, &pool);
   const Loss &loss = opt.loss;
-  Workspace w(lay, covx != nullptr, loss.robust());
+  Workspace w(lay, covx != nullptr, loss.robust(), !model.has_jacobian());
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());
   const std::unique_ptr<StepSolver> solver =
       make_step_solver(opt.solver, SolveContext{lay, pool, *kernels});
@@ -274,14 +283,14 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   const i64 nvars = lay.nvars(), nobs = lay.nvis * lay.mnp;
   const double eps1 = opt.eps1, eps2sq = opt.eps2 * opt.eps2, eps3sq = opt.eps3 * opt.eps3;
 
-  model.eval(p, w.hx.data());
+  model.eval(p, w.f_out());
   sum.nfev = 1;
-  if (!all_finite(pool, w.hx.data(), nobs)) {
+  if (!all_finite(pool, w.f_out(), nobs)) {
     log.error("sba: the projection function returned NaN or Inf at the initial estimate");
     sum.reason = kStopNonFinite;
     return false;
   }
-  const Cost c0 = residual(pool, lay, x, w.hx.data(), wts, loss, w.e.data(), w.rw.data());
+  const Cost c0 = residual(pool, lay, x, w.f_out(), wts, loss, w.e.data(), w.rw.data());
   double eps = c0.cost, sqe = c0.sq;
   sum.err0 = sum.err = eps;
   sum.sq_err0 = sum.sq_err = sqe;
@@ -348,14 +357,14 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
         pool.for_range(nvars, [&](i64 b, i64 e) {
           for (i64 q = b; q < e; ++q) w.pn[size_t(q)] = p[q] + w.dp[size_t(q)];
         });
-        model.eval(w.pn.data(), w.hxn.data());
+        model.eval(w.pn.data(), w.fn_out());
         ++sum.nfev;
-        if (!all_finite(pool, w.hxn.data(), nobs)) {
+        if (!all_finite(pool, w.fn_out(), nobs)) {
           log.error("sba: the projection function returned NaN or Inf at iteration %d", it);
           record(kStopNonFinite, it + 1);
           return false;
         }
-        const Cost cn = residual(pool, lay, x, w.hxn.data(), wts, loss, w.en.data(), w.rwn.data());
+        const Cost cn = residual(pool, lay, x, w.fn_out(), wts, loss, w.en.data(), w.rwn.data());
         const double epsn = cn.cost;
         const double dL = predicted_reduction(pool, lay, w, mu);
         const double dF = eps - epsn;
