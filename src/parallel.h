@@ -4,6 +4,7 @@
 #ifndef SBA_SRC_PARALLEL_H
 #define SBA_SRC_PARALLEL_H
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <exception>
@@ -27,6 +28,11 @@ class ThreadPool {
   // fn(t) for every t in [0, size()), concurrently; returns when all are done. The first
   // exception thrown by any of them is rethrown here.
   void run(const std::function<void(int)> &fn);
+
+  // Until the next run(), the workers sleep instead of spinning for it: called before a
+  // long call into another library (LAPACK, CHOLMOD) that runs its own threads, so that
+  // our spinning workers do not take the cores those threads need.
+  void rest() { resting_.store(true, std::memory_order_release); }
 
   // fn(t, begin, end) over [0, n) in size() contiguous ranges, t the range's thread slot.
   template <class Fn>
@@ -60,13 +66,18 @@ class ThreadPool {
   void work(int id);
 
   std::vector<std::thread> workers_;
+  // An LM iteration hands the pool a few dozen short jobs with a little serial work between
+  // them. Waking a sleeping thread costs about 100 us on a virtual machine, more than many
+  // of those jobs, so both sides first spin for a while (kSpin) on the atomics below and
+  // only then sleep on the condition variables.
   std::mutex mu_;
   std::condition_variable wake_, done_;
-  const std::function<void(int)> *job_ = nullptr;
-  std::uint64_t generation_ = 0;
-  int pending_ = 0;
-  bool stop_ = false;
-  std::exception_ptr error_;
+  const std::function<void(int)> *job_ = nullptr;  // published by generation_
+  std::atomic<std::uint64_t> generation_{0};
+  std::atomic<int> pending_{0};
+  std::atomic<bool> stop_{false};
+  std::atomic<bool> resting_{false};
+  std::exception_ptr error_;  // guarded by mu_
 };
 
 // sum_k f(k) over [0, n), summed in fixed blocks and then in block order: the same bits for

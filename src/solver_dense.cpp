@@ -35,6 +35,7 @@ class DenseSchurSolver final : public StepSolver {
     map.cnp = lay.cnp;
     ctx_.kernels.assemble(ctx_.pool, ne, Vinv_.data(), mu, map, rhs_.data());
     double *da = dp + lay.a_off(lay.mcon);
+    ctx_.pool.rest();  // the BLAS has its own threads
     if (!factor_solve(da)) return false;
     for (i64 q = 0; q < nS; ++q)
       if (!std::isfinite(da[q])) return false;

@@ -76,6 +76,7 @@ class SparseSchurSolver final : public StepSolver {
           for (int a = 0; a < rows; ++a) *col++ = blk[a * cnp + b];
         }
       }
+    ctx_.pool.rest();  // CHOLMOD and its BLAS have their own threads
     if (!cholmod_l_factorize(chol_.A, chol_.L, &chol_.cm) || chol_.cm.status == CHOLMOD_OUT_OF_MEMORY)
       throw std::bad_alloc();
     if (chol_.L->minor < chol_.L->n) return false;  // not positive definite at this damping
