@@ -5,6 +5,7 @@
 #   Solvers/EverySolver.ResultsDoNotDependOnTheThreadCount  the library's own thread pool
 #                                                        (src/parallel.*) with 2, 3, 5 threads,
 #                                                        every linear solver
+#   ParallelCallbacks.*                                  the caller's callbacks on those threads
 #   DenseThreads.ConcurrentCallsMatchSequential          the LAPACK helpers from many threads
 # No suppressions are used. LAPACK/BLAS, SuiteSparse and libgomp are not instrumented: TSan
 # does not see their memory accesses, only their calls to intercepted functions (malloc,
@@ -36,6 +37,7 @@ run() {
 }
 run test_drivers 'Drivers.FourConcurrentSolvesMatchASequentialOne'
 run test_solvers 'Solvers/EverySolver.ResultsDoNotDependOnTheThreadCount/*'
+run test_solvers 'ParallelCallbacks.*'
 run test_dense 'DenseThreads.ConcurrentCallsMatchSequential'
 
 reports=$(find "$logs" -type f | sort)
