@@ -87,10 +87,10 @@ void ThreadPool::run(const std::function<void(int)> &fn) {
   }
   job_ = &fn;
   resting_.store(false, std::memory_order_relaxed);
-  error_ = nullptr;  // no worker runs now: the last job's pending_ reached 0
   pending_.store(int(workers_.size()), std::memory_order_relaxed);
   {
     std::lock_guard<std::mutex> lock(mu_);
+    error_ = nullptr;
     generation_.fetch_add(1, std::memory_order_release);
   }
   wake_.notify_all();
