@@ -60,7 +60,6 @@ struct Workspace {
     V.resize(size_t(i64(lay.n) * lay.pnp * lay.pnp));
     eb.resize(size_t(i64(lay.n) * lay.pnp));
     dp.resize(size_t(lay.nvars()));
-    pn.resize(dp.size());
     if (robust) {
       rw.resize(size_t(lay.nvis));
       rwn.resize(rw.size());
@@ -73,7 +72,8 @@ struct Workspace {
   // Where f(p) and f(p + dp) are written.
   double *f_out() { return hx.empty() ? e.data() : hx.data(); }
   double *fn_out() { return hxn.empty() ? en.data() : hxn.data(); }
-  std::vector<double> hx, e, hxn, en, jac, wts, U, ea, V, eb, dp, pn;
+  // dp: the step, then (once the predicted reduction is known) the trial point p + dp.
+  std::vector<double> hx, e, hxn, en, jac, wts, U, ea, V, eb, dp;
   // With a robust loss: sqrt(rho') per projection at p and at the trial point, and the
   // reweighted residual that the normal equations see.
   std::vector<double> rw, rwn, er;
@@ -354,10 +354,12 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
           record(kStopSingular, it + 1);
           return false;
         }
+        const double dL = predicted_reduction(pool, lay, w, mu);
+        double *pn = w.dp.data();  // dp becomes p + dp: one parameter vector fewer
         pool.for_range(nvars, [&](i64 b, i64 e) {
-          for (i64 q = b; q < e; ++q) w.pn[size_t(q)] = p[q] + w.dp[size_t(q)];
+          for (i64 q = b; q < e; ++q) pn[q] += p[q];
         });
-        model.eval(w.pn.data(), w.fn_out());
+        model.eval(pn, w.fn_out());
         ++sum.nfev;
         if (!all_finite(pool, w.fn_out(), nobs)) {
           log.error("sba: the projection function returned NaN or Inf at iteration %d", it);
@@ -366,13 +368,12 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
         }
         const Cost cn = residual(pool, lay, x, w.fn_out(), wts, loss, w.en.data(), w.rwn.data());
         const double epsn = cn.cost;
-        const double dL = predicted_reduction(pool, lay, w, mu);
         const double dF = eps - epsn;
         log.info(2, "SBA: iteration %d: mu %g, error %g -> %g, ||dp||^2 %g, gain ratio %g", it, mu,
                  eps, epsn, dp2, dL != 0.0 ? dF / dL : 0.0);
         if (dL > 0.0 && dF > 0.0) {
           if (std::sqrt(eps) - std::sqrt(epsn) < opt.eps4 * std::sqrt(eps)) stop = kStopReduction;
-          std::copy(w.pn.begin(), w.pn.end(), p);
+          std::copy(pn, pn + nvars, p);
           w.hx.swap(w.hxn);
           w.e.swap(w.en);
           w.rw.swap(w.rwn);
