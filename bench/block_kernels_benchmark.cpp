@@ -115,7 +115,7 @@ void BM_Step(benchmark::State &state, std::string key, Step step, bool portable)
         assemble();
         break;
       case Step::BackSubstitute:
-        k->back_substitute(pool, ne, f->Vinv.data(), f->dp.data());
+        k->back_substitute(pool, ne, f->Vinv.data(), mu, f->dp.data());
         break;
       case Step::DenseCholesky: {
         state.PauseTiming();

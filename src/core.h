@@ -44,8 +44,8 @@ struct Layout {
 
   // Row-compressed by point (cameras ascending); val[k] == k is the measurement ordinal.
   std::vector<int> rowptr, colidx, val;
-  // Column-compressed by camera (points ascending): point index and measurement ordinal.
-  std::vector<int> colptr, colrow, colk;
+  // Where each camera's projections start in the camera-major order (see by_camera()).
+  std::vector<int> colptr;
   sba_crsm idx{};  // views rowptr/colidx/val for the callbacks
   std::vector<int> rcidxs, rcsubs;  // callback scratch, max(n, m) each
 
@@ -59,6 +59,12 @@ struct Layout {
   int free_pts() const { return pnp > 0 ? n - ncon : 0; }
   i64 free_vars() const { return i64(free_cams()) * cnp + i64(free_pts()) * pnp; }
 };
+
+// The index column-compressed by camera (points ascending): for slot s of camera j's range
+// [colptr[j], colptr[j+1]), the point (row) and the measurement ordinal (k, unless null).
+// Built on demand by the solvers that need it, so that the others do not keep 8 bytes per
+// projection alive through the solve.
+void by_camera(const Layout &lay, std::vector<int> *row, std::vector<int> *k);
 
 // Builds the index from vmask. Returns false (with msg) on a problem too big for the int API.
 bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,

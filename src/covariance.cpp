@@ -44,7 +44,7 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
     map.base = S.data();
     map.ld = nS;
     map.cnp = cnp;
-    kernels->assemble(pool, ne, Vinv.data(), 0.0, map, rhs.data());
+    kernels->assemble(pool, ne, Vinv.data(), 0.0, map, rhs.data());  // with Vinv: cannot fail
     for (int r = 0; r < nS; ++r)
       for (int c = r + 1; c < nS; ++c) S[size_t(c) * nS + r] = S[size_t(r) * nS + c];
     std::vector<double> lambda(static_cast<size_t>(nS));

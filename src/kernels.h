@@ -17,21 +17,35 @@ namespace sba {
 
 struct NormalEquations;
 
-// Where the Schur assembly finds block S_jk (free-camera indices j <= k): row-major with
-// row stride ld, inside a dense (nS x nS) matrix or a list of stored blocks.
+// Where the Schur assembly finds block S_jk (free-camera indices j <= k).
+//  - Dense S: row-major inside an (nS x nS) matrix with row stride ld; the assembly fills
+//    the upper block triangle.
+//  - Sparse S: the blocks are the arrays of the matrix that CHOLMOD factors, the lower
+//    triangle of P S P^T in compressed columns (P: the camera ordering, perm[j] is free camera
+//    j's block column). Block column c holds full blocks for its block rows rows[colstart[c]
+//    .. colstart[c+1]) (ascending, c itself first), its cnp scalar columns one after the
+//    other, each nb_c * cnp entries long (nb_c blocks). Stored block (r, c), r >= c, read
+//    row-major with row stride nb_c * cnp, is then block (c, r) of P S P^T: S_jk itself when
+//    perm[j] <= perm[k], otherwise S_jk^T, which the assembly then computes in its place.
 struct BlockMap {
   double *base = nullptr;
-  i64 ld = 0;  // dense: nS; blocks: cnp
+  i64 ld = 0;  // dense S: nS
   int cnp = 0;
-  // Stored blocks (sparse S): block column k holds block rows rows[colstart[k] ..
-  // colstart[k+1]), ascending; null for a dense S.
+  const int *perm = nullptr;  // null for a dense S
   const int *rows = nullptr;
   const i64 *colstart = nullptr;
 
-  double *block(int j, int k) const {
-    if (!rows) return base + i64(j) * cnp * ld + i64(k) * cnp;
-    const int *first = rows + colstart[k], *last = rows + colstart[k + 1];
-    return base + i64(std::lower_bound(first, last, j) - rows) * cnp * cnp;
+  struct Block {
+    double *p;
+    i64 ld;
+    bool transposed;  // holds S_jk^T
+  };
+  Block block(int j, int k) const {
+    if (!perm) return {base + i64(j) * cnp * ld + i64(k) * cnp, ld, false};
+    const int pj = perm[j], pk = perm[k], c = std::min(pj, pk), r = std::max(pj, pk);
+    const int *first = rows + colstart[c], *last = rows + colstart[c + 1];
+    return {base + colstart[c] * cnp * cnp + i64(std::lower_bound(first, last, r) - first) * cnp,
+            (colstart[c + 1] - colstart[c]) * cnp, pj > pk};
   }
 };
 
@@ -45,14 +59,17 @@ class Kernels {
   // Vinv_i = (V_i + mu I)^-1 for the free points; false if one is not positive definite.
   virtual bool invert_damped_V(ThreadPool &pool, const double *V, double mu,
                                double *Vinv) const = 0;
-  // S = U* - W V*^-1 W^T into the upper block triangle of `S` (zeroed by the caller; the
-  // strict lower triangle of the diagonal blocks is left meaningless) and
-  // rhs = e_a - W V*^-1 e_b, over the free cameras.
-  virtual void assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
+  // S = U* - W V*^-1 W^T into the blocks of `S` (zeroed by the caller; of a diagonal block,
+  // only the upper triangle is meaningful) and rhs = e_a - W V*^-1 e_b, over the free
+  // cameras. Vinv: invert_damped_V's blocks, or null to invert each V_i + mu I where it is
+  // needed (no n pnp^2 array, for one more small inversion per point in back_substitute);
+  // false if one of those is not positive definite.
+  virtual bool assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                         const BlockMap &S, double *rhs) const = 0;
-  // db_i = Vinv_i (e_b,i - sum_j W_ij^T da_j) for the free points, with da already in dp.
+  // db_i = Vinv_i (e_b,i - sum_j W_ij^T da_j) for the free points, with da already in dp;
+  // Vinv as for assemble (with null, a block that cannot be inverted gives NaNs).
   virtual void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv,
-                               double *dp) const = 0;
+                               double mu, double *dp) const = 0;
 };
 
 // Kernels for the layout's block sizes, with the assembly split over `threads` threads.

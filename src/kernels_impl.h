@@ -120,7 +120,9 @@ class KernelsT final : public Kernels {
     for (Scratch &s : scratch_) {
       s.Wt.resize(size_t(maxtrack) * size_t(cnp()) * size_t(pnp()) + 1);
       s.Yt.resize(s.Wt.size());
-      s.blk.resize(size_t(pnp()) * size_t(pnp()) + size_t(std::max(cnp(), pnp())) + size_t(mnp()));
+      s.blk.resize(size_t(std::max(cnp(), pnp())) + size_t(mnp()));
+      s.damped.resize(size_t(pnp()) * size_t(pnp()));
+      s.inv.resize(s.damped.size());
     }
     split_columns(std::max(threads, 1));
   }
@@ -169,34 +171,32 @@ class KernelsT final : public Kernels {
     const int pn = pnp();
     std::vector<char> ok(scratch_.size(), 1);
     pool.for_range_t(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
-      double *blk = scratch_[size_t(t)].blk.data();
-      for (i64 i = b + lay_.ncon; i < end + lay_.ncon; ++i) {
-        const double *Vi = V + i * pn * pn;
-        for (int a = 0; a < pn * pn; ++a) blk[a] = Vi[a];
-        for (int a = 0; a < pn; ++a) blk[a * pn + a] += mu;
-        if (!small::spd_inverse<P>(blk, Vinv + i * pn * pn, pn)) {
+      double *work = scratch_[size_t(t)].damped.data();
+      for (i64 i = b + lay_.ncon; i < end + lay_.ncon; ++i)
+        if (!damped_inverse(V, mu, i, work, Vinv + i * pn * pn)) {
           ok[size_t(t)] = 0;
           return;
         }
-      }
     });
     return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
   }
 
-  void assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
+  bool assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                 const BlockMap &S, double *rhs) const override {
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
     const int cp = cn * pn;
-    const i64 ld = S.ld;
     // Each thread owns a range of block columns [k0, k1) of S and of rhs's camera blocks,
     // and adds the contributions of the points to them in ascending point order.
+    std::vector<char> ok(scratch_.size(), 1);
     auto body = [&](int t) {
       const int k0 = split_[size_t(t)], k1 = split_[size_t(t) + 1];
       if (k0 >= k1) return;
       Scratch &sc = scratch_[size_t(t)];
       for (int k = k0; k < k1; ++k) {
-        double *Skk = S.block(k, k);
+        const BlockMap::Block blk = S.block(k, k);
+        double *Skk = blk.p;
+        const i64 ld = blk.ld;
         const double *Uk = ne.U + i64(k + lay.mcon) * cn * cn;
         for (int a = 0; a < cn; ++a) {
           for (int c = 0; c < cn; ++c) Skk[a * ld + c] = Uk[a * cn + c];
@@ -214,7 +214,13 @@ class KernelsT final : public Kernels {
         if (lo == r1 || lay.colidx[lo] - lay.mcon >= k1) continue;
         int hi = lo;  // one past the last track entry in [k0, k1)
         while (hi < r1 && lay.colidx[hi] - lay.mcon < k1) ++hi;
-        const double *Vi = Vinv + i64(i) * pn * pn;
+        const double *Vi = sc.inv.data();
+        if (Vinv) {
+          Vi = Vinv + i64(i) * pn * pn;
+        } else if (!damped_inverse(ne.V, mu, i, sc.damped.data(), sc.inv.data())) {
+          ok[size_t(t)] = 0;
+          return;
+        }
         const double *ebi = ne.eb + i64(i) * pn;
         // W_ij^T = B^T A and Y_ij^T = V*_i^-1 W_ij^T for the track up to this range's end.
         for (int q = f; q < hi; ++q) {
@@ -236,13 +242,18 @@ class KernelsT final : public Kernels {
           const double *Wt2 = sc.Wt.data() + (q2 - f) * cp;
           const double *Yt2 = sc.Yt.data() + (q2 - f) * cp;
           for (int d = 0; d < pn; ++d) axpy<C>(cn, -ebi[d], Yt2 + d * cn, rhs + i64(k) * cn);
-          // S_jk -= Y_ij W_ik^T, row by row: S_jk[a][.] -= sum_d Y^T[d][a] W^T[d][.]. The
-          // diagonal block is updated whole, like the others (its strict lower triangle is
-          // never read), which keeps the rows vectorized.
+          // S_jk -= Y_ij W_ik^T, row by row: S_jk[a][.] -= sum_d Y^T[d][a] W^T[d][.]; where
+          // the map stores S_jk^T, S_jk^T -= Y_ik W_ij^T instead. The diagonal block is updated
+          // whole, like the others (its strict lower triangle is never read), which keeps the
+          // rows vectorized.
           for (int q1 = f; q1 <= q2; ++q1) {
             const double *Yt1 = sc.Yt.data() + (q1 - f) * cp;
-            double *Sjk = S.block(lay.colidx[q1] - lay.mcon, k);
-            pair_update<C, P>(cn, pn, Yt1, Wt2, Sjk, ld);
+            const double *Wt1 = sc.Wt.data() + (q1 - f) * cp;
+            const BlockMap::Block Sjk = S.block(lay.colidx[q1] - lay.mcon, k);
+            if (Sjk.transposed)
+              pair_update<C, P>(cn, pn, Yt2, Wt1, Sjk.p, Sjk.ld);
+            else
+              pair_update<C, P>(cn, pn, Yt1, Wt2, Sjk.p, Sjk.ld);
           }
         }
       }
@@ -251,14 +262,16 @@ class KernelsT final : public Kernels {
       body(0);
     else
       pool.run(body);
+    return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
   }
 
-  void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv,
+  void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                        double *dp) const override {
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
     pool.for_range_t(lay.n - lay.ncon, [&](int th, i64 b, i64 end) {
-      double *t = scratch_[size_t(th)].blk.data(), *u = t + pn;
+      Scratch &sc = scratch_[size_t(th)];
+      double *t = sc.blk.data(), *u = t + pn;
       for (i64 i = b + lay.ncon; i < end + lay.ncon; ++i) {
         const double *ebi = ne.eb + i * pn;
         for (int c = 0; c < pn; ++c) t[c] = ebi[c];
@@ -275,8 +288,14 @@ class KernelsT final : public Kernels {
           }
           for (int r = 0; r < mn; ++r) axpy<P>(pn, -u[r], B + r * pn, t);
         }
-        const double *Vi = Vinv + i * pn * pn;
         double *dbi = dp + lay.b_off(int(i));
+        const double *Vi = sc.inv.data();
+        if (Vinv) {
+          Vi = Vinv + i * pn * pn;
+        } else if (!damped_inverse(ne.V, mu, i, sc.damped.data(), sc.inv.data())) {
+          std::fill(dbi, dbi + pn, NAN);
+          continue;
+        }
         for (int a = 0; a < pn; ++a) {
           double s = 0.0;
           for (int c = 0; c < pn; ++c) s += Vi[a * pn + c] * t[c];
@@ -288,8 +307,18 @@ class KernelsT final : public Kernels {
 
  private:
   struct Scratch {
-    std::vector<double> Wt, Yt, blk;  // one track's W_ij^T and Y_ij^T; small blocks
+    std::vector<double> Wt, Yt, blk;  // one track's W_ij^T and Y_ij^T; small vectors
+    std::vector<double> damped, inv;  // V_i + mu I (overwritten) and its inverse
   };
+
+  // (V_i + mu I)^-1 into inv (work: pnp^2 scratch); false if not positive definite.
+  bool damped_inverse(const double *V, double mu, i64 i, double *work, double *inv) const {
+    const int pn = pnp();
+    const double *Vi = V + i * pn * pn;
+    for (int a = 0; a < pn * pn; ++a) work[a] = Vi[a];
+    for (int a = 0; a < pn; ++a) work[a * pn + a] += mu;
+    return small::spd_inverse<P>(work, inv, pn);
+  }
 
   // Block columns of S split over the threads by the number of block products each takes.
   void split_columns(int threads) {

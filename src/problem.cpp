@@ -23,21 +23,12 @@ void set_sizes(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp
   lay.mnp = mnp;
 }
 
-// The column (camera) index and the callbacks' view, once rowptr/colidx/val are filled.
+// The camera counts and the callbacks' view, once rowptr/colidx/val are filled.
 void finish_layout(Layout &lay) {
   const int n = lay.n, m = lay.m;
   lay.colptr.assign(size_t(m) + 1, 0);
   for (i64 k = 0; k < lay.nvis; ++k) ++lay.colptr[size_t(lay.colidx[size_t(k)]) + 1];
   for (int j = 0; j < m; ++j) lay.colptr[size_t(j) + 1] += lay.colptr[size_t(j)];
-  lay.colrow.resize(size_t(lay.nvis));
-  lay.colk.resize(size_t(lay.nvis));
-  std::vector<int> fill(lay.colptr.begin(), lay.colptr.end() - 1);
-  for (int i = 0; i < n; ++i)
-    for (int kk = lay.rowptr[i]; kk < lay.rowptr[i + 1]; ++kk) {
-      const int slot = fill[size_t(lay.colidx[size_t(kk)])]++;
-      lay.colrow[size_t(slot)] = i;
-      lay.colk[size_t(slot)] = kk;
-    }
   lay.idx.nr = n;
   lay.idx.nc = m;
   lay.idx.nnz = int(lay.nvis);
@@ -49,6 +40,18 @@ void finish_layout(Layout &lay) {
 }
 
 }  // namespace
+
+void by_camera(const Layout &lay, std::vector<int> *row, std::vector<int> *k) {
+  row->resize(size_t(lay.nvis));
+  if (k) k->resize(size_t(lay.nvis));
+  std::vector<int> fill(lay.colptr.begin(), lay.colptr.end() - 1);
+  for (int i = 0; i < lay.n; ++i)
+    for (int kk = lay.rowptr[i]; kk < lay.rowptr[i + 1]; ++kk) {
+      const int slot = fill[size_t(lay.colidx[size_t(kk)])]++;
+      (*row)[size_t(slot)] = i;
+      if (k) (*k)[size_t(slot)] = kk;
+    }
+}
 
 bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
                   int mnp, const char *vmask, std::string *msg) {

@@ -33,13 +33,13 @@ class DenseSchurSolver final : public StepSolver {
     map.base = S_.data();
     map.ld = nS;
     map.cnp = lay.cnp;
-    ctx_.kernels.assemble(ctx_.pool, ne, Vinv_.data(), mu, map, rhs_.data());
+    ctx_.kernels.assemble(ctx_.pool, ne, Vinv_.data(), mu, map, rhs_.data());  // Vinv_: no failure
     double *da = dp + lay.a_off(lay.mcon);
     ctx_.pool.rest();  // the BLAS has its own threads
     if (!factor_solve(da)) return false;
     for (i64 q = 0; q < nS; ++q)
       if (!std::isfinite(da[q])) return false;
-    ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), dp);
+    ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), mu, dp);
     return true;
   }
 

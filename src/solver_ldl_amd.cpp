@@ -29,11 +29,13 @@ class LdlAmdSolver final : public StepSolver {
     N_ = nS_ + i64(lay.free_pts()) * pnp;
     pos_in_cam_.assign(size_t(lay.nvis), -1);
     pos_in_pt_.assign(size_t(lay.nvis), -1);
+    std::vector<int> colrow, colk;  // freed once the pattern is built
+    by_camera(lay, &colrow, &colk);
     // Position of each free-free projection's W block in its camera's and its point's column.
     std::vector<int> ncam_pts(size_t(lay.m), 0);
     for (int j = lay.mcon; j < lay.m; ++j)
       for (int s = lay.colptr[j]; s < lay.colptr[j + 1]; ++s)
-        if (lay.colrow[s] >= lay.ncon) pos_in_cam_[size_t(lay.colk[s])] = ncam_pts[size_t(j)]++;
+        if (colrow[s] >= lay.ncon) pos_in_cam_[size_t(colk[s])] = ncam_pts[size_t(j)]++;
     std::vector<int> npt_cams(size_t(lay.n), 0);
     for (int i = lay.ncon; i < lay.n; ++i)
       for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
@@ -54,8 +56,8 @@ class LdlAmdSolver final : public StepSolver {
         sslong q = Ap_[size_t(cam_col(j, b))];
         for (int a = 0; a < cnp; ++a) Ai_[size_t(q++)] = cam_col(j, a);
         for (int s = lay.colptr[j]; s < lay.colptr[j + 1]; ++s)
-          if (lay.colrow[s] >= lay.ncon)
-            for (int c = 0; c < pnp; ++c) Ai_[size_t(q++)] = pt_col(lay.colrow[s], c);
+          if (colrow[s] >= lay.ncon)
+            for (int c = 0; c < pnp; ++c) Ai_[size_t(q++)] = pt_col(colrow[s], c);
       }
     for (int i = lay.ncon; i < lay.n; ++i)
       for (int b = 0; b < pnp; ++b) {

@@ -1,16 +1,27 @@
 // Sparse S: the reduced camera system stored as blocks only for camera pairs that share a
 // point, factored by CHOLMOD's supernodal Cholesky. For long sequences (each point seen by a
 // few consecutive cameras) S is banded and this is far cheaper than the dense S, in time
-// and in memory (the sba paper's proposed future work). The block pattern and CHOLMOD's
-// symbolic analysis depend only on the visibility, so they are done once per solve.
+// and in memory (the sba paper's proposed future work). The block pattern, the ordering and
+// CHOLMOD's symbolic analysis depend only on the visibility, so they are done once per solve.
+//
+// Memory is what this solver is for, so S is assembled straight into the arrays that CHOLMOD
+// factors, and in the form its supernodal factorization works on: the lower triangle of the
+// permuted matrix P S P^T. Given S upper or unpermuted, cholmod_factorize would make that
+// copy itself on every factorization. The fill-reducing ordering P is ours for the same
+// reason: AMD on the camera graph (cnp times smaller than the scalar graph), after which
+// CHOLMOD analyzes in natural order. CHOLMOD's int version is used while the matrix and its
+// factor fit its indices (half the index memory of the long version), the long one beyond.
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <memory>
 #include <new>
 #include <vector>
 
 #include "linsolve.h"
 
 extern "C" {
+#include <suitesparse/amd.h>
 #include <suitesparse/cholmod.h>
 }
 
@@ -19,20 +30,126 @@ namespace {
 
 using sslong = SuiteSparse_long;
 
+// Which blocks of S are stored, and where (the BlockMap layout).
+struct Pattern {
+  std::vector<int> perm;      // free camera -> block column of P S P^T
+  std::vector<int> rows;      // block row of every stored block, block column by column
+  std::vector<i64> colstart;  // block column c's blocks: [colstart[c], colstart[c+1])
+};
+
+// Which block rows j <= k each block column k of S has (camera pairs sharing a free
+// point), in free-camera numbering: rows[colstart[k] .. colstart[k+1]), ascending.
+void find_blocks(const Layout &lay, std::vector<int> *rows, std::vector<i64> *colstart) {
+  const int nc = lay.free_cams();
+  std::vector<int> colrow, mark(size_t(nc), -1);
+  by_camera(lay, &colrow, nullptr);
+  colstart->assign(size_t(nc) + 1, 0);
+  for (int k = 0; k < nc; ++k) {
+    const int cam = k + lay.mcon;
+    const size_t first = rows->size();
+    for (int s = lay.colptr[cam]; s < lay.colptr[cam + 1]; ++s) {
+      const int i = colrow[size_t(s)];
+      if (i < lay.ncon) continue;
+      for (int q = lay.rowptr[i]; q < lay.rowptr[i + 1]; ++q) {
+        const int j = lay.colidx[q] - lay.mcon;
+        if (j < 0) continue;
+        if (j > k) break;  // cameras ascend along a track
+        if (mark[size_t(j)] != k) {
+          mark[size_t(j)] = k;
+          rows->push_back(j);
+        }
+      }
+    }
+    if (mark[size_t(k)] != k) rows->push_back(k);  // a camera without free points
+    std::sort(rows->begin() + long(first), rows->end());
+    (*colstart)[size_t(k) + 1] = i64(rows->size());
+  }
+}
+
+// The AMD ordering of the camera graph, then the blocks of the lower triangle of P S P^T
+// block column by block column: block (j, k) of S goes to column min(perm j, perm k), row
+// max(perm j, perm k).
+Pattern make_pattern(const Layout &lay) {
+  const int nc = lay.free_cams();
+  std::vector<int> rows;
+  std::vector<i64> colstart;
+  find_blocks(lay, &rows, &colstart);
+  Pattern pat;
+  {
+    const std::vector<sslong> Ap(colstart.begin(), colstart.end()), Ai(rows.begin(), rows.end());
+    std::vector<sslong> order(static_cast<size_t>(nc));
+    // AMD orders the pattern of A + A^T, so the upper triangle is enough.
+    const int status = amd_l_order(nc, Ap.data(), Ai.data(), order.data(), nullptr, nullptr);
+    if (status != AMD_OK && status != AMD_OK_BUT_JUMBLED) throw std::bad_alloc();
+    pat.perm.resize(size_t(nc));
+    for (int q = 0; q < nc; ++q) pat.perm[size_t(order[size_t(q)])] = q;
+  }
+  const std::vector<int> &perm = pat.perm;
+  pat.colstart.assign(size_t(nc) + 1, 0);
+  for (int k = 0; k < nc; ++k)
+    for (i64 s = colstart[size_t(k)]; s < colstart[size_t(k) + 1]; ++s)
+      ++pat.colstart[size_t(std::min(perm[size_t(rows[size_t(s)])], perm[size_t(k)])) + 1];
+  for (int c = 0; c < nc; ++c) pat.colstart[size_t(c) + 1] += pat.colstart[size_t(c)];
+  pat.rows.resize(rows.size());
+  std::vector<i64> fill(pat.colstart.begin(), pat.colstart.end() - 1);
+  for (int k = 0; k < nc; ++k)
+    for (i64 s = colstart[size_t(k)]; s < colstart[size_t(k) + 1]; ++s) {
+      const int pj = perm[size_t(rows[size_t(s)])], pk = perm[size_t(k)];
+      pat.rows[size_t(fill[size_t(std::min(pj, pk))]++)] = std::max(pj, pk);
+    }
+  for (int c = 0; c < nc; ++c)
+    std::sort(pat.rows.begin() + long(pat.colstart[size_t(c)]), pat.rows.begin() + long(pat.colstart[size_t(c) + 1]));
+  return pat;
+}
+
+// CHOLMOD's int and long entry points.
+struct IntApi {
+  using Index = int;
+  static constexpr auto start = &cholmod_start;
+  static constexpr auto finish = &cholmod_finish;
+  static constexpr auto allocate_sparse = &cholmod_allocate_sparse;
+  static constexpr auto allocate_dense = &cholmod_allocate_dense;
+  static constexpr auto analyze = &cholmod_analyze;
+  static constexpr auto super_numeric = &cholmod_super_numeric;
+  static constexpr auto factorize = &cholmod_factorize;
+  static constexpr auto solve = &cholmod_solve;
+  static constexpr auto free_sparse = &cholmod_free_sparse;
+  static constexpr auto free_dense = &cholmod_free_dense;
+  static constexpr auto free_factor = &cholmod_free_factor;
+};
+struct LongApi {
+  using Index = sslong;
+  static constexpr auto start = &cholmod_l_start;
+  static constexpr auto finish = &cholmod_l_finish;
+  static constexpr auto allocate_sparse = &cholmod_l_allocate_sparse;
+  static constexpr auto allocate_dense = &cholmod_l_allocate_dense;
+  static constexpr auto analyze = &cholmod_l_analyze;
+  static constexpr auto super_numeric = &cholmod_l_super_numeric;
+  static constexpr auto factorize = &cholmod_l_factorize;
+  static constexpr auto solve = &cholmod_l_solve;
+  static constexpr auto free_sparse = &cholmod_l_free_sparse;
+  static constexpr auto free_dense = &cholmod_l_free_dense;
+  static constexpr auto free_factor = &cholmod_l_free_factor;
+};
+
 // CHOLMOD's workspace and objects, released on every path (also when the solver's
 // constructor throws part-way, since members are destroyed then).
+template <class Api>
 struct Cholmod {
   Cholmod() {
-    cholmod_l_start(&cm);
+    Api::start(&cm);
     cm.print = 0;  // failures are reported by status, never printed
     cm.error_handler = nullptr;
     cm.supernodal = CHOLMOD_SUPERNODAL;
+    cm.nmethods = 1;  // the matrix comes permuted already
+    cm.method[0].ordering = CHOLMOD_NATURAL;
+    cm.postorder = 0;
   }
   ~Cholmod() {
-    cholmod_l_free_factor(&L, &cm);
-    cholmod_l_free_sparse(&A, &cm);
-    cholmod_l_free_dense(&B, &cm);
-    cholmod_l_finish(&cm);
+    Api::free_factor(&L, &cm);
+    Api::free_sparse(&A, &cm);
+    Api::free_dense(&B, &cm);
+    Api::finish(&cm);
   }
   Cholmod(const Cholmod &) = delete;
   Cholmod &operator=(const Cholmod &) = delete;
@@ -43,127 +160,114 @@ struct Cholmod {
   cholmod_dense *B = nullptr;
 };
 
+template <class Api>
 class SparseSchurSolver final : public StepSolver {
+  using Index = typename Api::Index;
+
  public:
-  explicit SparseSchurSolver(const SolveContext &ctx)
-      : ctx_(ctx), lay_(ctx.lay), Vinv_(size_t(i64(lay_.n) * lay_.pnp * lay_.pnp)) {
-    build_pattern();
+  // The int solver may turn out too small for the factor; the long one then shares the pattern.
+  SparseSchurSolver(const SolveContext &ctx, std::shared_ptr<const Pattern> pat)
+      : ctx_(ctx), lay_(ctx.lay), pat_holder_(std::move(pat)), pat_(*pat_holder_), rhs_(size_t(lay_.free_cams()) * size_t(lay_.cnp)) {
+    build_matrix();
   }
+  // False when the factor is too large for this index type.
+  bool analyzed() const { return chol_.L != nullptr; }
 
   bool solve(const NormalEquations &ne, double mu, double *dp) override {
-    const int cnp = lay_.cnp;
+    const int cnp = lay_.cnp, nc = lay_.free_cams();
+    const std::vector<int> &perm = pat_.perm;
     std::fill(dp, dp + lay_.nvars(), 0.0);
-    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
-    std::fill(blocks_.begin(), blocks_.end(), 0.0);
-    BlockMap map;
-    map.base = blocks_.data();
-    map.ld = cnp;
-    map.cnp = cnp;
-    map.rows = rows_.data();
-    map.colstart = colstart_.data();
-    ctx_.kernels.assemble(ctx_.pool, ne, Vinv_.data(), mu, map, rhs_.data());
-
-    // Blocks (row-major) into CHOLMOD's upper-triangular compressed columns.
-    const int nc = lay_.free_cams();
     double *Ax = static_cast<double *>(chol_.A->x);
-    const sslong *Ap = static_cast<const sslong *>(chol_.A->p);
-    for (int k = 0; k < nc; ++k)
-      for (int b = 0; b < cnp; ++b) {
-        double *col = Ax + Ap[i64(k) * cnp + b];
-        for (i64 s = colstart_[size_t(k)]; s < colstart_[size_t(k) + 1]; ++s) {
-          const double *blk = blocks_.data() + s * cnp * cnp;
-          const int rows = (s + 1 == colstart_[size_t(k) + 1]) ? b + 1 : cnp;  // diagonal last
-          for (int a = 0; a < rows; ++a) *col++ = blk[a * cnp + b];
-        }
-      }
+    std::fill(Ax, Ax + static_cast<const Index *>(chol_.A->p)[chol_.A->ncol], 0.0);
+    BlockMap map;
+    map.base = Ax;
+    map.cnp = cnp;
+    map.perm = perm.data();
+    map.rows = pat_.rows.data();
+    map.colstart = pat_.colstart.data();
+    // The point blocks' inverses are made where they are used rather than kept (n pnp^2
+    // doubles, as much as S itself on a long sequence).
+    if (!ctx_.kernels.assemble(ctx_.pool, ne, nullptr, mu, map, rhs_.data())) return false;
+    double *b = static_cast<double *>(chol_.B->x);
+    for (int j = 0; j < nc; ++j)
+      std::copy_n(rhs_.data() + i64(j) * cnp, cnp, b + i64(perm[size_t(j)]) * cnp);
+
     ctx_.pool.rest();  // CHOLMOD and its BLAS have their own threads
-    if (!cholmod_l_factorize(chol_.A, chol_.L, &chol_.cm) || chol_.cm.status == CHOLMOD_OUT_OF_MEMORY)
-      throw std::bad_alloc();
+    double beta[2] = {0.0, 0.0};
+    const int ok = direct_ ? Api::super_numeric(chol_.A, nullptr, beta, chol_.L, &chol_.cm)
+                           : Api::factorize(chol_.A, chol_.L, &chol_.cm);
+    if (!ok || chol_.cm.status == CHOLMOD_OUT_OF_MEMORY)
+      throw std::bad_alloc();  // the matrix is valid by construction: only memory can fail
     if (chol_.L->minor < chol_.L->n) return false;  // not positive definite at this damping
-    std::copy(rhs_.begin(), rhs_.end(), static_cast<double *>(chol_.B->x));
-    cholmod_dense *X = cholmod_l_solve(CHOLMOD_A, chol_.L, chol_.B, &chol_.cm);
+    cholmod_dense *X = Api::solve(CHOLMOD_A, chol_.L, chol_.B, &chol_.cm);
     if (!X) throw std::bad_alloc();
     const double *x = static_cast<const double *>(X->x);
     double *da = dp + lay_.a_off(lay_.mcon);
     bool finite = true;
-    for (size_t q = 0; q < rhs_.size(); ++q) {
-      da[q] = x[q];
-      finite = finite && std::isfinite(x[q]);
-    }
-    cholmod_l_free_dense(&X, &chol_.cm);
+    for (int j = 0; j < nc; ++j)
+      for (int a = 0; a < cnp; ++a) {
+        const double v = x[i64(perm[size_t(j)]) * cnp + a];
+        da[i64(j) * cnp + a] = v;
+        finite = finite && std::isfinite(v);
+      }
+    Api::free_dense(&X, &chol_.cm);
     if (!finite) return false;
-    ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), dp);
+    ctx_.kernels.back_substitute(ctx_.pool, ne, nullptr, mu, dp);
     return true;
   }
 
  private:
-  // Which block rows j <= k each block column k of S has: camera pairs sharing a free point.
-  void build_pattern() {
-    const Layout &lay = lay_;
-    const int nc = lay.free_cams(), cnp = lay.cnp;
-    std::vector<int> mark(size_t(nc), -1);
-    colstart_.assign(size_t(nc) + 1, 0);
-    for (int k = 0; k < nc; ++k) {
-      const int cam = k + lay.mcon;
-      const size_t first = rows_.size();
-      for (int s = lay.colptr[cam]; s < lay.colptr[cam + 1]; ++s) {
-        const int i = lay.colrow[s];
-        if (i < lay.ncon) continue;
-        for (int q = lay.rowptr[i]; q < lay.rowptr[i + 1]; ++q) {
-          const int j = lay.colidx[q] - lay.mcon;
-          if (j < 0) continue;
-          if (j > k) break;  // cameras ascend along a track
-          if (mark[size_t(j)] != k) {
-            mark[size_t(j)] = k;
-            rows_.push_back(j);
-          }
-        }
-      }
-      if (mark[size_t(k)] != k) rows_.push_back(k);  // a camera without free points
-      std::sort(rows_.begin() + long(first), rows_.end());
-      colstart_[size_t(k) + 1] = i64(rows_.size());
-    }
-    blocks_.resize(rows_.size() * size_t(cnp) * size_t(cnp));
-    rhs_.resize(size_t(nc) * size_t(cnp));
-
-    const sslong N = sslong(nc) * cnp;
-    i64 nnz = 0;
-    for (int k = 0; k < nc; ++k) {
-      const i64 nb = colstart_[size_t(k) + 1] - colstart_[size_t(k)];
-      nnz += (nb - 1) * cnp * cnp + i64(cnp) * (cnp + 1) / 2;
-    }
-    chol_.A = cholmod_l_allocate_sparse(size_t(N), size_t(N), size_t(nnz), 1, 1, 1, CHOLMOD_REAL, &chol_.cm);
-    chol_.B = cholmod_l_allocate_dense(size_t(N), 1, size_t(N), CHOLMOD_REAL, &chol_.cm);
+  // CHOLMOD's matrix on the stored blocks and its symbolic factorization. The diagonal blocks
+  // are stored whole (CHOLMOD ignores the part above the diagonal), so that every scalar
+  // column of a block column has the same rows, as the BlockMap layout needs.
+  void build_matrix() {
+    const int nc = lay_.free_cams(), cnp = lay_.cnp;
+    const Index N = Index(nc) * cnp;
+    const i64 nnz = i64(pat_.rows.size()) * cnp * cnp;
+    chol_.A = Api::allocate_sparse(size_t(N), size_t(N), size_t(nnz), 1, 1, -1, CHOLMOD_REAL, &chol_.cm);
+    chol_.B = Api::allocate_dense(size_t(N), 1, size_t(N), CHOLMOD_REAL, &chol_.cm);
     if (!chol_.A || !chol_.B) throw std::bad_alloc();
-    sslong *Ap = static_cast<sslong *>(chol_.A->p), *Ai = static_cast<sslong *>(chol_.A->i);
-    sslong q = 0;
-    for (int k = 0; k < nc; ++k)
+    Index *Ap = static_cast<Index *>(chol_.A->p), *Ai = static_cast<Index *>(chol_.A->i);
+    Index q = 0;
+    for (int c = 0; c < nc; ++c)
       for (int b = 0; b < cnp; ++b) {
-        Ap[i64(k) * cnp + b] = q;
-        for (i64 s = colstart_[size_t(k)]; s < colstart_[size_t(k) + 1]; ++s) {
-          const int rows = (s + 1 == colstart_[size_t(k) + 1]) ? b + 1 : cnp;
-          for (int a = 0; a < rows; ++a) Ai[q++] = sslong(rows_[size_t(s)]) * cnp + a;
-        }
+        Ap[i64(c) * cnp + b] = q;
+        for (i64 s = pat_.colstart[size_t(c)]; s < pat_.colstart[size_t(c) + 1]; ++s)
+          for (int a = 0; a < cnp; ++a) Ai[q++] = Index(pat_.rows[size_t(s)]) * cnp + a;
       }
     Ap[N] = q;
     std::fill(static_cast<double *>(chol_.A->x), static_cast<double *>(chol_.A->x) + q, 0.0);
-    chol_.L = cholmod_l_analyze(chol_.A, &chol_.cm);
-    if (!chol_.L) throw std::bad_alloc();
+    chol_.L = Api::analyze(chol_.A, &chol_.cm);
+    if (!chol_.L) {
+      if (chol_.cm.status == CHOLMOD_TOO_LARGE) return;
+      throw std::bad_alloc();
+    }
+    // Natural ordering without postordering leaves L unpermuted; should CHOLMOD permute all
+    // the same, cholmod_factorize applies its permutation (at the cost of a copy of A).
+    const Index *lperm = static_cast<const Index *>(chol_.L->Perm);
+    direct_ = chol_.L->is_super;
+    for (Index c = 0; c < N && direct_; ++c) direct_ = !lperm || lperm[c] == c;
   }
 
   SolveContext ctx_;
   const Layout &lay_;
-  std::vector<double> Vinv_;
-  Cholmod chol_;
-  std::vector<int> rows_;      // block row of every stored block, column by column
-  std::vector<i64> colstart_;  // block column k's blocks: [colstart_[k], colstart_[k+1])
-  std::vector<double> blocks_, rhs_;
+  std::shared_ptr<const Pattern> pat_holder_;
+  const Pattern &pat_;
+  std::vector<double> rhs_;
+  Cholmod<Api> chol_;
+  bool direct_ = false;  // L is unpermuted: factor A itself (no copy)
 };
 
 }  // namespace
 
 std::unique_ptr<StepSolver> make_sparse_schur_solver(const SolveContext &ctx) {
-  return std::make_unique<SparseSchurSolver>(ctx);
+  const int cnp = ctx.lay.cnp;
+  auto pat = std::make_shared<const Pattern>(make_pattern(ctx.lay));
+  if (i64(pat->rows.size()) * cnp * cnp <= INT_MAX) {
+    auto s = std::make_unique<SparseSchurSolver<IntApi>>(ctx, pat);
+    if (s->analyzed()) return s;
+  }
+  return std::make_unique<SparseSchurSolver<LongApi>>(ctx, pat);
 }
 
 }  // namespace sba
