@@ -272,9 +272,15 @@ const char *sba_reason(double reason) {
   }
 }
 
-void run_sba(Problem &prob, const RunSpec &spec, int itmax, RunResult *r,
+// The parameters a run refines: the problem's own in a child (which has no further use for
+// them, and a copy would count against the run's memory), a copy otherwise.
+std::vector<double> initial_params(Problem &prob, bool consume) {
+  return consume ? std::move(prob.p0) : prob.p0;
+}
+
+void run_sba(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunResult *r,
              std::vector<std::array<double, 2>> *trace) {
-  std::vector<double> p = prob.p0;
+  std::vector<double> p = initial_params(prob, consume);
   sba_ext_options ext;
   sba_ext_options_init(&ext);
   ext.linsolver = spec.solver.c_str();
@@ -342,9 +348,9 @@ void add_eucsba_residuals(const Problem &prob, double *p, ceres::Problem *cp) {
   }
 }
 
-void run_ceres(Problem &prob, const RunSpec &spec, int itmax, RunResult *r,
+void run_ceres(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunResult *r,
                std::vector<std::array<double, 2>> *trace) {
-  std::vector<double> p = prob.p0;
+  std::vector<double> p = initial_params(prob, consume);
   trace->reserve(static_cast<std::size_t>(itmax) + 2);
   r->hwm_reset = reset_peak_rss();
   r->base_rss = status_kb("VmRSS") * 1024;
@@ -415,11 +421,11 @@ void run_ceres(Problem &prob, const RunSpec &spec, int itmax, RunResult *r,
 
 // ---- running in a child ----
 
-void execute(Problem &prob, const RunSpec &spec, int itmax, RunResult *r,
+void execute(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunResult *r,
              std::vector<std::array<double, 2>> *trace) {
   try {
-    if (spec.engine == Engine::Sba) run_sba(prob, spec, itmax, r, trace);
-    else run_ceres(prob, spec, itmax, r, trace);
+    if (spec.engine == Engine::Sba) run_sba(prob, spec, itmax, consume, r, trace);
+    else run_ceres(prob, spec, itmax, consume, r, trace);
   } catch (const std::bad_alloc &) {
     r->ok = 0;
     set_status(r, "out of memory");
@@ -471,7 +477,7 @@ Run run_forked(Problem &prob, const RunSpec &spec, int itmax, double timeout) {
     release_unused(prob, spec.engine);
     RunResult r;
     std::vector<std::array<double, 2>> trace;
-    execute(prob, spec, itmax, &r, &trace);
+    execute(prob, spec, itmax, true, &r, &trace);
     const bool ok = write_all(fds[1], &r, sizeof r) &&
                     write_all(fds[1], trace.data(), trace.size() * sizeof(trace[0]));
     ::close(fds[1]);
@@ -525,7 +531,7 @@ Run run_forked(Problem &prob, const RunSpec &spec, int itmax, double timeout) {
 Run run_inline(Problem &prob, const RunSpec &spec, int itmax) {
   Run run;
   run.spec = spec;
-  execute(prob, spec, itmax, &run.r, &run.trace);
+  execute(prob, spec, itmax, false, &run.r, &run.trace);
   return run;
 }
 
