@@ -246,6 +246,13 @@ class KernelsT final : public Kernels {
           // the map stores S_jk^T, S_jk^T -= Y_ik W_ij^T instead. The diagonal block is updated
           // whole, like the others (its strict lower triangle is never read), which keeps the
           // rows vectorized.
+          if (!S.perm) {  // dense S: the hot loop of the default solver, kept branch-free
+            for (int q1 = f; q1 <= q2; ++q1) {
+              const double *Yt1 = sc.Yt.data() + (q1 - f) * cp;
+              pair_update<C, P>(cn, pn, Yt1, Wt2, S.block(lay.colidx[q1] - lay.mcon, k).p, S.ld);
+            }
+            continue;
+          }
           for (int q1 = f; q1 <= q2; ++q1) {
             const double *Yt1 = sc.Yt.data() + (q1 - f) * cp;
             const double *Wt1 = sc.Wt.data() + (q1 - f) * cp;

@@ -1,0 +1,159 @@
+// The library's internal block kernels (linked from its objects, like bench/'s kernel
+// benchmark): the sparse-S storage layout against the dense S, and the point-block inverses
+// made on the fly against the precomputed ones.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core.h"
+#include "kernels.h"
+#include "linsolve.h"
+#include "parallel.h"
+
+namespace {
+
+using sba::i64;
+
+// Random normal equations on a visibility pattern where every point is seen by 2-5 cameras
+// of 12, from a random Jacobian and residual: V_i and U_j positive semidefinite, as in LM.
+struct Fixture {
+  sba::Layout lay;
+  std::vector<double> jac, e, U, V, ea, eb;
+
+  Fixture(int n, int m, int cnp, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_int_distribution<int> len(2, 5), cam(0, m - 1);
+    std::normal_distribution<double> g(0.0, 1.0);
+    std::vector<char> vmask(size_t(n) * size_t(m), 0);
+    for (int i = 0; i < n; ++i)
+      for (int l = len(rng); l > 0;) {
+        char &c = vmask[size_t(i) * size_t(m) + size_t(cam(rng))];
+        if (!c) c = 1, --l;
+      }
+    std::string msg;
+    EXPECT_TRUE(sba::build_layout(lay, sba::Mode::MotStr, n, m, 0, 0, cnp, 3, 2, vmask.data(), &msg)) << msg;
+    jac.resize(size_t(lay.nvis * lay.jblk()));
+    e.resize(size_t(lay.nvis * 2));
+    for (double &v : jac) v = g(rng);
+    for (double &v : e) v = g(rng);
+    U.resize(size_t(m * cnp * cnp));
+    ea.resize(size_t(m * cnp));
+    V.resize(size_t(n * 9));
+    eb.resize(size_t(n * 3));
+  }
+  sba::NormalEquations ne() const { return {jac.data(), U.data(), V.data(), ea.data(), eb.data()}; }
+};
+
+class KernelsLayout : public ::testing::TestWithParam<int> {};
+
+// Every stored block of the sparse layout, under a scrambled camera ordering (so that many
+// blocks are stored transposed), equals the dense S's block to rounding, and the right-hand
+// sides agree exactly; the inverses made on the fly give the same bits as precomputed ones.
+TEST_P(KernelsLayout, SparseLayoutHoldsTheDenseBlocks) {
+  const int cnp = GetParam(), n = 300, m = 12;
+  Fixture f(n, m, cnp, 7u + unsigned(cnp));
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE("threads " + std::to_string(threads));
+    sba::ThreadPool pool(threads);
+    const auto kernels = sba::make_kernels(f.lay, pool.size());
+    kernels->normal_equations(pool, f.jac.data(), f.e.data(), f.U.data(), f.V.data(), f.ea.data(), f.eb.data());
+    const double mu = 0.5;
+    std::vector<double> Vinv(f.V.size());
+    ASSERT_TRUE(kernels->invert_damped_V(pool, f.V.data(), mu, Vinv.data()));
+
+    const int nS = m * cnp;
+    std::vector<double> S(size_t(nS) * size_t(nS), 0.0), rhs(static_cast<size_t>(nS));
+    sba::BlockMap dense;
+    dense.base = S.data();
+    dense.ld = nS;
+    dense.cnp = cnp;
+    ASSERT_TRUE(kernels->assemble(pool, f.ne(), Vinv.data(), mu, dense, rhs.data()));
+
+    // Every camera pair stored (a superset of the pairs that share points: the others stay
+    // zero), in block columns of the lower triangle of P S P^T.
+    std::vector<int> perm(static_cast<size_t>(m));
+    for (int j = 0; j < m; ++j) perm[size_t(j)] = (j * 5 + 3) % m;  // 5 is prime to 12
+    std::vector<int> rows;
+    std::vector<i64> colstart(1, 0);
+    for (int c = 0; c < m; ++c) {
+      for (int r = c; r < m; ++r) rows.push_back(r);
+      colstart.push_back(i64(rows.size()));
+    }
+    std::vector<double> blocks(rows.size() * size_t(cnp) * size_t(cnp), 0.0), rhs2(static_cast<size_t>(nS));
+    sba::BlockMap sparse;
+    sparse.base = blocks.data();
+    sparse.cnp = cnp;
+    sparse.perm = perm.data();
+    sparse.rows = rows.data();
+    sparse.colstart = colstart.data();
+    ASSERT_TRUE(kernels->assemble(pool, f.ne(), nullptr, mu, sparse, rhs2.data()));
+    EXPECT_EQ(rhs, rhs2);
+
+    int transposed = 0;
+    for (int j = 0; j < m; ++j)
+      for (int k = j; k < m; ++k) {
+        const sba::BlockMap::Block b = sparse.block(j, k);
+        transposed += b.transposed;
+        // Column-major block (r, c) of the stored lower triangle, per the layout's contract.
+        const int pc = std::min(perm[size_t(j)], perm[size_t(k)]), pr = std::max(perm[size_t(j)], perm[size_t(k)]);
+        const i64 col0 = colstart[size_t(pc)] * cnp * cnp, len = (colstart[size_t(pc) + 1] - colstart[size_t(pc)]) * cnp;
+        const i64 pos = (pr - pc) * cnp;  // every row r >= c is stored
+        for (int a = 0; a < cnp; ++a)
+          for (int c = 0; c < cnp; ++c) {
+            if (j == k && c < a) continue;  // only the upper triangle of a diagonal block is meaningful
+            const double want = S[size_t(j * cnp + a) * size_t(nS) + size_t(k * cnp + c)];
+            // S_jk is block (perm j, perm k) of P S P^T. Stored is its lower triangle's block
+            // (pr, pc), column by column: S_jk^T when perm j < perm k, S_jk itself otherwise.
+            const bool swapped = perm[size_t(j)] > perm[size_t(k)];
+            const int row = swapped ? a : c, col = swapped ? c : a;
+            const double got = blocks[size_t(col0 + i64(col) * len + pos + row)];
+            EXPECT_NEAR(got, want, 1e-12 * (1.0 + std::fabs(want))) << "S_" << j << k << "(" << a << "," << c << ")";
+            // The map's own view of it: S_jk row-major, or S_jk^T where it says so.
+            EXPECT_EQ(b.transposed ? b.p[c * b.ld + a] : b.p[a * b.ld + c], got);
+          }
+      }
+    EXPECT_GT(transposed, 10);
+
+    // The back-substitution with on-the-fly inverses: the same bits.
+    std::vector<double> dp1(size_t(f.lay.nvars()), 0.0);
+    for (int q = 0; q < nS; ++q) dp1[size_t(q)] = std::sin(q + 1.0);
+    std::vector<double> dp2 = dp1;
+    kernels->back_substitute(pool, f.ne(), Vinv.data(), mu, dp1.data());
+    kernels->back_substitute(pool, f.ne(), nullptr, mu, dp2.data());
+    EXPECT_EQ(dp1, dp2);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Kernels, KernelsLayout, ::testing::Values(6, 9, 5),
+                         [](const ::testing::TestParamInfo<int> &p) { return "cnp" + std::to_string(p.param); });
+
+// A damped point block that is not positive definite fails the assembly when the inverses are
+// made on the fly (and gives NaNs in the back-substitution), as invert_damped_V fails.
+TEST(Kernels, OnTheFlyInverseReportsAnIndefinitePointBlock) {
+  Fixture f(40, 6, 6, 3u);
+  sba::ThreadPool pool(2);
+  const auto kernels = sba::make_kernels(f.lay, pool.size());
+  kernels->normal_equations(pool, f.jac.data(), f.e.data(), f.U.data(), f.V.data(), f.ea.data(), f.eb.data());
+  f.V[size_t(17 * 9 + 4)] = -1.0;  // point 17's V_i[1][1]
+  const double mu = 0.1;
+  std::vector<double> Vinv(f.V.size());
+  EXPECT_FALSE(kernels->invert_damped_V(pool, f.V.data(), mu, Vinv.data()));
+  const int nS = 6 * 6;
+  std::vector<double> S(size_t(nS) * size_t(nS), 0.0), rhs(static_cast<size_t>(nS));
+  sba::BlockMap dense;
+  dense.base = S.data();
+  dense.ld = nS;
+  dense.cnp = 6;
+  EXPECT_FALSE(kernels->assemble(pool, f.ne(), nullptr, mu, dense, rhs.data()));
+  std::vector<double> dp(size_t(f.lay.nvars()), 0.0);
+  kernels->back_substitute(pool, f.ne(), nullptr, mu, dp.data());
+  const double *db = dp.data() + f.lay.b_off(17);
+  EXPECT_TRUE(std::isnan(db[0]) && std::isnan(db[1]) && std::isnan(db[2]));
+  EXPECT_TRUE(std::isfinite(dp[size_t(f.lay.b_off(16))]));
+}
+
+}  // namespace
