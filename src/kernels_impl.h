@@ -214,10 +214,8 @@ class KernelsT final : public Kernels {
         if (lo == r1 || lay.colidx[lo] - lay.mcon >= k1) continue;
         int hi = lo;  // one past the last track entry in [k0, k1)
         while (hi < r1 && lay.colidx[hi] - lay.mcon < k1) ++hi;
-        const double *Vi = sc.inv.data();
-        if (Vinv) {
-          Vi = Vinv + i64(i) * pn * pn;
-        } else if (!damped_inverse(ne.V, mu, i, sc.damped.data(), sc.inv.data())) {
+        const double *Vi = point_inverse(Vinv, ne.V, mu, i, sc);
+        if (!Vi) {
           ok[size_t(t)] = 0;
           return;
         }
@@ -296,10 +294,8 @@ class KernelsT final : public Kernels {
           for (int r = 0; r < mn; ++r) axpy<P>(pn, -u[r], B + r * pn, t);
         }
         double *dbi = dp + lay.b_off(int(i));
-        const double *Vi = sc.inv.data();
-        if (Vinv) {
-          Vi = Vinv + i * pn * pn;
-        } else if (!damped_inverse(ne.V, mu, i, sc.damped.data(), sc.inv.data())) {
+        const double *Vi = point_inverse(Vinv, ne.V, mu, i, sc);
+        if (!Vi) {
           std::fill(dbi, dbi + pn, NAN);
           continue;
         }
@@ -325,6 +321,12 @@ class KernelsT final : public Kernels {
     for (int a = 0; a < pn * pn; ++a) work[a] = Vi[a];
     for (int a = 0; a < pn; ++a) work[a * pn + a] += mu;
     return small::spd_inverse<P>(work, inv, pn);
+  }
+
+  // Point i's (V_i + mu I)^-1: from Vinv, or made in sc (null if not positive definite).
+  const double *point_inverse(const double *Vinv, const double *V, double mu, i64 i, Scratch &sc) const {
+    if (Vinv) return Vinv + i * pnp() * pnp();
+    return damped_inverse(V, mu, i, sc.damped.data(), sc.inv.data()) ? sc.inv.data() : nullptr;
   }
 
   // Block columns of S split over the threads by the number of block products each takes.

@@ -167,7 +167,7 @@ class SparseSchurSolver final : public StepSolver {
  public:
   // The int solver may turn out too small for the factor; the long one then shares the pattern.
   SparseSchurSolver(const SolveContext &ctx, std::shared_ptr<const Pattern> pat)
-      : ctx_(ctx), lay_(ctx.lay), pat_holder_(std::move(pat)), pat_(*pat_holder_), rhs_(size_t(lay_.free_cams()) * size_t(lay_.cnp)) {
+      : ctx_(ctx), lay_(ctx.lay), pat_(std::move(pat)), rhs_(size_t(lay_.free_cams()) * size_t(lay_.cnp)) {
     build_matrix();
   }
   // False when the factor is too large for this index type.
@@ -175,7 +175,7 @@ class SparseSchurSolver final : public StepSolver {
 
   bool solve(const NormalEquations &ne, double mu, double *dp) override {
     const int cnp = lay_.cnp, nc = lay_.free_cams();
-    const std::vector<int> &perm = pat_.perm;
+    const std::vector<int> &perm = pat_->perm;
     std::fill(dp, dp + lay_.nvars(), 0.0);
     double *Ax = static_cast<double *>(chol_.A->x);
     std::fill(Ax, Ax + static_cast<const Index *>(chol_.A->p)[chol_.A->ncol], 0.0);
@@ -183,8 +183,8 @@ class SparseSchurSolver final : public StepSolver {
     map.base = Ax;
     map.cnp = cnp;
     map.perm = perm.data();
-    map.rows = pat_.rows.data();
-    map.colstart = pat_.colstart.data();
+    map.rows = pat_->rows.data();
+    map.colstart = pat_->colstart.data();
     // The point blocks' inverses are made where they are used rather than kept (n pnp^2
     // doubles, as much as S itself on a long sequence).
     if (!ctx_.kernels.assemble(ctx_.pool, ne, nullptr, mu, map, rhs_.data())) return false;
@@ -196,8 +196,10 @@ class SparseSchurSolver final : public StepSolver {
     double beta[2] = {0.0, 0.0};
     const int ok = direct_ ? Api::super_numeric(chol_.A, nullptr, beta, chol_.L, &chol_.cm)
                            : Api::factorize(chol_.A, chol_.L, &chol_.cm);
-    if (!ok || chol_.cm.status == CHOLMOD_OUT_OF_MEMORY)
-      throw std::bad_alloc();  // the matrix is valid by construction: only memory can fail
+    // The matrix is valid by construction: short of a matrix that is not positive definite
+    // at this damping (L->minor below), only memory can fail.
+    if (chol_.cm.status == CHOLMOD_OUT_OF_MEMORY || (!ok && chol_.cm.status != CHOLMOD_NOT_POSDEF))
+      throw std::bad_alloc();
     if (chol_.L->minor < chol_.L->n) return false;  // not positive definite at this damping
     cholmod_dense *X = Api::solve(CHOLMOD_A, chol_.L, chol_.B, &chol_.cm);
     if (!X) throw std::bad_alloc();
@@ -223,7 +225,7 @@ class SparseSchurSolver final : public StepSolver {
   void build_matrix() {
     const int nc = lay_.free_cams(), cnp = lay_.cnp;
     const Index N = Index(nc) * cnp;
-    const i64 nnz = i64(pat_.rows.size()) * cnp * cnp;
+    const i64 nnz = i64(pat_->rows.size()) * cnp * cnp;
     chol_.A = Api::allocate_sparse(size_t(N), size_t(N), size_t(nnz), 1, 1, -1, CHOLMOD_REAL, &chol_.cm);
     chol_.B = Api::allocate_dense(size_t(N), 1, size_t(N), CHOLMOD_REAL, &chol_.cm);
     if (!chol_.A || !chol_.B) throw std::bad_alloc();
@@ -232,8 +234,8 @@ class SparseSchurSolver final : public StepSolver {
     for (int c = 0; c < nc; ++c)
       for (int b = 0; b < cnp; ++b) {
         Ap[i64(c) * cnp + b] = q;
-        for (i64 s = pat_.colstart[size_t(c)]; s < pat_.colstart[size_t(c) + 1]; ++s)
-          for (int a = 0; a < cnp; ++a) Ai[q++] = Index(pat_.rows[size_t(s)]) * cnp + a;
+        for (i64 s = pat_->colstart[size_t(c)]; s < pat_->colstart[size_t(c) + 1]; ++s)
+          for (int a = 0; a < cnp; ++a) Ai[q++] = Index(pat_->rows[size_t(s)]) * cnp + a;
       }
     Ap[N] = q;
     std::fill(static_cast<double *>(chol_.A->x), static_cast<double *>(chol_.A->x) + q, 0.0);
@@ -251,8 +253,7 @@ class SparseSchurSolver final : public StepSolver {
 
   SolveContext ctx_;
   const Layout &lay_;
-  std::shared_ptr<const Pattern> pat_holder_;
-  const Pattern &pat_;
+  std::shared_ptr<const Pattern> pat_;
   std::vector<double> rhs_;
   Cholmod<Api> chol_;
   bool direct_ = false;  // L is unpermuted: factor A itself (no copy)
