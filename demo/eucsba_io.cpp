@@ -278,11 +278,16 @@ Status read_calibration(const std::string &path, Intrinsics *out) {
     return in.error_at(row_line[2], "the last row of K must be 0 0 1");
   if (K[0][0] == 0) return in.error_at(row_line[0], "fu (K[0][0]) must be nonzero");
   if (K[1][1] == 0) return in.error_at(row_line[1], "fv (K[1][1]) must be nonzero");
+  // The model keeps fv as fu*ar: a ratio that overflows or underflows (a subnormal fu or fv)
+  // would turn a valid-looking K into an infinite or zero focal length.
+  const double ar = K[1][1] / K[0][0];
+  if (!std::isfinite(ar) || ar == 0)
+    return in.error_at(row_line[1], "the aspect ratio fv/fu (K[1][1]/K[0][0]) overflows or underflows");
   out->fu = K[0][0];
   out->s = K[0][1];
   out->u0 = K[0][2];
   out->v0 = K[1][2];
-  out->ar = K[1][1] / K[0][0];
+  out->ar = ar;
   return {};
 }
 
