@@ -78,6 +78,80 @@ inline __attribute__((always_inline)) void pair_update(int n, int pn, const doub
   }
 }
 
+// a * b + c, rounded as the axpy above rounds it: one fused operation where the target has
+// FMA, else a product then a sum. Spelled out where a sum of products is kept in locals: there
+// the compiler may otherwise fuse either product (x0 y0 + x1 y1 has two contractions).
+inline __attribute__((always_inline)) double madd(double a, double b, double c) {
+#ifdef __FMA__
+  return __builtin_fma(a, b, c);
+#else
+  return a * b + c;
+#endif
+}
+
+// One projection's W_ij^T = B^T A and Y_ij^T = V*_i^-1 W_ij^T (pnp x cnp each; A is mnp x cnp,
+// B mnp x pnp, Vi pnp x pnp, all row-major). Every sum starts from its first term. With the
+// sizes fixed, both products are built in locals and stored once: written through the
+// scratch arrays, the compiler cannot rule out aliasing and falls back to scalar code.
+template <int M, int N, int D>
+inline __attribute__((always_inline)) void track_products(int mn, int n, int pn, const double *A,
+                                                          const double *B, const double *Vi,
+                                                          double *__restrict Wt, double *__restrict Yt) {
+  if constexpr (M > 0 && N > 0 && D > 0) {
+    double w[D][N], y[D][N];
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d) {
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) w[d][c] = B[d] * A[c];
+#pragma GCC unroll 4
+      for (int r = 1; r < M; ++r)
+#pragma GCC unroll 16
+        for (int c = 0; c < N; ++c) w[d][c] = madd(B[r * D + d], A[r * N + c], w[d][c]);
+    }
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d) {
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) y[d][c] = Vi[d * D] * w[0][c];
+#pragma GCC unroll 4
+      for (int e = 1; e < D; ++e)
+#pragma GCC unroll 16
+        for (int c = 0; c < N; ++c) y[d][c] = madd(Vi[d * D + e], w[e][c], y[d][c]);
+    }
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d)
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) Wt[d * N + c] = w[d][c], Yt[d * N + c] = y[d][c];
+  } else {
+    for (int d = 0; d < pn; ++d) {
+      scale_row<0>(n, B[d], A, Wt + d * n);
+      for (int r = 1; r < mn; ++r) axpy<0>(n, B[r * pn + d], A + r * n, Wt + d * n);
+    }
+    for (int d = 0; d < pn; ++d) {
+      scale_row<0>(n, Vi[d * pn], Wt, Yt + d * n);
+      for (int e = 1; e < pn; ++e) axpy<0>(n, Vi[d * pn + e], Wt + e * n, Yt + d * n);
+    }
+  }
+}
+
+// rhs_k -= Y_ij e_b,i (Yt pnp x cnp): accumulated in locals for the same reason.
+template <int N, int D>
+inline __attribute__((always_inline)) void rhs_update(int n, int pn, const double *Yt, const double *eb,
+                                                      double *__restrict rhs) {
+  if constexpr (N > 0 && D > 0) {
+    double r[N];
+#pragma GCC unroll 16
+    for (int c = 0; c < N; ++c) r[c] = rhs[c];
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d)
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) r[c] += -eb[d] * Yt[d * N + c];
+#pragma GCC unroll 16
+    for (int c = 0; c < N; ++c) rhs[c] = r[c];
+  } else {
+    for (int d = 0; d < pn; ++d) axpy<0>(n, -eb[d], Yt + d * n, rhs);
+  }
+}
+
 // G += X^T X and g += X^T e for one projection's mnp x n block X (row-major): the
 // contribution of one measurement to U_j, e_a,j (X = A_ij) or to V_i, e_b,i (X = B_ij).
 template <int M, int N>
@@ -223,23 +297,14 @@ class KernelsT final : public Kernels {
         // W_ij^T = B^T A and Y_ij^T = V*_i^-1 W_ij^T for the track up to this range's end.
         for (int q = f; q < hi; ++q) {
           const double *A = ne.jac + i64(q) * jb, *B = A + mn * cn;
-          double *__restrict Wt = sc.Wt.data() + (q - f) * cp;
-          double *__restrict Yt = sc.Yt.data() + (q - f) * cp;
-          // Each row starts from its first term rather than from zero.
-          for (int d = 0; d < pn; ++d) {
-            scale_row<C>(cn, B[d], A, Wt + d * cn);
-            for (int r = 1; r < mn; ++r) axpy<C>(cn, B[r * pn + d], A + r * cn, Wt + d * cn);
-          }
-          for (int d = 0; d < pn; ++d) {
-            scale_row<C>(cn, Vi[d * pn], Wt, Yt + d * cn);
-            for (int e = 1; e < pn; ++e) axpy<C>(cn, Vi[d * pn + e], Wt + e * cn, Yt + d * cn);
-          }
+          track_products<M, C, P>(mn, cn, pn, A, B, Vi, sc.Wt.data() + (q - f) * cp,
+                                  sc.Yt.data() + (q - f) * cp);
         }
         for (int q2 = lo; q2 < hi; ++q2) {
           const int k = lay.colidx[q2] - lay.mcon;
           const double *Wt2 = sc.Wt.data() + (q2 - f) * cp;
           const double *Yt2 = sc.Yt.data() + (q2 - f) * cp;
-          for (int d = 0; d < pn; ++d) axpy<C>(cn, -ebi[d], Yt2 + d * cn, rhs + i64(k) * cn);
+          rhs_update<C, P>(cn, pn, Yt2, ebi, rhs + i64(k) * cn);
           // S_jk -= Y_ij W_ik^T, row by row: S_jk[a][.] -= sum_d Y^T[d][a] W^T[d][.]; where
           // the map stores S_jk^T, S_jk^T -= Y_ik W_ij^T instead. The diagonal block is updated
           // whole, like the others (its strict lower triangle is never read), which keeps the
