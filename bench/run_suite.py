@@ -166,7 +166,8 @@ def write_markdown(path, meta, groups, runs_by_problem, kernels):
              "threads, %s).%s" % (meta["date"], meta["host"], meta["cpu"], meta["threads"], meta["mem"],
                                   " **Quick run (reduced set).**" if meta["quick"] else ""))
     L.append("")
-    L.append("Every run starts from the same parameters in a fresh child process. Time is the wall time of the "
+    L.append("Every run starts from the same parameters in a fresh child process, with the BLAS (OpenBLAS) set to "
+             "the run's thread count. Time is the wall time of the "
              "solve (file reading and generation excluded; for Ceres the ceres::Problem construction is "
              "included). MSE is the sum of squared reprojection errors divided by the number of observations "
              "(sba's info[1]/nobs; 2 x Ceres cost / nobs). sba iterations are outer LM iterations "

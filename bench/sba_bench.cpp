@@ -9,6 +9,7 @@
 // error (sum of squared residuals / observations, sba's scale), peak RSS, the ratio to the
 // Ceres DENSE_SCHUR run with the same thread count, and the time at which the run's error
 // first came within (1 + 1e-6) of the best final error over all runs ("time to best").
+#include <dlfcn.h>
 #include <fcntl.h>
 #include <malloc.h>
 #include <poll.h>
@@ -67,6 +68,9 @@ const char kUsage[] =
     "  --itmax N         iterations of every solver (default 150)\n"
     "  --timeout SEC     a run taking longer is killed and reported as such (default 3600)\n"
     "  --out FILE        append one JSON object per run to FILE (JSON lines)\n"
+    "  --blas-threads W  same (default): the BLAS runs as many threads as the run it serves;\n"
+    "                    default: leave the BLAS alone (OpenBLAS: OPENBLAS_NUM_THREADS or\n"
+    "                    every core, even in a 1-thread run)\n"
     "  --no-fork         run in this process (peak RSS then is the process's)\n"
     "  --help            this text\n";
 
@@ -81,6 +85,7 @@ struct Options {
   double timeout = 3600;
   std::string out;
   bool fork = true;
+  bool blas_same = true;  // --blas-threads same
   bool help = false;
 };
 
@@ -125,6 +130,13 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
     else if (arg == "--ceres") o->ceres = v == "none" ? std::vector<std::string>{} : split(v);
     else if (arg == "--threads") threads = v;
     else if (arg == "--out") o->out = v;
+    else if (arg == "--blas-threads") {
+      if (v != "same" && v != "default") {
+        *error = "--blas-threads: 'same' or 'default', not '" + v + "'";
+        return false;
+      }
+      o->blas_same = v == "same";
+    }
     else if (arg == "--itmax" || arg == "--timeout") {
       char *end = nullptr;
       const double d = std::strtod(v.c_str(), &end);
@@ -184,6 +196,7 @@ struct RunSpec {
   Engine engine;
   std::string solver;  // sba linsolver name, or "DENSE_SCHUR" / "SPARSE_SCHUR"
   int threads;
+  int blas_threads;  // 0: as the BLAS decides
   std::string label() const { return (engine == Engine::Sba ? "sba " : "ceres ") + solver; }
 };
 
@@ -421,8 +434,19 @@ void run_ceres(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunR
 
 // ---- running in a child ----
 
+// OpenBLAS's pthread build runs worker threads of its own inside DPOTRF (sba's dense S) and
+// inside CHOLMOD's supernodal BLAS calls (sba's sparse-chol, Ceres's SPARSE_SCHUR), one per
+// core unless told otherwise, so a "1-thread" run would use every core there. Found at run
+// time so that another BLAS (without this entry point) still works: null then.
+using BlasSetThreads = void (*)(int);
+BlasSetThreads blas_set_threads() {
+  return reinterpret_cast<BlasSetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
+}
+
 void execute(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunResult *r,
              std::vector<std::array<double, 2>> *trace) {
+  if (spec.blas_threads > 0)
+    if (BlasSetThreads set = blas_set_threads()) set(spec.blas_threads);
   try {
     if (spec.engine == Engine::Sba) run_sba(prob, spec, itmax, consume, r, trace);
     else run_ceres(prob, spec, itmax, consume, r, trace);
@@ -624,10 +648,16 @@ int bench_main(int argc, char **argv) {
               facts.s_dense_bytes / 1e6, facts.s_sparse_bytes / 1e6, facts.input_bytes / 1e6, hardware_threads());
   std::fflush(stdout);
 
+  const bool blas_settable = blas_set_threads() != nullptr;
+  std::printf("  BLAS threads: %s\n", !o.blas_same ? "left to the BLAS (--blas-threads default)"
+                                       : blas_settable ? "as many as the run's threads (openblas_set_num_threads)"
+                                                       : "left to the BLAS (no openblas_set_num_threads in this BLAS)");
   std::vector<RunSpec> specs;
   for (int t : o.threads) {
-    for (const std::string &s : o.solvers) specs.push_back({Engine::Sba, s, t});
-    for (const std::string &c : o.ceres) specs.push_back({Engine::Ceres, c == "dense" ? "DENSE_SCHUR" : "SPARSE_SCHUR", t});
+    const int bt = o.blas_same && blas_settable ? t : 0;
+    for (const std::string &s : o.solvers) specs.push_back({Engine::Sba, s, t, bt});
+    for (const std::string &c : o.ceres)
+      specs.push_back({Engine::Ceres, c == "dense" ? "DENSE_SCHUR" : "SPARSE_SCHUR", t, bt});
   }
 
   std::vector<Run> runs;
@@ -711,6 +741,7 @@ int bench_main(int argc, char **argv) {
     field("engine", json_string(r.spec.engine == Engine::Sba ? "sba" : "ceres"));
     field("solver", json_string(r.spec.solver));
     field("threads", std::to_string(r.spec.threads));
+    field("blas_threads", r.spec.blas_threads > 0 ? std::to_string(r.spec.blas_threads) : "null");
     field("itmax", std::to_string(o.itmax));
     field("ok", x.ok ? "true" : "false");
     field("status", json_string(x.status));
