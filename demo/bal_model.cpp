@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstddef>
+#include <memory>
+#include <new>
 
 #include "sba.h"
 
@@ -86,13 +88,29 @@ void rotation_matrix(const double w[3], double R[9]) {
   fill_rotation(w, s, coefficients(s), R);
 }
 
-void project_jacobian(const double a[kCameraParams], const double b[kPointParams], double *x,
-                      double *A, double *B) {
+namespace {
+
+// What a projection needs of its camera's rotation and does not depend on the point: the
+// callbacks make it once per camera instead of once per observation (three sines and a
+// cosine each time); the values are the same either way.
+struct RotationTerms {
+  double s;
+  Coefficients c;
+  double R[9];
+};
+
+void rotation_terms(const double w[3], RotationTerms *rt) {
+  rt->s = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+  rt->c = coefficients(rt->s);
+  fill_rotation(w, rt->s, rt->c, rt->R);
+}
+
+void project_with(const double a[kCameraParams], const RotationTerms &rt, const double b[kPointParams],
+                  double *x, double *A, double *B) {
   const double *w = a, *t = a + 3;
   const double f = a[6], k1 = a[7], k2 = a[8];
 
-  const double s = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-  const Coefficients c = coefficients(s);
+  const Coefficients &c = rt.c;
   double wX[3], wwX[3];
   cross(w, b, wX);
   cross(w, wX, wwX);
@@ -118,8 +136,7 @@ void project_jacobian(const double a[kCameraParams], const double b[kPointParams
 
   if (B) {
     // d Q / d X = R(w).
-    double R[9];
-    fill_rotation(w, s, c, R);
+    const double *R = rt.R;
     for (int r = 0; r < 2; ++r)
       for (int k = 0; k < 3; ++k)
         B[r * 3 + k] = H[r * 3] * R[k] + H[r * 3 + 1] * R[3 + k] + H[r * 3 + 2] * R[6 + k];
@@ -154,6 +171,15 @@ void project_jacobian(const double a[kCameraParams], const double b[kPointParams
   A1[8] = f * r2 * r2 * py;
 }
 
+}  // namespace
+
+void project_jacobian(const double a[kCameraParams], const double b[kPointParams], double *x,
+                      double *A, double *B) {
+  RotationTerms rt;
+  rotation_terms(a, &rt);
+  project_with(a, rt, b, x, A, B);
+}
+
 void project(const double a[kCameraParams], const double b[kPointParams], double x[2]) {
   project_jacobian(a, b, x, nullptr, nullptr);
 }
@@ -166,27 +192,41 @@ inline std::size_t off(int index, int stride) {
   return static_cast<std::size_t>(index) * static_cast<std::size_t>(stride);
 }
 
+// Calls visit(camera parameters, its RotationTerms, point parameters, measurement ordinal)
+// for every projection in idx (which may be a part of the rows when callbacks run
+// concurrently). The per-camera terms live in a buffer of this call; without memory for it
+// each projection makes its own, with the same result.
+template <class Visit>
+void for_each_projection(const double *p, const sba_crsm *idx, const void *adata, Visit visit) {
+  const int m = static_cast<const CallbackData *>(adata)->ncameras;
+  const double *pb = p + off(m, kCameraParams);
+  std::unique_ptr<RotationTerms[]> terms(new (std::nothrow) RotationTerms[size_t(m > 0 ? m : 0)]);
+  if (terms)
+    for (int j = 0; j < m; ++j) rotation_terms(p + off(j, kCameraParams), &terms[size_t(j)]);
+  RotationTerms own;
+  for (int i = 0; i < idx->nr; ++i)
+    for (int e = idx->rowptr[i]; e < idx->rowptr[i + 1]; ++e) {
+      const int j = idx->colidx[e];
+      const double *a = p + off(j, kCameraParams);
+      const RotationTerms *rt = terms ? &terms[size_t(j)] : (rotation_terms(a, &own), &own);
+      visit(a, *rt, pb + off(i, kPointParams), idx->val[e]);
+    }
+}
+
 }  // namespace
 
 void motstr_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
-  const int m = static_cast<const CallbackData *>(adata)->ncameras;
-  const double *pb = p + off(m, kCameraParams);
-  for (int i = 0; i < idx->nr; ++i)
-    for (int e = idx->rowptr[i]; e < idx->rowptr[i + 1]; ++e)
-      project_jacobian(p + off(idx->colidx[e], kCameraParams), pb + off(i, kPointParams),
-                       hx + off(idx->val[e], kMeasurementParams), nullptr, nullptr);
+  for_each_projection(p, idx, adata, [hx](const double *a, const RotationTerms &rt, const double *b, int k) {
+    project_with(a, rt, b, hx + off(k, kMeasurementParams), nullptr, nullptr);
+  });
 }
 
 void motstr_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adata) {
-  const int m = static_cast<const CallbackData *>(adata)->ncameras;
-  const double *pb = p + off(m, kCameraParams);
   constexpr int block = kMeasurementParams * (kCameraParams + kPointParams);
-  for (int i = 0; i < idx->nr; ++i)
-    for (int e = idx->rowptr[i]; e < idx->rowptr[i + 1]; ++e) {
-      double *A = jac + off(idx->val[e], block);
-      project_jacobian(p + off(idx->colidx[e], kCameraParams), pb + off(i, kPointParams), nullptr, A,
-                       A + kMeasurementParams * kCameraParams);
-    }
+  for_each_projection(p, idx, adata, [jac](const double *a, const RotationTerms &rt, const double *b, int k) {
+    double *A = jac + off(k, block);
+    project_with(a, rt, b, nullptr, A, A + kMeasurementParams * kCameraParams);
+  });
 }
 
 }  // namespace bal
