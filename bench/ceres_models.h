@@ -1,7 +1,8 @@
 // Ceres cost functions that evaluate exactly the models sba is given in the benchmark: the
 // residual is predicted minus observed (Ceres minimises 1/2 sum r^2, sba sum r^2 with the
 // opposite sign, so the costs differ by the factor 1/2 only), and the Jacobian blocks come
-// from the same analytic code as sba's fjac callbacks.
+// from the same analytic code as sba's fjac callbacks (eucsba: its one-projection form,
+// project_jacobian_at_point, equal up to rounding).
 #ifndef SBA_BENCH_CERES_MODELS_H
 #define SBA_BENCH_CERES_MODELS_H
 
@@ -23,7 +24,7 @@ class EucsbaCost final : public ceres::SizedCostFunction<2, CNP, 3> {
   bool Evaluate(double const *const *parameters, double *residuals, double **jacobians) const override {
     double *A = jacobians ? jacobians[0] : nullptr;
     double *B = jacobians ? jacobians[1] : nullptr;
-    model_.project_jacobian(camera_, parameters[0], parameters[1], residuals, A, B);
+    model_.project_jacobian_at_point(camera_, parameters[0], parameters[1], residuals, A, B);
     residuals[0] -= obs_[0];
     residuals[1] -= obs_[1];
     return true;

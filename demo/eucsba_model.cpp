@@ -117,27 +117,65 @@ struct Kernel {
     double kc[kDistortionParams];  // likewise
     const double *R0;              // R(q0_j)
     Correction qs;                 // the correction and its derivatives
-    double Rs[9];                  // R(qs)
+    double M[9];                   // R(qs) R(q0_j): d X_c / d X
     const double *t;
+    // d X_c / d v = sum_n X_n dRv[n] for the point X (3x3 each, row-major): X_c = R(qs) R(q0) X
+    // + t is linear in X, so its derivative in the rotation parameter v is too, and the
+    // per-point work is 27 multiply-adds. Worth it for a camera's many points (the whole-vector
+    // callbacks); project_jacobian_at_point takes it at the point directly.
+    bool has_dRv;
+    double dRv[27];
   };
 
-  static void prepare(const CameraModel &model, int j, const double *a, Frame *f) {
+  // d(R(qs) Y)/dv for R(qs) Y = Y + 2w (u x Y) + 2 u x (u x Y):
+  //   d/du = -2w [Y]x + 2((u.Y) I + u Y^T - 2 Y u^T),  d/dw = 2 (u x Y),
+  // then through du/dv and dw/dv.
+  static void rotation_derivative(const Correction &qs, const double Y[3], double Jv[9]) {
+    const double *u = qs.u;
+    const double uY = u[0] * Y[0] + u[1] * Y[1] + u[2] * Y[2];
+    const double uxY[3] = {u[1] * Y[2] - u[2] * Y[1], u[2] * Y[0] - u[0] * Y[2],
+                           u[0] * Y[1] - u[1] * Y[0]};
+    const double Yx[9] = {0, -Y[2], Y[1], Y[2], 0, -Y[0], -Y[1], Y[0], 0};
+    double dRY_du[9];
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c)
+        dRY_du[r * 3 + c] = -2 * qs.w * Yx[r * 3 + c] +
+                            2 * ((r == c ? uY : 0.0) + u[r] * Y[c] - 2 * Y[r] * u[c]);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c)
+        Jv[r * 3 + c] = dRY_du[r * 3] * qs.du[c] + dRY_du[r * 3 + 1] * qs.du[3 + c] +
+                        dRY_du[r * 3 + 2] * qs.du[6 + c] + 2 * uxY[r] * qs.dw[c];
+  }
+
+  static void prepare(const CameraModel &model, int j, const double *a, Frame *f, bool jacobian_tensor) {
     const Camera &cam0 = model.cameras0_[j];
     f->free_intr = kHasIntrinsics ? kIntrinsicParams - model.nccalib_ : 0;
     const double in0[kIntrinsicParams] = {cam0.k.fu, cam0.k.u0, cam0.k.v0, cam0.k.ar, cam0.k.s};
     for (int c = 0; c < kIntrinsicParams; ++c) f->in[c] = c < f->free_intr ? a[L::intr + c] : in0[c];
     f->free_dist = kHasDistortion ? kDistortionParams - model.ncdist_ : 0;
     for (int c = 0; c < kDistortionParams; ++c) f->kc[c] = c < f->free_dist ? a[L::dist + c] : cam0.kc[c];
-    f->R0 = model.R0_.data() + static_cast<std::size_t>(j) * 9;
-    f->qs = correction(a + L::rot);
-    rotation_matrix({f->qs.w, f->qs.u[0], f->qs.u[1], f->qs.u[2]}, f->Rs);
+    const double *R0 = f->R0 = model.R0_.data() + static_cast<std::size_t>(j) * 9;
+    const Correction &qs = f->qs = correction(a + L::rot);
+    double Rs[9];
+    rotation_matrix({qs.w, qs.u[0], qs.u[1], qs.u[2]}, Rs);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c)
+        f->M[r * 3 + c] = Rs[r * 3] * R0[c] + Rs[r * 3 + 1] * R0[3 + c] + Rs[r * 3 + 2] * R0[6 + c];
     f->t = a + L::trans;
+    f->has_dRv = jacobian_tensor;
+    if (jacobian_tensor)
+      for (int n = 0; n < 3; ++n) {  // Y = R(q0) e_n: column n of R(q0)
+        const double Y[3] = {R0[n], R0[3 + n], R0[6 + n]};
+        rotation_derivative(qs, Y, f->dRv + 9 * n);
+      }
   }
 
+  // tensor: the rotation derivative through the per-camera tensor, as the whole-vector
+  // callbacks take it (bit-identical to them); else directly at the point (cheaper for one).
   static void eval(const CameraModel &model, int j, const double *a, const double *b, double *x,
-                   double *A, double *B) {
+                   double *A, double *B, bool tensor) {
     Frame f;
-    prepare(model, j, a, &f);
+    prepare(model, j, a, &f, tensor && A != nullptr);
     eval(f, b, x, A, B);
   }
 
@@ -145,14 +183,11 @@ struct Kernel {
     const double fu = f.in[0], u0 = f.in[1], v0 = f.in[2], ar = f.in[3], sk = f.in[4];
     const double *kc = f.kc;
     const int free_intr = f.free_intr, free_dist = f.free_dist;
-    const Correction &qs = f.qs;
-    const double *Rs = f.Rs, *R0 = f.R0;
+    const double *M = f.M;
 
-    // X_c = R(qs) Y + t with Y = R(q0) X: the correction acts after the input rotation.
-    double Y[3];
-    mat3_vec(R0, b, Y);
+    // X_c = R(qs) R(q0) X + t: the correction acts after the input rotation.
     double Xc[3];
-    mat3_vec(Rs, Y, Xc);
+    mat3_vec(M, b, Xc);
     for (int r = 0; r < 3; ++r) Xc[r] += f.t[r];
 
     const double iz = 1.0 / Xc[2];
@@ -189,14 +224,9 @@ struct Kernel {
       for (int c = 0; c < 3; ++c) H[r * 3 + c] = G[r * 2] * P[c] + G[r * 2 + 1] * P[3 + c];
 
     if (B) {
-      // d X_c / d X = R(qs) R(q0).
-      double HRs[6];
       for (int r = 0; r < 2; ++r)
         for (int c = 0; c < 3; ++c)
-          HRs[r * 3 + c] = H[r * 3] * Rs[c] + H[r * 3 + 1] * Rs[3 + c] + H[r * 3 + 2] * Rs[6 + c];
-      for (int r = 0; r < 2; ++r)
-        for (int c = 0; c < 3; ++c)
-          B[r * 3 + c] = HRs[r * 3] * R0[c] + HRs[r * 3 + 1] * R0[3 + c] + HRs[r * 3 + 2] * R0[6 + c];
+          B[r * 3 + c] = H[r * 3] * M[c] + H[r * 3 + 1] * M[3 + c] + H[r * 3 + 2] * M[6 + c];
     }
     if (!A) return;
 
@@ -223,24 +253,14 @@ struct Kernel {
       }
     }
 
-    // d(R(qs) Y)/dv for R(qs) Y = Y + 2w (u x Y) + 2 u x (u x Y):
-    //   d/du = -2w [Y]x + 2((u.Y) I + u Y^T - 2 Y u^T),  d/dw = 2 (u x Y),
-    // then through du/dv and dw/dv.
-    const double *u = qs.u;
-    const double uY = u[0] * Y[0] + u[1] * Y[1] + u[2] * Y[2];
-    const double uxY[3] = {u[1] * Y[2] - u[2] * Y[1], u[2] * Y[0] - u[0] * Y[2],
-                           u[0] * Y[1] - u[1] * Y[0]};
-    const double Yx[9] = {0, -Y[2], Y[1], Y[2], 0, -Y[0], -Y[1], Y[0], 0};
-    double dRY_du[9];
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c)
-        dRY_du[r * 3 + c] = -2 * qs.w * Yx[r * 3 + c] +
-                            2 * ((r == c ? uY : 0.0) + u[r] * Y[c] - 2 * Y[r] * u[c]);
     double Jv[9];
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c)
-        Jv[r * 3 + c] = dRY_du[r * 3] * qs.du[c] + dRY_du[r * 3 + 1] * qs.du[3 + c] +
-                        dRY_du[r * 3 + 2] * qs.du[6 + c] + 2 * uxY[r] * qs.dw[c];
+    if (f.has_dRv) {
+      for (int e = 0; e < 9; ++e) Jv[e] = b[0] * f.dRv[e] + b[1] * f.dRv[9 + e] + b[2] * f.dRv[18 + e];
+    } else {
+      double Y[3];
+      mat3_vec(f.R0, b, Y);
+      rotation_derivative(f.qs, Y, Jv);
+    }
     for (int c = 0; c < 3; ++c) {
       A0[L::rot + c] = H[0] * Jv[c] + H[1] * Jv[3 + c] + H[2] * Jv[6 + c];
       A1[L::rot + c] = H[3] * Jv[c] + H[4] * Jv[3 + c] + H[5] * Jv[6 + c];
@@ -314,13 +334,28 @@ void CameraModel::project_jacobian(int j, const double *a, const double *b, doub
                                    double *B) const {
   switch (kind_) {
     case CameraKind::FixedIntrinsics:
-      Kernel<CameraKind::FixedIntrinsics>::eval(*this, j, a, b, x, A, B);
+      Kernel<CameraKind::FixedIntrinsics>::eval(*this, j, a, b, x, A, B, true);
       break;
     case CameraKind::VaryingIntrinsics:
-      Kernel<CameraKind::VaryingIntrinsics>::eval(*this, j, a, b, x, A, B);
+      Kernel<CameraKind::VaryingIntrinsics>::eval(*this, j, a, b, x, A, B, true);
       break;
     case CameraKind::VaryingIntrinsicsDistortion:
-      Kernel<CameraKind::VaryingIntrinsicsDistortion>::eval(*this, j, a, b, x, A, B);
+      Kernel<CameraKind::VaryingIntrinsicsDistortion>::eval(*this, j, a, b, x, A, B, true);
+      break;
+  }
+}
+
+void CameraModel::project_jacobian_at_point(int j, const double *a, const double *b, double *x,
+                                            double *A, double *B) const {
+  switch (kind_) {
+    case CameraKind::FixedIntrinsics:
+      Kernel<CameraKind::FixedIntrinsics>::eval(*this, j, a, b, x, A, B, false);
+      break;
+    case CameraKind::VaryingIntrinsics:
+      Kernel<CameraKind::VaryingIntrinsics>::eval(*this, j, a, b, x, A, B, false);
+      break;
+    case CameraKind::VaryingIntrinsicsDistortion:
+      Kernel<CameraKind::VaryingIntrinsicsDistortion>::eval(*this, j, a, b, x, A, B, false);
       break;
   }
 }
@@ -356,9 +391,10 @@ struct Callbacks {
   // The whole-vector callbacks see every camera's parameters at once: the per-camera part of
   // the projection (intrinsics, the rotation and its derivatives) is set up once per camera,
   // not once per projection.
-  static std::vector<typename Kern::Frame> frames(const CameraModel &model, const double *pa) {
+  static std::vector<typename Kern::Frame> frames(const CameraModel &model, const double *pa, bool jacobian) {
     std::vector<typename Kern::Frame> f(static_cast<std::size_t>(model.ncameras()));
-    for (int j = 0; j < model.ncameras(); ++j) Kern::prepare(model, j, pa + off(j, cnp), &f[size_t(j)]);
+    for (int j = 0; j < model.ncameras(); ++j)
+      Kern::prepare(model, j, pa + off(j, cnp), &f[size_t(j)], jacobian);
     return f;
   }
 
@@ -366,7 +402,7 @@ struct Callbacks {
   static void motstr_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
     const CameraModel &model = model_of(adata);
     const double *pb = p + off(model.ncameras(), cnp);
-    const auto f = frames(model, p);
+    const auto f = frames(model, p, false);
     for_each_projection(*idx, [&](int i, int j, int k) {
       Kern::eval(f[size_t(j)], pb + off(i, pnp), hx + off(k, mnp), nullptr, nullptr);
     });
@@ -375,7 +411,7 @@ struct Callbacks {
     const CameraModel &model = model_of(adata);
     const double *pb = p + off(model.ncameras(), cnp);
     constexpr int block = mnp * (cnp + pnp);
-    const auto f = frames(model, p);
+    const auto f = frames(model, p, true);
     for_each_projection(*idx, [&](int i, int j, int k) {
       double *A = jac + off(k, block);
       Kern::eval(f[size_t(j)], pb + off(i, pnp), nullptr, A, A + mnp * cnp);
@@ -385,14 +421,14 @@ struct Callbacks {
   // ---- expert: p = cameras, points from the model ----
   static void mot_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
     const CameraModel &model = model_of(adata);
-    const auto f = frames(model, p);
+    const auto f = frames(model, p, false);
     for_each_projection(*idx, [&](int i, int j, int k) {
       Kern::eval(f[size_t(j)], model.initial_point(i), hx + off(k, mnp), nullptr, nullptr);
     });
   }
   static void mot_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adata) {
     const CameraModel &model = model_of(adata);
-    const auto f = frames(model, p);
+    const auto f = frames(model, p, true);
     for_each_projection(*idx, [&](int i, int j, int k) {
       Kern::eval(f[size_t(j)], model.initial_point(i), nullptr, jac + off(k, mnp * cnp), nullptr);
     });
@@ -403,40 +439,40 @@ struct Callbacks {
     const CameraModel &model = model_of(adata);
     for_each_projection(*idx, [&](int i, int j, int k) {
       Kern::eval(model, j, model.initial_camera(j), p + off(i, pnp), hx + off(k, mnp), nullptr,
-                 nullptr);
+                 nullptr, true);
     });
   }
   static void str_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adata) {
     const CameraModel &model = model_of(adata);
     for_each_projection(*idx, [&](int i, int j, int k) {
       Kern::eval(model, j, model.initial_camera(j), p + off(i, pnp), nullptr, nullptr,
-                 jac + off(k, mnp * pnp));
+                 jac + off(k, mnp * pnp), true);
     });
   }
 
   // ---- simple drivers ----
   static void motstr_proj(int j, int, double *aj, double *bi, double *xij, void *adata) {
-    Kern::eval(model_of(adata), j, aj, bi, xij, nullptr, nullptr);
+    Kern::eval(model_of(adata), j, aj, bi, xij, nullptr, nullptr, true);
   }
   static void motstr_projac(int j, int, double *aj, double *bi, double *Aij, double *Bij,
                             void *adata) {
-    Kern::eval(model_of(adata), j, aj, bi, nullptr, Aij, Bij);
+    Kern::eval(model_of(adata), j, aj, bi, nullptr, Aij, Bij, true);
   }
   static void mot_proj(int j, int i, double *aj, double *xij, void *adata) {
     const CameraModel &model = model_of(adata);
-    Kern::eval(model, j, aj, model.initial_point(i), xij, nullptr, nullptr);
+    Kern::eval(model, j, aj, model.initial_point(i), xij, nullptr, nullptr, true);
   }
   static void mot_projac(int j, int i, double *aj, double *Aij, void *adata) {
     const CameraModel &model = model_of(adata);
-    Kern::eval(model, j, aj, model.initial_point(i), nullptr, Aij, nullptr);
+    Kern::eval(model, j, aj, model.initial_point(i), nullptr, Aij, nullptr, true);
   }
   static void str_proj(int j, int, double *bi, double *xij, void *adata) {
     const CameraModel &model = model_of(adata);
-    Kern::eval(model, j, model.initial_camera(j), bi, xij, nullptr, nullptr);
+    Kern::eval(model, j, model.initial_camera(j), bi, xij, nullptr, nullptr, true);
   }
   static void str_projac(int j, int, double *bi, double *Bij, void *adata) {
     const CameraModel &model = model_of(adata);
-    Kern::eval(model, j, model.initial_camera(j), bi, nullptr, nullptr, Bij);
+    Kern::eval(model, j, model.initial_camera(j), bi, nullptr, nullptr, Bij, true);
   }
 
   static ExpertCallbacks expert(Refinement refinement) {

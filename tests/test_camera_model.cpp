@@ -325,6 +325,32 @@ TEST(Jacobian, StaysConsistentOutsideTheUnitBall) {
     }
 }
 
+TEST(Jacobian, AtPointFormAgreesWithTheCallbacksForm) {
+  // project_jacobian (the per-camera tensor of the callbacks) and project_jacobian_at_point
+  // (the benchmark's Ceres cost) are the same derivative in another order of operations:
+  // equal to rounding, inside the unit ball and on its boundary rotation (|v| > 1).
+  std::mt19937 rng(12);
+  for (CameraKind kind : kAllKinds) {
+    const Scene scene = random_scene(4, 5, rng);
+    const CameraModel model(kind, scene.cameras, scene.points, 1, 2);
+    const int cnp = model.cnp();
+    for (double vnorm : {0.0, 0.3, 1.7}) {
+      const std::vector<double> a = perturbed_cameras(model, rng, vnorm);
+      for (int j = 0; j < model.ncameras(); ++j)
+        for (int i = 0; i < model.npoints(); ++i) {
+          double x1[2], x2[2], A1[32], A2[32], B1[6], B2[6];
+          model.project_jacobian(j, &a[j * cnp], model.initial_point(i), x1, A1, B1);
+          model.project_jacobian_at_point(j, &a[j * cnp], model.initial_point(i), x2, A2, B2);
+          double scale = 1.0;
+          for (int c = 0; c < 2 * cnp; ++c) scale = std::max(scale, std::fabs(A1[c]));
+          for (int c = 0; c < 6; ++c) scale = std::max(scale, std::fabs(B1[c]));
+          for (int r = 0; r < 2; ++r) EXPECT_NEAR(x1[r], x2[r], 1e-12 * std::max(1.0, std::fabs(x1[r])));
+          for (int c = 0; c < 2 * cnp; ++c) EXPECT_NEAR(A1[c], A2[c], 1e-12 * scale) << "A column " << c % cnp;
+          for (int c = 0; c < 6; ++c) EXPECT_NEAR(B1[c], B2[c], 1e-12 * scale);
+        }
+    }
+  }
+}
 TEST(Jacobian, HeldIntrinsicsHaveZeroColumnsForEveryNccalib) {
   std::mt19937 rng(6);
   for (CameraKind kind : {CameraKind::VaryingIntrinsics, CameraKind::VaryingIntrinsicsDistortion}) {
