@@ -67,6 +67,8 @@ const char kUsage[] =
     "  --threads LIST    thread counts, comma-separated; all = every hardware thread (default 1,all)\n"
     "  --itmax N         iterations of every solver (default 150)\n"
     "  --timeout SEC     a run taking longer is killed and reported as such (default 3600)\n"
+    "  --repeat N        run every configuration N times, in rounds, and report the run\n"
+    "                    with the median time (default 1; all times go to the JSON)\n"
     "  --out FILE        append one JSON object per run to FILE (JSON lines)\n"
     "  --blas-threads W  same (default): the BLAS runs as many threads as the run it serves;\n"
     "                    default: leave the BLAS alone (OpenBLAS: OPENBLAS_NUM_THREADS or\n"
@@ -82,6 +84,7 @@ struct Options {
   std::vector<std::string> ceres{"dense", "sparse"};
   std::vector<int> threads;
   int itmax = 150;
+  int repeat = 1;
   double timeout = 3600;
   std::string out;
   bool fork = true;
@@ -137,7 +140,15 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
       }
       o->blas_same = v == "same";
     }
-    else if (arg == "--itmax" || arg == "--timeout") {
+    else if (arg == "--repeat") {
+      char *end = nullptr;
+      const long n = std::strtol(v.c_str(), &end, 10);
+      if (v.empty() || *end != '\0' || n < 1 || n > 100) {
+        *error = "--repeat: a count from 1 to 100, not '" + v + "'";
+        return false;
+      }
+      o->repeat = static_cast<int>(n);
+    } else if (arg == "--itmax" || arg == "--timeout") {
       char *end = nullptr;
       const double d = std::strtod(v.c_str(), &end);
       if (v.empty() || *end != '\0' || !(d >= 0) || d > INT_MAX) {
@@ -223,6 +234,7 @@ struct Run {
   RunResult r;
   std::vector<std::array<double, 2>> trace;  // (seconds since the solve started, ||e||^2)
   long long child_maxrss = 0;                // ru_maxrss of the child, bytes (cross-check)
+  std::vector<double> all_seconds;           // every repetition's time (--repeat), in run order
   double ttb = NAN;                          // time to best, seconds (NaN: never)
 };
 
@@ -660,17 +672,41 @@ int bench_main(int argc, char **argv) {
       specs.push_back({Engine::Ceres, c == "dense" ? "DENSE_SCHUR" : "SPARSE_SCHUR", t, bt});
   }
 
+  // Rounds of every configuration rather than N runs of one after another, so that a slow
+  // spell of the machine falls on all of them alike; each keeps its median-time run.
+  std::vector<std::vector<Run>> reps(specs.size());
+  for (int round = 0; round < o.repeat; ++round)
+    for (std::size_t k = 0; k < specs.size(); ++k) {
+      const RunSpec &spec = specs[k];
+      std::fprintf(stderr, "sba_bench: %s: %s, %d thread%s", prob.name.c_str(), spec.label().c_str(), spec.threads,
+                   spec.threads == 1 ? "" : "s");
+      if (o.repeat > 1) std::fprintf(stderr, " (round %d of %d)", round + 1, o.repeat);
+      std::fputs(" ... ", stderr);
+      std::fflush(stderr);
+      reps[k].push_back(o.fork ? run_forked(prob, spec, o.itmax, o.timeout) : run_inline(prob, spec, o.itmax));
+      const Run &r = reps[k].back();
+      if (r.r.ok)
+        std::fprintf(stderr, "%s, %.3f s, final MSE %.6g\n", r.r.status, r.r.seconds, r.r.final_err / nobs);
+      else
+        std::fprintf(stderr, "%s%s%s\n", r.r.status, r.r.message[0] ? ": " : "", r.r.message);
+    }
   std::vector<Run> runs;
-  for (const RunSpec &spec : specs) {
-    std::fprintf(stderr, "sba_bench: %s: %s, %d thread%s ... ", prob.name.c_str(), spec.label().c_str(),
-                 spec.threads, spec.threads == 1 ? "" : "s");
-    std::fflush(stderr);
-    runs.push_back(o.fork ? run_forked(prob, spec, o.itmax, o.timeout) : run_inline(prob, spec, o.itmax));
-    const Run &r = runs.back();
-    if (r.r.ok)
-      std::fprintf(stderr, "%s, %.3f s, final MSE %.6g\n", r.r.status, r.r.seconds, r.r.final_err / nobs);
-    else
-      std::fprintf(stderr, "%s%s%s\n", r.r.status, r.r.message[0] ? ": " : "", r.r.message);
+  for (std::vector<Run> &rs : reps) {
+    std::vector<double> times;
+    for (const Run &r : rs) times.push_back(r.r.ok ? r.r.seconds : NAN);
+    // A failed repetition is what gets reported; else the (lower) median.
+    std::size_t pick = 0;
+    const auto failed = std::find_if(rs.begin(), rs.end(), [](const Run &r) { return !r.r.ok; });
+    if (failed != rs.end()) {
+      pick = static_cast<std::size_t>(failed - rs.begin());
+    } else {
+      std::vector<std::size_t> order(rs.size());
+      for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+      std::sort(order.begin(), order.end(), [&times](std::size_t a, std::size_t b) { return times[a] < times[b]; });
+      pick = order[(order.size() - 1) / 2];
+    }
+    runs.push_back(std::move(rs[pick]));
+    runs.back().all_seconds = times;
   }
 
   // Time to the best final error over every run.
@@ -752,6 +788,10 @@ int bench_main(int argc, char **argv) {
     field("func_evals", std::to_string(x.func_evals));
     field("jac_evals", std::to_string(x.jac_evals));
     field("seconds", json_number(x.ok ? x.seconds : NAN));
+    std::string all = "[";
+    for (std::size_t k = 0; k < r.all_seconds.size(); ++k) all += (k ? ", " : "") + json_number(r.all_seconds[k]);
+    field("repeats", std::to_string(r.all_seconds.size()));
+    field("seconds_all", all + "]");
     field("setup_seconds", json_number(x.setup_seconds));
     field("seconds_per_iteration", json_number(per_iter));
     field("seconds_per_linear_solve",
