@@ -48,23 +48,30 @@ inline void chol_solve(const double *l, double *b, int n) {
   }
 }
 
-// inv = A^-1 for SPD A (n x n). a is overwritten by its Cholesky factor. False if not SPD.
+// inv = A^-1 for SPD A (n x n). a's lower triangle is overwritten by L^-1 (L its Cholesky
+// factor). False if not SPD. A^-1 = L^-T L^-1 with one reciprocal per diagonal
+// entry and no solves: this runs for every point at every damping value, where the n^2
+// divisions of n triangular solves were most of its cost. Each entry of the upper triangle is
+// one sum, mirrored, so the block comes out exactly symmetric as the normal equations expect.
 template <int N = 0>
 inline bool spd_inverse(double *a, double *inv, int n) {
   if (N) n = N;
   if (!chol<N>(a, n)) return false;
-  for (int c = 0; c < n; ++c) {
-    // Column c of the inverse solves A x = e_c; writing it as row c is the same by symmetry.
-    double *x = inv + c * n;
-    for (int i = 0; i < n; ++i) x[i] = (i == c) ? 1.0 : 0.0;
-    chol_solve<N>(a, x, n);
-  }
-  // Symmetrize: the two triangles differ in the last bits, and the normal equations expect
-  // an exactly symmetric block.
+  // L^-1 in place, column by column: X[i][j] = -(sum_{j<=k<i} L[i][k] X[k][j]) / L[i][i].
+  // While column j is made, the columns right of it still hold L and the diagonal 1/L[i][i].
+  for (int i = 0; i < n; ++i) a[i * n + i] = 1.0 / a[i * n + i];
+  for (int j = 0; j < n; ++j)
+    for (int i = j + 1; i < n; ++i) {
+      double s = a[i * n + j] * a[j * n + j];
+      for (int k = j + 1; k < i; ++k) s += a[i * n + k] * a[k * n + j];
+      a[i * n + j] = -s * a[i * n + i];
+    }
+  // A^-1 = X^T X.
   for (int i = 0; i < n; ++i)
-    for (int j = i + 1; j < n; ++j) {
-      const double v = 0.5 * (inv[i * n + j] + inv[j * n + i]);
-      inv[i * n + j] = inv[j * n + i] = v;
+    for (int j = i; j < n; ++j) {
+      double s = 0.0;
+      for (int k = j; k < n; ++k) s += a[k * n + i] * a[k * n + j];
+      inv[i * n + j] = inv[j * n + i] = s;
     }
   return true;
 }
