@@ -330,34 +330,31 @@ Camera CameraModel::camera(int j, const double *a) const {
   return c;
 }
 
+namespace {
+
+// One projection by the kernel of the model's kind (tensor: see Kernel::eval).
+void eval_one(const CameraModel &model, int j, const double *a, const double *b, double *x, double *A,
+              double *B, bool tensor) {
+  switch (model.kind()) {
+    case CameraKind::FixedIntrinsics:
+      return Kernel<CameraKind::FixedIntrinsics>::eval(model, j, a, b, x, A, B, tensor);
+    case CameraKind::VaryingIntrinsics:
+      return Kernel<CameraKind::VaryingIntrinsics>::eval(model, j, a, b, x, A, B, tensor);
+    case CameraKind::VaryingIntrinsicsDistortion:
+      return Kernel<CameraKind::VaryingIntrinsicsDistortion>::eval(model, j, a, b, x, A, B, tensor);
+  }
+}
+
+}  // namespace
+
 void CameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A,
                                    double *B) const {
-  switch (kind_) {
-    case CameraKind::FixedIntrinsics:
-      Kernel<CameraKind::FixedIntrinsics>::eval(*this, j, a, b, x, A, B, true);
-      break;
-    case CameraKind::VaryingIntrinsics:
-      Kernel<CameraKind::VaryingIntrinsics>::eval(*this, j, a, b, x, A, B, true);
-      break;
-    case CameraKind::VaryingIntrinsicsDistortion:
-      Kernel<CameraKind::VaryingIntrinsicsDistortion>::eval(*this, j, a, b, x, A, B, true);
-      break;
-  }
+  eval_one(*this, j, a, b, x, A, B, true);
 }
 
 void CameraModel::project_jacobian_at_point(int j, const double *a, const double *b, double *x,
                                             double *A, double *B) const {
-  switch (kind_) {
-    case CameraKind::FixedIntrinsics:
-      Kernel<CameraKind::FixedIntrinsics>::eval(*this, j, a, b, x, A, B, false);
-      break;
-    case CameraKind::VaryingIntrinsics:
-      Kernel<CameraKind::VaryingIntrinsics>::eval(*this, j, a, b, x, A, B, false);
-      break;
-    case CameraKind::VaryingIntrinsicsDistortion:
-      Kernel<CameraKind::VaryingIntrinsicsDistortion>::eval(*this, j, a, b, x, A, B, false);
-      break;
-  }
+  eval_one(*this, j, a, b, x, A, B, false);
 }
 
 void CameraModel::project(int j, const double *a, const double *b, double x[2]) const {
