@@ -388,23 +388,32 @@ TEST(BalModel, JacobianOnARealProblem) {
   }
 }
 
-// A hand-built index of visible projections: the callbacks address outputs by idxij.val.
-TEST(BalModel, ExpertCallbacksFollowTheMeasurementOrdinals) {
-  // 2 points, 2 cameras; point 0 seen by both, point 1 by camera 1 only.
+// A hand-built index of visible projections: 2 points, 2 cameras; point 0 seen by both,
+// point 1 by camera 1 only. Camera 0's rotation is in the series range of the Rodrigues
+// coefficients, camera 1's in the closed form. Not copyable (idx points into the arrays).
+struct TwoCameraScene {
   std::vector<double> p = {0.01, 0.02, -0.03, 0.1, 0.2, -5, 500, -0.05, 0.01,
-                           -0.02, 0.01, 0.05, -0.3, 0.1, -6, 480, 0.02, -0.01,
+                           -0.4, 0.3, 0.5, -0.3, 0.1, -6, 480, 0.02, -0.01,
                            0.5, -0.4, 1.0, -0.2, 0.3, 0.4};
   int val[3] = {0, 1, 2}, colidx[3] = {0, 1, 1}, rowptr[3] = {0, 2, 3};
   sba_crsm idx{2, 2, 3, val, colidx, rowptr};
-  bal::CallbackData data;
-  data.ncameras = 2;
+  bal::CallbackData data{2};
+  TwoCameraScene() = default;
+  TwoCameraScene(const TwoCameraScene &) = delete;
+  void func(double *hx) { bal::motstr_func(p.data(), &idx, nullptr, nullptr, hx, &data); }
+  void fjac(double *jac) { bal::motstr_fjac(p.data(), &idx, nullptr, nullptr, jac, &data); }
+};
+
+// The callbacks address outputs by idxij.val.
+TEST(BalModel, ExpertCallbacksFollowTheMeasurementOrdinals) {
+  TwoCameraScene sc;
   double hx[6], jac[3 * 24];
-  bal::motstr_func(p.data(), &idx, nullptr, nullptr, hx, &data);
-  bal::motstr_fjac(p.data(), &idx, nullptr, nullptr, jac, &data);
+  sc.func(hx);
+  sc.fjac(jac);
   const int cams[3] = {0, 1, 1}, pts[3] = {0, 0, 1};
   for (int k = 0; k < 3; ++k) {
     double x[2], A[18], B[6];
-    bal::project_jacobian(&p[9 * cams[k]], &p[18 + 3 * pts[k]], x, A, B);
+    bal::project_jacobian(&sc.p[9 * cams[k]], &sc.p[18 + 3 * pts[k]], x, A, B);
     EXPECT_EQ(hx[2 * k], x[0]);
     EXPECT_EQ(hx[2 * k + 1], x[1]);
     for (int c = 0; c < 18; ++c) EXPECT_EQ(jac[24 * k + c], A[c]);
@@ -418,22 +427,15 @@ TEST(BalModel, CallbacksWithoutMemoryForTheirCameraTermsGiveTheSameBits) {
 #ifdef SBA_TEST_SANITIZED
   GTEST_SKIP() << "needs the counting operator new, which the sanitizers replace";
 #else
-  // Camera 0 in the series range of the Rodrigues coefficients, camera 1 in the closed form.
-  std::vector<double> p = {0.01, 0.02, -0.03, 0.1, 0.2, -5, 500, -0.05, 0.01,
-                           -0.4, 0.3, 0.5, -0.3, 0.1, -6, 480, 0.02, -0.01,
-                           0.5, -0.4, 1.0, -0.2, 0.3, 0.4};
-  int val[3] = {0, 1, 2}, colidx[3] = {0, 1, 1}, rowptr[3] = {0, 2, 3};
-  sba_crsm idx{2, 2, 3, val, colidx, rowptr};
-  bal::CallbackData data;
-  data.ncameras = 2;
+  TwoCameraScene sc;
   double hx[6], jac[3 * 24], hx_bare[6], jac_bare[3 * 24];
-  bal::motstr_func(p.data(), &idx, nullptr, nullptr, hx, &data);
-  bal::motstr_fjac(p.data(), &idx, nullptr, nullptr, jac, &data);
+  sc.func(hx);
+  sc.fjac(jac);
   faults::g_fail_countdown.store(1);  // the call's one allocation fails
-  bal::motstr_func(p.data(), &idx, nullptr, nullptr, hx_bare, &data);
+  sc.func(hx_bare);
   EXPECT_EQ(faults::g_fail_countdown.load(), 0) << "motstr_func allocated nothing";
   faults::g_fail_countdown.store(1);
-  bal::motstr_fjac(p.data(), &idx, nullptr, nullptr, jac_bare, &data);
+  sc.fjac(jac_bare);
   EXPECT_EQ(faults::g_fail_countdown.load(), 0) << "motstr_fjac allocated nothing";
   faults::g_fail_countdown.store(0);
   for (int k = 0; k < 6; ++k) EXPECT_EQ(hx_bare[k], hx[k]) << k;
