@@ -208,125 +208,30 @@ class KernelsT final : public Kernels {
   void normal_equations(ThreadPool &pool, const double *jac, const double *e, double *U, double *V,
                         double *ea, double *eb) const override {
     const Layout &lay = lay_;
-    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
-    if (cn > 0) {
-      // Each thread owns a range of cameras and walks the projections in memory order (point
-      // by point), taking those of its cameras: the Jacobian is streamed rather than visited
-      // camera by camera, and every U_j still adds its terms in ascending point order, the
-      // same for any number of threads. U_j[a][c] and U_j[c][a] get the same products in the
-      // same order, so U_j comes out exactly symmetric.
-      const i64 nc = lay.m - lay.mcon;
-      pool.for_range(nc, [&](i64 b, i64 end) {
-        const int j0 = int(b) + lay.mcon, j1 = int(end) + lay.mcon;
-        std::fill(U + i64(j0) * cn * cn, U + i64(j1) * cn * cn, 0.0);
-        std::fill(ea + i64(j0) * cn, ea + i64(j1) * cn, 0.0);
-        const int *colidx = lay.colidx.data();
-        for (i64 k = 0; k < lay.nvis; ++k) {
-          const int j = colidx[k];
-          if (j < j0 || j >= j1) continue;
-          gram_update<M, C>(mn, cn, jac + k * jb, e + k * mn, U + i64(j) * cn * cn, ea + i64(j) * cn);
-        }
+    if (cnp() > 0)
+      pool.for_range(lay.m - lay.mcon, [&](i64 b, i64 end) {
+        gram_cameras(jac, e, U, ea, int(b) + lay.mcon, int(end) + lay.mcon);
       });
-    }
-    if (pn > 0) {
+    if (pnp() > 0)
       pool.for_range(lay.n - lay.ncon, [&](i64 b, i64 end) {
-        for (i64 i = b + lay.ncon; i < end + lay.ncon; ++i) {
-          double *__restrict Vi = V + i * pn * pn, *__restrict ebi = eb + i * pn;
-          std::fill(Vi, Vi + pn * pn, 0.0);
-          std::fill(ebi, ebi + pn, 0.0);
-          for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
-            gram_update<M, P>(mn, pn, jac + i64(k) * jb + mn * cn, e + i64(k) * mn, Vi, ebi);
-        }
+        gram_points(jac, e, V, eb, b + lay.ncon, end + lay.ncon);
       });
-    }
   }
 
   bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const override {
-    const int pn = pnp();
     std::vector<char> ok(scratch_.size(), 1);
     pool.for_range_t(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
-      double *work = scratch_[size_t(t)].damped.data();
-      for (i64 i = b + lay_.ncon; i < end + lay_.ncon; ++i)
-        if (!damped_inverse(V, mu, i, work, Vinv + i * pn * pn)) {
-          ok[size_t(t)] = 0;
-          return;
-        }
+      ok[size_t(t)] = invert_points(V, mu, Vinv, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
     });
     return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
   }
 
   bool assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                 const BlockMap &S, double *rhs) const override {
-    const Layout &lay = lay_;
-    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
-    const int cp = cn * pn;
-    // Each thread owns a range of block columns [k0, k1) of S and of rhs's camera blocks,
-    // and adds the contributions of the points to them in ascending point order.
     std::vector<char> ok(scratch_.size(), 1);
     auto body = [&](int t) {
-      const int k0 = split_[size_t(t)], k1 = split_[size_t(t) + 1];
-      if (k0 >= k1) return;
-      Scratch &sc = scratch_[size_t(t)];
-      for (int k = k0; k < k1; ++k) {
-        const BlockMap::Block blk = S.block(k, k);
-        double *Skk = blk.p;
-        const i64 ld = blk.ld;
-        const double *Uk = ne.U + i64(k + lay.mcon) * cn * cn;
-        for (int a = 0; a < cn; ++a) {
-          for (int c = 0; c < cn; ++c) Skk[a * ld + c] = Uk[a * cn + c];
-          Skk[a * ld + a] += mu;
-        }
-        const double *eak = ne.ea + i64(k + lay.mcon) * cn;
-        for (int a = 0; a < cn; ++a) rhs[i64(k) * cn + a] = eak[a];
-      }
-      for (int i = lay.ncon; i < lay.n; ++i) {
-        const int r0 = lay.rowptr[i], r1 = lay.rowptr[i + 1];
-        int f = r0;  // first free camera of the track (fixed ones come first)
-        while (f < r1 && lay.colidx[f] < lay.mcon) ++f;
-        int lo = f;  // first track entry in [k0, k1)
-        while (lo < r1 && lay.colidx[lo] - lay.mcon < k0) ++lo;
-        if (lo == r1 || lay.colidx[lo] - lay.mcon >= k1) continue;
-        int hi = lo;  // one past the last track entry in [k0, k1)
-        while (hi < r1 && lay.colidx[hi] - lay.mcon < k1) ++hi;
-        const double *Vi = point_inverse(Vinv, ne.V, mu, i, sc);
-        if (!Vi) {
-          ok[size_t(t)] = 0;
-          return;
-        }
-        const double *ebi = ne.eb + i64(i) * pn;
-        // W_ij^T = B^T A and Y_ij^T = V*_i^-1 W_ij^T for the track up to this range's end.
-        for (int q = f; q < hi; ++q) {
-          const double *A = ne.jac + i64(q) * jb, *B = A + mn * cn;
-          track_products<M, C, P>(mn, cn, pn, A, B, Vi, sc.Wt.data() + (q - f) * cp,
-                                  sc.Yt.data() + (q - f) * cp);
-        }
-        for (int q2 = lo; q2 < hi; ++q2) {
-          const int k = lay.colidx[q2] - lay.mcon;
-          const double *Wt2 = sc.Wt.data() + (q2 - f) * cp;
-          const double *Yt2 = sc.Yt.data() + (q2 - f) * cp;
-          rhs_update<C, P>(cn, pn, Yt2, ebi, rhs + i64(k) * cn);
-          // S_jk -= Y_ij W_ik^T, row by row: S_jk[a][.] -= sum_d Y^T[d][a] W^T[d][.]; where
-          // the map stores S_jk^T, S_jk^T -= Y_ik W_ij^T instead. The diagonal block is updated
-          // whole, like the others (its strict lower triangle is never read), which keeps the
-          // rows vectorized.
-          if (!S.perm) {  // dense S: the hot loop of the default solver, kept branch-free
-            for (int q1 = f; q1 <= q2; ++q1) {
-              const double *Yt1 = sc.Yt.data() + (q1 - f) * cp;
-              pair_update<C, P>(cn, pn, Yt1, Wt2, S.block(lay.colidx[q1] - lay.mcon, k).p, S.ld);
-            }
-            continue;
-          }
-          for (int q1 = f; q1 <= q2; ++q1) {
-            const double *Yt1 = sc.Yt.data() + (q1 - f) * cp;
-            const double *Wt1 = sc.Wt.data() + (q1 - f) * cp;
-            const BlockMap::Block Sjk = S.block(lay.colidx[q1] - lay.mcon, k);
-            if (Sjk.transposed)
-              pair_update<C, P>(cn, pn, Yt2, Wt1, Sjk.p, Sjk.ld);
-            else
-              pair_update<C, P>(cn, pn, Yt1, Wt2, Sjk.p, Sjk.ld);
-          }
-        }
-      }
+      ok[size_t(t)] = assemble_columns(split_[size_t(t)], split_[size_t(t) + 1], ne, Vinv, mu, S, rhs,
+                                       scratch_[size_t(t)]);
     };
     if (pool.size() == 1 || split_.size() == 2)
       body(0);
@@ -337,39 +242,8 @@ class KernelsT final : public Kernels {
 
   void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                        double *dp) const override {
-    const Layout &lay = lay_;
-    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
-    pool.for_range_t(lay.n - lay.ncon, [&](int th, i64 b, i64 end) {
-      Scratch &sc = scratch_[size_t(th)];
-      double *t = sc.blk.data(), *u = t + pn;
-      for (i64 i = b + lay.ncon; i < end + lay.ncon; ++i) {
-        const double *ebi = ne.eb + i * pn;
-        for (int c = 0; c < pn; ++c) t[c] = ebi[c];
-        for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
-          const int j = lay.colidx[k];
-          if (j < lay.mcon) continue;
-          const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn;
-          const double *daj = dp + lay.a_off(j);
-          // W^T da = B^T (A da): two thin products instead of forming W.
-          for (int r = 0; r < mn; ++r) {
-            double s = 0.0;
-            for (int a = 0; a < cn; ++a) s += A[r * cn + a] * daj[a];
-            u[r] = s;
-          }
-          for (int r = 0; r < mn; ++r) axpy<P>(pn, -u[r], B + r * pn, t);
-        }
-        double *dbi = dp + lay.b_off(int(i));
-        const double *Vi = point_inverse(Vinv, ne.V, mu, i, sc);
-        if (!Vi) {
-          std::fill(dbi, dbi + pn, NAN);
-          continue;
-        }
-        for (int a = 0; a < pn; ++a) {
-          double s = 0.0;
-          for (int c = 0; c < pn; ++c) s += Vi[a * pn + c] * t[c];
-          dbi[a] = s;
-        }
-      }
+    pool.for_range_t(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
+      back_substitute_points(ne, Vinv, mu, dp, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
     });
   }
 
@@ -378,6 +252,195 @@ class KernelsT final : public Kernels {
     std::vector<double> Wt, Yt, blk;  // one track's W_ij^T and Y_ij^T; small vectors
     std::vector<double> damped, inv;  // V_i + mu I (overwritten) and its inverse
   };
+
+  // The work of one thread's range, out of line. Called from the pool's std::function, an
+  // inlined job would see the block sizes only as values captured by reference, and its
+  // fixed-size loops would fall back to run-time bounds (2-thread back-substitution was
+  // slower than 1-thread for that); and one copy of the code for every thread count keeps
+  // the compiler's choice of fused multiply-adds, and so the bits, the same for all of them.
+
+  // U_j and e_a,j for the cameras [j0, j1): the projections are walked in memory order
+  // (point by point), taking those of these cameras, so the Jacobian is streamed rather than
+  // visited camera by camera, and every U_j still adds its terms in ascending point order,
+  // the same for any number of threads. U_j[a][c] and U_j[c][a] get the same products in
+  // the same order, so U_j comes out exactly symmetric.
+  __attribute__((noinline)) void gram_cameras(const double *jac, const double *e, double *U, double *ea,
+                                              int j0, int j1) const {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), jb = lay.jblk();
+    std::fill(U + i64(j0) * cn * cn, U + i64(j1) * cn * cn, 0.0);
+    std::fill(ea + i64(j0) * cn, ea + i64(j1) * cn, 0.0);
+    const int *colidx = lay.colidx.data();
+    for (i64 k = 0; k < lay.nvis; ++k) {
+      const int j = colidx[k];
+      if (j < j0 || j >= j1) continue;
+      gram_update<M, C>(mn, cn, jac + k * jb, e + k * mn, U + i64(j) * cn * cn, ea + i64(j) * cn);
+    }
+  }
+
+  // V_i and e_b,i for the points [i0, i1).
+  __attribute__((noinline)) void gram_points(const double *jac, const double *e, double *V, double *eb,
+                                             i64 i0, i64 i1) const {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
+    const int *rowptr = lay.rowptr.data();
+    for (i64 i = i0; i < i1; ++i) {
+      double *__restrict Vi = V + i * pn * pn, *__restrict ebi = eb + i * pn;
+      std::fill(Vi, Vi + pn * pn, 0.0);
+      std::fill(ebi, ebi + pn, 0.0);
+      for (int k = rowptr[i]; k < rowptr[i + 1]; ++k)
+        gram_update<M, P>(mn, pn, jac + i64(k) * jb + mn * cn, e + i64(k) * mn, Vi, ebi);
+    }
+  }
+
+  // (V_i + mu I)^-1 for the points [i0, i1); false at the first one not positive definite.
+  __attribute__((noinline)) bool invert_points(const double *V, double mu, double *Vinv, i64 i0, i64 i1,
+                                               Scratch &sc) const {
+    const int pn = pnp();
+    for (i64 i = i0; i < i1; ++i)
+      if (!damped_inverse(V, mu, i, sc.damped.data(), Vinv + i * pn * pn)) return false;
+    return true;
+  }
+
+  // S's block columns [k0, k1) (free cameras) and their blocks of rhs, adding the points'
+  // contributions in ascending point order; false if some V_i + mu I is not positive definite.
+  __attribute__((noinline)) bool assemble_columns(int k0, int k1, const NormalEquations &ne,
+                                                  const double *Vinv, double mu, const BlockMap &S,
+                                                  double *rhs, Scratch &sc) const {
+    if (k0 >= k1) return true;
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
+    const int cp = cn * pn;
+    for (int k = k0; k < k1; ++k) {
+      const BlockMap::Block blk = S.block(k, k);
+      double *Skk = blk.p;
+      const i64 ld = blk.ld;
+      const double *Uk = ne.U + i64(k + lay.mcon) * cn * cn;
+      for (int a = 0; a < cn; ++a) {
+        for (int c = 0; c < cn; ++c) Skk[a * ld + c] = Uk[a * cn + c];
+        Skk[a * ld + a] += mu;
+      }
+      const double *eak = ne.ea + i64(k + lay.mcon) * cn;
+      for (int a = 0; a < cn; ++a) rhs[i64(k) * cn + a] = eak[a];
+    }
+    for (int i = lay.ncon; i < lay.n; ++i) {
+      const int r0 = lay.rowptr[i], r1 = lay.rowptr[i + 1];
+      int f = r0;  // first free camera of the track (fixed ones come first)
+      while (f < r1 && lay.colidx[f] < lay.mcon) ++f;
+      int lo = f;  // first track entry in [k0, k1)
+      while (lo < r1 && lay.colidx[lo] - lay.mcon < k0) ++lo;
+      if (lo == r1 || lay.colidx[lo] - lay.mcon >= k1) continue;
+      int hi = lo;  // one past the last track entry in [k0, k1)
+      while (hi < r1 && lay.colidx[hi] - lay.mcon < k1) ++hi;
+      const double *Vi = point_inverse(Vinv, ne.V, mu, i, sc);
+      if (!Vi) return false;
+      const double *ebi = ne.eb + i64(i) * pn;
+      // W_ij^T = B^T A and Y_ij^T = V*_i^-1 W_ij^T for the track up to this range's end.
+      for (int q = f; q < hi; ++q) {
+        const double *A = ne.jac + i64(q) * jb, *B = A + mn * cn;
+        track_products<M, C, P>(mn, cn, pn, A, B, Vi, sc.Wt.data() + (q - f) * cp,
+                                sc.Yt.data() + (q - f) * cp);
+      }
+      for (int q2 = lo; q2 < hi; ++q2) {
+        const int k = lay.colidx[q2] - lay.mcon;
+        const double *Wt2 = sc.Wt.data() + (q2 - f) * cp;
+        const double *Yt2 = sc.Yt.data() + (q2 - f) * cp;
+        rhs_update<C, P>(cn, pn, Yt2, ebi, rhs + i64(k) * cn);
+        // S_jk -= Y_ij W_ik^T, row by row: S_jk[a][.] -= sum_d Y^T[d][a] W^T[d][.]; where
+        // the map stores S_jk^T, S_jk^T -= Y_ik W_ij^T instead. The diagonal block is updated
+        // whole, like the others (its strict lower triangle is never read), which keeps the
+        // rows vectorized.
+        if (!S.perm) {  // dense S: the hot loop of the default solver, kept branch-free
+          for (int q1 = f; q1 <= q2; ++q1) {
+            const double *Yt1 = sc.Yt.data() + (q1 - f) * cp;
+            pair_update<C, P>(cn, pn, Yt1, Wt2, S.block(lay.colidx[q1] - lay.mcon, k).p, S.ld);
+          }
+          continue;
+        }
+        for (int q1 = f; q1 <= q2; ++q1) {
+          const double *Yt1 = sc.Yt.data() + (q1 - f) * cp;
+          const double *Wt1 = sc.Wt.data() + (q1 - f) * cp;
+          const BlockMap::Block Sjk = S.block(lay.colidx[q1] - lay.mcon, k);
+          if (Sjk.transposed)
+            pair_update<C, P>(cn, pn, Yt2, Wt1, Sjk.p, Sjk.ld);
+          else
+            pair_update<C, P>(cn, pn, Yt1, Wt2, Sjk.p, Sjk.ld);
+        }
+      }
+    }
+    return true;
+  }
+
+  // db_i = V*_i^-1 (e_b,i - sum_j W_ij^T da_j) for the points [i0, i1).
+  __attribute__((noinline)) void back_substitute_points(const NormalEquations &ne, const double *Vinv,
+                                                        double mu, double *dp, i64 i0, i64 i1,
+                                                        Scratch &sc) const {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
+    const int *rowptr = lay.rowptr.data(), *colidx = lay.colidx.data();
+    if constexpr (M > 0 && C > 0 && P > 0) {
+      // The fixed sizes: t and u in registers, every sum a chain of fused multiply-adds.
+      for (i64 i = i0; i < i1; ++i) {
+        double t[P];
+        for (int c = 0; c < P; ++c) t[c] = ne.eb[i * P + c];
+        for (int k = rowptr[i]; k < rowptr[i + 1]; ++k) {
+          const int j = colidx[k];
+          if (j < lay.mcon) continue;
+          const double *A = ne.jac + i64(k) * jb, *B = A + M * C;
+          const double *daj = dp + lay.a_off(j);
+          double u[M];
+          for (int r = 0; r < M; ++r) {
+            double s = A[r * C] * daj[0];
+            for (int a = 1; a < C; ++a) s = madd(A[r * C + a], daj[a], s);
+            u[r] = s;
+          }
+          for (int r = 0; r < M; ++r)
+            for (int c = 0; c < P; ++c) t[c] = madd(-u[r], B[r * P + c], t[c]);
+        }
+        double *dbi = dp + lay.b_off(int(i));
+        const double *Vi = point_inverse(Vinv, ne.V, mu, i, sc);
+        if (!Vi) {
+          std::fill(dbi, dbi + P, NAN);
+          continue;
+        }
+        for (int a = 0; a < P; ++a) {
+          double s = Vi[a * P] * t[0];
+          for (int c = 1; c < P; ++c) s = madd(Vi[a * P + c], t[c], s);
+          dbi[a] = s;
+        }
+      }
+      return;
+    }
+    double *t = sc.blk.data(), *u = t + pn;
+    for (i64 i = i0; i < i1; ++i) {
+      const double *ebi = ne.eb + i * pn;
+      for (int c = 0; c < pn; ++c) t[c] = ebi[c];
+      for (int k = rowptr[i]; k < rowptr[i + 1]; ++k) {
+        const int j = colidx[k];
+        if (j < lay.mcon) continue;
+        const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn;
+        const double *daj = dp + lay.a_off(j);
+        // W^T da = B^T (A da): two thin products instead of forming W.
+        for (int r = 0; r < mn; ++r) {
+          double s = 0.0;
+          for (int a = 0; a < cn; ++a) s += A[r * cn + a] * daj[a];
+          u[r] = s;
+        }
+        for (int r = 0; r < mn; ++r) axpy<P>(pn, -u[r], B + r * pn, t);
+      }
+      double *dbi = dp + lay.b_off(int(i));
+      const double *Vi = point_inverse(Vinv, ne.V, mu, i, sc);
+      if (!Vi) {
+        std::fill(dbi, dbi + pn, NAN);
+        continue;
+      }
+      for (int a = 0; a < pn; ++a) {
+        double s = 0.0;
+        for (int c = 0; c < pn; ++c) s += Vi[a * pn + c] * t[c];
+        dbi[a] = s;
+      }
+    }
+  }
 
   // (V_i + mu I)^-1 into inv (work: pnp^2 scratch); false if not positive definite.
   bool damped_inverse(const double *V, double mu, i64 i, double *work, double *inv) const {
