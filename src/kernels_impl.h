@@ -324,14 +324,8 @@ class KernelsT final : public Kernels {
       for (int a = 0; a < cn; ++a) rhs[i64(k) * cn + a] = eak[a];
     }
     for (int i = lay.ncon; i < lay.n; ++i) {
-      const int r0 = lay.rowptr[i], r1 = lay.rowptr[i + 1];
-      int f = r0;  // first free camera of the track (fixed ones come first)
-      while (f < r1 && lay.colidx[f] < lay.mcon) ++f;
-      int lo = f;  // first track entry in [k0, k1)
-      while (lo < r1 && lay.colidx[lo] - lay.mcon < k0) ++lo;
-      if (lo == r1 || lay.colidx[lo] - lay.mcon >= k1) continue;
-      int hi = lo;  // one past the last track entry in [k0, k1)
-      while (hi < r1 && lay.colidx[hi] - lay.mcon < k1) ++hi;
+      int f, lo, hi;
+      if (!track_in_columns(i, k0, k1, f, lo, hi)) continue;
       const double *Vi = point_inverse(Vinv, ne.V, mu, i, sc);
       if (!Vi) return false;
       const double *ebi = ne.eb + i64(i) * pn;
@@ -457,20 +451,70 @@ class KernelsT final : public Kernels {
     return damped_inverse(V, mu, i, sc.damped.data(), sc.inv.data()) ? sc.inv.data() : nullptr;
   }
 
-  // Block columns of S split over the threads by the number of block products each takes.
+  // Point i's track in block columns [k0, k1) of S: f the first entry of a free camera,
+  // [lo, hi) the entries in the range; false if there are none.
+  bool track_in_columns(int i, int k0, int k1, int &f, int &lo, int &hi) const {
+    const Layout &lay = lay_;
+    const int r1 = lay.rowptr[i + 1];
+    f = lay.rowptr[i];  // fixed cameras come first
+    while (f < r1 && lay.colidx[f] < lay.mcon) ++f;
+    lo = f;
+    while (lo < r1 && lay.colidx[lo] - lay.mcon < k0) ++lo;
+    if (lo == r1 || lay.colidx[lo] - lay.mcon >= k1) return false;
+    hi = lo;
+    while (hi < r1 && lay.colidx[hi] - lay.mcon < k1) ++hi;
+    return true;
+  }
+
+  // What assembling block columns [k0, k1) costs a thread, in multiply-adds: the block
+  // products of those columns, and the W and Y products of each track up to its last entry
+  // in the range, which the thread computes again where an earlier range has them too.
+  double columns_cost(int k0, int k1) const {
+    const int cn = cnp(), pn = pnp();
+    const double pair = double(cn) * cn * pn, prod = double(mnp() + pn) * pn * cn;
+    double cost = double(k1 - k0) * cn * cn;
+    for (int i = lay_.ncon; i < lay_.n && pn > 0; ++i) {
+      int f, lo, hi;
+      if (!track_in_columns(i, k0, k1, f, lo, hi)) continue;
+      const double a = lo - f + 1, b = hi - f;  // entry q2 takes q2 - f + 1 block products
+      cost += prod * (hi - f) + pair * (a + b) * (b - a + 1) / 2;
+    }
+    return cost;
+  }
+
+  // Block columns of S split over the threads so that their costs (columns_cost) match: each
+  // boundary in turn is the first column where the range before it outweighs the rest shared
+  // by the remaining threads. Every evaluation walks the index, so many threads on a large
+  // problem fall back to a split by block products alone.
   void split_columns(int threads) {
     const Layout &lay = lay_;
     const int nc = lay.free_cams();
+    split_.assign(size_t(threads) + 1, nc);
+    split_[0] = 0;
+    if (threads == 1 || nc == 0) return;
+    if (double(threads) * std::log2(double(nc) + 1.0) * double(lay.nvis) <= 4e8) {
+      for (int t = 0; t + 1 < threads; ++t) {
+        const int k0 = split_[size_t(t)];
+        const double rest = threads - t - 1;
+        int lo = std::min(k0 + 1, nc), hi = nc;  // k0 == nc: more threads than columns
+        while (lo < hi) {
+          const int mid = lo + (hi - lo) / 2;
+          if (columns_cost(k0, mid) * rest >= columns_cost(mid, nc)) hi = mid;
+          else lo = mid + 1;
+        }
+        const auto load = [&](int k) { return std::max(columns_cost(k0, k), columns_cost(k, nc) / rest); };
+        split_[size_t(t) + 1] = lo - 1 > k0 && load(lo - 1) < load(lo) ? lo - 1 : lo;
+      }
+      return;
+    }
     std::vector<double> work(size_t(nc), 1.0);
-    for (int i = lay.ncon; i < lay.n && nc > 0 && lay.pnp > 0; ++i) {
+    for (int i = lay.ncon; i < lay.n && lay.pnp > 0; ++i) {
       int rank = 0;
       for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
         if (lay.colidx[k] >= lay.mcon) work[size_t(lay.colidx[k] - lay.mcon)] += ++rank;
     }
     double total = 0.0;
     for (double w : work) total += w;
-    split_.assign(size_t(threads) + 1, nc);
-    split_[0] = 0;
     double acc = 0.0;
     int t = 1;
     for (int k = 0; k < nc && t < threads; ++k) {

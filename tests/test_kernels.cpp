@@ -128,6 +128,56 @@ TEST_P(KernelsLayout, SparseLayoutHoldsTheDenseBlocks) {
   }
 }
 
+// Every kernel gives the same bits for any number of threads, down to more threads than
+// free cameras (ranges of S's columns left empty) and with leading fixed cameras.
+TEST_P(KernelsLayout, ThreadCountsGiveTheSameBits) {
+  const int cnp = GetParam(), n = 300, m = 12;
+  Fixture f(n, m, cnp, 11u + unsigned(cnp));
+  f.lay.mcon = 9;  // three free cameras
+  struct Out {
+    std::vector<double> U, V, ea, eb, Vinv, S, rhs, dp;
+  };
+  auto run = [&](int threads) {
+    Out o;
+    sba::ThreadPool pool(threads);
+    EXPECT_EQ(pool.size(), threads);
+    const auto kernels = sba::make_kernels(f.lay, pool.size());
+    o.U.assign(f.U.size(), 0.0), o.V.assign(f.V.size(), 0.0), o.ea.assign(f.ea.size(), 0.0), o.eb.assign(f.eb.size(), 0.0);
+    kernels->normal_equations(pool, f.jac.data(), f.e.data(), o.U.data(), o.V.data(), o.ea.data(), o.eb.data());
+    const double mu = 0.25;
+    o.Vinv.assign(f.V.size(), 0.0);
+    EXPECT_TRUE(kernels->invert_damped_V(pool, o.V.data(), mu, o.Vinv.data()));
+    const int nS = (m - f.lay.mcon) * cnp;
+    o.S.assign(size_t(nS) * size_t(nS), 0.0);
+    o.rhs.assign(size_t(nS), 0.0);
+    sba::BlockMap dense;
+    dense.base = o.S.data();
+    dense.ld = nS;
+    dense.cnp = cnp;
+    const sba::NormalEquations ne{f.jac.data(), o.U.data(), o.V.data(), o.ea.data(), o.eb.data()};
+    EXPECT_TRUE(kernels->assemble(pool, ne, o.Vinv.data(), mu, dense, o.rhs.data()));
+    o.dp.assign(size_t(f.lay.nvars()), 0.0);
+    for (int q = 0; q < nS; ++q) o.dp[size_t(f.lay.a_off(f.lay.mcon) + q)] = std::cos(q + 0.5);
+    kernels->back_substitute(pool, ne, o.Vinv.data(), mu, o.dp.data());
+    return o;
+  };
+  const Out one = run(1);
+  EXPECT_NE(std::count(one.S.begin(), one.S.end(), 0.0), i64(one.S.size()));
+  EXPECT_TRUE(std::all_of(one.dp.begin(), one.dp.end(), [](double v) { return std::isfinite(v); }));
+  for (int threads : {2, 3, 5}) {
+    SCOPED_TRACE("threads " + std::to_string(threads));
+    const Out o = run(threads);
+    EXPECT_EQ(o.U, one.U);
+    EXPECT_EQ(o.V, one.V);
+    EXPECT_EQ(o.ea, one.ea);
+    EXPECT_EQ(o.eb, one.eb);
+    EXPECT_EQ(o.Vinv, one.Vinv);
+    EXPECT_EQ(o.S, one.S);
+    EXPECT_EQ(o.rhs, one.rhs);
+    EXPECT_EQ(o.dp, one.dp);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Kernels, KernelsLayout, ::testing::Values(6, 9, 5),
                          [](const ::testing::TestParamInfo<int> &p) { return "cnp" + std::to_string(p.param); });
 
