@@ -80,6 +80,14 @@ class ThreadPool {
   std::exception_ptr error_;  // guarded by mu_
 };
 
+// The first 64-byte aligned double at or after p (a buffer allocated with 7 doubles to
+// spare): data that two threads write in neighbouring parts starts on a cache line, so that
+// where their parts meet on a line boundary they never write the same line.
+inline double *align_to_line(double *p) {
+  const auto addr = reinterpret_cast<std::uintptr_t>(p);
+  return p + ((64 - addr % 64) % 64) / sizeof(double);
+}
+
 // sum_k f(k) over [0, n), summed in fixed blocks and then in block order: the same bits for
 // any thread count.
 template <class F>

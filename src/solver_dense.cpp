@@ -18,20 +18,26 @@ class DenseSchurSolver final : public StepSolver {
  public:
   DenseSchurSolver(LinSolver kind, const SolveContext &ctx)
       : kind_(kind), ctx_(ctx), nS_(i64(ctx.lay.free_cams()) * ctx.lay.cnp),
-        Vinv_(size_t(i64(ctx.lay.n) * ctx.lay.pnp * ctx.lay.pnp)), S_(size_t(nS_ * nS_)),
-        rhs_(size_t(nS_)), scale_(size_t(nS_)) {}
+        ld_(kind == LinSolver::Chol ? (nS_ + 7) / 8 * 8 : nS_),
+        Vinv_(size_t(i64(ctx.lay.n) * ctx.lay.pnp * ctx.lay.pnp)), S_(size_t(ld_ * nS_ + 8)),
+        rhs_(size_t(nS_)), scale_(size_t(nS_)) {
+    // S's rows start on cache lines (for Chol, whose LAPACK calls take a leading
+    // dimension, rows padded to 8 doubles): the kernels' split of S's block columns between
+    // threads prefers boundaries that then fall on line boundaries in every row. Two
+    // threads writing the two halves of one line in every row cost problem-16 (16 cameras,
+    // 2 threads) half again the assembly's time.
+    Sp_ = align_to_line(S_.data());
+  }
 
   bool solve(const NormalEquations &ne, double mu, double *dp) override {
     const Layout &lay = ctx_.lay;
     std::fill(dp, dp + lay.nvars(), 0.0);
     if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
-    const i64 nS = nS_;
-    ctx_.pool.for_range(nS, [&](i64 b, i64 e) {
-      std::fill(S_.begin() + b * nS, S_.begin() + e * nS, 0.0);
-    });
+    const i64 nS = nS_, ld = ld_;
+    ctx_.pool.for_range(nS, [&](i64 b, i64 e) { std::fill(Sp_ + b * ld, Sp_ + e * ld, 0.0); });
     BlockMap map;
-    map.base = S_.data();
-    map.ld = nS;
+    map.base = Sp_;
+    map.ld = ld;
     map.cnp = lay.cnp;
     ctx_.kernels.assemble(ctx_.pool, ne, Vinv_.data(), mu, map, rhs_.data());  // Vinv_: no failure
     double *da = dp + lay.a_off(lay.mcon);
@@ -46,15 +52,15 @@ class DenseSchurSolver final : public StepSolver {
  private:
   // S holds its upper triangle (row-major). Solution into da.
   bool factor_solve(double *da) {
-    const int n = int(nS_);
-    double *S = S_.data();
+    const int n = int(nS_), ld = int(ld_);
+    double *S = Sp_;
     if (kind_ == LinSolver::Chol) {
       // Row-major upper is column-major lower: factor in place, no copy.
       int info = 0, one = 1;
-      SBA_F77(dpotrf, DPOTRF)("L", &n, S, &n, &info, 1);
+      SBA_F77(dpotrf, DPOTRF)("L", &n, S, &ld, &info, 1);
       if (info != 0) return false;
       std::copy(rhs_.begin(), rhs_.end(), da);
-      SBA_F77(dpotrs, DPOTRS)("L", &n, &one, S, &n, da, &n, &info, 1);
+      SBA_F77(dpotrs, DPOTRS)("L", &n, &one, S, &ld, da, &n, &info, 1);
       return info == 0;
     }
     // The other factorizations see D S D y = D rhs with D = diag(S)^-1/2, da = D y. Camera
@@ -229,7 +235,9 @@ class DenseSchurSolver final : public StepSolver {
   LinSolver kind_;
   SolveContext ctx_;
   i64 nS_;
+  i64 ld_;  // S's leading dimension: nS_, or for Chol nS_ rounded up to 8
   std::vector<double> Vinv_, S_, rhs_, scale_, cg_blocks_, qr_;
+  double *Sp_ = nullptr;  // S's first entry: S_'s first 64-byte aligned one
 };
 
 }  // namespace
