@@ -509,7 +509,7 @@ class KernelsT final : public Kernels {
     split_.assign(size_t(threads) + 1, nc);
     split_[0] = 0;
     if (threads == 1 || nc == 0) return;
-    if (double(threads) * (std::log2(double(nc) + 1.0) + 40.0) * double(lay.nvis) <= 2e9) {
+    if (double(threads) * std::log2(double(nc) + 1.0) * double(lay.nvis) <= 4e8) {
       for (int t = 0; t + 1 < threads; ++t) {
         const int k0 = split_[size_t(t)];
         const double rest = threads - t - 1;
@@ -520,19 +520,7 @@ class KernelsT final : public Kernels {
           else lo = mid + 1;
         }
         const auto load = [&](int k) { return std::max(columns_cost(k0, k), columns_cost(k, nc) / rest); };
-        int best = lo - 1 > k0 && load(lo - 1) < load(lo) ? lo - 1 : lo;
-        // A boundary whose column starts a cache line in every row of S (the dense solver
-        // aligns S's rows) keeps two threads from writing the two halves of one line in
-        // every row; within half again the balanced load it is taken. On problem-16 (16
-        // cameras, cnp 9, 2 threads: camera 8 instead of the balanced 10) the two threads'
-        // assembly took 10-20% less CPU time in all (perf), the balance being worse.
-        split_[size_t(t) + 1] = best;
-        double bestload = 1.5 * load(best);
-        for (int k = std::max(k0 + 1, best - 8); k <= std::min(nc - 1, best + 8); ++k) {
-          if (i64(k) * cnp() % 8 != 0) continue;
-          const double l = load(k);
-          if (l <= bestload) bestload = l, split_[size_t(t) + 1] = k;
-        }
+        split_[size_t(t) + 1] = lo - 1 > k0 && load(lo - 1) < load(lo) ? lo - 1 : lo;
       }
       return;
     }

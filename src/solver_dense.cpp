@@ -22,10 +22,8 @@ class DenseSchurSolver final : public StepSolver {
         Vinv_(size_t(i64(ctx.lay.n) * ctx.lay.pnp * ctx.lay.pnp)), S_(size_t(ld_ * nS_ + 8)),
         rhs_(size_t(nS_)), scale_(size_t(nS_)) {
     // S's rows start on cache lines (for Chol, whose LAPACK calls take a leading
-    // dimension, rows padded to 8 doubles): the kernels' split of S's block columns between
-    // threads prefers boundaries that then fall on line boundaries in every row. Two
-    // threads writing the two halves of one line in every row cost problem-16 (16 cameras,
-    // 2 threads) half again the assembly's time.
+    // dimension, rows padded to 8 doubles): where the boundary between two threads' block
+    // columns falls on a line boundary, no line of S is written by both.
     Sp_ = align_to_line(S_.data());
   }
 
