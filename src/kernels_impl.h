@@ -382,50 +382,19 @@ class KernelsT final : public Kernels {
     return true;
   }
 
-  // db_i = V*_i^-1 (e_b,i - sum_j W_ij^T da_j) for the points [i0, i1).
+  // db_i = V*_i^-1 (e_b,i - sum_j W_ij^T da_j) for the points [i0, i1), every sum a chain
+  // of fused multiply-adds. With the sizes fixed, t and u are locals that the compiler keeps
+  // in registers; otherwise they live in the thread's scratch.
   __attribute__((noinline)) void back_substitute_points(const NormalEquations &ne, const double *Vinv,
                                                         double mu, double *dp, i64 i0, i64 i1,
                                                         Scratch &sc) const {
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
     const int *rowptr = lay.rowptr.data(), *colidx = lay.colidx.data();
-    if constexpr (M > 0 && C > 0 && P > 0) {
-      // The fixed sizes: t and u in registers, every sum a chain of fused multiply-adds.
-      for (i64 i = i0; i < i1; ++i) {
-        double t[P];
-        for (int c = 0; c < P; ++c) t[c] = ne.eb[i * P + c];
-        for (int k = rowptr[i]; k < rowptr[i + 1]; ++k) {
-          const int j = colidx[k];
-          if (j < lay.mcon) continue;
-          const double *A = ne.jac + i64(k) * jb, *B = A + M * C;
-          const double *daj = dp + lay.a_off(j);
-          double u[M];
-          for (int r = 0; r < M; ++r) {
-            double s = A[r * C] * daj[0];
-            for (int a = 1; a < C; ++a) s = madd(A[r * C + a], daj[a], s);
-            u[r] = s;
-          }
-          for (int r = 0; r < M; ++r)
-            for (int c = 0; c < P; ++c) t[c] = madd(-u[r], B[r * P + c], t[c]);
-        }
-        double *dbi = dp + lay.b_off(int(i));
-        const double *Vi = point_inverse(Vinv, ne.V, mu, i, sc);
-        if (!Vi) {
-          std::fill(dbi, dbi + P, NAN);
-          continue;
-        }
-        for (int a = 0; a < P; ++a) {
-          double s = Vi[a * P] * t[0];
-          for (int c = 1; c < P; ++c) s = madd(Vi[a * P + c], t[c], s);
-          dbi[a] = s;
-        }
-      }
-      return;
-    }
-    double *t = sc.blk.data(), *u = t + pn;
+    double tl[P > 0 ? P : 1], ul[M > 0 ? M : 1];
+    double *t = P > 0 ? tl : sc.blk.data(), *u = M > 0 ? ul : sc.blk.data() + pn;
     for (i64 i = i0; i < i1; ++i) {
-      const double *ebi = ne.eb + i * pn;
-      for (int c = 0; c < pn; ++c) t[c] = ebi[c];
+      for (int c = 0; c < pn; ++c) t[c] = ne.eb[i * pn + c];
       for (int k = rowptr[i]; k < rowptr[i + 1]; ++k) {
         const int j = colidx[k];
         if (j < lay.mcon) continue;
@@ -434,10 +403,11 @@ class KernelsT final : public Kernels {
         // W^T da = B^T (A da): two thin products instead of forming W.
         for (int r = 0; r < mn; ++r) {
           double s = 0.0;
-          for (int a = 0; a < cn; ++a) s += A[r * cn + a] * daj[a];
+          for (int a = 0; a < cn; ++a) s = madd(A[r * cn + a], daj[a], s);
           u[r] = s;
         }
-        for (int r = 0; r < mn; ++r) axpy<P>(pn, -u[r], B + r * pn, t);
+        for (int r = 0; r < mn; ++r)
+          for (int c = 0; c < pn; ++c) t[c] = madd(-u[r], B[r * pn + c], t[c]);
       }
       double *dbi = dp + lay.b_off(int(i));
       const double *Vi = point_inverse(Vinv, ne.V, mu, i, sc);
@@ -447,7 +417,7 @@ class KernelsT final : public Kernels {
       }
       for (int a = 0; a < pn; ++a) {
         double s = 0.0;
-        for (int c = 0; c < pn; ++c) s += Vi[a * pn + c] * t[c];
+        for (int c = 0; c < pn; ++c) s = madd(Vi[a * pn + c], t[c], s);
         dbi[a] = s;
       }
     }
