@@ -53,10 +53,14 @@ struct Workspace {
   // keep_hx: f(p) must outlive the residual (the finite-difference Jacobian needs it).
   // Otherwise each residual is made in place over f's output, which saves two vectors as
   // long as the measurements (7 MB at 225k projections).
+  // The trial point's residual overwrites the current one: once e_a and e_b are formed,
+  // the LM loop needs e(p) again only after a step is accepted, when e(p + dp) takes its
+  // place anyway. A robust loss keeps both, since the outlier count is made from the
+  // residual at the last accepted point.
   Workspace(const Layout &lay, bool weighted, bool robust, bool keep_hx) {
     const i64 nobs = lay.nvis * lay.mnp;
     e.resize(size_t(nobs));
-    en.resize(e.size());
+    if (robust) en.resize(e.size());
     if (keep_hx) {
       hx.resize(e.size());
       hxn.resize(e.size());
@@ -79,7 +83,8 @@ struct Workspace {
   }
   // Where f(p) and f(p + dp) are written.
   double *f_out() { return hx.empty() ? e.data() : hx.data(); }
-  double *fn_out() { return hxn.empty() ? en.data() : hxn.data(); }
+  double *fn_out() { return hxn.empty() ? en_data() : hxn.data(); }
+  double *en_data() { return en.empty() ? e.data() : en.data(); }
   // dp: the step, then (once the predicted reduction is known) the trial point p + dp.
   std::vector<double> hx, e, hxn, en, jac, wts, U, ea, V, eb, dp;
   // With a robust loss: sqrt(rho') per projection at p and at the trial point, and the
@@ -374,7 +379,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
           record(kStopNonFinite, it + 1);
           return false;
         }
-        const Cost cn = residual(pool, lay, x, w.fn_out(), wts, loss, w.en.data(), w.rwn.data());
+        const Cost cn = residual(pool, lay, x, w.fn_out(), wts, loss, w.en_data(), w.rwn.data());
         const double epsn = cn.cost;
         const double dF = eps - epsn;
         log.info(2, "SBA: iteration %d: mu %g, error %g -> %g, ||dp||^2 %g, gain ratio %g", it, mu,
@@ -383,7 +388,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
           if (std::sqrt(eps) - std::sqrt(epsn) < opt.eps4 * std::sqrt(eps)) stop = kStopReduction;
           std::copy(pn, pn + nvars, p);
           w.hx.swap(w.hxn);
-          w.e.swap(w.en);
+          if (!w.en.empty()) w.e.swap(w.en);
           w.rw.swap(w.rwn);
           eps = epsn;
           sqe = cn.sq;
