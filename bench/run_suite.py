@@ -298,20 +298,25 @@ def write_markdown(path, meta, groups, runs_by_problem, kernels):
             SCALING_TRACK, SCALING_ITMAX, SCALING_THREADS))
         L.append("")
         L.append("Reference bytes = Jacobian + S + inputs (S dense for dense solvers, its nonzero blocks for "
-                 "sparse-chol and Ceres SPARSE_SCHUR); RSS ratio = peak RSS / reference bytes.")
+                 "sparse-chol and Ceres SPARSE_SCHUR); RSS ratio = peak RSS / reference bytes. Data peak = "
+                 "peak RSS less the file-backed pages resident when the solve returned (the shared code of "
+                 "the program and its libraries) and less the program's own anonymous memory before it read "
+                 "the problem (runtime, libraries' data): what the problem and the solve hold, inputs "
+                 "included; data ratio = data peak / reference bytes.")
         L.append("")
         L.append("| problem | cameras | points | observations | run | threads | status | iterations | time [s] | "
-                 "ms/iter | peak RSS [MB] | reference [MB] | RSS ratio | final MSE |")
-        L.append("|" + "---|" * 14)
+                 "ms/iter | peak RSS [MB] | data peak [MB] | reference [MB] | RSS ratio | data ratio | final MSE |")
+        L.append("|" + "---|" * 16)
         for name in scal:
             for r in runs_by_problem[name]["runs"]:
                 ref = reference_bytes(r)
-                L.append("| %s | %d | %d | %d | %s | %d | %s | %d | %s | %s | %s | %s | %s | %s |" % (
+                data = r.get("data_peak_bytes")
+                L.append("| %s | %d | %d | %d | %s | %d | %s | %d | %s | %s | %s | %s | %s | %s | %s | %s |" % (
                     name, r["cameras"], r["points"], r["observations"], run_name(r), r["threads"], r["status"],
                     r["iterations"], num(r["seconds"]),
                     num(r["seconds_per_iteration"] and r["seconds_per_iteration"] * 1e3, "%.1f"),
-                    mb(r["peak_rss_bytes"]), mb(ref), num(div(r["peak_rss_bytes"], ref), "%.2f"),
-                    num(r["final_mse"], "%.8g")))
+                    mb(r["peak_rss_bytes"]), mb(data), mb(ref), num(div(r["peak_rss_bytes"], ref), "%.2f"),
+                    num(div(data, ref), "%.2f"), num(r["final_mse"], "%.8g")))
         L.append("")
         growth = scaling_growth(runs_by_problem, scal)
         if growth:
@@ -479,7 +484,7 @@ def main():
             problems.append(("Scaling series", name,
                              ["--gen", "cameras=%d,points=%d,track=%s,trajectory=path" % (cams, pts, SCALING_TRACK),
                               "--solvers", solvers, "--ceres", ceres, "--itmax", str(SCALING_ITMAX),
-                              "--threads", SCALING_THREADS]))
+                              "--threads", SCALING_THREADS, "--warm-up"]))
     if "longseq" in groups_wanted:
         spec, solvers, ceres, itmax = LONGSEQ_QUICK if a.quick else LONGSEQ
         problems.append(("Issue 4: long sequence", "longseq",

@@ -74,6 +74,9 @@ const char kUsage[] =
     "                    default: leave the BLAS alone (OpenBLAS: OPENBLAS_NUM_THREADS or\n"
     "                    every core, even in a 1-thread run)\n"
     "  --no-fork         run in this process (peak RSS then is the process's)\n"
+    "  --warm-up         before each measured solve, one iteration of the same run, its memory\n"
+    "                    then returned: the code the solve runs is resident before the peak\n"
+    "                    is reset, so the peak's file-backed share is known exactly\n"
     "  --help            this text\n";
 
 // ---- options ----
@@ -88,6 +91,7 @@ struct Options {
   double timeout = 3600;
   std::string out;
   bool fork = true;
+  bool warm_up = false;
   bool blas_same = true;  // --blas-threads same
   bool help = false;
 };
@@ -116,6 +120,10 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
     }
     if (arg == "--no-fork") {
       o->fork = false;
+      continue;
+    }
+    if (arg == "--warm-up") {
+      o->warm_up = true;
       continue;
     }
     if (k + 1 >= argc) {
@@ -225,6 +233,7 @@ struct RunResult {
   double init_err = 0, final_err = 0;  // sum of squared residuals
   long long peak_rss = 0;    // bytes: VmHWM after resetting it just before the solve
   long long base_rss = 0;    // bytes: VmRSS just before the solve (program + inputs)
+  long long file_rss_start = 0, file_rss_end = 0;  // bytes: RssFile + RssShmem around the solve
   int hwm_reset = 0;         // 1 if the reset worked (else peak includes the loading)
   int ntrace = 0;
 };
@@ -251,6 +260,15 @@ long long status_kb(const char *field) {
     }
   std::fclose(f);
   return kb;
+}
+
+// Resident pages backed by files: the code of the program and its libraries, which every
+// process running them shares. They are only ever added during a solve (nothing is unmapped),
+// so the peak RSS less their count at the end is never more than the solve's peak of
+// anonymous memory (heap, stacks, BLAS buffers).
+long long file_rss() {
+  const long long f = status_kb("RssFile"), s = status_kb("RssShmem");
+  return f < 0 || s < 0 ? -1 : (f + s) * 1024;
 }
 
 bool reset_peak_rss() {
@@ -322,6 +340,7 @@ void run_sba(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunRes
   std::array<double, SBA_INFOSZ> info{};
   r->hwm_reset = reset_peak_rss();
   r->base_rss = status_kb("VmRSS") * 1024;
+  r->file_rss_start = file_rss();
   const auto t0 = std::chrono::steady_clock::now();
   // The visibility as (point, camera) pairs: no n*m vmask needed (see Problem::vmask).
   const sba_visibility vis{static_cast<long long>(prob.obs_point.size()), prob.obs_point.data(),
@@ -331,6 +350,7 @@ void run_sba(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunRes
                                           prob.adata(), itmax, 0, nullptr, info.data(), &ext);
   r->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r->peak_rss = status_kb("VmHWM") * 1024;
+  r->file_rss_end = file_rss();
   (*trace)[0][1] = info[0];
   r->ok = ret != SBA_ERROR;
   r->reason = info[6];
@@ -379,6 +399,7 @@ void run_ceres(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunR
   trace->reserve(static_cast<std::size_t>(itmax) + 2);
   r->hwm_reset = reset_peak_rss();
   r->base_rss = status_kb("VmRSS") * 1024;
+  r->file_rss_start = file_rss();
   const auto t0 = std::chrono::steady_clock::now();
 
   ceres::Problem::Options po;
@@ -429,6 +450,7 @@ void run_ceres(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunR
   cp.reset();  // part of the solve's cost, as sba frees its workspace before returning
   r->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r->peak_rss = status_kb("VmHWM") * 1024;
+  r->file_rss_end = file_rss();
 
   r->ok = summary.IsSolutionUsable();
   r->reason = summary.termination_type;
@@ -491,7 +513,16 @@ bool write_all(int fd, const void *data, std::size_t size) {
   return true;
 }
 
-Run run_forked(Problem &prob, const RunSpec &spec, int itmax, double timeout) {
+// One iteration of the run, its memory handed back: the pages of code (and the threads) the
+// measured solve will use are in place before its peak is reset.
+void warm_up(Problem &prob, const RunSpec &spec) {
+  RunResult r;
+  std::vector<std::array<double, 2>> trace;
+  execute(prob, spec, 1, false, &r, &trace);
+  malloc_trim(0);
+}
+
+Run run_forked(Problem &prob, const RunSpec &spec, int itmax, double timeout, bool warm) {
   Run run;
   run.spec = spec;
   int fds[2];
@@ -511,6 +542,7 @@ Run run_forked(Problem &prob, const RunSpec &spec, int itmax, double timeout) {
   if (pid == 0) {
     ::close(fds[0]);
     release_unused(prob, spec.engine);
+    if (warm) warm_up(prob, spec);
     RunResult r;
     std::vector<std::array<double, 2>> trace;
     execute(prob, spec, itmax, true, &r, &trace);
@@ -564,9 +596,10 @@ Run run_forked(Problem &prob, const RunSpec &spec, int itmax, double timeout) {
   return run;
 }
 
-Run run_inline(Problem &prob, const RunSpec &spec, int itmax) {
+Run run_inline(Problem &prob, const RunSpec &spec, int itmax, bool warm) {
   Run run;
   run.spec = spec;
+  if (warm) warm_up(prob, spec);
   execute(prob, spec, itmax, false, &run.r, &run.trace);
   return run;
 }
@@ -607,6 +640,9 @@ std::string fmt(const char *format, double v) {
 struct ProblemFacts {
   long long pairs = 0;
   double jac_bytes = 0, s_dense_bytes = 0, s_sparse_bytes = 0, input_bytes = 0;
+  // RssAnon of this program before it read the problem: the C++ runtime's, the libraries'
+  // and the BLAS's own data, the same for every problem.
+  long long program_anon = -1;
 };
 
 const Run *find_run(const std::vector<Run> &runs, Engine e, const std::string &solver, int threads) {
@@ -629,6 +665,9 @@ int bench_main(int argc, char **argv) {
     return 0;
   }
 
+  ProblemFacts facts;
+  facts.program_anon = status_kb("RssAnon");
+  if (facts.program_anon > 0) facts.program_anon *= 1024;
   Problem prob;
   prob.name = o.name;
   const auto load_start = std::chrono::steady_clock::now();
@@ -642,7 +681,6 @@ int bench_main(int argc, char **argv) {
   }
   const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
 
-  ProblemFacts facts;
   const double nobs = static_cast<double>(prob.nobs());
   facts.pairs = prob.camera_pairs();
   facts.jac_bytes = nobs * Problem::mnp * (prob.cnp + Problem::pnp) * 8.0;
@@ -683,7 +721,8 @@ int bench_main(int argc, char **argv) {
       if (o.repeat > 1) std::fprintf(stderr, " (round %d of %d)", round + 1, o.repeat);
       std::fputs(" ... ", stderr);
       std::fflush(stderr);
-      reps[k].push_back(o.fork ? run_forked(prob, spec, o.itmax, o.timeout) : run_inline(prob, spec, o.itmax));
+      reps[k].push_back(o.fork ? run_forked(prob, spec, o.itmax, o.timeout, o.warm_up)
+                                : run_inline(prob, spec, o.itmax, o.warm_up));
       const Run &r = reps[k].back();
       if (r.r.ok)
         std::fprintf(stderr, "%s, %.3f s, final MSE %.6g\n", r.r.status, r.r.seconds, r.r.final_err / nobs);
@@ -802,6 +841,16 @@ int bench_main(int argc, char **argv) {
     field("peak_rss_bytes", json_number(peak));
     field("base_rss_bytes", json_number(static_cast<double>(x.base_rss)));
     field("child_maxrss_bytes", json_number(static_cast<double>(r.child_maxrss)));
+    field("file_rss_start_bytes",
+          json_number(x.file_rss_start >= 0 ? static_cast<double>(x.file_rss_start) : NAN));
+    field("file_rss_end_bytes", json_number(x.file_rss_end >= 0 ? static_cast<double>(x.file_rss_end) : NAN));
+    field("program_anon_bytes",
+          json_number(facts.program_anon >= 0 ? static_cast<double>(facts.program_anon) : NAN));
+    // What the problem and the solve hold: the peak less the shared code pages and the
+    // program's own data (see file_rss and ProblemFacts::program_anon).
+    const bool parts = x.hwm_reset && x.peak_rss > 0 && x.file_rss_end >= 0 && facts.program_anon >= 0;
+    field("data_peak_bytes",
+          json_number(parts ? static_cast<double>(x.peak_rss - x.file_rss_end - facts.program_anon) : NAN));
     field("peak_rss_reset", x.hwm_reset ? "true" : "false");
     field("ratio_time_vs_ceres_dense", json_number(vs_cd));
     field("time_to_best_seconds", json_number(r.ttb));
