@@ -10,7 +10,7 @@ CMAKE_FLAGS ?=
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
 .PHONY: all configure test demo install clean deps-build deps-test mex mex-test deps-mex \
-	check-sanitize check-valgrind check-tsan check-fuzz soak configure-asan clean-checks
+	check-sanitize check-valgrind check-tsan check-fuzz soak check-bench configure-asan clean-checks
 
 # The main job: a generated 20-camera problem (data/README.md) through eucsbademo.
 DEMO_PROBLEM ?= data/orbit-fixedK
@@ -60,9 +60,11 @@ clean:
 #   make check-tsan       the concurrency tests under ThreadSanitizer (build-tsan/)
 #   make check-fuzz       every libFuzzer target of fuzz/ for FUZZ_SECONDS each (build-fuzz/)
 #   make soak             SOAK_N random solves with random faults (and SOAK_ASAN_N under ASan)
+#   make check-bench      sba_bench (bench/, with Ceres) built in BENCH_BUILD and its measurements checked
 ASAN_BUILD ?= build-asan
 TSAN_BUILD ?= build-tsan
 FUZZ_BUILD ?= build-fuzz
+BENCH_BUILD ?= build-bench
 FUZZ_SECONDS ?= 60
 SOAK_N ?= 1000
 SOAK_ASAN_N ?= $(SOAK_N)
@@ -108,5 +110,13 @@ soak: configure configure-asan
 	cmake --build $(ASAN_BUILD) -j $(JOBS) --target sba_soak
 	ASAN_OPTIONS=detect_leaks=1 $(ASAN_BUILD)/tests/sba_soak --solves $(SOAK_ASAN_N) --seed $(SOAK_SEED)
 
+# The instrument behind the README's performance figures: built as bench/run_suite.sh builds
+# it, run on a small problem, its JSON checked (results and memory accounting, no timings).
+check-bench: deps-test
+	@sh scripts/deps.sh bench
+	cmake -S . -B $(BENCH_BUILD) -DCMAKE_BUILD_TYPE=Release -DSBA_BUILD_BENCH=ON >/dev/null
+	cmake --build $(BENCH_BUILD) -j $(JOBS) --target sba_bench
+	python3 bench/check_bench.py $(BENCH_BUILD)/bench/sba_bench
+
 clean-checks:
-	rm -rf $(ASAN_BUILD) $(TSAN_BUILD) $(FUZZ_BUILD)
+	rm -rf $(ASAN_BUILD) $(TSAN_BUILD) $(FUZZ_BUILD) $(BENCH_BUILD)

@@ -299,10 +299,11 @@ def write_markdown(path, meta, groups, runs_by_problem, kernels):
         L.append("")
         L.append("Reference bytes = Jacobian + S + inputs (S dense for dense solvers, its nonzero blocks for "
                  "sparse-chol and Ceres SPARSE_SCHUR); RSS ratio = peak RSS / reference bytes. Data peak = "
-                 "peak RSS less the file-backed pages resident when the solve returned (the shared code of "
-                 "the program and its libraries) and less the program's own anonymous memory before it read "
-                 "the problem (runtime, libraries' data): what the problem and the solve hold, inputs "
-                 "included; data ratio = data peak / reference bytes.")
+                 "peak RSS less the file-backed pages resident when the solve started (the shared code of "
+                 "the program and its libraries; these runs warm up first, so the solve adds almost none) "
+                 "and less the program's own anonymous memory before it read the problem (runtime, "
+                 "libraries' data): what the problem and the solve hold, inputs included; data ratio = "
+                 "data peak / reference bytes.")
         L.append("")
         L.append("| problem | cameras | points | observations | run | threads | status | iterations | time [s] | "
                  "ms/iter | peak RSS [MB] | data peak [MB] | reference [MB] | RSS ratio | data ratio | final MSE |")

@@ -263,9 +263,9 @@ long long status_kb(const char *field) {
 }
 
 // Resident pages backed by files: the code of the program and its libraries, which every
-// process running them shares. They are only ever added during a solve (nothing is unmapped),
-// so the peak RSS less their count at the end is never more than the solve's peak of
-// anonymous memory (heap, stacks, BLAS buffers).
+// process running them shares. Their count when a solve starts is a lower bound of their
+// share of its peak (they are only added during a solve, nothing is unmapped); --warm-up
+// makes it exact up to the code that only the measured solve runs.
 long long file_rss() {
   const long long f = status_kb("RssFile"), s = status_kb("RssShmem");
   return f < 0 || s < 0 ? -1 : (f + s) * 1024;
@@ -846,11 +846,12 @@ int bench_main(int argc, char **argv) {
     field("file_rss_end_bytes", json_number(x.file_rss_end >= 0 ? static_cast<double>(x.file_rss_end) : NAN));
     field("program_anon_bytes",
           json_number(facts.program_anon >= 0 ? static_cast<double>(facts.program_anon) : NAN));
-    // What the problem and the solve hold: the peak less the shared code pages and the
-    // program's own data (see file_rss and ProblemFacts::program_anon).
-    const bool parts = x.hwm_reset && x.peak_rss > 0 && x.file_rss_end >= 0 && facts.program_anon >= 0;
+    // What the problem and the solve hold: the peak less the code pages resident when the
+    // solve started and the program's own data (see file_rss and ProblemFacts::program_anon).
+    // Code first run during the solve counts as data: never an under-count.
+    const bool parts = x.hwm_reset && x.peak_rss > 0 && x.file_rss_start >= 0 && facts.program_anon >= 0;
     field("data_peak_bytes",
-          json_number(parts ? static_cast<double>(x.peak_rss - x.file_rss_end - facts.program_anon) : NAN));
+          json_number(parts ? static_cast<double>(x.peak_rss - x.file_rss_start - facts.program_anon) : NAN));
     field("peak_rss_reset", x.hwm_reset ? "true" : "false");
     field("ratio_time_vs_ceres_dense", json_number(vs_cd));
     field("time_to_best_seconds", json_number(r.ttb));
