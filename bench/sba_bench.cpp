@@ -76,7 +76,7 @@ const char kUsage[] =
     "  --no-fork         run in this process (peak RSS then is the process's)\n"
     "  --warm-up         before each measured solve, one iteration of the same run, its memory\n"
     "                    then returned: the code the solve runs is resident before the peak\n"
-    "                    is reset, so the peak's file-backed share is known exactly\n"
+    "                    is reset, so that little of the peak is code new to the solve\n"
     "  --help            this text\n";
 
 // ---- options ----
@@ -841,11 +841,10 @@ int bench_main(int argc, char **argv) {
     field("peak_rss_bytes", json_number(peak));
     field("base_rss_bytes", json_number(static_cast<double>(x.base_rss)));
     field("child_maxrss_bytes", json_number(static_cast<double>(r.child_maxrss)));
-    field("file_rss_start_bytes",
-          json_number(x.file_rss_start >= 0 ? static_cast<double>(x.file_rss_start) : NAN));
-    field("file_rss_end_bytes", json_number(x.file_rss_end >= 0 ? static_cast<double>(x.file_rss_end) : NAN));
-    field("program_anon_bytes",
-          json_number(facts.program_anon >= 0 ? static_cast<double>(facts.program_anon) : NAN));
+    auto bytes = [](long long b) { return json_number(b >= 0 ? static_cast<double>(b) : NAN); };  // -1: unknown
+    field("file_rss_start_bytes", bytes(x.file_rss_start));
+    field("file_rss_end_bytes", bytes(x.file_rss_end));
+    field("program_anon_bytes", bytes(facts.program_anon));
     // What the problem and the solve hold: the peak less the code pages resident when the
     // solve started and the program's own data (see file_rss and ProblemFacts::program_anon).
     // Code first run during the solve counts as data: never an under-count.
