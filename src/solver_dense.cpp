@@ -19,7 +19,7 @@ class DenseSchurSolver final : public StepSolver {
   DenseSchurSolver(LinSolver kind, const SolveContext &ctx)
       : kind_(kind), ctx_(ctx), nS_(i64(ctx.lay.free_cams()) * ctx.lay.cnp),
         ld_(kind == LinSolver::Chol ? (nS_ + 7) / 8 * 8 : nS_),
-        Vinv_(size_t(i64(ctx.lay.n) * ctx.lay.pnp * ctx.lay.pnp)), S_(size_t(ld_ * nS_ + 8)),
+        S_(size_t(ld_ * nS_ + 8)),
         rhs_(size_t(nS_)), scale_(size_t(nS_)) {
     // S's rows start on cache lines (for Chol, whose LAPACK calls take a leading
     // dimension, rows padded to 8 doubles): where the boundary between two threads' block
@@ -30,20 +30,21 @@ class DenseSchurSolver final : public StepSolver {
   bool solve(const NormalEquations &ne, double mu, double *dp) override {
     const Layout &lay = ctx_.lay;
     std::fill(dp, dp + lay.nvars(), 0.0);
-    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
     const i64 nS = nS_, ld = ld_;
     ctx_.pool.for_range(nS, [&](i64 b, i64 e) { std::fill(Sp_ + b * ld, Sp_ + e * ld, 0.0); });
     BlockMap map;
     map.base = Sp_;
     map.ld = ld;
     map.cnp = lay.cnp;
-    ctx_.kernels.assemble(ctx_.pool, ne, Vinv_.data(), mu, map, rhs_.data());  // Vinv_: no failure
+    // The point blocks' inverses are made where they are used rather than kept: n pnp^2
+    // doubles, a sixth of the Jacobian's size on a 2-D problem of tracks of 3.
+    if (!ctx_.kernels.assemble(ctx_.pool, ne, nullptr, mu, map, rhs_.data())) return false;
     double *da = dp + lay.a_off(lay.mcon);
     ctx_.pool.rest();  // the BLAS has its own threads
     if (!factor_solve(da)) return false;
     for (i64 q = 0; q < nS; ++q)
       if (!std::isfinite(da[q])) return false;
-    ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), mu, dp);
+    ctx_.kernels.back_substitute(ctx_.pool, ne, nullptr, mu, dp);
     return true;
   }
 
@@ -234,7 +235,7 @@ class DenseSchurSolver final : public StepSolver {
   SolveContext ctx_;
   i64 nS_;
   i64 ld_;  // S's leading dimension: nS_, or for Chol nS_ rounded up to 8
-  std::vector<double> Vinv_, S_, rhs_, scale_, cg_blocks_, qr_;
+  std::vector<double> S_, rhs_, scale_, cg_blocks_, qr_;
   double *Sp_ = nullptr;  // S's first entry: S_'s first 64-byte aligned one
 };
 
