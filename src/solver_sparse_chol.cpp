@@ -160,6 +160,12 @@ struct Cholmod {
   cholmod_dense *B = nullptr;
 };
 
+// Below this many flops in the factorization (CHOLMOD's estimate after analysis), the
+// simplicial factorization. Measured on the sbagen path series (2 threads): at 10 and 50
+// cameras (7e4 and 9e5 flops) it is as fast and holds 0.3-0.4 MB less; the sba-demo
+// 54-camera problem (2.9e6) and every BAL problem (1.0e6 and up) stay supernodal.
+constexpr double kSimplicialFlops = 1e6;
+
 template <class Api>
 class SparseSchurSolver final : public StepSolver {
   using Index = typename Api::Index;
@@ -243,6 +249,17 @@ class SparseSchurSolver final : public StepSolver {
     if (!chol_.L) {
       if (chol_.cm.status == CHOLMOD_TOO_LARGE) return;
       throw std::bad_alloc();
+    }
+    // A small factor is made column by column instead: the supernodal one would start an
+    // OpenMP team of CHOLMOD's fixed size and touch the BLAS's buffers, which for S of a few
+    // cameras cost more memory than S and its factor, and save no time. Left in LL' form,
+    // so that a pivot that is not positive stops the factorization as the supernodal one does.
+    if (chol_.cm.fl < kSimplicialFlops) {
+      Api::free_factor(&chol_.L, &chol_.cm);
+      chol_.cm.supernodal = CHOLMOD_SIMPLICIAL;
+      chol_.cm.final_ll = 1;
+      chol_.L = Api::analyze(chol_.A, &chol_.cm);
+      if (!chol_.L) throw std::bad_alloc();  // smaller than the supernodal analysis that fit
     }
     // Natural ordering without postordering leaves L unpermuted; should CHOLMOD permute all
     // the same, cholmod_factorize applies its permutation (at the cost of a copy of A).
