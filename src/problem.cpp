@@ -152,7 +152,8 @@ class ExpertModel final : public Model {
       return;
     }
     // One index per thread that shows only its rows (the others are empty rows), so that a
-    // callback walking the index by rows computes exactly its share; plus its own scratch.
+    // callback walking the index by rows computes exactly its share; plus its own scratch,
+    // but for the calling thread (the pool's last), which has the layout's.
     const int T = pool_->size();
     const std::vector<int> rows = split_rows(lay_, T);
     parts_.assign(size_t(T), Part{});
@@ -163,6 +164,7 @@ class ExpertModel final : public Model {
       for (int i = 0; i <= lay_.n; ++i) part.rowptr[size_t(i)] = std::min(std::max(lay_.rowptr[size_t(i)], lo), hi);
       part.idx = lay_.idx;
       part.idx.rowptr = part.rowptr.data();
+      if (t == T - 1) continue;
       part.rcidxs.assign(lay_.rcidxs.size(), 0);
       part.rcsubs.assign(lay_.rcsubs.size(), 0);
     }
@@ -221,7 +223,7 @@ class ExpertModel final : public Model {
     std::vector<int> &rcidxs, &rcsubs;
   };
   Scratch scratch(int t) {
-    if (!pool_) return Scratch{lay_.rcidxs, lay_.rcsubs};
+    if (!pool_ || t == pool_->size() - 1) return Scratch{lay_.rcidxs, lay_.rcsubs};
     return Scratch{parts_[size_t(t)].rcidxs, parts_[size_t(t)].rcsubs};
   }
 
@@ -231,8 +233,8 @@ class ExpertModel final : public Model {
       return;
     }
     pool_->run([&](int t) {
-      Part &part = parts_[size_t(t)];
-      f(p, &part.idx, part.rcidxs.data(), part.rcsubs.data(), out, adata_);
+      const Scratch s = scratch(t);
+      f(p, &parts_[size_t(t)].idx, s.rcidxs.data(), s.rcsubs.data(), out, adata_);
     });
   }
 
