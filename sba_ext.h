@@ -70,7 +70,8 @@ struct sba_ext_options {
    * else "chol". An unknown name here is a bad argument (SBA_ERROR). */
   const char *linsolver;
   /* Threads for the normal equations and the Schur complement; 0: the environment variable
-   * SBA_NUM_THREADS if set, else every hardware thread. Results do not depend on it. */
+   * SBA_NUM_THREADS if set, else every hardware thread but at most one per 10,000
+   * projections (a smaller problem runs faster on fewer). Results do not depend on it. */
   int nthreads;
   /* Where messages go: log(log_ctx, level, line) with one line and no newline. NULL:
    * errors and warnings to stderr, progress to stdout, as 1.6. */

@@ -31,7 +31,7 @@ const char kUsage[] =
     "points, analytic Jacobian, no fixed cameras or points, default LM options.\n"
     "\n"
     "  --solver NAME   linear solver of the normal equations (default: $SBA_LINSOLVER, else chol)\n"
-    "  --threads N     threads (default 0: $SBA_NUM_THREADS, else every hardware thread)\n"
+    "  --threads N     threads (default 0: $SBA_NUM_THREADS, else the hardware's, one per 10k projections at most)\n"
     "  --itmax N       most LM iterations (default 150)\n"
     "  --verbose N     sba's verbosity (default 0)\n"
     "  --write OUT     write the refined problem in BAL format (.bz2: compressed)\n"

@@ -136,8 +136,8 @@ const OptionSpec kOptions[] = {
      }},
     {"threads", "N",
      "threads for the normal equations and the Schur complement; 0 (the default): the\n"
-     "environment variable SBA_NUM_THREADS if set, else every hardware thread. The result\n"
-     "does not depend on it",
+     "environment variable SBA_NUM_THREADS if set, else every hardware thread, but at most\n"
+     "one per 10,000 projections. The result does not depend on it",
      [](DemoOptions &o, const std::string &v) { return parse_int(v, 0, kMaxThreads, &o.nthreads); }},
     {"loss", "NAME",
      "robust loss on each projection's squared residual: none (least squares, the default),\n"

@@ -139,7 +139,7 @@ enum class LinSolver {
   SVD,         // dense S, SVD
   CG,          // dense S, Jacobi-preconditioned conjugate gradients
   LdlAmd,      // no Schur complement: the whole system, AMD ordering + sparse LDL^T
-  SparseChol,  // sparse S (cameras sharing points), CHOLMOD supernodal Cholesky
+  SparseChol,  // sparse S (cameras sharing points), CHOLMOD Cholesky
 };
 
 struct Options {
@@ -148,6 +148,7 @@ struct Options {
   double eps1 = SBA_STOP_THRESH, eps2 = SBA_STOP_THRESH, eps3 = SBA_STOP_THRESH, eps4 = 0.0;
   int itmax = 0;
   int nthreads = 1;
+  bool auto_threads = false;  // nthreads is the hardware's, not the caller's: see fit_threads
   bool parallel_callbacks = false;  // the caller's callbacks may run concurrently
   Loss loss;  // robust loss on each projection's squared residual (none: least squares)
   // Called after every outer iteration; nonzero stops with kStopUser.

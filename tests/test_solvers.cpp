@@ -2,6 +2,7 @@
 // every solver reaches chol's minimum, and the extension options behave as documented.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <mutex>
@@ -274,6 +275,38 @@ namespace {
 
 // The threads split the work by fixed rules and every sum has a fixed order: the same bits
 // for any thread count, with every solver, with fixed cameras and points too.
+// nthreads 0 without SBA_NUM_THREADS: every hardware thread, but one per 10,000 projections
+// at most; a count that is asked for (in the options or the environment) is used as given.
+TEST(ExtOptions, DefaultThreadCountFollowsTheProblemSize) {
+  unsetenv("SBA_NUM_THREADS");
+  auto threads_used = [](synth::Problem &pb, int nthreads) {
+    sba_ext_options ext;
+    sba_ext_options_init(&ext);
+    ext.nthreads = nthreads;
+    sba_ext_result res;
+    sba_ext_result_init(&res);
+    ext.result = &res;
+    std::vector<double> p = pb.p0;
+    double info[SBA_INFOSZ];
+    const int ret = sba_motstr_levmar_x_ext(pb.n, 0, pb.m, 1, pb.vmask.data(), p.data(), kCnp, kPnp,
+                                            pb.x.data(), nullptr, kMnp, synth::func_motstr,
+                                            synth::fjac_motstr, &pb, 1, 0, nullptr, info, &ext);
+    EXPECT_NE(ret, SBA_ERROR);
+    return res.nthreads;
+  };
+  const int hw = std::max(1, int(std::thread::hardware_concurrency()));
+  synth::Problem small = synth::make(600, 8, 0.5, 0.05, 43);  // ~3,400 projections
+  ASSERT_LT(small.nvis, 10000);
+  EXPECT_EQ(threads_used(small, 0), 1);
+  EXPECT_EQ(threads_used(small, 3), 3);
+  ASSERT_EQ(setenv("SBA_NUM_THREADS", "2", 1), 0);
+  EXPECT_EQ(threads_used(small, 0), 2);
+  unsetenv("SBA_NUM_THREADS");
+  synth::Problem large = synth::make(4000, 8, 0.5, 0.05, 44, 0.9);  // ~29,000 projections
+  ASSERT_GE(large.nvis, 20000);
+  EXPECT_EQ(threads_used(large, 0), std::min(hw, int(large.nvis / 10000)));
+}
+
 TEST_P(EverySolver, ResultsDoNotDependOnTheThreadCount) {
   synth::Problem pb = synth::make(160, 9, 0.5, 0.05, 41);
   auto with_threads = [&](int threads) {
