@@ -52,6 +52,8 @@ def main():
         check(r["initial_mse"] == runs[0]["initial_mse"],
               "%s: starts from MSE %.10g, the first run from %.10g" % (name, r["initial_mse"], runs[0]["initial_mse"]))
         check(r["final_mse"] < 0.01 * r["initial_mse"], name + ": the error barely went down")
+        # Counts given explicitly are used as given (the library's own choice is for "all").
+        check(r["threads_used"] == r["threads"], "%s: ran %s threads" % (name, r["threads_used"]))
         if r["engine"] == "sba":
             lo, hi = SBA_ITERATIONS
             check(lo <= r["iterations"] <= hi, "%s: %d iterations, outside [%d, %d]" % (name, r["iterations"], lo, hi))

@@ -303,7 +303,8 @@ def write_markdown(path, meta, groups, runs_by_problem, kernels):
                  "the program and its libraries; these runs warm up first, so the solve adds almost none) "
                  "and less the program's own anonymous memory before it read the problem (runtime, "
                  "libraries' data): what the problem and the solve hold, inputs included; data ratio = "
-                 "data peak / reference bytes.")
+                 "data peak / reference bytes. Threads: those the run used; sba's are its default for "
+                 "nthreads 0 (every hardware thread, one per 10,000 projections at most).")
         L.append("")
         L.append("| problem | cameras | points | observations | run | threads | status | iterations | time [s] | "
                  "ms/iter | peak RSS [MB] | data peak [MB] | reference [MB] | RSS ratio | data ratio | final MSE |")
@@ -313,7 +314,8 @@ def write_markdown(path, meta, groups, runs_by_problem, kernels):
                 ref = reference_bytes(r)
                 data = r.get("data_peak_bytes")
                 L.append("| %s | %d | %d | %d | %s | %d | %s | %d | %s | %s | %s | %s | %s | %s | %s | %s |" % (
-                    name, r["cameras"], r["points"], r["observations"], run_name(r), r["threads"], r["status"],
+                    name, r["cameras"], r["points"], r["observations"], run_name(r), r.get("threads_used") or r["threads"],
+                    r["status"],
                     r["iterations"], num(r["seconds"]),
                     num(r["seconds_per_iteration"] and r["seconds_per_iteration"] * 1e3, "%.1f"),
                     mb(r["peak_rss_bytes"]), mb(data), mb(ref), num(div(r["peak_rss_bytes"], ref), "%.2f"),

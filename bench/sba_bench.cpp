@@ -64,7 +64,9 @@ const char kUsage[] =
     "  --name LABEL      problem name in the output (default: from the files / the spec)\n"
     "  --solvers LIST    sba linear solvers, comma-separated, or none (default chol)\n"
     "  --ceres LIST      dense,sparse (default), dense, sparse or none\n"
-    "  --threads LIST    thread counts, comma-separated; all = every hardware thread (default 1,all)\n"
+    "  --threads LIST    thread counts, comma-separated (default 1,all); all = every hardware\n"
+    "                    thread for Ceres, and for sba its default (nthreads 0: as many as the\n"
+    "                    problem's size warrants, up to every hardware thread)\n"
     "  --itmax N         iterations of every solver (default 150)\n"
     "  --timeout SEC     a run taking longer is killed and reported as such (default 3600)\n"
     "  --repeat N        run every configuration N times, in rounds, and report the run\n"
@@ -86,6 +88,7 @@ struct Options {
   std::vector<std::string> solvers{"chol"};
   std::vector<std::string> ceres{"dense", "sparse"};
   std::vector<int> threads;
+  std::vector<char> threads_auto;  // per entry of threads: given as "all"
   int itmax = 150;
   int repeat = 1;
   double timeout = 3600;
@@ -188,7 +191,8 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
     }
   for (const std::string &t : split(threads)) {
     int n = 0;
-    if (t == "all") n = hardware_threads();
+    const bool all = t == "all";
+    if (all) n = hardware_threads();
     else {
       char *end = nullptr;
       const long v = std::strtol(t.c_str(), &end, 10);
@@ -198,7 +202,13 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
       }
       n = static_cast<int>(v);
     }
-    if (std::find(o->threads.begin(), o->threads.end(), n) == o->threads.end()) o->threads.push_back(n);
+    bool seen = false;
+    for (std::size_t k = 0; k < o->threads.size(); ++k)
+      seen = seen || (o->threads[k] == n && (o->threads_auto[k] != 0) == all);
+    if (!seen) {
+      o->threads.push_back(n);
+      o->threads_auto.push_back(all);
+    }
   }
   if (o->threads.empty()) {
     *error = "--threads: no thread count";
@@ -214,7 +224,8 @@ enum class Engine { Sba, Ceres };
 struct RunSpec {
   Engine engine;
   std::string solver;  // sba linsolver name, or "DENSE_SCHUR" / "SPARSE_SCHUR"
-  int threads;
+  int threads;       // Ceres's threads; sba's unless auto_threads
+  bool auto_threads;  // sba: nthreads 0, the library's choice of at most `threads`
   int blas_threads;  // 0: as the BLAS decides
   std::string label() const { return (engine == Engine::Sba ? "sba " : "ceres ") + solver; }
 };
@@ -227,6 +238,7 @@ struct RunResult {
   double reason = 0;      // sba info[6]; Ceres: termination type
   int iterations = 0;     // sba: outer iterations (info[5]); Ceres: LM steps tried
   int linear_solves = 0;  // sba info[9]; Ceres: successful + unsuccessful steps
+  int threads_used = 0;   // sba: sba_ext_result.nthreads; Ceres: the threads asked
   int func_evals = 0, jac_evals = 0;
   double seconds = 0;        // wall time of the solve
   double setup_seconds = 0;  // Ceres: building the ceres::Problem (part of seconds)
@@ -327,7 +339,10 @@ void run_sba(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunRes
   sba_ext_options ext;
   sba_ext_options_init(&ext);
   ext.linsolver = spec.solver.c_str();
-  ext.nthreads = spec.threads;
+  ext.nthreads = spec.auto_threads ? 0 : spec.threads;
+  sba_ext_result res;
+  sba_ext_result_init(&res);
+  ext.result = &res;
   // The demo and BAL models' callbacks are re-entrant and walk the index by rows.
   ext.parallel_callbacks = 1;
   ext.log = record_log;  // errors kept, nothing printed (verbose 0: no progress lines)
@@ -356,6 +371,7 @@ void run_sba(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunRes
   r->reason = info[6];
   r->iterations = static_cast<int>(info[5]);
   r->linear_solves = static_cast<int>(info[9]);
+  r->threads_used = res.nthreads;
   r->func_evals = static_cast<int>(info[7]);
   r->jac_evals = static_cast<int>(info[8]);
   r->init_err = info[0];
@@ -456,6 +472,7 @@ void run_ceres(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunR
   r->reason = summary.termination_type;
   r->linear_solves = summary.num_successful_steps + summary.num_unsuccessful_steps;
   r->iterations = r->linear_solves;
+  r->threads_used = spec.threads;
   r->func_evals = summary.num_residual_evaluations;
   r->jac_evals = summary.num_jacobian_evaluations;
   r->init_err = 2.0 * summary.initial_cost;
@@ -703,11 +720,13 @@ int bench_main(int argc, char **argv) {
                                        : blas_settable ? "as many as the run's threads (openblas_set_num_threads)"
                                                        : "left to the BLAS (no openblas_set_num_threads in this BLAS)");
   std::vector<RunSpec> specs;
-  for (int t : o.threads) {
+  for (std::size_t k = 0; k < o.threads.size(); ++k) {
+    const int t = o.threads[k];
+    const bool all = o.threads_auto[k] != 0;
     const int bt = o.blas_same && blas_settable ? t : 0;
-    for (const std::string &s : o.solvers) specs.push_back({Engine::Sba, s, t, bt});
+    for (const std::string &s : o.solvers) specs.push_back({Engine::Sba, s, t, all, bt});
     for (const std::string &c : o.ceres)
-      specs.push_back({Engine::Ceres, c == "dense" ? "DENSE_SCHUR" : "SPARSE_SCHUR", t, bt});
+      specs.push_back({Engine::Ceres, c == "dense" ? "DENSE_SCHUR" : "SPARSE_SCHUR", t, all, bt});
   }
 
   // Rounds of every configuration rather than N runs of one after another, so that a slow
@@ -786,7 +805,7 @@ int bench_main(int argc, char **argv) {
         x.ok && chol && r.spec.engine == Engine::Sba ? ratio(per_iter, chol->r.seconds / chol->r.iterations) : NAN;
     const double peak = x.peak_rss > 0 ? static_cast<double>(x.peak_rss) : static_cast<double>(r.child_maxrss);
     std::printf("  %-18s %3d %-26.26s %5d %6d %9s %9s %11s %11s %9s %8s %9s %9s %8s\n", r.spec.label().c_str(),
-                r.spec.threads, x.status, x.iterations, x.linear_solves, fmt("%.3f", x.ok ? x.seconds : NAN).c_str(),
+                x.threads_used > 0 ? x.threads_used : r.spec.threads, x.status, x.iterations, x.linear_solves, fmt("%.3f", x.ok ? x.seconds : NAN).c_str(),
                 fmt("%.2f", per_iter * 1e3).c_str(), fmt("%.6g", x.ok ? x.init_err / nobs : NAN).c_str(),
                 fmt("%.8g", x.ok ? x.final_err / nobs : NAN).c_str(), fmt("%.1f", peak / 1e6).c_str(),
                 fmt("%.2fx", vs_cd).c_str(), fmt("%.3f", r.ttb).c_str(), fmt("%.2fx", ttb_vs_cd).c_str(),
@@ -816,6 +835,8 @@ int bench_main(int argc, char **argv) {
     field("engine", json_string(r.spec.engine == Engine::Sba ? "sba" : "ceres"));
     field("solver", json_string(r.spec.solver));
     field("threads", std::to_string(r.spec.threads));
+    field("threads_auto", r.spec.auto_threads ? "true" : "false");
+    field("threads_used", std::to_string(r.r.threads_used));
     field("blas_threads", r.spec.blas_threads > 0 ? std::to_string(r.spec.blas_threads) : "null");
     field("itmax", std::to_string(o.itmax));
     field("ok", x.ok ? "true" : "false");
