@@ -7,6 +7,9 @@
 
 #include <algorithm>
 #include <cmath>
+#ifdef __AVX__
+#include <immintrin.h>
+#endif
 
 #include "kernels.h"
 #include "linsolve.h"
@@ -179,6 +182,56 @@ inline __attribute__((always_inline)) void gram_update(int mn, int n, const doub
         for (int c = 0; c < n; ++c) G[a * n + c] += x[a] * x[c];
     }
   }
+}
+
+// Four lanes of doubles: four points' 3x3 blocks side by side, entry by entry.
+typedef double lanes4 __attribute__((vector_size(32)));
+typedef long long mask4 __attribute__((vector_size(32)));
+
+// Lanes by reference: a 32-byte vector passed by value has a different ABI with and without
+// AVX, which GCC warns of in the portable build.
+inline __attribute__((always_inline)) void lanes_sqrt(lanes4 &x) {
+#ifdef __AVX__
+  x = lanes4(_mm256_sqrt_pd(__m256d(x)));
+#else
+  for (int l = 0; l < 4; ++l) x[l] = std::sqrt(x[l]);
+#endif
+}
+
+// small::spd_inverse<3> on four SPD blocks at once, one per lane (a: 9 entries row-major,
+// overwritten; inv: the inverses). The same operations in the same order as the scalar
+// function, so each lane's result is what that function gives for its block, whatever the
+// other lanes hold: a point's inverse does not depend on which points share its batch. The
+// square roots and divisions, most of a 3x3 inverse's time, then go four at a time.
+// ok: per lane all ones if the block is positive definite, else 0 (that lane's inv is junk).
+inline __attribute__((always_inline)) void spd_inverse3_lanes(lanes4 *a, lanes4 *inv, mask4 &ok) {
+  constexpr int n = 3;
+  ok = mask4{-1, -1, -1, -1};
+  for (int j = 0; j < n; ++j) {
+    lanes4 d = a[j * n + j];
+    for (int k = 0; k < j; ++k) d -= a[j * n + k] * a[j * n + k];
+    ok &= d > 0.0;
+    lanes_sqrt(d);
+    const lanes4 r = 1.0 / d;
+    a[j * n + j] = r;
+    for (int i = j + 1; i < n; ++i) {
+      lanes4 s = a[i * n + j];
+      for (int k = 0; k < j; ++k) s -= a[i * n + k] * a[j * n + k];
+      a[i * n + j] = s * r;
+    }
+  }
+  for (int j = 0; j < n; ++j)
+    for (int i = j + 1; i < n; ++i) {
+      lanes4 s = a[i * n + j] * a[j * n + j];
+      for (int k = j + 1; k < i; ++k) s += a[i * n + k] * a[k * n + j];
+      a[i * n + j] = -s * a[i * n + i];
+    }
+  for (int i = 0; i < n; ++i)
+    for (int j = i; j < n; ++j) {
+      lanes4 s = {0.0, 0.0, 0.0, 0.0};
+      for (int k = j; k < n; ++k) s += a[k * n + i] * a[k * n + j];
+      inv[i * n + j] = inv[j * n + i] = s;
+    }
 }
 
 // Block sizes as template arguments (0: take the run-time value), so that the loops of the
@@ -457,6 +510,12 @@ class KernelsT final : public Kernels {
   // comes, every point waited for its own (6% of a 54cams solve at 1 thread).
   void point_inverses(const double *Vinv, const double *V, double mu, const int *pts, int count, Scratch &sc,
                       const double **out) const {
+    if constexpr (P == 3) {
+      if (!Vinv) {
+        for (int g = 0; g < count; g += 4) inverses3(V, mu, pts + g, std::min(4, count - g), sc, g, out + g);
+        return;
+      }
+    }
     const int pp = pnp() * pnp();
     for (int b = 0; b < count; ++b) {
       const i64 i = pts[b];
@@ -466,6 +525,25 @@ class KernelsT final : public Kernels {
       }
       double *inv = sc.inv.data() + b * pp;
       out[b] = damped_inverse(V, mu, i, sc.damped.data() + b * pp, inv) ? inv : nullptr;
+    }
+  }
+
+  // (V_i + mu I)^-1 of up to four points pts[0 .. count) through spd_inverse3_lanes, into
+  // sc.inv's slots from slot0 on. Missing lanes get the identity.
+  void inverses3(const double *V, double mu, const int *pts, int count, Scratch &sc, int slot0,
+                 const double **out) const {
+    lanes4 a[9], inv[9];
+    for (int e = 0; e < 9; ++e)
+      for (int l = 0; l < 4; ++l)
+        a[e][l] = l < count ? V[i64(pts[l]) * 9 + e] : (e % 4 == 0 ? 1.0 : 0.0);
+    for (int e = 0; e < 9; e += 4)
+      for (int l = 0; l < count; ++l) a[e][l] += mu;
+    mask4 ok;
+    spd_inverse3_lanes(a, inv, ok);
+    for (int l = 0; l < count; ++l) {
+      double *dst = sc.inv.data() + (slot0 + l) * 9;  // sc.inv: kBatch blocks
+      for (int e = 0; e < 9; ++e) dst[e] = inv[e][l];
+      out[l] = ok[l] ? dst : nullptr;
     }
   }
 

@@ -53,13 +53,26 @@ inline void chol_solve(const double *l, double *b, int n) {
 // entry and no solves: this runs for every point at every damping value, where the n^2
 // divisions of n triangular solves were most of its cost. Each entry of the upper triangle is
 // one sum, mirrored, so the block comes out exactly symmetric as the normal equations expect.
+// The factorization is chol()'s, except that the diagonal keeps the reciprocals 1/L[j][j]
+// that scale the columns (chol() never reads it back): the same values that a second pass of
+// divisions made, without those divisions, which this runs for every point where it is used.
 template <int N = 0>
 inline bool spd_inverse(double *a, double *inv, int n) {
   if (N) n = N;
-  if (!chol<N>(a, n)) return false;
+  for (int j = 0; j < n; ++j) {
+    double d = a[j * n + j];
+    for (int k = 0; k < j; ++k) d -= a[j * n + k] * a[j * n + k];
+    if (!(d > 0.0)) return false;  // also catches NaN
+    const double r = 1.0 / std::sqrt(d);
+    a[j * n + j] = r;
+    for (int i = j + 1; i < n; ++i) {
+      double s = a[i * n + j];
+      for (int k = 0; k < j; ++k) s -= a[i * n + k] * a[j * n + k];
+      a[i * n + j] = s * r;
+    }
+  }
   // L^-1 in place, column by column: X[i][j] = -(sum_{j<=k<i} L[i][k] X[k][j]) / L[i][i].
   // While column j is made, the columns right of it still hold L and the diagonal 1/L[i][i].
-  for (int i = 0; i < n; ++i) a[i * n + i] = 1.0 / a[i * n + i];
   for (int j = 0; j < n; ++j)
     for (int i = j + 1; i < n; ++i) {
       double s = a[i * n + j] * a[j * n + j];
