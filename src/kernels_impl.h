@@ -505,9 +505,9 @@ class KernelsT final : public Kernels {
   }
 
   // (V_i + mu I)^-1 of the points pts[0 .. count) (count <= kBatch) into out: from
-  // Vinv, or made in sc (null where not positive definite). Made together, one after
-  // another, their chains of square roots and divisions overlap; made as each point's turn
-  // comes, every point waited for its own (6% of a 54cams solve at 1 thread).
+  // Vinv, or made in sc (null where not positive definite). Made together, their square
+  // roots and divisions overlap (3x3 blocks: four to a vector); made as each point's turn
+  // came, every point waited for its own (6% of a 54cams solve at 1 thread).
   void point_inverses(const double *Vinv, const double *V, double mu, const int *pts, int count, Scratch &sc,
                       const double **out) const {
     if constexpr (P == 3) {

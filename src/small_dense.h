@@ -54,8 +54,8 @@ inline void chol_solve(const double *l, double *b, int n) {
 // divisions of n triangular solves were most of its cost. Each entry of the upper triangle is
 // one sum, mirrored, so the block comes out exactly symmetric as the normal equations expect.
 // The factorization is chol()'s, except that the diagonal keeps the reciprocals 1/L[j][j]
-// that scale the columns (chol() never reads it back): the same values that a second pass of
-// divisions made, without those divisions, which this runs for every point where it is used.
+// that scale its columns (the factorization never reads the diagonal back), which L^-1 needs:
+// the same values a second pass of divisions made.
 template <int N = 0>
 inline bool spd_inverse(double *a, double *inv, int n) {
   if (N) n = N;
