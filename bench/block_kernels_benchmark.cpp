@@ -6,6 +6,8 @@
 //   block_kernels_benchmark --benchmark_out=bench/results/block_kernels.json --benchmark_out_format=json
 #include <benchmark/benchmark.h>
 
+#include <dlfcn.h>
+
 #include <cstdlib>
 #include <map>
 #include <memory>
@@ -75,7 +77,7 @@ std::unique_ptr<sba::Kernels> kernels(const sba::Layout &lay, int threads, bool 
   return k;
 }
 
-enum class Step { NormalEquations, InvertV, Assemble, BackSubstitute, DenseCholesky };
+enum class Step { NormalEquations, InvertV, Assemble, BackSubstitute, DenseCholesky, LapackCholesky };
 
 void BM_Step(benchmark::State &state, std::string key, Step step, bool portable) {
   Fixture *f = fixture(key);
@@ -119,7 +121,13 @@ void BM_Step(benchmark::State &state, std::string key, Step step, bool portable)
       case Step::BackSubstitute:
         k->back_substitute(pool, ne, nullptr, mu, f->dp.data());
         break;
-      case Step::DenseCholesky: {
+      case Step::DenseCholesky:
+        state.PauseTiming();
+        assemble();
+        state.ResumeTiming();
+        k->cholesky(pool, f->S.data(), nS, nS);
+        break;
+      case Step::LapackCholesky: {
         state.PauseTiming();
         assemble();
         state.ResumeTiming();
@@ -133,7 +141,55 @@ void BM_Step(benchmark::State &state, std::string key, Step step, bool portable)
   state.counters["projections"] = double(f->lay.nvis);
 }
 
+// The dense Cholesky alone on a random SPD matrix of order N (rows padded to 8 doubles, as
+// the dense solver lays S out): the library's kernel on `threads` threads against LAPACK's
+// DPOTRF with the BLAS's threads set to the same count (OpenBLAS; another BLAS as it is).
+void BM_CholeskyOrder(benchmark::State &state, bool lapack) {
+  const int n = static_cast<int>(state.range(0)), threads = static_cast<int>(state.range(1));
+  const int ld = (n + 7) / 8 * 8;
+  std::vector<double> B(size_t(n) * n), A(size_t(ld) * n + 8), S;
+  unsigned seed = 12345;
+  for (double &b : B) {
+    seed = seed * 1103515245u + 12345u;
+    b = double(seed >> 8) / double(1u << 24) - 0.5;
+  }
+  for (int i = 0; i < n; ++i)
+    for (int j = i; j < n; ++j) {
+      double t = i == j ? n : 0.0;
+      for (int q = 0; q < n; ++q) t += B[size_t(i) * n + q] * B[size_t(j) * n + q];
+      A[size_t(i) * ld + j] = t;
+    }
+  sba::ThreadPool pool(threads);
+  sba::Layout lay;
+  lay.mnp = 2;
+  lay.cnp = 6;
+  lay.pnp = 3;
+  const auto k = sba::make_kernels(lay, pool.size());
+  using SetThreads = void (*)(int);
+  if (auto set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(threads);
+  for (auto _ : state) {
+    state.PauseTiming();
+    S = A;
+    state.ResumeTiming();
+    if (lapack) {
+      int info = 0;
+      SBA_F77(dpotrf, DPOTRF)("L", &n, S.data(), &ld, &info, 1);
+    } else {
+      k->cholesky(pool, S.data(), n, ld);
+    }
+    benchmark::ClobberMemory();
+  }
+  state.counters["GFlops"] = benchmark::Counter(double(n) * n * n / 3.0, benchmark::Counter::kIsIterationInvariantRate);
+}
+
 void register_all() {
+  for (bool lapack : {false, true}) {
+    auto *b = benchmark::RegisterBenchmark(lapack ? "CholeskyOrder/lapack" : "CholeskyOrder/sba", BM_CholeskyOrder, lapack);
+    for (int n : {96, 324, 640, 1000, 1600, 3000})
+      for (int t : {1, 2}) b->Args({n, t});
+    b->Unit(benchmark::kMicrosecond);
+  }
+
   const struct {
     const char *name;
     Step step;
@@ -141,13 +197,14 @@ void register_all() {
                {"InvertDampedV", Step::InvertV},
                {"AssembleS", Step::Assemble},
                {"BackSubstitute", Step::BackSubstitute},
-               {"DenseCholeskyOfS", Step::DenseCholesky}};
+               {"DenseCholeskyOfS", Step::DenseCholesky},
+               {"LapackCholeskyOfS", Step::LapackCholesky}};
   const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
   for (const char *key : {"54cams", "bal49"})
     for (const auto &s : steps)
       for (bool portable : {true, false}) {
         if (!portable && !avx2) continue;
-        if (s.step == Step::DenseCholesky && !portable) continue;  // LAPACK: no kernel build
+        if (s.step == Step::LapackCholesky && !portable) continue;  // LAPACK: no kernel build
         const std::string name = std::string(s.name) + "/" + key + (portable ? "/portable" : "/avx2");
         benchmark::RegisterBenchmark(name.c_str(), BM_Step, std::string(key), s.step, portable)
             ->Arg(1)

@@ -70,6 +70,11 @@ class Kernels {
   // Vinv as for assemble (with null, a block that cannot be inverted gives NaNs).
   virtual void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv,
                                double mu, double *dp) const = 0;
+  // S = U^T U in place (S row-major upper with row stride ld, as the dense assembly leaves
+  // it; U in the same place: LAPACK's column-major lower factor). Every entry is computed as
+  // the unblocked right-looking algorithm computes it, so the bits do not depend on the
+  // number of threads. False if S is not numerically positive definite.
+  virtual bool cholesky(ThreadPool &pool, double *S, i64 n, i64 ld) const = 0;
 };
 
 // Kernels for the layout's block sizes, with the assembly split over `threads` threads.

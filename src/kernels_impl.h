@@ -234,6 +234,8 @@ inline __attribute__((always_inline)) void spd_inverse3_lanes(lanes4 *a, lanes4 
     }
 }
 
+#include "dense_chol_impl.h"
+
 // Block sizes as template arguments (0: take the run-time value), so that the loops of the
 // common sizes are fully unrolled and vectorized. Blocks that the Schur assembly multiplies
 // are kept transposed (pnp x cnp) so that every inner loop runs along a cnp-long row.
@@ -277,6 +279,10 @@ class KernelsT final : public Kernels {
       pool.for_range(lay.n - lay.ncon, [&](i64 b, i64 end) {
         gram_points(jac, e, V, eb, b + lay.ncon, end + lay.ncon);
       });
+  }
+
+  bool cholesky(ThreadPool &pool, double *S, i64 n, i64 ld) const override {
+    return chol::factor(pool, S, n, ld);
   }
 
   bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const override {

@@ -80,6 +80,33 @@ class ThreadPool {
   std::exception_ptr error_;  // guarded by mu_
 };
 
+// A barrier for the threads of one ThreadPool::run job, for kernels whose short phases depend
+// on each other (a new run() per phase costs a mutex and a wake-up each). Waiters spin,
+// yielding the core now and then so that a descheduled member still gets to arrive.
+class SpinBarrier {
+ public:
+  explicit SpinBarrier(int n) : n_(n) {}
+  void wait() {
+    const unsigned gen = generation_.load(std::memory_order_acquire);
+    if (count_.fetch_add(1, std::memory_order_acq_rel) + 1 == n_) {
+      count_.store(0, std::memory_order_relaxed);
+      generation_.store(gen + 1, std::memory_order_release);
+      return;
+    }
+    for (int k = 1; generation_.load(std::memory_order_acquire) == gen; ++k) {
+#if defined(__x86_64__) || defined(__i386__)
+      __builtin_ia32_pause();
+#endif
+      if (k % 64 == 0) std::this_thread::yield();
+    }
+  }
+
+ private:
+  const int n_;
+  std::atomic<int> count_{0};
+  std::atomic<unsigned> generation_{0};
+};
+
 // The first 64-byte aligned double at or after p (a buffer allocated with 7 doubles to
 // spare): data that two threads write in neighbouring parts starts on a cache line, so that
 // where their parts meet on a line boundary they never write the same line.

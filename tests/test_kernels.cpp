@@ -11,6 +11,7 @@
 
 #include "core.h"
 #include "kernels.h"
+#include "lapack.h"
 #include "linsolve.h"
 #include "parallel.h"
 
@@ -219,6 +220,100 @@ TEST(Kernels, OnTheFlyInverseReportsAnIndefinitePointBlock) {
   const double *db = dp.data() + f.lay.b_off(17);
   EXPECT_TRUE(std::isnan(db[0]) && std::isnan(db[1]) && std::isnan(db[2]));
   EXPECT_TRUE(std::isfinite(dp[size_t(f.lay.b_off(16))]));
+}
+
+// A random symmetric positive definite matrix of order n, row-major upper with row stride ld
+// (the rest of each row, and the lower triangle, hold junk that must not be read), and its
+// condition number kept moderate by the diagonal shift.
+std::vector<double> random_spd(i64 n, i64 ld, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<double> B(size_t(n * n)), S(size_t(ld * n), 0.0);
+  for (double &b : B) b = g(rng);
+  for (i64 r = 0; r < n; ++r)
+    for (i64 c = 0; c < ld; ++c) {
+      if (c < r || c >= n) {
+        S[size_t(r * ld + c)] = 1e300;  // junk: a read of it would show in the factor
+        continue;
+      }
+      double t = r == c ? double(n) : 0.0;
+      for (i64 q = 0; q < n; ++q) t += B[size_t(r * n + q)] * B[size_t(c * n + q)];
+      S[size_t(r * ld + c)] = t;
+    }
+  return S;
+}
+
+// The library's Cholesky of S (the `chol` solver's, up to 2048 unknowns) is LAPACK's DPOTRF
+// to rounding, on orders around every blocking boundary (the 48-row panels, the 4-row and
+// 12-column tiles, the 384-column blocks, the serial path below 128), and gives the same bits
+// on 1, 2, 3 and 5 threads.
+TEST(DenseCholesky, MatchesLapackAndThreadCountsGiveTheSameBits) {
+  for (i64 n : {1, 2, 5, 47, 48, 49, 127, 128, 131, 324, 433, 800}) {
+    SCOPED_TRACE("order " + std::to_string(n));
+    const i64 ld = (n + 7) / 8 * 8 + (n % 3 == 0 ? 8 : 0);
+    const std::vector<double> S = random_spd(n, ld, unsigned(n));
+    std::vector<double> ref(S);
+    int info = 0;
+    const int ni = int(n), ldi = int(ld);
+    SBA_F77(dpotrf, DPOTRF)("L", &ni, ref.data(), &ldi, &info, 1);
+    ASSERT_EQ(info, 0);
+    std::vector<double> one;
+    for (int threads : {1, 2, 3, 5}) {
+      SCOPED_TRACE("threads " + std::to_string(threads));
+      sba::ThreadPool pool(threads);
+      sba::Layout lay;
+      lay.mnp = 2, lay.cnp = 6, lay.pnp = 3;
+      const auto kernels = sba::make_kernels(lay, pool.size());
+      std::vector<double> U(S);
+      ASSERT_TRUE(kernels->cholesky(pool, U.data(), n, ld));
+      double worst = 0.0;
+      for (i64 r = 0; r < n; ++r)
+        for (i64 c = r; c < n; ++c) {
+          const double d = std::fabs(U[size_t(r * ld + c)] - ref[size_t(r * ld + c)]);
+          worst = std::max(worst, d / std::fabs(ref[size_t(r * ld + r)]));
+        }
+      EXPECT_LT(worst, 1e-12);
+      // Only the upper triangle is the factor; the junk elsewhere may be overwritten.
+      std::vector<double> upper;
+      for (i64 r = 0; r < n; ++r) upper.insert(upper.end(), U.begin() + r * ld + r, U.begin() + r * ld + n);
+      if (threads == 1)
+        one = upper;
+      else
+        EXPECT_EQ(upper, one);
+    }
+  }
+}
+
+// A matrix that is not positive definite, a zero pivot, a NaN or an Inf on the diagonal (in
+// the first panel, a later one, or the serial path's last row) make the factorization fail on
+// any thread count.
+TEST(DenseCholesky, RefusesWhatIsNotPositiveDefinite) {
+  const double nan = std::nan(""), inf = HUGE_VAL;
+  for (i64 n : {100, 300})
+    for (i64 bad : {i64(0), i64(60), n - 1})
+      for (double v : {-1.0, 0.0, nan, inf}) {
+        if (v == 0.0 && bad != 0) continue;  // elsewhere rounding decides the sign of a zero pivot
+        SCOPED_TRACE("order " + std::to_string(n) + ", row " + std::to_string(bad) + ", value " + std::to_string(v));
+        const i64 ld = (n + 7) / 8 * 8;
+        std::vector<double> S = random_spd(n, ld, 5u);
+        // Make the row's pivot at its own step v: remove what the earlier rows take away.
+        std::vector<double> L(S);
+        int info = 0;
+        const int ni = int(n), ldi = int(ld);
+        SBA_F77(dpotrf, DPOTRF)("L", &ni, L.data(), &ldi, &info, 1);
+        ASSERT_EQ(info, 0);
+        double taken = 0.0;
+        for (i64 p = 0; p < bad; ++p) taken += L[size_t(p * ld + bad)] * L[size_t(p * ld + bad)];
+        S[size_t(bad * ld + bad)] = std::isfinite(v) ? taken + v : v;
+        for (int threads : {1, 2, 3}) {
+          sba::ThreadPool pool(threads);
+          sba::Layout lay;
+          lay.mnp = 2, lay.cnp = 6, lay.pnp = 3;
+          const auto kernels = sba::make_kernels(lay, pool.size());
+          std::vector<double> U(S);
+          EXPECT_FALSE(kernels->cholesky(pool, U.data(), n, ld)) << "threads " << threads;
+        }
+      }
 }
 
 }  // namespace
