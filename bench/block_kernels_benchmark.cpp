@@ -125,7 +125,7 @@ void BM_Step(benchmark::State &state, std::string key, Step step, bool portable)
         state.PauseTiming();
         assemble();
         state.ResumeTiming();
-        k->cholesky(pool, f->S.data(), nS, nS);
+        k->cholesky(pool, f->S.data(), nS, nS, 0);
         break;
       case Step::LapackCholesky: {
         state.PauseTiming();
@@ -175,7 +175,7 @@ void BM_CholeskyOrder(benchmark::State &state, bool lapack) {
       int info = 0;
       SBA_F77(dpotrf, DPOTRF)("L", &n, S.data(), &ld, &info, 1);
     } else {
-      k->cholesky(pool, S.data(), n, ld);
+      k->cholesky(pool, S.data(), n, ld, 0);
     }
     benchmark::ClobberMemory();
   }

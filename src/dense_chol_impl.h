@@ -94,7 +94,7 @@ inline __attribute__((always_inline)) void update_rows(double *S, i64 ld, i64 p0
     }
 }
 
-// Rows [r0, r1) of the trailing matrix (up to column n) updated by panel rows [p0, p1). The
+// Rows [r0, r1) of the trailing matrix (up to column n, right-hand sides included) updated by panel rows [p0, p1). The
 // columns go in blocks whose part of the panel (kPanel x kColumns doubles, 144 KB) stays in
 // the L2 cache while every row passes over it.
 __attribute__((noinline)) inline void trailing_rows(double *S, i64 ld, i64 n, i64 p0, i64 p1,
@@ -191,18 +191,20 @@ inline bool diagonal_block(double *S, i64 ld, i64 p0, i64 p1, double *inv) {
 }
 
 // S = U^T U in place; false (S then undefined) if S is not numerically positive definite.
+// Columns [n, ncols) of the rows hold right-hand sides b, which become U^-T b: they are
+// updated as the columns of S are, so the forward substitution costs no pass of its own.
 // With several threads, one pool job runs the whole factorization, its phases (the
 // diagonal block on one thread, the panel's columns, the trailing rows) separated by
 // barriers.
-inline bool factor(ThreadPool &pool, double *S, i64 n, i64 ld) {
+inline bool factor(ThreadPool &pool, double *S, i64 n, i64 ld, i64 ncols) {
   const int T = pool.size();
   double inv[kPanel];
   if (T == 1 || n < 128) {
     for (i64 p0 = 0; p0 < n; p0 += kPanel) {
       const i64 p1 = std::min(n, p0 + kPanel);
       if (!diagonal_block(S, ld, p0, p1, inv)) return false;
-      panel_columns(S, ld, p0, p1, inv, p1, n);
-      trailing_rows(S, ld, n, p0, p1, p1, n);
+      panel_columns(S, ld, p0, p1, inv, p1, ncols);
+      trailing_rows(S, ld, ncols, p0, p1, p1, n);
     }
     return true;
   }
@@ -210,22 +212,23 @@ inline bool factor(ThreadPool &pool, double *S, i64 n, i64 ld) {
   bool ok = true;  // written by thread 0 before a barrier, read by all after it
   pool.run([&](int t) {
     for (i64 p0 = 0; p0 < n; p0 += kPanel) {
-      const i64 p1 = std::min(n, p0 + kPanel), w = n - p1;
+      const i64 p1 = std::min(n, p0 + kPanel), w = n - p1, wc = ncols - p1;
       if (t == 0) ok = diagonal_block(S, ld, p0, p1, inv);
       barrier.wait();
-      if (!ok || w == 0) return;
+      if (!ok) return;
       // The panel's columns split evenly (in whole cache lines), the trailing rows so that
       // every thread updates about the same number of entries: rows [p1, p1 + x) hold a
       // fraction 1 - (1 - x/w)^2 of them.
-      const i64 c0 = p1 + (w * t / T) / 8 * 8, c1 = t + 1 == T ? n : p1 + (w * (t + 1) / T) / 8 * 8;
+      const i64 c0 = p1 + (wc * t / T) / 8 * 8, c1 = t + 1 == T ? ncols : p1 + (wc * (t + 1) / T) / 8 * 8;
       if (c0 < c1) panel_columns(S, ld, p0, p1, inv, c0, c1);
+      if (w == 0) return;
       barrier.wait();
       auto bound = [&](int k) -> i64 {
         if (k >= T) return n;
         return std::min(n, p1 + i64(double(w) * (1.0 - std::sqrt(1.0 - double(k) / T))) / 4 * 4);
       };
       const i64 r0 = bound(t), r1 = bound(t + 1);
-      if (r0 < r1) trailing_rows(S, ld, n, p0, p1, r0, r1);
+      if (r0 < r1) trailing_rows(S, ld, ncols, p0, p1, r0, r1);
       barrier.wait();
     }
   });

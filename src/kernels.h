@@ -32,6 +32,10 @@ struct BlockMap {
   i64 ld = 0;  // dense S: nS
   int cnp = 0;
   const int *perm = nullptr;  // null for a dense S
+  // Dense S only: the assembly zeroes the blocks it fills, each thread its own block columns
+  // (zeroed by another thread, S's lines would move between the cores' caches), instead of
+  // the caller zeroing the whole matrix.
+  bool zero_dense = false;
   const int *rows = nullptr;
   const i64 *colstart = nullptr;
 
@@ -59,7 +63,7 @@ class Kernels {
   // Vinv_i = (V_i + mu I)^-1 for the free points; false if one is not positive definite.
   virtual bool invert_damped_V(ThreadPool &pool, const double *V, double mu,
                                double *Vinv) const = 0;
-  // S = U* - W V*^-1 W^T into the blocks of `S` (zeroed by the caller; of a diagonal block,
+  // S = U* - W V*^-1 W^T into the blocks of `S` (zeroed by the caller unless S.zero_dense; of a diagonal block,
   // only the upper triangle is meaningful) and rhs = e_a - W V*^-1 e_b, over the free
   // cameras. Vinv: invert_damped_V's blocks, or null to invert each V_i + mu I where it is
   // needed (no n pnp^2 array, for one more small inversion per point in back_substitute);
@@ -71,10 +75,11 @@ class Kernels {
   virtual void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv,
                                double mu, double *dp) const = 0;
   // S = U^T U in place (S row-major upper with row stride ld, as the dense assembly leaves
-  // it; U in the same place: LAPACK's column-major lower factor). Every entry is computed as
-  // the unblocked right-looking algorithm computes it, so the bits do not depend on the
-  // number of threads. False if S is not numerically positive definite.
-  virtual bool cholesky(ThreadPool &pool, double *S, i64 n, i64 ld) const = 0;
+  // it; U in the same place: LAPACK's column-major lower factor), and U^-T b for nrhs
+  // right-hand sides b held in columns [n, n + nrhs) of the rows (ld >= n + nrhs). Every
+  // entry is computed as the unblocked right-looking algorithm computes it, so the bits do
+  // not depend on the number of threads. False if S is not numerically positive definite.
+  virtual bool cholesky(ThreadPool &pool, double *S, i64 n, i64 ld, i64 nrhs) const = 0;
 };
 
 // Kernels for the layout's block sizes, with the assembly split over `threads` threads.

@@ -281,8 +281,8 @@ class KernelsT final : public Kernels {
       });
   }
 
-  bool cholesky(ThreadPool &pool, double *S, i64 n, i64 ld) const override {
-    return chol::factor(pool, S, n, ld);
+  bool cholesky(ThreadPool &pool, double *S, i64 n, i64 ld, i64 nrhs) const override {
+    return chol::factor(pool, S, n, ld, n + nrhs);
   }
 
   bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const override {
@@ -390,6 +390,11 @@ class KernelsT final : public Kernels {
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
     const int cp = cn * pn;
+    if (S.zero_dense && !S.perm)  // block rows 0 .. k1 - 1 of these block columns
+      for (i64 r = 0; r < i64(k1) * cn; ++r) {
+        double *row = S.base + r * S.ld;
+        std::fill(row + i64(k0) * cn, row + i64(k1) * cn, 0.0);
+      }
     for (int k = k0; k < k1; ++k) {
       const BlockMap::Block blk = S.block(k, k);
       double *Skk = blk.p;

@@ -21,15 +21,9 @@ namespace {
 // 0.30 s on one thread), and the result depends on the BLAS's own threads.
 constexpr i64 kOwnCholeskyMax = 2048;
 
-// x <- (U^T U)^-1 x, U row-major upper with row stride ld. The back substitution's dot
-// products run in eight fixed partial sums (the compiler does not reorder a sum itself).
-void cholesky_solve(const double *U, i64 n, i64 ld, double *x) {
-  for (i64 k = 0; k < n; ++k) {
-    const double *u = U + k * ld;
-    const double y = x[k] / u[k];
-    x[k] = y;
-    for (i64 j = k + 1; j < n; ++j) x[j] -= u[j] * y;
-  }
+// x <- U^-1 y, U row-major upper with row stride ld. The dot products run in eight fixed
+// partial sums (the compiler does not reorder a sum itself).
+void back_substitute_upper(const double *U, i64 n, i64 ld, const double *y, double *x) {
   for (i64 k = n - 1; k >= 0; --k) {
     const double *u = U + k * ld;
     double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
@@ -39,7 +33,7 @@ void cholesky_solve(const double *U, i64 n, i64 ld, double *x) {
     for (; j < n; ++j) acc[0] += u[j] * x[j];
     double s = 0.0;
     for (double a : acc) s += a;
-    x[k] = (x[k] - s) / u[k];
+    x[k] = (y[k] - s) / u[k];
   }
 }
 
@@ -47,7 +41,7 @@ class DenseSchurSolver final : public StepSolver {
  public:
   DenseSchurSolver(LinSolver kind, const SolveContext &ctx)
       : kind_(kind), ctx_(ctx), nS_(i64(ctx.lay.free_cams()) * ctx.lay.cnp),
-        ld_(kind == LinSolver::Chol ? (nS_ + 7) / 8 * 8 : nS_),
+        ld_(kind == LinSolver::Chol ? (nS_ + 8) / 8 * 8 : nS_),
         S_(size_t(ld_ * nS_ + 8)),
         rhs_(size_t(nS_)), scale_(size_t(nS_)) {
     // S's rows start on cache lines (for Chol, whose LAPACK calls take a leading
@@ -60,11 +54,11 @@ class DenseSchurSolver final : public StepSolver {
     const Layout &lay = ctx_.lay;
     std::fill(dp, dp + lay.nvars(), 0.0);
     const i64 nS = nS_, ld = ld_;
-    ctx_.pool.for_range(nS, [&](i64 b, i64 e) { std::fill(Sp_ + b * ld, Sp_ + e * ld, 0.0); });
     BlockMap map;
     map.base = Sp_;
     map.ld = ld;
     map.cnp = lay.cnp;
+    map.zero_dense = true;
     // The point blocks' inverses are made where they are used rather than kept: n pnp^2
     // doubles, a sixth of the Jacobian's size on a 2-D problem of tracks of 3.
     if (!ctx_.kernels.assemble(ctx_.pool, ne, nullptr, mu, map, rhs_.data())) return false;
@@ -82,9 +76,13 @@ class DenseSchurSolver final : public StepSolver {
     const int n = int(nS_), ld = int(ld_);
     double *S = Sp_;
     if (kind_ == LinSolver::Chol && nS_ <= kOwnCholeskyMax) {
-      if (!ctx_.kernels.cholesky(ctx_.pool, S, nS_, ld_)) return false;
-      std::copy(rhs_.begin(), rhs_.end(), da);
-      cholesky_solve(S, nS_, ld_, da);
+      // The right-hand side rides along as column nS of S: the factorization leaves
+      // U^-T rhs there. The padding after it (zeros, which stay zeros) goes along too, so
+      // that the last columns fill whole vector lanes instead of a scalar loop.
+      for (i64 r = 0; r < nS_; ++r) S[r * ld_ + nS_] = rhs_[size_t(r)];
+      if (!ctx_.kernels.cholesky(ctx_.pool, S, nS_, ld_, ld_ - nS_)) return false;
+      for (i64 r = 0; r < nS_; ++r) rhs_[size_t(r)] = S[r * ld_ + nS_];
+      back_substitute_upper(S, nS_, ld_, rhs_.data(), da);
       return true;
     }
     ctx_.pool.rest();  // the BLAS has its own threads
@@ -269,7 +267,7 @@ class DenseSchurSolver final : public StepSolver {
   LinSolver kind_;
   SolveContext ctx_;
   i64 nS_;
-  i64 ld_;  // S's leading dimension: nS_, or for Chol nS_ rounded up to 8
+  i64 ld_;  // S's leading dimension: nS_, or for Chol nS_ + 1 (the right-hand side) rounded up to 8
   std::vector<double> S_, rhs_, scale_, cg_blocks_, qr_;
   double *Sp_ = nullptr;  // S's first entry: S_'s first 64-byte aligned one
 };

@@ -245,18 +245,29 @@ std::vector<double> random_spd(i64 n, i64 ld, unsigned seed) {
 
 // The library's Cholesky of S (the `chol` solver's, up to 2048 unknowns) is LAPACK's DPOTRF
 // to rounding, on orders around every blocking boundary (the 48-row panels, the 4-row and
-// 12-column tiles, the 384-column blocks, the serial path below 128), and gives the same bits
-// on 1, 2, 3 and 5 threads.
+// 12-column tiles, the 384-column blocks, the serial path below 128), its two right-hand
+// sides come out as U^-T b, and it gives the same bits on 1, 2, 3 and 5 threads.
 TEST(DenseCholesky, MatchesLapackAndThreadCountsGiveTheSameBits) {
+  constexpr i64 kRhs = 2;
   for (i64 n : {1, 2, 5, 47, 48, 49, 127, 128, 131, 324, 433, 800}) {
     SCOPED_TRACE("order " + std::to_string(n));
-    const i64 ld = (n + 7) / 8 * 8 + (n % 3 == 0 ? 8 : 0);
-    const std::vector<double> S = random_spd(n, ld, unsigned(n));
+    const i64 ld = (n + kRhs + 7) / 8 * 8 + (n % 3 == 0 ? 8 : 0);
+    std::vector<double> S = random_spd(n, ld, unsigned(n));
+    for (i64 r = 0; r < n; ++r)
+      for (i64 k = 0; k < kRhs; ++k) S[size_t(r * ld + n + k)] = std::cos(double(r * (k + 1)));
     std::vector<double> ref(S);
     int info = 0;
     const int ni = int(n), ldi = int(ld);
     SBA_F77(dpotrf, DPOTRF)("L", &ni, ref.data(), &ldi, &info, 1);
     ASSERT_EQ(info, 0);
+    // U^-T b by forward substitution with LAPACK's factor.
+    std::vector<double> yref(size_t(n * kRhs));
+    for (i64 k = 0; k < kRhs; ++k)
+      for (i64 r = 0; r < n; ++r) {
+        double t = S[size_t(r * ld + n + k)];
+        for (i64 p = 0; p < r; ++p) t -= ref[size_t(p * ld + r)] * yref[size_t(k * n + p)];
+        yref[size_t(k * n + r)] = t / ref[size_t(r * ld + r)];
+      }
     std::vector<double> one;
     for (int threads : {1, 2, 3, 5}) {
       SCOPED_TRACE("threads " + std::to_string(threads));
@@ -265,21 +276,28 @@ TEST(DenseCholesky, MatchesLapackAndThreadCountsGiveTheSameBits) {
       lay.mnp = 2, lay.cnp = 6, lay.pnp = 3;
       const auto kernels = sba::make_kernels(lay, pool.size());
       std::vector<double> U(S);
-      ASSERT_TRUE(kernels->cholesky(pool, U.data(), n, ld));
-      double worst = 0.0;
+      ASSERT_TRUE(kernels->cholesky(pool, U.data(), n, ld, kRhs));
+      double worst = 0.0, worst_y = 0.0, ynorm = 0.0;
       for (i64 r = 0; r < n; ++r)
         for (i64 c = r; c < n; ++c) {
           const double d = std::fabs(U[size_t(r * ld + c)] - ref[size_t(r * ld + c)]);
           worst = std::max(worst, d / std::fabs(ref[size_t(r * ld + r)]));
         }
+      for (i64 k = 0; k < kRhs; ++k)
+        for (i64 r = 0; r < n; ++r) {
+          worst_y = std::max(worst_y, std::fabs(U[size_t(r * ld + n + k)] - yref[size_t(k * n + r)]));
+          ynorm = std::max(ynorm, std::fabs(yref[size_t(k * n + r)]));
+        }
       EXPECT_LT(worst, 1e-12);
-      // Only the upper triangle is the factor; the junk elsewhere may be overwritten.
-      std::vector<double> upper;
-      for (i64 r = 0; r < n; ++r) upper.insert(upper.end(), U.begin() + r * ld + r, U.begin() + r * ld + n);
+      EXPECT_LT(worst_y, 1e-12 * ynorm);
+      // Only the upper triangle and the right-hand sides are the result; the junk elsewhere
+      // may be overwritten.
+      std::vector<double> result;
+      for (i64 r = 0; r < n; ++r) result.insert(result.end(), U.begin() + r * ld + r, U.begin() + r * ld + n + kRhs);
       if (threads == 1)
-        one = upper;
+        one = result;
       else
-        EXPECT_EQ(upper, one);
+        EXPECT_EQ(result, one);
     }
   }
 }
@@ -311,7 +329,7 @@ TEST(DenseCholesky, RefusesWhatIsNotPositiveDefinite) {
           lay.mnp = 2, lay.cnp = 6, lay.pnp = 3;
           const auto kernels = sba::make_kernels(lay, pool.size());
           std::vector<double> U(S);
-          EXPECT_FALSE(kernels->cholesky(pool, U.data(), n, ld)) << "threads " << threads;
+          EXPECT_FALSE(kernels->cholesky(pool, U.data(), n, ld, 0)) << "threads " << threads;
         }
       }
 }
