@@ -7,6 +7,8 @@
 #                                                        every linear solver
 #   ParallelCallbacks.*                                  the caller's callbacks on those threads
 #   DenseThreads.ConcurrentCallsMatchSequential          the LAPACK helpers from many threads
+#   DenseCholesky.*                                      the dense Cholesky of S, whose phases
+#                                                        meet at spin barriers, on 2, 3, 5 threads
 # No suppressions are used. LAPACK/BLAS, SuiteSparse and libgomp are not instrumented: TSan
 # does not see their memory accesses, only their calls to intercepted functions (malloc,
 # memset, mmap ...). OpenBLAS (the pthread build, when the library was configured with it)
@@ -39,6 +41,7 @@ run test_drivers 'Drivers.FourConcurrentSolvesMatchASequentialOne'
 run test_solvers 'Solvers/EverySolver.ResultsDoNotDependOnTheThreadCount/*'
 run test_solvers 'ParallelCallbacks.*'
 run test_dense 'DenseThreads.ConcurrentCallsMatchSequential'
+run test_kernels 'DenseCholesky.*'
 
 reports=$(find "$logs" -type f | sort)
 if [ -n "$reports" ]; then

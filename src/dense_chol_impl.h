@@ -208,28 +208,42 @@ inline bool factor(ThreadPool &pool, double *S, i64 n, i64 ld, i64 ncols) {
     }
     return true;
   }
+  // Look-ahead: thread 0's trailing rows always start with the next panel's, which it updates
+  // first and then factors that panel's diagonal block while the others finish their rows.
+  // Two barriers per panel: after the diagonal block and the panel's columns, and after the
+  // trailing update.
   SpinBarrier barrier(T);
   bool ok = true;  // written by thread 0 before a barrier, read by all after it
   pool.run([&](int t) {
+    if (t == 0) ok = diagonal_block(S, ld, 0, std::min<i64>(n, kPanel), inv);
+    barrier.wait();
+    if (!ok) return;
     for (i64 p0 = 0; p0 < n; p0 += kPanel) {
-      const i64 p1 = std::min(n, p0 + kPanel), w = n - p1, wc = ncols - p1;
-      if (t == 0) ok = diagonal_block(S, ld, p0, p1, inv);
-      barrier.wait();
-      if (!ok) return;
+      const i64 p1 = std::min(n, p0 + kPanel), p2 = std::min(n, p1 + kPanel);
+      const i64 w = n - p1, wc = ncols - p1;
       // The panel's columns split evenly (in whole cache lines), the trailing rows so that
-      // every thread updates about the same number of entries: rows [p1, p1 + x) hold a
-      // fraction 1 - (1 - x/w)^2 of them.
+      // every thread updates about the same number of entries (rows [p1, p1 + x) hold a
+      // fraction 1 - (1 - x/w)^2 of them), thread 0's at least the next panel.
       const i64 c0 = p1 + (wc * t / T) / 8 * 8, c1 = t + 1 == T ? ncols : p1 + (wc * (t + 1) / T) / 8 * 8;
       if (c0 < c1) panel_columns(S, ld, p0, p1, inv, c0, c1);
       if (w == 0) return;
       barrier.wait();
       auto bound = [&](int k) -> i64 {
         if (k >= T) return n;
-        return std::min(n, p1 + i64(double(w) * (1.0 - std::sqrt(1.0 - double(k) / T))) / 4 * 4);
+        const i64 x = p1 + i64(double(w) * (1.0 - std::sqrt(1.0 - double(k) / T))) / 4 * 4;
+        return std::min(n, std::max(p2, x));
       };
-      const i64 r0 = bound(t), r1 = bound(t + 1);
-      if (r0 < r1) trailing_rows(S, ld, ncols, p0, p1, r0, r1);
+      const i64 r0 = t == 0 ? p1 : bound(t), r1 = bound(t + 1);
+      if (t == 0) {
+        trailing_rows(S, ld, ncols, p0, p1, p1, p2);
+        // inv is free again: every thread is past this panel's columns.
+        ok = diagonal_block(S, ld, p1, p2, inv);
+        if (p2 < r1) trailing_rows(S, ld, ncols, p0, p1, p2, r1);
+      } else if (r0 < r1) {
+        trailing_rows(S, ld, ncols, p0, p1, r0, r1);
+      }
       barrier.wait();
+      if (!ok) return;
     }
   });
   return ok;
