@@ -64,10 +64,12 @@ struct sba_ext_options {
    * fields at the end without breaking programs built against this one. */
   size_t size;
   /* Linear solver of the augmented normal equations, by name (see README):
-   * "chol" (default, dense S by LAPACK Cholesky as in 1.6), "ldlt", "bk", "lu", "qr",
-   * "qrnoq", "svd", "cg" (dense S), "ldl-amd" (whole system, AMD + sparse LDL^T),
-   * "sparse-chol" (sparse S, CHOLMOD). NULL: the environment variable SBA_LINSOLVER if set,
-   * else "chol". An unknown name here is a bad argument (SBA_ERROR). */
+   * "chol" (default, dense S by Cholesky as in 1.6: the library's own, the same bits for
+   * any thread count, up to 2048 unknowns; LAPACK's DPOTRF/DPOTRS beyond), "chol-lapack"
+   * (dense S by DPOTRF/DPOTRS at every size), "ldlt", "bk", "lu", "qr", "qrnoq", "svd",
+   * "cg" (dense S), "ldl-amd" (whole system, AMD + sparse LDL^T), "sparse-chol" (sparse S,
+   * CHOLMOD). NULL: the environment variable SBA_LINSOLVER if set, else "chol". An unknown
+   * name here is a bad argument (SBA_ERROR). */
   const char *linsolver;
   /* Threads for the normal equations and the Schur complement; 0: the environment variable
    * SBA_NUM_THREADS if set, else every hardware thread but at most one per 10,000

@@ -130,7 +130,8 @@ std::unique_ptr<Model> make_simple_model(const Layout &lay, const SimpleCallback
 
 // How the damped normal equations are solved (see linsolve.h).
 enum class LinSolver {
-  Chol,        // dense S, LAPACK Cholesky (sba 1.6's default)
+  Chol,        // dense S, Cholesky (sba 1.6's default): the library's own up to 2048 unknowns
+  CholLapack,  // dense S, LAPACK's DPOTRF/DPOTRS at every size
   LDLt,        // dense S, unpivoted LDL^T
   BK,          // dense S, Bunch-Kaufman
   LU,          // dense S, LU

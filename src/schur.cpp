@@ -94,7 +94,7 @@ constexpr NamedSolver kSolvers[] = {
     {"chol", LinSolver::Chol}, {"ldlt", LinSolver::LDLt},     {"bk", LinSolver::BK},
     {"lu", LinSolver::LU},     {"qr", LinSolver::QR},         {"qrnoq", LinSolver::QRnoQ},
     {"svd", LinSolver::SVD},   {"cg", LinSolver::CG},         {"ldl-amd", LinSolver::LdlAmd},
-    {"sparse-chol", LinSolver::SparseChol},
+    {"sparse-chol", LinSolver::SparseChol}, {"chol-lapack", LinSolver::CholLapack},
 };
 
 }  // namespace
@@ -115,7 +115,7 @@ const char *linsolver_name(LinSolver kind) {
 }
 
 const char *linsolver_names() {
-  return "chol ldlt bk lu qr qrnoq svd cg ldl-amd sparse-chol";
+  return "chol ldlt bk lu qr qrnoq svd cg ldl-amd sparse-chol chol-lapack";
 }
 
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx) {

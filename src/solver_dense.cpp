@@ -18,7 +18,8 @@ namespace {
 // as OpenBLAS's DPOTRF on one thread up to about 2000 unknowns and faster on two
 // (block_kernels_benchmark, CholeskyOrder), and its bits do not depend on the thread
 // count. Beyond it DPOTRF's packed, cache-blocked kernels win (3000 unknowns: 0.20 s against
-// 0.30 s on one thread), and the result depends on the BLAS's own threads.
+// 0.30 s on one thread), and the result depends on the BLAS's own threads. `chol-lapack` is
+// DPOTRF/DPOTRS at every size.
 constexpr i64 kOwnCholeskyMax = 2048;
 
 // x <- U^-1 y, U row-major upper with row stride ld. The dot products run in eight fixed
@@ -41,7 +42,7 @@ class DenseSchurSolver final : public StepSolver {
  public:
   DenseSchurSolver(LinSolver kind, const SolveContext &ctx)
       : kind_(kind), ctx_(ctx), nS_(i64(ctx.lay.free_cams()) * ctx.lay.cnp),
-        ld_(kind == LinSolver::Chol ? (nS_ + 8) / 8 * 8 : nS_),
+        ld_(kind == LinSolver::Chol || kind == LinSolver::CholLapack ? (nS_ + 8) / 8 * 8 : nS_),
         S_(size_t(ld_ * nS_ + 8)),
         rhs_(size_t(nS_)), scale_(size_t(nS_)) {
     // S's rows start on cache lines (for Chol, whose LAPACK calls take a leading
@@ -86,7 +87,7 @@ class DenseSchurSolver final : public StepSolver {
       return true;
     }
     ctx_.pool.rest();  // the BLAS has its own threads
-    if (kind_ == LinSolver::Chol) {
+    if (kind_ == LinSolver::Chol || kind_ == LinSolver::CholLapack) {
       // Row-major upper is column-major lower: factor in place, no copy.
       int info = 0, one = 1;
       SBA_F77(dpotrf, DPOTRF)("L", &n, S, &ld, &info, 1);

@@ -22,7 +22,7 @@ using synth::kMnp;
 using synth::kPnp;
 
 const char *const kAllSolvers[] = {"chol", "ldlt", "bk", "lu", "qr", "qrnoq",
-                                   "svd", "cg", "ldl-amd", "sparse-chol"};
+                                   "svd", "cg", "ldl-amd", "sparse-chol", "chol-lapack"};
 
 struct Outcome {
   int ret = 0;
