@@ -470,12 +470,12 @@ def main():
     if "demo" in groups_wanted:
         problems.append(("sba-demo, 54 cameras", "54cams",
                          ["--cams", os.path.join(demo, "54cams.txt"), "--pts", os.path.join(demo, "54pts.txt"),
-                          "--calib", os.path.join(demo, "calib.txt"), "--solvers", "chol,ldl-amd,sparse-chol"]
+                          "--calib", os.path.join(demo, "calib.txt"), "--solvers", "chol,chol-lapack,ldl-amd,sparse-chol"]
                          + repeat))
         if not a.quick:
             problems.append(("sba-demo, 54 cameras", "54camsvarKD",
                              ["--cams", os.path.join(demo, "54camsvarKD.txt"), "--pts", os.path.join(demo, "54pts.txt"),
-                              "--solvers", "chol,ldl-amd,sparse-chol"] + repeat))
+                              "--solvers", "chol,chol-lapack,ldl-amd,sparse-chol"] + repeat))
     if "bal" in groups_wanted:
         for f in (BAL_FILES[1:2] if a.quick else BAL_FILES):
             name = f.replace(".txt.bz2", "")
