@@ -94,9 +94,9 @@ inline __attribute__((always_inline)) void update_rows(double *S, i64 ld, i64 p0
     }
 }
 
-// Rows [r0, r1) of the trailing matrix (up to column n, right-hand sides included) updated by panel rows [p0, p1). The
-// columns go in blocks whose part of the panel (kPanel x kColumns doubles, 144 KB) stays in
-// the L2 cache while every row passes over it.
+// Rows [r0, r1) of the trailing matrix (up to column n, right-hand sides included) updated
+// by panel rows [p0, p1). The columns go in blocks whose part of the panel (kPanel x kColumns
+// doubles, 144 KB) stays in the L2 cache while every row passes over it.
 __attribute__((noinline)) inline void trailing_rows(double *S, i64 ld, i64 n, i64 p0, i64 p1,
                                                     i64 r0, i64 r1) {
   constexpr i64 kColumns = 384;

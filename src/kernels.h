@@ -63,11 +63,11 @@ class Kernels {
   // Vinv_i = (V_i + mu I)^-1 for the free points; false if one is not positive definite.
   virtual bool invert_damped_V(ThreadPool &pool, const double *V, double mu,
                                double *Vinv) const = 0;
-  // S = U* - W V*^-1 W^T into the blocks of `S` (zeroed by the caller unless S.zero_dense; of a diagonal block,
-  // only the upper triangle is meaningful) and rhs = e_a - W V*^-1 e_b, over the free
-  // cameras. Vinv: invert_damped_V's blocks, or null to invert each V_i + mu I where it is
-  // needed (no n pnp^2 array, for one more small inversion per point in back_substitute);
-  // false if one of those is not positive definite.
+  // S = U* - W V*^-1 W^T into the blocks of `S` (zeroed by the caller unless S.zero_dense;
+  // of a diagonal block, only the upper triangle is meaningful) and rhs = e_a - W V*^-1 e_b,
+  // over the free cameras. Vinv: invert_damped_V's blocks, or null to invert each
+  // V_i + mu I where it is needed (no n pnp^2 array, for one more small inversion per point
+  // in back_substitute); false if one of those is not positive definite.
   virtual bool assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                         const BlockMap &S, double *rhs) const = 0;
   // db_i = Vinv_i (e_b,i - sum_j W_ij^T da_j) for the free points, with da already in dp;
