@@ -386,7 +386,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
                  eps, epsn, dp2, dL != 0.0 ? dF / dL : 0.0);
         if (dL > 0.0 && dF > 0.0) {
           if (std::sqrt(eps) - std::sqrt(epsn) < opt.eps4 * std::sqrt(eps)) stop = kStopReduction;
-          std::copy(pn, pn + nvars, p);
+          pool.for_range(nvars, [&](i64 b, i64 e) { std::copy(pn + b, pn + e, p + b); });
           w.hx.swap(w.hxn);
           if (!w.en.empty()) w.e.swap(w.en);
           w.rw.swap(w.rwn);

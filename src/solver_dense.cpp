@@ -53,7 +53,9 @@ class DenseSchurSolver final : public StepSolver {
 
   bool solve(const NormalEquations &ne, double mu, double *dp) override {
     const Layout &lay = ctx_.lay;
-    std::fill(dp, dp + lay.nvars(), 0.0);
+    // The steps of the fixed cameras and points are 0; the others are all written below.
+    std::fill(dp, dp + lay.a_off(lay.mcon), 0.0);
+    std::fill(dp + lay.b_off(0), dp + lay.b_off(lay.ncon), 0.0);
     const i64 nS = nS_, ld = ld_;
     BlockMap map;
     map.base = Sp_;
