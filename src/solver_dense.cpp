@@ -80,9 +80,14 @@ class DenseSchurSolver final : public StepSolver {
     double *S = Sp_;
     if (kind_ == LinSolver::Chol && nS_ <= kOwnCholeskyMax) {
       // The right-hand side rides along as column nS of S: the factorization leaves
-      // U^-T rhs there. The padding after it (zeros, which stay zeros) goes along too, so
-      // that the last columns fill whole vector lanes instead of a scalar loop.
-      for (i64 r = 0; r < nS_; ++r) S[r * ld_ + nS_] = rhs_[size_t(r)];
+      // U^-T rhs there. The padding after it goes along too, as zero right-hand sides, so
+      // that the last columns fill whole vector lanes instead of a scalar loop; it is
+      // zeroed every time, since a factorization that failed on a NaN may have left NaNs.
+      for (i64 r = 0; r < nS_; ++r) {
+        double *row = S + r * ld_;
+        row[nS_] = rhs_[size_t(r)];
+        std::fill(row + nS_ + 1, row + ld_, 0.0);
+      }
       if (!ctx_.kernels.cholesky(ctx_.pool, S, nS_, ld_, ld_ - nS_)) return false;
       for (i64 r = 0; r < nS_; ++r) rhs_[size_t(r)] = S[r * ld_ + nS_];
       back_substitute_upper(S, nS_, ld_, rhs_.data(), da);
@@ -270,7 +275,8 @@ class DenseSchurSolver final : public StepSolver {
   LinSolver kind_;
   SolveContext ctx_;
   i64 nS_;
-  i64 ld_;  // S's leading dimension: nS_, or for Chol nS_ + 1 (the right-hand side) rounded up to 8
+  i64 ld_;  // S's leading dimension: nS_, or for the Cholesky solvers nS_ + 1 (room for the
+            // right-hand side) rounded up to 8
   std::vector<double> S_, rhs_, scale_, cg_blocks_, qr_;
   double *Sp_ = nullptr;  // S's first entry: S_'s first 64-byte aligned one
 };
