@@ -9,6 +9,8 @@
 #   DenseThreads.ConcurrentCallsMatchSequential          the LAPACK helpers from many threads
 #   DenseCholesky.*                                      the dense Cholesky of S, whose phases
 #                                                        meet at spin barriers, on 2, 3, 5 threads
+#   ThreadPool.*                                         the pool's workers leaving the caller's
+#                                                        core (the CPU slots they share)
 # No suppressions are used. LAPACK/BLAS, SuiteSparse and libgomp are not instrumented: TSan
 # does not see their memory accesses, only their calls to intercepted functions (malloc,
 # memset, mmap ...). OpenBLAS (the pthread build, when the library was configured with it)
@@ -42,6 +44,7 @@ run test_solvers 'Solvers/EverySolver.ResultsDoNotDependOnTheThreadCount/*'
 run test_solvers 'ParallelCallbacks.*'
 run test_dense 'DenseThreads.ConcurrentCallsMatchSequential'
 run test_kernels 'DenseCholesky.*'
+run test_parallel 'ThreadPool.*'
 
 reports=$(find "$logs" -type f | sort)
 if [ -n "$reports" ]; then

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -64,6 +65,7 @@ class ThreadPool {
 
  private:
   void work(int id);
+  void avoid_shared_core(int id, int *cooldown);
 
   std::vector<std::thread> workers_;
   // An LM iteration hands the pool a few dozen short jobs with a little serial work between
@@ -78,6 +80,8 @@ class ThreadPool {
   std::atomic<bool> stop_{false};
   std::atomic<bool> resting_{false};
   std::exception_ptr error_;  // guarded by mu_
+  // The CPU each member last ran a job on (the caller's: last), -1 if unknown.
+  std::unique_ptr<std::atomic<int>[]> cpu_;
 };
 
 // A barrier for the threads of one ThreadPool::run job, for kernels whose short phases depend

@@ -1,0 +1,101 @@
+// The run-time support of the kernels (linked from the library's objects): where the thread
+// pool's workers run (src/parallel.cpp).
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <vector>
+
+#if defined(__linux__)
+#include <sched.h>
+#endif
+
+#include "parallel.h"
+
+namespace {
+
+#if defined(__linux__)
+
+// Holds the calling thread on one CPU for a test's duration.
+class PinCaller {
+ public:
+  explicit PinCaller(int cpu) {
+    ok_ = sched_getaffinity(0, sizeof saved_, &saved_) == 0;
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(cpu, &one);
+    ok_ = ok_ && sched_setaffinity(0, sizeof one, &one) == 0;
+  }
+  ~PinCaller() { sched_setaffinity(0, sizeof saved_, &saved_); }
+  bool ok() const { return ok_; }
+
+ private:
+  cpu_set_t saved_;
+  bool ok_ = false;
+};
+
+int allowed_cpus() {
+  cpu_set_t mask;
+  return sched_getaffinity(0, sizeof mask, &mask) == 0 ? CPU_COUNT(&mask) : 0;
+}
+
+// A worker put on the caller's core (here by hand; on a virtual machine by the scheduler,
+// when the worker is woken) leaves it at its next job, and keeps the whole mask it had.
+TEST(ThreadPool, AWorkerOnTheCallersCoreMovesToAFreeOne) {
+  if (allowed_cpus() < 2) GTEST_SKIP() << "needs two CPUs";
+  sba::ThreadPool pool(2);  // made before the pin: the worker may use every CPU
+  ASSERT_EQ(pool.size(), 2);
+  cpu_set_t all;
+  ASSERT_EQ(sched_getaffinity(0, sizeof all, &all), 0);
+  const int here = sched_getcpu();
+  PinCaller pin(here);
+  ASSERT_TRUE(pin.ok());
+  for (int round = 0; round < 5; ++round) {
+    std::atomic<int> worker_cpu{-1};
+    // The worker (slot 0) moves itself next to the caller, then lifts its own pin.
+    pool.run([&](int t) {
+      if (t != 0) return;
+      cpu_set_t to;
+      CPU_ZERO(&to);
+      CPU_SET(here, &to);
+      if (sched_setaffinity(0, sizeof to, &to) == 0) worker_cpu = sched_getcpu();
+      sched_setaffinity(0, sizeof all, &all);
+    });
+    ASSERT_EQ(worker_cpu.load(), here);
+    cpu_set_t worker_mask;
+    CPU_ZERO(&worker_mask);
+    pool.run([&](int t) {
+      if (t != 0) return;
+      worker_cpu = sched_getcpu();
+      sched_getaffinity(0, sizeof worker_mask, &worker_mask);
+    });
+    EXPECT_NE(worker_cpu.load(), here) << "round " << round;
+    EXPECT_TRUE(CPU_EQUAL(&worker_mask, &all)) << "round " << round;
+  }
+}
+
+// Workers that inherit a one-CPU mask from their creator stay on that CPU (the mask is the
+// caller's choice) and still run every job.
+TEST(ThreadPool, WorkersKeepTheCallersMaskWhenThereIsNoFreeCore) {
+  const int here = sched_getcpu();
+  PinCaller pin(here);
+  ASSERT_TRUE(pin.ok());
+  sba::ThreadPool pool(3);
+  std::vector<int> cpu(3, -1), count(3, 0);
+  std::vector<cpu_set_t> mask(3);
+  for (int job = 0; job < 200; ++job)
+    pool.run([&](int t) {
+      cpu[size_t(t)] = sched_getcpu();
+      sched_getaffinity(0, sizeof mask[size_t(t)], &mask[size_t(t)]);
+      ++count[size_t(t)];
+    });
+  for (int t = 0; t < pool.size(); ++t) {
+    EXPECT_EQ(count[size_t(t)], 200) << "thread " << t;
+    EXPECT_EQ(cpu[size_t(t)], here) << "thread " << t;
+    EXPECT_EQ(CPU_COUNT(&mask[size_t(t)]), 1) << "thread " << t;
+    EXPECT_TRUE(CPU_ISSET(here, &mask[size_t(t)])) << "thread " << t;
+  }
+}
+
+#endif  // __linux__
+
+}  // namespace
