@@ -13,6 +13,7 @@
 #include "core.h"
 #include "kernels.h"
 #include "linsolve.h"
+#include "memory.h"
 #include "parallel.h"
 #include "small_dense.h"
 
@@ -59,23 +60,24 @@ struct Workspace {
   // residual at the last accepted point.
   Workspace(const Layout &lay, bool weighted, bool robust, bool keep_hx) {
     const i64 nobs = lay.nvis * lay.mnp;
-    e.resize(size_t(nobs));
-    if (robust) en.resize(e.size());
+    const auto alloc = [](std::vector<double> &v, i64 n) { resize_prefaulted(v, size_t(n)); };
+    alloc(e, nobs);
+    if (robust) alloc(en, nobs);
     if (keep_hx) {
-      hx.resize(e.size());
-      hxn.resize(e.size());
+      alloc(hx, nobs);
+      alloc(hxn, nobs);
     }
-    jac.resize(size_t(lay.nvis * lay.jblk()));
-    if (weighted) wts.resize(size_t(nobs * lay.mnp));
-    U.resize(size_t(i64(lay.m) * lay.cnp * lay.cnp));
-    ea.resize(size_t(i64(lay.m) * lay.cnp));
-    V.resize(size_t(i64(lay.n) * lay.pnp * lay.pnp));
-    eb.resize(size_t(i64(lay.n) * lay.pnp));
-    dp.resize(size_t(lay.nvars()));
+    alloc(jac, lay.nvis * lay.jblk());
+    if (weighted) alloc(wts, nobs * lay.mnp);
+    alloc(U, i64(lay.m) * lay.cnp * lay.cnp);
+    alloc(ea, i64(lay.m) * lay.cnp);
+    alloc(V, i64(lay.n) * lay.pnp * lay.pnp);
+    alloc(eb, i64(lay.n) * lay.pnp);
+    alloc(dp, lay.nvars());
     if (robust) {
-      rw.resize(size_t(lay.nvis));
-      rwn.resize(rw.size());
-      er.resize(e.size());
+      alloc(rw, lay.nvis);
+      alloc(rwn, lay.nvis);
+      alloc(er, nobs);
     }
   }
   NormalEquations view() const {

@@ -9,6 +9,7 @@
 #include "dense.h"
 #include "lapack.h"
 #include "linsolve.h"
+#include "memory.h"
 #include "small_dense.h"
 
 namespace sba {
@@ -43,8 +44,8 @@ class DenseSchurSolver final : public StepSolver {
   DenseSchurSolver(LinSolver kind, const SolveContext &ctx)
       : kind_(kind), ctx_(ctx), nS_(i64(ctx.lay.free_cams()) * ctx.lay.cnp),
         ld_(kind == LinSolver::Chol || kind == LinSolver::CholLapack ? (nS_ + 8) / 8 * 8 : nS_),
-        S_(size_t(ld_ * nS_ + 8)),
         rhs_(size_t(nS_)), scale_(size_t(nS_)) {
+    resize_prefaulted(S_, size_t(ld_ * nS_ + 8));
     // S's rows start on cache lines (for Chol, whose LAPACK calls take a leading
     // dimension, rows padded to 8 doubles): where the boundary between two threads' block
     // columns falls on a line boundary, no line of S is written by both.

@@ -1,5 +1,6 @@
 // The run-time support of the kernels (linked from the library's objects): where the thread
-// pool's workers run (src/parallel.cpp).
+// pool's workers run (src/parallel.cpp), and the work arrays whose pages are mapped up front
+// (src/memory.cpp).
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -7,8 +8,11 @@
 
 #if defined(__linux__)
 #include <sched.h>
+#include <sys/mman.h>
+#include <unistd.h>
 #endif
 
+#include "memory.h"
 #include "parallel.h"
 
 namespace {
@@ -96,6 +100,47 @@ TEST(ThreadPool, WorkersKeepTheCallersMaskWhenThereIsNoFreeCore) {
   }
 }
 
+// prefault maps every whole page of the range for writing, without writing to it; the
+// partial pages at its ends are left alone.
+TEST(Memory, PrefaultMapsTheWholePagesOfTheRange) {
+  const long page = sysconf(_SC_PAGESIZE);
+  ASSERT_GT(page, 0);
+  const size_t npages = 16, bytes = npages * size_t(page);
+  void *raw = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  ASSERT_NE(raw, MAP_FAILED);
+  auto *base = static_cast<unsigned char *>(raw);
+  std::vector<unsigned char> resident(npages);
+  ASSERT_EQ(mincore(raw, bytes, resident.data()), 0);
+  for (size_t k = 0; k < npages; ++k) ASSERT_EQ(resident[k] & 1, 0) << "page " << k << " before";
+  if (madvise(base + (npages - 1) * size_t(page), size_t(page), MADV_POPULATE_WRITE) != 0) {
+    munmap(raw, bytes);
+    GTEST_SKIP() << "this kernel has no MADV_POPULATE_WRITE (Linux 5.14 and later)";
+  }
+  // From the middle of page 0 to the middle of page 14: pages 1 to 13 are whole.
+  sba::prefault(base + page / 2, size_t(page) * 14);
+  ASSERT_EQ(mincore(raw, bytes, resident.data()), 0);
+  for (size_t k = 0; k + 1 < npages; ++k)
+    EXPECT_EQ(resident[k] & 1, k >= 1 && k <= 13 ? 1 : 0) << "page " << k;
+  for (size_t q = 0; q < bytes; ++q) ASSERT_EQ(base[q], 0) << "byte " << q;
+  munmap(raw, bytes);
+}
+
 #endif  // __linux__
+
+// resize_prefaulted is resize: n zeros, for sizes below and above the prefault threshold,
+// and for a vector that already has the capacity.
+TEST(Memory, ResizePrefaultedGivesZeros) {
+  for (size_t n : {size_t(0), size_t(1), size_t(1000), size_t(8191), size_t(8192), size_t(1) << 20}) {
+    std::vector<double> v;
+    sba::resize_prefaulted(v, n);
+    ASSERT_EQ(v.size(), n);
+    for (size_t k = 0; k < n; ++k) ASSERT_EQ(v[k], 0.0) << "n " << n << ", entry " << k;
+  }
+  std::vector<double> w;
+  w.reserve(100000);
+  sba::resize_prefaulted(w, 100000);
+  ASSERT_EQ(w.size(), 100000u);
+  for (double x : w) ASSERT_EQ(x, 0.0);
+}
 
 }  // namespace
