@@ -9,12 +9,14 @@
 // error (sum of squared residuals / observations, sba's scale), peak RSS, the ratio to the
 // Ceres DENSE_SCHUR run with the same thread count, and the time at which the run's error
 // first came within (1 + 1e-6) of the best final error over all runs ("time to best").
+#include <dirent.h>
 #include <dlfcn.h>
 #include <fcntl.h>
 #include <malloc.h>
 #include <poll.h>
 #include <signal.h>
 #include <sys/resource.h>
+#include <sys/syscall.h>
 #include <sys/time.h>
 #include <sys/types.h>
 #include <sys/wait.h>
@@ -242,6 +244,7 @@ struct RunResult {
   int func_evals = 0, jac_evals = 0;
   double seconds = 0;        // wall time of the solve
   double setup_seconds = 0;  // Ceres: building the ceres::Problem (part of seconds)
+  double cpu_seconds = 0;    // CPU time of the whole process during the solve (all threads)
   double init_err = 0, final_err = 0;  // sum of squared residuals
   long long peak_rss = 0;    // bytes: VmHWM after resetting it just before the solve
   long long base_rss = 0;    // bytes: VmRSS just before the solve (program + inputs)
@@ -281,6 +284,14 @@ long long status_kb(const char *field) {
 long long file_rss() {
   const long long f = status_kb("RssFile"), s = status_kb("RssShmem");
   return f < 0 || s < 0 ? -1 : (f + s) * 1024;
+}
+
+// User + system time of every thread of this process so far.
+double process_cpu_seconds() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  const auto sec = [](const timeval &t) { return double(t.tv_sec) + 1e-6 * double(t.tv_usec); };
+  return sec(ru.ru_utime) + sec(ru.ru_stime);
 }
 
 bool reset_peak_rss() {
@@ -356,6 +367,7 @@ void run_sba(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunRes
   r->hwm_reset = reset_peak_rss();
   r->base_rss = status_kb("VmRSS") * 1024;
   r->file_rss_start = file_rss();
+  const double cpu0 = process_cpu_seconds();
   const auto t0 = std::chrono::steady_clock::now();
   // The visibility as (point, camera) pairs: no n*m vmask needed (see Problem::vmask).
   const sba_visibility vis{static_cast<long long>(prob.obs_point.size()), prob.obs_point.data(),
@@ -364,6 +376,7 @@ void run_sba(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunRes
                                           prob.x.data(), nullptr, Problem::mnp, prob.func(), prob.fjac(),
                                           prob.adata(), itmax, 0, nullptr, info.data(), &ext);
   r->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r->cpu_seconds = process_cpu_seconds() - cpu0;
   r->peak_rss = status_kb("VmHWM") * 1024;
   r->file_rss_end = file_rss();
   (*trace)[0][1] = info[0];
@@ -416,6 +429,7 @@ void run_ceres(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunR
   r->hwm_reset = reset_peak_rss();
   r->base_rss = status_kb("VmRSS") * 1024;
   r->file_rss_start = file_rss();
+  const double cpu0 = process_cpu_seconds();
   const auto t0 = std::chrono::steady_clock::now();
 
   ceres::Problem::Options po;
@@ -465,6 +479,7 @@ void run_ceres(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunR
   ceres::Solve(o, cp.get(), &summary);
   cp.reset();  // part of the solve's cost, as sba frees its workspace before returning
   r->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r->cpu_seconds = process_cpu_seconds() - cpu0;
   r->peak_rss = status_kb("VmHWM") * 1024;
   r->file_rss_end = file_rss();
 
@@ -494,10 +509,47 @@ BlasSetThreads blas_set_threads() {
   return reinterpret_cast<BlasSetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
 }
 
+// Whether any thread of this process but the calling one is running (state R in
+// /proc/self/task/TID/stat).
+bool other_threads_running() {
+  const long self = syscall(SYS_gettid);
+  DIR *dir = opendir("/proc/self/task");
+  if (!dir) return false;
+  bool running = false;
+  while (const dirent *e = readdir(dir)) {
+    const long tid = std::atol(e->d_name);
+    if (tid <= 0 || tid == self) continue;
+    char path[64], buf[512];
+    std::snprintf(path, sizeof path, "/proc/self/task/%ld/stat", tid);
+    std::FILE *f = std::fopen(path, "r");
+    if (!f) continue;
+    const std::size_t len = std::fread(buf, 1, sizeof buf - 1, f);
+    std::fclose(f);
+    buf[len] = '\0';
+    const char *close = std::strrchr(buf, ')');  // the state follows the command's ")"
+    if (close && close[1] == ' ' && close[2] == 'R') running = true;
+  }
+  closedir(dir);
+  return running;
+}
+
+// openblas_set_num_threads starts OpenBLAS's worker threads in this (forked) child, and
+// each of them spins for about 0.1 s of CPU time before it sleeps. A run started at once
+// would share the cores with them: on two cores, a 2-thread solve of 0.05 s then took
+// 0.1 s in about one run in five. Real programs meet those threads asleep unless they have
+// just called the BLAS, so the run waits (at most a second) until they are.
+void wait_for_idle_threads() {
+  for (int k = 0; k < 500 && other_threads_running(); ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+}
+
 void execute(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunResult *r,
              std::vector<std::array<double, 2>> *trace) {
   if (spec.blas_threads > 0)
-    if (BlasSetThreads set = blas_set_threads()) set(spec.blas_threads);
+    if (BlasSetThreads set = blas_set_threads()) {
+      set(spec.blas_threads);
+      wait_for_idle_threads();
+    }
   try {
     if (spec.engine == Engine::Sba) run_sba(prob, spec, itmax, consume, r, trace);
     else run_ceres(prob, spec, itmax, consume, r, trace);
@@ -853,6 +905,7 @@ int bench_main(int argc, char **argv) {
     field("repeats", std::to_string(r.all_seconds.size()));
     field("seconds_all", all + "]");
     field("setup_seconds", json_number(x.setup_seconds));
+    field("cpu_seconds", json_number(x.ok ? x.cpu_seconds : NAN));
     field("seconds_per_iteration", json_number(per_iter));
     field("seconds_per_linear_solve",
           json_number(x.ok && x.linear_solves > 0 ? x.seconds / x.linear_solves : NAN));
