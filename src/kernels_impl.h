@@ -270,15 +270,20 @@ class KernelsT final : public Kernels {
   void normal_equations(ThreadPool &pool, const double *jac, const double *e, double *U, double *V,
                         double *ea, double *eb) const override {
     const Layout &lay = lay_;
-    if (cnp() > 0)
-      pool.for_range_t(lay.m - lay.mcon, [&](int t, i64 b, i64 end) {
-        gram_cameras(jac, e, U, ea, int(b) + lay.mcon, int(end) + lay.mcon,
-                     pool.size() > 1 ? &scratch_[size_t(t)] : nullptr);
-      });
-    if (pnp() > 0)
-      pool.for_range(lay.n - lay.ncon, [&](i64 b, i64 end) {
-        gram_points(jac, e, V, eb, b + lay.ncon, end + lay.ncon);
-      });
+    // One job for both parts: a thread that finishes its cameras early starts on its
+    // points instead of waiting for the others.
+    const int T = pool.size();
+    const i64 nc = cnp() > 0 ? lay.m - lay.mcon : 0, np = pnp() > 0 ? lay.n - lay.ncon : 0;
+    auto part = [&](int t) {
+      const i64 c0 = nc * t / T, c1 = nc * (t + 1) / T, p0 = np * t / T, p1 = np * (t + 1) / T;
+      if (c0 < c1)
+        gram_cameras(jac, e, U, ea, int(c0) + lay.mcon, int(c1) + lay.mcon, T > 1 ? &scratch_[size_t(t)] : nullptr);
+      if (p0 < p1) gram_points(jac, e, V, eb, p0 + lay.ncon, p1 + lay.ncon);
+    };
+    if (T == 1)
+      part(0);
+    else
+      pool.run(part);
   }
 
   bool cholesky(ThreadPool &pool, double *S, i64 n, i64 ld, i64 nrhs) const override {
