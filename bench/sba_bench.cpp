@@ -535,9 +535,9 @@ bool other_threads_running() {
 
 // openblas_set_num_threads starts OpenBLAS's worker threads in this (forked) child, and
 // each of them spins for about 0.1 s of CPU time before it sleeps. A run started at once
-// would share the cores with them: on two cores, a 2-thread solve of 0.05 s then took
-// 0.1 s in about one run in five. Real programs meet those threads asleep unless they have
-// just called the BLAS, so the run waits (at most a second) until they are.
+// would share the cores with them (a 1-thread 54cams run used 2.0x its wall time in CPU).
+// Real programs meet those threads asleep unless they have just called the BLAS, so the
+// run waits (at most a second) until they are.
 void wait_for_idle_threads() {
   for (int k = 0; k < 500 && other_threads_running(); ++k)
     std::this_thread::sleep_for(std::chrono::milliseconds(2));

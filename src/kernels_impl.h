@@ -277,7 +277,8 @@ class KernelsT final : public Kernels {
     auto part = [&](int t) {
       const i64 c0 = nc * t / T, c1 = nc * (t + 1) / T, p0 = np * t / T, p1 = np * (t + 1) / T;
       if (c0 < c1)
-        gram_cameras(jac, e, U, ea, int(c0) + lay.mcon, int(c1) + lay.mcon, T > 1 ? &scratch_[size_t(t)] : nullptr);
+        gram_cameras(jac, e, U, ea, int(c0) + lay.mcon, int(c1) + lay.mcon,
+                     T > 1 ? &scratch_[size_t(t)] : nullptr);
       if (p0 < p1) gram_points(jac, e, V, eb, p0 + lay.ncon, p1 + lay.ncon);
     };
     if (T == 1)
