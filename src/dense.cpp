@@ -5,9 +5,12 @@
 //  - A == NULL is a no-op returning 1: sba 1.6 callers used such a call to release the
 //    static buffers of its wrappers. There is nothing to release here (every buffer is a
 //    per-call std::vector, so concurrent calls never share state), but the call stays legal.
-//  - m <= 0, a NULL B or x (or output matrix), or a NaN/Inf anywhere in the inputs: 0.
-//  - The caller's A and B are never written. Results go to x (or A/B for the inverses) only
-//    on success, so x may alias B, and a failed call leaves every output untouched.
+//  - m <= 0, a NULL B or x (or output matrix), or a NaN/Inf anywhere in the inputs the
+//    function reads: 0.
+//  - The caller's A and B are never written, except that the symmetric inverses return
+//    their result in A. Results go to x (or A/B for the inverses) only on success, so x may
+//    alias B, and a failed call leaves every output untouched. (For sba_Axb_CG, running out
+//    of iterations is a success: x gets the last iterate; see conjugate_gradients.)
 //  - Reference LAPACK's XERBLA stops the process, so arguments are validated here and
 //    workspace sizes never go below the documented minima; LAPACK must never see a bad one.
 //
@@ -411,23 +414,31 @@ void precondition(const View &A, const Vec &diag, int prec, const Vec &r, Vec &z
   }
 }
 
-// Returns the iterations done (>= 1) when ||b - A x||_2 <= tol, 0 on failure.
+// (P)CG from the starting point in x, for at most maxit iterations; the stopping test is
+// ||b - A x||_2 <= eps * ||b||_2 (eps <= 0 selects kDefaultCgEps). An iteration is one
+// update of x, i.e. one product of A with a search direction, and the return value counts
+// them as sba 1.6 does: k when the k-th update meets the tolerance, maxit with x the last
+// iterate when the budget runs out first, 0 on failure (x is then not to be used).
 //
 // Choices:
-//  - x starts from 0 and b == 0 returns x = 0 with a count of 1, so that a correct answer
-//    is never reported as a failure.
-//  - At least one iteration is done for b != 0, even if eps >= 1.
+//  - 0 is the failure value, so an answer found without any update is reported as 1: b == 0
+//    (x = 0, exact for a nonsingular A, whatever the starting point), and a caller-supplied
+//    starting point (warm) whose residual already meets the tolerance, which is returned
+//    as it is. Testing a warm start before the first update keeps a converged start from
+//    being fed to the curvature test below with a residual at rounding level, where
+//    p^T A p can drown in its own rounding and turn a correct answer into a failure.
+//  - From x = 0 (not warm) at least one update is done for b != 0, even if eps >= 1.
 //  - Convergence is tested on the recurrence residual, then confirmed on the true residual
 //    b - A x; if rounding has made them drift apart, the iteration restarts from the true
 //    residual (the iteration count keeps running) rather than claiming a false convergence.
-//  - Not converging within the iteration limit is a failure: sba's LM loop answers a failed
-//    solve by raising the damping, which is the right reaction to a solve that did not
-//    deliver. It is also how a singular system with an inconsistent right-hand side ends up
-//    reported (CG has no pivot to inspect; a singular consistent system may converge).
-//  - p^T A p not above its own rounding level (m*eps*|p|^T |A| |p|) means A is not
-//    numerically positive definite along p: failure. So is a non-positive a_ii, r^T z <= 0
-//    (M not SPD) or any NaN.
-int conjugate_gradients(const View &A, const Vec &b, Vec &x, int niter, double eps, int prec) {
+//  - Running out of iterations is not an error, as in 1.6: the count is maxit and x is the
+//    last iterate, so a caller can continue from it with niter < 0. A singular system with
+//    an inconsistent right-hand side that does not break down ends this way too.
+//  - Breakdown is a failure: p^T A p not above its own rounding level
+//    (m*eps*|p|^T |A| |p|) means A is not numerically positive definite along p. So is a
+//    non-positive a_ii, r^T z <= 0 (M not SPD) or any NaN.
+int conjugate_gradients(const View &A, const Vec &b, Vec &x, bool warm, int maxit, double eps,
+                        int prec) {
   const int m = A.m;
   const std::size_t n = std::size_t(m);
   if (prec != SBA_CG_NOPREC && prec != SBA_CG_JACOBI && prec != SBA_CG_SSOR) return 0;
@@ -436,15 +447,22 @@ int conjugate_gradients(const View &A, const Vec &b, Vec &x, int niter, double e
     diag[i] = A(i, i);
     if (!(diag[i] > 0.0)) return 0;
   }
-  const int maxit = niter > 0 ? niter : m;
   const double bnorm = norm2(b);
   const double tol = (eps > 0.0 ? eps : kDefaultCgEps) * bnorm;
   const double curvature_tol = double(m) * kEps;
 
-  x.assign(n, 0.0);
-  if (bnorm == 0.0) return 1;
+  if (bnorm == 0.0) {
+    x.assign(n, 0.0);
+    return 1;
+  }
 
   Vec r = b, z(n, 0.0), p(n, 0.0), q(n, 0.0), qabs(n, 0.0);
+  if (warm) {
+    matvec(A, x, q, nullptr);
+    for (std::size_t i = 0; i < n; ++i) r[i] = b[i] - q[i];
+    if (!all_finite(r)) return 0;
+    if (norm2(r) <= tol) return 1;
+  }
   precondition(A, diag, prec, r, z);
   double rz = dot(r, z);
   if (!(rz > 0.0)) return 0;
@@ -477,7 +495,7 @@ int conjugate_gradients(const View &A, const Vec &b, Vec &x, int niter, double e
     rz = rz_next;
     for (std::size_t i = 0; i < n; ++i) p[i] = z[i] + beta * p[i];
   }
-  return 0;
+  return all_finite(x) ? maxit : 0;
 }
 
 // ---- entry-point plumbing ----
@@ -512,9 +530,22 @@ int run_cg(const double *A, const double *B, double *x, int m, int niter, double
   try {
     const std::size_t n = std::size_t(m);
     if (!all_finite(A, n * n) || !all_finite(B, n)) return 0;
-    Vec sol;
+    // niter < 0: x holds the starting point and -niter is the budget (INT_MIN has no
+    // negation in int; its budget is INT_MAX). niter == 0 would be a budget of nothing if
+    // taken literally; it means m iterations from x = 0, the most exact-arithmetic CG needs
+    // (as sba.h documents).
+    const bool warm = niter < 0;
+    int maxit = m;
+    if (niter > 0)
+      maxit = niter;
+    else if (warm)
+      maxit = niter == std::numeric_limits<int>::min() ? std::numeric_limits<int>::max() : -niter;
+    // Copied before anything is written, so x may alias B.
+    const Vec rhs(B, B + n);
+    Vec sol = warm ? Vec(x, x + n) : Vec(n, 0.0);
+    if (!all_finite(sol)) return 0;
     const int iters =
-        conjugate_gradients(View(A, m, iscolmaj != 0), Vec(B, B + n), sol, niter, eps, prec);
+        conjugate_gradients(View(A, m, iscolmaj != 0), rhs, sol, warm, maxit, eps, prec);
     if (iters <= 0) return 0;
     std::copy(sol.begin(), sol.end(), x);
     return iters;
@@ -523,16 +554,19 @@ int run_cg(const double *A, const double *B, double *x, int m, int niter, double
   }
 }
 
-void fill_lower_from_upper(Vec &c, int m) {
-  for (int j = 0; j < m; ++j)
-    for (int i = j + 1; i < m; ++i) c[idx(i, j, m)] = c[idx(j, i, m)];
-}
-
-// The inverses take A row-major. LU reads all of A: it inverts the transposed array and
-// the copy back transposes again, so it is right even for a nonsymmetric A. Cholesky and
-// Bunch-Kaufman read the upper triangle and return the full symmetric inverse.
+// The symmetric inverses, in sba 1.6's layout. A is row-major; only its upper triangle
+// A[i*m+j], j >= i, is read, so the strictly lower triangle may hold anything, NaN
+// included. The inverse goes to the lower triangle with the diagonal, A[i*m+j], j <= i,
+// and the strictly upper triangle keeps the caller's input, so the caller still has the
+// matrix it inverted. Inside, c holds the full symmetric matrix column-major for LAPACK
+// (being symmetric, it reads the same in either order).
 enum class Inverse { LU, Chol, BK };
 
+// Replaces the symmetric matrix in c by its inverse. For Cholesky and Bunch-Kaufman only
+// the upper triangle of c is meaningful afterwards (DPOTRI and DSYTRI write no other);
+// LU writes all of c, but run_invert takes the upper triangle of every method's result, so
+// the three agree on which of the two rounding-level variants of an off-diagonal entry
+// they return.
 bool invert(Vec &c, int m, Inverse how) {
   int info = 0;
   const char uplo = 'U';
@@ -556,26 +590,33 @@ bool invert(Vec &c, int m, Inverse how) {
     Vec work(std::size_t(m), 0.0);
     SBA_F77(dsytri, DSYTRI)(&uplo, &m, c.data(), &m, ipiv.data(), work.data(), &info, 1);
   }
-  if (info != 0) return false;
-  fill_lower_from_upper(c, m);
-  return true;
+  return info == 0;
 }
 
+// On failure (singular, not SPD for Cholesky, non-finite upper triangle, out of memory) A
+// is left exactly as it was. 1.6's contract says nothing about A then; untouched is what
+// lets a caller retry with another method on the same array.
 int run_invert(double *A, int m, Inverse how) noexcept {
   if (A == nullptr) return 1;
   if (m <= 0) return 0;
   try {
-    const std::size_t mm = std::size_t(m) * std::size_t(m);
-    if (!all_finite(A, mm)) return 0;
-    Vec c = how == Inverse::LU ? Vec(A, A + mm) : to_colmajor(View(A, m, false));
-    if (!invert(c, m, how) || !all_finite(c)) return 0;
-    if (how == Inverse::LU) {
-      std::copy(c.begin(), c.end(), A);
-    } else {
-      for (int i = 0; i < m; ++i)
-        for (int j = 0; j < m; ++j)
-          A[std::size_t(i) * std::size_t(m) + std::size_t(j)] = c[idx(i, j, m)];
-    }
+    const std::size_t n = std::size_t(m);
+    Vec c(n * n);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t j = i; j < n; ++j) {
+        const double a = A[i * n + j];
+        if (!std::isfinite(a)) return 0;
+        c[i + j * n] = a;
+        c[j + i * n] = a;
+      }
+    if (!invert(c, m, how)) return 0;
+    for (std::size_t j = 0; j < n; ++j)
+      for (std::size_t i = 0; i <= j; ++i)
+        if (!std::isfinite(c[i + j * n])) return 0;
+    // Row-major A[i*m+j] with j <= i receives the inverse's (j, i) = c(j, i), in c's upper
+    // triangle.
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t j = 0; j <= i; ++j) A[i * n + j] = c[j + i * n];
     return 1;
   } catch (...) {
     return 0;

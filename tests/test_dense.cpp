@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <thread>
@@ -105,6 +106,22 @@ void expect_identity(const Vec &p, int m, double tol, const std::string &what) {
   for (int i = 0; i < m; ++i)
     for (int j = 0; j < m; ++j)
       EXPECT_NEAR(p[i * m + j], i == j ? 1.0 : 0.0, tol) << what << " (" << i << "," << j << ")";
+}
+
+// The symmetric inverses write the inverse into the lower triangle with the diagonal and
+// keep the strictly upper triangle: the full inverse, mirrored from what they wrote.
+Vec inverse_from_lower(const Vec &a, int m) {
+  Vec inv = a;
+  for (int i = 0; i < m; ++i)
+    for (int j = i + 1; j < m; ++j) inv[i * m + j] = a[j * m + i];
+  return inv;
+}
+
+void expect_upper_kept(const Vec &got, const Vec &in, int m, const std::string &what) {
+  for (int i = 0; i < m; ++i)
+    for (int j = i + 1; j < m; ++j)
+      EXPECT_EQ(got[i * m + j], in[i * m + j])
+          << what << " upper triangle at (" << i << "," << j << ")";
 }
 
 // Deterministic SPD test matrix of order m: M^T M + m I with M's entries in [-1, 1).
@@ -362,8 +379,9 @@ TEST(DenseThresholds, BadlyScaledButWellPosedSystem) {
   EXPECT_EQ(solve_checked(sba_Axb_QRnoQ, a, b, y, false), 0);
   // Inverses through Cholesky and Bunch-Kaufman are fine as well.
   for (InvFn fn : {sba_symat_invert_Chol, sba_symat_invert_BK}) {
-    Vec inv = a;
-    ASSERT_EQ(fn(inv.data(), kM), 1);
+    Vec lower = a;
+    ASSERT_EQ(fn(lower.data(), kM), 1);
+    const Vec inv = inverse_from_lower(lower, kM);
     // (D A D)^-1 = D^-1 A^-1 D^-1, so D (D A D)^-1 D must be A^-1; A * that = I.
     Vec scaled(kM * kM);
     for (int i = 0; i < kM; ++i)
@@ -427,16 +445,22 @@ TEST_P(Cg, ZeroRightHandSide) {
   Vec x(kM, 99.0);
   EXPECT_EQ(cg_checked(kSpd, b, x, 0, 1e-12, GetParam().prec, false), 1);
   EXPECT_EQ(x, Vec(kM, 0.0));
+  // From a starting point as well: x = 0 is the exact answer, whatever the start.
+  x = Vec(kM, 99.0);
+  EXPECT_EQ(cg_checked(kSpd, b, x, -5, 1e-12, GetParam().prec, false), 1);
+  EXPECT_EQ(x, Vec(kM, 0.0));
 }
 
-TEST_P(Cg, FailsOnIndefiniteSingularOrUnconverged) {
+TEST_P(Cg, FailsOnIndefiniteOrSingular) {
+  // Breakdowns: the indefinite matrix gives a direction of non-positive curvature, and the
+  // singular one, with b outside its range, has no solution to converge to and breaks down
+  // as well. (Running out of iterations is not a failure: see
+  // BudgetExhaustedReturnsTheLastIterate.)
   const int prec = GetParam().prec;
   const Vec b = {1, 2, 3, 5};
   Vec x(kM, 99.0);
   EXPECT_EQ(cg_checked(kSymInd, b, x, 50, 1e-12, prec, false), 0) << "indefinite";
   EXPECT_EQ(cg_checked(kSingSym, b, x, 50, 1e-12, prec, false), 0) << "singular";
-  // One iteration cannot reach 1e-12 on this system: not converged is a failure.
-  EXPECT_EQ(cg_checked(kSpd, apply(kSpd, kM, false, kXTrue), x, 1, 1e-12, prec, false), 0);
   EXPECT_EQ(x, Vec(kM, 99.0)) << "x is left alone on failure";
 }
 
@@ -545,8 +569,10 @@ TEST(DenseInverse, KnownInverses) {
   for (const Case &c : cases) {
     Vec a = c.a;
     ASSERT_EQ(c.fn(a.data(), kM), 1) << c.name;
-    expect_vec_near(a, c.inv, 1e-12, c.name);
-    expect_identity(matmul(c.a, a, kM), kM, 1e-12 * 8, c.name);
+    expect_upper_kept(a, c.a, kM, c.name);
+    const Vec inv = inverse_from_lower(a, kM);
+    expect_vec_near(inv, c.inv, 1e-12, c.name);
+    expect_identity(matmul(c.a, inv, kM), kM, 1e-12 * 8, c.name);
   }
 }
 
@@ -554,31 +580,20 @@ TEST(DenseInverse, SpdProductIsIdentity) {
   for (InvFn fn : {sba_symat_invert_LU, sba_symat_invert_Chol, sba_symat_invert_BK}) {
     Vec a = kSpd;
     ASSERT_EQ(fn(a.data(), kM), 1);
-    expect_identity(matmul(kSpd, a, kM), kM, 1e-12, "A * inv(A)");
-    expect_identity(matmul(a, kSpd, kM), kM, 1e-12, "inv(A) * A");
-    // Chol and BK compute one triangle and mirror it; LU's inverse is symmetric to rounding.
-    const bool mirrored = fn != sba_symat_invert_LU;
-    for (int i = 0; i < kM; ++i)
-      for (int j = 0; j < i; ++j) {
-        if (mirrored)
-          EXPECT_EQ(a[i * kM + j], a[j * kM + i]) << "symmetric result";
-        else
-          EXPECT_NEAR(a[i * kM + j], a[j * kM + i], 1e-15) << "symmetric result";
-      }
+    expect_upper_kept(a, kSpd, kM, "kSpd");
+    const Vec inv = inverse_from_lower(a, kM);
+    expect_identity(matmul(kSpd, inv, kM), kM, 1e-12, "A * inv(A)");
+    expect_identity(matmul(inv, kSpd, kM), kM, 1e-12, "inv(A) * A");
   }
+  // m = 70 goes through LAPACK's blocked code paths.
   const int m = 70;
   const Vec big = spd_matrix(m, 4242u);
   for (InvFn fn : {sba_symat_invert_LU, sba_symat_invert_Chol, sba_symat_invert_BK}) {
     Vec a = big;
     ASSERT_EQ(fn(a.data(), m), 1);
-    expect_identity(matmul(big, a, m), m, 1e-12, "m = 70");
+    expect_upper_kept(a, big, m, "m = 70");
+    expect_identity(matmul(big, inverse_from_lower(a, m), m), m, 1e-12, "m = 70");
   }
-}
-
-TEST(DenseInverse, LuHandlesANonsymmetricRowMajorMatrix) {
-  Vec a = kGen;
-  ASSERT_EQ(sba_symat_invert_LU(a.data(), kM), 1);
-  expect_identity(matmul(kGen, a, kM), kM, 1e-12 * 8, "A * inv(A)");
 }
 
 TEST(DenseInverse, FailuresLeaveAUnchanged) {
@@ -590,13 +605,10 @@ TEST(DenseInverse, FailuresLeaveAUnchanged) {
     EXPECT_EQ(fn(z.data(), kM), 0);
     EXPECT_EQ(fn(nullptr, 0), 1) << "A == NULL is the legacy no-op";
     EXPECT_EQ(fn(a.data(), 0), 0);
-    a[3] = std::numeric_limits<double>::quiet_NaN();
+    a[3] = std::numeric_limits<double>::quiet_NaN();  // (0, 3): in the triangle that is read
     EXPECT_EQ(fn(a.data(), kM), 0);
   }
-  Vec a = kSingGen;
-  EXPECT_EQ(sba_symat_invert_LU(a.data(), kM), 0);
-  EXPECT_EQ(a, kSingGen);
-  a = kSymInd;
+  Vec a = kSymInd;
   EXPECT_EQ(sba_symat_invert_Chol(a.data(), kM), 0) << "indefinite";
   EXPECT_EQ(a, kSymInd);
 }
@@ -667,6 +679,331 @@ TEST(DenseThreads, ConcurrentCallsMatchSequential) {
     });
   for (std::thread &th : pool) th.join();
   for (int t = 0; t < 4; ++t) EXPECT_EQ(mismatches[t], 0) << "thread " << t;
+}
+
+// ---- the 1.6 contract of the symmetric inverses: upper triangle in, lower triangle out ----
+
+// A = H diag(ev) H with the Householder reflection H = I - 2 v v^T / (v^T v): a dense
+// symmetric matrix whose eigenvalues are ev (to rounding), so its definiteness and
+// conditioning are known by construction.
+Vec sym_with_eigenvalues(const Vec &ev, std::uint32_t seed) {
+  const int m = int(ev.size());
+  Vec v(static_cast<std::size_t>(m));
+  double vv = 0.0;
+  for (double &e : v) {
+    seed = seed * 1664525u + 1013904223u;
+    e = double(seed >> 8) / double(1u << 23) + 0.25;  // in [0.25, 2.25): never the zero vector
+    vv += e * e;
+  }
+  Vec h(std::size_t(m) * m);
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) h[i * m + j] = (i == j ? 1.0 : 0.0) - 2.0 * v[i] * v[j] / vv;
+  Vec a(std::size_t(m) * m, 0.0);
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) {
+      double s = 0.0;
+      for (int k = 0; k < m; ++k) s += h[i * m + k] * ev[k] * h[k * m + j];
+      a[i * m + j] = s;
+    }
+  // Exactly symmetric, so that "the upper triangle" is the whole matrix.
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < i; ++j) a[i * m + j] = a[j * m + i];
+  return a;
+}
+
+// The inverse by Gauss-Jordan elimination with partial pivoting in long double: a reference
+// that shares nothing with the library's LAPACK path.
+Vec reference_inverse(const Vec &a, int m) {
+  using LD = long double;
+  std::vector<LD> w(std::size_t(m) * 2 * m, 0.0L);
+  for (int i = 0; i < m; ++i) {
+    for (int j = 0; j < m; ++j) w[i * 2 * m + j] = a[i * m + j];
+    w[i * 2 * m + m + i] = 1.0L;
+  }
+  for (int c = 0; c < m; ++c) {
+    int piv = c;
+    for (int r = c + 1; r < m; ++r)
+      if (std::fabs(w[r * 2 * m + c]) > std::fabs(w[piv * 2 * m + c])) piv = r;
+    for (int j = 0; j < 2 * m; ++j) std::swap(w[c * 2 * m + j], w[piv * 2 * m + j]);
+    const LD d = w[c * 2 * m + c];
+    for (int j = 0; j < 2 * m; ++j) w[c * 2 * m + j] /= d;
+    for (int r = 0; r < m; ++r) {
+      if (r == c) continue;
+      const LD f = w[r * 2 * m + c];
+      for (int j = 0; j < 2 * m; ++j) w[r * 2 * m + j] -= f * w[c * 2 * m + j];
+    }
+  }
+  Vec inv(std::size_t(m) * m);
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) inv[i * m + j] = double(w[i * 2 * m + m + j]);
+  return inv;
+}
+
+// The symmetric a with its strictly lower triangle overwritten by fill.
+Vec upper_only(const Vec &a, int m, double fill) {
+  Vec u = a;
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < i; ++j) u[i * m + j] = fill;
+  return u;
+}
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+bool all_same_bits(const Vec &a, const Vec &b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t k = 0; k < a.size(); ++k)
+    if (!same_bits(a[k], b[k])) return false;
+  return true;
+}
+
+struct InvCase {
+  const char *name;
+  InvFn fn;
+  bool spd_only;
+};
+const InvCase kInverses[] = {{"LU", sba_symat_invert_LU, false},
+                             {"Chol", sba_symat_invert_Chol, true},
+                             {"BK", sba_symat_invert_BK, false}};
+
+class SymInverse : public testing::TestWithParam<InvCase> {};
+
+// Runs the inverse on a's upper triangle, with the strictly lower triangle set to fill, and
+// checks the 1.6 layout: the inverse in the lower triangle with the diagonal, the strictly
+// upper triangle bit for bit as it was.
+void check_upper_in_lower_out(InvFn fn, const Vec &a, int m, double fill, const std::string &what) {
+  const Vec want = reference_inverse(a, m);
+  const Vec in = upper_only(a, m, fill);
+  Vec got = in;
+  ASSERT_EQ(fn(got.data(), m), 1) << what;
+  const double tol = 1e-12 * inf_norm(want);
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) {
+      const std::size_t k = std::size_t(i) * m + j;
+      if (j <= i)
+        EXPECT_NEAR(got[k], want[k], tol) << what << " inverse at (" << i << "," << j << ")";
+      else
+        EXPECT_TRUE(same_bits(got[k], in[k])) << what << " upper triangle written at (" << i
+                                              << "," << j << ")";
+    }
+}
+
+TEST_P(SymInverse, ReadsUpperWritesLowerSpd) {
+  for (int m : {1, 3, 7, 12}) {
+    const Vec a = spd_matrix(m, 31u + m);
+    for (double fill : {std::numeric_limits<double>::quiet_NaN(), 1000.0, 0.0})
+      check_upper_in_lower_out(GetParam().fn, a, m, fill,
+                               std::string(GetParam().name) + " SPD m = " + std::to_string(m) +
+                                   " fill " + std::to_string(fill));
+  }
+}
+
+TEST_P(SymInverse, IndefiniteMatrix) {
+  for (int m : {1, 3, 7, 12}) {
+    Vec ev(static_cast<std::size_t>(m));
+    for (int k = 0; k < m; ++k) ev[k] = (k % 2 ? -1.0 : 1.0) * (1.0 + double(k) / m);
+    if (m == 1) ev[0] = -2.0;
+    const Vec a = sym_with_eigenvalues(ev, 5u + m);
+    const std::string what = std::string(GetParam().name) + " indefinite m = " + std::to_string(m);
+    if (GetParam().spd_only) {
+      const Vec in = upper_only(a, m, std::numeric_limits<double>::quiet_NaN());
+      Vec got = in;
+      EXPECT_EQ(GetParam().fn(got.data(), m), 0) << what;
+      EXPECT_TRUE(all_same_bits(got, in)) << what << ": A must be left alone on failure";
+    } else {
+      check_upper_in_lower_out(GetParam().fn, a, m, std::numeric_limits<double>::quiet_NaN(), what);
+    }
+  }
+}
+
+TEST_P(SymInverse, SingularMatrixFails) {
+  // B^T B for an integer (m-1) x m matrix B: symmetric, exactly of rank m - 1.
+  for (int m : {1, 3, 7, 12}) {
+    Vec a(std::size_t(m) * m, 0.0);
+    for (int r = 0; r + 1 < m; ++r)
+      for (int i = 0; i < m; ++i)
+        for (int j = 0; j < m; ++j)
+          a[i * m + j] += double((r + 2 * i) % 5 - 2) * double((r + 2 * j) % 5 - 2);
+    const Vec in = upper_only(a, m, std::numeric_limits<double>::quiet_NaN());
+    Vec got = in;
+    EXPECT_EQ(GetParam().fn(got.data(), m), 0) << GetParam().name << " singular m = " << m;
+    EXPECT_TRUE(all_same_bits(got, in)) << GetParam().name << ": A must be left alone on failure";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Dense, SymInverse, testing::ValuesIn(kInverses),
+                         [](const testing::TestParamInfo<InvCase> &i) { return i.param.name; });
+
+// ---- the 1.6 contract of sba_Axb_CG: starting point, budget, iteration count ----
+
+// (P)CG as the textbook writes it, in long double, from x0 for exactly k iterations: the
+// reference for the iterate the library must return when its budget runs out. a is
+// symmetric and row-major.
+Vec reference_cg(const Vec &a, const Vec &b, const Vec &x0, int k, int prec) {
+  using LD = long double;
+  const int m = int(b.size());
+  auto matvec = [&](const std::vector<LD> &p) {
+    std::vector<LD> q(std::size_t(m), 0.0L);
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; j < m; ++j) q[i] += LD(a[i * m + j]) * p[j];
+    return q;
+  };
+  // z = M^-1 r; SSOR (omega = 1) is M = (D + L) D^-1 (D + L^T).
+  auto apply_prec = [&](const std::vector<LD> &r) {
+    std::vector<LD> z(r);
+    if (prec == SBA_CG_JACOBI) {
+      for (int i = 0; i < m; ++i) z[i] = r[i] / LD(a[i * m + i]);
+    } else if (prec == SBA_CG_SSOR) {
+      std::vector<LD> y(static_cast<std::size_t>(m));
+      for (int i = 0; i < m; ++i) {  // (D + L) y = r
+        LD s = r[i];
+        for (int j = 0; j < i; ++j) s -= LD(a[i * m + j]) * y[j];
+        y[i] = s / LD(a[i * m + i]);
+      }
+      for (int i = m - 1; i >= 0; --i) {  // (D + L^T) z = D y
+        LD s = LD(a[i * m + i]) * y[i];
+        for (int j = i + 1; j < m; ++j) s -= LD(a[i * m + j]) * z[j];
+        z[i] = s / LD(a[i * m + i]);
+      }
+    }
+    return z;
+  };
+  std::vector<LD> x(x0.begin(), x0.end()), r(static_cast<std::size_t>(m));
+  const std::vector<LD> ax = matvec(x);
+  for (int i = 0; i < m; ++i) r[i] = LD(b[i]) - ax[i];
+  std::vector<LD> z = apply_prec(r), p = z;
+  LD rz = 0.0L;
+  for (int i = 0; i < m; ++i) rz += r[i] * z[i];
+  for (int it = 0; it < k; ++it) {
+    const std::vector<LD> q = matvec(p);
+    LD pq = 0.0L;
+    for (int i = 0; i < m; ++i) pq += p[i] * q[i];
+    const LD alpha = rz / pq;
+    for (int i = 0; i < m; ++i) {
+      x[i] += alpha * p[i];
+      r[i] -= alpha * q[i];
+    }
+    z = apply_prec(r);
+    LD rz1 = 0.0L;
+    for (int i = 0; i < m; ++i) rz1 += r[i] * z[i];
+    for (int i = 0; i < m; ++i) p[i] = z[i] + (rz1 / rz) * p[i];
+    rz = rz1;
+  }
+  return Vec(x.begin(), x.end());
+}
+
+double residual_norm(const Vec &a, const Vec &b, const Vec &x, bool colmaj) {
+  const Vec ax = apply(a, int(b.size()), colmaj, x);
+  double s = 0.0;
+  for (std::size_t i = 0; i < b.size(); ++i) s += (b[i] - ax[i]) * (b[i] - ax[i]);
+  return std::sqrt(s);
+}
+
+// diag(1, 1, 1, 2, 2, 2, 3, 3, 3): three distinct eigenvalues, so CG from any start whose
+// residual touches all three eigenspaces ends in exactly three steps in exact arithmetic.
+Vec three_eigenvalue_diagonal() {
+  Vec a(81, 0.0);
+  for (int i = 0; i < 9; ++i) a[i * 9 + i] = double(1 + i / 3);
+  return a;
+}
+const Vec kX9 = {1, -2, 3, -1, 2, -3, 1, 1, -1};
+
+TEST_P(Cg, CountsIterationsAsUpdatesOfX) {
+  const int prec = GetParam().prec;
+  // Jacobi and SSOR (which is Jacobi for a diagonal matrix) turn it into the identity:
+  // one step. Without a preconditioner: one step per distinct eigenvalue.
+  const int want = prec == SBA_CG_NOPREC ? 3 : 1;
+  const Vec a = three_eigenvalue_diagonal();
+  for (bool colmaj : {false, true}) {
+    const Vec b = apply(a, 9, colmaj, kX9);
+    Vec x(9, 99.0);
+    EXPECT_EQ(cg_checked(a, b, x, 20, 1e-10, prec, colmaj), want) << "colmaj " << colmaj;
+    expect_vec_near(x, kX9, 1e-14, "diagonal");
+  }
+  // The same spectrum behind a dense matrix: only for the plain method, since the
+  // preconditioners no longer whiten it.
+  if (prec == SBA_CG_NOPREC) {
+    const Vec d = sym_with_eigenvalues({1, 2, 3, 1, 2, 3, 1, 2, 3}, 11u);
+    for (bool colmaj : {false, true}) {
+      const Vec b = apply(d, 9, colmaj, kX9);
+      Vec x(9, 0.0);
+      EXPECT_EQ(cg_checked(d, b, x, 20, 1e-10, prec, colmaj), 3) << "dense, colmaj " << colmaj;
+      expect_vec_near(x, kX9, 1e-12, "dense, three eigenvalues");
+    }
+  }
+}
+
+TEST_P(Cg, NegativeNiterStartsFromX) {
+  const int prec = GetParam().prec;
+  for (bool colmaj : {false, true}) {
+    // Starting at the exact solution (the residual is exactly zero in integer arithmetic):
+    // nothing to do, reported as one iteration because 0 means failure, and x is kept.
+    const Vec b = apply(kSpd, kM, colmaj, kXTrue);
+    Vec x = kXTrue;
+    EXPECT_EQ(cg_checked(kSpd, b, x, -10, 1e-12, prec, colmaj), 1) << "colmaj " << colmaj;
+    EXPECT_TRUE(all_same_bits(x, kXTrue)) << "x must stay the exact solution";
+    // From elsewhere: the same answer.
+    x = {10, 20, -30, 40};
+    const int it = cg_checked(kSpd, b, x, -10, 1e-13, prec, colmaj);
+    EXPECT_GE(it, 1);
+    EXPECT_LE(it, kM);
+    expect_vec_near(x, kXTrue, 1e-10, "from a starting point");
+  }
+}
+
+TEST(DenseCg, NegativeNiterUsesTheStartingPoint) {
+  // The error x0 - x* lies in the eigenspace of eigenvalue 2 alone: one step from x0, where
+  // the zero start needs three.
+  const Vec a = three_eigenvalue_diagonal();
+  const Vec b = apply(a, 9, false, kX9);
+  Vec x = kX9;
+  x[3] += 5.0;
+  x[4] -= 2.0;
+  x[5] += 1.0;
+  EXPECT_EQ(cg_checked(a, b, x, -9, 1e-12, SBA_CG_NOPREC, false), 1);
+  expect_vec_near(x, kX9, 1e-14, "one step from x0");
+  Vec y = x;
+  y[3] += 5.0;
+  EXPECT_EQ(cg_checked(a, b, y, 9, 1e-12, SBA_CG_NOPREC, false), 3) << "niter > 0 ignores x";
+  // A non-finite starting point is refused and left as it was.
+  Vec bad(9, 0.0);
+  bad[2] = std::numeric_limits<double>::infinity();
+  const Vec bad_in = bad;
+  EXPECT_EQ(cg_checked(a, b, bad, -9, 1e-12, SBA_CG_NOPREC, false), 0);
+  EXPECT_TRUE(all_same_bits(bad, bad_in));
+}
+
+// 20 x 20 SPD with eigenvalues from 1 to 1e6 (geometric): three iterations come nowhere
+// near 1e-12.
+Vec ill_conditioned_20() {
+  Vec ev(20);
+  for (int k = 0; k < 20; ++k) ev[k] = std::pow(10.0, 6.0 * k / 19.0);
+  return sym_with_eigenvalues(ev, 2024u);
+}
+
+TEST_P(Cg, BudgetExhaustedReturnsTheLastIterate) {
+  const int prec = GetParam().prec;
+  const int m = 20;
+  const Vec a = ill_conditioned_20();
+  Vec xt(m);
+  for (int i = 0; i < m; ++i) xt[i] = double(i % 7) - 3.0;
+  for (bool colmaj : {false, true}) {
+    const Vec b = apply(a, m, colmaj, xt);
+    const double r0 = residual_norm(a, b, Vec(m, 0.0), colmaj);
+    Vec x(m, 99.0);
+    EXPECT_EQ(cg_checked(a, b, x, 3, 1e-12, prec, colmaj), 3) << "colmaj " << colmaj;
+    const Vec want = reference_cg(a, b, Vec(m, 0.0), 3, prec);
+    expect_vec_near(x, want, 1e-9, "third iterate from 0");
+    EXPECT_LT(residual_norm(a, b, x, colmaj), r0);
+    EXPECT_GT(residual_norm(a, b, x, colmaj), 1e-6 * r0) << "not converged";
+
+    // The same from a starting point, with niter < 0.
+    Vec x0(m);
+    for (int i = 0; i < m; ++i) x0[i] = 0.5 * double(i % 3);
+    Vec y = x0;
+    EXPECT_EQ(cg_checked(a, b, y, -3, 1e-12, prec, colmaj), 3) << "colmaj " << colmaj;
+    expect_vec_near(y, reference_cg(a, b, x0, 3, prec), 1e-9, "third iterate from x0");
+    EXPECT_LT(residual_norm(a, b, y, colmaj), residual_norm(a, b, x0, colmaj));
+  }
 }
 
 }  // namespace
