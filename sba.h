@@ -22,6 +22,19 @@
  */
 #ifndef SBA_H
 #define SBA_H
+/* sba 1.6's include guard, defined as well because 1.6 programs test it to see whether sba.h
+ * has been included (a reserved name: it is 1.6's, and programs spell it so). */
+#ifndef _SBA_H_
+#define _SBA_H_
+#endif
+
+/* In 1.6 this selected LAPACK routine names with a trailing underscore (to be undefined for
+ * AIX). It configures nothing here: the build finds out how the installed LAPACK names its
+ * routines. It is defined only for programs that test it (and left alone when a program's
+ * build already defines it, e.g. with -D). */
+#ifndef SBA_APPEND_UNDERSCORE_SUFFIX
+#define SBA_APPEND_UNDERSCORE_SUFFIX
+#endif
 
 #ifdef __cplusplus
 extern "C" {
