@@ -89,9 +89,9 @@ class Model {
   virtual bool has_jacobian() const = 0;
   // jac = df/dp in the callback layout (per projection: A_ij then B_ij, row-major).
   virtual void jacobian(double *p, double *jac) = 0;
-  // Forward-difference Jacobian at p, given hx = f(p); p is not modified.
-  // Returns the number of full-vector evaluations it cost (for info[7]).
-  virtual i64 fd_jacobian(double *p, const double *hx, double *jac) = 0;
+  // Forward-difference Jacobian at p, given hx = f(p); p is not modified. Its evaluations
+  // of f are not counted in info[7]: sba 1.6 counts only those of the LM loop.
+  virtual void fd_jacobian(double *p, const double *hx, double *jac) = 0;
 };
 
 // Lends the solve's pool to the model for the scope of a solve: the model must not keep a
@@ -175,6 +175,9 @@ struct Summary {
 // covx: null or per-measurement covariances. Returns false on failure (summary.ok too).
 bool solve(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
            const Options &opt, const Logger &log, Summary &sum);
+
+// The stop-4 test after an accepted step: e and en are the cost before and after it.
+bool reduction_stalled(double e, double en, double eps4);
 
 class Kernels;
 

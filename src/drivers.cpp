@@ -30,6 +30,7 @@ struct DriverArgs {
   const sba_ext_options *ext;
   bool by_pairs = false;                // the _vis entry points: pairs instead of vmask
   const sba_visibility *vis = nullptr;
+  bool simple = false;                  // per-projection callbacks (the simple drivers)
 };
 
 // First non-finite entry of v, or -1.
@@ -192,6 +193,18 @@ void write_result(const sba_ext_options &ext, const Options &opt, const Summary 
   std::memcpy(static_cast<void *>(ext.result), &r, n);
 }
 
+// info[7..9] as sba 1.6 counts them: each func or fjac call of a simple driver is nvis proj or
+// projac calls, and the motion-only and structure-only drivers solve one small system per free
+// camera (point) where the others solve one augmented system.
+void count_as_1_6(const DriverArgs &a, const Layout &lay, Summary &sum) {
+  if (a.simple) {
+    sum.nfev *= lay.nvis;
+    sum.njev *= lay.nvis;
+  }
+  if (a.mode == Mode::Mot) sum.nlinsys *= lay.free_cams();
+  if (a.mode == Mode::Str) sum.nlinsys *= lay.free_pts();
+}
+
 // make_model(Layout&, bool concurrent) -> std::unique_ptr<Model>
 template <class MakeModel>
 int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
@@ -222,6 +235,7 @@ int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
         check_jacobian(lay, *model, a.p, log);
     }
     const bool ok = solve(lay, *model, a.p, a.x, a.covx, opt, log, sum);
+    count_as_1_6(a, lay, sum);
     sum.to_info(a.info);
     write_result(ext, opt, sum);
     return ok ? sum.iterations : SBA_ERROR;
@@ -330,7 +344,9 @@ int run_simple(const DriverArgs &a, Proj proj, Jac projac, void *adata,
                decltype(SimpleCallbacks::proj) tproj, decltype(SimpleCallbacks::projac) tjac) {
   const SimpleCallbacks cb = simple_callbacks(reinterpret_cast<AnyFn>(proj),
                                               reinterpret_cast<AnyFn>(projac), adata, tproj, tjac);
-  return run_driver(a, [&](Layout &lay, bool conc) { return make_simple_model(lay, cb, conc); });
+  DriverArgs simple = a;
+  simple.simple = true;
+  return run_driver(simple, [&](Layout &lay, bool conc) { return make_simple_model(lay, cb, conc); });
 }
 
 }  // namespace

@@ -178,7 +178,7 @@ class ExpertModel final : public Model {
   // points. So cnp + pnp evaluations give the whole Jacobian. Each is made on a private copy
   // of p (the caller's is never touched), and with concurrent calls allowed the groups are
   // spread over the threads.
-  i64 fd_jacobian(double *p, const double *hx, double *jac) override {
+  void fd_jacobian(double *p, const double *hx, double *jac) override {
     const Layout &lay = lay_;
     const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp, jblk = lay.jblk();
     std::fill(jac, jac + lay.nvis * jblk, 0.0);
@@ -211,7 +211,6 @@ class ExpertModel final : public Model {
       pool_->run(work);
     else
       work(0);
-    return groups;
   }
 
  private:
@@ -283,7 +282,7 @@ class SimpleModel final : public Model {
   // A projection depends only on its own camera and point, so each is differenced against
   // those blocks alone: cnp + pnp proj calls per projection. The perturbations are made in
   // copies of a_j and b_i: other threads may be reading the same camera.
-  i64 fd_jacobian(double *p, const double *hx, double *jac) override {
+  void fd_jacobian(double *p, const double *hx, double *jac) override {
     const int mnp = lay_.mnp, cnp = lay_.cnp, pnp = lay_.pnp;
     const size_t T = rows_.size() - 1;
     std::vector<std::vector<double>> scratch(T, std::vector<double>(size_t(mnp + cnp + pnp)));
@@ -303,7 +302,6 @@ class SimpleModel final : public Model {
             diff_column(j, i, a, b, b + l, x0, xp, blk + mnp * cnp + l, pnp);
       }
     });
-    return i64(lay_.free_cams() > 0 ? cnp : 0) + (lay_.free_pts() > 0 ? pnp : 0);
   }
 
  private:
