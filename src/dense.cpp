@@ -415,13 +415,15 @@ void precondition(const View &A, const Vec &diag, int prec, const Vec &r, Vec &z
 }
 
 // (P)CG from the starting point in x, for at most maxit iterations; the stopping test is
-// ||b - A x||_2 <= eps * ||b||_2 (eps <= 0 selects kDefaultCgEps). An iteration is one
-// update of x, i.e. one product of A with a search direction, and the return value counts
-// them as sba 1.6 does: k when the k-th update meets the tolerance, maxit with x the last
-// iterate when the budget runs out first, 0 on failure (x is then not to be used).
+// ||b - A x||_2 <= eps * ||b||_2 (eps <= 0 selects kDefaultCgEps). The return value counts
+// iterations as sba 1.6 does, where an iteration tests the residual of the previous one and
+// then updates x: k + 1 when the k-th update meets the tolerance (the test that sees it is
+// the (k+1)-th iteration), maxit with x the last iterate when the budget runs out first (a
+// tolerance met by the last update is not seen within the budget either), 0 on failure (x is
+// then not to be used).
 //
 // Choices:
-//  - 0 is the failure value, so an answer found without any update is reported as 1: b == 0
+//  - An answer found without any update is the first iteration's test, reported as 1: b == 0
 //    (x = 0, exact for a nonsingular A, whatever the starting point), and a caller-supplied
 //    starting point (warm) whose residual already meets the tolerance, which is returned
 //    as it is. Testing a warm start before the first update keeps a converged start from
@@ -481,7 +483,7 @@ int conjugate_gradients(const View &A, const Vec &b, Vec &x, bool warm, int maxi
     if (norm2(r) <= tol) {
       matvec(A, x, q, nullptr);
       for (std::size_t i = 0; i < n; ++i) r[i] = b[i] - q[i];
-      if (norm2(r) <= tol) return all_finite(x) ? k : 0;
+      if (norm2(r) <= tol) return all_finite(x) ? std::min(k, maxit - 1) + 1 : 0;
       precondition(A, diag, prec, r, z);
       rz = dot(r, z);
       if (!(rz > 0.0)) return 0;

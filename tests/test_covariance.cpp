@@ -101,6 +101,9 @@ std::vector<double> brute_force(synth::Problem &pb, std::vector<double> &p, int 
       for (int b = 0; b < nfree; ++b) JtJ[size_t(a) * nfree + b] += v * J[size_t(r) * nfree + b];
     }
   EXPECT_EQ(sba_symat_invert_Chol(JtJ.data(), nfree), 1);
+  // The inverse is in the lower triangle; mirror it for the comparisons below.
+  for (int a = 0; a < nfree; ++a)
+    for (int b = a + 1; b < nfree; ++b) JtJ[size_t(a) * nfree + b] = JtJ[size_t(b) * nfree + a];
   double e2 = 0;
   for (int q = 0; q < nvis * kMnp; ++q) e2 += (pb.x[size_t(q)] - hx[size_t(q)]) * (pb.x[size_t(q)] - hx[size_t(q)]);
   const double sigma2 = e2 / (nvis * kMnp - nfree);
