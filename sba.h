@@ -15,7 +15,11 @@
  *   info   = NULL or SBA_INFOSZ doubles:
  *            [0] ||e(p0)||^2, [1] ||e(p_final)||^2, [2] ||J^T e||_inf, [3] ||dp||^2,
  *            [4] mu / max diag(J^T J), [5] iterations, [6] stop reason (1..7, see README),
- *            [7] function evaluations, [8] Jacobian evaluations, [9] linear systems solved.
+ *            [7] function evaluations, [8] Jacobian evaluations, [9] linear systems solved,
+ *            counted as sba 1.6 counts them: [7] the LM loop's calls of func (not those
+ *            that build a finite-difference Jacobian); the simple drivers count proj and
+ *            projac calls (nvis per func/fjac call); the motion-only and structure-only
+ *            drivers count one system per free camera (point) block.
  * The drivers return the number of iterations, or SBA_ERROR.
  *
  * Compile with -DSBA_API_1_5 to get the sba 1.5 driver signatures (no ncon).
@@ -134,13 +138,19 @@ extern int sba_Axb_LDLt(double *A, double *B, double *x, int m, int iscolmaj);
 extern int sba_Axb_LU(double *A, double *B, double *x, int m, int iscolmaj);
 extern int sba_Axb_SVD(double *A, double *B, double *x, int m, int iscolmaj);
 extern int sba_Axb_BK(double *A, double *B, double *x, int m, int iscolmaj);
-/* Conjugate gradients on SPD A from x = 0, with at most niter iterations (niter <= 0: m),
- * relative residual tolerance eps (||B - A x|| <= eps ||B||) and preconditioner prec
- * (SBA_CG_*). Returns the number of iterations done, 0 on failure. */
+/* Conjugate gradients on SPD A with relative residual tolerance eps (||B - A x|| <= eps ||B||,
+ * eps <= 0: 1e-12) and preconditioner prec (SBA_CG_*). niter > 0: from x = 0, at most niter
+ * iterations; niter < 0: from the starting point in x, at most -niter; niter == 0: from 0, at
+ * most m. Returns the iterations performed as sba 1.6 counts them (k updates of x and the
+ * test that sees convergence: k + 1); when the budget runs out first, the budget, with x the
+ * last iterate. 0 on failure (not SPD, bad arguments, NaN). */
 extern int sba_Axb_CG(double *A, double *B, double *x, int m, int niter, double eps, int prec,
                       int iscolmaj);
 
-/* Invert the symmetric m x m A in place; 1 on success, 0 on failure. */
+/* Invert the symmetric m x m A (row-major) in place, as sba 1.6 does: only the upper triangle
+ * (A[i*m+j], j >= i) is read, the inverse is written to the lower triangle with the diagonal
+ * (A[i*m+j], j <= i), and the strictly upper triangle keeps its input. 1 on success, 0 on
+ * failure (singular; not positive definite for _Chol), with A left as it was. */
 extern int sba_symat_invert_LU(double *A, int m);
 extern int sba_symat_invert_Chol(double *A, int m);
 extern int sba_symat_invert_BK(double *A, int m);
