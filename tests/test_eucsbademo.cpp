@@ -250,11 +250,11 @@ bool same_to_digits(const std::string &printed, const std::string &reference, in
 }
 
 // info[6] of a solve that stopped because it converged: 1 small gradient, 2 small step,
-// 5 no further reduction possible (mu too large), 6 small error. Not 3 (itmax), 4 (singular)
-// or 7 (NaN/Inf).
+// 4 small relative reduction (at eps4 = 0, sba 1.6's test fires through rounding once the
+// decrease is tiny), 5 small error, 6 damping exhausted. Not 3 (itmax) or 7 (NaN/Inf).
 bool converged(const Summary &s) {
   const int r = s.reason_code();
-  return s.reason == std::to_string(r) && (r == 1 || r == 2 || r == 5 || r == 6);
+  return s.reason == std::to_string(r) && (r == 1 || r == 2 || r == 4 || r == 5 || r == 6);
 }
 
 // A successful run: exit 0, the banner alone on stderr, the six lines on stdout.
@@ -337,13 +337,10 @@ const PublishedRun kPublished[] = {
 // Golden comparison. Text must match exactly; on the "SBA returned" line the errors may differ
 // by a relative 1e-5, and the counts by a little, because iteration and evaluation counts
 // depend on rounding: a faster library that orders its sums differently, or another
-// BLAS/LAPACK, takes a few more or fewer steps to the same minimum (the spec reports 16 to 21
-// iterations for 54cams on different machines). Measured with one build of this library under
-// ATLAS (the golden files) and under the reference BLAS/LAPACK, iterations and function
-// evaluations: 7cams 18/26 vs 22/29, 9cams 21/30 vs 19/27, 54cams 24/29 vs 22/31, 54camsvarK
-// 46/52 vs 46/54, 54camsvarKD 50/57 vs 49/59. A slack of 2 does not cover that (7cams moves by
-// 4), so every count (returned value, iterations, function and Jacobian evaluations, linear
-// systems) may differ by max(2, 25%) of the golden count. The reason must be the same.
+// BLAS/LAPACK, takes a few more or fewer steps to the same minimum (1.6's own 54cams run takes
+// 16 to 21 iterations on different machines). So every count (returned value, iterations,
+// function and Jacobian evaluations, linear systems) may differ by max(2, 25%) of the golden
+// count. The reason must be the same.
 int count_slack(int golden) { return std::max(2, static_cast<int>(std::ceil(0.25 * golden))); }
 
 void expect_counts_near(const char *what, int actual, int golden, int slack) {
@@ -435,6 +432,62 @@ TEST_P(Published, MatchesSba16AndGoldenOutput) {
 
 INSTANTIATE_TEST_SUITE_P(Eucsbademo, Published, ::testing::ValuesIn(kPublished),
                          [](const ::testing::TestParamInfo<PublishedRun> &info) {
+                           return std::string(info.param.problem.name);
+                         });
+
+// sba 1.6's own demo on the seven problems (OpenBLAS, 2 threads): iterations, stop reason and
+// the error it ends at. At eps4 = 0, stop 4 is 1.6's relative-reduction test firing through
+// rounding: about one accepted step in four whose relative decrease is far below 1e-8 ends the
+// run, which one is a matter of the last bits of ||e||^2 (1.6's own 54cams run ends with
+// reason 4 after 19 iterations with 2 BLAS threads, reason 2 after 21 with 1). So the reason
+// is checked to be one of the two, not the same one. Where the valley is well defined, the
+// iterations are within 1.25x + 3 of 1.6's and the error is 1.6's to 6 digits. On 7camsvarK
+// and 9camsvarK the valley is flat: 1.6's run stops where a step with a tiny decrease happened
+// to come, and ours descends further; there the check is that ours is no worse than 1.6's
+// error after 1.6's iterations (times 1.25, plus 3).
+struct Sba16Run {
+  DemoProblem problem;
+  int iterations;
+  const char *error;
+  bool flat;
+};
+
+void PrintTo(const Sba16Run &r, std::ostream *os) { *os << r.problem.name; }
+
+class Sba16 : public ::testing::TestWithParam<Sba16Run> {};
+
+TEST_P(Sba16, StopsByAConvergenceTestWhere16Does) {
+  REQUIRE_DEMO_DATA();
+  const Sba16Run &r = GetParam();
+  const int window = static_cast<int>(1.25 * r.iterations) + 3;
+  Summary s;
+  const DemoRun run = run_problem(r.problem, {});
+  EXPECT_SUCCESSFUL_RUN(run, r.problem.banner, s);
+  EXPECT_TRUE(s.reason == "2" || s.reason == "4") << "reason " << s.reason;
+  const double ours = s.error_value(), theirs = std::strtod(r.error, nullptr);
+  if (!r.flat) {
+    EXPECT_LE(s.iterations(), window);
+    EXPECT_LE(r.iterations, static_cast<int>(1.25 * s.iterations()) + 3) << s.iterations();
+    EXPECT_TRUE(same_to_digits(s.error, r.error, 6)) << s.error << " vs sba 1.6's " << r.error;
+    return;
+  }
+  EXPECT_LE(ours, theirs * (1 + 5e-7)) << s.error << " vs sba 1.6's " << r.error;
+  Summary budget;
+  const DemoRun run_budget = run_problem(r.problem, {"--itmax=" + std::to_string(window)});
+  EXPECT_SUCCESSFUL_RUN(run_budget, r.problem.banner, budget);
+  EXPECT_LE(budget.error_value(), theirs * (1 + 5e-7))
+      << "after " << window << " iterations: " << budget.error << " vs sba 1.6's " << r.error;
+}
+
+INSTANTIATE_TEST_SUITE_P(Eucsbademo, Sba16,
+                         ::testing::Values(Sba16Run{k7cams, 16, "0.675396", false},
+                                           Sba16Run{k9cams, 20, "0.619559", false},
+                                           Sba16Run{k54cams, 19, "0.176473", false},
+                                           Sba16Run{k7camsvarK, 55, "0.660449", true},
+                                           Sba16Run{k9camsvarK, 74, "0.599938", true},
+                                           Sba16Run{k54camsvarK, 45, "0.134928", false},
+                                           Sba16Run{k54camsvarKD, 42, "0.128779", false}),
+                         [](const ::testing::TestParamInfo<Sba16Run> &info) {
                            return std::string(info.param.problem.name);
                          });
 
@@ -637,10 +690,9 @@ TEST(Eucsbademo, RoundTripVaryingIntrinsics) {
 // ---------------------------------------------------------------------------------------------
 // f. Every linear solver reaches chol's minimum.
 //
-// The reference minima: the published ones, and for 7camsvarK and 9camsvarK, where chol stops
-// at 1.6's itmax of 150 before converging (reason 3; the printed errors 0.658995 and 0.599884
-// are already those of the minimum to 6 digits), chol's minimum with --itmax 1000 (reached
-// after 200 and 173 iterations).
+// The reference minima: the published ones, and for 7camsvarK and 9camsvarK, whose valley is
+// flat, chol's (it stops there with reason 4 at errors that are those of the minimum to 6
+// digits, lower than sba 1.6's: see Sba16 above).
 //
 // Measured (Release, 2 threads, OpenBLAS) with --itmax 2000, every solver reaches chol's
 // minimum on every problem; the varying-K problems are badly conditioned (focal lengths around
