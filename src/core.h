@@ -52,7 +52,9 @@ struct Layout {
   i64 nvars() const { return i64(m) * cnp + i64(n) * pnp; }
   i64 a_off(int j) const { return i64(j) * cnp; }
   i64 b_off(int i) const { return i64(m) * cnp + i64(i) * pnp; }
-  int jblk() const { return mnp * (cnp + pnp); }  // doubles per projection in the Jacobian
+  // Doubles per projection in the Jacobian; build_layout refuses sizes where it exceeds an
+  // int, so the narrowing is exact for every layout that exists.
+  int jblk() const { return int(i64(mnp) * (i64(cnp) + pnp)); }
   bool cam_free(int j) const { return cnp > 0 && j >= mcon; }
   bool pt_free(int i) const { return pnp > 0 && i >= ncon; }
   int free_cams() const { return cnp > 0 ? m - mcon : 0; }
@@ -66,14 +68,18 @@ struct Layout {
 // projection alive through the solve.
 void by_camera(const Layout &lay, std::vector<int> *row, std::vector<int> *k);
 
-// Builds the index from vmask. Returns false (with msg) on a problem too big for the int API.
+// Builds the index from vmask. Returns false (with msg, naming the product) on a problem too
+// big for the int API: any block (mnp*(cnp+pnp), cnp*cnp, pnp*pnp, cnp*pnp, and mnp*mnp when
+// with_covx) or any
+// vector the callbacks index (p, x, the Jacobian, and covx when with_covx) beyond INT_MAX
+// entries. Nothing is allocated before these checks.
 bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
-                  int mnp, const char *vmask, std::string *msg);
+                  int mnp, const char *vmask, std::string *msg, bool with_covx = false);
 // The same from a list of (point, camera) pairs sorted by point then camera (sba_ext.h's
-// sba_visibility); only nvis must fit an int: the callbacks of this API index hx and the
-// Jacobian with 64-bit offsets.
+// sba_visibility); only nvis and the single blocks must fit an int: the callbacks of this API
+// index hx and the Jacobian with 64-bit offsets.
 bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
-                  int mnp, const sba_visibility &vis, std::string *msg);
+                  int mnp, const sba_visibility &vis, std::string *msg, bool with_covx = false);
 
 // The caller's projection function and (optionally) its Jacobian, over the whole vector.
 class ThreadPool;

@@ -88,8 +88,10 @@ std::string check_data(const DriverArgs &a, const Layout &lay) {
 void make_layout(const DriverArgs &a, Layout &lay, std::string *msg) {
   const int cnp = a.mode == Mode::Str ? 0 : a.cnp, pnp = a.mode == Mode::Mot ? 0 : a.pnp;
   const bool ok = a.by_pairs
-                      ? build_layout(lay, a.mode, a.n, a.m, a.mcon, a.ncon, cnp, pnp, a.mnp, *a.vis, msg)
-                      : build_layout(lay, a.mode, a.n, a.m, a.mcon, a.ncon, cnp, pnp, a.mnp, a.vmask, msg);
+                      ? build_layout(lay, a.mode, a.n, a.m, a.mcon, a.ncon, cnp, pnp, a.mnp, *a.vis, msg,
+                                     a.covx != nullptr)
+                      : build_layout(lay, a.mode, a.n, a.m, a.mcon, a.ncon, cnp, pnp, a.mnp, a.vmask, msg,
+                                     a.covx != nullptr);
   if (!ok && msg->empty()) *msg = "invalid problem";
 }
 

@@ -53,9 +53,76 @@ void by_camera(const Layout &lay, std::vector<int> *row, std::vector<int> *k) {
     }
 }
 
+namespace {
+
+// a * b for non-negative sizes, saturating instead of wrapping: a count of visible cells can
+// approach 2^62, so even 64-bit products of three sizes could wrap.
+i64 mul(i64 a, i64 b) {
+  i64 r;
+  return __builtin_mul_overflow(a, b, &r) ? INT64_MAX : r;
+}
+i64 add(i64 a, i64 b) {
+  i64 r;
+  return __builtin_add_overflow(a, b, &r) ? INT64_MAX : r;
+}
+
+// One product of sizes and what it sizes, for the message.
+struct Extent {
+  const char *what;  // e.g. "the Jacobian"
+  const char *expr;  // e.g. "nvis*mnp*(cnp+pnp)"
+  i64 value;
+};
+
+std::string too_large(const Extent &e, const char *advice) {
+  return std::string("problem too large for the int-sized sba 1.6 API: ") + e.what + " (" +
+         e.expr + " = " + std::to_string(e.value) + ") exceeds INT_MAX = " +
+         std::to_string(INT_MAX) + advice;
+}
+
+// Sizes of single blocks: the library and every callback API index within a block (and
+// form block strides such as mnp*cnp) with int arithmetic, whichever entry point is used.
+// Checked from the arguments alone, before the index is built or anything is allocated.
+std::string check_block_sizes(const Layout &lay, bool covx) {
+  const i64 cnp = lay.cnp, pnp = lay.pnp, mnp = lay.mnp;
+  const Extent blocks[] = {
+      {"a projection's Jacobian block", "mnp*(cnp+pnp)", mul(mnp, cnp + pnp)},
+      {"a camera block U_j", "cnp*cnp", mul(cnp, cnp)},
+      {"a point block V_i", "pnp*pnp", mul(pnp, pnp)},
+      {"a block W_ij", "cnp*pnp", mul(cnp, pnp)},
+      {"a measurement covariance block", "mnp*mnp", covx ? mul(mnp, mnp) : 0},
+  };
+  for (const Extent &e : blocks)
+    if (e.value > INT_MAX) return too_large(e, "");
+  return {};
+}
+
+// Whole-vector sizes for the vmask entry points: 1.6-style callbacks index p, x, hx, covx
+// and the Jacobian with int offsets, so each of them must have at most INT_MAX entries.
+std::string check_vector_sizes(const Layout &lay, i64 nvis, bool covx) {
+  const i64 n = lay.n, m = lay.m, cnp = lay.cnp, pnp = lay.pnp, mnp = lay.mnp;
+  const Extent vectors[] = {
+      {"the camera parameters", "m*cnp", mul(m, cnp)},
+      {"the point parameters", "n*pnp", mul(n, pnp)},
+      {"p", "m*cnp+n*pnp", add(mul(m, cnp), mul(n, pnp))},
+      {"the visible projections", "nvis", nvis},
+      {"the measurements x", "nvis*mnp", mul(nvis, mnp)},
+      {"the Jacobian", "nvis*mnp*(cnp+pnp)", mul(mul(nvis, mnp), cnp + pnp)},
+      {"covx", "nvis*mnp*mnp", covx ? mul(mul(nvis, mnp), mnp) : 0},
+  };
+  for (const Extent &e : vectors)
+    if (e.value > INT_MAX) return too_large(e, ": use the sba_*_vis entry points of sba_ext.h");
+  return {};
+}
+
+}  // namespace
+
 bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
-                  int mnp, const char *vmask, std::string *msg) {
+                  int mnp, const char *vmask, std::string *msg, bool covx) {
   set_sizes(lay, mode, n, m, mcon, ncon, cnp, pnp, mnp);
+  // Refuse what would overflow an int offset (in the callbacks or in our own block
+  // arithmetic) before anything of that size is read, allocated or handed to a callback.
+  *msg = check_block_sizes(lay, covx);
+  if (!msg->empty()) return false;
   const i64 cells = i64(n) * m;
   i64 nvis = 0;
   for (i64 c = 0; c < cells; ++c) nvis += vmask[c] != 0;
@@ -64,15 +131,8 @@ bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int 
     *msg = "vmask has no visible projection (nvis == 0)";
     return false;
   }
-  // Callbacks written against the int API index x, hx, p and the Jacobian with int
-  // arithmetic; refuse what would overflow there instead of letting them corrupt memory.
-  const i64 jac_len = nvis * lay.jblk();
-  if (nvis * mnp > INT_MAX || jac_len > INT_MAX || lay.nvars() > INT_MAX) {
-    *msg = "problem too large for the int-sized sba 1.6 API (" + std::to_string(nvis) +
-           " projections, " + std::to_string(lay.nvars()) +
-           " parameters): use the sba_*_vis entry points of sba_ext.h";
-    return false;
-  }
+  *msg = check_vector_sizes(lay, nvis, covx);
+  if (!msg->empty()) return false;
   lay.rowptr.assign(size_t(n) + 1, 0);
   lay.colidx.resize(size_t(nvis));
   lay.val.resize(size_t(nvis));
@@ -93,8 +153,10 @@ bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int 
 }
 
 bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
-                  int mnp, const sba_visibility &vis, std::string *msg) {
+                  int mnp, const sba_visibility &vis, std::string *msg, bool covx) {
   set_sizes(lay, mode, n, m, mcon, ncon, cnp, pnp, mnp);
+  *msg = check_block_sizes(lay, covx);
+  if (!msg->empty()) return false;
   if (vis.nvis <= 0 || vis.nvis > INT_MAX || !vis.point || !vis.camera) {
     *msg = "vis must list between 1 and INT_MAX pairs (got " + std::to_string(vis.nvis) +
            ") with non-NULL point and camera arrays";

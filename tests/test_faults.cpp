@@ -598,6 +598,126 @@ TEST(Faults, ProductsBeyondTheIntApiAreRefused) {
   }
 }
 
+// Every product of sizes that an int offset holds, at the first values beyond INT_MAX: 2^31
+// (or the next square), where an int product turns negative, and 2^32, where it wraps to 0
+// and slips past a check made in int (a 2^20 x 4096 Jacobian block did, and the solve then
+// wrote through a null Jacobian). Each call runs in a child whose address space may grow by
+// no more than 256 MiB: the refusal must come before anything of that size is allocated or
+// read, and name the product.
+TEST(Faults, EverySizeProductThatWrapsAnIntIsRefusedBeforeAnythingIsAllocated) {
+  enum Api { MotStrX, MotX, StrX, MotStrVis };
+  struct Big {
+    Api api;
+    int n, m, cnp, pnp, mnp;
+    long visible;  // the first `visible` cells of vmask (or pairs) are set
+    bool covx;
+    const char *expr;  // the product the message must name ...
+    long long value;   // ... and its value
+  };
+  const long long k31 = 1LL << 31, k32 = 1LL << 32;
+  std::vector<Big> cases;
+  // A projection's Jacobian block, mnp*(cnp+pnp), over several splits of the factors.
+  for (int s : {2, 10, 20, 29}) {
+    cases.push_back({MotStrX, 1, 1, 1 << (30 - s), 1 << (30 - s), 1 << s, 1, false, "mnp*(cnp+pnp)", k31});
+    cases.push_back({MotStrX, 1, 1, 1 << (31 - s), 1 << (31 - s), 1 << s, 1, false, "mnp*(cnp+pnp)", k32});
+    cases.push_back({StrX, 1, 1, 0, 1 << (31 - s), 1 << s, 1, false, "mnp*(cnp+pnp)", k31});
+    cases.push_back({StrX, 1, 1, 0, 1 << (32 - s), 1 << s, 1, false, "mnp*(cnp+pnp)", k32});
+    cases.push_back({MotX, 1, 1, 1 << (31 - s), 0, 1 << s, 1, false, "mnp*(cnp+pnp)", k31});
+    cases.push_back({MotX, 1, 1, 1 << (32 - s), 0, 1 << s, 1, false, "mnp*(cnp+pnp)", k32});
+    cases.push_back({MotStrVis, 1, 1, 1 << (31 - s), 1 << (31 - s), 1 << s, 1, false, "mnp*(cnp+pnp)", k32});
+  }
+  // The reproducers: 2^20 x (2048 + 2048), and the structure-only 2^20 x 4096.
+  cases.push_back({MotStrX, 1, 1, 2048, 2048, 1 << 20, 1, false, "mnp*(cnp+pnp)", k32});
+  cases.push_back({StrX, 1, 1, 0, 4096, 1 << 20, 1, false, "mnp*(cnp+pnp)", k32});
+  // Camera and point blocks U_j, V_i: the first square beyond INT_MAX, and 2^32.
+  for (int c : {46341, 65536}) {
+    const long long sq = (long long)c * c;
+    cases.push_back({MotStrX, 1, 1, c, 3, 1, 1, false, "cnp*cnp", sq});
+    cases.push_back({MotX, 1, 1, c, 0, 1, 1, false, "cnp*cnp", sq});
+    cases.push_back({MotStrX, 1, 1, 6, c, 1, 1, false, "pnp*pnp", sq});
+    cases.push_back({StrX, 1, 1, 0, c, 1, 1, false, "pnp*pnp", sq});
+    cases.push_back({MotStrVis, 1, 1, 6, c, 1, 1, false, "pnp*pnp", sq});
+    // A measurement's covariance block, when covx is given.
+    cases.push_back({MotStrX, 1, 1, 1, 1, c, 1, true, "mnp*mnp", sq});
+    cases.push_back({MotStrVis, 1, 1, 1, 1, c, 1, true, "mnp*mnp", sq});
+  }
+  // The parameter vector: all cameras, all points, and both together.
+  cases.push_back({MotX, 1, 1 << 21, 1 << 10, 0, 2, 1, false, "m*cnp", k31});
+  cases.push_back({MotX, 1, 1 << 21, 1 << 11, 0, 2, 1, false, "m*cnp", k32});
+  cases.push_back({MotStrX, 1 << 21, 1, 6, 1 << 10, 2, 1, false, "n*pnp", k31});
+  cases.push_back({StrX, 1 << 21, 1, 0, 1 << 11, 2, 1, false, "n*pnp", k32});
+  cases.push_back({MotStrX, 46341, 1, 46340, 46340, 1, 1, false, "m*cnp+n*pnp",
+                   46340LL + 46341LL * 46340});
+  // x and hx (nvis*mnp), the whole Jacobian, and covx (nvis*mnp*mnp).
+  cases.push_back({MotX, 1 << 11, 1, 1, 0, 1 << 20, 1 << 11, false, "nvis*mnp", k31});
+  cases.push_back({MotX, 1 << 11, 1, 1, 0, 1 << 21, 1 << 11, false, "nvis*mnp", k32});
+  cases.push_back({MotStrX, 1 << 10, 1, 1 << 10, 1 << 10, 1 << 10, 1 << 10, false, "nvis*mnp*(cnp+pnp)", k31});
+  cases.push_back({MotStrX, 1 << 10, 1, 1 << 11, 1 << 11, 1 << 10, 1 << 10, false, "nvis*mnp*(cnp+pnp)", k32});
+  cases.push_back({MotX, 1 << 11, 1, 1, 0, 1 << 10, 1 << 11, true, "nvis*mnp*mnp", k31});
+  cases.push_back({MotX, 1 << 10, 1, 1, 0, 1 << 11, 1 << 10, true, "nvis*mnp*mnp", k32});
+
+  for (const Big &b : cases) {
+    // p and x as long as the problem needs when that is a few MiB (so that a solve that gets
+    // past the checks runs into the wrapped Jacobian, as the reproducers did), else
+    // far shorter: nothing may be read past them.
+    const long long nvars = (long long)b.m * b.cnp + (long long)b.n * b.pnp;
+    const long long nobs = (long long)b.visible * b.mnp;
+    std::vector<double> p(size_t(nvars <= (1 << 20) ? std::max(nvars, 64LL) : 64), 1.0);
+    std::vector<double> x(size_t(nobs <= (1 << 20) ? std::max(nobs, 64LL) : 64), 1.0);
+    std::vector<double> covx(64, 0.0);
+    const std::string label = std::string(b.expr) + " = " + std::to_string(b.value) + " (n " +
+                              std::to_string(b.n) + ", m " + std::to_string(b.m) + ", cnp " +
+                              std::to_string(b.cnp) + ", pnp " + std::to_string(b.pnp) + ", mnp " +
+                              std::to_string(b.mnp) + ", api " + std::to_string(int(b.api)) + ")";
+    SCOPED_TRACE(label);
+    std::vector<char> vmask(size_t(b.n) * size_t(b.m), 0);
+    std::fill(vmask.begin(), vmask.begin() + b.visible, 1);
+    std::vector<int> pt(size_t(b.visible)), cam(size_t(b.visible));
+    for (long k = 0; k < b.visible; ++k) pt[size_t(k)] = int(k / b.m), cam[size_t(k)] = int(k % b.m);
+    const sba_visibility vis{b.visible, pt.data(), cam.data()};
+    const long limit = address_space_bytes() + (256L << 20);
+    const ChildOutcome out = run_in_child(
+        [&](int fd) {
+#ifndef SBA_TEST_SANITIZED
+          const rlimit lim{rlim_t(limit), rlim_t(limit)};
+          setrlimit(RLIMIT_AS, &lim);
+#endif
+          Report r;
+          double *cv = b.covx ? covx.data() : nullptr;
+          switch (b.api) {
+            case MotStrX:
+              r.ret = sba_motstr_levmar_x(b.n, 0, b.m, 0, vmask.data(), p.data(), b.cnp, b.pnp, x.data(),
+                                          cv, b.mnp, synth::func_motstr, nullptr, nullptr, 10, 0,
+                                          nullptr, r.info);
+              break;
+            case MotX:
+              r.ret = sba_mot_levmar_x(b.n, b.m, 0, vmask.data(), p.data(), b.cnp, x.data(), cv, b.mnp,
+                                       synth::func_motstr, nullptr, nullptr, 10, 0, nullptr, r.info);
+              break;
+            case StrX:
+              r.ret = sba_str_levmar_x(b.n, 0, b.m, vmask.data(), p.data(), b.pnp, x.data(), cv, b.mnp,
+                                       synth::func_motstr, nullptr, nullptr, 10, 0, nullptr, r.info);
+              break;
+            case MotStrVis:
+              r.ret = sba_motstr_levmar_x_vis(b.n, 0, b.m, 0, &vis, p.data(), b.cnp, b.pnp, x.data(), cv,
+                                              b.mnp, synth::func_motstr, nullptr, nullptr, 10, 0,
+                                              nullptr, r.info, nullptr);
+              break;
+          }
+          send(fd, r);
+          return 0;
+        },
+        60);
+    Report r;
+    ASSERT_TRUE(out.exited && out.code == 0 && receive(out, &r)) << out.describe();
+    EXPECT_EQ(r.ret, SBA_ERROR);
+    EXPECT_EQ(r.info[6], 0);
+    const std::string want = std::string(b.expr) + " = " + std::to_string(b.value) + ") exceeds INT_MAX";
+    EXPECT_NE(out.err.find(want), std::string::npos) << out.err;
+    EXPECT_EQ(std::count(out.err.begin(), out.err.end(), '\n'), 1) << out.err;
+  }
+}
+
 // n*m itself beyond 2^31 is fine: vmask is indexed in 64 bits. A 2^16-point, 2^15+1-camera
 // vmask (2 GiB, mapped without being backed) with a real 30-point, 4-camera problem in its
 // last rows and columns, everything else fixed: the solve must find the same minimum as the
