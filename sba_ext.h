@@ -196,6 +196,15 @@ extern int sba_motstr_levmar_vis(
  * (mcon, ncon) have zero covariance and fix the gauge; when they do not fix it completely, S
  * is singular and its pseudo-inverse is used: the covariance is then the one of the
  * minimum-norm camera update, and `rank` says how many directions are determined.
+ * Points are different: every free point's block V_i must have full rank (pnp), tested with a
+ * tolerance relative to its largest eigenvalue. A point that its projections do not determine
+ * (seen by one camera only when mnp < pnp, or only from one camera centre, or with its
+ * projections given zero weight by the loss) makes the call fail with SBA_ERROR and a
+ * message naming it, e.g. "point 465 is seen by one camera only: its 3 parameters are not
+ * determined by 2 measurements (V_i has rank 2 < pnp = 3)". No pseudo-inverse is offered
+ * for it: its missing direction would couple into S and change the other blocks, and an
+ * inverse of a rounding-level pivot is noise. Remove such points (or their projections) and
+ * ask again.
  * With a robust loss in ext, J and e are reweighted as in the last iteration of the solve. */
 struct sba_covariance_request {
   size_t size;           /* sizeof(struct sba_covariance_request); sba_covariance_request_init */
@@ -212,7 +221,8 @@ struct sba_covariance_request {
 extern void sba_covariance_request_init(struct sba_covariance_request *req);
 
 /* Expert callbacks as sba_motstr_levmar_x (fjac NULL: finite differences). Returns 0 on
- * success, SBA_ERROR on bad arguments or when a point is not determined by its projections. */
+ * success, SBA_ERROR on bad arguments or when a point is not determined by its projections
+ * (see above: the message names the first such point). */
 extern int sba_motstr_covariance_x(
     const int n, const int ncon, const int m, const int mcon, char *vmask, double *p, const int cnp,
     const int pnp, double *x, double *covx, const int mnp,

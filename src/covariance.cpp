@@ -2,10 +2,13 @@
 // (J^T J)^-1 has camera blocks S^-1 (S = U - W V^-1 W^T) and point blocks
 // V^-1 + V^-1 W^T S^-1 W V^-1. Only the requested blocks are formed. A gauge that mcon/ncon
 // leave free makes S singular; its pseudo-inverse (from a symmetric eigendecomposition) is
-// used and the rank reported.
+// used and the rank reported. A point block V_i, by contrast, must have full rank: a point
+// that its projections do not determine (seen by one camera, or by cameras in degenerate
+// positions) is refused by name, since inverting its V_i would turn rounding into numbers.
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "core.h"
@@ -16,6 +19,76 @@
 #include "schur.h"
 
 namespace sba {
+namespace {
+
+// Eigenvalues of the symmetric n x n block a (row-major; destroyed) by cyclic Jacobi
+// rotations, which are accurate to rounding relative to the largest eigenvalue. lambda gets
+// them unordered.
+void symmetric_eigenvalues(double *a, int n, double *lambda) {
+  for (int sweep = 0; sweep < 64; ++sweep) {
+    double off = 0.0, diag = 0.0;
+    for (int r = 0; r < n; ++r) {
+      diag += a[r * n + r] * a[r * n + r];
+      for (int c = r + 1; c < n; ++c) off += a[r * n + c] * a[r * n + c];
+    }
+    if (!(off > DBL_EPSILON * DBL_EPSILON * 1e-4 * diag)) break;
+    for (int p = 0; p < n; ++p)
+      for (int q = p + 1; q < n; ++q) {
+        const double apq = a[p * n + q];
+        if (apq == 0.0) continue;
+        // The rotation that zeroes a_pq: t = tan(theta), the smaller root.
+        const double theta = (a[q * n + q] - a[p * n + p]) / (2.0 * apq);
+        const double t = (theta >= 0 ? 1.0 : -1.0) / (std::fabs(theta) + std::sqrt(theta * theta + 1.0));
+        const double c = 1.0 / std::sqrt(t * t + 1.0), s = t * c;
+        for (int k = 0; k < n; ++k) {  // columns p, q
+          const double akp = a[k * n + p], akq = a[k * n + q];
+          a[k * n + p] = c * akp - s * akq;
+          a[k * n + q] = s * akp + c * akq;
+        }
+        for (int k = 0; k < n; ++k) {  // rows p, q
+          const double apk = a[p * n + k], aqk = a[q * n + k];
+          a[p * n + k] = c * apk - s * aqk;
+          a[q * n + k] = s * apk + c * aqk;
+        }
+      }
+  }
+  for (int r = 0; r < n; ++r) lambda[r] = a[r * n + r];
+}
+
+// The numerical rank of the symmetric positive semi-definite block V (n x n): eigenvalues
+// above a tolerance relative to the largest. The tolerance sits well above the rounding of
+// forming V = sum B^T B (a few ulps of the largest eigenvalue), so that a direction that is
+// zero in exact arithmetic is never counted, whatever the sign its rounding takes.
+int block_rank(const double *V, int n, std::vector<double> &work) {
+  work.assign(V, V + i64(n) * n);
+  std::vector<double> lambda(size_t(n), 0.0);
+  symmetric_eigenvalues(work.data(), n, lambda.data());
+  double top = 0.0;
+  for (double l : lambda) top = std::max(top, l);
+  const double tol = top * n * DBL_EPSILON * 100.0;
+  int rank = 0;
+  for (double l : lambda) rank += l > tol;
+  return rank;
+}
+
+// Why point i (free, with a V_i of rank < pnp) has no covariance: one line.
+std::string undetermined_point(const Layout &lay, int i, int rank) {
+  const int seen = lay.rowptr[size_t(i) + 1] - lay.rowptr[size_t(i)];
+  const i64 meas = i64(seen) * lay.mnp;
+  std::string why;
+  if (meas < lay.pnp)
+    why = "point " + std::to_string(i) + " is seen by " +
+          (seen == 1 ? std::string("one camera") : std::to_string(seen) + " cameras") +
+          " only: its " + std::to_string(lay.pnp) + " parameters are not determined by " +
+          std::to_string(meas) + " measurements";
+  else
+    why = "point " + std::to_string(i) + " is not determined by its " + std::to_string(seen) +
+          " projections (cameras in degenerate positions, or projections the loss ignores)";
+  return why + " (V_i has rank " + std::to_string(rank) + " < pnp = " + std::to_string(lay.pnp) +
+         "): its covariance is unbounded";
+}
+
+}  // namespace
 
 bool covariance(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
                 const Options &opt, const Logger &log, CovarianceRequest &req) {
@@ -28,6 +101,21 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
                            lin.eb.data()};
   const int cnp = lay.cnp, pnp = lay.pnp;
 
+  // Every free point's V_i must have full rank. Testing it before inverting matters: a V_i
+  // that is singular in exact arithmetic often has a tiny positive rounding pivot, and then
+  // its "inverse" is rounding noise of 1e10 and more, which also leaks into S and so into
+  // every other block.
+  {
+    std::vector<double> work;
+    const int pnp2 = pnp * pnp;
+    for (int i = lay.ncon; i < lay.n && pnp > 0; ++i) {
+      const int r = block_rank(ne.V + i64(i) * pnp2, pnp, work);
+      if (r < pnp) {
+        log.error("sba: %s", undetermined_point(lay, i, r).c_str());
+        return false;
+      }
+    }
+  }
   std::vector<double> Vinv(lin.V.size());
   if (!kernels->invert_damped_V(pool, ne.V, 0.0, Vinv.data())) {
     log.error("sba: a point is not determined by its projections (its V_i is singular): its "

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "sba_ext.h"
@@ -244,6 +245,84 @@ TEST(Covariance, BadRequestsAreRefused) {
   const std::string err = testing::internal::GetCapturedStderr();
   EXPECT_NE(err.find("req->cams[0] is not a camera index"), std::string::npos) << err;
   EXPECT_NE(err.find("req is NULL"), std::string::npos) << err;
+}
+
+// Keeps only the first projection of point q (in vmask and in x): q is then seen by one
+// camera, and its 3 parameters meet 2 measurements.
+int see_once(synth::Problem &pb, int q) {
+  std::vector<double> x;
+  int k = 0, camera = -1;
+  for (int i = 0; i < pb.n; ++i)
+    for (int j = 0; j < pb.m; ++j) {
+      char &v = pb.vmask[size_t(i) * pb.m + j];
+      if (!v) continue;
+      const bool keep = i != q || camera < 0;
+      if (i == q && keep) camera = j;
+      if (keep) x.insert(x.end(), pb.x.begin() + 2 * k, pb.x.begin() + 2 * k + 2);
+      else v = 0;
+      ++k;
+    }
+  pb.x = x;
+  pb.nvis = int(x.size() / 2);
+  return camera;
+}
+
+// V_i of a point seen once is singular in exact arithmetic; its rounding-level pivot may come
+// out positive, and a Cholesky-based inverse then "succeeds" with variances of 1e10 and more.
+// Every such request must be refused, naming the point, over many problems and both callback
+// kinds; never a success reporting full rank.
+TEST(Covariance, APointSeenByOneCameraIsRefusedByName) {
+  int refused = 0, calls = 0;
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    synth::Problem pb = synth::make(30, 5, 0.5, 0.05, 600 + seed);
+    const int q = int(seed * 7) % pb.n;
+    see_once(pb, q);
+    std::vector<double> p = pb.p0;
+    ASSERT_GT(solve(pb, p, 2), 0);
+    for (bool simple : {false, true}) {
+      testing::internal::CaptureStderr();
+      const Cov c = covariance(pb, p, 2, 0, simple);
+      const std::string err = testing::internal::GetCapturedStderr();
+      ++calls;
+      EXPECT_EQ(c.ret, SBA_ERROR) << (simple ? "simple" : "expert") << ": rank " << c.req.rank
+                                  << " of " << c.req.nfree;
+      refused += c.ret == SBA_ERROR;
+      const std::string want = "point " + std::to_string(q) +
+                               " is seen by one camera only: its 3 parameters are not determined "
+                               "by 2 measurements (V_i has rank 2 < pnp = 3)";
+      EXPECT_NE(err.find(want), std::string::npos) << err;
+      EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    }
+  }
+  EXPECT_EQ(refused, calls);
+}
+
+// Two cameras at the same place see a point along the same ray: its depth is not determined,
+// and its V_i has rank 2 although it has 4 measurements.
+TEST(Covariance, APointSeenOnlyFromOneCentreIsRefusedByName) {
+  synth::Problem pb = synth::make(30, 5, 0.5, 0.05, 655);
+  std::vector<double> p = pb.p0;
+  ASSERT_GT(solve(pb, p, 2), 0);
+  std::copy(p.begin(), p.begin() + kCnp, p.begin() + kCnp);  // camera 1 := camera 0 (both fixed)
+  const int q = 0;  // the first point, so that it is the one named
+  for (int j = 0; j < pb.m; ++j) pb.vmask[size_t(q) * pb.m + j] = j < 2;
+  // x: the exact projections of p (the residual does not matter for the rank).
+  pb.x.clear();
+  for (int i = 0; i < pb.n; ++i)
+    for (int j = 0; j < pb.m; ++j)
+      if (pb.vmask[size_t(i) * pb.m + j]) {
+        double xy[2];
+        synth::project(p.data() + j * kCnp, p.data() + pb.m * kCnp + i * kPnp, xy, nullptr, nullptr);
+        pb.x.push_back(xy[0] + 0.3 * std::sin(double(pb.x.size())));
+        pb.x.push_back(xy[1] + 0.3 * std::cos(double(pb.x.size())));
+      }
+  testing::internal::CaptureStderr();
+  const Cov c = covariance(pb, p, 2, 0);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(c.ret, SBA_ERROR);
+  EXPECT_NE(err.find("point 0 is not determined by its 2 projections"), std::string::npos) << err;
+  EXPECT_NE(err.find("(V_i has rank 2 < pnp = 3)"), std::string::npos) << err;
 }
 
 }  // namespace
