@@ -88,8 +88,13 @@ struct sba_ext_options {
   /* Robust loss applied to every projection's squared residual s = ||e_ij||^2 (after the
    * covariance weighting): NULL or "none" (plain least squares, as 1.6), "huber", "cauchy",
    * "soft-l1", "tukey", with scale loss_scale (residuals beyond about loss_scale count
-   * less; 0 means 1). Solved by iteratively reweighted least squares inside the same LM:
-   * info[0], info[1] and the progress error are then the robust cost sum rho(s). */
+   * less; 0 means 1). loss_scale must lie within [2^-511, 2^511] (about 1.5e-154 to 6.7e153),
+   * where its square and inverse square are normal numbers; anything else (negative, NaN,
+   * Inf, or beyond that range) is a bad argument: SBA_ERROR before iterating, with a message
+   * naming loss_scale. Solved by iteratively reweighted least squares inside the same LM:
+   * info[0], info[1] and the progress error are then the robust cost sum rho(s). The stop
+   * tests of opts are absolute: with a scale far below the residuals the robust gradient
+   * shrinks with the scale, and eps1 must shrink with it. */
   const char *loss;
   double loss_scale;
   /* Where to report what the solve did (NULL: nowhere). */

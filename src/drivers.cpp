@@ -3,6 +3,7 @@
 // as an exception, and info is filled on every return path.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <thread>
@@ -169,8 +170,15 @@ void make_options(const DriverArgs &a, const sba_ext_options &ext, const Logger 
       return;
     }
     const double scale = ext.loss_scale == 0.0 ? 1.0 : ext.loss_scale;
-    if (!(scale > 0.0) || !std::isfinite(scale)) {
-      *msg = "loss_scale must be positive and finite (got " + std::to_string(ext.loss_scale) + ")";
+    // The losses divide and multiply by scale^2; outside this range it overflows or
+    // underflows, and the solve would fail for a reason that blames x or stop at once.
+    if (!(scale >= kMinLossScale && scale <= kMaxLossScale)) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf,
+                    "loss_scale must be positive and within [%.3g, %.3g], where its square and "
+                    "inverse square are normal numbers (got %g)",
+                    kMinLossScale, kMaxLossScale, ext.loss_scale);
+      *msg = buf;
       return;
     }
     o->loss = Loss(kind, scale);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -150,6 +151,55 @@ TEST(RobustLoss, BadLossArgumentsAreRefused) {
   EXPECT_EQ(b.ret, SBA_ERROR);
   EXPECT_NE(err.find("unknown loss \"bisquare\""), std::string::npos) << err;
   EXPECT_NE(err.find("loss_scale must be positive"), std::string::npos) << err;
+}
+
+// A loss scale whose square or inverse square overflows or underflows is a bad argument,
+// refused before iterating with a message naming loss_scale: not an "initial error is not
+// finite" that blames x, nor a solve that stops at once having refined nothing.
+TEST(RobustLoss, AbsurdLossScalesAreRefusedBeforeIterating) {
+  Fixture f(0.0, 10);
+  const double scales[] = {1e160,  1e-160, 1e-300, 0x1p512, 0x1p-512, DBL_MAX, DBL_MIN,
+                           4.9e-324, -1.0, -1e-3, HUGE_VAL, std::nan("")};
+  for (const char *loss : {"huber", "cauchy", "soft-l1", "tukey"})
+    for (double scale : scales) {
+      char label[64];
+      std::snprintf(label, sizeof label, "%s at %g", loss, scale);
+      SCOPED_TRACE(label);
+      testing::internal::CaptureStderr();
+      const Fit r = fit(f, loss, scale);
+      const std::string err = testing::internal::GetCapturedStderr();
+      EXPECT_EQ(r.ret, SBA_ERROR);
+      EXPECT_EQ(r.info[6], 0);  // nothing ran
+      EXPECT_EQ(r.info[5], 0);
+      char got[64];
+      std::snprintf(got, sizeof got, "(got %g)", scale);
+      EXPECT_NE(err.find("loss_scale must be positive and within ["), std::string::npos) << err;
+      EXPECT_NE(err.find(got), std::string::npos) << err;
+      EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    }
+}
+
+// At the ends of the accepted range the losses still work: a huge scale makes every residual
+// an inlier, so each loss must find the least-squares minimum (no 1 + s/c^2 - 1 cancelling to
+// a zero cost); a tiny one must give a finite cost (no s/c^2 overflowing to Inf).
+TEST(RobustLoss, LossesWorkAtBothEndsOfTheScaleRange) {
+  Fixture f(0.0, 11);
+  const Fit ls = fit(f, nullptr, 0);
+  ASSERT_GT(ls.ret, 0);
+  for (const char *loss : {"huber", "cauchy", "soft-l1", "tukey"}) {
+    SCOPED_TRACE(loss);
+    const Fit big = fit(f, loss, 0x1p511);
+    ASSERT_GT(big.ret, 1);
+    EXPECT_GE(big.info[6], 1);
+    EXPECT_LE(big.info[6], 5);
+    EXPECT_NEAR(big.res.sq_error_final / ls.res.sq_error_final, 1.0, 1e-6);
+    EXPECT_NEAR(big.res.cost_final / big.res.sq_error_final, 1.0, 1e-6);
+    EXPECT_EQ(big.res.outliers_final, 0);
+    const Fit tiny = fit(f, loss, 0x1p-511);
+    EXPECT_NE(tiny.ret, SBA_ERROR);
+    EXPECT_TRUE(std::isfinite(tiny.info[0]) && tiny.info[0] > 0) << tiny.info[0];
+    EXPECT_TRUE(std::isfinite(tiny.info[1])) << tiny.info[1];
+  }
 }
 
 }  // namespace
