@@ -54,7 +54,7 @@ struct sba_ext_result {
   /* Projections whose squared residual is beyond the loss scale squared at the end (0 without
    * a loss): the ones the loss treats as outliers. */
   long long outliers_final;
-  int nthreads;           /* threads used */
+  int nthreads;           /* threads used (after the caps, see sba_ext_options.nthreads) */
   const char *linsolver;  /* linear solver used (a static string) */
   int robust;             /* nonzero if a robust loss was used */
 };
@@ -73,7 +73,11 @@ struct sba_ext_options {
   const char *linsolver;
   /* Threads for the normal equations and the Schur complement; 0: the environment variable
    * SBA_NUM_THREADS if set, else every hardware thread but at most one per 10,000
-   * projections (a smaller problem runs faster on fewer). Results do not depend on it. */
+   * projections (a smaller problem runs faster on fewer). A count asked for (here or in
+   * SBA_NUM_THREADS) is capped at 4 per hardware thread and at one per 64 projections:
+   * more only cost time and memory. SBA_NUM_THREADS must be a positive decimal integer (the
+   * whole value); anything else is ignored, with a warning when verbose. The count actually
+   * used is reported in sba_ext_result.nthreads. Results do not depend on it. */
   int nthreads;
   /* Where messages go: log(log_ctx, level, line) with one line and no newline. NULL:
    * errors and warnings to stderr, progress to stdout, as 1.6. */

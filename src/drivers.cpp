@@ -2,6 +2,8 @@
 // typed layout and callback model, and runs the shared LM core. Nothing escapes this file
 // as an exception, and info is filled on every return path.
 #include <algorithm>
+#include <cerrno>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -113,17 +115,51 @@ void quiet_sink(void *, int, const char *) {}
 
 // Projections per thread below which a thread left to the library is not started: each
 // kernel of an iteration wakes the pool, and on a small problem that costs more than the
-// thread saves (sba_bench --gen cameras=10,points=1000,track=2..10,trajectory=path, 6,000
-// projections, chol: 0.045-0.053 s with 1 thread, 0.062-0.068 s with 2; at 50 cameras and
-// 30,000 projections 2 threads were 1.2-1.3x faster). Each thread also holds its stack and
-// the libraries' thread-local storage, ~120 KB next to a 1 MB problem.
+// thread saves. Each thread also holds its stack and the libraries' thread-local storage.
 constexpr i64 kProjectionsPerThread = 10000;
+// Caps on a count the caller asks for. Threads beyond the hardware's only take turns, and a
+// few per hardware thread are allowed (running more threads than cores is how the
+// thread-count independence of the results is tested, and harmless at that scale); beyond
+// that each one is pure cost: an absurd request (INT_MAX) would otherwise start threads until
+// the system refuses, taking seconds and gigabytes. Threads with fewer projections than
+// kMinProjectionsPerThread each have nothing to do between their wake-ups.
+constexpr int kThreadsPerHardwareThread = 4;
+constexpr i64 kMinProjectionsPerThread = 64;
 
-// The threads a solve runs: as asked, or with the count left to the library (no nthreads,
-// no SBA_NUM_THREADS), the hardware's count as far as the problem's size warrants.
+int hardware_threads() { return std::max(1, int(std::thread::hardware_concurrency())); }
+
+// The threads a solve runs: with the count left to the library (no nthreads, no
+// SBA_NUM_THREADS), the hardware's count as far as the problem's size warrants; a count that
+// was asked for, as asked up to the caps above. Either way the results are the same bits.
 void fit_threads(const Layout &lay, Options *o) {
-  if (o->auto_threads)
-    o->nthreads = int(std::clamp<i64>(lay.nvis / kProjectionsPerThread, 1, o->nthreads));
+  const int hw = hardware_threads();
+  if (o->auto_threads) {
+    o->nthreads = int(std::clamp<i64>(lay.nvis / kProjectionsPerThread, 1, hw));
+    return;
+  }
+  const i64 cap = std::min<i64>(i64(hw) * kThreadsPerHardwareThread,
+                                std::max<i64>(1, lay.nvis / kMinProjectionsPerThread));
+  o->nthreads = int(std::clamp<i64>(o->nthreads, 1, cap));
+}
+
+// SBA_NUM_THREADS as a thread count: a positive decimal integer, the whole string (counts
+// beyond INT_MAX are just large requests, capped like any other). 0 when unset, empty or
+// invalid; an invalid value is reported as a warning and otherwise ignored, so that a typo
+// in the environment does not stop an unmodified 1.6 program.
+int threads_from_env(const char *who, const Logger &log) {
+  const char *env = std::getenv("SBA_NUM_THREADS");
+  if (!env || !*env) return 0;
+  errno = 0;
+  char *end = nullptr;
+  const long v = std::strtol(env, &end, 10);
+  const bool whole = end != env && *end == '\0';
+  if (!whole || v <= 0) {
+    log.warning("%s: SBA_NUM_THREADS=\"%s\" is not a positive integer: ignored (the library "
+                "chooses the thread count)",
+                who, env);
+    return 0;
+  }
+  return errno == ERANGE || v > INT_MAX ? INT_MAX : int(v);  // beyond long: huge, capped
 }
 
 // Options from opts and the extension options; msg is set on a bad setting.
@@ -154,10 +190,8 @@ void make_options(const DriverArgs &a, const sba_ext_options &ext, const Logger 
                 linsolver_names());
   }
   int threads = ext.nthreads;
-  if (threads <= 0)
-    if (const char *env = std::getenv("SBA_NUM_THREADS"); env && *env) threads = std::atoi(env);
-  o->auto_threads = threads <= 0;
-  if (threads <= 0) threads = int(std::thread::hardware_concurrency());
+  if (threads <= 0) threads = threads_from_env(a.name, log);
+  o->auto_threads = threads <= 0;  // fit_threads chooses (and caps an explicit count)
   o->nthreads = std::max(1, threads);
   o->progress = ext.progress;
   o->progress_ctx = ext.progress_ctx;

@@ -671,3 +671,113 @@ TEST(Drivers, FourConcurrentSolvesMatchASequentialOne) {
 }
 
 }  // namespace
+
+// ---------------------------------------------------------------- extension options at their limits
+
+#include <climits>
+#include <cstdlib>
+
+#include "sba_ext.h"
+
+namespace {
+
+struct ExtRun {
+  int ret = 0;
+  sba_ext_result res{};
+  std::vector<double> p;
+  double info[SBA_INFOSZ] = {};
+  std::string log;  // "<level> <line>\n" per message
+};
+
+void capture_log(void *ctx, int level, const char *line) {
+  *static_cast<std::string *>(ctx) += std::to_string(level) + " " + line + "\n";
+}
+
+// sba_motstr_levmar_x_ext on pb with ext as `tune` leaves it (log and result already set).
+template <class Tune>
+ExtRun run_ext(synth::Problem &pb, int verbose, Tune tune, const double *opts = nullptr, int itmax = 100) {
+  ExtRun r;
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  sba_ext_result_init(&r.res);
+  ext.result = &r.res;
+  ext.log = capture_log;
+  ext.log_ctx = &r.log;
+  tune(ext);
+  r.p = pb.p0;
+  r.ret = sba_motstr_levmar_x_ext(pb.n, 0, pb.m, 1, pb.vmask.data(), r.p.data(), kCnp, kPnp, pb.x.data(),
+                                  nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb, itmax,
+                                  verbose, opts, r.info, &ext);
+  return r;
+}
+
+ExtRun run_threads(synth::Problem &pb, int nthreads, int verbose = 0) {
+  return run_ext(pb, verbose, [&](sba_ext_options &e) { e.nthreads = nthreads; });
+}
+
+// What a count that is asked for becomes (sba_ext.h): at most 4 per hardware thread and one
+// per 64 projections.
+int capped(int nvis) {
+  const int hw = std::max(1, int(std::thread::hardware_concurrency()));
+  return std::min(4 * hw, std::max(1, nvis / 64));
+}
+
+// INT_MAX threads used to start threads until the system refused (seconds and gigabytes for
+// a problem solved in milliseconds), and the result reported INT_MAX.
+TEST(Threads, AnAbsurdCountIsCappedReportedAndGivesTheSameResult) {
+  unsetenv("SBA_NUM_THREADS");
+  synth::Problem pb = synth::make(200, 6, 0.5, 0.05, 61);
+  ASSERT_GT(capped(pb.nvis), 1);
+  const ExtRun one = run_threads(pb, 1);
+  ASSERT_GT(one.ret, 0);
+  EXPECT_EQ(one.res.nthreads, 1);
+  for (int t : {INT_MAX, 5000, 3}) {
+    const ExtRun r = run_threads(pb, t);
+    EXPECT_EQ(r.res.nthreads, std::min(t, capped(pb.nvis))) << t;
+    EXPECT_EQ(r.ret, one.ret) << t;
+    EXPECT_EQ(r.p, one.p) << t;
+    for (int q = 0; q < SBA_INFOSZ; ++q) EXPECT_EQ(r.info[q], one.info[q]) << t << ": info[" << q << "]";
+  }
+  // A problem too small to share: one thread, whatever is asked.
+  synth::Problem tiny = synth::make(12, 3, 0.5, 0.05, 62);
+  ASSERT_LT(tiny.nvis, 64);
+  EXPECT_EQ(run_threads(tiny, 16).res.nthreads, 1);
+}
+
+// SBA_NUM_THREADS is read as a whole positive decimal integer; a huge one is a large request
+// (capped), never a wrapped int; anything else is ignored, with a warning when verbose.
+TEST(Threads, SbaNumThreadsIsParsedWithRangeChecks) {
+  synth::Problem pb = synth::make(200, 6, 0.5, 0.05, 61);
+  const int cap = capped(pb.nvis), automatic = 1;  // under 10,000 projections: one thread
+  struct Case {
+    const char *value;
+    int want;
+    bool warned;
+  };
+  const Case cases[] = {{"2", 2, false},
+                        {"5000", cap, false},
+                        {"99999999999", cap, false},
+                        {"999999999999999999999999999", cap, false},
+                        {"12abc", automatic, true},
+                        {"abc", automatic, true},
+                        {"-3", automatic, true},
+                        {"0", automatic, true},
+                        {"3 ", automatic, true}};
+  for (const Case &c : cases) {
+    SCOPED_TRACE(std::string("SBA_NUM_THREADS=\"") + c.value + "\"");
+    ASSERT_EQ(setenv("SBA_NUM_THREADS", c.value, 1), 0);
+    const ExtRun r = run_threads(pb, 0, 1);
+    EXPECT_GT(r.ret, 0);
+    EXPECT_EQ(r.res.nthreads, c.want);
+    const std::string warning = std::string("1 sba_motstr_levmar_x: SBA_NUM_THREADS=\"") + c.value +
+                                "\" is not a positive integer: ignored";
+    EXPECT_EQ(r.log.find(warning) != std::string::npos, c.warned) << r.log;
+    // Not verbose: nothing said, the same count.
+    const ExtRun quiet = run_threads(pb, 0, 0);
+    EXPECT_EQ(quiet.res.nthreads, c.want);
+    EXPECT_EQ(quiet.log, "");
+  }
+  unsetenv("SBA_NUM_THREADS");
+}
+
+}  // namespace
