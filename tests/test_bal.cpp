@@ -473,8 +473,11 @@ TEST(BalSolve, Problem49Regression) {
   std::printf("problem-49-7776: %d iterations, reason %g, mean squared error %.12g [initial %.12g]\n", ret,
               info[6], info[1] / nobs, info[0] / nobs);
   EXPECT_NEAR(info[1] / nobs, 0.838894, 5e-6);
-  EXPECT_EQ(info[6], 3.0);  // itmax reached
-  EXPECT_EQ(ret, 150);
+  // sba 1.6's relative-reduction test, as 1.6 writes it, ends the run in the flat part of the
+  // descent, about half-way to the 150 iterations that reason 3 would take.
+  EXPECT_EQ(info[6], 4.0);
+  EXPECT_GE(ret, 60);
+  EXPECT_LE(ret, 95);
 }
 
 }  // namespace
