@@ -19,7 +19,6 @@
 #include "sba.h"
 #include "sba_ext.h"
 #include "tty_progress.h"
-#include "sba_ext.h"
 
 namespace eucsba {
 namespace {
@@ -204,8 +203,10 @@ Status write_results(const DemoOptions &o, const CameraModel &model, const Point
 
 // --write-stddev: the square roots of the diagonal of the covariance of the solution, one
 // line per camera (cnp values) then one per point (3), after a motion-and-structure run.
-Status write_stddev(const DemoOptions &o, const CameraModel &model, PointSet &points,
-                    const Outcome &out) {
+// Computed into *text before any file is written, so that a covariance the library refuses
+// (a point seen by one camera only) leaves no result files behind.
+Status stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &points, const Outcome &out,
+                   std::string *text) {
   const std::string &path = o.write_stddev;
   if (out.refinement != Refinement::MotionStructure)
     return Status::error(path, 0, "standard deviations need a motion-and-structure refinement");
@@ -231,23 +232,36 @@ Status write_stddev(const DemoOptions &o, const CameraModel &model, PointSet &po
     ext.loss_scale = o.loss_scale;
   }
   const ExpertCallbacks cb = expert_callbacks(model.kind(), Refinement::MotionStructure);
+  // The library prints why on stderr (ext.log is not set); this adds the demo's own line.
   if (sba_motstr_covariance_x(n, o.ncon, m, o.mcon, points.vmask.data(), p.data(), cnp, kPointParams,
                               points.x.data(), points.has_covariances() ? points.covx.data() : nullptr,
                               kMeasurementParams, cb.func, cb.fjac, as_adata(model), &req, &ext) != 0)
-    return Status::error(path, 0, "the covariance of the solution could not be computed");
-  std::FILE *f = std::fopen(path.c_str(), "w");
-  if (!f) return Status::error(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
-  std::fprintf(f, "# standard deviations: sigma^2 = %.6e, rank %d of %d free parameters\n", req.sigma2,
-               req.rank, req.nfree);
-  std::fprintf(f, "# one line per camera (its %d parameters), then one per point (X Y Z)\n", cnp);
+    return Status::error(path, 0, "the covariance of the solution could not be computed: no file written");
+  char buf[160];
+  auto add = [&](const char *fmt, auto... args) {
+    const int len = std::snprintf(buf, sizeof buf, fmt, args...);
+    text->append(buf, static_cast<size_t>(std::max(0, std::min<int>(len, int(sizeof buf) - 1))));
+  };
+  text->clear();
+  add("# standard deviations: sigma^2 = %.6e, rank %d of %d free parameters\n", req.sigma2, req.rank,
+      req.nfree);
+  add("# one line per camera (its %d parameters), then one per point (X Y Z)\n", cnp);
   for (int j = 0; j < m; ++j) {
     for (int a = 0; a < cnp; ++a)
-      std::fprintf(f, "%s%.6e", a ? " " : "", std::sqrt(std::max(0.0, camcov[size_t(j) * cnp * cnp + a * (cnp + 1)])));
-    std::fputc('\n', f);
+      add("%s%.6e", a ? " " : "", std::sqrt(std::max(0.0, camcov[size_t(j) * cnp * cnp + a * (cnp + 1)])));
+    text->push_back('\n');
   }
   for (int i = 0; i < n; ++i)
-    std::fprintf(f, "%.6e %.6e %.6e\n", std::sqrt(std::max(0.0, ptcov[size_t(i) * 9])),
-                 std::sqrt(std::max(0.0, ptcov[size_t(i) * 9 + 4])), std::sqrt(std::max(0.0, ptcov[size_t(i) * 9 + 8])));
+    add("%.6e %.6e %.6e\n", std::sqrt(std::max(0.0, ptcov[size_t(i) * 9])),
+        std::sqrt(std::max(0.0, ptcov[size_t(i) * 9 + 4])), std::sqrt(std::max(0.0, ptcov[size_t(i) * 9 + 8])));
+  return {};
+}
+
+// Writes text to path.
+Status write_text(const std::string &path, const std::string &text) {
+  std::FILE *f = std::fopen(path.c_str(), "w");
+  if (!f) return Status::error(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
+  std::fwrite(text.data(), 1, text.size(), f);
   if (std::fclose(f) != 0) return Status::error(path, 0, "write failed");
   return {};
 }
@@ -324,13 +338,20 @@ int demo_main(int argc, char **argv) {
   }
 
   // Files first: if one cannot be written, the run failed and says nothing that looks like
-  // success.
+  // success. The standard deviations are computed before any file is written: when the
+  // library refuses them, no result file appears.
+  std::string stddev;
+  if (!o.write_stddev.empty())
+    if (Status s = stddev_text(o, model, points, out, &stddev); !s) {
+      std::fprintf(stderr, "%s\n", s.to_string().c_str());
+      return kExitFailure;
+    }
   if (Status s = write_results(o, model, points, problem.kind, out); !s) {
     std::fprintf(stderr, "%s\n", s.to_string().c_str());
     return kExitFailure;
   }
   if (!o.write_stddev.empty())
-    if (Status s = write_stddev(o, model, points, out); !s) {
+    if (Status s = write_text(o.write_stddev, stddev); !s) {
       std::fprintf(stderr, "%s\n", s.to_string().c_str());
       return kExitFailure;
     }

@@ -1102,6 +1102,27 @@ TEST(Eucsbademo, WritesStandardDeviationsOfTheSolution) {
   EXPECT_LT(rows[7][2], 1e-3);
 }
 
+// The library refuses the covariance of a point seen by one camera only (its 3 coordinates
+// are not determined by 2 measurements): the run fails with the library's line naming the
+// point and the demo's own, and writes none of the files asked for.
+TEST(Eucsbademo, StddevRefusedForAPointSeenOnceWritesNoFile) {
+  REQUIRE_DEMO_DATA();
+  TempDir dir;
+  const std::string pts = dir.write("7pts+1.txt", read_text(demo_file("7pts.txt")) + "0.1 0.2 5.0 1  3 100.0 200.0\n");
+  const std::string sd = dir.file("sd.txt"), cams = dir.file("cams.txt");
+  const DemoRun r = run_demo({"--write-stddev=" + sd, "--write-cams=" + cams, demo_file(k7cams.cams), pts,
+                              demo_file(k7cams.calib)});
+  EXPECT_EQ(r.status, 1) << r;
+  EXPECT_EQ(r.out, "");
+  const std::vector<std::string> lines = r.err_lines();
+  ASSERT_EQ(lines.size(), 3u) << r;
+  EXPECT_EQ(lines[0], kFixedBanner);
+  EXPECT_EQ(lines[1].rfind("sba: point 465 is seen by one camera only", 0), 0u) << lines[1];
+  EXPECT_EQ(lines[2], sd + ": the covariance of the solution could not be computed: no file written");
+  EXPECT_FALSE(fs::exists(sd));
+  EXPECT_FALSE(fs::exists(cams));
+}
+
 // ---------------------------------------------------------------------------------------------
 // h. The option parser itself.
 
