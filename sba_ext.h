@@ -26,9 +26,19 @@ extern "C" {
 #define SBA_STOP_SINGULAR 8 /* the augmented normal equations are almost singular (SBA_ERROR) */
 #define SBA_STOP_USER 9     /* the progress callback asked to stop; p is the last accepted */
 
+/* opts[0] = tau (sba.h): as in 1.6 its magnitude is used, and tau = 0 is a bad argument
+ * (SBA_ERROR): the initial damping mu = |tau| max diag(J^T J) would be 0, which no failed
+ * step can grow. mu is also kept at no less than 2^-400 max diag(J^T J) (only a tau below
+ * that notices) and the smallest normal number, so that a tau * max diag(J^T J) that
+ * underflows cannot end the solve at once with nothing refined.
+ * The environment variables SBA_LINSOLVER and SBA_NUM_THREADS (for unmodified 1.6
+ * programs): an invalid value is ignored, with a warning (level SBA_LOG_WARNING, shown
+ * verbose or not), and does not make the call fail. */
+
 /* log levels passed to the log sink */
 #define SBA_LOG_ERROR 0   /* why a call returns SBA_ERROR */
-#define SBA_LOG_WARNING 1 /* diagnostics (1.6 printed some unconditionally; we need verbose) */
+#define SBA_LOG_WARNING 1 /* diagnostics (1.6 printed some unconditionally; we need verbose),
+                           * and ignored environment settings (shown verbose or not) */
 #define SBA_LOG_INFO 2    /* progress, when verbose */
 
 /* The state after each outer iteration, for the progress callback. */
@@ -76,7 +86,7 @@ struct sba_ext_options {
    * projections (a smaller problem runs faster on fewer). A count asked for (here or in
    * SBA_NUM_THREADS) is capped at 4 per hardware thread and at one per 64 projections:
    * more only cost time and memory. SBA_NUM_THREADS must be a positive decimal integer (the
-   * whole value); anything else is ignored, with a warning when verbose. The count actually
+   * whole value); anything else is ignored, with a warning (verbose or not). The count actually
    * used is reported in sba_ext_result.nthreads. Results do not depend on it. */
   int nthreads;
   /* Where messages go: log(log_ctx, level, line) with one line and no newline. NULL:
@@ -85,8 +95,10 @@ struct sba_ext_options {
   void *log_ctx;
   /* Nonzero: print nothing at all, not even errors (info[6] still tells what happened). */
   int quiet;
-  /* Called after every outer iteration; a nonzero return stops the solve cleanly with
-   * info[6] = SBA_STOP_USER and p at the last accepted estimate. NULL: not called. */
+  /* Called after every outer iteration, including the last one (whatever ended it); a
+   * nonzero return stops the solve cleanly with info[6] = SBA_STOP_USER and p at the last
+   * accepted estimate, except after the last iteration, where it changes nothing (the solve
+   * keeps the reason it stopped for). NULL: not called. */
   int (*progress)(void *progress_ctx, const struct sba_progress *state);
   void *progress_ctx;
   /* Robust loss applied to every projection's squared residual s = ||e_ij||^2 (after the

@@ -67,6 +67,9 @@ std::string check_scalars(const DriverArgs &a) {
   if (a.opts)
     for (int k = 0; k < SBA_OPTSSZ; ++k)
       if (!std::isfinite(a.opts[k])) return "opts[" + std::to_string(k) + "] is not finite";
+  // 1.6 takes |tau|; tau = 0 makes the initial damping 0, which no failed step can grow.
+  if (a.opts && a.opts[0] == 0.0)
+    return "opts[0] (tau: the initial damping is |tau| * max diag(J^T J)) must be nonzero";
   return {};
 }
 
@@ -144,8 +147,9 @@ void fit_threads(const Layout &lay, Options *o) {
 
 // SBA_NUM_THREADS as a thread count: a positive decimal integer, the whole string (counts
 // beyond INT_MAX are just large requests, capped like any other). 0 when unset, empty or
-// invalid; an invalid value is reported as a warning and otherwise ignored, so that a typo
-// in the environment does not stop an unmodified 1.6 program.
+// invalid; an invalid value is reported as a warning (verbose or not: the environment is
+// the only way to set it for an unmodified 1.6 program) and otherwise ignored, so that a
+// typo does not stop the program.
 int threads_from_env(const char *who, const Logger &log) {
   const char *env = std::getenv("SBA_NUM_THREADS");
   if (!env || !*env) return 0;
@@ -154,7 +158,7 @@ int threads_from_env(const char *who, const Logger &log) {
   const long v = std::strtol(env, &end, 10);
   const bool whole = end != env && *end == '\0';
   if (!whole || v <= 0) {
-    log.warning("%s: SBA_NUM_THREADS=\"%s\" is not a positive integer: ignored (the library "
+    log.notice("%s: SBA_NUM_THREADS=\"%s\" is not a positive integer: ignored (the library "
                 "chooses the thread count)",
                 who, env);
     return 0;
@@ -184,9 +188,10 @@ void make_options(const DriverArgs &a, const sba_ext_options &ext, const Logger 
       return;
     }
   } else if (const char *env = std::getenv("SBA_LINSOLVER"); env && *env) {
-    // Unmodified 1.6 programs choose their solver this way; a typo must not stop them.
+    // Unmodified 1.6 programs choose their solver this way; a typo must not stop them, and
+    // is not an error of a call that succeeds: a warning, shown verbose or not.
     if (!linsolver_from_name(env, &o->solver))
-      log.error("%s: unknown SBA_LINSOLVER \"%s\" (known: %s); using chol", a.name, env,
+      log.notice("%s: unknown SBA_LINSOLVER \"%s\" (known: %s); using chol", a.name, env,
                 linsolver_names());
   }
   int threads = ext.nthreads;

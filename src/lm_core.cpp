@@ -5,6 +5,7 @@
 // Motion-only and structure-only problems fall out of the same code (no free points, or no
 // free cameras: block diagonal systems).
 #include <algorithm>
+#include <cfloat>
 #include <chrono>
 #include <climits>
 #include <cmath>
@@ -23,6 +24,9 @@ namespace {
 // sba 1.6's threshold for an "almost singular" augmented system: ||dp||^2 beyond
 // (||p||^2 + eps2) / 1e-24 means the step is numerically meaningless.
 constexpr double kSingularEpsSq = 1e-24;
+
+// The smallest initial damping relative to max diag(J^T J); see its use in solve().
+constexpr double kMinRelativeDamping = 0x1p-400;
 
 double sqnorm(ThreadPool &pool, const double *v, i64 len) {
   return deterministic_sum(pool, len, [v](i64 k) { return v[k] * v[k]; });
@@ -357,15 +361,19 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
       return false;
     }
     gradient_stats(lay, w, &sum.grad_inf, &maxdiag);
-    if (it == 0) mu = opt.tau * maxdiag;
+    // tau > 0 (the drivers refuse 0), but tau * maxdiag can still be 0 or so small that the
+    // growth a run of failed steps allows (mu *= nu, about 2^465 before reason 6) never
+    // makes it count, and the solve would end at once with nothing refined. So the initial
+    // damping is at least kMinRelativeDamping * maxdiag (a floor that only a tau below it
+    // meets) and at least the smallest normal number, here and after each accepted step.
+    if (it == 0) mu = std::max({opt.tau * maxdiag, kMinRelativeDamping * maxdiag, DBL_MIN});
 
     if (sum.grad_inf <= eps1) {
       sum.dp2 = 0.0;
       stop = kStopGradient;
-      continue;
     }
-    const double p2 = sqnorm(pool, p, nvars);
-    for (;;) {
+    const double p2 = stop ? 0.0 : sqnorm(pool, p, nvars);
+    for (; !stop;) {
       ++sum.nlinsys;
       if (solver->solve(ne, mu, w.dp.data()) && all_finite(pool, w.dp.data(), nvars)) {
         const double dp2 = sqnorm(pool, w.dp.data(), nvars);
@@ -407,7 +415,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
           eps = epsn;
           sqe = cn.sq;
           const double t = 2.0 * dF / dL - 1.0;
-          mu *= std::max(1.0 / 3.0, 1.0 - t * t * t);
+          mu = std::max(mu * std::max(1.0 / 3.0, 1.0 - t * t * t), DBL_MIN);
           nu = 2;
           break;
         }
@@ -423,11 +431,14 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
       nu *= 2;
     }
     if (!stop && eps <= eps3sq) stop = kStopError;
-    if (!stop && opt.progress) {
+    // After every iteration, the last one too (whatever ended it); a request to stop after
+    // the last one changes nothing: the solve ends with the reason it already has.
+    if (opt.progress) {
       const sba_progress state{
           it + 1, eps, mu, std::sqrt(sum.dp2),
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
-      if (opt.progress(opt.progress_ctx, &state) != 0) stop = kStopUser;
+      const bool last = stop || it + 1 >= opt.itmax;
+      if (opt.progress(opt.progress_ctx, &state) != 0 && !last) stop = kStopUser;
     }
   }
   if (!stop) stop = kStopItmax;

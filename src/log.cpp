@@ -33,6 +33,13 @@ void Logger::warning(const char *fmt, ...) const {
   va_end(ap);
 }
 
+void Logger::notice(const char *fmt, ...) const {
+  va_list ap;
+  va_start(ap, fmt);
+  emit(LogLevel::Warning, fmt, ap);
+  va_end(ap);
+}
+
 void Logger::info(int level, const char *fmt, ...) const {
   if (verbose_ < level) return;
   va_list ap;

@@ -24,6 +24,9 @@ class Logger {
   void error(const char *fmt, ...) const __attribute__((format(printf, 2, 3)));
   // Diagnostics that 1.6 printed only sometimes: shown when verbose >= 1.
   void warning(const char *fmt, ...) const __attribute__((format(printf, 2, 3)));
+  // A setting the caller made outside the arguments (an environment variable) that is
+  // ignored: warning level, shown whatever verbose is, since nothing else would tell.
+  void notice(const char *fmt, ...) const __attribute__((format(printf, 2, 3)));
   // Progress: shown when verbose >= level.
   void info(int level, const char *fmt, ...) const __attribute__((format(printf, 3, 4)));
   // A message the caller explicitly asked for (e.g. the Jacobian check with itmax == 0).

@@ -745,7 +745,7 @@ TEST(Threads, AnAbsurdCountIsCappedReportedAndGivesTheSameResult) {
 }
 
 // SBA_NUM_THREADS is read as a whole positive decimal integer; a huge one is a large request
-// (capped), never a wrapped int; anything else is ignored, with a warning when verbose.
+// (capped), never a wrapped int; anything else is ignored, with a warning.
 TEST(Threads, SbaNumThreadsIsParsedWithRangeChecks) {
   synth::Problem pb = synth::make(200, 6, 0.5, 0.05, 61);
   const int cap = capped(pb.nvis), automatic = 1;  // under 10,000 projections: one thread
@@ -772,12 +772,136 @@ TEST(Threads, SbaNumThreadsIsParsedWithRangeChecks) {
     const std::string warning = std::string("1 sba_motstr_levmar_x: SBA_NUM_THREADS=\"") + c.value +
                                 "\" is not a positive integer: ignored";
     EXPECT_EQ(r.log.find(warning) != std::string::npos, c.warned) << r.log;
-    // Not verbose: nothing said, the same count.
+    // Not verbose: the same count, and the same warning (and nothing else).
     const ExtRun quiet = run_threads(pb, 0, 0);
     EXPECT_EQ(quiet.res.nthreads, c.want);
-    EXPECT_EQ(quiet.log, "");
+    EXPECT_EQ(quiet.log, c.warned ? warning + " (the library chooses the thread count)\n" : "");
   }
   unsetenv("SBA_NUM_THREADS");
+}
+
+}  // namespace
+
+namespace {
+
+// opts[0] = tau: 1.6 uses |tau|, so a negative one works; 0 (or -0) made the initial damping 0,
+// which no failed step can grow, and the solve "succeeded" with nothing refined (reason 6).
+TEST(Tau, ZeroIsRefusedANegativeOneIsItsMagnitude) {
+  synth::Problem pb = synth::make(60, 5, 0.5, 0.05, 63);
+  const auto plain = [](sba_ext_options &) {};
+  for (double tau : {0.0, -0.0}) {
+    const double opts[SBA_OPTSSZ] = {tau, 1e-12, 1e-12, 1e-12, 0.0};
+    const ExtRun r = run_ext(pb, 0, plain, opts);
+    EXPECT_EQ(r.ret, SBA_ERROR);
+    EXPECT_EQ(r.info[6], 0);
+    EXPECT_EQ(r.p, pb.p0);
+    EXPECT_EQ(r.log, "0 sba_motstr_levmar_x: opts[0] (tau: the initial damping is |tau| * max diag(J^T J)) "
+                     "must be nonzero\n");
+  }
+  const double neg[SBA_OPTSSZ] = {-1e-3, 1e-12, 1e-12, 1e-12, 0.0};
+  const double pos[SBA_OPTSSZ] = {1e-3, 1e-12, 1e-12, 1e-12, 0.0};
+  const ExtRun a = run_ext(pb, 0, plain, neg), b = run_ext(pb, 0, plain, pos);
+  ASSERT_GT(a.ret, 0);
+  EXPECT_EQ(a.p, b.p);
+  for (int q = 0; q < SBA_INFOSZ; ++q) EXPECT_EQ(a.info[q], b.info[q]) << q;
+}
+
+// A tau so small that tau * max diag(J^T J) underflows to 0: the damping is floored (at 2^-400
+// max diag(J^T J), see sba_ext.h) and the solve refines p as usual; it used to stop at once
+// with reason 6, no damping being able to grow from 0.
+TEST(Tau, ADampingThatUnderflowsIsFlooredAndTheSolveRefines) {
+  synth::Problem pb = synth::make(60, 5, 0.5, 0.05, 64);
+  // Measurement covariances of 1e8 px^2 make the weighted J^T J tiny (diagonal ~1e-2).
+  std::vector<double> covx(size_t(pb.nvis) * 4, 0.0);
+  for (int k = 0; k < pb.nvis; ++k) covx[4 * size_t(k)] = covx[4 * size_t(k) + 3] = 1e8;
+  ASSERT_EQ(4.9e-324 * 1e-2, 0.0);
+  auto run = [&](double tau, double info[SBA_INFOSZ]) {
+    const double opts[SBA_OPTSSZ] = {tau, 1e-12, 1e-12, 1e-12, 0.0};
+    std::vector<double> p = pb.p0;
+    return sba_motstr_levmar_x(pb.n, 0, pb.m, 1, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(),
+                               covx.data(), kMnp, synth::func_motstr, synth::fjac_motstr, &pb, 100, 0,
+                               opts, info);
+  };
+  double ref[SBA_INFOSZ], info[SBA_INFOSZ];
+  ASSERT_GT(run(1e-3, ref), 1);
+  const int ret = run(4.9e-324, info);
+  ASSERT_GT(ret, 1);
+  EXPECT_GE(info[6], 1);
+  EXPECT_LE(info[6], 5);
+  EXPECT_LT(info[1], 0.05 * info[0]);  // the start is off by far more than the noise
+  EXPECT_NEAR(info[1], ref[1], 1e-6 * ref[1]);  // the minimum the default tau finds
+}
+
+// The progress callback runs after every iteration, including the one that ends the solve;
+// what it returns after the last one changes nothing.
+struct Calls {
+  int calls = 0, stop_from = 1 << 30;
+  std::vector<int> iterations;
+};
+int count_progress(void *ctx, const sba_progress *s) {
+  Calls &c = *static_cast<Calls *>(ctx);
+  ++c.calls;
+  c.iterations.push_back(s->iteration);
+  return s->iteration >= c.stop_from;
+}
+
+TEST(Progress, CalledAfterEveryIterationIncludingTheLast) {
+  synth::Problem pb = synth::make(80, 5, 0.5, 0.05, 65);
+  // A solve that ends by a stop test (reason 1, 2, 4 or 5).
+  Calls full;
+  const ExtRun r = run_ext(pb, 0, [&](sba_ext_options &e) {
+    e.progress = count_progress;
+    e.progress_ctx = &full;
+  });
+  ASSERT_GT(r.ret, 2);
+  ASSERT_NE(r.info[6], 3);
+  EXPECT_EQ(full.calls, r.ret);
+  EXPECT_EQ(full.calls, int(r.info[5]));
+  for (int k = 0; k < full.calls; ++k) EXPECT_EQ(full.iterations[size_t(k)], k + 1);
+  // Ending by itmax, with the callback asking to stop after the last iteration only: reason 3.
+  for (int itmax : {1, 4}) {
+    Calls last;
+    last.stop_from = itmax;
+    const ExtRun s = run_ext(
+        pb, 0,
+        [&](sba_ext_options &e) {
+          e.progress = count_progress;
+          e.progress_ctx = &last;
+        },
+        nullptr, itmax);
+    EXPECT_EQ(s.ret, itmax);
+    EXPECT_EQ(s.info[6], 3) << "itmax " << itmax;
+    EXPECT_EQ(last.calls, itmax);
+  }
+  // Asking earlier still stops: reason 9 after that iteration.
+  Calls early;
+  early.stop_from = 2;
+  const ExtRun e = run_ext(pb, 0, [&](sba_ext_options &o) {
+    o.progress = count_progress;
+    o.progress_ctx = &early;
+  });
+  EXPECT_EQ(e.ret, 2);
+  EXPECT_EQ(e.info[6], SBA_STOP_USER);
+  EXPECT_EQ(early.calls, 2);
+}
+
+// An unknown SBA_LINSOLVER does not stop an unmodified 1.6 program, so it is not an error of
+// the call: a warning (level 1), shown verbose or not (the program's user set it, and needs
+// to know it is ignored).
+TEST(Drivers, UnknownSbaLinsolverIsAWarning) {
+  synth::Problem pb = synth::make(40, 4, 0.5, 0.05, 66);
+  ASSERT_EQ(setenv("SBA_LINSOLVER", "chlo", 1), 0);
+  const auto plain = [](sba_ext_options &) {};
+  const ExtRun loud = run_ext(pb, 1, plain), quiet = run_ext(pb, 0, plain);
+  unsetenv("SBA_LINSOLVER");
+  EXPECT_GT(loud.ret, 0);
+  EXPECT_EQ(loud.res.linsolver, std::string("chol"));
+  EXPECT_NE(loud.log.find("1 sba_motstr_levmar_x: unknown SBA_LINSOLVER \"chlo\""), std::string::npos)
+      << loud.log;
+  EXPECT_EQ(loud.log.find("0 "), std::string::npos) << loud.log;  // no error-level line
+  EXPECT_GT(quiet.ret, 0);
+  EXPECT_EQ(quiet.log, "1 sba_motstr_levmar_x: unknown SBA_LINSOLVER \"chlo\" (known: " +
+                           std::string(sba_linsolver_names()) + "); using chol\n");
 }
 
 }  // namespace
