@@ -11,13 +11,6 @@
 
 #include "core.h"
 #include "sba_export.h"
-#if defined(__GNUC__)
-#pragma GCC visibility push(default)
-#endif
-#include "sba_chkjac.h"
-#if defined(__GNUC__)
-#pragma GCC visibility pop
-#endif
 
 namespace sba {
 namespace {
