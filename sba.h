@@ -71,6 +71,14 @@ struct sba_crsm {
 
 /* ---- simple drivers: callbacks per projection x_ij ---- */
 
+/* Every callback (proj, projac, func, fjac) must return normally. Do not longjmp out of
+ * one: the solve's memory leaks, and with more than one thread it crashes the process. A
+ * C++ exception thrown by a callback is caught at the library's boundary: the call returns
+ * SBA_ERROR with everything freed and p the last accepted estimate. To stop a solve from a
+ * callback, write a NaN into its output (the solve stops with SBA_ERROR and info[6] = 7,
+ * p the last accepted estimate), or, with sba_ext.h, return nonzero from the progress
+ * callback (info[6] = SBA_STOP_USER, a normal return). */
+
 /* Motion and structure. proj writes x_ij (mnp values) from a_j and b_i; projac writes
  * A_ij = dx_ij/da_j (mnp x cnp) and B_ij = dx_ij/db_i (mnp x pnp), row-major;
  * projac == NULL means forward-difference Jacobians. */

@@ -95,7 +95,9 @@ struct sba_ext_options {
   void *log_ctx;
   /* Nonzero: print nothing at all, not even errors (info[6] still tells what happened). */
   int quiet;
-  /* Called after every outer iteration, including the last one (whatever ended it); a
+  /* Called after every outer iteration, including the last one (whatever ended it). Like
+   * every callback it must return normally (see sba.h: no longjmp; a C++ exception is
+   * caught and makes the call fail with SBA_ERROR); this is the way to stop a solve. A
    * nonzero return stops the solve cleanly with info[6] = SBA_STOP_USER and p at the last
    * accepted estimate, except after the last iteration, where it changes nothing (the solve
    * keeps the reason it stopped for). NULL: not called. */
