@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "output_file.h"
+
 namespace bal {
 namespace {
 
@@ -356,11 +358,14 @@ bool write_problem(const std::string &path, const Problem &problem, std::string 
   for (double v : problem.cameras) append_number(&text, v);
   for (double v : problem.points) append_number(&text, v);
 
-  File f(std::fopen(path.c_str(), "wb"));
-  if (!f) return fail(error, path, std::string("cannot open for writing: ") + std::strerror(errno));
+  // Written under a temporary name and renamed: the result appears whole or not at all.
+  sbademo::OutputFile out;
+  std::string why;
+  if (!out.open(path, &why)) return fail(error, path, why);
+  std::FILE *f = out.get();
   if (ends_with(path, ".bz2")) {
     int bzerr = BZ_OK;
-    BZFILE *bz = BZ2_bzWriteOpen(&bzerr, f.get(), 9, 0, 0);
+    BZFILE *bz = BZ2_bzWriteOpen(&bzerr, f, 9, 0, 0);
     if (bzerr == BZ_MEM_ERROR) throw std::bad_alloc();
     if (bzerr != BZ_OK) return fail(error, path, "cannot start bzip2 compression (error " + std::to_string(bzerr) + ")");
     std::size_t done = 0;
@@ -370,14 +375,16 @@ bool write_problem(const std::string &path, const Problem &problem, std::string 
       done += static_cast<std::size_t>(chunk);
     }
     const int write_err = bzerr;
+    const int write_errno = errno;
     BZ2_bzWriteClose(&bzerr, bz, write_err != BZ_OK, nullptr, nullptr);
-    if (write_err != BZ_OK || bzerr != BZ_OK)
+    if (write_err != BZ_OK || bzerr != BZ_OK) {
+      errno = write_err != BZ_OK ? write_errno : errno;
       return fail(error, path, std::string("write error: ") + std::strerror(errno));
-  } else if (std::fwrite(text.data(), 1, text.size(), f.get()) != text.size()) {
+    }
+  } else if (std::fwrite(text.data(), 1, text.size(), f) != text.size()) {
     return fail(error, path, std::string("write error: ") + std::strerror(errno));
   }
-  if (std::fclose(f.release()) != 0)
-    return fail(error, path, std::string("write error: ") + std::strerror(errno));
+  if (!out.commit(&why)) return fail(error, path, why);
   return true;
 }
 

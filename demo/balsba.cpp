@@ -15,6 +15,7 @@
 
 #include "bal_io.h"
 #include "bal_model.h"
+#include "output_file.h"
 #include "sba.h"
 #include "sba_ext.h"
 #include "tty_progress.h"
@@ -250,7 +251,6 @@ int bal_main(int argc, char **argv) {
                 o.loss.c_str(), o.loss_scale, result.sq_error_final / nobs, result.sq_error_initial / nobs,
                 result.outliers_final);
   if (!o.write.empty()) std::printf("Wrote %s\n", o.write.c_str());
-  std::fflush(stdout);
   return 0;
 }
 
@@ -258,7 +258,10 @@ int bal_main(int argc, char **argv) {
 
 int main(int argc, char **argv) {
   try {
-    return bal_main(argc, argv);
+    const int status = bal_main(argc, argv);
+    // A report that did not reach stdout is a failed run, not a success.
+    if (status == 0 && !sbademo::stdout_written("balsba")) return kExitFailure;
+    return status;
   } catch (const std::bad_alloc &) {
     std::fprintf(stderr, "balsba: out of memory\n");
   } catch (const std::exception &e) {

@@ -12,6 +12,8 @@
 #include <sys/stat.h>
 #include <utility>
 
+#include "output_file.h"
+
 namespace eucsba {
 
 Status Status::error(std::string file, int line, std::string message) {
@@ -186,23 +188,17 @@ bool form_for(std::size_t count, long long nframes, CovarianceForm *form) {
   return false;
 }
 
-// An owned FILE* for the writers, which need printf's %.10e.
-struct FileCloser {
-  void operator()(std::FILE *f) const { std::fclose(f); }
-};
-using File = std::unique_ptr<std::FILE, FileCloser>;
-
-Status open_for_writing(const std::string &path, File *file) {
-  file->reset(std::fopen(path.c_str(), "w"));
-  if (!*file) return Status::error(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
+// The writers go through an OutputFile: the result appears whole under its name or not at all.
+Status open_for_writing(const std::string &path, sbademo::OutputFile *file) {
+  std::string why;
+  if (!file->open(path, &why)) return Status::error(path, 0, why);
   return {};
 }
 
-// Flushes and closes, reporting what a full disk or a failed write left behind.
-Status close_written(const std::string &path, File *file) {
-  const bool failed = std::ferror(file->get()) != 0;
-  const int rc = std::fclose(file->release());
-  if (failed || rc != 0) return Status::error(path, 0, std::string("write failed: ") + std::strerror(errno));
+// Closes the file and moves it to its name, reporting what a full disk or a failed write did.
+Status close_written(const std::string &path, sbademo::OutputFile *file) {
+  std::string why;
+  if (!file->commit(&why)) return Status::error(path, 0, why);
   return {};
 }
 
@@ -435,7 +431,7 @@ Status load_problem(const std::string &cams_path, const std::string &pts_path,
 }
 
 Status write_cameras(const std::string &path, CameraKind kind, const std::vector<Camera> &cameras) {
-  File f;
+  sbademo::OutputFile f;
   if (Status s = open_for_writing(path, &f); !s) return s;
   switch (kind) {
     case CameraKind::FixedIntrinsics: std::fputs("# q0 q1 q2 q3  tx ty tz\n", f.get()); break;
@@ -459,7 +455,7 @@ Status write_cameras(const std::string &path, CameraKind kind, const std::vector
 }
 
 Status write_points_xyz(const std::string &path, const std::vector<double> &xyz) {
-  File f;
+  sbademo::OutputFile f;
   if (Status s = open_for_writing(path, &f); !s) return s;
   for (std::size_t i = 0; i + 2 < xyz.size(); i += 3)
     std::fprintf(f.get(), "%.10e %.10e %.10e\n", xyz[i], xyz[i + 1], xyz[i + 2]);
@@ -471,7 +467,7 @@ Status write_points(const std::string &path, const PointSet &tracks, const std::
     return Status::error(path, 0, "internal error: " + std::to_string(xyz.size() / 3) +
                                       " coordinates for " + std::to_string(tracks.npoints()) + " points");
   const CovarianceForm form = tracks.has_covariances() ? tracks.form : CovarianceForm::None;
-  File f;
+  sbademo::OutputFile f;
   if (Status s = open_for_writing(path, &f); !s) return s;
   std::fputs("# X Y Z  nframes  frame0 x0 y0", f.get());
   if (form == CovarianceForm::UpperTriangular) std::fputs(" cxx0 cxy0 cyy0", f.get());

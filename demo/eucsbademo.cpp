@@ -16,6 +16,7 @@
 #include "eucsba_io.h"
 #include "eucsba_model.h"
 #include "eucsbademo_options.h"
+#include "output_file.h"
 #include "sba.h"
 #include "sba_ext.h"
 #include "tty_progress.h"
@@ -257,12 +258,13 @@ Status stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &poi
   return {};
 }
 
-// Writes text to path.
+// Writes text to path as a whole (see output_file.h).
 Status write_text(const std::string &path, const std::string &text) {
-  std::FILE *f = std::fopen(path.c_str(), "w");
-  if (!f) return Status::error(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
-  std::fwrite(text.data(), 1, text.size(), f);
-  if (std::fclose(f) != 0) return Status::error(path, 0, "write failed");
+  sbademo::OutputFile f;
+  std::string why;
+  if (!f.open(path, &why)) return Status::error(path, 0, why);
+  std::fwrite(text.data(), 1, text.size(), f.get());
+  if (!f.commit(&why)) return Status::error(path, 0, why);
   return {};
 }
 
@@ -383,7 +385,6 @@ int demo_main(int argc, char **argv) {
                 "[initial %g], %lld projections beyond the scale\n",
                 o.loss.c_str(), o.loss_scale, out.result.sq_error_final / nprojs,
                 out.result.sq_error_initial / nprojs, out.result.outliers_final);
-  std::fflush(stdout);
 
   return 0;
 }
@@ -394,7 +395,10 @@ int demo_main(int argc, char **argv) {
 int main(int argc, char **argv) {
   // Nothing may escape main: a bad file or a full memory is a message and a status.
   try {
-    return eucsba::demo_main(argc, argv);
+    const int status = eucsba::demo_main(argc, argv);
+    // A report that did not reach stdout is a failed run, not a success.
+    if (status == 0 && !sbademo::stdout_written("eucsbademo")) return 1;
+    return status;
   } catch (const std::bad_alloc &) {
     std::fprintf(stderr, "eucsbademo: out of memory\n");
   } catch (const std::exception &e) {

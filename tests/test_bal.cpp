@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -497,9 +498,13 @@ std::string slurp(const std::string &path) {
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
-Output run_balsba(const std::string &args) {
+// Runs balsba through /bin/sh. setup: shell commands run first (e.g. ulimit); stdout_to: where
+// stdout goes instead of a captured file (o.out is then empty).
+Output run_balsba(const std::string &args, const std::string &setup = "", const std::string &stdout_to = "") {
   const std::string out = temp_path("balsba.out"), err = temp_path("balsba.err");
-  const std::string cmd = std::string(BALSBA_EXE) + " " + args + " > " + out + " 2> " + err;
+  std::remove(out.c_str());
+  const std::string cmd = (setup.empty() ? "" : setup + "; ") + "exec " + std::string(BALSBA_EXE) + " " + args +
+                          " > " + (stdout_to.empty() ? out : stdout_to) + " 2> " + err;
   Output o;
   const int raw = std::system(cmd.c_str());
   o.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
@@ -559,6 +564,79 @@ TEST(BalSba, SolvesAndWrites) {
   }
   EXPECT_NE(after.cameras, before.cameras);  // refined
   EXPECT_NE(after.points, before.points);
+}
+
+// A report that cannot be written is a failure, with the reason on stderr, not exit status 0.
+TEST(BalSba, StdoutWriteErrorIsAFailure) {
+  Output o = run_balsba("--help", "", "/dev/full");
+  EXPECT_EQ(o.status, 1);
+  EXPECT_EQ(o.err, "balsba: error writing standard output: No space left on device\n");
+  const std::string path = bal_dir() + "/problem-49-7776-pre.txt.bz2";
+  REQUIRE_FILE(path);
+  o = run_balsba(path + " --itmax 1 --threads 1", "", "/dev/full");
+  EXPECT_EQ(o.status, 1);
+  EXPECT_EQ(o.err, "balsba: error writing standard output: No space left on device\n");
+}
+
+bool has_temporary(const std::string &dir) {
+  for (const auto &e : std::filesystem::directory_iterator(dir))
+    if (e.path().filename().string().find(".tmp.") != std::string::npos) return true;
+  return false;
+}
+
+// --write cut short by the file size limit (a full disk, as root can meet it): the run fails,
+// an existing file keeps its content, and no temporary is left beside it.
+TEST(BalSba, FailedWriteLeavesTheOldFileAndNoTemporary) {
+  const std::string path = bal_dir() + "/problem-49-7776-pre.txt.bz2";
+  REQUIRE_FILE(path);
+  const std::string dir = temp_path("write-fails");
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  for (const char *name : {"old.txt", "old.txt.bz2"}) {
+    SCOPED_TRACE(name);
+    const std::string target = dir + "/" + name;
+    std::ofstream(target) << "OLD\n";
+    // At most 64 blocks of 512 bytes per file; SIGXFSZ ignored, so writes fail with EFBIG.
+    const Output o = run_balsba(path + " --itmax 1 --threads 1 --write " + target, "trap '' XFSZ; ulimit -f 64");
+    EXPECT_EQ(o.status, 1);
+    EXPECT_EQ(o.err, target + ": write error: File too large\n");
+    EXPECT_EQ(o.out, "");
+    const std::string after = slurp(target);
+    EXPECT_TRUE(after == "OLD\n") << "the old file now starts with: " << after.substr(0, 60);
+    EXPECT_FALSE(has_temporary(dir));
+  }
+  std::filesystem::remove_all(dir);
+}
+
+// A successful --write replaces the old file whole, keeps its permissions, leaves no temporary;
+// /dev/null is written to, not replaced.
+TEST(BalSba, WriteReplacesTheOldFileAndLeavesNoTemporary) {
+  const std::string path = bal_dir() + "/problem-49-7776-pre.txt.bz2";
+  REQUIRE_FILE(path);
+  const std::string dir = temp_path("write-ok");
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string target = dir + "/refined.txt";
+  std::ofstream(target) << "OLD\n";
+  ASSERT_EQ(::chmod(target.c_str(), 0640), 0);
+  Output o = run_balsba(path + " --itmax 1 --threads 1 --write " + target);
+  ASSERT_EQ(o.status, 0) << o.err;
+  bal::Problem refined;
+  std::string error;
+  ASSERT_TRUE(bal::read_problem(target, &refined, &error)) << error;
+  EXPECT_EQ(refined.nobservations(), 31843);
+  struct stat st {};
+  ASSERT_EQ(::stat(target.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0640u);
+  std::vector<std::string> names;
+  for (const auto &e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  EXPECT_EQ(names, std::vector<std::string>{"refined.txt"});
+
+  o = run_balsba(path + " --itmax 1 --threads 1 --write /dev/null");
+  EXPECT_EQ(o.status, 0) << o.err;
+  ASSERT_EQ(::stat("/dev/null", &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 
 #include <fcntl.h>
 #include <spawn.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -23,6 +24,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -132,11 +134,20 @@ std::ostream &operator<<(std::ostream &os, const DemoRun &r) {
 // Variables to set (a value) or remove (nullopt) in the child's environment.
 using EnvChanges = std::vector<std::pair<std::string, std::optional<std::string>>>;
 
+// What a run may change about the child: where stdout goes, and resource limits (bytes).
+struct ChildSetup {
+  std::string stdout_to;               // empty: captured in DemoRun::out
+  rlim_t file_size = RLIM_INFINITY;    // RLIMIT_FSIZE; SIGXFSZ is then ignored, writes fail
+  rlim_t address_space = RLIM_INFINITY;  // RLIMIT_AS
+};
+
 // Runs eucsbademo with args, stdin from /dev/null, stdout and stderr into separate files.
-DemoRun run_demo(const std::vector<std::string> &args, const EnvChanges &env = {}) {
+DemoRun run_demo(const std::vector<std::string> &args, const EnvChanges &env = {},
+                 const ChildSetup &setup = {}) {
   DemoRun r;
   TempDir dir;
-  const std::string out_path = dir.file("stdout"), err_path = dir.file("stderr");
+  const std::string out_path = setup.stdout_to.empty() ? dir.file("stdout") : setup.stdout_to;
+  const std::string err_path = dir.file("stderr");
 
   std::vector<std::string> argv_s{EUCSBADEMO_EXE};
   argv_s.insert(argv_s.end(), args.begin(), args.end());
@@ -161,24 +172,60 @@ DemoRun run_demo(const std::vector<std::string> &args, const EnvChanges &env = {
   for (std::string &e : env_s) envp.push_back(e.data());
   envp.push_back(nullptr);
 
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
   pid_t pid = 0;
-  const int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), envp.data());
-  posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0) {
-    ADD_FAILURE() << "cannot start " << argv[0] << ": " << std::strerror(rc);
-    return r;
+  const bool limited = setup.file_size != RLIM_INFINITY || setup.address_space != RLIM_INFINITY;
+  if (!limited) {
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
+    posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    const int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), envp.data());
+    posix_spawn_file_actions_destroy(&actions);
+    if (rc != 0) {
+      ADD_FAILURE() << "cannot start " << argv[0] << ": " << std::strerror(rc);
+      return r;
+    }
+  } else {
+    // posix_spawn sets no limits: fork, and in the child only async-signal-safe calls.
+    const int in = ::open("/dev/null", O_RDONLY);
+    const int out = ::open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    const int err = ::open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    if (in < 0 || out < 0 || err < 0) {
+      ADD_FAILURE() << "cannot open the child's standard files";
+      return r;
+    }
+    pid = ::fork();
+    if (pid == 0) {
+      ::dup2(in, 0);
+      ::dup2(out, 1);
+      ::dup2(err, 2);
+      if (setup.file_size != RLIM_INFINITY) {
+        ::signal(SIGXFSZ, SIG_IGN);  // ignored signals stay ignored across exec
+        const rlimit lim{setup.file_size, setup.file_size};
+        ::setrlimit(RLIMIT_FSIZE, &lim);
+      }
+      if (setup.address_space != RLIM_INFINITY) {
+        const rlimit lim{setup.address_space, setup.address_space};
+        ::setrlimit(RLIMIT_AS, &lim);
+      }
+      ::execve(argv[0], argv.data(), envp.data());
+      ::_exit(127);
+    }
+    ::close(in);
+    ::close(out);
+    ::close(err);
+    if (pid < 0) {
+      ADD_FAILURE() << "fork: " << std::strerror(errno);
+      return r;
+    }
   }
   int wstatus = 0;
   while (::waitpid(pid, &wstatus, 0) < 0 && errno == EINTR) {
   }
   if (WIFEXITED(wstatus)) r.status = WEXITSTATUS(wstatus);
   if (WIFSIGNALED(wstatus)) r.signal = WTERMSIG(wstatus);
-  r.out = read_text(out_path);
+  if (setup.stdout_to.empty()) r.out = read_text(out_path);
   r.err = read_text(err_path);
   return r;
 }
@@ -1023,6 +1070,83 @@ TEST_F(BadInput, UnwritableOutputIsReportedBeforeSolving) {
   const std::string nowhere = dir_.file("no-such-dir/cams.txt");
   expect_failure({"--write-cams", nowhere, cams_, pts_, calib_}, 1, nowhere + ": ",
                  "cannot open for writing");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Output that does not get where it should: a failure, never half a result.
+
+TEST_F(BadInput, StdoutWriteErrorIsAFailure) {
+  ChildSetup full;
+  full.stdout_to = "/dev/full";
+  DemoRun r = run_demo({cams_, pts_, calib_}, {}, full);
+  EXPECT_EQ(r.status, 1) << r;
+  EXPECT_EQ(r.err, std::string(kFixedBanner) + "\neucsbademo: error writing standard output: No space left on device\n");
+  r = run_demo({"--help"}, {}, full);
+  EXPECT_EQ(r.status, 1) << r;
+  EXPECT_EQ(r.err, "eucsbademo: error writing standard output: No space left on device\n");
+}
+
+bool has_temporary(const std::string &dir) {
+  for (const auto &e : fs::directory_iterator(dir))
+    if (e.path().filename().string().find(".tmp.") != std::string::npos) return true;
+  return false;
+}
+
+std::vector<std::string> file_names(const std::string &dir) {
+  std::vector<std::string> names;
+  for (const auto &e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// A write cut short (by the file size limit, which root meets as it would a full disk): the run
+// fails, an existing file keeps its content, and no temporary is left beside it.
+TEST_F(BadInput, FailedWriteLeavesTheOldFileAndNoTemporary) {
+  const std::string out_dir = dir_.file("out");
+  fs::create_directories(out_dir);
+  const std::string target = out_dir + "/old.txt";
+  // Each of these files has about 1000 bytes or more; stderr's two lines stay under the limit.
+  ChildSetup small;
+  small.file_size = 512;
+  for (const char *option : {"--write-pts=", "--write-pts-tracks=", "--write-stddev="}) {
+    SCOPED_TRACE(option);
+    std::ofstream(target) << "OLD\n";
+    const DemoRun r = run_demo({option + target, cams_, pts_, calib_}, {}, small);
+    EXPECT_EQ(r.status, 1) << r;
+    EXPECT_EQ(r.out, "");
+    EXPECT_EQ(r.err, std::string(kFixedBanner) + "\n" + target + ": write failed: File too large\n");
+    const std::string after = read_text(target);
+    EXPECT_TRUE(after == "OLD\n") << "the old file now starts with: " << after.substr(0, 60);
+    EXPECT_FALSE(has_temporary(out_dir));
+  }
+}
+
+// Successful writes replace old files whole (keeping their permissions) and leave no
+// temporary; /dev/null is written to, not replaced.
+TEST_F(BadInput, WritesReplaceOldFilesAndLeaveNoTemporary) {
+  const std::string out_dir = dir_.file("out");
+  fs::create_directories(out_dir);
+  const std::vector<std::string> names{"cams.txt", "pts.txt", "sd.txt", "tracks.txt"};
+  for (const std::string &name : names) std::ofstream(out_dir + "/" + name) << "OLD\n";
+  ASSERT_EQ(::chmod((out_dir + "/cams.txt").c_str(), 0640), 0);
+  const DemoRun r = run_demo({"--write-cams=" + out_dir + "/cams.txt", "--write-pts=" + out_dir + "/pts.txt",
+                              "--write-pts-tracks=" + out_dir + "/tracks.txt", "--write-stddev=" + out_dir + "/sd.txt",
+                              cams_, pts_, calib_});
+  Summary s;
+  EXPECT_SUCCESSFUL_RUN(r, kFixedBanner, s);
+  EXPECT_EQ(file_names(out_dir), names);
+  EXPECT_EQ(split_lines(read_text(out_dir + "/cams.txt")).size(), 3u);
+  EXPECT_EQ(split_lines(read_text(out_dir + "/pts.txt")).size(), size_t(kPoints));
+  EXPECT_EQ(split_lines(read_text(out_dir + "/tracks.txt")).size(), size_t(kPoints) + 1);
+  EXPECT_EQ(split_lines(read_text(out_dir + "/sd.txt")).size(), size_t(kPoints) + 2 + 2);
+  struct stat st {};
+  ASSERT_EQ(::stat((out_dir + "/cams.txt").c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0640u);
+
+  const DemoRun null_run = run_demo({"--write-cams=/dev/null", cams_, pts_, calib_});
+  EXPECT_SUCCESSFUL_RUN(null_run, kFixedBanner, s);
+  ASSERT_EQ(::stat("/dev/null", &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
 }
 
 TEST(Eucsbademo, HelpListsSolverAndThreads) {

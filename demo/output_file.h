@@ -1,0 +1,149 @@
+// Output of the demo programs: result files that appear whole or not at all, and a check that
+// what they printed on standard output got there.
+//
+// A result file is written under a temporary name beside its final one (FILE.tmp.PID, with a
+// counter appended if that name is taken) and renamed onto the final name once it has been
+// written and closed without error. A run that fails or is killed midway therefore never leaves
+// a truncated file under the final name, and an existing file there stays as it was until the
+// new one replaces it. A stale FILE.tmp.* may remain only when the process is killed.
+//
+// Paths that are not (or do not lead to) regular files, such as /dev/null, /dev/stdout or a
+// FIFO, are written directly: renaming a temporary onto them would replace the device node or
+// link instead of writing to it. A symbolic link to a regular file keeps pointing where it
+// did: its target is replaced.
+#ifndef SBA_DEMO_OUTPUT_FILE_H
+#define SBA_DEMO_OUTPUT_FILE_H
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <climits>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+namespace sbademo {
+
+class OutputFile {
+ public:
+  OutputFile() = default;
+  OutputFile(const OutputFile &) = delete;
+  OutputFile &operator=(const OutputFile &) = delete;
+  // Not committed: the temporary goes away, the final name is left alone.
+  ~OutputFile() { discard(); }
+
+  // Creates the file to write. On failure returns false with the reason (strerror text, e.g.
+  // "cannot open for writing: No such file or directory") in *why.
+  bool open(const std::string &path, std::string *why) {
+    discard();
+    final_ = path;
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+      // A device, FIFO or directory: written in place (a directory then fails to open).
+      file_ = std::fopen(path.c_str(), "w");
+      if (!file_) return failed("cannot open for writing: ", why);
+      return true;
+    }
+    // Through a symbolic link: the file it names is the one to replace.
+    if (char *real = ::realpath(path.c_str(), nullptr)) {
+      final_ = real;
+      std::free(real);
+    }
+    for (int attempt = 0; attempt < 100; ++attempt) {
+      std::string temp = final_ + ".tmp." + std::to_string(::getpid());
+      if (attempt > 0) temp += "." + std::to_string(attempt);
+      // 0666 less the umask, as fopen would create it.
+      const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+      if (fd < 0) {
+        if (errno == EEXIST) continue;
+        return failed("cannot open for writing: ", why);
+      }
+      temp_ = temp;
+      // A file being replaced keeps its permission bits.
+      if (S_ISREG(st.st_mode)) (void)::fchmod(fd, st.st_mode & 07777);
+      file_ = ::fdopen(fd, "w");
+      if (!file_) {
+        const int err = errno;
+        ::close(fd);
+        discard();
+        errno = err;
+        return failed("cannot open for writing: ", why);
+      }
+      return true;
+    }
+    errno = EEXIST;
+    return failed("cannot open for writing: ", why);
+  }
+
+  std::FILE *get() const { return file_; }
+
+  // Closes the file and gives it its final name. On a write, close or rename error returns
+  // false with the reason in *why; the temporary is then removed and the final name untouched.
+  bool commit(std::string *why) {
+    if (!file_) {
+      if (why) *why = "write failed: not open";
+      return false;
+    }
+    errno = 0;
+    const bool write_error = std::ferror(file_) != 0;
+    int err = errno;
+    const int rc = std::fclose(file_);
+    if (rc != 0 && err == 0) err = errno;
+    file_ = nullptr;
+    if (write_error || rc != 0) {
+      discard();
+      errno = err != 0 ? err : EIO;
+      return failed("write failed: ", why);
+    }
+    if (!temp_.empty() && std::rename(temp_.c_str(), final_.c_str()) != 0) {
+      const int rename_err = errno;
+      discard();
+      errno = rename_err;
+      return failed("cannot replace the file: ", why);
+    }
+    temp_.clear();
+    return true;
+  }
+
+  // The temporary's name while one is open (for tests and messages); empty otherwise.
+  const std::string &temporary() const { return temp_; }
+
+ private:
+  void discard() {
+    if (file_) std::fclose(file_);
+    file_ = nullptr;
+    if (!temp_.empty()) std::remove(temp_.c_str());
+    temp_.clear();
+  }
+
+  bool failed(const char *what, std::string *why) const {
+    if (why) *why = std::string(what) + std::strerror(errno);
+    return false;
+  }
+
+  std::FILE *file_ = nullptr;
+  std::string final_;  // where the file ends up
+  std::string temp_;   // the temporary, empty when writing in place or when none is open
+};
+
+// Flushes standard output and reports whether everything printed on it was written; if not,
+// prints "PROGRAM: error writing standard output: REASON" on stderr and returns false. A run
+// whose report was lost (a full disk, a closed stdout) must not exit as a success. Call it once,
+// at the end, without flushing stdout before: the final flush is the one whose errno is known.
+inline bool stdout_written(const char *program) {
+  errno = 0;
+  const bool flushed = std::fflush(stdout) == 0;
+  const int err = errno;
+  if (flushed && !std::ferror(stdout)) return true;
+  // When an earlier implicit flush failed, its errno is gone: say what is known.
+  if (err != 0) std::fprintf(stderr, "%s: error writing standard output: %s\n", program, std::strerror(err));
+  else std::fprintf(stderr, "%s: error writing standard output\n", program);
+  return false;
+}
+
+}  // namespace sbademo
+
+#endif  // SBA_DEMO_OUTPUT_FILE_H
