@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
 #include <limits>
 #include <memory>
 #include <sys/stat.h>
@@ -35,25 +34,44 @@ int camera_file_values(CameraKind kind) { return camera_params(kind) + 1; }
 
 namespace {
 
+// The longest line a reader takes. Lines are read whole before being split, so a file
+// without line breaks (/dev/zero, a binary file) would otherwise be read into memory entire.
+// Camera and calibration lines hold at most 17 values: 1 MiB is far beyond any of them.
+constexpr std::size_t kMaxLineBytes = std::size_t(1) << 20;
+// A points file line grows with the cameras that see its point: 4 values and at most 7 per
+// camera (frame, x, y and a full covariance). Its limit allows a point seen by every camera
+// with 64 bytes per value (%.17e takes 24), and never less than kMaxLineBytes.
+std::size_t points_line_limit(int ncameras) {
+  constexpr std::size_t kBytesPerValue = 64;
+  return std::max(kMaxLineBytes, (4 + 7 * static_cast<std::size_t>(std::max(ncameras, 0))) * kBytesPerValue);
+}
+
 // The data lines of a text file: blank and '#' lines skipped, the rest split into tokens.
 class DataLines {
  public:
-  explicit DataLines(std::string path) : path_(std::move(path)) {}
+  DataLines(std::string path, std::size_t max_line = kMaxLineBytes)
+      : path_(std::move(path)), max_line_(max_line) {}
 
   Status open() {
-    // An ifstream opens a directory without complaint and then reads nothing: ask first.
+    // fopen opens a directory for reading without complaint and then fails to read: ask first.
     struct stat st {};
     if (::stat(path_.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) return error_at(0, "is a directory");
     errno = 0;
-    in_.open(path_, std::ios::in | std::ios::binary);
+    in_.reset(std::fopen(path_.c_str(), "rb"));
     if (!in_) return error_at(0, errno != 0 ? std::string("cannot open: ") + std::strerror(errno) : "cannot open");
     return {};
   }
 
-  // Advances to the next data line; false at the end of the file or on a read error.
+  // Advances to the next data line; false at the end of the file, on a read error, on a line
+  // longer than the limit or after INT_MAX lines (finish() tells which).
   bool next() {
-    std::string text;
-    while (std::getline(in_, text)) {
+    std::string &text = text_;
+    for (;;) {
+      if (line_ == std::numeric_limits<int>::max()) {
+        too_many_lines_ = true;
+        return false;
+      }
+      if (!read_line(&text)) return false;
       ++line_;
       tokens_.clear();
       std::size_t pos = 0;
@@ -67,12 +85,14 @@ class DataLines {
       }
       return true;
     }
-    return false;
   }
 
   // After next() returned false: an error if the file could not be read to its end.
   Status finish() const {
-    if (in_.bad()) return error("read error");
+    if (too_long_)
+      return error_at(line_ + 1, "line longer than " + std::to_string(max_line_) + " bytes");
+    if (too_many_lines_) return error("more than " + std::to_string(line_) + " lines");
+    if (read_errno_ != 0) return error_at(line_ + 1, std::string("read error: ") + std::strerror(read_errno_));
     return {};
   }
 
@@ -90,10 +110,39 @@ class DataLines {
   }
 
  private:
+  // The next line without its '\n' into *text; false at the end of the file, on a read error
+  // or when the line has more than max_line_ bytes (the rest is not read).
+  bool read_line(std::string *text) {
+    text->clear();
+    std::FILE *f = in_.get();
+    int c;
+    while ((c = getc_unlocked(f)) != EOF) {
+      if (c == '\n') return true;
+      if (text->size() == max_line_) {
+        too_long_ = true;
+        return false;
+      }
+      text->push_back(static_cast<char>(c));
+    }
+    if (std::ferror(f)) {
+      read_errno_ = errno != 0 ? errno : EIO;
+      return false;
+    }
+    return !text->empty();  // a last line without '\n'
+  }
+
+  struct FileCloser {
+    void operator()(std::FILE *f) const { std::fclose(f); }
+  };
+
   std::string path_;
-  std::ifstream in_;
+  std::size_t max_line_;
+  std::unique_ptr<std::FILE, FileCloser> in_;
   int line_ = 0;
+  std::string text_;
   std::vector<std::string> tokens_;
+  bool too_long_ = false, too_many_lines_ = false;
+  int read_errno_ = 0;
 };
 
 // A token as an error message may show it: unprintable bytes (a NUL would cut the line short,
@@ -288,7 +337,7 @@ Status read_calibration(const std::string &path, Intrinsics *out) {
 }
 
 Status read_points(const std::string &path, int ncameras, PointSet *out) {
-  DataLines in(path);
+  DataLines in(path, points_line_limit(ncameras));
   if (Status s = in.open(); !s) return s;
 
   PointSet result;

@@ -4,7 +4,11 @@
 //
 // Common rules: values are separated by white space; blank lines and lines whose first
 // non-blank character is '#' are ignored; every number must be finite; integers (nframes,
-// frame indices) must be written as integers.
+// frame indices) must be written as integers. No line (comments included) may be longer
+// than 1 MiB, or in a points file than 64 bytes per value of a point seen by every camera,
+// (4 + 7 * ncameras) * 64 bytes, if that is more: "<file>:<line>: line longer than N bytes".
+// The rest of such a line is not read, so a file without line breaks (/dev/zero) is refused
+// at once instead of being read into memory.
 #ifndef EUCSBA_IO_H
 #define EUCSBA_IO_H
 

@@ -37,6 +37,7 @@
 #include <utility>
 #include <vector>
 
+#include "eucsba_io.h"
 #include "eucsbademo_options.h"
 #include "sba_ext.h"
 
@@ -1147,6 +1148,51 @@ TEST_F(BadInput, WritesReplaceOldFilesAndLeaveNoTemporary) {
   EXPECT_SUCCESSFUL_RUN(null_run, kFixedBanner, s);
   ASSERT_EQ(::stat("/dev/null", &st), 0);
   EXPECT_TRUE(S_ISCHR(st.st_mode));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Files without line breaks: each reader reads at most one line's limit of them.
+
+// /dev/zero in each file's place: refused at once with the line limit, under a limit of
+// 512 MiB of address space that reading the whole line first would exceed.
+TEST_F(BadInput, DevZeroIsRefusedAtTheLineLimit) {
+  ChildSetup limited;
+  limited.address_space = rlim_t(512) << 20;
+  for (int k = 0; k < 3; ++k) {
+    std::vector<std::string> args{cams_, pts_, calib_};
+    args[size_t(k)] = "/dev/zero";
+    const DemoRun r = run_demo(args, {}, limited);
+    EXPECT_EQ(r.status, 1) << r;
+    EXPECT_EQ(r.out, "");
+    // The points file's limit scales with the cameras, and is 1 MiB for 2.
+    EXPECT_EQ(r.err, "/dev/zero:1: line longer than 1048576 bytes\n") << "argument " << k;
+  }
+}
+
+// The points file's limit grows with the cameras: a point seen by 40,000 cameras makes a
+// line of more than 1 MiB, which is read; one byte past the limit is not.
+TEST(EucsbaReaders, LineLimitScalesWithTheCameras) {
+  TempDir dir;
+  std::string line = "0 0 5 40000";
+  for (int j = 0; j < 40000; ++j) line += " " + std::to_string(j) + " 320.0000000001 240.0000000001";
+  ASSERT_GT(line.size(), size_t(1) << 20);
+  const std::string wide = dir.write("wide.txt", "# X Y Z nframes ...\n" + line + "\n");
+  eucsba::PointSet points;
+  const eucsba::Status ok = eucsba::read_points(wide, 40000, &points);
+  ASSERT_TRUE(ok.ok()) << ok.to_string();
+  EXPECT_EQ(points.nprojections(), 40000);
+
+  // With 2 cameras the limit is 1 MiB, a comment line included.
+  const std::string at_limit = dir.write("at.txt", "#" + std::string((1 << 20) - 1, 'x') + "\n0 0 5 1  0 320 240\n");
+  EXPECT_TRUE(eucsba::read_points(at_limit, 2, &points).ok());
+  const std::string beyond = dir.write("beyond.txt", "0 0 5 1  0 320 240\n#" + std::string(1 << 20, 'x') + "\n");
+  EXPECT_EQ(eucsba::read_points(beyond, 2, &points).to_string(), beyond + ":2: line longer than 1048576 bytes");
+  // 40,000 cameras: (4 + 7 * 40000) * 64 bytes.
+  const std::string beyond_wide = dir.write("beyond-wide.txt", std::string(size_t(280004) * 64 + 1, ' ') + "\n");
+  EXPECT_EQ(eucsba::read_points(beyond_wide, 40000, &points).to_string(),
+            beyond_wide + ":1: line longer than 17920256 bytes");
+  eucsba::CameraFile cams;
+  EXPECT_EQ(eucsba::read_cameras(beyond, &cams).to_string(), beyond + ":2: line longer than 1048576 bytes");
 }
 
 TEST(Eucsbademo, HelpListsSolverAndThreads) {
