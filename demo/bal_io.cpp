@@ -31,17 +31,49 @@ struct FileCloser {
 using File = std::unique_ptr<std::FILE, FileCloser>;
 
 // ---- reading the bytes ----
+//
+// The text is parsed as it is read, never held whole: a small compressed file can expand to
+// gigabytes, and a header announcing more than the file holds must not reserve it either.
 
-bool read_plain(std::FILE *f, const std::string &path, std::string *text, std::string *error) {
-  char buf[1 << 16];
-  for (;;) {
-    const std::size_t got = std::fread(buf, 1, sizeof buf, f);
-    text->append(buf, got);
-    if (got < sizeof buf) break;
+// Where the text comes from: a string, a plain file, or the bzip2 streams of a file.
+class Source {
+ public:
+  virtual ~Source() = default;
+  // Up to n bytes into buf; 0 at the end of the text or on an error (then error() is set).
+  virtual std::size_t read(char *buf, std::size_t n) = 0;
+  const std::string &error() const { return error_; }
+
+ protected:
+  std::string error_;
+};
+
+class StringSource : public Source {
+ public:
+  explicit StringSource(const std::string &text) : text_(text) {}
+  std::size_t read(char *buf, std::size_t n) override {
+    const std::size_t k = std::min(n, text_.size() - pos_);
+    std::memcpy(buf, text_.data() + pos_, k);
+    pos_ += k;
+    return k;
   }
-  if (std::ferror(f)) return fail(error, path, std::string("read error: ") + std::strerror(errno));
-  return true;
-}
+
+ private:
+  const std::string &text_;
+  std::size_t pos_ = 0;
+};
+
+class PlainSource : public Source {
+ public:
+  explicit PlainSource(std::FILE *f) : f_(f) {}
+  std::size_t read(char *buf, std::size_t n) override {
+    const std::size_t got = std::fread(buf, 1, n, f_);
+    if (got == 0 && std::ferror(f_)) error_ = std::string("read error: ") + std::strerror(errno);
+    return got;
+  }
+
+ private:
+  std::FILE *f_;
+};
 
 std::string bz_message(int code) {
   switch (code) {
@@ -53,123 +85,197 @@ std::string bz_message(int code) {
   }
 }
 
-// Decompresses every bzip2 stream in f, one after the other.
-bool read_bzip2(std::FILE *f, const std::string &path, std::string *text, std::string *error) {
-  std::vector<char> unused;  // bytes read past the end of one stream: the next one's start
-  char buf[1 << 16];
-  for (;;) {
-    int bzerr = BZ_OK;
-    BZFILE *bz = BZ2_bzReadOpen(&bzerr, f, 0, 0, unused.empty() ? nullptr : unused.data(),
-                                static_cast<int>(unused.size()));
-    if (bzerr == BZ_MEM_ERROR) throw std::bad_alloc();
-    if (bzerr != BZ_OK) {
-      BZ2_bzReadClose(&bzerr, bz);
-      return fail(error, path, bz_message(bzerr));
+// Every bzip2 stream in f, one after the other (pbzip2 writes several).
+class Bzip2Source : public Source {
+ public:
+  explicit Bzip2Source(std::FILE *f) : f_(f) {}
+  ~Bzip2Source() override { close(); }
+  Bzip2Source(const Bzip2Source &) = delete;
+  Bzip2Source &operator=(const Bzip2Source &) = delete;
+
+  std::size_t read(char *buf, std::size_t n) override {
+    while (!done_ && error_.empty()) {
+      int bzerr = BZ_OK;
+      if (!bz_) {
+        bz_ = BZ2_bzReadOpen(&bzerr, f_, 0, 0, unused_.empty() ? nullptr : unused_.data(),
+                             static_cast<int>(unused_.size()));
+        if (bzerr != BZ_OK) {
+          close();
+          if (bzerr == BZ_MEM_ERROR) throw std::bad_alloc();
+          error_ = bz_message(bzerr);
+          return 0;
+        }
+      }
+      const int got = BZ2_bzRead(&bzerr, bz_, buf, static_cast<int>(std::min<std::size_t>(n, INT_MAX)));
+      if (bzerr == BZ_STREAM_END) {
+        // Bytes read past this stream's end are the next one's start.
+        void *rest = nullptr;
+        int nrest = 0;
+        BZ2_bzReadGetUnused(&bzerr, bz_, &rest, &nrest);
+        unused_.assign(static_cast<char *>(rest), static_cast<char *>(rest) + nrest);
+        close();
+        if (unused_.empty()) {
+          // Another stream may follow in the part of the file not read yet.
+          const int c = std::fgetc(f_);
+          if (c != EOF) unused_.push_back(static_cast<char>(c));
+          else if (std::ferror(f_)) error_ = std::string("read error: ") + std::strerror(errno);
+          else done_ = true;
+        }
+        if (got > 0) return static_cast<std::size_t>(got);
+        continue;
+      }
+      if (bzerr != BZ_OK) {
+        close();
+        if (bzerr == BZ_MEM_ERROR) throw std::bad_alloc();
+        error_ = bz_message(bzerr);
+        return 0;
+      }
+      if (got > 0) return static_cast<std::size_t>(got);
     }
-    while (bzerr == BZ_OK) {
-      const int got = BZ2_bzRead(&bzerr, bz, buf, static_cast<int>(sizeof buf));
-      if (bzerr == BZ_OK || bzerr == BZ_STREAM_END) text->append(buf, static_cast<std::size_t>(got));
-    }
-    if (bzerr != BZ_STREAM_END) {
-      int ignored;
-      BZ2_bzReadClose(&ignored, bz);
-      if (bzerr == BZ_MEM_ERROR) throw std::bad_alloc();
-      return fail(error, path, bz_message(bzerr));
-    }
-    void *rest = nullptr;
-    int nrest = 0;
-    BZ2_bzReadGetUnused(&bzerr, bz, &rest, &nrest);
-    unused.assign(static_cast<char *>(rest), static_cast<char *>(rest) + nrest);
-    BZ2_bzReadClose(&bzerr, bz);
-    if (unused.empty()) {
-      // Another stream may follow in the part of the file not read yet.
-      const int c = std::fgetc(f);
-      if (c == EOF) break;
-      unused.push_back(static_cast<char>(c));
-    }
+    return 0;
   }
-  if (std::ferror(f)) return fail(error, path, std::string("read error: ") + std::strerror(errno));
-  return true;
-}
+
+ private:
+  void close() {
+    if (!bz_) return;
+    int ignored;
+    BZ2_bzReadClose(&ignored, bz_);
+    bz_ = nullptr;
+  }
+
+  std::FILE *f_;
+  BZFILE *bz_ = nullptr;
+  std::vector<char> unused_;
+  bool done_ = false;
+};
 
 // ---- the tokenizer ----
+
+// No number needs this many bytes; a longer run without white space (a binary file,
+// /dev/zero) is refused at once instead of being gathered into one huge token.
+constexpr std::size_t kMaxTokenBytes = 4096;
+// Nor does any BAL writer put this much white space in a row; refusing it bounds the time
+// spent reading a file padded with blanks.
+constexpr std::size_t kMaxSpaceBytes = std::size_t(1) << 20;
 
 bool is_space(char c) {
   return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f';
 }
 
+std::string at_line(long long line) { return "line " + std::to_string(line) + ": "; }
+
 class Tokens {
  public:
-  explicit Tokens(const std::string &text) : p_(text.c_str()), end_(text.c_str() + text.size()) {}
+  explicit Tokens(Source *source) : source_(source) {}
 
-  // The next token, or false at the end of the text.
+  // The next token; false at the end of the text or on an error (then failed() is true).
   bool next() {
-    while (p_ < end_ && is_space(*p_)) {
-      if (*p_ == '\n') ++line_;
-      ++p_;
+    tok_.clear();
+    std::size_t space = 0;
+    char c;
+    while (peek(&c) && is_space(c)) {
+      if (c == '\n') ++line_;
+      if (++space > kMaxSpaceBytes)
+        return fail(at_line(line_) + "more than " + std::to_string(kMaxSpaceBytes) +
+                    " bytes of white space in a row");
+      ++pos_;
     }
-    if (p_ == end_) return false;
-    tok_ = p_;
-    while (p_ < end_ && !is_space(*p_)) ++p_;
-    tok_len_ = static_cast<std::size_t>(p_ - tok_);
+    if (!error_.empty()) return false;
     tok_line_ = line_;
-    return true;
+    while (peek(&c) && !is_space(c)) {
+      if (tok_.size() == kMaxTokenBytes)
+        return fail(at_line(tok_line_) + "more than " + std::to_string(kMaxTokenBytes) +
+                    " bytes without white space (no number is that long)");
+      tok_.push_back(c);
+      ++pos_;
+    }
+    return error_.empty() && !tok_.empty();
   }
 
-  int line() const { return tok_line_; }
+  bool failed() const { return !error_.empty(); }
+  // Why next() failed: the source's message, or the line and what was found there.
+  const std::string &error() const { return error_; }
+
+  long long line() const { return tok_line_; }
   // The current token for messages, cut to a readable length.
   std::string quoted() const {
-    std::string s(tok_, std::min<std::size_t>(tok_len_, 40));
-    for (char &c : s)
-      if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) c = '?';
-    if (tok_len_ > 40) s += "...";
+    std::string s = tok_.substr(0, 40);
+    for (char &ch : s)
+      if (static_cast<unsigned char>(ch) < 32 || static_cast<unsigned char>(ch) > 126) ch = '?';
+    if (tok_.size() > 40) s += "...";
     return "'" + s + "'";
   }
 
   // The current token as an integer written as one (optional sign, digits).
   bool integer(long long *v) const {
-    std::size_t k = (tok_[0] == '-' || tok_[0] == '+') ? 1 : 0;
-    if (k == tok_len_) return false;
-    for (std::size_t i = k; i < tok_len_; ++i)
+    const std::size_t k = (tok_[0] == '-' || tok_[0] == '+') ? 1 : 0;
+    if (k == tok_.size()) return false;
+    for (std::size_t i = k; i < tok_.size(); ++i)
       if (tok_[i] < '0' || tok_[i] > '9') return false;
-    if (tok_len_ - k > 18) return false;  // beyond any count we accept; avoids overflow
+    if (tok_.size() - k > 18) return false;  // beyond any count we accept; avoids overflow
     errno = 0;
     char *stop = nullptr;
-    *v = std::strtoll(tok_, &stop, 10);
-    return errno == 0 && stop == tok_ + tok_len_;
+    *v = std::strtoll(tok_.c_str(), &stop, 10);
+    return errno == 0 && stop == tok_.c_str() + tok_.size();
   }
 
-  // The current token as a finite real number; the whole token must be the number.
+  // The current token as a finite real number; the whole token must be the number (strtod
+  // stops at a NUL inside it, which must not pass for the end).
   bool real(double *v) const {
     char *stop = nullptr;
-    *v = std::strtod(tok_, &stop);
-    return stop == tok_ + tok_len_ && std::isfinite(*v);
+    *v = std::strtod(tok_.c_str(), &stop);
+    return stop == tok_.c_str() + tok_.size() && std::isfinite(*v);
   }
 
  private:
-  const char *p_, *end_;
-  const char *tok_ = nullptr;
-  std::size_t tok_len_ = 0;
-  int line_ = 1, tok_line_ = 1;
-};
+  // The byte at the read position, refilling the buffer; false at the end or on an error.
+  bool peek(char *c) {
+    if (pos_ == len_) {
+      if (!error_.empty()) return false;
+      len_ = source_->read(buf_, sizeof buf_);
+      pos_ = 0;
+      if (len_ == 0) {
+        error_ = source_->error();
+        return false;
+      }
+    }
+    *c = buf_[pos_];
+    return true;
+  }
 
-std::string at_line(int line) { return "line " + std::to_string(line) + ": "; }
+  bool fail(const std::string &message) {
+    error_ = message;
+    return false;
+  }
+
+  Source *source_;
+  char buf_[1 << 16];
+  std::size_t pos_ = 0, len_ = 0;
+  std::string tok_;
+  std::string error_;
+  long long line_ = 1, tok_line_ = 1;
+};
 
 const char *const kCameraParamNames[kCameraParams] = {"w1", "w2", "w3", "t1", "t2", "t3", "f", "k1", "k2"};
 const char *const kPointParamNames[kPointParams] = {"X", "Y", "Z"};
 
-}  // namespace
+// Storage reserved ahead of the values at most: beyond it, vectors grow as values arrive, so
+// a header announcing more than the file holds cannot exhaust memory by itself.
+constexpr std::size_t kMaxReserve = std::size_t(1) << 16;
 
-bool parse_problem(const std::string &text, const std::string &name, Problem *out,
-                   std::string *error) {
-  Tokens tok(text);
+bool parse(Tokens &tok, const std::string &name, Problem *out, std::string *error) {
+  // The end of the text where more was expected: the source's error if it had one (a
+  // truncated or corrupt bzip2 file), else the truncation.
+  auto ended = [&](const std::string &truncated) {
+    return fail(error, name, tok.failed() ? tok.error() : truncated);
+  };
   const char *const header_names[3] = {"number of cameras", "number of points",
                                        "number of observations"};
   long long counts[3];
   for (int c = 0; c < 3; ++c) {
     if (!tok.next()) {
-      if (c == 0) return fail(error, name, "empty file: expected the header 'ncameras npoints nobservations'");
-      return fail(error, name, "truncated file: the header 'ncameras npoints nobservations' is incomplete");
+      if (c == 0) return ended("empty file: expected the header 'ncameras npoints nobservations'");
+      return ended("truncated file: the header 'ncameras npoints nobservations' is incomplete");
     }
     if (!tok.integer(&counts[c]))
       return fail(error, name, at_line(tok.line()) + std::string("header: the ") + header_names[c] +
@@ -188,24 +294,20 @@ bool parse_problem(const std::string &text, const std::string &name, Problem *ou
 
   const std::string expected = "expected " + std::to_string(nobs) + " observations, " +
                                std::to_string(ncams) + " cameras and " + std::to_string(npts) + " points";
-  // Storage grows as values arrive, reserved up to what the text can hold (every value takes
-  // at least two bytes), so a header announcing more than the file has cannot exhaust memory.
-  const std::size_t room = text.size() / 2 + 1;
-  auto capped = [room](long long values) { return std::min<std::size_t>(static_cast<std::size_t>(values), room); };
+  auto reserve = [](long long values) { return std::min<std::size_t>(static_cast<std::size_t>(values), kMaxReserve); };
   Problem p;
   p.ncameras = ncams;
   p.npoints = npts;
-  p.observations.reserve(capped(nobs) / 4 + 1);
-  std::vector<int> obs_line;
-  obs_line.reserve(capped(nobs) / 4 + 1);
+  p.observations.reserve(reserve(nobs));
+  std::vector<long long> obs_line;
+  obs_line.reserve(reserve(nobs));
   for (long long k = 0; k < nobs; ++k) {
     Observation o;
     auto what = [k] { return "observation " + std::to_string(k) + ": "; };
     const char *const fields[4] = {"camera index", "point index", "x", "y"};
     for (int f = 0; f < 4; ++f) {
       if (!tok.next())
-        return fail(error, name, "truncated file: it ends inside observation " + std::to_string(k) +
-                                     " (" + expected + ")");
+        return ended("truncated file: it ends inside observation " + std::to_string(k) + " (" + expected + ")");
       if (f < 2) {
         long long v;
         if (!tok.integer(&v))
@@ -229,33 +331,36 @@ bool parse_problem(const std::string &text, const std::string &name, Problem *ou
   }
 
   const long long ncamvals = 9LL * ncams, nptvals = 3LL * npts;
-  p.cameras.reserve(capped(ncamvals));
+  p.cameras.reserve(reserve(ncamvals));
   for (long long c = 0; c < ncamvals; ++c) {
     const long long j = c / kCameraParams, q = c % kCameraParams;
     double v;
     if (!tok.next())
-      return fail(error, name, "truncated file: it ends inside camera " + std::to_string(j) + " (" +
-                                   expected + ")");
+      return ended("truncated file: it ends inside camera " + std::to_string(j) + " (" + expected + ")");
     if (!tok.real(&v))
       return fail(error, name, at_line(tok.line()) + "camera " + std::to_string(j) + ": " +
                                    kCameraParamNames[q] + " must be a finite number, got " + tok.quoted());
     p.cameras.push_back(v);
   }
-  p.points.reserve(capped(nptvals));
+  p.points.reserve(reserve(nptvals));
   for (long long c = 0; c < nptvals; ++c) {
     const long long i = c / kPointParams, q = c % kPointParams;
     double v;
     if (!tok.next())
-      return fail(error, name, "truncated file: it ends inside point " + std::to_string(i) + " (" +
-                                   expected + ")");
+      return ended("truncated file: it ends inside point " + std::to_string(i) + " (" + expected + ")");
     if (!tok.real(&v))
       return fail(error, name, at_line(tok.line()) + "point " + std::to_string(i) + ": " +
                                    kPointParamNames[q] + " must be a finite number, got " + tok.quoted());
     p.points.push_back(v);
   }
+  // Reading stops at the first value beyond the announced ones: whatever follows (a
+  // decompression bomb, a second problem) is not read.
   if (tok.next())
-    return fail(error, name, at_line(tok.line()) + "unexpected data after the last point: " + tok.quoted() +
-                                 " (" + expected + ")");
+    return fail(error, name, at_line(tok.line()) + "more data than the header announces (" +
+                                 std::to_string(nobs) + " observations, " + std::to_string(ncams) +
+                                 " cameras, " + std::to_string(npts) + " points): " + tok.quoted() +
+                                 " after the last point");
+  if (tok.failed()) return fail(error, name, tok.error());
 
   // At most one observation per (point, camera): sba has one slot per pair.
   std::vector<int> idx(p.observations.size());
@@ -277,6 +382,21 @@ bool parse_problem(const std::string &text, const std::string &name, Problem *ou
   return true;
 }
 
+// A bzip2 block checks its CRC only after all its output has been delivered, so a damaged
+// block can hand the parser garbage before the decompressor notices. One block decompresses
+// to at most 900,000 bytes of run-length code in which 5 bytes stand for up to 255, about
+// 46 MB: reading that much past a parse error reaches the check of the block it came from.
+constexpr std::size_t kBzip2BlockOutputMax = std::size_t(48) << 20;
+
+}  // namespace
+
+bool parse_problem(const std::string &text, const std::string &name, Problem *out,
+                   std::string *error) {
+  StringSource source(text);
+  Tokens tok(&source);
+  return parse(tok, name, out, error);
+}
+
 bool read_problem(const std::string &path, Problem *out, std::string *error) {
   File f(std::fopen(path.c_str(), "rb"));
   if (!f) return fail(error, path, std::string("cannot open: ") + std::strerror(errno));
@@ -284,11 +404,25 @@ bool read_problem(const std::string &path, Problem *out, std::string *error) {
   const std::size_t nmagic = std::fread(magic, 1, 3, f.get());
   std::rewind(f.get());
   const bool bz2 = nmagic == 3 && magic[0] == 'B' && magic[1] == 'Z' && magic[2] == 'h';
-  std::string text;
-  if (!(bz2 ? read_bzip2(f.get(), path, &text, error) : read_plain(f.get(), path, &text, error)))
-    return false;
-  f.reset();
-  return parse_problem(text, path, out, error);
+  if (!bz2) {
+    PlainSource source(f.get());
+    Tokens tok(&source);
+    return parse(tok, path, out, error);
+  }
+  Bzip2Source source(f.get());
+  Tokens tok(&source);
+  if (parse(tok, path, out, error)) return true;
+  if (source.error().empty()) {
+    // A parse error in compressed data: if the block it came from is damaged, say that.
+    std::vector<char> buf(1 << 16);
+    for (std::size_t seen = 0; seen < kBzip2BlockOutputMax;) {
+      const std::size_t got = source.read(buf.data(), buf.size());
+      if (got == 0) break;
+      seen += got;
+    }
+    if (!source.error().empty()) fail(error, path, source.error());
+  }
+  return false;
 }
 
 bool to_sba(const Problem &problem, const std::string &name, SbaLayout *out, std::string *error) {

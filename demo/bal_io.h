@@ -50,6 +50,14 @@ struct Problem {
 // On failure returns false with one line "<path>: <message>" in *error (when not null); the
 // message names the line and the observation, camera or point concerned. May throw
 // std::bad_alloc.
+//
+// The text is parsed as it is read (or decompressed), never held whole, and memory grows
+// only with the values stored. Reading stops at the first value beyond those the header
+// announces ("more data than the header announces (...)"), at a run of more than 4096 bytes
+// without white space (no number is that long: a binary file, /dev/zero) and at more than
+// 1 MiB of white space in a row. After a parse error in bzip2 data, up to one block's worth
+// more (48 MiB) is decompressed and discarded, so that a damaged block is reported as
+// "corrupt bzip2 data" rather than as the garbage it produced.
 bool read_problem(const std::string &path, Problem *out, std::string *error);
 
 // The same from text already in memory; name is used in the messages in place of the path.

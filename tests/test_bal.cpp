@@ -3,6 +3,7 @@
 // trip, and a regression solve of the Ladybug problem-49-7776 with sba.
 #include <gtest/gtest.h>
 
+#include <bzlib.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 
@@ -177,7 +178,8 @@ TEST(BalReader, MalformedInputs) {
        "truncated file: it ends inside point 0"},
       {"truncated_point", "1 1 1\n0 0 1 1\n0 0 0 0 0 -5 500 0 0\n1 2\n", "truncated file: it ends inside point 0"},
       {"trailing", "1 1 1\n0 0 1 1\n0 0 0 0 0 -5 500 0 0\n1 2 3\n4\n",
-       "line 5: unexpected data after the last point: '4'"},
+       "line 5: more data than the header announces (1 observations, 1 cameras, 1 points): '4' after "
+       "the last point"},
       {"duplicate", "2 2 3\n0 0 1 1\n1 1 2 2\n0 0 3 3\n0 0 0 0 0 -5 500 0 0\n0 0 0 0 0 -5 500 0 0\n1 2 3\n4 5 6\n",
        "line 4: observation 2 repeats point 0 in camera 0 (already observation 0)"},
   };
@@ -213,6 +215,47 @@ TEST(BalReader, MissingAndCorruptFiles) {
   const std::string bad = write_temp("damaged.txt.bz2", damaged);
   EXPECT_FALSE(bal::read_problem(bad, &p, &error));
   EXPECT_EQ(error, bad + ": corrupt bzip2 data");
+}
+
+// The reader holds a token at a time, never the whole text: a run without white space (a
+// binary file) and a run of white space are refused once they pass their bounds.
+TEST(BalReader, BoundsOnTokensAndWhiteSpace) {
+  bal::Problem p;
+  std::string error;
+  const std::string values = "1 1 1\n0 0 1 1\n0 0 0 0 0 -5 500 0 0\n";
+  EXPECT_FALSE(bal::parse_problem(values + "1 2 " + std::string(4097, '3') + "\n", "long", &p, &error));
+  EXPECT_EQ(error, "long: line 4: more than 4096 bytes without white space (no number is that long)");
+  // 4096 bytes are still a number.
+  EXPECT_TRUE(bal::parse_problem(values + "1 2 " + std::string(4095, '0') + "3\n", "long", &p, &error)) << error;
+  EXPECT_EQ(p.points[2], 3.0);
+  EXPECT_FALSE(bal::parse_problem(values + "1 2 3" + std::string((1 << 20) + 1, ' ') + "\n", "blank", &p, &error));
+  EXPECT_EQ(error, "blank: line 4: more than 1048576 bytes of white space in a row");
+  EXPECT_TRUE(bal::parse_problem(values + "1 2 3" + std::string(1 << 20, '\n'), "blank", &p, &error)) << error;
+}
+
+// The reader stops at a parse error without reading the rest; when the data came from a
+// damaged bzip2 block, the damage is the cause to name. Here the block's stored CRC (bytes
+// 10 to 13, after "BZh9" and the block magic) is altered: its data decompress unchanged, with
+// values too many, and only the check at the block's end, some 200 kB of output later (more
+// than one read), tells the file is corrupt.
+TEST(BalReader, ParseErrorInADamagedBlockNamesTheDamage) {
+  std::string text = "1 1 1\n0 0 1 1\n0 0 0 0 0 -5 500 0 0\n1 2 3\n4\n";
+  for (int k = 0; k < 100000; ++k) text += k % 2 ? "5\n" : "6\n";
+  std::vector<char> out(text.size());
+  unsigned int len = static_cast<unsigned int>(out.size());
+  ASSERT_EQ(BZ2_bzBuffToBuffCompress(out.data(), &len, text.data(), static_cast<unsigned int>(text.size()), 9, 0, 0),
+            BZ_OK);
+  std::string bytes(out.data(), len);
+  const std::string intact = write_temp("intact.txt.bz2", bytes);
+  bal::Problem p;
+  std::string error;
+  EXPECT_FALSE(bal::read_problem(intact, &p, &error));
+  EXPECT_EQ(error, intact + ": line 5: more data than the header announces (1 observations, 1 cameras, 1 points): "
+                            "'4' after the last point");
+  bytes[12] = static_cast<char>(bytes[12] ^ 0x01);
+  const std::string damaged = write_temp("crc.txt.bz2", bytes);
+  EXPECT_FALSE(bal::read_problem(damaged, &p, &error));
+  EXPECT_EQ(error, damaged + ": corrupt bzip2 data");
 }
 
 TEST(BalReader, ToSbaRefusesDuplicatesBuiltInMemory) {
@@ -637,6 +680,42 @@ TEST(BalSba, WriteReplacesTheOldFileAndLeavesNoTemporary) {
   ASSERT_EQ(::stat("/dev/null", &st), 0);
   EXPECT_TRUE(S_ISCHR(st.st_mode));
   std::filesystem::remove_all(dir);
+}
+
+// A small bzip2 file that expands to more than the header announces: balsba stops reading at
+// the first value too many, within a memory limit (512 MiB of address space) that reading
+// the whole text first would exceed. The file: one stream with a problem of 1 observation,
+// 1 camera and 1 point, then the same stream of 1 MiB of "0\n" 640 times.
+TEST(BalSba, DecompressionBombStopsAtTheAnnouncedSize) {
+  auto compress = [](const std::string &text) {
+    std::vector<char> out(text.size() / 50 + 1024);
+    unsigned int len = static_cast<unsigned int>(out.size());
+    const int rc = BZ2_bzBuffToBuffCompress(out.data(), &len, const_cast<char *>(text.data()),
+                                            static_cast<unsigned int>(text.size()), 9, 0, 0);
+    EXPECT_EQ(rc, BZ_OK);
+    return std::string(out.data(), len);
+  };
+  std::string zeros;
+  for (int k = 0; k < (1 << 19); ++k) zeros += "0\n";
+  const std::string problem = "1 1 1\n0 0 1 1\n" + std::string("0\n0\n0\n0\n0\n0\n0\n0\n0\n") + "1\n2\n3\n";
+  std::string bytes = compress(problem);
+  const std::string zero_stream = compress(zeros);
+  for (int k = 0; k < 640; ++k) bytes += zero_stream;
+  ASSERT_LT(bytes.size(), 100000u);
+  const std::string path = write_temp("bomb.txt.bz2", bytes);
+  const Output o = run_balsba(path, "ulimit -v 524288");
+  EXPECT_EQ(o.status, 1);
+  EXPECT_EQ(o.err, path + ": line 15: more data than the header announces (1 observations, 1 cameras, 1 points): "
+                          "'0' after the last point\n");
+  EXPECT_EQ(o.out, "");
+}
+
+// /dev/zero has no white space: refused at once, not read until memory runs out.
+TEST(BalSba, DevZeroIsRefusedAtOnce) {
+  const Output o = run_balsba("/dev/zero", "ulimit -v 524288");
+  EXPECT_EQ(o.status, 1);
+  EXPECT_EQ(o.err, "/dev/zero: line 1: more than 4096 bytes without white space (no number is that long)\n");
+  EXPECT_EQ(o.out, "");
 }
 
 }  // namespace
