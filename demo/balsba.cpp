@@ -143,21 +143,6 @@ bool known_solver(const std::string &name) {
   return names.find(" " + name + " ") != std::string::npos;
 }
 
-// Checks that OUT can be written before a long solve, leaving no new file behind.
-bool check_writable(const std::string &path, std::string *error) {
-  std::FILE *probe = std::fopen(path.c_str(), "r");
-  const bool existed = probe != nullptr;
-  if (probe) std::fclose(probe);
-  probe = std::fopen(path.c_str(), "a");
-  if (!probe) {
-    *error = path + ": cannot open for writing: " + std::strerror(errno);
-    return false;
-  }
-  std::fclose(probe);
-  if (!existed) std::remove(path.c_str());
-  return true;
-}
-
 int bal_main(int argc, char **argv) {
   Options o;
   std::string error;
@@ -174,8 +159,9 @@ int bal_main(int argc, char **argv) {
                  sba_linsolver_names());
     return kExitUsage;
   }
-  if (!o.write.empty() && !check_writable(o.write, &error)) {
-    std::fprintf(stderr, "%s\n", error.c_str());
+  // OUT must be writable before a long solve.
+  if (!o.write.empty() && !sbademo::probe_writable(o.write, &error)) {
+    std::fprintf(stderr, "%s: %s\n", o.write.c_str(), error.c_str());
     return kExitFailure;
   }
 

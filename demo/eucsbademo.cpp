@@ -168,14 +168,8 @@ const char *kind_banner(CameraKind kind) {
 // Makes sure the files --write-* name can be written before a long solve, without truncating
 // an existing file and without leaving a new one behind.
 Status check_writable(const std::string &path) {
-  if (path.empty()) return {};
-  std::FILE *probe = std::fopen(path.c_str(), "r");
-  const bool existed = probe != nullptr;
-  if (probe) std::fclose(probe);
-  probe = std::fopen(path.c_str(), "a");
-  if (!probe) return Status::error(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
-  std::fclose(probe);
-  if (!existed) std::remove(path.c_str());
+  std::string why;
+  if (!path.empty() && !sbademo::probe_writable(path, &why)) return Status::error(path, 0, why);
   return {};
 }
 

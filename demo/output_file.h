@@ -129,6 +129,27 @@ class OutputFile {
   std::string temp_;   // the temporary, empty when writing in place or when none is open
 };
 
+// Checks before a long computation that path can be written, without changing an existing
+// file and without leaving a new one behind: false with the reason in *why if not. Devices
+// and FIFOs pass unopened: opening a FIFO could block, or end the stream its reader waits on.
+inline bool probe_writable(const std::string &path, std::string *why) {
+  struct stat st {};
+  const bool existed = ::stat(path.c_str(), &st) == 0;
+  if (existed && S_ISDIR(st.st_mode)) {
+    if (why) *why = std::string("cannot open for writing: ") + std::strerror(EISDIR);
+    return false;
+  }
+  if (existed && !S_ISREG(st.st_mode)) return true;
+  std::FILE *probe = std::fopen(path.c_str(), "a");
+  if (!probe) {
+    if (why) *why = std::string("cannot open for writing: ") + std::strerror(errno);
+    return false;
+  }
+  std::fclose(probe);
+  if (!existed) std::remove(path.c_str());
+  return true;
+}
+
 // Flushes standard output and reports whether everything printed on it was written; if not,
 // prints "PROGRAM: error writing standard output: REASON" on stderr and returns false. A run
 // whose report was lost (a full disk, a closed stdout) must not exit as a success. Call it once,

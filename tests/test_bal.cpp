@@ -682,6 +682,27 @@ TEST(BalSba, WriteReplacesTheOldFileAndLeavesNoTemporary) {
   std::filesystem::remove_all(dir);
 }
 
+// A FIFO as --write target: its reader gets the whole problem. Checking it beforehand must
+// neither block (opening it to read waits for a writer) nor end the reader's stream.
+TEST(BalSba, WritesToAFifo) {
+  const std::string path = bal_dir() + "/problem-49-7776-pre.txt.bz2";
+  REQUIRE_FILE(path);
+  const std::string fifo = temp_path("fifo"), received = temp_path("fifo-received.txt");
+  std::remove(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string err = temp_path("fifo.err");
+  const std::string cmd = "cat " + fifo + " > " + received + " & timeout 10 " + std::string(BALSBA_EXE) + " " + path +
+                          " --itmax 1 --threads 1 --write " + fifo + " > /dev/null 2> " + err +
+                          "; st=$?; [ $st -eq 0 ] || timeout 5 sh -c ': > " + fifo + "'; wait; exit $st";
+  const int raw = std::system(cmd.c_str());
+  EXPECT_EQ(WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, 0) << slurp(err);
+  bal::Problem p;
+  std::string error;
+  EXPECT_TRUE(bal::read_problem(received, &p, &error)) << error;
+  EXPECT_EQ(p.nobservations(), 31843);
+  std::remove(fifo.c_str());
+}
+
 // A small bzip2 file that expands to more than the header announces: balsba stops reading at
 // the first value too many, within a memory limit (512 MiB of address space) that reading
 // the whole text first would exceed. The file: one stream with a problem of 1 observation,

@@ -34,6 +34,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -140,6 +141,7 @@ struct ChildSetup {
   std::string stdout_to;               // empty: captured in DemoRun::out
   rlim_t file_size = RLIM_INFINITY;    // RLIMIT_FSIZE; SIGXFSZ is then ignored, writes fail
   rlim_t address_space = RLIM_INFINITY;  // RLIMIT_AS
+  unsigned alarm_seconds = 0;            // nonzero: SIGALRM ends a child that takes longer
 };
 
 // Runs eucsbademo with args, stdin from /dev/null, stdout and stderr into separate files.
@@ -174,7 +176,8 @@ DemoRun run_demo(const std::vector<std::string> &args, const EnvChanges &env = {
   envp.push_back(nullptr);
 
   pid_t pid = 0;
-  const bool limited = setup.file_size != RLIM_INFINITY || setup.address_space != RLIM_INFINITY;
+  const bool limited =
+      setup.file_size != RLIM_INFINITY || setup.address_space != RLIM_INFINITY || setup.alarm_seconds != 0;
   if (!limited) {
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
@@ -210,6 +213,7 @@ DemoRun run_demo(const std::vector<std::string> &args, const EnvChanges &env = {
         const rlimit lim{setup.address_space, setup.address_space};
         ::setrlimit(RLIMIT_AS, &lim);
       }
+      if (setup.alarm_seconds != 0) ::alarm(setup.alarm_seconds);  // kept across exec
       ::execve(argv[0], argv.data(), envp.data());
       ::_exit(127);
     }
@@ -1161,6 +1165,25 @@ TEST_F(BadInput, WritesReplaceOldFilesAndLeaveNoTemporary) {
   EXPECT_SUCCESSFUL_RUN(null_run, kFixedBanner, s);
   ASSERT_EQ(::stat("/dev/null", &st), 0);
   EXPECT_TRUE(S_ISCHR(st.st_mode));
+}
+
+// A FIFO as output: written to once, as its reader expects. Checking it beforehand must
+// neither block (opening it to read waits for a writer) nor end the reader's stream.
+TEST_F(BadInput, WritesToAFifo) {
+  const std::string fifo = dir_.file("fifo");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  std::string received;
+  std::thread reader([&] { received = read_text(fifo); });
+  ChildSetup limited;
+  limited.alarm_seconds = 10;
+  const DemoRun r = run_demo({"--write-pts=" + fifo, cams_, pts_, calib_}, {}, limited);
+  // If the reader still waits for a writer (the run failed), an empty stream lets it finish.
+  const int fd = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+  if (fd >= 0) ::close(fd);
+  reader.join();
+  Summary s;
+  EXPECT_SUCCESSFUL_RUN(r, kFixedBanner, s);
+  EXPECT_EQ(split_lines(received).size(), size_t(kPoints));
 }
 
 // ---------------------------------------------------------------------------------------------
