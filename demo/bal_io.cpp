@@ -511,6 +511,15 @@ bool write_problem(const std::string &path, const Problem &problem, std::string 
     const int write_err = bzerr;
     const int write_errno = errno;
     BZ2_bzWriteClose(&bzerr, bz, write_err != BZ_OK, nullptr, nullptr);
+    if (bzerr == BZ_IO_ERROR) {
+      // A close that meets a stream error returns before libbz2 frees its state; once the
+      // error flag is cleared, a second close that abandons the data frees it.
+      const int close_errno = errno;
+      std::clearerr(f);
+      int ignored = BZ_OK;
+      BZ2_bzWriteClose(&ignored, bz, 1, nullptr, nullptr);
+      errno = close_errno;
+    }
     if (write_err != BZ_OK || bzerr != BZ_OK) {
       errno = write_err != BZ_OK ? write_errno : errno;
       return fail(error, path, std::string("write error: ") + std::strerror(errno));
