@@ -20,7 +20,13 @@
 //   a wrong Jacobian   (negated, off by up to 50%, all zero) a valid stop (reason 1..6) with
 //                      an error no larger than the initial one, or SBA_ERROR with reason 7/8
 //   progress stop      reason 9, p the last accepted estimate
-//   a bad argument     SBA_ERROR, reason 0, p untouched
+//   a bad argument     SBA_ERROR, reason 0, p untouched; among them sizes whose products
+//                      exceed INT_MAX (refused before anything of that size is touched)
+//                      and loss scales whose square overflows or underflows
+//   a huge thread count  (INT_MAX, or hundreds) the solve as without it, with
+//                      sba_ext_result.nthreads within the documented caps
+//   a point seen once  in a covariance request: refused (SBA_ERROR), or a rank below the
+//                      number of free parameters; never a full-rank success
 //
 // usage: sba_soak [--solves N] [--seed S] [--timeout SECONDS] [--jobs J] [--verbose]
 #include <signal.h>
@@ -29,6 +35,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <climits>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -36,6 +43,7 @@
 #include <cstring>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "counting_new.h"
@@ -59,7 +67,8 @@ const char *const kBadArguments[] = {
     "n = 0",      "m < 0",         "cnp/pnp = 0",     "mnp = 0",        "mcon/ncon out of range",
     "vmask NULL", "p NULL",        "x NULL",          "func NULL",      "itmax < 0",
     "NaN in p",   "Inf in x",      "NaN in covx",     "covx not SPD",   "all-zero vmask",
-    "unknown linear solver", "bad loss scale", "unknown loss", "too few measurements"};
+    "unknown linear solver", "bad loss scale", "unknown loss", "too few measurements",
+    "sizes beyond the int API", "absurd loss scale"};
 constexpr int kNumBadArguments = int(sizeof kBadArguments / sizeof kBadArguments[0]);
 
 struct Plan {
@@ -87,17 +96,20 @@ struct Plan {
   Sabotage::Kind kind = Sabotage::None;
   long after = 0;
   int bad = 0;  // index into kBadArguments
+  int huge_threads = 0;     // nthreads asked for beyond any cap (0: not this case)
+  bool once_seen = false;   // the covariance request has a point seen by one camera only
 
   std::string describe() const {
     char buf[512];
     std::snprintf(buf, sizeof buf,
                   "seed %u: %s%s n=%d m=%d sigma=%g vis=%.2f %s %s%s threads=%d mcon=%d ncon=%d "
-                  "covx=%d loss=%s/%g itmax=%d opts=%d covariance=%d fault=%s",
+                  "covx=%d loss=%s/%g itmax=%d opts=%d covariance=%d%s fault=%s",
                   seed, name_of(driver), vis_api ? "_vis" : "", n, m, sigma, vis,
                   analytic ? "analytic" : "finite-differences", use_ext ? "ext " : "1.6-entry",
                   use_ext ? (linsolver.empty() ? "default-solver" : linsolver.c_str()) : "",
-                  nthreads, mcon, ncon, int(covx), loss.empty() ? "none" : loss.c_str(), loss_scale,
-                  itmax, int(opts), int(covariance), fault_name().c_str());
+                  huge_threads ? huge_threads : nthreads, mcon, ncon, int(covx), loss.empty() ? "none" : loss.c_str(), loss_scale,
+                  itmax, int(opts), int(covariance), once_seen ? " (a point seen once)" : "",
+                  fault_name().c_str());
     return buf;
   }
   std::string fault_name() const {
@@ -181,9 +193,12 @@ Plan make_plan(unsigned run_seed, int k) {
       p.use_ext = true;
       p.after = pick(1, 10);
     }
-    if (p.fault == Fault::BadArgument && p.bad >= 15 && p.bad <= 17) p.use_ext = true;
+    if (p.fault == Fault::BadArgument && ((p.bad >= 15 && p.bad <= 17) || p.bad == 20)) p.use_ext = true;
     if (p.fault == Fault::Jacobian && !p.analytic) p.analytic = true;  // a fault needs the callback
   }
+  // Drawn last, so that the plans above stay those of earlier versions for the same seed.
+  if (p.use_ext && coin(0.06)) p.huge_threads = coin(0.5) ? INT_MAX : pick(100, 5000);
+  if (p.covariance && coin(0.5)) p.once_seen = true;
   return p;
 }
 
@@ -202,6 +217,10 @@ struct Report {
   long leaked = 0;          // C++ allocations not given back by the solve
   int lsan_leak = 0;        // LeakSanitizer found a leak after the solve
   int underdetermined = 0;  // the random problem has fewer measurements than free parameters
+  int threads_used = 0;     // sba_ext_result.nthreads (0: not written)
+  int threads_cap = 0;      // the documented cap on a count asked for, for this problem
+  int covariance_asked = 0;  // the covariance was computed (plan.covariance, no fault planned)
+  int covariance_rank = 0, covariance_nfree = 0;
   int done = 0;             // the report is complete
 };
 
@@ -261,7 +280,11 @@ void run_plan(const Plan &plan, Report &r) {
   sba_ext_result result;
   sba_ext_result_init(&result);
   ext.linsolver = plan.linsolver.empty() ? nullptr : plan.linsolver.c_str();
-  ext.nthreads = plan.nthreads;
+  ext.nthreads = plan.huge_threads ? plan.huge_threads : plan.nthreads;
+  {
+    const int hw = std::max(1, int(std::thread::hardware_concurrency()));
+    r.threads_cap = std::min(4 * hw, std::max(1, rig.pb.nvis / 64));
+  }
   ext.loss = plan.loss.empty() ? nullptr : plan.loss.c_str();
   ext.loss_scale = plan.loss_scale;
   ext.result = &result;
@@ -302,7 +325,20 @@ void run_plan(const Plan &plan, Report &r) {
       case 15: ext.linsolver = "no-such-solver"; break;
       case 16: ext.loss = "huber"; ext.loss_scale = -1.0; break;
       case 17: ext.loss = "no-such-loss"; break;
-      default: std::fill(vm.begin(), vm.end(), 0); vm[0] = vm[1] = 1; c.vmask = vm.data(); break;
+      case 18: std::fill(vm.begin(), vm.end(), 0); vm[0] = vm[1] = 1; c.vmask = vm.data(); break;
+      case 19:  // a projection's Jacobian block of 2^20 x 4096: 2^32, 0 in int arithmetic
+        c.mnp = 1 << 20;
+        if (has_cameras(plan.driver) && has_points(plan.driver)) c.cnp = c.pnp = 2048;
+        else if (has_cameras(plan.driver)) c.cnp = 4096;
+        else c.pnp = 4096;
+        break;
+      default: {  // 20: a loss scale whose square overflows or underflows
+        static const char *const losses[] = {"huber", "cauchy", "soft-l1", "tukey"};
+        static const double scales[] = {1e160, 1e-300, 0x1p512, 0x1p-512, 1.7e308, 4.9e-324};
+        ext.loss = losses[plan.seed % 4];
+        ext.loss_scale = scales[(plan.seed / 4) % 6];
+        break;
+      }
     }
   }
   const std::vector<double> p_before = rig.p;
@@ -334,12 +370,35 @@ void run_plan(const Plan &plan, Report &r) {
     r.error_of_p = weighted_sq_error(rig, rig.p, c.covx ? &rig.covx : nullptr);
   // With a robust loss info[1] is the robust cost; the plain squared error is in the result.
   r.reported_sq = plan.use_ext && !plan.loss.empty() ? result.sq_error_final : r.info[1];
+  r.threads_used = plan.use_ext ? result.nthreads : 0;
 
   if (plan.covariance && r.ret > 0 && plan.fault == Fault::None) {
     std::vector<double> camcov(size_t(rig.pb.m) * kCnp * kCnp), ptcov(size_t(3) * kPnp * kPnp);
     std::vector<int> cams(size_t(rig.pb.m));
     for (int j = 0; j < rig.pb.m; ++j) cams[size_t(j)] = j;
     const int pts[3] = {0, rig.pb.n / 2, rig.pb.n - 1};
+    // A point seen by one camera: the last one (never fixed: ncon <= 5 < n) keeps only its
+    // first projection, in vmask, x and covx alike.
+    std::vector<char> vm1 = rig.pb.vmask;
+    std::vector<double> x1, covx1;
+    if (plan.once_seen) {
+      const int q = rig.pb.n - 1;
+      int k = 0;
+      bool kept = false;
+      for (int i = 0; i < rig.pb.n; ++i)
+        for (int j = 0; j < rig.pb.m; ++j) {
+          char &v = vm1[size_t(i) * rig.pb.m + j];
+          if (!v) continue;
+          if (i == q && kept) {
+            v = 0;
+          } else {
+            kept = kept || i == q;
+            x1.insert(x1.end(), rig.pb.x.begin() + 2 * k, rig.pb.x.begin() + 2 * k + 2);
+            covx1.insert(covx1.end(), rig.covx.begin() + 4 * k, rig.covx.begin() + 4 * k + 4);
+          }
+          ++k;
+        }
+    }
     sba_covariance_request req;
     sba_covariance_request_init(&req);
     req.ncams = rig.pb.m;
@@ -348,10 +407,19 @@ void run_plan(const Plan &plan, Report &r) {
     req.npts = 3;
     req.pts = pts;
     req.ptcov = ptcov.data();
-    r.covariance_ret = sba_motstr_covariance_x(c.n, c.ncon, c.m, c.mcon, c.vmask, rig.p.data(), kCnp, kPnp,
-                                               c.x, c.covx, kMnp, x_func_motstr,
-                                               c.jac ? x_fjac_motstr : nullptr, &rig.sab, &req, c.ext);
+    if (plan.once_seen)
+      r.covariance_ret = sba_motstr_covariance_x(c.n, c.ncon, c.m, c.mcon, vm1.data(), rig.p.data(), kCnp,
+                                                 kPnp, x1.data(), c.covx ? covx1.data() : nullptr, kMnp,
+                                                 x_func_motstr, c.jac ? x_fjac_motstr : nullptr, &rig.sab,
+                                                 &req, c.ext);
+    else
+      r.covariance_ret = sba_motstr_covariance_x(c.n, c.ncon, c.m, c.mcon, c.vmask, rig.p.data(), kCnp,
+                                                 kPnp, c.x, c.covx, kMnp, x_func_motstr,
+                                                 c.jac ? x_fjac_motstr : nullptr, &rig.sab, &req, c.ext);
     r.covariance_finite = all_finite(camcov) && all_finite(ptcov) && std::isfinite(req.sigma2);
+    r.covariance_asked = 1;
+    r.covariance_rank = req.rank;
+    r.covariance_nfree = req.nfree;
   }
   r.leaked = g_live_news.load() - live;
 }
@@ -380,6 +448,15 @@ std::string judge(const Plan &plan, const Report &r) {
     if (!descent()) return "the final error is not finite or above the initial one";
     if (!r.p_finite) return "p is not finite";
     if (!consistent()) return "the reported error does not match the returned p";
+    if (plan.huge_threads && r.threads_used > r.threads_cap)
+      return "a thread count of " + std::to_string(plan.huge_threads) + " was not capped (" +
+             std::to_string(r.threads_used) + " used, cap " + std::to_string(r.threads_cap) + ")";
+    if (plan.once_seen && r.covariance_asked) {
+      if (r.covariance_ret == 0 && r.covariance_rank >= r.covariance_nfree)
+        return "a point seen once got a full-rank covariance";
+      if (r.covariance_ret == 0 && !r.covariance_finite) return "the covariance of the solution is not finite";
+      return {};
+    }
     if (plan.covariance && r.covariance_ret != 0) return "the covariance of the solution failed";
     if (plan.covariance && !r.covariance_finite) return "the covariance of the solution is not finite";
     return {};
