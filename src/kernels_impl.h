@@ -292,25 +292,19 @@ class KernelsT final : public Kernels {
   }
 
   bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const override {
-    std::vector<char> ok(scratch_.size(), 1);
-    pool.for_range_t(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
-      ok[size_t(t)] = invert_points(V, mu, Vinv, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
+    return pool.all_ranges(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
+      return invert_points(V, mu, Vinv, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
     });
-    return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
   }
 
   bool assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                 const BlockMap &S, double *rhs) const override {
-    std::vector<char> ok(scratch_.size(), 1);
-    auto body = [&](int t) {
-      ok[size_t(t)] = assemble_columns(split_[size_t(t)], split_[size_t(t) + 1], ne, Vinv, mu, S, rhs,
-                                       scratch_[size_t(t)]);
-    };
-    if (pool.size() == 1 || split_.size() == 2)
-      body(0);
-    else
-      pool.run(body);
-    return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
+    return pool.all_members(
+        [&](int t) {
+          return assemble_columns(split_[size_t(t)], split_[size_t(t) + 1], ne, Vinv, mu, S, rhs,
+                                  scratch_[size_t(t)]);
+        },
+        split_.size() == 2);
   }
 
   void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,

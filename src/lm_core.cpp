@@ -47,9 +47,7 @@ bool all_finite(const double *v, i64 len) {
 }
 
 bool all_finite(ThreadPool &pool, const double *v, i64 len) {
-  std::vector<char> ok(size_t(pool.size()), 1);
-  pool.for_range_t(len, [&](int t, i64 b, i64 e) { ok[size_t(t)] = all_finite(v + b, e - b); });
-  return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
+  return pool.all_ranges(len, [v](int, i64 b, i64 e) { return all_finite(v + b, e - b); });
 }
 
 // Everything the LM loop itself needs, sized once before iterating (the linear solver

@@ -149,7 +149,6 @@ void ThreadPool::run(const std::function<void(int)> &fn) {
   }
   job_ = &fn;
   cpu_[size() - 1].store(current_cpu(), std::memory_order_relaxed);
-  resting_.store(false, std::memory_order_relaxed);
   pending_.store(int(workers_.size()), std::memory_order_relaxed);
   {
     std::lock_guard<std::mutex> lock(mu_);

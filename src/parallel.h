@@ -30,10 +30,21 @@ class ThreadPool {
   // exception thrown by any of them is rethrown here.
   void run(const std::function<void(int)> &fn);
 
-  // Until the next run(), the workers sleep instead of spinning for it: called before a
-  // long call into another library (LAPACK, CHOLMOD) that runs its own threads, so that
-  // our spinning workers do not take the cores those threads need.
-  void rest() { resting_.store(true, std::memory_order_release); }
+  // For its lifetime the workers sleep instead of spinning for the next job: made around a
+  // long call into another library (LAPACK, CHOLMOD) that runs its own threads, so that our
+  // spinning workers do not take the cores those threads need.
+  class ForeignThreads {
+   public:
+    explicit ForeignThreads(ThreadPool &pool) : pool_(pool) {
+      pool_.resting_.store(true, std::memory_order_release);
+    }
+    ~ForeignThreads() { pool_.resting_.store(false, std::memory_order_release); }
+    ForeignThreads(const ForeignThreads &) = delete;
+    ForeignThreads &operator=(const ForeignThreads &) = delete;
+
+   private:
+    ThreadPool &pool_;
+  };
 
   // fn(t, begin, end) over [0, n) in size() contiguous ranges, t the range's thread slot.
   template <class Fn>
@@ -47,6 +58,27 @@ class ThreadPool {
       const std::int64_t b = n * t / T, e = n * (t + 1) / T;
       if (b < e) fn(t, b, e);
     });
+  }
+
+  // fn(t, begin, end) -> bool as for_range_t; true when every call returned true. A range
+  // may stop at its first failure; the others still run to their end.
+  template <class Fn>
+  bool all_ranges(std::int64_t n, Fn fn) {
+    std::vector<int> ok(size_t(size()), 1);
+    for_range_t(n, [&](int t, std::int64_t b, std::int64_t e) { ok[size_t(t)] = fn(t, b, e); });
+    return all_true(ok);
+  }
+
+  // fn(t) -> bool for every member as run() (or for member 0 alone when `alone`); true when
+  // every call returned true.
+  template <class Fn>
+  bool all_members(Fn fn, bool alone = false) {
+    std::vector<int> ok(size_t(size()), 1);
+    if (alone || size() == 1)
+      ok[0] = fn(0);
+    else
+      run([&](int t) { ok[size_t(t)] = fn(t); });
+    return all_true(ok);
   }
 
   // fn(begin, end) over [0, n) in size() contiguous ranges.
@@ -64,6 +96,11 @@ class ThreadPool {
   }
 
  private:
+  static bool all_true(const std::vector<int> &ok) {
+    for (int c : ok)
+      if (!c) return false;
+    return true;
+  }
   void work(int id);
   void avoid_shared_core(int id, int *cooldown);
 

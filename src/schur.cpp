@@ -57,16 +57,12 @@ class BlockDiagonalSolver final : public StepSolver {
   // fn(q, scratch) for q in [0, count) over the threads; false if any is.
   template <class Fn>
   bool all_blocks(i64 count, Fn fn) {
-    std::vector<char> ok(size_t(pool_.size()), 1);
     const size_t d = size_t(std::max(lay_.cnp, lay_.pnp));
-    pool_.for_range_t(count, [&](int t, i64 b, i64 e) {
+    return pool_.all_ranges(count, [&](int t, i64 b, i64 e) {
       for (i64 q = b; q < e; ++q)
-        if (!fn(q, blk_.data() + size_t(t) * d * d)) {
-          ok[size_t(t)] = 0;
-          return;
-        }
+        if (!fn(q, blk_.data() + size_t(t) * d * d)) return false;
+      return true;
     });
-    return std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
   }
 
   static bool one(const double *M, const double *g, int d, double mu, double *x, double *b) {

@@ -94,7 +94,7 @@ class DenseSchurSolver final : public StepSolver {
       back_substitute_upper(S, nS_, ld_, rhs_.data(), da);
       return true;
     }
-    ctx_.pool.rest();  // the BLAS has its own threads
+    const ThreadPool::ForeignThreads lapack(ctx_.pool);  // the BLAS runs its own
     if (kind_ == LinSolver::Chol || kind_ == LinSolver::CholLapack) {
       // Row-major upper is column-major lower: factor in place, no copy.
       int info = 0, one = 1;

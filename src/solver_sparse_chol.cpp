@@ -199,7 +199,7 @@ class SparseSchurSolver final : public StepSolver {
     for (int j = 0; j < nc; ++j)
       std::copy_n(rhs_.data() + i64(j) * cnp, cnp, b + i64(perm[size_t(j)]) * cnp);
 
-    ctx_.pool.rest();  // CHOLMOD and its BLAS have their own threads
+    const ThreadPool::ForeignThreads cholmod(ctx_.pool);  // CHOLMOD and its BLAS run their own
     double beta[2] = {0.0, 0.0};
     const int ok = direct_ ? Api::super_numeric(chol_.A, nullptr, beta, chol_.L, &chol_.cm)
                            : Api::factorize(chol_.A, chol_.L, &chol_.cm);

@@ -102,6 +102,47 @@ TEST(ThreadPool, WorkersKeepTheCallersMaskWhenThereIsNoFreeCore) {
 
 // prefault maps every whole page of the range for writing, without writing to it; the
 // partial pages at its ends are left alone.
+// all_ranges and all_members: true only when every range (member) succeeds, every range
+// runs, and the result does not depend on the thread count.
+TEST(ThreadPool, AllRangesAndAllMembersAndTheirResults) {
+  for (int threads : {1, 2, 3}) {
+    SCOPED_TRACE(threads);
+    sba::ThreadPool pool(threads);
+    std::vector<std::atomic<int>> seen(100);
+    EXPECT_TRUE(pool.all_ranges(100, [&](int, std::int64_t b, std::int64_t e) {
+      for (std::int64_t k = b; k < e; ++k) seen[size_t(k)]++;
+      return true;
+    }));
+    for (const auto &c : seen) EXPECT_EQ(c.load(), 1);
+    EXPECT_FALSE(pool.all_ranges(100, [](int, std::int64_t b, std::int64_t e) { return !(b <= 57 && 57 < e); }));
+    EXPECT_TRUE(pool.all_ranges(0, [](int, std::int64_t, std::int64_t) { return false; }));
+    std::atomic<int> calls{0};
+    EXPECT_FALSE(pool.all_members([&](int t) {
+      ++calls;
+      return t != pool.size() - 1;
+    }) && pool.size() > 1);
+    EXPECT_EQ(calls.load(), pool.size());
+    calls = 0;
+    EXPECT_TRUE(pool.all_members([&](int t) {
+      ++calls;
+      return t == 0;
+    }, true));
+    EXPECT_EQ(calls.load(), 1);
+  }
+}
+
+// Work handed to the pool while, and after, a foreign library's threads had the cores.
+TEST(ThreadPool, RunsWithinAndAfterForeignThreads) {
+  sba::ThreadPool pool(2);
+  std::atomic<int> n{0};
+  {
+    const sba::ThreadPool::ForeignThreads guard(pool);
+    pool.run([&](int) { ++n; });
+  }
+  pool.run([&](int) { ++n; });
+  EXPECT_EQ(n.load(), 2 * pool.size());
+}
+
 TEST(Memory, PrefaultMapsTheWholePagesOfTheRange) {
   const long page = sysconf(_SC_PAGESIZE);
   ASSERT_GT(page, 0);
