@@ -55,14 +55,6 @@ void SBA_F77(dsytri, DSYTRI)(const char *uplo, const int *n, double *a, const in
 void SBA_F77(dsyev, DSYEV)(const char *jobz, const char *uplo, const int *n, double *a,
                            const int *lda, double *w, double *work, const int *lwork, int *info,
                            sba::lapack::flen, sba::lapack::flen);
-// BLAS used by the assembly kernels
-void SBA_F77(dgemm, DGEMM)(const char *transa, const char *transb, const int *m, const int *n,
-                           const int *k, const double *alpha, const double *a, const int *lda,
-                           const double *b, const int *ldb, const double *beta, double *c,
-                           const int *ldc, sba::lapack::flen, sba::lapack::flen);
-void SBA_F77(dsyrk, DSYRK)(const char *uplo, const char *trans, const int *n, const int *k,
-                           const double *alpha, const double *a, const int *lda, const double *beta,
-                           double *c, const int *ldc, sba::lapack::flen, sba::lapack::flen);
 }
 
 #endif

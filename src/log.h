@@ -8,7 +8,7 @@
 
 namespace sba {
 
-enum class LogLevel { Error = 0, Warning = 1, Info = 2, Debug = 3 };
+enum class LogLevel { Error = 0, Warning = 1, Info = 2 };
 
 // sink(ctx, level, line): line has no trailing newline.
 using LogSinkFn = void (*)(void *ctx, int level, const char *line);

@@ -4,14 +4,14 @@
 // visibility, so only the numeric factorization is repeated.
 #include <algorithm>
 #include <cmath>
-#include <new>
 #include <vector>
 
 #include "linsolve.h"
 #include "schur.h"
 
+#include "suitesparse_status.h"
+
 extern "C" {
-#include <suitesparse/amd.h>
 #include <suitesparse/ldl.h>
 }
 
@@ -70,8 +70,9 @@ class LdlAmdSolver final : public StepSolver {
 
     P_.resize(size_t(N_));
     Pinv_.resize(size_t(N_));
-    if (amd_l_order(N_, Ap_.data(), Ai_.data(), P_.data(), nullptr, nullptr) != AMD_OK)
-      throw std::bad_alloc();  // the pattern is valid by construction: only memory can fail
+    // The pattern is valid by construction: only memory should fail.
+    if (const int status = amd_l_order(N_, Ap_.data(), Ai_.data(), P_.data(), nullptr, nullptr); status != AMD_OK)
+      throw_amd_failure("amd_l_order", status);
     Lp_.resize(size_t(N_) + 1);
     parent_.resize(size_t(N_));
     lnz_.resize(size_t(N_));

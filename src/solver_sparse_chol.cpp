@@ -15,15 +15,10 @@
 #include <climits>
 #include <cmath>
 #include <memory>
-#include <new>
 #include <vector>
 
 #include "linsolve.h"
-
-extern "C" {
-#include <suitesparse/amd.h>
-#include <suitesparse/cholmod.h>
-}
+#include "suitesparse_status.h"
 
 namespace sba {
 namespace {
@@ -80,7 +75,7 @@ Pattern make_pattern(const Layout &lay) {
     std::vector<sslong> order(static_cast<size_t>(nc));
     // AMD orders the pattern of A + A^T, so the upper triangle is enough.
     const int status = amd_l_order(nc, Ap.data(), Ai.data(), order.data(), nullptr, nullptr);
-    if (status != AMD_OK && status != AMD_OK_BUT_JUMBLED) throw std::bad_alloc();
+    if (status != AMD_OK && status != AMD_OK_BUT_JUMBLED) throw_amd_failure("amd_l_order", status);
     pat.perm.resize(size_t(nc));
     for (int q = 0; q < nc; ++q) pat.perm[size_t(order[size_t(q)])] = q;
   }
@@ -204,12 +199,12 @@ class SparseSchurSolver final : public StepSolver {
     const int ok = direct_ ? Api::super_numeric(chol_.A, nullptr, beta, chol_.L, &chol_.cm)
                            : Api::factorize(chol_.A, chol_.L, &chol_.cm);
     // The matrix is valid by construction: short of a matrix that is not positive definite
-    // at this damping (L->minor below), only memory can fail.
+    // at this damping (L->minor below), only memory should fail.
     if (chol_.cm.status == CHOLMOD_OUT_OF_MEMORY || (!ok && chol_.cm.status != CHOLMOD_NOT_POSDEF))
-      throw std::bad_alloc();
+      throw_cholmod_failure(direct_ ? "cholmod_super_numeric" : "cholmod_factorize", chol_.cm.status);
     if (chol_.L->minor < chol_.L->n) return false;  // not positive definite at this damping
     cholmod_dense *X = Api::solve(CHOLMOD_A, chol_.L, chol_.B, &chol_.cm);
-    if (!X) throw std::bad_alloc();
+    if (!X) throw_cholmod_failure("cholmod_solve", chol_.cm.status);
     const double *x = static_cast<const double *>(X->x);
     double *da = dp + lay_.a_off(lay_.mcon);
     bool finite = true;
@@ -233,9 +228,11 @@ class SparseSchurSolver final : public StepSolver {
     const int nc = lay_.free_cams(), cnp = lay_.cnp;
     const Index N = Index(nc) * cnp;
     const i64 nnz = i64(pat_->rows.size()) * cnp * cnp;
+    // Each call starts by resetting the status, so each is checked before the next.
     chol_.A = Api::allocate_sparse(size_t(N), size_t(N), size_t(nnz), 1, 1, -1, CHOLMOD_REAL, &chol_.cm);
+    if (!chol_.A) throw_cholmod_failure("cholmod_allocate_sparse", chol_.cm.status);
     chol_.B = Api::allocate_dense(size_t(N), 1, size_t(N), CHOLMOD_REAL, &chol_.cm);
-    if (!chol_.A || !chol_.B) throw std::bad_alloc();
+    if (!chol_.B) throw_cholmod_failure("cholmod_allocate_dense", chol_.cm.status);
     Index *Ap = static_cast<Index *>(chol_.A->p), *Ai = static_cast<Index *>(chol_.A->i);
     Index q = 0;
     for (int c = 0; c < nc; ++c)
@@ -249,7 +246,7 @@ class SparseSchurSolver final : public StepSolver {
     chol_.L = Api::analyze(chol_.A, &chol_.cm);
     if (!chol_.L) {
       if (chol_.cm.status == CHOLMOD_TOO_LARGE) return;
-      throw std::bad_alloc();
+      throw_cholmod_failure("cholmod_analyze", chol_.cm.status);
     }
     // A small factor is made column by column instead: the supernodal one would start an
     // OpenMP team of CHOLMOD's fixed size and touch the BLAS's buffers, which for S of a few
@@ -260,7 +257,8 @@ class SparseSchurSolver final : public StepSolver {
       chol_.cm.supernodal = CHOLMOD_SIMPLICIAL;
       chol_.cm.final_ll = 1;
       chol_.L = Api::analyze(chol_.A, &chol_.cm);
-      if (!chol_.L) throw std::bad_alloc();  // smaller than the supernodal analysis that fit
+      // Smaller than the supernodal analysis that fit: not expected to fail.
+      if (!chol_.L) throw_cholmod_failure("cholmod_analyze", chol_.cm.status);
     }
     // Natural ordering without postordering leaves L unpermuted; should CHOLMOD permute all
     // the same, cholmod_factorize applies its permutation (at the cost of a copy of A).
