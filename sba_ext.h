@@ -125,6 +125,18 @@ struct sba_ext_options {
    * its cnp + pnp perturbed vectors concurrently. 0 (default): callbacks are only ever
    * called from the thread that called the driver, one at a time. */
   int parallel_callbacks;
+  /* Nonzero (Linux only; default 0, off): a worker thread of the solve's pool that finds
+   * itself, when a job starts, on the CPU of the calling thread or of another of the pool's
+   * workers moves to a CPU none of them is on, if its mask allows one: it narrows its own
+   * affinity mask for a moment, so that the kernel moves it, and then puts its mask back.
+   * Only the library's own worker threads are touched, and only for that moment; the
+   * calling thread's mask is never changed, and workers keep the mask they inherited from
+   * it. "Free" means free of this pool only: a CPU the host keeps for other work is not
+   * known to it. It helps where the scheduler puts a woken thread on its waker's CPU and
+   * leaves the two sharing it for milliseconds (seen on small virtual machines). 0: the
+   * environment variable SBA_AVOID_SHARED_CORES=1 turns it on (0 or unset: off; anything
+   * else is ignored, with a warning). Off, the library never changes a thread's affinity. */
+  int avoid_shared_cores;
 };
 
 /* Fills *opt with the defaults (every field zero/NULL) and opt->size. */

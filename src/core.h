@@ -157,6 +157,7 @@ struct Options {
   int nthreads = 1;
   bool auto_threads = false;  // nthreads is the hardware's, not the caller's: see fit_threads
   bool parallel_callbacks = false;  // the caller's callbacks may run concurrently
+  bool avoid_shared_cores = false;  // workers may narrow their own CPU mask (parallel.cpp)
   Loss loss;  // robust loss on each projection's squared residual (none: least squares)
   // Called after every outer iteration; nonzero stops with kStopUser.
   int (*progress)(void *ctx, const sba_progress *state) = nullptr;

@@ -92,7 +92,7 @@ std::string undetermined_point(const Layout &lay, int i, int rank) {
 
 bool covariance(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
                 const Options &opt, const Logger &log, CovarianceRequest &req) {
-  ThreadPool pool(opt.nthreads);
+  ThreadPool pool(opt.nthreads, opt.avoid_shared_cores);
   const ModelThreads lend(model, &pool);
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());
   Linearization lin;

@@ -201,6 +201,13 @@ void make_options(const DriverArgs &a, const sba_ext_options &ext, const Logger 
   o->progress = ext.progress;
   o->progress_ctx = ext.progress_ctx;
   o->parallel_callbacks = ext.parallel_callbacks != 0;
+  // Opt-in only: how the host's threads are scheduled is the host's business.
+  o->avoid_shared_cores = ext.avoid_shared_cores != 0;
+  if (const char *env = std::getenv("SBA_AVOID_SHARED_CORES"); !o->avoid_shared_cores && env && *env) {
+    o->avoid_shared_cores = std::strcmp(env, "1") == 0;
+    if (!o->avoid_shared_cores && std::strcmp(env, "0") != 0)
+      log.notice("%s: SBA_AVOID_SHARED_CORES=\"%s\" is neither 0 nor 1: ignored (off)", a.name, env);
+  }
   if (ext.loss) {
     LossKind kind;
     if (!loss_from_name(ext.loss, &kind)) {

@@ -297,7 +297,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
            const Options &opt, const Logger &log, Summary &sum) {
   sum = Summary{};
   const auto t0 = std::chrono::steady_clock::now();
-  ThreadPool pool(opt.nthreads);
+  ThreadPool pool(opt.nthreads, opt.avoid_shared_cores);
   const ModelThreads lend(model, &pool);
   const Loss &loss = opt.loss;
   Workspace w(lay, covx != nullptr, loss.robust(), !model.has_jacobian());

@@ -23,7 +23,8 @@ int current_cpu() {
 
 }  // namespace
 
-ThreadPool::ThreadPool(int nthreads) : cpu_(new std::atomic<int>[size_t(std::max(nthreads, 1))]) {
+ThreadPool::ThreadPool(int nthreads, bool avoid_shared_cores)
+    : avoid_shared_cores_(avoid_shared_cores), cpu_(new std::atomic<int>[size_t(std::max(nthreads, 1))]) {
   for (int t = 0; t < std::max(nthreads, 1); ++t) cpu_[t].store(-1, std::memory_order_relaxed);
   for (int t = 1; t < nthreads; ++t) {
     try {
@@ -86,7 +87,7 @@ void ThreadPool::work(int id) {
     if (stop_.load(std::memory_order_acquire)) return;
     seen = generation_.load(std::memory_order_acquire);
     const std::function<void(int)> *job = job_;
-    avoid_shared_core(id, &cooldown);
+    if (avoid_shared_cores_) avoid_shared_core(id, &cooldown);
     try {
       (*job)(id);
     } catch (...) {
@@ -101,15 +102,19 @@ void ThreadPool::work(int id) {
   }
 }
 
+// Only when the pool was made with avoid_shared_cores (sba_ext_options.avoid_shared_cores or
+// SBA_AVOID_SHARED_CORES=1): scheduling is the host process's business, and a core that is
+// free of this pool may be the one the host keeps for something else, so a library does not
+// do this unasked.
 // A thread that another wakes, or a new one, can be put on the waker's core when its own
 // core looks busy, and on a virtual machine an idle virtual CPU can look busy (the host
 // may have lent it out). The caller and a worker then take turns on one core until the
-// kernel's load balancer parts them, milliseconds later: on 54cams with 2 threads, 40 to
-// all 505 jobs of a 0.05 s solve ran so, and the solve took up to 0.11 s. So a worker that
-// finds itself on the core of the caller or of a worker before it moves to a core that none
-// of them uses, if the process may use one: a short-lived affinity mask without the pool's
-// cores makes the kernel move it at once, and the mask put back lets it move freely again.
-// Where there is no such core (more threads than cores), it looks again 64 jobs later.
+// kernel's load balancer parts them, milliseconds later. So a worker that finds itself on
+// the core of the caller or of a worker before it moves to a core that none of them uses,
+// if its mask allows one: a short-lived affinity mask without the pool's cores makes the
+// kernel move it at once, and its own mask put back lets it move freely again. Only the
+// worker's own mask changes, never the caller's. Where there is no such core (more threads
+// than cores), it looks again 64 jobs later.
 void ThreadPool::avoid_shared_core(int id, int *cooldown) {
 #if defined(__linux__)
   const int here = current_cpu(), T = size();
@@ -148,7 +153,7 @@ void ThreadPool::run(const std::function<void(int)> &fn) {
     return;
   }
   job_ = &fn;
-  cpu_[size() - 1].store(current_cpu(), std::memory_order_relaxed);
+  if (avoid_shared_cores_) cpu_[size() - 1].store(current_cpu(), std::memory_order_relaxed);
   pending_.store(int(workers_.size()), std::memory_order_relaxed);
   {
     std::lock_guard<std::mutex> lock(mu_);

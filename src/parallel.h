@@ -19,8 +19,9 @@ namespace sba {
 class ThreadPool {
  public:
   // nthreads - 1 workers; the calling thread is the last member. If the system refuses
-  // threads, the pool makes do with those it got.
-  explicit ThreadPool(int nthreads);
+  // threads, the pool makes do with those it got. avoid_shared_cores: see avoid_shared_core
+  // in parallel.cpp; off, no thread's CPU mask is ever touched.
+  explicit ThreadPool(int nthreads, bool avoid_shared_cores = false);
   ~ThreadPool();
   ThreadPool(const ThreadPool &) = delete;
   ThreadPool &operator=(const ThreadPool &) = delete;
@@ -117,7 +118,9 @@ class ThreadPool {
   std::atomic<bool> stop_{false};
   std::atomic<bool> resting_{false};
   std::exception_ptr error_;  // guarded by mu_
-  // The CPU each member last ran a job on (the caller's: last), -1 if unknown.
+  const bool avoid_shared_cores_;
+  // The CPU each member last ran a job on (the caller's: last), -1 if unknown; kept only
+  // when avoid_shared_cores_.
   std::unique_ptr<std::atomic<int>[]> cpu_;
 };
 

@@ -1,9 +1,14 @@
-// The run-time support of the kernels (linked from the library's objects): where the thread
-// pool's workers run (src/parallel.cpp), and the work arrays whose pages are mapped up front
-// (src/memory.cpp).
+// The run-time support of the kernels and solvers (linked from the library's objects): where
+// the thread pool's workers run (src/parallel.cpp), the work arrays whose pages are mapped up
+// front (src/memory.cpp), and how a failed AMD or CHOLMOD call is reported
+// (src/suitesparse_status.h; the solvers' matrices are valid by construction, so a status
+// other than out of memory cannot be provoked through the API).
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <new>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #if defined(__linux__)
@@ -14,10 +19,37 @@
 
 #include "memory.h"
 #include "parallel.h"
+#include "suitesparse_status.h"
+
+#if defined(__linux__)
+#include <sys/syscall.h>
+
+namespace {
+// Calls to sched_setaffinity that the tests did not make themselves: the library's.
+std::atomic<long> library_mask_changes{0};
+thread_local bool test_sets_mask = false;
+}  // namespace
+
+// Stands in for the C library's sched_setaffinity in this program (the library's objects
+// are linked into it), so that every change of a thread's mask is seen, however briefly it
+// lasts; the system call itself is made as the C library would.
+extern "C" int sched_setaffinity(pid_t pid, size_t size, const cpu_set_t *mask) noexcept {
+  if (!test_sets_mask) library_mask_changes.fetch_add(1);
+  return int(syscall(SYS_sched_setaffinity, pid, size, mask));
+}
+#endif
 
 namespace {
 
 #if defined(__linux__)
+
+// sched_setaffinity for the calling thread, made by the test (not counted as the library's).
+int set_mask(const cpu_set_t &mask) {
+  test_sets_mask = true;
+  const int r = sched_setaffinity(0, sizeof mask, &mask);
+  test_sets_mask = false;
+  return r;
+}
 
 // Holds the calling thread on one CPU for a test's duration.
 class PinCaller {
@@ -27,9 +59,9 @@ class PinCaller {
     cpu_set_t one;
     CPU_ZERO(&one);
     CPU_SET(cpu, &one);
-    ok_ = ok_ && sched_setaffinity(0, sizeof one, &one) == 0;
+    ok_ = ok_ && set_mask(one) == 0;
   }
-  ~PinCaller() { sched_setaffinity(0, sizeof saved_, &saved_); }
+  ~PinCaller() { set_mask(saved_); }
   bool ok() const { return ok_; }
 
  private:
@@ -42,48 +74,90 @@ int allowed_cpus() {
   return sched_getaffinity(0, sizeof mask, &mask) == 0 ? CPU_COUNT(&mask) : 0;
 }
 
-// A worker put on the caller's core (here by hand; on a virtual machine by the scheduler,
-// when the worker is woken) leaves it at its next job, and keeps the whole mask it had.
+// The scene of the tests below: the caller pinned to its CPU, and the pool's worker (slot 0)
+// put next to it by hand at each round (on a virtual machine the scheduler does so when the
+// worker is woken), then left free to move. After each round the worker's CPU and mask at
+// its next job are recorded; returns false if the worker could not be put there.
+struct Round {
+  int worker_cpu = -1;
+  cpu_set_t worker_mask;
+};
+bool worker_next_to_caller(sba::ThreadPool &pool, int here, const cpu_set_t &all, Round *r) {
+  std::atomic<int> placed{-1};
+  pool.run([&](int t) {
+    if (t != 0) return;
+    cpu_set_t to;
+    CPU_ZERO(&to);
+    CPU_SET(here, &to);
+    if (set_mask(to) == 0) placed = sched_getcpu();
+    set_mask(all);
+  });
+  if (placed.load() != here) return false;
+  CPU_ZERO(&r->worker_mask);
+  pool.run([&](int t) {
+    if (t != 0) return;
+    r->worker_cpu = sched_getcpu();
+    sched_getaffinity(0, sizeof r->worker_mask, &r->worker_mask);
+  });
+  return true;
+}
+
+// With avoid_shared_cores, a worker on the caller's core leaves it at its next job, by a
+// change of its own mask, and keeps the whole mask it had.
 TEST(ThreadPool, AWorkerOnTheCallersCoreMovesToAFreeOne) {
   if (allowed_cpus() < 2) GTEST_SKIP() << "needs two CPUs";
-  sba::ThreadPool pool(2);  // made before the pin: the worker may use every CPU
+  sba::ThreadPool pool(2, true);  // made before the pin: the worker may use every CPU
   ASSERT_EQ(pool.size(), 2);
   cpu_set_t all;
   ASSERT_EQ(sched_getaffinity(0, sizeof all, &all), 0);
   const int here = sched_getcpu();
   PinCaller pin(here);
   ASSERT_TRUE(pin.ok());
+  const long before = library_mask_changes.load();
   for (int round = 0; round < 5; ++round) {
-    std::atomic<int> worker_cpu{-1};
-    // The worker (slot 0) moves itself next to the caller, then lifts its own pin.
-    pool.run([&](int t) {
-      if (t != 0) return;
-      cpu_set_t to;
-      CPU_ZERO(&to);
-      CPU_SET(here, &to);
-      if (sched_setaffinity(0, sizeof to, &to) == 0) worker_cpu = sched_getcpu();
-      sched_setaffinity(0, sizeof all, &all);
-    });
-    ASSERT_EQ(worker_cpu.load(), here);
-    cpu_set_t worker_mask;
-    CPU_ZERO(&worker_mask);
-    pool.run([&](int t) {
-      if (t != 0) return;
-      worker_cpu = sched_getcpu();
-      sched_getaffinity(0, sizeof worker_mask, &worker_mask);
-    });
-    EXPECT_NE(worker_cpu.load(), here) << "round " << round;
-    EXPECT_TRUE(CPU_EQUAL(&worker_mask, &all)) << "round " << round;
+    Round r;
+    ASSERT_TRUE(worker_next_to_caller(pool, here, all, &r));
+    EXPECT_NE(r.worker_cpu, here) << "round " << round;
+    EXPECT_TRUE(CPU_EQUAL(&r.worker_mask, &all)) << "round " << round;
   }
+  EXPECT_GT(library_mask_changes.load() - before, 0);
+}
+
+// Without it (the default), the library changes no thread's mask at all, not even for a
+// moment, whatever core its workers find themselves on.
+TEST(ThreadPool, ByDefaultNoThreadsMaskIsEverChanged) {
+  cpu_set_t all;
+  ASSERT_EQ(sched_getaffinity(0, sizeof all, &all), 0);
+  const int here = sched_getcpu();
+  const long before = library_mask_changes.load();
+  {
+    sba::ThreadPool pool(2);
+    ASSERT_EQ(pool.size(), 2);
+    PinCaller pin(here);
+    ASSERT_TRUE(pin.ok());
+    for (int round = 0; round < 20; ++round) {
+      Round r;
+      ASSERT_TRUE(worker_next_to_caller(pool, here, all, &r));
+      EXPECT_TRUE(CPU_EQUAL(&r.worker_mask, &all)) << "round " << round;
+    }
+  }
+  {
+    // Workers made while the caller is pinned: more threads than allowed cores.
+    PinCaller pin(here);
+    ASSERT_TRUE(pin.ok());
+    sba::ThreadPool pool(3);
+    for (int job = 0; job < 200; ++job) pool.run([](int) {});
+  }
+  EXPECT_EQ(library_mask_changes.load() - before, 0);
 }
 
 // Workers that inherit a one-CPU mask from their creator stay on that CPU (the mask is the
-// caller's choice) and still run every job.
+// caller's choice) and still run every job, avoid_shared_cores or not.
 TEST(ThreadPool, WorkersKeepTheCallersMaskWhenThereIsNoFreeCore) {
   const int here = sched_getcpu();
   PinCaller pin(here);
   ASSERT_TRUE(pin.ok());
-  sba::ThreadPool pool(3);
+  sba::ThreadPool pool(3, true);
   std::vector<int> cpu(3, -1), count(3, 0);
   std::vector<cpu_set_t> mask(3);
   for (int job = 0; job < 200; ++job)
@@ -182,6 +256,35 @@ TEST(Memory, ResizePrefaultedGivesZeros) {
   sba::resize_prefaulted(w, 100000);
   ASSERT_EQ(w.size(), 100000u);
   for (double x : w) ASSERT_EQ(x, 0.0);
+}
+
+// The message a failure carries (empty for one that is not a std::runtime_error).
+template <class Throw>
+std::string internal_error(Throw fn) {
+  try {
+    fn();
+  } catch (const std::runtime_error &e) {
+    return e.what();
+  } catch (...) {
+  }
+  return "";
+}
+
+// Out of memory stays a resource failure; every other failure status is an internal error
+// that names the routine and the status, never "out of memory".
+TEST(SuiteSparseStatus, OnlyOutOfMemoryIsBadAlloc) {
+  EXPECT_THROW(sba::throw_amd_failure("amd_l_order", AMD_OUT_OF_MEMORY), std::bad_alloc);
+  EXPECT_THROW(sba::throw_cholmod_failure("cholmod_analyze", CHOLMOD_OUT_OF_MEMORY), std::bad_alloc);
+  EXPECT_EQ(internal_error([] { sba::throw_amd_failure("amd_l_order", AMD_INVALID); }),
+            "AMD amd_l_order failed with status -2 (invalid input)");
+  EXPECT_EQ(internal_error([] { sba::throw_amd_failure("amd_l_order", AMD_OK_BUT_JUMBLED); }),
+            "AMD amd_l_order failed with status 1 (ok but jumbled)");
+  EXPECT_EQ(internal_error([] { sba::throw_cholmod_failure("cholmod_factorize", CHOLMOD_INVALID); }),
+            "CHOLMOD cholmod_factorize failed with status -4 (invalid input)");
+  EXPECT_EQ(internal_error([] { sba::throw_cholmod_failure("cholmod_analyze", CHOLMOD_TOO_LARGE); }),
+            "CHOLMOD cholmod_analyze failed with status -3 (integer overflow)");
+  EXPECT_EQ(internal_error([] { sba::throw_cholmod_failure("cholmod_solve", 77); }),
+            "CHOLMOD cholmod_solve failed with status 77 (unknown status)");
 }
 
 }  // namespace
