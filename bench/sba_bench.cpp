@@ -77,6 +77,10 @@ const char kUsage[] =
     "  --blas-threads W  same (default): the BLAS runs as many threads as the run it serves;\n"
     "                    default: leave the BLAS alone (OpenBLAS: OPENBLAS_NUM_THREADS or\n"
     "                    every core, even in a 1-thread run)\n"
+    "  --avoid-shared-cores  sba runs with sba_ext_options.avoid_shared_cores on (workers\n"
+    "                    that find themselves on another pool thread's core move off it);\n"
+    "                    default off, as the library runs unless a program asks, unless\n"
+    "                    SBA_AVOID_SHARED_CORES=1 is in the environment (the header says which)\n"
     "  --no-fork         run in this process (peak RSS then is the process's)\n"
     "  --warm-up         before each measured solve, one iteration of the same run, its memory\n"
     "                    then returned: the code the solve runs is resident before the peak\n"
@@ -98,6 +102,7 @@ struct Options {
   bool fork = true;
   bool warm_up = false;
   bool blas_same = true;  // --blas-threads same
+  bool avoid_shared_cores = false;  // --avoid-shared-cores
   bool help = false;
 };
 
@@ -122,6 +127,10 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
     if (arg == "--help" || arg == "-h") {
       o->help = true;
       return true;
+    }
+    if (arg == "--avoid-shared-cores") {
+      o->avoid_shared_cores = true;
+      continue;
     }
     if (arg == "--no-fork") {
       o->fork = false;
@@ -229,6 +238,7 @@ struct RunSpec {
   int threads;       // Ceres's threads; sba's unless auto_threads
   bool auto_threads;  // sba: nthreads 0, the library's choice of at most `threads`
   int blas_threads;  // 0: as the BLAS decides
+  bool avoid_shared_cores = false;  // sba: what the library runs with (flag or environment)
   std::string label() const { return (engine == Engine::Sba ? "sba " : "ceres ") + solver; }
 };
 
@@ -356,6 +366,7 @@ void run_sba(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunRes
   ext.result = &res;
   // The demo and BAL models' callbacks are re-entrant and walk the index by rows.
   ext.parallel_callbacks = 1;
+  ext.avoid_shared_cores = spec.avoid_shared_cores ? 1 : 0;
   ext.log = record_log;  // errors kept, nothing printed (verbose 0: no progress lines)
   ext.log_ctx = r;
   SbaTrace ctx{trace};
@@ -771,12 +782,20 @@ int bench_main(int argc, char **argv) {
   std::printf("  BLAS threads: %s\n", !o.blas_same ? "left to the BLAS (--blas-threads default)"
                                        : blas_settable ? "as many as the run's threads (openblas_set_num_threads)"
                                                        : "left to the BLAS (no openblas_set_num_threads in this BLAS)");
+  // The library also turns it on for SBA_AVOID_SHARED_CORES=1: a run says what it measured.
+  const char *avoid_env = std::getenv("SBA_AVOID_SHARED_CORES");
+  const bool avoid_from_env = avoid_env && std::string(avoid_env) == "1";
+  const bool avoid = o.avoid_shared_cores || avoid_from_env;
+  std::printf("  sba thread placement: %s\n",
+              o.avoid_shared_cores ? "avoid_shared_cores on (--avoid-shared-cores)"
+              : avoid_from_env     ? "avoid_shared_cores on (SBA_AVOID_SHARED_CORES=1 in the environment)"
+                                   : "avoid_shared_cores off (the library's default: no affinity changes)");
   std::vector<RunSpec> specs;
   for (std::size_t k = 0; k < o.threads.size(); ++k) {
     const int t = o.threads[k];
     const bool all = o.threads_auto[k] != 0;
     const int bt = o.blas_same && blas_settable ? t : 0;
-    for (const std::string &s : o.solvers) specs.push_back({Engine::Sba, s, t, all, bt});
+    for (const std::string &s : o.solvers) specs.push_back({Engine::Sba, s, t, all, bt, avoid});
     for (const std::string &c : o.ceres)
       specs.push_back({Engine::Ceres, c == "dense" ? "DENSE_SCHUR" : "SPARSE_SCHUR", t, all, bt});
   }
@@ -890,6 +909,7 @@ int bench_main(int argc, char **argv) {
     field("threads_auto", r.spec.auto_threads ? "true" : "false");
     field("threads_used", std::to_string(r.r.threads_used));
     field("blas_threads", r.spec.blas_threads > 0 ? std::to_string(r.spec.blas_threads) : "null");
+    field("avoid_shared_cores", r.spec.engine != Engine::Sba ? "null" : r.spec.avoid_shared_cores ? "true" : "false");
     field("itmax", std::to_string(o.itmax));
     field("ok", x.ok ? "true" : "false");
     field("status", json_string(x.status));
