@@ -3,6 +3,8 @@
 #ifndef SBA_SRC_CORE_H
 #define SBA_SRC_CORE_H
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -80,6 +82,10 @@ bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int 
 // index hx and the Jacobian with 64-bit offsets.
 bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int cnp, int pnp,
                   int mnp, const sba_visibility &vis, std::string *msg, bool with_covx = false);
+
+// sba 1.6's finite-difference step for a parameter of value v: the drivers' forward
+// differences and the Jacobian check's central ones.
+inline double fd_step(double v) { return std::max(SBA_DELTA_SCALE * std::fabs(v), SBA_MIN_DELTA); }
 
 // The caller's projection function and (optionally) its Jacobian, over the whole vector.
 class ThreadPool;

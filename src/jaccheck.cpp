@@ -9,11 +9,6 @@
 #include "core.h"
 
 namespace sba {
-namespace {
-
-double step(double v) { return std::max(SBA_DELTA_SCALE * std::fabs(v), SBA_MIN_DELTA); }
-
-}  // namespace
 
 i64 check_jacobian(const Layout &lay, Model &model, double *p, const Logger &log) {
   const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp, jblk = lay.jblk();
@@ -32,7 +27,7 @@ i64 check_jacobian(const Layout &lay, Model &model, double *p, const Logger &log
     std::vector<double> saved(static_cast<size_t>(last));
     for (int o = first; o < last; ++o) {
       saved[o] = at(o);
-      step_of[o] = step(saved[o]);
+      step_of[o] = fd_step(saved[o]);
       at(o) = saved[o] + step_of[o];
     }
     model.eval(p, hp.data());
@@ -78,7 +73,7 @@ i64 check_jacobian(const Layout &lay, Model &model, double *p, const Logger &log
         double worst_err = 0.0;
         each([&](int off, bool cam, int c) {
           const double a = ana[size_t(i64(k) * jblk + off)], nm = num[size_t(i64(k) * jblk + off)];
-          const double h = step(cam ? p[lay.a_off(j) + c] : p[lay.b_off(i) + c]);
+          const double h = fd_step(cam ? p[lay.a_off(j) + c] : p[lay.b_off(i) + c]);
           const double err = std::fabs(a - nm);
           const double tol = 1e-4 * std::max(std::fabs(a), std::fabs(nm)) + 1e-6 * rowmax +
                              1e2 * DBL_EPSILON * f / h;

@@ -190,8 +190,6 @@ bool build_layout(Layout &lay, Mode mode, int n, int m, int mcon, int ncon, int 
 
 namespace {
 
-double fd_step(double v) { return std::max(SBA_DELTA_SCALE * std::fabs(v), SBA_MIN_DELTA); }
-
 // Rows [rows[t], rows[t+1]) of the index for thread slot t: equal numbers of projections.
 std::vector<int> split_rows(const Layout &lay, int parts) {
   std::vector<int> rows(size_t(parts) + 1, lay.n);
