@@ -16,6 +16,7 @@
 
 #include "bench_problem.h"
 #include "core.h"
+#include "dense_factorization.h"
 #include "kernels.h"
 #include "lapack.h"
 #include "linsolve.h"
@@ -77,6 +78,17 @@ std::unique_ptr<sba::Kernels> kernels(const sba::Layout &lay, int threads, bool 
   return k;
 }
 
+// The dense Cholesky of the same build.
+sba::DenseCholesky dense_cholesky(bool portable) {
+  if (portable)
+    setenv("SBA_KERNELS", "portable", 1);
+  else
+    unsetenv("SBA_KERNELS");
+  const sba::DenseCholesky chol = sba::own_dense_cholesky();
+  unsetenv("SBA_KERNELS");
+  return chol;
+}
+
 enum class Step { NormalEquations, InvertV, Assemble, BackSubstitute, DenseCholesky, LapackCholesky };
 
 void BM_Step(benchmark::State &state, std::string key, Step step, bool portable) {
@@ -88,6 +100,7 @@ void BM_Step(benchmark::State &state, std::string key, Step step, bool portable)
   const int threads = static_cast<int>(state.range(0));
   sba::ThreadPool pool(threads);
   const auto k = kernels(f->lay, pool.size(), portable);
+  const sba::DenseCholesky cholesky = dense_cholesky(portable);
   const sba::NormalEquations ne{f->jac.data(), f->U.data(), f->V.data(), f->ea.data(), f->eb.data()};
   k->normal_equations(pool, f->jac.data(), f->e.data(), f->U.data(), f->V.data(), f->ea.data(), f->eb.data());
   double maxdiag = 0;
@@ -135,7 +148,7 @@ void BM_Step(benchmark::State &state, std::string key, Step step, bool portable)
           P[size_t(r) * ld + nS] = f->rhs[size_t(r)];
         }
         state.ResumeTiming();
-        k->cholesky(pool, P, nS, ld, ld - nS);
+        cholesky(pool, P, nS, ld, ld - nS);
         break;
       }
       case Step::LapackCholesky: {
@@ -175,7 +188,7 @@ void BM_CholeskyOrder(benchmark::State &state, bool lapack) {
   lay.mnp = 2;
   lay.cnp = 6;
   lay.pnp = 3;
-  const auto k = sba::make_kernels(lay, pool.size());
+  const sba::DenseCholesky cholesky = sba::own_dense_cholesky();
   using SetThreads = void (*)(int);
   if (auto set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(threads);
   for (auto _ : state) {
@@ -186,7 +199,7 @@ void BM_CholeskyOrder(benchmark::State &state, bool lapack) {
       int info = 0;
       SBA_F77(dpotrf, DPOTRF)("L", &n, S.data(), &ld, &info, 1);
     } else {
-      k->cholesky(pool, S.data(), n, ld, 0);
+      cholesky(pool, S.data(), n, ld, 0);
     }
     benchmark::ClobberMemory();
   }

@@ -256,24 +256,68 @@ bool solve_qr(const View &A, Vec &b) {
   return true;
 }
 
-// A^T A = R^T R, so x = R^-1 R^-T A^T b without forming Q. This solves the normal
-// equations, whose condition number is that of A squared, so R is held to a stricter test
-// than in plain QR (see the file comment).
-bool solve_qr_noq(const View &A, Vec &b) {
+// A^T A = R^T R, so x = R^-1 R^-T A^T b without forming Q: the semi-normal equations, whose
+// condition number is that of A squared.
+//  - Plain (sba_Axb_QRnoQ): one solve, R held to a stricter test than in plain QR (see the
+//    file comment), so that the normal equations fail where they provably carry no digits.
+//  - Refined (the `qrnoq` linear solver, on a diagonally scaled S): R only has to be
+//    nonsingular, and corrected semi-normal refinement (x += (R^T R)^-1 A^T (b - A x), while
+//    the residual keeps shrinking, at most 10 times) recovers the accuracy of QR itself, which
+//    the varying-intrinsics problems need. When A is too ill-conditioned even for that, the
+//    "solution" does not solve A x = b at all: a residual above 1e-12 ||b||^2 is a failure, so
+//    that LM damps more.
+bool qr_noq(const View &A, Vec &b, bool refined) {
   const int m = A.m;
-  Vec a = to_colmajor(A), tau(std::size_t(m), 0.0);
-  if (!qr_factor(a, tau, m, std::sqrt(double(m) * kEps), true)) return false;
-
-  Vec c(std::size_t(m), 0.0);  // A^T b
-  for (int j = 0; j < m; ++j) {
-    double s = 0.0;
-    for (int i = 0; i < m; ++i) s += A(i, j) * b[i];
-    c[j] = s;
+  const std::size_t n = std::size_t(m);
+  Vec a = to_colmajor(A), tau(n, 0.0);
+  if (refined ? !qr_factor(a, tau, m, 0.0, false)
+              : !qr_factor(a, tau, m, std::sqrt(double(m) * kEps), true))
+    return false;
+  // y = (R^T R)^-1 A^T v.
+  auto seminormal = [&](const Vec &v, Vec &y) {
+    for (int j = 0; j < m; ++j) {
+      double s = 0.0;
+      for (int i = 0; i < m; ++i) s += A(i, j) * v[i];
+      y[j] = s;
+    }
+    return upper_solve(a, y, m, true) && upper_solve(a, y, m, false);
+  };
+  Vec x(n, 0.0);
+  if (!seminormal(b, x)) return false;
+  if (refined) {
+    Vec res(n, 0.0), dx(n, 0.0);
+    auto residual = [&]() {  // res = b - A x, and its squared norm
+      double rn = 0.0;
+      for (int i = 0; i < m; ++i) {
+        double t = b[i];
+        for (int j = 0; j < m; ++j) t -= A(i, j) * x[j];
+        res[i] = t;
+        rn += t * t;
+      }
+      return rn;
+    };
+    const double bn = dot(b, b);
+    double rn = residual();
+    for (int step = 0; step < 10 && rn > 0.0; ++step) {
+      if (!seminormal(res, dx)) return false;
+      for (std::size_t i = 0; i < n; ++i) x[i] += dx[i];
+      const double next = residual();
+      if (!(next < 0.25 * rn)) {  // no longer converging: rounding level reached, or diverging
+        if (!(next <= rn))
+          for (std::size_t i = 0; i < n; ++i) x[i] -= dx[i];
+        rn = std::min(rn, next);
+        break;
+      }
+      rn = next;
+    }
+    if (!(rn <= 1e-12 * bn)) return false;
   }
-  if (!upper_solve(a, c, m, true) || !upper_solve(a, c, m, false)) return false;
-  b.swap(c);
+  b.swap(x);
   return true;
 }
+
+bool solve_qr_noq(const View &A, Vec &b) { return qr_noq(A, b, false); }
+bool solve_qr_noq_refined(const View &A, Vec &b) { return qr_noq(A, b, true); }
 
 bool solve_chol(const View &A, Vec &b) {
   const int m = A.m;
@@ -391,36 +435,66 @@ void matvec(const View &A, const Vec &p, Vec &q, Vec *qabs) {
   }
 }
 
-// z = M^-1 r. SSOR with omega = 1 is M = (D + L) D^-1 (D + L^T), applied as a forward and a
-// backward triangular sweep; it is SPD whenever A is, which keeps PCG well defined.
-void precondition(const View &A, const Vec &diag, int prec, const Vec &r, Vec &z) {
-  const int m = A.m;
-  if (prec == SBA_CG_NOPREC) {
-    z = r;
-  } else if (prec == SBA_CG_JACOBI) {
-    for (int i = 0; i < m; ++i) z[i] = r[i] / diag[i];
-  } else {
+// The preconditioners of sba_Axb_CG. SSOR with omega = 1 is M = (D + L) D^-1 (D + L^T),
+// applied as a forward and a backward triangular sweep; it is SPD whenever A is, which keeps
+// PCG well defined.
+class Identity final : public Preconditioner {
+ public:
+  void apply(const Vec &r, Vec &z) const override { z = r; }
+};
+
+class Jacobi final : public Preconditioner {
+ public:
+  explicit Jacobi(const Vec &diag) : diag_(diag) {}
+  void apply(const Vec &r, Vec &z) const override {
+    for (std::size_t i = 0; i < r.size(); ++i) z[i] = r[i] / diag_[i];
+  }
+
+ private:
+  const Vec &diag_;
+};
+
+class Ssor final : public Preconditioner {
+ public:
+  Ssor(const View &A, const Vec &diag) : A_(A), diag_(diag) {}
+  void apply(const Vec &r, Vec &z) const override {
+    const int m = A_.m;
     for (int i = 0; i < m; ++i) {
       double s = r[i];
-      for (int j = 0; j < i; ++j) s -= A(i, j) * z[j];
-      z[i] = s / diag[i];
+      for (int j = 0; j < i; ++j) s -= A_(i, j) * z[j];
+      z[i] = s / diag_[i];
     }
-    for (int i = 0; i < m; ++i) z[i] *= diag[i];
+    for (int i = 0; i < m; ++i) z[i] *= diag_[i];
     for (int i = m - 1; i >= 0; --i) {
       double s = z[i];
-      for (int j = i + 1; j < m; ++j) s -= A(i, j) * z[j];
-      z[i] = s / diag[i];
+      for (int j = i + 1; j < m; ++j) s -= A_(i, j) * z[j];
+      z[i] = s / diag_[i];
     }
   }
-}
 
-// (P)CG from the starting point in x, for at most maxit iterations; the stopping test is
-// ||b - A x||_2 <= eps * ||b||_2 (eps <= 0 selects kDefaultCgEps). The return value counts
-// iterations as sba 1.6 does, where an iteration tests the residual of the previous one and
-// then updates x: k + 1 when the k-th update meets the tolerance (the test that sees it is
-// the (k+1)-th iteration), maxit with x the last iterate when the budget runs out first (a
-// tolerance met by the last update is not seen within the budget either), 0 on failure (x is
-// then not to be used).
+ private:
+  const View &A_;
+  const Vec &diag_;
+};
+
+// How conjugate_gradients runs and when it stops.
+struct CgControl {
+  int maxit;
+  double tol;  // the residual's norm to reach: eps ||b||_2
+  bool warm;   // x holds the starting point (otherwise it is 0)
+  // Exact (sba_Axb_CG): breakdown is a failure, and convergence is confirmed on the true
+  // residual. Truncated (an inexact Newton step): breakdown after an update keeps the
+  // iterate, the recurrence residual decides, and the norms are plain sums of squares, the
+  // system being scaled to a unit diagonal.
+  bool truncated;
+};
+
+// The one preconditioned CG iteration, for sba_Axb_CG and for truncated_cg. It returns
+// iterations counted as sba 1.6 does, where an iteration tests the residual of the previous
+// one and then updates x: k + 1 when the k-th update meets the tolerance (the test that sees
+// it is the (k+1)-th iteration), maxit with x the last iterate when the budget runs out first
+// (a tolerance met by the last update is not seen within the budget either), 0 on failure
+// (x is then not to be used).
 //
 // Choices:
 //  - An answer found without any update is the first iteration's test, reported as 1: b == 0
@@ -430,27 +504,24 @@ void precondition(const View &A, const Vec &diag, int prec, const Vec &r, Vec &z
 //    being fed to the curvature test below with a residual at rounding level, where
 //    p^T A p can drown in its own rounding and turn a correct answer into a failure.
 //  - From x = 0 (not warm) at least one update is done for b != 0, even if eps >= 1.
-//  - Convergence is tested on the recurrence residual, then confirmed on the true residual
-//    b - A x; if rounding has made them drift apart, the iteration restarts from the true
-//    residual (the iteration count keeps running) rather than claiming a false convergence.
+//  - Exact: convergence is tested on the recurrence residual, then confirmed on the true
+//    residual b - A x; if rounding has made them drift apart, the iteration restarts from the
+//    true residual (the iteration count keeps running) rather than claiming a false
+//    convergence.
 //  - Running out of iterations is not an error, as in 1.6: the count is maxit and x is the
 //    last iterate, so a caller can continue from it with niter < 0. A singular system with
 //    an inconsistent right-hand side that does not break down ends this way too.
-//  - Breakdown is a failure: p^T A p not above its own rounding level
-//    (m*eps*|p|^T |A| |p|) means A is not numerically positive definite along p. So is a
-//    non-positive a_ii, r^T z <= 0 (M not SPD) or any NaN.
-int conjugate_gradients(const View &A, const Vec &b, Vec &x, bool warm, int maxit, double eps,
-                        int prec) {
+//  - Exact: breakdown is a failure: p^T A p not above its own rounding level
+//    (m*eps*|p|^T |A| |p|) means A is not numerically positive definite along p. So is
+//    r^T z <= 0 (M not SPD) or any NaN. Truncated: p^T A p <= 0 or r^T z <= 0 after an
+//    update ends the iteration with the iterate reached.
+int conjugate_gradients(const View &A, const Vec &b, Vec &x, const CgControl &c,
+                        const Preconditioner &M) {
   const int m = A.m;
   const std::size_t n = std::size_t(m);
-  if (prec != SBA_CG_NOPREC && prec != SBA_CG_JACOBI && prec != SBA_CG_SSOR) return 0;
-  Vec diag(n, 0.0);
-  for (int i = 0; i < m; ++i) {
-    diag[i] = A(i, i);
-    if (!(diag[i] > 0.0)) return 0;
-  }
-  const double bnorm = norm2(b);
-  const double tol = (eps > 0.0 ? eps : kDefaultCgEps) * bnorm;
+  auto norm = [&](const Vec &v) { return c.truncated ? std::sqrt(dot(v, v)) : norm2(v); };
+  const double bnorm = norm(b);
+  const double tol = c.tol * bnorm;
   const double curvature_tol = double(m) * kEps;
 
   if (bnorm == 0.0) {
@@ -459,45 +530,66 @@ int conjugate_gradients(const View &A, const Vec &b, Vec &x, bool warm, int maxi
   }
 
   Vec r = b, z(n, 0.0), p(n, 0.0), q(n, 0.0), qabs(n, 0.0);
-  if (warm) {
+  if (c.warm) {
     matvec(A, x, q, nullptr);
     for (std::size_t i = 0; i < n; ++i) r[i] = b[i] - q[i];
     if (!all_finite(r)) return 0;
-    if (norm2(r) <= tol) return 1;
+    if (norm(r) <= tol) return 1;
   }
-  precondition(A, diag, prec, r, z);
+  M.apply(r, z);
   double rz = dot(r, z);
   if (!(rz > 0.0)) return 0;
   p = z;
-  for (int k = 1; k <= maxit; ++k) {
-    matvec(A, p, q, &qabs);
+  for (int k = 1; k <= c.maxit; ++k) {
+    matvec(A, p, q, c.truncated ? nullptr : &qabs);
     const double pq = dot(p, q);
-    double pqref = 0.0;
-    for (std::size_t i = 0; i < n; ++i) pqref += std::fabs(p[i]) * qabs[i];
-    if (!(pq > curvature_tol * pqref)) return 0;
+    if (c.truncated) {
+      if (!(pq > 0.0)) return k > 1 && all_finite(x) ? k : 0;
+    } else {
+      double pqref = 0.0;
+      for (std::size_t i = 0; i < n; ++i) pqref += std::fabs(p[i]) * qabs[i];
+      if (!(pq > curvature_tol * pqref)) return 0;
+    }
     const double alpha = rz / pq;
     for (std::size_t i = 0; i < n; ++i) {
       x[i] += alpha * p[i];
       r[i] -= alpha * q[i];
     }
-    if (norm2(r) <= tol) {
+    if (norm(r) <= tol) {
+      if (c.truncated) return all_finite(x) ? k + 1 : 0;
       matvec(A, x, q, nullptr);
       for (std::size_t i = 0; i < n; ++i) r[i] = b[i] - q[i];
-      if (norm2(r) <= tol) return all_finite(x) ? std::min(k, maxit - 1) + 1 : 0;
-      precondition(A, diag, prec, r, z);
+      if (norm(r) <= tol) return all_finite(x) ? std::min(k, c.maxit - 1) + 1 : 0;
+      M.apply(r, z);
       rz = dot(r, z);
       if (!(rz > 0.0)) return 0;
       p = z;
       continue;
     }
-    precondition(A, diag, prec, r, z);
+    M.apply(r, z);
     const double rz_next = dot(r, z);
-    if (!(rz_next > 0.0)) return 0;
+    if (!(rz_next > 0.0)) return c.truncated && all_finite(x) ? k : 0;
     const double beta = rz_next / rz;
     rz = rz_next;
     for (std::size_t i = 0; i < n; ++i) p[i] = z[i] + beta * p[i];
   }
-  return all_finite(x) ? maxit : 0;
+  return all_finite(x) ? c.maxit : 0;
+}
+
+// sba_Axb_CG's solve: the preconditioner by its name, eps <= 0 for kDefaultCgEps.
+int conjugate_gradients(const View &A, const Vec &b, Vec &x, bool warm, int maxit, double eps,
+                        int prec) {
+  const int m = A.m;
+  if (prec != SBA_CG_NOPREC && prec != SBA_CG_JACOBI && prec != SBA_CG_SSOR) return 0;
+  Vec diag(std::size_t(m), 0.0);
+  for (int i = 0; i < m; ++i) {
+    diag[i] = A(i, i);
+    if (!(diag[i] > 0.0)) return 0;
+  }
+  const CgControl c{maxit, eps > 0.0 ? eps : kDefaultCgEps, warm, false};
+  if (prec == SBA_CG_NOPREC) return conjugate_gradients(A, b, x, c, Identity());
+  if (prec == SBA_CG_JACOBI) return conjugate_gradients(A, b, x, c, Jacobi(diag));
+  return conjugate_gradients(A, b, x, c, Ssor(A, diag));
 }
 
 // ---- entry-point plumbing ----
@@ -647,16 +739,40 @@ int run_cholinv(const double *A, double *B, int m) noexcept {
 
 }  // namespace
 
-bool solve(Method method, const double *A, const double *B, double *x, int m) {
-  if (!A || !B || !x || m <= 0) return false;
+namespace {
+
+// The library's entry to a method: row-major A, std::bad_alloc passing through.
+template <Solver method>
+bool solve_rowmajor(const double *A, const double *b, double *x, int m) {
+  if (!A || !b || !x || m <= 0) return false;
+  return solve_checked(method, A, b, x, m, 0);
+}
+
+}  // namespace
+
+Solve solver(Method method) {
   switch (method) {
-    case Method::LDLt: return solve_checked(solve_ldlt, A, B, x, m, 0);
-    case Method::BK: return solve_checked(solve_bk, A, B, x, m, 0);
-    case Method::LU: return solve_checked(solve_lu, A, B, x, m, 0);
-    case Method::QR: return solve_checked(solve_qr, A, B, x, m, 0);
-    case Method::SVD: return solve_checked(solve_svd, A, B, x, m, 0);
+    case Method::LDLt: return solve_rowmajor<solve_ldlt>;
+    case Method::BK: return solve_rowmajor<solve_bk>;
+    case Method::LU: return solve_rowmajor<solve_lu>;
+    case Method::QR: return solve_rowmajor<solve_qr>;
+    case Method::RefinedQRnoQ: return solve_rowmajor<solve_qr_noq_refined>;
+    case Method::SVD: return solve_rowmajor<solve_svd>;
   }
-  return false;
+  return nullptr;
+}
+
+bool truncated_cg(const double *A, const double *b, double *x, int m, int maxit, double rtol,
+                  const Preconditioner &M) {
+  if (!A || !b || !x || m <= 0 || maxit <= 0) return false;
+  const std::size_t n = std::size_t(m);
+  if (!all_finite(A, n * n) || !all_finite(b, n)) return false;
+  const Vec rhs(b, b + n);
+  Vec sol(n, 0.0);
+  if (conjugate_gradients(View(A, m, false), rhs, sol, CgControl{maxit, rtol, false, true}, M) <= 0)
+    return false;
+  std::copy(sol.begin(), sol.end(), x);
+  return true;
 }
 
 }  // namespace sba::dense

@@ -5,13 +5,38 @@
 #ifndef SBA_SRC_DENSE_H
 #define SBA_SRC_DENSE_H
 
+#include <vector>
+
 namespace sba::dense {
 
-enum class Method { LDLt, BK, LU, QR, SVD };
+// LDLt, BK, LU, QR, SVD: as the matching sba_Axb_* helper. RefinedQRnoQ: the semi-normal
+// equations of QR without Q (as sba_Axb_QRnoQ), without its strict test on R's diagonal but
+// followed by corrected semi-normal refinement, and failing when the refined residual is not
+// small (see dense.cpp).
+enum class Method { LDLt, BK, LU, QR, RefinedQRnoQ, SVD };
 
-// Solves A x = b for the row-major m x m A as the matching sba_Axb_* helper does; false when
-// it fails (singular, not finite). May throw std::bad_alloc.
-bool solve(Method method, const double *A, const double *B, double *x, int m);
+// Solves A x = b for the row-major m x m A (none of them writes A or b); false when it fails
+// (singular, not finite). May throw std::bad_alloc.
+using Solve = bool (*)(const double *A, const double *b, double *x, int m);
+
+// The solve of a method, looked up once by a caller that solves many systems.
+Solve solver(Method method);
+
+// z = M^-1 r for a symmetric positive definite M, the preconditioner of conjugate_gradients.
+class Preconditioner {
+ public:
+  virtual ~Preconditioner() = default;
+  virtual void apply(const std::vector<double> &r, std::vector<double> &z) const = 0;
+};
+
+// Truncated (inexact Newton) preconditioned CG on the row-major SPD m x m A from x = 0: at most
+// maxit iterations, stopping at ||b - A x||_2 <= rtol ||b||_2 on the recurrence residual.
+// Every iterate from 0 lowers the quadratic model, so running out of iterations is a success
+// (x is the last iterate), and so is a loss of curvature (p^T A p <= 0) or of M's
+// definiteness after at least one update (x is the iterate before it). False before any
+// update, or when the result is not finite. May throw std::bad_alloc.
+bool truncated_cg(const double *A, const double *b, double *x, int m, int maxit, double rtol,
+                  const Preconditioner &M);
 
 }  // namespace sba::dense
 

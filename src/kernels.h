@@ -18,8 +18,9 @@ namespace sba {
 struct NormalEquations;
 
 // Where the Schur assembly finds block S_jk (free-camera indices j <= k).
-//  - Dense S: row-major inside an (nS x nS) matrix with row stride ld; the assembly fills
-//    the upper block triangle.
+//  - Dense S: row-major inside an (nS x nS) matrix with row stride ld; the assembly zeroes
+//    and fills the upper block triangle, each thread its own block columns (zeroed by
+//    another thread, or by the caller, S's lines would move between the cores' caches).
 //  - Sparse S: the blocks are the arrays of the matrix that CHOLMOD factors, the lower
 //    triangle of P S P^T in compressed columns (P: the camera ordering, perm[j] is free camera
 //    j's block column). Block column c holds full blocks for its block rows rows[colstart[c]
@@ -32,10 +33,6 @@ struct BlockMap {
   i64 ld = 0;  // dense S: nS
   int cnp = 0;
   const int *perm = nullptr;  // null for a dense S
-  // Dense S only: the assembly zeroes the blocks it fills, each thread its own block columns
-  // (zeroed by another thread, S's lines would move between the cores' caches), instead of
-  // the caller zeroing the whole matrix.
-  bool zero_dense = false;
   const int *rows = nullptr;
   const i64 *colstart = nullptr;
 
@@ -63,7 +60,7 @@ class Kernels {
   // Vinv_i = (V_i + mu I)^-1 for the free points; false if one is not positive definite.
   virtual bool invert_damped_V(ThreadPool &pool, const double *V, double mu,
                                double *Vinv) const = 0;
-  // S = U* - W V*^-1 W^T into the blocks of `S` (zeroed by the caller unless S.zero_dense;
+  // S = U* - W V*^-1 W^T into the blocks of `S` (a sparse S zeroed by the caller;
   // of a diagonal block, only the upper triangle is meaningful) and rhs = e_a - W V*^-1 e_b,
   // over the free cameras. Vinv: invert_damped_V's blocks, or null to invert each
   // V_i + mu I where it is needed (no n pnp^2 array, for one more small inversion per point
@@ -74,12 +71,6 @@ class Kernels {
   // Vinv as for assemble (with null, a block that cannot be inverted gives NaNs).
   virtual void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv,
                                double mu, double *dp) const = 0;
-  // S = U^T U in place (S row-major upper with row stride ld, as the dense assembly leaves
-  // it; U in the same place: LAPACK's column-major lower factor), and U^-T b for nrhs
-  // right-hand sides b held in columns [n, n + nrhs) of the rows (ld >= n + nrhs). Every
-  // entry is computed as the unblocked right-looking algorithm computes it, so the bits do
-  // not depend on the number of threads. False if S is not numerically positive definite.
-  virtual bool cholesky(ThreadPool &pool, double *S, i64 n, i64 ld, i64 nrhs) const = 0;
 };
 
 // Kernels for the layout's block sizes, with the assembly split over `threads` threads.

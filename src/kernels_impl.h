@@ -287,10 +287,6 @@ class KernelsT final : public Kernels {
       pool.run(part);
   }
 
-  bool cholesky(ThreadPool &pool, double *S, i64 n, i64 ld, i64 nrhs) const override {
-    return chol::factor(pool, S, n, ld, n + nrhs);
-  }
-
   bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const override {
     return pool.all_ranges(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
       return invert_points(V, mu, Vinv, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
@@ -390,7 +386,7 @@ class KernelsT final : public Kernels {
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
     const int cp = cn * pn;
-    if (S.zero_dense && !S.perm)  // block rows 0 .. k1 - 1 of these block columns
+    if (!S.perm)  // dense S: block rows 0 .. k1 - 1 of these block columns
       for (i64 r = 0; r < i64(k1) * cn; ++r) {
         double *row = S.base + r * S.ld;
         std::fill(row + i64(k0) * cn, row + i64(k1) * cn, 0.0);
@@ -685,6 +681,11 @@ std::unique_ptr<Kernels> make_kernels(const Layout &lay, int threads) {
     }
   }
   return std::make_unique<KernelsT<0, 0, 0>>(lay, threads);
+}
+
+// The dense Cholesky of this build, for own_dense_cholesky (dense_factorization.h).
+bool dense_cholesky(ThreadPool &pool, double *S, i64 n, i64 ld, i64 nrhs) {
+  return chol::factor(pool, S, n, ld, n + nrhs);
 }
 
 }  // namespace SBA_KERNELS_NS

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core.h"
+#include "dense_factorization.h"
 #include "kernels.h"
 #include "lapack.h"
 #include "linsolve.h"
@@ -272,11 +273,8 @@ TEST(DenseCholesky, MatchesLapackAndThreadCountsGiveTheSameBits) {
     for (int threads : {1, 2, 3, 5}) {
       SCOPED_TRACE("threads " + std::to_string(threads));
       sba::ThreadPool pool(threads);
-      sba::Layout lay;
-      lay.mnp = 2, lay.cnp = 6, lay.pnp = 3;
-      const auto kernels = sba::make_kernels(lay, pool.size());
       std::vector<double> U(S);
-      ASSERT_TRUE(kernels->cholesky(pool, U.data(), n, ld, kRhs));
+      ASSERT_TRUE(sba::own_dense_cholesky()(pool, U.data(), n, ld, kRhs));
       double worst = 0.0, worst_y = 0.0, ynorm = 0.0;
       for (i64 r = 0; r < n; ++r)
         for (i64 c = r; c < n; ++c) {
@@ -325,11 +323,8 @@ TEST(DenseCholesky, RefusesWhatIsNotPositiveDefinite) {
         S[size_t(bad * ld + bad)] = std::isfinite(v) ? taken + v : v;
         for (int threads : {1, 2, 3}) {
           sba::ThreadPool pool(threads);
-          sba::Layout lay;
-          lay.mnp = 2, lay.cnp = 6, lay.pnp = 3;
-          const auto kernels = sba::make_kernels(lay, pool.size());
           std::vector<double> U(S);
-          EXPECT_FALSE(kernels->cholesky(pool, U.data(), n, ld, 0)) << "threads " << threads;
+          EXPECT_FALSE(sba::own_dense_cholesky()(pool, U.data(), n, ld, 0)) << "threads " << threads;
         }
       }
 }

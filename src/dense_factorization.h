@@ -1,0 +1,48 @@
+// The dense factorizations of the reduced camera system S, behind one interface and chosen
+// once per solve (the way Ceres picks its dense Cholesky backend): the dense Schur solver
+// assembles S where the factorization asks for it and hands it over.
+#ifndef SBA_SRC_DENSE_FACTORIZATION_H
+#define SBA_SRC_DENSE_FACTORIZATION_H
+
+#include <memory>
+
+#include "core.h"
+#include "parallel.h"
+
+namespace sba {
+
+class DenseFactorization {
+ public:
+  virtual ~DenseFactorization() = default;
+  // The row stride (>= n) of the row-major S that solve expects.
+  i64 ld() const { return ld_; }
+  // x = S^-1 rhs for the damped (positive definite) S of order n, given as its upper triangle
+  // (row-major, row stride ld(), as the dense assembly leaves it). S's storage, rhs and its
+  // rows' padding are the factorization's to overwrite. False when S cannot be factored (x
+  // may then hold anything); on success x may still hold non-finite entries, which the caller
+  // tests.
+  virtual bool solve(double *S, double *rhs, double *x) = 0;
+
+ protected:
+  DenseFactorization(i64 n, i64 ld) : n_(n), ld_(ld) {}
+  i64 n_, ld_;
+};
+
+// The factorization behind a dense linear solver (Chol, CholLapack, LDLt, BK, LU, QR, QRnoQ,
+// SVD, CG) for S of order n made of cnp x cnp camera blocks; null for any other kind.
+std::unique_ptr<DenseFactorization> make_dense_factorization(LinSolver kind, i64 n, int cnp,
+                                                             ThreadPool &pool);
+
+// The library's own dense Cholesky (src/dense_chol_impl.h) in the build the CPU runs, the one
+// make_kernels picks: S = U^T U in place (S row-major upper with row stride ld; U in the same
+// place, LAPACK's column-major lower factor), and U^-T b for nrhs right-hand sides b held in
+// columns [n, n + nrhs) of the rows (ld >= n + nrhs). Every entry is computed as the
+// unblocked right-looking algorithm computes it, so the bits do not depend on the number of
+// threads. False if S is not numerically positive definite. Defined in kernels.cpp, whose
+// two builds it shares.
+using DenseCholesky = bool (*)(ThreadPool &pool, double *S, i64 n, i64 ld, i64 nrhs);
+DenseCholesky own_dense_cholesky();
+
+}  // namespace sba
+
+#endif
