@@ -145,6 +145,8 @@ extern void sba_ext_options_init(struct sba_ext_options *opt);
 extern void sba_ext_result_init(struct sba_ext_result *res);
 /* The known linear solver names, space-separated. */
 extern const char *sba_linsolver_names(void);
+/* 1 if name (NULL allowed) is one of them, else 0. */
+extern int sba_linsolver_valid(const char *name);
 
 /* The six drivers of sba.h with one more argument. */
 extern int sba_motstr_levmar_x_ext(

@@ -194,9 +194,8 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
       *error = "--ceres: unknown '" + c + "' (dense, sparse or none)";
       return false;
     }
-  const std::string known = std::string(" ") + sba_linsolver_names() + " ";
   for (const std::string &s : o->solvers)
-    if (known.find(" " + s + " ") == std::string::npos) {
+    if (!sba_linsolver_valid(s.c_str())) {
       *error = "--solvers: unknown solver '" + s + "' (known: " + sba_linsolver_names() + ")";
       return false;
     }

@@ -138,11 +138,6 @@ void log_line(void *ctx, int level, const char *line) {
   std::fprintf(level == SBA_LOG_INFO ? stdout : stderr, "%s\n", line);
 }
 
-bool known_solver(const std::string &name) {
-  const std::string names = std::string(" ") + sba_linsolver_names() + " ";
-  return names.find(" " + name + " ") != std::string::npos;
-}
-
 int bal_main(int argc, char **argv) {
   Options o;
   std::string error;
@@ -154,7 +149,7 @@ int bal_main(int argc, char **argv) {
     std::fputs(kUsage, stdout);
     return 0;
   }
-  if (!o.solver.empty() && !known_solver(o.solver)) {
+  if (!o.solver.empty() && !sba_linsolver_valid(o.solver.c_str())) {
     std::fprintf(stderr, "balsba: unknown solver '%s' (known: %s)\n", o.solver.c_str(),
                  sba_linsolver_names());
     return kExitUsage;

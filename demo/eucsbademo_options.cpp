@@ -214,12 +214,7 @@ const OptionSpec *find_option(const std::string &name) {
 
 }  // namespace
 
-bool is_linsolver_name(const std::string &name) {
-  std::istringstream names(sba_linsolver_names());
-  for (std::string known; names >> known;)
-    if (known == name) return true;
-  return false;
-}
+bool is_linsolver_name(const std::string &name) { return sba_linsolver_valid(name.c_str()) != 0; }
 
 bool parse_command_line(int argc, const char *const *argv, DemoOptions *options, std::string *error) {
   DemoOptions o;

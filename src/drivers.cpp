@@ -211,8 +211,7 @@ void make_options(const DriverArgs &a, const sba_ext_options &ext, const Logger 
   if (ext.loss) {
     LossKind kind;
     if (!loss_from_name(ext.loss, &kind)) {
-      *msg = std::string("unknown loss \"") + ext.loss +
-             "\" (known: none huber cauchy soft-l1 tukey)";
+      *msg = std::string("unknown loss \"") + ext.loss + "\" (known: " + loss_names() + ")";
       return;
     }
     const double scale = ext.loss_scale == 0.0 ? 1.0 : ext.loss_scale;
@@ -426,6 +425,11 @@ void sba_ext_result_init(struct sba_ext_result *res) {
 }
 
 const char *sba_linsolver_names(void) { return sba::linsolver_names(); }
+
+int sba_linsolver_valid(const char *name) {
+  sba::LinSolver kind;
+  return name && sba::linsolver_from_name(name, &kind) ? 1 : 0;
+}
 
 void sba_covariance_request_init(struct sba_covariance_request *req) {
   if (!req) return;

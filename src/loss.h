@@ -7,6 +7,8 @@
 #include <cmath>
 #include <string>
 
+#include "named.h"
+
 namespace sba {
 
 enum class LossKind { None, Huber, Cauchy, SoftL1, Tukey };
@@ -71,23 +73,23 @@ class Loss {
   double c_ = 1.0, c2_ = 1.0;
 };
 
-// "none", "huber", "cauchy", "soft-l1", "tukey"; false for an unknown name.
+struct NamedLoss {
+  const char *name;
+  LossKind value;
+};
+constexpr NamedLoss kLosses[] = {{"none", LossKind::None},
+                                 {"huber", LossKind::Huber},
+                                 {"cauchy", LossKind::Cauchy},
+                                 {"soft-l1", LossKind::SoftL1},
+                                 {"tukey", LossKind::Tukey}};
+
+// false for an unknown name.
 inline bool loss_from_name(const std::string &name, LossKind *out) {
-  static const struct {
-    const char *name;
-    LossKind kind;
-  } kNames[] = {{"none", LossKind::None},
-                {"huber", LossKind::Huber},
-                {"cauchy", LossKind::Cauchy},
-                {"soft-l1", LossKind::SoftL1},
-                {"tukey", LossKind::Tukey}};
-  for (const auto &n : kNames)
-    if (name == n.name) {
-      *out = n.kind;
-      return true;
-    }
-  return false;
+  return value_of(kLosses, name, out);
 }
+
+// The names above, space-separated.
+inline std::string loss_names() { return joined_names(kLosses); }
 
 }  // namespace sba
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "named.h"
 #include "small_dense.h"
 
 namespace sba {
@@ -84,7 +85,7 @@ class BlockDiagonalSolver final : public StepSolver {
 
 struct NamedSolver {
   const char *name;
-  LinSolver kind;
+  LinSolver value;
 };
 constexpr NamedSolver kSolvers[] = {
     {"chol", LinSolver::Chol}, {"ldlt", LinSolver::LDLt},     {"bk", LinSolver::BK},
@@ -96,22 +97,20 @@ constexpr NamedSolver kSolvers[] = {
 }  // namespace
 
 bool linsolver_from_name(const std::string &name, LinSolver *out) {
-  for (const NamedSolver &s : kSolvers)
-    if (name == s.name) {
-      *out = s.kind;
-      return true;
-    }
-  return false;
+  return value_of(kSolvers, name, out);
 }
 
 const char *linsolver_name(LinSolver kind) {
   for (const NamedSolver &s : kSolvers)
-    if (s.kind == kind) return s.name;
+    if (s.value == kind) return s.name;
   return "?";
 }
 
 const char *linsolver_names() {
-  return "chol ldlt bk lu qr qrnoq svd cg ldl-amd sparse-chol chol-lapack";
+  // Made once from the table (a thread-safe static) and never changed: the C API hands
+  // out the pointer.
+  static const std::string names = joined_names(kSolvers);
+  return names.c_str();
 }
 
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx) {

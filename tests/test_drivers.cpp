@@ -905,3 +905,26 @@ TEST(Drivers, UnknownSbaLinsolverIsAWarning) {
 }
 
 }  // namespace
+
+namespace {
+
+// The solver names come from one table: the list the C API hands out and the check agree.
+TEST(LinsolverNames, ListAndValidityCheckAgree) {
+  EXPECT_STREQ(sba_linsolver_names(), "chol ldlt bk lu qr qrnoq svd cg ldl-amd sparse-chol chol-lapack");
+  std::string names = sba_linsolver_names(), name;
+  int count = 0;
+  for (size_t k = 0; k <= names.size(); ++k)
+    if (k == names.size() || names[k] == ' ') {
+      EXPECT_EQ(sba_linsolver_valid(name.c_str()), 1) << name;
+      name.clear();
+      ++count;
+    } else {
+      name += names[k];
+    }
+  EXPECT_EQ(count, 11);
+  for (const char *bad : {"", "CHOL", "chol ", " chol", "ldl", "sparse", "nope"})
+    EXPECT_EQ(sba_linsolver_valid(bad), 0) << "'" << bad << "'";
+  EXPECT_EQ(sba_linsolver_valid(nullptr), 0);
+}
+
+}  // namespace

@@ -150,6 +150,7 @@ TEST(RobustLoss, BadLossArgumentsAreRefused) {
   EXPECT_EQ(a.ret, SBA_ERROR);
   EXPECT_EQ(b.ret, SBA_ERROR);
   EXPECT_NE(err.find("unknown loss \"bisquare\""), std::string::npos) << err;
+  EXPECT_NE(err.find("(known: none huber cauchy soft-l1 tukey)"), std::string::npos) << err;
   EXPECT_NE(err.find("loss_scale must be positive"), std::string::npos) << err;
 }
 
