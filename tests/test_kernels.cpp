@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core.h"
+#include "dense.h"
 #include "dense_factorization.h"
 #include "kernels.h"
 #include "lapack.h"
@@ -327,6 +328,86 @@ TEST(DenseCholesky, RefusesWhatIsNotPositiveDefinite) {
           EXPECT_FALSE(sba::own_dense_cholesky()(pool, U.data(), n, ld, 0)) << "threads " << threads;
         }
       }
+}
+
+// Every dense factorization solves S x = rhs from the upper triangle in its own storage (the
+// lower triangle and the padding hold junk that a read would show), with badly scaled
+// unknowns as the camera parameters make them; and each refuses an S that is not positive
+// definite, which LM answers with more damping.
+TEST(DenseFactorization, EveryKindSolvesFromTheUpperTriangleAndRefusesAnIndefiniteS) {
+  using sba::LinSolver;
+  const i64 n = 120;
+  const int cnp = 6;
+  std::vector<double> scale(static_cast<size_t>(n)), xtrue(static_cast<size_t>(n));
+  for (i64 r = 0; r < n; ++r) {
+    scale[size_t(r)] = std::pow(10.0, double(r % cnp) - 2.0);
+    xtrue[size_t(r)] = std::sin(double(r + 1)) / scale[size_t(r)];
+  }
+  sba::ThreadPool pool(2);
+  for (LinSolver kind : {LinSolver::Chol, LinSolver::CholLapack, LinSolver::LDLt, LinSolver::BK,
+                         LinSolver::LU, LinSolver::QR, LinSolver::QRnoQ, LinSolver::SVD,
+                         LinSolver::CG}) {
+    SCOPED_TRACE(sba::linsolver_name(kind));
+    const auto f = sba::make_dense_factorization(kind, n, cnp, pool);
+    ASSERT_TRUE(f);
+    const i64 ld = f->ld();
+    ASSERT_GE(ld, n);
+    // D S0 D, S0 = random_spd: the upper triangle scaled, the rest junk.
+    const std::vector<double> S0 = random_spd(n, ld, 11u);
+    std::vector<double> S(S0), rhs(static_cast<size_t>(n), 0.0), x(static_cast<size_t>(n));
+    for (i64 r = 0; r < n; ++r)
+      for (i64 c = r; c < n; ++c) S[size_t(r * ld + c)] *= scale[size_t(r)] * scale[size_t(c)];
+    for (i64 r = 0; r < n; ++r)
+      for (i64 c = 0; c < n; ++c) {
+        const i64 a = std::min(r, c), b = std::max(r, c);
+        rhs[size_t(r)] += S[size_t(a * ld + b)] * xtrue[size_t(c)];
+      }
+    std::vector<double> work(S);
+    ASSERT_TRUE(f->solve(work.data(), rhs.data(), x.data()));
+    double worst = 0.0;
+    for (i64 r = 0; r < n; ++r)
+      worst = std::max(worst, std::fabs(x[size_t(r)] - xtrue[size_t(r)]) * scale[size_t(r)]);
+    EXPECT_LT(worst, 1e-8);
+
+    // A negative pivot halfway down.
+    work = S;
+    work[size_t((n / 2) * ld + n / 2)] = -1.0;
+    EXPECT_FALSE(f->solve(work.data(), rhs.data(), x.data()));
+  }
+}
+
+// The cg solver's truncated CG: any budget is a success (every iterate lowers the quadratic
+// model), and a loss of curvature before the first update is a failure.
+TEST(DenseFactorization, TruncatedCgTakesWhatItsBudgetAllows) {
+  class Identity final : public sba::dense::Preconditioner {
+   public:
+    void apply(const std::vector<double> &r, std::vector<double> &z) const override { z = r; }
+  };
+  const int n = 40;
+  std::vector<double> A(static_cast<size_t>(n * n), 0.0), b(static_cast<size_t>(n)), x(static_cast<size_t>(n));
+  for (int r = 0; r < n; ++r) {
+    A[size_t(r) * n + r] = 2.0 + 0.1 * r;
+    if (r + 1 < n) A[size_t(r) * n + r + 1] = A[size_t(r + 1) * n + r] = -1.0;
+    b[size_t(r)] = std::cos(double(r));
+  }
+  auto model = [&](const std::vector<double> &v) {  // v^T A v / 2 - b^T v
+    double q = 0.0;
+    for (int r = 0; r < n; ++r) {
+      double t = 0.0;
+      for (int c = 0; c < n; ++c) t += A[size_t(r) * n + c] * v[size_t(c)];
+      q += v[size_t(r)] * (0.5 * t - b[size_t(r)]);
+    }
+    return q;
+  };
+  double last = 0.0;
+  for (int budget : {1, 2, 4, 8}) {
+    ASSERT_TRUE(sba::dense::truncated_cg(A.data(), b.data(), x.data(), n, budget, 1e-10, Identity()));
+    const double q = model(x);
+    EXPECT_LT(q, last) << "budget " << budget;
+    last = q;
+  }
+  for (int r = 0; r < n; ++r) A[size_t(r) * n + r] = -A[size_t(r) * n + r];
+  EXPECT_FALSE(sba::dense::truncated_cg(A.data(), b.data(), x.data(), n, n, 1e-10, Identity()));
 }
 
 }  // namespace
