@@ -1,5 +1,7 @@
 // The dense Cholesky factorization of S (the `chol` solver), part of kernels_impl.h and so
-// compiled once per kernel build. Included there inside namespace sba::SBA_KERNELS_NS.
+// compiled once per kernel build. Included there inside namespace sba::SBA_KERNELS_NS; the
+// factorization reaches it through own_dense_cholesky (dense_factorization.h), not through the
+// block kernels' interface.
 //
 // Why not LAPACK's DPOTRF: a threaded BLAS rounds differently with each thread count
 // (OpenBLAS's DPOTRF changes its blocking), so the LM steps, and on the sba demo problems the
