@@ -141,7 +141,7 @@ std::string check_args(const ChkjacArgs &a) {
 
 void run_chkjac(const ChkjacArgs &a) noexcept {
   const Logger log;  // stderr: printing the findings is what these functions are for
-  try {
+  catch_all(log, a.name, [&] {
     std::string msg = check_args(a);
     Layout lay;
     if (msg.empty()) {
@@ -168,13 +168,7 @@ void run_chkjac(const ChkjacArgs &a) noexcept {
     std::vector<double> p(a.p, a.p + lay.nvars());
     ChkjacModel model(lay, a);
     check_jacobian(lay, model, p.data(), log);
-  } catch (const std::bad_alloc &) {
-    log.error("%s: out of memory", a.name);
-  } catch (const std::exception &e) {
-    log.error("%s: internal error: %s", a.name, e.what());
-  } catch (...) {
-    log.error("%s: unknown exception from a callback", a.name);
-  }
+  });
 }
 
 }  // namespace

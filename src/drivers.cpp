@@ -260,25 +260,38 @@ void count_as_1_6(const DriverArgs &a, const Layout &lay, Summary &sum) {
   if (a.mode == Mode::Str) sum.nlinsys *= lay.free_pts();
 }
 
+Logger make_logger(const DriverArgs &a, const sba_ext_options &ext) {
+  return Logger(a.verbose, ext.quiet ? quiet_sink : ext.log, ext.quiet ? nullptr : ext.log_ctx);
+}
+
+// What every entry point checks and builds before a model exists, in this order; `extra`
+// checks what one entry point adds once the options are known. Logs the first problem found
+// and returns false.
+template <class Extra>
+bool prepare(const DriverArgs &a, const sba_ext_options &ext, const Logger &log, Options *opt,
+             Layout *lay, Extra extra) {
+  std::string msg = check_scalars(a);
+  if (msg.empty()) make_options(a, ext, log, opt, &msg);
+  if (msg.empty()) msg = extra();
+  if (msg.empty()) make_layout(a, *lay, &msg);
+  if (msg.empty()) fit_threads(*lay, opt);
+  if (msg.empty()) msg = check_data(a, *lay);
+  if (msg.empty()) return true;
+  log.error("%s: %s", a.name, msg.c_str());
+  return false;
+}
+
 // make_model(Layout&, bool concurrent) -> std::unique_ptr<Model>
 template <class MakeModel>
 int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
   Summary sum;
   const sba_ext_options ext = read_ext(a.ext);
-  const Logger log(a.verbose, ext.quiet ? quiet_sink : ext.log, ext.quiet ? nullptr : ext.log_ctx);
-  try {
+  const Logger log = make_logger(a, ext);
+  int ret = SBA_ERROR;
+  const bool finished = catch_all(log, a.name, [&] {
     Options opt;
-    std::string msg = check_scalars(a);
-    if (msg.empty()) make_options(a, ext, log, &opt, &msg);
     Layout lay;
-    if (msg.empty()) make_layout(a, lay, &msg);
-    if (msg.empty()) fit_threads(lay, &opt);
-    if (msg.empty()) msg = check_data(a, lay);
-    if (!msg.empty()) {
-      log.error("%s: %s", a.name, msg.c_str());
-      sum.to_info(a.info);
-      return SBA_ERROR;
-    }
+    if (!prepare(a, ext, log, &opt, &lay, [] { return std::string(); })) return;
     std::unique_ptr<Model> model = make_model(lay, ext.parallel_callbacks != 0);
     // itmax == 0: check the Jacobian; the solve below then only scores p (info[0] == info[1]).
     if (a.itmax == 0) {
@@ -291,34 +304,28 @@ int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
     }
     const bool ok = solve(lay, *model, a.p, a.x, a.covx, opt, log, sum);
     count_as_1_6(a, lay, sum);
-    sum.to_info(a.info);
     write_result(ext, opt, sum);
-    return ok ? sum.iterations : SBA_ERROR;
-  } catch (const std::bad_alloc &) {
-    log.error("%s: out of memory", a.name);
-  } catch (const std::exception &e) {
-    log.error("%s: internal error: %s", a.name, e.what());
-  } catch (...) {
-    log.error("%s: unknown exception from a callback", a.name);
-  }
-  sum.ok = false;
+    if (ok) ret = sum.iterations;
+  });
+  if (!finished) sum.ok = false;
   sum.to_info(a.info);
-  return SBA_ERROR;
+  return ret;
 }
 
 // The covariance entry points: the drivers' validation, then sba::covariance.
 template <class MakeModel>
 int run_covariance(const DriverArgs &a, sba_covariance_request *user, MakeModel make_model) noexcept {
   const sba_ext_options ext = read_ext(a.ext);
-  const Logger log(a.verbose, ext.quiet ? quiet_sink : ext.log, ext.quiet ? nullptr : ext.log_ctx);
-  try {
+  const Logger log = make_logger(a, ext);
+  int ret = SBA_ERROR;
+  catch_all(log, a.name, [&] {
     Options opt;
-    std::string msg = check_scalars(a);
-    if (msg.empty()) make_options(a, ext, log, &opt, &msg);
-    if (msg.empty() && (!user || user->size < sizeof(sba_covariance_request)))
-      msg = "req is NULL or not initialised by sba_covariance_request_init";
+    Layout lay;
     CovarianceRequest req;
-    if (msg.empty()) {
+    const auto check_request = [&]() -> std::string {
+      if (!user || user->size < sizeof(sba_covariance_request))
+        return "req is NULL or not initialised by sba_covariance_request_init";
+      std::string msg;
       req.ncams = user->ncams;
       req.cams = user->cams;
       req.camcov = user->camcov;
@@ -337,29 +344,17 @@ int run_covariance(const DriverArgs &a, sba_covariance_request *user, MakeModel 
       for (int q = 0; msg.empty() && q < req.npts; ++q)
         if (req.pts[q] < 0 || req.pts[q] >= a.n)
           msg = "req->pts[" + std::to_string(q) + "] is not a point index";
-    }
-    Layout lay;
-    if (msg.empty()) make_layout(a, lay, &msg);
-    if (msg.empty()) fit_threads(lay, &opt);
-    if (msg.empty()) msg = check_data(a, lay);
-    if (!msg.empty()) {
-      log.error("%s: %s", a.name, msg.c_str());
-      return SBA_ERROR;
-    }
+      return msg;
+    };
+    if (!prepare(a, ext, log, &opt, &lay, check_request)) return;
     std::unique_ptr<Model> model = make_model(lay, ext.parallel_callbacks != 0);
-    if (!covariance(lay, *model, a.p, a.x, a.covx, opt, log, req)) return SBA_ERROR;
+    if (!covariance(lay, *model, a.p, a.x, a.covx, opt, log, req)) return;
     user->sigma2 = req.sigma2;
     user->rank = req.rank;
     user->nfree = req.nfree;
-    return 0;
-  } catch (const std::bad_alloc &) {
-    log.error("%s: out of memory", a.name);
-  } catch (const std::exception &e) {
-    log.error("%s: internal error: %s", a.name, e.what());
-  } catch (...) {
-    log.error("%s: unknown exception from a callback", a.name);
-  }
-  return SBA_ERROR;
+    ret = 0;
+  });
+  return ret;
 }
 
 // ---- simple-driver adapters: the three 1.6 callback shapes onto one ----

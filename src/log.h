@@ -5,6 +5,8 @@
 #define SBA_SRC_LOG_H
 
 #include <cstdarg>
+#include <exception>
+#include <new>
 
 namespace sba {
 
@@ -39,6 +41,24 @@ class Logger {
   LogSinkFn sink_ = nullptr;
   void *ctx_ = nullptr;
 };
+
+// Runs body() and logs whatever it throws as one line naming `who`, since nothing may escape
+// a C entry point; false if it threw. Exceptions from the library itself are std::bad_alloc
+// or internal errors; anything else came from a caller's callback.
+template <class Body>
+bool catch_all(const Logger &log, const char *who, Body body) noexcept {
+  try {
+    body();
+    return true;
+  } catch (const std::bad_alloc &) {
+    log.error("%s: out of memory", who);
+  } catch (const std::exception &e) {
+    log.error("%s: internal error: %s", who, e.what());
+  } catch (...) {
+    log.error("%s: unknown exception from a callback", who);
+  }
+  return false;
+}
 
 }  // namespace sba
 
