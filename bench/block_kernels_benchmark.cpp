@@ -19,7 +19,7 @@
 #include "dense_factorization.h"
 #include "kernels.h"
 #include "lapack.h"
-#include "linsolve.h"
+#include "step_solver.h"
 #include "parallel.h"
 
 namespace {

@@ -14,7 +14,7 @@
 #include <string>
 
 #include "core.h"
-#include "linsolve.h"
+#include "step_solver.h"
 #include "sba_export.h"
 
 namespace sba {

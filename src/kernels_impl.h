@@ -12,7 +12,7 @@
 #endif
 
 #include "kernels.h"
-#include "linsolve.h"
+#include "step_solver.h"
 #include "small_dense.h"
 
 namespace sba {

@@ -13,7 +13,7 @@
 
 #include "core.h"
 #include "kernels.h"
-#include "linsolve.h"
+#include "step_solver.h"
 #include "memory.h"
 #include "parallel.h"
 #include "small_dense.h"
@@ -258,6 +258,20 @@ double predicted_reduction(ThreadPool &pool, const Layout &lay, const Workspace 
 }
 
 }  // namespace
+
+void Summary::to_info(double *info) const {
+  if (!info) return;
+  info[0] = err0;
+  info[1] = err;
+  info[2] = grad_inf;
+  info[3] = dp2;
+  info[4] = mu_ratio;
+  info[5] = iterations;
+  info[6] = reason;
+  info[7] = double(nfev);
+  info[8] = double(njev);
+  info[9] = double(nlinsys);
+}
 
 bool linearize(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
                const Options &opt, const Logger &log, ThreadPool &pool, const Kernels &kernels,

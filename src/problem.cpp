@@ -409,18 +409,4 @@ std::unique_ptr<Model> make_simple_model(const Layout &lay, const SimpleCallback
   return std::make_unique<SimpleModel>(lay, cb, concurrent);
 }
 
-void Summary::to_info(double *info) const {
-  if (!info) return;
-  info[0] = err0;
-  info[1] = err;
-  info[2] = grad_inf;
-  info[3] = dp2;
-  info[4] = mu_ratio;
-  info[5] = iterations;
-  info[6] = reason;
-  info[7] = double(nfev);
-  info[8] = double(njev);
-  info[9] = double(nlinsys);
-}
-
 }  // namespace sba

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "dense_factorization.h"
-#include "linsolve.h"
+#include "step_solver.h"
 #include "memory.h"
 
 namespace sba {

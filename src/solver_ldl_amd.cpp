@@ -6,7 +6,7 @@
 #include <cmath>
 #include <vector>
 
-#include "linsolve.h"
+#include "step_solver.h"
 #include "schur.h"
 
 #include "suitesparse_status.h"

@@ -17,7 +17,7 @@
 #include <memory>
 #include <vector>
 
-#include "linsolve.h"
+#include "step_solver.h"
 #include "suitesparse_status.h"
 
 namespace sba {

@@ -1,4 +1,4 @@
-#include "schur.h"
+#include "step_solver.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,22 +8,6 @@
 #include "small_dense.h"
 
 namespace sba {
-
-namespace schur {
-
-void form_W(const Layout &lay, const double *jac, i64 k, double *W) {
-  const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp;
-  const double *A = jac + k * lay.jblk();
-  const double *B = A + mnp * cnp;
-  for (int a = 0; a < cnp; ++a)
-    for (int b = 0; b < pnp; ++b) {
-      double s = 0.0;
-      for (int r = 0; r < mnp; ++r) s += A[r * cnp + a] * B[r * pnp + b];
-      W[a * pnp + b] = s;
-    }
-}
-
-}  // namespace schur
 
 namespace {
 

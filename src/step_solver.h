@@ -1,8 +1,8 @@
 // The linear solvers of the augmented normal equations, chosen at run time behind one
 // interface. Each LM iteration computes the undamped normal equations once; a StepSolver
 // turns them into the damped step for as many damping values as the iteration tries.
-#ifndef SBA_SRC_LINSOLVE_H
-#define SBA_SRC_LINSOLVE_H
+#ifndef SBA_SRC_STEP_SOLVER_H
+#define SBA_SRC_STEP_SOLVER_H
 
 #include <memory>
 #include <string>
@@ -46,7 +46,7 @@ class StepSolver {
 // always use per-block Cholesky, whatever `kind` says.
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx);
 
-// Defined in solver_*.cpp.
+// make_step_solver and the names: step_solver.cpp; the others: solver_*.cpp.
 std::unique_ptr<StepSolver> make_dense_schur_solver(LinSolver kind, const SolveContext &ctx);
 std::unique_ptr<StepSolver> make_ldl_amd_solver(const SolveContext &ctx);
 std::unique_ptr<StepSolver> make_sparse_schur_solver(const SolveContext &ctx);
