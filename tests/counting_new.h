@@ -12,13 +12,7 @@
 #include <cstdlib>
 #include <new>
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define SBA_TEST_SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-#define SBA_TEST_SANITIZED 1
-#endif
-#endif
+#include "sanitized.h"
 
 namespace faults {
 inline std::atomic<long> g_live_news{0};       // allocations not yet given back

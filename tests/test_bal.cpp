@@ -541,6 +541,14 @@ std::string slurp(const std::string &path) {
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
+// 512 MiB of address space for balsba, where an address-space limit can work (not under a
+// sanitizer: see sanitized.h).
+#ifdef SBA_TEST_SANITIZED
+const char *const kAddressSpaceLimit = "";
+#else
+const char *const kAddressSpaceLimit = "ulimit -v 524288";
+#endif
+
 // Runs balsba through /bin/sh. setup: shell commands run first (e.g. ulimit); stdout_to: where
 // stdout goes instead of a captured file (o.out is then empty).
 Output run_balsba(const std::string &args, const std::string &setup = "", const std::string &stdout_to = "") {
@@ -724,7 +732,7 @@ TEST(BalSba, DecompressionBombStopsAtTheAnnouncedSize) {
   for (int k = 0; k < 640; ++k) bytes += zero_stream;
   ASSERT_LT(bytes.size(), 100000u);
   const std::string path = write_temp("bomb.txt.bz2", bytes);
-  const Output o = run_balsba(path, "ulimit -v 524288");
+  const Output o = run_balsba(path, kAddressSpaceLimit);
   EXPECT_EQ(o.status, 1);
   EXPECT_EQ(o.err, path + ": line 15: more data than the header announces (1 observations, 1 cameras, 1 points): "
                           "'0' after the last point\n");
@@ -733,7 +741,7 @@ TEST(BalSba, DecompressionBombStopsAtTheAnnouncedSize) {
 
 // /dev/zero has no white space: refused at once, not read until memory runs out.
 TEST(BalSba, DevZeroIsRefusedAtOnce) {
-  const Output o = run_balsba("/dev/zero", "ulimit -v 524288");
+  const Output o = run_balsba("/dev/zero", kAddressSpaceLimit);
   EXPECT_EQ(o.status, 1);
   EXPECT_EQ(o.err, "/dev/zero: line 1: more than 4096 bytes without white space (no number is that long)\n");
   EXPECT_EQ(o.out, "");

@@ -40,6 +40,7 @@
 
 #include "eucsba_io.h"
 #include "eucsbademo_options.h"
+#include "sanitized.h"
 #include "sba_ext.h"
 
 #ifndef EUCSBADEMO_EXE
@@ -209,10 +210,12 @@ DemoRun run_demo(const std::vector<std::string> &args, const EnvChanges &env = {
         const rlimit lim{setup.file_size, setup.file_size};
         ::setrlimit(RLIMIT_FSIZE, &lim);
       }
+#ifndef SBA_TEST_SANITIZED
       if (setup.address_space != RLIM_INFINITY) {
         const rlimit lim{setup.address_space, setup.address_space};
         ::setrlimit(RLIMIT_AS, &lim);
       }
+#endif
       if (setup.alarm_seconds != 0) ::alarm(setup.alarm_seconds);  // kept across exec
       ::execve(argv[0], argv.data(), envp.data());
       ::_exit(127);
