@@ -89,7 +89,8 @@ inline bool loss_from_name(const std::string &name, LossKind *out) {
 }
 
 // The names above, space-separated.
-inline std::string loss_names() { return joined_names(kLosses); }
+inline constexpr auto kLossNames = joined_names<joined_length(kLosses)>(kLosses);
+inline const char *loss_names() { return kLossNames.text; }
 
 }  // namespace sba
 

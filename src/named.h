@@ -18,11 +18,34 @@ bool value_of(const Row (&rows)[N], const std::string &name, Value *out) {
   return false;
 }
 
+// The names joined by single spaces, made at compile time: a list the C API hands out must
+// not allocate (a first call inside a caller's solve would look like a leak, and no static
+// may be built at run time).
+template <std::size_t L>
+struct JoinedNames {
+  char text[L];
+};
+
 template <class Row, std::size_t N>
-std::string joined_names(const Row (&rows)[N]) {
-  std::string all;
-  for (const Row &r : rows) all += (all.empty() ? "" : " ") + std::string(r.name);
-  return all;
+constexpr std::size_t joined_length(const Row (&rows)[N]) {
+  std::size_t len = 0;
+  for (const Row &r : rows) {
+    for (const char *c = r.name; *c; ++c) ++len;
+    ++len;  // the space after it, or the terminating zero after the last
+  }
+  return len;
+}
+
+template <std::size_t L, class Row, std::size_t N>
+constexpr JoinedNames<L> joined_names(const Row (&rows)[N]) {
+  JoinedNames<L> out{};
+  std::size_t k = 0;
+  for (const Row &r : rows) {
+    if (k > 0) out.text[k++] = ' ';
+    for (const char *c = r.name; *c; ++c) out.text[k++] = *c;
+  }
+  out.text[k] = '\0';
+  return out;
 }
 
 }  // namespace sba

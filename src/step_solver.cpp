@@ -90,12 +90,9 @@ const char *linsolver_name(LinSolver kind) {
   return "?";
 }
 
-const char *linsolver_names() {
-  // Made once from the table (a thread-safe static) and never changed: the C API hands
-  // out the pointer.
-  static const std::string names = joined_names(kSolvers);
-  return names.c_str();
-}
+constexpr auto kSolverNames = joined_names<joined_length(kSolvers)>(kSolvers);
+
+const char *linsolver_names() { return kSolverNames.text; }
 
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx) {
   if (ctx.lay.free_cams() == 0 || ctx.lay.free_pts() == 0)
