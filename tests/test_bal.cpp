@@ -6,6 +6,7 @@
 #include <bzlib.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -40,7 +41,11 @@ bool exists(const std::string &path) {
                                     << " (set SBA_SHARED_DATA_DIR)";                            \
   } while (0)
 
-std::string temp_path(const std::string &name) { return testing::TempDir() + "test_bal_" + name; }
+// ctest runs each test in its own process, several at a time: the process id keeps their
+// scratch files (balsba's captured output among them) apart.
+std::string temp_path(const std::string &name) {
+  return testing::TempDir() + "test_bal_" + std::to_string(::getpid()) + "_" + name;
+}
 
 std::string write_temp(const std::string &name, const std::string &text) {
   const std::string path = temp_path(name);
