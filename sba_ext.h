@@ -67,6 +67,7 @@ struct sba_ext_result {
   int nthreads;           /* threads used (after the caps, see sba_ext_options.nthreads) */
   const char *linsolver;  /* linear solver used (a static string) */
   int robust;             /* nonzero if a robust loss was used */
+  const char *strategy;   /* LM strategy used (a static string) */
 };
 
 struct sba_ext_options {
@@ -137,6 +138,19 @@ struct sba_ext_options {
    * environment variable SBA_AVOID_SHARED_CORES=1 turns it on (0 or unset: off; anything
    * else is ignored, with a warning). Off, the library never changes a thread's affinity. */
   int avoid_shared_cores;
+  /* How the Levenberg-Marquardt iteration damps, accepts steps and stops, by name:
+   * "sba" (default): sba 1.6's algorithm, step for step (damping mu I with mu starting at
+   * tau max diag(J^T J), Nielsen's update, 1.6's stop tests and reasons).
+   * "trust-region": the damping is mu diag(J^T J) (Marquardt's, the diagonal kept within
+   * [1e-6, 1e32]) with mu starting at tau/10 (on the scaled system), a trial point is taken only when it achieves at
+   * least 1e-3 of the predicted reduction, and an accepted step whose relative cost change
+   * (||e||^2 - ||e_new||^2) / ||e||^2 is at most eps4 ends the solve with reason 4 (eps4 = 0,
+   * the default of opts, means 1e-6). It usually needs several times fewer iterations from
+   * the same start. Stop reasons 1, 2, 3, 5 and 6 keep their meaning (6 also when mu would
+   * exceed 1e32); info[4] is mu relative to the scaled system.
+   * NULL: the environment variable SBA_STRATEGY if set (an unknown name there is ignored
+   * with a warning), else "sba". An unknown name here is a bad argument (SBA_ERROR). */
+  const char *strategy;
 };
 
 /* Fills *opt with the defaults (every field zero/NULL) and opt->size. */
@@ -147,6 +161,10 @@ extern void sba_ext_result_init(struct sba_ext_result *res);
 extern const char *sba_linsolver_names(void);
 /* 1 if name (NULL allowed) is one of them, else 0. */
 extern int sba_linsolver_valid(const char *name);
+/* The known LM strategy names (sba_ext_options.strategy), space-separated. */
+extern const char *sba_strategy_names(void);
+/* 1 if name (NULL allowed) is one of them, else 0. */
+extern int sba_strategy_valid(const char *name);
 
 /* The six drivers of sba.h with one more argument. */
 extern int sba_motstr_levmar_x_ext(

@@ -82,6 +82,7 @@ Outcome run(const Solve &s, Refinement refinement, int itmax) {
   sba_ext_options ext;
   sba_ext_options_init(&ext);
   if (!o.linsolver.empty()) ext.linsolver = o.linsolver.c_str();
+  if (!o.strategy.empty()) ext.strategy = o.strategy.c_str();
   ext.nthreads = o.nthreads;
   // The model's callbacks are re-entrant and walk the index by rows: let the threads share them.
   ext.parallel_callbacks = 1;

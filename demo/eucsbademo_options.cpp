@@ -134,6 +134,15 @@ const OptionSpec kOptions[] = {
        o.linsolver = v;
        return {};
      }},
+    {"strategy", "NAME",
+     "how LM damps, accepts steps and stops: sba (sba 1.6's algorithm, the default) or\n"
+     "trust-region (Marquardt's scaled damping and a relative cost tolerance: usually far\n"
+     "fewer iterations); default: the environment variable SBA_STRATEGY if set, else sba",
+     [](DemoOptions &o, const std::string &v) -> std::string {
+       if (!sba_strategy_valid(v.c_str())) return std::string("expected one of: ") + sba_strategy_names();
+       o.strategy = v;
+       return {};
+     }},
     {"threads", "N",
      "threads for the normal equations and the Schur complement; 0 (the default): the\n"
      "environment variable SBA_NUM_THREADS if set, else every hardware thread, but at most\n"

@@ -30,6 +30,8 @@ struct DemoOptions {
   bool check_jacobian = false;  // itmax 0: the library compares fjac with finite differences
   std::string linsolver;        // one of sba_linsolver_names(); empty: the library's choice
                                 // (SBA_LINSOLVER if set, else chol)
+  std::string strategy;         // one of sba_strategy_names(); empty: the library's choice
+                                // (SBA_STRATEGY if set, else sba)
   int nthreads = 0;             // 0: the library's choice (SBA_NUM_THREADS, else by problem size)
   std::string loss;             // robust loss (sba_ext.h names); empty: least squares
   double loss_scale = 1.0;      // its scale, in pixels

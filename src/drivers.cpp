@@ -194,6 +194,17 @@ void make_options(const DriverArgs &a, const sba_ext_options &ext, const Logger 
       log.notice("%s: unknown SBA_LINSOLVER \"%s\" (known: %s); using chol", a.name, env,
                 linsolver_names());
   }
+  if (ext.strategy) {
+    if (!strategy_from_name(ext.strategy, &o->strategy)) {
+      *msg = std::string("unknown strategy \"") + ext.strategy + "\" (known: " +
+             strategy_names() + ")";
+      return;
+    }
+  } else if (const char *env = std::getenv("SBA_STRATEGY"); env && *env) {
+    if (!strategy_from_name(env, &o->strategy))
+      log.notice("%s: unknown SBA_STRATEGY \"%s\" (known: %s); using sba", a.name, env,
+                 strategy_names());
+  }
   int threads = ext.nthreads;
   if (threads <= 0) threads = threads_from_env(a.name, log);
   o->auto_threads = threads <= 0;  // fit_threads chooses (and caps an explicit count)
@@ -243,6 +254,7 @@ void write_result(const sba_ext_options &ext, const Options &opt, const Summary 
   r.nthreads = opt.nthreads;
   r.linsolver = linsolver_name(opt.solver);
   r.robust = opt.loss.robust();
+  r.strategy = strategy_name(opt.strategy);
   const size_t n = std::min(ext.result->size, sizeof r);
   r.size = ext.result->size;
   std::memcpy(static_cast<void *>(ext.result), &r, n);
@@ -424,6 +436,13 @@ const char *sba_linsolver_names(void) { return sba::linsolver_names(); }
 int sba_linsolver_valid(const char *name) {
   sba::LinSolver kind;
   return name && sba::linsolver_from_name(name, &kind) ? 1 : 0;
+}
+
+const char *sba_strategy_names(void) { return sba::strategy_names(); }
+
+int sba_strategy_valid(const char *name) {
+  sba::StrategyKind kind;
+  return name && sba::strategy_from_name(name, &kind) ? 1 : 0;
 }
 
 void sba_covariance_request_init(struct sba_covariance_request *req) {

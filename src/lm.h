@@ -10,6 +10,7 @@
 #include "log.h"
 #include "loss.h"
 #include "model.h"
+#include "strategy.h"
 
 namespace sba {
 
@@ -44,6 +45,7 @@ enum class LinSolver {
 
 struct Options {
   LinSolver solver = LinSolver::Chol;
+  StrategyKind strategy = StrategyKind::Sba;
   double tau = SBA_INIT_MU;
   double eps1 = SBA_STOP_THRESH, eps2 = SBA_STOP_THRESH, eps3 = SBA_STOP_THRESH, eps4 = 0.0;
   int itmax = 0;

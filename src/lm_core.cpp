@@ -9,11 +9,13 @@
 #include <chrono>
 #include <climits>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "core.h"
 #include "kernels.h"
 #include "step_solver.h"
+#include "strategy.h"
 #include "memory.h"
 #include "parallel.h"
 #include "small_dense.h"
@@ -24,9 +26,6 @@ namespace {
 // sba 1.6's threshold for an "almost singular" augmented system: ||dp||^2 beyond
 // (||p||^2 + eps2) / 1e-24 means the step is numerically meaningless.
 constexpr double kSingularEpsSq = 1e-24;
-
-// The smallest initial damping relative to max diag(J^T J); see its use in solve().
-constexpr double kMinRelativeDamping = 0x1p-400;
 
 double sqnorm(ThreadPool &pool, const double *v, i64 len) {
   return deterministic_sum(pool, len, [v](i64 k) { return v[k] * v[k]; });
@@ -273,37 +272,107 @@ void Summary::to_info(double *info) const {
   info[9] = double(nlinsys);
 }
 
+namespace {
+
+// The steps of an LM iteration over one problem: what the solve repeats and what the
+// covariance needs once. Each step reports a failure through the log and returns false.
+class Steps {
+ public:
+  Steps(const Layout &lay, Model &model, const double *x, const Loss &loss, const Logger &log,
+        ThreadPool &pool, const Kernels &kernels, bool weighted)
+      : lay_(lay), model_(model), x_(x), loss_(loss), log_(log), pool_(pool),
+        kernels_(kernels), w(lay, weighted, loss.robust(), !model.has_jacobian()) {}
+
+  // The weights from the measurement covariances (none without covx).
+  bool weigh(const double *covx) {
+    if (!covx) return true;
+    if (!make_weights(lay_, covx, w.wts, log_)) return false;
+    wts_ = w.wts.data();
+    return true;
+  }
+
+  // f(p) and the residual at the starting point.
+  bool start(double *p, const char *where, Cost *c) {
+    model_.eval(p, w.f_out());
+    if (!all_finite(pool_, w.f_out(), lay_.nvis * lay_.mnp)) {
+      log_.error("sba: the projection function returned NaN or Inf%s", where);
+      return false;
+    }
+    *c = residual(pool_, lay_, x_, w.f_out(), wts_, loss_, w.e.data(), w.rw.data());
+    return true;
+  }
+
+  // J at p (the callback's or by differences), weighted and reweighted as the residual is,
+  // and its normal equations U_j, V_i, e_a, e_b.
+  bool linearize(double *p, const char *where) {
+    if (model_.has_jacobian())
+      model_.jacobian(p, w.jac.data());
+    else
+      model_.fd_jacobian(p, w.hx.data(), w.jac.data());
+    if (wts_) weight_jacobian(pool_, lay_, wts_, w.jac.data());
+    if (loss_.robust())
+      reweight(pool_, lay_, w.rw.data(), w.e.data(), w.jac.data(), w.er.data());
+    kernels_.normal_equations(pool_, w.jac.data(), loss_.robust() ? w.er.data() : w.e.data(),
+                              w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
+    if (!normal_equations_finite(pool_, lay_, w)) {
+      log_.error("sba: the Jacobian has a NaN or Inf entry (or overflows)%s", where);
+      return false;
+    }
+    return true;
+  }
+
+  // f and the residual at the trial point w.dp (which holds p + dp); its cost in *c.
+  bool evaluate_trial(int it, Cost *c) {
+    model_.eval(w.dp.data(), w.fn_out());
+    if (!all_finite(pool_, w.fn_out(), lay_.nvis * lay_.mnp)) {
+      log_.error("sba: the projection function returned NaN or Inf at iteration %d", it);
+      return false;
+    }
+    *c = residual(pool_, lay_, x_, w.fn_out(), wts_, loss_, w.en_data(), w.rwn.data());
+    return true;
+  }
+
+  // The trial point becomes the current one.
+  void accept(double *p) {
+    const double *pn = w.dp.data();
+    pool_.for_range(lay_.nvars(), [&](i64 b, i64 e) { std::copy(pn + b, pn + e, p + b); });
+    w.hx.swap(w.hxn);
+    if (!w.en.empty()) w.e.swap(w.en);
+    w.rw.swap(w.rwn);
+  }
+
+  // The robustified residual's squared norm (the squared error the normal equations see).
+  double reweighted_sq() const { return sqnorm(pool_, w.er.data(), lay_.nvis * lay_.mnp); }
+
+  const Layout &lay_;
+  Model &model_;
+  const double *x_;
+  const Loss &loss_;
+  const Logger &log_;
+  ThreadPool &pool_;
+  const Kernels &kernels_;
+  Workspace w;
+
+ private:
+  const double *wts_ = nullptr;
+};
+
+}  // namespace
+
 bool linearize(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
                const Options &opt, const Logger &log, ThreadPool &pool, const Kernels &kernels,
                Linearization *out) {
-  Workspace w(lay, covx != nullptr, opt.loss.robust(), !model.has_jacobian());
-  if (covx && !make_weights(lay, covx, w.wts, log)) return false;
-  const double *wts = covx ? w.wts.data() : nullptr;
-  model.eval(p, w.f_out());
-  if (!all_finite(pool, w.f_out(), lay.nvis * lay.mnp)) {
-    log.error("sba: the projection function returned NaN or Inf");
-    return false;
-  }
-  const Cost c = residual(pool, lay, x, w.f_out(), wts, opt.loss, w.e.data(), w.rw.data());
-  if (model.has_jacobian())
-    model.jacobian(p, w.jac.data());
-  else
-    model.fd_jacobian(p, w.hx.data(), w.jac.data());
-  if (wts) weight_jacobian(pool, lay, wts, w.jac.data());
-  if (opt.loss.robust()) reweight(pool, lay, w.rw.data(), w.e.data(), w.jac.data(), w.er.data());
-  kernels.normal_equations(pool, w.jac.data(), opt.loss.robust() ? w.er.data() : w.e.data(),
-                           w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
-  if (!normal_equations_finite(pool, lay, w)) {
-    log.error("sba: the Jacobian has a NaN or Inf entry (or overflows)");
-    return false;
-  }
+  Steps st(lay, model, x, opt.loss, log, pool, kernels, covx != nullptr);
+  Cost c;
+  if (!st.weigh(covx) || !st.start(p, "", &c) || !st.linearize(p, "")) return false;
+  Workspace &w = st.w;
   out->jac.swap(w.jac);
   out->U.swap(w.U);
   out->V.swap(w.V);
   out->ea.swap(w.ea);
   out->eb.swap(w.eb);
   // With a loss, the IRLS weights make sum rho' s the squared error the model sees.
-  out->sq_err = opt.loss.robust() ? sqnorm(pool, w.er.data(), lay.nvis * lay.mnp) : c.sq;
+  out->sq_err = opt.loss.robust() ? st.reweighted_sq() : c.sq;
   return true;
 }
 
@@ -313,28 +382,23 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   const auto t0 = std::chrono::steady_clock::now();
   ThreadPool pool(opt.nthreads, opt.avoid_shared_cores);
   const ModelThreads lend(model, &pool);
-  const Loss &loss = opt.loss;
-  Workspace w(lay, covx != nullptr, loss.robust(), !model.has_jacobian());
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());
+  Steps st(lay, model, x, opt.loss, log, pool, *kernels, covx != nullptr);
+  Workspace &w = st.w;
   const std::unique_ptr<StepSolver> solver =
       make_step_solver(opt.solver, SolveContext{lay, pool, *kernels});
+  const std::unique_ptr<Strategy> strategy = make_strategy(opt.strategy, lay, opt.eps4);
   const NormalEquations ne = w.view();
-  const double *wts = nullptr;
-  if (covx) {
-    if (!make_weights(lay, covx, w.wts, log)) return false;
-    wts = w.wts.data();
-  }
-  const i64 nvars = lay.nvars(), nobs = lay.nvis * lay.mnp;
+  const i64 nvars = lay.nvars();
   const double eps1 = opt.eps1, eps2sq = opt.eps2 * opt.eps2, eps3sq = opt.eps3 * opt.eps3;
 
-  model.eval(p, w.f_out());
+  if (!st.weigh(covx)) return false;
+  Cost c0;
   sum.nfev = 1;
-  if (!all_finite(pool, w.f_out(), nobs)) {
-    log.error("sba: the projection function returned NaN or Inf at the initial estimate");
+  if (!st.start(p, " at the initial estimate", &c0)) {
     sum.reason = kStopNonFinite;
     return false;
   }
-  const Cost c0 = residual(pool, lay, x, w.f_out(), wts, loss, w.e.data(), w.rw.data());
   double eps = c0.cost, sqe = c0.sq;
   sum.err0 = sum.err = eps;
   sum.sq_err0 = sum.sq_err = sqe;
@@ -357,28 +421,22 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
     sum.iterations = iterations;
     sum.mu_ratio = maxdiag > 0 ? mu / maxdiag : 0.0;
   };
+  char where[64];
   for (it = 0; it < opt.itmax && !stop; ++it) {
-    if (model.has_jacobian())
-      model.jacobian(p, w.jac.data());
-    else
-      model.fd_jacobian(p, w.hx.data(), w.jac.data());
     ++sum.njev;
-    if (wts) weight_jacobian(pool, lay, wts, w.jac.data());
-    if (loss.robust()) reweight(pool, lay, w.rw.data(), w.e.data(), w.jac.data(), w.er.data());
-    kernels->normal_equations(pool, w.jac.data(), loss.robust() ? w.er.data() : w.e.data(),
-                              w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
-    if (!normal_equations_finite(pool, lay, w)) {
-      log.error("sba: the Jacobian has a NaN or Inf entry (or overflows) at iteration %d", it);
+    std::snprintf(where, sizeof where, " at iteration %d", it);
+    if (!st.linearize(p, where)) {
       record(kStopNonFinite, it);
       return false;
     }
+    // Stop 1 looks at the gradient in the units of p, whatever the strategy solves in.
     gradient_stats(lay, w, &sum.grad_inf, &maxdiag);
-    // tau > 0 (the drivers refuse 0), but tau * maxdiag can still be 0 or so small that the
-    // growth a run of failed steps allows (mu *= nu, about 2^465 before reason 6) never
-    // makes it count, and the solve would end at once with nothing refined. So the initial
-    // damping is at least kMinRelativeDamping * maxdiag (a floor that only a tau below it
-    // meets) and at least the smallest normal number, here and after each accepted step.
-    if (it == 0) mu = std::max({opt.tau * maxdiag, kMinRelativeDamping * maxdiag, DBL_MIN});
+    strategy->linearized(pool, w.jac.data(), w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
+    if (opt.strategy != StrategyKind::Sba) {
+      double ginf_scaled;
+      gradient_stats(lay, w, &ginf_scaled, &maxdiag);
+    }
+    if (it == 0) mu = strategy->initial_damping(opt.tau, maxdiag);
 
     if (sum.grad_inf <= eps1) {
       sum.dp2 = 0.0;
@@ -388,6 +446,10 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
     for (; !stop;) {
       ++sum.nlinsys;
       if (solver->solve(ne, mu, w.dp.data()) && all_finite(pool, w.dp.data(), nvars)) {
+        // The linear model's reduction in the solver's variables, where mu and the
+        // gradient it sees belong; then the step in the units of p.
+        const double dL = predicted_reduction(pool, lay, w, mu);
+        strategy->to_parameters(pool, w.dp.data());
         const double dp2 = sqnorm(pool, w.dp.data(), nvars);
         sum.dp2 = dp2;
         if (dp2 <= eps2sq * p2) {
@@ -401,33 +463,26 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
           record(kStopSingular, it + 1);
           return false;
         }
-        const double dL = predicted_reduction(pool, lay, w, mu);
         double *pn = w.dp.data();  // dp becomes p + dp: one parameter vector fewer
         pool.for_range(nvars, [&](i64 b, i64 e) {
           for (i64 q = b; q < e; ++q) pn[q] += p[q];
         });
-        model.eval(pn, w.fn_out());
+        Cost cn;
         ++sum.nfev;
-        if (!all_finite(pool, w.fn_out(), nobs)) {
-          log.error("sba: the projection function returned NaN or Inf at iteration %d", it);
+        if (!st.evaluate_trial(it, &cn)) {
           record(kStopNonFinite, it + 1);
           return false;
         }
-        const Cost cn = residual(pool, lay, x, w.fn_out(), wts, loss, w.en_data(), w.rwn.data());
         const double epsn = cn.cost;
         const double dF = eps - epsn;
         log.info(2, "SBA: iteration %d: mu %g, error %g -> %g, ||dp||^2 %g, gain ratio %g", it, mu,
                  eps, epsn, dp2, dL != 0.0 ? dF / dL : 0.0);
-        if (dL > 0.0 && dF > 0.0) {
-          if (reduction_stalled(eps, epsn, opt.eps4)) stop = kStopReduction;
-          pool.for_range(nvars, [&](i64 b, i64 e) { std::copy(pn + b, pn + e, p + b); });
-          w.hx.swap(w.hxn);
-          if (!w.en.empty()) w.e.swap(w.en);
-          w.rw.swap(w.rwn);
+        if (strategy->acceptable(dF, dL)) {
+          if (strategy->converged(eps, epsn)) stop = kStopReduction;
+          st.accept(p);
           eps = epsn;
           sqe = cn.sq;
-          const double t = 2.0 * dF / dL - 1.0;
-          mu = std::max(mu * std::max(1.0 / 3.0, 1.0 - t * t * t), DBL_MIN);
+          mu = strategy->after_success(mu, dF / dL);
           nu = 2;
           break;
         }
@@ -436,7 +491,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
                     mu);
       }
       mu *= nu;
-      if (nu > INT_MAX / 2) {  // 1.6's int nu would overflow on the next doubling
+      if (strategy->exhausted(mu, nu)) {
         stop = kStopDamping;
         break;
       }
@@ -457,11 +512,11 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
 
   record(stop, it);
   sum.ok = true;
-  if (loss.robust())
+  if (opt.loss.robust())
     for (i64 k = 0; k < lay.nvis; ++k) {
       double sk = 0.0;
       for (int r = 0; r < lay.mnp; ++r) sk += w.e[size_t(k * lay.mnp + r)] * w.e[size_t(k * lay.mnp + r)];
-      sum.outliers += sk > loss.scale2();
+      sum.outliers += sk > opt.loss.scale2();
     }
   log.info(1, "SBA: %d iterations, stop reason %d, final error %g, %g per measurement", it, stop,
            eps, eps / double(lay.nvis));

@@ -1,0 +1,182 @@
+// The two LM strategies. "sba" is 1.6's algorithm exactly (its parity with 1.6 is tested
+// down to stop reasons and counters). "trust-region" is Levenberg-Marquardt as Moré's
+// trust-region account and Ceres's documentation describe it: the damping term is
+// mu diag(J^T J) (Marquardt), so that it is as strong in every direction relative to the
+// curvature there, with the diagonal kept within a floor and a ceiling; a trial point must
+// win a minimum fraction of the predicted reduction; and the solve ends when an accepted step
+// changes the cost by less than a relative tolerance, the stopping rule its users expect.
+#include "strategy.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <climits>
+#include <cmath>
+
+#include "lm.h"
+#include "named.h"
+
+namespace sba {
+namespace {
+
+struct NamedStrategy {
+  const char *name;
+  StrategyKind value;
+};
+constexpr NamedStrategy kStrategies[] = {
+    {"sba", StrategyKind::Sba},
+    {"trust-region", StrategyKind::TrustRegion},
+};
+constexpr auto kStrategyNames = joined_names<joined_length(kStrategies)>(kStrategies);
+
+// Nielsen's damping update after an accepted step (sba paper, Fig. 2): shrink by up to 3 when
+// the linear model predicted the reduction well, keep it when it did not.
+double nielsen(double mu, double rho) {
+  const double t = 2.0 * rho - 1.0;
+  return mu * std::max(1.0 / 3.0, 1.0 - t * t * t);
+}
+
+// The smallest initial damping relative to max diag(J^T J) (see Sba16::initial_damping).
+constexpr double kMinRelativeDamping = 0x1p-400;
+
+class Sba16 final : public Strategy {
+ public:
+  explicit Sba16(double eps4) : eps4_(eps4) {}
+  // tau > 0 (the drivers refuse 0), but tau * maxdiag can still be 0 or so small that the
+  // growth a run of failed steps allows (mu *= nu, about 2^465 before reason 6) never makes
+  // it count, and the solve would end at once with nothing refined. So the initial damping
+  // is at least kMinRelativeDamping * maxdiag (a floor that only a tau below it meets) and
+  // at least the smallest normal number, as after each accepted step.
+  double initial_damping(double tau, double maxdiag) const override {
+    return std::max({tau * maxdiag, kMinRelativeDamping * maxdiag, DBL_MIN});
+  }
+  void linearized(ThreadPool &, double *, double *, double *, double *, double *) override {}
+  void to_parameters(ThreadPool &, double *) const override {}
+  bool acceptable(double dF, double dL) const override { return dL > 0.0 && dF > 0.0; }
+  double after_success(double mu, double rho) const override {
+    return std::max(nielsen(mu, rho), DBL_MIN);
+  }
+  // 1.6's int nu would overflow on the next doubling.
+  bool exhausted(double, int nu) const override { return nu > INT_MAX / 2; }
+  bool converged(double e, double en) const override { return reduction_stalled(e, en, eps4_); }
+
+ private:
+  double eps4_;
+};
+
+// The solver works in scaled variables q = D^(1/2) p with D = diag(J^T J) clamped to
+// [kMinDiagonal, kMaxDiagonal]: its system (S J^T J S + mu I) dq = S J^T e with S = D^(-1/2)
+// is (J^T J + mu D) dp = J^T e, Marquardt's, and every linear solver keeps its mu I
+// interface. The floor keeps a parameter the data hardly see (or a column held at zero)
+// from being left undamped; the bounds are those Ceres documents for its LM diagonal.
+constexpr double kMinDiagonal = 1e-6, kMaxDiagonal = 1e32;
+// A trial point must achieve this fraction of the predicted reduction (Ceres's
+// min_relative_decrease): a step that barely lowers the cost is a sign the region is too
+// large, and taking it makes the next linearization no better.
+constexpr double kMinGain = 1e-3;
+// The damping moves within these bounds, the reciprocals of Ceres's default largest and
+// smallest trust-region radii; on the scaled system they are relative to curvature 1.
+constexpr double kMinDamping = 1e-16, kMaxDamping = 1e32;
+// Relative cost change below which an accepted step ends the solve (Ceres's default
+// function_tolerance), used when opts[4] is 0.
+constexpr double kDefaultCostTolerance = 1e-6;
+
+class TrustRegion final : public Strategy {
+ public:
+  TrustRegion(const Layout &lay, double eps4)
+      : lay_(lay), ftol_(eps4 > 0.0 ? eps4 : kDefaultCostTolerance),
+        s_(size_t(lay.nvars()), 1.0) {}
+
+  void linearized(ThreadPool &pool, double *jac, double *U, double *V, double *ea,
+                  double *eb) override {
+    const int cnp = lay_.cnp, pnp = lay_.pnp, mnp = lay_.mnp, jb = lay_.jblk();
+    double *s = s_.data();
+    const auto scale = [](double d) { return 1.0 / std::sqrt(std::clamp(d, kMinDiagonal, kMaxDiagonal)); };
+    // Blocks of fixed cameras and points keep scale 1: nothing reads them.
+    pool.for_range(lay_.m, [&](i64 b, i64 e) {
+      for (i64 j = b; j < e; ++j) {
+        if (!lay_.cam_free(int(j))) continue;
+        double *u = U + j * cnp * cnp, *sj = s + lay_.a_off(int(j));
+        for (int a = 0; a < cnp; ++a) sj[a] = scale(u[a * (cnp + 1)]);
+        for (int a = 0; a < cnp; ++a) {
+          for (int c = 0; c < cnp; ++c) u[a * cnp + c] *= sj[a] * sj[c];
+          ea[j * cnp + a] *= sj[a];
+        }
+      }
+    });
+    pool.for_range(lay_.n, [&](i64 b, i64 e) {
+      for (i64 i = b; i < e; ++i) {
+        if (!lay_.pt_free(int(i))) continue;
+        double *v = V + i * pnp * pnp, *si = s + lay_.b_off(int(i));
+        for (int a = 0; a < pnp; ++a) si[a] = scale(v[a * (pnp + 1)]);
+        for (int a = 0; a < pnp; ++a) {
+          for (int c = 0; c < pnp; ++c) v[a * pnp + c] *= si[a] * si[c];
+          eb[i * pnp + a] *= si[a];
+        }
+      }
+    });
+    // The Jacobian blocks the solvers read (W_ij = A_ij^T B_ij), by point rows.
+    pool.for_range(lay_.n, [&](i64 b, i64 e) {
+      for (i64 i = b; i < e; ++i) {
+        const double *si = s + lay_.b_off(int(i));
+        for (int k = lay_.rowptr[size_t(i)]; k < lay_.rowptr[size_t(i) + 1]; ++k) {
+          double *A = jac + i64(k) * jb, *B = A + mnp * cnp;
+          const double *sj = s + lay_.a_off(lay_.colidx[size_t(k)]);
+          for (int r = 0; r < mnp; ++r) {
+            for (int c = 0; c < cnp; ++c) A[r * cnp + c] *= sj[c];
+            for (int c = 0; c < pnp; ++c) B[r * pnp + c] *= si[c];
+          }
+        }
+      }
+    });
+  }
+
+  // On the scaled system the curvature is 1 in every well-seen direction, and 1.6's rule
+  // would start at tau; a tenth of it, 1e-4 for the default tau (Ceres's initial trust
+  // radius of 1e4), takes fewer iterations on the BAL problems of bench/ and reaches the
+  // same minimum.
+  double initial_damping(double tau, double maxdiag) const override {
+    return std::clamp(0.1 * tau * maxdiag, kMinDamping, kMaxDamping);
+  }
+
+  void to_parameters(ThreadPool &pool, double *dp) const override {
+    const double *s = s_.data();
+    pool.for_range(lay_.nvars(), [&](i64 b, i64 e) {
+      for (i64 q = b; q < e; ++q) dp[q] *= s[q];
+    });
+  }
+
+  bool acceptable(double dF, double dL) const override { return dL > 0.0 && dF > kMinGain * dL; }
+  double after_success(double mu, double rho) const override {
+    return std::clamp(nielsen(mu, rho), kMinDamping, kMaxDamping);
+  }
+  bool exhausted(double mu, int nu) const override {
+    return mu > kMaxDamping || nu > INT_MAX / 2;
+  }
+  bool converged(double e, double en) const override { return e - en <= ftol_ * e; }
+
+ private:
+  const Layout &lay_;
+  double ftol_;
+  std::vector<double> s_;  // per parameter: D^(-1/2) of its latest linearization
+};
+
+}  // namespace
+
+bool strategy_from_name(const std::string &name, StrategyKind *out) {
+  return value_of(kStrategies, name, out);
+}
+
+const char *strategy_name(StrategyKind kind) {
+  for (const NamedStrategy &s : kStrategies)
+    if (s.value == kind) return s.name;
+  return "?";
+}
+
+const char *strategy_names() { return kStrategyNames.text; }
+
+std::unique_ptr<Strategy> make_strategy(StrategyKind kind, const Layout &lay, double eps4) {
+  if (kind == StrategyKind::TrustRegion) return std::make_unique<TrustRegion>(lay, eps4);
+  return std::make_unique<Sba16>(eps4);
+}
+
+}  // namespace sba

@@ -1,0 +1,58 @@
+// How the LM loop damps, accepts a step and decides it has converged: sba 1.6's rules, or a
+// trust-region Levenberg-Marquardt as the trust-region literature and Ceres run it. The loop
+// (lm_core.cpp) is the same for both; a strategy is the handful of decisions in which they
+// differ.
+#ifndef SBA_SRC_STRATEGY_H
+#define SBA_SRC_STRATEGY_H
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "layout.h"
+#include "parallel.h"
+
+namespace sba {
+
+enum class StrategyKind {
+  Sba,          // sba 1.6: damping mu I, Nielsen's update, 1.6's stop tests as written
+  TrustRegion,  // Marquardt's damping mu diag(J^T J), Ceres-style acceptance and stopping
+};
+
+// "sba", "trust-region"; false for an unknown name.
+bool strategy_from_name(const std::string &name, StrategyKind *out);
+const char *strategy_name(StrategyKind s);
+// Space-separated list of every name, for messages and the C API.
+const char *strategy_names();
+
+class Strategy {
+ public:
+  virtual ~Strategy() = default;
+  // Called once per iteration with the normal equations just formed (undamped U_j, V_i,
+  // e_a, e_b, and the Jacobian blocks the solvers read). A strategy may change variables
+  // here: the solver then works in its variables, and to_parameters maps its step back.
+  virtual void linearized(ThreadPool &pool, double *jac, double *U, double *V, double *ea,
+                          double *eb) = 0;
+  // The damping of the first iteration, from opts[0] and the largest diagonal entry of
+  // J^T J (of the system the solver sees).
+  virtual double initial_damping(double tau, double maxdiag) const = 0;
+  // The step the solver returned, in place, in the units of p.
+  virtual void to_parameters(ThreadPool &pool, double *dp) const = 0;
+  // Whether a trial point is taken: dF the actual reduction of the cost, dL the linear
+  // model's.
+  virtual bool acceptable(double dF, double dL) const = 0;
+  // The damping after an accepted step with gain ratio rho = dF / dL.
+  virtual double after_success(double mu, double rho) const = 0;
+  // True when the damping reached after failures (mu, about to be multiplied by nu) means
+  // there is nothing left to try: stop reason 6.
+  virtual bool exhausted(double mu, int nu) const = 0;
+  // Stop reason 4 after an accepted step from cost e to cost en.
+  virtual bool converged(double e, double en) const = 0;
+};
+
+// eps4 is opts[4]; the trust region reads 0 as its default relative cost tolerance.
+std::unique_ptr<Strategy> make_strategy(StrategyKind kind, const Layout &lay, double eps4);
+
+}  // namespace sba
+
+#endif

@@ -1,0 +1,317 @@
+// The LM strategies (sba_ext_options.strategy, SBA_STRATEGY): "sba" is the default and 1.6's
+// algorithm; "trust-region" reaches the same minima in fewer iterations with every linear
+// solver, driver, loss and weighting, and keeps the library's guarantees (same bits for any
+// thread count, clean stops).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "sba_ext.h"
+#include "synth.h"
+
+namespace {
+
+using synth::kCnp;
+using synth::kMnp;
+using synth::kPnp;
+
+struct Outcome {
+  int ret = 0;
+  double info[SBA_INFOSZ] = {};
+  std::vector<double> p;
+};
+
+struct SolveSetup {
+  const char *strategy = nullptr;
+  const char *solver = nullptr;
+  const char *loss = nullptr;
+  int nthreads = 0;
+  int mcon = 0, ncon = 0;
+  const double *opts = nullptr;
+  const std::vector<double> *covx = nullptr;
+  int (*progress)(void *, const sba_progress *) = nullptr;
+  void *progress_ctx = nullptr;
+};
+
+Outcome motstr(synth::Problem &pb, const SolveSetup &s) {
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.strategy = s.strategy;
+  ext.linsolver = s.solver;
+  ext.loss = s.loss;
+  ext.nthreads = s.nthreads;
+  ext.progress = s.progress;
+  ext.progress_ctx = s.progress_ctx;
+  ext.quiet = 1;
+  Outcome o;
+  o.p = pb.p0;
+  double *covx = s.covx ? const_cast<double *>(s.covx->data()) : nullptr;
+  o.ret = sba_motstr_levmar_x_ext(pb.n, s.ncon, pb.m, s.mcon, pb.vmask.data(), o.p.data(), kCnp, kPnp,
+                                  pb.x.data(), covx, kMnp, synth::func_motstr, synth::fjac_motstr, &pb,
+                                  200, 0, s.opts, o.info, &ext);
+  return o;
+}
+
+Outcome with(synth::Problem &pb, const char *strategy, const char *solver = nullptr) {
+  SolveSetup s;
+  s.strategy = strategy;
+  s.solver = solver;
+  return motstr(pb, s);
+}
+
+std::vector<std::string> words(const char *list) {
+  std::istringstream in(list);
+  std::vector<std::string> out;
+  for (std::string w; in >> w;) out.push_back(w);
+  return out;
+}
+
+TEST(Strategy, NamesAndValidity) {
+  EXPECT_STREQ(sba_strategy_names(), "sba trust-region");
+  EXPECT_EQ(sba_strategy_valid("sba"), 1);
+  EXPECT_EQ(sba_strategy_valid("trust-region"), 1);
+  EXPECT_EQ(sba_strategy_valid("trust_region"), 0);
+  EXPECT_EQ(sba_strategy_valid(""), 0);
+  EXPECT_EQ(sba_strategy_valid(nullptr), 0);
+}
+
+TEST(Strategy, UnknownNameIsABadArgument) {
+  synth::Problem pb = synth::make(40, 4, 0.1, 0.05, 71);
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.strategy = "levenberg";
+  std::vector<double> p = pb.p0;
+  double info[SBA_INFOSZ];
+  testing::internal::CaptureStderr();
+  const int ret = sba_motstr_levmar_x_ext(pb.n, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp,
+                                          pb.x.data(), nullptr, kMnp, synth::func_motstr,
+                                          synth::fjac_motstr, &pb, 100, 0, nullptr, info, &ext);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(ret, SBA_ERROR);
+  EXPECT_EQ(info[6], SBA_STOP_NONE);
+  EXPECT_NE(err.find("unknown strategy \"levenberg\" (known: sba trust-region)"), std::string::npos)
+      << err;
+  EXPECT_EQ(p, pb.p0);
+}
+
+// "sba" named is the default, bit for bit; the trust region is a different algorithm.
+TEST(Strategy, SbaByNameIsTheDefault) {
+  synth::Problem pb = synth::make(120, 7, 0.5, 0.05, 72);
+  const Outcome def = with(pb, nullptr), sba = with(pb, "sba"), tr = with(pb, "trust-region");
+  ASSERT_GT(def.ret, 0);
+  EXPECT_EQ(sba.p, def.p);
+  for (int q = 0; q < SBA_INFOSZ; ++q) EXPECT_EQ(sba.info[q], def.info[q]) << q;
+  EXPECT_NE(tr.p, def.p);
+}
+
+// The legacy entry points read SBA_STRATEGY; an unknown name falls back to sba with a warning.
+TEST(Strategy, EnvironmentVariableSwitchesTheLegacyEntryPoints) {
+  synth::Problem pb = synth::make(100, 6, 0.4, 0.05, 73);
+  const Outcome sba = with(pb, "sba"), tr = with(pb, "trust-region");
+  auto legacy = [&](std::string *err) {
+    Outcome o;
+    o.p = pb.p0;
+    testing::internal::CaptureStderr();
+    o.ret = sba_motstr_levmar_x(pb.n, 0, pb.m, 0, pb.vmask.data(), o.p.data(), kCnp, kPnp, pb.x.data(),
+                                nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb, 200, 0,
+                                nullptr, o.info);
+    *err = testing::internal::GetCapturedStderr();
+    return o;
+  };
+  std::string err;
+  ASSERT_EQ(setenv("SBA_STRATEGY", "trust-region", 1), 0);
+  const Outcome env_tr = legacy(&err);
+  EXPECT_EQ(env_tr.p, tr.p);
+  EXPECT_EQ(env_tr.info[5], tr.info[5]);
+  EXPECT_EQ(err, "");
+  ASSERT_EQ(setenv("SBA_STRATEGY", "fast", 1), 0);
+  const Outcome env_bad = legacy(&err);
+  unsetenv("SBA_STRATEGY");
+  EXPECT_EQ(env_bad.p, sba.p);
+  EXPECT_NE(err.find("unknown SBA_STRATEGY \"fast\" (known: sba trust-region); using sba"),
+            std::string::npos)
+      << err;
+}
+
+// Every linear solver (the list the library reports, so new ones are covered) reaches sba's
+// minimum through the trust region, in fewer iterations, with and without fixed blocks.
+TEST(Strategy, TrustRegionReachesSbasMinimumWithEverySolver) {
+  synth::Problem pb = synth::make(150, 8, 0.5, 0.05, 74);
+  synth::Problem fixed = synth::make(120, 7, 0.3, 0.05, 75);
+  for (const std::string &solver : words(sba_linsolver_names())) {
+    SCOPED_TRACE(solver);
+    const Outcome ref = with(pb, "sba", solver.c_str()), tr = with(pb, "trust-region", solver.c_str());
+    ASSERT_GT(ref.ret, 0);
+    ASSERT_GT(tr.ret, 0);
+    EXPECT_NEAR(tr.info[1] / ref.info[1], 1.0, 2e-6);
+    EXPECT_EQ(tr.info[6], 4);  // the relative cost tolerance
+    EXPECT_LT(tr.info[5], ref.info[5]);
+    SolveSetup s;
+    s.solver = solver.c_str();
+    s.mcon = 2;
+    s.ncon = 5;
+    s.strategy = "sba";
+    const Outcome fref = motstr(fixed, s);
+    s.strategy = "trust-region";
+    const Outcome ftr = motstr(fixed, s);
+    ASSERT_GT(ftr.ret, 0);
+    EXPECT_NEAR(ftr.info[1] / fref.info[1], 1.0, 2e-6);
+    for (int q = 0; q < 2 * kCnp; ++q) EXPECT_EQ(ftr.p[q], fixed.p0[q]);
+    for (int q = 0; q < 5 * kPnp; ++q)
+      EXPECT_EQ(ftr.p[fixed.m * kCnp + q], fixed.p0[fixed.m * kCnp + q]);
+  }
+}
+
+TEST(Strategy, TrustRegionResultsDoNotDependOnTheThreadCount) {
+  synth::Problem pb = synth::make(160, 9, 0.5, 0.05, 76);
+  SolveSetup s;
+  s.strategy = "trust-region";
+  s.mcon = 1;
+  s.ncon = 3;
+  s.nthreads = 1;
+  const Outcome one = motstr(pb, s);
+  ASSERT_GT(one.ret, 0);
+  for (int threads : {2, 3, 5}) {
+    s.nthreads = threads;
+    const Outcome o = motstr(pb, s);
+    EXPECT_EQ(o.p, one.p) << threads << " threads";
+    for (int q = 0; q < SBA_INFOSZ; ++q) EXPECT_EQ(o.info[q], one.info[q]) << q;
+  }
+}
+
+// With a robust loss and with measurement covariances the trust region minimizes the same
+// cost as sba's LM and gets to the same value.
+TEST(Strategy, TrustRegionWithALossAndWithCovariances) {
+  synth::Problem pb = synth::make(150, 8, 0.5, 0.05, 77);
+  for (int k = 0; k < 12; ++k) pb.x[size_t(k) * 17] += 40.0;  // outliers
+  SolveSetup s;
+  s.loss = "huber";
+  s.strategy = "sba";
+  const Outcome ref = motstr(pb, s);
+  s.strategy = "trust-region";
+  const Outcome tr = motstr(pb, s);
+  ASSERT_GT(ref.ret, 0);
+  ASSERT_GT(tr.ret, 0);
+  EXPECT_NEAR(tr.info[1] / ref.info[1], 1.0, 2e-6);
+  EXPECT_LT(tr.info[5], ref.info[5]);
+
+  synth::Problem pw = synth::make(150, 8, 0.5, 0.05, 78);
+  std::vector<double> covx(size_t(pw.nvis) * 4);
+  for (int k = 0; k < pw.nvis; ++k) {
+    const double a = 0.5 + (k % 5) * 0.3, c = 0.1 * ((k % 3) - 1);
+    covx[size_t(k) * 4 + 0] = a;
+    covx[size_t(k) * 4 + 1] = covx[size_t(k) * 4 + 2] = c;
+    covx[size_t(k) * 4 + 3] = 2.0 - 0.2 * (k % 4);
+  }
+  SolveSetup w;
+  w.covx = &covx;
+  w.strategy = "sba";
+  const Outcome wref = motstr(pw, w);
+  w.strategy = "trust-region";
+  const Outcome wtr = motstr(pw, w);
+  ASSERT_GT(wref.ret, 0);
+  ASSERT_GT(wtr.ret, 0);
+  EXPECT_NEAR(wtr.info[1] / wref.info[1], 1.0, 2e-6);
+}
+
+// The motion-only and structure-only drivers (block-diagonal systems) take the strategy too.
+TEST(Strategy, TrustRegionInTheMotionAndStructureDrivers) {
+  synth::Problem pb = synth::make(120, 7, 0.5, 0.05, 79);
+  auto mot = [&](const char *strategy) {
+    sba_ext_options ext;
+    sba_ext_options_init(&ext);
+    ext.strategy = strategy;
+    Outcome o;
+    o.p.assign(pb.p0.begin(), pb.p0.begin() + pb.m * kCnp);
+    pb.fixed_points = pb.truth.data() + pb.m * kCnp;
+    o.ret = sba_mot_levmar_x_ext(pb.n, pb.m, 0, pb.vmask.data(), o.p.data(), kCnp, pb.x.data(), nullptr,
+                                 kMnp, synth::func_mot, synth::fjac_mot, &pb, 100, 0, nullptr, o.info,
+                                 &ext);
+    return o;
+  };
+  auto str = [&](const char *strategy) {
+    sba_ext_options ext;
+    sba_ext_options_init(&ext);
+    ext.strategy = strategy;
+    Outcome o;
+    o.p.assign(pb.p0.begin() + pb.m * kCnp, pb.p0.end());
+    pb.fixed_cams = pb.truth.data();
+    o.ret = sba_str_levmar_x_ext(pb.n, 0, pb.m, pb.vmask.data(), o.p.data(), kPnp, pb.x.data(), nullptr,
+                                 kMnp, synth::func_str, synth::fjac_str, &pb, 100, 0, nullptr, o.info,
+                                 &ext);
+    return o;
+  };
+  const Outcome mref = mot("sba"), mtr = mot("trust-region");
+  const Outcome sref = str("sba"), str_tr = str("trust-region");
+  ASSERT_GT(mref.ret, 0);
+  ASSERT_GT(mtr.ret, 0);
+  ASSERT_GT(sref.ret, 0);
+  ASSERT_GT(str_tr.ret, 0);
+  EXPECT_NEAR(mtr.info[1] / mref.info[1], 1.0, 2e-6);
+  EXPECT_NEAR(str_tr.info[1] / sref.info[1], 1.0, 2e-6);
+  EXPECT_LE(mtr.info[5], mref.info[5]);
+  EXPECT_LE(str_tr.info[5], sref.info[5]);
+}
+
+struct Trace {
+  std::vector<double> errors;
+  int stop_at = 0;
+};
+
+int record(void *ctx, const sba_progress *state) {
+  Trace &t = *static_cast<Trace *>(ctx);
+  t.errors.push_back(state->error);
+  return t.stop_at > 0 && state->iteration >= t.stop_at;
+}
+
+// eps4 is the trust region's relative cost tolerance: the solve ends at the first accepted
+// step that lowers the cost by no more than eps4 of it, and not before.
+TEST(Strategy, TrustRegionStopsAtTheRelativeCostTolerance) {
+  synth::Problem pb = synth::make(150, 8, 0.5, 0.05, 80);
+  for (double eps4 : {1e-2, 1e-4}) {
+    SCOPED_TRACE(eps4);
+    const double opts[SBA_OPTSSZ] = {SBA_INIT_MU, 1e-15, 1e-15, 1e-15, eps4};
+    Trace trace;
+    SolveSetup s;
+    s.strategy = "trust-region";
+    s.opts = opts;
+    s.progress = record;
+    s.progress_ctx = &trace;
+    const Outcome o = motstr(pb, s);
+    ASSERT_GT(o.ret, 1);
+    EXPECT_EQ(o.info[6], 4);
+    ASSERT_EQ(trace.errors.size(), size_t(o.ret));
+    std::vector<double> e = {o.info[0]};
+    e.insert(e.end(), trace.errors.begin(), trace.errors.end());
+    const size_t last = e.size() - 1;
+    EXPECT_LE(e[last - 1] - e[last], eps4 * e[last - 1]);
+    for (size_t k = 1; k < last; ++k)
+      if (e[k] < e[k - 1]) EXPECT_GT(e[k - 1] - e[k], eps4 * e[k - 1]) << k;
+  }
+}
+
+// The progress callback sees every trust-region iteration and can stop it (reason 9, p the
+// last accepted estimate).
+TEST(Strategy, TrustRegionProgressAndUserStop) {
+  synth::Problem pb = synth::make(150, 8, 0.5, 0.05, 81);
+  Trace all, stopped;
+  stopped.stop_at = 2;
+  SolveSetup s;
+  s.strategy = "trust-region";
+  s.progress = record;
+  s.progress_ctx = &all;
+  const Outcome full = motstr(pb, s);
+  s.progress_ctx = &stopped;
+  const Outcome o = motstr(pb, s);
+  ASSERT_GT(full.ret, 2);
+  EXPECT_EQ(all.errors.size(), size_t(full.ret));
+  EXPECT_EQ(o.ret, 2);
+  EXPECT_EQ(o.info[6], SBA_STOP_USER);
+  EXPECT_EQ(o.info[1], all.errors[1]);
+}
+
+}  // namespace
