@@ -1,14 +1,17 @@
 // sba_bench: one problem, solved from the same starting point by this library (each linear
-// solver asked for, at each thread count) and by Ceres Solver (Levenberg-Marquardt with
-// DENSE_SCHUR and SPARSE_SCHUR, same camera model, same analytic Jacobian, same parameters),
-// each run in a fresh child process so that its peak RSS is its own.
+// solver and LM strategy asked for, at each thread count) and by Ceres Solver as its users run
+// it (its default Solver::Options but for the linear solver: DENSE_SCHUR, SPARSE_SCHUR or
+// ITERATIVE_SCHUR with SCHUR_JACOBI; same camera model, same analytic Jacobian, same
+// parameters), each run in a fresh child process so that its peak RSS is its own.
 //
 // Reported per run: the wall time of the solve (problem loading excluded; for Ceres the
 // construction of the ceres::Problem is included, as sba builds its own structures inside
 // the call), iterations, time per iteration, initial and final mean squared reprojection
 // error (sum of squared residuals / observations, sba's scale), peak RSS, the ratio to the
-// Ceres DENSE_SCHUR run with the same thread count, and the time at which the run's error
-// first came within (1 + 1e-6) of the best final error over all runs ("time to best").
+// fastest Ceres configuration with the same thread count (and whether the run ended at a
+// worse error than that Ceres run, beyond 1e-6 relative: then it is no win whatever its
+// time), and the time at which the run's error first came within (1 + 1e-6) of the best
+// final error over all runs ("time to best").
 #include <dirent.h>
 #include <dlfcn.h>
 #include <fcntl.h>
@@ -53,8 +56,9 @@ constexpr double kBestTolerance = 1e-6;  // "within 1e-6 relative of the best fi
 
 const char kUsage[] =
     "usage: sba_bench PROBLEM [options]\n"
-    "Solves one bundle adjustment problem with sba (each --solvers name at each --threads\n"
-    "count) and with Ceres (LM, DENSE_SCHUR / SPARSE_SCHUR), each run in a child process.\n"
+    "Solves one bundle adjustment problem with sba (each --solvers name with each --strategy\n"
+    "at each --threads count) and with Ceres at its default options (LM; DENSE_SCHUR,\n"
+    "SPARSE_SCHUR or ITERATIVE_SCHUR + SCHUR_JACOBI), each run in a child process.\n"
     "\n"
     "PROBLEM, one of:\n"
     "  --cams FILE --pts FILE [--calib FILE]   eucsbademo files (calib: fixed K)\n"
@@ -65,7 +69,12 @@ const char kUsage[] =
     "options:\n"
     "  --name LABEL      problem name in the output (default: from the files / the spec)\n"
     "  --solvers LIST    sba linear solvers, comma-separated, or none (default chol)\n"
-    "  --ceres LIST      dense,sparse (default), dense, sparse or none\n"
+    "  --strategy LIST   sba LM strategies, comma-separated (default sba; see\n"
+    "                    sba_strategy_names(): sba, trust-region)\n"
+    "  --ceres LIST      Ceres linear solvers, comma-separated: dense, sparse, iterative, or\n"
+    "                    none (default dense,sparse)\n"
+    "  --ceres-tight     Ceres with function, gradient and parameter tolerances of 1e-12\n"
+    "                    instead of its defaults (a secondary comparison: runs to the end)\n"
     "  --threads LIST    thread counts, comma-separated (default 1,all); all = every hardware\n"
     "                    thread for Ceres, and for sba its default (nthreads 0: as many as the\n"
     "                    problem's size warrants, up to every hardware thread)\n"
@@ -92,7 +101,9 @@ const char kUsage[] =
 struct Options {
   std::string cams, pts, calib, bal, gen, name;
   std::vector<std::string> solvers{"chol"};
+  std::vector<std::string> strategies{"sba"};
   std::vector<std::string> ceres{"dense", "sparse"};
+  bool ceres_tight = false;  // --ceres-tight
   std::vector<int> threads;
   std::vector<char> threads_auto;  // per entry of threads: given as "all"
   int itmax = 150;
@@ -132,6 +143,10 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
       o->avoid_shared_cores = true;
       continue;
     }
+    if (arg == "--ceres-tight") {
+      o->ceres_tight = true;
+      continue;
+    }
     if (arg == "--no-fork") {
       o->fork = false;
       continue;
@@ -152,6 +167,7 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
     else if (arg == "--gen") o->gen = v;
     else if (arg == "--name") o->name = v;
     else if (arg == "--solvers") o->solvers = v == "none" ? std::vector<std::string>{} : split(v);
+    else if (arg == "--strategy") o->strategies = split(v);
     else if (arg == "--ceres") o->ceres = v == "none" ? std::vector<std::string>{} : split(v);
     else if (arg == "--threads") threads = v;
     else if (arg == "--out") o->out = v;
@@ -190,8 +206,17 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
     return false;
   }
   for (const std::string &c : o->ceres)
-    if (c != "dense" && c != "sparse") {
-      *error = "--ceres: unknown '" + c + "' (dense, sparse or none)";
+    if (c != "dense" && c != "sparse" && c != "iterative") {
+      *error = "--ceres: unknown '" + c + "' (dense, sparse, iterative or none)";
+      return false;
+    }
+  if (o->strategies.empty()) {
+    *error = "--strategy: no strategy";
+    return false;
+  }
+  for (const std::string &s : o->strategies)
+    if (!sba_strategy_valid(s.c_str())) {
+      *error = "--strategy: unknown strategy '" + s + "' (known: " + sba_strategy_names() + ")";
       return false;
     }
   for (const std::string &s : o->solvers)
@@ -233,12 +258,17 @@ enum class Engine { Sba, Ceres };
 
 struct RunSpec {
   Engine engine;
-  std::string solver;  // sba linsolver name, or "DENSE_SCHUR" / "SPARSE_SCHUR"
+  std::string solver;  // sba linsolver name, or "DENSE_SCHUR" / "SPARSE_SCHUR" / "ITERATIVE_SCHUR"
   int threads;       // Ceres's threads; sba's unless auto_threads
   bool auto_threads;  // sba: nthreads 0, the library's choice of at most `threads`
   int blas_threads;  // 0: as the BLAS decides
   bool avoid_shared_cores = false;  // sba: what the library runs with (flag or environment)
-  std::string label() const { return (engine == Engine::Sba ? "sba " : "ceres ") + solver; }
+  std::string strategy = "sba";     // sba: the LM strategy
+  bool ceres_tight = false;         // Ceres: tolerances 1e-12 instead of its defaults
+  std::string label() const {
+    if (engine == Engine::Ceres) return "ceres " + solver + (ceres_tight ? " tight" : "");
+    return "sba " + solver + (strategy == "sba" ? "" : " " + strategy);
+  }
 };
 
 // What a child sends back: plain data, then ntrace (seconds, ||e||^2) pairs.
@@ -359,6 +389,7 @@ void run_sba(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunRes
   sba_ext_options ext;
   sba_ext_options_init(&ext);
   ext.linsolver = spec.solver.c_str();
+  ext.strategy = spec.strategy.c_str();
   ext.nthreads = spec.auto_threads ? 0 : spec.threads;
   sba_ext_result res;
   sba_ext_result_init(&res);
@@ -470,17 +501,26 @@ void run_ceres(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunR
   for (std::size_t j = 0; j < m; ++j) ordering->AddElementToGroup(p.data() + j * cnp, 1);
   r->setup_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
+  // Ceres's defaults (Levenberg-Marquardt, its tolerances and trust-region settings) but for
+  // what a bundle adjustment user sets: the linear solver, the threads, the iteration limit
+  // and the points-first elimination order.
   ceres::Solver::Options o;
-  o.minimizer_type = ceres::TRUST_REGION;
-  o.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  o.linear_solver_type = spec.solver == "DENSE_SCHUR" ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+  if (spec.solver == "DENSE_SCHUR") {
+    o.linear_solver_type = ceres::DENSE_SCHUR;
+  } else if (spec.solver == "SPARSE_SCHUR") {
+    o.linear_solver_type = ceres::SPARSE_SCHUR;
+  } else {
+    o.linear_solver_type = ceres::ITERATIVE_SCHUR;
+    o.preconditioner_type = ceres::SCHUR_JACOBI;
+  }
   o.linear_solver_ordering = ordering;
   o.num_threads = spec.threads;
   o.max_num_iterations = itmax;
-  o.function_tolerance = 1e-12;
-  o.gradient_tolerance = 1e-12;
-  o.parameter_tolerance = 1e-12;
-  o.max_solver_time_in_seconds = 1e9;
+  if (spec.ceres_tight) {
+    o.function_tolerance = 1e-12;
+    o.gradient_tolerance = 1e-12;
+    o.parameter_tolerance = 1e-12;
+  }
   o.logging_type = ceres::SILENT;
   o.minimizer_progress_to_stdout = false;
   TraceCallback cb(trace, r->setup_seconds);
@@ -724,10 +764,22 @@ struct ProblemFacts {
   long long program_anon = -1;
 };
 
-const Run *find_run(const std::vector<Run> &runs, Engine e, const std::string &solver, int threads) {
+const Run *find_sba(const std::vector<Run> &runs, const std::string &solver, int threads) {
   for (const Run &r : runs)
-    if (r.spec.engine == e && r.spec.solver == solver && r.spec.threads == threads && r.r.ok) return &r;
+    if (r.spec.engine == Engine::Sba && r.spec.solver == solver && r.spec.strategy == "sba" &&
+        r.spec.threads == threads && r.r.ok)
+      return &r;
   return nullptr;
+}
+
+// The peer a run is compared with: the fastest Ceres configuration at the same thread count.
+const Run *best_ceres(const std::vector<Run> &runs, int threads) {
+  const Run *best = nullptr;
+  for (const Run &r : runs)
+    if (r.spec.engine == Engine::Ceres && r.spec.threads == threads && r.r.ok &&
+        (!best || r.r.seconds < best->r.seconds))
+      best = &r;
+  return best;
 }
 
 double ratio(double a, double b) { return (std::isfinite(a) && std::isfinite(b) && b > 0) ? a / b : NAN; }
@@ -794,9 +846,12 @@ int bench_main(int argc, char **argv) {
     const int t = o.threads[k];
     const bool all = o.threads_auto[k] != 0;
     const int bt = o.blas_same && blas_settable ? t : 0;
-    for (const std::string &s : o.solvers) specs.push_back({Engine::Sba, s, t, all, bt, avoid});
-    for (const std::string &c : o.ceres)
-      specs.push_back({Engine::Ceres, c == "dense" ? "DENSE_SCHUR" : "SPARSE_SCHUR", t, all, bt});
+    for (const std::string &s : o.solvers)
+      for (const std::string &st : o.strategies) specs.push_back({Engine::Sba, s, t, all, bt, avoid, st});
+    for (const std::string &c : o.ceres) {
+      const char *name = c == "dense" ? "DENSE_SCHUR" : c == "sparse" ? "SPARSE_SCHUR" : "ITERATIVE_SCHUR";
+      specs.push_back({Engine::Ceres, name, t, all, bt, false, "", o.ceres_tight});
+    }
   }
 
   // Rounds of every configuration rather than N runs of one after another, so that a slow
@@ -850,12 +905,14 @@ int bench_main(int argc, char **argv) {
       }
   }
 
-  std::printf("  best final MSE %.8g; ratios are to Ceres DENSE_SCHUR with the same threads "
-              "(time, time to best), per-iteration ratio to sba chol\n",
-              best / nobs);
-  std::printf("  %-18s %3s %-26s %5s %6s %9s %9s %11s %11s %9s %8s %9s %9s %8s\n", "run", "thr", "status",
-              "iters", "linsys", "time[s]", "ms/iter", "init MSE", "final MSE", "RSS[MB]", "vsCerD", "ttb[s]",
-              "ttbvsCerD", "it/chol");
+  std::printf("  best final MSE %.8g; vsCer: time and time to best against the fastest Ceres run\n"
+              "  with the same threads; '!' after it: the run ended at a worse error than that Ceres\n"
+              "  run (beyond %g relative), no win whatever its time; it/chol: time per iteration\n"
+              "  against sba chol\n",
+              best / nobs, kBestTolerance);
+  std::printf("  %-30s %3s %-26s %5s %6s %9s %9s %11s %11s %9s %9s %9s %9s %8s\n", "run", "thr", "status",
+              "iters", "linsys", "time[s]", "ms/iter", "init MSE", "final MSE", "RSS[MB]", "vsCer", "ttb[s]",
+              "ttbvsCer", "it/chol");
   FILE *out = nullptr;
   if (!o.out.empty()) {
     out = std::fopen(o.out.c_str(), "a");
@@ -867,18 +924,20 @@ int bench_main(int argc, char **argv) {
   for (const Run &r : runs) {
     const RunResult &x = r.r;
     const double per_iter = x.ok && x.iterations > 0 ? x.seconds / x.iterations : NAN;
-    const Run *cd = find_run(runs, Engine::Ceres, "DENSE_SCHUR", r.spec.threads);
-    const Run *chol = find_run(runs, Engine::Sba, "chol", r.spec.threads);
+    const Run *cd = best_ceres(runs, r.spec.threads);
+    const Run *chol = find_sba(runs, "chol", r.spec.threads);
     const double vs_cd = x.ok && cd ? ratio(x.seconds, cd->r.seconds) : NAN;
     const double ttb_vs_cd = x.ok && cd ? ratio(r.ttb, cd->ttb) : NAN;
+    const bool worse = x.ok && cd && x.final_err > cd->r.final_err * (1 + kBestTolerance);
     const double it_vs_chol =
         x.ok && chol && r.spec.engine == Engine::Sba ? ratio(per_iter, chol->r.seconds / chol->r.iterations) : NAN;
     const double peak = x.peak_rss > 0 ? static_cast<double>(x.peak_rss) : static_cast<double>(r.child_maxrss);
-    std::printf("  %-18s %3d %-26.26s %5d %6d %9s %9s %11s %11s %9s %8s %9s %9s %8s\n", r.spec.label().c_str(),
+    std::printf("  %-30s %3d %-26.26s %5d %6d %9s %9s %11s %11s %9s %9s %9s %9s %8s\n", r.spec.label().c_str(),
                 x.threads_used > 0 ? x.threads_used : r.spec.threads, x.status, x.iterations, x.linear_solves, fmt("%.3f", x.ok ? x.seconds : NAN).c_str(),
                 fmt("%.2f", per_iter * 1e3).c_str(), fmt("%.6g", x.ok ? x.init_err / nobs : NAN).c_str(),
                 fmt("%.8g", x.ok ? x.final_err / nobs : NAN).c_str(), fmt("%.1f", peak / 1e6).c_str(),
-                fmt("%.2fx", vs_cd).c_str(), fmt("%.3f", r.ttb).c_str(), fmt("%.2fx", ttb_vs_cd).c_str(),
+                (fmt("%.2fx", vs_cd) + (worse ? "!" : "")).c_str(), fmt("%.3f", r.ttb).c_str(),
+                fmt("%.2fx", ttb_vs_cd).c_str(),
                 fmt("%.2fx", it_vs_chol).c_str());
     if (!out) continue;
     std::string j = "{";
@@ -904,6 +963,8 @@ int bench_main(int argc, char **argv) {
     field("hardware_threads", std::to_string(hardware_threads()));
     field("engine", json_string(r.spec.engine == Engine::Sba ? "sba" : "ceres"));
     field("solver", json_string(r.spec.solver));
+    field("strategy", r.spec.engine == Engine::Sba ? json_string(r.spec.strategy) : "null");
+    field("ceres_tolerances", r.spec.engine == Engine::Ceres ? json_string(r.spec.ceres_tight ? "1e-12" : "default") : "null");
     field("threads", std::to_string(r.spec.threads));
     field("threads_auto", r.spec.auto_threads ? "true" : "false");
     field("threads_used", std::to_string(r.r.threads_used));
@@ -945,9 +1006,12 @@ int bench_main(int argc, char **argv) {
     field("data_peak_bytes",
           json_number(parts ? static_cast<double>(x.peak_rss - x.file_rss_start - facts.program_anon) : NAN));
     field("peak_rss_reset", x.hwm_reset ? "true" : "false");
-    field("ratio_time_vs_ceres_dense", json_number(vs_cd));
+    field("ceres_best_solver", cd ? json_string(cd->spec.solver) : "null");
+    field("ceres_best_final_mse", json_number(cd ? cd->r.final_err / nobs : NAN));
+    field("ratio_time_vs_ceres_best", json_number(vs_cd));
+    field("worse_than_ceres_best", worse ? "true" : "false");
     field("time_to_best_seconds", json_number(r.ttb));
-    field("ratio_time_to_best_vs_ceres_dense", json_number(ttb_vs_cd));
+    field("ratio_time_to_best_vs_ceres_best", json_number(ttb_vs_cd));
     field("ratio_per_iteration_vs_chol", json_number(it_vs_chol));
     std::string tr = "[";
     for (std::size_t k = 0; k < r.trace.size(); ++k)
