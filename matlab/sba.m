@@ -46,6 +46,11 @@ function varargout = sba(varargin)
 %   reftype a string: 'motstr' (default) refines motion and structure, 'mot' motion only
 %           (the points keep their values of p0), 'str' structure only (the cameras keep
 %           their values of p0); case-insensitive
+%   'strategy=NAME'  (beyond sba 1.6; just before or just after reftype) how the
+%           Levenberg-Marquardt iteration damps and stops: 'strategy=sba' (1.6's algorithm,
+%           the default unless the environment variable SBA_STRATEGY says otherwise) or
+%           'strategy=trust-region' (damping scaled by diag(J'J), Ceres-like stopping at a
+%           relative cost change of eps4, 1e-6 when eps4 is 0: usually far fewer iterations)
 %   extra1, extra2, ...  everything after those: problem data passed unchanged to every call
 %           of proj and projac
 %

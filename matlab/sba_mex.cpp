@@ -288,6 +288,7 @@ struct Callback {
 struct Gateway {
   // problem
   RefType reftype = RefType::MotStr;
+  std::string strategy;  // 'strategy=NAME'; empty: the library's (SBA_STRATEGY, else sba)
   int n = 0, ncon = 0, m = 0, mcon = 0, cnp = 0, pnp = 0, mnp = 0, itmax = 0, verbose = 0;
   long long nvis = 0;
   std::vector<char> vmask;
@@ -663,6 +664,19 @@ void parse(Gateway &g, int nrhs, const mxArray *prhs[], std::string *warning) {
           "(tau 1e-03, eps1 to eps3 1e-12, eps4 0).",
           len, SBA_OPTSSZ);
   }
+  // 'strategy=NAME' (beyond 1.6) may come just before or just after reftype; no reftype or
+  // problem data of a 1.6 call begins so.
+  auto strategy_option = [&](int at) {
+    if (at >= nrhs || !mxIsChar(prhs[at])) return false;
+    const std::string v = string_arg(prhs[at]);
+    if (v.compare(0, 9, "strategy=") != 0) return false;
+    g.strategy = v.substr(9);
+    if (!sba_strategy_valid(g.strategy.c_str()))
+      bad_arg("unknownStrategy", format("unknown strategy '%s' (expected one of: %s).",
+                                        g.strategy.c_str(), sba_strategy_names()));
+    return true;
+  };
+  if (strategy_option(k)) ++k;
   if (k < nrhs && mxIsChar(prhs[k])) {
     std::string r = string_arg(prhs[k++]);
     for (char &c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -676,6 +690,7 @@ void parse(Gateway &g, int nrhs, const mxArray *prhs[], std::string *warning) {
       bad_arg("unknownReftype",
               format("unknown reftype '%s' (expected 'motstr', 'mot' or 'str').", r.c_str()));
   }
+  if (g.strategy.empty() && strategy_option(k)) ++k;
   for (; k < nrhs; ++k) g.extra.push_back(prhs[k]);
 
   // Sizes that depend on what came before.
@@ -737,6 +752,7 @@ int solve(Gateway &g, std::vector<double> &p, double info[SBA_INFOSZ]) {
   ext.log_ctx = &g;
   ext.progress = progress;
   ext.progress_ctx = &g;
+  if (!g.strategy.empty()) ext.strategy = g.strategy.c_str();
   const bool jac = g.projac.kind != Callback::kNone;
   double *covx = const_cast<double *>(g.covx), *x = const_cast<double *>(g.x);
   char *vmask = g.vmask.data();

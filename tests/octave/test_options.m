@@ -87,6 +87,31 @@ function test_options()
   end
   printf('verbose output:\n%s', out);
 
+  % 'strategy=trust-region', just before or just after reftype: the same minimum in fewer
+  % iterations; 'strategy=sba' is the default; an unknown name is an argument error.
+  args = {prob.n, 0, prob.m, 0, prob.vmask, prob.p0, 6, 3, prob.x, 2, ['sbaeuc_proj@' lib], ...
+          ['sbaeuc_projac@' lib], 150, 0, [1e-3 1e-12 1e-12 1e-12 0]};
+  [rt, pt, it] = sba(args{:}, 'motstr', 'strategy=trust-region', prob.qr0, prob.cal);
+  [rt2, pt2, it2] = sba(args{:}, 'strategy=trust-region', 'motstr', prob.qr0, prob.cal);
+  [rt3, pt3] = sba(args{:}, 'strategy=trust-region', prob.qr0, prob.cal);
+  printf('strategy=trust-region: %d iterations (sba: %d), error %.9g (sba: %.9g)\n', rt, ret0, ...
+         it(2) / prob.nvis, info0(2) / prob.nvis);
+  sbatest_assert(rt > 0 && rt < ret0 && it(7) == 4 && abs(it(2) / info0(2) - 1) < 1e-6, ...
+                 'strategy=trust-region: %d iterations, reason %d, error %.12g (sba: %d, %.12g)', ...
+                 rt, it(7), it(2), ret0, info0(2));
+  sbatest_assert(rt2 == rt && isequal(pt2, pt) && isequal(it2, it) && rt3 == rt && isequal(pt3, pt), ...
+                 'the place of strategy= changed the result');
+  [rs, ps, is] = sba(args{:}, 'strategy=sba', 'motstr', prob.qr0, prob.cal);
+  sbatest_assert(rs == ret0 && isequal(ps, popt0) && isequal(is, info0), 'strategy=sba is not the default');
+  try
+    sba(args{:}, 'motstr', 'strategy=fast', prob.qr0, prob.cal);
+    sbatest_assert(false, 'strategy=fast was accepted');
+  catch err
+    sbatest_assert(strcmp(err.identifier, 'sba:unknownStrategy') && ...
+                   ~isempty(strfind(err.message, 'unknown strategy ''fast'' (expected one of: sba trust-region)')), ...
+                   'strategy=fast: %s (%s)', err.message, err.identifier);
+  end
+
   % itmax 0: the Jacobian check, no iteration.
   evalc('[ret, popt, info] = sbatest_run(prob, ''itmax'', 0);');
   sbatest_assert(ret == 0 && isequal(popt, prob.p0) && info(1) == info(2), 'itmax 0 iterated');
