@@ -14,6 +14,7 @@
 #include <string>
 
 #include "core.h"
+#include "finite.h"
 #include "step_solver.h"
 #include "sba_export.h"
 
@@ -35,13 +36,6 @@ struct DriverArgs {
   const sba_visibility *vis = nullptr;
   bool simple = false;                  // per-projection callbacks (the simple drivers)
 };
-
-// First non-finite entry of v, or -1.
-i64 first_nonfinite(const double *v, i64 len) {
-  for (i64 k = 0; k < len; ++k)
-    if (!std::isfinite(v[k])) return k;
-  return -1;
-}
 
 // Checks what can be checked before the index exists. Empty string: all good.
 std::string check_scalars(const DriverArgs &a) {
@@ -293,7 +287,7 @@ bool prepare(const DriverArgs &a, const sba_ext_options &ext, const Logger &log,
   return false;
 }
 
-// make_model(Layout&, bool concurrent) -> std::unique_ptr<Model>
+// make_model(const Layout&, bool concurrent) -> std::unique_ptr<Model>
 template <class MakeModel>
 int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
   Summary sum;
@@ -408,7 +402,7 @@ int run_simple(const DriverArgs &a, Proj proj, Jac projac, void *adata,
                                               reinterpret_cast<AnyFn>(projac), adata, tproj, tjac);
   DriverArgs simple = a;
   simple.simple = true;
-  return run_driver(simple, [&](Layout &lay, bool conc) { return make_simple_model(lay, cb, conc); });
+  return run_driver(simple, [&](const Layout &lay, bool conc) { return make_simple_model(lay, cb, conc); });
 }
 
 }  // namespace
@@ -458,7 +452,7 @@ int sba_motstr_covariance_x(const int n, const int ncon, const int m, const int 
   const DriverArgs a{"sba_motstr_covariance_x", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp, vmask,
                      p, x, covx, func != nullptr, 1, 0, nullptr, nullptr, ext};
   return sba::run_covariance(
-      a, req, [&](sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
+      a, req, [&](const sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
 }
 
 int sba_motstr_covariance(const int n, const int ncon, const int m, const int mcon, char *vmask,
@@ -471,7 +465,7 @@ int sba_motstr_covariance(const int n, const int ncon, const int m, const int mc
       sba::simple_callbacks(reinterpret_cast<sba::AnyFn>(proj), reinterpret_cast<sba::AnyFn>(projac),
                             adata, sba::motstr_proj, sba::motstr_jac);
   return sba::run_covariance(a, req,
-                             [&](sba::Layout &lay, bool conc) { return sba::make_simple_model(lay, cb, conc); });
+                             [&](const sba::Layout &lay, bool conc) { return sba::make_simple_model(lay, cb, conc); });
 }
 
 int sba_motstr_levmar_x_ext(const int n, const int ncon, const int m, const int mcon, char *vmask,
@@ -482,7 +476,7 @@ int sba_motstr_levmar_x_ext(const int n, const int ncon, const int m, const int 
   const DriverArgs a{"sba_motstr_levmar_x", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp, vmask, p,
                      x, covx, func != nullptr, itmax, verbose, opts, info, ext};
   return sba::run_driver(
-      a, [&](sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
+      a, [&](const sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
 }
 
 int sba_mot_levmar_x_ext(const int n, const int m, const int mcon, char *vmask, double *p,
@@ -493,7 +487,7 @@ int sba_mot_levmar_x_ext(const int n, const int m, const int mcon, char *vmask, 
   const DriverArgs a{"sba_mot_levmar_x", Mode::Mot, n, 0, m, mcon, cnp, 0, mnp, vmask, p,
                      x, covx, func != nullptr, itmax, verbose, opts, info, ext};
   return sba::run_driver(
-      a, [&](sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
+      a, [&](const sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
 }
 
 int sba_str_levmar_x_ext(const int n, const int ncon, const int m, char *vmask, double *p,
@@ -504,7 +498,7 @@ int sba_str_levmar_x_ext(const int n, const int ncon, const int m, char *vmask, 
   const DriverArgs a{"sba_str_levmar_x", Mode::Str, n, ncon, m, 0, 0, pnp, mnp, vmask, p,
                      x, covx, func != nullptr, itmax, verbose, opts, info, ext};
   return sba::run_driver(
-      a, [&](sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
+      a, [&](const sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
 }
 
 int sba_motstr_levmar_ext(const int n, const int ncon, const int m, const int mcon, char *vmask,
@@ -547,7 +541,7 @@ int sba_motstr_levmar_x_vis(const int n, const int ncon, const int m, const int 
                      nullptr, p, x, covx, func != nullptr, itmax, verbose, opts, info, ext, true,
                      vis};
   return sba::run_driver(
-      a, [&](sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
+      a, [&](const sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
 }
 
 int sba_motstr_levmar_vis(const int n, const int ncon, const int m, const int mcon,

@@ -30,7 +30,6 @@ struct Layout {
   // Where each camera's projections start in the camera-major order (see by_camera()).
   std::vector<int> colptr;
   sba_crsm idx{};  // views rowptr/colidx/val for the callbacks
-  std::vector<int> rcidxs, rcsubs;  // callback scratch, max(n, m) each
 
   i64 nvars() const { return i64(m) * cnp + i64(n) * pnp; }
   i64 a_off(int j) const { return i64(j) * cnp; }

@@ -51,7 +51,7 @@ class ModelThreads {
 // The expert drivers' func/fjac.
 using ExpertFunc = void (*)(double *p, sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx,
                             void *adata);
-std::unique_ptr<Model> make_expert_model(Layout &lay, ExpertFunc func, ExpertFunc fjac,
+std::unique_ptr<Model> make_expert_model(const Layout &lay, ExpertFunc func, ExpertFunc fjac,
                                          void *adata, bool concurrent);
 
 // The simple drivers' per-projection proj/projac, normalized to the motion+structure shape;

@@ -35,8 +35,6 @@ void finish_layout(Layout &lay) {
   lay.idx.val = lay.val.data();
   lay.idx.colidx = lay.colidx.data();
   lay.idx.rowptr = lay.rowptr.data();
-  lay.rcidxs.assign(size_t(std::max(n, m)), 0);
-  lay.rcsubs.assign(size_t(std::max(n, m)), 0);
 }
 
 }  // namespace
@@ -202,8 +200,11 @@ std::vector<int> split_rows(const Layout &lay, int parts) {
 
 class ExpertModel final : public Model {
  public:
-  ExpertModel(Layout &lay, ExpertFunc func, ExpertFunc fjac, void *adata, bool concurrent)
-      : lay_(lay), func_(func), fjac_(fjac), adata_(adata), concurrent_(concurrent) {}
+  // The callbacks get the layout's index (a copy of its view: they take non-const pointers
+  // but only read) and scratch arrays of their own, max(n, m) ints each.
+  ExpertModel(const Layout &lay, ExpertFunc func, ExpertFunc fjac, void *adata, bool concurrent)
+      : lay_(lay), idx_(lay.idx), func_(func), fjac_(fjac), adata_(adata), concurrent_(concurrent),
+        rcidxs_(size_t(std::max(lay.n, lay.m)), 0), rcsubs_(rcidxs_.size(), 0) {}
 
   void use_threads(ThreadPool *pool) override {
     pool_ = concurrent_ && pool && pool->size() > 1 ? pool : nullptr;
@@ -222,11 +223,11 @@ class ExpertModel final : public Model {
       part.rowptr.resize(size_t(lay_.n) + 1);
       const int lo = lay_.rowptr[size_t(rows[size_t(t)])], hi = lay_.rowptr[size_t(rows[size_t(t) + 1])];
       for (int i = 0; i <= lay_.n; ++i) part.rowptr[size_t(i)] = std::min(std::max(lay_.rowptr[size_t(i)], lo), hi);
-      part.idx = lay_.idx;
+      part.idx = idx_;
       part.idx.rowptr = part.rowptr.data();
       if (t == T - 1) continue;
-      part.rcidxs.assign(lay_.rcidxs.size(), 0);
-      part.rcsubs.assign(lay_.rcsubs.size(), 0);
+      part.rcidxs.assign(rcidxs_.size(), 0);
+      part.rcsubs.assign(rcsubs_.size(), 0);
     }
   }
 
@@ -252,7 +253,7 @@ class ExpertModel final : public Model {
         const int first = cams ? lay.mcon : lay.ncon, last = cams ? lay.m : lay.n;
         auto at = [&](int o) { return cams ? lay.a_off(o) + l : lay.b_off(o) + l; };
         for (int o = first; o < last; ++o) pg[size_t(at(o))] += fd_step(p[at(o)]);
-        func_(pg.data(), &lay_.idx, scratch(t).rcidxs.data(), scratch(t).rcsubs.data(),
+        func_(pg.data(), &idx_, scratch(t).rcidxs.data(), scratch(t).rcsubs.data(),
               hxp.data(), adata_);
         for (int o = first; o < last; ++o) pg[size_t(at(o))] = p[at(o)];
         for (int i = 0; i < lay.n; ++i)
@@ -282,13 +283,13 @@ class ExpertModel final : public Model {
     std::vector<int> &rcidxs, &rcsubs;
   };
   Scratch scratch(int t) {
-    if (!pool_ || t == pool_->size() - 1) return Scratch{lay_.rcidxs, lay_.rcsubs};
+    if (!pool_ || t == pool_->size() - 1) return Scratch{rcidxs_, rcsubs_};
     return Scratch{parts_[size_t(t)].rcidxs, parts_[size_t(t)].rcsubs};
   }
 
   void call(ExpertFunc f, double *p, double *out) {
     if (!pool_) {
-      f(p, &lay_.idx, lay_.rcidxs.data(), lay_.rcsubs.data(), out, adata_);
+      f(p, &idx_, rcidxs_.data(), rcsubs_.data(), out, adata_);
       return;
     }
     pool_->run([&](int t) {
@@ -297,10 +298,12 @@ class ExpertModel final : public Model {
     });
   }
 
-  Layout &lay_;
+  const Layout &lay_;
+  sba_crsm idx_;
   ExpertFunc func_, fjac_;
   void *adata_;
   bool concurrent_;
+  std::vector<int> rcidxs_, rcsubs_;  // the calling thread's scratch
   ThreadPool *pool_ = nullptr;
   std::vector<Part> parts_;
 };
@@ -399,7 +402,7 @@ class SimpleModel final : public Model {
 
 }  // namespace
 
-std::unique_ptr<Model> make_expert_model(Layout &lay, ExpertFunc func, ExpertFunc fjac,
+std::unique_ptr<Model> make_expert_model(const Layout &lay, ExpertFunc func, ExpertFunc fjac,
                                          void *adata, bool concurrent) {
   return std::make_unique<ExpertModel>(lay, func, fjac, adata, concurrent);
 }
