@@ -46,6 +46,7 @@
 #include <vector>
 
 #include "dense.h"
+#include "finite.h"
 #include "sba_export.h"
 #include "lapack.h"
 
@@ -81,12 +82,8 @@ Vec to_colmajor(const View &A) {
   return c;
 }
 
-bool all_finite(const double *p, std::size_t n) {
-  for (std::size_t k = 0; k < n; ++k)
-    if (!std::isfinite(p[k])) return false;
-  return true;
-}
-bool all_finite(const Vec &v) { return all_finite(v.data(), v.size()); }
+using sba::all_finite;
+bool all_finite(const Vec &v) { return all_finite(v.data(), std::int64_t(v.size())); }
 
 double dot(const Vec &u, const Vec &v) {
   double s = 0.0;

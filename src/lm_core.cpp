@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core.h"
+#include "finite.h"
 #include "kernels.h"
 #include "step_solver.h"
 #include "strategy.h"
@@ -31,20 +32,7 @@ double sqnorm(ThreadPool &pool, const double *v, i64 len) {
   return deterministic_sum(pool, len, [v](i64 k) { return v[k] * v[k]; });
 }
 
-// x - x is 0 for every finite x and NaN for Inf and NaN, and a NaN stays in a sum: eight
-// independent sums over the array vectorize, where a loop returning at the first non-finite
-// value does not (this runs on every residual vector and step).
-bool all_finite(const double *v, i64 len) {
-  double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-  i64 k = 0;
-  for (; k + 8 <= len; k += 8)
-    for (int q = 0; q < 8; ++q) acc[q] += v[k + q] - v[k + q];
-  for (; k < len; ++k) acc[0] += v[k] - v[k];
-  double s = 0.0;
-  for (double x : acc) s += x;
-  return s == s;
-}
-
+using sba::all_finite;
 bool all_finite(ThreadPool &pool, const double *v, i64 len) {
   return pool.all_ranges(len, [v](int, i64 b, i64 e) { return all_finite(v + b, e - b); });
 }
