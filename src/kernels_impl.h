@@ -11,6 +11,7 @@
 #include <immintrin.h>
 #endif
 
+#include "column_split.h"
 #include "kernels.h"
 #include "step_solver.h"
 #include "small_dense.h"
@@ -260,7 +261,7 @@ class KernelsT final : public Kernels {
         s.gram.resize(size_t(per * (cnp() * cnp() + cnp()) + 7));
       }
     }
-    split_columns(std::max(threads, 1));
+    split_ = split_schur_columns(lay, std::max(threads, 1));
   }
 
   int mnp() const { return M ? M : lay_.mnp; }
@@ -567,99 +568,6 @@ class KernelsT final : public Kernels {
     hi = lo;
     while (hi < r1 && lay.colidx[hi] - lay.mcon < k1) ++hi;
     return true;
-  }
-
-  // What assembling block columns [k0, k1) costs a thread, in multiply-adds: the block
-  // products of those columns, and the W and Y products of each track up to its last entry
-  // in the range, which the thread computes again where an earlier range has them too.
-  // Point i's part, with f its first free entry and [lo, hi) its entries in the range:
-  double track_cost(int f, int lo, int hi) const {
-    const double pair = double(cnp()) * cnp() * pnp(), prod = double(mnp() + pnp()) * pnp() * cnp();
-    const double a = lo - f + 1, b = hi - f;  // entry q2 takes q2 - f + 1 block products
-    return prod * (hi - f) + pair * (a + b) * (b - a + 1) / 2;
-  }
-
-  // columns_cost(k0, b) for every b in [k0, nc] (into before[b]) and columns_cost(b, nc) for
-  // every b in [0, nc] (into after[b], when asked), in one pass over the index: as b moves,
-  // each track's part changes only where b passes one of its cameras.
-  void columns_costs(int k0, std::vector<double> &before, std::vector<double> *after) const {
-    const Layout &lay = lay_;
-    const int nc = lay.free_cams(), cn = cnp(), mcon = lay.mcon;
-    std::vector<double> dbefore(size_t(nc) + 2, 0.0), dafter(size_t(nc) + 2, 0.0);
-    for (int i = lay.ncon; i < lay.n && pnp() > 0; ++i) {
-      const int r1 = lay.rowptr[i + 1];
-      int f = lay.rowptr[i];
-      while (f < r1 && lay.colidx[f] < mcon) ++f;
-      // columns_cost(k0, b): hi grows past entry q when b passes its camera.
-      int lo = f;
-      while (lo < r1 && lay.colidx[lo] - mcon < k0) ++lo;
-      double prev = 0.0;
-      for (int q = lo; q < r1; ++q) {
-        const double c = track_cost(f, lo, q + 1);
-        dbefore[size_t(lay.colidx[q] - mcon + 1)] += c - prev;
-        prev = c;
-      }
-      // columns_cost(b, nc): lo is entry q for b in (camera of q - 1, camera of q].
-      if (after)
-        for (int q = f; q < r1; ++q) {
-          const double c = track_cost(f, q, r1);
-          dafter[size_t(q > f ? lay.colidx[q - 1] - mcon + 1 : 0)] += c;
-          dafter[size_t(lay.colidx[q] - mcon + 1)] -= c;
-        }
-    }
-    before.assign(size_t(nc) + 1, 0.0);
-    double run = 0.0;
-    for (int b = 0; b <= nc; ++b) {
-      run += dbefore[size_t(b)];
-      if (b >= k0) before[size_t(b)] = double(b - k0) * cn * cn + run;
-    }
-    if (after) {
-      after->assign(size_t(nc) + 1, 0.0);
-      run = 0.0;
-      for (int b = 0; b <= nc; ++b) {
-        run += dafter[size_t(b)];
-        (*after)[size_t(b)] = double(nc - b) * cn * cn + run;
-      }
-    }
-  }
-
-  // Block columns of S split over the threads so that their costs (columns_cost) match: each
-  // boundary in turn is the first column where the range before it outweighs the rest shared
-  // by the remaining threads. Each boundary walks the index once, so many threads on a large
-  // problem fall back to a split by block products alone.
-  void split_columns(int threads) {
-    const Layout &lay = lay_;
-    const int nc = lay.free_cams();
-    split_.assign(size_t(threads) + 1, nc);
-    split_[0] = 0;
-    if (threads == 1 || nc == 0) return;
-    if (double(threads) * double(lay.nvis) <= 1e8) {
-      std::vector<double> before, after;
-      for (int t = 0; t + 1 < threads; ++t) {
-        const int k0 = split_[size_t(t)];
-        const double rest = threads - t - 1;
-        columns_costs(k0, before, t == 0 ? &after : nullptr);
-        int k = std::min(k0 + 1, nc);  // k0 == nc: more threads than columns
-        while (k < nc && before[size_t(k)] * rest < after[size_t(k)]) ++k;
-        const auto load = [&](int c) { return std::max(before[size_t(c)], after[size_t(c)] / rest); };
-        split_[size_t(t) + 1] = k - 1 > k0 && load(k - 1) < load(k) ? k - 1 : k;
-      }
-      return;
-    }
-    std::vector<double> work(size_t(nc), 1.0);
-    for (int i = lay.ncon; i < lay.n && lay.pnp > 0; ++i) {
-      int rank = 0;
-      for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k)
-        if (lay.colidx[k] >= lay.mcon) work[size_t(lay.colidx[k] - lay.mcon)] += ++rank;
-    }
-    double total = 0.0;
-    for (double w : work) total += w;
-    double acc = 0.0;
-    int t = 1;
-    for (int k = 0; k < nc && t < threads; ++k) {
-      acc += work[size_t(k)];
-      while (t < threads && acc >= total * t / threads) split_[size_t(t++)] = k + 1;
-    }
   }
 
   const Layout &lay_;

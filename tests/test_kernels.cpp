@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "column_split.h"
 #include "core.h"
 #include "dense.h"
 #include "dense_factorization.h"
@@ -411,3 +412,37 @@ TEST(DenseFactorization, TruncatedCgTakesWhatItsBudgetAllows) {
 }
 
 }  // namespace
+
+// The split of S's block columns among the assembling threads (column_split.cpp). Where every
+// point sees every camera, the range [0, b) costs 54 b (b + 1) + 90 b multiply-adds per point
+// (cnp 6, pnp 3, mnp 2: block products plus the W and Y products of the track) and [b, 40)
+// costs 54 (40 * 41 - b (b + 1)) + 90 * 40 (the later thread recomputes the track's products
+// from its start): equal at b = 28.3, so two threads meet at column 28 or 29, not at 20.
+TEST(ColumnSplit, BalancesTheCostOfTheAssembly) {
+  const int n = 200, m = 40;
+  std::vector<char> vmask(size_t(n) * size_t(m), 1);
+  sba::Layout lay;
+  std::string msg;
+  ASSERT_TRUE(sba::build_layout(lay, sba::Mode::MotStr, n, m, 0, 0, 6, 3, 2, vmask.data(), &msg)) << msg;
+  EXPECT_EQ(sba::split_schur_columns(lay, 1), (std::vector<int>{0, 40}));
+  const std::vector<int> two = sba::split_schur_columns(lay, 2);
+  ASSERT_EQ(two.size(), 3u);
+  EXPECT_EQ(two[0], 0);
+  EXPECT_GE(two[1], 28);
+  EXPECT_LE(two[1], 29);
+  EXPECT_EQ(two[2], 40);
+  // Any thread count: boundaries from 0 to the free cameras, never decreasing, and with more
+  // threads than columns some ranges are empty.
+  for (int mcon : {0, 5})
+    for (int threads : {3, 7, 64}) {
+      sba::Layout fixed;
+      ASSERT_TRUE(sba::build_layout(fixed, sba::Mode::MotStr, n, m, mcon, 0, 6, 3, 2, vmask.data(), &msg));
+      const std::vector<int> s = sba::split_schur_columns(fixed, threads);
+      ASSERT_EQ(s.size(), size_t(threads) + 1);
+      EXPECT_EQ(s.front(), 0);
+      EXPECT_EQ(s.back(), m - mcon);
+      EXPECT_TRUE(std::is_sorted(s.begin(), s.end())) << threads;
+      if (threads < m - mcon)
+        for (int t = 0; t < threads; ++t) EXPECT_LT(s[size_t(t)], s[size_t(t) + 1]) << threads << " " << t;
+    }
+}
