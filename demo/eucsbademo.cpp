@@ -1,6 +1,6 @@
 // eucsbademo: Euclidean bundle adjustment of camera and point files with sba, keeping the
 // command line, file formats and printed lines of sba 1.6's demo
-// (spec: ../shared/spec/EUCSBADEMO.md). Options cover what 1.6 fixed at compile time.
+// (docs/formats.md). Options cover what 1.6 fixed at compile time.
 #include <algorithm>
 #include <array>
 #include <cerrno>

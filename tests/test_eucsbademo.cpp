@@ -3,7 +3,7 @@
 // output, every linear solver, the other drivers and refinements, a round trip through the
 // files it writes) and on bad command lines and bad files; then its option parser directly.
 //
-// Spec: ../shared/spec/EUCSBADEMO.md. Tests that need the shared data skip when it is absent.
+// Formats: docs/formats.md. Tests that need the shared data skip when it is absent.
 //
 // Environment:
 //   SBA_LONG_TESTS=1     also run the slow solver cases (minutes; see "Every linear solver").
