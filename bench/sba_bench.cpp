@@ -545,7 +545,7 @@ bool other_threads_running() {
 
 // openblas_set_num_threads starts OpenBLAS's worker threads in this (forked) child, and
 // each of them spins for about 0.1 s of CPU time before it sleeps. A run started at once
-// would share the cores with them (a 1-thread 54cams run used 2.0x its wall time in CPU).
+// would share the cores with them, and a 1-thread run would use more than one core.
 // Real programs meet those threads asleep unless they have just called the BLAS, so the
 // run waits (at most a second) until they are.
 void wait_for_idle_threads() {

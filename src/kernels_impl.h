@@ -514,7 +514,7 @@ class KernelsT final : public Kernels {
   // (V_i + mu I)^-1 of the points pts[0 .. count) (count <= kBatch) into out: from
   // Vinv, or made in sc (null where not positive definite). Made together, their square
   // roots and divisions overlap (3x3 blocks: four to a vector); made as each point's turn
-  // came, every point waited for its own (6% of a 54cams solve at 1 thread).
+  // came, every point would wait for its own (kernels_benchmark's Solve1 shows the cost).
   void point_inverses(const double *Vinv, const double *V, double mu, const int *pts, int count, Scratch &sc,
                       const double **out) const {
     if constexpr (P == 3) {
