@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "cli.h"
+
 namespace eucsba {
 
 // 1.6's "howto": what is refined.
@@ -44,8 +46,8 @@ struct DemoOptions {
 // With --help or --version it returns true without requiring the file arguments.
 bool parse_command_line(int argc, const char *const *argv, DemoOptions *options, std::string *error);
 
-// Largest --threads value accepted.
-constexpr int kMaxThreads = 256;
+// Largest --threads value accepted (the same in every program).
+constexpr int kMaxThreads = sbacli::kMaxThreads;
 
 // True when name is one of the space-separated names of sba_linsolver_names().
 bool is_linsolver_name(const std::string &name);

@@ -1454,7 +1454,7 @@ TEST(DemoOptions, Errors) {
       {{"-v", "c", "p"}, "unknown option '-v' (options are long: see --help)"},
       {{"c", "p", "--itmax"}, "option '--itmax' needs a value (N)"},
       {{"--help=yes"}, "option '--help' takes no value"},
-      {{"--refine=all", "c", "p"}, "bad value 'all' for --refine: expected motstr, mot, str or mot-motstr"},
+      {{"--refine=all", "c", "p"}, "bad value 'all' for --refine: expected one of: motstr, mot, str, mot-motstr"},
       {{"--itmax=-1", "c", "p"}, "bad value '-1' for --itmax: expected an integer >= 0"},
       {{"--nccalib=6", "c", "p"}, "bad value '6' for --nccalib: expected an integer from 0 to 5"},
       {{"--tau=0", "c", "p"}, "bad value '0' for --tau: expected a positive number"},
