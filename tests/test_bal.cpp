@@ -600,6 +600,29 @@ TEST(BalSba, UnderdeterminedProblemIsOneClearError) {
   EXPECT_EQ(o.out, "");
 }
 
+// Holding the first cameras fixed (--mcon) fixes the gauge of a problem that has fewer
+// observations than parameters; the fixed cameras come back unchanged.
+TEST(BalSba, FixedCamerasMakeAnUnderdeterminedProblemSolvable) {
+  const std::string path = bal_dir() + "/dubrovnik-3-7-pre.txt.bz2";
+  REQUIRE_FILE(path);
+  const std::string written = temp_path("refined-dubrovnik.txt");
+  std::remove(written.c_str());
+  const Output o = run_balsba(path + " --mcon=2 --solver chol --threads=1 --no-progress --write " + written);
+  ASSERT_EQ(o.status, 0) << o.err;
+  EXPECT_NE(o.out.find("3 cameras, 7 points, 19 observations, 48 variables\nSolver chol, 1 thread\n"),
+            std::string::npos)
+      << o.out;
+  bal::Problem before, after;
+  std::string error;
+  ASSERT_TRUE(bal::read_problem(path, &before, &error)) << error;
+  ASSERT_TRUE(bal::read_problem(written, &after, &error)) << error;
+  ASSERT_EQ(after.cameras.size(), before.cameras.size());
+  for (std::size_t k = 0; k < 2 * 9; ++k) EXPECT_EQ(after.cameras[k], before.cameras[k]) << k;
+  EXPECT_NE(std::vector<double>(after.cameras.begin() + 18, after.cameras.end()),
+            std::vector<double>(before.cameras.begin() + 18, before.cameras.end()));
+  EXPECT_EQ(run_balsba(path + " --mcon=4").err, "balsba: --mcon 4 is more than the 3 cameras\n");
+}
+
 TEST(BalSba, SolvesAndWrites) {
   const std::string path = bal_dir() + "/problem-49-7776-pre.txt.bz2";
   REQUIRE_FILE(path);
