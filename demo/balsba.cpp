@@ -18,6 +18,7 @@
 #include "bal_model.h"
 #include "cli.h"
 #include "output_file.h"
+#include "run_control.h"
 #include "sba.h"
 #include "sba_ext.h"
 #include "tty_progress.h"
@@ -39,6 +40,7 @@ struct Options {
   std::string loss;  // empty: least squares
   double loss_scale = 1.0;
   bool progress = true;
+  double max_time = 0;  // 0: no limit
   bool help = false, version = false;
 };
 
@@ -70,6 +72,11 @@ std::vector<sbacli::Option> option_table(Options &o) {
                [&o](const std::string &v) { return sbacli::to_real(v, 0.0, true, &o.loss_scale); }});
   t.push_back({"write", "OUT", "write the refined problem in BAL format (OUT ending in .bz2: compressed)",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }});
+  t.push_back({"max-time", "SECONDS",
+               "stop after the iteration that ends past SECONDS; the results are then the last\n"
+               "accepted estimate. SIGINT (Ctrl-C) or SIGTERM stop the same way, with exit status 130\n"
+               "or 143; a second one ends the program at once",
+               [&o](const std::string &v) { return sbacli::to_seconds(v, &o.max_time); }});
   t.push_back({"no-progress", "", "no progress line (shown on stderr when it is a terminal)",
                [&o](const std::string &) -> std::string {
                  o.progress = false;
@@ -110,7 +117,8 @@ void print_usage(std::FILE *out) {
       "\n"
       "Prints the sizes, the initial and final mean squared reprojection error (pixels^2 per\n"
       "observation), iterations, stop reason, evaluations and the solve time.\n"
-      "Exit status: 0 done, 1 a file cannot be read or written or the solver fails, 2 bad options.\n",
+      "Exit status: 0 done (--max-time included), 1 a file cannot be read or written or the solver\n"
+      "fails, 2 bad options, 130 (SIGINT) or 143 (SIGTERM) when a signal stopped the solve.\n",
       out);
 }
 
@@ -190,7 +198,9 @@ int bal_main(int argc, char **argv) {
   std::array<double, SBA_INFOSZ> info{};
   const int nobs = s.nobservations();
   sbademo::TtyProgress progress(o.progress, nobs);
-  progress.attach(&ext);
+  sbademo::RunControl control(o.max_time, &progress);
+  sbademo::RunControl::catch_signals();
+  control.attach(&ext);
   const auto start = std::chrono::steady_clock::now();
   const int ret = sba_motstr_levmar_x_ext(s.n, o.ncon, s.m, o.mcon, s.vmask.data(), s.p.data(), bal::kCameraParams,
                                           bal::kPointParams, s.x.data(), nullptr, bal::kMeasurementParams,
@@ -230,6 +240,18 @@ int bal_main(int argc, char **argv) {
                 o.loss.c_str(), o.loss_scale, result.sq_error_final / nobs, result.sq_error_initial / nobs,
                 result.outliers_final);
   if (!o.write.empty()) std::printf("Wrote %s\n", o.write.c_str());
+  // A stopped solve is a result (written above), but the status says it was cut short by a
+  // signal; a time limit the user set is an ordinary end.
+  if (info[6] == SBA_STOP_USER) {
+    const int iterations = static_cast<int>(info[5]);
+    if (control.stop_signal() != 0) {
+      std::fprintf(stderr, "balsba: interrupted by %s after iteration %d: the results are the last accepted estimate\n",
+                   control.stop_signal() == SIGINT ? "SIGINT" : "SIGTERM", iterations);
+      return 128 + control.stop_signal();
+    }
+    std::fprintf(stderr, "balsba: --max-time %g s reached after iteration %d: the results are the last accepted estimate\n",
+                 o.max_time, iterations);
+  }
   return 0;
 }
 

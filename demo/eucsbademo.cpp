@@ -16,7 +16,9 @@
 #include "eucsba_io.h"
 #include "eucsba_model.h"
 #include "eucsbademo_options.h"
+#include "cli.h"
 #include "output_file.h"
+#include "run_control.h"
 #include "sba.h"
 #include "sba_ext.h"
 #include "tty_progress.h"
@@ -24,8 +26,8 @@
 namespace eucsba {
 namespace {
 
-constexpr int kExitFailure = 1;  // unreadable input, failed write, solver failure
-constexpr int kExitUsage = 2;    // bad command line
+using sbacli::kExitFailure;
+using sbacli::kExitUsage;
 
 // 1.6 switches to motion and structure when motion alone leaves more than this mean squared
 // error (pixels^2).
@@ -36,6 +38,7 @@ struct Solve {
   const DemoOptions &options;
   const CameraModel &model;
   PointSet &points;  // sba takes x, covx and vmask as non-const pointers
+  sbademo::RunControl &control;  // progress, Ctrl-C, --max-time
 };
 
 struct Outcome {
@@ -91,8 +94,7 @@ Outcome run(const Solve &s, Refinement refinement, int itmax) {
   }
   ext.result = &out.result;
   sba_ext_result_init(&out.result);
-  sbademo::TtyProgress progress(o.progress, s.points.nprojections());
-  progress.attach(&ext);
+  s.control.attach(&ext);
 
   if (o.expert) {
     const ExpertCallbacks cb = expert_callbacks(s.model.kind(), refinement);
@@ -304,7 +306,10 @@ int demo_main(int argc, char **argv) {
   const CameraModel model(problem.kind, problem.cameras, points.xyz, o.nccalib, o.ncdist);
   std::fprintf(stderr, "%s\n", kind_banner(problem.kind));
 
-  const Solve solve{o, model, points};
+  sbademo::TtyProgress progress(o.progress, nprojs);
+  sbademo::RunControl control(o.max_time, &progress);
+  sbademo::RunControl::catch_signals();
+  const Solve solve{o, model, points, control};
   const auto start = std::chrono::steady_clock::now();
   Outcome out;
   switch (o.refine) {
@@ -317,15 +322,17 @@ int demo_main(int argc, char **argv) {
       break;
     case RefineMode::MotionThenMotionStructure:
       out = run(solve, Refinement::Motion, itmax_for(o, Refinement::Motion));
-      if (out.ret != SBA_ERROR && out.info[1] / nprojs > kMotionOnlyErrorLimit) {
+      if (out.ret != SBA_ERROR && !control.stop_requested() && out.info[1] / nprojs > kMotionOnlyErrorLimit) {
         if (o.verbose > 0)
           std::fprintf(stderr, "motion only left a mean squared error of %g: refining motion and structure\n",
                        out.info[1] / nprojs);
+        control.next_solve();
         out = run(solve, Refinement::MotionStructure, itmax_for(o, Refinement::MotionStructure));
       }
       break;
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  progress.finish();
 
   if (out.ret == SBA_ERROR) {
     std::fprintf(stderr, "eucsbademo: %s failed (SBA_ERROR): no result\n",
@@ -380,6 +387,18 @@ int demo_main(int argc, char **argv) {
                 o.loss.c_str(), o.loss_scale, out.result.sq_error_final / nprojs,
                 out.result.sq_error_initial / nprojs, out.result.outliers_final);
 
+  // A stopped solve is a result (written above), but the status says it was cut short by a
+  // signal; a time limit the user set is an ordinary end.
+  if (out.info[6] == SBA_STOP_USER) {
+    const int iterations = static_cast<int>(out.info[5]);
+    if (control.stop_signal() != 0) {
+      std::fprintf(stderr, "eucsbademo: interrupted by %s after iteration %d: the results are the last accepted estimate\n",
+                   control.stop_signal() == SIGINT ? "SIGINT" : "SIGTERM", iterations);
+      return 128 + control.stop_signal();
+    }
+    std::fprintf(stderr, "eucsbademo: --max-time %g s reached after iteration %d: the results are the last accepted estimate\n",
+                 o.max_time, iterations);
+  }
   return 0;
 }
 

@@ -76,6 +76,11 @@ std::vector<sbacli::Option> option_table(DemoOptions &o) {
                [&o](const std::string &v) { return sbacli::to_loss(v, &o.loss); }});
   t.push_back({"loss-scale", "S", "scale of the robust loss, in pixels (default 1)",
                [&o](const std::string &v) { return sbacli::to_real(v, 0.0, true, &o.loss_scale); }});
+  t.push_back({"max-time", "SECONDS",
+               "stop after the iteration that ends past SECONDS (as Ceres's max_solver_time_in_seconds);\n"
+               "the results are then the last accepted estimate. SIGINT (Ctrl-C) or SIGTERM stop the same\n"
+               "way, with exit status 130 or 143; a second one ends the program at once",
+               [&o](const std::string &v) { return sbacli::to_seconds(v, &o.max_time); }});
   t.push_back({"no-progress", "",
                "no one-line progress display (shown on stderr for runs over half a second when stderr is\n"
                "a terminal)",
@@ -145,8 +150,9 @@ void print_usage(std::FILE *out) {
   std::fputs(
       "\n"
       "Output: a 'Starting BA ...' line on stderr, then the sba 1.6 summary on stdout.\n"
-      "Exit status: 0 on success, 1 if a file cannot be read or written or the solver fails,\n"
-      "2 for a bad command line.\n",
+      "Exit status: 0 on success (--max-time included), 1 if a file cannot be read or written or\n"
+      "the solver fails, 2 for a bad command line, 130 (SIGINT) or 143 (SIGTERM) when a signal\n"
+      "stopped the solve.\n",
       out);
 }
 

@@ -36,6 +36,7 @@ struct DemoOptions {
   std::string loss;             // robust loss (sba_ext.h names); empty: least squares
   double loss_scale = 1.0;      // its scale, in pixels
   bool progress = true;         // one-line progress on stderr when it is a terminal
+  double max_time = 0;          // stop after the iteration that ends past this many seconds; 0: none
   std::string write_stddev;     // per-camera and per-point standard deviations; empty: none
   std::string write_cams, write_pts, write_pts_tracks;  // empty: not written
   std::vector<std::string> files;  // cams.txt pts.txt [calib.txt]
