@@ -18,6 +18,7 @@
 #include "bal_model.h"
 #include "cli.h"
 #include "output_file.h"
+#include "report.h"
 #include "run_control.h"
 #include "sba.h"
 #include "sba_ext.h"
@@ -41,6 +42,7 @@ struct Options {
   double loss_scale = 1.0;
   bool progress = true;
   double max_time = 0;  // 0: no limit
+  std::string json;     // the run as one JSON object; empty: not written
   bool help = false, version = false;
 };
 
@@ -77,6 +79,10 @@ std::vector<sbacli::Option> option_table(Options &o) {
                "accepted estimate. SIGINT (Ctrl-C) or SIGTERM stop the same way, with exit status 130\n"
                "or 143; a second one ends the program at once",
                [&o](const std::string &v) { return sbacli::to_seconds(v, &o.max_time); }});
+  t.push_back({"json", "FILE",
+               "write the run as one JSON object: sizes, options, every info[] value, the error and\n"
+               "time of every iteration, and each camera's observations and RMS reprojection error",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.json); }});
   t.push_back({"no-progress", "", "no progress line (shown on stderr when it is a terminal)",
                [&o](const std::string &) -> std::string {
                  o.progress = false;
@@ -115,8 +121,9 @@ void print_usage(std::FILE *out) {
   std::fprintf(out, "\nLinear solvers (--solver): %s\n", sba_linsolver_names());
   std::fputs(
       "\n"
-      "Prints the sizes, the initial and final mean squared reprojection error (pixels^2 per\n"
-      "observation), iterations, stop reason, evaluations and the solve time.\n"
+      "Prints the sizes, sba 1.6's summary (mean squared reprojection error in pixels^2 per\n"
+      "observation, iterations, stop reason, evaluations, the solve time), then the RMS\n"
+      "reprojection error in pixels, the stop reason in words, the solver and threads used.\n"
       "Exit status: 0 done (--max-time included), 1 a file cannot be read or written or the solver\n"
       "fails, 2 bad options, 130 (SIGINT) or 143 (SIGTERM) when a signal stopped the solve.\n",
       out);
@@ -152,11 +159,12 @@ int bal_main(int argc, char **argv) {
     std::printf("%s\n", sbacli::version_line("balsba").c_str());
     return 0;
   }
-  // OUT must be writable before a long solve.
-  if (!o.write.empty() && !sbademo::probe_writable(o.write, &error)) {
-    std::fprintf(stderr, "%s: %s\n", o.write.c_str(), error.c_str());
-    return kExitFailure;
-  }
+  // The output files must be writable before a long solve.
+  for (const std::string *path : {&o.write, &o.json})
+    if (!path->empty() && !sbademo::probe_writable(*path, &error)) {
+      std::fprintf(stderr, "%s: %s\n", path->c_str(), error.c_str());
+      return kExitFailure;
+    }
 
   const auto read_start = std::chrono::steady_clock::now();
   bal::Problem problem;
@@ -226,8 +234,6 @@ int bal_main(int argc, char **argv) {
                           static_cast<long long>(s.n) * bal::kPointParams;
   std::printf("BAL problem %s: %d cameras, %d points, %d observations, %lld variables\n", o.file.c_str(),
               s.m, s.n, nobs, nvars);
-  std::printf("Solver %s, %d thread%s\n", result.linsolver ? result.linsolver : "?", result.nthreads,
-              result.nthreads == 1 ? "" : "s");
   std::printf("\nSBA returned %d in %g iter, reason %g, error %g [initial %g], %d/%d func/fjac evals, "
               "%d lin. systems\n",
               ret, info[5], info[6], info[1] / nobs, info[0] / nobs, static_cast<int>(info[7]),
@@ -239,6 +245,50 @@ int bal_main(int argc, char **argv) {
                 "[initial %g], %lld observations beyond the scale\n",
                 o.loss.c_str(), o.loss_scale, result.sq_error_final / nobs, result.sq_error_initial / nobs,
                 result.outliers_final);
+
+  sbademo::Report report;
+  report.program = "balsba";
+  report.inputs = {o.file};
+  report.cameras = s.m;
+  report.points = s.n;
+  report.observations = nobs;
+  report.variables = nvars;
+  report.solver_requested = o.solver;
+  report.threads_requested = o.threads;
+  report.itmax = o.itmax;
+  report.opts = o.opts;
+  report.loss = o.loss;
+  report.loss_scale = o.loss_scale;
+  report.mcon = o.mcon;
+  report.ncon = o.ncon;
+  report.max_time = o.max_time;
+  report.ret = ret;
+  report.info = info;
+  report.result = result;
+  report.seconds = seconds;
+  report.iterations = control.iterations();
+  sbademo::print_report(stdout, report);
+  if (!o.json.empty()) {
+    // Each camera's squared pixel distances at the result.
+    report.per_camera.resize(static_cast<std::size_t>(s.m));
+    const double *points = s.p.data() + static_cast<std::size_t>(s.m) * bal::kCameraParams;
+    std::size_t k = 0;
+    for (int i = 0; i < s.n; ++i)
+      for (int j = 0; j < s.m; ++j) {
+        if (!s.vmask[static_cast<std::size_t>(i) * s.m + j]) continue;
+        double x[2];
+        bal::project(s.p.data() + static_cast<std::size_t>(j) * bal::kCameraParams,
+                     points + static_cast<std::size_t>(i) * bal::kPointParams, x);
+        const double dx = x[0] - s.x[2 * k], dy = x[1] - s.x[2 * k + 1];
+        report.per_camera[static_cast<std::size_t>(j)].observations += 1;
+        report.per_camera[static_cast<std::size_t>(j)].sum_sq += dx * dx + dy * dy;
+        ++k;
+      }
+    if (!sbademo::write_json(o.json, report, &error)) {
+      std::fprintf(stderr, "%s: %s\n", o.json.c_str(), error.c_str());
+      return kExitFailure;
+    }
+  }
   if (!o.write.empty()) std::printf("Wrote %s\n", o.write.c_str());
   // A stopped solve is a result (written above), but the status says it was cut short by a
   // signal; a time limit the user set is an ordinary end.

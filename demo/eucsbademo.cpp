@@ -18,6 +18,7 @@
 #include "eucsbademo_options.h"
 #include "cli.h"
 #include "output_file.h"
+#include "report.h"
 #include "run_control.h"
 #include "sba.h"
 #include "sba_ext.h"
@@ -254,6 +255,30 @@ Status stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &poi
   return {};
 }
 
+// Each camera's observations and squared pixel distances at the result (cameras and points
+// a refinement left alone at their initial values).
+std::vector<sbademo::CameraResidual> camera_residuals(const CameraModel &model, const PointSet &points,
+                                                      const Outcome &out) {
+  const int n = points.npoints(), m = points.ncameras, cnp = model.cnp();
+  const bool has_cams = out.refinement != Refinement::Structure;
+  const bool has_pts = out.refinement != Refinement::Motion;
+  const double *pts = has_pts ? out.p.data() + (has_cams ? std::size_t(m) * cnp : 0) : nullptr;
+  std::vector<sbademo::CameraResidual> per_camera(static_cast<std::size_t>(m));
+  std::size_t k = 0;  // measurement ordinal: point by point, cameras ascending
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j) {
+      if (!points.vmask[std::size_t(i) * m + j]) continue;
+      double x[kMeasurementParams];
+      model.project(j, has_cams ? out.p.data() + std::size_t(j) * cnp : model.initial_camera(j),
+                    pts ? pts + std::size_t(i) * kPointParams : model.initial_point(i), x);
+      const double dx = x[0] - points.x[2 * k], dy = x[1] - points.x[2 * k + 1];
+      per_camera[size_t(j)].observations += 1;
+      per_camera[size_t(j)].sum_sq += dx * dx + dy * dy;
+      ++k;
+    }
+  return per_camera;
+}
+
 // Writes text to path as a whole (see output_file.h).
 Status write_text(const std::string &path, const std::string &text) {
   sbademo::OutputFile f;
@@ -296,7 +321,7 @@ int demo_main(int argc, char **argv) {
     return kExitUsage;
   }
 
-  for (const std::string *path : {&o.write_cams, &o.write_pts, &o.write_pts_tracks, &o.write_stddev}) {
+  for (const std::string *path : {&o.write_cams, &o.write_pts, &o.write_pts_tracks, &o.write_stddev, &o.json}) {
     if (Status s = check_writable(*path); !s) {
       std::fprintf(stderr, "%s\n", s.to_string().c_str());
       return kExitFailure;
@@ -386,6 +411,37 @@ int demo_main(int argc, char **argv) {
                 "[initial %g], %lld projections beyond the scale\n",
                 o.loss.c_str(), o.loss_scale, out.result.sq_error_final / nprojs,
                 out.result.sq_error_initial / nprojs, out.result.outliers_final);
+
+  sbademo::Report report;
+  report.program = "eucsbademo";
+  report.inputs = o.files;
+  report.cameras = m;
+  report.points = n;
+  report.observations = nprojs;
+  report.variables = nvars;
+  report.solver_requested = o.linsolver;
+  report.threads_requested = o.nthreads;
+  report.itmax = itmax_for(o, out.refinement);
+  report.opts = o.opts;
+  report.loss = o.loss;
+  report.loss_scale = o.loss_scale;
+  report.mcon = o.mcon;
+  report.ncon = o.ncon;
+  report.max_time = o.max_time;
+  report.ret = out.ret;
+  report.info = out.info;
+  report.result = out.result;
+  report.seconds = seconds;
+  report.iterations = control.iterations();
+  sbademo::print_report(stdout, report);
+  if (!o.json.empty()) {
+    report.per_camera = camera_residuals(model, points, out);
+    std::string why;
+    if (!sbademo::write_json(o.json, report, &why)) {
+      std::fprintf(stderr, "%s: %s\n", o.json.c_str(), why.c_str());
+      return kExitFailure;
+    }
+  }
 
   // A stopped solve is a result (written above), but the status says it was cut short by a
   // signal; a time limit the user set is an ordinary end.

@@ -102,6 +102,10 @@ std::vector<sbacli::Option> option_table(DemoOptions &o) {
                "write the refined points with their projections, in the input points format (a new\n"
                "pts.txt to restart from)",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_pts_tracks); }});
+  t.push_back({"json", "FILE",
+               "write the run as one JSON object: sizes, options, every info[] value, the error and\n"
+               "time of every iteration, and each camera's observations and RMS reprojection error",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.json); }});
   return t;
 }
 
@@ -149,7 +153,9 @@ void print_usage(std::FILE *out) {
   std::fprintf(out, "\nLinear solvers (--solver): %s\n", sba_linsolver_names());
   std::fputs(
       "\n"
-      "Output: a 'Starting BA ...' line on stderr, then the sba 1.6 summary on stdout.\n"
+      "Output: a 'Starting BA ...' line on stderr, then the sba 1.6 summary on stdout, then the\n"
+      "RMS reprojection error in pixels, the stop reason in words, the solver and threads used\n"
+      "and the solve time.\n"
       "Exit status: 0 on success (--max-time included), 1 if a file cannot be read or written or\n"
       "the solver fails, 2 for a bad command line, 130 (SIGINT) or 143 (SIGTERM) when a signal\n"
       "stopped the solve.\n",

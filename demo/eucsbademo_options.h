@@ -39,6 +39,7 @@ struct DemoOptions {
   double max_time = 0;          // stop after the iteration that ends past this many seconds; 0: none
   std::string write_stddev;     // per-camera and per-point standard deviations; empty: none
   std::string write_cams, write_pts, write_pts_tracks;  // empty: not written
+  std::string json;             // the run as one JSON object; empty: not written
   std::vector<std::string> files;  // cams.txt pts.txt [calib.txt]
   bool help = false, version = false;
 };
