@@ -1,5 +1,6 @@
 #include "eucsbademo_options.h"
 
+#include <algorithm>
 #include <limits>
 
 #include "cli.h"
@@ -125,6 +126,10 @@ bool parse_command_line(int argc, const char *const *argv, DemoOptions *options,
              std::to_string(o.files.size()) + " (see --help)";
     return false;
   }
+  if (std::count(o.files.begin(), o.files.end(), std::string("-")) > 1) {
+    *error = "standard input ('-') can be only one of the files";
+    return false;
+  }
   if (o.check_jacobian && !o.analytic) {
     *error = "--check-jacobian checks the analytic Jacobian: it cannot go with --numeric-jacobian";
     return false;
@@ -143,7 +148,8 @@ void print_usage(std::FILE *out) {
       "         per-camera intrinsics; 17 (fu u0 v0 ar s kc0..kc4 ...) with distortion\n"
       "  PTS    one point per line: X Y Z nframes, then nframes times 'frame x y', each\n"
       "         optionally followed by its 2x2 covariance (cxx cxy cxy cyy, or cxx cxy cyy)\n"
-      "  Lines starting with '#' are comments.\n"
+      "  Lines starting with '#' are comments. A file may be bzip2-compressed; '-' reads one of\n"
+      "  them from standard input.\n"
       "\n"
       "Options (defaults are those of sba 1.6's eucsbademo; a value may follow as --opt=VALUE\n"
       "or --opt VALUE; '--' ends the options):\n",

@@ -1,6 +1,7 @@
 // The command-line conventions of the four programs (demo/cli.h), checked on the programs
 // themselves: the same grammar (--opt=VALUE and --opt VALUE), --help and --version in each,
 // and the same one-line message and exit status for the same mistake.
+#include <bzlib.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -10,6 +11,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "sba.h"
@@ -43,12 +45,13 @@ std::string slurp(const std::string &path) {
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
-// Runs exe with args (each passed as one word) and captures stdout, stderr and the status.
-Output run(const std::string &exe, const std::vector<std::string> &args) {
+// Runs exe with args (each passed as one word) and captures stdout, stderr and the status;
+// standard input from stdin_path.
+Output run(const std::string &exe, const std::vector<std::string> &args, const std::string &stdin_path = "/dev/null") {
   const std::string base = ::testing::TempDir() + "test_cli." + std::to_string(getpid());
   std::string cmd = "exec '" + exe + "'";
   for (const std::string &a : args) cmd += " '" + a + "'";
-  cmd += " >" + base + ".out 2>" + base + ".err </dev/null";
+  cmd += " >" + base + ".out 2>" + base + ".err <'" + stdin_path + "'";
   Output o;
   const int raw = std::system(cmd.c_str());
   o.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
@@ -156,6 +159,65 @@ TEST(Cli, PositionalArgumentsCounted) {
       expect_usage_error(p, {"--out=x", "extra"}, "unexpected argument 'extra' (see --help)");
     }
   }
+}
+
+// eucsbademo reads bzip2-compressed files and one of its files from standard input ('-').
+class EucsbademoInputs : public ::testing::Test {
+ protected:
+  static std::string data(const char *part) { return std::string(SBA_PROJECT_DIR) + "/data/orbit-fixedK-" + part + ".txt"; }
+  // Writes path + ".bz2" compressed with libbz2, or only its first `keep` bytes.
+  static std::string compress(const std::string &path, const std::string &to, std::size_t keep = SIZE_MAX) {
+    const std::string text = slurp(path);
+    std::vector<char> out(text.size() + text.size() / 100 + 600);
+    unsigned int len = static_cast<unsigned int>(out.size());
+    EXPECT_EQ(BZ2_bzBuffToBuffCompress(out.data(), &len, const_cast<char *>(text.data()),
+                                       static_cast<unsigned int>(text.size()), 9, 0, 0),
+              BZ_OK);
+    std::ofstream(to, std::ios::binary).write(out.data(), std::min<std::size_t>(len, keep));
+    return to;
+  }
+  // The lines of a summary that do not depend on the time taken.
+  static std::string timeless(const std::string &out) {
+    std::string kept;
+    std::size_t start = 0;
+    while (start < out.size()) {
+      const std::size_t nl = out.find('\n', start);
+      const std::string line = out.substr(start, nl - start);
+      if (line.rfind("Elapsed time:", 0) != 0 && line.rfind("Solver ", 0) != 0) kept += line + "\n";
+      start = nl == std::string::npos ? out.size() : nl + 1;
+    }
+    return kept;
+  }
+};
+
+TEST_F(EucsbademoInputs, Bzip2AndStandardInputGiveTheSameRun) {
+  const std::string tmp = ::testing::TempDir() + "test_cli." + std::to_string(getpid());
+  const Output plain = run(EUCSBADEMO_EXE, {"--threads=1", data("cams"), data("pts"), data("calib")});
+  ASSERT_EQ(plain.status, 0) << plain.err;
+  ASSERT_NE(plain.out.find("SBA returned"), std::string::npos);
+  const std::string cams = compress(data("cams"), tmp + "-cams.txt.bz2");
+  const std::string pts = compress(data("pts"), tmp + "-pts.txt.bz2");
+  const Output z = run(EUCSBADEMO_EXE, {"--threads=1", cams, pts, data("calib")});
+  EXPECT_EQ(z.status, 0) << z.err;
+  EXPECT_EQ(timeless(z.out), timeless(plain.out));
+  const std::pair<std::size_t, const char *> kFiles[] = {{1, "cams"}, {2, "pts"}, {3, "calib"}};
+  for (const auto &[at, part] : kFiles) {
+    std::vector<std::string> args{"--threads=1", data("cams"), data("pts"), data("calib")};
+    args[at] = "-";
+    const Output in = run(EUCSBADEMO_EXE, args, data(part));
+    EXPECT_EQ(in.status, 0) << part << ": " << in.err;
+    EXPECT_EQ(timeless(in.out), timeless(plain.out)) << part;
+  }
+  const Output twice = run(EUCSBADEMO_EXE, {"-", "-"});
+  EXPECT_EQ(twice.status, 2);
+  EXPECT_EQ(twice.err, "eucsbademo: standard input ('-') can be only one of the files\n");
+  // A damaged compressed file is one line naming it, like any bad file.
+  const std::string cut = compress(data("pts"), tmp + "-cut.txt.bz2", 2000);
+  const Output bad = run(EUCSBADEMO_EXE, {data("cams"), cut, data("calib")});
+  EXPECT_EQ(bad.status, 1);
+  EXPECT_EQ(bad.out, "");
+  EXPECT_EQ(bad.err, cut + ":1: the bzip2 data end too early (truncated file)\n");
+  for (const std::string &f : {cams, pts, cut}) std::remove(f.c_str());
 }
 
 }  // namespace
