@@ -192,4 +192,20 @@ TEST(BalsbaStop, SignalStopsWithTheLastAcceptedEstimate) {
   std::remove(out_n.c_str());
 }
 
+TEST(BalsbaStop, MaxTimeStopsWithStatusZero) {
+  const std::string problem = std::string(SBA_SHARED_DATA_DIR) + "/bal/problem-49-7776-pre.txt.bz2";
+  if (!exists(problem)) GTEST_SKIP() << problem << " is absent";
+  const std::string base = ::testing::TempDir() + "test_interrupt_bal_time." + std::to_string(getpid());
+  const ChildRun r = run_child(BALSBA_EXE, {problem, "--solver=svd", "--threads=1", "--max-time", "0.5"}, base,
+                               [](pid_t, const std::string &) {});
+  EXPECT_EQ(r.exit_status, 0) << r.err;
+  int reason = 0;
+  const int n = iterations(r.out, &reason);
+  ASSERT_GE(n, 1) << r.out;
+  EXPECT_EQ(reason, 9);
+  EXPECT_NE(r.out.find("\nStop reason 9: stopped on request (a signal or --max-time)\n"), std::string::npos) << r.out;
+  EXPECT_EQ(r.err, "balsba: --max-time 0.5 s reached after iteration " + std::to_string(n) +
+                       ": the results are the last accepted estimate\n");
+}
+
 }  // namespace
