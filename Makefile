@@ -1,22 +1,28 @@
 # Convenience front end to the CMake build in build/ (for people who just type make).
-#   make          build the library (and demo, tests)
-#   make demo     build and run eucsbademo on the bundled example problem
-#   make test     build and run the whole test suite
-#   make mex      build the MATLAB/GNU Octave interface into build/matlab (mex-test: its tests)
-#   make install  install into PREFIX (default /usr/local)
+# `make help` lists the targets.
 BUILD ?= build
 PREFIX ?= /usr/local
 CMAKE_FLAGS ?=
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: all configure test demo install clean deps-build deps-test mex mex-test deps-mex \
+.PHONY: all help configure test demo install clean deps-build deps-test mex mex-test deps-mex \
 	check-sanitize check-valgrind check-tsan check-fuzz soak check-bench configure-asan clean-checks
 
 # The main job: a generated 20-camera problem (data/README.md) through eucsbademo.
 DEMO_PROBLEM ?= data/orbit-fixedK
 
-all: deps-test configure
+all: deps-build configure
 	cmake --build $(BUILD) -j $(JOBS)
+
+help:
+	@echo 'make              build the library, the programs (and the tests when GoogleTest is installed)'
+	@echo 'make demo         install missing build packages, build, run eucsbademo on $(DEMO_PROBLEM)'
+	@echo 'make test         install missing build and test packages, build, run the whole test suite'
+	@echo 'make install      install into PREFIX (now $(PREFIX))'
+	@echo 'make mex          the MATLAB/GNU Octave interface in $(BUILD)/matlab (make mex-test: its tests)'
+	@echo 'make clean        remove $(BUILD)'
+	@echo 'make check-sanitize check-valgrind check-tsan check-fuzz soak check-bench: reliability checks'
+	@echo 'Variables: BUILD=$(BUILD) PREFIX=$(PREFIX) JOBS=$(JOBS) CMAKE_FLAGS=...'
 
 deps-build:
 	@sh scripts/deps.sh build
@@ -29,9 +35,9 @@ configure:
 
 test: deps-test configure
 	cmake --build $(BUILD) -j $(JOBS)
-	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
+	ctest --test-dir $(BUILD) --output-on-failure --no-tests=error -j $(JOBS)
 
-demo: deps-test configure
+demo: deps-build configure
 	cmake --build $(BUILD) -j $(JOBS) --target eucsbademo
 	$(BUILD)/demo/eucsbademo $(DEMO_PROBLEM)-cams.txt $(DEMO_PROBLEM)-pts.txt $(DEMO_PROBLEM)-calib.txt
 

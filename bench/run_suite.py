@@ -41,7 +41,7 @@ SCALING_TRACK = "2..10"
 SCALING_ITMAX = 30
 SCALING_THREADS = "all"
 
-# Issue 4: a long sequence, each point seen by 3-6 consecutive cameras; chol costs about 13 s
+# The long sequence: each point seen by 3-6 consecutive cameras; chol costs about 13 s
 # per iteration here on two cores, hence the iteration limit (both solvers take the same steps,
 # so their errors after LONGSEQ_ITMAX iterations agree).
 LONGSEQ = ("cameras=1000,points=50000,track=3..6,trajectory=path", "chol,sparse-chol", "sparse", 30)
@@ -270,7 +270,7 @@ def write_markdown(path, meta, groups, runs_by_problem, kernels):
                                                              ratio(div(r1["seconds"], rn["seconds"]))))
     L.append("")
 
-    # Issue 4.
+    # The linear solvers compared (the heading keeps the name the recorded results use).
     L.append("## Issue 4: linear solvers")
     L.append("")
     if "54cams" in runs_by_problem:

@@ -46,6 +46,7 @@
 
 #include "bench_problem.h"
 #include "ceres_models.h"
+#include "cli.h"
 #include "sba.h"
 #include "sba_ext.h"
 
@@ -55,7 +56,7 @@ namespace {
 constexpr double kBestTolerance = 1e-6;  // "within 1e-6 relative of the best final error"
 
 const char kUsage[] =
-    "usage: sba_bench PROBLEM [options]\n"
+    "Usage: sba_bench PROBLEM [OPTION]...\n"
     "Solves one bundle adjustment problem with sba (each --solvers name with each --strategy\n"
     "at each --threads count) and with Ceres at its default options (LM; DENSE_SCHUR,\n"
     "SPARSE_SCHUR or ITERATIVE_SCHUR + SCHUR_JACOBI), each run in a child process.\n"
@@ -66,35 +67,8 @@ const char kUsage[] =
     "  --gen SPEC                              a sbagen scene, SPEC = key=value,... with keys\n"
     "                                          cameras, points, track (MIN..MAX), trajectory\n"
     "                                          (orbit|path), kind (fixed|varK|varKD), noise, seed\n"
-    "options:\n"
-    "  --name LABEL      problem name in the output (default: from the files / the spec)\n"
-    "  --solvers LIST    sba linear solvers, comma-separated, or none (default chol)\n"
-    "  --strategy LIST   sba LM strategies, comma-separated (default sba; see\n"
-    "                    sba_strategy_names(): sba, trust-region)\n"
-    "  --ceres LIST      Ceres linear solvers, comma-separated: dense, sparse, iterative, or\n"
-    "                    none (default dense,sparse)\n"
-    "  --ceres-tight     Ceres with function, gradient and parameter tolerances of 1e-12\n"
-    "                    instead of its defaults (a secondary comparison: runs to the end)\n"
-    "  --threads LIST    thread counts, comma-separated (default 1,all); all = every hardware\n"
-    "                    thread for Ceres, and for sba its default (nthreads 0: as many as the\n"
-    "                    problem's size warrants, up to every hardware thread)\n"
-    "  --itmax N         iterations of every solver (default 150)\n"
-    "  --timeout SEC     a run taking longer is killed and reported as such (default 3600)\n"
-    "  --repeat N        run every configuration N times, in rounds, and report the run\n"
-    "                    with the median time (default 1; all times go to the JSON)\n"
-    "  --out FILE        append one JSON object per run to FILE (JSON lines)\n"
-    "  --blas-threads W  same (default): the BLAS runs as many threads as the run it serves;\n"
-    "                    default: leave the BLAS alone (OpenBLAS: OPENBLAS_NUM_THREADS or\n"
-    "                    every core, even in a 1-thread run)\n"
-    "  --avoid-shared-cores  sba runs with sba_ext_options.avoid_shared_cores on (workers\n"
-    "                    that find themselves on another pool thread's core move off it);\n"
-    "                    default off, as the library runs unless a program asks, unless\n"
-    "                    SBA_AVOID_SHARED_CORES=1 is in the environment (the header says which)\n"
-    "  --no-fork         run in this process (peak RSS then is the process's)\n"
-    "  --warm-up         before each measured solve, one iteration of the same run, its memory\n"
-    "                    then returned: the code the solve runs is resident before the peak\n"
-    "                    is reset, so that little of the peak is code new to the solve\n"
-    "  --help            this text\n";
+    "\n"
+    "Options (a value may follow as --opt=VALUE or --opt VALUE; '--' ends the options):\n";
 
 // ---- options ----
 
@@ -114,7 +88,7 @@ struct Options {
   bool warm_up = false;
   bool blas_same = true;  // --blas-threads same
   bool avoid_shared_cores = false;  // --avoid-shared-cores
-  bool help = false;
+  bool help = false, version = false;
 };
 
 std::vector<std::string> split(const std::string &s) {
@@ -131,124 +105,160 @@ std::vector<std::string> split(const std::string &s) {
 
 int hardware_threads() { return std::max(1, static_cast<int>(std::thread::hardware_concurrency())); }
 
-bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
+std::vector<sbacli::Option> option_table(Options &o, std::string *threads) {
+  auto text = [](std::string *field) {
+    return [field](const std::string &v) { return sbacli::to_file(v, field); };
+  };
+  auto flag = [](bool *field) {
+    return [field](const std::string &) -> std::string {
+      *field = true;
+      return {};
+    };
+  };
+  std::vector<sbacli::Option> t;
+  t.push_back({"cams", "FILE", "eucsbademo camera file", text(&o.cams)});
+  t.push_back({"pts", "FILE", "eucsbademo points file", text(&o.pts)});
+  t.push_back({"calib", "FILE", "eucsbademo calibration file (fixed K)", text(&o.calib)});
+  t.push_back({"bal", "FILE", "a BAL problem (.txt or .bz2)", text(&o.bal)});
+  t.push_back({"gen", "SPEC", "a sbagen scene (see above)", text(&o.gen)});
+  t.push_back({"name", "LABEL", "problem name in the output (default: from the files / the spec)", text(&o.name)});
+  t.push_back({"solvers", "LIST", "sba linear solvers, comma-separated, or none (default chol)",
+               [&o](const std::string &v) -> std::string {
+                 std::vector<std::string> names;
+                 for (const std::string &item : v == "none" ? std::vector<std::string>{} : split(v)) {
+                   std::string name;
+                   if (std::string why = sbacli::to_linsolver(item, &name); !why.empty())
+                     return "'" + item + "': " + why;
+                   names.push_back(name);
+                 }
+                 o.solvers = names;
+                 return {};
+               }});
+  t.push_back({"strategy", "LIST",
+               "sba LM strategies, comma-separated (default sba; the library's names:\n"
+               "sba_strategy_names())",
+               [&o](const std::string &v) -> std::string {
+                 std::vector<std::string> names;
+                 for (const std::string &item : split(v)) {
+                   std::string name;
+                   if (std::string why = sbacli::to_strategy(item, &name); !why.empty())
+                     return "'" + item + "': " + why;
+                   names.push_back(name);
+                 }
+                 if (names.empty()) return "expected strategy names, comma-separated";
+                 o.strategies = names;
+                 return {};
+               }});
+  t.push_back({"ceres", "LIST",
+               "Ceres linear solvers, comma-separated: dense (DENSE_SCHUR), sparse (SPARSE_SCHUR),\n"
+               "iterative (ITERATIVE_SCHUR with SCHUR_JACOBI), or none (default dense,sparse); Ceres\n"
+               "runs with its default Solver::Options otherwise",
+               [&o](const std::string &v) -> std::string {
+                 std::vector<std::string> names;
+                 for (const std::string &item : v == "none" ? std::vector<std::string>{} : split(v)) {
+                   std::string name;
+                   if (std::string why = sbacli::to_choice(item, {"dense", "sparse", "iterative"}, &name); !why.empty())
+                     return "'" + item + "': " + why;
+                   names.push_back(name);
+                 }
+                 o.ceres = names;
+                 return {};
+               }});
+  t.push_back({"ceres-tight", "",
+               "Ceres with function, gradient and parameter tolerances of 1e-12 instead of its\n"
+               "defaults (a secondary comparison: Ceres then runs to the end)",
+               flag(&o.ceres_tight)});
+  t.push_back({"threads", "LIST",
+               "thread counts, comma-separated (default 1,all); all = every hardware thread for Ceres,\n"
+               "and for sba its default (nthreads 0: as many as the problem's size warrants, up to\n"
+               "every hardware thread)",
+               [threads](const std::string &v) -> std::string {
+                 if (split(v).empty()) return "expected thread counts or all, comma-separated";
+                 for (const std::string &item : split(v)) {
+                   int n = 0;
+                   if (item == "all") continue;
+                   if (std::string why = sbacli::to_int(item, 1, sbacli::kMaxThreads, &n); !why.empty())
+                     return "'" + item + "': " + why;
+                 }
+                 *threads = v;
+                 return {};
+               }});
+  t.push_back({"itmax", "N", "iterations of every solver (default 150)",
+               [&o](const std::string &v) { return sbacli::to_int(v, 0, INT_MAX, &o.itmax); }});
+  t.push_back({"timeout", "SEC", "a run taking longer is killed and reported as such (default 3600)",
+               [&o](const std::string &v) { return sbacli::to_seconds(v, &o.timeout); }});
+  t.push_back({"repeat", "N",
+               "run every configuration N times, in rounds, and report the run with the median time\n"
+               "(default 1; all times go to the JSON)",
+               [&o](const std::string &v) { return sbacli::to_int(v, 1, 100, &o.repeat); }});
+  t.push_back({"out", "FILE", "append one JSON object per run to FILE (JSON lines)", text(&o.out)});
+  t.push_back({"blas-threads", "W",
+               "same (default): the BLAS runs as many threads as the run it serves; default: leave the\n"
+               "BLAS alone (OpenBLAS: OPENBLAS_NUM_THREADS or every core, even in a 1-thread run)",
+               [&o](const std::string &v) -> std::string {
+                 std::string which;
+                 if (std::string why = sbacli::to_choice(v, {"same", "default"}, &which); !why.empty()) return why;
+                 o.blas_same = which == "same";
+                 return {};
+               }});
+  t.push_back({"avoid-shared-cores", "",
+               "sba runs with sba_ext_options.avoid_shared_cores on (workers that find themselves on\n"
+               "another pool thread's core move off it); default off, as the library runs unless a\n"
+               "program asks, unless SBA_AVOID_SHARED_CORES=1 is in the environment (the header says\n"
+               "which)",
+               flag(&o.avoid_shared_cores)});
+  t.push_back({"no-fork", "", "run in this process (peak RSS then is the process's)",
+               [&o](const std::string &) -> std::string {
+                 o.fork = false;
+                 return {};
+               }});
+  t.push_back({"warm-up", "",
+               "before each measured solve, one iteration of the same run, its memory then returned:\n"
+               "the code the solve runs is resident before the peak is reset, so that little of the\n"
+               "peak is code new to the solve",
+               flag(&o.warm_up)});
+  return t;
+}
+
+void print_usage(std::FILE *out) {
+  std::fputs(kUsage, out);
+  Options scratch;
+  std::string threads;
+  sbacli::print_options(out, option_table(scratch, &threads));
+}
+
+bool parse_command_line(int argc, char **argv, Options *options, std::string *error) {
+  Options o;
   std::string threads = "1,all";
-  for (int k = 1; k < argc; ++k) {
-    const std::string arg = argv[k];
-    if (arg == "--help" || arg == "-h") {
-      o->help = true;
-      return true;
-    }
-    if (arg == "--avoid-shared-cores") {
-      o->avoid_shared_cores = true;
-      continue;
-    }
-    if (arg == "--ceres-tight") {
-      o->ceres_tight = true;
-      continue;
-    }
-    if (arg == "--no-fork") {
-      o->fork = false;
-      continue;
-    }
-    if (arg == "--warm-up") {
-      o->warm_up = true;
-      continue;
-    }
-    if (k + 1 >= argc) {
-      *error = arg.compare(0, 2, "--") == 0 ? "option " + arg + " needs a value" : "unexpected argument '" + arg + "'";
-      return false;
-    }
-    const std::string v = argv[++k];
-    if (arg == "--cams") o->cams = v;
-    else if (arg == "--pts") o->pts = v;
-    else if (arg == "--calib") o->calib = v;
-    else if (arg == "--bal") o->bal = v;
-    else if (arg == "--gen") o->gen = v;
-    else if (arg == "--name") o->name = v;
-    else if (arg == "--solvers") o->solvers = v == "none" ? std::vector<std::string>{} : split(v);
-    else if (arg == "--strategy") o->strategies = split(v);
-    else if (arg == "--ceres") o->ceres = v == "none" ? std::vector<std::string>{} : split(v);
-    else if (arg == "--threads") threads = v;
-    else if (arg == "--out") o->out = v;
-    else if (arg == "--blas-threads") {
-      if (v != "same" && v != "default") {
-        *error = "--blas-threads: 'same' or 'default', not '" + v + "'";
-        return false;
-      }
-      o->blas_same = v == "same";
-    }
-    else if (arg == "--repeat") {
-      char *end = nullptr;
-      const long n = std::strtol(v.c_str(), &end, 10);
-      if (v.empty() || *end != '\0' || n < 1 || n > 100) {
-        *error = "--repeat: a count from 1 to 100, not '" + v + "'";
-        return false;
-      }
-      o->repeat = static_cast<int>(n);
-    } else if (arg == "--itmax" || arg == "--timeout") {
-      char *end = nullptr;
-      const double d = std::strtod(v.c_str(), &end);
-      if (v.empty() || *end != '\0' || !(d >= 0) || d > INT_MAX) {
-        *error = "bad value '" + v + "' for " + arg;
-        return false;
-      }
-      if (arg == "--itmax") o->itmax = static_cast<int>(d);
-      else o->timeout = d;
-    } else {
-      *error = "unknown option '" + arg + "' (see --help)";
-      return false;
-    }
+  sbacli::Parsed parsed;
+  if (!sbacli::parse(argc, argv, option_table(o, &threads), &parsed, error)) return false;
+  o.help = parsed.help;
+  o.version = parsed.version;
+  if (o.help || o.version) {
+    *options = std::move(o);
+    return true;
   }
-  const int sources = !o->cams.empty() + !o->bal.empty() + !o->gen.empty();
-  if (sources != 1 || o->cams.empty() != o->pts.empty()) {
+  if (!parsed.positional.empty()) {
+    *error = "unexpected argument '" + parsed.positional[0] + "' (see --help)";
+    return false;
+  }
+  const int sources = !o.cams.empty() + !o.bal.empty() + !o.gen.empty();
+  if (sources != 1 || o.cams.empty() != o.pts.empty()) {
     *error = "give exactly one problem: --cams/--pts[/--calib], --bal or --gen (see --help)";
     return false;
   }
-  for (const std::string &c : o->ceres)
-    if (c != "dense" && c != "sparse" && c != "iterative") {
-      *error = "--ceres: unknown '" + c + "' (dense, sparse, iterative or none)";
-      return false;
-    }
-  if (o->strategies.empty()) {
-    *error = "--strategy: no strategy";
-    return false;
-  }
-  for (const std::string &s : o->strategies)
-    if (!sba_strategy_valid(s.c_str())) {
-      *error = "--strategy: unknown strategy '" + s + "' (known: " + sba_strategy_names() + ")";
-      return false;
-    }
-  for (const std::string &s : o->solvers)
-    if (!sba_linsolver_valid(s.c_str())) {
-      *error = "--solvers: unknown solver '" + s + "' (known: " + sba_linsolver_names() + ")";
-      return false;
-    }
   for (const std::string &t : split(threads)) {
-    int n = 0;
     const bool all = t == "all";
-    if (all) n = hardware_threads();
-    else {
-      char *end = nullptr;
-      const long v = std::strtol(t.c_str(), &end, 10);
-      if (*end != '\0' || v < 1 || v > 4096) {
-        *error = "--threads: bad thread count '" + t + "'";
-        return false;
-      }
-      n = static_cast<int>(v);
-    }
+    const int n = all ? hardware_threads() : std::atoi(t.c_str());  // checked by the option
     bool seen = false;
-    for (std::size_t k = 0; k < o->threads.size(); ++k)
-      seen = seen || (o->threads[k] == n && (o->threads_auto[k] != 0) == all);
+    for (std::size_t k = 0; k < o.threads.size(); ++k)
+      seen = seen || (o.threads[k] == n && (o.threads_auto[k] != 0) == all);
     if (!seen) {
-      o->threads.push_back(n);
-      o->threads_auto.push_back(all);
+      o.threads.push_back(n);
+      o.threads_auto.push_back(all);
     }
   }
-  if (o->threads.empty()) {
-    *error = "--threads: no thread count";
-    return false;
-  }
+  *options = std::move(o);
   return true;
 }
 
@@ -585,7 +595,7 @@ bool other_threads_running() {
 
 // openblas_set_num_threads starts OpenBLAS's worker threads in this (forked) child, and
 // each of them spins for about 0.1 s of CPU time before it sleeps. A run started at once
-// would share the cores with them (a 1-thread 54cams run used 2.0x its wall time in CPU).
+// would share the cores with them, and a 1-thread run would use more than one core.
 // Real programs meet those threads asleep unless they have just called the BLAS, so the
 // run waits (at most a second) until they are.
 void wait_for_idle_threads() {
@@ -789,10 +799,14 @@ int bench_main(int argc, char **argv) {
   std::string error;
   if (!parse_command_line(argc, argv, &o, &error)) {
     std::fprintf(stderr, "sba_bench: %s\n", error.c_str());
-    return 2;
+    return sbacli::kExitUsage;
   }
   if (o.help) {
-    std::fputs(kUsage, stdout);
+    print_usage(stdout);
+    return 0;
+  }
+  if (o.version) {
+    std::printf("%s\n", sbacli::version_line("sba_bench").c_str());
     return 0;
   }
 

@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 #include <utility>
 
+#include "bzip2_stream.h"
 #include "output_file.h"
 
 namespace eucsba {
@@ -52,15 +53,32 @@ class DataLines {
   DataLines(std::string path, std::size_t max_line = kMaxLineBytes)
       : path_(std::move(path)), max_line_(max_line) {}
 
+  // "-" reads standard input (plain text); a file that starts as bzip2 data does (by its
+  // magic, as balsba decides) is read through the decompressor.
   Status open() {
+    if (path_ == "-") {
+      in_.reset(stdin);
+      owned_ = false;
+      return {};
+    }
     // fopen opens a directory for reading without complaint and then fails to read: ask first.
     struct stat st {};
     if (::stat(path_.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) return error_at(0, "is a directory");
     errno = 0;
     in_.reset(std::fopen(path_.c_str(), "rb"));
     if (!in_) return error_at(0, errno != 0 ? std::string("cannot open: ") + std::strerror(errno) : "cannot open");
+    if (S_ISREG(st.st_mode) && sbademo::is_bzip2(in_.get())) {
+      std::FILE *z = sbademo::open_bzip2_stream(in_.release(), &bzip2_error_);
+      if (!z) return error_at(0, "cannot read bzip2 data: out of memory");
+      in_.reset(z);
+    }
     return {};
   }
+  ~DataLines() {
+    if (!owned_) (void)in_.release();
+  }
+  DataLines(const DataLines &) = delete;
+  DataLines &operator=(const DataLines &) = delete;
 
   // Advances to the next data line; false at the end of the file, on a read error, on a line
   // longer than the limit or after INT_MAX lines (finish() tells which).
@@ -92,6 +110,7 @@ class DataLines {
     if (too_long_)
       return error_at(line_ + 1, "line longer than " + std::to_string(max_line_) + " bytes");
     if (too_many_lines_) return error("more than " + std::to_string(line_) + " lines");
+    if (!bzip2_error_.empty()) return error_at(line_ + 1, bzip2_error_);
     if (read_errno_ != 0) return error_at(line_ + 1, std::string("read error: ") + std::strerror(read_errno_));
     return {};
   }
@@ -138,6 +157,8 @@ class DataLines {
   std::string path_;
   std::size_t max_line_;
   std::unique_ptr<std::FILE, FileCloser> in_;
+  bool owned_ = true;        // false for standard input, which is not closed
+  std::string bzip2_error_;  // why the decompressor failed, if it did
   int line_ = 0;
   std::string text_;
   std::vector<std::string> tokens_;

@@ -1,6 +1,6 @@
-// eucsbademo's text files (spec: ../shared/spec/EUCSBADEMO.md, "File formats"): readers that
-// validate strictly and report the first problem as one "<file>:<line>: <message>" line, and
-// writers for the refined cameras and points.
+// eucsbademo's text files (docs/formats.md): readers that validate strictly and report the
+// first problem as one "<file>:<line>: <message>" line, and writers for the refined cameras
+// and points.
 //
 // Common rules: values are separated by white space; blank lines and lines whose first
 // non-blank character is '#' are ignored; every number must be finite; integers (nframes,

@@ -1,5 +1,5 @@
-// The Euclidean camera model of eucsbademo (spec: ../shared/spec/EUCSBADEMO.md, "The camera
-// model") and the sba callbacks built on it.
+// The Euclidean camera model of eucsbademo (docs/formats.md, "The camera model") and the sba
+// callbacks built on it.
 //
 // A camera is a quaternion rotation, a translation and the intrinsics K = [fu s u0; 0 fu*ar v0;
 // 0 0 1], optionally with Bouguet's distortion. The rotation is optimized through a local

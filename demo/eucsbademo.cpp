@@ -1,6 +1,6 @@
 // eucsbademo: Euclidean bundle adjustment of camera and point files with sba, keeping the
 // command line, file formats and printed lines of sba 1.6's demo
-// (spec: ../shared/spec/EUCSBADEMO.md). Options cover what 1.6 fixed at compile time.
+// (docs/formats.md). Options cover what 1.6 fixed at compile time.
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -16,7 +16,10 @@
 #include "eucsba_io.h"
 #include "eucsba_model.h"
 #include "eucsbademo_options.h"
+#include "cli.h"
 #include "output_file.h"
+#include "report.h"
+#include "run_control.h"
 #include "sba.h"
 #include "sba_ext.h"
 #include "tty_progress.h"
@@ -24,8 +27,8 @@
 namespace eucsba {
 namespace {
 
-constexpr int kExitFailure = 1;  // unreadable input, failed write, solver failure
-constexpr int kExitUsage = 2;    // bad command line
+using sbacli::kExitFailure;
+using sbacli::kExitUsage;
 
 // 1.6 switches to motion and structure when motion alone leaves more than this mean squared
 // error (pixels^2).
@@ -36,6 +39,7 @@ struct Solve {
   const DemoOptions &options;
   const CameraModel &model;
   PointSet &points;  // sba takes x, covx and vmask as non-const pointers
+  sbademo::RunControl &control;  // progress, Ctrl-C, --max-time
 };
 
 struct Outcome {
@@ -92,8 +96,7 @@ Outcome run(const Solve &s, Refinement refinement, int itmax) {
   }
   ext.result = &out.result;
   sba_ext_result_init(&out.result);
-  sbademo::TtyProgress progress(o.progress, s.points.nprojections());
-  progress.attach(&ext);
+  s.control.attach(&ext);
 
   if (o.expert) {
     const ExpertCallbacks cb = expert_callbacks(s.model.kind(), refinement);
@@ -253,6 +256,30 @@ Status stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &poi
   return {};
 }
 
+// Each camera's observations and squared pixel distances at the result (cameras and points
+// a refinement left alone at their initial values).
+std::vector<sbademo::CameraResidual> camera_residuals(const CameraModel &model, const PointSet &points,
+                                                      const Outcome &out) {
+  const int n = points.npoints(), m = points.ncameras, cnp = model.cnp();
+  const bool has_cams = out.refinement != Refinement::Structure;
+  const bool has_pts = out.refinement != Refinement::Motion;
+  const double *pts = has_pts ? out.p.data() + (has_cams ? std::size_t(m) * cnp : 0) : nullptr;
+  std::vector<sbademo::CameraResidual> per_camera(static_cast<std::size_t>(m));
+  std::size_t k = 0;  // measurement ordinal: point by point, cameras ascending
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j) {
+      if (!points.vmask[std::size_t(i) * m + j]) continue;
+      double x[kMeasurementParams];
+      model.project(j, has_cams ? out.p.data() + std::size_t(j) * cnp : model.initial_camera(j),
+                    pts ? pts + std::size_t(i) * kPointParams : model.initial_point(i), x);
+      const double dx = x[0] - points.x[2 * k], dy = x[1] - points.x[2 * k + 1];
+      per_camera[size_t(j)].observations += 1;
+      per_camera[size_t(j)].sum_sq += dx * dx + dy * dy;
+      ++k;
+    }
+  return per_camera;
+}
+
 // Writes text to path as a whole (see output_file.h).
 Status write_text(const std::string &path, const std::string &text) {
   sbademo::OutputFile f;
@@ -295,7 +322,7 @@ int demo_main(int argc, char **argv) {
     return kExitUsage;
   }
 
-  for (const std::string *path : {&o.write_cams, &o.write_pts, &o.write_pts_tracks, &o.write_stddev}) {
+  for (const std::string *path : {&o.write_cams, &o.write_pts, &o.write_pts_tracks, &o.write_stddev, &o.json}) {
     if (Status s = check_writable(*path); !s) {
       std::fprintf(stderr, "%s\n", s.to_string().c_str());
       return kExitFailure;
@@ -305,7 +332,10 @@ int demo_main(int argc, char **argv) {
   const CameraModel model(problem.kind, problem.cameras, points.xyz, o.nccalib, o.ncdist);
   std::fprintf(stderr, "%s\n", kind_banner(problem.kind));
 
-  const Solve solve{o, model, points};
+  sbademo::TtyProgress progress(o.progress, nprojs);
+  sbademo::RunControl control(o.max_time, &progress);
+  sbademo::RunControl::catch_signals();
+  const Solve solve{o, model, points, control};
   const auto start = std::chrono::steady_clock::now();
   Outcome out;
   switch (o.refine) {
@@ -318,15 +348,17 @@ int demo_main(int argc, char **argv) {
       break;
     case RefineMode::MotionThenMotionStructure:
       out = run(solve, Refinement::Motion, itmax_for(o, Refinement::Motion));
-      if (out.ret != SBA_ERROR && out.info[1] / nprojs > kMotionOnlyErrorLimit) {
+      if (out.ret != SBA_ERROR && !control.stop_requested() && out.info[1] / nprojs > kMotionOnlyErrorLimit) {
         if (o.verbose > 0)
           std::fprintf(stderr, "motion only left a mean squared error of %g: refining motion and structure\n",
                        out.info[1] / nprojs);
+        control.next_solve();
         out = run(solve, Refinement::MotionStructure, itmax_for(o, Refinement::MotionStructure));
       }
       break;
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  progress.finish();
 
   if (out.ret == SBA_ERROR) {
     std::fprintf(stderr, "eucsbademo: %s failed (SBA_ERROR): no result\n",
@@ -381,6 +413,50 @@ int demo_main(int argc, char **argv) {
                 o.loss.c_str(), o.loss_scale, out.result.sq_error_final / nprojs,
                 out.result.sq_error_initial / nprojs, out.result.outliers_final);
 
+  sbademo::Report report;
+  report.program = "eucsbademo";
+  report.inputs = o.files;
+  report.cameras = m;
+  report.points = n;
+  report.observations = nprojs;
+  report.variables = nvars;
+  report.solver_requested = o.linsolver;
+  report.strategy_requested = o.strategy;
+  report.threads_requested = o.nthreads;
+  report.itmax = itmax_for(o, out.refinement);
+  report.opts = o.opts;
+  report.loss = o.loss;
+  report.loss_scale = o.loss_scale;
+  report.mcon = o.mcon;
+  report.ncon = o.ncon;
+  report.max_time = o.max_time;
+  report.ret = out.ret;
+  report.info = out.info;
+  report.result = out.result;
+  report.seconds = seconds;
+  report.iterations = control.iterations();
+  sbademo::print_report(stdout, report);
+  if (!o.json.empty()) {
+    report.per_camera = camera_residuals(model, points, out);
+    std::string why;
+    if (!sbademo::write_json(o.json, report, &why)) {
+      std::fprintf(stderr, "%s: %s\n", o.json.c_str(), why.c_str());
+      return kExitFailure;
+    }
+  }
+
+  // A stopped solve is a result (written above), but the status says it was cut short by a
+  // signal; a time limit the user set is an ordinary end.
+  if (out.info[6] == SBA_STOP_USER) {
+    const int iterations = static_cast<int>(out.info[5]);
+    if (control.stop_signal() != 0) {
+      std::fprintf(stderr, "eucsbademo: interrupted by %s after iteration %d: the results are the last accepted estimate\n",
+                   control.stop_signal() == SIGINT ? "SIGINT" : "SIGTERM", iterations);
+      return 128 + control.stop_signal();
+    }
+    std::fprintf(stderr, "eucsbademo: --max-time %g s reached after iteration %d: the results are the last accepted estimate\n",
+                 o.max_time, iterations);
+  }
   return 0;
 }
 

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "cli.h"
+
 namespace eucsba {
 
 // 1.6's "howto": what is refined.
@@ -36,8 +38,10 @@ struct DemoOptions {
   std::string loss;             // robust loss (sba_ext.h names); empty: least squares
   double loss_scale = 1.0;      // its scale, in pixels
   bool progress = true;         // one-line progress on stderr when it is a terminal
+  double max_time = 0;          // stop after the iteration that ends past this many seconds; 0: none
   std::string write_stddev;     // per-camera and per-point standard deviations; empty: none
   std::string write_cams, write_pts, write_pts_tracks;  // empty: not written
+  std::string json;             // the run as one JSON object; empty: not written
   std::vector<std::string> files;  // cams.txt pts.txt [calib.txt]
   bool help = false, version = false;
 };
@@ -46,8 +50,8 @@ struct DemoOptions {
 // With --help or --version it returns true without requiring the file arguments.
 bool parse_command_line(int argc, const char *const *argv, DemoOptions *options, std::string *error);
 
-// Largest --threads value accepted.
-constexpr int kMaxThreads = 256;
+// Largest --threads value accepted (the same in every program).
+constexpr int kMaxThreads = sbacli::kMaxThreads;
 
 // True when name is one of the space-separated names of sba_linsolver_names().
 bool is_linsolver_name(const std::string &name);

@@ -27,6 +27,10 @@ class TtyProgress {
     ext->progress = &TtyProgress::callback;
     ext->progress_ctx = this;
   }
+  // Draws the line for s, for a caller whose own progress callback shows it too.
+  void show(const sba_progress *s) {
+    if (on_) callback(this, s);
+  }
   // Ends the line, if one was drawn.
   void finish() {
     if (!drawn_) return;

@@ -1,4 +1,5 @@
-// The MATLAB / GNU Octave gateway of sba (spec: ../shared/spec/MEX.md; help text: sba.m).
+// The MATLAB / GNU Octave gateway of sba (calling convention: docs/mex.md;
+// help text: sba.m).
 //
 //   [ret, popt, info] = sba(n, ncon, m, mcon, vmask, p0, cnp, pnp, x, [covx,] mnp, proj,
 //                           [projac,] itmax, [verbose,] [opts,] [reftype,] extra...)

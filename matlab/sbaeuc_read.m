@@ -3,7 +3,7 @@ function prob = sbaeuc_read(camsfile, ptsfile, calibfile)
 %
 %   prob = sbaeuc_read(camsfile, ptsfile, calibfile)
 %
-% Reads the three text files of eucsbademo (formats: ../shared/spec/EUCSBADEMO.md):
+% Reads the three text files of eucsbademo (formats: docs/formats.md):
 %   camsfile   one camera per line: q0 q1 q2 q3 tx ty tz (rotation quaternion, scalar part
 %              first, then the translation; world to camera)
 %   ptsfile    one point per line: X Y Z nframes, then per frame 'f x y' (f zero-based),

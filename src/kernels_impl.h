@@ -323,8 +323,8 @@ class KernelsT final : public Kernels {
 
   // The work of one thread's range, out of line. Called from the pool's std::function, an
   // inlined job would see the block sizes only as values captured by reference, and its
-  // fixed-size loops would fall back to run-time bounds (2-thread back-substitution was
-  // slower than 1-thread for that); and one copy of the code for every thread count keeps
+  // fixed-size loops would fall back to run-time bounds (enough to make a 2-thread
+  // back-substitution slower than a 1-thread one); and one copy of the code for every thread count keeps
   // the compiler's choice of fused multiply-adds, and so the bits, the same for all of them.
 
   // U_j and e_a,j for the cameras [j0, j1): the projections are walked in memory order
@@ -515,7 +515,7 @@ class KernelsT final : public Kernels {
   // (V_i + mu I)^-1 of the points pts[0 .. count) (count <= kBatch) into out: from
   // Vinv, or made in sc (null where not positive definite). Made together, their square
   // roots and divisions overlap (3x3 blocks: four to a vector); made as each point's turn
-  // came, every point waited for its own (6% of a 54cams solve at 1 thread).
+  // came, every point would wait for its own (kernels_benchmark's Solve1 shows the cost).
   void point_inverses(const double *Vinv, const double *V, double mu, const int *pts, int count, Scratch &sc,
                       const double **out) const {
     if constexpr (P == 3) {

@@ -10,8 +10,8 @@ namespace sba {
 // Maps the pages of [p, p + bytes) for writing now, where the system can (Linux 5.14 and
 // later); elsewhere, or if it refuses, the pages are mapped as they are first written, as
 // they would be anyway. A solve touches its Jacobian and work arrays first while zeroing
-// them: on a virtual machine each first touch of a page costs a trap of a few microseconds,
-// and one madvise call maps the same pages in about half the time.
+// them: each first touch of a page costs a trap (a slow one on a virtual machine), and one
+// madvise call maps the same pages without them.
 void prefault(void *p, std::size_t bytes);
 
 // v.resize(n) for an empty v, the pages of a large allocation mapped by prefault first.

@@ -107,8 +107,8 @@ class ThreadPool {
 
   std::vector<std::thread> workers_;
   // An LM iteration hands the pool a few dozen short jobs with a little serial work between
-  // them. Waking a sleeping thread costs about 100 us on a virtual machine, more than many
-  // of those jobs, so both sides first spin for a while (kSpin) on the atomics below and
+  // them. Waking a sleeping thread costs more than many of those jobs (on a virtual machine
+  // especially), so both sides first spin for a while (kSpin) on the atomics below and
   // only then sleep on the condition variables.
   std::mutex mu_;
   std::condition_variable wake_, done_;

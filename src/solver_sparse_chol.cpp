@@ -156,10 +156,10 @@ struct Cholmod {
 };
 
 // Below this many flops in the factorization (CHOLMOD's estimate after analysis), the
-// simplicial factorization. On the sbagen path series (2 threads) at 10 and 50 cameras
-// (7e4 and 9e5 flops) it holds 0.3-0.4 MB less, and the factorization is a small part of
-// an iteration there; on sba-demo's 54 cameras (2.9e6) the supernodal one was faster (7.1
-// against 9.1 ms per iteration), and it stays in use there and on every BAL problem.
+// simplicial factorization: it starts no OpenMP team and needs no BLAS buffers, so it holds
+// less memory, and at that size the factorization is a small part of an iteration anyway.
+// Above it the supernodal factorization is the faster one. sba_bench's scaling series and
+// the sba-demo runs (bench/results) are the measurements behind the threshold.
 constexpr double kSimplicialFlops = 1e6;
 
 template <class Api>

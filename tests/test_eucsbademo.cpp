@@ -3,7 +3,7 @@
 // output, every linear solver, the other drivers and refinements, a round trip through the
 // files it writes) and on bad command lines and bad files; then its option parser directly.
 //
-// Spec: ../shared/spec/EUCSBADEMO.md. Tests that need the shared data skip when it is absent.
+// Formats: docs/formats.md. Tests that need the shared data skip when it is absent.
 //
 // Environment:
 //   SBA_LONG_TESTS=1     also run the slow solver cases (minutes; see "Every linear solver").
@@ -266,10 +266,27 @@ const std::regex kReturnedLine(
     R"((\d+)/(\d+) func/fjac evals, (\d+) lin\. systems)");
 const std::regex kElapsedLine(R"(Elapsed time: \d+\.\d\d seconds, \d+\.\d\d msecs)");
 
-// Exactly the six lines of the spec, in order.
+// The lines after sba 1.6's: the RMS reprojection error, the stop reason in words, the solver.
+const std::regex kRmsLine(R"(RMS reprojection error: initial \S+ px, final \S+ px)");
+const std::regex kStopLine(R"(Stop reason (\d+): .+)");
+const std::regex kSolverLine(R"(Solver \S+ on \d+ threads?(, strategy \S+)?, \d+\.\d\d\d s)");
+
+// How many lines at the end of out are the report after sba 1.6's lines (0 if they are not
+// there, or not in order).
+std::size_t report_lines(const std::vector<std::string> &lines) {
+  const std::size_t n = lines.size();
+  if (n < 3 || !std::regex_match(lines[n - 3], kRmsLine) || !std::regex_match(lines[n - 2], kStopLine) ||
+      !std::regex_match(lines[n - 1], kSolverLine))
+    return 0;
+  return 3;
+}
+
+// Exactly the six lines of the spec, in order, then the report.
 Summary parse_summary(const std::string &out) {
   Summary s;
-  const std::vector<std::string> lines = split_lines(out);
+  std::vector<std::string> lines = split_lines(out);
+  if (report_lines(lines) != 3) return s;
+  lines.resize(lines.size() - 3);
   if (lines.size() != 6 || !lines[1].empty() || !lines[3].empty()) return s;
   std::smatch m;
   if (!std::regex_match(lines[0], m, kUsingLine)) return s;
@@ -412,8 +429,11 @@ void expect_counts_near(const char *what, int actual, int golden, int slack) {
 
 void expect_matches_golden(const std::string &out, const std::string &golden_file) {
   std::vector<std::string> actual = split_lines(out);
+  // The report after sba 1.6's lines carries a time: its lines are checked by format.
+  ASSERT_EQ(report_lines(actual), 3u) << out;
+  actual.resize(actual.size() - 3);
   ASSERT_FALSE(actual.empty());
-  // The Elapsed line is the last one; only its format is checked.
+  // The Elapsed line is the last of 1.6's; only its format is checked.
   EXPECT_TRUE(std::regex_match(actual.back(), kElapsedLine)) << actual.back();
   actual.pop_back();
 
@@ -1288,23 +1308,26 @@ TEST(Eucsbademo, HelpListsSolverAndThreads) {
 TEST(Eucsbademo, RobustLossAddsALineAndKeepsThe16Lines) {
   REQUIRE_DEMO_DATA();
   const DemoRun r = run_problem(k7cams, {"--loss=huber", "--loss-scale=1"});
-  // The six lines of 1.6, then one more.
-  DemoRun first_six = r;
-  first_six.out = r.out.substr(0, r.out.rfind("Robust loss"));
+  // The six lines of 1.6, then one more, then the report.
+  const std::vector<std::string> lines = r.out_lines();
+  ASSERT_GE(lines.size(), 4u) << r.out;
+  const std::string robust = lines[lines.size() - 4];
+  DemoRun without_robust = r;
+  const std::size_t at = r.out.find(robust + "\n");
+  ASSERT_NE(at, std::string::npos);
+  without_robust.out.erase(at, robust.size() + 1);
   Summary s;
-  EXPECT_SUCCESSFUL_RUN(first_six, kFixedBanner, s);
+  EXPECT_SUCCESSFUL_RUN(without_robust, kFixedBanner, s);
   // The robust cost is below the squared error, and the squared error of the Huber fit is
   // above least squares' 0.675396 (it trades squared error for robustness).
   double cost = std::stod(s.error), sq = 0, sq0 = 0;
   long long beyond = -1;
-  const std::vector<std::string> lines = r.out_lines();
-  ASSERT_FALSE(lines.empty());
-  ASSERT_EQ(std::sscanf(lines.back().c_str(),
+  ASSERT_EQ(std::sscanf(robust.c_str(),
                         "Robust loss huber (scale 1): the errors above are its cost; squared error %lf "
                         "[initial %lf], %lld projections beyond the scale",
                         &sq, &sq0, &beyond),
             3)
-      << lines.back();
+      << robust;
   EXPECT_LT(cost, sq);
   EXPECT_GT(sq, 0.675396);
   EXPECT_NEAR(sq0, 19.0947, 1e-4);
@@ -1490,7 +1513,7 @@ TEST(DemoOptions, Errors) {
       {{"-v", "c", "p"}, "unknown option '-v' (options are long: see --help)"},
       {{"c", "p", "--itmax"}, "option '--itmax' needs a value (N)"},
       {{"--help=yes"}, "option '--help' takes no value"},
-      {{"--refine=all", "c", "p"}, "bad value 'all' for --refine: expected motstr, mot, str or mot-motstr"},
+      {{"--refine=all", "c", "p"}, "bad value 'all' for --refine: expected one of: motstr, mot, str, mot-motstr"},
       {{"--itmax=-1", "c", "p"}, "bad value '-1' for --itmax: expected an integer >= 0"},
       {{"--nccalib=6", "c", "p"}, "bad value '6' for --nccalib: expected an integer from 0 to 5"},
       {{"--tau=0", "c", "p"}, "bad value '0' for --tau: expected a positive number"},

@@ -1,4 +1,4 @@
-// Faults that tests/test_drivers.cpp does not cover (issue 7): Jacobians of the wrong sign,
+// Faults that tests/test_drivers.cpp does not cover: Jacobians of the wrong sign,
 // callbacks that fail mid-way in every driver, callbacks that throw, running out of memory,
 // problems too large for the int API, and every bad argument of every one of the six drivers.
 //
@@ -452,7 +452,7 @@ int oom_child_main(const char *spec) {
   const Driver driver = simple ? Driver::MotStr : Driver::MotStrX;
   // A first iteration without the limit, as a long-running host would have done: LAPACK's
   // one-time buffers then exist. (OpenBLAS allocates them at first use and, when that fails,
-  // retries forever: a hang that is OpenBLAS's, reported in issue 7's hand-over; warm = 0
+  // retries forever: a hang that is OpenBLAS's, not ours; warm = 0
   // in the spec reproduces it.)
   if (warm) {
     std::vector<double> p = su.p;

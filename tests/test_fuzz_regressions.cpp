@@ -1,4 +1,4 @@
-// Inputs found by the fuzz targets of fuzz/ (issue 7), kept in tests/fuzz_regressions/ as
+// Inputs found by the fuzz targets of fuzz/, kept in tests/fuzz_regressions/ as
 // TARGET-NAME with TARGET one of cameras, points, calibration, bal (see the README there).
 // Each must give a clean error: one line naming the file from the reader itself, and one
 // line on stderr with exit status 1 from the program that reads such files (eucsbademo,

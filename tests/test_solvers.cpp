@@ -329,8 +329,7 @@ TEST_P(EverySolver, ResultsDoNotDependOnTheThreadCount) {
 
 // The dense S of `chol` is factored by the library's own Cholesky (up to 2048 unknowns), so
 // the result does not depend on how many threads the BLAS runs either: with OpenBLAS's
-// DPOTRF, 1 and 2 BLAS threads rounded differently and the solves took different steps
-// (354 unknowns here; on sba 1.6's 54-camera demo, 21 against 24 iterations).
+// DPOTRF, 1 and 2 BLAS threads round differently and the solves can take different steps.
 TEST(CholSolver, ResultsDoNotDependOnTheBlasThreads) {
   using SetThreads = void (*)(int);
   using GetThreads = int (*)();

@@ -1,5 +1,5 @@
 // sbagen: synthetic bundle adjustment problems with ground truth, for eucsbademo's camera
-// model (../../demo/eucsba_model.h) and file formats (../../shared/spec/EUCSBADEMO.md).
+// model (../../demo/eucsba_model.h) and file formats (docs/formats.md).
 //
 // A scene is a set of true cameras and points, the tracks saying which cameras see which
 // point, noisy measurements of the true projections (optionally with per-measurement 2x2

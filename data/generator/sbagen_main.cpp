@@ -11,93 +11,50 @@
 #include <string>
 #include <vector>
 
+#include "cli.h"
 #include "sbagen.h"
 
 namespace {
 
 const char kUsage[] =
-    "usage: sbagen --out PREFIX [options]\n"
+    "Usage: sbagen --out PREFIX [OPTION]...\n"
     "Writes a synthetic bundle adjustment problem for eucsbademo and its ground truth:\n"
     "  PREFIX-cams.txt PREFIX-pts.txt [PREFIX-calib.txt] PREFIX-truth-cams.txt PREFIX-truth-pts.txt\n"
     "  [PREFIX-outliers.txt]\n"
     "Lengths are in scene units: the radius of the point cloud (orbit) or the spacing of the\n"
     "cameras (path).\n"
     "\n"
-    "scene:\n"
-    "  --cameras M             number of cameras (default 20)\n"
-    "  --points N              number of points (default 1500)\n"
-    "  --trajectory T          orbit: cameras around the points looking at their centre;\n"
-    "                          path: cameras moving along a road, each point seen by\n"
-    "                          consecutive cameras (default orbit)\n"
-    "  --track-min K           fewest cameras seeing a point, >= 2 (default 2)\n"
-    "  --track-max K           most cameras seeing a point (default 10)\n"
-    "  --arc DEG               orbit: arc the cameras spread over, (0, 360] (default 360)\n"
-    "  --yaw DEG               path: view direction off the road, -90..90 (default 0: ahead)\n"
-    "  --turn DEG              path: largest heading change of the road's S-curve (default 10)\n"
-    "cameras:\n"
-    "  --kind K                fixed (one K, cnp 6), varK (per-camera K, cnp 11) or varKD\n"
-    "                          (per-camera K and distortion, cnp 16) (default fixed)\n"
-    "  --image WxH             image size in pixels (default 640x480)\n"
-    "  --focal F               focal length in pixels (default 800)\n"
-    "  --intrinsics-spread S   varK/varKD: relative per-camera spread of K (default 0.01)\n"
-    "  --distortion D          varKD: |kc0| <= D, |kc1| <= D/4 (default 0.1)\n"
-    "measurements:\n"
-    "  --noise SIGMA           Gaussian pixel noise (default 0.5)\n"
-    "  --covariances           random SPD 2x2 covariance per measurement, noise drawn from it\n"
-    "  --outliers FRAC         fraction of measurements replaced by gross outliers (default 0)\n"
-    "initial estimate (standard deviations):\n"
-    "  --perturb-rotation R    radians per axis (default 0.01)\n"
-    "  --perturb-translation T scene units per component of t (default 0.02)\n"
-    "  --perturb-points P      scene units per coordinate (default 0.02)\n"
-    "  --perturb-intrinsics I  varK/varKD: relative fu u0 v0, absolute kc0 kc1 (default 0.01)\n"
-    "  --no-perturb            start at the truth (all four set to 0)\n"
-    "other:\n"
-    "  --seed S                random seed, a 64-bit unsigned integer (default 1)\n"
-    "  --quiet                 no summary on stdout\n"
-    "  --help                  this text\n"
-    "\n"
-    "Exit status: 0 done, 1 the problem could not be generated or written, 2 bad options.\n";
+    "Options (a value may follow as --opt=VALUE or --opt VALUE; '--' ends the options):\n";
 
 // A bad command line: one line on stderr, exit status 2.
 [[noreturn]] void usage_error(const std::string &message) {
-  std::fprintf(stderr, "sbagen: %s (try --help)\n", message.c_str());
-  std::exit(2);
+  std::fprintf(stderr, "sbagen: %s\n", message.c_str());
+  std::exit(sbacli::kExitUsage);
 }
 
-double parse_real(const std::string &opt, const std::string &text) {
-  errno = 0;
-  char *end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v))
-    usage_error(opt + " needs a finite number, got '" + text + "'");
-  return v;
-}
-
-long long parse_integer(const std::string &opt, const std::string &text, long long lo, long long hi) {
-  errno = 0;
-  char *end = nullptr;
-  const long long v = std::strtoll(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || errno == ERANGE)
-    usage_error(opt + " needs an integer, got '" + text + "'");
-  if (v < lo || v > hi)
-    usage_error(opt + " must be between " + std::to_string(lo) + " and " + std::to_string(hi) + ", got " + text);
-  return v;
-}
-
-std::uint64_t parse_seed(const std::string &opt, const std::string &text) {
-  errno = 0;
-  char *end = nullptr;
-  if (text.empty() || text[0] == '-' || text[0] == '+') usage_error(opt + " needs an unsigned integer, got '" + text + "'");
-  const unsigned long long v = std::strtoull(text.c_str(), &end, 10);
-  if (*end != '\0' || errno == ERANGE) usage_error(opt + " needs an unsigned 64-bit integer, got '" + text + "'");
-  return static_cast<std::uint64_t>(v);
-}
-
-void parse_image(const std::string &opt, const std::string &text, int *w, int *h) {
+// Image size WIDTHxHEIGHT, each from 16 to 100000 pixels.
+std::string to_image(const std::string &text, int *w, int *h) {
   const std::size_t x = text.find('x');
-  if (x == std::string::npos) usage_error(opt + " needs WIDTHxHEIGHT, got '" + text + "'");
-  *w = static_cast<int>(parse_integer(opt, text.substr(0, x), 16, 100000));
-  *h = static_cast<int>(parse_integer(opt, text.substr(x + 1), 16, 100000));
+  int width = 0, height = 0;
+  if (x == std::string::npos || !sbacli::to_int(text.substr(0, x), 16, 100000, &width).empty() ||
+      !sbacli::to_int(text.substr(x + 1), 16, 100000, &height).empty())
+    return "expected WIDTHxHEIGHT, each an integer from 16 to 100000";
+  *w = width;
+  *h = height;
+  return {};
+}
+
+// A 64-bit unsigned seed.
+std::string to_seed(const std::string &text, std::uint64_t *out) {
+  errno = 0;
+  char *end = nullptr;
+  if (text.empty() || !std::isdigit(static_cast<unsigned char>(text[0])))
+    return "expected an integer from 0 to 18446744073709551615";
+  const unsigned long long v = std::strtoull(text.c_str(), &end, 10);
+  if (*end != '\0') return "expected an integer from 0 to 18446744073709551615";
+  if (errno == ERANGE) return "too large: the most is 18446744073709551615";
+  *out = static_cast<std::uint64_t>(v);
+  return {};
 }
 
 struct Cli {
@@ -136,107 +93,116 @@ std::string in_option_names(const std::string &message) {
   return out;
 }
 
+std::vector<sbacli::Option> option_table(Cli &cli) {
+  sbagen::Options &o = cli.options;
+  const int kIntMax = INT_MAX;
+  auto real = [](double *field) {
+    return [field](const std::string &v) -> std::string {
+      // Ranges are checked by Options::IsValid, in the words of the options (see parse).
+      double x = 0;
+      if (std::string why = sbacli::to_real(v, -HUGE_VAL, false, &x); !why.empty()) return "expected a finite number";
+      *field = x;
+      return {};
+    };
+  };
+  auto flag = [](bool *field) {
+    return [field](const std::string &) -> std::string {
+      *field = true;
+      return {};
+    };
+  };
+  std::vector<sbacli::Option> t;
+  t.push_back({"out", "PREFIX", "write PREFIX-cams.txt, PREFIX-pts.txt ... (required)",
+               [&cli](const std::string &v) { return sbacli::to_file(v, &cli.prefix); }});
+  t.push_back({"cameras", "M", "number of cameras (default 20)",
+               [&o](const std::string &v) { return sbacli::to_int(v, 2, kIntMax, &o.cameras); }});
+  t.push_back({"points", "N", "number of points (default 1500)",
+               [&o](const std::string &v) { return sbacli::to_int(v, 1, kIntMax, &o.points); }});
+  t.push_back({"trajectory", "T",
+               "orbit: cameras around the points looking at their centre; path: cameras moving along\n"
+               "a road, each point seen by consecutive cameras (default orbit)",
+               [&o](const std::string &v) -> std::string {
+                 std::string name;
+                 if (std::string why = sbacli::to_choice(v, {"orbit", "path"}, &name); !why.empty()) return why;
+                 o.trajectory = name == "orbit" ? sbagen::Trajectory::Orbit : sbagen::Trajectory::Path;
+                 return {};
+               }});
+  t.push_back({"track-min", "K", "fewest cameras seeing a point, >= 2 (default 2)",
+               [&o](const std::string &v) { return sbacli::to_int(v, 2, kIntMax, &o.track_min); }});
+  t.push_back({"track-max", "K", "most cameras seeing a point (default 10)",
+               [&o](const std::string &v) { return sbacli::to_int(v, 2, kIntMax, &o.track_max); }});
+  t.push_back({"arc", "DEG", "orbit: arc the cameras spread over, (0, 360] (default 360)", real(&o.orbit_arc_deg)});
+  t.push_back({"yaw", "DEG", "path: view direction off the road, -90..90 (default 0: ahead)", real(&o.path_yaw_deg)});
+  t.push_back({"turn", "DEG", "path: largest heading change of the road's S-curve (default 10)",
+               real(&o.path_turn_deg)});
+  t.push_back({"kind", "K",
+               "fixed (one K, cnp 6), varK (per-camera K, cnp 11) or varKD (per-camera K and\n"
+               "distortion, cnp 16) (default fixed)",
+               [&o](const std::string &v) -> std::string {
+                 std::string name;
+                 if (std::string why = sbacli::to_choice(v, {"fixed", "varK", "varKD"}, &name); !why.empty())
+                   return why;
+                 o.kind = name == "fixed"  ? eucsba::CameraKind::FixedIntrinsics
+                          : name == "varK" ? eucsba::CameraKind::VaryingIntrinsics
+                                           : eucsba::CameraKind::VaryingIntrinsicsDistortion;
+                 return {};
+               }});
+  t.push_back({"image", "WxH", "image size in pixels (default 640x480)",
+               [&o](const std::string &v) { return to_image(v, &o.image_width, &o.image_height); }});
+  t.push_back({"focal", "F", "focal length in pixels (default 800)", real(&o.focal)});
+  t.push_back({"intrinsics-spread", "S", "varK/varKD: relative per-camera spread of K (default 0.01)",
+               real(&o.intrinsics_spread)});
+  t.push_back({"distortion", "D", "varKD: |kc0| <= D, |kc1| <= D/4 (default 0.1)", real(&o.distortion)});
+  t.push_back({"noise", "SIGMA", "Gaussian pixel noise (default 0.5)", real(&o.noise)});
+  t.push_back({"covariances", "", "random SPD 2x2 covariance per measurement, noise drawn from it",
+               flag(&o.covariances)});
+  t.push_back({"outliers", "FRAC", "fraction of measurements replaced by gross outliers (default 0)",
+               real(&o.outliers)});
+  t.push_back({"perturb-rotation", "R", "initial estimate: radians per axis (default 0.01)",
+               real(&o.perturb_rotation)});
+  t.push_back({"perturb-translation", "T", "initial estimate: scene units per component of t (default 0.02)",
+               real(&o.perturb_translation)});
+  t.push_back({"perturb-points", "P", "initial estimate: scene units per coordinate (default 0.02)",
+               real(&o.perturb_points)});
+  t.push_back({"perturb-intrinsics", "I",
+               "initial estimate, varK/varKD: relative fu u0 v0, absolute kc0 kc1 (default 0.01)",
+               real(&o.perturb_intrinsics)});
+  t.push_back({"no-perturb", "", "start at the truth (the four perturbations set to 0)",
+               [&o](const std::string &) -> std::string {
+                 o.perturb_rotation = o.perturb_translation = o.perturb_points = o.perturb_intrinsics = 0;
+                 return {};
+               }});
+  t.push_back({"seed", "S", "random seed, a 64-bit unsigned integer (default 1)",
+               [&o](const std::string &v) { return to_seed(v, &o.seed); }});
+  t.push_back({"quiet", "", "no summary on stdout", flag(&cli.quiet)});
+  return t;
+}
+
+void print_usage(std::FILE *out) {
+  std::fputs(kUsage, out);
+  Cli scratch;
+  sbacli::print_options(out, option_table(scratch));
+  std::fputs("\nExit status: 0 done, 1 the problem could not be generated or written, 2 bad options.\n", out);
+}
+
 Cli parse(int argc, char **argv) {
   Cli cli;
-  sbagen::Options &o = cli.options;
-  for (int a = 1; a < argc; ++a) {
-    std::string opt = argv[a], value;
-    bool has_value = false;
-    if (opt.rfind("--", 0) == 0) {
-      const std::size_t eq = opt.find('=');
-      if (eq != std::string::npos) {
-        value = opt.substr(eq + 1);
-        opt = opt.substr(0, eq);
-        has_value = true;
-      }
-    } else {
-      usage_error("unexpected argument '" + opt + "'");
-    }
-    auto flag = [&]() {
-      if (has_value) usage_error(opt + " takes no value");
-    };
-    auto arg = [&]() -> std::string {
-      if (has_value) return value;
-      if (a + 1 >= argc) usage_error(opt + " needs a value");
-      return argv[++a];
-    };
-    if (opt == "--help") {
-      flag();
-      std::fputs(kUsage, stdout);
-      std::exit(0);
-    } else if (opt == "--cameras") {
-      o.cameras = static_cast<int>(parse_integer(opt, arg(), 2, INT_MAX));
-    } else if (opt == "--points") {
-      o.points = static_cast<int>(parse_integer(opt, arg(), 1, INT_MAX));
-    } else if (opt == "--trajectory") {
-      const std::string v = arg();
-      if (v == "orbit")
-        o.trajectory = sbagen::Trajectory::Orbit;
-      else if (v == "path")
-        o.trajectory = sbagen::Trajectory::Path;
-      else
-        usage_error(opt + " must be orbit or path, got '" + v + "'");
-    } else if (opt == "--track-min") {
-      o.track_min = static_cast<int>(parse_integer(opt, arg(), 2, INT_MAX));
-    } else if (opt == "--track-max") {
-      o.track_max = static_cast<int>(parse_integer(opt, arg(), 2, INT_MAX));
-    } else if (opt == "--arc") {
-      o.orbit_arc_deg = parse_real(opt, arg());
-    } else if (opt == "--yaw") {
-      o.path_yaw_deg = parse_real(opt, arg());
-    } else if (opt == "--turn") {
-      o.path_turn_deg = parse_real(opt, arg());
-    } else if (opt == "--kind") {
-      const std::string v = arg();
-      if (v == "fixed")
-        o.kind = eucsba::CameraKind::FixedIntrinsics;
-      else if (v == "varK")
-        o.kind = eucsba::CameraKind::VaryingIntrinsics;
-      else if (v == "varKD")
-        o.kind = eucsba::CameraKind::VaryingIntrinsicsDistortion;
-      else
-        usage_error(opt + " must be fixed, varK or varKD, got '" + v + "'");
-    } else if (opt == "--image") {
-      parse_image(opt, arg(), &o.image_width, &o.image_height);
-    } else if (opt == "--focal") {
-      o.focal = parse_real(opt, arg());
-    } else if (opt == "--intrinsics-spread") {
-      o.intrinsics_spread = parse_real(opt, arg());
-    } else if (opt == "--distortion") {
-      o.distortion = parse_real(opt, arg());
-    } else if (opt == "--noise") {
-      o.noise = parse_real(opt, arg());
-    } else if (opt == "--covariances") {
-      flag();
-      o.covariances = true;
-    } else if (opt == "--outliers") {
-      o.outliers = parse_real(opt, arg());
-    } else if (opt == "--perturb-rotation") {
-      o.perturb_rotation = parse_real(opt, arg());
-    } else if (opt == "--perturb-translation") {
-      o.perturb_translation = parse_real(opt, arg());
-    } else if (opt == "--perturb-points") {
-      o.perturb_points = parse_real(opt, arg());
-    } else if (opt == "--perturb-intrinsics") {
-      o.perturb_intrinsics = parse_real(opt, arg());
-    } else if (opt == "--no-perturb") {
-      flag();
-      o.perturb_rotation = o.perturb_translation = o.perturb_points = o.perturb_intrinsics = 0;
-    } else if (opt == "--seed") {
-      o.seed = parse_seed(opt, arg());
-    } else if (opt == "--out") {
-      cli.prefix = arg();
-      if (cli.prefix.empty()) usage_error("--out needs a non-empty prefix");
-    } else if (opt == "--quiet") {
-      flag();
-      cli.quiet = true;
-    } else {
-      usage_error("unknown option " + opt);
-    }
+  sbacli::Parsed parsed;
+  std::string error;
+  if (!sbacli::parse(argc, argv, option_table(cli), &parsed, &error)) usage_error(error);
+  if (parsed.help) {
+    print_usage(stdout);
+    std::exit(0);
   }
-  if (cli.prefix.empty()) usage_error("--out PREFIX is required");
+  if (parsed.version) {
+    std::printf("%s\n", sbacli::version_line("sbagen").c_str());
+    std::exit(0);
+  }
+  if (!parsed.positional.empty())
+    usage_error("unexpected argument '" + parsed.positional[0] + "' (see --help)");
+  if (cli.prefix.empty()) usage_error("--out PREFIX is required (see --help)");
   std::string why;
-  if (!o.IsValid(&why)) usage_error(in_option_names(why));
+  if (!cli.options.IsValid(&why)) usage_error(in_option_names(why));
   return cli;
 }
 

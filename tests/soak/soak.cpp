@@ -1,4 +1,4 @@
-// Soak test (issue 7): many solves of random synthetic problems with random options and
+// Soak test: many solves of random synthetic problems with random options and
 // random fault injection. Every solve runs in a fork()ed child under alarm(), so that a crash
 // or a hang is counted instead of ending the run. Counts and prints:
 //   crashes        a child killed by a signal, or exiting other than through its report

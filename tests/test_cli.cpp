@@ -1,0 +1,223 @@
+// The command-line conventions of the four programs (demo/cli.h), checked on the programs
+// themselves: the same grammar (--opt=VALUE and --opt VALUE), --help and --version in each,
+// and the same one-line message and exit status for the same mistake.
+#include <bzlib.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "sba.h"
+#include "sba_ext.h"
+
+namespace {
+
+struct Program {
+  std::string name, exe;
+  std::string int_option;  // an integer option >= 0 (or >= 1) with no upper bound of its own
+  std::string int_range;   // what the message says about it
+};
+
+std::vector<Program> programs() {
+  std::vector<Program> p{{"eucsbademo", EUCSBADEMO_EXE, "itmax", "an integer >= 0"},
+                         {"balsba", BALSBA_EXE, "itmax", "an integer >= 0"},
+                         {"sbagen", SBAGEN_EXE, "points", "an integer >= 1"}};
+#ifdef SBA_BENCH_EXE
+  p.push_back({"sba_bench", SBA_BENCH_EXE, "itmax", "an integer >= 0"});
+#endif
+  return p;
+}
+
+struct Output {
+  int status = -1;
+  std::string out, err;
+};
+
+std::string slurp(const std::string &path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// Runs exe with args (each passed as one word) and captures stdout, stderr and the status;
+// standard input from stdin_path.
+Output run(const std::string &exe, const std::vector<std::string> &args, const std::string &stdin_path = "/dev/null") {
+  const std::string base = ::testing::TempDir() + "test_cli." + std::to_string(getpid());
+  std::string cmd = "exec '" + exe + "'";
+  for (const std::string &a : args) cmd += " '" + a + "'";
+  cmd += " >" + base + ".out 2>" + base + ".err <'" + stdin_path + "'";
+  Output o;
+  const int raw = std::system(cmd.c_str());
+  o.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  o.out = slurp(base + ".out");
+  o.err = slurp(base + ".err");
+  std::remove((base + ".out").c_str());
+  std::remove((base + ".err").c_str());
+  return o;
+}
+
+// One mistake: exit status 2, nothing on stdout, exactly this line on stderr.
+void expect_usage_error(const Program &p, const std::vector<std::string> &args, const std::string &message) {
+  const Output o = run(p.exe, args);
+  EXPECT_EQ(o.status, 2) << p.name;
+  EXPECT_EQ(o.out, "") << p.name;
+  EXPECT_EQ(o.err, p.name + ": " + message + "\n") << p.name;
+}
+
+TEST(Cli, VersionAndHelp) {
+  for (const Program &p : programs()) {
+    Output o = run(p.exe, {"--version"});
+    EXPECT_EQ(o.status, 0) << p.name;
+    EXPECT_EQ(o.out, p.name + " (sba " + SBA_VERSION + ")\n");
+    EXPECT_EQ(o.err, "") << p.name;
+    for (const char *help : {"--help", "-h"}) {
+      o = run(p.exe, {help});
+      EXPECT_EQ(o.status, 0) << p.name;
+      EXPECT_EQ(o.out.rfind("Usage: " + p.name + " ", 0), 0u) << p.name << ":\n" << o.out;
+      for (const std::string &opt : {std::string("  --help\n"), std::string("  --version\n"), "  --" + p.int_option + "="})
+        EXPECT_NE(o.out.find(opt), std::string::npos) << p.name << " --help lacks " << opt;
+      EXPECT_EQ(o.err, "") << p.name;
+    }
+  }
+}
+
+TEST(Cli, SameMessagesForTheSameMistakes) {
+  for (const Program &p : programs()) {
+    const std::string opt = "--" + p.int_option;
+    expect_usage_error(p, {"--bogus"}, "unknown option '--bogus' (see --help)");
+    expect_usage_error(p, {"--bogus=1"}, "unknown option '--bogus' (see --help)");
+    expect_usage_error(p, {"-x"}, "unknown option '-x' (options are long: see --help)");
+    expect_usage_error(p, {"--version=yes"}, "option '--version' takes no value");
+    expect_usage_error(p, {opt}, "option '" + opt + "' needs a value (N)");
+    // Both spellings of a value, the same verdict.
+    expect_usage_error(p, {opt + "=ten"}, "bad value 'ten' for " + opt + ": expected " + p.int_range);
+    expect_usage_error(p, {opt, "ten"}, "bad value 'ten' for " + opt + ": expected " + p.int_range);
+    expect_usage_error(p, {opt + "=-1"}, "bad value '-1' for " + opt + ": expected " + p.int_range);
+    expect_usage_error(p, {opt + "="}, "bad value '' for " + opt + ": expected " + p.int_range);
+    expect_usage_error(p, {opt + "=12abc"}, "bad value '12abc' for " + opt + ": expected " + p.int_range);
+    // An integer too large for an int, and one too large for any integer type: "too large".
+    for (const std::string big : {"2147483648", "99999999999999999999999"})
+      expect_usage_error(p, {opt, big}, "bad value '" + big + "' for " + opt + ": too large: the most is 2147483647");
+  }
+}
+
+// The options that the solving programs share behave the same in each.
+TEST(Cli, SolverThreadsAndLossAlike) {
+  for (const Program &p : programs()) {
+    if (p.name != "eucsbademo" && p.name != "balsba") continue;
+    expect_usage_error(p, {"--threads=257"}, "bad value '257' for --threads: expected an integer from 0 to 256");
+    expect_usage_error(p, {"--threads", "-2"}, "bad value '-2' for --threads: expected an integer from 0 to 256");
+    expect_usage_error(p, {"--loss", "nope"},
+                       "bad value 'nope' for --loss: expected one of: none, huber, cauchy, soft-l1, tukey");
+    expect_usage_error(p, {"--loss-scale=0"}, "bad value '0' for --loss-scale: expected a positive number");
+    expect_usage_error(p, {"--solver=nope"},
+                       std::string("bad value 'nope' for --solver: expected one of: ") + sba_linsolver_names());
+    expect_usage_error(p, {"--tau=0"}, "bad value '0' for --tau: expected a positive number");
+    expect_usage_error(p, {"--opts", "1,2,3"}, "bad value '1,2,3' for --opts: expected 5 comma-separated numbers");
+    expect_usage_error(p, {"--mcon=-1"}, "bad value '-1' for --mcon: expected an integer >= 0");
+    // Good values in both spellings are accepted (--version then ends the run before any file
+    // is needed).
+    for (const std::vector<std::string> &good :
+         {std::vector<std::string>{"--solver=sparse-chol", "--threads=256", "--loss=huber", "--version"},
+          std::vector<std::string>{"--solver", "sparse-chol", "--threads", "0", "--loss", "none", "--version"},
+          std::vector<std::string>{"--opts=1e-3,1e-12,1e-12,1e-12,0", "--eps4", "1e-6", "--itmax", "5",
+                                   "--mcon=1", "--ncon", "0", "--version"}}) {
+      const Output o = run(p.exe, good);
+      EXPECT_EQ(o.status, 0) << p.name << " " << good[0] << ": " << o.err;
+      EXPECT_EQ(o.out, p.name + " (sba " + SBA_VERSION + ")\n");
+    }
+  }
+}
+
+#ifdef SBA_BENCH_EXE
+TEST(Cli, BenchListsCheckEachItem) {
+  const Program p{"sba_bench", SBA_BENCH_EXE, "itmax", ""};
+  expect_usage_error(p, {"--threads=1,300"}, "bad value '1,300' for --threads: '300': expected an integer from 1 to 256");
+  expect_usage_error(p, {"--solvers", "chol,nope"},
+                     std::string("bad value 'chol,nope' for --solvers: 'nope': expected one of: ") +
+                         sba_linsolver_names());
+  expect_usage_error(p, {"--ceres=dense,x"}, "bad value 'dense,x' for --ceres: 'x': expected one of: dense, sparse");
+}
+#endif
+
+TEST(Cli, PositionalArgumentsCounted) {
+  for (const Program &p : programs()) {
+    if (p.name == "eucsbademo")
+      expect_usage_error(p, {"a"}, "expected 2 or 3 file arguments (cams.txt pts.txt [calib.txt]), got 1 (see --help)");
+    if (p.name == "balsba") {
+      expect_usage_error(p, {}, "expected 1 file argument (a BAL problem), got 0 (see --help)");
+      expect_usage_error(p, {"a", "b"}, "expected 1 file argument (a BAL problem), got 2 (see --help)");
+    }
+    if (p.name == "sbagen") {
+      expect_usage_error(p, {}, "--out PREFIX is required (see --help)");
+      expect_usage_error(p, {"--out=x", "extra"}, "unexpected argument 'extra' (see --help)");
+    }
+  }
+}
+
+// eucsbademo reads bzip2-compressed files and one of its files from standard input ('-').
+class EucsbademoInputs : public ::testing::Test {
+ protected:
+  static std::string data(const char *part) { return std::string(SBA_PROJECT_DIR) + "/data/orbit-fixedK-" + part + ".txt"; }
+  // Writes path + ".bz2" compressed with libbz2, or only its first `keep` bytes.
+  static std::string compress(const std::string &path, const std::string &to, std::size_t keep = SIZE_MAX) {
+    const std::string text = slurp(path);
+    std::vector<char> out(text.size() + text.size() / 100 + 600);
+    unsigned int len = static_cast<unsigned int>(out.size());
+    EXPECT_EQ(BZ2_bzBuffToBuffCompress(out.data(), &len, const_cast<char *>(text.data()),
+                                       static_cast<unsigned int>(text.size()), 9, 0, 0),
+              BZ_OK);
+    std::ofstream(to, std::ios::binary).write(out.data(), std::min<std::size_t>(len, keep));
+    return to;
+  }
+  // The lines of a summary that do not depend on the time taken.
+  static std::string timeless(const std::string &out) {
+    std::string kept;
+    std::size_t start = 0;
+    while (start < out.size()) {
+      const std::size_t nl = out.find('\n', start);
+      const std::string line = out.substr(start, nl - start);
+      if (line.rfind("Elapsed time:", 0) != 0 && line.rfind("Solver ", 0) != 0) kept += line + "\n";
+      start = nl == std::string::npos ? out.size() : nl + 1;
+    }
+    return kept;
+  }
+};
+
+TEST_F(EucsbademoInputs, Bzip2AndStandardInputGiveTheSameRun) {
+  const std::string tmp = ::testing::TempDir() + "test_cli." + std::to_string(getpid());
+  const Output plain = run(EUCSBADEMO_EXE, {"--threads=1", data("cams"), data("pts"), data("calib")});
+  ASSERT_EQ(plain.status, 0) << plain.err;
+  ASSERT_NE(plain.out.find("SBA returned"), std::string::npos);
+  const std::string cams = compress(data("cams"), tmp + "-cams.txt.bz2");
+  const std::string pts = compress(data("pts"), tmp + "-pts.txt.bz2");
+  const Output z = run(EUCSBADEMO_EXE, {"--threads=1", cams, pts, data("calib")});
+  EXPECT_EQ(z.status, 0) << z.err;
+  EXPECT_EQ(timeless(z.out), timeless(plain.out));
+  const std::pair<std::size_t, const char *> kFiles[] = {{1, "cams"}, {2, "pts"}, {3, "calib"}};
+  for (const auto &[at, part] : kFiles) {
+    std::vector<std::string> args{"--threads=1", data("cams"), data("pts"), data("calib")};
+    args[at] = "-";
+    const Output in = run(EUCSBADEMO_EXE, args, data(part));
+    EXPECT_EQ(in.status, 0) << part << ": " << in.err;
+    EXPECT_EQ(timeless(in.out), timeless(plain.out)) << part;
+  }
+  const Output twice = run(EUCSBADEMO_EXE, {"-", "-"});
+  EXPECT_EQ(twice.status, 2);
+  EXPECT_EQ(twice.err, "eucsbademo: standard input ('-') can be only one of the files\n");
+  // A damaged compressed file is one line naming it, like any bad file.
+  const std::string cut = compress(data("pts"), tmp + "-cut.txt.bz2", 2000);
+  const Output bad = run(EUCSBADEMO_EXE, {data("cams"), cut, data("calib")});
+  EXPECT_EQ(bad.status, 1);
+  EXPECT_EQ(bad.out, "");
+  EXPECT_EQ(bad.err, cut + ":1: the bzip2 data end too early (truncated file)\n");
+  for (const std::string &f : {cams, pts, cut}) std::remove(f.c_str());
+}
+
+}  // namespace

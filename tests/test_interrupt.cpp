@@ -1,0 +1,211 @@
+// Stopping eucsbademo and balsba mid-solve (demo/run_control.h): SIGINT or SIGTERM sent to the
+// running program, a second signal, and --max-time. The programs run as child processes; a
+// signal is sent once the solve has started, on problems that take several seconds, so that
+// it arrives in the middle of an iteration.
+//
+// What a stopped run must do: print the summary with stop reason 9, write the results it was
+// asked for, and those results must be the last accepted estimate: the same bytes as an
+// uninterrupted run with itmax set to the iterations the stopped run made (one thread, so the
+// two runs round alike).
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <regex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+std::string slurp(const std::string &path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+bool exists(const std::string &path) { return access(path.c_str(), F_OK) == 0; }
+
+struct ChildRun {
+  int exit_status = -1;  // -1: not a normal exit
+  std::string out, err;
+};
+
+// Starts exe with args, stdout and stderr to files; calls act(pid, err_path) while it runs,
+// then waits for it.
+template <class Act>
+ChildRun run_child(const std::string &exe, const std::vector<std::string> &args, const std::string &base, Act act) {
+  const std::string out = base + ".out", err = base + ".err";
+  std::remove(out.c_str());
+  std::remove(err.c_str());
+  const pid_t pid = fork();
+  if (pid == 0) {
+    if (!std::freopen(out.c_str(), "w", stdout) || !std::freopen(err.c_str(), "w", stderr)) _exit(127);
+    std::vector<char *> argv{const_cast<char *>(exe.c_str())};
+    for (const std::string &a : args) argv.push_back(const_cast<char *>(a.c_str()));
+    argv.push_back(nullptr);
+    execv(exe.c_str(), argv.data());
+    _exit(127);
+  }
+  ChildRun r;
+  if (pid < 0) return r;
+  act(pid, err);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  r.exit_status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
+}
+
+// Waits until path holds text (the program's announcement that the solve starts), at most 60 s.
+bool wait_for(const std::string &path, const std::string &text) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (slurp(path).find(text) != std::string::npos) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
+// The iterations of "SBA returned N in N iter, reason R, ..."; -1 if absent.
+int iterations(const std::string &out, int *reason) {
+  std::smatch m;
+  static const std::regex re("SBA returned (-?[0-9]+) in ([0-9]+) iter, reason ([0-9]+),");
+  if (!std::regex_search(out, m, re)) return -1;
+  *reason = std::stoi(m[3]);
+  return std::stoi(m[2]);
+}
+
+class EucsbademoStop : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = ::testing::TempDir() + "test_interrupt." + std::to_string(getpid()) + "/";
+    ASSERT_EQ(std::system(("mkdir -p " + dir_).c_str()), 0);
+    // 120 cameras, 12,000 points: with the SVD solver on one thread each iteration takes a
+    // good fraction of a second, and the whole solve several seconds.
+    const std::string cmd = std::string(SBAGEN_EXE) + " --quiet --out " + dir_ +
+                            "big --cameras 120 --points 12000 --perturb-rotation 0.03 --perturb-points 0.05 "
+                            "--seed 3";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  }
+  static std::vector<std::string> args(const std::vector<std::string> &extra) {
+    std::vector<std::string> a{"--solver=svd", "--threads=1", "--no-progress"};
+    a.insert(a.end(), extra.begin(), extra.end());
+    for (const char *f : {"big-cams.txt", "big-pts.txt", "big-calib.txt"}) a.push_back(dir_ + f);
+    return a;
+  }
+  static std::string dir_;
+};
+std::string EucsbademoStop::dir_;
+
+TEST_F(EucsbademoStop, SignalStopsAtTheEndOfAnIterationWithTheLastAcceptedEstimate) {
+  for (int sig : {SIGINT, SIGTERM}) {
+    const std::string cams = dir_ + "stopped-cams.txt", pts = dir_ + "stopped-pts.txt";
+    const ChildRun r = run_child(EUCSBADEMO_EXE, args({"--write-cams=" + cams, "--write-pts", pts}), dir_ + "run",
+                            [sig](pid_t pid, const std::string &err) {
+                              ASSERT_TRUE(wait_for(err, "Starting BA"));
+                              std::this_thread::sleep_for(std::chrono::milliseconds(800));
+                              kill(pid, sig);
+                            });
+    const char *name = sig == SIGINT ? "SIGINT" : "SIGTERM";
+    EXPECT_EQ(r.exit_status, 128 + sig) << name << "\n" << r.err;
+    int reason = 0;
+    const int n = iterations(r.out, &reason);
+    ASSERT_GE(n, 1) << r.out;
+    EXPECT_EQ(reason, 9) << r.out;
+    EXPECT_NE(r.out.find("\nElapsed time: "), std::string::npos) << r.out;
+    EXPECT_EQ(r.err, "Starting BA with fixed intrinsic parameters\neucsbademo: interrupted by " + std::string(name) +
+                         " after iteration " + std::to_string(n) + ": the results are the last accepted estimate\n");
+    // The same solve run to itmax = n ends at the same estimate, byte for byte.
+    const std::string cams_n = dir_ + "itmax-cams.txt", pts_n = dir_ + "itmax-pts.txt";
+    const ChildRun full = run_child(EUCSBADEMO_EXE,
+                               args({"--itmax=" + std::to_string(n), "--write-cams=" + cams_n, "--write-pts=" + pts_n}),
+                               dir_ + "full", [](pid_t, const std::string &) {});
+    ASSERT_EQ(full.exit_status, 0) << full.err;
+    EXPECT_NE(full.out.find("in " + std::to_string(n) + " iter, reason 3,"), std::string::npos) << full.out;
+    EXPECT_EQ(slurp(cams), slurp(cams_n)) << name;
+    EXPECT_EQ(slurp(pts), slurp(pts_n)) << name;
+    EXPECT_NE(slurp(cams), slurp(dir_ + "big-cams.txt"));
+  }
+}
+
+TEST_F(EucsbademoStop, SecondSignalEndsTheProgramAtOnce) {
+  const std::string cams = dir_ + "twice-cams.txt";
+  std::remove(cams.c_str());
+  const ChildRun r = run_child(EUCSBADEMO_EXE, args({"--write-cams=" + cams}), dir_ + "twice",
+                          [](pid_t pid, const std::string &err) {
+                            ASSERT_TRUE(wait_for(err, "Starting BA"));
+                            std::this_thread::sleep_for(std::chrono::milliseconds(300));
+                            kill(pid, SIGINT);
+                            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+                            kill(pid, SIGINT);
+                          });
+  EXPECT_EQ(r.exit_status, 130);
+  EXPECT_EQ(r.out, "");  // no summary: it did not wait for the iteration to end
+  EXPECT_EQ(r.err, "Starting BA with fixed intrinsic parameters\n");
+  EXPECT_FALSE(exists(cams));
+}
+
+TEST_F(EucsbademoStop, MaxTimeStopsWithStatusZero) {
+  const ChildRun r = run_child(EUCSBADEMO_EXE, args({"--max-time=0.5"}), dir_ + "maxtime", [](pid_t, const std::string &) {});
+  EXPECT_EQ(r.exit_status, 0) << r.err;
+  int reason = 0;
+  const int n = iterations(r.out, &reason);
+  ASSERT_GE(n, 1) << r.out;
+  EXPECT_EQ(reason, 9);
+  EXPECT_EQ(r.err, "Starting BA with fixed intrinsic parameters\neucsbademo: --max-time 0.5 s reached after iteration " +
+                       std::to_string(n) + ": the results are the last accepted estimate\n");
+}
+
+TEST(BalsbaStop, SignalStopsWithTheLastAcceptedEstimate) {
+  const std::string problem = std::string(SBA_SHARED_DATA_DIR) + "/bal/problem-49-7776-pre.txt.bz2";
+  if (!exists(problem)) GTEST_SKIP() << problem << " is absent";
+  const std::string base = ::testing::TempDir() + "test_interrupt_bal." + std::to_string(getpid());
+  const std::string out = base + "-stopped.txt", out_n = base + "-itmax.txt";
+  const std::vector<std::string> common{problem, "--solver=svd", "--threads=1", "--no-progress"};
+  std::vector<std::string> a = common;
+  a.insert(a.end(), {"--write", out});
+  const ChildRun r = run_child(BALSBA_EXE, a, base, [](pid_t pid, const std::string &) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2000));  // reading the file takes a fraction of it
+    kill(pid, SIGINT);
+  });
+  EXPECT_EQ(r.exit_status, 130) << r.err;
+  int reason = 0;
+  const int n = iterations(r.out, &reason);
+  ASSERT_GE(n, 1) << r.out;
+  EXPECT_EQ(reason, 9);
+  EXPECT_EQ(r.err, "balsba: interrupted by SIGINT after iteration " + std::to_string(n) +
+                       ": the results are the last accepted estimate\n");
+  a = common;
+  a.insert(a.end(), {"--itmax", std::to_string(n), "--write", out_n});
+  const ChildRun full = run_child(BALSBA_EXE, a, base + "-full", [](pid_t, const std::string &) {});
+  ASSERT_EQ(full.exit_status, 0) << full.err;
+  EXPECT_EQ(slurp(out), slurp(out_n));
+  EXPECT_FALSE(slurp(out).empty());
+  std::remove(out.c_str());
+  std::remove(out_n.c_str());
+}
+
+TEST(BalsbaStop, MaxTimeStopsWithStatusZero) {
+  const std::string problem = std::string(SBA_SHARED_DATA_DIR) + "/bal/problem-49-7776-pre.txt.bz2";
+  if (!exists(problem)) GTEST_SKIP() << problem << " is absent";
+  const std::string base = ::testing::TempDir() + "test_interrupt_bal_time." + std::to_string(getpid());
+  const ChildRun r = run_child(BALSBA_EXE, {problem, "--solver=svd", "--threads=1", "--max-time", "0.5"}, base,
+                               [](pid_t, const std::string &) {});
+  EXPECT_EQ(r.exit_status, 0) << r.err;
+  int reason = 0;
+  const int n = iterations(r.out, &reason);
+  ASSERT_GE(n, 1) << r.out;
+  EXPECT_EQ(reason, 9);
+  EXPECT_NE(r.out.find("\nStop reason 9: stopped on request (a signal or --max-time)\n"), std::string::npos) << r.out;
+  EXPECT_EQ(r.err, "balsba: --max-time 0.5 s reached after iteration " + std::to_string(n) +
+                       ": the results are the last accepted estimate\n");
+}
+
+}  // namespace
