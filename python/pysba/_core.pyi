@@ -1,0 +1,36 @@
+"""Type stubs of the compiled part of pysba (use the functions of the pysba package)."""
+from typing import Any, Callable, Dict, Optional
+
+import numpy as np
+
+SBA_VERSION: str
+
+class Progress:
+    """The state after an iteration, passed to progress callbacks."""
+
+    @property
+    def iteration(self) -> int: ...
+    @property
+    def error(self) -> float: ...
+    @property
+    def mu(self) -> float: ...
+    @property
+    def dp_norm(self) -> float: ...
+    @property
+    def elapsed(self) -> float: ...
+
+def read_eucsbademo(cams: str, pts: str, calib: str) -> Dict[str, Any]: ...
+def read_bal(path: str) -> Dict[str, Any]: ...
+def solve_eucsbademo(cameras: np.ndarray, points: np.ndarray, camera_index: np.ndarray,
+                     point_index: np.ndarray, observations: np.ndarray,
+                     covariances: Optional[np.ndarray], calibration: Optional[np.ndarray],
+                     nccalib: int, ncdist: int, covariance: bool, **kwargs: Any) -> Dict[str, Any]: ...
+def solve_bal(cameras: np.ndarray, points: np.ndarray, camera_index: np.ndarray,
+              point_index: np.ndarray, observations: np.ndarray,
+              covariances: Optional[np.ndarray], covariance: bool, **kwargs: Any) -> Dict[str, Any]: ...
+def solve_python(refine: str, project: Callable[..., Any], jacobian: Optional[Callable[..., Any]],
+                 cameras: np.ndarray, points: np.ndarray, camera_index: np.ndarray,
+                 point_index: np.ndarray, observations: np.ndarray,
+                 covariances: Optional[np.ndarray], covariance: bool,
+                 **kwargs: Any) -> Dict[str, Any]: ...
+def solver_names() -> str: ...
