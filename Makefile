@@ -1,13 +1,15 @@
 # Convenience front end to the CMake build in build/ (for people who just type make).
 #   make          build the library (and demo, tests)
 #   make demo     build and run eucsbademo on the bundled example problem
-#   make test     build and run the whole test suite
+#   make test     build and run the whole test suite (the Python package pysba's tests too)
 #   make mex      build the MATLAB/GNU Octave interface into build/matlab (mex-test: its tests)
 #   make install  install into PREFIX (default /usr/local)
 BUILD ?= build
 PREFIX ?= /usr/local
 CMAKE_FLAGS ?=
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+# The interpreter pysba is built for: Debian's, whose pybind11 and numpy scripts/deps.sh installs.
+PYTHON ?= $(shell test -x /usr/bin/python3 && echo /usr/bin/python3 || command -v python3)
 
 .PHONY: all configure test demo install clean deps-build deps-test mex mex-test deps-mex \
 	check-sanitize check-valgrind check-tsan check-fuzz soak check-bench configure-asan clean-checks
@@ -25,7 +27,8 @@ deps-test:
 	@sh scripts/deps.sh test
 
 configure:
-	cmake -S . -B $(BUILD) -DCMAKE_INSTALL_PREFIX=$(PREFIX) -DSBA_BUILD_TESTS=ON $(CMAKE_FLAGS) >/dev/null
+	cmake -S . -B $(BUILD) -DCMAKE_INSTALL_PREFIX=$(PREFIX) -DSBA_BUILD_TESTS=ON -DPython_EXECUTABLE=$(PYTHON) \
+		$(CMAKE_FLAGS) >/dev/null
 
 test: deps-test configure
 	cmake --build $(BUILD) -j $(JOBS)

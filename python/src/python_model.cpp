@@ -97,13 +97,15 @@ void python_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adat
     const py::tuple ab = py::cast<py::tuple>(r);
     if (ab.size() != 2) throw py::value_error("jacobian must return a pair (A, B)");
     const int asz = pm->mnp * pm->cnp, bsz = pm->mnp * pm->pnp;
+    // Only the blocks of what is refined are read (and written: block counts only them).
+    const bool has_a = pm->refine != Refine::Str, has_b = pm->refine != Refine::Mot;
     Doubles A, B;
-    if (pm->refine != Refine::Str) A = result_array(ab[0], "jacobian's A", {idx->nnz, pm->mnp, pm->cnp});
-    if (pm->refine != Refine::Mot) B = result_array(ab[1], "jacobian's B", {idx->nnz, pm->mnp, pm->pnp});
+    if (has_a) A = result_array(ab[0], "jacobian's A", {idx->nnz, pm->mnp, pm->cnp});
+    if (has_b) B = result_array(ab[1], "jacobian's B", {idx->nnz, pm->mnp, pm->pnp});
     for (int q = 0; q < idx->nnz; ++q) {
       double *out = jac + size_t(l.ordinal[size_t(q)]) * block;
-      if (A) out = std::copy_n(A.data() + size_t(q) * asz, asz, out);
-      if (B) std::copy_n(B.data() + size_t(q) * bsz, bsz, out);
+      if (has_a) out = std::copy_n(A.data() + size_t(q) * asz, asz, out);
+      if (has_b) std::copy_n(B.data() + size_t(q) * bsz, bsz, out);
     }
   } catch (...) {
     pm->session->keep_current_exception();
