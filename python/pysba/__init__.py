@@ -33,7 +33,7 @@ from ._core import Progress
 
 __all__ = [
     "Problem", "Result", "Reason", "Progress", "SolveError", "read_eucsbademo", "read_bal",
-    "solve", "motstr", "mot", "str", "solver_names", "SBA_VERSION",
+    "solve", "motstr", "mot", "str", "solver_names", "strategy_names", "SBA_VERSION",
 ]
 
 SBA_VERSION: builtins.str = _core.SBA_VERSION
@@ -66,6 +66,11 @@ class SolveError(RuntimeError):
 def solver_names() -> list:
     """The linear solvers the ``solver=`` argument accepts."""
     return _core.solver_names().split()
+
+
+def strategy_names() -> list:
+    """The Levenberg-Marquardt strategies the ``strategy=`` argument accepts."""
+    return _core.strategy_names().split()
 
 
 class Problem:
@@ -126,9 +131,10 @@ class Result:
     and ``final_mse`` (mean squared reprojection error per observation, as eucsbademo
     prints it: info[0] and info[1] over the number of observations), ``iterations``,
     ``reason`` (a :class:`Reason`: ``.name`` and the 1.6 number), ``info`` (sba's ten
-    values), ``nfev``, ``njev``, ``nlinsys``, ``threads`` and ``solver`` (what ran),
-    ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a robust loss),
-    ``outliers`` (observations beyond the loss scale), ``log`` (the library's warnings)
+    values), ``nfev``, ``njev``, ``nlinsys``, ``threads``, ``solver`` and ``strategy``
+    (what ran), ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a
+    robust loss), ``outliers`` (observations beyond the loss scale), ``log`` (the library's
+    warnings)
     and, with ``covariance=True``, ``camera_covariance`` (m, cnp, cnp), ``point_covariance``
     (n, pnp, pnp), ``sigma2``, ``rank`` and ``nfree`` (see sba_ext.h). For eucsbademo
     problems the camera covariance is over the optimized parameters (intrinsics, the
@@ -148,6 +154,7 @@ class Result:
         self.nfev, self.njev, self.nlinsys = int(info[7]), int(info[8]), int(info[9])
         self.threads: int = report["threads"]
         self.solver: Optional[builtins.str] = report["solver"]
+        self.strategy: Optional[builtins.str] = report["strategy"]
         self.sq_error_initial: float = report["sq_error_initial"]
         self.sq_error_final: float = report["sq_error_final"]
         self.outliers: int = report["outliers"]
@@ -211,13 +218,14 @@ def read_bal(path: Any) -> Problem:
     return Problem("bal", **d)
 
 
-def _options(solver, threads, loss, loss_scale, itmax, opts, mcon, ncon, progress) -> dict:
-    return dict(solver=solver, threads=threads, loss=loss, loss_scale=loss_scale, itmax=itmax,
-                opts=None if opts is None else [float(v) for v in opts], mcon=mcon, ncon=ncon,
+def _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress) -> dict:
+    return dict(solver=solver, threads=threads, strategy=strategy, loss=loss, loss_scale=loss_scale,
+                itmax=itmax, opts=None if opts is None else [float(v) for v in opts], mcon=mcon, ncon=ncon,
                 progress=progress)
 
 
 def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: int = 0,
+          strategy: Optional[builtins.str] = None,
           loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 150,
           opts: Optional[Sequence[float]] = None, mcon: int = 0, ncon: int = 0,
           progress: Optional[Callable[[Progress], Any]] = None, covariance: bool = False,
@@ -230,6 +238,10 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
         The linear solver (:func:`solver_names`); None: $SBA_LINSOLVER, else "chol".
     threads
         0: the library's choice; results do not depend on it.
+    strategy
+        How LM damps, accepts steps and stops (:func:`strategy_names`): "sba" (sba 1.6's
+        algorithm) or "trust-region" (Marquardt's scaled damping; usually fewer
+        iterations). None: $SBA_STRATEGY, else "sba".
     loss, loss_scale
         Robust loss ("huber", "cauchy", "soft-l1", "tukey"; None: least squares) and its
         scale in pixels.
@@ -249,7 +261,7 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
     """
     if not isinstance(problem, Problem):
         raise TypeError("problem must be a pysba.Problem")
-    kw = _options(solver, threads, loss, loss_scale, itmax, opts, mcon, ncon, progress)
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
     if problem.model == "bal":
         report = _core.solve_bal(problem.cameras, problem.points, problem.camera_index,
                                  problem.point_index, problem.observations, problem.covariances,
@@ -276,6 +288,7 @@ def _python_model(refine, project, cameras, points, camera_index, point_index, o
 def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
            observations: Any, *, jacobian: Optional[JacobianFn] = None, covariances: Any = None,
            solver: Optional[builtins.str] = None, threads: int = 0,
+           strategy: Optional[builtins.str] = None,
            loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 150,
            opts: Optional[Sequence[float]] = None, mcon: int = 0, ncon: int = 0,
            progress: Optional[Callable[[Progress], Any]] = None,
@@ -297,7 +310,7 @@ def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, poi
     result as its ``result`` attribute. The other arguments are those of :func:`solve`.
     The callbacks are called from the calling thread, one at a time.
     """
-    kw = _options(solver, threads, loss, loss_scale, itmax, opts, mcon, ncon, progress)
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
     return _python_model("motstr", project, cameras, points, camera_index, point_index,
                          observations, jacobian, covariances, covariance, kw)
 
@@ -305,12 +318,13 @@ def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, poi
 def mot(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
         observations: Any, *, jacobian: Optional[JacobianFn] = None, covariances: Any = None,
         solver: Optional[builtins.str] = None, threads: int = 0,
+        strategy: Optional[builtins.str] = None,
         loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 100,
         opts: Optional[Sequence[float]] = None, mcon: int = 0,
         progress: Optional[Callable[[Progress], Any]] = None) -> Result:
     """As :func:`motstr`, refining the cameras only (sba_mot_levmar_x): the points are data.
     jacobian may return (A, None)."""
-    kw = _options(solver, threads, loss, loss_scale, itmax, opts, mcon, 0, progress)
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, 0, progress)
     return _python_model("mot", project, cameras, points, camera_index, point_index,
                          observations, jacobian, covariances, False, kw)
 
@@ -318,12 +332,13 @@ def mot(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_
 def _str(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
          observations: Any, *, jacobian: Optional[JacobianFn] = None, covariances: Any = None,
          solver: Optional[builtins.str] = None, threads: int = 0,
+         strategy: Optional[builtins.str] = None,
          loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 100,
          opts: Optional[Sequence[float]] = None, ncon: int = 0,
          progress: Optional[Callable[[Progress], Any]] = None) -> Result:
     """As :func:`motstr`, refining the points only (sba_str_levmar_x): the cameras are data.
     jacobian may return (None, B)."""
-    kw = _options(solver, threads, loss, loss_scale, itmax, opts, 0, ncon, progress)
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, 0, ncon, progress)
     return _python_model("str", project, cameras, points, camera_index, point_index,
                          observations, jacobian, covariances, False, kw)
 

@@ -262,5 +262,6 @@ PYBIND11_MODULE(_core, mod) {
           py::arg("cameras"), py::arg("points"), py::arg("camera_index"), py::arg("point_index"),
           py::arg("observations"), py::arg("covariances"), py::arg("covariance"));
   mod.def("solver_names", [] { return std::string(sba_linsolver_names()); });
+  mod.def("strategy_names", [] { return std::string(sba_strategy_names()); });
   mod.attr("SBA_VERSION") = SBA_VERSION;
 }

@@ -31,12 +31,15 @@ SolveOptions solve_options(const py::dict &kw) {
     std::copy(opts.begin(), opts.end(), o.opts.begin());
   }
   o.solver = text("solver");
+  o.strategy = text("strategy");
   o.loss = text("loss");
   o.progress = get("progress");
   if (o.itmax < 0) throw py::value_error("itmax must be >= 0, got " + std::to_string(o.itmax));
   if (o.threads < 0) throw py::value_error("threads must be >= 0, got " + std::to_string(o.threads));
   if (!o.solver.empty() && !sba_linsolver_valid(o.solver.c_str()))
     throw py::value_error("unknown solver '" + o.solver + "' (known: " + sba_linsolver_names() + ")");
+  if (!o.strategy.empty() && !sba_strategy_valid(o.strategy.c_str()))
+    throw py::value_error("unknown strategy '" + o.strategy + "' (known: " + sba_strategy_names() + ")");
   if (!o.progress.is_none() && !PyCallable_Check(o.progress.ptr()))
     throw py::type_error("progress must be callable or None");
   return o;
@@ -51,6 +54,7 @@ const sba_ext_options *Session::ext(bool parallel) {
   sba_ext_options_init(&ext_);
   if (!options_.solver.empty()) ext_.linsolver = options_.solver.c_str();
   ext_.nthreads = options_.threads;
+  if (!options_.strategy.empty()) ext_.strategy = options_.strategy.c_str();
   if (!options_.loss.empty()) {
     ext_.loss = options_.loss.c_str();
     ext_.loss_scale = options_.loss_scale;
@@ -153,6 +157,7 @@ py::dict Session::report(int ret, const double info[SBA_INFOSZ]) const {
   d["threads"] = result_.nthreads;
   d["solver"] = result_.linsolver ? py::object(py::str(result_.linsolver)) : py::object(py::none());
   d["robust"] = result_.robust != 0;
+  d["strategy"] = result_.strategy ? py::object(py::str(result_.strategy)) : py::object(py::none());
   d["error"] = failed_ ? error_ : py::object(py::none());
   return d;
 }

@@ -33,6 +33,7 @@ struct SolveOptions {
                                       SBA_STOP_THRESH, 0.0};
   std::string solver;  // empty: the library's choice
   int threads = 0;
+  std::string strategy;  // empty: the library's choice
   std::string loss;    // empty: least squares
   double loss_scale = 1.0;
   py::object progress;  // None or a callable taking a pysba.Progress

@@ -60,6 +60,15 @@ def test_bal_as_balsba_prints_it(bal21):
     assert printed(r) == line
 
 
+def test_trust_region_as_eucsbademo_runs_it(cams54):
+    r = pysba.solve(cams54, strategy="trust-region")
+    assert r.strategy == "trust-region" and pysba.solve(cams54, itmax=1).strategy == "sba"
+    assert (f"{r.final_mse:g}", r.iterations, r.reason) == ("0.176473", 7, pysba.Reason.REDUCTION)
+    line = program_line("PYSBA_EUCSBADEMO", ["--strategy", "trust-region", DEMO / "54cams.txt",
+                                             DEMO / "54pts.txt", DEMO / "calib.txt"])
+    assert printed(r) == line
+
+
 def test_threads_give_the_same_bits(cams54):
     one = pysba.solve(cams54, threads=1)
     two = pysba.solve(cams54, threads=2)
@@ -285,6 +294,7 @@ def test_bad_content_names_file_and_line(tmp_path):
 def test_bad_arguments_raise_value_error(cams7):
     p = cams7
     for kw, match in [(dict(solver="magic"), "unknown solver 'magic'"),
+                      (dict(strategy="dogleg"), "unknown strategy 'dogleg'"),
                       (dict(itmax=-1), "itmax"), (dict(threads=-2), "threads"),
                       (dict(mcon=8), "mcon"), (dict(ncon=-1), "ncon"),
                       (dict(opts=[1, 2]), "opts must hold 5"),
