@@ -52,6 +52,20 @@ def test_54cams_as_eucsbademo_prints_it(cams54):
     assert printed(pysba.solve(cams54)) == line
 
 
+def test_varying_intrinsics_as_eucsbademo_prints_it():
+    files = [need(DEMO / "7camsvarK.txt"), DEMO / "7pts.txt"]
+    p = pysba.read_eucsbademo(*files)
+    assert p.cameras.shape == (7, 12) and p.calibration is None
+    r = pysba.solve(p)
+    assert (f"{r.final_mse:g}", r.iterations, r.reason) == ("0.658995", 139, pysba.Reason.REDUCTION)
+    assert printed(r) == program_line("PYSBA_EUCSBADEMO", files)
+    # Two more trailing intrinsics held (eucsbademo --nccalib 4): a different minimum.
+    held = pysba.solve(p, nccalib=4)
+    assert printed(held) == program_line("PYSBA_EUCSBADEMO", ["--nccalib", "4", *files])
+    assert held.final_mse != r.final_mse
+    assert np.array_equal(held.cameras[:, 1:5], p.cameras[:, 1:5])
+
+
 def test_bal_as_balsba_prints_it(bal21):
     r = pysba.solve(bal21)
     assert (f"{r.final_mse:g}", f"{r.initial_mse:g}", r.iterations, r.reason) == \
