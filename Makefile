@@ -4,6 +4,8 @@ BUILD ?= build
 PREFIX ?= /usr/local
 CMAKE_FLAGS ?=
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+# The interpreter pysba is built for: Debian's, whose pybind11 and numpy scripts/deps.sh installs.
+PYTHON ?= $(shell test -x /usr/bin/python3 && echo /usr/bin/python3 || command -v python3)
 
 .PHONY: all help configure test demo install clean deps-build deps-test mex mex-test deps-mex \
 	check-sanitize check-valgrind check-tsan check-fuzz soak check-bench configure-asan clean-checks
@@ -17,7 +19,7 @@ all: deps-build configure
 help:
 	@echo 'make              build the library, the programs (and the tests when GoogleTest is installed)'
 	@echo 'make demo         install missing build packages, build, run eucsbademo on $(DEMO_PROBLEM)'
-	@echo 'make test         install missing build and test packages, build, run the whole test suite'
+	@echo 'make test         install missing build and test packages, build, run the whole test suite (pysba too)'
 	@echo 'make install      install into PREFIX (now $(PREFIX))'
 	@echo 'make mex          the MATLAB/GNU Octave interface in $(BUILD)/matlab (make mex-test: its tests)'
 	@echo 'make clean        remove $(BUILD)'
@@ -31,7 +33,8 @@ deps-test:
 	@sh scripts/deps.sh test
 
 configure:
-	cmake -S . -B $(BUILD) -DCMAKE_INSTALL_PREFIX=$(PREFIX) -DSBA_BUILD_TESTS=ON $(CMAKE_FLAGS) >/dev/null
+	cmake -S . -B $(BUILD) -DCMAKE_INSTALL_PREFIX=$(PREFIX) -DSBA_BUILD_TESTS=ON -DPython_EXECUTABLE=$(PYTHON) \
+		$(CMAKE_FLAGS) >/dev/null
 
 test: deps-test configure
 	cmake --build $(BUILD) -j $(JOBS)

@@ -2,7 +2,8 @@
 # Installs the Debian packages that sba needs for a purpose, when they are missing.
 #   scripts/deps.sh build   compiler, CMake, LAPACK/BLAS (OpenBLAS), SuiteSparse, bzip2
 #   scripts/deps.sh bench   build + Ceres Solver, Google Benchmark and gnuplot (bench/)
-#   scripts/deps.sh test    build + GoogleTest + GNU Octave (the MEX interface's tests)
+#   scripts/deps.sh test    build + GoogleTest + GNU Octave (the MEX interface's tests) + python
+#   scripts/deps.sh python  build + what the Python package pysba builds and tests with
 #   scripts/deps.sh mex     build + GNU Octave with its MEX headers
 #   scripts/deps.sh valgrind  build + valgrind (make check-valgrind)
 #   scripts/deps.sh fuzz    build + clang-14 with its libFuzzer/sanitizer runtimes (make check-fuzz)
@@ -11,14 +12,16 @@ set -eu
 
 purpose=${1:-build}
 pkgs="g++ make cmake pkg-config liblapack-dev libblas-dev libopenblas-dev libsuitesparse-dev libbz2-dev"
+python_pkgs="python3-dev pybind11-dev python3-numpy python3-pytest python3-venv python3-setuptools python3-pip"
 case "$purpose" in
   build) ;;
-  test) pkgs="$pkgs libgtest-dev octave octave-dev" ;;
+  test) pkgs="$pkgs libgtest-dev octave octave-dev $python_pkgs" ;;
+  python) pkgs="$pkgs $python_pkgs" ;;
   mex) pkgs="$pkgs octave octave-dev" ;;
   bench) pkgs="$pkgs libceres-dev libbenchmark-dev gnuplot-nox" ;;
   valgrind) pkgs="$pkgs valgrind" ;;
   fuzz) pkgs="$pkgs clang-14 libclang-rt-14-dev bzip2" ;;
-  *) echo "usage: $0 build|test|mex|bench|valgrind|fuzz" >&2; exit 2 ;;
+  *) echo "usage: $0 build|test|python|mex|bench|valgrind|fuzz" >&2; exit 2 ;;
 esac
 
 missing=""

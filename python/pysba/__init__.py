@@ -1,0 +1,349 @@
+"""pysba: sparse bundle adjustment (the sba library) for Python.
+
+numpy arrays in, numpy arrays out::
+
+    import pysba
+    problem = pysba.read_eucsbademo("54cams.txt", "54pts.txt", "calib.txt")
+    result = pysba.solve(problem)
+    print(result.initial_mse, "->", result.final_mse, result.reason.name)
+
+- :func:`read_eucsbademo` and :func:`read_bal` read problems into a :class:`Problem`;
+  :func:`solve` refines them with the library's own camera models (the C programs'
+  eucsbademo and balsba models, at the same speed and with the same results).
+- :func:`motstr`, :func:`mot` and :func:`str` take a camera model written in Python:
+  vectorized callbacks over all the observations at once.
+
+Every solve releases the GIL while the library works. Ctrl-C stops it after the current
+iteration and raises KeyboardInterrupt with the partial :class:`Result` as its ``result``
+attribute; an exception raised in a callback stops it the same way and propagates.
+Bad arguments raise ValueError (or TypeError), unreadable files OSError, and a solve that
+fails numerically :class:`SolveError`, a RuntimeError that carries the ``result`` too.
+"""
+from __future__ import annotations
+
+import builtins
+import enum
+import os
+from typing import Any, Callable, Optional, Sequence, Tuple
+
+import numpy as np
+
+from . import _core
+from ._core import Progress
+
+__all__ = [
+    "Problem", "Result", "Reason", "Progress", "SolveError", "read_eucsbademo", "read_bal",
+    "solve", "motstr", "mot", "str", "solver_names", "strategy_names", "SBA_VERSION",
+]
+
+SBA_VERSION: builtins.str = _core.SBA_VERSION
+
+
+class Reason(enum.IntEnum):
+    """Why a solve stopped; the value is sba 1.6's info[6] (8 and 9 are this library's)."""
+
+    NONE = 0        #: nothing ran: bad arguments or no memory
+    GRADIENT = 1    #: ||J^T e||_inf <= eps1
+    STEP = 2        #: ||dp|| <= eps2 ||p||
+    ITMAX = 3       #: itmax iterations
+    REDUCTION = 4   #: relative error reduction < eps4
+    ERROR = 5       #: ||e||^2 <= eps3^2
+    DAMPING = 6     #: the damping could not grow any more
+    NONFINITE = 7   #: a projection or the Jacobian was NaN or Inf
+    SINGULAR = 8    #: the augmented normal equations are almost singular
+    USER = 9        #: the progress callback (or Ctrl-C) stopped the solve
+
+
+class SolveError(RuntimeError):
+    """The library failed to solve (or to compute the covariance); ``result`` holds where
+    the solve stood (the last accepted estimate)."""
+
+    def __init__(self, message: builtins.str, result: Optional["Result"] = None):
+        super().__init__(message)
+        self.result = result
+
+
+def solver_names() -> list:
+    """The linear solvers the ``solver=`` argument accepts."""
+    return _core.solver_names().split()
+
+
+def strategy_names() -> list:
+    """The Levenberg-Marquardt strategies the ``strategy=`` argument accepts."""
+    return _core.strategy_names().split()
+
+
+class Problem:
+    """A bundle adjustment problem: cameras, points and their observations, as numpy arrays.
+
+    model
+        ``"eucsbademo"`` (cameras as rows of eucsbademo's camera files: 7 values
+        ``q0 q1 q2 q3 t0 t1 t2`` with the shared ``calibration`` K, or 12 values with the
+        intrinsics ``fu u0 v0 ar s`` first, or 17 with the distortion ``kc0..kc4`` after
+        them) or ``"bal"`` (9 values ``w1 w2 w3 t1 t2 t3 f k1 k2`` per camera).
+    cameras, points
+        (m, cnp) and (n, 3) float arrays.
+    camera_index, point_index, observations
+        One row per observation: which camera sees which point where (observations is
+        (nobs, 2), in pixels). Any order; the readers give sba's (point by point, cameras
+        ascending). A (camera, point) pair may appear only once.
+    covariances
+        None, or one 2x2 covariance per observation, (nobs, 2, 2).
+    calibration
+        The 3x3 K of eucsbademo's 7-value cameras; None otherwise.
+    """
+
+    def __init__(self, model: builtins.str, cameras: Any, points: Any, camera_index: Any,
+                 point_index: Any, observations: Any, covariances: Any = None,
+                 calibration: Any = None):
+        if model not in ("eucsbademo", "bal"):
+            raise ValueError(f"model must be 'eucsbademo' or 'bal', got {model!r}")
+        self.model = model
+        self.cameras = np.asarray(cameras, dtype=np.float64)
+        self.points = np.asarray(points, dtype=np.float64)
+        self.camera_index = np.asarray(camera_index, dtype=np.int64)
+        self.point_index = np.asarray(point_index, dtype=np.int64)
+        self.observations = np.asarray(observations, dtype=np.float64)
+        self.covariances = None if covariances is None else np.asarray(covariances, dtype=np.float64)
+        self.calibration = None if calibration is None else np.asarray(calibration, dtype=np.float64)
+
+    @property
+    def ncameras(self) -> int:
+        return int(self.cameras.shape[0])
+
+    @property
+    def npoints(self) -> int:
+        return int(self.points.shape[0])
+
+    @property
+    def nobservations(self) -> int:
+        return int(self.observations.shape[0])
+
+    def __repr__(self) -> builtins.str:
+        return (f"Problem(model={self.model!r}, cameras={self.ncameras}, points={self.npoints}, "
+                f"observations={self.nobservations})")
+
+
+class Result:
+    """What a solve did.
+
+    Attributes: ``cameras`` and ``points`` (refined, laid out as given), ``initial_mse``
+    and ``final_mse`` (mean squared reprojection error per observation, as eucsbademo
+    prints it: info[0] and info[1] over the number of observations), ``iterations``,
+    ``reason`` (a :class:`Reason`: ``.name`` and the 1.6 number), ``info`` (sba's ten
+    values), ``nfev``, ``njev``, ``nlinsys``, ``threads``, ``solver`` and ``strategy``
+    (what ran), ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a
+    robust loss), ``outliers`` (observations beyond the loss scale), ``log`` (the library's
+    warnings)
+    and, with ``covariance=True``, ``camera_covariance`` (m, cnp, cnp), ``point_covariance``
+    (n, pnp, pnp), ``sigma2``, ``rank`` and ``nfree`` (see sba_ext.h). For eucsbademo
+    problems the camera covariance is over the optimized parameters (intrinsics, the
+    rotation's local correction v, t), not over the file's quaternion.
+    """
+
+    def __init__(self, report: dict):
+        info = np.array(report["info"], dtype=np.float64)
+        nobs = max(int(report["nobs"]), 1)
+        self.cameras: np.ndarray = report["cameras"]
+        self.points: np.ndarray = report["points"]
+        self.info: np.ndarray = info
+        self.initial_mse = float(info[0]) / nobs
+        self.final_mse = float(info[1]) / nobs
+        self.iterations = int(info[5])
+        self.reason = Reason(int(info[6])) if int(info[6]) in Reason._value2member_map_ else Reason.NONE
+        self.nfev, self.njev, self.nlinsys = int(info[7]), int(info[8]), int(info[9])
+        self.threads: int = report["threads"]
+        self.solver: Optional[builtins.str] = report["solver"]
+        self.strategy: Optional[builtins.str] = report["strategy"]
+        self.sq_error_initial: float = report["sq_error_initial"]
+        self.sq_error_final: float = report["sq_error_final"]
+        self.outliers: int = report["outliers"]
+        self.log: list = list(report["warnings"])
+        self.camera_covariance: Optional[np.ndarray] = report.get("camera_covariance")
+        self.point_covariance: Optional[np.ndarray] = report.get("point_covariance")
+        self.sigma2: Optional[float] = report.get("sigma2")
+        self.rank: Optional[int] = report.get("rank")
+        self.nfree: Optional[int] = report.get("nfree")
+
+    def __repr__(self) -> builtins.str:
+        return (f"Result(final_mse={self.final_mse:g}, initial_mse={self.initial_mse:g}, "
+                f"iterations={self.iterations}, reason={self.reason.name})")
+
+
+def _finish(report: dict) -> Result:
+    """The Result of a report from _core, or the exception it stands for."""
+    result = Result(report)
+    error = report["error"]
+    if error is not None:
+        # A callback's exception (KeyboardInterrupt included), raised again with the
+        # traceback it was raised with; the partial result travels with it.
+        try:
+            error.result = result
+        except AttributeError:
+            pass
+        raise error
+    if report["ret"] == -1:
+        message = "; ".join(report["errors"]) or f"the solve failed (reason {result.reason.name})"
+        if result.reason == Reason.NONE:
+            raise ValueError(message)
+        raise SolveError(message, result)
+    if "covariance_error" in report:
+        raise SolveError(report["covariance_error"], result)
+    return result
+
+
+def _readable(path: Any) -> builtins.str:
+    """path as a string, after opening it once: a missing or unreadable file raises the
+    usual OSError subclass (FileNotFoundError, PermissionError, IsADirectoryError)."""
+    path = os.fspath(path)
+    with open(path, "rb"):
+        pass
+    return path
+
+
+def read_eucsbademo(cams: Any, pts: Any, calib: Any = None) -> Problem:
+    """Reads eucsbademo's camera and point files (and the calibration file that goes with
+    7-value cameras). OSError for a file that cannot be read, ValueError with the reader's
+    ``file:line: message`` for bad content."""
+    paths = [_readable(cams), _readable(pts), "" if calib is None else _readable(calib)]
+    d = _core.read_eucsbademo(*paths)
+    return Problem("eucsbademo", **d)
+
+
+def read_bal(path: Any) -> Problem:
+    """Reads a BAL ("Bundle Adjustment in the Large") problem file, plain or
+    bzip2-compressed. Observations come in sba's order (point by point). OSError for a
+    file that cannot be read, ValueError naming the line for bad content."""
+    d = _core.read_bal(_readable(path))
+    return Problem("bal", **d)
+
+
+def _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress) -> dict:
+    return dict(solver=solver, threads=threads, strategy=strategy, loss=loss, loss_scale=loss_scale,
+                itmax=itmax, opts=None if opts is None else [float(v) for v in opts], mcon=mcon, ncon=ncon,
+                progress=progress)
+
+
+def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: int = 0,
+          strategy: Optional[builtins.str] = None,
+          loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 150,
+          opts: Optional[Sequence[float]] = None, mcon: int = 0, ncon: int = 0,
+          progress: Optional[Callable[[Progress], Any]] = None, covariance: bool = False,
+          nccalib: int = 2, ncdist: int = 3) -> Result:
+    """Refines the cameras and points of a problem (motion and structure) with the library's
+    camera model for it, as the eucsbademo and balsba programs do, and returns a
+    :class:`Result`; the problem is left unchanged.
+
+    solver
+        The linear solver (:func:`solver_names`); None: $SBA_LINSOLVER, else "chol".
+    threads
+        0: the library's choice; results do not depend on it.
+    strategy
+        How LM damps, accepts steps and stops (:func:`strategy_names`): "sba" (sba 1.6's
+        algorithm) or "trust-region" (Marquardt's scaled damping; usually fewer
+        iterations). None: $SBA_STRATEGY, else "sba".
+    loss, loss_scale
+        Robust loss ("huber", "cauchy", "soft-l1", "tukey"; None: least squares) and its
+        scale in pixels.
+    itmax, opts
+        Most iterations; sba's (tau, eps1, eps2, eps3, eps4), None for the defaults
+        (1e-3, 1e-12, 1e-12, 1e-12, 0).
+    mcon, ncon
+        The first mcon cameras and ncon points are held fixed.
+    progress
+        Called with a :class:`Progress` after every iteration; a true return value stops
+        the solve (reason USER), an exception stops it and propagates.
+    covariance
+        Also compute the covariance blocks of every camera and point at the result.
+    nccalib, ncdist
+        eucsbademo cameras with intrinsics: how many trailing intrinsics (of fu u0 v0 ar s)
+        and distortion terms (of kc0..kc4) are held fixed, as eucsbademo's options.
+    """
+    if not isinstance(problem, Problem):
+        raise TypeError("problem must be a pysba.Problem")
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
+    if problem.model == "bal":
+        report = _core.solve_bal(problem.cameras, problem.points, problem.camera_index,
+                                 problem.point_index, problem.observations, problem.covariances,
+                                 bool(covariance), **kw)
+    else:
+        report = _core.solve_eucsbademo(problem.cameras, problem.points, problem.camera_index,
+                                        problem.point_index, problem.observations,
+                                        problem.covariances, problem.calibration, int(nccalib),
+                                        int(ncdist), bool(covariance), **kw)
+    return _finish(report)
+
+
+ProjectFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], Any]
+JacobianFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], Tuple[Any, Any]]
+
+
+def _python_model(refine, project, cameras, points, camera_index, point_index, observations,
+                  jacobian, covariances, covariance, kw) -> Result:
+    report = _core.solve_python(refine, project, jacobian, cameras, points, camera_index,
+                                point_index, observations, covariances, bool(covariance), **kw)
+    return _finish(report)
+
+
+def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
+           observations: Any, *, jacobian: Optional[JacobianFn] = None, covariances: Any = None,
+           solver: Optional[builtins.str] = None, threads: int = 0,
+           strategy: Optional[builtins.str] = None,
+           loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 150,
+           opts: Optional[Sequence[float]] = None, mcon: int = 0, ncon: int = 0,
+           progress: Optional[Callable[[Progress], Any]] = None,
+           covariance: bool = False) -> Result:
+    """Refines cameras (m, cnp) and points (n, pnp) under a camera model written in Python
+    (sba_motstr_levmar_x): observation k is camera ``camera_index[k]``'s view of point
+    ``point_index[k]``, measured as ``observations[k]`` (mnp values).
+
+    project(cameras, points, cam_idx, pt_idx)
+        Returns the predicted observations of the listed (camera, point) pairs, an array
+        (len(cam_idx), mnp). It gets copies of the current estimate; cam_idx and pt_idx
+        are int64 arrays.
+    jacobian(cameras, points, cam_idx, pt_idx)
+        Optional; returns (A, B), the derivatives of each prediction by its camera's
+        parameters (len, mnp, cnp) and by its point's (len, mnp, pnp). None: forward
+        differences (cnp + pnp calls of project per iteration).
+
+    An exception raised by a callback stops the solve and propagates, with the partial
+    result as its ``result`` attribute. The other arguments are those of :func:`solve`.
+    The callbacks are called from the calling thread, one at a time.
+    """
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
+    return _python_model("motstr", project, cameras, points, camera_index, point_index,
+                         observations, jacobian, covariances, covariance, kw)
+
+
+def mot(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
+        observations: Any, *, jacobian: Optional[JacobianFn] = None, covariances: Any = None,
+        solver: Optional[builtins.str] = None, threads: int = 0,
+        strategy: Optional[builtins.str] = None,
+        loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 100,
+        opts: Optional[Sequence[float]] = None, mcon: int = 0,
+        progress: Optional[Callable[[Progress], Any]] = None) -> Result:
+    """As :func:`motstr`, refining the cameras only (sba_mot_levmar_x): the points are data.
+    jacobian may return (A, None)."""
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, 0, progress)
+    return _python_model("mot", project, cameras, points, camera_index, point_index,
+                         observations, jacobian, covariances, False, kw)
+
+
+def _str(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
+         observations: Any, *, jacobian: Optional[JacobianFn] = None, covariances: Any = None,
+         solver: Optional[builtins.str] = None, threads: int = 0,
+         strategy: Optional[builtins.str] = None,
+         loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 100,
+         opts: Optional[Sequence[float]] = None, ncon: int = 0,
+         progress: Optional[Callable[[Progress], Any]] = None) -> Result:
+    """As :func:`motstr`, refining the points only (sba_str_levmar_x): the cameras are data.
+    jacobian may return (None, B)."""
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, 0, ncon, progress)
+    return _python_model("str", project, cameras, points, camera_index, point_index,
+                         observations, jacobian, covariances, False, kw)
+
+
+# sba's name for structure-only refinement. It shadows the builtin inside this module, which
+# is why the code above says builtins.str wherever it means the type.
+_str.__name__ = _str.__qualname__ = "str"
+globals()["str"] = _str

@@ -1,0 +1,54 @@
+// numpy arrays in and out of the extension, and the observations in sba's layout.
+#ifndef PYSBA_ARRAYS_H
+#define PYSBA_ARRAYS_H
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace pysba {
+
+namespace py = pybind11;
+
+using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
+using Indices = py::array_t<long long, py::array::c_style | py::array::forcecast>;
+
+// A numpy array over v's data without copying it: the array owns the vector from now on.
+template <class T>
+py::array_t<T> adopt(std::vector<T> &&v, std::vector<py::ssize_t> shape) {
+  auto *owned = new std::vector<T>(std::move(v));
+  py::capsule owner(owned, [](void *q) { delete static_cast<std::vector<T> *>(q); });
+  return py::array_t<T>(std::move(shape), owned->data(), owner);
+}
+
+// A copy of len values at data, in a new array of the given shape.
+py::array_t<double> copy_of(const double *data, std::vector<py::ssize_t> shape);
+
+// Checks that a has ndim dimensions and the given sizes (-1: any); what names it in the
+// ValueError otherwise. Returns the sizes.
+std::vector<py::ssize_t> check_shape(const py::array &a, const char *what,
+                                     std::vector<py::ssize_t> expected);
+
+// The observations as the drivers take them: sorted point by point, cameras ascending.
+struct Observations {
+  int n = 0, m = 0, mnp = 0;
+  std::vector<char> vmask;        // n*m
+  std::vector<double> x;          // mnp per observation, sorted
+  std::vector<double> covx;       // empty, or mnp*mnp per observation, sorted
+  std::vector<long long> order;   // order[k]: the caller's index of sorted observation k
+  int nobs() const { return static_cast<int>(order.size()); }
+  double *covx_or_null() { return covx.empty() ? nullptr : covx.data(); }
+};
+
+// From the caller's arrays: camera_index and point_index (nobs each), observations
+// (nobs x mnp) and covariances (None or nobs x mnp x mnp). ValueError for indices out of
+// range, a (camera, point) pair given twice, or mismatched sizes.
+Observations sorted_observations(int n, int m, const Indices &camera_index, const Indices &point_index,
+                                 const Doubles &observations, const py::object &covariances);
+
+}  // namespace pysba
+
+#endif  // PYSBA_ARRAYS_H

@@ -1,0 +1,267 @@
+// pysba._core: the readers and the built-in camera models of the demo programs, and the
+// expert drivers with Python callbacks (python_model.cpp). The Python-facing API, its
+// defaults and its documentation are in pysba/__init__.py.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "arrays.h"
+#include "bal_io.h"
+#include "bal_model.h"
+#include "eucsba_io.h"
+#include "eucsba_model.h"
+#include "python_model.h"
+#include "run.h"
+#include "session.h"
+
+namespace pysba {
+namespace {
+
+[[noreturn]] void raise_os_error(const std::string &message) {
+  PyErr_SetString(PyExc_OSError, message.c_str());
+  throw py::error_already_set();
+}
+
+// ---- eucsbademo's Euclidean cameras, as rows of the camera files ----
+
+int row_width(eucsba::CameraKind kind) { return eucsba::camera_file_values(kind); }
+
+eucsba::CameraKind kind_of_width(py::ssize_t width) {
+  for (eucsba::CameraKind k : {eucsba::CameraKind::FixedIntrinsics, eucsba::CameraKind::VaryingIntrinsics,
+                               eucsba::CameraKind::VaryingIntrinsicsDistortion})
+    if (row_width(k) == width) return k;
+  throw py::value_error("eucsbademo cameras must have 7, 12 or 17 columns, got " + std::to_string(width));
+}
+
+void camera_to_row(eucsba::CameraKind kind, const eucsba::Camera &c, double *row) {
+  if (kind != eucsba::CameraKind::FixedIntrinsics) {
+    const double k[] = {c.k.fu, c.k.u0, c.k.v0, c.k.ar, c.k.s};
+    row = std::copy(k, k + 5, row);
+    if (kind == eucsba::CameraKind::VaryingIntrinsicsDistortion) row = std::copy(c.kc.begin(), c.kc.end(), row);
+  }
+  const double qt[] = {c.q.w, c.q.x, c.q.y, c.q.z, c.t[0], c.t[1], c.t[2]};
+  std::copy(qt, qt + 7, row);
+}
+
+eucsba::Camera row_to_camera(eucsba::CameraKind kind, const double *row, const eucsba::Intrinsics &calib) {
+  eucsba::Camera c;
+  c.k = calib;
+  if (kind != eucsba::CameraKind::FixedIntrinsics) {
+    c.k = {row[0], row[1], row[2], row[3], row[4]};
+    row += 5;
+    if (kind == eucsba::CameraKind::VaryingIntrinsicsDistortion) {
+      std::copy(row, row + 5, c.kc.begin());
+      row += 5;
+    }
+  }
+  c.q = {row[0], row[1], row[2], row[3]};
+  c.t = {row[4], row[5], row[6]};
+  return c;
+}
+
+py::array_t<double> calibration_matrix(const eucsba::Intrinsics &k) {
+  std::vector<double> K = {k.fu, k.s, k.u0, 0.0, k.fu * k.ar, k.v0, 0.0, 0.0, 1.0};
+  return adopt(std::move(K), {3, 3});
+}
+
+eucsba::Intrinsics intrinsics_of(const Doubles &K) {
+  check_shape(K, "calibration", {3, 3});
+  const double *k = K.data();
+  if (k[3] != 0 || k[6] != 0 || k[7] != 0 || k[8] != 1)
+    throw py::value_error("calibration must be [[fu, s, u0], [0, fv, v0], [0, 0, 1]]");
+  if (k[0] == 0 || k[4] == 0) throw py::value_error("calibration: fu and fv must be nonzero");
+  return {k[0], k[2], k[5], k[4] / k[0], k[1]};
+}
+
+// (camera, point) of each observation of a vmask, in sba's order.
+void indices_of_vmask(const std::vector<char> &vmask, int n, int m, std::vector<long long> *cam,
+                      std::vector<long long> *pt) {
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j)
+      if (vmask[size_t(i) * m + j]) {
+        cam->push_back(j);
+        pt->push_back(i);
+      }
+}
+
+py::dict read_eucsbademo(const std::string &cams, const std::string &pts, const std::string &calib) {
+  eucsba::Problem problem;
+  eucsba::Status status;
+  {
+    py::gil_scoped_release release;
+    status = eucsba::load_problem(cams, pts, calib, &problem);
+  }
+  if (!status) {
+    // Line 0: the file could not be opened or read at all; otherwise its content is wrong.
+    if (status.line() == 0) raise_os_error(status.to_string());
+    throw py::value_error(status.to_string());
+  }
+  eucsba::PointSet &ps = problem.points;
+  const int m = ps.ncameras, n = ps.npoints(), nobs = ps.nprojections();
+  const int w = row_width(problem.kind);
+  std::vector<double> rows(size_t(m) * w);
+  for (int j = 0; j < m; ++j) camera_to_row(problem.kind, problem.cameras[size_t(j)], rows.data() + size_t(j) * w);
+  std::vector<long long> cam, pt;
+  indices_of_vmask(ps.vmask, n, m, &cam, &pt);
+  py::dict d;
+  d["cameras"] = adopt(std::move(rows), {m, w});
+  d["points"] = adopt(std::move(ps.xyz), {n, 3});
+  d["camera_index"] = adopt(std::move(cam), {nobs});
+  d["point_index"] = adopt(std::move(pt), {nobs});
+  d["observations"] = adopt(std::move(ps.x), {nobs, 2});
+  d["covariances"] = ps.has_covariances() ? py::object(adopt(std::move(ps.covx), {nobs, 2, 2})) : py::none();
+  d["calibration"] = problem.kind == eucsba::CameraKind::FixedIntrinsics && m > 0
+                         ? py::object(calibration_matrix(problem.cameras[0].k))
+                         : py::none();
+  return d;
+}
+
+py::dict read_bal(const std::string &path) {
+  bal::Problem problem;
+  bal::SbaLayout layout;
+  std::string error;
+  bool ok;
+  {
+    py::gil_scoped_release release;
+    ok = bal::read_problem(path, &problem, &error) && bal::to_sba(problem, path, &layout, &error);
+  }
+  if (!ok) {
+    if (error.find(": cannot open") != std::string::npos || error.find(": read error") != std::string::npos)
+      raise_os_error(error);
+    throw py::value_error(error);
+  }
+  const int nobs = layout.nobservations();
+  std::vector<long long> cam(static_cast<size_t>(nobs)), pt(static_cast<size_t>(nobs));
+  for (int k = 0; k < nobs; ++k) {
+    const bal::Observation &o = problem.observations[size_t(layout.order[size_t(k)])];
+    cam[size_t(k)] = o.camera;
+    pt[size_t(k)] = o.point;
+  }
+  py::dict d;
+  d["cameras"] = adopt(std::move(problem.cameras), {problem.ncameras, bal::kCameraParams});
+  d["points"] = adopt(std::move(problem.points), {problem.npoints, bal::kPointParams});
+  d["camera_index"] = adopt(std::move(cam), {nobs});
+  d["point_index"] = adopt(std::move(pt), {nobs});
+  d["observations"] = adopt(std::move(layout.x), {nobs, 2});
+  return d;
+}
+
+// Motion and structure with eucsbademo's camera model, as eucsbademo runs it by default
+// (expert driver, analytic Jacobian, callbacks shared by the threads).
+py::dict solve_eucsbademo(const Doubles &cameras, const Doubles &points, const Indices &camera_index,
+                          const Indices &point_index, const Doubles &observations, const py::object &covariances,
+                          const py::object &calibration, int nccalib, int ncdist, bool covariance,
+                          const py::kwargs &kw) {
+  const SolveOptions o = solve_options(kw);
+  const std::vector<py::ssize_t> cs = check_shape(cameras, "cameras", {-1, -1});
+  const eucsba::CameraKind kind = kind_of_width(cs[1]);
+  const py::ssize_t n = check_shape(points, "points", {-1, 3})[0];
+  if (cs[0] == 0 || n == 0) throw py::value_error("a problem needs at least one camera and one point");
+  eucsba::Intrinsics calib;
+  if (kind == eucsba::CameraKind::FixedIntrinsics) {
+    if (calibration.is_none()) throw py::value_error("cameras of 7 values need a calibration matrix");
+    calib = intrinsics_of(Doubles::ensure(calibration));
+  } else if (!calibration.is_none()) {
+    throw py::value_error("a calibration matrix goes only with cameras of 7 values (q, t)");
+  }
+  const int m = static_cast<int>(cs[0]);
+  std::vector<eucsba::Camera> cams;
+  for (int j = 0; j < m; ++j) cams.push_back(row_to_camera(kind, cameras.data() + size_t(j) * cs[1], calib));
+  std::vector<double> xyz(points.data(), points.data() + n * 3);
+
+  Run run;
+  run.obs = sorted_observations(static_cast<int>(n), m, camera_index, point_index, observations, covariances);
+  if (run.obs.mnp != eucsba::kMeasurementParams) throw py::value_error("observations must have 2 columns");
+  std::unique_ptr<eucsba::CameraModel> model;
+  try {
+    model = std::make_unique<eucsba::CameraModel>(kind, cams, xyz, nccalib, ncdist);
+  } catch (const std::invalid_argument &e) {
+    throw py::value_error(e.what());
+  }
+  const eucsba::ExpertCallbacks cb = eucsba::expert_callbacks(kind, eucsba::Refinement::MotionStructure);
+  run.p = model->initial_camera_params();
+  run.p.insert(run.p.end(), xyz.begin(), xyz.end());
+  run.cnp = model->cnp();
+  run.pnp = eucsba::kPointParams;
+  run.func = cb.func;
+  run.fjac = cb.fjac;
+  run.adata = eucsba::as_adata(*model);
+  run.parallel = true;  // the model's callbacks are re-entrant and walk the index by rows
+
+  Session session(o);
+  py::dict d = run_driver(run, session, o, covariance);
+  std::vector<double> rows(size_t(m) * cs[1]);
+  for (int j = 0; j < m; ++j)
+    camera_to_row(kind, model->camera(j, run.p.data() + size_t(j) * run.cnp), rows.data() + size_t(j) * cs[1]);
+  d["cameras"] = adopt(std::move(rows), {m, cs[1]});
+  d["points"] = copy_of(run.p.data() + size_t(m) * run.cnp, {n, 3});
+  d["nobs"] = run.obs.nobs();
+  return d;
+}
+
+// Motion and structure with the BAL camera model and its analytic Jacobian, as balsba runs it.
+py::dict solve_bal(const Doubles &cameras, const Doubles &points, const Indices &camera_index,
+                   const Indices &point_index, const Doubles &observations, const py::object &covariances,
+                   bool covariance, const py::kwargs &kw) {
+  const SolveOptions o = solve_options(kw);
+  const py::ssize_t m = check_shape(cameras, "cameras", {-1, bal::kCameraParams})[0];
+  const py::ssize_t n = check_shape(points, "points", {-1, bal::kPointParams})[0];
+  if (m == 0 || n == 0) throw py::value_error("a problem needs at least one camera and one point");
+  Run run;
+  run.obs = sorted_observations(static_cast<int>(n), static_cast<int>(m), camera_index, point_index, observations,
+                                covariances);
+  if (run.obs.mnp != bal::kMeasurementParams) throw py::value_error("observations must have 2 columns");
+  run.p.assign(cameras.data(), cameras.data() + m * bal::kCameraParams);
+  run.p.insert(run.p.end(), points.data(), points.data() + n * bal::kPointParams);
+  bal::CallbackData data;
+  data.ncameras = static_cast<int>(m);
+  run.cnp = bal::kCameraParams;
+  run.pnp = bal::kPointParams;
+  run.func = bal::motstr_func;
+  run.fjac = bal::motstr_fjac;
+  run.adata = &data;
+  run.parallel = true;
+  Session session(o);
+  py::dict d = run_driver(run, session, o, covariance);
+  d["cameras"] = copy_of(run.p.data(), {m, bal::kCameraParams});
+  d["points"] = copy_of(run.p.data() + m * bal::kCameraParams, {n, bal::kPointParams});
+  d["nobs"] = run.obs.nobs();
+  return d;
+}
+
+}  // namespace
+}  // namespace pysba
+
+PYBIND11_MODULE(_core, mod) {
+  namespace py = pybind11;
+  using namespace pysba;
+  mod.doc() = "The compiled part of pysba; use the functions of the pysba package instead.";
+
+  py::class_<sba_progress>(mod, "Progress", "The state after an iteration, passed to progress callbacks.")
+      .def_readonly("iteration", &sba_progress::iteration, "Iterations done so far (1, 2, ...).")
+      .def_readonly("error", &sba_progress::error, "Sum of squared errors (or the robust cost) now.")
+      .def_readonly("mu", &sba_progress::mu, "The damping the next iteration starts from.")
+      .def_readonly("dp_norm", &sba_progress::dp_norm, "Norm of the last step tried.")
+      .def_readonly("elapsed", &sba_progress::elapsed, "Seconds since the solve started.")
+      .def("__repr__", [](const sba_progress &s) {
+        return "Progress(iteration=" + std::to_string(s.iteration) + ", error=" + std::to_string(s.error) + ")";
+      });
+
+  mod.def("read_eucsbademo", &read_eucsbademo, py::arg("cams"), py::arg("pts"), py::arg("calib"));
+  mod.def("read_bal", &read_bal, py::arg("path"));
+  mod.def("solve_eucsbademo", &solve_eucsbademo, py::arg("cameras"), py::arg("points"), py::arg("camera_index"),
+          py::arg("point_index"), py::arg("observations"), py::arg("covariances"), py::arg("calibration"),
+          py::arg("nccalib"), py::arg("ncdist"), py::arg("covariance"));
+  mod.def("solve_bal", &solve_bal, py::arg("cameras"), py::arg("points"), py::arg("camera_index"),
+          py::arg("point_index"), py::arg("observations"), py::arg("covariances"), py::arg("covariance"));
+  mod.def("solve_python", &solve_python, py::arg("refine"), py::arg("project"), py::arg("jacobian"),
+          py::arg("cameras"), py::arg("points"), py::arg("camera_index"), py::arg("point_index"),
+          py::arg("observations"), py::arg("covariances"), py::arg("covariance"));
+  mod.def("solver_names", [] { return std::string(sba_linsolver_names()); });
+  mod.def("strategy_names", [] { return std::string(sba_strategy_names()); });
+  mod.attr("SBA_VERSION") = SBA_VERSION;
+}

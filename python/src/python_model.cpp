@@ -1,0 +1,169 @@
+#include "python_model.h"
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "run.h"
+#include "session.h"
+
+namespace pysba {
+namespace {
+
+// What the C callbacks receive as adata.
+struct PythonModel {
+  Refine refine = Refine::MotStr;
+  int m = 0, n = 0, cnp = 0, pnp = 0, mnp = 0;
+  py::object project, jacobian;
+  // The part that is not refined: the points for motion only, the cameras for structure only.
+  std::vector<double> cameras0, points0;
+  Session *session = nullptr;
+
+  const double *cameras_in(const double *p) const { return refine == Refine::Str ? cameras0.data() : p; }
+  const double *points_in(const double *p) const {
+    if (refine == Refine::Mot) return points0.data();
+    return refine == Refine::Str ? p : p + size_t(m) * cnp;
+  }
+  // The values the Jacobian callback writes per observation.
+  int jacobian_block() const {
+    return mnp * ((refine != Refine::Str ? cnp : 0) + (refine != Refine::Mot ? pnp : 0));
+  }
+};
+
+// The observations an index lists, in its row order, and their measurement ordinals.
+struct Listed {
+  py::array_t<long long> cam, pt;
+  std::vector<int> ordinal;
+};
+
+Listed listed(const sba_crsm *idx) {
+  Listed l;
+  l.cam = py::array_t<long long>(idx->nnz);
+  l.pt = py::array_t<long long>(idx->nnz);
+  l.ordinal.resize(size_t(idx->nnz));
+  long long *cam = l.cam.mutable_data(), *pt = l.pt.mutable_data();
+  int q = 0;
+  for (int i = 0; i < idx->nr; ++i)
+    for (int k = idx->rowptr[i]; k < idx->rowptr[i + 1]; ++k, ++q) {
+      cam[q] = idx->colidx[k];
+      pt[q] = i;
+      l.ordinal[size_t(q)] = idx->val[k];
+    }
+  return l;
+}
+
+// A NaN in every block of the output: the driver stops at once (SBA_ERROR, reason 7), and
+// the kept exception is raised when it has returned.
+void poison(const sba_crsm *idx, int block, double *out) {
+  for (int k = 0; k < idx->nnz; ++k)
+    std::fill_n(out + size_t(idx->val[k]) * block, block, std::numeric_limits<double>::quiet_NaN());
+}
+
+// A copy of the callback's result as an array of the expected shape.
+Doubles result_array(const py::handle &r, const char *what, std::vector<py::ssize_t> shape) {
+  if (r.is_none()) throw py::value_error(std::string(what) + " is None");
+  Doubles a = Doubles::ensure(r);
+  if (!a) throw py::type_error(std::string(what) + " must be an array of floats");
+  check_shape(a, what, std::move(shape));
+  return a;
+}
+
+void python_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
+  PythonModel *pm = static_cast<PythonModel *>(adata);
+  if (pm->session->failed()) return poison(idx, pm->mnp, hx);
+  py::gil_scoped_acquire gil;
+  try {
+    const Listed l = listed(idx);
+    const py::object r = pm->project(copy_of(pm->cameras_in(p), {pm->m, pm->cnp}),
+                                     copy_of(pm->points_in(p), {pm->n, pm->pnp}), l.cam, l.pt);
+    const Doubles a = result_array(r, "project's result", {idx->nnz, pm->mnp});
+    for (int q = 0; q < idx->nnz; ++q)
+      std::copy_n(a.data() + size_t(q) * pm->mnp, pm->mnp, hx + size_t(l.ordinal[size_t(q)]) * pm->mnp);
+  } catch (...) {
+    pm->session->keep_current_exception();
+    poison(idx, pm->mnp, hx);
+  }
+}
+
+void python_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adata) {
+  PythonModel *pm = static_cast<PythonModel *>(adata);
+  const int block = pm->jacobian_block();
+  if (pm->session->failed()) return poison(idx, block, jac);
+  py::gil_scoped_acquire gil;
+  try {
+    const Listed l = listed(idx);
+    const py::object r = pm->jacobian(copy_of(pm->cameras_in(p), {pm->m, pm->cnp}),
+                                      copy_of(pm->points_in(p), {pm->n, pm->pnp}), l.cam, l.pt);
+    const py::tuple ab = py::cast<py::tuple>(r);
+    if (ab.size() != 2) throw py::value_error("jacobian must return a pair (A, B)");
+    const int asz = pm->mnp * pm->cnp, bsz = pm->mnp * pm->pnp;
+    // Only the blocks of what is refined are read (and written: block counts only them).
+    const bool has_a = pm->refine != Refine::Str, has_b = pm->refine != Refine::Mot;
+    Doubles A, B;
+    if (has_a) A = result_array(ab[0], "jacobian's A", {idx->nnz, pm->mnp, pm->cnp});
+    if (has_b) B = result_array(ab[1], "jacobian's B", {idx->nnz, pm->mnp, pm->pnp});
+    for (int q = 0; q < idx->nnz; ++q) {
+      double *out = jac + size_t(l.ordinal[size_t(q)]) * block;
+      if (has_a) out = std::copy_n(A.data() + size_t(q) * asz, asz, out);
+      if (has_b) std::copy_n(B.data() + size_t(q) * bsz, bsz, out);
+    }
+  } catch (...) {
+    pm->session->keep_current_exception();
+    poison(idx, block, jac);
+  }
+}
+
+}  // namespace
+
+py::dict solve_python(const std::string &refine, const py::object &project, const py::object &jacobian,
+                      const Doubles &cameras, const Doubles &points, const Indices &camera_index,
+                      const Indices &point_index, const Doubles &observations, const py::object &covariances,
+                      bool covariance, const py::kwargs &kw) {
+  const SolveOptions o = solve_options(kw);
+  if (!PyCallable_Check(project.ptr())) throw py::type_error("project must be callable");
+  if (!jacobian.is_none() && !PyCallable_Check(jacobian.ptr()))
+    throw py::type_error("jacobian must be callable or None");
+  const std::vector<py::ssize_t> cs = check_shape(cameras, "cameras", {-1, -1});
+  const std::vector<py::ssize_t> ps = check_shape(points, "points", {-1, -1});
+  if (cs[0] == 0 || ps[0] == 0) throw py::value_error("a problem needs at least one camera and one point");
+  if (cs[1] == 0 || ps[1] == 0) throw py::value_error("cameras and points need at least one parameter each");
+
+  PythonModel pm;
+  if (refine == "motstr") pm.refine = Refine::MotStr;
+  else if (refine == "mot") pm.refine = Refine::Mot;
+  else if (refine == "str") pm.refine = Refine::Str;
+  else throw py::value_error("refine must be motstr, mot or str");
+  pm.m = static_cast<int>(cs[0]);
+  pm.n = static_cast<int>(ps[0]);
+  pm.cnp = static_cast<int>(cs[1]);
+  pm.pnp = static_cast<int>(ps[1]);
+  pm.project = project;
+  pm.jacobian = jacobian;
+  const double *c = cameras.data(), *b = points.data();
+  std::vector<double> cams(c, c + cs[0] * cs[1]), pts(b, b + ps[0] * ps[1]);
+
+  Run run;
+  run.refine = pm.refine;
+  run.obs = sorted_observations(pm.n, pm.m, camera_index, point_index, observations, covariances);
+  pm.mnp = run.obs.mnp;
+  if (pm.refine != Refine::Str) run.p = cams;
+  else pm.cameras0 = cams;
+  if (pm.refine != Refine::Mot) run.p.insert(run.p.end(), pts.begin(), pts.end());
+  else pm.points0 = pts;
+  run.cnp = pm.cnp;
+  run.pnp = pm.pnp;
+  run.func = python_func;
+  run.fjac = jacobian.is_none() ? nullptr : python_fjac;
+  run.adata = &pm;
+  run.parallel = false;  // one at a time, on the calling thread: they need the GIL anyway
+
+  Session session(o);
+  pm.session = &session;
+  py::dict d = run_driver(run, session, o, covariance);
+  d["cameras"] = copy_of(pm.cameras_in(run.p.data()), {pm.m, pm.cnp});
+  d["points"] = copy_of(pm.points_in(run.p.data()), {pm.n, pm.pnp});
+  d["nobs"] = run.obs.nobs();
+  return d;
+}
+
+}  // namespace pysba

@@ -1,0 +1,23 @@
+// The expert drivers with a camera model written in Python: vectorized callbacks that get the
+// cameras, the points and the (camera, point) index of every observation at once.
+#ifndef PYSBA_PYTHON_MODEL_H
+#define PYSBA_PYTHON_MODEL_H
+
+#include <pybind11/pybind11.h>
+
+#include "arrays.h"
+
+namespace pysba {
+
+// refine: "motstr", "mot" or "str". project(cameras, points, cam_idx, pt_idx) returns the
+// predicted observations (nobs x mnp); jacobian (None: finite differences) returns
+// (A, B) with A (nobs x mnp x cnp) and B (nobs x mnp x pnp), the one not refined may be None.
+// Returns the report of run_driver with the refined "cameras" and "points".
+py::dict solve_python(const std::string &refine, const py::object &project, const py::object &jacobian,
+                      const Doubles &cameras, const Doubles &points, const Indices &camera_index,
+                      const Indices &point_index, const Doubles &observations, const py::object &covariances,
+                      bool covariance, const py::kwargs &kw);
+
+}  // namespace pysba
+
+#endif  // PYSBA_PYTHON_MODEL_H

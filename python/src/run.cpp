@@ -1,0 +1,82 @@
+#include "run.h"
+
+#include <numeric>
+#include <string>
+
+namespace pysba {
+
+py::dict run_driver(Run &run, Session &session, const SolveOptions &o, bool covariance) {
+  Observations &obs = run.obs;
+  const int n = obs.n, m = obs.m, mnp = obs.mnp;
+  if (o.mcon < 0 || o.mcon > m)
+    throw py::value_error("mcon must be in [0, " + std::to_string(m) + "], got " + std::to_string(o.mcon));
+  if (o.ncon < 0 || o.ncon > n)
+    throw py::value_error("ncon must be in [0, " + std::to_string(n) + "], got " + std::to_string(o.ncon));
+  double info[SBA_INFOSZ] = {0};
+  const sba_ext_options *ext = session.ext(run.parallel);
+  int ret = SBA_ERROR;
+  {
+    py::gil_scoped_release release;
+    switch (run.refine) {
+      case Refine::MotStr:
+        ret = sba_motstr_levmar_x_ext(n, o.ncon, m, o.mcon, obs.vmask.data(), run.p.data(), run.cnp, run.pnp,
+                                      obs.x.data(), obs.covx_or_null(), mnp, run.func, run.fjac, run.adata,
+                                      o.itmax, 0, o.opts.data(), info, ext);
+        break;
+      case Refine::Mot:
+        ret = sba_mot_levmar_x_ext(n, m, o.mcon, obs.vmask.data(), run.p.data(), run.cnp, obs.x.data(),
+                                   obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, o.itmax, 0,
+                                   o.opts.data(), info, ext);
+        break;
+      case Refine::Str:
+        ret = sba_str_levmar_x_ext(n, o.ncon, m, obs.vmask.data(), run.p.data(), run.pnp, obs.x.data(),
+                                   obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, o.itmax, 0,
+                                   o.opts.data(), info, ext);
+        break;
+    }
+  }
+  py::dict d = session.report(ret, info);
+  if (!covariance || ret == SBA_ERROR || session.failed()) return d;
+  if (run.refine != Refine::MotStr)
+    throw py::value_error("covariance needs motion and structure refinement");
+
+  std::vector<int> cams(static_cast<size_t>(m)), pts(static_cast<size_t>(n));
+  std::iota(cams.begin(), cams.end(), 0);
+  std::iota(pts.begin(), pts.end(), 0);
+  std::vector<double> camcov(size_t(m) * run.cnp * run.cnp), ptcov(size_t(n) * run.pnp * run.pnp);
+  sba_covariance_request req;
+  sba_covariance_request_init(&req);
+  req.ncams = m;
+  req.cams = cams.data();
+  req.camcov = camcov.data();
+  req.npts = n;
+  req.pts = pts.data();
+  req.ptcov = ptcov.data();
+  // The covariance reads p and does not change it, but takes it as non-const.
+  std::vector<double> p = run.p;
+  const size_t nerrors = session.errors().size();
+  int status;
+  {
+    py::gil_scoped_release release;
+    status = sba_motstr_covariance_x(n, o.ncon, m, o.mcon, obs.vmask.data(), p.data(), run.cnp, run.pnp,
+                                     obs.x.data(), obs.covx_or_null(), mnp, run.func, run.fjac, run.adata,
+                                     &req, session.ext(run.parallel));
+  }
+  if (session.failed()) {
+    d["error"] = session.error();
+    return d;
+  }
+  if (status != 0) {
+    const std::vector<std::string> &errors = session.errors();
+    d["covariance_error"] = errors.size() > nerrors ? errors[nerrors] : "the covariance could not be computed";
+    return d;
+  }
+  d["camera_covariance"] = adopt(std::move(camcov), {m, run.cnp, run.cnp});
+  d["point_covariance"] = adopt(std::move(ptcov), {n, run.pnp, run.pnp});
+  d["sigma2"] = req.sigma2;
+  d["rank"] = req.rank;
+  d["nfree"] = req.nfree;
+  return d;
+}
+
+}  // namespace pysba

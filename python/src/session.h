@@ -1,0 +1,83 @@
+// What one solve called from Python shares between the caller and the library's callbacks:
+// the options handed to the library, its log lines, the first Python exception raised by a
+// callback (or by a signal handler), and the progress callback that turns both into a stop.
+//
+// The library's callbacks must return normally: a Python exception is never thrown through
+// the C frames. It is kept here, the callback returns a stop request (progress) or NaN
+// (projections), later callbacks do nothing, and the exception is raised again once the
+// driver has returned.
+#ifndef PYSBA_SESSION_H
+#define PYSBA_SESSION_H
+
+#include <pybind11/pybind11.h>
+
+#include <array>
+#include <atomic>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "sba.h"
+#include "sba_ext.h"
+
+namespace pysba {
+
+namespace py = pybind11;
+
+// The options of pysba.solve, motstr, mot and str that go to the library.
+struct SolveOptions {
+  int mcon = 0, ncon = 0;
+  int itmax = 150;
+  std::array<double, SBA_OPTSSZ> opts{SBA_INIT_MU, SBA_STOP_THRESH, SBA_STOP_THRESH,
+                                      SBA_STOP_THRESH, 0.0};
+  std::string solver;  // empty: the library's choice
+  int threads = 0;
+  std::string strategy;  // empty: the library's choice
+  std::string loss;    // empty: least squares
+  double loss_scale = 1.0;
+  py::object progress;  // None or a callable taking a pysba.Progress
+};
+
+// Reads the keyword arguments the extension functions share (see pysba/__init__.py).
+SolveOptions solve_options(const py::dict &kw);
+
+class Session {
+ public:
+  explicit Session(const SolveOptions &o);
+  Session(const Session &) = delete;
+  Session &operator=(const Session &) = delete;
+
+  // The options for the library, pointing into this session. parallel: whether the
+  // callbacks may run on several threads at once.
+  const sba_ext_options *ext(bool parallel);
+
+  // Keeps the Python exception that is set (the GIL held), unless one is kept already.
+  void keep_python_error();
+  // Keeps the C++ exception being handled as a Python one (inside a catch block, GIL held).
+  void keep_current_exception();
+  bool failed() const { return failed_; }
+  py::object error() const { return failed_ ? error_ : py::object(py::none()); }
+  const std::vector<std::string> &errors() const { return errors_; }
+
+  // The library's result in a dict for the Python side: ret, info, the log's errors and
+  // warnings, the extension result, and "error" (the kept exception or None).
+  py::dict report(int ret, const double info[SBA_INFOSZ]) const;
+
+ private:
+  static int progress_trampoline(void *ctx, const sba_progress *state);
+  static void log_trampoline(void *ctx, int level, const char *line);
+
+  SolveOptions options_;
+  sba_ext_options ext_;
+  sba_ext_result result_;
+  std::mutex log_mutex_;
+  std::vector<std::string> errors_, warnings_;
+  // Set with the GIL held; read by callbacks without it, to skip work once a solve is doomed.
+  std::atomic<bool> failed_{false};
+  py::object error_;
+};
+
+}  // namespace pysba
+
+#endif  // PYSBA_SESSION_H

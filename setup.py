@@ -1,0 +1,35 @@
+"""Builds pysba's extension module with the project's CMake build (pyproject.toml has the
+metadata): the library is compiled into the module, so the installed package needs no
+libsba.so and no LD_LIBRARY_PATH."""
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from setuptools import Extension, setup
+from setuptools.command.build_ext import build_ext
+
+ROOT = Path(__file__).resolve().parent
+
+
+class CMakeBuild(build_ext):
+    def build_extension(self, ext):
+        build = Path(self.build_temp).resolve() / "cmake"
+        build.mkdir(parents=True, exist_ok=True)
+        subprocess.run(["cmake", "-S", str(ROOT), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
+                        "-DSBA_BUILD_PYTHON=ON", "-DSBA_BUILD_TESTS=OFF", "-DSBA_BUILD_DEMO=OFF",
+                        "-DSBA_BUILD_MEX=OFF", "-DSBA_BUILD_BENCH=OFF",
+                        f"-DPython_EXECUTABLE={sys.executable}"], check=True)
+        jobs = os.environ.get("CMAKE_BUILD_PARALLEL_LEVEL") or str(os.cpu_count() or 1)
+        subprocess.run(["cmake", "--build", str(build), "--target", "_core", "-j", jobs], check=True)
+        built = sorted((build / "python" / "pkg" / "pysba").glob("_core*.so")) + \
+            sorted((build / "python" / "pkg" / "pysba").glob("_core*.pyd"))
+        if not built:
+            raise RuntimeError(f"CMake built no _core module in {build}")
+        target = Path(self.get_ext_fullpath(ext.name))
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(built[0], target)
+
+
+setup(ext_modules=[Extension("pysba._core", sources=[])], cmdclass={"build_ext": CMakeBuild})

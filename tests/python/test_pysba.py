@@ -1,0 +1,360 @@
+"""pysba against the C programs and the library's own models, its errors, and Ctrl-C."""
+import os
+import re
+import signal
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import pysba
+from conftest import BAL, DEMO, need
+from euclidean import Euclidean
+
+
+def program_line(exe_var, args):
+    """The 'SBA returned ...' line of a C program of the build (path in $exe_var), parsed."""
+    exe = os.environ.get(exe_var)
+    if not exe:
+        pytest.skip(f"{exe_var} is not set (ctest sets it)")
+    out = subprocess.run([exe, *map(os.fspath, args)], capture_output=True, text=True, check=True).stdout
+    m = re.search(r"SBA returned (\S+) in (\S+) iter, reason (\S+), error (\S+) \[initial (\S+)\], "
+                  r"(\d+)/(\d+) func/fjac evals, (\d+) lin. systems", out)
+    assert m, out
+    return m.groups()
+
+
+def printed(result):
+    """The numbers of a result as the C programs print them (%d and %g)."""
+    return (f"{result.iterations}", f"{result.iterations:g}", f"{int(result.reason):g}",
+            f"{result.final_mse:g}", f"{result.initial_mse:g}", f"{result.nfev}", f"{result.njev}",
+            f"{result.nlinsys}")
+
+
+# ---- the built-in models: the C programs' results ----
+
+def test_54cams_reaches_sba_result(cams54):
+    r = pysba.solve(cams54)
+    assert f"{r.final_mse:g}" == "0.176473"
+    assert f"{r.initial_mse:g}" == "2.14707"
+    assert r.iterations == 21 and r.reason == pysba.Reason.STEP and int(r.reason) == 2
+    assert (r.nfev, r.njev, r.nlinsys) == (29, 21, 29)
+    assert r.info.shape == (10,) and r.info[1] == pytest.approx(0.176473 * 24609, rel=1e-5)
+    assert r.cameras.shape == (54, 7) and r.points.shape == (5207, 3)
+    # The problem is left as it was; the result is new arrays.
+    assert np.array_equal(cams54.cameras[0], [1, 0, 0, 0, 0, 0, 0])
+
+
+def test_54cams_as_eucsbademo_prints_it(cams54):
+    line = program_line("PYSBA_EUCSBADEMO", [DEMO / "54cams.txt", DEMO / "54pts.txt", DEMO / "calib.txt"])
+    assert printed(pysba.solve(cams54)) == line
+
+
+def test_varying_intrinsics_as_eucsbademo_prints_it():
+    files = [need(DEMO / "7camsvarK.txt"), DEMO / "7pts.txt"]
+    p = pysba.read_eucsbademo(*files)
+    assert p.cameras.shape == (7, 12) and p.calibration is None
+    r = pysba.solve(p)
+    assert (f"{r.final_mse:g}", r.iterations, r.reason) == ("0.658995", 139, pysba.Reason.REDUCTION)
+    assert printed(r) == program_line("PYSBA_EUCSBADEMO", files)
+    # Two more trailing intrinsics held (eucsbademo --nccalib 4): a different minimum.
+    held = pysba.solve(p, nccalib=4)
+    assert printed(held) == program_line("PYSBA_EUCSBADEMO", ["--nccalib", "4", *files])
+    assert held.final_mse != r.final_mse
+    assert np.array_equal(held.cameras[:, 1:5], p.cameras[:, 1:5])
+
+
+def test_bal_as_balsba_prints_it(bal21):
+    r = pysba.solve(bal21)
+    assert (f"{r.final_mse:g}", f"{r.initial_mse:g}", r.iterations, r.reason) == \
+        ("1.66664", "242.12", 28, pysba.Reason.REDUCTION)
+    line = program_line("PYSBA_BALSBA", [BAL / "problem-21-11315-pre.txt.bz2", "--no-progress"])
+    assert printed(r) == line
+
+
+def test_trust_region_as_eucsbademo_runs_it(cams54):
+    r = pysba.solve(cams54, strategy="trust-region")
+    assert r.strategy == "trust-region" and pysba.solve(cams54, itmax=1).strategy == "sba"
+    assert (f"{r.final_mse:g}", r.iterations, r.reason) == ("0.176473", 7, pysba.Reason.REDUCTION)
+    line = program_line("PYSBA_EUCSBADEMO", ["--strategy", "trust-region", DEMO / "54cams.txt",
+                                             DEMO / "54pts.txt", DEMO / "calib.txt"])
+    assert printed(r) == line
+
+
+def test_threads_give_the_same_bits(cams54):
+    one = pysba.solve(cams54, threads=1)
+    two = pysba.solve(cams54, threads=2)
+    assert two.threads == 2 and one.threads == 1
+    assert np.array_equal(one.cameras, two.cameras) and np.array_equal(one.points, two.points)
+    assert np.array_equal(one.info[:2], two.info[:2])
+
+
+def test_options_reach_the_library(cams54):
+    r = pysba.solve(cams54, itmax=5, solver="sparse-chol")
+    assert r.iterations == 5 and r.reason == pysba.Reason.ITMAX and r.solver == "sparse-chol"
+    robust = pysba.solve(cams54, loss="huber", loss_scale=1.0, itmax=10)
+    # With a loss, info[1] is the robust cost; the squared error is reported beside it.
+    assert robust.info[1] < robust.sq_error_final
+    fixed = pysba.solve(cams54, mcon=54, itmax=3)
+    # Held cameras come back as they went in, their quaternions scaled to unit norm.
+    q = cams54.cameras[:, :4]
+    assert np.array_equal(fixed.cameras[:, 4:], cams54.cameras[:, 4:])
+    assert np.allclose(fixed.cameras[:, :4], q / np.linalg.norm(q, axis=1, keepdims=True), rtol=0, atol=1e-15)
+    assert not np.array_equal(fixed.points, cams54.points)
+
+
+def test_readers_give_arrays_in_sba_order(cams54, bal21):
+    p = cams54
+    assert p.model == "eucsbademo" and (p.ncameras, p.npoints, p.nobservations) == (54, 5207, 24609)
+    assert p.observations.dtype == np.float64 and p.camera_index.dtype == np.int64
+    assert p.calibration[0, 0] == 851.57945 and p.covariances is None
+    # The reader's own memory, not a copy.
+    assert not p.points.flags.owndata and p.points.base is not None
+    order = p.point_index * p.ncameras + p.camera_index
+    assert np.all(np.diff(order) > 0)
+    b = bal21
+    assert b.model == "bal" and b.cameras.shape == (21, 9) and b.nobservations == 36455
+    assert np.all(np.diff(b.point_index * b.ncameras + b.camera_index) > 0)
+
+
+def test_observation_order_does_not_matter(cams7):
+    p = cams7
+    ref = pysba.solve(p)
+    perm = np.random.default_rng(1).permutation(p.nobservations)
+    shuffled = pysba.Problem("eucsbademo", p.cameras, p.points, p.camera_index[perm], p.point_index[perm],
+                             p.observations[perm], calibration=p.calibration)
+    r = pysba.solve(shuffled)
+    assert np.array_equal(r.points, ref.points) and r.iterations == ref.iterations
+
+
+def test_covariance_blocks(cams7):
+    r = pysba.solve(cams7, covariance=True)
+    assert r.camera_covariance.shape == (7, 6, 6) and r.point_covariance.shape == (465, 3, 3)
+    assert r.rank <= r.nfree and r.sigma2 == pytest.approx(r.info[1] / (2 * 1916 - r.rank))
+    assert np.all(np.diagonal(r.point_covariance, axis1=1, axis2=2) > 0)
+    assert np.allclose(r.point_covariance, np.transpose(r.point_covariance, (0, 2, 1)))
+
+
+def test_covariance_of_an_undetermined_point_raises(cams7):
+    p = cams7
+    # Point 0 seen by one camera only: its depth is not determined.
+    keep = (p.point_index != 0) | (p.camera_index == p.camera_index[p.point_index == 0][0])
+    q = pysba.Problem("eucsbademo", p.cameras, p.points, p.camera_index[keep], p.point_index[keep],
+                      p.observations[keep], calibration=p.calibration)
+    with pytest.raises(pysba.SolveError, match="point 0") as e:
+        pysba.solve(q, covariance=True)
+    assert e.value.result.final_mse < e.value.result.initial_mse
+
+
+# ---- camera models in Python ----
+
+def test_python_model_agrees_with_builtin(cams7):
+    p = cams7
+    ref = pysba.solve(p)
+    m = Euclidean(p.cameras, p.calibration)
+    r = pysba.motstr(m.project, m.initial, p.points, p.camera_index, p.point_index, p.observations,
+                     jacobian=m.jacobian)
+    assert f"{r.initial_mse:.12g}" == f"{ref.initial_mse:.12g}"
+    assert r.final_mse == pytest.approx(ref.final_mse, rel=1e-9)
+    assert np.allclose(r.points, ref.points, rtol=0, atol=1e-8)
+    assert np.allclose(m.file_cameras(r.cameras), ref.cameras, rtol=0, atol=1e-7)
+
+
+def test_python_model_by_finite_differences(cams7):
+    p = cams7
+    m = Euclidean(p.cameras, p.calibration)
+    calls = []
+
+    def project(cams, pts, ci, pi):
+        calls.append(len(ci))
+        return m.project(cams, pts, ci, pi)
+
+    r = pysba.motstr(project, m.initial, p.points, p.camera_index, p.point_index, p.observations)
+    assert r.final_mse == pytest.approx(0.675396, rel=1e-6)
+    # Every call lists all 1916 observations; a Jacobian costs cnp + pnp = 9 of them.
+    assert set(calls) == {1916} and len(calls) == r.nfev + 9 * r.njev
+
+
+def test_motion_only_and_structure_only(cams7):
+    p = cams7
+    m = Euclidean(p.cameras, p.calibration)
+    args = (p.camera_index, p.point_index, p.observations)
+    best = pysba.motstr(m.project, m.initial, p.points, *args, jacobian=m.jacobian)
+    # From perturbed points with the cameras held at the optimum, structure only finds the
+    # optimum's points again; likewise motion only finds its cameras.
+    noisy_pts = best.points + np.random.default_rng(2).normal(scale=1e-3, size=best.points.shape)
+    s = pysba.str(m.project, best.cameras, noisy_pts, *args, jacobian=m.jacobian)
+    assert np.array_equal(s.cameras, best.cameras)
+    assert np.allclose(s.points, best.points, atol=1e-6) and s.final_mse == pytest.approx(best.final_mse, rel=1e-6)
+    noisy_cams = best.cameras + np.random.default_rng(3).normal(scale=1e-4, size=best.cameras.shape)
+    a = pysba.mot(m.project, noisy_cams, best.points, *args,
+                  jacobian=lambda *x: (m.jacobian(*x)[0], None))
+    assert np.array_equal(a.points, best.points)
+    assert np.allclose(a.cameras, best.cameras, atol=1e-6) and a.final_mse == pytest.approx(best.final_mse, rel=1e-6)
+
+
+def test_callback_exception_propagates(cams7):
+    p = cams7
+    m = Euclidean(p.cameras, p.calibration)
+    calls = []
+
+    def project(cams, pts, ci, pi):
+        calls.append(1)
+        if len(calls) == 5:
+            raise ZeroDivisionError("from the model")
+        return m.project(cams, pts, ci, pi)
+
+    with pytest.raises(ZeroDivisionError, match="from the model") as e:
+        pysba.motstr(project, m.initial, p.points, p.camera_index, p.point_index, p.observations,
+                     jacobian=m.jacobian)
+    # No callback after the one that raised; the traceback shows where it was raised; the
+    # partial result is the last accepted estimate.
+    assert len(calls) == 5
+    assert e.traceback[-1].name == "project"
+    assert 0.675 < e.value.result.final_mse < e.value.result.initial_mse == pytest.approx(19.0947, rel=1e-5)
+
+
+def test_bad_callback_results_raise(cams7):
+    p = cams7
+    m = Euclidean(p.cameras, p.calibration)
+    args = (m.initial, p.points, p.camera_index, p.point_index, p.observations)
+    with pytest.raises(ValueError, match=r"project's result must have shape \(1916, 2\)"):
+        pysba.motstr(lambda c, b, ci, pi: np.zeros((3, 2)), *args)
+    with pytest.raises(TypeError):
+        pysba.motstr(lambda c, b, ci, pi: "pixels", *args)
+    with pytest.raises(ValueError, match="jacobian's B"):
+        pysba.motstr(m.project, *args, jacobian=lambda *x: (m.jacobian(*x)[0], np.zeros(3)))
+    # A NaN from the model is the library's own stop: a SolveError.
+    with pytest.raises(pysba.SolveError, match="NaN") as e:
+        pysba.motstr(lambda *x: np.full((1916, 2), np.nan), *args)
+    assert e.value.result.reason == pysba.Reason.NONFINITE
+
+
+def test_progress_sees_iterations_and_can_stop(cams54):
+    seen = []
+
+    def progress(state):
+        seen.append((state.iteration, state.error))
+        return state.iteration == 4
+
+    r = pysba.solve(cams54, progress=progress)
+    assert r.reason == pysba.Reason.USER and r.iterations == 4
+    assert [k for k, _ in seen] == [1, 2, 3, 4]
+    assert seen[-1][1] == r.info[1] and all(a[1] > b[1] for a, b in zip(seen, seen[1:]))
+
+
+def test_keyboard_interrupt_from_progress_keeps_result(cams54):
+    def progress(state):
+        if state.iteration == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt) as e:
+        pysba.solve(cams54, progress=progress)
+    r = e.value.result
+    assert r.iterations == 3 and r.reason == pysba.Reason.USER and r.final_mse < r.initial_mse
+    assert r.cameras.shape == (54, 7)
+
+
+def test_ctrl_c_stops_the_solve(bal21):
+    # One SIGINT from another thread once the solve has started. Python runs its handler in
+    # the main thread: in the progress trampoline's PyErr_CheckSignals while the library
+    # works (the GIL released), or in the progress callable if it is running just then.
+    # Either way the solve stops at that iteration and KeyboardInterrupt carries the result.
+    started, done = threading.Event(), threading.Event()
+
+    def interrupt():
+        if started.wait(timeout=120) and not done.is_set():
+            os.kill(os.getpid(), signal.SIGINT)
+
+    sender = threading.Thread(target=interrupt)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    sender.start()
+    try:
+        with pytest.raises(KeyboardInterrupt) as e:
+            pysba.solve(bal21, progress=lambda state: started.set())
+    finally:
+        done.set()
+        started.set()
+        sender.join()
+        signal.signal(signal.SIGINT, previous)
+    r = e.value.result
+    assert r.reason == pysba.Reason.USER and 1 <= r.iterations < 28
+    assert r.final_mse < r.initial_mse
+
+
+# ---- errors ----
+
+def test_files_that_cannot_be_read(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        pysba.read_bal(tmp_path / "absent.txt")
+    with pytest.raises(IsADirectoryError):
+        pysba.read_eucsbademo(tmp_path, tmp_path, None)
+    with pytest.raises(FileNotFoundError):
+        pysba.read_eucsbademo(need(DEMO / "7cams.txt"), tmp_path / "absent.txt")
+
+
+def test_bad_content_names_file_and_line(tmp_path):
+    cams = tmp_path / "cams.txt"
+    cams.write_text("1 0 0 0 0 0 0\n1 0 0 0 0 0\n")
+    with pytest.raises(ValueError, match=re.escape(f"{cams}:2:")):
+        pysba.read_eucsbademo(cams, need(DEMO / "7pts.txt"), DEMO / "calib.txt")
+    bal = tmp_path / "p.txt"
+    bal.write_text("1 1 1\n0 0 1.5 x\n")
+    with pytest.raises(ValueError, match=re.escape(f"{bal}: line 2")):
+        pysba.read_bal(bal)
+
+
+def test_bad_arguments_raise_value_error(cams7):
+    p = cams7
+    for kw, match in [(dict(solver="magic"), "unknown solver 'magic'"),
+                      (dict(strategy="dogleg"), "unknown strategy 'dogleg'"),
+                      (dict(itmax=-1), "itmax"), (dict(threads=-2), "threads"),
+                      (dict(mcon=8), "mcon"), (dict(ncon=-1), "ncon"),
+                      (dict(opts=[1, 2]), "opts must hold 5"),
+                      (dict(loss="nope"), "nope"), (dict(loss="huber", loss_scale=-1.0), "loss_scale"),
+                      (dict(opts=[0, 1e-12, 1e-12, 1e-12, 0]), "tau")]:
+        with pytest.raises(ValueError, match=match):
+            pysba.solve(p, **kw)
+    with pytest.raises(TypeError):
+        pysba.solve(p, progress=3)
+    with pytest.raises(TypeError):
+        pysba.solve("54cams")
+
+
+def test_bad_arrays_raise_value_error(cams7):
+    p = cams7
+
+    def problem(**changes):
+        d = dict(cameras=p.cameras, points=p.points, camera_index=p.camera_index, point_index=p.point_index,
+                 observations=p.observations, calibration=p.calibration)
+        d.update(changes)
+        return pysba.Problem("eucsbademo", **d)
+
+    ci = p.camera_index.copy()
+    ci[10] = 7
+    with pytest.raises(ValueError, match=r"camera_index\[10\] = 7 is not in \[0, 7\)"):
+        pysba.solve(problem(camera_index=ci))
+    twice = np.r_[p.point_index[:-1], p.point_index[0]]
+    twice_c = np.r_[p.camera_index[:-1], p.camera_index[0]]
+    with pytest.raises(ValueError, match="more than once"):
+        pysba.solve(problem(point_index=twice, camera_index=twice_c))
+    with pytest.raises(ValueError, match="observations must have shape"):
+        pysba.solve(problem(observations=p.observations[:-1]))
+    with pytest.raises(ValueError, match="7, 12 or 17 columns"):
+        pysba.solve(problem(cameras=p.cameras[:, :6]))
+    with pytest.raises(ValueError, match="calibration"):
+        pysba.solve(problem(calibration=None))
+    zero_q = p.cameras.copy()
+    zero_q[2, :4] = 0
+    with pytest.raises(ValueError, match="quaternion"):
+        pysba.solve(problem(cameras=zero_q))
+    with pytest.raises(ValueError, match="model must be"):
+        pysba.Problem("pinhole", p.cameras, p.points, p.camera_index, p.point_index, p.observations)
+
+
+def test_too_few_measurements_is_the_library_message():
+    tiny = pysba.read_bal(need(BAL / "dubrovnik-3-7-pre.txt.bz2"))
+    with pytest.raises(ValueError, match=r"fewer measurements \(38\) than free parameters \(48\)"):
+        pysba.solve(tiny)
