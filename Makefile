@@ -78,9 +78,11 @@ FUZZ_SECONDS ?= 60
 SOAK_N ?= 1000
 SOAK_ASAN_N ?= $(SOAK_N)
 SOAK_SEED ?= 1
-# The sanitizer builds: optimized enough to be quick, with line numbers; no MEX, no bench.
+# The sanitizer builds: optimized enough to be quick, with line numbers; no bench, and neither
+# the MEX file nor the Python module, whose hosts (octave-cli, python3) are not instrumented.
 SAN_CMAKE_FLAGS = -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSBA_BUILD_TESTS=ON -DSBA_BUILD_MEX=OFF \
-	-DSBA_BUILD_BENCH=OFF -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g"
+	-DSBA_BUILD_PYTHON=OFF -DSBA_BUILD_BENCH=OFF -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g" \
+	-DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g"
 ASAN_FLAGS = -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 TSAN_FLAGS = -fsanitize=thread -fno-omit-frame-pointer
 
@@ -123,7 +125,7 @@ soak: configure configure-asan
 # it, run on a small problem, its JSON checked (results and memory accounting, no timings).
 check-bench: deps-test
 	@sh scripts/deps.sh bench
-	cmake -S . -B $(BENCH_BUILD) -DCMAKE_BUILD_TYPE=Release -DSBA_BUILD_BENCH=ON >/dev/null
+	cmake -S . -B $(BENCH_BUILD) -DCMAKE_BUILD_TYPE=Release -DSBA_BUILD_BENCH=ON -DSBA_BUILD_PYTHON=OFF >/dev/null
 	cmake --build $(BENCH_BUILD) -j $(JOBS) --target sba_bench
 	python3 bench/check_bench.py $(BENCH_BUILD)/bench/sba_bench
 
