@@ -65,7 +65,8 @@ const char kUsage[] =
     "options:\n"
     "  --name LABEL      problem name in the output (default: from the files / the spec)\n"
     "  --solvers LIST    sba linear solvers, comma-separated, or none (default chol)\n"
-    "  --ceres LIST      dense,sparse (default), dense, sparse or none\n"
+    "  --ceres LIST      dense,sparse (default), dense, sparse, iterative (ITERATIVE_SCHUR\n"
+    "                    with SCHUR_JACOBI at Ceres's default options) or none\n"
     "  --threads LIST    thread counts, comma-separated (default 1,all); all = every hardware\n"
     "                    thread for Ceres, and for sba its default (nthreads 0: as many as the\n"
     "                    problem's size warrants, up to every hardware thread)\n"
@@ -190,8 +191,8 @@ bool parse_command_line(int argc, char **argv, Options *o, std::string *error) {
     return false;
   }
   for (const std::string &c : o->ceres)
-    if (c != "dense" && c != "sparse") {
-      *error = "--ceres: unknown '" + c + "' (dense, sparse or none)";
+    if (c != "dense" && c != "sparse" && c != "iterative") {
+      *error = "--ceres: unknown '" + c + "' (dense, sparse, iterative or none)";
       return false;
     }
   for (const std::string &s : o->solvers)
@@ -471,16 +472,23 @@ void run_ceres(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunR
   r->setup_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   ceres::Solver::Options o;
-  o.minimizer_type = ceres::TRUST_REGION;
-  o.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  o.linear_solver_type = spec.solver == "DENSE_SCHUR" ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+  if (spec.solver == "ITERATIVE_SCHUR") {
+    // Ceres's defaults (LM, SCHUR_JACOBI, its tolerances) but for the solver, threads,
+    // iterations and the ordering: the peer as a user would run it.
+    o.linear_solver_type = ceres::ITERATIVE_SCHUR;
+    o.preconditioner_type = ceres::SCHUR_JACOBI;
+  } else {
+    o.minimizer_type = ceres::TRUST_REGION;
+    o.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+    o.linear_solver_type = spec.solver == "DENSE_SCHUR" ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+    o.function_tolerance = 1e-12;
+    o.gradient_tolerance = 1e-12;
+    o.parameter_tolerance = 1e-12;
+    o.max_solver_time_in_seconds = 1e9;
+  }
   o.linear_solver_ordering = ordering;
   o.num_threads = spec.threads;
   o.max_num_iterations = itmax;
-  o.function_tolerance = 1e-12;
-  o.gradient_tolerance = 1e-12;
-  o.parameter_tolerance = 1e-12;
-  o.max_solver_time_in_seconds = 1e9;
   o.logging_type = ceres::SILENT;
   o.minimizer_progress_to_stdout = false;
   TraceCallback cb(trace, r->setup_seconds);
@@ -796,7 +804,8 @@ int bench_main(int argc, char **argv) {
     const int bt = o.blas_same && blas_settable ? t : 0;
     for (const std::string &s : o.solvers) specs.push_back({Engine::Sba, s, t, all, bt, avoid});
     for (const std::string &c : o.ceres)
-      specs.push_back({Engine::Ceres, c == "dense" ? "DENSE_SCHUR" : "SPARSE_SCHUR", t, all, bt});
+      specs.push_back({Engine::Ceres,
+                       c == "dense" ? "DENSE_SCHUR" : c == "sparse" ? "SPARSE_SCHUR" : "ITERATIVE_SCHUR", t, all, bt});
   }
 
   // Rounds of every configuration rather than N runs of one after another, so that a slow

@@ -3,19 +3,27 @@
 // where most camera pairs share points, S is dense and a factorization of it costs the cube
 // of the cameras in time and their square in memory; a product S x costs instead a pass
 // over the observations, and this solver's memory is proportional to the observations and
-// the points (no camera x camera or point x point array anywhere).
+// the points.
 //
-// S x in two passes over the Jacobian, each output computed by one thread in a fixed order
-// (so any thread count gives the same bits):
-//   1. by point:  t_i = V*_i^-1 sum_j W_ij^T x_j, with W_ij^T x_j = B_ij^T (A_ij x_j);
-//   2. by camera: (S x)_j = U*_j x_j - sum_i W_ij t_i, with W_ij t_i = A_ij^T (B_ij t_i).
-// W is applied from the Jacobian blocks rather than stored: W_ij^T x_j as two thin
-// products takes mnp (cnp + pnp) multiply-adds, as many as the stored cnp x pnp W_ij
-// (mnp = 2, pnp = 3), and reads as many doubles, so storing W would double the memory
-// that the Jacobian already takes for no gain.
+// S x = U* x - W V*^-1 W^T x in one pass over the Jacobian by point: for each free point,
+// t_i = V*_i^-1 sum_j W_ij^T x_j, then the terms -W_ij t_i of its cameras, while the point's
+// Jacobian blocks are still in cache. W is applied from the Jacobian blocks rather than
+// stored: W_ij^T x_j as B_ij^T (A_ij x_j) takes mnp (cnp + pnp) multiply-adds, as many as
+// with the stored cnp x pnp W_ij (mnp = 2, pnp = 3), and reads as many doubles, so storing
+// W would double the memory the Jacobian already takes for no gain. A pass by camera (each
+// camera's sum computed whole by one thread) would read the point-major Jacobian in
+// scattered order and wait for memory at every block; instead the points are cut into a
+// fixed number of chunks, each adding its terms into partial sums of its own, which are then
+// added in chunk order: every sum has the same order for any thread count, so any thread
+// count gives the same bits.
 //
 // The preconditioner is S's block diagonal (Schur-Jacobi): D_j = U*_j - sum_i W_ij V*_i^-1
-// W_ij^T, one Cholesky-factored cnp x cnp block per camera, made once per damped system.
+// W_ij^T, one Cholesky-factored cnp x cnp block per camera, made once per damped system in
+// the same chunked pass by point.
+//
+// Memory: the point blocks' inverses (n pnp^2), kChunks (cnp + 1) doubles per unknown of S
+// for the partial sums, and six vectors of S's order: no array of cameras x cameras or
+// anything per observation beyond the Jacobian LM already holds.
 //
 // Stopping: an inexact Newton (truncated) step. CG stops when ||S da - rhs|| <= eta ||rhs||,
 // with the forcing term eta = min(kEtaMax, sqrt(||g|| / ||g_0||)) (g = J^T e on the free
@@ -45,8 +53,13 @@ namespace {
 constexpr double kEtaMax = 0.1;
 constexpr int kMaxIterations = 500;
 
-// Free items [0, count) split over T threads so that each gets about the same number of
-// observations; ptr[q] .. ptr[q + 1] are item q's (first + q in the layout's numbering).
+// The point pass of S x runs in this many chunks of points, each with its own partial sums
+// (kChunks x S's order doubles): a fixed number, so that the sums' order does not depend on
+// the thread count, and a few per thread for the load balance of up to a few dozen threads.
+constexpr int kChunks = 32;
+
+// Free points [0, count) split into T chunks of about the same number of observations;
+// ptr[q] .. ptr[q + 1] are point q's (first + q in the layout's numbering).
 std::vector<i64> split_by_work(const std::vector<int> &ptr, int first, int count, int T) {
   std::vector<i64> cut(size_t(T) + 1, count);
   cut[0] = 0;
@@ -54,7 +67,7 @@ std::vector<i64> split_by_work(const std::vector<int> &ptr, int first, int count
   const double w0 = ptr[size_t(first)], total = double(ptr[size_t(first + count)]) - w0;
   i64 q = 0;
   for (int t = 1; t < T; ++t) {
-    // Work of an item: its observations plus one, so that items without any still spread.
+    // A point's work: its observations plus one, so that points without any still spread.
     const double goal = (total + double(count)) * t / T;
     while (q < count && double(ptr[size_t(first + q)]) - w0 + double(q) < goal) ++q;
     cut[size_t(t)] = q;
@@ -70,12 +83,11 @@ class IterativeSchurSolver final : public StepSolver {
     nc_ = lay.free_cams();
     np_ = lay.free_pts();
     nS_ = i64(nc_) * cnp();
-    by_camera(lay, &cam_pt_, &cam_k_);
     const int T = ctx.pool.size();
-    cam_cut_ = split_by_work(lay.colptr, lay.mcon, nc_, T);
-    pt_cut_ = split_by_work(lay.rowptr, lay.ncon, np_, T);
+    chunk_ = split_by_work(lay.rowptr, lay.ncon, np_, kChunks);
+    partial_.resize(size_t(kChunks) * size_t(nS_));
+    Dpartial_.resize(partial_.size() * size_t(cnp()));
     Vinv_.resize(size_t(lay.n) * size_t(pnp()) * size_t(pnp()));
-    t_.resize(size_t(lay.n) * size_t(pnp()));
     D_.resize(size_t(nS_) * size_t(cnp()));
     for (std::vector<double> *v : {&rhs_, &x_, &r_, &z_, &p_, &q_}) v->resize(size_t(nS_));
     scratch_.resize(size_t(T) * size_t(2 * cnp() * pnp() + mnp() + cnp() + pnp()));
@@ -90,16 +102,8 @@ class IterativeSchurSolver final : public StepSolver {
 
     // rhs = e_a - W V*^-1 e_b, and the forcing term from the gradient's norm.
     const int pn = pnp();
-    for_points([&](int i, double *) {
-      const double *Vi = Vinv_.data() + i64(i) * pn * pn, *ebi = ne.eb + i64(i) * pn;
-      double *ti = t_.data() + i64(i) * pn;
-      for (int a = 0; a < pn; ++a) {
-        double s = 0.0;
-        for (int c = 0; c < pn; ++c) s += Vi[a * pn + c] * ebi[c];
-        ti[a] = s;
-      }
-    });
-    subtract_W_t(ne, ne.ea + lay.a_off(lay.mcon), 0.0, nullptr, rhs_.data());
+    point_pass(ne, nullptr);
+    gather(ne, 0.0, nullptr, ne.ea + lay.a_off(lay.mcon), rhs_.data());
     const double *eb_free = ne.eb + i64(lay.ncon) * pn;
     const double g2 =
         dot(ne.ea + lay.a_off(lay.mcon), ne.ea + lay.a_off(lay.mcon), nS_) + dot(eb_free, eb_free, i64(np_) * pn);
@@ -126,143 +130,159 @@ class IterativeSchurSolver final : public StepSolver {
   int cnp() const { return C ? C : lay_.cnp; }
   int pnp() const { return P ? P : lay_.pnp; }
 
-  // fn(i, scratch) for every free point i, over the threads.
-  template <class Fn>
-  void for_points(Fn fn) {
-    const size_t per = scratch_.size() / size_t(ctx_.pool.size());
-    run_cut(pt_cut_, [&](int t, i64 b, i64 e) {
-      for (i64 q = b; q < e; ++q) fn(int(q) + lay_.ncon, scratch_.data() + size_t(t) * per);
-    });
-  }
-  // fn(j, scratch) for every free camera j (free-camera numbering), over the threads.
-  template <class Fn>
-  void for_cameras(Fn fn) {
-    const size_t per = scratch_.size() / size_t(ctx_.pool.size());
-    run_cut(cam_cut_, [&](int t, i64 b, i64 e) {
-      for (i64 q = b; q < e; ++q) fn(int(q), scratch_.data() + size_t(t) * per);
-    });
-  }
-  template <class Fn>
-  void run_cut(const std::vector<i64> &cut, Fn fn) {
-    if (ctx_.pool.size() == 1) {
-      fn(0, cut[0], cut[1]);
-      return;
-    }
-    ctx_.pool.run([&](int t) {
-      if (cut[size_t(t)] < cut[size_t(t) + 1]) fn(t, cut[size_t(t)], cut[size_t(t) + 1]);
-    });
-  }
-
   double dot(const double *a, const double *b, i64 n) {
     return deterministic_sum(ctx_.pool, n, [=](i64 k) { return a[k] * b[k]; });
   }
 
-  // y_j = base_j + mu x_j ... : y_j = U_j x_j + mu x_j - sum_i W_ij t_i when U is given,
-  // else y_j = base_j - sum_i W_ij t_i, over the free cameras, t_ from the point pass.
-  void subtract_W_t(const NormalEquations &ne, const double *base, double mu, const double *x, double *y) {
+  // The point pass of S x (x given) or of the right-hand side (x null): for each free point,
+  // t_i = V*_i^-1 sum_j W_ij^T x_j (or V*_i^-1 e_b,i), and its terms -W_ij t_i, added into
+  // its chunk's partial sums while the point's Jacobian blocks are still in cache. Done by
+  // camera instead, the pass would read the Jacobian (laid out by point) in scattered order
+  // and wait for memory at every block; the partial sums of fixed chunks of points keep the
+  // order of every sum independent of the thread count.
+  void point_pass(const NormalEquations &ne, const double *x) {
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
-    for_cameras([&](int j, double *sc) {
-      const int cam = j + lay.mcon;
-      double *yj = y + i64(j) * cn;
-      if (x) {
-        const double *Uj = ne.U + i64(cam) * cn * cn, *xj = x + i64(j) * cn;
-        for (int a = 0; a < cn; ++a) {
-          double s = mu * xj[a];
-          for (int c = 0; c < cn; ++c) s += Uj[a * cn + c] * xj[c];
-          yj[a] = s;
+    const size_t per = scratch_.size() / size_t(ctx_.pool.size());
+    ctx_.pool.for_range_t(kChunks, [&](int t, i64 c0, i64 c1) {
+      double *sc = scratch_.data() + size_t(t) * per;
+      double ul[M > 0 ? M : 1], wl[P > 0 ? P : 1], tl[P > 0 ? P : 1];
+      double *u = M > 0 ? ul : sc, *w = P > 0 ? wl : sc + mn, *ti = P > 0 ? tl : sc + mn + pn;
+      for (i64 c = c0; c < c1; ++c) {
+        double *yc = partial_.data() + c * nS_;
+        std::fill(yc, yc + nS_, 0.0);
+        for (i64 q = chunk_[size_t(c)]; q < chunk_[size_t(c) + 1]; ++q) {
+          const int i = int(q) + lay.ncon;
+          const int k0 = lay.rowptr[i], k1 = lay.rowptr[i + 1];
+          const double *Vi = Vinv_.data() + i64(i) * pn * pn;
+          if (x) {
+            for (int d = 0; d < pn; ++d) w[d] = 0.0;
+            for (int k = k0; k < k1; ++k) {
+              const int j = lay.colidx[k] - lay.mcon;
+              if (j < 0) continue;
+              const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn, *xj = x + i64(j) * cn;
+              for (int r = 0; r < mn; ++r) {
+                double v = 0.0;
+                for (int a = 0; a < cn; ++a) v += A[r * cn + a] * xj[a];
+                u[r] = v;
+              }
+              for (int r = 0; r < mn; ++r)
+                for (int d = 0; d < pn; ++d) w[d] += B[r * pn + d] * u[r];
+            }
+          } else {
+            for (int d = 0; d < pn; ++d) w[d] = ne.eb[i64(i) * pn + d];
+          }
+          for (int a = 0; a < pn; ++a) {
+            double v = 0.0;
+            for (int d = 0; d < pn; ++d) v += Vi[a * pn + d] * w[d];
+            ti[a] = v;
+          }
+          for (int k = k0; k < k1; ++k) {
+            const int j = lay.colidx[k] - lay.mcon;
+            if (j < 0) continue;
+            const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn;
+            double *yj = yc + i64(j) * cn;
+            for (int r = 0; r < mn; ++r) {
+              double v = 0.0;
+              for (int d = 0; d < pn; ++d) v += B[r * pn + d] * ti[d];
+              u[r] = v;
+            }
+            for (int r = 0; r < mn; ++r)
+              for (int a = 0; a < cn; ++a) yj[a] -= A[r * cn + a] * u[r];
+          }
         }
-      } else {
-        std::copy_n(base + i64(j) * cn, cn, yj);
       }
-      double ul[M > 0 ? M : 1];
-      double *u = M > 0 ? ul : sc;
-      for (int s = lay.colptr[cam]; s < lay.colptr[cam + 1]; ++s) {
-        const int i = cam_pt_[size_t(s)];
-        if (i < lay.ncon) continue;
-        const double *A = ne.jac + i64(cam_k_[size_t(s)]) * jb, *B = A + mn * cn;
-        const double *ti = t_.data() + i64(i) * pn;
-        for (int r = 0; r < mn; ++r) {
-          double v = 0.0;
-          for (int c = 0; c < pn; ++c) v += B[r * pn + c] * ti[c];
-          u[r] = v;
+    });
+  }
+
+  // y = base + the chunks' partial sums in chunk order; base_j = U*_j x_j when x is given.
+  void gather(const NormalEquations &ne, double mu, const double *x, const double *base, double *y) {
+    const int cn = cnp();
+    const i64 mcon = lay_.mcon;
+    ctx_.pool.for_range(nc_, [&](i64 j0, i64 j1) {
+      for (i64 j = j0; j < j1; ++j) {
+        double *yj = y + j * cn;
+        if (x) {
+          const double *Uj = ne.U + (j + mcon) * cn * cn, *xj = x + j * cn;
+          for (int a = 0; a < cn; ++a) {
+            double v = mu * xj[a];
+            for (int c = 0; c < cn; ++c) v += Uj[a * cn + c] * xj[c];
+            yj[a] = v;
+          }
+        } else {
+          std::copy_n(base + j * cn, cn, yj);
         }
-        for (int r = 0; r < mn; ++r)
-          for (int a = 0; a < cn; ++a) yj[a] -= A[r * cn + a] * u[r];
+        for (int c = 0; c < kChunks; ++c) {
+          const double *pc = partial_.data() + c * nS_ + j * cn;
+          for (int a = 0; a < cn; ++a) yj[a] += pc[a];
+        }
       }
     });
   }
 
   // y = S x.
   void multiply(const NormalEquations &ne, double mu, const double *x, double *y) {
-    const Layout &lay = lay_;
-    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
-    for_points([&](int i, double *sc) {
-      double ul[M > 0 ? M : 1], wl[P > 0 ? P : 1];
-      double *u = M > 0 ? ul : sc, *w = P > 0 ? wl : sc + mn;
-      for (int c = 0; c < pn; ++c) w[c] = 0.0;
-      for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
-        const int j = lay.colidx[k] - lay.mcon;
-        if (j < 0) continue;
-        const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn;
-        const double *xj = x + i64(j) * cn;
-        for (int r = 0; r < mn; ++r) {
-          double v = 0.0;
-          for (int a = 0; a < cn; ++a) v += A[r * cn + a] * xj[a];
-          u[r] = v;
-        }
-        for (int r = 0; r < mn; ++r)
-          for (int c = 0; c < pn; ++c) w[c] += B[r * pn + c] * u[r];
-      }
-      const double *Vi = Vinv_.data() + i64(i) * pn * pn;
-      double *ti = t_.data() + i64(i) * pn;
-      for (int a = 0; a < pn; ++a) {
-        double v = 0.0;
-        for (int c = 0; c < pn; ++c) v += Vi[a * pn + c] * w[c];
-        ti[a] = v;
-      }
-    });
-    subtract_W_t(ne, nullptr, mu, x, y);
+    point_pass(ne, x);
+    gather(ne, mu, x, nullptr, y);
   }
 
   // D_j = U_j + mu I - sum_i W_ij V*_i^-1 W_ij^T, Cholesky-factored; false if one is not
-  // positive definite (then neither is S at this damping, up to rounding).
+  // positive definite (then neither is S at this damping, up to rounding). The sums by
+  // chunk of points, for the reasons of point_pass.
   bool make_preconditioner(const NormalEquations &ne, double mu) {
     const Layout &lay = lay_;
-    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
-    std::vector<int> ok(size_t(nc_), 1);
-    for_cameras([&](int j, double *sc) {
-      const int cam = j + lay.mcon;
-      double *Dj = D_.data() + i64(j) * cn * cn;
-      std::copy_n(ne.U + i64(cam) * cn * cn, cn * cn, Dj);
-      for (int a = 0; a < cn; ++a) Dj[a * cn + a] += mu;
-      double *W = sc, *Y = sc + cn * pn;  // cnp x pnp each, row-major
-      for (int s = lay.colptr[cam]; s < lay.colptr[cam + 1]; ++s) {
-        const int i = cam_pt_[size_t(s)];
-        if (i < lay.ncon) continue;
-        const double *A = ne.jac + i64(cam_k_[size_t(s)]) * jb, *B = A + mn * cn;
-        const double *Vi = Vinv_.data() + i64(i) * pn * pn;
-        for (int a = 0; a < cn; ++a)
-          for (int c = 0; c < pn; ++c) {
-            double v = 0.0;
-            for (int r = 0; r < mn; ++r) v += A[r * cn + a] * B[r * pn + c];
-            W[a * pn + c] = v;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk(), cc = cn * cn;
+    const i64 blocks = i64(nc_) * cc;
+    const size_t per = scratch_.size() / size_t(ctx_.pool.size());
+    ctx_.pool.for_range_t(kChunks, [&](int t, i64 c0, i64 c1) {
+      double *W = scratch_.data() + size_t(t) * per, *Y = W + cn * pn;  // cnp x pnp, row-major
+      for (i64 c = c0; c < c1; ++c) {
+        double *Dc = Dpartial_.data() + c * blocks;
+        std::fill(Dc, Dc + blocks, 0.0);
+        for (i64 q = chunk_[size_t(c)]; q < chunk_[size_t(c) + 1]; ++q) {
+          const int i = int(q) + lay.ncon;
+          const double *Vi = Vinv_.data() + i64(i) * pn * pn;
+          for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+            const int j = lay.colidx[k] - lay.mcon;
+            if (j < 0) continue;
+            const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn;
+            for (int a = 0; a < cn; ++a)
+              for (int d = 0; d < pn; ++d) {
+                double v = 0.0;
+                for (int r = 0; r < mn; ++r) v += A[r * cn + a] * B[r * pn + d];
+                W[a * pn + d] = v;
+              }
+            for (int a = 0; a < cn; ++a)
+              for (int d = 0; d < pn; ++d) {
+                double v = 0.0;
+                for (int e = 0; e < pn; ++e) v += W[a * pn + e] * Vi[e * pn + d];
+                Y[a * pn + d] = v;
+              }
+            // The lower triangle only: chol reads no more.
+            double *Dj = Dc + i64(j) * cc;
+            for (int a = 0; a < cn; ++a)
+              for (int b = 0; b <= a; ++b) {
+                double v = 0.0;
+                for (int d = 0; d < pn; ++d) v += Y[a * pn + d] * W[b * pn + d];
+                Dj[a * cn + b] -= v;
+              }
           }
-        for (int a = 0; a < cn; ++a)
-          for (int c = 0; c < pn; ++c) {
-            double v = 0.0;
-            for (int d = 0; d < pn; ++d) v += W[a * pn + d] * Vi[d * pn + c];
-            Y[a * pn + c] = v;
-          }
-        // Only the lower triangle: chol reads no more.
-        for (int a = 0; a < cn; ++a)
-          for (int b = 0; b <= a; ++b) {
-            double v = 0.0;
-            for (int c = 0; c < pn; ++c) v += Y[a * pn + c] * W[b * pn + c];
-            Dj[a * cn + b] -= v;
-          }
+        }
       }
-      ok[size_t(j)] = small::chol<C>(Dj, cn);
+    });
+    std::vector<int> ok(size_t(nc_), 1);
+    ctx_.pool.for_range(nc_, [&](i64 j0, i64 j1) {
+      for (i64 j = j0; j < j1; ++j) {
+        double *Dj = D_.data() + j * cc;
+        std::copy_n(ne.U + (j + lay.mcon) * cc, cc, Dj);
+        for (int a = 0; a < cn; ++a) Dj[a * cn + a] += mu;
+        for (int c = 0; c < kChunks; ++c) {
+          const double *pc = Dpartial_.data() + c * blocks + j * cc;
+          for (int a = 0; a < cn; ++a)
+            for (int b = 0; b <= a; ++b) Dj[a * cn + b] += pc[a * cn + b];
+        }
+        ok[size_t(j)] = small::chol<C>(Dj, cn);
+      }
     });
     return std::all_of(ok.begin(), ok.end(), [](int v) { return v != 0; });
   }
@@ -270,10 +290,12 @@ class IterativeSchurSolver final : public StepSolver {
   // z = D^-1 r.
   void precondition(const double *r, double *z) {
     const int cn = cnp();
-    for_cameras([&](int j, double *) {
-      double *zj = z + i64(j) * cn;
-      std::copy_n(r + i64(j) * cn, cn, zj);
-      small::chol_solve<C>(D_.data() + i64(j) * cn * cn, zj, cn);
+    ctx_.pool.for_range(nc_, [&](i64 j0, i64 j1) {
+      for (i64 j = j0; j < j1; ++j) {
+        double *zj = z + j * cn;
+        std::copy_n(r + j * cn, cn, zj);
+        small::chol_solve<C>(D_.data() + j * cn * cn, zj, cn);
+      }
     });
   }
 
@@ -328,9 +350,10 @@ class IterativeSchurSolver final : public StepSolver {
   const Layout &lay_;
   int nc_ = 0, np_ = 0;
   i64 nS_ = 0;
-  std::vector<int> cam_pt_, cam_k_;       // by_camera: point and measurement of each slot
-  std::vector<i64> cam_cut_, pt_cut_;     // the threads' ranges of free cameras / points
-  std::vector<double> Vinv_, t_, D_;      // (V_i + mu I)^-1, the point pass, the preconditioner
+  std::vector<i64> chunk_;                // the chunks' ranges of free points
+  std::vector<double> partial_;           // the chunks' partial sums of the point pass
+  std::vector<double> Dpartial_;          // and of the preconditioner's blocks
+  std::vector<double> Vinv_, D_;          // (V_i + mu I)^-1, the preconditioner
   std::vector<double> rhs_, x_, r_, z_, p_, q_;
   std::vector<double> scratch_;           // per thread: run-time-sized blocks
   double g0_ = -1.0;                      // ||g|| at the first solve
