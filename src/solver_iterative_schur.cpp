@@ -31,7 +31,7 @@
 // where an exact step is wasted, and tightening as the gradient falls, which keeps LM's
 // convergence superlinear (Eisenstat and Walker's choice 2 family; Dembo and Steihaug).
 // At most kMaxIterations iterations (and no more than twice S's order). The iterate CG stops
-// at is used if it is a descent direction (e_a^T da > 0 for the reduced problem), whether or
+// at is used if it is a descent direction of the reduced problem (rhs^T da > 0), whether or
 // not the tolerance was met; otherwise the solve fails and LM raises the damping.
 //
 // LM's gain ratio needs the model reduction of the step taken. Every CG iterate from zero
@@ -307,7 +307,7 @@ class IterativeSchurSolver final : public StepSolver {
     const i64 n = nS_;
     double *x = x_.data(), *r = r_.data(), *z = z_.data(), *p = p_.data(), *q = q_.data();
     const double *b = rhs_.data();
-    iterations_ = 0;
+    int iterations = 0;
     std::fill(x, x + n, 0.0);
     std::copy_n(b, n, r);
     const double bb = dot(b, b, n);
@@ -332,7 +332,7 @@ class IterativeSchurSolver final : public StepSolver {
         r[e] -= alpha * q[e];
         return r[e] * r[e];
       });
-      ++iterations_;
+      ++iterations;
       if (!std::isfinite(rr)) return false;
       if (rr <= tol2) break;
       precondition(r, z);
@@ -344,7 +344,7 @@ class IterativeSchurSolver final : public StepSolver {
         for (i64 e = e0; e < e1; ++e) p[e] = z[e] + beta * p[e];
       });
     }
-    if (iterations_ == 0 || !(dot(b, x, n) > 0.0)) return false;
+    if (iterations == 0 || !(dot(b, x, n) > 0.0)) return false;
     std::copy_n(x, n, da);
     return true;
   }
@@ -360,7 +360,6 @@ class IterativeSchurSolver final : public StepSolver {
   std::vector<double> rhs_, x_, r_, z_, p_, q_;
   std::vector<double> scratch_;           // per thread: run-time-sized blocks
   double g0_ = -1.0;                      // ||g|| at the first solve
-  int iterations_ = 0;
 };
 
 // fn(solver) with the solver compiled for the layout's block sizes.

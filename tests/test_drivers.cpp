@@ -921,7 +921,7 @@ TEST(LinsolverNames, ListAndValidityCheckAgree) {
     } else {
       name += names[k];
     }
-  EXPECT_EQ(count, 11);
+  EXPECT_EQ(count, 12);
   for (const char *bad : {"", "CHOL", "chol ", " chol", "ldl", "sparse", "nope"})
     EXPECT_EQ(sba_linsolver_valid(bad), 0) << "'" << bad << "'";
   EXPECT_EQ(sba_linsolver_valid(nullptr), 0);
