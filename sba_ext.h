@@ -79,7 +79,10 @@ struct sba_ext_options {
    * any thread count, up to 2048 unknowns; LAPACK's DPOTRF/DPOTRS beyond), "chol-lapack"
    * (dense S by DPOTRF/DPOTRS at every size), "ldlt", "bk", "lu", "qr", "qrnoq", "svd",
    * "cg" (dense S), "ldl-amd" (whole system, AMD + sparse LDL^T), "sparse-chol" (sparse S,
-   * CHOLMOD). NULL: the environment variable SBA_LINSOLVER if set, else "chol". An unknown
+   * CHOLMOD), "iterative-schur" (S never formed: preconditioned conjugate gradients on
+   * products S x made from the Jacobian blocks, an inexact step whose accuracy tightens as
+   * the gradient falls; memory proportional to the observations; for many cameras that share
+   * points with many others, where a dense or sparse S is too large to factor). NULL: the environment variable SBA_LINSOLVER if set, else "chol". An unknown
    * name here is a bad argument (SBA_ERROR). */
   const char *linsolver;
   /* Threads for the normal equations and the Schur complement; 0: the environment variable

@@ -41,6 +41,7 @@ enum class LinSolver {
   CG,          // dense S, Jacobi-preconditioned conjugate gradients
   LdlAmd,      // no Schur complement: the whole system, AMD ordering + sparse LDL^T
   SparseChol,  // sparse S (cameras sharing points), CHOLMOD Cholesky
+  IterativeSchur,  // S never formed: truncated CG on S x products, S's block diagonal as preconditioner
 };
 
 struct Options {

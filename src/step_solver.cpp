@@ -76,6 +76,7 @@ constexpr NamedSolver kSolvers[] = {
     {"lu", LinSolver::LU},     {"qr", LinSolver::QR},         {"qrnoq", LinSolver::QRnoQ},
     {"svd", LinSolver::SVD},   {"cg", LinSolver::CG},         {"ldl-amd", LinSolver::LdlAmd},
     {"sparse-chol", LinSolver::SparseChol}, {"chol-lapack", LinSolver::CholLapack},
+    {"iterative-schur", LinSolver::IterativeSchur},
 };
 
 }  // namespace
@@ -102,6 +103,8 @@ std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext 
       return make_ldl_amd_solver(ctx);
     case LinSolver::SparseChol:
       return make_sparse_schur_solver(ctx);
+    case LinSolver::IterativeSchur:
+      return make_iterative_schur_solver(ctx);
     default:
       return make_dense_schur_solver(kind, ctx);
   }

@@ -50,6 +50,12 @@ std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext 
 std::unique_ptr<StepSolver> make_dense_schur_solver(LinSolver kind, const SolveContext &ctx);
 std::unique_ptr<StepSolver> make_ldl_amd_solver(const SolveContext &ctx);
 std::unique_ptr<StepSolver> make_sparse_schur_solver(const SolveContext &ctx);
+std::unique_ptr<StepSolver> make_iterative_schur_solver(const SolveContext &ctx);
+// y = S x (S = U* - W V*^-1 W^T over the free cameras, at damping mu) as the iterative
+// solver computes it, never forming S; false if some V_i + mu I is not positive definite.
+// For the tests.
+bool iterative_schur_product(const SolveContext &ctx, const NormalEquations &ne, double mu,
+                             const double *x, double *y);
 
 }  // namespace sba
 

@@ -910,7 +910,7 @@ namespace {
 
 // The solver names come from one table: the list the C API hands out and the check agree.
 TEST(LinsolverNames, ListAndValidityCheckAgree) {
-  EXPECT_STREQ(sba_linsolver_names(), "chol ldlt bk lu qr qrnoq svd cg ldl-amd sparse-chol chol-lapack");
+  EXPECT_STREQ(sba_linsolver_names(), "chol ldlt bk lu qr qrnoq svd cg ldl-amd sparse-chol chol-lapack iterative-schur");
   std::string names = sba_linsolver_names(), name;
   int count = 0;
   for (size_t k = 0; k <= names.size(); ++k)
@@ -921,7 +921,7 @@ TEST(LinsolverNames, ListAndValidityCheckAgree) {
     } else {
       name += names[k];
     }
-  EXPECT_EQ(count, 11);
+  EXPECT_EQ(count, 12);
   for (const char *bad : {"", "CHOL", "chol ", " chol", "ldl", "sparse", "nope"})
     EXPECT_EQ(sba_linsolver_valid(bad), 0) << "'" << bad << "'";
   EXPECT_EQ(sba_linsolver_valid(nullptr), 0);

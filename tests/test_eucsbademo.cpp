@@ -874,7 +874,7 @@ INSTANTIATE_TEST_SUITE_P(
         solver_cases(k54cams, 0, "0.176473"),
         solver_cases(k7camsvarK, 2 * kLongItmax, k7camsvarKMinimum),
         solver_cases(k9camsvarK, 2 * kLongItmax, k9camsvarKMinimum),
-        solver_cases(k54camsvarK, 0, "0.134928", {"ldl-amd", "sparse-chol", "lu", "bk", "cg"}),
+        solver_cases(k54camsvarK, 0, "0.134928", {"ldl-amd", "sparse-chol", "lu", "bk", "cg", "iterative-schur"}),
     })),
     solver_case_name);
 

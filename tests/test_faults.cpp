@@ -387,6 +387,7 @@ TEST(Faults, EveryCxxAllocationOfASolveMayFailCleanly) {
       {"motstr_x ldl-amd finite differences", Driver::MotStrX, "ldl-amd", 1, true, false, nullptr, false},
       {"motstr_x qrnoq huber", Driver::MotStrX, "qrnoq", 2, false, false, "huber", false},
       {"motstr simple cg finite differences", Driver::MotStr, "cg", 1, true, true, nullptr, false},
+      {"motstr_x iterative-schur 2 threads covx cauchy", Driver::MotStrX, "iterative-schur", 2, false, true, "cauchy", false},
       {"mot_x", Driver::MotX, nullptr, 2, false, false, nullptr, false},
       {"mot simple", Driver::Mot, nullptr, 1, true, true, nullptr, false},
       {"str_x", Driver::StrX, nullptr, 2, false, true, "tukey", false},
@@ -539,7 +540,7 @@ TEST(Faults, AddressSpaceLimitIsACleanErrorAndFreesEverything) {
 #else
   const OomCase cases[] = {
       {"chol", 1, false, false}, {"chol", 2, true, true}, {"ldl-amd", 2, false, true},
-      {"lu", 1, false, false},   {"cg", 1, true, false},
+      {"lu", 1, false, false},   {"cg", 1, true, false}, {"iterative-schur", 2, false, true},
   };
   for (const OomCase &oc : cases) {
     SCOPED_TRACE(std::string(oc.linsolver) + " threads " + std::to_string(oc.nthreads) +

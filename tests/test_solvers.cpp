@@ -22,7 +22,8 @@ using synth::kMnp;
 using synth::kPnp;
 
 const char *const kAllSolvers[] = {"chol", "ldlt", "bk", "lu", "qr", "qrnoq",
-                                   "svd", "cg", "ldl-amd", "sparse-chol", "chol-lapack"};
+                                   "svd", "cg", "ldl-amd", "sparse-chol", "chol-lapack",
+                                   "iterative-schur"};
 
 struct Outcome {
   int ret = 0;

@@ -137,7 +137,7 @@ Plan make_plan(unsigned run_seed, int k) {
   auto coin = [&](double p) { return std::uniform_real_distribution<double>(0, 1)(rng) < p; };
   auto real = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
   static const char *const solvers[] = {"chol", "ldlt", "bk", "lu", "qr", "qrnoq",
-                                        "svd", "cg", "ldl-amd", "sparse-chol", ""};
+                                        "svd", "cg", "ldl-amd", "sparse-chol", "iterative-schur", ""};
   static const char *const losses[] = {"huber", "cauchy", "soft-l1", "tukey"};
   Plan p;
   p.seed = run_seed * 1000003u + unsigned(k);
@@ -152,7 +152,7 @@ Plan make_plan(unsigned run_seed, int k) {
   p.analytic = coin(0.75);
   p.use_ext = p.vis_api || coin(0.7);
   if (p.use_ext) {
-    p.linsolver = solvers[pick(0, 10)];
+    p.linsolver = solvers[pick(0, 11)];
     p.nthreads = pick(1, 3);
     if (coin(0.25)) {
       p.loss = losses[pick(0, 3)];

@@ -1,0 +1,387 @@
+// Implicit S: truncated preconditioned conjugate gradients on the reduced camera system
+// S da = e_a - W V*^-1 e_b, with S = U* - W V*^-1 W^T never formed. For photo collections,
+// where most camera pairs share points, S is dense and a factorization of it costs the cube
+// of the cameras in time and their square in memory; a product S x costs instead a pass
+// over the observations, and this solver's memory is proportional to the observations and
+// the points.
+//
+// S x = U* x - W V*^-1 W^T x in one pass over the Jacobian by point: for each free point,
+// t_i = V*_i^-1 sum_j W_ij^T x_j, then the terms -W_ij t_i of its cameras, while the point's
+// Jacobian blocks are still in cache. W is applied from the Jacobian blocks rather than
+// stored: W_ij^T x_j as B_ij^T (A_ij x_j) takes mnp (cnp + pnp) multiply-adds, as many as
+// with the stored cnp x pnp W_ij (mnp = 2, pnp = 3), and reads as many doubles, so storing
+// W would double the memory the Jacobian already takes for no gain. A pass by camera (each
+// camera's sum computed whole by one thread) would read the point-major Jacobian in
+// scattered order and wait for memory at every block; instead the points are cut into a
+// fixed number of chunks, each adding its terms into partial sums of its own, which are then
+// added in chunk order: every sum has the same order for any thread count, so any thread
+// count gives the same bits.
+//
+// The preconditioner is S's block diagonal (Schur-Jacobi): D_j = U*_j - sum_i W_ij V*_i^-1
+// W_ij^T, one Cholesky-factored cnp x cnp block per camera, made once per damped system in
+// the same chunked pass by point.
+//
+// Memory: the point blocks' inverses (n pnp^2), kChunks (cnp + 1) doubles per unknown of S
+// for the partial sums, and six vectors of S's order: no array of cameras x cameras or
+// anything per observation beyond the Jacobian LM already holds.
+//
+// Stopping: an inexact Newton (truncated) step. CG stops when ||S da - rhs|| <= eta ||rhs||,
+// with the forcing term eta = min(kEtaMax, sqrt(||g|| / ||g_0||)) (g = J^T e on the free
+// parameters at this iteration, g_0 at the solve's first): loose far from the solution,
+// where an exact step is wasted, and tightening as the gradient falls, which keeps LM's
+// convergence superlinear (Eisenstat and Walker's choice 2 family; Dembo and Steihaug).
+// At most kMaxIterations iterations (and no more than twice S's order). The iterate CG stops
+// at is used if it is a descent direction of the reduced problem (rhs^T da > 0), whether or
+// not the tolerance was met; otherwise the solve fails and LM raises the damping.
+//
+// LM's gain ratio needs the model reduction of the step taken. Every CG iterate from zero
+// satisfies da^T S da = da^T rhs (its residual is orthogonal to the Krylov space that holds
+// it), and with the points' steps by exact back-substitution this gives
+// dp^T (J^T J + mu I) dp = dp^T g: the reduction LM computes for an exact step,
+// dp^T (mu dp + g), is then the model's reduction for this inexact one as well.
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "small_dense.h"
+#include "step_solver.h"
+
+namespace sba {
+namespace {
+
+// Forcing term bound and the iteration cap (see above). Looser bounds (0.1, 0.01) made the
+// steps on BAL problems (cnp 9, badly conditioned) poor enough that LM stalled in their flat
+// valleys short of chol's minimum; the orbit series (bench/orbit_series.sh) loses little to
+// this one, since at the large early damping CG converges in a few iterations anyway.
+constexpr double kEtaMax = 1e-3;
+constexpr int kMaxIterations = 500;
+
+// The point pass of S x runs in this many chunks of points, each with its own partial sums
+// (kChunks x S's order doubles): a fixed number, so that the sums' order does not depend on
+// the thread count, and a few per thread for the load balance of up to a few dozen threads.
+constexpr int kChunks = 32;
+
+// Free points [0, count) split into T chunks of about the same number of observations;
+// ptr[q] .. ptr[q + 1] are point q's (first + q in the layout's numbering).
+std::vector<i64> split_by_work(const std::vector<int> &ptr, int first, int count, int T) {
+  std::vector<i64> cut(size_t(T) + 1, count);
+  cut[0] = 0;
+  if (count == 0) return cut;
+  const double w0 = ptr[size_t(first)], total = double(ptr[size_t(first + count)]) - w0;
+  i64 q = 0;
+  for (int t = 1; t < T; ++t) {
+    // A point's work: its observations plus one, so that points without any still spread.
+    const double goal = (total + double(count)) * t / T;
+    while (q < count && double(ptr[size_t(first + q)]) - w0 + double(q) < goal) ++q;
+    cut[size_t(t)] = q;
+  }
+  return cut;
+}
+
+template <int M, int C, int P>
+class IterativeSchurSolver final : public StepSolver {
+ public:
+  explicit IterativeSchurSolver(const SolveContext &ctx) : ctx_(ctx), lay_(ctx.lay) {
+    const Layout &lay = lay_;
+    nc_ = lay.free_cams();
+    np_ = lay.free_pts();
+    nS_ = i64(nc_) * cnp();
+    const int T = ctx.pool.size();
+    chunk_ = split_by_work(lay.rowptr, lay.ncon, np_, kChunks);
+    partial_.resize(size_t(kChunks) * size_t(nS_));
+    Dpartial_.resize(partial_.size() * size_t(cnp()));
+    Vinv_.resize(size_t(lay.n) * size_t(pnp()) * size_t(pnp()));
+    D_.resize(size_t(nS_) * size_t(cnp()));
+    for (std::vector<double> *v : {&rhs_, &x_, &r_, &z_, &p_, &q_}) v->resize(size_t(nS_));
+    scratch_.resize(size_t(T) * size_t(2 * cnp() * pnp() + mnp() + cnp() + pnp()));
+  }
+
+  bool solve(const NormalEquations &ne, double mu, double *dp) override {
+    const Layout &lay = lay_;
+    ThreadPool &pool = ctx_.pool;
+    std::fill(dp, dp + lay.a_off(lay.mcon), 0.0);
+    std::fill(dp + lay.b_off(0), dp + lay.b_off(lay.ncon), 0.0);
+    if (!ctx_.kernels.invert_damped_V(pool, ne.V, mu, Vinv_.data())) return false;
+
+    // rhs = e_a - W V*^-1 e_b, and the forcing term from the gradient's norm.
+    const int pn = pnp();
+    point_pass(ne, nullptr);
+    gather(ne, 0.0, nullptr, ne.ea + lay.a_off(lay.mcon), rhs_.data());
+    const double *eb_free = ne.eb + i64(lay.ncon) * pn;
+    const double g2 =
+        dot(ne.ea + lay.a_off(lay.mcon), ne.ea + lay.a_off(lay.mcon), nS_) + dot(eb_free, eb_free, i64(np_) * pn);
+    if (!std::isfinite(g2)) return false;
+    if (g0_ < 0.0) g0_ = std::sqrt(g2);
+    const double eta = g0_ > 0.0 ? std::min(kEtaMax, std::sqrt(std::sqrt(g2) / g0_)) : kEtaMax;
+
+    if (!make_preconditioner(ne, mu)) return false;
+    double *da = dp + lay.a_off(lay.mcon);
+    if (!conjugate_gradients(ne, mu, eta, da)) return false;
+    ctx_.kernels.back_substitute(pool, ne, Vinv_.data(), mu, dp);
+    return true;
+  }
+
+  // y = S x on its own (iterative_schur_product).
+  bool product(const NormalEquations &ne, double mu, const double *x, double *y) {
+    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
+    multiply(ne, mu, x, y);
+    return true;
+  }
+
+ private:
+  int mnp() const { return M ? M : lay_.mnp; }
+  int cnp() const { return C ? C : lay_.cnp; }
+  int pnp() const { return P ? P : lay_.pnp; }
+
+  double dot(const double *a, const double *b, i64 n) {
+    return deterministic_sum(ctx_.pool, n, [=](i64 k) { return a[k] * b[k]; });
+  }
+
+  // The point pass of S x (x given) or of the right-hand side (x null): for each free point,
+  // t_i = V*_i^-1 sum_j W_ij^T x_j (or V*_i^-1 e_b,i), and its terms -W_ij t_i, added into
+  // its chunk's partial sums while the point's Jacobian blocks are still in cache. Done by
+  // camera instead, the pass would read the Jacobian (laid out by point) in scattered order
+  // and wait for memory at every block; the partial sums of fixed chunks of points keep the
+  // order of every sum independent of the thread count.
+  void point_pass(const NormalEquations &ne, const double *x) {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
+    const size_t per = scratch_.size() / size_t(ctx_.pool.size());
+    ctx_.pool.for_range_t(kChunks, [&](int t, i64 c0, i64 c1) {
+      double *sc = scratch_.data() + size_t(t) * per;
+      double ul[M > 0 ? M : 1], wl[P > 0 ? P : 1], tl[P > 0 ? P : 1];
+      double *u = M > 0 ? ul : sc, *w = P > 0 ? wl : sc + mn, *ti = P > 0 ? tl : sc + mn + pn;
+      for (i64 c = c0; c < c1; ++c) {
+        double *yc = partial_.data() + c * nS_;
+        std::fill(yc, yc + nS_, 0.0);
+        for (i64 q = chunk_[size_t(c)]; q < chunk_[size_t(c) + 1]; ++q) {
+          const int i = int(q) + lay.ncon;
+          const int k0 = lay.rowptr[i], k1 = lay.rowptr[i + 1];
+          const double *Vi = Vinv_.data() + i64(i) * pn * pn;
+          if (x) {
+            for (int d = 0; d < pn; ++d) w[d] = 0.0;
+            for (int k = k0; k < k1; ++k) {
+              const int j = lay.colidx[k] - lay.mcon;
+              if (j < 0) continue;
+              const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn, *xj = x + i64(j) * cn;
+              for (int r = 0; r < mn; ++r) {
+                double v = 0.0;
+                for (int a = 0; a < cn; ++a) v += A[r * cn + a] * xj[a];
+                u[r] = v;
+              }
+              for (int r = 0; r < mn; ++r)
+                for (int d = 0; d < pn; ++d) w[d] += B[r * pn + d] * u[r];
+            }
+          } else {
+            for (int d = 0; d < pn; ++d) w[d] = ne.eb[i64(i) * pn + d];
+          }
+          for (int a = 0; a < pn; ++a) {
+            double v = 0.0;
+            for (int d = 0; d < pn; ++d) v += Vi[a * pn + d] * w[d];
+            ti[a] = v;
+          }
+          for (int k = k0; k < k1; ++k) {
+            const int j = lay.colidx[k] - lay.mcon;
+            if (j < 0) continue;
+            const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn;
+            double *yj = yc + i64(j) * cn;
+            for (int r = 0; r < mn; ++r) {
+              double v = 0.0;
+              for (int d = 0; d < pn; ++d) v += B[r * pn + d] * ti[d];
+              u[r] = v;
+            }
+            for (int r = 0; r < mn; ++r)
+              for (int a = 0; a < cn; ++a) yj[a] -= A[r * cn + a] * u[r];
+          }
+        }
+      }
+    });
+  }
+
+  // y = base + the chunks' partial sums in chunk order; base_j = U*_j x_j when x is given.
+  void gather(const NormalEquations &ne, double mu, const double *x, const double *base, double *y) {
+    const int cn = cnp();
+    const i64 mcon = lay_.mcon;
+    ctx_.pool.for_range(nc_, [&](i64 j0, i64 j1) {
+      for (i64 j = j0; j < j1; ++j) {
+        double *yj = y + j * cn;
+        if (x) {
+          const double *Uj = ne.U + (j + mcon) * cn * cn, *xj = x + j * cn;
+          for (int a = 0; a < cn; ++a) {
+            double v = mu * xj[a];
+            for (int c = 0; c < cn; ++c) v += Uj[a * cn + c] * xj[c];
+            yj[a] = v;
+          }
+        } else {
+          std::copy_n(base + j * cn, cn, yj);
+        }
+        for (int c = 0; c < kChunks; ++c) {
+          const double *pc = partial_.data() + c * nS_ + j * cn;
+          for (int a = 0; a < cn; ++a) yj[a] += pc[a];
+        }
+      }
+    });
+  }
+
+  // y = S x.
+  void multiply(const NormalEquations &ne, double mu, const double *x, double *y) {
+    point_pass(ne, x);
+    gather(ne, mu, x, nullptr, y);
+  }
+
+  // D_j = U_j + mu I - sum_i W_ij V*_i^-1 W_ij^T, Cholesky-factored; false if one is not
+  // positive definite (then neither is S at this damping, up to rounding). The sums by
+  // chunk of points, for the reasons of point_pass.
+  bool make_preconditioner(const NormalEquations &ne, double mu) {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk(), cc = cn * cn;
+    const i64 blocks = i64(nc_) * cc;
+    const size_t per = scratch_.size() / size_t(ctx_.pool.size());
+    ctx_.pool.for_range_t(kChunks, [&](int t, i64 c0, i64 c1) {
+      double *W = scratch_.data() + size_t(t) * per, *Y = W + cn * pn;  // cnp x pnp, row-major
+      for (i64 c = c0; c < c1; ++c) {
+        double *Dc = Dpartial_.data() + c * blocks;
+        std::fill(Dc, Dc + blocks, 0.0);
+        for (i64 q = chunk_[size_t(c)]; q < chunk_[size_t(c) + 1]; ++q) {
+          const int i = int(q) + lay.ncon;
+          const double *Vi = Vinv_.data() + i64(i) * pn * pn;
+          for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+            const int j = lay.colidx[k] - lay.mcon;
+            if (j < 0) continue;
+            const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn;
+            for (int a = 0; a < cn; ++a)
+              for (int d = 0; d < pn; ++d) {
+                double v = 0.0;
+                for (int r = 0; r < mn; ++r) v += A[r * cn + a] * B[r * pn + d];
+                W[a * pn + d] = v;
+              }
+            for (int a = 0; a < cn; ++a)
+              for (int d = 0; d < pn; ++d) {
+                double v = 0.0;
+                for (int e = 0; e < pn; ++e) v += W[a * pn + e] * Vi[e * pn + d];
+                Y[a * pn + d] = v;
+              }
+            // The lower triangle only: chol reads no more.
+            double *Dj = Dc + i64(j) * cc;
+            for (int a = 0; a < cn; ++a)
+              for (int b = 0; b <= a; ++b) {
+                double v = 0.0;
+                for (int d = 0; d < pn; ++d) v += Y[a * pn + d] * W[b * pn + d];
+                Dj[a * cn + b] -= v;
+              }
+          }
+        }
+      }
+    });
+    std::vector<int> ok(size_t(nc_), 1);
+    ctx_.pool.for_range(nc_, [&](i64 j0, i64 j1) {
+      for (i64 j = j0; j < j1; ++j) {
+        double *Dj = D_.data() + j * cc;
+        std::copy_n(ne.U + (j + lay.mcon) * cc, cc, Dj);
+        for (int a = 0; a < cn; ++a) Dj[a * cn + a] += mu;
+        for (int c = 0; c < kChunks; ++c) {
+          const double *pc = Dpartial_.data() + c * blocks + j * cc;
+          for (int a = 0; a < cn; ++a)
+            for (int b = 0; b <= a; ++b) Dj[a * cn + b] += pc[a * cn + b];
+        }
+        ok[size_t(j)] = small::chol<C>(Dj, cn);
+      }
+    });
+    return std::all_of(ok.begin(), ok.end(), [](int v) { return v != 0; });
+  }
+
+  // z = D^-1 r.
+  void precondition(const double *r, double *z) {
+    const int cn = cnp();
+    ctx_.pool.for_range(nc_, [&](i64 j0, i64 j1) {
+      for (i64 j = j0; j < j1; ++j) {
+        double *zj = z + j * cn;
+        std::copy_n(r + j * cn, cn, zj);
+        small::chol_solve<C>(D_.data() + j * cn * cn, zj, cn);
+      }
+    });
+  }
+
+  // Truncated PCG from x = 0 on S da = rhs_; false when no descent direction came out.
+  bool conjugate_gradients(const NormalEquations &ne, double mu, double eta, double *da) {
+    const i64 n = nS_;
+    double *x = x_.data(), *r = r_.data(), *z = z_.data(), *p = p_.data(), *q = q_.data();
+    const double *b = rhs_.data();
+    int iterations = 0;
+    std::fill(x, x + n, 0.0);
+    std::copy_n(b, n, r);
+    const double bb = dot(b, b, n);
+    if (!std::isfinite(bb)) return false;
+    if (bb == 0.0) {
+      std::fill(da, da + n, 0.0);
+      return true;
+    }
+    const double tol2 = eta * eta * bb;
+    precondition(r, z);
+    double rz = dot(r, z, n);
+    if (!(rz > 0.0)) return false;
+    std::copy_n(z, n, p);
+    const int maxit = int(std::min<i64>(kMaxIterations, std::max<i64>(2 * n, 1)));
+    for (int k = 0; k < maxit; ++k) {
+      multiply(ne, mu, p, q);
+      const double pq = dot(p, q, n);
+      if (!(pq > 0.0)) break;  // S not positive definite along p: keep the iterate reached
+      const double alpha = rz / pq;
+      const double rr = deterministic_sum(ctx_.pool, n, [=](i64 e) {
+        x[e] += alpha * p[e];
+        r[e] -= alpha * q[e];
+        return r[e] * r[e];
+      });
+      ++iterations;
+      if (!std::isfinite(rr)) return false;
+      if (rr <= tol2) break;
+      precondition(r, z);
+      const double rz_next = dot(r, z, n);
+      if (!(rz_next > 0.0)) break;
+      const double beta = rz_next / rz;
+      rz = rz_next;
+      ctx_.pool.for_range(n, [=](i64 e0, i64 e1) {
+        for (i64 e = e0; e < e1; ++e) p[e] = z[e] + beta * p[e];
+      });
+    }
+    if (iterations == 0 || !(dot(b, x, n) > 0.0)) return false;
+    std::copy_n(x, n, da);
+    return true;
+  }
+
+  SolveContext ctx_;
+  const Layout &lay_;
+  int nc_ = 0, np_ = 0;
+  i64 nS_ = 0;
+  std::vector<i64> chunk_;                // the chunks' ranges of free points
+  std::vector<double> partial_;           // the chunks' partial sums of the point pass
+  std::vector<double> Dpartial_;          // and of the preconditioner's blocks
+  std::vector<double> Vinv_, D_;          // (V_i + mu I)^-1, the preconditioner
+  std::vector<double> rhs_, x_, r_, z_, p_, q_;
+  std::vector<double> scratch_;           // per thread: run-time-sized blocks
+  double g0_ = -1.0;                      // ||g|| at the first solve
+};
+
+// fn(solver) with the solver compiled for the layout's block sizes.
+template <class Fn>
+auto with_solver(const SolveContext &ctx, Fn fn) {
+  const Layout &lay = ctx.lay;
+  if (lay.mnp == 2 && lay.pnp == 3) {
+    if (lay.cnp == 6) return fn(std::make_unique<IterativeSchurSolver<2, 6, 3>>(ctx));
+    if (lay.cnp == 9) return fn(std::make_unique<IterativeSchurSolver<2, 9, 3>>(ctx));
+  }
+  return fn(std::make_unique<IterativeSchurSolver<0, 0, 0>>(ctx));
+}
+
+}  // namespace
+
+std::unique_ptr<StepSolver> make_iterative_schur_solver(const SolveContext &ctx) {
+  return with_solver(ctx, [](auto s) -> std::unique_ptr<StepSolver> { return s; });
+}
+
+bool iterative_schur_product(const SolveContext &ctx, const NormalEquations &ne, double mu,
+                             const double *x, double *y) {
+  return with_solver(ctx, [&](auto s) { return s->product(ne, mu, x, y); });
+}
+
+}  // namespace sba

@@ -1,0 +1,224 @@
+// The implicit-Schur CG solver (src/solver_iterative_schur.cpp) on random normal equations
+// with fixed cameras and points: its S x against the explicitly assembled S, its step against
+// the dense Cholesky step, the model reduction LM computes for its inexact step, the same bits
+// for any thread count, and inputs it must refuse.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core.h"
+#include "kernels.h"
+#include "parallel.h"
+#include "step_solver.h"
+
+namespace {
+
+using sba::i64;
+
+// Every point seen by 2-8 of m cameras at random (most camera pairs share points, as in a
+// photo collection), a random Jacobian and residual; the first mcon cameras and ncon points
+// fixed. The normal equations are made by the library's kernels.
+struct Problem {
+  sba::Layout lay;
+  std::vector<double> jac, e, U, V, ea, eb;
+
+  Problem(int n, int m, int mcon, int ncon, int cnp, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_int_distribution<int> len(2, 8), cam(0, m - 1);
+    std::normal_distribution<double> g(0.0, 1.0);
+    std::vector<char> vmask(size_t(n) * size_t(m), 0);
+    for (int i = 0; i < n; ++i)
+      for (int l = len(rng); l > 0;) {
+        char &c = vmask[size_t(i) * size_t(m) + size_t(cam(rng))];
+        if (!c) c = 1, --l;
+      }
+    std::string msg;
+    EXPECT_TRUE(sba::build_layout(lay, sba::Mode::MotStr, n, m, mcon, ncon, cnp, 3, 2, vmask.data(), &msg)) << msg;
+    jac.resize(size_t(lay.nvis * lay.jblk()));
+    e.resize(size_t(lay.nvis * 2));
+    // Columns of very different scales, as camera parameters have.
+    for (i64 k = 0; k < lay.nvis; ++k)
+      for (int q = 0; q < lay.jblk(); ++q)
+        jac[size_t(k * lay.jblk() + q)] = g(rng) * std::pow(10.0, double(q % (cnp + 3) % 4) - 1.0);
+    for (double &v : e) v = g(rng);
+    U.resize(size_t(m * cnp * cnp));
+    ea.resize(size_t(m * cnp));
+    V.resize(size_t(n * 9));
+    eb.resize(size_t(n * 3));
+    sba::ThreadPool pool(1);
+    sba::make_kernels(lay, 1)->normal_equations(pool, jac.data(), e.data(), U.data(), V.data(), ea.data(), eb.data());
+  }
+  sba::NormalEquations ne() const { return {jac.data(), U.data(), V.data(), ea.data(), eb.data()}; }
+  i64 nS() const { return i64(lay.free_cams()) * lay.cnp; }
+};
+
+// The step of `kind` at damping mu.
+std::vector<double> step(const Problem &pb, sba::LinSolver kind, int threads, double mu, bool *ok = nullptr) {
+  sba::ThreadPool pool(threads);
+  const auto kernels = sba::make_kernels(pb.lay, pool.size());
+  const auto solver = sba::make_step_solver(kind, sba::SolveContext{pb.lay, pool, *kernels});
+  std::vector<double> dp(size_t(pb.lay.nvars()), -1.0);
+  const bool solved = solver->solve(pb.ne(), mu, dp.data());
+  if (ok) *ok = solved;
+  return dp;
+}
+
+class IterativeSchur : public ::testing::TestWithParam<int> {};
+
+// S x from the blocks equals the assembled S times x to rounding, for every free camera.
+TEST_P(IterativeSchur, ProductEqualsTheExplicitS) {
+  const int cnp = GetParam();
+  const Problem pb(400, 15, 2, 7, cnp, 11u + unsigned(cnp));
+  const double mu = 0.3;
+  const i64 nS = pb.nS();
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE("threads " + std::to_string(threads));
+    sba::ThreadPool pool(threads);
+    const auto kernels = sba::make_kernels(pb.lay, pool.size());
+    std::vector<double> S(static_cast<size_t>(nS * nS), 0.0), rhs(static_cast<size_t>(nS));
+    sba::BlockMap dense;
+    dense.base = S.data();
+    dense.ld = nS;
+    dense.cnp = cnp;
+    ASSERT_TRUE(kernels->assemble(pool, pb.ne(), nullptr, mu, dense, rhs.data()));
+    for (i64 r = 0; r < nS; ++r)  // the assembly fills the upper triangle
+      for (i64 c = 0; c < r; ++c) S[size_t(r * nS + c)] = S[size_t(c * nS + r)];
+    std::vector<double> x(static_cast<size_t>(nS)), y(static_cast<size_t>(nS));
+    for (i64 r = 0; r < nS; ++r) x[size_t(r)] = std::sin(double(r) + 0.5) * std::pow(10.0, double(r % 3) - 1.0);
+    ASSERT_TRUE(sba::iterative_schur_product(sba::SolveContext{pb.lay, pool, *kernels}, pb.ne(), mu, x.data(), y.data()));
+    double worst = 0.0;
+    for (i64 r = 0; r < nS; ++r) {
+      double want = 0.0, scale = 0.0;
+      for (i64 c = 0; c < nS; ++c) {
+        want += S[size_t(r * nS + c)] * x[size_t(c)];
+        scale += std::fabs(S[size_t(r * nS + c)] * x[size_t(c)]);
+      }
+      worst = std::max(worst, std::fabs(y[size_t(r)] - want) / scale);
+    }
+    EXPECT_LT(worst, 1e-12);
+  }
+}
+
+// dp^T (J^T J + mu I) dp and dp^T g over the free parameters.
+void quadratic_terms(const Problem &pb, const std::vector<double> &dp, double mu, double *dAd, double *gd) {
+  const sba::Layout &lay = pb.lay;
+  const int cnp = lay.cnp;
+  double jd2 = 0.0;
+  for (int i = 0; i < lay.n; ++i)
+    for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
+      const int j = lay.colidx[k];
+      const double *A = pb.jac.data() + i64(k) * lay.jblk(), *B = A + 2 * cnp;
+      for (int r = 0; r < 2; ++r) {
+        double s = 0.0;
+        if (lay.cam_free(j))
+          for (int a = 0; a < cnp; ++a) s += A[r * cnp + a] * dp[size_t(lay.a_off(j) + a)];
+        if (lay.pt_free(i))
+          for (int a = 0; a < 3; ++a) s += B[r * 3 + a] * dp[size_t(lay.b_off(i) + a)];
+        jd2 += s * s;
+      }
+    }
+  double d2 = 0.0, g = 0.0;
+  for (int j = lay.mcon; j < lay.m; ++j)
+    for (int a = 0; a < cnp; ++a) {
+      const double v = dp[size_t(lay.a_off(j) + a)];
+      d2 += v * v;
+      g += v * pb.ea[size_t(lay.a_off(j) + a)];
+    }
+  for (int i = lay.ncon; i < lay.n; ++i)
+    for (int a = 0; a < 3; ++a) {
+      const double v = dp[size_t(lay.b_off(i) + a)];
+      d2 += v * v;
+      g += v * pb.eb[size_t(i * 3 + a)];
+    }
+  *dAd = jd2 + mu * d2;
+  *gd = g;
+}
+
+// The first solve stops at the loosest forcing term, with a step that is still a descent
+// direction whose model reduction is what LM computes for an exact step; with a gradient
+// 1e-12 times the first, the forcing term is 1e-6 and the step is the dense Cholesky step.
+TEST_P(IterativeSchur, StepMatchesCholAsTheGradientFalls) {
+  const int cnp = GetParam();
+  Problem pb(400, 15, 2, 7, cnp, 21u + unsigned(cnp));
+  const double mu = 0.05;
+  const sba::Layout &lay = pb.lay;
+  sba::ThreadPool pool(2);
+  const auto kernels = sba::make_kernels(lay, pool.size());
+  const auto solver = sba::make_step_solver(sba::LinSolver::IterativeSchur, sba::SolveContext{lay, pool, *kernels});
+  std::vector<double> dp(size_t(lay.nvars()), -1.0);
+  ASSERT_TRUE(solver->solve(pb.ne(), mu, dp.data()));
+  const std::vector<double> ref = step(pb, sba::LinSolver::Chol, 1, mu);
+  for (int q = 0; q < lay.mcon * cnp; ++q) EXPECT_EQ(dp[size_t(q)], 0.0);
+  for (int q = 0; q < lay.ncon * 3; ++q) EXPECT_EQ(dp[size_t(lay.b_off(0) + q)], 0.0);
+  double dAd = 0.0, gd = 0.0;
+  quadratic_terms(pb, dp, mu, &dAd, &gd);
+  EXPECT_GT(gd, 0.0);
+  EXPECT_NEAR(dAd / gd, 1.0, 1e-9);
+  // Loose: not the exact step yet (else this test would not see the forcing term at work).
+  double diff = 0.0, norm = 0.0;
+  for (size_t q = 0; q < ref.size(); ++q) {
+    diff = std::max(diff, std::fabs(dp[q] - ref[q]));
+    norm = std::max(norm, std::fabs(ref[q]));
+  }
+  EXPECT_GT(diff, 1e-6 * norm);
+
+  const double s = 1e-12;
+  for (double &v : pb.ea) v *= s;
+  for (double &v : pb.eb) v *= s;
+  ASSERT_TRUE(solver->solve(pb.ne(), mu, dp.data()));
+  diff = 0.0;
+  for (size_t q = 0; q < ref.size(); ++q) diff = std::max(diff, std::fabs(dp[q] / s - ref[q]));
+  EXPECT_LT(diff, 1e-5 * norm);
+}
+
+TEST_P(IterativeSchur, SameBitsForAnyThreadCount) {
+  const Problem pb(700, 20, 1, 3, GetParam(), 31u);
+  const std::vector<double> one = step(pb, sba::LinSolver::IterativeSchur, 1, 0.1);
+  EXPECT_EQ(one, step(pb, sba::LinSolver::IterativeSchur, 2, 0.1));
+  EXPECT_EQ(one, step(pb, sba::LinSolver::IterativeSchur, 3, 0.1));
+}
+
+// A NaN in the normal equations, and damping that leaves a point block indefinite, are
+// failures (LM then raises the damping), never a crash or a step with NaNs.
+TEST_P(IterativeSchur, RefusesWhatItCannotSolve) {
+  const int cnp = GetParam();
+  {
+    Problem pb(200, 10, 0, 0, cnp, 41u);
+    pb.ea[3] = std::nan("");
+    bool ok = true;
+    step(pb, sba::LinSolver::IterativeSchur, 2, 0.1, &ok);
+    EXPECT_FALSE(ok);
+  }
+  {
+    Problem pb(200, 10, 0, 0, cnp, 42u);
+    pb.V[size_t(50 * 9)] = -1e3;  // point 50's block indefinite
+    bool ok = true;
+    step(pb, sba::LinSolver::IterativeSchur, 2, 0.1, &ok);
+    EXPECT_FALSE(ok);
+  }
+  {
+    Problem pb(200, 10, 0, 0, cnp, 43u);
+    pb.U[size_t(4 * cnp * cnp)] = -1e6;  // camera 4's block, and with it S, indefinite
+    bool ok = true;
+    step(pb, sba::LinSolver::IterativeSchur, 1, 0.1, &ok);
+    EXPECT_FALSE(ok);
+  }
+  {  // a zero gradient: the zero step
+    Problem pb(200, 10, 0, 0, cnp, 44u);
+    std::fill(pb.ea.begin(), pb.ea.end(), 0.0);
+    std::fill(pb.eb.begin(), pb.eb.end(), 0.0);
+    bool ok = false;
+    const std::vector<double> dp = step(pb, sba::LinSolver::IterativeSchur, 1, 0.1, &ok);
+    EXPECT_TRUE(ok);
+    for (double v : dp) EXPECT_EQ(v, 0.0);
+  }
+}
+
+// 6: the block sizes compiled specially; 7: the run-time-sized fallback.
+INSTANTIATE_TEST_SUITE_P(BlockSizes, IterativeSchur, ::testing::Values(6, 7));
+
+}  // namespace
