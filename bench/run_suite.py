@@ -47,6 +47,9 @@ SCALING_THREADS = "all"
 LONGSEQ = ("cameras=1000,points=50000,track=3..6,trajectory=path", "chol,sparse-chol", "sparse", 30)
 LONGSEQ_QUICK = ("cameras=1000,points=10000,track=3..6,trajectory=path", "chol,sparse-chol", "none", 3)
 LONGSEQ_THREADS = "all"
+# The same long sequence solved to each engine's own default stopping, with both LM strategies:
+# the comparison the 54-camera and BAL problems make, on a problem with thousands of cameras.
+CONVERGE = ("cameras=1000,points=50000,track=3..6,trajectory=path", "sparse-chol", "sparse,iterative")
 
 # The 54-camera and BAL problems take seconds per run, and this shared machine's timings of one
 # run vary by 10-30%: each configuration runs REPEAT times (in rounds) and reports its median.
@@ -468,7 +471,7 @@ def main():
                     help="shared data directory (sba-demo/, bal/)")
     ap.add_argument("--results", default=os.path.join(HERE, "results"), help="output directory")
     ap.add_argument("--quick", action="store_true", help="a reduced set, to check that everything works")
-    ap.add_argument("--only", default="", help="comma-separated groups: demo,bal,scaling,longseq,kernels")
+    ap.add_argument("--only", default="", help="comma-separated groups: demo,bal,scaling,longseq,converge,kernels")
     ap.add_argument("--timeout", type=float, default=3600, help="seconds per run before it is killed")
     ap.add_argument("--repeat", type=int, default=REPEAT,
                     help="runs per configuration of the 54-camera and BAL problems (median reported)")
@@ -482,7 +485,8 @@ def main():
     os.makedirs(a.results, exist_ok=True)
     out = os.path.join(a.results, "results.json")
     meta_path = os.path.join(a.results, "suite.json")
-    groups_wanted = set(a.only.split(",")) if a.only else {"demo", "bal", "scaling", "longseq", "kernels"}
+    groups_wanted = set(a.only.split(",")) if a.only else {"demo", "bal", "scaling", "longseq", "converge",
+                                                           "kernels"}
     demo = os.path.join(a.data, "sba-demo")
     bal = os.path.join(a.data, "bal")
 
@@ -516,6 +520,12 @@ def main():
         problems.append(("Issue 4: long sequence", "longseq",
                          ["--gen", spec, "--solvers", solvers, "--ceres", ceres, "--itmax", str(itmax),
                           "--threads", LONGSEQ_THREADS]))
+
+    if "converge" in groups_wanted and not a.quick:
+        spec, solvers, ceres = CONVERGE
+        problems.append(("Long sequence to convergence", "longseq-converged",
+                         ["--gen", spec, "--solvers", solvers] + STRATEGIES + ["--ceres", ceres,
+                                                                              "--threads", LONGSEQ_THREADS]))
 
     if not a.report_only:
         if not os.path.exists(exe):
@@ -570,6 +580,7 @@ def main():
         ("sba-demo, 54 cameras", ["54cams", "54camsvarK", "54camsvarKD"]),
         ("BAL problems", [f.replace(".txt.bz2", "") for f in BAL_FILES]),
         ("Issue 4: long sequence", ["longseq"]),
+        ("Long sequence to convergence", ["longseq-converged"]),
     ]
     write_markdown(os.path.join(a.results, "results.md"), meta, groups, runs_by_problem, kernels)
     png = write_plot(a.results, runs_by_problem, shutil.which("gnuplot"))
