@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 # Convenience front end to the CMake build in build/ (for people who just type make).
 # `make help` lists the targets.
 BUILD ?= build

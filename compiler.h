@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /*
  * compiler.h: the compiler-dependent definitions that sba 1.6 ships beside sba.h and that
  * programs written for it include ("compiler.h", or "../compiler.h" from 1.6's demo). It is

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /*
  * sba: generic sparse bundle adjustment, a C++ reimplementation with the C API
  * of M. Lourakis' sba 1.6 (sba 1.6 programs compile and link against it unchanged).

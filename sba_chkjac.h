@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /*
  * sba_chkjac.h: sba 1.6's Jacobian checks for the expert drivers' callbacks (installed beside
  * sba.h; programs written for 1.6 include it unchanged).

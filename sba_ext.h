@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /*
  * sba_ext.h: what this library offers beyond the sba 1.6 API. Everything here is additive:
  * the 1.6 entry points of sba.h behave as in 1.6 (plus the documented improvements), and a

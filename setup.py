@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """Builds pysba's extension module with the project's CMake build (pyproject.toml has the
 metadata): the library is compiled into the module, so the installed package needs no
 libsba.so and no LD_LIBRARY_PATH."""

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Google Benchmark of the library's internal block kernels, one per step of an LM iteration,
 // on real problems: the normal equations (the Jacobian products U, V, e_a, e_b), the damped
 // point blocks V*^-1, the Schur complement S (dense), the back-substitution, and the dense

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // Ceres cost functions that evaluate exactly the models sba is given in the benchmark: the
 // residual is predicted minus observed (Ceres minimises 1/2 sum r^2, sba sum r^2 with the
 // opposite sign, so the costs differ by the factor 1/2 only), and the Jacobian blocks come

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-3-Clause
 """Checks that sba_bench still measures what the suite reports (make check-bench).
 
 Runs sba_bench once on a small generated problem (both engines, both LM strategies, Ceres's

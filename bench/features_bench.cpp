@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // What the extensions of sba_ext.h cost, on a series of generated problems (sbagen orbit
 // scenes, fixed K): time per LM iteration with and without each robust loss, and the time of
 // the covariance of the solution (every camera and point) against the problem size.

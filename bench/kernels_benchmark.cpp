@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Micro-benchmarks of what the public API reaches: one LM iteration per linear solver
 // (itmax 1, so setup + one Jacobian + the normal equations + at least one solve), the
 // Jacobian and projection callbacks of both camera models, and the dense factorization of

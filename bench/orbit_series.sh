@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: BSD-3-Clause
 # A scaling series where every camera sees many others: sbagen orbit scenes (cameras around
 # the points, looking at their centre), 100 points per camera, tracks of 3..40 cameras, so
 # that S is dense. Our chol, sparse-chol and iterative-schur beside Ceres ITERATIVE_SCHUR

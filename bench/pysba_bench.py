@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-3-Clause
 """pysba's speed against its peers, in one run.
 
 1. pysba.solve against the C programs on the same problem (54cams with eucsbademo,

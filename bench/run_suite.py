@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-3-Clause
 """Runs the benchmark suite of bench/ and writes bench/results/:
 
   results.json   one JSON object per run (JSON lines, as sba_bench --out writes them)

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: BSD-3-Clause
 # Builds the benchmarks (Release) and runs the whole suite, writing bench/results/:
 # results.md (tables), results.json (one JSON object per run), scaling.png (gnuplot),
 # kernels.json and block_kernels.json (Google Benchmark), features.md (robust-loss overhead and

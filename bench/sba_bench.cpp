@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // sba_bench: one problem, solved from the same starting point by this library (each linear
 // solver and LM strategy asked for, at each thread count) and by Ceres Solver as its users run
 // it (its default Solver::Options but for the linear solver: DENSE_SCHUR, SPARSE_SCHUR or

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // BAL ("Bundle Adjustment in the Large", Agarwal et al., ECCV 2010) problem files: a strict
 // reader for plain and bzip2-compressed text, the conversion to sba's point-by-point layout,
 // and a writer. The camera model itself is in bal_model.h. Neither depends on the sba library.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The BAL camera model and the sba callbacks built on it.
 //
 // Camera parameters a = (w1 w2 w3  t1 t2 t3  f k1 k2), cnp 9; point b = (X Y Z), pnp 3;

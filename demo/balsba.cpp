@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // balsba: bundle adjustment of a BAL problem file (plain or .bz2) with sba's expert
 // motion-and-structure driver and the BAL camera model's analytic Jacobian.
 #include <array>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include "bzip2_stream.h"
 
 #include <bzlib.h>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // Reading a bzip2-compressed file through stdio, so that a reader written for plain text
 // (eucsbademo's line reader) reads compressed files unchanged.
 #ifndef SBA_DEMO_BZIP2_STREAM_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The command-line conventions of sba's programs (eucsbademo, balsba, sbagen, sba_bench), in
 // one place so that they agree: long options only, a value as --opt=VALUE or --opt VALUE, "--"
 // ends the options, --help and --version in every program, and one message for one mistake.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // eucsbademo's text files (docs/formats.md): readers that validate strictly and report the
 // first problem as one "<file>:<line>: <message>" line, and writers for the refined cameras
 // and points.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The Euclidean camera model of eucsbademo (docs/formats.md, "The camera model") and the sba
 // callbacks built on it.
 //

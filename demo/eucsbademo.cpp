@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // eucsbademo: Euclidean bundle adjustment of camera and point files with sba, keeping the
 // command line, file formats and printed lines of sba 1.6's demo
 // (docs/formats.md). Options cover what 1.6 fixed at compile time.

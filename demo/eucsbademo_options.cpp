@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 #include "eucsbademo_options.h"
 
 #include <algorithm>

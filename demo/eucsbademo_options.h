@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // eucsbademo's command line: the sba 1.6 positional arguments plus GNU-style long options for
 // everything 1.6 fixed at compile time. Defaults are 1.6's.
 #ifndef EUCSBADEMO_OPTIONS_H

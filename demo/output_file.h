@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // Output of the demo programs: result files that appear whole or not at all, and a check that
 // what they printed on standard output got there.
 //

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // What eucsbademo and balsba say about a solve beyond sba 1.6's summary: the lines a user reads
 // first (RMS reprojection error in pixels, the stop reason in words, the solver and threads
 // that ran, the time) and the same as one JSON object for pipelines (--json FILE).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // Stopping a solve from outside the library, the way the library offers: its progress
 // callback, called after every iteration, returns nonzero and the solve ends cleanly there
 // (info[6] = SBA_STOP_USER, p at the last accepted estimate). Two things ask for it:

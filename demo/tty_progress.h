@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // A one-line progress display for long solves, on stderr and only when stderr is a terminal
 // (so that logs and pipes never see it): sba's progress callback rewrites the line in place.
 #ifndef SBA_DEMO_TTY_PROGRESS_H

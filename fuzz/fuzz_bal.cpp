@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // libFuzzer target: the BAL reader. Plain text goes to bal::parse_problem directly; inputs
 // that start with the bzip2 signature "BZh" go through a file and bal::read_problem, which
 // decompresses them. Problems that parse are converted with bal::to_sba.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // libFuzzer target: eucsbademo's calibration file reader (eucsba::read_calibration).
 #include <cstddef>
 #include <cstdint>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // libFuzzer target: eucsbademo's camera file reader (eucsba::read_cameras).
 #include <cstddef>
 #include <cstdint>

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // Shared by the fuzz targets: the eucsbademo readers take paths, so every input is first
 // written to a file (in SBA_FUZZ_TMPDIR, which scripts/run_fuzz.sh points at a directory in
 // /dev/shm, else /dev/shm or /tmp); and the checks of what the readers promise.

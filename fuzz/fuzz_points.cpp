@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // libFuzzer target: eucsbademo's points file reader (eucsba::read_points) for 64 cameras
 // (more than any seed file has).
 #include <algorithm>

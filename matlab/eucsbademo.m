@@ -145,3 +145,4 @@ function dir = default_data_dir()
   here = fileparts(mfilename('fullpath'));
   dir = fullfile(here, '..', '..', 'shared', 'data', 'sba-demo');
 end
+% SPDX-License-Identifier: BSD-3-Clause

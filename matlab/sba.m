@@ -110,3 +110,4 @@ function varargout = sba(varargin)
   error('sba:notBuilt', ['sba: the MEX file of sba is not built or not on the path ', ...
         '(build the CMake target sba_mex, or run "make mex")']);
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The MATLAB / GNU Octave gateway of sba (calling convention: docs/mex.md;
 // help text: sba.m).
 //

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /*
  * The Euclidean camera of eucsbademo (fixed intrinsics) as C callbacks for sba's MATLAB / Octave
  * gateway: pass 'NAME@LIBRARY' strings such as 'sbaeuc_proj@libsbaeuc_proj.so' to sba(). They

@@ -42,3 +42,4 @@ function x = sbaeuc_proj(j, i, aj, bi, qr0, cal)
   yn = yc / zc;
   x = [cal(1)*xn + cal(5)*yn + cal(2), cal(1)*cal(4)*yn + cal(3)];
 end
+% SPDX-License-Identifier: BSD-3-Clause

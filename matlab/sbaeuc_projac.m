@@ -58,3 +58,4 @@ function R = rotation(w, x, y, z)
        2*(x*y + w*z), w*w - x*x + y*y - z*z, 2*(y*z - w*x);
        2*(x*z - w*y), 2*(y*z + w*x), w*w - x*x - y*y + z*z];
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -10,3 +10,4 @@ function A = sbaeuc_projac_mot(j, i, aj, bi, qr0, cal)
 
   A = sbaeuc_projac(j, i, aj, bi, qr0, cal);
 end
+% SPDX-License-Identifier: BSD-3-Clause

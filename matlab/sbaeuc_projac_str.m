@@ -10,3 +10,4 @@ function B = sbaeuc_projac_str(j, i, aj, bi, qr0, cal)
 
   [~, B] = sbaeuc_projac(j, i, aj, bi, qr0, cal);
 end
+% SPDX-License-Identifier: BSD-3-Clause

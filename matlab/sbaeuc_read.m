@@ -138,3 +138,4 @@ function rows = read_rows(file)
   end
   rows = rows(1:count, :);
 end
+% SPDX-License-Identifier: BSD-3-Clause

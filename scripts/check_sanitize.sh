@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: BSD-3-Clause
 # make check-sanitize: runs the test suite of the AddressSanitizer + UndefinedBehaviorSanitizer
 # build (configured by the Makefile in BUILD_DIR) with leak detection, and fails on any test
 # failure or any sanitizer report, including reports from the programs the tests run

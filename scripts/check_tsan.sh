@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: BSD-3-Clause
 # make check-tsan: runs the concurrency tests of the ThreadSanitizer build (configured by the
 # Makefile in BUILD_DIR) and fails on any test failure or any ThreadSanitizer report.
 #   Drivers.FourConcurrentSolvesMatchASequentialOne      four solves at once in one process

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: BSD-3-Clause
 # make check-valgrind: one run of eucsbademo on a small generated problem under valgrind's
 # memcheck; fails on any memory error and on any definite, indirect or possible leak.
 # (Still-reachable blocks are the libraries' own one-time allocations: listed, not errors.)

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: BSD-3-Clause
 # Installs the Debian packages that sba needs for a purpose, when they are missing.
 #   scripts/deps.sh build   compiler, CMake, LAPACK/BLAS (OpenBLAS), SuiteSparse, bzip2
 #   scripts/deps.sh bench   build + Ceres Solver, Google Benchmark and gnuplot (bench/)

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: BSD-3-Clause
 # make check-fuzz: runs every libFuzzer target of fuzz/ for a bounded time, seeded with the
 # real input files, and fails if any of them finds a crash, a leak, a timeout, an
 # out-of-memory or a broken promise (see fuzz/fuzz_common.h). The seed corpora are assembled

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // sba_chkjac.h: the expert drivers' Jacobian check (check_jacobian, the itmax == 0 mode) on a
 // visibility index the caller built, with func and jacf on their own adata pointers.
 #include <algorithm>

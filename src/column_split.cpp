@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The cost model behind split_schur_columns (column_split.h).
 #include "column_split.h"
 

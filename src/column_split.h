@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // How the block columns of S are shared among the threads that assemble it. A cost model of
 // the assembly, not a vector kernel: one translation unit, whatever the CPU build of the
 // kernels that use it.

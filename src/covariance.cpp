@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Covariance of the solution through the Schur complement: with J^T J = [U W; W^T V],
 // (J^T J)^-1 has camera blocks S^-1 (S = U - W V^-1 W^T) and point blocks
 // V^-1 + V^-1 W^T S^-1 W V^-1. Only the requested blocks are formed. A gauge that mcon/ncon

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The sba_crsm visibility index helpers of the 1.6 API. Column indices within a row are
 // ascending (the drivers build them so, and 1.6 callers rely on it), which is what makes the
 // binary searches below valid.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Dense linear algebra behind sba.h: the sba_Axb_* solvers, the symmetric inverses and
 // sba_mat_cholinv.
 //

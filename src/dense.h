@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The dense solvers of the sba_Axb_* helpers, for the library's own use: the helpers turn every
 // failure into a return value of 0, including running out of memory, which the LM loop would
 // take for a failed factorization and answer with more damping. Here std::bad_alloc passes

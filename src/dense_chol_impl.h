@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The dense Cholesky factorization of S (the `chol` solver), part of kernels_impl.h and so
 // compiled once per kernel build. Included there inside namespace sba::SBA_KERNELS_NS; the
 // factorization reaches it through own_dense_cholesky (dense_factorization.h), not through the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The dense factorizations of S: the library's own Cholesky, LAPACK's, and the methods of the
 // sba_Axb_* helpers (src/dense.h) on a diagonally scaled copy.
 #include "dense_factorization.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The dense factorizations of the reduced camera system S, behind one interface and chosen
 // once per solve (the way Ceres picks its dense Cholesky backend): the dense Schur solver
 // assembles S where the factorization asks for it and hands it over.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The C boundary: the six sba 1.6 drivers. Each one validates its arguments, builds the
 // typed layout and callback model, and runs the shared LM core. Nothing escapes this file
 // as an exception, and info is filled on every return path.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The library's one test for NaN and Inf in an array of doubles, and where the first one is.
 #ifndef SBA_SRC_FINITE_H
 #define SBA_SRC_FINITE_H

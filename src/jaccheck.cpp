@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The itmax == 0 mode of the drivers: compare the caller's analytic Jacobian with central
 // differences, entry by entry, over the free parameters only (fixed cameras and points are
 // never differentiated, so they cannot raise false alarms as they did in 1.6).

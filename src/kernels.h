@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The block kernels of an LM iteration (normal equations, damped point blocks, the Schur
 // complement and the back-substitution), compiled for the common block sizes
 // (mnp, cnp, pnp) = (2,6,3), (2,7,3), (2,9,3), (2,11,3), (2,16,3) with a run-time-sized

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The block kernels' implementation, compiled twice: by kernels.cpp for any x86-64 (and other
 // targets), and by kernels_avx2.cpp with AVX2 and FMA enabled, each into its own namespace
 // SBA_KERNELS_NS. make_kernels picks the build the CPU can run.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // Private prototypes of the Fortran LAPACK/BLAS routines the library calls. The symbol
 // naming (trailing underscore or not) comes from the build's probe in sba_lapack_config.h.
 // Character arguments carry gfortran's hidden length arguments so that the calls are correct

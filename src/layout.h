@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The problem's sizes and its visibility index, in the forms the LM core, the solvers and the
 // callbacks need, and how they are built and checked against the int-sized 1.6 API.
 #ifndef SBA_SRC_LAYOUT_H

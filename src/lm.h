@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The one Levenberg-Marquardt core behind the six 1.6 drivers, its options and summary, and
 // what else works on the normal equations at a point: the covariance and the Jacobian check.
 #ifndef SBA_SRC_LM_H

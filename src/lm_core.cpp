@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The one Levenberg-Marquardt core behind all six drivers (sba paper, Fig. 2 and Fig. 4).
 // Each iteration computes the Jacobian and the normal equations once; the damped system is
 // solved by the chosen StepSolver (by default through the Schur complement on the cameras,

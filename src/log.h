@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // One logging sink for everything the library says. By default errors go to stderr and
 // progress (only when verbose) to stdout, as in sba 1.6; callers of the extension API can
 // redirect or silence both.

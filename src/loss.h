@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // Robust losses rho(s) of a projection's squared (covariance-weighted) residual norm s, with
 // scale c: residuals much larger than c count less than quadratically. The solver uses them
 // by iteratively reweighted least squares (see lm_core.cpp).

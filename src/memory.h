@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // Large buffers whose pages are mapped in one system call rather than fault by fault.
 #ifndef SBA_SRC_MEMORY_H
 #define SBA_SRC_MEMORY_H

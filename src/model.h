@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The caller's callbacks behind one interface: the expert drivers' whole-vector func/fjac and
 // the simple drivers' per-projection proj/projac, with finite differences where no Jacobian
 // is given.

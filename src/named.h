@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // Tables of {name, value} rows (the linear solvers, the losses): the lookup by name and the
 // names joined by spaces for messages and the C API's lists, both from the one table.
 #ifndef SBA_SRC_NAMED_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // A small thread pool owned by one solve (no global state) and helpers for deterministic
 // parallel loops: work is split into ranges that do not depend on the thread count where
 // results are summed, so that any number of threads gives the same bits.

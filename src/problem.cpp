@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The visibility index, the callback models and the finite-difference Jacobians.
 #include <algorithm>
 #include <climits>

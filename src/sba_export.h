@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The library is compiled with hidden visibility; sba.h's, sba_ext.h's and sba_chkjac.h's
 // declarations get default visibility here, so that exactly their functions are exported (the
 // version script src/sba.map agrees). Every source file of the library includes this instead

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // Small pieces of the Schur complement shared by the solvers and the covariance.
 #ifndef SBA_SRC_SCHUR_H
 #define SBA_SRC_SCHUR_H

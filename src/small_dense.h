@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // Small dense kernels on row-major square blocks (the per-camera and per-point blocks of
 // the normal equations: 3x3 .. 16x16). Hand-written because LAPACK's per-call overhead
 // dominates at these sizes.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Dense S: the reduced camera system assembled into an (m-mcon)cnp square matrix, in the
 // storage its factorization asks for, and handed to that factorization (chosen once, by the
 // linear solver's kind: src/dense_factorization.h); the points' steps follow by

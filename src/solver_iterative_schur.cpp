@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Implicit S: truncated preconditioned conjugate gradients on the reduced camera system
 // S da = e_a - W V*^-1 e_b, with S = U* - W V*^-1 W^T never formed. For photo collections,
 // where most camera pairs share points, S is dense and a factorization of it costs the cube

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // No Schur complement: the whole damped system (U*, W; W^T, V*) in compressed-column form,
 // ordered once per solve by AMD and factored by LDL^T for every damping value (the sba
 // paper's Table II comparison). The pattern and the symbolic factorization are fixed by the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Sparse S: the reduced camera system stored as blocks only for camera pairs that share a
 // point, factored by CHOLMOD's supernodal Cholesky. For long sequences (each point seen by a
 // few consecutive cameras) S is banded and this is far cheaper than the dense S, in time

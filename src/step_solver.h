@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The linear solvers of the augmented normal equations, chosen at run time behind one
 // interface. Each LM iteration computes the undamped normal equations once; a StepSolver
 // turns them into the damped step for as many damping values as the iteration tries.

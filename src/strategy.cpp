@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The two LM strategies. "sba" is 1.6's algorithm exactly (its parity with 1.6 is tested
 // down to stop reasons and counters). "trust-region" is Levenberg-Marquardt as Moré's
 // trust-region account and Ceres's documentation describe it: the damping term is

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // How the LM loop damps, accepts a step and decides it has converged: sba 1.6's rules, or a
 // trust-region Levenberg-Marquardt as the trust-region literature and Ceres run it. The loop
 // (lm_core.cpp) is the same for both; a strategy is the handful of decisions in which they

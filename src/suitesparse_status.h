@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // A failed call into AMD or CHOLMOD as an exception, so that a solve reports it as what it
 // was. Out of memory is a resource failure (std::bad_alloc, reported as such). Any other
 // failure is an internal error: the solvers hand these libraries matrices that are valid by

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* A caller written for sba 1.5 (no ncon argument) compiles unchanged with -DSBA_API_1_5. */
 #include <stdio.h>
 

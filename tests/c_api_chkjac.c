@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* The files of sba 1.6 that programs include beside sba.h: compiler.h (inline, SBA_FINITE) and
  * sba_chkjac.h (the expert drivers' Jacobian checks), and the 1.6 macros of sba.h. Written in
  * C90 so that the same file is built as C99 and as C90, both with -pedantic -Werror: compiler.h

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* Compiled as C (C99, -pedantic): sba.h must be a valid C header, and every exported function
  * must be callable from C. A tiny two-camera problem with a linear "projection" keeps the
  * arithmetic checkable by hand. Exit status 0 on success. */

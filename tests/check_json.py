@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-3-Clause
 """--json of eucsbademo and balsba, checked against the summary the same run printed.
 
 usage: check_json.py EUCSBADEMO BALSBA PROJECT_DIR SHARED_DATA_DIR SCRATCH_DIR

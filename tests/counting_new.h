@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // A counting replacement of the global operator new/delete, for tests that check that a
 // failed solve gives back every allocation it made, and that want the k-th allocation to fail.
 // The executable's operator new interposes the one of libstdc++ for libsba.so too, so the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // Sabotaged callbacks and one uniform way to call the six drivers, shared by
 // tests/test_faults.cpp and the soak test (tests/soak/soak.cpp). The callbacks forward to the
 // synthetic problem of synth.h and then apply the fault that their Sabotage record asks for.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // SBA_TEST_SANITIZED is defined when the tests (and so the library and programs, which are
 // built the same way) run under AddressSanitizer or ThreadSanitizer: they replace operator new
 // and reserve terabytes of address space for their shadow memory, so a counting operator new

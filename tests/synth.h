@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // A synthetic bundle adjustment problem for the driver tests: cameras on an arc looking at
 // a cloud of points, pinhole projection with Euler-angle rotations (an easy analytic
 // Jacobian), known ground truth, optional pixel noise.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The eucsbademo camera model (analytic Jacobians against finite differences, the rotation
 // parametrization, held intrinsics) and its file readers and writers, including the initial
 // errors sba 1.6 publishes for its demo data.

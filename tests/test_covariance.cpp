@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Covariance of the solution (sba_motstr_covariance[_x]): against a brute-force
 // sigma^2 (J^T J)^-1 on small problems, against the spread of solutions over noisy
 // replicates, and the gauge handling.

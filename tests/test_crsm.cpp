@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The sba_crsm helpers on the sba paper's example: a 4 x 3 index with val 0..7,
 // colidx (0,1,1,2,1,2,1,2), rowptr (0,2,4,6,8).
 #include <gtest/gtest.h>

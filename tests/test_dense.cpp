@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Tests of the dense helpers in sba.h (src/dense.cpp) against known solutions.
 //
 // The small matrices have integer entries and the right-hand sides are formed in exact

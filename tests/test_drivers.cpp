@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The six drivers on synthetic problems with known ground truth.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // eucsbademo as its users run it: the real executable (EUCSBADEMO_EXE), its stdout and stderr
 // captured separately, on sba 1.6's demo data (the published results, checked-in golden
 // output, every linear solver, the other drivers and refinements, a round trip through the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Faults that tests/test_drivers.cpp does not cover: Jacobians of the wrong sign,
 // callbacks that fail mid-way in every driver, callbacks that throw, running out of memory,
 // problems too large for the int API, and every bad argument of every one of the six drivers.

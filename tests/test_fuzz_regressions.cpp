@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Inputs found by the fuzz targets of fuzz/, kept in tests/fuzz_regressions/ as
 // TARGET-NAME with TARGET one of cameras, points, calibration, bal (see the README there).
 // Each must give a clean error: one line naming the file from the reader itself, and one

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The implicit-Schur CG solver (src/solver_iterative_schur.cpp) on random normal equations
 // with fixed cameras and points: its S x against the explicitly assembled S, its step against
 // the dense Cholesky step, the model reduction LM computes for its inexact step, the same bits

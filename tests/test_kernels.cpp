@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The library's internal block kernels (linked from its objects, like bench/'s kernel
 // benchmark): the sparse-S storage layout against the dense S, and the point-block inverses
 // made on the fly against the precomputed ones.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The LM core's stop tests (src/lm_core.cpp), linked from the library's objects.
 #include <gtest/gtest.h>
 

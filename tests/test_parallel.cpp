@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The run-time support of the kernels and solvers (linked from the library's objects): where
 // the thread pool's workers run (src/parallel.cpp), the work arrays whose pages are mapped up
 // front (src/memory.cpp), and how a failed AMD or CHOLMOD call is reported

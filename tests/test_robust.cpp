@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Robust losses (sba_ext.h: loss, loss_scale) on generated problems with gross outliers: plain
 // least squares is pulled away from the ground truth, every robust loss recovers it.
 #include <gtest/gtest.h>

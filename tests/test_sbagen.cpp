@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Tests of the scene generator (data/generator/sbagen.h): determinism, counts, geometry of
 // the truth, tracks, noise and covariance statistics, outliers, the files it writes, and that
 // sba refines a generated problem back to its ground truth.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Scale: a 20000-camera, 1,000,000-point long sequence given by its (point, camera) pairs
 // (sba_motstr_levmar_x_vis). Its dense vmask alone would take 20 GB; the solve must run in
 // memory proportional to the 3 million observations.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The run-time choice of linear solver (sba_ext.h, SBA_LINSOLVER) on synthetic problems:
 // every solver reaches chol's minimum, and the extension options behave as documented.
 #include <dlfcn.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // The LM strategies (sba_ext_options.strategy, SBA_STRATEGY): "sba" is the default and 1.6's
 // algorithm; "trust-region" reaches the same minima in fewer iterations with every linear
 // solver, driver, loss and weighting, and keeps the library's guarantees (same bits for any

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // sbagen: see sbagen.h.
 #include "sbagen.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // sbagen: synthetic bundle adjustment problems with ground truth, for eucsbademo's camera
 // model (../../demo/eucsba_model.h) and file formats (docs/formats.md).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // sbagen: writes a synthetic eucsbademo problem with its ground truth (see sbagen.h).
 #include <algorithm>
 #include <cctype>

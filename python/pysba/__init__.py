@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """pysba: sparse bundle adjustment (the sba library) for Python.
 
 numpy arrays in, numpy arrays out::

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """Type stubs of the compiled part of pysba (use the functions of the pysba package)."""
 from typing import Any, Callable, Dict, Optional
 

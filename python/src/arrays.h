@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // numpy arrays in and out of the extension, and the observations in sba's layout.
 #ifndef PYSBA_ARRAYS_H
 #define PYSBA_ARRAYS_H

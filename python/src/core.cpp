@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // pysba._core: the readers and the built-in camera models of the demo programs, and the
 // expert drivers with Python callbacks (python_model.cpp). The Python-facing API, its
 // defaults and its documentation are in pysba/__init__.py.

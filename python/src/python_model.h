@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // The expert drivers with a camera model written in Python: vectorized callbacks that get the
 // cameras, the points and the (camera, point) index of every observation at once.
 #ifndef PYSBA_PYTHON_MODEL_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // One run of an expert driver from Python, whatever the camera model: the observations,
 // the parameter vector, the callbacks, and what the run reports back.
 #ifndef PYSBA_RUN_H

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 // What one solve called from Python shares between the caller and the library's callbacks:
 // the options handed to the library, its log lines, the first Python exception raised by a
 // callback (or by a signal handler), and the progress callback that turns both into a stop.

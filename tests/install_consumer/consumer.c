@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* Links against an installed sba and solves x = a_j + b_i with one fixed camera. */
 #include <math.h>
 #include <stdio.h>

@@ -1,4 +1,5 @@
 #!/bin/sh
+# SPDX-License-Identifier: BSD-3-Clause
 # Installs the built library and programs into a scratch prefix, moves the prefix elsewhere
 # (as a package built on another machine, or a conda environment, is), and then checks from
 # the moved prefix only:

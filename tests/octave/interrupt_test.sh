@@ -1,4 +1,5 @@
 #!/bin/bash
+# SPDX-License-Identifier: BSD-3-Clause
 # Ctrl-C test of the MEX interface: an interactive octave-cli reads commands from a FIFO; a
 # long solve is started and SIGINT is sent to the octave-cli process (what Ctrl-C does in a
 # terminal). Octave must report the interruption, return to its prompt without a result,

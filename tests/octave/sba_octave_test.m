@@ -30,3 +30,4 @@ end
 function d = data_dir()
   d = getenv('SBA_SHARED_DATA_DIR');
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -13,3 +13,4 @@ function sbatest_after_interrupt(kind)
          info(2) / prob.nvis);
   fflush(stdout);
 end
+% SPDX-License-Identifier: BSD-3-Clause

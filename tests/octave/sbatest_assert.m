@@ -4,3 +4,4 @@ function sbatest_assert(cond, varargin)
     error('sbatest:failed', varargin{:});
   end
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -5,3 +5,4 @@ function [cams, pts, calib] = sbatest_files()
   pts = fullfile(d, '7pts.txt');
   calib = fullfile(d, 'calib.txt');
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -3,3 +3,4 @@ function [A, B] = sbatest_jacbad(j, i, aj, bi, qr0, cal)
   [A, B] = sbaeuc_projac(j, i, aj, bi, qr0, cal);
   B = B(1:5);
 end
+% SPDX-License-Identifier: BSD-3-Clause

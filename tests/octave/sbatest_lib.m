@@ -8,3 +8,4 @@ function lib = sbatest_lib(name)
   end
   sbatest_assert(exist(lib, 'file') == 2, 'the callbacks library %s is missing', lib);
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -20,3 +20,4 @@ function sbatest_long_solve(kind)
   printf('LONG SOLVE FINISHED (%s): ret %d\n', kind, ret);
   fflush(stdout);
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -7,3 +7,4 @@ function prob = sbatest_problem()
   end
   prob = cached;
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -5,3 +5,4 @@ function x = sbatest_projbadlater(j, i, aj, bi, qr0, cal)
     x = x(1);
   end
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -5,3 +5,4 @@ function x = sbatest_projfail(j, i, aj, bi, qr0, cal)
   end
   x = sbaeuc_proj(j, i, aj, bi, qr0, cal);
 end
+% SPDX-License-Identifier: BSD-3-Clause

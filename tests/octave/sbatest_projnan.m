@@ -5,3 +5,4 @@ function x = sbatest_projnan(j, i, aj, bi, qr0, cal)
     x = [NaN NaN];
   end
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -26,3 +26,4 @@ function err = sbatest_reference(refine, jacobian)
   err = str2double(tok{1});
   printf('reference (%s, %s Jacobian): C eucsbademo reaches %g\n', refine, jacobian, err);
 end
+% SPDX-License-Identifier: BSD-3-Clause

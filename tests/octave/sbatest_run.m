@@ -23,3 +23,4 @@ function [ret, popt, info] = sbatest_run(prob, varargin)
                           prob.x, o.covx, prob.mnp, proj, jac, o.itmax, o.verbose, o.opts, ...
                           o.reftype, prob.qr0, prob.cal);
 end
+% SPDX-License-Identifier: BSD-3-Clause

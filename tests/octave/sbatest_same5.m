@@ -5,3 +5,4 @@ function sbatest_same5(got, want, what)
                  '%s: %.9g differs from the reference %.9g in the first 5 significant digits', ...
                  what, got, want);
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
 /* A deliberately slow projection for the Ctrl-C test of the MEX interface: sbaeuc_proj
  * after a busy wait, so that a solve through 'sbaeuc_slowproj@...' runs long enough to be
  * interrupted while the library, not the interpreter, is working. */

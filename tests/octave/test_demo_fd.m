@@ -11,3 +11,4 @@ function test_demo_fd()
                  info(9), ret, prob.nvis);
   sbatest_same5(info(2) / prob.nvis, ref, '(c) finite differences: final error');
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -21,3 +21,4 @@ function test_demo_lib()
   sbatest_same5(info(2) / prob.nvis, sbatest_reference('motstr', 'numeric'), ...
                 '(b) C projection, finite-difference Jacobian: final error');
 end
+% SPDX-License-Identifier: BSD-3-Clause

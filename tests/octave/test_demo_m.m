@@ -10,3 +10,4 @@ function test_demo_m()
   sbatest_same5(info(1) / prob.nvis, 19.0947, '(a) .m callbacks: initial error');
   sbatest_same5(info(2) / prob.nvis, ref, '(a) .m callbacks: final error');
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -127,3 +127,4 @@ function check(err, id, pattern)
   sbatest_assert(strncmp(err.message, 'sba: ', 5), 'message "%s" does not start with "sba: "', err.message);
   printf('ok: %s\n', err.message);
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -124,3 +124,4 @@ function r = ifelse(c, a, b)
     r = b;
   end
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -55,3 +55,4 @@ function test_reftypes()
     sbatest_assert(ea < 1e-5 && eb < 1e-5, 'Jacobians vs central differences: rel. errors %g, %g', ea, eb);
   end
 end
+% SPDX-License-Identifier: BSD-3-Clause

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """Shared fixtures of the pysba tests: where the reference data is, and the problems on it.
 
 PYSBA_DATA_DIR (set by ctest) names ../shared/data; tests that need it skip when it is

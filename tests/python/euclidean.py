@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """eucsbademo's camera model with fixed intrinsics, written again in numpy as a user would
 write a model of their own: the test of the Python-callback drivers compares it with the
 library's built-in model (demo/eucsba_model.h).

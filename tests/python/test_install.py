@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """`pip install --no-build-isolation .` from a copy of the source tree into a fresh venv,
 then pysba imported from there, in a clean environment, solves a problem. Slow (it builds
 the library): ctest runs it as a test of its own."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-3-Clause
 """pysba against the C programs and the library's own models, its errors, and Ctrl-C."""
 import os
 import re

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-3-Clause
 // Soak test: many solves of random synthetic problems with random options and
 // random fault injection. Every solve runs in a fork()ed child under alarm(), so that a crash
 // or a hang is counted instead of ending the run. Counts and prints:
