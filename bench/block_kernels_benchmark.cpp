@@ -9,6 +9,7 @@
 
 #include <dlfcn.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <map>
 #include <memory>
@@ -52,8 +53,10 @@ Fixture *fixture(const std::string &key) {
   const sba::Layout &lay = f->lay;
   std::vector<double> params = p.p0, hx(p.x.size());
   f->jac.resize(size_t(lay.nvis * lay.jblk()));
-  p.func()(params.data(), &f->lay.idx, f->lay.rcidxs.data(), f->lay.rcsubs.data(), hx.data(), p.adata());
-  p.fjac()(params.data(), &f->lay.idx, f->lay.rcidxs.data(), f->lay.rcsubs.data(), f->jac.data(), p.adata());
+  // The callbacks' scratch arrays (max(n, m) ints each), as a driver hands them over.
+  std::vector<int> rcidxs(size_t(std::max(p.n, p.m))), rcsubs(rcidxs.size());
+  p.func()(params.data(), &f->lay.idx, rcidxs.data(), rcsubs.data(), hx.data(), p.adata());
+  p.fjac()(params.data(), &f->lay.idx, rcidxs.data(), rcsubs.data(), f->jac.data(), p.adata());
   f->e.resize(hx.size());
   for (size_t q = 0; q < hx.size(); ++q) f->e[q] = p.x[q] - hx[q];
   f->U.resize(size_t(p.m) * p.cnp * p.cnp);
