@@ -143,7 +143,11 @@ TEST(Cli, BenchListsCheckEachItem) {
   expect_usage_error(p, {"--solvers", "chol,nope"},
                      std::string("bad value 'chol,nope' for --solvers: 'nope': expected one of: ") +
                          sba_linsolver_names());
-  expect_usage_error(p, {"--ceres=dense,x"}, "bad value 'dense,x' for --ceres: 'x': expected one of: dense, sparse");
+  expect_usage_error(p, {"--ceres=dense,x"},
+                     "bad value 'dense,x' for --ceres: 'x': expected one of: dense, sparse, iterative");
+  expect_usage_error(p, {"--strategy", "sba,fast"},
+                     std::string("bad value 'sba,fast' for --strategy: 'fast': expected one of: ") +
+                         sba_strategy_names());
 }
 #endif
 
