@@ -421,10 +421,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
     // Stop 1 looks at the gradient in the units of p, whatever the strategy solves in.
     gradient_stats(lay, w, &sum.grad_inf, &maxdiag);
     strategy->linearized(pool, w.jac.data(), w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
-    if (opt.strategy != StrategyKind::Sba) {
-      double ginf_scaled;
-      gradient_stats(lay, w, &ginf_scaled, &maxdiag);
-    }
+    maxdiag = strategy->solved_max_diagonal(maxdiag);
     if (it == 0) mu = strategy->initial_damping(opt.tau, maxdiag);
 
     if (sum.grad_inf <= eps1) {

@@ -51,6 +51,7 @@ class Sba16 final : public Strategy {
     return std::max({tau * maxdiag, kMinRelativeDamping * maxdiag, DBL_MIN});
   }
   void linearized(ThreadPool &, double *, double *, double *, double *, double *) override {}
+  double solved_max_diagonal(double maxdiag) const override { return maxdiag; }
   void to_parameters(ThreadPool &, double *) const override {}
   bool acceptable(double dF, double dL) const override { return dL > 0.0 && dF > 0.0; }
   double after_success(double mu, double rho) const override {
@@ -137,6 +138,12 @@ class TrustRegion final : public Strategy {
   // same minimum.
   double initial_damping(double tau, double maxdiag) const override {
     return std::clamp(0.1 * tau * maxdiag, kMinDamping, kMaxDamping);
+  }
+
+  // Each diagonal entry d becomes d / clamp(d), which grows with d: the largest stays the
+  // largest, and no second pass over the blocks is needed.
+  double solved_max_diagonal(double maxdiag) const override {
+    return maxdiag / std::clamp(maxdiag, kMinDiagonal, kMaxDiagonal);
   }
 
   void to_parameters(ThreadPool &pool, double *dp) const override {

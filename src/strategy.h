@@ -37,6 +37,8 @@ class Strategy {
   // The damping of the first iteration, from opts[0] and the largest diagonal entry of
   // J^T J (of the system the solver sees).
   virtual double initial_damping(double tau, double maxdiag) const = 0;
+  // The largest diagonal entry of the system the solver sees, from that of J^T J.
+  virtual double solved_max_diagonal(double maxdiag) const = 0;
   // The step the solver returned, in place, in the units of p.
   virtual void to_parameters(ThreadPool &pool, double *dp) const = 0;
   // Whether a trial point is taken: dF the actual reduction of the cost, dL the linear

@@ -531,7 +531,7 @@ TEST(BalSolve, Problem49Regression) {
 }
 
 // The same problem with the trust-region strategy reaches the minimum Ceres reaches at its
-// defaults (mean squared error 0.838132, in 31 iterations with DENSE_SCHUR), which 1.6's
+// defaults (mean squared error 0.838132 with DENSE_SCHUR), which 1.6's
 // strategy stops short of.
 TEST(BalSolve, Problem49TrustRegionReachesTheMinimum) {
   const std::string path = bal_dir() + "/problem-49-7776-pre.txt.bz2";
@@ -565,7 +565,7 @@ TEST(BalSolve, Problem49TrustRegionReachesTheMinimum) {
 // The same problem with the implicit-Schur CG solver. LM stops by its relative-reduction test
 // (reason 4) in the flat part of the valley, where inexact steps stop a little way from where
 // chol's exact ones do: the error is chol's (0.838894474, above) to within 2e-6 relative.
-// Half a minute of CG (a few hundred iterations per solve on this badly conditioned problem):
+// Hundreds of CG iterations per solve on this badly conditioned problem:
 // with the slow cases only.
 TEST(BalSolve, Problem49IterativeSchurReachesCholsMinimum) {
   if (!std::getenv("SBA_LONG_TESTS") || std::string(std::getenv("SBA_LONG_TESTS")) != "1")
