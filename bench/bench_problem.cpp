@@ -200,9 +200,7 @@ bool generate(const std::string &spec, Problem *out, std::string *error) {
       o.track_min = static_cast<int>(lo);
       o.track_max = static_cast<int>(hi);
     } else if (key == "trajectory") {
-      if (value == "orbit") o.trajectory = sbagen::Trajectory::Orbit;
-      else if (value == "path") o.trajectory = sbagen::Trajectory::Path;
-      else ok = false;
+      ok = sbagen::trajectory_from_name(value, &o.trajectory);
     } else if (key == "kind") {
       if (value == "fixed") o.kind = eucsba::CameraKind::FixedIntrinsics;
       else if (value == "varK") o.kind = eucsba::CameraKind::VaryingIntrinsics;

@@ -54,7 +54,7 @@ bool load_eucsba(const std::string &cams, const std::string &pts, const std::str
                  std::string *error);
 bool load_bal(const std::string &path, Problem *out, std::string *error);
 // spec: comma-separated key=value: cameras, points, track (MIN..MAX or N), trajectory
-// (orbit|path), kind (fixed|varK|varKD), noise, seed.
+// (orbit|path|photo), kind (fixed|varK|varKD), noise, seed.
 bool generate(const std::string &spec, Problem *out, std::string *error);
 
 // Fills obs_camera / obs_point from vmask.

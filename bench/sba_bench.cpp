@@ -67,7 +67,7 @@ const char kUsage[] =
     "  --bal FILE                              a BAL file (.txt or .bz2)\n"
     "  --gen SPEC                              a sbagen scene, SPEC = key=value,... with keys\n"
     "                                          cameras, points, track (MIN..MAX), trajectory\n"
-    "                                          (orbit|path), kind (fixed|varK|varKD), noise, seed\n"
+    "                                          (orbit|path|photo), kind (fixed|varK|varKD), noise, seed\n"
     "\n"
     "Options (a value may follow as --opt=VALUE or --opt VALUE; '--' ends the options):\n";
 

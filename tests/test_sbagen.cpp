@@ -51,6 +51,17 @@ Options small_path() {
   return o;
 }
 
+Options small_photo() {
+  Options o;
+  o.trajectory = Trajectory::Photo;
+  o.cameras = 40;
+  o.points = 2000;
+  o.track_min = 3;
+  o.track_max = 40;
+  o.seed = 5;
+  return o;
+}
+
 Scene make(const Options &o) {
   Scene s;
   std::string why;
@@ -341,7 +352,7 @@ void expect_same(const Scene &a, const Scene &b) {
 }
 
 TEST(SbagenDeterminism, SameSeedSameSceneOtherSeedOtherScene) {
-  for (Options o : {small_orbit(), small_path()}) {
+  for (Options o : {small_orbit(), small_path(), small_photo()}) {
     o.kind = CameraKind::VaryingIntrinsicsDistortion;
     o.covariances = true;
     o.outliers = 0.05;
@@ -490,12 +501,41 @@ TEST(SbagenScene, TrackLengthsCoverTheRange) {
   }
 }
 
+// A photo collection: every camera sees points that most others see (the reduced camera
+// system is dense), and the track lengths have a heavy tail: the median near track_min, a
+// mean of about 4 track_min less what track_max cuts, and some tracks of every camera.
+TEST(SbagenScene, PhotoCollectionSharesPointsBetweenMostCameraPairs) {
+  const Options o = small_photo();
+  const Scene s = make(o);
+  check_structure(o, s);
+  check_truth_projections(s);
+  const int m = o.cameras;
+  std::vector<char> pair(static_cast<std::size_t>(m) * m, 0);
+  std::vector<int> lengths;
+  for (int i = 0; i < s.npoints(); ++i) {
+    const std::size_t b = s.track_begin[i], e = s.track_begin[i + 1];
+    lengths.push_back(static_cast<int>(e - b));
+    for (std::size_t k = b; k < e; ++k)
+      for (std::size_t l = k + 1; l < e; ++l) pair[s.track_cameras[k] * m + s.track_cameras[l]] = 1;
+  }
+  int shared = 0;
+  for (int a = 0; a < m; ++a)
+    for (int b = a + 1; b < m; ++b) shared += pair[a * m + b];
+  EXPECT_GT(shared, 0.95 * m * (m - 1) / 2);
+  std::sort(lengths.begin(), lengths.end());
+  const double mean = double(s.nprojections()) / s.npoints();
+  EXPECT_LE(lengths[lengths.size() / 2], 2 * o.track_min);
+  EXPECT_GT(mean, 2.5 * o.track_min);
+  EXPECT_LT(mean, 4.0 * o.track_min);
+  EXPECT_EQ(lengths.back(), o.track_max);
+}
+
 TEST(SbagenScene, SparseAtScaleWithoutTheDenseVmask) {
   Options o;
   o.cameras = 300;
   o.points = 20000;
   o.dense_vmask_limit = 0;
-  for (Trajectory t : {Trajectory::Orbit, Trajectory::Path}) {
+  for (Trajectory t : {Trajectory::Orbit, Trajectory::Path, Trajectory::Photo}) {
     o.trajectory = t;
     const Scene s = make(o);
     EXPECT_FALSE(s.has_dense_vmask());
@@ -746,7 +786,7 @@ TEST(SbagenSolve, NoisyOrbitConvergesToTheTruthUpToTheGauge) {
 }
 
 TEST(SbagenSolve, NoiseFreeProblemsAreRecoveredExactly) {
-  for (Options o : {small_orbit(), small_path()}) {
+  for (Options o : {small_orbit(), small_path(), small_photo()}) {
     o.noise = 0;
     o.points = 150;
     o.cameras = o.trajectory == Trajectory::Path ? 12 : 8;

@@ -51,7 +51,23 @@ double Random::normal() {
 
 // ---- names ----
 
-const char *trajectory_name(Trajectory t) { return t == Trajectory::Orbit ? "orbit" : "path"; }
+const char *trajectory_name(Trajectory t) {
+  switch (t) {
+    case Trajectory::Orbit: return "orbit";
+    case Trajectory::Path: return "path";
+    case Trajectory::Photo: return "photo";
+  }
+  return "?";
+}
+
+bool trajectory_from_name(const std::string &name, Trajectory *t) {
+  for (Trajectory c : {Trajectory::Orbit, Trajectory::Path, Trajectory::Photo})
+    if (name == trajectory_name(c)) {
+      *t = c;
+      return true;
+    }
+  return false;
+}
 
 const char *camera_kind_name(CameraKind kind) {
   switch (kind) {
@@ -312,6 +328,42 @@ void orbit_cameras(const Options &o, Random &rng, std::vector<Camera> *cams) {
   }
 }
 
+// Photo: people photograph a landmark (the unit ball) from a few popular spots, standing at
+// 1 to 4 times the distance where it fills the view, on the front 120 degrees of it and a
+// little above; about sqrt(m)/2 spots, each camera near one of them (jitter of a tenth of the
+// nearest distance), looking near the centre. Every camera then sees most of the points.
+constexpr double kPhotoArc = 120.0 * kPi / 180.0;
+
+void photo_cameras(const Options &o, Random &rng, std::vector<Camera> *cams) {
+  const int m = o.cameras;
+  const double D = orbit_distance(o);
+  const int spots = std::max(1, static_cast<int>(std::lround(0.5 * std::sqrt(static_cast<double>(m)))));
+  std::vector<Vec3> spot(spots);
+  for (Vec3 &c : spot) {
+    const double theta = rng.uniform(-0.5 * kPhotoArc, 0.5 * kPhotoArc);
+    const double phi = rng.uniform(0.0, 0.3);
+    const double dist = D * rng.uniform(1.1, 4.0);
+    c = dist * Vec3{std::cos(phi) * std::sin(theta), std::sin(phi), std::cos(phi) * std::cos(theta)};
+  }
+  for (int j = 0; j < m; ++j) {
+    const Vec3 &s = spot[rng.below(static_cast<std::uint64_t>(spots))];
+    const Vec3 C = s + 0.1 * D * Vec3{rng.normal(), rng.normal(), rng.normal()};
+    const Vec3 target{0.1 * rng.normal(), 0.1 * rng.normal(), 0.1 * rng.normal()};
+    look_along(C, target - C, 0.05 * rng.normal(), &(*cams)[j]);
+  }
+}
+
+// Photo: track lengths from a Pareto tail with this exponent, x_min = track_min: a mean of
+// 4 track_min untruncated, with the few very long tracks of the points everyone photographs.
+constexpr double kPhotoTrackTail = 4.0 / 3.0;
+
+int photo_track_length(const Options &o, Random &rng) {
+  const double u = 1.0 - rng.uniform();  // (0, 1]
+  const double L = o.track_min * std::pow(u, -1.0 / kPhotoTrackTail);
+  const int hi = std::min(o.track_max, o.cameras);
+  return L >= hi ? hi : std::max(o.track_min, static_cast<int>(L));
+}
+
 // Path: one camera per unit step along a road in the X-Z plane whose heading weaves
 // +-path_turn_deg with a period of 40 steps, the height bobbing by 0.05; each camera looks
 // along the heading turned by path_yaw_deg, with jitter of 0.01 rad in yaw, pitch and roll.
@@ -376,7 +428,7 @@ constexpr int kEnumerateCameras = 64;  // Orbit: up to this many cameras, test t
 // Orbit: a point uniform in the unit ball, seen by a random subset of L of the cameras that
 // see it (fewer when fewer see it, but at least track_min).
 bool orbit_point(const Options &o, const Visibility &vis, int L, Random &rng, TrackBuilder *tb, double X[3],
-                 std::vector<int> *visible, std::vector<double> *visible_x) {
+                 std::vector<int> *visible, std::vector<double> *visible_x, std::vector<char> *tried) {
   do {
     for (int a = 0; a < 3; ++a) X[a] = rng.uniform(-1, 1);
   } while (X[0] * X[0] + X[1] * X[1] + X[2] * X[2] > 1);
@@ -405,15 +457,19 @@ bool orbit_point(const Options &o, const Visibility &vis, int L, Random &rng, Tr
     return true;
   }
   // Many cameras: draw random ones, each at most once, until L see the point or the budget
-  // is spent.
+  // is spent. The cameras tried are marked in *tried (m entries, left all zero), so that a
+  // long track costs time in its length, not its square.
   visible->clear();  // here: the cameras already tried
+  tried->resize(static_cast<std::size_t>(m));
   const int budget = 8 * L + 32;
   for (int d = 0; d < budget && static_cast<int>(tb->cams.size()) < L; ++d) {
     const int j = static_cast<int>(rng.below(static_cast<std::uint64_t>(m)));
-    if (std::find(visible->begin(), visible->end(), j) != visible->end()) continue;
+    if ((*tried)[j]) continue;
+    (*tried)[j] = 1;
     visible->push_back(j);
     if (vis.sees(j, X, x)) tb->add(j, x);
   }
+  for (int j : *visible) (*tried)[j] = 0;
   return static_cast<int>(tb->cams.size()) >= o.track_min;
 }
 
@@ -484,15 +540,16 @@ bool generate(const Options &o, Scene *scene, std::string *error) {
   s.true_cameras.resize(m);
   const Lens lens = base_lens(o, rng);
   for (Camera &c : s.true_cameras) camera_lens(o, lens, rng, &c);
-  if (o.trajectory == Trajectory::Orbit)
-    orbit_cameras(o, rng, &s.true_cameras);
-  else
-    path_cameras(o, rng, &s.true_cameras);
+  switch (o.trajectory) {
+    case Trajectory::Orbit: orbit_cameras(o, rng, &s.true_cameras); break;
+    case Trajectory::Path: path_cameras(o, rng, &s.true_cameras); break;
+    case Trajectory::Photo: photo_cameras(o, rng, &s.true_cameras); break;
+  }
 
   // Projections stay this far inside the image so that the noise rarely takes them out.
   const double sigma_max = o.covariances ? 2 * o.noise : o.noise;
   const double margin = std::max(1.0, 5 * sigma_max);
-  const double min_depth = o.trajectory == Trajectory::Orbit ? 0.1 : kPathDepthMin;
+  const double min_depth = o.trajectory == Trajectory::Path ? kPathDepthMin : 0.1;
   const Visibility vis(o.kind, s.true_cameras, o.image_width, o.image_height, margin, min_depth);
 
   const std::size_t expected = static_cast<std::size_t>(n) * ((o.track_min + std::min(o.track_max, m)) / 2 + 1);
@@ -504,6 +561,7 @@ bool generate(const Options &o, Scene *scene, std::string *error) {
   TrackBuilder tb;
   std::vector<int> scratch;
   std::vector<double> scratch_x;
+  std::vector<char> tried;
   for (int i = 0; i < n; ++i) {
     double X[3];
     // The track length is drawn first and kept while placements fail, so that the lengths
@@ -515,9 +573,12 @@ bool generate(const Options &o, Scene *scene, std::string *error) {
         return fail(error, "could not place point " + std::to_string(i) + " in " + std::to_string(kMaxAttempts) +
                                " attempts: the cameras do not see enough of the scene for tracks of " +
                                std::to_string(o.track_min) + ".." + std::to_string(o.track_max));
-      if (attempt % kAttemptsPerLength == 0) L = rng.between(o.track_min, std::min(o.track_max, m));
-      const bool ok = o.trajectory == Trajectory::Orbit ? orbit_point(o, vis, L, rng, &tb, X, &scratch, &scratch_x)
-                                                        : path_point(o, vis, s.true_cameras, L, rng, &tb, X);
+      if (attempt % kAttemptsPerLength == 0)
+        L = o.trajectory == Trajectory::Photo ? photo_track_length(o, rng)
+                                              : rng.between(o.track_min, std::min(o.track_max, m));
+      // A photo collection's points are the landmark's, seen as the orbit's are.
+      const bool ok = o.trajectory == Trajectory::Path ? path_point(o, vis, s.true_cameras, L, rng, &tb, X)
+                                                       : orbit_point(o, vis, L, rng, &tb, X, &scratch, &scratch_x, &tried);
       if (ok) break;
     }
     tb.commit(X, &s);

@@ -57,8 +57,11 @@ class Random {
 
 enum class Trajectory {
   Orbit,  // cameras around a blob of points, all looking at its centre
-  Path    // cameras travelling forward along a gently curving road; each point is seen by a
+  Path,   // cameras travelling forward along a gently curving road; each point is seen by a
           // run of consecutive cameras (the "long sequence")
+  Photo   // a photo collection: clusters of cameras at many distances on the front half of a
+          // landmark, all seeing most of it, with heavy-tailed track lengths, so that most
+          // pairs of cameras share points (the reduced camera system is dense)
 };
 
 // Options with their defaults. Lengths are in scene units: the radius of the point cloud for
@@ -87,7 +90,9 @@ struct Options {
   // ---- points ----
   int points = 1500;  // n >= 1
   int track_min = 2;  // each point is seen by track_min..track_max cameras (2 <= min <= max),
-  int track_max = 10; // consecutive ones for Path; track_min <= cameras
+  int track_max = 10; // consecutive ones for Path; track_min <= cameras. Uniform lengths for
+                      // Orbit and Path; for Photo a Pareto tail from track_min (most tracks
+                      // short, a few very long), mean about 4 track_min when track_max allows
 
   // ---- measurements ----
   double noise = 0.5;        // pixel noise sigma (Gaussian); 0 gives exact projections
@@ -188,7 +193,9 @@ eucsba::Status write_points_sparse(const std::string &path, const Scene &scene,
 // The calibration file of eucsbademo: K = [fu s u0; 0 fu*ar v0; 0 0 1], three rows.
 eucsba::Status write_calibration(const std::string &path, const eucsba::Intrinsics &k);
 
-const char *trajectory_name(Trajectory t);      // "orbit", "path"
+const char *trajectory_name(Trajectory t);      // "orbit", "path", "photo"
+// The trajectory of a name trajectory_name gives; false for any other name.
+bool trajectory_from_name(const std::string &name, Trajectory *t);
 const char *camera_kind_name(eucsba::CameraKind kind);  // "fixed", "varK", "varKD"
 
 }  // namespace sbagen

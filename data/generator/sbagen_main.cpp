@@ -121,11 +121,14 @@ std::vector<sbacli::Option> option_table(Cli &cli) {
                [&o](const std::string &v) { return sbacli::to_int(v, 1, kIntMax, &o.points); }});
   t.push_back({"trajectory", "T",
                "orbit: cameras around the points looking at their centre; path: cameras moving along\n"
-               "a road, each point seen by consecutive cameras (default orbit)",
+               "a road, each point seen by consecutive cameras; photo: a photo collection of a\n"
+               "landmark, clusters of cameras that all see most points, heavy-tailed track lengths\n"
+               "(default orbit)",
                [&o](const std::string &v) -> std::string {
                  std::string name;
-                 if (std::string why = sbacli::to_choice(v, {"orbit", "path"}, &name); !why.empty()) return why;
-                 o.trajectory = name == "orbit" ? sbagen::Trajectory::Orbit : sbagen::Trajectory::Path;
+                 if (std::string why = sbacli::to_choice(v, {"orbit", "path", "photo"}, &name); !why.empty())
+                   return why;
+                 sbagen::trajectory_from_name(name, &o.trajectory);
                  return {};
                }});
   t.push_back({"track-min", "K", "fewest cameras seeing a point, >= 2 (default 2)",
