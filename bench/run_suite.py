@@ -403,33 +403,40 @@ def scaling_growth(runs_by_problem, names):
 
 def write_plot(results, runs_by_problem, gnuplot):
     names = [n for n in runs_by_problem if n.startswith("scale-")]
-    if not names:
-        return None
+    runs = [r for name in names for r in runs_by_problem[name]["runs"]]
+    return plot_runs(results, "scaling", "Scaling series (sbagen path, fixed K, tracks %s)" % SCALING_TRACK,
+                     runs, gnuplot)
+
+
+def plot_runs(results, stem, title, runs, gnuplot):
+    """Time per iteration and peak RSS against the observations, one line per run kind:
+    STEM.dat, STEM.gp and (with gnuplot) STEM.png in the results directory."""
     series = {}
-    for name in names:
-        for r in runs_by_problem[name]["runs"]:
-            if r["ok"]:
-                series.setdefault("%s, %d thr" % (run_name(r), r["threads"]), []).append(r)
-    dat = os.path.join(results, "scaling.dat")
+    for r in runs:
+        if r["ok"]:
+            series.setdefault("%s, %d thr" % (run_name(r), r["threads"]), []).append(r)
+    if not series:
+        return None
+    dat = os.path.join(results, stem + ".dat")
     with open(dat, "w") as f:
         f.write("# observations seconds_per_iteration peak_rss_MB seconds (one block per run kind)\n")
         keys = sorted(series)
         for key in keys:
             f.write("# %s\n" % key)
-            for r in series[key]:
+            for r in sorted(series[key], key=lambda r: r["observations"]):
                 f.write("%d %.6g %.6g %.6g\n" % (r["observations"], r["seconds_per_iteration"],
                                                  r["peak_rss_bytes"] / 1e6, r["seconds"]))
             f.write("\n\n")
-    gp = os.path.join(results, "scaling.gp")
+    gp = os.path.join(results, stem + ".gp")
     plots_t, plots_m = [], []
     for k, key in enumerate(keys):
-        plots_t.append("'scaling.dat' index %d using 1:($2*1000) with linespoints title '%s'" % (k, key))
-        plots_m.append("'scaling.dat' index %d using 1:3 with linespoints title '%s'" % (k, key))
+        plots_t.append("'%s.dat' index %d using 1:($2*1000) with linespoints title '%s'" % (stem, k, key))
+        plots_m.append("'%s.dat' index %d using 1:3 with linespoints title '%s'" % (stem, k, key))
     with open(gp, "w") as f:
-        f.write("# gnuplot script written by run_suite.py; run in bench/results: gnuplot scaling.gp\n")
+        f.write("# gnuplot script written by bench/run_suite.py; run in bench/results: gnuplot %s.gp\n" % stem)
         f.write("set terminal pngcairo size 1400,600 font 'sans,10' noenhanced\n")
-        f.write("set output 'scaling.png'\n")
-        f.write("set multiplot layout 1,2 title 'Scaling series (sbagen path, fixed K, tracks %s)'\n" % SCALING_TRACK)
+        f.write("set output '%s.png'\n" % stem)
+        f.write("set multiplot layout 1,2 title '%s'\n" % title)
         f.write("set logscale xy\nset grid\nset key top left\n")
         f.write("set xlabel 'observations'\n")
         f.write("set ylabel 'time per iteration [ms] (sba: outer iteration; Ceres: LM step)'\n")
@@ -438,10 +445,10 @@ def write_plot(results, runs_by_problem, gnuplot):
         f.write("plot " + ", \\\n     ".join(plots_m) + "\n")
         f.write("unset multiplot\n")
     if not gnuplot:
-        log("gnuplot not found (Debian package gnuplot-nox): scaling.png not drawn; scaling.gp is ready")
+        log("gnuplot not found (Debian package gnuplot-nox): %s.png not drawn; %s.gp is ready" % (stem, stem))
         return None
-    subprocess.run([gnuplot, "scaling.gp"], cwd=results, check=True)
-    return os.path.join(results, "scaling.png")
+    subprocess.run([gnuplot, stem + ".gp"], cwd=results, check=True)
+    return os.path.join(results, stem + ".png")
 
 
 def machine():

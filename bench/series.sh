@@ -74,3 +74,4 @@ EOS
   echo "\`\`\`" >> "$md"
   echo >> "$md"
 done
+python3 "$here/plot_series.py" "$name"

@@ -52,7 +52,7 @@ namespace {
 
 // Forcing term bound and the iteration cap (see above). Looser bounds (0.1, 0.01) made the
 // steps on BAL problems (cnp 9, badly conditioned) poor enough that LM stalled in their flat
-// valleys short of chol's minimum; the orbit series (bench/orbit_series.sh) loses little to
+// valleys short of chol's minimum; the orbit series (bench/series.sh orbit) loses little to
 // this one, since at the large early damping CG converges in a few iterations anyway.
 constexpr double kEtaMax = 1e-3;
 constexpr int kMaxIterations = 500;
