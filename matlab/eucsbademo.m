@@ -18,9 +18,9 @@ function [ret, popt, info, prob] = eucsbademo(camsfile, ptsfile, calibfile, vara
 %   SBA returned 18 in 18 iter, reason 2, error 0.675396 [initial 19.0947], ...
 %   Elapsed time: ...
 %
-% Without file names it runs the 7-camera problem (7cams.txt, 7pts.txt, calib.txt) found in
-% the directory named by the environment variable SBA_DEMO_DATA, else in the current
-% directory, else in ../shared/data/sba-demo beside the project.
+% Without file names it runs the 7-camera problem of sba's demo files (7cams.txt, 7pts.txt,
+% calib.txt) in the directory named by the environment variable SBA_DEMO_DATA, else in the
+% current directory.
 %
 % Options (name, value pairs):
 %   'callbacks'  'm'   (default) the .m functions SBAEUC_PROJ and SBAEUC_PROJAC[_MOT|_STR]
@@ -135,14 +135,12 @@ end
 
 function dir = default_data_dir()
   dir = getenv('SBA_DEMO_DATA');
-  if ~isempty(dir)
-    return;
-  end
-  if exist(fullfile(pwd, '7cams.txt'), 'file')
+  if isempty(dir)
     dir = pwd;
-    return;
   end
-  here = fileparts(mfilename('fullpath'));
-  dir = fullfile(here, '..', '..', 'shared', 'data', 'sba-demo');
+  if ~exist(fullfile(dir, '7cams.txt'), 'file')
+    error('eucsbademo:data', ['eucsbademo: no 7cams.txt in %s: give the camera, point and ' ...
+          'calibration files, or set SBA_DEMO_DATA to the directory of sba''s demo files'], dir);
+  end
 end
 % SPDX-License-Identifier: BSD-3-Clause
