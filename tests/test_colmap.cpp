@@ -1,0 +1,414 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// COLMAP sparse models (demo/colmap_io.h, demo/colmap_sba.h) and sbarefine: the readers on
+// malformed input, the text and binary round trips, and refinement of a generated scene
+// through sbarefine against the same scene through eucsbademo's files.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "colmap_io.h"
+#include "colmap_sba.h"
+#include "eucsba_io.h"
+#include "sbagen.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string temp_dir(const std::string &name) {
+  const std::string d = testing::TempDir() + "test_colmap_" + std::to_string(::getpid()) + "_" + name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::string read_file(const std::string &path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void write_file(const std::string &path, const std::string &text) { std::ofstream(path, std::ios::binary) << text; }
+
+// A generated scene: its eucsbademo files under dir/s-*, read back, and the model of those
+// values (so that both paths start from the same doubles).
+struct Scene {
+  std::string prefix;
+  eucsba::Problem problem;
+  colmap::Model model;
+};
+
+Scene make_scene(const std::string &dir, eucsba::CameraKind kind, int cameras = 10, int points = 200) {
+  sbagen::Options o;
+  o.kind = kind;
+  o.cameras = cameras;
+  o.points = points;
+  o.seed = 5;
+  sbagen::Scene s;
+  std::string error;
+  EXPECT_TRUE(sbagen::generate(o, &s, &error)) << error;
+  Scene out;
+  out.prefix = dir + "/s";
+  EXPECT_TRUE(sbagen::write_problem(s, out.prefix));
+  const auto files = sbagen::problem_files(out.prefix, s);
+  const eucsba::Status st = eucsba::load_problem(files.cams, files.pts, files.calib, &out.problem);
+  EXPECT_TRUE(st) << st.to_string();
+  EXPECT_TRUE(colmap::from_problem(out.problem.kind, out.problem.cameras, out.problem.points, 640, 480, &out.model,
+                                   &error))
+      << error;
+  return out;
+}
+
+void expect_same(const colmap::Model &a, const colmap::Model &b) {
+  ASSERT_EQ(a.cameras.size(), b.cameras.size());
+  ASSERT_EQ(a.images.size(), b.images.size());
+  ASSERT_EQ(a.points.size(), b.points.size());
+  for (std::size_t j = 0; j < a.cameras.size(); ++j) {
+    EXPECT_EQ(a.cameras[j].id, b.cameras[j].id);
+    EXPECT_EQ(a.cameras[j].model, b.cameras[j].model);
+    EXPECT_EQ(a.cameras[j].width, b.cameras[j].width);
+    EXPECT_EQ(a.cameras[j].height, b.cameras[j].height);
+    EXPECT_EQ(a.cameras[j].params, b.cameras[j].params);
+  }
+  for (std::size_t j = 0; j < a.images.size(); ++j) {
+    const colmap::Image &x = a.images[j], &y = b.images[j];
+    EXPECT_EQ(x.id, y.id);
+    EXPECT_EQ(x.q, y.q);
+    EXPECT_EQ(x.t, y.t);
+    EXPECT_EQ(x.camera_id, y.camera_id);
+    EXPECT_EQ(x.name, y.name);
+    ASSERT_EQ(x.points.size(), y.points.size());
+    for (std::size_t k = 0; k < x.points.size(); ++k) {
+      EXPECT_EQ(x.points[k].x, y.points[k].x);
+      EXPECT_EQ(x.points[k].y, y.points[k].y);
+      EXPECT_EQ(x.points[k].point3d_id, y.points[k].point3d_id);
+    }
+  }
+  for (std::size_t i = 0; i < a.points.size(); ++i) {
+    const colmap::Point3D &x = a.points[i], &y = b.points[i];
+    EXPECT_EQ(x.id, y.id);
+    EXPECT_EQ(x.xyz, y.xyz);
+    EXPECT_EQ(x.rgb, y.rgb);
+    EXPECT_EQ(x.error, y.error);
+    ASSERT_EQ(x.track.size(), y.track.size());
+    for (std::size_t k = 0; k < x.track.size(); ++k) {
+      EXPECT_EQ(x.track[k].image_id, y.track[k].image_id);
+      EXPECT_EQ(x.track[k].point2d_idx, y.track[k].point2d_idx);
+    }
+  }
+}
+
+// ---- round trips ----
+
+TEST(ColmapRoundTrip, TextAndBinary) {
+  const std::string dir = temp_dir("roundtrip");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::check_model(s.model, "generated", &error)) << error;
+  for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+    const std::string out = dir + (e == colmap::Encoding::Text ? "/text" : "/binary");
+    ASSERT_TRUE(colmap::write_model(out, s.model, e, &error)) << error;
+    colmap::Model back;
+    colmap::Encoding found;
+    ASSERT_TRUE(colmap::read_model(out, &back, &found, &error)) << error;
+    EXPECT_EQ(found, e);
+    expect_same(s.model, back);
+    // Written again, the files are the same bytes.
+    const colmap::Files first = colmap::format_model(s.model, e), second = colmap::format_model(back, e);
+    EXPECT_EQ(first.cameras, second.cameras);
+    EXPECT_EQ(first.images, second.images);
+    EXPECT_EQ(first.points, second.points);
+    EXPECT_EQ(read_file(out + (e == colmap::Encoding::Text ? "/images.txt" : "/images.bin")), first.images);
+  }
+  // The binary sizes as COLMAP lays the records out: 8 + per camera 24 + 8 * 8 (OPENCV).
+  EXPECT_EQ(colmap::format_model(s.model, colmap::Encoding::Binary).cameras.size(), 8u + 10u * (24u + 64u));
+}
+
+TEST(ColmapRoundTrip, EveryAcceptedCameraModelAndNamesWithBlanks) {
+  const std::string text =
+      "# comment\n"
+      "1 SIMPLE_PINHOLE 640 480 500 320 240\n"
+      "2 PINHOLE 640 480 500 510 320 240\n"
+      "\n"
+      "3 SIMPLE_RADIAL 640 480 500 320 240 0.125\n"
+      "4 RADIAL 640 480 500 320 240 0.125 -0.5\n"
+      "5 OPENCV 640 480 500 510 320 240 0.125 -0.5 1e-3 -2e-3\n";
+  std::vector<colmap::Camera> cams;
+  std::string error;
+  ASSERT_TRUE(colmap::parse_cameras_text(text, "cameras.txt", &cams, &error)) << error;
+  ASSERT_EQ(cams.size(), 5u);
+  EXPECT_EQ(cams[4].params, (std::vector<double>{500, 510, 320, 240, 0.125, -0.5, 1e-3, -2e-3}));
+  const std::string images = "7 1 0 0 0 0.5 0 2 3 my image.png\n100 200 -1\n9 0 1 0 0 0 0 1 3 b.png\n\n";
+  std::vector<colmap::Image> ims;
+  ASSERT_TRUE(colmap::parse_images_text(images, "images.txt", &ims, &error)) << error;
+  ASSERT_EQ(ims.size(), 2u);
+  EXPECT_EQ(ims[0].name, "my image.png");
+  EXPECT_EQ(ims[0].points.size(), 1u);
+  EXPECT_EQ(ims[0].points[0].point3d_id, colmap::kNoPoint);
+  EXPECT_TRUE(ims[1].points.empty());
+  colmap::Model m;
+  m.cameras = cams;
+  m.images = ims;
+  const colmap::Files f = colmap::format_model(m, colmap::Encoding::Text);
+  std::vector<colmap::Camera> cams2;
+  std::vector<colmap::Image> ims2;
+  ASSERT_TRUE(colmap::parse_cameras_text(f.cameras, "c", &cams2, &error)) << error;
+  ASSERT_TRUE(colmap::parse_images_text(f.images, "i", &ims2, &error)) << error;
+  EXPECT_EQ(colmap::format_model({cams2, ims2, {}}, colmap::Encoding::Binary).images,
+            colmap::format_model(m, colmap::Encoding::Binary).images);
+}
+
+// ---- strictness ----
+
+struct Bad {
+  const char *text;
+  const char *message;
+};
+
+TEST(ColmapReader, CameraTextErrors) {
+  const Bad cases[] = {
+      {"1 FULL_OPENCV 640 480 1 2 3 4 5 6 7 8 9 10 11 12\n",
+       "c.txt:1: camera model FULL_OPENCV is not supported: sba's camera model expresses SIMPLE_PINHOLE, PINHOLE, "
+       "SIMPLE_RADIAL, RADIAL and OPENCV"},
+      {"1 FISHY 640 480 1 2 3\n", "c.txt:1: unknown camera model 'FISHY'"},
+      {"#\n1 PINHOLE 640 480 1 2 3\n", "c.txt:2: PINHOLE has 4 parameters, found 3"},
+      {"1 PINHOLE 640 480 1 2 3 nan\n", "c.txt:1: a camera parameter must be a finite number, got 'nan'"},
+      {"-1 PINHOLE 640 480 1 2 3 4\n", "c.txt:1: CAMERA_ID must be an integer from 0 to 4294967295, got '-1'"},
+      {"1 PINHOLE 640 480 1 2 3 4\n1 PINHOLE 640 480 1 2 3 4\n", "c.txt:2: camera 1 appears twice"},
+      {"1 PINHOLE 640\n", "c.txt:1: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[], found 3 values"},
+  };
+  for (const Bad &b : cases) {
+    std::vector<colmap::Camera> cams;
+    std::string error;
+    EXPECT_FALSE(colmap::parse_cameras_text(b.text, "c.txt", &cams, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+}
+
+TEST(ColmapReader, ImageAndPointTextErrors) {
+  const Bad images[] = {
+      {"1 0 0 0 0 0 0 0 1 a.png\n\n", "i.txt:1: the quaternion is zero"},
+      {"1 1 0 0 0 0 0 0 1 a.png\n", "i.txt:1: the image's line of POINTS2D (X Y POINT3D_ID ...) is missing"},
+      {"1 1 0 0 0 0 0 0 1 a.png\n1 2\n", "i.txt:2: POINTS2D come in triples X Y POINT3D_ID, found 2 values"},
+      {"1 1 0 0 0 0 0 0 1 a.png\n1 2 -2\n",
+       "i.txt:2: POINT3D_ID must be -1 or an integer from 0 to 18446744073709551614, got '-2'"},
+      {"1 1 0 0 0 0 inf 0 1 a.png\n\n", "i.txt:1: TY must be a finite number, got 'inf'"},
+  };
+  for (const Bad &b : images) {
+    std::vector<colmap::Image> ims;
+    std::string error;
+    EXPECT_FALSE(colmap::parse_images_text(b.text, "i.txt", &ims, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+  const Bad points[] = {
+      {"1 0 0 0 255 0 256 0.5 1 0\n", "p.txt:1: B must be an integer from 0 to 255, got '256'"},
+      {"1 0 0 0 255 0 0 0.5 1\n",
+       "p.txt:1: expected POINT3D_ID X Y Z R G B ERROR and pairs IMAGE_ID POINT2D_IDX, found 9 values"},
+  };
+  for (const Bad &b : points) {
+    std::vector<colmap::Point3D> pts;
+    std::string error;
+    EXPECT_FALSE(colmap::parse_points_text(b.text, "p.txt", &pts, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+}
+
+TEST(ColmapReader, BinaryErrors) {
+  const std::string dir = temp_dir("binerr");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
+  colmap::Files f = colmap::format_model(s.model, colmap::Encoding::Binary);
+  std::string error;
+  std::vector<colmap::Camera> cams;
+  std::vector<colmap::Image> ims;
+  std::vector<colmap::Point3D> pts;
+  // An unsupported model is named.
+  std::string bad = f.cameras;
+  bad[12] = 6;
+  EXPECT_FALSE(colmap::parse_cameras_binary(bad, "c.bin", &cams, &error));
+  EXPECT_EQ(error, "c.bin: byte 8: camera 100: camera model FULL_OPENCV is not supported: sba's camera model "
+                   "expresses SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV");
+  // Truncated, trailing bytes, an absurd count, a NaN.
+  EXPECT_FALSE(colmap::parse_cameras_binary(f.cameras.substr(0, f.cameras.size() - 1), "c.bin", &cams, &error));
+  EXPECT_EQ(error, "c.bin: byte " + std::to_string(f.cameras.size() - 8) + ": the file ends inside a camera parameter");
+  EXPECT_FALSE(colmap::parse_images_binary(f.images + "x", "i.bin", &ims, &error));
+  EXPECT_EQ(error, "i.bin: byte " + std::to_string(f.images.size()) + ": 1 bytes after the last record");
+  bad = f.points;
+  bad[7] = 1;
+  EXPECT_FALSE(colmap::parse_points_binary(bad, "p.bin", &pts, &error));
+  EXPECT_EQ(error.rfind("p.bin: byte 0: the number of points is 72057594037927966, more than the ", 0), 0u) << error;
+  bad = f.points;
+  const double nan = std::nan("");
+  std::memcpy(&bad[16], &nan, 8);
+  EXPECT_FALSE(colmap::parse_points_binary(bad, "p.bin", &pts, &error));
+  EXPECT_EQ(error, "p.bin: byte 16: a coordinate is not a finite number");
+}
+
+TEST(ColmapReader, ModelConsistency) {
+  const std::string dir = temp_dir("consistency");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
+  std::string error;
+  colmap::Model m = s.model;
+  m.images[1].camera_id = 5;
+  EXPECT_FALSE(colmap::check_model(m, "dir", &error));
+  EXPECT_EQ(error, "dir: image 13 uses camera 5, which cameras does not hold");
+  m = s.model;
+  m.points[0].track[0].point2d_idx = 0;  // the unmatched keypoint
+  EXPECT_FALSE(colmap::check_model(m, "dir", &error));
+  EXPECT_EQ(error.rfind("dir: point 1000 lists POINTS2D 0 of image ", 0), 0u) << error;
+  m = s.model;
+  m.points[0].track.pop_back();
+  EXPECT_FALSE(colmap::check_model(m, "dir", &error));
+  EXPECT_EQ(error, "dir: the tracks of points3D list " + std::to_string(s.problem.points.nprojections() - 1) +
+                       " observations, the images name points in " +
+                       std::to_string(s.problem.points.nprojections()));
+  m = s.model;
+  m.images[0].points[0].point3d_id = 1000;  // the unmatched keypoint now claims point 1000
+  EXPECT_FALSE(colmap::check_model(m, "dir", &error));
+  EXPECT_EQ(error, "dir: image 10 sees point 1000 twice: sba takes one observation per point and image");
+}
+
+// ---- sbarefine ----
+
+struct Outcome {
+  int status = -1;
+  std::string out, err;
+};
+
+Outcome run(const std::string &args) {
+  const std::string base = testing::TempDir() + "test_colmap_run_" + std::to_string(::getpid());
+  const int st = std::system((std::string(SBAREFINE_EXE) + " " + args + " >" + base + ".out 2>" + base + ".err").c_str());
+  Outcome r;
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  r.out = read_file(base + ".out");
+  r.err = read_file(base + ".err");
+  return r;
+}
+
+// The final mean squared error of "SBA returned ... error E [initial I]".
+double final_error(const std::string &out) {
+  const std::size_t at = out.find("SBA returned");
+  const std::size_t e = out.find(" error ", at);
+  if (at == std::string::npos || e == std::string::npos) return NAN;
+  return std::strtod(out.c_str() + e + 7, nullptr);
+}
+
+double eucsbademo_error(const std::string &args) {
+  FILE *p = popen((std::string(EUCSBADEMO_EXE) + " " + args + " 2>/dev/null").c_str(), "r");
+  std::string out;
+  char buf[4096];
+  std::size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+  EXPECT_EQ(pclose(p), 0) << args;
+  return final_error(out);
+}
+
+TEST(Sbarefine, SameErrorAsEucsbademoTextAndBinary) {
+  const std::string dir = temp_dir("refine");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  // COLMAP's default: focal and distortion (OPENCV's four terms) refined, principal point held.
+  const double expected = eucsbademo_error("--nccalib 4 --ncdist 1 " + s.prefix + "-cams.txt " + s.prefix + "-pts.txt");
+  ASSERT_TRUE(std::isfinite(expected));
+  ASSERT_GT(expected, 0.1);
+  ASSERT_LT(expected, 1.0);
+  std::string error;
+  for (const char *enc : {"text", "binary"}) {
+    const std::string in = dir + "/in-" + enc, out = dir + "/out-" + enc;
+    ASSERT_TRUE(colmap::write_model(in, s.model,
+                                    std::string(enc) == "text" ? colmap::Encoding::Text : colmap::Encoding::Binary,
+                                    &error));
+    const Outcome r = run(in + " --write " + out + " --final-ply " + dir + "/f.ply");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NEAR(final_error(r.out), expected, 1e-6 * expected) << r.out;
+    EXPECT_NE(r.out.find("Intrinsics refined: focal,distortion (nccalib 4, ncdist 1)"), std::string::npos) << r.out;
+    colmap::Model back;
+    colmap::Encoding found;
+    ASSERT_TRUE(colmap::read_model(out, &back, &found, &error)) << error;
+    EXPECT_EQ(std::string(enc) == "text", found == colmap::Encoding::Text);
+    // Identifiers, names, colors, observations and the held intrinsics as they were.
+    ASSERT_EQ(back.images.size(), s.model.images.size());
+    for (std::size_t j = 0; j < back.images.size(); ++j) {
+      EXPECT_EQ(back.images[j].id, s.model.images[j].id);
+      EXPECT_EQ(back.images[j].name, s.model.images[j].name);
+      EXPECT_EQ(back.images[j].camera_id, s.model.images[j].camera_id);
+      EXPECT_EQ(back.images[j].points.size(), s.model.images[j].points.size());
+      EXPECT_EQ(back.images[j].points[1].x, s.model.images[j].points[1].x);
+      EXPECT_EQ(back.images[j].points[0].point3d_id, colmap::kNoPoint);
+      EXPECT_NE(back.images[j].t, s.model.images[j].t);
+      const colmap::Camera &c = back.cameras[j], &c0 = s.model.cameras[j];
+      EXPECT_EQ(c.id, c0.id);
+      EXPECT_EQ(c.params[2], c0.params[2]);  // cx
+      EXPECT_EQ(c.params[3], c0.params[3]);  // cy
+      EXPECT_NE(c.params[0], c0.params[0]);  // fx refined
+      EXPECT_DOUBLE_EQ(c.params[1] / c.params[0], c0.params[1] / c0.params[0]);  // fy / fx held
+      EXPECT_NE(c.params[7], c0.params[7]);  // p2 refined
+    }
+    ASSERT_EQ(back.points.size(), s.model.points.size());
+    double mean_error = 0;
+    for (std::size_t i = 0; i < back.points.size(); ++i) {
+      EXPECT_EQ(back.points[i].id, s.model.points[i].id);
+      EXPECT_EQ(back.points[i].rgb, s.model.points[i].rgb);
+      EXPECT_EQ(back.points[i].track.size(), s.model.points[i].track.size());
+      mean_error += back.points[i].error / static_cast<double>(back.points.size());
+    }
+    // ERROR: the mean pixel distance at the result, about the noise (0.5 px sigma).
+    EXPECT_GT(mean_error, 0.3);
+    EXPECT_LT(mean_error, 0.8);
+  }
+  // PLY: the points with their colors, then the camera centres.
+  const std::string ply = read_file(dir + "/f.ply");
+  EXPECT_NE(ply.find("element vertex 210\n"), std::string::npos);
+  EXPECT_NE(ply.find(" 0 64 255\n"), std::string::npos);  // point 0's color
+}
+
+TEST(Sbarefine, SharedCameraHeldIntrinsicsAsFixedK) {
+  const std::string dir = temp_dir("shared");
+  const Scene s = make_scene(dir, eucsba::CameraKind::FixedIntrinsics);
+  ASSERT_EQ(s.model.cameras.size(), 1u);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error));
+  // One camera for ten images cannot have its focal length refined by sba.
+  Outcome r = run(dir + "/in");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/in: camera 1 is shared by 10 images: sba refines each image's intrinsics on their own; "
+                         "hold them (--intrinsics none) or give each image a camera of its own\n");
+  const double expected = eucsbademo_error(s.prefix + "-cams.txt " + s.prefix + "-pts.txt " + s.prefix + "-calib.txt");
+  r = run(dir + "/in --intrinsics none --write " + dir + "/out --write-format text");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NEAR(final_error(r.out), expected, 1e-6 * expected) << r.out;
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  EXPECT_EQ(back.cameras[0].params, s.model.cameras[0].params);
+}
+
+TEST(Sbarefine, CommandLineErrors) {
+  Outcome r = run("--intrinsics principal x");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: bad value 'principal' for --intrinsics: the principal point is refined only with the focal length "
+                   "(focal,principal)\n");
+  r = run("");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: expected 1 argument (a COLMAP model directory), got 0 (see --help)\n");
+  const std::string dir = temp_dir("cli");
+  r = run(dir + "/none");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/none: no COLMAP model (cameras.txt or cameras.bin)\n");
+  write_file(dir + "/cameras.txt", "1 OPENCV_FISHEYE 640 480 1 2 3 4 5 6 7 8\n");
+  r = run(dir);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/cameras.txt:1: camera model OPENCV_FISHEYE is not supported: sba's camera model "
+                         "expresses SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV\n");
+}
+
+}  // namespace
