@@ -542,10 +542,7 @@ bool check_model(const Model &model, const std::string &name, std::string *error
 
 // ---- files ----
 
-namespace {
-
-// The whole file; a NUL byte in a text file (a binary file, /dev/zero) stops the reading.
-bool slurp(const std::string &path, bool text, std::string *out, std::string *error) {
+bool read_whole_file(const std::string &path, bool text, std::string *out, std::string *error) {
   std::FILE *f = std::fopen(path.c_str(), "rb");
   if (!f) return fail(error, path + ": cannot open: " + std::strerror(errno));
   std::string data;
@@ -564,6 +561,8 @@ bool slurp(const std::string &path, bool text, std::string *out, std::string *er
   *out = std::move(data);
   return true;
 }
+
+namespace {
 
 bool exists(const std::string &path) {
   struct stat st {};
@@ -589,11 +588,11 @@ bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::str
   const std::string pc = base + "cameras" + ext, pi = base + "images" + ext, pp = base + "points3D" + ext;
   Model m;
   std::string content;
-  if (!slurp(pc, text, &content, error)) return false;
+  if (!read_whole_file(pc, text, &content, error)) return false;
   if (!(text ? parse_cameras_text : parse_cameras_binary)(content, pc, &m.cameras, error)) return false;
-  if (!slurp(pi, text, &content, error)) return false;
+  if (!read_whole_file(pi, text, &content, error)) return false;
   if (!(text ? parse_images_text : parse_images_binary)(content, pi, &m.images, error)) return false;
-  if (!slurp(pp, text, &content, error)) return false;
+  if (!read_whole_file(pp, text, &content, error)) return false;
   if (!(text ? parse_points_text : parse_points_binary)(content, pp, &m.points, error)) return false;
   if (!check_model(m, dir, error)) return false;
   *out = std::move(m);

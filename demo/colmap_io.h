@@ -111,6 +111,10 @@ struct Files {
 };
 Files format_model(const Model &model, Encoding encoding);
 
+// The whole file into *out. A text file must hold no NUL byte (a binary file, /dev/zero):
+// the reading stops at the first. False with "<path>: <message>" on failure.
+bool read_whole_file(const std::string &path, bool text, std::string *out, std::string *error);
+
 }  // namespace colmap
 
 #endif  // SBA_DEMO_COLMAP_IO_H

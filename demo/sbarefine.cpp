@@ -1,16 +1,21 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // sbarefine: bundle adjustment of a reconstruction as an SfM pipeline wrote it (a COLMAP
-// sparse model, text or binary), written back in its own format with every identifier, name
+// sparse model, text or binary, or a Bundler bundle.out), written back in its own format with every identifier, name
 // and color unchanged. The solve is balsba's: same options, output and Ctrl-C behaviour.
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <functional>
+#include <memory>
 #include <new>
 #include <string>
 #include <vector>
 
+#include "bal_io.h"
+#include "bal_model.h"
+#include "bundler_io.h"
 #include "cli.h"
 #include "colmap_io.h"
 #include "colmap_sba.h"
@@ -43,7 +48,8 @@ std::vector<sbacli::Option> option_table(Options &o) {
   std::vector<sbacli::Option> t;
   sbademo::add_solve_options(
       &t, o.solve,
-      {"write", "DIR", "write the refined model into DIR (created if missing), in the input's format",
+      {"write", "OUT", "write the refined model in the input's format: a COLMAP model into the directory\n"
+                        "OUT (created if missing), a Bundler file to the file OUT",
        [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }});
   t.push_back({"write-format", "F", "the format of --write: text or binary (default: the input's)",
                [&o](const std::string &v) { return sbacli::to_choice(v, {"text", "binary"}, &o.write_format); }});
@@ -68,7 +74,7 @@ bool parse_command_line(int argc, char **argv, Options *options, std::string *er
   o.help = parsed.help;
   o.version = parsed.version;
   if (!o.help && !o.version && parsed.positional.size() != 1) {
-    *error = "expected 1 argument (a COLMAP model directory), got " + std::to_string(parsed.positional.size()) +
+    *error = "expected 1 argument (a COLMAP model directory or a Bundler file), got " + std::to_string(parsed.positional.size()) +
              " (see --help)";
     return false;
   }
@@ -80,10 +86,12 @@ bool parse_command_line(int argc, char **argv, Options *options, std::string *er
 void print_usage(std::FILE *out) {
   std::fputs(
       "Usage: sbarefine [OPTION]... MODEL\n"
-      "Bundle-adjusts a COLMAP sparse model (the directory holding cameras, images and points3D,\n"
-      ".txt or .bin; camera models SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV) with\n"
-      "sba_motstr_levmar_x_ext and eucsbademo's camera model, analytic Jacobian. Every image is an\n"
-      "sba camera with its own intrinsics.\n"
+      "Bundle-adjusts a reconstruction with sba_motstr_levmar_x_ext, analytic Jacobian. MODEL is\n"
+      "- a COLMAP sparse model: the directory holding cameras, images and points3D (.txt or .bin;\n"
+      "  camera models SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV), refined with\n"
+      "  eucsbademo's camera model, every image an sba camera with its own intrinsics;\n"
+      "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera;\n"
+      "  --intrinsics does not apply).\n"
       "\n"
       "Options (a value may follow as --opt=VALUE or --opt VALUE; '--' ends the options):\n",
       out);
@@ -101,8 +109,47 @@ void print_usage(std::FILE *out) {
       out);
 }
 
-// Points with their colors, then the camera centres -R^T t in red, as an ASCII PLY file.
-bool write_ply(const std::string &path, const colmap::Model &model, std::string *error) {
+// What a PLY file shows: points with their colors, camera centres.
+struct Cloud {
+  std::vector<std::array<double, 3>> points;
+  std::vector<std::array<int, 3>> colors;
+  std::vector<std::array<double, 3>> centres;
+};
+
+// The centre -R^T t of a camera with R row-major.
+std::array<double, 3> centre(const double R[9], const double t[3]) {
+  std::array<double, 3> c;
+  for (int k = 0; k < 3; ++k) c[k] = -(R[k] * t[0] + R[3 + k] * t[1] + R[6 + k] * t[2]);
+  return c;
+}
+
+Cloud cloud(const colmap::Model &model) {
+  Cloud c;
+  for (const colmap::Point3D &p : model.points) {
+    c.points.push_back(p.xyz);
+    c.colors.push_back({p.rgb[0], p.rgb[1], p.rgb[2]});
+  }
+  for (const colmap::Image &im : model.images) {
+    double R[9];
+    eucsba::rotation_matrix(eucsba::normalized_rotation({im.q[0], im.q[1], im.q[2], im.q[3]}), R);
+    c.centres.push_back(centre(R, im.t.data()));
+  }
+  return c;
+}
+
+Cloud cloud(const bundler::Bundle &b) {
+  Cloud c;
+  for (const bundler::Point &p : b.points) {
+    c.points.push_back(p.xyz);
+    c.colors.push_back(p.rgb);
+  }
+  for (const bundler::Camera &cam : b.cameras)
+    if (cam.registered()) c.centres.push_back(centre(cam.R.data(), cam.t.data()));
+  return c;
+}
+
+// The points with their colors, then the camera centres in red, as an ASCII PLY file.
+bool write_ply(const std::string &path, const Cloud &c, std::string *error) {
   sbademo::OutputFile file;
   if (!file.open(path, error)) return false;
   std::FILE *f = file.get();
@@ -110,17 +157,125 @@ bool write_ply(const std::string &path, const colmap::Model &model, std::string 
                "ply\nformat ascii 1.0\ncomment points, then camera centres (red)\nelement vertex %zu\n"
                "property double x\nproperty double y\nproperty double z\n"
                "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
-               model.points.size() + model.images.size());
-  for (const colmap::Point3D &p : model.points)
-    std::fprintf(f, "%.17g %.17g %.17g %d %d %d\n", p.xyz[0], p.xyz[1], p.xyz[2], p.rgb[0], p.rgb[1], p.rgb[2]);
-  for (const colmap::Image &im : model.images) {
-    double R[9];
-    eucsba::rotation_matrix(eucsba::normalized_rotation({im.q[0], im.q[1], im.q[2], im.q[3]}), R);
-    double c[3];
-    for (int k = 0; k < 3; ++k) c[k] = -(R[k] * im.t[0] + R[3 + k] * im.t[1] + R[6 + k] * im.t[2]);
-    std::fprintf(f, "%.17g %.17g %.17g 255 0 0\n", c[0], c[1], c[2]);
-  }
+               c.points.size() + c.centres.size());
+  for (std::size_t i = 0; i < c.points.size(); ++i)
+    std::fprintf(f, "%.17g %.17g %.17g %d %d %d\n", c.points[i][0], c.points[i][1], c.points[i][2], c.colors[i][0],
+                 c.colors[i][1], c.colors[i][2]);
+  for (const auto &x : c.centres) std::fprintf(f, "%.17g %.17g %.17g 255 0 0\n", x[0], x[1], x[2]);
   return file.commit(error);
+}
+
+// A loaded reconstruction as sba takes it, and what to do with the result.
+struct Job {
+  std::string summary;  // the sizes line
+  int n = 0, m = 0, cnp = 0;
+  char *vmask = nullptr;
+  double *x = nullptr;
+  std::vector<double> p;
+  eucsba::ExpertFn func = nullptr, fjac = nullptr;
+  void *adata = nullptr;
+  // The projection of point i in camera j with the parameters p.
+  std::function<void(const double *p, int j, int i, double x[2])> project;
+  Cloud initial;
+  // Writes the refined model (p) where --write says, and returns it for --final-ply.
+  std::function<bool(const double *p, Cloud *final_cloud, std::string *error)> finish;
+};
+
+bool is_bundle(const std::string &path) {
+  std::FILE *f = std::fopen(path.c_str(), "rb");
+  if (!f) return false;
+  char head[14] = {};
+  const bool yes = std::fread(head, 1, 13, f) == 13 && std::string(head) == "# Bundle file";
+  std::fclose(f);
+  return yes;
+}
+
+// The state a job's callbacks point into, kept alive for the whole run.
+struct Loaded {
+  colmap::Model model;
+  colmap::Encoding encoding = colmap::Encoding::Text;
+  colmap::SbaProblem problem;
+  std::unique_ptr<eucsba::CameraModel> sba_model;
+  bundler::Bundle bundle;
+  bal::Problem bal;
+  bal::SbaLayout layout;
+  std::vector<int> bundle_cameras;
+  bal::CallbackData bal_data;
+};
+
+bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
+  if (!colmap::read_model(o.input, &l->model, &l->encoding, error) ||
+      !colmap::to_sba(l->model, o.refine, o.input, &l->problem, error))
+    return false;
+  colmap::SbaProblem &pr = l->problem;
+  l->sba_model = std::make_unique<eucsba::CameraModel>(eucsba::CameraKind::VaryingIntrinsicsDistortion, pr.cameras,
+                                                       pr.points.xyz, pr.nccalib, pr.ncdist);
+  const eucsba::CameraModel &sm = *l->sba_model;
+  job->m = pr.points.ncameras;
+  job->n = pr.points.npoints();
+  job->cnp = sm.cnp();
+  job->vmask = pr.points.vmask.data();
+  job->x = pr.points.x.data();
+  job->p = sm.initial_camera_params();
+  job->p.insert(job->p.end(), sm.initial_points().begin(), sm.initial_points().end());
+  const eucsba::ExpertCallbacks cb = eucsba::expert_callbacks(sm.kind(), eucsba::Refinement::MotionStructure);
+  job->func = cb.func;
+  job->fjac = cb.fjac;
+  job->adata = eucsba::as_adata(sm);
+  const int m = job->m, cnp = job->cnp;
+  job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
+    sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
+  };
+  char line[512];
+  std::snprintf(line, sizeof line, "COLMAP model %s (%s): %d images, %zu cameras, %d points",
+                o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", m,
+                l->model.cameras.size(), job->n);
+  job->summary = line;
+  job->summary += "\nIntrinsics refined: " + o.intrinsics + " (nccalib " + std::to_string(pr.nccalib) + ", ncdist " +
+                  std::to_string(pr.ncdist) + ")";
+  job->initial = cloud(l->model);
+  job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
+    colmap::from_sba(*l->sba_model, l->problem, p, o.solve.mcon, o.solve.ncon, &l->model);
+    *final_cloud = cloud(l->model);
+    if (o.write.empty()) return true;
+    const colmap::Encoding out =
+        o.write_format.empty() ? l->encoding
+                               : (o.write_format == "text" ? colmap::Encoding::Text : colmap::Encoding::Binary);
+    return colmap::write_model(o.write, l->model, out, why);
+  };
+  return true;
+}
+
+bool load_bundle(const Options &o, Loaded *l, Job *job, std::string *error) {
+  if (!bundler::read_bundle(o.input, &l->bundle, error) ||
+      !bundler::to_bal(l->bundle, o.input, &l->bal, &l->bundle_cameras, error) ||
+      !bal::to_sba(l->bal, o.input, &l->layout, error))
+    return false;
+  job->m = l->layout.m;
+  job->n = l->layout.n;
+  job->cnp = bal::kCameraParams;
+  job->vmask = l->layout.vmask.data();
+  job->x = l->layout.x.data();
+  job->p = l->layout.p;
+  job->func = bal::motstr_func;
+  job->fjac = bal::motstr_fjac;
+  l->bal_data.ncameras = job->m;
+  job->adata = &l->bal_data;
+  const int m = job->m;
+  job->project = [m](const double *p, int j, int i, double x[2]) {
+    bal::project(p + static_cast<std::size_t>(j) * bal::kCameraParams,
+                 p + static_cast<std::size_t>(m) * bal::kCameraParams + 3 * static_cast<std::size_t>(i), x);
+  };
+  job->summary = "Bundler file " + o.input + ": " + std::to_string(l->bundle.cameras.size()) + " cameras (" +
+                 std::to_string(m) + " registered), " + std::to_string(job->n) + " points";
+  job->initial = cloud(l->bundle);
+  job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
+    bal::from_sba_params(p, &l->bal);
+    bundler::from_bal(l->bal, l->bundle_cameras, o.solve.mcon, o.solve.ncon, &l->bundle);
+    *final_cloud = cloud(l->bundle);
+    return o.write.empty() || bundler::write_bundle(o.write, l->bundle, why);
+  };
+  return true;
 }
 
 int refine_main(int argc, char **argv) {
@@ -147,53 +302,49 @@ int refine_main(int argc, char **argv) {
     }
 
   const auto read_start = std::chrono::steady_clock::now();
-  colmap::Model model;
-  colmap::Encoding encoding;
-  colmap::SbaProblem problem;
-  if (!colmap::read_model(o.input, &model, &encoding, &error) ||
-      !colmap::to_sba(model, o.refine, o.input, &problem, &error)) {
+  Loaded loaded;
+  Job job;
+  const bool bundle = is_bundle(o.input);
+  if (bundle && !o.write_format.empty()) {
+    std::fprintf(stderr, "sbarefine: --write-format is for COLMAP models\n");
+    return kExitUsage;
+  }
+  if (!(bundle ? load_bundle(o, &loaded, &job, &error) : load_colmap(o, &loaded, &job, &error))) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
   const double read_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
-  const int m = problem.points.ncameras, n = problem.points.npoints();
+  const int m = job.m, n = job.n, cnp = job.cnp;
   if (so.mcon > m) {
-    std::fprintf(stderr, "sbarefine: --mcon %d is more than the %d images\n", so.mcon, m);
+    std::fprintf(stderr, "sbarefine: --mcon %d is more than the %d cameras\n", so.mcon, m);
     return kExitUsage;
   }
   if (so.ncon > n) {
     std::fprintf(stderr, "sbarefine: --ncon %d is more than the %d points\n", so.ncon, n);
     return kExitUsage;
   }
-  if (!o.initial_ply.empty() && !write_ply(o.initial_ply, model, &error)) {
+  if (!o.initial_ply.empty() && !write_ply(o.initial_ply, job.initial, &error)) {
     std::fprintf(stderr, "%s: %s\n", o.initial_ply.c_str(), error.c_str());
     return kExitFailure;
   }
-
-  const eucsba::CameraModel sba_model(eucsba::CameraKind::VaryingIntrinsicsDistortion, problem.cameras,
-                                      problem.points.xyz, problem.nccalib, problem.ncdist);
-  std::vector<double> p = sba_model.initial_camera_params();
-  p.insert(p.end(), sba_model.initial_points().begin(), sba_model.initial_points().end());
-  const int cnp = sba_model.cnp();
 
   sbademo::LogSink sink;
   sba_ext_result result;
   sba_ext_options ext;
   sbademo::init_ext(so, &sink, &result, &ext);
-  const int nobs = problem.points.nprojections();
+  int nobs = 0;
+  for (std::size_t k = 0; k < static_cast<std::size_t>(n) * m; ++k) nobs += job.vmask[k] != 0;
   std::array<double, SBA_INFOSZ> info{};
   sbademo::TtyProgress progress(so.progress, nobs);
   sbademo::RunControl control(so.max_time, &progress);
   sbademo::RunControl::catch_signals();
   control.attach(&ext);
-  const eucsba::ExpertCallbacks cb =
-      eucsba::expert_callbacks(sba_model.kind(), eucsba::Refinement::MotionStructure);
+  std::vector<double> &p = job.p;
   const auto start = std::chrono::steady_clock::now();
-  const int ret = sba_motstr_levmar_x_ext(n, so.ncon, m, so.mcon, problem.points.vmask.data(), p.data(), cnp,
-                                          eucsba::kPointParams, problem.points.x.data(), nullptr,
-                                          eucsba::kMeasurementParams, cb.func, cb.fjac, eucsba::as_adata(sba_model),
-                                          so.itmax, so.verbose, so.opts.data(), info.data(), &ext);
+  const int ret = sba_motstr_levmar_x_ext(n, so.ncon, m, so.mcon, job.vmask, p.data(), cnp, 3, job.x, nullptr, 2,
+                                          job.func, job.fjac, job.adata, so.itmax, so.verbose, so.opts.data(),
+                                          info.data(), &ext);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   progress.finish();
   if (ret == SBA_ERROR) {
@@ -202,27 +353,20 @@ int refine_main(int argc, char **argv) {
     return kExitFailure;
   }
 
-  colmap::from_sba(sba_model, problem, p.data(), so.mcon, so.ncon, &model);
-  if (!o.write.empty()) {
-    const colmap::Encoding out_encoding =
-        o.write_format.empty() ? encoding
-                               : (o.write_format == "text" ? colmap::Encoding::Text : colmap::Encoding::Binary);
-    if (!colmap::write_model(o.write, model, out_encoding, &error)) {
-      std::fprintf(stderr, "%s\n", error.c_str());
-      return kExitFailure;
-    }
+  Cloud final_cloud;
+  if (!job.finish(p.data(), &final_cloud, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
   }
-  if (!o.final_ply.empty() && !write_ply(o.final_ply, model, &error)) {
+  if (!o.final_ply.empty() && !write_ply(o.final_ply, final_cloud, &error)) {
     std::fprintf(stderr, "%s: %s\n", o.final_ply.c_str(), error.c_str());
     return kExitFailure;
   }
 
-  const long long nvars = static_cast<long long>(m) * cnp + static_cast<long long>(n) * eucsba::kPointParams;
-  std::printf("COLMAP model %s (%s): %d images, %d cameras, %d points, %d observations, %lld variables\n",
-              o.input.c_str(), encoding == colmap::Encoding::Text ? "text" : "binary", m,
-              static_cast<int>(model.cameras.size()), n, nobs, nvars);
-  std::printf("Intrinsics refined: %s (nccalib %d, ncdist %d)\n", o.intrinsics.c_str(), problem.nccalib,
-              problem.ncdist);
+  const long long nvars = static_cast<long long>(m) * cnp + static_cast<long long>(n) * 3;
+  const std::size_t eol = job.summary.find('\n');
+  std::printf("%s, %d observations, %lld variables%s\n", job.summary.substr(0, eol).c_str(), nobs, nvars,
+              eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
   std::printf("\nSBA returned %d in %g iter, reason %g, error %g [initial %g], %d/%d func/fjac evals, "
               "%d lin. systems\n",
               ret, info[5], info[6], info[1] / nobs, info[0] / nobs, static_cast<int>(info[7]),
@@ -251,15 +395,13 @@ int refine_main(int argc, char **argv) {
   sbademo::print_report(stdout, report);
   if (!so.json.empty()) {
     report.per_camera.resize(static_cast<std::size_t>(m));
-    const double *points = p.data() + static_cast<std::size_t>(m) * cnp;
     std::size_t k = 0;
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < m; ++j) {
-        if (!problem.points.vmask[static_cast<std::size_t>(i) * m + j]) continue;
+        if (!job.vmask[static_cast<std::size_t>(i) * m + j]) continue;
         double x[2];
-        sba_model.project(j, p.data() + static_cast<std::size_t>(j) * cnp, points + 3 * static_cast<std::size_t>(i),
-                          x);
-        const double dx = x[0] - problem.points.x[2 * k], dy = x[1] - problem.points.x[2 * k + 1];
+        job.project(p.data(), j, i, x);
+        const double dx = x[0] - job.x[2 * k], dy = x[1] - job.x[2 * k + 1];
         report.per_camera[static_cast<std::size_t>(j)].observations += 1;
         report.per_camera[static_cast<std::size_t>(j)].sum_sq += dx * dx + dy * dy;
         ++k;

@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "bal_model.h"
+#include "bundler_io.h"
 #include "colmap_io.h"
 #include "colmap_sba.h"
 #include "eucsba_io.h"
@@ -399,7 +401,7 @@ TEST(Sbarefine, CommandLineErrors) {
                    "(focal,principal)\n");
   r = run("");
   EXPECT_EQ(r.status, 2);
-  EXPECT_EQ(r.err, "sbarefine: expected 1 argument (a COLMAP model directory), got 0 (see --help)\n");
+  EXPECT_EQ(r.err, "sbarefine: expected 1 argument (a COLMAP model directory or a Bundler file), got 0 (see --help)\n");
   const std::string dir = temp_dir("cli");
   r = run(dir + "/none");
   EXPECT_EQ(r.status, 1);
@@ -409,6 +411,126 @@ TEST(Sbarefine, CommandLineErrors) {
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.err, dir + "/cameras.txt:1: camera model OPENCV_FISHEYE is not supported: sba's camera model "
                          "expresses SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV\n");
+}
+
+// ---- Bundler ----
+
+bundler::Bundle make_bundle(const Scene &s) {
+  bundler::Bundle b;
+  std::string error;
+  EXPECT_TRUE(bundler::from_problem(s.problem.cameras, s.problem.points, &b, &error)) << error;
+  return b;
+}
+
+TEST(Bundler, RoundTripAndAnUnregisteredCamera) {
+  const std::string dir = temp_dir("bundler_rt");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 50);
+  bundler::Bundle b = make_bundle(s);
+  b.cameras.push_back({});  // a camera Bundler could not place: all zeros
+  const std::string text = bundler::format_bundle(b);
+  EXPECT_EQ(text.rfind("# Bundle file v0.3\n7 50\n", 0), 0u);
+  bundler::Bundle back;
+  std::string error;
+  ASSERT_TRUE(bundler::parse_bundle(text, "b.out", &back, &error)) << error;
+  EXPECT_EQ(bundler::format_bundle(back), text);
+  ASSERT_EQ(back.cameras.size(), 7u);
+  EXPECT_EQ(back.cameras[3].R, b.cameras[3].R);
+  EXPECT_EQ(back.points[7].views.size(), b.points[7].views.size());
+  EXPECT_EQ(back.points[7].views[0].x, b.points[7].views[0].x);
+  EXPECT_EQ(back.points[7].rgb, b.points[7].rgb);
+  EXPECT_FALSE(back.cameras[6].registered());
+}
+
+TEST(Bundler, ReaderErrors) {
+  const std::string cam = "1 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 -3\n";
+  const Bad cases[] = {
+      {"# Bundle v0.3\n", "b.out:1: expected the header '# Bundle file v0.3'"},
+      {"# Bundle file v0.3\n1 1\n1 0 0\n1 0 0\n0 1 0\n0 0 2\n0 0 0\n0 0 0\n0 0 0\n0\n",
+       "b.out:6: camera 0: R is not a rotation"},
+      {"# Bundle file v0.3\n1 100000000\n1 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 -3\n0 0 0\n",
+       "b.out: the counts (1 cameras, 100000000 points) need more numbers than the file holds"},
+      {"# Bundle file v0.3\n1 1\n1 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 -3\n0 0 0\n1 2\n",
+       "b.out:9: the file ends before point 0 blue"},
+      {"# Bundle file v0.3\n1 -1\n", "b.out:2: the number of points is -1, expected 0..268435456"},
+  };
+  for (const Bad &b : cases) {
+    bundler::Bundle out;
+    std::string error;
+    EXPECT_FALSE(bundler::parse_bundle(b.text, "b.out", &out, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+  const std::string head = "# Bundle file v0.3\n2 1\n" + cam + "0 0 0\n0 0 0\n0 0 0\n0 0 0\n0 0 0\n";
+  const Bad points[] = {
+      {"0 0 0\n1 2 256\n0\n", "b.out:14: point 0 blue is 256, expected 0..255"},
+      {"0 0 0\n1 2 3\n1 2 0 1 2\n", "b.out:15: point 0 camera index is 2, expected 0..1"},
+      {"0 0 0\n1 2 3\n2 0 0 1 2 0 1 1 2\n", "b.out:15: point 0 is seen twice by camera 0"},
+      {"0 0 0\n1 2 3\n1 1 0 1 2\n", "b.out:15: point 0 is seen by camera 1, which is not registered (f = 0)"},
+      {"0 0 0\n1 2 3\n1 0 0 1 nan\n", "b.out:15: point 0 y must be a finite number, got 'nan'"},
+      {"0 0 0\n1 2 3\n1 0 0 1 2\n7\n", "b.out:16: data after the last point"},
+  };
+  for (const Bad &b : points) {
+    bundler::Bundle out;
+    std::string error;
+    EXPECT_FALSE(bundler::parse_bundle(head + b.text, "b.out", &out, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+  bundler::Bundle out;
+  std::string error;
+  EXPECT_TRUE(bundler::parse_bundle(head + "0 0 0\n1 2 3\n1 0 0 1 2\n", "b.out", &out, &error)) << error;
+}
+
+TEST(Bundler, AngleAxisInvertsTheRotation) {
+  const double ws[][3] = {{0, 0, 0}, {1e-9, -2e-9, 0}, {0.3, -0.2, 0.1}, {2, 1, -0.5},
+                          {M_PI - 1e-9, 0, 0}, {0, 0, -M_PI}, {1.5, 1.5, 1.5}};
+  for (const auto &w : ws) {
+    std::array<double, 9> R;
+    bal::rotation_matrix(w, R.data());
+    double v[3];
+    bundler::angle_axis(R, v);
+    std::array<double, 9> R2;
+    bal::rotation_matrix(v, R2.data());
+    for (int k = 0; k < 9; ++k) EXPECT_NEAR(R2[k], R[k], 1e-12) << w[0] << " " << w[1] << " " << w[2];
+  }
+}
+
+TEST(Sbarefine, BundlerSameErrorAsEucsbademo) {
+  const std::string dir = temp_dir("bundler_refine");
+  Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics);
+  // Bundler refines f, k1, k2 and holds the principal point: eucsbademo's varKD with the
+  // distortion starting at zero, --nccalib 4 --ncdist 3, refines the same model.
+  const std::string cams = dir + "/kd-cams.txt";
+  ASSERT_TRUE(eucsba::write_cameras(cams, eucsba::CameraKind::VaryingIntrinsicsDistortion, s.problem.cameras));
+  eucsba::Problem kd;
+  ASSERT_TRUE(eucsba::load_problem(cams, s.prefix + "-pts.txt", "", &kd));
+  const double expected = eucsbademo_error("--nccalib 4 --ncdist 3 " + cams + " " + s.prefix + "-pts.txt");
+  ASSERT_GT(expected, 0.1);
+  ASSERT_LT(expected, 1.0);
+  bundler::Bundle b;
+  std::string error;
+  ASSERT_TRUE(bundler::from_problem(kd.cameras, kd.points, &b, &error)) << error;
+  b.cameras.insert(b.cameras.begin(), bundler::Camera{});  // unregistered, and shifts the indices
+  for (bundler::Point &p : b.points)
+    for (bundler::View &v : p.views) ++v.camera;
+  ASSERT_TRUE(bundler::write_bundle(dir + "/in.out", b, &error)) << error;
+  const Outcome r = run(dir + "/in.out --write " + dir + "/out.out --initial-ply " + dir + "/i.ply");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("Bundler file " + dir + "/in.out: 11 cameras (10 registered), 200 points"), std::string::npos)
+      << r.out;
+  EXPECT_NEAR(final_error(r.out), expected, 1e-6 * expected) << r.out;
+  bundler::Bundle back;
+  ASSERT_TRUE(bundler::read_bundle(dir + "/out.out", &back, &error)) << error;
+  ASSERT_EQ(back.cameras.size(), 11u);
+  EXPECT_FALSE(back.cameras[0].registered());
+  EXPECT_NE(back.cameras[1].f, b.cameras[1].f);
+  EXPECT_NE(back.cameras[1].k1, 0.0);
+  for (std::size_t i = 0; i < b.points.size(); ++i) {
+    EXPECT_EQ(back.points[i].rgb, b.points[i].rgb);
+    ASSERT_EQ(back.points[i].views.size(), b.points[i].views.size());
+    EXPECT_EQ(back.points[i].views[0].camera, b.points[i].views[0].camera);
+    EXPECT_EQ(back.points[i].views[0].key, b.points[i].views[0].key);
+    EXPECT_EQ(back.points[i].views[0].x, b.points[i].views[0].x);
+  }
+  EXPECT_NE(read_file(dir + "/i.ply").find("element vertex 210\n"), std::string::npos);
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "bundler_io.h"
 #include "cli.h"
 #include "colmap_io.h"
 #include "colmap_sba.h"
@@ -65,6 +66,7 @@ struct Cli {
   sbagen::Options options;
   std::string prefix;
   std::string colmap_text, colmap_binary;  // COLMAP model directories; empty: not written
+  std::string bundler;                     // a Bundler file; empty: not written
   bool quiet = false;
 };
 
@@ -184,6 +186,10 @@ std::vector<sbacli::Option> option_table(Cli &cli) {
                [&cli](const std::string &v) { return sbacli::to_file(v, &cli.colmap_text); }});
   t.push_back({"colmap-binary", "DIR", "the same as a COLMAP binary model",
                [&cli](const std::string &v) { return sbacli::to_file(v, &cli.colmap_binary); }});
+  t.push_back({"bundler", "FILE",
+               "also write the initial problem as a Bundler bundle.out (--kind varK or fixed: Bundler\n"
+               "has no tangential distortion; not with --covariances)",
+               [&cli](const std::string &v) { return sbacli::to_file(v, &cli.bundler); }});
   t.push_back({"quiet", "", "no summary on stdout", flag(&cli.quiet)});
   return t;
 }
@@ -265,6 +271,17 @@ int main(int argc, char **argv) {
       if (!colmap::from_problem(scene.kind, scene.initial_cameras, points, scene.image_width, scene.image_height,
                                 &model, &why) ||
           !colmap::write_model(*out.first, model, out.second, &why)) {
+        std::fprintf(stderr, "sbagen: %s\n", why.c_str());
+        return 1;
+      }
+    }
+    if (!cli.bundler.empty()) {
+      eucsba::PointSet points = scene.measurements;
+      if (points.vmask.empty()) points.vmask = sbagen::dense_vmask(scene);
+      bundler::Bundle bundle;
+      if (scene.measurements.has_covariances()) why = "a Bundler file cannot hold --covariances";
+      if (!why.empty() || !bundler::from_problem(scene.initial_cameras, points, &bundle, &why) ||
+          !bundler::write_bundle(cli.bundler, bundle, &why)) {
         std::fprintf(stderr, "sbagen: %s\n", why.c_str());
         return 1;
       }
