@@ -69,16 +69,9 @@ std::vector<sbacli::Option> option_table(Options &o) {
 
 bool parse_command_line(int argc, char **argv, Options *options, std::string *error) {
   Options o;
-  sbacli::Parsed parsed;
-  if (!sbacli::parse(argc, argv, option_table(o), &parsed, error)) return false;
-  o.help = parsed.help;
-  o.version = parsed.version;
-  if (!o.help && !o.version && parsed.positional.size() != 1) {
-    *error = "expected 1 argument (a COLMAP model directory or a Bundler file), got " + std::to_string(parsed.positional.size()) +
-             " (see --help)";
+  if (!sbademo::parse_one_input(argc, argv, option_table(o), "argument (a COLMAP model directory or a Bundler file)",
+                                &o.input, &o.help, &o.version, error))
     return false;
-  }
-  if (!parsed.positional.empty()) o.input = parsed.positional[0];
   *options = std::move(o);
   return true;
 }
@@ -367,45 +360,14 @@ int refine_main(int argc, char **argv) {
   const std::size_t eol = job.summary.find('\n');
   std::printf("%s, %d observations, %lld variables%s\n", job.summary.substr(0, eol).c_str(), nobs, nvars,
               eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
-  std::printf("\nSBA returned %d in %g iter, reason %g, error %g [initial %g], %d/%d func/fjac evals, "
-              "%d lin. systems\n",
-              ret, info[5], info[6], info[1] / nobs, info[0] / nobs, static_cast<int>(info[7]),
-              static_cast<int>(info[8]), static_cast<int>(info[9]));
-  std::printf("Elapsed time: %.2f seconds, %.2f msecs (reading the model: %.2f seconds)\n", seconds,
-              seconds * 1000.0, read_seconds);
-  if (result.robust)
-    std::printf("Robust loss %s (scale %g): the errors above are its cost; squared error %g "
-                "[initial %g], %lld observations beyond the scale\n",
-                so.loss.c_str(), so.loss_scale, result.sq_error_final / nobs, result.sq_error_initial / nobs,
-                result.outliers_final);
+  sbademo::print_summary(nobs, ret, info, seconds, read_seconds, result, so);
 
-  sbademo::Report report;
-  report.program = "sbarefine";
-  report.inputs = {o.input};
-  report.cameras = m;
-  report.points = n;
-  report.observations = nobs;
-  report.variables = nvars;
-  sbademo::report_options(so, &report);
-  report.ret = ret;
-  report.info = info;
-  report.result = result;
-  report.seconds = seconds;
-  report.iterations = control.iterations();
+  sbademo::Report report = sbademo::make_report("sbarefine", o.input, m, n, nobs, nvars, so, ret, info, result,
+                                                seconds, control);
   sbademo::print_report(stdout, report);
   if (!so.json.empty()) {
-    report.per_camera.resize(static_cast<std::size_t>(m));
-    std::size_t k = 0;
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < m; ++j) {
-        if (!job.vmask[static_cast<std::size_t>(i) * m + j]) continue;
-        double x[2];
-        job.project(p.data(), j, i, x);
-        const double dx = x[0] - job.x[2 * k], dy = x[1] - job.x[2 * k + 1];
-        report.per_camera[static_cast<std::size_t>(j)].observations += 1;
-        report.per_camera[static_cast<std::size_t>(j)].sum_sq += dx * dx + dy * dy;
-        ++k;
-      }
+    sbademo::add_per_camera(n, m, job.vmask, job.x, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); },
+                            &report);
     if (!sbademo::write_json(so.json, report, &error)) {
       std::fprintf(stderr, "%s: %s\n", so.json.c_str(), error.c_str());
       return kExitFailure;
@@ -418,17 +380,4 @@ int refine_main(int argc, char **argv) {
 
 }  // namespace
 
-int main(int argc, char **argv) {
-  try {
-    const int status = refine_main(argc, argv);
-    if (status == 0 && !sbademo::stdout_written("sbarefine")) return kExitFailure;
-    return status;
-  } catch (const std::bad_alloc &) {
-    std::fprintf(stderr, "sbarefine: out of memory\n");
-  } catch (const std::exception &e) {
-    std::fprintf(stderr, "sbarefine: %s\n", e.what());
-  } catch (...) {
-    std::fprintf(stderr, "sbarefine: unexpected error\n");
-  }
-  return kExitFailure;
-}
+int main(int argc, char **argv) { return sbademo::guarded_main("sbarefine", refine_main, argc, argv); }

@@ -1,17 +1,21 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-// The options of a motion-and-structure solve that balsba and sbarefine share, their --help
-// rows, and the library's log sink those programs install.
+// What balsba and sbarefine share around their motion-and-structure solve: the options and
+// their --help rows, the library's log sink, the printed summary and the JSON report.
 #ifndef SBA_DEMO_SOLVE_OPTIONS_H
 #define SBA_DEMO_SOLVE_OPTIONS_H
 
 #include <array>
 #include <cstdio>
+#include <exception>
+#include <new>
 #include <limits>
 #include <string>
 #include <vector>
 
 #include "cli.h"
+#include "output_file.h"
 #include "report.h"
+#include "run_control.h"
 #include "sba_ext.h"
 
 namespace sbademo {
@@ -80,6 +84,22 @@ inline void add_solve_options(std::vector<sbacli::Option> *t, SolveOptions &o, c
                 }});
 }
 
+// Parses argv against the table of a program that takes one input (described by `what` in
+// the message when it is missing or repeated), unless --help or --version is asked for.
+inline bool parse_one_input(int argc, char **argv, const std::vector<sbacli::Option> &table, const char *what,
+                            std::string *input, bool *help, bool *version, std::string *error) {
+  sbacli::Parsed parsed;
+  if (!sbacli::parse(argc, argv, table, &parsed, error)) return false;
+  *help = parsed.help;
+  *version = parsed.version;
+  if (!parsed.help && !parsed.version && parsed.positional.size() != 1) {
+    *error = std::string("expected 1 ") + what + ", got " + std::to_string(parsed.positional.size()) + " (see --help)";
+    return false;
+  }
+  if (!parsed.positional.empty()) *input = parsed.positional[0];
+  return true;
+}
+
 // The library's messages: progress (--verbose) to stdout, warnings to stderr, and the first
 // error kept for the program's own one-line failure message.
 struct LogSink {
@@ -138,6 +158,80 @@ inline int stopped_status(const char *program, const RunControl &control, double
   std::fprintf(stderr, "%s: --max-time %g s reached after iteration %d: the results are the last accepted estimate\n",
                program, max_time, iterations);
   return 0;
+}
+
+// What a solve prints after its sizes line: sba 1.6's summary, the time, the robust loss.
+inline void print_summary(int nobs, int ret, const std::array<double, SBA_INFOSZ> &info, double seconds,
+                          double read_seconds, const sba_ext_result &result, const SolveOptions &o) {
+  std::printf("\nSBA returned %d in %g iter, reason %g, error %g [initial %g], %d/%d func/fjac evals, "
+              "%d lin. systems\n",
+              ret, info[5], info[6], info[1] / nobs, info[0] / nobs, static_cast<int>(info[7]),
+              static_cast<int>(info[8]), static_cast<int>(info[9]));
+  std::printf("Elapsed time: %.2f seconds, %.2f msecs (reading the file: %.2f seconds)\n", seconds,
+              seconds * 1000.0, read_seconds);
+  if (result.robust)
+    std::printf("Robust loss %s (scale %g): the errors above are its cost; squared error %g "
+                "[initial %g], %lld observations beyond the scale\n",
+                o.loss.c_str(), o.loss_scale, result.sq_error_final / nobs, result.sq_error_initial / nobs,
+                result.outliers_final);
+}
+
+// The report of a motion-and-structure solve.
+inline Report make_report(const char *program, const std::string &input, int m, int n, int nobs, long long nvars,
+                          const SolveOptions &o, int ret, const std::array<double, SBA_INFOSZ> &info,
+                          const sba_ext_result &result, double seconds, const RunControl &control) {
+  Report r;
+  r.program = program;
+  r.inputs = {input};
+  r.cameras = m;
+  r.points = n;
+  r.observations = nobs;
+  r.variables = nvars;
+  report_options(o, &r);
+  r.ret = ret;
+  r.info = info;
+  r.result = result;
+  r.seconds = seconds;
+  r.iterations = control.iterations();
+  return r;
+}
+
+// Each camera's squared pixel distances at the result, for --json: project(j, i, x) gives
+// the projection of point i in camera j; x holds the measurements point by point, cameras
+// ascending, as vmask (n*m) says.
+template <class Project>
+void add_per_camera(int n, int m, const char *vmask, const double *x, Project project, Report *r) {
+  r->per_camera.assign(static_cast<std::size_t>(m), {});
+  std::size_t k = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j) {
+      if (!vmask[static_cast<std::size_t>(i) * static_cast<std::size_t>(m) + static_cast<std::size_t>(j)]) continue;
+      double xp[2];
+      project(j, i, xp);
+      const double dx = xp[0] - x[2 * k], dy = xp[1] - x[2 * k + 1];
+      r->per_camera[static_cast<std::size_t>(j)].observations += 1;
+      r->per_camera[static_cast<std::size_t>(j)].sum_sq += dx * dx + dy * dy;
+      ++k;
+    }
+}
+
+// main() of a program: its exit status, 1 when the report did not reach stdout or an
+// exception escaped (out of memory above all), with one line saying so.
+template <class Main>
+int guarded_main(const char *program, Main run, int argc, char **argv) {
+  try {
+    const int status = run(argc, argv);
+    // A report that did not reach stdout is a failed run, not a success.
+    if (status == 0 && !stdout_written(program)) return sbacli::kExitFailure;
+    return status;
+  } catch (const std::bad_alloc &) {
+    std::fprintf(stderr, "%s: out of memory\n", program);
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "%s: %s\n", program, e.what());
+  } catch (...) {
+    std::fprintf(stderr, "%s: unexpected error\n", program);
+  }
+  return sbacli::kExitFailure;
 }
 
 }  // namespace sbademo

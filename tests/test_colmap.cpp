@@ -394,6 +394,20 @@ TEST(Sbarefine, SharedCameraHeldIntrinsicsAsFixedK) {
   EXPECT_EQ(back.cameras[0].params, s.model.cameras[0].params);
 }
 
+TEST(Sbarefine, MaxTimeStopsAfterAnIterationAndStillWrites) {
+  const std::string dir = temp_dir("maxtime");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error));
+  const Outcome r = run(dir + "/in --max-time 1e-9 --write " + dir + "/out");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err, "sbarefine: --max-time 1e-09 s reached after iteration 1: the results are the last accepted "
+                   "estimate\n");
+  EXPECT_NE(r.out.find("SBA returned 1 in 1 iter, reason 9"), std::string::npos) << r.out;
+  colmap::Model back;
+  EXPECT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+}
+
 TEST(Sbarefine, CommandLineErrors) {
   Outcome r = run("--intrinsics principal x");
   EXPECT_EQ(r.status, 2);

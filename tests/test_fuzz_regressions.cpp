@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Inputs found by the fuzz targets of fuzz/, kept in tests/fuzz_regressions/ as
-// TARGET-NAME with TARGET one of cameras, points, calibration, bal, colmap (see the README there).
+// TARGET-NAME with TARGET one of cameras, points, calibration, bal, colmap, bundler (see the README there).
 // Each must give a clean error: one line naming the file from the reader itself, and one
 // line on stderr with exit status 1 from the program that reads such files (eucsbademo,
 // balsba, sbarefine). Under `make check-sanitize` the same runs are checked by ASan and UBSan.
@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "bal_io.h"
+#include "bundler_io.h"
 #include "colmap_io.h"
 #include "eucsba_io.h"
 
@@ -83,7 +84,7 @@ void expect_program_refuses(const std::string &cmd, const fs::path &input) {
 TEST(FuzzRegressions, TheDirectoryHoldsInputs) {
   ASSERT_TRUE(fs::is_directory(kDir)) << kDir;
   EXPECT_FALSE(inputs("cameras").empty() && inputs("points").empty() && inputs("calibration").empty() &&
-               inputs("bal").empty() && inputs("colmap").empty());
+               inputs("bal").empty() && inputs("colmap").empty() && inputs("bundler").empty());
 }
 
 TEST(FuzzRegressions, CameraFiles) {
@@ -169,6 +170,20 @@ TEST(FuzzRegressions, ColmapFiles) {
       expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(dir.string()), cams);
       fs::remove_all(dir);
     }
+  }
+}
+
+TEST(FuzzRegressions, BundlerFiles) {
+  for (const fs::path &in : inputs("bundler")) {
+    bundler::Bundle b;
+    std::string error;
+    EXPECT_FALSE(bundler::read_bundle(in.string(), &b, &error)) << in;
+    expect_one_line(error, in.string() + ":", in);
+    // sbarefine takes a file for a bundle only when it starts as one.
+    std::ifstream f(in, std::ios::binary);
+    std::string head(13, '\0');
+    f.read(&head[0], 13);
+    if (head == "# Bundle file") expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(in.string()), in);
   }
 }
 

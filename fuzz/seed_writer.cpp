@@ -1,21 +1,24 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Writes the seed corpus of fuzz_colmap into DIR: the six files of a small generated scene
-// (sbagen, as COLMAP text and binary), each behind the selector byte fuzz_colmap reads.
+// Writes the seed corpora of fuzz_colmap and fuzz_bundler: the six files of small generated
+// scenes (sbagen) as COLMAP text and binary, each behind the selector byte fuzz_colmap
+// reads, into COLMAP_DIR, and the same scenes as Bundler files into BUNDLER_DIR.
 #include <cstdio>
 #include <string>
 
+#include "bundler_io.h"
 #include "colmap_io.h"
 #include "colmap_sba.h"
 #include "sbagen.h"
 
 int main(int argc, char **argv) {
-  if (argc != 2) {
-    std::fprintf(stderr, "usage: colmap_seeds DIR\n");
+  if (argc != 3) {
+    std::fprintf(stderr, "usage: seed_writer COLMAP_DIR BUNDLER_DIR\n");
     return 2;
   }
-  const std::string dir = argv[1];
+  const std::string dir = argv[1], bundler_dir = argv[2];
   int written = 0;
-  for (eucsba::CameraKind kind : {eucsba::CameraKind::FixedIntrinsics, eucsba::CameraKind::VaryingIntrinsicsDistortion}) {
+  for (eucsba::CameraKind kind : {eucsba::CameraKind::FixedIntrinsics, eucsba::CameraKind::VaryingIntrinsics,
+                                  eucsba::CameraKind::VaryingIntrinsicsDistortion}) {
     sbagen::Options o;
     o.kind = kind;
     o.cameras = 4;
@@ -27,8 +30,17 @@ int main(int argc, char **argv) {
     if (!sbagen::generate(o, &scene, &error) ||
         !colmap::from_problem(scene.kind, scene.initial_cameras, scene.measurements, o.image_width, o.image_height,
                               &model, &error)) {
-      std::fprintf(stderr, "colmap_seeds: %s\n", error.c_str());
+      std::fprintf(stderr, "seed_writer: %s\n", error.c_str());
       return 1;
+    }
+    bundler::Bundle bundle;
+    if (kind != eucsba::CameraKind::VaryingIntrinsicsDistortion) {  // Bundler has no tangential terms
+      if (!bundler::from_problem(scene.initial_cameras, scene.measurements, &bundle, &error) ||
+          !bundler::write_bundle(bundler_dir + "/seed-" + sbagen::camera_kind_name(kind) + ".out", bundle, &error)) {
+        std::fprintf(stderr, "seed_writer: %s\n", error.c_str());
+        return 1;
+      }
+      ++written;
     }
     for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
       const colmap::Files f = colmap::format_model(model, e);
@@ -38,7 +50,7 @@ int main(int argc, char **argv) {
         const std::string path = dir + "/seed-" + sbagen::camera_kind_name(kind) + "-" + std::to_string(selector);
         std::FILE *out = std::fopen(path.c_str(), "wb");
         if (!out) {
-          std::fprintf(stderr, "colmap_seeds: cannot write %s\n", path.c_str());
+          std::fprintf(stderr, "seed_writer: cannot write %s\n", path.c_str());
           return 1;
         }
         std::fputc(selector, out);
@@ -48,6 +60,6 @@ int main(int argc, char **argv) {
       }
     }
   }
-  std::printf("colmap_seeds: %d seeds in %s\n", written, dir.c_str());
+  std::printf("seed_writer: %d seeds\n", written);
   return 0;
 }
