@@ -246,6 +246,10 @@ TEST(ColmapReader, BinaryErrors) {
   EXPECT_EQ(error, "c.bin: byte " + std::to_string(f.cameras.size() - 8) + ": the file ends inside a camera parameter");
   EXPECT_FALSE(colmap::parse_images_binary(f.images + "x", "i.bin", &ims, &error));
   EXPECT_EQ(error, "i.bin: byte " + std::to_string(f.images.size()) + ": 1 bytes after the last record");
+  bad = f.images;
+  bad[72] = '\n';  // the first image's name
+  EXPECT_FALSE(colmap::parse_images_binary(bad, "i.bin", &ims, &error));
+  EXPECT_EQ(error, "i.bin: byte 8: image 10: an empty name or one with a line break");
   bad = f.points;
   bad[7] = 1;
   EXPECT_FALSE(colmap::parse_points_binary(bad, "p.bin", &pts, &error));
