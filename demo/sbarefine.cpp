@@ -41,6 +41,8 @@ struct Options {
   std::string intrinsics = "focal,distortion";
   colmap::RefineIntrinsics refine;
   std::string initial_ply, final_ply;
+  std::string write_eucsba;  // COLMAP: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
+  std::string write_bal;     // Bundler: a BAL problem
   bool help = false, version = false;
 };
 
@@ -60,6 +62,12 @@ std::vector<sbacli::Option> option_table(Options &o) {
                  o.intrinsics = v;
                  return colmap::parse_refine_intrinsics(v, &o.refine);
                }});
+  t.push_back({"write-eucsba", "PREFIX",
+               "COLMAP: also write the refined model as eucsbademo files PREFIX-cams.txt (17 values a\n"
+               "line) and PREFIX-pts.txt",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.write_eucsba); }});
+  t.push_back({"write-bal", "FILE", "Bundler: also write the refined model as a BAL problem",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.write_bal); }});
   t.push_back({"initial-ply", "FILE", "write the initial points (with their colors) and camera centres (red) as PLY",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.initial_ply); }});
   t.push_back({"final-ply", "FILE", "the same for the refined model",
@@ -230,6 +238,20 @@ bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
     colmap::from_sba(*l->sba_model, l->problem, p, o.solve.mcon, o.solve.ncon, &l->model);
     *final_cloud = cloud(l->model);
+    if (!o.write_eucsba.empty()) {
+      const eucsba::CameraModel &model = *l->sba_model;
+      std::vector<eucsba::Camera> cams;
+      for (int j = 0; j < model.ncameras(); ++j)
+        cams.push_back(model.camera(j, p + static_cast<std::size_t>(j) * model.cnp()));
+      const double *xyz = p + static_cast<std::size_t>(model.ncameras()) * model.cnp();
+      const std::vector<double> points(xyz, xyz + 3 * static_cast<std::size_t>(model.npoints()));
+      eucsba::Status st = eucsba::write_cameras(o.write_eucsba + "-cams.txt", model.kind(), cams);
+      if (st) st = eucsba::write_points(o.write_eucsba + "-pts.txt", l->problem.points, points);
+      if (!st) {
+        *why = st.to_string();
+        return false;
+      }
+    }
     if (o.write.empty()) return true;
     const colmap::Encoding out =
         o.write_format.empty() ? l->encoding
@@ -266,6 +288,7 @@ bool load_bundle(const Options &o, Loaded *l, Job *job, std::string *error) {
     bal::from_sba_params(p, &l->bal);
     bundler::from_bal(l->bal, l->bundle_cameras, o.solve.mcon, o.solve.ncon, &l->bundle);
     *final_cloud = cloud(l->bundle);
+    if (!o.write_bal.empty() && !bal::write_problem(o.write_bal, l->bal, why)) return false;
     return o.write.empty() || bundler::write_bundle(o.write, l->bundle, why);
   };
   return true;
@@ -298,8 +321,10 @@ int refine_main(int argc, char **argv) {
   Loaded loaded;
   Job job;
   const bool bundle = is_bundle(o.input);
-  if (bundle && !o.write_format.empty()) {
-    std::fprintf(stderr, "sbarefine: --write-format is for COLMAP models\n");
+  if (bundle ? !o.write_format.empty() || !o.write_eucsba.empty() : !o.write_bal.empty()) {
+    std::fprintf(stderr, "sbarefine: %s is for %s\n",
+                 bundle ? (o.write_format.empty() ? "--write-eucsba" : "--write-format") : "--write-bal",
+                 bundle ? "COLMAP models" : "Bundler files");
     return kExitUsage;
   }
   if (!(bundle ? load_bundle(o, &loaded, &job, &error) : load_colmap(o, &loaded, &job, &error))) {

@@ -551,4 +551,38 @@ TEST(Sbarefine, BundlerSameErrorAsEucsbademo) {
   EXPECT_NE(read_file(dir + "/i.ply").find("element vertex 210\n"), std::string::npos);
 }
 
+// Conversions: a COLMAP model to eucsbademo's files and a bundle to a BAL problem (itmax 0:
+// the input as read) refine to what the source refines to.
+TEST(Sbarefine, ConvertsToEucsbademoAndBal) {
+  const std::string dir = temp_dir("convert");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error));
+  Outcome r = run(dir + "/in --itmax 0 --write-eucsba " + dir + "/e");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const double expected = eucsbademo_error("--nccalib 4 --ncdist 1 " + s.prefix + "-cams.txt " + s.prefix + "-pts.txt");
+  EXPECT_NEAR(eucsbademo_error("--nccalib 4 --ncdist 1 " + dir + "/e-cams.txt " + dir + "/e-pts.txt"), expected,
+              1e-6 * expected);
+
+  const Scene k = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 8, 120);
+  bundler::Bundle b = make_bundle(k);
+  ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", b, &error)) << error;
+  r = run(dir + "/b.out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const double bundle_error = final_error(r.out);
+  r = run(dir + "/b.out --itmax 0 --write-bal " + dir + "/b.bal");
+  ASSERT_EQ(r.status, 0) << r.err;
+  FILE *p = popen((std::string(BALSBA_EXE) + " " + dir + "/b.bal").c_str(), "r");
+  std::string out;
+  char buf[4096];
+  std::size_t got;
+  while ((got = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, got);
+  EXPECT_EQ(pclose(p), 0);
+  EXPECT_NEAR(final_error(out), bundle_error, 1e-6 * bundle_error) << out;
+
+  r = run(dir + "/b.out --write-eucsba " + dir + "/x");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: --write-eucsba is for COLMAP models\n");
+}
+
 }  // namespace
