@@ -81,25 +81,12 @@ void print_usage(std::FILE *out) {
 int bal_main(int argc, char **argv) {
   Options o;
   std::string error;
-  if (!parse_command_line(argc, argv, &o, &error)) {
-    std::fprintf(stderr, "balsba: %s\n", error.c_str());
-    return kExitUsage;
-  }
-  if (o.help) {
-    print_usage(stdout);
-    return 0;
-  }
-  if (o.version) {
-    std::printf("%s\n", sbacli::version_line("balsba").c_str());
-    return 0;
-  }
+  const bool parsed = parse_command_line(argc, argv, &o, &error);
+  if (const int status = sbademo::answer_command_line("balsba", parsed, error, o.help, o.version, print_usage);
+      status >= 0)
+    return status;
   sbademo::SolveOptions &so = o.solve;
-  // The output files must be writable before a long solve.
-  for (const std::string *path : {&o.write, &so.json})
-    if (!path->empty() && !sbademo::probe_writable(*path, &error)) {
-      std::fprintf(stderr, "%s: %s\n", path->c_str(), error.c_str());
-      return kExitFailure;
-    }
+  if (!sbademo::outputs_writable({&o.write, &so.json})) return kExitFailure;
 
   const auto read_start = std::chrono::steady_clock::now();
   bal::Problem problem;

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdio>
 #include <exception>
+#include <initializer_list>
 #include <new>
 #include <limits>
 #include <string>
@@ -97,6 +98,38 @@ inline bool parse_one_input(int argc, char **argv, const std::vector<sbacli::Opt
     return false;
   }
   if (!parsed.positional.empty()) *input = parsed.positional[0];
+  return true;
+}
+
+// What main() does with the parsed command line before any work: a bad one is reported
+// ("PROGRAM: error", exit 2), --help and --version are answered (exit 0). Returns the exit
+// status when the program ends there, -1 when it goes on.
+inline int answer_command_line(const char *program, bool parsed, const std::string &error, bool help, bool version,
+                               void (*usage)(std::FILE *)) {
+  if (!parsed) {
+    std::fprintf(stderr, "%s: %s\n", program, error.c_str());
+    return sbacli::kExitUsage;
+  }
+  if (help) {
+    usage(stdout);
+    return 0;
+  }
+  if (version) {
+    std::printf("%s\n", sbacli::version_line(program).c_str());
+    return 0;
+  }
+  return -1;
+}
+
+// The output files must be writable before a long solve: false, with "PATH: why" printed,
+// for the first that is not (empty paths are not asked for).
+inline bool outputs_writable(std::initializer_list<const std::string *> paths) {
+  std::string why;
+  for (const std::string *path : paths)
+    if (!path->empty() && !probe_writable(*path, &why)) {
+      std::fprintf(stderr, "%s: %s\n", path->c_str(), why.c_str());
+      return false;
+    }
   return true;
 }
 
