@@ -167,7 +167,8 @@ int bal_main(int argc, char **argv) {
   if (!o.write.empty()) std::printf("Wrote %s\n", o.write.c_str());
   // A stopped solve is a result (written above), but the status says it was cut short by a
   // signal; a time limit the user set is an ordinary end.
-  if (info[6] == SBA_STOP_USER) return sbademo::stopped_status("balsba", control, so.max_time, static_cast<int>(info[5]));
+  if (info[6] == SBA_STOP_USER)
+    return sbademo::stopped_status("balsba", control, so.max_time, static_cast<int>(info[5]));
   return 0;
 }
 

@@ -386,7 +386,8 @@ int refine_main(int argc, char **argv) {
     }
   }
   if (!o.write.empty()) std::printf("Wrote %s\n", o.write.c_str());
-  if (info[6] == SBA_STOP_USER) return sbademo::stopped_status("sbarefine", control, so.max_time, static_cast<int>(info[5]));
+  if (info[6] == SBA_STOP_USER)
+    return sbademo::stopped_status("sbarefine", control, so.max_time, static_cast<int>(info[5]));
   return 0;
 }
 
