@@ -49,6 +49,10 @@ std::string printable(const std::string &s) {
 
 // ---- text ----
 
+// What separates values: a carriage return too, so that a CRLF file or a stray '\r' does
+// not end up inside a value (or as an image name that a rewrite would lose).
+bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
+
 // The lines of a text file: "tokens" split on blanks, with the line number.
 class TextReader {
  public:
@@ -84,9 +88,9 @@ class TextReader {
     tokens_.clear();
     std::size_t i = 0;
     while (i < line_.size()) {
-      while (i < line_.size() && (line_[i] == ' ' || line_[i] == '\t')) ++i;
+      while (i < line_.size() && is_blank(line_[i])) ++i;
       const std::size_t b = i;
-      while (i < line_.size() && line_[i] != ' ' && line_[i] != '\t') ++i;
+      while (i < line_.size() && !is_blank(line_[i])) ++i;
       if (i > b) tokens_.emplace_back(line_, b, i - b);
     }
   }
@@ -224,12 +228,12 @@ bool parse_images_text(const std::string &text, const std::string &name, std::ve
     // The name is the rest of the line, so that it may hold blanks.
     std::size_t pos = 0;
     for (int k = 0; k < 9; ++k) {
-      pos = r.line().find_first_not_of(" \t", pos);
-      pos = r.line().find_first_of(" \t", pos);
+      pos = r.line().find_first_not_of(" \t\r", pos);
+      pos = r.line().find_first_of(" \t\r", pos);
     }
-    pos = r.line().find_first_not_of(" \t", pos);
+    pos = r.line().find_first_not_of(" \t\r", pos);
     im.name = r.line().substr(pos);
-    while (!im.name.empty() && (im.name.back() == ' ' || im.name.back() == '\t')) im.name.pop_back();
+    while (!im.name.empty() && is_blank(im.name.back())) im.name.pop_back();
     if (!ids.insert(im.id).second) return fail(error, r.where() + "image " + std::to_string(im.id) + " appears twice");
     const int image_line = r.lineno();
     if (!r.next_line())
