@@ -585,4 +585,29 @@ TEST(Sbarefine, ConvertsToEucsbademoAndBal) {
   EXPECT_EQ(r.err, "sbarefine: --write-eucsba is for COLMAP models\n");
 }
 
+// sbagen writes the same scenes as files.
+TEST(Sbagen, WritesColmapAndBundlerFiles) {
+  const std::string dir = temp_dir("sbagen");
+  const std::string gen = std::string(SBAGEN_EXE) + " --cameras 6 --points 60 --quiet --out " + dir + "/g";
+  ASSERT_EQ(std::system((gen + " --kind varKD --colmap " + dir + "/t --colmap-binary " + dir + "/b").c_str()), 0);
+  colmap::Model text, binary;
+  std::string error;
+  ASSERT_TRUE(colmap::read_model(dir + "/t", &text, nullptr, &error)) << error;
+  ASSERT_TRUE(colmap::read_model(dir + "/b", &binary, nullptr, &error)) << error;
+  expect_same(text, binary);
+  ASSERT_EQ(text.cameras.size(), 6u);
+  EXPECT_EQ(text.cameras[0].model, colmap::kOpenCV);
+  EXPECT_EQ(text.images[5].name, "img_0005.png");
+  EXPECT_EQ(text.points[1].id, 1007u);
+  const int st = std::system((gen + " --kind varKD --bundler " + dir + "/x.out 2>" + dir + "/err").c_str());
+  EXPECT_EQ(WEXITSTATUS(st), 1);
+  EXPECT_EQ(read_file(dir + "/err"), "sbagen: camera 0 has an aspect ratio, a skew or distortion terms beyond k1 k2, "
+                                     "which Bundler cannot hold\n");
+  ASSERT_EQ(std::system((gen + " --kind varK --bundler " + dir + "/g.out").c_str()), 0);
+  bundler::Bundle b;
+  ASSERT_TRUE(bundler::read_bundle(dir + "/g.out", &b, &error)) << error;
+  EXPECT_EQ(b.cameras.size(), 6u);
+  EXPECT_EQ(b.points.size(), 60u);
+}
+
 }  // namespace
