@@ -29,6 +29,7 @@ struct Program {
 std::vector<Program> programs() {
   std::vector<Program> p{{"eucsbademo", EUCSBADEMO_EXE, "itmax", "an integer >= 0"},
                          {"balsba", BALSBA_EXE, "itmax", "an integer >= 0"},
+                         {"sbarefine", SBAREFINE_EXE, "itmax", "an integer >= 0"},
                          {"sbagen", SBAGEN_EXE, "points", "an integer >= 1"}};
 #ifdef SBA_BENCH_EXE
   p.push_back({"sba_bench", SBA_BENCH_EXE, "itmax", "an integer >= 0"});
@@ -111,7 +112,7 @@ TEST(Cli, SameMessagesForTheSameMistakes) {
 // The options that the solving programs share behave the same in each.
 TEST(Cli, SolverThreadsAndLossAlike) {
   for (const Program &p : programs()) {
-    if (p.name != "eucsbademo" && p.name != "balsba") continue;
+    if (p.name != "eucsbademo" && p.name != "balsba" && p.name != "sbarefine") continue;
     expect_usage_error(p, {"--threads=257"}, "bad value '257' for --threads: expected an integer from 0 to 256");
     expect_usage_error(p, {"--threads", "-2"}, "bad value '-2' for --threads: expected an integer from 0 to 256");
     expect_usage_error(p, {"--loss", "nope"},
@@ -159,6 +160,9 @@ TEST(Cli, PositionalArgumentsCounted) {
       expect_usage_error(p, {}, "expected 1 file argument (a BAL problem), got 0 (see --help)");
       expect_usage_error(p, {"a", "b"}, "expected 1 file argument (a BAL problem), got 2 (see --help)");
     }
+    if (p.name == "sbarefine")
+      expect_usage_error(p, {"a", "b"},
+                         "expected 1 argument (a COLMAP model directory or a Bundler file), got 2 (see --help)");
     if (p.name == "sbagen") {
       expect_usage_error(p, {}, "--out PREFIX is required (see --help)");
       expect_usage_error(p, {"--out=x", "extra"}, "unexpected argument 'extra' (see --help)");

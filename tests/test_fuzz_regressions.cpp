@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Inputs found by the fuzz targets of fuzz/, kept in tests/fuzz_regressions/ as
-// TARGET-NAME with TARGET one of cameras, points, calibration, bal (see the README there).
+// TARGET-NAME with TARGET one of cameras, points, calibration, bal, colmap, bundler (see the README there).
 // Each must give a clean error: one line naming the file from the reader itself, and one
 // line on stderr with exit status 1 from the program that reads such files (eucsbademo,
-// balsba). Under `make check-sanitize` the same runs are checked by ASan and UBSan.
+// balsba, sbarefine). Under `make check-sanitize` the same runs are checked by ASan and UBSan.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -19,6 +19,8 @@
 #include <vector>
 
 #include "bal_io.h"
+#include "bundler_io.h"
+#include "colmap_io.h"
 #include "eucsba_io.h"
 
 namespace {
@@ -82,7 +84,7 @@ void expect_program_refuses(const std::string &cmd, const fs::path &input) {
 TEST(FuzzRegressions, TheDirectoryHoldsInputs) {
   ASSERT_TRUE(fs::is_directory(kDir)) << kDir;
   EXPECT_FALSE(inputs("cameras").empty() && inputs("points").empty() && inputs("calibration").empty() &&
-               inputs("bal").empty());
+               inputs("bal").empty() && inputs("colmap").empty() && inputs("bundler").empty());
 }
 
 TEST(FuzzRegressions, CameraFiles) {
@@ -133,6 +135,55 @@ TEST(FuzzRegressions, BalFiles) {
     EXPECT_FALSE(bal::read_problem(in.string(), &p, &error)) << in;
     expect_one_line(error, in.string() + ": ", in);
     expect_program_refuses(shell_quote(BALSBA_EXE) + " " + shell_quote(in.string()), in);
+  }
+}
+
+// fuzz_colmap's inputs: a selector byte (mod 6: cameras, images, points3D as text, then as
+// binary) and the file's content. Cameras files also go through sbarefine, alone in a model
+// directory (the cameras are read first).
+TEST(FuzzRegressions, ColmapFiles) {
+  for (const fs::path &in : inputs("colmap")) {
+    std::ifstream f(in, std::ios::binary);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    const std::string all = ss.str();
+    ASSERT_FALSE(all.empty()) << in;
+    const std::string content = all.substr(1), name = in.string();
+    const int selector = static_cast<unsigned char>(all[0]) % 6;
+    std::string error;
+    bool ok = true;
+    switch (selector) {
+      case 0: { std::vector<colmap::Camera> c; ok = colmap::parse_cameras_text(content, name, &c, &error); break; }
+      case 1: { std::vector<colmap::Image> i; ok = colmap::parse_images_text(content, name, &i, &error); break; }
+      case 2: { std::vector<colmap::Point3D> p; ok = colmap::parse_points_text(content, name, &p, &error); break; }
+      case 3: { std::vector<colmap::Camera> c; ok = colmap::parse_cameras_binary(content, name, &c, &error); break; }
+      case 4: { std::vector<colmap::Image> i; ok = colmap::parse_images_binary(content, name, &i, &error); break; }
+      default: { std::vector<colmap::Point3D> p; ok = colmap::parse_points_binary(content, name, &p, &error); break; }
+    }
+    EXPECT_FALSE(ok) << in;
+    expect_one_line(error, name + ":", in);
+    if (selector == 0 || selector == 3) {
+      const fs::path dir = fs::temp_directory_path() / ("sba-fuzzreg-colmap-" + std::to_string(::getpid()));
+      fs::create_directories(dir);
+      const fs::path cams = dir / (selector == 0 ? "cameras.txt" : "cameras.bin");
+      std::ofstream(cams, std::ios::binary) << content;
+      expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(dir.string()), cams);
+      fs::remove_all(dir);
+    }
+  }
+}
+
+TEST(FuzzRegressions, BundlerFiles) {
+  for (const fs::path &in : inputs("bundler")) {
+    bundler::Bundle b;
+    std::string error;
+    EXPECT_FALSE(bundler::read_bundle(in.string(), &b, &error)) << in;
+    expect_one_line(error, in.string() + ":", in);
+    // sbarefine takes a file for a bundle only when it starts as one.
+    std::ifstream f(in, std::ios::binary);
+    std::string head(13, '\0');
+    f.read(&head[0], 13);
+    if (head == "# Bundle file") expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(in.string()), in);
   }
 }
 

@@ -10,9 +10,13 @@
 #include <cstring>
 #include <new>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "bundler_io.h"
 #include "cli.h"
+#include "colmap_io.h"
+#include "colmap_sba.h"
 #include "sbagen.h"
 
 namespace {
@@ -61,6 +65,8 @@ std::string to_seed(const std::string &text, std::uint64_t *out) {
 struct Cli {
   sbagen::Options options;
   std::string prefix;
+  std::string colmap_text, colmap_binary;  // COLMAP model directories; empty: not written
+  std::string bundler;                     // a Bundler file; empty: not written
   bool quiet = false;
 };
 
@@ -178,6 +184,15 @@ std::vector<sbacli::Option> option_table(Cli &cli) {
                }});
   t.push_back({"seed", "S", "random seed, a 64-bit unsigned integer (default 1)",
                [&o](const std::string &v) { return to_seed(v, &o.seed); }});
+  t.push_back({"colmap", "DIR",
+               "also write the initial problem as a COLMAP text model into DIR (not with --covariances)",
+               [&cli](const std::string &v) { return sbacli::to_file(v, &cli.colmap_text); }});
+  t.push_back({"colmap-binary", "DIR", "the same as a COLMAP binary model",
+               [&cli](const std::string &v) { return sbacli::to_file(v, &cli.colmap_binary); }});
+  t.push_back({"bundler", "FILE",
+               "also write the initial problem as a Bundler bundle.out (--kind varK or fixed: Bundler\n"
+               "has no tangential distortion; not with --covariances)",
+               [&cli](const std::string &v) { return sbacli::to_file(v, &cli.bundler); }});
   t.push_back({"quiet", "", "no summary on stdout", flag(&cli.quiet)});
   return t;
 }
@@ -244,6 +259,35 @@ int main(int argc, char **argv) {
     if (eucsba::Status st = sbagen::write_problem(scene, cli.prefix); !st) {
       std::fprintf(stderr, "sbagen: %s\n", st.to_string().c_str());
       return 1;
+    }
+    for (const auto &out : {std::make_pair(&cli.colmap_text, colmap::Encoding::Text),
+                            std::make_pair(&cli.colmap_binary, colmap::Encoding::Binary)}) {
+      if (out.first->empty()) continue;
+      // COLMAP has no measurement covariances: such a problem would not be the same problem.
+      if (scene.measurements.has_covariances()) {
+        std::fprintf(stderr, "sbagen: a COLMAP model cannot hold --covariances\n");
+        return 1;
+      }
+      eucsba::PointSet points = scene.measurements;
+      if (points.vmask.empty()) points.vmask = sbagen::dense_vmask(scene);
+      colmap::Model model;
+      if (!colmap::from_problem(scene.kind, scene.initial_cameras, points, scene.image_width, scene.image_height,
+                                &model, &why) ||
+          !colmap::write_model(*out.first, model, out.second, &why)) {
+        std::fprintf(stderr, "sbagen: %s\n", why.c_str());
+        return 1;
+      }
+    }
+    if (!cli.bundler.empty()) {
+      eucsba::PointSet points = scene.measurements;
+      if (points.vmask.empty()) points.vmask = sbagen::dense_vmask(scene);
+      bundler::Bundle bundle;
+      if (scene.measurements.has_covariances()) why = "a Bundler file cannot hold --covariances";
+      if (!why.empty() || !bundler::from_problem(scene.initial_cameras, points, &bundle, &why) ||
+          !bundler::write_bundle(cli.bundler, bundle, &why)) {
+        std::fprintf(stderr, "sbagen: %s\n", why.c_str());
+        return 1;
+      }
     }
     if (!cli.quiet) summary(scene, cli.options, sbagen::problem_files(cli.prefix, scene));
   } catch (const std::bad_alloc &) {

@@ -26,7 +26,7 @@ for h in sba.h sba_ext.h sba_chkjac.h compiler.h; do
 done
 
 unset LD_LIBRARY_PATH
-for prog in eucsbademo balsba sbagen; do
+for prog in eucsbademo balsba sbarefine sbagen; do
   [ -x "$prefix/bin/$prog" ] || fail "$prog is not installed into bin/"
   out=$("$prefix/bin/$prog" --version) || fail "the installed $prog --version failed"
   case $out in

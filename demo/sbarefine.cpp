@@ -1,0 +1,396 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// sbarefine: bundle adjustment of a reconstruction as an SfM pipeline wrote it (a COLMAP
+// sparse model, text or binary, or a Bundler bundle.out), written back in its own format with every identifier, name
+// and color unchanged. The solve is balsba's: same options, output and Ctrl-C behaviour.
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <functional>
+#include <memory>
+#include <new>
+#include <string>
+#include <vector>
+
+#include "bal_io.h"
+#include "bal_model.h"
+#include "bundler_io.h"
+#include "cli.h"
+#include "colmap_io.h"
+#include "colmap_sba.h"
+#include "eucsba_model.h"
+#include "output_file.h"
+#include "report.h"
+#include "run_control.h"
+#include "sba.h"
+#include "sba_ext.h"
+#include "solve_options.h"
+#include "tty_progress.h"
+
+namespace {
+
+using sbacli::kExitFailure;
+using sbacli::kExitUsage;
+
+struct Options {
+  std::string input;
+  sbademo::SolveOptions solve;
+  std::string write;         // output model directory; empty: none
+  std::string write_format;  // text or binary; empty: the input's
+  std::string intrinsics = "focal,distortion";
+  colmap::RefineIntrinsics refine;
+  std::string initial_ply, final_ply;
+  std::string write_eucsba;  // COLMAP: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
+  std::string write_bal;     // Bundler: a BAL problem
+  bool help = false, version = false;
+};
+
+std::vector<sbacli::Option> option_table(Options &o) {
+  std::vector<sbacli::Option> t;
+  sbademo::add_solve_options(
+      &t, o.solve,
+      {"write", "OUT", "write the refined model in the input's format: a COLMAP model into the directory\n"
+                        "OUT (created if missing), a Bundler file to the file OUT",
+       [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }});
+  t.push_back({"write-format", "F", "the format of --write: text or binary (default: the input's)",
+               [&o](const std::string &v) { return sbacli::to_choice(v, {"text", "binary"}, &o.write_format); }});
+  t.push_back({"intrinsics", "LIST",
+               "the intrinsics refined: none, all, or a comma-separated list of focal, principal,\n"
+               "distortion (default focal,distortion, as COLMAP: the principal point held)",
+               [&o](const std::string &v) {
+                 o.intrinsics = v;
+                 return colmap::parse_refine_intrinsics(v, &o.refine);
+               }});
+  t.push_back({"write-eucsba", "PREFIX",
+               "COLMAP: also write the refined model as eucsbademo files PREFIX-cams.txt (17 values a\n"
+               "line) and PREFIX-pts.txt",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.write_eucsba); }});
+  t.push_back({"write-bal", "FILE", "Bundler: also write the refined model as a BAL problem",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.write_bal); }});
+  t.push_back({"initial-ply", "FILE", "write the initial points (with their colors) and camera centres (red) as PLY",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.initial_ply); }});
+  t.push_back({"final-ply", "FILE", "the same for the refined model",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.final_ply); }});
+  return t;
+}
+
+bool parse_command_line(int argc, char **argv, Options *options, std::string *error) {
+  Options o;
+  if (!sbademo::parse_one_input(argc, argv, option_table(o), "argument (a COLMAP model directory or a Bundler file)",
+                                &o.input, &o.help, &o.version, error))
+    return false;
+  *options = std::move(o);
+  return true;
+}
+
+void print_usage(std::FILE *out) {
+  std::fputs(
+      "Usage: sbarefine [OPTION]... MODEL\n"
+      "Bundle-adjusts a reconstruction with sba_motstr_levmar_x_ext, analytic Jacobian. MODEL is\n"
+      "- a COLMAP sparse model: the directory holding cameras, images and points3D (.txt or .bin;\n"
+      "  camera models SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV), refined with\n"
+      "  eucsbademo's camera model, every image an sba camera with its own intrinsics;\n"
+      "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera;\n"
+      "  --intrinsics does not apply).\n"
+      "\n"
+      "Options (a value may follow as --opt=VALUE or --opt VALUE; '--' ends the options):\n",
+      out);
+  Options scratch;
+  sbacli::print_options(out, option_table(scratch));
+  std::fprintf(out, "\nLinear solvers (--solver): %s\n", sba_linsolver_names());
+  std::fputs(
+      "\n"
+      "Prints what balsba prints: the sizes, sba 1.6's summary (mean squared reprojection error in\n"
+      "pixels^2 per observation ...), the RMS reprojection error in pixels, the stop reason, the\n"
+      "solver and threads used. The written model keeps every identifier, name, color and\n"
+      "unrefined value; a refined point's ERROR becomes its mean reprojection error.\n"
+      "Exit status: 0 done (--max-time included), 1 a file cannot be read or written or the solver\n"
+      "fails, 2 bad options, 130 (SIGINT) or 143 (SIGTERM) when a signal stopped the solve.\n",
+      out);
+}
+
+// What a PLY file shows: points with their colors, camera centres.
+struct Cloud {
+  std::vector<std::array<double, 3>> points;
+  std::vector<std::array<int, 3>> colors;
+  std::vector<std::array<double, 3>> centres;
+};
+
+// The centre -R^T t of a camera with R row-major.
+std::array<double, 3> centre(const double R[9], const double t[3]) {
+  std::array<double, 3> c;
+  for (int k = 0; k < 3; ++k) c[k] = -(R[k] * t[0] + R[3 + k] * t[1] + R[6 + k] * t[2]);
+  return c;
+}
+
+Cloud cloud(const colmap::Model &model) {
+  Cloud c;
+  for (const colmap::Point3D &p : model.points) {
+    c.points.push_back(p.xyz);
+    c.colors.push_back({p.rgb[0], p.rgb[1], p.rgb[2]});
+  }
+  for (const colmap::Image &im : model.images) {
+    double R[9];
+    eucsba::rotation_matrix(eucsba::normalized_rotation({im.q[0], im.q[1], im.q[2], im.q[3]}), R);
+    c.centres.push_back(centre(R, im.t.data()));
+  }
+  return c;
+}
+
+Cloud cloud(const bundler::Bundle &b) {
+  Cloud c;
+  for (const bundler::Point &p : b.points) {
+    c.points.push_back(p.xyz);
+    c.colors.push_back(p.rgb);
+  }
+  for (const bundler::Camera &cam : b.cameras)
+    if (cam.registered()) c.centres.push_back(centre(cam.R.data(), cam.t.data()));
+  return c;
+}
+
+// The points with their colors, then the camera centres in red, as an ASCII PLY file.
+bool write_ply(const std::string &path, const Cloud &c, std::string *error) {
+  sbademo::OutputFile file;
+  if (!file.open(path, error)) return false;
+  std::FILE *f = file.get();
+  std::fprintf(f,
+               "ply\nformat ascii 1.0\ncomment points, then camera centres (red)\nelement vertex %zu\n"
+               "property double x\nproperty double y\nproperty double z\n"
+               "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
+               c.points.size() + c.centres.size());
+  for (std::size_t i = 0; i < c.points.size(); ++i)
+    std::fprintf(f, "%.17g %.17g %.17g %d %d %d\n", c.points[i][0], c.points[i][1], c.points[i][2], c.colors[i][0],
+                 c.colors[i][1], c.colors[i][2]);
+  for (const auto &x : c.centres) std::fprintf(f, "%.17g %.17g %.17g 255 0 0\n", x[0], x[1], x[2]);
+  return file.commit(error);
+}
+
+// A loaded reconstruction as sba takes it, and what to do with the result.
+struct Job {
+  std::string summary;  // the sizes line
+  int n = 0, m = 0, cnp = 0;
+  char *vmask = nullptr;
+  double *x = nullptr;
+  std::vector<double> p;
+  eucsba::ExpertFn func = nullptr, fjac = nullptr;
+  void *adata = nullptr;
+  // The projection of point i in camera j with the parameters p.
+  std::function<void(const double *p, int j, int i, double x[2])> project;
+  Cloud initial;
+  // Writes the refined model (p) where --write says, and returns it for --final-ply.
+  std::function<bool(const double *p, Cloud *final_cloud, std::string *error)> finish;
+};
+
+bool is_bundle(const std::string &path) {
+  std::FILE *f = std::fopen(path.c_str(), "rb");
+  if (!f) return false;
+  char head[14] = {};
+  const bool yes = std::fread(head, 1, 13, f) == 13 && std::string(head) == "# Bundle file";
+  std::fclose(f);
+  return yes;
+}
+
+// The state a job's callbacks point into, kept alive for the whole run.
+struct Loaded {
+  colmap::Model model;
+  colmap::Encoding encoding = colmap::Encoding::Text;
+  colmap::SbaProblem problem;
+  std::unique_ptr<eucsba::CameraModel> sba_model;
+  bundler::Bundle bundle;
+  bal::Problem bal;
+  bal::SbaLayout layout;
+  std::vector<int> bundle_cameras;
+  bal::CallbackData bal_data;
+};
+
+bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
+  if (!colmap::read_model(o.input, &l->model, &l->encoding, error) ||
+      !colmap::to_sba(l->model, o.refine, o.input, &l->problem, error))
+    return false;
+  colmap::SbaProblem &pr = l->problem;
+  l->sba_model = std::make_unique<eucsba::CameraModel>(eucsba::CameraKind::VaryingIntrinsicsDistortion, pr.cameras,
+                                                       pr.points.xyz, pr.nccalib, pr.ncdist);
+  const eucsba::CameraModel &sm = *l->sba_model;
+  job->m = pr.points.ncameras;
+  job->n = pr.points.npoints();
+  job->cnp = sm.cnp();
+  job->vmask = pr.points.vmask.data();
+  job->x = pr.points.x.data();
+  job->p = sm.initial_camera_params();
+  job->p.insert(job->p.end(), sm.initial_points().begin(), sm.initial_points().end());
+  const eucsba::ExpertCallbacks cb = eucsba::expert_callbacks(sm.kind(), eucsba::Refinement::MotionStructure);
+  job->func = cb.func;
+  job->fjac = cb.fjac;
+  job->adata = eucsba::as_adata(sm);
+  const int m = job->m, cnp = job->cnp;
+  job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
+    sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
+  };
+  char line[512];
+  std::snprintf(line, sizeof line, "COLMAP model %s (%s): %d images, %zu cameras, %d points",
+                o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", m,
+                l->model.cameras.size(), job->n);
+  job->summary = line;
+  job->summary += "\nIntrinsics refined: " + o.intrinsics + " (nccalib " + std::to_string(pr.nccalib) + ", ncdist " +
+                  std::to_string(pr.ncdist) + ")";
+  job->initial = cloud(l->model);
+  job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
+    colmap::from_sba(*l->sba_model, l->problem, p, o.solve.mcon, o.solve.ncon, &l->model);
+    *final_cloud = cloud(l->model);
+    if (!o.write_eucsba.empty()) {
+      const eucsba::CameraModel &model = *l->sba_model;
+      std::vector<eucsba::Camera> cams;
+      for (int j = 0; j < model.ncameras(); ++j)
+        cams.push_back(model.camera(j, p + static_cast<std::size_t>(j) * model.cnp()));
+      const double *xyz = p + static_cast<std::size_t>(model.ncameras()) * model.cnp();
+      const std::vector<double> points(xyz, xyz + 3 * static_cast<std::size_t>(model.npoints()));
+      eucsba::Status st = eucsba::write_cameras(o.write_eucsba + "-cams.txt", model.kind(), cams);
+      if (st) st = eucsba::write_points(o.write_eucsba + "-pts.txt", l->problem.points, points);
+      if (!st) {
+        *why = st.to_string();
+        return false;
+      }
+    }
+    if (o.write.empty()) return true;
+    const colmap::Encoding out =
+        o.write_format.empty() ? l->encoding
+                               : (o.write_format == "text" ? colmap::Encoding::Text : colmap::Encoding::Binary);
+    return colmap::write_model(o.write, l->model, out, why);
+  };
+  return true;
+}
+
+bool load_bundle(const Options &o, Loaded *l, Job *job, std::string *error) {
+  if (!bundler::read_bundle(o.input, &l->bundle, error) ||
+      !bundler::to_bal(l->bundle, o.input, &l->bal, &l->bundle_cameras, error) ||
+      !bal::to_sba(l->bal, o.input, &l->layout, error))
+    return false;
+  job->m = l->layout.m;
+  job->n = l->layout.n;
+  job->cnp = bal::kCameraParams;
+  job->vmask = l->layout.vmask.data();
+  job->x = l->layout.x.data();
+  job->p = l->layout.p;
+  job->func = bal::motstr_func;
+  job->fjac = bal::motstr_fjac;
+  l->bal_data.ncameras = job->m;
+  job->adata = &l->bal_data;
+  const int m = job->m;
+  job->project = [m](const double *p, int j, int i, double x[2]) {
+    bal::project(p + static_cast<std::size_t>(j) * bal::kCameraParams,
+                 p + static_cast<std::size_t>(m) * bal::kCameraParams + 3 * static_cast<std::size_t>(i), x);
+  };
+  job->summary = "Bundler file " + o.input + ": " + std::to_string(l->bundle.cameras.size()) + " cameras (" +
+                 std::to_string(m) + " registered), " + std::to_string(job->n) + " points";
+  job->initial = cloud(l->bundle);
+  job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
+    bal::from_sba_params(p, &l->bal);
+    bundler::from_bal(l->bal, l->bundle_cameras, o.solve.mcon, o.solve.ncon, &l->bundle);
+    *final_cloud = cloud(l->bundle);
+    if (!o.write_bal.empty() && !bal::write_problem(o.write_bal, l->bal, why)) return false;
+    return o.write.empty() || bundler::write_bundle(o.write, l->bundle, why);
+  };
+  return true;
+}
+
+int refine_main(int argc, char **argv) {
+  Options o;
+  std::string error;
+  const bool parsed = parse_command_line(argc, argv, &o, &error);
+  if (const int status = sbademo::answer_command_line("sbarefine", parsed, error, o.help, o.version, print_usage);
+      status >= 0)
+    return status;
+  sbademo::SolveOptions &so = o.solve;
+  if (!sbademo::outputs_writable({&so.json, &o.initial_ply, &o.final_ply, &o.write_bal})) return kExitFailure;
+
+  const auto read_start = std::chrono::steady_clock::now();
+  Loaded loaded;
+  Job job;
+  const bool bundle = is_bundle(o.input);
+  if (bundle ? !o.write_format.empty() || !o.write_eucsba.empty() : !o.write_bal.empty()) {
+    std::fprintf(stderr, "sbarefine: %s is for %s\n",
+                 bundle ? (o.write_format.empty() ? "--write-eucsba" : "--write-format") : "--write-bal",
+                 bundle ? "COLMAP models" : "Bundler files");
+    return kExitUsage;
+  }
+  if (!(bundle ? load_bundle(o, &loaded, &job, &error) : load_colmap(o, &loaded, &job, &error))) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
+  const double read_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
+  const int m = job.m, n = job.n, cnp = job.cnp;
+  if (so.mcon > m) {
+    std::fprintf(stderr, "sbarefine: --mcon %d is more than the %d cameras\n", so.mcon, m);
+    return kExitUsage;
+  }
+  if (so.ncon > n) {
+    std::fprintf(stderr, "sbarefine: --ncon %d is more than the %d points\n", so.ncon, n);
+    return kExitUsage;
+  }
+  if (!o.initial_ply.empty() && !write_ply(o.initial_ply, job.initial, &error)) {
+    std::fprintf(stderr, "%s: %s\n", o.initial_ply.c_str(), error.c_str());
+    return kExitFailure;
+  }
+
+  sbademo::LogSink sink;
+  sba_ext_result result;
+  sba_ext_options ext;
+  sbademo::init_ext(so, &sink, &result, &ext);
+  int nobs = 0;
+  for (std::size_t k = 0; k < static_cast<std::size_t>(n) * m; ++k) nobs += job.vmask[k] != 0;
+  std::array<double, SBA_INFOSZ> info{};
+  sbademo::TtyProgress progress(so.progress, nobs);
+  sbademo::RunControl control(so.max_time, &progress);
+  sbademo::RunControl::catch_signals();
+  control.attach(&ext);
+  std::vector<double> &p = job.p;
+  const auto start = std::chrono::steady_clock::now();
+  const int ret = sba_motstr_levmar_x_ext(n, so.ncon, m, so.mcon, job.vmask, p.data(), cnp, 3, job.x, nullptr, 2,
+                                          job.func, job.fjac, job.adata, so.itmax, so.verbose, so.opts.data(),
+                                          info.data(), &ext);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  progress.finish();
+  if (ret == SBA_ERROR) {
+    std::fprintf(stderr, "sbarefine: %s: the solve failed (SBA_ERROR, reason %g): %s\n", o.input.c_str(), info[6],
+                 sink.first_error.empty() ? "no result" : sink.first_error.c_str());
+    return kExitFailure;
+  }
+
+  Cloud final_cloud;
+  if (!job.finish(p.data(), &final_cloud, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
+  if (!o.final_ply.empty() && !write_ply(o.final_ply, final_cloud, &error)) {
+    std::fprintf(stderr, "%s: %s\n", o.final_ply.c_str(), error.c_str());
+    return kExitFailure;
+  }
+
+  const long long nvars = static_cast<long long>(m) * cnp + static_cast<long long>(n) * 3;
+  const std::size_t eol = job.summary.find('\n');
+  std::printf("%s, %d observations, %lld variables%s\n", job.summary.substr(0, eol).c_str(), nobs, nvars,
+              eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
+  sbademo::print_summary(nobs, ret, info, seconds, read_seconds, result, so);
+
+  sbademo::Report report = sbademo::make_report("sbarefine", o.input, m, n, nobs, nvars, so, ret, info, result,
+                                                seconds, control);
+  sbademo::print_report(stdout, report);
+  if (!so.json.empty()) {
+    sbademo::add_per_camera(n, m, job.vmask, job.x, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); },
+                            &report);
+    if (!sbademo::write_json(so.json, report, &error)) {
+      std::fprintf(stderr, "%s: %s\n", so.json.c_str(), error.c_str());
+      return kExitFailure;
+    }
+  }
+  if (!o.write.empty()) std::printf("Wrote %s\n", o.write.c_str());
+  if (info[6] == SBA_STOP_USER)
+    return sbademo::stopped_status("sbarefine", control, so.max_time, static_cast<int>(info[5]));
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char **argv) { return sbademo::guarded_main("sbarefine", refine_main, argc, argv); }

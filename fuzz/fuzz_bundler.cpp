@@ -1,0 +1,42 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// libFuzzer target: the Bundler reader (bundler::parse_bundle) and the mapping onto the BAL
+// problem. What parses must format back to text that parses to the same text again, and
+// must map onto a BAL problem whose observations are all in range.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "bal_io.h"
+#include "bundler_io.h"
+#include "fuzz_common.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
+  using sbafuzz::require;
+  const std::string name = "fuzz-input";
+  const std::string text(reinterpret_cast<const char *>(data), size);
+  bundler::Bundle b;
+  std::string error;
+  if (!bundler::parse_bundle(text, name, &b, &error)) {
+    sbafuzz::check_error_line(error, name + ":");
+    return 0;
+  }
+  const std::string once = bundler::format_bundle(b);
+  bundler::Bundle again;
+  if (!bundler::parse_bundle(once, name, &again, &error)) sbafuzz::broken("the formatted bundle does not parse: " + error);
+  require(bundler::format_bundle(again) == once, "formatting the bundle read back gives other text");
+  bal::Problem p;
+  std::vector<int> cameras;
+  if (!bundler::to_bal(b, name, &p, &cameras, &error)) {
+    sbafuzz::check_error_line(error, name + ": ");
+    return 0;
+  }
+  require(p.cameras.size() == cameras.size() * bal::kCameraParams, "camera parameters per registered camera");
+  sbafuzz::require_finite(p.cameras.begin(), p.cameras.end(), "the BAL cameras");
+  for (const bal::Observation &o : p.observations)
+    require(o.camera >= 0 && o.camera < p.ncameras && o.point >= 0 && o.point < p.npoints,
+            "an observation index out of range");
+  bal::SbaLayout s;
+  if (!bal::to_sba(p, name, &s, &error)) sbafuzz::broken("to_sba refused a mapped bundle: " + error);
+  return 0;
+}

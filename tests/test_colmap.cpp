@@ -1,0 +1,613 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// COLMAP sparse models (demo/colmap_io.h, demo/colmap_sba.h) and sbarefine: the readers on
+// malformed input, the text and binary round trips, and refinement of a generated scene
+// through sbarefine against the same scene through eucsbademo's files.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bal_model.h"
+#include "bundler_io.h"
+#include "colmap_io.h"
+#include "colmap_sba.h"
+#include "eucsba_io.h"
+#include "sbagen.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string temp_dir(const std::string &name) {
+  const std::string d = testing::TempDir() + "test_colmap_" + std::to_string(::getpid()) + "_" + name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::string read_file(const std::string &path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void write_file(const std::string &path, const std::string &text) { std::ofstream(path, std::ios::binary) << text; }
+
+// A generated scene: its eucsbademo files under dir/s-*, read back, and the model of those
+// values (so that both paths start from the same doubles).
+struct Scene {
+  std::string prefix;
+  eucsba::Problem problem;
+  colmap::Model model;
+};
+
+Scene make_scene(const std::string &dir, eucsba::CameraKind kind, int cameras = 10, int points = 200) {
+  sbagen::Options o;
+  o.kind = kind;
+  o.cameras = cameras;
+  o.points = points;
+  o.seed = 5;
+  sbagen::Scene s;
+  std::string error;
+  EXPECT_TRUE(sbagen::generate(o, &s, &error)) << error;
+  Scene out;
+  out.prefix = dir + "/s";
+  EXPECT_TRUE(sbagen::write_problem(s, out.prefix));
+  const auto files = sbagen::problem_files(out.prefix, s);
+  const eucsba::Status st = eucsba::load_problem(files.cams, files.pts, files.calib, &out.problem);
+  EXPECT_TRUE(st) << st.to_string();
+  EXPECT_TRUE(colmap::from_problem(out.problem.kind, out.problem.cameras, out.problem.points, 640, 480, &out.model,
+                                   &error))
+      << error;
+  return out;
+}
+
+void expect_same(const colmap::Model &a, const colmap::Model &b) {
+  ASSERT_EQ(a.cameras.size(), b.cameras.size());
+  ASSERT_EQ(a.images.size(), b.images.size());
+  ASSERT_EQ(a.points.size(), b.points.size());
+  for (std::size_t j = 0; j < a.cameras.size(); ++j) {
+    EXPECT_EQ(a.cameras[j].id, b.cameras[j].id);
+    EXPECT_EQ(a.cameras[j].model, b.cameras[j].model);
+    EXPECT_EQ(a.cameras[j].width, b.cameras[j].width);
+    EXPECT_EQ(a.cameras[j].height, b.cameras[j].height);
+    EXPECT_EQ(a.cameras[j].params, b.cameras[j].params);
+  }
+  for (std::size_t j = 0; j < a.images.size(); ++j) {
+    const colmap::Image &x = a.images[j], &y = b.images[j];
+    EXPECT_EQ(x.id, y.id);
+    EXPECT_EQ(x.q, y.q);
+    EXPECT_EQ(x.t, y.t);
+    EXPECT_EQ(x.camera_id, y.camera_id);
+    EXPECT_EQ(x.name, y.name);
+    ASSERT_EQ(x.points.size(), y.points.size());
+    for (std::size_t k = 0; k < x.points.size(); ++k) {
+      EXPECT_EQ(x.points[k].x, y.points[k].x);
+      EXPECT_EQ(x.points[k].y, y.points[k].y);
+      EXPECT_EQ(x.points[k].point3d_id, y.points[k].point3d_id);
+    }
+  }
+  for (std::size_t i = 0; i < a.points.size(); ++i) {
+    const colmap::Point3D &x = a.points[i], &y = b.points[i];
+    EXPECT_EQ(x.id, y.id);
+    EXPECT_EQ(x.xyz, y.xyz);
+    EXPECT_EQ(x.rgb, y.rgb);
+    EXPECT_EQ(x.error, y.error);
+    ASSERT_EQ(x.track.size(), y.track.size());
+    for (std::size_t k = 0; k < x.track.size(); ++k) {
+      EXPECT_EQ(x.track[k].image_id, y.track[k].image_id);
+      EXPECT_EQ(x.track[k].point2d_idx, y.track[k].point2d_idx);
+    }
+  }
+}
+
+// ---- round trips ----
+
+TEST(ColmapRoundTrip, TextAndBinary) {
+  const std::string dir = temp_dir("roundtrip");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::check_model(s.model, "generated", &error)) << error;
+  for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+    const std::string out = dir + (e == colmap::Encoding::Text ? "/text" : "/binary");
+    ASSERT_TRUE(colmap::write_model(out, s.model, e, &error)) << error;
+    colmap::Model back;
+    colmap::Encoding found;
+    ASSERT_TRUE(colmap::read_model(out, &back, &found, &error)) << error;
+    EXPECT_EQ(found, e);
+    expect_same(s.model, back);
+    // Written again, the files are the same bytes.
+    const colmap::Files first = colmap::format_model(s.model, e), second = colmap::format_model(back, e);
+    EXPECT_EQ(first.cameras, second.cameras);
+    EXPECT_EQ(first.images, second.images);
+    EXPECT_EQ(first.points, second.points);
+    EXPECT_EQ(read_file(out + (e == colmap::Encoding::Text ? "/images.txt" : "/images.bin")), first.images);
+  }
+  // The binary sizes as COLMAP lays the records out: 8 + per camera 24 + 8 * 8 (OPENCV).
+  EXPECT_EQ(colmap::format_model(s.model, colmap::Encoding::Binary).cameras.size(), 8u + 10u * (24u + 64u));
+}
+
+TEST(ColmapRoundTrip, EveryAcceptedCameraModelAndNamesWithBlanks) {
+  const std::string text =
+      "# comment\n"
+      "1 SIMPLE_PINHOLE 640 480 500 320 240\n"
+      "2 PINHOLE 640 480 500 510 320 240\n"
+      "\n"
+      "3 SIMPLE_RADIAL 640 480 500 320 240 0.125\n"
+      "4 RADIAL 640 480 500 320 240 0.125 -0.5\n"
+      "5 OPENCV 640 480 500 510 320 240 0.125 -0.5 1e-3 -2e-3\n";
+  std::vector<colmap::Camera> cams;
+  std::string error;
+  ASSERT_TRUE(colmap::parse_cameras_text(text, "cameras.txt", &cams, &error)) << error;
+  ASSERT_EQ(cams.size(), 5u);
+  EXPECT_EQ(cams[4].params, (std::vector<double>{500, 510, 320, 240, 0.125, -0.5, 1e-3, -2e-3}));
+  const std::string images = "7 1 0 0 0 0.5 0 2 3 my image.png\n100 200 -1\n9 0 1 0 0 0 0 1 3 b.png\n\n";
+  std::vector<colmap::Image> ims;
+  ASSERT_TRUE(colmap::parse_images_text(images, "images.txt", &ims, &error)) << error;
+  ASSERT_EQ(ims.size(), 2u);
+  EXPECT_EQ(ims[0].name, "my image.png");
+  EXPECT_EQ(ims[0].points.size(), 1u);
+  EXPECT_EQ(ims[0].points[0].point3d_id, colmap::kNoPoint);
+  EXPECT_TRUE(ims[1].points.empty());
+  colmap::Model m;
+  m.cameras = cams;
+  m.images = ims;
+  const colmap::Files f = colmap::format_model(m, colmap::Encoding::Text);
+  std::vector<colmap::Camera> cams2;
+  std::vector<colmap::Image> ims2;
+  ASSERT_TRUE(colmap::parse_cameras_text(f.cameras, "c", &cams2, &error)) << error;
+  ASSERT_TRUE(colmap::parse_images_text(f.images, "i", &ims2, &error)) << error;
+  EXPECT_EQ(colmap::format_model({cams2, ims2, {}}, colmap::Encoding::Binary).images,
+            colmap::format_model(m, colmap::Encoding::Binary).images);
+}
+
+// ---- strictness ----
+
+struct Bad {
+  const char *text;
+  const char *message;
+};
+
+TEST(ColmapReader, CameraTextErrors) {
+  const Bad cases[] = {
+      {"1 FULL_OPENCV 640 480 1 2 3 4 5 6 7 8 9 10 11 12\n",
+       "c.txt:1: camera model FULL_OPENCV is not supported: sba's camera model expresses SIMPLE_PINHOLE, PINHOLE, "
+       "SIMPLE_RADIAL, RADIAL and OPENCV"},
+      {"1 FISHY 640 480 1 2 3\n", "c.txt:1: unknown camera model 'FISHY'"},
+      {"#\n1 PINHOLE 640 480 1 2 3\n", "c.txt:2: PINHOLE has 4 parameters, found 3"},
+      {"1 PINHOLE 640 480 1 2 3 nan\n", "c.txt:1: a camera parameter must be a finite number, got 'nan'"},
+      {"-1 PINHOLE 640 480 1 2 3 4\n", "c.txt:1: CAMERA_ID must be an integer from 0 to 4294967295, got '-1'"},
+      {"1 PINHOLE 640 480 1 2 3 4\n1 PINHOLE 640 480 1 2 3 4\n", "c.txt:2: camera 1 appears twice"},
+      {"1 PINHOLE 640\n", "c.txt:1: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[], found 3 values"},
+  };
+  for (const Bad &b : cases) {
+    std::vector<colmap::Camera> cams;
+    std::string error;
+    EXPECT_FALSE(colmap::parse_cameras_text(b.text, "c.txt", &cams, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+}
+
+TEST(ColmapReader, ImageAndPointTextErrors) {
+  const Bad images[] = {
+      {"1 0 0 0 0 0 0 0 1 a.png\n\n", "i.txt:1: the quaternion is zero"},
+      {"1 1 0 0 0 0 0 0 1 a.png\n", "i.txt:1: the image's line of POINTS2D (X Y POINT3D_ID ...) is missing"},
+      {"1 1 0 0 0 0 0 0 1 a.png\n1 2\n", "i.txt:2: POINTS2D come in triples X Y POINT3D_ID, found 2 values"},
+      {"1 1 0 0 0 0 0 0 1 a.png\n1 2 -2\n",
+       "i.txt:2: POINT3D_ID must be -1 or an integer from 0 to 18446744073709551614, got '-2'"},
+      {"1 1 0 0 0 0 inf 0 1 a.png\n\n", "i.txt:1: TY must be a finite number, got 'inf'"},
+  };
+  for (const Bad &b : images) {
+    std::vector<colmap::Image> ims;
+    std::string error;
+    EXPECT_FALSE(colmap::parse_images_text(b.text, "i.txt", &ims, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+  const Bad points[] = {
+      {"1 0 0 0 255 0 256 0.5 1 0\n", "p.txt:1: B must be an integer from 0 to 255, got '256'"},
+      {"1 0 0 0 255 0 0 0.5 1\n",
+       "p.txt:1: expected POINT3D_ID X Y Z R G B ERROR and pairs IMAGE_ID POINT2D_IDX, found 9 values"},
+  };
+  for (const Bad &b : points) {
+    std::vector<colmap::Point3D> pts;
+    std::string error;
+    EXPECT_FALSE(colmap::parse_points_text(b.text, "p.txt", &pts, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+}
+
+TEST(ColmapReader, BinaryErrors) {
+  const std::string dir = temp_dir("binerr");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
+  colmap::Files f = colmap::format_model(s.model, colmap::Encoding::Binary);
+  std::string error;
+  std::vector<colmap::Camera> cams;
+  std::vector<colmap::Image> ims;
+  std::vector<colmap::Point3D> pts;
+  // An unsupported model is named.
+  std::string bad = f.cameras;
+  bad[12] = 6;
+  EXPECT_FALSE(colmap::parse_cameras_binary(bad, "c.bin", &cams, &error));
+  EXPECT_EQ(error, "c.bin: byte 8: camera 100: camera model FULL_OPENCV is not supported: sba's camera model "
+                   "expresses SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV");
+  // Truncated, trailing bytes, an absurd count, a NaN.
+  EXPECT_FALSE(colmap::parse_cameras_binary(f.cameras.substr(0, f.cameras.size() - 1), "c.bin", &cams, &error));
+  EXPECT_EQ(error, "c.bin: byte " + std::to_string(f.cameras.size() - 8) + ": the file ends inside a camera parameter");
+  EXPECT_FALSE(colmap::parse_images_binary(f.images + "x", "i.bin", &ims, &error));
+  EXPECT_EQ(error, "i.bin: byte " + std::to_string(f.images.size()) + ": 1 bytes after the last record");
+  bad = f.images;
+  bad[72] = '\n';  // the first image's name
+  EXPECT_FALSE(colmap::parse_images_binary(bad, "i.bin", &ims, &error));
+  EXPECT_EQ(error, "i.bin: byte 8: image 10: an empty name or one with a line break");
+  bad = f.points;
+  bad[7] = 1;
+  EXPECT_FALSE(colmap::parse_points_binary(bad, "p.bin", &pts, &error));
+  EXPECT_EQ(error.rfind("p.bin: byte 0: the number of points is 72057594037927966, more than the ", 0), 0u) << error;
+  bad = f.points;
+  const double nan = std::nan("");
+  std::memcpy(&bad[16], &nan, 8);
+  EXPECT_FALSE(colmap::parse_points_binary(bad, "p.bin", &pts, &error));
+  EXPECT_EQ(error, "p.bin: byte 16: a coordinate is not a finite number");
+}
+
+TEST(ColmapReader, ModelConsistency) {
+  const std::string dir = temp_dir("consistency");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
+  std::string error;
+  colmap::Model m = s.model;
+  m.images[1].camera_id = 5;
+  EXPECT_FALSE(colmap::check_model(m, "dir", &error));
+  EXPECT_EQ(error, "dir: image 13 uses camera 5, which cameras does not hold");
+  m = s.model;
+  m.points[0].track[0].point2d_idx = 0;  // the unmatched keypoint
+  EXPECT_FALSE(colmap::check_model(m, "dir", &error));
+  EXPECT_EQ(error.rfind("dir: point 1000 lists POINTS2D 0 of image ", 0), 0u) << error;
+  m = s.model;
+  m.points[0].track.pop_back();
+  EXPECT_FALSE(colmap::check_model(m, "dir", &error));
+  EXPECT_EQ(error, "dir: the tracks of points3D list " + std::to_string(s.problem.points.nprojections() - 1) +
+                       " observations, the images name points in " +
+                       std::to_string(s.problem.points.nprojections()));
+  m = s.model;
+  m.images[0].points[0].point3d_id = 1000;  // the unmatched keypoint now claims point 1000
+  EXPECT_FALSE(colmap::check_model(m, "dir", &error));
+  EXPECT_EQ(error, "dir: image 10 sees point 1000 twice: sba takes one observation per point and image");
+}
+
+// ---- sbarefine ----
+
+struct Outcome {
+  int status = -1;
+  std::string out, err;
+};
+
+Outcome run(const std::string &args) {
+  const std::string base = testing::TempDir() + "test_colmap_run_" + std::to_string(::getpid());
+  const int st = std::system((std::string(SBAREFINE_EXE) + " " + args + " >" + base + ".out 2>" + base + ".err").c_str());
+  Outcome r;
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  r.out = read_file(base + ".out");
+  r.err = read_file(base + ".err");
+  return r;
+}
+
+// The final mean squared error of "SBA returned ... error E [initial I]".
+double final_error(const std::string &out) {
+  const std::size_t at = out.find("SBA returned");
+  const std::size_t e = out.find(" error ", at);
+  if (at == std::string::npos || e == std::string::npos) return NAN;
+  return std::strtod(out.c_str() + e + 7, nullptr);
+}
+
+double eucsbademo_error(const std::string &args) {
+  FILE *p = popen((std::string(EUCSBADEMO_EXE) + " " + args + " 2>/dev/null").c_str(), "r");
+  std::string out;
+  char buf[4096];
+  std::size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+  EXPECT_EQ(pclose(p), 0) << args;
+  return final_error(out);
+}
+
+TEST(Sbarefine, SameErrorAsEucsbademoTextAndBinary) {
+  const std::string dir = temp_dir("refine");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  // COLMAP's default: focal and distortion (OPENCV's four terms) refined, principal point held.
+  const double expected = eucsbademo_error("--nccalib 4 --ncdist 1 " + s.prefix + "-cams.txt " + s.prefix + "-pts.txt");
+  ASSERT_TRUE(std::isfinite(expected));
+  ASSERT_GT(expected, 0.1);
+  ASSERT_LT(expected, 1.0);
+  std::string error;
+  for (const char *enc : {"text", "binary"}) {
+    const std::string in = dir + "/in-" + enc, out = dir + "/out-" + enc;
+    ASSERT_TRUE(colmap::write_model(in, s.model,
+                                    std::string(enc) == "text" ? colmap::Encoding::Text : colmap::Encoding::Binary,
+                                    &error));
+    const Outcome r = run(in + " --write " + out + " --final-ply " + dir + "/f.ply");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NEAR(final_error(r.out), expected, 1e-6 * expected) << r.out;
+    EXPECT_NE(r.out.find("Intrinsics refined: focal,distortion (nccalib 4, ncdist 1)"), std::string::npos) << r.out;
+    colmap::Model back;
+    colmap::Encoding found;
+    ASSERT_TRUE(colmap::read_model(out, &back, &found, &error)) << error;
+    EXPECT_EQ(std::string(enc) == "text", found == colmap::Encoding::Text);
+    // Identifiers, names, colors, observations and the held intrinsics as they were.
+    ASSERT_EQ(back.images.size(), s.model.images.size());
+    for (std::size_t j = 0; j < back.images.size(); ++j) {
+      EXPECT_EQ(back.images[j].id, s.model.images[j].id);
+      EXPECT_EQ(back.images[j].name, s.model.images[j].name);
+      EXPECT_EQ(back.images[j].camera_id, s.model.images[j].camera_id);
+      EXPECT_EQ(back.images[j].points.size(), s.model.images[j].points.size());
+      EXPECT_EQ(back.images[j].points[1].x, s.model.images[j].points[1].x);
+      EXPECT_EQ(back.images[j].points[0].point3d_id, colmap::kNoPoint);
+      EXPECT_NE(back.images[j].t, s.model.images[j].t);
+      const colmap::Camera &c = back.cameras[j], &c0 = s.model.cameras[j];
+      EXPECT_EQ(c.id, c0.id);
+      EXPECT_EQ(c.params[2], c0.params[2]);  // cx
+      EXPECT_EQ(c.params[3], c0.params[3]);  // cy
+      EXPECT_NE(c.params[0], c0.params[0]);  // fx refined
+      EXPECT_DOUBLE_EQ(c.params[1] / c.params[0], c0.params[1] / c0.params[0]);  // fy / fx held
+      EXPECT_NE(c.params[7], c0.params[7]);  // p2 refined
+    }
+    ASSERT_EQ(back.points.size(), s.model.points.size());
+    double mean_error = 0;
+    for (std::size_t i = 0; i < back.points.size(); ++i) {
+      EXPECT_EQ(back.points[i].id, s.model.points[i].id);
+      EXPECT_EQ(back.points[i].rgb, s.model.points[i].rgb);
+      EXPECT_EQ(back.points[i].track.size(), s.model.points[i].track.size());
+      mean_error += back.points[i].error / static_cast<double>(back.points.size());
+    }
+    // ERROR: the mean pixel distance at the result, about the noise (0.5 px sigma).
+    EXPECT_GT(mean_error, 0.3);
+    EXPECT_LT(mean_error, 0.8);
+  }
+  // PLY: the points with their colors, then the camera centres.
+  const std::string ply = read_file(dir + "/f.ply");
+  EXPECT_NE(ply.find("element vertex 210\n"), std::string::npos);
+  EXPECT_NE(ply.find(" 0 64 255\n"), std::string::npos);  // point 0's color
+}
+
+TEST(Sbarefine, SharedCameraHeldIntrinsicsAsFixedK) {
+  const std::string dir = temp_dir("shared");
+  const Scene s = make_scene(dir, eucsba::CameraKind::FixedIntrinsics);
+  ASSERT_EQ(s.model.cameras.size(), 1u);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error));
+  // One camera for ten images cannot have its focal length refined by sba.
+  Outcome r = run(dir + "/in");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/in: camera 1 is shared by 10 images: sba refines each image's intrinsics on their own; "
+                         "hold them (--intrinsics none) or give each image a camera of its own\n");
+  const double expected = eucsbademo_error(s.prefix + "-cams.txt " + s.prefix + "-pts.txt " + s.prefix + "-calib.txt");
+  r = run(dir + "/in --intrinsics none --write " + dir + "/out --write-format text");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NEAR(final_error(r.out), expected, 1e-6 * expected) << r.out;
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  EXPECT_EQ(back.cameras[0].params, s.model.cameras[0].params);
+}
+
+TEST(Sbarefine, MaxTimeStopsAfterAnIterationAndStillWrites) {
+  const std::string dir = temp_dir("maxtime");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error));
+  const Outcome r = run(dir + "/in --max-time 1e-9 --write " + dir + "/out");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err, "sbarefine: --max-time 1e-09 s reached after iteration 1: the results are the last accepted "
+                   "estimate\n");
+  EXPECT_NE(r.out.find("SBA returned 1 in 1 iter, reason 9"), std::string::npos) << r.out;
+  colmap::Model back;
+  EXPECT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+}
+
+TEST(Sbarefine, CommandLineErrors) {
+  Outcome r = run("--intrinsics principal x");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: bad value 'principal' for --intrinsics: the principal point is refined only with the focal length "
+                   "(focal,principal)\n");
+  r = run("");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: expected 1 argument (a COLMAP model directory or a Bundler file), got 0 (see --help)\n");
+  const std::string dir = temp_dir("cli");
+  r = run(dir + "/none");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/none: no COLMAP model (cameras.txt or cameras.bin)\n");
+  write_file(dir + "/cameras.txt", "1 OPENCV_FISHEYE 640 480 1 2 3 4 5 6 7 8\n");
+  r = run(dir);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/cameras.txt:1: camera model OPENCV_FISHEYE is not supported: sba's camera model "
+                         "expresses SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV\n");
+}
+
+// ---- Bundler ----
+
+bundler::Bundle make_bundle(const Scene &s) {
+  bundler::Bundle b;
+  std::string error;
+  EXPECT_TRUE(bundler::from_problem(s.problem.cameras, s.problem.points, &b, &error)) << error;
+  return b;
+}
+
+TEST(Bundler, RoundTripAndAnUnregisteredCamera) {
+  const std::string dir = temp_dir("bundler_rt");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 50);
+  bundler::Bundle b = make_bundle(s);
+  b.cameras.push_back({});  // a camera Bundler could not place: all zeros
+  const std::string text = bundler::format_bundle(b);
+  EXPECT_EQ(text.rfind("# Bundle file v0.3\n7 50\n", 0), 0u);
+  bundler::Bundle back;
+  std::string error;
+  ASSERT_TRUE(bundler::parse_bundle(text, "b.out", &back, &error)) << error;
+  EXPECT_EQ(bundler::format_bundle(back), text);
+  ASSERT_EQ(back.cameras.size(), 7u);
+  EXPECT_EQ(back.cameras[3].R, b.cameras[3].R);
+  EXPECT_EQ(back.points[7].views.size(), b.points[7].views.size());
+  EXPECT_EQ(back.points[7].views[0].x, b.points[7].views[0].x);
+  EXPECT_EQ(back.points[7].rgb, b.points[7].rgb);
+  EXPECT_FALSE(back.cameras[6].registered());
+}
+
+TEST(Bundler, ReaderErrors) {
+  const std::string cam = "1 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 -3\n";
+  const Bad cases[] = {
+      {"# Bundle v0.3\n", "b.out:1: expected the header '# Bundle file v0.3'"},
+      {"# Bundle file v0.3\n1 1\n1 0 0\n1 0 0\n0 1 0\n0 0 2\n0 0 0\n0 0 0\n0 0 0\n0\n",
+       "b.out:6: camera 0: R is not a rotation"},
+      {"# Bundle file v0.3\n1 100000000\n1 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 -3\n0 0 0\n",
+       "b.out: the counts (1 cameras, 100000000 points) need more numbers than the file holds"},
+      {"# Bundle file v0.3\n1 1\n1 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 -3\n0 0 0\n1 2\n",
+       "b.out:9: the file ends before point 0 blue"},
+      {"# Bundle file v0.3\n1 -1\n", "b.out:2: the number of points is -1, expected 0..268435456"},
+  };
+  for (const Bad &b : cases) {
+    bundler::Bundle out;
+    std::string error;
+    EXPECT_FALSE(bundler::parse_bundle(b.text, "b.out", &out, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+  const std::string head = "# Bundle file v0.3\n2 1\n" + cam + "0 0 0\n0 0 0\n0 0 0\n0 0 0\n0 0 0\n";
+  const Bad points[] = {
+      {"0 0 0\n1 2 256\n0\n", "b.out:14: point 0 blue is 256, expected 0..255"},
+      {"0 0 0\n1 2 3\n1 2 0 1 2\n", "b.out:15: point 0 camera index is 2, expected 0..1"},
+      {"0 0 0\n1 2 3\n2 0 0 1 2 0 1 1 2\n", "b.out:15: point 0 is seen twice by camera 0"},
+      {"0 0 0\n1 2 3\n1 1 0 1 2\n", "b.out:15: point 0 is seen by camera 1, which is not registered (f = 0)"},
+      {"0 0 0\n1 2 3\n1 0 0 1 nan\n", "b.out:15: point 0 y must be a finite number, got 'nan'"},
+      {"0 0 0\n1 2 3\n1 0 0 1 2\n7\n", "b.out:16: data after the last point"},
+  };
+  for (const Bad &b : points) {
+    bundler::Bundle out;
+    std::string error;
+    EXPECT_FALSE(bundler::parse_bundle(head + b.text, "b.out", &out, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+  bundler::Bundle out;
+  std::string error;
+  EXPECT_TRUE(bundler::parse_bundle(head + "0 0 0\n1 2 3\n1 0 0 1 2\n", "b.out", &out, &error)) << error;
+}
+
+TEST(Bundler, AngleAxisInvertsTheRotation) {
+  const double ws[][3] = {{0, 0, 0}, {1e-9, -2e-9, 0}, {0.3, -0.2, 0.1}, {2, 1, -0.5},
+                          {M_PI - 1e-9, 0, 0}, {0, 0, -M_PI}, {1.5, 1.5, 1.5}};
+  for (const auto &w : ws) {
+    std::array<double, 9> R;
+    bal::rotation_matrix(w, R.data());
+    double v[3];
+    bundler::angle_axis(R, v);
+    std::array<double, 9> R2;
+    bal::rotation_matrix(v, R2.data());
+    for (int k = 0; k < 9; ++k) EXPECT_NEAR(R2[k], R[k], 1e-12) << w[0] << " " << w[1] << " " << w[2];
+  }
+}
+
+TEST(Sbarefine, BundlerSameErrorAsEucsbademo) {
+  const std::string dir = temp_dir("bundler_refine");
+  Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics);
+  // Bundler refines f, k1, k2 and holds the principal point: eucsbademo's varKD with the
+  // distortion starting at zero, --nccalib 4 --ncdist 3, refines the same model.
+  const std::string cams = dir + "/kd-cams.txt";
+  ASSERT_TRUE(eucsba::write_cameras(cams, eucsba::CameraKind::VaryingIntrinsicsDistortion, s.problem.cameras));
+  eucsba::Problem kd;
+  ASSERT_TRUE(eucsba::load_problem(cams, s.prefix + "-pts.txt", "", &kd));
+  const double expected = eucsbademo_error("--nccalib 4 --ncdist 3 " + cams + " " + s.prefix + "-pts.txt");
+  ASSERT_GT(expected, 0.1);
+  ASSERT_LT(expected, 1.0);
+  bundler::Bundle b;
+  std::string error;
+  ASSERT_TRUE(bundler::from_problem(kd.cameras, kd.points, &b, &error)) << error;
+  b.cameras.insert(b.cameras.begin(), bundler::Camera{});  // unregistered, and shifts the indices
+  for (bundler::Point &p : b.points)
+    for (bundler::View &v : p.views) ++v.camera;
+  ASSERT_TRUE(bundler::write_bundle(dir + "/in.out", b, &error)) << error;
+  const Outcome r = run(dir + "/in.out --write " + dir + "/out.out --initial-ply " + dir + "/i.ply");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("Bundler file " + dir + "/in.out: 11 cameras (10 registered), 200 points"), std::string::npos)
+      << r.out;
+  EXPECT_NEAR(final_error(r.out), expected, 1e-6 * expected) << r.out;
+  bundler::Bundle back;
+  ASSERT_TRUE(bundler::read_bundle(dir + "/out.out", &back, &error)) << error;
+  ASSERT_EQ(back.cameras.size(), 11u);
+  EXPECT_FALSE(back.cameras[0].registered());
+  EXPECT_NE(back.cameras[1].f, b.cameras[1].f);
+  EXPECT_NE(back.cameras[1].k1, 0.0);
+  for (std::size_t i = 0; i < b.points.size(); ++i) {
+    EXPECT_EQ(back.points[i].rgb, b.points[i].rgb);
+    ASSERT_EQ(back.points[i].views.size(), b.points[i].views.size());
+    EXPECT_EQ(back.points[i].views[0].camera, b.points[i].views[0].camera);
+    EXPECT_EQ(back.points[i].views[0].key, b.points[i].views[0].key);
+    EXPECT_EQ(back.points[i].views[0].x, b.points[i].views[0].x);
+  }
+  EXPECT_NE(read_file(dir + "/i.ply").find("element vertex 210\n"), std::string::npos);
+}
+
+// Conversions: a COLMAP model to eucsbademo's files and a bundle to a BAL problem (itmax 0:
+// the input as read) refine to what the source refines to.
+TEST(Sbarefine, ConvertsToEucsbademoAndBal) {
+  const std::string dir = temp_dir("convert");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error));
+  Outcome r = run(dir + "/in --itmax 0 --write-eucsba " + dir + "/e");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const double expected = eucsbademo_error("--nccalib 4 --ncdist 1 " + s.prefix + "-cams.txt " + s.prefix + "-pts.txt");
+  EXPECT_NEAR(eucsbademo_error("--nccalib 4 --ncdist 1 " + dir + "/e-cams.txt " + dir + "/e-pts.txt"), expected,
+              1e-6 * expected);
+
+  const Scene k = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 8, 120);
+  bundler::Bundle b = make_bundle(k);
+  ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", b, &error)) << error;
+  r = run(dir + "/b.out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const double bundle_error = final_error(r.out);
+  r = run(dir + "/b.out --itmax 0 --write-bal " + dir + "/b.bal");
+  ASSERT_EQ(r.status, 0) << r.err;
+  FILE *p = popen((std::string(BALSBA_EXE) + " " + dir + "/b.bal").c_str(), "r");
+  std::string out;
+  char buf[4096];
+  std::size_t got;
+  while ((got = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, got);
+  EXPECT_EQ(pclose(p), 0);
+  EXPECT_NEAR(final_error(out), bundle_error, 1e-6 * bundle_error) << out;
+
+  r = run(dir + "/b.out --write-eucsba " + dir + "/x");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: --write-eucsba is for COLMAP models\n");
+}
+
+// sbagen writes the same scenes as files.
+TEST(Sbagen, WritesColmapAndBundlerFiles) {
+  const std::string dir = temp_dir("sbagen");
+  const std::string gen = std::string(SBAGEN_EXE) + " --cameras 6 --points 60 --quiet --out " + dir + "/g";
+  ASSERT_EQ(std::system((gen + " --kind varKD --colmap " + dir + "/t --colmap-binary " + dir + "/b").c_str()), 0);
+  colmap::Model text, binary;
+  std::string error;
+  ASSERT_TRUE(colmap::read_model(dir + "/t", &text, nullptr, &error)) << error;
+  ASSERT_TRUE(colmap::read_model(dir + "/b", &binary, nullptr, &error)) << error;
+  expect_same(text, binary);
+  ASSERT_EQ(text.cameras.size(), 6u);
+  EXPECT_EQ(text.cameras[0].model, colmap::kOpenCV);
+  EXPECT_EQ(text.images[5].name, "img_0005.png");
+  EXPECT_EQ(text.points[1].id, 1007u);
+  const int st = std::system((gen + " --kind varKD --bundler " + dir + "/x.out 2>" + dir + "/err").c_str());
+  EXPECT_EQ(WEXITSTATUS(st), 1);
+  EXPECT_EQ(read_file(dir + "/err"), "sbagen: camera 0 has an aspect ratio, a skew or distortion terms beyond k1 k2, "
+                                     "which Bundler cannot hold\n");
+  ASSERT_EQ(std::system((gen + " --kind varK --bundler " + dir + "/g.out").c_str()), 0);
+  bundler::Bundle b;
+  ASSERT_TRUE(bundler::read_bundle(dir + "/g.out", &b, &error)) << error;
+  EXPECT_EQ(b.cameras.size(), 6u);
+  EXPECT_EQ(b.points.size(), 60u);
+}
+
+}  // namespace
