@@ -3,7 +3,8 @@
 # Builds the benchmarks (Release) and runs the whole suite, writing bench/results/:
 # results.md (tables), results.json (one JSON object per run), scaling.png (gnuplot),
 # kernels.json and block_kernels.json (Google Benchmark), features.md (robust-loss overhead and
-# covariance time against problem size).
+# covariance time against problem size), and the orbit and photo series (bench/series.sh:
+# NAME_series.md, .json and .png). With --quick or --report-only, only run_suite.py's part.
 #
 #   bench/run_suite.sh [BUILD_DIR] [run_suite.py options: --quick, --only GROUPS, --timeout SEC ...]
 #
@@ -38,3 +39,5 @@ rm -f "$here/results/features.json"
   echo
   "$build/bench/features_bench" --out "$here/results/features.json"
 } > "$here/results/features.md"
+"$here/series.sh" orbit "$build"
+"$here/series.sh" photo "$build"

@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-// The dense Cholesky factorization of S (the `chol` solver), part of kernels_impl.h and so
-// compiled once per kernel build. Included there inside namespace sba::SBA_KERNELS_NS; the
-// factorization reaches it through own_dense_cholesky (dense_factorization.h), not through the
-// block kernels' interface.
+// The library's own dense Cholesky factorization of S (the `chol` solver), compiled twice:
+// by dense_chol.cpp for any x86-64 (and other targets), and by dense_chol_avx2.cpp with AVX2
+// and FMA enabled, each into its own namespace SBA_DENSE_CHOL_NS. The factorization reaches
+// it through own_dense_cholesky (dense_factorization.h), which picks the build the CPU runs.
 //
 // Why not LAPACK's DPOTRF: a threaded BLAS rounds differently with each thread count
 // (OpenBLAS's DPOTRF changes its blocking), so the LM steps, and on the sba demo problems the
@@ -13,6 +13,23 @@
 // fused multiply-add each where the CPU has FMA, then one multiplication by its pivot's
 // reciprocal), however the work is blocked and split: the same bits for any thread count.
 // S is row-major upper (as the assembly leaves it), which is LAPACK's column-major lower.
+#ifndef SBA_DENSE_CHOL_NS
+#error "define SBA_DENSE_CHOL_NS before including dense_chol_impl.h"
+#endif
+
+#include <algorithm>
+#include <cmath>
+#ifdef __AVX__
+#include <immintrin.h>
+#endif
+
+#include "dense_factorization.h"
+#include "madd.h"
+#include "parallel.h"
+
+namespace sba {
+namespace SBA_DENSE_CHOL_NS {
+namespace {
 
 namespace chol {
 
@@ -253,3 +270,13 @@ inline bool factor(ThreadPool &pool, double *S, i64 n, i64 ld, i64 ncols) {
 }
 
 }  // namespace chol
+
+}  // namespace
+
+// The dense Cholesky of this build, for own_dense_cholesky (dense_factorization.h).
+bool dense_cholesky(ThreadPool &pool, double *S, i64 n, i64 ld, i64 nrhs) {
+  return chol::factor(pool, S, n, ld, n + nrhs);
+}
+
+}  // namespace SBA_DENSE_CHOL_NS
+}  // namespace sba

@@ -34,13 +34,12 @@ class DenseFactorization {
 std::unique_ptr<DenseFactorization> make_dense_factorization(LinSolver kind, i64 n, int cnp,
                                                              ThreadPool &pool);
 
-// The library's own dense Cholesky (src/dense_chol_impl.h) in the build the CPU runs, the one
-// make_kernels picks: S = U^T U in place (S row-major upper with row stride ld; U in the same
-// place, LAPACK's column-major lower factor), and U^-T b for nrhs right-hand sides b held in
-// columns [n, n + nrhs) of the rows (ld >= n + nrhs). Every entry is computed as the
-// unblocked right-looking algorithm computes it, so the bits do not depend on the number of
-// threads. False if S is not numerically positive definite. Defined in kernels.cpp, whose
-// two builds it shares.
+// The library's own dense Cholesky (src/dense_chol_impl.h) in the build the CPU runs (isa.h):
+// S = U^T U in place (S row-major upper with row stride ld; U in the same place, LAPACK's
+// column-major lower factor), and U^-T b for nrhs right-hand sides b held in columns
+// [n, n + nrhs) of the rows (ld >= n + nrhs). Every entry is computed as the unblocked
+// right-looking algorithm computes it, so the bits do not depend on the number of threads.
+// False if S is not numerically positive definite. Defined in dense_chol.cpp.
 using DenseCholesky = bool (*)(ThreadPool &pool, double *S, i64 n, i64 ld, i64 nrhs);
 DenseCholesky own_dense_cholesky();
 

@@ -22,21 +22,85 @@
 namespace sba {
 namespace {
 
+// One entry point's arguments. The entry points build it with the problem builders below
+// (one per prototype shape) and then solving() or estimating(), never field by field.
 struct DriverArgs {
-  const char *name;
-  Mode mode;
-  int n, ncon, m, mcon, cnp, pnp, mnp;
-  char *vmask;
-  double *p, *x, *covx;
-  bool have_func;
-  int itmax, verbose;
-  const double *opts;
-  double *info;
-  const sba_ext_options *ext;
+  const char *name = nullptr;  // the entry point as messages name it
+  Mode mode = Mode::MotStr;
+  int n = 0, ncon = 0, m = 0, mcon = 0, cnp = 0, pnp = 0, mnp = 0;
+  char *vmask = nullptr;
   bool by_pairs = false;                // the _vis entry points: pairs instead of vmask
   const sba_visibility *vis = nullptr;
+  double *p = nullptr, *x = nullptr, *covx = nullptr;
+  bool have_func = false;               // the projection callback (func or proj) is given
+  int itmax = 0, verbose = 0;
+  const double *opts = nullptr;
+  double *info = nullptr;
+  const sba_ext_options *ext = nullptr;
   bool simple = false;                  // per-projection callbacks (the simple drivers)
+
+  // The levmar entry points' controls.
+  DriverArgs &solving(bool func_given, int itmax_arg, int verbose_arg, const double *opts_arg,
+                      double *info_arg, const sba_ext_options *ext_arg) {
+    have_func = func_given;
+    itmax = itmax_arg;
+    verbose = verbose_arg;
+    opts = opts_arg;
+    info = info_arg;
+    ext = ext_arg;
+    return *this;
+  }
+  // The covariance entry points': no iterations and no opts or info, but itmax = 1, since
+  // itmax = 0 would ask for a Jacobian check.
+  DriverArgs &estimating(bool func_given, const sba_ext_options *ext_arg) {
+    return solving(func_given, 1, 0, nullptr, nullptr, ext_arg);
+  }
 };
+
+// The problem builders: one per shape of prototype, their parameters in the prototype's
+// order, so that an entry point passes its own arguments as they come. The sizes a mode has
+// no use for stay 0.
+DriverArgs motstr_problem(const char *name, int n, int ncon, int m, int mcon, char *vmask,
+                          double *p, int cnp, int pnp, double *x, double *covx, int mnp) {
+  DriverArgs a;
+  a.name = name;
+  a.mode = Mode::MotStr;
+  a.n = n;
+  a.ncon = ncon;
+  a.m = m;
+  a.mcon = mcon;
+  a.vmask = vmask;
+  a.p = p;
+  a.cnp = cnp;
+  a.pnp = pnp;
+  a.x = x;
+  a.covx = covx;
+  a.mnp = mnp;
+  return a;
+}
+
+DriverArgs motstr_vis_problem(const char *name, int n, int ncon, int m, int mcon,
+                              const sba_visibility *vis, double *p, int cnp, int pnp, double *x,
+                              double *covx, int mnp) {
+  DriverArgs a = motstr_problem(name, n, ncon, m, mcon, nullptr, p, cnp, pnp, x, covx, mnp);
+  a.by_pairs = true;
+  a.vis = vis;
+  return a;
+}
+
+DriverArgs mot_problem(const char *name, int n, int m, int mcon, char *vmask, double *p, int cnp,
+                       double *x, double *covx, int mnp) {
+  DriverArgs a = motstr_problem(name, n, 0, m, mcon, vmask, p, cnp, 0, x, covx, mnp);
+  a.mode = Mode::Mot;
+  return a;
+}
+
+DriverArgs str_problem(const char *name, int n, int ncon, int m, char *vmask, double *p, int pnp,
+                       double *x, double *covx, int mnp) {
+  DriverArgs a = motstr_problem(name, n, ncon, m, 0, vmask, p, 0, pnp, x, covx, mnp);
+  a.mode = Mode::Str;
+  return a;
+}
 
 // Checks what can be checked before the index exists. Empty string: all good.
 std::string check_scalars(const DriverArgs &a) {
@@ -288,28 +352,41 @@ bool prepare(const DriverArgs &a, const sba_ext_options &ext, const Logger &log,
   return false;
 }
 
-// make_model(const Layout&, bool concurrent) -> std::unique_ptr<Model>
+// What every entry point does around its own work, inside catch_all: read the extension
+// options, make the logger, run prepare (with `extra`), make the model (make_model(const
+// Layout&, bool concurrent) -> std::unique_ptr<Model>), then work(ext, log, opt, lay, model).
+// False if an exception escaped (it is logged).
+template <class Extra, class MakeModel, class Work>
+bool with_model(const DriverArgs &a, Extra extra, MakeModel make_model, Work work) noexcept {
+  const sba_ext_options ext = read_ext(a.ext);
+  const Logger log = make_logger(a, ext);
+  return catch_all(log, a.name, [&] {
+    Options opt;
+    Layout lay;
+    if (!prepare(a, ext, log, &opt, &lay, extra)) return;
+    std::unique_ptr<Model> model = make_model(lay, ext.parallel_callbacks != 0);
+    work(ext, log, opt, lay, *model);
+  });
+}
+
 template <class MakeModel>
 int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
   Summary sum;
-  const sba_ext_options ext = read_ext(a.ext);
-  const Logger log = make_logger(a, ext);
   int ret = SBA_ERROR;
-  const bool finished = catch_all(log, a.name, [&] {
-    Options opt;
-    Layout lay;
-    if (!prepare(a, ext, log, &opt, &lay, [] { return std::string(); })) return;
-    std::unique_ptr<Model> model = make_model(lay, ext.parallel_callbacks != 0);
+  const auto no_extra_check = [] { return std::string(); };
+  const bool finished = with_model(a, no_extra_check, make_model,
+                                   [&](const sba_ext_options &ext, const Logger &log,
+                                       const Options &opt, const Layout &lay, Model &model) {
     // itmax == 0: check the Jacobian; the solve below then only scores p (info[0] == info[1]).
     if (a.itmax == 0) {
-      if (!model->has_jacobian())
+      if (!model.has_jacobian())
         log.report("%s: itmax == 0 asks for a Jacobian check, but no analytic Jacobian was "
                    "given: nothing to check",
                    a.name);
       else
-        check_jacobian(lay, *model, a.p, log);
+        check_jacobian(lay, model, a.p, log);
     }
-    const bool ok = solve(lay, *model, a.p, a.x, a.covx, opt, log, sum);
+    const bool ok = solve(lay, model, a.p, a.x, a.covx, opt, log, sum);
     count_as_1_6(a, lay, sum);
     write_result(ext, opt, sum);
     if (ok) ret = sum.iterations;
@@ -319,43 +396,41 @@ int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
   return ret;
 }
 
-// The covariance entry points: the drivers' validation, then sba::covariance.
+// The covariance entry points: the drivers' validation and the request's, then
+// sba::covariance.
 template <class MakeModel>
-int run_covariance(const DriverArgs &a, sba_covariance_request *user, MakeModel make_model) noexcept {
-  const sba_ext_options ext = read_ext(a.ext);
-  const Logger log = make_logger(a, ext);
+int run_covariance(const DriverArgs &a, sba_covariance_request *user,
+                   MakeModel make_model) noexcept {
   int ret = SBA_ERROR;
-  catch_all(log, a.name, [&] {
-    Options opt;
-    Layout lay;
-    CovarianceRequest req;
-    const auto check_request = [&]() -> std::string {
-      if (!user || user->size < sizeof(sba_covariance_request))
-        return "req is NULL or not initialised by sba_covariance_request_init";
-      std::string msg;
-      req.ncams = user->ncams;
-      req.cams = user->cams;
-      req.camcov = user->camcov;
-      req.npts = user->npts;
-      req.pts = user->pts;
-      req.ptcov = user->ptcov;
-      if (req.ncams < 0 || req.npts < 0)
-        msg = "req->ncams and req->npts must be >= 0";
-      else if (req.ncams > 0 && (!req.cams || !req.camcov))
-        msg = "req->cams and req->camcov must be given for ncams > 0";
-      else if (req.npts > 0 && (!req.pts || !req.ptcov))
-        msg = "req->pts and req->ptcov must be given for npts > 0";
-      for (int q = 0; msg.empty() && q < req.ncams; ++q)
-        if (req.cams[q] < 0 || req.cams[q] >= a.m)
-          msg = "req->cams[" + std::to_string(q) + "] is not a camera index";
-      for (int q = 0; msg.empty() && q < req.npts; ++q)
-        if (req.pts[q] < 0 || req.pts[q] >= a.n)
-          msg = "req->pts[" + std::to_string(q) + "] is not a point index";
-      return msg;
-    };
-    if (!prepare(a, ext, log, &opt, &lay, check_request)) return;
-    std::unique_ptr<Model> model = make_model(lay, ext.parallel_callbacks != 0);
-    if (!covariance(lay, *model, a.p, a.x, a.covx, opt, log, req)) return;
+  CovarianceRequest req;
+  const auto check_request = [&]() -> std::string {
+    if (!user || user->size < sizeof(sba_covariance_request))
+      return "req is NULL or not initialised by sba_covariance_request_init";
+    std::string msg;
+    req.ncams = user->ncams;
+    req.cams = user->cams;
+    req.camcov = user->camcov;
+    req.npts = user->npts;
+    req.pts = user->pts;
+    req.ptcov = user->ptcov;
+    if (req.ncams < 0 || req.npts < 0)
+      msg = "req->ncams and req->npts must be >= 0";
+    else if (req.ncams > 0 && (!req.cams || !req.camcov))
+      msg = "req->cams and req->camcov must be given for ncams > 0";
+    else if (req.npts > 0 && (!req.pts || !req.ptcov))
+      msg = "req->pts and req->ptcov must be given for npts > 0";
+    for (int q = 0; msg.empty() && q < req.ncams; ++q)
+      if (req.cams[q] < 0 || req.cams[q] >= a.m)
+        msg = "req->cams[" + std::to_string(q) + "] is not a camera index";
+    for (int q = 0; msg.empty() && q < req.npts; ++q)
+      if (req.pts[q] < 0 || req.pts[q] >= a.n)
+        msg = "req->pts[" + std::to_string(q) + "] is not a point index";
+    return msg;
+  };
+  with_model(a, check_request, make_model,
+             [&](const sba_ext_options &, const Logger &log, const Options &opt,
+                 const Layout &lay, Model &model) {
+    if (!covariance(lay, model, a.p, a.x, a.covx, opt, log, req)) return;
     user->sigma2 = req.sigma2;
     user->rank = req.rank;
     user->nfree = req.nfree;
@@ -390,27 +465,34 @@ void str_jac(const SimpleCallbacks &cb, int j, int i, double *, double *bi, doub
   reinterpret_cast<OneBlockJac>(cb.user_projac)(j, i, bi, B, cb.adata);
 }
 
-SimpleCallbacks simple_callbacks(AnyFn proj, AnyFn projac, void *adata,
-                                 decltype(SimpleCallbacks::proj) tproj,
-                                 decltype(SimpleCallbacks::projac) tjac) {
-  return SimpleCallbacks{tproj, projac ? tjac : nullptr, proj, projac, adata};
+// The model factories that run_driver and run_covariance call once the problem is valid.
+auto expert_model(ExpertFunc func, ExpertFunc fjac, void *adata) {
+  return [=](const Layout &lay, bool conc) {
+    return make_expert_model(lay, func, fjac, adata, conc);
+  };
 }
 
+// proj and projac of one of the three simple shapes, called through tproj and tjac (the
+// adapters above).
 template <class Proj, class Jac>
-int run_simple(const DriverArgs &a, Proj proj, Jac projac, void *adata,
-               decltype(SimpleCallbacks::proj) tproj, decltype(SimpleCallbacks::projac) tjac) {
-  const SimpleCallbacks cb = simple_callbacks(reinterpret_cast<AnyFn>(proj),
-                                              reinterpret_cast<AnyFn>(projac), adata, tproj, tjac);
-  DriverArgs simple = a;
-  simple.simple = true;
-  return run_driver(simple, [&](const Layout &lay, bool conc) { return make_simple_model(lay, cb, conc); });
+auto simple_model(Proj proj, Jac projac, void *adata, decltype(SimpleCallbacks::proj) tproj,
+                  decltype(SimpleCallbacks::projac) tjac) {
+  const SimpleCallbacks cb{tproj, projac ? tjac : nullptr, reinterpret_cast<AnyFn>(proj),
+                           reinterpret_cast<AnyFn>(projac), adata};
+  return [cb](const Layout &lay, bool conc) { return make_simple_model(lay, cb, conc); };
+}
+
+// A simple driver's solve: its calls are counted per projection, as 1.6 counts them.
+template <class MakeModel>
+int run_simple(DriverArgs a, MakeModel make_model) {
+  a.simple = true;
+  return run_driver(a, make_model);
 }
 
 }  // namespace
 }  // namespace sba
 
 using sba::DriverArgs;
-using sba::Mode;
 
 extern "C" {
 
@@ -450,23 +532,21 @@ int sba_motstr_covariance_x(const int n, const int ncon, const int m, const int 
                             double *p, const int cnp, const int pnp, double *x, double *covx,
                             const int mnp, sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata,
                             struct sba_covariance_request *req, const struct sba_ext_options *ext) {
-  const DriverArgs a{"sba_motstr_covariance_x", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp, vmask,
-                     p, x, covx, func != nullptr, 1, 0, nullptr, nullptr, ext};
-  return sba::run_covariance(
-      a, req, [&](const sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
+  const DriverArgs a = sba::motstr_problem("sba_motstr_covariance_x", n, ncon, m, mcon, vmask, p,
+                                           cnp, pnp, x, covx, mnp)
+                           .estimating(func != nullptr, ext);
+  return sba::run_covariance(a, req, sba::expert_model(func, fjac, adata));
 }
 
 int sba_motstr_covariance(const int n, const int ncon, const int m, const int mcon, char *vmask,
                           double *p, const int cnp, const int pnp, double *x, double *covx,
                           const int mnp, sba::MotStrProj proj, sba::MotStrJac projac, void *adata,
                           struct sba_covariance_request *req, const struct sba_ext_options *ext) {
-  const DriverArgs a{"sba_motstr_covariance", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp, vmask,
-                     p, x, covx, proj != nullptr, 1, 0, nullptr, nullptr, ext};
-  const sba::SimpleCallbacks cb =
-      sba::simple_callbacks(reinterpret_cast<sba::AnyFn>(proj), reinterpret_cast<sba::AnyFn>(projac),
-                            adata, sba::motstr_proj, sba::motstr_jac);
-  return sba::run_covariance(a, req,
-                             [&](const sba::Layout &lay, bool conc) { return sba::make_simple_model(lay, cb, conc); });
+  const DriverArgs a = sba::motstr_problem("sba_motstr_covariance", n, ncon, m, mcon, vmask, p,
+                                           cnp, pnp, x, covx, mnp)
+                           .estimating(proj != nullptr, ext);
+  return sba::run_covariance(
+      a, req, sba::simple_model(proj, projac, adata, sba::motstr_proj, sba::motstr_jac));
 }
 
 int sba_motstr_levmar_x_ext(const int n, const int ncon, const int m, const int mcon, char *vmask,
@@ -474,10 +554,10 @@ int sba_motstr_levmar_x_ext(const int n, const int ncon, const int m, const int 
                             const int mnp, sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata,
                             const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
                             double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
-  const DriverArgs a{"sba_motstr_levmar_x", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp, vmask, p,
-                     x, covx, func != nullptr, itmax, verbose, opts, info, ext};
-  return sba::run_driver(
-      a, [&](const sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
+  const DriverArgs a = sba::motstr_problem("sba_motstr_levmar_x", n, ncon, m, mcon, vmask, p, cnp,
+                                           pnp, x, covx, mnp)
+                           .solving(func != nullptr, itmax, verbose, opts, info, ext);
+  return sba::run_driver(a, sba::expert_model(func, fjac, adata));
 }
 
 int sba_mot_levmar_x_ext(const int n, const int m, const int mcon, char *vmask, double *p,
@@ -485,10 +565,9 @@ int sba_mot_levmar_x_ext(const int n, const int m, const int mcon, char *vmask, 
                          sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata, const int itmax,
                          const int verbose, const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ],
                          const struct sba_ext_options *ext) {
-  const DriverArgs a{"sba_mot_levmar_x", Mode::Mot, n, 0, m, mcon, cnp, 0, mnp, vmask, p,
-                     x, covx, func != nullptr, itmax, verbose, opts, info, ext};
-  return sba::run_driver(
-      a, [&](const sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
+  const DriverArgs a = sba::mot_problem("sba_mot_levmar_x", n, m, mcon, vmask, p, cnp, x, covx, mnp)
+                           .solving(func != nullptr, itmax, verbose, opts, info, ext);
+  return sba::run_driver(a, sba::expert_model(func, fjac, adata));
 }
 
 int sba_str_levmar_x_ext(const int n, const int ncon, const int m, char *vmask, double *p,
@@ -496,10 +575,9 @@ int sba_str_levmar_x_ext(const int n, const int ncon, const int m, char *vmask, 
                          sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata, const int itmax,
                          const int verbose, const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ],
                          const struct sba_ext_options *ext) {
-  const DriverArgs a{"sba_str_levmar_x", Mode::Str, n, ncon, m, 0, 0, pnp, mnp, vmask, p,
-                     x, covx, func != nullptr, itmax, verbose, opts, info, ext};
-  return sba::run_driver(
-      a, [&](const sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
+  const DriverArgs a = sba::str_problem("sba_str_levmar_x", n, ncon, m, vmask, p, pnp, x, covx, mnp)
+                           .solving(func != nullptr, itmax, verbose, opts, info, ext);
+  return sba::run_driver(a, sba::expert_model(func, fjac, adata));
 }
 
 int sba_motstr_levmar_ext(const int n, const int ncon, const int m, const int mcon, char *vmask,
@@ -507,9 +585,11 @@ int sba_motstr_levmar_ext(const int n, const int ncon, const int m, const int mc
                           const int mnp, sba::MotStrProj proj, sba::MotStrJac projac, void *adata,
                           const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
                           double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
-  const DriverArgs a{"sba_motstr_levmar", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp, vmask, p,
-                     x, covx, proj != nullptr, itmax, verbose, opts, info, ext};
-  return sba::run_simple(a, proj, projac, adata, sba::motstr_proj, sba::motstr_jac);
+  const DriverArgs a = sba::motstr_problem("sba_motstr_levmar", n, ncon, m, mcon, vmask, p, cnp,
+                                           pnp, x, covx, mnp)
+                           .solving(proj != nullptr, itmax, verbose, opts, info, ext);
+  return sba::run_simple(
+      a, sba::simple_model(proj, projac, adata, sba::motstr_proj, sba::motstr_jac));
 }
 
 int sba_mot_levmar_ext(const int n, const int m, const int mcon, char *vmask, double *p,
@@ -517,9 +597,9 @@ int sba_mot_levmar_ext(const int n, const int m, const int mcon, char *vmask, do
                        sba::OneBlockProj proj, sba::OneBlockJac projac, void *adata,
                        const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
                        double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
-  const DriverArgs a{"sba_mot_levmar", Mode::Mot, n, 0, m, mcon, cnp, 0, mnp, vmask, p,
-                     x, covx, proj != nullptr, itmax, verbose, opts, info, ext};
-  return sba::run_simple(a, proj, projac, adata, sba::mot_proj, sba::mot_jac);
+  const DriverArgs a = sba::mot_problem("sba_mot_levmar", n, m, mcon, vmask, p, cnp, x, covx, mnp)
+                           .solving(proj != nullptr, itmax, verbose, opts, info, ext);
+  return sba::run_simple(a, sba::simple_model(proj, projac, adata, sba::mot_proj, sba::mot_jac));
 }
 
 int sba_str_levmar_ext(const int n, const int ncon, const int m, char *vmask, double *p,
@@ -527,9 +607,9 @@ int sba_str_levmar_ext(const int n, const int ncon, const int m, char *vmask, do
                        sba::OneBlockProj proj, sba::OneBlockJac projac, void *adata,
                        const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
                        double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
-  const DriverArgs a{"sba_str_levmar", Mode::Str, n, ncon, m, 0, 0, pnp, mnp, vmask, p,
-                     x, covx, proj != nullptr, itmax, verbose, opts, info, ext};
-  return sba::run_simple(a, proj, projac, adata, sba::str_proj, sba::str_jac);
+  const DriverArgs a = sba::str_problem("sba_str_levmar", n, ncon, m, vmask, p, pnp, x, covx, mnp)
+                           .solving(proj != nullptr, itmax, verbose, opts, info, ext);
+  return sba::run_simple(a, sba::simple_model(proj, projac, adata, sba::str_proj, sba::str_jac));
 }
 
 int sba_motstr_levmar_x_vis(const int n, const int ncon, const int m, const int mcon,
@@ -538,11 +618,10 @@ int sba_motstr_levmar_x_vis(const int n, const int ncon, const int m, const int 
                             sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata,
                             const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
                             double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
-  const DriverArgs a{"sba_motstr_levmar_x_vis", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp,
-                     nullptr, p, x, covx, func != nullptr, itmax, verbose, opts, info, ext, true,
-                     vis};
-  return sba::run_driver(
-      a, [&](const sba::Layout &lay, bool conc) { return sba::make_expert_model(lay, func, fjac, adata, conc); });
+  const DriverArgs a = sba::motstr_vis_problem("sba_motstr_levmar_x_vis", n, ncon, m, mcon, vis,
+                                               p, cnp, pnp, x, covx, mnp)
+                           .solving(func != nullptr, itmax, verbose, opts, info, ext);
+  return sba::run_driver(a, sba::expert_model(func, fjac, adata));
 }
 
 int sba_motstr_levmar_vis(const int n, const int ncon, const int m, const int mcon,
@@ -551,10 +630,11 @@ int sba_motstr_levmar_vis(const int n, const int ncon, const int m, const int mc
                           sba::MotStrProj proj, sba::MotStrJac projac, void *adata,
                           const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
                           double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
-  const DriverArgs a{"sba_motstr_levmar_vis", Mode::MotStr, n, ncon, m, mcon, cnp, pnp, mnp,
-                     nullptr, p, x, covx, proj != nullptr, itmax, verbose, opts, info, ext, true,
-                     vis};
-  return sba::run_simple(a, proj, projac, adata, sba::motstr_proj, sba::motstr_jac);
+  const DriverArgs a = sba::motstr_vis_problem("sba_motstr_levmar_vis", n, ncon, m, mcon, vis, p,
+                                               cnp, pnp, x, covx, mnp)
+                           .solving(proj != nullptr, itmax, verbose, opts, info, ext);
+  return sba::run_simple(
+      a, sba::simple_model(proj, projac, adata, sba::motstr_proj, sba::motstr_jac));
 }
 
 // ---- the 1.6 entry points: the extension ones with the defaults ----

@@ -14,6 +14,7 @@
 
 #include "column_split.h"
 #include "kernels.h"
+#include "madd.h"
 #include "step_solver.h"
 #include "small_dense.h"
 
@@ -81,17 +82,6 @@ inline __attribute__((always_inline)) void pair_update(int n, int pn, const doub
         for (int c = 0; c < n; ++c) S[a * ld + c] -= y * Wt[d * n + c];
       }
   }
-}
-
-// a * b + c, rounded as the axpy above rounds it: one fused operation where the target has
-// FMA, else a product then a sum. Spelled out where a sum of products is kept in locals: there
-// the compiler may otherwise fuse either product (x0 y0 + x1 y1 has two contractions).
-inline __attribute__((always_inline)) double madd(double a, double b, double c) {
-#ifdef __FMA__
-  return __builtin_fma(a, b, c);
-#else
-  return a * b + c;
-#endif
 }
 
 // One projection's W_ij^T = B^T A and Y_ij^T = V*_i^-1 W_ij^T (pnp x cnp each; A is mnp x cnp,
@@ -235,8 +225,6 @@ inline __attribute__((always_inline)) void spd_inverse3_lanes(lanes4 *a, lanes4 
       inv[i * n + j] = inv[j * n + i] = s;
     }
 }
-
-#include "dense_chol_impl.h"
 
 // Block sizes as template arguments (0: take the run-time value), so that the loops of the
 // common sizes are fully unrolled and vectorized. Blocks that the Schur assembly multiplies
@@ -590,11 +578,6 @@ std::unique_ptr<Kernels> make_kernels(const Layout &lay, int threads) {
     }
   }
   return std::make_unique<KernelsT<0, 0, 0>>(lay, threads);
-}
-
-// The dense Cholesky of this build, for own_dense_cholesky (dense_factorization.h).
-bool dense_cholesky(ThreadPool &pool, double *S, i64 n, i64 ld, i64 nrhs) {
-  return chol::factor(pool, S, n, ld, n + nrhs);
 }
 
 }  // namespace SBA_KERNELS_NS

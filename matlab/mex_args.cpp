@@ -1,0 +1,272 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "mex_args.h"
+
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+namespace sba_mex {
+namespace {
+
+bool is_real_numeric(const mxArray *a) {
+  return (mxIsNumeric(a) || mxIsLogical(a)) && !mxIsComplex(a);
+}
+
+bool is_scalar_value(const mxArray *a) {
+  return is_real_numeric(a) && mxGetNumberOfElements(a) == 1;
+}
+
+bool is_string(const mxArray *a) {
+  return mxIsChar(a) && mxGetNumberOfDimensions(a) == 2 && (mxGetM(a) <= 1);
+}
+
+bool is_vector_shape(const mxArray *a) {
+  return mxGetNumberOfDimensions(a) == 2 && (mxGetM(a) == 1 || mxGetN(a) == 1);
+}
+
+int int_arg(const mxArray *a, const char *name, int lo, int hi, const char *what) {
+  if (!is_scalar_value(a))
+    bad_arg("invalidArgument",
+            format("%s must be %s scalar (got a %s).", name, what, describe(a).c_str()));
+  const double v = mxGetScalar(a);
+  if (!std::isfinite(v) || v != std::floor(v) || v < lo || v > hi) {
+    if (hi == std::numeric_limits<int>::max())
+      bad_arg("invalidArgument", format("%s must be %s scalar >= %d (got %g).", name, what, lo, v));
+    bad_arg("invalidArgument",
+            format("%s must be %s scalar in [%d, %d] (got %g).", name, what, lo, hi, v));
+  }
+  return static_cast<int>(v);
+}
+
+// A real double vector with exactly len values, all finite.
+const double *vector_arg(const mxArray *a, const char *name, std::size_t len,
+                         const char *len_text) {
+  if (!is_real_double(a) || !(is_vector_shape(a) || mxGetNumberOfElements(a) == 0))
+    bad_arg("invalidArgument",
+            format("%s must be a real vector (got a %s).", name, describe(a).c_str()));
+  const std::size_t got = mxGetNumberOfElements(a);
+  if (got != len)
+    bad_arg("wrongSize",
+            format("%s must have %s = %zu values (got %zu).", name, len_text, len, got));
+  const double *v = mxGetPr(a);
+  for (std::size_t k = 0; k < len; ++k)
+    if (!std::isfinite(v[k]))
+      bad_arg("invalidArgument", format("%s(%zu) is not finite.", name, k + 1));
+  return v;
+}
+
+// vmask as 1.6's n*m chars (vmask[i*m + j]: point i seen by camera j), dense or sparse.
+std::vector<char> read_vmask(const mxArray *a, int n, int m, long long *nvis) {
+  if (!is_real_numeric(a) || mxGetNumberOfDimensions(a) != 2)
+    bad_arg("invalidArgument",
+            format("vmask must be a real n x m matrix (got a %s).", describe(a).c_str()));
+  if (mxGetM(a) != static_cast<std::size_t>(n) || mxGetN(a) != static_cast<std::size_t>(m))
+    bad_arg("wrongSize",
+            format("vmask must be n x m = %d x %d (got %zu x %zu).", n, m,
+                   static_cast<std::size_t>(mxGetM(a)), static_cast<std::size_t>(mxGetN(a))));
+  std::vector<char> mask(static_cast<std::size_t>(n) * m, 0);
+  if (mxIsSparse(a)) {
+    const mwIndex *ir = mxGetIr(a), *jc = mxGetJc(a);
+    const bool logical = mxIsLogical(a);
+    const mxLogical *lv = logical ? mxGetLogicals(a) : nullptr;
+    const double *dv = logical ? nullptr : mxGetPr(a);
+    for (int j = 0; j < m; ++j)
+      for (mwIndex k = jc[j]; k < jc[j + 1]; ++k)
+        if (logical ? lv[k] != 0 : dv[k] != 0.0) mask[ir[k] * m + j] = 1;
+  } else {
+    const std::size_t esize = mxGetElementSize(a);
+    const unsigned char *base = static_cast<const unsigned char *>(mxGetData(a));
+    const mxClassID cls = mxGetClassID(a);
+    for (int j = 0; j < m; ++j)
+      for (int i = 0; i < n; ++i) {
+        const unsigned char *e = base + (static_cast<std::size_t>(j) * n + i) * esize;
+        bool nz = false;
+        if (cls == mxDOUBLE_CLASS) {
+          double v;
+          std::memcpy(&v, e, sizeof v);
+          nz = v != 0.0;
+        } else if (cls == mxSINGLE_CLASS) {
+          float v;
+          std::memcpy(&v, e, sizeof v);
+          nz = v != 0.0f;
+        } else {  // logical and the integer classes: nonzero iff some byte is
+          for (std::size_t b = 0; b < esize; ++b) nz = nz || e[b] != 0;
+        }
+        mask[static_cast<std::size_t>(i) * m + j] = nz ? 1 : 0;
+      }
+  }
+  long long count = 0;
+  for (char c : mask) count += c != 0;
+  *nvis = count;
+  return mask;
+}
+
+void parse_callback(Callback &cb, const std::string &text, const char *role) {
+  cb.text = text;
+  const std::size_t at = text.find('@');
+  if (at == std::string::npos) {
+    cb.kind = Callback::kHost;
+    cb.name = text;
+    if (text.empty()) bad_arg("invalidArgument", format("%s must name a function.", role));
+    return;
+  }
+  cb.kind = Callback::kNative;
+  cb.name = text.substr(0, at);
+  const std::string lib = text.substr(at + 1);
+  if (cb.name.empty() || lib.empty())
+    bad_arg("invalidArgument",
+            format("%s '%s' must be NAME@LIBRARY with both parts given.", role, text.c_str()));
+  cb.library.open(lib, role);
+  cb.native = cb.library.symbol(cb.name, lib, role);
+}
+
+// Checks that a host function exists, so that a typo is reported as such.
+void check_host_function(const Callback &cb, const char *role) {
+  if (cb.kind != Callback::kHost) return;
+  mxArray *name = mxCreateString(cb.name.c_str());
+  mxArray *out = nullptr;
+  bool found = true;
+#if SBA_MEX_OCTAVE
+  try {
+    if (mexCallMATLAB(1, &out, 1, &name, "exist") == 0 && out) found = mxGetScalar(out) != 0;
+  } catch (const octave::execution_exception &) {
+    found = true;  // cannot tell: the trial call reports what goes wrong
+  }
+#else
+  mxArray *ex = mexCallMATLABWithTrap(1, &out, 1, &name, "exist");
+  if (ex)
+    mxDestroyArray(ex);
+  else if (out)
+    found = mxGetScalar(out) != 0;
+#endif
+  if (out) mxDestroyArray(out);
+  mxDestroyArray(name);
+  if (!found)
+    bad_arg("functionNotFound",
+            format("%s: no function named '%s' was found.", role, cb.name.c_str()));
+}
+
+}  // namespace
+
+// The argument list of 1.6 (spec: MEX.md, "Call").
+void parse(Gateway &g, int nrhs, const mxArray *prhs[], std::string *warning) {
+  if (nrhs < 12)
+    bad_arg("notEnoughInputs",
+            format("at least 12 input arguments are needed (n, ncon, m, mcon, vmask, p0, cnp, pnp, "
+                   "x, mnp, proj, itmax); got %d.",
+                   nrhs));
+  const int kIntMax = std::numeric_limits<int>::max();
+  g.n = int_arg(prhs[0], "n", 1, kIntMax, "a positive integer");
+  g.ncon = int_arg(prhs[1], "ncon", 0, g.n, "an integer");
+  g.m = int_arg(prhs[2], "m", 1, kIntMax, "a positive integer");
+  g.mcon = int_arg(prhs[3], "mcon", 0, g.m, "an integer");
+  g.vmask = read_vmask(prhs[4], g.n, g.m, &g.nvis);
+  const mxArray *p0 = prhs[5];
+  g.cnp = int_arg(prhs[6], "cnp", 0, 1 << 20, "a non-negative integer");
+  g.pnp = int_arg(prhs[7], "pnp", 0, 1 << 20, "a non-negative integer");
+  const mxArray *x = prhs[8];
+
+  int k = 9;
+  const mxArray *covx = nullptr;
+  if (!is_scalar_value(prhs[k])) covx = prhs[k++];  // a scalar right after x is mnp
+  if (k >= nrhs) bad_arg("notEnoughInputs", "mnp, proj and itmax are missing.");
+  g.mnp = int_arg(prhs[k++], "mnp", 1, 1 << 20, "a positive integer");
+
+  if (k >= nrhs || !is_string(prhs[k]))
+    bad_arg("invalidArgument", format("proj must be a function name or 'NAME@LIBRARY' (got %s).",
+                                      k < nrhs ? ("a " + describe(prhs[k])).c_str() : "nothing"));
+  const std::string proj = string_arg(prhs[k++]);
+  std::string projac;
+  if (k < nrhs && is_string(prhs[k])) projac = string_arg(prhs[k++]);
+  if (k >= nrhs) bad_arg("notEnoughInputs", "itmax is missing.");
+  g.itmax = int_arg(prhs[k++], "itmax", 0, kIntMax, "a non-negative integer");
+  if (k < nrhs && is_scalar_value(prhs[k])) {
+    const double v = mxGetScalar(prhs[k++]);
+    if (!std::isfinite(v)) bad_arg("invalidArgument", "verbose must be a finite scalar.");
+    g.verbose = v > 100 ? 100 : (v < 0 ? 0 : static_cast<int>(v));
+  }
+  if (k < nrhs && is_real_double(prhs[k]) && mxGetNumberOfElements(prhs[k]) <= SBA_OPTSSZ &&
+      (is_vector_shape(prhs[k]) || mxGetNumberOfElements(prhs[k]) == 0)) {
+    const mxArray *o = prhs[k++];
+    const std::size_t len = mxGetNumberOfElements(o);
+    const double *v = mxGetPr(o);
+    for (std::size_t q = 0; q < len; ++q) {
+      if (!std::isfinite(v[q]))
+        bad_arg("invalidArgument", format("opts(%zu) is not finite.", q + 1));
+      g.opts[q] = v[q];
+    }
+    if (len > 0 && len < SBA_OPTSSZ)
+      *warning = format(
+          "opts has %zu of the %d values; the defaults are used for the rest "
+          "(tau 1e-03, eps1 to eps3 1e-12, eps4 0).",
+          len, SBA_OPTSSZ);
+  }
+  // 'strategy=NAME' (beyond 1.6) may come just before or just after reftype; no reftype or
+  // problem data of a 1.6 call begins so.
+  auto strategy_option = [&](int at) {
+    if (at >= nrhs || !mxIsChar(prhs[at])) return false;
+    const std::string v = string_arg(prhs[at]);
+    if (v.compare(0, 9, "strategy=") != 0) return false;
+    g.strategy = v.substr(9);
+    if (!sba_strategy_valid(g.strategy.c_str()))
+      bad_arg("unknownStrategy", format("unknown strategy '%s' (expected one of: %s).",
+                                        g.strategy.c_str(), sba_strategy_names()));
+    return true;
+  };
+  if (strategy_option(k)) ++k;
+  if (k < nrhs && mxIsChar(prhs[k])) {
+    std::string r = string_arg(prhs[k++]);
+    for (char &c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (r == "motstr")
+      g.reftype = RefType::MotStr;
+    else if (r == "mot")
+      g.reftype = RefType::Mot;
+    else if (r == "str")
+      g.reftype = RefType::Str;
+    else
+      bad_arg("unknownReftype",
+              format("unknown reftype '%s' (expected 'motstr', 'mot' or 'str').", r.c_str()));
+  }
+  if (g.strategy.empty() && strategy_option(k)) ++k;
+  for (; k < nrhs; ++k) g.extra.push_back(prhs[k]);
+
+  // Sizes that depend on what came before.
+  if (g.reftype != RefType::Str && g.cnp == 0)
+    bad_arg("invalidArgument",
+            format("cnp must be positive for reftype '%s'.", reftype_name(g.reftype)));
+  if (g.reftype != RefType::Mot && g.pnp == 0)
+    bad_arg("invalidArgument",
+            format("pnp must be positive for reftype '%s'.", reftype_name(g.reftype)));
+  if (g.nvis == 0)
+    bad_arg("invalidArgument", "vmask has no nonzero entry: there is nothing to fit.");
+  const std::size_t nvars =
+      static_cast<std::size_t>(g.m) * g.cnp + static_cast<std::size_t>(g.n) * g.pnp;
+  const double *pv = vector_arg(p0, "p0", nvars, "m*cnp + n*pnp");
+  g.p0.assign(pv, pv + nvars);
+  g.p0_arg = p0;
+  const std::size_t nobs = static_cast<std::size_t>(g.nvis) * g.mnp;
+  g.x = vector_arg(x, "x", nobs, "nvis*mnp (nvis: the nonzeros of vmask)");
+  if (covx && mxGetNumberOfElements(covx) > 0)
+    g.covx = vector_arg(covx, "covx", nobs * g.mnp, "nvis*mnp*mnp");
+
+  parse_callback(g.proj, proj, "proj");
+  if (!projac.empty()) parse_callback(g.projac, projac, "projac");
+  if (g.proj.kind == Callback::kNative || g.projac.kind == Callback::kNative) {
+    for (std::size_t q = 0; q < g.extra.size(); ++q) {
+      const mxArray *e = g.extra[q];
+      if (!mxIsDouble(e) || mxIsComplex(e) || mxIsSparse(e))
+        bad_arg("invalidArgument",
+                format("extra argument %zu must be a real dense double array for NAME@LIBRARY "
+                       "callbacks (got a %s).",
+                       q + 1, describe(e).c_str()));
+      g.extra_ptrs.push_back(mxGetPr(e));
+    }
+  }
+  g.extra_ptrs.push_back(nullptr);  // never empty: data() is valid even without extra data
+  check_host_function(g.proj, "proj");
+  check_host_function(g.projac, "projac");
+}
+
+}  // namespace sba_mex
