@@ -100,6 +100,18 @@ def read_runs(path):
     return runs
 
 
+def forget_problem(out, meta, name):
+    """Drops the earlier runs of a problem about to run again, and its command, so that an
+    appended run replaces them instead of standing beside them in the tables."""
+    if os.path.exists(out):
+        with open(out) as f:
+            kept = [line for line in f if line.strip() and json.loads(line)["problem"] != name]
+        with open(out, "w") as f:
+            f.writelines(kept)
+    meta["commands"] = [c for c in meta["commands"] if " --name %s " % name not in c + " "]
+    meta["loads"].pop(name, None)
+
+
 # ---- formatting ----
 
 def num(v, fmt="%.3f"):
@@ -485,7 +497,7 @@ def main():
                     help="runs per configuration of the 54-camera and BAL problems (median reported)")
     ap.add_argument("--report-only", action="store_true", help="rewrite results.md and the plot from results.json")
     ap.add_argument("--append", action="store_true",
-                    help="add to results.json and suite.json instead of starting them afresh")
+                    help="keep results.json and suite.json, replacing only the problems run again")
     a = ap.parse_args()
 
     exe = os.path.join(a.build, "bench", "sba_bench")
@@ -552,6 +564,8 @@ def main():
             if any(not os.path.exists(p) for p in paths):
                 log("run_suite: skipping %s (data not found)" % name)
                 continue
+            if a.append:
+                forget_problem(out, meta, name)
             res = run_bench(exe, ["--name", name] + args, out, a.timeout)
             meta["commands"].append(res["command"])
             meta["loads"][name] = {"load": res["load"], "command": res["command"]}

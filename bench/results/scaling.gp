@@ -1,4 +1,4 @@
-# gnuplot script written by run_suite.py; run in bench/results: gnuplot scaling.gp
+# gnuplot script written by bench/run_suite.py; run in bench/results: gnuplot scaling.gp
 set terminal pngcairo size 1400,600 font 'sans,10' noenhanced
 set output 'scaling.png'
 set multiplot layout 1,2 title 'Scaling series (sbagen path, fixed K, tracks 2..10)'
