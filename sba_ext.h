@@ -169,6 +169,10 @@ extern int sba_linsolver_valid(const char *name);
 extern const char *sba_strategy_names(void);
 /* 1 if name (NULL allowed) is one of them, else 0. */
 extern int sba_strategy_valid(const char *name);
+/* The known robust loss names (sba_ext_options.loss), space-separated; "none" is least squares. */
+extern const char *sba_loss_names(void);
+/* 1 if name (NULL allowed) is one of them, else 0. */
+extern int sba_loss_valid(const char *name);
 
 /* The six drivers of sba.h with one more argument. */
 extern int sba_motstr_levmar_x_ext(

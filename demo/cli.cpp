@@ -26,9 +26,6 @@ std::string joined(const std::vector<std::string> &items) {
   return s;
 }
 
-// The losses of sba_ext.h, and "none" for least squares.
-const std::vector<std::string> kLosses{"none", "huber", "cauchy", "soft-l1", "tukey"};
-
 }  // namespace
 
 std::string to_int64(const std::string &text, long long lo, long long hi, long long *out) {
@@ -90,9 +87,13 @@ std::string to_strategy(const std::string &text, std::string *out) {
 }
 
 std::string to_loss(const std::string &text, std::string *out) {
-  std::string loss;
-  if (std::string why = to_choice(text, kLosses, &loss); !why.empty()) return why;
-  *out = loss == "none" ? std::string() : loss;
+  if (!sba_loss_valid(text.c_str())) {
+    std::string names = sba_loss_names();  // space-separated; listed here with commas
+    for (std::size_t at = names.find(' '); at != std::string::npos; at = names.find(' ', at + 2))
+      names.replace(at, 1, ", ");
+    return "expected one of: " + names;
+  }
+  *out = text == "none" ? std::string() : text;
   return {};
 }
 

@@ -522,6 +522,13 @@ int sba_strategy_valid(const char *name) {
   return name && sba::strategy_from_name(name, &kind) ? 1 : 0;
 }
 
+const char *sba_loss_names(void) { return sba::loss_names(); }
+
+int sba_loss_valid(const char *name) {
+  sba::LossKind kind;
+  return name && sba::loss_from_name(name, &kind) ? 1 : 0;
+}
+
 void sba_covariance_request_init(struct sba_covariance_request *req) {
   if (!req) return;
   std::memset(static_cast<void *>(req), 0, sizeof *req);

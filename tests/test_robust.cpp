@@ -142,6 +142,17 @@ TEST(RobustLoss, WithoutOutliersALossChangesLittle) {
   EXPECT_NEAR(hub.res.sq_error_final / ls.res.sq_error_final, 1.0, 0.01);
 }
 
+// The names a program can offer and check before calling a driver: every one of them is
+// accepted by the drivers, and nothing else is.
+TEST(RobustLoss, NamesQueryMatchesWhatTheDriversAccept) {
+  EXPECT_STREQ(sba_loss_names(), "none huber cauchy soft-l1 tukey");
+  for (const char *name : {"none", "huber", "cauchy", "soft-l1", "tukey"}) EXPECT_EQ(sba_loss_valid(name), 1) << name;
+  for (const char *name : {"", "Huber", "soft_l1", "huber ", "bisquare"}) EXPECT_EQ(sba_loss_valid(name), 0) << name;
+  EXPECT_EQ(sba_loss_valid(nullptr), 0);
+  Fixture f(0.0, 9);
+  EXPECT_GT(fit(f, "cauchy", 1.0).ret, 0);
+}
+
 TEST(RobustLoss, BadLossArgumentsAreRefused) {
   Fixture f(0.0, 9);
   testing::internal::CaptureStderr();
