@@ -11,92 +11,17 @@
 #include "bal_model.h"
 #include "colmap_io.h"
 #include "output_file.h"
+#include "text_tokens.h"
 
 namespace bundler {
 
 namespace {
 
-bool fail(std::string *error, const std::string &msg) {
-  if (error) *error = msg;
-  return false;
-}
+using sbademo::g17;
 
-// The numbers of the file after its header line, one at a time, with their line.
-class Tokens {
- public:
-  Tokens(const std::string &text, const std::string &name, std::size_t pos, int line)
-      : text_(text), name_(name), pos_(pos), line_(line) {}
-
-  // The next token; false at the end of the text.
-  bool next(std::string *tok) {
-    while (pos_ < text_.size() && (text_[pos_] == ' ' || text_[pos_] == '\t' || text_[pos_] == '\r' ||
-                                   text_[pos_] == '\n')) {
-      if (text_[pos_] == '\n') ++line_;
-      ++pos_;
-    }
-    if (pos_ >= text_.size()) return false;
-    const std::size_t b = pos_;
-    while (pos_ < text_.size() && text_[pos_] != ' ' && text_[pos_] != '\t' && text_[pos_] != '\r' &&
-           text_[pos_] != '\n')
-      ++pos_;
-    tok->assign(text_, b, pos_ - b);
-    last_line_ = line_;
-    return true;
-  }
-  std::string where() const { return name_ + ":" + std::to_string(line_) + ": "; }
-  // The end of the file, at the line of the last value.
-  std::string ends_before(const std::string &what) const {
-    return name_ + ":" + std::to_string(last_line_) + ": the file ends before " + what;
-  }
-
-  bool real(const std::string &what, double *out, std::string *error) {
-    std::string tok;
-    if (!next(&tok)) return fail(error, ends_before(what));
-    char *end = nullptr;
-    const double v = std::strtod(tok.c_str(), &end);
-    if (end != tok.c_str() + tok.size() || !std::isfinite(v))
-      return fail(error, where() + what + " must be a finite number, got '" + printable(tok) + "'");
-    *out = v;
-    return true;
-  }
-  bool integer(const std::string &what, long long lo, long long hi, long long *out, std::string *error) {
-    std::string tok;
-    if (!next(&tok)) return fail(error, ends_before(what));
-    bool digits = !tok.empty() && tok.size() <= 18;
-    for (std::size_t k = tok[0] == '-' ? 1 : 0; digits && k < tok.size(); ++k) digits = tok[k] >= '0' && tok[k] <= '9';
-    if (!digits || tok == "-") return fail(error, where() + what + " must be an integer, got '" + printable(tok) + "'");
-    const long long v = std::strtoll(tok.c_str(), nullptr, 10);
-    if (v < lo || v > hi)
-      return fail(error, where() + what + " is " + std::to_string(v) + ", expected " + std::to_string(lo) + ".." +
-                             std::to_string(hi));
-    *out = v;
-    return true;
-  }
-
- private:
-  static std::string printable(const std::string &s) {
-    std::string out;
-    for (char c : s) {
-      if (out.size() >= 40) return out + "...";
-      out += (c >= 32 && c < 127) ? c : '?';
-    }
-    return out;
-  }
-
-  const std::string &text_;
-  const std::string &name_;
-  std::size_t pos_;
-  int line_;
-  int last_line_ = 1;
-};
+bool fail(std::string *error, const std::string &msg) { return sbademo::TextTokens::fail(error, msg); }
 
 constexpr char kHeader[] = "# Bundle file v0.3";
-
-std::string g17(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
-}
 
 }  // namespace
 
@@ -104,7 +29,7 @@ bool parse_bundle(const std::string &text, const std::string &name, Bundle *out,
   if (text.compare(0, sizeof kHeader - 1, kHeader) != 0)
     return fail(error, name + ":1: expected the header '" + kHeader + "'");
   const std::size_t eol = text.find('\n');
-  Tokens t(text, name, eol == std::string::npos ? text.size() : eol + 1, 2);
+  sbademo::TextTokens t(text, name, eol == std::string::npos ? text.size() : eol + 1, 2);
   long long ncams, npts;
   if (!t.integer("the number of cameras", 0, 1 << 24, &ncams, error) ||
       !t.integer("the number of points", 0, 1 << 28, &npts, error))

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // sbarefine: bundle adjustment of a reconstruction as an SfM pipeline wrote it (a COLMAP
-// sparse model, text or binary, or a Bundler bundle.out), written back in its own format with every identifier, name
-// and color unchanged. The solve is balsba's: same options, output and Ctrl-C behaviour.
+// sparse model, text or binary, a Bundler bundle.out or a VisualSFM NVM file), written back
+// in its own format with every identifier, name and color unchanged. The solve is balsba's:
+// same options, output and Ctrl-C behaviour.
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -20,6 +21,7 @@
 #include "colmap_io.h"
 #include "colmap_sba.h"
 #include "eucsba_model.h"
+#include "nvm_io.h"
 #include "output_file.h"
 #include "report.h"
 #include "run_control.h"
@@ -41,7 +43,7 @@ struct Options {
   std::string intrinsics = "focal,distortion";
   colmap::RefineIntrinsics refine;
   std::string initial_ply, final_ply;
-  std::string write_eucsba;  // COLMAP: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
+  std::string write_eucsba;  // COLMAP, NVM: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
   std::string write_bal;     // Bundler: a BAL problem
   bool help = false, version = false;
 };
@@ -51,20 +53,21 @@ std::vector<sbacli::Option> option_table(Options &o) {
   sbademo::add_solve_options(
       &t, o.solve,
       {"write", "OUT", "write the refined model in the input's format: a COLMAP model into the directory\n"
-                        "OUT (created if missing), a Bundler file to the file OUT",
+                        "OUT (created if missing), a Bundler or NVM file to the file OUT",
        [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }});
   t.push_back({"write-format", "F", "the format of --write: text or binary (default: the input's)",
                [&o](const std::string &v) { return sbacli::to_choice(v, {"text", "binary"}, &o.write_format); }});
   t.push_back({"intrinsics", "LIST",
                "the intrinsics refined: none, all, or a comma-separated list of focal, principal,\n"
-               "distortion (default focal,distortion, as COLMAP: the principal point held)",
+               "distortion (default focal,distortion, as COLMAP: the principal point held). NVM:\n"
+               "the focal length or nothing (its radial distortion is held, its principal point absent)",
                [&o](const std::string &v) {
                  o.intrinsics = v;
                  return colmap::parse_refine_intrinsics(v, &o.refine);
                }});
   t.push_back({"write-eucsba", "PREFIX",
-               "COLMAP: also write the refined model as eucsbademo files PREFIX-cams.txt (17 values a\n"
-               "line) and PREFIX-pts.txt",
+               "COLMAP, NVM: also write the refined model as eucsbademo files PREFIX-cams.txt (17\n"
+               "values a line) and PREFIX-pts.txt",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_eucsba); }});
   t.push_back({"write-bal", "FILE", "Bundler: also write the refined model as a BAL problem",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_bal); }});
@@ -77,7 +80,7 @@ std::vector<sbacli::Option> option_table(Options &o) {
 
 bool parse_command_line(int argc, char **argv, Options *options, std::string *error) {
   Options o;
-  if (!sbademo::parse_one_input(argc, argv, option_table(o), "argument (a COLMAP model directory or a Bundler file)",
+  if (!sbademo::parse_one_input(argc, argv, option_table(o), "argument (a COLMAP model directory, a Bundler or an NVM file)",
                                 &o.input, &o.help, &o.version, error))
     return false;
   *options = std::move(o);
@@ -92,7 +95,9 @@ void print_usage(std::FILE *out) {
       "  camera models SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV), refined with\n"
       "  eucsbademo's camera model, every image an sba camera with its own intrinsics;\n"
       "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera;\n"
-      "  --intrinsics does not apply).\n"
+      "  --intrinsics does not apply);\n"
+      "- a VisualSFM file (NVM_V3, its first model), refined with eucsbademo's camera model, the\n"
+      "  focal length refined (--intrinsics focal or none) and the radial distortion held.\n"
       "\n"
       "Options (a value may follow as --opt=VALUE or --opt VALUE; '--' ends the options):\n",
       out);
@@ -135,6 +140,16 @@ Cloud cloud(const colmap::Model &model) {
     eucsba::rotation_matrix(eucsba::normalized_rotation({im.q[0], im.q[1], im.q[2], im.q[3]}), R);
     c.centres.push_back(centre(R, im.t.data()));
   }
+  return c;
+}
+
+Cloud cloud(const nvm::Model &m) {
+  Cloud c;
+  for (const nvm::Point &p : m.points) {
+    c.points.push_back(p.xyz);
+    c.colors.push_back(p.rgb);
+  }
+  for (const nvm::Camera &cam : m.cameras) c.centres.push_back(cam.c);
   return c;
 }
 
@@ -182,13 +197,19 @@ struct Job {
   std::function<bool(const double *p, Cloud *final_cloud, std::string *error)> finish;
 };
 
-bool is_bundle(const std::string &path) {
+enum class Format { Colmap, Bundler, Nvm };
+
+// A file is a bundle or an NVM file by its first bytes; anything else is taken for a COLMAP
+// model directory, whose reader says what is missing.
+Format detect_format(const std::string &path) {
   std::FILE *f = std::fopen(path.c_str(), "rb");
-  if (!f) return false;
+  if (!f) return Format::Colmap;
   char head[14] = {};
-  const bool yes = std::fread(head, 1, 13, f) == 13 && std::string(head) == "# Bundle file";
+  const std::size_t got = std::fread(head, 1, 13, f);
   std::fclose(f);
-  return yes;
+  const std::string h(head, got);
+  if (h == "# Bundle file") return Format::Bundler;
+  return h.compare(0, 6, "NVM_V3") == 0 ? Format::Nvm : Format::Colmap;
 }
 
 // The state a job's callbacks point into, kept alive for the whole run.
@@ -197,6 +218,7 @@ struct Loaded {
   colmap::Encoding encoding = colmap::Encoding::Text;
   colmap::SbaProblem problem;
   std::unique_ptr<eucsba::CameraModel> sba_model;
+  nvm::Model nvm;
   bundler::Bundle bundle;
   bal::Problem bal;
   bal::SbaLayout layout;
@@ -204,10 +226,8 @@ struct Loaded {
   bal::CallbackData bal_data;
 };
 
-bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
-  if (!colmap::read_model(o.input, &l->model, &l->encoding, error) ||
-      !colmap::to_sba(l->model, o.refine, o.input, &l->problem, error))
-    return false;
+// The job of l->problem through eucsbademo's camera model (COLMAP models and NVM files).
+void eucsba_job(Loaded *l, Job *job) {
   colmap::SbaProblem &pr = l->problem;
   l->sba_model = std::make_unique<eucsba::CameraModel>(eucsba::CameraKind::VaryingIntrinsicsDistortion, pr.cameras,
                                                        pr.points.xyz, pr.nccalib, pr.ncdist);
@@ -227,9 +247,30 @@ bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
   job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
     sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
   };
+}
+
+// --write-eucsba PREFIX: the estimate p as eucsbademo files.
+bool write_eucsba(const std::string &prefix, const Loaded &l, const double *p, std::string *why) {
+  const eucsba::CameraModel &model = *l.sba_model;
+  std::vector<eucsba::Camera> cams;
+  for (int j = 0; j < model.ncameras(); ++j) cams.push_back(model.camera(j, p + static_cast<std::size_t>(j) * model.cnp()));
+  const double *xyz = p + static_cast<std::size_t>(model.ncameras()) * model.cnp();
+  const std::vector<double> points(xyz, xyz + 3 * static_cast<std::size_t>(model.npoints()));
+  eucsba::Status st = eucsba::write_cameras(prefix + "-cams.txt", model.kind(), cams);
+  if (st) st = eucsba::write_points(prefix + "-pts.txt", l.problem.points, points);
+  if (!st) *why = st.to_string();
+  return static_cast<bool>(st);
+}
+
+bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
+  if (!colmap::read_model(o.input, &l->model, &l->encoding, error) ||
+      !colmap::to_sba(l->model, o.refine, o.input, &l->problem, error))
+    return false;
+  eucsba_job(l, job);
+  const colmap::SbaProblem &pr = l->problem;
   char line[512];
   std::snprintf(line, sizeof line, "COLMAP model %s (%s): %d images, %zu cameras, %d points",
-                o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", m,
+                o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", job->m,
                 l->model.cameras.size(), job->n);
   job->summary = line;
   job->summary += "\nIntrinsics refined: " + o.intrinsics + " (nccalib " + std::to_string(pr.nccalib) + ", ncdist " +
@@ -238,25 +279,31 @@ bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
     colmap::from_sba(*l->sba_model, l->problem, p, o.solve.mcon, o.solve.ncon, &l->model);
     *final_cloud = cloud(l->model);
-    if (!o.write_eucsba.empty()) {
-      const eucsba::CameraModel &model = *l->sba_model;
-      std::vector<eucsba::Camera> cams;
-      for (int j = 0; j < model.ncameras(); ++j)
-        cams.push_back(model.camera(j, p + static_cast<std::size_t>(j) * model.cnp()));
-      const double *xyz = p + static_cast<std::size_t>(model.ncameras()) * model.cnp();
-      const std::vector<double> points(xyz, xyz + 3 * static_cast<std::size_t>(model.npoints()));
-      eucsba::Status st = eucsba::write_cameras(o.write_eucsba + "-cams.txt", model.kind(), cams);
-      if (st) st = eucsba::write_points(o.write_eucsba + "-pts.txt", l->problem.points, points);
-      if (!st) {
-        *why = st.to_string();
-        return false;
-      }
-    }
+    if (!o.write_eucsba.empty() && !write_eucsba(o.write_eucsba, *l, p, why)) return false;
     if (o.write.empty()) return true;
     const colmap::Encoding out =
         o.write_format.empty() ? l->encoding
                                : (o.write_format == "text" ? colmap::Encoding::Text : colmap::Encoding::Binary);
     return colmap::write_model(o.write, l->model, out, why);
+  };
+  return true;
+}
+
+bool load_nvm(const Options &o, Loaded *l, Job *job, std::string *error) {
+  if (!nvm::read_nvm(o.input, &l->nvm, error) || !nvm::to_sba(l->nvm, o.refine.focal, o.input, &l->problem, error))
+    return false;
+  eucsba_job(l, job);
+  job->summary = "NVM file " + o.input + ": " + std::to_string(job->m) + " cameras, " + std::to_string(job->n) +
+                 " points";
+  job->summary += std::string("\nIntrinsics refined: ") + (o.refine.focal ? "focal" : "none") + " (nccalib " +
+                  std::to_string(l->problem.nccalib) +
+                  "); radial distortion held: VisualSFM applies it to the measurements, which sba takes as data";
+  job->initial = cloud(l->nvm);
+  job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
+    nvm::from_sba(*l->sba_model, p, o.solve.mcon, o.solve.ncon, &l->nvm);
+    *final_cloud = cloud(l->nvm);
+    if (!o.write_eucsba.empty() && !write_eucsba(o.write_eucsba, *l, p, why)) return false;
+    return o.write.empty() || nvm::write_nvm(o.write, l->nvm, why);
   };
   return true;
 }
@@ -307,14 +354,27 @@ int refine_main(int argc, char **argv) {
   const auto read_start = std::chrono::steady_clock::now();
   Loaded loaded;
   Job job;
-  const bool bundle = is_bundle(o.input);
-  if (bundle ? !o.write_format.empty() || !o.write_eucsba.empty() : !o.write_bal.empty()) {
-    std::fprintf(stderr, "sbarefine: %s is for %s\n",
-                 bundle ? (o.write_format.empty() ? "--write-eucsba" : "--write-format") : "--write-bal",
-                 bundle ? "COLMAP models" : "Bundler files");
+  const Format format = detect_format(o.input);
+  // An output option of another format: named with the formats it is for.
+  const struct {
+    bool given, allowed;
+    const char *option, *formats;
+  } kOutputs[] = {{!o.write_format.empty(), format == Format::Colmap, "--write-format", "COLMAP models"},
+                  {!o.write_eucsba.empty(), format != Format::Bundler, "--write-eucsba", "COLMAP models and NVM files"},
+                  {!o.write_bal.empty(), format == Format::Bundler, "--write-bal", "Bundler files"}};
+  for (const auto &out : kOutputs)
+    if (out.given && !out.allowed) {
+      std::fprintf(stderr, "sbarefine: %s is for %s\n", out.option, out.formats);
+      return kExitUsage;
+    }
+  if (format == Format::Nvm && o.refine.principal) {
+    std::fprintf(stderr, "sbarefine: --intrinsics %s: an NVM file has no principal point (its measurements are "
+                         "relative to the image centre)\n", o.intrinsics.c_str());
     return kExitUsage;
   }
-  if (!(bundle ? load_bundle(o, &loaded, &job, &error) : load_colmap(o, &loaded, &job, &error))) {
+  bool (*const load)(const Options &, Loaded *, Job *, std::string *) =
+      format == Format::Bundler ? load_bundle : format == Format::Nvm ? load_nvm : load_colmap;
+  if (!load(o, &loaded, &job, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
