@@ -162,7 +162,7 @@ TEST(Cli, PositionalArgumentsCounted) {
     }
     if (p.name == "sbarefine")
       expect_usage_error(p, {"a", "b"},
-                         "expected 1 argument (a COLMAP model directory or a Bundler file), got 2 (see --help)");
+                         "expected 1 argument (a COLMAP model directory, a Bundler or an NVM file), got 2 (see --help)");
     if (p.name == "sbagen") {
       expect_usage_error(p, {}, "--out PREFIX is required (see --help)");
       expect_usage_error(p, {"--out=x", "extra"}, "unexpected argument 'extra' (see --help)");

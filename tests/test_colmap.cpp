@@ -23,29 +23,19 @@
 #include "colmap_sba.h"
 #include "eucsba_io.h"
 #include "sbagen.h"
+#include "sbarefine_runs.h"
 
 namespace {
 
-namespace fs = std::filesystem;
+using refinetest::eucsbademo_error;
+using refinetest::final_error;
+using refinetest::Outcome;
+using refinetest::read_file;
+using refinetest::run;
+using refinetest::temp_dir;
+using refinetest::write_file;
 
-std::string temp_dir(const std::string &name) {
-  const std::string d = testing::TempDir() + "test_colmap_" + std::to_string(::getpid()) + "_" + name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-std::string read_file(const std::string &path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-void write_file(const std::string &path, const std::string &text) { std::ofstream(path, std::ios::binary) << text; }
-
-// A generated scene: its eucsbademo files under dir/s-*, read back, and the model of those
-// values (so that both paths start from the same doubles).
+// A generated scene and the COLMAP model of its values.
 struct Scene {
   std::string prefix;
   eucsba::Problem problem;
@@ -53,20 +43,9 @@ struct Scene {
 };
 
 Scene make_scene(const std::string &dir, eucsba::CameraKind kind, int cameras = 10, int points = 200) {
-  sbagen::Options o;
-  o.kind = kind;
-  o.cameras = cameras;
-  o.points = points;
-  o.seed = 5;
-  sbagen::Scene s;
+  const refinetest::GeneratedScene g = refinetest::generate_scene(dir, kind, cameras, points);
+  Scene out{g.prefix, g.problem, {}};
   std::string error;
-  EXPECT_TRUE(sbagen::generate(o, &s, &error)) << error;
-  Scene out;
-  out.prefix = dir + "/s";
-  EXPECT_TRUE(sbagen::write_problem(s, out.prefix));
-  const auto files = sbagen::problem_files(out.prefix, s);
-  const eucsba::Status st = eucsba::load_problem(files.cams, files.pts, files.calib, &out.problem);
-  EXPECT_TRUE(st) << st.to_string();
   EXPECT_TRUE(colmap::from_problem(out.problem.kind, out.problem.cameras, out.problem.points, 640, 480, &out.model,
                                    &error))
       << error;
@@ -287,39 +266,6 @@ TEST(ColmapReader, ModelConsistency) {
 
 // ---- sbarefine ----
 
-struct Outcome {
-  int status = -1;
-  std::string out, err;
-};
-
-Outcome run(const std::string &args) {
-  const std::string base = testing::TempDir() + "test_colmap_run_" + std::to_string(::getpid());
-  const int st = std::system((std::string(SBAREFINE_EXE) + " " + args + " >" + base + ".out 2>" + base + ".err").c_str());
-  Outcome r;
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  r.out = read_file(base + ".out");
-  r.err = read_file(base + ".err");
-  return r;
-}
-
-// The final mean squared error of "SBA returned ... error E [initial I]".
-double final_error(const std::string &out) {
-  const std::size_t at = out.find("SBA returned");
-  const std::size_t e = out.find(" error ", at);
-  if (at == std::string::npos || e == std::string::npos) return NAN;
-  return std::strtod(out.c_str() + e + 7, nullptr);
-}
-
-double eucsbademo_error(const std::string &args) {
-  FILE *p = popen((std::string(EUCSBADEMO_EXE) + " " + args + " 2>/dev/null").c_str(), "r");
-  std::string out;
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  EXPECT_EQ(pclose(p), 0) << args;
-  return final_error(out);
-}
-
 TEST(Sbarefine, SameErrorAsEucsbademoTextAndBinary) {
   const std::string dir = temp_dir("refine");
   const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
@@ -419,7 +365,7 @@ TEST(Sbarefine, CommandLineErrors) {
                    "(focal,principal)\n");
   r = run("");
   EXPECT_EQ(r.status, 2);
-  EXPECT_EQ(r.err, "sbarefine: expected 1 argument (a COLMAP model directory or a Bundler file), got 0 (see --help)\n");
+  EXPECT_EQ(r.err, "sbarefine: expected 1 argument (a COLMAP model directory, a Bundler or an NVM file), got 0 (see --help)\n");
   const std::string dir = temp_dir("cli");
   r = run(dir + "/none");
   EXPECT_EQ(r.status, 1);
@@ -572,17 +518,12 @@ TEST(Sbarefine, ConvertsToEucsbademoAndBal) {
   const double bundle_error = final_error(r.out);
   r = run(dir + "/b.out --itmax 0 --write-bal " + dir + "/b.bal");
   ASSERT_EQ(r.status, 0) << r.err;
-  FILE *p = popen((std::string(BALSBA_EXE) + " " + dir + "/b.bal").c_str(), "r");
-  std::string out;
-  char buf[4096];
-  std::size_t got;
-  while ((got = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, got);
-  EXPECT_EQ(pclose(p), 0);
-  EXPECT_NEAR(final_error(out), bundle_error, 1e-6 * bundle_error) << out;
+  EXPECT_NEAR(refinetest::program_error(std::string(BALSBA_EXE) + " " + dir + "/b.bal"), bundle_error,
+              1e-6 * bundle_error);
 
   r = run(dir + "/b.out --write-eucsba " + dir + "/x");
   EXPECT_EQ(r.status, 2);
-  EXPECT_EQ(r.err, "sbarefine: --write-eucsba is for COLMAP models\n");
+  EXPECT_EQ(r.err, "sbarefine: --write-eucsba is for COLMAP models and NVM files\n");
 }
 
 // sbagen writes the same scenes as files.
