@@ -2,6 +2,7 @@
 #include "nvm_io.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <utility>
 
@@ -159,14 +160,20 @@ bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::
   colmap::SbaProblem p;
   p.nccalib = refine_focal ? 4 : 5;
   p.ncdist = eucsba::kDistortionParams;
-  for (const Camera &c : m.cameras) {
+  for (std::size_t j = 0; j < m.cameras.size(); ++j) {
+    const Camera &c = m.cameras[j];
     eucsba::Camera e;
     e.k.fu = c.f;
     e.k.u0 = e.k.v0 = 0;
-    e.q = {c.q[0], c.q[1], c.q[2], c.q[3]};
+    // Scaled to unit norm here, where the norm is taken without overflow or underflow: any
+    // nonzero quaternion the reader lets through is a rotation.
+    const double norm = std::hypot(std::hypot(c.q[0], c.q[1]), std::hypot(c.q[2], c.q[3]));
+    e.q = {c.q[0] / norm, c.q[1] / norm, c.q[2] / norm, c.q[3] / norm};
     double R[9];
-    eucsba::rotation_matrix(eucsba::normalized_rotation(e.q), R);
+    eucsba::rotation_matrix(e.q, R);
     translation(R, c.c, e.t.data());
+    if (!std::isfinite(e.t[0]) || !std::isfinite(e.t[1]) || !std::isfinite(e.t[2]))
+      return fail(error, name + ": camera " + std::to_string(j) + ": its translation -R C overflows");
     p.cameras.push_back(e);
   }
   eucsba::PointSet &s = p.points;
@@ -188,6 +195,9 @@ bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::
       const double scale = 1 + m.cameras[j].k * (v.x * v.x + v.y * v.y);
       s.x.push_back(v.x * scale);
       s.x.push_back(v.y * scale);
+      if (!std::isfinite(s.x[s.x.size() - 2]) || !std::isfinite(s.x.back()))
+        return fail(error, name + ": point " + std::to_string(i) + ": its measurement in camera " + std::to_string(j) +
+                               " undistorts to a value that overflows");
       used[j] = true;
     }
   }

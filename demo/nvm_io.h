@@ -70,8 +70,8 @@ bool write_nvm(const std::string &path, const Model &m, std::string *error);
 
 // The model as a problem of eucsbademo's VaryingIntrinsicsDistortion cameras, one per NVM
 // camera in file order, every intrinsic held but the focal length when refine_focal
-// (nccalib 4, else 5; ncdist 5). False with a message for a model without points or a camera
-// that sees none.
+// (nccalib 4, else 5; ncdist 5). False with a message for a model without points, a camera
+// that sees none, and a translation -R C or an undistorted measurement that overflows.
 bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::SbaProblem *out,
             std::string *error);
 // The estimate p (as eucsbademo lays it out) back into the model: f, q and C of the cameras

@@ -200,7 +200,17 @@ TEST(NvmMapping, CentresAndUndistortedMeasurements) {
   EXPECT_EQ(p.points.x[3], -2);
   ASSERT_TRUE(nvm::to_sba(m, false, "n.nvm", &p, &error)) << error;
   EXPECT_EQ(p.nccalib, 5);
-  // Camera 1 left without a point.
+  // Values whose products overflow.
+  nvm::Model big = m;
+  big.cameras[0].k = 1e305;
+  EXPECT_FALSE(nvm::to_sba(big, true, "n.nvm", &p, &error));
+  EXPECT_EQ(error, "n.nvm: point 0: its measurement in camera 0 undistorts to a value that overflows");
+  big = m;
+  big.cameras[1].q = {2, 1, 0, 0};
+  big.cameras[1].c = {0, 1.5e308, -1.5e308};
+  EXPECT_FALSE(nvm::to_sba(big, true, "n.nvm", &p, &error));
+  EXPECT_EQ(error, "n.nvm: camera 1: its translation -R C overflows");
+    // Camera 1 left without a point.
   m.points[0].measurements.erase(m.points[0].measurements.begin());
   EXPECT_FALSE(nvm::to_sba(m, true, "n.nvm", &p, &error));
   EXPECT_EQ(error, "n.nvm: camera 1 (b.jpg) sees no point: sba cannot place it");
