@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Inputs found by the fuzz targets of fuzz/, kept in tests/fuzz_regressions/ as
-// TARGET-NAME with TARGET one of cameras, points, calibration, bal, colmap, bundler (see the README there).
+// TARGET-NAME with TARGET one of cameras, points, calibration, bal, colmap, bundler, nvm (see the README
+// there).
 // Each must give a clean error: one line naming the file from the reader itself, and one
 // line on stderr with exit status 1 from the program that reads such files (eucsbademo,
 // balsba, sbarefine). Under `make check-sanitize` the same runs are checked by ASan and UBSan.
@@ -22,6 +23,7 @@
 #include "bundler_io.h"
 #include "colmap_io.h"
 #include "eucsba_io.h"
+#include "nvm_io.h"
 
 namespace {
 
@@ -84,7 +86,8 @@ void expect_program_refuses(const std::string &cmd, const fs::path &input) {
 TEST(FuzzRegressions, TheDirectoryHoldsInputs) {
   ASSERT_TRUE(fs::is_directory(kDir)) << kDir;
   EXPECT_FALSE(inputs("cameras").empty() && inputs("points").empty() && inputs("calibration").empty() &&
-               inputs("bal").empty() && inputs("colmap").empty() && inputs("bundler").empty());
+               inputs("bal").empty() && inputs("colmap").empty() && inputs("bundler").empty() &&
+               inputs("nvm").empty());
 }
 
 TEST(FuzzRegressions, CameraFiles) {
@@ -184,6 +187,20 @@ TEST(FuzzRegressions, BundlerFiles) {
     std::string head(13, '\0');
     f.read(&head[0], 13);
     if (head == "# Bundle file") expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(in.string()), in);
+  }
+}
+
+TEST(FuzzRegressions, NvmFiles) {
+  for (const fs::path &in : inputs("nvm")) {
+    nvm::Model m;
+    std::string error;
+    EXPECT_FALSE(nvm::read_nvm(in.string(), &m, &error)) << in;
+    expect_one_line(error, in.string() + ":", in);
+    // sbarefine takes a file for an NVM file only when it starts as one.
+    std::ifstream f(in, std::ios::binary);
+    std::string head(6, '\0');
+    f.read(&head[0], 6);
+    if (head == "NVM_V3") expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(in.string()), in);
   }
 }
 
