@@ -127,13 +127,7 @@ std::string format_bundle(const Bundle &b) {
 }
 
 bool write_bundle(const std::string &path, const Bundle &b, std::string *error) {
-  sbademo::OutputFile file;
-  std::string why;
-  const std::string text = format_bundle(b);
-  if (!file.open(path, &why)) return fail(error, path + ": " + why);
-  std::fwrite(text.data(), 1, text.size(), file.get());
-  if (!file.commit(&why)) return fail(error, path + ": " + why);
-  return true;
+  return sbademo::write_whole_file(path, format_bundle(b), error);
 }
 
 void angle_axis(const std::array<double, 9> &R, double w[3]) {
@@ -231,20 +225,16 @@ bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::Poin
     c.t = {e.t[0], -e.t[1], -e.t[2]};
     b.cameras.push_back(c);
   }
-  std::size_t k = 0;
+  b.points.resize(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
-    Point p;
+    Point &p = b.points[static_cast<std::size_t>(i)];
     for (int c = 0; c < 3; ++c) p.xyz[c] = points.xyz[3 * static_cast<std::size_t>(i) + c];
     p.rgb = {(i * 37) & 255, (i * 11 + 64) & 255, 255 - i % 256};
-    for (int j = 0; j < m; ++j) {
-      if (!points.vmask[static_cast<std::size_t>(i) * static_cast<std::size_t>(m) + static_cast<std::size_t>(j)])
-        continue;
-      const eucsba::Camera &e = cameras[static_cast<std::size_t>(j)];
-      p.views.push_back({j, i, points.x[2 * k] - e.k.u0, e.k.v0 - points.x[2 * k + 1]});
-      ++k;
-    }
-    b.points.push_back(std::move(p));
   }
+  eucsba::for_each_projection(points, [&](int i, int j, const double *x) {
+    const eucsba::Camera &e = cameras[static_cast<std::size_t>(j)];
+    b.points[static_cast<std::size_t>(i)].views.push_back({j, i, x[0] - e.k.u0, e.k.v0 - x[1]});
+  });
   *out = std::move(b);
   return true;
 }

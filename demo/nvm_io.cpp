@@ -144,13 +144,7 @@ std::string format_nvm(const Model &m) {
 }
 
 bool write_nvm(const std::string &path, const Model &m, std::string *error) {
-  sbademo::OutputFile file;
-  std::string why;
-  const std::string text = format_nvm(m);
-  if (!file.open(path, &why)) return fail(error, path + ": " + why);
-  std::fwrite(text.data(), 1, text.size(), file.get());
-  if (!file.commit(&why)) return fail(error, path + ": " + why);
-  return true;
+  return sbademo::write_whole_file(path, format_nvm(m), error);
 }
 
 bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::SbaProblem *out,
@@ -251,20 +245,16 @@ bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::Poin
     c.c = centre(R, e.t.data());
     m.cameras.push_back(std::move(c));
   }
-  std::size_t k = 0;
+  m.points.resize(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
-    Point p;
+    Point &p = m.points[static_cast<std::size_t>(i)];
     for (int c = 0; c < 3; ++c) p.xyz[c] = points.xyz[3 * static_cast<std::size_t>(i) + c];
     p.rgb = {(i * 37) & 255, (i * 11 + 64) & 255, 255 - i % 256};
-    for (int j = 0; j < ncams; ++j) {
-      if (!points.vmask[static_cast<std::size_t>(i) * static_cast<std::size_t>(ncams) + static_cast<std::size_t>(j)])
-        continue;
-      const eucsba::Camera &e = cameras[static_cast<std::size_t>(j)];
-      p.measurements.push_back({j, i, points.x[2 * k] - e.k.u0, points.x[2 * k + 1] - e.k.v0});
-      ++k;
-    }
-    m.points.push_back(std::move(p));
   }
+  eucsba::for_each_projection(points, [&](int i, int j, const double *x) {
+    const eucsba::Camera &e = cameras[static_cast<std::size_t>(j)];
+    m.points[static_cast<std::size_t>(i)].measurements.push_back({j, i, x[0] - e.k.u0, x[1] - e.k.v0});
+  });
   *out = std::move(m);
   return true;
 }

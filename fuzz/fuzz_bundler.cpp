@@ -21,10 +21,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     sbafuzz::check_error_line(error, name + ":");
     return 0;
   }
-  const std::string once = bundler::format_bundle(b);
-  bundler::Bundle again;
-  if (!bundler::parse_bundle(once, name, &again, &error)) sbafuzz::broken("the formatted bundle does not parse: " + error);
-  require(bundler::format_bundle(again) == once, "formatting the bundle read back gives other text");
+  sbafuzz::require_fixed_point(b, bundler::parse_bundle, bundler::format_bundle, name);
   bal::Problem p;
   std::vector<int> cameras;
   if (!bundler::to_bal(b, name, &p, &cameras, &error)) {

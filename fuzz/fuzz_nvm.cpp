@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // libFuzzer target: the NVM reader (nvm::parse_nvm) and the mapping onto eucsbademo's camera
-// model. What parses must format back to text that parses to the same text again (the rest
-// of the file included), and must map onto a problem whose values are all finite, one
-// measurement per visible projection.
+// model. What parses must format back to text that parses to the same text again, with the
+// header line and the rest of the file as they were read, and must map onto a problem whose
+// values are all finite, one measurement per visible projection.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -20,11 +20,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     sbafuzz::check_error_line(error, name + ":");
     return 0;
   }
-  const std::string once = nvm::format_nvm(m);
-  nvm::Model again;
-  if (!nvm::parse_nvm(once, name, &again, &error)) sbafuzz::broken("the formatted model does not parse: " + error);
-  require(nvm::format_nvm(again) == once, "formatting the model read back gives other text");
-  require(again.rest == m.rest && again.header == m.header, "the header or the rest of the file changed");
+  const std::string once = sbafuzz::require_fixed_point(m, nvm::parse_nvm, nvm::format_nvm, name);
+  // The header line starts the text and the rest of the file ends it, as they were read.
+  require(once.compare(0, m.header.size() + 1, m.header + "\n") == 0, "the header is not written back as read");
+  require(once.size() >= m.rest.size() && once.compare(once.size() - m.rest.size(), m.rest.size(), m.rest) == 0,
+          "the rest of the file is not written back as read");
   colmap::SbaProblem p;
   if (!nvm::to_sba(m, true, name, &p, &error)) {
     sbafuzz::check_error_line(error, name + ": ");

@@ -27,13 +27,7 @@
 
 namespace {
 
-using refinetest::eucsbademo_error;
-using refinetest::final_error;
-using refinetest::Outcome;
-using refinetest::read_file;
-using refinetest::run;
-using refinetest::temp_dir;
-using refinetest::write_file;
+using namespace refinetest;  // NOLINT: the helpers of sbarefine's tests
 
 // A generated scene and the COLMAP model of its values.
 struct Scene {

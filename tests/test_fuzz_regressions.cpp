@@ -176,32 +176,33 @@ TEST(FuzzRegressions, ColmapFiles) {
   }
 }
 
-TEST(FuzzRegressions, BundlerFiles) {
-  for (const fs::path &in : inputs("bundler")) {
-    bundler::Bundle b;
+// Inputs of a file format sbarefine tells by its first bytes, `magic`: read(path, &error)
+// refuses each, and so does sbarefine when the file starts as one of its kind.
+template <class Read>
+void expect_refused(const std::string &target, const std::string &magic, Read read) {
+  for (const fs::path &in : inputs(target)) {
     std::string error;
-    EXPECT_FALSE(bundler::read_bundle(in.string(), &b, &error)) << in;
+    EXPECT_FALSE(read(in.string(), &error)) << in;
     expect_one_line(error, in.string() + ":", in);
-    // sbarefine takes a file for a bundle only when it starts as one.
     std::ifstream f(in, std::ios::binary);
-    std::string head(13, '\0');
-    f.read(&head[0], 13);
-    if (head == "# Bundle file") expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(in.string()), in);
+    std::string head(magic.size(), '\0');
+    f.read(&head[0], static_cast<std::streamsize>(magic.size()));
+    if (head == magic) expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(in.string()), in);
   }
 }
 
+TEST(FuzzRegressions, BundlerFiles) {
+  expect_refused("bundler", "# Bundle file", [](const std::string &path, std::string *error) {
+    bundler::Bundle b;
+    return bundler::read_bundle(path, &b, error);
+  });
+}
+
 TEST(FuzzRegressions, NvmFiles) {
-  for (const fs::path &in : inputs("nvm")) {
+  expect_refused("nvm", "NVM_V3", [](const std::string &path, std::string *error) {
     nvm::Model m;
-    std::string error;
-    EXPECT_FALSE(nvm::read_nvm(in.string(), &m, &error)) << in;
-    expect_one_line(error, in.string() + ":", in);
-    // sbarefine takes a file for an NVM file only when it starts as one.
-    std::ifstream f(in, std::ios::binary);
-    std::string head(6, '\0');
-    f.read(&head[0], 6);
-    if (head == "NVM_V3") expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(in.string()), in);
-  }
+    return nvm::read_nvm(path, &m, error);
+  });
 }
 
 // Found in the fuzzers' corpora (not as a crash): a token with a NUL byte inside
