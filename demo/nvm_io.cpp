@@ -218,7 +218,8 @@ void from_sba(const eucsba::CameraModel &sba_model, const double *p, int mcon, i
   }
   const double *points = p + static_cast<std::size_t>(ncams) * cnp;
   for (int i = ncon; i < n; ++i)
-    for (int k = 0; k < 3; ++k) m->points[static_cast<std::size_t>(i)].xyz[k] = points[3 * static_cast<std::size_t>(i) + k];
+    for (int k = 0; k < 3; ++k)
+      m->points[static_cast<std::size_t>(i)].xyz[k] = points[3 * static_cast<std::size_t>(i) + k];
 }
 
 bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::PointSet &points, Model *out,

@@ -80,8 +80,9 @@ std::vector<sbacli::Option> option_table(Options &o) {
 
 bool parse_command_line(int argc, char **argv, Options *options, std::string *error) {
   Options o;
-  if (!sbademo::parse_one_input(argc, argv, option_table(o), "argument (a COLMAP model directory, a Bundler or an NVM file)",
-                                &o.input, &o.help, &o.version, error))
+  if (!sbademo::parse_one_input(argc, argv, option_table(o),
+                                "argument (a COLMAP model directory, a Bundler or an NVM file)", &o.input, &o.help,
+                                &o.version, error))
     return false;
   *options = std::move(o);
   return true;
@@ -253,7 +254,8 @@ void eucsba_job(Loaded *l, Job *job) {
 bool write_eucsba(const std::string &prefix, const Loaded &l, const double *p, std::string *why) {
   const eucsba::CameraModel &model = *l.sba_model;
   std::vector<eucsba::Camera> cams;
-  for (int j = 0; j < model.ncameras(); ++j) cams.push_back(model.camera(j, p + static_cast<std::size_t>(j) * model.cnp()));
+  for (int j = 0; j < model.ncameras(); ++j)
+    cams.push_back(model.camera(j, p + static_cast<std::size_t>(j) * model.cnp()));
   const double *xyz = p + static_cast<std::size_t>(model.ncameras()) * model.cnp();
   const std::vector<double> points(xyz, xyz + 3 * static_cast<std::size_t>(model.npoints()));
   eucsba::Status st = eucsba::write_cameras(prefix + "-cams.txt", model.kind(), cams);

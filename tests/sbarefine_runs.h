@@ -75,7 +75,8 @@ struct Outcome {
 // sbarefine with args (words split by the shell).
 inline Outcome run(const std::string &args) {
   const std::string base = testing::TempDir() + "test_refine_run_" + std::to_string(::getpid());
-  const int st = std::system((std::string(SBAREFINE_EXE) + " " + args + " >" + base + ".out 2>" + base + ".err").c_str());
+  const std::string command = std::string(SBAREFINE_EXE) + " " + args + " >" + base + ".out 2>" + base + ".err";
+  const int st = std::system(command.c_str());
   Outcome r;
   r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
   r.out = read_file(base + ".out");
