@@ -152,8 +152,45 @@ void angle_axis(const std::array<double, 9> &R, double w[3]) {
   for (int k = 0; k < 3; ++k) w[k] = a[k] * angle;
 }
 
+bool parse_list(const std::string &text, const std::string &name, ImageList *out, std::string *error) {
+  ImageList list;
+  std::size_t pos = 0;
+  for (int lineno = 1; pos < text.size(); ++lineno) {
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(pos, end - pos);
+    pos = end + 1;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::vector<std::string> values;
+    sbademo::TextTokens t(line, name, 0, lineno);
+    std::string tok;
+    while (t.next(&tok)) values.push_back(tok);
+    const std::string where = name + ":" + std::to_string(lineno) + ": ";
+    if (values.size() != 1 && values.size() != 3)
+      return fail(error, where + "expected PATH or PATH 0 FOCAL, found " + std::to_string(values.size()) + " values");
+    if (values.size() == 3) {
+      if (values[1] != "0")
+        return fail(error, where + "expected 0 after the path, got '" + sbademo::TextTokens::printable(values[1]) + "'");
+      char *stop = nullptr;
+      const double f = std::strtod(values[2].c_str(), &stop);
+      if (stop != values[2].c_str() + values[2].size() || !std::isfinite(f) || f <= 0)
+        return fail(error, where + "the focal length must be a finite positive number, got '" +
+                               sbademo::TextTokens::printable(values[2]) + "'");
+    }
+    list.names.push_back(values[0]);
+  }
+  list.text = text;
+  *out = std::move(list);
+  return true;
+}
+
+bool read_list(const std::string &path, ImageList *out, std::string *error) {
+  std::string text;
+  return colmap::read_whole_file(path, true, &text, error) && parse_list(text, path, out, error);
+}
+
 bool to_bal(const Bundle &b, const std::string &name, bal::Problem *out, std::vector<int> *cameras,
-            std::string *error) {
+            std::string *error, const std::vector<std::string> &names) {
   std::vector<int> index(b.cameras.size(), -1), used(b.cameras.size(), 0);
   bal::Problem p;
   std::vector<int> order;
@@ -174,9 +211,12 @@ bool to_bal(const Bundle &b, const std::string &name, bal::Problem *out, std::ve
       used[static_cast<std::size_t>(v.camera)] = 1;
     }
   }
-  for (int j : order)
-    if (!used[static_cast<std::size_t>(j)])
-      return fail(error, name + ": camera " + std::to_string(j) + " is registered but sees no point");
+  for (int j : order) {
+    if (used[static_cast<std::size_t>(j)]) continue;
+    const std::string image =
+        names.empty() ? "" : " (" + sbademo::TextTokens::printable(names[static_cast<std::size_t>(j)]) + ")";
+    return fail(error, name + ": camera " + std::to_string(j) + image + " is registered but sees no point");
+  }
   if (order.empty() || b.points.empty()) return fail(error, name + ": no registered camera or no point");
   p.ncameras = static_cast<int>(order.size());
   p.npoints = static_cast<int>(b.points.size());

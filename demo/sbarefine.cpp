@@ -45,6 +45,8 @@ struct Options {
   std::string initial_ply, final_ply;
   std::string write_eucsba;  // COLMAP, NVM: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
   std::string write_bal;     // Bundler: a BAL problem
+  std::string bundler_list;  // Bundler: the image list read; empty: none
+  std::string write_list;    // Bundler: where the image list is written back; empty: not
   bool help = false, version = false;
 };
 
@@ -71,6 +73,12 @@ std::vector<sbacli::Option> option_table(Options &o) {
                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_eucsba); }});
   t.push_back({"write-bal", "FILE", "Bundler: also write the refined model as a BAL problem",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_bal); }});
+  t.push_back({"bundler-list", "FILE",
+               "Bundler: the image list of the bundle (list.txt: PATH or PATH 0 FOCAL, a line per camera);\n"
+               "its paths name the cameras in messages and in --json",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.bundler_list); }});
+  t.push_back({"write-list", "FILE", "Bundler: write the image list of --bundler-list to FILE as it was read",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.write_list); }});
   t.push_back({"initial-ply", "FILE", "write the initial points (with their colors) and camera centres (red) as PLY",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.initial_ply); }});
   t.push_back({"final-ply", "FILE", "the same for the refined model",
@@ -96,7 +104,7 @@ void print_usage(std::FILE *out) {
       "  camera models SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV), refined with\n"
       "  eucsbademo's camera model, every image an sba camera with its own intrinsics;\n"
       "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera;\n"
-      "  --intrinsics does not apply);\n"
+      "  --intrinsics does not apply); its image list (list.txt) with --bundler-list;\n"
       "- a VisualSFM file (NVM_V3, its first model), refined with eucsbademo's camera model, the\n"
       "  focal length refined (--intrinsics focal or none) and the radial distortion held.\n"
       "\n"
@@ -194,6 +202,7 @@ struct Job {
   // The projection of point i in camera j with the parameters p.
   std::function<void(const double *p, int j, int i, double x[2])> project;
   Cloud initial;
+  std::vector<std::string> camera_names;  // the image of each sba camera; empty: unnamed
   // Writes the refined model (p) where --write says, and returns it for --final-ply.
   std::function<bool(const double *p, Cloud *final_cloud, std::string *error)> finish;
 };
@@ -221,6 +230,7 @@ struct Loaded {
   std::unique_ptr<eucsba::CameraModel> sba_model;
   nvm::Model nvm;
   bundler::Bundle bundle;
+  bundler::ImageList list;
   bal::Problem bal;
   bal::SbaLayout layout;
   std::vector<int> bundle_cameras;
@@ -278,6 +288,7 @@ bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
   job->summary += "\nIntrinsics refined: " + o.intrinsics + " (nccalib " + std::to_string(pr.nccalib) + ", ncdist " +
                   std::to_string(pr.ncdist) + ")";
   job->initial = cloud(l->model);
+  for (const colmap::Image &im : l->model.images) job->camera_names.push_back(im.name);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
     colmap::from_sba(*l->sba_model, l->problem, p, o.solve.mcon, o.solve.ncon, &l->model);
     *final_cloud = cloud(l->model);
@@ -301,6 +312,7 @@ bool load_nvm(const Options &o, Loaded *l, Job *job, std::string *error) {
                   std::to_string(l->problem.nccalib) +
                   "); radial distortion held: VisualSFM applies it to the measurements, which sba takes as data";
   job->initial = cloud(l->nvm);
+  for (const nvm::Camera &c : l->nvm.cameras) job->camera_names.push_back(c.name);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
     nvm::from_sba(*l->sba_model, p, o.solve.mcon, o.solve.ncon, &l->nvm);
     *final_cloud = cloud(l->nvm);
@@ -311,8 +323,16 @@ bool load_nvm(const Options &o, Loaded *l, Job *job, std::string *error) {
 }
 
 bool load_bundle(const Options &o, Loaded *l, Job *job, std::string *error) {
-  if (!bundler::read_bundle(o.input, &l->bundle, error) ||
-      !bundler::to_bal(l->bundle, o.input, &l->bal, &l->bundle_cameras, error) ||
+  if (!bundler::read_bundle(o.input, &l->bundle, error)) return false;
+  if (!o.bundler_list.empty()) {
+    if (!bundler::read_list(o.bundler_list, &l->list, error)) return false;
+    if (l->list.names.size() != l->bundle.cameras.size()) {
+      *error = o.bundler_list + ": " + std::to_string(l->list.names.size()) + " images for the " +
+               std::to_string(l->bundle.cameras.size()) + " cameras of " + o.input;
+      return false;
+    }
+  }
+  if (!bundler::to_bal(l->bundle, o.input, &l->bal, &l->bundle_cameras, error, l->list.names) ||
       !bal::to_sba(l->bal, o.input, &l->layout, error))
     return false;
   job->m = l->layout.m;
@@ -332,12 +352,16 @@ bool load_bundle(const Options &o, Loaded *l, Job *job, std::string *error) {
   };
   job->summary = "Bundler file " + o.input + ": " + std::to_string(l->bundle.cameras.size()) + " cameras (" +
                  std::to_string(m) + " registered), " + std::to_string(job->n) + " points";
+  if (!o.bundler_list.empty()) job->summary += ", images listed in " + o.bundler_list;
+  if (!l->list.names.empty())
+    for (int j : l->bundle_cameras) job->camera_names.push_back(l->list.names[static_cast<std::size_t>(j)]);
   job->initial = cloud(l->bundle);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
     bal::from_sba_params(p, &l->bal);
     bundler::from_bal(l->bal, l->bundle_cameras, o.solve.mcon, o.solve.ncon, &l->bundle);
     *final_cloud = cloud(l->bundle);
     if (!o.write_bal.empty() && !bal::write_problem(o.write_bal, l->bal, why)) return false;
+    if (!o.write_list.empty() && !sbademo::write_whole_file(o.write_list, l->list.text, why)) return false;
     return o.write.empty() || bundler::write_bundle(o.write, l->bundle, why);
   };
   return true;
@@ -351,24 +375,32 @@ int refine_main(int argc, char **argv) {
       status >= 0)
     return status;
   sbademo::SolveOptions &so = o.solve;
-  if (!sbademo::outputs_writable({&so.json, &o.initial_ply, &o.final_ply, &o.write_bal})) return kExitFailure;
+  if (!sbademo::outputs_writable({&so.json, &o.initial_ply, &o.final_ply, &o.write_bal, &o.write_list}))
+    return kExitFailure;
 
   const auto read_start = std::chrono::steady_clock::now();
   Loaded loaded;
   Job job;
   const Format format = detect_format(o.input);
-  // An output option of another format: named with the formats it is for.
+  // An option of another format: named with the formats it is for.
   const struct {
     bool given, allowed;
     const char *option, *formats;
-  } kOutputs[] = {{!o.write_format.empty(), format == Format::Colmap, "--write-format", "COLMAP models"},
-                  {!o.write_eucsba.empty(), format != Format::Bundler, "--write-eucsba", "COLMAP models and NVM files"},
-                  {!o.write_bal.empty(), format == Format::Bundler, "--write-bal", "Bundler files"}};
-  for (const auto &out : kOutputs)
-    if (out.given && !out.allowed) {
-      std::fprintf(stderr, "sbarefine: %s is for %s\n", out.option, out.formats);
+  } kFormatOptions[] = {
+      {!o.write_format.empty(), format == Format::Colmap, "--write-format", "COLMAP models"},
+      {!o.write_eucsba.empty(), format != Format::Bundler, "--write-eucsba", "COLMAP models and NVM files"},
+      {!o.write_bal.empty(), format == Format::Bundler, "--write-bal", "Bundler files"},
+      {!o.bundler_list.empty(), format == Format::Bundler, "--bundler-list", "Bundler files"},
+      {!o.write_list.empty(), format == Format::Bundler, "--write-list", "Bundler files"}};
+  for (const auto &opt : kFormatOptions)
+    if (opt.given && !opt.allowed) {
+      std::fprintf(stderr, "sbarefine: %s is for %s\n", opt.option, opt.formats);
       return kExitUsage;
     }
+  if (!o.write_list.empty() && o.bundler_list.empty()) {
+    std::fprintf(stderr, "sbarefine: --write-list writes the list of --bundler-list, which is not given\n");
+    return kExitUsage;
+  }
   if (format == Format::Nvm && o.refine.principal) {
     std::fprintf(stderr, "sbarefine: --intrinsics %s: an NVM file has no principal point (its measurements are "
                          "relative to the image centre)\n", o.intrinsics.c_str());
@@ -442,6 +474,7 @@ int refine_main(int argc, char **argv) {
   if (!so.json.empty()) {
     sbademo::add_per_camera(n, m, job.vmask, job.x, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); },
                             &report);
+    for (std::size_t j = 0; j < job.camera_names.size(); ++j) report.per_camera[j].name = job.camera_names[j];
     if (!sbademo::write_json(so.json, report, &error)) {
       std::fprintf(stderr, "%s: %s\n", so.json.c_str(), error.c_str());
       return kExitFailure;

@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Writes the seed corpora of fuzz_colmap, fuzz_bundler and fuzz_nvm: the six files of small
 // generated scenes (sbagen) as COLMAP text and binary, each behind the selector byte
-// fuzz_colmap reads, into COLMAP_DIR, and the same scenes as Bundler files into BUNDLER_DIR
-// and as NVM files (one with a calibration token, a second model and a PLY section after the
-// first) into NVM_DIR.
+// fuzz_colmap reads, into COLMAP_DIR, the same scenes as Bundler files with their image lists
+// into BUNDLER_DIR, and as NVM files (one with a calibration token, a second model and a PLY
+// section after the first) into NVM_DIR.
 #include <cstdio>
 #include <string>
 
@@ -11,6 +11,7 @@
 #include "colmap_io.h"
 #include "colmap_sba.h"
 #include "nvm_io.h"
+#include "output_file.h"
 #include "sbagen.h"
 
 int main(int argc, char **argv) {
@@ -56,7 +57,15 @@ int main(int argc, char **argv) {
         std::fprintf(stderr, "seed_writer: %s\n", error.c_str());
         return 1;
       }
-      written += 2;
+      // An image list: the line of every camera, some with the EXIF focal length.
+      std::string list;
+      for (std::size_t j = 0; j < bundle.cameras.size(); ++j)
+        list += "images/" + nvm_model.cameras[j].name + (j % 2 ? "\n" : " 0 812.5\n");
+      if (!sbademo::write_whole_file(bundler_dir + seed + "-list.txt", list, &error)) {
+        std::fprintf(stderr, "seed_writer: %s\n", error.c_str());
+        return 1;
+      }
+      written += 3;
     }
     for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
       const colmap::Files f = colmap::format_model(model, e);

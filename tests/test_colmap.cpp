@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -437,6 +438,29 @@ TEST(Bundler, ReaderErrors) {
   EXPECT_TRUE(bundler::parse_bundle(head + "0 0 0\n1 2 3\n1 0 0 1 2\n", "b.out", &out, &error)) << error;
 }
 
+TEST(Bundler, ImageList) {
+  const std::string text = "images/a.jpg\nimages/b.jpg 0 812.5\r\n  c.jpg\t0 1e3 \n";
+  bundler::ImageList list;
+  std::string error;
+  ASSERT_TRUE(bundler::parse_list(text, "list.txt", &list, &error)) << error;
+  EXPECT_EQ(list.names, (std::vector<std::string>{"images/a.jpg", "images/b.jpg", "c.jpg"}));
+  EXPECT_EQ(list.text, text);
+  ASSERT_TRUE(bundler::parse_list("a.jpg", "list.txt", &list, &error)) << error;
+  EXPECT_EQ(list.names, std::vector<std::string>{"a.jpg"});
+  const Bad cases[] = {
+      {"a.jpg\n\nb.jpg\n", "list.txt:2: expected PATH or PATH 0 FOCAL, found 0 values"},
+      {"a.jpg\nmy image.jpg\n", "list.txt:2: expected PATH or PATH 0 FOCAL, found 2 values"},
+      {"a.jpg 1 500\n", "list.txt:1: expected 0 after the path, got '1'"},
+      {"a.jpg 0 -500\n", "list.txt:1: the focal length must be a finite positive number, got '-500'"},
+      {"a.jpg 0 nan\n", "list.txt:1: the focal length must be a finite positive number, got 'nan'"},
+      {"a.jpg 0 500px\n", "list.txt:1: the focal length must be a finite positive number, got '500px'"},
+  };
+  for (const Bad &b : cases) {
+    EXPECT_FALSE(bundler::parse_list(b.text, "list.txt", &list, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+}
+
 TEST(Bundler, AngleAxisInvertsTheRotation) {
   const double ws[][3] = {{0, 0, 0}, {1e-9, -2e-9, 0}, {0.3, -0.2, 0.1}, {2, 1, -0.5},
                           {M_PI - 1e-9, 0, 0}, {0, 0, -M_PI}, {1.5, 1.5, 1.5}};
@@ -489,6 +513,53 @@ TEST(Sbarefine, BundlerSameErrorAsEucsbademo) {
     EXPECT_EQ(back.points[i].views[0].x, b.points[i].views[0].x);
   }
   EXPECT_NE(read_file(dir + "/i.ply").find("element vertex 210\n"), std::string::npos);
+}
+
+// The image list names the registered cameras in --json and in messages, is checked against
+// the bundle and written back as read.
+TEST(Sbarefine, BundlerImageList) {
+  const std::string dir = temp_dir("bundler_list");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 60);
+  bundler::Bundle b = make_bundle(s);
+  b.cameras.insert(b.cameras.begin() + 1, bundler::Camera{});  // camera 1 not registered
+  for (bundler::Point &p : b.points)
+    for (bundler::View &v : p.views) v.camera += v.camera >= 1;
+  std::string error;
+  ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", b, &error)) << error;
+  const std::string list = "img/0.jpg 0 800\nimg/1.jpg\nimg/\"2\".jpg 0 812.5\nimg/3.jpg\nimg/4.jpg\nimg/5.jpg\nimg/6.jpg\n";
+  write_file(dir + "/list.txt", list);
+  Outcome r = run(dir + "/b.out --bundler-list " + dir + "/list.txt --json " + dir + "/r.json --write-list " + dir +
+                  "/out-list.txt");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("Bundler file " + dir + "/b.out: 7 cameras (6 registered), 60 points, images listed in " +
+                       dir + "/list.txt, "),
+            std::string::npos)
+      << r.out;
+  EXPECT_EQ(read_file(dir + "/out-list.txt"), list);
+  // sba camera 1 is the bundle's camera 2; a name is a JSON string.
+  const std::string json = read_file(dir + "/r.json");
+  EXPECT_NE(json.find("{\"camera\": 0, \"name\": \"img/0.jpg\", \"observations\": "), std::string::npos) << json;
+  EXPECT_NE(json.find("{\"camera\": 1, \"name\": \"img/\\\"2\\\".jpg\", \"observations\": "), std::string::npos)
+      << json;
+  EXPECT_EQ(json.find("img/1.jpg"), std::string::npos);
+  // A list of another length, a camera that sees nothing named, options that need a list.
+  write_file(dir + "/short.txt", "a.jpg\nb.jpg\n");
+  r = run(dir + "/b.out --bundler-list " + dir + "/short.txt");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/short.txt: 2 images for the 7 cameras of " + dir + "/b.out\n");
+  for (bundler::Point &p : b.points)
+    p.views.erase(std::remove_if(p.views.begin(), p.views.end(), [](const bundler::View &v) { return v.camera == 4; }),
+                  p.views.end());
+  ASSERT_TRUE(bundler::write_bundle(dir + "/b4.out", b, &error)) << error;
+  r = run(dir + "/b4.out --bundler-list " + dir + "/list.txt");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/b4.out: camera 4 (img/4.jpg) is registered but sees no point\n");
+  r = run(dir + "/b.out --write-list " + dir + "/x.txt");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: --write-list writes the list of --bundler-list, which is not given\n");
+  r = run(dir + " --bundler-list " + dir + "/list.txt");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: --bundler-list is for Bundler files\n");
 }
 
 // Conversions: a COLMAP model to eucsbademo's files and a bundle to a BAL problem (itmax 0:

@@ -196,6 +196,12 @@ TEST(FuzzRegressions, BundlerFiles) {
     bundler::Bundle b;
     return bundler::read_bundle(path, &b, error);
   });
+  // fuzz_bundler also reads its inputs as image lists: refused with one line, if at all.
+  for (const fs::path &in : inputs("bundler")) {
+    bundler::ImageList list;
+    std::string error;
+    if (!bundler::read_list(in.string(), &list, &error)) expect_one_line(error, in.string() + ":", in);
+  }
 }
 
 TEST(FuzzRegressions, NvmFiles) {

@@ -287,7 +287,8 @@ TEST(SbarefineNvm, HeldFocalAndHeldCamerasAsFixedK) {
   const nvm::Model m = make_model(s.problem);
   std::string error;
   ASSERT_TRUE(nvm::write_nvm(dir + "/in.nvm", m, &error)) << error;
-  const Outcome r = run(dir + "/in.nvm --intrinsics none --mcon 1 --write " + dir + "/out.nvm");
+  const Outcome r =
+      run(dir + "/in.nvm --intrinsics none --mcon 1 --write " + dir + "/out.nvm --json " + dir + "/r.json");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("Intrinsics refined: none (nccalib 5); "), std::string::npos) << r.out;
   EXPECT_NEAR(final_error(r.out), expected, 1e-6 * expected) << r.out;
@@ -298,6 +299,9 @@ TEST(SbarefineNvm, HeldFocalAndHeldCamerasAsFixedK) {
   EXPECT_EQ(back.cameras[0].q, m.cameras[0].q);
   EXPECT_EQ(back.cameras[0].c, m.cameras[0].c);
   EXPECT_NE(back.cameras[1].c, m.cameras[1].c);
+  // --json names each camera by its image.
+  EXPECT_NE(read_file(dir + "/r.json").find("{\"camera\": 9, \"name\": \"img_0009.jpg\", \"observations\": "),
+            std::string::npos);
 }
 
 // Measurements distorted the way VisualSFM undistorts them (solving m (1 + k |m|^2) = u for
