@@ -11,92 +11,17 @@
 #include "bal_model.h"
 #include "colmap_io.h"
 #include "output_file.h"
+#include "text_tokens.h"
 
 namespace bundler {
 
 namespace {
 
-bool fail(std::string *error, const std::string &msg) {
-  if (error) *error = msg;
-  return false;
-}
+using sbademo::g17;
 
-// The numbers of the file after its header line, one at a time, with their line.
-class Tokens {
- public:
-  Tokens(const std::string &text, const std::string &name, std::size_t pos, int line)
-      : text_(text), name_(name), pos_(pos), line_(line) {}
-
-  // The next token; false at the end of the text.
-  bool next(std::string *tok) {
-    while (pos_ < text_.size() && (text_[pos_] == ' ' || text_[pos_] == '\t' || text_[pos_] == '\r' ||
-                                   text_[pos_] == '\n')) {
-      if (text_[pos_] == '\n') ++line_;
-      ++pos_;
-    }
-    if (pos_ >= text_.size()) return false;
-    const std::size_t b = pos_;
-    while (pos_ < text_.size() && text_[pos_] != ' ' && text_[pos_] != '\t' && text_[pos_] != '\r' &&
-           text_[pos_] != '\n')
-      ++pos_;
-    tok->assign(text_, b, pos_ - b);
-    last_line_ = line_;
-    return true;
-  }
-  std::string where() const { return name_ + ":" + std::to_string(line_) + ": "; }
-  // The end of the file, at the line of the last value.
-  std::string ends_before(const std::string &what) const {
-    return name_ + ":" + std::to_string(last_line_) + ": the file ends before " + what;
-  }
-
-  bool real(const std::string &what, double *out, std::string *error) {
-    std::string tok;
-    if (!next(&tok)) return fail(error, ends_before(what));
-    char *end = nullptr;
-    const double v = std::strtod(tok.c_str(), &end);
-    if (end != tok.c_str() + tok.size() || !std::isfinite(v))
-      return fail(error, where() + what + " must be a finite number, got '" + printable(tok) + "'");
-    *out = v;
-    return true;
-  }
-  bool integer(const std::string &what, long long lo, long long hi, long long *out, std::string *error) {
-    std::string tok;
-    if (!next(&tok)) return fail(error, ends_before(what));
-    bool digits = !tok.empty() && tok.size() <= 18;
-    for (std::size_t k = tok[0] == '-' ? 1 : 0; digits && k < tok.size(); ++k) digits = tok[k] >= '0' && tok[k] <= '9';
-    if (!digits || tok == "-") return fail(error, where() + what + " must be an integer, got '" + printable(tok) + "'");
-    const long long v = std::strtoll(tok.c_str(), nullptr, 10);
-    if (v < lo || v > hi)
-      return fail(error, where() + what + " is " + std::to_string(v) + ", expected " + std::to_string(lo) + ".." +
-                             std::to_string(hi));
-    *out = v;
-    return true;
-  }
-
- private:
-  static std::string printable(const std::string &s) {
-    std::string out;
-    for (char c : s) {
-      if (out.size() >= 40) return out + "...";
-      out += (c >= 32 && c < 127) ? c : '?';
-    }
-    return out;
-  }
-
-  const std::string &text_;
-  const std::string &name_;
-  std::size_t pos_;
-  int line_;
-  int last_line_ = 1;
-};
+bool fail(std::string *error, const std::string &msg) { return sbademo::TextTokens::fail(error, msg); }
 
 constexpr char kHeader[] = "# Bundle file v0.3";
-
-std::string g17(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
-}
 
 }  // namespace
 
@@ -104,7 +29,7 @@ bool parse_bundle(const std::string &text, const std::string &name, Bundle *out,
   if (text.compare(0, sizeof kHeader - 1, kHeader) != 0)
     return fail(error, name + ":1: expected the header '" + kHeader + "'");
   const std::size_t eol = text.find('\n');
-  Tokens t(text, name, eol == std::string::npos ? text.size() : eol + 1, 2);
+  sbademo::TextTokens t(text, name, eol == std::string::npos ? text.size() : eol + 1, 2);
   long long ncams, npts;
   if (!t.integer("the number of cameras", 0, 1 << 24, &ncams, error) ||
       !t.integer("the number of points", 0, 1 << 28, &npts, error))
@@ -202,13 +127,7 @@ std::string format_bundle(const Bundle &b) {
 }
 
 bool write_bundle(const std::string &path, const Bundle &b, std::string *error) {
-  sbademo::OutputFile file;
-  std::string why;
-  const std::string text = format_bundle(b);
-  if (!file.open(path, &why)) return fail(error, path + ": " + why);
-  std::fwrite(text.data(), 1, text.size(), file.get());
-  if (!file.commit(&why)) return fail(error, path + ": " + why);
-  return true;
+  return sbademo::write_whole_file(path, format_bundle(b), error);
 }
 
 void angle_axis(const std::array<double, 9> &R, double w[3]) {
@@ -233,8 +152,45 @@ void angle_axis(const std::array<double, 9> &R, double w[3]) {
   for (int k = 0; k < 3; ++k) w[k] = a[k] * angle;
 }
 
+bool parse_list(const std::string &text, const std::string &name, ImageList *out, std::string *error) {
+  ImageList list;
+  std::size_t pos = 0;
+  for (int lineno = 1; pos < text.size(); ++lineno) {
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(pos, end - pos);
+    pos = end + 1;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::vector<std::string> values;
+    sbademo::TextTokens t(line, name, 0, lineno);
+    std::string tok;
+    while (t.next(&tok)) values.push_back(tok);
+    const std::string where = name + ":" + std::to_string(lineno) + ": ";
+    if (values.size() != 1 && values.size() != 3)
+      return fail(error, where + "expected PATH or PATH 0 FOCAL, found " + std::to_string(values.size()) + " values");
+    if (values.size() == 3) {
+      if (values[1] != "0")
+        return fail(error, where + "expected 0 after the path, got '" + sbademo::TextTokens::printable(values[1]) + "'");
+      char *stop = nullptr;
+      const double f = std::strtod(values[2].c_str(), &stop);
+      if (stop != values[2].c_str() + values[2].size() || !std::isfinite(f) || f <= 0)
+        return fail(error, where + "the focal length must be a finite positive number, got '" +
+                               sbademo::TextTokens::printable(values[2]) + "'");
+    }
+    list.names.push_back(values[0]);
+  }
+  list.text = text;
+  *out = std::move(list);
+  return true;
+}
+
+bool read_list(const std::string &path, ImageList *out, std::string *error) {
+  std::string text;
+  return colmap::read_whole_file(path, true, &text, error) && parse_list(text, path, out, error);
+}
+
 bool to_bal(const Bundle &b, const std::string &name, bal::Problem *out, std::vector<int> *cameras,
-            std::string *error) {
+            std::string *error, const std::vector<std::string> &names) {
   std::vector<int> index(b.cameras.size(), -1), used(b.cameras.size(), 0);
   bal::Problem p;
   std::vector<int> order;
@@ -255,9 +211,12 @@ bool to_bal(const Bundle &b, const std::string &name, bal::Problem *out, std::ve
       used[static_cast<std::size_t>(v.camera)] = 1;
     }
   }
-  for (int j : order)
-    if (!used[static_cast<std::size_t>(j)])
-      return fail(error, name + ": camera " + std::to_string(j) + " is registered but sees no point");
+  for (int j : order) {
+    if (used[static_cast<std::size_t>(j)]) continue;
+    const std::string image =
+        names.empty() ? "" : " (" + sbademo::TextTokens::printable(names[static_cast<std::size_t>(j)]) + ")";
+    return fail(error, name + ": camera " + std::to_string(j) + image + " is registered but sees no point");
+  }
   if (order.empty() || b.points.empty()) return fail(error, name + ": no registered camera or no point");
   p.ncameras = static_cast<int>(order.size());
   p.npoints = static_cast<int>(b.points.size());
@@ -306,20 +265,16 @@ bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::Poin
     c.t = {e.t[0], -e.t[1], -e.t[2]};
     b.cameras.push_back(c);
   }
-  std::size_t k = 0;
+  b.points.resize(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
-    Point p;
+    Point &p = b.points[static_cast<std::size_t>(i)];
     for (int c = 0; c < 3; ++c) p.xyz[c] = points.xyz[3 * static_cast<std::size_t>(i) + c];
     p.rgb = {(i * 37) & 255, (i * 11 + 64) & 255, 255 - i % 256};
-    for (int j = 0; j < m; ++j) {
-      if (!points.vmask[static_cast<std::size_t>(i) * static_cast<std::size_t>(m) + static_cast<std::size_t>(j)])
-        continue;
-      const eucsba::Camera &e = cameras[static_cast<std::size_t>(j)];
-      p.views.push_back({j, i, points.x[2 * k] - e.k.u0, e.k.v0 - points.x[2 * k + 1]});
-      ++k;
-    }
-    b.points.push_back(std::move(p));
   }
+  eucsba::for_each_projection(points, [&](int i, int j, const double *x) {
+    const eucsba::Camera &e = cameras[static_cast<std::size_t>(j)];
+    b.points[static_cast<std::size_t>(i)].views.push_back({j, i, x[0] - e.k.u0, e.k.v0 - x[1]});
+  });
   *out = std::move(b);
   return true;
 }

@@ -52,11 +52,25 @@ bool read_bundle(const std::string &path, Bundle *out, std::string *error);
 std::string format_bundle(const Bundle &b);
 bool write_bundle(const std::string &path, const Bundle &b, std::string *error);
 
+// Bundler's image list (list.txt): one line per camera of the bundle, in its order, `PATH` or
+// `PATH 0 FOCAL` (the focal length from the image's EXIF data). The names are what the
+// bundle lacks; the text is kept to be written back as read.
+struct ImageList {
+  std::vector<std::string> names;  // each line's PATH
+  std::string text;                // the file as read
+};
+
+// Every line (but an empty one after the last line break) is a path without blanks,
+// optionally followed by 0 and a finite positive focal length; a carriage return before a
+// line break is allowed.
+bool parse_list(const std::string &text, const std::string &name, ImageList *out, std::string *error);
+bool read_list(const std::string &path, ImageList *out, std::string *error);
+
 // The registered cameras and every point as a BAL problem (camera k of the problem is the
 // k-th registered camera; cameras[k] its index in the bundle). False with a message when a
-// registered camera sees no point.
+// registered camera sees no point, naming it by names[index] when names are given.
 bool to_bal(const Bundle &b, const std::string &name, bal::Problem *out, std::vector<int> *cameras,
-            std::string *error);
+            std::string *error, const std::vector<std::string> &names = {});
 // The problem's cameras from mcon on and points from ncon on back into the bundle.
 void from_bal(const bal::Problem &p, const std::vector<int> &cameras, int mcon, int ncon, Bundle *b);
 

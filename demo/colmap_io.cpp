@@ -697,13 +697,8 @@ bool write_model(const std::string &dir, const Model &model, Encoding encoding, 
   const std::pair<std::string, const std::string *> out[] = {
       {base + "cameras" + ext, &files.cameras}, {base + "images" + ext, &files.images},
       {base + "points3D" + ext, &files.points}};
-  for (const auto &o : out) {
-    sbademo::OutputFile file;
-    std::string why;
-    if (!file.open(o.first, &why)) return fail(error, o.first + ": " + why);
-    std::fwrite(o.second->data(), 1, o.second->size(), file.get());
-    if (!file.commit(&why)) return fail(error, o.first + ": " + why);
-  }
+  for (const auto &o : out)
+    if (!sbademo::write_whole_file(o.first, *o.second, error)) return false;
   return true;
 }
 

@@ -81,6 +81,20 @@ struct PointSet {
   bool has_covariances() const { return !covx.empty(); }
 };
 
+// Calls f(i, j, x) for every projection of a point set with its dense vmask, point by point
+// with the cameras ascending: point i seen by camera j at x[0], x[1].
+template <class F>
+void for_each_projection(const PointSet &points, F f) {
+  const std::size_t m = static_cast<std::size_t>(points.ncameras);
+  std::size_t k = 0;
+  for (int i = 0; i < points.npoints(); ++i)
+    for (std::size_t j = 0; j < m; ++j)
+      if (points.vmask[static_cast<std::size_t>(i) * m + j]) {
+        f(i, static_cast<int>(j), &points.x[2 * k]);
+        ++k;
+      }
+}
+
 // Lines `X Y Z nframes` followed by nframes projections `f x y` (each optionally followed by
 // its covariance, one form for the whole file). Frames may come in any order within a line
 // (they are sorted) but each at most once, and must lie in [0, ncameras). Covariances must

@@ -130,6 +130,19 @@ class OutputFile {
   std::string temp_;   // the temporary, empty when writing in place or when none is open
 };
 
+// Writes text as the whole file path (through OutputFile): false with "PATH: why" in *error
+// if it cannot.
+inline bool write_whole_file(const std::string &path, const std::string &text, std::string *error) {
+  OutputFile file;
+  std::string why;
+  if (file.open(path, &why)) {
+    std::fwrite(text.data(), 1, text.size(), file.get());
+    if (file.commit(&why)) return true;
+  }
+  if (error) *error = path + ": " + why;
+  return false;
+}
+
 // Checks before a long computation that path can be written, without changing an existing
 // file and without leaving a new one behind: false with the reason in *why if not. Devices
 // and FIFOs pass unopened: opening a FIFO could block, or end the stream its reader waits on.

@@ -127,6 +127,7 @@ bool write_json(const std::string &path, const Report &r, std::string *why) {
   for (std::size_t k = 0; k < r.per_camera.size(); ++k) {
     const CameraResidual &c = r.per_camera[k];
     cams += std::string(k ? ",\n    " : "\n    ") + "{\"camera\": " + std::to_string(k) +
+            (c.name.empty() ? "" : ", \"name\": " + quoted(c.name)) +
             ", \"observations\": " + std::to_string(c.observations) +
             ", \"rms_px\": " + number(rms(c.sum_sq, c.observations)) + "}";
   }

@@ -20,6 +20,7 @@ namespace sbademo {
 struct CameraResidual {
   long long observations = 0;
   double sum_sq = 0;  // sum of the squared pixel distances of its projections
+  std::string name;   // its image, when the input names it; empty: not named
 };
 
 struct Report {

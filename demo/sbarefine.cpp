@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // sbarefine: bundle adjustment of a reconstruction as an SfM pipeline wrote it (a COLMAP
-// sparse model, text or binary, or a Bundler bundle.out), written back in its own format with every identifier, name
-// and color unchanged. The solve is balsba's: same options, output and Ctrl-C behaviour.
+// sparse model, text or binary, a Bundler bundle.out or a VisualSFM NVM file), written back
+// in its own format with every identifier, name and color unchanged. The solve is balsba's:
+// same options, output and Ctrl-C behaviour.
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -20,6 +21,7 @@
 #include "colmap_io.h"
 #include "colmap_sba.h"
 #include "eucsba_model.h"
+#include "nvm_io.h"
 #include "output_file.h"
 #include "report.h"
 #include "run_control.h"
@@ -41,8 +43,10 @@ struct Options {
   std::string intrinsics = "focal,distortion";
   colmap::RefineIntrinsics refine;
   std::string initial_ply, final_ply;
-  std::string write_eucsba;  // COLMAP: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
+  std::string write_eucsba;  // COLMAP, NVM: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
   std::string write_bal;     // Bundler: a BAL problem
+  std::string bundler_list;  // Bundler: the image list read; empty: none
+  std::string write_list;    // Bundler: where the image list is written back; empty: not
   bool help = false, version = false;
 };
 
@@ -51,23 +55,30 @@ std::vector<sbacli::Option> option_table(Options &o) {
   sbademo::add_solve_options(
       &t, o.solve,
       {"write", "OUT", "write the refined model in the input's format: a COLMAP model into the directory\n"
-                        "OUT (created if missing), a Bundler file to the file OUT",
+                        "OUT (created if missing), a Bundler or NVM file to the file OUT",
        [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }});
   t.push_back({"write-format", "F", "the format of --write: text or binary (default: the input's)",
                [&o](const std::string &v) { return sbacli::to_choice(v, {"text", "binary"}, &o.write_format); }});
   t.push_back({"intrinsics", "LIST",
                "the intrinsics refined: none, all, or a comma-separated list of focal, principal,\n"
-               "distortion (default focal,distortion, as COLMAP: the principal point held)",
+               "distortion (default focal,distortion, as COLMAP: the principal point held). NVM:\n"
+               "the focal length or nothing (its radial distortion is held, its principal point absent)",
                [&o](const std::string &v) {
                  o.intrinsics = v;
                  return colmap::parse_refine_intrinsics(v, &o.refine);
                }});
   t.push_back({"write-eucsba", "PREFIX",
-               "COLMAP: also write the refined model as eucsbademo files PREFIX-cams.txt (17 values a\n"
-               "line) and PREFIX-pts.txt",
+               "COLMAP, NVM: also write the refined model as eucsbademo files PREFIX-cams.txt (17\n"
+               "values a line) and PREFIX-pts.txt",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_eucsba); }});
   t.push_back({"write-bal", "FILE", "Bundler: also write the refined model as a BAL problem",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_bal); }});
+  t.push_back({"bundler-list", "FILE",
+               "Bundler: the image list of the bundle (list.txt: PATH or PATH 0 FOCAL, a line per camera);\n"
+               "its paths name the cameras in messages and in --json",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.bundler_list); }});
+  t.push_back({"write-list", "FILE", "Bundler: write the image list of --bundler-list to FILE as it was read",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.write_list); }});
   t.push_back({"initial-ply", "FILE", "write the initial points (with their colors) and camera centres (red) as PLY",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.initial_ply); }});
   t.push_back({"final-ply", "FILE", "the same for the refined model",
@@ -77,8 +88,9 @@ std::vector<sbacli::Option> option_table(Options &o) {
 
 bool parse_command_line(int argc, char **argv, Options *options, std::string *error) {
   Options o;
-  if (!sbademo::parse_one_input(argc, argv, option_table(o), "argument (a COLMAP model directory or a Bundler file)",
-                                &o.input, &o.help, &o.version, error))
+  if (!sbademo::parse_one_input(argc, argv, option_table(o),
+                                "argument (a COLMAP model directory, a Bundler or an NVM file)", &o.input, &o.help,
+                                &o.version, error))
     return false;
   *options = std::move(o);
   return true;
@@ -92,7 +104,9 @@ void print_usage(std::FILE *out) {
       "  camera models SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV), refined with\n"
       "  eucsbademo's camera model, every image an sba camera with its own intrinsics;\n"
       "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera;\n"
-      "  --intrinsics does not apply).\n"
+      "  --intrinsics does not apply); its image list (list.txt) with --bundler-list;\n"
+      "- a VisualSFM file (NVM_V3, its first model), refined with eucsbademo's camera model, the\n"
+      "  focal length refined (--intrinsics focal or none) and the radial distortion held.\n"
       "\n"
       "Options (a value may follow as --opt=VALUE or --opt VALUE; '--' ends the options):\n",
       out);
@@ -138,6 +152,16 @@ Cloud cloud(const colmap::Model &model) {
   return c;
 }
 
+Cloud cloud(const nvm::Model &m) {
+  Cloud c;
+  for (const nvm::Point &p : m.points) {
+    c.points.push_back(p.xyz);
+    c.colors.push_back(p.rgb);
+  }
+  for (const nvm::Camera &cam : m.cameras) c.centres.push_back(cam.c);
+  return c;
+}
+
 Cloud cloud(const bundler::Bundle &b) {
   Cloud c;
   for (const bundler::Point &p : b.points) {
@@ -178,17 +202,24 @@ struct Job {
   // The projection of point i in camera j with the parameters p.
   std::function<void(const double *p, int j, int i, double x[2])> project;
   Cloud initial;
+  std::vector<std::string> camera_names;  // the image of each sba camera; empty: unnamed
   // Writes the refined model (p) where --write says, and returns it for --final-ply.
   std::function<bool(const double *p, Cloud *final_cloud, std::string *error)> finish;
 };
 
-bool is_bundle(const std::string &path) {
+enum class Format { Colmap, Bundler, Nvm };
+
+// A file is a bundle or an NVM file by its first bytes; anything else is taken for a COLMAP
+// model directory, whose reader says what is missing.
+Format detect_format(const std::string &path) {
   std::FILE *f = std::fopen(path.c_str(), "rb");
-  if (!f) return false;
+  if (!f) return Format::Colmap;
   char head[14] = {};
-  const bool yes = std::fread(head, 1, 13, f) == 13 && std::string(head) == "# Bundle file";
+  const std::size_t got = std::fread(head, 1, 13, f);
   std::fclose(f);
-  return yes;
+  const std::string h(head, got);
+  if (h == "# Bundle file") return Format::Bundler;
+  return h.compare(0, 6, "NVM_V3") == 0 ? Format::Nvm : Format::Colmap;
 }
 
 // The state a job's callbacks point into, kept alive for the whole run.
@@ -197,17 +228,17 @@ struct Loaded {
   colmap::Encoding encoding = colmap::Encoding::Text;
   colmap::SbaProblem problem;
   std::unique_ptr<eucsba::CameraModel> sba_model;
+  nvm::Model nvm;
   bundler::Bundle bundle;
+  bundler::ImageList list;
   bal::Problem bal;
   bal::SbaLayout layout;
   std::vector<int> bundle_cameras;
   bal::CallbackData bal_data;
 };
 
-bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
-  if (!colmap::read_model(o.input, &l->model, &l->encoding, error) ||
-      !colmap::to_sba(l->model, o.refine, o.input, &l->problem, error))
-    return false;
+// The job of l->problem through eucsbademo's camera model (COLMAP models and NVM files).
+void eucsba_job(Loaded *l, Job *job) {
   colmap::SbaProblem &pr = l->problem;
   l->sba_model = std::make_unique<eucsba::CameraModel>(eucsba::CameraKind::VaryingIntrinsicsDistortion, pr.cameras,
                                                        pr.points.xyz, pr.nccalib, pr.ncdist);
@@ -227,31 +258,41 @@ bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
   job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
     sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
   };
+}
+
+// --write-eucsba PREFIX: the estimate p as eucsbademo files.
+bool write_eucsba(const std::string &prefix, const Loaded &l, const double *p, std::string *why) {
+  const eucsba::CameraModel &model = *l.sba_model;
+  std::vector<eucsba::Camera> cams;
+  for (int j = 0; j < model.ncameras(); ++j)
+    cams.push_back(model.camera(j, p + static_cast<std::size_t>(j) * model.cnp()));
+  const double *xyz = p + static_cast<std::size_t>(model.ncameras()) * model.cnp();
+  const std::vector<double> points(xyz, xyz + 3 * static_cast<std::size_t>(model.npoints()));
+  eucsba::Status st = eucsba::write_cameras(prefix + "-cams.txt", model.kind(), cams);
+  if (st) st = eucsba::write_points(prefix + "-pts.txt", l.problem.points, points);
+  if (!st) *why = st.to_string();
+  return static_cast<bool>(st);
+}
+
+bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
+  if (!colmap::read_model(o.input, &l->model, &l->encoding, error) ||
+      !colmap::to_sba(l->model, o.refine, o.input, &l->problem, error))
+    return false;
+  eucsba_job(l, job);
+  const colmap::SbaProblem &pr = l->problem;
   char line[512];
   std::snprintf(line, sizeof line, "COLMAP model %s (%s): %d images, %zu cameras, %d points",
-                o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", m,
+                o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", job->m,
                 l->model.cameras.size(), job->n);
   job->summary = line;
   job->summary += "\nIntrinsics refined: " + o.intrinsics + " (nccalib " + std::to_string(pr.nccalib) + ", ncdist " +
                   std::to_string(pr.ncdist) + ")";
   job->initial = cloud(l->model);
+  for (const colmap::Image &im : l->model.images) job->camera_names.push_back(im.name);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
     colmap::from_sba(*l->sba_model, l->problem, p, o.solve.mcon, o.solve.ncon, &l->model);
     *final_cloud = cloud(l->model);
-    if (!o.write_eucsba.empty()) {
-      const eucsba::CameraModel &model = *l->sba_model;
-      std::vector<eucsba::Camera> cams;
-      for (int j = 0; j < model.ncameras(); ++j)
-        cams.push_back(model.camera(j, p + static_cast<std::size_t>(j) * model.cnp()));
-      const double *xyz = p + static_cast<std::size_t>(model.ncameras()) * model.cnp();
-      const std::vector<double> points(xyz, xyz + 3 * static_cast<std::size_t>(model.npoints()));
-      eucsba::Status st = eucsba::write_cameras(o.write_eucsba + "-cams.txt", model.kind(), cams);
-      if (st) st = eucsba::write_points(o.write_eucsba + "-pts.txt", l->problem.points, points);
-      if (!st) {
-        *why = st.to_string();
-        return false;
-      }
-    }
+    if (!o.write_eucsba.empty() && !write_eucsba(o.write_eucsba, *l, p, why)) return false;
     if (o.write.empty()) return true;
     const colmap::Encoding out =
         o.write_format.empty() ? l->encoding
@@ -261,9 +302,37 @@ bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
   return true;
 }
 
+bool load_nvm(const Options &o, Loaded *l, Job *job, std::string *error) {
+  if (!nvm::read_nvm(o.input, &l->nvm, error) || !nvm::to_sba(l->nvm, o.refine.focal, o.input, &l->problem, error))
+    return false;
+  eucsba_job(l, job);
+  job->summary = "NVM file " + o.input + ": " + std::to_string(job->m) + " cameras, " + std::to_string(job->n) +
+                 " points";
+  job->summary += std::string("\nIntrinsics refined: ") + (o.refine.focal ? "focal" : "none") + " (nccalib " +
+                  std::to_string(l->problem.nccalib) +
+                  "); radial distortion held: VisualSFM applies it to the measurements, which sba takes as data";
+  job->initial = cloud(l->nvm);
+  for (const nvm::Camera &c : l->nvm.cameras) job->camera_names.push_back(c.name);
+  job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
+    nvm::from_sba(*l->sba_model, p, o.solve.mcon, o.solve.ncon, &l->nvm);
+    *final_cloud = cloud(l->nvm);
+    if (!o.write_eucsba.empty() && !write_eucsba(o.write_eucsba, *l, p, why)) return false;
+    return o.write.empty() || nvm::write_nvm(o.write, l->nvm, why);
+  };
+  return true;
+}
+
 bool load_bundle(const Options &o, Loaded *l, Job *job, std::string *error) {
-  if (!bundler::read_bundle(o.input, &l->bundle, error) ||
-      !bundler::to_bal(l->bundle, o.input, &l->bal, &l->bundle_cameras, error) ||
+  if (!bundler::read_bundle(o.input, &l->bundle, error)) return false;
+  if (!o.bundler_list.empty()) {
+    if (!bundler::read_list(o.bundler_list, &l->list, error)) return false;
+    if (l->list.names.size() != l->bundle.cameras.size()) {
+      *error = o.bundler_list + ": " + std::to_string(l->list.names.size()) + " images for the " +
+               std::to_string(l->bundle.cameras.size()) + " cameras of " + o.input;
+      return false;
+    }
+  }
+  if (!bundler::to_bal(l->bundle, o.input, &l->bal, &l->bundle_cameras, error, l->list.names) ||
       !bal::to_sba(l->bal, o.input, &l->layout, error))
     return false;
   job->m = l->layout.m;
@@ -283,12 +352,16 @@ bool load_bundle(const Options &o, Loaded *l, Job *job, std::string *error) {
   };
   job->summary = "Bundler file " + o.input + ": " + std::to_string(l->bundle.cameras.size()) + " cameras (" +
                  std::to_string(m) + " registered), " + std::to_string(job->n) + " points";
+  if (!o.bundler_list.empty()) job->summary += ", images listed in " + o.bundler_list;
+  if (!l->list.names.empty())
+    for (int j : l->bundle_cameras) job->camera_names.push_back(l->list.names[static_cast<std::size_t>(j)]);
   job->initial = cloud(l->bundle);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
     bal::from_sba_params(p, &l->bal);
     bundler::from_bal(l->bal, l->bundle_cameras, o.solve.mcon, o.solve.ncon, &l->bundle);
     *final_cloud = cloud(l->bundle);
     if (!o.write_bal.empty() && !bal::write_problem(o.write_bal, l->bal, why)) return false;
+    if (!o.write_list.empty() && !sbademo::write_whole_file(o.write_list, l->list.text, why)) return false;
     return o.write.empty() || bundler::write_bundle(o.write, l->bundle, why);
   };
   return true;
@@ -302,19 +375,40 @@ int refine_main(int argc, char **argv) {
       status >= 0)
     return status;
   sbademo::SolveOptions &so = o.solve;
-  if (!sbademo::outputs_writable({&so.json, &o.initial_ply, &o.final_ply, &o.write_bal})) return kExitFailure;
+  if (!sbademo::outputs_writable({&so.json, &o.initial_ply, &o.final_ply, &o.write_bal, &o.write_list}))
+    return kExitFailure;
 
   const auto read_start = std::chrono::steady_clock::now();
   Loaded loaded;
   Job job;
-  const bool bundle = is_bundle(o.input);
-  if (bundle ? !o.write_format.empty() || !o.write_eucsba.empty() : !o.write_bal.empty()) {
-    std::fprintf(stderr, "sbarefine: %s is for %s\n",
-                 bundle ? (o.write_format.empty() ? "--write-eucsba" : "--write-format") : "--write-bal",
-                 bundle ? "COLMAP models" : "Bundler files");
+  const Format format = detect_format(o.input);
+  // An option of another format: named with the formats it is for.
+  const struct {
+    bool given, allowed;
+    const char *option, *formats;
+  } kFormatOptions[] = {
+      {!o.write_format.empty(), format == Format::Colmap, "--write-format", "COLMAP models"},
+      {!o.write_eucsba.empty(), format != Format::Bundler, "--write-eucsba", "COLMAP models and NVM files"},
+      {!o.write_bal.empty(), format == Format::Bundler, "--write-bal", "Bundler files"},
+      {!o.bundler_list.empty(), format == Format::Bundler, "--bundler-list", "Bundler files"},
+      {!o.write_list.empty(), format == Format::Bundler, "--write-list", "Bundler files"}};
+  for (const auto &opt : kFormatOptions)
+    if (opt.given && !opt.allowed) {
+      std::fprintf(stderr, "sbarefine: %s is for %s\n", opt.option, opt.formats);
+      return kExitUsage;
+    }
+  if (!o.write_list.empty() && o.bundler_list.empty()) {
+    std::fprintf(stderr, "sbarefine: --write-list writes the list of --bundler-list, which is not given\n");
     return kExitUsage;
   }
-  if (!(bundle ? load_bundle(o, &loaded, &job, &error) : load_colmap(o, &loaded, &job, &error))) {
+  if (format == Format::Nvm && o.refine.principal) {
+    std::fprintf(stderr, "sbarefine: --intrinsics %s: an NVM file has no principal point (its measurements are "
+                         "relative to the image centre)\n", o.intrinsics.c_str());
+    return kExitUsage;
+  }
+  bool (*const load)(const Options &, Loaded *, Job *, std::string *) =
+      format == Format::Bundler ? load_bundle : format == Format::Nvm ? load_nvm : load_colmap;
+  if (!load(o, &loaded, &job, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
@@ -380,6 +474,7 @@ int refine_main(int argc, char **argv) {
   if (!so.json.empty()) {
     sbademo::add_per_camera(n, m, job.vmask, job.x, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); },
                             &report);
+    for (std::size_t j = 0; j < job.camera_names.size(); ++j) report.per_camera[j].name = job.camera_names[j];
     if (!sbademo::write_json(so.json, report, &error)) {
       std::fprintf(stderr, "%s: %s\n", so.json.c_str(), error.c_str());
       return kExitFailure;

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // libFuzzer target: the Bundler reader (bundler::parse_bundle) and the mapping onto the BAL
-// problem. What parses must format back to text that parses to the same text again, and
-// must map onto a BAL problem whose observations are all in range.
+// problem, and the image list's reader (bundler::parse_list) on the same input. A bundle that
+// parses must format back to text that parses to the same text again, and must map onto a
+// BAL problem whose observations are all in range; a list that parses names every line.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -15,16 +17,22 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
   using sbafuzz::require;
   const std::string name = "fuzz-input";
   const std::string text(reinterpret_cast<const char *>(data), size);
-  bundler::Bundle b;
+  bundler::ImageList list;
   std::string error;
+  if (bundler::parse_list(text, name, &list, &error)) {
+    std::size_t lines = static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
+    if (!text.empty() && text.back() != '\n') ++lines;
+    require(list.names.size() == lines && list.text == text, "a list that does not name every line");
+    for (const std::string &n : list.names) require(!n.empty(), "an empty name in a list");
+  } else {
+    sbafuzz::check_error_line(error, name + ":");
+  }
+  bundler::Bundle b;
   if (!bundler::parse_bundle(text, name, &b, &error)) {
     sbafuzz::check_error_line(error, name + ":");
     return 0;
   }
-  const std::string once = bundler::format_bundle(b);
-  bundler::Bundle again;
-  if (!bundler::parse_bundle(once, name, &again, &error)) sbafuzz::broken("the formatted bundle does not parse: " + error);
-  require(bundler::format_bundle(again) == once, "formatting the bundle read back gives other text");
+  sbafuzz::require_fixed_point(b, bundler::parse_bundle, bundler::format_bundle, name);
   bal::Problem p;
   std::vector<int> cameras;
   if (!bundler::to_bal(b, name, &p, &cameras, &error)) {

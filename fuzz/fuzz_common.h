@@ -61,6 +61,18 @@ inline void check_error_line(const std::string &msg, const std::string &prefix) 
   require(msg.size() > prefix.size() + 1, "error message without a message: " + msg);
 }
 
+// A text format's reader and writer agree: what parse read from the input (parsed) formats
+// to text that parses again and formats to the same text. Returns that text.
+template <class T, class Parse, class Format>
+std::string require_fixed_point(const T &parsed, Parse parse, Format format, const std::string &name) {
+  const std::string once = format(parsed);
+  T again;
+  std::string error;
+  if (!parse(once, name, &again, &error)) broken("the formatted text does not parse: " + error);
+  require(format(again) == once, "formatting what was read back gives other text");
+  return once;
+}
+
 template <class It>
 void require_finite(It begin, It end, const std::string &what) {
   for (It it = begin; it != end; ++it) require(std::isfinite(*it), what + " holds a non-finite value");

@@ -51,20 +51,21 @@ for f in "$shared"/bal/*.txt.bz2; do
     *) bzip2 -dc "$f" 2>/dev/null | head -c 8192 > "$work/corpus-bal/head-$b" || true ;;
   esac
 done
-# COLMAP and Bundler seeds: generated scenes (fuzz/seed_writer.cpp).
-mkdir -p "$work/corpus-colmap" "$work/corpus-bundler"
-"$build/seed_writer" "$work/corpus-colmap" "$work/corpus-bundler" >/dev/null
+# COLMAP, Bundler and NVM seeds: generated scenes (fuzz/seed_writer.cpp).
+mkdir -p "$work/corpus-colmap" "$work/corpus-bundler" "$work/corpus-nvm"
+"$build/seed_writer" "$work/corpus-colmap" "$work/corpus-bundler" "$work/corpus-nvm" >/dev/null
 # Earlier findings: tests/fuzz_regressions/TARGET-*.
-for t in cameras points calibration bal colmap bundler; do
+for t in cameras points calibration bal colmap bundler nvm; do
   seed "$t" "$root"/tests/fuzz_regressions/"$t"-*
 done
 
 status=0
-for t in cameras points calibration bal colmap bundler; do
+for t in cameras points calibration bal colmap bundler nvm; do
   case "$t" in
     points) max_len=16384 dict=eucsba ;;  # the seeds are cut to their first 16 KB
     bal) max_len=16384 dict=bal ;;
     colmap|bundler) max_len=16384 dict=colmap ;;
+    nvm) max_len=16384 dict=nvm ;;
     *) max_len=4096 dict=eucsba ;;
   esac
   log=$work/$t.log
@@ -84,7 +85,7 @@ for t in cameras points calibration bal colmap bundler; do
   fi
 done
 if [ -n "${SBA_FUZZ_KEEP_CORPUS:-}" ]; then
-  for t in cameras points calibration bal colmap bundler; do
+  for t in cameras points calibration bal colmap bundler nvm; do
     mkdir -p "$SBA_FUZZ_KEEP_CORPUS/$t"
     cp "$work/corpus-$t"/* "$SBA_FUZZ_KEEP_CORPUS/$t/"
   done

@@ -162,12 +162,26 @@ TEST(Cli, PositionalArgumentsCounted) {
     }
     if (p.name == "sbarefine")
       expect_usage_error(p, {"a", "b"},
-                         "expected 1 argument (a COLMAP model directory or a Bundler file), got 2 (see --help)");
+                         "expected 1 argument (a COLMAP model directory, a Bundler or an NVM file), got 2 (see --help)");
     if (p.name == "sbagen") {
       expect_usage_error(p, {}, "--out PREFIX is required (see --help)");
       expect_usage_error(p, {"--out=x", "extra"}, "unexpected argument 'extra' (see --help)");
     }
   }
+}
+
+// sbarefine takes the format from the file and refuses, before reading it through, the options
+// of other formats.
+TEST(Cli, SbarefineOptionsOfAnotherFormat) {
+  const Program p{"sbarefine", SBAREFINE_EXE, "itmax", ""};
+  const std::string nvm = ::testing::TempDir() + "test_cli." + std::to_string(getpid()) + ".nvm";
+  std::ofstream(nvm) << "NVM_V3\n\n1\na.jpg 500 1 0 0 0 0 0 -5 0 0\n1\n0 0 0 1 2 3 1 0 0 1 2\n";
+  expect_usage_error(p, {"--write-format=binary", nvm}, "--write-format is for COLMAP models");
+  expect_usage_error(p, {"--write-bal", "x.bal", nvm}, "--write-bal is for Bundler files");
+  expect_usage_error(p, {"--intrinsics=all", nvm},
+                     "--intrinsics all: an NVM file has no principal point (its measurements are relative to the "
+                     "image centre)");
+  std::remove(nvm.c_str());
 }
 
 // eucsbademo reads bzip2-compressed files and one of its files from standard input ('-').

@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -23,29 +24,13 @@
 #include "colmap_sba.h"
 #include "eucsba_io.h"
 #include "sbagen.h"
+#include "sbarefine_runs.h"
 
 namespace {
 
-namespace fs = std::filesystem;
+using namespace refinetest;  // NOLINT: the helpers of sbarefine's tests
 
-std::string temp_dir(const std::string &name) {
-  const std::string d = testing::TempDir() + "test_colmap_" + std::to_string(::getpid()) + "_" + name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-std::string read_file(const std::string &path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-void write_file(const std::string &path, const std::string &text) { std::ofstream(path, std::ios::binary) << text; }
-
-// A generated scene: its eucsbademo files under dir/s-*, read back, and the model of those
-// values (so that both paths start from the same doubles).
+// A generated scene and the COLMAP model of its values.
 struct Scene {
   std::string prefix;
   eucsba::Problem problem;
@@ -53,20 +38,9 @@ struct Scene {
 };
 
 Scene make_scene(const std::string &dir, eucsba::CameraKind kind, int cameras = 10, int points = 200) {
-  sbagen::Options o;
-  o.kind = kind;
-  o.cameras = cameras;
-  o.points = points;
-  o.seed = 5;
-  sbagen::Scene s;
+  const refinetest::GeneratedScene g = refinetest::generate_scene(dir, kind, cameras, points);
+  Scene out{g.prefix, g.problem, {}};
   std::string error;
-  EXPECT_TRUE(sbagen::generate(o, &s, &error)) << error;
-  Scene out;
-  out.prefix = dir + "/s";
-  EXPECT_TRUE(sbagen::write_problem(s, out.prefix));
-  const auto files = sbagen::problem_files(out.prefix, s);
-  const eucsba::Status st = eucsba::load_problem(files.cams, files.pts, files.calib, &out.problem);
-  EXPECT_TRUE(st) << st.to_string();
   EXPECT_TRUE(colmap::from_problem(out.problem.kind, out.problem.cameras, out.problem.points, 640, 480, &out.model,
                                    &error))
       << error;
@@ -287,39 +261,6 @@ TEST(ColmapReader, ModelConsistency) {
 
 // ---- sbarefine ----
 
-struct Outcome {
-  int status = -1;
-  std::string out, err;
-};
-
-Outcome run(const std::string &args) {
-  const std::string base = testing::TempDir() + "test_colmap_run_" + std::to_string(::getpid());
-  const int st = std::system((std::string(SBAREFINE_EXE) + " " + args + " >" + base + ".out 2>" + base + ".err").c_str());
-  Outcome r;
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  r.out = read_file(base + ".out");
-  r.err = read_file(base + ".err");
-  return r;
-}
-
-// The final mean squared error of "SBA returned ... error E [initial I]".
-double final_error(const std::string &out) {
-  const std::size_t at = out.find("SBA returned");
-  const std::size_t e = out.find(" error ", at);
-  if (at == std::string::npos || e == std::string::npos) return NAN;
-  return std::strtod(out.c_str() + e + 7, nullptr);
-}
-
-double eucsbademo_error(const std::string &args) {
-  FILE *p = popen((std::string(EUCSBADEMO_EXE) + " " + args + " 2>/dev/null").c_str(), "r");
-  std::string out;
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  EXPECT_EQ(pclose(p), 0) << args;
-  return final_error(out);
-}
-
 TEST(Sbarefine, SameErrorAsEucsbademoTextAndBinary) {
   const std::string dir = temp_dir("refine");
   const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
@@ -419,7 +360,7 @@ TEST(Sbarefine, CommandLineErrors) {
                    "(focal,principal)\n");
   r = run("");
   EXPECT_EQ(r.status, 2);
-  EXPECT_EQ(r.err, "sbarefine: expected 1 argument (a COLMAP model directory or a Bundler file), got 0 (see --help)\n");
+  EXPECT_EQ(r.err, "sbarefine: expected 1 argument (a COLMAP model directory, a Bundler or an NVM file), got 0 (see --help)\n");
   const std::string dir = temp_dir("cli");
   r = run(dir + "/none");
   EXPECT_EQ(r.status, 1);
@@ -497,6 +438,29 @@ TEST(Bundler, ReaderErrors) {
   EXPECT_TRUE(bundler::parse_bundle(head + "0 0 0\n1 2 3\n1 0 0 1 2\n", "b.out", &out, &error)) << error;
 }
 
+TEST(Bundler, ImageList) {
+  const std::string text = "images/a.jpg\nimages/b.jpg 0 812.5\r\n  c.jpg\t0 1e3 \n";
+  bundler::ImageList list;
+  std::string error;
+  ASSERT_TRUE(bundler::parse_list(text, "list.txt", &list, &error)) << error;
+  EXPECT_EQ(list.names, (std::vector<std::string>{"images/a.jpg", "images/b.jpg", "c.jpg"}));
+  EXPECT_EQ(list.text, text);
+  ASSERT_TRUE(bundler::parse_list("a.jpg", "list.txt", &list, &error)) << error;
+  EXPECT_EQ(list.names, std::vector<std::string>{"a.jpg"});
+  const Bad cases[] = {
+      {"a.jpg\n\nb.jpg\n", "list.txt:2: expected PATH or PATH 0 FOCAL, found 0 values"},
+      {"a.jpg\nmy image.jpg\n", "list.txt:2: expected PATH or PATH 0 FOCAL, found 2 values"},
+      {"a.jpg 1 500\n", "list.txt:1: expected 0 after the path, got '1'"},
+      {"a.jpg 0 -500\n", "list.txt:1: the focal length must be a finite positive number, got '-500'"},
+      {"a.jpg 0 nan\n", "list.txt:1: the focal length must be a finite positive number, got 'nan'"},
+      {"a.jpg 0 500px\n", "list.txt:1: the focal length must be a finite positive number, got '500px'"},
+  };
+  for (const Bad &b : cases) {
+    EXPECT_FALSE(bundler::parse_list(b.text, "list.txt", &list, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+}
+
 TEST(Bundler, AngleAxisInvertsTheRotation) {
   const double ws[][3] = {{0, 0, 0}, {1e-9, -2e-9, 0}, {0.3, -0.2, 0.1}, {2, 1, -0.5},
                           {M_PI - 1e-9, 0, 0}, {0, 0, -M_PI}, {1.5, 1.5, 1.5}};
@@ -551,6 +515,53 @@ TEST(Sbarefine, BundlerSameErrorAsEucsbademo) {
   EXPECT_NE(read_file(dir + "/i.ply").find("element vertex 210\n"), std::string::npos);
 }
 
+// The image list names the registered cameras in --json and in messages, is checked against
+// the bundle and written back as read.
+TEST(Sbarefine, BundlerImageList) {
+  const std::string dir = temp_dir("bundler_list");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 60);
+  bundler::Bundle b = make_bundle(s);
+  b.cameras.insert(b.cameras.begin() + 1, bundler::Camera{});  // camera 1 not registered
+  for (bundler::Point &p : b.points)
+    for (bundler::View &v : p.views) v.camera += v.camera >= 1;
+  std::string error;
+  ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", b, &error)) << error;
+  const std::string list = "img/0.jpg 0 800\nimg/1.jpg\nimg/\"2\".jpg 0 812.5\nimg/3.jpg\nimg/4.jpg\nimg/5.jpg\nimg/6.jpg\n";
+  write_file(dir + "/list.txt", list);
+  Outcome r = run(dir + "/b.out --bundler-list " + dir + "/list.txt --json " + dir + "/r.json --write-list " + dir +
+                  "/out-list.txt");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("Bundler file " + dir + "/b.out: 7 cameras (6 registered), 60 points, images listed in " +
+                       dir + "/list.txt, "),
+            std::string::npos)
+      << r.out;
+  EXPECT_EQ(read_file(dir + "/out-list.txt"), list);
+  // sba camera 1 is the bundle's camera 2; a name is a JSON string.
+  const std::string json = read_file(dir + "/r.json");
+  EXPECT_NE(json.find("{\"camera\": 0, \"name\": \"img/0.jpg\", \"observations\": "), std::string::npos) << json;
+  EXPECT_NE(json.find("{\"camera\": 1, \"name\": \"img/\\\"2\\\".jpg\", \"observations\": "), std::string::npos)
+      << json;
+  EXPECT_EQ(json.find("img/1.jpg"), std::string::npos);
+  // A list of another length, a camera that sees nothing named, options that need a list.
+  write_file(dir + "/short.txt", "a.jpg\nb.jpg\n");
+  r = run(dir + "/b.out --bundler-list " + dir + "/short.txt");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/short.txt: 2 images for the 7 cameras of " + dir + "/b.out\n");
+  for (bundler::Point &p : b.points)
+    p.views.erase(std::remove_if(p.views.begin(), p.views.end(), [](const bundler::View &v) { return v.camera == 4; }),
+                  p.views.end());
+  ASSERT_TRUE(bundler::write_bundle(dir + "/b4.out", b, &error)) << error;
+  r = run(dir + "/b4.out --bundler-list " + dir + "/list.txt");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/b4.out: camera 4 (img/4.jpg) is registered but sees no point\n");
+  r = run(dir + "/b.out --write-list " + dir + "/x.txt");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: --write-list writes the list of --bundler-list, which is not given\n");
+  r = run(dir + " --bundler-list " + dir + "/list.txt");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: --bundler-list is for Bundler files\n");
+}
+
 // Conversions: a COLMAP model to eucsbademo's files and a bundle to a BAL problem (itmax 0:
 // the input as read) refine to what the source refines to.
 TEST(Sbarefine, ConvertsToEucsbademoAndBal) {
@@ -572,17 +583,12 @@ TEST(Sbarefine, ConvertsToEucsbademoAndBal) {
   const double bundle_error = final_error(r.out);
   r = run(dir + "/b.out --itmax 0 --write-bal " + dir + "/b.bal");
   ASSERT_EQ(r.status, 0) << r.err;
-  FILE *p = popen((std::string(BALSBA_EXE) + " " + dir + "/b.bal").c_str(), "r");
-  std::string out;
-  char buf[4096];
-  std::size_t got;
-  while ((got = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, got);
-  EXPECT_EQ(pclose(p), 0);
-  EXPECT_NEAR(final_error(out), bundle_error, 1e-6 * bundle_error) << out;
+  EXPECT_NEAR(refinetest::program_error(std::string(BALSBA_EXE) + " " + dir + "/b.bal"), bundle_error,
+              1e-6 * bundle_error);
 
   r = run(dir + "/b.out --write-eucsba " + dir + "/x");
   EXPECT_EQ(r.status, 2);
-  EXPECT_EQ(r.err, "sbarefine: --write-eucsba is for COLMAP models\n");
+  EXPECT_EQ(r.err, "sbarefine: --write-eucsba is for COLMAP models and NVM files\n");
 }
 
 // sbagen writes the same scenes as files.

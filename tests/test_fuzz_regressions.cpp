@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Inputs found by the fuzz targets of fuzz/, kept in tests/fuzz_regressions/ as
-// TARGET-NAME with TARGET one of cameras, points, calibration, bal, colmap, bundler (see the README there).
+// TARGET-NAME with TARGET one of cameras, points, calibration, bal, colmap, bundler, nvm (see the README
+// there).
 // Each must give a clean error: one line naming the file from the reader itself, and one
 // line on stderr with exit status 1 from the program that reads such files (eucsbademo,
 // balsba, sbarefine). Under `make check-sanitize` the same runs are checked by ASan and UBSan.
@@ -22,6 +23,7 @@
 #include "bundler_io.h"
 #include "colmap_io.h"
 #include "eucsba_io.h"
+#include "nvm_io.h"
 
 namespace {
 
@@ -84,7 +86,8 @@ void expect_program_refuses(const std::string &cmd, const fs::path &input) {
 TEST(FuzzRegressions, TheDirectoryHoldsInputs) {
   ASSERT_TRUE(fs::is_directory(kDir)) << kDir;
   EXPECT_FALSE(inputs("cameras").empty() && inputs("points").empty() && inputs("calibration").empty() &&
-               inputs("bal").empty() && inputs("colmap").empty() && inputs("bundler").empty());
+               inputs("bal").empty() && inputs("colmap").empty() && inputs("bundler").empty() &&
+               inputs("nvm").empty());
 }
 
 TEST(FuzzRegressions, CameraFiles) {
@@ -173,18 +176,39 @@ TEST(FuzzRegressions, ColmapFiles) {
   }
 }
 
-TEST(FuzzRegressions, BundlerFiles) {
-  for (const fs::path &in : inputs("bundler")) {
-    bundler::Bundle b;
+// Inputs of a file format sbarefine tells by its first bytes, `magic`: read(path, &error)
+// refuses each, and so does sbarefine when the file starts as one of its kind.
+template <class Read>
+void expect_refused(const std::string &target, const std::string &magic, Read read) {
+  for (const fs::path &in : inputs(target)) {
     std::string error;
-    EXPECT_FALSE(bundler::read_bundle(in.string(), &b, &error)) << in;
+    EXPECT_FALSE(read(in.string(), &error)) << in;
     expect_one_line(error, in.string() + ":", in);
-    // sbarefine takes a file for a bundle only when it starts as one.
     std::ifstream f(in, std::ios::binary);
-    std::string head(13, '\0');
-    f.read(&head[0], 13);
-    if (head == "# Bundle file") expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(in.string()), in);
+    std::string head(magic.size(), '\0');
+    f.read(&head[0], static_cast<std::streamsize>(magic.size()));
+    if (head == magic) expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(in.string()), in);
   }
+}
+
+TEST(FuzzRegressions, BundlerFiles) {
+  expect_refused("bundler", "# Bundle file", [](const std::string &path, std::string *error) {
+    bundler::Bundle b;
+    return bundler::read_bundle(path, &b, error);
+  });
+  // fuzz_bundler also reads its inputs as image lists: refused with one line, if at all.
+  for (const fs::path &in : inputs("bundler")) {
+    bundler::ImageList list;
+    std::string error;
+    if (!bundler::read_list(in.string(), &list, &error)) expect_one_line(error, in.string() + ":", in);
+  }
+}
+
+TEST(FuzzRegressions, NvmFiles) {
+  expect_refused("nvm", "NVM_V3", [](const std::string &path, std::string *error) {
+    nvm::Model m;
+    return nvm::read_nvm(path, &m, error);
+  });
 }
 
 // Found in the fuzzers' corpora (not as a crash): a token with a NUL byte inside

@@ -17,6 +17,7 @@
 #include "cli.h"
 #include "colmap_io.h"
 #include "colmap_sba.h"
+#include "nvm_io.h"
 #include "sbagen.h"
 
 namespace {
@@ -67,6 +68,7 @@ struct Cli {
   std::string prefix;
   std::string colmap_text, colmap_binary;  // COLMAP model directories; empty: not written
   std::string bundler;                     // a Bundler file; empty: not written
+  std::string nvm;                         // a VisualSFM NVM file; empty: not written
   bool quiet = false;
 };
 
@@ -193,6 +195,10 @@ std::vector<sbacli::Option> option_table(Cli &cli) {
                "also write the initial problem as a Bundler bundle.out (--kind varK or fixed: Bundler\n"
                "has no tangential distortion; not with --covariances)",
                [&cli](const std::string &v) { return sbacli::to_file(v, &cli.bundler); }});
+  t.push_back({"nvm", "FILE",
+               "also write the initial problem as a VisualSFM NVM file (--kind varK or fixed: NVM's\n"
+               "radial distortion is not eucsbademo's; not with --covariances)",
+               [&cli](const std::string &v) { return sbacli::to_file(v, &cli.nvm); }});
   t.push_back({"quiet", "", "no summary on stdout", flag(&cli.quiet)});
   return t;
 }
@@ -278,13 +284,18 @@ int main(int argc, char **argv) {
         return 1;
       }
     }
-    if (!cli.bundler.empty()) {
+    if (!cli.bundler.empty() || !cli.nvm.empty()) {
       eucsba::PointSet points = scene.measurements;
       if (points.vmask.empty()) points.vmask = sbagen::dense_vmask(scene);
+      if (scene.measurements.has_covariances())
+        why = std::string("a ") + (cli.bundler.empty() ? "NVM" : "Bundler") + " file cannot hold --covariances";
       bundler::Bundle bundle;
-      if (scene.measurements.has_covariances()) why = "a Bundler file cannot hold --covariances";
-      if (!why.empty() || !bundler::from_problem(scene.initial_cameras, points, &bundle, &why) ||
-          !bundler::write_bundle(cli.bundler, bundle, &why)) {
+      nvm::Model model;
+      if (!why.empty() ||
+          (!cli.bundler.empty() && (!bundler::from_problem(scene.initial_cameras, points, &bundle, &why) ||
+                                    !bundler::write_bundle(cli.bundler, bundle, &why))) ||
+          (!cli.nvm.empty() && (!nvm::from_problem(scene.initial_cameras, points, &model, &why) ||
+                                !nvm::write_nvm(cli.nvm, model, &why)))) {
         std::fprintf(stderr, "sbagen: %s\n", why.c_str());
         return 1;
       }
