@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // balsba: bundle adjustment of a BAL problem file (plain or .bz2) with sba's expert
 // motion-and-structure driver and the BAL camera model's analytic Jacobian.
-#include <array>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -18,18 +17,15 @@
 #include "bal_io.h"
 #include "bal_model.h"
 #include "cli.h"
+#include "motstr_solve.h"
 #include "output_file.h"
-#include "report.h"
-#include "run_control.h"
 #include "solve_options.h"
 #include "sba.h"
 #include "sba_ext.h"
-#include "tty_progress.h"
 
 namespace {
 
 using sbacli::kExitFailure;
-using sbacli::kExitUsage;
 
 struct Options {
   std::string file;
@@ -97,41 +93,22 @@ int bal_main(int argc, char **argv) {
   }
   const double read_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
-  if (so.mcon > s.m) {
-    std::fprintf(stderr, "balsba: --mcon %d is more than the %d cameras\n", so.mcon, s.m);
-    return kExitUsage;
-  }
-  if (so.ncon > s.n) {
-    std::fprintf(stderr, "balsba: --ncon %d is more than the %d points\n", so.ncon, s.n);
-    return kExitUsage;
-  }
-
-  // The BAL callbacks are re-entrant and walk the index by rows: the threads share them.
-  sbademo::LogSink sink;
-  sba_ext_result result;
-  sba_ext_options ext;
-  sbademo::init_ext(so, &sink, &result, &ext);
-
+  sbademo::MotstrInputs in;
+  in.n = s.n;
+  in.m = s.m;
+  in.cnp = bal::kCameraParams;
+  in.pnp = bal::kPointParams;
+  in.vmask = s.vmask.data();
+  in.p = s.p.data();
+  in.x = s.x.data();
+  in.func = bal::motstr_func;
+  in.fjac = bal::motstr_fjac;
   bal::CallbackData data;
   data.ncameras = s.m;
-  std::array<double, SBA_INFOSZ> info{};
-  const int nobs = s.nobservations();
-  sbademo::TtyProgress progress(so.progress, nobs);
-  sbademo::RunControl control(so.max_time, &progress);
-  sbademo::RunControl::catch_signals();
-  control.attach(&ext);
-  const auto start = std::chrono::steady_clock::now();
-  const int ret = sba_motstr_levmar_x_ext(s.n, so.ncon, s.m, so.mcon, s.vmask.data(), s.p.data(), bal::kCameraParams,
-                                          bal::kPointParams, s.x.data(), nullptr, bal::kMeasurementParams,
-                                          bal::motstr_func, bal::motstr_fjac, &data, so.itmax, so.verbose,
-                                          so.opts.data(), info.data(), &ext);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  progress.finish();
-  if (ret == SBA_ERROR) {
-    std::fprintf(stderr, "balsba: %s: the solve failed (SBA_ERROR, reason %g): %s\n", o.file.c_str(), info[6],
-                 sink.first_error.empty() ? "no result" : sink.first_error.c_str());
-    return kExitFailure;
-  }
+  in.adata = &data;
+  sbademo::MotstrSolve solve("balsba", o.file, so, in);
+  if (const int status = solve.check_fixed(); status >= 0) return status;
+  if (!solve.run()) return kExitFailure;
 
   if (!o.write.empty()) {
     bal::from_sba_params(s.p.data(), &problem);
@@ -141,35 +118,16 @@ int bal_main(int argc, char **argv) {
     }
   }
 
-  const long long nvars = static_cast<long long>(s.m) * bal::kCameraParams +
-                          static_cast<long long>(s.n) * bal::kPointParams;
-  std::printf("BAL problem %s: %d cameras, %d points, %d observations, %lld variables\n", o.file.c_str(),
-              s.m, s.n, nobs, nvars);
-  sbademo::print_summary(nobs, ret, info, seconds, read_seconds, result, so);
-
-  sbademo::Report report = sbademo::make_report("balsba", o.file, s.m, s.n, nobs, nvars, so, ret, info, result,
-                                                seconds, control);
-  sbademo::print_report(stdout, report);
-  if (!so.json.empty()) {
-    const double *points = s.p.data() + static_cast<std::size_t>(s.m) * bal::kCameraParams;
-    sbademo::add_per_camera(
-        s.n, s.m, s.vmask.data(), s.x.data(),
-        [&](int j, int i, double x[2]) {
-          bal::project(s.p.data() + static_cast<std::size_t>(j) * bal::kCameraParams,
-                       points + static_cast<std::size_t>(i) * bal::kPointParams, x);
-        },
-        &report);
-    if (!sbademo::write_json(so.json, report, &error)) {
-      std::fprintf(stderr, "%s: %s\n", so.json.c_str(), error.c_str());
-      return kExitFailure;
-    }
-  }
-  if (!o.write.empty()) std::printf("Wrote %s\n", o.write.c_str());
-  // A stopped solve is a result (written above), but the status says it was cut short by a
-  // signal; a time limit the user set is an ordinary end.
-  if (info[6] == SBA_STOP_USER)
-    return sbademo::stopped_status("balsba", control, so.max_time, static_cast<int>(info[5]));
-  return 0;
+  std::printf("BAL problem %s: %d cameras, %d points, %d observations, %lld variables\n", o.file.c_str(), s.m, s.n,
+              solve.observations(), solve.variables());
+  const double *points = s.p.data() + static_cast<std::size_t>(s.m) * bal::kCameraParams;
+  return solve.finish(
+      read_seconds,
+      [&](int j, int i, double x[2]) {
+        bal::project(s.p.data() + static_cast<std::size_t>(j) * bal::kCameraParams,
+                     points + static_cast<std::size_t>(i) * bal::kPointParams, x);
+      },
+      {}, o.write);
 }
 
 }  // namespace

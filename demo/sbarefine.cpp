@@ -21,14 +21,12 @@
 #include "colmap_io.h"
 #include "colmap_sba.h"
 #include "eucsba_model.h"
+#include "motstr_solve.h"
 #include "nvm_io.h"
 #include "output_file.h"
-#include "report.h"
-#include "run_control.h"
 #include "sba.h"
 #include "sba_ext.h"
 #include "solve_options.h"
-#include "tty_progress.h"
 
 namespace {
 
@@ -414,44 +412,25 @@ int refine_main(int argc, char **argv) {
   }
   const double read_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
-  const int m = job.m, n = job.n, cnp = job.cnp;
-  if (so.mcon > m) {
-    std::fprintf(stderr, "sbarefine: --mcon %d is more than the %d cameras\n", so.mcon, m);
-    return kExitUsage;
-  }
-  if (so.ncon > n) {
-    std::fprintf(stderr, "sbarefine: --ncon %d is more than the %d points\n", so.ncon, n);
-    return kExitUsage;
-  }
+  sbademo::MotstrInputs in;
+  in.n = job.n;
+  in.m = job.m;
+  in.cnp = job.cnp;
+  in.vmask = job.vmask;
+  in.p = job.p.data();
+  in.x = job.x;
+  in.func = job.func;
+  in.fjac = job.fjac;
+  in.adata = job.adata;
+  sbademo::MotstrSolve solve("sbarefine", o.input, so, in);
+  if (const int status = solve.check_fixed(); status >= 0) return status;
   if (!o.initial_ply.empty() && !write_ply(o.initial_ply, job.initial, &error)) {
     std::fprintf(stderr, "%s: %s\n", o.initial_ply.c_str(), error.c_str());
     return kExitFailure;
   }
+  if (!solve.run()) return kExitFailure;
 
-  sbademo::LogSink sink;
-  sba_ext_result result;
-  sba_ext_options ext;
-  sbademo::init_ext(so, &sink, &result, &ext);
-  int nobs = 0;
-  for (std::size_t k = 0; k < static_cast<std::size_t>(n) * m; ++k) nobs += job.vmask[k] != 0;
-  std::array<double, SBA_INFOSZ> info{};
-  sbademo::TtyProgress progress(so.progress, nobs);
-  sbademo::RunControl control(so.max_time, &progress);
-  sbademo::RunControl::catch_signals();
-  control.attach(&ext);
-  std::vector<double> &p = job.p;
-  const auto start = std::chrono::steady_clock::now();
-  const int ret = sba_motstr_levmar_x_ext(n, so.ncon, m, so.mcon, job.vmask, p.data(), cnp, 3, job.x, nullptr, 2,
-                                          job.func, job.fjac, job.adata, so.itmax, so.verbose, so.opts.data(),
-                                          info.data(), &ext);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  progress.finish();
-  if (ret == SBA_ERROR) {
-    std::fprintf(stderr, "sbarefine: %s: the solve failed (SBA_ERROR, reason %g): %s\n", o.input.c_str(), info[6],
-                 sink.first_error.empty() ? "no result" : sink.first_error.c_str());
-    return kExitFailure;
-  }
-
+  const std::vector<double> &p = job.p;
   Cloud final_cloud;
   if (!job.finish(p.data(), &final_cloud, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
@@ -462,28 +441,12 @@ int refine_main(int argc, char **argv) {
     return kExitFailure;
   }
 
-  const long long nvars = static_cast<long long>(m) * cnp + static_cast<long long>(n) * 3;
   const std::size_t eol = job.summary.find('\n');
-  std::printf("%s, %d observations, %lld variables%s\n", job.summary.substr(0, eol).c_str(), nobs, nvars,
-              eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
-  sbademo::print_summary(nobs, ret, info, seconds, read_seconds, result, so);
-
-  sbademo::Report report = sbademo::make_report("sbarefine", o.input, m, n, nobs, nvars, so, ret, info, result,
-                                                seconds, control);
-  sbademo::print_report(stdout, report);
-  if (!so.json.empty()) {
-    sbademo::add_per_camera(n, m, job.vmask, job.x, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); },
-                            &report);
-    for (std::size_t j = 0; j < job.camera_names.size(); ++j) report.per_camera[j].name = job.camera_names[j];
-    if (!sbademo::write_json(so.json, report, &error)) {
-      std::fprintf(stderr, "%s: %s\n", so.json.c_str(), error.c_str());
-      return kExitFailure;
-    }
-  }
-  if (!o.write.empty()) std::printf("Wrote %s\n", o.write.c_str());
-  if (info[6] == SBA_STOP_USER)
-    return sbademo::stopped_status("sbarefine", control, so.max_time, static_cast<int>(info[5]));
-  return 0;
+  std::printf("%s, %d observations, %lld variables%s\n", job.summary.substr(0, eol).c_str(), solve.observations(),
+              solve.variables(), eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
+  return solve.finish(
+      read_seconds, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); }, job.camera_names,
+      o.write);
 }
 
 }  // namespace
