@@ -9,7 +9,8 @@ namespace sbademo {
 
 std::array<double, 3> camera_centre(const double R[9], const double t[3]) {
   std::array<double, 3> c;
-  for (int k = 0; k < 3; ++k) c[k] = -(R[k] * t[0] + R[3 + k] * t[1] + R[6 + k] * t[2]);
+  // 0 - x rather than -x: a camera at the origin is written 0, not -0.
+  for (int k = 0; k < 3; ++k) c[k] = 0.0 - (R[k] * t[0] + R[3 + k] * t[1] + R[6 + k] * t[2]);
   return c;
 }
 
