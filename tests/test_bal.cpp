@@ -898,15 +898,5 @@ TEST(BalSba, PlyFilesHoldThePointsAndCameraCentres) {
   for (const std::string &p : {written, initial, final_ply}) std::remove(p.c_str());
 }
 
-TEST(BalSba, UnwritablePlyFailsBeforeReading) {
-  for (const char *option : {"--initial-ply", "--final-ply"}) {
-    const std::string nowhere = temp_path("no-such-dir/x.ply");
-    const Output o = run_balsba(std::string(option) + " " + nowhere + " " + temp_path("missing.txt"));
-    EXPECT_EQ(o.status, 1) << option;
-    EXPECT_EQ(o.err, nowhere + ": cannot open for writing: No such file or directory\n") << option;
-    EXPECT_EQ(o.out, "") << option;
-  }
-}
-
 }  // namespace
 #endif  // BALSBA_EXE
