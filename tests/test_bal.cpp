@@ -876,7 +876,8 @@ void expect_ply_of(const plytest::PlyFile &ply, const bal::Problem &problem) {
 TEST(BalSba, PlyFilesHoldThePointsAndCameraCentres) {
   const std::string path = bal_dir() + "/dubrovnik-3-7-pre.txt.bz2";
   REQUIRE_FILE(path);
-  const std::string written = temp_path("ply-refined.txt"), initial = temp_path("i.ply"), final_ply = temp_path("f.ply");
+  const std::string written = temp_path("ply-refined.txt");
+  const std::string initial = temp_path("i.ply"), final_ply = temp_path("f.ply");
   const Output o = run_balsba(path + " --mcon=2 --threads=1 --no-progress --write " + written + " --initial-ply " +
                               initial + " --final-ply " + final_ply);
   ASSERT_EQ(o.status, 0) << o.err;
