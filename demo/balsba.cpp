@@ -19,6 +19,7 @@
 #include "cli.h"
 #include "motstr_solve.h"
 #include "output_file.h"
+#include "ply.h"
 #include "solve_options.h"
 #include "sba.h"
 #include "sba_ext.h"
@@ -31,6 +32,7 @@ struct Options {
   std::string file;
   sbademo::SolveOptions solve;
   std::string write;
+  std::string initial_ply, final_ply;
   bool help = false, version = false;
 };
 
@@ -40,7 +42,24 @@ std::vector<sbacli::Option> option_table(Options &o) {
       &t, o.solve,
       {"write", "OUT", "write the refined problem in BAL format (OUT ending in .bz2: compressed)",
        [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }});
+  sbademo::add_ply_options(&t, &o.initial_ply, &o.final_ply, false);
   return t;
+}
+
+// The points and camera centres of a BAL problem, which has no colors.
+sbademo::Cloud cloud(const bal::Problem &problem) {
+  sbademo::Cloud c;
+  for (int i = 0; i < problem.npoints; ++i) {
+    const double *x = problem.point(i);
+    c.points.push_back({x[0], x[1], x[2]});
+  }
+  for (int j = 0; j < problem.ncameras; ++j) {
+    const double *a = problem.camera(j);
+    double R[9];
+    bal::rotation_matrix(a, R);
+    c.centres.push_back(sbademo::camera_centre(R, a + 3));
+  }
+  return c;
 }
 
 bool parse_command_line(int argc, char **argv, Options *options, std::string *error) {
@@ -82,7 +101,7 @@ int bal_main(int argc, char **argv) {
       status >= 0)
     return status;
   sbademo::SolveOptions &so = o.solve;
-  if (!sbademo::outputs_writable({&o.write, &so.json})) return kExitFailure;
+  if (!sbademo::outputs_writable({&o.write, &so.json, &o.initial_ply, &o.final_ply})) return kExitFailure;
 
   const auto read_start = std::chrono::steady_clock::now();
   bal::Problem problem;
@@ -108,15 +127,15 @@ int bal_main(int argc, char **argv) {
   in.adata = &data;
   sbademo::MotstrSolve solve("balsba", o.file, so, in);
   if (const int status = solve.check_fixed(); status >= 0) return status;
+  if (!sbademo::write_ply_option(o.initial_ply, cloud(problem))) return kExitFailure;
   if (!solve.run()) return kExitFailure;
 
-  if (!o.write.empty()) {
-    bal::from_sba_params(s.p.data(), &problem);
-    if (!bal::write_problem(o.write, problem, &error)) {
-      std::fprintf(stderr, "%s\n", error.c_str());
-      return kExitFailure;
-    }
+  bal::from_sba_params(s.p.data(), &problem);
+  if (!o.write.empty() && !bal::write_problem(o.write, problem, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
   }
+  if (!sbademo::write_ply_option(o.final_ply, cloud(problem))) return kExitFailure;
 
   std::printf("BAL problem %s: %d cameras, %d points, %d observations, %lld variables\n", o.file.c_str(), s.m, s.n,
               solve.observations(), solve.variables());

@@ -19,6 +19,7 @@
 #include "eucsbademo_options.h"
 #include "cli.h"
 #include "output_file.h"
+#include "ply.h"
 #include "report.h"
 #include "run_control.h"
 #include "sba.h"
@@ -257,6 +258,32 @@ Status stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &poi
   return {};
 }
 
+// The points and camera centres for --initial-ply and --final-ply: cams and pts are the
+// parameters of all cameras and points, null for those at their initial values.
+sbademo::Cloud cloud(const CameraModel &model, const double *cams, const double *pts) {
+  sbademo::Cloud c;
+  const double *xyz = pts ? pts : model.initial_points().data();
+  for (int i = 0; i < model.npoints(); ++i) {
+    const double *x = xyz + std::size_t(i) * kPointParams;
+    c.points.push_back({x[0], x[1], x[2]});
+  }
+  for (int j = 0; j < model.ncameras(); ++j) {
+    const Camera cam = model.camera(j, cams ? cams + std::size_t(j) * model.cnp() : model.initial_camera(j));
+    double R[9];
+    rotation_matrix(cam.q, R);
+    c.centres.push_back(sbademo::camera_centre(R, cam.t.data()));
+  }
+  return c;
+}
+
+// The cloud of a refinement's result: what it left alone at its initial values.
+sbademo::Cloud final_cloud(const CameraModel &model, const Outcome &out) {
+  const bool has_cams = out.refinement != Refinement::Structure;
+  const bool has_pts = out.refinement != Refinement::Motion;
+  const double *pts = has_pts ? out.p.data() + (has_cams ? std::size_t(model.ncameras()) * model.cnp() : 0) : nullptr;
+  return cloud(model, has_cams ? out.p.data() : nullptr, pts);
+}
+
 // Each camera's observations and squared pixel distances at the result (cameras and points
 // a refinement left alone at their initial values).
 std::vector<sbademo::CameraResidual> camera_residuals(const CameraModel &model, const PointSet &points,
@@ -323,7 +350,8 @@ int demo_main(int argc, char **argv) {
     return kExitUsage;
   }
 
-  for (const std::string *path : {&o.write_cams, &o.write_pts, &o.write_pts_tracks, &o.write_stddev, &o.json}) {
+  for (const std::string *path :
+       {&o.write_cams, &o.write_pts, &o.write_pts_tracks, &o.write_stddev, &o.json, &o.initial_ply, &o.final_ply}) {
     if (Status s = check_writable(*path); !s) {
       std::fprintf(stderr, "%s\n", s.to_string().c_str());
       return kExitFailure;
@@ -331,6 +359,7 @@ int demo_main(int argc, char **argv) {
   }
 
   const CameraModel model(problem.kind, problem.cameras, points.xyz, o.nccalib, o.ncdist);
+  if (!sbademo::write_ply_option(o.initial_ply, cloud(model, nullptr, nullptr))) return kExitFailure;
   std::fprintf(stderr, "%s\n", kind_banner(problem.kind));
 
   sbademo::TtyProgress progress(o.progress, nprojs);
@@ -385,6 +414,7 @@ int demo_main(int argc, char **argv) {
       std::fprintf(stderr, "%s\n", s.to_string().c_str());
       return kExitFailure;
     }
+  if (!sbademo::write_ply_option(o.final_ply, final_cloud(model, out))) return kExitFailure;
 
   // The variables of the refinement that produced the result.
   long long nvars = 0;

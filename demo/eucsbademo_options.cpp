@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "cli.h"
+#include "ply.h"
 #include "sba_ext.h"
 
 namespace eucsba {
@@ -113,6 +114,7 @@ std::vector<sbacli::Option> option_table(DemoOptions &o) {
                "write the run as one JSON object: sizes, options, every info[] value, the error and\n"
                "time of every iteration, and each camera's observations and RMS reprojection error",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.json); }});
+  sbademo::add_ply_options(&t, &o.initial_ply, &o.final_ply, false);
   return t;
 }
 

@@ -43,6 +43,7 @@ struct DemoOptions {
   std::string write_stddev;     // per-camera and per-point standard deviations; empty: none
   std::string write_cams, write_pts, write_pts_tracks;  // empty: not written
   std::string json;             // the run as one JSON object; empty: not written
+  std::string initial_ply, final_ply;  // points and camera centres before and after; empty: not written
   std::vector<std::string> files;  // cams.txt pts.txt [calib.txt]
   bool help = false, version = false;
 };

@@ -24,6 +24,7 @@
 #include "motstr_solve.h"
 #include "nvm_io.h"
 #include "output_file.h"
+#include "ply.h"
 #include "sba.h"
 #include "sba_ext.h"
 #include "solve_options.h"
@@ -77,10 +78,7 @@ std::vector<sbacli::Option> option_table(Options &o) {
                [&o](const std::string &v) { return sbacli::to_file(v, &o.bundler_list); }});
   t.push_back({"write-list", "FILE", "Bundler: write the image list of --bundler-list to FILE as it was read",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_list); }});
-  t.push_back({"initial-ply", "FILE", "write the initial points (with their colors) and camera centres (red) as PLY",
-               [&o](const std::string &v) { return sbacli::to_file(v, &o.initial_ply); }});
-  t.push_back({"final-ply", "FILE", "the same for the refined model",
-               [&o](const std::string &v) { return sbacli::to_file(v, &o.final_ply); }});
+  sbademo::add_ply_options(&t, &o.initial_ply, &o.final_ply, true);
   return t;
 }
 
@@ -122,19 +120,7 @@ void print_usage(std::FILE *out) {
       out);
 }
 
-// What a PLY file shows: points with their colors, camera centres.
-struct Cloud {
-  std::vector<std::array<double, 3>> points;
-  std::vector<std::array<int, 3>> colors;
-  std::vector<std::array<double, 3>> centres;
-};
-
-// The centre -R^T t of a camera with R row-major.
-std::array<double, 3> centre(const double R[9], const double t[3]) {
-  std::array<double, 3> c;
-  for (int k = 0; k < 3; ++k) c[k] = -(R[k] * t[0] + R[3 + k] * t[1] + R[6 + k] * t[2]);
-  return c;
-}
+using sbademo::Cloud;
 
 Cloud cloud(const colmap::Model &model) {
   Cloud c;
@@ -145,7 +131,7 @@ Cloud cloud(const colmap::Model &model) {
   for (const colmap::Image &im : model.images) {
     double R[9];
     eucsba::rotation_matrix(eucsba::normalized_rotation({im.q[0], im.q[1], im.q[2], im.q[3]}), R);
-    c.centres.push_back(centre(R, im.t.data()));
+    c.centres.push_back(sbademo::camera_centre(R, im.t.data()));
   }
   return c;
 }
@@ -167,25 +153,8 @@ Cloud cloud(const bundler::Bundle &b) {
     c.colors.push_back(p.rgb);
   }
   for (const bundler::Camera &cam : b.cameras)
-    if (cam.registered()) c.centres.push_back(centre(cam.R.data(), cam.t.data()));
+    if (cam.registered()) c.centres.push_back(sbademo::camera_centre(cam.R.data(), cam.t.data()));
   return c;
-}
-
-// The points with their colors, then the camera centres in red, as an ASCII PLY file.
-bool write_ply(const std::string &path, const Cloud &c, std::string *error) {
-  sbademo::OutputFile file;
-  if (!file.open(path, error)) return false;
-  std::FILE *f = file.get();
-  std::fprintf(f,
-               "ply\nformat ascii 1.0\ncomment points, then camera centres (red)\nelement vertex %zu\n"
-               "property double x\nproperty double y\nproperty double z\n"
-               "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
-               c.points.size() + c.centres.size());
-  for (std::size_t i = 0; i < c.points.size(); ++i)
-    std::fprintf(f, "%.17g %.17g %.17g %d %d %d\n", c.points[i][0], c.points[i][1], c.points[i][2], c.colors[i][0],
-                 c.colors[i][1], c.colors[i][2]);
-  for (const auto &x : c.centres) std::fprintf(f, "%.17g %.17g %.17g 255 0 0\n", x[0], x[1], x[2]);
-  return file.commit(error);
 }
 
 // A loaded reconstruction as sba takes it, and what to do with the result.
@@ -424,10 +393,7 @@ int refine_main(int argc, char **argv) {
   in.adata = job.adata;
   sbademo::MotstrSolve solve("sbarefine", o.input, so, in);
   if (const int status = solve.check_fixed(); status >= 0) return status;
-  if (!o.initial_ply.empty() && !write_ply(o.initial_ply, job.initial, &error)) {
-    std::fprintf(stderr, "%s: %s\n", o.initial_ply.c_str(), error.c_str());
-    return kExitFailure;
-  }
+  if (!sbademo::write_ply_option(o.initial_ply, job.initial)) return kExitFailure;
   if (!solve.run()) return kExitFailure;
 
   const std::vector<double> &p = job.p;
@@ -436,10 +402,7 @@ int refine_main(int argc, char **argv) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
-  if (!o.final_ply.empty() && !write_ply(o.final_ply, final_cloud, &error)) {
-    std::fprintf(stderr, "%s: %s\n", o.final_ply.c_str(), error.c_str());
-    return kExitFailure;
-  }
+  if (!sbademo::write_ply_option(o.final_ply, final_cloud)) return kExitFailure;
 
   const std::size_t eol = job.summary.find('\n');
   std::printf("%s, %d observations, %lld variables%s\n", job.summary.substr(0, eol).c_str(), solve.observations(),

@@ -23,6 +23,7 @@
 #include "bal_io.h"
 #include "bal_model.h"
 #include "counting_new.h"
+#include "ply_file.h"
 #include "sba.h"
 #include "sba_ext.h"
 
@@ -841,6 +842,61 @@ TEST(BalSba, DevZeroIsRefusedAtOnce) {
   EXPECT_EQ(o.status, 1);
   EXPECT_EQ(o.err, "/dev/zero: line 1: more than 4096 bytes without white space (no number is that long)\n");
   EXPECT_EQ(o.out, "");
+}
+
+// The centre -R^T t of BAL camera a, with the test's own rotation.
+std::array<double, 3> centre_of(const double a[9]) {
+  double R[9];
+  axis_angle_matrix(a, R);
+  std::array<double, 3> c{};
+  for (int k = 0; k < 3; ++k) c[k] = -(R[k] * a[3] + R[3 + k] * a[4] + R[6 + k] * a[5]);
+  return c;
+}
+
+// The PLY of a problem: its points in grey, then its camera centres in red.
+void expect_ply_of(const plytest::PlyFile &ply, const bal::Problem &problem) {
+  EXPECT_TRUE(ply.header_ok);
+  ASSERT_EQ(ply.announced, problem.npoints + problem.ncameras);
+  ASSERT_EQ(ply.vertices.size(), static_cast<std::size_t>(ply.announced));
+  for (int i = 0; i < problem.npoints; ++i) {
+    const plytest::Vertex &v = ply.vertices[static_cast<std::size_t>(i)];
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(v.x[k], problem.point(i)[k]) << "point " << i;  // %.17g both
+    EXPECT_EQ(v.rgb, (std::array<int, 3>{160, 160, 160})) << "point " << i;
+  }
+  for (int j = 0; j < problem.ncameras; ++j) {
+    const plytest::Vertex &v = ply.vertices[static_cast<std::size_t>(problem.npoints + j)];
+    const std::array<double, 3> c = centre_of(problem.camera(j));
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(v.x[k], c[k], 1e-13 * (1 + std::fabs(c[k]))) << "camera " << j;
+    EXPECT_EQ(v.rgb, (std::array<int, 3>{255, 0, 0})) << "camera " << j;
+  }
+}
+
+// --initial-ply and --final-ply: the problem read and the problem --write writes, as points and
+// camera centres; the cameras --mcon holds stay where they were.
+TEST(BalSba, PlyFilesHoldThePointsAndCameraCentres) {
+  const std::string path = bal_dir() + "/dubrovnik-3-7-pre.txt.bz2";
+  REQUIRE_FILE(path);
+  const std::string written = temp_path("ply-refined.txt");
+  const std::string initial = temp_path("i.ply"), final_ply = temp_path("f.ply");
+  const Output o = run_balsba(path + " --mcon=2 --threads=1 --no-progress --write " + written + " --initial-ply " +
+                              initial + " --final-ply " + final_ply);
+  ASSERT_EQ(o.status, 0) << o.err;
+  bal::Problem before, after;
+  std::string error;
+  ASSERT_TRUE(bal::read_problem(path, &before, &error)) << error;
+  ASSERT_TRUE(bal::read_problem(written, &after, &error)) << error;
+  const plytest::PlyFile i = plytest::read_ply(initial), f = plytest::read_ply(final_ply);
+  EXPECT_EQ(i.announced, 7 + 3);
+  expect_ply_of(i, before);
+  expect_ply_of(f, after);
+  // Camera 2 of the file, worked out by hand from its w and t.
+  const std::array<double, 3> kCentre2{-10.22479120657731, -4.9935831578422185, -1.2752215160037905};
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(i.vertices[9].x[k], kCentre2[k], 1e-12) << k;
+  // Cameras 0 and 1 held, camera 2 and the points refined.
+  for (int v = 7; v < 9; ++v) EXPECT_EQ(f.vertices[v].text, i.vertices[v].text) << v;
+  EXPECT_NE(f.vertices[9].text, i.vertices[9].text);
+  for (int v = 0; v < 7; ++v) EXPECT_NE(f.vertices[v].text, i.vertices[v].text) << v;
+  for (const std::string &p : {written, initial, final_ply}) std::remove(p.c_str());
 }
 
 }  // namespace

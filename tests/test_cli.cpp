@@ -184,6 +184,27 @@ TEST(Cli, SbarefineOptionsOfAnotherFormat) {
   std::remove(nvm.c_str());
 }
 
+// A PLY file that cannot be written stops each program before its solve: status 1, the path
+// and the reason on stderr, nothing on stdout.
+TEST(Cli, UnwritablePlyStopsEveryProgramBeforeTheSolve) {
+  const std::string nowhere = ::testing::TempDir() + "test_cli.no-such-dir/x.ply";
+  const std::string data = std::string(SBA_PROJECT_DIR) + "/data/orbit-fixedK-";
+  const std::pair<std::string, std::vector<std::string>> kRuns[] = {
+      {EUCSBADEMO_EXE, {data + "cams.txt", data + "pts.txt", data + "calib.txt"}},
+      {BALSBA_EXE, {"problem.txt"}},
+      {SBAREFINE_EXE, {"model"}}};
+  for (const auto &[exe, inputs] : kRuns)
+    for (const char *option : {"--initial-ply", "--final-ply"}) {
+      SCOPED_TRACE(exe + " " + option);
+      std::vector<std::string> args{option, nowhere};
+      args.insert(args.end(), inputs.begin(), inputs.end());
+      const Output o = run(exe, args);
+      EXPECT_EQ(o.status, 1);
+      EXPECT_EQ(o.out, "");
+      EXPECT_EQ(o.err, nowhere + ": cannot open for writing: No such file or directory\n");
+    }
+}
+
 // eucsbademo reads bzip2-compressed files and one of its files from standard input ('-').
 class EucsbademoInputs : public ::testing::Test {
  protected:

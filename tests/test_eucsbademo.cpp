@@ -41,6 +41,7 @@
 
 #include "eucsba_io.h"
 #include "eucsbademo_options.h"
+#include "ply_file.h"
 #include "sanitized.h"
 #include "sba_ext.h"
 
@@ -774,6 +775,128 @@ TEST(Eucsbademo, RoundTripFixedIntrinsics) {
 TEST(Eucsbademo, RoundTripVaryingIntrinsics) {
   REQUIRE_DEMO_DATA();
   round_trip(k7camsvarK, {"--itmax=1000"});
+}
+
+// ---------------------------------------------------------------------------------------------
+// --initial-ply and --final-ply: the points (grey) then the camera centres (red).
+
+// The centre -R^T t of a camera line's last 7 values q0 q1 q2 q3 t1 t2 t3, with the test's own
+// rotation matrix of the normalized quaternion.
+std::array<double, 3> quaternion_centre(const std::vector<double> &row) {
+  const double *q = &row[row.size() - 7], *t = &row[row.size() - 3];
+  const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  const double w = q[0] / norm, x = q[1] / norm, y = q[2] / norm, z = q[3] / norm;
+  const double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)},
+                          {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)},
+                          {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}};
+  std::array<double, 3> c{};
+  for (int k = 0; k < 3; ++k) c[k] = -(R[0][k] * t[0] + R[1][k] * t[1] + R[2][k] * t[2]);
+  return c;
+}
+
+// The PLY holds p's points and cameras, in grey and red, the centres those of the camera lines
+// cam_rows to within tol relative to the translation's size.
+void expect_ply_shape(const plytest::PlyFile &ply, const DemoProblem &p,
+                      const std::vector<std::vector<double>> &cam_rows, double tol) {
+  EXPECT_TRUE(ply.header_ok);
+  ASSERT_EQ(ply.announced, p.npoints + p.nframes);
+  ASSERT_EQ(ply.vertices.size(), static_cast<std::size_t>(ply.announced));
+  for (int i = 0; i < p.npoints; ++i) EXPECT_EQ(ply.vertices[i].rgb, (std::array<int, 3>{160, 160, 160})) << i;
+  ASSERT_EQ(cam_rows.size(), static_cast<std::size_t>(p.nframes));
+  for (int j = 0; j < p.nframes; ++j) {
+    const plytest::Vertex &v = ply.vertices[static_cast<std::size_t>(p.npoints + j)];
+    EXPECT_EQ(v.rgb, (std::array<int, 3>{255, 0, 0})) << "camera " << j;
+    const std::array<double, 3> c = quaternion_centre(cam_rows[j]);
+    const double *t = &cam_rows[j][cam_rows[j].size() - 3];
+    const double scale = std::fabs(t[0]) + std::fabs(t[1]) + std::fabs(t[2]) + 1e-300;
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(v.x[k], c[k], tol * scale) << "camera " << j << " coordinate " << k;
+  }
+}
+
+// How many of the vertices [from, to) two PLY files write differently.
+int moved(const plytest::PlyFile &a, const plytest::PlyFile &b, int from, int to) {
+  int count = 0;
+  for (int v = from; v < to; ++v) count += a.vertices.at(v).text != b.vertices.at(v).text;
+  return count;
+}
+
+TEST(EucsbademoPly, InitialAndFinalPointsAndCameraCentres) {
+  REQUIRE_DEMO_DATA();
+  const DemoProblem &p = k7cams;
+  TempDir dir;
+  const std::string cams = dir.file("cams.txt"), xyz = dir.file("xyz.txt");
+  const std::string initial = dir.file("i.ply"), final_ply = dir.file("f.ply");
+  const DemoRun r = run_problem(p, {"--threads=1", "--write-cams", cams, "--write-pts", xyz, "--initial-ply", initial,
+                                    "--final-ply", final_ply});
+  Summary s, plain_summary;
+  EXPECT_SUCCESSFUL_RUN(r, p.banner, s);
+  // Nothing on stdout changes but the times.
+  const DemoRun plain = run_problem(p, {"--threads=1"});
+  EXPECT_SUCCESSFUL_RUN(plain, p.banner, plain_summary);
+  const std::regex times("Elapsed time: [^\n]*|, [0-9.]+ s\\n");
+  EXPECT_EQ(std::regex_replace(r.out, times, ""), std::regex_replace(plain.out, times, ""));
+
+  const plytest::PlyFile i = plytest::read_ply(initial), f = plytest::read_ply(final_ply);
+  EXPECT_EQ(i.announced, 465 + 7);
+  expect_ply_shape(i, p, numeric_rows(demo_file(p.cams)), 1e-13);
+  // The points as 7pts.txt gives them; camera 1's centre worked out by hand.
+  const auto pts_rows = numeric_rows(demo_file(p.pts));
+  for (int n = 0; n < p.npoints; ++n)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(i.vertices[n].x[k], pts_rows[n][k]) << "point " << n;
+  const std::array<double, 3> kCentre1{-0.0012605960691682305, -0.0002614803816293307, -7.714635714396959e-05};
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(i.vertices[466].x[k], kCentre1[k], 1e-17) << k;
+
+  // The final cloud is the refined cameras and points --write-cams and --write-pts wrote: the
+  // points to the 11 digits of --write-pts, the centres to what 11-digit cameras allow.
+  expect_ply_shape(f, p, numeric_rows(cams), 1e-9);
+  const std::vector<std::string> xyz_lines = split_lines(read_text(xyz));
+  ASSERT_EQ(xyz_lines.size(), static_cast<std::size_t>(p.npoints));
+  for (int n = 0; n < p.npoints; ++n) {
+    char line[128];
+    const std::array<double, 3> &x = f.vertices[n].x;
+    std::snprintf(line, sizeof line, "%.10e %.10e %.10e", x[0], x[1], x[2]);
+    EXPECT_EQ(line, xyz_lines[n]) << "point " << n;
+  }
+  EXPECT_EQ(moved(i, f, 0, p.npoints), p.npoints);
+  EXPECT_EQ(moved(i, f, p.npoints, p.npoints + p.nframes), p.nframes);
+}
+
+// Structure only: the cameras stay; motion only: the points stay. The PLY holds both.
+TEST(EucsbademoPly, WhatARefinementLeavesAloneStays) {
+  REQUIRE_DEMO_DATA();
+  const DemoProblem &p = k7cams;
+  const int all = p.npoints + p.nframes;
+  for (const char *mode : {"str", "mot"}) {
+    SCOPED_TRACE(mode);
+    TempDir dir;
+    const std::string initial = dir.file("i.ply"), final_ply = dir.file("f.ply");
+    const DemoRun r = run_problem(p, {std::string("--refine=") + mode, "--threads=1", "--initial-ply", initial,
+                                      "--final-ply", final_ply});
+    Summary s;
+    EXPECT_SUCCESSFUL_RUN(r, p.banner, s);
+    const plytest::PlyFile i = plytest::read_ply(initial), f = plytest::read_ply(final_ply);
+    ASSERT_EQ(i.announced, all);
+    ASSERT_EQ(f.announced, all);
+    const bool str = std::string(mode) == "str";
+    EXPECT_EQ(moved(i, f, 0, p.npoints), str ? p.npoints : 0);
+    EXPECT_EQ(moved(i, f, p.npoints, all), str ? 0 : p.nframes);
+  }
+}
+
+// The centres come from the rotation and translation wherever the camera line holds them.
+TEST(EucsbademoPly, CentresOfEveryCameraKind) {
+  REQUIRE_DEMO_DATA();
+  for (const DemoProblem *p : {&k7camsvarK, &k54camsvarKD}) {
+    SCOPED_TRACE(p->name);
+    TempDir dir;
+    const std::string initial = dir.file("i.ply");
+    const DemoRun r = run_problem(*p, {"--itmax=1", "--initial-ply", initial});
+    Summary s;
+    EXPECT_SUCCESSFUL_RUN(r, p->banner, s);
+    const auto rows = numeric_rows(demo_file(p->cams));
+    ASSERT_EQ(rows.at(0).size(), static_cast<std::size_t>(p->cnp + 1));
+    expect_ply_shape(plytest::read_ply(initial), *p, rows, 1e-13);
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1561,7 +1684,7 @@ TEST(DemoOptions, UsageDocumentsEveryOption) {
        {"--refine=MODE", "--simple", "--expert", "--numeric-jacobian", "--itmax=N", "--opts=", "--tau=X",
         "--eps1=X", "--eps4=X", "--verbose=N", "--mcon=N", "--ncon=N", "--nccalib=N", "--ncdist=N",
         "--solver=NAME", "--threads=N", "--check-jacobian", "--write-cams=FILE", "--write-pts=FILE",
-        "--write-pts-tracks=FILE", "--help", "--version"})
+        "--write-pts-tracks=FILE", "--initial-ply=FILE", "--final-ply=FILE", "--help", "--version"})
     EXPECT_NE(text.find(opt), std::string::npos) << opt;
   EXPECT_NE(text.find(sba_linsolver_names()), std::string::npos);
   EXPECT_NE(text.find("SBA_NUM_THREADS"), std::string::npos);

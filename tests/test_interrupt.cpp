@@ -107,8 +107,9 @@ std::string EucsbademoStop::dir_;
 
 TEST_F(EucsbademoStop, SignalStopsAtTheEndOfAnIterationWithTheLastAcceptedEstimate) {
   for (int sig : {SIGINT, SIGTERM}) {
-    const std::string cams = dir_ + "stopped-cams.txt", pts = dir_ + "stopped-pts.txt";
-    const ChildRun r = run_child(EUCSBADEMO_EXE, args({"--write-cams=" + cams, "--write-pts", pts}), dir_ + "run",
+    const std::string cams = dir_ + "stopped-cams.txt", pts = dir_ + "stopped-pts.txt", ply = dir_ + "stopped.ply";
+    const ChildRun r = run_child(EUCSBADEMO_EXE, args({"--write-cams=" + cams, "--write-pts", pts, "--final-ply", ply}),
+                                 dir_ + "run",
                             [sig](pid_t pid, const std::string &err) {
                               ASSERT_TRUE(wait_for(err, "Starting BA"));
                               std::this_thread::sleep_for(std::chrono::milliseconds(800));
@@ -124,22 +125,26 @@ TEST_F(EucsbademoStop, SignalStopsAtTheEndOfAnIterationWithTheLastAcceptedEstima
     EXPECT_EQ(r.err, "Starting BA with fixed intrinsic parameters\neucsbademo: interrupted by " + std::string(name) +
                          " after iteration " + std::to_string(n) + ": the results are the last accepted estimate\n");
     // The same solve run to itmax = n ends at the same estimate, byte for byte.
-    const std::string cams_n = dir_ + "itmax-cams.txt", pts_n = dir_ + "itmax-pts.txt";
+    const std::string cams_n = dir_ + "itmax-cams.txt", pts_n = dir_ + "itmax-pts.txt", ply_n = dir_ + "itmax.ply";
     const ChildRun full = run_child(EUCSBADEMO_EXE,
-                               args({"--itmax=" + std::to_string(n), "--write-cams=" + cams_n, "--write-pts=" + pts_n}),
+                               args({"--itmax=" + std::to_string(n), "--write-cams=" + cams_n, "--write-pts=" + pts_n,
+                                     "--final-ply=" + ply_n}),
                                dir_ + "full", [](pid_t, const std::string &) {});
     ASSERT_EQ(full.exit_status, 0) << full.err;
     EXPECT_NE(full.out.find("in " + std::to_string(n) + " iter, reason 3,"), std::string::npos) << full.out;
     EXPECT_EQ(slurp(cams), slurp(cams_n)) << name;
     EXPECT_EQ(slurp(pts), slurp(pts_n)) << name;
+    EXPECT_EQ(slurp(ply), slurp(ply_n)) << name;
+    EXPECT_FALSE(slurp(ply).empty()) << name;
     EXPECT_NE(slurp(cams), slurp(dir_ + "big-cams.txt"));
   }
 }
 
 TEST_F(EucsbademoStop, SecondSignalEndsTheProgramAtOnce) {
-  const std::string cams = dir_ + "twice-cams.txt";
+  const std::string cams = dir_ + "twice-cams.txt", ply = dir_ + "twice.ply";
   std::remove(cams.c_str());
-  const ChildRun r = run_child(EUCSBADEMO_EXE, args({"--write-cams=" + cams}), dir_ + "twice",
+  std::remove(ply.c_str());
+  const ChildRun r = run_child(EUCSBADEMO_EXE, args({"--write-cams=" + cams, "--final-ply=" + ply}), dir_ + "twice",
                           [](pid_t pid, const std::string &err) {
                             ASSERT_TRUE(wait_for(err, "Starting BA"));
                             std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -151,6 +156,7 @@ TEST_F(EucsbademoStop, SecondSignalEndsTheProgramAtOnce) {
   EXPECT_EQ(r.out, "");  // no summary: it did not wait for the iteration to end
   EXPECT_EQ(r.err, "Starting BA with fixed intrinsic parameters\n");
   EXPECT_FALSE(exists(cams));
+  EXPECT_FALSE(exists(ply));
 }
 
 TEST_F(EucsbademoStop, MaxTimeStopsWithStatusZero) {
@@ -169,9 +175,10 @@ TEST(BalsbaStop, SignalStopsWithTheLastAcceptedEstimate) {
   if (!exists(problem)) GTEST_SKIP() << problem << " is absent";
   const std::string base = ::testing::TempDir() + "test_interrupt_bal." + std::to_string(getpid());
   const std::string out = base + "-stopped.txt", out_n = base + "-itmax.txt";
+  const std::string ply = base + "-stopped.ply", ply_n = base + "-itmax.ply";
   const std::vector<std::string> common{problem, "--solver=svd", "--threads=1", "--no-progress"};
   std::vector<std::string> a = common;
-  a.insert(a.end(), {"--write", out});
+  a.insert(a.end(), {"--write", out, "--final-ply", ply});
   const ChildRun r = run_child(BALSBA_EXE, a, base, [](pid_t pid, const std::string &) {
     std::this_thread::sleep_for(std::chrono::milliseconds(2000));  // reading the file takes a fraction of it
     kill(pid, SIGINT);
@@ -184,13 +191,14 @@ TEST(BalsbaStop, SignalStopsWithTheLastAcceptedEstimate) {
   EXPECT_EQ(r.err, "balsba: interrupted by SIGINT after iteration " + std::to_string(n) +
                        ": the results are the last accepted estimate\n");
   a = common;
-  a.insert(a.end(), {"--itmax", std::to_string(n), "--write", out_n});
+  a.insert(a.end(), {"--itmax", std::to_string(n), "--write", out_n, "--final-ply", ply_n});
   const ChildRun full = run_child(BALSBA_EXE, a, base + "-full", [](pid_t, const std::string &) {});
   ASSERT_EQ(full.exit_status, 0) << full.err;
   EXPECT_EQ(slurp(out), slurp(out_n));
   EXPECT_FALSE(slurp(out).empty());
-  std::remove(out.c_str());
-  std::remove(out_n.c_str());
+  EXPECT_EQ(slurp(ply), slurp(ply_n));
+  EXPECT_FALSE(slurp(ply).empty());
+  for (const std::string &f : {out, out_n, ply, ply_n}) std::remove(f.c_str());
 }
 
 TEST(BalsbaStop, MaxTimeStopsWithStatusZero) {

@@ -1,0 +1,54 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "ply.h"
+
+#include <cstdio>
+
+#include "output_file.h"
+
+namespace sbademo {
+
+std::array<double, 3> camera_centre(const double R[9], const double t[3]) {
+  std::array<double, 3> c;
+  // 0 - x rather than -x: a camera at the origin is written 0, not -0.
+  for (int k = 0; k < 3; ++k) c[k] = 0.0 - (R[k] * t[0] + R[3 + k] * t[1] + R[6 + k] * t[2]);
+  return c;
+}
+
+bool write_ply(const std::string &path, const Cloud &cloud, std::string *error) {
+  // Grey stands out from the red centres on a dark or a light background alike.
+  constexpr std::array<int, 3> kNoColor{160, 160, 160};
+  OutputFile file;
+  if (!file.open(path, error)) return false;
+  std::FILE *f = file.get();
+  std::fprintf(f,
+               "ply\nformat ascii 1.0\ncomment points, then camera centres (red)\nelement vertex %zu\n"
+               "property double x\nproperty double y\nproperty double z\n"
+               "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
+               cloud.points.size() + cloud.centres.size());
+  const bool colored = cloud.colors.size() == cloud.points.size();
+  for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+    const std::array<double, 3> &x = cloud.points[i];
+    const std::array<int, 3> &c = colored ? cloud.colors[i] : kNoColor;
+    std::fprintf(f, "%.17g %.17g %.17g %d %d %d\n", x[0], x[1], x[2], c[0], c[1], c[2]);
+  }
+  for (const auto &x : cloud.centres) std::fprintf(f, "%.17g %.17g %.17g 255 0 0\n", x[0], x[1], x[2]);
+  return file.commit(error);
+}
+
+void add_ply_options(std::vector<sbacli::Option> *table, std::string *initial, std::string *final_ply, bool colored) {
+  table->push_back({"initial-ply", "FILE",
+                    std::string("write the initial points ") + (colored ? "(with their colors) " : "(grey) ") +
+                        "and camera centres (red) as PLY",
+                    [initial](const std::string &v) { return sbacli::to_file(v, initial); }});
+  table->push_back({"final-ply", "FILE", "the same for the refined model",
+                    [final_ply](const std::string &v) { return sbacli::to_file(v, final_ply); }});
+}
+
+bool write_ply_option(const std::string &path, const Cloud &cloud) {
+  std::string why;
+  if (path.empty() || write_ply(path, cloud, &why)) return true;
+  std::fprintf(stderr, "%s: %s\n", path.c_str(), why.c_str());
+  return false;
+}
+
+}  // namespace sbademo
