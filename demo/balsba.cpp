@@ -16,6 +16,7 @@
 
 #include "bal_io.h"
 #include "bal_model.h"
+#include "camera_pose.h"
 #include "cli.h"
 #include "motstr_solve.h"
 #include "output_file.h"

@@ -269,7 +269,7 @@ bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::Poin
   for (int i = 0; i < n; ++i) {
     Point &p = b.points[static_cast<std::size_t>(i)];
     for (int c = 0; c < 3; ++c) p.xyz[c] = points.xyz[3 * static_cast<std::size_t>(i) + c];
-    p.rgb = {(i * 37) & 255, (i * 11 + 64) & 255, 255 - i % 256};
+    p.rgb = eucsba::generated_color(i);
   }
   eucsba::for_each_projection(points, [&](int i, int j, const double *x) {
     const eucsba::Camera &e = cameras[static_cast<std::size_t>(j)];

@@ -79,7 +79,7 @@ void angle_axis(const std::array<double, 9> &R, double w[3]);
 
 // An eucsbademo problem as a bundle: R and t turned to look down -z with y up, f = fu,
 // k1 = kc0, k2 = kc1, measurements from each camera's principal point with y up, point i
-// colored as colmap::from_problem colors it, key i. False with a message for what Bundler
+// colored as eucsba::generated_color colors it, key i. False with a message for what Bundler
 // cannot hold: ar != 1, a skew, tangential terms or kc4, a point set without its vmask.
 bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::PointSet &points, Bundle *out,
                   std::string *error);

@@ -230,24 +230,21 @@ bool from_problem(eucsba::CameraKind kind, const std::vector<eucsba::Camera> &ca
     im.points.push_back({0.5, 0.5, kNoPoint});
     model.images.push_back(std::move(im));
   }
-  std::size_t k = 0;
+  model.points.resize(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
-    Point3D pt;
+    Point3D &pt = model.points[static_cast<std::size_t>(i)];
     pt.id = 1000 + 7 * static_cast<std::uint64_t>(i);
     for (int c = 0; c < 3; ++c) pt.xyz[c] = points.xyz[3 * static_cast<std::size_t>(i) + c];
-    pt.rgb = {static_cast<std::uint8_t>(i * 37), static_cast<std::uint8_t>(i * 11 + 64),
-              static_cast<std::uint8_t>(255 - i % 256)};
+    const std::array<int, 3> rgb = eucsba::generated_color(i);
+    for (int c = 0; c < 3; ++c) pt.rgb[c] = static_cast<std::uint8_t>(rgb[c]);
     pt.error = 1;
-    for (int j = 0; j < m; ++j) {
-      if (!points.vmask[static_cast<std::size_t>(i) * static_cast<std::size_t>(m) + static_cast<std::size_t>(j)])
-        continue;
-      Image &im = model.images[static_cast<std::size_t>(j)];
-      pt.track.push_back({im.id, static_cast<std::uint32_t>(im.points.size())});
-      im.points.push_back({points.x[2 * k], points.x[2 * k + 1], pt.id});
-      ++k;
-    }
-    model.points.push_back(std::move(pt));
   }
+  eucsba::for_each_projection(points, [&](int i, int j, const double *x) {
+    Point3D &pt = model.points[static_cast<std::size_t>(i)];
+    Image &im = model.images[static_cast<std::size_t>(j)];
+    pt.track.push_back({im.id, static_cast<std::uint32_t>(im.points.size())});
+    im.points.push_back({x[0], x[1], pt.id});
+  });
   *out = std::move(model);
   return true;
 }

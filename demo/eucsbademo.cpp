@@ -17,6 +17,7 @@
 #include "eucsba_io.h"
 #include "eucsba_model.h"
 #include "eucsbademo_options.h"
+#include "camera_pose.h"
 #include "cli.h"
 #include "output_file.h"
 #include "ply.h"
@@ -276,12 +277,21 @@ sbademo::Cloud cloud(const CameraModel &model, const double *cams, const double 
   return c;
 }
 
-// The cloud of a refinement's result: what it left alone at its initial values.
-sbademo::Cloud final_cloud(const CameraModel &model, const Outcome &out) {
+// Where a refinement's result holds the cameras and the points, null for those it left alone
+// at their initial values.
+struct ResultParams {
+  const double *cams, *pts;
+};
+ResultParams result_params(const CameraModel &model, const Outcome &out) {
   const bool has_cams = out.refinement != Refinement::Structure;
   const bool has_pts = out.refinement != Refinement::Motion;
-  const double *pts = has_pts ? out.p.data() + (has_cams ? std::size_t(model.ncameras()) * model.cnp() : 0) : nullptr;
-  return cloud(model, has_cams ? out.p.data() : nullptr, pts);
+  return {has_cams ? out.p.data() : nullptr,
+          has_pts ? out.p.data() + (has_cams ? std::size_t(model.ncameras()) * model.cnp() : 0) : nullptr};
+}
+
+sbademo::Cloud final_cloud(const CameraModel &model, const Outcome &out) {
+  const ResultParams r = result_params(model, out);
+  return cloud(model, r.cams, r.pts);
 }
 
 // Each camera's observations and squared pixel distances at the result (cameras and points
@@ -289,33 +299,21 @@ sbademo::Cloud final_cloud(const CameraModel &model, const Outcome &out) {
 std::vector<sbademo::CameraResidual> camera_residuals(const CameraModel &model, const PointSet &points,
                                                       const Outcome &out) {
   const int n = points.npoints(), m = points.ncameras, cnp = model.cnp();
-  const bool has_cams = out.refinement != Refinement::Structure;
-  const bool has_pts = out.refinement != Refinement::Motion;
-  const double *pts = has_pts ? out.p.data() + (has_cams ? std::size_t(m) * cnp : 0) : nullptr;
+  const ResultParams r = result_params(model, out);
   std::vector<sbademo::CameraResidual> per_camera(static_cast<std::size_t>(m));
   std::size_t k = 0;  // measurement ordinal: point by point, cameras ascending
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < m; ++j) {
       if (!points.vmask[std::size_t(i) * m + j]) continue;
       double x[kMeasurementParams];
-      model.project(j, has_cams ? out.p.data() + std::size_t(j) * cnp : model.initial_camera(j),
-                    pts ? pts + std::size_t(i) * kPointParams : model.initial_point(i), x);
+      model.project(j, r.cams ? r.cams + std::size_t(j) * cnp : model.initial_camera(j),
+                    r.pts ? r.pts + std::size_t(i) * kPointParams : model.initial_point(i), x);
       const double dx = x[0] - points.x[2 * k], dy = x[1] - points.x[2 * k + 1];
       per_camera[size_t(j)].observations += 1;
       per_camera[size_t(j)].sum_sq += dx * dx + dy * dy;
       ++k;
     }
   return per_camera;
-}
-
-// Writes text to path as a whole (see output_file.h).
-Status write_text(const std::string &path, const std::string &text) {
-  sbademo::OutputFile f;
-  std::string why;
-  if (!f.open(path, &why)) return Status::error(path, 0, why);
-  std::fwrite(text.data(), 1, text.size(), f.get());
-  if (!f.commit(&why)) return Status::error(path, 0, why);
-  return {};
 }
 
 int demo_main(int argc, char **argv) {
@@ -409,11 +407,10 @@ int demo_main(int argc, char **argv) {
     std::fprintf(stderr, "%s\n", s.to_string().c_str());
     return kExitFailure;
   }
-  if (!o.write_stddev.empty())
-    if (Status s = write_text(o.write_stddev, stddev); !s) {
-      std::fprintf(stderr, "%s\n", s.to_string().c_str());
-      return kExitFailure;
-    }
+  if (!o.write_stddev.empty() && !sbademo::write_whole_file(o.write_stddev, stddev, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
   if (!sbademo::write_ply_option(o.final_ply, final_cloud(model, out))) return kExitFailure;
 
   // The variables of the refinement that produced the result.

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <utility>
 
+#include "camera_pose.h"
 #include "colmap_io.h"
 #include "output_file.h"
 #include "text_tokens.h"
@@ -20,16 +21,6 @@ using sbademo::TextTokens;
 bool fail(std::string *error, const std::string &msg) { return TextTokens::fail(error, msg); }
 
 constexpr char kVersion[] = "NVM_V3";
-
-// t = -R C and back, R row-major world to camera.
-void translation(const double R[9], const std::array<double, 3> &c, double t[3]) {
-  for (int r = 0; r < 3; ++r) t[r] = -(R[3 * r] * c[0] + R[3 * r + 1] * c[1] + R[3 * r + 2] * c[2]);
-}
-std::array<double, 3> centre(const double R[9], const double t[3]) {
-  std::array<double, 3> c;
-  for (int k = 0; k < 3; ++k) c[k] = -(R[k] * t[0] + R[3 + k] * t[1] + R[6 + k] * t[2]);
-  return c;
-}
 
 bool parse_camera(TextTokens *t, long long j, Camera *c, std::string *error) {
   const std::string cam = "camera " + std::to_string(j) + " ";
@@ -165,7 +156,7 @@ bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::
     e.q = {c.q[0] / norm, c.q[1] / norm, c.q[2] / norm, c.q[3] / norm};
     double R[9];
     eucsba::rotation_matrix(e.q, R);
-    translation(R, c.c, e.t.data());
+    sbademo::camera_translation(R, c.c, e.t.data());
     if (!std::isfinite(e.t[0]) || !std::isfinite(e.t[1]) || !std::isfinite(e.t[2]))
       return fail(error, name + ": camera " + std::to_string(j) + ": its translation -R C overflows");
     p.cameras.push_back(e);
@@ -214,7 +205,7 @@ void from_sba(const eucsba::CameraModel &sba_model, const double *p, int mcon, i
     c.q = {e.q.w, e.q.x, e.q.y, e.q.z};
     double R[9];
     eucsba::rotation_matrix(e.q, R);
-    c.c = centre(R, e.t.data());
+    c.c = sbademo::camera_centre(R, e.t.data());
   }
   const double *points = p + static_cast<std::size_t>(ncams) * cnp;
   for (int i = ncon; i < n; ++i)
@@ -243,14 +234,14 @@ bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::Poin
     c.q = {q.w, q.x, q.y, q.z};
     double R[9];
     eucsba::rotation_matrix(q, R);
-    c.c = centre(R, e.t.data());
+    c.c = sbademo::camera_centre(R, e.t.data());
     m.cameras.push_back(std::move(c));
   }
   m.points.resize(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
     Point &p = m.points[static_cast<std::size_t>(i)];
     for (int c = 0; c < 3; ++c) p.xyz[c] = points.xyz[3 * static_cast<std::size_t>(i) + c];
-    p.rgb = {(i * 37) & 255, (i * 11 + 64) & 255, 255 - i % 256};
+    p.rgb = eucsba::generated_color(i);
   }
   eucsba::for_each_projection(points, [&](int i, int j, const double *x) {
     const eucsba::Camera &e = cameras[static_cast<std::size_t>(j)];

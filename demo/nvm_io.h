@@ -80,7 +80,7 @@ void from_sba(const eucsba::CameraModel &sba_model, const double *p, int mcon, i
 
 // An eucsbademo problem as a model, for tests and for sbagen: camera j is img_jjjj.jpg with
 // k = 0, measurements from each camera's principal point, point i colored as
-// colmap::from_problem colors it and feature index i in every image. False with a message for
+// eucsba::generated_color colors it and feature index i in every image. False with a message for
 // what NVM cannot hold: ar != 1, a skew, distortion terms, a point set without its vmask.
 bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::PointSet &points, Model *out,
                   std::string *error);

@@ -7,13 +7,6 @@
 
 namespace sbademo {
 
-std::array<double, 3> camera_centre(const double R[9], const double t[3]) {
-  std::array<double, 3> c;
-  // 0 - x rather than -x: a camera at the origin is written 0, not -0.
-  for (int k = 0; k < 3; ++k) c[k] = 0.0 - (R[k] * t[0] + R[3 + k] * t[1] + R[6 + k] * t[2]);
-  return c;
-}
-
 bool write_ply(const std::string &path, const Cloud &cloud, std::string *error) {
   // Grey stands out from the red centres on a dark or a light background alike.
   constexpr std::array<int, 3> kNoColor{160, 160, 160};

@@ -19,9 +19,6 @@ struct Cloud {
   std::vector<std::array<double, 3>> centres;
 };
 
-// The centre -R^T t of a camera X_c = R X + t, with R row-major.
-std::array<double, 3> camera_centre(const double R[9], const double t[3]);
-
 // The points (in their colors, or grey) then the camera centres (red), all as one vertex
 // element so that a viewer draws them alike. The file appears whole or not at all
 // (output_file.h). On failure returns false with the reason in *error.

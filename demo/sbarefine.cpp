@@ -17,6 +17,7 @@
 #include "bal_io.h"
 #include "bal_model.h"
 #include "bundler_io.h"
+#include "camera_pose.h"
 #include "cli.h"
 #include "colmap_io.h"
 #include "colmap_sba.h"
@@ -160,12 +161,8 @@ Cloud cloud(const bundler::Bundle &b) {
 // A loaded reconstruction as sba takes it, and what to do with the result.
 struct Job {
   std::string summary;  // the sizes line
-  int n = 0, m = 0, cnp = 0;
-  char *vmask = nullptr;
-  double *x = nullptr;
   std::vector<double> p;
-  eucsba::ExpertFn func = nullptr, fjac = nullptr;
-  void *adata = nullptr;
+  sbademo::MotstrInputs in;  // in.p is pointed at p when the solve starts
   // The projection of point i in camera j with the parameters p.
   std::function<void(const double *p, int j, int i, double x[2])> project;
   Cloud initial;
@@ -210,18 +207,18 @@ void eucsba_job(Loaded *l, Job *job) {
   l->sba_model = std::make_unique<eucsba::CameraModel>(eucsba::CameraKind::VaryingIntrinsicsDistortion, pr.cameras,
                                                        pr.points.xyz, pr.nccalib, pr.ncdist);
   const eucsba::CameraModel &sm = *l->sba_model;
-  job->m = pr.points.ncameras;
-  job->n = pr.points.npoints();
-  job->cnp = sm.cnp();
-  job->vmask = pr.points.vmask.data();
-  job->x = pr.points.x.data();
+  job->in.m = pr.points.ncameras;
+  job->in.n = pr.points.npoints();
+  job->in.cnp = sm.cnp();
+  job->in.vmask = pr.points.vmask.data();
+  job->in.x = pr.points.x.data();
   job->p = sm.initial_camera_params();
   job->p.insert(job->p.end(), sm.initial_points().begin(), sm.initial_points().end());
   const eucsba::ExpertCallbacks cb = eucsba::expert_callbacks(sm.kind(), eucsba::Refinement::MotionStructure);
-  job->func = cb.func;
-  job->fjac = cb.fjac;
-  job->adata = eucsba::as_adata(sm);
-  const int m = job->m, cnp = job->cnp;
+  job->in.func = cb.func;
+  job->in.fjac = cb.fjac;
+  job->in.adata = eucsba::as_adata(sm);
+  const int m = job->in.m, cnp = job->in.cnp;
   job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
     sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
   };
@@ -249,8 +246,8 @@ bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
   const colmap::SbaProblem &pr = l->problem;
   char line[512];
   std::snprintf(line, sizeof line, "COLMAP model %s (%s): %d images, %zu cameras, %d points",
-                o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", job->m,
-                l->model.cameras.size(), job->n);
+                o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", job->in.m,
+                l->model.cameras.size(), job->in.n);
   job->summary = line;
   job->summary += "\nIntrinsics refined: " + o.intrinsics + " (nccalib " + std::to_string(pr.nccalib) + ", ncdist " +
                   std::to_string(pr.ncdist) + ")";
@@ -273,7 +270,7 @@ bool load_nvm(const Options &o, Loaded *l, Job *job, std::string *error) {
   if (!nvm::read_nvm(o.input, &l->nvm, error) || !nvm::to_sba(l->nvm, o.refine.focal, o.input, &l->problem, error))
     return false;
   eucsba_job(l, job);
-  job->summary = "NVM file " + o.input + ": " + std::to_string(job->m) + " cameras, " + std::to_string(job->n) +
+  job->summary = "NVM file " + o.input + ": " + std::to_string(job->in.m) + " cameras, " + std::to_string(job->in.n) +
                  " points";
   job->summary += std::string("\nIntrinsics refined: ") + (o.refine.focal ? "focal" : "none") + " (nccalib " +
                   std::to_string(l->problem.nccalib) +
@@ -302,23 +299,23 @@ bool load_bundle(const Options &o, Loaded *l, Job *job, std::string *error) {
   if (!bundler::to_bal(l->bundle, o.input, &l->bal, &l->bundle_cameras, error, l->list.names) ||
       !bal::to_sba(l->bal, o.input, &l->layout, error))
     return false;
-  job->m = l->layout.m;
-  job->n = l->layout.n;
-  job->cnp = bal::kCameraParams;
-  job->vmask = l->layout.vmask.data();
-  job->x = l->layout.x.data();
+  job->in.m = l->layout.m;
+  job->in.n = l->layout.n;
+  job->in.cnp = bal::kCameraParams;
+  job->in.vmask = l->layout.vmask.data();
+  job->in.x = l->layout.x.data();
   job->p = l->layout.p;
-  job->func = bal::motstr_func;
-  job->fjac = bal::motstr_fjac;
-  l->bal_data.ncameras = job->m;
-  job->adata = &l->bal_data;
-  const int m = job->m;
+  job->in.func = bal::motstr_func;
+  job->in.fjac = bal::motstr_fjac;
+  l->bal_data.ncameras = job->in.m;
+  job->in.adata = &l->bal_data;
+  const int m = job->in.m;
   job->project = [m](const double *p, int j, int i, double x[2]) {
     bal::project(p + static_cast<std::size_t>(j) * bal::kCameraParams,
                  p + static_cast<std::size_t>(m) * bal::kCameraParams + 3 * static_cast<std::size_t>(i), x);
   };
   job->summary = "Bundler file " + o.input + ": " + std::to_string(l->bundle.cameras.size()) + " cameras (" +
-                 std::to_string(m) + " registered), " + std::to_string(job->n) + " points";
+                 std::to_string(m) + " registered), " + std::to_string(job->in.n) + " points";
   if (!o.bundler_list.empty()) job->summary += ", images listed in " + o.bundler_list;
   if (!l->list.names.empty())
     for (int j : l->bundle_cameras) job->camera_names.push_back(l->list.names[static_cast<std::size_t>(j)]);
@@ -381,17 +378,8 @@ int refine_main(int argc, char **argv) {
   }
   const double read_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
-  sbademo::MotstrInputs in;
-  in.n = job.n;
-  in.m = job.m;
-  in.cnp = job.cnp;
-  in.vmask = job.vmask;
-  in.p = job.p.data();
-  in.x = job.x;
-  in.func = job.func;
-  in.fjac = job.fjac;
-  in.adata = job.adata;
-  sbademo::MotstrSolve solve("sbarefine", o.input, so, in);
+  job.in.p = job.p.data();
+  sbademo::MotstrSolve solve("sbarefine", o.input, so, job.in);
   if (const int status = solve.check_fixed(); status >= 0) return status;
   if (!sbademo::write_ply_option(o.initial_ply, job.initial)) return kExitFailure;
   if (!solve.run()) return kExitFailure;
