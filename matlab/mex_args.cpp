@@ -150,7 +150,7 @@ void check_host_function(const Callback &cb, const char *role) {
 
 }  // namespace
 
-// The argument list of 1.6 (spec: MEX.md, "Call").
+// The argument list of 1.6 (docs/mex.md, "The call").
 void parse(Gateway &g, int nrhs, const mxArray *prhs[], std::string *warning) {
   if (nrhs < 12)
     bad_arg("notEnoughInputs",

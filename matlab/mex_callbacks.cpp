@@ -9,7 +9,7 @@
 namespace sba_mex {
 namespace {
 
-// NAME@LIBRARY signatures (spec: MEX.md, "Callbacks"); adata points to the extra arguments'
+// NAME@LIBRARY signatures (docs/mex.md, "Callbacks"); adata points to the extra arguments'
 // doubles, one pointer per extra argument.
 using NativeProj = void (*)(int j, int i, double *aj, double *bi, double *xij, double **adata);
 using NativeJac2 = void (*)(int j, int i, double *aj, double *bi, double *Aij, double *Bij,
