@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -36,15 +37,13 @@ struct MotstrInputs {
 
 class MotstrSolve {
  public:
-  // The time limit counts from here.
   MotstrSolve(const char *program, const std::string &input, const SolveOptions &so, const MotstrInputs &in)
       : program_(program),
         input_(input),
         so_(so),
         in_(in),
         nobs_(count_observations(in)),
-        progress_(so.progress, nobs_),
-        control_(so.max_time, &progress_) {}
+        progress_(so.progress, nobs_) {}
   MotstrSolve(const MotstrSolve &) = delete;
   MotstrSolve &operator=(const MotstrSolve &) = delete;
 
@@ -69,8 +68,11 @@ class MotstrSolve {
     // The callbacks are re-entrant and walk the index by rows: the threads share them.
     sba_ext_options ext;
     init_ext(so_, &sink_, &result_, &ext);
+    // The time limit and the iteration times count from the solve's start, not from what the
+    // program did before it (an initial PLY file, say).
+    control_.emplace(so_.max_time, &progress_);
     RunControl::catch_signals();
-    control_.attach(&ext);
+    control_->attach(&ext);
     const auto start = std::chrono::steady_clock::now();
     ret_ = sba_motstr_levmar_x_ext(in.n, so_.ncon, in.m, so_.mcon, in.vmask, in.p, in.cnp, in.pnp, in.x, nullptr, 2,
                                    in.func, in.fjac, in.adata, so_.itmax, so_.verbose, so_.opts.data(), info_.data(),
@@ -96,7 +98,7 @@ class MotstrSolve {
              const std::string &written) {
     print_summary(nobs_, ret_, info_, seconds_, read_seconds, result_, so_);
     Report report = make_report(program_, input_, in_.m, in_.n, nobs_, variables(), so_, ret_, info_, result_,
-                                seconds_, control_);
+                                seconds_, *control_);
     print_report(stdout, report);
     if (!so_.json.empty()) {
       add_per_camera(in_.n, in_.m, in_.vmask, in_.x, project, &report);
@@ -111,7 +113,7 @@ class MotstrSolve {
     if (!written.empty()) std::printf("Wrote %s\n", written.c_str());
     // A stopped solve is a result (written above), but the status says it was cut short by a
     // signal; a time limit the user set is an ordinary end.
-    if (info_[6] == SBA_STOP_USER) return stopped_status(program_, control_, so_.max_time, static_cast<int>(info_[5]));
+    if (info_[6] == SBA_STOP_USER) return stopped_status(program_, *control_, so_.max_time, static_cast<int>(info_[5]));
     return 0;
   }
 
@@ -129,7 +131,7 @@ class MotstrSolve {
   const MotstrInputs in_;
   const int nobs_;
   TtyProgress progress_;
-  RunControl control_;
+  std::optional<RunControl> control_;  // made when the solve starts
   LogSink sink_;
   sba_ext_result result_{};
   std::array<double, SBA_INFOSZ> info_{};
