@@ -57,6 +57,10 @@ std::unique_ptr<StepSolver> make_iterative_schur_solver(const SolveContext &ctx)
 // For the tests.
 bool iterative_schur_product(const SolveContext &ctx, const NormalEquations &ne, double mu,
                              const double *x, double *y);
+// The iterative solver's preconditioner at damping mu: S's diagonal block of each free
+// camera, Cholesky-factored (L in the lower triangle of each cnp x cnp block of D, row-major;
+// above it, whatever the factorization left). False as the solver fails. For the tests.
+bool iterative_schur_preconditioner(const SolveContext &ctx, const NormalEquations &ne, double mu, double *D);
 
 }  // namespace sba
 

@@ -104,6 +104,41 @@ TEST_P(IterativeSchur, ProductEqualsTheExplicitS) {
   }
 }
 
+// The preconditioner's blocks, multiplied out from their Cholesky factors, are S's diagonal
+// blocks to rounding.
+TEST_P(IterativeSchur, PreconditionerIsTheDiagonalOfS) {
+  const int cnp = GetParam();
+  const Problem pb(400, 15, 2, 7, cnp, 13u + unsigned(cnp));
+  const double mu = 0.3;
+  const i64 nS = pb.nS(), nc = pb.lay.free_cams();
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE("threads " + std::to_string(threads));
+    sba::ThreadPool pool(threads);
+    const auto kernels = sba::make_kernels(pb.lay, pool.size());
+    std::vector<double> S(static_cast<size_t>(nS * nS), 0.0), rhs(static_cast<size_t>(nS));
+    sba::BlockMap dense;
+    dense.base = S.data();
+    dense.ld = nS;
+    dense.cnp = cnp;
+    ASSERT_TRUE(kernels->assemble(pool, pb.ne(), nullptr, mu, dense, rhs.data()));
+    std::vector<double> D(static_cast<size_t>(nc * cnp * cnp), 0.0);
+    ASSERT_TRUE(sba::iterative_schur_preconditioner(sba::SolveContext{pb.lay, pool, *kernels}, pb.ne(), mu, D.data()));
+    double worst = 0.0;
+    for (i64 j = 0; j < nc; ++j) {
+      const double *L = D.data() + j * cnp * cnp;
+      for (int a = 0; a < cnp; ++a)
+        for (int b = a; b < cnp; ++b) {  // (L L^T)[a][b] against S's upper triangle
+          double llt = 0.0;
+          for (int c = 0; c <= a; ++c) llt += L[a * cnp + c] * L[b * cnp + c];
+          const double want = S[size_t((j * cnp + a) * nS + j * cnp + b)];
+          const double scale = std::sqrt(S[size_t((j * cnp + a) * (nS + 1))] * S[size_t((j * cnp + b) * (nS + 1))]);
+          worst = std::max(worst, std::fabs(llt - want) / scale);
+        }
+    }
+    EXPECT_LT(worst, 1e-12);
+  }
+}
+
 // dp^T (J^T J + mu I) dp and dp^T g over the free parameters.
 void quadratic_terms(const Problem &pb, const std::vector<double> &dp, double mu, double *dAd, double *gd) {
   const sba::Layout &lay = pb.lay;
