@@ -90,7 +90,8 @@ TEST_P(IterativeSchur, ProductEqualsTheExplicitS) {
       for (i64 c = 0; c < r; ++c) S[size_t(r * nS + c)] = S[size_t(c * nS + r)];
     std::vector<double> x(static_cast<size_t>(nS)), y(static_cast<size_t>(nS));
     for (i64 r = 0; r < nS; ++r) x[size_t(r)] = std::sin(double(r) + 0.5) * std::pow(10.0, double(r % 3) - 1.0);
-    ASSERT_TRUE(sba::iterative_schur_product(sba::SolveContext{pb.lay, pool, *kernels}, pb.ne(), mu, x.data(), y.data()));
+    ASSERT_TRUE(
+        sba::iterative_schur_product(sba::SolveContext{pb.lay, pool, *kernels}, pb.ne(), mu, x.data(), y.data()));
     double worst = 0.0;
     for (i64 r = 0; r < nS; ++r) {
       double want = 0.0, scale = 0.0;
