@@ -68,6 +68,20 @@ std::vector<double> step(const Problem &pb, sba::LinSolver kind, int threads, do
   return dp;
 }
 
+// The explicitly assembled S at damping mu, both triangles (nS x nS, row-major).
+std::vector<double> assembled_S(const Problem &pb, sba::ThreadPool &pool, const sba::Kernels &kernels, double mu) {
+  const i64 nS = pb.nS();
+  std::vector<double> S(static_cast<size_t>(nS * nS), 0.0), rhs(static_cast<size_t>(nS));
+  sba::BlockMap dense;
+  dense.base = S.data();
+  dense.ld = nS;
+  dense.cnp = pb.lay.cnp;
+  EXPECT_TRUE(kernels.assemble(pool, pb.ne(), nullptr, mu, dense, rhs.data()));
+  for (i64 r = 0; r < nS; ++r)  // the assembly fills the upper triangle
+    for (i64 c = 0; c < r; ++c) S[size_t(r * nS + c)] = S[size_t(c * nS + r)];
+  return S;
+}
+
 class IterativeSchur : public ::testing::TestWithParam<int> {};
 
 // S x from the blocks equals the assembled S times x to rounding, for every free camera.
@@ -80,14 +94,7 @@ TEST_P(IterativeSchur, ProductEqualsTheExplicitS) {
     SCOPED_TRACE("threads " + std::to_string(threads));
     sba::ThreadPool pool(threads);
     const auto kernels = sba::make_kernels(pb.lay, pool.size());
-    std::vector<double> S(static_cast<size_t>(nS * nS), 0.0), rhs(static_cast<size_t>(nS));
-    sba::BlockMap dense;
-    dense.base = S.data();
-    dense.ld = nS;
-    dense.cnp = cnp;
-    ASSERT_TRUE(kernels->assemble(pool, pb.ne(), nullptr, mu, dense, rhs.data()));
-    for (i64 r = 0; r < nS; ++r)  // the assembly fills the upper triangle
-      for (i64 c = 0; c < r; ++c) S[size_t(r * nS + c)] = S[size_t(c * nS + r)];
+    const std::vector<double> S = assembled_S(pb, pool, *kernels, mu);
     std::vector<double> x(static_cast<size_t>(nS)), y(static_cast<size_t>(nS));
     for (i64 r = 0; r < nS; ++r) x[size_t(r)] = std::sin(double(r) + 0.5) * std::pow(10.0, double(r % 3) - 1.0);
     ASSERT_TRUE(
@@ -116,12 +123,7 @@ TEST_P(IterativeSchur, PreconditionerIsTheDiagonalOfS) {
     SCOPED_TRACE("threads " + std::to_string(threads));
     sba::ThreadPool pool(threads);
     const auto kernels = sba::make_kernels(pb.lay, pool.size());
-    std::vector<double> S(static_cast<size_t>(nS * nS), 0.0), rhs(static_cast<size_t>(nS));
-    sba::BlockMap dense;
-    dense.base = S.data();
-    dense.ld = nS;
-    dense.cnp = cnp;
-    ASSERT_TRUE(kernels->assemble(pool, pb.ne(), nullptr, mu, dense, rhs.data()));
+    const std::vector<double> S = assembled_S(pb, pool, *kernels, mu);
     std::vector<double> D(static_cast<size_t>(nc * cnp * cnp), 0.0);
     ASSERT_TRUE(sba::iterative_schur_preconditioner(sba::SolveContext{pb.lay, pool, *kernels}, pb.ne(), mu, D.data()));
     double worst = 0.0;
