@@ -94,8 +94,9 @@ class IterativeSchurSolver final : public StepSolver {
     Vinv_.resize(size_t(lay.n) * size_t(pnp()) * size_t(pnp()));
     D_.resize(size_t(nS_) * size_t(cnp()));
     for (std::vector<double> *v : {&rhs_, &x_, &r_, &z_, &p_, &q_}) v->resize(size_t(nS_));
-    // Per thread: the point pass's mnp + 2 pnp, the preconditioner's mnp (max(cnp, pnp) + mnp).
-    scratch_.resize(size_t(T) * size_t(mnp() * (std::max(cnp(), pnp()) + mnp() + 1) + 2 * pnp()));
+    // Per thread: the point pass's mnp + 2 pnp, or the preconditioner's mnp (pnp + mnp + cnp).
+    const int mn = mnp(), cn = cnp(), pn = pnp();
+    scratch_.resize(size_t(T) * size_t(std::max(mn + 2 * pn, mn * (pn + mn + cn))));
   }
 
   bool solve(const NormalEquations &ne, double mu, double *dp) override {
@@ -253,11 +254,11 @@ class IterativeSchurSolver final : public StepSolver {
     const size_t per = scratch_.size() / size_t(ctx_.pool.size());
     ctx_.pool.for_range_t(kChunks, [&](int t, i64 c0, i64 c1) {
       const int mn = mnp(), cn = cnp(), pn = pnp(), cc = cn * cn;  // constants: see point_pass
-      // W: mnp x max(cnp, pnp), Y: mnp x mnp, row-major; on the stack when the sizes are
-      // compile-time, where the compiler can keep them in registers.
-      constexpr int kW = M > 0 ? M * std::max(C, P) : 1, kY = M > 0 ? M * M : 1;
-      double Wl[kW], Yl[kY];
-      double *W = M > 0 ? Wl : scratch_.data() + size_t(t) * per, *Y = M > 0 ? Yl : W + mn * std::max(cn, pn);
+      // BV = B V*_i^-1 (mnp x pnp), Y = BV B^T (mnp x mnp), N = Y A (mnp x cnp), row-major; on
+      // the stack when the sizes are compile-time, where the compiler can keep them in registers.
+      double BVl[M > 0 ? M * P : 1], Yl[M > 0 ? M * M : 1], Nl[M > 0 ? M * C : 1];
+      double *sc = scratch_.data() + size_t(t) * per;
+      double *BV = M > 0 ? BVl : sc, *Y = M > 0 ? Yl : sc + mn * pn, *N = M > 0 ? Nl : sc + mn * (pn + mn);
       for (i64 c = c0; c < c1; ++c) {
         double *Dc = Dpartial_.data() + c * blocks;
         std::fill(Dc, Dc + blocks, 0.0);
@@ -274,26 +275,26 @@ class IterativeSchurSolver final : public StepSolver {
               for (int d = 0; d < pn; ++d) {
                 double v = 0.0;
                 for (int e = 0; e < pn; ++e) v += B[r * pn + e] * Vi[e * pn + d];
-                W[r * pn + d] = v;
+                BV[r * pn + d] = v;
               }
             for (int r = 0; r < mn; ++r)
               for (int s = 0; s <= r; ++s) {
                 double v = 0.0;
-                for (int d = 0; d < pn; ++d) v += W[r * pn + d] * B[s * pn + d];
+                for (int d = 0; d < pn; ++d) v += BV[r * pn + d] * B[s * pn + d];
                 Y[r * mn + s] = Y[s * mn + r] = v;
               }
             for (int r = 0; r < mn; ++r)
               for (int a = 0; a < cn; ++a) {
                 double v = 0.0;
                 for (int s = 0; s < mn; ++s) v += Y[r * mn + s] * A[s * cn + a];
-                W[r * cn + a] = v;
+                N[r * cn + a] = v;
               }
             // The lower triangle only: chol reads no more.
             double *Dj = Dc + i64(j) * cc;
             for (int a = 0; a < cn; ++a)
               for (int b = 0; b <= a; ++b) {
                 double v = 0.0;
-                for (int r = 0; r < mn; ++r) v += A[r * cn + a] * W[r * cn + b];
+                for (int r = 0; r < mn; ++r) v += A[r * cn + a] * N[r * cn + b];
                 Dj[a * cn + b] -= v;
               }
           }
