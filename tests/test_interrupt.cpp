@@ -74,6 +74,26 @@ bool wait_for(const std::string &path, const std::string &text) {
   return false;
 }
 
+// Waits until signal sig sent to pid is no longer pending (/proc/PID/status: SigPnd, ShdPnd),
+// i.e. the process has taken it, at most 10 s. Polled without sleeping: a second signal sent
+// right after must reach the program before anything else happens there (a sleep would leave
+// room for an iteration to end, and two signals both still pending would merge into one).
+bool wait_delivered(pid_t pid, int sig) {
+  const unsigned long long bit = 1ull << (sig - 1);
+  const std::string path = "/proc/" + std::to_string(pid) + "/status";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (std::chrono::steady_clock::now() < deadline) {
+    std::ifstream in(path);
+    std::string line;
+    bool pending = false;
+    while (std::getline(in, line))
+      if (line.rfind("SigPnd:", 0) == 0 || line.rfind("ShdPnd:", 0) == 0)
+        pending = pending || (std::stoull(line.substr(7), nullptr, 16) & bit) != 0;
+    if (!pending) return true;
+  }
+  return false;
+}
+
 // The iterations of "SBA returned N in N iter, reason R, ..."; -1 if absent.
 int iterations(const std::string &out, int *reason) {
   std::smatch m;
@@ -149,7 +169,7 @@ TEST_F(EucsbademoStop, SecondSignalEndsTheProgramAtOnce) {
                             ASSERT_TRUE(wait_for(err, "Starting BA"));
                             std::this_thread::sleep_for(std::chrono::milliseconds(300));
                             kill(pid, SIGINT);
-                            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+                            ASSERT_TRUE(wait_delivered(pid, SIGINT));
                             kill(pid, SIGINT);
                           });
   EXPECT_EQ(r.exit_status, 130);
