@@ -21,6 +21,8 @@
  *            that build a finite-difference Jacobian); the simple drivers count proj and
  *            projac calls (nvis per func/fjac call); the motion-only and structure-only
  *            drivers count one system per free camera (point) block.
+ *   verbose = what sba 1.6 prints on stdout: > 0 its "initial ...-SBA error" line (and which
+ *            projection is NaN or Inf, if one is), > 1 its lines for every trial point.
  * The drivers return the number of iterations, or SBA_ERROR.
  *
  * Compile with -DSBA_API_1_5 to get the sba 1.5 driver signatures (no ncon).

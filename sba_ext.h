@@ -144,7 +144,11 @@ struct sba_ext_options {
   int avoid_shared_cores;
   /* How the Levenberg-Marquardt iteration damps, accepts steps and stops, by name:
    * "sba" (default): sba 1.6's algorithm, step for step (damping mu I with mu starting at
-   * tau max diag(J^T J), Nielsen's update, 1.6's stop tests and reasons).
+   * tau max diag(J^T J), Nielsen's update, 1.6's stop tests and reasons), and 1.6's retries:
+   * a rejected attempt's damping stays on the blocks the next attempt damps (see
+   * docs/strategies.md), which after a rejection usually restarts the damping high.
+   * "sba-clean-retry": the same, but every attempt damps the undamped J^T J, as the sba paper
+   * writes it: the same steps where none is rejected, fewer iterations where some are.
    * "trust-region": the damping is mu diag(J^T J) (Marquardt's, the diagonal kept within
    * [1e-6, 1e32]) with mu starting at tau/10 (on the scaled system), a trial point is taken only when it achieves at
    * least 1e-3 of the predicted reduction, and an accepted step whose relative cost change

@@ -45,9 +45,11 @@ inline void add_solve_options(std::vector<sbacli::Option> *t, SolveOptions &o, c
                 "the environment variable SBA_LINSOLVER if set, else chol)",
                 [&o](const std::string &v) { return sbacli::to_linsolver(v, &o.solver); }});
   t->push_back({"strategy", "NAME",
-                "how LM damps, accepts steps and stops: sba (sba 1.6's algorithm, the default) or\n"
-                "trust-region (Marquardt's scaled damping and a relative cost tolerance: usually far\n"
-                "fewer iterations); default: the environment variable SBA_STRATEGY if set, else sba",
+                "how LM damps, accepts steps and stops: sba (sba 1.6's algorithm, the default),\n"
+                "sba-clean-retry (the same, but a rejected step is retried on the undamped normal\n"
+                "equations, as the sba paper writes it) or trust-region (Marquardt's scaled damping and\n"
+                "a relative cost tolerance: usually far fewer iterations); default: the environment\n"
+                "variable SBA_STRATEGY if set, else sba",
                 [&o](const std::string &v) { return sbacli::to_strategy(v, &o.strategy); }});
   t->push_back({"threads", "N",
                 "threads; 0 (the default): SBA_NUM_THREADS if set, else every hardware thread, but at\n"

@@ -48,7 +48,9 @@ function varargout = sba(varargin)
 %           their values of p0); case-insensitive
 %   'strategy=NAME'  (beyond sba 1.6; just before or just after reftype) how the
 %           Levenberg-Marquardt iteration damps and stops: 'strategy=sba' (1.6's algorithm,
-%           the default unless the environment variable SBA_STRATEGY says otherwise) or
+%           the default unless the environment variable SBA_STRATEGY says otherwise),
+%           'strategy=sba-clean-retry' (the same, but a rejected step is retried on the
+%           undamped normal equations, as the sba paper writes it) or
 %           'strategy=trust-region' (damping scaled by diag(J'J), Ceres-like stopping at a
 %           relative cost change of eps4, 1e-6 when eps4 is 0: usually far fewer iterations)
 %   extra1, extra2, ...  everything after those: problem data passed unchanged to every call

@@ -58,14 +58,20 @@ class Kernels {
   // Jacobian and residual. U and V get their full (mirrored) blocks.
   virtual void normal_equations(ThreadPool &pool, const double *jac, const double *e, double *U,
                                 double *V, double *ea, double *eb) const = 0;
-  // Vinv_i = (V_i + mu I)^-1 for the free points; false if one is not positive definite.
+  // Vinv_i = (V_i + mu I)^-1 for the free points; false if one is singular. V_i + mu I is
+  // positive definite but on the retries of sba 1.6's strategy (strategy.cpp), where it may be
+  // indefinite and is inverted all the same, as 1.6 does.
   virtual bool invert_damped_V(ThreadPool &pool, const double *V, double mu,
                                double *Vinv) const = 0;
+  // The diagonal of each free point's (V_i + mu I)^-1, made as the other kernels make the
+  // inverse, into diag (pnp entries per point, by point); NaN where V_i + mu I is singular.
+  virtual void damped_inverse_diagonals(ThreadPool &pool, const double *V, double mu,
+                                        double *diag) const = 0;
   // S = U* - W V*^-1 W^T into the blocks of `S` (a sparse S zeroed by the caller;
   // of a diagonal block, only the upper triangle is meaningful) and rhs = e_a - W V*^-1 e_b,
   // over the free cameras. Vinv: invert_damped_V's blocks, or null to invert each
   // V_i + mu I where it is needed (no n pnp^2 array, for one more small inversion per point
-  // in back_substitute); false if one of those is not positive definite.
+  // in back_substitute); false if one of those is singular.
   virtual bool assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                         const BlockMap &S, double *rhs) const = 0;
   // db_i = Vinv_i (e_b,i - sum_j W_ij^T da_j) for the free points, with da already in dp;

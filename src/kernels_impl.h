@@ -283,6 +283,12 @@ class KernelsT final : public Kernels {
     });
   }
 
+  void damped_inverse_diagonals(ThreadPool &pool, const double *V, double mu, double *diag) const override {
+    pool.for_range_t(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
+      inverse_diagonals(V, mu, diag, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
+    });
+  }
+
   bool assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                 const BlockMap &S, double *rhs) const override {
     return pool.all_members(
@@ -358,7 +364,7 @@ class KernelsT final : public Kernels {
     }
   }
 
-  // (V_i + mu I)^-1 for the points [i0, i1); false at the first one not positive definite.
+  // (V_i + mu I)^-1 for the points [i0, i1); false at the first singular one.
   __attribute__((noinline)) bool invert_points(const double *V, double mu, double *Vinv, i64 i0, i64 i1,
                                                Scratch &sc) const {
     const int pn = pnp();
@@ -367,8 +373,24 @@ class KernelsT final : public Kernels {
     return true;
   }
 
+  // The diagonals of (V_i + mu I)^-1 for the points [i0, i1), through point_inverses (the
+  // same inverses as the assembly's), kBatch at a time.
+  __attribute__((noinline)) void inverse_diagonals(const double *V, double mu, double *diag, i64 i0, i64 i1,
+                                                   Scratch &sc) const {
+    const int pn = pnp();
+    const double *Vib[kBatch];
+    int pts[kBatch];
+    for (i64 i = i0; i < i1; i += kBatch) {
+      const int count = int(std::min<i64>(i1 - i, kBatch));
+      for (int b = 0; b < count; ++b) pts[b] = int(i) + b;
+      point_inverses(nullptr, V, mu, pts, count, sc, Vib);
+      for (int b = 0; b < count; ++b)
+        for (int a = 0; a < pn; ++a) diag[(i + b) * pn + a] = Vib[b] ? Vib[b][a * pn + a] : NAN;
+    }
+  }
+
   // S's block columns [k0, k1) (free cameras) and their blocks of rhs, adding the points'
-  // contributions in ascending point order; false if some V_i + mu I is not positive definite.
+  // contributions in ascending point order; false if some V_i + mu I is singular.
   __attribute__((noinline)) bool assemble_columns(int k0, int k1, const NormalEquations &ne,
                                                   const double *Vinv, double mu, const BlockMap &S,
                                                   double *rhs, Scratch &sc) const {
@@ -492,17 +514,23 @@ class KernelsT final : public Kernels {
     }
   }
 
-  // (V_i + mu I)^-1 into inv (work: pnp^2 scratch); false if not positive definite.
+  // (V_i + mu I)^-1 into inv (work: pnp^2 scratch); false if singular. The damped block is
+  // positive definite but where sba 1.6's retries have left an indefinite diagonal on it
+  // (strategy.cpp): Cholesky first, and where it refuses, the symmetric-indefinite inverse
+  // that 1.6's Bunch-Kaufman gives.
   bool damped_inverse(const double *V, double mu, i64 i, double *work, double *inv) const {
     const int pn = pnp();
     const double *Vi = V + i * pn * pn;
     for (int a = 0; a < pn * pn; ++a) work[a] = Vi[a];
     for (int a = 0; a < pn; ++a) work[a * pn + a] += mu;
-    return small::spd_inverse<P>(work, inv, pn);
+    if (small::spd_inverse<P>(work, inv, pn)) return true;
+    for (int a = 0; a < pn * pn; ++a) work[a] = Vi[a];
+    for (int a = 0; a < pn; ++a) work[a * pn + a] += mu;
+    return small::sym_inverse<P>(work, inv, pn);
   }
 
   // (V_i + mu I)^-1 of the points pts[0 .. count) (count <= kBatch) into out: from
-  // Vinv, or made in sc (null where not positive definite). Made together, their square
+  // Vinv, or made in sc (null where singular). Made together, their square
   // roots and divisions overlap (3x3 blocks: four to a vector); made as each point's turn
   // came, every point would wait for its own (kernels_benchmark's Solve1 shows the cost).
   void point_inverses(const double *Vinv, const double *V, double mu, const int *pts, int count, Scratch &sc,
@@ -539,8 +567,12 @@ class KernelsT final : public Kernels {
     spd_inverse3_lanes(a, inv, ok);
     for (int l = 0; l < count; ++l) {
       double *dst = sc.inv.data() + (slot0 + l) * 9;  // sc.inv: kBatch blocks
-      for (int e = 0; e < 9; ++e) dst[e] = inv[e][l];
-      out[l] = ok[l] ? dst : nullptr;
+      if (ok[l]) {
+        for (int e = 0; e < 9; ++e) dst[e] = inv[e][l];
+        out[l] = dst;
+      } else {  // not positive definite: damped_inverse's fallback, one block
+        out[l] = damped_inverse(V, mu, pts[l], sc.damped.data() + (slot0 + l) * 9, dst) ? dst : nullptr;
+      }
     }
   }
 

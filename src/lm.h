@@ -4,6 +4,7 @@
 #ifndef SBA_SRC_LM_H
 #define SBA_SRC_LM_H
 
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -75,10 +76,15 @@ struct Summary {
   void to_info(double *info) const;
 };
 
+class StepSolver;
+// Given the linear solver a solve makes, the one it is to use: for the tests, which wrap it
+// to see what it is handed.
+using SolverWrap = std::function<std::unique_ptr<StepSolver>(std::unique_ptr<StepSolver>)>;
+
 // Runs LM on p (updated in place with the last accepted estimate). x: measurements;
 // covx: null or per-measurement covariances. Returns false on failure (summary.ok too).
 bool solve(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
-           const Options &opt, const Logger &log, Summary &sum);
+           const Options &opt, const Logger &log, Summary &sum, const SolverWrap &wrap = nullptr);
 
 // The stop-4 test after an accepted step: e and en are the cost before and after it.
 bool reduction_stalled(double e, double en, double eps4);

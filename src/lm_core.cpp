@@ -203,6 +203,36 @@ bool normal_equations_finite(ThreadPool &pool, const Layout &lay, const Workspac
          all_finite(pool, w.eb.data() + lay.ncon * i64(lay.pnp), fp * lay.pnp);
 }
 
+// What sba 1.6 prints at verbose > 1 after each trial point: the mean Euclidean distance
+// between the first two coordinates of the measured and the predicted projections,
+// unweighted.
+double mean_reprojection_error(ThreadPool &pool, const Layout &lay, const double *x, const double *hx) {
+  const int mnp = lay.mnp, d = std::min(mnp, 2);
+  const double sum = deterministic_sum(pool, lay.nvis, [=](i64 k) {
+    double s = 0.0;
+    for (int r = 0; r < d; ++r) s += (x[k * mnp + r] - hx[k * mnp + r]) * (x[k * mnp + r] - hx[k * mnp + r]);
+    return std::sqrt(s);
+  });
+  return sum / double(lay.nvis);
+}
+
+// 1.6's line at verbose > 0 naming the first projection that is NaN or Inf.
+void report_invalid_projection(const Layout &lay, const double *hx, const Logger &log) {
+  const i64 len = lay.nvis * lay.mnp;
+  i64 q = 0;
+  while (q < len && std::isfinite(hx[q])) ++q;
+  if (q == len) return;
+  const i64 k = q / lay.mnp;
+  const int i = int(std::upper_bound(lay.rowptr.begin(), lay.rowptr.end(), k) - lay.rowptr.begin()) - 1;
+  log.legacy(1, "SBA: component %d of the estimated projection of point %d on camera %d is invalid!\n",
+             int(q % lay.mnp), i, lay.colidx[size_t(k)]);
+}
+
+// The driver's name in 1.6's lines.
+const char *legacy_name(Mode mode) {
+  return mode == Mode::Mot ? "mot" : mode == Mode::Str ? "str" : "motstr";
+}
+
 // max |g| and max diag(J^T J) over the free cameras and points.
 void gradient_stats(const Layout &lay, const Workspace &w, double *ginf, double *maxdiag) {
   double g = 0.0, d = 0.0;
@@ -313,7 +343,10 @@ class Steps {
   // f and the residual at the trial point w.dp (which holds p + dp); its cost in *c.
   bool evaluate_trial(int it, Cost *c) {
     model_.eval(w.dp.data(), w.fn_out());
+    if (log_.verbose() > 1)
+      log_.legacy(2, "mean reprojection error %g\n", mean_reprojection_error(pool_, lay_, x_, w.fn_out()));
     if (!all_finite(pool_, w.fn_out(), lay_.nvis * lay_.mnp)) {
+      if (log_.verbose() > 0) report_invalid_projection(lay_, w.fn_out(), log_);
       log_.error("sba: the projection function returned NaN or Inf at iteration %d", it);
       return false;
     }
@@ -366,7 +399,7 @@ bool linearize(const Layout &lay, Model &model, double *p, const double *x, cons
 }
 
 bool solve(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
-           const Options &opt, const Logger &log, Summary &sum) {
+           const Options &opt, const Logger &log, Summary &sum, const SolverWrap &wrap) {
   sum = Summary{};
   const auto t0 = std::chrono::steady_clock::now();
   ThreadPool pool(opt.nthreads, opt.avoid_shared_cores);
@@ -374,8 +407,8 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());
   Steps st(lay, model, x, opt.loss, log, pool, *kernels, covx != nullptr);
   Workspace &w = st.w;
-  const std::unique_ptr<StepSolver> solver =
-      make_step_solver(opt.solver, SolveContext{lay, pool, *kernels});
+  std::unique_ptr<StepSolver> solver = make_step_solver(opt.solver, SolveContext{lay, pool, *kernels});
+  if (wrap) solver = wrap(std::move(solver));
   const std::unique_ptr<Strategy> strategy = make_strategy(opt.strategy, lay, opt.eps4);
   const NormalEquations ne = w.view();
   const i64 nvars = lay.nvars();
@@ -384,11 +417,14 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   if (!st.weigh(covx)) return false;
   Cost c0;
   sum.nfev = 1;
+  const double nvis = double(lay.nvis);
   if (!st.start(p, " at the initial estimate", &c0)) {
+    log.legacy(1, "initial %s-SBA error %g [%g]\n", legacy_name(lay.mode), double(NAN), double(NAN));
     sum.reason = kStopNonFinite;
     return false;
   }
   double eps = c0.cost, sqe = c0.sq;
+  log.legacy(1, "initial %s-SBA error %g [%g]\n", legacy_name(lay.mode), eps, eps / nvis);
   sum.err0 = sum.err = eps;
   sum.sq_err0 = sum.sq_err = sqe;
   if (!std::isfinite(eps)) {
@@ -430,8 +466,9 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
     }
     const double p2 = stop ? 0.0 : sqnorm(pool, p, nvars);
     for (; !stop;) {
-      ++sum.nlinsys;
-      if (solver->solve(ne, mu, w.dp.data()) && all_finite(pool, w.dp.data(), nvars)) {
+      const StepStatus status = solver->solve(ne, mu, w.dp.data());
+      if (status != StepStatus::SingularPointBlock) ++sum.nlinsys;
+      if (status == StepStatus::Solved && all_finite(pool, w.dp.data(), nvars)) {
         // The linear model's reduction in the solver's variables, where mu and the
         // gradient it sees belong; then the step in the units of p.
         const double dL = predicted_reduction(pool, lay, w, mu);
@@ -461,6 +498,8 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
         }
         const double epsn = cn.cost;
         const double dF = eps - epsn;
+        log.legacy(2, "\ndamping term %8g, gain ratio %8g, errors %8g / %8g = %g\n", mu,
+                   dF / (dL != 0.0 ? dL : DBL_EPSILON), eps / nvis, epsn / nvis, eps / epsn);
         log.info(2, "SBA: iteration %d: mu %g, error %g -> %g, ||dp||^2 %g, gain ratio %g", it, mu,
                  eps, epsn, dp2, dL != 0.0 ? dF / dL : 0.0);
         if (strategy->acceptable(dF, dL)) {
@@ -476,12 +515,14 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
         log.warning("sba: the damped system could not be factored (mu = %g); increasing damping",
                     mu);
       }
+      const double tried = mu;
       mu *= nu;
       if (strategy->exhausted(mu, nu)) {
         stop = kStopDamping;
         break;
       }
       nu *= 2;
+      strategy->before_retry(pool, *kernels, tried, w.U.data(), w.V.data());
     }
     if (!stop && eps <= eps3sq) stop = kStopError;
     // After every iteration, the last one too (whatever ended it); a request to stop after

@@ -3,6 +3,7 @@
 
 #include <cstdarg>
 #include <cstdio>
+#include <cstring>
 
 namespace sba {
 
@@ -41,8 +42,30 @@ void Logger::notice(const char *fmt, ...) const {
   va_end(ap);
 }
 
-void Logger::info(int level, const char *fmt, ...) const {
+void Logger::legacy(int level, const char *fmt, ...) const {
   if (verbose_ < level) return;
+  char text[1024];
+  va_list ap;
+  va_start(ap, fmt);
+  std::vsnprintf(text, sizeof text, fmt, ap);
+  va_end(ap);
+  if (!sink_) {
+    std::fputs(text, stdout);
+    std::fflush(stdout);
+    return;
+  }
+  // One sink call per line; a text ending in a newline has no empty line after it.
+  for (char *line = text; *line;) {
+    char *end = std::strchr(line, '\n');
+    if (end) *end = '\0';
+    sink_(ctx_, static_cast<int>(LogLevel::Info), line);
+    if (!end) break;
+    line = end + 1;
+  }
+}
+
+void Logger::info(int level, const char *fmt, ...) const {
+  if (!sink_ || verbose_ < level) return;
   va_list ap;
   va_start(ap, fmt);
   emit(LogLevel::Info, fmt, ap);

@@ -30,7 +30,11 @@ class Logger {
   // A setting the caller made outside the arguments (an environment variable) that is
   // ignored: warning level, shown whatever verbose is, since nothing else would tell.
   void notice(const char *fmt, ...) const __attribute__((format(printf, 2, 3)));
-  // Progress: shown when verbose >= level.
+  // sba 1.6's own progress text, in its words, when verbose >= level: on stdout as 1.6 prints
+  // it (fmt carries its newlines), or to the sink line by line.
+  void legacy(int level, const char *fmt, ...) const __attribute__((format(printf, 3, 4)));
+  // The library's own progress lines, beyond 1.6's: only to a caller's sink (a 1.6 caller's
+  // stdout gets 1.6's lines and nothing else), when verbose >= level.
   void info(int level, const char *fmt, ...) const __attribute__((format(printf, 3, 4)));
   // A message the caller explicitly asked for (e.g. the Jacobian check with itmax == 0).
   void report(const char *fmt, ...) const __attribute__((format(printf, 2, 3)));

@@ -6,6 +6,7 @@
 #define SBA_SRC_SMALL_DENSE_H
 
 #include <cmath>
+#include <utility>
 
 namespace sba::small {
 
@@ -86,6 +87,53 @@ inline bool spd_inverse(double *a, double *inv, int n) {
       double s = 0.0;
       for (int k = j; k < n; ++k) s += a[k * n + i] * a[k * n + j];
       inv[i * n + j] = inv[j * n + i] = s;
+    }
+  return true;
+}
+
+// inv = A^-1 for a nonsingular symmetric A that need not be definite (n x n, read from its
+// upper triangle, as LAPACK's symmetric routines read it); a is overwritten. Gauss-Jordan
+// elimination with partial pivoting on [A | I]: for the small blocks it serves, where
+// spd_inverse has just refused A, it gives the one inverse there is as well as a
+// Bunch-Kaufman factorization would. The result is made exactly symmetric from its upper
+// triangle. False only when a pivot column is exactly zero (A singular) or the inverse
+// overflows.
+template <int N = 0>
+inline bool sym_inverse(double *a, double *inv, int n) {
+  if (N) n = N;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < i; ++j) a[i * n + j] = a[j * n + i];
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) inv[i * n + j] = i == j ? 1.0 : 0.0;
+  for (int c = 0; c < n; ++c) {
+    int piv = c;
+    for (int r = c + 1; r < n; ++r)
+      if (std::fabs(a[r * n + c]) > std::fabs(a[piv * n + c])) piv = r;
+    if (!(a[piv * n + c] != 0.0) || !std::isfinite(a[piv * n + c])) return false;
+    if (piv != c)
+      for (int k = 0; k < n; ++k) {
+        std::swap(a[c * n + k], a[piv * n + k]);
+        std::swap(inv[c * n + k], inv[piv * n + k]);
+      }
+    const double r = 1.0 / a[c * n + c];
+    for (int k = 0; k < n; ++k) {
+      a[c * n + k] *= r;
+      inv[c * n + k] *= r;
+    }
+    for (int q = 0; q < n; ++q) {
+      if (q == c) continue;
+      const double f = a[q * n + c];
+      if (f == 0.0) continue;
+      for (int k = 0; k < n; ++k) {
+        a[q * n + k] -= f * a[c * n + k];
+        inv[q * n + k] -= f * inv[c * n + k];
+      }
+    }
+  }
+  for (int i = 0; i < n; ++i)
+    for (int j = i; j < n; ++j) {
+      if (!std::isfinite(inv[i * n + j])) return false;
+      inv[j * n + i] = inv[i * n + j];
     }
   return true;
 }

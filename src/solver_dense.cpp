@@ -27,7 +27,7 @@ class DenseSchurSolver final : public StepSolver {
     Sp_ = align_to_line(S_.data());
   }
 
-  bool solve(const NormalEquations &ne, double mu, double *dp) override {
+  StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
     const Layout &lay = ctx_.lay;
     // The steps of the fixed cameras and points are 0; the others are all written below.
     std::fill(dp, dp + lay.a_off(lay.mcon), 0.0);
@@ -38,13 +38,14 @@ class DenseSchurSolver final : public StepSolver {
     map.cnp = lay.cnp;
     // The point blocks' inverses are made where they are used rather than kept: n pnp^2
     // doubles, a sixth of the Jacobian's size on a 2-D problem of tracks of 3.
-    if (!ctx_.kernels.assemble(ctx_.pool, ne, nullptr, mu, map, rhs_.data())) return false;
+    if (!ctx_.kernels.assemble(ctx_.pool, ne, nullptr, mu, map, rhs_.data()))
+      return StepStatus::SingularPointBlock;
     double *da = dp + lay.a_off(lay.mcon);
-    if (!factorization_->solve(Sp_, rhs_.data(), da)) return false;
+    if (!factorization_->solve(Sp_, rhs_.data(), da)) return StepStatus::Failed;
     for (i64 q = 0; q < nS_; ++q)
-      if (!std::isfinite(da[q])) return false;
+      if (!std::isfinite(da[q])) return StepStatus::Failed;
     ctx_.kernels.back_substitute(ctx_.pool, ne, nullptr, mu, dp);
-    return true;
+    return StepStatus::Solved;
   }
 
  private:

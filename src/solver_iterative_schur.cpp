@@ -99,12 +99,12 @@ class IterativeSchurSolver final : public StepSolver {
     scratch_.resize(size_t(T) * size_t(std::max(mn + 2 * pn, mn * (pn + mn + cn))));
   }
 
-  bool solve(const NormalEquations &ne, double mu, double *dp) override {
+  StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
     const Layout &lay = lay_;
     ThreadPool &pool = ctx_.pool;
     std::fill(dp, dp + lay.a_off(lay.mcon), 0.0);
     std::fill(dp + lay.b_off(0), dp + lay.b_off(lay.ncon), 0.0);
-    if (!ctx_.kernels.invert_damped_V(pool, ne.V, mu, Vinv_.data())) return false;
+    if (!ctx_.kernels.invert_damped_V(pool, ne.V, mu, Vinv_.data())) return StepStatus::SingularPointBlock;
 
     // rhs = e_a - W V*^-1 e_b, and the forcing term from the gradient's norm.
     const int pn = pnp();
@@ -113,15 +113,15 @@ class IterativeSchurSolver final : public StepSolver {
     const double *eb_free = ne.eb + i64(lay.ncon) * pn;
     const double g2 =
         dot(ne.ea + lay.a_off(lay.mcon), ne.ea + lay.a_off(lay.mcon), nS_) + dot(eb_free, eb_free, i64(np_) * pn);
-    if (!std::isfinite(g2)) return false;
+    if (!std::isfinite(g2)) return StepStatus::Failed;
     if (g0_ < 0.0) g0_ = std::sqrt(g2);
     const double eta = g0_ > 0.0 ? std::min(kEtaMax, std::sqrt(std::sqrt(g2) / g0_)) : kEtaMax;
 
-    if (!make_preconditioner(ne, mu)) return false;
+    if (!make_preconditioner(ne, mu)) return StepStatus::Failed;
     double *da = dp + lay.a_off(lay.mcon);
-    if (!conjugate_gradients(ne, mu, eta, da)) return false;
+    if (!conjugate_gradients(ne, mu, eta, da)) return StepStatus::Failed;
     ctx_.kernels.back_substitute(pool, ne, Vinv_.data(), mu, dp);
-    return true;
+    return StepStatus::Solved;
   }
 
   // y = S x on its own (iterative_schur_product).

@@ -89,7 +89,7 @@ class LdlAmdSolver final : public StepSolver {
     W_.resize(size_t(cnp) * size_t(pnp));
   }
 
-  bool solve(const NormalEquations &ne, double mu, double *dp) override {
+  StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
     const Layout &lay = lay_;
     const int cnp = lay.cnp, pnp = lay.pnp;
     std::fill(dp, dp + lay.nvars(), 0.0);
@@ -127,11 +127,13 @@ class LdlAmdSolver final : public StepSolver {
         ldl_l_numeric(N_, Ap_.data(), Ai_.data(), Ax_.data(), Lp_.data(), parent_.data(),
                       lnz_.data(), Li_.data(), Lx_.data(), D_.data(), Y_.data(), pattern_.data(),
                       flag_.data(), P_.data(), Pinv_.data());
-    if (done != N_) return false;
-    // The damped matrix is positive definite in exact arithmetic; a non-positive pivot
-    // means rounding has destroyed that, and the step would not be a descent direction.
+    if (done != N_) return StepStatus::Failed;
+    // The damped matrix is positive definite in exact arithmetic but where sba 1.6's retries
+    // leave an indefinite diagonal on the point blocks; a non-positive pivot means one of the
+    // two, and the step would not be a descent direction: the damped system has failed, as
+    // 1.6's Cholesky of S fails there.
     for (i64 q = 0; q < N_; ++q)
-      if (!(D_[size_t(q)] > 0.0)) return false;
+      if (!(D_[size_t(q)] > 0.0)) return StepStatus::Failed;
     for (int j = lay.mcon; j < lay.m; ++j)
       for (int a = 0; a < cnp; ++a) x_[size_t(cam_col(j, a))] = ne.ea[i64(j) * cnp + a];
     for (int i = lay.ncon; i < lay.n; ++i)
@@ -146,8 +148,8 @@ class LdlAmdSolver final : public StepSolver {
     for (int i = lay.ncon; i < lay.n; ++i)
       for (int a = 0; a < pnp; ++a) dp[lay.b_off(i) + a] = x_[size_t(pt_col(i, a))];
     for (i64 q = 0; q < N_; ++q)
-      if (!std::isfinite(x_[size_t(q)])) return false;
-    return true;
+      if (!std::isfinite(x_[size_t(q)])) return StepStatus::Failed;
+    return StepStatus::Solved;
   }
 
  private:

@@ -176,7 +176,7 @@ class SparseSchurSolver final : public StepSolver {
   // False when the factor is too large for this index type.
   bool analyzed() const { return chol_.L != nullptr; }
 
-  bool solve(const NormalEquations &ne, double mu, double *dp) override {
+  StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
     const int cnp = lay_.cnp, nc = lay_.free_cams();
     const std::vector<int> &perm = pat_->perm;
     std::fill(dp, dp + lay_.nvars(), 0.0);
@@ -190,7 +190,8 @@ class SparseSchurSolver final : public StepSolver {
     map.colstart = pat_->colstart.data();
     // The point blocks' inverses are made where they are used rather than kept (n pnp^2
     // doubles, as much as S itself on a long sequence).
-    if (!ctx_.kernels.assemble(ctx_.pool, ne, nullptr, mu, map, rhs_.data())) return false;
+    if (!ctx_.kernels.assemble(ctx_.pool, ne, nullptr, mu, map, rhs_.data()))
+      return StepStatus::SingularPointBlock;
     double *b = static_cast<double *>(chol_.B->x);
     for (int j = 0; j < nc; ++j)
       std::copy_n(rhs_.data() + i64(j) * cnp, cnp, b + i64(perm[size_t(j)]) * cnp);
@@ -203,7 +204,7 @@ class SparseSchurSolver final : public StepSolver {
     // at this damping (L->minor below), only memory should fail.
     if (chol_.cm.status == CHOLMOD_OUT_OF_MEMORY || (!ok && chol_.cm.status != CHOLMOD_NOT_POSDEF))
       throw_cholmod_failure(direct_ ? "cholmod_super_numeric" : "cholmod_factorize", chol_.cm.status);
-    if (chol_.L->minor < chol_.L->n) return false;  // not positive definite at this damping
+    if (chol_.L->minor < chol_.L->n) return StepStatus::Failed;  // not positive definite at this damping
     cholmod_dense *X = Api::solve(CHOLMOD_A, chol_.L, chol_.B, &chol_.cm);
     if (!X) throw_cholmod_failure("cholmod_solve", chol_.cm.status);
     const double *x = static_cast<const double *>(X->x);
@@ -216,9 +217,9 @@ class SparseSchurSolver final : public StepSolver {
         finite = finite && std::isfinite(v);
       }
     Api::free_dense(&X, &chol_.cm);
-    if (!finite) return false;
+    if (!finite) return StepStatus::Failed;
     ctx_.kernels.back_substitute(ctx_.pool, ne, nullptr, mu, dp);
-    return true;
+    return StepStatus::Solved;
   }
 
  private:

@@ -21,7 +21,7 @@ class BlockDiagonalSolver final : public StepSolver {
     blk_.resize(size_t(pool_.size()) * d * d);
   }
 
-  bool solve(const NormalEquations &ne, double mu, double *dp) override {
+  StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
     const Layout &lay = lay_;
     std::fill(dp, dp + lay.nvars(), 0.0);
     if (lay.cnp > 0 && !all_blocks(lay.m - lay.mcon, [&](i64 q, double *scratch) {
@@ -29,14 +29,14 @@ class BlockDiagonalSolver final : public StepSolver {
           return one(ne.U + j * lay.cnp * lay.cnp, ne.ea + j * lay.cnp, lay.cnp, mu,
                      dp + lay.a_off(int(j)), scratch);
         }))
-      return false;
+      return StepStatus::Failed;
     if (lay.pnp > 0 && !all_blocks(lay.n - lay.ncon, [&](i64 q, double *scratch) {
           const i64 i = q + lay.ncon;
           return one(ne.V + i * lay.pnp * lay.pnp, ne.eb + i * lay.pnp, lay.pnp, mu,
                      dp + lay.b_off(int(i)), scratch);
         }))
-      return false;
-    return true;
+      return StepStatus::Failed;
+    return StepStatus::Solved;
   }
 
  private:

@@ -34,12 +34,21 @@ struct SolveContext {
   const Kernels &kernels;
 };
 
+// What became of one damped solve. sba 1.6 counts an attempt as a linear system once its
+// point blocks are inverted: an attempt that ends at a singular V_i + mu I is not counted.
+enum class StepStatus {
+  Solved,
+  SingularPointBlock,  // some free point's V_i + mu I is singular
+  Failed,              // the damped system cannot be solved at this mu
+};
+
 class StepSolver {
  public:
   virtual ~StepSolver() = default;
   // dp (all nvars entries; fixed ones set to 0) solving (J^T J + mu I) dp = J^T e on the
-  // free parameters. False when the damped system cannot be solved at this mu.
-  virtual bool solve(const NormalEquations &ne, double mu, double *dp) = 0;
+  // free parameters, where U and V are ne's blocks as they are (sba 1.6's retries hand them
+  // over with the diagonals its previous attempts left: strategy.h, before_retry).
+  virtual StepStatus solve(const NormalEquations &ne, double mu, double *dp) = 0;
 };
 
 // The solver for a problem. Problems without free points or without free cameras (the

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The two LM strategies. "sba" is 1.6's algorithm exactly (its parity with 1.6 is tested
-// down to stop reasons and counters). "trust-region" is Levenberg-Marquardt as Moré's
+// The LM strategies. "sba" is 1.6's algorithm exactly (its parity with 1.6 is tested down to
+// stop reasons and counters); "sba-clean-retry" is the same but for what a retry damps.
+// "trust-region" is Levenberg-Marquardt as Moré's
 // trust-region account and Ceres's documentation describe it: the damping term is
 // mu diag(J^T J) (Marquardt), so that it is as strong in every direction relative to the
 // curvature there, with the diagonal kept within a floor and a ceiling; a trial point must
@@ -13,6 +14,7 @@
 #include <climits>
 #include <cmath>
 
+#include "kernels.h"
 #include "lm.h"
 #include "named.h"
 
@@ -25,6 +27,7 @@ struct NamedStrategy {
 };
 constexpr NamedStrategy kStrategies[] = {
     {"sba", StrategyKind::Sba},
+    {"sba-clean-retry", StrategyKind::SbaCleanRetry},
     {"trust-region", StrategyKind::TrustRegion},
 };
 constexpr auto kStrategyNames = joined_names<joined_length(kStrategies)>(kStrategies);
@@ -39,9 +42,69 @@ double nielsen(double mu, double rho) {
 // The smallest initial damping relative to max diag(J^T J) (see Sba16::initial_damping).
 constexpr double kMinRelativeDamping = 0x1p-400;
 
+// d[a * (b + 1)] += mu for a < b: the diagonal of a b x b row-major block.
+void add_to_diagonal(double *d, int b, double mu) {
+  for (int a = 0; a < b; ++a) d[a * (b + 1)] += mu;
+}
+
+// What sba 1.6 retries on (measured on 1.6 itself). 1.6 damps its blocks in place and does
+// not restore them between the attempts of an iteration, so each attempt adds its mu to the
+// diagonals as the previous attempt left them:
+// - U_j: diag(U_j) + mu_1 + ... + mu_k on attempt k. The same for V_i where no camera is free
+//   (the structure-only driver), which solves each block from a copy.
+// - V_i where cameras and points are free (the motion-and-structure driver): 1.6 inverts each
+//   V_i + mu I in place, in point order, with a Bunch-Kaufman inverse that reads the upper
+//   triangle and writes the inverse into the lower triangle with the diagonal. The next
+//   attempt damps and inverts a block with V_i's own entries off the diagonal and the
+//   previous inverse's diagonal on it: indefinite while mu is small, inverted all the same,
+//   and the S made from it usually fails its Cholesky, so that mu grows by nu until it
+//   dominates. One rejected step thus restarts the damping high. The inversion stops at the
+//   first singular block: the points before it hold their inverse's diagonal, that one its
+//   damped diagonal, the later ones what they held.
+// The gain ratio and info[4] still use the attempt's own mu, as in 1.6.
+class Sba16Retry {
+ public:
+  explicit Sba16Retry(const Layout &lay) : lay_(lay) {
+    if (schur()) diag_.resize(size_t(lay.n) * size_t(lay.pnp));
+  }
+
+  void operator()(ThreadPool &pool, const Kernels &kernels, double mu, double *U, double *V) {
+    const Layout &lay = lay_;
+    const int cnp = lay.cnp, pnp = lay.pnp;
+    pool.for_range(lay.free_cams(), [&](i64 b, i64 e) {
+      for (i64 j = b + lay.mcon; j < e + lay.mcon; ++j) add_to_diagonal(U + j * cnp * cnp, cnp, mu);
+    });
+    if (!schur()) {
+      pool.for_range(lay.free_pts(), [&](i64 b, i64 e) {
+        for (i64 i = b + lay.ncon; i < e + lay.ncon; ++i) add_to_diagonal(V + i * pnp * pnp, pnp, mu);
+      });
+      return;
+    }
+    double *d = diag_.data();
+    kernels.damped_inverse_diagonals(pool, V, mu, d);
+    i64 singular = lay.ncon;
+    while (singular < lay.n && !std::isnan(d[singular * pnp])) ++singular;
+    pool.for_range(singular - lay.ncon, [&](i64 b, i64 e) {
+      for (i64 i = b + lay.ncon; i < e + lay.ncon; ++i)
+        for (int a = 0; a < pnp; ++a) V[i * pnp * pnp + a * (pnp + 1)] = d[i * pnp + a];
+    });
+    if (singular < lay.n) add_to_diagonal(V + singular * pnp * pnp, pnp, mu);
+  }
+
+ private:
+  // Whether the blocks are those of the Schur complement (cameras and points free).
+  bool schur() const { return lay_.free_cams() > 0 && lay_.free_pts() > 0; }
+
+  const Layout &lay_;
+  std::vector<double> diag_;  // the inverses' diagonals, pnp per point
+};
+
 class Sba16 final : public Strategy {
  public:
-  explicit Sba16(double eps4) : eps4_(eps4) {}
+  // retry16: 1.6's retries (Sba16Retry); otherwise each attempt damps the undamped blocks.
+  Sba16(const Layout &lay, double eps4, bool retry16) : eps4_(eps4) {
+    if (retry16) retry_ = std::make_unique<Sba16Retry>(lay);
+  }
   // tau > 0 (the drivers refuse 0), but tau * maxdiag can still be 0 or so small that the
   // growth a run of failed steps allows (mu *= nu, about 2^465 before reason 6) never makes
   // it count, and the solve would end at once with nothing refined. So the initial damping
@@ -57,12 +120,16 @@ class Sba16 final : public Strategy {
   double after_success(double mu, double rho) const override {
     return std::max(nielsen(mu, rho), DBL_MIN);
   }
+  void before_retry(ThreadPool &pool, const Kernels &kernels, double mu, double *U, double *V) override {
+    if (retry_) (*retry_)(pool, kernels, mu, U, V);
+  }
   // 1.6's int nu would overflow on the next doubling.
   bool exhausted(double, int nu) const override { return nu > INT_MAX / 2; }
   bool converged(double e, double en) const override { return reduction_stalled(e, en, eps4_); }
 
  private:
   double eps4_;
+  std::unique_ptr<Sba16Retry> retry_;
 };
 
 // The solver works in scaled variables q = D^(1/2) p with D = diag(J^T J) clamped to
@@ -157,6 +224,7 @@ class TrustRegion final : public Strategy {
   double after_success(double mu, double rho) const override {
     return std::clamp(nielsen(mu, rho), kMinDamping, kMaxDamping);
   }
+  void before_retry(ThreadPool &, const Kernels &, double, double *, double *) override {}
   bool exhausted(double mu, int nu) const override {
     return mu > kMaxDamping || nu > INT_MAX / 2;
   }
@@ -184,7 +252,7 @@ const char *strategy_names() { return kStrategyNames.text; }
 
 std::unique_ptr<Strategy> make_strategy(StrategyKind kind, const Layout &lay, double eps4) {
   if (kind == StrategyKind::TrustRegion) return std::make_unique<TrustRegion>(lay, eps4);
-  return std::make_unique<Sba16>(eps4);
+  return std::make_unique<Sba16>(lay, eps4, kind == StrategyKind::Sba);
 }
 
 }  // namespace sba

@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-// How the LM loop damps, accepts a step and decides it has converged: sba 1.6's rules, or a
-// trust-region Levenberg-Marquardt as the trust-region literature and Ceres run it. The loop
-// (lm_core.cpp) is the same for both; a strategy is the handful of decisions in which they
-// differ.
+// How the LM loop damps, accepts a step and decides it has converged: sba 1.6's rules (with
+// 1.6's retries, or with the paper's), or a trust-region Levenberg-Marquardt as the
+// trust-region literature and Ceres run it. The loop (lm_core.cpp) is the same for all; a
+// strategy is the handful of decisions in which they differ.
 #ifndef SBA_SRC_STRATEGY_H
 #define SBA_SRC_STRATEGY_H
 
@@ -16,15 +16,19 @@
 namespace sba {
 
 enum class StrategyKind {
-  Sba,          // sba 1.6: damping mu I, Nielsen's update, 1.6's stop tests as written
-  TrustRegion,  // Marquardt's damping mu diag(J^T J), Ceres-style acceptance and stopping
+  Sba,            // sba 1.6: damping mu I, Nielsen's update, 1.6's stop tests as written, and
+                  // 1.6's retries on the blocks as the previous attempt left them
+  SbaCleanRetry,  // the same, but every attempt damps the undamped J^T J (the sba paper's)
+  TrustRegion,    // Marquardt's damping mu diag(J^T J), Ceres-style acceptance and stopping
 };
 
-// "sba", "trust-region"; false for an unknown name.
+// "sba", "sba-clean-retry", "trust-region"; false for an unknown name.
 bool strategy_from_name(const std::string &name, StrategyKind *out);
 const char *strategy_name(StrategyKind s);
 // Space-separated list of every name, for messages and the C API.
 const char *strategy_names();
+
+class Kernels;
 
 class Strategy {
  public:
@@ -46,6 +50,11 @@ class Strategy {
   virtual bool acceptable(double dF, double dL) const = 0;
   // The damping after an accepted step with gain ratio rho = dF / dL.
   virtual double after_success(double mu, double rho) const = 0;
+  // After an attempt at damping mu that gave no accepted step (rejected, or its system could
+  // not be solved), before the next attempt of the same iteration: the blocks U, V that it
+  // will damp. The solvers add the next mu to their diagonals as they find them.
+  virtual void before_retry(ThreadPool &pool, const Kernels &kernels, double mu, double *U,
+                            double *V) = 0;
   // True when the damping reached after failures (mu, about to be multiplied by nu) means
   // there is nothing left to try: stop reason 6.
   virtual bool exhausted(double mu, int nu) const = 0;

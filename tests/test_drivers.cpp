@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iterator>
 #include <limits>
+#include <ostream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -640,14 +642,148 @@ TEST(Drivers, Eps4ZeroEndsRunsWithReason4ByCancellationInEveryDriver) {
   }
 }
 
-TEST(Drivers, VerboseProgressGoesToStdout) {
-  synth::Problem pb = synth::make(30, 4, 0.1, 0.05, 21);
-  std::vector<double> p = pb.p0;
+// ---------------------------------------------------------------- sba 1.6's retries and lines
+
+// Problems on which sba 1.6 rejects steps early and retries them: synth::make(20, 4, 0.5,
+// perturb, seed) from opts[0] = tau, itmax 150, the first camera fixed in the motion-and-
+// structure driver. 1.6's figures (its library, OpenBLAS at 1 and 2 threads: the same) are
+// the damping of its first trial points as its verbose 2 prints them (%8g), and the counts of
+// the whole run. A rejected step there is retried on the blocks the previous attempt left
+// (accumulated damping; in the motion-and-structure driver, the inverse's diagonal on V_i's),
+// which the damping shows: after the first rejection of the motion-and-structure run, 1.6
+// retries at 574181, where a retry from the undamped blocks succeeds at 17.5226.
+struct Sba16Retries {
+  Mode mode;
+  bool expert;
+  double perturb, tau;
+  unsigned seed;
+  const char *initial_line;
+  std::vector<const char *> damping;  // the first trial points'
+  int iterations, reason, nfev, njev, nlin;
+  double error;
+};
+
+const char *const kMotstrDamping[] = {"0.273791", "574181", "191394", "63797.9", "21266", "7088.66", "2362.89",
+                                      "787.629", "262.543", "87.5143", "29.1714", "9.72381", "9957.18", "16732.3",
+                                      "5577.43", "1859.14", "619.715", "206.572", "68.8572", "22.9524"};
+const char *const kMotDamping[] = {"0.000136658", "0.000273317", "0.00109327", "0.00874614", "0.139938",
+                                   "4.47803", "286.594", "98.8438", "32.9479", "65.8959", "119.189", "129.704",
+                                   "129.704", "259.408", "442.879", "598.338", "759.344", "1238.86", "1542.52",
+                                   "3085.05"};
+const char *const kStrDamping[] = {"0.338812", "0.126376", "0.252751", "1.011", "1.01178", "2.02356", "2.02925",
+                                   "1.98741", "1.54562", "0.785858", "1.57172", "0.572995", "1.14599", "4.58396",
+                                   "36.6717", "12.2239", "5.16437", "1.72146", "0.573819"};
+
+std::vector<const char *> list(const char *const *b, const char *const *e) { return {b, e}; }
+
+const Sba16Retries kRetries[] = {
+    {Mode::MotStr, true, 2.0, 1e-6, 4, "initial motstr-SBA error 1.99911e+06 [38444.5]",
+     list(std::begin(kMotstrDamping), std::end(kMotstrDamping)), 27, 2, 30, 27, 43, 6.85657411},
+    {Mode::MotStr, false, 2.0, 1e-6, 4, "initial motstr-SBA error 1.99911e+06 [38444.5]",
+     list(std::begin(kMotstrDamping), std::end(kMotstrDamping)), 27, 2, 1560, 1404, 43, 6.85657411},
+    {Mode::Mot, true, 10.0, 1e-9, 4, "initial mot-SBA error 1.25704e+07 [241739]",
+     list(std::begin(kMotDamping), std::end(kMotDamping)), 56, 2, 69, 56, 276, 16.7554311},
+    {Mode::Mot, false, 10.0, 1e-9, 4, "initial mot-SBA error 1.25704e+07 [241739]",
+     list(std::begin(kMotDamping), std::end(kMotDamping)), 56, 2, 3588, 2912, 276, 16.7554311},
+    {Mode::Str, true, 6.0, 1e-9, 3, "initial str-SBA error 8.73532e+07 [1.58824e+06]",
+     list(std::begin(kStrDamping), std::end(kStrDamping)), 14, 4, 22, 14, 420, 9.58244637},
+    {Mode::Str, false, 6.0, 1e-9, 3, "initial str-SBA error 8.73532e+07 [1.58824e+06]",
+     list(std::begin(kStrDamping), std::end(kStrDamping)), 14, 4, 1210, 770, 420, 9.58244637},
+};
+
+// The driver of c on its problem, at `verbose`, its stdout captured.
+Result run_retry_case(const Sba16Retries &c, int verbose, std::string *out) {
+  synth::Problem pb = synth::make(20, 4, 0.5, c.perturb, c.seed);
+  pb.fixed_points = pb.truth.data() + pb.m * kCnp;
+  pb.fixed_cams = pb.truth.data();
+  Result r;
+  r.p = pb.p0;
+  const double opts[SBA_OPTSSZ] = {c.tau, 1e-12, 1e-12, 1e-12, 0.0};
+  double *cams = r.p.data(), *pts = r.p.data() + pb.m * kCnp;
   testing::internal::CaptureStdout();
-  sba_motstr_levmar_x(pb.n, 0, pb.m, 0, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(), nullptr, kMnp,
-                      synth::func_motstr, synth::fjac_motstr, &pb, 150, 1, nullptr, nullptr);
-  const std::string out = testing::internal::GetCapturedStdout();
-  EXPECT_NE(out.find("initial error"), std::string::npos) << out;
+  switch (c.mode) {
+    case Mode::MotStr:
+      r.ret = c.expert ? sba_motstr_levmar_x(pb.n, 0, pb.m, 1, pb.vmask.data(), cams, kCnp, kPnp, pb.x.data(),
+                                             nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb, 150,
+                                             verbose, opts, r.info)
+                       : sba_motstr_levmar(pb.n, 0, pb.m, 1, pb.vmask.data(), cams, kCnp, kPnp, pb.x.data(),
+                                           nullptr, kMnp, synth::proj_motstr, synth::projac_motstr, &pb, 150,
+                                           verbose, opts, r.info);
+      break;
+    case Mode::Mot:
+      r.ret = c.expert ? sba_mot_levmar_x(pb.n, pb.m, 0, pb.vmask.data(), cams, kCnp, pb.x.data(), nullptr, kMnp,
+                                          synth::func_mot, synth::fjac_mot, &pb, 150, verbose, opts, r.info)
+                       : sba_mot_levmar(pb.n, pb.m, 0, pb.vmask.data(), cams, kCnp, pb.x.data(), nullptr, kMnp,
+                                        synth::proj_mot, synth::projac_mot, &pb, 150, verbose, opts, r.info);
+      break;
+    case Mode::Str:
+      r.ret = c.expert ? sba_str_levmar_x(pb.n, 0, pb.m, pb.vmask.data(), pts, kPnp, pb.x.data(), nullptr, kMnp,
+                                          synth::func_str, synth::fjac_str, &pb, 150, verbose, opts, r.info)
+                       : sba_str_levmar(pb.n, 0, pb.m, pb.vmask.data(), pts, kPnp, pb.x.data(), nullptr, kMnp,
+                                        synth::proj_str, synth::projac_str, &pb, 150, verbose, opts, r.info);
+      break;
+  }
+  *out = testing::internal::GetCapturedStdout();
+  return r;
+}
+
+// The damping term of every "damping term ..." line of 1.6's verbose output.
+std::vector<std::string> damping_terms(const std::string &out) {
+  std::vector<std::string> terms;
+  const std::string key = "\ndamping term ";
+  for (size_t at = out.find(key); at != std::string::npos; at = out.find(key, at + 1)) {
+    size_t b = at + key.size();
+    while (out[b] == ' ') ++b;
+    terms.push_back(out.substr(b, out.find(',', b) - b));
+  }
+  return terms;
+}
+
+void PrintTo(const Sba16Retries &c, std::ostream *os) { *os << c.initial_line << (c.expert ? ", expert" : ", simple"); }
+
+class Retries : public ::testing::TestWithParam<Sba16Retries> {};
+
+TEST_P(Retries, DampAsSba16Does) {
+  const Sba16Retries &c = GetParam();
+  std::string out;
+  const Result r = run_retry_case(c, 2, &out);
+  ASSERT_GT(r.ret, 0) << out;
+  // 1.6's lines: the initial error, then per trial point the mean reprojection error and the
+  // damping line, and nothing else.
+  EXPECT_EQ(out.substr(0, out.find('\n')), c.initial_line);
+  EXPECT_NE(out.find("\nmean reprojection error "), std::string::npos);
+  EXPECT_EQ(out.find("SBA: "), std::string::npos) << "the library's own lines only go to a log sink";
+  const std::vector<std::string> terms = damping_terms(out);
+  ASSERT_GE(terms.size(), c.damping.size()) << out;
+  for (size_t k = 0; k < c.damping.size(); ++k) EXPECT_EQ(terms[k], c.damping[k]) << "trial point " << k + 1;
+  // The whole run: 1.6's minimum, its iterations within [x/1.25 - 3, 1.25 x + 3], its reason
+  // (2 and 4 stand for each other: which ends a converged run is rounding), its counts within
+  // 35%.
+  EXPECT_NEAR(r.info[1], c.error, 1e-6 * c.error);
+  EXPECT_GE(r.info[5], c.iterations / 1.25 - 3);
+  EXPECT_LE(r.info[5], 1.25 * c.iterations + 3);
+  EXPECT_TRUE(r.info[6] == 2 || r.info[6] == 4) << r.info[6];
+  EXPECT_LE(std::fabs(r.info[7] - c.nfev), 0.35 * c.nfev) << r.info[7];
+  EXPECT_LE(std::fabs(r.info[8] - c.njev), 0.35 * c.njev) << r.info[8];
+  EXPECT_LE(std::fabs(r.info[9] - c.nlin), 0.35 * c.nlin) << r.info[9];
+}
+
+INSTANTIATE_TEST_SUITE_P(Drivers, Retries, ::testing::ValuesIn(kRetries),
+                         [](const ::testing::TestParamInfo<Sba16Retries> &p) {
+                           const char *mode = p.param.mode == Mode::MotStr ? "motstr"
+                                              : p.param.mode == Mode::Mot  ? "mot"
+                                                                           : "str";
+                           return std::string(mode) + (p.param.expert ? "_expert" : "_simple");
+                         });
+
+// verbose 1: 1.6's one line on stdout, nothing per iteration.
+TEST(Drivers, VerboseOnePrintsSba16sInitialLine) {
+  std::string out;
+  const Result r = run_retry_case(kRetries[0], 1, &out);
+  ASSERT_GT(r.ret, 0);
+  EXPECT_EQ(out, std::string(kRetries[0].initial_line) + "\n");
+  run_retry_case(kRetries[0], 0, &out);
+  EXPECT_EQ(out, "");
 }
 
 // ---------------------------------------------------------------- re-entrancy

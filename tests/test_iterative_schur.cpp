@@ -63,7 +63,7 @@ std::vector<double> step(const Problem &pb, sba::LinSolver kind, int threads, do
   const auto kernels = sba::make_kernels(pb.lay, pool.size());
   const auto solver = sba::make_step_solver(kind, sba::SolveContext{pb.lay, pool, *kernels});
   std::vector<double> dp(size_t(pb.lay.nvars()), -1.0);
-  const bool solved = solver->solve(pb.ne(), mu, dp.data());
+  const bool solved = solver->solve(pb.ne(), mu, dp.data()) == sba::StepStatus::Solved;
   if (ok) *ok = solved;
   return dp;
 }
@@ -189,7 +189,7 @@ TEST_P(IterativeSchur, StepMatchesCholAsTheGradientFalls) {
   const auto kernels = sba::make_kernels(lay, pool.size());
   const auto solver = sba::make_step_solver(sba::LinSolver::IterativeSchur, sba::SolveContext{lay, pool, *kernels});
   std::vector<double> dp(size_t(lay.nvars()), -1.0);
-  ASSERT_TRUE(solver->solve(pb.ne(), mu, dp.data()));
+  ASSERT_EQ(solver->solve(pb.ne(), mu, dp.data()), sba::StepStatus::Solved);
   const std::vector<double> ref = step(pb, sba::LinSolver::Chol, 1, mu);
   for (int q = 0; q < lay.mcon * cnp; ++q) EXPECT_EQ(dp[size_t(q)], 0.0);
   for (int q = 0; q < lay.ncon * 3; ++q) EXPECT_EQ(dp[size_t(lay.b_off(0) + q)], 0.0);
@@ -208,7 +208,7 @@ TEST_P(IterativeSchur, StepMatchesCholAsTheGradientFalls) {
   const double s = 1e-12;
   for (double &v : pb.ea) v *= s;
   for (double &v : pb.eb) v *= s;
-  ASSERT_TRUE(solver->solve(pb.ne(), mu, dp.data()));
+  ASSERT_EQ(solver->solve(pb.ne(), mu, dp.data()), sba::StepStatus::Solved);
   diff = 0.0;
   for (size_t q = 0; q < ref.size(); ++q) diff = std::max(diff, std::fabs(dp[q] / s - ref[q]));
   EXPECT_LT(diff, 1e-5 * norm);
@@ -221,8 +221,10 @@ TEST_P(IterativeSchur, SameBitsForAnyThreadCount) {
   EXPECT_EQ(one, step(pb, sba::LinSolver::IterativeSchur, 3, 0.1));
 }
 
-// A NaN in the normal equations, and damping that leaves a point block indefinite, are
-// failures (LM then raises the damping), never a crash or a step with NaNs.
+// A NaN in the normal equations, a damped point block that is singular and a reduced system
+// that is indefinite are failures (LM then raises the damping), never a crash or a step with
+// NaNs. (An indefinite point block is inverted, as sba 1.6 inverts the blocks its retries
+// leave: see test_kernels.)
 TEST_P(IterativeSchur, RefusesWhatItCannotSolve) {
   const int cnp = GetParam();
   {
@@ -234,7 +236,8 @@ TEST_P(IterativeSchur, RefusesWhatItCannotSolve) {
   }
   {
     Problem pb(200, 10, 0, 0, cnp, 42u);
-    pb.V[size_t(50 * 9)] = -1e3;  // point 50's block indefinite
+    std::fill_n(pb.V.begin() + 50 * 9, 9, 0.0);
+    pb.V[size_t(50 * 9)] = -0.1;  // point 50's block, damped by 0.1, has a zero row
     bool ok = true;
     step(pb, sba::LinSolver::IterativeSchur, 2, 0.1, &ok);
     EXPECT_FALSE(ok);

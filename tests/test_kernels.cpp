@@ -201,29 +201,50 @@ TEST_P(KernelsLayout, ThreadCountsGiveTheSameBits) {
 INSTANTIATE_TEST_SUITE_P(Kernels, KernelsLayout, ::testing::Values(6, 9, 5),
                          [](const ::testing::TestParamInfo<int> &p) { return "cnp" + std::to_string(p.param); });
 
-// A damped point block that is not positive definite fails the assembly when the inverses are
-// made on the fly (and gives NaNs in the back-substitution), as invert_damped_V fails.
-TEST(Kernels, OnTheFlyInverseReportsAnIndefinitePointBlock) {
+// A damped point block that is indefinite is inverted (sba 1.6's retries make such blocks and
+// invert them with Bunch-Kaufman), by every path the same; one that is singular fails the
+// assembly when the inverses are made on the fly (and gives NaNs in the back-substitution and
+// in the inverse diagonals), as invert_damped_V fails.
+TEST(Kernels, IndefinitePointBlocksAreInvertedSingularOnesReported) {
   Fixture f(40, 6, 6, 3u);
   sba::ThreadPool pool(2);
   const auto kernels = sba::make_kernels(f.lay, pool.size());
   kernels->normal_equations(pool, f.jac.data(), f.e.data(), f.U.data(), f.V.data(), f.ea.data(), f.eb.data());
-  f.V[size_t(17 * 9 + 4)] = -1.0;  // point 17's V_i[1][1]
   const double mu = 0.1;
-  std::vector<double> Vinv(f.V.size());
-  EXPECT_FALSE(kernels->invert_damped_V(pool, f.V.data(), mu, Vinv.data()));
+  double *V17 = f.V.data() + 17 * 9;
+  V17[4] = -1.0;  // point 17's V_i[1][1]: V_i + mu I indefinite
+  std::vector<double> Vinv(f.V.size()), diag(size_t(f.lay.n) * 3);
+  ASSERT_TRUE(kernels->invert_damped_V(pool, f.V.data(), mu, Vinv.data()));
+  const double *inv = Vinv.data() + 17 * 9;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      double s = 0.0;
+      for (int q = 0; q < 3; ++q) s += (V17[r * 3 + q] + (r == q ? mu : 0.0)) * inv[q * 3 + c];
+      EXPECT_NEAR(s, r == c ? 1.0 : 0.0, 1e-12) << r << " " << c;
+      EXPECT_EQ(inv[r * 3 + c], inv[c * 3 + r]);
+    }
+  kernels->damped_inverse_diagonals(pool, f.V.data(), mu, diag.data());
+  for (int i = 0; i < f.lay.n; ++i)
+    for (int a = 0; a < 3; ++a) ASSERT_EQ(diag[size_t(i) * 3 + a], Vinv[size_t(i) * 9 + a * 4]) << i;
   const int nS = 6 * 6;
   std::vector<double> S(size_t(nS) * size_t(nS), 0.0), rhs(static_cast<size_t>(nS));
   sba::BlockMap dense;
   dense.base = S.data();
   dense.ld = nS;
   dense.cnp = 6;
+  EXPECT_TRUE(kernels->assemble(pool, f.ne(), nullptr, mu, dense, rhs.data()));
+
+  std::fill(V17, V17 + 9, 0.0);
+  V17[0] = -mu;  // V_i + mu I has a zero row
+  EXPECT_FALSE(kernels->invert_damped_V(pool, f.V.data(), mu, Vinv.data()));
   EXPECT_FALSE(kernels->assemble(pool, f.ne(), nullptr, mu, dense, rhs.data()));
   std::vector<double> dp(size_t(f.lay.nvars()), 0.0);
   kernels->back_substitute(pool, f.ne(), nullptr, mu, dp.data());
   const double *db = dp.data() + f.lay.b_off(17);
   EXPECT_TRUE(std::isnan(db[0]) && std::isnan(db[1]) && std::isnan(db[2]));
   EXPECT_TRUE(std::isfinite(dp[size_t(f.lay.b_off(16))]));
+  kernels->damped_inverse_diagonals(pool, f.V.data(), mu, diag.data());
+  for (int i = 0; i < f.lay.n; ++i) EXPECT_EQ(std::isnan(diag[size_t(i) * 3]), i == 17) << i;
 }
 
 // A random symmetric positive definite matrix of order n, row-major upper with row stride ld

@@ -241,8 +241,9 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
         0: the library's choice; results do not depend on it.
     strategy
         How LM damps, accepts steps and stops (:func:`strategy_names`): "sba" (sba 1.6's
-        algorithm) or "trust-region" (Marquardt's scaled damping; usually fewer
-        iterations). None: $SBA_STRATEGY, else "sba".
+        algorithm), "sba-clean-retry" (the same, each retry damping the undamped normal
+        equations, as the sba paper states it) or "trust-region" (Marquardt's scaled
+        damping; usually fewer iterations). None: $SBA_STRATEGY, else "sba".
     loss, loss_scale
         Robust loss ("huber", "cauchy", "soft-l1", "tukey"; None: least squares) and its
         scale in pixels.

@@ -41,7 +41,9 @@ def test_54cams_reaches_sba_result(cams54):
     assert f"{r.final_mse:g}" == "0.176473"
     assert f"{r.initial_mse:g}" == "2.14707"
     assert r.iterations == 21 and r.reason == pysba.Reason.STEP and int(r.reason) == 2
-    assert (r.nfev, r.njev, r.nlinsys) == (29, 21, 29)
+    # The last step is rejected and retried on the blocks as it left them (sba 1.6's retries):
+    # the factorizations fail until the damping dominates, and no trial point is evaluated.
+    assert (r.nfev, r.njev, r.nlinsys) == (22, 21, 29)
     assert r.info.shape == (10,) and r.info[1] == pytest.approx(0.176473 * 24609, rel=1e-5)
     assert r.cameras.shape == (54, 7) and r.points.shape == (5207, 3)
     # The problem is left as it was; the result is new arrays.
@@ -58,7 +60,8 @@ def test_varying_intrinsics_as_eucsbademo_prints_it():
     p = pysba.read_eucsbademo(*files)
     assert p.cameras.shape == (7, 12) and p.calibration is None
     r = pysba.solve(p)
-    assert (f"{r.final_mse:g}", r.iterations, r.reason) == ("0.658995", 139, pysba.Reason.REDUCTION)
+    # sba 1.6's figures on its flat valley: 52 to 103 iterations, 0.65966 to 0.660449.
+    assert (f"{r.final_mse:g}", r.iterations, r.reason) == ("0.66045", 53, pysba.Reason.REDUCTION)
     assert printed(r) == program_line("PYSBA_EUCSBADEMO", files)
     # Two more trailing intrinsics held (eucsbademo --nccalib 4): a different minimum.
     held = pysba.solve(p, nccalib=4)
