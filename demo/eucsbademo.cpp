@@ -356,7 +356,11 @@ int demo_main(int argc, char **argv) {
     }
   }
 
-  const CameraModel model(problem.kind, problem.cameras, points.xyz, o.nccalib, o.ncdist);
+  // sba 1.6's demo holds intrinsics by zeroing their columns of the analytic Jacobian, so
+  // its finite differences refine every one of them, while its Method line still names
+  // nccalib and ncdist. Asked for on the command line, they are held with differences too.
+  const bool hold = o.analytic || o.held_given;
+  const CameraModel model(problem.kind, problem.cameras, points.xyz, hold ? o.nccalib : 0, hold ? o.ncdist : 0);
   if (!sbademo::write_ply_option(o.initial_ply, cloud(model, nullptr, nullptr))) return kExitFailure;
   std::fprintf(stderr, "%s\n", kind_banner(problem.kind));
 

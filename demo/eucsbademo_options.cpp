@@ -42,8 +42,9 @@ std::vector<sbacli::Option> option_table(DemoOptions &o) {
   t.push_back({"expert", "", "use the expert driver (whole-vector callbacks; the default)",
                [&o](const std::string &) { return flag(&o.expert, true); }});
   t.push_back({"numeric-jacobian", "",
-               "finite-difference Jacobian instead of the analytic one (intrinsics held by --nccalib and\n"
-               "--ncdist stay held)",
+               "finite-difference Jacobian instead of the analytic one; as in sba 1.6's demo, whose\n"
+               "differences see every parameter, no intrinsic or distortion term is then held unless\n"
+               "--nccalib or --ncdist is given",
                [&o](const std::string &) { return flag(&o.analytic, false); }});
   t.push_back({"itmax", "N", "maximum iterations (default 150; 100 for mot and str)",
                [&o](const std::string &v) { return sbacli::to_int(v, 0, kIntMax, &o.itmax); }});
@@ -57,20 +58,24 @@ std::vector<sbacli::Option> option_table(DemoOptions &o) {
   t.push_back({"nccalib", "N",
                "hold the last N of the intrinsics (fu u0 v0 ar s) fixed: 0 none, 1 s, 2 s and ar (the\n"
                "default), 3 also v0, 4 also u0, 5 all; used with per-camera intrinsics",
-               [&o](const std::string &v) { return sbacli::to_int(v, 0, 5, &o.nccalib); }});
+               [&o](const std::string &v) { o.held_given = true;
+                 return sbacli::to_int(v, 0, 5, &o.nccalib); }});
   t.push_back({"ncdist", "N",
                "hold the last N of the distortion terms (kc0..kc4) fixed: 0 none, 1 kc4, 2 kc4 and kc3,\n"
                "3 kc4 kc3 kc2 (the default), 4 all but kc0, 5 all; used with distortion",
-               [&o](const std::string &v) { return sbacli::to_int(v, 0, 5, &o.ncdist); }});
+               [&o](const std::string &v) { o.held_given = true;
+                 return sbacli::to_int(v, 0, 5, &o.ncdist); }});
   t.push_back({"solver", "NAME",
                "linear solver of the augmented normal equations, one of those listed below (default:\n"
                "the environment variable SBA_LINSOLVER if set, else chol as in sba 1.6; this option\n"
                "overrides SBA_LINSOLVER)",
                [&o](const std::string &v) { return sbacli::to_linsolver(v, &o.linsolver); }});
   t.push_back({"strategy", "NAME",
-               "how LM damps, accepts steps and stops: sba (sba 1.6's algorithm, the default) or\n"
-               "trust-region (Marquardt's scaled damping and a relative cost tolerance: usually far\n"
-               "fewer iterations); default: the environment variable SBA_STRATEGY if set, else sba",
+               "how LM damps, accepts steps and stops: sba (sba 1.6's algorithm, the default),\n"
+               "sba-clean-retry (the same, but a rejected step is retried on the undamped normal\n"
+               "equations, as the sba paper writes it) or trust-region (Marquardt's scaled damping and\n"
+               "a relative cost tolerance: usually far fewer iterations); default: the environment\n"
+               "variable SBA_STRATEGY if set, else sba",
                [&o](const std::string &v) { return sbacli::to_strategy(v, &o.strategy); }});
   t.push_back({"threads", "N",
                "threads for the normal equations and the Schur complement; 0 (the default): the\n"

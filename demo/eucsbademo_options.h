@@ -30,6 +30,7 @@ struct DemoOptions {
   int verbose = 0;
   int mcon = 0, ncon = 0;       // leading cameras / points held fixed
   int nccalib = 2, ncdist = 3;  // trailing intrinsics / distortion terms held fixed
+  bool held_given = false;      // --nccalib or --ncdist on the command line
   bool check_jacobian = false;  // itmax 0: the library compares fjac with finite differences
   std::string linsolver;        // one of sba_linsolver_names(); empty: the library's choice
                                 // (SBA_LINSOLVER if set, else chol)

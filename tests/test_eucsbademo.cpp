@@ -36,6 +36,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -516,8 +517,12 @@ TEST_P(Published, MatchesSba16AndGoldenOutput) {
     EXPECT_LE(s.iterations(), 28);
   }
 
-  // b. The checked-in output of this implementation.
+  // b. The checked-in output of this implementation, and of its sba-clean-retry strategy
+  // (the same lines, but for the counts and iterations its retries give).
   expect_matches_golden(run.out, golden_path(p.name));
+  const DemoRun clean = run_problem(p, {"--strategy=sba-clean-retry"});
+  ASSERT_EQ(clean.status, 0) << clean;
+  expect_matches_golden(clean.out, golden_path(std::string(p.name) + "-sba-clean-retry"));
 }
 
 INSTANTIATE_TEST_SUITE_P(Eucsbademo, Published, ::testing::ValuesIn(kPublished),
@@ -525,20 +530,21 @@ INSTANTIATE_TEST_SUITE_P(Eucsbademo, Published, ::testing::ValuesIn(kPublished),
                            return std::string(info.param.problem.name);
                          });
 
-// sba 1.6's own demo on the seven problems (OpenBLAS, 2 threads): iterations, stop reason and
-// the error it ends at. At eps4 = 0, stop 4 is 1.6's relative-reduction test firing through
-// rounding: about one accepted step in four whose relative decrease is far below 1e-8 ends the
-// run, which one is a matter of the last bits of ||e||^2 (1.6's own 54cams run ends with
-// reason 4 after 19 iterations with 2 BLAS threads, reason 2 after 21 with 1). So the reason
-// is checked to be one of the two, not the same one. Where the valley is well defined, the
-// iterations are within 1.25x + 3 of 1.6's and the error is 1.6's to 6 digits. On 7camsvarK
-// and 9camsvarK the valley is flat: 1.6's run stops where a step with a tiny decrease happened
-// to come, and ours descends further; there the check is that ours is no worse than 1.6's
-// error after 1.6's iterations (times 1.25, plus 3).
+// sba 1.6's own demo on the seven problems, as 1.6 itself runs on this machine kind: built
+// plain (-O2) and with FMA contraction, each with OpenBLAS at 1 and 2 threads. Those four runs
+// are 1.6's envelope: its iterations and the error it ends at move with rounding. At eps4 = 0,
+// stop 4 is 1.6's relative-reduction test firing through rounding: about one accepted step in
+// four whose relative decrease is far below 1e-8 ends the run, so the reason is checked to be
+// 2 or 4, not the same one. Ours must end at 1.6's minimum (its error to 6 digits where the
+// four runs agree) in iterations within [min/1.25 - 3, 1.25 max + 3] of 1.6's. On 7camsvarK and
+// 9camsvarK the valley is flat: one rejected step makes 1.6 retry on the blocks as the failed
+// attempt left them, which restarts the damping high, and the run then ends by stop 4 wherever
+// that happens along the valley; there the error is checked against 1.6's range, widened by
+// 0.2%.
 struct Sba16Run {
   DemoProblem problem;
-  int iterations;
-  const char *error;
+  int min_iterations, max_iterations;
+  const char *min_error, *max_error;  // equal where the four runs agree
   bool flat;
 };
 
@@ -549,34 +555,29 @@ class Sba16 : public ::testing::TestWithParam<Sba16Run> {};
 TEST_P(Sba16, StopsByAConvergenceTestWhere16Does) {
   REQUIRE_DEMO_DATA();
   const Sba16Run &r = GetParam();
-  const int window = static_cast<int>(1.25 * r.iterations) + 3;
   Summary s;
   const DemoRun run = run_problem(r.problem, {});
   EXPECT_SUCCESSFUL_RUN(run, r.problem.banner, s);
   EXPECT_TRUE(s.reason == "2" || s.reason == "4") << "reason " << s.reason;
-  const double ours = s.error_value(), theirs = std::strtod(r.error, nullptr);
+  EXPECT_GE(s.iterations(), r.min_iterations / 1.25 - 3);
+  EXPECT_LE(s.iterations(), 1.25 * r.max_iterations + 3);
   if (!r.flat) {
-    EXPECT_LE(s.iterations(), window);
-    EXPECT_LE(r.iterations, static_cast<int>(1.25 * s.iterations()) + 3) << s.iterations();
-    EXPECT_TRUE(same_to_digits(s.error, r.error, 6)) << s.error << " vs sba 1.6's " << r.error;
+    EXPECT_TRUE(same_to_digits(s.error, r.min_error, 6)) << s.error << " vs sba 1.6's " << r.min_error;
     return;
   }
-  EXPECT_LE(ours, theirs * (1 + 5e-7)) << s.error << " vs sba 1.6's " << r.error;
-  Summary budget;
-  const DemoRun run_budget = run_problem(r.problem, {"--itmax=" + std::to_string(window)});
-  EXPECT_SUCCESSFUL_RUN(run_budget, r.problem.banner, budget);
-  EXPECT_LE(budget.error_value(), theirs * (1 + 5e-7))
-      << "after " << window << " iterations: " << budget.error << " vs sba 1.6's " << r.error;
+  const double lo = std::strtod(r.min_error, nullptr), hi = std::strtod(r.max_error, nullptr);
+  EXPECT_GE(s.error_value(), lo * (1 - 0.002)) << s.error;
+  EXPECT_LE(s.error_value(), hi * (1 + 0.002)) << s.error;
 }
 
 INSTANTIATE_TEST_SUITE_P(Eucsbademo, Sba16,
-                         ::testing::Values(Sba16Run{k7cams, 16, "0.675396", false},
-                                           Sba16Run{k9cams, 20, "0.619559", false},
-                                           Sba16Run{k54cams, 19, "0.176473", false},
-                                           Sba16Run{k7camsvarK, 55, "0.660449", true},
-                                           Sba16Run{k9camsvarK, 74, "0.599938", true},
-                                           Sba16Run{k54camsvarK, 45, "0.134928", false},
-                                           Sba16Run{k54camsvarKD, 42, "0.128779", false}),
+                         ::testing::Values(Sba16Run{k7cams, 16, 17, "0.675396", "0.675396", false},
+                                           Sba16Run{k9cams, 15, 20, "0.619559", "0.619559", false},
+                                           Sba16Run{k54cams, 19, 21, "0.176473", "0.176473", false},
+                                           Sba16Run{k7camsvarK, 52, 103, "0.65966", "0.660449", true},
+                                           Sba16Run{k9camsvarK, 51, 74, "0.599938", "0.600206", true},
+                                           Sba16Run{k54camsvarK, 36, 46, "0.134928", "0.134928", false},
+                                           Sba16Run{k54camsvarKD, 34, 43, "0.128779", "0.128779", false}),
                          [](const ::testing::TestParamInfo<Sba16Run> &info) {
                            return std::string(info.param.problem.name);
                          });
@@ -608,10 +609,13 @@ TEST_P(SameMinimum, AsThePublishedRun) {
   EXPECT_TRUE(same_to_digits(s.error, v.error, 5)) << s.error << " vs " << v.error;
 }
 
-// Only the fixed-K problems for --numeric-jacobian: with varying K, forward differences with
-// sba's step rule max(1e-4 |p|, 1e-6) (a step of about 0.1 for focal lengths around 1e3) make
-// LM stop at a different point: 54camsvarK stops with reason 2 at 0.176284 after 65 iterations
-// instead of 0.134928, and 7camsvarK is at 0.662794 after 150 (analytic: 0.658995).
+// --numeric-jacobian with varying K: 1.6's demo holds intrinsics only by zeroing their
+// analytic Jacobian columns, so its finite differences refine every intrinsic (its Method line
+// still says "2 fixed"), and so does ours unless --nccalib/--ncdist is given. 54camsvarK then
+// ends where 1.6's four runs end, at 0.167764 after 113 to 117 iterations: forward
+// differences with sba's step max(1e-4 |p|, 1e-6), about 0.1 for focal lengths around 1e3,
+// stop LM above the analytic minimum (0.134928). 7camsvarK's valley is flat: see
+// NumericJacobianRefinesEveryIntrinsicUnlessAsked.
 const Variant kVariants[] = {
     {k7cams, "--simple", "0.675396",
      "Method BA_MOTSTRUCT, simple driver, analytic Jacobian, without covariances, without distortion, "
@@ -631,6 +635,9 @@ const Variant kVariants[] = {
     {k54cams, "--numeric-jacobian", "0.176473",
      "Method BA_MOTSTRUCT, expert driver, approximate Jacobian, without covariances, without distortion, "
      "fixed intrinsics"},
+    {k54camsvarK, "--numeric-jacobian", "0.167764",
+     "Method BA_MOTSTRUCT, expert driver, approximate Jacobian, without covariances, without distortion, "
+     "variable intrinsics (2 fixed)"},
     // 9cams: motion alone leaves a mean squared error of 4.04939 > 4, so the demo restarts
     // with motion and structure (7cams stays below 4: see MotionThenMotStrKeepsMotionOnly).
     {k9cams, "--refine=mot-motstr", "0.619559",
@@ -647,6 +654,25 @@ INSTANTIATE_TEST_SUITE_P(Eucsbademo, SameMinimum, ::testing::ValuesIn(kVariants)
                              else if (c == '_') id += c;
                            return id;
                          });
+
+// 7camsvarK with --numeric-jacobian refines every intrinsic, as 1.6's demo does (its four runs
+// end at 0.658018 to 0.658677 after 35 to 62 iterations), while --nccalib=2 asked for holds
+// skew and aspect ratio (and LM runs into itmax above 0.66 in that model's flat valley).
+TEST(Eucsbademo, NumericJacobianRefinesEveryIntrinsicUnlessAsked) {
+  REQUIRE_DEMO_DATA();
+  Summary all, held;
+  const DemoRun run_all = run_problem(k7camsvarK, {"--numeric-jacobian"});
+  EXPECT_SUCCESSFUL_RUN(run_all, kVaryingBanner, all);
+  EXPECT_NE(all.method_line.find("approximate Jacobian"), std::string::npos) << all.method_line;
+  EXPECT_NE(all.method_line.find("variable intrinsics (2 fixed)"), std::string::npos) << all.method_line;
+  EXPECT_GE(all.error_value(), 0.658018 * (1 - 0.002));
+  EXPECT_LE(all.error_value(), 0.658677 * (1 + 0.002));
+  EXPECT_GE(all.iterations(), 35 / 1.25 - 3);
+  EXPECT_LE(all.iterations(), 1.25 * 62 + 3);
+  const DemoRun run_held = run_problem(k7camsvarK, {"--numeric-jacobian", "--nccalib=2"});
+  EXPECT_SUCCESSFUL_RUN(run_held, kVaryingBanner, held);
+  EXPECT_GT(held.error_value(), 0.66);
+}
 
 // 7cams: motion only ends at a mean squared error of 3.55953 < 4 (the brief's guess that it
 // exceeds 4 does not hold), so "motion, then motion and structure" keeps the motion-only result.
@@ -903,13 +929,16 @@ TEST(EucsbademoPly, CentresOfEveryCameraKind) {
 // f. Every linear solver reaches chol's minimum.
 //
 // The reference minima: the published ones, and for 7camsvarK and 9camsvarK, whose valley is
-// flat, chol's (it stops there with reason 4 at errors that are those of the minimum to 6
-// digits, lower than sba 1.6's: see Sba16 above).
+// flat, chol's at --itmax 1000. On the varying-K problems the comparison runs with
+// sba-clean-retry, whose retries damp the undamped blocks: with 1.6's retries (the default), a
+// rejected step restarts the damping high, and stop 4 then ends the run wherever along a flat
+// valley that happens, which says nothing about the solver (the default strategy's stops on
+// these problems are checked against 1.6's in FlatValleysStopWhere16Stops).
 //
-// Measured (Release, 2 threads, OpenBLAS) with --itmax 2000, every solver reaches chol's
-// minimum on every problem; the varying-K problems are badly conditioned (focal lengths around
-// 1e3 next to rotations around 1e-2), and the solvers other than chol, ldl-amd and sparse-chol
-// take more iterations there:
+// Measured (Release, 2 threads, OpenBLAS) with --itmax 2000 and sba-clean-retry, every solver
+// reaches chol's minimum on every problem; the varying-K problems are badly conditioned (focal
+// lengths around 1e3 next to rotations around 1e-2), and the solvers other than chol, ldl-amd
+// and sparse-chol take more iterations there:
 //   7camsvarK / 9camsvarK: chol 200 / 173, ldlt 495 / 521, bk 389 / 398, lu 445 / 274,
 //     qr 634 / 1025, qrnoq 802 / 787, svd 211 / 164, cg 120 / 109, ldl-amd 185 / 183,
 //     sparse-chol 192 / 176 iterations (0.6..6 s each);
@@ -923,11 +952,13 @@ struct SolverCase {
   const char *solver;
   int itmax;          // 0: the default
   const char *error;  // chol's minimum
+  const char *strategy;  // null: the default
 };
 
 void PrintTo(const SolverCase &c, std::ostream *os) {
   *os << c.problem.name << " --solver=" << c.solver;
   if (c.itmax > 0) *os << " --itmax=" << c.itmax;
+  if (c.strategy) *os << " --strategy=" << c.strategy;
 }
 
 enum class Tier { Default, Long };
@@ -940,6 +971,7 @@ class Solvers : public ::testing::TestWithParam<SolverCase> {
     const SolverCase &c = GetParam();
     std::vector<std::string> options{"--solver", c.solver};
     if (c.itmax > 0) options.push_back("--itmax=" + std::to_string(c.itmax));
+    if (c.strategy) options.push_back(std::string("--strategy=") + c.strategy);
     const DemoRun run = run_problem(c.problem, options);
     Summary s;
     EXPECT_SUCCESSFUL_RUN(run, c.problem.banner, s);
@@ -957,7 +989,8 @@ TEST_P(SolversLong, ReachCholsMinimum) { check(Tier::Long); }
 
 std::vector<SolverCase> solver_cases(const DemoProblem &p, int itmax, const char *error,
                                      const std::vector<std::string> &only = {},
-                                     const std::vector<std::string> &except = {}) {
+                                     const std::vector<std::string> &except = {},
+                                     const char *strategy = nullptr) {
   static std::vector<std::string> names;  // kept alive: SolverCase points into them
   if (names.empty()) {
     std::istringstream in(sba_linsolver_names());
@@ -967,7 +1000,7 @@ std::vector<SolverCase> solver_cases(const DemoProblem &p, int itmax, const char
   for (const std::string &n : names) {
     if (!only.empty() && std::find(only.begin(), only.end(), n) == only.end()) continue;
     if (std::find(except.begin(), except.end(), n) != except.end()) continue;
-    cases.push_back({p, n.c_str(), itmax, error});
+    cases.push_back({p, n.c_str(), itmax, error, strategy});
   }
   return cases;
 }
@@ -979,6 +1012,7 @@ std::vector<SolverCase> concat(std::vector<std::vector<SolverCase>> parts) {
 }
 
 constexpr int kLongItmax = 1000;
+const char *const kCleanRetry = "sba-clean-retry";
 const char *const k7camsvarKMinimum = "0.658995";  // chol, --itmax 1000
 const char *const k9camsvarKMinimum = "0.599884";
 
@@ -996,19 +1030,41 @@ INSTANTIATE_TEST_SUITE_P(
         solver_cases(k7cams, 0, "0.675396"),
         solver_cases(k9cams, 0, "0.619559"),
         solver_cases(k54cams, 0, "0.176473"),
-        solver_cases(k7camsvarK, 2 * kLongItmax, k7camsvarKMinimum),
-        solver_cases(k9camsvarK, 2 * kLongItmax, k9camsvarKMinimum),
-        solver_cases(k54camsvarK, 0, "0.134928", {"ldl-amd", "sparse-chol", "lu", "bk", "cg", "iterative-schur"}),
+        solver_cases(k7camsvarK, 2 * kLongItmax, k7camsvarKMinimum, {}, {}, kCleanRetry),
+        solver_cases(k9camsvarK, 2 * kLongItmax, k9camsvarKMinimum, {}, {}, kCleanRetry),
+        solver_cases(k54camsvarK, 0, "0.134928", {"ldl-amd", "sparse-chol", "lu", "bk", "cg", "iterative-schur"}, {},
+                     kCleanRetry),
     })),
     solver_case_name);
 
 INSTANTIATE_TEST_SUITE_P(
     Eucsbademo, SolversLong,
     ::testing::ValuesIn(concat({
-        solver_cases(k54camsvarK, 0, "0.134928", {"ldlt", "qrnoq", "svd"}),
-        solver_cases(k54camsvarK, 2 * kLongItmax, "0.134928", {"qr"}),
+        solver_cases(k54camsvarK, 0, "0.134928", {"ldlt", "qrnoq", "svd"}, {}, kCleanRetry),
+        solver_cases(k54camsvarK, 2 * kLongItmax, "0.134928", {"qr"}, {}, kCleanRetry),
     })),
     solver_case_name);
+
+// The default strategy on the flat valleys, with every solver: 1.6's retries restart the
+// damping high after a rejected step and stop 4 ends the run along the valley, within 0.2% of
+// the range of 1.6's own four runs (Sba16 above), never at itmax. But for svd: its
+// pseudo-inverse solves the indefinite S of such a retry instead of failing, the damping is not
+// restarted, and it walks down the valley as the clean retries do, into itmax on 7camsvarK.
+TEST(Eucsbademo, FlatValleysStopWhere16Stops) {
+  REQUIRE_DEMO_DATA();
+  std::istringstream in(sba_linsolver_names());
+  for (std::string solver; in >> solver;)
+    for (const auto &[p, lo, hi] :
+         {std::tuple{&k7camsvarK, 0.65966, 0.660449}, std::tuple{&k9camsvarK, 0.599938, 0.600206}}) {
+      SCOPED_TRACE(std::string(p->name) + " --solver=" + solver);
+      Summary s;
+      const DemoRun run = run_problem(*p, {"--solver=" + solver});
+      EXPECT_SUCCESSFUL_RUN(run, p->banner, s);
+      EXPECT_TRUE(s.reason == "2" || s.reason == "4" || solver == "svd") << "reason " << s.reason;
+      EXPECT_GE(s.error_value(), lo * (1 - 0.002));
+      EXPECT_LE(s.error_value(), hi * (1 + 0.002));
+    }
+}
 
 // --solver against the environment: SBA_LINSOLVER still works without the option, and the option
 // wins over it.
@@ -1070,7 +1126,7 @@ TEST(Eucsbademo, TrustRegionReachesThePublishedMinimaInFewerIterations) {
   EXPECT_EQ(both.reason, "4");
   const DemoRun bad = run_problem(k9cams, {"--strategy=fast"});
   EXPECT_EQ(bad.status, 2) << bad;
-  EXPECT_NE(bad.err.find("expected one of: sba trust-region"), std::string::npos) << bad;
+  EXPECT_NE(bad.err.find("expected one of: sba sba-clean-retry trust-region"), std::string::npos) << bad;
 }
 
 // The result does not depend on the number of threads.
