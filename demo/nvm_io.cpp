@@ -150,10 +150,7 @@ bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::
     eucsba::Camera e;
     e.k.fu = c.f;
     e.k.u0 = e.k.v0 = 0;
-    // Scaled to unit norm here, where the norm is taken without overflow or underflow: any
-    // nonzero quaternion the reader lets through is a rotation.
-    const double norm = std::hypot(std::hypot(c.q[0], c.q[1]), std::hypot(c.q[2], c.q[3]));
-    e.q = {c.q[0] / norm, c.q[1] / norm, c.q[2] / norm, c.q[3] / norm};
+    e.q = eucsba::normalized_rotation({c.q[0], c.q[1], c.q[2], c.q[3]});
     double R[9];
     eucsba::rotation_matrix(e.q, R);
     sbademo::camera_translation(R, c.c, e.t.data());

@@ -216,6 +216,25 @@ TEST(Quaternion, NormalizedRotationHasUnitNormAndNonNegativeScalar) {
   EXPECT_NEAR(q.x, -1 / std::sqrt(6.25), 1e-15);  // negated with the scalar part
 }
 
+// The squares of components near 1e308 overflow and those near 1e-200 underflow: neither may
+// lose the rotation.
+TEST(Quaternion, NormalizedRotationOfAnyNonzeroSize) {
+  const double h = std::sqrt(0.5);
+  const struct {
+    Quaternion q, unit;
+  } cases[] = {{{1e308, 1e308, 0, 0}, {h, h, 0, 0}},
+               {{1.7e308, -1.7e308, 1.7e308, -1.7e308}, {0.5, -0.5, 0.5, -0.5}},
+               {{-1e-200, 0, 0, 1e-200}, {h, 0, 0, -h}},
+               {{0, 0, 4.9e-324, 0}, {0, 0, 1, 0}}};
+  for (const auto &c : cases) {
+    const Quaternion q = normalized_rotation(c.q);
+    EXPECT_NEAR(q.w, c.unit.w, 1e-15) << c.q.w;
+    EXPECT_NEAR(q.x, c.unit.x, 1e-15) << c.q.w;
+    EXPECT_NEAR(q.y, c.unit.y, 1e-15) << c.q.w;
+    EXPECT_NEAR(q.z, c.unit.z, 1e-15) << c.q.w;
+  }
+}
+
 TEST(CameraModel, ZeroCorrectionGivesTheInputRotation) {
   std::mt19937 rng(2);
   for (CameraKind kind : kAllKinds) {

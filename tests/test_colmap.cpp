@@ -372,6 +372,47 @@ TEST(Sbarefine, CommandLineErrors) {
                          "expresses SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV\n");
 }
 
+// A quaternion of any nonzero size is a rotation, in a COLMAP model (text and binary) as in
+// eucsbademo's camera file: components near 1e308, whose squares overflow, and near 1e-200,
+// whose squares underflow, refine as the unit quaternion does.
+TEST(Sbarefine, HugeAndTinyQuaternionsAreRotations) {
+  const std::string dir = temp_dir("quaternion_size");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 6, 80);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/unit", s.model, colmap::Encoding::Binary, &error)) << error;
+  const Outcome unit = run(dir + "/unit --write " + dir + "/unit-out");
+  ASSERT_EQ(unit.status, 0) << unit.err;
+  const double expected = final_error(unit.out);
+  colmap::Model refined;
+  ASSERT_TRUE(colmap::read_model(dir + "/unit-out", &refined, nullptr, &error)) << error;
+  const double demo_unit = eucsbademo_error(s.prefix + "-cams.txt " + s.prefix + "-pts.txt");
+  for (double scale : {1e308, 1e-200}) {
+    colmap::Model m = s.model;
+    for (colmap::Image &im : m.images)
+      for (double &v : im.q) v *= scale;
+    for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+      SCOPED_TRACE(std::to_string(scale) + (e == colmap::Encoding::Text ? " text" : " binary"));
+      const std::string in = dir + "/scaled", out = dir + "/out";
+      std::filesystem::remove_all(in);
+      std::filesystem::remove_all(out);
+      ASSERT_TRUE(colmap::write_model(in, m, e, &error)) << error;
+      const Outcome r = run(in + " --write " + out);
+      ASSERT_EQ(r.status, 0) << r.err;
+      EXPECT_NEAR(final_error(r.out), expected, 1e-9 * expected) << r.out;
+      // The same minimum; the gauge left free lets the poses differ in the eighth digit.
+      colmap::Model back;
+      ASSERT_TRUE(colmap::read_model(out, &back, nullptr, &error)) << error;
+      for (std::size_t j = 0; j < back.images.size(); ++j)
+        for (int k = 0; k < 4; ++k) EXPECT_NEAR(back.images[j].q[k], refined.images[j].q[k], 1e-6);
+    }
+    std::vector<eucsba::Camera> cameras = s.problem.cameras;
+    for (eucsba::Camera &c : cameras) c.q = {c.q.w * scale, c.q.x * scale, c.q.y * scale, c.q.z * scale};
+    ASSERT_TRUE(eucsba::write_cameras(dir + "/scaled-cams.txt", s.problem.kind, cameras));
+    EXPECT_NEAR(eucsbademo_error(dir + "/scaled-cams.txt " + s.prefix + "-pts.txt"), demo_unit, 1e-6 * demo_unit)
+        << scale;
+  }
+}
+
 // ---- Bundler ----
 
 bundler::Bundle make_bundle(const Scene &s) {
