@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "output_file.h"
+#include "text_tokens.h"
 
 namespace bal {
 namespace {
@@ -220,13 +221,9 @@ class Tokens {
     return errno == 0 && stop == tok_.c_str() + tok_.size();
   }
 
-  // The current token as a finite real number; the whole token must be the number (strtod
+  // The current token as a finite decimal number; the whole token must be the number (strtod
   // stops at a NUL inside it, which must not pass for the end).
-  bool real(double *v) const {
-    char *stop = nullptr;
-    *v = std::strtod(tok_.c_str(), &stop);
-    return stop == tok_.c_str() + tok_.size() && std::isfinite(*v);
-  }
+  bool real(double *v) const { return sbademo::decimal_number(tok_, v) && std::isfinite(*v); }
 
  private:
   // The byte at the read position, refilling the buffer; false at the end or on an error.

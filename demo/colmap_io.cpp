@@ -15,6 +15,7 @@
 #include <unordered_set>
 
 #include "output_file.h"
+#include "text_tokens.h"
 
 namespace colmap {
 
@@ -108,13 +109,10 @@ bool fail(std::string *error, const std::string &msg) {
   return false;
 }
 
-// A finite double, the whole token.
+// A finite decimal number, the whole token.
 bool parse_real(const std::string &tok, double *out) {
-  if (tok.empty()) return false;
-  errno = 0;
-  char *end = nullptr;
-  const double v = std::strtod(tok.c_str(), &end);
-  if (end != tok.c_str() + tok.size() || !std::isfinite(v)) return false;
+  double v;
+  if (!sbademo::decimal_number(tok, &v) || !std::isfinite(v)) return false;
   *out = v;
   return true;
 }

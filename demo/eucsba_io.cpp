@@ -14,6 +14,7 @@
 
 #include "bzip2_stream.h"
 #include "output_file.h"
+#include "text_tokens.h"
 
 namespace eucsba {
 
@@ -180,14 +181,11 @@ std::string quoted(const std::string &tok) {
   return q + "'";
 }
 
-// A finite double, or why the token is not one. The whole token must be read: strtod stops at
-// a NUL inside it, which must not pass for the end of the token.
+// A finite decimal number, or why the token is not one. The whole token must be read: strtod
+// stops at a NUL inside it, which must not pass for the end of the token.
 bool parse_real(const std::string &tok, double *value, std::string *why) {
-  const char *s = tok.c_str();
-  char *end = nullptr;
-  errno = 0;
-  const double v = std::strtod(s, &end);
-  if (end == s || end != s + tok.size()) {
+  double v;
+  if (!sbademo::decimal_number(tok, &v)) {
     *why = quoted(tok) + " is not a number";
     return false;
   }

@@ -176,6 +176,7 @@ TEST(BalReader, MalformedInputs) {
       {"x_nan", "1 1 1\n0 0 nan 1\n", "line 2: observation 0: x must be a finite number, got 'nan'"},
       {"y_inf", "1 1 1\n0 0 1 -inf\n", "observation 0: y must be a finite number, got '-inf'"},
       {"x_garbage", "1 1 1\n0 0 1.5x 1\n", "observation 0: x must be a finite number, got '1.5x'"},
+      {"x_hex", "1 1 1\n0 0 0x1p3 1\n", "observation 0: x must be a finite number, got '0x1p3'"},
       {"camera_value", "1 1 1\n0 0 1 1\n0 0 0 0 0 -5 abc 0 0\n1 2 3\n",
        "line 3: camera 0: f must be a finite number, got 'abc'"},
       {"point_value", "1 1 1\n0 0 1 1\n0 0 0 0 0 -5 500 0 0\n1 1e999 3\n",

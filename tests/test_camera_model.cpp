@@ -798,6 +798,9 @@ TEST_F(Files, BadCameraFiles) {
   expect_error(read_cameras(p, &cf), p, 4, "quaternion is zero");
   p = write("trailing.txt", "1 0 0 0 0 0 0x\n");
   expect_error(read_cameras(p, &cf), p, 1, "'0x' is not a number");
+  // strtod reads hexadecimal floats; no file of these formats is written with them.
+  p = write("hex.txt", "1 0 0 0 0x1p-2 0 0\n");
+  expect_error(read_cameras(p, &cf), p, 1, "'0x1p-2' is not a number");
 }
 
 TEST_F(Files, BadCalibrationFiles) {
@@ -810,6 +813,8 @@ TEST_F(Files, BadCalibrationFiles) {
   expect_error(read_calibration(p, &K), p, 1, "K has 0 rows");
   p = write("word.txt", "800 0 320\n0 eight 240\n0 0 1\n");
   expect_error(read_calibration(p, &K), p, 2, "'eight' is not a number");
+  p = write("hex.txt", "0x1p9 0 320\n0 800 240\n0 0 1\n");
+  expect_error(read_calibration(p, &K), p, 1, "'0x1p9' is not a number");
   p = write("nan.txt", "800 0 320\n0 800 240\n0 0 NaN\n");
   expect_error(read_calibration(p, &K), p, 3, "not a finite number");
   p = write("short.txt", "800 0 320\n0 800\n0 0 1\n");
@@ -890,6 +895,7 @@ TEST_F(Files, BadPointFiles) {
       {"truncated_triple", "1 2 3  2  0 10 20  1 30", "nframes is 2 but 5 values"},
       {"truncated_head", "1 2 3", "expected X Y Z nframes"},
       {"coordinate_word", "1 two 3  1  0 10 20", "'two' is not a number"},
+      {"coordinate_hex", "1 -0X2 3  1  0 10 20", "'-0X2' is not a number"},
       {"coordinate_nan", "1 2 nan  1  0 10 20", "not a finite number"},
       {"measurement_inf", "1 2 3  1  0 inf 20", "not a finite number"},
       {"cov_form_changes", "1 2 3  1  0 10 20 1 0 1", "inconsistent covariance form"},

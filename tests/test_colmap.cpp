@@ -164,6 +164,7 @@ TEST(ColmapReader, CameraTextErrors) {
       {"-1 PINHOLE 640 480 1 2 3 4\n", "c.txt:1: CAMERA_ID must be an integer from 0 to 4294967295, got '-1'"},
       {"1 PINHOLE 640 480 1 2 3 4\n1 PINHOLE 640 480 1 2 3 4\n", "c.txt:2: camera 1 appears twice"},
       {"1 PINHOLE 640\n", "c.txt:1: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[], found 3 values"},
+      {"1 PINHOLE 640 480 0x1p9 500 320 240\n", "c.txt:1: a camera parameter must be a finite number, got '0x1p9'"},
   };
   for (const Bad &b : cases) {
     std::vector<colmap::Camera> cams;
@@ -181,6 +182,7 @@ TEST(ColmapReader, ImageAndPointTextErrors) {
       {"1 1 0 0 0 0 0 0 1 a.png\n1 2 -2\n",
        "i.txt:2: POINT3D_ID must be -1 or an integer from 0 to 18446744073709551614, got '-2'"},
       {"1 1 0 0 0 0 inf 0 1 a.png\n\n", "i.txt:1: TY must be a finite number, got 'inf'"},
+      {"1 1 0 0 0 0x1 0 0 1 a.png\n\n", "i.txt:1: TX must be a finite number, got '0x1'"},
   };
   for (const Bad &b : images) {
     std::vector<colmap::Image> ims;
@@ -466,6 +468,7 @@ TEST(Bundler, ReaderErrors) {
       {"0 0 0\n1 2 3\n2 0 0 1 2 0 1 1 2\n", "b.out:15: point 0 is seen twice by camera 0"},
       {"0 0 0\n1 2 3\n1 1 0 1 2\n", "b.out:15: point 0 is seen by camera 1, which is not registered (f = 0)"},
       {"0 0 0\n1 2 3\n1 0 0 1 nan\n", "b.out:15: point 0 y must be a finite number, got 'nan'"},
+      {"0 0 0\n1 2 3\n1 0 0 0x1 2\n", "b.out:15: point 0 x must be a finite number, got '0x1'"},
       {"0 0 0\n1 2 3\n1 0 0 1 2\n7\n", "b.out:16: data after the last point"},
   };
   for (const Bad &b : points) {
@@ -495,6 +498,7 @@ TEST(Bundler, ImageList) {
       {"a.jpg 0 -500\n", "list.txt:1: the focal length must be a finite positive number, got '-500'"},
       {"a.jpg 0 nan\n", "list.txt:1: the focal length must be a finite positive number, got 'nan'"},
       {"a.jpg 0 500px\n", "list.txt:1: the focal length must be a finite positive number, got '500px'"},
+      {"a.jpg 0 0x1p9\n", "list.txt:1: the focal length must be a finite positive number, got '0x1p9'"},
   };
   for (const Bad &b : cases) {
     EXPECT_FALSE(bundler::parse_list(b.text, "list.txt", &list, &error)) << b.text;

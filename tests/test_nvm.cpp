@@ -142,6 +142,8 @@ TEST(NvmReader, Errors) {
       {"NVM_V3\n\n1\na.jpg -500 1 0 0 0 0 0 -5 0 0\n0\n",
        "n.nvm:4: camera 0 focal length must be positive, got -500"},
       {"NVM_V3\n\n1\na.jpg 500 0 0 0 0 0 0 -5 0 0\n0\n", "n.nvm:4: camera 0 quaternion is zero"},
+      {"NVM_V3\n\n1\na.jpg 0x1p9 1 0 0 0 0 0 -5 0 0\n0\n",
+       "n.nvm:4: camera 0 focal length must be a finite number, got '0x1p9'"},
       {"NVM_V3\n\n1\na.jpg 500 1 0 0 0 0 0 nan 0 0\n0\n", "n.nvm:4: camera 0 cz must be a finite number, got 'nan'"},
       {"NVM_V3\n\n1\na.jpg 500 1 0 0 0 0 0 -5 0 1\n0\n", "n.nvm:4: camera 0 must end with 0, got '1'"},
       {"NVM_V3\n\n1\na.jpg 500 1 0 0 0 0 0 -5 0\n\n\n",
