@@ -21,13 +21,16 @@ namespace colmap {
 
 namespace {
 
+using sbademo::g17;
+
 struct ModelInfo {
   const char *name;
   int params;
+  int focals;  // f, or fx and fy, leading the parameters
 };
 // Indexed by COLMAP's model id; ids 5 and up are COLMAP models without a counterpart here.
 constexpr ModelInfo kModels[] = {
-    {"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4}, {"SIMPLE_RADIAL", 4}, {"RADIAL", 5}, {"OPENCV", 8}};
+    {"SIMPLE_PINHOLE", 3, 1}, {"PINHOLE", 4, 2}, {"SIMPLE_RADIAL", 4, 1}, {"RADIAL", 5, 1}, {"OPENCV", 8, 2}};
 constexpr int kNumModels = sizeof(kModels) / sizeof(kModels[0]);
 // COLMAP's other models, named in the refusal so that the user knows what was found.
 constexpr const char *kOtherModels[] = {"OPENCV_FISHEYE", "FULL_OPENCV", "FOV", "SIMPLE_RADIAL_FISHEYE",
@@ -37,6 +40,24 @@ constexpr const char *kAccepted = "SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIA
 
 std::string unsupported_model(const std::string &model) {
   return "camera model " + model + " is not supported: sba's camera model expresses " + kAccepted;
+}
+
+// Why a camera's intrinsics are not a camera, empty when they are: a focal length must be
+// positive, and fy / fx (the aspect ratio sba keeps) a number neither infinite nor zero;
+// otherwise the solve would meet an infinite aspect ratio or a mirrored image, far from here.
+std::string bad_intrinsics(const Camera &c) {
+  const ModelInfo &m = kModels[c.model];
+  const std::string camera = "camera " + std::to_string(c.id) + ": " + m.name + "'s ";
+  static const char *const kFocal[2][2] = {{"f", ""}, {"fx", "fy"}};
+  for (int k = 0; k < m.focals; ++k) {
+    const double f = c.params[static_cast<std::size_t>(k)];
+    if (!(f > 0)) return camera + kFocal[m.focals - 1][k] + " must be positive, got " + g17(f);
+  }
+  if (m.focals == 2) {
+    const double ar = c.params[1] / c.params[0];
+    if (!std::isfinite(ar) || ar == 0) return camera + "aspect ratio fy / fx overflows or underflows";
+  }
+  return {};
 }
 
 std::string printable(const std::string &s) {
@@ -192,6 +213,7 @@ bool parse_cameras_text(const std::string &text, const std::string &name, std::v
     c.params.resize(static_cast<std::size_t>(np));
     for (int k = 0; k < np; ++k)
       if (!real_field(r, 4 + static_cast<std::size_t>(k), "a camera parameter", &c.params[k], error)) return false;
+    if (const std::string why = bad_intrinsics(c); !why.empty()) return fail(error, r.where() + why);
     if (!ids.insert(c.id).second) return fail(error, r.where() + "camera " + std::to_string(c.id) + " appears twice");
     cams.push_back(std::move(c));
   }
@@ -406,6 +428,7 @@ bool parse_cameras_binary(const std::string &bytes, const std::string &name, std
     c.params.resize(static_cast<std::size_t>(kModels[m].params));
     for (double &p : c.params)
       if (!r.real(&p, "a camera parameter", error)) return false;
+    if (const std::string why = bad_intrinsics(c); !why.empty()) return fail(error, r.where(at) + why);
     if (!ids.insert(c.id).second)
       return fail(error, r.where(at) + "camera " + std::to_string(c.id) + " appears twice");
     cams.push_back(std::move(c));
@@ -572,12 +595,6 @@ namespace {
 bool exists(const std::string &path) {
   struct stat st {};
   return ::stat(path.c_str(), &st) == 0;
-}
-
-std::string g17(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
 }
 
 }  // namespace

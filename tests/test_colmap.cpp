@@ -165,6 +165,12 @@ TEST(ColmapReader, CameraTextErrors) {
       {"1 PINHOLE 640 480 1 2 3 4\n1 PINHOLE 640 480 1 2 3 4\n", "c.txt:2: camera 1 appears twice"},
       {"1 PINHOLE 640\n", "c.txt:1: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[], found 3 values"},
       {"1 PINHOLE 640 480 0x1p9 500 320 240\n", "c.txt:1: a camera parameter must be a finite number, got '0x1p9'"},
+      {"1 PINHOLE 640 480 0 500 320 240\n", "c.txt:1: camera 1: PINHOLE's fx must be positive, got 0"},
+      {"1 PINHOLE 640 480 500 -500 320 240\n", "c.txt:1: camera 1: PINHOLE's fy must be positive, got -500"},
+      {"3 SIMPLE_RADIAL 640 480 -1e-300 320 240 0\n",
+       "c.txt:1: camera 3: SIMPLE_RADIAL's f must be positive, got -1e-300"},
+      {"2 OPENCV 640 480 1e-300 1e300 320 240 0 0 0 0\n",
+       "c.txt:1: camera 2: OPENCV's aspect ratio fy / fx overflows or underflows"},
   };
   for (const Bad &b : cases) {
     std::vector<colmap::Camera> cams;
@@ -222,6 +228,11 @@ TEST(ColmapReader, BinaryErrors) {
   EXPECT_EQ(error, "c.bin: byte " + std::to_string(f.cameras.size() - 8) + ": the file ends inside a camera parameter");
   EXPECT_FALSE(colmap::parse_images_binary(f.images + "x", "i.bin", &ims, &error));
   EXPECT_EQ(error, "i.bin: byte " + std::to_string(f.images.size()) + ": 1 bytes after the last record");
+  // A focal length that is not positive.
+  bad = f.cameras;
+  std::memset(&bad[32], 0, 8);  // the first camera's fx
+  EXPECT_FALSE(colmap::parse_cameras_binary(bad, "c.bin", &cams, &error));
+  EXPECT_EQ(error, "c.bin: byte 8: camera 100: OPENCV's fx must be positive, got 0");
   bad = f.images;
   bad[72] = '\n';  // the first image's name
   EXPECT_FALSE(colmap::parse_images_binary(bad, "i.bin", &ims, &error));
@@ -372,6 +383,13 @@ TEST(Sbarefine, CommandLineErrors) {
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.err, dir + "/cameras.txt:1: camera model OPENCV_FISHEYE is not supported: sba's camera model "
                          "expresses SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV\n");
+  // A focal length of 0 is named where it is read, not met in the solve as "p[3] is not finite".
+  write_file(dir + "/cameras.txt", "1 PINHOLE 640 480 0 500 320 240\n");
+  write_file(dir + "/images.txt", "1 1 0 0 0 0 0 5 1 a.png\n320 240 1\n2 1 0 0 0 1 0 5 1 b.png\n300 240 1\n");
+  write_file(dir + "/points3D.txt", "1 0 0 0 1 2 3 0.5 1 0 2 0\n");
+  r = run(dir + " --intrinsics none --mcon 2");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/cameras.txt:1: camera 1: PINHOLE's fx must be positive, got 0\n");
 }
 
 // A quaternion of any nonzero size is a rotation, in a COLMAP model (text and binary) as in
