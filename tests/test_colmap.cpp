@@ -23,6 +23,7 @@
 #include "colmap_io.h"
 #include "colmap_sba.h"
 #include "eucsba_io.h"
+#include "output_file.h"
 #include "sbagen.h"
 #include "sbarefine_runs.h"
 
@@ -431,6 +432,17 @@ TEST(Sbarefine, HugeAndTinyQuaternionsAreRotations) {
     EXPECT_NEAR(eucsbademo_error(dir + "/scaled-cams.txt " + s.prefix + "-pts.txt"), demo_unit, 1e-6 * demo_unit)
         << scale;
   }
+}
+
+// The full disk of the write error tests: /dev/full fails every write with ENOSPC, and the
+// message says so (the errno of the failed write, not of what came after it).
+TEST(OutputFile, FullDiskIsSaidAsSuch) {
+  if (::access("/dev/full", W_OK) != 0) GTEST_SKIP() << "no /dev/full";
+  std::string error;
+  EXPECT_FALSE(sbademo::write_whole_file("/dev/full", std::string(1 << 16, 'x'), &error));
+  EXPECT_EQ(error, "/dev/full: write failed: No space left on device");
+  EXPECT_FALSE(sbademo::write_whole_file("/dev/full", "x", &error));
+  EXPECT_EQ(error, "/dev/full: write failed: No space left on device");
 }
 
 // ---- Bundler ----
