@@ -592,6 +592,9 @@ bool read_whole_file(const std::string &path, bool text, std::string *out, std::
 
 namespace {
 
+// A model's files, the cameras first.
+constexpr const char *kFileNames[] = {"cameras", "images", "points3D"};
+
 bool exists(const std::string &path) {
   struct stat st {};
   return ::stat(path.c_str(), &st) == 0;
@@ -704,16 +707,35 @@ Files format_model(const Model &model, Encoding encoding) {
 }
 
 bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error) {
-  if (!exists(dir) && ::mkdir(dir.c_str(), 0777) != 0)
+  struct stat st {};
+  if (::stat(dir.c_str(), &st) == 0) {
+    if (!S_ISDIR(st.st_mode)) return fail(error, dir + ": not a directory");
+  } else if (::mkdir(dir.c_str(), 0777) != 0) {
     return fail(error, dir + ": cannot create the directory: " + std::strerror(errno));
+  }
   const Files files = format_model(model, encoding);
   const std::string base = dir.back() == '/' ? dir : dir + "/";
-  const char *ext = encoding == Encoding::Text ? ".txt" : ".bin";
-  const std::pair<std::string, const std::string *> out[] = {
-      {base + "cameras" + ext, &files.cameras}, {base + "images" + ext, &files.images},
-      {base + "points3D" + ext, &files.points}};
-  for (const auto &o : out)
-    if (!sbademo::write_whole_file(o.first, *o.second, error)) return false;
+  const bool text = encoding == Encoding::Text;
+  const std::string *content[] = {&files.cameras, &files.images, &files.points};
+  std::string paths[3];
+  for (int k = 0; k < 3; ++k) paths[k] = base + kFileNames[k] + (text ? ".txt" : ".bin");
+  // The model is replaced whole or not at all: its three files are renamed onto their names
+  // only once all three are written and closed (a full disk at the second leaves the model
+  // as it was, the temporaries removed with `out`).
+  sbademo::OutputFile out[3];
+  for (int k = 0; k < 3; ++k)
+    if (!sbademo::write_closed(paths[k], *content[k], &out[k], error)) return false;
+  for (int k = 0; k < 3; ++k) {
+    std::string why;
+    if (!out[k].publish(&why)) return fail(error, paths[k] + ": " + why);
+  }
+  // The other encoding's model goes, or a reader could take it for this one; its cameras file
+  // first, without which no reader takes the other two for a model.
+  for (const char *name : kFileNames) {
+    const std::string stale = base + name + (text ? ".bin" : ".txt");
+    if (std::remove(stale.c_str()) != 0 && errno != ENOENT)
+      return fail(error, stale + ": cannot remove the model of the other format: " + std::strerror(errno));
+  }
   return true;
 }
 

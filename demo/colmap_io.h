@@ -101,8 +101,11 @@ bool check_model(const Model &model, const std::string &name, std::string *error
 
 // Reads DIR/{cameras,images,points3D}.{txt,bin} (encoding from the files found, see above).
 bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::string *error);
-// Writes the three files into dir (created if missing). Text numbers have 17 significant
-// digits, so that they read back to the same doubles.
+// Writes the three files into dir (created if missing), all or none of them: they are
+// renamed onto their names once all three are written, and a failure before leaves every
+// file of dir as it was. Then the other encoding's files, if dir holds any, are removed, so
+// that dir holds one model. Text numbers have 17 significant digits, so that they read back
+// to the same doubles.
 bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error);
 
 // The same in memory: the three files' contents.

@@ -6,7 +6,8 @@
 // counter appended if that name is taken) and renamed onto the final name once it has been
 // written and closed without error. A run that fails or is killed midway therefore never leaves
 // a truncated file under the final name, and an existing file there stays as it was until the
-// new one replaces it. A stale FILE.tmp.* may remain only when the process is killed.
+// new one replaces it. A stale FILE.tmp.* may remain only when the process is killed. Files
+// that belong together (a COLMAP model's three) are all closed before any is renamed.
 //
 // Paths that are not (or do not lead to) regular files, such as /dev/null, /dev/stdout or a
 // FIFO, are written directly: renaming a temporary onto them would replace the device node or
@@ -72,7 +73,12 @@ class OutputFile {
 
   // Closes the file and gives it its final name. On a write, close or rename error returns
   // false with the reason in *why; the temporary is then removed and the final name untouched.
-  bool commit(std::string *why) {
+  bool commit(std::string *why) { return close(why) && publish(why); }
+
+  // commit() in two steps, for files that appear together: close() ends the writing (false,
+  // the temporary removed, on a write or close error), publish() renames the closed file onto
+  // its final name. A file closed and not published is removed with its OutputFile.
+  bool close(std::string *why) {
     if (!file_) {
       if (why) *why = "write failed: not open";
       return false;
@@ -86,6 +92,9 @@ class OutputFile {
       errno = err;
       return failed("write failed: ", why);
     }
+    return true;
+  }
+  bool publish(std::string *why) {
     if (!temp_.empty() && std::rename(temp_.c_str(), final_.c_str()) != 0) {
       const int rename_err = errno;
       discard();
@@ -163,15 +172,25 @@ class OutputFile {
   std::string temp_;   // the temporary, empty when writing in place or when none is open
 };
 
+// Writes text as the whole file path through *file and closes it, not yet published: false
+// with "PATH: why" in *error if it cannot.
+inline bool write_closed(const std::string &path, const std::string &text, OutputFile *file, std::string *error) {
+  std::string why;
+  if (file->open(path, &why)) {
+    std::fwrite(text.data(), 1, text.size(), file->get());
+    if (file->close(&why)) return true;
+  }
+  if (error) *error = path + ": " + why;
+  return false;
+}
+
 // Writes text as the whole file path (through OutputFile): false with "PATH: why" in *error
 // if it cannot.
 inline bool write_whole_file(const std::string &path, const std::string &text, std::string *error) {
   OutputFile file;
   std::string why;
-  if (file.open(path, &why)) {
-    std::fwrite(text.data(), 1, text.size(), file.get());
-    if (file.commit(&why)) return true;
-  }
+  if (!write_closed(path, text, &file, error)) return false;
+  if (file.publish(&why)) return true;
   if (error) *error = path + ": " + why;
   return false;
 }

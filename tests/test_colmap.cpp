@@ -4,11 +4,16 @@
 // through sbarefine against the same scene through eucsbademo's files.
 #include <gtest/gtest.h>
 
+#include <sys/mount.h>
+#include <sys/resource.h>
+#include <sys/statvfs.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -434,6 +439,32 @@ TEST(Sbarefine, HugeAndTinyQuaternionsAreRotations) {
   }
 }
 
+// The names of a model's files, sorted.
+std::vector<std::string> entries(const std::string &dir) {
+  std::vector<std::string> names;
+  for (const auto &e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+const std::vector<std::string> kBinaryFiles{"cameras.bin", "images.bin", "points3D.bin"};
+const std::vector<std::string> kTextFiles{"cameras.txt", "images.txt", "points3D.txt"};
+
+// The files of a directory, by name.
+std::vector<std::string> contents(const std::string &dir, const std::vector<std::string> &names) {
+  std::vector<std::string> out;
+  for (const std::string &n : names) out.push_back(read_file(dir + "/" + n));
+  return out;
+}
+
+// A model with every refined value changed, as a refinement would change it.
+colmap::Model moved(colmap::Model m) {
+  for (colmap::Camera &c : m.cameras) c.params[0] *= 1.01;
+  for (colmap::Image &im : m.images) im.t[2] += 0.25;
+  for (colmap::Point3D &p : m.points) p.xyz[0] += 0.5;
+  return m;
+}
+
 // The full disk of the write error tests: /dev/full fails every write with ENOSPC, and the
 // message says so (the errno of the failed write, not of what came after it).
 TEST(OutputFile, FullDiskIsSaidAsSuch) {
@@ -443,6 +474,116 @@ TEST(OutputFile, FullDiskIsSaidAsSuch) {
   EXPECT_EQ(error, "/dev/full: write failed: No space left on device");
   EXPECT_FALSE(sbademo::write_whole_file("/dev/full", "x", &error));
   EXPECT_EQ(error, "/dev/full: write failed: No space left on device");
+}
+
+// A model is replaced whole or not at all: when its second or third file cannot be written
+// (a file size limit stands for a full disk here), the files of the model are as they were
+// and no temporary is left.
+TEST(ColmapWriter, ReplacesAModelWholeOrNotAtAll) {
+  const std::string dir = temp_dir("whole_or_nothing");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  const colmap::Model changed = moved(s.model);
+  std::string error;
+  int failures = 0;
+  for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+    const std::vector<std::string> &names = e == colmap::Encoding::Text ? kTextFiles : kBinaryFiles;
+    const colmap::Files f = colmap::format_model(changed, e);
+    const std::size_t sizes[] = {f.cameras.size(), f.images.size(), f.points.size()};
+    for (int failing = 1; failing < 3; ++failing) {
+      // A limit that the files before the failing one fit and the failing one exceeds.
+      const std::size_t limit = *std::max_element(sizes, sizes + failing);
+      if (sizes[failing] <= limit) continue;
+      SCOPED_TRACE(names[static_cast<std::size_t>(failing)]);
+      const std::string model = dir + "/m";
+      std::filesystem::remove_all(model);
+      ASSERT_TRUE(colmap::write_model(model, s.model, e, &error)) << error;
+      const std::vector<std::string> before = contents(model, names);
+      rlimit old{};
+      ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
+      const rlimit low{static_cast<rlim_t>(limit), old.rlim_max};
+      const auto handler = std::signal(SIGXFSZ, SIG_IGN);
+      ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &low), 0);
+      const bool written = colmap::write_model(model, changed, e, &error);
+      ::setrlimit(RLIMIT_FSIZE, &old);
+      std::signal(SIGXFSZ, handler);
+      EXPECT_FALSE(written);
+      EXPECT_EQ(error, model + "/" + names[static_cast<std::size_t>(failing)] + ": write failed: File too large");
+      EXPECT_EQ(entries(model), names);
+      EXPECT_TRUE(contents(model, names) == before);
+      ++failures;
+    }
+  }
+  EXPECT_GE(failures, 2);  // the second file of each encoding at least
+  // The third file cannot be opened (a directory stands where points3D.bin should be): the
+  // first two are as they were.
+  const std::string model = dir + "/third";
+  ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Binary, &error)) << error;
+  const std::vector<std::string> first_two{kBinaryFiles[0], kBinaryFiles[1]};
+  const std::vector<std::string> before = contents(model, first_two);
+  std::filesystem::remove(model + "/points3D.bin");
+  std::filesystem::create_directory(model + "/points3D.bin");
+  EXPECT_FALSE(colmap::write_model(model, changed, colmap::Encoding::Binary, &error));
+  EXPECT_EQ(error, model + "/points3D.bin: cannot open for writing: Is a directory");
+  EXPECT_EQ(entries(model), kBinaryFiles);
+  EXPECT_TRUE(contents(model, first_two) == before);
+}
+
+// Writing a model in one format into a directory that holds the other replaces that one:
+// its files go, so that no reader finds the stale model beside the new one.
+TEST(ColmapWriter, WritingOneFormatRemovesTheOther) {
+  const std::string dir = temp_dir("other_format");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
+  const colmap::Model changed = moved(s.model);
+  const std::string model = dir + "/m";
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Text, &error)) << error;
+  ASSERT_TRUE(colmap::write_model(model, changed, colmap::Encoding::Binary, &error)) << error;
+  EXPECT_EQ(entries(model), kBinaryFiles);
+  colmap::Model back;
+  colmap::Encoding found;
+  ASSERT_TRUE(colmap::read_model(model, &back, &found, &error)) << error;
+  EXPECT_EQ(found, colmap::Encoding::Binary);
+  expect_same(back, changed);
+  ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Text, &error)) << error;
+  EXPECT_EQ(entries(model), kTextFiles);
+  ASSERT_TRUE(colmap::read_model(model, &back, &found, &error)) << error;
+  EXPECT_EQ(found, colmap::Encoding::Text);
+  expect_same(back, s.model);
+}
+
+// sbarefine --write into its own input model on a disk that fills at the second file: status
+// 1 with the disk's reason, the input model as it was, no temporary left. A small tmpfs is
+// the full disk; mounting one needs privileges the test may not have.
+TEST(Sbarefine, FullDiskLeavesTheInputModelAsItWas) {
+  const std::string dir = temp_dir("full_disk"), mnt = dir + "/mnt";
+  std::filesystem::create_directories(mnt);
+  if (::mount("tmpfs", mnt.c_str(), "tmpfs", 0, "size=2m") != 0)
+    GTEST_SKIP() << "cannot mount a tmpfs: " << std::strerror(errno);
+  struct Unmount {
+    std::string path;
+    ~Unmount() { ::umount2(path.c_str(), MNT_DETACH); }
+  } unmount{mnt};
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  const std::string model = mnt + "/model";
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Binary, &error)) << error;
+  const std::vector<std::string> before = contents(model, kBinaryFiles);
+  // All but one page taken: the new cameras.bin fits in it, images.bin does not.
+  const colmap::Files f = colmap::format_model(s.model, colmap::Encoding::Binary);
+  ASSERT_LE(f.cameras.size(), 4096u);
+  ASSERT_GT(f.images.size(), 4096u);
+  struct statvfs fs {};
+  ASSERT_EQ(::statvfs(mnt.c_str(), &fs), 0);
+  ASSERT_EQ(fs.f_frsize, 4096u);
+  write_file(mnt + "/filler", std::string((fs.f_bavail - 1) * fs.f_frsize, 'x'));
+  ASSERT_EQ(::statvfs(mnt.c_str(), &fs), 0);
+  ASSERT_EQ(fs.f_bavail, 1u);
+  const Outcome r = run(model + " --write " + model);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, model + "/images.bin: write failed: No space left on device\n");
+  EXPECT_EQ(r.out, "");
+  EXPECT_EQ(entries(model), kBinaryFiles);
+  EXPECT_TRUE(contents(model, kBinaryFiles) == before);
 }
 
 // ---- Bundler ----
