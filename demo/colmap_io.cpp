@@ -458,9 +458,13 @@ bool parse_images_binary(const std::string &bytes, const std::string &name, std:
     if (im.q[0] == 0 && im.q[1] == 0 && im.q[2] == 0 && im.q[3] == 0)
       return fail(error, r.where(at) + "image " + std::to_string(im.id) + ": the quaternion is zero");
     if (!r.u32(&im.camera_id, "CAMERA_ID", error) || !r.cstring(&im.name, "the image name", error)) return false;
-    // The text format keeps a name on one line, after at least one character.
-    if (im.name.empty() || im.name.find_first_of("\r\n") != std::string::npos)
-      return fail(error, r.where(at) + "image " + std::to_string(im.id) + ": an empty name or one with a line break");
+    // The text format keeps a name on one line, between blanks that its reader trims: a name
+    // it cannot hold is refused here, not lost or made unreadable by a rewrite as text.
+    if (im.name.empty() || im.name.find_first_of("\r\n") != std::string::npos || is_blank(im.name.front()) ||
+        is_blank(im.name.back()))
+      return fail(error, r.where(at) + "image " + std::to_string(im.id) +
+                             ": the name is empty, holds a line break or begins or ends with a blank, which the "
+                             "text format cannot hold");
     std::uint64_t np;
     if (!r.count(&np, 24, "the number of POINTS2D", error)) return false;
     im.points.resize(static_cast<std::size_t>(np));

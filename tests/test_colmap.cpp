@@ -239,10 +239,15 @@ TEST(ColmapReader, BinaryErrors) {
   std::memset(&bad[32], 0, 8);  // the first camera's fx
   EXPECT_FALSE(colmap::parse_cameras_binary(bad, "c.bin", &cams, &error));
   EXPECT_EQ(error, "c.bin: byte 8: camera 100: OPENCV's fx must be positive, got 0");
-  bad = f.images;
-  bad[72] = '\n';  // the first image's name
-  EXPECT_FALSE(colmap::parse_images_binary(bad, "i.bin", &ims, &error));
-  EXPECT_EQ(error, "i.bin: byte 8: image 10: an empty name or one with a line break");
+  // Names the text format cannot hold: a line break, blanks only, a blank at either end.
+  ASSERT_EQ(f.images.substr(72, 13), std::string("img_0000.png\0", 13));
+  for (const char *name : {"img_\n000.png", "            ", " img_000.png", "img_000.png\t"}) {
+    bad = f.images;
+    bad.replace(72, 12, name);
+    EXPECT_FALSE(colmap::parse_images_binary(bad, "i.bin", &ims, &error)) << name;
+    EXPECT_EQ(error, "i.bin: byte 8: image 10: the name is empty, holds a line break or begins or ends with a "
+                     "blank, which the text format cannot hold");
+  }
   bad = f.points;
   bad[7] = 1;
   EXPECT_FALSE(colmap::parse_points_binary(bad, "p.bin", &pts, &error));
