@@ -577,6 +577,12 @@ bool check_model(const Model &model, const std::string &name, std::string *error
 bool read_whole_file(const std::string &path, bool text, std::string *out, std::string *error) {
   std::FILE *f = std::fopen(path.c_str(), "rb");
   if (!f) return fail(error, path + ": cannot open: " + std::strerror(errno));
+  // fopen opens a directory for reading, whose reading then fails without saying why.
+  struct stat st {};
+  if (::fstat(fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {
+    std::fclose(f);
+    return fail(error, path + ": is a directory");
+  }
   std::string data;
   char buf[1 << 16];
   std::size_t got;
@@ -599,29 +605,49 @@ namespace {
 // A model's files, the cameras first.
 constexpr const char *kFileNames[] = {"cameras", "images", "points3D"};
 
-bool exists(const std::string &path) {
+const char *extension(Encoding encoding) { return encoding == Encoding::Text ? ".txt" : ".bin"; }
+
+std::string slashed(const std::string &dir) { return dir.empty() || dir.back() == '/' ? dir : dir + "/"; }
+
+// A model's file: a regular file, or its reading would never end (/dev/zero) or fail
+// without saying why (a directory).
+bool read_model_file(const std::string &path, bool text, std::string *out, std::string *error) {
   struct stat st {};
-  return ::stat(path.c_str(), &st) == 0;
+  if (::stat(path.c_str(), &st) != 0) return fail(error, path + ": cannot open: " + std::strerror(errno));
+  if (S_ISDIR(st.st_mode)) return fail(error, path + ": is a directory");
+  if (!S_ISREG(st.st_mode)) return fail(error, path + ": not a regular file");
+  return read_whole_file(path, text, out, error);
 }
 
 }  // namespace
 
+bool model_encoding(const std::string &dir, Encoding *out, std::string *error) {
+  for (Encoding e : {Encoding::Text, Encoding::Binary}) {
+    const std::string path = slashed(dir) + "cameras" + extension(e);
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0) {
+      *out = e;
+      return true;
+    }
+    // A symbolic link loop or a directory that cannot be searched is said as it is.
+    if (errno != ENOENT && errno != ENOTDIR) return fail(error, path + ": cannot open: " + std::strerror(errno));
+  }
+  return fail(error, dir + ": no COLMAP model (cameras.txt or cameras.bin)");
+}
+
 bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::string *error) {
-  const std::string base = dir.empty() || dir.back() == '/' ? dir : dir + "/";
   Encoding enc;
-  if (exists(base + "cameras.txt")) enc = Encoding::Text;
-  else if (exists(base + "cameras.bin")) enc = Encoding::Binary;
-  else return fail(error, dir + ": no COLMAP model (cameras.txt or cameras.bin)");
+  if (!model_encoding(dir, &enc, error)) return false;
   const bool text = enc == Encoding::Text;
-  const char *ext = text ? ".txt" : ".bin";
-  const std::string pc = base + "cameras" + ext, pi = base + "images" + ext, pp = base + "points3D" + ext;
+  const std::string pc = slashed(dir) + "cameras" + extension(enc), pi = slashed(dir) + "images" + extension(enc),
+                    pp = slashed(dir) + "points3D" + extension(enc);
   Model m;
   std::string content;
-  if (!read_whole_file(pc, text, &content, error)) return false;
+  if (!read_model_file(pc, text, &content, error)) return false;
   if (!(text ? parse_cameras_text : parse_cameras_binary)(content, pc, &m.cameras, error)) return false;
-  if (!read_whole_file(pi, text, &content, error)) return false;
+  if (!read_model_file(pi, text, &content, error)) return false;
   if (!(text ? parse_images_text : parse_images_binary)(content, pi, &m.images, error)) return false;
-  if (!read_whole_file(pp, text, &content, error)) return false;
+  if (!read_model_file(pp, text, &content, error)) return false;
   if (!(text ? parse_points_text : parse_points_binary)(content, pp, &m.points, error)) return false;
   if (!check_model(m, dir, error)) return false;
   *out = std::move(m);
@@ -718,11 +744,9 @@ bool write_model(const std::string &dir, const Model &model, Encoding encoding, 
     return fail(error, dir + ": cannot create the directory: " + std::strerror(errno));
   }
   const Files files = format_model(model, encoding);
-  const std::string base = dir.back() == '/' ? dir : dir + "/";
-  const bool text = encoding == Encoding::Text;
   const std::string *content[] = {&files.cameras, &files.images, &files.points};
   std::string paths[3];
-  for (int k = 0; k < 3; ++k) paths[k] = base + kFileNames[k] + (text ? ".txt" : ".bin");
+  for (int k = 0; k < 3; ++k) paths[k] = slashed(dir) + kFileNames[k] + extension(encoding);
   // The model is replaced whole or not at all: its three files are renamed onto their names
   // only once all three are written and closed (a full disk at the second leaves the model
   // as it was, the temporaries removed with `out`).
@@ -735,8 +759,9 @@ bool write_model(const std::string &dir, const Model &model, Encoding encoding, 
   }
   // The other encoding's model goes, or a reader could take it for this one; its cameras file
   // first, without which no reader takes the other two for a model.
+  const Encoding other = encoding == Encoding::Text ? Encoding::Binary : Encoding::Text;
   for (const char *name : kFileNames) {
-    const std::string stale = base + name + (text ? ".bin" : ".txt");
+    const std::string stale = slashed(dir) + name + extension(other);
     if (std::remove(stale.c_str()) != 0 && errno != ENOENT)
       return fail(error, stale + ": cannot remove the model of the other format: " + std::strerror(errno));
   }

@@ -3,10 +3,14 @@
 // sparse model, text or binary, a Bundler bundle.out or a VisualSFM NVM file), written back
 // in its own format with every identifier, name and color unchanged. The solve is balsba's:
 // same options, output and Ctrl-C behaviour.
+#include <sys/stat.h>
+
 #include <array>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <functional>
 #include <memory>
@@ -186,6 +190,16 @@ Format detect_format(const std::string &path) {
   return h.compare(0, 6, "NVM_V3") == 0 ? Format::Nvm : Format::Colmap;
 }
 
+// Looks at path without reading it: false with "PATH: cannot open: REASON" when it cannot be
+// looked at (a symbolic link loop, a permission). A missing path is the COLMAP reader's to
+// report.
+bool look_at_input(const std::string &path, std::string *error) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 || errno == ENOENT) return true;
+  *error = path + ": cannot open: " + std::strerror(errno);
+  return false;
+}
+
 // The state a job's callbacks point into, kept alive for the whole run.
 struct Loaded {
   colmap::Model model;
@@ -341,6 +355,10 @@ int refine_main(int argc, char **argv) {
   sbademo::SolveOptions &so = o.solve;
   if (!sbademo::outputs_writable({&so.json, &o.initial_ply, &o.final_ply, &o.write_bal, &o.write_list}))
     return kExitFailure;
+  if (!look_at_input(o.input, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
 
   const auto read_start = std::chrono::steady_clock::now();
   Loaded loaded;

@@ -29,6 +29,7 @@
 #include "colmap_sba.h"
 #include "eucsba_io.h"
 #include "output_file.h"
+#include "sanitized.h"
 #include "sbagen.h"
 #include "sbarefine_runs.h"
 
@@ -589,6 +590,41 @@ TEST(Sbarefine, FullDiskLeavesTheInputModelAsItWas) {
   EXPECT_EQ(r.out, "");
   EXPECT_EQ(entries(model), kBinaryFiles);
   EXPECT_TRUE(contents(model, kBinaryFiles) == before);
+}
+
+// What stands where a model's file should be is said as it is: a symbolic link loop, a
+// directory, a device (/dev/zero, which is refused before it is read).
+TEST(Sbarefine, ModelFilesThatAreNotFiles) {
+  const std::string dir = temp_dir("not_files");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
+  std::string error;
+  const std::string kLoop = ": cannot open: Too many levels of symbolic links\n";
+  std::filesystem::create_symlink("loop", dir + "/loop");
+  Outcome r = run(dir + "/loop");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/loop" + kLoop);
+  ASSERT_TRUE(colmap::write_model(dir + "/a", s.model, colmap::Encoding::Text, &error)) << error;
+  std::filesystem::remove(dir + "/a/cameras.txt");
+  std::filesystem::create_symlink("cameras.txt", dir + "/a/cameras.txt");
+  r = run(dir + "/a");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/a/cameras.txt" + kLoop);
+  std::filesystem::remove(dir + "/a/cameras.txt");
+  std::filesystem::create_directory(dir + "/a/cameras.txt");
+  r = run(dir + "/a");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/a/cameras.txt: is a directory\n");
+  ASSERT_TRUE(colmap::write_model(dir + "/b", s.model, colmap::Encoding::Binary, &error)) << error;
+  std::filesystem::remove(dir + "/b/cameras.bin");
+  std::filesystem::create_symlink("/dev/zero", dir + "/b/cameras.bin");
+#ifdef SBA_TEST_SANITIZED
+  const std::string limit;  // a sanitizer reserves more address space than any limit
+#else
+  const std::string limit = "ulimit -v 2000000; ";  // a reading of /dev/zero ends here
+#endif
+  r = run(dir + "/b", limit);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/b/cameras.bin: not a regular file\n");
 }
 
 // ---- Bundler ----
