@@ -574,6 +574,17 @@ bool check_model(const Model &model, const std::string &name, std::string *error
 
 // ---- files ----
 
+bool read_rest(std::FILE *f, const std::string &path, bool text, std::string *out, std::string *error) {
+  char buf[1 << 16];
+  std::size_t got;
+  while ((got = std::fread(buf, 1, sizeof buf, f)) > 0) {
+    if (text && std::memchr(buf, '\0', got)) return fail(error, path + ": a NUL byte: not a text file");
+    out->append(buf, got);
+  }
+  if (std::ferror(f)) return fail(error, path + ": read error");
+  return true;
+}
+
 bool read_whole_file(const std::string &path, bool text, std::string *out, std::string *error) {
   std::FILE *f = std::fopen(path.c_str(), "rb");
   if (!f) return fail(error, path + ": cannot open: " + std::strerror(errno));
@@ -584,18 +595,9 @@ bool read_whole_file(const std::string &path, bool text, std::string *out, std::
     return fail(error, path + ": is a directory");
   }
   std::string data;
-  char buf[1 << 16];
-  std::size_t got;
-  while ((got = std::fread(buf, 1, sizeof buf, f)) > 0) {
-    if (text && std::memchr(buf, '\0', got)) {
-      std::fclose(f);
-      return fail(error, path + ": a NUL byte: not a text file");
-    }
-    data.append(buf, got);
-  }
-  const bool bad = std::ferror(f) != 0;
+  const bool read = read_rest(f, path, text, &data, error);
   std::fclose(f);
-  if (bad) return fail(error, path + ": read error");
+  if (!read) return false;
   *out = std::move(data);
   return true;
 }

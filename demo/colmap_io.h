@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -124,6 +125,9 @@ Files format_model(const Model &model, Encoding encoding);
 // the reading stops at the first. False with "<path>: <message>" on failure ("is a
 // directory" for one).
 bool read_whole_file(const std::string &path, bool text, std::string *out, std::string *error);
+// The same for what is left of an open stream (a pipe whose first bytes were read), appended
+// to *out; path names it in messages.
+bool read_rest(std::FILE *f, const std::string &path, bool text, std::string *out, std::string *error);
 
 }  // namespace colmap
 

@@ -772,6 +772,20 @@ TEST(Sbarefine, BundlerSameErrorAsEucsbademo) {
   EXPECT_NE(read_file(dir + "/i.ply").find("element vertex 210\n"), std::string::npos);
 }
 
+// A bundle on a pipe is read once, as a file is.
+TEST(Sbarefine, BundlerReadsAPipe) {
+  const std::string dir = temp_dir("bundler_pipe");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 60);
+  std::string error;
+  ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", make_bundle(s), &error)) << error;
+  const Outcome file = run(dir + "/b.out --write " + dir + "/file.out");
+  ASSERT_EQ(file.status, 0) << file.err;
+  const Outcome pipe = run("/dev/stdin --write " + dir + "/pipe.out", "cat " + dir + "/b.out | ");
+  ASSERT_EQ(pipe.status, 0) << pipe.err;
+  EXPECT_EQ(final_error(pipe.out), final_error(file.out));
+  EXPECT_EQ(read_file(dir + "/pipe.out"), read_file(dir + "/file.out"));
+}
+
 // The image list names the registered cameras in --json and in messages, is checked against
 // the bundle and written back as read.
 TEST(Sbarefine, BundlerImageList) {

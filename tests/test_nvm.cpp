@@ -345,6 +345,20 @@ TEST(SbarefineNvm, ConvertsToEucsbademo) {
               1e-6 * e.expected);
 }
 
+// A file on a pipe is read once: the format is told from the bytes read, not from a second
+// opening of the file.
+TEST(SbarefineNvm, ReadsAPipe) {
+  const Refinement e = make_refinement("nvm_pipe");
+  std::string error;
+  ASSERT_TRUE(nvm::write_nvm(e.dir + "/in.nvm", make_model(e.problem), &error)) << error;
+  const Outcome file = run(e.dir + "/in.nvm --write " + e.dir + "/file.nvm");
+  ASSERT_EQ(file.status, 0) << file.err;
+  const Outcome pipe = run("/dev/stdin --write " + e.dir + "/pipe.nvm", "cat " + e.dir + "/in.nvm | ");
+  ASSERT_EQ(pipe.status, 0) << pipe.err;
+  EXPECT_NEAR(final_error(pipe.out), e.expected, 1e-6 * e.expected) << pipe.out;
+  EXPECT_EQ(read_file(e.dir + "/pipe.nvm"), read_file(e.dir + "/file.nvm"));
+}
+
 TEST(SbarefineNvm, CommandLineErrors) {
   const std::string dir = temp_dir("nvm_cli");
   const std::string nvm_file = dir + "/m.nvm";
