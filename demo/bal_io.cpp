@@ -64,10 +64,12 @@ class StringSource : public Source {
   std::size_t pos_ = 0;
 };
 
+// head: the bytes already read from f (to tell text from bzip2), given back first.
 class PlainSource : public Source {
  public:
-  explicit PlainSource(std::FILE *f) : f_(f) {}
+  PlainSource(std::FILE *f, const std::string &head) : f_(f), head_(head) {}
   std::size_t read(char *buf, std::size_t n) override {
+    if (const std::size_t got = head_.read(buf, n)) return got;
     const std::size_t got = std::fread(buf, 1, n, f_);
     if (got == 0 && std::ferror(f_)) error_ = std::string("read error: ") + std::strerror(errno);
     return got;
@@ -75,6 +77,7 @@ class PlainSource : public Source {
 
  private:
   std::FILE *f_;
+  StringSource head_;
 };
 
 std::string bz_message(int code) {
@@ -87,10 +90,11 @@ std::string bz_message(int code) {
   }
 }
 
-// Every bzip2 stream in f, one after the other (pbzip2 writes several).
+// Every bzip2 stream in f, one after the other (pbzip2 writes several); head: the bytes
+// already read from f, the first stream's start.
 class Bzip2Source : public Source {
  public:
-  explicit Bzip2Source(std::FILE *f) : f_(f) {}
+  Bzip2Source(std::FILE *f, const std::string &head) : f_(f), unused_(head.begin(), head.end()) {}
   ~Bzip2Source() override { close(); }
   Bzip2Source(const Bzip2Source &) = delete;
   Bzip2Source &operator=(const Bzip2Source &) = delete;
@@ -398,16 +402,15 @@ bool parse_problem(const std::string &text, const std::string &name, Problem *ou
 bool read_problem(const std::string &path, Problem *out, std::string *error) {
   File f(std::fopen(path.c_str(), "rb"));
   if (!f) return fail(error, path, std::string("cannot open: ") + std::strerror(errno));
-  char magic[3] = {0, 0, 0};
-  const std::size_t nmagic = std::fread(magic, 1, 3, f.get());
-  std::rewind(f.get());
-  const bool bz2 = nmagic == 3 && magic[0] == 'B' && magic[1] == 'Z' && magic[2] == 'h';
-  if (!bz2) {
-    PlainSource source(f.get());
+  // The magic bytes are read once and handed on, not rewound over: a pipe cannot rewind.
+  char magic[3];
+  const std::string head(magic, std::fread(magic, 1, sizeof magic, f.get()));
+  if (head != "BZh") {
+    PlainSource source(f.get(), head);
     Tokens tok(&source);
     return parse(tok, path, out, error);
   }
-  Bzip2Source source(f.get());
+  Bzip2Source source(f.get(), head);
   Tokens tok(&source);
   if (parse(tok, path, out, error)) return true;
   if (source.error().empty()) {

@@ -18,6 +18,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "bal_io.h"
@@ -315,6 +316,36 @@ TEST(BalWriter, RoundTripPlainAndBzip2) {
 
   EXPECT_FALSE(bal::write_problem("/nonexistent-dir/x.txt", p, &error));
   EXPECT_EQ(error.rfind("/nonexistent-dir/x.txt: cannot open for writing: ", 0), 0u) << error;
+}
+
+// A problem on a pipe, plain or compressed: the bytes that tell bzip2 from text are read
+// once, not read and then rewound (which a pipe cannot do).
+TEST(BalReader, ReadsAPipe) {
+  bal::Problem p;
+  std::string error;
+  const std::string camera = "0 0 0 0 0 -5 500 0 0\n";
+  ASSERT_TRUE(bal::parse_problem("2 2 3\n0 0 1 1\n1 0 2 2\n1 1 3 3\n" + camera + camera + "1 2 3\n4 5 6\n", "p.txt", &p,
+                                 &error))
+      << error;
+  p.cameras[4] = 0.1 + 0.2;
+  for (const char *name : {"piped.txt", "piped.txt.bz2"}) {
+    const std::string file = temp_path(name), fifo = temp_path("pipe");
+    ASSERT_TRUE(bal::write_problem(file, p, &error)) << error;
+    std::remove(fifo.c_str());
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    std::thread writer([&] {
+      std::ifstream in(file, std::ios::binary);
+      std::ofstream(fifo, std::ios::binary) << in.rdbuf();
+    });
+    bal::Problem q;
+    const bool read = bal::read_problem(fifo, &q, &error);
+    writer.join();
+    EXPECT_TRUE(read) << name << ": " << error;
+    EXPECT_EQ(q.nobservations(), 3) << name;
+    EXPECT_EQ(q.cameras, p.cameras) << name;
+    EXPECT_EQ(q.points, p.points) << name;
+    std::remove(fifo.c_str());
+  }
 }
 
 TEST(BalWriter, FromSbaParams) {
