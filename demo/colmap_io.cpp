@@ -738,13 +738,40 @@ Files format_model(const Model &model, Encoding encoding) {
   return f;
 }
 
-bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error) {
+namespace {
+
+// dir as a directory to write a model into: made when missing (*made then true).
+bool make_directory(const std::string &dir, bool *made, std::string *error) {
   struct stat st {};
-  if (::stat(dir.c_str(), &st) == 0) {
-    if (!S_ISDIR(st.st_mode)) return fail(error, dir + ": not a directory");
-  } else if (::mkdir(dir.c_str(), 0777) != 0) {
+  *made = false;
+  if (::stat(dir.c_str(), &st) == 0) return S_ISDIR(st.st_mode) || fail(error, dir + ": not a directory");
+  if (::mkdir(dir.c_str(), 0777) != 0)
     return fail(error, dir + ": cannot create the directory: " + std::strerror(errno));
+  *made = true;
+  return true;
+}
+
+}  // namespace
+
+bool model_writable(const std::string &dir, Encoding encoding, std::string *error) {
+  bool made;
+  if (!make_directory(dir, &made, error)) return false;
+  // A directory made here is removed again: it is the write that creates it.
+  if (made) {
+    ::rmdir(dir.c_str());
+    return true;
   }
+  std::string why;
+  for (const char *name : kFileNames) {
+    const std::string path = slashed(dir) + name + extension(encoding);
+    if (!sbademo::probe_writable(path, &why)) return fail(error, path + ": " + why);
+  }
+  return true;
+}
+
+bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error) {
+  bool made;
+  if (!make_directory(dir, &made, error)) return false;
   const Files files = format_model(model, encoding);
   const std::string *content[] = {&files.cameras, &files.images, &files.points};
   std::string paths[3];

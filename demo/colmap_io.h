@@ -115,6 +115,11 @@ bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::str
 // to the same doubles.
 bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error);
 
+// Whether write_model could write into dir, asked before a long computation: dir is a
+// directory whose model files can be written, or can be made (it is not left behind). False
+// with the message write_model would give.
+bool model_writable(const std::string &dir, Encoding encoding, std::string *error);
+
 // The same in memory: the three files' contents.
 struct Files {
   std::string cameras, images, points;

@@ -381,12 +381,26 @@ int refine_main(int argc, char **argv) {
       status >= 0)
     return status;
   sbademo::SolveOptions &so = o.solve;
-  if (!sbademo::outputs_writable({&so.json, &o.initial_ply, &o.final_ply, &o.write_bal, &o.write_list}))
-    return kExitFailure;
   Input input;
   if (!look_at_input(o.input, &input, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
+  }
+  // Every output before anything is read: --write is a model directory for a directory.
+  const std::string write_file = input.directory ? "" : o.write;
+  const std::string eucsba_cams = o.write_eucsba.empty() ? "" : o.write_eucsba + "-cams.txt";
+  const std::string eucsba_pts = o.write_eucsba.empty() ? "" : o.write_eucsba + "-pts.txt";
+  if (!sbademo::outputs_writable({&write_file, &eucsba_cams, &eucsba_pts, &so.json, &o.initial_ply, &o.final_ply,
+                                  &o.write_bal, &o.write_list}))
+    return kExitFailure;
+  if (input.directory && !o.write.empty()) {
+    colmap::Encoding encoding = o.write_format == "binary" ? colmap::Encoding::Binary : colmap::Encoding::Text;
+    std::string unknown;  // no model to write: its reader says why below
+    if ((!o.write_format.empty() || colmap::model_encoding(o.input, &encoding, &unknown)) &&
+        !colmap::model_writable(o.write, encoding, &error)) {
+      std::fprintf(stderr, "%s\n", error.c_str());
+      return kExitFailure;
+    }
   }
 
   const auto read_start = std::chrono::steady_clock::now();

@@ -592,6 +592,41 @@ TEST(Sbarefine, FullDiskLeavesTheInputModelAsItWas) {
   EXPECT_TRUE(contents(model, kBinaryFiles) == before);
 }
 
+// Every output is checked before the model is read: when one cannot be written, nothing is
+// solved (--verbose prints nothing) and nothing read (a broken model is not what the message
+// names), status 1 and the path with the reason, as for --json or a PLY file.
+TEST(Sbarefine, OutputsCheckedBeforeTheSolve) {
+  const std::string dir = temp_dir("outputs_first");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 60);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  ASSERT_TRUE(colmap::write_model(dir + "/broken", s.model, colmap::Encoding::Text, &error)) << error;
+  write_file(dir + "/broken/points3D.txt", "not a point\n");
+  bundler::Bundle b;
+  ASSERT_TRUE(bundler::from_problem(s.problem.cameras, s.problem.points, &b, &error)) << error;
+  ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", b, &error)) << error;
+  write_file(dir + "/file", "a file, not a directory\n");
+  const std::string nowhere = dir + "/no-such-dir/x";
+  const std::string kMissing = ": cannot open for writing: No such file or directory\n";
+  const struct {
+    std::string args, err;
+  } cases[] = {
+      {dir + "/in --write " + nowhere, nowhere + ": cannot create the directory: No such file or directory\n"},
+      {dir + "/in --write " + dir + "/file", dir + "/file: not a directory\n"},
+      {dir + "/in --write-format binary --write " + dir + "/in --write-eucsba " + nowhere, nowhere + "-cams.txt" + kMissing},
+      {dir + "/b.out --write " + nowhere, nowhere + kMissing},
+      {dir + "/broken --write " + nowhere, nowhere + ": cannot create the directory: No such file or directory\n"},
+  };
+  for (const auto &c : cases) {
+    const Outcome r = run("--verbose 1 " + c.args);
+    EXPECT_EQ(r.status, 1) << c.args;
+    EXPECT_EQ(r.out, "") << c.args;
+    EXPECT_EQ(r.err, c.err) << c.args;
+  }
+  // The model checked is left as it was.
+  EXPECT_EQ(entries(dir + "/in"), kTextFiles);
+}
+
 // What stands where a model's file should be is said as it is: a symbolic link loop, a
 // directory, a device (/dev/zero, which is refused before it is read).
 TEST(Sbarefine, ModelFilesThatAreNotFiles) {
