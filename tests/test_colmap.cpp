@@ -627,6 +627,34 @@ TEST(Sbarefine, OutputsCheckedBeforeTheSolve) {
   EXPECT_EQ(entries(dir + "/in"), kTextFiles);
 }
 
+// Names and paths that are not UTF-8 (an image name with the bytes 0xff 0xfe) go to --json as
+// Python's surrogateescape writes them, \udcff \udcfe: valid JSON, from which those bytes come
+// back; UTF-8 goes as it is.
+TEST(Sbarefine, JsonOfNamesThatAreNotUtf8) {
+  const std::string dir = temp_dir("json_bytes");
+  Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 40);
+  s.model.images[0].name = "a\xff\xfe.png";
+  s.model.images[1].name = "\xc3\xa9t\xc3\xa9.png";
+  s.model.images[2].name = "\xed\xa0\x80.png";  // a UTF-16 surrogate, which UTF-8 does not encode
+  const std::string model = dir + "/m\xff";
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Binary, &error)) << error;
+  const Outcome r = run("'" + model + "' --json " + dir + "/r.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string json = read_file(dir + "/r.json");
+  EXPECT_NE(json.find("\"name\": \"a\\udcff\\udcfe.png\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"name\": \"\xc3\xa9t\xc3\xa9.png\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"name\": \"\\udced\\udca0\\udc80.png\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"inputs\": [\"" + dir + "/m\\udcff\"]"), std::string::npos) << json;
+  if (std::system("command -v python3 >/dev/null") != 0) GTEST_SKIP() << "no python3 to parse the JSON";
+  write_file(dir + "/check.py",
+             "import json, sys\n"
+             "d = json.load(open(sys.argv[1], encoding='utf-8'))\n"
+             "names = [c['name'].encode('utf-8', 'surrogateescape') for c in d['cameras']]\n"
+             "sys.exit(names[:3] != [b'a\\xff\\xfe.png', b'\\xc3\\xa9t\\xc3\\xa9.png', b'\\xed\\xa0\\x80.png'])\n");
+  EXPECT_EQ(std::system(("python3 " + dir + "/check.py " + dir + "/r.json").c_str()), 0);
+}
+
 // What stands where a model's file should be is said as it is: a symbolic link loop, a
 // directory, a device (/dev/zero, which is refused before it is read).
 TEST(Sbarefine, ModelFilesThatAreNotFiles) {
