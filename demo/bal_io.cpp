@@ -437,17 +437,18 @@ bool to_sba(const Problem &problem, const std::string &name, SbaLayout *out, std
   std::stable_sort(s.order.begin(), s.order.end(), [&](int a, int b) {
     return obs[a].point != obs[b].point ? obs[a].point < obs[b].point : obs[a].camera < obs[b].camera;
   });
-  s.vmask.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(m), 0);
+  s.vis.point.reserve(obs.size());
+  s.vis.camera.reserve(obs.size());
   s.x.resize(2 * obs.size());
   for (std::size_t k = 0; k < s.order.size(); ++k) {
     const Observation &o = obs[s.order[k]];
     if (o.camera < 0 || o.camera >= m || o.point < 0 || o.point >= n)
       return fail(error, name, "observation " + std::to_string(s.order[k]) + " has an index out of range");
-    char &seen = s.vmask[static_cast<std::size_t>(o.point) * m + o.camera];
-    if (seen)
+    // Sorted, a repeated pair follows its first.
+    if (k > 0 && s.vis.point.back() == o.point && s.vis.camera.back() == o.camera)
       return fail(error, name, "observation " + std::to_string(s.order[k]) + " repeats point " +
                                    std::to_string(o.point) + " in camera " + std::to_string(o.camera));
-    seen = 1;
+    s.vis.add(o.point, o.camera);
     s.x[2 * k] = o.x;
     s.x[2 * k + 1] = o.y;
   }

@@ -161,7 +161,6 @@ bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::
   eucsba::PointSet &s = p.points;
   s.ncameras = ncams;
   s.xyz.reserve(static_cast<std::size_t>(n) * 3);
-  s.vmask.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(ncams), 0);
   std::vector<bool> used(static_cast<std::size_t>(ncams), false);
   std::vector<Measurement> track;
   for (int i = 0; i < n; ++i) {
@@ -173,7 +172,7 @@ bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::
               [](const Measurement &a, const Measurement &b) { return a.camera < b.camera; });
     for (const Measurement &v : track) {
       const std::size_t j = static_cast<std::size_t>(v.camera);
-      s.vmask[static_cast<std::size_t>(i) * static_cast<std::size_t>(ncams) + j] = 1;
+      s.pairs.add(i, static_cast<int>(j));
       const double scale = 1 + m.cameras[j].k * (v.x * v.x + v.y * v.y);
       s.x.push_back(v.x * scale);
       s.x.push_back(v.y * scale);

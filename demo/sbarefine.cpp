@@ -251,7 +251,7 @@ void eucsba_job(Loaded *l, Job *job) {
   job->in.m = pr.points.ncameras;
   job->in.n = pr.points.npoints();
   job->in.cnp = sm.cnp();
-  job->in.vmask = pr.points.vmask.data();
+  job->in.vis = &pr.points.pairs;
   job->in.x = pr.points.x.data();
   job->p = sm.initial_camera_params();
   job->p.insert(job->p.end(), sm.initial_points().begin(), sm.initial_points().end());
@@ -344,7 +344,7 @@ bool load_bundle(const Options &o, const std::string &text, Loaded *l, Job *job,
   job->in.m = l->layout.m;
   job->in.n = l->layout.n;
   job->in.cnp = bal::kCameraParams;
-  job->in.vmask = l->layout.vmask.data();
+  job->in.vis = &l->layout.vis;
   job->in.x = l->layout.x.data();
   job->p = l->layout.p;
   job->in.func = bal::motstr_func;

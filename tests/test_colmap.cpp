@@ -30,6 +30,7 @@
 #include "eucsba_io.h"
 #include "output_file.h"
 #include "sanitized.h"
+#include "sba_ext.h"
 #include "sbagen.h"
 #include "sbarefine_runs.h"
 
@@ -688,6 +689,86 @@ TEST(Sbarefine, ModelFilesThatAreNotFiles) {
   r = run(dir + "/b", limit);
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.err, dir + "/b/cameras.bin: not a regular file\n");
+}
+
+// A model of many images and points, each point seen by two neighbouring images of a row
+// of cameras along x (shared PINHOLE camera 1, identity rotations), with measurements off by
+// up to a third of a pixel.
+colmap::Model sparse_model(int m, int n) {
+  colmap::Model model;
+  model.cameras.push_back({1, colmap::kPinhole, 640, 480, {500, 500, 320, 240}});
+  for (int j = 0; j < m; ++j) {
+    colmap::Image im;
+    im.id = static_cast<std::uint32_t>(j) + 1;
+    im.t = {-static_cast<double>(j), 0, 0};
+    im.camera_id = 1;
+    im.name = "i" + std::to_string(j) + ".png";
+    model.images.push_back(std::move(im));
+  }
+  for (int i = 0; i < n; ++i) {
+    colmap::Point3D p;
+    p.id = static_cast<std::uint64_t>(i) + 1;
+    const int c = i % (m - 1);
+    p.xyz = {c + 0.5 + 0.3 * std::sin(i), 2 * std::cos(0.7 * i), 8 + std::sin(1.3 * i)};
+    for (int j = c; j < c + 2; ++j) {
+      colmap::Image &im = model.images[static_cast<std::size_t>(j)];
+      const double noise = std::sin(0.37 * i + j) / 3;
+      p.track.push_back({im.id, static_cast<std::uint32_t>(im.points.size())});
+      im.points.push_back({500 * (p.xyz[0] - j) / p.xyz[2] + 320 + noise, 500 * p.xyz[1] / p.xyz[2] + 240 - noise,
+                           p.id});
+    }
+    model.points.push_back(std::move(p));
+  }
+  return model;
+}
+
+// Memory follows the observations, not images x points: a model of 10,000 images and 200,000
+// points, each seen twice, whose dense visibility mask (n x m bytes, 2 GB) alone exceeds the
+// address space it is given, is solved within it (with a sparse solver: a dense reduced camera
+// system of 10,000 cameras would not fit either). One thread, and one for OpenBLAS, which
+// reserves a buffer per thread: the address space taken does not grow with the machine's cores.
+TEST(Sbarefine, MemoryFollowsTheObservations) {
+#ifdef SBA_TEST_SANITIZED
+  GTEST_SKIP() << "RLIMIT_AS cannot work under a sanitizer (it reserves terabytes of shadow memory)";
+#endif
+  const int m = 10000, n = 200000;
+  const long long limit_kb = 1400000;
+  ASSERT_GT(static_cast<long long>(m) * n, limit_kb * 1024);
+  const std::string dir = temp_dir("sparse_memory");
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", sparse_model(m, n), colmap::Encoding::Binary, &error)) << error;
+  const Outcome r = run(dir + "/in --intrinsics none --solver sparse-chol --threads 1 --itmax 2",
+                        "ulimit -v " + std::to_string(limit_kb) + "; OPENBLAS_NUM_THREADS=1 ");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("COLMAP model " + dir + "/in (binary): 10000 images, 1 cameras, 200000 points, 400000 "
+                       "observations"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("SBA returned 2 in 2 iter, reason 3, error 0.110275 [initial 0.111111]"), std::string::npos)
+      << r.out;
+  std::filesystem::remove_all(dir);
+}
+
+// The solve by visibility pairs keeps the programs' default solver: SBA_LINSOLVER when set,
+// else chol (the pairs entry point's own default is sparse-chol); an unknown name is said.
+TEST(Sbarefine, DefaultSolverAsDocumented) {
+  const std::string dir = temp_dir("default_solver");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 40);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error)) << error;
+  const struct {
+    std::string env, solver, err;
+  } cases[] = {{"unset SBA_LINSOLVER; ", "chol", ""},
+               {"SBA_LINSOLVER=lu ", "lu", ""},
+               {"SBA_LINSOLVER=nope ", "chol",
+                std::string("sbarefine: unknown SBA_LINSOLVER \"nope\" (known: ") + sba_linsolver_names() +
+                    "); using chol\n"}};
+  for (const auto &c : cases) {
+    const Outcome r = run(dir + "/in --itmax 1", c.env);
+    EXPECT_EQ(r.status, 0) << c.env;
+    EXPECT_NE(r.out.find("\nSolver " + c.solver + " on "), std::string::npos) << c.env << r.out;
+    EXPECT_EQ(r.err, c.err) << c.env;
+  }
 }
 
 // ---- Bundler ----

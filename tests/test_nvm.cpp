@@ -188,7 +188,9 @@ TEST(NvmMapping, CentresAndUndistortedMeasurements) {
   // t = -R C: a quaternion of norm 2 is the identity rotation.
   EXPECT_EQ(p.cameras[1].t, (std::array<double, 3>{-1, 0, 5}));
   // Point 0's measurements, cameras ascending; camera 0's undistorted: m (1 + 1e-6 |m|^2).
-  EXPECT_EQ(p.points.vmask, (std::vector<char>{1, 1, 1, 0}));
+  EXPECT_TRUE(p.points.vmask.empty());  // the visibility as pairs: point 0 in cameras 0 and 1, point 1 in 0
+  EXPECT_EQ(p.points.pairs.point, (std::vector<int>{0, 0, 1}));
+  EXPECT_EQ(p.points.pairs.camera, (std::vector<int>{0, 1, 0}));
   ASSERT_EQ(p.points.x.size(), 6u);
   EXPECT_DOUBLE_EQ(p.points.x[0], 101.25);
   EXPECT_DOUBLE_EQ(p.points.x[1], -50.625);
