@@ -614,7 +614,8 @@ TEST(Sbarefine, OutputsCheckedBeforeTheSolve) {
   } cases[] = {
       {dir + "/in --write " + nowhere, nowhere + ": cannot create the directory: No such file or directory\n"},
       {dir + "/in --write " + dir + "/file", dir + "/file: not a directory\n"},
-      {dir + "/in --write-format binary --write " + dir + "/in --write-eucsba " + nowhere, nowhere + "-cams.txt" + kMissing},
+      {dir + "/in --write-format binary --write " + dir + "/in --write-eucsba " + nowhere,
+       nowhere + "-cams.txt" + kMissing},
       {dir + "/b.out --write " + nowhere, nowhere + kMissing},
       {dir + "/broken --write " + nowhere, nowhere + ": cannot create the directory: No such file or directory\n"},
   };
