@@ -143,7 +143,7 @@ bool load_bal(const std::string &path, Problem *out, std::string *error) {
   out->n = s.n;
   out->m = s.m;
   out->cnp = bal::kCameraParams;
-  out->vmask = std::move(s.vmask);
+  out->vmask = s.vis.vmask(s.n, s.m);
   out->x = std::move(s.x);
   out->p0 = std::move(s.p);
   out->bal_data.ncameras = s.m;

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "output_file.h"
+#include "text_tokens.h"
 
 namespace bal {
 namespace {
@@ -63,10 +64,12 @@ class StringSource : public Source {
   std::size_t pos_ = 0;
 };
 
+// head: the bytes already read from f (to tell text from bzip2), given back first.
 class PlainSource : public Source {
  public:
-  explicit PlainSource(std::FILE *f) : f_(f) {}
+  PlainSource(std::FILE *f, const std::string &head) : f_(f), head_(head) {}
   std::size_t read(char *buf, std::size_t n) override {
+    if (const std::size_t got = head_.read(buf, n)) return got;
     const std::size_t got = std::fread(buf, 1, n, f_);
     if (got == 0 && std::ferror(f_)) error_ = std::string("read error: ") + std::strerror(errno);
     return got;
@@ -74,6 +77,7 @@ class PlainSource : public Source {
 
  private:
   std::FILE *f_;
+  StringSource head_;
 };
 
 std::string bz_message(int code) {
@@ -86,10 +90,11 @@ std::string bz_message(int code) {
   }
 }
 
-// Every bzip2 stream in f, one after the other (pbzip2 writes several).
+// Every bzip2 stream in f, one after the other (pbzip2 writes several); head: the bytes
+// already read from f, the first stream's start.
 class Bzip2Source : public Source {
  public:
-  explicit Bzip2Source(std::FILE *f) : f_(f) {}
+  Bzip2Source(std::FILE *f, const std::string &head) : f_(f), unused_(head.begin(), head.end()) {}
   ~Bzip2Source() override { close(); }
   Bzip2Source(const Bzip2Source &) = delete;
   Bzip2Source &operator=(const Bzip2Source &) = delete;
@@ -220,13 +225,9 @@ class Tokens {
     return errno == 0 && stop == tok_.c_str() + tok_.size();
   }
 
-  // The current token as a finite real number; the whole token must be the number (strtod
+  // The current token as a finite decimal number; the whole token must be the number (strtod
   // stops at a NUL inside it, which must not pass for the end).
-  bool real(double *v) const {
-    char *stop = nullptr;
-    *v = std::strtod(tok_.c_str(), &stop);
-    return stop == tok_.c_str() + tok_.size() && std::isfinite(*v);
-  }
+  bool real(double *v) const { return sbademo::decimal_number(tok_, v) && std::isfinite(*v); }
 
  private:
   // The byte at the read position, refilling the buffer; false at the end or on an error.
@@ -401,16 +402,15 @@ bool parse_problem(const std::string &text, const std::string &name, Problem *ou
 bool read_problem(const std::string &path, Problem *out, std::string *error) {
   File f(std::fopen(path.c_str(), "rb"));
   if (!f) return fail(error, path, std::string("cannot open: ") + std::strerror(errno));
-  char magic[3] = {0, 0, 0};
-  const std::size_t nmagic = std::fread(magic, 1, 3, f.get());
-  std::rewind(f.get());
-  const bool bz2 = nmagic == 3 && magic[0] == 'B' && magic[1] == 'Z' && magic[2] == 'h';
-  if (!bz2) {
-    PlainSource source(f.get());
+  // The magic bytes are read once and handed on, not rewound over: a pipe cannot rewind.
+  char magic[3];
+  const std::string head(magic, std::fread(magic, 1, sizeof magic, f.get()));
+  if (head != "BZh") {
+    PlainSource source(f.get(), head);
     Tokens tok(&source);
     return parse(tok, path, out, error);
   }
-  Bzip2Source source(f.get());
+  Bzip2Source source(f.get(), head);
   Tokens tok(&source);
   if (parse(tok, path, out, error)) return true;
   if (source.error().empty()) {
@@ -437,17 +437,18 @@ bool to_sba(const Problem &problem, const std::string &name, SbaLayout *out, std
   std::stable_sort(s.order.begin(), s.order.end(), [&](int a, int b) {
     return obs[a].point != obs[b].point ? obs[a].point < obs[b].point : obs[a].camera < obs[b].camera;
   });
-  s.vmask.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(m), 0);
+  s.vis.point.reserve(obs.size());
+  s.vis.camera.reserve(obs.size());
   s.x.resize(2 * obs.size());
   for (std::size_t k = 0; k < s.order.size(); ++k) {
     const Observation &o = obs[s.order[k]];
     if (o.camera < 0 || o.camera >= m || o.point < 0 || o.point >= n)
       return fail(error, name, "observation " + std::to_string(s.order[k]) + " has an index out of range");
-    char &seen = s.vmask[static_cast<std::size_t>(o.point) * m + o.camera];
-    if (seen)
+    // Sorted, a repeated pair follows its first.
+    if (k > 0 && s.vis.point.back() == o.point && s.vis.camera.back() == o.camera)
       return fail(error, name, "observation " + std::to_string(s.order[k]) + " repeats point " +
                                    std::to_string(o.point) + " in camera " + std::to_string(o.camera));
-    seen = 1;
+    s.vis.add(o.point, o.camera);
     s.x[2 * k] = o.x;
     s.x[2 * k + 1] = o.y;
   }

@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "visibility.h"
+
 namespace bal {
 
 constexpr int kCameraParams = 9;       // cnp: Rodrigues w (3), t (3), f, k1, k2
@@ -69,7 +71,7 @@ bool parse_problem(const std::string &text, const std::string &name, Problem *ou
 struct SbaLayout {
   int n = 0;                // points
   int m = 0;                // cameras
-  std::vector<char> vmask;  // n*m: vmask[i*m + j] = 1 iff camera j observes point i
+  sbademo::Visibility vis;  // which camera sees which point, measurement by measurement
   std::vector<double> x;    // 2 per observation, sorted by (point, camera)
   std::vector<int> order;   // order[k]: index in Problem::observations of sba measurement k
   std::vector<double> p;    // m*9 camera parameters followed by n*3 point coordinates
@@ -78,7 +80,7 @@ struct SbaLayout {
 };
 
 // Sorts the observations point by point with cameras ascending, as sba lays out x, and
-// builds vmask and the initial parameter vector. Two observations of the same point by the
+// builds the visibility and the initial parameter vector. Two observations of the same point by the
 // same camera have no place in sba's layout: false with "<name>: ..." in *error. (The reader
 // already refuses them; this guards problems built in memory.) May throw std::bad_alloc.
 bool to_sba(const Problem &problem, const std::string &name, SbaLayout *out, std::string *error);

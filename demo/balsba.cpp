@@ -118,7 +118,7 @@ int bal_main(int argc, char **argv) {
   in.m = s.m;
   in.cnp = bal::kCameraParams;
   in.pnp = bal::kPointParams;
-  in.vmask = s.vmask.data();
+  in.vis = &s.vis;
   in.p = s.p.data();
   in.x = s.x.data();
   in.func = bal::motstr_func;

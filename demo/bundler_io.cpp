@@ -171,9 +171,8 @@ bool parse_list(const std::string &text, const std::string &name, ImageList *out
     if (values.size() == 3) {
       if (values[1] != "0")
         return fail(error, where + "expected 0 after the path, got '" + sbademo::TextTokens::printable(values[1]) + "'");
-      char *stop = nullptr;
-      const double f = std::strtod(values[2].c_str(), &stop);
-      if (stop != values[2].c_str() + values[2].size() || !std::isfinite(f) || f <= 0)
+      double f;
+      if (!sbademo::decimal_number(values[2], &f) || !std::isfinite(f) || f <= 0)
         return fail(error, where + "the focal length must be a finite positive number, got '" +
                                sbademo::TextTokens::printable(values[2]) + "'");
     }

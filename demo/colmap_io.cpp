@@ -15,18 +15,22 @@
 #include <unordered_set>
 
 #include "output_file.h"
+#include "text_tokens.h"
 
 namespace colmap {
 
 namespace {
 
+using sbademo::g17;
+
 struct ModelInfo {
   const char *name;
   int params;
+  int focals;  // f, or fx and fy, leading the parameters
 };
 // Indexed by COLMAP's model id; ids 5 and up are COLMAP models without a counterpart here.
 constexpr ModelInfo kModels[] = {
-    {"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4}, {"SIMPLE_RADIAL", 4}, {"RADIAL", 5}, {"OPENCV", 8}};
+    {"SIMPLE_PINHOLE", 3, 1}, {"PINHOLE", 4, 2}, {"SIMPLE_RADIAL", 4, 1}, {"RADIAL", 5, 1}, {"OPENCV", 8, 2}};
 constexpr int kNumModels = sizeof(kModels) / sizeof(kModels[0]);
 // COLMAP's other models, named in the refusal so that the user knows what was found.
 constexpr const char *kOtherModels[] = {"OPENCV_FISHEYE", "FULL_OPENCV", "FOV", "SIMPLE_RADIAL_FISHEYE",
@@ -36,6 +40,24 @@ constexpr const char *kAccepted = "SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIA
 
 std::string unsupported_model(const std::string &model) {
   return "camera model " + model + " is not supported: sba's camera model expresses " + kAccepted;
+}
+
+// Why a camera's intrinsics are not a camera, empty when they are: a focal length must be
+// positive, and fy / fx (the aspect ratio sba keeps) a number neither infinite nor zero;
+// otherwise the solve would meet an infinite aspect ratio or a mirrored image, far from here.
+std::string bad_intrinsics(const Camera &c) {
+  const ModelInfo &m = kModels[c.model];
+  const std::string camera = "camera " + std::to_string(c.id) + ": " + m.name + "'s ";
+  static const char *const kFocal[2][2] = {{"f", ""}, {"fx", "fy"}};
+  for (int k = 0; k < m.focals; ++k) {
+    const double f = c.params[static_cast<std::size_t>(k)];
+    if (!(f > 0)) return camera + kFocal[m.focals - 1][k] + " must be positive, got " + g17(f);
+  }
+  if (m.focals == 2) {
+    const double ar = c.params[1] / c.params[0];
+    if (!std::isfinite(ar) || ar == 0) return camera + "aspect ratio fy / fx overflows or underflows";
+  }
+  return {};
 }
 
 std::string printable(const std::string &s) {
@@ -108,13 +130,10 @@ bool fail(std::string *error, const std::string &msg) {
   return false;
 }
 
-// A finite double, the whole token.
+// A finite decimal number, the whole token.
 bool parse_real(const std::string &tok, double *out) {
-  if (tok.empty()) return false;
-  errno = 0;
-  char *end = nullptr;
-  const double v = std::strtod(tok.c_str(), &end);
-  if (end != tok.c_str() + tok.size() || !std::isfinite(v)) return false;
+  double v;
+  if (!sbademo::decimal_number(tok, &v) || !std::isfinite(v)) return false;
   *out = v;
   return true;
 }
@@ -194,6 +213,7 @@ bool parse_cameras_text(const std::string &text, const std::string &name, std::v
     c.params.resize(static_cast<std::size_t>(np));
     for (int k = 0; k < np; ++k)
       if (!real_field(r, 4 + static_cast<std::size_t>(k), "a camera parameter", &c.params[k], error)) return false;
+    if (const std::string why = bad_intrinsics(c); !why.empty()) return fail(error, r.where() + why);
     if (!ids.insert(c.id).second) return fail(error, r.where() + "camera " + std::to_string(c.id) + " appears twice");
     cams.push_back(std::move(c));
   }
@@ -408,6 +428,7 @@ bool parse_cameras_binary(const std::string &bytes, const std::string &name, std
     c.params.resize(static_cast<std::size_t>(kModels[m].params));
     for (double &p : c.params)
       if (!r.real(&p, "a camera parameter", error)) return false;
+    if (const std::string why = bad_intrinsics(c); !why.empty()) return fail(error, r.where(at) + why);
     if (!ids.insert(c.id).second)
       return fail(error, r.where(at) + "camera " + std::to_string(c.id) + " appears twice");
     cams.push_back(std::move(c));
@@ -437,9 +458,13 @@ bool parse_images_binary(const std::string &bytes, const std::string &name, std:
     if (im.q[0] == 0 && im.q[1] == 0 && im.q[2] == 0 && im.q[3] == 0)
       return fail(error, r.where(at) + "image " + std::to_string(im.id) + ": the quaternion is zero");
     if (!r.u32(&im.camera_id, "CAMERA_ID", error) || !r.cstring(&im.name, "the image name", error)) return false;
-    // The text format keeps a name on one line, after at least one character.
-    if (im.name.empty() || im.name.find_first_of("\r\n") != std::string::npos)
-      return fail(error, r.where(at) + "image " + std::to_string(im.id) + ": an empty name or one with a line break");
+    // The text format keeps a name on one line, between blanks that its reader trims: a name
+    // it cannot hold is refused here, not lost or made unreadable by a rewrite as text.
+    if (im.name.empty() || im.name.find_first_of("\r\n") != std::string::npos || is_blank(im.name.front()) ||
+        is_blank(im.name.back()))
+      return fail(error, r.where(at) + "image " + std::to_string(im.id) +
+                             ": the name is empty, holds a line break or begins or ends with a blank, which the "
+                             "text format cannot hold");
     std::uint64_t np;
     if (!r.count(&np, 24, "the number of POINTS2D", error)) return false;
     im.points.resize(static_cast<std::size_t>(np));
@@ -549,57 +574,82 @@ bool check_model(const Model &model, const std::string &name, std::string *error
 
 // ---- files ----
 
-bool read_whole_file(const std::string &path, bool text, std::string *out, std::string *error) {
-  std::FILE *f = std::fopen(path.c_str(), "rb");
-  if (!f) return fail(error, path + ": cannot open: " + std::strerror(errno));
-  std::string data;
+bool read_rest(std::FILE *f, const std::string &path, bool text, std::string *out, std::string *error) {
   char buf[1 << 16];
   std::size_t got;
   while ((got = std::fread(buf, 1, sizeof buf, f)) > 0) {
-    if (text && std::memchr(buf, '\0', got)) {
-      std::fclose(f);
-      return fail(error, path + ": a NUL byte: not a text file");
-    }
-    data.append(buf, got);
+    if (text && std::memchr(buf, '\0', got)) return fail(error, path + ": a NUL byte: not a text file");
+    out->append(buf, got);
   }
-  const bool bad = std::ferror(f) != 0;
+  if (std::ferror(f)) return fail(error, path + ": read error");
+  return true;
+}
+
+bool read_whole_file(const std::string &path, bool text, std::string *out, std::string *error) {
+  std::FILE *f = std::fopen(path.c_str(), "rb");
+  if (!f) return fail(error, path + ": cannot open: " + std::strerror(errno));
+  // fopen opens a directory for reading, whose reading then fails without saying why.
+  struct stat st {};
+  if (::fstat(fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {
+    std::fclose(f);
+    return fail(error, path + ": is a directory");
+  }
+  std::string data;
+  const bool read = read_rest(f, path, text, &data, error);
   std::fclose(f);
-  if (bad) return fail(error, path + ": read error");
+  if (!read) return false;
   *out = std::move(data);
   return true;
 }
 
 namespace {
 
-bool exists(const std::string &path) {
-  struct stat st {};
-  return ::stat(path.c_str(), &st) == 0;
-}
+// A model's files, the cameras first.
+constexpr const char *kFileNames[] = {"cameras", "images", "points3D"};
 
-std::string g17(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
+const char *extension(Encoding encoding) { return encoding == Encoding::Text ? ".txt" : ".bin"; }
+
+std::string slashed(const std::string &dir) { return dir.empty() || dir.back() == '/' ? dir : dir + "/"; }
+
+// A model's file: a regular file, or its reading would never end (/dev/zero) or fail
+// without saying why (a directory).
+bool read_model_file(const std::string &path, bool text, std::string *out, std::string *error) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return fail(error, path + ": cannot open: " + std::strerror(errno));
+  if (S_ISDIR(st.st_mode)) return fail(error, path + ": is a directory");
+  if (!S_ISREG(st.st_mode)) return fail(error, path + ": not a regular file");
+  return read_whole_file(path, text, out, error);
 }
 
 }  // namespace
 
+bool model_encoding(const std::string &dir, Encoding *out, std::string *error) {
+  for (Encoding e : {Encoding::Text, Encoding::Binary}) {
+    const std::string path = slashed(dir) + "cameras" + extension(e);
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0) {
+      *out = e;
+      return true;
+    }
+    // A symbolic link loop or a directory that cannot be searched is said as it is.
+    if (errno != ENOENT && errno != ENOTDIR) return fail(error, path + ": cannot open: " + std::strerror(errno));
+  }
+  return fail(error, dir + ": no COLMAP model (cameras.txt or cameras.bin)");
+}
+
 bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::string *error) {
-  const std::string base = dir.empty() || dir.back() == '/' ? dir : dir + "/";
   Encoding enc;
-  if (exists(base + "cameras.txt")) enc = Encoding::Text;
-  else if (exists(base + "cameras.bin")) enc = Encoding::Binary;
-  else return fail(error, dir + ": no COLMAP model (cameras.txt or cameras.bin)");
+  if (!model_encoding(dir, &enc, error)) return false;
   const bool text = enc == Encoding::Text;
-  const char *ext = text ? ".txt" : ".bin";
-  const std::string pc = base + "cameras" + ext, pi = base + "images" + ext, pp = base + "points3D" + ext;
+  const std::string pc = slashed(dir) + "cameras" + extension(enc), pi = slashed(dir) + "images" + extension(enc),
+                    pp = slashed(dir) + "points3D" + extension(enc);
   Model m;
   std::string content;
-  if (!read_whole_file(pc, text, &content, error)) return false;
+  if (!read_model_file(pc, text, &content, error)) return false;
   if (!(text ? parse_cameras_text : parse_cameras_binary)(content, pc, &m.cameras, error)) return false;
-  if (!read_whole_file(pi, text, &content, error)) return false;
+  if (!read_model_file(pi, text, &content, error)) return false;
   if (!(text ? parse_images_text : parse_images_binary)(content, pi, &m.images, error)) return false;
-  if (!read_whole_file(pp, text, &content, error)) return false;
+  if (!read_model_file(pp, text, &content, error)) return false;
   if (!(text ? parse_points_text : parse_points_binary)(content, pp, &m.points, error)) return false;
   if (!check_model(m, dir, error)) return false;
   *out = std::move(m);
@@ -688,17 +738,62 @@ Files format_model(const Model &model, Encoding encoding) {
   return f;
 }
 
-bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error) {
-  if (!exists(dir) && ::mkdir(dir.c_str(), 0777) != 0)
+namespace {
+
+// dir as a directory to write a model into: made when missing (*made then true).
+bool make_directory(const std::string &dir, bool *made, std::string *error) {
+  struct stat st {};
+  *made = false;
+  if (::stat(dir.c_str(), &st) == 0) return S_ISDIR(st.st_mode) || fail(error, dir + ": not a directory");
+  if (::mkdir(dir.c_str(), 0777) != 0)
     return fail(error, dir + ": cannot create the directory: " + std::strerror(errno));
+  *made = true;
+  return true;
+}
+
+}  // namespace
+
+bool model_writable(const std::string &dir, Encoding encoding, std::string *error) {
+  bool made;
+  if (!make_directory(dir, &made, error)) return false;
+  // A directory made here is removed again: it is the write that creates it.
+  if (made) {
+    ::rmdir(dir.c_str());
+    return true;
+  }
+  std::string why;
+  for (const char *name : kFileNames) {
+    const std::string path = slashed(dir) + name + extension(encoding);
+    if (!sbademo::probe_writable(path, &why)) return fail(error, path + ": " + why);
+  }
+  return true;
+}
+
+bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error) {
+  bool made;
+  if (!make_directory(dir, &made, error)) return false;
   const Files files = format_model(model, encoding);
-  const std::string base = dir.back() == '/' ? dir : dir + "/";
-  const char *ext = encoding == Encoding::Text ? ".txt" : ".bin";
-  const std::pair<std::string, const std::string *> out[] = {
-      {base + "cameras" + ext, &files.cameras}, {base + "images" + ext, &files.images},
-      {base + "points3D" + ext, &files.points}};
-  for (const auto &o : out)
-    if (!sbademo::write_whole_file(o.first, *o.second, error)) return false;
+  const std::string *content[] = {&files.cameras, &files.images, &files.points};
+  std::string paths[3];
+  for (int k = 0; k < 3; ++k) paths[k] = slashed(dir) + kFileNames[k] + extension(encoding);
+  // The model is replaced whole or not at all: its three files are renamed onto their names
+  // only once all three are written and closed (a full disk at the second leaves the model
+  // as it was, the temporaries removed with `out`).
+  sbademo::OutputFile out[3];
+  for (int k = 0; k < 3; ++k)
+    if (!sbademo::write_closed(paths[k], *content[k], &out[k], error)) return false;
+  for (int k = 0; k < 3; ++k) {
+    std::string why;
+    if (!out[k].publish(&why)) return fail(error, paths[k] + ": " + why);
+  }
+  // The other encoding's model goes, or a reader could take it for this one; its cameras file
+  // first, without which no reader takes the other two for a model.
+  const Encoding other = encoding == Encoding::Text ? Encoding::Binary : Encoding::Text;
+  for (const char *name : kFileNames) {
+    const std::string stale = slashed(dir) + name + extension(other);
+    if (std::remove(stale.c_str()) != 0 && errno != ENOENT)
+      return fail(error, stale + ": cannot remove the model of the other format: " + std::strerror(errno));
+  }
   return true;
 }
 

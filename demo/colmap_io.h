@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -77,6 +78,11 @@ struct Model {
 // Which files a directory holds: text if cameras.txt exists, else binary if cameras.bin does.
 enum class Encoding { Text, Binary };
 
+// The encoding of the model in dir, without reading it: false with "PATH: cannot open: REASON"
+// when its cameras file cannot be looked at (a symbolic link loop, say), "DIR: no COLMAP
+// model (cameras.txt or cameras.bin)" when there is none.
+bool model_encoding(const std::string &dir, Encoding *out, std::string *error);
+
 // Parsers of one file's content; name stands for the file in the messages. They check each
 // file on its own (syntax, finite numbers, accepted camera models, unique ids); check_model
 // checks how the three agree.
@@ -100,10 +106,19 @@ bool parse_points_binary(const std::string &bytes, const std::string &name, std:
 bool check_model(const Model &model, const std::string &name, std::string *error);
 
 // Reads DIR/{cameras,images,points3D}.{txt,bin} (encoding from the files found, see above).
+// Each must be a regular file: a directory or a device there (/dev/zero) is refused by name.
 bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::string *error);
-// Writes the three files into dir (created if missing). Text numbers have 17 significant
-// digits, so that they read back to the same doubles.
+// Writes the three files into dir (created if missing), all or none of them: they are
+// renamed onto their names once all three are written, and a failure before leaves every
+// file of dir as it was. Then the other encoding's files, if dir holds any, are removed, so
+// that dir holds one model. Text numbers have 17 significant digits, so that they read back
+// to the same doubles.
 bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error);
+
+// Whether write_model could write into dir, asked before a long computation: dir is a
+// directory whose model files can be written, or can be made (it is not left behind). False
+// with the message write_model would give.
+bool model_writable(const std::string &dir, Encoding encoding, std::string *error);
 
 // The same in memory: the three files' contents.
 struct Files {
@@ -112,8 +127,12 @@ struct Files {
 Files format_model(const Model &model, Encoding encoding);
 
 // The whole file into *out. A text file must hold no NUL byte (a binary file, /dev/zero):
-// the reading stops at the first. False with "<path>: <message>" on failure.
+// the reading stops at the first. False with "<path>: <message>" on failure ("is a
+// directory" for one).
 bool read_whole_file(const std::string &path, bool text, std::string *out, std::string *error);
+// The same for what is left of an open stream (a pipe whose first bytes were read), appended
+// to *out; path names it in messages.
+bool read_rest(std::FILE *f, const std::string &path, bool text, std::string *out, std::string *error);
 
 }  // namespace colmap
 

@@ -125,7 +125,6 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::strin
   eucsba::PointSet &s = p.points;
   s.ncameras = m;
   s.xyz.reserve(static_cast<std::size_t>(n) * 3);
-  s.vmask.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(m), 0);
   std::vector<bool> seen(static_cast<std::size_t>(m), false);
   std::vector<std::pair<int, const Point2D *>> track;
   for (int i = 0; i < n; ++i) {
@@ -142,7 +141,7 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::strin
                 return a.first < b.first;
               });
     for (const auto &t : track) {
-      s.vmask[static_cast<std::size_t>(i) * static_cast<std::size_t>(m) + static_cast<std::size_t>(t.first)] = 1;
+      s.pairs.add(i, t.first);
       s.x.push_back(t.second->x);
       s.x.push_back(t.second->y);
       seen[static_cast<std::size_t>(t.first)] = true;

@@ -41,7 +41,7 @@ std::string parse_refine_intrinsics(const std::string &text, RefineIntrinsics *o
 
 struct SbaProblem {
   std::vector<eucsba::Camera> cameras;  // one per image, in file order
-  eucsba::PointSet points;              // one per 3D point, in file order
+  eucsba::PointSet points;              // one per 3D point, in file order; visibility as pairs
   int nccalib = 5, ncdist = 5;          // trailing intrinsics / distortion terms held
 };
 

@@ -14,6 +14,7 @@
 
 #include "bzip2_stream.h"
 #include "output_file.h"
+#include "text_tokens.h"
 
 namespace eucsba {
 
@@ -180,14 +181,11 @@ std::string quoted(const std::string &tok) {
   return q + "'";
 }
 
-// A finite double, or why the token is not one. The whole token must be read: strtod stops at
-// a NUL inside it, which must not pass for the end of the token.
+// A finite decimal number, or why the token is not one. The whole token must be read: strtod
+// stops at a NUL inside it, which must not pass for the end of the token.
 bool parse_real(const std::string &tok, double *value, std::string *why) {
-  const char *s = tok.c_str();
-  char *end = nullptr;
-  errno = 0;
-  const double v = std::strtod(s, &end);
-  if (end == s || end != s + tok.size()) {
+  double v;
+  if (!sbademo::decimal_number(tok, &v)) {
     *why = quoted(tok) + " is not a number";
     return false;
   }
@@ -544,24 +542,30 @@ Status write_points(const std::string &path, const PointSet &tracks, const std::
   if (form == CovarianceForm::UpperTriangular) std::fputs(" cxx0 cxy0 cyy0", f.get());
   if (form == CovarianceForm::Full) std::fputs(" cxx0 cxy0 cxy0 cyy0", f.get());
   std::fputs("  frame1 ...\n", f.get());
-  const int m = tracks.ncameras;
-  std::size_t k = 0;  // measurement ordinal
-  for (int i = 0; i < tracks.npoints(); ++i) {
-    const char *seen = &tracks.vmask[static_cast<std::size_t>(i) * m];
-    const int nframes = static_cast<int>(std::count_if(seen, seen + m, [](char c) { return c != 0; }));
-    std::fprintf(f.get(), "%.10e %.10e %.10e %d", xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], nframes);
-    for (int j = 0; j < m; ++j) {
-      if (!seen[j]) continue;
-      std::fprintf(f.get(), "  %d %.10e %.10e", j, tracks.x[2 * k], tracks.x[2 * k + 1]);
-      const double *c = form != CovarianceForm::None ? &tracks.covx[4 * k] : nullptr;
-      if (form == CovarianceForm::UpperTriangular)
-        std::fprintf(f.get(), " %.10e %.10e %.10e", c[0], c[1], c[3]);
-      else if (form == CovarianceForm::Full)
-        std::fprintf(f.get(), " %.10e %.10e %.10e %.10e", c[0], c[1], c[2], c[3]);
-      ++k;
+  // A point's line starts with its number of frames: counted first.
+  const int n = tracks.npoints();
+  std::vector<int> nframes(static_cast<std::size_t>(n), 0);
+  for_each_projection(tracks, [&](int i, int, const double *) { ++nframes[static_cast<std::size_t>(i)]; });
+  int next = 0;  // the first point whose line is not begun
+  auto begin_lines_to = [&](int i) {
+    for (; next <= i; ++next) {
+      if (next > 0) std::fputc('\n', f.get());
+      const double *X = &xyz[3 * static_cast<std::size_t>(next)];
+      std::fprintf(f.get(), "%.10e %.10e %.10e %d", X[0], X[1], X[2], nframes[static_cast<std::size_t>(next)]);
     }
-    std::fputc('\n', f.get());
-  }
+  };
+  for_each_projection(tracks, [&](int i, int j, const double *x) {
+    begin_lines_to(i);
+    std::fprintf(f.get(), "  %d %.10e %.10e", j, x[0], x[1]);
+    const std::size_t k = static_cast<std::size_t>(x - tracks.x.data()) / 2;  // the measurement
+    const double *c = form != CovarianceForm::None ? &tracks.covx[4 * k] : nullptr;
+    if (form == CovarianceForm::UpperTriangular)
+      std::fprintf(f.get(), " %.10e %.10e %.10e", c[0], c[1], c[3]);
+    else if (form == CovarianceForm::Full)
+      std::fprintf(f.get(), " %.10e %.10e %.10e %.10e", c[0], c[1], c[2], c[3]);
+  });
+  begin_lines_to(n - 1);
+  if (n > 0) std::fputc('\n', f.get());
   return close_written(path, &f);
 }
 

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "eucsba_model.h"
+#include "visibility.h"
 
 namespace eucsba {
 
@@ -74,6 +75,9 @@ struct PointSet {
   CovarianceForm form = CovarianceForm::None;
   std::vector<double> xyz;    // 3 per point
   std::vector<char> vmask;    // npoints * ncameras; vmask[i * ncameras + j] != 0 iff seen
+  // The same as pairs, for point sets whose vmask would not fit (sbarefine's models): then
+  // vmask is empty. The readers fill vmask.
+  sbademo::Visibility pairs;
   std::vector<double> x;      // 2 per projection, point by point, cameras ascending
   std::vector<double> covx;   // empty, or 4 per projection: 2x2 row-major, symmetric
 
@@ -86,10 +90,16 @@ struct PointSet {
 // files have none, and distinct colors show a round trip that mixed points up.
 inline std::array<int, 3> generated_color(int i) { return {(i * 37) & 255, (i * 11 + 64) & 255, 255 - i % 256}; }
 
-// Calls f(i, j, x) for every projection of a point set with its dense vmask, point by point
-// with the cameras ascending: point i seen by camera j at x[0], x[1].
+// Calls f(i, j, x) for every projection of a point set (from its vmask, or its pairs when it
+// has no vmask), point by point with the cameras ascending: point i seen by camera j at x[0],
+// x[1].
 template <class F>
 void for_each_projection(const PointSet &points, F f) {
+  if (points.vmask.empty()) {
+    for (std::size_t k = 0; k < points.pairs.size(); ++k)
+      f(points.pairs.point[k], points.pairs.camera[k], &points.x[2 * k]);
+    return;
+  }
   const std::size_t m = static_cast<std::size_t>(points.ncameras);
   std::size_t k = 0;
   for (int i = 0; i < points.npoints(); ++i)
@@ -125,7 +135,7 @@ Status write_cameras(const std::string &path, CameraKind kind, const std::vector
 // One `X Y Z` line per point.
 Status write_points_xyz(const std::string &path, const std::vector<double> &xyz);
 // A points file (readable by read_points) with the coordinates xyz and the projections and
-// covariances of tracks, in tracks' covariance form.
+// covariances of tracks (by vmask or by pairs), in tracks' covariance form.
 Status write_points(const std::string &path, const PointSet &tracks, const std::vector<double> &xyz);
 // Reads `X Y Z` lines back.
 Status read_points_xyz(const std::string &path, std::vector<double> *xyz);

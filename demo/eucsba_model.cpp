@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "eucsba_model.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <stdexcept>
@@ -26,9 +27,18 @@ Quaternion multiply(const Quaternion &a, const Quaternion &b) {
 }
 
 Quaternion normalized_rotation(const Quaternion &q) {
-  const double norm = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
-  const double s = (q.w < 0 ? -1.0 : 1.0) / norm;
-  return {q.w * s, q.x * s, q.y * s, q.z * s};
+  double sq = q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z;
+  Quaternion u = q;
+  // The squares of components near 1e308 overflow and those of components near 1e-200
+  // underflow: such a quaternion is first scaled by its largest component. One of ordinary
+  // size is not, so that its rotation keeps the bits the plain formula gives it.
+  if (!(sq >= 1e-200 && sq <= 1e200)) {
+    const double big = std::max({std::fabs(q.w), std::fabs(q.x), std::fabs(q.y), std::fabs(q.z)});
+    u = {q.w / big, q.x / big, q.y / big, q.z / big};
+    sq = u.w * u.w + u.x * u.x + u.y * u.y + u.z * u.z;
+  }
+  const double s = (u.w < 0 ? -1.0 : 1.0) / std::sqrt(sq);
+  return {u.w * s, u.x * s, u.y * s, u.z * s};
 }
 
 void rotation_matrix(const Quaternion &q, double R[9]) {

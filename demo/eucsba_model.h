@@ -52,8 +52,9 @@ struct Quaternion {
 
 // Hamilton product a * b (rotating by a * b applies b first, then a).
 Quaternion multiply(const Quaternion &a, const Quaternion &b);
-// q scaled to unit norm and negated if needed so that w >= 0 (q and -q are the same rotation).
-// The zero quaternion has no rotation to normalize; the readers refuse it before it gets here.
+// q scaled to unit norm and negated if needed so that w >= 0 (q and -q are the same rotation),
+// for a q of any nonzero size (components near 1e308 or 1e-300 included). The zero quaternion
+// has no rotation to normalize; the readers refuse it before it gets here.
 Quaternion normalized_rotation(const Quaternion &q);
 // R (row-major 3x3) with R X = q X q^* for a unit q.
 void rotation_matrix(const Quaternion &q, double R[9]);

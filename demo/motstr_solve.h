@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // The motion-and-structure solve as balsba and sbarefine run it, from the check of --mcon and
-// --ncon to the exit status: the expert driver with the extension options, a progress line,
-// Ctrl-C and --max-time, then sba 1.6's summary, the report and --json. What differs between
-// the programs (reading, writing, the sizes line) stays in them.
+// --ncon to the exit status: the expert driver by visibility pairs with the extension options,
+// a progress line, Ctrl-C and --max-time, then sba 1.6's summary, the report and --json. What
+// differs between the programs (reading, writing, the sizes line) stays in them.
 #ifndef SBA_DEMO_MOTSTR_SOLVE_H
 #define SBA_DEMO_MOTSTR_SOLVE_H
 
@@ -21,13 +21,15 @@
 #include "sba_ext.h"
 #include "solve_options.h"
 #include "tty_progress.h"
+#include "visibility.h"
 
 namespace sbademo {
 
-// sba_motstr_levmar_x_ext's arguments that are not options; p is refined in place.
+// sba_motstr_levmar_x_vis's arguments that are not options; p is refined in place. The
+// visibility is given as pairs: memory then follows the observations, not n*m.
 struct MotstrInputs {
   int n = 0, m = 0, cnp = 0, pnp = 3;
-  char *vmask = nullptr;
+  const Visibility *vis = nullptr;
   double *p = nullptr;
   double *x = nullptr;
   void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata) = nullptr;
@@ -42,7 +44,7 @@ class MotstrSolve {
         input_(input),
         so_(so),
         in_(in),
-        nobs_(count_observations(in)),
+        nobs_(static_cast<int>(in.vis->size())),
         progress_(so.progress, nobs_) {}
   MotstrSolve(const MotstrSolve &) = delete;
   MotstrSolve &operator=(const MotstrSolve &) = delete;
@@ -67,14 +69,15 @@ class MotstrSolve {
     const MotstrInputs &in = in_;
     // The callbacks are re-entrant and walk the index by rows: the threads share them.
     sba_ext_options ext;
-    init_ext(so_, &sink_, &result_, &ext);
+    init_ext(so_, program_, &sink_, &result_, &ext);
     // The time limit and the iteration times count from the solve's start, not from what the
     // program did before it (an initial PLY file, say).
     control_.emplace(so_.max_time, &progress_);
     RunControl::catch_signals();
     control_->attach(&ext);
     const auto start = std::chrono::steady_clock::now();
-    ret_ = sba_motstr_levmar_x_ext(in.n, so_.ncon, in.m, so_.mcon, in.vmask, in.p, in.cnp, in.pnp, in.x, nullptr, 2,
+    const sba_visibility vis{static_cast<long long>(in.vis->size()), in.vis->point.data(), in.vis->camera.data()};
+    ret_ = sba_motstr_levmar_x_vis(in.n, so_.ncon, in.m, so_.mcon, &vis, in.p, in.cnp, in.pnp, in.x, nullptr, 2,
                                    in.func, in.fjac, in.adata, so_.itmax, so_.verbose, so_.opts.data(), info_.data(),
                                    &ext);
     seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -101,7 +104,7 @@ class MotstrSolve {
                                 seconds_, *control_);
     print_report(stdout, report);
     if (!so_.json.empty()) {
-      add_per_camera(in_.n, in_.m, in_.vmask, in_.x, project, &report);
+      add_per_camera(in_.m, *in_.vis, in_.x, project, &report);
       for (std::size_t j = 0; j < names.size() && j < report.per_camera.size(); ++j)
         report.per_camera[j].name = names[j];
       std::string error;
@@ -118,13 +121,6 @@ class MotstrSolve {
   }
 
  private:
-  static int count_observations(const MotstrInputs &in) {
-    int nobs = 0;
-    for (std::size_t k = 0; k < static_cast<std::size_t>(in.n) * static_cast<std::size_t>(in.m); ++k)
-      nobs += in.vmask[k] != 0;
-    return nobs;
-  }
-
   const char *program_;
   const std::string &input_;
   const SolveOptions &so_;

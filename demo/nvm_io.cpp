@@ -150,10 +150,7 @@ bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::
     eucsba::Camera e;
     e.k.fu = c.f;
     e.k.u0 = e.k.v0 = 0;
-    // Scaled to unit norm here, where the norm is taken without overflow or underflow: any
-    // nonzero quaternion the reader lets through is a rotation.
-    const double norm = std::hypot(std::hypot(c.q[0], c.q[1]), std::hypot(c.q[2], c.q[3]));
-    e.q = {c.q[0] / norm, c.q[1] / norm, c.q[2] / norm, c.q[3] / norm};
+    e.q = eucsba::normalized_rotation({c.q[0], c.q[1], c.q[2], c.q[3]});
     double R[9];
     eucsba::rotation_matrix(e.q, R);
     sbademo::camera_translation(R, c.c, e.t.data());
@@ -164,7 +161,6 @@ bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::
   eucsba::PointSet &s = p.points;
   s.ncameras = ncams;
   s.xyz.reserve(static_cast<std::size_t>(n) * 3);
-  s.vmask.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(ncams), 0);
   std::vector<bool> used(static_cast<std::size_t>(ncams), false);
   std::vector<Measurement> track;
   for (int i = 0; i < n; ++i) {
@@ -176,7 +172,7 @@ bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::
               [](const Measurement &a, const Measurement &b) { return a.camera < b.camera; });
     for (const Measurement &v : track) {
       const std::size_t j = static_cast<std::size_t>(v.camera);
-      s.vmask[static_cast<std::size_t>(i) * static_cast<std::size_t>(ncams) + j] = 1;
+      s.pairs.add(i, static_cast<int>(j));
       const double scale = 1 + m.cameras[j].k * (v.x * v.x + v.y * v.y);
       s.x.push_back(v.x * scale);
       s.x.push_back(v.y * scale);

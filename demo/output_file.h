@@ -6,7 +6,8 @@
 // counter appended if that name is taken) and renamed onto the final name once it has been
 // written and closed without error. A run that fails or is killed midway therefore never leaves
 // a truncated file under the final name, and an existing file there stays as it was until the
-// new one replaces it. A stale FILE.tmp.* may remain only when the process is killed.
+// new one replaces it. A stale FILE.tmp.* may remain only when the process is killed. Files
+// that belong together (a COLMAP model's three) are all closed before any is renamed.
 //
 // Paths that are not (or do not lead to) regular files, such as /dev/null, /dev/stdout or a
 // FIFO, are written directly: renaming a temporary onto them would replace the device node or
@@ -44,9 +45,7 @@ class OutputFile {
     struct stat st {};
     if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
       // A device, FIFO or directory: written in place (a directory then fails to open).
-      file_ = std::fopen(path.c_str(), "w");
-      if (!file_) return failed("cannot open for writing: ", why);
-      return true;
+      return attach(::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666), why);
     }
     // Through a symbolic link: the file it names is the one to replace.
     if (char *real = ::realpath(path.c_str(), nullptr)) {
@@ -58,22 +57,13 @@ class OutputFile {
       if (attempt > 0) temp += "." + std::to_string(attempt);
       // 0666 less the umask, as fopen would create it.
       const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-      if (fd < 0) {
-        if (errno == EEXIST) continue;
-        return failed("cannot open for writing: ", why);
+      if (fd < 0 && errno == EEXIST) continue;
+      if (fd >= 0) {
+        temp_ = temp;
+        // A file being replaced keeps its permission bits.
+        if (S_ISREG(st.st_mode)) (void)::fchmod(fd, st.st_mode & 07777);
       }
-      temp_ = temp;
-      // A file being replaced keeps its permission bits.
-      if (S_ISREG(st.st_mode)) (void)::fchmod(fd, st.st_mode & 07777);
-      file_ = ::fdopen(fd, "w");
-      if (!file_) {
-        const int err = errno;
-        ::close(fd);
-        discard();
-        errno = err;
-        return failed("cannot open for writing: ", why);
-      }
-      return true;
+      return attach(fd, why);
     }
     errno = EEXIST;
     return failed("cannot open for writing: ", why);
@@ -83,22 +73,28 @@ class OutputFile {
 
   // Closes the file and gives it its final name. On a write, close or rename error returns
   // false with the reason in *why; the temporary is then removed and the final name untouched.
-  bool commit(std::string *why) {
+  bool commit(std::string *why) { return close(why) && publish(why); }
+
+  // commit() in two steps, for files that appear together: close() ends the writing (false,
+  // the temporary removed, on a write or close error), publish() renames the closed file onto
+  // its final name. A file closed and not published is removed with its OutputFile.
+  bool close(std::string *why) {
     if (!file_) {
       if (why) *why = "write failed: not open";
       return false;
     }
-    errno = 0;
     const bool write_error = std::ferror(file_) != 0;
-    int err = errno;
-    const int rc = std::fclose(file_);
-    if (rc != 0 && err == 0) err = errno;
+    const bool closed = std::fclose(file_) == 0;  // flushes through write_fd, closes through close_fd
     file_ = nullptr;
-    if (write_error || rc != 0) {
+    if (write_error || !closed) {
+      const int err = errno_ != 0 ? errno_ : EIO;
       discard();
-      errno = err != 0 ? err : EIO;
+      errno = err;
       return failed("write failed: ", why);
     }
+    return true;
+  }
+  bool publish(std::string *why) {
     if (!temp_.empty() && std::rename(temp_.c_str(), final_.c_str()) != 0) {
       const int rename_err = errno;
       discard();
@@ -113,6 +109,50 @@ class OutputFile {
   const std::string &temporary() const { return temp_; }
 
  private:
+  // The stream over fd (which attach owns from here on; -1: open failed, errno says why).
+  // It writes through write_fd and close_fd, which keep the errno of the first failure: ferror
+  // says only that a write failed, and errno has often moved on by the time anyone asks.
+  bool attach(int fd, std::string *why) {
+    if (fd < 0) {
+      const int err = errno;
+      discard();
+      errno = err;
+      return failed("cannot open for writing: ", why);
+    }
+    fd_ = fd;
+    errno_ = 0;
+    file_ = ::fopencookie(this, "w", {nullptr, write_fd, nullptr, close_fd});
+    if (!file_) {
+      const int err = errno;
+      ::close(fd_);
+      discard();
+      errno = err;
+      return failed("cannot open for writing: ", why);
+    }
+    return true;
+  }
+
+  static ssize_t write_fd(void *cookie, const char *buf, std::size_t size) {
+    OutputFile *self = static_cast<OutputFile *>(cookie);
+    std::size_t done = 0;
+    while (done < size) {
+      const ssize_t n = ::write(self->fd_, buf + done, size - done);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) {
+        if (self->errno_ == 0) self->errno_ = n < 0 ? errno : EIO;
+        break;
+      }
+      done += static_cast<std::size_t>(n);
+    }
+    return static_cast<ssize_t>(done);  // short: the stream's error flag is set
+  }
+  static int close_fd(void *cookie) {
+    OutputFile *self = static_cast<OutputFile *>(cookie);
+    const int rc = ::close(self->fd_);
+    if (rc != 0 && self->errno_ == 0) self->errno_ = errno;
+    return rc;
+  }
+
   void discard() {
     if (file_) std::fclose(file_);
     file_ = nullptr;
@@ -126,19 +166,31 @@ class OutputFile {
   }
 
   std::FILE *file_ = nullptr;
+  int fd_ = -1;        // under file_
+  int errno_ = 0;      // the first write or close error of file_
   std::string final_;  // where the file ends up
   std::string temp_;   // the temporary, empty when writing in place or when none is open
 };
+
+// Writes text as the whole file path through *file and closes it, not yet published: false
+// with "PATH: why" in *error if it cannot.
+inline bool write_closed(const std::string &path, const std::string &text, OutputFile *file, std::string *error) {
+  std::string why;
+  if (file->open(path, &why)) {
+    std::fwrite(text.data(), 1, text.size(), file->get());
+    if (file->close(&why)) return true;
+  }
+  if (error) *error = path + ": " + why;
+  return false;
+}
 
 // Writes text as the whole file path (through OutputFile): false with "PATH: why" in *error
 // if it cannot.
 inline bool write_whole_file(const std::string &path, const std::string &text, std::string *error) {
   OutputFile file;
   std::string why;
-  if (file.open(path, &why)) {
-    std::fwrite(text.data(), 1, text.size(), file.get());
-    if (file.commit(&why)) return true;
-  }
+  if (!write_closed(path, text, &file, error)) return false;
+  if (file.publish(&why)) return true;
   if (error) *error = path + ": " + why;
   return false;
 }

@@ -26,19 +26,52 @@ std::string number(double v) {
   return buf;
 }
 
+// The length of the well-formed UTF-8 sequence that starts s[k] (RFC 3629: no overlong form,
+// no surrogate, nothing beyond U+10FFFF), 0 when none does.
+std::size_t utf8_length(const std::string &s, std::size_t k) {
+  const unsigned char c = static_cast<unsigned char>(s[k]);
+  if (c < 0x80) return 1;
+  std::size_t n = 0;
+  unsigned char lo = 0x80, hi = 0xbf;  // the second byte's range
+  if (c >= 0xc2 && c <= 0xdf) {
+    n = 2;
+  } else if (c >= 0xe0 && c <= 0xef) {
+    n = 3;
+    if (c == 0xe0) lo = 0xa0;  // below: overlong
+    if (c == 0xed) hi = 0x9f;  // above: the UTF-16 surrogates
+  } else if (c >= 0xf0 && c <= 0xf4) {
+    n = 4;
+    if (c == 0xf0) lo = 0x90;  // below: overlong
+    if (c == 0xf4) hi = 0x8f;  // above: beyond U+10FFFF
+  }
+  if (n == 0 || k + n > s.size()) return 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    const unsigned char d = static_cast<unsigned char>(s[k + i]);
+    if (d < (i == 1 ? lo : 0x80) || d > (i == 1 ? hi : 0xbf)) return 0;
+  }
+  return n;
+}
+
+// A JSON string. Paths and image names are bytes: a byte that is not UTF-8 becomes \udcXX,
+// as Python's surrogateescape reads it, so that the JSON is valid and the bytes come back.
 std::string quoted(const std::string &s) {
   std::string q = "\"";
-  for (const char c : s) {
+  char buf[8];
+  for (std::size_t k = 0; k < s.size();) {
+    const unsigned char c = static_cast<unsigned char>(s[k]);
+    const std::size_t n = utf8_length(s, k);
     if (c == '"' || c == '\\') {
       q += '\\';
-      q += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned char>(c));
+      q += static_cast<char>(c);
+    } else if (c < 0x20 || n == 0) {
+      std::snprintf(buf, sizeof buf, c < 0x20 ? "\\u%04x" : "\\udc%02x", c);
       q += buf;
     } else {
-      q += c;
+      q.append(s, k, n);
+      k += n;
+      continue;
     }
+    ++k;
   }
   return q + "\"";
 }

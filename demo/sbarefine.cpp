@@ -3,10 +3,14 @@
 // sparse model, text or binary, a Bundler bundle.out or a VisualSFM NVM file), written back
 // in its own format with every identifier, name and color unchanged. The solve is balsba's:
 // same options, output and Ctrl-C behaviour.
+#include <sys/stat.h>
+
 #include <array>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <functional>
 #include <memory>
@@ -173,17 +177,54 @@ struct Job {
 
 enum class Format { Colmap, Bundler, Nvm };
 
-// A file is a bundle or an NVM file by its first bytes; anything else is taken for a COLMAP
-// model directory, whose reader says what is missing.
-Format detect_format(const std::string &path) {
-  std::FILE *f = std::fopen(path.c_str(), "rb");
-  if (!f) return Format::Colmap;
-  char head[14] = {};
-  const std::size_t got = std::fread(head, 1, 13, f);
-  std::fclose(f);
-  const std::string h(head, got);
-  if (h == "# Bundle file") return Format::Bundler;
-  return h.compare(0, 6, "NVM_V3") == 0 ? Format::Nvm : Format::Colmap;
+// The input: a COLMAP model directory, or a file that is read once, so that standard input
+// or a FIFO works as a file does: its first bytes tell the format, and the rest is read from
+// the same stream once the options have been checked against that format.
+struct Input {
+  bool directory = false;  // a model directory (or nothing: its reader says what is missing)
+  Format format = Format::Colmap;
+  std::FILE *file = nullptr;  // a file input, once opened
+  std::string text;           // what has been read of it
+  Input() = default;
+  Input(const Input &) = delete;
+  Input &operator=(const Input &) = delete;
+  ~Input() {
+    if (file) std::fclose(file);
+  }
+};
+
+// Whether path is a directory, without reading anything: false with "PATH: cannot open: REASON"
+// when it cannot be looked at (a symbolic link loop, a permission).
+bool look_at_input(const std::string &path, Input *in, std::string *error) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0) {
+    in->directory = S_ISDIR(st.st_mode);
+    return true;
+  }
+  in->directory = errno == ENOENT;
+  if (in->directory) return true;
+  *error = path + ": cannot open: " + std::strerror(errno);
+  return false;
+}
+
+// Opens a file input and tells its format from its first bytes.
+bool open_input(const std::string &path, Input *in, std::string *error) {
+  in->file = std::fopen(path.c_str(), "rb");
+  if (!in->file) {
+    *error = path + ": cannot open: " + std::strerror(errno);
+    return false;
+  }
+  char head[13];
+  in->text.assign(head, std::fread(head, 1, sizeof head, in->file));
+  if (in->text.compare(0, 13, "# Bundle file") == 0) {
+    in->format = Format::Bundler;
+  } else if (in->text.compare(0, 6, "NVM_V3") == 0) {
+    in->format = Format::Nvm;
+  } else {
+    *error = path + ": not a COLMAP model directory, a Bundler file (# Bundle file) or an NVM file (NVM_V3)";
+    return false;
+  }
+  return true;
 }
 
 // The state a job's callbacks point into, kept alive for the whole run.
@@ -210,7 +251,7 @@ void eucsba_job(Loaded *l, Job *job) {
   job->in.m = pr.points.ncameras;
   job->in.n = pr.points.npoints();
   job->in.cnp = sm.cnp();
-  job->in.vmask = pr.points.vmask.data();
+  job->in.vis = &pr.points.pairs;
   job->in.x = pr.points.x.data();
   job->p = sm.initial_camera_params();
   job->p.insert(job->p.end(), sm.initial_points().begin(), sm.initial_points().end());
@@ -238,7 +279,7 @@ bool write_eucsba(const std::string &prefix, const Loaded &l, const double *p, s
   return static_cast<bool>(st);
 }
 
-bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
+bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error) ||
       !colmap::to_sba(l->model, o.refine, o.input, &l->problem, error))
     return false;
@@ -266,8 +307,9 @@ bool load_colmap(const Options &o, Loaded *l, Job *job, std::string *error) {
   return true;
 }
 
-bool load_nvm(const Options &o, Loaded *l, Job *job, std::string *error) {
-  if (!nvm::read_nvm(o.input, &l->nvm, error) || !nvm::to_sba(l->nvm, o.refine.focal, o.input, &l->problem, error))
+bool load_nvm(const Options &o, const std::string &text, Loaded *l, Job *job, std::string *error) {
+  if (!nvm::parse_nvm(text, o.input, &l->nvm, error) ||
+      !nvm::to_sba(l->nvm, o.refine.focal, o.input, &l->problem, error))
     return false;
   eucsba_job(l, job);
   job->summary = "NVM file " + o.input + ": " + std::to_string(job->in.m) + " cameras, " + std::to_string(job->in.n) +
@@ -286,8 +328,8 @@ bool load_nvm(const Options &o, Loaded *l, Job *job, std::string *error) {
   return true;
 }
 
-bool load_bundle(const Options &o, Loaded *l, Job *job, std::string *error) {
-  if (!bundler::read_bundle(o.input, &l->bundle, error)) return false;
+bool load_bundle(const Options &o, const std::string &text, Loaded *l, Job *job, std::string *error) {
+  if (!bundler::parse_bundle(text, o.input, &l->bundle, error)) return false;
   if (!o.bundler_list.empty()) {
     if (!bundler::read_list(o.bundler_list, &l->list, error)) return false;
     if (l->list.names.size() != l->bundle.cameras.size()) {
@@ -302,7 +344,7 @@ bool load_bundle(const Options &o, Loaded *l, Job *job, std::string *error) {
   job->in.m = l->layout.m;
   job->in.n = l->layout.n;
   job->in.cnp = bal::kCameraParams;
-  job->in.vmask = l->layout.vmask.data();
+  job->in.vis = &l->layout.vis;
   job->in.x = l->layout.x.data();
   job->p = l->layout.p;
   job->in.func = bal::motstr_func;
@@ -339,13 +381,36 @@ int refine_main(int argc, char **argv) {
       status >= 0)
     return status;
   sbademo::SolveOptions &so = o.solve;
-  if (!sbademo::outputs_writable({&so.json, &o.initial_ply, &o.final_ply, &o.write_bal, &o.write_list}))
+  Input input;
+  if (!look_at_input(o.input, &input, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
+  }
+  // Every output before anything is read: --write is a model directory for a directory.
+  const std::string write_file = input.directory ? "" : o.write;
+  const std::string eucsba_cams = o.write_eucsba.empty() ? "" : o.write_eucsba + "-cams.txt";
+  const std::string eucsba_pts = o.write_eucsba.empty() ? "" : o.write_eucsba + "-pts.txt";
+  if (!sbademo::outputs_writable({&write_file, &eucsba_cams, &eucsba_pts, &so.json, &o.initial_ply, &o.final_ply,
+                                  &o.write_bal, &o.write_list}))
+    return kExitFailure;
+  if (input.directory && !o.write.empty()) {
+    colmap::Encoding encoding = o.write_format == "binary" ? colmap::Encoding::Binary : colmap::Encoding::Text;
+    std::string unknown;  // no model to write: its reader says why below
+    if ((!o.write_format.empty() || colmap::model_encoding(o.input, &encoding, &unknown)) &&
+        !colmap::model_writable(o.write, encoding, &error)) {
+      std::fprintf(stderr, "%s\n", error.c_str());
+      return kExitFailure;
+    }
+  }
 
   const auto read_start = std::chrono::steady_clock::now();
   Loaded loaded;
   Job job;
-  const Format format = detect_format(o.input);
+  if (!input.directory && !open_input(o.input, &input, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
+  const Format format = input.format;
   // An option of another format: named with the formats it is for.
   const struct {
     bool given, allowed;
@@ -370,9 +435,10 @@ int refine_main(int argc, char **argv) {
                          "relative to the image centre)\n", o.intrinsics.c_str());
     return kExitUsage;
   }
-  bool (*const load)(const Options &, Loaded *, Job *, std::string *) =
+  bool (*const load)(const Options &, const std::string &, Loaded *, Job *, std::string *) =
       format == Format::Bundler ? load_bundle : format == Format::Nvm ? load_nvm : load_colmap;
-  if (!load(o, &loaded, &job, &error)) {
+  if ((input.file && !colmap::read_rest(input.file, o.input, true, &input.text, &error)) ||
+      !load(o, input.text, &loaded, &job, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }

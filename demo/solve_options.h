@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <initializer_list>
 #include <new>
@@ -18,6 +19,7 @@
 #include "report.h"
 #include "run_control.h"
 #include "sba_ext.h"
+#include "visibility.h"
 
 namespace sbademo {
 
@@ -150,11 +152,25 @@ inline void log_line(void *ctx, int level, const char *line) {
   std::fprintf(level == SBA_LOG_INFO ? stdout : stderr, "%s\n", line);
 }
 
+// The linear solver a solve by visibility pairs is given. The library's _vis entry points
+// default to sparse-chol; the programs keep the default they document for every entry point:
+// SBA_LINSOLVER when set (a name the library does not know is said, and chol used), else chol.
+inline const char *linsolver_of(const SolveOptions &o, const char *program) {
+  if (!o.solver.empty()) return o.solver.c_str();
+  const char *env = std::getenv("SBA_LINSOLVER");
+  if (!env || !*env) return "chol";
+  if (sba_linsolver_valid(env)) return env;
+  std::fprintf(stderr, "%s: unknown SBA_LINSOLVER \"%s\" (known: %s); using chol\n", program, env,
+               sba_linsolver_names());
+  return "chol";
+}
+
 // The extension options of a solve: solver, strategy, threads, loss, the log sink and the
 // result record. The callbacks must be re-entrant (they are shared by the threads).
-inline void init_ext(const SolveOptions &o, LogSink *sink, sba_ext_result *result, sba_ext_options *ext) {
+inline void init_ext(const SolveOptions &o, const char *program, LogSink *sink, sba_ext_result *result,
+                     sba_ext_options *ext) {
   sba_ext_options_init(ext);
-  ext->linsolver = o.solver.empty() ? nullptr : o.solver.c_str();
+  ext->linsolver = linsolver_of(o, program);
   ext->strategy = o.strategy.empty() ? nullptr : o.strategy.c_str();
   ext->nthreads = o.threads;
   ext->parallel_callbacks = 1;
@@ -232,22 +248,18 @@ inline Report make_report(const char *program, const std::string &input, int m, 
 }
 
 // Each camera's squared pixel distances at the result, for --json: project(j, i, x) gives
-// the projection of point i in camera j; x holds the measurements point by point, cameras
-// ascending, as vmask (n*m) says.
+// the projection of point i in camera j; x holds measurement k of vis at x[2k], x[2k + 1].
 template <class Project>
-void add_per_camera(int n, int m, const char *vmask, const double *x, Project project, Report *r) {
+void add_per_camera(int m, const Visibility &vis, const double *x, Project project, Report *r) {
   r->per_camera.assign(static_cast<std::size_t>(m), {});
-  std::size_t k = 0;
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < m; ++j) {
-      if (!vmask[static_cast<std::size_t>(i) * static_cast<std::size_t>(m) + static_cast<std::size_t>(j)]) continue;
-      double xp[2];
-      project(j, i, xp);
-      const double dx = xp[0] - x[2 * k], dy = xp[1] - x[2 * k + 1];
-      r->per_camera[static_cast<std::size_t>(j)].observations += 1;
-      r->per_camera[static_cast<std::size_t>(j)].sum_sq += dx * dx + dy * dy;
-      ++k;
-    }
+  for (std::size_t k = 0; k < vis.size(); ++k) {
+    const int j = vis.camera[k];
+    double xp[2];
+    project(j, vis.point[k], xp);
+    const double dx = xp[0] - x[2 * k], dy = xp[1] - x[2 * k + 1];
+    r->per_camera[static_cast<std::size_t>(j)].observations += 1;
+    r->per_camera[static_cast<std::size_t>(j)].sum_sq += dx * dx + dy * dy;
+  }
 }
 
 // main() of a program: its exit status, 1 when the report did not reach stdout or an

@@ -1,11 +1,12 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // The values of a whitespace-separated text file (Bundler's bundle.out, VisualSFM's NVM), one
 // at a time with the line each is on, and the strict conversions their readers share: a
-// number must be the whole token and finite, an integer must lie in its range. Errors are
-// one line, "<file>:<line>: <message>", and never echo a control byte.
+// number must be the whole token, decimal and finite, an integer must lie in its range.
+// Errors are one line, "<file>:<line>: <message>", and never echo a control byte.
 #ifndef SBA_DEMO_TEXT_TOKENS_H
 #define SBA_DEMO_TEXT_TOKENS_H
 
+#include <cctype>
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
@@ -13,6 +14,19 @@
 #include <string>
 
 namespace sbademo {
+
+// strtod for the text readers of every program: *out is the value of tok when the whole of it
+// is a number, NaN and Inf included (the readers refuse those by name). A hexadecimal float
+// (0x1p10) is not taken: no program writes these formats with one, and a file that holds one
+// would read as other numbers elsewhere. Neither is a leading blank, which strtod skips.
+inline bool decimal_number(const std::string &tok, double *out) {
+  const std::size_t k = !tok.empty() && (tok[0] == '+' || tok[0] == '-') ? 1 : 0;
+  if (k >= tok.size() || std::isspace(static_cast<unsigned char>(tok[0]))) return false;
+  if (tok[k] == '0' && k + 1 < tok.size() && (tok[k + 1] == 'x' || tok[k + 1] == 'X')) return false;
+  char *end = nullptr;
+  *out = std::strtod(tok.c_str(), &end);
+  return end == tok.c_str() + tok.size();
+}
 
 class TextTokens {
  public:
@@ -45,9 +59,8 @@ class TextTokens {
   bool real(const std::string &what, double *out, std::string *error) {
     std::string tok;
     if (!next(&tok)) return fail(error, ends_before(what));
-    char *end = nullptr;
-    const double v = std::strtod(tok.c_str(), &end);
-    if (end != tok.c_str() + tok.size() || !std::isfinite(v))
+    double v;
+    if (!decimal_number(tok, &v) || !std::isfinite(v))
       return fail(error, where() + what + " must be a finite number, got '" + printable(tok) + "'");
     *out = v;
     return true;

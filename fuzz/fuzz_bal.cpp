@@ -35,15 +35,15 @@ void check_problem(const bal::Problem &p, const std::string &name) {
   require(s.n == p.npoints && s.m == p.ncameras, "to_sba sizes");
   require(s.nobservations() == p.nobservations() && s.x.size() == 2 * std::size_t(s.nobservations()),
           "to_sba observation count");
-  require(s.vmask.size() == std::size_t(s.n) * std::size_t(s.m), "to_sba vmask size");
-  require(std::size_t(std::count(s.vmask.begin(), s.vmask.end(), 1)) == std::size_t(s.nobservations()),
-          "to_sba vmask does not have one entry per observation");
+  require(s.vis.size() == std::size_t(s.nobservations()), "to_sba has not one visibility pair per observation");
   require(s.p.size() == p.cameras.size() + p.points.size(), "to_sba parameter vector size");
   for (int k = 1; k < s.nobservations(); ++k) {
     const bal::Observation &a = p.observations[std::size_t(s.order[std::size_t(k) - 1])];
     const bal::Observation &b = p.observations[std::size_t(s.order[std::size_t(k)])];
     require(a.point < b.point || (a.point == b.point && a.camera < b.camera),
             "to_sba order is not by point, then camera");
+    require(s.vis.point[std::size_t(k)] == b.point && s.vis.camera[std::size_t(k)] == b.camera,
+            "to_sba visibility is not the observations'");
   }
 }
 

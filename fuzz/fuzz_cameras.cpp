@@ -4,6 +4,7 @@
 #include <cstdint>
 
 #include "eucsba_io.h"
+#include "eucsba_model.h"
 #include "fuzz_common.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
@@ -23,6 +24,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     sbafuzz::require_finite(std::begin(v), std::end(v), "a camera");
     sbafuzz::require_finite(c.kc.begin(), c.kc.end(), "a camera's distortion");
     sbafuzz::require(c.q.w != 0 || c.q.x != 0 || c.q.y != 0 || c.q.z != 0, "accepted a zero quaternion");
+    sbafuzz::require_rotation(eucsba::normalized_rotation(c.q), "a camera's quaternion");
   }
   return 0;
 }

@@ -2,13 +2,15 @@
 // libFuzzer target: the COLMAP model parsers. The first byte chooses the file (its value
 // mod 6: cameras, images, points3D as text, then the same as binary), the rest is its
 // content. What parses must format back to content that parses to the same records, and
-// a text file's formatted form must be a fixed point.
+// a text file's formatted form must be a fixed point; what parses keeps the readers' promises
+// (positive focal lengths, quaternions that normalize, names the text format can hold).
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "colmap_io.h"
+#include "eucsba_model.h"
 #include "fuzz_common.h"
 
 namespace {
@@ -29,6 +31,19 @@ std::string format_points(const std::vector<colmap::Point3D> &p, colmap::Encodin
   return colmap::format_model({{}, {}, p}, e).points;
 }
 
+// What the readers promise of what they accept, beyond its syntax.
+void require_valid(const colmap::Camera &c) {
+  // The focal lengths (f, or fx and fy) lead the parameters and are positive.
+  const int focals = c.model == colmap::kPinhole || c.model == colmap::kOpenCV ? 2 : 1;
+  for (int k = 0; k < focals; ++k)
+    require(c.params[std::size_t(k)] > 0, "accepted a focal length that is not positive");
+}
+void require_valid(const colmap::Image &im) {
+  sbafuzz::require_rotation(eucsba::normalized_rotation({im.q[0], im.q[1], im.q[2], im.q[3]}), "an image's quaternion");
+  require(!im.name.empty() && im.name.front() != ' ' && im.name.back() != ' ', "accepted a name text cannot hold");
+}
+void require_valid(const colmap::Point3D &) {}
+
 template <class T>
 void check(const std::string &content, Parser<T> parse, std::string (*format)(const std::vector<T> &, colmap::Encoding),
            colmap::Encoding e) {
@@ -39,6 +54,7 @@ void check(const std::string &content, Parser<T> parse, std::string (*format)(co
     sbafuzz::check_error_line(error, name + ":");
     return;
   }
+  for (const T &record : records) require_valid(record);
   const std::string once = format(records, e);
   std::vector<T> again;
   if (!parse(once, name, &again, &error)) sbafuzz::broken("the formatted records do not parse: " + error);

@@ -78,6 +78,14 @@ void require_finite(It begin, It end, const std::string &what) {
   for (It it = begin; it != end; ++it) require(std::isfinite(*it), what + " holds a non-finite value");
 }
 
+// A normalized quaternion (eucsba::Quaternion or anything with w, x, y, z) of a reader's: of
+// unit norm, whatever the size the file gave it.
+template <class Q>
+void require_rotation(const Q &q, const std::string &what) {
+  const double norm = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+  require(std::fabs(norm - 1) < 1e-12, what + " does not normalize to a rotation");
+}
+
 }  // namespace sbafuzz
 
 #endif

@@ -37,8 +37,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     sbafuzz::require_finite(c.t.begin(), c.t.end(), "a camera's translation");
   }
   sbafuzz::require_finite(p.points.x.begin(), p.points.x.end(), "the undistorted measurements");
-  std::size_t visible = 0;
-  for (char v : p.points.vmask) visible += v != 0;
-  require(2 * visible == p.points.x.size(), "two values per visible projection");
+  require(2 * p.points.pairs.size() == p.points.x.size(), "two values per visible projection");
   return 0;
 }

@@ -3,7 +3,8 @@
 // generated scenes (sbagen) as COLMAP text and binary, each behind the selector byte
 // fuzz_colmap reads, into COLMAP_DIR, the same scenes as Bundler files with their image lists
 // into BUNDLER_DIR, and as NVM files (one with a calibration token, a second model and a PLY
-// section after the first) into NVM_DIR.
+// section after the first) into NVM_DIR. Some seeds hold what the readers must take although
+// it is rare: quaternions whose squares overflow or underflow, names that are not UTF-8.
 #include <cstdio>
 #include <string>
 
@@ -13,6 +14,26 @@
 #include "nvm_io.h"
 #include "output_file.h"
 #include "sbagen.h"
+
+namespace {
+
+// Quaternions near 1e300 and 1e-200 (their squares overflow and underflow) and a name with
+// bytes that are not UTF-8, for image or camera j.
+double odd_scale(std::size_t j) { return j % 2 ? 1e300 : 1e-200; }
+std::string odd_name(std::size_t j) { return "img\xff\xfe" + std::to_string(j) + ".jpg"; }
+
+bool write_seed(const std::string &path, int selector, const std::string &content) {
+  std::FILE *out = std::fopen(path.c_str(), "wb");
+  if (!out) {
+    std::fprintf(stderr, "seed_writer: cannot write %s\n", path.c_str());
+    return false;
+  }
+  if (selector >= 0) std::fputc(selector, out);
+  std::fwrite(content.data(), 1, content.size(), out);
+  return std::fclose(out) == 0;
+}
+
+}  // namespace
 
 int main(int argc, char **argv) {
   if (argc != 4) {
@@ -53,36 +74,42 @@ int main(int argc, char **argv) {
         nvm_model.cameras[1].k = -2.5e-8;
         nvm_model.rest = "\n1\nlost.jpg 700 1 0 0 0 0 0 0 0 0\n\n0\n\n0\n\n#PLY files\n0\n";
       }
-      if (!nvm::write_nvm(nvm_dir + seed + ".nvm", nvm_model, &error)) {
+      nvm::Model odd = nvm_model;
+      for (std::size_t j = 0; j < odd.cameras.size(); ++j) {
+        for (double &v : odd.cameras[j].q) v *= odd_scale(j);
+        odd.cameras[j].name = odd_name(j);
+      }
+      if (!nvm::write_nvm(nvm_dir + seed + ".nvm", nvm_model, &error) ||
+          !write_seed(nvm_dir + seed + "-odd.nvm", -1, nvm::format_nvm(odd))) {
         std::fprintf(stderr, "seed_writer: %s\n", error.c_str());
         return 1;
       }
-      // An image list: the line of every camera, some with the EXIF focal length.
+      // An image list: the line of every camera, some with the EXIF focal length, one with a
+      // name that is not UTF-8.
       std::string list;
       for (std::size_t j = 0; j < bundle.cameras.size(); ++j)
-        list += "images/" + nvm_model.cameras[j].name + (j % 2 ? "\n" : " 0 812.5\n");
+        list += "images/" + (j == 1 ? odd_name(j) : nvm_model.cameras[j].name) + (j % 2 ? "\n" : " 0 812.5\n");
       if (!sbademo::write_whole_file(bundler_dir + seed + "-list.txt", list, &error)) {
         std::fprintf(stderr, "seed_writer: %s\n", error.c_str());
         return 1;
       }
-      written += 3;
+      written += 4;
+    }
+    colmap::Model odd = model;
+    for (std::size_t j = 0; j < odd.images.size(); ++j) {
+      for (double &v : odd.images[j].q) v *= odd_scale(j);
+      odd.images[j].name = odd_name(j);
     }
     for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
       const colmap::Files f = colmap::format_model(model, e);
       const std::string *files[] = {&f.cameras, &f.images, &f.points};
-      for (int k = 0; k < 3; ++k) {
-        const int selector = k + (e == colmap::Encoding::Binary ? 3 : 0);
-        const std::string path = dir + "/seed-" + sbagen::camera_kind_name(kind) + "-" + std::to_string(selector);
-        std::FILE *out = std::fopen(path.c_str(), "wb");
-        if (!out) {
-          std::fprintf(stderr, "seed_writer: cannot write %s\n", path.c_str());
-          return 1;
-        }
-        std::fputc(selector, out);
-        std::fwrite(files[k]->data(), 1, files[k]->size(), out);
-        if (std::fclose(out) != 0) return 1;
-        ++written;
-      }
+      const int binary = e == colmap::Encoding::Binary ? 3 : 0;
+      const std::string seed = dir + "/seed-" + sbagen::camera_kind_name(kind) + "-";
+      for (int k = 0; k < 3; ++k)
+        if (!write_seed(seed + std::to_string(k + binary), k + binary, *files[k])) return 1;
+      if (!write_seed(seed + "odd-" + std::to_string(1 + binary), 1 + binary, colmap::format_model(odd, e).images))
+        return 1;
+      written += 4;
     }
   }
   std::printf("seed_writer: %d seeds\n", written);

@@ -72,10 +72,11 @@ struct Outcome {
   std::string out, err;
 };
 
-// sbarefine with args (words split by the shell).
-inline Outcome run(const std::string &args) {
+// sbarefine with args (words split by the shell), after the shell text `before` (a pipe
+// into it, a ulimit).
+inline Outcome run(const std::string &args, const std::string &before = "") {
   const std::string base = testing::TempDir() + "test_refine_run_" + std::to_string(::getpid());
-  const std::string command = std::string(SBAREFINE_EXE) + " " + args + " >" + base + ".out 2>" + base + ".err";
+  const std::string command = before + SBAREFINE_EXE + " " + args + " >" + base + ".out 2>" + base + ".err";
   const int st = std::system(command.c_str());
   Outcome r;
   r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;

@@ -216,6 +216,25 @@ TEST(Quaternion, NormalizedRotationHasUnitNormAndNonNegativeScalar) {
   EXPECT_NEAR(q.x, -1 / std::sqrt(6.25), 1e-15);  // negated with the scalar part
 }
 
+// The squares of components near 1e308 overflow and those near 1e-200 underflow: neither may
+// lose the rotation.
+TEST(Quaternion, NormalizedRotationOfAnyNonzeroSize) {
+  const double h = std::sqrt(0.5);
+  const struct {
+    Quaternion q, unit;
+  } cases[] = {{{1e308, 1e308, 0, 0}, {h, h, 0, 0}},
+               {{1.7e308, -1.7e308, 1.7e308, -1.7e308}, {0.5, -0.5, 0.5, -0.5}},
+               {{-1e-200, 0, 0, 1e-200}, {h, 0, 0, -h}},
+               {{0, 0, 4.9e-324, 0}, {0, 0, 1, 0}}};
+  for (const auto &c : cases) {
+    const Quaternion q = normalized_rotation(c.q);
+    EXPECT_NEAR(q.w, c.unit.w, 1e-15) << c.q.w;
+    EXPECT_NEAR(q.x, c.unit.x, 1e-15) << c.q.w;
+    EXPECT_NEAR(q.y, c.unit.y, 1e-15) << c.q.w;
+    EXPECT_NEAR(q.z, c.unit.z, 1e-15) << c.q.w;
+  }
+}
+
 TEST(CameraModel, ZeroCorrectionGivesTheInputRotation) {
   std::mt19937 rng(2);
   for (CameraKind kind : kAllKinds) {
@@ -779,6 +798,9 @@ TEST_F(Files, BadCameraFiles) {
   expect_error(read_cameras(p, &cf), p, 4, "quaternion is zero");
   p = write("trailing.txt", "1 0 0 0 0 0 0x\n");
   expect_error(read_cameras(p, &cf), p, 1, "'0x' is not a number");
+  // strtod reads hexadecimal floats; no file of these formats is written with them.
+  p = write("hex.txt", "1 0 0 0 0x1p-2 0 0\n");
+  expect_error(read_cameras(p, &cf), p, 1, "'0x1p-2' is not a number");
 }
 
 TEST_F(Files, BadCalibrationFiles) {
@@ -791,6 +813,8 @@ TEST_F(Files, BadCalibrationFiles) {
   expect_error(read_calibration(p, &K), p, 1, "K has 0 rows");
   p = write("word.txt", "800 0 320\n0 eight 240\n0 0 1\n");
   expect_error(read_calibration(p, &K), p, 2, "'eight' is not a number");
+  p = write("hex.txt", "0x1p9 0 320\n0 800 240\n0 0 1\n");
+  expect_error(read_calibration(p, &K), p, 1, "'0x1p9' is not a number");
   p = write("nan.txt", "800 0 320\n0 800 240\n0 0 NaN\n");
   expect_error(read_calibration(p, &K), p, 3, "not a finite number");
   p = write("short.txt", "800 0 320\n0 800\n0 0 1\n");
@@ -871,6 +895,7 @@ TEST_F(Files, BadPointFiles) {
       {"truncated_triple", "1 2 3  2  0 10 20  1 30", "nframes is 2 but 5 values"},
       {"truncated_head", "1 2 3", "expected X Y Z nframes"},
       {"coordinate_word", "1 two 3  1  0 10 20", "'two' is not a number"},
+      {"coordinate_hex", "1 -0X2 3  1  0 10 20", "'-0X2' is not a number"},
       {"coordinate_nan", "1 2 nan  1  0 10 20", "not a finite number"},
       {"measurement_inf", "1 2 3  1  0 inf 20", "not a finite number"},
       {"cov_form_changes", "1 2 3  1  0 10 20 1 0 1", "inconsistent covariance form"},

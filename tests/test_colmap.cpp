@@ -4,11 +4,16 @@
 // through sbarefine against the same scene through eucsbademo's files.
 #include <gtest/gtest.h>
 
+#include <sys/mount.h>
+#include <sys/resource.h>
+#include <sys/statvfs.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -23,6 +28,9 @@
 #include "colmap_io.h"
 #include "colmap_sba.h"
 #include "eucsba_io.h"
+#include "output_file.h"
+#include "sanitized.h"
+#include "sba_ext.h"
 #include "sbagen.h"
 #include "sbarefine_runs.h"
 
@@ -164,6 +172,13 @@ TEST(ColmapReader, CameraTextErrors) {
       {"-1 PINHOLE 640 480 1 2 3 4\n", "c.txt:1: CAMERA_ID must be an integer from 0 to 4294967295, got '-1'"},
       {"1 PINHOLE 640 480 1 2 3 4\n1 PINHOLE 640 480 1 2 3 4\n", "c.txt:2: camera 1 appears twice"},
       {"1 PINHOLE 640\n", "c.txt:1: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[], found 3 values"},
+      {"1 PINHOLE 640 480 0x1p9 500 320 240\n", "c.txt:1: a camera parameter must be a finite number, got '0x1p9'"},
+      {"1 PINHOLE 640 480 0 500 320 240\n", "c.txt:1: camera 1: PINHOLE's fx must be positive, got 0"},
+      {"1 PINHOLE 640 480 500 -500 320 240\n", "c.txt:1: camera 1: PINHOLE's fy must be positive, got -500"},
+      {"3 SIMPLE_RADIAL 640 480 -1e-300 320 240 0\n",
+       "c.txt:1: camera 3: SIMPLE_RADIAL's f must be positive, got -1e-300"},
+      {"2 OPENCV 640 480 1e-300 1e300 320 240 0 0 0 0\n",
+       "c.txt:1: camera 2: OPENCV's aspect ratio fy / fx overflows or underflows"},
   };
   for (const Bad &b : cases) {
     std::vector<colmap::Camera> cams;
@@ -181,6 +196,7 @@ TEST(ColmapReader, ImageAndPointTextErrors) {
       {"1 1 0 0 0 0 0 0 1 a.png\n1 2 -2\n",
        "i.txt:2: POINT3D_ID must be -1 or an integer from 0 to 18446744073709551614, got '-2'"},
       {"1 1 0 0 0 0 inf 0 1 a.png\n\n", "i.txt:1: TY must be a finite number, got 'inf'"},
+      {"1 1 0 0 0 0x1 0 0 1 a.png\n\n", "i.txt:1: TX must be a finite number, got '0x1'"},
   };
   for (const Bad &b : images) {
     std::vector<colmap::Image> ims;
@@ -220,10 +236,20 @@ TEST(ColmapReader, BinaryErrors) {
   EXPECT_EQ(error, "c.bin: byte " + std::to_string(f.cameras.size() - 8) + ": the file ends inside a camera parameter");
   EXPECT_FALSE(colmap::parse_images_binary(f.images + "x", "i.bin", &ims, &error));
   EXPECT_EQ(error, "i.bin: byte " + std::to_string(f.images.size()) + ": 1 bytes after the last record");
-  bad = f.images;
-  bad[72] = '\n';  // the first image's name
-  EXPECT_FALSE(colmap::parse_images_binary(bad, "i.bin", &ims, &error));
-  EXPECT_EQ(error, "i.bin: byte 8: image 10: an empty name or one with a line break");
+  // A focal length that is not positive.
+  bad = f.cameras;
+  std::memset(&bad[32], 0, 8);  // the first camera's fx
+  EXPECT_FALSE(colmap::parse_cameras_binary(bad, "c.bin", &cams, &error));
+  EXPECT_EQ(error, "c.bin: byte 8: camera 100: OPENCV's fx must be positive, got 0");
+  // Names the text format cannot hold: a line break, blanks only, a blank at either end.
+  ASSERT_EQ(f.images.substr(72, 13), std::string("img_0000.png\0", 13));
+  for (const char *name : {"img_\n000.png", "            ", " img_000.png", "img_000.png\t"}) {
+    bad = f.images;
+    bad.replace(72, 12, name);
+    EXPECT_FALSE(colmap::parse_images_binary(bad, "i.bin", &ims, &error)) << name;
+    EXPECT_EQ(error, "i.bin: byte 8: image 10: the name is empty, holds a line break or begins or ends with a "
+                     "blank, which the text format cannot hold");
+  }
   bad = f.points;
   bad[7] = 1;
   EXPECT_FALSE(colmap::parse_points_binary(bad, "p.bin", &pts, &error));
@@ -370,6 +396,380 @@ TEST(Sbarefine, CommandLineErrors) {
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.err, dir + "/cameras.txt:1: camera model OPENCV_FISHEYE is not supported: sba's camera model "
                          "expresses SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV\n");
+  // A focal length of 0 is named where it is read, not met in the solve as "p[3] is not finite".
+  write_file(dir + "/cameras.txt", "1 PINHOLE 640 480 0 500 320 240\n");
+  write_file(dir + "/images.txt", "1 1 0 0 0 0 0 5 1 a.png\n320 240 1\n2 1 0 0 0 1 0 5 1 b.png\n300 240 1\n");
+  write_file(dir + "/points3D.txt", "1 0 0 0 1 2 3 0.5 1 0 2 0\n");
+  r = run(dir + " --intrinsics none --mcon 2");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/cameras.txt:1: camera 1: PINHOLE's fx must be positive, got 0\n");
+}
+
+// A quaternion of any nonzero size is a rotation, in a COLMAP model (text and binary) as in
+// eucsbademo's camera file: components near 1e308, whose squares overflow, and near 1e-200,
+// whose squares underflow, refine as the unit quaternion does.
+TEST(Sbarefine, HugeAndTinyQuaternionsAreRotations) {
+  const std::string dir = temp_dir("quaternion_size");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 6, 80);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/unit", s.model, colmap::Encoding::Binary, &error)) << error;
+  const Outcome unit = run(dir + "/unit --write " + dir + "/unit-out");
+  ASSERT_EQ(unit.status, 0) << unit.err;
+  const double expected = final_error(unit.out);
+  colmap::Model refined;
+  ASSERT_TRUE(colmap::read_model(dir + "/unit-out", &refined, nullptr, &error)) << error;
+  const double demo_unit = eucsbademo_error(s.prefix + "-cams.txt " + s.prefix + "-pts.txt");
+  for (double scale : {1e308, 1e-200}) {
+    colmap::Model m = s.model;
+    for (colmap::Image &im : m.images)
+      for (double &v : im.q) v *= scale;
+    for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+      SCOPED_TRACE(std::to_string(scale) + (e == colmap::Encoding::Text ? " text" : " binary"));
+      const std::string in = dir + "/scaled", out = dir + "/out";
+      std::filesystem::remove_all(in);
+      std::filesystem::remove_all(out);
+      ASSERT_TRUE(colmap::write_model(in, m, e, &error)) << error;
+      const Outcome r = run(in + " --write " + out);
+      ASSERT_EQ(r.status, 0) << r.err;
+      EXPECT_NEAR(final_error(r.out), expected, 1e-9 * expected) << r.out;
+      // The same minimum; the gauge left free lets the poses differ in the eighth digit.
+      colmap::Model back;
+      ASSERT_TRUE(colmap::read_model(out, &back, nullptr, &error)) << error;
+      for (std::size_t j = 0; j < back.images.size(); ++j)
+        for (int k = 0; k < 4; ++k) EXPECT_NEAR(back.images[j].q[k], refined.images[j].q[k], 1e-6);
+    }
+    std::vector<eucsba::Camera> cameras = s.problem.cameras;
+    for (eucsba::Camera &c : cameras) c.q = {c.q.w * scale, c.q.x * scale, c.q.y * scale, c.q.z * scale};
+    ASSERT_TRUE(eucsba::write_cameras(dir + "/scaled-cams.txt", s.problem.kind, cameras));
+    EXPECT_NEAR(eucsbademo_error(dir + "/scaled-cams.txt " + s.prefix + "-pts.txt"), demo_unit, 1e-6 * demo_unit)
+        << scale;
+  }
+}
+
+// The names of a model's files, sorted.
+std::vector<std::string> entries(const std::string &dir) {
+  std::vector<std::string> names;
+  for (const auto &e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+const std::vector<std::string> kBinaryFiles{"cameras.bin", "images.bin", "points3D.bin"};
+const std::vector<std::string> kTextFiles{"cameras.txt", "images.txt", "points3D.txt"};
+
+// The files of a directory, by name.
+std::vector<std::string> contents(const std::string &dir, const std::vector<std::string> &names) {
+  std::vector<std::string> out;
+  for (const std::string &n : names) out.push_back(read_file(dir + "/" + n));
+  return out;
+}
+
+// A model with every refined value changed, as a refinement would change it.
+colmap::Model moved(colmap::Model m) {
+  for (colmap::Camera &c : m.cameras) c.params[0] *= 1.01;
+  for (colmap::Image &im : m.images) im.t[2] += 0.25;
+  for (colmap::Point3D &p : m.points) p.xyz[0] += 0.5;
+  return m;
+}
+
+// The full disk of the write error tests: /dev/full fails every write with ENOSPC, and the
+// message says so (the errno of the failed write, not of what came after it).
+TEST(OutputFile, FullDiskIsSaidAsSuch) {
+  if (::access("/dev/full", W_OK) != 0) GTEST_SKIP() << "no /dev/full";
+  std::string error;
+  EXPECT_FALSE(sbademo::write_whole_file("/dev/full", std::string(1 << 16, 'x'), &error));
+  EXPECT_EQ(error, "/dev/full: write failed: No space left on device");
+  EXPECT_FALSE(sbademo::write_whole_file("/dev/full", "x", &error));
+  EXPECT_EQ(error, "/dev/full: write failed: No space left on device");
+}
+
+// A model is replaced whole or not at all: when its second or third file cannot be written
+// (a file size limit stands for a full disk here), the files of the model are as they were
+// and no temporary is left.
+TEST(ColmapWriter, ReplacesAModelWholeOrNotAtAll) {
+  const std::string dir = temp_dir("whole_or_nothing");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  const colmap::Model changed = moved(s.model);
+  std::string error;
+  int failures = 0;
+  for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+    const std::vector<std::string> &names = e == colmap::Encoding::Text ? kTextFiles : kBinaryFiles;
+    const colmap::Files f = colmap::format_model(changed, e);
+    const std::size_t sizes[] = {f.cameras.size(), f.images.size(), f.points.size()};
+    for (int failing = 1; failing < 3; ++failing) {
+      // A limit that the files before the failing one fit and the failing one exceeds.
+      const std::size_t limit = *std::max_element(sizes, sizes + failing);
+      if (sizes[failing] <= limit) continue;
+      SCOPED_TRACE(names[static_cast<std::size_t>(failing)]);
+      const std::string model = dir + "/m";
+      std::filesystem::remove_all(model);
+      ASSERT_TRUE(colmap::write_model(model, s.model, e, &error)) << error;
+      const std::vector<std::string> before = contents(model, names);
+      rlimit old{};
+      ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
+      const rlimit low{static_cast<rlim_t>(limit), old.rlim_max};
+      const auto handler = std::signal(SIGXFSZ, SIG_IGN);
+      ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &low), 0);
+      const bool written = colmap::write_model(model, changed, e, &error);
+      ::setrlimit(RLIMIT_FSIZE, &old);
+      std::signal(SIGXFSZ, handler);
+      EXPECT_FALSE(written);
+      EXPECT_EQ(error, model + "/" + names[static_cast<std::size_t>(failing)] + ": write failed: File too large");
+      EXPECT_EQ(entries(model), names);
+      EXPECT_TRUE(contents(model, names) == before);
+      ++failures;
+    }
+  }
+  EXPECT_GE(failures, 2);  // the second file of each encoding at least
+  // The third file cannot be opened (a directory stands where points3D.bin should be): the
+  // first two are as they were.
+  const std::string model = dir + "/third";
+  ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Binary, &error)) << error;
+  const std::vector<std::string> first_two{kBinaryFiles[0], kBinaryFiles[1]};
+  const std::vector<std::string> before = contents(model, first_two);
+  std::filesystem::remove(model + "/points3D.bin");
+  std::filesystem::create_directory(model + "/points3D.bin");
+  EXPECT_FALSE(colmap::write_model(model, changed, colmap::Encoding::Binary, &error));
+  EXPECT_EQ(error, model + "/points3D.bin: cannot open for writing: Is a directory");
+  EXPECT_EQ(entries(model), kBinaryFiles);
+  EXPECT_TRUE(contents(model, first_two) == before);
+}
+
+// Writing a model in one format into a directory that holds the other replaces that one:
+// its files go, so that no reader finds the stale model beside the new one.
+TEST(ColmapWriter, WritingOneFormatRemovesTheOther) {
+  const std::string dir = temp_dir("other_format");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
+  const colmap::Model changed = moved(s.model);
+  const std::string model = dir + "/m";
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Text, &error)) << error;
+  ASSERT_TRUE(colmap::write_model(model, changed, colmap::Encoding::Binary, &error)) << error;
+  EXPECT_EQ(entries(model), kBinaryFiles);
+  colmap::Model back;
+  colmap::Encoding found;
+  ASSERT_TRUE(colmap::read_model(model, &back, &found, &error)) << error;
+  EXPECT_EQ(found, colmap::Encoding::Binary);
+  expect_same(back, changed);
+  ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Text, &error)) << error;
+  EXPECT_EQ(entries(model), kTextFiles);
+  ASSERT_TRUE(colmap::read_model(model, &back, &found, &error)) << error;
+  EXPECT_EQ(found, colmap::Encoding::Text);
+  expect_same(back, s.model);
+}
+
+// sbarefine --write into its own input model on a disk that fills at the second file: status
+// 1 with the disk's reason, the input model as it was, no temporary left. A small tmpfs is
+// the full disk; mounting one needs privileges the test may not have.
+TEST(Sbarefine, FullDiskLeavesTheInputModelAsItWas) {
+  const std::string dir = temp_dir("full_disk"), mnt = dir + "/mnt";
+  std::filesystem::create_directories(mnt);
+  if (::mount("tmpfs", mnt.c_str(), "tmpfs", 0, "size=2m") != 0)
+    GTEST_SKIP() << "cannot mount a tmpfs: " << std::strerror(errno);
+  struct Unmount {
+    std::string path;
+    ~Unmount() { ::umount2(path.c_str(), MNT_DETACH); }
+  } unmount{mnt};
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  const std::string model = mnt + "/model";
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Binary, &error)) << error;
+  const std::vector<std::string> before = contents(model, kBinaryFiles);
+  // All but one page taken: the new cameras.bin fits in it, images.bin does not.
+  const colmap::Files f = colmap::format_model(s.model, colmap::Encoding::Binary);
+  ASSERT_LE(f.cameras.size(), 4096u);
+  ASSERT_GT(f.images.size(), 4096u);
+  struct statvfs fs {};
+  ASSERT_EQ(::statvfs(mnt.c_str(), &fs), 0);
+  ASSERT_EQ(fs.f_frsize, 4096u);
+  write_file(mnt + "/filler", std::string((fs.f_bavail - 1) * fs.f_frsize, 'x'));
+  ASSERT_EQ(::statvfs(mnt.c_str(), &fs), 0);
+  ASSERT_EQ(fs.f_bavail, 1u);
+  const Outcome r = run(model + " --write " + model);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, model + "/images.bin: write failed: No space left on device\n");
+  EXPECT_EQ(r.out, "");
+  EXPECT_EQ(entries(model), kBinaryFiles);
+  EXPECT_TRUE(contents(model, kBinaryFiles) == before);
+}
+
+// Every output is checked before the model is read: when one cannot be written, nothing is
+// solved (--verbose prints nothing) and nothing read (a broken model is not what the message
+// names), status 1 and the path with the reason, as for --json or a PLY file.
+TEST(Sbarefine, OutputsCheckedBeforeTheSolve) {
+  const std::string dir = temp_dir("outputs_first");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 60);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  ASSERT_TRUE(colmap::write_model(dir + "/broken", s.model, colmap::Encoding::Text, &error)) << error;
+  write_file(dir + "/broken/points3D.txt", "not a point\n");
+  bundler::Bundle b;
+  ASSERT_TRUE(bundler::from_problem(s.problem.cameras, s.problem.points, &b, &error)) << error;
+  ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", b, &error)) << error;
+  write_file(dir + "/file", "a file, not a directory\n");
+  const std::string nowhere = dir + "/no-such-dir/x";
+  const std::string kMissing = ": cannot open for writing: No such file or directory\n";
+  const struct {
+    std::string args, err;
+  } cases[] = {
+      {dir + "/in --write " + nowhere, nowhere + ": cannot create the directory: No such file or directory\n"},
+      {dir + "/in --write " + dir + "/file", dir + "/file: not a directory\n"},
+      {dir + "/in --write-format binary --write " + dir + "/in --write-eucsba " + nowhere,
+       nowhere + "-cams.txt" + kMissing},
+      {dir + "/b.out --write " + nowhere, nowhere + kMissing},
+      {dir + "/broken --write " + nowhere, nowhere + ": cannot create the directory: No such file or directory\n"},
+  };
+  for (const auto &c : cases) {
+    const Outcome r = run("--verbose 1 " + c.args);
+    EXPECT_EQ(r.status, 1) << c.args;
+    EXPECT_EQ(r.out, "") << c.args;
+    EXPECT_EQ(r.err, c.err) << c.args;
+  }
+  // The model checked is left as it was.
+  EXPECT_EQ(entries(dir + "/in"), kTextFiles);
+}
+
+// Names and paths that are not UTF-8 (an image name with the bytes 0xff 0xfe) go to --json as
+// Python's surrogateescape writes them, \udcff \udcfe: valid JSON, from which those bytes come
+// back; UTF-8 goes as it is.
+TEST(Sbarefine, JsonOfNamesThatAreNotUtf8) {
+  const std::string dir = temp_dir("json_bytes");
+  Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 40);
+  s.model.images[0].name = "a\xff\xfe.png";
+  s.model.images[1].name = "\xc3\xa9t\xc3\xa9.png";
+  s.model.images[2].name = "\xed\xa0\x80.png";  // a UTF-16 surrogate, which UTF-8 does not encode
+  const std::string model = dir + "/m\xff";
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Binary, &error)) << error;
+  const Outcome r = run("'" + model + "' --json " + dir + "/r.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string json = read_file(dir + "/r.json");
+  EXPECT_NE(json.find("\"name\": \"a\\udcff\\udcfe.png\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"name\": \"\xc3\xa9t\xc3\xa9.png\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"name\": \"\\udced\\udca0\\udc80.png\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"inputs\": [\"" + dir + "/m\\udcff\"]"), std::string::npos) << json;
+  if (std::system("command -v python3 >/dev/null") != 0) GTEST_SKIP() << "no python3 to parse the JSON";
+  write_file(dir + "/check.py",
+             "import json, sys\n"
+             "d = json.load(open(sys.argv[1], encoding='utf-8'))\n"
+             "names = [c['name'].encode('utf-8', 'surrogateescape') for c in d['cameras']]\n"
+             "sys.exit(names[:3] != [b'a\\xff\\xfe.png', b'\\xc3\\xa9t\\xc3\\xa9.png', b'\\xed\\xa0\\x80.png'])\n");
+  EXPECT_EQ(std::system(("python3 " + dir + "/check.py " + dir + "/r.json").c_str()), 0);
+}
+
+// What stands where a model's file should be is said as it is: a symbolic link loop, a
+// directory, a device (/dev/zero, which is refused before it is read).
+TEST(Sbarefine, ModelFilesThatAreNotFiles) {
+  const std::string dir = temp_dir("not_files");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
+  std::string error;
+  const std::string kLoop = ": cannot open: Too many levels of symbolic links\n";
+  std::filesystem::create_symlink("loop", dir + "/loop");
+  Outcome r = run(dir + "/loop");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/loop" + kLoop);
+  ASSERT_TRUE(colmap::write_model(dir + "/a", s.model, colmap::Encoding::Text, &error)) << error;
+  std::filesystem::remove(dir + "/a/cameras.txt");
+  std::filesystem::create_symlink("cameras.txt", dir + "/a/cameras.txt");
+  r = run(dir + "/a");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/a/cameras.txt" + kLoop);
+  std::filesystem::remove(dir + "/a/cameras.txt");
+  std::filesystem::create_directory(dir + "/a/cameras.txt");
+  r = run(dir + "/a");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/a/cameras.txt: is a directory\n");
+  ASSERT_TRUE(colmap::write_model(dir + "/b", s.model, colmap::Encoding::Binary, &error)) << error;
+  std::filesystem::remove(dir + "/b/cameras.bin");
+  std::filesystem::create_symlink("/dev/zero", dir + "/b/cameras.bin");
+#ifdef SBA_TEST_SANITIZED
+  const std::string limit;  // a sanitizer reserves more address space than any limit
+#else
+  const std::string limit = "ulimit -v 2000000; ";  // a reading of /dev/zero ends here
+#endif
+  r = run(dir + "/b", limit);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/b/cameras.bin: not a regular file\n");
+}
+
+// A model of many images and points, each point seen by two neighbouring images of a row
+// of cameras along x (shared PINHOLE camera 1, identity rotations), with measurements off by
+// up to a third of a pixel.
+colmap::Model sparse_model(int m, int n) {
+  colmap::Model model;
+  model.cameras.push_back({1, colmap::kPinhole, 640, 480, {500, 500, 320, 240}});
+  for (int j = 0; j < m; ++j) {
+    colmap::Image im;
+    im.id = static_cast<std::uint32_t>(j) + 1;
+    im.t = {-static_cast<double>(j), 0, 0};
+    im.camera_id = 1;
+    im.name = "i" + std::to_string(j) + ".png";
+    model.images.push_back(std::move(im));
+  }
+  for (int i = 0; i < n; ++i) {
+    colmap::Point3D p;
+    p.id = static_cast<std::uint64_t>(i) + 1;
+    const int c = i % (m - 1);
+    p.xyz = {c + 0.5 + 0.3 * std::sin(i), 2 * std::cos(0.7 * i), 8 + std::sin(1.3 * i)};
+    for (int j = c; j < c + 2; ++j) {
+      colmap::Image &im = model.images[static_cast<std::size_t>(j)];
+      const double noise = std::sin(0.37 * i + j) / 3;
+      p.track.push_back({im.id, static_cast<std::uint32_t>(im.points.size())});
+      im.points.push_back({500 * (p.xyz[0] - j) / p.xyz[2] + 320 + noise, 500 * p.xyz[1] / p.xyz[2] + 240 - noise,
+                           p.id});
+    }
+    model.points.push_back(std::move(p));
+  }
+  return model;
+}
+
+// Memory follows the observations, not images x points: a model of 10,000 images and 200,000
+// points, each seen twice, whose dense visibility mask (n x m bytes, 2 GB) alone exceeds the
+// address space it is given, is solved within it (with a sparse solver: a dense reduced camera
+// system of 10,000 cameras would not fit either). One thread, and one for OpenBLAS, which
+// reserves a buffer per thread: the address space taken does not grow with the machine's cores.
+TEST(Sbarefine, MemoryFollowsTheObservations) {
+#ifdef SBA_TEST_SANITIZED
+  GTEST_SKIP() << "RLIMIT_AS cannot work under a sanitizer (it reserves terabytes of shadow memory)";
+#endif
+  const int m = 10000, n = 200000;
+  const long long limit_kb = 1400000;
+  ASSERT_GT(static_cast<long long>(m) * n, limit_kb * 1024);
+  const std::string dir = temp_dir("sparse_memory");
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", sparse_model(m, n), colmap::Encoding::Binary, &error)) << error;
+  const Outcome r = run(dir + "/in --intrinsics none --solver sparse-chol --threads 1 --itmax 2",
+                        "ulimit -v " + std::to_string(limit_kb) + "; OPENBLAS_NUM_THREADS=1 ");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("COLMAP model " + dir + "/in (binary): 10000 images, 1 cameras, 200000 points, 400000 "
+                       "observations"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("SBA returned 2 in 2 iter, reason 3, error 0.110275 [initial 0.111111]"), std::string::npos)
+      << r.out;
+  std::filesystem::remove_all(dir);
+}
+
+// The solve by visibility pairs keeps the programs' default solver: SBA_LINSOLVER when set,
+// else chol (the pairs entry point's own default is sparse-chol); an unknown name is said.
+TEST(Sbarefine, DefaultSolverAsDocumented) {
+  const std::string dir = temp_dir("default_solver");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 40);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error)) << error;
+  const struct {
+    std::string env, solver, err;
+  } cases[] = {{"unset SBA_LINSOLVER; ", "chol", ""},
+               {"SBA_LINSOLVER=lu ", "lu", ""},
+               {"SBA_LINSOLVER=nope ", "chol",
+                std::string("sbarefine: unknown SBA_LINSOLVER \"nope\" (known: ") + sba_linsolver_names() +
+                    "); using chol\n"}};
+  for (const auto &c : cases) {
+    const Outcome r = run(dir + "/in --itmax 1", c.env);
+    EXPECT_EQ(r.status, 0) << c.env;
+    EXPECT_NE(r.out.find("\nSolver " + c.solver + " on "), std::string::npos) << c.env << r.out;
+    EXPECT_EQ(r.err, c.err) << c.env;
+  }
 }
 
 // ---- Bundler ----
@@ -425,6 +825,7 @@ TEST(Bundler, ReaderErrors) {
       {"0 0 0\n1 2 3\n2 0 0 1 2 0 1 1 2\n", "b.out:15: point 0 is seen twice by camera 0"},
       {"0 0 0\n1 2 3\n1 1 0 1 2\n", "b.out:15: point 0 is seen by camera 1, which is not registered (f = 0)"},
       {"0 0 0\n1 2 3\n1 0 0 1 nan\n", "b.out:15: point 0 y must be a finite number, got 'nan'"},
+      {"0 0 0\n1 2 3\n1 0 0 0x1 2\n", "b.out:15: point 0 x must be a finite number, got '0x1'"},
       {"0 0 0\n1 2 3\n1 0 0 1 2\n7\n", "b.out:16: data after the last point"},
   };
   for (const Bad &b : points) {
@@ -454,6 +855,7 @@ TEST(Bundler, ImageList) {
       {"a.jpg 0 -500\n", "list.txt:1: the focal length must be a finite positive number, got '-500'"},
       {"a.jpg 0 nan\n", "list.txt:1: the focal length must be a finite positive number, got 'nan'"},
       {"a.jpg 0 500px\n", "list.txt:1: the focal length must be a finite positive number, got '500px'"},
+      {"a.jpg 0 0x1p9\n", "list.txt:1: the focal length must be a finite positive number, got '0x1p9'"},
   };
   for (const Bad &b : cases) {
     EXPECT_FALSE(bundler::parse_list(b.text, "list.txt", &list, &error)) << b.text;
@@ -513,6 +915,20 @@ TEST(Sbarefine, BundlerSameErrorAsEucsbademo) {
     EXPECT_EQ(back.points[i].views[0].x, b.points[i].views[0].x);
   }
   EXPECT_NE(read_file(dir + "/i.ply").find("element vertex 210\n"), std::string::npos);
+}
+
+// A bundle on a pipe is read once, as a file is.
+TEST(Sbarefine, BundlerReadsAPipe) {
+  const std::string dir = temp_dir("bundler_pipe");
+  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 60);
+  std::string error;
+  ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", make_bundle(s), &error)) << error;
+  const Outcome file = run(dir + "/b.out --write " + dir + "/file.out");
+  ASSERT_EQ(file.status, 0) << file.err;
+  const Outcome pipe = run("/dev/stdin --write " + dir + "/pipe.out", "cat " + dir + "/b.out | ");
+  ASSERT_EQ(pipe.status, 0) << pipe.err;
+  EXPECT_EQ(final_error(pipe.out), final_error(file.out));
+  EXPECT_EQ(read_file(dir + "/pipe.out"), read_file(dir + "/file.out"));
 }
 
 // The image list names the registered cameras in --json and in messages, is checked against

@@ -142,6 +142,8 @@ TEST(NvmReader, Errors) {
       {"NVM_V3\n\n1\na.jpg -500 1 0 0 0 0 0 -5 0 0\n0\n",
        "n.nvm:4: camera 0 focal length must be positive, got -500"},
       {"NVM_V3\n\n1\na.jpg 500 0 0 0 0 0 0 -5 0 0\n0\n", "n.nvm:4: camera 0 quaternion is zero"},
+      {"NVM_V3\n\n1\na.jpg 0x1p9 1 0 0 0 0 0 -5 0 0\n0\n",
+       "n.nvm:4: camera 0 focal length must be a finite number, got '0x1p9'"},
       {"NVM_V3\n\n1\na.jpg 500 1 0 0 0 0 0 nan 0 0\n0\n", "n.nvm:4: camera 0 cz must be a finite number, got 'nan'"},
       {"NVM_V3\n\n1\na.jpg 500 1 0 0 0 0 0 -5 0 1\n0\n", "n.nvm:4: camera 0 must end with 0, got '1'"},
       {"NVM_V3\n\n1\na.jpg 500 1 0 0 0 0 0 -5 0\n\n\n",
@@ -186,7 +188,9 @@ TEST(NvmMapping, CentresAndUndistortedMeasurements) {
   // t = -R C: a quaternion of norm 2 is the identity rotation.
   EXPECT_EQ(p.cameras[1].t, (std::array<double, 3>{-1, 0, 5}));
   // Point 0's measurements, cameras ascending; camera 0's undistorted: m (1 + 1e-6 |m|^2).
-  EXPECT_EQ(p.points.vmask, (std::vector<char>{1, 1, 1, 0}));
+  EXPECT_TRUE(p.points.vmask.empty());  // the visibility as pairs: point 0 in cameras 0 and 1, point 1 in 0
+  EXPECT_EQ(p.points.pairs.point, (std::vector<int>{0, 0, 1}));
+  EXPECT_EQ(p.points.pairs.camera, (std::vector<int>{0, 1, 0}));
   ASSERT_EQ(p.points.x.size(), 6u);
   EXPECT_DOUBLE_EQ(p.points.x[0], 101.25);
   EXPECT_DOUBLE_EQ(p.points.x[1], -50.625);
@@ -341,6 +345,20 @@ TEST(SbarefineNvm, ConvertsToEucsbademo) {
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NEAR(eucsbademo_error("--nccalib 4 --ncdist 5 " + e.dir + "/e-cams.txt " + e.dir + "/e-pts.txt"), e.expected,
               1e-6 * e.expected);
+}
+
+// A file on a pipe is read once: the format is told from the bytes read, not from a second
+// opening of the file.
+TEST(SbarefineNvm, ReadsAPipe) {
+  const Refinement e = make_refinement("nvm_pipe");
+  std::string error;
+  ASSERT_TRUE(nvm::write_nvm(e.dir + "/in.nvm", make_model(e.problem), &error)) << error;
+  const Outcome file = run(e.dir + "/in.nvm --write " + e.dir + "/file.nvm");
+  ASSERT_EQ(file.status, 0) << file.err;
+  const Outcome pipe = run("/dev/stdin --write " + e.dir + "/pipe.nvm", "cat " + e.dir + "/in.nvm | ");
+  ASSERT_EQ(pipe.status, 0) << pipe.err;
+  EXPECT_NEAR(final_error(pipe.out), e.expected, 1e-6 * e.expected) << pipe.out;
+  EXPECT_EQ(read_file(e.dir + "/pipe.nvm"), read_file(e.dir + "/file.nvm"));
 }
 
 TEST(SbarefineNvm, CommandLineErrors) {

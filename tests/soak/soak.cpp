@@ -28,6 +28,9 @@
 //                      sba_ext_result.nthreads within the documented caps
 //   a point seen once  in a covariance request: refused (SBA_ERROR), or a rank below the
 //                      number of free parameters; never a full-rank success
+// and, in some children instead of a solve of the synthetic problem, a COLMAP model with
+// quaternions of any size and names that are not UTF-8, written over another on a disk that
+// may fill at any byte, read back and solved (model_files.h says what is promised there).
 //
 // usage: sba_soak [--solves N] [--seed S] [--timeout SECONDS] [--jobs J] [--verbose]
 #include <signal.h>
@@ -52,6 +55,9 @@
 #include "sba.h"
 #include "sba_ext.h"
 #include "synth.h"
+#ifdef SBA_SOAK_MODEL_FILES
+#include "model_files.h"
+#endif
 
 // LeakSanitizer's interface, present only in sanitizer builds.
 extern "C" int __lsan_do_recoverable_leak_check(void) __attribute__((weak));
@@ -99,8 +105,22 @@ struct Plan {
   int bad = 0;  // index into kBadArguments
   int huge_threads = 0;     // nthreads asked for beyond any cap (0: not this case)
   bool once_seen = false;   // the covariance request has a point seen by one camera only
+  bool model_files = false;  // the child runs the model files case below instead of the solve
+#ifdef SBA_SOAK_MODEL_FILES
+  soakfiles::Case files;
+#endif
 
   std::string describe() const {
+#ifdef SBA_SOAK_MODEL_FILES
+    if (model_files) {
+      char buf[256];
+      std::snprintf(buf, sizeof buf, "seed %u: model files, %d cameras, %d points, quaternions x %g%s, %s over %s, "
+                    "file size limit %ld", seed, files.cameras, files.points, files.q_scale,
+                    files.odd_names ? ", names not UTF-8" : "", files.rewrite_binary ? "binary" : "text",
+                    files.binary ? "binary" : "text", files.file_limit);
+      return buf;
+    }
+#endif
     char buf[512];
     std::snprintf(buf, sizeof buf,
                   "seed %u: %s%s n=%d m=%d sigma=%g vis=%.2f %s %s%s threads=%d mcon=%d ncon=%d "
@@ -200,6 +220,20 @@ Plan make_plan(unsigned run_seed, int k) {
   // Drawn last, so that the plans above stay those of earlier versions for the same seed.
   if (p.use_ext && coin(0.06)) p.huge_threads = coin(0.5) ? INT_MAX : pick(100, 5000);
   if (p.covariance && coin(0.5)) p.once_seen = true;
+#ifdef SBA_SOAK_MODEL_FILES
+  if (coin(0.1)) {
+    static const double scales[] = {1, 1e300, 1e-200, -3.5};
+    p.model_files = true;
+    p.files.seed = p.seed;
+    p.files.cameras = pick(3, 6);
+    p.files.points = 15 * p.files.cameras;
+    p.files.q_scale = scales[pick(0, 3)];
+    p.files.odd_names = coin(0.5);
+    p.files.binary = coin(0.5);
+    p.files.rewrite_binary = coin(0.5);
+    p.files.file_limit = coin(0.6) ? pick(1, 8000) : 0;  // the disk fills at that byte of a file
+  }
+#endif
   return p;
 }
 
@@ -222,6 +256,9 @@ struct Report {
   int threads_cap = 0;      // the documented cap on a count asked for, for this problem
   int covariance_asked = 0;  // the covariance was computed (plan.covariance, no fault planned)
   int covariance_rank = 0, covariance_nfree = 0;
+#ifdef SBA_SOAK_MODEL_FILES
+  soakfiles::Outcome files;  // the model files case
+#endif
   int done = 0;             // the report is complete
 };
 
@@ -429,6 +466,9 @@ void run_plan(const Plan &plan, Report &r) {
 
 // Empty when the outcome is one the API promises for this plan; else what is wrong.
 std::string judge(const Plan &plan, const Report &r) {
+#ifdef SBA_SOAK_MODEL_FILES
+  if (plan.model_files) return soakfiles::judge(r.files);
+#endif
   const double *info = r.info;
   const int reason = int(info[6]);
   auto consistent = [&]() {
@@ -552,7 +592,17 @@ Child start(unsigned seed, int k, unsigned timeout) {
     alarm(timeout);
     const Plan plan = make_plan(seed, k);
     Report r;
+#ifdef SBA_SOAK_MODEL_FILES
+    if (plan.model_files) {
+      const long live = g_live_news.load();
+      soakfiles::run(plan.files, &r.files);
+      r.leaked = g_live_news.load() - live;
+    } else {
+      run_plan(plan, r);
+    }
+#else
     run_plan(plan, r);
+#endif
     if (__lsan_do_recoverable_leak_check) r.lsan_leak = __lsan_do_recoverable_leak_check() != 0;
     r.done = 1;
     const char *b = reinterpret_cast<const char *>(&r);
