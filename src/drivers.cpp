@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The C boundary: the six sba 1.6 drivers. Each one validates its arguments, builds the
 // typed layout and callback model, and runs the shared LM core. Nothing escapes this file
-// as an exception, and info is filled on every return path.
+// as an exception, and info is filled on every return path; only a forced unwind (the
+// calling thread ended by pthread_exit or pthread_cancel in a callback) passes through,
+// freeing everything on its way (catch_all in log.h).
 #include <algorithm>
 #include <cerrno>
 #include <climits>
@@ -357,7 +359,7 @@ bool prepare(const DriverArgs &a, const sba_ext_options &ext, const Logger &log,
 // Layout&, bool concurrent) -> std::unique_ptr<Model>), then work(ext, log, opt, lay, model).
 // False if an exception escaped (it is logged).
 template <class Extra, class MakeModel, class Work>
-bool with_model(const DriverArgs &a, Extra extra, MakeModel make_model, Work work) noexcept {
+bool with_model(const DriverArgs &a, Extra extra, MakeModel make_model, Work work) {
   const sba_ext_options ext = read_ext(a.ext);
   const Logger log = make_logger(a, ext);
   return catch_all(log, a.name, [&] {
@@ -370,7 +372,7 @@ bool with_model(const DriverArgs &a, Extra extra, MakeModel make_model, Work wor
 }
 
 template <class MakeModel>
-int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
+int run_driver(const DriverArgs &a, MakeModel make_model) {
   Summary sum;
   int ret = SBA_ERROR;
   const auto no_extra_check = [] { return std::string(); };
@@ -400,7 +402,7 @@ int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
 // sba::covariance.
 template <class MakeModel>
 int run_covariance(const DriverArgs &a, sba_covariance_request *user,
-                   MakeModel make_model) noexcept {
+                   MakeModel make_model) {
   int ret = SBA_ERROR;
   CovarianceRequest req;
   const auto check_request = [&]() -> std::string {
