@@ -91,11 +91,7 @@ void indices_of_vmask(const std::vector<char> &vmask, int n, int m, std::vector<
 
 py::dict read_eucsbademo(const std::string &cams, const std::string &pts, const std::string &calib) {
   eucsba::Problem problem;
-  eucsba::Status status;
-  {
-    py::gil_scoped_release release;
-    status = eucsba::load_problem(cams, pts, calib, &problem);
-  }
+  const eucsba::Status status = without_gil([&] { return eucsba::load_problem(cams, pts, calib, &problem); });
   if (!status) {
     // Line 0: the file could not be opened or read at all; otherwise its content is wrong.
     if (status.line() == 0) raise_os_error(status.to_string());
@@ -125,11 +121,8 @@ py::dict read_bal(const std::string &path) {
   bal::Problem problem;
   bal::SbaLayout layout;
   std::string error;
-  bool ok;
-  {
-    py::gil_scoped_release release;
-    ok = bal::read_problem(path, &problem, &error) && bal::to_sba(problem, path, &layout, &error);
-  }
+  const bool ok = without_gil(
+      [&] { return bal::read_problem(path, &problem, &error) && bal::to_sba(problem, path, &layout, &error); });
   if (!ok) {
     if (error.find(": cannot open") != std::string::npos || error.find(": read error") != std::string::npos)
       raise_os_error(error);

@@ -34,7 +34,7 @@ SolveOptions solve_options(const py::dict &kw) {
   o.solver = text("solver");
   o.strategy = text("strategy");
   o.loss = text("loss");
-  o.progress = get("progress");
+  o.progress = kw.contains("progress") ? py::handle(kw["progress"]) : py::handle(Py_None);
   if (o.itmax < 0) throw py::value_error("itmax must be >= 0, got " + std::to_string(o.itmax));
   if (o.threads < 0) throw py::value_error("threads must be >= 0, got " + std::to_string(o.threads));
   if (!o.solver.empty() && !sba_linsolver_valid(o.solver.c_str()))
@@ -80,7 +80,7 @@ void Session::keep_python_error() {
   // where in the callback it came from.
   if (trace && value) PyException_SetTraceback(value, trace);
   if (!failed_ && value) {
-    error_ = py::reinterpret_borrow<py::object>(value);
+    error_ = PyRef(py::reinterpret_borrow<py::object>(value));
     failed_ = true;
   }
   Py_XDECREF(type);
@@ -91,7 +91,9 @@ void Session::keep_python_error() {
 void Session::keep_current_exception() {
   try {
     throw;
-  } catch (py::error_already_set &e) {
+  }
+  PYSBA_FORCED_UNWIND_PASSES_THROUGH
+  catch (py::error_already_set &e) {
     e.restore();
   } catch (py::builtin_exception &e) {
     e.set_error();
@@ -108,27 +110,25 @@ void Session::keep_current_exception() {
 int Session::progress_trampoline(void *ctx, const sba_progress *state) {
   Session *s = static_cast<Session *>(ctx);
   if (s->failed_) return 1;
-  py::gil_scoped_acquire gil;
-  try {
-    // The signal handlers run here, in the main thread: Ctrl-C becomes a KeyboardInterrupt
-    // that is kept and stops the solve at this iteration.
-    if (PyErr_CheckSignals() != 0) {
-      s->keep_python_error();
-      return 1;
-    }
-    if (!s->options_.progress.is_none()) {
-      const py::object stop = s->options_.progress(*state);
-      if (PyObject_IsTrue(stop.ptr()) == 1) return 1;
-      if (PyErr_Occurred()) {
-        s->keep_python_error();
-        return 1;
+  int stop = 0;
+  with_gil(s->released_, [&] {
+    try {
+      // The signal handlers run here, in the main thread: Ctrl-C becomes a KeyboardInterrupt
+      // that is kept and stops the solve at this iteration.
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+      if (!s->options_.progress.is_none()) {
+        const PyRef r = call_python(s->options_.progress, {PyRef(py::cast(*state)).handle()});
+        stop = PyObject_IsTrue(r.get());
+        if (stop < 0) throw py::error_already_set();
       }
     }
-  } catch (...) {
-    s->keep_current_exception();
-    return 1;
-  }
-  return 0;
+    PYSBA_FORCED_UNWIND_PASSES_THROUGH
+    catch (...) {
+      s->keep_current_exception();
+      stop = 1;
+    }
+  });
+  return stop;
 }
 
 void Session::log_trampoline(void *ctx, int level, const char *line) {
@@ -159,7 +159,7 @@ py::dict Session::report(int ret, const double info[SBA_INFOSZ]) const {
   d["solver"] = result_.linsolver ? py::object(py::str(result_.linsolver)) : py::object(py::none());
   d["robust"] = result_.robust != 0;
   d["strategy"] = result_.strategy ? py::object(py::str(result_.strategy)) : py::object(py::none());
-  d["error"] = failed_ ? error_ : py::object(py::none());
+  d["error"] = error();
   return d;
 }
 

@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "gil.h"
 #include "sba.h"
 #include "sba_ext.h"
 
@@ -37,7 +38,7 @@ struct SolveOptions {
   std::string strategy;  // empty: the library's choice
   std::string loss;    // empty: least squares
   double loss_scale = 1.0;
-  py::object progress;  // None or a callable taking a pysba.Progress
+  py::handle progress;  // None or a callable taking a pysba.Progress (the caller holds it)
 };
 
 // Reads the keyword arguments the extension functions share (see pysba/__init__.py).
@@ -58,7 +59,10 @@ class Session {
   // Keeps the C++ exception being handled as a Python one (inside a catch block, GIL held).
   void keep_current_exception();
   bool failed() const { return failed_; }
-  py::object error() const { return failed_ ? error_ : py::object(py::none()); }
+  // Where the thread that runs the solve keeps its Python state while the library works
+  // (without_gil, with_gil in gil.h): the Python callbacks run on that thread.
+  PyThreadState *&released_thread() { return released_; }
+  py::object error() const { return failed_ ? error_.object() : py::object(py::none()); }
   const std::vector<std::string> &errors() const { return errors_; }
 
   // The library's result in a dict for the Python side: ret, info, the log's errors and
@@ -76,7 +80,8 @@ class Session {
   std::vector<std::string> errors_, warnings_;
   // Set with the GIL held; read by callbacks without it, to skip work once a solve is doomed.
   std::atomic<bool> failed_{false};
-  py::object error_;
+  PyThreadState *released_ = nullptr;
+  PyRef error_;
 };
 
 }  // namespace pysba

@@ -4,6 +4,7 @@ import os
 import re
 import signal
 import subprocess
+import sys
 import threading
 import time
 
@@ -286,6 +287,65 @@ def test_ctrl_c_stops_the_solve(bal21):
     r = e.value.result
     assert r.reason == pysba.Reason.USER and 1 <= r.iterations < 28
     assert r.final_mse < r.initial_mse
+
+
+# ---- a daemon thread still solving when the interpreter exits ----
+
+DAEMON_SCRIPT = r"""
+import sys, threading, time
+import pysba
+from euclidean import Euclidean
+
+p = pysba.read_eucsbademo(*sys.argv[2:5])
+started = threading.Event()
+opts = [1e-3, 0, 0, 0, 0]  # no stop test can pass: it solves until the interpreter ends it
+
+
+def progress(state):
+    started.set()
+
+
+def solve():
+    if sys.argv[1] == "builtin":
+        pysba.solve(p, itmax=10**6, opts=opts, progress=progress, threads=2)
+    else:
+        m = Euclidean(p.cameras, p.calibration)
+
+        def project(*args):
+            started.set()
+            return m.project(*args)
+
+        pysba.motstr(project, m.initial, p.points, p.camera_index, p.point_index, p.observations,
+                     jacobian=m.jacobian, itmax=10**6, opts=opts)
+
+
+class SlowExit:
+    # Deleted while the interpreter exits, with the GIL released for a while: the solving
+    # thread takes the GIL then, in a callback, and the interpreter ends it.
+    def __del__(self):
+        time.sleep(0.5)
+
+
+slow_exit = SlowExit()
+threading.Thread(target=solve, daemon=True).start()
+started.wait()
+print("main thread ends", flush=True)
+"""
+
+
+@pytest.mark.parametrize("model", ["builtin", "python"])
+def test_daemon_thread_solving_at_exit(model, cams54):
+    # CPython ends such a thread inside the GIL acquisition of a callback by a forced unwind.
+    # It must pass through the library and pysba without being swallowed (abort, "FATAL:
+    # exception not rethrown"), without std::terminate, and without touching the interpreter
+    # on its way (a crash at exit).
+    files = [os.fspath(DEMO / f) for f in ("54cams.txt", "54pts.txt", "calib.txt")]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.environ.get("PYTHONPATH", ""),
+                                                        os.path.dirname(__file__)]))
+    for _ in range(3):
+        run = subprocess.run([sys.executable, "-c", DAEMON_SCRIPT, model, *files], capture_output=True,
+                             text=True, env=env, timeout=120)
+        assert (run.returncode, run.stdout, run.stderr) == (0, "main thread ends\n", "")
 
 
 # ---- errors ----
