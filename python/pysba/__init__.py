@@ -100,13 +100,14 @@ class Problem:
         if model not in ("eucsbademo", "bal"):
             raise ValueError(f"model must be 'eucsbademo' or 'bal', got {model!r}")
         self.model = model
-        self.cameras = np.asarray(cameras, dtype=np.float64)
-        self.points = np.asarray(points, dtype=np.float64)
-        self.camera_index = np.asarray(camera_index, dtype=np.int64)
-        self.point_index = np.asarray(point_index, dtype=np.int64)
-        self.observations = np.asarray(observations, dtype=np.float64)
-        self.covariances = None if covariances is None else np.asarray(covariances, dtype=np.float64)
-        self.calibration = None if calibration is None else np.asarray(calibration, dtype=np.float64)
+        self.cameras = _core.float_array(cameras, "cameras")
+        self.points = _core.float_array(points, "points")
+        # Checked, not converted by truncation: an index of 2.9999999999999996 is an error, not 2.
+        self.camera_index = _core.index_array(camera_index, "camera_index", len(self.cameras))
+        self.point_index = _core.index_array(point_index, "point_index", len(self.points))
+        self.observations = _core.float_array(observations, "observations")
+        self.covariances = None if covariances is None else _core.float_array(covariances, "covariances")
+        self.calibration = None if calibration is None else _core.float_array(calibration, "calibration")
 
     @property
     def ncameras(self) -> int:
@@ -193,10 +194,12 @@ def _finish(report: dict) -> Result:
     return result
 
 
-def _readable(path: Any) -> builtins.str:
-    """path as a string, after opening it once: a missing or unreadable file raises the
-    usual OSError subclass (FileNotFoundError, PermissionError, IsADirectoryError)."""
-    path = os.fspath(path)
+def _readable(path: Any) -> bytes:
+    """path in the file system's encoding, after opening it once: a missing or unreadable
+    file raises the usual OSError subclass (FileNotFoundError, PermissionError,
+    IsADirectoryError). Bytes, so that any name Python can open reaches the reader, also
+    one that is not UTF-8 (a str with lone surrogates, as os.fsdecode gives for it)."""
+    path = os.fsencode(path)
     with open(path, "rb"):
         pass
     return path
@@ -206,7 +209,7 @@ def read_eucsbademo(cams: Any, pts: Any, calib: Any = None) -> Problem:
     """Reads eucsbademo's camera and point files (and the calibration file that goes with
     7-value cameras). OSError for a file that cannot be read, ValueError with the reader's
     ``file:line: message`` for bad content."""
-    paths = [_readable(cams), _readable(pts), "" if calib is None else _readable(calib)]
+    paths = [_readable(cams), _readable(pts), b"" if calib is None else _readable(calib)]
     d = _core.read_eucsbademo(*paths)
     return Problem("eucsbademo", **d)
 

@@ -28,6 +28,22 @@ py::array_t<T> adopt(std::vector<T> &&v, std::vector<py::ssize_t> shape) {
 // A copy of len values at data, in a new array of the given shape.
 py::array_t<double> copy_of(const double *data, std::vector<py::ssize_t> shape);
 
+// obj as a C-contiguous float64 array: numbers (integers or floats) of any layout. TypeError
+// naming `what` for anything else (a str, a path, an object()).
+Doubles float_array(py::handle obj, const char *what);
+
+// ValueError naming the first entry of a that is NaN or Inf by its place in the caller's
+// array, as "observations[100, 1]".
+void check_finite(const Doubles &a, const char *what);
+
+// cameras or points: float_array of shape (rows, width) (width -1: any), all finite.
+Doubles parameter_rows(py::handle obj, const char *what, py::ssize_t width);
+
+// obj (one dimension) as indices in [0, bound): integers, or floats that hold integers.
+// ValueError naming the first entry that is not one (a fraction such as 2.9999999999999996,
+// NaN, Inf) or is out of range; TypeError for other types.
+std::vector<long long> index_array(py::handle obj, const char *what, long long bound);
+
 // Checks that a has ndim dimensions and the given sizes (-1: any); what names it in the
 // ValueError otherwise. Returns the sizes.
 std::vector<py::ssize_t> check_shape(const py::array &a, const char *what,
@@ -45,10 +61,11 @@ struct Observations {
 };
 
 // From the caller's arrays: camera_index and point_index (nobs each), observations
-// (nobs x mnp) and covariances (None or nobs x mnp x mnp). ValueError for indices out of
-// range, a (camera, point) pair given twice, or mismatched sizes.
-Observations sorted_observations(int n, int m, const Indices &camera_index, const Indices &point_index,
-                                 const Doubles &observations, const py::object &covariances);
+// (nobs x mnp) and covariances (None or nobs x mnp x mnp). ValueError for indices that are
+// not indices of the n points and m cameras, non-finite values, a (camera, point) pair given
+// twice, or mismatched sizes, naming the caller's arrays and rows.
+Observations sorted_observations(int n, int m, py::handle camera_index, py::handle point_index,
+                                 py::handle observations, py::handle covariances);
 
 }  // namespace pysba
 

@@ -128,16 +128,23 @@ void python_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adat
 
 }  // namespace
 
-py::dict solve_python(const std::string &refine, const py::object &project, const py::object &jacobian,
-                      const Doubles &cameras, const Doubles &points, const Indices &camera_index,
-                      const Indices &point_index, const Doubles &observations, const py::object &covariances,
-                      bool covariance, const py::kwargs &kw) {
+py::dict solve_python(const std::string &refine, py::handle project, py::handle jacobian, py::handle cameras,
+                      py::handle points, py::handle camera_index, py::handle point_index, py::handle observations,
+                      py::handle covariances, bool covariance, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   if (!PyCallable_Check(project.ptr())) throw py::type_error("project must be callable");
   if (!jacobian.is_none() && !PyCallable_Check(jacobian.ptr()))
     throw py::type_error("jacobian must be callable or None");
-  const std::vector<py::ssize_t> cs = check_shape(cameras, "cameras", {-1, -1});
-  const std::vector<py::ssize_t> ps = check_shape(points, "points", {-1, -1});
+  std::vector<double> cams, pts;
+  std::vector<py::ssize_t> cs, ps;
+  {
+    // Copied and let go before the solve (gil.h).
+    const Doubles c = parameter_rows(cameras, "cameras", -1), b = parameter_rows(points, "points", -1);
+    cs = {c.shape(0), c.shape(1)};
+    ps = {b.shape(0), b.shape(1)};
+    cams.assign(c.data(), c.data() + c.size());
+    pts.assign(b.data(), b.data() + b.size());
+  }
   if (cs[0] == 0 || ps[0] == 0) throw py::value_error("a problem needs at least one camera and one point");
   if (cs[1] == 0 || ps[1] == 0) throw py::value_error("cameras and points need at least one parameter each");
 
@@ -152,8 +159,6 @@ py::dict solve_python(const std::string &refine, const py::object &project, cons
   pm.pnp = static_cast<int>(ps[1]);
   pm.project = project;
   pm.jacobian = jacobian;
-  const double *c = cameras.data(), *b = points.data();
-  std::vector<double> cams(c, c + cs[0] * cs[1]), pts(b, b + ps[0] * ps[1]);
 
   Run run;
   run.refine = pm.refine;

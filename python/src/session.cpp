@@ -147,6 +147,9 @@ py::dict Session::report(int ret, const double info[SBA_INFOSZ]) const {
   d["ret"] = ret;
   py::list inf;
   for (int k = 0; k < SBA_INFOSZ; ++k) inf.append(info[k]);
+  // A callback's exception (Ctrl-C included) reaches the library as NaN projections, which
+  // it reports as reason 7; what stopped the solve was the exception, as a stop request.
+  if (failed_) inf[6] = double(SBA_STOP_USER);
   d["info"] = inf;
   d["errors"] = errors_;
   d["warnings"] = warnings_;

@@ -66,7 +66,8 @@ class Session {
   const std::vector<std::string> &errors() const { return errors_; }
 
   // The library's result in a dict for the Python side: ret, info, the log's errors and
-  // warnings, the extension result, and "error" (the kept exception or None).
+  // warnings, the extension result, and "error" (the kept exception or None; with one,
+  // info[6] is SBA_STOP_USER).
   py::dict report(int ret, const double info[SBA_INFOSZ]) const;
 
  private:

@@ -418,6 +418,126 @@ def test_bad_arrays_raise_value_error(cams7):
         pysba.Problem("pinhole", p.cameras, p.points, p.camera_index, p.point_index, p.observations)
 
 
+def test_calibration_that_is_not_an_array_of_numbers_raises_type_error(cams7):
+    # Set after construction, as a user may: it reached the library unchecked (SIGSEGV).
+    for bad, got in [("calib.txt", "str"), (object(), "object"), ([["a", "b", "c"]] * 3, "list"),
+                     (np.full((3, 3), "1"), "an array of <U1")]:
+        p = cams7
+        p.calibration = bad
+        with pytest.raises(TypeError, match=re.escape(f"calibration must be an array of numbers, got {got}")):
+            pysba.solve(p)
+        with pytest.raises(TypeError, match="calibration must be an array of numbers"):
+            pysba.Problem("eucsbademo", p.cameras, p.points, p.camera_index, p.point_index, p.observations,
+                          calibration=bad)
+    with pytest.raises(TypeError, match="cameras must be an array of numbers, got str"):
+        pysba.motstr(lambda *a: None, "cams.txt", p.points, p.camera_index, p.point_index, p.observations)
+
+
+def test_indices_that_are_not_integers_are_refused(cams7):
+    p = cams7
+    args = (p.cameras, p.points, p.camera_index, p.point_index, p.observations)
+    # 2.9999999999999996 was truncated to 2: observation 100 moved to another camera.
+    for value, shown in [(np.nextafter(3.0, 0.0), "2.9999999999999996"), (np.nan, "nan"), (-np.inf, "-inf"),
+                         (0.5, "0.5")]:
+        ci = p.camera_index.astype(np.float64)
+        ci[100] = value
+        message = re.escape(f"camera_index[100] = {shown} is not an integer")
+        with pytest.raises(ValueError, match=message):
+            pysba.Problem("eucsbademo", p.cameras, p.points, ci, p.point_index, p.observations,
+                          calibration=p.calibration)
+        q = pysba.Problem("eucsbademo", *args, calibration=p.calibration)
+        q.camera_index = ci
+        with pytest.raises(ValueError, match=message):
+            pysba.solve(q)
+        m = Euclidean(p.cameras, p.calibration)
+        with pytest.raises(ValueError, match=message):
+            pysba.motstr(m.project, m.initial, p.points, ci, p.point_index, p.observations)
+    pi = p.point_index.astype(np.float64)
+    pi[7] = 1e300
+    with pytest.raises(ValueError, match=re.escape("point_index[7] = 1.0000000000000001e+300 is not in [0, 465)")):
+        pysba.Problem("eucsbademo", p.cameras, p.points, p.camera_index, pi, p.observations,
+                      calibration=p.calibration)
+    # Whole floats are indices; other types are not.
+    exact = pysba.Problem("eucsbademo", p.cameras, p.points, p.camera_index.astype(float), p.point_index,
+                          p.observations, calibration=p.calibration)
+    assert exact.camera_index.dtype == np.int64 and np.array_equal(exact.camera_index, p.camera_index)
+    with pytest.raises(TypeError, match="point_index must be an array of integers, got an array of <U1"):
+        pysba.Problem("eucsbademo", p.cameras, p.points, p.camera_index, np.full(p.nobservations, "1"),
+                      p.observations, calibration=p.calibration)
+
+
+def test_non_finite_values_are_named_by_the_callers_arrays_and_rows(cams7):
+    p = cams7
+    # Shuffled, so that the library's (sorted) order differs from the caller's.
+    perm = np.random.default_rng(4).permutation(p.nobservations)
+
+    def problem(**changes):
+        d = dict(cameras=p.cameras, points=p.points, camera_index=p.camera_index[perm],
+                 point_index=p.point_index[perm], observations=p.observations[perm], calibration=p.calibration)
+        d.update(changes)
+        return pysba.Problem("eucsbademo", **d)
+
+    obs = p.observations[perm].copy()
+    obs[100, 1] = np.nan
+    pts = p.points.copy()
+    pts[7, 2] = np.inf
+    cams = p.cameras.copy()
+    cams[3, 5] = np.nan
+    K = p.calibration.copy()
+    K[0, 2] = np.inf
+    cov = np.tile(np.eye(2), (p.nobservations, 1, 1))
+    cov[9, 1, 0] = np.nan
+    for changes, name in [(dict(observations=obs), "observations[100, 1] is not finite (nan)"),
+                          (dict(points=pts), "points[7, 2] is not finite (inf)"),
+                          (dict(cameras=cams), "cameras[3, 5] is not finite (nan)"),
+                          (dict(calibration=K), "calibration[0, 2] is not finite (inf)"),
+                          (dict(covariances=cov), "covariances[9, 1, 0] is not finite (nan)")]:
+        with pytest.raises(ValueError, match=re.escape(name)):
+            pysba.solve(problem(**changes))
+    m = Euclidean(p.cameras, p.calibration)
+    with pytest.raises(ValueError, match=re.escape("observations[100, 1] is not finite (nan)")):
+        pysba.motstr(m.project, m.initial, p.points, p.camera_index[perm], p.point_index[perm], obs)
+
+
+def test_keyboard_interrupt_in_a_model_callback_is_a_user_stop(cams7):
+    p = cams7
+    m = Euclidean(p.cameras, p.calibration)
+    calls = []
+
+    def project(cams, pts, ci, pi):
+        calls.append(1)
+        if len(calls) == 5:
+            raise KeyboardInterrupt
+        return m.project(cams, pts, ci, pi)
+
+    with pytest.raises(KeyboardInterrupt) as e:
+        pysba.motstr(project, m.initial, p.points, p.camera_index, p.point_index, p.observations,
+                     jacobian=m.jacobian)
+    # Not NONFINITE: the NaN that stops the library is how pysba makes it stop.
+    assert e.value.result.reason == pysba.Reason.USER and int(e.value.result.info[6]) == 9
+    assert e.value.result.final_mse < e.value.result.initial_mse
+
+
+BAL_ONE = "1 1 1\n0 0 1.5 -2.5\n" + "0\n" * 6 + "500\n0\n0\n" + "0\n0\n-5\n"
+
+
+def test_paths_that_are_not_utf8(tmp_path):
+    # A name of bytes that are not UTF-8, as os.fsdecode gives it (lone surrogates): Python
+    # opens it, and so must the readers.
+    good = tmp_path / os.fsdecode(b"\xff-problem.txt")
+    good.write_text(BAL_ONE)
+    for path in (good, os.fspath(good), os.fsencode(good)):
+        q = pysba.read_bal(path)
+        assert (q.ncameras, q.npoints, q.nobservations) == (1, 1, 1) and q.observations[0, 1] == -2.5
+    bad = tmp_path / os.fsdecode(b"\xfe-bad.txt")
+    bad.write_text("1 1 1\n0 0 1.5 x\n")
+    with pytest.raises(ValueError) as e:
+        pysba.read_bal(os.fspath(bad))
+    assert str(e.value).startswith(f"{os.fspath(bad)}: line 2")
+    with pytest.raises(FileNotFoundError):
+        pysba.read_eucsbademo(tmp_path / os.fsdecode(b"\xfd.txt"), good)
+
+
 def test_too_few_measurements_is_the_library_message():
     tiny = pysba.read_bal(need(BAL / "dubrovnik-3-7-pre.txt.bz2"))
     with pytest.raises(ValueError, match=r"fewer measurements \(38\) than free parameters \(48\)"):
