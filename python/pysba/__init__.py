@@ -97,6 +97,8 @@ class Problem:
     def __init__(self, model: builtins.str, cameras: Any, points: Any, camera_index: Any,
                  point_index: Any, observations: Any, covariances: Any = None,
                  calibration: Any = None):
+        if not isinstance(model, builtins.str):
+            raise TypeError(f"model must be a str, got {type(model).__name__}")
         if model not in ("eucsbademo", "bal"):
             raise ValueError(f"model must be 'eucsbademo' or 'bal', got {model!r}")
         self.model = model
@@ -194,11 +196,13 @@ def _finish(report: dict) -> Result:
     return result
 
 
-def _readable(path: Any) -> bytes:
+def _readable(path: Any, name: builtins.str = "path") -> bytes:
     """path in the file system's encoding, after opening it once: a missing or unreadable
     file raises the usual OSError subclass (FileNotFoundError, PermissionError,
     IsADirectoryError). Bytes, so that any name Python can open reaches the reader, also
     one that is not UTF-8 (a str with lone surrogates, as os.fsdecode gives for it)."""
+    if not isinstance(path, (builtins.str, bytes, os.PathLike)):
+        raise TypeError(f"{name} must be a str, bytes or os.PathLike, got {type(path).__name__}")
     path = os.fsencode(path)
     with open(path, "rb"):
         pass
@@ -209,7 +213,7 @@ def read_eucsbademo(cams: Any, pts: Any, calib: Any = None) -> Problem:
     """Reads eucsbademo's camera and point files (and the calibration file that goes with
     7-value cameras). OSError for a file that cannot be read, ValueError with the reader's
     ``file:line: message`` for bad content."""
-    paths = [_readable(cams), _readable(pts), b"" if calib is None else _readable(calib)]
+    paths = [_readable(cams, "cams"), _readable(pts, "pts"), b"" if calib is None else _readable(calib, "calib")]
     d = _core.read_eucsbademo(*paths)
     return Problem("eucsbademo", **d)
 
@@ -222,10 +226,10 @@ def read_bal(path: Any) -> Problem:
     return Problem("bal", **d)
 
 
-def _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress) -> dict:
+def _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress, **more) -> dict:
+    # Passed on as given: _core checks each one's type and value and names it in the error.
     return dict(solver=solver, threads=threads, strategy=strategy, loss=loss, loss_scale=loss_scale,
-                itmax=itmax, opts=None if opts is None else [float(v) for v in opts], mcon=mcon, ncon=ncon,
-                progress=progress)
+                itmax=itmax, opts=opts, mcon=mcon, ncon=ncon, progress=progress, **more)
 
 
 def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: int = 0,
@@ -266,16 +270,16 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
     """
     if not isinstance(problem, Problem):
         raise TypeError("problem must be a pysba.Problem")
-    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,
+                  covariance=covariance)
     if problem.model == "bal":
         report = _core.solve_bal(problem.cameras, problem.points, problem.camera_index,
-                                 problem.point_index, problem.observations, problem.covariances,
-                                 bool(covariance), **kw)
+                                 problem.point_index, problem.observations, problem.covariances, **kw)
     else:
         report = _core.solve_eucsbademo(problem.cameras, problem.points, problem.camera_index,
                                         problem.point_index, problem.observations,
-                                        problem.covariances, problem.calibration, int(nccalib),
-                                        int(ncdist), bool(covariance), **kw)
+                                        problem.covariances, problem.calibration, nccalib=nccalib,
+                                        ncdist=ncdist, **kw)
     return _finish(report)
 
 
@@ -284,9 +288,9 @@ JacobianFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], Tuple[An
 
 
 def _python_model(refine, project, cameras, points, camera_index, point_index, observations,
-                  jacobian, covariances, covariance, kw) -> Result:
+                  jacobian, covariances, kw) -> Result:
     report = _core.solve_python(refine, project, jacobian, cameras, points, camera_index,
-                                point_index, observations, covariances, bool(covariance), **kw)
+                                point_index, observations, covariances, **kw)
     return _finish(report)
 
 
@@ -315,9 +319,10 @@ def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, poi
     result as its ``result`` attribute. The other arguments are those of :func:`solve`.
     The callbacks are called from the calling thread, one at a time.
     """
-    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,
+                  covariance=covariance)
     return _python_model("motstr", project, cameras, points, camera_index, point_index,
-                         observations, jacobian, covariances, covariance, kw)
+                         observations, jacobian, covariances, kw)
 
 
 def mot(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
@@ -331,7 +336,7 @@ def mot(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_
     jacobian may return (A, None)."""
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, 0, progress)
     return _python_model("mot", project, cameras, points, camera_index, point_index,
-                         observations, jacobian, covariances, False, kw)
+                         observations, jacobian, covariances, kw)
 
 
 def _str(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
@@ -345,7 +350,7 @@ def _str(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point
     jacobian may return (None, B)."""
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, 0, ncon, progress)
     return _python_model("str", project, cameras, points, camera_index, point_index,
-                         observations, jacobian, covariances, False, kw)
+                         observations, jacobian, covariances, kw)
 
 
 # sba's name for structure-only refinement. It shadows the builtin inside this module, which

@@ -92,8 +92,8 @@ std::vector<long long> index_array(py::handle obj, const char *what, long long b
   const char kind = a.dtype().kind();
   const py::ssize_t len = check_shape(a, what, {-1})[0];
   std::vector<long long> out(static_cast<size_t>(len));
-  auto bad = [&](py::ssize_t k, const std::string &value, const char *why) {
-    return py::value_error(std::string(what) + "[" + std::to_string(k) + "] = " + value + why +
+  auto out_of_range = [&](py::ssize_t k, const std::string &value) {
+    return py::value_error(std::string(what) + "[" + std::to_string(k) + "] = " + value + " is not in [0, " +
                            std::to_string(bound) + ")");
   };
   if (kind == 'f') {
@@ -105,19 +105,19 @@ std::vector<long long> index_array(py::handle obj, const char *what, long long b
       if (!std::isfinite(v) || v != std::floor(v))
         throw py::value_error(std::string(what) + "[" + std::to_string(k) + "] = " + number(v) +
                               " is not an integer");
-      if (v < 0 || v >= double(bound)) throw bad(k, number(v), " is not in [0, ");
+      if (v < 0 || v >= double(bound)) throw out_of_range(k, number(v));
       out[size_t(k)] = static_cast<long long>(v);
     }
   } else if (kind == 'u') {
     const auto u = py::array_t<unsigned long long, py::array::c_style | py::array::forcecast>::ensure(a);
     for (py::ssize_t k = 0; k < len; ++k) {
-      if (u.data()[k] >= static_cast<unsigned long long>(bound)) throw bad(k, std::to_string(u.data()[k]), " is not in [0, ");
+      if (u.data()[k] >= static_cast<unsigned long long>(bound)) throw out_of_range(k, std::to_string(u.data()[k]));
       out[size_t(k)] = static_cast<long long>(u.data()[k]);
     }
   } else {
     const Indices i = Indices::ensure(a);
     for (py::ssize_t k = 0; k < len; ++k) {
-      if (i.data()[k] < 0 || i.data()[k] >= bound) throw bad(k, std::to_string(i.data()[k]), " is not in [0, ");
+      if (i.data()[k] < 0 || i.data()[k] >= bound) throw out_of_range(k, std::to_string(i.data()[k]));
       out[size_t(k)] = i.data()[k];
     }
   }

@@ -152,7 +152,7 @@ py::dict read_bal(const std::string &path) {
 // solve (gil.h).
 py::dict solve_eucsbademo(py::handle camera_rows, py::handle point_rows, py::handle camera_index,
                           py::handle point_index, py::handle observations, py::handle covariances,
-                          py::handle calibration, int nccalib, int ncdist, bool covariance, const py::kwargs &kw) {
+                          py::handle calibration, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   eucsba::CameraKind kind;
   py::ssize_t width;
@@ -186,7 +186,7 @@ py::dict solve_eucsbademo(py::handle camera_rows, py::handle point_rows, py::han
   if (run.obs.mnp != eucsba::kMeasurementParams) throw py::value_error("observations must have 2 columns");
   std::unique_ptr<eucsba::CameraModel> model;
   try {
-    model = std::make_unique<eucsba::CameraModel>(kind, cams, xyz, nccalib, ncdist);
+    model = std::make_unique<eucsba::CameraModel>(kind, cams, xyz, o.nccalib, o.ncdist);
   } catch (const std::invalid_argument &e) {
     throw py::value_error(e.what());
   }
@@ -201,7 +201,7 @@ py::dict solve_eucsbademo(py::handle camera_rows, py::handle point_rows, py::han
   run.parallel = true;  // the model's callbacks are re-entrant and walk the index by rows
 
   Session session(o);
-  py::dict d = run_driver(run, session, o, covariance);
+  py::dict d = run_driver(run, session, o);
   std::vector<double> rows(size_t(m) * width);
   for (int j = 0; j < m; ++j)
     camera_to_row(kind, model->camera(j, run.p.data() + size_t(j) * run.cnp), rows.data() + size_t(j) * width);
@@ -213,7 +213,7 @@ py::dict solve_eucsbademo(py::handle camera_rows, py::handle point_rows, py::han
 
 // Motion and structure with the BAL camera model and its analytic Jacobian, as balsba runs it.
 py::dict solve_bal(py::handle camera_rows, py::handle point_rows, py::handle camera_index, py::handle point_index,
-                   py::handle observations, py::handle covariances, bool covariance, const py::kwargs &kw) {
+                   py::handle observations, py::handle covariances, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   Run run;
   py::ssize_t m, n;
@@ -238,7 +238,7 @@ py::dict solve_bal(py::handle camera_rows, py::handle point_rows, py::handle cam
   run.adata = &data;
   run.parallel = true;
   Session session(o);
-  py::dict d = run_driver(run, session, o, covariance);
+  py::dict d = run_driver(run, session, o);
   d["cameras"] = copy_of(run.p.data(), {m, bal::kCameraParams});
   d["points"] = copy_of(run.p.data() + m * bal::kCameraParams, {n, bal::kPointParams});
   d["nobs"] = run.obs.nobs();
@@ -266,13 +266,12 @@ PYBIND11_MODULE(_core, mod) {
   mod.def("read_eucsbademo", &read_eucsbademo, py::arg("cams"), py::arg("pts"), py::arg("calib"));
   mod.def("read_bal", &read_bal, py::arg("path"));
   mod.def("solve_eucsbademo", &solve_eucsbademo, py::arg("cameras"), py::arg("points"), py::arg("camera_index"),
-          py::arg("point_index"), py::arg("observations"), py::arg("covariances"), py::arg("calibration"),
-          py::arg("nccalib"), py::arg("ncdist"), py::arg("covariance"));
+          py::arg("point_index"), py::arg("observations"), py::arg("covariances"), py::arg("calibration"));
   mod.def("solve_bal", &solve_bal, py::arg("cameras"), py::arg("points"), py::arg("camera_index"),
-          py::arg("point_index"), py::arg("observations"), py::arg("covariances"), py::arg("covariance"));
+          py::arg("point_index"), py::arg("observations"), py::arg("covariances"));
   mod.def("solve_python", &solve_python, py::arg("refine"), py::arg("project"), py::arg("jacobian"),
           py::arg("cameras"), py::arg("points"), py::arg("camera_index"), py::arg("point_index"),
-          py::arg("observations"), py::arg("covariances"), py::arg("covariance"));
+          py::arg("observations"), py::arg("covariances"));
   mod.def(
       "float_array", [](py::handle obj, const std::string &what) { return float_array(obj, what.c_str()); },
       py::arg("obj"), py::arg("what"));

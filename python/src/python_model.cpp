@@ -130,7 +130,7 @@ void python_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adat
 
 py::dict solve_python(const std::string &refine, py::handle project, py::handle jacobian, py::handle cameras,
                       py::handle points, py::handle camera_index, py::handle point_index, py::handle observations,
-                      py::handle covariances, bool covariance, const py::kwargs &kw) {
+                      py::handle covariances, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   if (!PyCallable_Check(project.ptr())) throw py::type_error("project must be callable");
   if (!jacobian.is_none() && !PyCallable_Check(jacobian.ptr()))
@@ -177,7 +177,7 @@ py::dict solve_python(const std::string &refine, py::handle project, py::handle 
 
   Session session(o);
   pm.session = &session;
-  py::dict d = run_driver(run, session, o, covariance);
+  py::dict d = run_driver(run, session, o);
   d["cameras"] = copy_of(pm.cameras_in(run.p.data()), {pm.m, pm.cnp});
   d["points"] = copy_of(pm.points_in(run.p.data()), {pm.n, pm.pnp});
   d["nobs"] = run.obs.nobs();

@@ -16,7 +16,7 @@ namespace pysba {
 // Returns the report of run_driver with the refined "cameras" and "points".
 py::dict solve_python(const std::string &refine, py::handle project, py::handle jacobian, py::handle cameras,
                       py::handle points, py::handle camera_index, py::handle point_index, py::handle observations,
-                      py::handle covariances, bool covariance, const py::kwargs &kw);
+                      py::handle covariances, const py::kwargs &kw);
 
 }  // namespace pysba
 

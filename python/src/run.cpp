@@ -6,7 +6,7 @@
 
 namespace pysba {
 
-py::dict run_driver(Run &run, Session &session, const SolveOptions &o, bool covariance) {
+py::dict run_driver(Run &run, Session &session, const SolveOptions &o) {
   Observations &obs = run.obs;
   const int n = obs.n, m = obs.m, mnp = obs.mnp;
   if (o.mcon < 0 || o.mcon > m)
@@ -33,7 +33,7 @@ py::dict run_driver(Run &run, Session &session, const SolveOptions &o, bool cova
     return SBA_ERROR;
   });
   py::dict d = session.report(ret, info);
-  if (!covariance || ret == SBA_ERROR || session.failed()) return d;
+  if (!o.covariance || ret == SBA_ERROR || session.failed()) return d;
   if (run.refine != Refine::MotStr)
     throw py::value_error("covariance needs motion and structure refinement");
 

@@ -39,9 +39,12 @@ struct SolveOptions {
   std::string loss;    // empty: least squares
   double loss_scale = 1.0;
   py::handle progress;  // None or a callable taking a pysba.Progress (the caller holds it)
+  bool covariance = false;  // also the covariance blocks of every camera and point
+  int nccalib = 2, ncdist = 3;  // eucsbademo cameras: trailing intrinsics and distortion held fixed
 };
 
-// Reads the keyword arguments the extension functions share (see pysba/__init__.py).
+// Reads the keyword arguments the extension functions share (see pysba/__init__.py): TypeError
+// for a value of the wrong type, ValueError for one out of range, naming the argument.
 SolveOptions solve_options(const py::dict &kw);
 
 class Session {

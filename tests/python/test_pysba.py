@@ -374,7 +374,7 @@ def test_bad_arguments_raise_value_error(cams7):
     p = cams7
     for kw, match in [(dict(solver="magic"), "unknown solver 'magic'"),
                       (dict(strategy="dogleg"), "unknown strategy 'dogleg'"),
-                      (dict(itmax=-1), "itmax"), (dict(threads=-2), "threads"),
+                      (dict(itmax=-1), "itmax"),
                       (dict(mcon=8), "mcon"), (dict(ncon=-1), "ncon"),
                       (dict(opts=[1, 2]), "opts must hold 5"),
                       (dict(loss="nope"), "nope"), (dict(loss="huber", loss_scale=-1.0), "loss_scale"),
@@ -385,6 +385,51 @@ def test_bad_arguments_raise_value_error(cams7):
         pysba.solve(p, progress=3)
     with pytest.raises(TypeError):
         pysba.solve("54cams")
+
+
+@pytest.mark.parametrize("kw, error, message", [
+    (dict(threads=1.5), TypeError, "threads must be an int, got float"),
+    (dict(itmax=2**31), ValueError, "itmax must be in [0, 2147483647], got 2147483648"),
+    (dict(solver=5), TypeError, "solver must be a str or None, got int"),
+    (dict(loss_scale="2"), TypeError, "loss_scale must be a number, got str"),
+    (dict(strategy=b"sba"), TypeError, "strategy must be a str or None, got bytes"),
+    (dict(loss=["huber"]), TypeError, "loss must be a str or None, got list"),
+    (dict(mcon=1.0), TypeError, "mcon must be an int, got float"),
+    (dict(ncon=-2**70), ValueError, "ncon must be in [0, 2147483647], got -1180591620717411303424"),
+    (dict(threads=-2), ValueError, "threads must be in [0, 2147483647], got -2"),
+    (dict(opts=5), TypeError, "opts must be a sequence of 5 numbers or None, got int"),
+    (dict(opts=[1e-3, "1e-12", 0, 0, 0]), TypeError, "opts[1] must be a number, got str"),
+    (dict(covariance="yes"), TypeError, "covariance must be a bool, got str"),
+    (dict(nccalib=2.5), TypeError, "nccalib must be an int, got float"),
+    (dict(ncdist="3"), TypeError, "ncdist must be an int, got str"),
+    (dict(progress=3), TypeError, "progress must be callable or None, got int"),
+])
+def test_keyword_of_the_wrong_type_or_value_names_it(cams7, kw, error, message):
+    # pybind11's casts raised RuntimeError ("Unable to cast Python instance ..."), which is
+    # also SolveError's base, and int() truncated nccalib/ncdist.
+    with pytest.raises(error, match=re.escape(message)):
+        pysba.solve(cams7, **kw)
+    if "nccalib" in kw or "ncdist" in kw:
+        return
+    m = Euclidean(cams7.cameras, cams7.calibration)
+    with pytest.raises(error, match=re.escape(message)):
+        pysba.motstr(m.project, m.initial, cams7.points, cams7.camera_index, cams7.point_index,
+                     cams7.observations, **kw)
+
+
+def test_numpy_scalars_are_keywords_like_python_numbers(cams7):
+    r = pysba.solve(cams7, itmax=np.int64(3), threads=np.int32(1), loss="huber", loss_scale=np.float32(2),
+                    covariance=np.bool_(False), opts=np.array([1e-3, 1e-12, 1e-12, 1e-12, 0]))
+    assert r.iterations == 3 and r.camera_covariance is None
+
+
+def test_other_arguments_of_the_wrong_type(tmp_path, cams7):
+    with pytest.raises(TypeError, match="path must be a str, bytes or os.PathLike, got int"):
+        pysba.read_bal(3)
+    with pytest.raises(TypeError, match="calib must be a str, bytes or os.PathLike, got float"):
+        pysba.read_eucsbademo(need(DEMO / "7cams.txt"), DEMO / "7pts.txt", 1.5)
+    with pytest.raises(TypeError, match="model must be a str, got int"):
+        pysba.Problem(5, cams7.cameras, cams7.points, cams7.camera_index, cams7.point_index, cams7.observations)
 
 
 def test_bad_arrays_raise_value_error(cams7):
