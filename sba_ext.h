@@ -159,6 +159,17 @@ struct sba_ext_options {
    * NULL: the environment variable SBA_STRATEGY if set (an unknown name there is ignored
    * with a warning), else "sba". An unknown name here is a bad argument (SBA_ERROR). */
   const char *strategy;
+  /* Polled by the covariance entry points (sba_motstr_covariance[_x]), from the calling
+   * thread, between the stages of their work and about every 10 ms within the long ones:
+   * a nonzero return abandons the computation, which returns SBA_ERROR with the message
+   * "...: stopped by the cancel callback" (req's outputs are then unspecified). A covariance
+   * has no iterations for the progress callback to stop, and can take far longer than the
+   * solve before it; this is how a host lets its user interrupt it (pysba: Ctrl-C). One
+   * LAPACK call (the eigendecomposition of the reduced camera system, O((cameras*cnp)^3))
+   * cannot be interrupted. Like every callback it must return normally. NULL: never polled;
+   * the drivers never call it. */
+  int (*cancel)(void *cancel_ctx);
+  void *cancel_ctx;
 };
 
 /* Fills *opt with the defaults (every field zero/NULL) and opt->size. */

@@ -272,6 +272,8 @@ void make_options(const DriverArgs &a, const sba_ext_options &ext, const Logger 
   o->nthreads = std::max(1, threads);
   o->progress = ext.progress;
   o->progress_ctx = ext.progress_ctx;
+  o->cancel = ext.cancel;
+  o->cancel_ctx = ext.cancel_ctx;
   o->parallel_callbacks = ext.parallel_callbacks != 0;
   // Opt-in only: how the host's threads are scheduled is the host's business.
   o->avoid_shared_cores = ext.avoid_shared_cores != 0;

@@ -132,9 +132,12 @@ const sba_ext_options *Session::ext(bool parallel) {
   }
   ext_.log = log_trampoline;
   ext_.log_ctx = this;
-  // Always installed, with or without a Python callable: it is where Ctrl-C is noticed.
+  // Always installed, with or without a Python callable: they are where Ctrl-C is noticed,
+  // progress in a solve, cancel in a covariance.
   ext_.progress = progress_trampoline;
   ext_.progress_ctx = this;
+  ext_.cancel = cancel_trampoline;
+  ext_.cancel_ctx = this;
   ext_.parallel_callbacks = parallel ? 1 : 0;
   sba_ext_result_init(&result_);
   ext_.result = &result_;
@@ -177,28 +180,45 @@ void Session::keep_current_exception() {
   keep_python_error();
 }
 
-int Session::progress_trampoline(void *ctx, const sba_progress *state) {
-  Session *s = static_cast<Session *>(ctx);
-  if (s->failed_) return 1;
-  int stop = 0;
-  with_gil(s->released_, [&] {
+namespace {
+
+// Whether the library's work is to stop, for the progress and cancel callbacks: with the GIL,
+// Python's signal handlers run first (in the main thread; Ctrl-C becomes a KeyboardInterrupt
+// that is kept and stops the work), then body() (GIL held), whose true return stops it too,
+// as does an exception, which is kept.
+template <class Body>
+int stop_requested(Session &s, Body body) {
+  if (s.failed()) return 1;
+  bool stop = false;
+  with_gil(s.released_thread(), [&] {
     try {
-      // The signal handlers run here, in the main thread: Ctrl-C becomes a KeyboardInterrupt
-      // that is kept and stops the solve at this iteration.
       if (PyErr_CheckSignals() != 0) throw py::error_already_set();
-      if (!s->options_.progress.is_none()) {
-        const PyRef r = call_python(s->options_.progress, {PyRef(py::cast(*state)).handle()});
-        stop = PyObject_IsTrue(r.get());
-        if (stop < 0) throw py::error_already_set();
-      }
+      stop = body();
     }
     PYSBA_FORCED_UNWIND_PASSES_THROUGH
     catch (...) {
-      s->keep_current_exception();
-      stop = 1;
+      s.keep_current_exception();
+      stop = true;
     }
   });
-  return stop;
+  return stop ? 1 : 0;
+}
+
+}  // namespace
+
+int Session::progress_trampoline(void *ctx, const sba_progress *state) {
+  Session *s = static_cast<Session *>(ctx);
+  return stop_requested(*s, [&] {
+    if (s->options_.progress.is_none()) return false;
+    const PyRef r = call_python(s->options_.progress, {PyRef(py::cast(*state)).handle()});
+    const int truth = PyObject_IsTrue(r.get());
+    if (truth < 0) throw py::error_already_set();
+    return truth == 1;
+  });
+}
+
+int Session::cancel_trampoline(void *ctx) {
+  return stop_requested(*static_cast<Session *>(ctx), [] { return false; });
 }
 
 void Session::log_trampoline(void *ctx, int level, const char *line) {

@@ -75,6 +75,7 @@ class Session {
 
  private:
   static int progress_trampoline(void *ctx, const sba_progress *state);
+  static int cancel_trampoline(void *ctx);
   static void log_trampoline(void *ctx, int level, const char *line);
 
   SolveOptions options_;

@@ -289,6 +289,53 @@ def test_ctrl_c_stops_the_solve(bal21):
     assert r.final_mse < r.initial_mse
 
 
+def synthetic_bal(m, n, per_point, seed=5):
+    """A BAL problem of m cameras in a row looking at n points, each seen by per_point of them,
+    half a pixel of noise, the cameras' translations perturbed."""
+    rng = np.random.default_rng(seed)
+    cams = np.zeros((m, 9))
+    cams[:, 3], cams[:, 5], cams[:, 6] = np.linspace(-2, 2, m), -10, 500
+    pts = rng.uniform(-1, 1, (n, 3))
+    ci = np.concatenate([np.sort(rng.choice(m, per_point, replace=False)) for _ in range(n)])
+    pi = np.repeat(np.arange(n), per_point)
+    P = pts[pi] + cams[ci, 3:6]
+    obs = 500 * -P[:, :2] / P[:, 2:3] + rng.normal(0, 0.5, (len(ci), 2))
+    cams[:, 3:6] += rng.normal(0, 1e-3, (m, 3))
+    return pysba.Problem("bal", cams, pts, ci, pi, obs)
+
+
+def test_ctrl_c_during_the_covariance_keeps_the_solve():
+    # 50 cameras, 2000 points seen by 50 each: the solve takes a fraction of a second, the
+    # covariance seconds (every point's block couples 50 cameras), nearly all of it where it
+    # can be interrupted. One SIGINT half a second into it must stop it at once and keep the
+    # finished solve.
+    p = synthetic_bal(50, 2000, 50)
+    solved, done, sent = threading.Event(), threading.Event(), []
+
+    def interrupt():
+        if solved.wait(timeout=120) and not done.wait(timeout=0.5):
+            sent.append(time.monotonic())
+            os.kill(os.getpid(), signal.SIGINT)
+
+    sender = threading.Thread(target=interrupt)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    sender.start()
+    try:
+        with pytest.raises(KeyboardInterrupt) as e:
+            pysba.solve(p, itmax=2, mcon=1, covariance=True,
+                        progress=lambda state: state.iteration == 2 and solved.set())
+        stopped = time.monotonic()
+    finally:
+        done.set()
+        solved.set()
+        sender.join()
+        signal.signal(signal.SIGINT, previous)
+    assert sent and stopped - sent[0] < 1.0
+    r = e.value.result
+    assert r.iterations == 2 and r.reason == pysba.Reason.ITMAX and r.final_mse < r.initial_mse
+    assert r.camera_covariance is None and r.point_covariance is None and r.sigma2 is None
+
+
 # ---- a daemon thread still solving when the interpreter exits ----
 
 DAEMON_SCRIPT = r"""
