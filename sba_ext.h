@@ -266,6 +266,24 @@ extern int sba_motstr_levmar_vis(
     void *adata, const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
     double info[SBA_INFOSZ], const struct sba_ext_options *ext);
 
+/* Motion only and structure only (sba_mot_levmar_x_ext, sba_str_levmar_x_ext) with the pairs:
+ * they solve one small system per camera (point), so no linear solver is involved. */
+extern int sba_mot_levmar_x_vis(
+    const int n, const int m, const int mcon, const struct sba_visibility *vis, double *p,
+    const int cnp, double *x, double *covx, const int mnp,
+    void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
+    void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
+    void *adata, const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+    double info[SBA_INFOSZ], const struct sba_ext_options *ext);
+
+extern int sba_str_levmar_x_vis(
+    const int n, const int ncon, const int m, const struct sba_visibility *vis, double *p,
+    const int pnp, double *x, double *covx, const int mnp,
+    void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
+    void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
+    void *adata, const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+    double info[SBA_INFOSZ], const struct sba_ext_options *ext);
+
 /* ---- covariance of the solution ----
  * At p (normally the minimum a motion-and-structure driver returned), the covariance of
  * chosen cameras and points: sigma^2 (J^T J)^-1 restricted to their blocks, computed through
@@ -304,6 +322,13 @@ extern void sba_covariance_request_init(struct sba_covariance_request *req);
 extern int sba_motstr_covariance_x(
     const int n, const int ncon, const int m, const int mcon, char *vmask, double *p, const int cnp,
     const int pnp, double *x, double *covx, const int mnp,
+    void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
+    void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
+    void *adata, struct sba_covariance_request *req, const struct sba_ext_options *ext);
+/* The same with the visible pairs instead of vmask (see sba_motstr_levmar_x_vis). */
+extern int sba_motstr_covariance_x_vis(
+    const int n, const int ncon, const int m, const int mcon, const struct sba_visibility *vis,
+    double *p, const int cnp, const int pnp, double *x, double *covx, const int mnp,
     void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
     void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
     void *adata, struct sba_covariance_request *req, const struct sba_ext_options *ext);

@@ -152,14 +152,16 @@ Observations sorted_observations(int n, int m, py::handle camera_index, py::hand
   // Most callers already give sba's order (the readers do): then nothing moves.
   if (!std::is_sorted(o.order.begin(), o.order.end(), before))
     std::stable_sort(o.order.begin(), o.order.end(), before);
-  o.vmask.assign(size_t(n) * size_t(m), 0);
+  o.point.resize(size_t(nobs));
+  o.camera.resize(size_t(nobs));
   for (py::ssize_t k = 0; k < nobs; ++k) {
     const long long q = o.order[size_t(k)];
-    char &seen = o.vmask[size_t(pt[q]) * size_t(m) + size_t(cam[q])];
-    if (seen)
+    o.point[size_t(k)] = static_cast<int>(pt[q]);
+    o.camera[size_t(k)] = static_cast<int>(cam[q]);
+    // Sorted, a pair given twice is given in a row.
+    if (k > 0 && o.point[size_t(k)] == o.point[size_t(k) - 1] && o.camera[size_t(k)] == o.camera[size_t(k) - 1])
       throw py::value_error("camera " + std::to_string(cam[q]) + " observes point " + std::to_string(pt[q]) +
                             " more than once");
-    seen = 1;
   }
   const double *x = xa.data();
   o.x.resize(size_t(nobs) * size_t(mnp));

@@ -6,6 +6,8 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include "sba_ext.h"
+
 #include <string>
 #include <utility>
 #include <vector>
@@ -49,15 +51,18 @@ std::vector<long long> index_array(py::handle obj, const char *what, long long b
 std::vector<py::ssize_t> check_shape(const py::array &a, const char *what,
                                      std::vector<py::ssize_t> expected);
 
-// The observations as the drivers take them: sorted point by point, cameras ascending.
+// The observations as the drivers take them: sorted point by point, cameras ascending, the
+// visibility as the list of (point, camera) pairs (sba_ext.h), never as an n*m vmask, so that
+// memory follows the observations, not cameras times points.
 struct Observations {
   int n = 0, m = 0, mnp = 0;
-  std::vector<char> vmask;        // n*m
+  std::vector<int> point, camera;  // of each sorted observation
   std::vector<double> x;          // mnp per observation, sorted
   std::vector<double> covx;       // empty, or mnp*mnp per observation, sorted
   std::vector<long long> order;   // order[k]: the caller's index of sorted observation k
   int nobs() const { return static_cast<int>(order.size()); }
   double *covx_or_null() { return covx.empty() ? nullptr : covx.data(); }
+  sba_visibility vis() const { return {static_cast<long long>(point.size()), point.data(), camera.data()}; }
 };
 
 // From the caller's arrays: camera_index and point_index (nobs each), observations

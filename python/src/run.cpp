@@ -15,20 +15,19 @@ py::dict run_driver(Run &run, Session &session, const SolveOptions &o) {
     throw py::value_error("ncon must be in [0, " + std::to_string(n) + "], got " + std::to_string(o.ncon));
   double info[SBA_INFOSZ] = {0};
   const sba_ext_options *ext = session.ext(run.parallel);
+  const sba_visibility vis = obs.vis();
   const int ret = without_gil(session.released_thread(), [&] {
     switch (run.refine) {
       case Refine::MotStr:
-        return sba_motstr_levmar_x_ext(n, o.ncon, m, o.mcon, obs.vmask.data(), run.p.data(), run.cnp, run.pnp,
-                                       obs.x.data(), obs.covx_or_null(), mnp, run.func, run.fjac, run.adata,
-                                       o.itmax, 0, o.opts.data(), info, ext);
+        return sba_motstr_levmar_x_vis(n, o.ncon, m, o.mcon, &vis, run.p.data(), run.cnp, run.pnp, obs.x.data(),
+                                       obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, o.itmax, 0,
+                                       o.opts.data(), info, ext);
       case Refine::Mot:
-        return sba_mot_levmar_x_ext(n, m, o.mcon, obs.vmask.data(), run.p.data(), run.cnp, obs.x.data(),
-                                    obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, o.itmax, 0,
-                                    o.opts.data(), info, ext);
+        return sba_mot_levmar_x_vis(n, m, o.mcon, &vis, run.p.data(), run.cnp, obs.x.data(), obs.covx_or_null(),
+                                    mnp, run.func, run.fjac, run.adata, o.itmax, 0, o.opts.data(), info, ext);
       case Refine::Str:
-        return sba_str_levmar_x_ext(n, o.ncon, m, obs.vmask.data(), run.p.data(), run.pnp, obs.x.data(),
-                                    obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, o.itmax, 0,
-                                    o.opts.data(), info, ext);
+        return sba_str_levmar_x_vis(n, o.ncon, m, &vis, run.p.data(), run.pnp, obs.x.data(), obs.covx_or_null(),
+                                    mnp, run.func, run.fjac, run.adata, o.itmax, 0, o.opts.data(), info, ext);
     }
     return SBA_ERROR;
   });
@@ -54,8 +53,8 @@ py::dict run_driver(Run &run, Session &session, const SolveOptions &o) {
   const size_t nerrors = session.errors().size();
   const sba_ext_options *cov_ext = session.ext(run.parallel);
   const int status = without_gil(session.released_thread(), [&] {
-    return sba_motstr_covariance_x(n, o.ncon, m, o.mcon, obs.vmask.data(), p.data(), run.cnp, run.pnp, obs.x.data(),
-                                   obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, &req, cov_ext);
+    return sba_motstr_covariance_x_vis(n, o.ncon, m, o.mcon, &vis, p.data(), run.cnp, run.pnp, obs.x.data(),
+                                       obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, &req, cov_ext);
   });
   if (session.failed()) {
     d["error"] = session.error();

@@ -4,6 +4,7 @@
 #include <pybind11/stl.h>
 
 #include <climits>
+#include <cstdlib>
 #include <cmath>
 #include <exception>
 #include <new>
@@ -104,6 +105,15 @@ SolveOptions solve_options(const py::dict &kw) {
       o.opts[q] = k.number(("opts[" + std::to_string(q) + "]").c_str(), seq[q]);
   }
   o.solver = k.text("solver");
+  if (o.solver.empty()) {
+    // The pairs entry points pysba calls default to sparse-chol, which is not the drivers'
+    // (nor the programs') default: pysba names the default as the drivers choose it.
+    const char *env = std::getenv("SBA_LINSOLVER");
+    o.solver = env && *env && sba_linsolver_valid(env) ? env : "chol";
+    if (env && *env && !sba_linsolver_valid(env))
+      o.notice = std::string("pysba: unknown SBA_LINSOLVER \"") + env + "\" (known: " + sba_linsolver_names() +
+                 "); using chol";
+  }
   o.strategy = k.text("strategy");
   o.loss = k.text("loss");
   o.progress = k.get("progress");
@@ -119,6 +129,7 @@ SolveOptions solve_options(const py::dict &kw) {
 Session::Session(const SolveOptions &o) : options_(o) {
   sba_ext_options_init(&ext_);
   sba_ext_result_init(&result_);
+  if (!o.notice.empty()) warnings_.push_back(o.notice);
 }
 
 const sba_ext_options *Session::ext(bool parallel) {

@@ -88,6 +88,17 @@ def test_trust_region_as_eucsbademo_runs_it(cams54):
     assert printed(r) == line
 
 
+def test_default_solver_is_the_drivers_default(cams7, monkeypatch):
+    # pysba calls the pairs entry points, whose own default is sparse-chol; solver=None keeps
+    # meaning $SBA_LINSOLVER, else chol, as for eucsbademo.
+    assert pysba.solve(cams7, itmax=2).solver == "chol"
+    monkeypatch.setenv("SBA_LINSOLVER", "sparse-chol")
+    assert pysba.solve(cams7, itmax=2).solver == "sparse-chol"
+    monkeypatch.setenv("SBA_LINSOLVER", "magic")
+    r = pysba.solve(cams7, itmax=2)
+    assert r.solver == "chol" and any('unknown SBA_LINSOLVER "magic"' in line for line in r.log)
+
+
 def test_threads_give_the_same_bits(cams54):
     one = pysba.solve(cams54, threads=1)
     two = pysba.solve(cams54, threads=2)
@@ -334,6 +345,50 @@ def test_ctrl_c_during_the_covariance_keeps_the_solve():
     r = e.value.result
     assert r.iterations == 2 and r.reason == pysba.Reason.ITMAX and r.final_mse < r.initial_mse
     assert r.camera_covariance is None and r.point_covariance is None and r.sigma2 is None
+
+
+MEMORY_SCRIPT = r"""
+import resource
+import numpy as np
+import pysba
+
+
+def status(key):
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) * 1024 for line in f if line.startswith(key + ":"))
+
+
+# 20,000 cameras in a row and 200,000 points, each seen by two neighbouring cameras.
+m, n = 20000, 200000
+rng = np.random.default_rng(1)
+c = np.arange(n) % (m - 1)
+ci, pi = np.stack([c, c + 1], 1).ravel(), np.repeat(np.arange(n), 2)
+cams = np.zeros((m, 9))
+cams[:, 3], cams[:, 5], cams[:, 6] = -0.01 * np.arange(m), -10, 500
+pts = np.stack([0.01 * c + 0.005, rng.uniform(-1, 1, n), rng.uniform(-1, 1, n)], 1)
+P = pts[pi] + cams[ci, 3:6]
+obs = 500 * -P[:, :2] / P[:, 2:3] + rng.normal(0, 0.5, (len(ci), 2))
+p = pysba.Problem("bal", cams, pts, ci, pi, obs)
+rss = status("VmRSS")
+# A gigabyte of address space beyond what the process has: the n x m visibility mask alone
+# would take four.
+resource.setrlimit(resource.RLIMIT_AS, (status("VmSize") + 2**30,) * 2)
+r = pysba.solve(p, itmax=1, solver="sparse-chol", threads=1, mcon=1)
+print(r.iterations, r.final_mse < r.initial_mse, (status("VmHWM") - rss) / len(ci))
+"""
+
+
+def test_memory_follows_the_observations():
+    if os.environ.get("PYSBA_SANITIZED"):
+        pytest.skip("an address-space limit cannot work under AddressSanitizer (it reserves terabytes)")
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    run = subprocess.run([sys.executable, "-c", MEMORY_SCRIPT], capture_output=True, text=True, env=env,
+                         timeout=300)
+    assert run.returncode == 0, run.stderr
+    iterations, improved, bytes_per_observation = run.stdout.split()
+    assert (iterations, improved) == ("1", "True")
+    # What the solve added to the peak, per observation (about 560 bytes with sparse-chol).
+    assert float(bytes_per_observation) < 1000
 
 
 # ---- a daemon thread still solving when the interpreter exits ----
