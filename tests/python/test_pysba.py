@@ -211,7 +211,8 @@ def test_motion_only_and_structure_only(cams7):
     assert np.allclose(a.cameras, best.cameras, atol=1e-6) and a.final_mse == pytest.approx(best.final_mse, rel=1e-6)
 
 
-def test_callback_exception_propagates(cams7):
+@pytest.mark.parametrize("error", [ZeroDivisionError("from the model"), KeyboardInterrupt()])
+def test_callback_exception_propagates(cams7, error):
     p = cams7
     m = Euclidean(p.cameras, p.calibration)
     calls = []
@@ -219,17 +220,20 @@ def test_callback_exception_propagates(cams7):
     def project(cams, pts, ci, pi):
         calls.append(1)
         if len(calls) == 5:
-            raise ZeroDivisionError("from the model")
+            raise error
         return m.project(cams, pts, ci, pi)
 
-    with pytest.raises(ZeroDivisionError, match="from the model") as e:
+    with pytest.raises(type(error)) as e:
         pysba.motstr(project, m.initial, p.points, p.camera_index, p.point_index, p.observations,
                      jacobian=m.jacobian)
     # No callback after the one that raised; the traceback shows where it was raised; the
     # partial result is the last accepted estimate.
-    assert len(calls) == 5
+    assert e.value is error and len(calls) == 5
     assert e.traceback[-1].name == "project"
-    assert 0.675 < e.value.result.final_mse < e.value.result.initial_mse == pytest.approx(19.0947, rel=1e-5)
+    r = e.value.result
+    assert 0.675 < r.final_mse < r.initial_mse == pytest.approx(19.0947, rel=1e-5)
+    # Not NONFINITE: the NaN that stops the library is how pysba makes it stop.
+    assert r.reason == pysba.Reason.USER and int(r.info[6]) == 9
 
 
 def test_bad_callback_results_raise(cams7):
@@ -273,15 +277,15 @@ def test_keyboard_interrupt_from_progress_keeps_result(cams54):
     assert r.cameras.shape == (54, 7)
 
 
-def test_ctrl_c_stops_the_solve(bal21):
-    # One SIGINT from another thread once the solve has started. Python runs its handler in
-    # the main thread: in the progress trampoline's PyErr_CheckSignals while the library
-    # works (the GIL released), or in the progress callable if it is running just then.
-    # Either way the solve stops at that iteration and KeyboardInterrupt carries the result.
-    started, done = threading.Event(), threading.Event()
+def interrupted(solve, delay=0.0):
+    """solve(ready) with one SIGINT sent from another thread `delay` seconds after solve has
+    called ready(): the KeyboardInterrupt it must raise, and the seconds from the signal to
+    the end of solve."""
+    ready, done, sent = threading.Event(), threading.Event(), []
 
     def interrupt():
-        if started.wait(timeout=120) and not done.is_set():
+        if ready.wait(timeout=120) and not done.wait(timeout=delay):
+            sent.append(time.monotonic())
             os.kill(os.getpid(), signal.SIGINT)
 
     sender = threading.Thread(target=interrupt)
@@ -289,13 +293,24 @@ def test_ctrl_c_stops_the_solve(bal21):
     sender.start()
     try:
         with pytest.raises(KeyboardInterrupt) as e:
-            pysba.solve(bal21, progress=lambda state: started.set())
+            solve(ready.set)
+        stopped = time.monotonic()
     finally:
         done.set()
-        started.set()
+        ready.set()
         sender.join()
         signal.signal(signal.SIGINT, previous)
-    r = e.value.result
+    assert sent
+    return e.value, stopped - sent[0]
+
+
+def test_ctrl_c_stops_the_solve(bal21):
+    # One SIGINT from another thread once the solve has started. Python runs its handler in
+    # the main thread: in the progress trampoline's PyErr_CheckSignals while the library
+    # works (the GIL released), or in the progress callable if it is running just then.
+    # Either way the solve stops at that iteration and KeyboardInterrupt carries the result.
+    error, _ = interrupted(lambda ready: pysba.solve(bal21, progress=lambda state: ready()))
+    r = error.result
     assert r.reason == pysba.Reason.USER and 1 <= r.iterations < 28
     assert r.final_mse < r.initial_mse
 
@@ -317,32 +332,14 @@ def synthetic_bal(m, n, per_point, seed=5):
 
 def test_ctrl_c_during_the_covariance_keeps_the_solve():
     # 50 cameras, 2000 points seen by 50 each: the solve takes a fraction of a second, the
-    # covariance seconds (every point's block couples 50 cameras), nearly all of it where it
-    # can be interrupted. One SIGINT half a second into it must stop it at once and keep the
-    # finished solve.
+    # covariance 5 s on an idle machine (every point's block couples 50 cameras), nearly all
+    # of it where it can be interrupted. One SIGINT half a second into it must stop it within
+    # milliseconds (seconds on a loaded machine) and keep the finished solve.
     p = synthetic_bal(50, 2000, 50)
-    solved, done, sent = threading.Event(), threading.Event(), []
-
-    def interrupt():
-        if solved.wait(timeout=120) and not done.wait(timeout=0.5):
-            sent.append(time.monotonic())
-            os.kill(os.getpid(), signal.SIGINT)
-
-    sender = threading.Thread(target=interrupt)
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    sender.start()
-    try:
-        with pytest.raises(KeyboardInterrupt) as e:
-            pysba.solve(p, itmax=2, mcon=1, covariance=True,
-                        progress=lambda state: state.iteration == 2 and solved.set())
-        stopped = time.monotonic()
-    finally:
-        done.set()
-        solved.set()
-        sender.join()
-        signal.signal(signal.SIGINT, previous)
-    assert sent and stopped - sent[0] < 1.0
-    r = e.value.result
+    error, seconds = interrupted(lambda ready: pysba.solve(
+        p, itmax=2, mcon=1, covariance=True, progress=lambda state: state.iteration == 2 and ready()), delay=0.5)
+    assert seconds < 3.0
+    r = error.result
     assert r.iterations == 2 and r.reason == pysba.Reason.ITMAX and r.final_mse < r.initial_mse
     assert r.camera_covariance is None and r.point_covariance is None and r.sigma2 is None
 
@@ -644,25 +641,6 @@ def test_non_finite_values_are_named_by_the_callers_arrays_and_rows(cams7):
     m = Euclidean(p.cameras, p.calibration)
     with pytest.raises(ValueError, match=re.escape("observations[100, 1] is not finite (nan)")):
         pysba.motstr(m.project, m.initial, p.points, p.camera_index[perm], p.point_index[perm], obs)
-
-
-def test_keyboard_interrupt_in_a_model_callback_is_a_user_stop(cams7):
-    p = cams7
-    m = Euclidean(p.cameras, p.calibration)
-    calls = []
-
-    def project(cams, pts, ci, pi):
-        calls.append(1)
-        if len(calls) == 5:
-            raise KeyboardInterrupt
-        return m.project(cams, pts, ci, pi)
-
-    with pytest.raises(KeyboardInterrupt) as e:
-        pysba.motstr(project, m.initial, p.points, p.camera_index, p.point_index, p.observations,
-                     jacobian=m.jacobian)
-    # Not NONFINITE: the NaN that stops the library is how pysba makes it stop.
-    assert e.value.result.reason == pysba.Reason.USER and int(e.value.result.info[6]) == 9
-    assert e.value.result.final_mse < e.value.result.initial_mse
 
 
 BAL_ONE = "1 1 1\n0 0 1.5 -2.5\n" + "0\n" * 6 + "500\n0\n0\n" + "0\n0\n-5\n"
