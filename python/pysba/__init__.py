@@ -87,7 +87,8 @@ class Problem:
     camera_index, point_index, observations
         One row per observation: which camera sees which point where (observations is
         (nobs, 2), in pixels). Any order; the readers give sba's (point by point, cameras
-        ascending). A (camera, point) pair may appear only once.
+        ascending). A (camera, point) pair may appear only once. The indices are integers
+        (floats that hold integers are taken; a fraction, NaN or Inf is a ValueError).
     covariances
         None, or one 2x2 covariance per observation, (nobs, 2, 2).
     calibration
@@ -263,7 +264,8 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
         Called with a :class:`Progress` after every iteration; a true return value stops
         the solve (reason USER), an exception stops it and propagates.
     covariance
-        Also compute the covariance blocks of every camera and point at the result.
+        Also compute the covariance blocks of every camera and point at the result. Ctrl-C
+        interrupts it too: the KeyboardInterrupt's ``result`` is then the finished solve.
     nccalib, ncdist
         eucsbademo cameras with intrinsics: how many trailing intrinsics (of fu u0 v0 ar s)
         and distortion terms (of kc0..kc4) are held fixed, as eucsbademo's options.
