@@ -9,9 +9,7 @@
 #include <exception>
 #include <new>
 
-#if defined(__GLIBCXX__)
-#include <cxxabi.h>
-#endif
+#include "forced_unwind.h"
 
 namespace sba {
 
@@ -62,12 +60,12 @@ class Logger {
 // frame on its way calls std::terminate, which is why neither this function nor the entry
 // points that call it are noexcept. Everything the solve holds is freed as it unwinds.
 template <class Body>
-bool catch_all(const Logger &log, const char *who, Body body) {
+SBA_CATCHES_FORCED_UNWIND bool catch_all(const Logger &log, const char *who, Body body) {
   try {
     body();
     return true;
   }
-#if defined(__GLIBCXX__)
+#if SBA_HAVE_FORCED_UNWIND
   catch (abi::__forced_unwind &) {
     throw;
   }

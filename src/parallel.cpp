@@ -6,9 +6,7 @@
 #include <stdexcept>
 #include <system_error>
 
-#if defined(__GLIBCXX__)
-#include <cxxabi.h>
-#endif
+#include "forced_unwind.h"
 
 #if defined(__linux__)
 #include <sched.h>
@@ -79,7 +77,7 @@ bool spin_until(Done done) {
 
 }  // namespace
 
-void ThreadPool::work(int id) {
+SBA_CATCHES_FORCED_UNWIND void ThreadPool::work(int id) {
   std::uint64_t seen = 0;
   int cooldown = 0;
   for (;;) {
@@ -97,7 +95,7 @@ void ThreadPool::work(int id) {
     try {
       (*job)(id);
     }
-#if defined(__GLIBCXX__)
+#if SBA_HAVE_FORCED_UNWIND
     catch (abi::__forced_unwind &) {
       // This thread is being ended (pthread_exit or pthread_cancel in a callback) and must
       // be let go; the caller, waiting for the job, is told by run(), which also refuses
@@ -184,7 +182,7 @@ namespace {
 
 }  // namespace
 
-void ThreadPool::run(const std::function<void(int)> &fn) {
+SBA_CATCHES_FORCED_UNWIND void ThreadPool::run(const std::function<void(int)> &fn) {
   if (workers_.empty()) {
     fn(0);
     return;
@@ -203,7 +201,7 @@ void ThreadPool::run(const std::function<void(int)> &fn) {
   try {
     fn(size() - 1);
   }
-#if defined(__GLIBCXX__)
+#if SBA_HAVE_FORCED_UNWIND
   catch (abi::__forced_unwind &) {
     // The calling thread is being ended. The workers are still running fn, whose captures
     // live in the frames this unwind is about to free: it goes on once they are done.

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import pysba
-from conftest import BAL, DEMO, need
+from conftest import BAL, DEMO, OPTIMIZED, need
 from euclidean import Euclidean
 
 
@@ -39,6 +39,8 @@ def printed(result):
 
 def test_54cams_reaches_sba_result(cams54):
     r = pysba.solve(cams54)
+    if not OPTIMIZED:
+        pytest.skip("the figures are the optimized build's")
     assert f"{r.final_mse:g}" == "0.176473"
     assert f"{r.initial_mse:g}" == "2.14707"
     assert r.iterations == 21 and r.reason == pysba.Reason.STEP and int(r.reason) == 2
@@ -62,7 +64,8 @@ def test_varying_intrinsics_as_eucsbademo_prints_it():
     assert p.cameras.shape == (7, 12) and p.calibration is None
     r = pysba.solve(p)
     # sba 1.6's figures on its flat valley: 52 to 103 iterations, 0.65966 to 0.660449.
-    assert (f"{r.final_mse:g}", r.iterations, r.reason) == ("0.66045", 53, pysba.Reason.REDUCTION)
+    if OPTIMIZED:
+        assert (f"{r.final_mse:g}", r.iterations, r.reason) == ("0.66045", 53, pysba.Reason.REDUCTION)
     assert printed(r) == program_line("PYSBA_EUCSBADEMO", files)
     # Two more trailing intrinsics held (eucsbademo --nccalib 4): a different minimum.
     held = pysba.solve(p, nccalib=4)
@@ -73,8 +76,9 @@ def test_varying_intrinsics_as_eucsbademo_prints_it():
 
 def test_bal_as_balsba_prints_it(bal21):
     r = pysba.solve(bal21)
-    assert (f"{r.final_mse:g}", f"{r.initial_mse:g}", r.iterations, r.reason) == \
-        ("1.66664", "242.12", 28, pysba.Reason.REDUCTION)
+    if OPTIMIZED:
+        assert (f"{r.final_mse:g}", f"{r.initial_mse:g}", r.iterations, r.reason) == \
+            ("1.66664", "242.12", 28, pysba.Reason.REDUCTION)
     line = program_line("PYSBA_BALSBA", [BAL / "problem-21-11315-pre.txt.bz2", "--no-progress"])
     assert printed(r) == line
 
@@ -338,7 +342,7 @@ def test_ctrl_c_during_the_covariance_keeps_the_solve():
     p = synthetic_bal(50, 2000, 50)
     error, seconds = interrupted(lambda ready: pysba.solve(
         p, itmax=2, mcon=1, covariance=True, progress=lambda state: state.iteration == 2 and ready()), delay=0.5)
-    assert seconds < 3.0
+    assert seconds < (3.0 if OPTIMIZED else 9.0)  # ASan makes everything about three times slower
     r = error.result
     assert r.iterations == 2 and r.reason == pysba.Reason.ITMAX and r.final_mse < r.initial_mse
     assert r.camera_covariance is None and r.point_covariance is None and r.sigma2 is None
