@@ -118,14 +118,22 @@ TEST(Scale, TwentyThousandCamerasAndAMillionPointsInMemoryProportionalToObservat
 
 namespace {
 
+// The visible (point, camera) pairs of a problem's vmask, in sba's order.
+struct Pairs {
+  std::vector<int> point, camera;
+  explicit Pairs(const synth::Problem &pb) {
+    for (int i = 0; i < pb.n; ++i)
+      for (int j = 0; j < pb.m; ++j)
+        if (pb.vmask[size_t(i) * pb.m + j]) point.push_back(i), camera.push_back(j);
+  }
+  sba_visibility vis() const { return {(long long)point.size(), point.data(), camera.data()}; }
+};
+
 // The pairs entry points solve exactly what the vmask ones solve, given the same solver.
 TEST(VisibilityPairs, SameResultAsTheVmaskEntryPoints) {
   synth::Problem pb = synth::make(60, 6, 0.5, 0.05, 61);
-  std::vector<int> vp, vc;
-  for (int i = 0; i < pb.n; ++i)
-    for (int j = 0; j < pb.m; ++j)
-      if (pb.vmask[size_t(i) * pb.m + j]) vp.push_back(i), vc.push_back(j);
-  const sba_visibility vis{(long long)vp.size(), vp.data(), vc.data()};
+  const Pairs pairs(pb);
+  const sba_visibility vis = pairs.vis();
   sba_ext_options ext;
   sba_ext_options_init(&ext);
   ext.linsolver = "sparse-chol";
@@ -151,11 +159,8 @@ TEST(VisibilityPairs, SameResultAsTheVmaskEntryPoints) {
 // Motion only, structure only and the covariance by pairs: the same bits as with the vmask.
 TEST(VisibilityPairs, MotionOnlyStructureOnlyAndCovarianceAsTheVmaskEntryPoints) {
   synth::Problem pb = synth::make(60, 6, 0.5, 0.05, 63);
-  std::vector<int> vp, vc;
-  for (int i = 0; i < pb.n; ++i)
-    for (int j = 0; j < pb.m; ++j)
-      if (pb.vmask[size_t(i) * pb.m + j]) vp.push_back(i), vc.push_back(j);
-  const sba_visibility vis{(long long)vp.size(), vp.data(), vc.data()};
+  const Pairs pairs(pb);
+  const sba_visibility vis = pairs.vis();
   pb.fixed_points = pb.truth.data() + size_t(pb.m) * kCnp;
   pb.fixed_cams = pb.truth.data();
   std::vector<double> a(pb.p0.begin(), pb.p0.begin() + pb.m * kCnp), b = a;
