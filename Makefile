@@ -79,8 +79,10 @@ FUZZ_SECONDS ?= 60
 SOAK_N ?= 1000
 SOAK_ASAN_N ?= $(SOAK_N)
 SOAK_SEED ?= 1
-# The sanitizer builds: optimized enough to be quick, with line numbers; no bench, and neither
-# the MEX file nor the Python module, whose hosts (octave-cli, python3) are not instrumented.
+# The sanitizer builds: optimized enough to be quick, with line numbers; no bench, no MEX file
+# (octave-cli cannot load an instrumented one). The ASan build has the Python module: its
+# tests preload ASan's runtime into python3 (python/CMakeLists.txt); ThreadSanitizer's cannot
+# be preloaded that way, so the TSan build has none.
 SAN_CMAKE_FLAGS = -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSBA_BUILD_TESTS=ON -DSBA_BUILD_MEX=OFF \
 	-DSBA_BUILD_PYTHON=OFF -DSBA_BUILD_BENCH=OFF -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g" \
 	-DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g"
@@ -88,9 +90,10 @@ ASAN_FLAGS = -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-fr
 TSAN_FLAGS = -fsanitize=thread -fno-omit-frame-pointer
 
 configure-asan: deps-test
-	cmake -S . -B $(ASAN_BUILD) $(SAN_CMAKE_FLAGS) -DCMAKE_C_FLAGS="$(ASAN_FLAGS)" \
+	cmake -S . -B $(ASAN_BUILD) $(SAN_CMAKE_FLAGS) -DSBA_BUILD_PYTHON=ON -DPython_EXECUTABLE=$(PYTHON) \
+		-DCMAKE_C_FLAGS="$(ASAN_FLAGS)" \
 		-DCMAKE_CXX_FLAGS="$(ASAN_FLAGS)" -DCMAKE_EXE_LINKER_FLAGS="$(ASAN_FLAGS)" \
-		-DCMAKE_SHARED_LINKER_FLAGS="$(ASAN_FLAGS)" >/dev/null
+		-DCMAKE_SHARED_LINKER_FLAGS="$(ASAN_FLAGS)" -DCMAKE_MODULE_LINKER_FLAGS="$(ASAN_FLAGS)" >/dev/null
 
 check-sanitize: configure-asan
 	cmake --build $(ASAN_BUILD) -j $(JOBS)

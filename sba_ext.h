@@ -159,6 +159,17 @@ struct sba_ext_options {
    * NULL: the environment variable SBA_STRATEGY if set (an unknown name there is ignored
    * with a warning), else "sba". An unknown name here is a bad argument (SBA_ERROR). */
   const char *strategy;
+  /* Polled by the covariance entry points (sba_motstr_covariance[_x]), from the calling
+   * thread, between the stages of their work and about every 10 ms within the long ones:
+   * a nonzero return abandons the computation, which returns SBA_ERROR with the message
+   * "...: stopped by the cancel callback" (req's outputs are then unspecified). A covariance
+   * has no iterations for the progress callback to stop, and can take far longer than the
+   * solve before it; this is how a host lets its user interrupt it (pysba: Ctrl-C). One
+   * LAPACK call (the eigendecomposition of the reduced camera system, O((cameras*cnp)^3))
+   * cannot be interrupted. Like every callback it must return normally. NULL: never polled;
+   * the drivers never call it. */
+  int (*cancel)(void *cancel_ctx);
+  void *cancel_ctx;
 };
 
 /* Fills *opt with the defaults (every field zero/NULL) and opt->size. */
@@ -255,6 +266,24 @@ extern int sba_motstr_levmar_vis(
     void *adata, const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
     double info[SBA_INFOSZ], const struct sba_ext_options *ext);
 
+/* Motion only and structure only (sba_mot_levmar_x_ext, sba_str_levmar_x_ext) with the pairs:
+ * they solve one small system per camera (point), so no linear solver is involved. */
+extern int sba_mot_levmar_x_vis(
+    const int n, const int m, const int mcon, const struct sba_visibility *vis, double *p,
+    const int cnp, double *x, double *covx, const int mnp,
+    void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
+    void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
+    void *adata, const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+    double info[SBA_INFOSZ], const struct sba_ext_options *ext);
+
+extern int sba_str_levmar_x_vis(
+    const int n, const int ncon, const int m, const struct sba_visibility *vis, double *p,
+    const int pnp, double *x, double *covx, const int mnp,
+    void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
+    void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
+    void *adata, const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
+    double info[SBA_INFOSZ], const struct sba_ext_options *ext);
+
 /* ---- covariance of the solution ----
  * At p (normally the minimum a motion-and-structure driver returned), the covariance of
  * chosen cameras and points: sigma^2 (J^T J)^-1 restricted to their blocks, computed through
@@ -293,6 +322,13 @@ extern void sba_covariance_request_init(struct sba_covariance_request *req);
 extern int sba_motstr_covariance_x(
     const int n, const int ncon, const int m, const int mcon, char *vmask, double *p, const int cnp,
     const int pnp, double *x, double *covx, const int mnp,
+    void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
+    void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
+    void *adata, struct sba_covariance_request *req, const struct sba_ext_options *ext);
+/* The same with the visible pairs instead of vmask (see sba_motstr_levmar_x_vis). */
+extern int sba_motstr_covariance_x_vis(
+    const int n, const int ncon, const int m, const int mcon, const struct sba_visibility *vis,
+    double *p, const int cnp, const int pnp, double *x, double *covx, const int mnp,
     void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata),
     void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata),
     void *adata, struct sba_covariance_request *req, const struct sba_ext_options *ext);

@@ -3,6 +3,7 @@
 metadata): the library is compiled into the module, so the installed package needs no
 libsba.so and no LD_LIBRARY_PATH."""
 import os
+import shlex
 import shutil
 import subprocess
 import sys
@@ -18,10 +19,14 @@ class CMakeBuild(build_ext):
     def build_extension(self, ext):
         build = Path(self.build_temp).resolve() / "cmake"
         build.mkdir(parents=True, exist_ok=True)
+        # CMAKE_ARGS: more options for the configure step, as for other CMake-built packages
+        # (e.g. -DCMAKE_BUILD_TYPE=RelWithDebInfo, or -DCMAKE_IGNORE_PATH=... to keep an
+        # installed pybind11 out of the search).
+        extra = shlex.split(os.environ.get("CMAKE_ARGS", ""))
         subprocess.run(["cmake", "-S", str(ROOT), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
                         "-DSBA_BUILD_PYTHON=ON", "-DSBA_BUILD_TESTS=OFF", "-DSBA_BUILD_DEMO=OFF",
                         "-DSBA_BUILD_MEX=OFF", "-DSBA_BUILD_BENCH=OFF",
-                        f"-DPython_EXECUTABLE={sys.executable}"], check=True)
+                        f"-DPython_EXECUTABLE={sys.executable}", *extra], check=True)
         jobs = os.environ.get("CMAKE_BUILD_PARALLEL_LEVEL") or str(os.cpu_count() or 1)
         subprocess.run(["cmake", "--build", str(build), "--target", "_core", "-j", jobs], check=True)
         built = sorted((build / "python" / "pkg" / "pysba").glob("_core*.so")) + \

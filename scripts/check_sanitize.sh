@@ -17,6 +17,10 @@
 #                            library of a process, which an uninstrumented program does not do.
 #   octave_*                 not built here (SBA_BUILD_MEX=OFF): octave-cli is not instrumented
 #                            and cannot load an instrumented MEX file.
+#   python_install           pip-installs the package into venvs, built by pip's own CMake run
+#                            without the sanitizer flags: it tests the packaging, not memory.
+# The other pysba tests (python_pysba) run, python3 with ASan's runtime preloaded and leak
+# detection off for them (python/CMakeLists.txt); the one that limits the address space skips.
 # Inside tests/test_faults.cpp the RLIMIT_AS tests and the counting-allocator test skip
 # themselves under a sanitizer (ASan reserves terabytes of address space and replaces
 # operator new); everything else in that file runs.
@@ -30,7 +34,7 @@ logs=$build/sanitizer-logs
 rm -rf "$logs"
 mkdir -p "$logs"
 
-exclude='^(Scale\.TwentyThousand.*|install_consumer|octave_.*)$'
+exclude='^(Scale\.TwentyThousand.*|install_consumer|octave_.*|python_install)$'
 export ASAN_OPTIONS="detect_leaks=1:check_initialization_order=1:strict_init_order=1:detect_stack_use_after_return=1:log_path=$logs/asan"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:log_path=$logs/ubsan"
 

@@ -12,6 +12,8 @@
 #                                                        meet at spin barriers, on 2, 3, 5 threads
 #   ThreadPool.*                                         the pool's workers leaving the caller's
 #                                                        core (the CPU slots they share)
+#   ThreadPoolDeathTest.*                                a thread of the pool ended inside a job
+#                                                        (forced unwind), each in a child process
 # No suppressions are used. LAPACK/BLAS, SuiteSparse and libgomp are not instrumented: TSan
 # does not see their memory accesses, only their calls to intercepted functions (malloc,
 # memset, mmap ...). OpenBLAS (the pthread build, when the library was configured with it)
@@ -45,7 +47,7 @@ run test_solvers 'Solvers/EverySolver.ResultsDoNotDependOnTheThreadCount/*'
 run test_solvers 'ParallelCallbacks.*'
 run test_dense 'DenseThreads.ConcurrentCallsMatchSequential'
 run test_kernels 'DenseCholesky.*'
-run test_parallel 'ThreadPool.*'
+run test_parallel 'ThreadPool.*:ThreadPoolDeathTest.*'
 
 reports=$(find "$logs" -type f | sort)
 if [ -n "$reports" ]; then

@@ -13,7 +13,10 @@ set -eu
 
 purpose=${1:-build}
 pkgs="g++ make cmake pkg-config liblapack-dev libblas-dev libopenblas-dev libsuitesparse-dev libbz2-dev"
-python_pkgs="python3-dev pybind11-dev python3-numpy python3-pytest python3-venv python3-setuptools python3-pip"
+# python3-pybind11 and the .whl packages: the test of `pip install .` with build isolation
+# builds its wheelhouse from them (tests/python/test_install.py).
+python_pkgs="python3-dev pybind11-dev python3-numpy python3-pytest python3-venv python3-setuptools python3-pip
+python3-wheel python3-pybind11 python3-setuptools-whl python3-wheel-whl"
 case "$purpose" in
   build) ;;
   test) pkgs="$pkgs libgtest-dev octave octave-dev $python_pkgs" ;;

@@ -140,7 +140,7 @@ std::string check_args(const ChkjacArgs &a) {
   return std::string();
 }
 
-void run_chkjac(const ChkjacArgs &a) noexcept {
+void run_chkjac(const ChkjacArgs &a) {
   const Logger log;  // stderr: printing the findings is what these functions are for
   catch_all(log, a.name, [&] {
     std::string msg = check_args(a);

@@ -8,6 +8,7 @@
 // positions) is refused by name, since inverting its V_i would turn rounding into numbers.
 #include <algorithm>
 #include <cfloat>
+#include <chrono>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -72,6 +73,29 @@ int block_rank(const double *V, int n, std::vector<double> &work) {
   return rank;
 }
 
+// The caller's cancel callback, polled at every stage boundary (now = true) and otherwise at
+// most every kCancelPoll: the loops poll once per point or column, which on a small problem
+// is far more often than a host's check (taking a lock, looking at its signals) is worth.
+class Canceller {
+ public:
+  explicit Canceller(const Options &opt) : fn_(opt.cancel), ctx_(opt.cancel_ctx) {}
+  bool stop(const Logger &log, bool now = false) {
+    if (!fn_) return false;
+    const auto t = std::chrono::steady_clock::now();
+    if (!now && t - last_ < kCancelPoll) return false;
+    last_ = t;
+    if (fn_(ctx_) == 0) return false;
+    log.error("sba: stopped by the cancel callback");
+    return true;
+  }
+
+ private:
+  static constexpr std::chrono::milliseconds kCancelPoll{10};
+  int (*fn_)(void *);
+  void *ctx_;
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
 // Why point i (free, with a V_i of rank < pnp) has no covariance: one line.
 std::string undetermined_point(const Layout &lay, int i, int rank) {
   const int seen = lay.rowptr[size_t(i) + 1] - lay.rowptr[size_t(i)];
@@ -93,11 +117,13 @@ std::string undetermined_point(const Layout &lay, int i, int rank) {
 
 bool covariance(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
                 const Options &opt, const Logger &log, CovarianceRequest &req) {
+  Canceller cancel(opt);
+  if (cancel.stop(log, true)) return false;
   ThreadPool pool(opt.nthreads, opt.avoid_shared_cores);
   const ModelThreads lend(model, &pool);
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());
   Linearization lin;
-  if (!linearize(lay, model, p, x, covx, opt, log, pool, *kernels, &lin)) return false;
+  if (!linearize(lay, model, p, x, covx, opt, log, pool, *kernels, &lin) || cancel.stop(log, true)) return false;
   const NormalEquations ne{lin.jac.data(), lin.U.data(), lin.V.data(), lin.ea.data(),
                            lin.eb.data()};
   const int cnp = lay.cnp, pnp = lay.pnp;
@@ -110,6 +136,7 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
     std::vector<double> work;
     const int pnp2 = pnp * pnp;
     for (int i = lay.ncon; i < lay.n && pnp > 0; ++i) {
+      if (cancel.stop(log)) return false;
       const int r = block_rank(ne.V + i64(i) * pnp2, pnp, work);
       if (r < pnp) {
         log.error("sba: %s", undetermined_point(lay, i, r).c_str());
@@ -118,6 +145,7 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
     }
   }
   std::vector<double> Vinv(lin.V.size());
+  if (cancel.stop(log, true)) return false;
   if (!kernels->invert_damped_V(pool, ne.V, 0.0, Vinv.data())) {
     log.error("sba: a point is not determined by its projections (its V_i is singular): its "
               "covariance is unbounded");
@@ -134,6 +162,7 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
     map.ld = nS;
     map.cnp = cnp;
     kernels->assemble(pool, ne, Vinv.data(), 0.0, map, rhs.data());  // with Vinv: cannot fail
+    if (cancel.stop(log, true)) return false;
     for (int r = 0; r < nS; ++r)
       for (int c = r + 1; c < nS; ++c) S[size_t(c) * nS + r] = S[size_t(r) * nS + c];
     std::vector<double> lambda(static_cast<size_t>(nS));
@@ -148,11 +177,13 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
       log.error("sba: the eigendecomposition of the reduced camera system failed");
       return false;
     }
+    if (cancel.stop(log, true)) return false;
     // Eigenvalues ascend; the gauge directions are zero up to rounding of the largest one.
     const double tol = lambda[size_t(nS) - 1] * nS * DBL_EPSILON * 100.0;
     std::vector<double> Q(S);  // column c of the column-major result is eigenvector c
     std::fill(S.begin(), S.end(), 0.0);
     for (int c = 0; c < nS; ++c) {
+      if (cancel.stop(log)) return false;
       if (!(lambda[size_t(c)] > tol)) continue;
       ++rankS;
       const double inv = 1.0 / lambda[size_t(c)];
@@ -191,6 +222,7 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
   std::vector<double> W(size_t(cnp) * size_t(pnp)), Y;
   std::vector<int> cams;
   for (int q = 0; q < req.npts; ++q) {
+    if (cancel.stop(log)) return false;
     const int i = req.pts[q];
     double *out = req.ptcov + i64(q) * pnp * pnp;
     if (i < lay.ncon) {

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The C boundary: the six sba 1.6 drivers. Each one validates its arguments, builds the
 // typed layout and callback model, and runs the shared LM core. Nothing escapes this file
-// as an exception, and info is filled on every return path.
+// as an exception, and info is filled on every return path; only a forced unwind (the
+// calling thread ended by pthread_exit or pthread_cancel in a callback) passes through,
+// freeing everything on its way (catch_all in log.h).
 #include <algorithm>
 #include <cerrno>
 #include <climits>
@@ -79,15 +81,6 @@ DriverArgs motstr_problem(const char *name, int n, int ncon, int m, int mcon, ch
   return a;
 }
 
-DriverArgs motstr_vis_problem(const char *name, int n, int ncon, int m, int mcon,
-                              const sba_visibility *vis, double *p, int cnp, int pnp, double *x,
-                              double *covx, int mnp) {
-  DriverArgs a = motstr_problem(name, n, ncon, m, mcon, nullptr, p, cnp, pnp, x, covx, mnp);
-  a.by_pairs = true;
-  a.vis = vis;
-  return a;
-}
-
 DriverArgs mot_problem(const char *name, int n, int m, int mcon, char *vmask, double *p, int cnp,
                        double *x, double *covx, int mnp) {
   DriverArgs a = motstr_problem(name, n, 0, m, mcon, vmask, p, cnp, 0, x, covx, mnp);
@@ -99,6 +92,13 @@ DriverArgs str_problem(const char *name, int n, int ncon, int m, char *vmask, do
                        double *x, double *covx, int mnp) {
   DriverArgs a = motstr_problem(name, n, ncon, m, 0, vmask, p, 0, pnp, x, covx, mnp);
   a.mode = Mode::Str;
+  return a;
+}
+
+// A problem of the pairs entry points: one of the builders above, vis for its vmask.
+DriverArgs by_pairs(DriverArgs a, const sba_visibility *vis) {
+  a.by_pairs = true;
+  a.vis = vis;
   return a;
 }
 
@@ -270,6 +270,8 @@ void make_options(const DriverArgs &a, const sba_ext_options &ext, const Logger 
   o->nthreads = std::max(1, threads);
   o->progress = ext.progress;
   o->progress_ctx = ext.progress_ctx;
+  o->cancel = ext.cancel;
+  o->cancel_ctx = ext.cancel_ctx;
   o->parallel_callbacks = ext.parallel_callbacks != 0;
   // Opt-in only: how the host's threads are scheduled is the host's business.
   o->avoid_shared_cores = ext.avoid_shared_cores != 0;
@@ -357,7 +359,7 @@ bool prepare(const DriverArgs &a, const sba_ext_options &ext, const Logger &log,
 // Layout&, bool concurrent) -> std::unique_ptr<Model>), then work(ext, log, opt, lay, model).
 // False if an exception escaped (it is logged).
 template <class Extra, class MakeModel, class Work>
-bool with_model(const DriverArgs &a, Extra extra, MakeModel make_model, Work work) noexcept {
+bool with_model(const DriverArgs &a, Extra extra, MakeModel make_model, Work work) {
   const sba_ext_options ext = read_ext(a.ext);
   const Logger log = make_logger(a, ext);
   return catch_all(log, a.name, [&] {
@@ -370,7 +372,7 @@ bool with_model(const DriverArgs &a, Extra extra, MakeModel make_model, Work wor
 }
 
 template <class MakeModel>
-int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
+int run_driver(const DriverArgs &a, MakeModel make_model) {
   Summary sum;
   int ret = SBA_ERROR;
   const auto no_extra_check = [] { return std::string(); };
@@ -400,7 +402,7 @@ int run_driver(const DriverArgs &a, MakeModel make_model) noexcept {
 // sba::covariance.
 template <class MakeModel>
 int run_covariance(const DriverArgs &a, sba_covariance_request *user,
-                   MakeModel make_model) noexcept {
+                   MakeModel make_model) {
   int ret = SBA_ERROR;
   CovarianceRequest req;
   const auto check_request = [&]() -> std::string {
@@ -625,8 +627,9 @@ int sba_motstr_levmar_x_vis(const int n, const int ncon, const int m, const int 
                             sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata,
                             const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
                             double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
-  const DriverArgs a = sba::motstr_vis_problem("sba_motstr_levmar_x_vis", n, ncon, m, mcon, vis,
-                                               p, cnp, pnp, x, covx, mnp)
+  const DriverArgs a = sba::by_pairs(sba::motstr_problem("sba_motstr_levmar_x_vis", n, ncon, m, mcon, nullptr, p,
+                                                         cnp, pnp, x, covx, mnp),
+                                     vis)
                            .solving(func != nullptr, itmax, verbose, opts, info, ext);
   return sba::run_driver(a, sba::expert_model(func, fjac, adata));
 }
@@ -637,11 +640,46 @@ int sba_motstr_levmar_vis(const int n, const int ncon, const int m, const int mc
                           sba::MotStrProj proj, sba::MotStrJac projac, void *adata,
                           const int itmax, const int verbose, const double opts[SBA_OPTSSZ],
                           double info[SBA_INFOSZ], const struct sba_ext_options *ext) {
-  const DriverArgs a = sba::motstr_vis_problem("sba_motstr_levmar_vis", n, ncon, m, mcon, vis, p,
-                                               cnp, pnp, x, covx, mnp)
+  const DriverArgs a = sba::by_pairs(sba::motstr_problem("sba_motstr_levmar_vis", n, ncon, m, mcon, nullptr, p,
+                                                         cnp, pnp, x, covx, mnp),
+                                     vis)
                            .solving(proj != nullptr, itmax, verbose, opts, info, ext);
   return sba::run_simple(
       a, sba::simple_model(proj, projac, adata, sba::motstr_proj, sba::motstr_jac));
+}
+
+int sba_mot_levmar_x_vis(const int n, const int m, const int mcon, const struct sba_visibility *vis,
+                         double *p, const int cnp, double *x, double *covx, const int mnp,
+                         sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata, const int itmax,
+                         const int verbose, const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ],
+                         const struct sba_ext_options *ext) {
+  const DriverArgs a =
+      sba::by_pairs(sba::mot_problem("sba_mot_levmar_x_vis", n, m, mcon, nullptr, p, cnp, x, covx, mnp), vis)
+          .solving(func != nullptr, itmax, verbose, opts, info, ext);
+  return sba::run_driver(a, sba::expert_model(func, fjac, adata));
+}
+
+int sba_str_levmar_x_vis(const int n, const int ncon, const int m, const struct sba_visibility *vis,
+                         double *p, const int pnp, double *x, double *covx, const int mnp,
+                         sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata, const int itmax,
+                         const int verbose, const double opts[SBA_OPTSSZ], double info[SBA_INFOSZ],
+                         const struct sba_ext_options *ext) {
+  const DriverArgs a =
+      sba::by_pairs(sba::str_problem("sba_str_levmar_x_vis", n, ncon, m, nullptr, p, pnp, x, covx, mnp), vis)
+          .solving(func != nullptr, itmax, verbose, opts, info, ext);
+  return sba::run_driver(a, sba::expert_model(func, fjac, adata));
+}
+
+int sba_motstr_covariance_x_vis(const int n, const int ncon, const int m, const int mcon,
+                                const struct sba_visibility *vis, double *p, const int cnp,
+                                const int pnp, double *x, double *covx, const int mnp,
+                                sba::ExpertFunc func, sba::ExpertFunc fjac, void *adata,
+                                struct sba_covariance_request *req, const struct sba_ext_options *ext) {
+  const DriverArgs a = sba::by_pairs(sba::motstr_problem("sba_motstr_covariance_x_vis", n, ncon, m, mcon, nullptr,
+                                                         p, cnp, pnp, x, covx, mnp),
+                                     vis)
+                           .estimating(func != nullptr, ext);
+  return sba::run_covariance(a, req, sba::expert_model(func, fjac, adata));
 }
 
 // ---- the 1.6 entry points: the extension ones with the defaults ----

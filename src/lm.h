@@ -60,6 +60,9 @@ struct Options {
   // Called after every outer iteration; nonzero stops with kStopUser.
   int (*progress)(void *ctx, const sba_progress *state) = nullptr;
   void *progress_ctx = nullptr;
+  // Polled by the covariance computation; nonzero abandons it (sba_ext_options.cancel).
+  int (*cancel)(void *ctx) = nullptr;
+  void *cancel_ctx = nullptr;
 };
 
 struct Summary {

@@ -9,6 +9,8 @@
 #include <exception>
 #include <new>
 
+#include "forced_unwind.h"
+
 namespace sba {
 
 enum class LogLevel { Error = 0, Warning = 1, Info = 2 };
@@ -50,12 +52,25 @@ class Logger {
 // Runs body() and logs whatever it throws as one line naming `who`, since nothing may escape
 // a C entry point; false if it threw. Exceptions from the library itself are std::bad_alloc
 // or internal errors; anything else came from a caller's callback.
+//
+// The one thing let through is a forced unwind (glibc and libstdc++: pthread_exit or
+// pthread_cancel in a callback, which is how Python ends a daemon thread that takes the GIL
+// while the interpreter exits). It is not an error but the end of the calling thread:
+// swallowing it makes the runtime abort the process ("exception not rethrown"), and a noexcept
+// frame on its way calls std::terminate, which is why neither this function nor the entry
+// points that call it are noexcept. Everything the solve holds is freed as it unwinds.
 template <class Body>
-bool catch_all(const Logger &log, const char *who, Body body) noexcept {
+SBA_CATCHES_FORCED_UNWIND bool catch_all(const Logger &log, const char *who, Body body) {
   try {
     body();
     return true;
-  } catch (const std::bad_alloc &) {
+  }
+#if SBA_HAVE_FORCED_UNWIND
+  catch (abi::__forced_unwind &) {
+    throw;
+  }
+#endif
+  catch (const std::bad_alloc &) {
     log.error("%s: out of memory", who);
   } catch (const std::exception &e) {
     log.error("%s: internal error: %s", who, e.what());

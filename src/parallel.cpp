@@ -3,7 +3,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
 #include <system_error>
+
+#include "forced_unwind.h"
 
 #if defined(__linux__)
 #include <sched.h>
@@ -74,7 +77,7 @@ bool spin_until(Done done) {
 
 }  // namespace
 
-void ThreadPool::work(int id) {
+SBA_CATCHES_FORCED_UNWIND void ThreadPool::work(int id) {
   std::uint64_t seen = 0;
   int cooldown = 0;
   for (;;) {
@@ -91,15 +94,38 @@ void ThreadPool::work(int id) {
     if (avoid_shared_cores_) avoid_shared_core(id, &cooldown);
     try {
       (*job)(id);
-    } catch (...) {
+    }
+#if SBA_HAVE_FORCED_UNWIND
+    catch (abi::__forced_unwind &) {
+      // This thread is being ended (pthread_exit or pthread_cancel in a callback) and must
+      // be let go; the caller, waiting for the job, is told by run(), which also refuses
+      // the later jobs that would wait for this member forever.
+      lost_worker_.store(true, std::memory_order_release);
+      job_done();
+      throw;
+    }
+#endif
+    catch (...) {
       std::lock_guard<std::mutex> lock(mu_);
       if (!error_) error_ = std::current_exception();
     }
-    if (pending_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
-      // The lock orders this notify after a waiter's check of pending_ (no lost wake-up).
-      std::lock_guard<std::mutex> lock(mu_);
-      done_.notify_one();
-    }
+    job_done();
+  }
+}
+
+void ThreadPool::job_done() {
+  if (pending_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
+    // The lock orders this notify after a waiter's check of pending_ (no lost wake-up).
+    std::lock_guard<std::mutex> lock(mu_);
+    done_.notify_one();
+  }
+}
+
+void ThreadPool::wait_for_workers() {
+  auto finished = [&] { return pending_.load(std::memory_order_acquire) == 0; };
+  if (!spin_until(finished)) {
+    std::unique_lock<std::mutex> lock(mu_);
+    done_.wait(lock, finished);
   }
 }
 
@@ -148,11 +174,20 @@ void ThreadPool::avoid_shared_core(int id, int *cooldown) {
 #endif
 }
 
-void ThreadPool::run(const std::function<void(int)> &fn) {
+namespace {
+
+[[noreturn]] void throw_lost_worker() {
+  throw std::runtime_error("a worker thread of the solve was ended (pthread_exit or pthread_cancel in a callback)");
+}
+
+}  // namespace
+
+SBA_CATCHES_FORCED_UNWIND void ThreadPool::run(const std::function<void(int)> &fn) {
   if (workers_.empty()) {
     fn(0);
     return;
   }
+  if (lost_worker_.load(std::memory_order_acquire)) throw_lost_worker();
   job_ = &fn;
   if (avoid_shared_cores_) cpu_[size() - 1].store(current_cpu(), std::memory_order_relaxed);
   pending_.store(int(workers_.size()), std::memory_order_relaxed);
@@ -165,15 +200,21 @@ void ThreadPool::run(const std::function<void(int)> &fn) {
   std::exception_ptr mine;
   try {
     fn(size() - 1);
-  } catch (...) {
+  }
+#if SBA_HAVE_FORCED_UNWIND
+  catch (abi::__forced_unwind &) {
+    // The calling thread is being ended. The workers are still running fn, whose captures
+    // live in the frames this unwind is about to free: it goes on once they are done.
+    wait_for_workers();
+    throw;
+  }
+#endif
+  catch (...) {
     mine = std::current_exception();
   }
-  auto finished = [&] { return pending_.load(std::memory_order_acquire) == 0; };
-  if (!spin_until(finished)) {
-    std::unique_lock<std::mutex> lock(mu_);
-    done_.wait(lock, finished);
-  }
+  wait_for_workers();
   if (mine) std::rethrow_exception(mine);
+  if (lost_worker_.load(std::memory_order_acquire)) throw_lost_worker();
   std::exception_ptr err;
   {
     std::lock_guard<std::mutex> lock(mu_);

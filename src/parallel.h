@@ -29,7 +29,11 @@ class ThreadPool {
 
   int size() const { return int(workers_.size()) + 1; }
   // fn(t) for every t in [0, size()), concurrently; returns when all are done. The first
-  // exception thrown by any of them is rethrown here.
+  // exception thrown by any of them is rethrown here. A forced unwind (a thread ended by
+  // pthread_exit or pthread_cancel inside fn) is let through in the thread it ends: in the
+  // calling thread once the workers are done with fn; in a worker, which then ends, as
+  // std::runtime_error here, and every later run() throws it at once (the pool is short of
+  // a member).
   void run(const std::function<void(int)> &fn);
 
   // For its lifetime the workers sleep instead of spinning for the next job: made around a
@@ -104,6 +108,8 @@ class ThreadPool {
     return true;
   }
   void work(int id);
+  void job_done();
+  void wait_for_workers();
   void avoid_shared_core(int id, int *cooldown);
 
   std::vector<std::thread> workers_;
@@ -118,6 +124,7 @@ class ThreadPool {
   std::atomic<int> pending_{0};
   std::atomic<bool> stop_{false};
   std::atomic<bool> resting_{false};
+  std::atomic<bool> lost_worker_{false};  // a worker was ended by a forced unwind
   std::exception_ptr error_;  // guarded by mu_
   const bool avoid_shared_cores_;
   // The CPU each member last ran a job on (the caller's: last), -1 if unknown; kept only

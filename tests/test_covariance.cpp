@@ -248,6 +248,70 @@ TEST(Covariance, BadRequestsAreRefused) {
   EXPECT_NE(err.find("req is NULL"), std::string::npos) << err;
 }
 
+// The cancel callback: polled at every stage, it stops the computation wherever it says so,
+// with SBA_ERROR and one line; never saying so changes nothing; the drivers never poll it.
+struct CancelAt {
+  int polls = 0, stop_at = 0;  // 0: never stop
+  std::string errors;
+  static int poll(void *ctx) {
+    CancelAt &c = *static_cast<CancelAt *>(ctx);
+    return ++c.polls == c.stop_at;
+  }
+  static void sink(void *ctx, int level, const char *line) {
+    if (level == SBA_LOG_ERROR) static_cast<CancelAt *>(ctx)->errors += std::string(line) + "\n";
+  }
+};
+
+TEST(Covariance, TheCancelCallbackStopsItAtItsNextPoll) {
+  synth::Problem pb = synth::make(60, 6, 0.5, 0.05, 57);
+  std::vector<double> p = pb.p0;
+  ASSERT_GT(solve(pb, p, 1), 0);
+  const Cov plain = covariance(pb, p, 1, 0);
+  ASSERT_EQ(plain.ret, 0);
+  auto run = [&](CancelAt &c, Cov &out) {
+    out = plain;
+    std::fill(out.camcov.begin(), out.camcov.end(), 0.0);
+    std::fill(out.ptcov.begin(), out.ptcov.end(), 0.0);
+    out.req.camcov = out.camcov.data();
+    out.req.ptcov = out.ptcov.data();
+    sba_ext_options ext;
+    sba_ext_options_init(&ext);
+    ext.cancel = CancelAt::poll;
+    ext.cancel_ctx = &c;
+    ext.log = CancelAt::sink;
+    ext.log_ctx = &c;
+    return sba_motstr_covariance_x(pb.n, 0, pb.m, 1, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(), nullptr,
+                                   kMnp, synth::func_motstr, synth::fjac_motstr, &pb, &out.req, &ext);
+  };
+  CancelAt never;
+  Cov c;
+  EXPECT_EQ(run(never, c), 0);
+  EXPECT_EQ(c.camcov, plain.camcov);
+  EXPECT_EQ(c.ptcov, plain.ptcov);
+  // The start and each stage: linearized, V about to be inverted, S assembled, S decomposed
+  // (the loops add polls only as time passes).
+  EXPECT_GE(never.polls, 5);
+  for (int k = 1; k <= 5; ++k) {
+    SCOPED_TRACE(k);
+    CancelAt at;
+    at.stop_at = k;
+    EXPECT_EQ(run(at, c), SBA_ERROR);
+    EXPECT_EQ(at.polls, k);
+    EXPECT_EQ(at.errors, "sba: stopped by the cancel callback\n");
+  }
+  CancelAt solving;
+  solving.stop_at = 1;
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.cancel = CancelAt::poll;
+  ext.cancel_ctx = &solving;
+  std::vector<double> q = pb.p0;
+  EXPECT_GT(sba_motstr_levmar_x_ext(pb.n, 0, pb.m, 1, pb.vmask.data(), q.data(), kCnp, kPnp, pb.x.data(), nullptr,
+                                    kMnp, synth::func_motstr, synth::fjac_motstr, &pb, 50, 0, nullptr, nullptr, &ext),
+            0);
+  EXPECT_EQ(solving.polls, 0);
+}
+
 // Keeps only the first projection of point q (in vmask and in x): q is then seen by one
 // camera, and its 3 parameters meet 2 measurements.
 int see_once(synth::Problem &pb, int q) {

@@ -10,6 +10,7 @@
 
 #include <fcntl.h>
 #include <malloc.h>
+#include <pthread.h>
 #include <signal.h>
 #include <sys/mman.h>
 #include <sys/resource.h>
@@ -303,6 +304,88 @@ struct ErrorLines {
   }
   bool has(const char *what) const { return std::strstr(text, what) != nullptr; }
 };
+
+// ---------------------------------------------------------------- a thread ended in a callback
+
+// pthread_exit in a callback (as glibc's cancellation, or Python ending a daemon thread that
+// takes the GIL in a callback while the interpreter exits) is a forced unwind: the thread that
+// runs the solve ends, the process goes on, and everything the solve held is given back.
+struct EndedSolve {
+  synth::Problem pb;
+  std::vector<double> p;
+  pthread_t caller{};
+  int end_at_iteration = 0;       // the progress callback ends the calling thread there
+  bool end_a_worker = false;      // func ends the first worker thread it runs on
+  std::atomic<int> worker_calls{0};
+  int ret = 1234;                 // the driver's return value, if it returned
+  ErrorLines errors;
+
+  static int progress(void *ctx, const sba_progress *state) {
+    if (state->iteration == static_cast<EndedSolve *>(ctx)->end_at_iteration) pthread_exit(nullptr);
+    return 0;
+  }
+  static void func(double *p, sba_crsm *idx, int *rcidxs, int *rcsubs, double *hx, void *adata) {
+    EndedSolve &s = *static_cast<EndedSolve *>(adata);
+    if (s.end_a_worker && !pthread_equal(pthread_self(), s.caller) && s.worker_calls.fetch_add(1) == 0)
+      pthread_exit(nullptr);
+    synth::func_motstr(p, idx, rcidxs, rcsubs, hx, &s.pb);
+  }
+  static void *solve(void *arg) {
+    EndedSolve &s = *static_cast<EndedSolve *>(arg);
+    s.caller = pthread_self();
+    sba_ext_options ext;
+    sba_ext_options_init(&ext);
+    ext.nthreads = 2;
+    ext.parallel_callbacks = 1;
+    ext.progress = progress;
+    ext.progress_ctx = &s;
+    ext.log = ErrorLines::sink;
+    ext.log_ctx = &s.errors;
+    double info[SBA_INFOSZ];
+    s.ret = sba_motstr_levmar_x_ext(s.pb.n, 0, s.pb.m, 1, s.pb.vmask.data(), s.p.data(), synth::kCnp,
+                                    synth::kPnp, s.pb.x.data(), nullptr, synth::kMnp, func, synth::fjac_motstr,
+                                    &s, 20, 0, nullptr, info, &ext);
+    return nullptr;
+  }
+};
+
+TEST(Faults, ForcedUnwindInACallbackEndsOnlyTheThreadAndFreesEverything) {
+  for (bool worker : {false, true}) {
+    SCOPED_TRACE(worker ? "a worker ended in func" : "the calling thread ended in progress");
+    const ChildOutcome c = run_in_child(
+        [worker](int fd) {
+          EndedSolve s;
+          s.pb = synth::make(200, 6, 0.3, 0.05, 115);
+          s.p = s.pb.p0;
+          s.end_at_iteration = worker ? 0 : 2;
+          s.end_a_worker = worker;
+          const long live = g_live_news.load();
+          pthread_t t;
+          if (pthread_create(&t, nullptr, EndedSolve::solve, &s) != 0) return 3;
+          pthread_join(t, nullptr);
+          const long leaked = g_live_news.load() - live;
+          std::string line = "ret=" + std::to_string(s.ret) + " leaked=" + std::to_string(leaked) + "\n" +
+                             std::string(s.errors.text, s.errors.len);
+          // The process goes on: a solve in the main thread works as ever.
+          std::vector<double> p = s.pb.p0;
+          double info[SBA_INFOSZ];
+          const int again = sba_motstr_levmar_x(s.pb.n, 0, s.pb.m, 1, s.pb.vmask.data(), p.data(), synth::kCnp,
+                                                synth::kPnp, s.pb.x.data(), nullptr, synth::kMnp, synth::func_motstr,
+                                                synth::fjac_motstr, &s.pb, 20, 0, nullptr, info);
+          line += "again=" + std::string(again > 0 ? "ok" : "failed");
+          if (write(fd, line.data(), line.size()) < 0) return 4;
+          return 0;
+        },
+        60);
+    ASSERT_TRUE(c.exited && c.code == 0) << c.describe();
+    // Unwound, not returned, when the calling thread ends; an SBA_ERROR naming the lost
+    // worker when a worker does. Either way nothing is leaked.
+    const std::string expected = worker ? "ret=-1 leaked=0\nsba_motstr_levmar_x: internal error: a worker thread of "
+                                          "the solve was ended (pthread_exit or pthread_cancel in a callback)\n"
+                                        : "ret=1234 leaked=0\n";
+    EXPECT_EQ(c.data, expected + "again=ok");
+  }
+}
 
 struct InjectCase {
   const char *what;

@@ -7,12 +7,15 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cstdio>
+#include <cstdlib>
 #include <new>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #if defined(__linux__)
+#include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
 #include <unistd.h>
@@ -218,6 +221,86 @@ TEST(ThreadPool, RunsWithinAndAfterForeignThreads) {
   EXPECT_EQ(n.load(), 2 * pool.size());
 }
 
+// The message a failure carries (empty for one that is not a std::runtime_error).
+template <class Throw>
+std::string internal_error(Throw fn) {
+  try {
+    fn();
+  } catch (const std::runtime_error &e) {
+    return e.what();
+  } catch (...) {
+  }
+  return "";
+}
+
+// A forced unwind (pthread_exit here; glibc's thread cancellation and Python ending a daemon
+// thread work the same way) in a job of the pool. Each case runs in a child process (a death
+// test), since swallowing the unwind aborts the process and a lost wake-up hangs it.
+#if defined(__linux__)
+struct CallerEnded {
+  std::atomic<int> workers_done{0};
+  int done_when_unwound = -1;
+  bool returned = false;
+};
+
+// Records, as the unwind passes it, how many workers had finished their part of the job.
+struct UnwindProbe {
+  CallerEnded &st;
+  ~UnwindProbe() { st.done_when_unwound = st.workers_done.load(); }
+};
+
+void *end_the_caller_in_a_job(void *arg) {
+  CallerEnded &st = *static_cast<CallerEnded *>(arg);
+  sba::ThreadPool pool(3);
+  const UnwindProbe probe{st};
+  pool.run([&](int t) {
+    if (t == pool.size() - 1) pthread_exit(nullptr);
+    usleep(30000);
+    st.workers_done.fetch_add(1);
+  });
+  st.returned = true;
+  return nullptr;
+}
+
+// The calling thread ends inside its own part of a job: the unwind waits for the workers,
+// who still use the job's captures, then goes on (freeing the pool) and ends the thread.
+int caller_ended_case() {
+  CallerEnded st;
+  pthread_t t;
+  if (pthread_create(&t, nullptr, end_the_caller_in_a_job, &st) != 0) return 3;
+  pthread_join(t, nullptr);
+  std::fprintf(stderr, "returned=%d done_when_unwound=%d\n", int(st.returned), st.done_when_unwound);
+  return !st.returned && st.done_when_unwound == 2 ? 0 : 1;
+}
+
+TEST(ThreadPoolDeathTest, ForcedUnwindOfTheCallerWaitsForTheWorkersAndEndsOnlyIt) {
+  EXPECT_EXIT(std::_Exit(caller_ended_case()), testing::ExitedWithCode(0), "returned=0 done_when_unwound=2");
+}
+
+// A worker ends inside a job: it is let go, the job fails in the caller (it is incomplete)
+// and so does every later job, instead of waiting for the lost member forever.
+int worker_ended_case() {
+  std::string first, second;
+  {
+    sba::ThreadPool pool(3);
+    first = internal_error([&] {
+      pool.run([](int t) {
+        if (t == 0) pthread_exit(nullptr);
+      });
+    });
+    second = internal_error([&] { pool.run([](int) {}); });
+  }
+  std::fprintf(stderr, "first: %s\nsecond: %s\n", first.c_str(), second.c_str());
+  const std::string lost = "a worker thread of the solve was ended (pthread_exit or pthread_cancel in a callback)";
+  return first == lost && second == lost ? 0 : 1;
+}
+
+TEST(ThreadPoolDeathTest, ForcedUnwindOfAWorkerFailsThisAndLaterJobs) {
+  EXPECT_EXIT(std::_Exit(worker_ended_case()), testing::ExitedWithCode(0),
+              "first: a worker thread of the solve was ended");
+}
+#endif
+
 TEST(Memory, PrefaultMapsTheWholePagesOfTheRange) {
   const long page = sysconf(_SC_PAGESIZE);
   ASSERT_GT(page, 0);
@@ -257,18 +340,6 @@ TEST(Memory, ResizePrefaultedGivesZeros) {
   sba::resize_prefaulted(w, 100000);
   ASSERT_EQ(w.size(), 100000u);
   for (double x : w) ASSERT_EQ(x, 0.0);
-}
-
-// The message a failure carries (empty for one that is not a std::runtime_error).
-template <class Throw>
-std::string internal_error(Throw fn) {
-  try {
-    fn();
-  } catch (const std::runtime_error &e) {
-    return e.what();
-  } catch (...) {
-  }
-  return "";
 }
 
 // Out of memory stays a resource failure; every other failure status is an internal error

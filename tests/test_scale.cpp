@@ -118,14 +118,22 @@ TEST(Scale, TwentyThousandCamerasAndAMillionPointsInMemoryProportionalToObservat
 
 namespace {
 
+// The visible (point, camera) pairs of a problem's vmask, in sba's order.
+struct Pairs {
+  std::vector<int> point, camera;
+  explicit Pairs(const synth::Problem &pb) {
+    for (int i = 0; i < pb.n; ++i)
+      for (int j = 0; j < pb.m; ++j)
+        if (pb.vmask[size_t(i) * pb.m + j]) point.push_back(i), camera.push_back(j);
+  }
+  sba_visibility vis() const { return {(long long)point.size(), point.data(), camera.data()}; }
+};
+
 // The pairs entry points solve exactly what the vmask ones solve, given the same solver.
 TEST(VisibilityPairs, SameResultAsTheVmaskEntryPoints) {
   synth::Problem pb = synth::make(60, 6, 0.5, 0.05, 61);
-  std::vector<int> vp, vc;
-  for (int i = 0; i < pb.n; ++i)
-    for (int j = 0; j < pb.m; ++j)
-      if (pb.vmask[size_t(i) * pb.m + j]) vp.push_back(i), vc.push_back(j);
-  const sba_visibility vis{(long long)vp.size(), vp.data(), vc.data()};
+  const Pairs pairs(pb);
+  const sba_visibility vis = pairs.vis();
   sba_ext_options ext;
   sba_ext_options_init(&ext);
   ext.linsolver = "sparse-chol";
@@ -146,6 +154,65 @@ TEST(VisibilityPairs, SameResultAsTheVmaskEntryPoints) {
   EXPECT_EQ(b, a);
   EXPECT_EQ(c, a);
   EXPECT_EQ(ib[1], ia[1]);
+}
+
+// Motion only, structure only and the covariance by pairs: the same bits as with the vmask.
+TEST(VisibilityPairs, MotionOnlyStructureOnlyAndCovarianceAsTheVmaskEntryPoints) {
+  synth::Problem pb = synth::make(60, 6, 0.5, 0.05, 63);
+  const Pairs pairs(pb);
+  const sba_visibility vis = pairs.vis();
+  pb.fixed_points = pb.truth.data() + size_t(pb.m) * kCnp;
+  pb.fixed_cams = pb.truth.data();
+  std::vector<double> a(pb.p0.begin(), pb.p0.begin() + pb.m * kCnp), b = a;
+  double ia[SBA_INFOSZ], ib[SBA_INFOSZ];
+  const int ra = sba_mot_levmar_x_ext(pb.n, pb.m, 1, pb.vmask.data(), a.data(), kCnp, pb.x.data(), nullptr, kMnp,
+                                      synth::func_mot, synth::fjac_mot, &pb, 50, 0, nullptr, ia, nullptr);
+  const int rb = sba_mot_levmar_x_vis(pb.n, pb.m, 1, &vis, b.data(), kCnp, pb.x.data(), nullptr, kMnp,
+                                      synth::func_mot, synth::fjac_mot, &pb, 50, 0, nullptr, ib, nullptr);
+  ASSERT_GT(ra, 0);
+  EXPECT_EQ(rb, ra);
+  EXPECT_EQ(b, a);
+  EXPECT_EQ(std::vector<double>(ib, ib + SBA_INFOSZ), std::vector<double>(ia, ia + SBA_INFOSZ));
+  std::vector<double> s(pb.p0.begin() + pb.m * kCnp, pb.p0.end()), t = s;
+  const int rs = sba_str_levmar_x_ext(pb.n, 2, pb.m, pb.vmask.data(), s.data(), kPnp, pb.x.data(), nullptr, kMnp,
+                                      synth::func_str, synth::fjac_str, &pb, 50, 0, nullptr, ia, nullptr);
+  const int rt = sba_str_levmar_x_vis(pb.n, 2, pb.m, &vis, t.data(), kPnp, pb.x.data(), nullptr, kMnp,
+                                      synth::func_str, synth::fjac_str, &pb, 50, 0, nullptr, ib, nullptr);
+  ASSERT_GT(rs, 0);
+  EXPECT_EQ(rt, rs);
+  EXPECT_EQ(t, s);
+  EXPECT_EQ(std::vector<double>(ib, ib + SBA_INFOSZ), std::vector<double>(ia, ia + SBA_INFOSZ));
+
+  std::vector<double> p = pb.p0;
+  ASSERT_GT(sba_motstr_levmar_x(pb.n, 0, pb.m, 1, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(), nullptr, kMnp,
+                                synth::func_motstr, synth::fjac_motstr, &pb, 100, 0, nullptr, nullptr),
+            0);
+  std::vector<int> cams(size_t(pb.m)), pts(size_t(pb.n));
+  for (int j = 0; j < pb.m; ++j) cams[size_t(j)] = j;
+  for (int i = 0; i < pb.n; ++i) pts[size_t(i)] = i;
+  std::vector<double> cc[2], pc[2];
+  sba_covariance_request req[2];
+  for (int k = 0; k < 2; ++k) {
+    cc[k].resize(size_t(pb.m) * kCnp * kCnp);
+    pc[k].resize(size_t(pb.n) * kPnp * kPnp);
+    sba_covariance_request_init(&req[k]);
+    req[k].ncams = pb.m;
+    req[k].cams = cams.data();
+    req[k].camcov = cc[k].data();
+    req[k].npts = pb.n;
+    req[k].pts = pts.data();
+    req[k].ptcov = pc[k].data();
+  }
+  EXPECT_EQ(sba_motstr_covariance_x(pb.n, 0, pb.m, 1, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(), nullptr,
+                                    kMnp, synth::func_motstr, synth::fjac_motstr, &pb, &req[0], nullptr),
+            0);
+  EXPECT_EQ(sba_motstr_covariance_x_vis(pb.n, 0, pb.m, 1, &vis, p.data(), kCnp, kPnp, pb.x.data(), nullptr, kMnp,
+                                        synth::func_motstr, synth::fjac_motstr, &pb, &req[1], nullptr),
+            0);
+  EXPECT_EQ(cc[1], cc[0]);
+  EXPECT_EQ(pc[1], pc[0]);
+  EXPECT_EQ(req[1].sigma2, req[0].sigma2);
+  EXPECT_EQ(req[1].rank, req[0].rank);
 }
 
 TEST(VisibilityPairs, BadPairListsAreRefused) {

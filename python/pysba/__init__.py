@@ -87,7 +87,8 @@ class Problem:
     camera_index, point_index, observations
         One row per observation: which camera sees which point where (observations is
         (nobs, 2), in pixels). Any order; the readers give sba's (point by point, cameras
-        ascending). A (camera, point) pair may appear only once.
+        ascending). A (camera, point) pair may appear only once. The indices are integers
+        (floats that hold integers are taken; a fraction, NaN or Inf is a ValueError).
     covariances
         None, or one 2x2 covariance per observation, (nobs, 2, 2).
     calibration
@@ -97,16 +98,19 @@ class Problem:
     def __init__(self, model: builtins.str, cameras: Any, points: Any, camera_index: Any,
                  point_index: Any, observations: Any, covariances: Any = None,
                  calibration: Any = None):
+        if not isinstance(model, builtins.str):
+            raise TypeError(f"model must be a str, got {type(model).__name__}")
         if model not in ("eucsbademo", "bal"):
             raise ValueError(f"model must be 'eucsbademo' or 'bal', got {model!r}")
         self.model = model
-        self.cameras = np.asarray(cameras, dtype=np.float64)
-        self.points = np.asarray(points, dtype=np.float64)
-        self.camera_index = np.asarray(camera_index, dtype=np.int64)
-        self.point_index = np.asarray(point_index, dtype=np.int64)
-        self.observations = np.asarray(observations, dtype=np.float64)
-        self.covariances = None if covariances is None else np.asarray(covariances, dtype=np.float64)
-        self.calibration = None if calibration is None else np.asarray(calibration, dtype=np.float64)
+        self.cameras = _core.float_array(cameras, "cameras")
+        self.points = _core.float_array(points, "points")
+        # Checked, not converted by truncation: an index of 2.9999999999999996 is an error, not 2.
+        self.camera_index = _core.index_array(camera_index, "camera_index", len(self.cameras))
+        self.point_index = _core.index_array(point_index, "point_index", len(self.points))
+        self.observations = _core.float_array(observations, "observations")
+        self.covariances = None if covariances is None else _core.float_array(covariances, "covariances")
+        self.calibration = None if calibration is None else _core.float_array(calibration, "calibration")
 
     @property
     def ncameras(self) -> int:
@@ -193,10 +197,14 @@ def _finish(report: dict) -> Result:
     return result
 
 
-def _readable(path: Any) -> builtins.str:
-    """path as a string, after opening it once: a missing or unreadable file raises the
-    usual OSError subclass (FileNotFoundError, PermissionError, IsADirectoryError)."""
-    path = os.fspath(path)
+def _readable(path: Any, name: builtins.str = "path") -> bytes:
+    """path in the file system's encoding, after opening it once: a missing or unreadable
+    file raises the usual OSError subclass (FileNotFoundError, PermissionError,
+    IsADirectoryError). Bytes, so that any name Python can open reaches the reader, also
+    one that is not UTF-8 (a str with lone surrogates, as os.fsdecode gives for it)."""
+    if not isinstance(path, (builtins.str, bytes, os.PathLike)):
+        raise TypeError(f"{name} must be a str, bytes or os.PathLike, got {type(path).__name__}")
+    path = os.fsencode(path)
     with open(path, "rb"):
         pass
     return path
@@ -206,7 +214,7 @@ def read_eucsbademo(cams: Any, pts: Any, calib: Any = None) -> Problem:
     """Reads eucsbademo's camera and point files (and the calibration file that goes with
     7-value cameras). OSError for a file that cannot be read, ValueError with the reader's
     ``file:line: message`` for bad content."""
-    paths = [_readable(cams), _readable(pts), "" if calib is None else _readable(calib)]
+    paths = [_readable(cams, "cams"), _readable(pts, "pts"), b"" if calib is None else _readable(calib, "calib")]
     d = _core.read_eucsbademo(*paths)
     return Problem("eucsbademo", **d)
 
@@ -219,10 +227,10 @@ def read_bal(path: Any) -> Problem:
     return Problem("bal", **d)
 
 
-def _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress) -> dict:
+def _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress, **more) -> dict:
+    # Passed on as given: _core checks each one's type and value and names it in the error.
     return dict(solver=solver, threads=threads, strategy=strategy, loss=loss, loss_scale=loss_scale,
-                itmax=itmax, opts=None if opts is None else [float(v) for v in opts], mcon=mcon, ncon=ncon,
-                progress=progress)
+                itmax=itmax, opts=opts, mcon=mcon, ncon=ncon, progress=progress, **more)
 
 
 def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: int = 0,
@@ -256,23 +264,24 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
         Called with a :class:`Progress` after every iteration; a true return value stops
         the solve (reason USER), an exception stops it and propagates.
     covariance
-        Also compute the covariance blocks of every camera and point at the result.
+        Also compute the covariance blocks of every camera and point at the result. Ctrl-C
+        interrupts it too: the KeyboardInterrupt's ``result`` is then the finished solve.
     nccalib, ncdist
         eucsbademo cameras with intrinsics: how many trailing intrinsics (of fu u0 v0 ar s)
         and distortion terms (of kc0..kc4) are held fixed, as eucsbademo's options.
     """
     if not isinstance(problem, Problem):
         raise TypeError("problem must be a pysba.Problem")
-    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,
+                  covariance=covariance)
     if problem.model == "bal":
         report = _core.solve_bal(problem.cameras, problem.points, problem.camera_index,
-                                 problem.point_index, problem.observations, problem.covariances,
-                                 bool(covariance), **kw)
+                                 problem.point_index, problem.observations, problem.covariances, **kw)
     else:
         report = _core.solve_eucsbademo(problem.cameras, problem.points, problem.camera_index,
                                         problem.point_index, problem.observations,
-                                        problem.covariances, problem.calibration, int(nccalib),
-                                        int(ncdist), bool(covariance), **kw)
+                                        problem.covariances, problem.calibration, nccalib=nccalib,
+                                        ncdist=ncdist, **kw)
     return _finish(report)
 
 
@@ -281,9 +290,9 @@ JacobianFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], Tuple[An
 
 
 def _python_model(refine, project, cameras, points, camera_index, point_index, observations,
-                  jacobian, covariances, covariance, kw) -> Result:
+                  jacobian, covariances, kw) -> Result:
     report = _core.solve_python(refine, project, jacobian, cameras, points, camera_index,
-                                point_index, observations, covariances, bool(covariance), **kw)
+                                point_index, observations, covariances, **kw)
     return _finish(report)
 
 
@@ -312,9 +321,10 @@ def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, poi
     result as its ``result`` attribute. The other arguments are those of :func:`solve`.
     The callbacks are called from the calling thread, one at a time.
     """
-    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,
+                  covariance=covariance)
     return _python_model("motstr", project, cameras, points, camera_index, point_index,
-                         observations, jacobian, covariances, covariance, kw)
+                         observations, jacobian, covariances, kw)
 
 
 def mot(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
@@ -328,7 +338,7 @@ def mot(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_
     jacobian may return (A, None)."""
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, 0, progress)
     return _python_model("mot", project, cameras, points, camera_index, point_index,
-                         observations, jacobian, covariances, False, kw)
+                         observations, jacobian, covariances, kw)
 
 
 def _str(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
@@ -342,7 +352,7 @@ def _str(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point
     jacobian may return (None, B)."""
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, 0, ncon, progress)
     return _python_model("str", project, cameras, points, camera_index, point_index,
-                         observations, jacobian, covariances, False, kw)
+                         observations, jacobian, covariances, kw)
 
 
 # sba's name for structure-only refinement. It shadows the builtin inside this module, which

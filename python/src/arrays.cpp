@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <climits>
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <numeric>
 
@@ -31,28 +33,117 @@ std::vector<py::ssize_t> check_shape(const py::array &a, const char *what,
   return got;
 }
 
-Observations sorted_observations(int n, int m, const Indices &camera_index, const Indices &point_index,
-                                 const Doubles &observations, const py::object &covariances) {
+namespace {
+
+// "what[i, j]" for the flat index k of an array of the given shape.
+std::string entry_name(const char *what, const std::vector<py::ssize_t> &shape, py::ssize_t k) {
+  std::vector<py::ssize_t> at(shape.size());
+  for (size_t d = shape.size(); d-- > 0;) {
+    at[d] = shape[d] > 0 ? k % shape[d] : 0;
+    k = shape[d] > 0 ? k / shape[d] : 0;
+  }
+  std::string s = std::string(what) + "[";
+  for (size_t d = 0; d < at.size(); ++d) s += (d ? ", " : "") + std::to_string(at[d]);
+  return s + "]";
+}
+
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+// What obj is, for a TypeError: an array by its dtype, anything else by its type.
+std::string what_it_is(py::handle obj) {
+  if (py::isinstance<py::array>(obj)) return "an array of " + std::string(py::str(py::array(obj, true).dtype()));
+  return Py_TYPE(obj.ptr())->tp_name;
+}
+
+// obj as an array of integers or floats, or TypeError: "`what` must be an array of `of`".
+py::array numeric_array(py::handle obj, const char *what, const char *of) {
+  py::array a = py::array::ensure(obj);
+  const char kind = a ? a.dtype().kind() : '?';
+  if (kind != 'i' && kind != 'u' && kind != 'f')
+    throw py::type_error(std::string(what) + " must be an array of " + of + ", got " + what_it_is(obj));
+  return a;
+}
+
+}  // namespace
+
+Doubles float_array(py::handle obj, const char *what) { return Doubles::ensure(numeric_array(obj, what, "numbers")); }
+
+void check_finite(const Doubles &a, const char *what) {
+  const double *v = a.data();
+  for (py::ssize_t k = 0; k < a.size(); ++k)
+    if (!std::isfinite(v[k]))
+      throw py::value_error(entry_name(what, std::vector<py::ssize_t>(a.shape(), a.shape() + a.ndim()), k) +
+                            " is not finite (" + number(v[k]) + ")");
+}
+
+Doubles parameter_rows(py::handle obj, const char *what, py::ssize_t width) {
+  Doubles a = float_array(obj, what);
+  check_shape(a, what, {-1, width});
+  check_finite(a, what);
+  return a;
+}
+
+std::vector<long long> index_array(py::handle obj, const char *what, long long bound) {
+  const py::array a = numeric_array(obj, what, "integers");
+  const char kind = a.dtype().kind();
+  const py::ssize_t len = check_shape(a, what, {-1})[0];
+  std::vector<long long> out(static_cast<size_t>(len));
+  auto out_of_range = [&](py::ssize_t k, const std::string &value) {
+    return py::value_error(std::string(what) + "[" + std::to_string(k) + "] = " + value + " is not in [0, " +
+                           std::to_string(bound) + ")");
+  };
+  if (kind == 'f') {
+    const Doubles f = Doubles::ensure(a);
+    for (py::ssize_t k = 0; k < len; ++k) {
+      const double v = f.data()[k];
+      // Truncating a fraction (2.9999999999999996 to 2) would give the observation to another
+      // camera or point without a word.
+      if (!std::isfinite(v) || v != std::floor(v))
+        throw py::value_error(std::string(what) + "[" + std::to_string(k) + "] = " + number(v) +
+                              " is not an integer");
+      if (v < 0 || v >= double(bound)) throw out_of_range(k, number(v));
+      out[size_t(k)] = static_cast<long long>(v);
+    }
+  } else if (kind == 'u') {
+    const auto u = py::array_t<unsigned long long, py::array::c_style | py::array::forcecast>::ensure(a);
+    for (py::ssize_t k = 0; k < len; ++k) {
+      if (u.data()[k] >= static_cast<unsigned long long>(bound)) throw out_of_range(k, std::to_string(u.data()[k]));
+      out[size_t(k)] = static_cast<long long>(u.data()[k]);
+    }
+  } else {
+    const Indices i = Indices::ensure(a);
+    for (py::ssize_t k = 0; k < len; ++k) {
+      if (i.data()[k] < 0 || i.data()[k] >= bound) throw out_of_range(k, std::to_string(i.data()[k]));
+      out[size_t(k)] = i.data()[k];
+    }
+  }
+  return out;
+}
+
+Observations sorted_observations(int n, int m, py::handle camera_index, py::handle point_index,
+                                 py::handle observations, py::handle covariances) {
   Observations o;
   o.n = n;
   o.m = m;
-  const py::ssize_t nobs = check_shape(camera_index, "camera_index", {-1})[0];
-  check_shape(point_index, "point_index", {nobs});
-  const std::vector<py::ssize_t> xs = check_shape(observations, "observations", {nobs, -1});
+  const std::vector<long long> cams = index_array(camera_index, "camera_index", m);
+  const std::vector<long long> pts = index_array(point_index, "point_index", n);
+  const py::ssize_t nobs = py::ssize_t(cams.size());
+  if (py::ssize_t(pts.size()) != nobs)
+    throw py::value_error("point_index must have shape (" + std::to_string(nobs) + ",), got (" +
+                          std::to_string(pts.size()) + ",)");
+  const Doubles xa = float_array(observations, "observations");
+  const std::vector<py::ssize_t> xs = check_shape(xa, "observations", {nobs, -1});
   if (nobs == 0) throw py::value_error("there are no observations");
   if (nobs > INT_MAX) throw py::value_error("more than INT_MAX observations");
   if (xs[1] < 1 || xs[1] > 64) throw py::value_error("observations must have 1 to 64 columns");
+  check_finite(xa, "observations");
   o.mnp = static_cast<int>(xs[1]);
   const int mnp = o.mnp;
-  const long long *cam = camera_index.data(), *pt = point_index.data();
-  for (py::ssize_t k = 0; k < nobs; ++k) {
-    if (cam[k] < 0 || cam[k] >= m)
-      throw py::value_error("camera_index[" + std::to_string(k) + "] = " + std::to_string(cam[k]) +
-                            " is not in [0, " + std::to_string(m) + ")");
-    if (pt[k] < 0 || pt[k] >= n)
-      throw py::value_error("point_index[" + std::to_string(k) + "] = " + std::to_string(pt[k]) +
-                            " is not in [0, " + std::to_string(n) + ")");
-  }
+  const long long *cam = cams.data(), *pt = pts.data();
   o.order.resize(size_t(nobs));
   std::iota(o.order.begin(), o.order.end(), 0LL);
   auto before = [&](long long a, long long b) {
@@ -61,23 +152,25 @@ Observations sorted_observations(int n, int m, const Indices &camera_index, cons
   // Most callers already give sba's order (the readers do): then nothing moves.
   if (!std::is_sorted(o.order.begin(), o.order.end(), before))
     std::stable_sort(o.order.begin(), o.order.end(), before);
-  o.vmask.assign(size_t(n) * size_t(m), 0);
+  o.point.resize(size_t(nobs));
+  o.camera.resize(size_t(nobs));
   for (py::ssize_t k = 0; k < nobs; ++k) {
     const long long q = o.order[size_t(k)];
-    char &seen = o.vmask[size_t(pt[q]) * size_t(m) + size_t(cam[q])];
-    if (seen)
+    o.point[size_t(k)] = static_cast<int>(pt[q]);
+    o.camera[size_t(k)] = static_cast<int>(cam[q]);
+    // Sorted, a pair given twice is given in a row.
+    if (k > 0 && o.point[size_t(k)] == o.point[size_t(k) - 1] && o.camera[size_t(k)] == o.camera[size_t(k) - 1])
       throw py::value_error("camera " + std::to_string(cam[q]) + " observes point " + std::to_string(pt[q]) +
                             " more than once");
-    seen = 1;
   }
-  const double *x = observations.data();
+  const double *x = xa.data();
   o.x.resize(size_t(nobs) * size_t(mnp));
   for (py::ssize_t k = 0; k < nobs; ++k)
     std::copy_n(x + o.order[size_t(k)] * mnp, mnp, o.x.data() + k * mnp);
   if (!covariances.is_none()) {
-    const Doubles c = Doubles::ensure(covariances);
-    if (!c) throw py::type_error("covariances must be None or an array of floats");
+    const Doubles c = float_array(covariances, "covariances");
     check_shape(c, "covariances", {nobs, mnp, mnp});
+    check_finite(c, "covariances");
     const size_t bs = size_t(mnp) * size_t(mnp);
     o.covx.resize(size_t(nobs) * bs);
     for (py::ssize_t k = 0; k < nobs; ++k)

@@ -22,8 +22,12 @@
 namespace pysba {
 namespace {
 
-[[noreturn]] void raise_os_error(const std::string &message) {
-  PyErr_SetString(PyExc_OSError, message.c_str());
+// A reader's message names the file as the caller spelled it: bytes in the file system's
+// encoding, decoded back as os.fsdecode does (a name that is not UTF-8 keeps its bytes as
+// lone surrogates instead of failing to decode).
+[[noreturn]] void raise_file_error(PyObject *type, const std::string &message) {
+  const PyRef text(PyUnicode_DecodeFSDefaultAndSize(message.data(), Py_ssize_t(message.size())));
+  if (text) PyErr_SetObject(type, text.get());
   throw py::error_already_set();
 }
 
@@ -70,7 +74,6 @@ py::array_t<double> calibration_matrix(const eucsba::Intrinsics &k) {
 }
 
 eucsba::Intrinsics intrinsics_of(const Doubles &K) {
-  check_shape(K, "calibration", {3, 3});
   const double *k = K.data();
   if (k[3] != 0 || k[6] != 0 || k[7] != 0 || k[8] != 1)
     throw py::value_error("calibration must be [[fu, s, u0], [0, fv, v0], [0, 0, 1]]");
@@ -91,15 +94,10 @@ void indices_of_vmask(const std::vector<char> &vmask, int n, int m, std::vector<
 
 py::dict read_eucsbademo(const std::string &cams, const std::string &pts, const std::string &calib) {
   eucsba::Problem problem;
-  eucsba::Status status;
-  {
-    py::gil_scoped_release release;
-    status = eucsba::load_problem(cams, pts, calib, &problem);
-  }
+  const eucsba::Status status = without_gil([&] { return eucsba::load_problem(cams, pts, calib, &problem); });
   if (!status) {
     // Line 0: the file could not be opened or read at all; otherwise its content is wrong.
-    if (status.line() == 0) raise_os_error(status.to_string());
-    throw py::value_error(status.to_string());
+    raise_file_error(status.line() == 0 ? PyExc_OSError : PyExc_ValueError, status.to_string());
   }
   eucsba::PointSet &ps = problem.points;
   const int m = ps.ncameras, n = ps.npoints(), nobs = ps.nprojections();
@@ -125,15 +123,12 @@ py::dict read_bal(const std::string &path) {
   bal::Problem problem;
   bal::SbaLayout layout;
   std::string error;
-  bool ok;
-  {
-    py::gil_scoped_release release;
-    ok = bal::read_problem(path, &problem, &error) && bal::to_sba(problem, path, &layout, &error);
-  }
+  const bool ok = without_gil(
+      [&] { return bal::read_problem(path, &problem, &error) && bal::to_sba(problem, path, &layout, &error); });
   if (!ok) {
-    if (error.find(": cannot open") != std::string::npos || error.find(": read error") != std::string::npos)
-      raise_os_error(error);
-    throw py::value_error(error);
+    const bool unreadable =
+        error.find(": cannot open") != std::string::npos || error.find(": read error") != std::string::npos;
+    raise_file_error(unreadable ? PyExc_OSError : PyExc_ValueError, error);
   }
   const int nobs = layout.nobservations();
   std::vector<long long> cam(static_cast<size_t>(nobs)), pt(static_cast<size_t>(nobs));
@@ -152,34 +147,46 @@ py::dict read_bal(const std::string &path) {
 }
 
 // Motion and structure with eucsbademo's camera model, as eucsbademo runs it by default
-// (expert driver, analytic Jacobian, callbacks shared by the threads).
-py::dict solve_eucsbademo(const Doubles &cameras, const Doubles &points, const Indices &camera_index,
-                          const Indices &point_index, const Doubles &observations, const py::object &covariances,
-                          const py::object &calibration, int nccalib, int ncdist, bool covariance,
-                          const py::kwargs &kw) {
+// (expert driver, analytic Jacobian, callbacks shared by the threads). The array arguments
+// are the caller's (borrowed); what is converted from them is copied and let go before the
+// solve (gil.h).
+py::dict solve_eucsbademo(py::handle camera_rows, py::handle point_rows, py::handle camera_index,
+                          py::handle point_index, py::handle observations, py::handle covariances,
+                          py::handle calibration, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
-  const std::vector<py::ssize_t> cs = check_shape(cameras, "cameras", {-1, -1});
-  const eucsba::CameraKind kind = kind_of_width(cs[1]);
-  const py::ssize_t n = check_shape(points, "points", {-1, 3})[0];
-  if (cs[0] == 0 || n == 0) throw py::value_error("a problem needs at least one camera and one point");
-  eucsba::Intrinsics calib;
-  if (kind == eucsba::CameraKind::FixedIntrinsics) {
-    if (calibration.is_none()) throw py::value_error("cameras of 7 values need a calibration matrix");
-    calib = intrinsics_of(Doubles::ensure(calibration));
-  } else if (!calibration.is_none()) {
-    throw py::value_error("a calibration matrix goes only with cameras of 7 values (q, t)");
-  }
-  const int m = static_cast<int>(cs[0]);
+  eucsba::CameraKind kind;
+  py::ssize_t width;
   std::vector<eucsba::Camera> cams;
-  for (int j = 0; j < m; ++j) cams.push_back(row_to_camera(kind, cameras.data() + size_t(j) * cs[1], calib));
-  std::vector<double> xyz(points.data(), points.data() + n * 3);
+  std::vector<double> xyz;
+  {
+    const Doubles cameras = parameter_rows(camera_rows, "cameras", -1);
+    width = cameras.shape(1);
+    kind = kind_of_width(width);
+    const Doubles points = parameter_rows(point_rows, "points", 3);
+    if (cameras.shape(0) == 0 || points.shape(0) == 0)
+      throw py::value_error("a problem needs at least one camera and one point");
+    eucsba::Intrinsics calib;
+    if (kind == eucsba::CameraKind::FixedIntrinsics) {
+      if (calibration.is_none()) throw py::value_error("cameras of 7 values need a calibration matrix");
+      const Doubles K = float_array(calibration, "calibration");
+      check_shape(K, "calibration", {3, 3});
+      check_finite(K, "calibration");
+      calib = intrinsics_of(K);
+    } else if (!calibration.is_none()) {
+      throw py::value_error("a calibration matrix goes only with cameras of 7 values (q, t)");
+    }
+    for (py::ssize_t j = 0; j < cameras.shape(0); ++j)
+      cams.push_back(row_to_camera(kind, cameras.data() + size_t(j) * width, calib));
+    xyz.assign(points.data(), points.data() + points.size());
+  }
+  const int m = static_cast<int>(cams.size()), n = static_cast<int>(xyz.size() / 3);
 
   Run run;
-  run.obs = sorted_observations(static_cast<int>(n), m, camera_index, point_index, observations, covariances);
+  run.obs = sorted_observations(n, m, camera_index, point_index, observations, covariances);
   if (run.obs.mnp != eucsba::kMeasurementParams) throw py::value_error("observations must have 2 columns");
   std::unique_ptr<eucsba::CameraModel> model;
   try {
-    model = std::make_unique<eucsba::CameraModel>(kind, cams, xyz, nccalib, ncdist);
+    model = std::make_unique<eucsba::CameraModel>(kind, cams, xyz, o.nccalib, o.ncdist);
   } catch (const std::invalid_argument &e) {
     throw py::value_error(e.what());
   }
@@ -194,30 +201,34 @@ py::dict solve_eucsbademo(const Doubles &cameras, const Doubles &points, const I
   run.parallel = true;  // the model's callbacks are re-entrant and walk the index by rows
 
   Session session(o);
-  py::dict d = run_driver(run, session, o, covariance);
-  std::vector<double> rows(size_t(m) * cs[1]);
+  py::dict d = run_driver(run, session, o);
+  std::vector<double> rows(size_t(m) * width);
   for (int j = 0; j < m; ++j)
-    camera_to_row(kind, model->camera(j, run.p.data() + size_t(j) * run.cnp), rows.data() + size_t(j) * cs[1]);
-  d["cameras"] = adopt(std::move(rows), {m, cs[1]});
+    camera_to_row(kind, model->camera(j, run.p.data() + size_t(j) * run.cnp), rows.data() + size_t(j) * width);
+  d["cameras"] = adopt(std::move(rows), {py::ssize_t(m), width});
   d["points"] = copy_of(run.p.data() + size_t(m) * run.cnp, {n, 3});
   d["nobs"] = run.obs.nobs();
   return d;
 }
 
 // Motion and structure with the BAL camera model and its analytic Jacobian, as balsba runs it.
-py::dict solve_bal(const Doubles &cameras, const Doubles &points, const Indices &camera_index,
-                   const Indices &point_index, const Doubles &observations, const py::object &covariances,
-                   bool covariance, const py::kwargs &kw) {
+py::dict solve_bal(py::handle camera_rows, py::handle point_rows, py::handle camera_index, py::handle point_index,
+                   py::handle observations, py::handle covariances, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
-  const py::ssize_t m = check_shape(cameras, "cameras", {-1, bal::kCameraParams})[0];
-  const py::ssize_t n = check_shape(points, "points", {-1, bal::kPointParams})[0];
-  if (m == 0 || n == 0) throw py::value_error("a problem needs at least one camera and one point");
   Run run;
+  py::ssize_t m, n;
+  {
+    const Doubles cameras = parameter_rows(camera_rows, "cameras", bal::kCameraParams);
+    const Doubles points = parameter_rows(point_rows, "points", bal::kPointParams);
+    m = cameras.shape(0);
+    n = points.shape(0);
+    if (m == 0 || n == 0) throw py::value_error("a problem needs at least one camera and one point");
+    run.p.assign(cameras.data(), cameras.data() + cameras.size());
+    run.p.insert(run.p.end(), points.data(), points.data() + points.size());
+  }
   run.obs = sorted_observations(static_cast<int>(n), static_cast<int>(m), camera_index, point_index, observations,
                                 covariances);
   if (run.obs.mnp != bal::kMeasurementParams) throw py::value_error("observations must have 2 columns");
-  run.p.assign(cameras.data(), cameras.data() + m * bal::kCameraParams);
-  run.p.insert(run.p.end(), points.data(), points.data() + n * bal::kPointParams);
   bal::CallbackData data;
   data.ncameras = static_cast<int>(m);
   run.cnp = bal::kCameraParams;
@@ -227,7 +238,7 @@ py::dict solve_bal(const Doubles &cameras, const Doubles &points, const Indices 
   run.adata = &data;
   run.parallel = true;
   Session session(o);
-  py::dict d = run_driver(run, session, o, covariance);
+  py::dict d = run_driver(run, session, o);
   d["cameras"] = copy_of(run.p.data(), {m, bal::kCameraParams});
   d["points"] = copy_of(run.p.data() + m * bal::kCameraParams, {n, bal::kPointParams});
   d["nobs"] = run.obs.nobs();
@@ -255,13 +266,23 @@ PYBIND11_MODULE(_core, mod) {
   mod.def("read_eucsbademo", &read_eucsbademo, py::arg("cams"), py::arg("pts"), py::arg("calib"));
   mod.def("read_bal", &read_bal, py::arg("path"));
   mod.def("solve_eucsbademo", &solve_eucsbademo, py::arg("cameras"), py::arg("points"), py::arg("camera_index"),
-          py::arg("point_index"), py::arg("observations"), py::arg("covariances"), py::arg("calibration"),
-          py::arg("nccalib"), py::arg("ncdist"), py::arg("covariance"));
+          py::arg("point_index"), py::arg("observations"), py::arg("covariances"), py::arg("calibration"));
   mod.def("solve_bal", &solve_bal, py::arg("cameras"), py::arg("points"), py::arg("camera_index"),
-          py::arg("point_index"), py::arg("observations"), py::arg("covariances"), py::arg("covariance"));
+          py::arg("point_index"), py::arg("observations"), py::arg("covariances"));
   mod.def("solve_python", &solve_python, py::arg("refine"), py::arg("project"), py::arg("jacobian"),
           py::arg("cameras"), py::arg("points"), py::arg("camera_index"), py::arg("point_index"),
-          py::arg("observations"), py::arg("covariances"), py::arg("covariance"));
+          py::arg("observations"), py::arg("covariances"));
+  mod.def(
+      "float_array", [](py::handle obj, const std::string &what) { return float_array(obj, what.c_str()); },
+      py::arg("obj"), py::arg("what"));
+  mod.def(
+      "index_array",
+      [](py::handle obj, const std::string &what, long long bound) {
+        std::vector<long long> v = index_array(obj, what.c_str(), bound);
+        const py::ssize_t len = py::ssize_t(v.size());
+        return adopt(std::move(v), {len});
+      },
+      py::arg("obj"), py::arg("what"), py::arg("bound"));
   mod.def("solver_names", [] { return std::string(sba_linsolver_names()); });
   mod.def("strategy_names", [] { return std::string(sba_strategy_names()); });
   mod.attr("SBA_VERSION") = SBA_VERSION;

@@ -15,7 +15,7 @@ namespace {
 struct PythonModel {
   Refine refine = Refine::MotStr;
   int m = 0, n = 0, cnp = 0, pnp = 0, mnp = 0;
-  py::object project, jacobian;
+  py::handle project, jacobian;  // the caller holds them
   // The part that is not refined: the points for motion only, the cameras for structure only.
   std::vector<double> cameras0, points0;
   Session *session = nullptr;
@@ -33,16 +33,15 @@ struct PythonModel {
 
 // The observations an index lists, in its row order, and their measurement ordinals.
 struct Listed {
-  py::array_t<long long> cam, pt;
+  PyRef cam, pt;
   std::vector<int> ordinal;
 };
 
 Listed listed(const sba_crsm *idx) {
   Listed l;
-  l.cam = py::array_t<long long>(idx->nnz);
-  l.pt = py::array_t<long long>(idx->nnz);
+  py::array_t<long long> cams(idx->nnz), pts(idx->nnz);
   l.ordinal.resize(size_t(idx->nnz));
-  long long *cam = l.cam.mutable_data(), *pt = l.pt.mutable_data();
+  long long *cam = cams.mutable_data(), *pt = pts.mutable_data();
   int q = 0;
   for (int i = 0; i < idx->nr; ++i)
     for (int k = idx->rowptr[i]; k < idx->rowptr[i + 1]; ++k, ++q) {
@@ -50,6 +49,8 @@ Listed listed(const sba_crsm *idx) {
       pt[q] = i;
       l.ordinal[size_t(q)] = idx->val[k];
     }
+  l.cam = PyRef(std::move(cams));
+  l.pt = PyRef(std::move(pts));
   return l;
 }
 
@@ -69,63 +70,81 @@ Doubles result_array(const py::handle &r, const char *what, std::vector<py::ssiz
   return a;
 }
 
+// callback(cameras, points, cam_idx, pt_idx) of the observations idx lists, and their ordinals.
+PyRef call_model(const PythonModel &pm, py::handle callback, double *p, const Listed &l) {
+  const PyRef cams(copy_of(pm.cameras_in(p), {pm.m, pm.cnp})), pts(copy_of(pm.points_in(p), {pm.n, pm.pnp}));
+  return call_python(callback, {cams.handle(), pts.handle(), l.cam.handle(), l.pt.handle()});
+}
+
 void python_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
   PythonModel *pm = static_cast<PythonModel *>(adata);
   if (pm->session->failed()) return poison(idx, pm->mnp, hx);
-  py::gil_scoped_acquire gil;
-  try {
-    const Listed l = listed(idx);
-    const py::object r = pm->project(copy_of(pm->cameras_in(p), {pm->m, pm->cnp}),
-                                     copy_of(pm->points_in(p), {pm->n, pm->pnp}), l.cam, l.pt);
-    const Doubles a = result_array(r, "project's result", {idx->nnz, pm->mnp});
-    for (int q = 0; q < idx->nnz; ++q)
-      std::copy_n(a.data() + size_t(q) * pm->mnp, pm->mnp, hx + size_t(l.ordinal[size_t(q)]) * pm->mnp);
-  } catch (...) {
-    pm->session->keep_current_exception();
-    poison(idx, pm->mnp, hx);
-  }
+  with_gil(pm->session->released_thread(), [&] {
+    try {
+      const Listed l = listed(idx);
+      const PyRef r = call_model(*pm, pm->project, p, l);
+      const Doubles a = result_array(r.handle(), "project's result", {idx->nnz, pm->mnp});
+      for (int q = 0; q < idx->nnz; ++q)
+        std::copy_n(a.data() + size_t(q) * pm->mnp, pm->mnp, hx + size_t(l.ordinal[size_t(q)]) * pm->mnp);
+    }
+    PYSBA_FORCED_UNWIND_PASSES_THROUGH
+    catch (...) {
+      pm->session->keep_current_exception();
+      poison(idx, pm->mnp, hx);
+    }
+  });
 }
 
 void python_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adata) {
   PythonModel *pm = static_cast<PythonModel *>(adata);
   const int block = pm->jacobian_block();
   if (pm->session->failed()) return poison(idx, block, jac);
-  py::gil_scoped_acquire gil;
-  try {
-    const Listed l = listed(idx);
-    const py::object r = pm->jacobian(copy_of(pm->cameras_in(p), {pm->m, pm->cnp}),
-                                      copy_of(pm->points_in(p), {pm->n, pm->pnp}), l.cam, l.pt);
-    const py::tuple ab = py::cast<py::tuple>(r);
-    if (ab.size() != 2) throw py::value_error("jacobian must return a pair (A, B)");
-    const int asz = pm->mnp * pm->cnp, bsz = pm->mnp * pm->pnp;
-    // Only the blocks of what is refined are read (and written: block counts only them).
-    const bool has_a = pm->refine != Refine::Str, has_b = pm->refine != Refine::Mot;
-    Doubles A, B;
-    if (has_a) A = result_array(ab[0], "jacobian's A", {idx->nnz, pm->mnp, pm->cnp});
-    if (has_b) B = result_array(ab[1], "jacobian's B", {idx->nnz, pm->mnp, pm->pnp});
-    for (int q = 0; q < idx->nnz; ++q) {
-      double *out = jac + size_t(l.ordinal[size_t(q)]) * block;
-      if (has_a) out = std::copy_n(A.data() + size_t(q) * asz, asz, out);
-      if (has_b) std::copy_n(B.data() + size_t(q) * bsz, bsz, out);
+  with_gil(pm->session->released_thread(), [&] {
+    try {
+      const Listed l = listed(idx);
+      const PyRef r = call_model(*pm, pm->jacobian, p, l);
+      const PyRef ab(PySequence_Tuple(r.get()));
+      if (!ab) throw py::error_already_set();
+      if (PyTuple_GET_SIZE(ab.get()) != 2) throw py::value_error("jacobian must return a pair (A, B)");
+      const int asz = pm->mnp * pm->cnp, bsz = pm->mnp * pm->pnp;
+      // Only the blocks of what is refined are read (and written: block counts only them).
+      const bool has_a = pm->refine != Refine::Str, has_b = pm->refine != Refine::Mot;
+      Doubles A, B;
+      if (has_a) A = result_array(PyTuple_GET_ITEM(ab.get(), 0), "jacobian's A", {idx->nnz, pm->mnp, pm->cnp});
+      if (has_b) B = result_array(PyTuple_GET_ITEM(ab.get(), 1), "jacobian's B", {idx->nnz, pm->mnp, pm->pnp});
+      for (int q = 0; q < idx->nnz; ++q) {
+        double *out = jac + size_t(l.ordinal[size_t(q)]) * block;
+        if (has_a) out = std::copy_n(A.data() + size_t(q) * asz, asz, out);
+        if (has_b) std::copy_n(B.data() + size_t(q) * bsz, bsz, out);
+      }
     }
-  } catch (...) {
-    pm->session->keep_current_exception();
-    poison(idx, block, jac);
-  }
+    PYSBA_FORCED_UNWIND_PASSES_THROUGH
+    catch (...) {
+      pm->session->keep_current_exception();
+      poison(idx, block, jac);
+    }
+  });
 }
 
 }  // namespace
 
-py::dict solve_python(const std::string &refine, const py::object &project, const py::object &jacobian,
-                      const Doubles &cameras, const Doubles &points, const Indices &camera_index,
-                      const Indices &point_index, const Doubles &observations, const py::object &covariances,
-                      bool covariance, const py::kwargs &kw) {
+py::dict solve_python(const std::string &refine, py::handle project, py::handle jacobian, py::handle cameras,
+                      py::handle points, py::handle camera_index, py::handle point_index, py::handle observations,
+                      py::handle covariances, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   if (!PyCallable_Check(project.ptr())) throw py::type_error("project must be callable");
   if (!jacobian.is_none() && !PyCallable_Check(jacobian.ptr()))
     throw py::type_error("jacobian must be callable or None");
-  const std::vector<py::ssize_t> cs = check_shape(cameras, "cameras", {-1, -1});
-  const std::vector<py::ssize_t> ps = check_shape(points, "points", {-1, -1});
+  std::vector<double> cams, pts;
+  std::vector<py::ssize_t> cs, ps;
+  {
+    // Copied and let go before the solve (gil.h).
+    const Doubles c = parameter_rows(cameras, "cameras", -1), b = parameter_rows(points, "points", -1);
+    cs = {c.shape(0), c.shape(1)};
+    ps = {b.shape(0), b.shape(1)};
+    cams.assign(c.data(), c.data() + c.size());
+    pts.assign(b.data(), b.data() + b.size());
+  }
   if (cs[0] == 0 || ps[0] == 0) throw py::value_error("a problem needs at least one camera and one point");
   if (cs[1] == 0 || ps[1] == 0) throw py::value_error("cameras and points need at least one parameter each");
 
@@ -140,8 +159,6 @@ py::dict solve_python(const std::string &refine, const py::object &project, cons
   pm.pnp = static_cast<int>(ps[1]);
   pm.project = project;
   pm.jacobian = jacobian;
-  const double *c = cameras.data(), *b = points.data();
-  std::vector<double> cams(c, c + cs[0] * cs[1]), pts(b, b + ps[0] * ps[1]);
 
   Run run;
   run.refine = pm.refine;
@@ -160,7 +177,7 @@ py::dict solve_python(const std::string &refine, const py::object &project, cons
 
   Session session(o);
   pm.session = &session;
-  py::dict d = run_driver(run, session, o, covariance);
+  py::dict d = run_driver(run, session, o);
   d["cameras"] = copy_of(pm.cameras_in(run.p.data()), {pm.m, pm.cnp});
   d["points"] = copy_of(pm.points_in(run.p.data()), {pm.n, pm.pnp});
   d["nobs"] = run.obs.nobs();

@@ -14,10 +14,9 @@ namespace pysba {
 // predicted observations (nobs x mnp); jacobian (None: finite differences) returns
 // (A, B) with A (nobs x mnp x cnp) and B (nobs x mnp x pnp), the one not refined may be None.
 // Returns the report of run_driver with the refined "cameras" and "points".
-py::dict solve_python(const std::string &refine, const py::object &project, const py::object &jacobian,
-                      const Doubles &cameras, const Doubles &points, const Indices &camera_index,
-                      const Indices &point_index, const Doubles &observations, const py::object &covariances,
-                      bool covariance, const py::kwargs &kw);
+py::dict solve_python(const std::string &refine, py::handle project, py::handle jacobian, py::handle cameras,
+                      py::handle points, py::handle camera_index, py::handle point_index, py::handle observations,
+                      py::handle covariances, const py::kwargs &kw);
 
 }  // namespace pysba
 

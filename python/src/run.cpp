@@ -6,7 +6,7 @@
 
 namespace pysba {
 
-py::dict run_driver(Run &run, Session &session, const SolveOptions &o, bool covariance) {
+py::dict run_driver(Run &run, Session &session, const SolveOptions &o) {
   Observations &obs = run.obs;
   const int n = obs.n, m = obs.m, mnp = obs.mnp;
   if (o.mcon < 0 || o.mcon > m)
@@ -15,29 +15,24 @@ py::dict run_driver(Run &run, Session &session, const SolveOptions &o, bool cova
     throw py::value_error("ncon must be in [0, " + std::to_string(n) + "], got " + std::to_string(o.ncon));
   double info[SBA_INFOSZ] = {0};
   const sba_ext_options *ext = session.ext(run.parallel);
-  int ret = SBA_ERROR;
-  {
-    py::gil_scoped_release release;
+  const sba_visibility vis = obs.vis();
+  const int ret = without_gil(session.released_thread(), [&] {
     switch (run.refine) {
       case Refine::MotStr:
-        ret = sba_motstr_levmar_x_ext(n, o.ncon, m, o.mcon, obs.vmask.data(), run.p.data(), run.cnp, run.pnp,
-                                      obs.x.data(), obs.covx_or_null(), mnp, run.func, run.fjac, run.adata,
-                                      o.itmax, 0, o.opts.data(), info, ext);
-        break;
+        return sba_motstr_levmar_x_vis(n, o.ncon, m, o.mcon, &vis, run.p.data(), run.cnp, run.pnp, obs.x.data(),
+                                       obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, o.itmax, 0,
+                                       o.opts.data(), info, ext);
       case Refine::Mot:
-        ret = sba_mot_levmar_x_ext(n, m, o.mcon, obs.vmask.data(), run.p.data(), run.cnp, obs.x.data(),
-                                   obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, o.itmax, 0,
-                                   o.opts.data(), info, ext);
-        break;
+        return sba_mot_levmar_x_vis(n, m, o.mcon, &vis, run.p.data(), run.cnp, obs.x.data(), obs.covx_or_null(),
+                                    mnp, run.func, run.fjac, run.adata, o.itmax, 0, o.opts.data(), info, ext);
       case Refine::Str:
-        ret = sba_str_levmar_x_ext(n, o.ncon, m, obs.vmask.data(), run.p.data(), run.pnp, obs.x.data(),
-                                   obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, o.itmax, 0,
-                                   o.opts.data(), info, ext);
-        break;
+        return sba_str_levmar_x_vis(n, o.ncon, m, &vis, run.p.data(), run.pnp, obs.x.data(), obs.covx_or_null(),
+                                    mnp, run.func, run.fjac, run.adata, o.itmax, 0, o.opts.data(), info, ext);
     }
-  }
+    return SBA_ERROR;
+  });
   py::dict d = session.report(ret, info);
-  if (!covariance || ret == SBA_ERROR || session.failed()) return d;
+  if (!o.covariance || ret == SBA_ERROR || session.failed()) return d;
   if (run.refine != Refine::MotStr)
     throw py::value_error("covariance needs motion and structure refinement");
 
@@ -56,13 +51,11 @@ py::dict run_driver(Run &run, Session &session, const SolveOptions &o, bool cova
   // The covariance reads p and does not change it, but takes it as non-const.
   std::vector<double> p = run.p;
   const size_t nerrors = session.errors().size();
-  int status;
-  {
-    py::gil_scoped_release release;
-    status = sba_motstr_covariance_x(n, o.ncon, m, o.mcon, obs.vmask.data(), p.data(), run.cnp, run.pnp,
-                                     obs.x.data(), obs.covx_or_null(), mnp, run.func, run.fjac, run.adata,
-                                     &req, session.ext(run.parallel));
-  }
+  const sba_ext_options *cov_ext = session.ext(run.parallel);
+  const int status = without_gil(session.released_thread(), [&] {
+    return sba_motstr_covariance_x_vis(n, o.ncon, m, o.mcon, &vis, p.data(), run.cnp, run.pnp, obs.x.data(),
+                                       obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, &req, cov_ext);
+  });
   if (session.failed()) {
     d["error"] = session.error();
     return d;

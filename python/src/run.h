@@ -28,10 +28,10 @@ struct Run {
 };
 
 // Runs the driver of run.refine with the GIL released and returns the session's report.
-// With covariance (motion and structure only), the covariance blocks of every camera and
+// With o.covariance (motion and structure only), the covariance blocks of every camera and
 // point at the result follow in the report ("camera_covariance", "point_covariance",
 // "sigma2", "rank", "nfree"), or "covariance_error" says why there are none.
-py::dict run_driver(Run &run, Session &session, const SolveOptions &o, bool covariance);
+py::dict run_driver(Run &run, Session &session, const SolveOptions &o);
 
 }  // namespace pysba
 

@@ -3,6 +3,8 @@
 
 #include <pybind11/stl.h>
 
+#include <climits>
+#include <cstdlib>
 #include <cmath>
 #include <exception>
 #include <new>
@@ -10,45 +12,124 @@
 
 namespace pysba {
 
-SolveOptions solve_options(const py::dict &kw) {
-  SolveOptions o;
-  auto get = [&](const char *name) -> py::object {
-    return kw.contains(name) ? py::reinterpret_borrow<py::object>(kw[name]) : py::none();
-  };
-  auto text = [&](const char *name) {
-    const py::object v = get(name);
-    return v.is_none() ? std::string() : v.cast<std::string>();
-  };
-  if (py::object v = get("mcon"); !v.is_none()) o.mcon = v.cast<int>();
-  if (py::object v = get("ncon"); !v.is_none()) o.ncon = v.cast<int>();
-  if (py::object v = get("itmax"); !v.is_none()) o.itmax = v.cast<int>();
-  if (py::object v = get("threads"); !v.is_none()) o.threads = v.cast<int>();
-  if (py::object v = get("loss_scale"); !v.is_none()) o.loss_scale = v.cast<double>();
-  if (py::object v = get("opts"); !v.is_none()) {
-    const std::vector<double> opts = v.cast<std::vector<double>>();
-    if (opts.size() != SBA_OPTSSZ)
-      throw py::value_error("opts must hold 5 values (tau, eps1, eps2, eps3, eps4), got " +
-                            std::to_string(opts.size()));
-    std::copy(opts.begin(), opts.end(), o.opts.begin());
+namespace {
+
+// The keyword arguments as Python callers expect them to be checked: TypeError for a value of
+// the wrong type, ValueError for one out of range, each naming the argument (pybind11's casts
+// raise a RuntimeError that names neither).
+class Keywords {
+ public:
+  explicit Keywords(const py::dict &kw) : kw_(kw) {}
+
+  py::handle get(const char *name) const {
+    PyObject *v = PyDict_GetItemString(kw_.ptr(), name);
+    return v ? py::handle(v) : py::handle(Py_None);
   }
-  o.solver = text("solver");
-  o.strategy = text("strategy");
-  o.loss = text("loss");
-  o.progress = get("progress");
-  if (o.itmax < 0) throw py::value_error("itmax must be >= 0, got " + std::to_string(o.itmax));
-  if (o.threads < 0) throw py::value_error("threads must be >= 0, got " + std::to_string(o.threads));
+
+  // An int (or what operator.index takes) in [lo, hi]; def when absent or None.
+  long long integer(const char *name, long long def, long long lo, long long hi) const {
+    const py::handle v = get(name);
+    if (v.is_none()) return def;
+    if (!PyIndex_Check(v.ptr())) throw wrong_type(name, "an int", v);
+    const PyRef i(PyNumber_Index(v.ptr()));
+    if (!i) throw py::error_already_set();
+    int overflow = 0;
+    const long long x = PyLong_AsLongLongAndOverflow(i.get(), &overflow);
+    if (overflow != 0 || x < lo || x > hi)
+      throw py::value_error(std::string(name) + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                            "], got " + std::string(py::str(i.handle())));
+    return x;
+  }
+
+  double number(const char *name, py::handle v) const {
+    if (PyUnicode_Check(v.ptr()) || PyBytes_Check(v.ptr())) throw wrong_type(name, "a number", v);
+    const double x = PyFloat_AsDouble(v.ptr());
+    if (x == -1.0 && PyErr_Occurred()) {
+      PyErr_Clear();
+      throw wrong_type(name, "a number", v);
+    }
+    return x;
+  }
+
+  double number(const char *name, double def) const {
+    const py::handle v = get(name);
+    return v.is_none() ? def : number(name, v);
+  }
+
+  // A str, or None (empty).
+  std::string text(const char *name) const {
+    const py::handle v = get(name);
+    if (v.is_none()) return std::string();
+    if (!PyUnicode_Check(v.ptr())) throw wrong_type(name, "a str or None", v);
+    return v.cast<std::string>();
+  }
+
+  // True or False (also numpy's).
+  bool flag(const char *name, bool def) const {
+    const py::handle v = get(name);
+    if (v.is_none()) return def;
+    const bool numpy_bool = std::string(Py_TYPE(v.ptr())->tp_name) == "numpy.bool_";
+    if (!PyBool_Check(v.ptr()) && !numpy_bool) throw wrong_type(name, "a bool", v);
+    return PyObject_IsTrue(v.ptr()) == 1;
+  }
+
+  static py::type_error wrong_type(const std::string &name, const char *what, py::handle v) {
+    return py::type_error(name + " must be " + what + ", got " + Py_TYPE(v.ptr())->tp_name);
+  }
+
+ private:
+  const py::dict &kw_;
+};
+
+}  // namespace
+
+SolveOptions solve_options(const py::dict &kw) {
+  const Keywords k(kw);
+  SolveOptions o;
+  o.mcon = int(k.integer("mcon", 0, 0, INT_MAX));
+  o.ncon = int(k.integer("ncon", 0, 0, INT_MAX));
+  o.itmax = int(k.integer("itmax", o.itmax, 0, INT_MAX));
+  o.threads = int(k.integer("threads", 0, 0, INT_MAX));
+  o.nccalib = int(k.integer("nccalib", o.nccalib, INT_MIN, INT_MAX));
+  o.ncdist = int(k.integer("ncdist", o.ncdist, INT_MIN, INT_MAX));
+  o.loss_scale = k.number("loss_scale", o.loss_scale);
+  o.covariance = k.flag("covariance", false);
+  if (const py::handle v = k.get("opts"); !v.is_none()) {
+    if (!PySequence_Check(v.ptr()) || PyUnicode_Check(v.ptr()) || PyBytes_Check(v.ptr()))
+      throw Keywords::wrong_type("opts", "a sequence of 5 numbers or None", v);
+    const py::sequence seq = py::reinterpret_borrow<py::sequence>(v);
+    if (seq.size() != SBA_OPTSSZ)
+      throw py::value_error("opts must hold 5 values (tau, eps1, eps2, eps3, eps4), got " +
+                            std::to_string(seq.size()));
+    for (size_t q = 0; q < SBA_OPTSSZ; ++q)
+      o.opts[q] = k.number(("opts[" + std::to_string(q) + "]").c_str(), seq[q]);
+  }
+  o.solver = k.text("solver");
+  if (o.solver.empty()) {
+    // The pairs entry points pysba calls default to sparse-chol, which is not the drivers'
+    // (nor the programs') default: pysba names the default as the drivers choose it.
+    const char *env = std::getenv("SBA_LINSOLVER");
+    o.solver = env && *env && sba_linsolver_valid(env) ? env : "chol";
+    if (env && *env && !sba_linsolver_valid(env))
+      o.notice = std::string("pysba: unknown SBA_LINSOLVER \"") + env + "\" (known: " + sba_linsolver_names() +
+                 "); using chol";
+  }
+  o.strategy = k.text("strategy");
+  o.loss = k.text("loss");
+  o.progress = k.get("progress");
   if (!o.solver.empty() && !sba_linsolver_valid(o.solver.c_str()))
     throw py::value_error("unknown solver '" + o.solver + "' (known: " + sba_linsolver_names() + ")");
   if (!o.strategy.empty() && !sba_strategy_valid(o.strategy.c_str()))
     throw py::value_error("unknown strategy '" + o.strategy + "' (known: " + sba_strategy_names() + ")");
   if (!o.progress.is_none() && !PyCallable_Check(o.progress.ptr()))
-    throw py::type_error("progress must be callable or None");
+    throw Keywords::wrong_type("progress", "callable or None", o.progress);
   return o;
 }
 
 Session::Session(const SolveOptions &o) : options_(o) {
   sba_ext_options_init(&ext_);
   sba_ext_result_init(&result_);
+  if (!o.notice.empty()) warnings_.push_back(o.notice);
 }
 
 const sba_ext_options *Session::ext(bool parallel) {
@@ -62,9 +143,12 @@ const sba_ext_options *Session::ext(bool parallel) {
   }
   ext_.log = log_trampoline;
   ext_.log_ctx = this;
-  // Always installed, with or without a Python callable: it is where Ctrl-C is noticed.
+  // Always installed, with or without a Python callable: they are where Ctrl-C is noticed,
+  // progress in a solve, cancel in a covariance.
   ext_.progress = progress_trampoline;
   ext_.progress_ctx = this;
+  ext_.cancel = cancel_trampoline;
+  ext_.cancel_ctx = this;
   ext_.parallel_callbacks = parallel ? 1 : 0;
   sba_ext_result_init(&result_);
   ext_.result = &result_;
@@ -80,7 +164,7 @@ void Session::keep_python_error() {
   // where in the callback it came from.
   if (trace && value) PyException_SetTraceback(value, trace);
   if (!failed_ && value) {
-    error_ = py::reinterpret_borrow<py::object>(value);
+    error_ = PyRef(py::reinterpret_borrow<py::object>(value));
     failed_ = true;
   }
   Py_XDECREF(type);
@@ -91,7 +175,9 @@ void Session::keep_python_error() {
 void Session::keep_current_exception() {
   try {
     throw;
-  } catch (py::error_already_set &e) {
+  }
+  PYSBA_FORCED_UNWIND_PASSES_THROUGH
+  catch (py::error_already_set &e) {
     e.restore();
   } catch (py::builtin_exception &e) {
     e.set_error();
@@ -105,30 +191,45 @@ void Session::keep_current_exception() {
   keep_python_error();
 }
 
+namespace {
+
+// Whether the library's work is to stop, for the progress and cancel callbacks: with the GIL,
+// Python's signal handlers run first (in the main thread; Ctrl-C becomes a KeyboardInterrupt
+// that is kept and stops the work), then body() (GIL held), whose true return stops it too,
+// as does an exception, which is kept.
+template <class Body>
+int stop_requested(Session &s, Body body) {
+  if (s.failed()) return 1;
+  bool stop = false;
+  with_gil(s.released_thread(), [&] {
+    try {
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+      stop = body();
+    }
+    PYSBA_FORCED_UNWIND_PASSES_THROUGH
+    catch (...) {
+      s.keep_current_exception();
+      stop = true;
+    }
+  });
+  return stop ? 1 : 0;
+}
+
+}  // namespace
+
 int Session::progress_trampoline(void *ctx, const sba_progress *state) {
   Session *s = static_cast<Session *>(ctx);
-  if (s->failed_) return 1;
-  py::gil_scoped_acquire gil;
-  try {
-    // The signal handlers run here, in the main thread: Ctrl-C becomes a KeyboardInterrupt
-    // that is kept and stops the solve at this iteration.
-    if (PyErr_CheckSignals() != 0) {
-      s->keep_python_error();
-      return 1;
-    }
-    if (!s->options_.progress.is_none()) {
-      const py::object stop = s->options_.progress(*state);
-      if (PyObject_IsTrue(stop.ptr()) == 1) return 1;
-      if (PyErr_Occurred()) {
-        s->keep_python_error();
-        return 1;
-      }
-    }
-  } catch (...) {
-    s->keep_current_exception();
-    return 1;
-  }
-  return 0;
+  return stop_requested(*s, [&] {
+    if (s->options_.progress.is_none()) return false;
+    const PyRef r = call_python(s->options_.progress, {PyRef(py::cast(*state)).handle()});
+    const int truth = PyObject_IsTrue(r.get());
+    if (truth < 0) throw py::error_already_set();
+    return truth == 1;
+  });
+}
+
+int Session::cancel_trampoline(void *ctx) {
+  return stop_requested(*static_cast<Session *>(ctx), [] { return false; });
 }
 
 void Session::log_trampoline(void *ctx, int level, const char *line) {
@@ -147,6 +248,9 @@ py::dict Session::report(int ret, const double info[SBA_INFOSZ]) const {
   d["ret"] = ret;
   py::list inf;
   for (int k = 0; k < SBA_INFOSZ; ++k) inf.append(info[k]);
+  // A callback's exception (Ctrl-C included) reaches the library as NaN projections, which
+  // it reports as reason 7; what stopped the solve was the exception, as a stop request.
+  if (failed_) inf[6] = double(SBA_STOP_USER);
   d["info"] = inf;
   d["errors"] = errors_;
   d["warnings"] = warnings_;
@@ -159,7 +263,7 @@ py::dict Session::report(int ret, const double info[SBA_INFOSZ]) const {
   d["solver"] = result_.linsolver ? py::object(py::str(result_.linsolver)) : py::object(py::none());
   d["robust"] = result_.robust != 0;
   d["strategy"] = result_.strategy ? py::object(py::str(result_.strategy)) : py::object(py::none());
-  d["error"] = failed_ ? error_ : py::object(py::none());
+  d["error"] = error();
   return d;
 }
 

@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "gil.h"
 #include "sba.h"
 #include "sba_ext.h"
 
@@ -32,15 +33,19 @@ struct SolveOptions {
   int itmax = 150;
   std::array<double, SBA_OPTSSZ> opts{SBA_INIT_MU, SBA_STOP_THRESH, SBA_STOP_THRESH,
                                       SBA_STOP_THRESH, 0.0};
-  std::string solver;  // empty: the library's choice
+  std::string solver;  // as given, else $SBA_LINSOLVER if valid, else "chol" (see solve_options)
+  std::string notice;  // why $SBA_LINSOLVER was not used, for the result's log
   int threads = 0;
   std::string strategy;  // empty: the library's choice
   std::string loss;    // empty: least squares
   double loss_scale = 1.0;
-  py::object progress;  // None or a callable taking a pysba.Progress
+  py::handle progress;  // None or a callable taking a pysba.Progress (the caller holds it)
+  bool covariance = false;  // also the covariance blocks of every camera and point
+  int nccalib = 2, ncdist = 3;  // eucsbademo cameras: trailing intrinsics and distortion held fixed
 };
 
-// Reads the keyword arguments the extension functions share (see pysba/__init__.py).
+// Reads the keyword arguments the extension functions share (see pysba/__init__.py): TypeError
+// for a value of the wrong type, ValueError for one out of range, naming the argument.
 SolveOptions solve_options(const py::dict &kw);
 
 class Session {
@@ -58,15 +63,20 @@ class Session {
   // Keeps the C++ exception being handled as a Python one (inside a catch block, GIL held).
   void keep_current_exception();
   bool failed() const { return failed_; }
-  py::object error() const { return failed_ ? error_ : py::object(py::none()); }
+  // Where the thread that runs the solve keeps its Python state while the library works
+  // (without_gil, with_gil in gil.h): the Python callbacks run on that thread.
+  PyThreadState *&released_thread() { return released_; }
+  py::object error() const { return failed_ ? error_.object() : py::object(py::none()); }
   const std::vector<std::string> &errors() const { return errors_; }
 
   // The library's result in a dict for the Python side: ret, info, the log's errors and
-  // warnings, the extension result, and "error" (the kept exception or None).
+  // warnings, the extension result, and "error" (the kept exception or None; with one,
+  // info[6] is SBA_STOP_USER).
   py::dict report(int ret, const double info[SBA_INFOSZ]) const;
 
  private:
   static int progress_trampoline(void *ctx, const sba_progress *state);
+  static int cancel_trampoline(void *ctx);
   static void log_trampoline(void *ctx, int level, const char *line);
 
   SolveOptions options_;
@@ -76,7 +86,8 @@ class Session {
   std::vector<std::string> errors_, warnings_;
   // Set with the GIL held; read by callbacks without it, to skip work once a solve is doomed.
   std::atomic<bool> failed_{false};
-  py::object error_;
+  PyThreadState *released_ = nullptr;
+  PyRef error_;
 };
 
 }  // namespace pysba

@@ -1,12 +1,26 @@
 # SPDX-License-Identifier: BSD-3-Clause
-"""`pip install --no-build-isolation .` from a copy of the source tree into a fresh venv,
-then pysba imported from there, in a clean environment, solves a problem. Slow (it builds
-the library): ctest runs it as a test of its own."""
+"""`pip install .` from a copy of the source tree into a fresh venv, by both routes of
+docs/python.md, then pysba imported from there, in a clean environment, solves a problem.
+Slow (each builds the library): ctest runs them as a test of its own.
+
+- --no-build-isolation: with what is installed (Debian's setuptools, wheel, pybind11-dev).
+- with build isolation: pip installs pyproject.toml's build requirements into a build
+  environment of its own. With no package index here, they come from a wheelhouse: Debian's
+  setuptools and wheel .whl files, and a wheel of Debian's python3-pybind11 distribution
+  (the pybind11 package as pip installs it). Debian's pybind11 CMake files are hidden from
+  CMake, so the build must find pybind11 through the build environment's
+  `python -m pybind11 --cmakedir`, as on a machine without pybind11-dev."""
+import base64
+import hashlib
+import importlib.metadata
 import os
 import shutil
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
+
+import pytest
 
 from conftest import DEMO, REPO, need
 
@@ -18,8 +32,13 @@ print(pysba.__file__)
 print(f"{result.final_mse:g} {result.iterations} {result.reason.name}")
 """
 
+WHEELS = Path("/usr/share/python-wheels")
 
-def test_pip_install_into_a_venv(tmp_path):
+
+def install_and_solve(tmp_path, pip_args, extra_env=None):
+    """pip install (pip_args) a clean copy of the tree into a new venv, delete the copy, and
+    solve 7cams with the installed package. Returns pip's output (its standard output and
+    error: where the build's lines go depends on pip's version)."""
     data = [need(DEMO / "7cams.txt"), DEMO / "7pts.txt", DEMO / "calib.txt"]
     src = tmp_path / "src"
     # What a clean clone holds: no build trees, no caches.
@@ -28,13 +47,64 @@ def test_pip_install_into_a_venv(tmp_path):
     venv = tmp_path / "venv"
     subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True)
     python = venv / "bin" / "python"
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "LD_LIBRARY_PATH")}
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "LD_LIBRARY_PATH", "LD_PRELOAD")}
     env.setdefault("CMAKE_BUILD_PARALLEL_LEVEL", "2")
     env["PIP_NO_INDEX"] = "1"
-    subprocess.run([str(python), "-m", "pip", "install", "-q", "--no-build-isolation", str(src)], check=True,
-                   env=env, cwd=tmp_path)
+    env.update(extra_env or {})
+    pip = subprocess.run([str(python), "-m", "pip", "install", "-v", *pip_args, str(src)], env=env, cwd=tmp_path,
+                         capture_output=True, text=True)
+    assert pip.returncode == 0, pip.stdout[-4000:] + pip.stderr[-4000:]
     shutil.rmtree(src)  # the installed package must not need the source tree
     out = subprocess.run([str(python), "-c", SCRIPT, *map(str, data)], check=True, env=env, cwd=tmp_path,
                          capture_output=True, text=True).stdout.split("\n")
     assert Path(out[0]).is_relative_to(venv)
     assert out[1] == "0.675396 17 STEP"
+    return pip.stdout + pip.stderr
+
+
+def test_pip_install_without_build_isolation(tmp_path):
+    install_and_solve(tmp_path, ["--no-build-isolation"])
+
+
+def wheel_of_installed(name, wheelhouse):
+    """A wheel of the installed distribution `name` (pure Python, as Debian installs it from
+    its upstream wheel): its files under site-packages, RECORD made anew."""
+    dist = importlib.metadata.distribution(name)
+    site = Path(dist.locate_file(""))
+    files = sorted({str(f) for f in dist.files if not str(f).startswith("..") and not str(f).endswith("RECORD")})
+    info = next(f.split("/")[0] for f in files if f.endswith(".dist-info/METADATA"))
+    path = wheelhouse / f"{name}-{dist.version}-py3-none-any.whl"
+    record = []
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as whl:
+        for f in files:
+            body = (site / f).read_bytes()
+            digest = base64.urlsafe_b64encode(hashlib.sha256(body).digest()).rstrip(b"=").decode()
+            record.append(f"{f},sha256={digest},{len(body)}")
+            whl.writestr(f, body)
+        whl.writestr(f"{info}/RECORD", "\n".join(record + [f"{info}/RECORD,,"]) + "\n")
+    return path
+
+
+def test_pip_install_with_build_isolation(tmp_path):
+    wheels = [next(WHEELS.glob(f"{n}-*.whl"), None) for n in ("setuptools", "wheel")]
+    try:
+        importlib.metadata.distribution("pybind11")
+    except importlib.metadata.PackageNotFoundError:
+        wheels.append(None)
+    if None in wheels:
+        pytest.skip("needs Debian's python3-setuptools-whl, python3-wheel-whl and python3-pybind11 "
+                    "(scripts/deps.sh python)")
+    wheelhouse = tmp_path / "wheelhouse"
+    wheelhouse.mkdir()
+    for w in wheels:
+        shutil.copy(w, wheelhouse)
+    wheel_of_installed("pybind11", wheelhouse)
+    # Debian's pybind11 CMake files (pybind11-dev's and python3-pybind11's) out of the search.
+    debian = ["/usr/lib/cmake/pybind11", "/usr/share/cmake/pybind11",
+              "/usr/lib/python3/dist-packages/pybind11/share/cmake/pybind11"]
+    out = install_and_solve(tmp_path, ["--find-links", str(wheelhouse)],
+                            {"CMAKE_ARGS": "-DCMAKE_IGNORE_PATH=" + ";".join(debian)})
+    found = [line for line in out.splitlines() if "sba: pybind11" in line]
+    # From the isolated build environment pip made: not Debian's, not the venv's.
+    assert len(found) == 1 and "/pip-build-env-" in found[0] and "/share/cmake/pybind11" in found[0], \
+        found or out[-4000:]
