@@ -55,7 +55,8 @@ std::string number(double v) {
 
 // What obj is, for a TypeError: an array by its dtype, anything else by its type.
 std::string what_it_is(py::handle obj) {
-  if (py::isinstance<py::array>(obj)) return "an array of " + std::string(py::str(py::array(obj, true).dtype()));
+  if (py::isinstance<py::array>(obj))
+    return "an array of " + std::string(py::str(py::reinterpret_borrow<py::array>(obj).dtype()));
   return Py_TYPE(obj.ptr())->tp_name;
 }
 
