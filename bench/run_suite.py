@@ -287,7 +287,7 @@ def write_markdown(path, meta, groups, runs_by_problem, kernels):
     L.append("")
 
     # The linear solvers compared (the heading keeps the name the recorded results use).
-    L.append("## Issue 4: linear solvers")
+    L.append("## Linear solvers")
     L.append("")
     if "54cams" in runs_by_problem:
         runs = runs_by_problem["54cams"]["runs"]
@@ -537,7 +537,7 @@ def main():
                               "--threads", SCALING_THREADS, "--warm-up"]))
     if "longseq" in groups_wanted:
         spec, solvers, ceres, itmax = LONGSEQ_QUICK if a.quick else LONGSEQ
-        problems.append(("Issue 4: long sequence", "longseq",
+        problems.append(("Long sequence", "longseq",
                          ["--gen", spec, "--solvers", solvers, "--ceres", ceres, "--itmax", str(itmax),
                           "--threads", LONGSEQ_THREADS]))
 
@@ -601,7 +601,7 @@ def main():
     groups = [
         ("sba-demo, 54 cameras", ["54cams", "54camsvarK", "54camsvarKD"]),
         ("BAL problems", [f.replace(".txt.bz2", "") for f in BAL_FILES]),
-        ("Issue 4: long sequence", ["longseq"]),
+        ("Long sequence", ["longseq"]),
         ("Long sequence to convergence", ["longseq-converged"]),
     ]
     write_markdown(os.path.join(a.results, "results.md"), meta, groups, runs_by_problem, kernels)

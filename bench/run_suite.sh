@@ -22,12 +22,21 @@ esac
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DSBA_BUILD_BENCH=ON >/dev/null
 cmake --build "$build" -j"${SBA_BUILD_JOBS:-2}" --target sba_bench kernels_benchmark \
   block_kernels_benchmark features_bench
+# Google Benchmark records the path of the executable it ran: the results keep its name only,
+# not the directories of the machine that produced them.
+drop_paths() {
+  for f in "$@"; do
+    if [ -f "$f" ]; then sed -i 's|"executable": "[^"]*/\([^"/]*\)"|"executable": "\1"|' "$f"; fi
+  done
+}
 python3 "$here/run_suite.py" --build "$build" "$@"
+drop_paths "$here/results/kernels.json"
 case " $* " in
   *" --report-only "*|*" --quick "*) exit 0 ;;
 esac
 "$build/bench/block_kernels_benchmark" --benchmark_min_time=0.5 \
   --benchmark_out="$here/results/block_kernels.json" --benchmark_out_format=json
+drop_paths "$here/results/block_kernels.json"
 rm -f "$here/results/features.json"
 {
   echo "# sba_ext.h features: robust-loss overhead and covariance time"
