@@ -7,8 +7,8 @@
     check_includes.py --selftest  check that the checks find a cycle and a catch-all header in
                                   a made-up tree, and pass a clean one
 
-The graph is drawn between modules, not files: foo.h and the foo.cpp that implements it are
-one module, since an arrow into foo.cpp is an arrow into foo. So a cycle is also found where
+The graph is drawn between modules, not files: foo.h, the foo.cpp that implements it and the
+foo_impl.h that foo.cpp compiles are one module, since an arrow into foo.cpp is an arrow into foo. So a cycle is also found where
 two modules each use the other through their .cpp files only (a.cpp includes b.h and b.cpp
 includes a.h), which no compiler notices but which ties the two together all the same.
 
@@ -76,7 +76,9 @@ def source_files(repo, roots):
 
 
 def module(path):
-    return os.path.splitext(path)[0]
+    """foo for foo.h, foo.cpp and foo_impl.h (the implementation a foo*.cpp includes)."""
+    stem = os.path.splitext(path)[0]
+    return stem[:-len("_impl")] if stem.endswith("_impl") else stem
 
 
 def resolve(name, including, known, roots):
@@ -226,6 +228,10 @@ def selftest():
         "folder_cycle": ({"demo/x.h": "int x();\n", "demo/x.cpp": '#include "y.h"\n',
                           "src/y.h": '#include "../demo/x.h"\nint y();\n'},
                          ["include cycle demo/x -> src/y -> demo/x"]),
+        # an implementation header belongs to its module: k.cpp -> k_impl.h -> k.h is no cycle
+        "impl_header": ({"src/k.h": "int k();\n", "src/k.cpp": '#include "k_impl.h"\n',
+                         "src/k_impl.h": '#include "k.h"\nint k() { return 0; }\n'},
+                        []),
         "catch_all": ({"src/all.h": '/* all */\n#ifndef ALL_H\n#define ALL_H\n#include "a.h"\n'
                                     '// nothing else\n#endif\n',
                        "src/a.h": "int a;\n"},
