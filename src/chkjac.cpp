@@ -10,7 +10,10 @@
 #include <utility>
 #include <vector>
 
-#include "core.h"
+#include "jacobian_check.h"
+#include "layout.h"
+#include "log.h"
+#include "model.h"
 #include "sba_export.h"
 
 namespace sba {

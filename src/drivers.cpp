@@ -16,9 +16,14 @@
 #include <new>
 #include <string>
 
-#include "core.h"
+#include "covariance.h"
 #include "finite.h"
-#include "step_solver.h"
+#include "jacobian_check.h"
+#include "layout.h"
+#include "linear_solver.h"
+#include "lm.h"
+#include "model.h"
+#include "options.h"
 #include "sba_export.h"
 
 namespace sba {

@@ -15,7 +15,7 @@
 #include "column_split.h"
 #include "kernels.h"
 #include "madd.h"
-#include "step_solver.h"
+#include "normal_equations.h"
 #include "small_dense.h"
 
 namespace sba {
