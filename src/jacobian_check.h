@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // The check of a caller's analytic Jacobian against central differences: the drivers' itmax
-// == 0 mode, and sba_chkjac.h's functions (chkjac.cpp).
+// == 0 mode, and sba_chkjac.h's functions (chkjac_driver.cpp).
 #ifndef SBA_SRC_JACOBIAN_CHECK_H
 #define SBA_SRC_JACOBIAN_CHECK_H
 

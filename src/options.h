@@ -1,9 +1,11 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // What a solve is asked to do: the typed form of the drivers' itmax, opts[] and
-// sba_ext_options. The C boundary translates into it (drivers.cpp); the LM core, the
-// covariance and the Jacobian check read it.
+// sba_ext_options, with one validity check. The C boundary translates into it (driver.cpp);
+// the LM core, the covariance and the Jacobian check read it.
 #ifndef SBA_SRC_OPTIONS_H
 #define SBA_SRC_OPTIONS_H
+
+#include <string>
 
 #include "linear_solver.h"
 #include "loss.h"
@@ -29,6 +31,11 @@ struct Options {
   // Polled by the covariance computation; nonzero abandons it (sba_ext_options.cancel).
   int (*cancel)(void *ctx) = nullptr;
   void *cancel_ctx = nullptr;
+
+  // False, with the first thing wrong in *error, when a value cannot be used: a negative
+  // itmax, a tolerance or tau that is not finite, a zero tau. The tolerances and tau are
+  // named as the opts[] entries they come from (tau opts[0], eps1..eps4 opts[1..4]).
+  bool is_valid(std::string *error) const;
 };
 
 }  // namespace sba
