@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // What a solve is asked to do: the typed form of the drivers' itmax, opts[] and
-// sba_ext_options, with one validity check. The C boundary translates into it (driver.cpp);
-// the LM core, the covariance and the Jacobian check read it.
+// sba_ext_options, with one validity check. The C boundary translates into it
+// (driver_options.cpp); the LM core, the covariance and the Jacobian check read it.
 #ifndef SBA_SRC_OPTIONS_H
 #define SBA_SRC_OPTIONS_H
 
