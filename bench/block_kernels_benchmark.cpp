@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "bench_problem.h"
-#include "core.h"
+#include "layout.h"
 #include "dense_factorization.h"
 #include "kernels.h"
 #include "lapack.h"

@@ -6,6 +6,8 @@
 // used and the rank reported. A point block V_i, by contrast, must have full rank: a point
 // that its projections do not determine (seen by one camera, or by cameras in degenerate
 // positions) is refused by name, since inverting its V_i would turn rounding into numbers.
+#include "covariance.h"
+
 #include <algorithm>
 #include <cfloat>
 #include <chrono>
@@ -13,12 +15,12 @@
 #include <string>
 #include <vector>
 
-#include "core.h"
 #include "kernels.h"
 #include "lapack.h"
-#include "step_solver.h"
+#include "linearization.h"
+#include "normal_equations.h"
 #include "parallel.h"
-#include "schur.h"
+#include "step_solver.h"
 
 namespace sba {
 namespace {
@@ -236,7 +238,7 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
     for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
       if (lay.colidx[k] < lay.mcon) continue;
       cams.push_back(lay.colidx[k]);
-      schur::form_W(lay, ne.jac, k, W.data());
+      form_W(lay, ne.jac, k, W.data());
       for (int a = 0; a < cnp; ++a)
         for (int b = 0; b < pnp; ++b) {
           double s = 0.0;

@@ -7,7 +7,8 @@
 
 #include <memory>
 
-#include "core.h"
+#include "layout.h"
+#include "linear_solver.h"
 #include "parallel.h"
 
 namespace sba {

@@ -11,7 +11,7 @@
 #include <memory>
 #include <vector>
 
-#include "core.h"
+#include "layout.h"
 #include "parallel.h"
 
 namespace sba {

@@ -15,7 +15,7 @@
 #include "column_split.h"
 #include "kernels.h"
 #include "madd.h"
-#include "step_solver.h"
+#include "normal_equations.h"
 #include "small_dense.h"
 
 namespace sba {
@@ -318,9 +318,10 @@ class KernelsT final : public Kernels {
 
   // The work of one thread's range, out of line. Called from the pool's std::function, an
   // inlined job would see the block sizes only as values captured by reference, and its
-  // fixed-size loops would fall back to run-time bounds (enough to make a 2-thread
-  // back-substitution slower than a 1-thread one); and one copy of the code for every thread count keeps
-  // the compiler's choice of fused multiply-adds, and so the bits, the same for all of them.
+  // fixed-size loops would fall back to run-time bounds, which costs more than a second thread
+  // gains (block_kernels_benchmark's BackSubstitute/*/1 against /2 is the measurement); and
+  // one copy of the code for every thread count keeps the compiler's choice of fused
+  // multiply-adds, and so the bits, the same for all of them.
 
   // U_j and e_a,j for the cameras [j0, j1): the projections are walked in memory order
   // (point by point), taking those of these cameras, so the Jacobian is streamed rather than

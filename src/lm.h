@@ -1,18 +1,16 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-// The one Levenberg-Marquardt core behind the six 1.6 drivers, its options and summary, and
-// what else works on the normal equations at a point: the covariance and the Jacobian check.
+// The one Levenberg-Marquardt core behind the six 1.6 drivers: its entry point and its summary
+// (its options: options.h).
 #ifndef SBA_SRC_LM_H
 #define SBA_SRC_LM_H
 
 #include <functional>
 #include <memory>
-#include <vector>
 
 #include "layout.h"
 #include "log.h"
-#include "loss.h"
 #include "model.h"
-#include "strategy.h"
+#include "options.h"
 
 namespace sba {
 
@@ -28,41 +26,6 @@ enum StopReason : int {
   kStopNonFinite = 7,    // f(p) or the Jacobian has a NaN or Inf
   kStopSingular = 8,     // the augmented system is almost singular
   kStopUser = 9,         // the progress callback asked to stop
-};
-
-// How the damped normal equations are solved (see step_solver.h).
-enum class LinSolver {
-  Chol,        // dense S, Cholesky (sba 1.6's default): the library's own up to 2048 unknowns
-  CholLapack,  // dense S, LAPACK's DPOTRF/DPOTRS at every size
-  LDLt,        // dense S, unpivoted LDL^T
-  BK,          // dense S, Bunch-Kaufman
-  LU,          // dense S, LU
-  QR,          // dense S, QR
-  QRnoQ,       // dense S, QR without Q (R^T R x = S^T b)
-  SVD,         // dense S, SVD
-  CG,          // dense S, Jacobi-preconditioned conjugate gradients
-  LdlAmd,      // no Schur complement: the whole system, AMD ordering + sparse LDL^T
-  SparseChol,  // sparse S (cameras sharing points), CHOLMOD Cholesky
-  IterativeSchur,  // S never formed: truncated CG on S x products, S's block diagonal as preconditioner
-};
-
-struct Options {
-  LinSolver solver = LinSolver::Chol;
-  StrategyKind strategy = StrategyKind::Sba;
-  double tau = SBA_INIT_MU;
-  double eps1 = SBA_STOP_THRESH, eps2 = SBA_STOP_THRESH, eps3 = SBA_STOP_THRESH, eps4 = 0.0;
-  int itmax = 0;
-  int nthreads = 1;
-  bool auto_threads = false;  // nthreads is the hardware's, not the caller's: see fit_threads
-  bool parallel_callbacks = false;  // the caller's callbacks may run concurrently
-  bool avoid_shared_cores = false;  // workers may narrow their own CPU mask (parallel.cpp)
-  Loss loss;  // robust loss on each projection's squared residual (none: least squares)
-  // Called after every outer iteration; nonzero stops with kStopUser.
-  int (*progress)(void *ctx, const sba_progress *state) = nullptr;
-  void *progress_ctx = nullptr;
-  // Polled by the covariance computation; nonzero abandons it (sba_ext_options.cancel).
-  int (*cancel)(void *ctx) = nullptr;
-  void *cancel_ctx = nullptr;
 };
 
 struct Summary {
@@ -91,35 +54,6 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
 
 // The stop-4 test after an accepted step: e and en are the cost before and after it.
 bool reduction_stalled(double e, double en, double eps4);
-
-class Kernels;
-
-// The normal equations at p, without iterating: for the covariance of the solution.
-struct Linearization {
-  std::vector<double> jac, U, V, ea, eb;  // as in an LM iteration (weighted, reweighted)
-  double sq_err = 0;                      // squared error of the (re)weighted residual
-};
-bool linearize(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
-               const Options &opt, const Logger &log, ThreadPool &pool, const Kernels &kernels,
-               Linearization *out);
-
-// What sba_motstr_covariance* computes (see sba_ext.h), with validated indices.
-struct CovarianceRequest {
-  int ncams = 0;
-  const int *cams = nullptr;
-  double *camcov = nullptr;
-  int npts = 0;
-  const int *pts = nullptr;
-  double *ptcov = nullptr;
-  double sigma2 = 0;
-  int rank = 0, nfree = 0;
-};
-bool covariance(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
-                const Options &opt, const Logger &log, CovarianceRequest &req);
-
-// The itmax == 0 check of an analytic Jacobian against central differences. Reports every
-// suspicious entry and a one-line verdict through log. Returns the number of suspicious rows.
-i64 check_jacobian(const Layout &lay, Model &model, double *p, const Logger &log);
 
 }  // namespace sba
 

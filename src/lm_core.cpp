@@ -13,9 +13,13 @@
 #include <cstdio>
 #include <vector>
 
-#include "core.h"
 #include "finite.h"
 #include "kernels.h"
+#include "layout.h"
+#include "linearization.h"
+#include "lm.h"
+#include "model.h"
+#include "options.h"
 #include "step_solver.h"
 #include "strategy.h"
 #include "memory.h"

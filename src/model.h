@@ -56,7 +56,7 @@ std::unique_ptr<Model> make_expert_model(const Layout &lay, ExpertFunc func, Exp
                                          void *adata, bool concurrent);
 
 // The simple drivers' per-projection proj/projac, normalized to the motion+structure shape;
-// the adapters in drivers.cpp bridge the mot/str signatures onto it.
+// the adapters in callback_adapters.cpp bridge the mot/str signatures onto it.
 using AnyFn = void (*)();  // a user callback of one of the three shapes, cast back to call
 struct SimpleCallbacks {
   void (*proj)(const SimpleCallbacks &cb, int j, int i, double *aj, double *bi, double *xij);

@@ -7,9 +7,8 @@
 #include <cmath>
 #include <vector>
 
+#include "normal_equations.h"
 #include "step_solver.h"
-#include "schur.h"
-
 #include "suitesparse_status.h"
 
 extern "C" {
@@ -113,7 +112,7 @@ class LdlAmdSolver final : public StepSolver {
       for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
         const int j = lay.colidx[k];
         if (j < lay.mcon) continue;
-        schur::form_W(lay, ne.jac, k, W);
+        form_W(lay, ne.jac, k, W);
         for (int b = 0; b < cnp; ++b) {
           double *col = Ax_.data() + Ap_[size_t(cam_col(j, b))] + cnp + i64(pos_in_cam_[size_t(k)]) * pnp;
           for (int c = 0; c < pnp; ++c) col[c] = W[b * pnp + c];

@@ -3,9 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 
-#include "named.h"
 #include "small_dense.h"
 
 namespace sba {
@@ -68,33 +66,7 @@ class BlockDiagonalSolver final : public StepSolver {
   std::vector<double> blk_;  // one d x d block per thread
 };
 
-struct NamedSolver {
-  const char *name;
-  LinSolver value;
-};
-constexpr NamedSolver kSolvers[] = {
-    {"chol", LinSolver::Chol}, {"ldlt", LinSolver::LDLt},     {"bk", LinSolver::BK},
-    {"lu", LinSolver::LU},     {"qr", LinSolver::QR},         {"qrnoq", LinSolver::QRnoQ},
-    {"svd", LinSolver::SVD},   {"cg", LinSolver::CG},         {"ldl-amd", LinSolver::LdlAmd},
-    {"sparse-chol", LinSolver::SparseChol}, {"chol-lapack", LinSolver::CholLapack},
-    {"iterative-schur", LinSolver::IterativeSchur},
-};
-
 }  // namespace
-
-bool linsolver_from_name(const std::string &name, LinSolver *out) {
-  return value_of(kSolvers, name, out);
-}
-
-const char *linsolver_name(LinSolver kind) {
-  for (const NamedSolver &s : kSolvers)
-    if (s.value == kind) return s.name;
-  return "?";
-}
-
-constexpr auto kSolverNames = joined_names<joined_length(kSolvers)>(kSolvers);
-
-const char *linsolver_names() { return kSolverNames.text; }
 
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx) {
   if (ctx.lay.free_cams() == 0 || ctx.lay.free_pts() == 0)

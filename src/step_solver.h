@@ -6,26 +6,14 @@
 #define SBA_SRC_STEP_SOLVER_H
 
 #include <memory>
-#include <string>
 
-#include "core.h"
 #include "kernels.h"
+#include "layout.h"
+#include "linear_solver.h"
+#include "normal_equations.h"
 #include "parallel.h"
 
 namespace sba {
-
-// "chol", "ldlt", ... ; false for an unknown name.
-bool linsolver_from_name(const std::string &name, LinSolver *out);
-const char *linsolver_name(LinSolver s);
-// Space-separated list of every name, for messages.
-const char *linsolver_names();
-
-// The normal equations of the current (weighted) Jacobian: the undamped U_j, V_i and
-// e_a = A^T e, e_b = B^T e. Blocks of fixed cameras and points are not meaningful.
-struct NormalEquations {
-  const double *jac = nullptr;  // callback layout: A_ij then B_ij per projection
-  const double *U = nullptr, *V = nullptr, *ea = nullptr, *eb = nullptr;
-};
 
 // What every solver works with: the problem, the threads, the block kernels.
 struct SolveContext {
@@ -56,7 +44,7 @@ class StepSolver {
 // always use per-block Cholesky, whatever `kind` says.
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx);
 
-// make_step_solver and the names: step_solver.cpp; the others: solver_*.cpp.
+// make_step_solver: step_solver.cpp; the others: solver_*.cpp.
 std::unique_ptr<StepSolver> make_dense_schur_solver(LinSolver kind, const SolveContext &ctx);
 std::unique_ptr<StepSolver> make_ldl_amd_solver(const SolveContext &ctx);
 std::unique_ptr<StepSolver> make_sparse_schur_solver(const SolveContext &ctx);

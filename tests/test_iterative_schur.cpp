@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "core.h"
+#include "layout.h"
 #include "kernels.h"
 #include "parallel.h"
 #include "step_solver.h"

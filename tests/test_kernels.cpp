@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "column_split.h"
-#include "core.h"
+#include "layout.h"
 #include "dense.h"
 #include "dense_factorization.h"
 #include "kernels.h"

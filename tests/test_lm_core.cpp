@@ -10,7 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "core.h"
+#include "layout.h"
+#include "lm.h"
+#include "model.h"
 #include "step_solver.h"
 #include "synth.h"
 

@@ -2,12 +2,12 @@
 // The itmax == 0 mode of the drivers: compare the caller's analytic Jacobian with central
 // differences, entry by entry, over the free parameters only (fixed cameras and points are
 // never differentiated, so they cannot raise false alarms as they did in 1.6).
+#include "jacobian_check.h"
+
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
 #include <vector>
-
-#include "core.h"
 
 namespace sba {
 

@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// sba_chkjac.h: the expert drivers' Jacobian check (check_jacobian, the itmax == 0 mode) on a
-// visibility index the caller built, with func and jacf on their own adata pointers.
+// sba_chkjac.h's functions: the expert drivers' Jacobian check (check_jacobian, the itmax == 0
+// mode) on a visibility index the caller built, with func and jacf on their own adata
+// pointers. The entry points themselves: c_api.cpp.
+#include "chkjac_driver.h"
+
 #include <algorithm>
 #include <climits>
 #include <exception>
@@ -10,22 +13,13 @@
 #include <utility>
 #include <vector>
 
-#include "core.h"
-#include "sba_export.h"
+#include "jacobian_check.h"
+#include "layout.h"
+#include "log.h"
+#include "model.h"
 
 namespace sba {
 namespace {
-
-struct ChkjacArgs {
-  const char *name;
-  Mode mode;
-  ExpertFunc func, jacf;
-  double *p;
-  sba_crsm *idx;
-  int *rcidxs, *rcsubs;
-  int ncon, mcon, cnp, pnp, mnp;
-  void *func_adata, *jac_adata;
-};
 
 // The caller's callbacks as a Model, called exactly as 1.6 calls them: with the caller's own
 // index and scratch arrays, func with func_adata and jacf with jac_adata (the drivers' expert
@@ -140,6 +134,8 @@ std::string check_args(const ChkjacArgs &a) {
   return std::string();
 }
 
+}  // namespace
+
 void run_chkjac(const ChkjacArgs &a) {
   const Logger log;  // stderr: printing the findings is what these functions are for
   catch_all(log, a.name, [&] {
@@ -172,30 +168,4 @@ void run_chkjac(const ChkjacArgs &a) {
   });
 }
 
-}  // namespace
 }  // namespace sba
-
-extern "C" {
-
-void sba_motstr_chkjac_x(sba::ExpertFunc func, sba::ExpertFunc jacf, double *p,
-                         struct sba_crsm *idxij, int *rcidxs, int *rcsubs, int ncon, int mcon,
-                         int cnp, int pnp, int mnp, void *func_adata, void *jac_adata) {
-  sba::run_chkjac({"sba_motstr_chkjac_x", sba::Mode::MotStr, func, jacf, p, idxij, rcidxs, rcsubs,
-                   ncon, mcon, cnp, pnp, mnp, func_adata, jac_adata});
-}
-
-void sba_mot_chkjac_x(sba::ExpertFunc func, sba::ExpertFunc jacf, double *p,
-                      struct sba_crsm *idxij, int *rcidxs, int *rcsubs, int mcon, int cnp, int mnp,
-                      void *func_adata, void *jac_adata) {
-  sba::run_chkjac({"sba_mot_chkjac_x", sba::Mode::Mot, func, jacf, p, idxij, rcidxs, rcsubs, 0,
-                   mcon, cnp, 0, mnp, func_adata, jac_adata});
-}
-
-void sba_str_chkjac_x(sba::ExpertFunc func, sba::ExpertFunc jacf, double *p,
-                      struct sba_crsm *idxij, int *rcidxs, int *rcsubs, int ncon, int pnp, int mnp,
-                      void *func_adata, void *jac_adata) {
-  sba::run_chkjac({"sba_str_chkjac_x", sba::Mode::Str, func, jacf, p, idxij, rcidxs, rcsubs, ncon,
-                   0, 0, pnp, mnp, func_adata, jac_adata});
-}
-
-}  // extern "C"

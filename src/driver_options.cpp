@@ -1,0 +1,130 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "driver_options.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+#include "thread_policy.h"
+
+namespace sba {
+namespace {
+
+std::string from_env(const char *name) {
+  const char *value = std::getenv(name);
+  return value ? value : "";
+}
+
+}  // namespace
+
+Environment read_environment() {
+  Environment env;
+  env.linsolver = from_env("SBA_LINSOLVER");
+  env.strategy = from_env("SBA_STRATEGY");
+  env.num_threads = from_env("SBA_NUM_THREADS");
+  env.avoid_shared_cores = from_env("SBA_AVOID_SHARED_CORES");
+  return env;
+}
+
+sba_ext_options read_ext(const sba_ext_options *ext) {
+  sba_ext_options o;
+  sba_ext_options_init(&o);
+  if (ext && ext->size >= sizeof(size_t)) {
+    const size_t n = std::min(ext->size, sizeof o);
+    std::memcpy(static_cast<void *>(&o), ext, n);
+    o.size = sizeof o;
+  }
+  return o;
+}
+
+bool options_from(const DriverArgs &a, const sba_ext_options &ext, const Environment &env,
+                  const Logger &log, Options *o, std::string *error) {
+  o->itmax = a.itmax;
+  static_assert(SBA_OPTSSZ == 5, "opts[] is tau, eps1, eps2, eps3, eps4");
+  if (a.opts) {
+    // 1.6 uses the magnitudes: a negative tolerance is not a request for something else.
+    o->tau = std::fabs(a.opts[0]);
+    o->eps1 = std::fabs(a.opts[1]);
+    o->eps2 = std::fabs(a.opts[2]);
+    o->eps3 = std::fabs(a.opts[3]);
+    o->eps4 = std::fabs(a.opts[4]);
+  }
+  if (!o->is_valid(error)) return false;
+
+  if (a.by_pairs && !ext.linsolver) {
+    // A problem given by pairs is one whose dense structures would not fit.
+    o->solver = LinSolver::SparseChol;
+  } else if (ext.linsolver) {
+    if (!linsolver_from_name(ext.linsolver, &o->solver)) {
+      *error = std::string("unknown linear solver \"") + ext.linsolver + "\" (known: " +
+               linsolver_names() + ")";
+      return false;
+    }
+  } else if (!env.linsolver.empty()) {
+    // A typo is not an error of a call that succeeds: a warning.
+    if (!linsolver_from_name(env.linsolver, &o->solver))
+      log.notice("%s: unknown SBA_LINSOLVER \"%s\" (known: %s); using chol", a.name,
+                 env.linsolver.c_str(), linsolver_names());
+  }
+  if (ext.strategy) {
+    if (!strategy_from_name(ext.strategy, &o->strategy)) {
+      *error = std::string("unknown strategy \"") + ext.strategy + "\" (known: " +
+               strategy_names() + ")";
+      return false;
+    }
+  } else if (!env.strategy.empty()) {
+    if (!strategy_from_name(env.strategy, &o->strategy))
+      log.notice("%s: unknown SBA_STRATEGY \"%s\" (known: %s); using sba", a.name,
+                 env.strategy.c_str(), strategy_names());
+  }
+  int threads = ext.nthreads;
+  if (threads <= 0) {
+    threads = parse_thread_count(env.num_threads.c_str());
+    if (threads < 0) {
+      log.notice("%s: SBA_NUM_THREADS=\"%s\" is not a positive integer: ignored (the library "
+                 "chooses the thread count)",
+                 a.name, env.num_threads.c_str());
+      threads = 0;
+    }
+  }
+  o->auto_threads = threads <= 0;  // fit_threads chooses (and caps an explicit count)
+  o->nthreads = std::max(1, threads);
+  o->progress = ext.progress;
+  o->progress_ctx = ext.progress_ctx;
+  o->cancel = ext.cancel;
+  o->cancel_ctx = ext.cancel_ctx;
+  o->parallel_callbacks = ext.parallel_callbacks != 0;
+  // Opt-in only: how the host's threads are scheduled is the host's business.
+  o->avoid_shared_cores = ext.avoid_shared_cores != 0;
+  if (!o->avoid_shared_cores && !env.avoid_shared_cores.empty()) {
+    o->avoid_shared_cores = env.avoid_shared_cores == "1";
+    if (!o->avoid_shared_cores && env.avoid_shared_cores != "0")
+      log.notice("%s: SBA_AVOID_SHARED_CORES=\"%s\" is neither 0 nor 1: ignored (off)", a.name,
+                 env.avoid_shared_cores.c_str());
+  }
+  if (ext.loss) {
+    LossKind kind;
+    if (!loss_from_name(ext.loss, &kind)) {
+      *error = std::string("unknown loss \"") + ext.loss + "\" (known: " + loss_names() + ")";
+      return false;
+    }
+    const double scale = ext.loss_scale == 0.0 ? 1.0 : ext.loss_scale;
+    // The losses divide and multiply by scale^2; outside this range it overflows or
+    // underflows, and the solve would fail for a reason that blames x or stop at once.
+    if (!(scale >= kMinLossScale && scale <= kMaxLossScale)) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf,
+                    "loss_scale must be positive and within [%.3g, %.3g], where its square and "
+                    "inverse square are normal numbers (got %g)",
+                    kMinLossScale, kMaxLossScale, ext.loss_scale);
+      *error = buf;
+      return false;
+    }
+    o->loss = Loss(kind, scale);
+  }
+  return true;
+}
+
+}  // namespace sba

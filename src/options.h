@@ -1,0 +1,43 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+// What a solve is asked to do: the typed form of the drivers' itmax, opts[] and
+// sba_ext_options, with one validity check. The C boundary translates into it
+// (driver_options.cpp); the LM core, the covariance and the Jacobian check read it.
+#ifndef SBA_SRC_OPTIONS_H
+#define SBA_SRC_OPTIONS_H
+
+#include <string>
+
+#include "linear_solver.h"
+#include "loss.h"
+#include "sba_export.h"
+#include "strategy.h"
+
+namespace sba {
+
+struct Options {
+  LinSolver solver = LinSolver::Chol;
+  StrategyKind strategy = StrategyKind::Sba;
+  double tau = SBA_INIT_MU;
+  double eps1 = SBA_STOP_THRESH, eps2 = SBA_STOP_THRESH, eps3 = SBA_STOP_THRESH, eps4 = 0.0;
+  int itmax = 0;
+  int nthreads = 1;
+  bool auto_threads = false;  // nthreads is the hardware's, not the caller's: see fit_threads
+  bool parallel_callbacks = false;  // the caller's callbacks may run concurrently
+  bool avoid_shared_cores = false;  // workers may narrow their own CPU mask (parallel.cpp)
+  Loss loss;  // robust loss on each projection's squared residual (none: least squares)
+  // Called after every outer iteration; nonzero stops with kStopUser.
+  int (*progress)(void *ctx, const sba_progress *state) = nullptr;
+  void *progress_ctx = nullptr;
+  // Polled by the covariance computation; nonzero abandons it (sba_ext_options.cancel).
+  int (*cancel)(void *ctx) = nullptr;
+  void *cancel_ctx = nullptr;
+
+  // False, with the first thing wrong in *error, when a value cannot be used: a negative
+  // itmax, a tolerance or tau that is not finite, a zero tau. The tolerances and tau are
+  // named as the opts[] entries they come from (tau opts[0], eps1..eps4 opts[1..4]).
+  bool is_valid(std::string *error) const;
+};
+
+}  // namespace sba
+
+#endif
