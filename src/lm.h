@@ -89,9 +89,6 @@ using SolverWrap = std::function<std::unique_ptr<StepSolver>(std::unique_ptr<Ste
 bool solve(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
            const Options &opt, const Logger &log, Summary &sum, const SolverWrap &wrap = nullptr);
 
-// The stop-4 test after an accepted step: e and en are the cost before and after it.
-bool reduction_stalled(double e, double en, double eps4);
-
 class Kernels;
 
 // The normal equations at p, without iterating: for the covariance of the solution.
