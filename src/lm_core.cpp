@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cfloat>
 #include <chrono>
-#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <vector>
