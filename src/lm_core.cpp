@@ -42,8 +42,8 @@ bool all_finite(ThreadPool &pool, const double *v, i64 len) {
 struct Workspace {
   // keep_hx: f(p) must outlive the residual (the finite-difference Jacobian needs it).
   // Otherwise each residual is made in place over f's output, which saves two vectors as
-  // long as the measurements: with the Jacobian, the largest arrays of a solve, and what
-  // bounds the problem size that fits (sba_bench's scaling series measures the memory).
+  // long as the measurements: beside the Jacobian they are the largest arrays of a solve,
+  // so they bound the problem that fits in memory (bench/'s scaling series measures it).
   // The trial point's residual overwrites the current one: once e_a and e_b are formed,
   // the LM loop needs e(p) again only after a step is accepted, when e(p + dp) takes its
   // place anyway. A robust loss keeps both, since the outlier count is made from the

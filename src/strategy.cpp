@@ -46,9 +46,9 @@ void add_to_diagonal(double *d, int b, double mu) {
   for (int a = 0; a < b; ++a) d[a * (b + 1)] += mu;
 }
 
-// What sba 1.6 retries on (measured on 1.6 itself). 1.6 damps its blocks in place and does
-// not restore them between the attempts of an iteration, so each attempt adds its mu to the
-// diagonals as the previous attempt left them:
+// What sba 1.6 retries on (its damping sequences show it: test_drivers.cpp, Retries). 1.6
+// damps its blocks in place and does not restore them between the attempts of an iteration,
+// so each attempt adds its mu to the diagonals as the previous attempt left them:
 // - U_j: diag(U_j) + mu_1 + ... + mu_k on attempt k. The same for V_i where no camera is free
 //   (the structure-only driver), which solves each block from a copy.
 // - V_i where cameras and points are free (the motion-and-structure driver): 1.6 inverts each
