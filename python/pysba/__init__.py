@@ -149,7 +149,7 @@ class Result:
     Attributes: ``cameras`` and ``points`` (refined, laid out as given), ``initial_mse``
     and ``final_mse`` (mean squared reprojection error per observation, as eucsbademo
     prints it: info[0] and info[1] over the number of observations), ``iterations``,
-    ``reason`` (a :class:`Reason`: ``.name`` and the 1.6 number), ``info`` (sba's ten
+    ``reason`` (a :class:`Reason`: ``.name``, ``.text`` and the 1.6 number), ``info`` (sba's ten
     values), ``nfev``, ``njev``, ``nlinsys``, ``threads``, ``solver`` and ``strategy``
     (what ran), ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a
     robust loss), ``outliers`` (observations beyond the loss scale), ``log`` (the library's
