@@ -15,7 +15,7 @@
  *   opts   = (tau, eps1, eps2, eps3, eps4) or NULL for the defaults.
  *   info   = NULL or SBA_INFOSZ doubles:
  *            [0] ||e(p0)||^2, [1] ||e(p_final)||^2, [2] ||J^T e||_inf, [3] ||dp||^2,
- *            [4] mu / max diag(J^T J), [5] iterations, [6] stop reason (1..7, see README),
+ *            [4] mu / max diag(J^T J), [5] iterations, [6] stop reason (SBA_STOP_* of sba_ext.h),
  *            [7] function evaluations, [8] Jacobian evaluations, [9] linear systems solved,
  *            counted as sba 1.6 counts them: [7] the LM loop's calls of func (not those
  *            that build a finite-difference Jacobian); the simple drivers count proj and

@@ -22,10 +22,22 @@
 extern "C" {
 #endif
 
-/* info[6] values beyond 1.6's 1..7 */
-#define SBA_STOP_NONE 0     /* nothing ran: bad arguments, invalid covariance, no memory */
-#define SBA_STOP_SINGULAR 8 /* the augmented normal equations are almost singular (SBA_ERROR) */
-#define SBA_STOP_USER 9     /* the progress callback asked to stop; p is the last accepted */
+/* Why a solve stopped: the values of info[6]. 1..7 are sba 1.6's, with its meaning; 0, 8 and 9
+ * are this library's. sba_stop_reason_text gives each in words. */
+#define SBA_STOP_NONE 0      /* nothing ran: bad arguments, invalid covariance, no memory */
+#define SBA_STOP_GRADIENT 1  /* small gradient: ||J^T e||_inf <= eps1 */
+#define SBA_STOP_STEP 2      /* small step: ||dp||^2 <= eps2^2 ||p||^2 */
+#define SBA_STOP_ITMAX 3     /* itmax iterations */
+#define SBA_STOP_REDUCTION 4 /* small relative reduction of the error (eps4; see strategy below) */
+#define SBA_STOP_ERROR 5     /* small error: ||e||^2 <= eps3^2 */
+#define SBA_STOP_DAMPING 6   /* the damping could not grow any more: too many failed attempts */
+#define SBA_STOP_NONFINITE 7 /* the projections or the Jacobian had a NaN or Inf (SBA_ERROR) */
+#define SBA_STOP_SINGULAR 8  /* the augmented normal equations are almost singular (SBA_ERROR) */
+#define SBA_STOP_USER 9      /* the progress callback asked to stop; p is the last accepted */
+
+/* reason (an info[6] value, SBA_STOP_*) in words, e.g. "small step: ||dp|| <= eps2 ||p||": a
+ * static string, "unknown" for a value that is not a stop reason (never NULL). */
+extern const char *sba_stop_reason_text(int reason);
 
 /* opts[0] = tau (sba.h): as in 1.6 its magnitude is used, and tau = 0 is a bad argument
  * (SBA_ERROR): the initial damping mu = |tau| max diag(J^T J) would be 0, which no failed

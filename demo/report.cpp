@@ -86,26 +86,17 @@ const char *const kInfoNames[SBA_INFOSZ] = {"initial_error", "final_error", "gra
 double Report::rms_initial() const { return rms(result.sq_error_initial, observations); }
 double Report::rms_final() const { return rms(result.sq_error_final, observations); }
 
-const char *stop_reason_text(int reason) {
-  switch (reason) {
-    case SBA_STOP_NONE: return "nothing ran";
-    case 1: return "small gradient: ||J^T e||_inf <= eps1";
-    case 2: return "small step: ||dp|| <= eps2 ||p||";
-    case 3: return "the iteration limit (itmax) was reached";
-    case 4: return "small relative reduction of the error (eps4)";
-    case 5: return "small error: ||e|| <= eps3";
-    case 6: return "the damping could not grow any further (is the Jacobian right?)";
-    case 7: return "NaN or Inf in the projections or the Jacobian";
-    case 8: return "the augmented normal equations are almost singular";
-    case SBA_STOP_USER: return "stopped on request (a signal or --max-time)";
-    default: return "unknown";
-  }
+std::string stop_reason_text(int reason) {
+  std::string text = sba_stop_reason_text(reason);
+  // What asks these programs to stop: the library knows only that something did.
+  if (reason == SBA_STOP_USER) text += " (a signal or --max-time)";
+  return text;
 }
 
 void print_report(std::FILE *out, const Report &r) {
   const int reason = static_cast<int>(r.info[6]);
   std::fprintf(out, "RMS reprojection error: initial %.6g px, final %.6g px\n", r.rms_initial(), r.rms_final());
-  std::fprintf(out, "Stop reason %d: %s\n", reason, stop_reason_text(reason));
+  std::fprintf(out, "Stop reason %d: %s\n", reason, stop_reason_text(reason).c_str());
   // The strategy is named when it is not 1.6's, the one a legacy user expects.
   const bool named = r.result.strategy && std::strcmp(r.result.strategy, "sba") != 0;
   std::fprintf(out, "Solver %s on %d thread%s%s%s, %.3f s\n", r.result.linsolver ? r.result.linsolver : "none",

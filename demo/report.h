@@ -52,8 +52,9 @@ struct Report {
   double rms_final() const;
 };
 
-// The stop reason info[6] in words.
-const char *stop_reason_text(int reason);
+// The stop reason info[6] in words: sba_stop_reason_text's, with what stops these programs on
+// request.
+std::string stop_reason_text(int reason);
 
 // The lines printed after sba 1.6's summary.
 void print_report(std::FILE *out, const Report &r);

@@ -65,7 +65,8 @@ function varargout = sba(varargin)
 %           iterations, stop reason, function evaluations, Jacobian evaluations, linear
 %           systems solved]. The stop reason is 1: small gradient, 2: small dp, 3: itmax,
 %           4: small relative error reduction, 5: small ||e||, 6: the damping could not grow,
-%           7: proj or projac gave NaN/Inf, 8: singular system, 9: stopped on request.
+%           7: proj or projac gave NaN/Inf, 8: singular system, 9: stopped on request
+%           (the list lives in sba_ext.h, SBA_STOP_*; sba_stop_reason_text words each).
 %           The mean squared reprojection error is info(2) / nvis.
 %
 % Callbacks

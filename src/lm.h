@@ -14,18 +14,19 @@
 
 namespace sba {
 
-// info[6] values. 1..7 are sba 1.6's; the rest are ours and documented in the README.
+// Why a solve stopped: info[6], with sba_ext.h's values (sba_stop_reason_text says each in
+// words). 1..7 are sba 1.6's; the rest are ours.
 enum StopReason : int {
-  kStopNone = 0,         // no iteration ran: bad arguments, invalid covariance, no memory
-  kStopGradient = 1,     // ||J^T e||_inf <= eps1
-  kStopStep = 2,         // ||dp||^2 <= eps2^2 ||p||^2
-  kStopItmax = 3,        // itmax iterations
-  kStopReduction = 4,    // relative RMS error reduction < eps4
-  kStopError = 5,        // ||e||^2 <= eps3^2
-  kStopDamping = 6,      // damping could not grow any more: too many failed attempts
-  kStopNonFinite = 7,    // f(p) or the Jacobian has a NaN or Inf
-  kStopSingular = 8,     // the augmented system is almost singular
-  kStopUser = 9,         // the progress callback asked to stop
+  kStopNone = SBA_STOP_NONE,            // nothing ran: bad arguments, invalid covariance, no memory
+  kStopGradient = SBA_STOP_GRADIENT,    // ||J^T e||_inf <= eps1
+  kStopStep = SBA_STOP_STEP,            // ||dp||^2 <= eps2^2 ||p||^2
+  kStopItmax = SBA_STOP_ITMAX,          // itmax iterations
+  kStopReduction = SBA_STOP_REDUCTION,  // relative RMS error reduction < eps4
+  kStopError = SBA_STOP_ERROR,          // ||e||^2 <= eps3^2
+  kStopDamping = SBA_STOP_DAMPING,      // damping could not grow any more: too many failed attempts
+  kStopNonFinite = SBA_STOP_NONFINITE,  // f(p) or the Jacobian has a NaN or Inf
+  kStopSingular = SBA_STOP_SINGULAR,    // the augmented system is almost singular
+  kStopUser = SBA_STOP_USER,            // the progress callback asked to stop
 };
 
 struct Summary {
@@ -35,7 +36,7 @@ struct Summary {
   double sq_err0 = 0, sq_err = 0;
   i64 outliers = 0;  // projections beyond the loss scale at the end
   int iterations = 0;
-  int reason = kStopNone;
+  StopReason reason = kStopNone;
   i64 nfev = 0, njev = 0, nlinsys = 0;
   bool ok = false;
 
@@ -51,9 +52,6 @@ using SolverWrap = std::function<std::unique_ptr<StepSolver>(std::unique_ptr<Ste
 // covx: null or per-measurement covariances. Returns false on failure (summary.ok too).
 bool solve(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
            const Options &opt, const Logger &log, Summary &sum, const SolverWrap &wrap = nullptr);
-
-// The stop-4 test after an accepted step: e and en are the cost before and after it.
-bool reduction_stalled(double e, double en, double eps4);
 
 }  // namespace sba
 

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cfloat>
 #include <chrono>
-#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -47,7 +46,8 @@ bool all_finite(ThreadPool &pool, const double *v, i64 len) {
 struct Workspace {
   // keep_hx: f(p) must outlive the residual (the finite-difference Jacobian needs it).
   // Otherwise each residual is made in place over f's output, which saves two vectors as
-  // long as the measurements (7 MB at 225k projections).
+  // long as the measurements: beside the Jacobian they are the largest arrays of a solve,
+  // so they bound the problem that fits in memory (bench/'s scaling series measures it).
   // The trial point's residual overwrites the current one: once e_a and e_b are formed,
   // the LM loop needs e(p) again only after a step is accepted, when e(p + dp) takes its
   // place anyway. A robust loss keeps both, since the outlier count is made from the
@@ -81,7 +81,7 @@ struct Workspace {
   double *f_out() { return hx.empty() ? e.data() : hx.data(); }
   double *fn_out() { return hxn.empty() ? en_data() : hxn.data(); }
   double *en_data() { return en.empty() ? e.data() : en.data(); }
-  // dp: the step, then (once the predicted reduction is known) the trial point p + dp.
+  // dp: the step, then (once it is in the units of p) the trial point p + dp.
   std::vector<double> hx, e, hxn, en, jac, wts, U, ea, V, eb, dp;
   // With a robust loss: sqrt(rho') per projection at p and at the trial point, and the
   // reweighted residual that the normal equations see.
@@ -257,30 +257,6 @@ void gradient_stats(const Layout &lay, const Workspace &w, double *ginf, double 
 
 }  // namespace
 
-// sba 1.6's relative-reduction test, evaluated as 1.6 writes it. Algebraically it is
-// sqrt(e) - sqrt(en) < eps4 sqrt(e), but as written the left side cancels: with eps4 = 0 it
-// fires once the relative decrease of the squared error falls to the rounding level of
-// 2 sqrt(e en), and that is how 1.6 ends most runs. Legacy callers see its stop reasons and
-// iteration counts, so the rounding is part of the contract.
-bool reduction_stalled(double e, double en, double eps4) {
-  return en - 2.0 * std::sqrt(e * en) < (eps4 * eps4 - 1.0) * e;
-}
-
-namespace {
-
-// dp^T (mu dp + g) with g = J^T e: the reduction of the linear model. g is e_a over the
-// camera part of p and e_b over the point part, laid out like p; fixed entries of dp are 0.
-double predicted_reduction(ThreadPool &pool, const Layout &lay, const Workspace &w, double mu) {
-  const i64 ncam = i64(lay.m) * lay.cnp;
-  const double *dp = w.dp.data(), *ea = w.ea.data(), *eb = w.eb.data();
-  return deterministic_sum(pool, lay.nvars(), [=](i64 q) {
-    const double g = q < ncam ? ea[q] : eb[q - ncam];
-    return dp[q] * (mu * dp[q] + g);
-  });
-}
-
-}  // namespace
-
 void Summary::to_info(double *info) const {
   if (!info) return;
   info[0] = err0;
@@ -402,6 +378,244 @@ bool linearize(const Layout &lay, Model &model, double *p, const double *x, cons
   return true;
 }
 
+namespace {
+
+// The Levenberg-Marquardt iteration of one solve (sba paper, Fig. 2), as named steps: each
+// outer iteration linearizes at p, computes a step (damped solves at growing mu, each
+// candidate evaluated, then accepted or rejected) and reports its progress; each stop test
+// sits where its quantities are known. Counters, log lines and callback calls come in sba
+// 1.6's order, which the "sba" strategy's stop reasons and iteration counts depend on.
+class LevenbergMarquardt {
+ public:
+  LevenbergMarquardt(const Layout &lay, Steps &st, StepSolver &solver, Strategy &strategy,
+                     const Options &opt, const Logger &log, Summary &sum,
+                     std::chrono::steady_clock::time_point t0)
+      : lay_(lay), st_(st), w_(st.w), ne_(st.w.view()), pool_(st.pool_), kernels_(st.kernels_),
+        solver_(solver), strategy_(strategy), opt_(opt), log_(log), sum_(sum), t0_(t0),
+        nvars_(lay.nvars()) {}
+
+  // Iterates from p (updated in place with the last accepted estimate). False on a failure,
+  // with sum's reason and figures telling where the solve stood.
+  bool run(double *p) {
+    if (!start(p)) return false;
+    for (it_ = 0; it_ < opt_.itmax && !stop_; ++it_) {
+      if (!linearize(p)) return fail(kStopNonFinite, it_);
+      if (!stop_ && !compute_step(p)) return false;
+      if (!stop_ && eps_ <= opt_.eps3 * opt_.eps3) stop_ = kStopError;
+      report_progress();
+    }
+    if (!stop_) stop_ = kStopItmax;
+    finish();
+    return true;
+  }
+
+ private:
+  // What became of one damped solve.
+  enum class Attempt {
+    kAccepted,  // p moved to the candidate
+    kRejected,  // no step, or one the strategy did not take: raise the damping and retry
+    kStopped,   // a stop test fired
+    kFailed,    // the solve cannot go on (sum says why)
+  };
+
+  // f(p) and the error at the starting point, and the first lines of the log.
+  bool start(double *p) {
+    Cost c0;
+    sum_.nfev = 1;
+    if (!st_.start(p, " at the initial estimate", &c0)) {
+      log_.legacy(1, "initial %s-SBA error %g [%g]\n", legacy_name(lay_.mode), double(NAN), double(NAN));
+      sum_.reason = kStopNonFinite;
+      return false;
+    }
+    eps_ = c0.cost;
+    sqe_ = c0.sq;
+    log_.legacy(1, "initial %s-SBA error %g [%g]\n", legacy_name(lay_.mode), eps_, eps_ / double(lay_.nvis));
+    sum_.err0 = sum_.err = eps_;
+    sum_.sq_err0 = sum_.sq_err = sqe_;
+    if (!std::isfinite(eps_)) {
+      log_.error("sba: the initial error is not finite (check x and covx)");
+      sum_.reason = kStopNonFinite;
+      return false;
+    }
+    log_.info(1, "SBA: initial error %g, %g per measurement (%lld measurements, %lld variables)",
+              eps_, eps_ / double(lay_.nvis), static_cast<long long>(lay_.nvis),
+              static_cast<long long>(nvars_));
+    return true;
+  }
+
+  // J and the normal equations at p, handed to the strategy; the first damping; stop 1.
+  // False if they are not finite.
+  bool linearize(double *p) {
+    ++sum_.njev;
+    char where[64];
+    std::snprintf(where, sizeof where, " at iteration %d", it_);
+    if (!st_.linearize(p, where)) return false;
+    // Stop 1 looks at the gradient in the units of p, whatever the strategy solves in.
+    gradient_stats(lay_, w_, &sum_.grad_inf, &maxdiag_);
+    strategy_.linearized(pool_, w_.jac.data(), w_.U.data(), w_.V.data(), w_.ea.data(), w_.eb.data());
+    maxdiag_ = strategy_.solved_max_diagonal(maxdiag_);
+    if (it_ == 0) mu_ = strategy_.initial_damping(opt_.tau, maxdiag_);
+    if (sum_.grad_inf <= opt_.eps1) {
+      sum_.dp2 = 0.0;
+      stop_ = kStopGradient;
+    }
+    return true;
+  }
+
+  // Damped solves at growing mu until a step is accepted or a stop test fires (2, 4, 6).
+  // False on a failure (7, 8).
+  bool compute_step(double *p) {
+    p2_ = sqnorm(pool_, p, nvars_);
+    for (;;) {
+      switch (attempt(p)) {
+        case Attempt::kAccepted:
+        case Attempt::kStopped:
+          return true;
+        case Attempt::kFailed:
+          return false;
+        case Attempt::kRejected:
+          break;
+      }
+      if (!raise_damping()) {
+        stop_ = kStopDamping;
+        return true;
+      }
+    }
+  }
+
+  // One damped solve at mu, its step tested (stops 2 and 8), the candidate evaluated.
+  Attempt attempt(double *p) {
+    double *dp = w_.dp.data();
+    const StepStatus status = solver_.solve(ne_, mu_, dp);
+    if (status != StepStatus::SingularPointBlock) ++sum_.nlinsys;
+    if (status != StepStatus::Solved || !all_finite(pool_, dp, nvars_)) {
+      log_.warning("sba: the damped system could not be factored (mu = %g); increasing damping", mu_);
+      return Attempt::kRejected;
+    }
+    const double dL = strategy_.step_in_parameters(pool_, w_.ea.data(), w_.eb.data(), mu_, dp);
+    const double dp2 = sqnorm(pool_, dp, nvars_);
+    sum_.dp2 = dp2;
+    if (dp2 <= opt_.eps2 * opt_.eps2 * p2_) {
+      stop_ = kStopStep;
+      return Attempt::kStopped;
+    }
+    if (dp2 >= (p2_ + opt_.eps2) / kSingularEpsSq) {
+      log_.error("sba: the augmented normal equations are almost singular (||dp||^2 = %g); "
+                 "the problem may be badly parametrized",
+                 dp2);
+      fail(kStopSingular, it_ + 1);
+      return Attempt::kFailed;
+    }
+    Cost cn;
+    if (!evaluate_candidate(p, &cn)) {
+      fail(kStopNonFinite, it_ + 1);
+      return Attempt::kFailed;
+    }
+    return accept_or_reject(p, dL, dp2, cn);
+  }
+
+  // The candidate p + dp, made in dp's place (one parameter vector fewer), and its cost.
+  // False if f is not finite there.
+  bool evaluate_candidate(const double *p, Cost *cn) {
+    double *pn = w_.dp.data();
+    pool_.for_range(nvars_, [&](i64 b, i64 e) {
+      for (i64 q = b; q < e; ++q) pn[q] += p[q];
+    });
+    ++sum_.nfev;
+    return st_.evaluate_trial(it_, cn);
+  }
+
+  // The strategy's verdict on the candidate, given the reduction dL the linear model
+  // predicted; an accepted step moves p and lowers the damping (stop 4 may fire).
+  Attempt accept_or_reject(double *p, double dL, double dp2, const Cost &cn) {
+    const double epsn = cn.cost, dF = eps_ - epsn, nvis = double(lay_.nvis);
+    log_.legacy(2, "\ndamping term %8g, gain ratio %8g, errors %8g / %8g = %g\n", mu_,
+                dF / (dL != 0.0 ? dL : DBL_EPSILON), eps_ / nvis, epsn / nvis, eps_ / epsn);
+    log_.info(2, "SBA: iteration %d: mu %g, error %g -> %g, ||dp||^2 %g, gain ratio %g", it_, mu_,
+              eps_, epsn, dp2, dL != 0.0 ? dF / dL : 0.0);
+    if (!strategy_.acceptable(dF, dL)) return Attempt::kRejected;
+    if (strategy_.converged(eps_, epsn)) stop_ = kStopReduction;
+    st_.accept(p);
+    eps_ = epsn;
+    sqe_ = cn.sq;
+    mu_ = strategy_.after_success(mu_, dF / dL);
+    nu_ = 2;
+    return Attempt::kAccepted;
+  }
+
+  // After an attempt that gave no step: mu grows by nu and nu doubles, and the strategy
+  // prepares the blocks of the next attempt. False when there is nothing left to try.
+  bool raise_damping() {
+    const double tried = mu_;
+    mu_ *= nu_;
+    if (strategy_.exhausted(mu_, nu_)) return false;
+    nu_ *= 2;
+    strategy_.before_retry(pool_, kernels_, tried, w_.U.data(), w_.V.data());
+    return true;
+  }
+
+  // After every iteration, the last one too (whatever ended it); a request to stop after the
+  // last one changes nothing: the solve ends with the reason it already has.
+  void report_progress() {
+    if (!opt_.progress) return;
+    const sba_progress state{
+        it_ + 1, eps_, mu_, std::sqrt(sum_.dp2),
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count()};
+    const bool last = stop_ || it_ + 1 >= opt_.itmax;
+    if (opt_.progress(opt_.progress_ctx, &state) != 0 && !last) stop_ = kStopUser;
+  }
+
+  // Where the solve stands: p and eps_ are the last accepted, also after a failure.
+  void record(StopReason reason, int iterations) {
+    sum_.err = eps_;
+    sum_.sq_err = sqe_;
+    sum_.reason = reason;
+    sum_.iterations = iterations;
+    sum_.mu_ratio = maxdiag_ > 0 ? mu_ / maxdiag_ : 0.0;
+  }
+
+  bool fail(StopReason reason, int iterations) {
+    record(reason, iterations);
+    return false;
+  }
+
+  void finish() {
+    record(stop_, it_);
+    sum_.ok = true;
+    if (opt_.loss.robust())
+      for (i64 k = 0; k < lay_.nvis; ++k) {
+        double sk = 0.0;
+        for (int r = 0; r < lay_.mnp; ++r) sk += w_.e[size_t(k * lay_.mnp + r)] * w_.e[size_t(k * lay_.mnp + r)];
+        sum_.outliers += sk > opt_.loss.scale2();
+      }
+    log_.info(1, "SBA: %d iterations, stop reason %d, final error %g, %g per measurement", it_,
+              int(stop_), eps_, eps_ / double(lay_.nvis));
+  }
+
+  const Layout &lay_;
+  Steps &st_;
+  Workspace &w_;
+  const NormalEquations ne_;
+  ThreadPool &pool_;
+  const Kernels &kernels_;
+  StepSolver &solver_;
+  Strategy &strategy_;
+  const Options &opt_;
+  const Logger &log_;
+  Summary &sum_;
+  const std::chrono::steady_clock::time_point t0_;
+  const i64 nvars_;
+
+  int it_ = 0;
+  StopReason stop_ = kStopNone;
+  double eps_ = 0.0, sqe_ = 0.0;  // the cost and squared error at p
+  double mu_ = 0.0, maxdiag_ = 0.0;
+  int nu_ = 2;      // the growth of mu at the next rejection
+  double p2_ = 0.0;  // ||p||^2 at the start of the iteration
+};
+
+}  // namespace
+
 bool solve(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
            const Options &opt, const Logger &log, Summary &sum, const SolverWrap &wrap) {
   sum = Summary{};
@@ -410,148 +624,11 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   const ModelThreads lend(model, &pool);
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());
   Steps st(lay, model, x, opt.loss, log, pool, *kernels, covx != nullptr);
-  Workspace &w = st.w;
   std::unique_ptr<StepSolver> solver = make_step_solver(opt.solver, SolveContext{lay, pool, *kernels});
   if (wrap) solver = wrap(std::move(solver));
   const std::unique_ptr<Strategy> strategy = make_strategy(opt.strategy, lay, opt.eps4);
-  const NormalEquations ne = w.view();
-  const i64 nvars = lay.nvars();
-  const double eps1 = opt.eps1, eps2sq = opt.eps2 * opt.eps2, eps3sq = opt.eps3 * opt.eps3;
-
   if (!st.weigh(covx)) return false;
-  Cost c0;
-  sum.nfev = 1;
-  const double nvis = double(lay.nvis);
-  if (!st.start(p, " at the initial estimate", &c0)) {
-    log.legacy(1, "initial %s-SBA error %g [%g]\n", legacy_name(lay.mode), double(NAN), double(NAN));
-    sum.reason = kStopNonFinite;
-    return false;
-  }
-  double eps = c0.cost, sqe = c0.sq;
-  log.legacy(1, "initial %s-SBA error %g [%g]\n", legacy_name(lay.mode), eps, eps / nvis);
-  sum.err0 = sum.err = eps;
-  sum.sq_err0 = sum.sq_err = sqe;
-  if (!std::isfinite(eps)) {
-    log.error("sba: the initial error is not finite (check x and covx)");
-    sum.reason = kStopNonFinite;
-    return false;
-  }
-  log.info(1, "SBA: initial error %g, %g per measurement (%lld measurements, %lld variables)",
-           eps, eps / double(lay.nvis), static_cast<long long>(lay.nvis),
-           static_cast<long long>(nvars));
-
-  double mu = 0.0, maxdiag = 0.0;
-  int nu = 2, stop = kStopNone, it = 0;
-  // Failures mid-way still report where the solve stood: p and eps are the last accepted.
-  auto record = [&](int reason, int iterations) {
-    sum.err = eps;
-    sum.sq_err = sqe;
-    sum.reason = reason;
-    sum.iterations = iterations;
-    sum.mu_ratio = maxdiag > 0 ? mu / maxdiag : 0.0;
-  };
-  char where[64];
-  for (it = 0; it < opt.itmax && !stop; ++it) {
-    ++sum.njev;
-    std::snprintf(where, sizeof where, " at iteration %d", it);
-    if (!st.linearize(p, where)) {
-      record(kStopNonFinite, it);
-      return false;
-    }
-    // Stop 1 looks at the gradient in the units of p, whatever the strategy solves in.
-    gradient_stats(lay, w, &sum.grad_inf, &maxdiag);
-    strategy->linearized(pool, w.jac.data(), w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
-    maxdiag = strategy->solved_max_diagonal(maxdiag);
-    if (it == 0) mu = strategy->initial_damping(opt.tau, maxdiag);
-
-    if (sum.grad_inf <= eps1) {
-      sum.dp2 = 0.0;
-      stop = kStopGradient;
-    }
-    const double p2 = stop ? 0.0 : sqnorm(pool, p, nvars);
-    for (; !stop;) {
-      const StepStatus status = solver->solve(ne, mu, w.dp.data());
-      if (status != StepStatus::SingularPointBlock) ++sum.nlinsys;
-      if (status == StepStatus::Solved && all_finite(pool, w.dp.data(), nvars)) {
-        // The linear model's reduction in the solver's variables, where mu and the
-        // gradient it sees belong; then the step in the units of p.
-        const double dL = predicted_reduction(pool, lay, w, mu);
-        strategy->to_parameters(pool, w.dp.data());
-        const double dp2 = sqnorm(pool, w.dp.data(), nvars);
-        sum.dp2 = dp2;
-        if (dp2 <= eps2sq * p2) {
-          stop = kStopStep;
-          break;
-        }
-        if (dp2 >= (p2 + opt.eps2) / kSingularEpsSq) {
-          log.error("sba: the augmented normal equations are almost singular (||dp||^2 = %g); "
-                    "the problem may be badly parametrized",
-                    dp2);
-          record(kStopSingular, it + 1);
-          return false;
-        }
-        double *pn = w.dp.data();  // dp becomes p + dp: one parameter vector fewer
-        pool.for_range(nvars, [&](i64 b, i64 e) {
-          for (i64 q = b; q < e; ++q) pn[q] += p[q];
-        });
-        Cost cn;
-        ++sum.nfev;
-        if (!st.evaluate_trial(it, &cn)) {
-          record(kStopNonFinite, it + 1);
-          return false;
-        }
-        const double epsn = cn.cost;
-        const double dF = eps - epsn;
-        log.legacy(2, "\ndamping term %8g, gain ratio %8g, errors %8g / %8g = %g\n", mu,
-                   dF / (dL != 0.0 ? dL : DBL_EPSILON), eps / nvis, epsn / nvis, eps / epsn);
-        log.info(2, "SBA: iteration %d: mu %g, error %g -> %g, ||dp||^2 %g, gain ratio %g", it, mu,
-                 eps, epsn, dp2, dL != 0.0 ? dF / dL : 0.0);
-        if (strategy->acceptable(dF, dL)) {
-          if (strategy->converged(eps, epsn)) stop = kStopReduction;
-          st.accept(p);
-          eps = epsn;
-          sqe = cn.sq;
-          mu = strategy->after_success(mu, dF / dL);
-          nu = 2;
-          break;
-        }
-      } else {
-        log.warning("sba: the damped system could not be factored (mu = %g); increasing damping",
-                    mu);
-      }
-      const double tried = mu;
-      mu *= nu;
-      if (strategy->exhausted(mu, nu)) {
-        stop = kStopDamping;
-        break;
-      }
-      nu *= 2;
-      strategy->before_retry(pool, *kernels, tried, w.U.data(), w.V.data());
-    }
-    if (!stop && eps <= eps3sq) stop = kStopError;
-    // After every iteration, the last one too (whatever ended it); a request to stop after
-    // the last one changes nothing: the solve ends with the reason it already has.
-    if (opt.progress) {
-      const sba_progress state{
-          it + 1, eps, mu, std::sqrt(sum.dp2),
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
-      const bool last = stop || it + 1 >= opt.itmax;
-      if (opt.progress(opt.progress_ctx, &state) != 0 && !last) stop = kStopUser;
-    }
-  }
-  if (!stop) stop = kStopItmax;
-
-  record(stop, it);
-  sum.ok = true;
-  if (opt.loss.robust())
-    for (i64 k = 0; k < lay.nvis; ++k) {
-      double sk = 0.0;
-      for (int r = 0; r < lay.mnp; ++r) sk += w.e[size_t(k * lay.mnp + r)] * w.e[size_t(k * lay.mnp + r)];
-      sum.outliers += sk > opt.loss.scale2();
-    }
-  log.info(1, "SBA: %d iterations, stop reason %d, final error %g, %g per measurement", it, stop,
-           eps, eps / double(lay.nvis));
-  return true;
+  return LevenbergMarquardt(lay, st, *solver, *strategy, opt, log, sum, t0).run(p);
 }
 
 }  // namespace sba

@@ -15,7 +15,6 @@
 #include <cmath>
 
 #include "kernels.h"
-#include "lm.h"
 #include "named.h"
 
 namespace sba {
@@ -47,9 +46,9 @@ void add_to_diagonal(double *d, int b, double mu) {
   for (int a = 0; a < b; ++a) d[a * (b + 1)] += mu;
 }
 
-// What sba 1.6 retries on (measured on 1.6 itself). 1.6 damps its blocks in place and does
-// not restore them between the attempts of an iteration, so each attempt adds its mu to the
-// diagonals as the previous attempt left them:
+// What sba 1.6 retries on (its damping sequences show it: test_drivers.cpp, Retries). 1.6
+// damps its blocks in place and does not restore them between the attempts of an iteration,
+// so each attempt adds its mu to the diagonals as the previous attempt left them:
 // - U_j: diag(U_j) + mu_1 + ... + mu_k on attempt k. The same for V_i where no camera is free
 //   (the structure-only driver), which solves each block from a copy.
 // - V_i where cameras and points are free (the motion-and-structure driver): 1.6 inverts each
@@ -102,7 +101,7 @@ class Sba16Retry {
 class Sba16 final : public Strategy {
  public:
   // retry16: 1.6's retries (Sba16Retry); otherwise each attempt damps the undamped blocks.
-  Sba16(const Layout &lay, double eps4, bool retry16) : eps4_(eps4) {
+  Sba16(const Layout &lay, double eps4, bool retry16) : Strategy(lay), eps4_(eps4) {
     if (retry16) retry_ = std::make_unique<Sba16Retry>(lay);
   }
   // tau > 0 (the drivers refuse 0), but tau * maxdiag can still be 0 or so small that the
@@ -115,7 +114,6 @@ class Sba16 final : public Strategy {
   }
   void linearized(ThreadPool &, double *, double *, double *, double *, double *) override {}
   double solved_max_diagonal(double maxdiag) const override { return maxdiag; }
-  void to_parameters(ThreadPool &, double *) const override {}
   bool acceptable(double dF, double dL) const override { return dL > 0.0 && dF > 0.0; }
   double after_success(double mu, double rho) const override {
     return std::max(nielsen(mu, rho), DBL_MIN);
@@ -128,6 +126,8 @@ class Sba16 final : public Strategy {
   bool converged(double e, double en) const override { return reduction_stalled(e, en, eps4_); }
 
  private:
+  void to_parameters(ThreadPool &, double *) const override {}
+
   double eps4_;
   std::unique_ptr<Sba16Retry> retry_;
 };
@@ -152,7 +152,7 @@ constexpr double kDefaultCostTolerance = 1e-6;
 class TrustRegion final : public Strategy {
  public:
   TrustRegion(const Layout &lay, double eps4)
-      : lay_(lay), ftol_(eps4 > 0.0 ? eps4 : kDefaultCostTolerance),
+      : Strategy(lay), ftol_(eps4 > 0.0 ? eps4 : kDefaultCostTolerance),
         s_(size_t(lay.nvars()), 1.0) {}
 
   void linearized(ThreadPool &pool, double *jac, double *U, double *V, double *ea,
@@ -213,13 +213,6 @@ class TrustRegion final : public Strategy {
     return maxdiag / std::clamp(maxdiag, kMinDiagonal, kMaxDiagonal);
   }
 
-  void to_parameters(ThreadPool &pool, double *dp) const override {
-    const double *s = s_.data();
-    pool.for_range(lay_.nvars(), [&](i64 b, i64 e) {
-      for (i64 q = b; q < e; ++q) dp[q] *= s[q];
-    });
-  }
-
   bool acceptable(double dF, double dL) const override { return dL > 0.0 && dF > kMinGain * dL; }
   double after_success(double mu, double rho) const override {
     return std::clamp(nielsen(mu, rho), kMinDamping, kMaxDamping);
@@ -231,12 +224,39 @@ class TrustRegion final : public Strategy {
   bool converged(double e, double en) const override { return e - en <= ftol_ * e; }
 
  private:
-  const Layout &lay_;
+  void to_parameters(ThreadPool &pool, double *dp) const override {
+    const double *s = s_.data();
+    pool.for_range(lay_.nvars(), [&](i64 b, i64 e) {
+      for (i64 q = b; q < e; ++q) dp[q] *= s[q];
+    });
+  }
+
   double ftol_;
   std::vector<double> s_;  // per parameter: D^(-1/2) of its latest linearization
 };
 
 }  // namespace
+
+// sba 1.6's relative-reduction test, evaluated as 1.6 writes it. Algebraically it is
+// sqrt(e) - sqrt(en) < eps4 sqrt(e), but as written the left side cancels: with eps4 = 0 it
+// fires once the relative decrease of the squared error falls to the rounding level of
+// 2 sqrt(e en), and that is how 1.6 ends most runs. Legacy callers see its stop reasons and
+// iteration counts, so the rounding is part of the contract.
+bool reduction_stalled(double e, double en, double eps4) {
+  return en - 2.0 * std::sqrt(e * en) < (eps4 * eps4 - 1.0) * e;
+}
+
+// g is e_a over the camera part of dp and e_b over the point part; fixed entries of dp are 0.
+double Strategy::step_in_parameters(ThreadPool &pool, const double *ea, const double *eb,
+                                    double mu, double *dp) const {
+  const i64 ncam = i64(lay_.m) * lay_.cnp;
+  const double predicted = deterministic_sum(pool, lay_.nvars(), [=](i64 q) {
+    const double g = q < ncam ? ea[q] : eb[q - ncam];
+    return dp[q] * (mu * dp[q] + g);
+  });
+  to_parameters(pool, dp);
+  return predicted;
+}
 
 bool strategy_from_name(const std::string &name, StrategyKind *out) {
   return value_of(kStrategies, name, out);

@@ -28,14 +28,19 @@ const char *strategy_name(StrategyKind s);
 // Space-separated list of every name, for messages and the C API.
 const char *strategy_names();
 
+// sba 1.6's stop-4 test after an accepted step from cost e to cost en, as 1.6 writes it (see
+// strategy.cpp): the "sba" strategies' convergence test.
+bool reduction_stalled(double e, double en, double eps4);
+
 class Kernels;
 
 class Strategy {
  public:
+  explicit Strategy(const Layout &lay) : lay_(lay) {}
   virtual ~Strategy() = default;
   // Called once per iteration with the normal equations just formed (undamped U_j, V_i,
   // e_a, e_b, and the Jacobian blocks the solvers read). A strategy may change variables
-  // here: the solver then works in its variables, and to_parameters maps its step back.
+  // here: the solver then works in its variables, and step_in_parameters maps its step back.
   virtual void linearized(ThreadPool &pool, double *jac, double *U, double *V, double *ea,
                           double *eb) = 0;
   // The damping of the first iteration, from opts[0] and the largest diagonal entry of
@@ -43,8 +48,12 @@ class Strategy {
   virtual double initial_damping(double tau, double maxdiag) const = 0;
   // The largest diagonal entry of the system the solver sees, from that of J^T J.
   virtual double solved_max_diagonal(double maxdiag) const = 0;
-  // The step the solver returned, in place, in the units of p.
-  virtual void to_parameters(ThreadPool &pool, double *dp) const = 0;
+  // The step dp the solver returned at damping mu, given the gradient e_a, e_b it was handed:
+  // returns the reduction its linear model predicts, dp^T (mu dp + g) with g = J^T e, and
+  // turns dp, in place, into the step in the units of p. The reduction is computed first, in
+  // the solver's variables, where mu and g belong: after the change back they no longer apply.
+  double step_in_parameters(ThreadPool &pool, const double *ea, const double *eb, double mu,
+                            double *dp) const;
   // Whether a trial point is taken: dF the actual reduction of the cost, dL the linear
   // model's.
   virtual bool acceptable(double dF, double dL) const = 0;
@@ -60,6 +69,13 @@ class Strategy {
   virtual bool exhausted(double mu, int nu) const = 0;
   // Stop reason 4 after an accepted step from cost e to cost en.
   virtual bool converged(double e, double en) const = 0;
+
+ protected:
+  const Layout &lay_;
+
+ private:
+  // dp, in place, from the solver's variables to the units of p.
+  virtual void to_parameters(ThreadPool &pool, double *dp) const = 0;
 };
 
 // eps4 is opts[4]; the trust region reads 0 as its default relative cost tolerance.

@@ -1,12 +1,13 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-/* Compiled as C (C99, -pedantic): sba.h must be a valid C header, and every exported function
- * must be callable from C. A tiny two-camera problem with a linear "projection" keeps the
+/* Compiled as C (C99, -pedantic): sba.h and sba_ext.h must be valid C headers, and every
+ * exported function must be callable from C. A tiny two-camera problem with a linear "projection" keeps the
  * arithmetic checkable by hand. Exit status 0 on success. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "sba.h"
+#include "sba_ext.h"
 
 static int failures = 0;
 #define CHECK(cond)                                                  \
@@ -136,6 +137,14 @@ int main(void) {
     CHECK(sba_crsm_row_elmidxs(&sm, 2, v, c) == 2 && v[0] == 4 && c[1] == 2);
     CHECK(sba_crsm_col_elmidxs(&sm, 1, v, c) == 4 && v[3] == 6 && c[3] == 3);
     sba_crsm_free(&sm); }
+
+  /* The stop reasons: info[6] as sba 1.6 documents it (1..7) and this library's, each in words. */
+  CHECK(SBA_STOP_GRADIENT == 1 && SBA_STOP_STEP == 2 && SBA_STOP_ITMAX == 3 && SBA_STOP_REDUCTION == 4 &&
+        SBA_STOP_ERROR == 5 && SBA_STOP_DAMPING == 6 && SBA_STOP_NONFINITE == 7);
+  CHECK(SBA_STOP_NONE == 0 && SBA_STOP_SINGULAR == 8 && SBA_STOP_USER == 9);
+  for (k = SBA_STOP_NONE; k <= SBA_STOP_USER; ++k)
+    CHECK(sba_stop_reason_text(k) != NULL && strcmp(sba_stop_reason_text(k), "unknown") != 0);
+  CHECK(strcmp(sba_stop_reason_text(SBA_STOP_USER + 1), "unknown") == 0);
 
   CHECK(strstr(SBA_VERSION, "1.6") != NULL);
   if (failures) fprintf(stderr, "%d check(s) failed\n", failures);

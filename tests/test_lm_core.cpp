@@ -14,6 +14,7 @@
 #include "lm.h"
 #include "model.h"
 #include "step_solver.h"
+#include "strategy.h"
 #include "synth.h"
 
 namespace {

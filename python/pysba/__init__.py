@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import builtins
 import enum
+import itertools
 import os
 from typing import Any, Callable, Optional, Sequence, Tuple
 
@@ -41,18 +42,31 @@ SBA_VERSION: builtins.str = _core.SBA_VERSION
 
 
 class Reason(enum.IntEnum):
-    """Why a solve stopped; the value is sba 1.6's info[6] (8 and 9 are this library's)."""
+    """Why a solve stopped: sba 1.6's info[6] (0, 8 and 9 are this library's), named as
+    sba_ext.h's ``SBA_STOP_*``; ``text`` says it in the library's words."""
 
-    NONE = 0        #: nothing ran: bad arguments or no memory
-    GRADIENT = 1    #: ||J^T e||_inf <= eps1
-    STEP = 2        #: ||dp|| <= eps2 ||p||
-    ITMAX = 3       #: itmax iterations
-    REDUCTION = 4   #: relative error reduction < eps4
-    ERROR = 5       #: ||e||^2 <= eps3^2
-    DAMPING = 6     #: the damping could not grow any more
-    NONFINITE = 7   #: a projection or the Jacobian was NaN or Inf
-    SINGULAR = 8    #: the augmented normal equations are almost singular
-    USER = 9        #: the progress callback (or Ctrl-C) stopped the solve
+    NONE = 0
+    GRADIENT = 1
+    STEP = 2
+    ITMAX = 3
+    REDUCTION = 4
+    ERROR = 5
+    DAMPING = 6
+    NONFINITE = 7
+    SINGULAR = 8
+    USER = 9  # the progress callback or Ctrl-C
+
+    @property
+    def text(self) -> builtins.str:
+        """The reason in words (sba_stop_reason_text), e.g. ``"small step: ||dp|| <= eps2 ||p||"``."""
+        return _core.stop_reason_text(int(self))
+
+
+# The library knows the reasons 0, 1, ... up to the first value it calls "unknown"; a Reason
+# that is not among them, or one missing, means this file and the library disagree.
+if [int(r) for r in Reason] != list(itertools.takewhile(
+        lambda v: _core.stop_reason_text(v) != _core.stop_reason_text(-1), itertools.count())):
+    raise ImportError("pysba.Reason does not match the library's stop reasons (sba_ext.h)")
 
 
 class SolveError(RuntimeError):
@@ -135,7 +149,7 @@ class Result:
     Attributes: ``cameras`` and ``points`` (refined, laid out as given), ``initial_mse``
     and ``final_mse`` (mean squared reprojection error per observation, as eucsbademo
     prints it: info[0] and info[1] over the number of observations), ``iterations``,
-    ``reason`` (a :class:`Reason`: ``.name`` and the 1.6 number), ``info`` (sba's ten
+    ``reason`` (a :class:`Reason`: ``.name``, ``.text`` and the 1.6 number), ``info`` (sba's ten
     values), ``nfev``, ``njev``, ``nlinsys``, ``threads``, ``solver`` and ``strategy``
     (what ran), ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a
     robust loss), ``outliers`` (observations beyond the loss scale), ``log`` (the library's

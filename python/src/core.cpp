@@ -285,5 +285,6 @@ PYBIND11_MODULE(_core, mod) {
       py::arg("obj"), py::arg("what"), py::arg("bound"));
   mod.def("solver_names", [] { return std::string(sba_linsolver_names()); });
   mod.def("strategy_names", [] { return std::string(sba_strategy_names()); });
+  mod.def("stop_reason_text", &sba_stop_reason_text, py::arg("reason"));
   mod.attr("SBA_VERSION") = SBA_VERSION;
 }

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import pysba
-from conftest import BAL, DEMO, OPTIMIZED, need
+from conftest import BAL, DEMO, OPTIMIZED, REPO, need
 from euclidean import Euclidean
 
 
@@ -166,6 +166,22 @@ def test_covariance_of_an_undetermined_point_raises(cams7):
     with pytest.raises(pysba.SolveError, match="point 0") as e:
         pysba.solve(q, covariance=True)
     assert e.value.result.final_mse < e.value.result.initial_mse
+
+
+# ---- the stop reasons: sba_ext.h's, in the library's words ----
+
+def test_reason_is_sba_ext_h_vocabulary():
+    header = (REPO / "sba_ext.h").read_text()
+    macros = {name: int(value) for name, value in re.findall(r"^#define SBA_STOP_(\w+) (\d+)", header, re.M)}
+    assert macros == {r.name: int(r) for r in pysba.Reason}
+
+
+def test_reason_texts_are_the_libraries():
+    texts = [r.text for r in pysba.Reason]
+    assert all(texts) and len(set(texts)) == len(texts) and "unknown" not in texts
+    assert texts == [pysba._core.stop_reason_text(int(r)) for r in pysba.Reason]
+    assert pysba._core.stop_reason_text(len(pysba.Reason)) == "unknown"
+    assert pysba._core.stop_reason_text(-1) == "unknown"
 
 
 # ---- camera models in Python ----
