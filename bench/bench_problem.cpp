@@ -8,8 +8,8 @@
 #include <utility>
 #include <vector>
 
-#include "bal_io.h"
-#include "eucsba_io.h"
+#include "formats/bal_io.h"
+#include "formats/eucsba_io.h"
 #include "sbagen.h"
 
 namespace sbabench {

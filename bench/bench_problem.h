@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "bal_model.h"
-#include "eucsba_model.h"
+#include "cameras/bal_camera.h"
+#include "cameras/euclidean.h"
 
 namespace sbabench {
 

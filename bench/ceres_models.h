@@ -9,8 +9,8 @@
 
 #include <ceres/ceres.h>
 
-#include "bal_model.h"
-#include "eucsba_model.h"
+#include "cameras/bal_camera.h"
+#include "cameras/euclidean.h"
 
 namespace sbabench {
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <utility>
 
-#include "bal_io.h"
+#include "formats/bal_io.h"
 #include "fuzz_common.h"
 
 namespace {

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "bal_io.h"
-#include "bundler_io.h"
+#include "formats/bal_io.h"
+#include "formats/bundler_io.h"
 #include "fuzz_common.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {

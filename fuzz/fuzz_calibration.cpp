@@ -3,7 +3,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "eucsba_io.h"
+#include "formats/eucsba_io.h"
 #include "fuzz_common.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {

@@ -3,8 +3,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "eucsba_io.h"
-#include "eucsba_model.h"
+#include "formats/eucsba_io.h"
+#include "cameras/euclidean.h"
 #include "fuzz_common.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "colmap_io.h"
-#include "eucsba_model.h"
+#include "formats/colmap_io.h"
+#include "cameras/euclidean.h"
 #include "fuzz_common.h"
 
 namespace {

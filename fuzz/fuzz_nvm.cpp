@@ -8,7 +8,7 @@
 #include <string>
 
 #include "fuzz_common.h"
-#include "nvm_io.h"
+#include "formats/nvm_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
   using sbafuzz::require;

@@ -8,11 +8,11 @@
 #include <cstdio>
 #include <string>
 
-#include "bundler_io.h"
-#include "colmap_io.h"
-#include "colmap_sba.h"
-#include "nvm_io.h"
-#include "output_file.h"
+#include "formats/bundler_io.h"
+#include "formats/colmap_io.h"
+#include "formats/colmap_sba.h"
+#include "formats/nvm_io.h"
+#include "formats/output_file.h"
 #include "sbagen.h"
 
 namespace {

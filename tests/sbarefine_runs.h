@@ -18,7 +18,7 @@
 #include <sstream>
 #include <string>
 
-#include "eucsba_io.h"
+#include "formats/eucsba_io.h"
 #include "sbagen.h"
 
 namespace refinetest {

@@ -21,8 +21,8 @@
 #include <thread>
 #include <vector>
 
-#include "bal_io.h"
-#include "bal_model.h"
+#include "formats/bal_io.h"
+#include "cameras/bal_camera.h"
 #include "counting_new.h"
 #include "ply_file.h"
 #include "sba.h"

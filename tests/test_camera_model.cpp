@@ -16,8 +16,8 @@
 
 #include <unistd.h>
 
-#include "eucsba_io.h"
-#include "eucsba_model.h"
+#include "formats/eucsba_io.h"
+#include "cameras/euclidean.h"
 
 namespace fs = std::filesystem;
 using namespace eucsba;

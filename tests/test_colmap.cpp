@@ -23,12 +23,12 @@
 #include <string>
 #include <vector>
 
-#include "bal_model.h"
-#include "bundler_io.h"
-#include "colmap_io.h"
-#include "colmap_sba.h"
-#include "eucsba_io.h"
-#include "output_file.h"
+#include "cameras/bal_camera.h"
+#include "formats/bundler_io.h"
+#include "formats/colmap_io.h"
+#include "formats/colmap_sba.h"
+#include "formats/eucsba_io.h"
+#include "formats/output_file.h"
 #include "sanitized.h"
 #include "sba_ext.h"
 #include "sbagen.h"

@@ -19,11 +19,11 @@
 #include <string>
 #include <vector>
 
-#include "bal_io.h"
-#include "bundler_io.h"
-#include "colmap_io.h"
-#include "eucsba_io.h"
-#include "nvm_io.h"
+#include "formats/bal_io.h"
+#include "formats/bundler_io.h"
+#include "formats/colmap_io.h"
+#include "formats/eucsba_io.h"
+#include "formats/nvm_io.h"
 
 namespace {
 

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "eucsba_io.h"
-#include "nvm_io.h"
+#include "formats/eucsba_io.h"
+#include "formats/nvm_io.h"
 #include "sbarefine_runs.h"
 
 namespace {

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "eucsba_model.h"
+#include "cameras/euclidean.h"
 #include "sba_ext.h"
 #include "sbagen.h"
 

@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "eucsba_io.h"
-#include "eucsba_model.h"
+#include "formats/eucsba_io.h"
+#include "cameras/euclidean.h"
 #include "sba.h"
 #include "sbagen.h"
 

@@ -28,8 +28,8 @@
 #include <string>
 #include <vector>
 
-#include "eucsba_io.h"
-#include "eucsba_model.h"
+#include "formats/eucsba_io.h"
+#include "cameras/euclidean.h"
 
 namespace sbagen {
 

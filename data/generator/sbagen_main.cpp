@@ -13,11 +13,11 @@
 #include <utility>
 #include <vector>
 
-#include "bundler_io.h"
-#include "cli.h"
-#include "colmap_io.h"
-#include "colmap_sba.h"
-#include "nvm_io.h"
+#include "formats/bundler_io.h"
+#include "cli/cli.h"
+#include "formats/colmap_io.h"
+#include "formats/colmap_sba.h"
+#include "formats/nvm_io.h"
 #include "sbagen.h"
 
 namespace {

@@ -11,10 +11,10 @@
 #include <vector>
 
 #include "arrays.h"
-#include "bal_io.h"
-#include "bal_model.h"
-#include "eucsba_io.h"
-#include "eucsba_model.h"
+#include "formats/bal_io.h"
+#include "cameras/bal_camera.h"
+#include "formats/eucsba_io.h"
+#include "cameras/euclidean.h"
 #include "python_model.h"
 #include "run.h"
 #include "session.h"
