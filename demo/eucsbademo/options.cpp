@@ -125,8 +125,6 @@ std::vector<sbacli::Option> option_table(DemoOptions &o) {
 
 }  // namespace
 
-bool is_linsolver_name(const std::string &name) { return sba_linsolver_valid(name.c_str()) != 0; }
-
 bool parse_command_line(int argc, const char *const *argv, DemoOptions *options, std::string *error) {
   DemoOptions o;
   sbacli::Parsed parsed;

@@ -56,9 +56,6 @@ bool parse_command_line(int argc, const char *const *argv, DemoOptions *options,
 // Largest --threads value accepted (the same in every program).
 constexpr int kMaxThreads = sbacli::kMaxThreads;
 
-// True when name is one of the space-separated names of sba_linsolver_names().
-bool is_linsolver_name(const std::string &name);
-
 // The --help text.
 void print_usage(std::FILE *out);
 
