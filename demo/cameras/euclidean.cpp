@@ -8,6 +8,8 @@
 #include <string>
 #include <utility>
 
+#include "cameras/euclidean_rotation.h"
+
 namespace eucsba {
 
 int camera_params(CameraKind kind) {
@@ -41,20 +43,7 @@ Quaternion normalized_rotation(const Quaternion &q) {
   return {u.w * s, u.x * s, u.y * s, u.z * s};
 }
 
-void rotation_matrix(const Quaternion &q, double R[9]) {
-  const double ww = q.w * q.w, xx = q.x * q.x, yy = q.y * q.y, zz = q.z * q.z;
-  const double xy = q.x * q.y, xz = q.x * q.z, yz = q.y * q.z;
-  const double wx = q.w * q.x, wy = q.w * q.y, wz = q.w * q.z;
-  R[0] = ww + xx - yy - zz;
-  R[1] = 2 * (xy - wz);
-  R[2] = 2 * (xz + wy);
-  R[3] = 2 * (xy + wz);
-  R[4] = ww - xx + yy - zz;
-  R[5] = 2 * (yz - wx);
-  R[6] = 2 * (xz - wy);
-  R[7] = 2 * (yz + wx);
-  R[8] = ww - xx - yy + zz;
-}
+void rotation_matrix(const Quaternion &q, double R[9]) { sbaeuc_rotation_matrix(q.w, q.x, q.y, q.z, R); }
 
 namespace {
 
@@ -74,42 +63,6 @@ struct Layout<CameraKind::VaryingIntrinsicsDistortion> {
   static constexpr int intr = 0, dist = 5, rot = 10, trans = 13, cnp = 16;
 };
 
-// The correction qs = (w, u) from its parameter v, with dw/dv and du/dv (row-major 3x3).
-// Inside the unit ball u = v and w = sqrt(1 - |v|^2). Outside it sqrt would give a NaN that
-// ends the whole solve (sba treats a non-finite prediction as fatal), so a trial step that
-// lands there is evaluated at the nearest boundary rotation (w = 0, u = v/|v|) instead: the
-// prediction stays finite and continuous, and LM rejects the step on its error.
-struct Correction {
-  double w;
-  double u[3];
-  double dw[3];
-  double du[9];
-};
-
-Correction correction(const double *v) {
-  Correction c{};
-  const double vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-  if (vv < 1.0) {
-    c.w = std::sqrt(1.0 - vv);
-    for (int r = 0; r < 3; ++r) {
-      c.u[r] = v[r];
-      c.dw[r] = -v[r] / c.w;
-      c.du[r * 4] = 1.0;
-    }
-  } else {
-    const double norm = std::sqrt(vv);
-    c.w = 0.0;
-    for (int r = 0; r < 3; ++r) c.u[r] = v[r] / norm;
-    for (int r = 0; r < 3; ++r)
-      for (int s = 0; s < 3; ++s) c.du[r * 3 + s] = ((r == s ? 1.0 : 0.0) - c.u[r] * c.u[s]) / norm;
-  }
-  return c;
-}
-
-void mat3_vec(const double M[9], const double *x, double y[3]) {
-  for (int r = 0; r < 3; ++r) y[r] = M[r * 3] * x[0] + M[r * 3 + 1] * x[1] + M[r * 3 + 2] * x[2];
-}
-
 }  // namespace
 
 // The projection of one point and its derivatives, specialised per camera kind so the block
@@ -127,7 +80,7 @@ struct Kernel {
     double in[kIntrinsicParams];   // fu u0 v0 ar s, held ones from the input camera
     double kc[kDistortionParams];  // likewise
     const double *R0;              // R(q0_j)
-    Correction qs;                 // the correction and its derivatives
+    sbaeuc_correction qs;          // the correction and its derivatives (euclidean_rotation.h)
     double M[9];                   // R(qs) R(q0_j): d X_c / d X
     const double *t;
     // d X_c / d v = sum_n X_n dRv[n] for the point X (3x3 each, row-major): X_c = R(qs) R(q0) X
@@ -138,26 +91,6 @@ struct Kernel {
     double dRv[27];
   };
 
-  // d(R(qs) Y)/dv for R(qs) Y = Y + 2w (u x Y) + 2 u x (u x Y):
-  //   d/du = -2w [Y]x + 2((u.Y) I + u Y^T - 2 Y u^T),  d/dw = 2 (u x Y),
-  // then through du/dv and dw/dv.
-  static void rotation_derivative(const Correction &qs, const double Y[3], double Jv[9]) {
-    const double *u = qs.u;
-    const double uY = u[0] * Y[0] + u[1] * Y[1] + u[2] * Y[2];
-    const double uxY[3] = {u[1] * Y[2] - u[2] * Y[1], u[2] * Y[0] - u[0] * Y[2],
-                           u[0] * Y[1] - u[1] * Y[0]};
-    const double Yx[9] = {0, -Y[2], Y[1], Y[2], 0, -Y[0], -Y[1], Y[0], 0};
-    double dRY_du[9];
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c)
-        dRY_du[r * 3 + c] = -2 * qs.w * Yx[r * 3 + c] +
-                            2 * ((r == c ? uY : 0.0) + u[r] * Y[c] - 2 * Y[r] * u[c]);
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c)
-        Jv[r * 3 + c] = dRY_du[r * 3] * qs.du[c] + dRY_du[r * 3 + 1] * qs.du[3 + c] +
-                        dRY_du[r * 3 + 2] * qs.du[6 + c] + 2 * uxY[r] * qs.dw[c];
-  }
-
   static void prepare(const CameraModel &model, int j, const double *a, Frame *f, bool jacobian_tensor) {
     const Camera &cam0 = model.cameras0_[j];
     f->free_intr = kHasIntrinsics ? kIntrinsicParams - model.nccalib_ : 0;
@@ -166,7 +99,7 @@ struct Kernel {
     f->free_dist = kHasDistortion ? kDistortionParams - model.ncdist_ : 0;
     for (int c = 0; c < kDistortionParams; ++c) f->kc[c] = c < f->free_dist ? a[L::dist + c] : cam0.kc[c];
     const double *R0 = f->R0 = model.R0_.data() + static_cast<std::size_t>(j) * 9;
-    const Correction &qs = f->qs = correction(a + L::rot);
+    const sbaeuc_correction &qs = f->qs = sbaeuc_correction_of(a + L::rot);
     double Rs[9];
     rotation_matrix({qs.w, qs.u[0], qs.u[1], qs.u[2]}, Rs);
     for (int r = 0; r < 3; ++r)
@@ -177,7 +110,7 @@ struct Kernel {
     if (jacobian_tensor)
       for (int n = 0; n < 3; ++n) {  // Y = R(q0) e_n: column n of R(q0)
         const double Y[3] = {R0[n], R0[3 + n], R0[6 + n]};
-        rotation_derivative(qs, Y, f->dRv + 9 * n);
+        sbaeuc_rotation_derivative(&qs, Y, f->dRv + 9 * n);
       }
   }
 
@@ -198,7 +131,7 @@ struct Kernel {
 
     // X_c = R(qs) R(q0) X + t: the correction acts after the input rotation.
     double Xc[3];
-    mat3_vec(M, b, Xc);
+    sbaeuc_mat3_vec(M, b, Xc);
     for (int r = 0; r < 3; ++r) Xc[r] += f.t[r];
 
     const double iz = 1.0 / Xc[2];
@@ -269,8 +202,8 @@ struct Kernel {
       for (int e = 0; e < 9; ++e) Jv[e] = b[0] * f.dRv[e] + b[1] * f.dRv[9 + e] + b[2] * f.dRv[18 + e];
     } else {
       double Y[3];
-      mat3_vec(f.R0, b, Y);
-      rotation_derivative(f.qs, Y, Jv);
+      sbaeuc_mat3_vec(f.R0, b, Y);
+      sbaeuc_rotation_derivative(&f.qs, Y, Jv);
     }
     for (int c = 0; c < 3; ++c) {
       A0[L::rot + c] = H[0] * Jv[c] + H[1] * Jv[3 + c] + H[2] * Jv[6 + c];
@@ -335,7 +268,7 @@ Camera CameraModel::camera(int j, const double *a) const {
   }
   if (kind_ == CameraKind::VaryingIntrinsicsDistortion)
     for (int i = 0; i < kDistortionParams - ncdist_; ++i) c.kc[i] = a[kIntrinsicParams + i];
-  const Correction qs = correction(a + rot);
+  const sbaeuc_correction qs = sbaeuc_correction_of(a + rot);
   c.q = normalized_rotation(multiply({qs.w, qs.u[0], qs.u[1], qs.u[2]}, cameras0_[j].q));
   for (int i = 0; i < 3; ++i) c.t[i] = a[rot + 3 + i];
   return c;
