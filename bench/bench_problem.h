@@ -29,8 +29,8 @@ struct Problem {
   std::vector<double> p0;   // initial parameters: m*cnp cameras, then n*3 points
   std::vector<int> obs_camera, obs_point;  // per observation, in x's order
 
-  std::unique_ptr<eucsba::CameraModel> euc;  // ModelKind::Eucsba
-  bal::CallbackData bal_data;                // ModelKind::Bal
+  std::unique_ptr<sbacameras::euclidean::CameraModel> euc;  // ModelKind::Eucsba
+  sbacameras::bal::CallbackData bal_data;                // ModelKind::Bal
 
   std::size_t nobs() const { return x.size() / 2; }
   long long nvars() const { return static_cast<long long>(m) * cnp + static_cast<long long>(n) * pnp; }

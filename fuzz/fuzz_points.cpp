@@ -8,6 +8,8 @@
 #include "formats/eucsba_io.h"
 #include "fuzz_common.h"
 
+namespace eucsba = sbaformats::eucsba;
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
   constexpr int kCameras = 64;
   static const sbafuzz::InputFile file("pts.txt");

@@ -20,7 +20,8 @@
 #include "cameras/euclidean.h"
 
 namespace fs = std::filesystem;
-using namespace eucsba;
+using namespace sbacameras::euclidean;
+using namespace sbaformats::eucsba;
 
 namespace {
 

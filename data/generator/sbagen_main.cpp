@@ -20,6 +20,12 @@
 #include "formats/nvm_io.h"
 #include "sbagen.h"
 
+namespace colmap = sbaformats::colmap;
+namespace bundler = sbaformats::bundler;
+namespace nvm = sbaformats::nvm;
+namespace eucsba = sbaformats::eucsba;
+namespace euclidean = sbacameras::euclidean;
+
 namespace {
 
 const char kUsage[] =
@@ -154,9 +160,9 @@ std::vector<sbacli::Option> option_table(Cli &cli) {
                  std::string name;
                  if (std::string why = sbacli::to_choice(v, {"fixed", "varK", "varKD"}, &name); !why.empty())
                    return why;
-                 o.kind = name == "fixed"  ? eucsba::CameraKind::FixedIntrinsics
-                          : name == "varK" ? eucsba::CameraKind::VaryingIntrinsics
-                                           : eucsba::CameraKind::VaryingIntrinsicsDistortion;
+                 o.kind = name == "fixed"  ? euclidean::CameraKind::FixedIntrinsics
+                          : name == "varK" ? euclidean::CameraKind::VaryingIntrinsics
+                                           : euclidean::CameraKind::VaryingIntrinsicsDistortion;
                  return {};
                }});
   t.push_back({"image", "WxH", "image size in pixels (default 640x480)",

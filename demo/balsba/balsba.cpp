@@ -25,13 +25,16 @@
 #include "sba.h"
 #include "sba_ext.h"
 
+namespace bal = sbaformats::bal;
+namespace bal_camera = sbacameras::bal;
+
 namespace {
 
 using sbacli::kExitFailure;
 
 struct Options {
   std::string file;
-  sbademo::SolveOptions solve;
+  sbacli::SolveOptions solve;
   std::string write;
   std::string initial_ply, final_ply;
   bool help = false, version = false;
@@ -39,17 +42,17 @@ struct Options {
 
 std::vector<sbacli::Option> option_table(Options &o) {
   std::vector<sbacli::Option> t;
-  sbademo::add_solve_options(
+  sbacli::add_solve_options(
       &t, o.solve,
       {"write", "OUT", "write the refined problem in BAL format (OUT ending in .bz2: compressed)",
        [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }});
-  sbademo::add_ply_options(&t, &o.initial_ply, &o.final_ply, false);
+  sbacli::add_ply_options(&t, &o.initial_ply, &o.final_ply, false);
   return t;
 }
 
 // The points and camera centres of a BAL problem, which has no colors.
-sbademo::Cloud cloud(const bal::Problem &problem) {
-  sbademo::Cloud c;
+sbaformats::Cloud cloud(const bal::Problem &problem) {
+  sbaformats::Cloud c;
   for (int i = 0; i < problem.npoints; ++i) {
     const double *x = problem.point(i);
     c.points.push_back({x[0], x[1], x[2]});
@@ -57,15 +60,15 @@ sbademo::Cloud cloud(const bal::Problem &problem) {
   for (int j = 0; j < problem.ncameras; ++j) {
     const double *a = problem.camera(j);
     double R[9];
-    bal::rotation_matrix(a, R);
-    c.centres.push_back(sbademo::camera_centre(R, a + 3));
+    bal_camera::rotation_matrix(a, R);
+    c.centres.push_back(sbacameras::camera_centre(R, a + 3));
   }
   return c;
 }
 
 bool parse_command_line(int argc, char **argv, Options *options, std::string *error) {
   Options o;
-  if (!sbademo::parse_one_input(argc, argv, option_table(o), "file argument (a BAL problem)", &o.file, &o.help,
+  if (!sbacli::parse_one_input(argc, argv, option_table(o), "file argument (a BAL problem)", &o.file, &o.help,
                                 &o.version, error))
     return false;
   *options = std::move(o);
@@ -98,11 +101,11 @@ int bal_main(int argc, char **argv) {
   Options o;
   std::string error;
   const bool parsed = parse_command_line(argc, argv, &o, &error);
-  if (const int status = sbademo::answer_command_line("balsba", parsed, error, o.help, o.version, print_usage);
+  if (const int status = sbacli::answer_command_line("balsba", parsed, error, o.help, o.version, print_usage);
       status >= 0)
     return status;
-  sbademo::SolveOptions &so = o.solve;
-  if (!sbademo::outputs_writable({&o.write, &so.json, &o.initial_ply, &o.final_ply})) return kExitFailure;
+  sbacli::SolveOptions &so = o.solve;
+  if (!sbacli::outputs_writable({&o.write, &so.json, &o.initial_ply, &o.final_ply})) return kExitFailure;
 
   const auto read_start = std::chrono::steady_clock::now();
   bal::Problem problem;
@@ -113,22 +116,22 @@ int bal_main(int argc, char **argv) {
   }
   const double read_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
-  sbademo::MotstrInputs in;
+  sbacli::MotstrInputs in;
   in.n = s.n;
   in.m = s.m;
-  in.cnp = bal::kCameraParams;
-  in.pnp = bal::kPointParams;
+  in.cnp = bal_camera::kCameraParams;
+  in.pnp = bal_camera::kPointParams;
   in.vis = &s.vis;
   in.p = s.p.data();
   in.x = s.x.data();
-  in.func = bal::motstr_func;
-  in.fjac = bal::motstr_fjac;
-  bal::CallbackData data;
+  in.func = bal_camera::motstr_func;
+  in.fjac = bal_camera::motstr_fjac;
+  bal_camera::CallbackData data;
   data.ncameras = s.m;
   in.adata = &data;
-  sbademo::MotstrSolve solve("balsba", o.file, so, in);
+  sbacli::MotstrSolve solve("balsba", o.file, so, in);
   if (const int status = solve.check_fixed(); status >= 0) return status;
-  if (!sbademo::write_ply_option(o.initial_ply, cloud(problem))) return kExitFailure;
+  if (!sbacli::write_ply_option(o.initial_ply, cloud(problem))) return kExitFailure;
   if (!solve.run()) return kExitFailure;
 
   bal::from_sba_params(s.p.data(), &problem);
@@ -136,20 +139,20 @@ int bal_main(int argc, char **argv) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
-  if (!sbademo::write_ply_option(o.final_ply, cloud(problem))) return kExitFailure;
+  if (!sbacli::write_ply_option(o.final_ply, cloud(problem))) return kExitFailure;
 
   std::printf("BAL problem %s: %d cameras, %d points, %d observations, %lld variables\n", o.file.c_str(), s.m, s.n,
               solve.observations(), solve.variables());
-  const double *points = s.p.data() + static_cast<std::size_t>(s.m) * bal::kCameraParams;
+  const double *points = s.p.data() + static_cast<std::size_t>(s.m) * bal_camera::kCameraParams;
   return solve.finish(
       read_seconds,
       [&](int j, int i, double x[2]) {
-        bal::project(s.p.data() + static_cast<std::size_t>(j) * bal::kCameraParams,
-                     points + static_cast<std::size_t>(i) * bal::kPointParams, x);
+        bal_camera::project(s.p.data() + static_cast<std::size_t>(j) * bal_camera::kCameraParams,
+                     points + static_cast<std::size_t>(i) * bal_camera::kPointParams, x);
       },
       {}, o.write);
 }
 
 }  // namespace
 
-int main(int argc, char **argv) { return sbademo::guarded_main("balsba", bal_main, argc, argv); }
+int main(int argc, char **argv) { return sbacli::guarded_main("balsba", bal_main, argc, argv); }

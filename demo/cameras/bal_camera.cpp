@@ -8,7 +8,7 @@
 
 #include "sba.h"
 
-namespace bal {
+namespace sbacameras::bal {
 namespace {
 
 // Below this |w|^2 the Rodrigues coefficients come from their series.
@@ -230,4 +230,4 @@ void motstr_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adat
   });
 }
 
-}  // namespace bal
+}  // namespace sbacameras::bal

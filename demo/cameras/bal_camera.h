@@ -13,14 +13,16 @@
 //   R(w) X = X + alpha (w x X) + beta w x (w x X),
 // and both coefficients (and their derivatives in s) switch to their Taylor series for
 // |w| < 1/4, where the closed forms lose digits to cancellation (and divide by zero at w = 0).
-#ifndef BAL_MODEL_H
-#define BAL_MODEL_H
-
-#include "formats/bal_io.h"
+#ifndef SBA_DEMO_BAL_CAMERA_H
+#define SBA_DEMO_BAL_CAMERA_H
 
 struct sba_crsm;
 
-namespace bal {
+namespace sbacameras::bal {
+
+constexpr int kCameraParams = 9;       // cnp: Rodrigues w (3), t (3), f, k1, k2
+constexpr int kPointParams = 3;        // pnp
+constexpr int kMeasurementParams = 2;  // mnp
 
 // R(w) as a row-major 3x3 matrix.
 void rotation_matrix(const double w[3], double R[9]);
@@ -45,6 +47,6 @@ struct CallbackData {
 void motstr_func(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata);
 void motstr_fjac(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata);
 
-}  // namespace bal
+}  // namespace sbacameras::bal
 
-#endif  // BAL_MODEL_H
+#endif  // SBA_DEMO_BAL_CAMERA_H

@@ -7,7 +7,7 @@
 
 #include <array>
 
-namespace sbademo {
+namespace sbacameras {
 
 inline std::array<double, 3> camera_centre(const double R[9], const double t[3]) {
   std::array<double, 3> c;
@@ -20,6 +20,6 @@ inline void camera_translation(const double R[9], const std::array<double, 3> &c
   for (int r = 0; r < 3; ++r) t[r] = -(R[3 * r] * c[0] + R[3 * r + 1] * c[1] + R[3 * r + 2] * c[2]);
 }
 
-}  // namespace sbademo
+}  // namespace sbacameras
 
 #endif  // SBA_DEMO_CAMERA_POSE_H

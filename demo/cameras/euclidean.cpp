@@ -10,7 +10,7 @@
 
 #include "cameras/euclidean_rotation.h"
 
-namespace eucsba {
+namespace sbacameras::euclidean {
 
 int camera_params(CameraKind kind) {
   switch (kind) {
@@ -465,4 +465,4 @@ StrCallbacks str_callbacks(CameraKind kind) {
   });
 }
 
-}  // namespace eucsba
+}  // namespace sbacameras::euclidean

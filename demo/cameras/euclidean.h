@@ -14,15 +14,15 @@
 //   VaryingIntrinsics             (fu u0 v0 ar s  v1 v2 v3  t1 t2 t3)                cnp 11
 //   VaryingIntrinsicsDistortion   (fu u0 v0 ar s  kc0..kc4  v1 v2 v3  t1 t2 t3)      cnp 16
 // Point parameters b_i = (X Y Z), pnp 3; projections (u v) in pixels, mnp 2.
-#ifndef EUCSBA_MODEL_H
-#define EUCSBA_MODEL_H
+#ifndef SBA_DEMO_EUCLIDEAN_H
+#define SBA_DEMO_EUCLIDEAN_H
 
 #include <array>
 #include <vector>
 
 #include "sba.h"
 
-namespace eucsba {
+namespace sbacameras::euclidean {
 
 enum class CameraKind {
   FixedIntrinsics,             // one K for all cameras, from the calibration file
@@ -173,6 +173,6 @@ MotStrCallbacks motstr_callbacks(CameraKind kind);
 MotCallbacks mot_callbacks(CameraKind kind);
 StrCallbacks str_callbacks(CameraKind kind);
 
-}  // namespace eucsba
+}  // namespace sbacameras::euclidean
 
-#endif  // EUCSBA_MODEL_H
+#endif  // SBA_DEMO_EUCLIDEAN_H

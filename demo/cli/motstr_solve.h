@@ -23,13 +23,13 @@
 #include "cli/tty_progress.h"
 #include "formats/visibility.h"
 
-namespace sbademo {
+namespace sbacli {
 
 // sba_motstr_levmar_x_vis's arguments that are not options; p is refined in place. The
 // visibility is given as pairs: memory then follows the observations, not n*m.
 struct MotstrInputs {
   int n = 0, m = 0, cnp = 0, pnp = 3;
-  const Visibility *vis = nullptr;
+  const sbaformats::Visibility *vis = nullptr;
   double *p = nullptr;
   double *x = nullptr;
   void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata) = nullptr;
@@ -54,11 +54,11 @@ class MotstrSolve {
     const int m = in_.m, n = in_.n;
     if (so_.mcon > m) {
       std::fprintf(stderr, "%s: --mcon %d is more than the %d cameras\n", program_, so_.mcon, m);
-      return sbacli::kExitUsage;
+      return kExitUsage;
     }
     if (so_.ncon > n) {
       std::fprintf(stderr, "%s: --ncon %d is more than the %d points\n", program_, so_.ncon, n);
-      return sbacli::kExitUsage;
+      return kExitUsage;
     }
     return -1;
   }
@@ -110,7 +110,7 @@ class MotstrSolve {
       std::string error;
       if (!write_json(so_.json, report, &error)) {
         std::fprintf(stderr, "%s: %s\n", so_.json.c_str(), error.c_str());
-        return sbacli::kExitFailure;
+        return kExitFailure;
       }
     }
     if (!written.empty()) std::printf("Wrote %s\n", written.c_str());
@@ -135,6 +135,6 @@ class MotstrSolve {
   double seconds_ = 0;
 };
 
-}  // namespace sbademo
+}  // namespace sbacli
 
 #endif  // SBA_DEMO_MOTSTR_SOLVE_H

@@ -10,15 +10,15 @@
 #include "cli/cli.h"
 #include "formats/ply.h"
 
-namespace sbademo {
+namespace sbacli {
 
 // --initial-ply FILE and --final-ply FILE, into *initial and *final_ply; colored: the model's
 // points have colors, which the help then mentions.
-void add_ply_options(std::vector<sbacli::Option> *table, std::string *initial, std::string *final_ply, bool colored);
+void add_ply_options(std::vector<Option> *table, std::string *initial, std::string *final_ply, bool colored);
 
 // write_ply for an option: nothing when path is empty; "PATH: why" on stderr when it fails.
-bool write_ply_option(const std::string &path, const Cloud &cloud);
+bool write_ply_option(const std::string &path, const sbaformats::Cloud &cloud);
 
-}  // namespace sbademo
+}  // namespace sbacli
 
 #endif  // SBA_DEMO_PLY_OPTIONS_H

@@ -8,7 +8,7 @@
 
 #include "formats/output_file.h"
 
-namespace sbademo {
+namespace sbacli {
 
 namespace {
 
@@ -167,10 +167,10 @@ bool write_json(const std::string &path, const Report &r, std::string *why) {
   field("cameras", cams + (r.per_camera.empty() ? "]" : "\n  ]"), true);
   j += "}\n";
 
-  OutputFile f;
+  sbaformats::OutputFile f;
   if (!f.open(path, why)) return false;
   std::fwrite(j.data(), 1, j.size(), f.get());
   return f.commit(why);
 }
 
-}  // namespace sbademo
+}  // namespace sbacli

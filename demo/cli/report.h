@@ -14,7 +14,7 @@
 #include "sba.h"
 #include "sba_ext.h"
 
-namespace sbademo {
+namespace sbacli {
 
 // One camera's share of the final residuals, in pixels (not weighted by covariances).
 struct CameraResidual {
@@ -61,6 +61,6 @@ void print_report(std::FILE *out, const Report &r);
 // Writes the report as one JSON object to path (whole or not at all, see output_file.h).
 bool write_json(const std::string &path, const Report &r, std::string *why);
 
-}  // namespace sbademo
+}  // namespace sbacli
 
 #endif  // SBA_DEMO_REPORT_H

@@ -20,7 +20,7 @@
 #include "sba_ext.h"
 #include "cli/tty_progress.h"
 
-namespace sbademo {
+namespace sbacli {
 
 // The first stop signal received (0: none). A signal handler can only talk to the program
 // through such a flag, so it is the one piece of global state the programs keep.
@@ -92,6 +92,6 @@ class RunControl {
   std::vector<Iteration> iterations_;
 };
 
-}  // namespace sbademo
+}  // namespace sbacli
 
 #endif  // SBA_DEMO_RUN_CONTROL_H

@@ -21,7 +21,7 @@
 #include "sba_ext.h"
 #include "formats/visibility.h"
 
-namespace sbademo {
+namespace sbacli {
 
 struct SolveOptions {
   std::string solver;    // empty: the library's default
@@ -40,48 +40,48 @@ struct SolveOptions {
 
 // The rows of the options above, in --help order; `write` (the program's own output option)
 // goes after --loss-scale.
-inline void add_solve_options(std::vector<sbacli::Option> *t, SolveOptions &o, const sbacli::Option &write) {
+inline void add_solve_options(std::vector<Option> *t, SolveOptions &o, const Option &write) {
   const int kIntMax = std::numeric_limits<int>::max();
   t->push_back({"solver", "NAME",
                 "linear solver of the normal equations, one of those listed below (default:\n"
                 "the environment variable SBA_LINSOLVER if set, else chol)",
-                [&o](const std::string &v) { return sbacli::to_linsolver(v, &o.solver); }});
+                [&o](const std::string &v) { return to_linsolver(v, &o.solver); }});
   t->push_back({"strategy", "NAME",
                 "how LM damps, accepts steps and stops: sba (sba 1.6's algorithm, the default),\n"
                 "sba-clean-retry (the same, but a rejected step is retried on the undamped normal\n"
                 "equations, as the sba paper writes it) or trust-region (Marquardt's scaled damping and\n"
                 "a relative cost tolerance: usually far fewer iterations); default: the environment\n"
                 "variable SBA_STRATEGY if set, else sba",
-                [&o](const std::string &v) { return sbacli::to_strategy(v, &o.strategy); }});
+                [&o](const std::string &v) { return to_strategy(v, &o.strategy); }});
   t->push_back({"threads", "N",
                 "threads; 0 (the default): SBA_NUM_THREADS if set, else every hardware thread, but at\n"
                 "most one per 10,000 observations. The result does not depend on it",
-                [&o](const std::string &v) { return sbacli::to_threads(v, &o.threads); }});
+                [&o](const std::string &v) { return to_threads(v, &o.threads); }});
   t->push_back({"itmax", "N", "maximum iterations (default 150)",
-                [&o](const std::string &v) { return sbacli::to_int(v, 0, kIntMax, &o.itmax); }});
-  sbacli::add_lm_options(t, &o.opts);
+                [&o](const std::string &v) { return to_int(v, 0, kIntMax, &o.itmax); }});
+  add_lm_options(t, &o.opts);
   t->push_back({"mcon", "N",
                 "hold cameras 0..N-1 fixed (default 0); fixing the gauge this way lets a problem with\n"
                 "fewer observations than parameters be solved",
-                [&o](const std::string &v) { return sbacli::to_int(v, 0, kIntMax, &o.mcon); }});
+                [&o](const std::string &v) { return to_int(v, 0, kIntMax, &o.mcon); }});
   t->push_back({"ncon", "N", "hold points 0..N-1 fixed (default 0)",
-                [&o](const std::string &v) { return sbacli::to_int(v, 0, kIntMax, &o.ncon); }});
+                [&o](const std::string &v) { return to_int(v, 0, kIntMax, &o.ncon); }});
   t->push_back({"verbose", "N", "library verbosity (default 0)",
-                [&o](const std::string &v) { return sbacli::to_int(v, 0, kIntMax, &o.verbose); }});
+                [&o](const std::string &v) { return to_int(v, 0, kIntMax, &o.verbose); }});
   t->push_back({"loss", "NAME", "robust loss: none (least squares, the default), huber, cauchy, soft-l1 or tukey",
-                [&o](const std::string &v) { return sbacli::to_loss(v, &o.loss); }});
+                [&o](const std::string &v) { return to_loss(v, &o.loss); }});
   t->push_back({"loss-scale", "S", "scale of the robust loss, in pixels (default 1)",
-                [&o](const std::string &v) { return sbacli::to_real(v, 0.0, true, &o.loss_scale); }});
+                [&o](const std::string &v) { return to_real(v, 0.0, true, &o.loss_scale); }});
   t->push_back(write);
   t->push_back({"max-time", "SECONDS",
                 "stop after the iteration that ends past SECONDS; the results are then the last\n"
                 "accepted estimate. SIGINT (Ctrl-C) or SIGTERM stop the same way, with exit status 130\n"
                 "or 143; a second one ends the program at once",
-                [&o](const std::string &v) { return sbacli::to_seconds(v, &o.max_time); }});
+                [&o](const std::string &v) { return to_seconds(v, &o.max_time); }});
   t->push_back({"json", "FILE",
                 "write the run as one JSON object: sizes, options, every info[] value, the error and\n"
                 "time of every iteration, and each camera's observations and RMS reprojection error",
-                [&o](const std::string &v) { return sbacli::to_file(v, &o.json); }});
+                [&o](const std::string &v) { return to_file(v, &o.json); }});
   t->push_back({"no-progress", "", "no progress line (shown on stderr when it is a terminal)",
                 [&o](const std::string &) -> std::string {
                   o.progress = false;
@@ -91,10 +91,10 @@ inline void add_solve_options(std::vector<sbacli::Option> *t, SolveOptions &o, c
 
 // Parses argv against the table of a program that takes one input (described by `what` in
 // the message when it is missing or repeated), unless --help or --version is asked for.
-inline bool parse_one_input(int argc, char **argv, const std::vector<sbacli::Option> &table, const char *what,
+inline bool parse_one_input(int argc, char **argv, const std::vector<Option> &table, const char *what,
                             std::string *input, bool *help, bool *version, std::string *error) {
-  sbacli::Parsed parsed;
-  if (!sbacli::parse(argc, argv, table, &parsed, error)) return false;
+  Parsed parsed;
+  if (!parse(argc, argv, table, &parsed, error)) return false;
   *help = parsed.help;
   *version = parsed.version;
   if (!parsed.help && !parsed.version && parsed.positional.size() != 1) {
@@ -112,14 +112,14 @@ inline int answer_command_line(const char *program, bool parsed, const std::stri
                                void (*usage)(std::FILE *)) {
   if (!parsed) {
     std::fprintf(stderr, "%s: %s\n", program, error.c_str());
-    return sbacli::kExitUsage;
+    return kExitUsage;
   }
   if (help) {
     usage(stdout);
     return 0;
   }
   if (version) {
-    std::printf("%s\n", sbacli::version_line(program).c_str());
+    std::printf("%s\n", version_line(program).c_str());
     return 0;
   }
   return -1;
@@ -130,7 +130,7 @@ inline int answer_command_line(const char *program, bool parsed, const std::stri
 inline bool outputs_writable(std::initializer_list<const std::string *> paths) {
   std::string why;
   for (const std::string *path : paths)
-    if (!path->empty() && !probe_writable(*path, &why)) {
+    if (!path->empty() && !sbaformats::probe_writable(*path, &why)) {
       std::fprintf(stderr, "%s: %s\n", path->c_str(), why.c_str());
       return false;
     }
@@ -250,7 +250,7 @@ inline Report make_report(const char *program, const std::string &input, int m, 
 // Each camera's squared pixel distances at the result, for --json: project(j, i, x) gives
 // the projection of point i in camera j; x holds measurement k of vis at x[2k], x[2k + 1].
 template <class Project>
-void add_per_camera(int m, const Visibility &vis, const double *x, Project project, Report *r) {
+void add_per_camera(int m, const sbaformats::Visibility &vis, const double *x, Project project, Report *r) {
   r->per_camera.assign(static_cast<std::size_t>(m), {});
   for (std::size_t k = 0; k < vis.size(); ++k) {
     const int j = vis.camera[k];
@@ -269,7 +269,7 @@ int guarded_main(const char *program, Main run, int argc, char **argv) {
   try {
     const int status = run(argc, argv);
     // A report that did not reach stdout is a failed run, not a success.
-    if (status == 0 && !stdout_written(program)) return sbacli::kExitFailure;
+    if (status == 0 && !sbaformats::stdout_written(program)) return kExitFailure;
     return status;
   } catch (const std::bad_alloc &) {
     std::fprintf(stderr, "%s: out of memory\n", program);
@@ -278,9 +278,9 @@ int guarded_main(const char *program, Main run, int argc, char **argv) {
   } catch (...) {
     std::fprintf(stderr, "%s: unexpected error\n", program);
   }
-  return sbacli::kExitFailure;
+  return kExitFailure;
 }
 
-}  // namespace sbademo
+}  // namespace sbacli
 
 #endif  // SBA_DEMO_SOLVE_OPTIONS_H

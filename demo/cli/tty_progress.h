@@ -10,7 +10,7 @@
 
 #include "sba_ext.h"
 
-namespace sbademo {
+namespace sbacli {
 
 class TtyProgress {
  public:
@@ -59,6 +59,6 @@ class TtyProgress {
   double last_ = 0.0;
 };
 
-}  // namespace sbademo
+}  // namespace sbacli
 
 #endif

@@ -27,9 +27,12 @@
 #include "sba_ext.h"
 #include "cli/tty_progress.h"
 
-namespace eucsba {
+namespace eucsbademo {
 namespace {
 
+// The program puts the Euclidean camera and its files to work.
+using namespace sbacameras::euclidean;
+using namespace sbaformats::eucsba;
 using sbacli::kExitFailure;
 using sbacli::kExitUsage;
 
@@ -42,7 +45,7 @@ struct Solve {
   const DemoOptions &options;
   const CameraModel &model;
   PointSet &points;  // sba takes x, covx and vmask as non-const pointers
-  sbademo::RunControl &control;  // progress, Ctrl-C, --max-time
+  sbacli::RunControl &control;  // progress, Ctrl-C, --max-time
 };
 
 struct Outcome {
@@ -176,7 +179,7 @@ const char *kind_banner(CameraKind kind) {
 // an existing file and without leaving a new one behind.
 Status check_writable(const std::string &path) {
   std::string why;
-  if (!path.empty() && !sbademo::probe_writable(path, &why)) return Status::error(path, 0, why);
+  if (!path.empty() && !sbaformats::probe_writable(path, &why)) return Status::error(path, 0, why);
   return {};
 }
 
@@ -261,8 +264,8 @@ Status stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &poi
 
 // The points and camera centres for --initial-ply and --final-ply: cams and pts are the
 // parameters of all cameras and points, null for those at their initial values.
-sbademo::Cloud cloud(const CameraModel &model, const double *cams, const double *pts) {
-  sbademo::Cloud c;
+sbaformats::Cloud cloud(const CameraModel &model, const double *cams, const double *pts) {
+  sbaformats::Cloud c;
   const double *xyz = pts ? pts : model.initial_points().data();
   for (int i = 0; i < model.npoints(); ++i) {
     const double *x = xyz + std::size_t(i) * kPointParams;
@@ -272,7 +275,7 @@ sbademo::Cloud cloud(const CameraModel &model, const double *cams, const double 
     const Camera cam = model.camera(j, cams ? cams + std::size_t(j) * model.cnp() : model.initial_camera(j));
     double R[9];
     rotation_matrix(cam.q, R);
-    c.centres.push_back(sbademo::camera_centre(R, cam.t.data()));
+    c.centres.push_back(sbacameras::camera_centre(R, cam.t.data()));
   }
   return c;
 }
@@ -289,18 +292,18 @@ ResultParams result_params(const CameraModel &model, const Outcome &out) {
           has_pts ? out.p.data() + (has_cams ? std::size_t(model.ncameras()) * model.cnp() : 0) : nullptr};
 }
 
-sbademo::Cloud final_cloud(const CameraModel &model, const Outcome &out) {
+sbaformats::Cloud final_cloud(const CameraModel &model, const Outcome &out) {
   const ResultParams r = result_params(model, out);
   return cloud(model, r.cams, r.pts);
 }
 
 // Each camera's observations and squared pixel distances at the result (cameras and points
 // a refinement left alone at their initial values).
-std::vector<sbademo::CameraResidual> camera_residuals(const CameraModel &model, const PointSet &points,
+std::vector<sbacli::CameraResidual> camera_residuals(const CameraModel &model, const PointSet &points,
                                                       const Outcome &out) {
   const int n = points.npoints(), m = points.ncameras, cnp = model.cnp();
   const ResultParams r = result_params(model, out);
-  std::vector<sbademo::CameraResidual> per_camera(static_cast<std::size_t>(m));
+  std::vector<sbacli::CameraResidual> per_camera(static_cast<std::size_t>(m));
   std::size_t k = 0;  // measurement ordinal: point by point, cameras ascending
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < m; ++j) {
@@ -361,12 +364,12 @@ int demo_main(int argc, char **argv) {
   // nccalib and ncdist. Asked for on the command line, they are held with differences too.
   const bool hold = o.analytic || o.held_given;
   const CameraModel model(problem.kind, problem.cameras, points.xyz, hold ? o.nccalib : 0, hold ? o.ncdist : 0);
-  if (!sbademo::write_ply_option(o.initial_ply, cloud(model, nullptr, nullptr))) return kExitFailure;
+  if (!sbacli::write_ply_option(o.initial_ply, cloud(model, nullptr, nullptr))) return kExitFailure;
   std::fprintf(stderr, "%s\n", kind_banner(problem.kind));
 
-  sbademo::TtyProgress progress(o.progress, nprojs);
-  sbademo::RunControl control(o.max_time, &progress);
-  sbademo::RunControl::catch_signals();
+  sbacli::TtyProgress progress(o.progress, nprojs);
+  sbacli::RunControl control(o.max_time, &progress);
+  sbacli::RunControl::catch_signals();
   const Solve solve{o, model, points, control};
   const auto start = std::chrono::steady_clock::now();
   Outcome out;
@@ -411,11 +414,11 @@ int demo_main(int argc, char **argv) {
     std::fprintf(stderr, "%s\n", s.to_string().c_str());
     return kExitFailure;
   }
-  if (!o.write_stddev.empty() && !sbademo::write_whole_file(o.write_stddev, stddev, &error)) {
+  if (!o.write_stddev.empty() && !sbaformats::write_whole_file(o.write_stddev, stddev, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
-  if (!sbademo::write_ply_option(o.final_ply, final_cloud(model, out))) return kExitFailure;
+  if (!sbacli::write_ply_option(o.final_ply, final_cloud(model, out))) return kExitFailure;
 
   // The variables of the refinement that produced the result.
   long long nvars = 0;
@@ -445,7 +448,7 @@ int demo_main(int argc, char **argv) {
                 o.loss.c_str(), o.loss_scale, out.result.sq_error_final / nprojs,
                 out.result.sq_error_initial / nprojs, out.result.outliers_final);
 
-  sbademo::Report report;
+  sbacli::Report report;
   report.program = "eucsbademo";
   report.inputs = o.files;
   report.cameras = m;
@@ -467,11 +470,11 @@ int demo_main(int argc, char **argv) {
   report.result = out.result;
   report.seconds = seconds;
   report.iterations = control.iterations();
-  sbademo::print_report(stdout, report);
+  sbacli::print_report(stdout, report);
   if (!o.json.empty()) {
     report.per_camera = camera_residuals(model, points, out);
     std::string why;
-    if (!sbademo::write_json(o.json, report, &why)) {
+    if (!sbacli::write_json(o.json, report, &why)) {
       std::fprintf(stderr, "%s: %s\n", o.json.c_str(), why.c_str());
       return kExitFailure;
     }
@@ -493,14 +496,14 @@ int demo_main(int argc, char **argv) {
 }
 
 }  // namespace
-}  // namespace eucsba
+}  // namespace eucsbademo
 
 int main(int argc, char **argv) {
   // Nothing may escape main: a bad file or a full memory is a message and a status.
   try {
-    const int status = eucsba::demo_main(argc, argv);
+    const int status = eucsbademo::demo_main(argc, argv);
     // A report that did not reach stdout is a failed run, not a success.
-    if (status == 0 && !sbademo::stdout_written("eucsbademo")) return 1;
+    if (status == 0 && !sbaformats::stdout_written("eucsbademo")) return 1;
     return status;
   } catch (const std::bad_alloc &) {
     std::fprintf(stderr, "eucsbademo: out of memory\n");

@@ -8,7 +8,7 @@
 #include "cli/ply_options.h"
 #include "sba_ext.h"
 
-namespace eucsba {
+namespace eucsbademo {
 
 namespace {
 
@@ -119,7 +119,7 @@ std::vector<sbacli::Option> option_table(DemoOptions &o) {
                "write the run as one JSON object: sizes, options, every info[] value, the error and\n"
                "time of every iteration, and each camera's observations and RMS reprojection error",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.json); }});
-  sbademo::add_ply_options(&t, &o.initial_ply, &o.final_ply, false);
+  sbacli::add_ply_options(&t, &o.initial_ply, &o.final_ply, false);
   return t;
 }
 
@@ -179,4 +179,4 @@ void print_usage(std::FILE *out) {
       out);
 }
 
-}  // namespace eucsba
+}  // namespace eucsbademo

@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // eucsbademo's command line: the sba 1.6 positional arguments plus GNU-style long options for
 // everything 1.6 fixed at compile time. Defaults are 1.6's.
-#ifndef EUCSBADEMO_OPTIONS_H
-#define EUCSBADEMO_OPTIONS_H
+#ifndef SBA_DEMO_EUCSBADEMO_OPTIONS_H
+#define SBA_DEMO_EUCSBADEMO_OPTIONS_H
 
 #include <array>
 #include <cstdio>
@@ -11,7 +11,7 @@
 
 #include "cli/cli.h"
 
-namespace eucsba {
+namespace eucsbademo {
 
 // 1.6's "howto": what is refined.
 enum class RefineMode {
@@ -59,6 +59,6 @@ constexpr int kMaxThreads = sbacli::kMaxThreads;
 // The --help text.
 void print_usage(std::FILE *out);
 
-}  // namespace eucsba
+}  // namespace eucsbademo
 
-#endif  // EUCSBADEMO_OPTIONS_H
+#endif  // SBA_DEMO_EUCSBADEMO_OPTIONS_H

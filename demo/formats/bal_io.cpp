@@ -19,7 +19,7 @@
 #include "formats/output_file.h"
 #include "formats/text_tokens.h"
 
-namespace bal {
+namespace sbaformats::bal {
 namespace {
 
 bool fail(std::string *error, const std::string &name, const std::string &message) {
@@ -227,7 +227,7 @@ class Tokens {
 
   // The current token as a finite decimal number; the whole token must be the number (strtod
   // stops at a NUL inside it, which must not pass for the end).
-  bool real(double *v) const { return sbademo::decimal_number(tok_, v) && std::isfinite(*v); }
+  bool real(double *v) const { return decimal_number(tok_, v) && std::isfinite(*v); }
 
  private:
   // The byte at the read position, refilling the buffer; false at the end or on an error.
@@ -495,7 +495,7 @@ bool write_problem(const std::string &path, const Problem &problem, std::string 
   for (double v : problem.points) append_number(&text, v);
 
   // Written under a temporary name and renamed: the result appears whole or not at all.
-  sbademo::OutputFile out;
+  OutputFile out;
   std::string why;
   if (!out.open(path, &why)) return fail(error, path, why);
   std::FILE *f = out.get();
@@ -533,4 +533,4 @@ bool write_problem(const std::string &path, const Problem &problem, std::string 
   return true;
 }
 
-}  // namespace bal
+}  // namespace sbaformats::bal

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // BAL ("Bundle Adjustment in the Large", Agarwal et al., ECCV 2010) problem files: a strict
 // reader for plain and bzip2-compressed text, the conversion to sba's point-by-point layout,
-// and a writer. The camera model itself is in bal_model.h. Neither depends on the sba library.
+// and a writer. The camera model itself is in cameras/bal_camera.h. Neither depends on the sba
+// library.
 //
 // The format is a stream of numbers separated by any white space (lines do not matter):
 //   ncameras npoints nobservations
@@ -9,20 +10,21 @@
 //   ncameras times:       9 camera parameters   (w1 w2 w3  t1 t2 t3  f k1 k2)
 //   npoints times:        3 point coordinates   (X Y Z)
 // and nothing after the last point.
-#ifndef BAL_IO_H
-#define BAL_IO_H
+#ifndef SBA_DEMO_BAL_IO_H
+#define SBA_DEMO_BAL_IO_H
 
 #include <cstddef>
 #include <string>
 #include <vector>
 
+#include "cameras/bal_camera.h"
 #include "formats/visibility.h"
 
-namespace bal {
+namespace sbaformats::bal {
 
-constexpr int kCameraParams = 9;       // cnp: Rodrigues w (3), t (3), f, k1, k2
-constexpr int kPointParams = 3;        // pnp
-constexpr int kMeasurementParams = 2;  // mnp
+// The sizes are the camera model's (cameras/bal_camera.h).
+using sbacameras::bal::kCameraParams;
+using sbacameras::bal::kPointParams;
 
 struct Observation {
   int camera = 0;
@@ -71,7 +73,7 @@ bool parse_problem(const std::string &text, const std::string &name, Problem *ou
 struct SbaLayout {
   int n = 0;                // points
   int m = 0;                // cameras
-  sbademo::Visibility vis;  // which camera sees which point, measurement by measurement
+  Visibility vis;  // which camera sees which point, measurement by measurement
   std::vector<double> x;    // 2 per observation, sorted by (point, camera)
   std::vector<int> order;   // order[k]: index in Problem::observations of sba measurement k
   std::vector<double> p;    // m*9 camera parameters followed by n*3 point coordinates
@@ -93,6 +95,6 @@ void from_sba_params(const double *p, Problem *problem);
 // ".bz2" is bzip2-compressed. False with "<path>: <message>" in *error on failure.
 bool write_problem(const std::string &path, const Problem &problem, std::string *error);
 
-}  // namespace bal
+}  // namespace sbaformats::bal
 
-#endif  // BAL_IO_H
+#endif  // SBA_DEMO_BAL_IO_H

@@ -13,13 +13,11 @@
 #include "formats/output_file.h"
 #include "formats/text_tokens.h"
 
-namespace bundler {
+namespace sbaformats::bundler {
 
 namespace {
 
-using sbademo::g17;
-
-bool fail(std::string *error, const std::string &msg) { return sbademo::TextTokens::fail(error, msg); }
+bool fail(std::string *error, const std::string &msg) { return TextTokens::fail(error, msg); }
 
 constexpr char kHeader[] = "# Bundle file v0.3";
 
@@ -29,7 +27,7 @@ bool parse_bundle(const std::string &text, const std::string &name, Bundle *out,
   if (text.compare(0, sizeof kHeader - 1, kHeader) != 0)
     return fail(error, name + ":1: expected the header '" + kHeader + "'");
   const std::size_t eol = text.find('\n');
-  sbademo::TextTokens t(text, name, eol == std::string::npos ? text.size() : eol + 1, 2);
+  TextTokens t(text, name, eol == std::string::npos ? text.size() : eol + 1, 2);
   long long ncams, npts;
   if (!t.integer("the number of cameras", 0, 1 << 24, &ncams, error) ||
       !t.integer("the number of points", 0, 1 << 28, &npts, error))
@@ -127,7 +125,7 @@ std::string format_bundle(const Bundle &b) {
 }
 
 bool write_bundle(const std::string &path, const Bundle &b, std::string *error) {
-  return sbademo::write_whole_file(path, format_bundle(b), error);
+  return write_whole_file(path, format_bundle(b), error);
 }
 
 void angle_axis(const std::array<double, 9> &R, double w[3]) {
@@ -162,7 +160,7 @@ bool parse_list(const std::string &text, const std::string &name, ImageList *out
     pos = end + 1;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     std::vector<std::string> values;
-    sbademo::TextTokens t(line, name, 0, lineno);
+    TextTokens t(line, name, 0, lineno);
     std::string tok;
     while (t.next(&tok)) values.push_back(tok);
     const std::string where = name + ":" + std::to_string(lineno) + ": ";
@@ -170,11 +168,11 @@ bool parse_list(const std::string &text, const std::string &name, ImageList *out
       return fail(error, where + "expected PATH or PATH 0 FOCAL, found " + std::to_string(values.size()) + " values");
     if (values.size() == 3) {
       if (values[1] != "0")
-        return fail(error, where + "expected 0 after the path, got '" + sbademo::TextTokens::printable(values[1]) + "'");
+        return fail(error, where + "expected 0 after the path, got '" + TextTokens::printable(values[1]) + "'");
       double f;
-      if (!sbademo::decimal_number(values[2], &f) || !std::isfinite(f) || f <= 0)
+      if (!decimal_number(values[2], &f) || !std::isfinite(f) || f <= 0)
         return fail(error, where + "the focal length must be a finite positive number, got '" +
-                               sbademo::TextTokens::printable(values[2]) + "'");
+                               TextTokens::printable(values[2]) + "'");
     }
     list.names.push_back(values[0]);
   }
@@ -213,7 +211,7 @@ bool to_bal(const Bundle &b, const std::string &name, bal::Problem *out, std::ve
   for (int j : order) {
     if (used[static_cast<std::size_t>(j)]) continue;
     const std::string image =
-        names.empty() ? "" : " (" + sbademo::TextTokens::printable(names[static_cast<std::size_t>(j)]) + ")";
+        names.empty() ? "" : " (" + TextTokens::printable(names[static_cast<std::size_t>(j)]) + ")";
     return fail(error, name + ": camera " + std::to_string(j) + image + " is registered but sees no point");
   }
   if (order.empty() || b.points.empty()) return fail(error, name + ": no registered camera or no point");
@@ -228,7 +226,7 @@ void from_bal(const bal::Problem &p, const std::vector<int> &cameras, int mcon, 
   for (int k = mcon; k < p.ncameras; ++k) {
     Camera &c = b->cameras[static_cast<std::size_t>(cameras[static_cast<std::size_t>(k)])];
     const double *a = p.camera(k);
-    bal::rotation_matrix(a, c.R.data());
+    sbacameras::bal::rotation_matrix(a, c.R.data());
     for (int i = 0; i < 3; ++i) c.t[i] = a[3 + i];
     c.f = a[6];
     c.k1 = a[7];
@@ -238,18 +236,18 @@ void from_bal(const bal::Problem &p, const std::vector<int> &cameras, int mcon, 
     for (int k = 0; k < 3; ++k) b->points[static_cast<std::size_t>(i)].xyz[k] = p.point(i)[k];
 }
 
-}  // namespace bundler
+}  // namespace sbaformats::bundler
 
-namespace bundler {
+namespace sbaformats::bundler {
 
-bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::PointSet &points, Bundle *out,
+bool from_problem(const std::vector<sbacameras::euclidean::Camera> &cameras, const eucsba::PointSet &points, Bundle *out,
                   std::string *error) {
   const int m = static_cast<int>(cameras.size()), n = points.npoints();
   if (points.ncameras != m || points.vmask.size() != static_cast<std::size_t>(n) * static_cast<std::size_t>(m))
     return fail(error, "a bundle needs the points' dense visibility mask");
   Bundle b;
   for (int j = 0; j < m; ++j) {
-    const eucsba::Camera &e = cameras[static_cast<std::size_t>(j)];
+    const sbacameras::euclidean::Camera &e = cameras[static_cast<std::size_t>(j)];
     if (e.k.ar != 1 || e.k.s != 0 || e.kc[2] != 0 || e.kc[3] != 0 || e.kc[4] != 0)
       return fail(error, "camera " + std::to_string(j) +
                              " has an aspect ratio, a skew or distortion terms beyond k1 k2, which Bundler cannot hold");
@@ -258,7 +256,7 @@ bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::Poin
     c.k1 = e.kc[0];
     c.k2 = e.kc[1];
     double R[9];
-    eucsba::rotation_matrix(eucsba::normalized_rotation(e.q), R);
+    sbacameras::euclidean::rotation_matrix(sbacameras::euclidean::normalized_rotation(e.q), R);
     // Bundler's camera axes are (x, -y, -z) of eucsbademo's.
     for (int k = 0; k < 9; ++k) c.R[k] = k < 3 ? R[k] : -R[k];
     c.t = {e.t[0], -e.t[1], -e.t[2]};
@@ -271,11 +269,11 @@ bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::Poin
     p.rgb = eucsba::generated_color(i);
   }
   eucsba::for_each_projection(points, [&](int i, int j, const double *x) {
-    const eucsba::Camera &e = cameras[static_cast<std::size_t>(j)];
+    const sbacameras::euclidean::Camera &e = cameras[static_cast<std::size_t>(j)];
     b.points[static_cast<std::size_t>(i)].views.push_back({j, i, x[0] - e.k.u0, e.k.v0 - x[1]});
   });
   *out = std::move(b);
   return true;
 }
 
-}  // namespace bundler
+}  // namespace sbaformats::bundler

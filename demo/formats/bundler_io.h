@@ -15,7 +15,7 @@
 #include "formats/bal_io.h"
 #include "formats/eucsba_io.h"
 
-namespace bundler {
+namespace sbaformats::bundler {
 
 struct Camera {
   double f = 0, k1 = 0, k2 = 0;
@@ -74,16 +74,16 @@ bool to_bal(const Bundle &b, const std::string &name, bal::Problem *out, std::ve
 // The problem's cameras from mcon on and points from ncon on back into the bundle.
 void from_bal(const bal::Problem &p, const std::vector<int> &cameras, int mcon, int ncon, Bundle *b);
 
-// w with R(w) = R (bal::rotation_matrix's inverse), |w| <= pi.
+// w with R(w) = R (sbacameras::bal::rotation_matrix's inverse), |w| <= pi.
 void angle_axis(const std::array<double, 9> &R, double w[3]);
 
 // An eucsbademo problem as a bundle: R and t turned to look down -z with y up, f = fu,
 // k1 = kc0, k2 = kc1, measurements from each camera's principal point with y up, point i
 // colored as eucsba::generated_color colors it, key i. False with a message for what Bundler
 // cannot hold: ar != 1, a skew, tangential terms or kc4, a point set without its vmask.
-bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::PointSet &points, Bundle *out,
+bool from_problem(const std::vector<euclidean::Camera> &cameras, const eucsba::PointSet &points, Bundle *out,
                   std::string *error);
 
-}  // namespace bundler
+}  // namespace sbaformats::bundler
 
 #endif  // SBA_DEMO_BUNDLER_IO_H

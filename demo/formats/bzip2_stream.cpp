@@ -10,7 +10,7 @@
 #include <new>
 #include <vector>
 
-namespace sbademo {
+namespace sbaformats {
 
 namespace {
 
@@ -115,4 +115,4 @@ std::FILE *open_bzip2_stream(std::FILE *compressed, std::string *error) {
   return f;
 }
 
-}  // namespace sbademo
+}  // namespace sbaformats

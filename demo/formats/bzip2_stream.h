@@ -7,7 +7,7 @@
 #include <cstdio>
 #include <string>
 
-namespace sbademo {
+namespace sbaformats {
 
 // True when the next bytes of f are bzip2's magic "BZh"; f is left where it was (it must be
 // seekable).
@@ -19,6 +19,6 @@ bool is_bzip2(std::FILE *f);
 // outlive the stream, says why. Null if the stream cannot be made (compressed is then closed).
 std::FILE *open_bzip2_stream(std::FILE *compressed, std::string *error);
 
-}  // namespace sbademo
+}  // namespace sbaformats
 
 #endif  // SBA_DEMO_BZIP2_STREAM_H

@@ -9,7 +9,7 @@
 
 #include "formats/colmap_common.h"
 
-namespace colmap {
+namespace sbaformats::colmap {
 
 namespace {
 
@@ -240,4 +240,4 @@ Files format_binary(const Model &model) {
   return f;
 }
 
-}  // namespace colmap
+}  // namespace sbaformats::colmap

@@ -9,7 +9,7 @@
 
 #include "formats/colmap_io.h"
 
-namespace colmap {
+namespace sbaformats::colmap {
 
 struct ModelInfo {
   const char *name;
@@ -53,6 +53,6 @@ inline bool fail(std::string *error, const std::string &msg) {
 Files format_text(const Model &model);
 Files format_binary(const Model &model);
 
-}  // namespace colmap
+}  // namespace sbaformats::colmap
 
 #endif  // SBA_DEMO_COLMAP_COMMON_H

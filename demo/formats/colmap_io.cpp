@@ -20,11 +20,9 @@
 #include "formats/output_file.h"
 #include "formats/text_tokens.h"
 
-namespace colmap {
+namespace sbaformats::colmap {
 
 namespace {
-
-using sbademo::g17;
 
 constexpr const char *kAccepted = "SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV";
 
@@ -239,7 +237,7 @@ bool model_writable(const std::string &dir, Encoding encoding, std::string *erro
   std::string why;
   for (const char *name : kFileNames) {
     const std::string path = slashed(dir) + name + extension(encoding);
-    if (!sbademo::probe_writable(path, &why)) return fail(error, path + ": " + why);
+    if (!probe_writable(path, &why)) return fail(error, path + ": " + why);
   }
   return true;
 }
@@ -254,9 +252,9 @@ bool write_model(const std::string &dir, const Model &model, Encoding encoding, 
   // The model is replaced whole or not at all: its three files are renamed onto their names
   // only once all three are written and closed (a full disk at the second leaves the model
   // as it was, the temporaries removed with `out`).
-  sbademo::OutputFile out[3];
+  OutputFile out[3];
   for (int k = 0; k < 3; ++k)
-    if (!sbademo::write_closed(paths[k], *content[k], &out[k], error)) return false;
+    if (!write_closed(paths[k], *content[k], &out[k], error)) return false;
   for (int k = 0; k < 3; ++k) {
     std::string why;
     if (!out[k].publish(&why)) return fail(error, paths[k] + ": " + why);
@@ -272,4 +270,4 @@ bool write_model(const std::string &dir, const Model &model, Encoding encoding, 
   return true;
 }
 
-}  // namespace colmap
+}  // namespace sbaformats::colmap

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-namespace colmap {
+namespace sbaformats::colmap {
 
 // COLMAP's model ids of the accepted camera models.
 enum CameraModelId : int {
@@ -134,6 +134,6 @@ bool read_whole_file(const std::string &path, bool text, std::string *out, std::
 // to *out; path names it in messages.
 bool read_rest(std::FILE *f, const std::string &path, bool text, std::string *out, std::string *error);
 
-}  // namespace colmap
+}  // namespace sbaformats::colmap
 
 #endif  // SBA_DEMO_COLMAP_IO_H

@@ -8,7 +8,7 @@
 #include <unordered_map>
 #include <utility>
 
-namespace colmap {
+namespace sbaformats::colmap {
 
 namespace {
 
@@ -27,8 +27,8 @@ int distortion_terms(int model) {
   }
 }
 
-eucsba::Camera to_camera(const Camera &c, const Image &im) {
-  eucsba::Camera out;
+sbacameras::euclidean::Camera to_camera(const Camera &c, const Image &im) {
+  sbacameras::euclidean::Camera out;
   const std::vector<double> &p = c.params;
   switch (c.model) {
     case kSimplePinhole:
@@ -54,7 +54,7 @@ eucsba::Camera to_camera(const Camera &c, const Image &im) {
 
 // The refined intrinsics (the first free_intr of fu u0 v0, the first free_dist of kc) into
 // COLMAP's parameters.
-void set_intrinsics(const eucsba::Camera &c, int free_intr, int free_dist, Camera *out) {
+void set_intrinsics(const sbacameras::euclidean::Camera &c, int free_intr, int free_dist, Camera *out) {
   std::vector<double> &p = out->params;
   const bool two_focals = out->model == kPinhole || out->model == kOpenCV;
   const int pp = two_focals ? 2 : 1;  // where cx is
@@ -112,8 +112,8 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::strin
   }
   SbaProblem p;
   p.nccalib = refine.focal ? (refine.principal ? 2 : 4) : 5;
-  p.ncdist = refine.distortion ? eucsba::kDistortionParams - dist : eucsba::kDistortionParams;
-  const bool intrinsics = p.nccalib < eucsba::kIntrinsicParams || p.ncdist < eucsba::kDistortionParams;
+  p.ncdist = refine.distortion ? sbacameras::euclidean::kDistortionParams - dist : sbacameras::euclidean::kDistortionParams;
+  const bool intrinsics = p.nccalib < sbacameras::euclidean::kIntrinsicParams || p.ncdist < sbacameras::euclidean::kDistortionParams;
   for (const Image &im : model.images) {
     if (intrinsics && users[im.camera_id] > 1)
       return fail(error, where + "camera " + std::to_string(im.camera_id) + " is shared by " +
@@ -155,24 +155,24 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::strin
   return true;
 }
 
-void from_sba(const eucsba::CameraModel &sba_model, const SbaProblem &problem, const double *p, int mcon, int ncon,
+void from_sba(const sbacameras::euclidean::CameraModel &sba_model, const SbaProblem &problem, const double *p, int mcon, int ncon,
               Model *model) {
   const int m = static_cast<int>(model->images.size());
   const int n = static_cast<int>(model->points.size());
   const int cnp = sba_model.cnp();
   std::unordered_map<std::uint32_t, Camera *> cameras;
   for (Camera &c : model->cameras) cameras.emplace(c.id, &c);
-  std::vector<eucsba::Camera> refined(static_cast<std::size_t>(m));
+  std::vector<sbacameras::euclidean::Camera> refined(static_cast<std::size_t>(m));
   std::unordered_map<std::uint32_t, int> image_index;
   for (int j = 0; j < m; ++j) {
     Image &im = model->images[static_cast<std::size_t>(j)];
     image_index.emplace(im.id, j);
     refined[static_cast<std::size_t>(j)] = sba_model.camera(j, p + static_cast<std::size_t>(j) * cnp);
     if (j < mcon) continue;
-    const eucsba::Camera &c = refined[static_cast<std::size_t>(j)];
+    const sbacameras::euclidean::Camera &c = refined[static_cast<std::size_t>(j)];
     im.q = {c.q.w, c.q.x, c.q.y, c.q.z};
     for (int k = 0; k < 3; ++k) im.t[k] = c.t[k];
-    set_intrinsics(c, eucsba::kIntrinsicParams - problem.nccalib, eucsba::kDistortionParams - problem.ncdist,
+    set_intrinsics(c, sbacameras::euclidean::kIntrinsicParams - problem.nccalib, sbacameras::euclidean::kDistortionParams - problem.ncdist,
                    cameras.at(im.camera_id));
   }
   const double *points = p + static_cast<std::size_t>(m) * cnp;
@@ -192,20 +192,20 @@ void from_sba(const eucsba::CameraModel &sba_model, const SbaProblem &problem, c
   }
 }
 
-}  // namespace colmap
+}  // namespace sbaformats::colmap
 
-namespace colmap {
+namespace sbaformats::colmap {
 
-bool from_problem(eucsba::CameraKind kind, const std::vector<eucsba::Camera> &cameras, const eucsba::PointSet &points,
+bool from_problem(sbacameras::euclidean::CameraKind kind, const std::vector<sbacameras::euclidean::Camera> &cameras, const eucsba::PointSet &points,
                   int width, int height, Model *out, std::string *error) {
   const int m = static_cast<int>(cameras.size()), n = points.npoints();
   if (points.ncameras != m || points.vmask.size() != static_cast<std::size_t>(n) * static_cast<std::size_t>(m))
     return fail(error, "a COLMAP model needs the points' dense visibility mask");
   Model model;
-  const bool shared = kind == eucsba::CameraKind::FixedIntrinsics;
-  const bool distortion = kind == eucsba::CameraKind::VaryingIntrinsicsDistortion;
+  const bool shared = kind == sbacameras::euclidean::CameraKind::FixedIntrinsics;
+  const bool distortion = kind == sbacameras::euclidean::CameraKind::VaryingIntrinsicsDistortion;
   for (int j = 0; j < m; ++j) {
-    const eucsba::Camera &c = cameras[static_cast<std::size_t>(j)];
+    const sbacameras::euclidean::Camera &c = cameras[static_cast<std::size_t>(j)];
     if (c.k.s != 0) return fail(error, "camera " + std::to_string(j) + " has a skew, which COLMAP cannot hold");
     if (c.kc[4] != 0) return fail(error, "camera " + std::to_string(j) + " has kc4 (k3), which OPENCV cannot hold");
     if (!shared || j == 0) {
@@ -248,4 +248,4 @@ bool from_problem(eucsba::CameraKind kind, const std::vector<eucsba::Camera> &ca
   return true;
 }
 
-}  // namespace colmap
+}  // namespace sbaformats::colmap

@@ -23,7 +23,7 @@
 #include "formats/eucsba_io.h"
 #include "cameras/euclidean.h"
 
-namespace colmap {
+namespace sbaformats::colmap {
 
 // Which intrinsics are refined. COLMAP's bundle adjuster refines the focal length and the
 // distortion and holds the principal point; so does the default here. The aspect ratio
@@ -40,7 +40,7 @@ struct RefineIntrinsics {
 std::string parse_refine_intrinsics(const std::string &text, RefineIntrinsics *out);
 
 struct SbaProblem {
-  std::vector<eucsba::Camera> cameras;  // one per image, in file order
+  std::vector<euclidean::Camera> cameras;  // one per image, in file order
   eucsba::PointSet points;              // one per 3D point, in file order; visibility as pairs
   int nccalib = 5, ncdist = 5;          // trailing intrinsics / distortion terms held
 };
@@ -56,7 +56,7 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::strin
 // into the model: poses of the images from mcon on, points from ncon on, the refined
 // intrinsics of their cameras, and each refined point's ERROR as its mean reprojection error
 // in pixels. Everything else stays as it was read.
-void from_sba(const eucsba::CameraModel &sba_model, const SbaProblem &problem, const double *p, int mcon, int ncon,
+void from_sba(const euclidean::CameraModel &sba_model, const SbaProblem &problem, const double *p, int mcon, int ncon,
               Model *model);
 
 // An eucsbademo problem as a COLMAP model, for tests and for sbagen: image j is IMAGE_ID
@@ -66,9 +66,9 @@ void from_sba(const eucsba::CameraModel &sba_model, const SbaProblem &problem, c
 // shared by every image; otherwise camera 100 + j of image j, PINHOLE or, with distortion,
 // OPENCV. False with a message for what COLMAP cannot hold (a skew, kc4, a point set without
 // its dense vmask).
-bool from_problem(eucsba::CameraKind kind, const std::vector<eucsba::Camera> &cameras, const eucsba::PointSet &points,
+bool from_problem(euclidean::CameraKind kind, const std::vector<euclidean::Camera> &cameras, const eucsba::PointSet &points,
                   int width, int height, Model *out, std::string *error);
 
-}  // namespace colmap
+}  // namespace sbaformats::colmap
 
 #endif  // SBA_DEMO_COLMAP_SBA_H

@@ -9,11 +9,9 @@
 #include "formats/colmap_common.h"
 #include "formats/text_tokens.h"
 
-namespace colmap {
+namespace sbaformats::colmap {
 
 namespace {
-
-using sbademo::g17;
 
 // The lines of a text file: "tokens" split on blanks, with the line number.
 class TextReader {
@@ -68,7 +66,7 @@ class TextReader {
 // A finite decimal number, the whole token.
 bool parse_real(const std::string &tok, double *out) {
   double v;
-  if (!sbademo::decimal_number(tok, &v) || !std::isfinite(v)) return false;
+  if (!decimal_number(tok, &v) || !std::isfinite(v)) return false;
   *out = v;
   return true;
 }
@@ -292,4 +290,4 @@ Files format_text(const Model &model) {
   return f;
 }
 
-}  // namespace colmap
+}  // namespace sbaformats::colmap

@@ -16,7 +16,7 @@
 #include "formats/output_file.h"
 #include "formats/text_tokens.h"
 
-namespace eucsba {
+namespace sbaformats::eucsba {
 
 Status Status::error(std::string file, int line, std::string message) {
   Status s;
@@ -33,7 +33,7 @@ std::string Status::to_string() const {
   return file_ + ": " + message_;
 }
 
-int camera_file_values(CameraKind kind) { return camera_params(kind) + 1; }
+int camera_file_values(euclidean::CameraKind kind) { return euclidean::camera_params(kind) + 1; }
 
 namespace {
 
@@ -69,8 +69,8 @@ class DataLines {
     errno = 0;
     in_.reset(std::fopen(path_.c_str(), "rb"));
     if (!in_) return error_at(0, errno != 0 ? std::string("cannot open: ") + std::strerror(errno) : "cannot open");
-    if (S_ISREG(st.st_mode) && sbademo::is_bzip2(in_.get())) {
-      std::FILE *z = sbademo::open_bzip2_stream(in_.release(), &bzip2_error_);
+    if (S_ISREG(st.st_mode) && is_bzip2(in_.get())) {
+      std::FILE *z = open_bzip2_stream(in_.release(), &bzip2_error_);
       if (!z) return error_at(0, "cannot read bzip2 data: out of memory");
       in_.reset(z);
     }
@@ -185,7 +185,7 @@ std::string quoted(const std::string &tok) {
 // stops at a NUL inside it, which must not pass for the end of the token.
 bool parse_real(const std::string &tok, double *value, std::string *why) {
   double v;
-  if (!sbademo::decimal_number(tok, &v)) {
+  if (!decimal_number(tok, &v)) {
     *why = quoted(tok) + " is not a number";
     return false;
   }
@@ -258,14 +258,14 @@ bool form_for(std::size_t count, long long nframes, CovarianceForm *form) {
 }
 
 // The writers go through an OutputFile: the result appears whole under its name or not at all.
-Status open_for_writing(const std::string &path, sbademo::OutputFile *file) {
+Status open_for_writing(const std::string &path, OutputFile *file) {
   std::string why;
   if (!file->open(path, &why)) return Status::error(path, 0, why);
   return {};
 }
 
 // Closes the file and moves it to its name, reporting what a full disk or a failed write did.
-Status close_written(const std::string &path, sbademo::OutputFile *file) {
+Status close_written(const std::string &path, OutputFile *file) {
   std::string why;
   if (!file->commit(&why)) return Status::error(path, 0, why);
   return {};
@@ -281,9 +281,9 @@ Status read_cameras(const std::string &path, CameraFile *out) {
   while (in.next()) {
     const std::size_t count = in.size();
     if (nvalues == 0) {
-      if (count == 7) result.kind = CameraKind::FixedIntrinsics;
-      else if (count == 12) result.kind = CameraKind::VaryingIntrinsics;
-      else if (count == 17) result.kind = CameraKind::VaryingIntrinsicsDistortion;
+      if (count == 7) result.kind = euclidean::CameraKind::FixedIntrinsics;
+      else if (count == 12) result.kind = euclidean::CameraKind::VaryingIntrinsics;
+      else if (count == 17) result.kind = euclidean::CameraKind::VaryingIntrinsicsDistortion;
       else
         return in.error("expected 7, 12 or 17 values per camera line (fixed intrinsics, varying "
                         "intrinsics, varying intrinsics and distortion), found " +
@@ -297,15 +297,15 @@ Status read_cameras(const std::string &path, CameraFile *out) {
     double v[17];
     if (Status s = parse_reals(in, 0, count, v, "value"); !s) return s;
 
-    Camera cam;
+    euclidean::Camera cam;
     const double *p = v;
-    if (result.kind != CameraKind::FixedIntrinsics) {
+    if (result.kind != euclidean::CameraKind::FixedIntrinsics) {
       cam.k = {p[0], p[1], p[2], p[3], p[4]};
-      p += kIntrinsicParams;
+      p += euclidean::kIntrinsicParams;
     }
-    if (result.kind == CameraKind::VaryingIntrinsicsDistortion) {
-      std::copy(p, p + kDistortionParams, cam.kc.begin());
-      p += kDistortionParams;
+    if (result.kind == euclidean::CameraKind::VaryingIntrinsicsDistortion) {
+      std::copy(p, p + euclidean::kDistortionParams, cam.kc.begin());
+      p += euclidean::kDistortionParams;
     }
     cam.q = {p[0], p[1], p[2], p[3]};
     if (p[0] == 0 && p[1] == 0 && p[2] == 0 && p[3] == 0)
@@ -320,7 +320,7 @@ Status read_cameras(const std::string &path, CameraFile *out) {
   return {};
 }
 
-Status read_calibration(const std::string &path, Intrinsics *out) {
+Status read_calibration(const std::string &path, euclidean::Intrinsics *out) {
   DataLines in(path);
   if (Status s = in.open(); !s) return s;
   double K[3][3];
@@ -475,7 +475,7 @@ Status load_problem(const std::string &cams_path, const std::string &pts_path,
                     const std::string &calib_path, Problem *out) {
   CameraFile cams;
   if (Status s = read_cameras(cams_path, &cams); !s) return s;
-  const bool fixed = cams.kind == CameraKind::FixedIntrinsics;
+  const bool fixed = cams.kind == euclidean::CameraKind::FixedIntrinsics;
   if (fixed && calib_path.empty())
     return Status::error(cams_path, cams.first_line,
                          "7 values per camera line mean intrinsics shared by all cameras: "
@@ -489,9 +489,9 @@ Status load_problem(const std::string &cams_path, const std::string &pts_path,
   result.kind = cams.kind;
   result.cameras = std::move(cams.cameras);
   if (fixed) {
-    Intrinsics K;
+    euclidean::Intrinsics K;
     if (Status s = read_calibration(calib_path, &K); !s) return s;
-    for (Camera &c : result.cameras) c.k = K;
+    for (euclidean::Camera &c : result.cameras) c.k = K;
   }
   if (Status s = read_points(pts_path, static_cast<int>(result.cameras.size()), &result.points); !s)
     return s;
@@ -499,22 +499,22 @@ Status load_problem(const std::string &cams_path, const std::string &pts_path,
   return {};
 }
 
-Status write_cameras(const std::string &path, CameraKind kind, const std::vector<Camera> &cameras) {
-  sbademo::OutputFile f;
+Status write_cameras(const std::string &path, euclidean::CameraKind kind, const std::vector<euclidean::Camera> &cameras) {
+  OutputFile f;
   if (Status s = open_for_writing(path, &f); !s) return s;
   switch (kind) {
-    case CameraKind::FixedIntrinsics: std::fputs("# q0 q1 q2 q3  tx ty tz\n", f.get()); break;
-    case CameraKind::VaryingIntrinsics:
+    case euclidean::CameraKind::FixedIntrinsics: std::fputs("# q0 q1 q2 q3  tx ty tz\n", f.get()); break;
+    case euclidean::CameraKind::VaryingIntrinsics:
       std::fputs("# fu u0 v0 ar s  q0 q1 q2 q3  tx ty tz\n", f.get());
       break;
-    case CameraKind::VaryingIntrinsicsDistortion:
+    case euclidean::CameraKind::VaryingIntrinsicsDistortion:
       std::fputs("# fu u0 v0 ar s  kc0 kc1 kc2 kc3 kc4  q0 q1 q2 q3  tx ty tz\n", f.get());
       break;
   }
-  for (const Camera &c : cameras) {
+  for (const euclidean::Camera &c : cameras) {
     std::vector<double> v;
-    if (kind != CameraKind::FixedIntrinsics) v = {c.k.fu, c.k.u0, c.k.v0, c.k.ar, c.k.s};
-    if (kind == CameraKind::VaryingIntrinsicsDistortion) v.insert(v.end(), c.kc.begin(), c.kc.end());
+    if (kind != euclidean::CameraKind::FixedIntrinsics) v = {c.k.fu, c.k.u0, c.k.v0, c.k.ar, c.k.s};
+    if (kind == euclidean::CameraKind::VaryingIntrinsicsDistortion) v.insert(v.end(), c.kc.begin(), c.kc.end());
     v.insert(v.end(), {c.q.w, c.q.x, c.q.y, c.q.z, c.t[0], c.t[1], c.t[2]});
     for (std::size_t k = 0; k < v.size(); ++k)
       std::fprintf(f.get(), k == 0 ? "%.10e" : " %.10e", v[k]);
@@ -524,7 +524,7 @@ Status write_cameras(const std::string &path, CameraKind kind, const std::vector
 }
 
 Status write_points_xyz(const std::string &path, const std::vector<double> &xyz) {
-  sbademo::OutputFile f;
+  OutputFile f;
   if (Status s = open_for_writing(path, &f); !s) return s;
   for (std::size_t i = 0; i + 2 < xyz.size(); i += 3)
     std::fprintf(f.get(), "%.10e %.10e %.10e\n", xyz[i], xyz[i + 1], xyz[i + 2]);
@@ -536,7 +536,7 @@ Status write_points(const std::string &path, const PointSet &tracks, const std::
     return Status::error(path, 0, "internal error: " + std::to_string(xyz.size() / 3) +
                                       " coordinates for " + std::to_string(tracks.npoints()) + " points");
   const CovarianceForm form = tracks.has_covariances() ? tracks.form : CovarianceForm::None;
-  sbademo::OutputFile f;
+  OutputFile f;
   if (Status s = open_for_writing(path, &f); !s) return s;
   std::fputs("# X Y Z  nframes  frame0 x0 y0", f.get());
   if (form == CovarianceForm::UpperTriangular) std::fputs(" cxx0 cxy0 cyy0", f.get());
@@ -585,4 +585,4 @@ Status read_points_xyz(const std::string &path, std::vector<double> *xyz) {
   return {};
 }
 
-}  // namespace eucsba
+}  // namespace sbaformats::eucsba

@@ -10,8 +10,8 @@
 // (4 + 7 * ncameras) * 64 bytes, if that is more: "<file>:<line>: line longer than N bytes".
 // The rest of such a line is not read, so a file without line breaks (/dev/zero) is refused
 // at once instead of being read into memory.
-#ifndef EUCSBA_IO_H
-#define EUCSBA_IO_H
+#ifndef SBA_DEMO_EUCSBA_IO_H
+#define SBA_DEMO_EUCSBA_IO_H
 
 #include <array>
 #include <string>
@@ -20,7 +20,12 @@
 #include "cameras/euclidean.h"
 #include "formats/visibility.h"
 
-namespace eucsba {
+namespace sbaformats {
+// The camera that eucsbademo's files describe, which the other formats convert to and from.
+namespace euclidean = sbacameras::euclidean;
+}  // namespace sbaformats
+
+namespace sbaformats::eucsba {
 
 // Success, or the first error found in a file. Readers and writers never throw for bad
 // input; they may throw std::bad_alloc.
@@ -45,11 +50,11 @@ class Status {
 };
 
 // Values on a camera line of each kind: 7, 12 or 17.
-int camera_file_values(CameraKind kind);
+int camera_file_values(euclidean::CameraKind kind);
 
 struct CameraFile {
-  CameraKind kind = CameraKind::FixedIntrinsics;  // from the first line's value count
-  std::vector<Camera> cameras;  // for FixedIntrinsics, k is left at its default
+  euclidean::CameraKind kind = euclidean::CameraKind::FixedIntrinsics;  // from the first line's value count
+  std::vector<euclidean::Camera> cameras;  // for FixedIntrinsics, k is left at its default
   int first_line = 0;           // line of the first camera, for errors about the whole file
 };
 
@@ -60,7 +65,7 @@ Status read_cameras(const std::string &path, CameraFile *out);
 
 // Three rows of three: K = [fu s u0; 0 fv v0; 0 0 1], giving ar = fv / fu. The lower triangle
 // must be (0, 0, 0) and K[2][2] = 1, fu and fv nonzero.
-Status read_calibration(const std::string &path, Intrinsics *out);
+Status read_calibration(const std::string &path, euclidean::Intrinsics *out);
 
 // How projections carry covariances in a points file.
 enum class CovarianceForm {
@@ -77,7 +82,7 @@ struct PointSet {
   std::vector<char> vmask;    // npoints * ncameras; vmask[i * ncameras + j] != 0 iff seen
   // The same as pairs, for point sets whose vmask would not fit (sbarefine's models): then
   // vmask is empty. The readers fill vmask.
-  sbademo::Visibility pairs;
+  Visibility pairs;
   std::vector<double> x;      // 2 per projection, point by point, cameras ascending
   std::vector<double> covx;   // empty, or 4 per projection: 2x2 row-major, symmetric
 
@@ -119,8 +124,8 @@ Status read_points(const std::string &path, int ncameras, PointSet *out);
 // A whole eucsbademo problem: the camera kind comes from the camera file; a calibration file
 // goes with 7-value camera lines and only with them.
 struct Problem {
-  CameraKind kind = CameraKind::FixedIntrinsics;
-  std::vector<Camera> cameras;  // for FixedIntrinsics, k is the calibration
+  euclidean::CameraKind kind = euclidean::CameraKind::FixedIntrinsics;
+  std::vector<euclidean::Camera> cameras;  // for FixedIntrinsics, k is the calibration
   PointSet points;
 };
 // calib_path empty: no calibration file.
@@ -131,7 +136,7 @@ Status load_problem(const std::string &cams_path, const std::string &pts_path,
 
 // Cameras in the input format of their kind, quaternions as given (callers pass them unit
 // with w >= 0, as CameraModel::camera returns them).
-Status write_cameras(const std::string &path, CameraKind kind, const std::vector<Camera> &cameras);
+Status write_cameras(const std::string &path, euclidean::CameraKind kind, const std::vector<euclidean::Camera> &cameras);
 // One `X Y Z` line per point.
 Status write_points_xyz(const std::string &path, const std::vector<double> &xyz);
 // A points file (readable by read_points) with the coordinates xyz and the projections and
@@ -140,6 +145,6 @@ Status write_points(const std::string &path, const PointSet &tracks, const std::
 // Reads `X Y Z` lines back.
 Status read_points_xyz(const std::string &path, std::vector<double> *xyz);
 
-}  // namespace eucsba
+}  // namespace sbaformats::eucsba
 
-#endif  // EUCSBA_IO_H
+#endif  // SBA_DEMO_EUCSBA_IO_H

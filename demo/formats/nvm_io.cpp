@@ -11,12 +11,9 @@
 #include "formats/output_file.h"
 #include "formats/text_tokens.h"
 
-namespace nvm {
+namespace sbaformats::nvm {
 
 namespace {
-
-using sbademo::g17;
-using sbademo::TextTokens;
 
 bool fail(std::string *error, const std::string &msg) { return TextTokens::fail(error, msg); }
 
@@ -135,7 +132,7 @@ std::string format_nvm(const Model &m) {
 }
 
 bool write_nvm(const std::string &path, const Model &m, std::string *error) {
-  return sbademo::write_whole_file(path, format_nvm(m), error);
+  return write_whole_file(path, format_nvm(m), error);
 }
 
 bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::SbaProblem *out,
@@ -144,16 +141,16 @@ bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::
   if (ncams == 0 || n == 0) return fail(error, name + ": the first model has no cameras or no points");
   colmap::SbaProblem p;
   p.nccalib = refine_focal ? 4 : 5;
-  p.ncdist = eucsba::kDistortionParams;
+  p.ncdist = sbacameras::euclidean::kDistortionParams;
   for (std::size_t j = 0; j < m.cameras.size(); ++j) {
     const Camera &c = m.cameras[j];
-    eucsba::Camera e;
+    sbacameras::euclidean::Camera e;
     e.k.fu = c.f;
     e.k.u0 = e.k.v0 = 0;
-    e.q = eucsba::normalized_rotation({c.q[0], c.q[1], c.q[2], c.q[3]});
+    e.q = sbacameras::euclidean::normalized_rotation({c.q[0], c.q[1], c.q[2], c.q[3]});
     double R[9];
-    eucsba::rotation_matrix(e.q, R);
-    sbademo::camera_translation(R, c.c, e.t.data());
+    sbacameras::euclidean::rotation_matrix(e.q, R);
+    sbacameras::camera_translation(R, c.c, e.t.data());
     if (!std::isfinite(e.t[0]) || !std::isfinite(e.t[1]) || !std::isfinite(e.t[2]))
       return fail(error, name + ": camera " + std::to_string(j) + ": its translation -R C overflows");
     p.cameras.push_back(e);
@@ -191,17 +188,17 @@ bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::
   return true;
 }
 
-void from_sba(const eucsba::CameraModel &sba_model, const double *p, int mcon, int ncon, Model *m) {
+void from_sba(const sbacameras::euclidean::CameraModel &sba_model, const double *p, int mcon, int ncon, Model *m) {
   const int ncams = static_cast<int>(m->cameras.size()), n = static_cast<int>(m->points.size());
   const int cnp = sba_model.cnp();
   for (int j = mcon; j < ncams; ++j) {
-    const eucsba::Camera e = sba_model.camera(j, p + static_cast<std::size_t>(j) * cnp);
+    const sbacameras::euclidean::Camera e = sba_model.camera(j, p + static_cast<std::size_t>(j) * cnp);
     Camera &c = m->cameras[static_cast<std::size_t>(j)];
     c.f = e.k.fu;
     c.q = {e.q.w, e.q.x, e.q.y, e.q.z};
     double R[9];
-    eucsba::rotation_matrix(e.q, R);
-    c.c = sbademo::camera_centre(R, e.t.data());
+    sbacameras::euclidean::rotation_matrix(e.q, R);
+    c.c = sbacameras::camera_centre(R, e.t.data());
   }
   const double *points = p + static_cast<std::size_t>(ncams) * cnp;
   for (int i = ncon; i < n; ++i)
@@ -209,7 +206,7 @@ void from_sba(const eucsba::CameraModel &sba_model, const double *p, int mcon, i
       m->points[static_cast<std::size_t>(i)].xyz[k] = points[3 * static_cast<std::size_t>(i) + k];
 }
 
-bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::PointSet &points, Model *out,
+bool from_problem(const std::vector<sbacameras::euclidean::Camera> &cameras, const eucsba::PointSet &points, Model *out,
                   std::string *error) {
   const int ncams = static_cast<int>(cameras.size()), n = points.npoints();
   if (points.ncameras != ncams ||
@@ -217,7 +214,7 @@ bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::Poin
     return fail(error, "an NVM model needs the points' dense visibility mask");
   Model m;
   for (int j = 0; j < ncams; ++j) {
-    const eucsba::Camera &e = cameras[static_cast<std::size_t>(j)];
+    const sbacameras::euclidean::Camera &e = cameras[static_cast<std::size_t>(j)];
     if (e.k.ar != 1 || e.k.s != 0 || std::any_of(e.kc.begin(), e.kc.end(), [](double v) { return v != 0; }))
       return fail(error, "camera " + std::to_string(j) +
                              " has an aspect ratio, a skew or distortion terms, which NVM cannot hold");
@@ -226,11 +223,11 @@ bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::Poin
     std::snprintf(name, sizeof name, "img_%04d.jpg", j);
     c.name = name;
     c.f = e.k.fu;
-    const eucsba::Quaternion q = eucsba::normalized_rotation(e.q);
+    const sbacameras::euclidean::Quaternion q = sbacameras::euclidean::normalized_rotation(e.q);
     c.q = {q.w, q.x, q.y, q.z};
     double R[9];
-    eucsba::rotation_matrix(q, R);
-    c.c = sbademo::camera_centre(R, e.t.data());
+    sbacameras::euclidean::rotation_matrix(q, R);
+    c.c = sbacameras::camera_centre(R, e.t.data());
     m.cameras.push_back(std::move(c));
   }
   m.points.resize(static_cast<std::size_t>(n));
@@ -240,11 +237,11 @@ bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::Poin
     p.rgb = eucsba::generated_color(i);
   }
   eucsba::for_each_projection(points, [&](int i, int j, const double *x) {
-    const eucsba::Camera &e = cameras[static_cast<std::size_t>(j)];
+    const sbacameras::euclidean::Camera &e = cameras[static_cast<std::size_t>(j)];
     m.points[static_cast<std::size_t>(i)].measurements.push_back({j, i, x[0] - e.k.u0, x[1] - e.k.v0});
   });
   *out = std::move(m);
   return true;
 }
 
-}  // namespace nvm
+}  // namespace sbaformats::nvm

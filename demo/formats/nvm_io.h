@@ -23,7 +23,7 @@
 #include "formats/eucsba_io.h"
 #include "cameras/euclidean.h"
 
-namespace nvm {
+namespace sbaformats::nvm {
 
 struct Camera {
   std::string name;  // the image file, one token
@@ -76,15 +76,15 @@ bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::
             std::string *error);
 // The estimate p (as eucsbademo lays it out) back into the model: f, q and C of the cameras
 // from mcon on, the points from ncon on. Everything else stays as it was read.
-void from_sba(const eucsba::CameraModel &sba_model, const double *p, int mcon, int ncon, Model *m);
+void from_sba(const euclidean::CameraModel &sba_model, const double *p, int mcon, int ncon, Model *m);
 
 // An eucsbademo problem as a model, for tests and for sbagen: camera j is img_jjjj.jpg with
 // k = 0, measurements from each camera's principal point, point i colored as
 // eucsba::generated_color colors it and feature index i in every image. False with a message for
 // what NVM cannot hold: ar != 1, a skew, distortion terms, a point set without its vmask.
-bool from_problem(const std::vector<eucsba::Camera> &cameras, const eucsba::PointSet &points, Model *out,
+bool from_problem(const std::vector<euclidean::Camera> &cameras, const eucsba::PointSet &points, Model *out,
                   std::string *error);
 
-}  // namespace nvm
+}  // namespace sbaformats::nvm
 
 #endif  // SBA_DEMO_NVM_IO_H

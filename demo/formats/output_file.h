@@ -27,7 +27,7 @@
 #include <cstring>
 #include <string>
 
-namespace sbademo {
+namespace sbaformats {
 
 class OutputFile {
  public:
@@ -231,6 +231,6 @@ inline bool stdout_written(const char *program) {
   return false;
 }
 
-}  // namespace sbademo
+}  // namespace sbaformats
 
 #endif  // SBA_DEMO_OUTPUT_FILE_H

@@ -5,7 +5,7 @@
 
 #include "formats/output_file.h"
 
-namespace sbademo {
+namespace sbaformats {
 
 bool write_ply(const std::string &path, const Cloud &cloud, std::string *error) {
   // Grey stands out from the red centres on a dark or a light background alike.
@@ -28,4 +28,4 @@ bool write_ply(const std::string &path, const Cloud &cloud, std::string *error) 
   return file.commit(error);
 }
 
-}  // namespace sbademo
+}  // namespace sbaformats

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace sbademo {
+namespace sbaformats {
 
 // What a PLY file shows: points, with their colors when the model has them, and camera centres.
 struct Cloud {
@@ -22,6 +22,6 @@ struct Cloud {
 // (output_file.h). On failure returns false with the reason in *error.
 bool write_ply(const std::string &path, const Cloud &cloud, std::string *error);
 
-}  // namespace sbademo
+}  // namespace sbaformats
 
 #endif  // SBA_DEMO_PLY_H

@@ -13,7 +13,7 @@
 #include <cstdlib>
 #include <string>
 
-namespace sbademo {
+namespace sbaformats {
 
 // strtod for the text readers of every program: *out is the value of tok when the whole of it
 // is a number, NaN and Inf included (the readers refuse those by name). A hexadecimal float
@@ -110,6 +110,6 @@ inline std::string g17(double v) {
   return buf;
 }
 
-}  // namespace sbademo
+}  // namespace sbaformats
 
 #endif  // SBA_DEMO_TEXT_TOKENS_H

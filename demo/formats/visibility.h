@@ -9,7 +9,7 @@
 #include <cstddef>
 #include <vector>
 
-namespace sbademo {
+namespace sbaformats {
 
 struct Visibility {
   std::vector<int> point, camera;  // of measurement k
@@ -29,6 +29,6 @@ struct Visibility {
   }
 };
 
-}  // namespace sbademo
+}  // namespace sbaformats
 
 #endif  // SBA_DEMO_VISIBILITY_H

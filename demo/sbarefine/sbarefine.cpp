@@ -34,6 +34,14 @@
 #include "sba_ext.h"
 #include "cli/solve_options.h"
 
+namespace colmap = sbaformats::colmap;
+namespace bundler = sbaformats::bundler;
+namespace nvm = sbaformats::nvm;
+namespace eucsba = sbaformats::eucsba;
+namespace bal = sbaformats::bal;
+namespace euclidean = sbacameras::euclidean;
+namespace bal_camera = sbacameras::bal;
+
 namespace {
 
 using sbacli::kExitFailure;
@@ -41,7 +49,7 @@ using sbacli::kExitUsage;
 
 struct Options {
   std::string input;
-  sbademo::SolveOptions solve;
+  sbacli::SolveOptions solve;
   std::string write;         // output model directory; empty: none
   std::string write_format;  // text or binary; empty: the input's
   std::string intrinsics = "focal,distortion";
@@ -56,7 +64,7 @@ struct Options {
 
 std::vector<sbacli::Option> option_table(Options &o) {
   std::vector<sbacli::Option> t;
-  sbademo::add_solve_options(
+  sbacli::add_solve_options(
       &t, o.solve,
       {"write", "OUT", "write the refined model in the input's format: a COLMAP model into the directory\n"
                         "OUT (created if missing), a Bundler or NVM file to the file OUT",
@@ -83,13 +91,13 @@ std::vector<sbacli::Option> option_table(Options &o) {
                [&o](const std::string &v) { return sbacli::to_file(v, &o.bundler_list); }});
   t.push_back({"write-list", "FILE", "Bundler: write the image list of --bundler-list to FILE as it was read",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_list); }});
-  sbademo::add_ply_options(&t, &o.initial_ply, &o.final_ply, true);
+  sbacli::add_ply_options(&t, &o.initial_ply, &o.final_ply, true);
   return t;
 }
 
 bool parse_command_line(int argc, char **argv, Options *options, std::string *error) {
   Options o;
-  if (!sbademo::parse_one_input(argc, argv, option_table(o),
+  if (!sbacli::parse_one_input(argc, argv, option_table(o),
                                 "argument (a COLMAP model directory, a Bundler or an NVM file)", &o.input, &o.help,
                                 &o.version, error))
     return false;
@@ -125,7 +133,7 @@ void print_usage(std::FILE *out) {
       out);
 }
 
-using sbademo::Cloud;
+using sbaformats::Cloud;
 
 Cloud cloud(const colmap::Model &model) {
   Cloud c;
@@ -135,8 +143,8 @@ Cloud cloud(const colmap::Model &model) {
   }
   for (const colmap::Image &im : model.images) {
     double R[9];
-    eucsba::rotation_matrix(eucsba::normalized_rotation({im.q[0], im.q[1], im.q[2], im.q[3]}), R);
-    c.centres.push_back(sbademo::camera_centre(R, im.t.data()));
+    euclidean::rotation_matrix(euclidean::normalized_rotation({im.q[0], im.q[1], im.q[2], im.q[3]}), R);
+    c.centres.push_back(sbacameras::camera_centre(R, im.t.data()));
   }
   return c;
 }
@@ -158,7 +166,7 @@ Cloud cloud(const bundler::Bundle &b) {
     c.colors.push_back(p.rgb);
   }
   for (const bundler::Camera &cam : b.cameras)
-    if (cam.registered()) c.centres.push_back(sbademo::camera_centre(cam.R.data(), cam.t.data()));
+    if (cam.registered()) c.centres.push_back(sbacameras::camera_centre(cam.R.data(), cam.t.data()));
   return c;
 }
 
@@ -166,7 +174,7 @@ Cloud cloud(const bundler::Bundle &b) {
 struct Job {
   std::string summary;  // the sizes line
   std::vector<double> p;
-  sbademo::MotstrInputs in;  // in.p is pointed at p when the solve starts
+  sbacli::MotstrInputs in;  // in.p is pointed at p when the solve starts
   // The projection of point i in camera j with the parameters p.
   std::function<void(const double *p, int j, int i, double x[2])> project;
   Cloud initial;
@@ -232,22 +240,22 @@ struct Loaded {
   colmap::Model model;
   colmap::Encoding encoding = colmap::Encoding::Text;
   colmap::SbaProblem problem;
-  std::unique_ptr<eucsba::CameraModel> sba_model;
+  std::unique_ptr<euclidean::CameraModel> sba_model;
   nvm::Model nvm;
   bundler::Bundle bundle;
   bundler::ImageList list;
   bal::Problem bal;
   bal::SbaLayout layout;
   std::vector<int> bundle_cameras;
-  bal::CallbackData bal_data;
+  bal_camera::CallbackData bal_data;
 };
 
 // The job of l->problem through eucsbademo's camera model (COLMAP models and NVM files).
 void eucsba_job(Loaded *l, Job *job) {
   colmap::SbaProblem &pr = l->problem;
-  l->sba_model = std::make_unique<eucsba::CameraModel>(eucsba::CameraKind::VaryingIntrinsicsDistortion, pr.cameras,
+  l->sba_model = std::make_unique<euclidean::CameraModel>(euclidean::CameraKind::VaryingIntrinsicsDistortion, pr.cameras,
                                                        pr.points.xyz, pr.nccalib, pr.ncdist);
-  const eucsba::CameraModel &sm = *l->sba_model;
+  const euclidean::CameraModel &sm = *l->sba_model;
   job->in.m = pr.points.ncameras;
   job->in.n = pr.points.npoints();
   job->in.cnp = sm.cnp();
@@ -255,10 +263,10 @@ void eucsba_job(Loaded *l, Job *job) {
   job->in.x = pr.points.x.data();
   job->p = sm.initial_camera_params();
   job->p.insert(job->p.end(), sm.initial_points().begin(), sm.initial_points().end());
-  const eucsba::ExpertCallbacks cb = eucsba::expert_callbacks(sm.kind(), eucsba::Refinement::MotionStructure);
+  const euclidean::ExpertCallbacks cb = euclidean::expert_callbacks(sm.kind(), euclidean::Refinement::MotionStructure);
   job->in.func = cb.func;
   job->in.fjac = cb.fjac;
-  job->in.adata = eucsba::as_adata(sm);
+  job->in.adata = euclidean::as_adata(sm);
   const int m = job->in.m, cnp = job->in.cnp;
   job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
     sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
@@ -267,8 +275,8 @@ void eucsba_job(Loaded *l, Job *job) {
 
 // --write-eucsba PREFIX: the estimate p as eucsbademo files.
 bool write_eucsba(const std::string &prefix, const Loaded &l, const double *p, std::string *why) {
-  const eucsba::CameraModel &model = *l.sba_model;
-  std::vector<eucsba::Camera> cams;
+  const euclidean::CameraModel &model = *l.sba_model;
+  std::vector<euclidean::Camera> cams;
   for (int j = 0; j < model.ncameras(); ++j)
     cams.push_back(model.camera(j, p + static_cast<std::size_t>(j) * model.cnp()));
   const double *xyz = p + static_cast<std::size_t>(model.ncameras()) * model.cnp();
@@ -343,18 +351,18 @@ bool load_bundle(const Options &o, const std::string &text, Loaded *l, Job *job,
     return false;
   job->in.m = l->layout.m;
   job->in.n = l->layout.n;
-  job->in.cnp = bal::kCameraParams;
+  job->in.cnp = bal_camera::kCameraParams;
   job->in.vis = &l->layout.vis;
   job->in.x = l->layout.x.data();
   job->p = l->layout.p;
-  job->in.func = bal::motstr_func;
-  job->in.fjac = bal::motstr_fjac;
+  job->in.func = bal_camera::motstr_func;
+  job->in.fjac = bal_camera::motstr_fjac;
   l->bal_data.ncameras = job->in.m;
   job->in.adata = &l->bal_data;
   const int m = job->in.m;
   job->project = [m](const double *p, int j, int i, double x[2]) {
-    bal::project(p + static_cast<std::size_t>(j) * bal::kCameraParams,
-                 p + static_cast<std::size_t>(m) * bal::kCameraParams + 3 * static_cast<std::size_t>(i), x);
+    bal_camera::project(p + static_cast<std::size_t>(j) * bal_camera::kCameraParams,
+                 p + static_cast<std::size_t>(m) * bal_camera::kCameraParams + 3 * static_cast<std::size_t>(i), x);
   };
   job->summary = "Bundler file " + o.input + ": " + std::to_string(l->bundle.cameras.size()) + " cameras (" +
                  std::to_string(m) + " registered), " + std::to_string(job->in.n) + " points";
@@ -367,7 +375,7 @@ bool load_bundle(const Options &o, const std::string &text, Loaded *l, Job *job,
     bundler::from_bal(l->bal, l->bundle_cameras, o.solve.mcon, o.solve.ncon, &l->bundle);
     *final_cloud = cloud(l->bundle);
     if (!o.write_bal.empty() && !bal::write_problem(o.write_bal, l->bal, why)) return false;
-    if (!o.write_list.empty() && !sbademo::write_whole_file(o.write_list, l->list.text, why)) return false;
+    if (!o.write_list.empty() && !sbaformats::write_whole_file(o.write_list, l->list.text, why)) return false;
     return o.write.empty() || bundler::write_bundle(o.write, l->bundle, why);
   };
   return true;
@@ -377,10 +385,10 @@ int refine_main(int argc, char **argv) {
   Options o;
   std::string error;
   const bool parsed = parse_command_line(argc, argv, &o, &error);
-  if (const int status = sbademo::answer_command_line("sbarefine", parsed, error, o.help, o.version, print_usage);
+  if (const int status = sbacli::answer_command_line("sbarefine", parsed, error, o.help, o.version, print_usage);
       status >= 0)
     return status;
-  sbademo::SolveOptions &so = o.solve;
+  sbacli::SolveOptions &so = o.solve;
   Input input;
   if (!look_at_input(o.input, &input, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
@@ -390,7 +398,7 @@ int refine_main(int argc, char **argv) {
   const std::string write_file = input.directory ? "" : o.write;
   const std::string eucsba_cams = o.write_eucsba.empty() ? "" : o.write_eucsba + "-cams.txt";
   const std::string eucsba_pts = o.write_eucsba.empty() ? "" : o.write_eucsba + "-pts.txt";
-  if (!sbademo::outputs_writable({&write_file, &eucsba_cams, &eucsba_pts, &so.json, &o.initial_ply, &o.final_ply,
+  if (!sbacli::outputs_writable({&write_file, &eucsba_cams, &eucsba_pts, &so.json, &o.initial_ply, &o.final_ply,
                                   &o.write_bal, &o.write_list}))
     return kExitFailure;
   if (input.directory && !o.write.empty()) {
@@ -445,9 +453,9 @@ int refine_main(int argc, char **argv) {
   const double read_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
   job.in.p = job.p.data();
-  sbademo::MotstrSolve solve("sbarefine", o.input, so, job.in);
+  sbacli::MotstrSolve solve("sbarefine", o.input, so, job.in);
   if (const int status = solve.check_fixed(); status >= 0) return status;
-  if (!sbademo::write_ply_option(o.initial_ply, job.initial)) return kExitFailure;
+  if (!sbacli::write_ply_option(o.initial_ply, job.initial)) return kExitFailure;
   if (!solve.run()) return kExitFailure;
 
   const std::vector<double> &p = job.p;
@@ -456,7 +464,7 @@ int refine_main(int argc, char **argv) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
-  if (!sbademo::write_ply_option(o.final_ply, final_cloud)) return kExitFailure;
+  if (!sbacli::write_ply_option(o.final_ply, final_cloud)) return kExitFailure;
 
   const std::size_t eol = job.summary.find('\n');
   std::printf("%s, %d observations, %lld variables%s\n", job.summary.substr(0, eol).c_str(), solve.observations(),
@@ -468,4 +476,4 @@ int refine_main(int argc, char **argv) {
 
 }  // namespace
 
-int main(int argc, char **argv) { return sbademo::guarded_main("sbarefine", refine_main, argc, argv); }
+int main(int argc, char **argv) { return sbacli::guarded_main("sbarefine", refine_main, argc, argv); }
