@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// COLMAP sparse models (demo/colmap_io.h, demo/colmap_sba.h) and sbarefine: the readers on
-// malformed input, the text and binary round trips, and refinement of a generated scene
+// COLMAP sparse models (demo/formats/colmap_io.h, demo/formats/colmap_sba.h) and sbarefine:
+// the readers on malformed input, the text and binary round trips, and refinement of a generated scene
 // through sbarefine against the same scene through eucsbademo's files.
 #include <gtest/gtest.h>
 

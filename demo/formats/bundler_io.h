@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // Bundler's bundle.out (v0.3, docs/formats.md "Bundler"): a strict reader, a writer and the
-// mapping onto the BAL camera model (bal_model.h), which is Bundler's own camera: P = R X + t,
-// p = -P / P_z (the camera looks down -z, y up), measured = f (1 + k1 |p|^2 + k2 |p|^4) p, in
-// pixels from the image centre with y up.
+// mapping onto the BAL camera model (cameras/bal_camera.h), which is Bundler's own camera:
+// P = R X + t, p = -P / P_z (the camera looks down -z, y up), measured = f (1 + k1 |p|^2 +
+// k2 |p|^4) p, in pixels from the image centre with y up.
 //
 // Errors are one line, "<file>:<line>: <message>".
 #ifndef SBA_DEMO_BUNDLER_IO_H

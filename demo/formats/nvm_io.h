@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // VisualSFM's NVM files (NVM_V3, docs/formats.md "VisualSFM NVM files"): a strict reader of
 // the first model, a writer that puts back everything after it as it came, and the mapping
-// onto eucsbademo's camera model (eucsba_model.h).
+// onto eucsbademo's camera model (cameras/euclidean.h).
 //
 // An NVM camera: X_c = R(q) (X - C) with q = (qw qx qy qz) world to camera and C the camera
 // centre; the projection is f X_c / Z_c in pixels from the image centre (x right, y down).
