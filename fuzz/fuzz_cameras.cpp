@@ -3,8 +3,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "formats/eucsba_io.h"
 #include "cameras/euclidean.h"
+#include "formats/eucsba_io.h"
 #include "fuzz_common.h"
 
 namespace eucsba = sbaformats::eucsba;

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "formats/colmap_io.h"
 #include "cameras/euclidean.h"
+#include "formats/colmap_io.h"
 #include "fuzz_common.h"
 
 namespace colmap = sbaformats::colmap;

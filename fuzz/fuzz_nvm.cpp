@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <string>
 
-#include "fuzz_common.h"
 #include "formats/nvm_io.h"
+#include "fuzz_common.h"
 
 namespace colmap = sbaformats::colmap;
 namespace nvm = sbaformats::nvm;

@@ -21,9 +21,9 @@
 #include <thread>
 #include <vector>
 
-#include "formats/bal_io.h"
 #include "cameras/bal_camera.h"
 #include "counting_new.h"
+#include "formats/bal_io.h"
 #include "ply_file.h"
 #include "sba.h"
 #include "sba_ext.h"

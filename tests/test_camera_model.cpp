@@ -16,8 +16,8 @@
 
 #include <unistd.h>
 
-#include "formats/eucsba_io.h"
 #include "cameras/euclidean.h"
+#include "formats/eucsba_io.h"
 
 namespace fs = std::filesystem;
 using namespace sbacameras::euclidean;

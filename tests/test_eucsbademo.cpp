@@ -40,8 +40,8 @@
 #include <utility>
 #include <vector>
 
-#include "formats/eucsba_io.h"
 #include "eucsbademo/options.h"
+#include "formats/eucsba_io.h"
 #include "ply_file.h"
 #include "sanitized.h"
 #include "sba_ext.h"

@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "formats/eucsba_io.h"
 #include "cameras/euclidean.h"
+#include "formats/eucsba_io.h"
 #include "sba.h"
 #include "sbagen.h"
 

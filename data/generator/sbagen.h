@@ -28,8 +28,8 @@
 #include <string>
 #include <vector>
 
-#include "formats/eucsba_io.h"
 #include "cameras/euclidean.h"
+#include "formats/eucsba_io.h"
 
 namespace sbagen {
 

@@ -13,8 +13,8 @@
 #include <utility>
 #include <vector>
 
-#include "formats/bundler_io.h"
 #include "cli/cli.h"
+#include "formats/bundler_io.h"
 #include "formats/colmap_io.h"
 #include "formats/colmap_sba.h"
 #include "formats/nvm_io.h"

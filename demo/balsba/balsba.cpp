@@ -14,14 +14,14 @@
 #include <string>
 #include <vector>
 
-#include "formats/bal_io.h"
 #include "cameras/bal_camera.h"
 #include "cameras/camera_pose.h"
 #include "cli/cli.h"
 #include "cli/motstr_solve.h"
-#include "formats/output_file.h"
 #include "cli/ply_options.h"
 #include "cli/solve_options.h"
+#include "formats/bal_io.h"
+#include "formats/output_file.h"
 #include "sba.h"
 #include "sba_ext.h"
 

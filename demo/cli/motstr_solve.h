@@ -17,11 +17,11 @@
 #include "cli/cli.h"
 #include "cli/report.h"
 #include "cli/run_control.h"
-#include "sba.h"
-#include "sba_ext.h"
 #include "cli/solve_options.h"
 #include "cli/tty_progress.h"
 #include "formats/visibility.h"
+#include "sba.h"
+#include "sba_ext.h"
 
 namespace sbacli {
 

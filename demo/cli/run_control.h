@@ -17,8 +17,8 @@
 #include <csignal>
 #include <vector>
 
-#include "sba_ext.h"
 #include "cli/tty_progress.h"
+#include "sba_ext.h"
 
 namespace sbacli {
 

@@ -15,11 +15,11 @@
 #include <vector>
 
 #include "cli/cli.h"
-#include "formats/output_file.h"
 #include "cli/report.h"
 #include "cli/run_control.h"
-#include "sba_ext.h"
+#include "formats/output_file.h"
 #include "formats/visibility.h"
+#include "sba_ext.h"
 
 namespace sbacli {
 

@@ -14,18 +14,18 @@
 #include <string>
 #include <vector>
 
-#include "formats/eucsba_io.h"
-#include "cameras/euclidean.h"
-#include "eucsbademo/options.h"
 #include "cameras/camera_pose.h"
+#include "cameras/euclidean.h"
 #include "cli/cli.h"
-#include "formats/output_file.h"
 #include "cli/ply_options.h"
 #include "cli/report.h"
 #include "cli/run_control.h"
+#include "cli/tty_progress.h"
+#include "eucsbademo/options.h"
+#include "formats/eucsba_io.h"
+#include "formats/output_file.h"
 #include "sba.h"
 #include "sba_ext.h"
-#include "cli/tty_progress.h"
 
 namespace eucsbademo {
 namespace {

@@ -19,9 +19,9 @@
 #include <string>
 #include <vector>
 
+#include "cameras/euclidean.h"
 #include "formats/colmap_sba.h"
 #include "formats/eucsba_io.h"
-#include "cameras/euclidean.h"
 
 namespace sbaformats::nvm {
 

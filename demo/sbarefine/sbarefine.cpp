@@ -18,21 +18,21 @@
 #include <string>
 #include <vector>
 
-#include "formats/bal_io.h"
 #include "cameras/bal_camera.h"
-#include "formats/bundler_io.h"
 #include "cameras/camera_pose.h"
+#include "cameras/euclidean.h"
 #include "cli/cli.h"
+#include "cli/motstr_solve.h"
+#include "cli/ply_options.h"
+#include "cli/solve_options.h"
+#include "formats/bal_io.h"
+#include "formats/bundler_io.h"
 #include "formats/colmap_io.h"
 #include "formats/colmap_sba.h"
-#include "cameras/euclidean.h"
-#include "cli/motstr_solve.h"
 #include "formats/nvm_io.h"
 #include "formats/output_file.h"
-#include "cli/ply_options.h"
 #include "sba.h"
 #include "sba_ext.h"
-#include "cli/solve_options.h"
 
 namespace colmap = sbaformats::colmap;
 namespace bundler = sbaformats::bundler;

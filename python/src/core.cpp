@@ -11,10 +11,10 @@
 #include <vector>
 
 #include "arrays.h"
-#include "formats/bal_io.h"
 #include "cameras/bal_camera.h"
-#include "formats/eucsba_io.h"
 #include "cameras/euclidean.h"
+#include "formats/bal_io.h"
+#include "formats/eucsba_io.h"
 #include "python_model.h"
 #include "run.h"
 #include "session.h"

@@ -13,9 +13,9 @@
 #include <sstream>
 #include <vector>
 
+#include "cameras/euclidean.h"
 #include "formats/colmap_io.h"
 #include "formats/colmap_sba.h"
-#include "cameras/euclidean.h"
 #include "sba_ext.h"
 #include "sbagen.h"
 
