@@ -8,35 +8,40 @@
 #include <utility>
 #include <vector>
 
-#include "bal_io.h"
-#include "eucsba_io.h"
+#include "formats/bal_io.h"
+#include "formats/eucsba_io.h"
 #include "sbagen.h"
+
+namespace eucsba = sbaformats::eucsba;
+namespace bal = sbaformats::bal;
+namespace euclidean = sbacameras::euclidean;
+namespace bal_camera = sbacameras::bal;
 
 namespace sbabench {
 
 void *Problem::adata() const {
-  if (model_kind == ModelKind::Bal) return const_cast<bal::CallbackData *>(&bal_data);
-  return eucsba::as_adata(*euc);
+  if (model_kind == ModelKind::Bal) return const_cast<bal_camera::CallbackData *>(&bal_data);
+  return euclidean::as_adata(*euc);
 }
 
 Problem::ExpertFn Problem::func() const {
-  if (model_kind == ModelKind::Bal) return bal::motstr_func;
-  return eucsba::expert_callbacks(euc->kind(), eucsba::Refinement::MotionStructure).func;
+  if (model_kind == ModelKind::Bal) return bal_camera::motstr_func;
+  return euclidean::expert_callbacks(euc->kind(), euclidean::Refinement::MotionStructure).func;
 }
 
 Problem::ExpertFn Problem::fjac() const {
-  if (model_kind == ModelKind::Bal) return bal::motstr_fjac;
-  return eucsba::expert_callbacks(euc->kind(), eucsba::Refinement::MotionStructure).fjac;
+  if (model_kind == ModelKind::Bal) return bal_camera::motstr_fjac;
+  return euclidean::expert_callbacks(euc->kind(), euclidean::Refinement::MotionStructure).fjac;
 }
 
 std::vector<int> Problem::held_camera_params() const {
   std::vector<int> held;
-  if (model_kind != ModelKind::Eucsba || euc->kind() == eucsba::CameraKind::FixedIntrinsics) return held;
+  if (model_kind != ModelKind::Eucsba || euc->kind() == euclidean::CameraKind::FixedIntrinsics) return held;
   // (fu u0 v0 ar s [kc0..kc4] ...): the trailing nccalib intrinsics and ncdist distortion terms.
-  for (int c = eucsba::kIntrinsicParams - euc->nccalib(); c < eucsba::kIntrinsicParams; ++c) held.push_back(c);
-  if (euc->kind() == eucsba::CameraKind::VaryingIntrinsicsDistortion)
-    for (int c = eucsba::kDistortionParams - euc->ncdist(); c < eucsba::kDistortionParams; ++c)
-      held.push_back(eucsba::kIntrinsicParams + c);
+  for (int c = euclidean::kIntrinsicParams - euc->nccalib(); c < euclidean::kIntrinsicParams; ++c) held.push_back(c);
+  if (euc->kind() == euclidean::CameraKind::VaryingIntrinsicsDistortion)
+    for (int c = euclidean::kDistortionParams - euc->ncdist(); c < euclidean::kDistortionParams; ++c)
+      held.push_back(euclidean::kIntrinsicParams + c);
   return held;
 }
 
@@ -90,10 +95,10 @@ std::string base_name(const std::string &path) {
   return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
-void fill_eucsba(eucsba::CameraKind kind, const std::vector<eucsba::Camera> &cameras, eucsba::PointSet &pts,
+void fill_eucsba(euclidean::CameraKind kind, const std::vector<euclidean::Camera> &cameras, eucsba::PointSet &pts,
                  Problem *out) {
   out->model_kind = ModelKind::Eucsba;
-  out->euc = std::make_unique<eucsba::CameraModel>(kind, cameras, pts.xyz);
+  out->euc = std::make_unique<euclidean::CameraModel>(kind, cameras, pts.xyz);
   out->n = pts.npoints();
   out->m = pts.ncameras;
   out->cnp = out->euc->cnp();
@@ -142,7 +147,7 @@ bool load_bal(const std::string &path, Problem *out, std::string *error) {
   out->model_kind = ModelKind::Bal;
   out->n = s.n;
   out->m = s.m;
-  out->cnp = bal::kCameraParams;
+  out->cnp = bal_camera::kCameraParams;
   out->vmask = s.vis.vmask(s.n, s.m);
   out->x = std::move(s.x);
   out->p0 = std::move(s.p);
@@ -202,9 +207,9 @@ bool generate(const std::string &spec, Problem *out, std::string *error) {
     } else if (key == "trajectory") {
       ok = sbagen::trajectory_from_name(value, &o.trajectory);
     } else if (key == "kind") {
-      if (value == "fixed") o.kind = eucsba::CameraKind::FixedIntrinsics;
-      else if (value == "varK") o.kind = eucsba::CameraKind::VaryingIntrinsics;
-      else if (value == "varKD") o.kind = eucsba::CameraKind::VaryingIntrinsicsDistortion;
+      if (value == "fixed") o.kind = euclidean::CameraKind::FixedIntrinsics;
+      else if (value == "varK") o.kind = euclidean::CameraKind::VaryingIntrinsics;
+      else if (value == "varKD") o.kind = euclidean::CameraKind::VaryingIntrinsicsDistortion;
       else ok = false;
     } else if (key == "noise") {
       char *end = nullptr;
@@ -240,13 +245,13 @@ bool generate(const std::string &spec, Problem *out, std::string *error) {
   // point), so the n*m chars of a long sequence do not count against it.
   eucsba::PointSet pts = std::move(scene.measurements);
   // The tracks give the observation index directly (no n*m scan).
-  std::vector<eucsba::Camera> cameras = std::move(scene.initial_cameras);
-  const eucsba::CameraKind kind = scene.kind;
+  std::vector<euclidean::Camera> cameras = std::move(scene.initial_cameras);
+  const euclidean::CameraKind kind = scene.kind;
   std::vector<int> cams = std::move(scene.track_cameras);
   std::vector<std::size_t> begin = std::move(scene.track_begin);
   scene = sbagen::Scene();  // the truth is not needed any more
   out->model_kind = ModelKind::Eucsba;
-  out->euc = std::make_unique<eucsba::CameraModel>(kind, cameras, pts.xyz);
+  out->euc = std::make_unique<euclidean::CameraModel>(kind, cameras, pts.xyz);
   out->n = pts.npoints();
   out->m = pts.ncameras;
   out->cnp = out->euc->cnp();

@@ -9,8 +9,8 @@
 
 #include <ceres/ceres.h>
 
-#include "bal_model.h"
-#include "eucsba_model.h"
+#include "cameras/bal_camera.h"
+#include "cameras/euclidean.h"
 
 namespace sbabench {
 
@@ -19,7 +19,7 @@ namespace sbabench {
 template <int CNP>
 class EucsbaCost final : public ceres::SizedCostFunction<2, CNP, 3> {
  public:
-  EucsbaCost(const eucsba::CameraModel &model, int camera, double x, double y)
+  EucsbaCost(const sbacameras::euclidean::CameraModel &model, int camera, double x, double y)
       : model_(model), camera_(camera), obs_{x, y} {}
 
   bool Evaluate(double const *const *parameters, double *residuals, double **jacobians) const override {
@@ -32,20 +32,20 @@ class EucsbaCost final : public ceres::SizedCostFunction<2, CNP, 3> {
   }
 
  private:
-  const eucsba::CameraModel &model_;
+  const sbacameras::euclidean::CameraModel &model_;
   int camera_;
   double obs_[2];
 };
 
 // The BAL camera (Rodrigues w, t, f, k1, k2) and point.
-class BalCost final : public ceres::SizedCostFunction<2, bal::kCameraParams, bal::kPointParams> {
+class BalCost final : public ceres::SizedCostFunction<2, sbacameras::bal::kCameraParams, sbacameras::bal::kPointParams> {
  public:
   BalCost(double x, double y) : obs_{x, y} {}
 
   bool Evaluate(double const *const *parameters, double *residuals, double **jacobians) const override {
     double *A = jacobians ? jacobians[0] : nullptr;
     double *B = jacobians ? jacobians[1] : nullptr;
-    bal::project_jacobian(parameters[0], parameters[1], residuals, A, B);
+    sbacameras::bal::project_jacobian(parameters[0], parameters[1], residuals, A, B);
     residuals[0] -= obs_[0];
     residuals[1] -= obs_[1];
     return true;

@@ -61,7 +61,7 @@ def rodrigues_rotate(w, X):
 
 
 def bal_project(cams, pts, ci, pi):
-    """The BAL camera model (bal_model.h) on the listed observations."""
+    """The BAL camera model (cameras/bal_camera.h) on the listed observations."""
     c = cams[ci]
     Q = rodrigues_rotate(c[:, :3], pts[pi]) + c[:, 3:6]
     p = -Q[:, :2] / Q[:, 2:3]

@@ -37,7 +37,7 @@
 #include "bench_json.h"
 #include "bench_problem.h"
 #include "bench_run.h"
-#include "cli.h"
+#include "cli/cli.h"
 
 namespace sbabench {
 namespace {

@@ -9,16 +9,19 @@
 #include <string>
 #include <utility>
 
-#include "bal_io.h"
+#include "formats/bal_io.h"
 #include "fuzz_common.h"
+
+namespace bal = sbaformats::bal;
+namespace bal_camera = sbacameras::bal;
 
 namespace {
 
 void check_problem(const bal::Problem &p, const std::string &name) {
   using sbafuzz::require;
   require(p.ncameras > 0 && p.npoints > 0 && p.nobservations() > 0, "accepted a count <= 0");
-  require(p.cameras.size() == std::size_t(p.ncameras) * bal::kCameraParams, "camera values do not match the header");
-  require(p.points.size() == std::size_t(p.npoints) * bal::kPointParams, "point values do not match the header");
+  require(p.cameras.size() == std::size_t(p.ncameras) * bal_camera::kCameraParams, "camera values do not match the header");
+  require(p.points.size() == std::size_t(p.npoints) * bal_camera::kPointParams, "point values do not match the header");
   sbafuzz::require_finite(p.cameras.begin(), p.cameras.end(), "the cameras");
   sbafuzz::require_finite(p.points.begin(), p.points.end(), "the points");
   std::set<std::pair<int, int>> pairs;

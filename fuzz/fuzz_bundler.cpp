@@ -9,9 +9,13 @@
 #include <string>
 #include <vector>
 
-#include "bal_io.h"
-#include "bundler_io.h"
+#include "formats/bal_io.h"
+#include "formats/bundler_io.h"
 #include "fuzz_common.h"
+
+namespace bundler = sbaformats::bundler;
+namespace bal = sbaformats::bal;
+namespace bal_camera = sbacameras::bal;
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
   using sbafuzz::require;
@@ -39,7 +43,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     sbafuzz::check_error_line(error, name + ": ");
     return 0;
   }
-  require(p.cameras.size() == cameras.size() * bal::kCameraParams, "camera parameters per registered camera");
+  require(p.cameras.size() == cameras.size() * bal_camera::kCameraParams, "camera parameters per registered camera");
   sbafuzz::require_finite(p.cameras.begin(), p.cameras.end(), "the BAL cameras");
   for (const bal::Observation &o : p.observations)
     require(o.camera >= 0 && o.camera < p.ncameras && o.point >= 0 && o.point < p.npoints,

@@ -3,13 +3,16 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "eucsba_io.h"
+#include "formats/eucsba_io.h"
 #include "fuzz_common.h"
+
+namespace eucsba = sbaformats::eucsba;
+namespace euclidean = sbacameras::euclidean;
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
   static const sbafuzz::InputFile file("calib.txt");
   if (!file.write(data, size)) return 0;
-  eucsba::Intrinsics k;
+  euclidean::Intrinsics k;
   const eucsba::Status st = eucsba::read_calibration(file.path(), &k);
   if (!st.ok()) {
     sbafuzz::check_error_line(st.to_string(), file.path() + ":");

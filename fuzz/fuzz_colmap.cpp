@@ -9,9 +9,12 @@
 #include <string>
 #include <vector>
 
-#include "colmap_io.h"
-#include "eucsba_model.h"
+#include "cameras/euclidean.h"
+#include "formats/colmap_io.h"
 #include "fuzz_common.h"
+
+namespace colmap = sbaformats::colmap;
+namespace euclidean = sbacameras::euclidean;
 
 namespace {
 
@@ -39,7 +42,7 @@ void require_valid(const colmap::Camera &c) {
     require(c.params[std::size_t(k)] > 0, "accepted a focal length that is not positive");
 }
 void require_valid(const colmap::Image &im) {
-  sbafuzz::require_rotation(eucsba::normalized_rotation({im.q[0], im.q[1], im.q[2], im.q[3]}), "an image's quaternion");
+  sbafuzz::require_rotation(euclidean::normalized_rotation({im.q[0], im.q[1], im.q[2], im.q[3]}), "an image's quaternion");
   require(!im.name.empty() && im.name.front() != ' ' && im.name.back() != ' ', "accepted a name text cannot hold");
 }
 void require_valid(const colmap::Point3D &) {}

@@ -78,7 +78,7 @@ void require_finite(It begin, It end, const std::string &what) {
   for (It it = begin; it != end; ++it) require(std::isfinite(*it), what + " holds a non-finite value");
 }
 
-// A normalized quaternion (eucsba::Quaternion or anything with w, x, y, z) of a reader's: of
+// A normalized quaternion (sbacameras::euclidean::Quaternion or anything with w, x, y, z) of a reader's: of
 // unit norm, whatever the size the file gave it.
 template <class Q>
 void require_rotation(const Q &q, const std::string &what) {

@@ -7,8 +7,12 @@
 #include <cstdint>
 #include <string>
 
+#include "formats/nvm_io.h"
 #include "fuzz_common.h"
-#include "nvm_io.h"
+
+namespace colmap = sbaformats::colmap;
+namespace nvm = sbaformats::nvm;
+namespace euclidean = sbacameras::euclidean;
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
   using sbafuzz::require;
@@ -31,7 +35,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     return 0;
   }
   require(p.cameras.size() == m.cameras.size(), "one sba camera per NVM camera");
-  for (const eucsba::Camera &c : p.cameras) {
+  for (const euclidean::Camera &c : p.cameras) {
     const double q[4] = {c.q.w, c.q.x, c.q.y, c.q.z};
     sbafuzz::require_finite(q, q + 4, "a camera's rotation");
     sbafuzz::require_finite(c.t.begin(), c.t.end(), "a camera's translation");

@@ -5,8 +5,10 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "eucsba_io.h"
+#include "formats/eucsba_io.h"
 #include "fuzz_common.h"
+
+namespace eucsba = sbaformats::eucsba;
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
   constexpr int kCameras = 64;

@@ -8,12 +8,17 @@
 #include <cstdio>
 #include <string>
 
-#include "bundler_io.h"
-#include "colmap_io.h"
-#include "colmap_sba.h"
-#include "nvm_io.h"
-#include "output_file.h"
+#include "formats/bundler_io.h"
+#include "formats/colmap_io.h"
+#include "formats/colmap_sba.h"
+#include "formats/nvm_io.h"
+#include "formats/output_file.h"
 #include "sbagen.h"
+
+namespace colmap = sbaformats::colmap;
+namespace bundler = sbaformats::bundler;
+namespace nvm = sbaformats::nvm;
+namespace euclidean = sbacameras::euclidean;
 
 namespace {
 
@@ -42,8 +47,8 @@ int main(int argc, char **argv) {
   }
   const std::string dir = argv[1], bundler_dir = argv[2], nvm_dir = argv[3];
   int written = 0;
-  for (eucsba::CameraKind kind : {eucsba::CameraKind::FixedIntrinsics, eucsba::CameraKind::VaryingIntrinsics,
-                                  eucsba::CameraKind::VaryingIntrinsicsDistortion}) {
+  for (euclidean::CameraKind kind : {euclidean::CameraKind::FixedIntrinsics, euclidean::CameraKind::VaryingIntrinsics,
+                                  euclidean::CameraKind::VaryingIntrinsicsDistortion}) {
     sbagen::Options o;
     o.kind = kind;
     o.cameras = 4;
@@ -61,7 +66,7 @@ int main(int argc, char **argv) {
     bundler::Bundle bundle;
     nvm::Model nvm_model;
     // Neither Bundler nor NVM holds eucsbademo's tangential terms.
-    if (kind != eucsba::CameraKind::VaryingIntrinsicsDistortion) {
+    if (kind != euclidean::CameraKind::VaryingIntrinsicsDistortion) {
       const std::string seed = std::string("/seed-") + sbagen::camera_kind_name(kind);
       if (!bundler::from_problem(scene.initial_cameras, scene.measurements, &bundle, &error) ||
           !bundler::write_bundle(bundler_dir + seed + ".out", bundle, &error) ||
@@ -69,7 +74,7 @@ int main(int argc, char **argv) {
         std::fprintf(stderr, "seed_writer: %s\n", error.c_str());
         return 1;
       }
-      if (kind == eucsba::CameraKind::FixedIntrinsics) {
+      if (kind == euclidean::CameraKind::FixedIntrinsics) {
         nvm_model.header = "NVM_V3 FixedK 800 320 800 240";
         nvm_model.cameras[1].k = -2.5e-8;
         nvm_model.rest = "\n1\nlost.jpg 700 1 0 0 0 0 0 0 0 0\n\n0\n\n0\n\n#PLY files\n0\n";
@@ -89,7 +94,7 @@ int main(int argc, char **argv) {
       std::string list;
       for (std::size_t j = 0; j < bundle.cameras.size(); ++j)
         list += "images/" + (j == 1 ? odd_name(j) : nvm_model.cameras[j].name) + (j % 2 ? "\n" : " 0 812.5\n");
-      if (!sbademo::write_whole_file(bundler_dir + seed + "-list.txt", list, &error)) {
+      if (!sbaformats::write_whole_file(bundler_dir + seed + "-list.txt", list, &error)) {
         std::fprintf(stderr, "seed_writer: %s\n", error.c_str());
         return 1;
       }

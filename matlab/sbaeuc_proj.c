@@ -22,55 +22,16 @@
  * Jacobians are row-major: A_ij is 2 x 6, B_ij is 2 x 3.
  */
 #include <math.h>
-#include <string.h>
+#include <stddef.h>
+
+/* The rotation, shared with eucsbademo's camera model. */
+#include "../demo/cameras/euclidean_rotation.h"
 
 #if defined(__GNUC__)
 #define SBAEUC_EXPORT __attribute__((visibility("default")))
 #else
 #define SBAEUC_EXPORT
 #endif
-
-/* qs = (w, u) from v, with dw/dv (3) and du/dv (3x3 row-major). */
-static void correction(const double *v, double *w, double u[3], double dw[3], double du[9]) {
-  const double vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-  int r, c;
-  memset(du, 0, 9 * sizeof(double));
-  if (vv < 1.0) {
-    *w = sqrt(1.0 - vv);
-    for (r = 0; r < 3; ++r) {
-      u[r] = v[r];
-      dw[r] = -v[r] / *w;
-      du[r * 4] = 1.0;
-    }
-  } else {
-    const double len = sqrt(vv);
-    *w = 0.0;
-    for (r = 0; r < 3; ++r) {
-      u[r] = v[r] / len;
-      dw[r] = 0.0;
-    }
-    for (r = 0; r < 3; ++r)
-      for (c = 0; c < 3; ++c) du[r * 3 + c] = ((r == c ? 1.0 : 0.0) - u[r] * u[c]) / len;
-  }
-}
-
-/* R (row-major) of the unit quaternion (w, x, y, z). */
-static void rotation(double w, double x, double y, double z, double R[9]) {
-  R[0] = w * w + x * x - y * y - z * z;
-  R[1] = 2 * (x * y - w * z);
-  R[2] = 2 * (x * z + w * y);
-  R[3] = 2 * (x * y + w * z);
-  R[4] = w * w - x * x + y * y - z * z;
-  R[5] = 2 * (y * z - w * x);
-  R[6] = 2 * (x * z - w * y);
-  R[7] = 2 * (y * z + w * x);
-  R[8] = w * w - x * x - y * y + z * z;
-}
-
-static void mat3_vec(const double M[9], const double *x, double y[3]) {
-  int r;
-  for (r = 0; r < 3; ++r) y[r] = M[r * 3] * x[0] + M[r * 3 + 1] * x[1] + M[r * 3 + 2] * x[2];
-}
 
 /* The projection of b by camera j with parameters a; A (2x6) and B (2x3) unless NULL. */
 static void euclidean(int j, const double *a, const double *b, double **adata, double *x, double *A,
@@ -86,14 +47,14 @@ static void euclidean(int j, const double *a, const double *b, double **adata, d
   }
   const double *q0 = adata[0] + 4 * j, *cal = adata[1];
   const double fu = cal[0], u0 = cal[1], v0 = cal[2], ar = cal[3], sk = cal[4], fv = fu * ar;
-  double R0[9], Rs[9], Y[3], Xc[3], w, u[3], dw[3], du[9], iz, xn, yn, H[6];
+  const sbaeuc_correction qs = sbaeuc_correction_of(a);
+  double R0[9], Rs[9], Y[3], Xc[3], iz, xn, yn, H[6];
   int r, c;
 
-  rotation(q0[0], q0[1], q0[2], q0[3], R0);
-  mat3_vec(R0, b, Y); /* Y = R(q0) b */
-  correction(a, &w, u, dw, du);
-  rotation(w, u[0], u[1], u[2], Rs);
-  mat3_vec(Rs, Y, Xc);
+  sbaeuc_rotation_matrix(q0[0], q0[1], q0[2], q0[3], R0);
+  sbaeuc_mat3_vec(R0, b, Y); /* Y = R(q0) b */
+  sbaeuc_rotation_matrix(qs.w, qs.u[0], qs.u[1], qs.u[2], Rs);
+  sbaeuc_mat3_vec(Rs, Y, Xc);
   for (r = 0; r < 3; ++r) Xc[r] += a[3 + r];
   iz = 1.0 / Xc[2];
   xn = Xc[0] * iz;
@@ -121,23 +82,9 @@ static void euclidean(int j, const double *a, const double *b, double **adata, d
       for (c = 0; c < 3; ++c)
         B[r * 3 + c] = H[r * 3] * RsR0[c] + H[r * 3 + 1] * RsR0[3 + c] + H[r * 3 + 2] * RsR0[6 + c];
   }
-  if (A) {
-    /* R(qs) Y = Y + 2w (u x Y) + 2 u x (u x Y), u x (u x Y) = u (u.Y) - Y (u.u):
-     *   d/du = -2w [Y]x + 2 ((u.Y) I + u Y^T - 2 Y u^T),   d/dw = 2 (u x Y);
-     * then d/dv = d/du du/dv + d/dw dw/dv^T. */
-    const double uY = u[0] * Y[0] + u[1] * Y[1] + u[2] * Y[2];
-    const double uxY[3] = {u[1] * Y[2] - u[2] * Y[1], u[2] * Y[0] - u[0] * Y[2],
-                           u[0] * Y[1] - u[1] * Y[0]};
-    const double Yx[9] = {0, -Y[2], Y[1], Y[2], 0, -Y[0], -Y[1], Y[0], 0};
-    double dU[9], Jv[9];
-    for (r = 0; r < 3; ++r)
-      for (c = 0; c < 3; ++c)
-        dU[r * 3 + c] =
-            -2 * w * Yx[r * 3 + c] + 2 * ((r == c ? uY : 0.0) + u[r] * Y[c] - 2 * Y[r] * u[c]);
-    for (r = 0; r < 3; ++r)
-      for (c = 0; c < 3; ++c)
-        Jv[r * 3 + c] = dU[r * 3] * du[c] + dU[r * 3 + 1] * du[3 + c] + dU[r * 3 + 2] * du[6 + c] +
-                        2 * uxY[r] * dw[c];
+  if (A) { /* d Xc / d v = d(R(qs) Y) / dv */
+    double Jv[9];
+    sbaeuc_rotation_derivative(&qs, Y, Jv);
     for (r = 0; r < 2; ++r)
       for (c = 0; c < 3; ++c) {
         A[r * 6 + c] = H[r * 3] * Jv[c] + H[r * 3 + 1] * Jv[3 + c] + H[r * 3 + 2] * Jv[6 + c];

@@ -19,6 +19,9 @@ function x = sbaeuc_proj(j, i, aj, bi, qr0, cal)
 % Outside the unit ball (|v| >= 1, reached at most by a rejected trial step) qs is the
 % boundary rotation (0, v/|v|), so that the prediction stays real and finite.
 %
+% The same model in C is sbaeuc_proj.c, whose rotation eucsbademo's camera model shares
+% (demo/cameras/euclidean_rotation.h in the source tree).
+%
 % See also SBAEUC_PROJAC, SBAEUC_PROJAC_MOT, SBAEUC_PROJAC_STR, EUCSBADEMO, SBA.
 
   q = qr0(4*j+1:4*j+4);

@@ -18,7 +18,7 @@
 #include <sstream>
 #include <string>
 
-#include "eucsba_io.h"
+#include "formats/eucsba_io.h"
 #include "sbagen.h"
 
 namespace refinetest {
@@ -46,10 +46,10 @@ inline void write_file(const std::string &path, const std::string &text) {
 // that every format built from it starts from the same doubles as those files.
 struct GeneratedScene {
   std::string prefix;
-  eucsba::Problem problem;
+  sbaformats::eucsba::Problem problem;
 };
 
-inline GeneratedScene generate_scene(const std::string &dir, eucsba::CameraKind kind, int cameras, int points) {
+inline GeneratedScene generate_scene(const std::string &dir, sbacameras::euclidean::CameraKind kind, int cameras, int points) {
   sbagen::Options o;
   o.kind = kind;
   o.cameras = cameras;
@@ -62,7 +62,7 @@ inline GeneratedScene generate_scene(const std::string &dir, eucsba::CameraKind 
   out.prefix = dir + "/s";
   EXPECT_TRUE(sbagen::write_problem(s, out.prefix));
   const auto files = sbagen::problem_files(out.prefix, s);
-  const eucsba::Status st = eucsba::load_problem(files.cams, files.pts, files.calib, &out.problem);
+  const sbaformats::eucsba::Status st = sbaformats::eucsba::load_problem(files.cams, files.pts, files.calib, &out.problem);
   EXPECT_TRUE(st) << st.to_string();
   return out;
 }

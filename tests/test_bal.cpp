@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// BAL support (demo/bal_io.h, demo/bal_model.h): the reader on the shared BAL files and on
-// malformed inputs, the analytic Jacobian against finite differences, the writer's round
+// BAL support (demo/formats/bal_io.h, demo/cameras/bal_camera.h): the reader on the shared
+// BAL files and on malformed inputs, the analytic Jacobian against finite differences, the writer's round
 // trip, and a regression solve of the Ladybug problem-49-7776 with sba.
 #include <gtest/gtest.h>
 
@@ -21,12 +21,15 @@
 #include <thread>
 #include <vector>
 
-#include "bal_io.h"
-#include "bal_model.h"
+#include "cameras/bal_camera.h"
 #include "counting_new.h"
+#include "formats/bal_io.h"
 #include "ply_file.h"
 #include "sba.h"
 #include "sba_ext.h"
+
+namespace bal = sbaformats::bal;
+namespace bal_camera = sbacameras::bal;
 
 namespace {
 
@@ -386,7 +389,7 @@ TEST(BalModel, RotationMatchesAxisAngleOnBothSidesOfTheSeries) {
     for (double a : angles) {
       const double w[3] = {d[0] / nd * a, d[1] / nd * a, d[2] / nd * a};
       double R[9], E[9];
-      bal::rotation_matrix(w, R);
+      bal_camera::rotation_matrix(w, R);
       axis_angle_matrix(w, E);
       for (int k = 0; k < 9; ++k) EXPECT_NEAR(R[k], E[k], 4e-16 * 4) << "angle " << a << " entry " << k;
     }
@@ -398,7 +401,7 @@ TEST(BalModel, ProjectionByHand) {
   const double a[9] = {0, 0, 0, 0, 0, 0, 2.0, 0.1, 0.01};
   const double b[3] = {1, 2, -4};
   double x[2];
-  bal::project(a, b, x);
+  bal_camera::project(a, b, x);
   const double d = 1 + 0.1 * 0.3125 + 0.01 * 0.3125 * 0.3125;
   EXPECT_DOUBLE_EQ(x[0], 2.0 * d * 0.25);
   EXPECT_DOUBLE_EQ(x[1], 2.0 * d * 0.5);
@@ -407,7 +410,7 @@ TEST(BalModel, ProjectionByHand) {
   const double pi = std::acos(-1.0);
   const double a2[9] = {0, 0, pi / 2, 0, 0, -2, 1.0, 0, 0};
   const double b2[3] = {1, 0, 0};
-  bal::project(a2, b2, x);
+  bal_camera::project(a2, b2, x);
   EXPECT_NEAR(x[0], 0.0, 1e-16);
   EXPECT_NEAR(x[1], 0.5, 1e-15);  // -(1 / -2)
 }
@@ -415,9 +418,9 @@ TEST(BalModel, ProjectionByHand) {
 // Central differences of project() in every parameter, against the analytic blocks.
 void check_jacobian(const double a[9], const double b[3], const char *what) {
   double x[2], A[18], B[6];
-  bal::project_jacobian(a, b, x, A, B);
+  bal_camera::project_jacobian(a, b, x, A, B);
   double x0[2];
-  bal::project(a, b, x0);
+  bal_camera::project(a, b, x0);
   EXPECT_EQ(x[0], x0[0]);
   EXPECT_EQ(x[1], x0[1]);
   for (int c = 0; c < 12; ++c) {
@@ -432,8 +435,8 @@ void check_jacobian(const double a[9], const double b[3], const char *what) {
     vp += h;
     vm -= h;
     double xp[2], xm[2];
-    bal::project(ap, bp, xp);
-    bal::project(am, bm, xm);
+    bal_camera::project(ap, bp, xp);
+    bal_camera::project(am, bm, xm);
     for (int r = 0; r < 2; ++r) {
       const double fd = (xp[r] - xm[r]) / (2 * h);
       const double an = c < 9 ? A[r * 9 + c] : B[r * 3 + c - 9];
@@ -479,11 +482,11 @@ struct TwoCameraScene {
                            0.5, -0.4, 1.0, -0.2, 0.3, 0.4};
   int val[3] = {0, 1, 2}, colidx[3] = {0, 1, 1}, rowptr[3] = {0, 2, 3};
   sba_crsm idx{2, 2, 3, val, colidx, rowptr};
-  bal::CallbackData data{2};
+  bal_camera::CallbackData data{2};
   TwoCameraScene() = default;
   TwoCameraScene(const TwoCameraScene &) = delete;
-  void func(double *hx) { bal::motstr_func(p.data(), &idx, nullptr, nullptr, hx, &data); }
-  void fjac(double *jac) { bal::motstr_fjac(p.data(), &idx, nullptr, nullptr, jac, &data); }
+  void func(double *hx) { bal_camera::motstr_func(p.data(), &idx, nullptr, nullptr, hx, &data); }
+  void fjac(double *jac) { bal_camera::motstr_fjac(p.data(), &idx, nullptr, nullptr, jac, &data); }
 };
 
 // The callbacks address outputs by idxij.val.
@@ -495,7 +498,7 @@ TEST(BalModel, ExpertCallbacksFollowTheMeasurementOrdinals) {
   const int cams[3] = {0, 1, 1}, pts[3] = {0, 0, 1};
   for (int k = 0; k < 3; ++k) {
     double x[2], A[18], B[6];
-    bal::project_jacobian(&sc.p[9 * cams[k]], &sc.p[18 + 3 * pts[k]], x, A, B);
+    bal_camera::project_jacobian(&sc.p[9 * cams[k]], &sc.p[18 + 3 * pts[k]], x, A, B);
     EXPECT_EQ(hx[2 * k], x[0]);
     EXPECT_EQ(hx[2 * k + 1], x[1]);
     for (int c = 0; c < 18; ++c) EXPECT_EQ(jac[24 * k + c], A[c]);
@@ -542,12 +545,12 @@ std::array<double, SBA_INFOSZ> solve_problem49(const char *strategy, const char 
   ext.quiet = 1;
   ext.strategy = strategy;
   ext.linsolver = solver;
-  bal::CallbackData data;
+  bal_camera::CallbackData data;
   data.ncameras = s.m;
   // The 1.6 entry point, whose default solver (chol, SBA_LINSOLVER) sba 1.6's figures are for.
   std::vector<char> vmask = s.vis.vmask(s.n, s.m);
   *ret = sba_motstr_levmar_x_ext(s.n, 0, s.m, 0, vmask.data(), s.p.data(), 9, 3, s.x.data(), nullptr, 2,
-                                 bal::motstr_func, bal::motstr_fjac, &data, 150, 0, nullptr, info.data(), &ext);
+                                 bal_camera::motstr_func, bal_camera::motstr_fjac, &data, 150, 0, nullptr, info.data(), &ext);
   *msq = info[1] / s.nobservations();
   EXPECT_NEAR(info[0] / s.nobservations(), 53.4442, 5e-4);  // initial mean squared error (pixels^2)
   std::printf("problem-49-7776 (%s, %s): %d iterations, reason %g, mean squared error %.12g\n",

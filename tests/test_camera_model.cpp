@@ -16,11 +16,12 @@
 
 #include <unistd.h>
 
-#include "eucsba_io.h"
-#include "eucsba_model.h"
+#include "cameras/euclidean.h"
+#include "formats/eucsba_io.h"
 
 namespace fs = std::filesystem;
-using namespace eucsba;
+using namespace sbacameras::euclidean;
+using namespace sbaformats::eucsba;
 
 namespace {
 
@@ -301,6 +302,51 @@ TEST(CameraModel, ProjectionMatchesTheSpecFormula) {
   without.project(0, without.initial_camera(0), without.initial_point(0), x);
   EXPECT_NEAR(x[0], 800 * xn + 0.7 * yn + 320, 1e-10);
   EXPECT_NEAR(x[1], 800 * 1.1 * yn + 240, 1e-10);
+}
+
+// The C callbacks of the MATLAB/Octave interface (matlab/sbaeuc_proj.c), compiled into this test.
+extern "C" {
+void sbaeuc_proj(int j, int i, double *aj, double *bi, double *xij, double **adata);
+void sbaeuc_projac(int j, int i, double *aj, double *bi, double *Aij, double *Bij, double **adata);
+}
+
+TEST(CameraModel, MexCallbacksAreTheFixedIntrinsicsCamera) {
+  // They take their rotation from the same code as the model (euclidean_rotation.h) but
+  // compose the camera's two rotations in the other order, so they agree up to rounding:
+  // inside the unit ball and outside it, where both use the boundary rotation.
+  std::mt19937 rng(11);
+  Scene scene = random_scene(5, 7, rng);
+  const Intrinsics k = scene.cameras[0].k;
+  for (Camera &c : scene.cameras) c.k = k;
+  const CameraModel model(CameraKind::FixedIntrinsics, scene.cameras, scene.points);
+  std::vector<double> q0, cal = {k.fu, k.u0, k.v0, k.ar, k.s};
+  for (int j = 0; j < model.ncameras(); ++j) {
+    const Quaternion &q = model.input_camera(j).q;
+    q0.insert(q0.end(), {q.w, q.x, q.y, q.z});
+  }
+  double *adata[2] = {q0.data(), cal.data()};
+  for (double vnorm : {0.15, 1.5}) {
+    std::vector<double> a = perturbed_cameras(model, rng, vnorm);
+    for (int j = 0; j < model.ncameras(); ++j)
+      for (int i = 0; i < model.npoints(); ++i) {
+        double *aj = &a[j * 6], b[3];
+        std::copy(model.initial_point(i), model.initial_point(i) + 3, b);
+        double x[2], A[12], B[6], xc[2], Ac[12], Bc[6];
+        model.project_jacobian(j, aj, b, x, A, B);
+        sbaeuc_proj(j, i, aj, b, xc, adata);
+        sbaeuc_projac(j, i, aj, b, Ac, Bc, adata);
+        for (int r = 0; r < 2; ++r) {
+          EXPECT_NEAR(xc[r], x[r], 1e-10 * std::fabs(x[r])) << "camera " << j << " point " << i;
+          double scale = 0;
+          for (int c = 0; c < 6; ++c) scale = std::max(scale, std::fabs(A[r * 6 + c]));
+          for (int c = 0; c < 3; ++c) scale = std::max(scale, std::fabs(B[r * 3 + c]));
+          for (int c = 0; c < 6; ++c)
+            EXPECT_NEAR(Ac[r * 6 + c], A[r * 6 + c], 1e-10 * scale) << "dA row " << r << " col " << c;
+          for (int c = 0; c < 3; ++c)
+            EXPECT_NEAR(Bc[r * 3 + c], B[r * 3 + c], 1e-10 * scale) << "dB row " << r << " col " << c;
+        }
+      }
+  }
 }
 
 TEST(CameraModel, RejectsBadConstructorArguments) {

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The command-line conventions of the four programs (demo/cli.h), checked on the programs
+// The command-line conventions of the four programs (demo/cli/cli.h), checked on the programs
 // themselves: the same grammar (--opt=VALUE and --opt VALUE), --help and --version in each,
 // and the same one-line message and exit status for the same mistake.
 #include <bzlib.h>

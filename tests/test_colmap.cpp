@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// COLMAP sparse models (demo/colmap_io.h, demo/colmap_sba.h) and sbarefine: the readers on
-// malformed input, the text and binary round trips, and refinement of a generated scene
+// COLMAP sparse models (demo/formats/colmap_io.h, demo/formats/colmap_sba.h) and sbarefine:
+// the readers on malformed input, the text and binary round trips, and refinement of a generated scene
 // through sbarefine against the same scene through eucsbademo's files.
 #include <gtest/gtest.h>
 
@@ -23,16 +23,22 @@
 #include <string>
 #include <vector>
 
-#include "bal_model.h"
-#include "bundler_io.h"
-#include "colmap_io.h"
-#include "colmap_sba.h"
-#include "eucsba_io.h"
-#include "output_file.h"
+#include "cameras/bal_camera.h"
+#include "formats/bundler_io.h"
+#include "formats/colmap_io.h"
+#include "formats/colmap_sba.h"
+#include "formats/eucsba_io.h"
+#include "formats/output_file.h"
 #include "sanitized.h"
 #include "sba_ext.h"
 #include "sbagen.h"
 #include "sbarefine_runs.h"
+
+namespace colmap = sbaformats::colmap;
+namespace bundler = sbaformats::bundler;
+namespace eucsba = sbaformats::eucsba;
+namespace euclidean = sbacameras::euclidean;
+namespace bal_camera = sbacameras::bal;
 
 namespace {
 
@@ -45,7 +51,7 @@ struct Scene {
   colmap::Model model;
 };
 
-Scene make_scene(const std::string &dir, eucsba::CameraKind kind, int cameras = 10, int points = 200) {
+Scene make_scene(const std::string &dir, euclidean::CameraKind kind, int cameras = 10, int points = 200) {
   const refinetest::GeneratedScene g = refinetest::generate_scene(dir, kind, cameras, points);
   Scene out{g.prefix, g.problem, {}};
   std::string error;
@@ -98,7 +104,7 @@ void expect_same(const colmap::Model &a, const colmap::Model &b) {
 
 TEST(ColmapRoundTrip, TextAndBinary) {
   const std::string dir = temp_dir("roundtrip");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
   std::string error;
   ASSERT_TRUE(colmap::check_model(s.model, "generated", &error)) << error;
   for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
@@ -219,7 +225,7 @@ TEST(ColmapReader, ImageAndPointTextErrors) {
 
 TEST(ColmapReader, BinaryErrors) {
   const std::string dir = temp_dir("binerr");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
   colmap::Files f = colmap::format_model(s.model, colmap::Encoding::Binary);
   std::string error;
   std::vector<colmap::Camera> cams;
@@ -263,7 +269,7 @@ TEST(ColmapReader, BinaryErrors) {
 
 TEST(ColmapReader, ModelConsistency) {
   const std::string dir = temp_dir("consistency");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
   std::string error;
   colmap::Model m = s.model;
   m.images[1].camera_id = 5;
@@ -289,7 +295,7 @@ TEST(ColmapReader, ModelConsistency) {
 
 TEST(Sbarefine, SameErrorAsEucsbademoTextAndBinary) {
   const std::string dir = temp_dir("refine");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
   // COLMAP's default: focal and distortion (OPENCV's four terms) refined, principal point held.
   const double expected = eucsbademo_error("--nccalib 4 --ncdist 1 " + s.prefix + "-cams.txt " + s.prefix + "-pts.txt");
   ASSERT_TRUE(std::isfinite(expected));
@@ -347,7 +353,7 @@ TEST(Sbarefine, SameErrorAsEucsbademoTextAndBinary) {
 
 TEST(Sbarefine, SharedCameraHeldIntrinsicsAsFixedK) {
   const std::string dir = temp_dir("shared");
-  const Scene s = make_scene(dir, eucsba::CameraKind::FixedIntrinsics);
+  const Scene s = make_scene(dir, euclidean::CameraKind::FixedIntrinsics);
   ASSERT_EQ(s.model.cameras.size(), 1u);
   std::string error;
   ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error));
@@ -367,7 +373,7 @@ TEST(Sbarefine, SharedCameraHeldIntrinsicsAsFixedK) {
 
 TEST(Sbarefine, MaxTimeStopsAfterAnIterationAndStillWrites) {
   const std::string dir = temp_dir("maxtime");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
   std::string error;
   ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error));
   const Outcome r = run(dir + "/in --max-time 1e-9 --write " + dir + "/out");
@@ -410,7 +416,7 @@ TEST(Sbarefine, CommandLineErrors) {
 // whose squares underflow, refine as the unit quaternion does.
 TEST(Sbarefine, HugeAndTinyQuaternionsAreRotations) {
   const std::string dir = temp_dir("quaternion_size");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 6, 80);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 6, 80);
   std::string error;
   ASSERT_TRUE(colmap::write_model(dir + "/unit", s.model, colmap::Encoding::Binary, &error)) << error;
   const Outcome unit = run(dir + "/unit --write " + dir + "/unit-out");
@@ -438,8 +444,8 @@ TEST(Sbarefine, HugeAndTinyQuaternionsAreRotations) {
       for (std::size_t j = 0; j < back.images.size(); ++j)
         for (int k = 0; k < 4; ++k) EXPECT_NEAR(back.images[j].q[k], refined.images[j].q[k], 1e-6);
     }
-    std::vector<eucsba::Camera> cameras = s.problem.cameras;
-    for (eucsba::Camera &c : cameras) c.q = {c.q.w * scale, c.q.x * scale, c.q.y * scale, c.q.z * scale};
+    std::vector<euclidean::Camera> cameras = s.problem.cameras;
+    for (euclidean::Camera &c : cameras) c.q = {c.q.w * scale, c.q.x * scale, c.q.y * scale, c.q.z * scale};
     ASSERT_TRUE(eucsba::write_cameras(dir + "/scaled-cams.txt", s.problem.kind, cameras));
     EXPECT_NEAR(eucsbademo_error(dir + "/scaled-cams.txt " + s.prefix + "-pts.txt"), demo_unit, 1e-6 * demo_unit)
         << scale;
@@ -477,9 +483,9 @@ colmap::Model moved(colmap::Model m) {
 TEST(OutputFile, FullDiskIsSaidAsSuch) {
   if (::access("/dev/full", W_OK) != 0) GTEST_SKIP() << "no /dev/full";
   std::string error;
-  EXPECT_FALSE(sbademo::write_whole_file("/dev/full", std::string(1 << 16, 'x'), &error));
+  EXPECT_FALSE(sbaformats::write_whole_file("/dev/full", std::string(1 << 16, 'x'), &error));
   EXPECT_EQ(error, "/dev/full: write failed: No space left on device");
-  EXPECT_FALSE(sbademo::write_whole_file("/dev/full", "x", &error));
+  EXPECT_FALSE(sbaformats::write_whole_file("/dev/full", "x", &error));
   EXPECT_EQ(error, "/dev/full: write failed: No space left on device");
 }
 
@@ -488,7 +494,7 @@ TEST(OutputFile, FullDiskIsSaidAsSuch) {
 // and no temporary is left.
 TEST(ColmapWriter, ReplacesAModelWholeOrNotAtAll) {
   const std::string dir = temp_dir("whole_or_nothing");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
   const colmap::Model changed = moved(s.model);
   std::string error;
   int failures = 0;
@@ -539,7 +545,7 @@ TEST(ColmapWriter, ReplacesAModelWholeOrNotAtAll) {
 // its files go, so that no reader finds the stale model beside the new one.
 TEST(ColmapWriter, WritingOneFormatRemovesTheOther) {
   const std::string dir = temp_dir("other_format");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
   const colmap::Model changed = moved(s.model);
   const std::string model = dir + "/m";
   std::string error;
@@ -570,7 +576,7 @@ TEST(Sbarefine, FullDiskLeavesTheInputModelAsItWas) {
     std::string path;
     ~Unmount() { ::umount2(path.c_str(), MNT_DETACH); }
   } unmount{mnt};
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
   const std::string model = mnt + "/model";
   std::string error;
   ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Binary, &error)) << error;
@@ -598,7 +604,7 @@ TEST(Sbarefine, FullDiskLeavesTheInputModelAsItWas) {
 // names), status 1 and the path with the reason, as for --json or a PLY file.
 TEST(Sbarefine, OutputsCheckedBeforeTheSolve) {
   const std::string dir = temp_dir("outputs_first");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 60);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 6, 60);
   std::string error;
   ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
   ASSERT_TRUE(colmap::write_model(dir + "/broken", s.model, colmap::Encoding::Text, &error)) << error;
@@ -634,7 +640,7 @@ TEST(Sbarefine, OutputsCheckedBeforeTheSolve) {
 // back; UTF-8 goes as it is.
 TEST(Sbarefine, JsonOfNamesThatAreNotUtf8) {
   const std::string dir = temp_dir("json_bytes");
-  Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 40);
+  Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 4, 40);
   s.model.images[0].name = "a\xff\xfe.png";
   s.model.images[1].name = "\xc3\xa9t\xc3\xa9.png";
   s.model.images[2].name = "\xed\xa0\x80.png";  // a UTF-16 surrogate, which UTF-8 does not encode
@@ -661,7 +667,7 @@ TEST(Sbarefine, JsonOfNamesThatAreNotUtf8) {
 // directory, a device (/dev/zero, which is refused before it is read).
 TEST(Sbarefine, ModelFilesThatAreNotFiles) {
   const std::string dir = temp_dir("not_files");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 4, 30);
   std::string error;
   const std::string kLoop = ": cannot open: Too many levels of symbolic links\n";
   std::filesystem::create_symlink("loop", dir + "/loop");
@@ -754,7 +760,7 @@ TEST(Sbarefine, MemoryFollowsTheObservations) {
 // else chol (the pairs entry point's own default is sparse-chol); an unknown name is said.
 TEST(Sbarefine, DefaultSolverAsDocumented) {
   const std::string dir = temp_dir("default_solver");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion, 4, 40);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 4, 40);
   std::string error;
   ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error)) << error;
   const struct {
@@ -783,7 +789,7 @@ bundler::Bundle make_bundle(const Scene &s) {
 
 TEST(Bundler, RoundTripAndAnUnregisteredCamera) {
   const std::string dir = temp_dir("bundler_rt");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 50);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 6, 50);
   bundler::Bundle b = make_bundle(s);
   b.cameras.push_back({});  // a camera Bundler could not place: all zeros
   const std::string text = bundler::format_bundle(b);
@@ -868,22 +874,22 @@ TEST(Bundler, AngleAxisInvertsTheRotation) {
                           {M_PI - 1e-9, 0, 0}, {0, 0, -M_PI}, {1.5, 1.5, 1.5}};
   for (const auto &w : ws) {
     std::array<double, 9> R;
-    bal::rotation_matrix(w, R.data());
+    bal_camera::rotation_matrix(w, R.data());
     double v[3];
     bundler::angle_axis(R, v);
     std::array<double, 9> R2;
-    bal::rotation_matrix(v, R2.data());
+    bal_camera::rotation_matrix(v, R2.data());
     for (int k = 0; k < 9; ++k) EXPECT_NEAR(R2[k], R[k], 1e-12) << w[0] << " " << w[1] << " " << w[2];
   }
 }
 
 TEST(Sbarefine, BundlerSameErrorAsEucsbademo) {
   const std::string dir = temp_dir("bundler_refine");
-  Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics);
+  Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics);
   // Bundler refines f, k1, k2 and holds the principal point: eucsbademo's varKD with the
   // distortion starting at zero, --nccalib 4 --ncdist 3, refines the same model.
   const std::string cams = dir + "/kd-cams.txt";
-  ASSERT_TRUE(eucsba::write_cameras(cams, eucsba::CameraKind::VaryingIntrinsicsDistortion, s.problem.cameras));
+  ASSERT_TRUE(eucsba::write_cameras(cams, euclidean::CameraKind::VaryingIntrinsicsDistortion, s.problem.cameras));
   eucsba::Problem kd;
   ASSERT_TRUE(eucsba::load_problem(cams, s.prefix + "-pts.txt", "", &kd));
   const double expected = eucsbademo_error("--nccalib 4 --ncdist 3 " + cams + " " + s.prefix + "-pts.txt");
@@ -920,7 +926,7 @@ TEST(Sbarefine, BundlerSameErrorAsEucsbademo) {
 // A bundle on a pipe is read once, as a file is.
 TEST(Sbarefine, BundlerReadsAPipe) {
   const std::string dir = temp_dir("bundler_pipe");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 60);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 6, 60);
   std::string error;
   ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", make_bundle(s), &error)) << error;
   const Outcome file = run(dir + "/b.out --write " + dir + "/file.out");
@@ -935,7 +941,7 @@ TEST(Sbarefine, BundlerReadsAPipe) {
 // the bundle and written back as read.
 TEST(Sbarefine, BundlerImageList) {
   const std::string dir = temp_dir("bundler_list");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 60);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 6, 60);
   bundler::Bundle b = make_bundle(s);
   b.cameras.insert(b.cameras.begin() + 1, bundler::Camera{});  // camera 1 not registered
   for (bundler::Point &p : b.points)
@@ -982,7 +988,7 @@ TEST(Sbarefine, BundlerImageList) {
 // the input as read) refine to what the source refines to.
 TEST(Sbarefine, ConvertsToEucsbademoAndBal) {
   const std::string dir = temp_dir("convert");
-  const Scene s = make_scene(dir, eucsba::CameraKind::VaryingIntrinsicsDistortion);
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
   std::string error;
   ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error));
   Outcome r = run(dir + "/in --itmax 0 --write-eucsba " + dir + "/e");
@@ -991,7 +997,7 @@ TEST(Sbarefine, ConvertsToEucsbademoAndBal) {
   EXPECT_NEAR(eucsbademo_error("--nccalib 4 --ncdist 1 " + dir + "/e-cams.txt " + dir + "/e-pts.txt"), expected,
               1e-6 * expected);
 
-  const Scene k = make_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 8, 120);
+  const Scene k = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 8, 120);
   bundler::Bundle b = make_bundle(k);
   ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", b, &error)) << error;
   r = run(dir + "/b.out");

@@ -19,11 +19,18 @@
 #include <string>
 #include <vector>
 
-#include "bal_io.h"
-#include "bundler_io.h"
-#include "colmap_io.h"
-#include "eucsba_io.h"
-#include "nvm_io.h"
+#include "formats/bal_io.h"
+#include "formats/bundler_io.h"
+#include "formats/colmap_io.h"
+#include "formats/eucsba_io.h"
+#include "formats/nvm_io.h"
+
+namespace colmap = sbaformats::colmap;
+namespace bundler = sbaformats::bundler;
+namespace nvm = sbaformats::nvm;
+namespace eucsba = sbaformats::eucsba;
+namespace bal = sbaformats::bal;
+namespace euclidean = sbacameras::euclidean;
 
 namespace {
 
@@ -119,7 +126,7 @@ TEST(FuzzRegressions, PointsFiles) {
 
 TEST(FuzzRegressions, CalibrationFiles) {
   for (const fs::path &in : inputs("calibration")) {
-    eucsba::Intrinsics k;
+    euclidean::Intrinsics k;
     const eucsba::Status st = eucsba::read_calibration(in.string(), &k);
     EXPECT_FALSE(st.ok()) << in;
     expect_one_line(st.to_string(), in.string() + ":", in);
@@ -225,7 +232,7 @@ TEST(FuzzRegressions, NulAndControlBytesInATokenAreRefusedAndNotEchoed) {
     return std::all_of(msg.begin(), msg.end(), [](char c) { return c >= 32 && c <= 126; });
   };
   const fs::path calib = write("calib.txt", std::string("500\0zzz 0 320\n0 500 240\n0 0 1\n", 30));
-  eucsba::Intrinsics k;
+  euclidean::Intrinsics k;
   const eucsba::Status st = eucsba::read_calibration(calib.string(), &k);
   EXPECT_FALSE(st.ok()) << "'500<NUL>zzz' was read as " << k.fu;
   EXPECT_TRUE(printable(st.to_string())) << st.to_string();

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Stopping eucsbademo and balsba mid-solve (demo/run_control.h): SIGINT or SIGTERM sent to the
+// Stopping eucsbademo and balsba mid-solve (demo/cli/run_control.h): SIGINT or SIGTERM sent to the
 // running program, a second signal, and --max-time. The programs run as child processes; a
 // signal is sent once the solve has started, on problems that take several seconds, so that
 // it arrives in the middle of an iteration.

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// VisualSFM NVM files (demo/nvm_io.h) and sbarefine on them: the reader on malformed input,
+// VisualSFM NVM files (demo/formats/nvm_io.h) and sbarefine on them: the reader on malformed input,
 // round trips that keep the rest of the file, the mapping (centres, undistorted
 // measurements), and refinement of a generated scene against the same scene through
 // eucsbademo's files.
@@ -10,9 +10,14 @@
 #include <string>
 #include <vector>
 
-#include "eucsba_io.h"
-#include "nvm_io.h"
+#include "formats/eucsba_io.h"
+#include "formats/nvm_io.h"
 #include "sbarefine_runs.h"
+
+namespace colmap = sbaformats::colmap;
+namespace nvm = sbaformats::nvm;
+namespace eucsba = sbaformats::eucsba;
+namespace euclidean = sbacameras::euclidean;
 
 namespace {
 
@@ -65,7 +70,7 @@ void expect_same(const nvm::Model &a, const nvm::Model &b) {
 TEST(NvmRoundTrip, BitForBitWithTheRestOfTheFile) {
   const std::string dir = temp_dir("nvm_rt");
   const refinetest::GeneratedScene s =
-      refinetest::generate_scene(dir, eucsba::CameraKind::VaryingIntrinsics, 6, 50);
+      refinetest::generate_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 6, 50);
   nvm::Model m = make_model(s.problem);
   m.cameras[2].k = -3.25e-8;
   const std::string text = nvm::format_nvm(m);
@@ -231,10 +236,10 @@ Refinement make_refinement(const std::string &name) {
   Refinement r;
   r.dir = temp_dir(name);
   const refinetest::GeneratedScene s =
-      refinetest::generate_scene(r.dir, eucsba::CameraKind::VaryingIntrinsics, 10, 200);
+      refinetest::generate_scene(r.dir, euclidean::CameraKind::VaryingIntrinsics, 10, 200);
   r.cams = r.dir + "/kd-cams.txt";
   r.pts = s.prefix + "-pts.txt";
-  EXPECT_TRUE(eucsba::write_cameras(r.cams, eucsba::CameraKind::VaryingIntrinsicsDistortion, s.problem.cameras));
+  EXPECT_TRUE(eucsba::write_cameras(r.cams, euclidean::CameraKind::VaryingIntrinsicsDistortion, s.problem.cameras));
   EXPECT_TRUE(eucsba::load_problem(r.cams, r.pts, "", &r.problem));
   r.expected = eucsbademo_error("--nccalib 4 --ncdist 5 " + r.cams + " " + r.pts);
   return r;
@@ -285,7 +290,7 @@ TEST(SbarefineNvm, SameErrorAsEucsbademoAndEverythingElseKept) {
 
 TEST(SbarefineNvm, HeldFocalAndHeldCamerasAsFixedK) {
   const std::string dir = temp_dir("nvm_fixed");
-  const refinetest::GeneratedScene s = refinetest::generate_scene(dir, eucsba::CameraKind::FixedIntrinsics, 10, 200);
+  const refinetest::GeneratedScene s = refinetest::generate_scene(dir, euclidean::CameraKind::FixedIntrinsics, 10, 200);
   const double expected =
       eucsbademo_error("--mcon 1 " + s.prefix + "-cams.txt " + s.prefix + "-pts.txt " + s.prefix + "-calib.txt");
   const nvm::Model m = make_model(s.problem);

@@ -11,19 +11,21 @@
 #include <string>
 #include <vector>
 
-#include "eucsba_model.h"
+#include "cameras/euclidean.h"
 #include "sba_ext.h"
 #include "sbagen.h"
 
+namespace euclidean = sbacameras::euclidean;
+
 namespace {
 
-using eucsba::CameraModel;
+using euclidean::CameraModel;
 
 // A scene whose first two cameras start at the truth; holding them fixed (mcon = 2) fixes the
 // gauge, so the refined cameras and points can be compared with the truth directly.
 struct Fixture {
   sbagen::Scene scene;
-  std::vector<eucsba::Camera> start;
+  std::vector<euclidean::Camera> start;
 
   explicit Fixture(double outliers, std::uint64_t seed) {
     sbagen::Options o;
@@ -55,9 +57,9 @@ struct Fit {
   double center_rms = 0;  // RMS distance of the refined camera centres from the truth
 };
 
-void centre(const eucsba::Camera &c, double out[3]) {
+void centre(const euclidean::Camera &c, double out[3]) {
   double R[9];
-  eucsba::rotation_matrix(c.q, R);
+  euclidean::rotation_matrix(c.q, R);
   for (int r = 0; r < 3; ++r) out[r] = -(R[r] * c.t[0] + R[3 + r] * c.t[1] + R[6 + r] * c.t[2]);
 }
 
@@ -67,8 +69,8 @@ Fit fit(Fixture &f, const char *loss, double scale) {
   std::vector<double> p = model.initial_camera_params();
   p.insert(p.end(), model.initial_points().begin(), model.initial_points().end());
   const int n = s.npoints(), m = s.ncameras(), cnp = model.cnp();
-  const eucsba::ExpertCallbacks cb =
-      eucsba::expert_callbacks(s.kind, eucsba::Refinement::MotionStructure);
+  const euclidean::ExpertCallbacks cb =
+      euclidean::expert_callbacks(s.kind, euclidean::Refinement::MotionStructure);
   sba_ext_options ext;
   sba_ext_options_init(&ext);
   ext.loss = loss;
@@ -78,7 +80,7 @@ Fit fit(Fixture &f, const char *loss, double scale) {
   ext.result = &out.res;
   out.ret = sba_motstr_levmar_x_ext(n, 0, m, 2, s.measurements.vmask.data(), p.data(), cnp, 3,
                                     s.measurements.x.data(), nullptr, 2, cb.func, cb.fjac,
-                                    eucsba::as_adata(model), 300, 0, nullptr, out.info, &ext);
+                                    euclidean::as_adata(model), 300, 0, nullptr, out.info, &ext);
   double sc = 0;
   std::vector<double> dist(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) {

@@ -17,15 +17,18 @@
 #include <string>
 #include <vector>
 
-#include "eucsba_io.h"
-#include "eucsba_model.h"
+#include "cameras/euclidean.h"
+#include "formats/eucsba_io.h"
 #include "sba.h"
 #include "sbagen.h"
 
+namespace eucsba = sbaformats::eucsba;
+namespace euclidean = sbacameras::euclidean;
+
 namespace {
 
-using eucsba::Camera;
-using eucsba::CameraKind;
+using euclidean::Camera;
+using euclidean::CameraKind;
 using sbagen::Options;
 using sbagen::Scene;
 using sbagen::Trajectory;
@@ -69,7 +72,7 @@ Scene make(const Options &o) {
   return s;
 }
 
-void rotation(const Camera &c, double R[9]) { eucsba::rotation_matrix(c.q, R); }
+void rotation(const Camera &c, double R[9]) { euclidean::rotation_matrix(c.q, R); }
 
 // Camera centre C = -R^T t.
 std::array<double, 3> centre(const Camera &c) {
@@ -173,19 +176,19 @@ struct Solution {
 // Motion and structure refinement from the scene's initial estimate with the expert driver
 // and the demo's analytic Jacobian, eucsbademo's defaults (mcon = ncon = 0).
 Solution solve(const Scene &s) {
-  const eucsba::CameraModel model(s.kind, s.initial_cameras, s.initial_points());
+  const euclidean::CameraModel model(s.kind, s.initial_cameras, s.initial_points());
   const int m = s.ncameras(), n = s.npoints(), cnp = model.cnp();
   std::vector<double> p = model.initial_camera_params();
   p.insert(p.end(), s.initial_points().begin(), s.initial_points().end());
   std::vector<char> vmask = s.has_dense_vmask() ? s.measurements.vmask : sbagen::dense_vmask(s);
   std::vector<double> x = s.measurements.x;
   std::vector<double> covx = s.measurements.covx;
-  const eucsba::ExpertCallbacks cb = eucsba::expert_callbacks(s.kind, eucsba::Refinement::MotionStructure);
+  const euclidean::ExpertCallbacks cb = euclidean::expert_callbacks(s.kind, euclidean::Refinement::MotionStructure);
   double opts[SBA_OPTSSZ] = {SBA_INIT_MU, SBA_STOP_THRESH, SBA_STOP_THRESH, SBA_STOP_THRESH, 0.0};
   Solution out;
-  out.ret = sba_motstr_levmar_x(n, 0, m, 0, vmask.data(), p.data(), cnp, eucsba::kPointParams, x.data(),
-                                covx.empty() ? nullptr : covx.data(), eucsba::kMeasurementParams, cb.func, cb.fjac,
-                                eucsba::as_adata(model), 150, 0, opts, out.info);
+  out.ret = sba_motstr_levmar_x(n, 0, m, 0, vmask.data(), p.data(), cnp, euclidean::kPointParams, x.data(),
+                                covx.empty() ? nullptr : covx.data(), euclidean::kMeasurementParams, cb.func, cb.fjac,
+                                euclidean::as_adata(model), 150, 0, opts, out.info);
   for (int j = 0; j < m; ++j) out.cameras.push_back(model.camera(j, p.data() + static_cast<std::size_t>(j) * cnp));
   out.points.assign(p.begin() + static_cast<std::ptrdiff_t>(m) * cnp, p.end());
   return out;
@@ -434,7 +437,7 @@ void check_structure(const Options &o, const Scene &s) {
 // Every truth projection is in front of its camera, inside the image, and what the demo's
 // model gives for the true camera and point.
 void check_truth_projections(const Scene &s) {
-  const eucsba::CameraModel truth(s.kind, s.true_cameras, s.true_points);
+  const euclidean::CameraModel truth(s.kind, s.true_cameras, s.true_points);
   for (int i = 0; i < s.npoints(); ++i)
     for (std::size_t k = s.track_begin[i]; k < s.track_begin[i + 1]; ++k) {
       const int j = s.track_cameras[k];
@@ -746,7 +749,7 @@ TEST(SbagenFiles, UnwritablePrefixIsAnError) {
 // the 2N residual degrees of freedom the fit absorbs (parameters minus the 7 of the gauge).
 double expected_mse(const Scene &s, double sigma) {
   const double N = static_cast<double>(s.nprojections());
-  const double params = s.ncameras() * eucsba::camera_params(s.kind) + 3.0 * s.npoints() - 7;
+  const double params = s.ncameras() * euclidean::camera_params(s.kind) + 3.0 * s.npoints() - 7;
   return 2 * sigma * sigma * (1 - params / (2 * N));
 }
 

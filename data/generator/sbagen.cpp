@@ -12,15 +12,18 @@
 #include <memory>
 #include <utility>
 
+namespace eucsba = sbaformats::eucsba;
+namespace euclidean = sbacameras::euclidean;
+
 namespace sbagen {
 
 namespace {
 constexpr double kPi = 3.14159265358979323846;
 }  // namespace
 
-using eucsba::Camera;
-using eucsba::CameraKind;
-using eucsba::Quaternion;
+using euclidean::Camera;
+using euclidean::CameraKind;
+using euclidean::Quaternion;
 using eucsba::Status;
 
 // ---- Random ----
@@ -158,7 +161,7 @@ Vec3 cross(Vec3 a, Vec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.
 Vec3 unit(Vec3 a) { return (1.0 / std::sqrt(dot(a, a))) * a; }
 
 // The unit quaternion (w >= 0) of a rotation matrix (row-major), the inverse of
-// eucsba::rotation_matrix. Uses the largest of w, x, y, z as the pivot for accuracy.
+// euclidean::rotation_matrix. Uses the largest of w, x, y, z as the pivot for accuracy.
 Quaternion quaternion_of(const double R[9]) {
   const double tr = R[0] + R[4] + R[8];
   Quaternion q;
@@ -175,7 +178,7 @@ Quaternion quaternion_of(const double R[9]) {
     const double s = 2.0 * std::sqrt(1.0 + R[8] - R[0] - R[4]);  // 4z
     q = {(R[3] - R[1]) / s, (R[2] + R[6]) / s, (R[5] + R[7]) / s, 0.25 * s};
   }
-  return eucsba::normalized_rotation(q);
+  return euclidean::normalized_rotation(q);
 }
 
 // A camera at centre C looking along `forward`, image x to the right of it with the world's
@@ -192,7 +195,7 @@ void look_along(Vec3 C, Vec3 forward, double roll, Camera *cam) {
   cam->q = quaternion_of(R);
   // t = -R C, from the rotation the quaternion actually encodes.
   double Rq[9];
-  eucsba::rotation_matrix(cam->q, Rq);
+  euclidean::rotation_matrix(cam->q, Rq);
   for (int r = 0; r < 3; ++r) cam->t[r] = -(Rq[3 * r] * C.x + Rq[3 * r + 1] * C.y + Rq[3 * r + 2] * C.z);
 }
 
@@ -220,7 +223,7 @@ class Visibility {
         vmax_(height - 1 - margin),
         min_depth_(min_depth) {
     for (std::size_t j = 0; j < cameras.size(); ++j) {
-      eucsba::rotation_matrix(model_.input_camera(static_cast<int>(j)).q, &R_[9 * j]);
+      euclidean::rotation_matrix(model_.input_camera(static_cast<int>(j)).q, &R_[9 * j]);
       r2max_[j] = monotonic_radius2(kind == CameraKind::VaryingIntrinsicsDistortion ? cameras[j].kc.data() : nullptr);
     }
   }
@@ -252,7 +255,7 @@ class Visibility {
     return kCap;
   }
 
-  eucsba::CameraModel model_;
+  euclidean::CameraModel model_;
   std::vector<double> R_;
   std::vector<double> r2max_;
   double umin_, vmin_, umax_, vmax_;
@@ -262,8 +265,8 @@ class Visibility {
 // ---- true cameras ----
 
 struct Lens {
-  eucsba::Intrinsics k;
-  std::array<double, eucsba::kDistortionParams> kc{};
+  euclidean::Intrinsics k;
+  std::array<double, euclidean::kDistortionParams> kc{};
 };
 
 // The shared lens the cameras are variations of.
@@ -487,7 +490,7 @@ bool path_point(const Options &o, const Visibility &vis, const std::vector<Camer
   const double depth = rng.uniform(kPathDepthMin, kPathDepthMax);
   const double Xc[3] = {xn * depth - c.t[0], yn * depth - c.t[1], depth - c.t[2]};
   double R[9];
-  eucsba::rotation_matrix(c.q, R);
+  euclidean::rotation_matrix(c.q, R);
   for (int a = 0; a < 3; ++a) X[a] = R[a] * Xc[0] + R[3 + a] * Xc[1] + R[6 + a] * Xc[2];  // R^T (Xc - t)
   tb->clear();
   double x[2];
@@ -631,11 +634,11 @@ bool generate(const Options &o, Scene *scene, std::string *error) {
     // Turn the camera about its own centre C = -R^T t (not about the world origin, which
     // may be far away on a path), then shift t.
     double R[9];
-    eucsba::rotation_matrix(c.q, R);
+    euclidean::rotation_matrix(c.q, R);
     double C[3];
     for (int a = 0; a < 3; ++a) C[a] = -(R[a] * c.t[0] + R[3 + a] * c.t[1] + R[6 + a] * c.t[2]);
-    c.q = eucsba::normalized_rotation(eucsba::multiply(small_rotation(wx, wy, wz), c.q));
-    eucsba::rotation_matrix(c.q, R);
+    c.q = euclidean::normalized_rotation(euclidean::multiply(small_rotation(wx, wy, wz), c.q));
+    euclidean::rotation_matrix(c.q, R);
     for (int r = 0; r < 3; ++r)
       c.t[r] = -(R[3 * r] * C[0] + R[3 * r + 1] * C[1] + R[3 * r + 2] * C[2]) +
                o.perturb_translation * s.scene_scale * rng.normal();
@@ -703,7 +706,7 @@ ProblemFiles problem_files(const std::string &prefix, const Scene &scene) {
   return f;
 }
 
-Status write_calibration(const std::string &path, const eucsba::Intrinsics &k) {
+Status write_calibration(const std::string &path, const euclidean::Intrinsics &k) {
   File f;
   if (Status s = open_for_writing(path, &f); !s) return s;
   std::fputs("# K = [fu s u0; 0 fv v0; 0 0 1]\n", f.get());

@@ -1,11 +1,11 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // sbagen: synthetic bundle adjustment problems with ground truth, for eucsbademo's camera
-// model (../../demo/eucsba_model.h) and file formats (docs/formats.md).
+// model (../../demo/cameras/euclidean.h) and file formats (docs/formats.md).
 //
 // A scene is a set of true cameras and points, the tracks saying which cameras see which
 // point, noisy measurements of the true projections (optionally with per-measurement 2x2
 // covariances and gross outliers) and an initial estimate perturbed away from the truth. Every
-// projection goes through eucsba::CameraModel::project, so the measurements follow exactly the
+// projection goes through sbacameras::euclidean::CameraModel::project, so the measurements follow exactly the
 // model that eucsbademo refines.
 //
 // Determinism: one std::mt19937_64 stream (its output is fixed by the C++ standard) feeds
@@ -28,8 +28,8 @@
 #include <string>
 #include <vector>
 
-#include "eucsba_io.h"
-#include "eucsba_model.h"
+#include "cameras/euclidean.h"
+#include "formats/eucsba_io.h"
 
 namespace sbagen {
 
@@ -71,7 +71,7 @@ struct Options {
   // ---- cameras ----
   int cameras = 20;                                              // m >= 2
   Trajectory trajectory = Trajectory::Orbit;
-  eucsba::CameraKind kind = eucsba::CameraKind::FixedIntrinsics;
+  sbacameras::euclidean::CameraKind kind = sbacameras::euclidean::CameraKind::FixedIntrinsics;
   int image_width = 640;                                         // pixels, >= 16
   int image_height = 480;                                        // pixels, >= 16
   double focal = 800;         // fu of the true cameras (pixels); ar = 1, s = 0 throughout
@@ -130,14 +130,14 @@ struct Options {
 // ascending, as sba's x and covx are laid out) is point i seen by camera track_cameras[k],
 // for track_begin[i] <= k < track_begin[i + 1].
 struct Scene {
-  eucsba::CameraKind kind = eucsba::CameraKind::FixedIntrinsics;
+  sbacameras::euclidean::CameraKind kind = sbacameras::euclidean::CameraKind::FixedIntrinsics;
   int image_width = 0, image_height = 0;
   double scene_scale = 1;  // the scene unit of the Options, in world units
 
   // Unit quaternions with w >= 0. For FixedIntrinsics every camera's k is the shared
   // calibration and kc is zero.
-  std::vector<eucsba::Camera> true_cameras;
-  std::vector<eucsba::Camera> initial_cameras;
+  std::vector<sbacameras::euclidean::Camera> true_cameras;
+  std::vector<sbacameras::euclidean::Camera> initial_cameras;
   std::vector<double> true_points;  // 3 per point
 
   std::vector<std::size_t> track_begin;  // n + 1 offsets
@@ -147,7 +147,7 @@ struct Scene {
   // What sba's C API takes: xyz = the initial points, x = the measurements (noise and
   // outliers included), covx (4 per projection, row-major) when covariances were asked for,
   // vmask = the dense n*m visibility when n*m <= Options::dense_vmask_limit, else empty.
-  eucsba::PointSet measurements;
+  sbaformats::eucsba::PointSet measurements;
 
   std::vector<char> outlier;  // 1 per projection: nonzero for a gross outlier
 
@@ -181,22 +181,22 @@ ProblemFiles problem_files(const std::string &prefix, const Scene &scene);
 //   PREFIX-truth-pts.txt   true points with the exact projections of their tracks (and the
 //                          same covariances): a noise-free problem with the same structure
 //   PREFIX-outliers.txt    `point camera` of every gross outlier (only when there are some)
-// The points files go through eucsba::write_points when the scene has its dense vmask and
+// The points files go through sbaformats::eucsba::write_points when the scene has its dense vmask and
 // through write_points_sparse otherwise (the same text).
-eucsba::Status write_problem(const Scene &scene, const std::string &prefix);
+sbaformats::eucsba::Status write_problem(const Scene &scene, const std::string &prefix);
 
-// A points file in eucsba::write_points' format from the sparse tracks: coordinates xyz
+// A points file in sbaformats::eucsba::write_points' format from the sparse tracks: coordinates xyz
 // (3 per point), the projections x (2 per projection) and the scene's covariances.
-eucsba::Status write_points_sparse(const std::string &path, const Scene &scene,
+sbaformats::eucsba::Status write_points_sparse(const std::string &path, const Scene &scene,
                                    const std::vector<double> &xyz, const std::vector<double> &x);
 
 // The calibration file of eucsbademo: K = [fu s u0; 0 fu*ar v0; 0 0 1], three rows.
-eucsba::Status write_calibration(const std::string &path, const eucsba::Intrinsics &k);
+sbaformats::eucsba::Status write_calibration(const std::string &path, const sbacameras::euclidean::Intrinsics &k);
 
 const char *trajectory_name(Trajectory t);      // "orbit", "path", "photo"
 // The trajectory of a name trajectory_name gives; false for any other name.
 bool trajectory_from_name(const std::string &name, Trajectory *t);
-const char *camera_kind_name(eucsba::CameraKind kind);  // "fixed", "varK", "varKD"
+const char *camera_kind_name(sbacameras::euclidean::CameraKind kind);  // "fixed", "varK", "varKD"
 
 }  // namespace sbagen
 

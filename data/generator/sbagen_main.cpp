@@ -13,12 +13,18 @@
 #include <utility>
 #include <vector>
 
-#include "bundler_io.h"
-#include "cli.h"
-#include "colmap_io.h"
-#include "colmap_sba.h"
-#include "nvm_io.h"
+#include "cli/cli.h"
+#include "formats/bundler_io.h"
+#include "formats/colmap_io.h"
+#include "formats/colmap_sba.h"
+#include "formats/nvm_io.h"
 #include "sbagen.h"
+
+namespace colmap = sbaformats::colmap;
+namespace bundler = sbaformats::bundler;
+namespace nvm = sbaformats::nvm;
+namespace eucsba = sbaformats::eucsba;
+namespace euclidean = sbacameras::euclidean;
 
 namespace {
 
@@ -154,9 +160,9 @@ std::vector<sbacli::Option> option_table(Cli &cli) {
                  std::string name;
                  if (std::string why = sbacli::to_choice(v, {"fixed", "varK", "varKD"}, &name); !why.empty())
                    return why;
-                 o.kind = name == "fixed"  ? eucsba::CameraKind::FixedIntrinsics
-                          : name == "varK" ? eucsba::CameraKind::VaryingIntrinsics
-                                           : eucsba::CameraKind::VaryingIntrinsicsDistortion;
+                 o.kind = name == "fixed"  ? euclidean::CameraKind::FixedIntrinsics
+                          : name == "varK" ? euclidean::CameraKind::VaryingIntrinsics
+                                           : euclidean::CameraKind::VaryingIntrinsicsDistortion;
                  return {};
                }});
   t.push_back({"image", "WxH", "image size in pixels (default 640x480)",

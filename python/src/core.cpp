@@ -11,13 +11,18 @@
 #include <vector>
 
 #include "arrays.h"
-#include "bal_io.h"
-#include "bal_model.h"
-#include "eucsba_io.h"
-#include "eucsba_model.h"
+#include "cameras/bal_camera.h"
+#include "cameras/euclidean.h"
+#include "formats/bal_io.h"
+#include "formats/eucsba_io.h"
 #include "python_model.h"
 #include "run.h"
 #include "session.h"
+
+namespace eucsba = sbaformats::eucsba;
+namespace bal = sbaformats::bal;
+namespace euclidean = sbacameras::euclidean;
+namespace bal_camera = sbacameras::bal;
 
 namespace pysba {
 namespace {
@@ -33,32 +38,32 @@ namespace {
 
 // ---- eucsbademo's Euclidean cameras, as rows of the camera files ----
 
-int row_width(eucsba::CameraKind kind) { return eucsba::camera_file_values(kind); }
+int row_width(euclidean::CameraKind kind) { return eucsba::camera_file_values(kind); }
 
-eucsba::CameraKind kind_of_width(py::ssize_t width) {
-  for (eucsba::CameraKind k : {eucsba::CameraKind::FixedIntrinsics, eucsba::CameraKind::VaryingIntrinsics,
-                               eucsba::CameraKind::VaryingIntrinsicsDistortion})
+euclidean::CameraKind kind_of_width(py::ssize_t width) {
+  for (euclidean::CameraKind k : {euclidean::CameraKind::FixedIntrinsics, euclidean::CameraKind::VaryingIntrinsics,
+                                  euclidean::CameraKind::VaryingIntrinsicsDistortion})
     if (row_width(k) == width) return k;
   throw py::value_error("eucsbademo cameras must have 7, 12 or 17 columns, got " + std::to_string(width));
 }
 
-void camera_to_row(eucsba::CameraKind kind, const eucsba::Camera &c, double *row) {
-  if (kind != eucsba::CameraKind::FixedIntrinsics) {
+void camera_to_row(euclidean::CameraKind kind, const euclidean::Camera &c, double *row) {
+  if (kind != euclidean::CameraKind::FixedIntrinsics) {
     const double k[] = {c.k.fu, c.k.u0, c.k.v0, c.k.ar, c.k.s};
     row = std::copy(k, k + 5, row);
-    if (kind == eucsba::CameraKind::VaryingIntrinsicsDistortion) row = std::copy(c.kc.begin(), c.kc.end(), row);
+    if (kind == euclidean::CameraKind::VaryingIntrinsicsDistortion) row = std::copy(c.kc.begin(), c.kc.end(), row);
   }
   const double qt[] = {c.q.w, c.q.x, c.q.y, c.q.z, c.t[0], c.t[1], c.t[2]};
   std::copy(qt, qt + 7, row);
 }
 
-eucsba::Camera row_to_camera(eucsba::CameraKind kind, const double *row, const eucsba::Intrinsics &calib) {
-  eucsba::Camera c;
+euclidean::Camera row_to_camera(euclidean::CameraKind kind, const double *row, const euclidean::Intrinsics &calib) {
+  euclidean::Camera c;
   c.k = calib;
-  if (kind != eucsba::CameraKind::FixedIntrinsics) {
+  if (kind != euclidean::CameraKind::FixedIntrinsics) {
     c.k = {row[0], row[1], row[2], row[3], row[4]};
     row += 5;
-    if (kind == eucsba::CameraKind::VaryingIntrinsicsDistortion) {
+    if (kind == euclidean::CameraKind::VaryingIntrinsicsDistortion) {
       std::copy(row, row + 5, c.kc.begin());
       row += 5;
     }
@@ -68,12 +73,12 @@ eucsba::Camera row_to_camera(eucsba::CameraKind kind, const double *row, const e
   return c;
 }
 
-py::array_t<double> calibration_matrix(const eucsba::Intrinsics &k) {
+py::array_t<double> calibration_matrix(const euclidean::Intrinsics &k) {
   std::vector<double> K = {k.fu, k.s, k.u0, 0.0, k.fu * k.ar, k.v0, 0.0, 0.0, 1.0};
   return adopt(std::move(K), {3, 3});
 }
 
-eucsba::Intrinsics intrinsics_of(const Doubles &K) {
+euclidean::Intrinsics intrinsics_of(const Doubles &K) {
   const double *k = K.data();
   if (k[3] != 0 || k[6] != 0 || k[7] != 0 || k[8] != 1)
     throw py::value_error("calibration must be [[fu, s, u0], [0, fv, v0], [0, 0, 1]]");
@@ -113,7 +118,7 @@ py::dict read_eucsbademo(const std::string &cams, const std::string &pts, const 
   d["point_index"] = adopt(std::move(pt), {nobs});
   d["observations"] = adopt(std::move(ps.x), {nobs, 2});
   d["covariances"] = ps.has_covariances() ? py::object(adopt(std::move(ps.covx), {nobs, 2, 2})) : py::none();
-  d["calibration"] = problem.kind == eucsba::CameraKind::FixedIntrinsics && m > 0
+  d["calibration"] = problem.kind == euclidean::CameraKind::FixedIntrinsics && m > 0
                          ? py::object(calibration_matrix(problem.cameras[0].k))
                          : py::none();
   return d;
@@ -138,8 +143,8 @@ py::dict read_bal(const std::string &path) {
     pt[size_t(k)] = o.point;
   }
   py::dict d;
-  d["cameras"] = adopt(std::move(problem.cameras), {problem.ncameras, bal::kCameraParams});
-  d["points"] = adopt(std::move(problem.points), {problem.npoints, bal::kPointParams});
+  d["cameras"] = adopt(std::move(problem.cameras), {problem.ncameras, bal_camera::kCameraParams});
+  d["points"] = adopt(std::move(problem.points), {problem.npoints, bal_camera::kPointParams});
   d["camera_index"] = adopt(std::move(cam), {nobs});
   d["point_index"] = adopt(std::move(pt), {nobs});
   d["observations"] = adopt(std::move(layout.x), {nobs, 2});
@@ -154,9 +159,9 @@ py::dict solve_eucsbademo(py::handle camera_rows, py::handle point_rows, py::han
                           py::handle point_index, py::handle observations, py::handle covariances,
                           py::handle calibration, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
-  eucsba::CameraKind kind;
+  euclidean::CameraKind kind;
   py::ssize_t width;
-  std::vector<eucsba::Camera> cams;
+  std::vector<euclidean::Camera> cams;
   std::vector<double> xyz;
   {
     const Doubles cameras = parameter_rows(camera_rows, "cameras", -1);
@@ -165,8 +170,8 @@ py::dict solve_eucsbademo(py::handle camera_rows, py::handle point_rows, py::han
     const Doubles points = parameter_rows(point_rows, "points", 3);
     if (cameras.shape(0) == 0 || points.shape(0) == 0)
       throw py::value_error("a problem needs at least one camera and one point");
-    eucsba::Intrinsics calib;
-    if (kind == eucsba::CameraKind::FixedIntrinsics) {
+    euclidean::Intrinsics calib;
+    if (kind == euclidean::CameraKind::FixedIntrinsics) {
       if (calibration.is_none()) throw py::value_error("cameras of 7 values need a calibration matrix");
       const Doubles K = float_array(calibration, "calibration");
       check_shape(K, "calibration", {3, 3});
@@ -183,21 +188,21 @@ py::dict solve_eucsbademo(py::handle camera_rows, py::handle point_rows, py::han
 
   Run run;
   run.obs = sorted_observations(n, m, camera_index, point_index, observations, covariances);
-  if (run.obs.mnp != eucsba::kMeasurementParams) throw py::value_error("observations must have 2 columns");
-  std::unique_ptr<eucsba::CameraModel> model;
+  if (run.obs.mnp != euclidean::kMeasurementParams) throw py::value_error("observations must have 2 columns");
+  std::unique_ptr<euclidean::CameraModel> model;
   try {
-    model = std::make_unique<eucsba::CameraModel>(kind, cams, xyz, o.nccalib, o.ncdist);
+    model = std::make_unique<euclidean::CameraModel>(kind, cams, xyz, o.nccalib, o.ncdist);
   } catch (const std::invalid_argument &e) {
     throw py::value_error(e.what());
   }
-  const eucsba::ExpertCallbacks cb = eucsba::expert_callbacks(kind, eucsba::Refinement::MotionStructure);
+  const euclidean::ExpertCallbacks cb = euclidean::expert_callbacks(kind, euclidean::Refinement::MotionStructure);
   run.p = model->initial_camera_params();
   run.p.insert(run.p.end(), xyz.begin(), xyz.end());
   run.cnp = model->cnp();
-  run.pnp = eucsba::kPointParams;
+  run.pnp = euclidean::kPointParams;
   run.func = cb.func;
   run.fjac = cb.fjac;
-  run.adata = eucsba::as_adata(*model);
+  run.adata = euclidean::as_adata(*model);
   run.parallel = true;  // the model's callbacks are re-entrant and walk the index by rows
 
   Session session(o);
@@ -218,8 +223,8 @@ py::dict solve_bal(py::handle camera_rows, py::handle point_rows, py::handle cam
   Run run;
   py::ssize_t m, n;
   {
-    const Doubles cameras = parameter_rows(camera_rows, "cameras", bal::kCameraParams);
-    const Doubles points = parameter_rows(point_rows, "points", bal::kPointParams);
+    const Doubles cameras = parameter_rows(camera_rows, "cameras", bal_camera::kCameraParams);
+    const Doubles points = parameter_rows(point_rows, "points", bal_camera::kPointParams);
     m = cameras.shape(0);
     n = points.shape(0);
     if (m == 0 || n == 0) throw py::value_error("a problem needs at least one camera and one point");
@@ -228,19 +233,19 @@ py::dict solve_bal(py::handle camera_rows, py::handle point_rows, py::handle cam
   }
   run.obs = sorted_observations(static_cast<int>(n), static_cast<int>(m), camera_index, point_index, observations,
                                 covariances);
-  if (run.obs.mnp != bal::kMeasurementParams) throw py::value_error("observations must have 2 columns");
-  bal::CallbackData data;
+  if (run.obs.mnp != bal_camera::kMeasurementParams) throw py::value_error("observations must have 2 columns");
+  bal_camera::CallbackData data;
   data.ncameras = static_cast<int>(m);
-  run.cnp = bal::kCameraParams;
-  run.pnp = bal::kPointParams;
-  run.func = bal::motstr_func;
-  run.fjac = bal::motstr_fjac;
+  run.cnp = bal_camera::kCameraParams;
+  run.pnp = bal_camera::kPointParams;
+  run.func = bal_camera::motstr_func;
+  run.fjac = bal_camera::motstr_fjac;
   run.adata = &data;
   run.parallel = true;
   Session session(o);
   py::dict d = run_driver(run, session, o);
-  d["cameras"] = copy_of(run.p.data(), {m, bal::kCameraParams});
-  d["points"] = copy_of(run.p.data() + m * bal::kCameraParams, {n, bal::kPointParams});
+  d["cameras"] = copy_of(run.p.data(), {m, bal_camera::kCameraParams});
+  d["points"] = copy_of(run.p.data() + m * bal_camera::kCameraParams, {n, bal_camera::kPointParams});
   d["nobs"] = run.obs.nobs();
   return d;
 }

@@ -13,11 +13,14 @@
 #include <sstream>
 #include <vector>
 
-#include "colmap_io.h"
-#include "colmap_sba.h"
-#include "eucsba_model.h"
+#include "cameras/euclidean.h"
+#include "formats/colmap_io.h"
+#include "formats/colmap_sba.h"
 #include "sba_ext.h"
 #include "sbagen.h"
+
+namespace colmap = sbaformats::colmap;
+namespace euclidean = sbacameras::euclidean;
 
 namespace soakfiles {
 namespace {
@@ -44,7 +47,7 @@ std::string bytes_of(const colmap::Model &m) {
 
 colmap::Encoding encoding(bool binary) { return binary ? colmap::Encoding::Binary : colmap::Encoding::Text; }
 
-bool unit(const eucsba::Quaternion &q) {
+bool unit(const euclidean::Quaternion &q) {
   return std::fabs(std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z) - 1) < 1e-12;
 }
 
@@ -54,15 +57,15 @@ bool solve(const colmap::Model &model, bool *rotations) {
   colmap::SbaProblem pr;
   std::string error;
   if (!colmap::to_sba(model, {false, false, false}, "soak", &pr, &error)) return false;
-  const eucsba::CameraModel sm(eucsba::CameraKind::VaryingIntrinsicsDistortion, pr.cameras, pr.points.xyz,
+  const euclidean::CameraModel sm(euclidean::CameraKind::VaryingIntrinsicsDistortion, pr.cameras, pr.points.xyz,
                                pr.nccalib, pr.ncdist);
   *rotations = true;
   for (int j = 0; j < sm.ncameras(); ++j) *rotations = *rotations && unit(sm.input_camera(j).q);
   std::vector<double> p = sm.initial_camera_params();
   p.insert(p.end(), sm.initial_points().begin(), sm.initial_points().end());
-  const eucsba::ExpertCallbacks cb =
-      eucsba::expert_callbacks(eucsba::CameraKind::VaryingIntrinsicsDistortion, eucsba::Refinement::MotionStructure);
-  const sbademo::Visibility &v = pr.points.pairs;
+  const euclidean::ExpertCallbacks cb =
+      euclidean::expert_callbacks(euclidean::CameraKind::VaryingIntrinsicsDistortion, euclidean::Refinement::MotionStructure);
+  const sbaformats::Visibility &v = pr.points.pairs;
   const sba_visibility vis{static_cast<long long>(v.size()), v.point.data(), v.camera.data()};
   sba_ext_options ext;
   sba_ext_options_init(&ext);
@@ -70,7 +73,7 @@ bool solve(const colmap::Model &model, bool *rotations) {
   ext.quiet = 1;
   double info[SBA_INFOSZ] = {};
   const int ret = sba_motstr_levmar_x_vis(sm.npoints(), 0, sm.ncameras(), 0, &vis, p.data(), sm.cnp(), 3,
-                                          pr.points.x.data(), nullptr, 2, cb.func, cb.fjac, eucsba::as_adata(sm), 20,
+                                          pr.points.x.data(), nullptr, 2, cb.func, cb.fjac, euclidean::as_adata(sm), 20,
                                           0, nullptr, info, &ext);
   return ret >= 0 && std::isfinite(info[1]) && info[1] <= info[0] * (1 + 1e-12);
 }
@@ -79,7 +82,7 @@ bool solve(const colmap::Model &model, bool *rotations) {
 
 void run(const Case &c, Outcome *out) {
   sbagen::Options o;
-  o.kind = eucsba::CameraKind::VaryingIntrinsicsDistortion;
+  o.kind = euclidean::CameraKind::VaryingIntrinsicsDistortion;
   o.cameras = c.cameras;
   o.points = c.points;
   o.seed = c.seed;

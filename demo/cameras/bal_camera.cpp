@@ -1,0 +1,233 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "cameras/bal_camera.h"
+
+#include <cmath>
+#include <cstddef>
+#include <memory>
+#include <new>
+
+#include "sba.h"
+
+namespace sbacameras::bal {
+namespace {
+
+// Below this |w|^2 the Rodrigues coefficients come from their series.
+constexpr double kSeriesLimit = 1.0 / 16.0;
+constexpr int kSeriesTerms = 8;
+
+// alpha(s) = sin(t)/t and beta(s) = (1 - cos t)/t^2 with t = sqrt(s), and d/ds of both.
+struct Coefficients {
+  double alpha, beta, dalpha, dbeta;
+};
+
+// alpha = sum_k (-1)^k s^k / (2k+1)!,  beta = sum_k (-1)^k s^k / (2k+2)!.
+struct SeriesTable {
+  double a[kSeriesTerms], b[kSeriesTerms];
+  constexpr SeriesTable() : a(), b() {
+    double fact = 1;  // (2k+1)! for the current k, starting at 1! = 1
+    for (int k = 0; k < kSeriesTerms; ++k) {
+      if (k > 0) fact *= (2 * k) * (2 * k + 1);
+      const double sign = (k % 2 == 0) ? 1.0 : -1.0;
+      a[k] = sign / fact;
+      b[k] = sign / (fact * (2 * k + 2));
+    }
+  }
+};
+constexpr SeriesTable kSeries;
+
+Coefficients coefficients(double s) {
+  Coefficients c{};
+  if (s < kSeriesLimit) {
+    // Horner from the last term; the derivative series is sum_k k c_k s^(k-1).
+    double a = 0, b = 0, da = 0, db = 0;
+    for (int k = kSeriesTerms - 1; k >= 0; --k) {
+      a = a * s + kSeries.a[k];
+      b = b * s + kSeries.b[k];
+      if (k > 0) {
+        da = da * s + k * kSeries.a[k];
+        db = db * s + k * kSeries.b[k];
+      }
+    }
+    c = {a, b, da, db};
+    return c;
+  }
+  const double t = std::sqrt(s);
+  const double sn = std::sin(t), cs = std::cos(t), sh = std::sin(0.5 * t);
+  const double one_minus_cos = 2.0 * sh * sh;  // without the cancellation of 1 - cos t
+  c.alpha = sn / t;
+  c.beta = one_minus_cos / s;
+  // d/ds = (1/(2t)) d/dt:  dalpha/dt = (t cos t - sin t)/t^2,
+  //                         dbeta/dt = (t sin t - 2 (1 - cos t))/t^3.
+  c.dalpha = (t * cs - sn) / (2.0 * t * s);
+  c.dbeta = (t * sn - 2.0 * one_minus_cos) / (2.0 * s * s);
+  return c;
+}
+
+inline void cross(const double a[3], const double b[3], double c[3]) {
+  c[0] = a[1] * b[2] - a[2] * b[1];
+  c[1] = a[2] * b[0] - a[0] * b[2];
+  c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+// R = (1 - beta s) I + alpha [w]x + beta w w^T, with s = |w|^2 and c = coefficients(s).
+void fill_rotation(const double w[3], double s, const Coefficients &c, double R[9]) {
+  const double diag = 1.0 - c.beta * s;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) R[r * 3 + k] = c.beta * w[r] * w[k] + (r == k ? diag : 0.0);
+  R[1] -= c.alpha * w[2];
+  R[2] += c.alpha * w[1];
+  R[3] += c.alpha * w[2];
+  R[5] -= c.alpha * w[0];
+  R[6] -= c.alpha * w[1];
+  R[7] += c.alpha * w[0];
+}
+
+}  // namespace
+
+void rotation_matrix(const double w[3], double R[9]) {
+  const double s = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+  fill_rotation(w, s, coefficients(s), R);
+}
+
+namespace {
+
+// What a projection needs of its camera's rotation and does not depend on the point: the
+// callbacks make it once per camera instead of once per observation (three sines and a
+// cosine each time); the values are the same either way.
+struct RotationTerms {
+  double s;
+  Coefficients c;
+  double R[9];
+};
+
+void rotation_terms(const double w[3], RotationTerms *rt) {
+  rt->s = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+  rt->c = coefficients(rt->s);
+  fill_rotation(w, rt->s, rt->c, rt->R);
+}
+
+void project_with(const double a[kCameraParams], const RotationTerms &rt, const double b[kPointParams],
+                  double *x, double *A, double *B) {
+  const double *w = a, *t = a + 3;
+  const double f = a[6], k1 = a[7], k2 = a[8];
+
+  const Coefficients &c = rt.c;
+  double wX[3], wwX[3];
+  cross(w, b, wX);
+  cross(w, wX, wwX);
+  double Q[3];
+  for (int r = 0; r < 3; ++r) Q[r] = b[r] + c.alpha * wX[r] + c.beta * wwX[r] + t[r];
+
+  const double iz = 1.0 / Q[2];
+  const double px = -Q[0] * iz, py = -Q[1] * iz;
+  const double r2 = px * px + py * py;
+  const double d = 1.0 + r2 * (k1 + k2 * r2);
+  if (x) {
+    x[0] = f * d * px;
+    x[1] = f * d * py;
+  }
+  if (!A && !B) return;
+
+  // d x / d p = f (d I + 2 (k1 + 2 k2 r2) p p^T), symmetric.
+  const double g = 2.0 * (k1 + 2.0 * k2 * r2);
+  const double Jxx = f * (d + g * px * px), Jxy = f * g * px * py, Jyy = f * (d + g * py * py);
+  // d p / d Q = -(1/Q3) [1 0 px; 0 1 py], so H = d x / d Q is:
+  const double H[6] = {-iz * Jxx, -iz * Jxy, -iz * (Jxx * px + Jxy * py),
+                       -iz * Jxy, -iz * Jyy, -iz * (Jxy * px + Jyy * py)};
+
+  if (B) {
+    // d Q / d X = R(w).
+    const double *R = rt.R;
+    for (int r = 0; r < 2; ++r)
+      for (int k = 0; k < 3; ++k)
+        B[r * 3 + k] = H[r * 3] * R[k] + H[r * 3 + 1] * R[3 + k] + H[r * 3 + 2] * R[6 + k];
+  }
+  if (!A) return;
+
+  // d Q / d w = 2 alpha' (w x X) w^T + alpha d(w x X)/dw + 2 beta' (w x (w x X)) w^T
+  //           + beta d(w x (w x X))/dw, with
+  //   d(w x X)/dw = -[X]x,   d(w x (w x X))/dw = (w.X) I + w X^T - 2 X w^T.
+  const double wdotX = w[0] * b[0] + w[1] * b[1] + w[2] * b[2];
+  const double mXx[9] = {0, b[2], -b[1], -b[2], 0, b[0], b[1], -b[0], 0};  // -[X]x
+  double dQdw[9];
+  for (int r = 0; r < 3; ++r) {
+    const double u = 2.0 * (c.dalpha * wX[r] + c.dbeta * wwX[r]);
+    for (int k = 0; k < 3; ++k) {
+      const double dww = (r == k ? wdotX : 0.0) + w[r] * b[k] - 2.0 * b[r] * w[k];
+      dQdw[r * 3 + k] = u * w[k] + c.alpha * mXx[r * 3 + k] + c.beta * dww;
+    }
+  }
+  double *A0 = A, *A1 = A + kCameraParams;
+  for (int k = 0; k < 3; ++k) {
+    A0[k] = H[0] * dQdw[k] + H[1] * dQdw[3 + k] + H[2] * dQdw[6 + k];
+    A1[k] = H[3] * dQdw[k] + H[4] * dQdw[3 + k] + H[5] * dQdw[6 + k];
+    A0[3 + k] = H[k];  // d Q / d t = I
+    A1[3 + k] = H[3 + k];
+  }
+  A0[6] = d * px;
+  A1[6] = d * py;
+  A0[7] = f * r2 * px;
+  A1[7] = f * r2 * py;
+  A0[8] = f * r2 * r2 * px;
+  A1[8] = f * r2 * r2 * py;
+}
+
+}  // namespace
+
+void project_jacobian(const double a[kCameraParams], const double b[kPointParams], double *x,
+                      double *A, double *B) {
+  RotationTerms rt;
+  rotation_terms(a, &rt);
+  project_with(a, rt, b, x, A, B);
+}
+
+void project(const double a[kCameraParams], const double b[kPointParams], double x[2]) {
+  project_jacobian(a, b, x, nullptr, nullptr);
+}
+
+// ---- callbacks ----
+
+namespace {
+
+inline std::size_t off(int index, int stride) {
+  return static_cast<std::size_t>(index) * static_cast<std::size_t>(stride);
+}
+
+// Calls visit(camera parameters, its RotationTerms, point parameters, measurement ordinal)
+// for every projection in idx (which may be a part of the rows when callbacks run
+// concurrently). The per-camera terms live in a buffer of this call; without memory for it
+// each projection makes its own, with the same result.
+template <class Visit>
+void for_each_projection(const double *p, const sba_crsm *idx, const void *adata, Visit visit) {
+  const int m = static_cast<const CallbackData *>(adata)->ncameras;
+  const double *pb = p + off(m, kCameraParams);
+  std::unique_ptr<RotationTerms[]> terms(new (std::nothrow) RotationTerms[size_t(m > 0 ? m : 0)]);
+  if (terms)
+    for (int j = 0; j < m; ++j) rotation_terms(p + off(j, kCameraParams), &terms[size_t(j)]);
+  RotationTerms own;
+  for (int i = 0; i < idx->nr; ++i)
+    for (int e = idx->rowptr[i]; e < idx->rowptr[i + 1]; ++e) {
+      const int j = idx->colidx[e];
+      const double *a = p + off(j, kCameraParams);
+      const RotationTerms *rt = terms ? &terms[size_t(j)] : (rotation_terms(a, &own), &own);
+      visit(a, *rt, pb + off(i, kPointParams), idx->val[e]);
+    }
+}
+
+}  // namespace
+
+void motstr_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
+  for_each_projection(p, idx, adata, [hx](const double *a, const RotationTerms &rt, const double *b, int k) {
+    project_with(a, rt, b, hx + off(k, kMeasurementParams), nullptr, nullptr);
+  });
+}
+
+void motstr_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adata) {
+  constexpr int block = kMeasurementParams * (kCameraParams + kPointParams);
+  for_each_projection(p, idx, adata, [jac](const double *a, const RotationTerms &rt, const double *b, int k) {
+    double *A = jac + off(k, block);
+    project_with(a, rt, b, nullptr, A, A + kMeasurementParams * kCameraParams);
+  });
+}
+
+}  // namespace sbacameras::bal

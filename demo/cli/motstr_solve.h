@@ -1,0 +1,140 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+// The motion-and-structure solve as balsba and sbarefine run it, from the check of --mcon and
+// --ncon to the exit status: the expert driver by visibility pairs with the extension options,
+// a progress line, Ctrl-C and --max-time, then sba 1.6's summary, the report and --json. What
+// differs between the programs (reading, writing, the sizes line) stays in them.
+#ifndef SBA_DEMO_MOTSTR_SOLVE_H
+#define SBA_DEMO_MOTSTR_SOLVE_H
+
+#include <array>
+#include <chrono>
+#include <cstddef>
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cli/cli.h"
+#include "cli/report.h"
+#include "cli/run_control.h"
+#include "cli/solve_options.h"
+#include "cli/tty_progress.h"
+#include "formats/visibility.h"
+#include "sba.h"
+#include "sba_ext.h"
+
+namespace sbacli {
+
+// sba_motstr_levmar_x_vis's arguments that are not options; p is refined in place. The
+// visibility is given as pairs: memory then follows the observations, not n*m.
+struct MotstrInputs {
+  int n = 0, m = 0, cnp = 0, pnp = 3;
+  const sbaformats::Visibility *vis = nullptr;
+  double *p = nullptr;
+  double *x = nullptr;
+  void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata) = nullptr;
+  void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata) = nullptr;
+  void *adata = nullptr;
+};
+
+class MotstrSolve {
+ public:
+  MotstrSolve(const char *program, const std::string &input, const SolveOptions &so, const MotstrInputs &in)
+      : program_(program),
+        input_(input),
+        so_(so),
+        in_(in),
+        nobs_(static_cast<int>(in.vis->size())),
+        progress_(so.progress, nobs_) {}
+  MotstrSolve(const MotstrSolve &) = delete;
+  MotstrSolve &operator=(const MotstrSolve &) = delete;
+
+  // -1 when --mcon and --ncon fit the cameras and points; else the usage status, said why.
+  int check_fixed() const {
+    const int m = in_.m, n = in_.n;
+    if (so_.mcon > m) {
+      std::fprintf(stderr, "%s: --mcon %d is more than the %d cameras\n", program_, so_.mcon, m);
+      return kExitUsage;
+    }
+    if (so_.ncon > n) {
+      std::fprintf(stderr, "%s: --ncon %d is more than the %d points\n", program_, so_.ncon, n);
+      return kExitUsage;
+    }
+    return -1;
+  }
+
+  // Solves; false when the driver failed (said on stderr). A solve stopped by a signal or
+  // the time limit is a result: finish() gives its status.
+  bool run() {
+    const MotstrInputs &in = in_;
+    // The callbacks are re-entrant and walk the index by rows: the threads share them.
+    sba_ext_options ext;
+    init_ext(so_, program_, &sink_, &result_, &ext);
+    // The time limit and the iteration times count from the solve's start, not from what the
+    // program did before it (an initial PLY file, say).
+    control_.emplace(so_.max_time, &progress_);
+    RunControl::catch_signals();
+    control_->attach(&ext);
+    const auto start = std::chrono::steady_clock::now();
+    const sba_visibility vis{static_cast<long long>(in.vis->size()), in.vis->point.data(), in.vis->camera.data()};
+    ret_ = sba_motstr_levmar_x_vis(in.n, so_.ncon, in.m, so_.mcon, &vis, in.p, in.cnp, in.pnp, in.x, nullptr, 2,
+                                   in.func, in.fjac, in.adata, so_.itmax, so_.verbose, so_.opts.data(), info_.data(),
+                                   &ext);
+    seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    progress_.finish();
+    if (ret_ != SBA_ERROR) return true;
+    std::fprintf(stderr, "%s: %s: the solve failed (SBA_ERROR, reason %g): %s\n", program_, input_.c_str(), info_[6],
+                 sink_.first_error.empty() ? "no result" : sink_.first_error.c_str());
+    return false;
+  }
+
+  int observations() const { return nobs_; }
+  long long variables() const {
+    return static_cast<long long>(in_.m) * in_.cnp + static_cast<long long>(in_.n) * in_.pnp;
+  }
+
+  // After the program's sizes line: sba 1.6's summary, the report, --json (each camera's
+  // error through project(j, i, x) at the result, named by `names` where given), "Wrote
+  // OUT" when `written` is not empty; the exit status.
+  template <class Project>
+  int finish(double read_seconds, Project project, const std::vector<std::string> &names,
+             const std::string &written) {
+    print_summary(nobs_, ret_, info_, seconds_, read_seconds, result_, so_);
+    Report report = make_report(program_, input_, in_.m, in_.n, nobs_, variables(), so_, ret_, info_, result_,
+                                seconds_, *control_);
+    print_report(stdout, report);
+    if (!so_.json.empty()) {
+      add_per_camera(in_.m, *in_.vis, in_.x, project, &report);
+      for (std::size_t j = 0; j < names.size() && j < report.per_camera.size(); ++j)
+        report.per_camera[j].name = names[j];
+      std::string error;
+      if (!write_json(so_.json, report, &error)) {
+        std::fprintf(stderr, "%s: %s\n", so_.json.c_str(), error.c_str());
+        return kExitFailure;
+      }
+    }
+    if (!written.empty()) std::printf("Wrote %s\n", written.c_str());
+    // A stopped solve is a result (written above), but the status says it was cut short by a
+    // signal; a time limit the user set is an ordinary end.
+    if (info_[6] == SBA_STOP_USER) return stopped_status(program_, *control_, so_.max_time, static_cast<int>(info_[5]));
+    return 0;
+  }
+
+ private:
+  const char *program_;
+  const std::string &input_;
+  const SolveOptions &so_;
+  const MotstrInputs in_;
+  const int nobs_;
+  TtyProgress progress_;
+  std::optional<RunControl> control_;  // made when the solve starts
+  LogSink sink_;
+  sba_ext_result result_{};
+  std::array<double, SBA_INFOSZ> info_{};
+  int ret_ = 0;
+  double seconds_ = 0;
+};
+
+}  // namespace sbacli
+
+#endif  // SBA_DEMO_MOTSTR_SOLVE_H

@@ -1,0 +1,167 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "cli/report.h"
+
+#include <cmath>
+#include <cstring>
+#include <cstdlib>
+#include <string>
+
+#include "formats/output_file.h"
+
+namespace sbacli {
+
+namespace {
+
+double rms(double sum_sq, long long count) {
+  return count > 0 && sum_sq >= 0 ? std::sqrt(sum_sq / static_cast<double>(count)) : NAN;
+}
+
+// JSON has no NaN or Inf: such a value is null.
+std::string number(double v) {
+  if (!std::isfinite(v)) return "null";
+  // The shortest of %.15g and %.17g that reads back as the same double.
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.15g", v);
+  if (std::strtod(buf, nullptr) != v) std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+// The length of the well-formed UTF-8 sequence that starts s[k] (RFC 3629: no overlong form,
+// no surrogate, nothing beyond U+10FFFF), 0 when none does.
+std::size_t utf8_length(const std::string &s, std::size_t k) {
+  const unsigned char c = static_cast<unsigned char>(s[k]);
+  if (c < 0x80) return 1;
+  std::size_t n = 0;
+  unsigned char lo = 0x80, hi = 0xbf;  // the second byte's range
+  if (c >= 0xc2 && c <= 0xdf) {
+    n = 2;
+  } else if (c >= 0xe0 && c <= 0xef) {
+    n = 3;
+    if (c == 0xe0) lo = 0xa0;  // below: overlong
+    if (c == 0xed) hi = 0x9f;  // above: the UTF-16 surrogates
+  } else if (c >= 0xf0 && c <= 0xf4) {
+    n = 4;
+    if (c == 0xf0) lo = 0x90;  // below: overlong
+    if (c == 0xf4) hi = 0x8f;  // above: beyond U+10FFFF
+  }
+  if (n == 0 || k + n > s.size()) return 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    const unsigned char d = static_cast<unsigned char>(s[k + i]);
+    if (d < (i == 1 ? lo : 0x80) || d > (i == 1 ? hi : 0xbf)) return 0;
+  }
+  return n;
+}
+
+// A JSON string. Paths and image names are bytes: a byte that is not UTF-8 becomes \udcXX,
+// as Python's surrogateescape reads it, so that the JSON is valid and the bytes come back.
+std::string quoted(const std::string &s) {
+  std::string q = "\"";
+  char buf[8];
+  for (std::size_t k = 0; k < s.size();) {
+    const unsigned char c = static_cast<unsigned char>(s[k]);
+    const std::size_t n = utf8_length(s, k);
+    if (c == '"' || c == '\\') {
+      q += '\\';
+      q += static_cast<char>(c);
+    } else if (c < 0x20 || n == 0) {
+      std::snprintf(buf, sizeof buf, c < 0x20 ? "\\u%04x" : "\\udc%02x", c);
+      q += buf;
+    } else {
+      q.append(s, k, n);
+      k += n;
+      continue;
+    }
+    ++k;
+  }
+  return q + "\"";
+}
+
+// info[] by the names sba.h gives its entries.
+const char *const kInfoNames[SBA_INFOSZ] = {"initial_error", "final_error", "gradient_inf_norm", "step_norm_sq",
+                                            "mu_ratio", "iterations", "stop_reason", "function_evals",
+                                            "jacobian_evals", "linear_systems"};
+
+}  // namespace
+
+double Report::rms_initial() const { return rms(result.sq_error_initial, observations); }
+double Report::rms_final() const { return rms(result.sq_error_final, observations); }
+
+std::string stop_reason_text(int reason) {
+  std::string text = sba_stop_reason_text(reason);
+  // What asks these programs to stop: the library knows only that something did.
+  if (reason == SBA_STOP_USER) text += " (a signal or --max-time)";
+  return text;
+}
+
+void print_report(std::FILE *out, const Report &r) {
+  const int reason = static_cast<int>(r.info[6]);
+  std::fprintf(out, "RMS reprojection error: initial %.6g px, final %.6g px\n", r.rms_initial(), r.rms_final());
+  std::fprintf(out, "Stop reason %d: %s\n", reason, stop_reason_text(reason).c_str());
+  // The strategy is named when it is not 1.6's, the one a legacy user expects.
+  const bool named = r.result.strategy && std::strcmp(r.result.strategy, "sba") != 0;
+  std::fprintf(out, "Solver %s on %d thread%s%s%s, %.3f s\n", r.result.linsolver ? r.result.linsolver : "none",
+               r.result.nthreads, r.result.nthreads == 1 ? "" : "s", named ? ", strategy " : "",
+               named ? r.result.strategy : "", r.seconds);
+}
+
+bool write_json(const std::string &path, const Report &r, std::string *why) {
+  std::string j = "{\n";
+  auto field = [&j](const char *name, const std::string &value, bool last = false) {
+    j += "  " + quoted(name) + ": " + value + (last ? "\n" : ",\n");
+  };
+  field("program", quoted(r.program));
+  field("version", quoted(SBA_VERSION));
+  std::string inputs = "[";
+  for (std::size_t k = 0; k < r.inputs.size(); ++k) inputs += (k ? ", " : "") + quoted(r.inputs[k]);
+  field("inputs", inputs + "]");
+  field("sizes", "{\"cameras\": " + std::to_string(r.cameras) + ", \"points\": " + std::to_string(r.points) +
+                     ", \"observations\": " + std::to_string(r.observations) +
+                     ", \"variables\": " + std::to_string(r.variables) + "}");
+  std::string opts = "[";
+  for (std::size_t k = 0; k < r.opts.size(); ++k) opts += (k ? ", " : "") + number(r.opts[k]);
+  field("options", "{\"solver\": " + (r.solver_requested.empty() ? "null" : quoted(r.solver_requested)) +
+                       ", \"strategy\": " + (r.strategy_requested.empty() ? "null" : quoted(r.strategy_requested)) +
+                       ", \"threads\": " + std::to_string(r.threads_requested) +
+                       ", \"itmax\": " + std::to_string(r.itmax) + ", \"opts\": " + opts + "]" +
+                       ", \"loss\": " + quoted(r.loss.empty() ? "none" : r.loss) +
+                       ", \"loss_scale\": " + number(r.loss_scale) + ", \"mcon\": " + std::to_string(r.mcon) +
+                       ", \"ncon\": " + std::to_string(r.ncon) +
+                       ", \"max_time\": " + (r.max_time > 0 ? number(r.max_time) : "null") + "}");
+  field("ret", std::to_string(r.ret));
+  std::string info = "{";
+  for (int k = 0; k < SBA_INFOSZ; ++k) info += std::string(k ? ", " : "") + quoted(kInfoNames[k]) + ": " + number(r.info[k]);
+  field("info", info + "}");
+  field("stop_reason", quoted(stop_reason_text(static_cast<int>(r.info[6]))));
+  field("solver", r.result.linsolver ? quoted(r.result.linsolver) : "null");
+  field("strategy", r.result.strategy ? quoted(r.result.strategy) : "null");
+  field("threads", std::to_string(r.result.nthreads));
+  field("seconds", number(r.seconds));
+  field("squared_error", "{\"initial\": " + number(r.result.sq_error_initial) +
+                             ", \"final\": " + number(r.result.sq_error_final) + "}");
+  field("rms_px", "{\"initial\": " + number(r.rms_initial()) + ", \"final\": " + number(r.rms_final()) + "}");
+  std::string its = "[";
+  for (std::size_t k = 0; k < r.iterations.size(); ++k) {
+    const RunControl::Iteration &it = r.iterations[k];
+    its += std::string(k ? ",\n    " : "\n    ") + "{\"solve\": " + std::to_string(it.solve) +
+           ", \"iteration\": " + std::to_string(it.iteration) + ", \"error\": " + number(it.error) +
+           ", \"seconds\": " + number(it.seconds) + "}";
+  }
+  field("iterations", its + (r.iterations.empty() ? "]" : "\n  ]"));
+  std::string cams = "[";
+  for (std::size_t k = 0; k < r.per_camera.size(); ++k) {
+    const CameraResidual &c = r.per_camera[k];
+    cams += std::string(k ? ",\n    " : "\n    ") + "{\"camera\": " + std::to_string(k) +
+            (c.name.empty() ? "" : ", \"name\": " + quoted(c.name)) +
+            ", \"observations\": " + std::to_string(c.observations) +
+            ", \"rms_px\": " + number(rms(c.sum_sq, c.observations)) + "}";
+  }
+  field("cameras", cams + (r.per_camera.empty() ? "]" : "\n  ]"), true);
+  j += "}\n";
+
+  sbaformats::OutputFile f;
+  if (!f.open(path, why)) return false;
+  std::fwrite(j.data(), 1, j.size(), f.get());
+  return f.commit(why);
+}
+
+}  // namespace sbacli

@@ -1,0 +1,67 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+// What eucsbademo and balsba say about a solve beyond sba 1.6's summary: the lines a user reads
+// first (RMS reprojection error in pixels, the stop reason in words, the solver and threads
+// that ran, the time) and the same as one JSON object for pipelines (--json FILE).
+#ifndef SBA_DEMO_REPORT_H
+#define SBA_DEMO_REPORT_H
+
+#include <array>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "cli/run_control.h"
+#include "sba.h"
+#include "sba_ext.h"
+
+namespace sbacli {
+
+// One camera's share of the final residuals, in pixels (not weighted by covariances).
+struct CameraResidual {
+  long long observations = 0;
+  double sum_sq = 0;  // sum of the squared pixel distances of its projections
+  std::string name;   // its image, when the input names it; empty: not named
+};
+
+struct Report {
+  std::string program;
+  std::vector<std::string> inputs;  // the files read
+  // sizes
+  int cameras = 0, points = 0;
+  long long observations = 0, variables = 0;
+  // options
+  std::string solver_requested;  // empty: the library's choice
+  std::string strategy_requested;  // empty: the library's choice
+  int threads_requested = 0;     // 0: the library's choice
+  int itmax = 0;
+  std::array<double, 5> opts{};
+  std::string loss;  // empty: least squares
+  double loss_scale = 1.0;
+  int mcon = 0, ncon = 0;
+  double max_time = 0;
+  // result
+  int ret = SBA_ERROR;
+  std::array<double, SBA_INFOSZ> info{};
+  sba_ext_result result{};
+  double seconds = 0;  // the solve, as the 1.6 "Elapsed time" line
+  std::vector<RunControl::Iteration> iterations;
+  std::vector<CameraResidual> per_camera;
+
+  // Root mean square of the projections' pixel distances, from the plain squared errors.
+  double rms_initial() const;
+  double rms_final() const;
+};
+
+// The stop reason info[6] in words: sba_stop_reason_text's, with what stops these programs on
+// request.
+std::string stop_reason_text(int reason);
+
+// The lines printed after sba 1.6's summary.
+void print_report(std::FILE *out, const Report &r);
+
+// Writes the report as one JSON object to path (whole or not at all, see output_file.h).
+bool write_json(const std::string &path, const Report &r, std::string *why);
+
+}  // namespace sbacli
+
+#endif  // SBA_DEMO_REPORT_H

@@ -1,0 +1,58 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+// What the COLMAP text format (colmap_text.cpp), the binary format (colmap_binary.cpp) and the
+// model's files (colmap_io.cpp) share beyond colmap_io.h: the camera models sba expresses, the
+// messages about them, and the formatting of a model in each encoding.
+#ifndef SBA_DEMO_COLMAP_COMMON_H
+#define SBA_DEMO_COLMAP_COMMON_H
+
+#include <string>
+
+#include "formats/colmap_io.h"
+
+namespace sbaformats::colmap {
+
+struct ModelInfo {
+  const char *name;
+  int params;
+  int focals;  // f, or fx and fy, leading the parameters
+};
+// Indexed by COLMAP's model id; ids 5 and up are COLMAP models without a counterpart here.
+inline constexpr ModelInfo kModels[] = {
+    {"SIMPLE_PINHOLE", 3, 1}, {"PINHOLE", 4, 2}, {"SIMPLE_RADIAL", 4, 1}, {"RADIAL", 5, 1}, {"OPENCV", 8, 2}};
+inline constexpr int kNumModels = sizeof(kModels) / sizeof(kModels[0]);
+// COLMAP's other models, named in the refusal so that the user knows what was found.
+inline constexpr const char *kOtherModels[] = {"OPENCV_FISHEYE", "FULL_OPENCV", "FOV", "SIMPLE_RADIAL_FISHEYE",
+                                               "RADIAL_FISHEYE", "THIN_PRISM_FISHEYE", "RAD_TAN_THIN_PRISM_FISHEYE"};
+inline constexpr int kNumOtherModels = sizeof(kOtherModels) / sizeof(kOtherModels[0]);
+
+// What separates values in the text format: a carriage return too, so that a CRLF file or a
+// stray '\r' does not end up inside a value (or as an image name that a rewrite would lose).
+// The binary reader refuses a name the text format could not hold.
+inline bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
+
+// The refusal of a camera model that sba's camera does not express.
+std::string unsupported_model(const std::string &model);
+
+// Why a camera's intrinsics are not a camera, empty when they are: a focal length must be
+// positive, and fy / fx (the aspect ratio sba keeps) a number neither infinite nor zero;
+// otherwise the solve would meet an infinite aspect ratio or a mirrored image, far from here.
+std::string bad_intrinsics(const Camera &c);
+
+// s as a message quotes it: at most 40 characters, then "...", any byte outside printable
+// ASCII as '?'.
+std::string printable(const std::string &s);
+
+// *error = msg (when error is not null); false. Inline, so that the compiler sees the false,
+// and with it that a value a reader failed to read is never used.
+inline bool fail(std::string *error, const std::string &msg) {
+  if (error) *error = msg;
+  return false;
+}
+
+// format_model for each encoding.
+Files format_text(const Model &model);
+Files format_binary(const Model &model);
+
+}  // namespace sbaformats::colmap
+
+#endif  // SBA_DEMO_COLMAP_COMMON_H

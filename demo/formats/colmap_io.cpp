@@ -1,0 +1,273 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// A COLMAP model as a whole: its camera models, the agreement of its three files, and the
+// files themselves, read and written in either encoding (colmap_text.cpp, colmap_binary.cpp).
+#include "formats/colmap_io.h"
+
+#include <sys/stat.h>
+
+#include <cerrno>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <set>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "formats/colmap_common.h"
+#include "formats/output_file.h"
+#include "formats/text_tokens.h"
+
+namespace sbaformats::colmap {
+
+namespace {
+
+constexpr const char *kAccepted = "SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV";
+
+}  // namespace
+
+std::string unsupported_model(const std::string &model) {
+  return "camera model " + model + " is not supported: sba's camera model expresses " + kAccepted;
+}
+
+std::string bad_intrinsics(const Camera &c) {
+  const ModelInfo &m = kModels[c.model];
+  const std::string camera = "camera " + std::to_string(c.id) + ": " + m.name + "'s ";
+  static const char *const kFocal[2][2] = {{"f", ""}, {"fx", "fy"}};
+  for (int k = 0; k < m.focals; ++k) {
+    const double f = c.params[static_cast<std::size_t>(k)];
+    if (!(f > 0)) return camera + kFocal[m.focals - 1][k] + " must be positive, got " + g17(f);
+  }
+  if (m.focals == 2) {
+    const double ar = c.params[1] / c.params[0];
+    if (!std::isfinite(ar) || ar == 0) return camera + "aspect ratio fy / fx overflows or underflows";
+  }
+  return {};
+}
+
+std::string printable(const std::string &s) {
+  std::string out;
+  for (char c : s) {
+    if (out.size() >= 40) return out + "...";
+    out += (c >= 32 && c < 127) ? c : '?';
+  }
+  return out;
+}
+
+const char *camera_model_name(int model) {
+  return model >= 0 && model < kNumModels ? kModels[model].name : nullptr;
+}
+
+int camera_model_params(int model) { return model >= 0 && model < kNumModels ? kModels[model].params : 0; }
+
+bool check_model(const Model &model, const std::string &name, std::string *error) {
+  const std::string where = name + ": ";
+  std::unordered_set<std::uint32_t> cameras;
+  for (const Camera &c : model.cameras) cameras.insert(c.id);
+  std::unordered_map<std::uint32_t, const Image *> images;
+  std::unordered_map<std::uint64_t, const Point3D *> points;
+  for (const Point3D &p : model.points) points.emplace(p.id, &p);
+  for (const Image &im : model.images) {
+    images.emplace(im.id, &im);
+    if (!cameras.count(im.camera_id))
+      return fail(error, where + "image " + std::to_string(im.id) + " uses camera " + std::to_string(im.camera_id) +
+                             ", which cameras does not hold");
+  }
+  // Each observation that names a point is claimed by exactly one track element.
+  std::size_t observations = 0;
+  for (const Image &im : model.images) {
+    std::unordered_set<std::uint64_t> seen;
+    for (std::size_t k = 0; k < im.points.size(); ++k) {
+      const std::uint64_t pid = im.points[k].point3d_id;
+      if (pid == kNoPoint) continue;
+      ++observations;
+      if (!points.count(pid))
+        return fail(error, where + "image " + std::to_string(im.id) + " POINTS2D " + std::to_string(k) +
+                               " names point " + std::to_string(pid) + ", which points3D does not hold");
+      if (!seen.insert(pid).second)
+        return fail(error, where + "image " + std::to_string(im.id) + " sees point " + std::to_string(pid) +
+                               " twice: sba takes one observation per point and image");
+    }
+  }
+  std::size_t elements = 0;
+  for (const Point3D &p : model.points) {
+    if (p.track.empty()) return fail(error, where + "point " + std::to_string(p.id) + " has an empty track");
+    std::set<std::pair<std::uint32_t, std::uint32_t>> pairs;
+    for (const TrackElement &e : p.track) {
+      const auto it = images.find(e.image_id);
+      if (it == images.end())
+        return fail(error, where + "point " + std::to_string(p.id) + " is seen in image " +
+                               std::to_string(e.image_id) + ", which images does not hold");
+      const Image &im = *it->second;
+      if (e.point2d_idx >= im.points.size())
+        return fail(error, where + "point " + std::to_string(p.id) + ": POINT2D_IDX " +
+                               std::to_string(e.point2d_idx) + " is out of range for image " +
+                               std::to_string(im.id) + " (" + std::to_string(im.points.size()) + " POINTS2D)");
+      if (im.points[e.point2d_idx].point3d_id != p.id)
+        return fail(error, where + "point " + std::to_string(p.id) + " lists POINTS2D " +
+                               std::to_string(e.point2d_idx) + " of image " + std::to_string(im.id) +
+                               ", which does not name it");
+      if (!pairs.insert({e.image_id, e.point2d_idx}).second)
+        return fail(error, where + "point " + std::to_string(p.id) + " lists POINTS2D " +
+                               std::to_string(e.point2d_idx) + " of image " + std::to_string(im.id) + " twice");
+      ++elements;
+    }
+  }
+  // Every element points back (checked above) and none repeats, so equal counts mean every
+  // observation is listed.
+  if (elements != observations)
+    return fail(error, where + "the tracks of points3D list " + std::to_string(elements) +
+                           " observations, the images name points in " + std::to_string(observations));
+  return true;
+}
+
+// ---- files ----
+
+bool read_rest(std::FILE *f, const std::string &path, bool text, std::string *out, std::string *error) {
+  char buf[1 << 16];
+  std::size_t got;
+  while ((got = std::fread(buf, 1, sizeof buf, f)) > 0) {
+    if (text && std::memchr(buf, '\0', got)) return fail(error, path + ": a NUL byte: not a text file");
+    out->append(buf, got);
+  }
+  if (std::ferror(f)) return fail(error, path + ": read error");
+  return true;
+}
+
+bool read_whole_file(const std::string &path, bool text, std::string *out, std::string *error) {
+  std::FILE *f = std::fopen(path.c_str(), "rb");
+  if (!f) return fail(error, path + ": cannot open: " + std::strerror(errno));
+  // fopen opens a directory for reading, whose reading then fails without saying why.
+  struct stat st {};
+  if (::fstat(fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {
+    std::fclose(f);
+    return fail(error, path + ": is a directory");
+  }
+  std::string data;
+  const bool read = read_rest(f, path, text, &data, error);
+  std::fclose(f);
+  if (!read) return false;
+  *out = std::move(data);
+  return true;
+}
+
+namespace {
+
+// A model's files, the cameras first.
+constexpr const char *kFileNames[] = {"cameras", "images", "points3D"};
+
+const char *extension(Encoding encoding) { return encoding == Encoding::Text ? ".txt" : ".bin"; }
+
+std::string slashed(const std::string &dir) { return dir.empty() || dir.back() == '/' ? dir : dir + "/"; }
+
+// A model's file: a regular file, or its reading would never end (/dev/zero) or fail
+// without saying why (a directory).
+bool read_model_file(const std::string &path, bool text, std::string *out, std::string *error) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return fail(error, path + ": cannot open: " + std::strerror(errno));
+  if (S_ISDIR(st.st_mode)) return fail(error, path + ": is a directory");
+  if (!S_ISREG(st.st_mode)) return fail(error, path + ": not a regular file");
+  return read_whole_file(path, text, out, error);
+}
+
+}  // namespace
+
+bool model_encoding(const std::string &dir, Encoding *out, std::string *error) {
+  for (Encoding e : {Encoding::Text, Encoding::Binary}) {
+    const std::string path = slashed(dir) + "cameras" + extension(e);
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0) {
+      *out = e;
+      return true;
+    }
+    // A symbolic link loop or a directory that cannot be searched is said as it is.
+    if (errno != ENOENT && errno != ENOTDIR) return fail(error, path + ": cannot open: " + std::strerror(errno));
+  }
+  return fail(error, dir + ": no COLMAP model (cameras.txt or cameras.bin)");
+}
+
+bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::string *error) {
+  Encoding enc;
+  if (!model_encoding(dir, &enc, error)) return false;
+  const bool text = enc == Encoding::Text;
+  const std::string pc = slashed(dir) + "cameras" + extension(enc), pi = slashed(dir) + "images" + extension(enc),
+                    pp = slashed(dir) + "points3D" + extension(enc);
+  Model m;
+  std::string content;
+  if (!read_model_file(pc, text, &content, error)) return false;
+  if (!(text ? parse_cameras_text : parse_cameras_binary)(content, pc, &m.cameras, error)) return false;
+  if (!read_model_file(pi, text, &content, error)) return false;
+  if (!(text ? parse_images_text : parse_images_binary)(content, pi, &m.images, error)) return false;
+  if (!read_model_file(pp, text, &content, error)) return false;
+  if (!(text ? parse_points_text : parse_points_binary)(content, pp, &m.points, error)) return false;
+  if (!check_model(m, dir, error)) return false;
+  *out = std::move(m);
+  if (encoding) *encoding = enc;
+  return true;
+}
+
+Files format_model(const Model &model, Encoding encoding) {
+  return encoding == Encoding::Binary ? format_binary(model) : format_text(model);
+}
+namespace {
+
+// dir as a directory to write a model into: made when missing (*made then true).
+bool make_directory(const std::string &dir, bool *made, std::string *error) {
+  struct stat st {};
+  *made = false;
+  if (::stat(dir.c_str(), &st) == 0) return S_ISDIR(st.st_mode) || fail(error, dir + ": not a directory");
+  if (::mkdir(dir.c_str(), 0777) != 0)
+    return fail(error, dir + ": cannot create the directory: " + std::strerror(errno));
+  *made = true;
+  return true;
+}
+
+}  // namespace
+
+bool model_writable(const std::string &dir, Encoding encoding, std::string *error) {
+  bool made;
+  if (!make_directory(dir, &made, error)) return false;
+  // A directory made here is removed again: it is the write that creates it.
+  if (made) {
+    ::rmdir(dir.c_str());
+    return true;
+  }
+  std::string why;
+  for (const char *name : kFileNames) {
+    const std::string path = slashed(dir) + name + extension(encoding);
+    if (!probe_writable(path, &why)) return fail(error, path + ": " + why);
+  }
+  return true;
+}
+
+bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error) {
+  bool made;
+  if (!make_directory(dir, &made, error)) return false;
+  const Files files = format_model(model, encoding);
+  const std::string *content[] = {&files.cameras, &files.images, &files.points};
+  std::string paths[3];
+  for (int k = 0; k < 3; ++k) paths[k] = slashed(dir) + kFileNames[k] + extension(encoding);
+  // The model is replaced whole or not at all: its three files are renamed onto their names
+  // only once all three are written and closed (a full disk at the second leaves the model
+  // as it was, the temporaries removed with `out`).
+  OutputFile out[3];
+  for (int k = 0; k < 3; ++k)
+    if (!write_closed(paths[k], *content[k], &out[k], error)) return false;
+  for (int k = 0; k < 3; ++k) {
+    std::string why;
+    if (!out[k].publish(&why)) return fail(error, paths[k] + ": " + why);
+  }
+  // The other encoding's model goes, or a reader could take it for this one; its cameras file
+  // first, without which no reader takes the other two for a model.
+  const Encoding other = encoding == Encoding::Text ? Encoding::Binary : Encoding::Text;
+  for (const char *name : kFileNames) {
+    const std::string stale = slashed(dir) + name + extension(other);
+    if (std::remove(stale.c_str()) != 0 && errno != ENOENT)
+      return fail(error, stale + ": cannot remove the model of the other format: " + std::strerror(errno));
+  }
+  return true;
+}
+
+}  // namespace sbaformats::colmap

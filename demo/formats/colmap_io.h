@@ -1,0 +1,139 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+// COLMAP sparse models (docs/formats.md, "COLMAP sparse models"): the three files
+// cameras, images and points3D, as text (.txt) or binary (.bin), read strictly and written
+// back with every field as it came.
+//
+// Only the camera models that sba's Euclidean camera can express are accepted:
+// SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV; any other is refused by name.
+// Errors are one line: "<file>:<line>: <message>" for text, "<file>: byte N: <message>" for
+// binary, "<file>: <message>" for what concerns a whole file or the model.
+#ifndef SBA_DEMO_COLMAP_IO_H
+#define SBA_DEMO_COLMAP_IO_H
+
+#include <array>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+namespace sbaformats::colmap {
+
+// COLMAP's model ids of the accepted camera models.
+enum CameraModelId : int {
+  kSimplePinhole = 0,  // f cx cy
+  kPinhole = 1,        // fx fy cx cy
+  kSimpleRadial = 2,   // f cx cy k
+  kRadial = 3,         // f cx cy k1 k2
+  kOpenCV = 4          // fx fy cx cy k1 k2 p1 p2
+};
+
+// The model's name, or nullptr for an id outside the accepted ones.
+const char *camera_model_name(int model);
+// The number of parameters of an accepted model id.
+int camera_model_params(int model);
+
+struct Camera {
+  std::uint32_t id = 0;
+  int model = kSimplePinhole;
+  std::uint64_t width = 0, height = 0;
+  std::vector<double> params;
+};
+
+constexpr std::uint64_t kNoPoint = ~std::uint64_t{0};  // POINT3D_ID -1
+
+struct Point2D {
+  double x = 0, y = 0;
+  std::uint64_t point3d_id = kNoPoint;
+};
+
+struct Image {
+  std::uint32_t id = 0;
+  std::array<double, 4> q{1, 0, 0, 0};  // qw qx qy qz: world to camera
+  std::array<double, 3> t{};            // X_cam = R(q) X + t
+  std::uint32_t camera_id = 0;
+  std::string name;
+  std::vector<Point2D> points;
+};
+
+struct TrackElement {
+  std::uint32_t image_id = 0;
+  std::uint32_t point2d_idx = 0;
+};
+
+struct Point3D {
+  std::uint64_t id = 0;
+  std::array<double, 3> xyz{};
+  std::array<std::uint8_t, 3> rgb{};
+  double error = 0;
+  std::vector<TrackElement> track;
+};
+
+// A model in file order.
+struct Model {
+  std::vector<Camera> cameras;
+  std::vector<Image> images;
+  std::vector<Point3D> points;
+};
+
+// Which files a directory holds: text if cameras.txt exists, else binary if cameras.bin does.
+enum class Encoding { Text, Binary };
+
+// The encoding of the model in dir, without reading it: false with "PATH: cannot open: REASON"
+// when its cameras file cannot be looked at (a symbolic link loop, say), "DIR: no COLMAP
+// model (cameras.txt or cameras.bin)" when there is none.
+bool model_encoding(const std::string &dir, Encoding *out, std::string *error);
+
+// Parsers of one file's content; name stands for the file in the messages. They check each
+// file on its own (syntax, finite numbers, accepted camera models, unique ids); check_model
+// checks how the three agree.
+bool parse_cameras_text(const std::string &text, const std::string &name, std::vector<Camera> *out,
+                        std::string *error);
+bool parse_images_text(const std::string &text, const std::string &name, std::vector<Image> *out,
+                       std::string *error);
+bool parse_points_text(const std::string &text, const std::string &name, std::vector<Point3D> *out,
+                       std::string *error);
+bool parse_cameras_binary(const std::string &bytes, const std::string &name, std::vector<Camera> *out,
+                          std::string *error);
+bool parse_images_binary(const std::string &bytes, const std::string &name, std::vector<Image> *out,
+                         std::string *error);
+bool parse_points_binary(const std::string &bytes, const std::string &name, std::vector<Point3D> *out,
+                         std::string *error);
+
+// The three files agree: every image's camera exists; every observation's point exists and
+// lists that observation in its track; every track element names an existing image and one
+// of its observations that points back; no image sees a point twice; every point is seen at
+// least once. name prefixes the message (the model's directory).
+bool check_model(const Model &model, const std::string &name, std::string *error);
+
+// Reads DIR/{cameras,images,points3D}.{txt,bin} (encoding from the files found, see above).
+// Each must be a regular file: a directory or a device there (/dev/zero) is refused by name.
+bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::string *error);
+// Writes the three files into dir (created if missing), all or none of them: they are
+// renamed onto their names once all three are written, and a failure before leaves every
+// file of dir as it was. Then the other encoding's files, if dir holds any, are removed, so
+// that dir holds one model. Text numbers have 17 significant digits, so that they read back
+// to the same doubles.
+bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error);
+
+// Whether write_model could write into dir, asked before a long computation: dir is a
+// directory whose model files can be written, or can be made (it is not left behind). False
+// with the message write_model would give.
+bool model_writable(const std::string &dir, Encoding encoding, std::string *error);
+
+// The same in memory: the three files' contents.
+struct Files {
+  std::string cameras, images, points;
+};
+Files format_model(const Model &model, Encoding encoding);
+
+// The whole file into *out. A text file must hold no NUL byte (a binary file, /dev/zero):
+// the reading stops at the first. False with "<path>: <message>" on failure ("is a
+// directory" for one).
+bool read_whole_file(const std::string &path, bool text, std::string *out, std::string *error);
+// The same for what is left of an open stream (a pipe whose first bytes were read), appended
+// to *out; path names it in messages.
+bool read_rest(std::FILE *f, const std::string &path, bool text, std::string *out, std::string *error);
+
+}  // namespace sbaformats::colmap
+
+#endif  // SBA_DEMO_COLMAP_IO_H

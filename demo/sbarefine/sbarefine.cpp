@@ -1,0 +1,479 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// sbarefine: bundle adjustment of a reconstruction as an SfM pipeline wrote it (a COLMAP
+// sparse model, text or binary, a Bundler bundle.out or a VisualSFM NVM file), written back
+// in its own format with every identifier, name and color unchanged. The solve is balsba's:
+// same options, output and Ctrl-C behaviour.
+#include <sys/stat.h>
+
+#include <array>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <functional>
+#include <memory>
+#include <new>
+#include <string>
+#include <vector>
+
+#include "cameras/bal_camera.h"
+#include "cameras/camera_pose.h"
+#include "cameras/euclidean.h"
+#include "cli/cli.h"
+#include "cli/motstr_solve.h"
+#include "cli/ply_options.h"
+#include "cli/solve_options.h"
+#include "formats/bal_io.h"
+#include "formats/bundler_io.h"
+#include "formats/colmap_io.h"
+#include "formats/colmap_sba.h"
+#include "formats/nvm_io.h"
+#include "formats/output_file.h"
+#include "sba.h"
+#include "sba_ext.h"
+
+namespace colmap = sbaformats::colmap;
+namespace bundler = sbaformats::bundler;
+namespace nvm = sbaformats::nvm;
+namespace eucsba = sbaformats::eucsba;
+namespace bal = sbaformats::bal;
+namespace euclidean = sbacameras::euclidean;
+namespace bal_camera = sbacameras::bal;
+
+namespace {
+
+using sbacli::kExitFailure;
+using sbacli::kExitUsage;
+
+struct Options {
+  std::string input;
+  sbacli::SolveOptions solve;
+  std::string write;         // output model directory; empty: none
+  std::string write_format;  // text or binary; empty: the input's
+  std::string intrinsics = "focal,distortion";
+  colmap::RefineIntrinsics refine;
+  std::string initial_ply, final_ply;
+  std::string write_eucsba;  // COLMAP, NVM: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
+  std::string write_bal;     // Bundler: a BAL problem
+  std::string bundler_list;  // Bundler: the image list read; empty: none
+  std::string write_list;    // Bundler: where the image list is written back; empty: not
+  bool help = false, version = false;
+};
+
+std::vector<sbacli::Option> option_table(Options &o) {
+  std::vector<sbacli::Option> t;
+  sbacli::add_solve_options(
+      &t, o.solve,
+      {"write", "OUT", "write the refined model in the input's format: a COLMAP model into the directory\n"
+                        "OUT (created if missing), a Bundler or NVM file to the file OUT",
+       [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }});
+  t.push_back({"write-format", "F", "the format of --write: text or binary (default: the input's)",
+               [&o](const std::string &v) { return sbacli::to_choice(v, {"text", "binary"}, &o.write_format); }});
+  t.push_back({"intrinsics", "LIST",
+               "the intrinsics refined: none, all, or a comma-separated list of focal, principal,\n"
+               "distortion (default focal,distortion, as COLMAP: the principal point held). NVM:\n"
+               "the focal length or nothing (its radial distortion is held, its principal point absent)",
+               [&o](const std::string &v) {
+                 o.intrinsics = v;
+                 return colmap::parse_refine_intrinsics(v, &o.refine);
+               }});
+  t.push_back({"write-eucsba", "PREFIX",
+               "COLMAP, NVM: also write the refined model as eucsbademo files PREFIX-cams.txt (17\n"
+               "values a line) and PREFIX-pts.txt",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.write_eucsba); }});
+  t.push_back({"write-bal", "FILE", "Bundler: also write the refined model as a BAL problem",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.write_bal); }});
+  t.push_back({"bundler-list", "FILE",
+               "Bundler: the image list of the bundle (list.txt: PATH or PATH 0 FOCAL, a line per camera);\n"
+               "its paths name the cameras in messages and in --json",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.bundler_list); }});
+  t.push_back({"write-list", "FILE", "Bundler: write the image list of --bundler-list to FILE as it was read",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.write_list); }});
+  sbacli::add_ply_options(&t, &o.initial_ply, &o.final_ply, true);
+  return t;
+}
+
+bool parse_command_line(int argc, char **argv, Options *options, std::string *error) {
+  Options o;
+  if (!sbacli::parse_one_input(argc, argv, option_table(o),
+                                "argument (a COLMAP model directory, a Bundler or an NVM file)", &o.input, &o.help,
+                                &o.version, error))
+    return false;
+  *options = std::move(o);
+  return true;
+}
+
+void print_usage(std::FILE *out) {
+  std::fputs(
+      "Usage: sbarefine [OPTION]... MODEL\n"
+      "Bundle-adjusts a reconstruction with sba_motstr_levmar_x_ext, analytic Jacobian. MODEL is\n"
+      "- a COLMAP sparse model: the directory holding cameras, images and points3D (.txt or .bin;\n"
+      "  camera models SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV), refined with\n"
+      "  eucsbademo's camera model, every image an sba camera with its own intrinsics;\n"
+      "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera;\n"
+      "  --intrinsics does not apply); its image list (list.txt) with --bundler-list;\n"
+      "- a VisualSFM file (NVM_V3, its first model), refined with eucsbademo's camera model, the\n"
+      "  focal length refined (--intrinsics focal or none) and the radial distortion held.\n"
+      "\n"
+      "Options (a value may follow as --opt=VALUE or --opt VALUE; '--' ends the options):\n",
+      out);
+  Options scratch;
+  sbacli::print_options(out, option_table(scratch));
+  std::fprintf(out, "\nLinear solvers (--solver): %s\n", sba_linsolver_names());
+  std::fputs(
+      "\n"
+      "Prints what balsba prints: the sizes, sba 1.6's summary (mean squared reprojection error in\n"
+      "pixels^2 per observation ...), the RMS reprojection error in pixels, the stop reason, the\n"
+      "solver and threads used. The written model keeps every identifier, name, color and\n"
+      "unrefined value; a refined point's ERROR becomes its mean reprojection error.\n"
+      "Exit status: 0 done (--max-time included), 1 a file cannot be read or written or the solver\n"
+      "fails, 2 bad options, 130 (SIGINT) or 143 (SIGTERM) when a signal stopped the solve.\n",
+      out);
+}
+
+using sbaformats::Cloud;
+
+Cloud cloud(const colmap::Model &model) {
+  Cloud c;
+  for (const colmap::Point3D &p : model.points) {
+    c.points.push_back(p.xyz);
+    c.colors.push_back({p.rgb[0], p.rgb[1], p.rgb[2]});
+  }
+  for (const colmap::Image &im : model.images) {
+    double R[9];
+    euclidean::rotation_matrix(euclidean::normalized_rotation({im.q[0], im.q[1], im.q[2], im.q[3]}), R);
+    c.centres.push_back(sbacameras::camera_centre(R, im.t.data()));
+  }
+  return c;
+}
+
+Cloud cloud(const nvm::Model &m) {
+  Cloud c;
+  for (const nvm::Point &p : m.points) {
+    c.points.push_back(p.xyz);
+    c.colors.push_back(p.rgb);
+  }
+  for (const nvm::Camera &cam : m.cameras) c.centres.push_back(cam.c);
+  return c;
+}
+
+Cloud cloud(const bundler::Bundle &b) {
+  Cloud c;
+  for (const bundler::Point &p : b.points) {
+    c.points.push_back(p.xyz);
+    c.colors.push_back(p.rgb);
+  }
+  for (const bundler::Camera &cam : b.cameras)
+    if (cam.registered()) c.centres.push_back(sbacameras::camera_centre(cam.R.data(), cam.t.data()));
+  return c;
+}
+
+// A loaded reconstruction as sba takes it, and what to do with the result.
+struct Job {
+  std::string summary;  // the sizes line
+  std::vector<double> p;
+  sbacli::MotstrInputs in;  // in.p is pointed at p when the solve starts
+  // The projection of point i in camera j with the parameters p.
+  std::function<void(const double *p, int j, int i, double x[2])> project;
+  Cloud initial;
+  std::vector<std::string> camera_names;  // the image of each sba camera; empty: unnamed
+  // Writes the refined model (p) where --write says, and returns it for --final-ply.
+  std::function<bool(const double *p, Cloud *final_cloud, std::string *error)> finish;
+};
+
+enum class Format { Colmap, Bundler, Nvm };
+
+// The input: a COLMAP model directory, or a file that is read once, so that standard input
+// or a FIFO works as a file does: its first bytes tell the format, and the rest is read from
+// the same stream once the options have been checked against that format.
+struct Input {
+  bool directory = false;  // a model directory (or nothing: its reader says what is missing)
+  Format format = Format::Colmap;
+  std::FILE *file = nullptr;  // a file input, once opened
+  std::string text;           // what has been read of it
+  Input() = default;
+  Input(const Input &) = delete;
+  Input &operator=(const Input &) = delete;
+  ~Input() {
+    if (file) std::fclose(file);
+  }
+};
+
+// Whether path is a directory, without reading anything: false with "PATH: cannot open: REASON"
+// when it cannot be looked at (a symbolic link loop, a permission).
+bool look_at_input(const std::string &path, Input *in, std::string *error) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0) {
+    in->directory = S_ISDIR(st.st_mode);
+    return true;
+  }
+  in->directory = errno == ENOENT;
+  if (in->directory) return true;
+  *error = path + ": cannot open: " + std::strerror(errno);
+  return false;
+}
+
+// Opens a file input and tells its format from its first bytes.
+bool open_input(const std::string &path, Input *in, std::string *error) {
+  in->file = std::fopen(path.c_str(), "rb");
+  if (!in->file) {
+    *error = path + ": cannot open: " + std::strerror(errno);
+    return false;
+  }
+  char head[13];
+  in->text.assign(head, std::fread(head, 1, sizeof head, in->file));
+  if (in->text.compare(0, 13, "# Bundle file") == 0) {
+    in->format = Format::Bundler;
+  } else if (in->text.compare(0, 6, "NVM_V3") == 0) {
+    in->format = Format::Nvm;
+  } else {
+    *error = path + ": not a COLMAP model directory, a Bundler file (# Bundle file) or an NVM file (NVM_V3)";
+    return false;
+  }
+  return true;
+}
+
+// The state a job's callbacks point into, kept alive for the whole run.
+struct Loaded {
+  colmap::Model model;
+  colmap::Encoding encoding = colmap::Encoding::Text;
+  colmap::SbaProblem problem;
+  std::unique_ptr<euclidean::CameraModel> sba_model;
+  nvm::Model nvm;
+  bundler::Bundle bundle;
+  bundler::ImageList list;
+  bal::Problem bal;
+  bal::SbaLayout layout;
+  std::vector<int> bundle_cameras;
+  bal_camera::CallbackData bal_data;
+};
+
+// The job of l->problem through eucsbademo's camera model (COLMAP models and NVM files).
+void eucsba_job(Loaded *l, Job *job) {
+  colmap::SbaProblem &pr = l->problem;
+  l->sba_model = std::make_unique<euclidean::CameraModel>(euclidean::CameraKind::VaryingIntrinsicsDistortion, pr.cameras,
+                                                       pr.points.xyz, pr.nccalib, pr.ncdist);
+  const euclidean::CameraModel &sm = *l->sba_model;
+  job->in.m = pr.points.ncameras;
+  job->in.n = pr.points.npoints();
+  job->in.cnp = sm.cnp();
+  job->in.vis = &pr.points.pairs;
+  job->in.x = pr.points.x.data();
+  job->p = sm.initial_camera_params();
+  job->p.insert(job->p.end(), sm.initial_points().begin(), sm.initial_points().end());
+  const euclidean::ExpertCallbacks cb = euclidean::expert_callbacks(sm.kind(), euclidean::Refinement::MotionStructure);
+  job->in.func = cb.func;
+  job->in.fjac = cb.fjac;
+  job->in.adata = euclidean::as_adata(sm);
+  const int m = job->in.m, cnp = job->in.cnp;
+  job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
+    sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
+  };
+}
+
+// --write-eucsba PREFIX: the estimate p as eucsbademo files.
+bool write_eucsba(const std::string &prefix, const Loaded &l, const double *p, std::string *why) {
+  const euclidean::CameraModel &model = *l.sba_model;
+  std::vector<euclidean::Camera> cams;
+  for (int j = 0; j < model.ncameras(); ++j)
+    cams.push_back(model.camera(j, p + static_cast<std::size_t>(j) * model.cnp()));
+  const double *xyz = p + static_cast<std::size_t>(model.ncameras()) * model.cnp();
+  const std::vector<double> points(xyz, xyz + 3 * static_cast<std::size_t>(model.npoints()));
+  eucsba::Status st = eucsba::write_cameras(prefix + "-cams.txt", model.kind(), cams);
+  if (st) st = eucsba::write_points(prefix + "-pts.txt", l.problem.points, points);
+  if (!st) *why = st.to_string();
+  return static_cast<bool>(st);
+}
+
+bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
+  if (!colmap::read_model(o.input, &l->model, &l->encoding, error) ||
+      !colmap::to_sba(l->model, o.refine, o.input, &l->problem, error))
+    return false;
+  eucsba_job(l, job);
+  const colmap::SbaProblem &pr = l->problem;
+  char line[512];
+  std::snprintf(line, sizeof line, "COLMAP model %s (%s): %d images, %zu cameras, %d points",
+                o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", job->in.m,
+                l->model.cameras.size(), job->in.n);
+  job->summary = line;
+  job->summary += "\nIntrinsics refined: " + o.intrinsics + " (nccalib " + std::to_string(pr.nccalib) + ", ncdist " +
+                  std::to_string(pr.ncdist) + ")";
+  job->initial = cloud(l->model);
+  for (const colmap::Image &im : l->model.images) job->camera_names.push_back(im.name);
+  job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
+    colmap::from_sba(*l->sba_model, l->problem, p, o.solve.mcon, o.solve.ncon, &l->model);
+    *final_cloud = cloud(l->model);
+    if (!o.write_eucsba.empty() && !write_eucsba(o.write_eucsba, *l, p, why)) return false;
+    if (o.write.empty()) return true;
+    const colmap::Encoding out =
+        o.write_format.empty() ? l->encoding
+                               : (o.write_format == "text" ? colmap::Encoding::Text : colmap::Encoding::Binary);
+    return colmap::write_model(o.write, l->model, out, why);
+  };
+  return true;
+}
+
+bool load_nvm(const Options &o, const std::string &text, Loaded *l, Job *job, std::string *error) {
+  if (!nvm::parse_nvm(text, o.input, &l->nvm, error) ||
+      !nvm::to_sba(l->nvm, o.refine.focal, o.input, &l->problem, error))
+    return false;
+  eucsba_job(l, job);
+  job->summary = "NVM file " + o.input + ": " + std::to_string(job->in.m) + " cameras, " + std::to_string(job->in.n) +
+                 " points";
+  job->summary += std::string("\nIntrinsics refined: ") + (o.refine.focal ? "focal" : "none") + " (nccalib " +
+                  std::to_string(l->problem.nccalib) +
+                  "); radial distortion held: VisualSFM applies it to the measurements, which sba takes as data";
+  job->initial = cloud(l->nvm);
+  for (const nvm::Camera &c : l->nvm.cameras) job->camera_names.push_back(c.name);
+  job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
+    nvm::from_sba(*l->sba_model, p, o.solve.mcon, o.solve.ncon, &l->nvm);
+    *final_cloud = cloud(l->nvm);
+    if (!o.write_eucsba.empty() && !write_eucsba(o.write_eucsba, *l, p, why)) return false;
+    return o.write.empty() || nvm::write_nvm(o.write, l->nvm, why);
+  };
+  return true;
+}
+
+bool load_bundle(const Options &o, const std::string &text, Loaded *l, Job *job, std::string *error) {
+  if (!bundler::parse_bundle(text, o.input, &l->bundle, error)) return false;
+  if (!o.bundler_list.empty()) {
+    if (!bundler::read_list(o.bundler_list, &l->list, error)) return false;
+    if (l->list.names.size() != l->bundle.cameras.size()) {
+      *error = o.bundler_list + ": " + std::to_string(l->list.names.size()) + " images for the " +
+               std::to_string(l->bundle.cameras.size()) + " cameras of " + o.input;
+      return false;
+    }
+  }
+  if (!bundler::to_bal(l->bundle, o.input, &l->bal, &l->bundle_cameras, error, l->list.names) ||
+      !bal::to_sba(l->bal, o.input, &l->layout, error))
+    return false;
+  job->in.m = l->layout.m;
+  job->in.n = l->layout.n;
+  job->in.cnp = bal_camera::kCameraParams;
+  job->in.vis = &l->layout.vis;
+  job->in.x = l->layout.x.data();
+  job->p = l->layout.p;
+  job->in.func = bal_camera::motstr_func;
+  job->in.fjac = bal_camera::motstr_fjac;
+  l->bal_data.ncameras = job->in.m;
+  job->in.adata = &l->bal_data;
+  const int m = job->in.m;
+  job->project = [m](const double *p, int j, int i, double x[2]) {
+    bal_camera::project(p + static_cast<std::size_t>(j) * bal_camera::kCameraParams,
+                 p + static_cast<std::size_t>(m) * bal_camera::kCameraParams + 3 * static_cast<std::size_t>(i), x);
+  };
+  job->summary = "Bundler file " + o.input + ": " + std::to_string(l->bundle.cameras.size()) + " cameras (" +
+                 std::to_string(m) + " registered), " + std::to_string(job->in.n) + " points";
+  if (!o.bundler_list.empty()) job->summary += ", images listed in " + o.bundler_list;
+  if (!l->list.names.empty())
+    for (int j : l->bundle_cameras) job->camera_names.push_back(l->list.names[static_cast<std::size_t>(j)]);
+  job->initial = cloud(l->bundle);
+  job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
+    bal::from_sba_params(p, &l->bal);
+    bundler::from_bal(l->bal, l->bundle_cameras, o.solve.mcon, o.solve.ncon, &l->bundle);
+    *final_cloud = cloud(l->bundle);
+    if (!o.write_bal.empty() && !bal::write_problem(o.write_bal, l->bal, why)) return false;
+    if (!o.write_list.empty() && !sbaformats::write_whole_file(o.write_list, l->list.text, why)) return false;
+    return o.write.empty() || bundler::write_bundle(o.write, l->bundle, why);
+  };
+  return true;
+}
+
+int refine_main(int argc, char **argv) {
+  Options o;
+  std::string error;
+  const bool parsed = parse_command_line(argc, argv, &o, &error);
+  if (const int status = sbacli::answer_command_line("sbarefine", parsed, error, o.help, o.version, print_usage);
+      status >= 0)
+    return status;
+  sbacli::SolveOptions &so = o.solve;
+  Input input;
+  if (!look_at_input(o.input, &input, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
+  // Every output before anything is read: --write is a model directory for a directory.
+  const std::string write_file = input.directory ? "" : o.write;
+  const std::string eucsba_cams = o.write_eucsba.empty() ? "" : o.write_eucsba + "-cams.txt";
+  const std::string eucsba_pts = o.write_eucsba.empty() ? "" : o.write_eucsba + "-pts.txt";
+  if (!sbacli::outputs_writable({&write_file, &eucsba_cams, &eucsba_pts, &so.json, &o.initial_ply, &o.final_ply,
+                                  &o.write_bal, &o.write_list}))
+    return kExitFailure;
+  if (input.directory && !o.write.empty()) {
+    colmap::Encoding encoding = o.write_format == "binary" ? colmap::Encoding::Binary : colmap::Encoding::Text;
+    std::string unknown;  // no model to write: its reader says why below
+    if ((!o.write_format.empty() || colmap::model_encoding(o.input, &encoding, &unknown)) &&
+        !colmap::model_writable(o.write, encoding, &error)) {
+      std::fprintf(stderr, "%s\n", error.c_str());
+      return kExitFailure;
+    }
+  }
+
+  const auto read_start = std::chrono::steady_clock::now();
+  Loaded loaded;
+  Job job;
+  if (!input.directory && !open_input(o.input, &input, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
+  const Format format = input.format;
+  // An option of another format: named with the formats it is for.
+  const struct {
+    bool given, allowed;
+    const char *option, *formats;
+  } kFormatOptions[] = {
+      {!o.write_format.empty(), format == Format::Colmap, "--write-format", "COLMAP models"},
+      {!o.write_eucsba.empty(), format != Format::Bundler, "--write-eucsba", "COLMAP models and NVM files"},
+      {!o.write_bal.empty(), format == Format::Bundler, "--write-bal", "Bundler files"},
+      {!o.bundler_list.empty(), format == Format::Bundler, "--bundler-list", "Bundler files"},
+      {!o.write_list.empty(), format == Format::Bundler, "--write-list", "Bundler files"}};
+  for (const auto &opt : kFormatOptions)
+    if (opt.given && !opt.allowed) {
+      std::fprintf(stderr, "sbarefine: %s is for %s\n", opt.option, opt.formats);
+      return kExitUsage;
+    }
+  if (!o.write_list.empty() && o.bundler_list.empty()) {
+    std::fprintf(stderr, "sbarefine: --write-list writes the list of --bundler-list, which is not given\n");
+    return kExitUsage;
+  }
+  if (format == Format::Nvm && o.refine.principal) {
+    std::fprintf(stderr, "sbarefine: --intrinsics %s: an NVM file has no principal point (its measurements are "
+                         "relative to the image centre)\n", o.intrinsics.c_str());
+    return kExitUsage;
+  }
+  bool (*const load)(const Options &, const std::string &, Loaded *, Job *, std::string *) =
+      format == Format::Bundler ? load_bundle : format == Format::Nvm ? load_nvm : load_colmap;
+  if ((input.file && !colmap::read_rest(input.file, o.input, true, &input.text, &error)) ||
+      !load(o, input.text, &loaded, &job, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
+  const double read_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
+  job.in.p = job.p.data();
+  sbacli::MotstrSolve solve("sbarefine", o.input, so, job.in);
+  if (const int status = solve.check_fixed(); status >= 0) return status;
+  if (!sbacli::write_ply_option(o.initial_ply, job.initial)) return kExitFailure;
+  if (!solve.run()) return kExitFailure;
+
+  const std::vector<double> &p = job.p;
+  Cloud final_cloud;
+  if (!job.finish(p.data(), &final_cloud, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
+  if (!sbacli::write_ply_option(o.final_ply, final_cloud)) return kExitFailure;
+
+  const std::size_t eol = job.summary.find('\n');
+  std::printf("%s, %d observations, %lld variables%s\n", job.summary.substr(0, eol).c_str(), solve.observations(),
+              solve.variables(), eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
+  return solve.finish(
+      read_seconds, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); }, job.camera_names,
+      o.write);
+}
+
+}  // namespace
+
+int main(int argc, char **argv) { return sbacli::guarded_main("sbarefine", refine_main, argc, argv); }
