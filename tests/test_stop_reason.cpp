@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The stop reasons have one vocabulary: sba_ext.h's SBA_STOP_* values and the words of
-// sba_stop_reason_text, which the programs' report prints (demo/report.h) and pysba reads.
+// sba_stop_reason_text, which the programs' report prints (demo/cli/report.h) and pysba reads.
 #include <gtest/gtest.h>
 
 #include <climits>
@@ -10,7 +10,7 @@
 #include <sstream>
 #include <string>
 
-#include "report.h"
+#include "cli/report.h"
 #include "sba_ext.h"
 
 namespace {
@@ -56,19 +56,19 @@ std::string read_all(std::FILE *f) {
 TEST(StopReason, TheReportPrintsTheLibrarysWords) {
   const std::string json_path = testing::TempDir() + "stop_reason.json";
   for (int r = SBA_STOP_NONE - 1; r <= SBA_STOP_USER + 1; ++r) {
-    sbademo::Report report;
+    sbacli::Report report;
     report.info[6] = r;
     const std::string words =
         std::string(sba_stop_reason_text(r)) + (r == SBA_STOP_USER ? " (a signal or --max-time)" : "");
     std::FILE *f = std::tmpfile();
     ASSERT_NE(f, nullptr);
-    sbademo::print_report(f, report);
+    sbacli::print_report(f, report);
     const std::string printed = read_all(f);
     std::fclose(f);
     EXPECT_NE(printed.find("\nStop reason " + std::to_string(r) + ": " + words + "\n"), std::string::npos) << printed;
 
     std::string why;
-    ASSERT_TRUE(sbademo::write_json(json_path, report, &why)) << why;
+    ASSERT_TRUE(sbacli::write_json(json_path, report, &why)) << why;
     std::ifstream in(json_path);
     std::stringstream json;
     json << in.rdbuf();
