@@ -7,7 +7,7 @@
 #include <unordered_set>
 #include <vector>
 
-#include "formats/colmap_common.h"
+#include "formats/colmap_io_impl.h"
 
 namespace sbaformats::colmap {
 

@@ -16,7 +16,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
-#include "formats/colmap_common.h"
+#include "formats/colmap_io_impl.h"
 #include "formats/output_file.h"
 #include "formats/text_tokens.h"
 

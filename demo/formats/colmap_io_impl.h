@@ -2,8 +2,8 @@
 // What the COLMAP text format (colmap_text.cpp), the binary format (colmap_binary.cpp) and the
 // model's files (colmap_io.cpp) share beyond colmap_io.h: the camera models sba expresses, the
 // messages about them, and the formatting of a model in each encoding.
-#ifndef SBA_DEMO_COLMAP_COMMON_H
-#define SBA_DEMO_COLMAP_COMMON_H
+#ifndef SBA_DEMO_COLMAP_IO_IMPL_H
+#define SBA_DEMO_COLMAP_IO_IMPL_H
 
 #include <string>
 
@@ -55,4 +55,4 @@ Files format_binary(const Model &model);
 
 }  // namespace sbaformats::colmap
 
-#endif  // SBA_DEMO_COLMAP_COMMON_H
+#endif  // SBA_DEMO_COLMAP_IO_IMPL_H

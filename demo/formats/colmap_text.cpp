@@ -6,7 +6,7 @@
 #include <unordered_set>
 #include <vector>
 
-#include "formats/colmap_common.h"
+#include "formats/colmap_io_impl.h"
 #include "formats/text_tokens.h"
 
 namespace sbaformats::colmap {
