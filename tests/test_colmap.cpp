@@ -371,6 +371,72 @@ TEST(Sbarefine, SharedCameraHeldIntrinsicsAsFixedK) {
   EXPECT_EQ(back.cameras[0].params, s.model.cameras[0].params);
 }
 
+// An image that sees no point (what filtering the points can leave) is held out of the solve
+// and written back as read; the others refine as they would without it.
+TEST(Sbarefine, ImageWithoutObservationsWrittenBackAsRead) {
+  const std::string dir = temp_dir("unobserved");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
+  colmap::Model m = s.model;
+  const std::uint32_t lost = m.images[3].id;
+  // Its keypoints stay, matched to no point; a point only it saw goes.
+  for (colmap::Point2D &k : m.images[3].points) k.point3d_id = colmap::kNoPoint;
+  for (colmap::Point3D &pt : m.points)
+    pt.track.erase(std::remove_if(pt.track.begin(), pt.track.end(),
+                                  [lost](const colmap::TrackElement &e) { return e.image_id == lost; }),
+                   pt.track.end());
+  m.points.erase(std::remove_if(m.points.begin(), m.points.end(),
+                                [](const colmap::Point3D &pt) { return pt.track.empty(); }),
+                 m.points.end());
+  // The same model without the image and its camera.
+  colmap::Model without = m;
+  without.images.erase(without.images.begin() + 3);
+  without.cameras.erase(without.cameras.begin() + 3);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", m, colmap::Encoding::Text, &error)) << error;
+  ASSERT_TRUE(colmap::write_model(dir + "/without", without, colmap::Encoding::Text, &error)) << error;
+  const Outcome r = run(dir + "/in --write " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string points = std::to_string(m.points.size());
+  EXPECT_NE(r.out.find("COLMAP model " + dir + "/in (text): 10 images, 10 cameras, " + points + " points, "),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("\n1 image sees no point: held out of the solve and written back as read\n"),
+            std::string::npos)
+      << r.out;
+  const Outcome w = run(dir + "/without --write " + dir + "/out-without");
+  ASSERT_EQ(w.status, 0) << w.err;
+  EXPECT_EQ(w.out.find("sees no point"), std::string::npos) << w.out;
+  EXPECT_EQ(final_error(r.out), final_error(w.out));
+  colmap::Model back, back_without;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  ASSERT_TRUE(colmap::read_model(dir + "/out-without", &back_without, nullptr, &error)) << error;
+  ASSERT_EQ(back.images.size(), 10u);
+  // The held-out image and its camera as read, keypoints included.
+  const colmap::Image &held = back.images[3], &read = m.images[3];
+  EXPECT_EQ(held.id, read.id);
+  EXPECT_EQ(held.q, read.q);
+  EXPECT_EQ(held.t, read.t);
+  EXPECT_EQ(held.name, read.name);
+  ASSERT_EQ(held.points.size(), read.points.size());
+  for (std::size_t k = 0; k < held.points.size(); ++k) {
+    EXPECT_EQ(held.points[k].x, read.points[k].x);
+    EXPECT_EQ(held.points[k].y, read.points[k].y);
+    EXPECT_EQ(held.points[k].point3d_id, colmap::kNoPoint);
+  }
+  EXPECT_EQ(back.cameras[3].params, m.cameras[3].params);
+  // The others refined, to the same values as without the image.
+  for (std::size_t j = 0, k = 0; j < back.images.size(); ++j) {
+    if (j == 3) continue;
+    EXPECT_NE(back.images[j].t, m.images[j].t);
+    EXPECT_NE(back.cameras[j].params, m.cameras[j].params);
+    EXPECT_EQ(back.images[j].q, back_without.images[k].q);
+    EXPECT_EQ(back.images[j].t, back_without.images[k].t);
+    EXPECT_EQ(back.cameras[j].params, back_without.cameras[k].params);
+    ++k;
+  }
+  for (std::size_t i = 0; i < back.points.size(); ++i) EXPECT_EQ(back.points[i].xyz, back_without.points[i].xyz);
+}
+
 TEST(Sbarefine, MaxTimeStopsAfterAnIterationAndStillWrites) {
   const std::string dir = temp_dir("maxtime");
   const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);

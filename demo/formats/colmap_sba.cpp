@@ -103,29 +103,38 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::strin
   const int m = static_cast<int>(model.images.size());
   const int n = static_cast<int>(model.points.size());
   if (m == 0 || n == 0) return fail(error, where + "the model has no images or no points");
-  int dist = 4;
   for (int j = 0; j < m; ++j) {
     const Image &im = model.images[static_cast<std::size_t>(j)];
     image_index.emplace(im.id, j);
     ++users[im.camera_id];
-    dist = std::min(dist, distortion_terms(cameras.at(im.camera_id)->model));
   }
+  // An image is a camera of the problem when it sees a point (every point is seen: check_model).
+  std::vector<int> camera_of(static_cast<std::size_t>(m), -1);
+  for (const Point3D &pt : model.points)
+    for (const TrackElement &e : pt.track) camera_of[static_cast<std::size_t>(image_index.at(e.image_id))] = 0;
+  int dist = 4;
+  for (int j = 0; j < m; ++j)
+    if (camera_of[static_cast<std::size_t>(j)] == 0)
+      dist = std::min(dist, distortion_terms(cameras.at(model.images[static_cast<std::size_t>(j)].camera_id)->model));
   SbaProblem p;
   p.nccalib = refine.focal ? (refine.principal ? 2 : 4) : 5;
   p.ncdist = refine.distortion ? sbacameras::euclidean::kDistortionParams - dist : sbacameras::euclidean::kDistortionParams;
   const bool intrinsics = p.nccalib < sbacameras::euclidean::kIntrinsicParams || p.ncdist < sbacameras::euclidean::kDistortionParams;
-  for (const Image &im : model.images) {
+  for (int j = 0; j < m; ++j) {
+    if (camera_of[static_cast<std::size_t>(j)] < 0) continue;
+    const Image &im = model.images[static_cast<std::size_t>(j)];
     if (intrinsics && users[im.camera_id] > 1)
       return fail(error, where + "camera " + std::to_string(im.camera_id) + " is shared by " +
                              std::to_string(users[im.camera_id]) +
                              " images: sba refines each image's intrinsics on their own; hold them "
                              "(--intrinsics none) or give each image a camera of its own");
+    camera_of[static_cast<std::size_t>(j)] = static_cast<int>(p.cameras.size());
     p.cameras.push_back(to_camera(*cameras.at(im.camera_id), im));
+    p.images.push_back(j);
   }
   eucsba::PointSet &s = p.points;
-  s.ncameras = m;
+  s.ncameras = static_cast<int>(p.cameras.size());
   s.xyz.reserve(static_cast<std::size_t>(n) * 3);
-  std::vector<bool> seen(static_cast<std::size_t>(m), false);
   std::vector<std::pair<int, const Point2D *>> track;
   for (int i = 0; i < n; ++i) {
     const Point3D &pt = model.points[static_cast<std::size_t>(i)];
@@ -133,7 +142,8 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::strin
     track.clear();
     for (const TrackElement &e : pt.track) {
       const int j = image_index.at(e.image_id);
-      track.push_back({j, &model.images[static_cast<std::size_t>(j)].points[e.point2d_idx]});
+      track.push_back({camera_of[static_cast<std::size_t>(j)],
+                       &model.images[static_cast<std::size_t>(j)].points[e.point2d_idx]});
     }
     // sba's layout: a point's projections with the cameras ascending.
     std::sort(track.begin(), track.end(),
@@ -144,32 +154,25 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::strin
       s.pairs.add(i, t.first);
       s.x.push_back(t.second->x);
       s.x.push_back(t.second->y);
-      seen[static_cast<std::size_t>(t.first)] = true;
     }
   }
-  for (int j = 0; j < m; ++j)
-    if (!seen[static_cast<std::size_t>(j)])
-      return fail(error, where + "image " + std::to_string(model.images[static_cast<std::size_t>(j)].id) +
-                             " sees no point: sba cannot place it");
   *out = std::move(p);
   return true;
 }
 
 void from_sba(const sbacameras::euclidean::CameraModel &sba_model, const SbaProblem &problem, const double *p, int mcon, int ncon,
               Model *model) {
-  const int m = static_cast<int>(model->images.size());
+  const int m = static_cast<int>(problem.images.size());
   const int n = static_cast<int>(model->points.size());
   const int cnp = sba_model.cnp();
   std::unordered_map<std::uint32_t, Camera *> cameras;
   for (Camera &c : model->cameras) cameras.emplace(c.id, &c);
-  std::vector<sbacameras::euclidean::Camera> refined(static_cast<std::size_t>(m));
-  std::unordered_map<std::uint32_t, int> image_index;
+  std::unordered_map<std::uint32_t, int> camera_of;  // an image's sba camera
   for (int j = 0; j < m; ++j) {
-    Image &im = model->images[static_cast<std::size_t>(j)];
-    image_index.emplace(im.id, j);
-    refined[static_cast<std::size_t>(j)] = sba_model.camera(j, p + static_cast<std::size_t>(j) * cnp);
+    Image &im = model->images[static_cast<std::size_t>(problem.images[static_cast<std::size_t>(j)])];
+    camera_of.emplace(im.id, j);
     if (j < mcon) continue;
-    const sbacameras::euclidean::Camera &c = refined[static_cast<std::size_t>(j)];
+    const sbacameras::euclidean::Camera c = sba_model.camera(j, p + static_cast<std::size_t>(j) * cnp);
     im.q = {c.q.w, c.q.x, c.q.y, c.q.z};
     for (int k = 0; k < 3; ++k) im.t[k] = c.t[k];
     set_intrinsics(c, sbacameras::euclidean::kIntrinsicParams - problem.nccalib, sbacameras::euclidean::kDistortionParams - problem.ncdist,
@@ -182,8 +185,9 @@ void from_sba(const sbacameras::euclidean::CameraModel &sba_model, const SbaProb
     for (int k = 0; k < 3; ++k) pt.xyz[k] = b[k];
     double sum = 0;
     for (const TrackElement &e : pt.track) {
-      const int j = image_index.at(e.image_id);
-      const Point2D &obs = model->images[static_cast<std::size_t>(j)].points[e.point2d_idx];
+      const int j = camera_of.at(e.image_id);
+      const Point2D &obs =
+          model->images[static_cast<std::size_t>(problem.images[static_cast<std::size_t>(j)])].points[e.point2d_idx];
       double x[2];
       sba_model.project(j, p + static_cast<std::size_t>(j) * cnp, b, x);
       sum += std::hypot(x[0] - obs.x, x[1] - obs.y);

@@ -40,20 +40,22 @@ struct RefineIntrinsics {
 std::string parse_refine_intrinsics(const std::string &text, RefineIntrinsics *out);
 
 struct SbaProblem {
-  std::vector<euclidean::Camera> cameras;  // one per image, in file order
+  std::vector<euclidean::Camera> cameras;  // one per image that sees a point, in file order
+  std::vector<int> images;                 // COLMAP: the index in Model::images of each camera
   eucsba::PointSet points;              // one per 3D point, in file order; visibility as pairs
   int nccalib = 5, ncdist = 5;          // trailing intrinsics / distortion terms held
 };
 
 // The problem of a model checked by check_model. Refining the intrinsics of a camera that
 // several images share has no counterpart in sba (each image's intrinsics are its own
-// parameters): refused, as is an image without observations, with a message naming the
-// camera or image. The distortion terms refined are those every camera model has.
+// parameters): refused, with a message naming the camera. An image that sees no point has no
+// sba camera (nothing places it): it is held out of the problem, and from_sba leaves it as it
+// was. The distortion terms refined are those every camera model has.
 bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::string &name, SbaProblem *out,
             std::string *error);
 
 // Writes the estimate p (m cnp-vectors, then n points, as eucsbademo lays them out) back
-// into the model: poses of the images from mcon on, points from ncon on, the refined
+// into the model: poses of the sba cameras' images from mcon on, points from ncon on, the refined
 // intrinsics of their cameras, and each refined point's ERROR as its mean reprojection error
 // in pixels. Everything else stays as it was read.
 void from_sba(const euclidean::CameraModel &sba_model, const SbaProblem &problem, const double *p, int mcon, int ncon,

@@ -294,14 +294,18 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   eucsba_job(l, job);
   const colmap::SbaProblem &pr = l->problem;
   char line[512];
-  std::snprintf(line, sizeof line, "COLMAP model %s (%s): %d images, %zu cameras, %d points",
-                o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", job->in.m,
+  std::snprintf(line, sizeof line, "COLMAP model %s (%s): %zu images, %zu cameras, %d points",
+                o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", l->model.images.size(),
                 l->model.cameras.size(), job->in.n);
   job->summary = line;
+  const std::size_t held_out = l->model.images.size() - pr.images.size();
+  if (held_out > 0)
+    job->summary += "\n" + std::to_string(held_out) + (held_out == 1 ? " image sees" : " images see") +
+                    " no point: held out of the solve and written back as read";
   job->summary += "\nIntrinsics refined: " + o.intrinsics + " (nccalib " + std::to_string(pr.nccalib) + ", ncdist " +
                   std::to_string(pr.ncdist) + ")";
   job->initial = cloud(l->model);
-  for (const colmap::Image &im : l->model.images) job->camera_names.push_back(im.name);
+  for (int j : pr.images) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
     colmap::from_sba(*l->sba_model, l->problem, p, o.solve.mcon, o.solve.ncon, &l->model);
     *final_cloud = cloud(l->model);
