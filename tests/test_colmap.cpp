@@ -437,6 +437,40 @@ TEST(Sbarefine, ImageWithoutObservationsWrittenBackAsRead) {
   for (std::size_t i = 0; i < back.points.size(); ++i) EXPECT_EQ(back.points[i].xyz, back_without.points[i].xyz);
 }
 
+// A folder that holds a text and a binary model: the binary one is read, as COLMAP reads it,
+// and the summary says so.
+TEST(Sbarefine, BinaryReadFirstWhenBothArePresent) {
+  const std::string dir = temp_dir("both_encodings");
+  std::filesystem::create_directories(dir + "/a");
+  std::filesystem::create_directories(dir + "/b");
+  const Scene text = make_scene(dir + "/a", euclidean::CameraKind::VaryingIntrinsicsDistortion);
+  const Scene binary = make_scene(dir + "/b", euclidean::CameraKind::VaryingIntrinsicsDistortion, 8, 120);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/binary", binary.model, colmap::Encoding::Binary, &error)) << error;
+  // write_model leaves one encoding in a folder: the second model is copied in beside it.
+  ASSERT_TRUE(colmap::write_model(dir + "/both", text.model, colmap::Encoding::Text, &error)) << error;
+  for (const char *f : {"cameras.bin", "images.bin", "points3D.bin"})
+    std::filesystem::copy_file(dir + "/binary/" + f, dir + "/both/" + f);
+  const Outcome alone = run(dir + "/binary");
+  ASSERT_EQ(alone.status, 0) << alone.err;
+  EXPECT_EQ(alone.out.find("not read"), std::string::npos) << alone.out;
+  const Outcome r = run(dir + "/both --write " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("COLMAP model " + dir + "/both (binary): 8 images, 8 cameras, 120 points, "),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("\nThe text model beside it is not read: binary is read first, as COLMAP does\n"),
+            std::string::npos)
+      << r.out;
+  EXPECT_EQ(final_error(r.out), final_error(alone.out));
+  colmap::Model back;
+  colmap::Encoding found = colmap::Encoding::Text;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, &found, &error)) << error;
+  EXPECT_EQ(found, colmap::Encoding::Binary);
+  EXPECT_EQ(back.images.size(), 8u);
+  EXPECT_EQ(back.points.size(), 120u);
+}
+
 TEST(Sbarefine, MaxTimeStopsAfterAnIterationAndStillWrites) {
   const std::string dir = temp_dir("maxtime");
   const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);

@@ -174,8 +174,13 @@ bool read_model_file(const std::string &path, bool text, std::string *out, std::
 
 }  // namespace
 
+bool has_model(const std::string &dir, Encoding encoding) {
+  struct stat st {};
+  return ::stat((slashed(dir) + "cameras" + extension(encoding)).c_str(), &st) == 0;
+}
+
 bool model_encoding(const std::string &dir, Encoding *out, std::string *error) {
-  for (Encoding e : {Encoding::Text, Encoding::Binary}) {
+  for (Encoding e : {Encoding::Binary, Encoding::Text}) {
     const std::string path = slashed(dir) + "cameras" + extension(e);
     struct stat st {};
     if (::stat(path.c_str(), &st) == 0) {

@@ -75,8 +75,12 @@ struct Model {
   std::vector<Point3D> points;
 };
 
-// Which files a directory holds: text if cameras.txt exists, else binary if cameras.bin does.
+// Which files a directory holds: binary if cameras.bin exists, else text if cameras.txt does.
+// Binary first, as COLMAP reads a folder that holds both.
 enum class Encoding { Text, Binary };
+
+// Whether dir holds a cameras file of the encoding (anything by that name).
+bool has_model(const std::string &dir, Encoding encoding);
 
 // The encoding of the model in dir, without reading it: false with "PATH: cannot open: REASON"
 // when its cameras file cannot be looked at (a symbolic link loop, say), "DIR: no COLMAP

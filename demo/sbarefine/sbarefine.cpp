@@ -109,9 +109,10 @@ void print_usage(std::FILE *out) {
   std::fputs(
       "Usage: sbarefine [OPTION]... MODEL\n"
       "Bundle-adjusts a reconstruction with sba_motstr_levmar_x_ext, analytic Jacobian. MODEL is\n"
-      "- a COLMAP sparse model: the directory holding cameras, images and points3D (.txt or .bin;\n"
-      "  camera models SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV), refined with\n"
-      "  eucsbademo's camera model, every image an sba camera with its own intrinsics;\n"
+      "- a COLMAP sparse model: the directory holding cameras, images and points3D (.bin or .txt,\n"
+      "  .bin read first as COLMAP does; camera models SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL,\n"
+      "  RADIAL, OPENCV), refined with eucsbademo's camera model, every image that sees a point an\n"
+      "  sba camera with its own intrinsics (one that sees none is written back as read);\n"
       "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera;\n"
       "  --intrinsics does not apply); its image list (list.txt) with --bundler-list;\n"
       "- a VisualSFM file (NVM_V3, its first model), refined with eucsbademo's camera model, the\n"
@@ -298,6 +299,10 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
                 o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", l->model.images.size(),
                 l->model.cameras.size(), job->in.n);
   job->summary = line;
+  // A folder may hold both encodings: the one not read is named, so that no one takes its
+  // values for the ones refined.
+  if (l->encoding == colmap::Encoding::Binary && colmap::has_model(o.input, colmap::Encoding::Text))
+    job->summary += "\nThe text model beside it is not read: binary is read first, as COLMAP does";
   const std::size_t held_out = l->model.images.size() - pr.images.size();
   if (held_out > 0)
     job->summary += "\n" + std::to_string(held_out) + (held_out == 1 ? " image sees" : " images see") +
