@@ -471,6 +471,31 @@ TEST(Sbarefine, BinaryReadFirstWhenBothArePresent) {
   EXPECT_EQ(back.points.size(), 120u);
 }
 
+// --itmax 0 writes the model as read: no iteration and no Jacobian check (the library's
+// itmax == 0 mode, far costlier than a solve on a large model).
+TEST(Sbarefine, ItmaxZeroRewritesWithoutACheck) {
+  const std::string dir = temp_dir("itmax0");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error)) << error;
+  const Outcome r = run(dir + "/in --itmax 0 --write " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  EXPECT_EQ(r.out.find("Jacobian"), std::string::npos) << r.out;
+  const double e = final_error(r.out);
+  char summary[128];
+  std::snprintf(summary, sizeof summary, "SBA returned 0 in 0 iter, reason 3, error %g [initial %g], 1/0 func/fjac", e,
+                e);
+  EXPECT_NE(r.out.find(summary), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("\nStop reason 3: "), std::string::npos) << r.out;
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  expect_same(back, s.model);
+  // The model as read, to the byte.
+  for (const char *f : {"/cameras.bin", "/images.bin", "/points3D.bin"})
+    EXPECT_EQ(read_file(dir + "/out" + f), read_file(dir + "/in" + f)) << f;
+}
+
 TEST(Sbarefine, MaxTimeStopsAfterAnIterationAndStillWrites) {
   const std::string dir = temp_dir("maxtime");
   const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
@@ -1082,6 +1107,19 @@ TEST(Sbarefine, BundlerImageList) {
   r = run(dir + " --bundler-list " + dir + "/list.txt");
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(r.err, "sbarefine: --bundler-list is for Bundler files\n");
+}
+
+// --itmax 0 writes a bundle as read: its rotations do not go through the angle-axis vector
+// the BAL camera refines.
+TEST(Sbarefine, ItmaxZeroWritesABundleAsRead) {
+  const std::string dir = temp_dir("itmax0_bundle");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 8, 120);
+  std::string error;
+  ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", make_bundle(s), &error)) << error;
+  const Outcome r = run(dir + "/b.out --itmax 0 --write " + dir + "/c.out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  EXPECT_EQ(read_file(dir + "/c.out"), read_file(dir + "/b.out"));
 }
 
 // Conversions: a COLMAP model to eucsbademo's files and a bundle to a BAL problem (itmax 0:

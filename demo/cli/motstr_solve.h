@@ -88,6 +88,32 @@ class MotstrSolve {
     return false;
   }
 
+  // In place of run() for a program whose --itmax 0 rewrites its input: no solve and no
+  // Jacobian check (the driver's itmax == 0 mode, whose finite differences cost far more than
+  // a solve on a large model), only the squared error of p through project(j, i, x) reported
+  // as the result of zero iterations. A robust loss is not applied: nothing is fitted.
+  template <class Project>
+  void score(Project project) {
+    control_.emplace(so_.max_time, &progress_);
+    const auto start = std::chrono::steady_clock::now();
+    double sq = 0;
+    for (std::size_t k = 0; k < in_.vis->size(); ++k) {
+      double xp[2];
+      project(in_.vis->camera[k], in_.vis->point[k], xp);
+      const double dx = xp[0] - in_.x[2 * k], dy = xp[1] - in_.x[2 * k + 1];
+      sq += dx * dx + dy * dy;
+    }
+    seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    info_.fill(0);
+    info_[0] = info_[1] = sq;
+    info_[6] = SBA_STOP_ITMAX;
+    info_[7] = 1;
+    result_.sq_error_initial = result_.sq_error_final = sq;
+    result_.cost_initial = result_.cost_final = sq;
+    result_.nthreads = 1;
+    ret_ = 0;
+  }
+
   int observations() const { return nobs_; }
   long long variables() const {
     return static_cast<long long>(in_.m) * in_.cnp + static_cast<long long>(in_.n) * in_.pnp;

@@ -128,7 +128,8 @@ void print_usage(std::FILE *out) {
       "Prints what balsba prints: the sizes, sba 1.6's summary (mean squared reprojection error in\n"
       "pixels^2 per observation ...), the RMS reprojection error in pixels, the stop reason, the\n"
       "solver and threads used. The written model keeps every identifier, name, color and\n"
-      "unrefined value; a refined point's ERROR becomes its mean reprojection error.\n"
+      "unrefined value; a refined point's ERROR becomes its mean reprojection error. --itmax 0\n"
+      "writes the model as read (a conversion), without a solve and without a Jacobian check.\n"
       "Exit status: 0 done (--max-time included), 1 a file cannot be read or written or the solver\n"
       "fails, 2 bad options, 130 (SIGINT) or 143 (SIGTERM) when a signal stopped the solve.\n",
       out);
@@ -180,7 +181,9 @@ struct Job {
   std::function<void(const double *p, int j, int i, double x[2])> project;
   Cloud initial;
   std::vector<std::string> camera_names;  // the image of each sba camera; empty: unnamed
-  // Writes the refined model (p) where --write says, and returns it for --final-ply.
+  // Writes the refined model (p) where --write says, and returns it for --final-ply. With
+  // --itmax 0 nothing was refined: the model is written as read, not as p, whose rotations and
+  // centres went through sba's parametrisation and would come back changed in the last bits.
   std::function<bool(const double *p, Cloud *final_cloud, std::string *error)> finish;
 };
 
@@ -312,7 +315,7 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   job->initial = cloud(l->model);
   for (int j : pr.images) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
-    colmap::from_sba(*l->sba_model, l->problem, p, o.solve.mcon, o.solve.ncon, &l->model);
+    if (o.solve.itmax > 0) colmap::from_sba(*l->sba_model, l->problem, p, o.solve.mcon, o.solve.ncon, &l->model);
     *final_cloud = cloud(l->model);
     if (!o.write_eucsba.empty() && !write_eucsba(o.write_eucsba, *l, p, why)) return false;
     if (o.write.empty()) return true;
@@ -337,7 +340,7 @@ bool load_nvm(const Options &o, const std::string &text, Loaded *l, Job *job, st
   job->initial = cloud(l->nvm);
   for (const nvm::Camera &c : l->nvm.cameras) job->camera_names.push_back(c.name);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
-    nvm::from_sba(*l->sba_model, p, o.solve.mcon, o.solve.ncon, &l->nvm);
+    if (o.solve.itmax > 0) nvm::from_sba(*l->sba_model, p, o.solve.mcon, o.solve.ncon, &l->nvm);
     *final_cloud = cloud(l->nvm);
     if (!o.write_eucsba.empty() && !write_eucsba(o.write_eucsba, *l, p, why)) return false;
     return o.write.empty() || nvm::write_nvm(o.write, l->nvm, why);
@@ -380,8 +383,10 @@ bool load_bundle(const Options &o, const std::string &text, Loaded *l, Job *job,
     for (int j : l->bundle_cameras) job->camera_names.push_back(l->list.names[static_cast<std::size_t>(j)]);
   job->initial = cloud(l->bundle);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
-    bal::from_sba_params(p, &l->bal);
-    bundler::from_bal(l->bal, l->bundle_cameras, o.solve.mcon, o.solve.ncon, &l->bundle);
+    if (o.solve.itmax > 0) {
+      bal::from_sba_params(p, &l->bal);
+      bundler::from_bal(l->bal, l->bundle_cameras, o.solve.mcon, o.solve.ncon, &l->bundle);
+    }
     *final_cloud = cloud(l->bundle);
     if (!o.write_bal.empty() && !bal::write_problem(o.write_bal, l->bal, why)) return false;
     if (!o.write_list.empty() && !sbaformats::write_whole_file(o.write_list, l->list.text, why)) return false;
@@ -465,9 +470,13 @@ int refine_main(int argc, char **argv) {
   sbacli::MotstrSolve solve("sbarefine", o.input, so, job.in);
   if (const int status = solve.check_fixed(); status >= 0) return status;
   if (!sbacli::write_ply_option(o.initial_ply, job.initial)) return kExitFailure;
-  if (!solve.run()) return kExitFailure;
-
   const std::vector<double> &p = job.p;
+  // --itmax 0 rewrites (and converts) the model as read.
+  if (so.itmax == 0)
+    solve.score([&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); });
+  else if (!solve.run())
+    return kExitFailure;
+
   Cloud final_cloud;
   if (!job.finish(p.data(), &final_cloud, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
