@@ -288,6 +288,40 @@ TEST(SbarefineNvm, SameErrorAsEucsbademoAndEverythingElseKept) {
   EXPECT_NE(ply.find(centre), std::string::npos) << centre;
 }
 
+// Measurements from the image corner (as COLMAP writes NVM) rather than its centre: one
+// warning naming the file; the solve runs and its status is kept. Centred ones: no warning.
+TEST(SbarefineNvm, WarnsWhenMeasurementsLookUncentred) {
+  const Refinement e = make_refinement("nvm_uncentred");
+  const nvm::Model centred = make_model(e.problem);
+  nvm::Model corner = centred;
+  for (nvm::Point &pt : corner.points)
+    for (nvm::Measurement &v : pt.measurements) {
+      v.x += 320;
+      v.y += 240;
+    }
+  EXPECT_FALSE(nvm::looks_uncentred(centred));
+  EXPECT_TRUE(nvm::looks_uncentred(corner));
+  std::string error;
+  ASSERT_TRUE(nvm::write_nvm(e.dir + "/centred.nvm", centred, &error)) << error;
+  ASSERT_TRUE(nvm::write_nvm(e.dir + "/corner.nvm", corner, &error)) << error;
+  Outcome r = run(e.dir + "/centred.nvm --itmax 5");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  r = run(e.dir + "/corner.nvm --itmax 5");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err, "sbarefine: warning: " + e.dir +
+                       "/corner.nvm: the measurements look measured from the image corner, not from its centre as "
+                       "NVM's are (99% of them have x >= 0 and y >= 0); COLMAP writes NVM files so, and they do not "
+                       "refine to a small error\n");
+  // Below 100 measurements nothing is judged: a file too small to tell.
+  nvm::Model small = corner;
+  small.points.resize(9);
+  std::size_t count = 0;
+  for (const nvm::Point &pt : small.points) count += pt.measurements.size();
+  ASSERT_LT(count, 100u);
+  EXPECT_FALSE(nvm::looks_uncentred(small));
+}
+
 TEST(SbarefineNvm, HeldFocalAndHeldCamerasAsFixedK) {
   const std::string dir = temp_dir("nvm_fixed");
   const refinetest::GeneratedScene s = refinetest::generate_scene(dir, euclidean::CameraKind::FixedIntrinsics, 10, 200);

@@ -135,6 +135,28 @@ bool write_nvm(const std::string &path, const Model &m, std::string *error) {
   return write_whole_file(path, format_nvm(m), error);
 }
 
+bool looks_uncentred(const Model &m) {
+  long long count = 0, positive = 0;
+  double sum[2] = {0, 0}, sum_sq[2] = {0, 0};
+  for (const Point &pt : m.points)
+    for (const Measurement &v : pt.measurements) {
+      ++count;
+      if (v.x >= 0 && v.y >= 0) ++positive;
+      const double xy[2] = {v.x, v.y};
+      for (int a = 0; a < 2; ++a) {
+        sum[a] += xy[a];
+        sum_sq[a] += xy[a] * xy[a];
+      }
+    }
+  if (count < 100 || positive < 0.99 * static_cast<double>(count)) return false;
+  for (int a = 0; a < 2; ++a) {
+    const double mean = sum[a] / static_cast<double>(count);
+    const double variance = std::max(0.0, sum_sq[a] / static_cast<double>(count) - mean * mean);
+    if (!(mean * mean > variance)) return false;
+  }
+  return true;
+}
+
 bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::SbaProblem *out,
             std::string *error) {
   const int ncams = static_cast<int>(m.cameras.size()), n = static_cast<int>(m.points.size());

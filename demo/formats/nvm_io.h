@@ -68,6 +68,14 @@ bool read_nvm(const std::string &path, Model *out, std::string *error);
 std::string format_nvm(const Model &m);
 bool write_nvm(const std::string &path, const Model &m, std::string *error);
 
+// Whether the measurements look measured from the image's corner rather than from its centre
+// (as NVM files written by COLMAP hold them), which no focal length or pose can fit. Judged on
+// all measurements of the model together, and only on 100 or more: at least 99% of them have
+// x >= 0 and y >= 0, and on each axis their mean exceeds their standard deviation. Centred
+// measurements of a real reconstruction spread over all four quadrants (about a quarter in
+// any one); corner-based ones fill one, their mean about 1.7 standard deviations from 0.
+bool looks_uncentred(const Model &m);
+
 // The model as a problem of eucsbademo's VaryingIntrinsicsDistortion cameras, one per NVM
 // camera in file order, every intrinsic held but the focal length when refine_focal
 // (nccalib 4, else 5; ncdist 5). False with a message for a model without points, a camera

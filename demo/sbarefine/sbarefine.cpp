@@ -331,6 +331,13 @@ bool load_nvm(const Options &o, const std::string &text, Loaded *l, Job *job, st
   if (!nvm::parse_nvm(text, o.input, &l->nvm, error) ||
       !nvm::to_sba(l->nvm, o.refine.focal, o.input, &l->problem, error))
     return false;
+  // A warning, not a refusal: the solve still runs, and its error says how badly it fits.
+  if (nvm::looks_uncentred(l->nvm))
+    std::fprintf(stderr,
+                 "sbarefine: warning: %s: the measurements look measured from the image corner, not from its centre "
+                 "as NVM's are (99%% of them have x >= 0 and y >= 0); COLMAP writes NVM files so, and they do not "
+                 "refine to a small error\n",
+                 o.input.c_str());
   eucsba_job(l, job);
   job->summary = "NVM file " + o.input + ": " + std::to_string(job->in.m) + " cameras, " + std::to_string(job->in.n) +
                  " points";
