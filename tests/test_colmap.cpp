@@ -496,6 +496,28 @@ TEST(Sbarefine, ItmaxZeroRewritesWithoutACheck) {
     EXPECT_EQ(read_file(dir + "/out" + f), read_file(dir + "/in" + f)) << f;
 }
 
+// After a solve, what was held comes back bit for bit (as docs/formats.md says): the images
+// before --mcon, the points before --ncon with their ERROR, intrinsics not refined.
+TEST(Sbarefine, HeldValuesComeBackBitForBit) {
+  const std::string dir = temp_dir("held_bits");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error)) << error;
+  const Outcome r = run(dir + "/in --mcon 3 --ncon 50 --intrinsics none --write " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  EXPECT_EQ(read_file(dir + "/out/cameras.bin"), read_file(dir + "/in/cameras.bin"));
+  for (std::size_t j = 0; j < back.images.size(); ++j) {
+    EXPECT_EQ(back.images[j].q == s.model.images[j].q, j < 3) << j;
+    EXPECT_EQ(back.images[j].t == s.model.images[j].t, j < 3) << j;
+  }
+  for (std::size_t i = 0; i < back.points.size(); ++i) {
+    EXPECT_EQ(back.points[i].xyz == s.model.points[i].xyz, i < 50) << i;
+    EXPECT_EQ(back.points[i].error == s.model.points[i].error, i < 50) << i;
+  }
+}
+
 TEST(Sbarefine, MaxTimeStopsAfterAnIterationAndStillWrites) {
   const std::string dir = temp_dir("maxtime");
   const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
