@@ -41,7 +41,7 @@ std::string parse_refine_intrinsics(const std::string &text, RefineIntrinsics *o
 
 struct SbaProblem {
   std::vector<euclidean::Camera> cameras;  // one per image that sees a point, in file order
-  std::vector<int> images;                 // COLMAP: the index in Model::images of each camera
+  std::vector<int> images;                 // to_sba: each camera's index in Model::images (nvm::to_sba: empty)
   eucsba::PointSet points;              // one per 3D point, in file order; visibility as pairs
   int nccalib = 5, ncdist = 5;          // trailing intrinsics / distortion terms held
 };
