@@ -182,6 +182,27 @@ struct sba_ext_options {
    * the drivers never call it. */
   int (*cancel)(void *cancel_ctx);
   void *cancel_ctx;
+  /* Camera parameters held at their initial values, beyond 1.6's leading mcon cameras (the
+   * drivers with cameras; the structure-only ones ignore it): NULL (none), or flags, nonzero
+   * for a held parameter: cnp of them applied to every camera (cam_fixed_per_camera 0), or m*cnp,
+   * camera j's at j*cnp (cam_fixed_per_camera nonzero). A held parameter comes back
+   * bit-identical; it is not an unknown (a camera with all of them held is as a camera below
+   * mcon) and has zero covariance. */
+  const char *cam_fixed;
+  int cam_fixed_per_camera;
+  /* Camera parameters shared by groups of cameras, solved as one set of unknowns per group
+   * (say one intrinsic calibration for the images of one physical camera): NULL (none), or m
+   * group numbers, camera j's in cam_group[j]: -1 for a camera in no group, else a number in
+   * 0..m-1 (the numbers need not be contiguous). cam_shared: cnp flags, nonzero for the
+   * parameters the cameras of a group share (the same for every group). The callbacks keep
+   * seeing every camera's full parameter vector. A group's shared values start as its first
+   * camera's (the one of least index) and every camera of the group holds them on return.
+   * A shared parameter must be held (cam_fixed) in all of a group's cameras or in none, and a
+   * camera below mcon is in no group; anything else is a bad argument (SBA_ERROR). A shared
+   * parameter is damped as the sum of its cameras' copies (each camera's diagonal entry is
+   * added). */
+  const int *cam_group;
+  const char *cam_shared;
 };
 
 /* Fills *opt with the defaults (every field zero/NULL) and opt->size. */
