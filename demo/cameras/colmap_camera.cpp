@@ -1,0 +1,396 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "cameras/colmap_camera.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "cameras/euclidean_rotation.h"
+
+namespace sbacameras::colmap_camera {
+
+namespace {
+
+struct ModelInfo {
+  const char *name;
+  int params;
+  int focals;
+};
+constexpr ModelInfo kModels[kNumModels] = {
+    {"SIMPLE_PINHOLE", 3, 1}, {"PINHOLE", 4, 2},         {"SIMPLE_RADIAL", 4, 1},
+    {"RADIAL", 5, 1},         {"OPENCV", 8, 2},          {"OPENCV_FISHEYE", 8, 2},
+    {"FULL_OPENCV", 12, 2},   {"FOV", 5, 2},             {"SIMPLE_RADIAL_FISHEYE", 4, 1},
+    {"RADIAL_FISHEYE", 5, 1}, {"THIN_PRISM_FISHEYE", 12, 2}};
+
+bool known(int model) { return model >= 0 && model < kNumModels; }
+
+// g(s) = atan(r) / r with s = r^2, and dg/ds. The closed form of dg/ds cancels as s -> 0,
+// and g itself is 0/0 at s = 0: below the threshold the series, whose first omitted term
+// (s^5 / 11) is far below a double's resolution there.
+void atan_ratio(double s, double *g, double *dg) {
+  if (s < 1e-4) {
+    *g = 1 + s * (-1.0 / 3 + s * (1.0 / 5 + s * (-1.0 / 7 + s / 9)));
+    *dg = -1.0 / 3 + s * (2.0 / 5 + s * (-3.0 / 7 + s * 4.0 / 9));
+    return;
+  }
+  const double r = std::sqrt(s);
+  *g = std::atan(r) / r;
+  *dg = (1 / (1 + s) - *g) / (2 * s);
+}
+
+// The distortion (u, v) -> (ud, vd) of a model: D = d(ud, vd)/d(u, v) (2x2 row-major) and the
+// derivatives in the extra parameters, Eu[k] = d ud / d extra_k, Ev[k] likewise.
+struct Distortion {
+  double ud, vd;
+  double D[4];
+  double Eu[kMaxParams], Ev[kMaxParams];
+};
+
+// The polynomial-radial, tangential and thin-prism family (SIMPLE_RADIAL, RADIAL, OPENCV,
+// FULL_OPENCV and the second stage of THIN_PRISM_FISHEYE): with s = x^2 + y^2,
+//   R = (1 + n1 s + n2 s^2 + n3 s^3 + n4 s^4) / (1 + d1 s + d2 s^2 + d3 s^3),
+//   xd = x R + 2 p1 x y + p2 (s + 2 x^2) + sx s,  yd = y R + p1 (s + 2 y^2) + 2 p2 x y + sy s.
+// A model names which of these terms its extra parameters are (the rest are zero).
+enum Role { N1, N2, N3, N4, D1, D2, D3, P1, P2, SX, SY, kRoles };
+
+void radtan(const int *roles, int ne, const double *extra, double x, double y, Distortion *out) {
+  double c[kRoles] = {};
+  for (int k = 0; k < ne; ++k) c[roles[k]] = extra[k];
+  const double s = x * x + y * y;
+  const double N = 1 + s * (c[N1] + s * (c[N2] + s * (c[N3] + s * c[N4])));
+  const double dN = c[N1] + s * (2 * c[N2] + s * (3 * c[N3] + s * 4 * c[N4]));
+  const double Dn = 1 + s * (c[D1] + s * (c[D2] + s * c[D3]));
+  const double dDn = c[D1] + s * (2 * c[D2] + s * 3 * c[D3]);
+  const double R = N / Dn;
+  const double dR = (dN * Dn - N * dDn) / (Dn * Dn);  // dR/ds
+  const double p1 = c[P1], p2 = c[P2], sx = c[SX], sy = c[SY];
+  const double xy = x * y;
+  out->ud = x * R + 2 * p1 * xy + p2 * (s + 2 * x * x) + sx * s;
+  out->vd = y * R + p1 * (s + 2 * y * y) + 2 * p2 * xy + sy * s;
+  out->D[0] = R + 2 * x * x * dR + 2 * p1 * y + 6 * p2 * x + 2 * sx * x;
+  out->D[1] = 2 * xy * dR + 2 * p1 * x + 2 * p2 * y + 2 * sx * y;
+  out->D[2] = 2 * xy * dR + 2 * p1 * x + 2 * p2 * y + 2 * sy * x;
+  out->D[3] = R + 2 * y * y * dR + 6 * p1 * y + 2 * p2 * x + 2 * sy * y;
+  double du[kRoles] = {}, dv[kRoles] = {};
+  double si = 1;
+  for (int i = 0; i < 4; ++i) {  // dR/dn_i = s^i / Dn
+    si *= s;
+    du[N1 + i] = x * si / Dn;
+    dv[N1 + i] = y * si / Dn;
+  }
+  si = 1;
+  for (int i = 0; i < 3; ++i) {  // dR/dd_i = -N s^i / Dn^2
+    si *= s;
+    du[D1 + i] = -x * N * si / (Dn * Dn);
+    dv[D1 + i] = -y * N * si / (Dn * Dn);
+  }
+  du[P1] = 2 * xy;
+  dv[P1] = s + 2 * y * y;
+  du[P2] = s + 2 * x * x;
+  dv[P2] = 2 * xy;
+  du[SX] = s;
+  dv[SY] = s;
+  for (int k = 0; k < ne; ++k) {
+    out->Eu[k] = du[roles[k]];
+    out->Ev[k] = dv[roles[k]];
+  }
+}
+
+// The fisheye family with a polynomial in theta (OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE,
+// RADIAL_FISHEYE): ud = u h(s), h = g(s) P(t), t = theta^2 = s g(s)^2,
+// P = 1 + k1 t + k2 t^2 + ... (ne coefficients).
+void fisheye(int ne, const double *k, double u, double v, Distortion *out) {
+  const double s = u * u + v * v;
+  double g, dg;
+  atan_ratio(s, &g, &dg);
+  const double t = s * g * g;
+  const double dt = g * g + 2 * s * g * dg;  // dt/ds
+  double P = 0, dP = 0;                      // Horner, from the highest power
+  for (int i = ne - 1; i >= 0; --i) {
+    dP = dP * t + (i + 1) * k[i];
+    P = P * t + k[i];
+  }
+  P = 1 + t * P;
+  const double h = g * P;
+  const double dh = dg * P + g * dP * dt;
+  out->ud = u * h;
+  out->vd = v * h;
+  out->D[0] = h + 2 * u * u * dh;
+  out->D[1] = 2 * u * v * dh;
+  out->D[2] = out->D[1];
+  out->D[3] = h + 2 * v * v * dh;
+  double ti = 1;
+  for (int i = 0; i < ne; ++i) {
+    ti *= t;
+    out->Eu[i] = u * g * ti;
+    out->Ev[i] = v * g * ti;
+  }
+}
+
+// FOV: ud = u F, F = atan(c r) / (omega r), c = 2 tan(omega / 2), written F = q g(s c^2) with
+// q = c / omega, so that omega -> 0 (q -> 1, a pinhole) and r -> 0 need no special case but
+// q's series near omega = 0.
+void fov(double omega, double u, double v, Distortion *out) {
+  const double s = u * u + v * v;
+  const double c = 2 * std::tan(omega / 2);
+  const double dc = 1 + c * c / 4;  // dc/domega
+  double q, dq;
+  if (std::fabs(omega) < 1e-3) {
+    const double w2 = omega * omega;
+    q = 1 + w2 * (1.0 / 12 + w2 * (1.0 / 120 + w2 * 17.0 / 20160));
+    dq = omega * (1.0 / 6 + w2 * (1.0 / 30 + w2 * 17.0 / 3360));
+  } else {
+    q = c / omega;
+    dq = (dc * omega - c) / (omega * omega);
+  }
+  double g, dg;
+  atan_ratio(s * c * c, &g, &dg);
+  const double F = q * g;
+  const double Fs = q * dg * c * c;
+  const double Fw = dq * g + q * dg * s * 2 * c * dc;
+  out->ud = u * F;
+  out->vd = v * F;
+  out->D[0] = F + 2 * u * u * Fs;
+  out->D[1] = 2 * u * v * Fs;
+  out->D[2] = out->D[1];
+  out->D[3] = F + 2 * v * v * Fs;
+  out->Eu[0] = u * Fw;
+  out->Ev[0] = v * Fw;
+}
+
+// THIN_PRISM_FISHEYE: the equidistant mapping (uf, vf) = (u, v) g(s), then radtan on it.
+void thin_prism(const double *extra, double u, double v, Distortion *out) {
+  static constexpr int kRolesThin[8] = {N1, N2, P1, P2, N3, N4, SX, SY};
+  const double s = u * u + v * v;
+  double g, dg;
+  atan_ratio(s, &g, &dg);
+  const double J[4] = {g + 2 * u * u * dg, 2 * u * v * dg, 2 * u * v * dg, g + 2 * v * v * dg};
+  radtan(kRolesThin, 8, extra, u * g, v * g, out);
+  const double *D = out->D;
+  const double T[4] = {D[0] * J[0] + D[1] * J[2], D[0] * J[1] + D[1] * J[3], D[2] * J[0] + D[3] * J[2],
+                       D[2] * J[1] + D[3] * J[3]};
+  std::copy(T, T + 4, out->D);
+}
+
+void distort(int model, const double *extra, double u, double v, Distortion *out) {
+  static constexpr int kRolesRadial[2] = {N1, N2};
+  static constexpr int kRolesOpenCV[4] = {N1, N2, P1, P2};
+  static constexpr int kRolesFull[8] = {N1, N2, P1, P2, N3, D1, D2, D3};
+  switch (model) {
+    case kSimpleRadial: return radtan(kRolesRadial, 1, extra, u, v, out);
+    case kRadial: return radtan(kRolesRadial, 2, extra, u, v, out);
+    case kOpenCV: return radtan(kRolesOpenCV, 4, extra, u, v, out);
+    case kFullOpenCV: return radtan(kRolesFull, 8, extra, u, v, out);
+    case kOpenCVFisheye: return fisheye(4, extra, u, v, out);
+    case kSimpleRadialFisheye: return fisheye(1, extra, u, v, out);
+    case kRadialFisheye: return fisheye(2, extra, u, v, out);
+    case kFov: return fov(extra[0], u, v, out);
+    case kThinPrismFisheye: return thin_prism(extra, u, v, out);
+    default:  // the pinholes
+      out->ud = u;
+      out->vd = v;
+      out->D[0] = out->D[3] = 1;
+      out->D[1] = out->D[2] = 0;
+  }
+}
+
+}  // namespace
+
+const char *model_name(int model) { return known(model) ? kModels[model].name : nullptr; }
+int param_count(int model) { return known(model) ? kModels[model].params : 0; }
+int focal_count(int model) { return known(model) ? kModels[model].focals : 0; }
+
+ParamKind param_kind(int model, int k) {
+  const int nf = focal_count(model);
+  if (k < nf) return ParamKind::Focal;
+  if (k < nf + 2) return ParamKind::Principal;
+  return ParamKind::Extra;
+}
+
+void project(int model, const double *params, const double Xc[3], double x[2], double *Jp, double *Jx) {
+  const int nf = kModels[model].focals, np = kModels[model].params;
+  const double fx = params[0], fy = params[nf - 1], cx = params[nf], cy = params[nf + 1];
+  const double iz = 1 / Xc[2];
+  const double u = Xc[0] * iz, v = Xc[1] * iz;
+  Distortion d{};
+  distort(model, params + nf + 2, u, v, &d);
+  if (x) {
+    x[0] = fx * d.ud + cx;
+    x[1] = fy * d.vd + cy;
+  }
+  if (Jp) {
+    double *J0 = Jp, *J1 = Jp + np;
+    std::fill(Jp, Jp + 2 * np, 0.0);
+    J0[0] = d.ud;
+    J1[nf - 1] = d.vd;
+    J0[nf] = 1;
+    J1[nf + 1] = 1;
+    for (int k = nf + 2; k < np; ++k) {
+      J0[k] = fx * d.Eu[k - nf - 2];
+      J1[k] = fy * d.Ev[k - nf - 2];
+    }
+  }
+  if (Jx) {
+    // pixel <- (ud, vd) by diag(fx, fy), <- (u, v) by D, <- Xc by the perspective division.
+    const double P[6] = {iz, 0, -u * iz, 0, iz, -v * iz};
+    const double G[4] = {fx * d.D[0], fx * d.D[1], fy * d.D[2], fy * d.D[3]};
+    for (int r = 0; r < 2; ++r)
+      for (int c = 0; c < 3; ++c) Jx[r * 3 + c] = G[r * 2] * P[c] + G[r * 2 + 1] * P[3 + c];
+  }
+}
+
+// ---- the sba camera model ----
+
+CameraModel::CameraModel(const std::vector<Camera> &cameras, std::vector<double> points)
+    : points0_(std::move(points)) {
+  if (points0_.size() % kPointParams != 0) throw std::invalid_argument("point coordinates must come in threes");
+  int np = 0;
+  for (std::size_t j = 0; j < cameras.size(); ++j) {
+    const Camera &c = cameras[j];
+    if (!known(c.model))
+      throw std::invalid_argument("camera " + std::to_string(j) + ": unknown camera model id " +
+                                  std::to_string(c.model));
+    if (static_cast<int>(c.params.size()) != param_count(c.model))
+      throw std::invalid_argument("camera " + std::to_string(j) + ": " + model_name(c.model) + " takes " +
+                                  std::to_string(param_count(c.model)) + " parameters");
+    np = std::max(np, param_count(c.model));
+  }
+  cnp_ = kPoseParams + np;
+  const std::size_t m = cameras.size();
+  cameras0_.reserve(m);
+  R0_.resize(m * 9);
+  cams0_.assign(m * static_cast<std::size_t>(cnp_), 0.0);
+  for (std::size_t j = 0; j < m; ++j) {
+    Camera c = cameras[j];
+    if (c.q.w == 0 && c.q.x == 0 && c.q.y == 0 && c.q.z == 0)
+      throw std::invalid_argument("camera " + std::to_string(j) + " has a zero quaternion");
+    c.q = euclidean::normalized_rotation(c.q);
+    euclidean::rotation_matrix(c.q, &R0_[j * 9]);
+    double *a = &cams0_[j * static_cast<std::size_t>(cnp_)];  // v = 0: the input rotation
+    for (int k = 0; k < 3; ++k) a[3 + k] = c.t[static_cast<std::size_t>(k)];
+    std::copy(c.params.begin(), c.params.end(), a + kPoseParams);
+    cameras0_.push_back(std::move(c));
+  }
+}
+
+Camera CameraModel::camera(int j, const double *a) const {
+  Camera c = cameras0_[static_cast<std::size_t>(j)];
+  const sbaeuc_correction qs = sbaeuc_correction_of(a);
+  c.q = euclidean::normalized_rotation(euclidean::multiply({qs.w, qs.u[0], qs.u[1], qs.u[2]}, c.q));
+  for (int k = 0; k < 3; ++k) c.t[static_cast<std::size_t>(k)] = a[3 + k];
+  std::copy(a + kPoseParams, a + kPoseParams + c.params.size(), c.params.begin());
+  return c;
+}
+
+namespace {
+
+// What a projection needs of camera j that does not depend on the point.
+struct Frame {
+  int model, np;
+  const double *params;
+  const double *R0;
+  sbaeuc_correction qs;
+  double M[9];  // R(qs) R(q0_j)
+  const double *t;
+};
+
+Frame frame_of(int model, const double *R0, const double *a) {
+  Frame f;
+  f.model = model;
+  f.np = param_count(model);
+  f.params = a + kPoseParams;
+  f.R0 = R0;
+  f.qs = sbaeuc_correction_of(a);
+  double Rs[9];
+  sbaeuc_rotation_matrix(f.qs.w, f.qs.u[0], f.qs.u[1], f.qs.u[2], Rs);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      f.M[r * 3 + c] = Rs[r * 3] * R0[c] + Rs[r * 3 + 1] * R0[3 + c] + Rs[r * 3 + 2] * R0[6 + c];
+  f.t = a + 3;
+  return f;
+}
+
+void eval(const Frame &f, int cnp, const double *b, double *x, double *A, double *B) {
+  double Xc[3];
+  sbaeuc_mat3_vec(f.M, b, Xc);
+  for (int r = 0; r < 3; ++r) Xc[r] += f.t[r];
+  double Jp[2 * kMaxParams], Jx[6];
+  const bool jac = A || B;
+  project(f.model, f.params, Xc, x, A ? Jp : nullptr, jac ? Jx : nullptr);
+  if (B)
+    for (int r = 0; r < 2; ++r)
+      for (int c = 0; c < 3; ++c)
+        B[r * 3 + c] = Jx[r * 3] * f.M[c] + Jx[r * 3 + 1] * f.M[3 + c] + Jx[r * 3 + 2] * f.M[6 + c];
+  if (!A) return;
+  double Y[3], Jv[9];
+  sbaeuc_mat3_vec(f.R0, b, Y);
+  sbaeuc_rotation_derivative(&f.qs, Y, Jv);
+  for (int r = 0; r < 2; ++r) {
+    double *Ar = A + r * cnp;
+    const double *H = Jx + r * 3;
+    for (int c = 0; c < 3; ++c) {
+      Ar[c] = H[0] * Jv[c] + H[1] * Jv[3 + c] + H[2] * Jv[6 + c];
+      Ar[3 + c] = H[c];
+    }
+    for (int k = 0; k < f.np; ++k) Ar[kPoseParams + k] = Jp[r * f.np + k];
+    for (int k = kPoseParams + f.np; k < cnp; ++k) Ar[k] = 0.0;
+  }
+}
+
+inline std::size_t off(int index, int stride) {
+  return static_cast<std::size_t>(index) * static_cast<std::size_t>(stride);
+}
+
+const CameraModel &model_of(void *adata) { return *static_cast<const CameraModel *>(adata); }
+
+// The frames of the cameras the rows of idx see, set up once per call rather than once per
+// projection. A call may be given a part of the rows (parallel_callbacks): it prepares only
+// what those rows use.
+template <typename F>
+void for_each_projection(const CameraModel &model, const double *p, const sba_crsm &idx, F &&f) {
+  const int m = model.ncameras(), cnp = model.cnp();
+  std::vector<Frame> frames(static_cast<std::size_t>(m));
+  std::vector<char> ready(static_cast<std::size_t>(m), 0);
+  for (int i = 0; i < idx.nr; ++i)
+    for (int e = idx.rowptr[i]; e < idx.rowptr[i + 1]; ++e) {
+      const int j = idx.colidx[e];
+      if (!ready[static_cast<std::size_t>(j)]) {
+        frames[static_cast<std::size_t>(j)] =
+            frame_of(model.input_camera(j).model, model.initial_rotation(j), p + off(j, cnp));
+        ready[static_cast<std::size_t>(j)] = 1;
+      }
+      f(i, frames[static_cast<std::size_t>(j)], idx.val[e]);
+    }
+}
+
+}  // namespace
+
+void CameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const {
+  const Frame f = frame_of(cameras0_[static_cast<std::size_t>(j)].model, initial_rotation(j), a);
+  eval(f, cnp_, b, x, A, B);
+}
+
+void motstr_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
+  const CameraModel &model = model_of(adata);
+  const int cnp = model.cnp();
+  const double *pb = p + off(model.ncameras(), cnp);
+  for_each_projection(model, p, *idx, [&](int i, const Frame &f, int k) {
+    eval(f, cnp, pb + off(i, kPointParams), hx + off(k, kMeasurementParams), nullptr, nullptr);
+  });
+}
+
+void motstr_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adata) {
+  const CameraModel &model = model_of(adata);
+  const int cnp = model.cnp();
+  const double *pb = p + off(model.ncameras(), cnp);
+  const int block = kMeasurementParams * (cnp + kPointParams);
+  for_each_projection(model, p, *idx, [&](int i, const Frame &f, int k) {
+    double *A = jac + off(k, block);
+    eval(f, cnp, pb + off(i, kPointParams), nullptr, A, A + kMeasurementParams * cnp);
+  });
+}
+
+}  // namespace sbacameras::colmap_camera

@@ -1,0 +1,139 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+// COLMAP's eleven camera models (docs/formats.md, "COLMAP sparse models") with analytic
+// derivatives, and the sba camera model built on them for sbarefine.
+//
+// A model maps a point X_c of the camera frame to pixels: u = X/Z, v = Y/Z, then the model's
+// distortion (u, v) -> (u_d, v_d), then x = fx u_d + cx, y = fy v_d + cy (f for both where the
+// model has one focal length). The parameters are COLMAP's, in COLMAP's order; the models
+// with one focal length put it first (f cx cy ...), the others fx fy cx cy ...; what follows
+// the principal point are the "extra" parameters (distortion). With r^2 = u^2 + v^2:
+//   SIMPLE_PINHOLE, PINHOLE   u_d = u
+//   SIMPLE_RADIAL k           u_d = u (1 + k r^2)
+//   RADIAL k1 k2              u_d = u (1 + k1 r^2 + k2 r^4)
+//   OPENCV k1 k2 p1 p2        u_d = u R + 2 p1 u v + p2 (r^2 + 2 u^2),
+//                             v_d = v R + p1 (r^2 + 2 v^2) + 2 p2 u v,  R = 1 + k1 r^2 + k2 r^4
+//   FULL_OPENCV k1 k2 p1 p2 k3 k4 k5 k6   as OPENCV with
+//                             R = (1 + k1 r^2 + k2 r^4 + k3 r^6) / (1 + k4 r^2 + k5 r^4 + k6 r^6)
+//   OPENCV_FISHEYE k1..k4     u_d = u theta_d / r, theta = atan(r),
+//                             theta_d = theta (1 + k1 theta^2 + k2 theta^4 + k3 theta^6 + k4 theta^8)
+//   SIMPLE_RADIAL_FISHEYE k   the same with theta_d = theta (1 + k theta^2)
+//   RADIAL_FISHEYE k1 k2      theta_d = theta (1 + k1 theta^2 + k2 theta^4)
+//   FOV omega                 u_d = u atan(2 r tan(omega / 2)) / (omega r)  (omega -> 0: u_d = u)
+//   THIN_PRISM_FISHEYE k1 k2 p1 p2 k3 k4 sx1 sy1: first the equidistant mapping
+//                             (u_f, v_f) = (u, v) theta / r, then with t^2 = u_f^2 + v_f^2 and
+//                             R = 1 + k1 t^2 + k2 t^4 + k3 t^6 + k4 t^8:
+//                             u_d = u_f R + 2 p1 u_f v_f + p2 (t^2 + 2 u_f^2) + sx1 t^2,
+//                             v_d = v_f R + p1 (t^2 + 2 v_f^2) + 2 p2 u_f v_f + sy1 t^2
+// theta / r and the FOV factor are evaluated through atan(s)/s as a function of s^2, by its
+// series near 0: the models are smooth at r = 0 (and FOV at omega = 0), and so are the values
+// and derivatives here, with no division by r.
+#ifndef SBA_DEMO_COLMAP_CAMERA_H
+#define SBA_DEMO_COLMAP_CAMERA_H
+
+#include <array>
+#include <vector>
+
+#include "cameras/euclidean.h"
+#include "sba.h"
+
+namespace sbacameras::colmap_camera {
+
+// COLMAP's model ids.
+enum ModelId : int {
+  kSimplePinhole = 0,
+  kPinhole = 1,
+  kSimpleRadial = 2,
+  kRadial = 3,
+  kOpenCV = 4,
+  kOpenCVFisheye = 5,
+  kFullOpenCV = 6,
+  kFov = 7,
+  kSimpleRadialFisheye = 8,
+  kRadialFisheye = 9,
+  kThinPrismFisheye = 10
+};
+constexpr int kNumModels = 11;
+constexpr int kMaxParams = 12;  // FULL_OPENCV, THIN_PRISM_FISHEYE
+constexpr int kPoseParams = 6;  // v1 v2 v3 t1 t2 t3
+constexpr int kPointParams = 3;
+constexpr int kMeasurementParams = 2;
+
+// COLMAP's name of a model id, nullptr outside 0..10.
+const char *model_name(int model);
+// The number of parameters of a model id (0 outside 0..10).
+int param_count(int model);
+// 1 (f) or 2 (fx fy): the leading focal length parameters; the principal point follows them.
+int focal_count(int model);
+
+// What a parameter is, as COLMAP's refine_* options group them.
+enum class ParamKind { Focal, Principal, Extra };
+ParamKind param_kind(int model, int k);
+
+// x = the pixels of the camera-frame point Xc through model `model` with parameters
+// `params` (param_count(model) of them). Jp = dx/dparams (2 rows of param_count values,
+// row-major), Jx = dx/dXc (2x3, row-major); either may be null. Xc[2] must not be 0.
+void project(int model, const double *params, const double Xc[3], double x[2], double *Jp, double *Jx);
+
+// A camera as sbarefine refines it: a COLMAP model and its parameters, and the pose
+// X_c = R(q) X + t.
+struct Camera {
+  int model = kSimplePinhole;
+  std::vector<double> params;
+  euclidean::Quaternion q;
+  std::array<double, 3> t{};
+};
+
+// The sba camera model of a set of such cameras. Camera parameter vector a_j (cnp values):
+//   (v1 v2 v3  t1 t2 t3  params of camera j's model  zero padding)
+// The rotation is euclidean.h's local parametrization: R(qs(v)) R(q0_j), v = 0 at the start.
+// cnp = 6 + the largest parameter count among the cameras, so that cameras of different models
+// share one layout; the padding slots do not enter the projection (zero Jacobian columns) and
+// the caller holds them (sba_ext_options::cam_fixed). The model is immutable once built: the
+// callbacks keep no state and may run on any number of threads at once.
+class CameraModel {
+ public:
+  // Throws std::invalid_argument for an unknown model id, a parameter count that is not the
+  // model's, a zero quaternion or points whose count is not a multiple of 3.
+  CameraModel(const std::vector<Camera> &cameras, std::vector<double> points);
+
+  int cnp() const { return cnp_; }
+  int ncameras() const { return static_cast<int>(cameras0_.size()); }
+  int npoints() const { return static_cast<int>(points0_.size() / kPointParams); }
+  const std::vector<double> &initial_camera_params() const { return cams0_; }
+  const std::vector<double> &initial_points() const { return points0_; }
+  const Camera &input_camera(int j) const { return cameras0_[static_cast<std::size_t>(j)]; }
+  // R(q0_j), row-major.
+  const double *initial_rotation(int j) const { return R0_.data() + static_cast<std::size_t>(j) * 9; }
+
+  // Camera j from its parameters a: the model's parameters, q = qs(v) q0_j (unit, w >= 0), t.
+  Camera camera(int j, const double *a) const;
+
+  // The projection of point b in camera j with parameters a, and A = dx/da (2 x cnp), B =
+  // dx/db (2 x 3), row-major; any of x, A, B may be null. The same numbers as the callbacks.
+  void project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const;
+  void project(int j, const double *a, const double *b, double x[2]) const {
+    project_jacobian(j, a, b, x, nullptr, nullptr);
+  }
+
+ private:
+  int cnp_ = kPoseParams;
+  std::vector<Camera> cameras0_;  // q0_j unit with w >= 0
+  std::vector<double> R0_;        // R(q0_j), 9 per camera
+  std::vector<double> cams0_;     // m*cnp initial camera parameters
+  std::vector<double> points0_;   // n*3
+};
+
+inline void *as_adata(const CameraModel &model) {
+  return const_cast<void *>(static_cast<const void *>(&model));
+}
+
+// The expert motion-and-structure callbacks (adata a CameraModel): func writes hx, 2 values
+// per projection at the ordinal idxij->val gives; fjac writes A_ij (2 x cnp) then B_ij (2 x 3)
+// at that ordinal. They walk the index by rows and write only their projections' slots, so
+// they are safe with sba_ext_options::parallel_callbacks.
+void motstr_func(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata);
+void motstr_fjac(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata);
+
+}  // namespace sbacameras::colmap_camera
+
+#endif  // SBA_DEMO_COLMAP_CAMERA_H

@@ -1,0 +1,348 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// COLMAP's camera models (demo/cameras/colmap_camera.h): projections against numbers worked
+// out by hand from the documented formulas, analytic derivatives against central differences
+// (r = 0 and FOV's omega = 0 included), and the sba camera model's pose part and callbacks.
+#include "cameras/colmap_camera.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "sba.h"
+
+namespace cc = sbacameras::colmap_camera;
+
+namespace {
+
+// Parameters of each model with distortion strong enough that every term shows.
+std::vector<double> sample_params(int model) {
+  switch (model) {
+    case cc::kSimplePinhole: return {500, 320, 240};
+    case cc::kPinhole: return {500, 530, 320, 240};
+    case cc::kSimpleRadial: return {500, 320, 240, -0.12};
+    case cc::kRadial: return {500, 320, 240, -0.12, 0.03};
+    case cc::kOpenCV: return {500, 520, 320, 240, 0.1, -0.05, 0.01, -0.02};
+    case cc::kOpenCVFisheye: return {350, 355, 320, 240, 0.1, -0.02, 0.003, -0.0004};
+    case cc::kFullOpenCV: return {600, 610, 300, 200, 0.1, -0.05, 0.001, -0.002, 0.02, 0.03, -0.01, 0.005};
+    case cc::kFov: return {400, 410, 320, 240, 0.9};
+    case cc::kSimpleRadialFisheye: return {300, 320, 240, 0.05};
+    case cc::kRadialFisheye: return {300, 320, 240, 0.05, -0.01};
+    case cc::kThinPrismFisheye:
+      return {300, 305, 320, 240, 0.05, -0.01, 0.001, -0.0015, 0.002, -0.0005, 0.0007, -0.0004};
+  }
+  return {};
+}
+
+std::vector<double> pixels(int model, const std::vector<double> &params, const double Xc[3]) {
+  std::vector<double> x(2);
+  cc::project(model, params.data(), Xc, x.data(), nullptr, nullptr);
+  return x;
+}
+
+// Central differences with a step relative to the value; compared with a tolerance relative
+// to the column's size (1e-6), absolute for columns that are zero (1e-7 pixels).
+void expect_derivatives(int model, const std::vector<double> &params, const double Xc[3], const std::string &what) {
+  const int np = cc::param_count(model);
+  std::vector<double> Jp(2 * static_cast<std::size_t>(np));
+  double Jx[6], x[2];
+  cc::project(model, params.data(), Xc, x, Jp.data(), Jx);
+  const auto check = [&](double analytic, double numeric, const std::string &name) {
+    EXPECT_NEAR(analytic, numeric, 1e-6 * std::max(1.0, std::fabs(numeric)))
+        << cc::model_name(model) << " " << what << " d/d" << name;
+    EXPECT_TRUE(std::isfinite(analytic)) << cc::model_name(model) << " " << what << " d/d" << name;
+  };
+  for (int k = 0; k < np; ++k) {
+    const double h = 1e-6 * std::max(1.0, std::fabs(params[static_cast<std::size_t>(k)]));
+    std::vector<double> lo = params, hi = params;
+    lo[static_cast<std::size_t>(k)] -= h;
+    hi[static_cast<std::size_t>(k)] += h;
+    const std::vector<double> xl = pixels(model, lo, Xc), xh = pixels(model, hi, Xc);
+    for (int r = 0; r < 2; ++r)
+      check(Jp[static_cast<std::size_t>(r * np + k)], (xh[static_cast<std::size_t>(r)] - xl[static_cast<std::size_t>(r)]) / (2 * h),
+            "param" + std::to_string(k) + " row " + std::to_string(r));
+  }
+  for (int c = 0; c < 3; ++c) {
+    const double h = 1e-6 * std::max(1.0, std::fabs(Xc[c]));
+    double lo[3] = {Xc[0], Xc[1], Xc[2]}, hi[3] = {Xc[0], Xc[1], Xc[2]};
+    lo[c] -= h;
+    hi[c] += h;
+    const std::vector<double> xl = pixels(model, params, lo), xh = pixels(model, params, hi);
+    for (int r = 0; r < 2; ++r)
+      check(Jx[r * 3 + c], (xh[static_cast<std::size_t>(r)] - xl[static_cast<std::size_t>(r)]) / (2 * h),
+            "X" + std::to_string(c) + " row " + std::to_string(r));
+  }
+}
+
+}  // namespace
+
+TEST(ColmapCamera, ModelTable) {
+  const char *names[] = {"SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV", "OPENCV_FISHEYE",
+                         "FULL_OPENCV", "FOV", "SIMPLE_RADIAL_FISHEYE", "RADIAL_FISHEYE", "THIN_PRISM_FISHEYE"};
+  const int counts[] = {3, 4, 4, 5, 8, 8, 12, 5, 4, 5, 12};
+  for (int m = 0; m < cc::kNumModels; ++m) {
+    EXPECT_STREQ(cc::model_name(m), names[m]);
+    EXPECT_EQ(cc::param_count(m), counts[m]);
+    EXPECT_EQ(sample_params(m).size(), static_cast<std::size_t>(counts[m]));
+  }
+  EXPECT_EQ(cc::model_name(11), nullptr);
+  EXPECT_EQ(cc::param_count(-1), 0);
+  EXPECT_EQ(cc::param_kind(cc::kRadial, 0), cc::ParamKind::Focal);
+  EXPECT_EQ(cc::param_kind(cc::kRadial, 2), cc::ParamKind::Principal);
+  EXPECT_EQ(cc::param_kind(cc::kRadial, 3), cc::ParamKind::Extra);
+  EXPECT_EQ(cc::param_kind(cc::kPinhole, 1), cc::ParamKind::Focal);
+  EXPECT_EQ(cc::param_kind(cc::kPinhole, 3), cc::ParamKind::Principal);
+  EXPECT_EQ(cc::param_kind(cc::kFov, 4), cc::ParamKind::Extra);
+}
+
+// The numbers below were worked out from the formulas in colmap_camera.h, independently of
+// the code (python, double precision).
+TEST(ColmapCamera, ProjectionsByHand) {
+  struct Case {
+    int model;
+    std::vector<double> params;
+    double Xc[3];
+    double x, y;
+  } cases[] = {
+      // u = 0.2, v = -0.1: r^2 = 0.05, R = 1.004875, ud = 0.197975, vd = -0.0989875.
+      {cc::kOpenCV, {500, 520, 320, 240, 0.1, -0.05, 0.01, -0.02}, {0.2, -0.1, 1}, 418.9875, 188.5265},
+      {cc::kFullOpenCV,
+       {600, 610, 300, 200, 0.1, -0.05, 0.001, -0.002, 0.02, 0.03, -0.01, 0.005},
+       {0.3, 0.25, 1.5},
+       420.40942260530278,
+       302.12379044801116},
+      // r = 1: F = atan(2 tan(0.25)) / 0.5 = 0.94431621335235505.
+      {cc::kFov, {400, 410, 320, 240, 0.5}, {0.6, 0.8, 1}, 546.63589120456527, 549.73571797957243},
+      {cc::kThinPrismFisheye,
+       {300, 305, 320, 240, 0.05, -0.01, 0.001, -0.0015, 0.002, -0.0005, 0.0007, -0.0004},
+       {-0.4, 0.3, 1},
+       207.34053926646936,
+       325.90283880931713},
+      {cc::kOpenCVFisheye,
+       {350, 355, 320, 240, 0.1, -0.02, 0.003, -0.0004},
+       {0.5, -0.6, 1},
+       474.56214092259609,
+       51.875794191354515},
+      // SIMPLE_RADIAL: u = 0.25, v = 0.5, r^2 = 0.3125, 1 + k r^2 = 0.9625.
+      {cc::kSimpleRadial, {500, 320, 240, -0.12}, {0.5, 1, 2}, 320 + 500 * 0.25 * 0.9625, 240 + 500 * 0.5 * 0.9625},
+      // PINHOLE with fx != fy.
+      {cc::kPinhole, {500, 530, 320, 240}, {0.5, 1, 2}, 445, 505},
+  };
+  for (const Case &c : cases) {
+    double x[2];
+    cc::project(c.model, c.params.data(), c.Xc, x, nullptr, nullptr);
+    EXPECT_NEAR(x[0], c.x, 1e-9) << cc::model_name(c.model);
+    EXPECT_NEAR(x[1], c.y, 1e-9) << cc::model_name(c.model);
+  }
+}
+
+TEST(ColmapCamera, OpticalAxisProjectsToThePrincipalPoint) {
+  const double Xc[3] = {0, 0, 3};
+  for (int m = 0; m < cc::kNumModels; ++m) {
+    const std::vector<double> params = sample_params(m);
+    double x[2];
+    cc::project(m, params.data(), Xc, x, nullptr, nullptr);
+    const int nf = cc::focal_count(m);
+    EXPECT_EQ(x[0], params[static_cast<std::size_t>(nf)]) << cc::model_name(m);
+    EXPECT_EQ(x[1], params[static_cast<std::size_t>(nf) + 1]) << cc::model_name(m);
+  }
+}
+
+TEST(ColmapCamera, DerivativesMatchCentralDifferences) {
+  const double points[][3] = {{0, 0, 2},        {1e-9, -2e-9, 1},   {0.003, 0.002, 1}, {0.3, -0.2, 1.5},
+                              {-0.8, 0.6, 1.2}, {1.5, 0.4, 1},      {-0.02, 0.9, 0.7}};
+  for (int m = 0; m < cc::kNumModels; ++m)
+    for (const auto &X : points) expect_derivatives(m, sample_params(m), X, "at (" + std::to_string(X[0]) + "," + std::to_string(X[1]) + "," + std::to_string(X[2]) + ")");
+}
+
+// FOV's omega -> 0 is the pinhole; near it and at it the value and the derivatives stay finite
+// and continuous.
+TEST(ColmapCamera, FovNearZeroOmega) {
+  const double Xc[3] = {0.4, -0.3, 1};
+  for (double omega : {0.0, 1e-12, 1e-6, 9.99e-4, 1.001e-3, 1e-2}) {
+    const std::vector<double> params = {400, 410, 320, 240, omega};
+    expect_derivatives(cc::kFov, params, Xc, "omega " + std::to_string(omega));
+  }
+  double x0[2], x1[2];
+  const std::vector<double> at0 = {400, 410, 320, 240, 0.0}, near0 = {400, 410, 320, 240, 1e-4};
+  cc::project(cc::kFov, at0.data(), Xc, x0, nullptr, nullptr);
+  EXPECT_EQ(x0[0], 320 + 400 * 0.4);
+  EXPECT_EQ(x0[1], 240 - 410 * 0.3);
+  cc::project(cc::kFov, near0.data(), Xc, x1, nullptr, nullptr);
+  // d x / d omega is 0 at omega = 0: the change is second order, (omega^2 / 12)(1 - 4 r^2) u fx.
+  EXPECT_NEAR(x1[0] - x0[0], 1e-8 / 12 * (1 - 4 * 0.25) * 0.4 * 400, 1e-12);
+  // The two branches of omega / tan agree at the switch.
+  double xa[2], xb[2];
+  const std::vector<double> below = {400, 410, 320, 240, 1e-3 - 1e-15}, above = {400, 410, 320, 240, 1e-3 + 1e-15};
+  cc::project(cc::kFov, below.data(), Xc, xa, nullptr, nullptr);
+  cc::project(cc::kFov, above.data(), Xc, xb, nullptr, nullptr);
+  EXPECT_NEAR(xa[0], xb[0], 1e-11);
+  EXPECT_NEAR(xa[1], xb[1], 1e-11);
+}
+
+// The fisheye models' theta / r: the series below the switch and atan above agree.
+TEST(ColmapCamera, FisheyeSeriesMeetsClosedForm) {
+  const std::vector<double> params = sample_params(cc::kOpenCVFisheye);
+  const double r = 1e-2;  // r^2 = 1e-4, the switch
+  double xa[2], xb[2];
+  const double below[3] = {r * (1 - 1e-9), 0, 1}, above[3] = {r * (1 + 1e-9), 0, 1};
+  cc::project(cc::kOpenCVFisheye, params.data(), below, xa, nullptr, nullptr);
+  cc::project(cc::kOpenCVFisheye, params.data(), above, xb, nullptr, nullptr);
+  // The difference is the slope (about fx) times the step 2e-11, not a jump.
+  EXPECT_NEAR(xb[0] - xa[0], 350 * 2e-11, 1e-11);
+}
+
+namespace {
+
+std::vector<cc::Camera> sample_cameras() {
+  std::vector<cc::Camera> cams;
+  for (int m = 0; m < cc::kNumModels; ++m) {
+    cc::Camera c;
+    c.model = m;
+    c.params = sample_params(m);
+    c.q = {0.9 + 0.01 * m, 0.1, -0.2 + 0.03 * m, 0.05};  // not unit: the model normalizes it
+    c.t = {0.1 * m, -0.2, 3 + 0.1 * m};
+    cams.push_back(c);
+  }
+  return cams;
+}
+
+}  // namespace
+
+// The pose part: dx/da (rotation v, translation, parameters, padding) and dx/db by differences.
+TEST(ColmapCamera, SbaModelDerivatives) {
+  const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2};
+  const cc::CameraModel model(sample_cameras(), points);
+  const int cnp = model.cnp();
+  ASSERT_EQ(cnp, 6 + 12);
+  for (int j = 0; j < model.ncameras(); ++j) {
+    std::vector<double> a(model.initial_camera_params().begin() + j * cnp,
+                          model.initial_camera_params().begin() + (j + 1) * cnp);
+    a[0] = 0.01;  // off v = 0, so the rotation derivative is not only the one at the identity
+    a[1] = -0.02;
+    a[2] = 0.015;
+    for (int i = 0; i < model.npoints(); ++i) {
+      const double *b = points.data() + 3 * i;
+      std::vector<double> A(2 * static_cast<std::size_t>(cnp));
+      double B[6], x[2];
+      model.project_jacobian(j, a.data(), b, x, A.data(), B);
+      for (int c = 0; c < cnp; ++c) {
+        const double h = 1e-6 * std::max(1.0, std::fabs(a[static_cast<std::size_t>(c)]));
+        std::vector<double> lo = a, hi = a;
+        lo[static_cast<std::size_t>(c)] -= h;
+        hi[static_cast<std::size_t>(c)] += h;
+        double xl[2], xh[2];
+        model.project(j, lo.data(), b, xl);
+        model.project(j, hi.data(), b, xh);
+        for (int r = 0; r < 2; ++r) {
+          const double num = (xh[r] - xl[r]) / (2 * h);
+          EXPECT_NEAR(A[static_cast<std::size_t>(r * cnp + c)], num, 1e-6 * std::max(1.0, std::fabs(num)))
+              << cc::model_name(j) << " a" << c << " row " << r;
+        }
+        if (c >= 6 + cc::param_count(j)) {  // padding: no effect at all
+          EXPECT_EQ(A[static_cast<std::size_t>(c)], 0.0);
+          EXPECT_EQ(A[static_cast<std::size_t>(cnp + c)], 0.0);
+        }
+      }
+      for (int c = 0; c < 3; ++c) {
+        double lo[3] = {b[0], b[1], b[2]}, hi[3] = {b[0], b[1], b[2]};
+        lo[c] -= 1e-6;
+        hi[c] += 1e-6;
+        double xl[2], xh[2];
+        model.project(j, a.data(), lo, xl);
+        model.project(j, a.data(), hi, xh);
+        for (int r = 0; r < 2; ++r) {
+          const double num = (xh[r] - xl[r]) / 2e-6;
+          EXPECT_NEAR(B[r * 3 + c], num, 1e-6 * std::max(1.0, std::fabs(num))) << cc::model_name(j) << " b" << c;
+        }
+      }
+    }
+  }
+}
+
+// At v = 0 the camera is the input one: the projection is the model's of R(q0) X + t.
+TEST(ColmapCamera, SbaModelStartsAtTheInputPose) {
+  const std::vector<cc::Camera> cams = sample_cameras();
+  const std::vector<double> points = {0.2, -0.1, 0.3};
+  const cc::CameraModel model(cams, points);
+  for (int j = 0; j < model.ncameras(); ++j) {
+    const cc::Camera &c = model.input_camera(j);
+    double R[9];
+    sbacameras::euclidean::rotation_matrix(c.q, R);
+    double Xc[3];
+    for (int r = 0; r < 3; ++r)
+      Xc[r] = R[3 * r] * points[0] + R[3 * r + 1] * points[1] + R[3 * r + 2] * points[2] + c.t[static_cast<std::size_t>(r)];
+    double want[2], got[2];
+    cc::project(c.model, c.params.data(), Xc, want, nullptr, nullptr);
+    model.project(j, model.initial_camera_params().data() + j * model.cnp(), points.data(), got);
+    EXPECT_NEAR(got[0], want[0], 1e-9);
+    EXPECT_NEAR(got[1], want[1], 1e-9);
+    const cc::Camera back = model.camera(j, model.initial_camera_params().data() + j * model.cnp());
+    EXPECT_EQ(back.params, cams[static_cast<std::size_t>(j)].params);
+    EXPECT_EQ(back.t, cams[static_cast<std::size_t>(j)].t);
+  }
+}
+
+// The expert callbacks give project_jacobian's numbers, at the ordinals the index names,
+// also when called on a part of the rows (parallel_callbacks).
+TEST(ColmapCamera, ExpertCallbacksAgreeWithTheModel) {
+  const std::vector<cc::Camera> cams = sample_cameras();
+  const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2, 0.1, 0.1, 0.1};
+  const cc::CameraModel model(cams, points);
+  const int m = model.ncameras(), n = model.npoints(), cnp = model.cnp();
+  std::vector<double> p = model.initial_camera_params();
+  for (int j = 0; j < m; ++j) p[static_cast<std::size_t>(j * cnp)] = 0.01 * j;
+  p.insert(p.end(), points.begin(), points.end());
+  // Point i sees cameras i, i+3, i+6, ...: ordinals in row order.
+  std::vector<int> rowptr{0}, colidx, val;
+  for (int i = 0; i < n; ++i) {
+    for (int j = i; j < m; j += 3) {
+      colidx.push_back(j);
+      val.push_back(static_cast<int>(val.size()));
+    }
+    rowptr.push_back(static_cast<int>(colidx.size()));
+  }
+  const int nvis = static_cast<int>(val.size());
+  sba_crsm idx{n, m, nvis, val.data(), colidx.data(), rowptr.data()};
+  std::vector<double> hx(2 * static_cast<std::size_t>(nvis)), jac(static_cast<std::size_t>(nvis) * 2 * (cnp + 3));
+  cc::motstr_func(p.data(), &idx, nullptr, nullptr, hx.data(), cc::as_adata(model));
+  cc::motstr_fjac(p.data(), &idx, nullptr, nullptr, jac.data(), cc::as_adata(model));
+  for (int i = 0; i < n; ++i)
+    for (int e = rowptr[i]; e < rowptr[i + 1]; ++e) {
+      const int j = colidx[e], k = val[e];
+      double x[2], B[6];
+      std::vector<double> A(2 * static_cast<std::size_t>(cnp));
+      model.project_jacobian(j, p.data() + j * cnp, p.data() + m * cnp + 3 * i, x, A.data(), B);
+      EXPECT_EQ(hx[2 * k], x[0]);
+      EXPECT_EQ(hx[2 * k + 1], x[1]);
+      const double *blk = jac.data() + static_cast<std::size_t>(k) * 2 * (cnp + 3);
+      for (int c = 0; c < 2 * cnp; ++c) EXPECT_EQ(blk[c], A[static_cast<std::size_t>(c)]);
+      for (int c = 0; c < 6; ++c) EXPECT_EQ(blk[2 * cnp + c], B[c]);
+    }
+  // The index a thread is given under parallel_callbacks: every row, only the last one not
+  // empty. Only that row's slots are written.
+  std::vector<double> part(hx.size(), -1.0);
+  std::vector<int> lastptr(static_cast<std::size_t>(n) + 1, rowptr[n - 1]);
+  lastptr[static_cast<std::size_t>(n)] = rowptr[n];
+  sba_crsm last{n, m, nvis, val.data(), colidx.data(), lastptr.data()};
+  cc::motstr_func(p.data(), &last, nullptr, nullptr, part.data(), cc::as_adata(model));
+  for (int k = 0; k < nvis; ++k) {
+    const bool mine = k >= rowptr[n - 1];
+    EXPECT_EQ(part[2 * static_cast<std::size_t>(k)], mine ? hx[2 * static_cast<std::size_t>(k)] : -1.0) << k;
+  }
+}
+
+TEST(ColmapCamera, RefusesBadCameras) {
+  std::vector<cc::Camera> cams(1);
+  cams[0].model = 11;
+  EXPECT_THROW(cc::CameraModel(cams, {}), std::invalid_argument);
+  cams[0].model = cc::kOpenCV;
+  cams[0].params = {1, 2, 3};
+  EXPECT_THROW(cc::CameraModel(cams, {}), std::invalid_argument);
+  cams[0].params = sample_params(cc::kOpenCV);
+  cams[0].q = {0, 0, 0, 0};
+  EXPECT_THROW(cc::CameraModel(cams, {}), std::invalid_argument);
+  cams[0].q = {1, 0, 0, 0};
+  EXPECT_THROW(cc::CameraModel(cams, {1, 2}), std::invalid_argument);
+}
