@@ -346,3 +346,42 @@ TEST(ColmapCamera, RefusesBadCameras) {
   cams[0].q = {1, 0, 0, 0};
   EXPECT_THROW(cc::CameraModel(cams, {1, 2}), std::invalid_argument);
 }
+
+// A held parameter is read from the initial camera whatever a holds, and its column is zero.
+TEST(ColmapCamera, HeldParametersAreConstants) {
+  const std::vector<cc::Camera> cams = sample_cameras();
+  const std::vector<double> points = {0.2, -0.1, 0.3};
+  const cc::CameraModel free_model(cams, points);
+  const int cnp = free_model.cnp(), m = free_model.ncameras();
+  std::vector<char> held(static_cast<std::size_t>(m * cnp), 0);
+  for (int j = 0; j < m; ++j) {
+    held[static_cast<std::size_t>(j * cnp + 1)] = 1;  // v2
+    held[static_cast<std::size_t>(j * cnp + 6)] = 1;  // f or fx
+    held[static_cast<std::size_t>(j * cnp + cnp - 1)] = 1;  // the last slot
+  }
+  const cc::CameraModel model(cams, points, held);
+  for (int j = 0; j < m; ++j) {
+    std::vector<double> a(free_model.initial_camera(j), free_model.initial_camera(j) + cnp);
+    std::vector<double> moved = a;
+    moved[1] = 0.3;
+    moved[6] *= 2;
+    moved[static_cast<std::size_t>(cnp - 1)] += 1;
+    double x0[2], x1[2];
+    free_model.project(j, a.data(), points.data(), x0);
+    model.project(j, moved.data(), points.data(), x1);
+    EXPECT_EQ(x0[0], x1[0]) << j;
+    EXPECT_EQ(x0[1], x1[1]) << j;
+    std::vector<double> A(2 * static_cast<std::size_t>(cnp)), Af(A.size());
+    model.project_jacobian(j, a.data(), points.data(), nullptr, A.data(), nullptr);
+    free_model.project_jacobian(j, a.data(), points.data(), nullptr, Af.data(), nullptr);
+    for (int r = 0; r < 2; ++r)
+      for (int c = 0; c < cnp; ++c) {
+        const double want = held[static_cast<std::size_t>(j * cnp + c)] ? 0.0 : Af[static_cast<std::size_t>(r * cnp + c)];
+        EXPECT_EQ(A[static_cast<std::size_t>(r * cnp + c)], want) << j << " " << c;
+      }
+    EXPECT_NE(Af[6], 0.0);  // the held column is not zero by itself
+    const cc::Camera back = model.camera(j, moved.data());
+    EXPECT_EQ(back.params, cams[static_cast<std::size_t>(j)].params);
+  }
+  EXPECT_THROW(cc::CameraModel(cams, points, std::vector<char>(3, 0)), std::invalid_argument);
+}

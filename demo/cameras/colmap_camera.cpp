@@ -244,8 +244,8 @@ void project(int model, const double *params, const double Xc[3], double x[2], d
 
 // ---- the sba camera model ----
 
-CameraModel::CameraModel(const std::vector<Camera> &cameras, std::vector<double> points)
-    : points0_(std::move(points)) {
+CameraModel::CameraModel(const std::vector<Camera> &cameras, std::vector<double> points, std::vector<char> held)
+    : held_(std::move(held)), points0_(std::move(points)) {
   if (points0_.size() % kPointParams != 0) throw std::invalid_argument("point coordinates must come in threes");
   int np = 0;
   for (std::size_t j = 0; j < cameras.size(); ++j) {
@@ -260,6 +260,8 @@ CameraModel::CameraModel(const std::vector<Camera> &cameras, std::vector<double>
   }
   cnp_ = kPoseParams + np;
   const std::size_t m = cameras.size();
+  if (!held_.empty() && held_.size() != m * static_cast<std::size_t>(cnp_))
+    throw std::invalid_argument("the held flags must be cnp per camera");
   cameras0_.reserve(m);
   R0_.resize(m * 9);
   cams0_.assign(m * static_cast<std::size_t>(cnp_), 0.0);
@@ -276,8 +278,10 @@ CameraModel::CameraModel(const std::vector<Camera> &cameras, std::vector<double>
   }
 }
 
-Camera CameraModel::camera(int j, const double *a) const {
+Camera CameraModel::camera(int j, const double *given) const {
   Camera c = cameras0_[static_cast<std::size_t>(j)];
+  double a[kPoseParams + kMaxParams];
+  effective(j, given, a);
   const sbaeuc_correction qs = sbaeuc_correction_of(a);
   c.q = euclidean::normalized_rotation(euclidean::multiply({qs.w, qs.u[0], qs.u[1], qs.u[2]}, c.q));
   for (int k = 0; k < 3; ++k) c.t[static_cast<std::size_t>(k)] = a[3 + k];
@@ -290,26 +294,30 @@ namespace {
 // What a projection needs of camera j that does not depend on the point.
 struct Frame {
   int model, np;
-  const double *params;
+  double a[kPoseParams + kMaxParams];  // the parameters, held ones at their initial values
+  const char *held;                    // cnp flags, or null
   const double *R0;
   sbaeuc_correction qs;
   double M[9];  // R(qs) R(q0_j)
-  const double *t;
+  const double *params, *t;
 };
 
-Frame frame_of(int model, const double *R0, const double *a) {
+Frame frame_of(const CameraModel &model, int j, const double *a) {
   Frame f;
-  f.model = model;
-  f.np = param_count(model);
-  f.params = a + kPoseParams;
-  f.R0 = R0;
-  f.qs = sbaeuc_correction_of(a);
+  f.model = model.input_camera(j).model;
+  f.np = param_count(f.model);
+  model.effective(j, a, f.a);
+  f.held = model.held(j);
+  f.params = f.a + kPoseParams;
+  f.R0 = model.initial_rotation(j);
+  const double *R0 = f.R0;
+  f.qs = sbaeuc_correction_of(f.a);
   double Rs[9];
   sbaeuc_rotation_matrix(f.qs.w, f.qs.u[0], f.qs.u[1], f.qs.u[2], Rs);
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c)
       f.M[r * 3 + c] = Rs[r * 3] * R0[c] + Rs[r * 3 + 1] * R0[3 + c] + Rs[r * 3 + 2] * R0[6 + c];
-  f.t = a + 3;
+  f.t = f.a + 3;
   return f;
 }
 
@@ -337,6 +345,9 @@ void eval(const Frame &f, int cnp, const double *b, double *x, double *A, double
     }
     for (int k = 0; k < f.np; ++k) Ar[kPoseParams + k] = Jp[r * f.np + k];
     for (int k = kPoseParams + f.np; k < cnp; ++k) Ar[k] = 0.0;
+    if (f.held)
+      for (int k = 0; k < cnp; ++k)
+        if (f.held[k]) Ar[k] = 0.0;
   }
 }
 
@@ -358,8 +369,7 @@ void for_each_projection(const CameraModel &model, const double *p, const sba_cr
     for (int e = idx.rowptr[i]; e < idx.rowptr[i + 1]; ++e) {
       const int j = idx.colidx[e];
       if (!ready[static_cast<std::size_t>(j)]) {
-        frames[static_cast<std::size_t>(j)] =
-            frame_of(model.input_camera(j).model, model.initial_rotation(j), p + off(j, cnp));
+        frames[static_cast<std::size_t>(j)] = frame_of(model, j, p + off(j, cnp));
         ready[static_cast<std::size_t>(j)] = 1;
       }
       f(i, frames[static_cast<std::size_t>(j)], idx.val[e]);
@@ -368,8 +378,14 @@ void for_each_projection(const CameraModel &model, const double *p, const sba_cr
 
 }  // namespace
 
+void CameraModel::effective(int j, const double *a, double *out) const {
+  const char *h = held(j);
+  const double *a0 = initial_camera(j);
+  for (int k = 0; k < cnp_; ++k) out[k] = h && h[k] ? a0[k] : a[k];
+}
+
 void CameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const {
-  const Frame f = frame_of(cameras0_[static_cast<std::size_t>(j)].model, initial_rotation(j), a);
+  const Frame f = frame_of(*this, j, a);
   eval(f, cnp_, b, x, A, B);
 }
 

@@ -92,15 +92,27 @@ struct Camera {
 // callbacks keep no state and may run on any number of threads at once.
 class CameraModel {
  public:
+  // held: empty, or cnp flags per camera (camera j's at j*cnp, as sba_ext_options::cam_fixed
+  // with cam_fixed_per_camera): a held parameter is read from the initial camera whatever p
+  // holds, and its Jacobian column is zero, so that finite differences (the Jacobian check)
+  // and a solve that does not hold it see the same model as one that does.
   // Throws std::invalid_argument for an unknown model id, a parameter count that is not the
-  // model's, a zero quaternion or points whose count is not a multiple of 3.
-  CameraModel(const std::vector<Camera> &cameras, std::vector<double> points);
+  // model's, a zero quaternion, points whose count is not a multiple of 3 or held flags of
+  // another size than m*cnp.
+  CameraModel(const std::vector<Camera> &cameras, std::vector<double> points, std::vector<char> held = {});
 
   int cnp() const { return cnp_; }
   int ncameras() const { return static_cast<int>(cameras0_.size()); }
   int npoints() const { return static_cast<int>(points0_.size() / kPointParams); }
   const std::vector<double> &initial_camera_params() const { return cams0_; }
   const std::vector<double> &initial_points() const { return points0_; }
+  const double *initial_camera(int j) const { return cams0_.data() + static_cast<std::size_t>(j) * cnp_; }
+  // Camera j's held flags (cnp), or null when nothing is held.
+  const char *held(int j) const {
+    return held_.empty() ? nullptr : held_.data() + static_cast<std::size_t>(j) * cnp_;
+  }
+  // a with camera j's held parameters replaced by their initial values (cnp values to out).
+  void effective(int j, const double *a, double *out) const;
   const Camera &input_camera(int j) const { return cameras0_[static_cast<std::size_t>(j)]; }
   // R(q0_j), row-major.
   const double *initial_rotation(int j) const { return R0_.data() + static_cast<std::size_t>(j) * 9; }
@@ -117,6 +129,7 @@ class CameraModel {
 
  private:
   int cnp_ = kPoseParams;
+  std::vector<char> held_;        // m*cnp flags, or empty
   std::vector<Camera> cameras0_;  // q0_j unit with w >= 0
   std::vector<double> R0_;        // R(q0_j), 9 per camera
   std::vector<double> cams0_;     // m*cnp initial camera parameters

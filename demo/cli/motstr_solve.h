@@ -35,6 +35,11 @@ struct MotstrInputs {
   void (*func)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata) = nullptr;
   void (*fjac)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata) = nullptr;
   void *adata = nullptr;
+  // sba_ext_options' held and shared camera parameters (see sba_ext.h); null: none.
+  const char *cam_fixed = nullptr;
+  int cam_fixed_per_camera = 0;
+  const int *cam_group = nullptr;
+  const char *cam_shared = nullptr;
 };
 
 class MotstrSolve {
@@ -70,6 +75,10 @@ class MotstrSolve {
     // The callbacks are re-entrant and walk the index by rows: the threads share them.
     sba_ext_options ext;
     init_ext(so_, program_, &sink_, &result_, &ext);
+    ext.cam_fixed = in.cam_fixed;
+    ext.cam_fixed_per_camera = in.cam_fixed_per_camera;
+    ext.cam_group = in.cam_group;
+    ext.cam_shared = in.cam_shared;
     // The time limit and the iteration times count from the solve's start, not from what the
     // program did before it (an initial PLY file, say).
     control_.emplace(so_.max_time, &progress_);

@@ -24,12 +24,14 @@ namespace sbaformats::colmap {
 
 namespace {
 
-constexpr const char *kAccepted = "SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV";
+constexpr const char *kAccepted =
+    "SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE, FULL_OPENCV, FOV, "
+    "SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE and THIN_PRISM_FISHEYE";
 
 }  // namespace
 
 std::string unsupported_model(const std::string &model) {
-  return "camera model " + model + " is not supported: sba's camera model expresses " + kAccepted;
+  return "camera model " + model + " is not supported: sbarefine expresses " + kAccepted;
 }
 
 std::string bad_intrinsics(const Camera &c) {

@@ -3,8 +3,8 @@
 // cameras, images and points3D, as text (.txt) or binary (.bin), read strictly and written
 // back with every field as it came.
 //
-// Only the camera models that sba's Euclidean camera can express are accepted:
-// SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL and OPENCV; any other is refused by name.
+// COLMAP's eleven camera models with ids 0..10 are accepted (cameras/colmap_camera.h); a
+// later one (RAD_TAN_THIN_PRISM_FISHEYE) is refused by name.
 // Errors are one line: "<file>:<line>: <message>" for text, "<file>: byte N: <message>" for
 // binary, "<file>: <message>" for what concerns a whole file or the model.
 #ifndef SBA_DEMO_COLMAP_IO_H
@@ -20,11 +20,17 @@ namespace sbaformats::colmap {
 
 // COLMAP's model ids of the accepted camera models.
 enum CameraModelId : int {
-  kSimplePinhole = 0,  // f cx cy
-  kPinhole = 1,        // fx fy cx cy
-  kSimpleRadial = 2,   // f cx cy k
-  kRadial = 3,         // f cx cy k1 k2
-  kOpenCV = 4          // fx fy cx cy k1 k2 p1 p2
+  kSimplePinhole = 0,        // f cx cy
+  kPinhole = 1,              // fx fy cx cy
+  kSimpleRadial = 2,         // f cx cy k
+  kRadial = 3,               // f cx cy k1 k2
+  kOpenCV = 4,               // fx fy cx cy k1 k2 p1 p2
+  kOpenCVFisheye = 5,        // fx fy cx cy k1 k2 k3 k4
+  kFullOpenCV = 6,           // fx fy cx cy k1 k2 p1 p2 k3 k4 k5 k6
+  kFov = 7,                  // fx fy cx cy omega
+  kSimpleRadialFisheye = 8,  // f cx cy k
+  kRadialFisheye = 9,        // f cx cy k1 k2
+  kThinPrismFisheye = 10     // fx fy cx cy k1 k2 p1 p2 k3 k4 sx1 sy1
 };
 
 // The model's name, or nullptr for an id outside the accepted ones.

@@ -5,69 +5,21 @@
 #include <cmath>
 #include <cstdio>
 #include <cstddef>
+#include <cstdlib>
 #include <unordered_map>
 #include <utility>
 
 namespace sbaformats::colmap {
 
+namespace cc = sbacameras::colmap_camera;
+
 namespace {
+
+std::size_t at(int i) { return static_cast<std::size_t>(i); }
 
 bool fail(std::string *error, const std::string &msg) {
   if (error) *error = msg;
   return false;
-}
-
-// Distortion terms of each model: a leading run of Bouguet's kc.
-int distortion_terms(int model) {
-  switch (model) {
-    case kSimpleRadial: return 1;
-    case kRadial: return 2;
-    case kOpenCV: return 4;
-    default: return 0;
-  }
-}
-
-sbacameras::euclidean::Camera to_camera(const Camera &c, const Image &im) {
-  sbacameras::euclidean::Camera out;
-  const std::vector<double> &p = c.params;
-  switch (c.model) {
-    case kSimplePinhole:
-    case kSimpleRadial:
-    case kRadial:
-      out.k.fu = p[0];
-      out.k.u0 = p[1];
-      out.k.v0 = p[2];
-      for (int k = 0; k < distortion_terms(c.model); ++k) out.kc[k] = p[3 + k];
-      break;
-    default:  // PINHOLE, OPENCV
-      out.k.fu = p[0];
-      out.k.ar = p[1] / p[0];
-      out.k.u0 = p[2];
-      out.k.v0 = p[3];
-      for (int k = 0; k < distortion_terms(c.model); ++k) out.kc[k] = p[4 + k];
-      break;
-  }
-  out.q = {im.q[0], im.q[1], im.q[2], im.q[3]};
-  for (int k = 0; k < 3; ++k) out.t[k] = im.t[k];
-  return out;
-}
-
-// The refined intrinsics (the first free_intr of fu u0 v0, the first free_dist of kc) into
-// COLMAP's parameters.
-void set_intrinsics(const sbacameras::euclidean::Camera &c, int free_intr, int free_dist, Camera *out) {
-  std::vector<double> &p = out->params;
-  const bool two_focals = out->model == kPinhole || out->model == kOpenCV;
-  const int pp = two_focals ? 2 : 1;  // where cx is
-  if (free_intr >= 1) {
-    p[0] = c.k.fu;
-    if (two_focals) p[1] = c.k.fu * c.k.ar;
-  }
-  if (free_intr >= 3) {
-    p[static_cast<std::size_t>(pp)] = c.k.u0;
-    p[static_cast<std::size_t>(pp) + 1] = c.k.v0;
-  }
-  const int nd = std::min(free_dist, distortion_terms(out->model));
-  for (int k = 0; k < nd; ++k) p[static_cast<std::size_t>(pp + 2 + k)] = c.kc[k];
 }
 
 }  // namespace
@@ -89,61 +41,121 @@ std::string parse_refine_intrinsics(const std::string &text, RefineIntrinsics *o
       pos = end + 1;
     }
   }
-  if (r.principal && !r.focal) return "the principal point is refined only with the focal length (focal,principal)";
   *out = r;
   return {};
 }
 
-bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::string &name, SbaProblem *out,
-            std::string *error) {
+std::string parse_image_list(const Model &model, const std::string &list, std::vector<char> *held) {
+  std::vector<char> h(model.images.size(), 0);
+  if (list == "all") {
+    std::fill(h.begin(), h.end(), 1);
+    *held = std::move(h);
+    return {};
+  }
+  std::unordered_map<std::string, int> by_name;
+  std::unordered_map<std::uint32_t, int> by_id;
+  for (std::size_t j = 0; j < model.images.size(); ++j) {
+    by_name.emplace(model.images[j].name, static_cast<int>(j));
+    by_id.emplace(model.images[j].id, static_cast<int>(j));
+  }
+  std::size_t pos = 0;
+  while (pos <= list.size()) {
+    std::size_t end = list.find(',', pos);
+    if (end == std::string::npos) end = list.size();
+    const std::string item = list.substr(pos, end - pos);
+    int j = -1;
+    char *stop = nullptr;
+    const unsigned long long id = item.empty() ? 0 : std::strtoull(item.c_str(), &stop, 10);
+    if (!item.empty() && *stop == '\0' && item[0] != '-' && id <= 0xffffffffull) {
+      const auto it = by_id.find(static_cast<std::uint32_t>(id));
+      if (it != by_id.end()) j = it->second;
+    }
+    if (j < 0) {
+      const auto it = by_name.find(item);
+      if (it != by_name.end()) j = it->second;
+    }
+    if (j < 0) return "no image has the IMAGE_ID or NAME '" + item + "'";
+    h[at(j)] = 1;
+    pos = end + 1;
+  }
+  *held = std::move(h);
+  return {};
+}
+
+bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::vector<char> &held_pose, int mcon,
+            const std::string &name, ColmapProblem *out, std::string *error) {
   const std::string where = name + ": ";
-  std::unordered_map<std::uint32_t, const Camera *> cameras;
-  for (const Camera &c : model.cameras) cameras.emplace(c.id, &c);
-  std::unordered_map<std::uint32_t, int> image_index, users;
+  std::unordered_map<std::uint32_t, int> camera_index, image_index;
+  for (std::size_t c = 0; c < model.cameras.size(); ++c) camera_index.emplace(model.cameras[c].id, static_cast<int>(c));
   const int m = static_cast<int>(model.images.size());
   const int n = static_cast<int>(model.points.size());
   if (m == 0 || n == 0) return fail(error, where + "the model has no images or no points");
-  for (int j = 0; j < m; ++j) {
-    const Image &im = model.images[static_cast<std::size_t>(j)];
-    image_index.emplace(im.id, j);
-    ++users[im.camera_id];
-  }
+  for (int j = 0; j < m; ++j) image_index.emplace(model.images[at(j)].id, j);
   // An image is a camera of the problem when it sees a point (every point is seen: check_model).
-  std::vector<int> camera_of(static_cast<std::size_t>(m), -1);
+  std::vector<int> camera_of(at(m), -1);
   for (const Point3D &pt : model.points)
-    for (const TrackElement &e : pt.track) camera_of[static_cast<std::size_t>(image_index.at(e.image_id))] = 0;
-  int dist = 4;
-  for (int j = 0; j < m; ++j)
-    if (camera_of[static_cast<std::size_t>(j)] == 0)
-      dist = std::min(dist, distortion_terms(cameras.at(model.images[static_cast<std::size_t>(j)].camera_id)->model));
-  SbaProblem p;
-  p.nccalib = refine.focal ? (refine.principal ? 2 : 4) : 5;
-  p.ncdist = refine.distortion ? sbacameras::euclidean::kDistortionParams - dist : sbacameras::euclidean::kDistortionParams;
-  const bool intrinsics = p.nccalib < sbacameras::euclidean::kIntrinsicParams || p.ncdist < sbacameras::euclidean::kDistortionParams;
+    for (const TrackElement &e : pt.track) camera_of[at(image_index.at(e.image_id))] = 0;
+  ColmapProblem p;
+  int np = 0;
   for (int j = 0; j < m; ++j) {
-    if (camera_of[static_cast<std::size_t>(j)] < 0) continue;
-    const Image &im = model.images[static_cast<std::size_t>(j)];
-    if (intrinsics && users[im.camera_id] > 1)
-      return fail(error, where + "camera " + std::to_string(im.camera_id) + " is shared by " +
-                             std::to_string(users[im.camera_id]) +
-                             " images: sba refines each image's intrinsics on their own; hold them "
-                             "(--intrinsics none) or give each image a camera of its own");
-    camera_of[static_cast<std::size_t>(j)] = static_cast<int>(p.cameras.size());
-    p.cameras.push_back(to_camera(*cameras.at(im.camera_id), im));
+    if (camera_of[at(j)] < 0) continue;
+    const Image &im = model.images[at(j)];
+    const Camera &c = model.cameras[at(camera_index.at(im.camera_id))];
+    camera_of[at(j)] = static_cast<int>(p.cameras.size());
+    cc::Camera cam;
+    cam.model = c.model;
+    cam.params = c.params;
+    cam.q = {im.q[0], im.q[1], im.q[2], im.q[3]};
+    for (int k = 0; k < 3; ++k) cam.t[at(k)] = im.t[at(k)];
+    np = std::max(np, cc::param_count(c.model));
+    p.cameras.push_back(std::move(cam));
     p.images.push_back(j);
   }
+  const int ms = static_cast<int>(p.cameras.size());
+  const int cnp = p.cnp = cc::kPoseParams + np;
+  // Each COLMAP camera's sba cameras; one below mcon holds the camera's parameters in all.
+  std::vector<std::vector<int>> users(model.cameras.size());
+  for (int j = 0; j < ms; ++j) users[at(camera_index.at(model.images[at(p.images[at(j)])].camera_id))].push_back(j);
+  p.cam_fixed.assign(at(ms) * at(cnp), 0);
+  p.cam_group.assign(at(ms), -1);
+  p.cam_shared.assign(at(cnp), 0);
+  for (int k = cc::kPoseParams; k < cnp; ++k) p.cam_shared[at(k)] = 1;
+  for (std::size_t c = 0; c < users.size(); ++c) {
+    const std::vector<int> &u = users[c];
+    if (u.empty()) continue;
+    const bool below_mcon = u.front() < mcon;  // u ascends
+    const int model_id = model.cameras[c].model, count = cc::param_count(model_id);
+    for (int j : u) {
+      char *fixed = &p.cam_fixed[at(j) * at(cnp)];
+      for (int k = 0; k < cnp - cc::kPoseParams; ++k) {
+        bool held = below_mcon || k >= count;
+        if (!held) switch (cc::param_kind(model_id, k)) {
+            case cc::ParamKind::Focal: held = !refine.focal; break;
+            case cc::ParamKind::Principal: held = !refine.principal; break;
+            case cc::ParamKind::Extra: held = !refine.distortion; break;
+          }
+        fixed[cc::kPoseParams + k] = held ? 1 : 0;
+      }
+      if (u.size() > 1 && !below_mcon) p.cam_group[at(j)] = u.front();
+    }
+    if (u.size() > 1 && !below_mcon) ++p.shared_cameras;
+  }
+  for (int j = 0; j < ms; ++j)
+    if (!held_pose.empty() && held_pose[at(p.images[at(j)])]) {
+      std::fill_n(&p.cam_fixed[at(j) * at(cnp)], cc::kPoseParams, 1);
+      ++p.held_poses;
+    }
   eucsba::PointSet &s = p.points;
-  s.ncameras = static_cast<int>(p.cameras.size());
-  s.xyz.reserve(static_cast<std::size_t>(n) * 3);
+  s.ncameras = ms;
+  s.xyz.reserve(at(n) * 3);
   std::vector<std::pair<int, const Point2D *>> track;
   for (int i = 0; i < n; ++i) {
-    const Point3D &pt = model.points[static_cast<std::size_t>(i)];
+    const Point3D &pt = model.points[at(i)];
     s.xyz.insert(s.xyz.end(), pt.xyz.begin(), pt.xyz.end());
     track.clear();
     for (const TrackElement &e : pt.track) {
       const int j = image_index.at(e.image_id);
-      track.push_back({camera_of[static_cast<std::size_t>(j)],
-                       &model.images[static_cast<std::size_t>(j)].points[e.point2d_idx]});
+      track.push_back({camera_of[at(j)], &model.images[at(j)].points[e.point2d_idx]});
     }
     // sba's layout: a point's projections with the cameras ascending.
     std::sort(track.begin(), track.end(),
@@ -160,7 +172,7 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::strin
   return true;
 }
 
-void from_sba(const sbacameras::euclidean::CameraModel &sba_model, const SbaProblem &problem, const double *p, int mcon, int ncon,
+void from_sba(const cc::CameraModel &sba_model, const ColmapProblem &problem, const double *p, int mcon, int ncon,
               Model *model) {
   const int m = static_cast<int>(problem.images.size());
   const int n = static_cast<int>(model->points.size());
@@ -169,31 +181,65 @@ void from_sba(const sbacameras::euclidean::CameraModel &sba_model, const SbaProb
   for (Camera &c : model->cameras) cameras.emplace(c.id, &c);
   std::unordered_map<std::uint32_t, int> camera_of;  // an image's sba camera
   for (int j = 0; j < m; ++j) {
-    Image &im = model->images[static_cast<std::size_t>(problem.images[static_cast<std::size_t>(j)])];
+    Image &im = model->images[at(problem.images[at(j)])];
     camera_of.emplace(im.id, j);
     if (j < mcon) continue;
-    const sbacameras::euclidean::Camera c = sba_model.camera(j, p + static_cast<std::size_t>(j) * cnp);
-    im.q = {c.q.w, c.q.x, c.q.y, c.q.z};
-    for (int k = 0; k < 3; ++k) im.t[k] = c.t[k];
-    set_intrinsics(c, sbacameras::euclidean::kIntrinsicParams - problem.nccalib, sbacameras::euclidean::kDistortionParams - problem.ncdist,
-                   cameras.at(im.camera_id));
+    const char *fixed = &problem.cam_fixed[at(j) * at(cnp)];
+    const cc::Camera c = sba_model.camera(j, p + at(j) * at(cnp));
+    // A held pose is not written: the parametrization's round trip would move its last bits.
+    if (!std::all_of(fixed, fixed + cc::kPoseParams, [](char f) { return f != 0; })) {
+      im.q = {c.q.w, c.q.x, c.q.y, c.q.z};
+      for (int k = 0; k < 3; ++k) im.t[at(k)] = c.t[at(k)];
+    }
+    const int group = problem.cam_group[at(j)];
+    if (group >= 0 && group != j) continue;  // the group's first camera writes it
+    Camera *cam = cameras.at(im.camera_id);
+    for (std::size_t k = 0; k < cam->params.size(); ++k)
+      if (!fixed[cc::kPoseParams + k]) cam->params[k] = c.params[k];
   }
-  const double *points = p + static_cast<std::size_t>(m) * cnp;
+  const double *points = p + at(m) * at(cnp);
   for (int i = ncon; i < n; ++i) {
-    Point3D &pt = model->points[static_cast<std::size_t>(i)];
-    const double *b = points + 3 * static_cast<std::size_t>(i);
-    for (int k = 0; k < 3; ++k) pt.xyz[k] = b[k];
+    Point3D &pt = model->points[at(i)];
+    const double *b = points + 3 * at(i);
+    for (int k = 0; k < 3; ++k) pt.xyz[at(k)] = b[k];
     double sum = 0;
     for (const TrackElement &e : pt.track) {
       const int j = camera_of.at(e.image_id);
-      const Point2D &obs =
-          model->images[static_cast<std::size_t>(problem.images[static_cast<std::size_t>(j)])].points[e.point2d_idx];
+      const Point2D &obs = model->images[at(problem.images[at(j)])].points[e.point2d_idx];
       double x[2];
-      sba_model.project(j, p + static_cast<std::size_t>(j) * cnp, b, x);
+      sba_model.project(j, p + at(j) * at(cnp), b, x);
       sum += std::hypot(x[0] - obs.x, x[1] - obs.y);
     }
     pt.error = sum / static_cast<double>(pt.track.size());
   }
+}
+
+bool to_euclidean(const cc::Camera &c, sbacameras::euclidean::Camera *out) {
+  sbacameras::euclidean::Camera e;
+  const std::vector<double> &p = c.params;
+  int nd = 0;  // Bouguet's kc = (k1 k2 p1 p2 k3) is OpenCV's
+  switch (c.model) {
+    case kSimplePinhole: case kSimpleRadial: case kRadial:
+      e.k.fu = p[0];
+      e.k.u0 = p[1];
+      e.k.v0 = p[2];
+      nd = c.model == kSimplePinhole ? 0 : c.model == kSimpleRadial ? 1 : 2;
+      for (int k = 0; k < nd; ++k) e.kc[at(k)] = p[at(3 + k)];
+      break;
+    case kPinhole: case kOpenCV:
+      e.k.fu = p[0];
+      e.k.ar = p[1] / p[0];
+      e.k.u0 = p[2];
+      e.k.v0 = p[3];
+      nd = c.model == kPinhole ? 0 : 4;
+      for (int k = 0; k < nd; ++k) e.kc[at(k)] = p[at(4 + k)];
+      break;
+    default: return false;
+  }
+  e.q = c.q;
+  e.t = c.t;
+  *out = e;
+  return true;
 }
 
 }  // namespace sbaformats::colmap

@@ -1,33 +1,34 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-// A COLMAP model as a problem of eucsbademo's camera model (docs/formats.md, "COLMAP sparse
-// models"), and the refined estimate written back into the model.
+// A COLMAP model as an sba problem of COLMAP's own camera models (cameras/colmap_camera.h,
+// docs/formats.md, "COLMAP sparse models"), and the refined estimate written back into it.
 //
-// Every image is one sba camera with its own copy of its COLMAP camera's intrinsics, every
-// 3D point one sba point. COLMAP's pose is already eucsbademo's: qw qx qy qz and t map world
-// to camera coordinates, and both use pixel coordinates as measured, so the principal point
-// and the POINTS2D go over unchanged. The intrinsics map onto K = [fu s u0; 0 fu*ar v0] and
-// Bouguet's distortion kc = (k1 k2 p1 p2 k3), which is OpenCV's:
-//   SIMPLE_PINHOLE f cx cy         fu = f, u0 = cx, v0 = cy, ar = 1
-//   PINHOLE fx fy cx cy            fu = fx, ar = fy / fx
-//   SIMPLE_RADIAL f cx cy k        kc0 = k
-//   RADIAL f cx cy k1 k2           kc0 = k1, kc1 = k2
-//   OPENCV fx fy cx cy k1 k2 p1 p2 kc0..kc3 = k1 k2 p1 p2
-// The terms a model lacks are zero and always held.
+// Every image that sees a point is one sba camera, a_j = (v t params padding): its pose in
+// the rotation parametrization of euclidean.h and a copy of its COLMAP camera's parameters
+// in COLMAP's order; every 3D point one sba point. A COLMAP camera that several of those
+// images use is one group (sba_ext_options::cam_group, numbered by its first sba camera)
+// whose parameter slots are shared (cam_shared): it is refined once, as COLMAP does. A camera
+// used by one image is in no group (-1): its copy is its own. Which parameters are held goes
+// per camera into cam_fixed: the padding always, and by COLMAP's bundle adjustment options
+// the focal length (f or fx fy), the principal point (cx cy), the extra parameters (the rest),
+// and the poses of the images the caller names.
+//
+// NVM files (nvm_io.h) still map onto eucsbademo's camera (SbaProblem below).
 #ifndef SBA_DEMO_COLMAP_SBA_H
 #define SBA_DEMO_COLMAP_SBA_H
 
 #include <string>
 #include <vector>
 
+#include "cameras/colmap_camera.h"
 #include "cameras/euclidean.h"
 #include "formats/colmap_io.h"
 #include "formats/eucsba_io.h"
 
 namespace sbaformats::colmap {
 
-// Which intrinsics are refined. COLMAP's bundle adjuster refines the focal length and the
-// distortion and holds the principal point; so does the default here. The aspect ratio
-// fy / fx of PINHOLE and OPENCV is held (fx and fy move together).
+// Which intrinsics are refined, as COLMAP's bundle adjuster names them: refine_focal_length,
+// refine_principal_point and refine_extra_params (distortion here), with COLMAP's defaults:
+// the focal length and the distortion refined, the principal point held.
 struct RefineIntrinsics {
   bool focal = true;
   bool principal = false;
@@ -35,31 +36,54 @@ struct RefineIntrinsics {
 };
 
 // Parses "none", "all" or a comma-separated list of focal, principal, distortion. Returns
-// why the text is bad (empty when good). The principal point is refined only with the focal
-// length (sba holds a trailing run of (fu u0 v0 ar s)).
+// why the text is bad (empty when good).
 std::string parse_refine_intrinsics(const std::string &text, RefineIntrinsics *out);
 
+// An NVM file's problem through eucsbademo's camera model (nvm::to_sba fills it).
 struct SbaProblem {
-  std::vector<euclidean::Camera> cameras;  // one per image that sees a point, in file order
-  std::vector<int> images;                 // to_sba: each camera's index in Model::images (nvm::to_sba: empty)
-  eucsba::PointSet points;              // one per 3D point, in file order; visibility as pairs
-  int nccalib = 5, ncdist = 5;          // trailing intrinsics / distortion terms held
+  std::vector<euclidean::Camera> cameras;  // one per camera, in file order
+  std::vector<int> images;                 // unused by nvm::to_sba: empty
+  eucsba::PointSet points;                 // one per 3D point, in file order; visibility as pairs
+  int nccalib = 5, ncdist = 5;             // trailing intrinsics / distortion terms held
 };
 
-// The problem of a model checked by check_model. Refining the intrinsics of a camera that
-// several images share has no counterpart in sba (each image's intrinsics are its own
-// parameters): refused, with a message naming the camera. An image that sees no point has no
-// sba camera (nothing places it): it is held out of the problem, and from_sba leaves it as it
-// was. The distortion terms refined are those every camera model has.
-bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::string &name, SbaProblem *out,
-            std::string *error);
+// A COLMAP model's problem.
+struct ColmapProblem {
+  std::vector<sbacameras::colmap_camera::Camera> cameras;  // one per image that sees a point, in file order
+  std::vector<int> images;   // each camera's index in Model::images
+  eucsba::PointSet points;   // one per 3D point, in file order; visibility as pairs
+  int cnp = 0;               // 6 + the largest parameter count of the cameras used
+  std::vector<char> cam_fixed;   // m*cnp, camera j's at j*cnp: nonzero for a held parameter
+  std::vector<int> cam_group;    // m: the group of a shared COLMAP camera, -1 for none
+  std::vector<char> cam_shared;  // cnp: the parameter slots (not the pose) a group shares
+  int shared_cameras = 0;        // COLMAP cameras refined once for several images
+  int held_poses = 0;            // images whose pose is held
+};
 
-// Writes the estimate p (m cnp-vectors, then n points, as eucsbademo lays them out) back
-// into the model: poses of the sba cameras' images from mcon on, points from ncon on, the refined
-// intrinsics of their cameras, and each refined point's ERROR as its mean reprojection error
-// in pixels. Everything else stays as it was read.
-void from_sba(const euclidean::CameraModel &sba_model, const SbaProblem &problem, const double *p, int mcon, int ncon,
-              Model *model);
+// The images named by list: "all", or comma-separated IMAGE_IDs or image NAMEs (a name that
+// is a number is taken as an id first). held gets one flag per Model::images. Returns why
+// the list is bad (an image that is not in the model), empty when good.
+std::string parse_image_list(const Model &model, const std::string &list, std::vector<char> *held);
+
+// The problem of a model checked by check_model. held_pose: one flag per Model::images (or
+// empty for none). mcon: the sba cameras below it are held by the solve (sba's mcon); a COLMAP
+// camera that one of them uses has its parameters held in all its images, so that what is
+// written back is one calibration. An image that sees no point has no sba camera (nothing
+// places it): it is held out of the problem, and from_sba leaves it as it was.
+bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::vector<char> &held_pose, int mcon,
+            const std::string &name, ColmapProblem *out, std::string *error);
+
+// Writes the estimate p (m cnp-vectors, then n points) back into the model: the poses of the
+// sba cameras from mcon on that are not held, the points from ncon on, the parameters of each
+// COLMAP camera that are not held (once per camera: a group's from its first sba camera),
+// and each refined point's ERROR as its mean reprojection error in pixels. Everything else
+// stays as it was read, bit for bit.
+void from_sba(const sbacameras::colmap_camera::CameraModel &sba_model, const ColmapProblem &problem, const double *p,
+              int mcon, int ncon, Model *model);
+
+// A camera of one of the five models eucsbademo's camera expresses (SIMPLE_PINHOLE, PINHOLE,
+// SIMPLE_RADIAL, RADIAL, OPENCV) as that camera; false for the others.
+bool to_euclidean(const sbacameras::colmap_camera::Camera &c, euclidean::Camera *out);
 
 // An eucsbademo problem as a COLMAP model, for tests and for sbagen: image j is IMAGE_ID
 // 10 + 3j named img_jjjj.png with one unmatched keypoint (POINT3D_ID -1) before its

@@ -13,6 +13,7 @@
 #include <cstring>
 #include <exception>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <new>
 #include <string>
@@ -20,6 +21,7 @@
 
 #include "cameras/bal_camera.h"
 #include "cameras/camera_pose.h"
+#include "cameras/colmap_camera.h"
 #include "cameras/euclidean.h"
 #include "cli/cli.h"
 #include "cli/motstr_solve.h"
@@ -40,6 +42,7 @@ namespace nvm = sbaformats::nvm;
 namespace eucsba = sbaformats::eucsba;
 namespace bal = sbaformats::bal;
 namespace euclidean = sbacameras::euclidean;
+namespace colmap_camera = sbacameras::colmap_camera;
 namespace bal_camera = sbacameras::bal;
 
 namespace {
@@ -53,7 +56,10 @@ struct Options {
   std::string write;         // output model directory; empty: none
   std::string write_format;  // text or binary; empty: the input's
   std::string intrinsics = "focal,distortion";
+  bool intrinsics_given = false;  // --intrinsics or a --refine-* option
   colmap::RefineIntrinsics refine;
+  std::string hold_poses;            // COLMAP: the images whose pose is held; empty: none
+  double function_tolerance = -1;    // < 0: not given
   std::string initial_ply, final_ply;
   std::string write_eucsba;  // COLMAP, NVM: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
   std::string write_bal;     // Bundler: a BAL problem
@@ -77,8 +83,44 @@ std::vector<sbacli::Option> option_table(Options &o) {
                "the focal length or nothing (its radial distortion is held, its principal point absent)",
                [&o](const std::string &v) {
                  o.intrinsics = v;
+                 o.intrinsics_given = true;
                  return colmap::parse_refine_intrinsics(v, &o.refine);
                }});
+  // COLMAP's names for the same choice, one flag each; the options apply in the order given,
+  // so a --refine-* after --intrinsics overrides that part of it, and one before is overridden.
+  const auto flag = [&o](bool colmap::RefineIntrinsics::*field) {
+    return [&o, field](const std::string &v) -> std::string {
+      if (v != "0" && v != "1") return "expected 0 or 1";
+      o.refine.*field = v == "1";
+      o.intrinsics_given = true;
+      return {};
+    };
+  };
+  t.push_back({"refine-focal-length", "0|1",
+               "COLMAP's refine_focal_length: refine f (or fx and fy) (default 1)", flag(&colmap::RefineIntrinsics::focal)});
+  t.push_back({"refine-principal-point", "0|1", "COLMAP's refine_principal_point: refine cx and cy (default 0)",
+               flag(&colmap::RefineIntrinsics::principal)});
+  t.push_back({"refine-extra-params", "0|1",
+               "COLMAP's refine_extra_params: refine the parameters after the principal point (the\n"
+               "distortion; FOV's omega) (default 1)",
+               flag(&colmap::RefineIntrinsics::distortion)});
+  t.push_back({"hold-poses", "LIST",
+               "COLMAP: hold the poses of these images (COLMAP's constant poses): all, or IMAGE_IDs or\n"
+               "NAMEs separated by commas",
+               [&o](const std::string &v) -> std::string {
+                 if (v.empty()) return "expected all or a comma-separated list of images";
+                 o.hold_poses = v;
+                 return {};
+               }});
+  t.push_back({"max-num-iterations", "N", "COLMAP's name of --itmax (COLMAP's default is 100, sbarefine's 150)",
+               [&o](const std::string &v) {
+                 return sbacli::to_int(v, 0, std::numeric_limits<int>::max(), &o.solve.itmax);
+               }});
+  t.push_back({"function-tolerance", "X",
+               "COLMAP's (Ceres's) function_tolerance: stop when an accepted step changes the cost by\n"
+               "at most X relatively. Sets --eps4 X and, unless --strategy is given, the trust-region\n"
+               "strategy, whose eps4 is this test (sba's eps4 is a relative RMS reduction instead)",
+               [&o](const std::string &v) { return sbacli::to_real(v, 0.0, true, &o.function_tolerance); }});
   t.push_back({"write-eucsba", "PREFIX",
                "COLMAP, NVM: also write the refined model as eucsbademo files PREFIX-cams.txt (17\n"
                "values a line) and PREFIX-pts.txt",
@@ -110,11 +152,14 @@ void print_usage(std::FILE *out) {
       "Usage: sbarefine [OPTION]... MODEL\n"
       "Bundle-adjusts a reconstruction with sba_motstr_levmar_x_ext, analytic Jacobian. MODEL is\n"
       "- a COLMAP sparse model: the directory holding cameras, images and points3D (.bin or .txt,\n"
-      "  .bin read first as COLMAP does; camera models SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL,\n"
-      "  RADIAL, OPENCV), refined with eucsbademo's camera model, every image that sees a point an\n"
-      "  sba camera with its own intrinsics (one that sees none is written back as read);\n"
-      "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera;\n"
-      "  --intrinsics does not apply); its image list (list.txt) with --bundler-list;\n"
+      "  .bin read first as COLMAP does; all eleven camera models of COLMAP, ids 0..10), refined\n"
+      "  with COLMAP's own camera models: every image that sees a point an sba camera, a camera\n"
+      "  shared by several images refined once for all of them (one that sees none is written\n"
+      "  back as read); by default the focal length and the extra parameters refined, the\n"
+      "  principal point held, as COLMAP's bundle adjuster does;\n"
+      "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera,\n"
+      "  always refined: --intrinsics and --refine-* are refused); its image list (list.txt) with\n"
+      "  --bundler-list;\n"
       "- a VisualSFM file (NVM_V3, its first model), refined with eucsbademo's camera model, the\n"
       "  focal length refined (--intrinsics focal or none) and the radial distortion held.\n"
       "\n"
@@ -243,8 +288,10 @@ bool open_input(const std::string &path, Input *in, std::string *error) {
 struct Loaded {
   colmap::Model model;
   colmap::Encoding encoding = colmap::Encoding::Text;
-  colmap::SbaProblem problem;
+  colmap::SbaProblem problem;  // NVM
   std::unique_ptr<euclidean::CameraModel> sba_model;
+  colmap::ColmapProblem colmap_problem;
+  std::unique_ptr<colmap_camera::CameraModel> colmap_model;
   nvm::Model nvm;
   bundler::Bundle bundle;
   bundler::ImageList list;
@@ -277,26 +324,97 @@ void eucsba_job(Loaded *l, Job *job) {
   };
 }
 
-// --write-eucsba PREFIX: the estimate p as eucsbademo files.
+// --write-eucsba PREFIX: eucsbademo's cameras and the points p as eucsbademo files.
+bool write_eucsba(const std::string &prefix, const std::vector<euclidean::Camera> &cams,
+                  const eucsba::PointSet &pointset, const double *xyz, std::string *why) {
+  const std::vector<double> points(xyz, xyz + 3 * static_cast<std::size_t>(pointset.npoints()));
+  eucsba::Status st = eucsba::write_cameras(prefix + "-cams.txt", euclidean::CameraKind::VaryingIntrinsicsDistortion, cams);
+  if (st) st = eucsba::write_points(prefix + "-pts.txt", pointset, points);
+  if (!st) *why = st.to_string();
+  return static_cast<bool>(st);
+}
+
 bool write_eucsba(const std::string &prefix, const Loaded &l, const double *p, std::string *why) {
   const euclidean::CameraModel &model = *l.sba_model;
   std::vector<euclidean::Camera> cams;
   for (int j = 0; j < model.ncameras(); ++j)
     cams.push_back(model.camera(j, p + static_cast<std::size_t>(j) * model.cnp()));
-  const double *xyz = p + static_cast<std::size_t>(model.ncameras()) * model.cnp();
-  const std::vector<double> points(xyz, xyz + 3 * static_cast<std::size_t>(model.npoints()));
-  eucsba::Status st = eucsba::write_cameras(prefix + "-cams.txt", model.kind(), cams);
-  if (st) st = eucsba::write_points(prefix + "-pts.txt", l.problem.points, points);
-  if (!st) *why = st.to_string();
-  return static_cast<bool>(st);
+  return write_eucsba(prefix, cams, l.problem.points, p + static_cast<std::size_t>(model.ncameras()) * model.cnp(), why);
+}
+
+// The same for a COLMAP model, whose cameras must be of the five models eucsbademo's camera
+// expresses.
+bool write_eucsba_colmap(const std::string &prefix, const Loaded &l, const double *p, std::string *why) {
+  const colmap_camera::CameraModel &model = *l.colmap_model;
+  std::vector<euclidean::Camera> cams(static_cast<std::size_t>(model.ncameras()));
+  for (int j = 0; j < model.ncameras(); ++j) {
+    const colmap_camera::Camera c = model.camera(j, p + static_cast<std::size_t>(j) * model.cnp());
+    if (!colmap::to_euclidean(c, &cams[static_cast<std::size_t>(j)])) {
+      *why = prefix + "-cams.txt: eucsbademo's camera cannot express COLMAP's " +
+             colmap_camera::model_name(c.model) + " (only SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV)";
+      return false;
+    }
+  }
+  return write_eucsba(prefix, cams, l.colmap_problem.points, p + static_cast<std::size_t>(model.ncameras()) * model.cnp(),
+                      why);
+}
+
+// The job of l->colmap_problem through COLMAP's camera models.
+void colmap_job(Loaded *l, Job *job) {
+  colmap::ColmapProblem &pr = l->colmap_problem;
+  l->colmap_model = std::make_unique<colmap_camera::CameraModel>(pr.cameras, pr.points.xyz, pr.cam_fixed);
+  const colmap_camera::CameraModel &sm = *l->colmap_model;
+  job->in.m = pr.points.ncameras;
+  job->in.n = pr.points.npoints();
+  job->in.cnp = sm.cnp();
+  job->in.vis = &pr.points.pairs;
+  job->in.x = pr.points.x.data();
+  job->in.cam_fixed = pr.cam_fixed.data();
+  job->in.cam_fixed_per_camera = 1;
+  job->in.cam_group = pr.cam_group.data();
+  job->in.cam_shared = pr.cam_shared.data();
+  job->p = sm.initial_camera_params();
+  job->p.insert(job->p.end(), sm.initial_points().begin(), sm.initial_points().end());
+  job->in.func = colmap_camera::motstr_func;
+  job->in.fjac = colmap_camera::motstr_fjac;
+  job->in.adata = colmap_camera::as_adata(sm);
+  const int m = job->in.m, cnp = job->in.cnp;
+  job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
+    sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
+  };
+}
+
+// "OPENCV (3 cameras), PINHOLE (1 camera)": the models of the cameras the solve uses.
+std::string camera_models(const colmap::Model &model, const colmap::ColmapProblem &pr) {
+  std::vector<int> count(colmap_camera::kNumModels, 0);
+  std::vector<char> seen(model.cameras.size(), 0);
+  for (int j : pr.images)
+    for (std::size_t c = 0; c < model.cameras.size(); ++c)
+      if (model.cameras[c].id == model.images[static_cast<std::size_t>(j)].camera_id && !seen[c]) {
+        seen[c] = 1;
+        ++count[static_cast<std::size_t>(model.cameras[c].model)];
+      }
+  std::string out;
+  for (int k = 0; k < colmap_camera::kNumModels; ++k)
+    if (count[static_cast<std::size_t>(k)] > 0)
+      out += std::string(out.empty() ? "" : ", ") + colmap_camera::model_name(k) + " (" +
+             std::to_string(count[static_cast<std::size_t>(k)]) + (count[static_cast<std::size_t>(k)] == 1 ? " camera)" : " cameras)");
+  return out;
 }
 
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
-  if (!colmap::read_model(o.input, &l->model, &l->encoding, error) ||
-      !colmap::to_sba(l->model, o.refine, o.input, &l->problem, error))
-    return false;
-  eucsba_job(l, job);
-  const colmap::SbaProblem &pr = l->problem;
+  if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
+  std::vector<char> held;
+  if (!o.hold_poses.empty()) {
+    const std::string why = colmap::parse_image_list(l->model, o.hold_poses, &held);
+    if (!why.empty()) {
+      *error = "sbarefine: --hold-poses: " + o.input + ": " + why;
+      return false;
+    }
+  }
+  if (!colmap::to_sba(l->model, o.refine, held, o.solve.mcon, o.input, &l->colmap_problem, error)) return false;
+  colmap_job(l, job);
+  const colmap::ColmapProblem &pr = l->colmap_problem;
   char line[512];
   std::snprintf(line, sizeof line, "COLMAP model %s (%s): %zu images, %zu cameras, %d points",
                 o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", l->model.images.size(),
@@ -310,14 +428,19 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   if (held_out > 0)
     job->summary += "\n" + std::to_string(held_out) + (held_out == 1 ? " image sees" : " images see") +
                     " no point: held out of the solve and written back as read";
-  job->summary += "\nIntrinsics refined: " + o.intrinsics + " (nccalib " + std::to_string(pr.nccalib) + ", ncdist " +
-                  std::to_string(pr.ncdist) + ")";
+  const auto yes_no = [](bool b) { return b ? "refined" : "held"; };
+  job->summary += "\nCamera models: " + camera_models(l->model, pr) + "; focal length " + yes_no(o.refine.focal) +
+                  ", principal point " + yes_no(o.refine.principal) + ", extra parameters " +
+                  yes_no(o.refine.distortion) + "; " + std::to_string(pr.shared_cameras) +
+                  (pr.shared_cameras == 1 ? " camera" : " cameras") + " shared by several images, refined once; " +
+                  std::to_string(pr.held_poses) + (pr.held_poses == 1 ? " pose" : " poses") + " held";
   job->initial = cloud(l->model);
   for (int j : pr.images) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
-    if (o.solve.itmax > 0) colmap::from_sba(*l->sba_model, l->problem, p, o.solve.mcon, o.solve.ncon, &l->model);
+    if (o.solve.itmax > 0)
+      colmap::from_sba(*l->colmap_model, l->colmap_problem, p, o.solve.mcon, o.solve.ncon, &l->model);
     *final_cloud = cloud(l->model);
-    if (!o.write_eucsba.empty() && !write_eucsba(o.write_eucsba, *l, p, why)) return false;
+    if (!o.write_eucsba.empty() && !write_eucsba_colmap(o.write_eucsba, *l, p, why)) return false;
     if (o.write.empty()) return true;
     const colmap::Encoding out =
         o.write_format.empty() ? l->encoding
@@ -410,6 +533,10 @@ int refine_main(int argc, char **argv) {
       status >= 0)
     return status;
   sbacli::SolveOptions &so = o.solve;
+  if (o.function_tolerance > 0) {
+    so.opts[4] = o.function_tolerance;
+    if (so.strategy.empty()) so.strategy = "trust-region";
+  }
   Input input;
   if (!look_at_input(o.input, &input, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
@@ -449,7 +576,10 @@ int refine_main(int argc, char **argv) {
       {!o.write_eucsba.empty(), format != Format::Bundler, "--write-eucsba", "COLMAP models and NVM files"},
       {!o.write_bal.empty(), format == Format::Bundler, "--write-bal", "Bundler files"},
       {!o.bundler_list.empty(), format == Format::Bundler, "--bundler-list", "Bundler files"},
-      {!o.write_list.empty(), format == Format::Bundler, "--write-list", "Bundler files"}};
+      {!o.write_list.empty(), format == Format::Bundler, "--write-list", "Bundler files"},
+      {!o.hold_poses.empty(), format == Format::Colmap, "--hold-poses", "COLMAP models"},
+      {o.intrinsics_given, format != Format::Bundler, "--intrinsics (or --refine-*)",
+       "COLMAP models and NVM files (a bundle's f, k1 and k2 are always refined)"}};
   for (const auto &opt : kFormatOptions)
     if (opt.given && !opt.allowed) {
       std::fprintf(stderr, "sbarefine: %s is for %s\n", opt.option, opt.formats);
