@@ -288,16 +288,17 @@ TEST(ColmapCamera, SbaModelStartsAtTheInputPose) {
 // also when called on a part of the rows (parallel_callbacks).
 TEST(ColmapCamera, ExpertCallbacksAgreeWithTheModel) {
   const std::vector<cc::Camera> cams = sample_cameras();
-  const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2, 0.1, 0.1, 0.1};
+  const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2, 0.1, 0.1, 0.1, -0.1, 0.2, 0.0};
   const cc::CameraModel model(cams, points);
   const int m = model.ncameras(), n = model.npoints(), cnp = model.cnp();
   std::vector<double> p = model.initial_camera_params();
   for (int j = 0; j < m; ++j) p[static_cast<std::size_t>(j * cnp)] = 0.01 * j;
   p.insert(p.end(), points.begin(), points.end());
-  // Point i sees cameras i, i+3, i+6, ...: ordinals in row order.
+  // Point i < 3 sees cameras i, i+3, i+6, ..., the last point every camera (each camera's
+  // per-call set-up is then used again after the others'): ordinals in row order.
   std::vector<int> rowptr{0}, colidx, val;
   for (int i = 0; i < n; ++i) {
-    for (int j = i; j < m; j += 3) {
+    for (int j = i < 3 ? i : 0; j < m; j += i < 3 ? 3 : 1) {
       colidx.push_back(j);
       val.push_back(static_cast<int>(val.size()));
     }

@@ -299,7 +299,9 @@ struct Frame {
   const double *R0;
   sbaeuc_correction qs;
   double M[9];  // R(qs) R(q0_j)
-  const double *params, *t;
+  // Offsets into a rather than pointers: a Frame is copied.
+  const double *params() const { return a + kPoseParams; }
+  const double *t() const { return a + 3; }
 };
 
 Frame frame_of(const CameraModel &model, int j, const double *a) {
@@ -308,7 +310,6 @@ Frame frame_of(const CameraModel &model, int j, const double *a) {
   f.np = param_count(f.model);
   model.effective(j, a, f.a);
   f.held = model.held(j);
-  f.params = f.a + kPoseParams;
   f.R0 = model.initial_rotation(j);
   const double *R0 = f.R0;
   f.qs = sbaeuc_correction_of(f.a);
@@ -317,17 +318,16 @@ Frame frame_of(const CameraModel &model, int j, const double *a) {
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c)
       f.M[r * 3 + c] = Rs[r * 3] * R0[c] + Rs[r * 3 + 1] * R0[3 + c] + Rs[r * 3 + 2] * R0[6 + c];
-  f.t = f.a + 3;
   return f;
 }
 
 void eval(const Frame &f, int cnp, const double *b, double *x, double *A, double *B) {
   double Xc[3];
   sbaeuc_mat3_vec(f.M, b, Xc);
-  for (int r = 0; r < 3; ++r) Xc[r] += f.t[r];
+  for (int r = 0; r < 3; ++r) Xc[r] += f.t()[r];
   double Jp[2 * kMaxParams], Jx[6];
   const bool jac = A || B;
-  project(f.model, f.params, Xc, x, A ? Jp : nullptr, jac ? Jx : nullptr);
+  project(f.model, f.params(), Xc, x, A ? Jp : nullptr, jac ? Jx : nullptr);
   if (B)
     for (int r = 0; r < 2; ++r)
       for (int c = 0; c < 3; ++c)
