@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "cameras/euclidean.h"
+#include "cameras/colmap_camera.h"
 #include "formats/colmap_io.h"
 #include "fuzz_common.h"
 
@@ -37,7 +38,7 @@ std::string format_points(const std::vector<colmap::Point3D> &p, colmap::Encodin
 // What the readers promise of what they accept, beyond its syntax.
 void require_valid(const colmap::Camera &c) {
   // The focal lengths (f, or fx and fy) lead the parameters and are positive.
-  const int focals = c.model == colmap::kPinhole || c.model == colmap::kOpenCV ? 2 : 1;
+  const int focals = sbacameras::colmap_camera::focal_count(c.model);
   for (int k = 0; k < focals; ++k)
     require(c.params[std::size_t(k)] > 0, "accepted a focal length that is not positive");
 }
