@@ -1319,8 +1319,12 @@ TEST(SbarefineColmapModels, SharedCameraFocalComesBack) {
   const ColmapScene s = make_colmap_scene(colmap::kSimpleRadial, truth, {816, 320, 240, -0.05}, true, 10, 300, 0.5, {0, 1});
   std::string error;
   ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
-  const Outcome r = run(dir + "/in --hold-poses 10,img_1.png --write " + dir + "/out");
+  const Outcome r = run(dir + "/in --hold-poses 10,img_1.png --write " + dir + "/out --json " + dir + "/r.json");
   ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(read_file(dir + "/r.json")
+                .find("\n  \"model\": \"SIMPLE_RADIAL (1 camera); focal length refined, principal point held, extra "
+                      "parameters refined; 1 camera shared by several images, refined once; 2 poses held\",\n"),
+            std::string::npos);
   EXPECT_NE(r.out.find("\nCamera models: SIMPLE_RADIAL (1 camera); focal length refined, principal point held, extra "
                        "parameters refined; 1 camera shared by several images, refined once; 2 poses held\n"),
             std::string::npos)

@@ -123,6 +123,9 @@ class MotstrSolve {
     ret_ = 0;
   }
 
+  // The report's "model" (see Report::model).
+  void describe(const std::string &model) { model_ = model; }
+
   int observations() const { return nobs_; }
   long long variables() const {
     return static_cast<long long>(in_.m) * in_.cnp + static_cast<long long>(in_.n) * in_.pnp;
@@ -137,6 +140,7 @@ class MotstrSolve {
     print_summary(nobs_, ret_, info_, seconds_, read_seconds, result_, so_);
     Report report = make_report(program_, input_, in_.m, in_.n, nobs_, variables(), so_, ret_, info_, result_,
                                 seconds_, *control_);
+    report.model = model_;
     print_report(stdout, report);
     if (!so_.json.empty()) {
       add_per_camera(in_.m, *in_.vis, in_.x, project, &report);
@@ -168,6 +172,7 @@ class MotstrSolve {
   std::array<double, SBA_INFOSZ> info_{};
   int ret_ = 0;
   double seconds_ = 0;
+  std::string model_;
 };
 
 }  // namespace sbacli

@@ -114,6 +114,7 @@ bool write_json(const std::string &path, const Report &r, std::string *why) {
   std::string inputs = "[";
   for (std::size_t k = 0; k < r.inputs.size(); ++k) inputs += (k ? ", " : "") + quoted(r.inputs[k]);
   field("inputs", inputs + "]");
+  if (!r.model.empty()) field("model", quoted(r.model));
   field("sizes", "{\"cameras\": " + std::to_string(r.cameras) + ", \"points\": " + std::to_string(r.points) +
                      ", \"observations\": " + std::to_string(r.observations) +
                      ", \"variables\": " + std::to_string(r.variables) + "}");

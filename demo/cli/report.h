@@ -26,6 +26,9 @@ struct CameraResidual {
 struct Report {
   std::string program;
   std::vector<std::string> inputs;  // the files read
+  // What the input was refined as, in words (sbarefine: the camera models and which of their
+  // parameters are refined); empty: not written.
+  std::string model;
   // sizes
   int cameras = 0, points = 0;
   long long observations = 0, variables = 0;

@@ -226,6 +226,7 @@ struct Job {
   std::function<void(const double *p, int j, int i, double x[2])> project;
   Cloud initial;
   std::vector<std::string> camera_names;  // the image of each sba camera; empty: unnamed
+  std::string model;                      // --json's "model": the camera models, what is refined
   // Writes the refined model (p) where --write says, and returns it for --final-ply. With
   // --itmax 0 nothing was refined: the model is written as read, not as p, whose rotations and
   // centres went through sba's parametrisation and would come back changed in the last bits.
@@ -429,11 +430,12 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
     job->summary += "\n" + std::to_string(held_out) + (held_out == 1 ? " image sees" : " images see") +
                     " no point: held out of the solve and written back as read";
   const auto yes_no = [](bool b) { return b ? "refined" : "held"; };
-  job->summary += "\nCamera models: " + camera_models(l->model, pr) + "; focal length " + yes_no(o.refine.focal) +
+  job->model = camera_models(l->model, pr) + "; focal length " + yes_no(o.refine.focal) +
                   ", principal point " + yes_no(o.refine.principal) + ", extra parameters " +
                   yes_no(o.refine.distortion) + "; " + std::to_string(pr.shared_cameras) +
                   (pr.shared_cameras == 1 ? " camera" : " cameras") + " shared by several images, refined once; " +
                   std::to_string(pr.held_poses) + (pr.held_poses == 1 ? " pose" : " poses") + " held";
+  job->summary += "\nCamera models: " + job->model;
   job->initial = cloud(l->model);
   for (int j : pr.images) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
@@ -605,6 +607,7 @@ int refine_main(int argc, char **argv) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
   job.in.p = job.p.data();
   sbacli::MotstrSolve solve("sbarefine", o.input, so, job.in);
+  solve.describe(job.model);
   if (const int status = solve.check_fixed(); status >= 0) return status;
   if (!sbacli::write_ply_option(o.initial_ply, job.initial)) return kExitFailure;
   const std::vector<double> &p = job.p;
