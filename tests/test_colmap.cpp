@@ -1477,4 +1477,38 @@ TEST(SbarefineColmapModels, PinholeRefinesFxAndFyApart) {
   EXPECT_NEAR(back.cameras[0].params[1], 840, 1.5);
 }
 
+// COLMAP's option names: --max-num-iterations is --itmax, --function-tolerance the
+// trust-region strategy's relative cost test (eps4) unless a strategy is named; options of
+// another format are refused.
+TEST(SbarefineColmapModels, ColmapOptionNames) {
+  const std::string dir = temp_dir("colmap_names");
+  const ColmapScene s = make_colmap_scene(colmap::kSimpleRadial, {800, 320, 240, -0.05}, {816, 320, 240, -0.05}, true,
+                                          6, 80, 0.5, {0, 1});
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  Outcome r = run(dir + "/in --max-num-iterations 2");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("SBA returned 2 in 2 iter, reason 3,"), std::string::npos) << r.out;
+  r = run(dir + "/in --function-tolerance 1e-3 --json " + dir + "/r.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("Stop reason 4: "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(", strategy trust-region, "), std::string::npos) << r.out;
+  EXPECT_NE(read_file(dir + "/r.json").find("\"opts\": [0.001, 1e-12, 1e-12, 1e-12, 0.001]"), std::string::npos);
+  r = run(dir + "/in --function-tolerance 1e-3 --strategy sba");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out.find(", strategy "), std::string::npos) << r.out;
+  // Bundler's cameras are always refined: --intrinsics and --refine-* are refused, not ignored.
+  const Scene k = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 6, 60);
+  ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", make_bundle(k), &error)) << error;
+  for (const char *opt : {"--intrinsics none", "--refine-extra-params 0"}) {
+    r = run(dir + "/b.out " + opt);
+    EXPECT_EQ(r.status, 2) << opt;
+    EXPECT_EQ(r.err, "sbarefine: --intrinsics (or --refine-*) is for COLMAP models and NVM files (a bundle's f, k1 "
+                     "and k2 are always refined)\n");
+  }
+  r = run(dir + "/b.out --hold-poses all");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: --hold-poses is for COLMAP models\n");
+}
+
 }  // namespace
