@@ -1511,4 +1511,53 @@ TEST(SbarefineColmapModels, ColmapOptionNames) {
   EXPECT_EQ(r.err, "sbarefine: --hold-poses is for COLMAP models\n");
 }
 
+// COLMAP's own bundle adjuster (/usr/bin/colmap, skipped without it) on the same model
+// reaches the minimum sbarefine reaches, for every camera model, per image and shared: COLMAP's result, scored by
+// sbarefine's projection (--itmax 0), has sbarefine's final RMS. Had a model's formula been
+// another than COLMAP's, COLMAP's optimum would score worse here.
+TEST(SbarefineColmapModels, ColmapReachesTheSameMinimum) {
+  const char *exe = "/usr/bin/colmap";
+  if (::access(exe, X_OK) != 0) GTEST_SKIP() << exe << " is not installed";
+  const std::string dir = temp_dir("colmap_same_minimum");
+  const std::vector<std::vector<double>> truth = {
+      {800, 320, 240},
+      {800, 830, 320, 240},
+      {800, 320, 240, -0.05},
+      {800, 320, 240, -0.05, 0.01},
+      {800, 810, 320, 240, -0.05, 0.01, 0.001, -0.001},
+      {800, 810, 320, 240, 0.02, -0.01, 0.005, -0.001},
+      {800, 810, 320, 240, -0.05, 0.01, 0.001, -0.001, 0.002, 0.01, -0.005, 0.001},
+      {800, 810, 320, 240, 0.3},
+      {800, 320, 240, 0.03},
+      {800, 320, 240, 0.03, -0.01},
+      {800, 810, 320, 240, 0.02, -0.01, 0.001, -0.001, 0.002, -0.001, 0.0005, -0.0005}};
+  std::string error;
+  // A camera per image, then one camera shared by every image (a group of the library).
+  for (bool shared : {false, true})
+  for (int model = 0; model < cc::kNumModels; ++model) {
+    SCOPED_TRACE(std::string(cc::model_name(model)) + (shared ? " shared" : " per image"));
+    std::vector<double> initial = truth[static_cast<std::size_t>(model)];
+    initial[0] *= 1.01;
+    const ColmapScene s = make_colmap_scene(model, truth[static_cast<std::size_t>(model)], initial, shared, 6, 120, 0.5);
+    const std::string in = dir + "/in", theirs = dir + "/colmap";
+    std::filesystem::remove_all(in);
+    std::filesystem::remove_all(theirs);
+    std::filesystem::create_directories(theirs);
+    ASSERT_TRUE(colmap::write_model(in, s.model, colmap::Encoding::Text, &error)) << error;
+    const std::string ba = std::string(exe) + " bundle_adjuster --input_path " + in + " --output_path " + theirs +
+                           " --BundleAdjustment.max_num_iterations 500 --BundleAdjustment.function_tolerance 1e-12"
+                           " --BundleAdjustment.gradient_tolerance 1e-14 --BundleAdjustment.parameter_tolerance 1e-14"
+                           " >" + dir + "/colmap.log 2>&1";
+    ASSERT_EQ(std::system(ba.c_str()), 0) << read_file(dir + "/colmap.log");
+    const Outcome ours = run(in + " --itmax 500 --function-tolerance 1e-12");
+    ASSERT_EQ(ours.status, 0) << ours.err;
+    const Outcome scored = run(theirs + " --itmax 0");
+    ASSERT_EQ(scored.status, 0) << scored.err;
+    const double rms = final_rms(ours.out);
+    EXPECT_GT(rms, 0.5);
+    EXPECT_LT(rms, 0.8);
+    EXPECT_NEAR(final_rms(scored.out), rms, 2e-4 * rms) << ours.out << scored.out;
+  }
+}
+
 }  // namespace
