@@ -87,6 +87,12 @@ TEST(ColmapCamera, ModelTable) {
     EXPECT_EQ(sample_params(m).size(), static_cast<std::size_t>(counts[m]));
   }
   EXPECT_EQ(cc::model_name(11), nullptr);
+  // 6 + the parameters, rounded up to the library's fixed-size kernels (9, 11, 16).
+  EXPECT_EQ(cc::camera_params(3), 9);
+  EXPECT_EQ(cc::camera_params(4), 11);
+  EXPECT_EQ(cc::camera_params(5), 11);
+  EXPECT_EQ(cc::camera_params(8), 16);
+  EXPECT_EQ(cc::camera_params(12), 18);
   EXPECT_EQ(cc::param_count(-1), 0);
   EXPECT_EQ(cc::param_kind(cc::kRadial, 0), cc::ParamKind::Focal);
   EXPECT_EQ(cc::param_kind(cc::kRadial, 2), cc::ParamKind::Principal);

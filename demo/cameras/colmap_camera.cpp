@@ -203,6 +203,13 @@ const char *model_name(int model) { return known(model) ? kModels[model].name : 
 int param_count(int model) { return known(model) ? kModels[model].params : 0; }
 int focal_count(int model) { return known(model) ? kModels[model].focals : 0; }
 
+int camera_params(int max_params) {
+  const int cnp = kPoseParams + max_params;
+  for (int fast : {9, 11, 16})
+    if (cnp <= fast) return fast;
+  return cnp;
+}
+
 ParamKind param_kind(int model, int k) {
   const int nf = focal_count(model);
   if (k < nf) return ParamKind::Focal;
@@ -258,7 +265,7 @@ CameraModel::CameraModel(const std::vector<Camera> &cameras, std::vector<double>
                                   std::to_string(param_count(c.model)) + " parameters");
     np = std::max(np, param_count(c.model));
   }
-  cnp_ = kPoseParams + np;
+  cnp_ = camera_params(np);
   const std::size_t m = cameras.size();
   if (!held_.empty() && held_.size() != m * static_cast<std::size_t>(cnp_))
     throw std::invalid_argument("the held flags must be cnp per camera");

@@ -65,6 +65,12 @@ int param_count(int model);
 // 1 (f) or 2 (fx fy): the leading focal length parameters; the principal point follows them.
 int focal_count(int model);
 
+// The cnp of cameras whose largest parameter count is max_params: 6 + max_params, rounded up
+// to the next size the library has fixed-size kernels for (9, 11, 16; src/kernels.h), for
+// which a solve takes about half the time of the generic kernels'. The slots beyond the
+// model's parameters are padding.
+int camera_params(int max_params);
+
 // What a parameter is, as COLMAP's refine_* options group them.
 enum class ParamKind { Focal, Principal, Extra };
 ParamKind param_kind(int model, int k);
@@ -86,10 +92,11 @@ struct Camera {
 // The sba camera model of a set of such cameras. Camera parameter vector a_j (cnp values):
 //   (v1 v2 v3  t1 t2 t3  params of camera j's model  zero padding)
 // The rotation is euclidean.h's local parametrization: R(qs(v)) R(q0_j), v = 0 at the start.
-// cnp = 6 + the largest parameter count among the cameras, so that cameras of different models
-// share one layout; the padding slots do not enter the projection (zero Jacobian columns) and
-// the caller holds them (sba_ext_options::cam_fixed). The model is immutable once built: the
-// callbacks keep no state and may run on any number of threads at once.
+// cnp = camera_params(the largest parameter count among the cameras), so that cameras of
+// different models share one layout; the padding slots do not enter the projection (zero
+// Jacobian columns) and the caller holds them (sba_ext_options::cam_fixed). The model is
+// immutable once built: the callbacks keep no state and may run on any number of threads at
+// once.
 class CameraModel {
  public:
   // held: empty, or cnp flags per camera (camera j's at j*cnp, as sba_ext_options::cam_fixed

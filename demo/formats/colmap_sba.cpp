@@ -112,7 +112,7 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::vecto
     p.images.push_back(j);
   }
   const int ms = static_cast<int>(p.cameras.size());
-  const int cnp = p.cnp = cc::kPoseParams + np;
+  const int cnp = p.cnp = cc::camera_params(np);
   // Each COLMAP camera's sba cameras; one below mcon holds the camera's parameters in all.
   std::vector<std::vector<int>> users(model.cameras.size());
   for (int j = 0; j < ms; ++j) users[at(camera_index.at(model.images[at(p.images[at(j)])].camera_id))].push_back(j);

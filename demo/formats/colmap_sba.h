@@ -52,7 +52,7 @@ struct ColmapProblem {
   std::vector<sbacameras::colmap_camera::Camera> cameras;  // one per image that sees a point, in file order
   std::vector<int> images;   // each camera's index in Model::images
   eucsba::PointSet points;   // one per 3D point, in file order; visibility as pairs
-  int cnp = 0;               // 6 + the largest parameter count of the cameras used
+  int cnp = 0;               // colmap_camera::camera_params(the largest parameter count of the cameras used)
   std::vector<char> cam_fixed;   // m*cnp, camera j's at j*cnp: nonzero for a held parameter
   std::vector<int> cam_group;    // m: the group of a shared COLMAP camera, -1 for none
   std::vector<char> cam_shared;  // cnp: the parameter slots (not the pose) a group shares
