@@ -13,6 +13,7 @@
 #include <sstream>
 #include <vector>
 
+#include "cameras/colmap_camera.h"
 #include "cameras/euclidean.h"
 #include "formats/colmap_io.h"
 #include "formats/colmap_sba.h"
@@ -21,6 +22,7 @@
 
 namespace colmap = sbaformats::colmap;
 namespace euclidean = sbacameras::euclidean;
+namespace colmap_camera = sbacameras::colmap_camera;
 
 namespace soakfiles {
 namespace {
@@ -54,26 +56,28 @@ bool unit(const euclidean::Quaternion &q) {
 // The model's solve as sbarefine runs it (intrinsics held), a few iterations: true when it
 // ends finite and no worse than it began; *rotations whether every camera's is one.
 bool solve(const colmap::Model &model, bool *rotations) {
-  colmap::SbaProblem pr;
+  colmap::ColmapProblem pr;
   std::string error;
-  if (!colmap::to_sba(model, {false, false, false}, "soak", &pr, &error)) return false;
-  const euclidean::CameraModel sm(euclidean::CameraKind::VaryingIntrinsicsDistortion, pr.cameras, pr.points.xyz,
-                               pr.nccalib, pr.ncdist);
+  if (!colmap::to_sba(model, {false, false, false}, {}, 0, "soak", &pr, &error)) return false;
+  const colmap_camera::CameraModel sm(pr.cameras, pr.points.xyz, pr.cam_fixed);
   *rotations = true;
   for (int j = 0; j < sm.ncameras(); ++j) *rotations = *rotations && unit(sm.input_camera(j).q);
   std::vector<double> p = sm.initial_camera_params();
   p.insert(p.end(), sm.initial_points().begin(), sm.initial_points().end());
-  const euclidean::ExpertCallbacks cb =
-      euclidean::expert_callbacks(euclidean::CameraKind::VaryingIntrinsicsDistortion, euclidean::Refinement::MotionStructure);
   const sbaformats::Visibility &v = pr.points.pairs;
   const sba_visibility vis{static_cast<long long>(v.size()), v.point.data(), v.camera.data()};
   sba_ext_options ext;
   sba_ext_options_init(&ext);
   ext.linsolver = "chol";
+  ext.cam_fixed = pr.cam_fixed.data();
+  ext.cam_fixed_per_camera = 1;
+  ext.cam_group = pr.cam_group.data();
+  ext.cam_shared = pr.cam_shared.data();
   ext.quiet = 1;
   double info[SBA_INFOSZ] = {};
   const int ret = sba_motstr_levmar_x_vis(sm.npoints(), 0, sm.ncameras(), 0, &vis, p.data(), sm.cnp(), 3,
-                                          pr.points.x.data(), nullptr, 2, cb.func, cb.fjac, euclidean::as_adata(sm), 20,
+                                          pr.points.x.data(), nullptr, 2, colmap_camera::motstr_func,
+                                          colmap_camera::motstr_fjac, colmap_camera::as_adata(sm), 20,
                                           0, nullptr, info, &ext);
   return ret >= 0 && std::isfinite(info[1]) && info[1] <= info[0] * (1 + 1e-12);
 }
