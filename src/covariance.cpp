@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "camera_params.h"
 #include "kernels.h"
 #include "lapack.h"
 #include "linearization.h"
@@ -155,18 +156,38 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
   }
 
   // S, made full and symmetric, then its (pseudo-)inverse Q diag(1/lambda) Q^T.
-  const int nS = lay.free_cams() * cnp;
-  std::vector<double> S(size_t(nS) * size_t(nS), 0.0), rhs(static_cast<size_t>(nS));
+  const int nA = lay.free_cams() * cnp;
+  std::vector<double> S(size_t(nA) * size_t(nA), 0.0), rhs(static_cast<size_t>(nA));
   int rankS = 0;
-  if (nS > 0) {
+  // With held or shared camera parameters the unknowns are fewer than the camera
+  // parameters: S over the unknowns is T^T S T, where T maps each unknown to the parameters
+  // it moves (unknown[r], -1 for a held one), and the parameters' covariance T S^+ T^T.
+  const bool reduced = opt.cams.any() && cnp > 0;
+  std::vector<int> unknown;
+  int nS = nA;
+  if (reduced) nS = CameraUnknowns(lay, opt.cams).index(lay, &unknown);
+  std::vector<double> Sa;
+  if (nA > 0) {
     BlockMap map;
     map.base = S.data();
-    map.ld = nS;
+    map.ld = nA;
     map.cnp = cnp;
     kernels->assemble(pool, ne, Vinv.data(), 0.0, map, rhs.data());  // with Vinv: cannot fail
     if (cancel.stop(log, true)) return false;
-    for (int r = 0; r < nS; ++r)
-      for (int c = r + 1; c < nS; ++c) S[size_t(c) * nS + r] = S[size_t(r) * nS + c];
+    for (int r = 0; r < nA; ++r)
+      for (int c = r + 1; c < nA; ++c) S[size_t(c) * nA + r] = S[size_t(r) * nA + c];
+    if (reduced) {
+      Sa.swap(S);
+      S.assign(size_t(nS) * size_t(nS), 0.0);
+      for (int r = 0; r < nA; ++r) {
+        if (unknown[size_t(r)] < 0) continue;
+        double *row = S.data() + size_t(unknown[size_t(r)]) * nS;
+        for (int c = 0; c < nA; ++c)
+          if (unknown[size_t(c)] >= 0) row[unknown[size_t(c)]] += Sa[size_t(r) * nA + size_t(c)];
+      }
+    }
+  }
+  if (nS > 0) {
     std::vector<double> lambda(static_cast<size_t>(nS));
     int info = 0, lwork = -1;
     double wq = 0;
@@ -197,7 +218,15 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
       }
     }
   }
-  const i64 nfree = lay.free_vars();
+  if (reduced) {  // back to the parameters: T S^+ T^T
+    for (int r = 0; r < nA; ++r)
+      for (int c = 0; c < nA; ++c) {
+        const int zr = unknown[size_t(r)], zc = unknown[size_t(c)];
+        Sa[size_t(r) * nA + size_t(c)] = zr < 0 || zc < 0 ? 0.0 : S[size_t(zr) * nS + size_t(zc)];
+      }
+    S.swap(Sa);
+  }
+  const i64 nfree = nS + i64(lay.free_pts()) * pnp;
   const i64 rank = rankS + i64(lay.free_pts()) * pnp;
   const i64 dof = lay.nvis * lay.mnp - rank;
   if (dof <= 0) {
@@ -212,7 +241,7 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
   req.nfree = int(nfree);
 
   auto Sinv = [&](int j, int k, int a, int b) {  // entry (a,b) of block (j,k), free cameras
-    return S[size_t(i64(j - lay.mcon) * cnp + a) * nS + size_t(i64(k - lay.mcon) * cnp + b)];
+    return S[size_t(i64(j - lay.mcon) * cnp + a) * nA + size_t(i64(k - lay.mcon) * cnp + b)];
   };
   for (int q = 0; q < req.ncams; ++q) {
     const int j = req.cams[q];

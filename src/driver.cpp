@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 
+#include "camera_params.h"
 #include "covariance.h"
 #include "driver_options.h"
 #include "finite.h"
@@ -98,6 +99,7 @@ bool validate_and_lay_out(const DriverArgs &a, const sba_ext_options &ext, const
   if (msg.empty()) msg = extra();
   if (msg.empty()) make_layout(a, *lay, &msg);
   if (msg.empty()) msg = check_data(a, *lay);
+  if (msg.empty()) msg = check_camera_params(opt->cams, *lay);
   if (!msg.empty()) {
     log.error("%s: %s", a.name, msg.c_str());
     return false;

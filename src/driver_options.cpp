@@ -96,6 +96,10 @@ bool options_from(const DriverArgs &a, const sba_ext_options &ext, const Environ
   o->cancel = ext.cancel;
   o->cancel_ctx = ext.cancel_ctx;
   o->parallel_callbacks = ext.parallel_callbacks != 0;
+  o->cams.fixed = ext.cam_fixed;
+  o->cams.fixed_per_camera = ext.cam_fixed_per_camera != 0;
+  o->cams.group = ext.cam_group;
+  o->cams.shared = ext.cam_shared;
   // Opt-in only: how the host's threads are scheduled is the host's business.
   o->avoid_shared_cores = ext.avoid_shared_cores != 0;
   if (!o->avoid_shared_cores && !env.avoid_shared_cores.empty()) {

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "camera_params.h"
 #include "finite.h"
 #include "kernels.h"
 #include "layout.h"
@@ -237,11 +238,11 @@ const char *legacy_name(Mode mode) {
   return mode == Mode::Mot ? "mot" : mode == Mode::Str ? "str" : "motstr";
 }
 
-// max |g| and max diag(J^T J) over the free cameras and points.
-void gradient_stats(const Layout &lay, const Workspace &w, double *ginf, double *maxdiag) {
+// max |g| and max diag(J^T J) over the free points and (with cameras) the free cameras.
+void gradient_stats(const Layout &lay, const Workspace &w, bool cameras, double *ginf, double *maxdiag) {
   double g = 0.0, d = 0.0;
   const int cnp = lay.cnp, pnp = lay.pnp;
-  for (int j = lay.mcon; j < lay.m && cnp; ++j)
+  for (int j = lay.mcon; j < lay.m && cnp && cameras; ++j)
     for (int a = 0; a < cnp; ++a) {
       g = std::max(g, std::fabs(w.ea[size_t(i64(j) * cnp + a)]));
       d = std::max(d, w.U[size_t(i64(j) * cnp * cnp + a * (cnp + 1))]);
@@ -387,16 +388,18 @@ namespace {
 // 1.6's order, which the "sba" strategy's stop reasons and iteration counts depend on.
 class LevenbergMarquardt {
  public:
-  LevenbergMarquardt(const Layout &lay, Steps &st, StepSolver &solver, Strategy &strategy,
-                     const Options &opt, const Logger &log, Summary &sum,
+  // cams: the held and shared camera parameters (null: none), which is then also the solver.
+  LevenbergMarquardt(const Layout &lay, Steps &st, StepSolver &solver, CameraParams *cams,
+                     Strategy &strategy, const Options &opt, const Logger &log, Summary &sum,
                      std::chrono::steady_clock::time_point t0)
       : lay_(lay), st_(st), w_(st.w), ne_(st.w.view()), pool_(st.pool_), kernels_(st.kernels_),
-        solver_(solver), strategy_(strategy), opt_(opt), log_(log), sum_(sum), t0_(t0),
-        nvars_(lay.nvars()) {}
+        solver_(solver), cams_(cams), strategy_(strategy), opt_(opt), log_(log), sum_(sum),
+        t0_(t0), nvars_(lay.nvars()) {}
 
   // Iterates from p (updated in place with the last accepted estimate). False on a failure,
   // with sum's reason and figures telling where the solve stood.
   bool run(double *p) {
+    if (cams_) cams_->start(p);
     if (!start(p)) return false;
     for (it_ = 0; it_ < opt_.itmax && !stop_; ++it_) {
       if (!linearize(p)) return fail(kStopNonFinite, it_);
@@ -451,8 +454,15 @@ class LevenbergMarquardt {
     std::snprintf(where, sizeof where, " at iteration %d", it_);
     if (!st_.linearize(p, where)) return false;
     // Stop 1 looks at the gradient in the units of p, whatever the strategy solves in.
-    gradient_stats(lay_, w_, &sum_.grad_inf, &maxdiag_);
+    gradient_stats(lay_, w_, !cams_, &sum_.grad_inf, &maxdiag_);
+    if (cams_) {
+      double g, d;
+      cams_->gradient_stats(w_.U.data(), w_.ea.data(), &g, &d);
+      sum_.grad_inf = std::max(sum_.grad_inf, g);
+      maxdiag_ = std::max(maxdiag_, d);
+    }
     strategy_.linearized(pool_, w_.jac.data(), w_.U.data(), w_.V.data(), w_.ea.data(), w_.eb.data());
+    if (cams_) cams_->linearized(w_.jac.data(), w_.U.data(), w_.ea.data(), strategy_.scale());
     maxdiag_ = strategy_.solved_max_diagonal(maxdiag_);
     if (it_ == 0) mu_ = strategy_.initial_damping(opt_.tau, maxdiag_);
     if (sum_.grad_inf <= opt_.eps1) {
@@ -599,6 +609,7 @@ class LevenbergMarquardt {
   ThreadPool &pool_;
   const Kernels &kernels_;
   StepSolver &solver_;
+  CameraParams *cams_;
   Strategy &strategy_;
   const Options &opt_;
   const Logger &log_;
@@ -626,9 +637,15 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   Steps st(lay, model, x, opt.loss, log, pool, *kernels, covx != nullptr);
   std::unique_ptr<StepSolver> solver = make_step_solver(opt.solver, SolveContext{lay, pool, *kernels});
   if (wrap) solver = wrap(std::move(solver));
+  CameraParams *cams = nullptr;
+  if (opt.cams.any() && lay.cnp > 0) {
+    auto c = std::make_unique<CameraParams>(lay, opt.cams, pool, std::move(solver));
+    cams = c.get();
+    solver = std::move(c);
+  }
   const std::unique_ptr<Strategy> strategy = make_strategy(opt.strategy, lay, opt.eps4);
   if (!st.weigh(covx)) return false;
-  return LevenbergMarquardt(lay, st, *solver, *strategy, opt, log, sum, t0).run(p);
+  return LevenbergMarquardt(lay, st, *solver, cams, *strategy, opt, log, sum, t0).run(p);
 }
 
 }  // namespace sba

@@ -14,6 +14,16 @@
 
 namespace sba {
 
+// Camera parameters held by a mask and shared by groups (sba_ext.h's cam_fixed, cam_group,
+// cam_shared): the caller's arrays, valid for the call; camera_params.h does the rest.
+struct CameraParamOptions {
+  const char *fixed = nullptr;  // cnp flags, or m * cnp with fixed_per_camera
+  bool fixed_per_camera = false;
+  const int *group = nullptr;    // m group numbers, -1 for none
+  const char *shared = nullptr;  // cnp flags
+  bool any() const { return fixed != nullptr || group != nullptr; }
+};
+
 struct Options {
   LinSolver solver = LinSolver::Chol;
   StrategyKind strategy = StrategyKind::Sba;
@@ -31,6 +41,7 @@ struct Options {
   // Polled by the covariance computation; nonzero abandons it (sba_ext_options.cancel).
   int (*cancel)(void *ctx) = nullptr;
   void *cancel_ctx = nullptr;
+  CameraParamOptions cams;
 
   // False, with the first thing wrong in *error, when a value cannot be used: a negative
   // itmax, a tolerance or tau that is not finite, a zero tau. The tolerances and tau are

@@ -222,6 +222,7 @@ class TrustRegion final : public Strategy {
     return mu > kMaxDamping || nu > INT_MAX / 2;
   }
   bool converged(double e, double en) const override { return e - en <= ftol_ * e; }
+  const double *scale() const override { return s_.data(); }
 
  private:
   void to_parameters(ThreadPool &pool, double *dp) const override {

@@ -69,6 +69,9 @@ class Strategy {
   virtual bool exhausted(double mu, int nu) const = 0;
   // Stop reason 4 after an accepted step from cost e to cost en.
   virtual bool converged(double e, double en) const = 0;
+  // Per parameter, the factor s of the change of variables of the latest linearization
+  // (dp = s dq in the units of p), or null when the solver works in the units of p.
+  virtual const double *scale() const { return nullptr; }
 
  protected:
   const Layout &lay_;

@@ -252,7 +252,8 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
           loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 150,
           opts: Optional[Sequence[float]] = None, mcon: int = 0, ncon: int = 0,
           progress: Optional[Callable[[Progress], Any]] = None, covariance: bool = False,
-          nccalib: int = 2, ncdist: int = 3) -> Result:
+          nccalib: int = 2, ncdist: int = 3, fixed_params: Any = None, camera_groups: Any = None,
+          shared_params: Any = None) -> Result:
     """Refines the cameras and points of a problem (motion and structure) with the library's
     camera model for it, as the eucsbademo and balsba programs do, and returns a
     :class:`Result`; the problem is left unchanged.
@@ -283,11 +284,19 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
     nccalib, ncdist
         eucsbademo cameras with intrinsics: how many trailing intrinsics (of fu u0 v0 ar s)
         and distortion terms (of kc0..kc4) are held fixed, as eucsbademo's options.
+    fixed_params
+        Camera parameters held at their initial values: bools of shape (cnp,) for every
+        camera, or (m, cnp) camera by camera. None: only mcon's.
+    camera_groups, shared_params
+        Camera parameters shared by groups of cameras (one lens for several images): a group
+        number per camera (-1: none) and the cnp flags of the parameters a group shares. A
+        group's shared parameters start from its first camera's and are solved as one.
     """
     if not isinstance(problem, Problem):
         raise TypeError("problem must be a pysba.Problem")
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,
-                  covariance=covariance)
+                  covariance=covariance, fixed_params=fixed_params, camera_groups=camera_groups,
+                  shared_params=shared_params)
     if problem.model == "bal":
         report = _core.solve_bal(problem.cameras, problem.points, problem.camera_index,
                                  problem.point_index, problem.observations, problem.covariances, **kw)
@@ -317,7 +326,8 @@ def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, poi
            loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 150,
            opts: Optional[Sequence[float]] = None, mcon: int = 0, ncon: int = 0,
            progress: Optional[Callable[[Progress], Any]] = None,
-           covariance: bool = False) -> Result:
+           covariance: bool = False, fixed_params: Any = None, camera_groups: Any = None,
+           shared_params: Any = None) -> Result:
     """Refines cameras (m, cnp) and points (n, pnp) under a camera model written in Python
     (sba_motstr_levmar_x): observation k is camera ``camera_index[k]``'s view of point
     ``point_index[k]``, measured as ``observations[k]`` (mnp values).
@@ -332,11 +342,13 @@ def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, poi
         differences (cnp + pnp calls of project per iteration).
 
     An exception raised by a callback stops the solve and propagates, with the partial
-    result as its ``result`` attribute. The other arguments are those of :func:`solve`.
+    result as its ``result`` attribute. The other arguments are those of :func:`solve`
+    (fixed_params, camera_groups and shared_params included).
     The callbacks are called from the calling thread, one at a time.
     """
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,
-                  covariance=covariance)
+                  covariance=covariance, fixed_params=fixed_params, camera_groups=camera_groups,
+                  shared_params=shared_params)
     return _python_model("motstr", project, cameras, points, camera_index, point_index,
                          observations, jacobian, covariances, kw)
 
@@ -347,10 +359,12 @@ def mot(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_
         strategy: Optional[builtins.str] = None,
         loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 100,
         opts: Optional[Sequence[float]] = None, mcon: int = 0,
-        progress: Optional[Callable[[Progress], Any]] = None) -> Result:
+        progress: Optional[Callable[[Progress], Any]] = None, fixed_params: Any = None,
+        camera_groups: Any = None, shared_params: Any = None) -> Result:
     """As :func:`motstr`, refining the cameras only (sba_mot_levmar_x): the points are data.
     jacobian may return (A, None)."""
-    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, 0, progress)
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, 0, progress,
+                  fixed_params=fixed_params, camera_groups=camera_groups, shared_params=shared_params)
     return _python_model("mot", project, cameras, points, camera_index, point_index,
                          observations, jacobian, covariances, kw)
 

@@ -13,6 +13,7 @@ py::dict run_driver(Run &run, Session &session, const SolveOptions &o) {
     throw py::value_error("mcon must be in [0, " + std::to_string(m) + "], got " + std::to_string(o.mcon));
   if (o.ncon < 0 || o.ncon > n)
     throw py::value_error("ncon must be in [0, " + std::to_string(n) + "], got " + std::to_string(o.ncon));
+  if (run.refine != Refine::Str) check_camera_params(o, m, run.cnp);
   double info[SBA_INFOSZ] = {0};
   const sba_ext_options *ext = session.ext(run.parallel);
   const sba_visibility vis = obs.vis();

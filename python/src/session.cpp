@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "session.h"
 
+#include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
 #include <climits>
@@ -81,7 +82,38 @@ class Keywords {
   const py::dict &kw_;
 };
 
+// A bool array (or what numpy turns into one) for the flags named name.
+py::array_t<char, py::array::c_style> flags(py::handle v, const char *name) {
+  py::object a;
+  try {
+    a = py::module_::import("numpy").attr("asarray")(v, "bool");
+  } catch (const py::error_already_set &) {
+    throw Keywords::wrong_type(name, "an array of bools", v);
+  }
+  if (py::cast<py::ssize_t>(a.attr("ndim")) == 0) throw Keywords::wrong_type(name, "an array of bools", v);
+  return py::array_t<char, py::array::c_style | py::array::forcecast>::ensure(a.attr("astype")("int8"));
+}
+
 }  // namespace
+
+void check_camera_params(const SolveOptions &o, int m, int cnp) {
+  const auto shape = [](const std::vector<py::ssize_t> &s) {
+    std::string t = "(";
+    for (size_t q = 0; q < s.size(); ++q) t += (q ? ", " : "") + std::to_string(s[q]);
+    return t + (s.size() == 1 ? ",)" : ")");
+  };
+  const std::string per = std::to_string(cnp), all = "(" + std::to_string(m) + ", " + per + ")";
+  if (o.has_fixed && !(o.fixed_shape == std::vector<py::ssize_t>{cnp} ||
+                       o.fixed_shape == std::vector<py::ssize_t>{m, cnp}))
+    throw py::value_error("fixed_params must have shape (" + per + ",) or " + all + ", got " + shape(o.fixed_shape));
+  if (o.has_shared && o.shared.size() != size_t(cnp))
+    throw py::value_error("shared_params must hold " + per + " flags, got " + std::to_string(o.shared.size()));
+  if (o.has_groups && o.groups.size() != size_t(m))
+    throw py::value_error("camera_groups must hold one group per camera (" + std::to_string(m) + "), got " +
+                          std::to_string(o.groups.size()));
+  if (o.has_groups != o.has_shared)
+    throw py::value_error("camera_groups and shared_params go together: give both or neither");
+}
 
 SolveOptions solve_options(const py::dict &kw) {
   const Keywords k(kw);
@@ -113,6 +145,33 @@ SolveOptions solve_options(const py::dict &kw) {
     if (env && *env && !sba_linsolver_valid(env))
       o.notice = std::string("pysba: unknown SBA_LINSOLVER \"") + env + "\" (known: " + sba_linsolver_names() +
                  "); using chol";
+  }
+  if (const py::handle v = k.get("fixed_params"); !v.is_none()) {
+    const auto a = flags(v, "fixed_params");
+    o.has_fixed = true;
+    o.fixed.assign(a.data(), a.data() + a.size());
+    o.fixed_shape.assign(a.shape(), a.shape() + a.ndim());
+  }
+  if (const py::handle v = k.get("shared_params"); !v.is_none()) {
+    const auto a = flags(v, "shared_params");
+    o.has_shared = true;
+    o.shared.assign(a.data(), a.data() + a.size());
+  }
+  if (const py::handle v = k.get("camera_groups"); !v.is_none()) {
+    py::array_t<long long, py::array::c_style | py::array::forcecast> a;
+    try {
+      a = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(v);
+    } catch (const py::error_already_set &) {
+    }
+    if (!a || a.ndim() != 1) throw Keywords::wrong_type("camera_groups", "a 1-D array of ints", v);
+    o.has_groups = true;
+    for (py::ssize_t q = 0; q < a.size(); ++q) {
+      const long long g = a.data()[q];
+      if (g < -1 || g > INT_MAX)
+        throw py::value_error("camera_groups[" + std::to_string(q) + "] must be -1 or a group number >= 0, got " +
+                              std::to_string(g));
+      o.groups.push_back(int(g));
+    }
   }
   o.strategy = k.text("strategy");
   o.loss = k.text("loss");
@@ -150,6 +209,14 @@ const sba_ext_options *Session::ext(bool parallel) {
   ext_.cancel = cancel_trampoline;
   ext_.cancel_ctx = this;
   ext_.parallel_callbacks = parallel ? 1 : 0;
+  if (options_.has_fixed) {
+    ext_.cam_fixed = options_.fixed.data();
+    ext_.cam_fixed_per_camera = options_.fixed_shape.size() == 2;
+  }
+  if (options_.has_groups) {
+    ext_.cam_group = options_.groups.data();
+    ext_.cam_shared = options_.shared.data();
+  }
   sba_ext_result_init(&result_);
   ext_.result = &result_;
   return &ext_;

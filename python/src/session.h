@@ -42,7 +42,17 @@ struct SolveOptions {
   py::handle progress;  // None or a callable taking a pysba.Progress (the caller holds it)
   bool covariance = false;  // also the covariance blocks of every camera and point
   int nccalib = 2, ncdist = 3;  // eucsbademo cameras: trailing intrinsics and distortion held fixed
+  // Camera parameters held (fixed_params: cnp flags, or m x cnp) and shared by groups
+  // (camera_groups: m group numbers, -1 for none; shared_params: cnp flags), as given: their
+  // sizes are checked against the cameras by check_camera_params.
+  bool has_fixed = false, has_groups = false, has_shared = false;
+  std::vector<char> fixed, shared;
+  std::vector<py::ssize_t> fixed_shape;
+  std::vector<int> groups;
 };
+
+// ValueError unless the camera parameter options of o fit m cameras of cnp parameters.
+void check_camera_params(const SolveOptions &o, int m, int cnp);
 
 // Reads the keyword arguments the extension functions share (see pysba/__init__.py): TypeError
 // for a value of the wrong type, ValueError for one out of range, naming the argument.

@@ -1,0 +1,326 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Camera parameters held by a mask and shared by groups of cameras (sba_ext.h: cam_fixed,
+// cam_group, cam_shared), on a scene of one physical camera: twelve images whose K is the
+// same lens, started with the focal length 2% long.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cameras/euclidean.h"
+#include "sba_ext.h"
+#include "sbagen.h"
+
+namespace {
+
+using sbacameras::euclidean::CameraKind;
+using sbacameras::euclidean::CameraModel;
+using sbacameras::euclidean::Refinement;
+
+constexpr double kTrueFocal = 800.0;
+constexpr int kCnp = 11;  // fu u0 v0 ar s  v1 v2 v3  t1 t2 t3
+
+struct Scene {
+  sbagen::Scene scene;
+  std::unique_ptr<CameraModel> model;
+  std::vector<double> p0;  // cameras then points
+  int m = 0, n = 0;
+};
+
+Scene make_scene(int cameras = 12, int points = 300) {
+  sbagen::Options o;
+  o.cameras = cameras;
+  o.points = points;
+  o.kind = CameraKind::VaryingIntrinsics;
+  o.intrinsics_spread = 0.0;  // one lens
+  o.perturb_intrinsics = 0.0;
+  o.track_min = 3;
+  o.track_max = 8;
+  o.focal = kTrueFocal;
+  o.noise = 0.5;
+  o.seed = 7;
+  Scene s;
+  std::string error;
+  EXPECT_TRUE(sbagen::generate(o, &s.scene, &error)) << error;
+  std::vector<sbacameras::euclidean::Camera> cams = s.scene.initial_cameras;
+  for (auto &c : cams) c.k.fu = 1.02 * kTrueFocal;
+  // The model holds nothing itself: what is held is the mask's business here.
+  s.model = std::make_unique<CameraModel>(CameraKind::VaryingIntrinsics, cams, s.scene.initial_points(), 0, 0);
+  s.m = s.model->ncameras();
+  s.n = s.model->npoints();
+  s.p0 = s.model->initial_camera_params();
+  s.p0.insert(s.p0.end(), s.model->initial_points().begin(), s.model->initial_points().end());
+  return s;
+}
+
+struct Solved {
+  int ret = 0;
+  std::vector<double> p;
+  double info[SBA_INFOSZ] = {};
+};
+
+// What a caller sets: the lens (fu u0 v0 ar s) shared by every camera; u0 v0 ar s held.
+struct Config {
+  std::vector<char> fixed = std::vector<char>{0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0};
+  bool per_camera = false;
+  std::vector<int> group;  // empty: every camera in group 0
+  std::vector<char> shared = std::vector<char>{1, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0};
+  bool share = true;
+  const char *linsolver = "chol";
+  const char *strategy = "sba";
+  int nthreads = 1;
+  int itmax = 100;
+  int mcon = 0;
+  bool motion_only = false;
+};
+
+Solved run(const Scene &s, const Config &u) {
+  Solved r;
+  r.p = s.p0;
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.quiet = 1;
+  ext.linsolver = u.linsolver;
+  ext.strategy = u.strategy;
+  ext.nthreads = u.nthreads;
+  std::vector<int> group = u.group.empty() ? std::vector<int>(size_t(s.m), 0) : u.group;
+  if (!u.fixed.empty()) {
+    ext.cam_fixed = u.fixed.data();
+    ext.cam_fixed_per_camera = u.per_camera;
+  }
+  if (u.share) {
+    ext.cam_group = group.data();
+    ext.cam_shared = u.shared.data();
+  }
+  const double opts[SBA_OPTSSZ] = {1e-3, 1e-12, 1e-12, 1e-12, 0.0};
+  std::vector<char> vmask = sbagen::dense_vmask(s.scene);
+  std::vector<double> x = s.scene.measurements.x;
+  void *adata = sbacameras::euclidean::as_adata(*s.model);
+  if (u.motion_only) {
+    const auto cb = sbacameras::euclidean::expert_callbacks(CameraKind::VaryingIntrinsics, Refinement::Motion);
+    r.ret = sba_mot_levmar_x_ext(s.n, s.m, u.mcon, vmask.data(), r.p.data(), kCnp, x.data(), nullptr, 2, cb.func,
+                                 cb.fjac, adata, u.itmax, 0, opts, r.info, &ext);
+  } else {
+    const auto cb = sbacameras::euclidean::expert_callbacks(CameraKind::VaryingIntrinsics, Refinement::MotionStructure);
+    r.ret = sba_motstr_levmar_x_ext(s.n, 0, s.m, u.mcon, vmask.data(), r.p.data(), kCnp, 3, x.data(), nullptr, 2,
+                                    cb.func, cb.fjac, adata, u.itmax, 0, opts, r.info, &ext);
+  }
+  return r;
+}
+
+double focal(const Solved &r, int j) { return r.p[size_t(j) * kCnp]; }
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+TEST(CameraParams, SharedFocalLengthComesBackToTheTruth) {
+  const Scene s = make_scene();
+  const Solved r = run(s, Config{});
+  ASSERT_GT(r.ret, 0);
+  // One focal length for the lens, every camera holding the same bits.
+  for (int j = 1; j < s.m; ++j) EXPECT_TRUE(same_bits(focal(r, j), focal(r, 0))) << j;
+  // Started at 816, back within the noise of 800.
+  EXPECT_NEAR(focal(r, 0), kTrueFocal, 1.0);
+  // About the noise: 0.5 px per coordinate.
+  const double nobs = r.info[9] >= 0 ? double(s.scene.nprojections()) : 1.0;
+  EXPECT_LT(std::sqrt(r.info[1] / (2.0 * nobs)), 0.55);
+  // The held principal point, aspect ratio and skew are the bits they started with.
+  for (int j = 0; j < s.m; ++j)
+    for (int a = 1; a < 5; ++a)
+      EXPECT_TRUE(same_bits(r.p[size_t(j) * kCnp + a], s.p0[size_t(j) * kCnp + a])) << j << " " << a;
+}
+
+TEST(CameraParams, WithoutSharingEachCameraGetsAFocalLengthOfItsOwn) {
+  // The contrast the sharing is for: the same scene, each camera's focal length its own.
+  const Scene s = make_scene();
+  Config u;
+  u.share = false;
+  const Solved r = run(s, u);
+  ASSERT_GT(r.ret, 0);
+  double lo = 1e300, hi = -1e300;
+  for (int j = 0; j < s.m; ++j) {
+    lo = std::min(lo, focal(r, j));
+    hi = std::max(hi, focal(r, j));
+  }
+  EXPECT_GT(hi - lo, 0.5);
+}
+
+TEST(CameraParams, EverySolverAndStrategyReachesOneMinimum) {
+  const Scene s = make_scene();
+  const Solved ref = run(s, Config{});
+  ASSERT_GT(ref.ret, 0);
+  for (const char *solver : {"chol", "sparse-chol", "iterative-schur", "ldl-amd", "ldlt", "lu", "qr"})
+    for (const char *strategy : {"sba", "sba-clean-retry", "trust-region"}) {
+      Config u;
+      u.linsolver = solver;
+      u.strategy = strategy;
+      const Solved r = run(s, u);
+      ASSERT_GT(r.ret, 0) << solver << " " << strategy;
+      EXPECT_NEAR(r.info[1], ref.info[1], 1e-6 * ref.info[1]) << solver << " " << strategy;
+      EXPECT_NEAR(focal(r, 0), focal(ref, 0), 1e-3) << solver << " " << strategy;
+      for (int j = 1; j < s.m; ++j) EXPECT_TRUE(same_bits(focal(r, j), focal(r, 0)));
+    }
+}
+
+TEST(CameraParams, TheSameBitsForAnyThreadCount) {
+  const Scene s = make_scene();
+  for (const char *solver : {"chol", "sparse-chol", "iterative-schur"}) {
+    Config u;
+    u.linsolver = solver;
+    u.nthreads = 1;
+    const Solved a = run(s, u);
+    u.nthreads = 2;
+    const Solved b = run(s, u);
+    ASSERT_GT(a.ret, 0);
+    EXPECT_EQ(a.ret, b.ret) << solver;
+    EXPECT_EQ(0, std::memcmp(a.p.data(), b.p.data(), a.p.size() * sizeof(double))) << solver;
+  }
+}
+
+TEST(CameraParams, GroupsOfTheirOwn) {
+  // Two lenses: even cameras one, odd the other; a camera in no group keeps its own.
+  const Scene s = make_scene();
+  Config u;
+  u.group.assign(size_t(s.m), 0);
+  for (int j = 0; j < s.m; ++j) u.group[size_t(j)] = j == 5 ? -1 : (j % 2 ? 9 : 4);
+  const Solved r = run(s, u);
+  ASSERT_GT(r.ret, 0);
+  for (int j = 2; j < s.m; ++j)
+    if (j != 5) EXPECT_TRUE(same_bits(focal(r, j), focal(r, j % 2))) << j;
+  EXPECT_FALSE(same_bits(focal(r, 0), focal(r, 1)));
+  EXPECT_FALSE(same_bits(focal(r, 5), focal(r, 1)));
+  EXPECT_NEAR(focal(r, 0), kTrueFocal, 2.0);
+  EXPECT_NEAR(focal(r, 1), kTrueFocal, 2.0);
+}
+
+TEST(CameraParams, HeldByCameraAreTheBitsTheyStartedWith) {
+  // Camera 3's pose and every camera's skew held, the skew of camera 2 a negative zero.
+  Scene s = make_scene();
+  s.p0[2 * kCnp + 4] = -0.0;
+  Config u;
+  u.share = false;
+  u.per_camera = true;
+  u.fixed.assign(size_t(s.m) * kCnp, 0);
+  for (int j = 0; j < s.m; ++j) u.fixed[size_t(j) * kCnp + 4] = 1;
+  for (int a = 5; a < kCnp; ++a) u.fixed[3 * kCnp + a] = 1;
+  const Solved r = run(s, u);
+  ASSERT_GT(r.ret, 0);
+  for (int a = 5; a < kCnp; ++a) EXPECT_TRUE(same_bits(r.p[3 * kCnp + a], s.p0[3 * kCnp + a])) << a;
+  for (int j = 0; j < s.m; ++j) EXPECT_TRUE(same_bits(r.p[size_t(j) * kCnp + 4], s.p0[size_t(j) * kCnp + 4]));
+  EXPECT_TRUE(std::signbit(r.p[2 * kCnp + 4]));
+  // Camera 4's pose moved (it was free).
+  EXPECT_FALSE(same_bits(r.p[4 * kCnp + 8], s.p0[4 * kCnp + 8]));
+}
+
+TEST(CameraParams, MotionOnlyWithASharedLens) {
+  const Scene s = make_scene();
+  Config u;
+  u.motion_only = true;
+  const Solved r = run(s, u);
+  ASSERT_GT(r.ret, 0);
+  for (int j = 1; j < s.m; ++j) EXPECT_TRUE(same_bits(focal(r, j), focal(r, 0)));
+  // The points are the perturbed ones and held: the lens absorbs some of that, but moves
+  // towards the truth from 816.
+  EXPECT_LT(std::fabs(focal(r, 0) - kTrueFocal), 16.0);
+}
+
+TEST(CameraParams, StartsFromTheFirstCameraOfAGroup) {
+  Scene s = make_scene();
+  for (int j = 1; j < s.m; ++j) s.p0[size_t(j) * kCnp] = 700.0 + j;  // only camera 0 says 816
+  Config u;
+  u.itmax = 1;
+  const Solved r = run(s, u);
+  ASSERT_GE(r.ret, 0);
+  for (int j = 1; j < s.m; ++j) EXPECT_TRUE(same_bits(focal(r, j), focal(r, 0)));
+  EXPECT_NEAR(focal(r, 0), 816.0, 16.0);
+}
+
+TEST(CameraParams, BadArguments) {
+  const Scene s = make_scene(6, 80);
+  {
+    Config u;
+    u.group.assign(size_t(s.m), 0);
+    u.group[2] = s.m;  // beyond m - 1
+    EXPECT_EQ(run(s, u).ret, SBA_ERROR);
+    u.group[2] = -2;
+    EXPECT_EQ(run(s, u).ret, SBA_ERROR);
+  }
+  {
+    Config u;
+    u.mcon = 1;  // camera 0 held whole, but in group 0
+    EXPECT_EQ(run(s, u).ret, SBA_ERROR);
+  }
+  {
+    // fu shared but held in camera 1 only.
+    Config u;
+    u.per_camera = true;
+    u.fixed.assign(size_t(s.m) * kCnp, 0);
+    u.fixed[1 * kCnp + 0] = 1;
+    const Solved r = run(s, u);
+    EXPECT_EQ(r.ret, SBA_ERROR);
+    EXPECT_EQ(r.info[6], SBA_STOP_NONE);
+  }
+  {
+    // Held in every camera of the group: fine, and fu stays 816.
+    Config u;
+    u.fixed[0] = 1;
+    const Solved r = run(s, u);
+    ASSERT_GT(r.ret, 0);
+    EXPECT_EQ(focal(r, 3), 1.02 * kTrueFocal);
+  }
+}
+
+}  // namespace
+
+namespace {
+
+TEST(CameraParams, CovarianceOfASharedLens) {
+  const Scene s = make_scene();
+  const Config u;
+  const Solved r = run(s, u);
+  ASSERT_GT(r.ret, 0);
+  std::vector<double> p = r.p;
+  std::vector<int> group(size_t(s.m), 0);
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.quiet = 1;
+  ext.cam_fixed = u.fixed.data();
+  ext.cam_group = group.data();
+  ext.cam_shared = u.shared.data();
+  sba_covariance_request req;
+  sba_covariance_request_init(&req);
+  const int cams[2] = {3, 7};
+  std::vector<double> camcov(2 * kCnp * kCnp);
+  req.ncams = 2;
+  req.cams = cams;
+  req.camcov = camcov.data();
+  const int pts[1] = {5};
+  std::vector<double> ptcov(9);
+  req.npts = 1;
+  req.pts = pts;
+  req.ptcov = ptcov.data();
+  std::vector<char> vmask = sbagen::dense_vmask(s.scene);
+  std::vector<double> x = s.scene.measurements.x;
+  const auto cb = sbacameras::euclidean::expert_callbacks(CameraKind::VaryingIntrinsics, Refinement::MotionStructure);
+  ASSERT_EQ(0, sba_motstr_covariance_x(s.n, 0, s.m, 0, vmask.data(), p.data(), kCnp, 3, x.data(), nullptr, 2,
+                                       cb.func, cb.fjac, sbacameras::euclidean::as_adata(*s.model), &req, &ext));
+  // The unknowns: 6 pose parameters per camera, one focal length, 3 per point; the gauge
+  // (a similarity: 7 directions) is left free.
+  EXPECT_EQ(req.nfree, s.m * 6 + 1 + s.n * 3);
+  EXPECT_EQ(req.rank, req.nfree - 7);
+  // The lens's variance is one number, the same in both cameras' blocks, and positive.
+  EXPECT_GT(camcov[0], 0.0);
+  EXPECT_TRUE(same_bits(camcov[0], camcov[size_t(kCnp * kCnp)]));
+  // The held parameters have none.
+  for (int q = 0; q < 2; ++q)
+    for (int a = 1; a < 5; ++a)
+      for (int b = 0; b < kCnp; ++b) {
+        EXPECT_EQ(camcov[size_t(q * kCnp * kCnp + a * kCnp + b)], 0.0);
+        EXPECT_EQ(camcov[size_t(q * kCnp * kCnp + b * kCnp + a)], 0.0);
+      }
+  EXPECT_GT(ptcov[0], 0.0);
+}
+
+}  // namespace
