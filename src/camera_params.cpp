@@ -133,13 +133,17 @@ void CameraParams::linearized(double *jac, double *U, const double *ea, const do
   const size_t K = cols_.size();
   const i64 ncam = i64(lay.m) * cnp;
 
+  // Every column's t first: G_ below pairs each column with every other.
+  for (size_t c = 0; c < K; ++c) {
+    const std::vector<int> &g = groups_[size_t(cols_[c].group)];
+    t_[c].resize(g.size());
+    for (size_t q = 0; q < g.size(); ++q)
+      t_[c][q] = scale ? 1.0 / scale[lay.a_off(g[q]) + cols_[c].a] : 1.0;
+  }
   // The bordering, from the blocks as they still are.
   for (size_t c = 0; c < K; ++c) {
     const std::vector<int> &g = groups_[size_t(cols_[c].group)];
     const int a = cols_[c].a;
-    t_[c].resize(g.size());
-    for (size_t q = 0; q < g.size(); ++q)
-      t_[c][q] = scale ? 1.0 / scale[lay.a_off(g[q]) + a] : 1.0;
     ca_[c].assign(size_t(ncam), 0.0);
     for (size_t q = 0; q < g.size(); ++q) {
       const int j = g[q];
