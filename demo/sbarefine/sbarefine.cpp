@@ -79,8 +79,9 @@ std::vector<sbacli::Option> option_table(Options &o) {
                [&o](const std::string &v) { return sbacli::to_choice(v, {"text", "binary"}, &o.write_format); }});
   t.push_back({"intrinsics", "LIST",
                "the intrinsics refined: none, all, or a comma-separated list of focal, principal,\n"
-               "distortion (default focal,distortion, as COLMAP: the principal point held). NVM:\n"
-               "the focal length or nothing (its radial distortion is held, its principal point absent)",
+               "distortion (default focal,distortion, as COLMAP: the principal point held); the\n"
+               "--refine-* options below set one each, the last given winning. NVM: the focal length\n"
+               "or nothing (its radial distortion is held, its principal point absent)",
                [&o](const std::string &v) {
                  o.intrinsics = v;
                  o.intrinsics_given = true;
