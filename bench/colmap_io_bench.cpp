@@ -177,15 +177,16 @@ int main(int argc, char **argv) {
     return std::string(buf);
   };
   std::printf("Medians of %d runs, seconds (wall).\n\n", repeat);
-  std::printf("| conversion | read_model | (format_model) | write_model | read+write | sbarefine --itmax 0 | colmap model_converter "
-              "| read+write / colmap | sbarefine / colmap |\n");
+  std::printf(
+      "| conversion | read_model | (format_model) | write_model | read+write | sbarefine --itmax 0 "
+      "| colmap model_converter | read+write / colmap | sbarefine / colmap |\n");
   std::printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   for (const Conversion &c : conv) {
     if (c.total.empty()) continue;
     const double total = median(c.total), sr = median(c.sbarefine), cm = median(c.colmap);
     std::printf("| %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", c.label, cell(median(c.read)).c_str(),
-                cell(median(c.format)).c_str(), cell(median(c.write)).c_str(), cell(total).c_str(), cell(sr).c_str(), cell(cm).c_str(),
-                ratio(total, cm).c_str(), ratio(sr, cm).c_str());
+                cell(median(c.format)).c_str(), cell(median(c.write)).c_str(), cell(total).c_str(), cell(sr).c_str(),
+                cell(cm).c_str(), ratio(total, cm).c_str(), ratio(sr, cm).c_str());
   }
   return 0;
 }

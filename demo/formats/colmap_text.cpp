@@ -98,8 +98,8 @@ bool real_field(const TextReader &r, std::size_t k, const char *what, double *ou
 bool uint_field(const TextReader &r, std::size_t k, const char *what, std::uint64_t max, std::uint64_t *out,
                 std::string *error) {
   if (parse_uint(r.tokens()[k], max, out)) return true;
-  return fail(error,
-              r.where() + what + " must be an integer from 0 to " + std::to_string(max) + ", got " + quoted(r.tokens()[k]));
+  return fail(error, r.where() + what + " must be an integer from 0 to " + std::to_string(max) + ", got " +
+                         quoted(r.tokens()[k]));
 }
 
 int model_by_name(std::string_view name) {
@@ -146,7 +146,8 @@ bool parse_cameras_text(const std::string &text, const std::string &name, std::v
     for (int k = 0; k < np; ++k)
       if (!real_field(r, 4 + static_cast<std::size_t>(k), "a camera parameter", &c.params[k], error)) return false;
     if (const std::string why = bad_intrinsics(c); !why.empty()) return fail(error, r.where() + why);
-    if (!ids.insert(c.id, cams.size())) return fail(error, r.where() + "camera " + std::to_string(c.id) + " appears twice");
+    if (!ids.insert(c.id, cams.size()))
+      return fail(error, r.where() + "camera " + std::to_string(c.id) + " appears twice");
     cams.push_back(std::move(c));
   }
   *out = std::move(cams);
@@ -183,7 +184,8 @@ bool parse_images_text(const std::string &text, const std::string &name, std::ve
     const std::size_t name_begin = static_cast<std::size_t>(t[9].data() - line.data());
     const std::size_t name_end = static_cast<std::size_t>(t.back().data() + t.back().size() - line.data());
     im.name.assign(line.substr(name_begin, name_end - name_begin));
-    if (!ids.insert(im.id, images.size())) return fail(error, r.where() + "image " + std::to_string(im.id) + " appears twice");
+    if (!ids.insert(im.id, images.size()))
+      return fail(error, r.where() + "image " + std::to_string(im.id) + " appears twice");
     const int image_line = r.lineno();
     if (!r.next_line())
       return fail(error, name + ":" + std::to_string(image_line) +
@@ -242,7 +244,8 @@ bool parse_points_text(const std::string &text, const std::string &name, std::ve
       if (!uint_field(r, 9 + 2 * k, "POINT2D_IDX", kU32, &v, error)) return false;
       p.track[k].point2d_idx = static_cast<std::uint32_t>(v);
     }
-    if (!ids.insert(p.id, points.size())) return fail(error, r.where() + "point " + std::to_string(p.id) + " appears twice");
+    if (!ids.insert(p.id, points.size()))
+      return fail(error, r.where() + "point " + std::to_string(p.id) + " appears twice");
     points.push_back(std::move(p));
   }
   *out = std::move(points);
@@ -282,7 +285,9 @@ Files format_text(const Model &model) {
   }
 
   size = 200;
-  for (const Image &im : model.images) size += kU32Chars + 7 * kRealChars + kU32Chars + im.name.size() + 2 + (kRealChars + kRealChars + kU64Chars) * im.points.size();
+  for (const Image &im : model.images)
+    size += kU32Chars + 7 * kRealChars + kU32Chars + im.name.size() + 2 +
+            (kRealChars + kRealChars + kU64Chars) * im.points.size();
   std::string &ims = f.images;
   ims.reserve(size);
   ims += "# Image list with two lines of data per image:\n"
@@ -320,7 +325,8 @@ Files format_text(const Model &model) {
   }
 
   size = 200;
-  for (const Point3D &p : model.points) size += kU64Chars + 4 * kRealChars + 3 * kU8Chars + (kU32Chars + kU32Chars) * p.track.size() + 1;
+  for (const Point3D &p : model.points)
+    size += kU64Chars + 4 * kRealChars + 3 * kU8Chars + (kU32Chars + kU32Chars) * p.track.size() + 1;
   std::string &pts = f.points;
   pts.reserve(size);
   pts += "# 3D point list with one line of data per point:\n"
