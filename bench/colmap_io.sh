@@ -64,10 +64,18 @@ if [ -n "$before" ]; then
 fi
 load_after=$(cut -d' ' -f1-3 /proc/loadavg)
 
-# A rewrite is the model as read: the same bytes as the input in the same encoding.
+# A rewrite is the model as read: the same bytes as the input in the same encoding, from
+# write_model and from sbarefine; a conversion is the same bytes before and now.
+differ() { echo "$0: $1 and $2 differ" >&2; exit 1; }
 for f in cameras images points3D; do
-  cmp -s "$data/bin/$f.bin" "$data/work/sba_bin_bin/$f.bin" || { echo "$0: $f.bin rewritten differently" >&2; exit 1; }
-  cmp -s "$data/txt/$f.txt" "$data/work/sba_txt_txt/$f.txt" || { echo "$0: $f.txt rewritten differently" >&2; exit 1; }
+  for w in sba sbarefine; do
+    cmp -s "$data/bin/$f.bin" "$data/work/${w}_bin_bin/$f.bin" || differ "$data/bin/$f.bin" "$data/work/${w}_bin_bin/$f.bin"
+    cmp -s "$data/txt/$f.txt" "$data/work/${w}_txt_txt/$f.txt" || differ "$data/txt/$f.txt" "$data/work/${w}_txt_txt/$f.txt"
+  done
+  if [ -n "$before" ]; then
+    cmp -s "$data/before/sba_bin_txt/$f.txt" "$data/work/sba_bin_txt/$f.txt" || differ "$data/before/sba_bin_txt/$f.txt" "$data/work/sba_bin_txt/$f.txt"
+    cmp -s "$data/before/sba_txt_bin/$f.bin" "$data/work/sba_txt_bin/$f.bin" || differ "$data/before/sba_txt_bin/$f.bin" "$data/work/sba_txt_bin/$f.bin"
+  fi
 done
 
 {
