@@ -230,6 +230,7 @@ StepStatus CameraParams::solve(const NormalEquations &ne, double mu, double *dp)
     for (size_t c = 0; c < K; ++c) {
       x_[c].resize(size_t(nvars));
       const NormalEquations col{ne.jac, ne.U, ne.V, ca_[c].data(), cb_[c].empty() ? ne.eb : cb_[c].data()};
+      if (inner_->solve_again(col, mu, x_[c].data())) continue;
       st = inner_->solve(col, mu, x_[c].data());
       if (st != StepStatus::Solved) return st;
     }

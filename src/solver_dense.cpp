@@ -48,12 +48,30 @@ class DenseSchurSolver final : public StepSolver {
     return StepStatus::Solved;
   }
 
+  bool solve_again(const NormalEquations &ne, double mu, double *dp) override {
+    const Layout &lay = ctx_.lay;
+    Vinv_.resize(size_t(lay.n) * size_t(lay.pnp) * size_t(lay.pnp));
+    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
+    reduced_(ne, Vinv_.data(), rhs_.data());
+    std::fill(dp, dp + lay.a_off(lay.mcon), 0.0);
+    std::fill(dp + lay.b_off(0), dp + lay.b_off(lay.ncon), 0.0);
+    double *da = dp + lay.a_off(lay.mcon);
+    if (!factorization_->solve_again(Sp_, rhs_.data(), da)) return false;
+    for (i64 q = 0; q < nS_; ++q)
+      if (!std::isfinite(da[q])) return false;
+    ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), mu, dp);
+    return true;
+  }
+
  private:
   std::unique_ptr<DenseFactorization> factorization_;
   SolveContext ctx_;
   i64 nS_;
   std::vector<double> S_, rhs_;
   double *Sp_ = nullptr;  // S's first entry: S_'s first 64-byte aligned one
+  // solve_again's: the damped point blocks' inverses and the reduced right-hand side.
+  std::vector<double> Vinv_;
+  ReducedRhs reduced_{ctx_};
 };
 
 }  // namespace

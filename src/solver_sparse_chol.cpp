@@ -222,6 +222,34 @@ class SparseSchurSolver final : public StepSolver {
     return StepStatus::Solved;
   }
 
+  bool solve_again(const NormalEquations &ne, double mu, double *dp) override {
+    const int cnp = lay_.cnp, nc = lay_.free_cams();
+    const std::vector<int> &perm = pat_->perm;
+    Vinv_.resize(size_t(lay_.n) * size_t(lay_.pnp) * size_t(lay_.pnp));
+    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
+    reduced_(ne, Vinv_.data(), rhs_.data());
+    double *b = static_cast<double *>(chol_.B->x);
+    for (int j = 0; j < nc; ++j)
+      std::copy_n(rhs_.data() + i64(j) * cnp, cnp, b + i64(perm[size_t(j)]) * cnp);
+    std::fill(dp, dp + lay_.nvars(), 0.0);
+    const ThreadPool::ForeignThreads cholmod(ctx_.pool);
+    cholmod_dense *X = Api::solve(CHOLMOD_A, chol_.L, chol_.B, &chol_.cm);
+    if (!X) throw_cholmod_failure("cholmod_solve", chol_.cm.status);
+    const double *x = static_cast<const double *>(X->x);
+    double *da = dp + lay_.a_off(lay_.mcon);
+    bool finite = true;
+    for (int j = 0; j < nc; ++j)
+      for (int a = 0; a < cnp; ++a) {
+        const double v = x[i64(perm[size_t(j)]) * cnp + a];
+        da[i64(j) * cnp + a] = v;
+        finite = finite && std::isfinite(v);
+      }
+    Api::free_dense(&X, &chol_.cm);
+    if (!finite) return false;
+    ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), mu, dp);
+    return true;
+  }
+
  private:
   // CHOLMOD's matrix on the stored blocks and its symbolic factorization. The diagonal blocks
   // are stored whole (CHOLMOD ignores the part above the diagonal), so that every scalar
@@ -273,6 +301,8 @@ class SparseSchurSolver final : public StepSolver {
   const Layout &lay_;
   std::shared_ptr<const Pattern> pat_;
   std::vector<double> rhs_;
+  std::vector<double> Vinv_;  // solve_again's damped point blocks' inverses
+  ReducedRhs reduced_{ctx_};
   Cholmod<Api> chol_;
   bool direct_ = false;  // L is unpermuted: factor A itself (no copy)
 };

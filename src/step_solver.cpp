@@ -68,6 +68,41 @@ class BlockDiagonalSolver final : public StepSolver {
 
 }  // namespace
 
+void ReducedRhs::operator()(const NormalEquations &ne, const double *Vinv, double *rhs) {
+  const Layout &lay = ctx_.lay;
+  const int cnp = lay.cnp, pnp = lay.pnp;
+  if (row_.empty()) by_camera(lay, &row_, &k_);
+  y_.resize(size_t(lay.n) * size_t(pnp));
+  ctx_.pool.for_range(lay.free_pts(), [&](i64 b, i64 e) {
+    for (i64 i = b + lay.ncon; i < e + lay.ncon; ++i) {
+      const double *vi = Vinv + i * pnp * pnp, *g = ne.eb + i * pnp;
+      for (int a = 0; a < pnp; ++a) {
+        double s = 0.0;
+        for (int c = 0; c < pnp; ++c) s += vi[a * pnp + c] * g[c];
+        y_[size_t(i * pnp + a)] = s;
+      }
+    }
+  });
+  ctx_.pool.for_range(lay.free_cams(), [&](i64 b, i64 e) {
+    std::vector<double> W(size_t(cnp) * size_t(pnp));
+    for (i64 j = b + lay.mcon; j < e + lay.mcon; ++j) {
+      double *r = rhs + (j - lay.mcon) * cnp;
+      std::copy_n(ne.ea + j * cnp, cnp, r);
+      for (int s = lay.colptr[size_t(j)]; s < lay.colptr[size_t(j) + 1]; ++s) {
+        const int i = row_[size_t(s)];
+        if (i < lay.ncon) continue;
+        form_W(lay, ne.jac, k_[size_t(s)], W.data());
+        const double *y = y_.data() + i64(i) * pnp;
+        for (int a = 0; a < cnp; ++a) {
+          double t = 0.0;
+          for (int c = 0; c < pnp; ++c) t += W[size_t(a) * pnp + c] * y[c];
+          r[a] -= t;
+        }
+      }
+    }
+  });
+}
+
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx) {
   if (ctx.lay.free_cams() == 0 || ctx.lay.free_pts() == 0)
     return std::make_unique<BlockDiagonalSolver>(ctx);

@@ -6,6 +6,7 @@
 #define SBA_SRC_STEP_SOLVER_H
 
 #include <memory>
+#include <vector>
 
 #include "kernels.h"
 #include "layout.h"
@@ -37,6 +38,29 @@ class StepSolver {
   // free parameters, where U and V are ne's blocks as they are (sba 1.6's retries hand them
   // over with the diagonals its previous attempts left: strategy.h, before_retry).
   virtual StepStatus solve(const NormalEquations &ne, double mu, double *dp) = 0;
+  // After solve() returned Solved at damping mu: dp for another right-hand side, ne's e_a and
+  // e_b (its other blocks those solve() had), reusing what solve() factored. False when the
+  // solver keeps nothing to reuse or the solution is not finite: the caller then calls
+  // solve(). Held and shared camera parameters (camera_params.h) solve one system for
+  // several right-hand sides.
+  virtual bool solve_again(const NormalEquations &ne, double mu, double *dp) {
+    (void)ne, (void)mu, (void)dp;
+    return false;
+  }
+};
+
+// rhs = e_a - W V*^-1 e_b over the free cameras, what Kernels::assemble makes beside S, for
+// the Schur solvers' solve_again: a right-hand side other than the one S was assembled with.
+class ReducedRhs {
+ public:
+  explicit ReducedRhs(const SolveContext &ctx) : ctx_(ctx) {}
+  // Vinv: Kernels::invert_damped_V's blocks at the damping S was assembled with.
+  void operator()(const NormalEquations &ne, const double *Vinv, double *rhs);
+
+ private:
+  SolveContext ctx_;
+  std::vector<int> row_, k_;  // the index by camera, made on first use
+  std::vector<double> y_;     // V*^-1 e_b, per point
 };
 
 // The solver for a problem. Problems without free points or without free cameras (the

@@ -75,6 +75,8 @@ struct Config {
   int itmax = 100;
   int mcon = 0;
   bool motion_only = false;
+  const char *loss = nullptr;
+  int (*progress)(void *, const sba_progress *) = nullptr;
 };
 
 Solved run(const Scene &s, const Config &u) {
@@ -86,6 +88,9 @@ Solved run(const Scene &s, const Config &u) {
   ext.linsolver = u.linsolver;
   ext.strategy = u.strategy;
   ext.nthreads = u.nthreads;
+  ext.loss = u.loss;
+  ext.loss_scale = 1.0;
+  ext.progress = u.progress;
   std::vector<int> group = u.group.empty() ? std::vector<int>(size_t(s.m), 0) : u.group;
   if (!u.fixed.empty()) {
     ext.cam_fixed = u.fixed.data();
@@ -162,6 +167,18 @@ TEST(CameraParams, EverySolverAndStrategyReachesOneMinimum) {
       EXPECT_NEAR(focal(r, 0), focal(ref, 0), 1e-3) << solver << " " << strategy;
       for (int j = 1; j < s.m; ++j) EXPECT_TRUE(same_bits(focal(r, j), focal(r, 0)));
     }
+}
+
+TEST(CameraParams, WithARobustLossAndAProgressCallback) {
+  const Scene s = make_scene();
+  Config u;
+  u.loss = "huber";
+  u.progress = [](void *, const sba_progress *st) { return st->iteration >= 12 ? 1 : 0; };
+  const Solved r = run(s, u);
+  ASSERT_EQ(r.ret, 12);
+  EXPECT_EQ(r.info[6], SBA_STOP_USER);
+  for (int j = 1; j < s.m; ++j) EXPECT_TRUE(same_bits(focal(r, j), focal(r, 0)));
+  EXPECT_LT(std::fabs(focal(r, 0) - kTrueFocal), 1.0);  // from 16
 }
 
 TEST(CameraParams, TheSameBitsForAnyThreadCount) {

@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // COLMAP's binary format (little-endian): cameras.bin, images.bin and points3D.bin.
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <string>
-#include <unordered_set>
 #include <vector>
 
 #include "formats/colmap_io_impl.h"
@@ -21,23 +21,23 @@ class ByteReader {
   std::string where(std::size_t at) const { return name_ + ": byte " + std::to_string(at) + ": "; }
   std::size_t pos() const { return pos_; }
 
-  bool u64(std::uint64_t *v, const char *what, std::string *error) { return uint(8, v, what, error); }
+  bool u64(std::uint64_t *v, const char *what, std::string *error) { return uint<8>(v, what, error); }
   bool u32(std::uint32_t *v, const char *what, std::string *error) {
     std::uint64_t w;
-    if (!uint(4, &w, what, error)) return false;
+    if (!uint<4>(&w, what, error)) return false;
     *v = static_cast<std::uint32_t>(w);
     return true;
   }
   bool u8(std::uint8_t *v, const char *what, std::string *error) {
     std::uint64_t w;
-    if (!uint(1, &w, what, error)) return false;
+    if (!uint<1>(&w, what, error)) return false;
     *v = static_cast<std::uint8_t>(w);
     return true;
   }
   bool real(double *v, const char *what, std::string *error) {
     const std::size_t at = pos_;
     std::uint64_t w;
-    if (!uint(8, &w, what, error)) return false;
+    if (!uint<8>(&w, what, error)) return false;
     std::memcpy(v, &w, sizeof w);
     if (!std::isfinite(*v)) return fail(error, where(at) + what + " is not a finite number");
     return true;
@@ -65,12 +65,16 @@ class ByteReader {
   }
 
  private:
-  bool uint(int bytes, std::uint64_t *v, const char *what, std::string *error) {
-    if (remaining() < static_cast<std::size_t>(bytes))
+  // The byte count is a template argument so that the compiler sees a fixed little-endian
+  // load, which it turns into one load instruction on a little-endian machine.
+  template <int Bytes>
+  bool uint(std::uint64_t *v, const char *what, std::string *error) {
+    if (remaining() < static_cast<std::size_t>(Bytes))
       return fail(error, where(pos_) + "the file ends inside " + what);
+    const unsigned char *p = reinterpret_cast<const unsigned char *>(b_.data()) + pos_;
     std::uint64_t w = 0;
-    for (int k = bytes - 1; k >= 0; --k) w = (w << 8) | static_cast<unsigned char>(b_[pos_ + static_cast<std::size_t>(k)]);
-    pos_ += static_cast<std::size_t>(bytes);
+    for (int k = 0; k < Bytes; ++k) w |= std::uint64_t{p[k]} << (8 * k);
+    pos_ += static_cast<std::size_t>(Bytes);
     *v = w;
     return true;
   }
@@ -80,13 +84,56 @@ class ByteReader {
   std::size_t pos_ = 0;
 };
 
-void put_uint(std::string *out, std::uint64_t v, int bytes) {
-  for (int k = 0; k < bytes; ++k) out->push_back(static_cast<char>((v >> (8 * k)) & 0xff));
+// Little-endian values into a buffer sized beforehand to what they fill exactly: no check of
+// the room left on each byte, as appending to a string would make.
+class ByteWriter {
+ public:
+  ByteWriter(std::string *out, std::size_t size) : out_(out) {
+    out->resize(size);
+    p_ = &(*out)[0];
+  }
+  ByteWriter(const ByteWriter &) = delete;
+  ByteWriter &operator=(const ByteWriter &) = delete;
+  // Every byte of the size given was written (the sizes below agree with the records).
+  ~ByteWriter() { assert(p_ == out_->data() + out_->size()); }
+
+  template <int Bytes>
+  void uint(std::uint64_t v) {
+    for (int k = 0; k < Bytes; ++k) p_[k] = static_cast<char>((v >> (8 * k)) & 0xff);
+    p_ += Bytes;
+  }
+  void real(double v) {
+    std::uint64_t w;
+    std::memcpy(&w, &v, sizeof w);
+    uint<8>(w);
+  }
+  // s and its terminating NUL.
+  void cstring(const std::string &s) {
+    std::memcpy(p_, s.data(), s.size());
+    p_[s.size()] = '\0';
+    p_ += s.size() + 1;
+  }
+
+ private:
+  std::string *out_;
+  char *p_;
+};
+
+// The bytes of each file, for ByteWriter.
+std::size_t cameras_bytes(const Model &model) {
+  std::size_t n = 8;
+  for (const Camera &c : model.cameras) n += 24 + 8 * c.params.size();
+  return n;
 }
-void put_real(std::string *out, double v) {
-  std::uint64_t w;
-  std::memcpy(&w, &v, sizeof w);
-  put_uint(out, w, 8);
+std::size_t images_bytes(const Model &model) {
+  std::size_t n = 8;
+  for (const Image &im : model.images) n += 4 + 56 + 4 + im.name.size() + 1 + 8 + 24 * im.points.size();
+  return n;
+}
+std::size_t points_bytes(const Model &model) {
+  std::size_t n = 8;
+  for (const Point3D &p : model.points) n += 8 + 24 + 3 + 8 + 8 + 8 * p.track.size();
+  return n;
 }
 
 }  // namespace
@@ -98,7 +145,7 @@ bool parse_cameras_binary(const std::string &bytes, const std::string &name, std
   if (!r.count(&n, 24, "the number of cameras", error)) return false;
   std::vector<Camera> cams;
   cams.reserve(static_cast<std::size_t>(n));
-  std::unordered_set<std::uint32_t> ids;
+  IdIndex ids(static_cast<std::size_t>(n));
   for (std::uint64_t i = 0; i < n; ++i) {
     Camera c;
     const std::size_t at = r.pos();
@@ -118,7 +165,7 @@ bool parse_cameras_binary(const std::string &bytes, const std::string &name, std
     for (double &p : c.params)
       if (!r.real(&p, "a camera parameter", error)) return false;
     if (const std::string why = bad_intrinsics(c); !why.empty()) return fail(error, r.where(at) + why);
-    if (!ids.insert(c.id).second)
+    if (!ids.insert(c.id, i))
       return fail(error, r.where(at) + "camera " + std::to_string(c.id) + " appears twice");
     cams.push_back(std::move(c));
   }
@@ -135,7 +182,7 @@ bool parse_images_binary(const std::string &bytes, const std::string &name, std:
   if (!r.count(&n, 73, "the number of images", error)) return false;
   std::vector<Image> images;
   images.reserve(static_cast<std::size_t>(n));
-  std::unordered_set<std::uint32_t> ids;
+  IdIndex ids(static_cast<std::size_t>(n));
   for (std::uint64_t i = 0; i < n; ++i) {
     Image im;
     const std::size_t at = r.pos();
@@ -160,7 +207,7 @@ bool parse_images_binary(const std::string &bytes, const std::string &name, std:
     for (Point2D &p : im.points)
       if (!r.real(&p.x, "X", error) || !r.real(&p.y, "Y", error) || !r.u64(&p.point3d_id, "POINT3D_ID", error))
         return false;
-    if (!ids.insert(im.id).second) return fail(error, r.where(at) + "image " + std::to_string(im.id) + " appears twice");
+    if (!ids.insert(im.id, i)) return fail(error, r.where(at) + "image " + std::to_string(im.id) + " appears twice");
     images.push_back(std::move(im));
   }
   if (!r.at_end(error)) return false;
@@ -176,7 +223,7 @@ bool parse_points_binary(const std::string &bytes, const std::string &name, std:
   if (!r.count(&n, 51, "the number of points", error)) return false;
   std::vector<Point3D> points;
   points.reserve(static_cast<std::size_t>(n));
-  std::unordered_set<std::uint64_t> ids;
+  IdIndex ids(static_cast<std::size_t>(n));
   for (std::uint64_t i = 0; i < n; ++i) {
     Point3D p;
     const std::size_t at = r.pos();
@@ -192,7 +239,7 @@ bool parse_points_binary(const std::string &bytes, const std::string &name, std:
     p.track.resize(static_cast<std::size_t>(nt));
     for (TrackElement &e : p.track)
       if (!r.u32(&e.image_id, "IMAGE_ID", error) || !r.u32(&e.point2d_idx, "POINT2D_IDX", error)) return false;
-    if (!ids.insert(p.id).second) return fail(error, r.where(at) + "point " + std::to_string(p.id) + " appears twice");
+    if (!ids.insert(p.id, i)) return fail(error, r.where(at) + "point " + std::to_string(p.id) + " appears twice");
     points.push_back(std::move(p));
   }
   if (!r.at_end(error)) return false;
@@ -202,39 +249,47 @@ bool parse_points_binary(const std::string &bytes, const std::string &name, std:
 
 Files format_binary(const Model &model) {
   Files f;
-  put_uint(&f.cameras, model.cameras.size(), 8);
-  for (const Camera &c : model.cameras) {
-    put_uint(&f.cameras, c.id, 4);
-    put_uint(&f.cameras, static_cast<std::uint32_t>(c.model), 4);
-    put_uint(&f.cameras, c.width, 8);
-    put_uint(&f.cameras, c.height, 8);
-    for (double p : c.params) put_real(&f.cameras, p);
-  }
-  put_uint(&f.images, model.images.size(), 8);
-  for (const Image &im : model.images) {
-    put_uint(&f.images, im.id, 4);
-    for (double v : im.q) put_real(&f.images, v);
-    for (double v : im.t) put_real(&f.images, v);
-    put_uint(&f.images, im.camera_id, 4);
-    f.images += im.name;
-    f.images.push_back('\0');
-    put_uint(&f.images, im.points.size(), 8);
-    for (const Point2D &p : im.points) {
-      put_real(&f.images, p.x);
-      put_real(&f.images, p.y);
-      put_uint(&f.images, p.point3d_id, 8);
+  {
+    ByteWriter w(&f.cameras, cameras_bytes(model));
+    w.uint<8>(model.cameras.size());
+    for (const Camera &c : model.cameras) {
+      w.uint<4>(c.id);
+      w.uint<4>(static_cast<std::uint32_t>(c.model));
+      w.uint<8>(c.width);
+      w.uint<8>(c.height);
+      for (double p : c.params) w.real(p);
     }
   }
-  put_uint(&f.points, model.points.size(), 8);
-  for (const Point3D &p : model.points) {
-    put_uint(&f.points, p.id, 8);
-    for (double v : p.xyz) put_real(&f.points, v);
-    for (std::uint8_t c : p.rgb) put_uint(&f.points, c, 1);
-    put_real(&f.points, p.error);
-    put_uint(&f.points, p.track.size(), 8);
-    for (const TrackElement &e : p.track) {
-      put_uint(&f.points, e.image_id, 4);
-      put_uint(&f.points, e.point2d_idx, 4);
+  {
+    ByteWriter w(&f.images, images_bytes(model));
+    w.uint<8>(model.images.size());
+    for (const Image &im : model.images) {
+      w.uint<4>(im.id);
+      for (double v : im.q) w.real(v);
+      for (double v : im.t) w.real(v);
+      w.uint<4>(im.camera_id);
+      w.cstring(im.name);
+      w.uint<8>(im.points.size());
+      for (const Point2D &p : im.points) {
+        w.real(p.x);
+        w.real(p.y);
+        w.uint<8>(p.point3d_id);
+      }
+    }
+  }
+  {
+    ByteWriter w(&f.points, points_bytes(model));
+    w.uint<8>(model.points.size());
+    for (const Point3D &p : model.points) {
+      w.uint<8>(p.id);
+      for (double v : p.xyz) w.real(v);
+      for (std::uint8_t c : p.rgb) w.uint<1>(c);
+      w.real(p.error);
+      w.uint<8>(p.track.size());
+      for (const TrackElement &e : p.track) {
+        w.uint<4>(e.image_id);
+        w.uint<4>(e.point2d_idx);
+      }
     }
   }
   return f;

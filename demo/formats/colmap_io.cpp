@@ -5,16 +5,14 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <map>
-#include <set>
-#include <unordered_map>
-#include <unordered_set>
+#include <vector>
 
 #include "formats/colmap_io_impl.h"
 #include "formats/output_file.h"
@@ -66,43 +64,50 @@ int camera_model_params(int model) { return model >= 0 && model < kNumModels ? k
 
 bool check_model(const Model &model, const std::string &name, std::string *error) {
   const std::string where = name + ": ";
-  std::unordered_set<std::uint32_t> cameras;
-  for (const Camera &c : model.cameras) cameras.insert(c.id);
-  std::unordered_map<std::uint32_t, const Image *> images;
-  std::unordered_map<std::uint64_t, const Point3D *> points;
-  for (const Point3D &p : model.points) points.emplace(p.id, &p);
-  for (const Image &im : model.images) {
-    images.emplace(im.id, &im);
-    if (!cameras.count(im.camera_id))
+  constexpr std::size_t kNone = IdIndex::kNone;
+  IdIndex cameras(model.cameras.size()), images(model.images.size()), points(model.points.size());
+  for (std::size_t k = 0; k < model.cameras.size(); ++k) cameras.insert(model.cameras[k].id, k);
+  for (std::size_t k = 0; k < model.points.size(); ++k) points.insert(model.points[k].id, k);
+  for (std::size_t i = 0; i < model.images.size(); ++i) {
+    const Image &im = model.images[i];
+    images.insert(im.id, i);
+    if (cameras.find(im.camera_id) == kNone)
       return fail(error, where + "image " + std::to_string(im.id) + " uses camera " + std::to_string(im.camera_id) +
                              ", which cameras does not hold");
   }
-  // Each observation that names a point is claimed by exactly one track element.
+  // Each observation that names a point is claimed by exactly one track element. The marks
+  // below stand for per-image and per-track sets, without an allocation for each:
+  // seen_by[p] is 1 + the last image that saw point p, listed_by[i] 1 + the last point whose
+  // track listed image i.
   std::size_t observations = 0;
-  for (const Image &im : model.images) {
-    std::unordered_set<std::uint64_t> seen;
+  std::vector<std::size_t> seen_by(model.points.size(), 0);
+  for (std::size_t i = 0; i < model.images.size(); ++i) {
+    const Image &im = model.images[i];
     for (std::size_t k = 0; k < im.points.size(); ++k) {
       const std::uint64_t pid = im.points[k].point3d_id;
       if (pid == kNoPoint) continue;
       ++observations;
-      if (!points.count(pid))
+      const std::size_t p = points.find(pid);
+      if (p == kNone)
         return fail(error, where + "image " + std::to_string(im.id) + " POINTS2D " + std::to_string(k) +
                                " names point " + std::to_string(pid) + ", which points3D does not hold");
-      if (!seen.insert(pid).second)
+      if (seen_by[p] == i + 1)
         return fail(error, where + "image " + std::to_string(im.id) + " sees point " + std::to_string(pid) +
                                " twice: sba takes one observation per point and image");
+      seen_by[p] = i + 1;
     }
   }
   std::size_t elements = 0;
-  for (const Point3D &p : model.points) {
+  std::vector<std::size_t> listed_by(model.images.size(), 0);
+  for (std::size_t j = 0; j < model.points.size(); ++j) {
+    const Point3D &p = model.points[j];
     if (p.track.empty()) return fail(error, where + "point " + std::to_string(p.id) + " has an empty track");
-    std::set<std::pair<std::uint32_t, std::uint32_t>> pairs;
     for (const TrackElement &e : p.track) {
-      const auto it = images.find(e.image_id);
-      if (it == images.end())
+      const std::size_t i = images.find(e.image_id);
+      if (i == kNone)
         return fail(error, where + "point " + std::to_string(p.id) + " is seen in image " +
                                std::to_string(e.image_id) + ", which images does not hold");
-      const Image &im = *it->second;
+      const Image &im = model.images[i];
       if (e.point2d_idx >= im.points.size())
         return fail(error, where + "point " + std::to_string(p.id) + ": POINT2D_IDX " +
                                std::to_string(e.point2d_idx) + " is out of range for image " +
@@ -111,9 +116,12 @@ bool check_model(const Model &model, const std::string &name, std::string *error
         return fail(error, where + "point " + std::to_string(p.id) + " lists POINTS2D " +
                                std::to_string(e.point2d_idx) + " of image " + std::to_string(im.id) +
                                ", which does not name it");
-      if (!pairs.insert({e.image_id, e.point2d_idx}).second)
+      // No image sees a point twice (checked above), so an image listed twice in a track is
+      // the same observation listed twice.
+      if (listed_by[i] == j + 1)
         return fail(error, where + "point " + std::to_string(p.id) + " lists POINTS2D " +
                                std::to_string(e.point2d_idx) + " of image " + std::to_string(im.id) + " twice");
+      listed_by[i] = j + 1;
       ++elements;
     }
   }
@@ -128,11 +136,16 @@ bool check_model(const Model &model, const std::string &name, std::string *error
 // ---- files ----
 
 bool read_rest(std::FILE *f, const std::string &path, bool text, std::string *out, std::string *error) {
-  char buf[1 << 16];
-  std::size_t got;
-  while ((got = std::fread(buf, 1, sizeof buf, f)) > 0) {
-    if (text && std::memchr(buf, '\0', got)) return fail(error, path + ": a NUL byte: not a text file");
-    out->append(buf, got);
+  // Straight into *out, in what its capacity leaves (read_whole_file reserves the file's size),
+  // or 64 KiB at a time past it.
+  for (;;) {
+    const std::size_t old = out->size();
+    const std::size_t room = std::max<std::size_t>(out->capacity() - old, std::size_t{1} << 16);
+    out->resize(old + room);
+    const std::size_t got = std::fread(&(*out)[old], 1, room, f);
+    out->resize(old + got);
+    if (text && std::memchr(out->data() + old, '\0', got)) return fail(error, path + ": a NUL byte: not a text file");
+    if (got < room) break;
   }
   if (std::ferror(f)) return fail(error, path + ": read error");
   return true;
@@ -148,6 +161,8 @@ bool read_whole_file(const std::string &path, bool text, std::string *out, std::
     return fail(error, path + ": is a directory");
   }
   std::string data;
+  // One byte more than the size, so that the end of the file is seen without growing data.
+  if (S_ISREG(st.st_mode) && st.st_size > 0) data.reserve(static_cast<std::size_t>(st.st_size) + 1);
   const bool read = read_rest(f, path, text, &data, error);
   std::fclose(f);
   if (!read) return false;

@@ -5,7 +5,10 @@
 #ifndef SBA_DEMO_COLMAP_IO_IMPL_H
 #define SBA_DEMO_COLMAP_IO_IMPL_H
 
+#include <cstddef>
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "formats/colmap_io.h"
 
@@ -51,6 +54,66 @@ inline bool fail(std::string *error, const std::string &msg) {
   if (error) *error = msg;
   return false;
 }
+
+// The position of each id in a list of records (cameras, images, points), the first one's
+// when an id repeats. A model holds hundreds of thousands of points and millions of
+// observations that name them: open addressing in one array, without std::unordered_map's
+// allocation per id and pointer chase per look-up.
+class IdIndex {
+ public:
+  static constexpr std::size_t kNone = ~std::size_t{0};
+
+  // Room for n ids before the table grows.
+  explicit IdIndex(std::size_t n = 0) { rehash(n); }
+
+  // Records id at index; false, and nothing changed, when id is already there.
+  bool insert(std::uint64_t id, std::size_t index) {
+    if (2 * (size_ + 1) > slots_.size()) rehash(2 * (size_ + 1));
+    Slot *s = &slots_[home(id)];
+    for (; s->index != kNone; s = next(s))
+      if (s->id == id) return false;
+    *s = {id, index};
+    ++size_;
+    return true;
+  }
+  // The index recorded for id, kNone when there is none.
+  std::size_t find(std::uint64_t id) const {
+    for (const Slot *s = &slots_[home(id)]; s->index != kNone; s = next(s))
+      if (s->id == id) return s->index;
+    return kNone;
+  }
+
+ private:
+  struct Slot {
+    std::uint64_t id;
+    std::size_t index;
+  };
+
+  // Fibonacci hashing: the top bits of id times 2^64 / phi, spread well even for the
+  // consecutive ids that models usually hold.
+  std::size_t home(std::uint64_t id) const {
+    return static_cast<std::size_t>((id * 0x9E3779B97F4A7C15ull) >> shift_);
+  }
+  // Linear probing, wrapping at the end of the table.
+  Slot *next(Slot *s) { return ++s == slots_.data() + slots_.size() ? slots_.data() : s; }
+  const Slot *next(const Slot *s) const { return ++s == slots_.data() + slots_.size() ? slots_.data() : s; }
+
+  // A table of at least 2n slots (a power of two), holding the ids recorded so far.
+  void rehash(std::size_t n) {
+    int bits = 4;
+    while ((std::size_t{1} << bits) < 2 * n) ++bits;
+    std::vector<Slot> old(std::size_t{1} << bits, Slot{0, kNone});
+    old.swap(slots_);
+    shift_ = 64 - bits;
+    size_ = 0;
+    for (const Slot &s : old)
+      if (s.index != kNone) insert(s.id, s.index);
+  }
+
+  std::vector<Slot> slots_;
+  int shift_ = 60;
+  std::size_t size_ = 0;
+};
 
 // format_model for each encoding.
 Files format_text(const Model &model);

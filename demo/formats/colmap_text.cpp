@@ -3,7 +3,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
-#include <unordered_set>
+#include <string_view>
 #include <vector>
 
 #include "formats/colmap_io_impl.h"
@@ -13,7 +13,9 @@ namespace sbaformats::colmap {
 
 namespace {
 
-// The lines of a text file: "tokens" split on blanks, with the line number.
+// The lines of a text file: "tokens" split on blanks, with the line number. The line and its
+// tokens are views into the text, which outlives the reader: a model's millions of values are
+// read without a string made for each.
 class TextReader {
  public:
   TextReader(const std::string &text, const std::string &name) : text_(text), name_(name) {}
@@ -29,8 +31,8 @@ class TextReader {
     if (pos_ >= text_.size()) return false;
     std::size_t end = text_.find('\n', pos_);
     if (end == std::string::npos) end = text_.size();
-    line_.assign(text_, pos_, end - pos_);
-    if (!line_.empty() && line_.back() == '\r') line_.pop_back();
+    line_ = std::string_view(text_).substr(pos_, end - pos_);
+    if (!line_.empty() && line_.back() == '\r') line_.remove_suffix(1);
     pos_ = end + 1;
     ++lineno_;
     split();
@@ -38,8 +40,8 @@ class TextReader {
   }
   bool is_blank_or_comment() const { return tokens_.empty() || tokens_[0][0] == '#'; }
 
-  const std::vector<std::string> &tokens() const { return tokens_; }
-  const std::string &line() const { return line_; }
+  const std::vector<std::string_view> &tokens() const { return tokens_; }
+  std::string_view line() const { return line_; }
   int lineno() const { return lineno_; }
   std::string where() const { return name_ + ":" + std::to_string(lineno_) + ": "; }
 
@@ -51,7 +53,7 @@ class TextReader {
       while (i < line_.size() && is_blank(line_[i])) ++i;
       const std::size_t b = i;
       while (i < line_.size() && !is_blank(line_[i])) ++i;
-      if (i > b) tokens_.emplace_back(line_, b, i - b);
+      if (i > b) tokens_.push_back(line_.substr(b, i - b));
     }
   }
 
@@ -59,12 +61,12 @@ class TextReader {
   const std::string &name_;
   std::size_t pos_ = 0;
   int lineno_ = 0;
-  std::string line_;
-  std::vector<std::string> tokens_;
+  std::string_view line_;
+  std::vector<std::string_view> tokens_;
 };
 
 // A finite decimal number, the whole token.
-bool parse_real(const std::string &tok, double *out) {
+bool parse_real(std::string_view tok, double *out) {
   double v;
   if (!decimal_number(tok, &v) || !std::isfinite(v)) return false;
   *out = v;
@@ -72,7 +74,7 @@ bool parse_real(const std::string &tok, double *out) {
 }
 
 // An unsigned decimal integer <= max, the whole token.
-bool parse_uint(const std::string &tok, std::uint64_t max, std::uint64_t *out) {
+bool parse_uint(std::string_view tok, std::uint64_t max, std::uint64_t *out) {
   if (tok.empty() || tok.size() > 20) return false;
   std::uint64_t v = 0;
   for (char c : tok) {
@@ -85,25 +87,28 @@ bool parse_uint(const std::string &tok, std::uint64_t max, std::uint64_t *out) {
   return true;
 }
 
+// A token quoted in a message.
+std::string quoted(std::string_view tok) { return "'" + printable(std::string(tok)) + "'"; }
+
 bool real_field(const TextReader &r, std::size_t k, const char *what, double *out, std::string *error) {
   if (parse_real(r.tokens()[k], out)) return true;
-  return fail(error, r.where() + what + " must be a finite number, got '" + printable(r.tokens()[k]) + "'");
+  return fail(error, r.where() + what + " must be a finite number, got " + quoted(r.tokens()[k]));
 }
 
 bool uint_field(const TextReader &r, std::size_t k, const char *what, std::uint64_t max, std::uint64_t *out,
                 std::string *error) {
   if (parse_uint(r.tokens()[k], max, out)) return true;
-  return fail(error, r.where() + what + " must be an integer from 0 to " + std::to_string(max) + ", got '" +
-                         printable(r.tokens()[k]) + "'");
+  return fail(error, r.where() + what + " must be an integer from 0 to " + std::to_string(max) + ", got " +
+                         quoted(r.tokens()[k]));
 }
 
-int model_by_name(const std::string &name) {
+int model_by_name(std::string_view name) {
   for (int i = 0; i < kNumModels; ++i)
     if (name == kModels[i].name) return i;
   return -1;
 }
 
-bool is_other_model(const std::string &name) {
+bool is_other_model(std::string_view name) {
   for (int i = 0; i < kNumOtherModels; ++i)
     if (name == kOtherModels[i]) return true;
   return false;
@@ -117,7 +122,7 @@ bool parse_cameras_text(const std::string &text, const std::string &name, std::v
                         std::string *error) {
   TextReader r(text, name);
   std::vector<Camera> cams;
-  std::unordered_set<std::uint32_t> ids;
+  IdIndex ids;
   while (r.next_data_line()) {
     const auto &t = r.tokens();
     if (t.size() < 4)
@@ -129,19 +134,20 @@ bool parse_cameras_text(const std::string &text, const std::string &name, std::v
     c.id = static_cast<std::uint32_t>(v);
     c.model = model_by_name(t[1]);
     if (c.model < 0)
-      return fail(error, r.where() + (is_other_model(t[1]) ? unsupported_model(t[1])
-                                                          : "unknown camera model '" + printable(t[1]) + "'"));
+      return fail(error, r.where() + (is_other_model(t[1]) ? unsupported_model(std::string(t[1]))
+                                                          : "unknown camera model " + quoted(t[1])));
     if (!uint_field(r, 2, "WIDTH", UINT64_MAX, &c.width, error)) return false;
     if (!uint_field(r, 3, "HEIGHT", UINT64_MAX, &c.height, error)) return false;
     const int np = kModels[c.model].params;
     if (t.size() != 4 + static_cast<std::size_t>(np))
-      return fail(error, r.where() + t[1] + " has " + std::to_string(np) + " parameters, found " +
+      return fail(error, r.where() + std::string(t[1]) + " has " + std::to_string(np) + " parameters, found " +
                              std::to_string(t.size() - 4));
     c.params.resize(static_cast<std::size_t>(np));
     for (int k = 0; k < np; ++k)
       if (!real_field(r, 4 + static_cast<std::size_t>(k), "a camera parameter", &c.params[k], error)) return false;
     if (const std::string why = bad_intrinsics(c); !why.empty()) return fail(error, r.where() + why);
-    if (!ids.insert(c.id).second) return fail(error, r.where() + "camera " + std::to_string(c.id) + " appears twice");
+    if (!ids.insert(c.id, cams.size()))
+      return fail(error, r.where() + "camera " + std::to_string(c.id) + " appears twice");
     cams.push_back(std::move(c));
   }
   *out = std::move(cams);
@@ -152,7 +158,7 @@ bool parse_images_text(const std::string &text, const std::string &name, std::ve
                        std::string *error) {
   TextReader r(text, name);
   std::vector<Image> images;
-  std::unordered_set<std::uint32_t> ids;
+  IdIndex ids;
   while (r.next_data_line()) {
     const auto &t = r.tokens();
     if (t.size() < 10)
@@ -172,16 +178,14 @@ bool parse_images_text(const std::string &text, const std::string &name, std::ve
       return fail(error, r.where() + "the quaternion is zero");
     if (!uint_field(r, 8, "CAMERA_ID", kU32, &v, error)) return false;
     im.camera_id = static_cast<std::uint32_t>(v);
-    // The name is the rest of the line, so that it may hold blanks.
-    std::size_t pos = 0;
-    for (int k = 0; k < 9; ++k) {
-      pos = r.line().find_first_not_of(" \t\r", pos);
-      pos = r.line().find_first_of(" \t\r", pos);
-    }
-    pos = r.line().find_first_not_of(" \t\r", pos);
-    im.name = r.line().substr(pos);
-    while (!im.name.empty() && is_blank(im.name.back())) im.name.pop_back();
-    if (!ids.insert(im.id).second) return fail(error, r.where() + "image " + std::to_string(im.id) + " appears twice");
+    // The name is the rest of the line, so that it may hold blanks: from the tenth token to
+    // the end of the last.
+    const std::string_view line = r.line();
+    const std::size_t name_begin = static_cast<std::size_t>(t[9].data() - line.data());
+    const std::size_t name_end = static_cast<std::size_t>(t.back().data() + t.back().size() - line.data());
+    im.name.assign(line.substr(name_begin, name_end - name_begin));
+    if (!ids.insert(im.id, images.size()))
+      return fail(error, r.where() + "image " + std::to_string(im.id) + " appears twice");
     const int image_line = r.lineno();
     if (!r.next_line())
       return fail(error, name + ":" + std::to_string(image_line) +
@@ -197,11 +201,11 @@ bool parse_images_text(const std::string &text, const std::string &name, std::ve
     for (std::size_t k = 0; k < im.points.size(); ++k) {
       Point2D &q = im.points[k];
       if (!real_field(r, 3 * k, "X", &q.x, error) || !real_field(r, 3 * k + 1, "Y", &q.y, error)) return false;
-      if (p[3 * k + 2] == "-1") {
+      if (p[3 * k + 2] == std::string_view("-1")) {
         q.point3d_id = kNoPoint;
       } else if (!parse_uint(p[3 * k + 2], kNoPoint - 1, &q.point3d_id)) {
         return fail(error, r.where() + "POINT3D_ID must be -1 or an integer from 0 to " +
-                               std::to_string(kNoPoint - 1) + ", got '" + printable(p[3 * k + 2]) + "'");
+                               std::to_string(kNoPoint - 1) + ", got " + quoted(p[3 * k + 2]));
       }
     }
     images.push_back(std::move(im));
@@ -214,7 +218,7 @@ bool parse_points_text(const std::string &text, const std::string &name, std::ve
                        std::string *error) {
   TextReader r(text, name);
   std::vector<Point3D> points;
-  std::unordered_set<std::uint64_t> ids;
+  IdIndex ids;
   while (r.next_data_line()) {
     const auto &t = r.tokens();
     if (t.size() < 8 || (t.size() - 8) % 2 != 0)
@@ -240,52 +244,115 @@ bool parse_points_text(const std::string &text, const std::string &name, std::ve
       if (!uint_field(r, 9 + 2 * k, "POINT2D_IDX", kU32, &v, error)) return false;
       p.track[k].point2d_idx = static_cast<std::uint32_t>(v);
     }
-    if (!ids.insert(p.id).second) return fail(error, r.where() + "point " + std::to_string(p.id) + " appears twice");
+    if (!ids.insert(p.id, points.size()))
+      return fail(error, r.where() + "point " + std::to_string(p.id) + " appears twice");
     points.push_back(std::move(p));
   }
   *out = std::move(points);
   return true;
 }
 
+// The most characters that a value takes in the text (g17's longest, -1.2345678901234567e-308,
+// and the longest integers) plus its separator: each file's string is reserved at once to an
+// upper bound of its size, never copied as it grows. What is reserved and never written costs
+// address space only.
+constexpr std::size_t kRealChars = 25, kU64Chars = 21, kU32Chars = 11, kU8Chars = 4;
+
 Files format_text(const Model &model) {
   Files f;
-  f.cameras = "# Camera list with one line of data per camera:\n"
-              "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
-              "# Number of cameras: " + std::to_string(model.cameras.size()) + "\n";
+  std::size_t size = 200;
+  for (const Camera &c : model.cameras) size += kU32Chars + 32 + 2 * kU64Chars + kRealChars * c.params.size() + 1;
+  std::string &cams = f.cameras;
+  cams.reserve(size);
+  cams += "# Camera list with one line of data per camera:\n"
+          "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+          "# Number of cameras: ";
+  append_uint(&cams, model.cameras.size());
+  cams += '\n';
   for (const Camera &c : model.cameras) {
-    f.cameras += std::to_string(c.id) + " " + kModels[c.model].name + " " + std::to_string(c.width) + " " +
-                 std::to_string(c.height);
-    for (double p : c.params) f.cameras += " " + g17(p);
-    f.cameras += "\n";
+    append_uint(&cams, c.id);
+    cams += ' ';
+    cams += kModels[c.model].name;
+    cams += ' ';
+    append_uint(&cams, c.width);
+    cams += ' ';
+    append_uint(&cams, c.height);
+    for (double p : c.params) {
+      cams += ' ';
+      append_g17(&cams, p);
+    }
+    cams += '\n';
   }
-  f.images = "# Image list with two lines of data per image:\n"
-             "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n"
-             "#   POINTS2D[] as (X, Y, POINT3D_ID)\n"
-             "# Number of images: " + std::to_string(model.images.size()) + "\n";
+
+  size = 200;
+  for (const Image &im : model.images)
+    size += kU32Chars + 7 * kRealChars + kU32Chars + im.name.size() + 2 +
+            (kRealChars + kRealChars + kU64Chars) * im.points.size();
+  std::string &ims = f.images;
+  ims.reserve(size);
+  ims += "# Image list with two lines of data per image:\n"
+         "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n"
+         "#   POINTS2D[] as (X, Y, POINT3D_ID)\n"
+         "# Number of images: ";
+  append_uint(&ims, model.images.size());
+  ims += '\n';
   for (const Image &im : model.images) {
-    f.images += std::to_string(im.id);
-    for (double v : im.q) f.images += " " + g17(v);
-    for (double v : im.t) f.images += " " + g17(v);
-    f.images += " " + std::to_string(im.camera_id) + " " + im.name + "\n";
+    append_uint(&ims, im.id);
+    for (double v : im.q) {
+      ims += ' ';
+      append_g17(&ims, v);
+    }
+    for (double v : im.t) {
+      ims += ' ';
+      append_g17(&ims, v);
+    }
+    ims += ' ';
+    append_uint(&ims, im.camera_id);
+    ims += ' ';
+    ims += im.name;
+    ims += '\n';
     for (std::size_t k = 0; k < im.points.size(); ++k) {
       const Point2D &p = im.points[k];
-      if (k) f.images += " ";
-      f.images += g17(p.x) + " " + g17(p.y) + " " +
-                  (p.point3d_id == kNoPoint ? std::string("-1") : std::to_string(p.point3d_id));
+      if (k) ims += ' ';
+      append_g17(&ims, p.x);
+      ims += ' ';
+      append_g17(&ims, p.y);
+      ims += ' ';
+      if (p.point3d_id == kNoPoint) ims += "-1";
+      else append_uint(&ims, p.point3d_id);
     }
-    f.images += "\n";
+    ims += '\n';
   }
-  f.points = "# 3D point list with one line of data per point:\n"
-             "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
-             "# Number of points: " + std::to_string(model.points.size()) + "\n";
+
+  size = 200;
+  for (const Point3D &p : model.points)
+    size += kU64Chars + 4 * kRealChars + 3 * kU8Chars + (kU32Chars + kU32Chars) * p.track.size() + 1;
+  std::string &pts = f.points;
+  pts.reserve(size);
+  pts += "# 3D point list with one line of data per point:\n"
+         "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
+         "# Number of points: ";
+  append_uint(&pts, model.points.size());
+  pts += '\n';
   for (const Point3D &p : model.points) {
-    f.points += std::to_string(p.id);
-    for (double v : p.xyz) f.points += " " + g17(v);
-    for (std::uint8_t c : p.rgb) f.points += " " + std::to_string(c);
-    f.points += " " + g17(p.error);
-    for (const TrackElement &e : p.track)
-      f.points += " " + std::to_string(e.image_id) + " " + std::to_string(e.point2d_idx);
-    f.points += "\n";
+    append_uint(&pts, p.id);
+    for (double v : p.xyz) {
+      pts += ' ';
+      append_g17(&pts, v);
+    }
+    for (std::uint8_t c : p.rgb) {
+      pts += ' ';
+      append_uint(&pts, c);
+    }
+    pts += ' ';
+    append_g17(&pts, p.error);
+    for (const TrackElement &e : p.track) {
+      pts += ' ';
+      append_uint(&pts, e.image_id);
+      pts += ' ';
+      append_uint(&pts, e.point2d_idx);
+    }
+    pts += '\n';
   }
   return f;
 }

@@ -7,11 +7,14 @@
 #define SBA_DEMO_TEXT_TOKENS_H
 
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <string_view>
+#include <system_error>
 
 namespace sbaformats {
 
@@ -28,6 +31,22 @@ inline bool decimal_number(const std::string &tok, double *out) {
   return end == tok.c_str() + tok.size();
 }
 
+// The same for a token inside a larger text, read where it lies (strtod needs a terminated
+// copy). std::from_chars reads what it accepts to the same double as strtod (both round
+// correctly), and faster: a model holds millions of numbers (bench/colmap_io.sh). What it
+// refuses (a leading '+', a value that overflows or underflows, anything malformed) goes
+// through the strtod above, so that both overloads accept and refuse the same tokens.
+inline bool decimal_number(std::string_view tok, double *out) {
+  if (!tok.empty() && tok[0] != '+') {
+    double v;
+    const std::from_chars_result r = std::from_chars(tok.data(), tok.data() + tok.size(), v);
+    if (r.ec == std::errc() && r.ptr == tok.data() + tok.size()) {
+      *out = v;
+      return true;
+    }
+  }
+  return decimal_number(std::string(tok), out);
+}
 class TextTokens {
  public:
   // The tokens of text from pos on, pos being on line `line`; name stands for the file. Until
@@ -103,11 +122,28 @@ class TextTokens {
   int last_line_;
 };
 
-// 17 significant digits: the text reads back to the same double.
+// 17 significant digits: the text reads back to the same double. std::to_chars with a
+// precision is specified as printf's %.17g, the text these files have always held, and is
+// faster than snprintf (bench/colmap_io.sh; tests/test_colmap_text_numbers.cpp checks that
+// the two agree).
+inline std::size_t g17(double v, char (&buf)[32]) {
+  const std::to_chars_result r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, 17);
+  return static_cast<std::size_t>(r.ptr - buf);
+}
 inline std::string g17(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
+  char buf[32];
+  return std::string(buf, g17(v, buf));
+}
+// g17(v) appended to *out.
+inline void append_g17(std::string *out, double v) {
+  char buf[32];
+  out->append(buf, g17(v, buf));
+}
+// An unsigned integer in decimal appended to *out.
+inline void append_uint(std::string *out, unsigned long long v) {
+  char buf[24];
+  const std::to_chars_result r = std::to_chars(buf, buf + sizeof buf, v);
+  out->append(buf, static_cast<std::size_t>(r.ptr - buf));
 }
 
 }  // namespace sbaformats
