@@ -16,6 +16,14 @@ directories. Checks:
   - each camera's focal length agrees with COLMAP's within 1e-4 (relative); per scene: the
     shared focal length moved from its start 2% off, or the image that sees no point is
     written back unchanged.
+Scenes (40 images, 2,500 points seen by 2..8 images each, about 12,300 observations):
+  shared_camera         one PINHOLE camera for every image, its focal length started 2% long;
+  opencv                an OPENCV camera per image (sbagen --kind varKD);
+  full_opencv           the same cameras as FULL_OPENCV, k3..k6 started at 0;
+  radial                the same cameras as RADIAL (one focal length: what sbarefine refines
+                        is then what COLMAP refines, whatever either does with fy/fx);
+  image_without_points  SIMPLE_RADIAL cameras and one more image, with a camera of its own,
+                        that sees no point.
 Every check of every scene is run and printed (PASS/FAIL and why), so that one failure does
 not hide the others. Exit status: 0 every check passed, 1 a check failed, 2 bad usage,
 77 no COLMAP found (ctest's SKIP_RETURN_CODE: the tests need the real program).
