@@ -36,6 +36,7 @@ import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.dont_write_bytecode = True  # no __pycache__ left in the source tree by the import below
 sys.path.insert(0, os.path.join(HERE, "..", "tests", "colmap_real"))
 import colmap_real  # noqa: E402  (the yardstick and the model readers)
 
