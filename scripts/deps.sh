@@ -3,12 +3,15 @@
 # Installs the Debian packages that sba needs for a purpose, when they are missing.
 #   scripts/deps.sh build   compiler, CMake, LAPACK/BLAS (OpenBLAS), SuiteSparse, bzip2
 #   scripts/deps.sh bench   build + Ceres Solver, Google Benchmark and gnuplot (bench/)
-#   scripts/deps.sh test    build + GoogleTest + GNU Octave (the MEX interface's tests) + python
+#   scripts/deps.sh test    build + GoogleTest + GNU Octave (the MEX interface's tests) + python,
+#                           and COLMAP (tests/colmap_real) if it installs: optional, its tests skip without it
 #   scripts/deps.sh python  build + what the Python package pysba builds and tests with
 #   scripts/deps.sh mex     build + GNU Octave with its MEX headers
 #   scripts/deps.sh valgrind  build + valgrind (make check-valgrind)
 #   scripts/deps.sh fuzz    build + clang-14 with its libFuzzer/sanitizer runtimes (make check-fuzz)
 # Run as root it installs them with apt-get; otherwise it prints the exact command and fails.
+# An optional package that is missing or fails to install is reported, never a failure: COLMAP
+# pulls in a large GUI stack and is absent from some releases, and only tests that skip need it.
 set -eu
 
 purpose=${1:-build}
@@ -17,9 +20,12 @@ pkgs="g++ make cmake pkg-config liblapack-dev libblas-dev libopenblas-dev libsui
 # builds its wheelhouse from them (tests/python/test_install.py).
 python_pkgs="python3-dev pybind11-dev python3-numpy python3-pytest python3-venv python3-setuptools python3-pip
 python3-wheel python3-pybind11 python3-setuptools-whl python3-wheel-whl"
+optional=""
 case "$purpose" in
   build) ;;
-  test) pkgs="$pkgs libgtest-dev octave octave-dev $python_pkgs" ;;
+  test)
+    pkgs="$pkgs libgtest-dev octave octave-dev $python_pkgs"
+    optional="colmap" ;;
   python) pkgs="$pkgs $python_pkgs" ;;
   mex) pkgs="$pkgs octave octave-dev" ;;
   bench) pkgs="$pkgs libceres-dev libbenchmark-dev gnuplot-nox" ;;
@@ -28,20 +34,34 @@ case "$purpose" in
   *) echo "usage: $0 build|test|python|mex|bench|valgrind|fuzz" >&2; exit 2 ;;
 esac
 
-missing=""
-for p in $pkgs; do
-  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
-    missing="$missing $p"
-  fi
-done
-[ -z "$missing" ] && exit 0
+# not_installed PKG...: the ones dpkg does not list as installed.
+not_installed() {
+  for p in "$@"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || printf ' %s' "$p"
+  done
+}
+# shellcheck disable=SC2086  # the package lists are split on purpose
+missing=$(not_installed $pkgs)
+# shellcheck disable=SC2086
+missing_optional=$(not_installed $optional)
+[ -z "$missing$missing_optional" ] && exit 0
 
 if [ "$(id -u)" -eq 0 ]; then
-  echo "deps: installing$missing" >&2
   export DEBIAN_FRONTEND=noninteractive
   apt-get update -qq
-  apt-get install -y -qq --no-install-recommends$missing >/dev/null
+  if [ -n "$missing" ]; then
+    echo "deps: installing$missing" >&2
+    apt-get install -y -qq --no-install-recommends$missing >/dev/null
+  fi
+  if [ -n "$missing_optional" ]; then
+    echo "deps: installing (optional)$missing_optional" >&2
+    apt-get install -y -qq --no-install-recommends$missing_optional >/dev/null ||
+      echo "deps: optional$missing_optional did not install; the tests that need it will skip" >&2
+  fi
 else
+  [ -n "$missing_optional" ] &&
+    echo "deps: optional, missing:$missing_optional (the tests that need it skip); sudo apt-get install -y$missing_optional" >&2
+  [ -z "$missing" ] && exit 0
   echo "deps: missing Debian packages:$missing" >&2
   echo "deps: install them with: sudo apt-get install -y$missing" >&2
   exit 1
