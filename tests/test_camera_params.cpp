@@ -196,6 +196,29 @@ TEST(CameraParams, TheSameBitsForAnyThreadCount) {
   }
 }
 
+TEST(CameraParams, SeveralSharedParametersInBothStrategies) {
+  // fu, u0 and v0 shared and free: three shared unknowns, which the bordering pairs with each
+  // other (and, in the trust region, with their scaled copies).
+  const Scene s = make_scene();
+  Config u;
+  u.fixed = {0, 0, 0, 1, 1, 0, 0, 0, 0, 0, 0};
+  const Solved a = run(s, u);
+  u.strategy = "trust-region";
+  const Solved b = run(s, u);
+  u.linsolver = "iterative-schur";
+  const Solved c = run(s, u);
+  for (const Solved *r : {&a, &b, &c}) {
+    ASSERT_GT(r->ret, 0);
+    for (int j = 1; j < s.m; ++j)
+      for (int q = 0; q < 3; ++q)
+        EXPECT_TRUE(same_bits(r->p[size_t(j) * kCnp + q], r->p[size_t(q)])) << j << " " << q;
+    EXPECT_NEAR(r->info[1], a.info[1], 1e-6 * a.info[1]);
+    EXPECT_NEAR(focal(*r, 0), kTrueFocal, 2.0);
+  }
+  // The principal point moved from where it started.
+  EXPECT_NE(a.p[1], s.p0[1]);
+}
+
 TEST(CameraParams, GroupsOfTheirOwn) {
   // Two lenses: even cameras one, odd the other; a camera in no group keeps its own.
   const Scene s = make_scene();
