@@ -564,8 +564,9 @@ TEST(Sbarefine, CommandLineErrors) {
   Outcome r = run("--refine-focal-length 2 x");
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(r.err, "sbarefine: bad value '2' for --refine-focal-length: expected 0 or 1\n");
-  r = run("--function-tolerance 0 x");
+  r = run("--function-tolerance -1 x");
   EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: bad value '-1' for --function-tolerance: expected a non-negative number\n");
   r = run("");
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(r.err, "sbarefine: expected 1 argument (a COLMAP model directory, a Bundler or an NVM file), got 0 (see --help)\n");
@@ -922,7 +923,7 @@ TEST(Sbarefine, MemoryFollowsTheObservations) {
   const std::string dir = temp_dir("sparse_memory");
   std::string error;
   ASSERT_TRUE(colmap::write_model(dir + "/in", sparse_model(m, n), colmap::Encoding::Binary, &error)) << error;
-  const Outcome r = run(dir + "/in --intrinsics none --solver sparse-chol --threads 1 --itmax 2",
+  const Outcome r = run(dir + "/in --intrinsics none --solver sparse-chol --strategy sba --threads 1 --itmax 2",
                         "ulimit -v " + std::to_string(limit_kb) + "; OPENBLAS_NUM_THREADS=1 ");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("COLMAP model " + dir + "/in (binary): 10000 images, 1 cameras, 200000 points, 400000 "
@@ -1343,6 +1344,28 @@ TEST(SbarefineColmapModels, SharedCameraFocalComesBack) {
     EXPECT_EQ(back.images[static_cast<std::size_t>(j)].t, s.model.images[static_cast<std::size_t>(j)].t);
   }
   EXPECT_NE(back.images[2].t, s.model.images[2].t);
+}
+
+// COLMAP's bundle adjuster's defaults for a COLMAP model: Ceres's LM (the trust region), at
+// most 100 iterations, run until the cost stops changing; sba's otherwise or when asked.
+TEST(SbarefineColmapModels, DefaultsAreColmaps) {
+  const std::string dir = temp_dir("colmap_defaults");
+  const ColmapScene s = make_colmap_scene(colmap::kSimpleRadial, {800, 320, 240, -0.05}, {816, 320, 240, -0.05}, true,
+                                          10, 300, 0.5, {0, 1});
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  Outcome r = run(dir + "/in --json " + dir + "/r.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find(", strategy trust-region, "), std::string::npos) << r.out;
+  const std::string json = read_file(dir + "/r.json");
+  EXPECT_NE(json.find("\"itmax\": 100,"), std::string::npos) << json;
+  r = run(dir + "/in --max-num-iterations 3");
+  EXPECT_NE(r.out.find("SBA returned 3 in 3 iter, reason 3"), std::string::npos) << r.out;
+  // The summary names a strategy other than sba's.
+  r = run(dir + "/in --strategy sba --itmax 1");
+  EXPECT_EQ(r.out.find(", strategy "), std::string::npos) << r.out;
+  r = run(dir + "/in --eps4 1e-3 --itmax 1");  // sba's eps4: sba's tests
+  EXPECT_EQ(r.out.find(", strategy "), std::string::npos) << r.out;
 }
 
 // The shared-camera problem through every linear solver and both strategies: one minimum.

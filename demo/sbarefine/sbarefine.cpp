@@ -66,7 +66,25 @@ struct Options {
   std::string bundler_list;  // Bundler: the image list read; empty: none
   std::string write_list;    // Bundler: where the image list is written back; empty: not
   bool help = false, version = false;
+
+  // The iteration limit depends on the format (see resolve_defaults): -1 until then.
+  Options() { solve.itmax = -1; }
 };
+
+// COLMAP's bundle adjuster is Ceres's Levenberg-Marquardt with its defaults
+// (max_num_iterations 100, function_tolerance 0): a COLMAP model is refined as COLMAP refines
+// it unless the command line says otherwise, with the trust-region strategy, whose eps4 is
+// Ceres's relative cost change. A tolerance of 0 runs until an accepted step no longer changes
+// the cost beyond rounding. The other formats keep sba's algorithm and the programs' limit.
+void resolve_defaults(bool colmap_model, Options *o) {
+  sbacli::SolveOptions &so = o->solve;
+  if (so.itmax < 0) so.itmax = colmap_model ? 100 : 150;
+  double ftol = o->function_tolerance;
+  if (ftol < 0 && colmap_model && so.strategy.empty() && so.opts[4] == 0.0) ftol = 0.0;
+  if (ftol < 0) return;
+  so.opts[4] = std::max(ftol, 4 * std::numeric_limits<double>::epsilon());
+  if (so.strategy.empty()) so.strategy = "trust-region";
+}
 
 std::vector<sbacli::Option> option_table(Options &o) {
   std::vector<sbacli::Option> t;
@@ -113,15 +131,18 @@ std::vector<sbacli::Option> option_table(Options &o) {
                  o.hold_poses = v;
                  return {};
                }});
-  t.push_back({"max-num-iterations", "N", "COLMAP's name of --itmax (COLMAP's default is 100, sbarefine's 150)",
+  t.push_back({"max-num-iterations", "N",
+               "COLMAP's name of --itmax (default 100 for a COLMAP model, as COLMAP; 150 for the others)",
                [&o](const std::string &v) {
                  return sbacli::to_int(v, 0, std::numeric_limits<int>::max(), &o.solve.itmax);
                }});
   t.push_back({"function-tolerance", "X",
                "COLMAP's (Ceres's) function_tolerance: stop when an accepted step changes the cost by\n"
                "at most X relatively. Sets --eps4 X and, unless --strategy is given, the trust-region\n"
-               "strategy, whose eps4 is this test (sba's eps4 is a relative RMS reduction instead)",
-               [&o](const std::string &v) { return sbacli::to_real(v, 0.0, true, &o.function_tolerance); }});
+               "strategy, whose eps4 is this test (sba's eps4 is a relative RMS reduction instead).\n"
+               "A COLMAP model is refined at COLMAP's default, 0: until an accepted step changes the\n"
+               "cost by no more than rounding (give --strategy or --eps4 for sba's tests instead)",
+               [&o](const std::string &v) { return sbacli::to_real(v, 0.0, false, &o.function_tolerance); }});
   t.push_back({"write-eucsba", "PREFIX",
                "COLMAP, NVM: also write the refined model as eucsbademo files PREFIX-cams.txt (17\n"
                "values a line) and PREFIX-pts.txt",
@@ -536,10 +557,6 @@ int refine_main(int argc, char **argv) {
       status >= 0)
     return status;
   sbacli::SolveOptions &so = o.solve;
-  if (o.function_tolerance > 0) {
-    so.opts[4] = o.function_tolerance;
-    if (so.strategy.empty()) so.strategy = "trust-region";
-  }
   Input input;
   if (!look_at_input(o.input, &input, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
@@ -588,6 +605,7 @@ int refine_main(int argc, char **argv) {
       std::fprintf(stderr, "sbarefine: %s is for %s\n", opt.option, opt.formats);
       return kExitUsage;
     }
+  resolve_defaults(format == Format::Colmap, &o);
   if (!o.write_list.empty() && o.bundler_list.empty()) {
     std::fprintf(stderr, "sbarefine: --write-list writes the list of --bundler-list, which is not given\n");
     return kExitUsage;
