@@ -6,11 +6,11 @@ Each scene: sbagen --kind fixed (one PINHOLE camera for every image), its focal 
 started 2% long, converted to a binary model by `colmap model_converter` (the input is one
 COLMAP wrote). Two configurations, each program run --repeat times on the same input into a
 fresh directory under /usr/bin/time -v:
-  default  both programs at their defaults (COLMAP refines the shared fx and fy, the poses and
-           the points; sbarefine as it is);
+  default  both programs at their defaults (each refines the shared fx and fy, the poses and
+           the points);
   held     the intrinsics held by both (COLMAP --BundleAdjustment.refine_focal_length 0
            --BundleAdjustment.refine_extra_params 0, sbarefine --intrinsics none): the same
-           problem for both, and one that sbarefine takes today.
+           problem for both.
 Reported: the median of the wall times (and all of them), the largest peak RSS, the
 iterations, and the RMS reprojection error of the written model measured by one yardstick
 for both (tests/colmap_real/colmap_real.py's projection of COLMAP's camera models).
@@ -19,7 +19,7 @@ Threads: COLMAP 3.8's bundle_adjuster has no option for them (Ceres gets every h
 thread); sbarefine is given --threads THREADS (default 2, this machine's core count).
 
   bench/colmap_ba.py --sbagen build/data/sbagen --sbarefine build/demo/sbarefine \\
-      [--colmap colmap] [--sizes 100,300,1000] [--repeat 3] [--threads 2] \\
+      [--colmap colmap] [--sizes 100,300,1000] [--repeat 3] [--threads 2] [--configs default,held] \\
       [--points-per-image 100] [--out bench/results/colmap_ba] [--work DIR]
 writes OUT.md (the tables and the exact commands) and OUT.json (one JSON object a run).
 """
@@ -105,6 +105,7 @@ def main(argv):
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--points-per-image", type=int, default=100)
     ap.add_argument("--out", default=os.path.join(HERE, "results", "colmap_ba"))
+    ap.add_argument("--configs", default="default,held", help="which configurations, comma-separated")
     ap.add_argument("--work", help="scenes and outputs here, kept (default: a temporary directory, removed)")
     a = ap.parse_args(argv)
     if not os.access(a.colmap, os.X_OK):
@@ -123,7 +124,7 @@ def main(argv):
             cmds.append(" ".join(gen_cmd).replace(work, "$WORK") + "   # then the focal length * 1.02, colmap model_converter to BIN")
             print("colmap_ba: %d images, %d points, %d observations, initial RMS %.4f px"
                   % (n, len(scene.points), nobs, rms0), flush=True)
-            for config in ("default", "held"):
+            for config in a.configs.split(","):
                 for program in ("colmap", "sbarefine"):
                     walls, rss, status, out, its = [], [], 0, "", None
                     outdir = os.path.join(d, "%s_%s" % (config, program))
@@ -191,7 +192,7 @@ def write_report(a, version, rows, runs, cmds):
                 r["images"], r["observations"], r["config"], r["program"], r["exit"], r["why"].replace("|", "/")))
     lines += ["", "Commands (`$WORK` the scratch directory; each run writes into a fresh directory):", "", "```",
               " ".join(["bench/colmap_ba.py", "--sbagen", a.sbagen, "--sbarefine", a.sbarefine, "--sizes", a.sizes,
-                        "--repeat", str(a.repeat), "--threads", str(a.threads),
+                        "--repeat", str(a.repeat), "--threads", str(a.threads), "--configs", a.configs,
                         "--points-per-image", str(a.points_per_image)])]
     lines += [c for c in cmds] + ["```", ""]
     with open(a.out + ".md", "w", encoding="utf-8") as f:
