@@ -177,8 +177,9 @@ class SparseSchurSolver final : public StepSolver {
   bool analyzed() const { return chol_.L != nullptr; }
 
   StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
-    const int cnp = lay_.cnp, nc = lay_.free_cams();
+    const int cnp = lay_.cnp;
     const std::vector<int> &perm = pat_->perm;
+    have_vinv_ = false;
     std::fill(dp, dp + lay_.nvars(), 0.0);
     double *Ax = static_cast<double *>(chol_.A->x);
     std::fill(Ax, Ax + static_cast<const Index *>(chol_.A->p)[chol_.A->ncol], 0.0);
@@ -192,9 +193,6 @@ class SparseSchurSolver final : public StepSolver {
     // doubles, as much as S itself on a long sequence).
     if (!ctx_.kernels.assemble(ctx_.pool, ne, nullptr, mu, map, rhs_.data()))
       return StepStatus::SingularPointBlock;
-    double *b = static_cast<double *>(chol_.B->x);
-    for (int j = 0; j < nc; ++j)
-      std::copy_n(rhs_.data() + i64(j) * cnp, cnp, b + i64(perm[size_t(j)]) * cnp);
 
     const ThreadPool::ForeignThreads cholmod(ctx_.pool);  // CHOLMOD and its BLAS run their own
     double beta[2] = {0.0, 0.0};
@@ -205,34 +203,35 @@ class SparseSchurSolver final : public StepSolver {
     if (chol_.cm.status == CHOLMOD_OUT_OF_MEMORY || (!ok && chol_.cm.status != CHOLMOD_NOT_POSDEF))
       throw_cholmod_failure(direct_ ? "cholmod_super_numeric" : "cholmod_factorize", chol_.cm.status);
     if (chol_.L->minor < chol_.L->n) return StepStatus::Failed;  // not positive definite at this damping
-    cholmod_dense *X = Api::solve(CHOLMOD_A, chol_.L, chol_.B, &chol_.cm);
-    if (!X) throw_cholmod_failure("cholmod_solve", chol_.cm.status);
-    const double *x = static_cast<const double *>(X->x);
-    double *da = dp + lay_.a_off(lay_.mcon);
-    bool finite = true;
-    for (int j = 0; j < nc; ++j)
-      for (int a = 0; a < cnp; ++a) {
-        const double v = x[i64(perm[size_t(j)]) * cnp + a];
-        da[i64(j) * cnp + a] = v;
-        finite = finite && std::isfinite(v);
-      }
-    Api::free_dense(&X, &chol_.cm);
-    if (!finite) return StepStatus::Failed;
+    if (!solve_factored(dp)) return StepStatus::Failed;
     ctx_.kernels.back_substitute(ctx_.pool, ne, nullptr, mu, dp);
     return StepStatus::Solved;
   }
 
   bool solve_again(const NormalEquations &ne, double mu, double *dp) override {
+    // The point blocks' inverses are those of every right-hand side at this damping: made once.
+    if (!have_vinv_) {
+      Vinv_.resize(size_t(lay_.n) * size_t(lay_.pnp) * size_t(lay_.pnp));
+      if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
+      have_vinv_ = true;
+    }
+    reduced_(ne, Vinv_.data(), rhs_.data());
+    std::fill(dp, dp + lay_.nvars(), 0.0);
+    const ThreadPool::ForeignThreads cholmod(ctx_.pool);
+    if (!solve_factored(dp)) return false;
+    ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), mu, dp);
+    return true;
+  }
+
+ private:
+  // da (dp's free cameras) from the factor and rhs_, through CHOLMOD's permuted order; false
+  // if it is not finite.
+  bool solve_factored(double *dp) {
     const int cnp = lay_.cnp, nc = lay_.free_cams();
     const std::vector<int> &perm = pat_->perm;
-    Vinv_.resize(size_t(lay_.n) * size_t(lay_.pnp) * size_t(lay_.pnp));
-    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
-    reduced_(ne, Vinv_.data(), rhs_.data());
     double *b = static_cast<double *>(chol_.B->x);
     for (int j = 0; j < nc; ++j)
       std::copy_n(rhs_.data() + i64(j) * cnp, cnp, b + i64(perm[size_t(j)]) * cnp);
-    std::fill(dp, dp + lay_.nvars(), 0.0);
-    const ThreadPool::ForeignThreads cholmod(ctx_.pool);
     cholmod_dense *X = Api::solve(CHOLMOD_A, chol_.L, chol_.B, &chol_.cm);
     if (!X) throw_cholmod_failure("cholmod_solve", chol_.cm.status);
     const double *x = static_cast<const double *>(X->x);
@@ -245,12 +244,9 @@ class SparseSchurSolver final : public StepSolver {
         finite = finite && std::isfinite(v);
       }
     Api::free_dense(&X, &chol_.cm);
-    if (!finite) return false;
-    ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), mu, dp);
-    return true;
+    return finite;
   }
 
- private:
   // CHOLMOD's matrix on the stored blocks and its symbolic factorization. The diagonal blocks
   // are stored whole (CHOLMOD ignores the part above the diagonal), so that every scalar
   // column of a block column has the same rows, as the BlockMap layout needs.
@@ -301,7 +297,8 @@ class SparseSchurSolver final : public StepSolver {
   const Layout &lay_;
   std::shared_ptr<const Pattern> pat_;
   std::vector<double> rhs_;
-  std::vector<double> Vinv_;  // solve_again's damped point blocks' inverses
+  std::vector<double> Vinv_;  // solve_again's damped point blocks' inverses ...
+  bool have_vinv_ = false;    // ... made since the last solve
   ReducedRhs reduced_{ctx_};
   Cholmod<Api> chol_;
   bool direct_ = false;  // L is unpermuted: factor A itself (no copy)
