@@ -3,6 +3,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <vector>
@@ -57,6 +58,32 @@ const double *vector_arg(const mxArray *a, const char *name, std::size_t len,
   return v;
 }
 
+template <typename T>
+double load(const unsigned char *e) {
+  T v;
+  std::memcpy(&v, e, sizeof v);
+  return static_cast<double>(v);
+}
+
+// Element k (column-major) of a dense real numeric or logical array, as a double: an integer
+// beyond 2^53 rounds, which keeps it nonzero.
+double element(const mxArray *a, std::size_t k) {
+  const unsigned char *e = static_cast<const unsigned char *>(mxGetData(a)) + k * mxGetElementSize(a);
+  switch (mxGetClassID(a)) {
+    case mxDOUBLE_CLASS: return load<double>(e);
+    case mxSINGLE_CLASS: return load<float>(e);
+    case mxINT8_CLASS: return load<std::int8_t>(e);
+    case mxUINT8_CLASS: return load<std::uint8_t>(e);
+    case mxINT16_CLASS: return load<std::int16_t>(e);
+    case mxUINT16_CLASS: return load<std::uint16_t>(e);
+    case mxINT32_CLASS: return load<std::int32_t>(e);
+    case mxUINT32_CLASS: return load<std::uint32_t>(e);
+    case mxINT64_CLASS: return load<std::int64_t>(e);
+    case mxUINT64_CLASS: return load<std::uint64_t>(e);
+    default: return *e != 0 ? 1.0 : 0.0;  // logical
+  }
+}
+
 // vmask as 1.6's n*m chars (vmask[i*m + j]: point i seen by camera j), dense or sparse.
 std::vector<char> read_vmask(const mxArray *a, int n, int m, long long *nvis) {
   if (!is_real_numeric(a) || mxGetNumberOfDimensions(a) != 2)
@@ -76,31 +103,100 @@ std::vector<char> read_vmask(const mxArray *a, int n, int m, long long *nvis) {
       for (mwIndex k = jc[j]; k < jc[j + 1]; ++k)
         if (logical ? lv[k] != 0 : dv[k] != 0.0) mask[ir[k] * m + j] = 1;
   } else {
-    const std::size_t esize = mxGetElementSize(a);
-    const unsigned char *base = static_cast<const unsigned char *>(mxGetData(a));
-    const mxClassID cls = mxGetClassID(a);
     for (int j = 0; j < m; ++j)
-      for (int i = 0; i < n; ++i) {
-        const unsigned char *e = base + (static_cast<std::size_t>(j) * n + i) * esize;
-        bool nz = false;
-        if (cls == mxDOUBLE_CLASS) {
-          double v;
-          std::memcpy(&v, e, sizeof v);
-          nz = v != 0.0;
-        } else if (cls == mxSINGLE_CLASS) {
-          float v;
-          std::memcpy(&v, e, sizeof v);
-          nz = v != 0.0f;
-        } else {  // logical and the integer classes: nonzero iff some byte is
-          for (std::size_t b = 0; b < esize; ++b) nz = nz || e[b] != 0;
-        }
-        mask[static_cast<std::size_t>(i) * m + j] = nz ? 1 : 0;
-      }
+      for (int i = 0; i < n; ++i)
+        mask[static_cast<std::size_t>(i) * m + j] =
+            element(a, static_cast<std::size_t>(j) * n + i) != 0.0 ? 1 : 0;
   }
   long long count = 0;
   for (char c : mask) count += c != 0;
   *nvis = count;
   return mask;
+}
+
+// The options struct (beyond 1.6): a scalar struct with at least one of these fields. Any
+// other value, a struct of other fields included, is problem data as in 1.6.
+constexpr const char *kOptionFields[] = {"fixed_params", "camera_groups", "shared_params"};
+
+bool is_option_field(const char *name) {
+  for (const char *f : kOptionFields)
+    if (std::strcmp(name, f) == 0) return true;
+  return false;
+}
+
+bool is_options_struct(const mxArray *a) {
+  if (!mxIsStruct(a) || mxGetNumberOfElements(a) != 1) return false;
+  for (int f = 0; f < mxGetNumberOfFields(a); ++f)
+    if (is_option_field(mxGetFieldNameByNumber(a, f))) return true;
+  return false;
+}
+
+// The values of a dense real numeric or logical matrix, column-major, all finite.
+std::vector<double> matrix_values(const mxArray *a, const char *name) {
+  if (!is_real_numeric(a) || mxIsSparse(a) || mxGetNumberOfDimensions(a) != 2)
+    bad_arg("invalidArgument", format("%s must be a dense real or logical matrix (got a %s).",
+                                      name, describe(a).c_str()));
+  std::vector<double> v(mxGetNumberOfElements(a));
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    v[k] = element(a, k);
+    if (!std::isfinite(v[k])) bad_arg("invalidArgument", format("%s(%zu) is not finite.", name, k + 1));
+  }
+  return v;
+}
+
+// The held and shared camera parameters of the options struct s, in sba_ext_options' layout.
+void read_options_struct(Gateway &g, const mxArray *s) {
+  for (int f = 0; f < mxGetNumberOfFields(s); ++f)
+    if (!is_option_field(mxGetFieldNameByNumber(s, f)))
+      bad_arg("invalidArgument",
+              format("the options struct has an unknown field '%s' (expected fixed_params, "
+                     "camera_groups or shared_params).",
+                     mxGetFieldNameByNumber(s, f)));
+  const std::size_t m = g.m, cnp = g.cnp;
+  auto given = [&](const char *name) {
+    const mxArray *v = mxGetField(s, 0, name);
+    return v && !mxIsEmpty(v) ? v : nullptr;
+  };
+  if (const mxArray *v = given("fixed_params")) {
+    const std::vector<double> f = matrix_values(v, "fixed_params");
+    if (is_vector_shape(v) && f.size() == cnp) {
+      g.cam_fixed_per_camera = false;
+      for (double x : f) g.cam_fixed.push_back(x != 0.0);
+    } else if (mxGetM(v) == m && mxGetN(v) == cnp) {
+      g.cam_fixed_per_camera = true;  // row j is camera j's: to camera-major
+      g.cam_fixed.resize(m * cnp);
+      for (std::size_t j = 0; j < m; ++j)
+        for (std::size_t c = 0; c < cnp; ++c) g.cam_fixed[j * cnp + c] = f[c * m + j] != 0.0;
+    } else {
+      bad_arg("wrongSize",
+              format("fixed_params must have cnp = %zu flags (for every camera) or be m x cnp = "
+                     "%zu x %zu (got %zu x %zu).",
+                     cnp, m, cnp, static_cast<std::size_t>(mxGetM(v)),
+                     static_cast<std::size_t>(mxGetN(v))));
+    }
+  }
+  const mxArray *groups = given("camera_groups"), *shared = given("shared_params");
+  if (groups && !shared)
+    bad_arg("invalidArgument",
+            "camera_groups needs shared_params (the cnp flags of what a group shares).");
+  if (shared && !groups)
+    bad_arg("invalidArgument", "shared_params needs camera_groups (a group number per camera).");
+  if (!groups) return;
+  const std::vector<double> gv = matrix_values(groups, "camera_groups");
+  if (!is_vector_shape(groups) || gv.size() != m)
+    bad_arg("wrongSize", format("camera_groups must have m = %zu values (got %zu).", m, gv.size()));
+  for (std::size_t j = 0; j < m; ++j) {
+    if (gv[j] != std::floor(gv[j]) || gv[j] < -1 || gv[j] > static_cast<double>(m) - 1)
+      bad_arg("invalidArgument",
+              format("camera_groups(%zu) must be -1 (no group) or a group number in [0, %zu] "
+                     "(got %g).",
+                     j + 1, m - 1, gv[j]));
+    g.cam_group.push_back(static_cast<int>(gv[j]));
+  }
+  const std::vector<double> sv = matrix_values(shared, "shared_params");
+  if (!is_vector_shape(shared) || sv.size() != cnp)
+    bad_arg("wrongSize", format("shared_params must have cnp = %zu flags (got %zu).", cnp, sv.size()));
+  for (double x : sv) g.cam_shared.push_back(x != 0.0);
 }
 
 void parse_callback(Callback &cb, const std::string &text, const char *role) {
@@ -203,10 +299,10 @@ void parse(Gateway &g, int nrhs, const mxArray *prhs[], std::string *warning) {
           "(tau 1e-03, eps1 to eps3 1e-12, eps4 0).",
           len, SBA_OPTSSZ);
   }
-  // 'strategy=NAME' (beyond 1.6) may come just before or just after reftype; no reftype or
-  // problem data of a 1.6 call begins so.
+  // 'strategy=NAME' and the options struct (beyond 1.6) may come just before or just after
+  // reftype, each once; no reftype or problem data of a 1.6 call begins so.
   auto strategy_option = [&](int at) {
-    if (at >= nrhs || !mxIsChar(prhs[at])) return false;
+    if (!mxIsChar(prhs[at])) return false;
     const std::string v = string_arg(prhs[at]);
     if (v.compare(0, 9, "strategy=") != 0) return false;
     g.strategy = v.substr(9);
@@ -215,7 +311,16 @@ void parse(Gateway &g, int nrhs, const mxArray *prhs[], std::string *warning) {
                                         g.strategy.c_str(), sba_strategy_names()));
     return true;
   };
-  if (strategy_option(k)) ++k;
+  bool have_struct = false;
+  auto option = [&](int at) {
+    if (at >= nrhs) return false;
+    if (g.strategy.empty() && strategy_option(at)) return true;
+    if (have_struct || !is_options_struct(prhs[at])) return false;
+    read_options_struct(g, prhs[at]);
+    have_struct = true;
+    return true;
+  };
+  while (option(k)) ++k;
   if (k < nrhs && mxIsChar(prhs[k])) {
     std::string r = string_arg(prhs[k++]);
     for (char &c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -229,8 +334,12 @@ void parse(Gateway &g, int nrhs, const mxArray *prhs[], std::string *warning) {
       bad_arg("unknownReftype",
               format("unknown reftype '%s' (expected 'motstr', 'mot' or 'str').", r.c_str()));
   }
-  if (g.strategy.empty() && strategy_option(k)) ++k;
+  while (option(k)) ++k;
   for (; k < nrhs; ++k) g.extra.push_back(prhs[k]);
+  if (g.reftype == RefType::Str && (!g.cam_fixed.empty() || !g.cam_group.empty()))
+    bad_arg("invalidArgument",
+            "fixed_params, camera_groups and shared_params apply to cameras, which reftype 'str' "
+            "does not refine.");
 
   // Sizes that depend on what came before.
   if (g.reftype != RefType::Str && g.cnp == 0)

@@ -266,6 +266,14 @@ int solve(Gateway &g, std::vector<double> &p, double info[SBA_INFOSZ]) {
   ext.progress = progress;
   ext.progress_ctx = &g;
   if (!g.strategy.empty()) ext.strategy = g.strategy.c_str();
+  if (!g.cam_fixed.empty()) {
+    ext.cam_fixed = g.cam_fixed.data();
+    ext.cam_fixed_per_camera = g.cam_fixed_per_camera;
+  }
+  if (!g.cam_group.empty()) {
+    ext.cam_group = g.cam_group.data();
+    ext.cam_shared = g.cam_shared.data();
+  }
   const bool jac = g.projac.kind != Callback::kNone;
   double *covx = const_cast<double *>(g.covx), *x = const_cast<double *>(g.x);
   char *vmask = g.vmask.data();

@@ -91,6 +91,12 @@ struct Gateway {
   const mxArray *p0_arg = nullptr;
   const double *x = nullptr, *covx = nullptr;
   double opts[SBA_OPTSSZ] = {SBA_INIT_MU, SBA_STOP_THRESH, SBA_STOP_THRESH, SBA_STOP_THRESH, 0.0};
+  // Camera parameters held or shared (the options struct, beyond 1.6), in sba_ext_options'
+  // layout: cam_fixed has cnp flags (every camera) or m*cnp (camera j's at j*cnp).
+  std::vector<char> cam_fixed;
+  bool cam_fixed_per_camera = false;
+  std::vector<int> cam_group;
+  std::vector<char> cam_shared;
   std::vector<const mxArray *> extra;
   std::vector<double *> extra_ptrs;  // for NAME@LIBRARY callbacks
   Callback proj, projac;

@@ -53,6 +53,14 @@ function varargout = sba(varargin)
 %           undamped normal equations, as the sba paper writes it) or
 %           'strategy=trust-region' (damping scaled by diag(J'J), Ceres-like stopping at a
 %           relative cost change of eps4, 1e-6 when eps4 is 0: usually far fewer iterations)
+%   options struct  (beyond sba 1.6; just before or just after reftype) a scalar struct with
+%           any of these fields, for the cameras ('motstr' and 'mot'):
+%             fixed_params   cnp flags held in every camera, or an m x cnp matrix, row j for
+%                            camera j-1: nonzero holds the parameter at its p0 value
+%             camera_groups  m group numbers, -1 for a camera in no group, else in [0, m-1]
+%             shared_params  cnp flags: the parameters the cameras of a group share, solved
+%                            as one unknown (say one focal length for one physical camera)
+%           A struct with none of these fields is problem data.
 %   extra1, extra2, ...  everything after those: problem data passed unchanged to every call
 %           of proj and projac
 %
@@ -96,10 +104,10 @@ function varargout = sba(varargin)
 % Errors and interruption
 %   Every bad argument stops with an error naming it, e.g. 'sba: x must have nvis*mnp = 3832
 %   values (got 3830).' Identifiers: sba:invalidArgument, sba:wrongSize, sba:notEnoughInputs,
-%   sba:unknownReftype, sba:libraryNotFound, sba:functionNotFound, sba:callbackFailed,
-%   sba:callbackSize, sba:invalidProblem. Ctrl-C stops a running solve cleanly between two
-%   callback calls (Octave; MATLAB through utIsInterruptPending), returns no result and
-%   leaves the session working.
+%   sba:unknownReftype, sba:unknownStrategy, sba:libraryNotFound, sba:functionNotFound,
+%   sba:callbackFailed, sba:callbackSize, sba:invalidProblem. Ctrl-C stops a running solve
+%   cleanly between two callback calls (Octave; MATLAB through utIsInterruptPending), returns
+%   no result and leaves the session working.
 %
 % Example: the Euclidean bundle adjustment of the C demo program,
 %   eucsbademo                   % .m callbacks SBAEUC_PROJ and SBAEUC_PROJAC

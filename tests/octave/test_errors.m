@@ -61,22 +61,22 @@ function test_errors()
   for k = 1:size(cases, 1)
     args = base;
     args{cases{k, 1}} = cases{k, 2};
-    expect_error(args, cases{k, 3}, cases{k, 4});
+    sbatest_expect_error(args, cases{k, 3}, cases{k, 4});
   end
 
   % Wrong covx length (covx given right after x).
   args = [base(1:X), {ones(1, 10)}, base(X+1:end)];
-  expect_error(args, 'sba:wrongSize', 'covx must have nvis\*mnp\*mnp = 7664 values \(got 10\)');
+  sbatest_expect_error(args, 'sba:wrongSize', 'covx must have nvis\*mnp\*mnp = 7664 values \(got 10\)');
   % Everything fixed: the solver refuses the problem.
   args = base; args{MCON} = prob.m; args{NCON} = prob.n;
-  expect_error(args, 'sba:invalidProblem', 'the solver refused the problem: .*nothing to refine');
+  sbatest_expect_error(args, 'sba:invalidProblem', 'the solver refused the problem: .*nothing to refine');
   % Too few inputs, too many outputs.
-  expect_error({1, 2, 3}, 'sba:notEnoughInputs', 'at least 12 input arguments are needed');
+  sbatest_expect_error({1, 2, 3}, 'sba:notEnoughInputs', 'at least 12 input arguments are needed');
   try
     [a, b, c, d] = sba(base{:});
     error('sbatest:failed', 'four outputs were accepted');
   catch err
-    check(err, 'sba:tooManyOutputs', 'at most 3 outputs');
+    sbatest_check_error(err, 'sba:tooManyOutputs', 'at most 3 outputs');
   end
   % A wrong number of outputs of the C function cannot be checked, but a missing Jacobian of
   % the right name in the wrong mode can: 'mot' with the motstr .m Jacobian asks for 1 output.
@@ -107,24 +107,5 @@ function test_errors()
   % After all that, a normal solve still works.
   [ret, ~, info] = sba(base{:});
   sbatest_assert(ret > 0 && info(2) / prob.nvis < 1, 'sba no longer works after the errors (ret %d)', ret);
-end
-
-function expect_error(args, id, pattern)
-  try
-    sba(args{:});
-  catch err
-    check(err, id, pattern);
-    return;
-  end
-  error('sbatest:failed', 'no error; expected %s: %s', id, pattern);
-end
-
-function check(err, id, pattern)
-  sbatest_assert(strcmp(err.identifier, id), 'identifier %s instead of %s (message: %s)', ...
-                 err.identifier, id, err.message);
-  sbatest_assert(~isempty(regexp(err.message, pattern, 'once')), ...
-                 'message "%s" does not match "%s"', err.message, pattern);
-  sbatest_assert(strncmp(err.message, 'sba: ', 5), 'message "%s" does not start with "sba: "', err.message);
-  printf('ok: %s\n', err.message);
 end
 % SPDX-License-Identifier: BSD-3-Clause

@@ -1,0 +1,32 @@
+function s = sbatest_focal_scene(focals)
+% SBATEST_FOCAL_SCENE  A synthetic scene for SBATEST_FOCAL_PROJ: numel(focals) cameras on an
+% arc 8 units from 40 points in a 4 x 4 x 2 box, every point seen by every camera, the
+% projections with the true focal lengths FOCALS plus deterministic noise of 0.3 px at most.
+% p0 starts every camera at 1.02 times its focal length, the points 0.01 off.
+  m = numel(focals);
+  n = 40;
+  k = (1:n)';
+  pts = [2 * sin(1.3 * k), 2 * cos(0.7 * k), sin(2.1 * k)];
+  cams = zeros(m, 7);
+  for j = 1:m
+    a = 0.25 * (j - (m + 1) / 2);               % around the y axis, towards the box
+    w = [0.02 * sin(j), a, 0.01 * cos(j)];
+    C = [8 * sin(a), 0.2 * j, -8 * cos(a)];     % the camera centre
+    R = sbatest_rotation(w);
+    cams(j, :) = [w, -(R * C')', focals(j)];
+  end
+  x = zeros(1, 2 * n * m);
+  for i = 1:n
+    for j = 1:m
+      q = 2 * ((i - 1) * m + j) - 1;
+      x(q:q + 1) = sbatest_focal_proj(j - 1, i - 1, cams(j, :), pts(i, :)) + ...
+                   0.3 * sin([1.7 2.3] * (q + 3));
+    end
+  end
+  start = cams;
+  start(:, 7) = 1.02 * start(:, 7);
+  s = struct('n', n, 'm', m, 'cnp', 7, 'pnp', 3, 'mnp', 2, 'vmask', ones(n, m), 'x', x, ...
+             'truth', [reshape(cams', 1, []), reshape(pts', 1, [])], ...
+             'p0', [reshape(start', 1, []), reshape((pts + 0.01 * cos(3 * pts))', 1, [])]);
+end
+% SPDX-License-Identifier: BSD-3-Clause

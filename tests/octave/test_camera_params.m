@@ -1,0 +1,114 @@
+function test_camera_params()
+% The options struct (beyond 1.6): camera parameters held (fixed_params) and shared by groups
+% of cameras (camera_groups, shared_params), on a synthetic scene of 6 cameras whose focal
+% lengths start 2% long (SBATEST_FOCAL_SCENE, SBATEST_FOCAL_PROJ, finite-difference Jacobians).
+  s = sbatest_focal_scene(800 * ones(1, 6));
+  f = 7 * (0:s.m - 1) + 7;                    % the focal lengths in p0
+  % Camera 0's pose and camera 1's x translation held: that fixes the gauge (7 degrees).
+  held = false(s.m, 7);
+  held(1, 1:6) = true;
+  held(2, 4) = true;
+  hidx = find(held');                         % their places in p0
+  one = struct('fixed_params', held, 'camera_groups', zeros(1, s.m), ...
+               'shared_params', [0 0 0 0 0 0 1]);
+
+  % One focal length for the six cameras: it comes back to the truth, every camera with the
+  % same bits, and the held parameters keep theirs.
+  [ret, p, info] = run_scene(s, 'motstr', one);
+  printf('one shared focal length: %.6f (truth 800, start 816), %d iterations, error %.9g\n', ...
+         p(f(1)), ret, info(2));
+  % This scene's figures: 799.805372 in 19 iterations, error 20.4649433.
+  sbatest_assert(ret >= 15 && ret <= 25, 'shared focal length: %d iterations', ret);
+  sbatest_assert(all(p(f) == p(f(1))), 'the cameras of the group end with different focal lengths');
+  sbatest_assert(abs(p(f(1)) - 799.805372) < 1e-4 && abs(info(2) - 20.4649433) < 1e-6 * 20.5, ...
+                 'shared focal length %.6f, error %.9g', p(f(1)), info(2));
+  sbatest_assert(isequal(p(hidx), s.p0(hidx)), 'a held parameter moved');
+  sbatest_assert(any(p(setdiff(1:42, [hidx; f'])) ~= s.p0(setdiff(1:42, [hidx; f'])) ), ...
+                 'the free camera parameters did not move');
+
+  % Without the struct each camera gets a focal length of its own (the fit is closer, the
+  % focal lengths spread); fixed_params alone holds without sharing.
+  [ret0, p0, info0] = run_scene(s, 'motstr');
+  printf('no struct: focal lengths %.3f .. %.3f, error %.9g\n', min(p0(f)), max(p0(f)), info0(2));
+  sbatest_assert(ret0 > 0 && max(p0(f)) - min(p0(f)) > 0.01 && info0(2) < info(2), ...
+                 'without camera_groups the focal lengths are %.6f .. %.6f, error %.9g', ...
+                 min(p0(f)), max(p0(f)), info0(2));
+  [rh, ph] = run_scene(s, 'motstr', struct('fixed_params', held));
+  sbatest_assert(rh > 0 && isequal(ph(hidx), s.p0(hidx)) && max(ph(f)) - min(ph(f)) > 0.01, ...
+                 'fixed_params alone');
+
+  % Before or after reftype, with 'strategy=NAME' on either side: the same call.
+  [ret2, p2, info2] = run_scene(s, one, 'motstr');
+  sbatest_assert(ret2 == ret && isequal(p2, p) && isequal(info2, info), ...
+                 'the struct before reftype gives another result');
+  [rt, pt, it] = run_scene(s, one, 'strategy=trust-region', 'motstr');
+  [rt2, pt2] = run_scene(s, 'motstr', 'strategy=trust-region', one);
+  printf('trust-region: %.6f in %d iterations, error %.9g\n', pt(f(1)), rt, it(2));
+  sbatest_assert(rt >= 3 && rt <= 6 && rt2 == rt && isequal(pt2, pt), 'the struct beside strategy=');
+  sbatest_assert(all(pt(f) == pt(f(1))) && abs(pt(f(1)) - p(f(1))) < 1e-3 && ...
+                 abs(it(2) - info(2)) <= 1e-6 * info(2), ...
+                 'trust-region ends at %.9g (f %.6f), sba at %.9g (f %.6f)', it(2), pt(f(1)), ...
+                 info(2), p(f(1)));
+
+  % Two groups and a camera in none, each with its own true focal length; group numbers need
+  % not be contiguous.
+  s2 = sbatest_focal_scene([800 800 800 900 900 850]);
+  two = one;
+  two.camera_groups = [0 0 0 3 3 -1];
+  [ret, p] = run_scene(s2, 'motstr', two);
+  printf('two groups: %.6f, %.6f and %.6f alone (truths 800, 900, 850)\n', p(f(1)), p(f(4)), p(f(6)));
+  sbatest_assert(ret > 0 && all(p(f(1:3)) == p(f(1))) && all(p(f(4:5)) == p(f(4))), ...
+                 'two groups: the focal lengths within a group differ');
+  sbatest_assert(all(abs(p(f([1 4 6])) - [799.948887 900.079503 849.266764]) < 1e-4), ...
+                 'two groups: %.6f %.6f %.6f', ...
+                 p(f(1)), p(f(4)), p(f(6)));
+
+  % Motion only: the points keep p0's values, the shared focal length is still one.
+  [ret, p] = run_scene(s, 'mot', one);
+  sbatest_assert(ret > 0 && all(p(f) == p(f(1))) && isequal(p(43:end), s.p0(43:end)) && ...
+                 isequal(p(hidx), s.p0(hidx)), 'motion only');
+
+  % A struct with none of the three fields is problem data, as in sba 1.6.
+  [ret, p] = run_scene(s, 'motstr', struct('foo', 1));
+  sbatest_assert(ret == ret0 && isequal(p, p0), 'a struct of other fields is not problem data');
+
+  % Bad structs: an error naming the field, or the solver's refusal naming the camera.
+  part = held;
+  part(3, 7) = true;                          % held in one camera of the group only
+  cases = {
+    struct('fixed_params', true(1, 5)), 'sba:wrongSize', ...
+      'fixed_params must have cnp = 7 flags \(for every camera\) or be m x cnp = 6 x 7 \(got 1 x 5\)'
+    struct('fixed_params', [0 0 0 NaN 0 0 0]), 'sba:invalidArgument', 'fixed_params\(4\) is not finite'
+    struct('fixed_params', {{1}}), 'sba:invalidArgument', 'fixed_params must be a dense real or logical matrix'
+    struct('camera_groups', zeros(1, 6)), 'sba:invalidArgument', 'camera_groups needs shared_params'
+    struct('shared_params', ones(1, 7)), 'sba:invalidArgument', 'shared_params needs camera_groups'
+    setfield(one, 'camera_groups', [0 0 0 0 0 6]), 'sba:invalidArgument', ...
+      'camera_groups\(6\) must be -1 \(no group\) or a group number in \[0, 5\] \(got 6\)'
+    setfield(one, 'camera_groups', [0 0.5 0 0 0 0]), 'sba:invalidArgument', 'camera_groups\(2\) must be'
+    setfield(one, 'camera_groups', zeros(1, 5)), 'sba:wrongSize', 'camera_groups must have m = 6 values \(got 5\)'
+    setfield(one, 'shared_params', [0 1]), 'sba:wrongSize', 'shared_params must have cnp = 7 flags \(got 2\)'
+    setfield(one, 'camera_group', 1), 'sba:invalidArgument', ...
+      'the options struct has an unknown field ''camera_group'''
+    setfield(one, 'fixed_params', part), 'sba:invalidProblem', 'shared by cameras 0 and 2 .*held'
+  };
+  base = scene_args(s);
+  for c = 1:size(cases, 1)
+    sbatest_expect_error([base, {'motstr', cases{c, 1}}], cases{c, 2}, cases{c, 3});
+  end
+  sbatest_expect_error([base, {'str', one}], 'sba:invalidArgument', 'reftype ''str'' does not refine');
+  base{4} = 1;                                % mcon 1: camera 0 cannot be in a group
+  sbatest_expect_error([base, {'motstr', one}], 'sba:invalidProblem', 'camera 0 is below mcon');
+  printf('%d bad structs refused\n', size(cases, 1) + 2);
+end
+
+function varargout = run_scene(s, varargin)
+  args = scene_args(s);
+  [varargout{1:nargout}] = sba(args{:}, varargin{:});
+end
+
+% sba's arguments up to opts for the scene s: finite-difference Jacobians, 100 iterations.
+function args = scene_args(s)
+  args = {s.n, 0, s.m, 0, s.vmask, s.p0, s.cnp, s.pnp, s.x, s.mnp, 'sbatest_focal_proj', '', ...
+          100, 0, []};
+end
+% SPDX-License-Identifier: BSD-3-Clause
