@@ -108,7 +108,7 @@ check-tsan: deps-test
 	cmake -S . -B $(TSAN_BUILD) $(SAN_CMAKE_FLAGS) -DCMAKE_C_FLAGS="$(TSAN_FLAGS)" \
 		-DCMAKE_CXX_FLAGS="$(TSAN_FLAGS)" -DCMAKE_EXE_LINKER_FLAGS="$(TSAN_FLAGS)" \
 		-DCMAKE_SHARED_LINKER_FLAGS="$(TSAN_FLAGS)" >/dev/null
-	cmake --build $(TSAN_BUILD) -j $(JOBS) --target test_drivers test_solvers test_dense test_kernels test_parallel
+	cmake --build $(TSAN_BUILD) -j $(JOBS) --target test_drivers test_solvers test_camera_params test_dense test_kernels test_parallel
 	sh scripts/check_tsan.sh $(TSAN_BUILD)
 
 check-fuzz: deps-build

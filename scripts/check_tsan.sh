@@ -7,6 +7,8 @@
 #                                                        (src/parallel.*) with 2, 3, 5 threads,
 #                                                        every linear solver
 #   ParallelCallbacks.*                                  the caller's callbacks on those threads
+#   CameraParams.TheSameBitsForAnyThreadCount            held and shared camera parameters (the
+#                                                        bordered solve) on 1 and 2 threads
 #   DenseThreads.ConcurrentCallsMatchSequential          the LAPACK helpers from many threads
 #   DenseCholesky.*                                      the dense Cholesky of S, whose phases
 #                                                        meet at spin barriers, on 2, 3, 5 threads
@@ -45,6 +47,7 @@ run() {
 run test_drivers 'Drivers.FourConcurrentSolvesMatchASequentialOne'
 run test_solvers 'Solvers/EverySolver.ResultsDoNotDependOnTheThreadCount/*'
 run test_solvers 'ParallelCallbacks.*'
+run test_camera_params 'CameraParams.TheSameBitsForAnyThreadCount'
 run test_dense 'DenseThreads.ConcurrentCallsMatchSequential'
 run test_kernels 'DenseCholesky.*'
 run test_parallel 'ThreadPool.*:ThreadPoolDeathTest.*'
