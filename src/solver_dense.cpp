@@ -29,7 +29,7 @@ class DenseSchurSolver final : public StepSolver {
 
   StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
     const Layout &lay = ctx_.lay;
-    have_vinv_ = false;
+    reduced_.reset();
     // The steps of the fixed cameras and points are 0; the others are all written below.
     std::fill(dp, dp + lay.a_off(lay.mcon), 0.0);
     std::fill(dp + lay.b_off(0), dp + lay.b_off(lay.ncon), 0.0);
@@ -51,20 +51,14 @@ class DenseSchurSolver final : public StepSolver {
 
   bool solve_again(const NormalEquations &ne, double mu, double *dp) override {
     const Layout &lay = ctx_.lay;
-    // The point blocks' inverses are those of every right-hand side at this damping: made once.
-    if (!have_vinv_) {
-      Vinv_.resize(size_t(lay.n) * size_t(lay.pnp) * size_t(lay.pnp));
-      if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
-      have_vinv_ = true;
-    }
-    reduced_(ne, Vinv_.data(), rhs_.data());
+    if (!reduced_(ne, mu, rhs_.data())) return false;
     std::fill(dp, dp + lay.a_off(lay.mcon), 0.0);
     std::fill(dp + lay.b_off(0), dp + lay.b_off(lay.ncon), 0.0);
     double *da = dp + lay.a_off(lay.mcon);
     if (!factorization_->solve_again(Sp_, rhs_.data(), da)) return false;
     for (i64 q = 0; q < nS_; ++q)
       if (!std::isfinite(da[q])) return false;
-    ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), mu, dp);
+    ctx_.kernels.back_substitute(ctx_.pool, ne, reduced_.Vinv(), mu, dp);
     return true;
   }
 
@@ -74,10 +68,7 @@ class DenseSchurSolver final : public StepSolver {
   i64 nS_;
   std::vector<double> S_, rhs_;
   double *Sp_ = nullptr;  // S's first entry: S_'s first 64-byte aligned one
-  // solve_again's: the damped point blocks' inverses and the reduced right-hand side.
-  std::vector<double> Vinv_;
-  bool have_vinv_ = false;  // Vinv_ made since the last solve
-  ReducedRhs reduced_{ctx_};
+  ReducedRhs reduced_{ctx_};  // solve_again's right-hand sides
 };
 
 }  // namespace

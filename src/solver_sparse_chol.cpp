@@ -179,7 +179,7 @@ class SparseSchurSolver final : public StepSolver {
   StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
     const int cnp = lay_.cnp;
     const std::vector<int> &perm = pat_->perm;
-    have_vinv_ = false;
+    reduced_.reset();
     std::fill(dp, dp + lay_.nvars(), 0.0);
     double *Ax = static_cast<double *>(chol_.A->x);
     std::fill(Ax, Ax + static_cast<const Index *>(chol_.A->p)[chol_.A->ncol], 0.0);
@@ -209,17 +209,11 @@ class SparseSchurSolver final : public StepSolver {
   }
 
   bool solve_again(const NormalEquations &ne, double mu, double *dp) override {
-    // The point blocks' inverses are those of every right-hand side at this damping: made once.
-    if (!have_vinv_) {
-      Vinv_.resize(size_t(lay_.n) * size_t(lay_.pnp) * size_t(lay_.pnp));
-      if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
-      have_vinv_ = true;
-    }
-    reduced_(ne, Vinv_.data(), rhs_.data());
+    if (!reduced_(ne, mu, rhs_.data())) return false;
     std::fill(dp, dp + lay_.nvars(), 0.0);
     const ThreadPool::ForeignThreads cholmod(ctx_.pool);
     if (!solve_factored(dp)) return false;
-    ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), mu, dp);
+    ctx_.kernels.back_substitute(ctx_.pool, ne, reduced_.Vinv(), mu, dp);
     return true;
   }
 
@@ -297,9 +291,7 @@ class SparseSchurSolver final : public StepSolver {
   const Layout &lay_;
   std::shared_ptr<const Pattern> pat_;
   std::vector<double> rhs_;
-  std::vector<double> Vinv_;  // solve_again's damped point blocks' inverses ...
-  bool have_vinv_ = false;    // ... made since the last solve
-  ReducedRhs reduced_{ctx_};
+  ReducedRhs reduced_{ctx_};  // solve_again's right-hand sides
   Cholmod<Api> chol_;
   bool direct_ = false;  // L is unpermuted: factor A itself (no copy)
 };

@@ -68,9 +68,15 @@ class BlockDiagonalSolver final : public StepSolver {
 
 }  // namespace
 
-void ReducedRhs::operator()(const NormalEquations &ne, const double *Vinv, double *rhs) {
+bool ReducedRhs::operator()(const NormalEquations &ne, double mu, double *rhs) {
   const Layout &lay = ctx_.lay;
   const int cnp = lay.cnp, pnp = lay.pnp;
+  if (!have_vinv_) {
+    Vinv_.resize(size_t(lay.n) * size_t(pnp) * size_t(pnp));
+    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
+    have_vinv_ = true;
+  }
+  const double *Vinv = Vinv_.data();
   if (row_.empty()) by_camera(lay, &row_, &k_);
   y_.resize(size_t(lay.n) * size_t(pnp));
   ctx_.pool.for_range(lay.free_pts(), [&](i64 b, i64 e) {
@@ -101,6 +107,7 @@ void ReducedRhs::operator()(const NormalEquations &ne, const double *Vinv, doubl
       }
     }
   });
+  return true;
 }
 
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx) {

@@ -54,13 +54,21 @@ class StepSolver {
 class ReducedRhs {
  public:
   explicit ReducedRhs(const SolveContext &ctx) : ctx_(ctx) {}
-  // Vinv: Kernels::invert_damped_V's blocks at the damping S was assembled with.
-  void operator()(const NormalEquations &ne, const double *Vinv, double *rhs);
+  // S has been assembled again: the point blocks' inverses kept are no longer its.
+  void reset() { have_vinv_ = false; }
+  // mu: the damping S was assembled with. The point blocks' inverses are those of every
+  // right-hand side at that damping, so they are made on the first call after reset() only.
+  // False if some V_i + mu I is not positive definite.
+  bool operator()(const NormalEquations &ne, double mu, double *rhs);
+  // Kernels::invert_damped_V's blocks of the last call, for back_substitute.
+  const double *Vinv() const { return Vinv_.data(); }
 
  private:
   SolveContext ctx_;
   std::vector<int> row_, k_;  // the index by camera, made on first use
   std::vector<double> y_;     // V*^-1 e_b, per point
+  std::vector<double> Vinv_;
+  bool have_vinv_ = false;  // Vinv_ made since the last reset()
 };
 
 // The solver for a problem. Problems without free points or without free cameras (the
