@@ -99,6 +99,16 @@ void radtan(const int *roles, int ne, const double *extra, double x, double y, D
   }
 }
 
+// (ud, vd) = (u, v) F(s), s = u^2 + v^2, and its derivatives in u and v; Fs = dF/ds.
+void scale_radially(double u, double v, double F, double Fs, Distortion *out) {
+  out->ud = u * F;
+  out->vd = v * F;
+  out->D[0] = F + 2 * u * u * Fs;
+  out->D[1] = 2 * u * v * Fs;
+  out->D[2] = out->D[1];
+  out->D[3] = F + 2 * v * v * Fs;
+}
+
 // The fisheye family with a polynomial in theta (OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE,
 // RADIAL_FISHEYE): ud = u h(s), h = g(s) P(t), t = theta^2 = s g(s)^2,
 // P = 1 + k1 t + k2 t^2 + ... (ne coefficients).
@@ -116,12 +126,7 @@ void fisheye(int ne, const double *k, double u, double v, Distortion *out) {
   P = 1 + t * P;
   const double h = g * P;
   const double dh = dg * P + g * dP * dt;
-  out->ud = u * h;
-  out->vd = v * h;
-  out->D[0] = h + 2 * u * u * dh;
-  out->D[1] = 2 * u * v * dh;
-  out->D[2] = out->D[1];
-  out->D[3] = h + 2 * v * v * dh;
+  scale_radially(u, v, h, dh, out);
   double ti = 1;
   for (int i = 0; i < ne; ++i) {
     ti *= t;
@@ -151,12 +156,7 @@ void fov(double omega, double u, double v, Distortion *out) {
   const double F = q * g;
   const double Fs = q * dg * c * c;
   const double Fw = dq * g + q * dg * s * 2 * c * dc;
-  out->ud = u * F;
-  out->vd = v * F;
-  out->D[0] = F + 2 * u * u * Fs;
-  out->D[1] = 2 * u * v * Fs;
-  out->D[2] = out->D[1];
-  out->D[3] = F + 2 * v * v * Fs;
+  scale_radially(u, v, F, Fs, out);
   out->Eu[0] = u * Fw;
   out->Ev[0] = v * Fw;
 }
