@@ -104,7 +104,9 @@ std::string undetermined_point(const Layout &lay, int i, int rank) {
   const int seen = lay.rowptr[size_t(i) + 1] - lay.rowptr[size_t(i)];
   const i64 meas = i64(seen) * lay.mnp;
   std::string why;
-  if (meas < lay.pnp)
+  if (seen == 0)
+    why = "point " + std::to_string(i) + " is seen by no camera";
+  else if (meas < lay.pnp)
     why = "point " + std::to_string(i) + " is seen by " +
           (seen == 1 ? std::string("one camera") : std::to_string(seen) + " cameras") +
           " only: its " + std::to_string(lay.pnp) + " parameters are not determined by " +

@@ -391,3 +391,34 @@ TEST(Covariance, APointSeenOnlyFromOneCentreIsRefusedByName) {
 }
 
 }  // namespace
+
+namespace {
+
+// A point without a single projection has nothing at all to determine it: the message says so
+// rather than counting "0 cameras only" and "0 measurements".
+TEST(Covariance, APointSeenByNoCameraIsRefusedByName) {
+  synth::Problem pb = synth::make(30, 5, 0.5, 0.05, 611);
+  const int q = 7;
+  std::vector<double> x;
+  int k = 0;
+  for (int i = 0; i < pb.n; ++i)
+    for (int j = 0; j < pb.m; ++j) {
+      char &v = pb.vmask[size_t(i) * pb.m + j];
+      if (!v) continue;
+      if (i == q) v = 0;
+      else x.insert(x.end(), pb.x.begin() + 2 * k, pb.x.begin() + 2 * k + 2);
+      ++k;
+    }
+  pb.x = x;
+  pb.nvis = int(x.size() / 2);
+  std::vector<double> p = pb.p0;
+  testing::internal::CaptureStderr();
+  const Cov c = covariance(pb, p, 2, 0);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(c.ret, SBA_ERROR);
+  EXPECT_NE(err.find("point 7 is seen by no camera (V_i has rank 0 < pnp = 3): its covariance is unbounded"),
+            std::string::npos)
+      << err;
+}
+
+}  // namespace
