@@ -196,11 +196,13 @@ struct sba_ext_options {
    * 0..m-1 (the numbers need not be contiguous). cam_shared: cnp flags, nonzero for the
    * parameters the cameras of a group share (the same for every group). The callbacks keep
    * seeing every camera's full parameter vector. A group's shared values start as its first
-   * camera's (the one of least index) and every camera of the group holds them on return.
-   * A shared parameter must be held (cam_fixed) in all of a group's cameras or in none, and a
-   * camera below mcon is in no group; anything else is a bad argument (SBA_ERROR). A shared
-   * parameter is damped as the sum of its cameras' copies (each camera's diagonal entry is
-   * added). */
+   * camera's (the one of least index) and every camera of the group holds them, bit for bit,
+   * on return; a call that fails before its first step, or that only checks the Jacobian
+   * (itmax 0), returns p as given. A shared parameter must be held (cam_fixed) in all of a
+   * group's cameras, with the same value, or in none; a camera below mcon is in no group;
+   * cam_shared needs cam_group; anything else is a bad argument (SBA_ERROR). A shared
+   * parameter is one unknown (counted once against the measurements) damped as the sum of its
+   * cameras' copies (each camera's diagonal entry is added). */
   const int *cam_group;
   const char *cam_shared;
 };

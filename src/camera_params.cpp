@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <map>
 
 #include "small_dense.h"
@@ -18,8 +20,10 @@ bool held(const CameraParamOptions &o, const Layout &lay, int j, int a) {
 
 }  // namespace
 
-std::string check_camera_params(const CameraParamOptions &o, const Layout &lay) {
-  if (!o.group || lay.cnp == 0) return {};
+std::string check_camera_params(const CameraParamOptions &o, const Layout &lay, const double *p) {
+  if (lay.cnp == 0) return {};
+  if (o.shared && !o.group) return "cam_shared is given but cam_group is NULL";
+  if (!o.group) return {};
   if (!o.shared) return "cam_group is given but cam_shared is NULL";
   std::map<int, int> first;  // group number -> its first camera
   for (int j = 0; j < lay.m; ++j) {
@@ -33,11 +37,22 @@ std::string check_camera_params(const CameraParamOptions &o, const Layout &lay) 
              " (held whole) but in group " + std::to_string(g);
     const auto f = first.emplace(g, j);
     if (f.second) continue;
-    for (int a = 0; a < lay.cnp; ++a)
-      if (o.shared[a] && held(o, lay, j, a) != held(o, lay, f.first->second, a))
-        return "parameter " + std::to_string(a) + " is shared by cameras " +
-               std::to_string(f.first->second) + " and " + std::to_string(j) + " (group " +
-               std::to_string(g) + ") but held (cam_fixed) in only one of them";
+    const int j0 = f.first->second;
+    const std::string pair = " by cameras " + std::to_string(j0) + " and " + std::to_string(j) + " (group " +
+                             std::to_string(g) + ")";
+    for (int a = 0; a < lay.cnp; ++a) {
+      if (!o.shared[a]) continue;
+      if (held(o, lay, j, a) != held(o, lay, j0, a))
+        return "parameter " + std::to_string(a) + " is shared" + pair + " but held (cam_fixed) in only one of them";
+      // A held value is never rewritten, so one shared value held apart would come back apart.
+      const double v = p[lay.a_off(j) + a], v0 = p[lay.a_off(j0) + a];
+      if (held(o, lay, j, a) && std::memcmp(&v, &v0, sizeof v) != 0) {
+        char values[64];
+        std::snprintf(values, sizeof values, "%.17g and %.17g", v0, v);
+        return "parameter " + std::to_string(a) + " is shared" + pair + " and held, but its values differ: " +
+               values;
+      }
+    }
   }
   return {};
 }
@@ -80,6 +95,11 @@ int CameraUnknowns::index(const Layout &lay, std::vector<int> *out) const {
   return nz;
 }
 
+i64 CameraUnknowns::count(const Layout &lay) const {
+  const auto own = std::count(kind.begin() + i64(lay.mcon) * lay.cnp, kind.end(), char(0));
+  return i64(own) + i64(cols.size());
+}
+
 CameraParams::CameraParams(const Layout &lay, const CameraParamOptions &o, ThreadPool &pool,
                            std::unique_ptr<StepSolver> inner)
     : lay_(lay), pool_(pool), inner_(std::move(inner)) {
@@ -97,10 +117,24 @@ CameraParams::CameraParams(const Layout &lay, const CameraParamOptions &o, Threa
   gs_.assign(K, 0.0);
 }
 
-void CameraParams::start(double *p) const {
+std::vector<double> CameraParams::start(double *p) const {
+  std::vector<double> given;
   for (const Column &c : cols_) {
     const std::vector<int> &g = groups_[size_t(c.group)];
-    for (int j : g) p[lay_.a_off(j) + c.a] = p[lay_.a_off(g[0]) + c.a];
+    for (size_t q = 1; q < g.size(); ++q) {
+      double &v = p[lay_.a_off(g[q]) + c.a];
+      given.push_back(v);
+      v = p[lay_.a_off(g[0]) + c.a];
+    }
+  }
+  return given;
+}
+
+void CameraParams::restore(double *p, const std::vector<double> &given) const {
+  size_t k = 0;
+  for (const Column &c : cols_) {
+    const std::vector<int> &g = groups_[size_t(c.group)];
+    for (size_t q = 1; q < g.size(); ++q) p[lay_.a_off(g[q]) + c.a] = given[k++];
   }
 }
 
@@ -268,6 +302,14 @@ StepStatus CameraParams::solve(const NormalEquations &ne, double mu, double *dp)
     for (int a = 0; a < cnp; ++a)
       if (kind_[size_t(j) * cnp + a] == 1) dp[lay.a_off(j) + a] = -0.0;
   return StepStatus::Solved;
+}
+
+void CameraParams::tie(double *dp) const {
+  for (const Column &c : cols_) {
+    const std::vector<int> &g = groups_[size_t(c.group)];
+    const double v = dp[lay_.a_off(g[0]) + c.a];
+    for (size_t q = 1; q < g.size(); ++q) dp[lay_.a_off(g[q]) + c.a] = v;
+  }
 }
 
 }  // namespace sba

@@ -26,9 +26,9 @@
 
 namespace sba {
 
-// What is wrong with o for this problem (empty: nothing). Only problems with cameras are
-// checked; the structure-only drivers ignore the options.
-std::string check_camera_params(const CameraParamOptions &o, const Layout &lay);
+// What is wrong with o for this problem and the initial estimate p (empty: nothing). Only
+// problems with cameras are checked; the structure-only drivers ignore the options.
+std::string check_camera_params(const CameraParamOptions &o, const Layout &lay, const double *p);
 
 // Which camera parameters are unknowns of their own, held, or shared, and the groups.
 struct CameraUnknowns {
@@ -40,6 +40,9 @@ struct CameraUnknowns {
   // its own, or its group's shared one (after all the own ones); -1 when held. Returns how
   // many unknowns there are.
   int index(const Layout &lay, std::vector<int> *out) const;
+  // How many camera unknowns there are: neither the cameras below mcon, held parameters nor
+  // the copies of a shared one count.
+  i64 count(const Layout &lay) const;
 
   // Per camera parameter (m * cnp): 0 an unknown of its own, 1 held, 2 shared.
   std::vector<char> kind;
@@ -55,8 +58,11 @@ class CameraParams final : public StepSolver {
   CameraParams(const Layout &lay, const CameraParamOptions &o, ThreadPool &pool,
                std::unique_ptr<StepSolver> inner);
 
-  // Every group's shared (free) parameters in p set to its first camera's.
-  void start(double *p) const;
+  // Every group's shared (free) parameters in p set to its first camera's; returns the values
+  // they replaced, for restore.
+  std::vector<double> start(double *p) const;
+  // p's shared parameters as they were before start returned given.
+  void restore(double *p, const std::vector<double> &given) const;
   // max |gradient| and the largest diagonal entry of J^T J over the camera unknowns (a
   // shared one's are its cameras' sums), in the units of p (before the strategy changes
   // variables).
@@ -69,6 +75,12 @@ class CameraParams final : public StepSolver {
   void linearized(double *jac, double *U, const double *ea, const double *scale);
 
   StepStatus solve(const NormalEquations &ne, double mu, double *dp) override;
+
+  // dp in the units of p: every copy of a shared unknown given its first camera's step. The
+  // copies' steps are one number mapped back through each camera's own scale of the
+  // strategy's change of variables, s (r / s), which rounds differently per camera; copies
+  // that start equal and always take the same step stay equal to the bit.
+  void tie(double *dp) const;
 
  private:
   using Column = CameraUnknowns::Column;

@@ -63,13 +63,21 @@ void make_layout(const DriverArgs &a, Layout &lay, std::string *msg) {
   if (!ok && msg->empty()) *msg = "invalid problem";
 }
 
+// The unknowns the solve has: the free parameters less those held, a shared one counted once.
+i64 count_unknowns(const Options &opt, const Layout &lay) {
+  if (!opt.cams.any() || lay.cnp == 0) return lay.free_vars();
+  return CameraUnknowns(lay, opt.cams).count(lay) + i64(lay.free_pts()) * lay.pnp;
+}
+
 // The data once the index says how much of it there is.
-std::string check_data(const DriverArgs &a, const Layout &lay) {
+std::string check_data(const DriverArgs &a, const Options &opt, const Layout &lay) {
   const i64 nobs = lay.nvis * lay.mnp;
   if (lay.free_vars() == 0) return "every camera and point is fixed (mcon/ncon): nothing to refine";
-  if (nobs < lay.free_vars())
-    return "fewer measurements (" + std::to_string(nobs) + ") than free parameters (" +
-           std::to_string(lay.free_vars()) + ")";
+  const i64 unknowns = count_unknowns(opt, lay);
+  if (unknowns == 0) return "every parameter is fixed (mcon/ncon) or held (cam_fixed): nothing to refine";
+  if (nobs < unknowns)
+    return "fewer measurements (" + std::to_string(nobs) + ") than free parameters (" + std::to_string(unknowns) +
+           ")";
   i64 bad = first_nonfinite(a.p, lay.nvars());
   if (bad >= 0) return "p[" + std::to_string(bad) + "] is not finite";
   bad = first_nonfinite(a.x, nobs);
@@ -89,8 +97,8 @@ Logger make_logger(const DriverArgs &a, const sba_ext_options &ext) {
 
 // Everything a call checks and builds before its model exists, in this order: the problem,
 // the options, what the entry point itself asks (`extra`, once the options are known), the
-// index, the data; then the thread count fitted to the problem. Logs the first problem found
-// and returns false.
+// index, the held and shared camera parameters, the data; then the thread count fitted to the
+// problem. Logs the first problem found and returns false.
 template <class Extra>
 bool validate_and_lay_out(const DriverArgs &a, const sba_ext_options &ext, const Environment &env,
                           const Logger &log, Extra extra, Options *opt, Layout *lay) {
@@ -98,8 +106,8 @@ bool validate_and_lay_out(const DriverArgs &a, const sba_ext_options &ext, const
   if (msg.empty()) options_from(a, ext, env, log, opt, &msg);
   if (msg.empty()) msg = extra();
   if (msg.empty()) make_layout(a, *lay, &msg);
-  if (msg.empty()) msg = check_data(a, *lay);
-  if (msg.empty()) msg = check_camera_params(opt->cams, *lay);
+  if (msg.empty()) msg = check_camera_params(opt->cams, *lay, a.p);
+  if (msg.empty()) msg = check_data(a, *opt, *lay);
   if (!msg.empty()) {
     log.error("%s: %s", a.name, msg.c_str());
     return false;

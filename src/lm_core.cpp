@@ -397,9 +397,19 @@ class LevenbergMarquardt {
         t0_(t0), nvars_(lay.nvars()) {}
 
   // Iterates from p (updated in place with the last accepted estimate). False on a failure,
-  // with sum's reason and figures telling where the solve stood.
+  // with sum's reason and figures telling where the solve stood. A solve that fails before
+  // any step is taken, or that only scores p (itmax 0), leaves p as the caller gave it: the
+  // shared parameters' copies are set to one value only for a solve that iterates.
   bool run(double *p) {
-    if (cams_) cams_->start(p);
+    std::vector<double> given;
+    if (cams_ && opt_.itmax > 0) given = cams_->start(p);
+    const bool ok = iterate(p);
+    if (!ok && !moved_ && !given.empty()) cams_->restore(p, given);
+    return ok;
+  }
+
+ private:
+  bool iterate(double *p) {
     if (!start(p)) return false;
     for (it_ = 0; it_ < opt_.itmax && !stop_; ++it_) {
       if (!linearize(p)) return fail(kStopNonFinite, it_);
@@ -412,7 +422,6 @@ class LevenbergMarquardt {
     return true;
   }
 
- private:
   // What became of one damped solve.
   enum class Attempt {
     kAccepted,  // p moved to the candidate
@@ -503,6 +512,7 @@ class LevenbergMarquardt {
       return Attempt::kRejected;
     }
     const double dL = strategy_.step_in_parameters(pool_, w_.ea.data(), w_.eb.data(), mu_, dp);
+    if (cams_) cams_->tie(dp);
     const double dp2 = sqnorm(pool_, dp, nvars_);
     sum_.dp2 = dp2;
     if (dp2 <= opt_.eps2 * opt_.eps2 * p2_) {
@@ -546,6 +556,7 @@ class LevenbergMarquardt {
     if (!strategy_.acceptable(dF, dL)) return Attempt::kRejected;
     if (strategy_.converged(eps_, epsn)) stop_ = kStopReduction;
     st_.accept(p);
+    moved_ = true;
     eps_ = epsn;
     sqe_ = cn.sq;
     mu_ = strategy_.after_success(mu_, dF / dL);
@@ -622,6 +633,7 @@ class LevenbergMarquardt {
   double eps_ = 0.0, sqe_ = 0.0;  // the cost and squared error at p
   double mu_ = 0.0, maxdiag_ = 0.0;
   int nu_ = 2;      // the growth of mu at the next rejection
+  bool moved_ = false;  // a step was accepted
   double p2_ = 0.0;  // ||p||^2 at the start of the iteration
 };
 

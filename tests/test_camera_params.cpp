@@ -13,6 +13,7 @@
 #include "cameras/euclidean.h"
 #include "sba_ext.h"
 #include "sbagen.h"
+#include "synth.h"
 
 namespace {
 
@@ -361,6 +362,197 @@ TEST(CameraParams, CovarianceOfASharedLens) {
         EXPECT_EQ(camcov[size_t(q * kCnp * kCnp + b * kCnp + a)], 0.0);
       }
   EXPECT_GT(ptcov[0], 0.0);
+}
+
+}  // namespace
+
+namespace {
+
+// Every copy of a shared parameter holds the same bits on return, whatever solves the step
+// and whatever damps it: the trust region solves in scaled variables, one scale per camera,
+// and a step mapped back through each copy's own scale is not exact.
+TEST(CameraParams, SharedCopiesEndWithTheSameBitsForEverySolverAndStrategy) {
+  const Scene s = make_scene(8, 150);
+  for (const char *solver : {"chol", "chol-lapack", "ldlt", "bk", "lu", "qr", "qrnoq", "svd", "cg", "ldl-amd",
+                             "sparse-chol", "iterative-schur"})
+    for (const char *strategy : {"sba", "sba-clean-retry", "trust-region"}) {
+      Config u;
+      u.fixed = {0, 0, 0, 1, 1, 0, 0, 0, 0, 0, 0};
+      u.linsolver = solver;
+      u.strategy = strategy;
+      u.itmax = 30;
+      const Solved r = run(s, u);
+      ASSERT_GT(r.ret, 0) << solver << " " << strategy;
+      for (int j = 1; j < s.m; ++j)
+        for (int q = 0; q < 3; ++q)
+          EXPECT_TRUE(same_bits(r.p[size_t(j) * kCnp + q], r.p[size_t(q)]))
+              << solver << " " << strategy << " camera " << j << " parameter " << q;
+    }
+  // The motion-only driver, and two threads giving the first's bits.
+  for (const char *strategy : {"sba", "sba-clean-retry", "trust-region"})
+    for (bool motion_only : {true, false}) {
+      Config u;
+      u.fixed = {0, 0, 0, 1, 1, 0, 0, 0, 0, 0, 0};
+      u.strategy = strategy;
+      u.motion_only = motion_only;
+      u.itmax = 30;
+      const Solved one = run(s, u);
+      u.nthreads = 2;
+      const Solved two = run(s, u);
+      ASSERT_GT(one.ret, 0) << strategy << " " << motion_only;
+      for (int j = 1; j < s.m; ++j)
+        for (int q = 0; q < 3; ++q) EXPECT_TRUE(same_bits(one.p[size_t(j) * kCnp + q], one.p[size_t(q)]));
+      EXPECT_TRUE(one.p == two.p) << strategy << " " << motion_only;
+    }
+}
+
+}  // namespace
+
+namespace {
+
+// The synthetic scene of synth.h (cnp 6: rotation, translation) through the C API with held
+// and shared parameters, the messages of the call collected.
+struct SynthCall {
+  std::vector<char> fixed;  // cnp flags (empty: none)
+  std::vector<int> group;   // empty: none
+  std::vector<char> shared;  // empty: none
+  bool motion_only = false;
+  int itmax = 50;
+};
+
+struct SynthResult {
+  int ret = 0;
+  std::vector<double> p;
+  double info[SBA_INFOSZ] = {};
+  std::string log;
+};
+
+SynthResult run_synth(synth::Problem &pb, const std::vector<double> &p0, const SynthCall &c) {
+  SynthResult r;
+  r.p = p0;
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.log = [](void *ctx, int, const char *msg) { *static_cast<std::string *>(ctx) += msg; };
+  ext.log_ctx = &r.log;
+  if (!c.fixed.empty()) ext.cam_fixed = c.fixed.data();
+  if (!c.group.empty()) ext.cam_group = c.group.data();
+  if (!c.shared.empty()) ext.cam_shared = c.shared.data();
+  if (c.motion_only) {
+    pb.fixed_points = pb.truth.data() + size_t(pb.m) * synth::kCnp;
+    r.ret = sba_mot_levmar_x_ext(pb.n, pb.m, 0, pb.vmask.data(), r.p.data(), synth::kCnp, pb.x.data(), nullptr,
+                                 synth::kMnp, synth::func_mot, synth::fjac_mot, &pb, c.itmax, 0, nullptr, r.info,
+                                 &ext);
+  } else {
+    r.ret = sba_motstr_levmar_x_ext(pb.n, 0, pb.m, 0, pb.vmask.data(), r.p.data(), synth::kCnp, synth::kPnp,
+                                    pb.x.data(), nullptr, synth::kMnp, synth::func_motstr, synth::fjac_motstr, &pb,
+                                    c.itmax, 0, nullptr, r.info, &ext);
+  }
+  return r;
+}
+
+bool same_vector(const std::vector<double> &a, const std::vector<double> &b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+TEST(CameraParams, HeldParametersAreNotCountedAsUnknowns) {
+  // One camera, two points held (motion only): 4 measurements, 6 camera parameters of which
+  // 5 are held. One unknown.
+  synth::Problem pb = synth::make(2, 1, 0.0, 0.05, 21, 1.0);
+  std::vector<double> p0 = pb.truth;
+  p0[5] += 0.1;
+  SynthCall c;
+  c.motion_only = true;
+  c.fixed = {1, 1, 1, 1, 1, 0};
+  const SynthResult r = run_synth(pb, p0, c);
+  ASSERT_GE(r.ret, 1) << r.log;
+  for (int a = 0; a < 5; ++a) EXPECT_TRUE(same_bits(r.p[size_t(a)], p0[size_t(a)]));
+  EXPECT_NEAR(r.p[5], pb.truth[5], 1e-9);
+}
+
+TEST(CameraParams, ASharedParameterIsCountedOnce) {
+  // One point seen by three cameras (6 measurements) whose rotations are held and whose
+  // translations are shared: 3 unknowns, where three cameras of their own would have 9.
+  synth::Problem pb = synth::make(1, 3, 0.0, 0.0, 22, 1.0);
+  SynthCall c;
+  c.motion_only = true;
+  c.fixed = {1, 1, 1, 0, 0, 0};
+  c.group = {0, 0, 0};
+  c.shared = {0, 0, 0, 1, 1, 1};
+  const SynthResult r = run_synth(pb, pb.p0, c);
+  EXPECT_GE(r.ret, 0) << r.log;
+  EXPECT_EQ(r.log.find("fewer measurements"), std::string::npos) << r.log;
+  // Without the sharing the same call has more unknowns than measurements.
+  c.group.clear();
+  c.shared.clear();
+  const SynthResult own = run_synth(pb, pb.p0, c);
+  EXPECT_EQ(own.ret, SBA_ERROR);
+  EXPECT_NE(own.log.find("fewer measurements (6) than free parameters (9)"), std::string::npos) << own.log;
+}
+
+TEST(CameraParams, SharedWithoutGroupsIsABadArgument) {
+  synth::Problem pb = synth::make(20, 4, 0.5, 0.05, 23);
+  SynthCall c;
+  c.shared = {1, 0, 0, 0, 0, 0};
+  const SynthResult r = run_synth(pb, pb.p0, c);
+  EXPECT_EQ(r.ret, SBA_ERROR);
+  EXPECT_NE(r.log.find("cam_shared is given but cam_group is NULL"), std::string::npos) << r.log;
+  EXPECT_TRUE(same_vector(r.p, pb.p0));
+}
+
+TEST(CameraParams, AHeldSharedParameterWithUnequalValuesIsABadArgument) {
+  synth::Problem pb = synth::make(20, 4, 0.5, 0.05, 24);
+  std::vector<double> p0 = pb.p0;
+  for (int j = 0; j < pb.m; ++j) p0[size_t(j) * synth::kCnp + 5] = 6.0;  // tz: one value for all
+  p0[2 * synth::kCnp + 5] = 6.5;
+  SynthCall c;
+  c.fixed = {0, 0, 0, 0, 0, 1};
+  c.group = {-1, 3, 3, 3};
+  c.shared = {0, 0, 0, 0, 0, 1};
+  const SynthResult r = run_synth(pb, p0, c);
+  EXPECT_EQ(r.ret, SBA_ERROR);
+  EXPECT_NE(r.log.find("parameter 5 is shared by cameras 1 and 2 (group 3) and held, but its values differ: 6 "
+                       "and 6.5"),
+            std::string::npos)
+      << r.log;
+  EXPECT_TRUE(same_vector(r.p, p0));
+  // Camera 0 is in no group: its value may differ.
+  p0[2 * synth::kCnp + 5] = 6.0;
+  p0[0 * synth::kCnp + 5] = 7.0;
+  const SynthResult ok = run_synth(pb, p0, c);
+  EXPECT_GT(ok.ret, 0) << ok.log;
+  for (int j = 0; j < pb.m; ++j) EXPECT_TRUE(same_bits(ok.p[size_t(j) * synth::kCnp + 5], p0[size_t(j) * synth::kCnp + 5]));
+}
+
+// Groups rewrite the copies of a shared parameter with their first camera's value when the
+// solve starts; a call that fails before any step, or that only checks the Jacobian, must
+// hand p back as it was given.
+TEST(CameraParams, PIsGivenBackAsItWasWhenNothingWasSolved) {
+  synth::Problem pb = synth::make(20, 4, 0.5, 0.05, 25);
+  SynthCall c;
+  c.group = {0, 0, 0, 0};
+  c.shared = {1, 0, 0, 0, 0, 0};
+  ASSERT_FALSE(same_bits(pb.p0[0], pb.p0[synth::kCnp]));
+  // The Jacobian check.
+  c.itmax = 0;
+  const SynthResult check = run_synth(pb, pb.p0, c);
+  EXPECT_EQ(check.ret, 0) << check.log;
+  EXPECT_TRUE(same_vector(check.p, pb.p0));
+  // f is not finite at the initial estimate: point 0 at the origin, in the focal plane of a
+  // camera that sees it (its depth tz is 0).
+  std::vector<double> p0 = pb.p0;
+  int j = 0;
+  while (!pb.vmask[size_t(j)]) ++j;
+  p0[size_t(j) * synth::kCnp + 5] = 0.0;
+  for (int q = 0; q < 3; ++q) p0[size_t(pb.m) * synth::kCnp + q] = 0.0;
+  c.itmax = 50;
+  const SynthResult failed = run_synth(pb, p0, c);
+  EXPECT_EQ(failed.ret, SBA_ERROR) << failed.log;
+  EXPECT_EQ(failed.info[6], SBA_STOP_NONFINITE);
+  EXPECT_TRUE(same_vector(failed.p, p0));
+  // A solve that iterates ties them.
+  const SynthResult solved = run_synth(pb, pb.p0, c);
+  ASSERT_GT(solved.ret, 0) << solved.log;
+  for (int k = 1; k < pb.m; ++k) EXPECT_TRUE(same_bits(solved.p[size_t(k) * synth::kCnp], solved.p[0]));
 }
 
 }  // namespace
