@@ -54,18 +54,24 @@ done
 # COLMAP, Bundler and NVM seeds: generated scenes (fuzz/seed_writer.cpp).
 mkdir -p "$work/corpus-colmap" "$work/corpus-bundler" "$work/corpus-nvm"
 "$build/seed_writer" "$work/corpus-colmap" "$work/corpus-bundler" "$work/corpus-nvm" >/dev/null
+# Image lists (fuzz_hold_poses): a list of ids and names, all, and a file of names.
+mkdir -p "$work/corpus-hold_poses"
+printf '10,img_0.png,0' > "$work/corpus-hold_poses/ids-and-names"
+printf 'all' > "$work/corpus-hold_poses/all"
+printf 'a,b.png\r\n\n10\ndup.png' > "$work/corpus-hold_poses/names-file"
 # Earlier findings: tests/fuzz_regressions/TARGET-*.
-for t in cameras points calibration bal colmap bundler nvm; do
+for t in cameras points calibration bal colmap bundler nvm hold_poses; do
   seed "$t" "$root"/tests/fuzz_regressions/"$t"-*
 done
 
 status=0
-for t in cameras points calibration bal colmap bundler nvm; do
+for t in cameras points calibration bal colmap bundler nvm hold_poses; do
   case "$t" in
     points) max_len=16384 dict=eucsba ;;  # the seeds are cut to their first 16 KB
     bal) max_len=16384 dict=bal ;;
     colmap|bundler) max_len=16384 dict=colmap ;;
     nvm) max_len=16384 dict=nvm ;;
+    hold_poses) max_len=1024 dict=hold_poses ;;
     *) max_len=4096 dict=eucsba ;;
   esac
   log=$work/$t.log
@@ -85,7 +91,7 @@ for t in cameras points calibration bal colmap bundler nvm; do
   fi
 done
 if [ -n "${SBA_FUZZ_KEEP_CORPUS:-}" ]; then
-  for t in cameras points calibration bal colmap bundler nvm; do
+  for t in cameras points calibration bal colmap bundler nvm hold_poses; do
     mkdir -p "$SBA_FUZZ_KEEP_CORPUS/$t"
     cp "$work/corpus-$t"/* "$SBA_FUZZ_KEEP_CORPUS/$t/"
   done

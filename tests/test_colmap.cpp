@@ -14,6 +14,7 @@
 #include <cerrno>
 #include <cmath>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -22,6 +23,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cameras/bal_camera.h"
@@ -1431,6 +1433,125 @@ TEST(SbarefineColmapModels, HeldParametersComeBackBitForBit) {
   EXPECT_EQ(bad.err, "sbarefine: --hold-poses: " + dir + "/in: no image has the IMAGE_ID or NAME '11'\n");
 }
 
+// ---- the images --hold-poses and --hold-poses-file name ----
+
+// A model of images alone: all that an image list is resolved against.
+colmap::Model images_named(const std::vector<std::pair<std::uint32_t, std::string>> &images) {
+  colmap::Model m;
+  for (const auto &[id, name] : images) {
+    colmap::Image im;
+    im.id = id;
+    im.name = name;
+    m.images.push_back(im);
+  }
+  return m;
+}
+
+// The IMAGE_IDs of the images that list names, in the model's order, or "error: " and why.
+std::string held_ids(const colmap::Model &m, const std::string &list) {
+  std::vector<char> held;
+  const std::string why = colmap::parse_image_list(m, list, &held);
+  if (!why.empty()) return "error: " + why;
+  std::string out;
+  for (std::size_t j = 0; j < held.size(); ++j)
+    if (held[j]) out += (out.empty() ? "" : ",") + std::to_string(m.images[j].id);
+  return out;
+}
+
+// An IMAGE_ID is plain decimal digits without a leading zero: no sign, no blank, nothing
+// trimmed. Any other item is a NAME.
+TEST(ColmapImageList, IdsArePlainDecimalDigits) {
+  const colmap::Model m = images_named({{10, "img_0.png"}, {13, "img_1.png"}, {0, "zero.png"}});
+  EXPECT_EQ(held_ids(m, "10"), "10");
+  EXPECT_EQ(held_ids(m, "0,13"), "13,0");
+  EXPECT_EQ(held_ids(m, "13,img_0.png,13"), "10,13");
+  EXPECT_EQ(held_ids(m, "11"), "error: no image has the IMAGE_ID or NAME '11'");
+  EXPECT_EQ(held_ids(m, "4294967306"), "error: no image has the IMAGE_ID or NAME '4294967306'");  // 2^32 + 10
+  for (const std::string item : {" 10", "10 ", "+10", "010", "00", "-0", "1e1", "0x0a"})
+    EXPECT_EQ(held_ids(m, item), "error: no image has the NAME '" + item + "'") << item;
+  // A control character is quoted as \xHH: the message stays one line.
+  EXPECT_EQ(held_ids(m, "10\r"), "error: no image has the NAME '10\\x0d'");
+  EXPECT_EQ(held_ids(m, "\t13"), "error: no image has the NAME '\\x0913'");
+}
+
+// A NAME is matched exactly and names every image of that name. An item of digits is an
+// IMAGE_ID first: the image named "10" is not named by "10" while image 10 exists (a file of
+// names names it, see HoldPosesFile).
+TEST(ColmapImageList, NamesAreMatchedExactly) {
+  const colmap::Model m = images_named({{10, "img_0.png"}, {13, "10"}, {16, "010"}, {19, "+7"},
+                                        {22, "a b.png"}, {25, "dup.png"}, {28, "dup.png"}, {31, "all"},
+                                        {34, "12"}});
+  EXPECT_EQ(held_ids(m, "10"), "10");
+  EXPECT_EQ(held_ids(m, "12"), "34");  // no image has IMAGE_ID 12: the NAME
+  EXPECT_EQ(held_ids(m, "010"), "16");
+  EXPECT_EQ(held_ids(m, "+7"), "19");
+  EXPECT_EQ(held_ids(m, "a b.png"), "22");
+  EXPECT_EQ(held_ids(m, "dup.png"), "25,28");
+  EXPECT_EQ(held_ids(m, "all"), "10,13,16,19,22,25,28,31,34");
+  EXPECT_EQ(held_ids(m, "010,all"), "16,31");  // all means every image only as the whole list
+  EXPECT_EQ(held_ids(m, "a b.png "), "error: no image has the NAME 'a b.png '");
+  EXPECT_EQ(held_ids(m, "A B.PNG"), "error: no image has the NAME 'A B.PNG'");
+}
+
+TEST(ColmapImageList, EmptyItemsAreRefused) {
+  const colmap::Model m = images_named({{10, "img_0.png"}, {13, "img_1.png"}});
+  const std::string why = " is empty (two commas in a row, or a comma at an end)";
+  EXPECT_EQ(held_ids(m, "10,,13"), "error: item 2" + why);
+  EXPECT_EQ(held_ids(m, "10,13,"), "error: item 3" + why);
+  EXPECT_EQ(held_ids(m, ",10"), "error: item 1" + why);
+  EXPECT_EQ(held_ids(m, ","), "error: item 1" + why);
+}
+
+// --hold-poses-file: a NAME a line, matched exactly, so that a name that holds a comma, or one
+// that is another image's IMAGE_ID, can be held; with --hold-poses, the images of both. Errors
+// name the item as given.
+TEST(SbarefineColmapModels, HoldPosesFile) {
+  const std::string dir = temp_dir("hold_poses_file");
+  ColmapScene s = make_colmap_scene(colmap::kSimpleRadial, {800, 320, 240, -0.05}, {816, 320, 240, -0.05},
+                                    true, 6, 80, 0.5);
+  s.model.images[2].name = "a,b.png";
+  s.model.images[3].name = "10";  // image 0's IMAGE_ID
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  // A CRLF line, a blank line and a last line without a line break.
+  write_file(dir + "/names.txt", "a,b.png\r\n\n10");
+  // The images whose pose comes back as it was read after a few iterations, or the failure.
+  const auto held = [&](const std::string &args) {
+    std::filesystem::remove_all(dir + "/out");
+    const Outcome r = run(dir + "/in --itmax 3 --write " + dir + "/out " + args);
+    if (r.status != 0) return "exit " + std::to_string(r.status) + ": " + r.err;
+    colmap::Model back;
+    std::string why;
+    if (!colmap::read_model(dir + "/out", &back, nullptr, &why)) return why;
+    std::string out;
+    for (std::size_t j = 0; j < back.images.size(); ++j)
+      if (back.images[j].q == s.model.images[j].q && back.images[j].t == s.model.images[j].t)
+        out += (out.empty() ? "" : ",") + std::to_string(j);
+    return out;
+  };
+  EXPECT_EQ(held("--hold-poses-file " + dir + "/names.txt"), "2,3");
+  EXPECT_EQ(held("--hold-poses 10,img_5.png --hold-poses-file " + dir + "/names.txt"), "0,2,3,5");
+  EXPECT_EQ(held("--hold-poses 10"), "0");  // the IMAGE_ID first, not the image named 10
+
+  write_file(dir + "/bad.txt", "a,b.png\n a,b.png\n");
+  Outcome r = run(dir + "/in --hold-poses-file " + dir + "/bad.txt");
+  EXPECT_EQ(r.status, 1);
+  const std::string file_error = "sbarefine: --hold-poses-file: ";
+  EXPECT_EQ(r.err, file_error + dir + "/in: " + dir + "/bad.txt:2: no image has the NAME ' a,b.png'\n");
+  r = run(dir + "/in --hold-poses-file " + dir + "/missing.txt");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, file_error + dir + "/missing.txt: cannot open: No such file or directory\n");
+  r = run(dir + "/in --hold-poses '10, 13'");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, "sbarefine: --hold-poses: " + dir + "/in: no image has the NAME ' 13'\n");
+  r = run(dir + "/in --hold-poses 10,,13");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: bad value '10,,13' for --hold-poses: item 2 is empty (two commas in a row, or "
+                   "a comma at an end)\n");
+  r = run("--help");
+  EXPECT_NE(r.out.find("\n  --hold-poses-file=FILE\n"), std::string::npos) << r.out;
+}
+
 // Each of the eleven models, one camera per image: refined to the noise from a start off the
 // truth, and written back as a model that reads back the same in either encoding.
 TEST(SbarefineColmapModels, EveryModelRefinesAndRoundTrips) {
@@ -1532,6 +1653,9 @@ TEST(SbarefineColmapModels, ColmapOptionNames) {
   r = run(dir + "/b.out --hold-poses all");
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(r.err, "sbarefine: --hold-poses is for COLMAP models\n");
+  r = run(dir + "/b.out --hold-poses-file " + dir + "/names.txt");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: --hold-poses-file is for COLMAP models\n");
 }
 
 // COLMAP's own bundle adjuster (/usr/bin/colmap, skipped without it) on the same model

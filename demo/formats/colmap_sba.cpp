@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstddef>
-#include <cstdlib>
+#include <cstdint>
 #include <unordered_map>
 #include <utility>
 
@@ -45,38 +45,120 @@ std::string parse_refine_intrinsics(const std::string &text, RefineIntrinsics *o
   return {};
 }
 
+namespace {
+
+// An item as a message quotes it: as given, but a control character as \xHH.
+std::string quoted(const std::string &item) {
+  std::string out = "'";
+  for (const char c : item) {
+    const unsigned char u = static_cast<unsigned char>(c);
+    if (u >= 0x20 && u != 0x7f) {
+      out += c;
+      continue;
+    }
+    char hex[5];
+    std::snprintf(hex, sizeof hex, "\\x%02x", u);
+    out += hex;
+  }
+  return out + "'";
+}
+
+// Whether item is written as an IMAGE_ID is (plain decimal digits, no leading zero), with its
+// value in *id when an IMAGE_ID (32 bits) can have it.
+bool plain_decimal(const std::string &item, std::uint32_t *id, bool *fits) {
+  if (item.empty() || (item.size() > 1 && item[0] == '0')) return false;
+  std::uint64_t v = 0;
+  for (const char c : item) {
+    if (c < '0' || c > '9') return false;
+    if (v <= 0xffffffffu) v = 10 * v + static_cast<std::uint64_t>(c - '0');  // past 32 bits, stays past
+  }
+  *fits = v <= 0xffffffffu;
+  *id = static_cast<std::uint32_t>(v);
+  return true;
+}
+
+// Model::images by IMAGE_ID and by NAME (names may repeat), for the items of image lists.
+class ImageLookup {
+ public:
+  explicit ImageLookup(const Model &model) {
+    for (std::size_t j = 0; j < model.images.size(); ++j) {
+      by_id_.emplace(model.images[j].id, j);
+      by_name_.emplace(model.images[j].name, j);
+    }
+  }
+
+  // Sets the flags of the images that item names, an item of digits an IMAGE_ID first when
+  // ids. Returns why it names none, empty when it names one.
+  std::string hold(const std::string &item, bool ids, std::vector<char> *held) const {
+    std::uint32_t id = 0;
+    bool fits = false;
+    const bool digits = ids && plain_decimal(item, &id, &fits);
+    if (digits && fits) {
+      const auto it = by_id_.find(id);
+      if (it != by_id_.end()) {
+        (*held)[it->second] = 1;
+        return {};
+      }
+    }
+    const auto [first, last] = by_name_.equal_range(item);
+    for (auto it = first; it != last; ++it) (*held)[it->second] = 1;
+    if (first != last) return {};
+    return std::string("no image has the ") + (digits ? "IMAGE_ID or NAME " : "NAME ") + quoted(item);
+  }
+
+ private:
+  std::unordered_map<std::uint32_t, std::size_t> by_id_;
+  std::unordered_multimap<std::string, std::size_t> by_name_;
+};
+
+}  // namespace
+
+std::string split_image_list(const std::string &list, std::vector<std::string> *items) {
+  std::vector<std::string> out;
+  for (std::size_t pos = 0;;) {
+    const std::size_t end = std::min(list.find(',', pos), list.size());
+    if (end == pos)
+      return "item " + std::to_string(out.size() + 1) +
+             " is empty (two commas in a row, or a comma at an end)";
+    out.push_back(list.substr(pos, end - pos));
+    if (end == list.size()) break;
+    pos = end + 1;
+  }
+  *items = std::move(out);
+  return {};
+}
+
 std::string parse_image_list(const Model &model, const std::string &list, std::vector<char> *held) {
-  std::vector<char> h(model.images.size(), 0);
+  std::vector<char> h = *held;
+  h.resize(model.images.size(), 0);
   if (list == "all") {
     std::fill(h.begin(), h.end(), 1);
-    *held = std::move(h);
-    return {};
+  } else {
+    std::vector<std::string> items;
+    if (std::string why = split_image_list(list, &items); !why.empty()) return why;
+    const ImageLookup images(model);
+    for (const std::string &item : items)
+      if (std::string why = images.hold(item, true, &h); !why.empty()) return why;
   }
-  std::unordered_map<std::string, int> by_name;
-  std::unordered_map<std::uint32_t, int> by_id;
-  for (std::size_t j = 0; j < model.images.size(); ++j) {
-    by_name.emplace(model.images[j].name, static_cast<int>(j));
-    by_id.emplace(model.images[j].id, static_cast<int>(j));
-  }
+  *held = std::move(h);
+  return {};
+}
+
+std::string parse_image_names(const Model &model, const std::string &text, const std::string &name,
+                              std::vector<char> *held) {
+  std::vector<char> h = *held;
+  h.resize(model.images.size(), 0);
+  const ImageLookup images(model);
   std::size_t pos = 0;
-  while (pos <= list.size()) {
-    std::size_t end = list.find(',', pos);
-    if (end == std::string::npos) end = list.size();
-    const std::string item = list.substr(pos, end - pos);
-    int j = -1;
-    char *stop = nullptr;
-    const unsigned long long id = item.empty() ? 0 : std::strtoull(item.c_str(), &stop, 10);
-    if (!item.empty() && *stop == '\0' && item[0] != '-' && id <= 0xffffffffull) {
-      const auto it = by_id.find(static_cast<std::uint32_t>(id));
-      if (it != by_id.end()) j = it->second;
-    }
-    if (j < 0) {
-      const auto it = by_name.find(item);
-      if (it != by_name.end()) j = it->second;
-    }
-    if (j < 0) return "no image has the IMAGE_ID or NAME '" + item + "'";
-    h[at(j)] = 1;
-    pos = end + 1;
+  for (int line = 1; pos < text.size(); ++line) {
+    const std::size_t eol = std::min(text.find('\n', pos), text.size());
+    // A '\r' is taken off only as part of a "\r\n" line break.
+    const std::size_t end = eol < text.size() && eol > pos && text[eol - 1] == '\r' ? eol - 1 : eol;
+    const std::string item = text.substr(pos, end - pos);
+    pos = eol + 1;
+    if (item.empty()) continue;
+    if (std::string why = images.hold(item, false, &h); !why.empty())
+      return name + ":" + std::to_string(line) + ": " + why;
   }
   *held = std::move(h);
   return {};

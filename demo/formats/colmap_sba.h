@@ -60,10 +60,29 @@ struct ColmapProblem {
   int held_poses = 0;            // images whose pose is held
 };
 
-// The images named by list: "all", or comma-separated IMAGE_IDs or image NAMEs (a name that
-// is a number is taken as an id first). held gets one flag per Model::images. Returns why
-// the list is bad (an image that is not in the model), empty when good.
+// Lists of images, for COLMAP's constant poses (sbarefine's --hold-poses and --hold-poses-file,
+// docs/formats.md). An item is matched as given, nothing trimmed: one of plain decimal digits
+// without a leading zero ("0", "10"; not "010", "+10" or " 10") names the image of that IMAGE_ID
+// when there is one; any other item, and such an item when no image has that IMAGE_ID, names
+// every image of that NAME. An item that names no image is an error that quotes it (a control
+// character in it as \xHH, so that the message stays one line).
+
+// The comma-separated items of list, in order ("all" is one item here). Returns why the list is
+// bad (an empty item, numbered from 1), empty when good.
+std::string split_image_list(const std::string &list, std::vector<std::string> *items);
+
+// Holds the images named by list: "all" (every image), or items separated by commas. *held
+// has one flag per Model::images (it is sized so); the flags of the images named are set, the
+// others left as they are. Returns why the list is bad (an empty item, an item that names no
+// image), empty when good; *held is changed only then.
 std::string parse_image_list(const Model &model, const std::string &list, std::vector<char> *held);
+
+// The same for the text of a file of names (name stands for it in messages): one NAME a line,
+// matched exactly, so that a name may hold a comma, be "all" or be digits (a line is never an
+// IMAGE_ID). Only the line break is taken off ("\n", or "\r\n"); a blank line is skipped (no
+// image's name is empty). Errors are "NAME:LINE: why".
+std::string parse_image_names(const Model &model, const std::string &text, const std::string &name,
+                              std::vector<char> *held);
 
 // The problem of a model checked by check_model. held_pose: one flag per Model::images (or
 // empty for none). mcon: the sba cameras below it are held by the solve (sba's mcon); a COLMAP

@@ -59,6 +59,7 @@ struct Options {
   bool intrinsics_given = false;  // --intrinsics or a --refine-* option
   colmap::RefineIntrinsics refine;
   std::string hold_poses;            // COLMAP: the images whose pose is held; empty: none
+  std::string hold_poses_file;       // COLMAP: a file of the names of more of them; empty: none
   double function_tolerance = -1;    // < 0: not given
   std::string initial_ply, final_ply;
   std::string write_eucsba;  // COLMAP, NVM: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
@@ -124,13 +125,22 @@ std::vector<sbacli::Option> option_table(Options &o) {
                "distortion; FOV's omega) (default 1)",
                flag(&colmap::RefineIntrinsics::distortion)});
   t.push_back({"hold-poses", "LIST",
-               "COLMAP: hold the poses of these images (COLMAP's constant poses): all, or IMAGE_IDs or\n"
-               "NAMEs separated by commas",
+               "COLMAP: hold the poses of these images (COLMAP's constant poses): all, or items\n"
+               "separated by commas, matched as given (nothing trimmed): plain decimal digits without a\n"
+               "leading zero name an IMAGE_ID (or, when no image has it, a NAME); anything else a NAME",
                [&o](const std::string &v) -> std::string {
                  if (v.empty()) return "expected all or a comma-separated list of images";
+                 // The list is checked here; its items are looked up once the model is read.
+                 std::vector<std::string> items;
+                 if (std::string why = colmap::split_image_list(v, &items); !why.empty()) return why;
                  o.hold_poses = v;
                  return {};
                }});
+  t.push_back({"hold-poses-file", "FILE",
+               "COLMAP: hold the poses of the images named in FILE, one NAME a line, matched exactly (a\n"
+               "name may hold commas; a line is never an IMAGE_ID; blank lines are skipped); with\n"
+               "--hold-poses, the images of both",
+               [&o](const std::string &v) { return sbacli::to_file(v, &o.hold_poses_file); }});
   t.push_back({"max-num-iterations", "N",
                "COLMAP's name of --itmax (default 100 for a COLMAP model, as COLMAP; 150 for the others)",
                [&o](const std::string &v) {
@@ -425,16 +435,30 @@ std::string camera_models(const colmap::Model &model, const colmap::ColmapProble
   return out;
 }
 
+// The images of --hold-poses and --hold-poses-file (one flag per image; empty when neither is given).
+bool held_poses(const Options &o, const colmap::Model &model, std::vector<char> *held, std::string *error) {
+  std::string why;
+  if (!o.hold_poses.empty() && !(why = colmap::parse_image_list(model, o.hold_poses, held)).empty()) {
+    *error = "sbarefine: --hold-poses: " + o.input + ": " + why;
+    return false;
+  }
+  if (o.hold_poses_file.empty()) return true;
+  std::string names;
+  if (!colmap::read_whole_file(o.hold_poses_file, true, &names, &why)) {
+    *error = "sbarefine: --hold-poses-file: " + why;
+    return false;
+  }
+  if (!(why = colmap::parse_image_names(model, names, o.hold_poses_file, held)).empty()) {
+    *error = "sbarefine: --hold-poses-file: " + o.input + ": " + why;
+    return false;
+  }
+  return true;
+}
+
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
   std::vector<char> held;
-  if (!o.hold_poses.empty()) {
-    const std::string why = colmap::parse_image_list(l->model, o.hold_poses, &held);
-    if (!why.empty()) {
-      *error = "sbarefine: --hold-poses: " + o.input + ": " + why;
-      return false;
-    }
-  }
+  if (!held_poses(o, l->model, &held, error)) return false;
   if (!colmap::to_sba(l->model, o.refine, held, o.solve.mcon, o.input, &l->colmap_problem, error)) return false;
   colmap_job(l, job);
   const colmap::ColmapProblem &pr = l->colmap_problem;
@@ -598,6 +622,7 @@ int refine_main(int argc, char **argv) {
       {!o.bundler_list.empty(), format == Format::Bundler, "--bundler-list", "Bundler files"},
       {!o.write_list.empty(), format == Format::Bundler, "--write-list", "Bundler files"},
       {!o.hold_poses.empty(), format == Format::Colmap, "--hold-poses", "COLMAP models"},
+      {!o.hold_poses_file.empty(), format == Format::Colmap, "--hold-poses-file", "COLMAP models"},
       {o.intrinsics_given, format != Format::Bundler, "--intrinsics (or --refine-*)",
        "COLMAP models and NVM files (a bundle's f, k1 and k2 are always refined)"}};
   for (const auto &opt : kFormatOptions)
