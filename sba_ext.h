@@ -205,6 +205,18 @@ struct sba_ext_options {
    * cameras' copies (each camera's diagonal entry is added). */
   const int *cam_group;
   const char *cam_shared;
+  /* Camera parameters shared per parameter, for groupings that differ from one parameter to
+   * the next (COLMAP's rigs: an image's intrinsics shared by the images of its camera, its
+   * frame's pose by the images taken at one instant, its sensor's pose in the rig by every
+   * frame of the rig): NULL (none), or m*cnp group numbers, camera j's parameter c at
+   * j*cnp+c, -1 for a parameter of its own. Cameras j and j' share parameter c, as one
+   * unknown, when their numbers for c are equal and not -1; the numbers of different
+   * parameters are unrelated. The same rules as for cam_group apply per parameter: a shared
+   * parameter starts as its first camera's, comes back bit-identical in all of them, is held
+   * in all or none of them (with one value), and cameras below mcon have -1 throughout.
+   * Exclusive with cam_group/cam_shared (which mean cam_param_group[j*cnp+c] = cam_group[j]
+   * where cam_shared[c] is nonzero, else -1). */
+  const int *cam_param_group;
 };
 
 /* Fills *opt with the defaults (every field zero/NULL) and opt->size. */

@@ -15,7 +15,6 @@
 #include <string>
 #include <vector>
 
-#include "camera_params.h"
 #include "kernels.h"
 #include "lapack.h"
 #include "linearization.h"
@@ -99,6 +98,21 @@ class Canceller {
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
+// Per free camera parameter ((j - mcon) cnp + c), the index of its unknown, -1 for a held
+// one; returns how many unknowns there are.
+int unknown_index(const Layout &lay, std::vector<int> *out) {
+  const int cnp = lay.cnp;
+  out->assign(size_t(lay.free_cams()) * size_t(cnp), -1);
+  if (lay.cams.shared()) {
+    std::copy(lay.cams.unknown.begin() + i64(lay.mcon) * cnp, lay.cams.unknown.end(), out->begin());
+    return lay.cams.nunknowns;
+  }
+  int nz = 0;
+  for (i64 q = 0; q < i64(out->size()); ++q)
+    if (!lay.cams.held[size_t(i64(lay.mcon) * cnp + q)]) (*out)[size_t(q)] = nz++;
+  return nz;
+}
+
 // Why point i (free, with a V_i of rank < pnp) has no covariance: one line.
 std::string undetermined_point(const Layout &lay, int i, int rank) {
   const int seen = lay.rowptr[size_t(i) + 1] - lay.rowptr[size_t(i)];
@@ -164,10 +178,10 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
   // With held or shared camera parameters the unknowns are fewer than the camera
   // parameters: S over the unknowns is T^T S T, where T maps each unknown to the parameters
   // it moves (unknown[r], -1 for a held one), and the parameters' covariance T S^+ T^T.
-  const bool reduced = opt.cams.any() && cnp > 0;
+  const bool reduced = (lay.cams.shared() || lay.cams.any_held()) && cnp > 0;
   std::vector<int> unknown;
   int nS = nA;
-  if (reduced) nS = CameraUnknowns(lay, opt.cams).index(lay, &unknown);
+  if (reduced) nS = unknown_index(lay, &unknown);
   std::vector<double> Sa;
   if (nA > 0) {
     BlockMap map;

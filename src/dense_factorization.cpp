@@ -65,19 +65,6 @@ class OwnCholesky final : public DenseFactorization {
     return true;
   }
 
-  // U^T y = rhs row by row of U (U row-major upper: the updates read rows), then U x = y.
-  bool solve_again(const double *S, double *rhs, double *x) override {
-    const i64 n = n_, ld = ld_;
-    for (i64 k = 0; k < n; ++k) {
-      const double *u = S + k * ld;
-      const double y = rhs[k] / u[k];
-      rhs[k] = y;
-      for (i64 j = k + 1; j < n; ++j) rhs[j] -= u[j] * y;
-    }
-    back_substitute_upper(S, n, ld, rhs, x);
-    return true;
-  }
-
  private:
   ThreadPool &pool_;
   DenseCholesky factor_;
@@ -95,15 +82,6 @@ class LapackCholesky final : public DenseFactorization {
     // Row-major upper is column-major lower: factor in place, no copy.
     SBA_F77(dpotrf, DPOTRF)("L", &n, S, &ld, &info, 1);
     if (info != 0) return false;
-    std::copy(rhs, rhs + n_, x);
-    SBA_F77(dpotrs, DPOTRS)("L", &n, &one, S, &ld, x, &n, &info, 1);
-    return info == 0;
-  }
-
-  bool solve_again(const double *S, double *rhs, double *x) override {
-    const int n = int(n_), ld = int(ld_), one = 1;
-    int info = 0;
-    const ThreadPool::ForeignThreads lapack(pool_);
     std::copy(rhs, rhs + n_, x);
     SBA_F77(dpotrs, DPOTRS)("L", &n, &one, S, &ld, x, &n, &info, 1);
     return info == 0;

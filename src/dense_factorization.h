@@ -24,12 +24,6 @@ class DenseFactorization {
   // may then hold anything); on success x may still hold non-finite entries, which the caller
   // tests.
   virtual bool solve(double *S, double *rhs, double *x) = 0;
-  // After solve() succeeded on S (S as solve() left it): x = S^-1 rhs for another rhs, from
-  // the factor. False when the factorization keeps none it can reuse (rhs may be overwritten).
-  virtual bool solve_again(const double *S, double *rhs, double *x) {
-    (void)S, (void)rhs, (void)x;
-    return false;
-  }
 
  protected:
   DenseFactorization(i64 n, i64 ld) : n_(n), ld_(ld) {}

@@ -11,7 +11,7 @@
 #include <memory>
 #include <string>
 
-#include "camera_params.h"
+#include "camera_unknowns.h"
 #include "covariance.h"
 #include "driver_options.h"
 #include "finite.h"
@@ -23,6 +23,7 @@
 #include "options.h"
 #include "strategy.h"
 #include "thread_policy.h"
+#include "unknowns.h"
 
 namespace sba {
 
@@ -63,17 +64,11 @@ void make_layout(const DriverArgs &a, Layout &lay, std::string *msg) {
   if (!ok && msg->empty()) *msg = "invalid problem";
 }
 
-// The unknowns the solve has: the free parameters less those held, a shared one counted once.
-i64 count_unknowns(const Options &opt, const Layout &lay) {
-  if (!opt.cams.any() || lay.cnp == 0) return lay.free_vars();
-  return CameraUnknowns(lay, opt.cams).count(lay) + i64(lay.free_pts()) * lay.pnp;
-}
-
-// The data once the index says how much of it there is.
-std::string check_data(const DriverArgs &a, const Options &opt, const Layout &lay) {
+// The data once the index (and the camera map) says how much of it there is.
+std::string check_data(const DriverArgs &a, const Layout &lay) {
   const i64 nobs = lay.nvis * lay.mnp;
   if (lay.free_vars() == 0) return "every camera and point is fixed (mcon/ncon): nothing to refine";
-  const i64 unknowns = count_unknowns(opt, lay);
+  const i64 unknowns = count_unknowns(lay);
   if (unknowns == 0) return "every parameter is fixed (mcon/ncon) or held (cam_fixed): nothing to refine";
   if (nobs < unknowns)
     return "fewer measurements (" + std::to_string(nobs) + ") than free parameters (" + std::to_string(unknowns) +
@@ -107,7 +102,10 @@ bool validate_and_lay_out(const DriverArgs &a, const sba_ext_options &ext, const
   if (msg.empty()) msg = extra();
   if (msg.empty()) make_layout(a, *lay, &msg);
   if (msg.empty()) msg = check_camera_params(opt->cams, *lay, a.p);
-  if (msg.empty()) msg = check_data(a, *opt, *lay);
+  if (msg.empty()) {
+    lay->cams = make_camera_map(opt->cams, *lay);
+    msg = check_data(a, *lay);
+  }
   if (!msg.empty()) {
     log.error("%s: %s", a.name, msg.c_str());
     return false;

@@ -98,6 +98,7 @@ bool options_from(const DriverArgs &a, const sba_ext_options &ext, const Environ
   o->parallel_callbacks = ext.parallel_callbacks != 0;
   o->cams.fixed = ext.cam_fixed;
   o->cams.fixed_per_camera = ext.cam_fixed_per_camera != 0;
+  o->cams.param_group = ext.cam_param_group;
   o->cams.group = ext.cam_group;
   o->cams.shared = ext.cam_shared;
   // Opt-in only: how the host's threads are scheduled is the host's business.

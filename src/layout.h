@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "camera_map.h"
 #include "sba_export.h"
 
 namespace sba {
@@ -31,6 +32,9 @@ struct Layout {
   // Where each camera's projections start in the camera-major order (see by_camera()).
   std::vector<int> colptr;
   sba_crsm idx{};  // views rowptr/colidx/val for the callbacks
+  // How the free cameras' parameters map to the unknowns of the camera side (camera_map.h);
+  // empty for sba 1.6's one unknown per parameter.
+  CameraMap cams;
 
   i64 nvars() const { return i64(m) * cnp + i64(n) * pnp; }
   i64 a_off(int j) const { return i64(j) * cnp; }
@@ -43,6 +47,8 @@ struct Layout {
   int free_cams() const { return cnp > 0 ? m - mcon : 0; }
   int free_pts() const { return pnp > 0 ? n - ncon : 0; }
   i64 free_vars() const { return i64(free_cams()) * cnp + i64(free_pts()) * pnp; }
+  // The order of the reduced camera system: the camera side's unknowns.
+  i64 camera_unknowns() const { return cams.shared() ? i64(cams.nunknowns) : i64(free_cams()) * cnp; }
 };
 
 // The index column-compressed by camera (points ascending): for slot s of camera j's range

@@ -39,6 +39,7 @@ struct Summary {
   StopReason reason = kStopNone;
   i64 nfev = 0, njev = 0, nlinsys = 0;
   bool ok = false;
+  bool moved = false;  // a step was accepted: p is no longer the caller's
 
   void to_info(double *info) const;
 };

@@ -12,19 +12,19 @@
 #include <cstdio>
 #include <vector>
 
-#include "camera_params.h"
 #include "finite.h"
 #include "kernels.h"
 #include "layout.h"
 #include "linearization.h"
 #include "lm.h"
+#include "memory.h"
 #include "model.h"
 #include "options.h"
-#include "step_solver.h"
-#include "strategy.h"
-#include "memory.h"
 #include "parallel.h"
 #include "small_dense.h"
+#include "step_solver.h"
+#include "strategy.h"
+#include "unknowns.h"
 
 namespace sba {
 namespace {
@@ -195,6 +195,23 @@ void weight_jacobian(ThreadPool &pool, const Layout &lay, const double *wts, dou
   });
 }
 
+// The Jacobian columns of the held camera parameters zeroed: nothing of them reaches the
+// normal equations (their rows of U_j and e_a come out zero), and their step is pinned at
+// -0.0 by the solvers.
+void zero_held_columns(ThreadPool &pool, const Layout &lay, double *jac) {
+  const int mnp = lay.mnp, cnp = lay.cnp, jb = lay.jblk();
+  const char *held = lay.cams.held.data();
+  pool.for_range(lay.nvis, [&](i64 b, i64 e) {
+    for (i64 k = b; k < e; ++k) {
+      const char *h = held + i64(lay.colidx[size_t(k)]) * cnp;
+      double *A = jac + k * jb;
+      for (int c = 0; c < cnp; ++c)
+        if (h[c])
+          for (int r = 0; r < mnp; ++r) A[r * cnp + c] = 0.0;
+    }
+  });
+}
+
 // A Jacobian entry that is not finite makes every later number meaningless. Rather than
 // scanning the whole Jacobian, look at the normal equations: every entry of a free camera's
 // or point's block appears squared on the diagonal of its U_j or V_i (fixed blocks are
@@ -238,15 +255,28 @@ const char *legacy_name(Mode mode) {
   return mode == Mode::Mot ? "mot" : mode == Mode::Str ? "str" : "motstr";
 }
 
-// max |g| and max diag(J^T J) over the free points and (with cameras) the free cameras.
-void gradient_stats(const Layout &lay, const Workspace &w, bool cameras, double *ginf, double *maxdiag) {
+// max |g| and max diag(J^T J) over the unknowns: the free points and the camera side's (a
+// shared unknown's gradient and diagonal entry are its copies' sums; a held parameter's are 0).
+void gradient_stats(const Layout &lay, const Workspace &w, double *ginf, double *maxdiag) {
   double g = 0.0, d = 0.0;
   const int cnp = lay.cnp, pnp = lay.pnp;
-  for (int j = lay.mcon; j < lay.m && cnp && cameras; ++j)
-    for (int a = 0; a < cnp; ++a) {
-      g = std::max(g, std::fabs(w.ea[size_t(i64(j) * cnp + a)]));
-      d = std::max(d, w.U[size_t(i64(j) * cnp * cnp + a * (cnp + 1))]);
+  if (lay.cams.shared()) {
+    std::vector<double> gu(size_t(lay.cams.nunknowns)), du(gu.size()), diag(size_t(lay.m) * cnp);
+    for (int j = lay.mcon; j < lay.m; ++j)
+      for (int a = 0; a < cnp; ++a) diag[size_t(j) * cnp + a] = w.U[size_t(i64(j) * cnp * cnp + a * (cnp + 1))];
+    to_unknowns(lay, w.ea.data(), gu.data());
+    to_unknowns(lay, diag.data(), du.data());
+    for (size_t u = 0; u < gu.size(); ++u) {
+      g = std::max(g, std::fabs(gu[u]));
+      d = std::max(d, du[u]);
     }
+  } else {
+    for (int j = lay.mcon; j < lay.m && cnp; ++j)
+      for (int a = 0; a < cnp; ++a) {
+        g = std::max(g, std::fabs(w.ea[size_t(i64(j) * cnp + a)]));
+        d = std::max(d, w.U[size_t(i64(j) * cnp * cnp + a * (cnp + 1))]);
+      }
+  }
   for (int i = lay.ncon; i < lay.n && pnp; ++i)
     for (int a = 0; a < pnp; ++a) {
       g = std::max(g, std::fabs(w.eb[size_t(i64(i) * pnp + a)]));
@@ -312,6 +342,7 @@ class Steps {
     if (wts_) weight_jacobian(pool_, lay_, wts_, w.jac.data());
     if (loss_.robust())
       reweight(pool_, lay_, w.rw.data(), w.e.data(), w.jac.data(), w.er.data());
+    if (lay_.cams.any_held()) zero_held_columns(pool_, lay_, w.jac.data());
     kernels_.normal_equations(pool_, w.jac.data(), loss_.robust() ? w.er.data() : w.e.data(),
                               w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
     if (!normal_equations_finite(pool_, lay_, w)) {
@@ -388,28 +419,15 @@ namespace {
 // 1.6's order, which the "sba" strategy's stop reasons and iteration counts depend on.
 class LevenbergMarquardt {
  public:
-  // cams: the held and shared camera parameters (null: none), which is then also the solver.
-  LevenbergMarquardt(const Layout &lay, Steps &st, StepSolver &solver, CameraParams *cams,
-                     Strategy &strategy, const Options &opt, const Logger &log, Summary &sum,
+  LevenbergMarquardt(const Layout &lay, Steps &st, StepSolver &solver, Strategy &strategy, const Options &opt, const Logger &log, Summary &sum,
                      std::chrono::steady_clock::time_point t0)
       : lay_(lay), st_(st), w_(st.w), ne_(st.w.view()), pool_(st.pool_), kernels_(st.kernels_),
-        solver_(solver), cams_(cams), strategy_(strategy), opt_(opt), log_(log), sum_(sum),
+        solver_(solver), strategy_(strategy), opt_(opt), log_(log), sum_(sum),
         t0_(t0), nvars_(lay.nvars()) {}
 
   // Iterates from p (updated in place with the last accepted estimate). False on a failure,
-  // with sum's reason and figures telling where the solve stood. A solve that fails before
-  // any step is taken, or that only scores p (itmax 0), leaves p as the caller gave it: the
-  // shared parameters' copies are set to one value only for a solve that iterates.
+  // with sum's reason and figures telling where the solve stood.
   bool run(double *p) {
-    std::vector<double> given;
-    if (cams_ && opt_.itmax > 0) given = cams_->start(p);
-    const bool ok = iterate(p);
-    if (!ok && !moved_ && !given.empty()) cams_->restore(p, given);
-    return ok;
-  }
-
- private:
-  bool iterate(double *p) {
     if (!start(p)) return false;
     for (it_ = 0; it_ < opt_.itmax && !stop_; ++it_) {
       if (!linearize(p)) return fail(kStopNonFinite, it_);
@@ -422,6 +440,7 @@ class LevenbergMarquardt {
     return true;
   }
 
+ private:
   // What became of one damped solve.
   enum class Attempt {
     kAccepted,  // p moved to the candidate
@@ -463,15 +482,8 @@ class LevenbergMarquardt {
     std::snprintf(where, sizeof where, " at iteration %d", it_);
     if (!st_.linearize(p, where)) return false;
     // Stop 1 looks at the gradient in the units of p, whatever the strategy solves in.
-    gradient_stats(lay_, w_, !cams_, &sum_.grad_inf, &maxdiag_);
-    if (cams_) {
-      double g, d;
-      cams_->gradient_stats(w_.U.data(), w_.ea.data(), &g, &d);
-      sum_.grad_inf = std::max(sum_.grad_inf, g);
-      maxdiag_ = std::max(maxdiag_, d);
-    }
+    gradient_stats(lay_, w_, &sum_.grad_inf, &maxdiag_);
     strategy_.linearized(pool_, w_.jac.data(), w_.U.data(), w_.V.data(), w_.ea.data(), w_.eb.data());
-    if (cams_) cams_->linearized(w_.jac.data(), w_.U.data(), w_.ea.data(), strategy_.scale());
     maxdiag_ = strategy_.solved_max_diagonal(maxdiag_);
     if (it_ == 0) mu_ = strategy_.initial_damping(opt_.tau, maxdiag_);
     if (sum_.grad_inf <= opt_.eps1) {
@@ -512,7 +524,6 @@ class LevenbergMarquardt {
       return Attempt::kRejected;
     }
     const double dL = strategy_.step_in_parameters(pool_, w_.ea.data(), w_.eb.data(), mu_, dp);
-    if (cams_) cams_->tie(dp);
     const double dp2 = sqnorm(pool_, dp, nvars_);
     sum_.dp2 = dp2;
     if (dp2 <= opt_.eps2 * opt_.eps2 * p2_) {
@@ -556,7 +567,7 @@ class LevenbergMarquardt {
     if (!strategy_.acceptable(dF, dL)) return Attempt::kRejected;
     if (strategy_.converged(eps_, epsn)) stop_ = kStopReduction;
     st_.accept(p);
-    moved_ = true;
+    sum_.moved = true;
     eps_ = epsn;
     sqe_ = cn.sq;
     mu_ = strategy_.after_success(mu_, dF / dL);
@@ -620,7 +631,6 @@ class LevenbergMarquardt {
   ThreadPool &pool_;
   const Kernels &kernels_;
   StepSolver &solver_;
-  CameraParams *cams_;
   Strategy &strategy_;
   const Options &opt_;
   const Logger &log_;
@@ -633,7 +643,6 @@ class LevenbergMarquardt {
   double eps_ = 0.0, sqe_ = 0.0;  // the cost and squared error at p
   double mu_ = 0.0, maxdiag_ = 0.0;
   int nu_ = 2;      // the growth of mu at the next rejection
-  bool moved_ = false;  // a step was accepted
   double p2_ = 0.0;  // ||p||^2 at the start of the iteration
 };
 
@@ -649,15 +658,15 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   Steps st(lay, model, x, opt.loss, log, pool, *kernels, covx != nullptr);
   std::unique_ptr<StepSolver> solver = make_step_solver(opt.solver, SolveContext{lay, pool, *kernels});
   if (wrap) solver = wrap(std::move(solver));
-  CameraParams *cams = nullptr;
-  if (opt.cams.any() && lay.cnp > 0) {
-    auto c = std::make_unique<CameraParams>(lay, opt.cams, pool, std::move(solver));
-    cams = c.get();
-    solver = std::move(c);
-  }
   const std::unique_ptr<Strategy> strategy = make_strategy(opt.strategy, lay, opt.eps4);
   if (!st.weigh(covx)) return false;
-  return LevenbergMarquardt(lay, st, *solver, cams, *strategy, opt, log, sum, t0).run(p);
+  // A solve that iterates starts with every shared parameter's copies equal; one that fails
+  // before its first step, or only scores p (itmax 0), leaves p as the caller gave it.
+  std::vector<double> given;
+  if (opt.itmax > 0) given = tie_copies(lay, p);
+  const bool ok = LevenbergMarquardt(lay, st, *solver, *strategy, opt, log, sum, t0).run(p);
+  if (!ok && !sum.moved) restore_copies(lay, p, given);
+  return ok;
 }
 
 }  // namespace sba

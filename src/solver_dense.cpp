@@ -8,8 +8,10 @@
 #include <vector>
 
 #include "dense_factorization.h"
-#include "step_solver.h"
+#include "mapped_schur.h"
 #include "memory.h"
+#include "step_solver.h"
+#include "unknowns.h"
 
 namespace sba {
 namespace {
@@ -29,7 +31,6 @@ class DenseSchurSolver final : public StepSolver {
 
   StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
     const Layout &lay = ctx_.lay;
-    reduced_.reset();
     // The steps of the fixed cameras and points are 0; the others are all written below.
     std::fill(dp, dp + lay.a_off(lay.mcon), 0.0);
     std::fill(dp + lay.b_off(0), dp + lay.b_off(lay.ncon), 0.0);
@@ -49,34 +50,64 @@ class DenseSchurSolver final : public StepSolver {
     return StepStatus::Solved;
   }
 
-  bool solve_again(const NormalEquations &ne, double mu, double *dp) override {
-    const Layout &lay = ctx_.lay;
-    if (!reduced_(ne, mu, rhs_.data())) return false;
-    std::fill(dp, dp + lay.a_off(lay.mcon), 0.0);
-    std::fill(dp + lay.b_off(0), dp + lay.b_off(lay.ncon), 0.0);
-    double *da = dp + lay.a_off(lay.mcon);
-    if (!factorization_->solve_again(Sp_, rhs_.data(), da)) return false;
-    for (i64 q = 0; q < nS_; ++q)
-      if (!std::isfinite(da[q])) return false;
-    ctx_.kernels.back_substitute(ctx_.pool, ne, reduced_.Vinv(), mu, dp);
-    return true;
-  }
-
  private:
   std::unique_ptr<DenseFactorization> factorization_;
   SolveContext ctx_;
   i64 nS_;
   std::vector<double> S_, rhs_;
   double *Sp_ = nullptr;  // S's first entry: S_'s first 64-byte aligned one
-  ReducedRhs reduced_{ctx_};  // solve_again's right-hand sides
+};
+
+// The same over shared unknowns (mapped_schur.h): S of the unknowns' order, made by the
+// mapped assembly from every point's (V_i + mu I)^-1, and the cameras' steps the unknowns'.
+class MappedDenseSchurSolver final : public StepSolver {
+ public:
+  MappedDenseSchurSolver(std::unique_ptr<DenseFactorization> factorization, const SolveContext &ctx)
+      : factorization_(std::move(factorization)), ctx_(ctx), schur_(ctx.lay, ctx.pool.size()),
+        nS_(ctx.lay.camera_unknowns()), rhs_(size_t(nS_)), du_(size_t(nS_)) {
+    const i64 ld = factorization_->ld();
+    resize_prefaulted(S_, size_t(ld * nS_ + 8));
+    Sp_ = align_to_line(S_.data());
+    Vinv_.resize(size_t(ctx.lay.n) * size_t(ctx.lay.pnp) * size_t(ctx.lay.pnp));
+  }
+
+  StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
+    const Layout &lay = ctx_.lay;
+    std::fill(dp, dp + lay.nvars(), 0.0);
+    if (lay.free_pts() > 0 && !ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data()))
+      return StepStatus::SingularPointBlock;
+    UnknownBlocks map;
+    map.base = Sp_;
+    map.ld = factorization_->ld();
+    map.start = lay.cams.block_start.data();
+    schur_.assemble(ctx_.pool, ne, Vinv_.data(), mu, map, rhs_.data());
+    if (!factorization_->solve(Sp_, rhs_.data(), du_.data())) return StepStatus::Failed;
+    for (i64 q = 0; q < nS_; ++q)
+      if (!std::isfinite(du_[size_t(q)])) return StepStatus::Failed;
+    to_cameras(lay, du_.data(), -0.0, dp);
+    if (lay.free_pts() > 0) ctx_.kernels.back_substitute(ctx_.pool, ne, Vinv_.data(), mu, dp);
+    return StepStatus::Solved;
+  }
+
+ private:
+  std::unique_ptr<DenseFactorization> factorization_;
+  SolveContext ctx_;
+  MappedSchur schur_;
+  i64 nS_;
+  std::vector<double> S_, rhs_, du_, Vinv_;
+  double *Sp_ = nullptr;
 };
 
 }  // namespace
 
 std::unique_ptr<StepSolver> make_dense_schur_solver(LinSolver kind, const SolveContext &ctx) {
-  const i64 nS = i64(ctx.lay.free_cams()) * ctx.lay.cnp;
-  std::unique_ptr<DenseFactorization> f = make_dense_factorization(kind, nS, ctx.lay.cnp, ctx.pool);
+  const Layout &lay = ctx.lay;
+  // Block Jacobi (CG's preconditioner) over the cameras' blocks; over shared unknowns, whose
+  // blocks differ in size, Jacobi.
+  const int block = lay.cams.shared() ? 1 : lay.cnp;
+  std::unique_ptr<DenseFactorization> f = make_dense_factorization(kind, lay.camera_unknowns(), block, ctx.pool);
   if (!f) return nullptr;
+  if (lay.cams.shared()) return std::make_unique<MappedDenseSchurSolver>(std::move(f), ctx);
   return std::make_unique<DenseSchurSolver>(std::move(f), ctx);
 }
 

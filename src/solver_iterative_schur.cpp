@@ -42,10 +42,13 @@
 // dp^T (mu dp + g), is then the model's reduction for this inexact one as well.
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <vector>
 
+#include "mapped_schur.h"
 #include "small_dense.h"
 #include "step_solver.h"
+#include "unknowns.h"
 
 namespace sba {
 namespace {
@@ -88,13 +91,27 @@ class IterativeSchurSolver final : public StepSolver {
     const Layout &lay = lay_;
     nc_ = lay.free_cams();
     np_ = lay.free_pts();
-    nS_ = i64(nc_) * cnp();
+    nC_ = i64(nc_) * cnp();
+    nS_ = lay.camera_unknowns();
     const int T = ctx.pool.size();
     chunk_ = split_by_work(lay.rowptr, lay.ncon, np_, kChunks);
-    partial_.resize(size_t(kChunks) * size_t(nS_));
-    Dpartial_.resize(partial_.size() * size_t(cnp()));
+    partial_.resize(size_t(kChunks) * size_t(nC_));
     Vinv_.resize(size_t(lay.n) * size_t(pnp()) * size_t(pnp()));
-    D_.resize(size_t(nS_) * size_t(cnp()));
+    if (lay.cams.shared()) {
+      // Over shared unknowns the products run on the cameras' parameters (xc_, yc_, all m
+      // cameras' as in p) and are reduced to the unknowns; the preconditioner is S's diagonal
+      // blocks over the unknowns' blocks.
+      schur_ = std::make_unique<MappedSchur>(lay, T);
+      const CameraMap &map = lay.cams;
+      dstart_.assign(size_t(map.nblocks()) + 1, 0);
+      for (int b = 0; b < map.nblocks(); ++b) dstart_[size_t(b) + 1] = dstart_[size_t(b)] + i64(map.block_size(b)) * map.block_size(b);
+      D_.resize(size_t(dstart_.back()));
+      xc_.resize(size_t(lay.m) * size_t(cnp()));
+      yc_.resize(xc_.size());
+    } else {
+      Dpartial_.resize(partial_.size() * size_t(cnp()));
+      D_.resize(size_t(nS_) * size_t(cnp()));
+    }
     for (std::vector<double> *v : {&rhs_, &x_, &r_, &z_, &p_, &q_}) v->resize(size_t(nS_));
     // Per thread: the point pass's mnp + 2 pnp, or the preconditioner's mnp (pnp + mnp + cnp).
     const int mn = mnp(), cn = cnp(), pn = pnp();
@@ -111,17 +128,25 @@ class IterativeSchurSolver final : public StepSolver {
     // rhs = e_a - W V*^-1 e_b, and the forcing term from the gradient's norm.
     const int pn = pnp();
     point_pass(ne, nullptr);
-    gather(ne, 0.0, nullptr, ne.ea + lay.a_off(lay.mcon), rhs_.data());
+    const double *ga = ne.ea + lay.a_off(lay.mcon);
+    if (schur_) {
+      gather(ne, 0.0, nullptr, ga, yc_.data() + lay.a_off(lay.mcon));
+      to_unknowns(lay, yc_.data(), rhs_.data());
+      to_unknowns(lay, ne.ea, x_.data());  // the gradient over the unknowns, for its norm
+      ga = x_.data();
+    } else {
+      gather(ne, 0.0, nullptr, ga, rhs_.data());
+    }
     const double *eb_free = ne.eb + i64(lay.ncon) * pn;
-    const double g2 =
-        dot(ne.ea + lay.a_off(lay.mcon), ne.ea + lay.a_off(lay.mcon), nS_) + dot(eb_free, eb_free, i64(np_) * pn);
+    const double g2 = dot(ga, ga, nS_) + dot(eb_free, eb_free, i64(np_) * pn);
     if (!std::isfinite(g2)) return StepStatus::Failed;
     if (g0_ < 0.0) g0_ = std::sqrt(g2);
     const double eta = g0_ > 0.0 ? std::min(kEtaMax, std::sqrt(std::sqrt(g2) / g0_)) : kEtaMax;
 
     if (!make_preconditioner(ne, mu)) return StepStatus::Failed;
-    double *da = dp + lay.a_off(lay.mcon);
+    double *da = schur_ ? q_.data() : dp + lay.a_off(lay.mcon);
     if (!conjugate_gradients(ne, mu, eta, da)) return StepStatus::Failed;
+    if (schur_) to_cameras(lay, da, -0.0, dp);
     ctx_.kernels.back_substitute(pool, ne, Vinv_.data(), mu, dp);
     return StepStatus::Solved;
   }
@@ -169,8 +194,8 @@ class IterativeSchurSolver final : public StepSolver {
       double ul[M > 0 ? M : 1], wl[P > 0 ? P : 1], tl[P > 0 ? P : 1];
       double *u = M > 0 ? ul : sc, *w = P > 0 ? wl : sc + mn, *ti = P > 0 ? tl : sc + mn + pn;
       for (i64 c = c0; c < c1; ++c) {
-        double *yc = partial_.data() + c * nS_;
-        std::fill(yc, yc + nS_, 0.0);
+        double *yc = partial_.data() + c * nC_;
+        std::fill(yc, yc + nC_, 0.0);
         for (i64 q = chunk_[size_t(c)]; q < chunk_[size_t(c) + 1]; ++q) {
           const int i = int(q) + lay.ncon;
           const int k0 = lay.rowptr[i], k1 = lay.rowptr[i + 1];
@@ -233,23 +258,36 @@ class IterativeSchurSolver final : public StepSolver {
           std::copy_n(base + j * cn, cn, yj);
         }
         for (int c = 0; c < kChunks; ++c) {
-          const double *pc = partial_.data() + c * nS_ + j * cn;
+          const double *pc = partial_.data() + c * nC_ + j * cn;
           for (int a = 0; a < cn; ++a) yj[a] += pc[a];
         }
       }
     });
   }
 
-  // y = S x.
+  // y = S x. Over shared unknowns, through the cameras' parameters: S = P^T (U - W V*^-1
+  // W^T) P + mu I with P the map from the unknowns to the parameters.
   void multiply(const NormalEquations &ne, double mu, const double *x, double *y) {
-    point_pass(ne, x);
-    gather(ne, mu, x, nullptr, y);
+    if (!schur_) {
+      point_pass(ne, x);
+      gather(ne, mu, x, nullptr, y);
+      return;
+    }
+    const Layout &lay = lay_;
+    to_cameras(lay, x, 0.0, xc_.data());
+    point_pass(ne, xc_.data() + lay.a_off(lay.mcon));
+    gather(ne, 0.0, xc_.data() + lay.a_off(lay.mcon), nullptr, yc_.data() + lay.a_off(lay.mcon));
+    to_unknowns(lay, yc_.data(), y);
+    ctx_.pool.for_range(nS_, [=](i64 e0, i64 e1) {
+      for (i64 e = e0; e < e1; ++e) y[e] += mu * x[e];
+    });
   }
 
   // D_j = U_j + mu I - sum_i W_ij V*_i^-1 W_ij^T, Cholesky-factored; false if one is not
   // positive definite (then neither is S at this damping, up to rounding). The sums by
   // chunk of points, for the reasons of point_pass.
   bool make_preconditioner(const NormalEquations &ne, double mu) {
+    if (schur_) return make_mapped_preconditioner(ne, mu);
     const Layout &lay = lay_;
     const int jb = lay.jblk();
     const i64 blocks = i64(nc_) * cnp() * cnp();
@@ -321,8 +359,36 @@ class IterativeSchurSolver final : public StepSolver {
     return std::all_of(ok.begin(), ok.end(), [](int v) { return v != 0; });
   }
 
+  // The diagonal blocks of S over the unknowns' blocks, Cholesky-factored.
+  bool make_mapped_preconditioner(const NormalEquations &ne, double mu) {
+    const CameraMap &map = lay_.cams;
+    UnknownBlocks D;
+    D.kind = UnknownBlocks::Kind::Diagonal;
+    D.base = D_.data();
+    D.start = map.block_start.data();
+    D.diag = dstart_.data();
+    schur_->assemble(ctx_.pool, ne, Vinv_.data(), mu, D, nullptr);
+    return ctx_.pool.all_ranges(map.nblocks(), [&](int, i64 b0, i64 b1) {
+      for (i64 b = b0; b < b1; ++b)
+        if (!small::chol(D_.data() + dstart_[size_t(b)], map.block_size(int(b)))) return false;
+      return true;
+    });
+  }
+
   // z = D^-1 r.
   void precondition(const double *r, double *z) {
+    if (schur_) {
+      const CameraMap &map = lay_.cams;
+      ctx_.pool.for_range(map.nblocks(), [&](i64 b0, i64 b1) {
+        for (i64 b = b0; b < b1; ++b) {
+          const int n = map.block_size(int(b));
+          double *zb = z + map.block_start[size_t(b)];
+          std::copy_n(r + map.block_start[size_t(b)], n, zb);
+          small::chol_solve(D_.data() + dstart_[size_t(b)], zb, n);
+        }
+      });
+      return;
+    }
     ctx_.pool.for_range(nc_, [&](i64 j0, i64 j1) {
       const int cn = cnp();
       for (i64 j = j0; j < j1; ++j) {
@@ -383,7 +449,8 @@ class IterativeSchurSolver final : public StepSolver {
   SolveContext ctx_;
   const Layout &lay_;
   int nc_ = 0, np_ = 0;
-  i64 nS_ = 0;
+  i64 nC_ = 0;  // the free cameras' parameters
+  i64 nS_ = 0;  // S's order: the camera unknowns
   std::vector<i64> chunk_;                // the chunks' ranges of free points
   std::vector<double> partial_;           // the chunks' partial sums of the point pass
   std::vector<double> Dpartial_;          // and of the preconditioner's blocks
@@ -391,6 +458,9 @@ class IterativeSchurSolver final : public StepSolver {
   std::vector<double> rhs_, x_, r_, z_, p_, q_;
   std::vector<double> scratch_;           // per thread: run-time-sized blocks
   double g0_ = -1.0;                      // ||g|| at the first solve
+  std::unique_ptr<MappedSchur> schur_;    // with shared unknowns (else null)
+  std::vector<i64> dstart_;               // and D_'s blocks' offsets
+  std::vector<double> xc_, yc_;           // and the products' vectors over the parameters
 };
 
 // fn(solver) with the solver compiled for the layout's block sizes.

@@ -7,9 +7,11 @@
 #include <cmath>
 #include <vector>
 
+#include "mapped_schur.h"
 #include "normal_equations.h"
 #include "step_solver.h"
 #include "suitesparse_status.h"
+#include "unknowns.h"
 
 extern "C" {
 #include <suitesparse/ldl.h>
@@ -162,9 +164,154 @@ class LdlAmdSolver final : public StepSolver {
   std::vector<double> Ax_, Lx_, D_, Y_, x_, W_;
 };
 
+// The same over shared unknowns (camera_map.h): the columns are the unknowns, then the free
+// points' parameters. An unknown's column holds the unknowns of the blocks its block shares a
+// camera with (U's blocks over the unknowns) and the points that see its block (Z's); a
+// point's, the unknowns of its blocks and itself. The values are put in place by looking
+// each entry up in its column, which costs a logarithm per entry over LdlAmdSolver's fixed
+// positions: this solver is the whole-system reference, not the fast one.
+class MappedLdlAmdSolver final : public StepSolver {
+ public:
+  explicit MappedLdlAmdSolver(const SolveContext &ctx) : ctx_(ctx), lay_(ctx.lay), schur_(ctx.lay, 1) {
+    const Layout &lay = lay_;
+    const CameraMap &map = lay.cams;
+    const int pnp = lay.pnp, nb = map.nblocks();
+    nS_ = map.nunknowns;
+    N_ = nS_ + i64(lay.free_pts()) * pnp;
+    // Per block, the blocks it shares a camera with and the points that see it.
+    std::vector<std::vector<int>> coupled(static_cast<size_t>(nb)), points(static_cast<size_t>(nb));
+    for (int j = lay.mcon; j < lay.m; ++j)
+      for (int q = map.cam_start[size_t(j)]; q < map.cam_start[size_t(j) + 1]; ++q)
+        for (int r = map.cam_start[size_t(j)]; r < map.cam_start[size_t(j) + 1]; ++r)
+          coupled[size_t(map.cam_blocks[size_t(q)])].push_back(map.cam_blocks[size_t(r)]);
+    for (int i = lay.ncon; i < lay.n && pnp > 0; ++i)
+      for (int s = 0; s < schur_.point_nblocks(i); ++s) points[size_t(schur_.point_blocks(i)[s])].push_back(i);
+    std::vector<std::vector<sslong>> cols(static_cast<size_t>(N_));
+    for (int B = 0; B < nb; ++B) {
+      std::vector<int> &c = coupled[size_t(B)];
+      std::sort(c.begin(), c.end());
+      c.erase(std::unique(c.begin(), c.end()), c.end());
+      std::vector<sslong> rows;
+      for (int b : c)
+        for (int u = map.block_start[size_t(b)]; u < map.block_start[size_t(b) + 1]; ++u) rows.push_back(u);
+      for (int i : points[size_t(B)])
+        for (int a = 0; a < pnp; ++a) rows.push_back(pt_col(i, a));
+      for (int u = map.block_start[size_t(B)]; u < map.block_start[size_t(B) + 1]; ++u) cols[size_t(u)] = rows;
+    }
+    for (int i = lay.ncon; i < lay.n && pnp > 0; ++i) {
+      std::vector<sslong> rows;
+      for (int s = 0; s < schur_.point_nblocks(i); ++s) {
+        const int b = schur_.point_blocks(i)[s];
+        for (int u = map.block_start[size_t(b)]; u < map.block_start[size_t(b) + 1]; ++u) rows.push_back(u);
+      }
+      for (int a = 0; a < pnp; ++a) rows.push_back(pt_col(i, a));
+      for (int a = 0; a < pnp; ++a) cols[size_t(pt_col(i, a))] = rows;
+    }
+    Ap_.assign(size_t(N_) + 1, 0);
+    for (i64 c = 0; c < N_; ++c) Ap_[size_t(c) + 1] = Ap_[size_t(c)] + sslong(cols[size_t(c)].size());
+    Ai_.resize(size_t(Ap_[size_t(N_)]));
+    for (i64 c = 0; c < N_; ++c) std::copy(cols[size_t(c)].begin(), cols[size_t(c)].end(), Ai_.begin() + Ap_[size_t(c)]);
+    cols.clear();
+    Ax_.resize(Ai_.size());
+    P_.resize(size_t(N_));
+    Pinv_.resize(size_t(N_));
+    if (const int status = amd_l_order(N_, Ap_.data(), Ai_.data(), P_.data(), nullptr, nullptr); status != AMD_OK)
+      throw_amd_failure("amd_l_order", status);
+    Lp_.resize(size_t(N_) + 1);
+    parent_.resize(size_t(N_));
+    lnz_.resize(size_t(N_));
+    flag_.resize(size_t(N_));
+    ldl_l_symbolic(N_, Ap_.data(), Ai_.data(), Lp_.data(), parent_.data(), lnz_.data(), flag_.data(), P_.data(),
+                   Pinv_.data());
+    Li_.resize(size_t(Lp_[size_t(N_)]));
+    Lx_.resize(Li_.size());
+    D_.resize(size_t(N_));
+    Y_.resize(size_t(N_));
+    pattern_.resize(size_t(N_));
+    x_.resize(size_t(N_));
+    Zt_.resize(size_t(schur_.max_couplings()) + 1);
+    W_.resize(size_t(pnp) * size_t(lay.cnp) + 1);
+  }
+
+  StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
+    const Layout &lay = lay_;
+    const CameraMap &map = lay.cams;
+    const int cnp = lay.cnp, pnp = lay.pnp;
+    std::fill(dp, dp + lay.nvars(), 0.0);
+    std::fill(Ax_.begin(), Ax_.end(), 0.0);
+    for (int j = lay.mcon; j < lay.m; ++j) {
+      const double *U = ne.U + i64(j) * cnp * cnp;
+      for (int a = 0; a < cnp; ++a) {
+        const int ua = map.unknown[size_t(j) * cnp + a];
+        if (ua < 0) continue;
+        for (int b = 0; b < cnp; ++b) {
+          const int ub = map.unknown[size_t(j) * cnp + b];
+          if (ub >= 0) at(ua, ub) += U[a * cnp + b];
+        }
+      }
+    }
+    for (i64 u = 0; u < nS_; ++u) at(u, u) += mu;
+    std::vector<i64> zoff;
+    for (int i = lay.ncon; i < lay.n && pnp > 0; ++i) {
+      const int nF = schur_.point_nblocks(i);
+      zoff.assign(size_t(nF) + 1, 0);
+      for (int s = 0; s < nF; ++s) zoff[size_t(s) + 1] = zoff[size_t(s)] + i64(map.block_size(schur_.point_blocks(i)[s])) * pnp;
+      schur_.point_couplings(ne.jac, i, nF, zoff.data(), Zt_.data(), W_.data());
+      for (int s = 0; s < nF; ++s) {
+        const int b = schur_.point_blocks(i)[s], n = map.block_size(b);
+        for (int d = 0; d < pnp; ++d)
+          for (int o = 0; o < n; ++o) {
+            const double z = Zt_[size_t(zoff[size_t(s)] + d * n + o)];
+            at(map.block_start[size_t(b)] + o, pt_col(i, d)) = z;
+            at(pt_col(i, d), map.block_start[size_t(b)] + o) = z;
+          }
+      }
+      const double *V = ne.V + i64(i) * pnp * pnp;
+      for (int a = 0; a < pnp; ++a)
+        for (int b = 0; b < pnp; ++b) at(pt_col(i, a), pt_col(i, b)) = V[a * pnp + b] + (a == b ? mu : 0.0);
+    }
+    const sslong done = ldl_l_numeric(N_, Ap_.data(), Ai_.data(), Ax_.data(), Lp_.data(), parent_.data(), lnz_.data(),
+                                      Li_.data(), Lx_.data(), D_.data(), Y_.data(), pattern_.data(), flag_.data(),
+                                      P_.data(), Pinv_.data());
+    if (done != N_) return StepStatus::Failed;
+    for (i64 q = 0; q < N_; ++q)
+      if (!(D_[size_t(q)] > 0.0)) return StepStatus::Failed;
+    to_unknowns(lay, ne.ea, x_.data());
+    for (int i = lay.ncon; i < lay.n; ++i)
+      for (int a = 0; a < pnp; ++a) x_[size_t(pt_col(i, a))] = ne.eb[i64(i) * pnp + a];
+    ldl_l_perm(N_, Y_.data(), x_.data(), P_.data());
+    ldl_l_lsolve(N_, Y_.data(), Lp_.data(), Li_.data(), Lx_.data());
+    ldl_l_dsolve(N_, Y_.data(), D_.data());
+    ldl_l_ltsolve(N_, Y_.data(), Lp_.data(), Li_.data(), Lx_.data());
+    ldl_l_permt(N_, x_.data(), Y_.data(), P_.data());
+    for (i64 q = 0; q < N_; ++q)
+      if (!std::isfinite(x_[size_t(q)])) return StepStatus::Failed;
+    to_cameras(lay, x_.data(), -0.0, dp);
+    for (int i = lay.ncon; i < lay.n; ++i)
+      for (int a = 0; a < pnp; ++a) dp[lay.b_off(i) + a] = x_[size_t(pt_col(i, a))];
+    return StepStatus::Solved;
+  }
+
+ private:
+  sslong pt_col(int i, int a) const { return nS_ + sslong(i - lay_.ncon) * lay_.pnp + a; }
+  // Entry (r, c) of the matrix, which the pattern holds.
+  double &at(sslong r, sslong c) {
+    const sslong *first = Ai_.data() + Ap_[size_t(c)], *last = Ai_.data() + Ap_[size_t(c) + 1];
+    return Ax_[size_t(std::lower_bound(first, last, r) - Ai_.data())];
+  }
+
+  SolveContext ctx_;
+  const Layout &lay_;
+  MappedSchur schur_;
+  i64 nS_ = 0, N_ = 0;
+  std::vector<sslong> Ap_, Ai_, P_, Pinv_, Lp_, parent_, lnz_, flag_, Li_, pattern_;
+  std::vector<double> Ax_, Lx_, D_, Y_, x_, Zt_, W_;
+};
+
 }  // namespace
 
 std::unique_ptr<StepSolver> make_ldl_amd_solver(const SolveContext &ctx) {
+  if (ctx.lay.cams.shared()) return std::make_unique<MappedLdlAmdSolver>(ctx);
   return std::make_unique<LdlAmdSolver>(ctx);
 }
 

@@ -18,24 +18,78 @@
 #include <memory>
 #include <vector>
 
+#include "mapped_schur.h"
 #include "step_solver.h"
 #include "suitesparse_status.h"
+#include "unknowns.h"
 
 namespace sba {
 namespace {
 
 using sslong = SuiteSparse_long;
 
-// Which blocks of S are stored, and where (the BlockMap layout).
+// Which blocks of S are stored, and where (kernels.h's BlockMap layout, or with shared
+// unknowns mapped_schur.h's UnknownBlocks): blocks of the cameras, or of the unknowns.
 struct Pattern {
-  std::vector<int> perm;      // free camera -> block column of P S P^T
+  std::vector<int> perm;      // block -> block column of P S P^T
   std::vector<int> rows;      // block row of every stored block, block column by column
   std::vector<i64> colstart;  // block column c's blocks: [colstart[c], colstart[c+1])
+  std::vector<int> size;      // per block column of P S P^T: its order
+  std::vector<i64> start;     // per block column: its first scalar column; then the total
+  // With shared unknowns, per block column: where its entries start and how many each scalar
+  // column has; per stored block: its offset in its column.
+  std::vector<i64> colbase, height, rowoff;
+
+  // The entries of the stored blocks.
+  i64 nnz() const {
+    i64 n = 0;
+    for (size_t c = 0; c < size.size(); ++c)
+      for (i64 s = colstart[c]; s < colstart[c + 1]; ++s) n += i64(size[c]) * size[size_t(rows[size_t(s)])];
+    return n;
+  }
 };
 
-// Which block rows j <= k each block column k of S has (camera pairs sharing a free
-// point), in free-camera numbering: rows[colstart[k] .. colstart[k+1]), ascending.
+// Which block rows b <= B each block column B of S has, ascending: rows[colstart[B] ..
+// colstart[B+1]). Cameras pairs sharing a free point; with shared unknowns, blocks that a
+// camera touches together or that cameras seeing a common free point touch.
 void find_blocks(const Layout &lay, std::vector<int> *rows, std::vector<i64> *colstart) {
+  if (lay.cams.shared()) {
+    const CameraMap &map = lay.cams;
+    const int nb = map.nblocks();
+    const MappedSchur schur(lay, 1);
+    // Each block's free points.
+    std::vector<i64> pstart(size_t(nb) + 1, 0);
+    for (int i = lay.ncon; i < lay.n; ++i)
+      for (int s = 0; s < schur.point_nblocks(i); ++s) ++pstart[size_t(schur.point_blocks(i)[s]) + 1];
+    for (int b = 0; b < nb; ++b) pstart[size_t(b) + 1] += pstart[size_t(b)];
+    std::vector<int> pts(static_cast<size_t>(pstart[size_t(nb)]));
+    std::vector<i64> fill(pstart.begin(), pstart.end() - 1);
+    for (int i = lay.ncon; i < lay.n; ++i)
+      for (int s = 0; s < schur.point_nblocks(i); ++s) pts[size_t(fill[size_t(schur.point_blocks(i)[s])]++)] = i;
+    std::vector<int> mark(size_t(nb), -1);
+    colstart->assign(size_t(nb) + 1, 0);
+    const auto add = [&](int b, int B) {
+      if (mark[size_t(b)] == B) return;
+      mark[size_t(b)] = B;
+      rows->push_back(b);
+    };
+    for (int B = 0; B < nb; ++B) {
+      const size_t first = rows->size();
+      add(B, B);
+      for (i64 q = pstart[size_t(B)]; q < pstart[size_t(B) + 1]; ++q) {
+        const int i = pts[size_t(q)];
+        for (int s = 0; s < schur.point_nblocks(i) && schur.point_blocks(i)[s] < B; ++s) add(schur.point_blocks(i)[s], B);
+      }
+      for (int q = map.block_cam_start[size_t(B)]; q < map.block_cam_start[size_t(B) + 1]; ++q) {
+        const int j = map.block_cams[size_t(q)];
+        for (int qb = map.cam_start[size_t(j)]; qb < map.cam_start[size_t(j) + 1] && map.cam_blocks[size_t(qb)] < B; ++qb)
+          add(map.cam_blocks[size_t(qb)], B);
+      }
+      std::sort(rows->begin() + long(first), rows->end());
+      (*colstart)[size_t(B) + 1] = i64(rows->size());
+    }
+    return;
+  }
   const int nc = lay.free_cams();
   std::vector<int> colrow, mark(size_t(nc), -1);
   by_camera(lay, &colrow, nullptr);
@@ -62,11 +116,17 @@ void find_blocks(const Layout &lay, std::vector<int> *rows, std::vector<i64> *co
   }
 }
 
-// The AMD ordering of the camera graph, then the blocks of the lower triangle of P S P^T
-// block column by block column: block (j, k) of S goes to column min(perm j, perm k), row
-// max(perm j, perm k).
+// The order of block b of S (unpermuted) and its first unknown.
+int block_order(const Layout &lay, int b) { return lay.cams.shared() ? lay.cams.block_size(b) : lay.cnp; }
+i64 block_first(const Layout &lay, int b) {
+  return lay.cams.shared() ? i64(lay.cams.block_start[size_t(b)]) : i64(b) * lay.cnp;
+}
+
+// The AMD ordering of the block graph, then the blocks of the lower triangle of P S P^T
+// block column by block column: block (b, B) of S goes to column min(perm b, perm B), row
+// max(perm b, perm B).
 Pattern make_pattern(const Layout &lay) {
-  const int nc = lay.free_cams();
+  const int nc = lay.cams.shared() ? lay.cams.nblocks() : lay.free_cams();
   std::vector<int> rows;
   std::vector<i64> colstart;
   find_blocks(lay, &rows, &colstart);
@@ -95,6 +155,26 @@ Pattern make_pattern(const Layout &lay) {
     }
   for (int c = 0; c < nc; ++c)
     std::sort(pat.rows.begin() + long(pat.colstart[size_t(c)]), pat.rows.begin() + long(pat.colstart[size_t(c) + 1]));
+  // Sizes and offsets in the permuted order.
+  pat.size.resize(size_t(nc));
+  for (int b = 0; b < nc; ++b) pat.size[size_t(perm[size_t(b)])] = block_order(lay, b);
+  pat.start.assign(size_t(nc) + 1, 0);
+  for (int c = 0; c < nc; ++c) pat.start[size_t(c) + 1] = pat.start[size_t(c)] + pat.size[size_t(c)];
+  // Offsets only with shared unknowns: with the cameras' blocks they follow from cnp, and
+  // this solver's memory is what it is for.
+  if (!lay.cams.shared()) return pat;
+  pat.colbase.assign(size_t(nc) + 1, 0);
+  pat.height.assign(size_t(nc), 0);
+  pat.rowoff.resize(pat.rows.size());
+  for (int c = 0; c < nc; ++c) {
+    i64 h = 0;
+    for (i64 s = pat.colstart[size_t(c)]; s < pat.colstart[size_t(c) + 1]; ++s) {
+      pat.rowoff[size_t(s)] = h;
+      h += pat.size[size_t(pat.rows[size_t(s)])];
+    }
+    pat.height[size_t(c)] = h;
+    pat.colbase[size_t(c) + 1] = pat.colbase[size_t(c)] + h * pat.size[size_t(c)];
+  }
   return pat;
 }
 
@@ -170,29 +250,22 @@ class SparseSchurSolver final : public StepSolver {
  public:
   // The int solver may turn out too small for the factor; the long one then shares the pattern.
   SparseSchurSolver(const SolveContext &ctx, std::shared_ptr<const Pattern> pat)
-      : ctx_(ctx), lay_(ctx.lay), pat_(std::move(pat)), rhs_(size_t(lay_.free_cams()) * size_t(lay_.cnp)) {
+      : ctx_(ctx), lay_(ctx.lay), pat_(std::move(pat)), rhs_(size_t(lay_.camera_unknowns())) {
+    if (lay_.cams.shared()) {
+      schur_ = std::make_unique<MappedSchur>(lay_, ctx.pool.size());
+      Vinv_.resize(size_t(lay_.n) * size_t(lay_.pnp) * size_t(lay_.pnp));
+      du_.resize(rhs_.size());
+    }
     build_matrix();
   }
   // False when the factor is too large for this index type.
   bool analyzed() const { return chol_.L != nullptr; }
 
   StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
-    const int cnp = lay_.cnp;
-    const std::vector<int> &perm = pat_->perm;
-    reduced_.reset();
     std::fill(dp, dp + lay_.nvars(), 0.0);
     double *Ax = static_cast<double *>(chol_.A->x);
     std::fill(Ax, Ax + static_cast<const Index *>(chol_.A->p)[chol_.A->ncol], 0.0);
-    BlockMap map;
-    map.base = Ax;
-    map.cnp = cnp;
-    map.perm = perm.data();
-    map.rows = pat_->rows.data();
-    map.colstart = pat_->colstart.data();
-    // The point blocks' inverses are made where they are used rather than kept (n pnp^2
-    // doubles, as much as S itself on a long sequence).
-    if (!ctx_.kernels.assemble(ctx_.pool, ne, nullptr, mu, map, rhs_.data()))
-      return StepStatus::SingularPointBlock;
+    if (!assemble(ne, mu, Ax)) return StepStatus::SingularPointBlock;
 
     const ThreadPool::ForeignThreads cholmod(ctx_.pool);  // CHOLMOD and its BLAS run their own
     double beta[2] = {0.0, 0.0};
@@ -204,40 +277,64 @@ class SparseSchurSolver final : public StepSolver {
       throw_cholmod_failure(direct_ ? "cholmod_super_numeric" : "cholmod_factorize", chol_.cm.status);
     if (chol_.L->minor < chol_.L->n) return StepStatus::Failed;  // not positive definite at this damping
     if (!solve_factored(dp)) return StepStatus::Failed;
-    ctx_.kernels.back_substitute(ctx_.pool, ne, nullptr, mu, dp);
+    if (lay_.free_pts() > 0)
+      ctx_.kernels.back_substitute(ctx_.pool, ne, schur_ ? Vinv_.data() : nullptr, mu, dp);
     return StepStatus::Solved;
   }
 
-  bool solve_again(const NormalEquations &ne, double mu, double *dp) override {
-    if (!reduced_(ne, mu, rhs_.data())) return false;
-    std::fill(dp, dp + lay_.nvars(), 0.0);
-    const ThreadPool::ForeignThreads cholmod(ctx_.pool);
-    if (!solve_factored(dp)) return false;
-    ctx_.kernels.back_substitute(ctx_.pool, ne, reduced_.Vinv(), mu, dp);
-    return true;
+ private:
+  // S into CHOLMOD's arrays (Ax, zeroed) and rhs_; false if some V_i + mu I is singular.
+  bool assemble(const NormalEquations &ne, double mu, double *Ax) {
+    if (schur_) {
+      // Every point's inverse kept: the mapped assembly takes them made.
+      if (lay_.free_pts() > 0 && !ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
+      UnknownBlocks map;
+      map.kind = UnknownBlocks::Kind::Sparse;
+      map.base = Ax;
+      map.start = lay_.cams.block_start.data();
+      map.perm = pat_->perm.data();
+      map.rows = pat_->rows.data();
+      map.colstart = pat_->colstart.data();
+      map.colbase = pat_->colbase.data();
+      map.height = pat_->height.data();
+      map.rowoff = pat_->rowoff.data();
+      schur_->assemble(ctx_.pool, ne, Vinv_.data(), mu, map, rhs_.data());
+      return true;
+    }
+    BlockMap map;
+    map.base = Ax;
+    map.cnp = lay_.cnp;
+    map.perm = pat_->perm.data();
+    map.rows = pat_->rows.data();
+    map.colstart = pat_->colstart.data();
+    // The point blocks' inverses are made where they are used rather than kept (n pnp^2
+    // doubles, as much as S itself on a long sequence).
+    return ctx_.kernels.assemble(ctx_.pool, ne, nullptr, mu, map, rhs_.data());
   }
 
- private:
-  // da (dp's free cameras) from the factor and rhs_, through CHOLMOD's permuted order; false
-  // if it is not finite.
+  // The cameras' steps (dp's free cameras) from the factor and rhs_, through CHOLMOD's
+  // permuted order; false if they are not finite.
   bool solve_factored(double *dp) {
-    const int cnp = lay_.cnp, nc = lay_.free_cams();
+    const int nb = int(pat_->perm.size());
     const std::vector<int> &perm = pat_->perm;
     double *b = static_cast<double *>(chol_.B->x);
-    for (int j = 0; j < nc; ++j)
-      std::copy_n(rhs_.data() + i64(j) * cnp, cnp, b + i64(perm[size_t(j)]) * cnp);
+    for (int q = 0; q < nb; ++q)
+      std::copy_n(rhs_.data() + block_first(lay_, q), block_order(lay_, q), b + pat_->start[size_t(perm[size_t(q)])]);
     cholmod_dense *X = Api::solve(CHOLMOD_A, chol_.L, chol_.B, &chol_.cm);
     if (!X) throw_cholmod_failure("cholmod_solve", chol_.cm.status);
     const double *x = static_cast<const double *>(X->x);
-    double *da = dp + lay_.a_off(lay_.mcon);
+    double *da = schur_ ? du_.data() : dp + lay_.a_off(lay_.mcon);
     bool finite = true;
-    for (int j = 0; j < nc; ++j)
-      for (int a = 0; a < cnp; ++a) {
-        const double v = x[i64(perm[size_t(j)]) * cnp + a];
-        da[i64(j) * cnp + a] = v;
-        finite = finite && std::isfinite(v);
+    for (int q = 0; q < nb; ++q) {
+      const double *xq = x + pat_->start[size_t(perm[size_t(q)])];
+      double *out = da + block_first(lay_, q);
+      for (int a = 0; a < block_order(lay_, q); ++a) {
+        out[a] = xq[a];
+        finite = finite && std::isfinite(xq[a]);
       }
+    }
     Api::free_dense(&X, &chol_.cm);
+    if (schur_) to_cameras(lay_, du_.data(), -0.0, dp);
     return finite;
   }
 
@@ -245,9 +342,10 @@ class SparseSchurSolver final : public StepSolver {
   // are stored whole (CHOLMOD ignores the part above the diagonal), so that every scalar
   // column of a block column has the same rows, as the BlockMap layout needs.
   void build_matrix() {
-    const int nc = lay_.free_cams(), cnp = lay_.cnp;
-    const Index N = Index(nc) * cnp;
-    const i64 nnz = i64(pat_->rows.size()) * cnp * cnp;
+    const Pattern &pat = *pat_;
+    const int nc = int(pat.perm.size());
+    const Index N = Index(pat.start[size_t(nc)]);
+    const i64 nnz = pat.nnz();
     // Each call starts by resetting the status, so each is checked before the next.
     chol_.A = Api::allocate_sparse(size_t(N), size_t(N), size_t(nnz), 1, 1, -1, CHOLMOD_REAL, &chol_.cm);
     if (!chol_.A) throw_cholmod_failure("cholmod_allocate_sparse", chol_.cm.status);
@@ -256,10 +354,12 @@ class SparseSchurSolver final : public StepSolver {
     Index *Ap = static_cast<Index *>(chol_.A->p), *Ai = static_cast<Index *>(chol_.A->i);
     Index q = 0;
     for (int c = 0; c < nc; ++c)
-      for (int b = 0; b < cnp; ++b) {
-        Ap[i64(c) * cnp + b] = q;
-        for (i64 s = pat_->colstart[size_t(c)]; s < pat_->colstart[size_t(c) + 1]; ++s)
-          for (int a = 0; a < cnp; ++a) Ai[q++] = Index(pat_->rows[size_t(s)]) * cnp + a;
+      for (int b = 0; b < pat.size[size_t(c)]; ++b) {
+        Ap[pat.start[size_t(c)] + b] = q;
+        for (i64 s = pat.colstart[size_t(c)]; s < pat.colstart[size_t(c) + 1]; ++s) {
+          const int r = pat.rows[size_t(s)];
+          for (int a = 0; a < pat.size[size_t(r)]; ++a) Ai[q++] = Index(pat.start[size_t(r)] + a);
+        }
       }
     Ap[N] = q;
     std::fill(static_cast<double *>(chol_.A->x), static_cast<double *>(chol_.A->x) + q, 0.0);
@@ -291,7 +391,8 @@ class SparseSchurSolver final : public StepSolver {
   const Layout &lay_;
   std::shared_ptr<const Pattern> pat_;
   std::vector<double> rhs_;
-  ReducedRhs reduced_{ctx_};  // solve_again's right-hand sides
+  std::unique_ptr<MappedSchur> schur_;  // with shared unknowns: their assembly
+  std::vector<double> Vinv_, du_;       // and its point blocks' inverses, the unknowns' step
   Cholmod<Api> chol_;
   bool direct_ = false;  // L is unpermuted: factor A itself (no copy)
 };
@@ -299,9 +400,8 @@ class SparseSchurSolver final : public StepSolver {
 }  // namespace
 
 std::unique_ptr<StepSolver> make_sparse_schur_solver(const SolveContext &ctx) {
-  const int cnp = ctx.lay.cnp;
   auto pat = std::make_shared<const Pattern>(make_pattern(ctx.lay));
-  if (i64(pat->rows.size()) * cnp * cnp <= INT_MAX) {
+  if (pat->nnz() <= INT_MAX) {
     auto s = std::make_unique<SparseSchurSolver<IntApi>>(ctx, pat);
     if (s->analyzed()) return s;
   }

@@ -66,62 +66,47 @@ class BlockDiagonalSolver final : public StepSolver {
   std::vector<double> blk_;  // one d x d block per thread
 };
 
-}  // namespace
-
-bool ReducedRhs::operator()(const NormalEquations &ne, double mu, double *rhs) {
-  const Layout &lay = ctx_.lay;
-  const int cnp = lay.cnp, pnp = lay.pnp;
-  if (!have_vinv_) {
-    Vinv_.resize(size_t(lay.n) * size_t(pnp) * size_t(pnp));
-    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
-    have_vinv_ = true;
+// Held camera parameters in sba 1.6's layout (camera_map.h): their columns are zero, so the
+// solvers find a step of 0 for them; it is made -0.0, the identity of addition, so that
+// p + dp leaves their bits as they are (-0.0 included). Over shared unknowns the solvers
+// write -0.0 for them themselves.
+class PinHeld final : public StepSolver {
+ public:
+  PinHeld(std::unique_ptr<StepSolver> inner, const Layout &lay) : inner_(std::move(inner)), lay_(lay) {}
+  StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
+    const StepStatus st = inner_->solve(ne, mu, dp);
+    const char *held = lay_.cams.held.data();
+    for (i64 q = i64(lay_.mcon) * lay_.cnp; q < i64(lay_.m) * lay_.cnp; ++q)
+      if (held[q]) dp[q] = -0.0;
+    return st;
   }
-  const double *Vinv = Vinv_.data();
-  if (row_.empty()) by_camera(lay, &row_, &k_);
-  y_.resize(size_t(lay.n) * size_t(pnp));
-  ctx_.pool.for_range(lay.free_pts(), [&](i64 b, i64 e) {
-    for (i64 i = b + lay.ncon; i < e + lay.ncon; ++i) {
-      const double *vi = Vinv + i * pnp * pnp, *g = ne.eb + i * pnp;
-      for (int a = 0; a < pnp; ++a) {
-        double s = 0.0;
-        for (int c = 0; c < pnp; ++c) s += vi[a * pnp + c] * g[c];
-        y_[size_t(i * pnp + a)] = s;
-      }
-    }
-  });
-  ctx_.pool.for_range(lay.free_cams(), [&](i64 b, i64 e) {
-    std::vector<double> W(size_t(cnp) * size_t(pnp));
-    for (i64 j = b + lay.mcon; j < e + lay.mcon; ++j) {
-      double *r = rhs + (j - lay.mcon) * cnp;
-      std::copy_n(ne.ea + j * cnp, cnp, r);
-      for (int s = lay.colptr[size_t(j)]; s < lay.colptr[size_t(j) + 1]; ++s) {
-        const int i = row_[size_t(s)];
-        if (i < lay.ncon) continue;
-        form_W(lay, ne.jac, k_[size_t(s)], W.data());
-        const double *y = y_.data() + i64(i) * pnp;
-        for (int a = 0; a < cnp; ++a) {
-          double t = 0.0;
-          for (int c = 0; c < pnp; ++c) t += W[size_t(a) * pnp + c] * y[c];
-          r[a] -= t;
-        }
-      }
-    }
-  });
-  return true;
+
+ private:
+  std::unique_ptr<StepSolver> inner_;
+  const Layout &lay_;
+};
+
+std::unique_ptr<StepSolver> pinned(std::unique_ptr<StepSolver> s, const Layout &lay) {
+  if (!s || !lay.cams.any_held() || lay.cams.shared()) return s;
+  return std::make_unique<PinHeld>(std::move(s), lay);
 }
 
+}  // namespace
+
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx) {
-  if (ctx.lay.free_cams() == 0 || ctx.lay.free_pts() == 0)
-    return std::make_unique<BlockDiagonalSolver>(ctx);
+  const Layout &lay = ctx.lay;
+  // Shared unknowns couple the cameras that share them: without free points the system is
+  // then no longer block diagonal.
+  if (lay.free_cams() == 0 || (lay.free_pts() == 0 && !lay.cams.shared())) return pinned(std::make_unique<BlockDiagonalSolver>(ctx), lay);
   switch (kind) {
     case LinSolver::LdlAmd:
-      return make_ldl_amd_solver(ctx);
+      return pinned(make_ldl_amd_solver(ctx), lay);
     case LinSolver::SparseChol:
-      return make_sparse_schur_solver(ctx);
+      return pinned(make_sparse_schur_solver(ctx), lay);
     case LinSolver::IterativeSchur:
-      return make_iterative_schur_solver(ctx);
+      return pinned(make_iterative_schur_solver(ctx), lay);
     default:
-      return make_dense_schur_solver(kind, ctx);
+      return pinned(make_dense_schur_solver(kind, ctx), lay);
   }
 }
 

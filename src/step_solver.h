@@ -38,42 +38,13 @@ class StepSolver {
   // free parameters, where U and V are ne's blocks as they are (sba 1.6's retries hand them
   // over with the diagonals its previous attempts left: strategy.h, before_retry).
   virtual StepStatus solve(const NormalEquations &ne, double mu, double *dp) = 0;
-  // After solve() returned Solved at damping mu: dp for another right-hand side, ne's e_a and
-  // e_b (its other blocks those solve() had), reusing what solve() factored. False when the
-  // solver keeps nothing to reuse or the solution is not finite: the caller then calls
-  // solve(). Held and shared camera parameters (camera_params.h) solve one system for
-  // several right-hand sides.
-  virtual bool solve_again(const NormalEquations &ne, double mu, double *dp) {
-    (void)ne, (void)mu, (void)dp;
-    return false;
-  }
-};
-
-// rhs = e_a - W V*^-1 e_b over the free cameras, what Kernels::assemble makes beside S, for
-// the Schur solvers' solve_again: a right-hand side other than the one S was assembled with.
-class ReducedRhs {
- public:
-  explicit ReducedRhs(const SolveContext &ctx) : ctx_(ctx) {}
-  // S has been assembled again: the point blocks' inverses kept are no longer its.
-  void reset() { have_vinv_ = false; }
-  // mu: the damping S was assembled with. The point blocks' inverses are those of every
-  // right-hand side at that damping, so they are made on the first call after reset() only.
-  // False if some V_i + mu I is not positive definite.
-  bool operator()(const NormalEquations &ne, double mu, double *rhs);
-  // Kernels::invert_damped_V's blocks of the last call, for back_substitute.
-  const double *Vinv() const { return Vinv_.data(); }
-
- private:
-  SolveContext ctx_;
-  std::vector<int> row_, k_;  // the index by camera, made on first use
-  std::vector<double> y_;     // V*^-1 e_b, per point
-  std::vector<double> Vinv_;
-  bool have_vinv_ = false;  // Vinv_ made since the last reset()
 };
 
 // The solver for a problem. Problems without free points or without free cameras (the
 // motion-only and structure-only drivers, mcon == m, ncon == n) are block diagonal and
-// always use per-block Cholesky, whatever `kind` says.
+// always use per-block Cholesky, whatever `kind` says, unless cameras share unknowns. Each
+// solver works over the layout's camera unknowns (camera_map.h): sba 1.6's per-camera
+// blocks, or the blocks of shared unknowns.
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx);
 
 // make_step_solver: step_solver.cpp; the others: solver_*.cpp.

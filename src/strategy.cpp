@@ -16,6 +16,7 @@
 
 #include "kernels.h"
 #include "named.h"
+#include "unknowns.h"
 
 namespace sba {
 namespace {
@@ -160,12 +161,16 @@ class TrustRegion final : public Strategy {
     const int cnp = lay_.cnp, pnp = lay_.pnp, mnp = lay_.mnp, jb = lay_.jblk();
     double *s = s_.data();
     const auto scale = [](double d) { return 1.0 / std::sqrt(std::clamp(d, kMinDiagonal, kMaxDiagonal)); };
+    // A shared unknown is scaled by its own diagonal entry, its copies' sum, and every copy by
+    // that one scale: the copies' steps, mapped back, are then the same number.
+    if (lay_.cams.shared()) shared_scales(U);
     // Blocks of fixed cameras and points keep scale 1: nothing reads them.
     pool.for_range(lay_.m, [&](i64 b, i64 e) {
       for (i64 j = b; j < e; ++j) {
         if (!lay_.cam_free(int(j))) continue;
         double *u = U + j * cnp * cnp, *sj = s + lay_.a_off(int(j));
-        for (int a = 0; a < cnp; ++a) sj[a] = scale(u[a * (cnp + 1)]);
+        if (!lay_.cams.shared())
+          for (int a = 0; a < cnp; ++a) sj[a] = scale(u[a * (cnp + 1)]);
         for (int a = 0; a < cnp; ++a) {
           for (int c = 0; c < cnp; ++c) u[a * cnp + c] *= sj[a] * sj[c];
           ea[j * cnp + a] *= sj[a];
@@ -225,6 +230,17 @@ class TrustRegion final : public Strategy {
   const double *scale() const override { return s_.data(); }
 
  private:
+  // s_ over the free cameras from the unknowns' diagonal entries (held parameters: 1).
+  void shared_scales(const double *U) {
+    const int cnp = lay_.cnp;
+    std::vector<double> diag(size_t(lay_.m) * cnp, 0.0), du(size_t(lay_.cams.nunknowns));
+    for (int j = lay_.mcon; j < lay_.m; ++j)
+      for (int a = 0; a < cnp; ++a) diag[size_t(j) * cnp + a] = U[i64(j) * cnp * cnp + a * (cnp + 1)];
+    to_unknowns(lay_, diag.data(), du.data());
+    for (double &d : du) d = 1.0 / std::sqrt(std::clamp(d, kMinDiagonal, kMaxDiagonal));
+    to_cameras(lay_, du.data(), 1.0, s_.data());
+  }
+
   void to_parameters(ThreadPool &pool, double *dp) const override {
     const double *s = s_.data();
     pool.for_range(lay_.nvars(), [&](i64 b, i64 e) {
@@ -247,13 +263,25 @@ bool reduction_stalled(double e, double en, double eps4) {
   return en - 2.0 * std::sqrt(e * en) < (eps4 * eps4 - 1.0) * e;
 }
 
+Strategy::Strategy(const Layout &lay) : lay_(lay) {
+  const CameraMap &map = lay.cams;
+  if (!map.shared()) return;
+  share_.assign(size_t(lay.m) * size_t(lay.cnp), 0.0);
+  for (size_t q = 0; q < share_.size(); ++q)
+    if (map.unknown[q] >= 0) share_[q] = 1.0 / map.copies[size_t(map.unknown[q])];
+}
+
 // g is e_a over the camera part of dp and e_b over the point part; fixed entries of dp are 0.
+// A shared unknown's step is in dp once per copy, and its gradient is the copies' sum: each
+// copy brings its part of the gradient term and 1 / copies of the damping term.
 double Strategy::step_in_parameters(ThreadPool &pool, const double *ea, const double *eb,
                                     double mu, double *dp) const {
   const i64 ncam = i64(lay_.m) * lay_.cnp;
+  const double *share = share_.empty() ? nullptr : share_.data();
   const double predicted = deterministic_sum(pool, lay_.nvars(), [=](i64 q) {
     const double g = q < ncam ? ea[q] : eb[q - ncam];
-    return dp[q] * (mu * dp[q] + g);
+    const double w = share && q < ncam ? share[q] : 1.0;
+    return dp[q] * (mu * dp[q] * w + g);
   });
   to_parameters(pool, dp);
   return predicted;

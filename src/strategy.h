@@ -36,7 +36,7 @@ class Kernels;
 
 class Strategy {
  public:
-  explicit Strategy(const Layout &lay) : lay_(lay) {}
+  explicit Strategy(const Layout &lay);
   virtual ~Strategy() = default;
   // Called once per iteration with the normal equations just formed (undamped U_j, V_i,
   // e_a, e_b, and the Jacobian blocks the solvers read). A strategy may change variables
@@ -77,6 +77,8 @@ class Strategy {
   const Layout &lay_;
 
  private:
+  // Per camera parameter, 1 / the copies of its unknown (shared parameters only).
+  std::vector<double> share_;
   // dp, in place, from the solver's variables to the units of p.
   virtual void to_parameters(ThreadPool &pool, double *dp) const = 0;
 };

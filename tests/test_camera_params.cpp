@@ -556,3 +556,270 @@ TEST(CameraParams, PIsGivenBackAsItWasWhenNothingWasSolved) {
 }
 
 }  // namespace
+
+namespace {
+
+// A rig of three cameras on a platform that moved through `frames` positions, as COLMAP 4's
+// rigs and frames describe it: an image's parameters are its camera's focal length, its
+// frame's pose (rig from world) and its camera's pose in the rig (sensor from rig), cnp 13,
+// and x = f pi(R_s (R_f X + t_f) + t_s) + c. Three groupings over different columns of the
+// same images, at once: the focal length by camera, the frame pose by frame, the sensor pose
+// by camera (the first camera's the rig's origin, held at the identity).
+constexpr int kRigCnp = 13, kSensors = 3;
+
+struct RigScene {
+  int frames = 0, m = 0, n = 0;
+  std::vector<double> truth, p0, x;
+  std::vector<char> vmask;
+  std::vector<int> group;  // cam_param_group
+  std::vector<char> held;  // cam_fixed per camera
+};
+
+void rig_project(const double *a, const double *X, double *x) {
+  const synth::Rot rf = synth::rotation(a + 1), rs = synth::rotation(a + 7);
+  double Xr[3], Xc[3];
+  for (int r = 0; r < 3; ++r) Xr[r] = rf.R[r * 3] * X[0] + rf.R[r * 3 + 1] * X[1] + rf.R[r * 3 + 2] * X[2] + a[4 + r];
+  for (int r = 0; r < 3; ++r) Xc[r] = rs.R[r * 3] * Xr[0] + rs.R[r * 3 + 1] * Xr[1] + rs.R[r * 3 + 2] * Xr[2] + a[10 + r];
+  x[0] = a[0] * Xc[0] / Xc[2] + 320.0;
+  x[1] = a[0] * Xc[1] / Xc[2] + 240.0;
+}
+
+void rig_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *) {
+  const int m = idx->nc;
+  for (int i = 0; i < idx->nr; ++i)
+    for (int k = idx->rowptr[i]; k < idx->rowptr[i + 1]; ++k)
+      rig_project(p + idx->colidx[k] * kRigCnp, p + m * kRigCnp + i * 3, hx + idx->val[k] * 2);
+}
+
+RigScene make_rig(int frames, int points, unsigned seed) {
+  RigScene s;
+  s.frames = frames;
+  s.m = frames * kSensors;
+  s.n = points;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> U(-1.0, 1.0), U01(0.0, 1.0);
+  std::normal_distribution<double> N(0.0, 1.0);
+  const double focal[kSensors] = {800.0, 760.0, 840.0};
+  // Sensor poses: the first the identity, the others turned and set apart along x.
+  const double sensor[kSensors][6] = {{0, 0, 0, 0, 0, 0}, {0, 0.25, 0, -0.4, 0, 0}, {0, -0.25, 0, 0.4, 0, 0}};
+  s.truth.resize(size_t(s.m) * kRigCnp + size_t(points) * 3);
+  for (int f = 0; f < frames; ++f)
+    for (int c = 0; c < kSensors; ++c) {
+      double *a = s.truth.data() + size_t(f * kSensors + c) * kRigCnp;
+      a[0] = focal[c];
+      const double frame[6] = {0.05 * std::sin(f), -0.5 + 1.0 * f / std::max(frames - 1, 1), 0.03 * std::cos(f),
+                               0.1 * std::sin(2.0 * f), 0.05 * std::cos(f), 6.0};
+      for (int q = 0; q < 6; ++q) a[1 + q] = frame[q];
+      for (int q = 0; q < 6; ++q) a[7 + q] = sensor[c][q];
+    }
+  for (int i = 0; i < points; ++i)
+    for (int q = 0; q < 3; ++q) s.truth[size_t(s.m) * kRigCnp + i * 3 + q] = 1.5 * U(rng);
+  // Each point seen by the cameras of a few frames.
+  s.vmask.assign(size_t(points) * s.m, 0);
+  for (int i = 0; i < points; ++i) {
+    const int f0 = int(U01(rng) * frames) % frames, len = 2 + int(U01(rng) * 3);
+    for (int f = f0; f < std::min(frames, f0 + len); ++f)
+      for (int c = 0; c < kSensors; ++c)
+        if (c == 0 || U01(rng) < 0.8) s.vmask[size_t(i) * s.m + f * kSensors + c] = 1;
+  }
+  for (int i = 0; i < points; ++i) {
+    int seen = 0;
+    for (int j = 0; j < s.m; ++j) seen += s.vmask[size_t(i) * s.m + j];
+    for (int j = 0; seen < 2 && j < s.m; ++j)
+      if (!s.vmask[size_t(i) * s.m + j]) s.vmask[size_t(i) * s.m + j] = 1, ++seen;
+    for (int j = 0; j < s.m; ++j)
+      if (s.vmask[size_t(i) * s.m + j]) {
+        double xy[2];
+        rig_project(s.truth.data() + size_t(j) * kRigCnp, s.truth.data() + size_t(s.m) * kRigCnp + i * 3, xy);
+        s.x.push_back(xy[0] + 0.3 * N(rng));
+        s.x.push_back(xy[1] + 0.3 * N(rng));
+      }
+  }
+  // The start: every copy of a shared value the same, the focal lengths 3% long, the frames
+  // and the rig's other cameras moved.
+  s.p0 = s.truth;
+  double dsensor[kSensors][6] = {};
+  for (int c = 1; c < kSensors; ++c)
+    for (int q = 0; q < 6; ++q) dsensor[c][q] = (q < 3 ? 0.01 : 0.03) * U(rng);
+  for (int f = 0; f < frames; ++f) {
+    double dframe[6];
+    for (int q = 0; q < 6; ++q) dframe[q] = (q < 3 ? 0.01 : 0.05) * U(rng);
+    for (int c = 0; c < kSensors; ++c) {
+      double *a = s.p0.data() + size_t(f * kSensors + c) * kRigCnp;
+      a[0] *= 1.03;
+      for (int q = 0; q < 6; ++q) a[1 + q] += dframe[q];
+      for (int q = 0; q < 6; ++q) a[7 + q] += dsensor[c][q];
+    }
+  }
+  for (int i = 0; i < points; ++i)
+    for (int q = 0; q < 3; ++q) s.p0[size_t(s.m) * kRigCnp + i * 3 + q] += 0.02 * U(rng);
+  s.group.assign(size_t(s.m) * kRigCnp, -1);
+  s.held.assign(size_t(s.m) * kRigCnp, 0);
+  for (int f = 0; f < frames; ++f)
+    for (int c = 0; c < kSensors; ++c) {
+      const size_t j = size_t(f * kSensors + c);
+      s.group[j * kRigCnp] = c;
+      for (int q = 1; q < 7; ++q) s.group[j * kRigCnp + q] = f;
+      for (int q = 7; q < 13; ++q) s.group[j * kRigCnp + q] = c;
+      if (c == 0)
+        for (int q = 7; q < 13; ++q) s.held[j * kRigCnp + q] = 1;
+    }
+  return s;
+}
+
+struct RigRun {
+  const char *solver = "chol";
+  const char *strategy = "sba";
+  int nthreads = 1;
+  bool share = true;
+};
+
+SynthResult run_rig(RigScene &s, const RigRun &r) {
+  SynthResult out;
+  out.p = s.p0;
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.log = [](void *ctx, int, const char *msg) { *static_cast<std::string *>(ctx) += msg; };
+  ext.log_ctx = &out.log;
+  ext.linsolver = r.solver;
+  ext.strategy = r.strategy;
+  ext.nthreads = r.nthreads;
+  ext.cam_fixed = s.held.data();
+  ext.cam_fixed_per_camera = 1;
+  if (r.share) ext.cam_param_group = s.group.data();
+  const double opts[SBA_OPTSSZ] = {1e-3, 1e-12, 1e-12, 1e-12, 0.0};
+  out.ret = sba_motstr_levmar_x_ext(s.n, 0, s.m, 0, s.vmask.data(), out.p.data(), kRigCnp, 3, s.x.data(), nullptr, 2,
+                                    rig_func, nullptr, &s, 100, 0, opts, out.info, &ext);
+  return out;
+}
+
+// Every image's shared columns hold its group's first image's bits.
+void expect_rig_copies_equal(const RigScene &s, const std::vector<double> &p, const std::string &what) {
+  for (int j = 0; j < s.m; ++j)
+    for (int q = 0; q < kRigCnp; ++q) {
+      const int g = s.group[size_t(j) * kRigCnp + q];
+      int first = 0;
+      while (s.group[size_t(first) * kRigCnp + q] != g) ++first;
+      EXPECT_TRUE(same_bits(p[size_t(j) * kRigCnp + q], p[size_t(first) * kRigCnp + q]))
+          << what << ": image " << j << " parameter " << q;
+    }
+}
+
+TEST(CameraParamGroups, ARigIsRefinedAsOneRig) {
+  RigScene s = make_rig(10, 150, 31);
+  const SynthResult r = run_rig(s, RigRun{});
+  ASSERT_GE(r.ret, 30) << r.log;
+  EXPECT_LE(r.ret, 46);
+  EXPECT_EQ(r.info[6], SBA_STOP_REDUCTION);
+  expect_rig_copies_equal(s, r.p, "chol");
+  // At the noise (0.3 px, 0.09 px^2 per coordinate), from 49 px^2.
+  EXPECT_NEAR(r.info[0], 102220.9156, 1e-3);
+  EXPECT_NEAR(r.info[1], 146.2338673, 1e-6);
+  EXPECT_EQ(s.x.size(), 2074u);
+  // The focal lengths come back from 3% long.
+  for (int c = 0; c < kSensors; ++c) EXPECT_NEAR(r.p[size_t(c) * kRigCnp], s.truth[size_t(c) * kRigCnp], 0.5) << c;
+  // The first camera's pose in the rig is the identity it was held at.
+  for (int q = 7; q < 13; ++q) EXPECT_EQ(r.p[size_t(q)], 0.0);
+  // Without the groupings each image moves on its own: the rig comes apart.
+  const SynthResult own = run_rig(s, RigRun{"chol", "sba", 1, false});
+  ASSERT_GT(own.ret, 0) << own.log;
+  EXPECT_FALSE(same_bits(own.p[size_t(kSensors + 1) * kRigCnp + 10], own.p[size_t(2 * kSensors + 1) * kRigCnp + 10]));
+  EXPECT_LT(own.info[1], r.info[1]);  // more freedom, a lower error
+}
+
+TEST(CameraParamGroups, CovarianceOfARig) {
+  RigScene s = make_rig(10, 150, 31);
+  const SynthResult r = run_rig(s, RigRun{});
+  ASSERT_GT(r.ret, 0) << r.log;
+  std::vector<double> p = r.p;
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.quiet = 1;
+  ext.cam_fixed = s.held.data();
+  ext.cam_fixed_per_camera = 1;
+  ext.cam_param_group = s.group.data();
+  sba_covariance_request req;
+  sba_covariance_request_init(&req);
+  const int cams[2] = {4, 7};  // frame 1's second camera, frame 2's second
+  std::vector<double> camcov(2 * kRigCnp * kRigCnp);
+  req.ncams = 2;
+  req.cams = cams;
+  req.camcov = camcov.data();
+  ASSERT_EQ(0, sba_motstr_covariance_x(s.n, 0, s.m, 0, s.vmask.data(), p.data(), kRigCnp, 3, s.x.data(), nullptr, 2,
+                                       rig_func, nullptr, &s, &req, &ext));
+  // The unknowns: 10 frame poses, 2 sensor poses and 3 focal lengths, 3 per point; the gauge
+  // (a similarity: 7 directions) is left free.
+  EXPECT_EQ(req.nfree, 10 * 6 + 2 * 6 + 3 + 150 * 3);
+  EXPECT_EQ(req.rank, req.nfree - 7);
+  // The second camera's focal length and pose in the rig are one unknown in both images: the
+  // same variances; the frames' poses are not.
+  const int cc = kRigCnp * kRigCnp;
+  EXPECT_GT(camcov[0], 0.0);
+  EXPECT_TRUE(same_bits(camcov[0], camcov[size_t(cc)]));
+  for (int q = 7; q < 13; ++q) EXPECT_TRUE(same_bits(camcov[size_t(q * kRigCnp + q)], camcov[size_t(cc + q * kRigCnp + q)]));
+  EXPECT_FALSE(same_bits(camcov[size_t(4 * kRigCnp + 4)], camcov[size_t(cc + 4 * kRigCnp + 4)]));
+}
+
+TEST(CameraParamGroups, EverySolverStrategyAndThreadCountKeepsTheRig) {
+  RigScene s = make_rig(6, 80, 32);
+  const SynthResult ref = run_rig(s, RigRun{});
+  ASSERT_GT(ref.ret, 0) << ref.log;
+  EXPECT_NEAR(ref.info[1], 74.26332133, 1e-7);
+  for (const char *solver : {"chol", "chol-lapack", "ldlt", "bk", "lu", "qr", "qrnoq", "svd", "cg", "ldl-amd",
+                             "sparse-chol", "iterative-schur"})
+    for (const char *strategy : {"sba", "sba-clean-retry", "trust-region"}) {
+      const std::string what = std::string(solver) + " " + strategy;
+      const SynthResult one = run_rig(s, RigRun{solver, strategy, 1, true});
+      ASSERT_GT(one.ret, 0) << what << ": " << one.log;
+      expect_rig_copies_equal(s, one.p, what);
+      // One minimum; the trust region stops at its relative cost tolerance.
+      EXPECT_NEAR(one.info[1], ref.info[1], 2e-6 * ref.info[1]) << what;
+      const SynthResult two = run_rig(s, RigRun{solver, strategy, 2, true});
+      EXPECT_TRUE(one.p == two.p) << what << ": 1 and 2 threads";
+    }
+}
+
+TEST(CameraParamGroups, BadArguments) {
+  RigScene s = make_rig(3, 30, 33);
+  {
+    // Together with cam_group.
+    SynthResult out;
+    out.p = s.p0;
+    std::vector<int> cam_group(size_t(s.m), 0);
+    std::vector<char> shared(kRigCnp, 1);
+    sba_ext_options ext;
+    sba_ext_options_init(&ext);
+    ext.log = [](void *ctx, int, const char *msg) { *static_cast<std::string *>(ctx) += msg; };
+    ext.log_ctx = &out.log;
+    ext.cam_param_group = s.group.data();
+    ext.cam_group = cam_group.data();
+    ext.cam_shared = shared.data();
+    out.ret = sba_motstr_levmar_x_ext(s.n, 0, s.m, 0, s.vmask.data(), out.p.data(), kRigCnp, 3, s.x.data(), nullptr,
+                                      2, rig_func, nullptr, &s, 10, 0, nullptr, out.info, &ext);
+    EXPECT_EQ(out.ret, SBA_ERROR);
+    EXPECT_NE(out.log.find("cam_param_group and cam_group/cam_shared are given together"), std::string::npos)
+        << out.log;
+  }
+  {
+    RigScene t = s;
+    t.group[5 * kRigCnp + 3] = -2;
+    const SynthResult out = run_rig(t, RigRun{});
+    EXPECT_EQ(out.ret, SBA_ERROR);
+    EXPECT_NE(out.log.find("cam_param_group[68] = -2 is neither -1 nor a group number >= 0"), std::string::npos)
+        << out.log;
+  }
+  {
+    // The rig's origin held in one of its images only.
+    RigScene t = s;
+    t.held[size_t(kSensors) * kRigCnp + 8] = 0;
+    const SynthResult out = run_rig(t, RigRun{});
+    EXPECT_EQ(out.ret, SBA_ERROR);
+    EXPECT_NE(out.log.find("parameter 8 is shared by cameras 0 and 3 (cam_param_group 0) but held (cam_fixed) in "
+                           "only one of them"),
+              std::string::npos)
+        << out.log;
+    EXPECT_TRUE(out.p == s.p0);
+  }
+}
+
+}  // namespace

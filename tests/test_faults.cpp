@@ -587,6 +587,11 @@ ChildOutcome solve_with_headroom(const OomCase &oc, long headroom, Report *repor
                                  std::to_string(int(oc.simple)) + " " + std::to_string(int(oc.covx)) +
                                  " " + std::to_string(headroom) + " " + std::to_string(fd) + " 1";
         setenv("SBA_FAULTS_OOM_CHILD", spec.c_str(), 1);
+        // OpenBLAS's threaded level-3 routines (CHOLMOD's dsyrk) allocate a buffer per call
+        // and exit the process when that fails: OpenBLAS's behaviour, which no caller can
+        // catch. The sweep is of the library's own allocations, so OpenBLAS runs on one
+        // thread, whose buffers the warm-up iteration made.
+        setenv("OPENBLAS_NUM_THREADS", "1", 1);
         execl("/proc/self/exe", "test_faults", static_cast<char *>(nullptr));
         return 4;
       },

@@ -1,0 +1,89 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+// The reduced camera system over shared unknowns (camera_map.h): S = U + mu I - Z V*^-1 Z^T
+// and rhs = e_a - Z V*^-1 e_b, where a camera's parameters map to the unknowns of the blocks
+// it touches. U's block (b, B) is the sum over the cameras touching both of their U_j's
+// entries for b's and B's parameters; Z_ib, point i's coupling to block b, sums W_ij over
+// the projections of i whose camera touches b. Two blocks are coupled when one camera
+// touches both or when cameras touching them see a common point: a block shared by many
+// cameras is one block of S, not a border around it, and costs what a camera costs.
+//
+// The per-camera kernels (kernels.h) stay the ones for sba 1.6's layout; this is the
+// assembly for a layout with sharing, with block sizes known at run time.
+#ifndef SBA_SRC_MAPPED_SCHUR_H
+#define SBA_SRC_MAPPED_SCHUR_H
+
+#include <vector>
+
+#include "layout.h"
+#include "normal_equations.h"
+#include "parallel.h"
+
+namespace sba {
+
+// Where the assembly finds block (b, B), b <= B, of S over the unknowns' blocks.
+//  - Dense: row-major in an nU x nU matrix of row stride ld; the upper block triangle is
+//    filled (zeroed by the assembly itself), diagonal blocks whole.
+//  - Sparse: the lower triangle of P S P^T in compressed columns, as kernels.h's BlockMap but
+//    with blocks of their own sizes: block column c (of P S P^T) has size(c) scalar columns,
+//    each height[c] entries long, holding the block rows rows[colstart[c] .. colstart[c+1])
+//    (ascending, c first), the one at s starting rowoff[s] into the column; the column
+//    starts at colbase[c]. Zeroed by the caller.
+//  - Diagonal: only the diagonal blocks, block b's size^2 entries row-major from diag[b].
+struct UnknownBlocks {
+  enum class Kind { Dense, Sparse, Diagonal };
+  Kind kind = Kind::Dense;
+  double *base = nullptr;
+  i64 ld = 0;
+  const int *start = nullptr;  // block b's first unknown: CameraMap::block_start
+  const int *perm = nullptr, *rows = nullptr;
+  const i64 *colstart = nullptr, *colbase = nullptr, *height = nullptr, *rowoff = nullptr;
+  const i64 *diag = nullptr;
+
+  struct Block {
+    double *p;
+    i64 ld;
+    bool transposed;  // holds block (B, b) instead
+  };
+  Block block(int b, int B) const;
+};
+
+class MappedSchur {
+ public:
+  // For a layout with shared unknowns and free points or not; threads: the pool's size.
+  MappedSchur(const Layout &lay, int threads);
+
+  // Point i's blocks, ascending.
+  const int *point_blocks(int i) const { return pblocks_.data() + pstart_[size_t(i)]; }
+  int point_nblocks(int i) const { return pstart_[size_t(i) + 1] - pstart_[size_t(i)]; }
+
+  // The blocks of S that `S` holds and (unless null) rhs over the unknowns, at damping mu;
+  // Vinv: every free point's (V_i + mu I)^-1 (Kernels::invert_damped_V).
+  void assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
+                const UnknownBlocks &S, double *rhs) const;
+
+  // Z_ib^T (pnp x size_b, row-major) of point i's first `upto` blocks, block s's at
+  // Zt + zoff[s] (zoff: the running sums of the blocks' sizes times pnp, zoff[0] = 0, upto + 1
+  // of them); W: pnp x cnp scratch.
+  void point_couplings(const double *jac, int i, int upto, const i64 *zoff, double *Zt, double *W) const;
+
+  // The number of doubles point_couplings writes for any point, all of its blocks.
+  i64 max_couplings() const { return zmax_; }
+
+ private:
+  struct Scratch {
+    std::vector<double> Zt, Yt, W;
+    std::vector<i64> zoff;
+  };
+  void assemble_columns(int B0, int B1, const NormalEquations &ne, const double *Vinv, double mu,
+                        const UnknownBlocks &S, double *rhs, Scratch &sc) const;
+
+  const Layout &lay_;
+  std::vector<int> pstart_, pblocks_;  // per point, its blocks
+  std::vector<int> split_;             // threads + 1 boundaries in blocks, of about equal work
+  i64 zmax_ = 0;
+  mutable std::vector<Scratch> scratch_;
+};
+
+}  // namespace sba
+
+#endif
