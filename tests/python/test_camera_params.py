@@ -83,7 +83,90 @@ def test_bad_shapes_are_value_errors():
         pysba.motstr(*args, camera_groups=[0] * 4)
     with pytest.raises(ValueError, match=r"camera_groups must hold one group per camera \(4\), got 3"):
         pysba.motstr(*args, camera_groups=[0] * 3, shared_params=SHARED_F)
-    with pytest.raises(ValueError, match=r"camera_groups\[1\] must be -1 or a group number >= 0, got -5"):
-        pysba.motstr(*args, camera_groups=[0, -5, 0, 0], shared_params=SHARED_F)
     with pytest.raises(TypeError, match="camera_groups must be a 1-D array of ints"):
         pysba.motstr(*args, camera_groups="abc", shared_params=SHARED_F)
+
+
+# Group numbers are integers: any integer dtype (values -1 or in [0, 2^31 - 1]), Python ints,
+# and floats only when they hold integers. Nothing is rounded, wrapped or read as a bool.
+@pytest.mark.parametrize("groups, error, message", [
+    ([0, 0.5, 0, 0], ValueError, "camera_groups[1] must be an integer, got 0.5"),
+    (np.array([0, 0, 1.2, 0]), ValueError, "camera_groups[2] must be an integer, got 1.2"),
+    ([0, 0, float("nan"), 0], ValueError, "camera_groups[2] must be an integer, got nan"),
+    (np.array([0, 0, 0, -np.inf]), ValueError, "camera_groups[3] must be an integer, got -inf"),
+    (np.array([0, 0, 2**64 - 1, 0], np.uint64), ValueError,
+     "camera_groups[2] must be -1 or a group number in [0, 2147483647], got 18446744073709551615"),
+    ([0, 2**31, 0, 0], ValueError, "camera_groups[1] must be -1 or a group number in [0, 2147483647], got 2147483648"),
+    ([0, 0, 0, -2**70], ValueError,
+     "camera_groups[3] must be -1 or a group number in [0, 2147483647], got -1180591620717411303424"),
+    ([0, -5, 0, 0], ValueError, "camera_groups[1] must be -1 or a group number in [0, 2147483647], got -5"),
+    ([0, 0, -2.0, 0], ValueError, "camera_groups[2] must be -1 or a group number in [0, 2147483647], got -2.0"),
+    ([0, True, 0, 0], TypeError, "camera_groups[1] must be an integer, got True"),
+    (np.zeros(4, bool), TypeError, "camera_groups[0] must be an integer, got False"),
+    ([0, 0, "1", 0], TypeError, "camera_groups[2] must be an integer, got '1'"),
+    ([0, None, 0, 0], TypeError, "camera_groups[1] must be an integer, got None"),
+    (np.array([0, 1, 0, 0], object), TypeError, "camera_groups must be an array of integers, got an array of object"),
+    (np.array(["0"] * 4), TypeError, "camera_groups must be an array of integers, got an array of <U1"),
+])
+def test_group_numbers_that_are_not_integers_are_refused(groups, error, message):
+    cams, pts, ci, pi, obs = scene(m=4, n=20)
+    with pytest.raises(error) as e:
+        pysba.motstr(project, cams, pts, ci, pi, obs, camera_groups=groups, shared_params=SHARED_F)
+    assert str(e.value) == message
+    assert type(e.value) is error
+
+
+# Flags are bools, or integers that are 0 or 1: a str, a float (even 1.0), None or an object
+# array is refused, never read by its truth value.
+@pytest.mark.parametrize("kw, error, message", [
+    (dict(fixed_params=["0"] * 7), TypeError, "fixed_params[0] must be 0 or 1 (or a bool), got '0'"),
+    (dict(fixed_params=[0] * 6 + [0.5]), TypeError, "fixed_params[6] must be 0 or 1 (or a bool), got 0.5"),
+    (dict(fixed_params=[0] * 6 + [float("nan")]), TypeError, "fixed_params[6] must be 0 or 1 (or a bool), got nan"),
+    (dict(fixed_params=np.ones(7)), TypeError, "fixed_params[0] must be 0 or 1 (or a bool), got 1.0"),
+    (dict(fixed_params=np.full((4, 7), 0.5)), TypeError, "fixed_params[0, 0] must be 0 or 1 (or a bool), got 0.5"),
+    (dict(fixed_params=[0, 0, None, 0, 0, 0, 0]), TypeError, "fixed_params[2] must be 0 or 1 (or a bool), got None"),
+    (dict(fixed_params=[0] * 6 + [2]), ValueError, "fixed_params[6] must be 0 or 1 (or a bool), got 2"),
+    (dict(fixed_params=np.array([0, 0, 0, -1, 0, 0, 0], np.int8)), ValueError,
+     "fixed_params[3] must be 0 or 1 (or a bool), got -1"),
+    (dict(fixed_params=np.array([2**64 - 1] + [0] * 6, np.uint64)), ValueError,
+     "fixed_params[0] must be 0 or 1 (or a bool), got 18446744073709551615"),
+    (dict(fixed_params=np.zeros(7, object)), TypeError,
+     "fixed_params must be an array of bools or integers, got an array of object"),
+    (dict(fixed_params=np.array(["0"] * 7)), TypeError,
+     "fixed_params must be an array of bools or integers, got an array of <U1"),
+    (dict(fixed_params=True), TypeError, "fixed_params must be an array of bools or integers, got bool"),
+    (dict(camera_groups=[0] * 4, shared_params=["1"] * 7), TypeError,
+     "shared_params[0] must be 0 or 1 (or a bool), got '1'"),
+    (dict(camera_groups=[0] * 4, shared_params=[0.0] * 6 + [1.0]), TypeError,
+     "shared_params[0] must be 0 or 1 (or a bool), got 0.0"),
+    (dict(camera_groups=[0] * 4, shared_params=[0] * 6 + [3]), ValueError,
+     "shared_params[6] must be 0 or 1 (or a bool), got 3"),
+])
+def test_flags_that_are_not_bools_are_refused(kw, error, message):
+    cams, pts, ci, pi, obs = scene(m=4, n=20)
+    with pytest.raises(error) as e:
+        pysba.motstr(project, cams, pts, ci, pi, obs, **kw)
+    assert str(e.value) == message
+    assert type(e.value) is error
+
+
+def test_integer_groups_and_flags_of_any_integer_dtype_are_taken():
+    cams, pts, ci, pi, obs = scene(m=4, n=20)
+    args = (project, cams, pts, ci, pi, obs)
+    held = np.zeros((4, 7), bool)
+    held[0, :6] = True
+    ref = pysba.motstr(*args, fixed_params=held, camera_groups=[0, 0, 1, 1], shared_params=SHARED_F)
+    assert ref.cameras[0, 6] == ref.cameras[1, 6] and ref.cameras[2, 6] == ref.cameras[3, 6]
+    assert ref.cameras[0, 6] != ref.cameras[2, 6]
+    for fixed, groups, shared in [
+        (held.astype(np.uint8), np.array([0, 0, 1, 1], np.int8), np.array(SHARED_F, np.int64)),
+        (held.astype(int).tolist(), np.array([0, 0, 1, 1], np.uint64), [int(s) for s in SHARED_F]),
+        ([[bool(x) for x in row] for row in held], [0.0, 0.0, 1.0, 1.0], np.array(SHARED_F)),
+        (held, np.array([0, 0, 1, 1], np.float32), [np.bool_(s) for s in SHARED_F]),
+        (held, [np.int16(0), np.int16(0), np.int64(1), 1], [0, 0, 0, 0, 0, False, np.int8(1)]),
+    ]:
+        r = pysba.motstr(*args, fixed_params=fixed, camera_groups=groups, shared_params=shared)
+        assert np.array_equal(r.cameras, ref.cameras) and np.array_equal(r.points, ref.points)
+    # -1 is no group, as an integer or a float.
+    alone = pysba.motstr(*args, camera_groups=np.array([-1.0, 0, 0, -1]), shared_params=SHARED_F)
+    assert alone.cameras[1, 6] == alone.cameras[2, 6] and alone.cameras[0, 6] != alone.cameras[1, 6]
