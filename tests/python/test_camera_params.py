@@ -170,3 +170,112 @@ def test_integer_groups_and_flags_of_any_integer_dtype_are_taken():
     # -1 is no group, as an integer or a float.
     alone = pysba.motstr(*args, camera_groups=np.array([-1.0, 0, 0, -1]), shared_params=SHARED_F)
     assert alone.cameras[1, 6] == alone.cameras[2, 6] and alone.cameras[0, 6] != alone.cameras[1, 6]
+
+
+def _value_text(e):
+    """An entry as pysba's messages show it: ints and floats by their value as Python numbers."""
+    if isinstance(e, (bool, np.bool_)):
+        return repr(bool(e))
+    if isinstance(e, (int, np.integer)):
+        return repr(int(e))
+    if isinstance(e, (float, np.floating)):
+        return repr(float(e))
+    return repr(e)
+
+
+def _group_verdict(e):
+    """What pysba must do with the group number e: None (take it) or (exception, message tail)."""
+    if isinstance(e, (int, np.integer)) and not isinstance(e, (bool, np.bool_)):
+        value = int(e)
+    elif isinstance(e, (float, np.floating)):
+        x = float(e)
+        if not np.isfinite(x) or x != np.floor(x):
+            return ValueError, f"must be an integer, got {_value_text(e)}"
+        value = x
+    else:
+        return TypeError, f"must be an integer, got {_value_text(e)}"
+    if -1 <= value <= 2**31 - 1:
+        return None
+    return ValueError, f"must be -1 or a group number in [0, 2147483647], got {_value_text(e)}"
+
+
+def _flag_verdict(e):
+    if isinstance(e, (bool, np.bool_)):
+        return None
+    if isinstance(e, (int, np.integer)):
+        return None if int(e) in (0, 1) else (ValueError, f"must be 0 or 1 (or a bool), got {_value_text(e)}")
+    return TypeError, f"must be 0 or 1 (or a bool), got {_value_text(e)}"
+
+
+_POOL = [-2, -1, 0, 1, 2, 2**31 - 1, 2**31, 2**63 - 1, -2**63, 2**64 - 1, 2**70, -2**70,
+         0.0, -0.0, 1.0, 2.0, 0.5, -1.0, -1.5, float("nan"), float("inf"), -float("inf"), 1e300, 2147483648.0,
+         True, False, None, "1", b"1", 1 + 0j, np.int64(1), np.uint64(2**64 - 1), np.int8(-1), np.float32(0.5),
+         np.float16(2.0), np.bool_(True), np.bool_(False)]
+_DTYPES = [np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np.uint32, np.uint64, np.float16,
+           np.float32, np.float64, np.longdouble, bool, object, "U2"]
+
+
+def _draw(rng, size, valid):
+    """size entries as a list, a tuple or an array of a random dtype: mostly valid entries."""
+    vals = [valid[rng.integers(len(valid))] if rng.random() < 0.8 else _POOL[rng.integers(len(_POOL))]
+            for _ in range(size)]
+    kind = rng.integers(3)
+    if kind == 0:
+        return vals
+    if kind == 1:
+        return tuple(vals)
+    dtype = _DTYPES[rng.integers(len(_DTYPES))]
+    numbers = rng.integers(-3, 4, size)
+    return np.array([str(v) for v in numbers] if dtype == "U2" else numbers.tolist()).astype(dtype)
+
+
+def _expected(obj, name, verdict, of):
+    """The error pysba must raise for obj as the option name, or None."""
+    if isinstance(obj, np.ndarray):
+        if obj.dtype.kind not in "biuf":
+            return TypeError, f"{name} must be an array of {of}, got an array of {obj.dtype}"
+        entries = [e.item() if obj.dtype.kind != "f" else float(e) for e in obj.flat]
+    else:
+        entries = list(obj)
+    for k, e in enumerate(entries):
+        v = verdict(e)
+        if v is not None:
+            return v[0], f"{name}[{k}] {v[1]}"
+    return None
+
+
+def test_random_option_entries_are_judged_by_the_rules():
+    """pysba's reading of Python values (lists, tuples, arrays of every dtype, numpy scalars,
+    None, strs, huge ints, NaN) against the rules written out in Python: each value is taken,
+    or refused with the exception and the message the rules give."""
+    cams, pts, ci, pi, obs = scene(m=3, n=6)
+    args = (project, cams, pts, ci, pi, obs)
+    rng = np.random.default_rng(11)
+    taken = refused = 0
+    for _ in range(300):
+        which = rng.integers(3)
+        if which == 0:
+            value = _draw(rng, 3, [-1, 0, 1, 2, 0.0, 2.0, np.int32(1)])
+            kw = dict(camera_groups=value, shared_params=SHARED_F)
+            want = _expected(value, "camera_groups", _group_verdict, "integers")
+        else:
+            name = "fixed_params" if which == 1 else "shared_params"
+            value = _draw(rng, 7, [0, 1, True, False, np.bool_(True), np.uint8(1)])
+            kw = {name: value}
+            if name == "shared_params":
+                kw["camera_groups"] = [-1, -1, -1]
+            want = _expected(value, name, _flag_verdict, "bools or integers")
+        try:
+            pysba.motstr(*args, itmax=0, **kw)
+        except (TypeError, ValueError) as e:
+            got = (type(e), str(e))
+        else:
+            got = None
+        if want is None:
+            # Taken by pysba; the library may still refuse a group number of no camera.
+            assert got is None or (got[0] is ValueError and not got[1].startswith(tuple(kw))), (kw, got)
+            taken += 1
+        else:
+            assert got == want, kw
+            refused += 1
+    assert taken > 50 and refused > 50
