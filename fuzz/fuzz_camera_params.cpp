@@ -82,7 +82,8 @@ void log_sink(void *ctx, int level, const char *line) {
 }
 
 // The rules, as sba_ext.h states them: empty when the options keep them, else which one is broken.
-std::string broken_rule(const Problem &p, const char *fixed, bool per_camera, const int *group, const char *shared) {
+std::string broken_rule(const Problem &p, const char *fixed, bool per_camera, const int *group,
+                        const char *shared) {
   if (!group) return {};
   if (!shared) return "cam_group without cam_shared";
   auto held = [&](int j, int a) { return fixed && fixed[per_camera ? j * p.cnp + a : a] != 0; };
@@ -93,7 +94,8 @@ std::string broken_rule(const Problem &p, const char *fixed, bool per_camera, co
     if (j < p.mcon) return "a camera below mcon in a group";
     const int f = first.emplace(group[j], j).first->second;
     for (int a = 0; a < p.cnp; ++a)
-      if (shared[a] && held(j, a) != held(f, a)) return "a shared parameter held in only some cameras of a group";
+      if (shared[a] && held(j, a) != held(f, a))
+        return "a shared parameter held in only some cameras of a group";
   }
   return {};
 }
@@ -165,10 +167,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
   double info[SBA_INFOSZ];
   std::vector<double> sol = x0;
   const int ret =
-      motion_only ? sba_mot_levmar_ext(p.n, p.m, p.mcon, vmask.data(), sol.data(), p.cnp, x.data(), nullptr, kMnp,
-                                       mot_proj, mot_projac, &p, 5, 0, nullptr, info, &ext)
-                  : sba_motstr_levmar_ext(p.n, 0, p.m, p.mcon, vmask.data(), sol.data(), p.cnp, p.pnp, x.data(),
-                                          nullptr, kMnp, motstr_proj, motstr_projac, &p, 5, 0, nullptr, info, &ext);
+      motion_only
+          ? sba_mot_levmar_ext(p.n, p.m, p.mcon, vmask.data(), sol.data(), p.cnp, x.data(), nullptr, kMnp,
+                               mot_proj, mot_projac, &p, 5, 0, nullptr, info, &ext)
+          : sba_motstr_levmar_ext(p.n, 0, p.m, p.mcon, vmask.data(), sol.data(), p.cnp, p.pnp, x.data(),
+                                  nullptr, kMnp, motstr_proj, motstr_projac, &p, 5, 0, nullptr, info, &ext);
 
   const std::string rule = broken_rule(p, ext.cam_fixed, per_camera, ext.cam_group, ext.cam_shared);
   const bool refused = ret == SBA_ERROR && info[6] == SBA_STOP_NONE;
@@ -189,7 +192,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     return 0;
   }
   if (ret < 0) return 0;  // a numerical failure: what p holds then is not promised
-  auto held = [&](int j, int a) { return j < p.mcon || (!fixed.empty() && fixed[per_camera ? j * p.cnp + a : a] != 0); };
+  auto held = [&](int j, int a) {
+    return j < p.mcon || (!fixed.empty() && fixed[per_camera ? j * p.cnp + a : a] != 0);
+  };
   for (int j = 0; j < p.m; ++j)
     for (int a = 0; a < p.cnp; ++a)
       if (held(j, a)) require(same_bits(sol[j * p.cnp + a], x0[j * p.cnp + a]), "a held parameter moved");
@@ -203,7 +208,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     const int f = first.emplace(group[j], j).first->second;
     for (int a = 0; a < p.cnp; ++a)
       if (shared[a] && !held(j, a))
-        require(same_bits(sol[j * p.cnp + a], sol[f * p.cnp + a]), "the cameras of a group differ in a shared parameter");
+        require(same_bits(sol[j * p.cnp + a], sol[f * p.cnp + a]),
+                "the cameras of a group differ in a shared parameter");
   }
   return 0;
 }

@@ -54,8 +54,9 @@ double next_number(FuzzedDataProvider &in, std::size_t m) {
 
 OptionField next_field(FuzzedDataProvider &in, std::size_t m, std::size_t cnp) {
   OptionField f;
-  f.name = in.ConsumeBool() ? kNames[in.ConsumeIntegralInRange<size_t>(0, kOptionNames - 1)]
-                            : kNames[in.ConsumeIntegralInRange<size_t>(0, sizeof kNames / sizeof *kNames - 1)];
+  f.name = in.ConsumeBool()
+               ? kNames[in.ConsumeIntegralInRange<size_t>(0, kOptionNames - 1)]
+               : kNames[in.ConsumeIntegralInRange<size_t>(0, sizeof kNames / sizeof *kNames - 1)];
   f.matrix = in.ConsumeIntegralInRange<int>(0, 7) != 0;
   // Mostly the sizes that fit, m x cnp, 1 x cnp and 1 x m, or their transposes.
   const std::size_t sizes[] = {m, cnp, 1, 0, in.ConsumeIntegralInRange<size_t>(0, 8)};
@@ -87,8 +88,8 @@ bool acceptable(const std::vector<OptionField> &fields, std::size_t m, std::size
     if (f.numel > 0) given[k] = &f;
   }
   const OptionField *fixed = given[0], *groups = given[1], *shared = given[2];
-  if (fixed && !(finite_matrix(*fixed) && ((is_vector(*fixed) && fixed->numel == cnp) ||
-                                           (fixed->rows == m && fixed->cols == cnp))))
+  if (fixed && !(finite_matrix(*fixed) &&
+                 ((is_vector(*fixed) && fixed->numel == cnp) || (fixed->rows == m && fixed->cols == cnp))))
     return false;
   if (!groups != !shared) return false;
   if (!groups) return true;
@@ -131,7 +132,8 @@ void check_refusal(const ArgError &e) {
   require(!e.message.empty() && e.message.back() == '.', "a refusal that is not a sentence: " + e.message);
   require(e.message.find('\n') == std::string::npos, "a refusal of more than one line: " + e.message);
   bool named = e.message.find("options struct") != std::string::npos;
-  for (std::size_t k = 0; k < kOptionNames; ++k) named = named || e.message.find(kNames[k]) != std::string::npos;
+  for (std::size_t k = 0; k < kOptionNames; ++k)
+    named = named || e.message.find(kNames[k]) != std::string::npos;
   require(named, "a refusal that names no field: " + e.message);
 }
 
@@ -156,7 +158,8 @@ void check_role(FuzzedDataProvider &in) {
     sba_mex::refuse_options_struct(what);
   } catch (const ArgError &e) {
     check_refusal(e);
-    require(e.message.find(what) != std::string::npos, "the refusal does not say what was given: " + e.message);
+    require(e.message.find(what) != std::string::npos,
+            "the refusal does not say what was given: " + e.message);
     return;
   }
   sbafuzz::broken("refuse_options_struct returned");
@@ -167,7 +170,8 @@ void check_role(FuzzedDataProvider &in) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
   FuzzedDataProvider in(data, size);
   check_role(in);
-  const std::size_t m = in.ConsumeIntegralInRange<size_t>(1, 6), cnp = in.ConsumeIntegralInRange<size_t>(0, 6);
+  const std::size_t m = in.ConsumeIntegralInRange<size_t>(1, 6),
+                    cnp = in.ConsumeIntegralInRange<size_t>(0, 6);
   std::vector<OptionField> fields;
   for (int k = in.ConsumeIntegralInRange<int>(0, 4); k > 0; --k) {
     OptionField f = next_field(in, m, cnp);

@@ -45,7 +45,8 @@ Value next_value(FuzzedDataProvider &in) {
     case 4: {
       static const double kFloats[] = {0.0, -0.0, 1.0, -1.0, 0.5, 1.2, 2.0, 2147483647.0, 2147483648.0,
                                        -2.0, 1e16, 1e-5, 1e300, NAN, INFINITY, -INFINITY};
-      return Value::floating(kFloats[in.ConsumeIntegralInRange<size_t>(0, sizeof kFloats / sizeof *kFloats - 1)]);
+      return Value::floating(
+          kFloats[in.ConsumeIntegralInRange<size_t>(0, sizeof kFloats / sizeof *kFloats - 1)]);
     }
     case 5:
       return Value::floating(double_from_bits(in.ConsumeIntegral<std::uint64_t>()));
@@ -60,7 +61,9 @@ Value next_value(FuzzedDataProvider &in) {
   }
 }
 
-bool one_line(const std::string &s) { return s.find('\n') == std::string::npos && s.find('\r') == std::string::npos; }
+bool one_line(const std::string &s) {
+  return s.find('\n') == std::string::npos && s.find('\r') == std::string::npos;
+}
 
 // What Python shows: integers exactly, floats so that they read back as the same double and
 // as floats (with a point, an exponent, or nan/inf), bools as True and False.
@@ -77,8 +80,8 @@ void check_text(const Value &v) {
       if (std::isnan(v.real)) {
         require(t == "nan", "NaN shown as " + t);
       } else {
-        require(std::strtod(t.c_str(), nullptr) == v.real && std::signbit(std::strtod(t.c_str(), nullptr)) ==
-                                                                    std::signbit(v.real),
+        require(std::strtod(t.c_str(), nullptr) == v.real &&
+                    std::signbit(std::strtod(t.c_str(), nullptr)) == std::signbit(v.real),
                 "the float shown as " + t + " reads back as another value");
         require(t.find_first_of(".ein") != std::string::npos, "the float shown as " + t + " reads as an int");
       }
@@ -95,8 +98,8 @@ bool integer_in(const Value &v, long long lo, long long hi, long long *out) {
     *out = v.integer;
     return true;
   }
-  if (v.kind == Value::kFloat && std::isfinite(v.real) && std::trunc(v.real) == v.real && v.real >= double(lo) &&
-      v.real <= double(hi)) {
+  if (v.kind == Value::kFloat && std::isfinite(v.real) && std::trunc(v.real) == v.real &&
+      v.real >= double(lo) && v.real <= double(hi)) {
     *out = static_cast<long long>(v.real);
     return true;
   }
@@ -105,17 +108,21 @@ bool integer_in(const Value &v, long long lo, long long hi, long long *out) {
 
 void check_refusal(const OptionError &e, const std::string &where, const Value &v, bool wrong_type) {
   // An object's repr is its own business, and may hold a line break.
-  require(one_line(e.message) || !one_line(pysba::python_text(v)), "a refusal of more than one line: " + e.message);
-  require(e.message.compare(0, where.size() + 1, where + " ") == 0, "a refusal that does not name the entry: " + e.message);
+  require(one_line(e.message) || !one_line(pysba::python_text(v)),
+          "a refusal of more than one line: " + e.message);
+  require(e.message.compare(0, where.size() + 1, where + " ") == 0,
+          "a refusal that does not name the entry: " + e.message);
   const std::string got = " got " + pysba::python_text(v);
-  require(e.message.size() >= got.size() && e.message.compare(e.message.size() - got.size(), got.size(), got) == 0,
+  require(e.message.size() >= got.size() &&
+              e.message.compare(e.message.size() - got.size(), got.size(), got) == 0,
           "a refusal that does not end with the value as given: " + e.message);
   require(e.wrong_type == wrong_type, std::string("a ") + (e.wrong_type ? "TypeError" : "ValueError") +
                                           " where the other is due: " + e.message);
 }
 
 void check_flag(const Value &v, const std::string &where) {
-  const bool is_flag = v.kind == Value::kBool || (v.kind == Value::kInt && v.fits && (v.integer == 0 || v.integer == 1));
+  const bool is_flag =
+      v.kind == Value::kBool || (v.kind == Value::kInt && v.fits && (v.integer == 0 || v.integer == 1));
   try {
     const char f = pysba::flag_value(v, where);
     require(is_flag, "a flag taken from " + pysba::python_text(v));

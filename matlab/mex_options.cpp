@@ -72,16 +72,18 @@ CameraOptions camera_options(const std::vector<OptionField> &fields, std::size_t
   }
   if (groups && !shared)
     bad_arg("invalidArgument", "camera_groups needs shared_params (the cnp flags of what a group shares).");
-  if (shared && !groups) bad_arg("invalidArgument", "shared_params needs camera_groups (a group number per camera).");
+  if (shared && !groups)
+    bad_arg("invalidArgument", "shared_params needs camera_groups (a group number per camera).");
   if (!groups) return o;
   const std::vector<double> &gv = matrix_values(*groups);
   if (!is_vector_shape(*groups) || gv.size() != m)
     bad_arg("wrongSize", format("camera_groups must have m = %zu values (got %zu).", m, gv.size()));
   for (std::size_t j = 0; j < m; ++j) {
     if (gv[j] != std::floor(gv[j]) || gv[j] < -1 || gv[j] > static_cast<double>(m) - 1)
-      bad_arg("invalidArgument", format("camera_groups(%zu) must be -1 (no group) or a group number in [0, %zu] "
-                                        "(got %g).",
-                                        j + 1, m - 1, gv[j]));
+      bad_arg("invalidArgument",
+              format("camera_groups(%zu) must be -1 (no group) or a group number in [0, %zu] "
+                     "(got %g).",
+                     j + 1, m - 1, gv[j]));
     o.group.push_back(static_cast<int>(gv[j]));
   }
   const std::vector<double> &sv = matrix_values(*shared);

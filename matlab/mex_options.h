@@ -30,11 +30,11 @@ StructRole struct_role(bool is_struct, std::size_t numel, const std::vector<std:
 // One field of the options struct, as the host gave it.
 struct OptionField {
   std::string name;
-  std::size_t numel = 0;    // 0: not given ([])
-  bool matrix = false;      // a dense real numeric or logical 2-D array
+  std::size_t numel = 0;           // 0: not given ([])
+  bool matrix = false;             // a dense real numeric or logical 2-D array
   std::size_t rows = 0, cols = 0;  // its size, when matrix
   std::vector<double> values;      // its values column-major, when matrix
-  std::string description;  // what it is, for messages ("1x3 cell")
+  std::string description;         // what it is, for messages ("1x3 cell")
 };
 
 // The held and shared camera parameters in sba_ext_options' layout: fixed has cnp flags

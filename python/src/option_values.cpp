@@ -104,8 +104,8 @@ char flag_value(const Value &v, const std::string &where) {
 }
 
 int group_number(const Value &v, const std::string &where) {
-  const OptionError out_of_range{false, where + " must be -1 or a group number in [0, " + std::to_string(INT_MAX) +
-                                            "], got " + python_text(v)};
+  const OptionError out_of_range{false, where + " must be -1 or a group number in [0, " +
+                                            std::to_string(INT_MAX) + "], got " + python_text(v)};
   switch (v.kind) {
     case Value::kInt:
       if (!v.fits || v.integer < -1 || v.integer > INT_MAX) throw out_of_range;

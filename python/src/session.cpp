@@ -100,7 +100,8 @@ std::vector<Value> read_as(const py::array &a, Make make) {
 // otherwise: an object or a str array is not read by its entries' truth). Anything else
 // (lists, tuples, nested ones) entry by entry, each by its Python type: numpy's conversion
 // would make True a 1 among ints and '0' a str array.
-std::vector<Value> option_values(py::handle obj, const char *name, const char *of, std::vector<long long> *shape) {
+std::vector<Value> option_values(py::handle obj, const char *name, const char *of,
+                                 std::vector<long long> *shape) {
   std::vector<Value> out;
   if (py::isinstance<py::array>(obj)) {
     const py::array a = py::reinterpret_borrow<py::array>(obj);
@@ -126,7 +127,8 @@ std::vector<Value> option_values(py::handle obj, const char *name, const char *o
     throw Keywords::wrong_type(name, (std::string("an array of ") + of).c_str(), obj);
   }
   shape->assign(a.shape(), a.shape() + a.ndim());
-  const py::object np_bool = np.attr("bool_"), np_integer = np.attr("integer"), np_floating = np.attr("floating");
+  const py::object np_bool = np.attr("bool_"), np_integer = np.attr("integer");
+  const py::object np_floating = np.attr("floating");
   for (const py::handle e : a.attr("ravel")().attr("tolist")()) {
     if (PyBool_Check(e.ptr()) || py::isinstance(e, np_bool)) {
       out.push_back(Value::boolean(PyObject_IsTrue(e.ptr()) == 1));
@@ -151,8 +153,8 @@ std::vector<Value> option_values(py::handle obj, const char *name, const char *o
 // rule(value, where) for each of values, an OptionError raised as the TypeError or ValueError
 // it stands for.
 template <class T, class Rule>
-std::vector<T> checked(const std::vector<Value> &values, const char *name, const std::vector<long long> &shape,
-                       Rule rule) {
+std::vector<T> checked(const std::vector<Value> &values, const char *name,
+                       const std::vector<long long> &shape, Rule rule) {
   std::vector<T> out;
   out.reserve(values.size());
   try {
