@@ -82,8 +82,11 @@ void log_sink(void *ctx, int level, const char *line) {
 }
 
 // The rules, as sba_ext.h states them: empty when the options keep them, else which one is broken.
-std::string broken_rule(const Problem &p, const char *fixed, bool per_camera, const int *group,
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+std::string broken_rule(const Problem &p, const double *x0, const char *fixed, bool per_camera, const int *group,
                         const char *shared) {
+  if (shared && !group) return "cam_shared without cam_group";
   if (!group) return {};
   if (!shared) return "cam_group without cam_shared";
   auto held = [&](int j, int a) { return fixed && fixed[per_camera ? j * p.cnp + a : a] != 0; };
@@ -93,9 +96,11 @@ std::string broken_rule(const Problem &p, const char *fixed, bool per_camera, co
     if (group[j] < 0 || group[j] >= p.m) return "a group number out of range";
     if (j < p.mcon) return "a camera below mcon in a group";
     const int f = first.emplace(group[j], j).first->second;
-    for (int a = 0; a < p.cnp; ++a)
-      if (shared[a] && held(j, a) != held(f, a))
-        return "a shared parameter held in only some cameras of a group";
+    for (int a = 0; a < p.cnp; ++a) {
+      if (shared[a] && held(j, a) != held(f, a)) return "a shared parameter held in only some cameras of a group";
+      if (shared[a] && held(j, a) && !same_bits(x0[j * p.cnp + a], x0[f * p.cnp + a]))
+        return "a shared parameter held with different values in a group";
+    }
   }
   return {};
 }
@@ -117,8 +122,6 @@ int next_group(FuzzedDataProvider &in, int m) {
       return in.ConsumeIntegralInRange<int>(0, 1);
   }
 }
-
-bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
 }  // namespace
 
@@ -173,7 +176,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
           : sba_motstr_levmar_ext(p.n, 0, p.m, p.mcon, vmask.data(), sol.data(), p.cnp, p.pnp, x.data(),
                                   nullptr, kMnp, motstr_proj, motstr_projac, &p, 5, 0, nullptr, info, &ext);
 
-  const std::string rule = broken_rule(p, ext.cam_fixed, per_camera, ext.cam_group, ext.cam_shared);
+  const std::string rule =
+      broken_rule(p, x0.data(), ext.cam_fixed, per_camera, ext.cam_group, ext.cam_shared);
   const bool refused = ret == SBA_ERROR && info[6] == SBA_STOP_NONE;
   for (const std::string &e : log.errors)
     require(!e.empty() && e.find('\n') == std::string::npos, "an error of more than one line: " + e);
