@@ -183,10 +183,10 @@ Status check_writable(const std::string &path) {
   return {};
 }
 
-// Writes the files --write-* asked for, from the refined (or, for what a refinement left
-// alone, the initial) cameras and points.
+// Writes the files --write-* asked for into the run's outputs, from the refined (or, for what a
+// refinement left alone, the initial) cameras and points.
 Status write_results(const DemoOptions &o, const CameraModel &model, const PointSet &points,
-                     CameraKind kind, const Outcome &out) {
+                     CameraKind kind, const Outcome &out, sbaformats::OutputSet *outputs) {
   const int m = model.ncameras(), cnp = model.cnp();
   const bool has_cams = out.refinement != Refinement::Structure;
   const bool has_pts = out.refinement != Refinement::Motion;
@@ -195,14 +195,14 @@ Status write_results(const DemoOptions &o, const CameraModel &model, const Point
     cams.reserve(m);
     for (int j = 0; j < m; ++j)
       cams.push_back(model.camera(j, has_cams ? out.p.data() + j * cnp : model.initial_camera(j)));
-    if (Status s = write_cameras(o.write_cams, kind, cams); !s) return s;
+    if (Status s = write_cameras(o.write_cams, kind, cams, outputs); !s) return s;
   }
   std::vector<double> xyz = model.initial_points();
   if (has_pts) std::copy(out.p.end() - xyz.size(), out.p.end(), xyz.begin());
   if (!o.write_pts.empty())
-    if (Status s = write_points_xyz(o.write_pts, xyz); !s) return s;
+    if (Status s = write_points_xyz(o.write_pts, xyz, outputs); !s) return s;
   if (!o.write_pts_tracks.empty())
-    if (Status s = write_points(o.write_pts_tracks, points, xyz); !s) return s;
+    if (Status s = write_points(o.write_pts_tracks, points, xyz, outputs); !s) return s;
   return {};
 }
 
@@ -364,7 +364,9 @@ int demo_main(int argc, char **argv) {
   // nccalib and ncdist. Asked for on the command line, they are held with differences too.
   const bool hold = o.analytic || o.held_given;
   const CameraModel model(problem.kind, problem.cameras, points.xyz, hold ? o.nccalib : 0, hold ? o.ncdist : 0);
-  if (!sbacli::write_ply_option(o.initial_ply, cloud(model, nullptr, nullptr))) return kExitFailure;
+  // Every file of the run is published at its end, together, or none is (output_file.h).
+  sbaformats::OutputSet outputs;
+  if (!sbacli::write_ply_option(o.initial_ply, cloud(model, nullptr, nullptr), &outputs)) return kExitFailure;
   std::fprintf(stderr, "%s\n", kind_banner(problem.kind));
 
   sbacli::TtyProgress progress(o.progress, nprojs);
@@ -410,15 +412,20 @@ int demo_main(int argc, char **argv) {
       std::fprintf(stderr, "%s\n", s.to_string().c_str());
       return kExitFailure;
     }
-  if (Status s = write_results(o, model, points, problem.kind, out); !s) {
-    std::fprintf(stderr, "%s\n", s.to_string().c_str());
+  Status written;
+  const bool results = outputs.publish_last([&] {
+    written = write_results(o, model, points, problem.kind, out, &outputs);
+    return written.ok();
+  });
+  if (!results) {
+    std::fprintf(stderr, "%s\n", written.to_string().c_str());
     return kExitFailure;
   }
-  if (!o.write_stddev.empty() && !sbaformats::write_whole_file(o.write_stddev, stddev, &error)) {
+  if (!o.write_stddev.empty() && !sbaformats::write_whole_file(o.write_stddev, stddev, &error, &outputs)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
-  if (!sbacli::write_ply_option(o.final_ply, final_cloud(model, out))) return kExitFailure;
+  if (!sbacli::write_ply_option(o.final_ply, final_cloud(model, out), &outputs)) return kExitFailure;
 
   // The variables of the refinement that produced the result.
   long long nvars = 0;
@@ -473,12 +480,12 @@ int demo_main(int argc, char **argv) {
   sbacli::print_report(stdout, report);
   if (!o.json.empty()) {
     report.per_camera = camera_residuals(model, points, out);
-    std::string why;
-    if (!sbacli::write_json(o.json, report, &why)) {
-      std::fprintf(stderr, "%s: %s\n", o.json.c_str(), why.c_str());
+    if (!sbacli::write_json(o.json, report, &error, &outputs)) {
+      std::fprintf(stderr, "%s\n", error.c_str());
       return kExitFailure;
     }
   }
+  if (!sbaformats::publish_outputs("eucsbademo", &outputs)) return kExitFailure;
 
   // A stopped solve is a result (written above), but the status says it was cut short by a
   // signal; a time limit the user set is an ordinary end.
