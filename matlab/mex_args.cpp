@@ -6,7 +6,11 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <string>
+#include <utility>
 #include <vector>
+
+#include "mex_options.h"
 
 namespace sba_mex {
 namespace {
@@ -114,89 +118,37 @@ std::vector<char> read_vmask(const mxArray *a, int n, int m, long long *nvis) {
   return mask;
 }
 
-// The options struct (beyond 1.6): a scalar struct with at least one of these fields. Any
-// other value, a struct of other fields included, is problem data as in 1.6.
-constexpr const char *kOptionFields[] = {"fixed_params", "camera_groups", "shared_params"};
-
-bool is_option_field(const char *name) {
-  for (const char *f : kOptionFields)
-    if (std::strcmp(name, f) == 0) return true;
-  return false;
-}
-
-bool is_options_struct(const mxArray *a) {
-  if (!mxIsStruct(a) || mxGetNumberOfElements(a) != 1) return false;
-  for (int f = 0; f < mxGetNumberOfFields(a); ++f)
-    if (is_option_field(mxGetFieldNameByNumber(a, f))) return true;
-  return false;
-}
-
-// The values of a dense real numeric or logical matrix, column-major, all finite.
-std::vector<double> matrix_values(const mxArray *a, const char *name) {
-  if (!is_real_numeric(a) || mxIsSparse(a) || mxGetNumberOfDimensions(a) != 2)
-    bad_arg("invalidArgument", format("%s must be a dense real or logical matrix (got a %s).",
-                                      name, describe(a).c_str()));
-  std::vector<double> v(mxGetNumberOfElements(a));
-  for (std::size_t k = 0; k < v.size(); ++k) {
-    v[k] = element(a, k);
-    if (!std::isfinite(v[k])) bad_arg("invalidArgument", format("%s(%zu) is not finite.", name, k + 1));
-  }
-  return v;
+// The role of a value beside reftype (mex_options.h).
+StructRole role(const mxArray *a) {
+  std::vector<std::string> fields;
+  if (mxIsStruct(a))
+    for (int f = 0; f < mxGetNumberOfFields(a); ++f) fields.emplace_back(mxGetFieldNameByNumber(a, f));
+  return struct_role(mxIsStruct(a), mxGetNumberOfElements(a), fields);
 }
 
 // The held and shared camera parameters of the options struct s, in sba_ext_options' layout.
 void read_options_struct(Gateway &g, const mxArray *s) {
-  for (int f = 0; f < mxGetNumberOfFields(s); ++f)
-    if (!is_option_field(mxGetFieldNameByNumber(s, f)))
-      bad_arg("invalidArgument",
-              format("the options struct has an unknown field '%s' (expected fixed_params, "
-                     "camera_groups or shared_params).",
-                     mxGetFieldNameByNumber(s, f)));
-  const std::size_t m = g.m, cnp = g.cnp;
-  auto given = [&](const char *name) {
-    const mxArray *v = mxGetField(s, 0, name);
-    return v && !mxIsEmpty(v) ? v : nullptr;
-  };
-  if (const mxArray *v = given("fixed_params")) {
-    const std::vector<double> f = matrix_values(v, "fixed_params");
-    if (is_vector_shape(v) && f.size() == cnp) {
-      g.cam_fixed_per_camera = false;
-      for (double x : f) g.cam_fixed.push_back(x != 0.0);
-    } else if (mxGetM(v) == m && mxGetN(v) == cnp) {
-      g.cam_fixed_per_camera = true;  // row j is camera j's: to camera-major
-      g.cam_fixed.resize(m * cnp);
-      for (std::size_t j = 0; j < m; ++j)
-        for (std::size_t c = 0; c < cnp; ++c) g.cam_fixed[j * cnp + c] = f[c * m + j] != 0.0;
-    } else {
-      bad_arg("wrongSize",
-              format("fixed_params must have cnp = %zu flags (for every camera) or be m x cnp = "
-                     "%zu x %zu (got %zu x %zu).",
-                     cnp, m, cnp, static_cast<std::size_t>(mxGetM(v)),
-                     static_cast<std::size_t>(mxGetN(v))));
+  std::vector<OptionField> fields;
+  for (int f = 0; f < mxGetNumberOfFields(s); ++f) {
+    OptionField o;
+    o.name = mxGetFieldNameByNumber(s, f);
+    if (const mxArray *v = mxGetFieldByNumber(s, 0, f)) {
+      o.numel = mxGetNumberOfElements(v);
+      o.description = describe(v);
+      o.matrix = is_real_numeric(v) && !mxIsSparse(v) && mxGetNumberOfDimensions(v) == 2;
+      if (o.matrix) {
+        o.rows = mxGetM(v);
+        o.cols = mxGetN(v);
+        for (std::size_t k = 0; k < o.numel; ++k) o.values.push_back(element(v, k));
+      }
     }
+    fields.push_back(std::move(o));
   }
-  const mxArray *groups = given("camera_groups"), *shared = given("shared_params");
-  if (groups && !shared)
-    bad_arg("invalidArgument",
-            "camera_groups needs shared_params (the cnp flags of what a group shares).");
-  if (shared && !groups)
-    bad_arg("invalidArgument", "shared_params needs camera_groups (a group number per camera).");
-  if (!groups) return;
-  const std::vector<double> gv = matrix_values(groups, "camera_groups");
-  if (!is_vector_shape(groups) || gv.size() != m)
-    bad_arg("wrongSize", format("camera_groups must have m = %zu values (got %zu).", m, gv.size()));
-  for (std::size_t j = 0; j < m; ++j) {
-    if (gv[j] != std::floor(gv[j]) || gv[j] < -1 || gv[j] > static_cast<double>(m) - 1)
-      bad_arg("invalidArgument",
-              format("camera_groups(%zu) must be -1 (no group) or a group number in [0, %zu] "
-                     "(got %g).",
-                     j + 1, m - 1, gv[j]));
-    g.cam_group.push_back(static_cast<int>(gv[j]));
-  }
-  const std::vector<double> sv = matrix_values(shared, "shared_params");
-  if (!is_vector_shape(shared) || sv.size() != cnp)
-    bad_arg("wrongSize", format("shared_params must have cnp = %zu flags (got %zu).", cnp, sv.size()));
-  for (double x : sv) g.cam_shared.push_back(x != 0.0);
+  CameraOptions c = camera_options(fields, static_cast<std::size_t>(g.m), static_cast<std::size_t>(g.cnp));
+  g.cam_fixed = std::move(c.fixed);
+  g.cam_fixed_per_camera = c.fixed_per_camera;
+  g.cam_group = std::move(c.group);
+  g.cam_shared = std::move(c.shared);
 }
 
 void parse_callback(Callback &cb, const std::string &text, const char *role) {
@@ -315,7 +267,15 @@ void parse(Gateway &g, int nrhs, const mxArray *prhs[], std::string *warning) {
   auto option = [&](int at) {
     if (at >= nrhs) return false;
     if (g.strategy.empty() && strategy_option(at)) return true;
-    if (have_struct || !is_options_struct(prhs[at])) return false;
+    if (have_struct) return false;
+    switch (role(prhs[at])) {
+      case StructRole::kData:
+        return false;
+      case StructRole::kRefused:
+        refuse_options_struct(describe(prhs[at]));
+      case StructRole::kOptions:
+        break;
+    }
     read_options_struct(g, prhs[at]);
     have_struct = true;
     return true;

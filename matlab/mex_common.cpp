@@ -4,9 +4,6 @@
 #include <dlfcn.h>
 #include <unistd.h>
 
-#include <cstdarg>
-#include <cstdio>
-
 #if !SBA_MEX_OCTAVE
 // MATLAB: the undocumented but long-standing Ctrl-C query of libut. Weak, so that a MATLAB
 // without it still loads the MEX file (Ctrl-C is then noticed only inside .m callbacks).
@@ -25,19 +22,6 @@ const char *reftype_name(RefType r) {
       return "str";
   }
   return "";
-}
-
-std::string format(const char *fmt, ...) {
-  char buf[kMaxMessage];
-  va_list ap;
-  va_start(ap, fmt);
-  std::vsnprintf(buf, sizeof buf, fmt, ap);
-  va_end(ap);
-  return buf;
-}
-
-[[noreturn]] void bad_arg(const std::string &id, const std::string &message) {
-  throw ArgError{"sba:" + id, message};
 }
 
 bool interrupt_pending() {

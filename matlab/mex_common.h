@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "mex.h"
+#include "mex_error.h"
 #include "sba.h"
 #include "sba_ext.h"
 
@@ -29,20 +30,9 @@
 // Hidden: the MEX file exports mexFunction only.
 namespace sba_mex __attribute__((visibility("hidden"))) {
 
-constexpr int kMaxMessage = 2048;
-
 enum class RefType { MotStr, Mot, Str };
 
 const char *reftype_name(RefType r);
-
-std::string format(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-
-// A bad argument: thrown while parsing (before any solve), caught in run_gateway().
-struct ArgError {
-  std::string id, message;
-};
-
-[[noreturn]] void bad_arg(const std::string &id, const std::string &message);
 
 // A Ctrl-C the host has not acted on yet.
 bool interrupt_pending();

@@ -4,7 +4,9 @@
 # real input files, and fails if any of them finds a crash, a leak, a timeout, an
 # out-of-memory or a broken promise (see fuzz/fuzz_common.h). The seed corpora are assembled
 # at run time in a temporary directory from ../shared/data (the sba demo files and the BAL
-# problems), the project's data/ and tests/fuzz_regressions/; nothing of them is kept.
+# problems), the project's data/ and tests/fuzz_regressions/; nothing of them is kept. The
+# option checks' targets (pysba_options, mex_options, camera_params) read no file format:
+# they start from their regressions alone, steered by fuzz/options.dict.
 #
 # usage: scripts/run_fuzz.sh FUZZ_BUILD_DIR [SECONDS_PER_TARGET] [SHARED_DATA_DIR]
 # Crashing inputs are kept in FUZZ_BUILD_DIR/artifacts/; to keep one as a regression test,
@@ -59,14 +61,16 @@ mkdir -p "$work/corpus-hold_poses"
 printf '10,img_0.png,0' > "$work/corpus-hold_poses/ids-and-names"
 printf 'all' > "$work/corpus-hold_poses/all"
 printf 'a,b.png\r\n\n10\ndup.png' > "$work/corpus-hold_poses/names-file"
+targets="cameras points calibration bal colmap bundler nvm hold_poses pysba_options mex_options camera_params"
 # Earlier findings: tests/fuzz_regressions/TARGET-*.
-for t in cameras points calibration bal colmap bundler nvm hold_poses; do
+for t in $targets; do
   seed "$t" "$root"/tests/fuzz_regressions/"$t"-*
 done
 
 status=0
-for t in cameras points calibration bal colmap bundler nvm hold_poses; do
+for t in $targets; do
   case "$t" in
+    pysba_options|mex_options|camera_params) max_len=512 dict=options ;;
     points) max_len=16384 dict=eucsba ;;  # the seeds are cut to their first 16 KB
     bal) max_len=16384 dict=bal ;;
     colmap|bundler) max_len=16384 dict=colmap ;;
@@ -91,7 +95,7 @@ for t in cameras points calibration bal colmap bundler nvm hold_poses; do
   fi
 done
 if [ -n "${SBA_FUZZ_KEEP_CORPUS:-}" ]; then
-  for t in cameras points calibration bal colmap bundler nvm hold_poses; do
+  for t in $targets; do
     mkdir -p "$SBA_FUZZ_KEEP_CORPUS/$t"
     cp "$work/corpus-$t"/* "$SBA_FUZZ_KEEP_CORPUS/$t/"
   done

@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 
@@ -40,6 +41,32 @@ inline std::string read_file(const std::string &path) {
 
 inline void write_file(const std::string &path, const std::string &text) {
   std::ofstream(path, std::ios::binary) << text;
+}
+
+// Every file and directory under dir, by its path there, with its bytes (a directory: "/"):
+// what a failed run must leave as it found it.
+using Tree = std::map<std::string, std::string>;
+inline Tree tree(const std::string &dir) {
+  Tree t;
+  for (const auto &e : std::filesystem::recursive_directory_iterator(dir)) {
+    const std::string path = std::filesystem::relative(e.path(), dir).string();
+    t[path] = e.is_directory() ? "/" : read_file(e.path().string());
+  }
+  return t;
+}
+
+// What differs between two trees, path by path ("+ NEW", "- GONE", "~ CHANGED"); empty when
+// nothing does.
+inline std::string changes(const Tree &before, const Tree &after) {
+  std::string out;
+  for (const auto &[path, bytes] : after) {
+    const auto was = before.find(path);
+    if (was == before.end()) out += "+ " + path + "\n";
+    else if (was->second != bytes) out += "~ " + path + "\n";
+  }
+  for (const auto &entry : before)
+    if (after.count(entry.first) == 0) out += "- " + entry.first + "\n";
+  return out;
 }
 
 // A generated scene (sbagen, seed 5) written as eucsbademo files dir/s-*, and read back, so

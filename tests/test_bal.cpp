@@ -783,6 +783,39 @@ TEST(BalSba, FailedWriteLeavesTheOldFileAndNoTemporary) {
   std::filesystem::remove_all(dir);
 }
 
+// A run that fails after the solve, at a report (--json or --final-ply on a full disk,
+// /dev/full here) or at its summary on stdout, leaves the file --write names as it was, and
+// makes none where there was none.
+TEST(BalSba, FailedRunLeavesTheOldFileAndMakesNoNewOne) {
+  const std::string path = bal_dir() + "/problem-49-7776-pre.txt.bz2";
+  REQUIRE_FILE(path);
+  const std::string dir = temp_path("report-fails");
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string old = dir + "/old.txt", fresh = dir + "/new.txt";
+  const struct {
+    std::string args, stdout_to, err;
+  } cases[] = {
+      {"--json /dev/full", "", "/dev/full: write failed: No space left on device\n"},
+      {"--final-ply /dev/full", "", "/dev/full: write failed: No space left on device\n"},
+      {"", "/dev/full", "balsba: error writing standard output: No space left on device\n"},
+  };
+  for (const auto &c : cases)
+    for (const std::string &target : {old, fresh}) {
+      SCOPED_TRACE(c.args + " " + c.stdout_to + " " + target);
+      std::ofstream(old) << "OLD\n";
+      std::filesystem::remove(fresh);
+      const Output o = run_balsba(path + " --itmax 1 --threads 1 --write " + target + " " + c.args, "", c.stdout_to);
+      EXPECT_EQ(o.status, 1);
+      EXPECT_EQ(o.err, c.err);
+      const std::string after = slurp(old);
+      EXPECT_TRUE(after == "OLD\n") << "the old file now starts with: " << after.substr(0, 60);
+      EXPECT_FALSE(std::filesystem::exists(fresh));
+      EXPECT_FALSE(has_temporary(dir));
+    }
+  std::filesystem::remove_all(dir);
+}
+
 // A successful --write replaces the old file whole, keeps its permissions, leaves no temporary;
 // /dev/null is written to, not replaced.
 TEST(BalSba, WriteReplacesTheOldFileAndLeavesNoTemporary) {

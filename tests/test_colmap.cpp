@@ -670,56 +670,99 @@ TEST(OutputFile, FullDiskIsSaidAsSuch) {
   EXPECT_EQ(error, "/dev/full: write failed: No space left on device");
 }
 
-// A model is replaced whole or not at all: when its second or third file cannot be written
-// (a file size limit stands for a full disk here), the files of the model are as they were
-// and no temporary is left.
+// The files of a run go together (output_file.h): a set whose commit fails at a rename among
+// its reports removes the reports it had put in place and the directory it made, and leaves
+// the model, renamed last, as it was. A target that has become a directory fails the rename,
+// root or not.
+TEST(OutputSet, FailedRenameTakesBackTheNewFilesAndLeavesTheModel) {
+  namespace fs = std::filesystem;
+  const std::string dir = temp_dir("output_set");
+  const std::string model = dir + "/model.txt";
+  write_file(model, "OLD\n");
+  // The model (renamed last), a report in a directory the set makes, another report.
+  const auto fill = [&](sbaformats::OutputSet *set) {
+    std::string error;
+    ASSERT_TRUE(set->make_directory(dir + "/new", &error)) << error;
+    const bool model_written =
+        set->publish_last([&] { return sbaformats::write_whole_file(model, "NEW\n", &error, set); });
+    ASSERT_TRUE(model_written) << error;
+    ASSERT_TRUE(sbaformats::write_whole_file(dir + "/new/report.json", "{}\n", &error, set)) << error;
+    ASSERT_TRUE(sbaformats::write_whole_file(dir + "/r.ply", "ply\n", &error, set)) << error;
+    EXPECT_EQ(read_file(model), "OLD\n");  // nothing in place before the commit
+    EXPECT_FALSE(fs::exists(dir + "/new/report.json"));
+  };
+  {
+    sbaformats::OutputSet set;
+    fill(&set);
+    fs::create_directories(dir + "/r.ply/in");
+    std::string error;
+    EXPECT_FALSE(set.commit(&error));
+    EXPECT_EQ(error, dir + "/r.ply: cannot replace the file: Is a directory");
+  }
+  fs::remove_all(dir + "/r.ply");
+  EXPECT_EQ(entries(dir), std::vector<std::string>{"model.txt"});
+  EXPECT_EQ(read_file(model), "OLD\n");
+  {
+    sbaformats::OutputSet set;  // not committed
+    fill(&set);
+  }
+  EXPECT_EQ(entries(dir), std::vector<std::string>{"model.txt"});
+  EXPECT_EQ(read_file(model), "OLD\n");
+  sbaformats::OutputSet set;
+  fill(&set);
+  std::string error;
+  ASSERT_TRUE(set.commit(&error)) << error;
+  EXPECT_EQ(entries(dir), (std::vector<std::string>{"model.txt", "new", "r.ply"}));
+  EXPECT_EQ(read_file(model), "NEW\n");
+  EXPECT_EQ(read_file(dir + "/new/report.json"), "{}\n");
+}
+
+// A model is replaced whole or not at all. Its files are written images, points3D, cameras:
+// when the first cannot be written (a file size limit stands for a full disk here) or a later
+// one cannot be made (a directory stands where it goes), the files of the model are as they
+// were and no temporary is left.
 TEST(ColmapWriter, ReplacesAModelWholeOrNotAtAll) {
   const std::string dir = temp_dir("whole_or_nothing");
   const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
   const colmap::Model changed = moved(s.model);
+  const std::string model = dir + "/m";
   std::string error;
-  int failures = 0;
   for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
     const std::vector<std::string> &names = e == colmap::Encoding::Text ? kTextFiles : kBinaryFiles;
-    const colmap::Files f = colmap::format_model(changed, e);
-    const std::size_t sizes[] = {f.cameras.size(), f.images.size(), f.points.size()};
-    for (int failing = 1; failing < 3; ++failing) {
-      // A limit that the files before the failing one fit and the failing one exceeds.
-      const std::size_t limit = *std::max_element(sizes, sizes + failing);
-      if (sizes[failing] <= limit) continue;
-      SCOPED_TRACE(names[static_cast<std::size_t>(failing)]);
-      const std::string model = dir + "/m";
+    const std::string written_order[] = {names[1], names[2], names[0]};
+    for (const std::string &failing : written_order) {
+      SCOPED_TRACE(failing);
       std::filesystem::remove_all(model);
       ASSERT_TRUE(colmap::write_model(model, s.model, e, &error)) << error;
-      const std::vector<std::string> before = contents(model, names);
-      rlimit old{};
-      ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
-      const rlimit low{static_cast<rlim_t>(limit), old.rlim_max};
-      const auto handler = std::signal(SIGXFSZ, SIG_IGN);
-      ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &low), 0);
-      const bool written = colmap::write_model(model, changed, e, &error);
-      ::setrlimit(RLIMIT_FSIZE, &old);
-      std::signal(SIGXFSZ, handler);
+      const std::vector<std::string> others = [&] {
+        std::vector<std::string> o = names;
+        o.erase(std::find(o.begin(), o.end(), failing));
+        return o;
+      }();
+      const std::vector<std::string> before = contents(model, others);
+      bool written = true;
+      if (failing == written_order[0]) {
+        const std::size_t size = colmap::format_model(changed, e).images.size();
+        rlimit old{};
+        ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
+        const rlimit low{static_cast<rlim_t>(size - 1), old.rlim_max};
+        const auto handler = std::signal(SIGXFSZ, SIG_IGN);
+        ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &low), 0);
+        written = colmap::write_model(model, changed, e, &error);
+        ::setrlimit(RLIMIT_FSIZE, &old);
+        std::signal(SIGXFSZ, handler);
+        EXPECT_EQ(error, model + "/" + failing + ": write failed: File too large");
+      } else {
+        std::filesystem::remove(model + "/" + failing);
+        std::filesystem::create_directory(model + "/" + failing);
+        written = colmap::write_model(model, changed, e, &error);
+        EXPECT_EQ(error, model + "/" + failing + ": cannot open for writing: Is a directory");
+      }
       EXPECT_FALSE(written);
-      EXPECT_EQ(error, model + "/" + names[static_cast<std::size_t>(failing)] + ": write failed: File too large");
       EXPECT_EQ(entries(model), names);
-      EXPECT_TRUE(contents(model, names) == before);
-      ++failures;
+      EXPECT_TRUE(contents(model, others) == before);
     }
   }
-  EXPECT_GE(failures, 2);  // the second file of each encoding at least
-  // The third file cannot be opened (a directory stands where points3D.bin should be): the
-  // first two are as they were.
-  const std::string model = dir + "/third";
-  ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Binary, &error)) << error;
-  const std::vector<std::string> first_two{kBinaryFiles[0], kBinaryFiles[1]};
-  const std::vector<std::string> before = contents(model, first_two);
-  std::filesystem::remove(model + "/points3D.bin");
-  std::filesystem::create_directory(model + "/points3D.bin");
-  EXPECT_FALSE(colmap::write_model(model, changed, colmap::Encoding::Binary, &error));
-  EXPECT_EQ(error, model + "/points3D.bin: cannot open for writing: Is a directory");
-  EXPECT_EQ(entries(model), kBinaryFiles);
-  EXPECT_TRUE(contents(model, first_two) == before);
 }
 
 // Writing a model in one format into a directory that holds the other replaces that one:
@@ -762,22 +805,58 @@ TEST(Sbarefine, FullDiskLeavesTheInputModelAsItWas) {
   std::string error;
   ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Binary, &error)) << error;
   const std::vector<std::string> before = contents(model, kBinaryFiles);
-  // All but one page taken: the new cameras.bin fits in it, images.bin does not.
+  // Pages for the new images.bin, written first, and none for points3D.bin after it.
   const colmap::Files f = colmap::format_model(s.model, colmap::Encoding::Binary);
-  ASSERT_LE(f.cameras.size(), 4096u);
-  ASSERT_GT(f.images.size(), 4096u);
+  const std::size_t pages = (f.images.size() + 4095) / 4096;
+  ASSERT_GT(f.points.size(), pages * 4096 - f.images.size());
   struct statvfs fs {};
   ASSERT_EQ(::statvfs(mnt.c_str(), &fs), 0);
   ASSERT_EQ(fs.f_frsize, 4096u);
-  write_file(mnt + "/filler", std::string((fs.f_bavail - 1) * fs.f_frsize, 'x'));
+  write_file(mnt + "/filler", std::string((fs.f_bavail - pages) * fs.f_frsize, 'x'));
   ASSERT_EQ(::statvfs(mnt.c_str(), &fs), 0);
-  ASSERT_EQ(fs.f_bavail, 1u);
+  ASSERT_EQ(fs.f_bavail, pages);
   const Outcome r = run(model + " --write " + model);
   EXPECT_EQ(r.status, 1);
-  EXPECT_EQ(r.err, model + "/images.bin: write failed: No space left on device\n");
+  EXPECT_EQ(r.err, model + "/points3D.bin: write failed: No space left on device\n");
   EXPECT_EQ(r.out, "");
   EXPECT_EQ(entries(model), kBinaryFiles);
   EXPECT_TRUE(contents(model, kBinaryFiles) == before);
+}
+
+// A run that fails after the solve, at a report (--json or --final-ply on a full disk, /dev/full
+// here), leaves the directory as it was: the input model written over by --write (in its own
+// encoding or the other), no model directory made by --write, no eucsbademo files of
+// --write-eucsba. So does a disk that fills at the second of the eucsbademo files (a file size
+// limit stands for it).
+TEST(Sbarefine, FailedRunLeavesNoFileAndTheInputAsItWas) {
+  const std::string scene_dir = temp_dir("failed_run_scene"), dir = temp_dir("failed_run");
+  const Scene s = make_scene(scene_dir, euclidean::CameraKind::VaryingIntrinsics, 6, 60);
+  const std::string model = dir + "/model";
+  std::string error;
+  const std::string kFull = "/dev/full: write failed: No space left on device\n";
+  const struct {
+    std::string args, before, err;
+  } cases[] = {
+      {"--write " + model + " --json /dev/full", "", kFull},
+      {"--write " + model + " --final-ply /dev/full", "", kFull},
+      {"--write " + model + " --write-format binary --json /dev/full", "", kFull},
+      {"--write " + dir + "/new --json /dev/full", "", kFull},
+      {"--write-eucsba " + dir + "/e --write " + model + " --initial-ply " + dir + "/i.ply --final-ply /dev/full", "",
+       kFull},
+      // 8 blocks of 512 bytes: the cameras file fits, the points file does not.
+      {"--write-eucsba " + dir + "/e", "trap '' XFSZ; ulimit -f 8; ", dir + "/e-pts.txt: write failed: File too large\n"},
+  };
+  for (const auto &c : cases) {
+    SCOPED_TRACE(c.args);
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    ASSERT_TRUE(colmap::write_model(model, s.model, colmap::Encoding::Text, &error)) << error;
+    const Tree before = tree(dir);
+    const Outcome r = run(model + " " + c.args, c.before);
+    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.err, c.err);
+    EXPECT_EQ(changes(before, tree(dir)), "");
+  }
 }
 
 // Every output is checked before the model is read: when one cannot be written, nothing is
@@ -1176,6 +1255,25 @@ TEST(Sbarefine, ItmaxZeroWritesABundleAsRead) {
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.err, "");
   EXPECT_EQ(read_file(dir + "/c.out"), read_file(dir + "/b.out"));
+}
+
+// A run that fails at a report leaves a bundle it writes over as it was, and no file of
+// --write-bal or --write-list (see FailedRunLeavesNoFileAndTheInputAsItWas).
+TEST(Sbarefine, FailedRunLeavesTheBundleAsItWas) {
+  const Scene s = make_scene(temp_dir("failed_bundle_scene"), euclidean::CameraKind::VaryingIntrinsics, 6, 60);
+  for (const char *report : {"--json", "--final-ply"}) {
+    SCOPED_TRACE(report);
+    const std::string dir = temp_dir(std::string("failed_bundle") + report);
+    std::string error;
+    ASSERT_TRUE(bundler::write_bundle(dir + "/b.out", make_bundle(s), &error)) << error;
+    write_file(dir + "/list.txt", "0.jpg\n1.jpg\n2.jpg\n3.jpg\n4.jpg\n5.jpg\n");
+    const Tree before = tree(dir);
+    const Outcome r = run(dir + "/b.out --write " + dir + "/b.out --bundler-list " + dir + "/list.txt --write-list " +
+                          dir + "/l.txt --write-bal " + dir + "/b.bal " + report + " /dev/full");
+    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.err, "/dev/full: write failed: No space left on device\n");
+    EXPECT_EQ(changes(before, tree(dir)), "");
+  }
 }
 
 // Conversions: a COLMAP model to eucsbademo's files and a bundle to a BAL problem (itmax 0:

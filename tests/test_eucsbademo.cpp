@@ -1380,6 +1380,29 @@ TEST_F(BadInput, FailedWriteLeavesTheOldFileAndNoTemporary) {
   }
 }
 
+// A run whose last file cannot be written (on a full disk: /dev/full here) leaves no new file
+// and every old one as it was, whether the failing file is a result, the standard deviations,
+// a PLY file or the JSON report written after the summary.
+TEST_F(BadInput, FailedRunLeavesNoNewFileAndOldFilesAsTheyWere) {
+  const std::string out_dir = dir_.file("out");
+  fs::create_directories(out_dir);
+  const std::string old = out_dir + "/old.txt", fresh = out_dir + "/new.txt", ply = out_dir + "/i.ply";
+  const std::vector<std::string> kFailing{"--write-pts=/dev/full", "--write-stddev=/dev/full", "--final-ply=/dev/full",
+                                          "--json=/dev/full"};
+  for (const std::string &failing : kFailing) {
+    SCOPED_TRACE(failing);
+    for (const std::string &name : file_names(out_dir)) fs::remove(out_dir + "/" + name);
+    std::ofstream(old) << "OLD\n";
+    const DemoRun r = run_demo({"--write-cams=" + fresh, "--write-pts-tracks=" + old, "--initial-ply=" + ply, failing,
+                                cams_, pts_, calib_});
+    EXPECT_EQ(r.status, 1) << r;
+    EXPECT_EQ(r.err, std::string(kFixedBanner) + "\n/dev/full: write failed: No space left on device\n");
+    EXPECT_EQ(file_names(out_dir), std::vector<std::string>{"old.txt"});
+    const std::string after = read_text(old);
+    EXPECT_TRUE(after == "OLD\n") << "the old file now starts with: " << after.substr(0, 60);
+  }
+}
+
 // Successful writes replace old files whole (keeping their permissions) and leave no
 // temporary; /dev/null is written to, not replaced.
 TEST_F(BadInput, WritesReplaceOldFilesAndLeaveNoTemporary) {

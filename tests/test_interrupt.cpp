@@ -103,6 +103,17 @@ int iterations(const std::string &out, int *reason) {
   return std::stoi(m[2]);
 }
 
+// The iterations of a run that a signal stopped: it exited with 128 + sig and printed its
+// summary with stop reason 9. -1, the failure recorded, if not.
+int stopped_after(const ChildRun &r, int sig) {
+  EXPECT_EQ(r.exit_status, 128 + sig) << r.err;
+  int reason = 0;
+  const int n = iterations(r.out, &reason);
+  EXPECT_GE(n, 1) << r.out;
+  EXPECT_EQ(reason, 9) << r.out;
+  return n;
+}
+
 class EucsbademoStop : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -160,6 +171,24 @@ TEST_F(EucsbademoStop, SignalStopsAtTheEndOfAnIterationWithTheLastAcceptedEstima
   }
 }
 
+// A signal that stops the solve also abandons the covariance of --write-stddev, which starts
+// after it: the stopped solve's results are written, the standard deviations are not.
+TEST_F(EucsbademoStop, SignalDuringTheSolveSkipsTheStandardDeviations) {
+  const std::string cams = dir_ + "sd-stopped-cams.txt", sd = dir_ + "sd.txt";
+  const ChildRun r = run_child(EUCSBADEMO_EXE, args({"--write-cams=" + cams, "--write-stddev=" + sd}), dir_ + "sd",
+                               [](pid_t pid, const std::string &err) {
+                                 ASSERT_TRUE(wait_for(err, "Starting BA"));
+                                 std::this_thread::sleep_for(std::chrono::milliseconds(800));
+                                 kill(pid, SIGINT);
+                               });
+  const int n = stopped_after(r, SIGINT);
+  EXPECT_EQ(r.err, "Starting BA with fixed intrinsic parameters\neucsbademo: interrupted by SIGINT after iteration " +
+                       std::to_string(n) + ": the results are the last accepted estimate\neucsbademo: SIGINT: the "
+                       "covariance is abandoned, " + sd + " is not written\n");
+  EXPECT_FALSE(exists(sd));
+  EXPECT_NE(slurp(cams), "");
+}
+
 TEST_F(EucsbademoStop, SecondSignalEndsTheProgramAtOnce) {
   const std::string cams = dir_ + "twice-cams.txt", ply = dir_ + "twice.ply";
   std::remove(cams.c_str());
@@ -190,6 +219,48 @@ TEST_F(EucsbademoStop, MaxTimeStopsWithStatusZero) {
                        std::to_string(n) + ": the results are the last accepted estimate\n");
 }
 
+// Ctrl-C during the covariance of --write-stddev abandons it, as pysba's does: the solve's
+// result is written, the same bytes as a run without --write-stddev, the standard deviations
+// are not, and the status says a signal cut the run short. 60 cameras and 60,000 points: one
+// iteration takes a fraction of a second, the covariance seconds, nearly all of them in the
+// points' blocks, where the library polls its cancel callback (a large camera system would
+// spend them in its eigendecomposition, which cannot be interrupted); the signal is sent once
+// the iteration's line (--verbose=2) is out.
+TEST(EucsbademoCovarianceStop, SignalAbandonsTheCovarianceAndKeepsTheResult) {
+  const std::string dir = ::testing::TempDir() + "test_interrupt_cov." + std::to_string(getpid()) + "/";
+  ASSERT_EQ(std::system(("mkdir -p " + dir).c_str()), 0);
+  const std::string gen = std::string(SBAGEN_EXE) + " --quiet --out " + dir +
+                          "cov --cameras 60 --points 60000 --perturb-rotation 0.03 --perturb-points 0.05 --seed 3";
+  ASSERT_EQ(std::system(gen.c_str()), 0) << gen;
+  const auto args = [&](const std::string &out, std::vector<std::string> extra) {
+    extra.insert(extra.end(), {"--solver=chol", "--threads=1", "--no-progress", "--itmax=1", "--write-cams=" + out +
+                               "-cams.txt", "--write-pts=" + out + "-pts.txt", "--final-ply=" + out + ".ply"});
+    for (const char *f : {"cov-cams.txt", "cov-pts.txt", "cov-calib.txt"}) extra.push_back(dir + f);
+    return extra;
+  };
+  const std::string sd = dir + "sd.txt";
+  const ChildRun r = run_child(EUCSBADEMO_EXE, args(dir + "stopped", {"--verbose=2", "--write-stddev=" + sd}),
+                               dir + "run", [&](pid_t pid, const std::string &) {
+                                 ASSERT_TRUE(wait_for(dir + "run.out", "damping term"));
+                                 std::this_thread::sleep_for(std::chrono::milliseconds(200));
+                                 kill(pid, SIGINT);
+                               });
+  EXPECT_EQ(r.exit_status, 130) << r.err;
+  EXPECT_EQ(r.err, "Starting BA with fixed intrinsic parameters\neucsbademo: SIGINT: the covariance is abandoned, " +
+                       sd + " is not written\n");
+  int reason = 0;
+  EXPECT_EQ(iterations(r.out, &reason), 1) << r.out;
+  EXPECT_EQ(reason, 3);  // the solve ended as asked (itmax), before the signal
+  EXPECT_FALSE(exists(sd));
+  const ChildRun full = run_child(EUCSBADEMO_EXE, args(dir + "full", {}), dir + "full", [](pid_t, const std::string &) {});
+  ASSERT_EQ(full.exit_status, 0) << full.err;
+  for (const char *part : {"-cams.txt", "-pts.txt", ".ply"}) {
+    EXPECT_EQ(slurp(dir + "stopped" + part), slurp(dir + "full" + part)) << part;
+    EXPECT_FALSE(slurp(dir + "stopped" + part).empty()) << part;
+  }
+  ASSERT_EQ(std::system(("rm -rf " + dir).c_str()), 0);
+}
+
 TEST(BalsbaStop, SignalStopsWithTheLastAcceptedEstimate) {
   const std::string problem = std::string(SBA_SHARED_DATA_DIR) + "/bal/problem-49-7776-pre.txt.bz2";
   if (!exists(problem)) GTEST_SKIP() << problem << " is absent";
@@ -203,11 +274,8 @@ TEST(BalsbaStop, SignalStopsWithTheLastAcceptedEstimate) {
     std::this_thread::sleep_for(std::chrono::milliseconds(2000));  // reading the file takes a fraction of it
     kill(pid, SIGINT);
   });
-  EXPECT_EQ(r.exit_status, 130) << r.err;
-  int reason = 0;
-  const int n = iterations(r.out, &reason);
-  ASSERT_GE(n, 1) << r.out;
-  EXPECT_EQ(reason, 9);
+  const int n = stopped_after(r, SIGINT);
+  ASSERT_GE(n, 1);
   EXPECT_EQ(r.err, "balsba: interrupted by SIGINT after iteration " + std::to_string(n) +
                        ": the results are the last accepted estimate\n");
   a = common;

@@ -400,6 +400,24 @@ TEST(SbarefineNvm, ReadsAPipe) {
   EXPECT_EQ(read_file(e.dir + "/pipe.nvm"), read_file(e.dir + "/file.nvm"));
 }
 
+// A run that fails at a report (on a full disk: /dev/full here) leaves the NVM file it writes
+// over as it was, and no eucsbademo file of --write-eucsba.
+TEST(SbarefineNvm, FailedRunLeavesTheFileAsItWas) {
+  const refinetest::GeneratedScene g =
+      refinetest::generate_scene(temp_dir("nvm_failed_scene"), euclidean::CameraKind::VaryingIntrinsics, 6, 60);
+  for (const char *report : {"--json", "--final-ply"}) {
+    SCOPED_TRACE(report);
+    const std::string dir = temp_dir(std::string("nvm_failed") + report);
+    std::string error;
+    ASSERT_TRUE(nvm::write_nvm(dir + "/in.nvm", make_model(g.problem), &error)) << error;
+    const Tree before = tree(dir);
+    const Outcome r = run(dir + "/in.nvm --write " + dir + "/in.nvm --write-eucsba " + dir + "/e " + report + " /dev/full");
+    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.err, "/dev/full: write failed: No space left on device\n");
+    EXPECT_EQ(changes(before, tree(dir)), "");
+  }
+}
+
 TEST(SbarefineNvm, CommandLineErrors) {
   const std::string dir = temp_dir("nvm_cli");
   const std::string nvm_file = dir + "/m.nvm";

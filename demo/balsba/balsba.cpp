@@ -131,15 +131,18 @@ int bal_main(int argc, char **argv) {
   in.adata = &data;
   sbacli::MotstrSolve solve("balsba", o.file, so, in);
   if (const int status = solve.check_fixed(); status >= 0) return status;
-  if (!sbacli::write_ply_option(o.initial_ply, cloud(problem))) return kExitFailure;
+  // Every file of the run is published at its end, together, or none is (output_file.h).
+  sbaformats::OutputSet outputs;
+  if (!sbacli::write_ply_option(o.initial_ply, cloud(problem), &outputs)) return kExitFailure;
   if (!solve.run()) return kExitFailure;
 
   bal::from_sba_params(s.p.data(), &problem);
-  if (!o.write.empty() && !bal::write_problem(o.write, problem, &error)) {
+  if (!o.write.empty() &&
+      !outputs.publish_last([&] { return bal::write_problem(o.write, problem, &error, &outputs); })) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
-  if (!sbacli::write_ply_option(o.final_ply, cloud(problem))) return kExitFailure;
+  if (!sbacli::write_ply_option(o.final_ply, cloud(problem), &outputs)) return kExitFailure;
 
   std::printf("BAL problem %s: %d cameras, %d points, %d observations, %lld variables\n", o.file.c_str(), s.m, s.n,
               solve.observations(), solve.variables());
@@ -150,7 +153,7 @@ int bal_main(int argc, char **argv) {
         bal_camera::project(s.p.data() + static_cast<std::size_t>(j) * bal_camera::kCameraParams,
                      points + static_cast<std::size_t>(i) * bal_camera::kPointParams, x);
       },
-      {}, o.write);
+      {}, o.write, &outputs);
 }
 
 }  // namespace

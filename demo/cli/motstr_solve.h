@@ -19,6 +19,7 @@
 #include "cli/run_control.h"
 #include "cli/solve_options.h"
 #include "cli/tty_progress.h"
+#include "formats/output_file.h"
 #include "formats/visibility.h"
 #include "sba.h"
 #include "sba_ext.h"
@@ -132,11 +133,12 @@ class MotstrSolve {
   }
 
   // After the program's sizes line: sba 1.6's summary, the report, --json (each camera's
-  // error through project(j, i, x) at the result, named by `names` where given), "Wrote
-  // OUT" when `written` is not empty; the exit status.
+  // error through project(j, i, x) at the result, named by `names` where given) into the
+  // run's outputs, which are then published (publish_outputs), "Wrote OUT" when `written` is
+  // not empty; the exit status.
   template <class Project>
   int finish(double read_seconds, Project project, const std::vector<std::string> &names,
-             const std::string &written) {
+             const std::string &written, sbaformats::OutputSet *outputs) {
     print_summary(nobs_, ret_, info_, seconds_, read_seconds, result_, so_);
     Report report = make_report(program_, input_, in_.m, in_.n, nobs_, variables(), so_, ret_, info_, result_,
                                 seconds_, *control_);
@@ -147,11 +149,12 @@ class MotstrSolve {
       for (std::size_t j = 0; j < names.size() && j < report.per_camera.size(); ++j)
         report.per_camera[j].name = names[j];
       std::string error;
-      if (!write_json(so_.json, report, &error)) {
-        std::fprintf(stderr, "%s: %s\n", so_.json.c_str(), error.c_str());
+      if (!write_json(so_.json, report, &error, outputs)) {
+        std::fprintf(stderr, "%s\n", error.c_str());
         return kExitFailure;
       }
     }
+    if (!sbaformats::publish_outputs(program_, outputs)) return kExitFailure;
     if (!written.empty()) std::printf("Wrote %s\n", written.c_str());
     // A stopped solve is a result (written above), but the status says it was cut short by a
     // signal; a time limit the user set is an ordinary end.

@@ -14,9 +14,10 @@ void add_ply_options(std::vector<Option> *table, std::string *initial, std::stri
                     [final_ply](const std::string &v) { return to_file(v, final_ply); }});
 }
 
-bool write_ply_option(const std::string &path, const sbaformats::Cloud &cloud) {
+bool write_ply_option(const std::string &path, const sbaformats::Cloud &cloud,
+                      sbaformats::OutputSet *outputs) {
   std::string why;
-  if (path.empty() || sbaformats::write_ply(path, cloud, &why)) return true;
+  if (path.empty() || sbaformats::write_ply(path, cloud, &why, outputs)) return true;
   std::fprintf(stderr, "%s: %s\n", path.c_str(), why.c_str());
   return false;
 }

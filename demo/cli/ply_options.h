@@ -16,8 +16,10 @@ namespace sbacli {
 // points have colors, which the help then mentions.
 void add_ply_options(std::vector<Option> *table, std::string *initial, std::string *final_ply, bool colored);
 
-// write_ply for an option: nothing when path is empty; "PATH: why" on stderr when it fails.
-bool write_ply_option(const std::string &path, const sbaformats::Cloud &cloud);
+// write_ply for an option, into the run's outputs: nothing when path is empty; "PATH: why" on
+// stderr when it fails.
+bool write_ply_option(const std::string &path, const sbaformats::Cloud &cloud,
+                      sbaformats::OutputSet *outputs);
 
 }  // namespace sbacli
 

@@ -104,7 +104,8 @@ void print_report(std::FILE *out, const Report &r) {
                named ? r.result.strategy : "", r.seconds);
 }
 
-bool write_json(const std::string &path, const Report &r, std::string *why) {
+bool write_json(const std::string &path, const Report &r, std::string *error,
+                sbaformats::OutputSet *outputs) {
   std::string j = "{\n";
   auto field = [&j](const char *name, const std::string &value, bool last = false) {
     j += "  " + quoted(name) + ": " + value + (last ? "\n" : ",\n");
@@ -159,10 +160,7 @@ bool write_json(const std::string &path, const Report &r, std::string *why) {
   field("cameras", cams + (r.per_camera.empty() ? "]" : "\n  ]"), true);
   j += "}\n";
 
-  sbaformats::OutputFile f;
-  if (!f.open(path, why)) return false;
-  std::fwrite(j.data(), 1, j.size(), f.get());
-  return f.commit(why);
+  return sbaformats::write_whole_file(path, j, error, outputs);
 }
 
 }  // namespace sbacli

@@ -14,6 +14,10 @@
 #include "sba.h"
 #include "sba_ext.h"
 
+namespace sbaformats {
+class OutputSet;  // formats/output_file.h
+}  // namespace sbaformats
+
 namespace sbacli {
 
 // One camera's share of the final residuals, in pixels (not weighted by covariances).
@@ -62,8 +66,11 @@ std::string stop_reason_text(int reason);
 // The lines printed after sba 1.6's summary.
 void print_report(std::FILE *out, const Report &r);
 
-// Writes the report as one JSON object to path (whole or not at all, see output_file.h).
-bool write_json(const std::string &path, const Report &r, std::string *why);
+// Writes the report as one JSON object to path (whole or not at all, see output_file.h; with
+// `outputs`, when that set of the run's outputs is committed): false with "PATH: why" in *error
+// if it cannot.
+bool write_json(const std::string &path, const Report &r, std::string *error,
+                sbaformats::OutputSet *outputs = nullptr);
 
 }  // namespace sbacli
 

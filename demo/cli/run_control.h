@@ -6,7 +6,9 @@
 //   print its summary and write its results; a second one ends the process at once, for a
 //   user who will not wait for the iteration to end.
 // - a time limit (--max-time), checked after each iteration.
-// It also keeps the error and time of every iteration, for --json.
+// It also keeps the error and time of every iteration, for --json. A covariance computed after
+// the solve (eucsbademo --write-stddev) has no iterations: a stop signal abandons it through the
+// library's cancel callback instead (attach_cancel).
 #ifndef SBA_DEMO_RUN_CONTROL_H
 #define SBA_DEMO_RUN_CONTROL_H
 
@@ -62,11 +64,19 @@ class RunControl {
     ext->progress = &RunControl::callback;
     ext->progress_ctx = this;
   }
+  // Installs the cancel callback of a covariance (sba_ext_options.cancel): a stop signal, even
+  // one received before it started, abandons it, as pysba's Ctrl-C does. The time limit does
+  // not: it bounds the solve, whose result the covariance describes.
+  static void attach_cancel(sba_ext_options *ext) {
+    ext->cancel = &RunControl::cancel;
+    ext->cancel_ctx = nullptr;
+  }
   // The next solve's iterations are counted as the second solve's.
   void next_solve() { ++solve_; }
 
   // Why the last solve was asked to stop, if it was.
   int stop_signal() const { return g_stop_signal; }
+  const char *stop_signal_name() const { return g_stop_signal == SIGINT ? "SIGINT" : "SIGTERM"; }
   bool timed_out() const { return timed_out_; }
   bool stop_requested() const { return g_stop_signal != 0 || timed_out_; }
   double seconds() const {
@@ -83,6 +93,8 @@ class RunControl {
     if (self->max_seconds_ > 0 && t >= self->max_seconds_) self->timed_out_ = true;
     return self->stop_requested() ? 1 : 0;
   }
+
+  static int cancel(void *) { return g_stop_signal != 0 ? 1 : 0; }
 
   double max_seconds_;
   TtyProgress *tty_;

@@ -203,7 +203,7 @@ inline void report_options(const SolveOptions &o, Report *r) {
 inline int stopped_status(const char *program, const RunControl &control, double max_time, int iterations) {
   if (control.stop_signal() != 0) {
     std::fprintf(stderr, "%s: interrupted by %s after iteration %d: the results are the last accepted estimate\n",
-                 program, control.stop_signal() == SIGINT ? "SIGINT" : "SIGTERM", iterations);
+                 program, control.stop_signal_name(), iterations);
     return 128 + control.stop_signal();
   }
   std::fprintf(stderr, "%s: --max-time %g s reached after iteration %d: the results are the last accepted estimate\n",

@@ -20,6 +20,7 @@
 #include "cli/ply_options.h"
 #include "cli/report.h"
 #include "cli/run_control.h"
+#include "cli/solve_options.h"
 #include "cli/tty_progress.h"
 #include "eucsbademo/options.h"
 #include "formats/eucsba_io.h"
@@ -183,10 +184,10 @@ Status check_writable(const std::string &path) {
   return {};
 }
 
-// Writes the files --write-* asked for, from the refined (or, for what a refinement left
-// alone, the initial) cameras and points.
+// Writes the files --write-* asked for into the run's outputs, from the refined (or, for what a
+// refinement left alone, the initial) cameras and points.
 Status write_results(const DemoOptions &o, const CameraModel &model, const PointSet &points,
-                     CameraKind kind, const Outcome &out) {
+                     CameraKind kind, const Outcome &out, sbaformats::OutputSet *outputs) {
   const int m = model.ncameras(), cnp = model.cnp();
   const bool has_cams = out.refinement != Refinement::Structure;
   const bool has_pts = out.refinement != Refinement::Motion;
@@ -195,23 +196,32 @@ Status write_results(const DemoOptions &o, const CameraModel &model, const Point
     cams.reserve(m);
     for (int j = 0; j < m; ++j)
       cams.push_back(model.camera(j, has_cams ? out.p.data() + j * cnp : model.initial_camera(j)));
-    if (Status s = write_cameras(o.write_cams, kind, cams); !s) return s;
+    if (Status s = write_cameras(o.write_cams, kind, cams, outputs); !s) return s;
   }
   std::vector<double> xyz = model.initial_points();
   if (has_pts) std::copy(out.p.end() - xyz.size(), out.p.end(), xyz.begin());
   if (!o.write_pts.empty())
-    if (Status s = write_points_xyz(o.write_pts, xyz); !s) return s;
+    if (Status s = write_points_xyz(o.write_pts, xyz, outputs); !s) return s;
   if (!o.write_pts_tracks.empty())
-    if (Status s = write_points(o.write_pts_tracks, points, xyz); !s) return s;
+    if (Status s = write_points(o.write_pts_tracks, points, xyz, outputs); !s) return s;
   return {};
+}
+
+// The covariance's messages as the library prints them by default, but for its error once a
+// stop signal came: the program says in its own words what the signal abandoned.
+void covariance_log(void *, int level, const char *line) {
+  if (level == SBA_LOG_ERROR && sbacli::g_stop_signal != 0) return;
+  std::fprintf(level == SBA_LOG_INFO ? stdout : stderr, "%s\n", line);
 }
 
 // --write-stddev: the square roots of the diagonal of the covariance of the solution, one
 // line per camera (cnp values) then one per point (3), after a motion-and-structure run.
 // Computed into *text before any file is written, so that a covariance the library refuses
-// (a point seen by one camera only) leaves no result files behind.
+// (a point seen by one camera only) leaves no result files behind. A stop signal (Ctrl-C),
+// before or during it, abandons it: *abandoned is then true, *text empty, and the status a
+// success, since the solve's result stands without it.
 Status stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &points, const Outcome &out,
-                   std::string *text) {
+                   std::string *text, bool *abandoned) {
   const std::string &path = o.write_stddev;
   if (out.refinement != Refinement::MotionStructure)
     return Status::error(path, 0, "standard deviations need a motion-and-structure refinement");
@@ -236,12 +246,18 @@ Status stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &poi
     ext.loss = o.loss.c_str();
     ext.loss_scale = o.loss_scale;
   }
+  ext.log = covariance_log;
+  sbacli::RunControl::attach_cancel(&ext);
   const ExpertCallbacks cb = expert_callbacks(model.kind(), Refinement::MotionStructure);
-  // The library prints why on stderr (ext.log is not set); this adds the demo's own line.
+  // The library prints why on stderr (covariance_log); this adds the demo's own line.
+  *abandoned = false;
   if (sba_motstr_covariance_x(n, o.ncon, m, o.mcon, points.vmask.data(), p.data(), cnp, kPointParams,
                               points.x.data(), points.has_covariances() ? points.covx.data() : nullptr,
-                              kMeasurementParams, cb.func, cb.fjac, as_adata(model), &req, &ext) != 0)
+                              kMeasurementParams, cb.func, cb.fjac, as_adata(model), &req, &ext) != 0) {
+    *abandoned = sbacli::g_stop_signal != 0;
+    if (*abandoned) return {};
     return Status::error(path, 0, "the covariance of the solution could not be computed: no file written");
+  }
   char buf[160];
   auto add = [&](const char *fmt, auto... args) {
     const int len = std::snprintf(buf, sizeof buf, fmt, args...);
@@ -364,7 +380,9 @@ int demo_main(int argc, char **argv) {
   // nccalib and ncdist. Asked for on the command line, they are held with differences too.
   const bool hold = o.analytic || o.held_given;
   const CameraModel model(problem.kind, problem.cameras, points.xyz, hold ? o.nccalib : 0, hold ? o.ncdist : 0);
-  if (!sbacli::write_ply_option(o.initial_ply, cloud(model, nullptr, nullptr))) return kExitFailure;
+  // Every file of the run is published at its end, together, or none is (output_file.h).
+  sbaformats::OutputSet outputs;
+  if (!sbacli::write_ply_option(o.initial_ply, cloud(model, nullptr, nullptr), &outputs)) return kExitFailure;
   std::fprintf(stderr, "%s\n", kind_banner(problem.kind));
 
   sbacli::TtyProgress progress(o.progress, nprojs);
@@ -403,22 +421,30 @@ int demo_main(int argc, char **argv) {
 
   // Files first: if one cannot be written, the run failed and says nothing that looks like
   // success. The standard deviations are computed before any file is written: when the
-  // library refuses them, no result file appears.
+  // library refuses them, no result file appears; when a stop signal abandons them, the
+  // result is written without them.
   std::string stddev;
+  bool stddev_abandoned = false;
   if (!o.write_stddev.empty())
-    if (Status s = stddev_text(o, model, points, out, &stddev); !s) {
+    if (Status s = stddev_text(o, model, points, out, &stddev, &stddev_abandoned); !s) {
       std::fprintf(stderr, "%s\n", s.to_string().c_str());
       return kExitFailure;
     }
-  if (Status s = write_results(o, model, points, problem.kind, out); !s) {
-    std::fprintf(stderr, "%s\n", s.to_string().c_str());
+  Status written;
+  const bool results = outputs.publish_last([&] {
+    written = write_results(o, model, points, problem.kind, out, &outputs);
+    return written.ok();
+  });
+  if (!results) {
+    std::fprintf(stderr, "%s\n", written.to_string().c_str());
     return kExitFailure;
   }
-  if (!o.write_stddev.empty() && !sbaformats::write_whole_file(o.write_stddev, stddev, &error)) {
+  if (!o.write_stddev.empty() && !stddev_abandoned &&
+      !sbaformats::write_whole_file(o.write_stddev, stddev, &error, &outputs)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
-  if (!sbacli::write_ply_option(o.final_ply, final_cloud(model, out))) return kExitFailure;
+  if (!sbacli::write_ply_option(o.final_ply, final_cloud(model, out), &outputs)) return kExitFailure;
 
   // The variables of the refinement that produced the result.
   long long nvars = 0;
@@ -473,26 +499,25 @@ int demo_main(int argc, char **argv) {
   sbacli::print_report(stdout, report);
   if (!o.json.empty()) {
     report.per_camera = camera_residuals(model, points, out);
-    std::string why;
-    if (!sbacli::write_json(o.json, report, &why)) {
-      std::fprintf(stderr, "%s: %s\n", o.json.c_str(), why.c_str());
+    if (!sbacli::write_json(o.json, report, &error, &outputs)) {
+      std::fprintf(stderr, "%s\n", error.c_str());
       return kExitFailure;
     }
   }
+  if (!sbaformats::publish_outputs("eucsbademo", &outputs)) return kExitFailure;
 
   // A stopped solve is a result (written above), but the status says it was cut short by a
-  // signal; a time limit the user set is an ordinary end.
-  if (out.info[6] == SBA_STOP_USER) {
-    const int iterations = static_cast<int>(out.info[5]);
-    if (control.stop_signal() != 0) {
-      std::fprintf(stderr, "eucsbademo: interrupted by %s after iteration %d: the results are the last accepted estimate\n",
-                   control.stop_signal() == SIGINT ? "SIGINT" : "SIGTERM", iterations);
-      return 128 + control.stop_signal();
-    }
-    std::fprintf(stderr, "eucsbademo: --max-time %g s reached after iteration %d: the results are the last accepted estimate\n",
-                 o.max_time, iterations);
+  // signal; a time limit the user set is an ordinary end. A covariance a signal abandoned is
+  // said the same way: the result is written without it, the status is the signal's.
+  int status = 0;
+  if (out.info[6] == SBA_STOP_USER)
+    status = sbacli::stopped_status("eucsbademo", control, o.max_time, static_cast<int>(out.info[5]));
+  if (stddev_abandoned) {
+    std::fprintf(stderr, "eucsbademo: %s: the covariance is abandoned, %s is not written\n",
+                 control.stop_signal_name(), o.write_stddev.c_str());
+    status = 128 + control.stop_signal();
   }
-  return 0;
+  return status;
 }
 
 }  // namespace

@@ -101,7 +101,8 @@ std::vector<sbacli::Option> option_table(DemoOptions &o) {
   t.push_back({"write-stddev", "FILE",
                "after refining motion and structure, write the standard deviation of every camera and\n"
                "point parameter (square roots of the diagonal of the covariance of the solution, scaled\n"
-               "by the residual variance; mcon/ncon hold the gauge, else a pseudo-inverse is used)",
+               "by the residual variance; mcon/ncon hold the gauge, else a pseudo-inverse is used);\n"
+               "Ctrl-C while they are computed skips them (the other results are written, status 130)",
                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_stddev); }});
   t.push_back({"check-jacobian", "",
                "run with itmax 0: the library compares the analytic Jacobian with finite differences\n"
@@ -175,7 +176,7 @@ void print_usage(std::FILE *out) {
       "and the solve time.\n"
       "Exit status: 0 on success (--max-time included), 1 if a file cannot be read or written or\n"
       "the solver fails, 2 for a bad command line, 130 (SIGINT) or 143 (SIGTERM) when a signal\n"
-      "stopped the solve.\n",
+      "stopped the solve or the standard deviations.\n",
       out);
 }
 

@@ -480,7 +480,7 @@ bool ends_with(const std::string &s, const char *suffix) {
 
 }  // namespace
 
-bool write_problem(const std::string &path, const Problem &problem, std::string *error) {
+bool write_problem(const std::string &path, const Problem &problem, std::string *error, OutputSet *outputs) {
   std::string text;
   text.reserve(64 * (problem.observations.size() + problem.cameras.size() + problem.points.size()) + 64);
   char buf[120];
@@ -495,7 +495,7 @@ bool write_problem(const std::string &path, const Problem &problem, std::string 
   for (double v : problem.points) append_number(&text, v);
 
   // Written under a temporary name and renamed: the result appears whole or not at all.
-  OutputFile out;
+  SetFile out(outputs);
   std::string why;
   if (!out.open(path, &why)) return fail(error, path, why);
   std::FILE *f = out.get();
@@ -529,7 +529,7 @@ bool write_problem(const std::string &path, const Problem &problem, std::string 
   } else if (std::fwrite(text.data(), 1, text.size(), f) != text.size()) {
     return fail(error, path, std::string("write error: ") + std::strerror(errno));
   }
-  if (!out.commit(&why)) return fail(error, path, why);
+  if (!out.close(&why)) return fail(error, path, why);
   return true;
 }
 

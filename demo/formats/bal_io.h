@@ -20,6 +20,10 @@
 #include "cameras/bal_camera.h"
 #include "formats/visibility.h"
 
+namespace sbaformats {
+class OutputSet;  // output_file.h
+}  // namespace sbaformats
+
 namespace sbaformats::bal {
 
 // The sizes are the camera model's (cameras/bal_camera.h).
@@ -92,8 +96,11 @@ void from_sba_params(const double *p, Problem *problem);
 
 // Writes the problem in BAL format, observations in their order and every parameter on its
 // own line with 17 significant digits (the values read back exactly). A path ending in
-// ".bz2" is bzip2-compressed. False with "<path>: <message>" in *error on failure.
-bool write_problem(const std::string &path, const Problem &problem, std::string *error);
+// ".bz2" is bzip2-compressed. False with "<path>: <message>" in *error on failure. The file
+// appears whole or not at all; with `outputs`, when that set of a run's outputs is committed
+// (output_file.h).
+bool write_problem(const std::string &path, const Problem &problem, std::string *error,
+                   OutputSet *outputs = nullptr);
 
 }  // namespace sbaformats::bal
 

@@ -124,8 +124,8 @@ std::string format_bundle(const Bundle &b) {
   return s;
 }
 
-bool write_bundle(const std::string &path, const Bundle &b, std::string *error) {
-  return write_whole_file(path, format_bundle(b), error);
+bool write_bundle(const std::string &path, const Bundle &b, std::string *error, OutputSet *outputs) {
+  return write_whole_file(path, format_bundle(b), error, outputs);
 }
 
 void angle_axis(const std::array<double, 9> &R, double w[3]) {

@@ -15,6 +15,10 @@
 #include "formats/bal_io.h"
 #include "formats/eucsba_io.h"
 
+namespace sbaformats {
+class OutputSet;  // output_file.h
+}  // namespace sbaformats
+
 namespace sbaformats::bundler {
 
 struct Camera {
@@ -50,7 +54,9 @@ bool parse_bundle(const std::string &text, const std::string &name, Bundle *out,
 bool read_bundle(const std::string &path, Bundle *out, std::string *error);
 // Numbers with 17 significant digits: the text reads back to the same doubles.
 std::string format_bundle(const Bundle &b);
-bool write_bundle(const std::string &path, const Bundle &b, std::string *error);
+// The file appears whole or not at all; with `outputs`, when that set of a run's outputs is
+// committed (output_file.h).
+bool write_bundle(const std::string &path, const Bundle &b, std::string *error, OutputSet *outputs = nullptr);
 
 // Bundler's image list (list.txt): one line per camera of the bundle, in its order, `PATH` or
 // `PATH 0 FOCAL` (the focal length from the image's EXIF data). The names are what the

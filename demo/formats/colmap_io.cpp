@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <iterator>
 #include <vector>
 
 #include "formats/colmap_io_impl.h"
@@ -172,8 +173,18 @@ bool read_whole_file(const std::string &path, bool text, std::string *out, std::
 
 namespace {
 
-// A model's files, the cameras first.
-constexpr const char *kFileNames[] = {"cameras", "images", "points3D"};
+// A model's files, in the order they are written and renamed onto their names: the cameras
+// file last. A reader takes a directory's model by its cameras file (binary first): while a
+// rewrite renames its files, the directory is read as the model it held until the new cameras
+// file is in place, and a rename that fails before leaves that model readable (when the new
+// model has the other encoding, whole; otherwise with the files already renamed refined, as
+// the old ones held the same ids).
+struct ModelFile {
+  const char *name;
+  std::string Files::*content;
+};
+constexpr ModelFile kModelFiles[] = {
+    {"images", &Files::images}, {"points3D", &Files::points}, {"cameras", &Files::cameras}};
 
 const char *extension(Encoding encoding) { return encoding == Encoding::Text ? ".txt" : ".bin"; }
 
@@ -233,63 +244,33 @@ bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::str
 Files format_model(const Model &model, Encoding encoding) {
   return encoding == Encoding::Binary ? format_binary(model) : format_text(model);
 }
-namespace {
-
-// dir as a directory to write a model into: made when missing (*made then true).
-bool make_directory(const std::string &dir, bool *made, std::string *error) {
-  struct stat st {};
-  *made = false;
-  if (::stat(dir.c_str(), &st) == 0) return S_ISDIR(st.st_mode) || fail(error, dir + ": not a directory");
-  if (::mkdir(dir.c_str(), 0777) != 0)
-    return fail(error, dir + ": cannot create the directory: " + std::strerror(errno));
-  *made = true;
-  return true;
-}
-
-}  // namespace
-
 bool model_writable(const std::string &dir, Encoding encoding, std::string *error) {
-  bool made;
-  if (!make_directory(dir, &made, error)) return false;
-  // A directory made here is removed again: it is the write that creates it.
-  if (made) {
-    ::rmdir(dir.c_str());
-    return true;
-  }
+  // A directory made here goes with `probe`: the write makes it.
+  OutputSet probe;
+  if (!probe.make_directory(dir, error)) return false;
   std::string why;
-  for (const char *name : kFileNames) {
-    const std::string path = slashed(dir) + name + extension(encoding);
+  for (const ModelFile &file : kModelFiles) {
+    const std::string path = slashed(dir) + file.name + extension(encoding);
     if (!probe_writable(path, &why)) return fail(error, path + ": " + why);
   }
   return true;
 }
 
-bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error) {
-  bool made;
-  if (!make_directory(dir, &made, error)) return false;
+bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error,
+                 OutputSet *outputs) {
+  OutputSet own;
+  OutputSet *set = outputs ? outputs : &own;
+  if (!set->make_directory(dir, error)) return false;
   const Files files = format_model(model, encoding);
-  const std::string *content[] = {&files.cameras, &files.images, &files.points};
-  std::string paths[3];
-  for (int k = 0; k < 3; ++k) paths[k] = slashed(dir) + kFileNames[k] + extension(encoding);
-  // The model is replaced whole or not at all: its three files are renamed onto their names
-  // only once all three are written and closed (a full disk at the second leaves the model
-  // as it was, the temporaries removed with `out`).
-  OutputFile out[3];
-  for (int k = 0; k < 3; ++k)
-    if (!write_closed(paths[k], *content[k], &out[k], error)) return false;
-  for (int k = 0; k < 3; ++k) {
-    std::string why;
-    if (!out[k].publish(&why)) return fail(error, paths[k] + ": " + why);
-  }
+  for (const ModelFile &file : kModelFiles)
+    if (!write_whole_file(slashed(dir) + file.name + extension(encoding), files.*file.content, error, set))
+      return false;
   // The other encoding's model goes, or a reader could take it for this one; its cameras file
-  // first, without which no reader takes the other two for a model.
+  // first, without which no reader takes the others for a model.
   const Encoding other = encoding == Encoding::Text ? Encoding::Binary : Encoding::Text;
-  for (const char *name : kFileNames) {
-    const std::string stale = slashed(dir) + name + extension(other);
-    if (std::remove(stale.c_str()) != 0 && errno != ENOENT)
-      return fail(error, stale + ": cannot remove the model of the other format: " + std::strerror(errno));
-  }
-  return true;
+  for (auto file = std::rbegin(kModelFiles); file != std::rend(kModelFiles); ++file)
+    set->remove_on_commit(slashed(dir) + file->name + extension(other), "the model of the other format");
+  return outputs || own.commit(error);
 }
 
 }  // namespace sbaformats::colmap

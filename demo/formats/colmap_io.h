@@ -16,6 +16,10 @@
 #include <string>
 #include <vector>
 
+namespace sbaformats {
+class OutputSet;  // output_file.h
+}  // namespace sbaformats
+
 namespace sbaformats::colmap {
 
 // COLMAP's model ids of the accepted camera models.
@@ -118,12 +122,15 @@ bool check_model(const Model &model, const std::string &name, std::string *error
 // Reads DIR/{cameras,images,points3D}.{txt,bin} (encoding from the files found, see above).
 // Each must be a regular file: a directory or a device there (/dev/zero) is refused by name.
 bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::string *error);
-// Writes the three files into dir (created if missing), all or none of them: they are
-// renamed onto their names once all three are written, and a failure before leaves every
-// file of dir as it was. Then the other encoding's files, if dir holds any, are removed, so
-// that dir holds one model. Text numbers have 17 significant digits, so that they read back
-// to the same doubles.
-bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error);
+// Writes the model's files into dir (created if missing), all or none of them: they are
+// renamed onto their names (the cameras file last) once all are written, and a failure before
+// leaves every file of dir as it was, and no dir that was not there. Then the other encoding's
+// files, if dir holds any, are removed, so that dir holds one model. Text numbers have 17
+// significant digits, so that they read back to the same doubles. With `outputs`, the files
+// and the directory are part of that set of a run's outputs (output_file.h), renamed and
+// removed when it is committed.
+bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error,
+                 OutputSet *outputs = nullptr);
 
 // Whether write_model could write into dir, asked before a long computation: dir is a
 // directory whose model files can be written, or can be made (it is not left behind). False

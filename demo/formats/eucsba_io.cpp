@@ -257,17 +257,19 @@ bool form_for(std::size_t count, long long nframes, CovarianceForm *form) {
   return false;
 }
 
-// The writers go through an OutputFile: the result appears whole under its name or not at all.
-Status open_for_writing(const std::string &path, OutputFile *file) {
+// The writers go through an OutputFile (output_file.h): the result appears whole under its name
+// or not at all, at once or with the set of outputs it belongs to.
+Status open_for_writing(const std::string &path, SetFile *file) {
   std::string why;
   if (!file->open(path, &why)) return Status::error(path, 0, why);
   return {};
 }
 
-// Closes the file and moves it to its name, reporting what a full disk or a failed write did.
-Status close_written(const std::string &path, OutputFile *file) {
+// Closes the file (and moves it to its name when it is on its own), reporting what a full
+// disk or a failed write did.
+Status close_written(const std::string &path, SetFile *file) {
   std::string why;
-  if (!file->commit(&why)) return Status::error(path, 0, why);
+  if (!file->close(&why)) return Status::error(path, 0, why);
   return {};
 }
 
@@ -499,8 +501,9 @@ Status load_problem(const std::string &cams_path, const std::string &pts_path,
   return {};
 }
 
-Status write_cameras(const std::string &path, euclidean::CameraKind kind, const std::vector<euclidean::Camera> &cameras) {
-  OutputFile f;
+Status write_cameras(const std::string &path, euclidean::CameraKind kind,
+                     const std::vector<euclidean::Camera> &cameras, OutputSet *outputs) {
+  SetFile f(outputs);
   if (Status s = open_for_writing(path, &f); !s) return s;
   switch (kind) {
     case euclidean::CameraKind::FixedIntrinsics: std::fputs("# q0 q1 q2 q3  tx ty tz\n", f.get()); break;
@@ -523,20 +526,21 @@ Status write_cameras(const std::string &path, euclidean::CameraKind kind, const 
   return close_written(path, &f);
 }
 
-Status write_points_xyz(const std::string &path, const std::vector<double> &xyz) {
-  OutputFile f;
+Status write_points_xyz(const std::string &path, const std::vector<double> &xyz, OutputSet *outputs) {
+  SetFile f(outputs);
   if (Status s = open_for_writing(path, &f); !s) return s;
   for (std::size_t i = 0; i + 2 < xyz.size(); i += 3)
     std::fprintf(f.get(), "%.10e %.10e %.10e\n", xyz[i], xyz[i + 1], xyz[i + 2]);
   return close_written(path, &f);
 }
 
-Status write_points(const std::string &path, const PointSet &tracks, const std::vector<double> &xyz) {
+Status write_points(const std::string &path, const PointSet &tracks, const std::vector<double> &xyz,
+                    OutputSet *outputs) {
   if (xyz.size() != tracks.xyz.size())
     return Status::error(path, 0, "internal error: " + std::to_string(xyz.size() / 3) +
                                       " coordinates for " + std::to_string(tracks.npoints()) + " points");
   const CovarianceForm form = tracks.has_covariances() ? tracks.form : CovarianceForm::None;
-  OutputFile f;
+  SetFile f(outputs);
   if (Status s = open_for_writing(path, &f); !s) return s;
   std::fputs("# X Y Z  nframes  frame0 x0 y0", f.get());
   if (form == CovarianceForm::UpperTriangular) std::fputs(" cxx0 cxy0 cyy0", f.get());

@@ -21,6 +21,7 @@
 #include "formats/visibility.h"
 
 namespace sbaformats {
+class OutputSet;  // output_file.h
 // The camera that eucsbademo's files describe, which the other formats convert to and from.
 namespace euclidean = sbacameras::euclidean;
 }  // namespace sbaformats
@@ -133,15 +134,20 @@ Status load_problem(const std::string &cams_path, const std::string &pts_path,
                     const std::string &calib_path, Problem *out);
 
 // ---- writers (%.10e numbers) ----
+// Each file appears whole or not at all; with `outputs`, when that set of a run's outputs is
+// committed (output_file.h).
 
 // Cameras in the input format of their kind, quaternions as given (callers pass them unit
 // with w >= 0, as CameraModel::camera returns them).
-Status write_cameras(const std::string &path, euclidean::CameraKind kind, const std::vector<euclidean::Camera> &cameras);
+Status write_cameras(const std::string &path, euclidean::CameraKind kind,
+                     const std::vector<euclidean::Camera> &cameras, OutputSet *outputs = nullptr);
 // One `X Y Z` line per point.
-Status write_points_xyz(const std::string &path, const std::vector<double> &xyz);
+Status write_points_xyz(const std::string &path, const std::vector<double> &xyz,
+                        OutputSet *outputs = nullptr);
 // A points file (readable by read_points) with the coordinates xyz and the projections and
 // covariances of tracks (by vmask or by pairs), in tracks' covariance form.
-Status write_points(const std::string &path, const PointSet &tracks, const std::vector<double> &xyz);
+Status write_points(const std::string &path, const PointSet &tracks, const std::vector<double> &xyz,
+                    OutputSet *outputs = nullptr);
 // Reads `X Y Z` lines back.
 Status read_points_xyz(const std::string &path, std::vector<double> *xyz);
 

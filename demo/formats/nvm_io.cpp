@@ -131,8 +131,8 @@ std::string format_nvm(const Model &m) {
   return s + m.rest;
 }
 
-bool write_nvm(const std::string &path, const Model &m, std::string *error) {
-  return write_whole_file(path, format_nvm(m), error);
+bool write_nvm(const std::string &path, const Model &m, std::string *error, OutputSet *outputs) {
+  return write_whole_file(path, format_nvm(m), error, outputs);
 }
 
 bool looks_uncentred(const Model &m) {

@@ -23,6 +23,10 @@
 #include "formats/colmap_sba.h"
 #include "formats/eucsba_io.h"
 
+namespace sbaformats {
+class OutputSet;  // output_file.h
+}  // namespace sbaformats
+
 namespace sbaformats::nvm {
 
 struct Camera {
@@ -66,7 +70,9 @@ bool read_nvm(const std::string &path, Model *out, std::string *error);
 // Numbers with 17 significant digits, so that the text reads back to the same doubles; the
 // rest of the file after the model as it was read.
 std::string format_nvm(const Model &m);
-bool write_nvm(const std::string &path, const Model &m, std::string *error);
+// The file appears whole or not at all; with `outputs`, when that set of a run's outputs is
+// committed (output_file.h).
+bool write_nvm(const std::string &path, const Model &m, std::string *error, OutputSet *outputs = nullptr);
 
 // Whether the measurements look measured from the image's corner rather than from its centre
 // (as NVM files written by COLMAP hold them), which no focal length or pose can fit. Judged on

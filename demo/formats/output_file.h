@@ -1,13 +1,17 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-// Output of the demo programs: result files that appear whole or not at all, and a check that
-// what they printed on standard output got there.
+// Output of the demo programs: result files that appear whole or not at all, a run's files that
+// appear together or not at all, and a check that what they printed on standard output got
+// there.
 //
 // A result file is written under a temporary name beside its final one (FILE.tmp.PID, with a
 // counter appended if that name is taken) and renamed onto the final name once it has been
 // written and closed without error. A run that fails or is killed midway therefore never leaves
 // a truncated file under the final name, and an existing file there stays as it was until the
-// new one replaces it. A stale FILE.tmp.* may remain only when the process is killed. Files
-// that belong together (a COLMAP model's three) are all closed before any is renamed.
+// new one replaces it. A stale FILE.tmp.* may remain only when the process is killed.
+//
+// The files of one run (a model, its reports, a COLMAP model's files) form an OutputSet: all
+// are written and closed before any is renamed, so that a run that fails leaves no new file, no
+// new directory and every existing file (its inputs among them) as it was (see OutputSet).
 //
 // Paths that are not (or do not lead to) regular files, such as /dev/null, /dev/stdout or a
 // FIFO, are written directly: renaming a temporary onto them would replace the device node or
@@ -22,10 +26,13 @@
 
 #include <cerrno>
 #include <climits>
+#include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <string>
+#include <vector>
 
 namespace sbaformats {
 
@@ -42,6 +49,7 @@ class OutputFile {
   bool open(const std::string &path, std::string *why) {
     discard();
     final_ = path;
+    replaces_ = false;
     struct stat st {};
     if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
       // A device, FIFO or directory: written in place (a directory then fails to open).
@@ -52,6 +60,9 @@ class OutputFile {
       final_ = real;
       std::free(real);
     }
+    // Anything there, a dangling symbolic link included, is not the run's to remove again.
+    struct stat there {};
+    replaces_ = ::lstat(final_.c_str(), &there) == 0;
     for (int attempt = 0; attempt < 100; ++attempt) {
       std::string temp = final_ + ".tmp." + std::to_string(::getpid());
       if (attempt > 0) temp += "." + std::to_string(attempt);
@@ -101,8 +112,17 @@ class OutputFile {
       errno = rename_err;
       return failed("cannot replace the file: ", why);
     }
+    created_ = !temp_.empty() && !replaces_;
     temp_.clear();
     return true;
+  }
+
+  // Removes the file publish() put where nothing was: false (nothing done) when it replaced a
+  // file, or was written in place, since what was there is gone either way.
+  bool unpublish() {
+    if (!created_) return false;
+    created_ = false;
+    return std::remove(final_.c_str()) == 0;
   }
 
   // The temporary's name while one is open (for tests and messages); empty otherwise.
@@ -170,27 +190,188 @@ class OutputFile {
   int errno_ = 0;      // the first write or close error of file_
   std::string final_;  // where the file ends up
   std::string temp_;   // the temporary, empty when writing in place or when none is open
+  bool replaces_ = false;  // something was at final_ when the file was opened
+  bool created_ = false;   // publish() made final_, where nothing was
 };
 
-// Writes text as the whole file path through *file and closes it, not yet published: false
-// with "PATH: why" in *error if it cannot.
-inline bool write_closed(const std::string &path, const std::string &text, OutputFile *file, std::string *error) {
-  std::string why;
-  if (file->open(path, &why)) {
-    std::fwrite(text.data(), 1, text.size(), file->get());
-    if (file->close(&why)) return true;
-  }
-  if (error) *error = path + ": " + why;
-  return false;
-}
+// The files of one run, published together: every one is written and closed under its
+// temporary first, and commit() renames them all onto their names only once every one is
+// written. Until then, and whenever anything fails, the set takes back what it did: it removes
+// its temporaries and the directories it made (those left empty), and no existing file has
+// changed. A set not committed does the same when it goes.
+//
+// The renames themselves can fail midway (a rename needs room in the directory, a target may
+// have become a directory): what is renamed by then is not all undone, so the order of the
+// renames is chosen to keep that window harmless.
+// - The files marked publish_last (the model a run writes, which may be its own input: sbarefine
+//   MODEL --write MODEL) go after all the others (its reports: --json, the PLY files ...), so a
+//   rename that fails among the reports leaves the model, and with it the run's input, as it
+//   was. Within each part the files go in the order they were created: a COLMAP model creates
+//   its cameras file last, since a reader takes a directory's model by it (colmap_io.cpp).
+// - A failed commit removes again the files it had put where nothing was, so that no new file
+//   remains; one that replaced an existing file stays replaced (what it replaced is gone).
+// - The files to remove (remove_on_commit: the other encoding's model beside a COLMAP model)
+//   go after every rename, so that the directory holds a whole model at every moment; a removal
+//   that fails is reported with the new files in place.
+// Devices and FIFOs are written in place (see OutputFile): what went into them stays there.
+class OutputSet {
+ public:
+  OutputSet() = default;
+  OutputSet(const OutputSet &) = delete;
+  OutputSet &operator=(const OutputSet &) = delete;
+  ~OutputSet() { discard(); }
 
-// Writes text as the whole file path (through OutputFile): false with "PATH: why" in *error
-// if it cannot.
-inline bool write_whole_file(const std::string &path, const std::string &text, std::string *error) {
-  OutputFile file;
+  // dir as a directory to write into, made when missing (and then removed again, if left
+  // empty, unless the set is committed). False with "DIR: why" in *error if it cannot be.
+  bool make_directory(const std::string &dir, std::string *error) {
+    struct stat st {};
+    if (::stat(dir.c_str(), &st) == 0) {
+      if (S_ISDIR(st.st_mode)) return true;
+      if (error) *error = dir + ": not a directory";
+      return false;
+    }
+    if (::mkdir(dir.c_str(), 0777) != 0) {
+      if (error) *error = dir + ": cannot create the directory: " + std::strerror(errno);
+      return false;
+    }
+    made_.push_back(dir);
+    return true;
+  }
+
+  // A new file of the set, open for writing under its temporary: null, with the reason (as
+  // OutputFile::open gives it) in *why, when it cannot be created.
+  OutputFile *create(const std::string &path, std::string *why) {
+    files_.push_back({std::make_unique<OutputFile>(), path, false});
+    if (files_.back().file->open(path, why)) return files_.back().file.get();
+    files_.pop_back();
+    return nullptr;
+  }
+  // Ends the writing of a file create() returned: false, with the reason in *why and the file
+  // no longer part of the set, on a write or close error.
+  bool close(OutputFile *file, std::string *why) {
+    if (file->close(why)) return true;
+    drop(file);
+    return false;
+  }
+  // Takes a file create() returned out of the set, its temporary removed: a writer that gives
+  // up on it.
+  void drop(OutputFile *file) {
+    for (std::size_t k = 0; k < files_.size(); ++k)
+      if (files_[k].file.get() == file) {
+        files_.erase(files_.begin() + static_cast<std::ptrdiff_t>(k));
+        return;
+      }
+  }
+
+  // Calls write(), which creates files in this set (the run's model), and marks the files it
+  // created to be renamed after every other file of the set, whatever is created later (see
+  // above). Returns what write() returns.
+  template <class Write>
+  bool publish_last(Write write) {
+    const std::size_t first = files_.size();
+    if (!write()) return false;
+    for (std::size_t k = first; k < files_.size(); ++k) files_[k].last = true;
+    return true;
+  }
+
+  // path is removed once every file of the set is in place (a missing one is no error);
+  // `what` says in a failure's message what it is ("PATH: cannot remove WHAT: why").
+  void remove_on_commit(const std::string &path, const std::string &what) {
+    removals_.push_back({path, what});
+  }
+
+  // Renames every file onto its name (devices and FIFOs: already written), then removes the
+  // files remove_on_commit named. False with "PATH: why" in *error on the first failure; the
+  // set then takes back what it can (see above).
+  bool commit(std::string *error) {
+    std::string why;
+    for (Entry &e : files_)
+      if (e.file->get() && !e.file->close(&why)) return failed(e.path, why, error);
+    for (const bool last : {false, true})
+      for (Entry &e : files_)
+        if (e.last == last && !e.file->publish(&why)) return failed(e.path, why, error);
+    files_.clear();
+    made_.clear();
+    for (const Removal &r : removals_)
+      if (std::remove(r.path.c_str()) != 0 && errno != ENOENT) {
+        why = std::strerror(errno);
+        removals_.clear();
+        return failed(r.path, "cannot remove " + r.what + ": " + why, error);
+      }
+    removals_.clear();
+    return true;
+  }
+
+  // Takes back everything: the temporaries, the files a failed commit published where nothing
+  // was, the directories made (those that are empty).
+  void discard() {
+    for (Entry &e : files_) e.file->unpublish();
+    files_.clear();  // each OutputFile removes its temporary
+    for (auto dir = made_.rbegin(); dir != made_.rend(); ++dir) ::rmdir(dir->c_str());
+    made_.clear();
+    removals_.clear();
+  }
+
+ private:
+  struct Entry {
+    std::unique_ptr<OutputFile> file;  // where the file's temporary is known; not movable
+    std::string path;                  // as the caller named it, for messages
+    bool last;
+  };
+  struct Removal {
+    std::string path, what;
+  };
+
+  bool failed(const std::string &path, const std::string &why, std::string *error) {
+    if (error) *error = path + ": " + why;
+    discard();
+    return false;
+  }
+
+  std::vector<Entry> files_;
+  std::vector<std::string> made_;  // directories made, in order
+  std::vector<Removal> removals_;
+};
+
+// The file a writer streams into: in *set (renamed when the set is committed) or, set null, a
+// file of its own, renamed when close() succeeds. Reasons as OutputFile gives them.
+class SetFile {
+ public:
+  explicit SetFile(OutputSet *set) : set_(set) {}
+  SetFile(const SetFile &) = delete;
+  SetFile &operator=(const SetFile &) = delete;
+  // A file left unclosed (its writer failed) is not part of the set.
+  ~SetFile() {
+    if (set_ && file_ && file_->get()) set_->drop(file_);
+  }
+  bool open(const std::string &path, std::string *why) {
+    file_ = set_ ? set_->create(path, why) : own_.open(path, why) ? &own_ : nullptr;
+    return file_ != nullptr;
+  }
+  std::FILE *get() const { return file_->get(); }
+  bool close(std::string *why) {
+    if (!set_) return own_.commit(why);
+    OutputFile *file = file_;
+    file_ = nullptr;  // the set's from here on, or gone
+    return set_->close(file, why);
+  }
+
+ private:
+  OutputSet *set_;
+  OutputFile own_;
+  OutputFile *file_ = nullptr;
+};
+
+// Writes text as the whole file path: into *set, or (set null) renamed onto path at once. False
+// with "PATH: why" in *error if it cannot.
+inline bool write_whole_file(const std::string &path, const std::string &text, std::string *error,
+                             OutputSet *set = nullptr) {
+  SetFile file(set);
   std::string why;
-  if (!write_closed(path, text, &file, error)) return false;
-  if (file.publish(&why)) return true;
+  if (file.open(path, &why)) {
+    std::fwrite(text.data(), 1, text.size(), file.get());
+    if (file.close(&why)) return true;
+  }
   if (error) *error = path + ": " + why;
   return false;
 }
@@ -218,8 +399,9 @@ inline bool probe_writable(const std::string &path, std::string *why) {
 
 // Flushes standard output and reports whether everything printed on it was written; if not,
 // prints "PROGRAM: error writing standard output: REASON" on stderr and returns false. A run
-// whose report was lost (a full disk, a closed stdout) must not exit as a success. Call it once,
-// at the end, without flushing stdout before: the final flush is the one whose errno is known.
+// whose report was lost (a full disk, a closed stdout) must not exit as a success. Call it where
+// the output ends (before publish_outputs, and at exit for what follows), without flushing
+// stdout before: the flush made here is the one whose errno is known.
 inline bool stdout_written(const char *program) {
   errno = 0;
   const bool flushed = std::fflush(stdout) == 0;
@@ -228,6 +410,18 @@ inline bool stdout_written(const char *program) {
   // When an earlier implicit flush failed, its errno is gone: say what is known.
   if (err != 0) std::fprintf(stderr, "%s: error writing standard output: %s\n", program, std::strerror(err));
   else std::fprintf(stderr, "%s: error writing standard output\n", program);
+  return false;
+}
+
+// The end of a run that wrote files: its outputs are published (OutputSet::commit) once all
+// that it printed on standard output got there, so that a run that fails at the last moment
+// still leaves its inputs as they were. False when either fails, said on stderr
+// ("PATH: why" for a file).
+inline bool publish_outputs(const char *program, OutputSet *outputs) {
+  if (!stdout_written(program)) return false;
+  std::string error;
+  if (outputs->commit(&error)) return true;
+  std::fprintf(stderr, "%s\n", error.c_str());
   return false;
 }
 

@@ -7,10 +7,10 @@
 
 namespace sbaformats {
 
-bool write_ply(const std::string &path, const Cloud &cloud, std::string *error) {
+bool write_ply(const std::string &path, const Cloud &cloud, std::string *error, OutputSet *outputs) {
   // Grey stands out from the red centres on a dark or a light background alike.
   constexpr std::array<int, 3> kNoColor{160, 160, 160};
-  OutputFile file;
+  SetFile file(outputs);
   if (!file.open(path, error)) return false;
   std::FILE *f = file.get();
   std::fprintf(f,
@@ -25,7 +25,7 @@ bool write_ply(const std::string &path, const Cloud &cloud, std::string *error) 
     std::fprintf(f, "%.17g %.17g %.17g %d %d %d\n", x[0], x[1], x[2], c[0], c[1], c[2]);
   }
   for (const auto &x : cloud.centres) std::fprintf(f, "%.17g %.17g %.17g 255 0 0\n", x[0], x[1], x[2]);
-  return file.commit(error);
+  return file.close(error);
 }
 
 }  // namespace sbaformats

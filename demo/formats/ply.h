@@ -10,6 +10,8 @@
 
 namespace sbaformats {
 
+class OutputSet;  // output_file.h
+
 // What a PLY file shows: points, with their colors when the model has them, and camera centres.
 struct Cloud {
   std::vector<std::array<double, 3>> points;
@@ -19,8 +21,9 @@ struct Cloud {
 
 // The points (in their colors, or grey) then the camera centres (red), all as one vertex
 // element so that a viewer draws them alike. The file appears whole or not at all
-// (output_file.h). On failure returns false with the reason in *error.
-bool write_ply(const std::string &path, const Cloud &cloud, std::string *error);
+// (output_file.h); with `outputs`, when that set of a run's outputs is committed. On failure
+// returns false with the reason in *error.
+bool write_ply(const std::string &path, const Cloud &cloud, std::string *error, OutputSet *outputs = nullptr);
 
 }  // namespace sbaformats
 

@@ -259,10 +259,12 @@ struct Job {
   Cloud initial;
   std::vector<std::string> camera_names;  // the image of each sba camera; empty: unnamed
   std::string model;                      // --json's "model": the camera models, what is refined
-  // Writes the refined model (p) where --write says, and returns it for --final-ply. With
+  // Writes the refined model (p) where --write says, and the files derived from it, into the
+  // run's outputs, the model marked to be published last; returns it for --final-ply. With
   // --itmax 0 nothing was refined: the model is written as read, not as p, whose rotations and
   // centres went through sba's parametrisation and would come back changed in the last bits.
-  std::function<bool(const double *p, Cloud *final_cloud, std::string *error)> finish;
+  std::function<bool(const double *p, Cloud *final_cloud, sbaformats::OutputSet *outputs, std::string *error)>
+      finish;
 };
 
 enum class Format { Colmap, Bundler, Nvm };
@@ -359,25 +361,30 @@ void eucsba_job(Loaded *l, Job *job) {
 
 // --write-eucsba PREFIX: eucsbademo's cameras and the points p as eucsbademo files.
 bool write_eucsba(const std::string &prefix, const std::vector<euclidean::Camera> &cams,
-                  const eucsba::PointSet &pointset, const double *xyz, std::string *why) {
+                  const eucsba::PointSet &pointset, const double *xyz, sbaformats::OutputSet *outputs,
+                  std::string *why) {
   const std::vector<double> points(xyz, xyz + 3 * static_cast<std::size_t>(pointset.npoints()));
-  eucsba::Status st = eucsba::write_cameras(prefix + "-cams.txt", euclidean::CameraKind::VaryingIntrinsicsDistortion, cams);
-  if (st) st = eucsba::write_points(prefix + "-pts.txt", pointset, points);
+  const euclidean::CameraKind kind = euclidean::CameraKind::VaryingIntrinsicsDistortion;
+  eucsba::Status st = eucsba::write_cameras(prefix + "-cams.txt", kind, cams, outputs);
+  if (st) st = eucsba::write_points(prefix + "-pts.txt", pointset, points, outputs);
   if (!st) *why = st.to_string();
   return static_cast<bool>(st);
 }
 
-bool write_eucsba(const std::string &prefix, const Loaded &l, const double *p, std::string *why) {
+bool write_eucsba(const std::string &prefix, const Loaded &l, const double *p, sbaformats::OutputSet *outputs,
+                  std::string *why) {
   const euclidean::CameraModel &model = *l.sba_model;
   std::vector<euclidean::Camera> cams;
   for (int j = 0; j < model.ncameras(); ++j)
     cams.push_back(model.camera(j, p + static_cast<std::size_t>(j) * model.cnp()));
-  return write_eucsba(prefix, cams, l.problem.points, p + static_cast<std::size_t>(model.ncameras()) * model.cnp(), why);
+  const double *xyz = p + static_cast<std::size_t>(model.ncameras()) * model.cnp();
+  return write_eucsba(prefix, cams, l.problem.points, xyz, outputs, why);
 }
 
 // The same for a COLMAP model, whose cameras must be of the five models eucsbademo's camera
 // expresses.
-bool write_eucsba_colmap(const std::string &prefix, const Loaded &l, const double *p, std::string *why) {
+bool write_eucsba_colmap(const std::string &prefix, const Loaded &l, const double *p,
+                         sbaformats::OutputSet *outputs, std::string *why) {
   const colmap_camera::CameraModel &model = *l.colmap_model;
   std::vector<euclidean::Camera> cams(static_cast<std::size_t>(model.ncameras()));
   for (int j = 0; j < model.ncameras(); ++j) {
@@ -389,7 +396,7 @@ bool write_eucsba_colmap(const std::string &prefix, const Loaded &l, const doubl
     }
   }
   return write_eucsba(prefix, cams, l.colmap_problem.points, p + static_cast<std::size_t>(model.ncameras()) * model.cnp(),
-                      why);
+                      outputs, why);
 }
 
 // The job of l->colmap_problem through COLMAP's camera models.
@@ -484,16 +491,17 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   job->summary += "\nCamera models: " + job->model;
   job->initial = cloud(l->model);
   for (int j : pr.images) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
-  job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
+  job->finish = [&o, l](const double *p, Cloud *final_cloud, sbaformats::OutputSet *outputs,
+                        std::string *why) {
     if (o.solve.itmax > 0)
       colmap::from_sba(*l->colmap_model, l->colmap_problem, p, o.solve.mcon, o.solve.ncon, &l->model);
     *final_cloud = cloud(l->model);
-    if (!o.write_eucsba.empty() && !write_eucsba_colmap(o.write_eucsba, *l, p, why)) return false;
+    if (!o.write_eucsba.empty() && !write_eucsba_colmap(o.write_eucsba, *l, p, outputs, why)) return false;
     if (o.write.empty()) return true;
     const colmap::Encoding out =
         o.write_format.empty() ? l->encoding
                                : (o.write_format == "text" ? colmap::Encoding::Text : colmap::Encoding::Binary);
-    return colmap::write_model(o.write, l->model, out, why);
+    return outputs->publish_last([&] { return colmap::write_model(o.write, l->model, out, why, outputs); });
   };
   return true;
 }
@@ -517,11 +525,13 @@ bool load_nvm(const Options &o, const std::string &text, Loaded *l, Job *job, st
                   "); radial distortion held: VisualSFM applies it to the measurements, which sba takes as data";
   job->initial = cloud(l->nvm);
   for (const nvm::Camera &c : l->nvm.cameras) job->camera_names.push_back(c.name);
-  job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
+  job->finish = [&o, l](const double *p, Cloud *final_cloud, sbaformats::OutputSet *outputs,
+                        std::string *why) {
     if (o.solve.itmax > 0) nvm::from_sba(*l->sba_model, p, o.solve.mcon, o.solve.ncon, &l->nvm);
     *final_cloud = cloud(l->nvm);
-    if (!o.write_eucsba.empty() && !write_eucsba(o.write_eucsba, *l, p, why)) return false;
-    return o.write.empty() || nvm::write_nvm(o.write, l->nvm, why);
+    if (!o.write_eucsba.empty() && !write_eucsba(o.write_eucsba, *l, p, outputs, why)) return false;
+    return o.write.empty() ||
+           outputs->publish_last([&] { return nvm::write_nvm(o.write, l->nvm, why, outputs); });
   };
   return true;
 }
@@ -560,15 +570,18 @@ bool load_bundle(const Options &o, const std::string &text, Loaded *l, Job *job,
   if (!l->list.names.empty())
     for (int j : l->bundle_cameras) job->camera_names.push_back(l->list.names[static_cast<std::size_t>(j)]);
   job->initial = cloud(l->bundle);
-  job->finish = [&o, l](const double *p, Cloud *final_cloud, std::string *why) {
+  job->finish = [&o, l](const double *p, Cloud *final_cloud, sbaformats::OutputSet *outputs,
+                        std::string *why) {
     if (o.solve.itmax > 0) {
       bal::from_sba_params(p, &l->bal);
       bundler::from_bal(l->bal, l->bundle_cameras, o.solve.mcon, o.solve.ncon, &l->bundle);
     }
     *final_cloud = cloud(l->bundle);
-    if (!o.write_bal.empty() && !bal::write_problem(o.write_bal, l->bal, why)) return false;
-    if (!o.write_list.empty() && !sbaformats::write_whole_file(o.write_list, l->list.text, why)) return false;
-    return o.write.empty() || bundler::write_bundle(o.write, l->bundle, why);
+    if (!o.write_bal.empty() && !bal::write_problem(o.write_bal, l->bal, why, outputs)) return false;
+    if (!o.write_list.empty() && !sbaformats::write_whole_file(o.write_list, l->list.text, why, outputs))
+      return false;
+    return o.write.empty() ||
+           outputs->publish_last([&] { return bundler::write_bundle(o.write, l->bundle, why, outputs); });
   };
   return true;
 }
@@ -653,7 +666,9 @@ int refine_main(int argc, char **argv) {
   sbacli::MotstrSolve solve("sbarefine", o.input, so, job.in);
   solve.describe(job.model);
   if (const int status = solve.check_fixed(); status >= 0) return status;
-  if (!sbacli::write_ply_option(o.initial_ply, job.initial)) return kExitFailure;
+  // Every file of the run is published at its end, together, or none is (output_file.h).
+  sbaformats::OutputSet outputs;
+  if (!sbacli::write_ply_option(o.initial_ply, job.initial, &outputs)) return kExitFailure;
   const std::vector<double> &p = job.p;
   // --itmax 0 rewrites (and converts) the model as read.
   if (so.itmax == 0)
@@ -662,18 +677,18 @@ int refine_main(int argc, char **argv) {
     return kExitFailure;
 
   Cloud final_cloud;
-  if (!job.finish(p.data(), &final_cloud, &error)) {
+  if (!job.finish(p.data(), &final_cloud, &outputs, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
-  if (!sbacli::write_ply_option(o.final_ply, final_cloud)) return kExitFailure;
+  if (!sbacli::write_ply_option(o.final_ply, final_cloud, &outputs)) return kExitFailure;
 
   const std::size_t eol = job.summary.find('\n');
   std::printf("%s, %d observations, %lld variables%s\n", job.summary.substr(0, eol).c_str(), solve.observations(),
               solve.variables(), eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
   return solve.finish(
       read_seconds, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); }, job.camera_names,
-      o.write);
+      o.write, &outputs);
 }
 
 }  // namespace

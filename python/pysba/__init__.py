@@ -285,12 +285,14 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
         eucsbademo cameras with intrinsics: how many trailing intrinsics (of fu u0 v0 ar s)
         and distortion terms (of kc0..kc4) are held fixed, as eucsbademo's options.
     fixed_params
-        Camera parameters held at their initial values: bools of shape (cnp,) for every
-        camera, or (m, cnp) camera by camera. None: only mcon's.
+        Camera parameters held at their initial values: bools (or integers 0 and 1) of shape
+        (cnp,) for every camera, or (m, cnp) camera by camera. None: only mcon's.
     camera_groups, shared_params
         Camera parameters shared by groups of cameras (one lens for several images): a group
-        number per camera (-1: none) and the cnp flags of the parameters a group shares. A
-        group's shared parameters start from its first camera's and are solved as one.
+        number per camera (integers, -1: none) and the cnp flags of the parameters a group
+        shares. A group's shared parameters start from its first camera's and are solved as
+        one. Other values (strs, fractions, NaN, bools as group numbers) raise TypeError or
+        ValueError naming the entry.
     """
     if not isinstance(problem, Problem):
         raise TypeError("problem must be a pysba.Problem")

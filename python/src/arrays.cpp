@@ -8,6 +8,8 @@
 #include <cstring>
 #include <numeric>
 
+#include "option_values.h"
+
 namespace pysba {
 
 py::array_t<double> copy_of(const double *data, std::vector<py::ssize_t> shape) {
@@ -33,31 +35,18 @@ std::vector<py::ssize_t> check_shape(const py::array &a, const char *what,
   return got;
 }
 
-namespace {
-
-// "what[i, j]" for the flat index k of an array of the given shape.
-std::string entry_name(const char *what, const std::vector<py::ssize_t> &shape, py::ssize_t k) {
-  std::vector<py::ssize_t> at(shape.size());
-  for (size_t d = shape.size(); d-- > 0;) {
-    at[d] = shape[d] > 0 ? k % shape[d] : 0;
-    k = shape[d] > 0 ? k / shape[d] : 0;
-  }
-  std::string s = std::string(what) + "[";
-  for (size_t d = 0; d < at.size(); ++d) s += (d ? ", " : "") + std::to_string(at[d]);
-  return s + "]";
+std::string what_it_is(py::handle obj) {
+  if (py::isinstance<py::array>(obj))
+    return "an array of " + std::string(py::str(py::reinterpret_borrow<py::array>(obj).dtype()));
+  return Py_TYPE(obj.ptr())->tp_name;
 }
+
+namespace {
 
 std::string number(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.17g", v);
   return buf;
-}
-
-// What obj is, for a TypeError: an array by its dtype, anything else by its type.
-std::string what_it_is(py::handle obj) {
-  if (py::isinstance<py::array>(obj))
-    return "an array of " + std::string(py::str(py::reinterpret_borrow<py::array>(obj).dtype()));
-  return Py_TYPE(obj.ptr())->tp_name;
 }
 
 // obj as an array of integers or floats, or TypeError: "`what` must be an array of `of`".
@@ -77,7 +66,7 @@ void check_finite(const Doubles &a, const char *what) {
   const double *v = a.data();
   for (py::ssize_t k = 0; k < a.size(); ++k)
     if (!std::isfinite(v[k]))
-      throw py::value_error(entry_name(what, std::vector<py::ssize_t>(a.shape(), a.shape() + a.ndim()), k) +
+      throw py::value_error(entry_name(what, std::vector<long long>(a.shape(), a.shape() + a.ndim()), k) +
                             " is not finite (" + number(v[k]) + ")");
 }
 

@@ -30,6 +30,9 @@ py::array_t<T> adopt(std::vector<T> &&v, std::vector<py::ssize_t> shape) {
 // A copy of len values at data, in a new array of the given shape.
 py::array_t<double> copy_of(const double *data, std::vector<py::ssize_t> shape);
 
+// What obj is, for a TypeError: "an array of float64" for an array, else its type's name.
+std::string what_it_is(py::handle obj);
+
 // obj as a C-contiguous float64 array: numbers (integers or floats) of any layout. TypeError
 // naming `what` for anything else (a str, a path, an object()).
 Doubles float_array(py::handle obj, const char *what);

@@ -11,6 +11,9 @@
 #include <new>
 #include <stdexcept>
 
+#include "arrays.h"
+#include "option_values.h"
+
 namespace pysba {
 
 namespace {
@@ -82,16 +85,93 @@ class Keywords {
   const py::dict &kw_;
 };
 
-// A bool array (or what numpy turns into one) for the flags named name.
-py::array_t<char, py::array::c_style> flags(py::handle v, const char *name) {
-  py::object a;
-  try {
-    a = py::module_::import("numpy").attr("asarray")(v, "bool");
-  } catch (const py::error_already_set &) {
-    throw Keywords::wrong_type(name, "an array of bools", v);
+// The entries of a (C order), each as make(entry of type T).
+template <class T, class Make>
+std::vector<Value> read_as(const py::array &a, Make make) {
+  const auto t = py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(a);
+  std::vector<Value> out;
+  out.reserve(size_t(t.size()));
+  for (py::ssize_t k = 0; k < t.size(); ++k) out.push_back(make(t.data()[k]));
+  return out;
+}
+
+// obj's entries (C order) as Values, and its shape. A numpy array is read by its dtype, one
+// of bools, integers or floats (`of` names what the option takes, for the TypeError
+// otherwise: an object or a str array is not read by its entries' truth). Anything else
+// (lists, tuples, nested ones) entry by entry, each by its Python type: numpy's conversion
+// would make True a 1 among ints and '0' a str array.
+std::vector<Value> option_values(py::handle obj, const char *name, const char *of,
+                                 std::vector<long long> *shape) {
+  std::vector<Value> out;
+  if (py::isinstance<py::array>(obj)) {
+    const py::array a = py::reinterpret_borrow<py::array>(obj);
+    shape->assign(a.shape(), a.shape() + a.ndim());
+    switch (a.dtype().kind()) {
+      case 'b':
+        return read_as<bool>(a, Value::boolean);
+      case 'i':
+        return read_as<long long>(a, Value::signed_integer);
+      case 'u':
+        return read_as<unsigned long long>(a, Value::unsigned_integer);
+      case 'f':
+        return read_as<double>(a, Value::floating);
+      default:
+        throw py::type_error(std::string(name) + " must be an array of " + of + ", got " + what_it_is(obj));
+    }
   }
-  if (py::cast<py::ssize_t>(a.attr("ndim")) == 0) throw Keywords::wrong_type(name, "an array of bools", v);
-  return py::array_t<char, py::array::c_style | py::array::forcecast>::ensure(a.attr("astype")("int8"));
+  const py::module_ np = py::module_::import("numpy");
+  py::array a;
+  try {
+    a = np.attr("asarray")(obj, "object");
+  } catch (const py::error_already_set &) {
+    throw Keywords::wrong_type(name, (std::string("an array of ") + of).c_str(), obj);
+  }
+  shape->assign(a.shape(), a.shape() + a.ndim());
+  const py::object np_bool = np.attr("bool_"), np_integer = np.attr("integer");
+  const py::object np_floating = np.attr("floating");
+  for (const py::handle e : a.attr("ravel")().attr("tolist")()) {
+    if (PyBool_Check(e.ptr()) || py::isinstance(e, np_bool)) {
+      out.push_back(Value::boolean(PyObject_IsTrue(e.ptr()) == 1));
+    } else if (PyLong_Check(e.ptr()) || py::isinstance(e, np_integer)) {
+      const PyRef i(PyNumber_Index(e.ptr()));
+      if (!i) throw py::error_already_set();
+      int overflow = 0;
+      const long long x = PyLong_AsLongLongAndOverflow(i.get(), &overflow);
+      if (x == -1 && PyErr_Occurred()) throw py::error_already_set();
+      out.push_back(overflow ? Value::big_integer(py::str(i.handle())) : Value::signed_integer(x));
+    } else if (PyFloat_Check(e.ptr()) || py::isinstance(e, np_floating)) {
+      const double x = PyFloat_AsDouble(e.ptr());
+      if (x == -1.0 && PyErr_Occurred()) throw py::error_already_set();
+      out.push_back(Value::floating(x));
+    } else {
+      out.push_back(Value::other(py::repr(e)));
+    }
+  }
+  return out;
+}
+
+// rule(value, where) for each of values, an OptionError raised as the TypeError or ValueError
+// it stands for.
+template <class T, class Rule>
+std::vector<T> checked(const std::vector<Value> &values, const char *name,
+                       const std::vector<long long> &shape, Rule rule) {
+  std::vector<T> out;
+  out.reserve(values.size());
+  try {
+    for (size_t k = 0; k < values.size(); ++k)
+      out.push_back(rule(values[k], entry_name(name, shape, static_cast<long long>(k))));
+  } catch (const OptionError &e) {
+    if (e.wrong_type) throw py::type_error(e.message);
+    throw py::value_error(e.message);
+  }
+  return out;
+}
+
+// The flags named name (fixed_params, shared_params): bools, or integers that are 0 or 1.
+std::vector<char> flags(py::handle v, const char *name, std::vector<long long> *shape) {
+  const std::vector<Value> values = option_values(v, name, "bools or integers", shape);
+  if (shape->empty()) throw Keywords::wrong_type(name, "an array of bools or integers", v);
+  return checked<char>(values, name, *shape, flag_value);
 }
 
 }  // namespace
@@ -147,31 +227,22 @@ SolveOptions solve_options(const py::dict &kw) {
                  "); using chol";
   }
   if (const py::handle v = k.get("fixed_params"); !v.is_none()) {
-    const auto a = flags(v, "fixed_params");
+    std::vector<long long> shape;
+    o.fixed = flags(v, "fixed_params", &shape);
     o.has_fixed = true;
-    o.fixed.assign(a.data(), a.data() + a.size());
-    o.fixed_shape.assign(a.shape(), a.shape() + a.ndim());
+    o.fixed_shape.assign(shape.begin(), shape.end());
   }
   if (const py::handle v = k.get("shared_params"); !v.is_none()) {
-    const auto a = flags(v, "shared_params");
+    std::vector<long long> shape;
+    o.shared = flags(v, "shared_params", &shape);
     o.has_shared = true;
-    o.shared.assign(a.data(), a.data() + a.size());
   }
   if (const py::handle v = k.get("camera_groups"); !v.is_none()) {
-    py::array_t<long long, py::array::c_style | py::array::forcecast> a;
-    try {
-      a = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(v);
-    } catch (const py::error_already_set &) {
-    }
-    if (!a || a.ndim() != 1) throw Keywords::wrong_type("camera_groups", "a 1-D array of ints", v);
+    std::vector<long long> shape;
+    const std::vector<Value> values = option_values(v, "camera_groups", "integers", &shape);
+    if (shape.size() != 1) throw Keywords::wrong_type("camera_groups", "a 1-D array of ints", v);
+    o.groups = checked<int>(values, "camera_groups", shape, group_number);
     o.has_groups = true;
-    for (py::ssize_t q = 0; q < a.size(); ++q) {
-      const long long g = a.data()[q];
-      if (g < -1 || g > INT_MAX)
-        throw py::value_error("camera_groups[" + std::to_string(q) + "] must be -1 or a group number >= 0, got " +
-                              std::to_string(g));
-      o.groups.push_back(int(g));
-    }
   }
   o.strategy = k.text("strategy");
   o.loss = k.text("loss");

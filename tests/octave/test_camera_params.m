@@ -71,6 +71,8 @@ function test_camera_params()
   % A struct with none of the three fields is problem data, as in sba 1.6.
   [ret, p] = run_scene(s, 'motstr', struct('foo', 1));
   sbatest_assert(ret == ret0 && isequal(p, p0), 'a struct of other fields is not problem data');
+  [ret, p] = run_scene(s, 'motstr', struct('foo', {1, 2}));
+  sbatest_assert(ret == ret0 && isequal(p, p0), 'a struct array of other fields is not problem data');
 
   % Bad structs: an error naming the field, or the solver's refusal naming the camera.
   part = held;
@@ -90,6 +92,10 @@ function test_camera_params()
     setfield(one, 'camera_group', 1), 'sba:invalidArgument', ...
       'the options struct has an unknown field ''camera_group'''
     setfield(one, 'fixed_params', part), 'sba:invalidProblem', 'shared by cameras 0 and 2 .*held'
+    [one, one], 'sba:invalidArgument', ...
+      'the options struct must be a 1x1 struct \(got a 1x2 struct array\)\.$'
+    struct('fixed_params', {}), 'sba:invalidArgument', ...
+      'the options struct must be a 1x1 struct \(got a 0x0 struct array\)\.$'
   };
   base = scene_args(s);
   for c = 1:size(cases, 1)

@@ -83,7 +83,199 @@ def test_bad_shapes_are_value_errors():
         pysba.motstr(*args, camera_groups=[0] * 4)
     with pytest.raises(ValueError, match=r"camera_groups must hold one group per camera \(4\), got 3"):
         pysba.motstr(*args, camera_groups=[0] * 3, shared_params=SHARED_F)
-    with pytest.raises(ValueError, match=r"camera_groups\[1\] must be -1 or a group number >= 0, got -5"):
-        pysba.motstr(*args, camera_groups=[0, -5, 0, 0], shared_params=SHARED_F)
     with pytest.raises(TypeError, match="camera_groups must be a 1-D array of ints"):
         pysba.motstr(*args, camera_groups="abc", shared_params=SHARED_F)
+
+
+# Group numbers are integers: any integer dtype (values -1 or in [0, 2^31 - 1]), Python ints,
+# and floats only when they hold integers. Nothing is rounded, wrapped or read as a bool.
+@pytest.mark.parametrize("groups, error, message", [
+    ([0, 0.5, 0, 0], ValueError, "camera_groups[1] must be an integer, got 0.5"),
+    (np.array([0, 0, 1.2, 0]), ValueError, "camera_groups[2] must be an integer, got 1.2"),
+    ([0, 0, float("nan"), 0], ValueError, "camera_groups[2] must be an integer, got nan"),
+    (np.array([0, 0, 0, -np.inf]), ValueError, "camera_groups[3] must be an integer, got -inf"),
+    (np.array([0, 0, 2**64 - 1, 0], np.uint64), ValueError,
+     "camera_groups[2] must be -1 or a group number in [0, 2147483647], got 18446744073709551615"),
+    ([0, 2**31, 0, 0], ValueError, "camera_groups[1] must be -1 or a group number in [0, 2147483647], got 2147483648"),
+    ([0, 0, 0, -2**70], ValueError,
+     "camera_groups[3] must be -1 or a group number in [0, 2147483647], got -1180591620717411303424"),
+    ([0, -5, 0, 0], ValueError, "camera_groups[1] must be -1 or a group number in [0, 2147483647], got -5"),
+    ([0, 0, -2.0, 0], ValueError, "camera_groups[2] must be -1 or a group number in [0, 2147483647], got -2.0"),
+    ([0, True, 0, 0], TypeError, "camera_groups[1] must be an integer, got True"),
+    (np.zeros(4, bool), TypeError, "camera_groups[0] must be an integer, got False"),
+    ([0, 0, "1", 0], TypeError, "camera_groups[2] must be an integer, got '1'"),
+    ([0, None, 0, 0], TypeError, "camera_groups[1] must be an integer, got None"),
+    (np.array([0, 1, 0, 0], object), TypeError, "camera_groups must be an array of integers, got an array of object"),
+    (np.array(["0"] * 4), TypeError, "camera_groups must be an array of integers, got an array of <U1"),
+])
+def test_group_numbers_that_are_not_integers_are_refused(groups, error, message):
+    cams, pts, ci, pi, obs = scene(m=4, n=20)
+    with pytest.raises(error) as e:
+        pysba.motstr(project, cams, pts, ci, pi, obs, camera_groups=groups, shared_params=SHARED_F)
+    assert str(e.value) == message
+    assert type(e.value) is error
+
+
+# Flags are bools, or integers that are 0 or 1: a str, a float (even 1.0), None or an object
+# array is refused, never read by its truth value.
+@pytest.mark.parametrize("kw, error, message", [
+    (dict(fixed_params=["0"] * 7), TypeError, "fixed_params[0] must be 0 or 1 (or a bool), got '0'"),
+    (dict(fixed_params=[0] * 6 + [0.5]), TypeError, "fixed_params[6] must be 0 or 1 (or a bool), got 0.5"),
+    (dict(fixed_params=[0] * 6 + [float("nan")]), TypeError, "fixed_params[6] must be 0 or 1 (or a bool), got nan"),
+    (dict(fixed_params=np.ones(7)), TypeError, "fixed_params[0] must be 0 or 1 (or a bool), got 1.0"),
+    (dict(fixed_params=np.full((4, 7), 0.5)), TypeError, "fixed_params[0, 0] must be 0 or 1 (or a bool), got 0.5"),
+    (dict(fixed_params=[0, 0, None, 0, 0, 0, 0]), TypeError, "fixed_params[2] must be 0 or 1 (or a bool), got None"),
+    (dict(fixed_params=[0] * 6 + [2]), ValueError, "fixed_params[6] must be 0 or 1 (or a bool), got 2"),
+    (dict(fixed_params=np.array([0, 0, 0, -1, 0, 0, 0], np.int8)), ValueError,
+     "fixed_params[3] must be 0 or 1 (or a bool), got -1"),
+    (dict(fixed_params=np.array([2**64 - 1] + [0] * 6, np.uint64)), ValueError,
+     "fixed_params[0] must be 0 or 1 (or a bool), got 18446744073709551615"),
+    (dict(fixed_params=np.zeros(7, object)), TypeError,
+     "fixed_params must be an array of bools or integers, got an array of object"),
+    (dict(fixed_params=np.array(["0"] * 7)), TypeError,
+     "fixed_params must be an array of bools or integers, got an array of <U1"),
+    (dict(fixed_params=True), TypeError, "fixed_params must be an array of bools or integers, got bool"),
+    (dict(camera_groups=[0] * 4, shared_params=["1"] * 7), TypeError,
+     "shared_params[0] must be 0 or 1 (or a bool), got '1'"),
+    (dict(camera_groups=[0] * 4, shared_params=[0.0] * 6 + [1.0]), TypeError,
+     "shared_params[0] must be 0 or 1 (or a bool), got 0.0"),
+    (dict(camera_groups=[0] * 4, shared_params=[0] * 6 + [3]), ValueError,
+     "shared_params[6] must be 0 or 1 (or a bool), got 3"),
+])
+def test_flags_that_are_not_bools_are_refused(kw, error, message):
+    cams, pts, ci, pi, obs = scene(m=4, n=20)
+    with pytest.raises(error) as e:
+        pysba.motstr(project, cams, pts, ci, pi, obs, **kw)
+    assert str(e.value) == message
+    assert type(e.value) is error
+
+
+def test_integer_groups_and_flags_of_any_integer_dtype_are_taken():
+    cams, pts, ci, pi, obs = scene(m=4, n=20)
+    args = (project, cams, pts, ci, pi, obs)
+    held = np.zeros((4, 7), bool)
+    held[0, :6] = True
+    ref = pysba.motstr(*args, fixed_params=held, camera_groups=[0, 0, 1, 1], shared_params=SHARED_F)
+    assert ref.cameras[0, 6] == ref.cameras[1, 6] and ref.cameras[2, 6] == ref.cameras[3, 6]
+    assert ref.cameras[0, 6] != ref.cameras[2, 6]
+    for fixed, groups, shared in [
+        (held.astype(np.uint8), np.array([0, 0, 1, 1], np.int8), np.array(SHARED_F, np.int64)),
+        (held.astype(int).tolist(), np.array([0, 0, 1, 1], np.uint64), [int(s) for s in SHARED_F]),
+        ([[bool(x) for x in row] for row in held], [0.0, 0.0, 1.0, 1.0], np.array(SHARED_F)),
+        (held, np.array([0, 0, 1, 1], np.float32), [np.bool_(s) for s in SHARED_F]),
+        (held, [np.int16(0), np.int16(0), np.int64(1), 1], [0, 0, 0, 0, 0, False, np.int8(1)]),
+    ]:
+        r = pysba.motstr(*args, fixed_params=fixed, camera_groups=groups, shared_params=shared)
+        assert np.array_equal(r.cameras, ref.cameras) and np.array_equal(r.points, ref.points)
+    # -1 is no group, as an integer or a float.
+    alone = pysba.motstr(*args, camera_groups=np.array([-1.0, 0, 0, -1]), shared_params=SHARED_F)
+    assert alone.cameras[1, 6] == alone.cameras[2, 6] and alone.cameras[0, 6] != alone.cameras[1, 6]
+
+
+def _value_text(e):
+    """An entry as pysba's messages show it: ints and floats by their value as Python numbers."""
+    if isinstance(e, (bool, np.bool_)):
+        return repr(bool(e))
+    if isinstance(e, (int, np.integer)):
+        return repr(int(e))
+    if isinstance(e, (float, np.floating)):
+        return repr(float(e))
+    return repr(e)
+
+
+def _group_verdict(e):
+    """What pysba must do with the group number e: None (take it) or (exception, message tail)."""
+    if isinstance(e, (int, np.integer)) and not isinstance(e, (bool, np.bool_)):
+        value = int(e)
+    elif isinstance(e, (float, np.floating)):
+        x = float(e)
+        if not np.isfinite(x) or x != np.floor(x):
+            return ValueError, f"must be an integer, got {_value_text(e)}"
+        value = x
+    else:
+        return TypeError, f"must be an integer, got {_value_text(e)}"
+    if -1 <= value <= 2**31 - 1:
+        return None
+    return ValueError, f"must be -1 or a group number in [0, 2147483647], got {_value_text(e)}"
+
+
+def _flag_verdict(e):
+    if isinstance(e, (bool, np.bool_)):
+        return None
+    if isinstance(e, (int, np.integer)):
+        return None if int(e) in (0, 1) else (ValueError, f"must be 0 or 1 (or a bool), got {_value_text(e)}")
+    return TypeError, f"must be 0 or 1 (or a bool), got {_value_text(e)}"
+
+
+_POOL = [-2, -1, 0, 1, 2, 2**31 - 1, 2**31, 2**63 - 1, -2**63, 2**64 - 1, 2**70, -2**70,
+         0.0, -0.0, 1.0, 2.0, 0.5, -1.0, -1.5, float("nan"), float("inf"), -float("inf"), 1e300, 2147483648.0,
+         True, False, None, "1", b"1", 1 + 0j, np.int64(1), np.uint64(2**64 - 1), np.int8(-1), np.float32(0.5),
+         np.float16(2.0), np.bool_(True), np.bool_(False)]
+_DTYPES = [np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np.uint32, np.uint64, np.float16,
+           np.float32, np.float64, np.longdouble, bool, object, "U2"]
+
+
+def _draw(rng, size, valid):
+    """size entries as a list, a tuple or an array of a random dtype: mostly valid entries."""
+    vals = [valid[rng.integers(len(valid))] if rng.random() < 0.8 else _POOL[rng.integers(len(_POOL))]
+            for _ in range(size)]
+    kind = rng.integers(3)
+    if kind == 0:
+        return vals
+    if kind == 1:
+        return tuple(vals)
+    dtype = _DTYPES[rng.integers(len(_DTYPES))]
+    numbers = rng.integers(-3, 4, size)
+    return np.array([str(v) for v in numbers] if dtype == "U2" else numbers.tolist()).astype(dtype)
+
+
+def _expected(obj, name, verdict, of):
+    """The error pysba must raise for obj as the option name, or None."""
+    if isinstance(obj, np.ndarray):
+        if obj.dtype.kind not in "biuf":
+            return TypeError, f"{name} must be an array of {of}, got an array of {obj.dtype}"
+        entries = [e.item() if obj.dtype.kind != "f" else float(e) for e in obj.flat]
+    else:
+        entries = list(obj)
+    for k, e in enumerate(entries):
+        v = verdict(e)
+        if v is not None:
+            return v[0], f"{name}[{k}] {v[1]}"
+    return None
+
+
+def test_random_option_entries_are_judged_by_the_rules():
+    """pysba's reading of Python values (lists, tuples, arrays of every dtype, numpy scalars,
+    None, strs, huge ints, NaN) against the rules written out in Python: each value is taken,
+    or refused with the exception and the message the rules give."""
+    cams, pts, ci, pi, obs = scene(m=3, n=6)
+    args = (project, cams, pts, ci, pi, obs)
+    rng = np.random.default_rng(11)
+    taken = refused = 0
+    for _ in range(300):
+        which = rng.integers(3)
+        if which == 0:
+            value = _draw(rng, 3, [-1, 0, 1, 2, 0.0, 2.0, np.int32(1)])
+            kw = dict(camera_groups=value, shared_params=SHARED_F)
+            want = _expected(value, "camera_groups", _group_verdict, "integers")
+        else:
+            name = "fixed_params" if which == 1 else "shared_params"
+            value = _draw(rng, 7, [0, 1, True, False, np.bool_(True), np.uint8(1)])
+            kw = {name: value}
+            if name == "shared_params":
+                kw["camera_groups"] = [-1, -1, -1]
+            want = _expected(value, name, _flag_verdict, "bools or integers")
+        try:
+            pysba.motstr(*args, itmax=0, **kw)
+        except (TypeError, ValueError) as e:
+            got = (type(e), str(e))
+        else:
+            got = None
+        if want is None:
+            # Taken by pysba; the library may still refuse a group number of no camera.
+            assert got is None or (got[0] is ValueError and not got[1].startswith(tuple(kw))), (kw, got)
+            taken += 1
+        else:
+            assert got == want, kw
+            refused += 1
+    assert taken > 50 and refused > 50

@@ -17,6 +17,8 @@
 #include "cameras/euclidean.h"
 #include "formats/colmap_io.h"
 #include "formats/colmap_sba.h"
+#include "formats/output_file.h"
+#include "formats/ply.h"
 #include "sba_ext.h"
 #include "sbagen.h"
 
@@ -29,14 +31,22 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Every file of dir by name, with its bytes.
+// What the run's report holds (a stand-in for --json).
+const char kReport[] = "{\"program\": \"soak\"}\n";
+
+// Every file and directory under dir by its path there, with its bytes (a directory: "/").
 std::map<std::string, std::string> snapshot(const fs::path &dir) {
   std::map<std::string, std::string> files;
-  for (const auto &e : fs::directory_iterator(dir)) {
+  for (const auto &e : fs::recursive_directory_iterator(dir)) {
+    std::string &bytes = files[fs::relative(e.path(), dir).string()];
+    if (e.is_directory()) {
+      bytes = "/";
+      continue;
+    }
     std::ifstream in(e.path(), std::ios::binary);
     std::stringstream ss;
     ss << in.rdbuf();
-    files[e.path().filename().string()] = ss.str();
+    bytes = ss.str();
   }
   return files;
 }
@@ -82,6 +92,34 @@ bool solve(const colmap::Model &model, bool *rotations) {
   return ret >= 0 && std::isfinite(info[1]) && info[1] <= info[0] * (1 + 1e-12);
 }
 
+// What the program's PLY file shows of a model: its points.
+sbaformats::Cloud cloud(const colmap::Model &m) {
+  sbaformats::Cloud c;
+  for (const colmap::Point3D &p : m.points) c.points.push_back(p.xyz);
+  return c;
+}
+
+// The outputs of a run over the input model, as the programs write them: the model marked to
+// be renamed last, the report (created first, so renamed before the PLY file), the PLY file.
+// False when one cannot be written or the set cannot be published; `block`, called before the
+// commit, may take a name.
+template <class Block>
+bool write_outputs(const Case &c, const fs::path &dir, const colmap::Model &moved, Block block) {
+  const fs::path target = dir / (c.new_directory ? "new" : "model");
+  sbaformats::OutputSet set;
+  std::string error;
+  const std::string ply = c.failing == 1 ? "/dev/full" : (dir / "final.ply").string();
+  const bool written =
+      set.publish_last([&] {
+        return colmap::write_model(target.string(), moved, encoding(c.rewrite_binary), &error, &set);
+      }) &&
+      sbaformats::write_whole_file((dir / "report.json").string(), kReport, &error, &set) &&
+      sbaformats::write_ply(ply, cloud(moved), &error, &set);
+  if (!written) return false;
+  block();
+  return set.commit(&error);
+}
+
 }  // namespace
 
 void run(const Case &c, Outcome *out) {
@@ -109,8 +147,9 @@ void run(const Case &c, Outcome *out) {
   const char *tmp = std::getenv("TMPDIR");
   std::string templ = std::string(tmp && *tmp ? tmp : "/tmp") + "/sba-soak-model-XXXXXX";
   if (!::mkdtemp(templ.data())) return;
-  const fs::path dir = templ;
-  if (colmap::write_model(dir.string(), model, encoding(c.binary), &error)) {
+  const fs::path dir = templ, input = dir / "model";
+  if (c.old_report) std::ofstream(dir / "report.json") << "an earlier run's\n";
+  if (colmap::write_model(input.string(), model, encoding(c.binary), &error)) {
     const std::map<std::string, std::string> before = snapshot(dir);
     rlimit old{};
     ::getrlimit(RLIMIT_FSIZE, &old);
@@ -119,17 +158,41 @@ void run(const Case &c, Outcome *out) {
       const rlimit low{static_cast<rlim_t>(c.file_limit), old.rlim_max};
       ::setrlimit(RLIMIT_FSIZE, &low);
     }
-    out->write_failed = !colmap::write_model(dir.string(), moved, encoding(c.rewrite_binary), &error);
+    // A directory where the PLY file goes fails its rename, after the report's.
+    const fs::path blocked = dir / "final.ply" / "in";
+    out->write_failed = !write_outputs(c, dir, moved, [&] {
+      if (c.failing == 2) fs::create_directories(blocked);
+    });
     ::setrlimit(RLIMIT_FSIZE, &old);
     std::signal(SIGXFSZ, handler);
-    const colmap::Model &expected = out->write_failed ? model : moved;
+    if (c.failing == 2) fs::remove_all(dir / "final.ply");
     const std::map<std::string, std::string> after = snapshot(dir);
-    // One model: three files, of the encoding last written.
-    const bool binary = out->write_failed ? c.binary : c.rewrite_binary;
-    out->intact = out->write_failed ? after == before
-                                    : after.size() == 3 && after.count(binary ? "images.bin" : "images.txt") == 1;
+    const fs::path written = out->write_failed || !c.new_directory ? input : dir / "new";
+    if (out->write_failed) {
+      // The report may have replaced the old one before the PLY file's rename failed.
+      std::map<std::string, std::string> replaced = before;
+      if (c.failing == 2 && c.old_report) replaced["report.json"] = kReport;
+      out->intact = after == before || after == replaced;
+    } else {
+      // The model's files, of the encoding last written, where it went (the input as it was
+      // when that is elsewhere), the reports, and nothing else; the model's bytes are judged
+      // by reading it back below.
+      const std::string to = c.new_directory ? "new" : "model", ext = c.rewrite_binary ? ".bin" : ".txt";
+      std::map<std::string, std::string> expected = before;
+      if (!c.new_directory)
+        for (auto e = expected.begin(); e != expected.end();)
+          e = e->first.rfind("model/", 0) == 0 ? expected.erase(e) : ++e;
+      expected[to] = "/";
+      for (const std::string &name :
+           {to + "/cameras" + ext, to + "/images" + ext, to + "/points3D" + ext, std::string("final.ply")})
+        expected[name] = after.count(name) ? after.at(name) : "(missing)";
+      expected["report.json"] = kReport;
+      out->intact = after == expected;
+    }
+    const colmap::Model &expected = out->write_failed ? model : moved;
     colmap::Model back;
-    out->read_back = colmap::read_model(dir.string(), &back, nullptr, &error) && bytes_of(back) == bytes_of(expected);
+    out->read_back =
+        colmap::read_model(written.string(), &back, nullptr, &error) && bytes_of(back) == bytes_of(expected);
     bool rotations = false;
     out->solved = solve(back, &rotations);
     out->rotations = rotations;
@@ -141,8 +204,9 @@ void run(const Case &c, Outcome *out) {
 std::string judge(const Outcome &o) {
   if (!o.done) return "the model files case did not run to its end";
   if (!o.intact)
-    return o.write_failed ? "a write that failed changed the model's directory"
-                          : "the directory does not hold one model, the one written";
+    return o.write_failed ? "a run that failed changed the directory (a file, a new file or directory left)"
+                          : "the directory does not hold the model written, the input and the reports, "
+                            "and only them";
   if (!o.read_back) return "the model read back is not the one written last";
   if (!o.rotations) return "a quaternion did not normalize to a rotation";
   if (!o.solved) return "the solve of the model read back failed or made it worse";

@@ -29,8 +29,10 @@
 //   a point seen once  in a covariance request: refused (SBA_ERROR), or a rank below the
 //                      number of free parameters; never a full-rank success
 // and, in some children instead of a solve of the synthetic problem, a COLMAP model with
-// quaternions of any size and names that are not UTF-8, written over another on a disk that
-// may fill at any byte, read back and solved (model_files.h says what is promised there).
+// quaternions of any size and names that are not UTF-8, and a run's outputs written over it (the
+// model, over it or into a new directory, a PLY file and a report) on a disk that may fill at
+// any byte, with a report that may fail, read back and solved (model_files.h says what is
+// promised there: above all, a run that fails leaves every file as it was and no new one).
 //
 // usage: sba_soak [--solves N] [--seed S] [--timeout SECONDS] [--jobs J] [--verbose]
 #include <signal.h>
@@ -113,11 +115,17 @@ struct Plan {
   std::string describe() const {
 #ifdef SBA_SOAK_MODEL_FILES
     if (model_files) {
-      char buf[256];
-      std::snprintf(buf, sizeof buf, "seed %u: model files, %d cameras, %d points, quaternions x %g%s, %s over %s, "
-                    "file size limit %ld", seed, files.cameras, files.points, files.q_scale,
+      static const char *const failing[] = {"no report fails", "the PLY file on a full disk",
+                                            "the PLY file's name taken at the rename"};
+      char buf[384];
+      std::snprintf(buf, sizeof buf,
+                    "seed %u: model files, %d cameras, %d points, quaternions x %g%s, %s %s %s, "
+                    "file size limit %ld, %s%s",
+                    seed, files.cameras, files.points, files.q_scale,
                     files.odd_names ? ", names not UTF-8" : "", files.rewrite_binary ? "binary" : "text",
-                    files.binary ? "binary" : "text", files.file_limit);
+                    files.new_directory ? "into a new directory beside" : "over",
+                    files.binary ? "binary" : "text", files.file_limit, failing[files.failing],
+                    files.old_report ? ", an old report replaced" : "");
       return buf;
     }
 #endif
@@ -232,6 +240,9 @@ Plan make_plan(unsigned run_seed, int k) {
     p.files.binary = coin(0.5);
     p.files.rewrite_binary = coin(0.5);
     p.files.file_limit = coin(0.6) ? pick(1, 8000) : 0;  // the disk fills at that byte of a file
+    p.files.new_directory = coin(0.3);
+    p.files.old_report = coin(0.5);
+    p.files.failing = std::max(0, pick(-1, 2));  // half of them with no report failing
   }
 #endif
   return p;

@@ -1,0 +1,96 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "mex_options.h"
+
+#include <cmath>
+
+namespace sba_mex {
+namespace {
+
+constexpr const char *kOptionFields[] = {"fixed_params", "camera_groups", "shared_params"};
+
+bool is_option_field(const std::string &name) {
+  for (const char *f : kOptionFields)
+    if (name == f) return true;
+  return false;
+}
+
+bool is_vector_shape(const OptionField &f) { return f.rows == 1 || f.cols == 1; }
+
+// The values of a field that must be a dense real or logical matrix, all finite.
+const std::vector<double> &matrix_values(const OptionField &f) {
+  if (!f.matrix)
+    bad_arg("invalidArgument", format("%s must be a dense real or logical matrix (got a %s).", f.name.c_str(),
+                                      f.description.c_str()));
+  for (std::size_t k = 0; k < f.values.size(); ++k)
+    if (!std::isfinite(f.values[k]))
+      bad_arg("invalidArgument", format("%s(%zu) is not finite.", f.name.c_str(), k + 1));
+  return f.values;
+}
+
+}  // namespace
+
+StructRole struct_role(bool is_struct, std::size_t numel, const std::vector<std::string> &fields) {
+  if (!is_struct) return StructRole::kData;
+  for (const std::string &f : fields)
+    if (is_option_field(f)) return numel == 1 ? StructRole::kOptions : StructRole::kRefused;
+  return StructRole::kData;
+}
+
+void refuse_options_struct(const std::string &description) {
+  // Taken as problem data, its options would reach the callbacks unread and the solve would
+  // move what the caller meant to hold.
+  bad_arg("invalidArgument",
+          format("the options struct must be a 1x1 struct (got a %s array).", description.c_str()));
+}
+
+CameraOptions camera_options(const std::vector<OptionField> &fields, std::size_t m, std::size_t cnp) {
+  const OptionField *fixed = nullptr, *groups = nullptr, *shared = nullptr;
+  for (const OptionField &f : fields) {
+    if (!is_option_field(f.name))
+      bad_arg("invalidArgument",
+              format("the options struct has an unknown field '%s' (expected fixed_params, "
+                     "camera_groups or shared_params).",
+                     f.name.c_str()));
+    if (f.numel == 0) continue;  // [] is not given
+    (f.name == "fixed_params" ? fixed : f.name == "camera_groups" ? groups : shared) = &f;
+  }
+  CameraOptions o;
+  if (fixed) {
+    const std::vector<double> &v = matrix_values(*fixed);
+    if (is_vector_shape(*fixed) && v.size() == cnp) {
+      for (double x : v) o.fixed.push_back(x != 0.0);
+    } else if (fixed->rows == m && fixed->cols == cnp) {
+      o.fixed_per_camera = true;  // row j is camera j's: to camera-major
+      o.fixed.resize(m * cnp);
+      for (std::size_t j = 0; j < m; ++j)
+        for (std::size_t c = 0; c < cnp; ++c) o.fixed[j * cnp + c] = v[c * m + j] != 0.0;
+    } else {
+      bad_arg("wrongSize", format("fixed_params must have cnp = %zu flags (for every camera) or be m x cnp = "
+                                  "%zu x %zu (got %zu x %zu).",
+                                  cnp, m, cnp, fixed->rows, fixed->cols));
+    }
+  }
+  if (groups && !shared)
+    bad_arg("invalidArgument", "camera_groups needs shared_params (the cnp flags of what a group shares).");
+  if (shared && !groups)
+    bad_arg("invalidArgument", "shared_params needs camera_groups (a group number per camera).");
+  if (!groups) return o;
+  const std::vector<double> &gv = matrix_values(*groups);
+  if (!is_vector_shape(*groups) || gv.size() != m)
+    bad_arg("wrongSize", format("camera_groups must have m = %zu values (got %zu).", m, gv.size()));
+  for (std::size_t j = 0; j < m; ++j) {
+    if (gv[j] != std::floor(gv[j]) || gv[j] < -1 || gv[j] > static_cast<double>(m) - 1)
+      bad_arg("invalidArgument",
+              format("camera_groups(%zu) must be -1 (no group) or a group number in [0, %zu] "
+                     "(got %g).",
+                     j + 1, m - 1, gv[j]));
+    o.group.push_back(static_cast<int>(gv[j]));
+  }
+  const std::vector<double> &sv = matrix_values(*shared);
+  if (!is_vector_shape(*shared) || sv.size() != cnp)
+    bad_arg("wrongSize", format("shared_params must have cnp = %zu flags (got %zu).", cnp, sv.size()));
+  for (double x : sv) o.shared.push_back(x != 0.0);
+  return o;
+}
+
+}  // namespace sba_mex
