@@ -201,8 +201,8 @@ struct sba_ext_options {
    * (itmax 0), returns p as given. A shared parameter must be held (cam_fixed) in all of a
    * group's cameras, with the same value, or in none; a camera below mcon is in no group;
    * cam_shared needs cam_group; anything else is a bad argument (SBA_ERROR). A shared
-   * parameter is one unknown (counted once against the measurements) damped as the sum of its
-   * cameras' copies (each camera's diagonal entry is added). */
+   * parameter is one unknown of the reduced camera system (counted once against the
+   * measurements), coupled to the cameras that share it as they are to each other. */
   const int *cam_group;
   const char *cam_shared;
   /* Camera parameters shared per parameter, for groupings that differ from one parameter to

@@ -8,8 +8,14 @@ namespace sba {
 namespace {
 
 // out[a][c] -= sum_d Lt[d][a] Rt[d][c] for a < n1, c < n2 (Lt pnp x n1, Rt pnp x n2): one
-// point's term of a block of S, row by row along contiguous rows.
-void pair_update(int n1, int n2, int pn, const double *Lt, const double *Rt, double *out, i64 ld) {
+// point's term of a block of S, row by row along contiguous rows. N1, N2, P > 0 fix the sizes
+// at compile time for the blocks that dominate (poses of 6 against poses of 6, points of 3),
+// whose loops then unroll into registers.
+template <int N1, int N2, int P>
+inline void pair_update_t(int n1, int n2, int pn, const double *Lt, const double *Rt, double *out, i64 ld) {
+  if constexpr (N1 > 0) n1 = N1;
+  if constexpr (N2 > 0) n2 = N2;
+  if constexpr (P > 0) pn = P;
   for (int a = 0; a < n1; ++a) {
     double *row = out + a * ld;
     for (int d = 0; d < pn; ++d) {
@@ -18,6 +24,12 @@ void pair_update(int n1, int n2, int pn, const double *Lt, const double *Rt, dou
       for (int c = 0; c < n2; ++c) row[c] -= z * r[c];
     }
   }
+}
+
+void pair_update(int n1, int n2, int pn, const double *Lt, const double *Rt, double *out, i64 ld) {
+  if (pn == 3 && n1 == 6 && n2 == 6) return pair_update_t<6, 6, 3>(n1, n2, pn, Lt, Rt, out, ld);
+  if (pn == 3) return pair_update_t<0, 0, 3>(n1, n2, pn, Lt, Rt, out, ld);
+  pair_update_t<0, 0, 0>(n1, n2, pn, Lt, Rt, out, ld);
 }
 
 // Position of block b in the ascending list [first, first + n), n if absent.
