@@ -1,22 +1,28 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // libFuzzer target: held and shared camera parameters through the public C API
-// (sba_ext_options.cam_fixed, cam_fixed_per_camera, cam_group, cam_shared), on tiny problems
-// (1 to 4 cameras and points, a smooth model with its Jacobian), with any flags, any group
-// numbers, mcon, and the motion-and-structure or the motion-only driver.
+// (sba_ext_options.cam_fixed, cam_fixed_per_camera, cam_group, cam_shared, cam_param_group),
+// on tiny problems (1 to 4 cameras and points, a smooth model with its Jacobian), with any
+// flags, any group numbers, mcon, and the motion-and-structure or the motion-only driver.
 //
 // Judged against the rules of sba_ext.h and docs/camera_parameters.md, written out here
-// afresh: a group number is -1 or in [0, m-1], cam_group needs cam_shared, a camera below mcon
-// is in no group, and a shared parameter is held in all of its group's cameras or in none.
-// Options that break a rule must be refused before anything runs (SBA_ERROR, info[6] =
-// SBA_STOP_NONE, one error line); options that keep them must not be refused for them, and a
-// solve must return every held parameter (and every camera below mcon) with its bits, and
-// every camera of a group with the same bits in its shared parameters.
+// afresh: cam_param_group goes without cam_group and cam_shared; a cam_group number is -1 or
+// in [0, m-1] and a cam_param_group number -1 or at least 0; cam_group and cam_shared go
+// together; a camera below mcon shares nothing; and a shared parameter (cameras with one
+// group number for it) is held in all of its cameras, with one value, or in none. Options
+// that break a rule must be refused before anything runs (SBA_ERROR, info[6] =
+// SBA_STOP_NONE, one error line); options that keep them are refused only when the problem
+// has nothing to refine (the motion-only driver with every camera parameter held) or fewer
+// measurements than unknowns, and a solve must return every held parameter (and every camera
+// below mcon) with its bits, and every camera sharing a parameter with the same bits in it.
 #include <fuzzer/FuzzedDataProvider.h>
 
+#include <climits>
 #include <cstdint>
 #include <cstring>
 #include <map>
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "fuzz_common.h"
@@ -81,27 +87,39 @@ void log_sink(void *ctx, int level, const char *line) {
   if (level == SBA_LOG_ERROR) static_cast<Log *>(ctx)->errors.emplace_back(line);
 }
 
-// The rules, as sba_ext.h states them: empty when the options keep them, else which one is broken.
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
+// Camera j's group number for parameter a, whichever way the options give it: -1 for none.
+int group_of(const Problem &p, const int *group, const char *shared, const int *param_group, int j, int a) {
+  if (param_group) return param_group[j * p.cnp + a];
+  return group && shared[a] ? group[j] : -1;
+}
+
+// The rules, as sba_ext.h states them: empty when the options keep them, else which one is broken.
 std::string broken_rule(const Problem &p, const double *x0, const char *fixed, bool per_camera, const int *group,
-                        const char *shared) {
+                        const char *shared, const int *param_group) {
+  if (param_group && (group || shared)) return "cam_param_group with cam_group or cam_shared";
   if (shared && !group) return "cam_shared without cam_group";
-  if (!group) return {};
-  if (!shared) return "cam_group without cam_shared";
-  auto held = [&](int j, int a) { return fixed && fixed[per_camera ? j * p.cnp + a : a] != 0; };
-  std::map<int, int> first;
-  for (int j = 0; j < p.m; ++j) {
-    if (group[j] == -1) continue;
-    if (group[j] < 0 || group[j] >= p.m) return "a group number out of range";
-    if (j < p.mcon) return "a camera below mcon in a group";
-    const int f = first.emplace(group[j], j).first->second;
-    for (int a = 0; a < p.cnp; ++a) {
-      if (shared[a] && held(j, a) != held(f, a)) return "a shared parameter held in only some cameras of a group";
-      if (shared[a] && held(j, a) && !same_bits(x0[j * p.cnp + a], x0[f * p.cnp + a]))
-        return "a shared parameter held with different values in a group";
+  if (group && !shared) return "cam_group without cam_shared";
+  if (!group && !param_group) return {};
+  for (int j = 0; j < p.m; ++j)
+    for (int a = 0; a < (group ? 1 : p.cnp); ++a) {
+      const int g = group ? group[j] : param_group[j * p.cnp + a];
+      if (g == -1) continue;
+      if (g < -1 || (group && g >= p.m)) return "a group number out of range";
+      if (j < p.mcon) return "a camera below mcon in a group";
     }
-  }
+  auto held = [&](int j, int a) { return fixed && fixed[per_camera ? j * p.cnp + a : a] != 0; };
+  std::map<std::pair<int, int>, int> first;  // (parameter, group number) -> its first camera
+  for (int j = 0; j < p.m; ++j)
+    for (int a = 0; a < p.cnp; ++a) {
+      const int g = group_of(p, group, shared, param_group, j, a);
+      if (g == -1) continue;
+      const int f = first.emplace(std::make_pair(a, g), j).first->second;
+      if (held(j, a) != held(f, a)) return "a shared parameter held in only some of its cameras";
+      if (held(j, a) && !same_bits(x0[j * p.cnp + a], x0[f * p.cnp + a]))
+        return "a shared parameter held with different values";
+    }
   return {};
 }
 
@@ -118,6 +136,8 @@ int next_group(FuzzedDataProvider &in, int m) {
       return in.ConsumeIntegral<int>();
     case 2:
       return in.ConsumeIntegralInRange<int>(-3, m + 1);
+    case 3:
+      return in.ConsumeBool() ? INT_MAX : INT_MIN;
     default:
       return in.ConsumeIntegralInRange<int>(0, 1);
   }
@@ -136,13 +156,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
   p.mcon = in.ConsumeIntegralInRange<int>(0, p.m);
   const bool per_camera = in.ConsumeBool();
   std::vector<char> fixed, shared;
-  std::vector<int> group;
+  std::vector<int> group, param_group;
   if (in.ConsumeBool())
     for (int k = 0; k < (per_camera ? p.m : 1) * p.cnp; ++k) fixed.push_back(next_flag(in));
   if (in.ConsumeBool())
     for (int j = 0; j < p.m; ++j) group.push_back(next_group(in, p.m));
   if (in.ConsumeBool())
     for (int a = 0; a < p.cnp; ++a) shared.push_back(next_flag(in));
+  if (in.ConsumeBool())
+    for (int k = 0; k < p.m * p.cnp; ++k) param_group.push_back(next_group(in, p.m));
 
   // Parameters and measurements: the model at slightly other parameters.
   std::vector<double> x0(size_t(p.m) * p.cnp + size_t(p.n) * p.pnp);
@@ -167,6 +189,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
   ext.cam_fixed_per_camera = per_camera ? 1 : 0;
   ext.cam_group = group.empty() ? nullptr : group.data();
   ext.cam_shared = shared.empty() ? nullptr : shared.data();
+  ext.cam_param_group = param_group.empty() ? nullptr : param_group.data();
   double info[SBA_INFOSZ];
   std::vector<double> sol = x0;
   const int ret =
@@ -177,7 +200,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
                                   nullptr, kMnp, motstr_proj, motstr_projac, &p, 5, 0, nullptr, info, &ext);
 
   const std::string rule =
-      broken_rule(p, x0.data(), ext.cam_fixed, per_camera, ext.cam_group, ext.cam_shared);
+      broken_rule(p, x0.data(), ext.cam_fixed, per_camera, ext.cam_group, ext.cam_shared, ext.cam_param_group);
   const bool refused = ret == SBA_ERROR && info[6] == SBA_STOP_NONE;
   for (const std::string &e : log.errors)
     require(!e.empty() && e.find('\n') == std::string::npos, "an error of more than one line: " + e);
@@ -186,34 +209,46 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     require(log.errors.size() == 1, "a refusal with " + std::to_string(log.errors.size()) + " error lines");
     return 0;
   }
-  if (refused) {
-    const std::string why = log.errors.empty() ? std::string("(no error line)") : log.errors.front();
-    // The problem itself is good (every point seen by every camera, finite values), but all of
-    // it may be held: then there is nothing to refine, which is not the options' fault.
-    require(why.find("cam_") == std::string::npos && why.find("group") == std::string::npos &&
-                why.find("held") == std::string::npos,
-            "good options refused: " + why);
-    return 0;
-  }
-  if (ret < 0) return 0;  // a numerical failure: what p holds then is not promised
   auto held = [&](int j, int a) {
     return j < p.mcon || (!fixed.empty() && fixed[per_camera ? j * p.cnp + a : a] != 0);
   };
+  // The unknowns: the points' (motion and structure), and each camera parameter neither held
+  // nor below mcon, those that cameras share counted once.
+  std::set<std::pair<int, int>> shared_unknowns;  // (parameter, group number)
+  long long unknowns = motion_only ? 0 : static_cast<long long>(p.n) * p.pnp;
+  for (int j = 0; j < p.m; ++j)
+    for (int a = 0; a < p.cnp; ++a) {
+      if (held(j, a)) continue;
+      const int g = group_of(p, ext.cam_group, ext.cam_shared, ext.cam_param_group, j, a);
+      if (g == -1) ++unknowns;
+      else shared_unknowns.emplace(a, g);
+    }
+  unknowns += static_cast<long long>(shared_unknowns.size());
+  const std::string why = log.errors.empty() ? std::string("(no error line)") : log.errors.front();
+  // The problem itself is good (every point seen by every camera, finite values), but all of
+  // it may be held, or more unknowns left than measurements.
+  const long long nobs = static_cast<long long>(p.n) * p.m * kMnp;
+  if (unknowns == 0 || nobs < unknowns) {
+    const char *due = unknowns == 0 ? "nothing to refine" : "fewer measurements";
+    require(refused && why.find(due) != std::string::npos,
+            std::to_string(unknowns) + " unknowns for " + std::to_string(nobs) + " measurements, and " + why);
+    return 0;
+  }
+  require(!refused, "good options refused: " + why);
+  if (ret < 0) return 0;  // a numerical failure: what p holds then is not promised
   for (int j = 0; j < p.m; ++j)
     for (int a = 0; a < p.cnp; ++a)
       if (held(j, a)) require(same_bits(sol[j * p.cnp + a], x0[j * p.cnp + a]), "a held parameter moved");
   if (motion_only)
     for (size_t q = size_t(p.m) * p.cnp; q < sol.size(); ++q)
       require(same_bits(sol[q], x0[q]), "the motion-only driver moved a point");
-  if (group.empty()) return 0;
-  std::map<int, int> first;
-  for (int j = 0; j < p.m; ++j) {
-    if (group[j] == -1) continue;
-    const int f = first.emplace(group[j], j).first->second;
-    for (int a = 0; a < p.cnp; ++a)
-      if (shared[a] && !held(j, a))
-        require(same_bits(sol[j * p.cnp + a], sol[f * p.cnp + a]),
-                "the cameras of a group differ in a shared parameter");
-  }
+  std::map<std::pair<int, int>, int> first;
+  for (int j = 0; j < p.m; ++j)
+    for (int a = 0; a < p.cnp; ++a) {
+      const int g = group_of(p, ext.cam_group, ext.cam_shared, ext.cam_param_group, j, a);
+      if (g == -1) continue;
+      const int f = first.emplace(std::make_pair(a, g), j).first->second;
+      require(same_bits(sol[j * p.cnp + a], sol[f * p.cnp + a]), "the cameras sharing a parameter differ in it");
+    }
   return 0;
 }

@@ -5,9 +5,11 @@
 // Each call is judged against docs/mex.md's rules, written out here afresh: a struct with an
 // option field is the options struct when 1x1 and refused otherwise; fixed_params holds cnp
 // flags or an m x cnp matrix, camera_groups m numbers in -1..m-1 with shared_params' cnp
-// flags, nonzero meaning set; anything else is refused with one line, ending in a full stop,
-// under the identifier sba:invalidArgument or sba:wrongSize. What is taken must be exactly
-// what was given, in sba_ext_options' layout.
+// flags, nonzero meaning set, param_groups an m x cnp matrix of whole numbers in
+// -1..2147483647 (with camera_groups too: the library refuses the pair, not the gateway);
+// anything else is refused with one line, ending in a full stop, under the identifier
+// sba:invalidArgument or sba:wrongSize. What is taken must be exactly what was given, in
+// sba_ext_options' layout (param_groups: row j's numbers at j*cnp).
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <cmath>
@@ -26,8 +28,9 @@ using sba_mex::ArgError;
 using sba_mex::OptionField;
 using sbafuzz::require;
 
-const char *const kNames[] = {"fixed_params", "camera_groups", "shared_params", "camera_group", "foo", ""};
-const std::size_t kOptionNames = 3;  // the first three of kNames
+const char *const kNames[] = {"fixed_params", "camera_groups", "shared_params", "param_groups",
+                              "camera_group", "foo", ""};
+const std::size_t kOptionNames = 4;  // the first four of kNames
 
 double next_number(FuzzedDataProvider &in, std::size_t m) {
   switch (in.ConsumeIntegralInRange<int>(0, 5)) {
@@ -38,7 +41,8 @@ double next_number(FuzzedDataProvider &in, std::size_t m) {
     case 2:
       return in.ConsumeIntegralInRange<int>(-2, int(m) + 1);
     case 3: {
-      static const double kOdd[] = {-0.0, 0.5, -1.5, NAN, INFINITY, -INFINITY, 1e300, 2147483648.0, 1e-300};
+      static const double kOdd[] = {-0.0, 0.5, -1.5, NAN, INFINITY, -INFINITY, 1e300, 1e-300,
+                                    2147483647.0, 2147483648.0, -2.0};
       return kOdd[in.ConsumeIntegralInRange<size_t>(0, sizeof kOdd / sizeof *kOdd - 1)];
     }
     case 4: {
@@ -80,17 +84,22 @@ bool is_vector(const OptionField &f) { return f.rows == 1 || f.cols == 1; }
 
 // docs/mex.md's rules, whether the fields are an options struct the gateway takes.
 bool acceptable(const std::vector<OptionField> &fields, std::size_t m, std::size_t cnp) {
-  const OptionField *given[kOptionNames] = {nullptr, nullptr, nullptr};
+  const OptionField *given[kOptionNames] = {nullptr, nullptr, nullptr, nullptr};
   for (const OptionField &f : fields) {
     std::size_t k = 0;
     while (k < kOptionNames && f.name != kNames[k]) ++k;
     if (k == kOptionNames) return false;  // an unknown field
     if (f.numel > 0) given[k] = &f;
   }
-  const OptionField *fixed = given[0], *groups = given[1], *shared = given[2];
+  const OptionField *fixed = given[0], *groups = given[1], *shared = given[2], *per_param = given[3];
   if (fixed && !(finite_matrix(*fixed) &&
                  ((is_vector(*fixed) && fixed->numel == cnp) || (fixed->rows == m && fixed->cols == cnp))))
     return false;
+  if (per_param) {
+    if (!finite_matrix(*per_param) || per_param->rows != m || per_param->cols != cnp) return false;
+    for (double g : per_param->values)
+      if (g != std::trunc(g) || g < -1 || g > 2147483647.0) return false;
+  }
   if (!groups != !shared) return false;
   if (!groups) return true;
   if (!finite_matrix(*groups) || !is_vector(*groups) || groups->numel != m) return false;
@@ -125,6 +134,12 @@ void check_taken(const sba_mex::CameraOptions &o, const std::vector<OptionField>
     require(o.group[j] == groups->values[j], "a group number taken as another");
   for (std::size_t c = 0; c < o.shared.size(); ++c)
     require(o.shared[c] == (shared->values[c] != 0 ? 1 : 0), "a shared_params flag taken as another");
+  const OptionField *per_param = field(fields, "param_groups");
+  require(o.param_group.size() == (per_param ? m * cnp : 0), "param_groups taken with another size");
+  for (std::size_t j = 0; per_param && j < m; ++j)
+    for (std::size_t c = 0; c < cnp; ++c)
+      require(o.param_group[j * cnp + c] == per_param->values[c * m + j],
+              "param_groups(" + std::to_string(j + 1) + "," + std::to_string(c + 1) + ") taken as another");
 }
 
 void check_refusal(const ArgError &e) {

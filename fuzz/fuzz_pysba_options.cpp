@@ -1,12 +1,16 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // libFuzzer target: pysba's rules for the entries of fixed_params, shared_params (flags) and
-// camera_groups (group numbers), python/src/option_values.h, over entries of every kind the
-// extension reads from Python: bools, integers in and beyond long long's range, floats of
-// any bits, and other objects by their repr. Each entry is judged against the rules as
-// docs/python.md states them: a flag is a bool or an integer 0 or 1; a group number is an
+// camera_groups and param_groups (group numbers), python/src/option_values.h, over entries of
+// every kind the extension reads from Python: bools, integers in and beyond long long's range,
+// floats of any bits, and other objects by their repr. Each entry is judged against the rules
+// as docs/python.md states them: a flag is a bool or an integer 0 or 1; a group number is an
 // integer (or a float holding one) that is -1 or in [0, INT_MAX]; whatever is refused is
 // refused with one line naming the entry and the value as Python shows it, as a TypeError for
-// a wrong kind and a ValueError for a wrong value. The entry names must name the entry.
+// a wrong kind and a ValueError for a wrong value. The entry names must name the entry. A
+// whole array is taken when each of its entries is, in C order (for param_groups of shape
+// (m, cnp), the entry named [j, c] at j*cnp + c, the library's layout), and refused at its
+// first bad entry otherwise; param_groups' shape must be (m, cnp), else a ValueError that
+// says both shapes as Python shows tuples.
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <climits>
@@ -161,6 +165,54 @@ void check_entry_name(const std::string &name, const std::vector<long long> &sha
   require(flat == k && std::string(s) == "]", "entry " + std::to_string(k) + " named " + name);
 }
 
+// The rule over a whole array: rule_of_array takes every entry or throws the refusal of the
+// first it refuses, which must be what rule says of that entry.
+template <class T, class ArrayRule, class Rule>
+void check_array(const std::vector<Value> &values, const char *what, const std::vector<long long> &shape,
+                 ArrayRule rule_of_array, Rule rule) {
+  std::vector<T> each;
+  std::string first_refusal;
+  for (size_t k = 0; k < values.size() && first_refusal.empty(); ++k) {
+    try {
+      each.push_back(rule(values[k], pysba::entry_name(what, shape, static_cast<long long>(k))));
+    } catch (const OptionError &e) {
+      first_refusal = e.message;
+    }
+  }
+  try {
+    const std::vector<T> all = rule_of_array(values, what, shape);
+    require(first_refusal.empty(), "an array taken with a bad entry: " + first_refusal);
+    require(all == each, "an array's entries taken as others or in another order");
+  } catch (const OptionError &e) {
+    require(e.message == first_refusal, "an array refused with " + e.message + ", not " + first_refusal);
+  }
+}
+
+// A tuple as Python shows it: (), (7,), (4, 7).
+std::string tuple(const std::vector<long long> &t) {
+  if (t.empty()) return "()";
+  if (t.size() == 1) return "(" + std::to_string(t[0]) + ",)";
+  std::string s;
+  for (long long d : t) s += (s.empty() ? "(" : ", ") + std::to_string(d);
+  return s + ")";
+}
+
+// param_groups must have shape (m, cnp); m and cnp are often the array's own.
+void check_shape(FuzzedDataProvider &in, const std::vector<long long> &shape) {
+  const bool fits = shape.size() == 2 && in.ConsumeBool();
+  const long long m = fits ? shape[0] : in.ConsumeIntegralInRange<long long>(1, 6);
+  const long long cnp = fits ? shape[1] : in.ConsumeIntegralInRange<long long>(0, 6);
+  const bool due = shape.size() == 2 && shape[0] == m && shape[1] == cnp;
+  try {
+    pysba::require_shape("param_groups", shape, {m, cnp});
+    require(due, "param_groups of shape " + tuple(shape) + " taken for " + tuple({m, cnp}));
+  } catch (const OptionError &e) {
+    require(!due, "param_groups of shape " + tuple(shape) + " refused: " + e.message);
+    require(!e.wrong_type && e.message == "param_groups must have shape " + tuple({m, cnp}) + ", got " + tuple(shape),
+            "a shape refused with " + e.message);
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
@@ -168,13 +220,24 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
   std::vector<long long> shape(in.ConsumeIntegralInRange<size_t>(1, 3));
   long long count = 1;
   for (long long &d : shape) count *= (d = in.ConsumeIntegralInRange<long long>(1, 6));
+  std::vector<Value> values;
   for (long long k = 0; k < count && in.remaining_bytes() > 0; ++k) {
     const std::string where = pysba::entry_name("opt", shape, k);
     check_entry_name(where, shape, k);
-    const Value v = next_value(in);
-    check_text(v);
-    check_flag(v, where);
-    check_group(v, where);
+    values.push_back(next_value(in));
+    check_text(values.back());
+    check_flag(values.back(), where);
+    check_group(values.back(), where);
   }
+  if (values.size() == size_t(count)) {
+    check_array<char>(values, "fixed_params", shape, pysba::flag_values, pysba::flag_value);
+    check_array<int>(values, "param_groups", shape, pysba::group_numbers, pysba::group_number);
+  }
+  // Shapes of any number of dimensions, empty ones too, against param_groups' (m, cnp).
+  if (in.ConsumeBool()) {
+    shape.resize(in.ConsumeIntegralInRange<size_t>(0, 3));
+    for (long long &d : shape) d = in.ConsumeIntegralInRange<long long>(0, 6);
+  }
+  check_shape(in, shape);
   return 0;
 }

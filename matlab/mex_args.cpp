@@ -149,6 +149,7 @@ void read_options_struct(Gateway &g, const mxArray *s) {
   g.cam_fixed_per_camera = c.fixed_per_camera;
   g.cam_group = std::move(c.group);
   g.cam_shared = std::move(c.shared);
+  g.cam_param_group = std::move(c.param_group);
 }
 
 void parse_callback(Callback &cb, const std::string &text, const char *role) {
@@ -296,10 +297,11 @@ void parse(Gateway &g, int nrhs, const mxArray *prhs[], std::string *warning) {
   }
   while (option(k)) ++k;
   for (; k < nrhs; ++k) g.extra.push_back(prhs[k]);
-  if (g.reftype == RefType::Str && (!g.cam_fixed.empty() || !g.cam_group.empty()))
+  const bool camera_options = !g.cam_fixed.empty() || !g.cam_group.empty() || !g.cam_param_group.empty();
+  if (g.reftype == RefType::Str && camera_options)
     bad_arg("invalidArgument",
-            "fixed_params, camera_groups and shared_params apply to cameras, which reftype 'str' "
-            "does not refine.");
+            "fixed_params, camera_groups, shared_params and param_groups apply to cameras, which reftype "
+            "'str' does not refine.");
 
   // Sizes that depend on what came before.
   if (g.reftype != RefType::Str && g.cnp == 0)

@@ -82,11 +82,13 @@ struct Gateway {
   const double *x = nullptr, *covx = nullptr;
   double opts[SBA_OPTSSZ] = {SBA_INIT_MU, SBA_STOP_THRESH, SBA_STOP_THRESH, SBA_STOP_THRESH, 0.0};
   // Camera parameters held or shared (the options struct, beyond 1.6), in sba_ext_options'
-  // layout: cam_fixed has cnp flags (every camera) or m*cnp (camera j's at j*cnp).
+  // layout: cam_fixed has cnp flags (every camera) or m*cnp (camera j's at j*cnp), as
+  // cam_param_group has its numbers.
   std::vector<char> cam_fixed;
   bool cam_fixed_per_camera = false;
   std::vector<int> cam_group;
   std::vector<char> cam_shared;
+  std::vector<int> cam_param_group;
   std::vector<const mxArray *> extra;
   std::vector<double *> extra_ptrs;  // for NAME@LIBRARY callbacks
   Callback proj, projac;

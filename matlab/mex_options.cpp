@@ -1,12 +1,13 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "mex_options.h"
 
+#include <climits>
 #include <cmath>
 
 namespace sba_mex {
 namespace {
 
-constexpr const char *kOptionFields[] = {"fixed_params", "camera_groups", "shared_params"};
+constexpr const char *kOptionFields[] = {"fixed_params", "camera_groups", "shared_params", "param_groups"};
 
 bool is_option_field(const std::string &name) {
   for (const char *f : kOptionFields)
@@ -27,6 +28,27 @@ const std::vector<double> &matrix_values(const OptionField &f) {
   return f.values;
 }
 
+// The group number g at `where` ("camera_groups(3)"): a whole number, -1 or in [0, most].
+int group_number(double g, const std::string &where, double most) {
+  if (g != std::floor(g) || g < -1 || g > most)
+    bad_arg("invalidArgument", format("%s must be -1 (no group) or a group number in [0, %.15g] (got %.15g).",
+                                      where.c_str(), most, g));
+  return static_cast<int>(g);
+}
+
+// param_groups: m x cnp, row j camera j's, to the library's camera-major layout.
+std::vector<int> param_groups(const OptionField &f, std::size_t m, std::size_t cnp) {
+  const std::vector<double> &v = matrix_values(f);
+  if (f.rows != m || f.cols != cnp)
+    bad_arg("wrongSize",
+            format("param_groups must be m x cnp = %zu x %zu (got %zu x %zu).", m, cnp, f.rows, f.cols));
+  std::vector<int> out(m * cnp);
+  for (std::size_t j = 0; j < m; ++j)
+    for (std::size_t c = 0; c < cnp; ++c)
+      out[j * cnp + c] = group_number(v[c * m + j], format("param_groups(%zu,%zu)", j + 1, c + 1), INT_MAX);
+  return out;
+}
+
 }  // namespace
 
 StructRole struct_role(bool is_struct, std::size_t numel, const std::vector<std::string> &fields) {
@@ -44,15 +66,18 @@ void refuse_options_struct(const std::string &description) {
 }
 
 CameraOptions camera_options(const std::vector<OptionField> &fields, std::size_t m, std::size_t cnp) {
-  const OptionField *fixed = nullptr, *groups = nullptr, *shared = nullptr;
+  const OptionField *fixed = nullptr, *groups = nullptr, *shared = nullptr, *per_param = nullptr;
   for (const OptionField &f : fields) {
     if (!is_option_field(f.name))
       bad_arg("invalidArgument",
               format("the options struct has an unknown field '%s' (expected fixed_params, "
-                     "camera_groups or shared_params).",
+                     "camera_groups, shared_params or param_groups).",
                      f.name.c_str()));
     if (f.numel == 0) continue;  // [] is not given
-    (f.name == "fixed_params" ? fixed : f.name == "camera_groups" ? groups : shared) = &f;
+    (f.name == "fixed_params"    ? fixed
+     : f.name == "camera_groups" ? groups
+     : f.name == "shared_params" ? shared
+                                 : per_param) = &f;
   }
   CameraOptions o;
   if (fixed) {
@@ -70,6 +95,8 @@ CameraOptions camera_options(const std::vector<OptionField> &fields, std::size_t
                                   cnp, m, cnp, fixed->rows, fixed->cols));
     }
   }
+  // With camera_groups too, both go to the library, which refuses the pair: one check.
+  if (per_param) o.param_group = param_groups(*per_param, m, cnp);
   if (groups && !shared)
     bad_arg("invalidArgument", "camera_groups needs shared_params (the cnp flags of what a group shares).");
   if (shared && !groups)
@@ -78,14 +105,8 @@ CameraOptions camera_options(const std::vector<OptionField> &fields, std::size_t
   const std::vector<double> &gv = matrix_values(*groups);
   if (!is_vector_shape(*groups) || gv.size() != m)
     bad_arg("wrongSize", format("camera_groups must have m = %zu values (got %zu).", m, gv.size()));
-  for (std::size_t j = 0; j < m; ++j) {
-    if (gv[j] != std::floor(gv[j]) || gv[j] < -1 || gv[j] > static_cast<double>(m) - 1)
-      bad_arg("invalidArgument",
-              format("camera_groups(%zu) must be -1 (no group) or a group number in [0, %zu] "
-                     "(got %g).",
-                     j + 1, m - 1, gv[j]));
-    o.group.push_back(static_cast<int>(gv[j]));
-  }
+  for (std::size_t j = 0; j < m; ++j)
+    o.group.push_back(group_number(gv[j], format("camera_groups(%zu)", j + 1), static_cast<double>(m) - 1));
   const std::vector<double> &sv = matrix_values(*shared);
   if (!is_vector_shape(*shared) || sv.size() != cnp)
     bad_arg("wrongSize", format("shared_params must have cnp = %zu flags (got %zu).", cnp, sv.size()));

@@ -39,12 +39,14 @@ struct OptionField {
 
 // The held and shared camera parameters in sba_ext_options' layout: fixed has cnp flags
 // (every camera; fixed_per_camera false) or m*cnp (camera j's at j*cnp); group m numbers and
-// shared cnp flags, or both empty.
+// shared cnp flags, or both empty; param_group m*cnp numbers (camera j's parameter c at
+// j*cnp + c) or empty. Whether the groups keep the sharing rules is the library's to check.
 struct CameraOptions {
   std::vector<char> fixed;
   bool fixed_per_camera = false;
   std::vector<int> group;
   std::vector<char> shared;
+  std::vector<int> param_group;
 };
 
 // The fields of an options struct for m cameras of cnp parameters. Raises bad_arg

@@ -60,6 +60,11 @@ function varargout = sba(varargin)
 %             camera_groups  m group numbers, -1 for a camera in no group, else in [0, m-1]
 %             shared_params  cnp flags: the parameters the cameras of a group share, solved
 %                            as one unknown (say one focal length for one physical camera)
+%             param_groups   an m x cnp matrix of group numbers, row j for camera j-1:
+%                            cameras with equal numbers (not -1) in column c share parameter
+%                            c; -1 is a parameter of its own; the columns' numbers are
+%                            unrelated (a rig: the focal length by camera, the pose by
+%                            frame). Not with camera_groups and shared_params.
 %           A struct with none of these fields is problem data.
 %   extra1, extra2, ...  everything after those: problem data passed unchanged to every call
 %           of proj and projac

@@ -253,7 +253,7 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
           opts: Optional[Sequence[float]] = None, mcon: int = 0, ncon: int = 0,
           progress: Optional[Callable[[Progress], Any]] = None, covariance: bool = False,
           nccalib: int = 2, ncdist: int = 3, fixed_params: Any = None, camera_groups: Any = None,
-          shared_params: Any = None) -> Result:
+          shared_params: Any = None, param_groups: Any = None) -> Result:
     """Refines the cameras and points of a problem (motion and structure) with the library's
     camera model for it, as the eucsbademo and balsba programs do, and returns a
     :class:`Result`; the problem is left unchanged.
@@ -293,12 +293,23 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
         shares. A group's shared parameters start from its first camera's and are solved as
         one. Other values (strs, fractions, NaN, bools as group numbers) raise TypeError or
         ValueError naming the entry.
+    param_groups
+        Camera parameters shared parameter by parameter, for groupings that differ from one
+        parameter to the next (a rig: the focal length by physical camera, the pose by
+        frame): an (m, cnp) array of group numbers, ``param_groups[j, c]`` camera j's for
+        parameter c, -1 for a parameter of its own. Cameras whose numbers for a parameter
+        are equal (and not -1) share it as one unknown; the numbers of different parameters
+        are unrelated. Read as camera_groups' numbers are. Not with camera_groups and
+        shared_params (which mean ``param_groups[j, c] = camera_groups[j]`` where
+        ``shared_params[c]``, else -1); the library's refusals (that one, a shared parameter
+        held in only some of its cameras, a camera below mcon in a group) are ValueErrors
+        with its message.
     """
     if not isinstance(problem, Problem):
         raise TypeError("problem must be a pysba.Problem")
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,
                   covariance=covariance, fixed_params=fixed_params, camera_groups=camera_groups,
-                  shared_params=shared_params)
+                  shared_params=shared_params, param_groups=param_groups)
     if problem.model == "bal":
         report = _core.solve_bal(problem.cameras, problem.points, problem.camera_index,
                                  problem.point_index, problem.observations, problem.covariances, **kw)
@@ -329,7 +340,7 @@ def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, poi
            opts: Optional[Sequence[float]] = None, mcon: int = 0, ncon: int = 0,
            progress: Optional[Callable[[Progress], Any]] = None,
            covariance: bool = False, fixed_params: Any = None, camera_groups: Any = None,
-           shared_params: Any = None) -> Result:
+           shared_params: Any = None, param_groups: Any = None) -> Result:
     """Refines cameras (m, cnp) and points (n, pnp) under a camera model written in Python
     (sba_motstr_levmar_x): observation k is camera ``camera_index[k]``'s view of point
     ``point_index[k]``, measured as ``observations[k]`` (mnp values).
@@ -345,12 +356,12 @@ def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, poi
 
     An exception raised by a callback stops the solve and propagates, with the partial
     result as its ``result`` attribute. The other arguments are those of :func:`solve`
-    (fixed_params, camera_groups and shared_params included).
+    (fixed_params, camera_groups, shared_params and param_groups included).
     The callbacks are called from the calling thread, one at a time.
     """
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,
                   covariance=covariance, fixed_params=fixed_params, camera_groups=camera_groups,
-                  shared_params=shared_params)
+                  shared_params=shared_params, param_groups=param_groups)
     return _python_model("motstr", project, cameras, points, camera_index, point_index,
                          observations, jacobian, covariances, kw)
 
@@ -362,11 +373,12 @@ def mot(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_
         loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 100,
         opts: Optional[Sequence[float]] = None, mcon: int = 0,
         progress: Optional[Callable[[Progress], Any]] = None, fixed_params: Any = None,
-        camera_groups: Any = None, shared_params: Any = None) -> Result:
+        camera_groups: Any = None, shared_params: Any = None, param_groups: Any = None) -> Result:
     """As :func:`motstr`, refining the cameras only (sba_mot_levmar_x): the points are data.
     jacobian may return (A, None)."""
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, 0, progress,
-                  fixed_params=fixed_params, camera_groups=camera_groups, shared_params=shared_params)
+                  fixed_params=fixed_params, camera_groups=camera_groups, shared_params=shared_params,
+                  param_groups=param_groups)
     return _python_model("mot", project, cameras, points, camera_index, point_index,
                          observations, jacobian, covariances, kw)
 

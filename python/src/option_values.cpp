@@ -133,4 +133,40 @@ std::string entry_name(const std::string &what, const std::vector<long long> &sh
   return s + "]";
 }
 
+namespace {
+
+template <class T, class Rule>
+std::vector<T> entries(const std::vector<Value> &values, const std::string &what,
+                       const std::vector<long long> &shape, Rule rule) {
+  std::vector<T> out;
+  out.reserve(values.size());
+  for (size_t k = 0; k < values.size(); ++k)
+    out.push_back(rule(values[k], entry_name(what, shape, static_cast<long long>(k))));
+  return out;
+}
+
+}  // namespace
+
+std::vector<char> flag_values(const std::vector<Value> &values, const std::string &what,
+                              const std::vector<long long> &shape) {
+  return entries<char>(values, what, shape, flag_value);
+}
+
+std::vector<int> group_numbers(const std::vector<Value> &values, const std::string &what,
+                               const std::vector<long long> &shape) {
+  return entries<int>(values, what, shape, group_number);
+}
+
+std::string shape_text(const std::vector<long long> &shape) {
+  std::string t = "(";
+  for (size_t d = 0; d < shape.size(); ++d) t += (d ? ", " : "") + std::to_string(shape[d]);
+  return t + (shape.size() == 1 ? ",)" : ")");
+}
+
+void require_shape(const std::string &what, const std::vector<long long> &shape,
+                   const std::vector<long long> &want) {
+  if (shape != want)
+    throw OptionError{false, what + " must have shape " + shape_text(want) + ", got " + shape_text(shape)};
+}
+
 }  // namespace pysba

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // What pysba takes as camera parameter flags (fixed_params, shared_params) and as group
-// numbers (camera_groups), one entry at a time and without Python: session.cpp reads the
-// caller's objects into Values, and fuzz/ calls the same rules directly.
+// numbers (camera_groups, param_groups), without Python: session.cpp reads the caller's
+// objects into Values, and fuzz/ calls the same rules directly.
 //
 // A flag is a bool, or an integer that is 0 or 1. A group number is an integer, -1 (no
 // group) or in [0, INT_MAX], given as an integer or as a float that holds one. Nothing is
@@ -50,6 +50,21 @@ int group_number(const Value &v, const std::string &where);
 
 // "what[i, j]": the entry at flat index k (C order) of an array of the given shape.
 std::string entry_name(const std::string &what, const std::vector<long long> &shape, long long k);
+
+// The entries of the array `what` (values in C order, of the given shape), each read by
+// flag_value or group_number under its entry_name. Throws OptionError at the first bad one.
+std::vector<char> flag_values(const std::vector<Value> &values, const std::string &what,
+                              const std::vector<long long> &shape);
+std::vector<int> group_numbers(const std::vector<Value> &values, const std::string &what,
+                               const std::vector<long long> &shape);
+
+// A shape as Python shows the tuple: (), (7,), (4, 7).
+std::string shape_text(const std::vector<long long> &shape);
+
+// Throws OptionError (a ValueError) unless shape is want: "what must have shape (4, 7), got
+// (4, 6)".
+void require_shape(const std::string &what, const std::vector<long long> &shape,
+                   const std::vector<long long> &want);
 
 }  // namespace pysba
 

@@ -150,42 +150,40 @@ std::vector<Value> option_values(py::handle obj, const char *name, const char *o
   return out;
 }
 
-// rule(value, where) for each of values, an OptionError raised as the TypeError or ValueError
-// it stands for.
-template <class T, class Rule>
-std::vector<T> checked(const std::vector<Value> &values, const char *name,
-                       const std::vector<long long> &shape, Rule rule) {
-  std::vector<T> out;
-  out.reserve(values.size());
+// f(), an OptionError raised as the TypeError or ValueError it stands for.
+template <class F>
+auto python_errors(F f) -> decltype(f()) {
   try {
-    for (size_t k = 0; k < values.size(); ++k)
-      out.push_back(rule(values[k], entry_name(name, shape, static_cast<long long>(k))));
+    return f();
   } catch (const OptionError &e) {
     if (e.wrong_type) throw py::type_error(e.message);
     throw py::value_error(e.message);
   }
-  return out;
 }
 
 // The flags named name (fixed_params, shared_params): bools, or integers that are 0 or 1.
 std::vector<char> flags(py::handle v, const char *name, std::vector<long long> *shape) {
   const std::vector<Value> values = option_values(v, name, "bools or integers", shape);
   if (shape->empty()) throw Keywords::wrong_type(name, "an array of bools or integers", v);
-  return checked<char>(values, name, *shape, flag_value);
+  return python_errors([&] { return flag_values(values, name, *shape); });
+}
+
+// The group numbers named name (camera_groups, param_groups), an array of `dims` dimensions.
+std::vector<int> groups(py::handle v, const char *name, size_t dims, std::vector<long long> *shape) {
+  const std::vector<Value> values = option_values(v, name, "integers", shape);
+  if (shape->size() != dims)
+    throw Keywords::wrong_type(name, dims == 1 ? "a 1-D array of ints" : "a 2-D array of ints", v);
+  return python_errors([&] { return group_numbers(values, name, *shape); });
 }
 
 }  // namespace
 
 void check_camera_params(const SolveOptions &o, int m, int cnp) {
-  const auto shape = [](const std::vector<py::ssize_t> &s) {
-    std::string t = "(";
-    for (size_t q = 0; q < s.size(); ++q) t += (q ? ", " : "") + std::to_string(s[q]);
-    return t + (s.size() == 1 ? ",)" : ")");
-  };
-  const std::string per = std::to_string(cnp), all = "(" + std::to_string(m) + ", " + per + ")";
-  if (o.has_fixed && !(o.fixed_shape == std::vector<py::ssize_t>{cnp} ||
-                       o.fixed_shape == std::vector<py::ssize_t>{m, cnp}))
-    throw py::value_error("fixed_params must have shape (" + per + ",) or " + all + ", got " + shape(o.fixed_shape));
+  const std::string per = std::to_string(cnp);
+  const std::vector<long long> all{m, cnp};
+  if (o.has_fixed && o.fixed_shape != std::vector<long long>{cnp} && o.fixed_shape != all)
+    throw py::value_error("fixed_params must have shape (" + per + ",) or " + shape_text(all) + ", got " +
+                          shape_text(o.fixed_shape));
   if (o.has_shared && o.shared.size() != size_t(cnp))
     throw py::value_error("shared_params must hold " + per + " flags, got " + std::to_string(o.shared.size()));
   if (o.has_groups && o.groups.size() != size_t(m))
@@ -193,6 +191,7 @@ void check_camera_params(const SolveOptions &o, int m, int cnp) {
                           std::to_string(o.groups.size()));
   if (o.has_groups != o.has_shared)
     throw py::value_error("camera_groups and shared_params go together: give both or neither");
+  if (o.has_param_groups) python_errors([&] { require_shape("param_groups", o.param_groups_shape, all); });
 }
 
 SolveOptions solve_options(const py::dict &kw) {
@@ -227,10 +226,8 @@ SolveOptions solve_options(const py::dict &kw) {
                  "); using chol";
   }
   if (const py::handle v = k.get("fixed_params"); !v.is_none()) {
-    std::vector<long long> shape;
-    o.fixed = flags(v, "fixed_params", &shape);
+    o.fixed = flags(v, "fixed_params", &o.fixed_shape);
     o.has_fixed = true;
-    o.fixed_shape.assign(shape.begin(), shape.end());
   }
   if (const py::handle v = k.get("shared_params"); !v.is_none()) {
     std::vector<long long> shape;
@@ -239,10 +236,12 @@ SolveOptions solve_options(const py::dict &kw) {
   }
   if (const py::handle v = k.get("camera_groups"); !v.is_none()) {
     std::vector<long long> shape;
-    const std::vector<Value> values = option_values(v, "camera_groups", "integers", &shape);
-    if (shape.size() != 1) throw Keywords::wrong_type("camera_groups", "a 1-D array of ints", v);
-    o.groups = checked<int>(values, "camera_groups", shape, group_number);
+    o.groups = groups(v, "camera_groups", 1, &shape);
     o.has_groups = true;
+  }
+  if (const py::handle v = k.get("param_groups"); !v.is_none()) {
+    o.param_groups = groups(v, "param_groups", 2, &o.param_groups_shape);
+    o.has_param_groups = true;
   }
   o.strategy = k.text("strategy");
   o.loss = k.text("loss");
@@ -288,6 +287,8 @@ const sba_ext_options *Session::ext(bool parallel) {
     ext_.cam_group = options_.groups.data();
     ext_.cam_shared = options_.shared.data();
   }
+  // In C order, row j is camera j's: the library's layout (camera j's parameter c at j*cnp + c).
+  if (options_.has_param_groups) ext_.cam_param_group = options_.param_groups.data();
   sba_ext_result_init(&result_);
   ext_.result = &result_;
   return &ext_;

@@ -43,12 +43,14 @@ struct SolveOptions {
   bool covariance = false;  // also the covariance blocks of every camera and point
   int nccalib = 2, ncdist = 3;  // eucsbademo cameras: trailing intrinsics and distortion held fixed
   // Camera parameters held (fixed_params: cnp flags, or m x cnp) and shared by groups
-  // (camera_groups: m group numbers, -1 for none; shared_params: cnp flags), as given: their
-  // sizes are checked against the cameras by check_camera_params.
-  bool has_fixed = false, has_groups = false, has_shared = false;
+  // (camera_groups: m group numbers, -1 for none; shared_params: cnp flags) or parameter by
+  // parameter (param_groups: m x cnp group numbers, in C order as the library takes them), as
+  // given: their sizes are checked against the cameras by check_camera_params, the sharing
+  // rules by the library.
+  bool has_fixed = false, has_groups = false, has_shared = false, has_param_groups = false;
   std::vector<char> fixed, shared;
-  std::vector<py::ssize_t> fixed_shape;
-  std::vector<int> groups;
+  std::vector<long long> fixed_shape, param_groups_shape;
+  std::vector<int> groups, param_groups;
 };
 
 // ValueError unless the camera parameter options of o fit m cameras of cnp parameters.

@@ -1,19 +1,29 @@
-function s = sbatest_focal_scene(focals)
+function s = sbatest_focal_scene(focals, rig)
 % SBATEST_FOCAL_SCENE  A synthetic scene for SBATEST_FOCAL_PROJ: numel(focals) cameras on an
 % arc 8 units from 40 points in a 4 x 4 x 2 box, every point seen by every camera, the
 % projections with the true focal lengths FOCALS plus deterministic noise of 0.3 px at most.
 % p0 starts every camera at 1.02 times its focal length, the points 0.01 off.
+% SBATEST_FOCAL_SCENE(FOCALS, true): a stereo rig instead, cameras 2k-1 and 2k taken at one
+% place of the arc, turned alike, the second 0.5 units to the side of the first.
   m = numel(focals);
   n = 40;
   k = (1:n)';
   pts = [2 * sin(1.3 * k), 2 * cos(0.7 * k), sin(2.1 * k)];
   cams = zeros(m, 7);
   for j = 1:m
-    a = 0.25 * (j - (m + 1) / 2);               % around the y axis, towards the box
-    w = [0.02 * sin(j), a, 0.01 * cos(j)];
-    C = [8 * sin(a), 0.2 * j, -8 * cos(a)];     % the camera centre
+    k = j;                                      % the place on the arc
+    if nargin > 1 && rig
+      k = 2 * ceil(j / 2) - 1;
+    end
+    a = 0.25 * (k - (m + 1) / 2);               % around the y axis, towards the box
+    w = [0.02 * sin(k), a, 0.01 * cos(k)];
+    C = [8 * sin(a), 0.2 * k, -8 * cos(a)];     % the camera centre
     R = sbatest_rotation(w);
-    cams(j, :) = [w, -(R * C')', focals(j)];
+    t = -(R * C')';
+    if k ~= j
+      t(1) = t(1) - 0.5;
+    end
+    cams(j, :) = [w, t, focals(j)];
   end
   x = zeros(1, 2 * n * m);
   for i = 1:n

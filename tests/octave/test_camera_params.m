@@ -55,7 +55,8 @@ function test_camera_params()
   s2 = sbatest_focal_scene([800 800 800 900 900 850]);
   two = one;
   two.camera_groups = [0 0 0 3 3 -1];
-  [ret, p] = run_scene(s2, 'motstr', two);
+  [ret, p, info] = run_scene(s2, 'motstr', two);
+  param_groups_as_camera_groups(s2, two, ret, p, info);
   printf('two groups: %.6f, %.6f and %.6f alone (truths 800, 900, 850)\n', p(f(1)), p(f(4)), p(f(6)));
   sbatest_assert(ret > 0 && all(p(f(1:3)) == p(f(1))) && all(p(f(4:5)) == p(f(4))), ...
                  'two groups: the focal lengths within a group differ');
@@ -105,6 +106,94 @@ function test_camera_params()
   base{4} = 1;                                % mcon 1: camera 0 cannot be in a group
   sbatest_expect_error([base, {'motstr', one}], 'sba:invalidProblem', 'camera 0 is below mcon');
   printf('%d bad structs refused\n', size(cases, 1) + 2);
+  param_groups_of_a_rig();
+  bad_param_groups(s);
+end
+
+% param_groups (m x cnp, row j camera j-1's numbers) holding what the struct `groups` says
+% with camera_groups and shared_params, of another numeric class: the same solve, bit for bit.
+% Rows and columns matter: the groups differ from camera to camera, not the parameters.
+function param_groups_as_camera_groups(s, groups, ret, p, info)
+  pg = -ones(s.m, s.cnp);
+  pg(:, logical(groups.shared_params)) = repmat(groups.camera_groups', 1, nnz(groups.shared_params));
+  [ret1, p1, info1] = run_scene(s, 'motstr', struct('fixed_params', groups.fixed_params, ...
+                                                      'param_groups', int32(pg)));
+  sbatest_assert(ret1 == ret && isequal(p1, p) && isequal(info1, info), ...
+                 'param_groups as camera_groups: %d iterations (%d), error %.9g (%.9g)', ret1, ret, ...
+                 info1(2), info(2));
+end
+
+% A stereo rig over three places: the rotation shared by the two cameras of a place, the focal
+% length by all six, the translations their own.
+function param_groups_of_a_rig()
+  s = sbatest_focal_scene(800 * ones(1, 6), true);
+  f = 7 * (0:s.m - 1) + 7;
+  pg = -ones(s.m, 7);
+  pg(:, 1:3) = repmat(floor((0:s.m - 1)' / 2), 1, 3);
+  pg(:, 7) = 0;
+  [ret, p, info] = run_scene(s, 'motstr', struct('param_groups', pg));
+  a = reshape(p(1:7 * s.m), 7, s.m);              % column j: camera j-1's parameters
+  printf('a rig: focal length %.6f (truth 800, start 816), %d iterations, error %.9g\n', ...
+         p(f(1)), ret, info(2));
+  sbatest_assert(ret > 0 && all(p(f) == p(f(1))) && isequal(a(1:3, 1:2:end), a(1:3, 2:2:end)), ...
+                 'a rig: the copies of a shared parameter differ');
+  sbatest_assert(numel(unique(a(1, 1:2:end))) == 3 && numel(unique(a(4, :))) == 6, ...
+                 'a rig: parameters shared that were not to be');
+  sbatest_assert(abs(p(f(1)) - 800.102689) < 1e-4 && abs(info(2) - 20.9879443) < 1e-6 * 21, ...
+                 'a rig: focal length %.6f, error %.9g', p(f(1)), info(2));
+  % One grouping for both (every camera sharing the rotation and the focal length) turns the
+  % three places alike: a far worse fit.
+  [ret1, ~, info1] = run_scene(s, 'motstr', struct('camera_groups', zeros(1, s.m), ...
+                                                    'shared_params', [1 1 1 0 0 0 1]));
+  printf('a rig as one group: error %.9g\n', info1(2));
+  sbatest_assert(ret1 > 0 && abs(info1(2) - 215304.388) < 1e-6 * 215304, ...
+                 'a rig as one group: error %.9g', info1(2));
+end
+
+% Bad param_groups: an error naming the field, or the solver's refusal.
+function bad_param_groups(s)
+  pg = -ones(s.m, 7);
+  pg(:, 7) = 0;                               % one focal length
+  pairs = pg;
+  pairs(:, 1:3) = repmat(floor((0:s.m - 1)' / 2), 1, 3);
+  range = 'must be -1 \(no group\) or a group number in \[0, 2147483647\]';
+  cases = {
+    struct('param_groups', zeros(6, 6)), 'sba:wrongSize', ...
+      'param_groups must be m x cnp = 6 x 7 \(got 6 x 6\)\.$'
+    struct('param_groups', pg'), 'sba:wrongSize', 'param_groups must be m x cnp = 6 x 7 \(got 7 x 6\)\.$'
+    struct('param_groups', with(pg, 2, 3, 0.5)), 'sba:invalidArgument', ...
+      ['param_groups\(2,3\) ', range, ' \(got 0.5\)\.$']
+    struct('param_groups', with(pg, 6, 1, -2)), 'sba:invalidArgument', ...
+      ['param_groups\(6,1\) ', range, ' \(got -2\)\.$']
+    struct('param_groups', with(pg, 1, 7, 2^31)), 'sba:invalidArgument', ...
+      ['param_groups\(1,7\) ', range, ' \(got 2147483648\)\.$']
+    struct('param_groups', with(pg, 3, 2, NaN)), 'sba:invalidArgument', 'param_groups\(9\) is not finite\.$'
+    struct('param_groups', {{pg}}), 'sba:invalidArgument', ...
+      'param_groups must be a dense real or logical matrix'
+    setfield(struct('param_groups', pg), 'camera_group', 1), 'sba:invalidArgument', ...
+      ['unknown field ''camera_group'' \(expected fixed_params, camera_groups, shared_params or ', ...
+       'param_groups\)\.$']
+    struct('param_groups', pg, 'camera_groups', zeros(1, 6), 'shared_params', [0 0 0 0 0 0 1]), ...
+      'sba:invalidProblem', 'cam_param_group and cam_group/cam_shared are given together: give one of the two'
+    struct('param_groups', pairs, 'fixed_params', with(false(6, 7), 1, 1, true)), 'sba:invalidProblem', ...
+      ['parameter 0 is shared by cameras 0 and 1 \(cam_param_group 0\) but held \(cam_fixed\) in ', ...
+       'only one of them']
+  };
+  base = scene_args(s);
+  for c = 1:size(cases, 1)
+    sbatest_expect_error([base, {'motstr', cases{c, 1}}], cases{c, 2}, cases{c, 3});
+  end
+  sbatest_expect_error([base, {'str', struct('param_groups', pg)}], 'sba:invalidArgument', ...
+                       'param_groups apply to cameras, which reftype ''str'' does not refine');
+  base{4} = 1;                                % mcon 1: camera 0 shares nothing
+  sbatest_expect_error([base, {'mot', struct('param_groups', pg)}], 'sba:invalidProblem', ...
+                       ['cam_param_group\[6\] = 0: camera 0 is below mcon = 1 \(held whole\) and ', ...
+                        'shares nothing']);
+  printf('%d bad param_groups refused\n', size(cases, 1) + 2);
+end
+
+function a = with(a, i, j, v)
+  a(i, j) = v;
 end
 
 function varargout = run_scene(s, varargin)

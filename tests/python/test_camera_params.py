@@ -279,3 +279,152 @@ def test_random_option_entries_are_judged_by_the_rules():
             assert got == want, kw
             refused += 1
     assert taken > 50 and refused > 50
+
+
+# param_groups: camera j's group number for each of its parameters, groupings that differ
+# from one parameter to the next.
+
+def as_param_groups(groups, shared):
+    """camera_groups and shared_params written as param_groups."""
+    return np.array([[g if s else -1 for s in shared] for g in groups])
+
+
+def test_param_groups_as_camera_groups_and_shared_params_give_the_same_bits():
+    cams, pts, ci, pi, obs = scene()
+    args = (project, cams, pts, ci, pi, obs)
+    groups = [0, 0, 1, 1, -1, 5, 5, 5]
+    held = np.zeros((8, 7), bool)
+    held[0, :6] = True
+    for run in (pysba.motstr, pysba.mot):
+        one = run(*args, fixed_params=held, camera_groups=groups, shared_params=SHARED_F)
+        per = run(*args, fixed_params=held, param_groups=as_param_groups(groups, SHARED_F))
+        assert np.array_equal(per.cameras, one.cameras) and np.array_equal(per.points, one.points)
+        assert np.array_equal(per.info, one.info)
+        assert per.cameras[5, 6] == per.cameras[7, 6] and per.cameras[4, 6] != per.cameras[5, 6]
+
+
+def test_solve_takes_param_groups():
+    # A BAL problem (rotation, translation, f, k1, k2): six images of one lens.
+    rng = np.random.default_rng(7)
+    m, n = 6, 40
+    cams = np.zeros((m, 9))
+    cams[:, 3], cams[:, 5], cams[:, 6] = np.linspace(-2, 2, m), -10, 500
+    pts = rng.uniform(-1, 1, (n, 3))
+    ci, pi = np.tile(np.arange(m), n), np.repeat(np.arange(n), m)
+    P = pts[pi] + cams[ci, 3:6]
+    obs = 500 * -P[:, :2] / P[:, 2:3] + rng.normal(0, 0.5, (len(ci), 2))
+    cams[:, 3:6] += rng.normal(0, 1e-3, (m, 3))
+    cams[:, 6] = 510
+    problem = pysba.Problem("bal", cams, pts, ci, pi, obs)
+    lens = [0] * 6 + [1] * 3
+    one = pysba.solve(problem, camera_groups=[0] * m, shared_params=lens)
+    per = pysba.solve(problem, param_groups=as_param_groups([0] * m, lens))
+    assert np.array_equal(per.cameras, one.cameras) and np.array_equal(per.points, one.points)
+    assert np.all(per.cameras[:, 6:] == per.cameras[0, 6:])
+
+
+def stereo_rig(frames=4, n=60, seed=5):
+    """A stereo rig (two cameras of one lens side by side, looking the same way) over
+    `frames` positions: images 2k and 2k + 1 are frame k's, with one rotation, and every image
+    has the focal length TRUE_F. The start: every image's rotation and translation moved, the
+    focal lengths 2% long."""
+    rng = np.random.default_rng(seed)
+    pts = rng.uniform(-1, 1, (n, 3))
+    m = 2 * frames
+    cams = np.zeros((m, 7))
+    for k in range(frames):
+        a = 0.8 * (k / (frames - 1) - 0.5)
+        r = np.array([0.05 * np.sin(k), a, 0.0])
+        C = np.array([-4 * np.sin(a), 0.1 * k, -4 * np.cos(a)])
+        t = -rotation(r) @ C
+        cams[2 * k] = np.concatenate([r, t, [TRUE_F]])
+        cams[2 * k + 1] = np.concatenate([r, t - [0.5, 0.0, 0.0], [TRUE_F]])
+    ci, pi = np.tile(np.arange(m), n), np.repeat(np.arange(n), m)
+    obs = project(cams, pts, ci, pi) + rng.normal(0, 0.5, (len(ci), 2))
+    start = cams.copy()
+    start[:, :3] += rng.normal(0, 0.01, (m, 3))
+    start[:, 3:6] += rng.normal(0, 0.02, (m, 3))
+    start[:, 6] = 1.02 * TRUE_F
+    return start, pts + rng.normal(0, 0.01, pts.shape), ci, pi, obs
+
+
+def test_a_stereo_rig_shares_the_rotation_by_frame_and_the_focal_length_by_all():
+    cams, pts, ci, pi, obs = stereo_rig()
+    args = (project, cams, pts, ci, pi, obs)
+    groups = np.full((8, 7), -1)
+    groups[:, :3] = np.arange(8)[:, None] // 2  # the rotation: frame k's two images
+    groups[:, 6] = 0                            # the focal length: every image
+    rig = pysba.motstr(*args, param_groups=groups)
+    assert np.array_equal(rig.cameras[0::2, :3], rig.cameras[1::2, :3])
+    assert np.all(rig.cameras[:, 6] == rig.cameras[0, 6])
+    assert len(np.unique(rig.cameras[0::2, 0])) == 4 and len(np.unique(rig.cameras[:, 3])) == 8
+    assert rig.cameras[0, 6] == pytest.approx(799.08168, abs=1e-4)  # 816 at the start
+    assert rig.info[1] == pytest.approx(184.451629, rel=1e-6)
+    # One grouping for both (camera_groups: the rotation and the focal length shared by every
+    # image) makes the four frames look one way: a far worse fit.
+    one = pysba.motstr(*args, camera_groups=[0] * 8, shared_params=[True] * 3 + [False] * 3 + [True])
+    assert one.info[1] == pytest.approx(208427.927, rel=1e-6)
+    # Nothing shared: each image on its own fits the noise a little closer, the rig apart.
+    own = pysba.motstr(*args)
+    assert not np.array_equal(own.cameras[0::2, :3], own.cameras[1::2, :3])
+    assert own.info[1] < rig.info[1] < one.info[1]
+
+
+@pytest.mark.parametrize("groups, error, message", [
+    ([0] * 7, TypeError, "param_groups must be a 2-D array of ints, got list"),
+    ("abc", TypeError, "param_groups must be a 2-D array of ints, got str"),
+    (np.zeros((4, 7, 1), int), TypeError, "param_groups must be a 2-D array of ints, got numpy.ndarray"),
+    (np.array([["0"] * 7] * 4), TypeError, "param_groups must be an array of integers, got an array of <U1"),
+    (np.zeros((4, 7), object), TypeError,
+     "param_groups must be an array of integers, got an array of object"),
+    (np.ones((4, 7), bool), TypeError, "param_groups[0, 0] must be an integer, got True"),
+    ([[0] * 7] * 3 + [[0] * 6 + [None]], TypeError, "param_groups[3, 6] must be an integer, got None"),
+    ([[0] * 7] * 3 + [[0] * 6 + [0.5]], ValueError, "param_groups[3, 6] must be an integer, got 0.5"),
+    ([[0] * 7, [0, 0, -2, 0, 0, 0, 0]] + [[0] * 7] * 2, ValueError,
+     "param_groups[1, 2] must be -1 or a group number in [0, 2147483647], got -2"),
+    (np.full((4, 7), 2**31, np.int64), ValueError,
+     "param_groups[0, 0] must be -1 or a group number in [0, 2147483647], got 2147483648"),
+    (np.zeros((4, 6), int), ValueError, "param_groups must have shape (4, 7), got (4, 6)"),
+    (np.zeros((7, 4), int), ValueError, "param_groups must have shape (4, 7), got (7, 4)"),
+    ([[0] * 7] * 3, ValueError, "param_groups must have shape (4, 7), got (3, 7)"),
+])
+def test_param_groups_of_another_type_or_shape_are_refused(groups, error, message):
+    cams, pts, ci, pi, obs = scene(m=4, n=20)
+    with pytest.raises(error) as e:
+        pysba.motstr(project, cams, pts, ci, pi, obs, param_groups=groups)
+    assert str(e.value) == message
+    assert type(e.value) is error
+
+
+def test_param_groups_of_any_integer_dtype_are_taken():
+    cams, pts, ci, pi, obs = scene(m=4, n=20)
+    args = (project, cams, pts, ci, pi, obs)
+    groups = as_param_groups([0, 0, 1, -1], SHARED_F)
+    ref = pysba.motstr(*args, param_groups=groups)
+    assert ref.cameras[0, 6] == ref.cameras[1, 6] != ref.cameras[2, 6]
+    for given in (groups.astype(np.int8), groups.astype(np.float32), groups.tolist(),
+                  [[np.int16(g) if c else float(g) for c, g in enumerate(row)] for row in groups]):
+        r = pysba.motstr(*args, param_groups=given)
+        assert np.array_equal(r.cameras, ref.cameras) and np.array_equal(r.points, ref.points)
+    unsigned = pysba.motstr(*args, param_groups=np.where(groups < 0, 7, groups).astype(np.uint64))
+    assert unsigned.cameras[0, 6] == unsigned.cameras[1, 6] != unsigned.cameras[2, 6]
+
+
+def test_the_library_refusals_of_param_groups_are_value_errors_with_its_message():
+    cams, pts, ci, pi, obs = scene(m=4, n=20)
+    args = (project, cams, pts, ci, pi, obs)
+    groups = as_param_groups([0, 0, 1, 1], [True] * 3 + [False] * 3 + [True])
+    with pytest.raises(ValueError) as e:
+        pysba.motstr(*args, param_groups=groups, camera_groups=[0] * 4, shared_params=SHARED_F)
+    assert str(e.value) == ("sba_motstr_levmar_x_vis: cam_param_group and cam_group/cam_shared are given "
+                            "together: give one of the two")
+    held = np.zeros((4, 7), bool)
+    held[1, 2] = True  # in one of the two images that share it
+    with pytest.raises(ValueError) as e:
+        pysba.mot(*args, param_groups=groups, fixed_params=held)
+    assert str(e.value) == ("sba_mot_levmar_x_vis: parameter 2 is shared by cameras 0 and 1 "
+                            "(cam_param_group 0) but held (cam_fixed) in only one of them")
+    with pytest.raises(ValueError) as e:
+        pysba.motstr(*args, param_groups=groups, mcon=1)
+    assert str(e.value) == ("sba_motstr_levmar_x_vis: cam_param_group[0] = 0: camera 0 is below mcon = 1 "
+                            "(held whole) and shares nothing")
