@@ -239,6 +239,19 @@ void distort(int model, const double *extra, double u, double v, Distortion *out
 // The models that are functions of the camera-frame point itself (colmap_camera.h): (ud, vd)
 // and J = d(ud, vd)/dXc (2x3 row-major) in place of Distortion's D.
 
+// (ud, vd) = q (X, Y), with dq = dq/dXc and dqe[k] = dq/d extra_k (ne of them).
+void scaled_point(const double *X, double q, const double dq[3], const double *dqe, int ne, Distortion *d,
+                  double *J) {
+  d->ud = q * X[0];
+  d->vd = q * X[1];
+  for (int r = 0; r < 2; ++r)
+    for (int col = 0; col < 3; ++col) J[r * 3 + col] = X[r] * dq[col] + (r == col ? q : 0.0);
+  for (int k = 0; k < ne; ++k) {
+    d->Eu[k] = X[0] * dqe[k];
+    d->Ev[k] = X[1] * dqe[k];
+  }
+}
+
 // SIMPLE_DIVISION, DIVISION: (ud, vd) = q (X, Y), q = 2 / (Z + S), S = sqrt(Z^2 - 4 k rho). This
 // form of the root has no cancellation in front of the camera, and is the pinhole at k = 0.
 void division(double k, const double *X, Distortion *d, double *J) {
@@ -248,12 +261,7 @@ void division(double k, const double *X, Distortion *d, double *J) {
   const double c = -q * q / 2;  // dq / d(Z + S)
   const double dq[3] = {c * -4 * k * X[0] / S, c * -4 * k * X[1] / S, c * (1 + X[2] / S)};
   const double dqk = c * -2 * rho / S;
-  d->ud = q * X[0];
-  d->vd = q * X[1];
-  for (int r = 0; r < 2; ++r)
-    for (int col = 0; col < 3; ++col) J[r * 3 + col] = X[r] * dq[col] + (r == col ? q : 0.0);
-  d->Eu[0] = X[0] * dqk;
-  d->Ev[0] = X[1] * dqk;
+  scaled_point(X, q, dq, &dqk, 1, d, J);
 }
 
 // EUCM: (ud, vd) = q (X, Y), q = 1 / (alpha e + (1 - alpha) Z), e = sqrt(beta rho + Z^2).
@@ -265,15 +273,8 @@ void eucm(const double *extra, const double *X, Distortion *d, double *J) {
   const double c = -q * q;  // dq / d(the denominator)
   const double dq[3] = {c * alpha * beta * X[0] / e, c * alpha * beta * X[1] / e,
                         c * (alpha * X[2] / e + 1 - alpha)};
-  const double dqa = c * (e - X[2]), dqb = c * alpha * rho / (2 * e);
-  d->ud = q * X[0];
-  d->vd = q * X[1];
-  for (int r = 0; r < 2; ++r)
-    for (int col = 0; col < 3; ++col) J[r * 3 + col] = X[r] * dq[col] + (r == col ? q : 0.0);
-  d->Eu[0] = X[0] * dqa;
-  d->Ev[0] = X[1] * dqa;
-  d->Eu[1] = X[0] * dqb;
-  d->Ev[1] = X[1] * dqb;
+  const double dqe[2] = {c * (e - X[2]), c * alpha * rho / (2 * e)};  // in alpha, beta
+  scaled_point(X, q, dq, dqe, 2, d, J);
 }
 
 // EQUIRECTANGULAR: (ud, vd) = (longitude, latitude) = (atan2(X, Z), atan2(Y, sqrt(X^2 + Z^2))).
