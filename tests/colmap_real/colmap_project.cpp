@@ -6,6 +6,7 @@
 //   x y
 // of the pixels, with 17 significant digits ("nan" where the model's formula has no value).
 // A line it cannot read ends the run with exit status 2 and a message naming the line.
+#include <cstddef>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
