@@ -632,13 +632,14 @@ TEST(Sbarefine, CommandLineErrors) {
   r = run(dir + "/none");
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.err, dir + "/none: no COLMAP model (cameras.txt or cameras.bin)\n");
-  write_file(dir + "/cameras.txt", "1 RAD_TAN_THIN_PRISM_FISHEYE 640 480 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16\n");
+  write_file(dir + "/cameras.txt", "1 FISHEYE 640 480 300 320 240\n");
   r = run(dir);
   EXPECT_EQ(r.status, 1);
-  EXPECT_EQ(r.err, dir + "/cameras.txt:1: camera model RAD_TAN_THIN_PRISM_FISHEYE is not supported: sbarefine "
-                         "expresses "
-                         "SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE, FULL_OPENCV, FOV, SIMPLE_RADIAL_FISHEYE, "
-       "RADIAL_FISHEYE and THIN_PRISM_FISHEYE" "\n");
+  EXPECT_EQ(r.err, dir + "/cameras.txt:1: FISHEYE has 4 parameters, found 3\n");
+  write_file(dir + "/cameras.txt", "1 KANNALA_BRANDT 640 480 300 320 240\n");
+  r = run(dir);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/cameras.txt:1: unknown camera model 'KANNALA_BRANDT'\n");
   // A focal length of 0 is named where it is read, not met in the solve as "p[3] is not finite".
   write_file(dir + "/cameras.txt", "1 PINHOLE 640 480 0 500 320 240\n");
   write_file(dir + "/images.txt", "1 1 0 0 0 0 0 5 1 a.png\n320 240 1\n2 1 0 0 0 1 0 5 1 b.png\n300 240 1\n");
