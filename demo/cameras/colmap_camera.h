@@ -34,7 +34,7 @@
 // series near 0: the models are smooth at r = 0 (and FOV at omega = 0), and so are the values
 // and derivatives here, with no division by r.
 //
-// Three models are functions of the point itself rather than of (u, v), as COLMAP evaluates
+// Four models are functions of the point itself rather than of (u, v), as COLMAP evaluates
 // them: they give the same pixels for X_c and s X_c for any s > 0, but a point behind the
 // camera (Z < 0) is not mirrored onto one in front. With rho = X^2 + Y^2:
 //   SIMPLE_DIVISION, DIVISION k   Fitzgibbon's division model, undistorted = distorted /
@@ -44,12 +44,14 @@
 //   EUCM alpha beta           the enhanced unified camera model (Khomenko et al.):
 //                             u_d = X / (alpha d + (1 - alpha) Z), d = sqrt(beta rho + Z^2)
 //   EQUIRECTANGULAR w h       a panorama w by h pixels: x = w/2 + w/(2 pi) atan2(X, Z),
-//                             y = h/2 + h/pi atan2(Y, sqrt(X^2 + Z^2)). w and h are the image's
-//                             size, not parameters of the lens: COLMAP never refines them.
+//                             y = h/2 + h/pi atan2(Y, sqrt(X^2 + Z^2)). w and h are the
+//                             panorama's size, not parameters of a lens: COLMAP never refines
+//                             them.
 // Where a formula has no value, the projection is not finite, as COLMAP's is: DIVISION with
-// Z^2 < 4 k rho (k > 0, a ray outside the lens's field of view). No model checks that the point
-// is in front of the camera, nor EUCM's region of validity: the pixels are the formula's
-// wherever it has a value, as COLMAP's projection without its cheirality check gives them.
+// Z^2 < 4 k rho (k > 0: a ray farther off the axis than the model reaches). No model checks
+// that the point is in front of the camera, nor EUCM's region of validity: the pixels are the
+// formula's wherever it has a value, as COLMAP's projection without its cheirality check gives
+// them.
 #ifndef SBA_DEMO_COLMAP_CAMERA_H
 #define SBA_DEMO_COLMAP_CAMERA_H
 
