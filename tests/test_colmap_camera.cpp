@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // COLMAP's camera models (demo/cameras/colmap_camera.h): projections against numbers worked
-// out by hand from the documented formulas, analytic derivatives against central differences
-// (r = 0 and FOV's omega = 0 included), and the sba camera model's pose part and callbacks.
+// out by hand from the documented formulas and against COLMAP's own (pycolmap's), analytic
+// derivatives against central differences (r = 0 and FOV's omega = 0 included), and the sba
+// camera model's pose part and callbacks.
 #include "cameras/colmap_camera.h"
 
 #include <gtest/gtest.h>
@@ -31,6 +32,15 @@ std::vector<double> sample_params(int model) {
     case cc::kRadialFisheye: return {300, 320, 240, 0.05, -0.01};
     case cc::kThinPrismFisheye:
       return {300, 305, 320, 240, 0.05, -0.01, 0.001, -0.0015, 0.002, -0.0005, 0.0007, -0.0004};
+    case cc::kRadTanThinPrismFisheye:
+      return {300,   305,     320,   240,     0.05,    -0.01,  0.002,  -0.0005,
+              1e-4,  -2e-5,   0.001, -0.0015, 0.0007,  -0.0004, 0.0003, 0.0002};
+    case cc::kSimpleDivision: return {500, 320, 240, -0.1};
+    case cc::kDivision: return {500, 510, 320, 240, 0.05};
+    case cc::kSimpleFisheye: return {300, 320, 240};
+    case cc::kFisheye: return {300, 310, 320, 240};
+    case cc::kEucm: return {400, 410, 320, 240, 0.6, 1.1};
+    case cc::kEquirectangular: return {1000, 500};
   }
   return {};
 }
@@ -78,21 +88,27 @@ void expect_derivatives(int model, const std::vector<double> &params, const doub
 }  // namespace
 
 TEST(ColmapCamera, ModelTable) {
-  const char *names[] = {"SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV", "OPENCV_FISHEYE",
-                         "FULL_OPENCV", "FOV", "SIMPLE_RADIAL_FISHEYE", "RADIAL_FISHEYE", "THIN_PRISM_FISHEYE"};
-  const int counts[] = {3, 4, 4, 5, 8, 8, 12, 5, 4, 5, 12};
+  // COLMAP's names and parameter counts (pycolmap's CameraModelId and Camera.params_info).
+  const char *names[] = {"SIMPLE_PINHOLE",  "PINHOLE",        "SIMPLE_RADIAL",         "RADIAL",
+                         "OPENCV",          "OPENCV_FISHEYE", "FULL_OPENCV",           "FOV",
+                         "SIMPLE_RADIAL_FISHEYE", "RADIAL_FISHEYE", "THIN_PRISM_FISHEYE",
+                         "RAD_TAN_THIN_PRISM_FISHEYE", "SIMPLE_DIVISION", "DIVISION", "SIMPLE_FISHEYE",
+                         "FISHEYE",         "EUCM",           "EQUIRECTANGULAR"};
+  const int counts[] = {3, 4, 4, 5, 8, 8, 12, 5, 4, 5, 12, 16, 4, 5, 3, 4, 6, 2};
+  ASSERT_EQ(cc::kNumModels, 18);
   for (int m = 0; m < cc::kNumModels; ++m) {
     EXPECT_STREQ(cc::model_name(m), names[m]);
     EXPECT_EQ(cc::param_count(m), counts[m]);
     EXPECT_EQ(sample_params(m).size(), static_cast<std::size_t>(counts[m]));
   }
-  EXPECT_EQ(cc::model_name(11), nullptr);
+  EXPECT_EQ(cc::model_name(18), nullptr);
   // 6 + the parameters, rounded up to the library's fixed-size kernels (9, 11, 16).
   EXPECT_EQ(cc::camera_params(3), 9);
   EXPECT_EQ(cc::camera_params(4), 11);
   EXPECT_EQ(cc::camera_params(5), 11);
   EXPECT_EQ(cc::camera_params(8), 16);
   EXPECT_EQ(cc::camera_params(12), 18);
+  EXPECT_EQ(cc::camera_params(16), 22);
   EXPECT_EQ(cc::param_count(-1), 0);
   EXPECT_EQ(cc::param_kind(cc::kRadial, 0), cc::ParamKind::Focal);
   EXPECT_EQ(cc::param_kind(cc::kRadial, 2), cc::ParamKind::Principal);
@@ -100,6 +116,17 @@ TEST(ColmapCamera, ModelTable) {
   EXPECT_EQ(cc::param_kind(cc::kPinhole, 1), cc::ParamKind::Focal);
   EXPECT_EQ(cc::param_kind(cc::kPinhole, 3), cc::ParamKind::Principal);
   EXPECT_EQ(cc::param_kind(cc::kFov, 4), cc::ParamKind::Extra);
+  // pycolmap's focal_length_idxs, principal_point_idxs and extra_params_idxs; EQUIRECTANGULAR's
+  // w and h are none of them (metadata_params_idxs).
+  EXPECT_EQ(cc::param_kind(cc::kSimpleDivision, 0), cc::ParamKind::Focal);
+  EXPECT_EQ(cc::param_kind(cc::kSimpleDivision, 3), cc::ParamKind::Extra);
+  EXPECT_EQ(cc::param_kind(cc::kFisheye, 1), cc::ParamKind::Focal);
+  EXPECT_EQ(cc::param_kind(cc::kFisheye, 3), cc::ParamKind::Principal);
+  EXPECT_EQ(cc::param_kind(cc::kEucm, 5), cc::ParamKind::Extra);
+  EXPECT_EQ(cc::param_kind(cc::kRadTanThinPrismFisheye, 15), cc::ParamKind::Extra);
+  EXPECT_EQ(cc::focal_count(cc::kEquirectangular), 0);
+  EXPECT_EQ(cc::param_kind(cc::kEquirectangular, 0), cc::ParamKind::Size);
+  EXPECT_EQ(cc::param_kind(cc::kEquirectangular, 1), cc::ParamKind::Size);
 }
 
 // The numbers below were worked out from the formulas in colmap_camera.h, independently of
@@ -143,6 +170,146 @@ TEST(ColmapCamera, ProjectionsByHand) {
   }
 }
 
+// COLMAP's own projections: recorded from pycolmap 4.2.1 (tests/colmap_real/pycolmap_models.py
+// --cpp prints them: Camera(model, params=the sample parameters above).img_from_cam(points,
+// check_cheirality=False)), at points in front of the camera, on its axis, far off it, behind
+// it, and one outside DIVISION's field of view, where COLMAP has no pixel either.
+TEST(ColmapCamera, ProjectionsAsPycolmap) {
+  const double points[6][3] = {{0.3, -0.45, 1.0}, {-0.8, 0.6, 1.2}, {0.0, 0.0, 2.0},
+                               {1.5, 0.4, 1.0},   {0.2, -0.1, -1.0}, {3.0, 2.0, 1.0}};
+  struct Case {
+    int model;
+    double x[6][2];
+  } cases[] = {
+      {0,  // SIMPLE_PINHOLE
+       {{470, 15}, {-13.333333333333371, 490},
+        {320, 240}, {1070, 440},
+        {220, 290}, {1820, 1240}}},
+      {1,  // PINHOLE
+       {{470, 1.5}, {-13.333333333333371, 505},
+        {320, 240}, {1070, 452},
+        {220, 293}, {1820, 1300}}},
+      {2,  // SIMPLE_RADIAL
+       {{464.73500000000001, 22.897500000000008}, {14.4444444444444, 469.16666666666663},
+        {320, 240}, {853.10000000000002, 382.15999999999997},
+        {220.59999999999999, 289.69999999999999}, {-519.99999999999989, -320}}},
+      {3,  // RADIAL
+       {{465.12000312500004, 22.319995312499998}, {9.6219135802468827, 472.78356481481484},
+        {320, 240}, {983.78224999999998, 417.0086},
+        {220.59249999999997, 289.70375000000001}, {7085.0000000000009, 4750}}},
+      {4,  // OPENCV
+       {{467.67082812499996, 6.5915081249999901}, {-47.610596707818956, 524.93070987654323},
+        {320, 240}, {969.84624999999994, 439.43976000000004},
+        {218.01249999999999, 293.0335}, {-9155.0000000000018, -6171.6000000000013}}},
+      {5,  // OPENCV_FISHEYE
+       {{418.50649824635389, 90.12939909661867}, {116.929181807954, 394.47887241037785},
+        {320, 240}, {685.51506061620898, 338.86312115714611},
+        {250.80279202029988, 275.09286976113361}, {745.2776065164021, 527.56866726347198}}},
+      {6,  // FULL_OPENCV
+       {{482.38302814039963, -78.490967914109433}, {-115.79904830603738, 516.83496877779794},
+        {300, 200}, {1313.9038634494764, 477.1347563129691},
+        {179.41237649942804, 261.29870861279073}, {6636.1207299953221, 4512.9851614412728}}},
+      {7,  // FOV
+       {{438.7029473987966, 57.494218374350197}, {78.990939956427809, 425.27571490849607},
+        {320, 240}, {742.02312213712889, 355.35298671748194},
+        {235.4232471497391, 283.3455858357587}, {797.49896278926951, 566.29095790600081}}},
+      {8,  // SIMPLE_RADIAL_FISHEYE
+       {{403.51633854797831, 114.72549217803255}, {149.23893458819578, 368.07079905885314},
+        {320, 240}, {623.87737283407603, 321.03396608908696},
+        {260.82819690588559, 269.58590154705723}, {671.9969831731305, 474.66465544875371}}},
+      {9,  // RADIAL_FISHEYE
+       {{403.46649434267817, 114.80025848598277}, {149.62736871185822, 367.77947346610631},
+        {320, 240}, {620.99976829911668, 320.26660487976449},
+        {260.82957939264952, 269.58521030367524}, {662.72015725698043, 468.48010483798691}}},
+      {10,  // THIN_PRISM_FISHEYE
+       {{403.27367020841172, 112.96267234395185}, {149.06153876308863, 370.34057669314495},
+        {320, 240}, {620.50241302604172, 321.71688587842175},
+        {260.77149252129453, 270.11077671233073}, {663.54015567838292, 473.42828157592771}}},
+      {11,  // RAD_TAN_THIN_PRISM_FISHEYE
+       {{403.74046776913536, 112.39165568929755}, {150.23198755328335, 369.45188993590989},
+        {320, 240}, {622.22811280805172, 321.50143119132991},
+        {260.89492880186378, 270.03988693237824}, {665.36408197874994, 473.24033675986436}}},
+      {12,  // SIMPLE_DIVISION
+       {{465.8518134595588, 21.222279810661746}, {7.0680067498927315, 474.69899493758044},
+        {320, 240}, {944.6283868906454, 406.56756983750546},
+        {20419.50493836201, -9809.7524691810049}, {1179.6037997679307, 813.06919984528713}}},
+      {13,  // DIVISION
+       {{472.2603637922598, 7.041643397842563}, {-25.788509735982473, 504.52820994802659},
+        {320, 240}, {1192.2339150896373, 477.24762490438138},
+        {-39579.748742132484, 20588.871858487568}, {NAN, NAN}}},
+      {14,  // SIMPLE_FISHEYE
+       {{402.50240232228327, 116.24639651657513}, {153.2628137127912, 365.05288971540659},
+        {320, 240}, {609.4472420620657, 317.18593121655084},
+        {260.97103139732786, 269.5144843013361}, {644.56116084054258, 456.37410722702839}}},
+      {15,  // FISHEYE
+       {{402.50240232228327, 112.12127640046097}, {153.2628137127912, 369.22131937258678},
+        {320, 240}, {609.4472420620657, 319.75879559043585},
+        {260.97103139732786, 270.49830044471395}, {644.56116084054258, 463.58657746792937}}},
+      {16,  // EUCM
+       {{430.11151065291557, 70.703552371142308}, {97.196422441846209, 411.28025024783074},
+        {320, 240}, {707.98402936459968, 346.04896802632391},
+        {689.89232303010897, 50.430184447069166}, {756.85404619437998, 538.51693156615966}}},
+      {17,  // EQUIRECTANGULAR
+       {{546.3867895388712, 185.23028627702283}, {406.41647909450057, 312.74594107773578},
+        {500, 250}, {656.41647909450057, 284.75034854703017},
+        {968.58352090549954, 234.44330781995384}, {698.79180882521666, 339.75425899284403}}},
+  };
+  ASSERT_EQ(sizeof cases / sizeof cases[0], static_cast<std::size_t>(cc::kNumModels));
+  for (const Case &c : cases) {
+    const std::vector<double> params = sample_params(c.model);
+    for (int i = 0; i < 6; ++i)
+      for (int r = 0; r < 2; ++r) {
+        const double want = c.x[i][r], got = pixels(c.model, params, points[i])[static_cast<std::size_t>(r)];
+        if (std::isnan(want))
+          EXPECT_TRUE(std::isnan(got)) << cc::model_name(c.model) << " point " << i << ": " << got;
+        else
+          EXPECT_NEAR(got, want, 1e-10 * std::max(1.0, std::fabs(want)))
+              << cc::model_name(c.model) << " point " << i;
+      }
+  }
+}
+
+// No model refuses a point behind the camera (COLMAP's residuals do not either). The models of
+// u = X/Z see -X_c where they see X_c; the division models, EUCM and the panorama, functions
+// of the point itself, do not.
+TEST(ColmapCamera, PointsBehindTheCamera) {
+  const double front[3] = {0.2, -0.1, 1.5}, behind[3] = {-0.2, 0.1, -1.5};
+  for (int m = 0; m < cc::kNumModels; ++m) {
+    const std::vector<double> params = sample_params(m);
+    const std::vector<double> a = pixels(m, params, front), b = pixels(m, params, behind);
+    const bool of_the_point = m == cc::kSimpleDivision || m == cc::kDivision || m == cc::kEucm ||
+                              m == cc::kEquirectangular;
+    EXPECT_TRUE(std::isfinite(b[0]) && std::isfinite(b[1])) << cc::model_name(m);
+    if (of_the_point)
+      EXPECT_GT(std::hypot(a[0] - b[0], a[1] - b[1]), 10.0) << cc::model_name(m);
+    else
+      EXPECT_EQ(a, b) << cc::model_name(m);
+  }
+}
+
+// The panorama's seam is straight behind the camera (atan2's branch cut): a point just to the
+// right of it is at the left edge, x near 0, one just to the left at the right edge, x near w;
+// on either side the derivatives are the same finite numbers.
+TEST(ColmapCamera, EquirectangularSeam) {
+  const std::vector<double> params = sample_params(cc::kEquirectangular);  // 1000 x 500
+  const double left[3] = {-1e-9, 0.5, -2}, right[3] = {1e-9, 0.5, -2};
+  const std::vector<double> xl = pixels(cc::kEquirectangular, params, left);
+  const std::vector<double> xr = pixels(cc::kEquirectangular, params, right);
+  EXPECT_NEAR(xl[0], 0, 1e-6);
+  EXPECT_NEAR(xr[0], 1000, 1e-6);
+  EXPECT_EQ(xl[1], xr[1]);
+  EXPECT_NEAR(xl[1], 250 + 500 / M_PI * std::atan2(0.5, 2), 1e-12);
+  double Jl[6], Jr[6], Pl[4], Pr[4];  // dx/dXc, and dx/d(w, h)
+  cc::project(cc::kEquirectangular, params.data(), left, nullptr, Pl, Jl);
+  cc::project(cc::kEquirectangular, params.data(), right, nullptr, Pr, Jr);
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_TRUE(std::isfinite(Jl[k])) << k;
+    EXPECT_NEAR(Jl[k], Jr[k], 1e-6) << k;
+  }
+  const double near_left[3] = {-1e-3, 0.5, -2};  // a difference step away from the seam
+  expect_derivatives(cc::kEquirectangular, params, near_left, "left of the seam");
+}
+
 TEST(ColmapCamera, OpticalAxisProjectsToThePrincipalPoint) {
   const double Xc[3] = {0, 0, 3};
   for (int m = 0; m < cc::kNumModels; ++m) {
@@ -150,14 +317,19 @@ TEST(ColmapCamera, OpticalAxisProjectsToThePrincipalPoint) {
     double x[2];
     cc::project(m, params.data(), Xc, x, nullptr, nullptr);
     const int nf = cc::focal_count(m);
+    if (m == cc::kEquirectangular) {  // the panorama's centre
+      EXPECT_EQ(x[0], params[0] / 2);
+      EXPECT_EQ(x[1], params[1] / 2);
+      continue;
+    }
     EXPECT_EQ(x[0], params[static_cast<std::size_t>(nf)]) << cc::model_name(m);
     EXPECT_EQ(x[1], params[static_cast<std::size_t>(nf) + 1]) << cc::model_name(m);
   }
 }
 
 TEST(ColmapCamera, DerivativesMatchCentralDifferences) {
-  const double points[][3] = {{0, 0, 2},        {1e-9, -2e-9, 1},   {0.003, 0.002, 1}, {0.3, -0.2, 1.5},
-                              {-0.8, 0.6, 1.2}, {1.5, 0.4, 1},      {-0.02, 0.9, 0.7}};
+  const double points[][3] = {{0, 0, 2},        {1e-9, -2e-9, 1}, {0.003, 0.002, 1}, {0.3, -0.2, 1.5},
+                              {-0.8, 0.6, 1.2}, {1.5, 0.4, 1},    {-0.02, 0.9, 0.7}, {0.2, -0.1, -1}};
   for (int m = 0; m < cc::kNumModels; ++m)
     for (const auto &X : points) expect_derivatives(m, sample_params(m), X, "at (" + std::to_string(X[0]) + "," + std::to_string(X[1]) + "," + std::to_string(X[2]) + ")");
 }
@@ -221,7 +393,7 @@ TEST(ColmapCamera, SbaModelDerivatives) {
   const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2};
   const cc::CameraModel model(sample_cameras(), points);
   const int cnp = model.cnp();
-  ASSERT_EQ(cnp, 6 + 12);
+  ASSERT_EQ(cnp, 6 + 16);
   for (int j = 0; j < model.ncameras(); ++j) {
     std::vector<double> a(model.initial_camera_params().begin() + j * cnp,
                           model.initial_camera_params().begin() + (j + 1) * cnp);
@@ -342,7 +514,7 @@ TEST(ColmapCamera, ExpertCallbacksAgreeWithTheModel) {
 
 TEST(ColmapCamera, RefusesBadCameras) {
   std::vector<cc::Camera> cams(1);
-  cams[0].model = 11;
+  cams[0].model = 18;
   EXPECT_THROW(cc::CameraModel(cams, {}), std::invalid_argument);
   cams[0].model = cc::kOpenCV;
   cams[0].params = {1, 2, 3};

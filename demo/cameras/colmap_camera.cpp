@@ -20,10 +20,15 @@ struct ModelInfo {
   int focals;
 };
 constexpr ModelInfo kModels[kNumModels] = {
-    {"SIMPLE_PINHOLE", 3, 1}, {"PINHOLE", 4, 2},         {"SIMPLE_RADIAL", 4, 1},
-    {"RADIAL", 5, 1},         {"OPENCV", 8, 2},          {"OPENCV_FISHEYE", 8, 2},
-    {"FULL_OPENCV", 12, 2},   {"FOV", 5, 2},             {"SIMPLE_RADIAL_FISHEYE", 4, 1},
-    {"RADIAL_FISHEYE", 5, 1}, {"THIN_PRISM_FISHEYE", 12, 2}};
+    {"SIMPLE_PINHOLE", 3, 1},        {"PINHOLE", 4, 2},
+    {"SIMPLE_RADIAL", 4, 1},         {"RADIAL", 5, 1},
+    {"OPENCV", 8, 2},                {"OPENCV_FISHEYE", 8, 2},
+    {"FULL_OPENCV", 12, 2},          {"FOV", 5, 2},
+    {"SIMPLE_RADIAL_FISHEYE", 4, 1}, {"RADIAL_FISHEYE", 5, 1},
+    {"THIN_PRISM_FISHEYE", 12, 2},   {"RAD_TAN_THIN_PRISM_FISHEYE", 16, 2},
+    {"SIMPLE_DIVISION", 4, 1},       {"DIVISION", 5, 2},
+    {"SIMPLE_FISHEYE", 3, 1},        {"FISHEYE", 4, 2},
+    {"EUCM", 6, 2},                  {"EQUIRECTANGULAR", 2, 0}};
 
 bool known(int model) { return model >= 0 && model < kNumModels; }
 
@@ -50,11 +55,13 @@ struct Distortion {
 };
 
 // The polynomial-radial, tangential and thin-prism family (SIMPLE_RADIAL, RADIAL, OPENCV,
-// FULL_OPENCV and the second stage of THIN_PRISM_FISHEYE): with s = x^2 + y^2,
+// FULL_OPENCV and the second stage of THIN_PRISM_FISHEYE and RAD_TAN_THIN_PRISM_FISHEYE): with
+// s = x^2 + y^2,
 //   R = (1 + n1 s + n2 s^2 + n3 s^3 + n4 s^4) / (1 + d1 s + d2 s^2 + d3 s^3),
-//   xd = x R + 2 p1 x y + p2 (s + 2 x^2) + sx s,  yd = y R + p1 (s + 2 y^2) + 2 p2 x y + sy s.
+//   xd = x R + 2 p1 x y + p2 (s + 2 x^2) + sx s + sx2 s^2,
+//   yd = y R + p1 (s + 2 y^2) + 2 p2 x y + sy s + sy2 s^2.
 // A model names which of these terms its extra parameters are (the rest are zero).
-enum Role { N1, N2, N3, N4, D1, D2, D3, P1, P2, SX, SY, kRoles };
+enum Role { N1, N2, N3, N4, D1, D2, D3, P1, P2, SX, SY, SX2, SY2, kRoles };
 
 void radtan(const int *roles, int ne, const double *extra, double x, double y, Distortion *out) {
   double c[kRoles] = {};
@@ -66,14 +73,17 @@ void radtan(const int *roles, int ne, const double *extra, double x, double y, D
   const double dDn = c[D1] + s * (2 * c[D2] + s * 3 * c[D3]);
   const double R = N / Dn;
   const double dR = (dN * Dn - N * dDn) / (Dn * Dn);  // dR/ds
-  const double p1 = c[P1], p2 = c[P2], sx = c[SX], sy = c[SY];
+  const double p1 = c[P1], p2 = c[P2];
+  // The thin prism's terms sx s + sx2 s^2 (and sy's) and their derivatives in s.
+  const double tx = s * (c[SX] + s * c[SX2]), ty = s * (c[SY] + s * c[SY2]);
+  const double dtx = c[SX] + 2 * s * c[SX2], dty = c[SY] + 2 * s * c[SY2];
   const double xy = x * y;
-  out->ud = x * R + 2 * p1 * xy + p2 * (s + 2 * x * x) + sx * s;
-  out->vd = y * R + p1 * (s + 2 * y * y) + 2 * p2 * xy + sy * s;
-  out->D[0] = R + 2 * x * x * dR + 2 * p1 * y + 6 * p2 * x + 2 * sx * x;
-  out->D[1] = 2 * xy * dR + 2 * p1 * x + 2 * p2 * y + 2 * sx * y;
-  out->D[2] = 2 * xy * dR + 2 * p1 * x + 2 * p2 * y + 2 * sy * x;
-  out->D[3] = R + 2 * y * y * dR + 6 * p1 * y + 2 * p2 * x + 2 * sy * y;
+  out->ud = x * R + 2 * p1 * xy + p2 * (s + 2 * x * x) + tx;
+  out->vd = y * R + p1 * (s + 2 * y * y) + 2 * p2 * xy + ty;
+  out->D[0] = R + 2 * x * x * dR + 2 * p1 * y + 6 * p2 * x + 2 * dtx * x;
+  out->D[1] = 2 * xy * dR + 2 * p1 * x + 2 * p2 * y + 2 * dtx * y;
+  out->D[2] = 2 * xy * dR + 2 * p1 * x + 2 * p2 * y + 2 * dty * x;
+  out->D[3] = R + 2 * y * y * dR + 6 * p1 * y + 2 * p2 * x + 2 * dty * y;
   double du[kRoles] = {}, dv[kRoles] = {};
   double si = 1;
   for (int i = 0; i < 4; ++i) {  // dR/dn_i = s^i / Dn
@@ -93,6 +103,8 @@ void radtan(const int *roles, int ne, const double *extra, double x, double y, D
   dv[P2] = 2 * xy;
   du[SX] = s;
   dv[SY] = s;
+  du[SX2] = s * s;
+  dv[SY2] = s * s;
   for (int k = 0; k < ne; ++k) {
     out->Eu[k] = du[roles[k]];
     out->Ev[k] = dv[roles[k]];
@@ -110,8 +122,9 @@ void scale_radially(double u, double v, double F, double Fs, Distortion *out) {
 }
 
 // The fisheye family with a polynomial in theta (OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE,
-// RADIAL_FISHEYE): ud = u h(s), h = g(s) P(t), t = theta^2 = s g(s)^2,
-// P = 1 + k1 t + k2 t^2 + ... (ne coefficients).
+// RADIAL_FISHEYE, the first stage of RAD_TAN_THIN_PRISM_FISHEYE; with no coefficient, the
+// equidistant SIMPLE_FISHEYE, FISHEYE and THIN_PRISM_FISHEYE's first stage):
+// ud = u h(s), h = g(s) P(t), t = theta^2 = s g(s)^2, P = 1 + k1 t + k2 t^2 + ... (ne coefficients).
 void fisheye(int ne, const double *k, double u, double v, Distortion *out) {
   const double s = u * u + v * v;
   double g, dg;
@@ -161,18 +174,42 @@ void fov(double omega, double u, double v, Distortion *out) {
   out->Ev[0] = v * Fw;
 }
 
+// A second stage, radtan with ne parameters `extra`, applied to the result of a first one
+// whose derivatives are those of its nfirst extra parameters (which come first in the
+// model's list): the derivatives chained through the second stage.
+void then_radtan(const int *roles, int ne, const double *extra, int nfirst, Distortion *d) {
+  Distortion s;
+  radtan(roles, ne, extra, d->ud, d->vd, &s);
+  const double *A = s.D, *B = d->D;
+  Distortion out;
+  out.ud = s.ud;
+  out.vd = s.vd;
+  out.D[0] = A[0] * B[0] + A[1] * B[2];
+  out.D[1] = A[0] * B[1] + A[1] * B[3];
+  out.D[2] = A[2] * B[0] + A[3] * B[2];
+  out.D[3] = A[2] * B[1] + A[3] * B[3];
+  for (int k = 0; k < nfirst; ++k) {
+    out.Eu[k] = A[0] * d->Eu[k] + A[1] * d->Ev[k];
+    out.Ev[k] = A[2] * d->Eu[k] + A[3] * d->Ev[k];
+  }
+  std::copy(s.Eu, s.Eu + ne, out.Eu + nfirst);
+  std::copy(s.Ev, s.Ev + ne, out.Ev + nfirst);
+  *d = out;
+}
+
 // THIN_PRISM_FISHEYE: the equidistant mapping (uf, vf) = (u, v) g(s), then radtan on it.
 void thin_prism(const double *extra, double u, double v, Distortion *out) {
   static constexpr int kRolesThin[8] = {N1, N2, P1, P2, N3, N4, SX, SY};
-  const double s = u * u + v * v;
-  double g, dg;
-  atan_ratio(s, &g, &dg);
-  const double J[4] = {g + 2 * u * u * dg, 2 * u * v * dg, 2 * u * v * dg, g + 2 * v * v * dg};
-  radtan(kRolesThin, 8, extra, u * g, v * g, out);
-  const double *D = out->D;
-  const double T[4] = {D[0] * J[0] + D[1] * J[2], D[0] * J[1] + D[1] * J[3], D[2] * J[0] + D[3] * J[2],
-                       D[2] * J[1] + D[3] * J[3]};
-  std::copy(T, T + 4, out->D);
+  fisheye(0, nullptr, u, v, out);
+  then_radtan(kRolesThin, 8, extra, 0, out);
+}
+
+// RAD_TAN_THIN_PRISM_FISHEYE: the fisheye polynomial of k0..k5, then the tangential and
+// thin-prism terms of p0 p1 s0 s1 s2 s3 on its result.
+void rad_tan_thin_prism(const double *extra, double u, double v, Distortion *out) {
+  static constexpr int kRolesRadTan[6] = {P2, P1, SX, SX2, SY, SY2};
+  fisheye(6, extra, u, v, out);
+  then_radtan(kRolesRadTan, 6, extra + 6, 6, out);
 }
 
 void distort(int model, const double *extra, double u, double v, Distortion *out) {
@@ -189,6 +226,8 @@ void distort(int model, const double *extra, double u, double v, Distortion *out
     case kRadialFisheye: return fisheye(2, extra, u, v, out);
     case kFov: return fov(extra[0], u, v, out);
     case kThinPrismFisheye: return thin_prism(extra, u, v, out);
+    case kRadTanThinPrismFisheye: return rad_tan_thin_prism(extra, u, v, out);
+    case kSimpleFisheye: case kFisheye: return fisheye(0, nullptr, u, v, out);
     default:  // the pinholes
       out->ud = u;
       out->vd = v;
@@ -196,6 +235,80 @@ void distort(int model, const double *extra, double u, double v, Distortion *out
       out->D[1] = out->D[2] = 0;
   }
 }
+
+// The models that are functions of the camera-frame point itself (colmap_camera.h): (ud, vd)
+// and J = d(ud, vd)/dXc (2x3 row-major) in place of Distortion's D.
+
+// (ud, vd) = q (X, Y), with dq = dq/dXc and dqe[k] = dq/d extra_k (ne of them).
+void scaled_point(const double *X, double q, const double dq[3], const double *dqe, int ne, Distortion *d,
+                  double *J) {
+  d->ud = q * X[0];
+  d->vd = q * X[1];
+  for (int r = 0; r < 2; ++r)
+    for (int col = 0; col < 3; ++col) J[r * 3 + col] = X[r] * dq[col] + (r == col ? q : 0.0);
+  for (int k = 0; k < ne; ++k) {
+    d->Eu[k] = X[0] * dqe[k];
+    d->Ev[k] = X[1] * dqe[k];
+  }
+}
+
+// SIMPLE_DIVISION, DIVISION: (ud, vd) = q (X, Y), q = 2 / (Z + S), S = sqrt(Z^2 - 4 k rho). This
+// form of the root has no cancellation in front of the camera, and is the pinhole at k = 0.
+void division(double k, const double *X, Distortion *d, double *J) {
+  const double rho = X[0] * X[0] + X[1] * X[1];
+  const double S = std::sqrt(X[2] * X[2] - 4 * k * rho);
+  const double q = 2 / (X[2] + S);
+  const double c = -q * q / 2;  // dq / d(Z + S)
+  const double dq[3] = {c * -4 * k * X[0] / S, c * -4 * k * X[1] / S, c * (1 + X[2] / S)};
+  const double dqk = c * -2 * rho / S;
+  scaled_point(X, q, dq, &dqk, 1, d, J);
+}
+
+// EUCM: (ud, vd) = q (X, Y), q = 1 / (alpha e + (1 - alpha) Z), e = sqrt(beta rho + Z^2).
+void eucm(const double *extra, const double *X, Distortion *d, double *J) {
+  const double alpha = extra[0], beta = extra[1];
+  const double rho = X[0] * X[0] + X[1] * X[1];
+  const double e = std::sqrt(beta * rho + X[2] * X[2]);
+  const double q = 1 / (alpha * e + (1 - alpha) * X[2]);
+  const double c = -q * q;  // dq / d(the denominator)
+  const double dq[3] = {c * alpha * beta * X[0] / e, c * alpha * beta * X[1] / e,
+                        c * (alpha * X[2] / e + 1 - alpha)};
+  const double dqe[2] = {c * (e - X[2]), c * alpha * rho / (2 * e)};  // in alpha, beta
+  scaled_point(X, q, dq, dqe, 2, d, J);
+}
+
+// EQUIRECTANGULAR: (ud, vd) = (longitude, latitude) = (atan2(X, Z), atan2(Y, sqrt(X^2 + Z^2))).
+void equirectangular(const double *X, Distortion *d, double *J) {
+  const double q2 = X[0] * X[0] + X[2] * X[2], q = std::sqrt(q2), n2 = q2 + X[1] * X[1];
+  d->ud = std::atan2(X[0], X[2]);
+  d->vd = std::atan2(X[1], q);
+  J[0] = X[2] / q2;
+  J[1] = 0;
+  J[2] = -X[0] / q2;
+  J[3] = -X[1] * X[0] / (n2 * q);
+  J[4] = q / n2;
+  J[5] = -X[1] * X[2] / (n2 * q);
+}
+
+// (ud, vd) of the camera-frame point Xc through a model's extra parameters, with J =
+// d(ud, vd)/dXc and the derivatives in the extra parameters.
+void map_point(int model, const double *extra, const double Xc[3], Distortion *d, double J[6]) {
+  switch (model) {
+    case kSimpleDivision: case kDivision: return division(extra[0], Xc, d, J);
+    case kEucm: return eucm(extra, Xc, d, J);
+    case kEquirectangular: return equirectangular(Xc, d, J);
+    default: break;
+  }
+  // (u, v) = (X, Y) / Z, then the distortion in the image plane.
+  const double iz = 1 / Xc[2];
+  const double u = Xc[0] * iz, v = Xc[1] * iz;
+  distort(model, extra, u, v, d);
+  const double P[6] = {iz, 0, -u * iz, 0, iz, -v * iz};
+  for (int r = 0; r < 2; ++r)
+    for (int c = 0; c < 3; ++c) J[r * 3 + c] = d->D[r * 2] * P[c] + d->D[r * 2 + 1] * P[3 + c];
+}
+
+constexpr double kPi = 3.14159265358979323846;
 
 }  // namespace
 
@@ -211,6 +324,7 @@ int camera_params(int max_params) {
 }
 
 ParamKind param_kind(int model, int k) {
+  if (model == kEquirectangular) return ParamKind::Size;
   const int nf = focal_count(model);
   if (k < nf) return ParamKind::Focal;
   if (k < nf + 2) return ParamKind::Principal;
@@ -219,11 +333,15 @@ ParamKind param_kind(int model, int k) {
 
 void project(int model, const double *params, const double Xc[3], double x[2], double *Jp, double *Jx) {
   const int nf = kModels[model].focals, np = kModels[model].params;
-  const double fx = params[0], fy = params[nf - 1], cx = params[nf], cy = params[nf + 1];
-  const double iz = 1 / Xc[2];
-  const double u = Xc[0] * iz, v = Xc[1] * iz;
+  const bool panorama = model == kEquirectangular;
+  // x = fx ud + cx, y = fy vd + cy: the panorama's scales and centre are its size's.
+  const double fx = panorama ? params[0] / (2 * kPi) : params[0];
+  const double fy = panorama ? params[1] / kPi : params[nf - 1];
+  const double cx = panorama ? params[0] / 2 : params[nf];
+  const double cy = panorama ? params[1] / 2 : params[nf + 1];
   Distortion d{};
-  distort(model, params + nf + 2, u, v, &d);
+  double J[6];  // d(ud, vd)/dXc
+  map_point(model, params + nf + 2, Xc, &d, J);
   if (x) {
     x[0] = fx * d.ud + cx;
     x[1] = fy * d.vd + cy;
@@ -231,22 +349,25 @@ void project(int model, const double *params, const double Xc[3], double x[2], d
   if (Jp) {
     double *J0 = Jp, *J1 = Jp + np;
     std::fill(Jp, Jp + 2 * np, 0.0);
-    J0[0] = d.ud;
-    J1[nf - 1] = d.vd;
-    J0[nf] = 1;
-    J1[nf + 1] = 1;
+    if (panorama) {
+      J0[0] = d.ud / (2 * kPi) + 0.5;
+      J1[1] = d.vd / kPi + 0.5;
+    } else {
+      J0[0] = d.ud;
+      J1[nf - 1] = d.vd;
+      J0[nf] = 1;
+      J1[nf + 1] = 1;
+    }
     for (int k = nf + 2; k < np; ++k) {
       J0[k] = fx * d.Eu[k - nf - 2];
       J1[k] = fy * d.Ev[k - nf - 2];
     }
   }
-  if (Jx) {
-    // pixel <- (ud, vd) by diag(fx, fy), <- (u, v) by D, <- Xc by the perspective division.
-    const double P[6] = {iz, 0, -u * iz, 0, iz, -v * iz};
-    const double G[4] = {fx * d.D[0], fx * d.D[1], fy * d.D[2], fy * d.D[3]};
-    for (int r = 0; r < 2; ++r)
-      for (int c = 0; c < 3; ++c) Jx[r * 3 + c] = G[r * 2] * P[c] + G[r * 2 + 1] * P[3 + c];
-  }
+  if (Jx)  // pixel <- (ud, vd) by diag(fx, fy), <- Xc by J
+    for (int c = 0; c < 3; ++c) {
+      Jx[c] = fx * J[c];
+      Jx[3 + c] = fy * J[3 + c];
+    }
 }
 
 // ---- the sba camera model ----

@@ -1,12 +1,12 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-// COLMAP's eleven camera models (docs/formats.md, "COLMAP sparse models") with analytic
+// COLMAP's eighteen camera models (docs/formats.md, "COLMAP sparse models") with analytic
 // derivatives, and the sba camera model built on them for sbarefine.
 //
-// A model maps a point X_c of the camera frame to pixels: u = X/Z, v = Y/Z, then the model's
-// distortion (u, v) -> (u_d, v_d), then x = fx u_d + cx, y = fy v_d + cy (f for both where the
-// model has one focal length). The parameters are COLMAP's, in COLMAP's order; the models
-// with one focal length put it first (f cx cy ...), the others fx fy cx cy ...; what follows
-// the principal point are the "extra" parameters (distortion). With r^2 = u^2 + v^2:
+// Most models map a point X_c of the camera frame to pixels through u = X/Z, v = Y/Z, then the
+// model's distortion (u, v) -> (u_d, v_d), then x = fx u_d + cx, y = fy v_d + cy (f for both
+// where the model has one focal length). The parameters are COLMAP's, in COLMAP's order; the
+// models with one focal length put it first (f cx cy ...), the others fx fy cx cy ...; what
+// follows the principal point are the "extra" parameters (distortion). With r^2 = u^2 + v^2:
 //   SIMPLE_PINHOLE, PINHOLE   u_d = u
 //   SIMPLE_RADIAL k           u_d = u (1 + k r^2)
 //   RADIAL k1 k2              u_d = u (1 + k1 r^2 + k2 r^4)
@@ -18,15 +18,40 @@
 //                             theta_d = theta (1 + k1 theta^2 + k2 theta^4 + k3 theta^6 + k4 theta^8)
 //   SIMPLE_RADIAL_FISHEYE k   the same with theta_d = theta (1 + k theta^2)
 //   RADIAL_FISHEYE k1 k2      theta_d = theta (1 + k1 theta^2 + k2 theta^4)
+//   SIMPLE_FISHEYE, FISHEYE   theta_d = theta (the equidistant projection)
 //   FOV omega                 u_d = u atan(2 r tan(omega / 2)) / (omega r)  (omega -> 0: u_d = u)
 //   THIN_PRISM_FISHEYE k1 k2 p1 p2 k3 k4 sx1 sy1: first the equidistant mapping
 //                             (u_f, v_f) = (u, v) theta / r, then with t^2 = u_f^2 + v_f^2 and
 //                             R = 1 + k1 t^2 + k2 t^4 + k3 t^6 + k4 t^8:
 //                             u_d = u_f R + 2 p1 u_f v_f + p2 (t^2 + 2 u_f^2) + sx1 t^2,
 //                             v_d = v_f R + p1 (t^2 + 2 v_f^2) + 2 p2 u_f v_f + sy1 t^2
+//   RAD_TAN_THIN_PRISM_FISHEYE k0..k5 p0 p1 s0 s1 s2 s3: first (u_f, v_f) = (u, v) theta_d / r
+//                             with theta_d = theta (1 + k0 theta^2 + ... + k5 theta^12), then
+//                             with t^2 = u_f^2 + v_f^2 (p0 and p1 in the roles OPENCV gives p2, p1):
+//                             u_d = u_f + p0 (t^2 + 2 u_f^2) + 2 p1 u_f v_f + s0 t^2 + s1 t^4,
+//                             v_d = v_f + 2 p0 u_f v_f + p1 (t^2 + 2 v_f^2) + s2 t^2 + s3 t^4
 // theta / r and the FOV factor are evaluated through atan(s)/s as a function of s^2, by its
 // series near 0: the models are smooth at r = 0 (and FOV at omega = 0), and so are the values
 // and derivatives here, with no division by r.
+//
+// Four models are functions of the point itself rather than of (u, v), as COLMAP evaluates
+// them: they give the same pixels for X_c and s X_c for any s > 0, but a point behind the
+// camera (Z < 0) is not mirrored onto one in front. With rho = X^2 + Y^2:
+//   SIMPLE_DIVISION, DIVISION k   Fitzgibbon's division model, undistorted = distorted /
+//                             (1 + k |distorted|^2), solved for the distorted point by the root
+//                             that is the pinhole's at k = 0:
+//                             u_d = 2 X / (Z + sqrt(Z^2 - 4 k rho)), v_d likewise with Y
+//   EUCM alpha beta           the enhanced unified camera model (Khomenko et al.):
+//                             u_d = X / (alpha d + (1 - alpha) Z), d = sqrt(beta rho + Z^2)
+//   EQUIRECTANGULAR w h       a panorama w by h pixels: x = w/2 + w/(2 pi) atan2(X, Z),
+//                             y = h/2 + h/pi atan2(Y, sqrt(X^2 + Z^2)). w and h are the
+//                             panorama's size, not parameters of a lens: COLMAP never refines
+//                             them.
+// Where a formula has no value, the projection is not finite, as COLMAP's is: DIVISION with
+// Z^2 < 4 k rho (k > 0: a ray farther off the axis than the model reaches). No model checks
+// that the point is in front of the camera, nor EUCM's region of validity: the pixels are the
+// formula's wherever it has a value, as COLMAP's projection without its cheirality check gives
+// them.
 #ifndef SBA_DEMO_COLMAP_CAMERA_H
 #define SBA_DEMO_COLMAP_CAMERA_H
 
@@ -50,19 +75,27 @@ enum ModelId : int {
   kFov = 7,
   kSimpleRadialFisheye = 8,
   kRadialFisheye = 9,
-  kThinPrismFisheye = 10
+  kThinPrismFisheye = 10,
+  kRadTanThinPrismFisheye = 11,
+  kSimpleDivision = 12,
+  kDivision = 13,
+  kSimpleFisheye = 14,
+  kFisheye = 15,
+  kEucm = 16,
+  kEquirectangular = 17
 };
-constexpr int kNumModels = 11;
-constexpr int kMaxParams = 12;  // FULL_OPENCV, THIN_PRISM_FISHEYE
+constexpr int kNumModels = 18;
+constexpr int kMaxParams = 16;  // RAD_TAN_THIN_PRISM_FISHEYE
 constexpr int kPoseParams = 6;  // v1 v2 v3 t1 t2 t3
 constexpr int kPointParams = 3;
 constexpr int kMeasurementParams = 2;
 
-// COLMAP's name of a model id, nullptr outside 0..10.
+// COLMAP's name of a model id, nullptr outside 0..17.
 const char *model_name(int model);
-// The number of parameters of a model id (0 outside 0..10).
+// The number of parameters of a model id (0 outside 0..17).
 int param_count(int model);
 // 1 (f) or 2 (fx fy): the leading focal length parameters; the principal point follows them.
+// 0 for EQUIRECTANGULAR, which has neither.
 int focal_count(int model);
 
 // The cnp of cameras whose largest parameter count is max_params: 6 + max_params, rounded up
@@ -71,13 +104,16 @@ int focal_count(int model);
 // model's parameters are padding.
 int camera_params(int max_params);
 
-// What a parameter is, as COLMAP's refine_* options group them.
-enum class ParamKind { Focal, Principal, Extra };
+// What a parameter is, as COLMAP's refine_* options group them; Size is EQUIRECTANGULAR's w
+// and h, which none of them refines.
+enum class ParamKind { Focal, Principal, Extra, Size };
 ParamKind param_kind(int model, int k);
 
 // x = the pixels of the camera-frame point Xc through model `model` with parameters
 // `params` (param_count(model) of them). Jp = dx/dparams (2 rows of param_count values,
-// row-major), Jx = dx/dXc (2x3, row-major); either may be null. Xc[2] must not be 0.
+// row-major), Jx = dx/dXc (2x3, row-major); either may be null. Xc[2] must not be 0 (but for
+// EQUIRECTANGULAR, which needs X and Z not both 0, and the division models and EUCM, which
+// need their denominators not 0).
 void project(int model, const double *params, const double Xc[3], double x[2], double *Jp, double *Jx);
 
 // A camera as sbarefine refines it: a COLMAP model and its parameters, and the pose

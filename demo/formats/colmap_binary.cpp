@@ -152,13 +152,9 @@ bool parse_cameras_binary(const std::string &bytes, const std::string &name, std
     std::uint32_t model;
     if (!r.u32(&c.id, "CAMERA_ID", error) || !r.u32(&model, "MODEL_ID", error)) return false;
     const int m = static_cast<int>(static_cast<std::int32_t>(model));
-    if (m < 0 || m >= kNumModels) {
-      if (m >= kNumModels && m < kNumModels + kNumOtherModels)
-        return fail(error, r.where(at) + "camera " + std::to_string(c.id) + ": " +
-                               unsupported_model(kOtherModels[m - kNumModels]));
+    if (m < 0 || m >= kNumModels)
       return fail(error, r.where(at) + "camera " + std::to_string(c.id) + ": unknown camera model id " +
                              std::to_string(m));
-    }
     c.model = m;
     if (!r.u64(&c.width, "WIDTH", error) || !r.u64(&c.height, "HEIGHT", error)) return false;
     c.params.resize(static_cast<std::size_t>(kModels[m].params));

@@ -21,18 +21,6 @@
 
 namespace sbaformats::colmap {
 
-namespace {
-
-constexpr const char *kAccepted =
-    "SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE, FULL_OPENCV, FOV, "
-    "SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE and THIN_PRISM_FISHEYE";
-
-}  // namespace
-
-std::string unsupported_model(const std::string &model) {
-  return "camera model " + model + " is not supported: sbarefine expresses " + kAccepted;
-}
-
 std::string bad_intrinsics(const Camera &c) {
   const ModelInfo &m = kModels[c.model];
   const std::string camera = "camera " + std::to_string(c.id) + ": " + m.name + "'s ";

@@ -3,8 +3,7 @@
 // cameras, images and points3D, as text (.txt) or binary (.bin), read strictly and written
 // back with every field as it came.
 //
-// COLMAP's eleven camera models with ids 0..10 are accepted (cameras/colmap_camera.h); a
-// later one (RAD_TAN_THIN_PRISM_FISHEYE) is refused by name.
+// COLMAP's eighteen camera models, ids 0..17, are accepted (cameras/colmap_camera.h).
 // Errors are one line: "<file>:<line>: <message>" for text, "<file>: byte N: <message>" for
 // binary, "<file>: <message>" for what concerns a whole file or the model.
 #ifndef SBA_DEMO_COLMAP_IO_H
@@ -22,7 +21,7 @@ class OutputSet;  // output_file.h
 
 namespace sbaformats::colmap {
 
-// COLMAP's model ids of the accepted camera models.
+// COLMAP's model ids of its camera models.
 enum CameraModelId : int {
   kSimplePinhole = 0,        // f cx cy
   kPinhole = 1,              // fx fy cx cy
@@ -34,7 +33,14 @@ enum CameraModelId : int {
   kFov = 7,                  // fx fy cx cy omega
   kSimpleRadialFisheye = 8,  // f cx cy k
   kRadialFisheye = 9,        // f cx cy k1 k2
-  kThinPrismFisheye = 10     // fx fy cx cy k1 k2 p1 p2 k3 k4 sx1 sy1
+  kThinPrismFisheye = 10,    // fx fy cx cy k1 k2 p1 p2 k3 k4 sx1 sy1
+  kRadTanThinPrismFisheye = 11,  // fx fy cx cy k0 k1 k2 k3 k4 k5 p0 p1 s0 s1 s2 s3
+  kSimpleDivision = 12,      // f cx cy k
+  kDivision = 13,            // fx fy cx cy k
+  kSimpleFisheye = 14,       // f cx cy
+  kFisheye = 15,             // fx fy cx cy
+  kEucm = 16,                // fx fy cx cy alpha beta
+  kEquirectangular = 17      // w h: the panorama's size in pixels
 };
 
 // The model's name, or nullptr for an id outside the accepted ones.

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // What the COLMAP text format (colmap_text.cpp), the binary format (colmap_binary.cpp) and the
-// model's files (colmap_io.cpp) share beyond colmap_io.h: the camera models sbarefine expresses, the
-// messages about them, and the formatting of a model in each encoding.
+// model's files (colmap_io.cpp) share beyond colmap_io.h: COLMAP's camera models, the messages
+// about them, and the formatting of a model in each encoding.
 #ifndef SBA_DEMO_COLMAP_IO_IMPL_H
 #define SBA_DEMO_COLMAP_IO_IMPL_H
 
@@ -19,25 +19,21 @@ struct ModelInfo {
   int params;
   int focals;  // f, or fx and fy, leading the parameters
 };
-// Indexed by COLMAP's model id: the eleven models of colmap_camera.h.
+// Indexed by COLMAP's model id: the eighteen models of colmap_camera.h.
 inline constexpr ModelInfo kModels[] = {
     {"SIMPLE_PINHOLE", 3, 1},        {"PINHOLE", 4, 2},         {"SIMPLE_RADIAL", 4, 1},
     {"RADIAL", 5, 1},                {"OPENCV", 8, 2},          {"OPENCV_FISHEYE", 8, 2},
     {"FULL_OPENCV", 12, 2},          {"FOV", 5, 2},             {"SIMPLE_RADIAL_FISHEYE", 4, 1},
-    {"RADIAL_FISHEYE", 5, 1},        {"THIN_PRISM_FISHEYE", 12, 2}};
+    {"RADIAL_FISHEYE", 5, 1},        {"THIN_PRISM_FISHEYE", 12, 2},
+    {"RAD_TAN_THIN_PRISM_FISHEYE", 16, 2},                      {"SIMPLE_DIVISION", 4, 1},
+    {"DIVISION", 5, 2},              {"SIMPLE_FISHEYE", 3, 1},  {"FISHEYE", 4, 2},
+    {"EUCM", 6, 2},                  {"EQUIRECTANGULAR", 2, 0}};  // w h: no focal length
 inline constexpr int kNumModels = sizeof(kModels) / sizeof(kModels[0]);
-// COLMAP's models after those (ids from 11 on), named in the refusal so that the user knows
-// what was found.
-inline constexpr const char *kOtherModels[] = {"RAD_TAN_THIN_PRISM_FISHEYE"};
-inline constexpr int kNumOtherModels = sizeof(kOtherModels) / sizeof(kOtherModels[0]);
 
 // What separates values in the text format: a carriage return too, so that a CRLF file or a
 // stray '\r' does not end up inside a value (or as an image name that a rewrite would lose).
 // The binary reader refuses a name the text format could not hold.
 inline bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
-
-// The refusal of a camera model that sbarefine does not express.
-std::string unsupported_model(const std::string &model);
 
 // Why a camera's intrinsics are not a camera, empty when they are: a focal length must be
 // positive, and fy / fx (the aspect ratio sba keeps) a number neither infinite nor zero;

@@ -215,6 +215,7 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::vecto
             case cc::ParamKind::Focal: held = !refine.focal; break;
             case cc::ParamKind::Principal: held = !refine.principal; break;
             case cc::ParamKind::Extra: held = !refine.distortion; break;
+            case cc::ParamKind::Size: held = true; break;  // no COLMAP option refines it
           }
         fixed[cc::kPoseParams + k] = held ? 1 : 0;
       }

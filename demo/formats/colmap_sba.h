@@ -8,9 +8,9 @@
 // images use is one group (sba_ext_options::cam_group, numbered by its first sba camera)
 // whose parameter slots are shared (cam_shared): it is refined once, as COLMAP does. A camera
 // used by one image is in no group (-1): its copy is its own. Which parameters are held goes
-// per camera into cam_fixed: the padding always, and by COLMAP's bundle adjustment options
-// the focal length (f or fx fy), the principal point (cx cy), the extra parameters (the rest),
-// and the poses of the images the caller names.
+// per camera into cam_fixed: the padding and EQUIRECTANGULAR's size (w h) always, and by
+// COLMAP's bundle adjustment options the focal length (f or fx fy), the principal point
+// (cx cy), the extra parameters (the rest), and the poses of the images the caller names.
 //
 // NVM files (nvm_io.h) still map onto eucsbademo's camera (SbaProblem below).
 #ifndef SBA_DEMO_COLMAP_SBA_H

@@ -108,12 +108,6 @@ int model_by_name(std::string_view name) {
   return -1;
 }
 
-bool is_other_model(std::string_view name) {
-  for (int i = 0; i < kNumOtherModels; ++i)
-    if (name == kOtherModels[i]) return true;
-  return false;
-}
-
 constexpr std::uint64_t kU32 = 0xffffffffu;
 
 }  // namespace
@@ -133,9 +127,7 @@ bool parse_cameras_text(const std::string &text, const std::string &name, std::v
     if (!uint_field(r, 0, "CAMERA_ID", kU32, &v, error)) return false;
     c.id = static_cast<std::uint32_t>(v);
     c.model = model_by_name(t[1]);
-    if (c.model < 0)
-      return fail(error, r.where() + (is_other_model(t[1]) ? unsupported_model(std::string(t[1]))
-                                                          : "unknown camera model " + quoted(t[1])));
+    if (c.model < 0) return fail(error, r.where() + "unknown camera model " + quoted(t[1]));
     if (!uint_field(r, 2, "WIDTH", UINT64_MAX, &c.width, error)) return false;
     if (!uint_field(r, 3, "HEIGHT", UINT64_MAX, &c.height, error)) return false;
     const int np = kModels[c.model].params;

@@ -184,7 +184,7 @@ void print_usage(std::FILE *out) {
       "Usage: sbarefine [OPTION]... MODEL\n"
       "Bundle-adjusts a reconstruction with sba_motstr_levmar_x_ext, analytic Jacobian. MODEL is\n"
       "- a COLMAP sparse model: the directory holding cameras, images and points3D (.bin or .txt,\n"
-      "  .bin read first as COLMAP does; all eleven camera models of COLMAP, ids 0..10), refined\n"
+      "  .bin read first as COLMAP does; all eighteen camera models of COLMAP, ids 0..17), refined\n"
       "  with COLMAP's own camera models: every image that sees a point an sba camera, a camera\n"
       "  shared by several images refined once for all of them (one that sees none is written\n"
       "  back as read); by default the focal length and the extra parameters refined, the\n"
