@@ -3,41 +3,12 @@
 
 #include <algorithm>
 
+#include "isa.h"
+
+#define SBA_KERNELS_NS portable
+#include "mapped_schur_impl.h"
+
 namespace sba {
-
-namespace {
-
-// out[a][c] -= sum_d Lt[d][a] Rt[d][c] for a < n1, c < n2 (Lt pnp x n1, Rt pnp x n2): one
-// point's term of a block of S, row by row along contiguous rows. N1, N2, P > 0 fix the sizes
-// at compile time for the blocks that dominate (poses of 6 against poses of 6, points of 3),
-// whose loops then unroll into registers.
-template <int N1, int N2, int P>
-inline void pair_update_t(int n1, int n2, int pn, const double *Lt, const double *Rt, double *out, i64 ld) {
-  if constexpr (N1 > 0) n1 = N1;
-  if constexpr (N2 > 0) n2 = N2;
-  if constexpr (P > 0) pn = P;
-  for (int a = 0; a < n1; ++a) {
-    double *row = out + a * ld;
-    for (int d = 0; d < pn; ++d) {
-      const double z = Lt[d * n1 + a];
-      const double *r = Rt + d * n2;
-      for (int c = 0; c < n2; ++c) row[c] -= z * r[c];
-    }
-  }
-}
-
-void pair_update(int n1, int n2, int pn, const double *Lt, const double *Rt, double *out, i64 ld) {
-  if (pn == 3 && n1 == 6 && n2 == 6) return pair_update_t<6, 6, 3>(n1, n2, pn, Lt, Rt, out, ld);
-  if (pn == 3) return pair_update_t<0, 0, 3>(n1, n2, pn, Lt, Rt, out, ld);
-  pair_update_t<0, 0, 0>(n1, n2, pn, Lt, Rt, out, ld);
-}
-
-// Position of block b in the ascending list [first, first + n), n if absent.
-int find_block(const int *first, int n, int b) {
-  return int(std::lower_bound(first, first + n, b) - first);
-}
-
-}  // namespace
 
 UnknownBlocks::Block UnknownBlocks::block(int b, int B) const {
   switch (kind) {
@@ -54,7 +25,7 @@ UnknownBlocks::Block UnknownBlocks::block(int b, int B) const {
   return {base + colbase[c] + rowoff[s], height[c], pb > pB};
 }
 
-MappedSchur::MappedSchur(const Layout &lay, int threads) : lay_(lay) {
+MappedSchur::MappedSchur(const Layout &lay, int threads) : lay_(lay), avx2_(use_avx2_build()) {
   const CameraMap &map = lay.cams;
   const int nb = map.nblocks(), pnp = lay.pnp;
   // Each point's blocks, and the work of each block column: the pairs it closes.
@@ -112,135 +83,28 @@ MappedSchur::MappedSchur(const Layout &lay, int threads) : lay_(lay) {
 
 void MappedSchur::point_couplings(const double *jac, int i, int upto, const i64 *zoff, double *Zt,
                                   double *W) const {
-  const Layout &lay = lay_;
-  const CameraMap &map = lay.cams;
-  const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp, jb = lay.jblk();
-  const int *F = point_blocks(i), nF = point_nblocks(i);
-  std::fill(Zt, Zt + zoff[upto], 0.0);
-  for (int k = lay.rowptr[size_t(i)]; k < lay.rowptr[size_t(i) + 1]; ++k) {
-    const int j = lay.colidx[size_t(k)];
-    if (j < lay.mcon) continue;
-    const double *A = jac + i64(k) * jb, *B = A + mnp * cnp;
-    // W^T = B^T A (pnp x cnp), then its columns into the blocks of camera j.
-    for (int d = 0; d < pnp; ++d) {
-      double *w = W + d * cnp;
-      for (int c = 0; c < cnp; ++c) w[c] = B[d] * A[c];
-      for (int r = 1; r < mnp; ++r)
-        for (int c = 0; c < cnp; ++c) w[c] += B[r * pnp + d] * A[r * cnp + c];
-    }
-    for (int q = map.cam_start[size_t(j)]; q < map.cam_start[size_t(j) + 1]; ++q) {
-      const int b = map.cam_blocks[size_t(q)];
-      const int s = find_block(F, nF, b);
-      if (s >= upto) continue;
-      const int n = map.block_size(b);
-      const int *cols = map.block_columns(b);
-      double *z = Zt + zoff[s];
-      for (int d = 0; d < pnp; ++d)
-        for (int o = 0; o < n; ++o) z[d * n + o] += W[d * cnp + cols[o]];
-    }
-  }
+#if defined(SBA_HAVE_AVX2_BUILD)
+  if (avx2_) return avx2::mapped_point_couplings(*this, jac, i, upto, zoff, Zt, W);
+#endif
+  portable::mapped_point_couplings(*this, jac, i, upto, zoff, Zt, W);
 }
 
 void MappedSchur::assemble(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                            const UnknownBlocks &S, double *rhs) const {
   const int T = int(split_.size()) - 1;
   const auto part = [&](int t) {
-    if (t < T) assemble_columns(split_[size_t(t)], split_[size_t(t) + 1], ne, Vinv, mu, S, rhs, scratch_[size_t(t)]);
+    if (t >= T) return;
+    const int B0 = split_[size_t(t)], B1 = split_[size_t(t) + 1];
+    Scratch &sc = scratch_[size_t(t)];
+#if defined(SBA_HAVE_AVX2_BUILD)
+    if (avx2_) return avx2::mapped_assemble_columns(*this, B0, B1, ne, Vinv, mu, S, rhs, sc);
+#endif
+    portable::mapped_assemble_columns(*this, B0, B1, ne, Vinv, mu, S, rhs, sc);
   };
   if (T == 1 || pool.size() == 1) {
     for (int t = 0; t < T; ++t) part(t);
   } else {
     pool.run(part);
-  }
-}
-
-void MappedSchur::assemble_columns(int B0, int B1, const NormalEquations &ne, const double *Vinv, double mu,
-                                   const UnknownBlocks &S, double *rhs, Scratch &sc) const {
-  if (B0 >= B1) return;
-  const Layout &lay = lay_;
-  const CameraMap &map = lay.cams;
-  const int cnp = lay.cnp, pnp = lay.pnp;
-  const bool diagonal = S.kind == UnknownBlocks::Kind::Diagonal;
-  const int *start = map.block_start.data();
-  if (S.kind == UnknownBlocks::Kind::Dense)
-    for (i64 r = 0; r < start[B1]; ++r) {
-      double *row = S.base + r * S.ld;
-      std::fill(row + start[B0], row + start[B1], 0.0);
-    }
-  if (diagonal)
-    for (int B = B0; B < B1; ++B) {
-      const i64 n = map.block_size(B);
-      std::fill(S.base + S.diag[B], S.base + S.diag[B] + n * n, 0.0);
-    }
-  // U's blocks, the damping and e_a, camera by camera in ascending order.
-  for (int B = B0; B < B1; ++B) {
-    const int nB = map.block_size(B);
-    const int *colsB = map.block_columns(B);
-    double *rB = rhs ? rhs + start[B] : nullptr;
-    if (rB) std::fill(rB, rB + nB, 0.0);
-    for (int q = map.block_cam_start[size_t(B)]; q < map.block_cam_start[size_t(B) + 1]; ++q) {
-      const int j = map.block_cams[size_t(q)];
-      const double *Uj = ne.U + i64(j) * cnp * cnp, *eaj = ne.ea + i64(j) * cnp;
-      if (rB)
-        for (int o = 0; o < nB; ++o) rB[o] += eaj[colsB[o]];
-      for (int qb = map.cam_start[size_t(j)]; qb < map.cam_start[size_t(j) + 1]; ++qb) {
-        const int b = map.cam_blocks[size_t(qb)];
-        if (b > B) break;
-        if (diagonal && b != B) continue;
-        const int nb = map.block_size(b);
-        const int *colsb = map.block_columns(b);
-        const UnknownBlocks::Block blk = S.block(b, B);
-        for (int o1 = 0; o1 < nb; ++o1)
-          for (int o2 = 0; o2 < nB; ++o2) {
-            const double u = Uj[colsb[o1] * cnp + colsB[o2]];
-            if (blk.transposed)
-              blk.p[o2 * blk.ld + o1] += u;
-            else
-              blk.p[o1 * blk.ld + o2] += u;
-          }
-      }
-    }
-    const UnknownBlocks::Block d = S.block(B, B);
-    for (int o = 0; o < nB; ++o) d.p[o * d.ld + o] += mu;
-  }
-  if (pnp == 0) return;
-  // The points, in ascending order: Z^T of the blocks up to the range's end, then
-  // Y^T = V*^-1 Z^T of those in the range, and the pairs they close.
-  i64 *zoff = sc.zoff.data();
-  double *Zt = sc.Zt.data(), *Yt = sc.Yt.data();
-  for (int i = lay.ncon; i < lay.n; ++i) {
-    const int *F = point_blocks(i), nF = point_nblocks(i);
-    const int lo = find_block(F, nF, B0);
-    if (lo == nF || F[lo] >= B1) continue;
-    const int hi = find_block(F, nF, B1);
-    zoff[0] = 0;
-    for (int s = 0; s < hi; ++s) zoff[s + 1] = zoff[s] + i64(map.block_size(F[s])) * pnp;
-    point_couplings(ne.jac, i, hi, zoff, Zt, sc.W.data());
-    const double *Vi = Vinv + i64(i) * pnp * pnp, *ebi = ne.eb + i64(i) * pnp;
-    for (int s = lo; s < hi; ++s) {
-      const int B = F[s], nB = map.block_size(B);
-      const double *z = Zt + zoff[s];
-      double *y = Yt + zoff[s];
-      for (int d = 0; d < pnp; ++d)
-        for (int o = 0; o < nB; ++o) {
-          double v = 0.0;
-          for (int e = 0; e < pnp; ++e) v += Vi[d * pnp + e] * z[e * nB + o];
-          y[d * nB + o] = v;
-        }
-      if (rhs) {
-        double *rB = rhs + start[B];
-        for (int d = 0; d < pnp; ++d)
-          for (int o = 0; o < nB; ++o) rB[o] -= ebi[d] * y[d * nB + o];
-      }
-      for (int s1 = diagonal ? s : 0; s1 <= s; ++s1) {
-        const int b = F[s1], nb = map.block_size(b);
-        const UnknownBlocks::Block blk = S.block(b, B);
-        if (blk.transposed)
-          pair_update(nB, nb, pnp, y, Zt + zoff[s1], blk.p, blk.ld);
-        else
-          pair_update(nb, nB, pnp, Zt + zoff[s1], y, blk.p, blk.ld);
-      }
-    }
   }
 }
 

@@ -69,20 +69,37 @@ class MappedSchur {
   // The number of doubles point_couplings writes for any point, all of its blocks.
   i64 max_couplings() const { return zmax_; }
 
- private:
+  const Layout &layout() const { return lay_; }
+
+  // One thread's room for a point's couplings (Z^T, Y^T, their offsets) and one W^T.
   struct Scratch {
     std::vector<double> Zt, Yt, W;
     std::vector<i64> zoff;
   };
-  void assemble_columns(int B0, int B1, const NormalEquations &ne, const double *Vinv, double mu,
-                        const UnknownBlocks &S, double *rhs, Scratch &sc) const;
 
+ private:
   const Layout &lay_;
+  bool avx2_ = false;                  // the AVX2 build of the loops runs (isa.h)
   std::vector<int> pstart_, pblocks_;  // per point, its blocks
   std::vector<int> split_;             // threads + 1 boundaries in blocks, of about equal work
   i64 zmax_ = 0;
   mutable std::vector<Scratch> scratch_;
 };
+
+// The loops, in the build for any x86-64 (portable) and for AVX2 with FMA (avx2):
+// mapped_schur_impl.h. Block columns [B0, B1) of S and their rows of rhs, as assemble().
+namespace portable {
+void mapped_assemble_columns(const MappedSchur &ms, int B0, int B1, const NormalEquations &ne, const double *Vinv,
+                             double mu, const UnknownBlocks &S, double *rhs, MappedSchur::Scratch &sc);
+void mapped_point_couplings(const MappedSchur &ms, const double *jac, int i, int upto, const i64 *zoff, double *Zt,
+                            double *W);
+}  // namespace portable
+namespace avx2 {
+void mapped_assemble_columns(const MappedSchur &ms, int B0, int B1, const NormalEquations &ne, const double *Vinv,
+                             double mu, const UnknownBlocks &S, double *rhs, MappedSchur::Scratch &sc);
+void mapped_point_couplings(const MappedSchur &ms, const double *jac, int i, int upto, const i64 *zoff, double *Zt,
+                            double *W);
+}  // namespace avx2
 
 }  // namespace sba
 
