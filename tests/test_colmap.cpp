@@ -1164,6 +1164,210 @@ TEST(ColmapRigs, BothOrNeither) {
   }
 }
 
+// ---- sbarefine on models with rigs and frames ----
+
+// A model as COLMAP 4 writes it: rigs and frames beside the three files. Plain: one rig per
+// camera (its id the camera's), one frame per image, as COLMAP 4 writes ordinary data, but with
+// frame ids that are not the image ids. Posed: one rig of an IMU (the reference) and every
+// camera, each camera with a pose in the rig, and one frame per image with an IMU measurement
+// too; the frames' poses are set so that the images' poses are their composition.
+colmap::Model colmap4(colmap::Model m, bool posed) {
+  using colmap::SensorType;
+  m.has_rigs = true;
+  if (posed) {
+    colmap::Rig rig;
+    rig.id = 7;
+    rig.sensors.push_back({{SensorType::Imu, 3}, false, {}});
+    for (std::size_t c = 0; c < m.cameras.size(); ++c) {
+      const double a = 0.05 * static_cast<double>(c + 1);
+      rig.sensors.push_back({{SensorType::Camera, m.cameras[c].id},
+                             true,
+                             {{std::cos(a), 0, std::sin(a), 0}, {0.1 * static_cast<double>(c), -0.2, 0.05}}});
+    }
+    m.rigs.push_back(rig);
+  } else {
+    for (const colmap::Camera &c : m.cameras)
+      m.rigs.push_back({c.id, {{{SensorType::Camera, c.id}, false, {}}}});
+  }
+  for (const colmap::Image &im : m.images) {
+    colmap::Frame f;
+    f.id = 1000 + im.id;
+    f.rig_id = posed ? 7 : im.camera_id;
+    f.data.push_back({{SensorType::Camera, im.camera_id}, im.id});
+    if (posed) f.data.push_back({{SensorType::Imu, 3}, 77 + im.id});
+    m.frames.push_back(f);
+  }
+  colmap::frames_from_poses(&m, std::vector<char>(m.images.size(), 1));
+  return m;
+}
+
+// The model files as written in dir but the points, the images' poses as in the images file
+// (not from the frames).
+colmap::Model files_of(const std::string &dir, colmap::Encoding e) {
+  const bool text = e == colmap::Encoding::Text;
+  const std::string x = text ? ".txt" : ".bin";
+  colmap::Model m;
+  std::string error;
+  EXPECT_TRUE((text ? colmap::parse_cameras_text : colmap::parse_cameras_binary)(
+      read_file(dir + "/cameras" + x), "cameras", &m.cameras, &error))
+      << error;
+  EXPECT_TRUE((text ? colmap::parse_images_text : colmap::parse_images_binary)(read_file(dir + "/images" + x),
+                                                                               "images", &m.images, &error))
+      << error;
+  EXPECT_TRUE((text ? colmap::parse_rigs_text : colmap::parse_rigs_binary)(read_file(dir + "/rigs" + x),
+                                                                           "rigs", &m.rigs, &error))
+      << error;
+  EXPECT_TRUE((text ? colmap::parse_frames_text : colmap::parse_frames_binary)(read_file(dir + "/frames" + x),
+                                                                               "frames", &m.frames, &error))
+      << error;
+  m.has_rigs = true;
+  return m;
+}
+
+std::vector<std::string> model_files(colmap::Encoding e, bool rigs = true) {
+  const std::string x = e == colmap::Encoding::Text ? ".txt" : ".bin";
+  if (!rigs) return {"cameras" + x, "images" + x, "points3D" + x};
+  return {"cameras" + x, "frames" + x, "images" + x, "points3D" + x, "rigs" + x};
+}
+
+// sbarefine MODEL --write OUT on a model with rigs and frames whose every frame holds one image
+// (colmap4 below): refined as the same model without them (plain_error, the final error of
+// that run), the five files written, each frame's pose the refined pose of its image: the same
+// bits for a rig's reference sensor, one that composes to it for another. The images file
+// holds the refined poses too.
+void expect_refined_frames(const colmap::Model &in, colmap::Encoding e, const std::string &model,
+                           const std::string &out, double plain_error) {
+  std::string error;
+  std::filesystem::remove_all(model);
+  std::filesystem::remove_all(out);
+  ASSERT_TRUE(colmap::write_model(model, in, e, &error)) << error;
+  const Outcome r = run(model + " --write " + out);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const bool posed = in.rigs.size() == 1;
+  EXPECT_NE(
+      r.out.find("\nRigs and frames (COLMAP 4): " + std::string(posed ? "1 rig" : "10 rigs") +
+                 ", 10 frames of one image at most: each image's pose is its frame's, refined and written "
+                 "back to both\n"),
+      std::string::npos)
+      << r.out;
+  EXPECT_NEAR(final_error(r.out), plain_error, 1e-5 * plain_error);
+  ASSERT_EQ(entries(out), model_files(e));
+  const colmap::Model written = files_of(out, e);
+  EXPECT_EQ(colmap::format_model(written, e).rigs, colmap::format_model(in, e).rigs);
+  ASSERT_EQ(written.images.size(), in.images.size());
+  ASSERT_EQ(written.frames.size(), in.frames.size());
+  colmap::Model composed = written;
+  composed.points.clear();
+  for (colmap::Image &im : composed.images) im.points.clear();
+  ASSERT_TRUE(colmap::check_model(composed, out, &error)) << error;
+  colmap::poses_from_frames(&composed);
+  double moved = 0;
+  for (std::size_t j = 0; j < in.images.size(); ++j) {
+    const colmap::Image &p = written.images[j], &c = composed.images[j];
+    for (int k = 0; k < 3; ++k) moved = std::max(moved, std::fabs(p.t[k] - in.images[j].t[k]));
+    if (!posed) {
+      EXPECT_EQ(written.frames[j].rig_from_world.q, p.q) << j;
+      EXPECT_EQ(written.frames[j].rig_from_world.t, p.t) << j;
+    }
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(c.q[k], p.q[k], 1e-12) << j;
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(c.t[k], p.t[k], 1e-12) << j;
+    EXPECT_EQ(written.frames[j].data.size(), in.frames[j].data.size());
+    EXPECT_EQ(written.frames[j].id, in.frames[j].id);
+  }
+  EXPECT_GT(moved, 1e-6);  // refined, not copied
+}
+
+TEST(SbarefineRigs, RefinedPosesGoToTheFrames) {
+  const std::string dir = temp_dir("rig_refine");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/plain", s.model, colmap::Encoding::Text, &error)) << error;
+  const Outcome plain = run(dir + "/plain");
+  ASSERT_EQ(plain.status, 0) << plain.err;
+  for (const bool posed : {false, true})
+    for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary})
+      for (const bool in_place : {false, true}) {
+        SCOPED_TRACE(std::string(posed ? "posed" : "plain") +
+                     (e == colmap::Encoding::Text ? " text" : " binary") +
+                     (in_place ? " in place" : " new folder"));
+        expect_refined_frames(colmap4(s.model, posed), e, dir + "/in", dir + (in_place ? "/in" : "/out"),
+                              final_error(plain.out));
+      }
+}
+
+// A conversion writes all five files and removes the five of the other encoding, in place and
+// to a folder that holds the other encoding's model; --itmax 0 keeps the frames' values bit for
+// bit. A model without rigs and frames written over one with them leaves none of them behind.
+TEST(SbarefineRigs, ConversionsLeaveNoStaleFile) {
+  const std::string dir = temp_dir("rig_convert");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 6, 80);
+  const colmap::Model in = colmap4(s.model, true);
+  const std::string model = dir + "/m";
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(model, in, colmap::Encoding::Binary, &error)) << error;
+  const std::string frames_bin = read_file(model + "/frames.bin");
+  Outcome r = run(model + " --itmax 0 --write " + model + " --write-format text");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(entries(model), model_files(colmap::Encoding::Text));
+  EXPECT_EQ(read_file(model + "/frames.txt"), colmap::format_model(in, colmap::Encoding::Text).frames);
+  r = run(model + " --itmax 0 --write " + model + " --write-format binary");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(entries(model), model_files(colmap::Encoding::Binary));
+  EXPECT_EQ(read_file(model + "/frames.bin"), frames_bin);
+  // A refined conversion, into a folder holding the other encoding's model.
+  ASSERT_TRUE(colmap::write_model(dir + "/out", in, colmap::Encoding::Text, &error)) << error;
+  r = run(model + " --write " + dir + "/out --write-format binary");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(entries(dir + "/out"), model_files(colmap::Encoding::Binary));
+  r = run(model + " --write " + model + " --write-format text");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(entries(model), model_files(colmap::Encoding::Text));
+  // A COLMAP 3 model written over it: three files, as it was read.
+  ASSERT_TRUE(colmap::write_model(dir + "/plain", s.model, colmap::Encoding::Text, &error)) << error;
+  r = run(dir + "/plain --write " + model);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(entries(model), model_files(colmap::Encoding::Text, false));
+  EXPECT_EQ(entries(dir + "/plain"), model_files(colmap::Encoding::Text, false));
+}
+
+// A frame of several images (a rig of several cameras) keeps its images' poses together, which
+// the solve does not do yet: refused, nothing written, the model as it was. So is a model with
+// one of the two files, which COLMAP 4 refuses to read.
+TEST(SbarefineRigs, RefusedModelsAreLeftAsTheyWere) {
+  const std::string dir = temp_dir("rig_refused");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 6, 80);
+  colmap::Model two = colmap4(s.model, false);
+  // Rig 100 gets camera 101 (its pose in the rig the identity) and frame 1010 image 13.
+  two.rigs[0].sensors.push_back({{colmap::SensorType::Camera, 101}, true, {}});
+  two.rigs.erase(two.rigs.begin() + 1);
+  two.frames[0].data.push_back(two.frames[1].data[0]);
+  two.frames.erase(two.frames.begin() + 1);
+  std::string error;
+  ASSERT_TRUE(colmap::check_model(two, "two", &error)) << error;
+  for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+    const std::string x = e == colmap::Encoding::Text ? ".txt" : ".bin";
+    const std::string model = dir + "/m" + x;
+    ASSERT_TRUE(colmap::write_model(model, two, e, &error)) << error;
+    const Tree before = tree(dir);
+    for (const std::string &out : {model, dir + "/out"}) {
+      const Outcome r = run(model + " --write " + out);
+      EXPECT_EQ(r.status, 1);
+      EXPECT_EQ(
+          r.err,
+          model + ": frame 1010 holds 2 images (rig 100): rigs of several cameras are not refined yet\n");
+      EXPECT_EQ(changes(before, tree(dir)), "");
+    }
+    ASSERT_TRUE(colmap::write_model(model, colmap4(s.model, false), e, &error)) << error;
+    std::filesystem::remove(model + "/frames" + x);
+    const Tree one = tree(dir);
+    const Outcome r = run(model + " --write " + model);
+    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.err, model + ": rigs" + x + " without frames" + x +
+                         ": COLMAP 4 refuses a model with one of the two\n");
+    EXPECT_EQ(changes(one, tree(dir)), "");
+  }
+}
+
 // sbarefine --write into its own input model on a disk that fills at the second file: status
 // 1 with the disk's reason, the input model as it was, no temporary left. A small tmpfs is
 // the full disk; mounting one needs privileges the test may not have.

@@ -482,6 +482,15 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   if (held_out > 0)
     job->summary += "\n" + std::to_string(held_out) + (held_out == 1 ? " image sees" : " images see") +
                     " no point: held out of the solve and written back as read";
+  if (l->model.has_rigs) {
+    const auto count = [](std::size_t n, const char *what) {
+      return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
+    };
+    job->summary +=
+        "\nRigs and frames (COLMAP 4): " + count(l->model.rigs.size(), "rig") + ", " +
+        count(l->model.frames.size(), "frame") +
+        " of one image at most: each image's pose is its frame's, refined and written back to both";
+  }
   const auto yes_no = [](bool b) { return b ? "refined" : "held"; };
   job->model = camera_models(l->model, pr) + "; focal length " + yes_no(o.refine.focal) +
                   ", principal point " + yes_no(o.refine.principal) + ", extra parameters " +
