@@ -30,8 +30,9 @@ help:
 deps-build:
 	@sh scripts/deps.sh build
 
+# The venv of tests/pycolmap goes into the build directory, where the tests look for it.
 deps-test:
-	@sh scripts/deps.sh test
+	@SBA_PYCOLMAP_VENV=$(BUILD)/pycolmap-venv sh scripts/deps.sh test
 
 configure:
 	cmake -S . -B $(BUILD) -DCMAKE_INSTALL_PREFIX=$(PREFIX) -DSBA_BUILD_TESTS=ON -DPython_EXECUTABLE=$(PYTHON) \
