@@ -1062,6 +1062,10 @@ TEST(ColmapRigs, ModelChecks) {
        "cannot "
        "be composed"},
       {[](colmap::Model *m) {
+         m->frames[1].rig_from_world.t = {1.7e308, 1.7e308, 1.7e308};
+       },
+       "dir: frame 12: the pose of image 2, composed in rig 1, overflows"},
+      {[](colmap::Model *m) {
          m->rigs[0].sensors[1].sensor_from_rig.q = {0, 0.6, 0, 0.3};
        },
        "dir: rig 1: the quaternion of CAMERA 2 has norm " + sbaformats::g17(std::sqrt(0.45)) +

@@ -109,6 +109,36 @@ namespace euc = sbacameras::euclidean;
 // quaternions, to rounding), while a quaternion written by hand to a few digits is refused.
 constexpr double kUnitNormTolerance = 1e-10;
 
+euc::Quaternion quaternion(const std::array<double, 4> &q) { return {q[0], q[1], q[2], q[3]}; }
+std::array<double, 4> components(const euc::Quaternion &q) { return {q.w, q.x, q.y, q.z}; }
+
+// S F: the pose of a sensor whose pose in its rig is s, the rig's pose f (X_cam = S (F X)):
+// q = q_S q_F, t = R_S t_F + t_S. Both quaternions are taken as rotations (normalized, as
+// every pose's is when it is used), so that the product is one for any norm f's has.
+Pose compose(const Pose &s, const Pose &f) {
+  const euc::Quaternion qs = euc::normalized_rotation(quaternion(s.q));
+  double R[9];
+  euc::rotation_matrix(qs, R);
+  Pose p;
+  p.q = components(euc::multiply(qs, euc::normalized_rotation(quaternion(f.q))));
+  for (int r = 0; r < 3; ++r)
+    p.t[r] = R[3 * r] * f.t[0] + R[3 * r + 1] * f.t[1] + R[3 * r + 2] * f.t[2] + s.t[r];
+  return p;
+}
+
+// S^-1 P: the rig's pose at which the sensor whose pose in the rig is s has the pose p:
+// q = q_S^* q_P, t = R_S^T (t_P - t_S).
+Pose rig_pose(const Pose &s, const std::array<double, 4> &q, const std::array<double, 3> &t) {
+  const euc::Quaternion qs = euc::normalized_rotation(quaternion(s.q));
+  double R[9];
+  euc::rotation_matrix(qs, R);
+  Pose f;
+  f.q = components(euc::multiply({qs.w, -qs.x, -qs.y, -qs.z}, euc::normalized_rotation(quaternion(q))));
+  const double d[3] = {t[0] - s.t[0], t[1] - s.t[1], t[2] - s.t[2]};
+  for (int c = 0; c < 3; ++c) f.t[c] = R[c] * d[0] + R[3 + c] * d[1] + R[6 + c] * d[2];
+  return f;
+}
+
 // An image's place among the frames: its frame (an index into Model::frames), and its
 // camera's pose in the frame's rig, null for the rig's reference sensor.
 struct Placement {
@@ -183,6 +213,10 @@ bool place_images(const Model &model, const std::string &where, std::vector<Plac
                         " has norm " + g17(std::sqrt(norm2)) +
                         ": COLMAP composes its images' poses with it as written, which is a rotation only at "
                         "norm 1");
+      const Pose composed = compose(sensor.sensor_from_rig, fr.rig_from_world);
+      if (!std::all_of(composed.t.begin(), composed.t.end(), [](double v) { return std::isfinite(v); }))
+        return fail(error, where + frame + ": the pose of " + image + ", composed in rig " +
+                               std::to_string(rig.id) + ", overflows");
       place[i].sensor_from_rig = &sensor.sensor_from_rig;
     }
   }
@@ -202,9 +236,6 @@ std::vector<Placement> placements(const Model &model) {
   return place;
 }
 
-euc::Quaternion quaternion(const std::array<double, 4> &q) { return {q[0], q[1], q[2], q[3]}; }
-std::array<double, 4> components(const euc::Quaternion &q) { return {q.w, q.x, q.y, q.z}; }
-
 }  // namespace
 
 void poses_from_frames(Model *model) {
@@ -218,14 +249,9 @@ void poses_from_frames(Model *model) {
       im.t = frame.t;
       continue;
     }
-    // X_cam = S (F X_world): q = q_S q_F, t = R_S t_F + t_S.
-    const Pose &s = *place[i].sensor_from_rig;
-    const euc::Quaternion qs = euc::normalized_rotation(quaternion(s.q));
-    double R[9];
-    euc::rotation_matrix(qs, R);
-    im.q = components(euc::multiply(qs, quaternion(frame.q)));
-    for (int r = 0; r < 3; ++r)
-      im.t[r] = R[3 * r] * frame.t[0] + R[3 * r + 1] * frame.t[1] + R[3 * r + 2] * frame.t[2] + s.t[r];
+    const Pose p = compose(*place[i].sensor_from_rig, frame);
+    im.q = p.q;
+    im.t = p.t;
   }
 }
 
@@ -241,14 +267,7 @@ void frames_from_poses(Model *model, const std::vector<char> &posed) {
       frame.t = im.t;
       continue;
     }
-    // F = S^-1 P: q_F = q_S^* q_P, t_F = R_S^T (t_P - t_S).
-    const Pose &s = *place[i].sensor_from_rig;
-    const euc::Quaternion qs = euc::normalized_rotation(quaternion(s.q));
-    double R[9];
-    euc::rotation_matrix(qs, R);
-    frame.q = components(euc::multiply({qs.w, -qs.x, -qs.y, -qs.z}, quaternion(im.q)));
-    const double d[3] = {im.t[0] - s.t[0], im.t[1] - s.t[1], im.t[2] - s.t[2]};
-    for (int c = 0; c < 3; ++c) frame.t[c] = R[c] * d[0] + R[3 + c] * d[1] + R[6 + c] * d[2];
+    frame = rig_pose(*place[i].sensor_from_rig, im.q, im.t);
   }
 }
 

@@ -176,13 +176,13 @@ bool parse_frames_binary(const std::string &bytes, const std::string &name, std:
 // camera's measurement is an existing image of that camera; every image is in exactly one
 // frame, and its pose can be composed there: its camera is the rig's reference sensor, or has
 // a pose in the rig whose quaternion has norm 1 (COLMAP composes with it as written, and a
-// quaternion of another norm is not a rotation there). name prefixes the message (the
-// model's directory).
+// quaternion of another norm is not a rotation there) and the composed pose does not
+// overflow. name prefixes the message (the model's directory).
 bool check_model(const Model &model, const std::string &name, std::string *error);
 
 // The pose of each image of a checked model with rigs and frames, from its frame: the frame's
 // rig_from_world itself for the rig's reference sensor (the same bits), sensor_from_rig times
-// it for another sensor. Nothing changes in a model without them.
+// it for another sensor (a unit quaternion). Nothing changes in a model without them.
 void poses_from_frames(Model *model);
 
 // The reverse, after the poses of some images have changed: the rig_from_world of the frame of
