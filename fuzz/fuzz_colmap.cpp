@@ -34,31 +34,17 @@ template <class T>
 using Parser = bool (*)(const std::string &, const std::string &, std::vector<T> *, std::string *);
 
 // Formats records of one file as the writer would, with the others empty.
-std::string format_cameras(const std::vector<colmap::Camera> &c, colmap::Encoding e) {
+template <class T, std::vector<T> colmap::Model::*Records, std::string colmap::Files::*File>
+std::string format_file(const std::vector<T> &records, colmap::Encoding e) {
   colmap::Model m;
-  m.cameras = c;
-  return colmap::format_model(m, e).cameras;
+  m.*Records = records;
+  return colmap::format_model(m, e).*File;
 }
-std::string format_images(const std::vector<colmap::Image> &i, colmap::Encoding e) {
-  colmap::Model m;
-  m.images = i;
-  return colmap::format_model(m, e).images;
-}
-std::string format_points(const std::vector<colmap::Point3D> &p, colmap::Encoding e) {
-  colmap::Model m;
-  m.points = p;
-  return colmap::format_model(m, e).points;
-}
-std::string format_rigs(const std::vector<colmap::Rig> &r, colmap::Encoding e) {
-  colmap::Model m;
-  m.rigs = r;
-  return colmap::format_model(m, e).rigs;
-}
-std::string format_frames(const std::vector<colmap::Frame> &f, colmap::Encoding e) {
-  colmap::Model m;
-  m.frames = f;
-  return colmap::format_model(m, e).frames;
-}
+const auto format_cameras = format_file<colmap::Camera, &colmap::Model::cameras, &colmap::Files::cameras>;
+const auto format_images = format_file<colmap::Image, &colmap::Model::images, &colmap::Files::images>;
+const auto format_points = format_file<colmap::Point3D, &colmap::Model::points, &colmap::Files::points>;
+const auto format_rigs = format_file<colmap::Rig, &colmap::Model::rigs, &colmap::Files::rigs>;
+const auto format_frames = format_file<colmap::Frame, &colmap::Model::frames, &colmap::Files::frames>;
 
 void require_rotation(const std::array<double, 4> &q, const std::string &what) {
   sbafuzz::require_rotation(euclidean::normalized_rotation({q[0], q[1], q[2], q[3]}), what);
