@@ -20,7 +20,7 @@ all: deps-build configure
 help:
 	@echo 'make              build the library, the programs (and the tests when GoogleTest is installed)'
 	@echo 'make demo         install missing build packages, build, run eucsbademo on $(DEMO_PROBLEM)'
-	@echo 'make test         install missing build and test packages, build, run the whole test suite (pysba too)'
+	@echo 'make test         install missing build and test packages (pycolmap: a venv in BUILD), build, run the whole test suite (pysba too)'
 	@echo 'make install      install into PREFIX (now $(PREFIX))'
 	@echo 'make mex          the MATLAB/GNU Octave interface in $(BUILD)/matlab (make mex-test: its tests)'
 	@echo 'make clean        remove $(BUILD)'

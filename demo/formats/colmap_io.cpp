@@ -104,9 +104,11 @@ namespace {
 namespace euc = sbacameras::euclidean;
 
 // How far from 1 the squared norm of a sensor_from_rig quaternion may be. COLMAP composes an
-// image's pose with the quaternion as written: its translation comes out scaled by about that
-// much, which this bound keeps below what 17-digit files carry of a pose (COLMAP writes unit
-// quaternions, to rounding), while a quaternion written by hand to a few digits is refused.
+// image's pose with the quaternion as written, not normalized, so that the translation it
+// gives differs from the rotation's by about this much of its size: far below what the
+// measurements can tell. COLMAP writes unit quaternions (to rounding), which pass, and so does
+// one written to ten digits; one written by hand to a few is refused rather than read as
+// another pose than COLMAP's.
 constexpr double kUnitNormTolerance = 1e-10;
 
 euc::Quaternion quaternion(const std::array<double, 4> &q) { return {q[0], q[1], q[2], q[3]}; }
