@@ -20,7 +20,7 @@ all: deps-build configure
 help:
 	@echo 'make              build the library, the programs (and the tests when GoogleTest is installed)'
 	@echo 'make demo         install missing build packages, build, run eucsbademo on $(DEMO_PROBLEM)'
-	@echo 'make test         install missing build and test packages, build, run the whole test suite (pysba too)'
+	@echo 'make test         install missing build and test packages (pycolmap: a venv in BUILD), build, run the whole test suite (pysba too)'
 	@echo 'make install      install into PREFIX (now $(PREFIX))'
 	@echo 'make mex          the MATLAB/GNU Octave interface in $(BUILD)/matlab (make mex-test: its tests)'
 	@echo 'make clean        remove $(BUILD)'
@@ -30,8 +30,9 @@ help:
 deps-build:
 	@sh scripts/deps.sh build
 
+# The venv of tests/pycolmap goes into the build directory, where the tests look for it.
 deps-test:
-	@sh scripts/deps.sh test
+	@SBA_PYCOLMAP_VENV=$(BUILD)/pycolmap-venv sh scripts/deps.sh test
 
 configure:
 	cmake -S . -B $(BUILD) -DCMAKE_INSTALL_PREFIX=$(PREFIX) -DSBA_BUILD_TESTS=ON -DPython_EXECUTABLE=$(PYTHON) \

@@ -1,12 +1,14 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Writes the seed corpora of fuzz_colmap, fuzz_bundler and fuzz_nvm: the six files of small
-// generated scenes (sbagen) as COLMAP text and binary, each behind the selector byte
-// fuzz_colmap reads, into COLMAP_DIR, the same scenes as Bundler files with their image lists
+// Writes the seed corpora of fuzz_colmap, fuzz_bundler and fuzz_nvm: the files of small
+// generated scenes (sbagen) as COLMAP text and binary, rigs and frames too, each behind the
+// selector byte fuzz_colmap reads, and whole text models (with and without rigs and frames),
+// into COLMAP_DIR, the same scenes as Bundler files with their image lists
 // into BUNDLER_DIR, and as NVM files (one with a calibration token, a second model and a PLY
 // section after the first) into NVM_DIR. Some seeds hold what the readers must take although
 // it is rare: quaternions whose squares overflow or underflow, names that are not UTF-8.
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "formats/bundler_io.h"
 #include "formats/colmap_io.h"
@@ -26,6 +28,26 @@ namespace {
 // bytes that are not UTF-8, for image or camera j.
 double odd_scale(std::size_t j) { return j % 2 ? 1e300 : 1e-200; }
 std::string odd_name(std::size_t j) { return "img\xff\xfe" + std::to_string(j) + ".jpg"; }
+
+// The model with rigs and frames: one rig of an IMU without a pose (its reference) and every
+// camera, each at a pose of its own in the rig; a frame for each image (its id not the
+// image's), with a measurement of the IMU, at the pose that composes to the image's; and a
+// frame of the rig with no measurement.
+colmap::Model rigged(colmap::Model m) {
+  using colmap::SensorType;
+  m.has_rigs = true;
+  m.rigs.push_back({5, {{{SensorType::Imu, 2}, false, {}}}});
+  for (std::size_t c = 0; c < m.cameras.size(); ++c)
+    m.rigs[0].sensors.push_back({{SensorType::Camera, m.cameras[c].id},
+                                 true,
+                                 {{0.96, 0, 0.28, 0}, {0.5 * static_cast<double>(c), 0, -0.25}}});
+  for (const colmap::Image &im : m.images)
+    m.frames.push_back(
+        {100 + im.id, 5, {}, {{{SensorType::Camera, im.camera_id}, im.id}, {{SensorType::Imu, 2}, im.id}}});
+  colmap::frames_from_poses(&m, std::vector<char>(m.images.size(), 1));
+  m.frames.push_back({7, 5, {}, {}});
+  return m;
+}
 
 bool write_seed(const std::string &path, int selector, const std::string &content) {
   std::FILE *out = std::fopen(path.c_str(), "wb");
@@ -114,7 +136,22 @@ int main(int argc, char **argv) {
         if (!write_seed(seed + std::to_string(k + binary), k + binary, *files[k])) return 1;
       if (!write_seed(seed + "odd-" + std::to_string(1 + binary), 1 + binary, colmap::format_model(odd, e).images))
         return 1;
-      written += 4;
+      const colmap::Files r = colmap::format_model(rigged(model), e);
+      if (!write_seed(seed + std::to_string(6 + binary / 3 * 2), 6 + binary / 3 * 2, r.rigs) ||
+          !write_seed(seed + std::to_string(7 + binary / 3 * 2), 7 + binary / 3 * 2, r.frames))
+        return 1;
+      written += 6;
+    }
+    // Whole models for fuzz_colmap's model checks: the text files, each ended by a line "%%".
+    const std::string seed = dir + "/seed-" + sbagen::camera_kind_name(kind) + "-model";
+    for (const bool with_rigs : {false, true}) {
+      const colmap::Files f = colmap::format_model(with_rigs ? rigged(model) : model, colmap::Encoding::Text);
+      std::string all = f.cameras + "%%\n" + f.images + "%%\n" + f.points;
+      if (with_rigs) all += "%%\n" + f.rigs + "%%\n" + f.frames;
+      if (!write_seed(seed + (with_rigs ? "-rigs-10" : "-10"), 10, all) ||
+          !write_seed(seed + (with_rigs ? "-rigs-11" : "-11"), 11, all))
+        return 1;
+      written += 2;
     }
   }
   std::printf("seed_writer: %d seeds\n", written);

@@ -4,7 +4,9 @@
 #   scripts/deps.sh build   compiler, CMake, LAPACK/BLAS (OpenBLAS), SuiteSparse, bzip2
 #   scripts/deps.sh bench   build + Ceres Solver, Google Benchmark and gnuplot (bench/)
 #   scripts/deps.sh test    build + GoogleTest + GNU Octave (the MEX interface's tests) + python,
-#                           and COLMAP (tests/colmap_real) if it installs: optional, its tests skip without it
+#                           and COLMAP (tests/colmap_real) if it installs: optional, its tests skip without it;
+#                           then a venv with pycolmap from PyPI (tests/pycolmap) at $SBA_PYCOLMAP_VENV
+#                           (default build/pycolmap-venv) if it is not there: optional too
 #   scripts/deps.sh python  build + what the Python package pysba builds and tests with
 #   scripts/deps.sh mex     build + GNU Octave with its MEX headers
 #   scripts/deps.sh valgrind  build + valgrind (make check-valgrind)
@@ -34,6 +36,24 @@ case "$purpose" in
   *) echo "usage: $0 build|test|python|mex|bench|valgrind|fuzz" >&2; exit 2 ;;
 esac
 
+# The venv of tests/pycolmap: made when missing, with the pycolmap its tests were written against.
+# Without PyPI (offline, a proxy) it is reported and left out, and those tests skip: never a
+# failure. A venv that pip could not fill is removed, so that the next run tries again.
+PYCOLMAP=pycolmap==4.2.1
+pycolmap_venv() {
+  venv=${SBA_PYCOLMAP_VENV:-$(dirname "$0")/../build/pycolmap-venv}
+  "$venv/bin/python3" -c 'import pycolmap' 2>/dev/null && return 0
+  echo "deps: making $venv with $PYCOLMAP from PyPI (tests/pycolmap)" >&2
+  rm -rf "$venv"
+  if python3 -m venv "$venv" >/dev/null &&
+     "$venv/bin/python3" -m pip install -q --disable-pip-version-check --retries 2 --timeout 30 "$PYCOLMAP" &&
+     "$venv/bin/python3" -c 'import pycolmap'; then
+    return 0
+  fi
+  rm -rf "$venv"
+  echo "deps: optional $PYCOLMAP did not install; the tests that need it (tests/pycolmap) will skip" >&2
+}
+
 # not_installed PKG...: the ones dpkg does not list as installed.
 not_installed() {
   for p in "$@"; do
@@ -44,7 +64,10 @@ not_installed() {
 missing=$(not_installed $pkgs)
 # shellcheck disable=SC2086
 missing_optional=$(not_installed $optional)
-[ -z "$missing$missing_optional" ] && exit 0
+if [ -z "$missing$missing_optional" ]; then
+  [ "$purpose" = test ] && pycolmap_venv
+  exit 0
+fi
 
 if [ "$(id -u)" -eq 0 ]; then
   export DEBIAN_FRONTEND=noninteractive
@@ -61,8 +84,11 @@ if [ "$(id -u)" -eq 0 ]; then
 else
   [ -n "$missing_optional" ] &&
     echo "deps: optional, missing:$missing_optional (the tests that need it skip); sudo apt-get install -y$missing_optional" >&2
-  [ -z "$missing" ] && exit 0
-  echo "deps: missing Debian packages:$missing" >&2
-  echo "deps: install them with: sudo apt-get install -y$missing" >&2
-  exit 1
+  if [ -n "$missing" ]; then
+    echo "deps: missing Debian packages:$missing" >&2
+    echo "deps: install them with: sudo apt-get install -y$missing" >&2
+    exit 1
+  fi
 fi
+[ "$purpose" = test ] && pycolmap_venv
+exit 0

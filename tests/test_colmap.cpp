@@ -20,6 +20,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -33,6 +34,7 @@
 #include "formats/colmap_sba.h"
 #include "formats/eucsba_io.h"
 #include "formats/output_file.h"
+#include "formats/text_tokens.h"
 #include "sanitized.h"
 #include "sba_ext.h"
 #include "sbagen.h"
@@ -843,6 +845,588 @@ TEST(ColmapWriter, WritingOneFormatRemovesTheOther) {
   ASSERT_TRUE(colmap::read_model(model, &back, &found, &error)) << error;
   EXPECT_EQ(found, colmap::Encoding::Text);
   expect_same(back, s.model);
+}
+
+// ---- rigs and frames (COLMAP 4) ----
+
+// rigs and frames as pycolmap 4.2 writes them, from a model of three cameras and images 1..3:
+// rig 1 of cameras 1 (the reference) and 2 (posed) and an IMU without a pose, rig 2 of an IMU
+// (the reference) and camera 3, rig 5 of no sensor; frames 11..14, whose ids are not the images',
+// two of them with an IMU's measurement, one of rig 5 with none.
+const char *const kPycolmapRigs =
+    "# Rig calib list with one line of data per calib:\n"
+    "#   RIG_ID, NUM_SENSORS, REF_SENSOR_TYPE, REF_SENSOR_ID, SENSORS[] as (SENSOR_TYPE, SENSOR_ID, "
+    "HAS_POSE, [QW, QX, QY, QZ, TX, TY, TZ])\n"
+    "# Number of rigs: 3\n"
+    "1 3 CAMERA 1 CAMERA 2 1 0.99844526913238008 -0 -0 -0.055740869630542866 0.058413656075265698 "
+    "0.0048271336011196046 -0.0038852292537174815 IMU 7 0\n"
+    "2 2 IMU 3 CAMERA 3 1 0.99432039012483786 -0 -0 -0.10642820012567247 -0.012789534076307769 "
+    "0.070022004531221982 "
+    "-0.049612876945207551\n"
+    "5 0\n";
+const char *const kPycolmapFrames =
+    "# Frame list with one line of data per frame:\n"
+    "#   FRAME_ID, RIG_ID, RIG_FROM_WORLD[QW, QX, QY, QZ, TX, TY, TZ], NUM_DATA_IDS, DATA_IDS[] as "
+    "(SENSOR_TYPE, SENSOR_ID, DATA_ID)\n"
+    "# Number of frames: 4\n"
+    "11 1 0.53411548100981121 0.76424205614218732 0.36146193792600073 -0 8.8817841970012523e-16 "
+    "-1.7763568394002505e-15 5.0000000000000018 2 CAMERA 1 1 IMU 7 1234567890123\n"
+    "12 1 0.35094699128024437 -0.37423331358232942 0.85836218248274099 0 1.7763568394002505e-15 "
+    "4.4408920985006262e-16 5.0000000000000018 1 CAMERA 2 2\n"
+    "13 2 0.32976958296721531 -0.76612392269515395 -0.55163951746028761 0 -8.8817841970012523e-16 "
+    "8.8817841970012523e-16 5.0000000000000018 2 CAMERA 3 3 IMU 3 5\n"
+    "14 5 1 0 0 0 0 0 0 0\n";
+// The same as pycolmap writes them in binary.
+const char *const kPycolmapRigsHex =
+    "030000000000000001000000030000000000000001000000000000000200000001ab9f387e43f3ef3f00000000000000"
+    "80000000000000008088413a38118aacbf5d53f70c65e8ad3fda2534cf9dc5733f0036a192ead36fbf01000000070000"
+    "000002000000020000000100000003000000000000000300000001e4a0aafe78d1ef3f00000000000000800000000000"
+    "000080b272e9e6e03ebbbff7e6b53466318abf2843764bf6ecb13fe059e1e7db66a9bf0500000000000000";
+const char *const kPycolmapFramesHex =
+    "04000000000000000b00000001000000ae2e67597917e13fc178abc1ab74e83f690589403122d73f0000000000000080"
+    "000000000000d03c000000000000e0bc0200000000001440020000000000000001000000010000000000000001000000"
+    "07000000cb04fb711f0100000c0000000100000065688b5eea75d63f733aba4870f3d7bfac5ebcf7b377eb3f00000000"
+    "00000000000000000000e03c000000000000c03c02000000000014400100000000000000020000000200000000000000"
+    "0d00000002000000ebd283e1f11ad53fdc1515511684e8bf7f8ad5ea07a7e1bf0000000000000000000000000000d0bc"
+    "000000000000d03c02000000000014400200000000000000030000000300000000000000010000000300000005000000"
+    "000000000e00000005000000000000000000f03f00000000000000000000000000000000000000000000000000000000"
+    "000000000000000000000000000000000000000000000000";
+
+std::string from_hex(const std::string &hex) {
+  std::string out;
+  for (std::size_t k = 0; k + 1 < hex.size(); k += 2)
+    out += static_cast<char>(std::stoi(hex.substr(k, 2), nullptr, 16));
+  return out;
+}
+
+// The model of those rigs and frames: cameras and images 1..3 (image k of camera k), no
+// points, every image at the identity pose.
+colmap::Model rig_model() {
+  colmap::Model m;
+  m.cameras = {{1, colmap::kSimpleRadial, 1024, 768, {1280, 512, 384, 0.05}},
+               {2, colmap::kPinhole, 1024, 768, {1280, 1281, 512, 384}},
+               {3, colmap::kSimplePinhole, 1024, 768, {1279, 512, 384}}};
+  for (std::uint32_t k = 1; k <= 3; ++k) {
+    colmap::Image im;
+    im.id = k;
+    im.camera_id = k;
+    im.name = "image" + std::to_string(k) + ".png";
+    m.images.push_back(im);
+  }
+  std::string error;
+  EXPECT_TRUE(colmap::parse_rigs_text(kPycolmapRigs, "rigs.txt", &m.rigs, &error)) << error;
+  EXPECT_TRUE(colmap::parse_frames_text(kPycolmapFrames, "frames.txt", &m.frames, &error)) << error;
+  m.has_rigs = true;
+  return m;
+}
+
+TEST(ColmapRigs, PycolmapFilesRoundTripByteForByte) {
+  const colmap::Model m = rig_model();
+  ASSERT_EQ(m.rigs.size(), 3u);
+  ASSERT_EQ(m.frames.size(), 4u);
+  // Every field: the reference sensor first, a sensor without a pose, IMU sensors, a rig of no
+  // sensor, the signs of zeros, frame ids that are not image ids, an IMU's 64-bit data id.
+  const colmap::Rig &r1 = m.rigs[0];
+  ASSERT_EQ(r1.sensors.size(), 3u);
+  EXPECT_EQ(r1.id, 1u);
+  EXPECT_TRUE(r1.sensors[0].sensor == (colmap::SensorId{colmap::SensorType::Camera, 1}));
+  EXPECT_TRUE(r1.sensors[1].sensor == (colmap::SensorId{colmap::SensorType::Camera, 2}));
+  EXPECT_TRUE(r1.sensors[1].has_pose);
+  EXPECT_EQ(r1.sensors[1].sensor_from_rig.q[0], 0.99844526913238008);
+  EXPECT_TRUE(std::signbit(r1.sensors[1].sensor_from_rig.q[1]));
+  EXPECT_EQ(r1.sensors[1].sensor_from_rig.t[2], -0.0038852292537174815);
+  EXPECT_TRUE(r1.sensors[2].sensor == (colmap::SensorId{colmap::SensorType::Imu, 7}));
+  EXPECT_FALSE(r1.sensors[2].has_pose);
+  EXPECT_TRUE(m.rigs[1].sensors[0].sensor == (colmap::SensorId{colmap::SensorType::Imu, 3}));
+  EXPECT_EQ(m.rigs[2].id, 5u);
+  EXPECT_TRUE(m.rigs[2].sensors.empty());
+  EXPECT_EQ(m.frames[0].id, 11u);
+  EXPECT_EQ(m.frames[0].rig_id, 1u);
+  ASSERT_EQ(m.frames[0].data.size(), 2u);
+  EXPECT_TRUE(m.frames[0].data[1].sensor == (colmap::SensorId{colmap::SensorType::Imu, 7}));
+  EXPECT_EQ(m.frames[0].data[1].id, 1234567890123u);
+  EXPECT_EQ(m.frames[2].data[0].id, 3u);
+  EXPECT_EQ(m.frames[3].rig_id, 5u);
+  EXPECT_TRUE(m.frames[3].data.empty());
+  std::string error;
+  EXPECT_TRUE(colmap::check_model(m, "dir", &error)) << error;
+
+  // Text back to pycolmap's text, and to pycolmap's binary; its binary back to itself.
+  const colmap::Files text = colmap::format_model(m, colmap::Encoding::Text);
+  EXPECT_EQ(text.rigs, kPycolmapRigs);
+  EXPECT_EQ(text.frames, kPycolmapFrames);
+  const colmap::Files binary = colmap::format_model(m, colmap::Encoding::Binary);
+  const std::string rigs_bin = from_hex(kPycolmapRigsHex), frames_bin = from_hex(kPycolmapFramesHex);
+  EXPECT_EQ(binary.rigs, rigs_bin);
+  EXPECT_EQ(binary.frames, frames_bin);
+  colmap::Model b = m;
+  ASSERT_TRUE(colmap::parse_rigs_binary(rigs_bin, "rigs.bin", &b.rigs, &error)) << error;
+  ASSERT_TRUE(colmap::parse_frames_binary(frames_bin, "frames.bin", &b.frames, &error)) << error;
+  const colmap::Files again = colmap::format_model(b, colmap::Encoding::Binary);
+  EXPECT_EQ(again.rigs, rigs_bin);
+  EXPECT_EQ(again.frames, frames_bin);
+  EXPECT_EQ(colmap::format_model(b, colmap::Encoding::Text).frames, kPycolmapFrames);
+
+  // The order of the file is kept (COLMAP writes its sets sorted; sbarefine writes back what
+  // it read).
+  const std::string unsorted = "5 0\n1 3 CAMERA 1 IMU 7 0 CAMERA 2 1 1 0 0 0 0.5 0 0\n";
+  ASSERT_TRUE(colmap::parse_rigs_text(unsorted, "r", &b.rigs, &error)) << error;
+  const std::string header(kPycolmapRigs, std::strstr(kPycolmapRigs, "# Number of rigs: ") + 18);
+  EXPECT_EQ(colmap::format_model(b, colmap::Encoding::Text).rigs, header + "2\n" + unsorted);
+}
+
+TEST(ColmapRigs, TextErrors) {
+  const Bad rigs[] = {
+      {"1\n",
+       "r.txt:1: expected RIG_ID NUM_SENSORS [REF_SENSOR_TYPE REF_SENSOR_ID] SENSORS[], found 1 values"},
+      {"-1 0\n", "r.txt:1: RIG_ID must be an integer from 0 to 4294967295, got '-1'"},
+      {"1 2 CAMERA 1\n", "r.txt:1: rig 1: the line ends inside sensor 2 of 2"},
+      {"1 1 camera 1\n", "r.txt:1: SENSOR_TYPE must be CAMERA or IMU, got 'camera'"},
+      {"1 2 CAMERA 1 GNSS 3 0\n", "r.txt:1: SENSOR_TYPE must be CAMERA or IMU, got 'GNSS'"},
+      {"1 2 CAMERA 1 IMU 1 2\n", "r.txt:1: HAS_POSE must be an integer from 0 to 1, got '2'"},
+      {"1 2 CAMERA 1 CAMERA 2 1 1 0 0\n", "r.txt:1: rig 1: the line ends inside the pose of sensor 2 of 2"},
+      {"1 2 CAMERA 1 CAMERA 2 1 1 0 0 inf 0 0 0\n", "r.txt:1: QZ must be a finite number, got 'inf'"},
+      {"1 2 CAMERA 1 CAMERA 2 1 0 0 0 0 1 2 3\n", "r.txt:1: rig 1: the quaternion of CAMERA 2 is zero"},
+      {"1 1 CAMERA 1 1 1 0 0 0 0 0 0\n", "r.txt:1: rig 1: 8 values after its 1 sensors"},
+      {"1 2 CAMERA 1 CAMERA 1 0\n", "r.txt:1: rig 1 lists CAMERA 1 twice"},
+      {"# c\n1 1 CAMERA 1\n\n1 1 CAMERA 2\n", "r.txt:4: rig 1 appears twice"},
+  };
+  for (const Bad &b : rigs) {
+    std::vector<colmap::Rig> out;
+    std::string error;
+    EXPECT_FALSE(colmap::parse_rigs_text(b.text, "r.txt", &out, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+  const Bad frames[] = {
+      {"1 1 1 0 0 0 0 0 0\n",
+       "f.txt:1: expected FRAME_ID RIG_ID QW QX QY QZ TX TY TZ NUM_DATA_IDS DATA_IDS[], found 9 values"},
+      {"1 1 1 0 0 0 0 0 0 2 CAMERA 1 1\n",
+       "f.txt:1: frame 1 has NUM_DATA_IDS 2, followed by 3 values (SENSOR_TYPE SENSOR_ID DATA_ID each)"},
+      {"1 1 1 0 0 0 0 0 0 99999999999\n",
+       "f.txt:1: NUM_DATA_IDS must be an integer from 0 to 4294967295, got '99999999999'"},
+      {"1 1 0 0 0 0 0 0 0 0\n", "f.txt:1: the quaternion is zero"},
+      {"1 1 1 0 0 0 0 nan 0 0\n", "f.txt:1: TY must be a finite number, got 'nan'"},
+      {"1 1 1 0 0 0 0 0 0 1 LIDAR 1 1\n", "f.txt:1: SENSOR_TYPE must be CAMERA or IMU, got 'LIDAR'"},
+      {"1 1 1 0 0 0 0 0 0 1 CAMERA 1 -1\n",
+       "f.txt:1: DATA_ID must be an integer from 0 to 18446744073709551615, got '-1'"},
+      {"1 1 1 0 0 0 0 0 0 3 IMU 7 5 CAMERA 7 5 IMU 7 5\n", "f.txt:1: frame 1 lists IMU 7 5 twice"},
+      {"1 1 1 0 0 0 0 0 0 0\n2 1 1 0 0 0 0 0 0 0\n1 1 1 0 0 0 0 0 0 0\n", "f.txt:3: frame 1 appears twice"},
+  };
+  for (const Bad &b : frames) {
+    std::vector<colmap::Frame> out;
+    std::string error;
+    EXPECT_FALSE(colmap::parse_frames_text(b.text, "f.txt", &out, &error)) << b.text;
+    EXPECT_EQ(error, b.message);
+  }
+}
+
+TEST(ColmapRigs, BinaryErrors) {
+  const std::string rigs = from_hex(kPycolmapRigsHex), frames = from_hex(kPycolmapFramesHex);
+  std::vector<colmap::Rig> r;
+  std::vector<colmap::Frame> f;
+  std::string error;
+  // bytes with `size` bytes from `at` on replaced by value, little-endian.
+  const auto with = [](std::string bytes, std::size_t at, std::uint64_t value, int size) {
+    std::string le;
+    for (int k = 0; k < size; ++k) le += static_cast<char>(value >> (8 * k));
+    return bytes.replace(at, le.size(), le);
+  };
+  EXPECT_FALSE(colmap::parse_rigs_binary(rigs.substr(0, rigs.size() - 1), "r.bin", &r, &error));
+  EXPECT_EQ(error, "r.bin: byte " + std::to_string(rigs.size() - 4) +
+                       ": the file ends inside the number of sensors");
+  EXPECT_FALSE(colmap::parse_rigs_binary(rigs + "x", "r.bin", &r, &error));
+  EXPECT_EQ(error, "r.bin: byte " + std::to_string(rigs.size()) + ": 1 bytes after the last record");
+  // Rig 1: its sensor count at byte 12, its reference sensor's type at 16, camera 2's HAS_POSE at 32.
+  EXPECT_FALSE(colmap::parse_rigs_binary(with(rigs, 16, 2, 4), "r.bin", &r, &error));
+  EXPECT_EQ(error, "r.bin: byte 16: rig 1: unknown sensor type 2");
+  EXPECT_FALSE(colmap::parse_rigs_binary(with(rigs, 16, 0xffffffffu, 4), "r.bin", &r, &error));
+  EXPECT_EQ(error, "r.bin: byte 16: rig 1: unknown sensor type -1");
+  EXPECT_FALSE(colmap::parse_rigs_binary(with(rigs, 32, 2, 1), "r.bin", &r, &error));
+  EXPECT_EQ(error, "r.bin: byte 24: rig 1: HAS_POSE of CAMERA 2 must be 0 or 1, got 2");
+  EXPECT_FALSE(colmap::parse_rigs_binary(with(rigs, 12, 0xffffffffu, 4), "r.bin", &r, &error));
+  EXPECT_EQ(error, "r.bin: byte 12: the number of sensors is 4294967295, more than the " +
+                       std::to_string(rigs.size() - 16) + " bytes left can hold");
+  EXPECT_FALSE(colmap::parse_rigs_binary(with(with(rigs, 24, 1, 4), 28, 7, 4), "r.bin", &r, &error));
+  EXPECT_EQ(error, "r.bin: byte 8: rig 1 lists IMU 7 twice");
+  EXPECT_FALSE(colmap::parse_rigs_binary(with(rigs, 8, 5, 4), "r.bin", &r, &error));
+  EXPECT_EQ(error, "r.bin: byte " + std::to_string(rigs.size() - 8) + ": rig 5 appears twice");
+  // Frame 11: its quaternion from byte 16, its data count at 72, its data from 76 (type, sensor,
+  // id: 16 bytes each).
+  EXPECT_FALSE(colmap::parse_frames_binary(frames.substr(0, frames.size() - 1), "f.bin", &f, &error));
+  EXPECT_EQ(error, "f.bin: byte " + std::to_string(frames.size() - 4) +
+                       ": the file ends inside the number of data ids");
+  EXPECT_FALSE(colmap::parse_frames_binary(with(frames, 0, 1000, 8), "f.bin", &f, &error));
+  EXPECT_EQ(error, "f.bin: byte 0: the number of frames is 1000, more than the " +
+                       std::to_string(frames.size() - 8) + " bytes left can hold");
+  EXPECT_FALSE(colmap::parse_frames_binary(with(frames, 76, 7, 4), "f.bin", &f, &error));
+  EXPECT_EQ(error, "f.bin: byte 76: frame 11: unknown sensor type 7");
+  EXPECT_FALSE(colmap::parse_frames_binary(with(frames, 72, 0x7fffffff, 4), "f.bin", &f, &error));
+  EXPECT_EQ(error, "f.bin: byte 72: the number of data ids is 2147483647, more than the " +
+                       std::to_string(frames.size() - 76) + " bytes left can hold");
+  std::string zero = frames;
+  std::fill_n(&zero[16], 32, '\0');
+  EXPECT_FALSE(colmap::parse_frames_binary(zero, "f.bin", &f, &error));
+  EXPECT_EQ(error, "f.bin: byte 8: frame 11: the quaternion is zero");
+  EXPECT_FALSE(colmap::parse_frames_binary(with(with(with(frames, 92, 0, 4), 96, 1, 4), 100, 1, 8), "f.bin",
+                                           &f, &error));
+  EXPECT_EQ(error, "f.bin: byte 8: frame 11 lists CAMERA 1 1 twice");
+  const double inf = INFINITY;
+  std::string bad = frames;
+  std::memcpy(&bad[48], &inf, 8);
+  EXPECT_FALSE(colmap::parse_frames_binary(bad, "f.bin", &f, &error));
+  EXPECT_EQ(error, "f.bin: byte 48: a translation component is not a finite number");
+}
+
+// What COLMAP 4 refuses to read (its reader throws), or reads into a model whose images have no
+// pose, is refused by name.
+TEST(ColmapRigs, ModelChecks) {
+  const colmap::Model good = rig_model();
+  struct Case {
+    std::function<void(colmap::Model *)> edit;
+    std::string message;
+  };
+  using colmap::SensorType;
+  const Case cases[] = {
+      {[](colmap::Model *m) { m->frames[0].rig_id = 9; },
+       "dir: frame 11 is a pose of rig 9, which rigs does not hold"},
+      {[](colmap::Model *m) { m->frames[1].data[0].id = 99; },
+       "dir: frame 12 holds image 99 (CAMERA 2), which images does not hold"},
+      {[](colmap::Model *m) { m->frames[1].data[0].id = 0x100000002ull; },
+       "dir: frame 12 holds image 4294967298 (CAMERA 2), which images does not hold"},
+      {[](colmap::Model *m) { m->frames[1].data[0].sensor.id = 3; },
+       "dir: frame 12 holds data of CAMERA 3, which rig 1 does not hold"},
+      {[](colmap::Model *m) { m->frames[0].data[1].sensor.id = 3; },
+       "dir: frame 11 holds data of IMU 3, which rig 1 does not hold"},
+      {[](colmap::Model *m) { m->images[1].camera_id = 1; },
+       "dir: frame 12 holds image 2 as data of CAMERA 2, but the image's camera is 1"},
+      {[](colmap::Model *m) { m->frames.erase(m->frames.begin() + 2); }, "dir: image 3 is in no frame"},
+      {[](colmap::Model *m) {
+         m->frames[1].data.push_back({{SensorType::Camera, 1}, 1});
+       },
+       "dir: image 1 is in frame 11 and in frame 12"},
+      {[](colmap::Model *m) { m->rigs[1].sensors[1].sensor.id = 9; },
+       "dir: rig 2 holds camera 9, which cameras does not hold"},
+      {[](colmap::Model *m) {
+         m->rigs[2].sensors.push_back({{SensorType::Camera, 1}, false, {}});
+       },
+       "dir: CAMERA 1 is a sensor of rig 1 and of rig 5: a sensor belongs to one rig"},
+      {[](colmap::Model *m) {
+         m->rigs[2].sensors.push_back({{SensorType::Imu, 3}, false, {}});
+       },
+       "dir: IMU 3 is a sensor of rig 2 and of rig 5: a sensor belongs to one rig"},
+      {[](colmap::Model *m) { m->rigs[0].sensors[1].has_pose = false; },
+       "dir: frame 12 holds image 2, whose camera 2 has no pose in rig 1 (HAS_POSE 0): the image's pose "
+       "cannot "
+       "be composed"},
+      {[](colmap::Model *m) {
+         m->frames[1].rig_from_world.t = {1.7e308, 1.7e308, 1.7e308};
+       },
+       "dir: frame 12: the pose of image 2, composed in rig 1, overflows"},
+      {[](colmap::Model *m) {
+         m->rigs[0].sensors[1].sensor_from_rig.q = {0, 0.6, 0, 0.3};
+       },
+       "dir: rig 1: the quaternion of CAMERA 2 has norm " + sbaformats::g17(std::sqrt(0.45)) +
+           ": COLMAP composes its images' poses with it as written, which is a rotation only at norm 1"},
+  };
+  std::string error;
+  for (const Case &c : cases) {
+    colmap::Model m = good;
+    c.edit(&m);
+    EXPECT_FALSE(colmap::check_model(m, "dir", &error)) << c.message;
+    EXPECT_EQ(error, c.message);
+    // A model without rigs and frames has none to check.
+    m.has_rigs = false;
+    EXPECT_TRUE(colmap::check_model(m, "dir", &error)) << error;
+  }
+  // Within rounding of a unit norm, a quaternion is taken; a sensor without a pose that holds no
+  // image, an IMU's, is too.
+  colmap::Model m = good;
+  for (double &v : m.rigs[0].sensors[1].sensor_from_rig.q) v *= 1 + 2e-11;
+  EXPECT_TRUE(colmap::check_model(m, "dir", &error)) << error;
+  for (double &v : m.rigs[0].sensors[1].sensor_from_rig.q) v *= 1 + 1e-10;
+  EXPECT_FALSE(colmap::check_model(m, "dir", &error));
+}
+
+// read_model gives each image its frame's pose, as COLMAP 4 does, whatever images.txt says:
+// the reference sensor's the same bits, another sensor's composed (pycolmap's composition of
+// the same files, to rounding). frames_from_poses gives the frames back.
+TEST(ColmapRigs, ImagesTakeTheirFramesPoses) {
+  const std::string dir = temp_dir("rig_poses");
+  const colmap::Model m = rig_model();
+  const std::array<double, 7> pycolmap[] = {
+      {0.35040136316000259, -0.32580562698845256, 0.87788775064583591, -0.019562090488183363,
+       0.058413656075267516, 0.0048271336011198483, 4.9961147707462841},
+      {0.32789662038726664, -0.8204826386597095, -0.46696923004372537, -0.035096783171394343,
+       -0.012789534076308449, 0.070022004531223037, 4.950387123054794}};
+  std::string error;
+  for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+    const std::string out = dir + (e == colmap::Encoding::Text ? "/text" : "/binary");
+    ASSERT_TRUE(colmap::write_model(out, m, e, &error)) << error;
+    const std::string x = e == colmap::Encoding::Text ? ".txt" : ".bin";
+    EXPECT_EQ(entries(out), (std::vector<std::string>{"cameras" + x, "frames" + x, "images" + x,
+                                                      "points3D" + x, "rigs" + x}));
+    colmap::Model back;
+    ASSERT_TRUE(colmap::read_model(out, &back, nullptr, &error)) << error;
+    EXPECT_TRUE(back.has_rigs);
+    EXPECT_EQ(back.images[0].q, m.frames[0].rig_from_world.q);
+    EXPECT_EQ(back.images[0].t, m.frames[0].rig_from_world.t);
+    for (int k = 0; k < 2; ++k) {
+      const colmap::Image &im = back.images[static_cast<std::size_t>(k + 1)];
+      for (int c = 0; c < 4; ++c) EXPECT_NEAR(im.q[c], pycolmap[k][c], 1e-14) << k << c;
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(im.t[c], pycolmap[k][4 + c], 1e-14) << k << c;
+    }
+    // The rigs and frames as read.
+    EXPECT_EQ(colmap::format_model(back, colmap::Encoding::Text).frames, kPycolmapFrames);
+    colmap::frames_from_poses(&back, {1, 1, 1});
+    EXPECT_EQ(back.frames[0].rig_from_world.q, m.frames[0].rig_from_world.q);
+    EXPECT_EQ(back.frames[0].rig_from_world.t, m.frames[0].rig_from_world.t);
+    for (std::size_t f = 1; f < 3; ++f) {
+      for (int c = 0; c < 4; ++c)
+        EXPECT_NEAR(back.frames[f].rig_from_world.q[c], m.frames[f].rig_from_world.q[c], 1e-14) << f << c;
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(back.frames[f].rig_from_world.t[c], m.frames[f].rig_from_world.t[c], 1e-14) << f << c;
+    }
+  }
+}
+
+// COLMAP 4 refuses a model with one of the two files; so does read_model. Writing a model
+// without rigs and frames removes those of this encoding; writing the other encoding removes
+// all five files.
+TEST(ColmapRigs, BothOrNeither) {
+  const std::string dir = temp_dir("rig_files");
+  const colmap::Model m = rig_model();
+  colmap::Model plain = m;
+  plain.has_rigs = false;
+  std::string error;
+  colmap::Model back;
+  for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+    const std::string x = e == colmap::Encoding::Text ? ".txt" : ".bin";
+    const std::string out = dir + "/m" + x;
+    for (const char *file : {"rigs", "frames"}) {
+      ASSERT_TRUE(colmap::write_model(out, m, e, &error)) << error;
+      std::filesystem::remove(out + "/" + file + x);
+      const std::string there = std::string(file) == "rigs" ? "frames" : "rigs";
+      EXPECT_FALSE(colmap::read_model(out, &back, nullptr, &error));
+      EXPECT_EQ(error, out + ": " + there + x + " without " + file + x +
+                           ": COLMAP 4 refuses a model with one of the two");
+    }
+    ASSERT_TRUE(colmap::write_model(out, m, e, &error)) << error;
+    ASSERT_TRUE(colmap::write_model(out, plain, e, &error)) << error;
+    EXPECT_EQ(entries(out), (std::vector<std::string>{"cameras" + x, "images" + x, "points3D" + x}));
+    ASSERT_TRUE(colmap::read_model(out, &back, nullptr, &error)) << error;
+    EXPECT_FALSE(back.has_rigs);
+    ASSERT_TRUE(colmap::write_model(out, m, e, &error)) << error;
+    const colmap::Encoding other =
+        e == colmap::Encoding::Text ? colmap::Encoding::Binary : colmap::Encoding::Text;
+    const std::string y = e == colmap::Encoding::Text ? ".bin" : ".txt";
+    ASSERT_TRUE(colmap::write_model(out, m, other, &error)) << error;
+    EXPECT_EQ(entries(out), (std::vector<std::string>{"cameras" + y, "frames" + y, "images" + y,
+                                                      "points3D" + y, "rigs" + y}));
+  }
+}
+
+// ---- sbarefine on models with rigs and frames ----
+
+// A model as COLMAP 4 writes it: rigs and frames beside the three files. Plain: one rig per
+// camera (its id the camera's), one frame per image, as COLMAP 4 writes ordinary data, but with
+// frame ids that are not the image ids. Posed: one rig of an IMU (the reference) and every
+// camera, each camera with a pose in the rig, and one frame per image with an IMU measurement
+// too; the frames' poses are set so that the images' poses are their composition.
+colmap::Model colmap4(colmap::Model m, bool posed) {
+  using colmap::SensorType;
+  m.has_rigs = true;
+  if (posed) {
+    colmap::Rig rig;
+    rig.id = 7;
+    rig.sensors.push_back({{SensorType::Imu, 3}, false, {}});
+    for (std::size_t c = 0; c < m.cameras.size(); ++c) {
+      const double a = 0.05 * static_cast<double>(c + 1);
+      rig.sensors.push_back({{SensorType::Camera, m.cameras[c].id},
+                             true,
+                             {{std::cos(a), 0, std::sin(a), 0}, {0.1 * static_cast<double>(c), -0.2, 0.05}}});
+    }
+    m.rigs.push_back(rig);
+  } else {
+    for (const colmap::Camera &c : m.cameras)
+      m.rigs.push_back({c.id, {{{SensorType::Camera, c.id}, false, {}}}});
+  }
+  for (const colmap::Image &im : m.images) {
+    colmap::Frame f;
+    f.id = 1000 + im.id;
+    f.rig_id = posed ? 7 : im.camera_id;
+    f.data.push_back({{SensorType::Camera, im.camera_id}, im.id});
+    if (posed) f.data.push_back({{SensorType::Imu, 3}, 77 + im.id});
+    m.frames.push_back(f);
+  }
+  colmap::frames_from_poses(&m, std::vector<char>(m.images.size(), 1));
+  return m;
+}
+
+// The model files as written in dir but the points, the images' poses as in the images file
+// (not from the frames).
+colmap::Model files_of(const std::string &dir, colmap::Encoding e) {
+  const bool text = e == colmap::Encoding::Text;
+  const std::string x = text ? ".txt" : ".bin";
+  colmap::Model m;
+  std::string error;
+  EXPECT_TRUE((text ? colmap::parse_cameras_text : colmap::parse_cameras_binary)(
+      read_file(dir + "/cameras" + x), "cameras", &m.cameras, &error))
+      << error;
+  EXPECT_TRUE((text ? colmap::parse_images_text : colmap::parse_images_binary)(read_file(dir + "/images" + x),
+                                                                               "images", &m.images, &error))
+      << error;
+  EXPECT_TRUE((text ? colmap::parse_rigs_text : colmap::parse_rigs_binary)(read_file(dir + "/rigs" + x),
+                                                                           "rigs", &m.rigs, &error))
+      << error;
+  EXPECT_TRUE((text ? colmap::parse_frames_text : colmap::parse_frames_binary)(read_file(dir + "/frames" + x),
+                                                                               "frames", &m.frames, &error))
+      << error;
+  m.has_rigs = true;
+  return m;
+}
+
+std::vector<std::string> model_files(colmap::Encoding e, bool rigs = true) {
+  const std::string x = e == colmap::Encoding::Text ? ".txt" : ".bin";
+  if (!rigs) return {"cameras" + x, "images" + x, "points3D" + x};
+  return {"cameras" + x, "frames" + x, "images" + x, "points3D" + x, "rigs" + x};
+}
+
+// sbarefine MODEL --write OUT on a model with rigs and frames whose every frame holds one image
+// (colmap4 below): refined as the same model without them (plain_error, the final error of
+// that run), the five files written, each frame's pose the refined pose of its image: the same
+// bits for a rig's reference sensor, one that composes to it for another. The images file
+// holds the refined poses too.
+void expect_refined_frames(const colmap::Model &in, colmap::Encoding e, const std::string &model,
+                           const std::string &out, double plain_error) {
+  std::string error;
+  std::filesystem::remove_all(model);
+  std::filesystem::remove_all(out);
+  ASSERT_TRUE(colmap::write_model(model, in, e, &error)) << error;
+  const Outcome r = run(model + " --write " + out);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const bool posed = in.rigs.size() == 1;
+  EXPECT_NE(
+      r.out.find("\nRigs and frames (COLMAP 4): " + std::string(posed ? "1 rig" : "10 rigs") +
+                 ", 10 frames of one image at most: each image's pose is its frame's, refined and written "
+                 "back to both\n"),
+      std::string::npos)
+      << r.out;
+  EXPECT_NEAR(final_error(r.out), plain_error, 1e-5 * plain_error);
+  ASSERT_EQ(entries(out), model_files(e));
+  const colmap::Model written = files_of(out, e);
+  EXPECT_EQ(colmap::format_model(written, e).rigs, colmap::format_model(in, e).rigs);
+  ASSERT_EQ(written.images.size(), in.images.size());
+  ASSERT_EQ(written.frames.size(), in.frames.size());
+  colmap::Model composed = written;
+  composed.points.clear();
+  for (colmap::Image &im : composed.images) im.points.clear();
+  ASSERT_TRUE(colmap::check_model(composed, out, &error)) << error;
+  colmap::poses_from_frames(&composed);
+  double moved = 0;
+  for (std::size_t j = 0; j < in.images.size(); ++j) {
+    const colmap::Image &p = written.images[j], &c = composed.images[j];
+    for (int k = 0; k < 3; ++k) moved = std::max(moved, std::fabs(p.t[k] - in.images[j].t[k]));
+    if (!posed) {
+      EXPECT_EQ(written.frames[j].rig_from_world.q, p.q) << j;
+      EXPECT_EQ(written.frames[j].rig_from_world.t, p.t) << j;
+    }
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(c.q[k], p.q[k], 1e-12) << j;
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(c.t[k], p.t[k], 1e-12) << j;
+    EXPECT_EQ(written.frames[j].data.size(), in.frames[j].data.size());
+    EXPECT_EQ(written.frames[j].id, in.frames[j].id);
+  }
+  EXPECT_GT(moved, 1e-6);  // refined, not copied
+}
+
+TEST(SbarefineRigs, RefinedPosesGoToTheFrames) {
+  const std::string dir = temp_dir("rig_refine");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/plain", s.model, colmap::Encoding::Text, &error)) << error;
+  const Outcome plain = run(dir + "/plain");
+  ASSERT_EQ(plain.status, 0) << plain.err;
+  for (const bool posed : {false, true})
+    for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary})
+      for (const bool in_place : {false, true}) {
+        SCOPED_TRACE(std::string(posed ? "posed" : "plain") +
+                     (e == colmap::Encoding::Text ? " text" : " binary") +
+                     (in_place ? " in place" : " new folder"));
+        expect_refined_frames(colmap4(s.model, posed), e, dir + "/in", dir + (in_place ? "/in" : "/out"),
+                              final_error(plain.out));
+      }
+}
+
+// A conversion writes all five files and removes the five of the other encoding, in place and
+// to a folder that holds the other encoding's model; --itmax 0 keeps the frames' values bit for
+// bit. A model without rigs and frames written over one with them leaves none of them behind.
+TEST(SbarefineRigs, ConversionsLeaveNoStaleFile) {
+  const std::string dir = temp_dir("rig_convert");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 6, 80);
+  const colmap::Model in = colmap4(s.model, true);
+  const std::string model = dir + "/m";
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(model, in, colmap::Encoding::Binary, &error)) << error;
+  const std::string frames_bin = read_file(model + "/frames.bin");
+  Outcome r = run(model + " --itmax 0 --write " + model + " --write-format text");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(entries(model), model_files(colmap::Encoding::Text));
+  EXPECT_EQ(read_file(model + "/frames.txt"), colmap::format_model(in, colmap::Encoding::Text).frames);
+  r = run(model + " --itmax 0 --write " + model + " --write-format binary");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(entries(model), model_files(colmap::Encoding::Binary));
+  EXPECT_EQ(read_file(model + "/frames.bin"), frames_bin);
+  // A refined conversion, into a folder holding the other encoding's model.
+  ASSERT_TRUE(colmap::write_model(dir + "/out", in, colmap::Encoding::Text, &error)) << error;
+  r = run(model + " --write " + dir + "/out --write-format binary");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(entries(dir + "/out"), model_files(colmap::Encoding::Binary));
+  r = run(model + " --write " + model + " --write-format text");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(entries(model), model_files(colmap::Encoding::Text));
+  // A COLMAP 3 model written over it: three files, as it was read.
+  ASSERT_TRUE(colmap::write_model(dir + "/plain", s.model, colmap::Encoding::Text, &error)) << error;
+  r = run(dir + "/plain --write " + model);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(entries(model), model_files(colmap::Encoding::Text, false));
+  EXPECT_EQ(entries(dir + "/plain"), model_files(colmap::Encoding::Text, false));
+}
+
+// A frame of several images (a rig of several cameras) keeps its images' poses together, which
+// the solve does not do yet: refused, nothing written, the model as it was. So is a model with
+// one of the two files, which COLMAP 4 refuses to read.
+TEST(SbarefineRigs, RefusedModelsAreLeftAsTheyWere) {
+  const std::string dir = temp_dir("rig_refused");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 6, 80);
+  colmap::Model two = colmap4(s.model, false);
+  // Rig 100 gets camera 101 (its pose in the rig the identity) and frame 1010 image 13.
+  two.rigs[0].sensors.push_back({{colmap::SensorType::Camera, 101}, true, {}});
+  two.rigs.erase(two.rigs.begin() + 1);
+  two.frames[0].data.push_back(two.frames[1].data[0]);
+  two.frames.erase(two.frames.begin() + 1);
+  std::string error;
+  ASSERT_TRUE(colmap::check_model(two, "two", &error)) << error;
+  for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+    const std::string x = e == colmap::Encoding::Text ? ".txt" : ".bin";
+    const std::string model = dir + "/m" + x;
+    ASSERT_TRUE(colmap::write_model(model, two, e, &error)) << error;
+    const Tree before = tree(dir);
+    for (const std::string &out : {model, dir + "/out"}) {
+      const Outcome r = run(model + " --write " + out);
+      EXPECT_EQ(r.status, 1);
+      EXPECT_EQ(
+          r.err,
+          model + ": frame 1010 holds 2 images (rig 100): rigs of several cameras are not refined yet\n");
+      EXPECT_EQ(changes(before, tree(dir)), "");
+    }
+    ASSERT_TRUE(colmap::write_model(model, colmap4(s.model, false), e, &error)) << error;
+    std::filesystem::remove(model + "/frames" + x);
+    const Tree one = tree(dir);
+    const Outcome r = run(model + " --write " + model);
+    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.err, model + ": rigs" + x + " without frames" + x +
+                         ": COLMAP 4 refuses a model with one of the two\n");
+    EXPECT_EQ(changes(one, tree(dir)), "");
+  }
 }
 
 // sbarefine --write into its own input model on a disk that fills at the second file: status

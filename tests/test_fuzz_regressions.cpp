@@ -148,9 +148,33 @@ TEST(FuzzRegressions, BalFiles) {
   }
 }
 
-// fuzz_colmap's inputs: a selector byte (mod 6: cameras, images, points3D as text, then as
-// binary) and the file's content. Cameras files also go through sbarefine, alone in a model
-// directory (the cameras are read first).
+// Whether a parser of one COLMAP file takes content.
+template <class T>
+bool parses(bool (*parse)(const std::string &, const std::string &, std::vector<T> *, std::string *),
+            const std::string &content, const std::string &name, std::string *error) {
+  std::vector<T> records;
+  return parse(content, name, &records, error);
+}
+
+// A whole model of fuzz_colmap (selectors 10 and 11): its text files, each ended by a line
+// "%%", written into dir as a model (rigs and frames when there are five).
+void write_model_parts(const std::string &content, const fs::path &dir) {
+  std::vector<std::string> parts(1);
+  std::istringstream in(content);
+  for (std::string line; std::getline(in, line);) {
+    if (line == "%%") parts.emplace_back();
+    else parts.back() += line + "\n";
+  }
+  const char *const names[] = {"cameras.txt", "images.txt", "points3D.txt", "rigs.txt", "frames.txt"};
+  const std::size_t files = parts.size() >= 5 ? 5 : 3;
+  parts.resize(5);
+  for (std::size_t k = 0; k < files; ++k) std::ofstream(dir / names[k], std::ios::binary) << parts[k];
+}
+
+// fuzz_colmap's inputs: a selector byte (mod 12: cameras, images, points3D as text, then as
+// binary; rigs and frames as text, then as binary; a whole model) and the content. Cameras
+// files also go through sbarefine, alone in a model directory (the cameras are read first);
+// a whole model goes through read_model and sbarefine as a model directory.
 TEST(FuzzRegressions, ColmapFiles) {
   for (const fs::path &in : inputs("colmap")) {
     std::ifstream f(in, std::ios::binary);
@@ -159,27 +183,42 @@ TEST(FuzzRegressions, ColmapFiles) {
     const std::string all = ss.str();
     ASSERT_FALSE(all.empty()) << in;
     const std::string content = all.substr(1), name = in.string();
-    const int selector = static_cast<unsigned char>(all[0]) % 6;
+    const int selector = static_cast<unsigned char>(all[0]) % 12;
+    const fs::path dir = fs::temp_directory_path() / ("sba-fuzzreg-colmap-" + std::to_string(::getpid()));
     std::string error;
     bool ok = true;
+    std::string prefix = name + ":";
     switch (selector) {
-      case 0: { std::vector<colmap::Camera> c; ok = colmap::parse_cameras_text(content, name, &c, &error); break; }
-      case 1: { std::vector<colmap::Image> i; ok = colmap::parse_images_text(content, name, &i, &error); break; }
-      case 2: { std::vector<colmap::Point3D> p; ok = colmap::parse_points_text(content, name, &p, &error); break; }
-      case 3: { std::vector<colmap::Camera> c; ok = colmap::parse_cameras_binary(content, name, &c, &error); break; }
-      case 4: { std::vector<colmap::Image> i; ok = colmap::parse_images_binary(content, name, &i, &error); break; }
-      default: { std::vector<colmap::Point3D> p; ok = colmap::parse_points_binary(content, name, &p, &error); break; }
+      case 0: ok = parses(colmap::parse_cameras_text, content, name, &error); break;
+      case 1: ok = parses(colmap::parse_images_text, content, name, &error); break;
+      case 2: ok = parses(colmap::parse_points_text, content, name, &error); break;
+      case 3: ok = parses(colmap::parse_cameras_binary, content, name, &error); break;
+      case 4: ok = parses(colmap::parse_images_binary, content, name, &error); break;
+      case 5: ok = parses(colmap::parse_points_binary, content, name, &error); break;
+      case 6: ok = parses(colmap::parse_rigs_text, content, name, &error); break;
+      case 7: ok = parses(colmap::parse_frames_text, content, name, &error); break;
+      case 8: ok = parses(colmap::parse_rigs_binary, content, name, &error); break;
+      case 9: ok = parses(colmap::parse_frames_binary, content, name, &error); break;
+      default: {
+        fs::create_directories(dir);
+        write_model_parts(content, dir);
+        colmap::Model m;
+        ok = colmap::read_model(dir.string(), &m, nullptr, &error);
+        prefix = dir.string();
+        break;
+      }
     }
     EXPECT_FALSE(ok) << in;
-    expect_one_line(error, name + ":", in);
+    expect_one_line(error, prefix, in);
     if (selector == 0 || selector == 3) {
-      const fs::path dir = fs::temp_directory_path() / ("sba-fuzzreg-colmap-" + std::to_string(::getpid()));
       fs::create_directories(dir);
       const fs::path cams = dir / (selector == 0 ? "cameras.txt" : "cameras.bin");
       std::ofstream(cams, std::ios::binary) << content;
       expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(dir.string()), cams);
-      fs::remove_all(dir);
+    } else if (selector >= 10) {
+      expect_program_refuses(shell_quote(SBAREFINE_EXE) + " " + shell_quote(dir.string()), dir);
     }
+    fs::remove_all(dir);
   }
 }
 

@@ -1,5 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// COLMAP's binary format (little-endian): cameras.bin, images.bin and points3D.bin.
+// COLMAP's binary format (little-endian): cameras.bin, images.bin, points3D.bin, rigs.bin and
+// frames.bin.
+#include <array>
 #include <cassert>
 #include <cmath>
 #include <cstdint>
@@ -50,13 +52,28 @@ class ByteReader {
     pos_ = end + 1;
     return true;
   }
-  // A count of records of at least min_bytes each, checked against what is left.
+  // A count of records of at least min_bytes each, checked against what is left: a uint64, or
+  // (count32) a uint32.
   bool count(std::uint64_t *n, std::size_t min_bytes, const char *what, std::string *error) {
     const std::size_t at = pos_;
-    if (!u64(n, what, error)) return false;
-    if (*n > remaining() / min_bytes)
-      return fail(error, where(at) + what + " is " + std::to_string(*n) + ", more than the " +
-                             std::to_string(remaining()) + " bytes left can hold");
+    return u64(n, what, error) && room(at, *n, min_bytes, what, error);
+  }
+  bool count32(std::uint64_t *n, std::size_t min_bytes, const char *what, std::string *error) {
+    const std::size_t at = pos_;
+    std::uint32_t v;
+    if (!u32(&v, what, error)) return false;
+    *n = v;
+    return room(at, *n, min_bytes, what, error);
+  }
+  // A sensor type (an int32), one of COLMAP's: of names its record in the message.
+  bool sensor_type(SensorType *type, const std::string &of, std::string *error) {
+    const std::size_t at = pos_;
+    std::uint32_t v;
+    if (!u32(&v, "SENSOR_TYPE", error)) return false;
+    const std::int32_t t = static_cast<std::int32_t>(v);
+    if (t != static_cast<std::int32_t>(SensorType::Camera) && t != static_cast<std::int32_t>(SensorType::Imu))
+      return fail(error, where(at) + of + "unknown sensor type " + std::to_string(t));
+    *type = static_cast<SensorType>(t);
     return true;
   }
   bool at_end(std::string *error) const {
@@ -77,6 +94,13 @@ class ByteReader {
     pos_ += static_cast<std::size_t>(Bytes);
     *v = w;
     return true;
+  }
+
+  bool room(std::size_t at, std::uint64_t n, std::size_t min_bytes, const char *what,
+            std::string *error) const {
+    if (n <= remaining() / min_bytes) return true;
+    return fail(error, where(at) + what + " is " + std::to_string(n) + ", more than the " +
+                           std::to_string(remaining()) + " bytes left can hold");
   }
 
   const std::string &b_;
@@ -119,6 +143,20 @@ class ByteWriter {
   char *p_;
 };
 
+// QW QX QY QZ TX TY TZ.
+bool read_pose(ByteReader *r, std::array<double, 4> *q, std::array<double, 3> *t, std::string *error) {
+  for (double &v : *q)
+    if (!r->real(&v, "a quaternion component", error)) return false;
+  for (double &v : *t)
+    if (!r->real(&v, "a translation component", error)) return false;
+  return true;
+}
+
+void write_pose(ByteWriter *w, const std::array<double, 4> &q, const std::array<double, 3> &t) {
+  for (double v : q) w->real(v);
+  for (double v : t) w->real(v);
+}
+
 // The bytes of each file, for ByteWriter.
 std::size_t cameras_bytes(const Model &model) {
   std::size_t n = 8;
@@ -128,6 +166,20 @@ std::size_t cameras_bytes(const Model &model) {
 std::size_t images_bytes(const Model &model) {
   std::size_t n = 8;
   for (const Image &im : model.images) n += 4 + 56 + 4 + im.name.size() + 1 + 8 + 24 * im.points.size();
+  return n;
+}
+std::size_t rigs_bytes(const Model &model) {
+  std::size_t n = 8;
+  for (const Rig &rig : model.rigs) {
+    n += 8;
+    for (std::size_t k = 0; k < rig.sensors.size(); ++k)
+      n += k == 0 ? 8 : 9 + (rig.sensors[k].has_pose ? 56 : 0);
+  }
+  return n;
+}
+std::size_t frames_bytes(const Model &model) {
+  std::size_t n = 8;
+  for (const Frame &f : model.frames) n += 8 + 56 + 4 + 16 * f.data.size();
   return n;
 }
 std::size_t points_bytes(const Model &model) {
@@ -183,11 +235,8 @@ bool parse_images_binary(const std::string &bytes, const std::string &name, std:
     Image im;
     const std::size_t at = r.pos();
     if (!r.u32(&im.id, "IMAGE_ID", error)) return false;
-    for (double &v : im.q)
-      if (!r.real(&v, "a quaternion component", error)) return false;
-    for (double &v : im.t)
-      if (!r.real(&v, "a translation component", error)) return false;
-    if (im.q[0] == 0 && im.q[1] == 0 && im.q[2] == 0 && im.q[3] == 0)
+    if (!read_pose(&r, &im.q, &im.t, error)) return false;
+    if (is_zero(im.q))
       return fail(error, r.where(at) + "image " + std::to_string(im.id) + ": the quaternion is zero");
     if (!r.u32(&im.camera_id, "CAMERA_ID", error) || !r.cstring(&im.name, "the image name", error)) return false;
     // The text format keeps a name on one line, between blanks that its reader trims: a name
@@ -243,6 +292,86 @@ bool parse_points_binary(const std::string &bytes, const std::string &name, std:
   return true;
 }
 
+bool parse_rigs_binary(const std::string &bytes, const std::string &name, std::vector<Rig> *out,
+                       std::string *error) {
+  ByteReader r(bytes, name);
+  std::uint64_t n;
+  // rig id and sensor count: 8 bytes.
+  if (!r.count(&n, 8, "the number of rigs", error)) return false;
+  std::vector<Rig> rigs;
+  rigs.reserve(static_cast<std::size_t>(n));
+  IdIndex ids(static_cast<std::size_t>(n));
+  for (std::uint64_t i = 0; i < n; ++i) {
+    Rig rig;
+    const std::size_t at = r.pos();
+    std::uint64_t ns;
+    if (!r.u32(&rig.id, "RIG_ID", error)) return false;
+    const std::string of_rig = "rig " + std::to_string(rig.id) + ": ";
+    // The reference sensor takes 8 bytes, each other one 9 or 65.
+    if (!r.count32(&ns, 8, "the number of sensors", error)) return false;
+    rig.sensors.resize(static_cast<std::size_t>(ns));
+    for (std::size_t k = 0; k < rig.sensors.size(); ++k) {
+      RigSensor &s = rig.sensors[k];
+      const std::size_t sensor_at = r.pos();
+      if (!r.sensor_type(&s.sensor.type, of_rig, error) || !r.u32(&s.sensor.id, "SENSOR_ID", error))
+        return false;
+      if (k == 0) continue;  // the reference sensor: no pose
+      std::uint8_t has_pose;
+      if (!r.u8(&has_pose, "HAS_POSE", error)) return false;
+      if (has_pose > 1)
+        return fail(error, r.where(sensor_at) + of_rig + "HAS_POSE of " + sensor_name(s.sensor) +
+                               " must be 0 or 1, got " + std::to_string(has_pose));
+      s.has_pose = has_pose == 1;
+      if (s.has_pose && !read_pose(&r, &s.sensor_from_rig.q, &s.sensor_from_rig.t, error)) return false;
+      if (s.has_pose && is_zero(s.sensor_from_rig.q))
+        return fail(error,
+                    r.where(sensor_at) + of_rig + "the quaternion of " + sensor_name(s.sensor) + " is zero");
+    }
+    if (const std::string why = repeated_sensor(rig); !why.empty()) return fail(error, r.where(at) + why);
+    if (!ids.insert(rig.id, i))
+      return fail(error, r.where(at) + "rig " + std::to_string(rig.id) + " appears twice");
+    rigs.push_back(std::move(rig));
+  }
+  if (!r.at_end(error)) return false;
+  *out = std::move(rigs);
+  return true;
+}
+
+bool parse_frames_binary(const std::string &bytes, const std::string &name, std::vector<Frame> *out,
+                         std::string *error) {
+  ByteReader r(bytes, name);
+  std::uint64_t n;
+  // frame id, rig id, 7 doubles, no data: 4 + 4 + 56 + 4 bytes.
+  if (!r.count(&n, 68, "the number of frames", error)) return false;
+  std::vector<Frame> frames;
+  frames.reserve(static_cast<std::size_t>(n));
+  IdIndex ids(static_cast<std::size_t>(n));
+  for (std::uint64_t i = 0; i < n; ++i) {
+    Frame f;
+    const std::size_t at = r.pos();
+    if (!r.u32(&f.id, "FRAME_ID", error) || !r.u32(&f.rig_id, "RIG_ID", error) ||
+        !read_pose(&r, &f.rig_from_world.q, &f.rig_from_world.t, error))
+      return false;
+    if (is_zero(f.rig_from_world.q))
+      return fail(error, r.where(at) + "frame " + std::to_string(f.id) + ": the quaternion is zero");
+    std::uint64_t nd;
+    const std::string of_frame = "frame " + std::to_string(f.id) + ": ";
+    if (!r.count32(&nd, 16, "the number of data ids", error)) return false;
+    f.data.resize(static_cast<std::size_t>(nd));
+    for (DataId &d : f.data)
+      if (!r.sensor_type(&d.sensor.type, of_frame, error) || !r.u32(&d.sensor.id, "SENSOR_ID", error) ||
+          !r.u64(&d.id, "DATA_ID", error))
+        return false;
+    if (const std::string why = repeated_data(f); !why.empty()) return fail(error, r.where(at) + why);
+    if (!ids.insert(f.id, i))
+      return fail(error, r.where(at) + "frame " + std::to_string(f.id) + " appears twice");
+    frames.push_back(std::move(f));
+  }
+  if (!r.at_end(error)) return false;
+  *out = std::move(frames);
+  return true;
+}
+
 Files format_binary(const Model &model) {
   Files f;
   {
@@ -261,8 +390,7 @@ Files format_binary(const Model &model) {
     w.uint<8>(model.images.size());
     for (const Image &im : model.images) {
       w.uint<4>(im.id);
-      for (double v : im.q) w.real(v);
-      for (double v : im.t) w.real(v);
+      write_pose(&w, im.q, im.t);
       w.uint<4>(im.camera_id);
       w.cstring(im.name);
       w.uint<8>(im.points.size());
@@ -285,6 +413,37 @@ Files format_binary(const Model &model) {
       for (const TrackElement &e : p.track) {
         w.uint<4>(e.image_id);
         w.uint<4>(e.point2d_idx);
+      }
+    }
+  }
+  {
+    ByteWriter w(&f.rigs, rigs_bytes(model));
+    w.uint<8>(model.rigs.size());
+    for (const Rig &rig : model.rigs) {
+      w.uint<4>(rig.id);
+      w.uint<4>(rig.sensors.size());
+      for (std::size_t k = 0; k < rig.sensors.size(); ++k) {
+        const RigSensor &s = rig.sensors[k];
+        w.uint<4>(static_cast<std::uint32_t>(s.sensor.type));
+        w.uint<4>(s.sensor.id);
+        if (k == 0) continue;  // the reference sensor: no pose
+        w.uint<1>(s.has_pose ? 1 : 0);
+        if (s.has_pose) write_pose(&w, s.sensor_from_rig.q, s.sensor_from_rig.t);
+      }
+    }
+  }
+  {
+    ByteWriter w(&f.frames, frames_bytes(model));
+    w.uint<8>(model.frames.size());
+    for (const Frame &fr : model.frames) {
+      w.uint<4>(fr.id);
+      w.uint<4>(fr.rig_id);
+      write_pose(&w, fr.rig_from_world.q, fr.rig_from_world.t);
+      w.uint<4>(fr.data.size());
+      for (const DataId &d : fr.data) {
+        w.uint<4>(static_cast<std::uint32_t>(d.sensor.type));
+        w.uint<4>(d.sensor.id);
+        w.uint<8>(d.id);
       }
     }
   }

@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// A COLMAP model as a whole: its camera models, the agreement of its three files, and the
-// files themselves, read and written in either encoding (colmap_text.cpp, colmap_binary.cpp).
+// A COLMAP model as a whole: its camera models, the agreement of its files, the images' poses
+// in their frames, and the files themselves, read and written in either encoding
+// (colmap_text.cpp, colmap_binary.cpp).
 #include "formats/colmap_io.h"
 
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <cassert>
 #include <cerrno>
 #include <cinttypes>
 #include <cmath>
@@ -13,8 +15,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <iterator>
+#include <tuple>
 #include <vector>
 
+#include "cameras/euclidean.h"
 #include "formats/colmap_io_impl.h"
 #include "formats/output_file.h"
 #include "formats/text_tokens.h"
@@ -45,11 +49,217 @@ std::string printable(const std::string &s) {
   return out;
 }
 
+namespace {
+
+std::uint64_t sensor_key(const SensorId &s) {
+  return std::uint64_t{static_cast<std::uint32_t>(s.type)} << 32 | s.id;
+}
+
+}  // namespace
+
+std::string repeated_sensor(const Rig &rig) {
+  std::vector<std::uint64_t> keys;
+  keys.reserve(rig.sensors.size());
+  for (const RigSensor &s : rig.sensors) keys.push_back(sensor_key(s.sensor));
+  std::sort(keys.begin(), keys.end());
+  const auto twice = std::adjacent_find(keys.begin(), keys.end());
+  if (twice == keys.end()) return {};
+  const SensorId s{static_cast<SensorType>(*twice >> 32), static_cast<std::uint32_t>(*twice)};
+  return "rig " + std::to_string(rig.id) + " lists " + sensor_name(s) + " twice";
+}
+
+std::string repeated_data(const Frame &frame) {
+  std::vector<std::tuple<std::uint64_t, std::uint64_t>> keys;
+  keys.reserve(frame.data.size());
+  for (const DataId &d : frame.data) keys.emplace_back(sensor_key(d.sensor), d.id);
+  std::sort(keys.begin(), keys.end());
+  const auto twice = std::adjacent_find(keys.begin(), keys.end());
+  if (twice == keys.end()) return {};
+  const std::uint64_t key = std::get<0>(*twice);
+  const SensorId s{static_cast<SensorType>(key >> 32), static_cast<std::uint32_t>(key)};
+  return "frame " + std::to_string(frame.id) + " lists " + sensor_name(s) + " " +
+         std::to_string(std::get<1>(*twice)) + " twice";
+}
+
 const char *camera_model_name(int model) {
   return model >= 0 && model < kNumModels ? kModels[model].name : nullptr;
 }
 
 int camera_model_params(int model) { return model >= 0 && model < kNumModels ? kModels[model].params : 0; }
+
+namespace {
+
+namespace euc = sbacameras::euclidean;
+
+// How far from 1 the squared norm of a sensor_from_rig quaternion may be. COLMAP composes an
+// image's pose with the quaternion as written, not normalized, so that the translation it
+// gives differs from the rotation's by about this much of its size: far below what the
+// measurements can tell. COLMAP writes unit quaternions (to rounding), which pass, and so does
+// one written to ten digits; one written by hand to a few is refused rather than read as
+// another pose than COLMAP's.
+constexpr double kUnitNormTolerance = 1e-10;
+
+euc::Quaternion quaternion(const std::array<double, 4> &q) { return {q[0], q[1], q[2], q[3]}; }
+std::array<double, 4> components(const euc::Quaternion &q) { return {q.w, q.x, q.y, q.z}; }
+
+// S F: the pose of a sensor whose pose in its rig is s, the rig's pose f (X_cam = S (F X)):
+// q = q_S q_F, t = R_S t_F + t_S. Both quaternions are taken as rotations (normalized, as
+// every pose's is when it is used), so that the product is one for any norm f's has.
+Pose compose(const Pose &s, const Pose &f) {
+  const euc::Quaternion qs = euc::normalized_rotation(quaternion(s.q));
+  double R[9];
+  euc::rotation_matrix(qs, R);
+  Pose p;
+  p.q = components(euc::multiply(qs, euc::normalized_rotation(quaternion(f.q))));
+  for (int r = 0; r < 3; ++r)
+    p.t[r] = R[3 * r] * f.t[0] + R[3 * r + 1] * f.t[1] + R[3 * r + 2] * f.t[2] + s.t[r];
+  return p;
+}
+
+// S^-1 P: the rig's pose at which the sensor whose pose in the rig is s has the pose p:
+// q = q_S^* q_P, t = R_S^T (t_P - t_S).
+Pose rig_pose(const Pose &s, const std::array<double, 4> &q, const std::array<double, 3> &t) {
+  const euc::Quaternion qs = euc::normalized_rotation(quaternion(s.q));
+  double R[9];
+  euc::rotation_matrix(qs, R);
+  Pose f;
+  f.q = components(euc::multiply({qs.w, -qs.x, -qs.y, -qs.z}, euc::normalized_rotation(quaternion(q))));
+  const double d[3] = {t[0] - s.t[0], t[1] - s.t[1], t[2] - s.t[2]};
+  for (int c = 0; c < 3; ++c) f.t[c] = R[c] * d[0] + R[3 + c] * d[1] + R[6 + c] * d[2];
+  return f;
+}
+
+// An image's place among the frames: its frame (an index into Model::frames), and its
+// camera's pose in the frame's rig, null for the rig's reference sensor.
+struct Placement {
+  std::size_t frame = IdIndex::kNone;
+  const Pose *sensor_from_rig = nullptr;
+};
+
+// The rigs and frames of a model agree with each other and with its cameras and images (see
+// check_model), and each image's place in them: false with the first disagreement.
+bool place_images(const Model &model, const std::string &where, std::vector<Placement> *out,
+                  std::string *error) {
+  constexpr std::size_t kNone = IdIndex::kNone;
+  IdIndex cameras(model.cameras.size()), images(model.images.size()), rigs(model.rigs.size()), sensors;
+  for (std::size_t k = 0; k < model.cameras.size(); ++k) cameras.insert(model.cameras[k].id, k);
+  for (std::size_t k = 0; k < model.images.size(); ++k) images.insert(model.images[k].id, k);
+  // Every sensor's rig and its place there, by its key; a sensor belongs to one rig.
+  std::vector<std::pair<std::size_t, std::size_t>> sensor_at;
+  for (std::size_t r = 0; r < model.rigs.size(); ++r) {
+    const Rig &rig = model.rigs[r];
+    rigs.insert(rig.id, r);
+    for (std::size_t k = 0; k < rig.sensors.size(); ++k) {
+      const SensorId &s = rig.sensors[k].sensor;
+      if (s.type == SensorType::Camera && cameras.find(s.id) == kNone)
+        return fail(error, where + "rig " + std::to_string(rig.id) + " holds camera " + std::to_string(s.id) +
+                               ", which cameras does not hold");
+      if (!sensors.insert(sensor_key(s), sensor_at.size()))
+        return fail(error, where + sensor_name(s) + " is a sensor of rig " +
+                               std::to_string(model.rigs[sensor_at[sensors.find(sensor_key(s))].first].id) +
+                               " and of rig " + std::to_string(rig.id) + ": a sensor belongs to one rig");
+      sensor_at.emplace_back(r, k);
+    }
+  }
+  std::vector<Placement> place(model.images.size());
+  for (std::size_t f = 0; f < model.frames.size(); ++f) {
+    const Frame &fr = model.frames[f];
+    const std::string frame = "frame " + std::to_string(fr.id);
+    const std::size_t r = rigs.find(fr.rig_id);
+    if (r == kNone)
+      return fail(error, where + frame + " is a pose of rig " + std::to_string(fr.rig_id) +
+                             ", which rigs does not hold");
+    const Rig &rig = model.rigs[r];
+    for (const DataId &d : fr.data) {
+      const std::size_t s = sensors.find(sensor_key(d.sensor));
+      if (s == kNone || sensor_at[s].first != r)
+        return fail(error, where + frame + " holds data of " + sensor_name(d.sensor) + ", which rig " +
+                               std::to_string(rig.id) + " does not hold");
+      if (d.sensor.type != SensorType::Camera) continue;
+      const std::size_t i = d.id <= 0xffffffffu ? images.find(d.id) : kNone;
+      const std::string image = "image " + std::to_string(d.id);
+      if (i == kNone)
+        return fail(error, where + frame + " holds " + image + " (" + sensor_name(d.sensor) +
+                               "), which images does not hold");
+      if (model.images[i].camera_id != d.sensor.id)
+        return fail(error, where + frame + " holds " + image + " as data of " + sensor_name(d.sensor) +
+                               ", but the image's camera is " + std::to_string(model.images[i].camera_id));
+      if (place[i].frame != kNone)
+        return fail(error, where + image + " is in frame " + std::to_string(model.frames[place[i].frame].id) +
+                               " and in " + frame);
+      place[i].frame = f;
+      const std::size_t k = sensor_at[s].second;
+      if (k == 0) continue;  // the reference sensor
+      const RigSensor &sensor = rig.sensors[k];
+      if (!sensor.has_pose)
+        return fail(error, where + frame + " holds " + image + ", whose camera " +
+                               std::to_string(d.sensor.id) + " has no pose in rig " + std::to_string(rig.id) +
+                               " (HAS_POSE 0): the image's pose cannot be composed");
+      const std::array<double, 4> &q = sensor.sensor_from_rig.q;
+      const double norm2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+      if (!(std::fabs(norm2 - 1) <= kUnitNormTolerance))
+        return fail(error,
+                    where + "rig " + std::to_string(rig.id) + ": the quaternion of " + sensor_name(d.sensor) +
+                        " has norm " + g17(std::sqrt(norm2)) +
+                        ": COLMAP composes its images' poses with it as written, which is a rotation only at "
+                        "norm 1");
+      const Pose composed = compose(sensor.sensor_from_rig, fr.rig_from_world);
+      if (!std::all_of(composed.t.begin(), composed.t.end(), [](double v) { return std::isfinite(v); }))
+        return fail(error, where + frame + ": the pose of " + image + ", composed in rig " +
+                               std::to_string(rig.id) + ", overflows");
+      place[i].sensor_from_rig = &sensor.sensor_from_rig;
+    }
+  }
+  for (std::size_t i = 0; i < place.size(); ++i)
+    if (place[i].frame == kNone)
+      return fail(error, where + "image " + std::to_string(model.images[i].id) + " is in no frame");
+  *out = std::move(place);
+  return true;
+}
+
+// Every place of a model that check_model accepted.
+std::vector<Placement> placements(const Model &model) {
+  std::vector<Placement> place;
+  const bool placed = place_images(model, {}, &place, nullptr);
+  assert(placed);
+  (void)placed;
+  return place;
+}
+
+}  // namespace
+
+void poses_from_frames(Model *model) {
+  if (!model->has_rigs) return;
+  const std::vector<Placement> place = placements(*model);
+  for (std::size_t i = 0; i < place.size(); ++i) {
+    Image &im = model->images[i];
+    const Pose &frame = model->frames[place[i].frame].rig_from_world;
+    if (!place[i].sensor_from_rig) {
+      im.q = frame.q;
+      im.t = frame.t;
+      continue;
+    }
+    const Pose p = compose(*place[i].sensor_from_rig, frame);
+    im.q = p.q;
+    im.t = p.t;
+  }
+}
+
+void frames_from_poses(Model *model, const std::vector<char> &posed) {
+  if (!model->has_rigs) return;
+  const std::vector<Placement> place = placements(*model);
+  for (std::size_t i = 0; i < place.size(); ++i) {
+    if (!posed[i]) continue;
+    const Image &im = model->images[i];
+    Pose &frame = model->frames[place[i].frame].rig_from_world;
+    if (!place[i].sensor_from_rig) {
+      frame.q = im.q;
+      frame.t = im.t;
+      continue;
+    }
+    frame = rig_pose(*place[i].sensor_from_rig, im.q, im.t);
+  }
+}
 
 bool check_model(const Model &model, const std::string &name, std::string *error) {
   const std::string where = name + ": ";
@@ -119,7 +329,8 @@ bool check_model(const Model &model, const std::string &name, std::string *error
   if (elements != observations)
     return fail(error, where + "the tracks of points3D list " + std::to_string(elements) +
                            " observations, the images name points in " + std::to_string(observations));
-  return true;
+  std::vector<Placement> place;
+  return !model.has_rigs || place_images(model, where, &place, error);
 }
 
 // ---- files ----
@@ -170,9 +381,13 @@ namespace {
 struct ModelFile {
   const char *name;
   std::string Files::*content;
+  bool rig_file;  // rigs or frames: written only for a model that has them
 };
-constexpr ModelFile kModelFiles[] = {
-    {"images", &Files::images}, {"points3D", &Files::points}, {"cameras", &Files::cameras}};
+constexpr ModelFile kModelFiles[] = {{"images", &Files::images, false},
+                                     {"points3D", &Files::points, false},
+                                     {"rigs", &Files::rigs, true},
+                                     {"frames", &Files::frames, true},
+                                     {"cameras", &Files::cameras, false}};
 
 const char *extension(Encoding encoding) { return encoding == Encoding::Text ? ".txt" : ".bin"; }
 
@@ -188,6 +403,26 @@ bool read_model_file(const std::string &path, bool text, std::string *out, std::
   return read_whole_file(path, text, out, error);
 }
 
+template <class T>
+using Parser = bool (*)(const std::string &, const std::string &, std::vector<T> *, std::string *);
+
+// The records of the model's file at path.
+template <class T>
+bool read_records(const std::string &path, bool text, Parser<T> parse, std::vector<T> *out,
+                  std::string *error) {
+  std::string content;
+  return read_model_file(path, text, &content, error) && parse(content, path, out, error);
+}
+
+// Whether anything is at path (*there), false with "PATH: cannot open: REASON" when that cannot
+// be told (a symbolic link loop, a directory that cannot be searched).
+bool is_there(const std::string &path, bool *there, std::string *error) {
+  struct stat st {};
+  *there = ::stat(path.c_str(), &st) == 0;
+  if (*there || errno == ENOENT || errno == ENOTDIR) return true;
+  return fail(error, path + ": cannot open: " + std::strerror(errno));
+}
+
 }  // namespace
 
 bool has_model(const std::string &dir, Encoding encoding) {
@@ -197,14 +432,12 @@ bool has_model(const std::string &dir, Encoding encoding) {
 
 bool model_encoding(const std::string &dir, Encoding *out, std::string *error) {
   for (Encoding e : {Encoding::Binary, Encoding::Text}) {
-    const std::string path = slashed(dir) + "cameras" + extension(e);
-    struct stat st {};
-    if (::stat(path.c_str(), &st) == 0) {
+    bool there;
+    if (!is_there(slashed(dir) + "cameras" + extension(e), &there, error)) return false;
+    if (there) {
       *out = e;
       return true;
     }
-    // A symbolic link loop or a directory that cannot be searched is said as it is.
-    if (errno != ENOENT && errno != ENOTDIR) return fail(error, path + ": cannot open: " + std::strerror(errno));
   }
   return fail(error, dir + ": no COLMAP model (cameras.txt or cameras.bin)");
 }
@@ -213,17 +446,29 @@ bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::str
   Encoding enc;
   if (!model_encoding(dir, &enc, error)) return false;
   const bool text = enc == Encoding::Text;
-  const std::string pc = slashed(dir) + "cameras" + extension(enc), pi = slashed(dir) + "images" + extension(enc),
-                    pp = slashed(dir) + "points3D" + extension(enc);
+  const auto path = [&](const char *file) { return slashed(dir) + file + extension(enc); };
   Model m;
-  std::string content;
-  if (!read_model_file(pc, text, &content, error)) return false;
-  if (!(text ? parse_cameras_text : parse_cameras_binary)(content, pc, &m.cameras, error)) return false;
-  if (!read_model_file(pi, text, &content, error)) return false;
-  if (!(text ? parse_images_text : parse_images_binary)(content, pi, &m.images, error)) return false;
-  if (!read_model_file(pp, text, &content, error)) return false;
-  if (!(text ? parse_points_text : parse_points_binary)(content, pp, &m.points, error)) return false;
+  if (!read_records(path("cameras"), text, text ? parse_cameras_text : parse_cameras_binary, &m.cameras,
+                    error) ||
+      !read_records(path("images"), text, text ? parse_images_text : parse_images_binary, &m.images, error) ||
+      !read_records(path("points3D"), text, text ? parse_points_text : parse_points_binary, &m.points, error))
+    return false;
+  bool rigs, frames;
+  if (!is_there(path("rigs"), &rigs, error) || !is_there(path("frames"), &frames, error)) return false;
+  if (rigs != frames) {
+    const std::string one = std::string(rigs ? "rigs" : "frames") + extension(enc);
+    const std::string other = std::string(rigs ? "frames" : "rigs") + extension(enc);
+    return fail(error,
+                dir + ": " + one + " without " + other + ": COLMAP 4 refuses a model with one of the two");
+  }
+  if (rigs &&
+      (!read_records(path("rigs"), text, text ? parse_rigs_text : parse_rigs_binary, &m.rigs, error) ||
+       !read_records(path("frames"), text, text ? parse_frames_text : parse_frames_binary, &m.frames, error)))
+    return false;
+  m.has_rigs = rigs;
   if (!check_model(m, dir, error)) return false;
+  // As COLMAP 4 reads them: the frames' poses, whatever the images file holds.
+  poses_from_frames(&m);
   *out = std::move(m);
   if (encoding) *encoding = enc;
   return true;
@@ -251,13 +496,21 @@ bool write_model(const std::string &dir, const Model &model, Encoding encoding, 
   if (!set->make_directory(dir, error)) return false;
   const Files files = format_model(model, encoding);
   for (const ModelFile &file : kModelFiles)
-    if (!write_whole_file(slashed(dir) + file.name + extension(encoding), files.*file.content, error, set))
+    if ((model.has_rigs || !file.rig_file) &&
+        !write_whole_file(slashed(dir) + file.name + extension(encoding), files.*file.content, error, set))
       return false;
   // The other encoding's model goes, or a reader could take it for this one; its cameras file
   // first, without which no reader takes the others for a model.
   const Encoding other = encoding == Encoding::Text ? Encoding::Binary : Encoding::Text;
   for (auto file = std::rbegin(kModelFiles); file != std::rend(kModelFiles); ++file)
     set->remove_on_commit(slashed(dir) + file->name + extension(other), "the model of the other format");
+  // So do rigs and frames of another model beside one without them: COLMAP 4 would take the
+  // images' poses from those frames.
+  if (!model.has_rigs)
+    for (const ModelFile &file : kModelFiles)
+      if (file.rig_file)
+        set->remove_on_commit(slashed(dir) + file.name + extension(encoding),
+                              "the rigs and frames of another model");
   return outputs || own.commit(error);
 }
 

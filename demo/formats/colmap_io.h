@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // COLMAP sparse models (docs/formats.md, "COLMAP sparse models"): the three files
-// cameras, images and points3D, as text (.txt) or binary (.bin), read strictly and written
-// back with every field as it came.
+// cameras, images and points3D, and the two that COLMAP writes from 3.12 on, rigs and frames,
+// as text (.txt) or binary (.bin), read strictly and written back with every field as it came.
 //
 // COLMAP's eighteen camera models, ids 0..17, are accepted (cameras/colmap_camera.h).
 // Errors are one line: "<file>:<line>: <message>" for text, "<file>: byte N: <message>" for
@@ -84,11 +84,57 @@ struct Point3D {
   std::vector<TrackElement> track;
 };
 
-// A model in file order.
+// A pose X_out = R(q) X_in + t, the quaternion Hamilton's, qw first (as an image's).
+struct Pose {
+  std::array<double, 4> q{1, 0, 0, 0};
+  std::array<double, 3> t{};
+};
+
+// COLMAP's sensor types, by the values of the binary files (the text names them).
+enum class SensorType : std::int32_t { Camera = 0, Imu = 1 };
+
+struct SensorId {
+  SensorType type = SensorType::Camera;
+  std::uint32_t id = 0;  // a camera's CAMERA_ID for a camera
+};
+inline bool operator==(const SensorId &a, const SensorId &b) { return a.type == b.type && a.id == b.id; }
+
+struct RigSensor {
+  SensorId sensor;
+  bool has_pose = false;  // its pose in the rig is known
+  Pose sensor_from_rig;   // when has_pose
+};
+
+// A rig: its sensors, the reference sensor (whose pose in the rig is the identity) first, the
+// others in file order. A rig may have no sensor.
+struct Rig {
+  std::uint32_t id = 0;
+  std::vector<RigSensor> sensors;
+};
+
+struct DataId {
+  SensorId sensor;
+  std::uint64_t id = 0;  // a camera's data: the IMAGE_ID of its image
+};
+
+// A frame: one pose of a rig, and what its sensors measured there, in file order.
+struct Frame {
+  std::uint32_t id = 0;
+  std::uint32_t rig_id = 0;
+  Pose rig_from_world;
+  std::vector<DataId> data;
+};
+
+// A model in file order. COLMAP 4 reads an image's pose from its frame when the model has rigs
+// and frames: the pose of its camera in the frame's rig times the frame's rig_from_world.
+// read_model gives each image that pose, whatever the images file held.
 struct Model {
   std::vector<Camera> cameras;
   std::vector<Image> images;
   std::vector<Point3D> points;
+  bool has_rigs = false;  // the model has rigs and frames (both files, or neither)
+  std::vector<Rig> rigs;
+  std::vector<Frame> frames;
 };
 
 // Which files a directory holds: binary if cameras.bin exists, else text if cameras.txt does.
@@ -104,8 +150,9 @@ bool has_model(const std::string &dir, Encoding encoding);
 bool model_encoding(const std::string &dir, Encoding *out, std::string *error);
 
 // Parsers of one file's content; name stands for the file in the messages. They check each
-// file on its own (syntax, finite numbers, accepted camera models, unique ids); check_model
-// checks how the three agree.
+// file on its own (syntax, finite numbers, accepted camera models, unique ids, nonzero
+// quaternions, a sensor listed once in its rig and a measurement once in its frame);
+// check_model checks how the files agree.
 bool parse_cameras_text(const std::string &text, const std::string &name, std::vector<Camera> *out,
                         std::string *error);
 bool parse_images_text(const std::string &text, const std::string &name, std::vector<Image> *out,
@@ -118,20 +165,51 @@ bool parse_images_binary(const std::string &bytes, const std::string &name, std:
                          std::string *error);
 bool parse_points_binary(const std::string &bytes, const std::string &name, std::vector<Point3D> *out,
                          std::string *error);
+bool parse_rigs_text(const std::string &text, const std::string &name, std::vector<Rig> *out,
+                     std::string *error);
+bool parse_frames_text(const std::string &text, const std::string &name, std::vector<Frame> *out,
+                       std::string *error);
+bool parse_rigs_binary(const std::string &bytes, const std::string &name, std::vector<Rig> *out,
+                       std::string *error);
+bool parse_frames_binary(const std::string &bytes, const std::string &name, std::vector<Frame> *out,
+                         std::string *error);
 
-// The three files agree: every image's camera exists; every observation's point exists and
-// lists that observation in its track; every track element names an existing image and one
-// of its observations that points back; no image sees a point twice; every point is seen at
-// least once. name prefixes the message (the model's directory).
+// The files agree: every image's camera exists; every observation's point exists and lists
+// that observation in its track; every track element names an existing image and one of its
+// observations that points back; no image sees a point twice; every point is seen at least
+// once. With rigs and frames, as COLMAP 4 reads them: a rig's cameras exist, and a camera is a
+// sensor of one rig; a frame's rig exists and holds the sensor of each of its measurements; a
+// camera's measurement is an existing image of that camera; every image is in exactly one
+// frame, and its pose can be composed there: its camera is the rig's reference sensor, or has
+// a pose in the rig whose quaternion has norm 1 (COLMAP composes with it as written, and a
+// quaternion of another norm is not a rotation there) and the composed pose does not
+// overflow. name prefixes the message (the model's directory).
 bool check_model(const Model &model, const std::string &name, std::string *error);
 
-// Reads DIR/{cameras,images,points3D}.{txt,bin} (encoding from the files found, see above).
-// Each must be a regular file: a directory or a device there (/dev/zero) is refused by name.
+// The pose of each image of a checked model with rigs and frames, from its frame: the frame's
+// rig_from_world itself for the rig's reference sensor (the same bits), sensor_from_rig times
+// it for another sensor (a unit quaternion). Nothing changes in a model without them.
+void poses_from_frames(Model *model);
+
+// The reverse, after the poses of some images have changed: the rig_from_world of the frame of
+// each image flagged in `posed` (one flag per Model::images) becomes the image's pose for the
+// reference sensor (the same bits), inverse(sensor_from_rig) times it for another, so that
+// composing it gives the image's pose again. The model is checked, and each such frame holds
+// no other image (the other's pose would move with it).
+void frames_from_poses(Model *model, const std::vector<char> &posed);
+
+// Reads DIR/{cameras,images,points3D}.{txt,bin} (encoding from the files found, see above),
+// and DIR/{rigs,frames} of the same encoding when they are there: both or neither, as COLMAP 4
+// refuses a model with one of the two. The images' poses are then their frames'
+// (poses_from_frames). Each must be a regular file: a directory or a device there (/dev/zero)
+// is refused by name.
 bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::string *error);
-// Writes the model's files into dir (created if missing), all or none of them: they are
-// renamed onto their names (the cameras file last) once all are written, and a failure before
-// leaves every file of dir as it was, and no dir that was not there. Then the other encoding's
-// files, if dir holds any, are removed, so that dir holds one model. Text numbers have 17
+// Writes the model's files into dir (created if missing), all or none of them: the rigs and
+// frames files with the other three when the model has them. They are renamed onto their
+// names (the cameras file last) once all are written, and a failure before leaves every file
+// of dir as it was, and no dir that was not there. Then the other encoding's files, if dir
+// holds any, are removed, and so are the rigs and frames of this encoding when the model has
+// none, so that dir holds one model and COLMAP composes no pose from another's frames. Text numbers have 17
 // significant digits, so that they read back to the same doubles. With `outputs`, the files
 // and the directory are part of that set of a run's outputs (output_file.h), renamed and
 // removed when it is committed.
@@ -139,13 +217,15 @@ bool write_model(const std::string &dir, const Model &model, Encoding encoding, 
                  OutputSet *outputs = nullptr);
 
 // Whether write_model could write into dir, asked before a long computation: dir is a
-// directory whose model files can be written, or can be made (it is not left behind). False
-// with the message write_model would give.
+// directory whose model files (all five, as the model to write is not known yet) can be
+// written, or can be made (it is not left behind). False with the message write_model would
+// give.
 bool model_writable(const std::string &dir, Encoding encoding, std::string *error);
 
-// The same in memory: the three files' contents.
+// The same in memory: the files' contents (rigs and frames formatted whether or not the model
+// has them).
 struct Files {
-  std::string cameras, images, points;
+  std::string cameras, images, points, rigs, frames;
 };
 Files format_model(const Model &model, Encoding encoding);
 

@@ -5,6 +5,7 @@
 #ifndef SBA_DEMO_COLMAP_IO_IMPL_H
 #define SBA_DEMO_COLMAP_IO_IMPL_H
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -34,6 +35,24 @@ inline constexpr int kNumModels = sizeof(kModels) / sizeof(kModels[0]);
 // stray '\r' does not end up inside a value (or as an image name that a rewrite would lose).
 // The binary reader refuses a name the text format could not hold.
 inline bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
+
+// The zero quaternion, which is no rotation: the readers refuse it.
+inline bool is_zero(const std::array<double, 4> &q) {
+  return q[0] == 0 && q[1] == 0 && q[2] == 0 && q[3] == 0;
+}
+
+// The text format's name of a sensor type.
+inline const char *sensor_type_name(SensorType type) { return type == SensorType::Camera ? "CAMERA" : "IMU"; }
+// A sensor as the messages name it: "CAMERA 2".
+inline std::string sensor_name(const SensorId &s) {
+  return sensor_type_name(s.type) + (" " + std::to_string(s.id));
+}
+
+// Why a rig or a frame cannot be kept as read, empty when it can: a sensor listed twice in the
+// rig ("rig 1 lists CAMERA 2 twice"), a measurement listed twice in the frame (COLMAP keeps
+// them as sets, and would write one back).
+std::string repeated_sensor(const Rig &rig);
+std::string repeated_data(const Frame &frame);
 
 // Why a camera's intrinsics are not a camera, empty when they are: a focal length must be
 // positive, and fy / fx (the aspect ratio sba keeps) a number neither infinite nor zero;

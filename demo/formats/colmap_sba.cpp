@@ -172,6 +172,16 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::vecto
   const int m = static_cast<int>(model.images.size());
   const int n = static_cast<int>(model.points.size());
   if (m == 0 || n == 0) return fail(error, where + "the model has no images or no points");
+  // Each image's pose is a free unknown: the images of a frame would leave their rig's shape.
+  if (model.has_rigs)
+    for (const Frame &f : model.frames) {
+      const auto images = std::count_if(f.data.begin(), f.data.end(),
+                                        [](const DataId &d) { return d.sensor.type == SensorType::Camera; });
+      if (images > 1)
+        return fail(error, where + "frame " + std::to_string(f.id) + " holds " + std::to_string(images) +
+                               " images (rig " + std::to_string(f.rig_id) +
+                               "): rigs of several cameras are not refined yet");
+    }
   for (int j = 0; j < m; ++j) image_index.emplace(model.images[at(j)].id, j);
   // An image is a camera of the problem when it sees a point (every point is seen: check_model).
   std::vector<int> camera_of(at(m), -1);
@@ -263,6 +273,7 @@ void from_sba(const cc::CameraModel &sba_model, const ColmapProblem &problem, co
   std::unordered_map<std::uint32_t, Camera *> cameras;
   for (Camera &c : model->cameras) cameras.emplace(c.id, &c);
   std::unordered_map<std::uint32_t, int> camera_of;  // an image's sba camera
+  std::vector<char> posed(model->images.size(), 0);  // the images whose pose is written
   for (int j = 0; j < m; ++j) {
     Image &im = model->images[at(problem.images[at(j)])];
     camera_of.emplace(im.id, j);
@@ -273,6 +284,7 @@ void from_sba(const cc::CameraModel &sba_model, const ColmapProblem &problem, co
     if (!std::all_of(fixed, fixed + cc::kPoseParams, [](char f) { return f != 0; })) {
       im.q = {c.q.w, c.q.x, c.q.y, c.q.z};
       for (int k = 0; k < 3; ++k) im.t[at(k)] = c.t[at(k)];
+      posed[at(problem.images[at(j)])] = 1;
     }
     const int group = problem.cam_group[at(j)];
     if (group >= 0 && group != j) continue;  // the group's first camera writes it
@@ -295,6 +307,8 @@ void from_sba(const cc::CameraModel &sba_model, const ColmapProblem &problem, co
     }
     pt.error = sum / static_cast<double>(pt.track.size());
   }
+  // COLMAP 4 reads the poses from the frames (each of one image: to_sba).
+  frames_from_poses(model, posed);
 }
 
 bool to_euclidean(const cc::Camera &c, sbacameras::euclidean::Camera *out) {

@@ -88,15 +88,18 @@ std::string parse_image_names(const Model &model, const std::string &text, const
 // empty for none). mcon: the sba cameras below it are held by the solve (sba's mcon); a COLMAP
 // camera that one of them uses has its parameters held in all its images, so that what is
 // written back is one calibration. An image that sees no point has no sba camera (nothing
-// places it): it is held out of the problem, and from_sba leaves it as it was.
+// places it): it is held out of the problem, and from_sba leaves it as it was. A model whose
+// frames hold several images (a rig of several cameras, whose images keep one rig pose) is
+// refused: its images' poses are not free unknowns.
 bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::vector<char> &held_pose, int mcon,
             const std::string &name, ColmapProblem *out, std::string *error);
 
 // Writes the estimate p (m cnp-vectors, then n points) back into the model: the poses of the
 // sba cameras from mcon on that are not held, the points from ncon on, the parameters of each
 // COLMAP camera that are not held (once per camera: a group's from its first sba camera),
-// and each refined point's ERROR as its mean reprojection error in pixels. Everything else
-// stays as it was read, bit for bit.
+// and each refined point's ERROR as its mean reprojection error in pixels; with rigs and
+// frames, the frame of each image whose pose is written gets that pose (frames_from_poses).
+// Everything else stays as it was read, bit for bit.
 void from_sba(const sbacameras::colmap_camera::CameraModel &sba_model, const ColmapProblem &problem, const double *p,
               int mcon, int ncon, Model *model);
 

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// COLMAP's text format: cameras.txt, images.txt and points3D.txt.
+// COLMAP's text format: cameras.txt, images.txt, points3D.txt, rigs.txt and frames.txt.
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -80,7 +81,7 @@ bool parse_uint(std::string_view tok, std::uint64_t max, std::uint64_t *out) {
   for (char c : tok) {
     if (c < '0' || c > '9') return false;
     const std::uint64_t d = static_cast<std::uint64_t>(c - '0');
-    if (v > (max - d) / 10) return false;
+    if (d > max || v > (max - d) / 10) return false;
     v = v * 10 + d;
   }
   *out = v;
@@ -109,6 +110,30 @@ int model_by_name(std::string_view name) {
 }
 
 constexpr std::uint64_t kU32 = 0xffffffffu;
+
+// QW QX QY QZ TX TY TZ from token k on.
+bool pose_fields(const TextReader &r, std::size_t k, std::array<double, 4> *q, std::array<double, 3> *t,
+                 std::string *error) {
+  static const char *const kq[] = {"QW", "QX", "QY", "QZ"};
+  static const char *const kt[] = {"TX", "TY", "TZ"};
+  for (std::size_t i = 0; i < 4; ++i)
+    if (!real_field(r, k + i, kq[i], &(*q)[i], error)) return false;
+  for (std::size_t i = 0; i < 3; ++i)
+    if (!real_field(r, k + 4 + i, kt[i], &(*t)[i], error)) return false;
+  return true;
+}
+
+// SENSOR_TYPE SENSOR_ID at tokens k and k + 1.
+bool sensor_fields(const TextReader &r, std::size_t k, SensorId *out, std::string *error) {
+  const std::string_view type = r.tokens()[k];
+  if (type == "CAMERA") out->type = SensorType::Camera;
+  else if (type == "IMU") out->type = SensorType::Imu;
+  else return fail(error, r.where() + "SENSOR_TYPE must be CAMERA or IMU, got " + quoted(type));
+  std::uint64_t v;
+  if (!uint_field(r, k + 1, "SENSOR_ID", kU32, &v, error)) return false;
+  out->id = static_cast<std::uint32_t>(v);
+  return true;
+}
 
 }  // namespace
 
@@ -160,14 +185,8 @@ bool parse_images_text(const std::string &text, const std::string &name, std::ve
     std::uint64_t v;
     if (!uint_field(r, 0, "IMAGE_ID", kU32, &v, error)) return false;
     im.id = static_cast<std::uint32_t>(v);
-    static const char *const kq[] = {"QW", "QX", "QY", "QZ"};
-    static const char *const kt[] = {"TX", "TY", "TZ"};
-    for (int k = 0; k < 4; ++k)
-      if (!real_field(r, 1 + static_cast<std::size_t>(k), kq[k], &im.q[k], error)) return false;
-    for (int k = 0; k < 3; ++k)
-      if (!real_field(r, 5 + static_cast<std::size_t>(k), kt[k], &im.t[k], error)) return false;
-    if (im.q[0] == 0 && im.q[1] == 0 && im.q[2] == 0 && im.q[3] == 0)
-      return fail(error, r.where() + "the quaternion is zero");
+    if (!pose_fields(r, 1, &im.q, &im.t, error)) return false;
+    if (is_zero(im.q)) return fail(error, r.where() + "the quaternion is zero");
     if (!uint_field(r, 8, "CAMERA_ID", kU32, &v, error)) return false;
     im.camera_id = static_cast<std::uint32_t>(v);
     // The name is the rest of the line, so that it may hold blanks: from the tenth token to
@@ -244,11 +263,189 @@ bool parse_points_text(const std::string &text, const std::string &name, std::ve
   return true;
 }
 
+bool parse_rigs_text(const std::string &text, const std::string &name, std::vector<Rig> *out,
+                     std::string *error) {
+  TextReader r(text, name);
+  std::vector<Rig> rigs;
+  IdIndex ids;
+  while (r.next_data_line()) {
+    const auto &t = r.tokens();
+    if (t.size() < 2)
+      return fail(error, r.where() +
+                             "expected RIG_ID NUM_SENSORS [REF_SENSOR_TYPE REF_SENSOR_ID] SENSORS[], found " +
+                             std::to_string(t.size()) + " values");
+    Rig rig;
+    std::uint64_t v, n;
+    if (!uint_field(r, 0, "RIG_ID", kU32, &v, error) || !uint_field(r, 1, "NUM_SENSORS", kU32, &n, error))
+      return false;
+    rig.id = static_cast<std::uint32_t>(v);
+    const std::string of_rig = "rig " + std::to_string(rig.id) + ": ";
+    // The reference sensor takes two values, each other one three or ten: the values of the
+    // line bound the sensors read before they are counted.
+    std::size_t k = 2;
+    for (std::uint64_t i = 0; i < n; ++i) {
+      RigSensor sensor;
+      const std::size_t need = i == 0 ? 2 : 3;
+      if (t.size() - k < need)
+        return fail(error, r.where() + of_rig + "the line ends inside sensor " + std::to_string(i + 1) +
+                               " of " + std::to_string(n));
+      if (!sensor_fields(r, k, &sensor.sensor, error)) return false;
+      k += 2;
+      if (i > 0) {
+        if (!uint_field(r, k++, "HAS_POSE", 1, &v, error)) return false;
+        sensor.has_pose = v == 1;
+        if (sensor.has_pose) {
+          if (t.size() - k < 7)
+            return fail(error, r.where() + of_rig + "the line ends inside the pose of sensor " +
+                                   std::to_string(i + 1) + " of " + std::to_string(n));
+          Pose &p = sensor.sensor_from_rig;
+          if (!pose_fields(r, k, &p.q, &p.t, error)) return false;
+          if (is_zero(p.q))
+            return fail(error,
+                        r.where() + of_rig + "the quaternion of " + sensor_name(sensor.sensor) + " is zero");
+          k += 7;
+        }
+      }
+      rig.sensors.push_back(sensor);
+    }
+    if (k != t.size())
+      return fail(error, r.where() + of_rig + std::to_string(t.size() - k) + " values after its " +
+                             std::to_string(n) + " sensors");
+    if (const std::string why = repeated_sensor(rig); !why.empty()) return fail(error, r.where() + why);
+    if (!ids.insert(rig.id, rigs.size()))
+      return fail(error, r.where() + "rig " + std::to_string(rig.id) + " appears twice");
+    rigs.push_back(std::move(rig));
+  }
+  *out = std::move(rigs);
+  return true;
+}
+
+bool parse_frames_text(const std::string &text, const std::string &name, std::vector<Frame> *out,
+                       std::string *error) {
+  TextReader r(text, name);
+  std::vector<Frame> frames;
+  IdIndex ids;
+  while (r.next_data_line()) {
+    const auto &t = r.tokens();
+    if (t.size() < 10)
+      return fail(error, r.where() +
+                             "expected FRAME_ID RIG_ID QW QX QY QZ TX TY TZ NUM_DATA_IDS DATA_IDS[], found " +
+                             std::to_string(t.size()) + " values");
+    Frame f;
+    std::uint64_t v, n;
+    if (!uint_field(r, 0, "FRAME_ID", kU32, &v, error)) return false;
+    f.id = static_cast<std::uint32_t>(v);
+    if (!uint_field(r, 1, "RIG_ID", kU32, &v, error)) return false;
+    f.rig_id = static_cast<std::uint32_t>(v);
+    if (!pose_fields(r, 2, &f.rig_from_world.q, &f.rig_from_world.t, error)) return false;
+    if (is_zero(f.rig_from_world.q)) return fail(error, r.where() + "the quaternion is zero");
+    if (!uint_field(r, 9, "NUM_DATA_IDS", kU32, &n, error)) return false;
+    // Three values a measurement: n is bounded by the line before it is multiplied.
+    if ((t.size() - 10) % 3 != 0 || (t.size() - 10) / 3 != n)
+      return fail(error, r.where() + "frame " + std::to_string(f.id) + " has NUM_DATA_IDS " +
+                             std::to_string(n) + ", followed by " + std::to_string(t.size() - 10) +
+                             " values (SENSOR_TYPE SENSOR_ID DATA_ID each)");
+    f.data.resize(static_cast<std::size_t>(n));
+    for (std::size_t i = 0; i < f.data.size(); ++i) {
+      if (!sensor_fields(r, 10 + 3 * i, &f.data[i].sensor, error) ||
+          !uint_field(r, 12 + 3 * i, "DATA_ID", UINT64_MAX, &f.data[i].id, error))
+        return false;
+    }
+    if (const std::string why = repeated_data(f); !why.empty()) return fail(error, r.where() + why);
+    if (!ids.insert(f.id, frames.size()))
+      return fail(error, r.where() + "frame " + std::to_string(f.id) + " appears twice");
+    frames.push_back(std::move(f));
+  }
+  *out = std::move(frames);
+  return true;
+}
+
 // The most characters that a value takes in the text (g17's longest, -1.2345678901234567e-308,
 // and the longest integers) plus its separator: each file's string is reserved at once to an
 // upper bound of its size, never copied as it grows. What is reserved and never written costs
 // address space only.
-constexpr std::size_t kRealChars = 25, kU64Chars = 21, kU32Chars = 11, kU8Chars = 4;
+constexpr std::size_t kRealChars = 25, kU64Chars = 21, kU32Chars = 11, kU8Chars = 4,
+                      kSensorChars = 7 + kU32Chars;
+
+namespace {
+
+// " QW QX QY QZ TX TY TZ".
+void append_pose(std::string *out, const std::array<double, 4> &q, const std::array<double, 3> &t) {
+  for (double v : q) {
+    *out += ' ';
+    append_g17(out, v);
+  }
+  for (double v : t) {
+    *out += ' ';
+    append_g17(out, v);
+  }
+}
+
+// " SENSOR_TYPE SENSOR_ID".
+void append_sensor(std::string *out, const SensorId &s) {
+  *out += ' ';
+  *out += sensor_type_name(s.type);
+  *out += ' ';
+  append_uint(out, s.id);
+}
+
+// rigs.txt and frames.txt, their comments as COLMAP writes them.
+void format_rigs_and_frames(const Model &model, Files *f) {
+  std::size_t size = 400;
+  for (const Rig &rig : model.rigs)
+    size += 2 * kU32Chars + (kSensorChars + 2 + 7 * kRealChars) * rig.sensors.size() + 1;
+  std::string &rigs = f->rigs;
+  rigs.reserve(size);
+  rigs +=
+      "# Rig calib list with one line of data per calib:\n"
+      "#   RIG_ID, NUM_SENSORS, REF_SENSOR_TYPE, REF_SENSOR_ID, SENSORS[] as (SENSOR_TYPE, SENSOR_ID, "
+      "HAS_POSE, [QW, QX, QY, QZ, TX, TY, TZ])\n"
+      "# Number of rigs: ";
+  append_uint(&rigs, model.rigs.size());
+  rigs += '\n';
+  for (const Rig &rig : model.rigs) {
+    append_uint(&rigs, rig.id);
+    rigs += ' ';
+    append_uint(&rigs, rig.sensors.size());
+    for (std::size_t k = 0; k < rig.sensors.size(); ++k) {
+      const RigSensor &s = rig.sensors[k];
+      append_sensor(&rigs, s.sensor);
+      if (k == 0) continue;  // the reference sensor: no pose
+      rigs += s.has_pose ? " 1" : " 0";
+      if (s.has_pose) append_pose(&rigs, s.sensor_from_rig.q, s.sensor_from_rig.t);
+    }
+    rigs += '\n';
+  }
+
+  size = 400;
+  for (const Frame &fr : model.frames)
+    size += 3 * kU32Chars + 7 * kRealChars + (kSensorChars + kU64Chars) * fr.data.size() + 1;
+  std::string &frames = f->frames;
+  frames.reserve(size);
+  frames +=
+      "# Frame list with one line of data per frame:\n"
+      "#   FRAME_ID, RIG_ID, RIG_FROM_WORLD[QW, QX, QY, QZ, TX, TY, TZ], NUM_DATA_IDS, DATA_IDS[] as "
+      "(SENSOR_TYPE, SENSOR_ID, DATA_ID)\n"
+      "# Number of frames: ";
+  append_uint(&frames, model.frames.size());
+  frames += '\n';
+  for (const Frame &fr : model.frames) {
+    append_uint(&frames, fr.id);
+    frames += ' ';
+    append_uint(&frames, fr.rig_id);
+    append_pose(&frames, fr.rig_from_world.q, fr.rig_from_world.t);
+    frames += ' ';
+    append_uint(&frames, fr.data.size());
+    for (const DataId &d : fr.data) {
+      append_sensor(&frames, d.sensor);
+      frames += ' ';
+      append_uint(&frames, d.id);
+    }
+    frames += '\n';
+  }
+}
+
+}  // namespace
 
 Files format_text(const Model &model) {
   Files f;
@@ -290,14 +487,7 @@ Files format_text(const Model &model) {
   ims += '\n';
   for (const Image &im : model.images) {
     append_uint(&ims, im.id);
-    for (double v : im.q) {
-      ims += ' ';
-      append_g17(&ims, v);
-    }
-    for (double v : im.t) {
-      ims += ' ';
-      append_g17(&ims, v);
-    }
+    append_pose(&ims, im.q, im.t);
     ims += ' ';
     append_uint(&ims, im.camera_id);
     ims += ' ';
@@ -346,6 +536,7 @@ Files format_text(const Model &model) {
     }
     pts += '\n';
   }
+  format_rigs_and_frames(model, &f);
   return f;
 }
 

@@ -188,7 +188,9 @@ void print_usage(std::FILE *out) {
       "  with COLMAP's own camera models: every image that sees a point an sba camera, a camera\n"
       "  shared by several images refined once for all of them (one that sees none is written\n"
       "  back as read); by default the focal length and the extra parameters refined, the\n"
-      "  principal point held, as COLMAP's bundle adjuster does;\n"
+      "  principal point held, as COLMAP's bundle adjuster does; COLMAP 4's rigs and frames\n"
+      "  files are written back, each frame with its image's refined pose, and a frame of\n"
+      "  several images (a rig of several cameras) is refused;\n"
       "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera,\n"
       "  always refined: --intrinsics and --refine-* are refused); its image list (list.txt) with\n"
       "  --bundler-list;\n"
@@ -482,6 +484,15 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   if (held_out > 0)
     job->summary += "\n" + std::to_string(held_out) + (held_out == 1 ? " image sees" : " images see") +
                     " no point: held out of the solve and written back as read";
+  if (l->model.has_rigs) {
+    const auto count = [](std::size_t n, const char *what) {
+      return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
+    };
+    job->summary +=
+        "\nRigs and frames (COLMAP 4): " + count(l->model.rigs.size(), "rig") + ", " +
+        count(l->model.frames.size(), "frame") +
+        " of one image at most: each image's pose is its frame's, refined and written back to both";
+  }
   const auto yes_no = [](bool b) { return b ? "refined" : "held"; };
   job->model = camera_models(l->model, pr) + "; focal length " + yes_no(o.refine.focal) +
                   ", principal point " + yes_no(o.refine.principal) + ", extra parameters " +

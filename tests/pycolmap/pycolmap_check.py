@@ -1,0 +1,263 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-3-Clause
+"""sbarefine against COLMAP's own reader and writer of models, through pycolmap (PyPI).
+
+Scenes are made by pycolmap.synthesize_dataset, with noise, and written by pycolmap: models
+with rigs and frames, as COLMAP 4 writes them. Cases:
+  written   an unrigged model (one rig per camera, one frame per image), text and binary,
+            refined by sbarefine into a new folder, in place, and converted to the other
+            encoding in place and into a new folder. pycolmap reads every model sbarefine
+            writes; each image's pose there (composed from its frame) is the pose sbarefine
+            wrote into the images file (1e-12); the RMS reprojection error pycolmap's
+            projection gives is sbarefine's final RMS (--json, 1e-6 relative); the poses were
+            refined; the folder holds the five files of its encoding and nothing else.
+  one_image_frames
+            a rig of three cameras whose frames each hold one image (pycolmap's rig, its frames
+            split): the images of the cameras that are not the rig's reference are composed
+            from the rig's sensor poses. The same checks, text into a new folder and binary in
+            place.
+  refused   pycolmap's rig of three cameras, three images a frame: sbarefine refuses it (exit
+            1, its message), writes nothing and leaves the model as it was.
+Exit status: 0 every check passed, 1 a check failed, 2 bad usage, 77 no pycolmap (ctest's
+SKIP_RETURN_CODE): `scripts/deps.sh test` makes a venv with it (build/pycolmap-venv).
+
+  pycolmap_check.py [--python PY] --sbarefine EXE --work DIR CASE...
+With --python, a Python that cannot import pycolmap runs this script with PY instead.
+"""
+import argparse
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+
+SKIP = 77
+HERE = os.path.dirname(os.path.abspath(__file__))
+REEXEC = "SBA_PYCOLMAP_REEXEC"
+EXT = {"text": ".txt", "binary": ".bin"}
+OTHER = {"text": "binary", "binary": "text"}
+
+
+class Failure(Exception):
+    pass
+
+
+def expect(ok, what):
+    if not ok:
+        raise Failure(what)
+
+
+def files(encoding):
+    x = EXT[encoding]
+    return sorted(name + x for name in ("cameras", "images", "points3D", "rigs", "frames"))
+
+
+def synthesize(pycolmap, cameras_per_rig, seed):
+    pycolmap.set_random_seed(seed)
+    o = pycolmap.SyntheticDatasetOptions()
+    o.num_rigs = 2 if cameras_per_rig == 1 else 1
+    o.num_cameras_per_rig = cameras_per_rig
+    o.num_frames_per_rig = 8 if cameras_per_rig == 1 else 5
+    o.num_points3D = 300
+    rec = pycolmap.synthesize_dataset(o)
+    noise = pycolmap.SyntheticNoiseOptions()
+    noise.point2D_stddev = 0.5
+    noise.rig_from_world_translation_stddev = 0.02
+    noise.rig_from_world_rotation_stddev = 0.3
+    pycolmap.synthesize_noise(noise, rec)
+    return rec
+
+
+def write(rec, d, encoding):
+    shutil.rmtree(d, ignore_errors=True)
+    os.makedirs(d)
+    (rec.write_text if encoding == "text" else rec.write_binary)(d)
+
+
+def split_frames(d):
+    """One frame per image: each frame of several images becomes one for each (the image keeps
+    its pose: the frame's pose stays, and the image's sensor pose is in the rig)."""
+    path = os.path.join(d, "frames.txt")
+    with open(path) as f:
+        lines = [ln.rstrip("\n") for ln in f]
+    out, next_id = [], 1000
+    for ln in lines:
+        if ln.startswith("#") or not ln.strip():
+            out.append(ln)
+            continue
+        w = ln.split()
+        data = [w[10 + 3 * k:13 + 3 * k] for k in range(int(w[9]))]
+        for k, item in enumerate(data):
+            frame_id = w[0] if k == 0 else str(next_id)
+            next_id += k > 0
+            out.append(" ".join([frame_id] + w[1:9] + ["1"] + item))
+    with open(path, "w") as f:
+        f.write("\n".join(out) + "\n")
+
+
+def rms(pycolmap, rec):
+    total, count = 0.0, 0
+    for im in rec.images.values():
+        for p in im.points2D:
+            if not p.has_point3D():
+                continue
+            x = im.project_point(rec.points3D[p.point3D_id].xyz)
+            expect(x is not None, "image %d: a point behind the camera" % im.image_id)
+            total += float((x[0] - p.xy[0]) ** 2 + (x[1] - p.xy[1]) ** 2)
+            count += 1
+    return math.sqrt(total / count)
+
+
+def each(runs, check):
+    """check(run) for every run, each failure printed: one does not hide the others."""
+    failed = []
+    for run in runs:
+        try:
+            check(run)
+        except Failure as f:
+            print("FAIL %s" % f)
+            failed.append(str(run[0]))
+    expect(not failed, "failed: " + ", ".join(failed))
+
+
+def refine(args, model, out, extra=()):
+    cmd = [args.sbarefine, model, "--write", out, "--json", out + ".json"] + list(extra)
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    expect(r.returncode == 0, "%s: exit %d: %s" % (" ".join(cmd), r.returncode, r.stderr))
+    with open(out + ".json") as f:
+        return json.load(f)["rms_px"]["final"]
+
+
+def check_written(pycolmap, colmap_real, before, out, encoding, final_rms):
+    """What pycolmap reads from sbarefine's model in out agrees with what sbarefine wrote."""
+    expect(sorted(os.listdir(out)) == files(encoding), "%s holds %s" % (out, sorted(os.listdir(out))))
+    rec = pycolmap.Reconstruction(out)
+    expect(rec.num_rigs() == before.num_rigs() and rec.num_frames() == before.num_frames(),
+           "%s: %d rigs, %d frames, expected %d and %d" % (out, rec.num_rigs(), rec.num_frames(),
+                                                           before.num_rigs(), before.num_frames()))
+    written = colmap_real.read_model(out)  # the images file's poses, as sbarefine wrote them
+    moved = 0.0
+    for image_id, im in rec.images.items():
+        pose = im.cam_from_world()
+        xyzw = [float(v) for v in pose.rotation.quat]
+        q = [xyzw[3]] + xyzw[:3]
+        mine = written.images[image_id]
+        sign = 1.0 if sum(a * b for a, b in zip(q, mine["q"])) >= 0 else -1.0
+        err = max([abs(sign * a - b) for a, b in zip(q, mine["q"])] +
+                  [abs(float(a) - b) for a, b in zip(pose.translation, mine["t"])])
+        expect(err < 1e-12, "%s: image %d: pycolmap reads a pose %.3g away from the images file's"
+               % (out, image_id, err))
+        old = before.images[image_id].cam_from_world().translation
+        moved = max(moved, max(abs(float(a) - float(b)) for a, b in zip(pose.translation, old)))
+    expect(moved > 1e-6, "%s: no pose was refined" % out)
+    theirs = rms(pycolmap, rec)
+    expect(abs(theirs - final_rms) <= 1e-6 * final_rms,
+           "%s: pycolmap's RMS %.17g, sbarefine's final %.17g" % (out, theirs, final_rms))
+    print("PASS %s: %d images, %d frames; RMS %.9g px both" % (out, len(rec.images), rec.num_frames(), theirs))
+
+
+def case_written(pycolmap, colmap_real, args):
+    rec = synthesize(pycolmap, 1, 7)
+    runs = []
+    for encoding in ("text", "binary"):
+        source = os.path.join(args.work, "input_" + encoding)
+        write(rec, source, encoding)
+        other = ["--write-format", OTHER[encoding]]
+        runs += [("new_" + encoding, source, encoding, []), ("inplace_" + encoding, source, encoding, []),
+                 ("converted_" + encoding, source, OTHER[encoding], other),
+                 ("inplace_converted_" + encoding, source, OTHER[encoding], other)]
+    before = pycolmap.Reconstruction(os.path.join(args.work, "input_binary"))
+
+    def check(run):
+        name, source, written_as, extra = run
+        out = os.path.join(args.work, name)
+        shutil.rmtree(out, ignore_errors=True)
+        model = source
+        if name.startswith("inplace"):
+            shutil.copytree(source, out)
+            model = out
+        check_written(pycolmap, colmap_real, before, out, written_as, refine(args, model, out, extra))
+    each(runs, check)
+
+
+def case_one_image_frames(pycolmap, colmap_real, args):
+    rec = synthesize(pycolmap, 3, 11)
+    split = os.path.join(args.work, "split")
+    write(rec, split, "text")
+    split_frames(split)
+    before = pycolmap.Reconstruction(split)
+    expect(before.num_frames() == len(before.images), "the split model has frames of several images")
+    for image_id, im in before.images.items():
+        a, b = im.cam_from_world(), rec.images[image_id].cam_from_world()
+        expect(max(abs(float(x) - float(y)) for x, y in zip(a.translation, b.translation)) < 1e-12,
+               "image %d moved when its frame was split" % image_id)
+    out = os.path.join(args.work, "split_out")
+    shutil.rmtree(out, ignore_errors=True)
+    binary = os.path.join(args.work, "split_binary")
+    write(before, binary, "binary")
+    each([(split, out, "text"), (binary, binary, "binary")],
+         lambda run: check_written(pycolmap, colmap_real, before, run[1], run[2], refine(args, run[0], run[1])))
+
+
+def snapshot(d):
+    out = {}
+    for name in sorted(os.listdir(d)):
+        with open(os.path.join(d, name), "rb") as f:
+            out[name] = f.read()
+    return out
+
+
+def case_refused(pycolmap, colmap_real, args):
+    rec = synthesize(pycolmap, 3, 13)
+    for encoding in ("text", "binary"):
+        model = os.path.join(args.work, "rig_" + encoding)
+        write(rec, model, encoding)
+        frames = snapshot(model)
+        for out in (model, os.path.join(args.work, "rig_out")):
+            r = subprocess.run([args.sbarefine, model, "--write", out], capture_output=True, text=True, timeout=600)
+            expect(r.returncode == 1, "%s: exit %d, expected 1" % (model, r.returncode))
+            expect(r.stderr.startswith(model + ": frame ") and
+                   r.stderr.endswith(" holds 3 images (rig 1): rigs of several cameras are not refined yet\n"),
+                   "%s: %r" % (model, r.stderr))
+            expect(snapshot(model) == frames, "%s changed" % model)
+            expect(not os.path.exists(os.path.join(args.work, "rig_out")), "rig_out was made")
+        print("PASS %s: refused, left as it was" % model)
+
+
+CASES = {"written": case_written, "one_image_frames": case_one_image_frames, "refused": case_refused}
+
+
+def main(argv):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--python", help="a Python with pycolmap, used when this one has none")
+    ap.add_argument("--sbarefine", required=True)
+    ap.add_argument("--work", required=True, help="a scratch directory (emptied)")
+    ap.add_argument("cases", nargs="+", choices=sorted(CASES))
+    args = ap.parse_args(argv)
+    try:
+        import pycolmap
+    except ImportError as e:
+        if args.python and not os.environ.get(REEXEC) and os.access(args.python, os.X_OK):
+            os.environ[REEXEC] = "1"
+            os.execv(args.python, [args.python, os.path.abspath(__file__)] + argv)
+        print("pycolmap_check: SKIPPED: %s cannot import pycolmap (%s); scripts/deps.sh test makes a venv "
+              "with it" % (sys.executable, e))
+        return SKIP
+    sys.path.insert(0, os.path.join(HERE, "..", "colmap_real"))
+    import colmap_real
+    shutil.rmtree(args.work, ignore_errors=True)
+    os.makedirs(args.work)
+    print("pycolmap %s" % pycolmap.__version__)
+    failed = 0
+    for case in args.cases:
+        try:
+            CASES[case](pycolmap, colmap_real, args)
+        except Failure as f:
+            print("FAIL %s: %s" % (case, f))
+            failed += 1
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
