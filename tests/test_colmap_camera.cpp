@@ -389,6 +389,81 @@ std::vector<cc::Camera> sample_cameras() {
   return cams;
 }
 
+
+// Camera j's dx/da at a and dx/db at each point of `points` against central differences; the
+// parameters from pose_params + its model's count on are padding, which moves nothing. Camera
+// j is of COLMAP model j.
+template <class Model>
+void expect_sba_derivatives(const Model &model, int j, const std::vector<double> &a,
+                            const std::vector<double> &points, int pose_params) {
+  const int cnp = model.cnp();
+  for (std::size_t i = 0; i < points.size() / 3; ++i) {
+    const double *b = points.data() + 3 * i;
+    std::vector<double> A(2 * static_cast<std::size_t>(cnp));
+    double B[6], x[2];
+    model.project_jacobian(j, a.data(), b, x, A.data(), B);
+    for (int c = 0; c < cnp; ++c) {
+      const double h = 1e-6 * std::max(1.0, std::fabs(a[static_cast<std::size_t>(c)]));
+      std::vector<double> lo = a, hi = a;
+      lo[static_cast<std::size_t>(c)] -= h;
+      hi[static_cast<std::size_t>(c)] += h;
+      double xl[2], xh[2];
+      model.project(j, lo.data(), b, xl);
+      model.project(j, hi.data(), b, xh);
+      for (int r = 0; r < 2; ++r) {
+        const double num = (xh[r] - xl[r]) / (2 * h);
+        EXPECT_NEAR(A[static_cast<std::size_t>(r * cnp + c)], num, 1e-6 * std::max(1.0, std::fabs(num)))
+            << cc::model_name(j) << " a" << c << " row " << r;
+      }
+      if (c >= pose_params + cc::param_count(j)) {  // padding: no effect at all
+        EXPECT_EQ(A[static_cast<std::size_t>(c)], 0.0);
+        EXPECT_EQ(A[static_cast<std::size_t>(cnp + c)], 0.0);
+      }
+    }
+    for (int c = 0; c < 3; ++c) {
+      double lo[3] = {b[0], b[1], b[2]}, hi[3] = {b[0], b[1], b[2]};
+      lo[c] -= 1e-6;
+      hi[c] += 1e-6;
+      double xl[2], xh[2];
+      model.project(j, a.data(), lo, xl);
+      model.project(j, a.data(), hi, xh);
+      for (int r = 0; r < 2; ++r) {
+        const double num = (xh[r] - xl[r]) / 2e-6;
+        EXPECT_NEAR(B[r * 3 + c], num, 1e-6 * std::max(1.0, std::fabs(num))) << cc::model_name(j) << " b" << c;
+      }
+    }
+  }
+}
+using Callback = void (*)(double *, struct sba_crsm *, int *, int *, double *, void *);
+
+// The expert callbacks func and fjac of `model` at p (m cameras, then the points), over the
+// index of rowptr, colidx and val (the ordinals), give project_jacobian's numbers bit for bit
+// at the ordinals the index names. Returns func's projections.
+template <class Model>
+std::vector<double> expect_callbacks_agree(const Model &model, Callback func, Callback fjac, std::vector<double> &p,
+                                           std::vector<int> &rowptr, std::vector<int> &colidx,
+                                           std::vector<int> &val) {
+  const int m = model.ncameras(), n = model.npoints(), cnp = model.cnp();
+  const int nvis = static_cast<int>(val.size());
+  sba_crsm idx{n, m, nvis, val.data(), colidx.data(), rowptr.data()};
+  std::vector<double> hx(2 * static_cast<std::size_t>(nvis)), jac(static_cast<std::size_t>(nvis) * 2 * (cnp + 3));
+  func(p.data(), &idx, nullptr, nullptr, hx.data(), cc::as_adata(model));
+  fjac(p.data(), &idx, nullptr, nullptr, jac.data(), cc::as_adata(model));
+  for (int i = 0; i < n; ++i)
+    for (int e = rowptr[i]; e < rowptr[i + 1]; ++e) {
+      const int j = colidx[e], k = val[e];
+      double x[2], B[6];
+      std::vector<double> A(2 * static_cast<std::size_t>(cnp));
+      model.project_jacobian(j, p.data() + j * cnp, p.data() + m * cnp + 3 * i, x, A.data(), B);
+      EXPECT_EQ(hx[2 * k], x[0]);
+      EXPECT_EQ(hx[2 * k + 1], x[1]);
+      const double *blk = jac.data() + static_cast<std::size_t>(k) * 2 * (cnp + 3);
+      for (int c = 0; c < 2 * cnp; ++c) EXPECT_EQ(blk[c], A[static_cast<std::size_t>(c)]);
+      for (int c = 0; c < 6; ++c) EXPECT_EQ(blk[2 * cnp + c], B[c]);
+    }
+  return hx;
+}
+
 }  // namespace
 
 // The pose part: dx/da (rotation v, translation, parameters, padding) and dx/db by differences.
@@ -403,42 +478,7 @@ TEST(ColmapCamera, SbaModelDerivatives) {
     a[0] = 0.01;  // off v = 0, so the rotation derivative is not only the one at the identity
     a[1] = -0.02;
     a[2] = 0.015;
-    for (int i = 0; i < model.npoints(); ++i) {
-      const double *b = points.data() + 3 * i;
-      std::vector<double> A(2 * static_cast<std::size_t>(cnp));
-      double B[6], x[2];
-      model.project_jacobian(j, a.data(), b, x, A.data(), B);
-      for (int c = 0; c < cnp; ++c) {
-        const double h = 1e-6 * std::max(1.0, std::fabs(a[static_cast<std::size_t>(c)]));
-        std::vector<double> lo = a, hi = a;
-        lo[static_cast<std::size_t>(c)] -= h;
-        hi[static_cast<std::size_t>(c)] += h;
-        double xl[2], xh[2];
-        model.project(j, lo.data(), b, xl);
-        model.project(j, hi.data(), b, xh);
-        for (int r = 0; r < 2; ++r) {
-          const double num = (xh[r] - xl[r]) / (2 * h);
-          EXPECT_NEAR(A[static_cast<std::size_t>(r * cnp + c)], num, 1e-6 * std::max(1.0, std::fabs(num)))
-              << cc::model_name(j) << " a" << c << " row " << r;
-        }
-        if (c >= 6 + cc::param_count(j)) {  // padding: no effect at all
-          EXPECT_EQ(A[static_cast<std::size_t>(c)], 0.0);
-          EXPECT_EQ(A[static_cast<std::size_t>(cnp + c)], 0.0);
-        }
-      }
-      for (int c = 0; c < 3; ++c) {
-        double lo[3] = {b[0], b[1], b[2]}, hi[3] = {b[0], b[1], b[2]};
-        lo[c] -= 1e-6;
-        hi[c] += 1e-6;
-        double xl[2], xh[2];
-        model.project(j, a.data(), lo, xl);
-        model.project(j, a.data(), hi, xh);
-        for (int r = 0; r < 2; ++r) {
-          const double num = (xh[r] - xl[r]) / 2e-6;
-          EXPECT_NEAR(B[r * 3 + c], num, 1e-6 * std::max(1.0, std::fabs(num))) << cc::model_name(j) << " b" << c;
-        }
-      }
-    }
+    expect_sba_derivatives(model, j, a, points, cc::kPoseParams);
   }
 }
 
@@ -486,22 +526,8 @@ TEST(ColmapCamera, ExpertCallbacksAgreeWithTheModel) {
     rowptr.push_back(static_cast<int>(colidx.size()));
   }
   const int nvis = static_cast<int>(val.size());
-  sba_crsm idx{n, m, nvis, val.data(), colidx.data(), rowptr.data()};
-  std::vector<double> hx(2 * static_cast<std::size_t>(nvis)), jac(static_cast<std::size_t>(nvis) * 2 * (cnp + 3));
-  cc::motstr_func(p.data(), &idx, nullptr, nullptr, hx.data(), cc::as_adata(model));
-  cc::motstr_fjac(p.data(), &idx, nullptr, nullptr, jac.data(), cc::as_adata(model));
-  for (int i = 0; i < n; ++i)
-    for (int e = rowptr[i]; e < rowptr[i + 1]; ++e) {
-      const int j = colidx[e], k = val[e];
-      double x[2], B[6];
-      std::vector<double> A(2 * static_cast<std::size_t>(cnp));
-      model.project_jacobian(j, p.data() + j * cnp, p.data() + m * cnp + 3 * i, x, A.data(), B);
-      EXPECT_EQ(hx[2 * k], x[0]);
-      EXPECT_EQ(hx[2 * k + 1], x[1]);
-      const double *blk = jac.data() + static_cast<std::size_t>(k) * 2 * (cnp + 3);
-      for (int c = 0; c < 2 * cnp; ++c) EXPECT_EQ(blk[c], A[static_cast<std::size_t>(c)]);
-      for (int c = 0; c < 6; ++c) EXPECT_EQ(blk[2 * cnp + c], B[c]);
-    }
+  const std::vector<double> hx =
+      expect_callbacks_agree(model, cc::motstr_func, cc::motstr_fjac, p, rowptr, colidx, val);
   // The index a thread is given under parallel_callbacks: every row, only the last one not
   // empty. Only that row's slots are written.
   std::vector<double> part(hx.size(), -1.0);
@@ -629,46 +655,8 @@ TEST(ColmapRigCamera, ParameterCount) {
 TEST(ColmapRigCamera, DerivativesMatchCentralDifferences) {
   const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2};
   const cc::RigCameraModel model(sample_rig_images(), points);
-  const int cnp = model.cnp();
-  for (int j = 0; j < model.ncameras(); ++j) {
-    const std::vector<double> a = moved_rig_params(model, j);
-    for (int i = 0; i < model.npoints(); ++i) {
-      const double *b = points.data() + 3 * i;
-      std::vector<double> A(2 * static_cast<std::size_t>(cnp));
-      double B[6], x[2];
-      model.project_jacobian(j, a.data(), b, x, A.data(), B);
-      for (int c = 0; c < cnp; ++c) {
-        const double h = 1e-6 * std::max(1.0, std::fabs(a[static_cast<std::size_t>(c)]));
-        std::vector<double> lo = a, hi = a;
-        lo[static_cast<std::size_t>(c)] -= h;
-        hi[static_cast<std::size_t>(c)] += h;
-        double xl[2], xh[2];
-        model.project(j, lo.data(), b, xl);
-        model.project(j, hi.data(), b, xh);
-        for (int r = 0; r < 2; ++r) {
-          const double num = (xh[r] - xl[r]) / (2 * h);
-          EXPECT_NEAR(A[static_cast<std::size_t>(r * cnp + c)], num, 1e-6 * std::max(1.0, std::fabs(num)))
-              << cc::model_name(j) << " a" << c << " row " << r;
-        }
-        if (c >= cc::kRigPoseParams + cc::param_count(j)) {  // padding: no effect at all
-          EXPECT_EQ(A[static_cast<std::size_t>(c)], 0.0);
-          EXPECT_EQ(A[static_cast<std::size_t>(cnp + c)], 0.0);
-        }
-      }
-      for (int c = 0; c < 3; ++c) {
-        double lo[3] = {b[0], b[1], b[2]}, hi[3] = {b[0], b[1], b[2]};
-        lo[c] -= 1e-6;
-        hi[c] += 1e-6;
-        double xl[2], xh[2];
-        model.project(j, a.data(), lo, xl);
-        model.project(j, a.data(), hi, xh);
-        for (int r = 0; r < 2; ++r) {
-          const double num = (xh[r] - xl[r]) / 2e-6;
-          EXPECT_NEAR(B[r * 3 + c], num, 1e-6 * std::max(1.0, std::fabs(num))) << cc::model_name(j) << " b" << c;
-        }
-      }
-    }
-  }
+  for (int j = 0; j < model.ncameras(); ++j)
+    expect_sba_derivatives(model, j, moved_rig_params(model, j), points, cc::kRigPoseParams);
 }
 
 // At the start the projection is the model's of R_s (R_f X + t_f) + t_s; the image and its
@@ -743,7 +731,7 @@ TEST(ColmapRigCamera, ReferenceCameraIsTheFramesPose) {
 TEST(ColmapRigCamera, ExpertCallbacksAgreeWithTheModel) {
   const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2, 0.1, 0.1, 0.1};
   const cc::RigCameraModel model(sample_rig_images(), points);
-  const int m = model.ncameras(), n = model.npoints(), cnp = model.cnp();
+  const int m = model.ncameras(), n = model.npoints();
   std::vector<double> p;
   for (int j = 0; j < m; ++j) {
     const std::vector<double> a = moved_rig_params(model, j);
@@ -758,23 +746,7 @@ TEST(ColmapRigCamera, ExpertCallbacksAgreeWithTheModel) {
     }
     rowptr.push_back(static_cast<int>(colidx.size()));
   }
-  const int nvis = static_cast<int>(val.size());
-  sba_crsm idx{n, m, nvis, val.data(), colidx.data(), rowptr.data()};
-  std::vector<double> hx(2 * static_cast<std::size_t>(nvis)), jac(static_cast<std::size_t>(nvis) * 2 * (cnp + 3));
-  cc::rig_motstr_func(p.data(), &idx, nullptr, nullptr, hx.data(), cc::as_adata(model));
-  cc::rig_motstr_fjac(p.data(), &idx, nullptr, nullptr, jac.data(), cc::as_adata(model));
-  for (int i = 0; i < n; ++i)
-    for (int e = rowptr[i]; e < rowptr[i + 1]; ++e) {
-      const int j = colidx[e], k = val[e];
-      double x[2], B[6];
-      std::vector<double> A(2 * static_cast<std::size_t>(cnp));
-      model.project_jacobian(j, p.data() + j * cnp, p.data() + m * cnp + 3 * i, x, A.data(), B);
-      EXPECT_EQ(hx[2 * k], x[0]);
-      EXPECT_EQ(hx[2 * k + 1], x[1]);
-      const double *blk = jac.data() + static_cast<std::size_t>(k) * 2 * (cnp + 3);
-      for (int c = 0; c < 2 * cnp; ++c) EXPECT_EQ(blk[c], A[static_cast<std::size_t>(c)]);
-      for (int c = 0; c < 6; ++c) EXPECT_EQ(blk[2 * cnp + c], B[c]);
-    }
+  expect_callbacks_agree(model, cc::rig_motstr_func, cc::rig_motstr_fjac, p, rowptr, colidx, val);
 }
 
 // A held parameter (a frame rotation, a sensor translation, a focal length) is read from the
