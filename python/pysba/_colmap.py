@@ -345,7 +345,8 @@ def from_pycolmap(reconstruction: Any) -> ColmapModel:
     it (through a binary model in a temporary directory)."""
     pycolmap = _pycolmap()
     if not isinstance(reconstruction, pycolmap.Reconstruction):
-        raise TypeError(f"reconstruction must be a pycolmap.Reconstruction, got {type(reconstruction).__name__}")
+        raise TypeError(f"reconstruction must be a pycolmap.Reconstruction, got "
+                        f"{type(reconstruction).__name__}")
     with tempfile.TemporaryDirectory(prefix="pysba-") as d:
         reconstruction.write_binary(d)
         return read_colmap(d)

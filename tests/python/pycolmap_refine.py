@@ -46,7 +46,8 @@ def same_reconstruction(a, b, what):
            sorted(a.points3D) == sorted(b.points3D), what + ": other ids")
     for k, c in a.cameras.items():
         d = b.cameras[k]
-        expect((c.model, c.width, c.height, values(c.params)) == (d.model, d.width, d.height, values(d.params)),
+        expect((c.model, c.width, c.height, values(c.params)) ==
+               (d.model, d.width, d.height, values(d.params)),
                "%s: camera %d" % (what, k))
     for k, im in a.images.items():
         other = b.images[k]
@@ -57,11 +58,13 @@ def same_reconstruction(a, b, what):
                [(values(p.xy), p.point3D_id) for p in other.points2D], "%s: image %d's keypoints" % (what, k))
     for k, p in a.points3D.items():
         q = b.points3D[k]
-        expect((values(p.xyz), values(p.color), float(p.error)) == (values(q.xyz), values(q.color), float(q.error)),
+        expect((values(p.xyz), values(p.color), float(p.error)) ==
+               (values(q.xyz), values(q.color), float(q.error)),
                "%s: point %d" % (what, k))
         expect([(e.image_id, e.point2D_idx) for e in p.track.elements] ==
                [(e.image_id, e.point2D_idx) for e in q.track.elements], "%s: point %d's track" % (what, k))
-    expect(sorted(a.frames) == sorted(b.frames) and sorted(a.rigs) == sorted(b.rigs), what + ": rigs or frames")
+    expect(sorted(a.frames) == sorted(b.frames) and sorted(a.rigs) == sorted(b.rigs),
+           what + ": rigs or frames")
     for k, f in a.frames.items():
         expect(pose(f.rig_from_world) == pose(b.frames[k].rig_from_world), "%s: frame %d" % (what, k))
 
@@ -83,11 +86,12 @@ def run(pycolmap, pysba):
     expect(result.rms_final < 0.5 * result.rms_initial, "the error did not drop: %r" % result)
     expect(abs(theirs - result.rms_final) <= 1e-6 * result.rms_final,
            "pycolmap's RMS %.17g, pysba's %.17g" % (theirs, result.rms_final))
-    print("PASS refine_colmap: RMS %.9g px -> %.9g px, pycolmap's %.9g px" % (result.rms_initial, result.rms_final,
-                                                                            theirs))
+    print("PASS refine_colmap: RMS %.9g px -> %.9g px, pycolmap's %.9g px"
+          % (result.rms_initial, result.rms_final, theirs))
 
     direct, again = pysba.refine_colmap(rec)
-    expect(isinstance(direct, pycolmap.Reconstruction), "refine_colmap(rec) gave a %s" % type(direct).__name__)
+    expect(isinstance(direct, pycolmap.Reconstruction),
+           "refine_colmap(rec) gave a %s" % type(direct).__name__)
     expect(again.info.tolist() == result.info.tolist(), "refine_colmap(rec) solved another problem")
     same_reconstruction(back, direct, "refine_colmap(rec)")
     print("PASS refine_colmap(rec) is a pycolmap.Reconstruction, the same")
