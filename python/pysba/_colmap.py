@@ -273,8 +273,9 @@ def _is_reconstruction(model: Any) -> bool:
 
 
 def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_principal_point: bool = False,
-                  refine_extra_params: bool = True, hold_poses: Any = None,
-                  solver: Optional[str] = None, threads: int = 0,
+                  refine_extra_params: bool = True, refine_rig_from_world: bool = True,
+                  refine_sensor_from_rig: bool = True, constant_rig_from_world_rotation: bool = False,
+                  hold_poses: Any = None, solver: Optional[str] = None, threads: int = 0,
                   strategy: Optional[str] = None, loss: Optional[str] = None,
                   loss_scale: float = 1.0, itmax: int = 100, opts: Optional[Sequence[float]] = None,
                   function_tolerance: Optional[float] = None, mcon: int = 0, ncon: int = 0,
@@ -288,8 +289,10 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     Every image that sees a point is refined (its pose), with its camera's parameters: a camera
     shared by several images once for all of them; every 3D point is refined, and its
     ``error`` becomes its mean reprojection error. An image that sees no point is left as it
-    is. With rigs and frames, each frame gets its image's refined pose; a frame of several
-    images (a rig of several cameras) is refused (ValueError).
+    is. With rigs and frames, as COLMAP 4 refines them: a frame's pose (rig_from_world) once
+    for its images, a camera's pose in its rig (sensor_from_rig) once for all the frames of the
+    rig (the rig's reference camera at the identity), written back to the frames and the rigs
+    and composed into the images.
 
     refine_focal_length, refine_principal_point, refine_extra_params
         COLMAP's bundle adjustment options (the focal length and the parameters after the
@@ -316,16 +319,19 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     reconstruction = _is_reconstruction(model)
     colmap_model = from_pycolmap(model) if reconstruction else model
     _check_model(colmap_model)
-    for name, flag in (("refine_focal_length", refine_focal_length),
-                       ("refine_principal_point", refine_principal_point),
-                       ("refine_extra_params", refine_extra_params)):
+    flags = (("refine_focal_length", refine_focal_length),
+             ("refine_principal_point", refine_principal_point),
+             ("refine_extra_params", refine_extra_params),
+             ("refine_rig_from_world", refine_rig_from_world),
+             ("refine_sensor_from_rig", refine_sensor_from_rig),
+             ("constant_rig_from_world_rotation", constant_rig_from_world_rotation))
+    for name, flag in flags:
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name} must be a bool, got {type(flag).__name__}")
     held = _held_images(colmap_model, hold_poses)
     strategy, opts = _colmap_stop(strategy, opts, function_tolerance)
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
-    report = _core.refine_colmap(colmap_model, held, bool(refine_focal_length), bool(refine_principal_point),
-                                 bool(refine_extra_params), **kw)
+    report = _core.refine_colmap(colmap_model, held, *(bool(flag) for _, flag in flags), **kw)
     report["model"] = _model(report["model"])
     result = _finish(report)
     return (to_pycolmap(result.model) if reconstruction else result.model), result

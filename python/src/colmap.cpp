@@ -406,22 +406,23 @@ void write_colmap(py::handle model, const std::string &dir, const std::string &e
     raise_file_error(PyExc_OSError, error);
 }
 
-// The solve sbarefine runs on a COLMAP model (its load_colmap and colmap_job): the problem of
-// to_sba, COLMAP's camera models, the held and shared parameters to_sba chose, and the estimate
-// written back by from_sba unless nothing was solved (itmax 0). The one place that knows how
-// a ColmapProblem is solved: what to_sba makes of other models goes here too.
-py::dict refine_model(colmap::Model model, const colmap::RefineIntrinsics &refine,
-                      const std::vector<char> &held, SolveOptions o) {
-  colmap::ColmapProblem pr;
-  std::string error;
-  if (!colmap::to_sba(model, refine, held, o.mcon, kModelName, &pr, &error)) throw py::value_error(error);
-  std::unique_ptr<colmap_camera::CameraModel> sm;
+// An sba camera model of to_sba's problem (CameraModel, or RigCameraModel for a rigged one),
+// its invalid_argument a ValueError.
+template <typename SbaModel, typename... Args>
+std::unique_ptr<SbaModel> sba_model(Args &&...args) {
   try {
-    sm = std::make_unique<colmap_camera::CameraModel>(pr.cameras, pr.points.xyz, pr.cam_fixed);
+    return std::make_unique<SbaModel>(std::forward<Args>(args)...);
   } catch (const std::invalid_argument &e) {
     throw py::value_error(e.what());
   }
-  Run run;
+}
+
+// The solve of pr through the sba camera model sm and its callbacks, with the held (and, in
+// d's caller, shared) parameters to_sba chose; sm's estimate written back into model by
+// from_sba unless nothing was solved (itmax 0).
+template <typename SbaModel>
+py::dict solve_model(const SbaModel &sm, const colmap::ColmapProblem &pr, Run &run, SolveOptions &o,
+                     colmap::Model &model) {
   Observations &obs = run.obs;
   obs.n = pr.points.npoints();
   obs.m = pr.points.ncameras;
@@ -431,26 +432,20 @@ py::dict refine_model(colmap::Model model, const colmap::RefineIntrinsics &refin
   obs.x = pr.points.x;
   obs.order.resize(obs.point.size());
   std::iota(obs.order.begin(), obs.order.end(), 0LL);
-  const int m = obs.m, n = obs.n, cnp = sm->cnp();
-  run.p = sm->initial_camera_params();
-  run.p.insert(run.p.end(), sm->initial_points().begin(), sm->initial_points().end());
+  const int m = obs.m, n = obs.n, cnp = sm.cnp();
+  run.p = sm.initial_camera_params();
+  run.p.insert(run.p.end(), sm.initial_points().begin(), sm.initial_points().end());
   run.cnp = cnp;
   run.pnp = 3;
-  run.func = colmap_camera::motstr_func;
-  run.fjac = colmap_camera::motstr_fjac;
-  run.adata = colmap_camera::as_adata(*sm);
+  run.adata = colmap_camera::as_adata(sm);
   run.parallel = true;  // the callbacks are re-entrant, as sbarefine runs them
   o.has_fixed = true;
   o.fixed = pr.cam_fixed;
   o.fixed_shape = {m, cnp};
-  o.has_groups = o.has_shared = true;
-  o.groups = pr.cam_group;
-  o.shared = pr.cam_shared;
 
   Session session(o);
   py::dict d = run_driver(run, session, o);
-  if (o.itmax > 0 && d["ret"].cast<int>() != SBA_ERROR)
-    colmap::from_sba(*sm, pr, run.p.data(), o.mcon, o.ncon, &model);
+  if (o.itmax > 0 && d["ret"].cast<int>() != SBA_ERROR) colmap::from_sba(sm, pr, run.p.data(), o.mcon, o.ncon, &model);
   d["model"] = python_model(model);
   d["cameras"] = copy_of(run.p.data(), {m, cnp});
   d["points"] = copy_of(run.p.data() + size_t(m) * size_t(cnp), {n, 3});
@@ -458,8 +453,39 @@ py::dict refine_model(colmap::Model model, const colmap::RefineIntrinsics &refin
   return d;
 }
 
+// The solve sbarefine runs on a COLMAP model (its load_colmap and colmap_job): the problem of
+// to_sba through COLMAP's camera models, each image's intrinsics shared by the images of its
+// camera (camera groups), or, in a model whose frames hold several images, through the rig
+// camera model, the frames' and the cameras' poses in their rigs shared too (per-parameter
+// groups). The one place that knows how a ColmapProblem is solved: what to_sba makes of other
+// models goes here too.
+py::dict refine_model(colmap::Model model, const colmap::RefineIntrinsics &refine, const colmap::RefinePoses &poses,
+                      const std::vector<char> &held, SolveOptions o) {
+  colmap::ColmapProblem pr;
+  std::string error;
+  if (!colmap::to_sba(model, refine, poses, held, o.mcon, kModelName, &pr, &error)) throw py::value_error(error);
+  Run run;
+  if (pr.rigged) {
+    const auto sm = sba_model<colmap_camera::RigCameraModel>(pr.rig_images, pr.points.xyz, pr.cam_fixed);
+    run.func = colmap_camera::rig_motstr_func;
+    run.fjac = colmap_camera::rig_motstr_fjac;
+    o.has_param_groups = true;
+    o.param_groups = pr.cam_param_group;
+    o.param_groups_shape = {pr.points.ncameras, sm->cnp()};
+    return solve_model(*sm, pr, run, o, model);
+  }
+  const auto sm = sba_model<colmap_camera::CameraModel>(pr.cameras, pr.points.xyz, pr.cam_fixed);
+  run.func = colmap_camera::motstr_func;
+  run.fjac = colmap_camera::motstr_fjac;
+  o.has_groups = o.has_shared = true;
+  o.groups = pr.cam_group;
+  o.shared = pr.cam_shared;
+  return solve_model(*sm, pr, run, o, model);
+}
+
 py::dict refine_colmap(py::handle model, const std::vector<long long> &held_images, bool focal,
-                       bool principal, bool extra, const py::kwargs &kw) {
+                       bool principal, bool extra, bool rig_from_world, bool sensor_from_rig,
+                       bool constant_rotation, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   colmap::Model m = model_of(model);
   // As read_model gives it: each image's pose its frame's, which is what a reader of the
@@ -472,7 +498,8 @@ py::dict refine_colmap(py::handle model, const std::vector<long long> &held_imag
                             std::to_string(m.images.size()) + ")");
     held[size_t(k)] = 1;
   }
-  return refine_model(std::move(m), {focal, principal, extra}, held, o);
+  return refine_model(std::move(m), {focal, principal, extra}, {rig_from_world, sensor_from_rig, constant_rotation},
+                      held, o);
 }
 
 }  // namespace
@@ -481,7 +508,9 @@ void add_colmap(py::module_ &mod) {
   mod.def("read_colmap", &read_colmap, py::arg("path"));
   mod.def("write_colmap", &write_colmap, py::arg("model"), py::arg("path"), py::arg("encoding"));
   mod.def("refine_colmap", &refine_colmap, py::arg("model"), py::arg("held_images"),
-          py::arg("refine_focal_length"), py::arg("refine_principal_point"), py::arg("refine_extra_params"));
+          py::arg("refine_focal_length"), py::arg("refine_principal_point"), py::arg("refine_extra_params"),
+          py::arg("refine_rig_from_world"), py::arg("refine_sensor_from_rig"),
+          py::arg("constant_rig_from_world_rotation"));
 }
 
 }  // namespace pysba

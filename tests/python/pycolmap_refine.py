@@ -9,6 +9,10 @@ camera's parameters, every point's coordinates, color, error and track, the rigs
 refine_colmap(from_pycolmap(rec)) refines the poses, and pycolmap's own projection of the
 refined model gives the Result's final RMS reprojection error (1e-6 relative);
 refine_colmap(rec) gives a pycolmap.Reconstruction, the same as converting that result.
+A scene of two rigs of three cameras (frames of three images), the cameras' poses in their rigs
+and focal lengths moved: refine_colmap(rec) ends no worse than pycolmap.bundle_adjustment at
+its defaults (1 + 1e-6) by pycolmap's projection, and every image's pose is its frame's
+composed with its camera's pose in the rig (1e-12).
 
 Exit status: 0 every check passed, 1 a check failed, 77 (ctest's SKIP_RETURN_CODE) no Python
 here can import both pycolmap and pysba, or a sanitizer build (pycolmap is not built with
@@ -25,7 +29,7 @@ import sys
 
 # The scene and the RMS error by pycolmap's projection are sbarefine's test's (tests/pycolmap).
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "pycolmap"))
-from pycolmap_check import Failure, expect, rms, synthesize  # noqa: E402
+from pycolmap_check import Failure, expect, perturb_rigs, rms, synthesize  # noqa: E402
 
 SKIP = 77
 REEXEC = "PYSBA_PYCOLMAP_REEXEC"
@@ -95,6 +99,30 @@ def run(pycolmap, pysba):
     expect(again.info.tolist() == result.info.tolist(), "refine_colmap(rec) solved another problem")
     same_reconstruction(back, direct, "refine_colmap(rec)")
     print("PASS refine_colmap(rec) is a pycolmap.Reconstruction, the same")
+
+    rigs = synthesize(pycolmap, 3, 13, rigs=2)
+    perturb_rigs(pycolmap, rigs)
+    expect(rigs.num_frames() < len(rigs.images), "the rig scene has no frame of several images")
+    reference = pycolmap.Reconstruction(rigs)
+    options = pycolmap.BundleAdjustmentOptions()
+    options.print_summary = False
+    pycolmap.bundle_adjustment(reference, options)
+    theirs = rms(pycolmap, reference)
+    refined, result = pysba.refine_colmap(rigs)
+    mine = rms(pycolmap, refined)
+    expect(abs(mine - result.rms_final) <= 1e-6 * mine, "pycolmap's RMS %.17g, pysba's %.17g" % (mine, result.rms_final))
+    expect(mine <= theirs * (1 + 1e-6), "rigs: RMS %.17g, pycolmap.bundle_adjustment's %.17g" % (mine, theirs))
+    worst = 0.0
+    for im in refined.images.values():
+        frame = refined.frames[im.frame_id]
+        rig = refined.rigs[frame.rig_id]
+        composed = frame.rig_from_world
+        if rig.ref_sensor_id.id != im.camera_id:
+            composed = rig.sensor_from_rig(pycolmap.sensor_t(pycolmap.SensorType.CAMERA, im.camera_id)) * composed
+        worst = max(worst, float(abs(im.cam_from_world().matrix() - composed.matrix()).max()))
+    expect(worst <= 1e-12, "rigs: an image's pose is %g from its frame's and its rig's" % worst)
+    print("PASS refine_colmap of rigs: RMS %.9g px, pycolmap.bundle_adjustment's %.9g px, rigid to %g"
+          % (mine, theirs, worst))
 
 
 def main(argv):

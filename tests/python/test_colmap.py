@@ -454,15 +454,38 @@ def test_write_refusals(tmp_path):
     assert (tmp_path / "file").read_text() == "x"
 
 
-def test_refine_refusals(tmp_path):
-    source = rigged(tmp_path)
-    model = pysba.read_colmap(source)
-    # Frame 900 holds images 10 and 13: a rig of two cameras exposed together.
+def two_image_frame(tmp_path):
+    """rigged()'s model with frame 900 holding images 10 and 13 (rig 1's two cameras exposed
+    together), written as text."""
+    model = pysba.read_colmap(rigged(tmp_path))
     model.frames[0].data.append(model.frames[1].data[0])
     model.frames.pop(1)
-    with pytest.raises(ValueError, match=re.escape(
-            "model: frame 900 holds 2 images (rig 1): rigs of several cameras are not refined yet")):
-        pysba.refine_colmap(model)
+    pysba.write_colmap(model, tmp_path / "rig2", "text")
+    return tmp_path / "rig2"
+
+
+# The two images were not taken by a rig: the more of the rig is held, the worse they fit (the
+# frames' rotations held, or the frames' poses, which the noise moved, held altogether).
+@pytest.mark.parametrize("args, kw, rms", [
+    ([], {}, (0.52, 0.54)),
+    (["--constant-rig-from-world-rotation", "1"],
+     dict(constant_rig_from_world_rotation=True), (1.2, 1.25)),
+    (["--refine-rig-from-world", "0", "--solver", "sparse-chol"],
+     dict(refine_rig_from_world=False, solver="sparse-chol"), (6.4, 6.6))])
+def test_refine_a_frame_of_two_images_is_sbarefines(tmp_path, args, kw, rms):
+    r = same_as_sbarefine(tmp_path, two_image_frame(tmp_path), "text", args, kw)
+    # Image 10 (camera 100, the rig's reference) has its frame's pose bit for bit; image 13
+    # (camera 101) its frame's composed with the camera's pose in the rig.
+    frame = r.model.frames[0]
+    assert [d[2] for d in frame.data if d[0] == "CAMERA"] == [10, 13]
+    image = {im.id: im for im in r.model.images}
+    assert frame.q.tobytes() == image[10].q.tobytes() and frame.t.tobytes() == image[10].t.tobytes()
+    assert not np.array_equal(frame.t, image[13].t)
+    assert rms[0] < r.rms_final < rms[1] and r.rms_initial > 16
+
+
+def test_refine_refusals(tmp_path):
+    source = rigged(tmp_path)
     model = pysba.read_colmap(source)
     for kw, error, message in [
             (dict(hold_poses=[10, "nope.png"]), ValueError,
@@ -472,6 +495,7 @@ def test_refine_refusals(tmp_path):
              "hold_poses[0] must be an IMAGE_ID (int) or a NAME (str), got bool"),
             (dict(hold_poses="img_0000.png"), ValueError, "hold_poses must be 'all' or a list of IMAGE_IDs"),
             (dict(refine_focal_length=1), TypeError, "refine_focal_length must be a bool, got int"),
+            (dict(refine_sensor_from_rig=None), TypeError, "refine_sensor_from_rig must be a bool, got NoneType"),
             (dict(function_tolerance=-1), ValueError, "function_tolerance must be finite and >= 0, got -1"),
             (dict(function_tolerance="0"), TypeError, "function_tolerance must be a number, got str"),
             (dict(opts=[1e-3]), ValueError, "opts must hold 5 values"),
