@@ -18,7 +18,6 @@
 #include "kernels.h"
 #include "lapack.h"
 #include "linearization.h"
-#include "normal_equations.h"
 #include "parallel.h"
 #include "step_solver.h"
 
