@@ -62,11 +62,12 @@ sys.path.insert(0, os.path.join(HERE, "..", "tests", "colmap_real"))
 import colmap_real  # noqa: E402  (the yardstick and the model readers)
 
 
-def timed(cmd, log, timeout=None):
-    """Runs cmd under /usr/bin/time -v: (exit status, wall seconds, peak RSS in MiB, output,
-    whether it was killed at `timeout` seconds)."""
+def timed(cmd, log, timeout=None, env=None):
+    """Runs cmd under /usr/bin/time -v (in the environment env, None: this one): (exit status,
+    wall seconds, peak RSS in MiB, output, whether it was killed at `timeout` seconds)."""
     t0 = time.monotonic()
-    p = subprocess.Popen(["/usr/bin/time", "-v"] + cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    p = subprocess.Popen(["/usr/bin/time", "-v"] + cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                         env=env)
     try:
         out, _ = p.communicate(timeout=timeout)
         killed = False

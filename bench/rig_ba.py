@@ -26,7 +26,12 @@ Needs a Python that imports pycolmap 4 (`scripts/deps.sh test` makes build/pycol
   build/pycolmap-venv/bin/python3 bench/rig_ba.py --sbarefine build/demo/sbarefine \\
       [--frames 100,1000] [--rigs 2] [--cameras-per-rig 2] [--points-per-frame 20] \\
       [--track-length 8] [--repeat 1] [--threads 2] [--solvers LIST] [--timeout SEC] \\
-      [--out bench/results/rig_ba] [--work DIR]
+      [--out bench/results/rig_ba] [--work DIR] [--pysba build/python/pkg]
+With --pysba DIR (the directory holding the pysba package, build/python/pkg), pysba too:
+pysba.read_colmap, pysba.refine_colmap at its defaults (threads=THREADS, solver= each of
+--solvers), pysba.write_colmap. (refine_colmap also takes a pycolmap.Reconstruction; it converts
+through a binary model on disk, so that route adds writing and reading the model twice.)
+
 writes OUT.md (the table and the exact commands) and OUT.json (one JSON object a run).
 """
 import argparse
@@ -109,6 +114,20 @@ def worker_ba(inp, out, report):
         json.dump({"ba_seconds": seconds}, f)
 
 
+def worker_pysba(inp, out, report, threads, solver):
+    """The pysba process: read the model with pysba.read_colmap, refine it with
+    pysba.refine_colmap at its defaults (COLMAP's), write it with pysba.write_colmap; the
+    refinement's own time."""
+    import pysba
+    model = pysba.read_colmap(inp)
+    t0 = time.monotonic()
+    refined, result = pysba.refine_colmap(model, threads=int(threads), solver=solver or None)
+    seconds = time.monotonic() - t0
+    pysba.write_colmap(refined, out)
+    with open(report, "w", encoding="utf-8") as f:
+        json.dump({"ba_seconds": seconds, "iterations": result.iterations, "solver": result.solver}, f)
+
+
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sbarefine", required=True)
@@ -124,6 +143,7 @@ def main(argv):
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--out", default=os.path.join(HERE, "results", "rig_ba"))
     ap.add_argument("--work", default="")
+    ap.add_argument("--pysba", default="", help="a directory holding the pysba package: pysba rows too")
     a = ap.parse_args(argv)
     import pycolmap
 
@@ -145,21 +165,28 @@ def main(argv):
                     % (a.rigs, a.cameras_per_rig, max(1, frames // a.rigs), frames * a.points_per_frame,
                        a.track_length, a.seed, inp))
         programs = [("pycolmap", None)] + [("sbarefine", s) for s in solvers]
+        if a.pysba:
+            programs += [("pysba", s) for s in solvers]
         for program, solver in programs:
             for k in range(a.repeat):
                 out = os.path.join(scene, "%s%s_%d" % (program, "_" + solver if solver else "", k))
                 shutil.rmtree(out, ignore_errors=True)
                 report = out + ".json"
+                env = None
                 if program == "pycolmap":
                     cmd = [sys.executable, os.path.abspath(__file__), "--worker-ba", inp, out, report]
+                elif program == "pysba":
+                    cmd = [sys.executable, os.path.abspath(__file__), "--worker-pysba", inp, out, report,
+                           str(a.threads), solver or ""]
+                    env = dict(os.environ, PYTHONPATH=os.path.abspath(a.pysba))
                 else:
                     cmd = [a.sbarefine, inp, "--write", out, "--json", report, "--threads", str(a.threads)]
                     if solver:
                         cmd += ["--solver", solver]
                 if k == 0:
-                    cmds.append(" ".join(cmd))
+                    cmds.append(("PYTHONPATH=%s " % env["PYTHONPATH"] if env else "") + " ".join(cmd))
                 load = os.getloadavg()[0]
-                status, wall, peak, text, killed = timed(cmd, out + ".log", a.timeout)
+                status, wall, peak, text, killed = timed(cmd, out + ".log", a.timeout, env=env)
                 r = dict(shape, program=program, solver=solver or "", run=k, status=status, wall=wall,
                          peak_mib=peak, killed=killed, load=load)
                 if status == 0 and not killed:
@@ -170,7 +197,12 @@ def main(argv):
                         j = json.load(f)
                     if program == "pycolmap":
                         r["ba_seconds"] = j["ba_seconds"]
+                    elif program == "pysba":
+                        r["ba_seconds"] = j["ba_seconds"]
+                        r["iterations"] = j["iterations"]
+                        r["linsolver"] = j["solver"]
                     else:
+                        r["ba_seconds"] = j["seconds"]
                         r["iterations"] = j["info"]["iterations"]
                         r["sbarefine_rms"] = j["rms_px"]["final"]
                         r["linsolver"] = j["solver"]
@@ -196,32 +228,38 @@ def write_report(a, runs, cmds):
              "Written by `bench/rig_ba.py` (see bench/README.md) on %s; %d rigs of %d cameras, %d points per frame "
              "seen by %d images each; the median of %d wall times; peak RSS from /usr/bin/time -v; RMS by pycolmap's "
              "projection of each written model; rigidity: the largest difference between an image's pose and its "
-             "frame's composed with its camera's in the rig. sbarefine --threads %d, pycolmap every hardware thread "
-             "(%d here). The load column is the 1-minute load average when each run started."
+             "frame's composed with its camera's in the rig. Adjustment alone: pycolmap's bundle_adjustment call, "
+             "sbarefine's solve (its --json seconds: reading and writing the model excluded), pysba's refine_colmap "
+             "call (reading and writing excluded, as for sbarefine). sbarefine and pysba "
+             "with threads=%d, pycolmap every hardware thread (%d here). The load column is the 1-minute load "
+             "average when each run started."
              % (now, a.rigs, a.cameras_per_rig, a.points_per_frame, a.track_length, a.repeat, a.threads,
                 os.cpu_count()), "",
              "| frames | images | observations | program | wall s (all) | load | adjustment alone s | peak RSS MiB | "
-             "iterations | RMS px (initial) | rigidity | wall / pycolmap's |",
-             "|---:|---:|---:|---|---|---|---:|---:|---:|---|---:|---:|"]
-    base = {}
+             "iterations | RMS px (initial) | rigidity | wall / pycolmap's | adjustment / pycolmap's |",
+             "|---:|---:|---:|---|---|---|---:|---:|---:|---|---:|---:|---:|"]
+    base, base_ba = {}, {}
     for (frames, program, solver), rs in rows.items():
         ok = [r for r in rs if r["status"] == 0 and not r["killed"]]
         med = statistics.median(r["wall"] for r in ok) if ok else None
+        ba = statistics.median(r["ba_seconds"] for r in ok) if ok and "ba_seconds" in ok[0] else None
         if program == "pycolmap" and med:
             base[frames] = med
+            base_ba[frames] = ba
         name = program + (" " + solver if solver else "")
-        if program == "sbarefine" and ok and ok[0].get("linsolver"):
+        if program != "pycolmap" and ok and ok[0].get("linsolver"):
             name += " (%s)" % ok[0]["linsolver"] if not solver else ""
-        lines.append("| %d | %d | %d | %s | %s | %s | %s | %.0f | %s | %s | %s | %s |" % (
+        lines.append("| %d | %d | %d | %s | %s | %s | %s | %.0f | %s | %s | %s | %s | %s |" % (
             frames, rs[0]["images"], rs[0]["observations"], name,
             ("%.2f (%s)" % (med, " ".join("%.2f" % r["wall"] for r in rs))) if med else
             "failed: exit %d%s" % (rs[-1]["status"], ", killed" if rs[-1]["killed"] else ""),
             " ".join("%.1f" % r["load"] for r in rs),
-            "%.2f" % statistics.median(r["ba_seconds"] for r in ok) if ok and program == "pycolmap" else "",
+            "%.2f" % ba if ba is not None else "",
             max(r["peak_mib"] for r in rs), ok[0].get("iterations", "") if ok else "",
             "%.6f (%.3f)" % (ok[0]["rms"], rs[0]["initial_rms"]) if ok else "",
             "%.1e" % ok[0]["rigidity"] if ok else "",
-            "%.3f" % (med / base[frames]) if med and program != "pycolmap" and frames in base else ""))
+            "%.3f" % (med / base[frames]) if med and program != "pycolmap" and frames in base else "",
+            "%.3f" % (ba / base_ba[frames]) if ba and program != "pycolmap" and base_ba.get(frames) else ""))
     lines += ["", "Commands (each run writes into a fresh directory):", "", "```"] + cmds + ["```", ""]
     with open(a.out + ".md", "w", encoding="utf-8") as f:
         f.write("\n".join(lines))
@@ -230,5 +268,8 @@ def write_report(a, runs, cmds):
 if __name__ == "__main__":
     if len(sys.argv) == 5 and sys.argv[1] == "--worker-ba":
         worker_ba(*sys.argv[2:])
+        sys.exit(0)
+    if len(sys.argv) == 7 and sys.argv[1] == "--worker-pysba":
+        worker_pysba(*sys.argv[2:])
         sys.exit(0)
     sys.exit(main(sys.argv[1:]))
