@@ -69,7 +69,7 @@ clean:
 #   make check-sanitize   the test suite under AddressSanitizer + UBSan + LeakSanitizer (build-asan/)
 #   make check-valgrind   eucsbademo on DEMO_PROBLEM under valgrind memcheck
 #   make check-tsan       the concurrency tests under ThreadSanitizer (build-tsan/)
-#   make check-fuzz       every libFuzzer target of fuzz/ for FUZZ_SECONDS each (build-fuzz/)
+#   make check-fuzz       every libFuzzer target of fuzz/ for FUZZ_SECONDS each, FUZZ_JOBS at once (build-fuzz/)
 #   make soak             SOAK_N random solves with random faults (and SOAK_ASAN_N under ASan)
 #   make check-bench      sba_bench (bench/, with Ceres) built in BENCH_BUILD and its measurements checked
 ASAN_BUILD ?= build-asan

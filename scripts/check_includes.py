@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: BSD-3-Clause
-"""Checks the include graph of the project's own sources: no cycle, no catch-all header.
+"""Checks the include graph of the project's own sources: no cycle, no catch-all header, and
+the library's layers in their order.
 
     check_includes.py [REPO]      check REPO's src/, demo/ and python/src/ (default: the
                                   repository this script is in); exit 1 naming what is wrong
-    check_includes.py --selftest  check that the checks find a cycle and a catch-all header in
-                                  a made-up tree, and pass a clean one
+    check_includes.py --selftest  check that the checks find a cycle, a catch-all header, an
+                                  upward include and a file in no layer in made-up trees, and
+                                  pass a clean one
 
 The graph is drawn between modules, not files: foo.h, the foo.cpp that implements it and the
 foo_impl.h that foo.cpp compiles are one module, since an arrow into foo.cpp is an arrow into foo. So a cycle is also found where
@@ -15,6 +17,14 @@ includes a.h), which no compiler notices but which ties the two together all the
 A catch-all header holds nothing but includes (and its guard): it hides what a file really
 uses, and every file that includes it depends on all of it.
 
+The layers are read from the table under "## Layers" in docs/architecture.md, top to bottom,
+so that the document the reader is sent to is the one the check holds the code to: each row
+names its files in backquotes in its second column, as paths under src/ (the "src/" may be
+written or left out) or as patterns ("kernels.*", "solver_*.cpp"); names of files outside
+src/ (sba.h) match nothing there. Every file of src/ must be named by exactly one row, and may
+include only files of its own row and the rows below it; it may include nothing of the
+clients (demo/, python/src/), which sit above the whole library.
+
 Only quoted includes are followed ("x.h"), resolved against the including file's folder, then
 against each checked folder; what resolves to no file of a checked folder (sba.h, the
 generated LAPACK header, system headers) is outside the graph.
@@ -22,12 +32,15 @@ generated LAPACK header, system headers) is outside the graph.
 Python 3 standard library only.
 """
 
+import fnmatch
 import os
 import re
 import sys
 import tempfile
 
 ROOTS = ("src", "demo", "python/src")
+LIBRARY = "src"
+LAYER_DOC = "docs/architecture.md"
 HEADER_EXT = (".h", ".hpp")
 SOURCE_EXT = HEADER_EXT + (".c", ".cc", ".cpp")
 
@@ -96,18 +109,25 @@ def read(repo, path):
         return f.read()
 
 
-def include_edges(repo, files, roots):
-    """{module: {included module: (file, included file)}}: one example arrow per pair."""
+def file_includes(repo, files, roots):
+    """Every (file, included file) pair among the checked files, in file order."""
     known = set(files)
-    edges = {module(f): {} for f in files}
+    pairs = []
     for f in files:
         for line in strip_comments(read(repo, f)).splitlines():
             m = INCLUDE.match(line)
-            if not m:
-                continue
-            target = resolve(m.group(1), f, known, roots)
-            if target is None or module(target) == module(f):
-                continue
+            if m:
+                target = resolve(m.group(1), f, known, roots)
+                if target is not None:
+                    pairs.append((f, target))
+    return pairs
+
+
+def include_edges(files, includes):
+    """{module: {included module: (file, included file)}}: one example arrow per pair."""
+    edges = {module(f): {} for f in files}
+    for f, target in includes:
+        if module(target) != module(f):
             edges[module(f)].setdefault(module(target), (f, target))
     return edges
 
@@ -209,10 +229,71 @@ def find_catch_alls(repo, files):
     return messages
 
 
+def read_layers(repo):
+    """[(layer, [pattern, ...]), ...] from the layers table of LAYER_DOC, top row first."""
+    path = os.path.join(repo, LAYER_DOC)
+    if not os.path.isfile(path):
+        return []
+    rows, in_section = [], False
+    for line in read(repo, LAYER_DOC).splitlines():
+        if line.startswith("## "):
+            in_section = line.strip() == "## Layers"
+            continue
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if not in_section or not line.lstrip().startswith("|") or len(cells) < 2:
+            continue
+        if cells[0] == "layer" or set(cells[0]) <= set("-: "):
+            continue  # the header row and the line under it
+        names = re.findall(r"`([^`]+)`", cells[1])
+        prefix = LIBRARY + "/"
+        rows.append((cells[0], [n[len(prefix):] if n.startswith(prefix) else n for n in names]))
+    return rows
+
+
+def find_layer_violations(repo, files, includes):
+    """One message per file of the library in no layer or in two, and per include that points
+    up the table or out of the library."""
+    rows = read_layers(repo)
+    library = [f for f in files if f.startswith(LIBRARY + "/")]
+    if not rows:
+        return ["%s has no table under \"## Layers\": the layers cannot be checked" % LAYER_DOC] \
+            if library else []
+    messages, level = [], {}
+    for f in library:
+        name = f[len(LIBRARY) + 1:]
+        found = [i for i, (_, patterns) in enumerate(rows)
+                 if any(fnmatch.fnmatchcase(name, p) for p in patterns)]
+        if not found:
+            messages.append("%s is in no layer of %s's table: add it to the row it belongs to"
+                            % (f, LAYER_DOC))
+        elif len(found) > 1:
+            messages.append("%s is in two layers of %s's table: %s" % (
+                f, LAYER_DOC, " and ".join(rows[i][0] for i in found)))
+        else:
+            level[f] = found[0]  # 0 is the top row
+    for f, target in includes:
+        if f not in level:
+            continue
+        if not target.startswith(LIBRARY + "/"):
+            messages.append("%s includes %s, a client of the library" % (f, target))
+        elif target in level and level[target] < level[f]:
+            messages.append("upward include: %s (%s) includes %s (%s, above it)" % (
+                f, rows[level[f]][0], target, rows[level[target]][0]))
+    return messages
+
+
 def check(repo, roots=ROOTS):
     roots = [r for r in roots if os.path.isdir(os.path.join(repo, r))]
     files = source_files(repo, roots)
-    return find_cycles(include_edges(repo, files, roots)) + find_catch_alls(repo, files)
+    includes = file_includes(repo, files, roots)
+    return (find_cycles(include_edges(files, includes)) + find_catch_alls(repo, files) +
+            find_layer_violations(repo, files, includes))
+
+
+def layers_doc(*rows):
+    """A made-up docs/architecture.md whose layers table has these (layer, where) rows."""
+    return "# Architecture\n\n## Layers\n\n| layer | where | what it holds |\n|---|---|---|\n" + \
+        "".join("| %s | %s | things |\n" % row for row in rows) + "\n## Rules\n\n| a | `*` |\n"
 
 
 def selftest():
@@ -227,7 +308,8 @@ def selftest():
         # across folders, resolved against a checked folder: demo/x.cpp -> src/y.h -> demo/x.h
         "folder_cycle": ({"demo/x.h": "int x();\n", "demo/x.cpp": '#include "y.h"\n',
                           "src/y.h": '#include "../demo/x.h"\nint y();\n'},
-                         ["include cycle demo/x -> src/y -> demo/x"]),
+                         ["include cycle demo/x -> src/y -> demo/x",
+                          "src/y.h includes demo/x.h, a client of the library"]),
         # an implementation header belongs to its module: k.cpp -> k_impl.h -> k.h is no cycle
         "impl_header": ({"src/k.h": "int k();\n", "src/k.cpp": '#include "k_impl.h"\n',
                          "src/k_impl.h": '#include "k.h"\nint k() { return 0; }\n'},
@@ -242,10 +324,31 @@ def selftest():
                    "src/v.h": '#ifndef V_H\n#define V_H\n#pragma GCC visibility push(default)\n'
                               '#include "b.h"\n#pragma GCC visibility pop\n#endif\n'},
                   []),
+        # layers: a file may include its own row and the rows below it, never a row above
+        "layers_down": ({LAYER_DOC: layers_doc(("top", "`src/a.*`"), ("bottom", "`b.h`, `c_*.h`")),
+                         "src/a.h": '#include "b.h"\nint a;\n', "src/a.cpp": '#include "c_x.h"\n',
+                         "src/b.h": '#include "c_x.h"\nint b;\n', "src/c_x.h": "int c;\n"},
+                        []),
+        "upward_include": ({LAYER_DOC: layers_doc(("top", "`a.h`"), ("bottom", "`b.*`")),
+                            "src/a.h": "int a;\n", "src/b.cpp": '#include "a.h"\n'},
+                           ["upward include: src/b.cpp (bottom) includes src/a.h (top, above it)"]),
+        "client_include": ({"src/a.cpp": '#include "../demo/x.h"\n', "demo/x.h": "int x;\n"},
+                           ["src/a.cpp includes demo/x.h, a client of the library"]),
+        "no_layer": ({LAYER_DOC: layers_doc(("top", "`a.h`, `sba.h`")),
+                      "src/a.h": "int a;\n", "src/c.h": "int c;\n"},
+                     ["src/c.h is in no layer"]),
+        "two_layers": ({LAYER_DOC: layers_doc(("top", "`*.h`"), ("bottom", "`a.h`")), "src/a.h": "int a;\n"},
+                       ["src/a.h is in two layers of %s's table: top and bottom" % LAYER_DOC]),
+        # a table under another heading is not the layers' table
+        "no_table": ({LAYER_DOC: "# Architecture\n\n## Other\n\n| layer | where |\n|---|---|\n| x | `*` |\n",
+                      "src/a.h": "int a;\n"},
+                     ["%s has no table under \"## Layers\"" % LAYER_DOC]),
     }
     failed = 0
     for name, (tree, expected) in sorted(cases.items()):
         with tempfile.TemporaryDirectory() as repo:
+            if LAYER_DOC not in tree:
+                tree = dict(tree, **{LAYER_DOC: layers_doc(("all", "`*`"))})
             for path, text in tree.items():
                 os.makedirs(os.path.join(repo, os.path.dirname(path)), exist_ok=True)
                 with open(os.path.join(repo, path), "w", encoding="utf-8") as f:
@@ -273,8 +376,8 @@ def main(argv):
         print(msg)
     if problems:
         return 1
-    print("include graph of %s: no cycle, no catch-all header" % ", ".join(
-        r for r in ROOTS if os.path.isdir(os.path.join(repo, r))))
+    print("include graph of %s: no cycle, no catch-all header, %s's layers in order" % (", ".join(
+        r for r in ROOTS if os.path.isdir(os.path.join(repo, r))), LAYER_DOC))
     return 0
 
 

@@ -67,8 +67,8 @@ for t in $targets; do
   seed "$t" "$root"/tests/fuzz_regressions/"$t"-*
 done
 
-status=0
-for t in $targets; do
+fuzz() {  # fuzz TARGET: one target for the time given; its exit code in $work/TARGET.rc
+  t=$1
   case "$t" in
     pysba_options|mex_options|camera_params) max_len=512 dict=options ;;
     points) max_len=16384 dict=eucsba ;;  # the seeds are cut to their first 16 KB
@@ -78,11 +78,18 @@ for t in $targets; do
     hold_poses) max_len=1024 dict=hold_poses ;;
     *) max_len=4096 dict=eucsba ;;
   esac
-  log=$work/$t.log
   rc=0
-  SBA_FUZZ_TMPDIR=$inputs "$build/fuzz_$t" -max_total_time="$seconds" -max_len="$max_len" \
+  mkdir -p "$inputs/$t"
+  SBA_FUZZ_TMPDIR=$inputs/$t "$build/fuzz_$t" -max_total_time="$seconds" -max_len="$max_len" \
     -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 -dict="$root/fuzz/$dict.dict" \
-    -artifact_prefix="$artifacts/$t-" "$work/corpus-$t" >"$log" 2>&1 || rc=$?
+    -artifact_prefix="$artifacts/$t-" "$work/corpus-$t" >"$work/$t.log" 2>&1 || rc=$?
+  echo "$rc" >"$work/$t.rc"
+}
+
+report() {  # report TARGET: its line, and its log's tail if it failed; returns its exit code
+  t=$1
+  log=$work/$t.log
+  rc=$(cat "$work/$t.rc")
   runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
   cov=$(grep -o 'cov: [0-9]*' "$log" | tail -n 1 | cut -d' ' -f2)
   corpus=$(ls "$work/corpus-$t" | wc -l)
@@ -91,8 +98,29 @@ for t in $targets; do
   else
     echo "check-fuzz: fuzz_$t: FAILED (exit $rc); the input is in $artifacts; log:"
     grep -v '^#[0-9]' "$log" | tail -n 60
-    status=1
   fi
+  return "$rc"
+}
+
+# Each target is one process on one core: FUZZ_JOBS of them run at once (the machine's cores
+# by default), each for the full time, so the run takes the time of the targets divided by
+# the cores and fuzzes as long as one at a time would.
+jobs=${FUZZ_JOBS:-$(nproc 2>/dev/null || echo 1)}
+set -- $targets
+while [ $# -gt 0 ]; do
+  batch=
+  while [ $# -gt 0 ] && [ "$(echo $batch | wc -w)" -lt "$jobs" ]; do
+    batch="$batch $1"
+    shift
+  done
+  for t in $batch; do
+    fuzz "$t" &
+  done
+  wait
+done
+status=0
+for t in $targets; do
+  report "$t" || status=1
 done
 if [ -n "${SBA_FUZZ_KEEP_CORPUS:-}" ]; then
   for t in $targets; do

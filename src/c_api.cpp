@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The C API: every function sba.h, sba_ext.h and sba_chkjac.h export. Each driver entry point
-// only parses: it puts its C arguments into a DriverArgs (or ChkjacArgs) and runs it
-// (driver.h, chkjac_driver.h), which validates, lays out and solves, and lets nothing escape
-// as an exception but a forced unwind.
+// The C API: the functions sba.h, sba_ext.h and sba_chkjac.h export, but for the dense
+// helpers (c_api_dense.cpp), the sba_crsm helpers (crsm.cpp) and the stop reasons' text
+// (stop_reason.cpp). Each driver entry point only parses: it puts its C arguments into a
+// DriverArgs (or ChkjacArgs) and runs it (driver.h, chkjac_driver.h), which validates, lays
+// out and solves, and lets nothing escape as an exception but a forced unwind.
 #include <cstring>
 
 #include "callback_adapters.h"

@@ -85,52 +85,54 @@ std::string check_camera_params(const CameraParamOptions &o, const Layout &lay, 
   return {};
 }
 
-CameraMap make_camera_map(const CameraParamOptions &o, const Layout &lay) {
-  CameraMap map;
-  const int cnp = lay.cnp, m = lay.m;
-  if (cnp == 0 || !o.any()) return map;
-  const size_t mc = size_t(m) * size_t(cnp);
-  if (o.fixed) {
-    map.held.assign(mc, 0);
-    for (int j = lay.mcon; j < m; ++j)
-      for (int c = 0; c < cnp; ++c) map.held[size_t(j) * cnp + c] = held(o, lay, j, c);
-    if (std::find(map.held.begin(), map.held.end(), 1) == map.held.end()) map.held.clear();
-  }
-  if (!o.param_group && !o.group) return map;
+namespace {
 
-  // The shared keys that more than one camera has; the others are own parameters after all.
+// The held flags of the free cameras' parameters (m * cnp); empty when none is held.
+std::vector<char> held_flags(const CameraParamOptions &o, const Layout &lay) {
+  const int cnp = lay.cnp;
+  std::vector<char> flags(size_t(lay.m) * size_t(cnp), 0);
+  for (int j = lay.mcon; j < lay.m; ++j)
+    for (int c = 0; c < cnp; ++c) flags[size_t(j) * cnp + c] = held(o, lay, j, c);
+  if (std::find(flags.begin(), flags.end(), 1) == flags.end()) flags.clear();
+  return flags;
+}
+
+// How many free cameras have each (parameter, group) key. A key of one camera only is that
+// camera's own parameter after all.
+std::unordered_map<std::uint64_t, int> key_counts(const CameraParamOptions &o, const Layout &lay) {
   std::unordered_map<std::uint64_t, int> count;
-  for (int j = lay.mcon; j < m; ++j)
-    for (int c = 0; c < cnp; ++c) {
+  for (int j = lay.mcon; j < lay.m; ++j)
+    for (int c = 0; c < lay.cnp; ++c) {
       const int g = group_of(o, lay, j, c);
       if (g >= 0) ++count[key(c, g)];
     }
-  const auto shared_key = [&](int j, int c, std::uint64_t *k) {
-    const int g = group_of(o, lay, j, c);
-    if (g < 0) return false;
-    *k = key(c, g);
-    return count[*k] > 1;
-  };
-  bool any_shared = false;
-  for (const auto &kc : count) any_shared = any_shared || kc.second > 1;
-  if (!any_shared) return map;
+  return count;
+}
 
-  // Provisional unknowns, each with its cameras (ascending, as j ascends); a held one is no
-  // unknown at all: nothing of it reaches the solvers, its step is -0.0.
-  struct Provisional {
-    int column;
-    std::vector<int> cams;
-  };
+// An unknown before the unknowns are ordered: its parameter and its cameras (ascending).
+struct Provisional {
+  int column;
+  std::vector<int> cams;
+};
+
+// The unknowns in the order the cameras' parameters meet them, and per camera parameter its
+// unknown (prov_of, m * cnp, -1 for a held or fixed one). A held parameter is no unknown at
+// all: nothing of it reaches the solvers, its step is -0.0.
+std::vector<Provisional> provisional_unknowns(const CameraParamOptions &o, const Layout &lay,
+                                              const std::vector<char> &held_flags,
+                                              const std::unordered_map<std::uint64_t, int> &count,
+                                              std::vector<int> *prov_of) {
+  const int cnp = lay.cnp;
   std::vector<Provisional> prov;
   std::unordered_map<std::uint64_t, int> by_key;
-  std::vector<int> prov_of(mc, -1);
-  for (int j = lay.mcon; j < m; ++j)
+  prov_of->assign(size_t(lay.m) * size_t(cnp), -1);
+  for (int j = lay.mcon; j < lay.m; ++j)
     for (int c = 0; c < cnp; ++c) {
-      if (!map.held.empty() && map.held[size_t(j) * cnp + c]) continue;
-      std::uint64_t k = 0;
+      if (!held_flags.empty() && held_flags[size_t(j) * cnp + c]) continue;
+      const int g = group_of(o, lay, j, c);
       int u;
-      if (shared_key(j, c, &k)) {
-        const auto f = by_key.emplace(k, int(prov.size()));
+      if (g >= 0 && count.at(key(c, g)) > 1) {
+        const auto f = by_key.emplace(key(c, g), int(prov.size()));
         if (f.second) prov.push_back({c, {}});
         u = f.first->second;
       } else {
@@ -138,10 +140,16 @@ CameraMap make_camera_map(const CameraParamOptions &o, const Layout &lay) {
         prov.push_back({c, {}});
       }
       prov[size_t(u)].cams.push_back(j);
-      prov_of[size_t(j) * cnp + c] = u;
+      (*prov_of)[size_t(j) * cnp + c] = u;
     }
-  // Blocks: the unknowns of one set of cameras, ordered by their first camera, then by set,
-  // each block's unknowns by parameter.
+  return prov;
+}
+
+// The unknowns numbered in blocks, the unknowns of one set of cameras, ordered by their first
+// camera, then by set, each block's unknowns by parameter: map's nunknowns, copies, column,
+// block_start and unknown. Returns each block's cameras.
+std::vector<const std::vector<int> *> number_in_blocks(const std::vector<Provisional> &prov,
+                                                       const std::vector<int> &prov_of, CameraMap &map) {
   std::vector<int> order(prov.size());
   std::iota(order.begin(), order.end(), 0);
   std::sort(order.begin(), order.end(), [&](int a, int b) {
@@ -166,10 +174,15 @@ CameraMap make_camera_map(const CameraParamOptions &o, const Layout &lay) {
     map.column[size_t(q)] = pu.column;
   }
   map.block_start.push_back(K);
-  map.unknown.assign(mc, -1);
-  for (size_t q = 0; q < mc; ++q)
+  map.unknown.assign(prov_of.size(), -1);
+  for (size_t q = 0; q < prov_of.size(); ++q)
     if (prov_of[q] >= 0) map.unknown[q] = final_of[size_t(prov_of[q])];
-  // Cameras <-> blocks.
+  return block_cams;
+}
+
+// The index both ways between the m cameras and the blocks: map's block_cam_start,
+// block_cams, cam_start and cam_blocks.
+void index_cameras(const std::vector<const std::vector<int> *> &block_cams, int m, CameraMap &map) {
   const int nb = map.nblocks();
   map.block_cam_start.assign(size_t(nb) + 1, 0);
   std::vector<std::vector<int>> cam_blocks(static_cast<size_t>(m));
@@ -185,6 +198,22 @@ CameraMap make_camera_map(const CameraParamOptions &o, const Layout &lay) {
     map.cam_start[size_t(j) + 1] = map.cam_start[size_t(j)] + int(cam_blocks[size_t(j)].size());
     map.cam_blocks.insert(map.cam_blocks.end(), cam_blocks[size_t(j)].begin(), cam_blocks[size_t(j)].end());
   }
+}
+
+}  // namespace
+
+CameraMap make_camera_map(const CameraParamOptions &o, const Layout &lay) {
+  CameraMap map;
+  if (lay.cnp == 0 || !o.any()) return map;
+  if (o.fixed) map.held = held_flags(o, lay);
+  if (!o.param_group && !o.group) return map;
+  const std::unordered_map<std::uint64_t, int> count = key_counts(o, lay);
+  bool any_shared = false;
+  for (const auto &kc : count) any_shared = any_shared || kc.second > 1;
+  if (!any_shared) return map;
+  std::vector<int> prov_of;
+  const std::vector<Provisional> prov = provisional_unknowns(o, lay, map.held, count, &prov_of);
+  index_cameras(number_in_blocks(prov, prov_of, map), lay.m, map);
   return map;
 }
 

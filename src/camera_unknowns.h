@@ -8,9 +8,18 @@
 #include <string>
 
 #include "layout.h"
-#include "options.h"
 
 namespace sba {
+
+// The caller's arrays, valid for the call, as the Options carry them (options.h).
+struct CameraParamOptions {
+  const char *fixed = nullptr;  // cnp flags, or m * cnp with fixed_per_camera
+  bool fixed_per_camera = false;
+  const int *param_group = nullptr;  // m * cnp group numbers, -1 for none
+  const int *group = nullptr;        // m group numbers, -1 for none
+  const char *shared = nullptr;      // cnp flags
+  bool any() const { return fixed || param_group || group || shared; }
+};
 
 // What is wrong with o for this problem and the initial estimate p (empty: nothing). Only
 // problems with cameras are checked; the structure-only drivers ignore the options.

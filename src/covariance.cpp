@@ -12,15 +12,14 @@
 #include <cfloat>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "kernels.h"
 #include "lapack.h"
 #include "linearization.h"
-#include "normal_equations.h"
 #include "parallel.h"
-#include "step_solver.h"
 
 namespace sba {
 namespace {
@@ -59,22 +58,6 @@ void symmetric_eigenvalues(double *a, int n, double *lambda) {
   for (int r = 0; r < n; ++r) lambda[r] = a[r * n + r];
 }
 
-// The numerical rank of the symmetric positive semi-definite block V (n x n): eigenvalues
-// above a tolerance relative to the largest. The tolerance sits well above the rounding of
-// forming V = sum B^T B (a few ulps of the largest eigenvalue), so that a direction that is
-// zero in exact arithmetic is never counted, whatever the sign its rounding takes.
-int block_rank(const double *V, int n, std::vector<double> &work) {
-  work.assign(V, V + i64(n) * n);
-  std::vector<double> lambda(size_t(n), 0.0);
-  symmetric_eigenvalues(work.data(), n, lambda.data());
-  double top = 0.0;
-  for (double l : lambda) top = std::max(top, l);
-  const double tol = top * n * DBL_EPSILON * 100.0;
-  int rank = 0;
-  for (double l : lambda) rank += l > tol;
-  return rank;
-}
-
 // The caller's cancel callback, polled at every stage boundary (now = true) and otherwise at
 // most every kCancelPoll: the loops poll once per point or column, which on a small problem
 // is far more often than a host's check (taking a lock, looking at its signals) is worth.
@@ -98,21 +81,6 @@ class Canceller {
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
-// Per free camera parameter ((j - mcon) cnp + c), the index of its unknown, -1 for a held
-// one; returns how many unknowns there are.
-int unknown_index(const Layout &lay, std::vector<int> *out) {
-  const int cnp = lay.cnp;
-  out->assign(size_t(lay.free_cams()) * size_t(cnp), -1);
-  if (lay.cams.shared()) {
-    std::copy(lay.cams.unknown.begin() + i64(lay.mcon) * cnp, lay.cams.unknown.end(), out->begin());
-    return lay.cams.nunknowns;
-  }
-  int nz = 0;
-  for (i64 q = 0; q < i64(out->size()); ++q)
-    if (!lay.cams.held[size_t(i64(lay.mcon) * cnp + q)]) (*out)[size_t(q)] = nz++;
-  return nz;
-}
-
 // Why point i (free, with a V_i of rank < pnp) has no covariance: one line.
 std::string undetermined_point(const Layout &lay, int i, int rank) {
   const int seen = lay.rowptr[size_t(i) + 1] - lay.rowptr[size_t(i)];
@@ -132,7 +100,227 @@ std::string undetermined_point(const Layout &lay, int i, int rank) {
          "): its covariance is unbounded";
 }
 
+// Every free point's V_i must have full rank. Testing it before inverting matters: a V_i that
+// is singular in exact arithmetic often has a tiny positive rounding pivot, and then its
+// "inverse" is rounding noise of 1e10 and more, which also leaks into S and so into every
+// other block. False, naming the first point that fails, when one does (or when cancelled).
+bool points_determined(const Layout &lay, const double *V, Canceller &cancel, const Logger &log) {
+  const int pnp = lay.pnp, pnp2 = pnp * pnp;
+  std::vector<double> work;
+  for (int i = lay.ncon; i < lay.n && pnp > 0; ++i) {
+    if (cancel.stop(log)) return false;
+    const int r = block_rank(V + i64(i) * pnp2, pnp, work);
+    if (r < pnp) {
+      log.error("sba: %s", undetermined_point(lay, i, r).c_str());
+      return false;
+    }
+  }
+  return true;
+}
+
+// S over the free cameras' parameters (order free cameras x cnp), assembled from the points'
+// V_i^-1 and made full and symmetric (row-major).
+std::vector<double> parameter_schur(const Layout &lay, ThreadPool &pool, const Kernels &kernels,
+                                    const NormalEquations &ne, const double *Vinv) {
+  const int nA = lay.free_cams() * lay.cnp;
+  std::vector<double> S(size_t(nA) * size_t(nA), 0.0), rhs(static_cast<size_t>(nA));
+  BlockMap map;
+  map.base = S.data();
+  map.ld = nA;
+  map.cnp = lay.cnp;
+  kernels.assemble(pool, ne, Vinv, 0.0, map, rhs.data());  // with Vinv: cannot fail
+  for (int r = 0; r < nA; ++r)
+    for (int c = r + 1; c < nA; ++c) S[size_t(c) * nA + r] = S[size_t(r) * nA + c];
+  return S;
+}
+
+// The cameras' covariance (up to sigma^2) as S^+ over the parameters holds it: entry (a, b)
+// of block (j, k), free cameras j and k.
+struct CameraCovariance {
+  const double *S;
+  int nA, mcon, cnp;
+  double operator()(int j, int k, int a, int b) const {
+    return S[size_t(i64(j - mcon) * cnp + a) * nA + size_t(i64(k - mcon) * cnp + b)];
+  }
+};
+
+void camera_blocks(const Layout &lay, const CameraCovariance &C, CovarianceRequest &req) {
+  const int cnp = lay.cnp;
+  for (int q = 0; q < req.ncams; ++q) {
+    const int j = req.cams[q];
+    double *out = req.camcov + i64(q) * cnp * cnp;
+    for (int a = 0; a < cnp; ++a)
+      for (int b = 0; b < cnp; ++b) out[a * cnp + b] = j >= lay.mcon ? req.sigma2 * C(j, j, a, b) : 0.0;
+  }
+}
+
+// A point's block V_i^-1 + sum_jk Y_ij^T S^+_jk Y_ik with Y_ij = W_ij V_i^-1 over the free
+// cameras j seeing it, scaled by sigma^2; its work arrays kept from one point to the next.
+class PointBlocks {
+ public:
+  PointBlocks(const Layout &lay, const NormalEquations &ne, const double *Vinv, const CameraCovariance &C)
+      : lay_(lay), ne_(ne), Vinv_(Vinv), C_(C), W_(size_t(lay.cnp) * size_t(lay.pnp)) {}
+
+  void operator()(int i, double sigma2, double *out) {
+    const int cnp = lay_.cnp, pnp = lay_.pnp;
+    if (i < lay_.ncon) {
+      std::fill(out, out + pnp * pnp, 0.0);
+      return;
+    }
+    const double *Vi = Vinv_ + i64(i) * pnp * pnp;
+    couplings(i, Vi);
+    const size_t cp = size_t(cnp) * size_t(pnp);
+    for (int a = 0; a < pnp; ++a)
+      for (int b = 0; b < pnp; ++b) {
+        double s = Vi[a * pnp + b];
+        for (size_t t1 = 0; t1 < cams_.size(); ++t1)
+          for (size_t t2 = 0; t2 < cams_.size(); ++t2)
+            for (int c = 0; c < cnp; ++c)
+              for (int d = 0; d < cnp; ++d)
+                s += Y_[t1 * cp + size_t(c) * pnp + a] * C_(cams_[t1], cams_[t2], c, d) *
+                     Y_[t2 * cp + size_t(d) * pnp + b];
+        out[a * pnp + b] = sigma2 * s;
+      }
+  }
+
+ private:
+  // Y_ij = W_ij V_i^-1 for the free cameras seeing point i, into Y_, the cameras into cams_.
+  void couplings(int i, const double *Vi) {
+    const int cnp = lay_.cnp, pnp = lay_.pnp;
+    cams_.clear();
+    Y_.clear();
+    for (int k = lay_.rowptr[i]; k < lay_.rowptr[i + 1]; ++k) {
+      if (lay_.colidx[k] < lay_.mcon) continue;
+      cams_.push_back(lay_.colidx[k]);
+      form_W(lay_, ne_.jac, k, W_.data());
+      for (int a = 0; a < cnp; ++a)
+        for (int b = 0; b < pnp; ++b) {
+          double s = 0.0;
+          for (int c = 0; c < pnp; ++c) s += W_[size_t(a) * pnp + c] * Vi[c * pnp + b];
+          Y_.push_back(s);
+        }
+    }
+  }
+
+  const Layout &lay_;
+  const NormalEquations &ne_;
+  const double *Vinv_;
+  CameraCovariance C_;
+  std::vector<double> W_, Y_;
+  std::vector<int> cams_;
+};
+
 }  // namespace
+
+// The numerical rank: eigenvalues above a tolerance relative to the largest. The tolerance sits
+// well above the rounding of forming V = sum B^T B (a few ulps of the largest eigenvalue), so
+// that a direction that is zero in exact arithmetic is never counted, whatever the sign its
+// rounding takes.
+int block_rank(const double *V, int n, std::vector<double> &work) {
+  work.assign(V, V + i64(n) * n);
+  std::vector<double> lambda(size_t(n), 0.0);
+  symmetric_eigenvalues(work.data(), n, lambda.data());
+  double top = 0.0;
+  for (double l : lambda) top = std::max(top, l);
+  const double tol = top * n * DBL_EPSILON * 100.0;
+  int rank = 0;
+  for (double l : lambda) rank += l > tol;
+  return rank;
+}
+
+ParameterMap parameter_map(const Layout &lay) {
+  ParameterMap T;
+  const int cnp = lay.cnp;
+  T.nparams = T.nunknowns = lay.free_cams() * cnp;
+  T.reduced = (lay.cams.shared() || lay.cams.any_held()) && cnp > 0;
+  if (!T.reduced) return T;
+  T.unknown.assign(size_t(T.nparams), -1);
+  if (lay.cams.shared()) {
+    std::copy(lay.cams.unknown.begin() + i64(lay.mcon) * cnp, lay.cams.unknown.end(), T.unknown.begin());
+    T.nunknowns = lay.cams.nunknowns;
+    return T;
+  }
+  int nz = 0;
+  for (i64 q = 0; q < i64(T.unknown.size()); ++q)
+    if (!lay.cams.held[size_t(i64(lay.mcon) * cnp + q)]) T.unknown[size_t(q)] = nz++;
+  T.nunknowns = nz;
+  return T;
+}
+
+std::vector<double> to_unknowns(const ParameterMap &T, const std::vector<double> &S) {
+  const int nA = T.nparams, nS = T.nunknowns;
+  std::vector<double> Z(size_t(nS) * size_t(nS), 0.0);
+  for (int r = 0; r < nA; ++r) {
+    if (T.unknown[size_t(r)] < 0) continue;
+    double *row = Z.data() + size_t(T.unknown[size_t(r)]) * nS;
+    for (int c = 0; c < nA; ++c)
+      if (T.unknown[size_t(c)] >= 0) row[T.unknown[size_t(c)]] += S[size_t(r) * nA + size_t(c)];
+  }
+  return Z;
+}
+
+std::vector<double> to_parameters(const ParameterMap &T, const std::vector<double> &Z) {
+  const int nA = T.nparams, nS = T.nunknowns;
+  std::vector<double> S(size_t(nA) * size_t(nA));
+  for (int r = 0; r < nA; ++r)
+    for (int c = 0; c < nA; ++c) {
+      const int zr = T.unknown[size_t(r)], zc = T.unknown[size_t(c)];
+      S[size_t(r) * nA + size_t(c)] = zr < 0 || zc < 0 ? 0.0 : Z[size_t(zr) * nS + size_t(zc)];
+    }
+  return S;
+}
+
+bool pseudo_inverse(std::vector<double> &S, int n, const std::function<bool()> &stop, const Logger &log,
+                    int *rank) {
+  *rank = 0;
+  if (n == 0) return true;
+  std::vector<double> lambda(static_cast<size_t>(n));
+  int info = 0, lwork = -1;
+  double wq = 0;
+  SBA_F77(dsyev, DSYEV)("V", "L", &n, S.data(), &n, lambda.data(), &wq, &lwork, &info, 1, 1);
+  lwork = std::max(int(wq), 3 * n);
+  std::vector<double> work(static_cast<size_t>(lwork));
+  SBA_F77(dsyev, DSYEV)("V", "L", &n, S.data(), &n, lambda.data(), work.data(), &lwork, &info, 1, 1);
+  if (info != 0) {
+    log.error("sba: the eigendecomposition of the reduced camera system failed");
+    return false;
+  }
+  if (stop()) return false;
+  // Eigenvalues ascend; the gauge directions are zero up to rounding of the largest one.
+  const double tol = lambda[size_t(n) - 1] * n * DBL_EPSILON * 100.0;
+  std::vector<double> Q(S);  // column c of the column-major result is eigenvector c
+  std::fill(S.begin(), S.end(), 0.0);
+  for (int c = 0; c < n; ++c) {
+    if (stop()) return false;
+    if (!(lambda[size_t(c)] > tol)) continue;
+    ++*rank;
+    const double inv = 1.0 / lambda[size_t(c)];
+    const double *q = Q.data() + size_t(c) * n;
+    for (int r = 0; r < n; ++r) {
+      const double qr = q[r] * inv;
+      double *row = S.data() + size_t(r) * n;
+      for (int k = 0; k < n; ++k) row[k] += qr * q[k];
+    }
+  }
+  return true;
+}
+
+bool residual_variance(const Layout &lay, double sq_err, int nunknowns, int rank_S, const Logger &log,
+                       CovarianceRequest &req) {
+  const i64 points = i64(lay.free_pts()) * lay.pnp;
+  const i64 rank = rank_S + points;
+  const i64 dof = lay.nvis * lay.mnp - rank;
+  if (dof <= 0) {
+    log.error("sba: no redundancy (measurements - rank = %lld): the residual variance is "
+              "undefined",
+              static_cast<long long>(dof));
+    return false;
+  }
+  req.sigma2 = sq_err / double(dof);
+  req.rank = int(rank);
+  req.nfree = int(nunknowns + points);
+  return true;
+}
 
 bool covariance(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
                 const Options &opt, const Logger &log, CovarianceRequest &req) {
@@ -145,24 +333,7 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
   if (!linearize(lay, model, p, x, covx, opt, log, pool, *kernels, &lin) || cancel.stop(log, true)) return false;
   const NormalEquations ne{lin.jac.data(), lin.U.data(), lin.V.data(), lin.ea.data(),
                            lin.eb.data()};
-  const int cnp = lay.cnp, pnp = lay.pnp;
-
-  // Every free point's V_i must have full rank. Testing it before inverting matters: a V_i
-  // that is singular in exact arithmetic often has a tiny positive rounding pivot, and then
-  // its "inverse" is rounding noise of 1e10 and more, which also leaks into S and so into
-  // every other block.
-  {
-    std::vector<double> work;
-    const int pnp2 = pnp * pnp;
-    for (int i = lay.ncon; i < lay.n && pnp > 0; ++i) {
-      if (cancel.stop(log)) return false;
-      const int r = block_rank(ne.V + i64(i) * pnp2, pnp, work);
-      if (r < pnp) {
-        log.error("sba: %s", undetermined_point(lay, i, r).c_str());
-        return false;
-      }
-    }
-  }
+  if (!points_determined(lay, ne.V, cancel, log)) return false;
   std::vector<double> Vinv(lin.V.size());
   if (cancel.stop(log, true)) return false;
   if (!kernels->invert_damped_V(pool, ne.V, 0.0, Vinv.data())) {
@@ -171,138 +342,31 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
     return false;
   }
 
-  // S, made full and symmetric, then its (pseudo-)inverse Q diag(1/lambda) Q^T.
-  const int nA = lay.free_cams() * cnp;
-  std::vector<double> S(size_t(nA) * size_t(nA), 0.0), rhs(static_cast<size_t>(nA));
-  int rankS = 0;
-  // With held or shared camera parameters the unknowns are fewer than the camera
-  // parameters: S over the unknowns is T^T S T, where T maps each unknown to the parameters
-  // it moves (unknown[r], -1 for a held one), and the parameters' covariance T S^+ T^T.
-  const bool reduced = (lay.cams.shared() || lay.cams.any_held()) && cnp > 0;
-  std::vector<int> unknown;
-  int nS = nA;
-  if (reduced) nS = unknown_index(lay, &unknown);
-  std::vector<double> Sa;
-  if (nA > 0) {
-    BlockMap map;
-    map.base = S.data();
-    map.ld = nA;
-    map.cnp = cnp;
-    kernels->assemble(pool, ne, Vinv.data(), 0.0, map, rhs.data());  // with Vinv: cannot fail
+  // S over the unknowns, its pseudo-inverse, and that back over the parameters.
+  const ParameterMap T = parameter_map(lay);
+  std::vector<double> S;
+  if (T.nparams > 0) {
+    S = parameter_schur(lay, pool, *kernels, ne, Vinv.data());
     if (cancel.stop(log, true)) return false;
-    for (int r = 0; r < nA; ++r)
-      for (int c = r + 1; c < nA; ++c) S[size_t(c) * nA + r] = S[size_t(r) * nA + c];
-    if (reduced) {
-      Sa.swap(S);
-      S.assign(size_t(nS) * size_t(nS), 0.0);
-      for (int r = 0; r < nA; ++r) {
-        if (unknown[size_t(r)] < 0) continue;
-        double *row = S.data() + size_t(unknown[size_t(r)]) * nS;
-        for (int c = 0; c < nA; ++c)
-          if (unknown[size_t(c)] >= 0) row[unknown[size_t(c)]] += Sa[size_t(r) * nA + size_t(c)];
-      }
-    }
+    if (T.reduced) S = to_unknowns(T, S);
   }
-  if (nS > 0) {
-    std::vector<double> lambda(static_cast<size_t>(nS));
-    int info = 0, lwork = -1;
-    double wq = 0;
-    SBA_F77(dsyev, DSYEV)("V", "L", &nS, S.data(), &nS, lambda.data(), &wq, &lwork, &info, 1, 1);
-    lwork = std::max(int(wq), 3 * nS);
-    std::vector<double> work(static_cast<size_t>(lwork));
-    SBA_F77(dsyev, DSYEV)("V", "L", &nS, S.data(), &nS, lambda.data(), work.data(), &lwork, &info,
-                          1, 1);
-    if (info != 0) {
-      log.error("sba: the eigendecomposition of the reduced camera system failed");
-      return false;
-    }
-    if (cancel.stop(log, true)) return false;
-    // Eigenvalues ascend; the gauge directions are zero up to rounding of the largest one.
-    const double tol = lambda[size_t(nS) - 1] * nS * DBL_EPSILON * 100.0;
-    std::vector<double> Q(S);  // column c of the column-major result is eigenvector c
-    std::fill(S.begin(), S.end(), 0.0);
-    for (int c = 0; c < nS; ++c) {
-      if (cancel.stop(log)) return false;
-      if (!(lambda[size_t(c)] > tol)) continue;
-      ++rankS;
-      const double inv = 1.0 / lambda[size_t(c)];
-      const double *q = Q.data() + size_t(c) * nS;
-      for (int r = 0; r < nS; ++r) {
-        const double qr = q[r] * inv;
-        double *row = S.data() + size_t(r) * nS;
-        for (int k = 0; k < nS; ++k) row[k] += qr * q[k];
-      }
-    }
-  }
-  if (reduced) {  // back to the parameters: T S^+ T^T
-    for (int r = 0; r < nA; ++r)
-      for (int c = 0; c < nA; ++c) {
-        const int zr = unknown[size_t(r)], zc = unknown[size_t(c)];
-        Sa[size_t(r) * nA + size_t(c)] = zr < 0 || zc < 0 ? 0.0 : S[size_t(zr) * nS + size_t(zc)];
-      }
-    S.swap(Sa);
-  }
-  const i64 nfree = nS + i64(lay.free_pts()) * pnp;
-  const i64 rank = rankS + i64(lay.free_pts()) * pnp;
-  const i64 dof = lay.nvis * lay.mnp - rank;
-  if (dof <= 0) {
-    log.error("sba: no redundancy (measurements - rank = %lld): the residual variance is "
-              "undefined",
-              static_cast<long long>(dof));
-    return false;
-  }
-  const double sigma2 = lin.sq_err / double(dof);
-  req.sigma2 = sigma2;
-  req.rank = int(rank);
-  req.nfree = int(nfree);
-
-  auto Sinv = [&](int j, int k, int a, int b) {  // entry (a,b) of block (j,k), free cameras
-    return S[size_t(i64(j - lay.mcon) * cnp + a) * nA + size_t(i64(k - lay.mcon) * cnp + b)];
+  int rank_S = 0;
+  // Polled at once after the eigendecomposition, then as any loop polls.
+  const auto stop = [&cancel, &log, first = true]() mutable {
+    const bool now = first;
+    first = false;
+    return cancel.stop(log, now);
   };
-  for (int q = 0; q < req.ncams; ++q) {
-    const int j = req.cams[q];
-    double *out = req.camcov + i64(q) * cnp * cnp;
-    for (int a = 0; a < cnp; ++a)
-      for (int b = 0; b < cnp; ++b)
-        out[a * cnp + b] = j >= lay.mcon ? sigma2 * Sinv(j, j, a, b) : 0.0;
-  }
-  std::vector<double> W(size_t(cnp) * size_t(pnp)), Y;
-  std::vector<int> cams;
+  if (!pseudo_inverse(S, T.nunknowns, stop, log, &rank_S)) return false;
+  if (T.reduced) S = to_parameters(T, S);
+  if (!residual_variance(lay, lin.sq_err, T.nunknowns, rank_S, log, req)) return false;
+
+  const CameraCovariance C{S.data(), T.nparams, lay.mcon, lay.cnp};
+  camera_blocks(lay, C, req);
+  PointBlocks point_block(lay, ne, Vinv.data(), C);
   for (int q = 0; q < req.npts; ++q) {
     if (cancel.stop(log)) return false;
-    const int i = req.pts[q];
-    double *out = req.ptcov + i64(q) * pnp * pnp;
-    if (i < lay.ncon) {
-      std::fill(out, out + pnp * pnp, 0.0);
-      continue;
-    }
-    const double *Vi = Vinv.data() + i64(i) * pnp * pnp;
-    // Y_ij = W_ij V_i^-1 for the free cameras seeing i.
-    cams.clear();
-    Y.clear();
-    for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
-      if (lay.colidx[k] < lay.mcon) continue;
-      cams.push_back(lay.colidx[k]);
-      form_W(lay, ne.jac, k, W.data());
-      for (int a = 0; a < cnp; ++a)
-        for (int b = 0; b < pnp; ++b) {
-          double s = 0.0;
-          for (int c = 0; c < pnp; ++c) s += W[size_t(a) * pnp + c] * Vi[c * pnp + b];
-          Y.push_back(s);
-        }
-    }
-    const size_t cp = size_t(cnp) * size_t(pnp);
-    for (int a = 0; a < pnp; ++a)
-      for (int b = 0; b < pnp; ++b) {
-        double s = Vi[a * pnp + b];
-        for (size_t t1 = 0; t1 < cams.size(); ++t1)
-          for (size_t t2 = 0; t2 < cams.size(); ++t2)
-            for (int c = 0; c < cnp; ++c)
-              for (int d = 0; d < cnp; ++d)
-                s += Y[t1 * cp + size_t(c) * pnp + a] * Sinv(cams[t1], cams[t2], c, d) *
-                     Y[t2 * cp + size_t(d) * pnp + b];
-        out[a * pnp + b] = sigma2 * s;
-      }
+    point_block(req.pts[q], req.sigma2, req.ptcov + i64(q) * lay.pnp * lay.pnp);
   }
   return true;
 }

@@ -4,6 +4,9 @@
 #ifndef SBA_SRC_COVARIANCE_H
 #define SBA_SRC_COVARIANCE_H
 
+#include <functional>
+#include <vector>
+
 #include "layout.h"
 #include "log.h"
 #include "model.h"
@@ -11,7 +14,8 @@
 
 namespace sba {
 
-// What sba_motstr_covariance* computes (see sba_ext.h), with validated indices.
+// What sba_motstr_covariance* computes (see sba_ext.h), with validated indices. covariance()
+// fills it, or returns false with the reason said through log.
 struct CovarianceRequest {
   int ncams = 0;
   const int *cams = nullptr;
@@ -24,6 +28,40 @@ struct CovarianceRequest {
 };
 bool covariance(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
                 const Options &opt, const Logger &log, CovarianceRequest &req);
+
+// ---- the stages of covariance(), each for the tests as well ----
+
+// The numerical rank of the symmetric positive semi-definite n x n block V (row-major); work
+// is scratch. A free point whose V_i has rank < pnp has no covariance.
+int block_rank(const double *V, int n, std::vector<double> &work);
+
+// The free cameras' parameters and the unknowns they map to (camera_map.h). With held or
+// shared parameters (reduced) the unknowns are fewer: S over them is T^T S T, where T maps
+// each unknown to the parameters it moves, and the parameters' covariance is T S^+ T^T.
+// Without, T is the identity and S is used as it is.
+struct ParameterMap {
+  bool reduced = false;
+  int nparams = 0, nunknowns = 0;
+  std::vector<int> unknown;  // reduced: per free parameter ((j - mcon) cnp + c), its unknown; -1: held
+};
+ParameterMap parameter_map(const Layout &lay);
+// T^T S T: S over the parameters (nparams^2, row-major) to S over the unknowns.
+std::vector<double> to_unknowns(const ParameterMap &T, const std::vector<double> &S);
+// T Z T^T: Z over the unknowns back over the parameters, zero for the held ones.
+std::vector<double> to_parameters(const ParameterMap &T, const std::vector<double> &Z);
+
+// The symmetric n x n S (row-major, full) replaced by its pseudo-inverse Q diag(1/lambda) Q^T,
+// from its eigendecomposition, eigenvalues at rounding level of the largest one counted as
+// zero; *rank the others. stop is polled after the decomposition and at each eigenvector;
+// true abandons it. False when it is abandoned or the decomposition fails (said through log).
+bool pseudo_inverse(std::vector<double> &S, int n, const std::function<bool()> &stop, const Logger &log,
+                    int *rank);
+
+// req's sigma2 = sq_err / (measurements - rank), rank and nfree, for nunknowns camera
+// unknowns of which rank_S are determined and every free point's pnp; false (said through
+// log) when the measurements leave no redundancy.
+bool residual_variance(const Layout &lay, double sq_err, int nunknowns, int rank_S, const Logger &log,
+                       CovarianceRequest &req);
 
 }  // namespace sba
 

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Dense linear algebra behind sba.h: the sba_Axb_* solvers, the symmetric inverses and
-// sba_mat_cholinv.
+// sba_mat_cholinv (exported by c_api_dense.cpp), and the library's own use of them (dense.h).
 //
 // Conventions shared by every entry point:
 //  - A == NULL is a no-op returning 1: sba 1.6 callers used such a call to release the
@@ -48,8 +48,8 @@
 
 #include "dense.h"
 #include "finite.h"
-#include "sba_export.h"
 #include "lapack.h"
+#include "sba_export.h"
 
 namespace sba::dense {
 namespace {
@@ -604,18 +604,34 @@ bool solve_checked(Solver solve, const double *A, const double *B, double *x, in
   return true;
 }
 
-int run_solver(Solver solve, const double *A, const double *B, double *x, int m,
-               int iscolmaj) noexcept {
+// The solve of a method in any storage order.
+Solver method_solver(Method method) {
+  switch (method) {
+    case Method::LDLt: return solve_ldlt;
+    case Method::BK: return solve_bk;
+    case Method::LU: return solve_lu;
+    case Method::QR: return solve_qr;
+    case Method::RefinedQRnoQ: return solve_qr_noq_refined;
+    case Method::SVD: return solve_svd;
+    case Method::Chol: return solve_chol;
+    case Method::QRnoQ: return solve_qr_noq;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+int axb(Method method, const double *A, const double *B, double *x, int m, int iscolmaj) noexcept {
   if (A == nullptr) return 1;
   if (m <= 0 || B == nullptr || x == nullptr) return 0;
   try {
-    return solve_checked(solve, A, B, x, m, iscolmaj) ? 1 : 0;
+    return solve_checked(method_solver(method), A, B, x, m, iscolmaj) ? 1 : 0;
   } catch (...) {
     return 0;
   }
 }
 
-int run_cg(const double *A, const double *B, double *x, int m, int niter, double eps, int prec,
+int axb_cg(const double *A, const double *B, double *x, int m, int niter, double eps, int prec,
            int iscolmaj) noexcept {
   if (A == nullptr) return 1;
   if (m <= 0 || B == nullptr || x == nullptr) return 0;
@@ -646,17 +662,18 @@ int run_cg(const double *A, const double *B, double *x, int m, int niter, double
   }
 }
 
+namespace {
+
 // The symmetric inverses, in sba 1.6's layout. A is row-major; only its upper triangle
 // A[i*m+j], j >= i, is read, so the strictly lower triangle may hold anything, NaN
 // included. The inverse goes to the lower triangle with the diagonal, A[i*m+j], j <= i,
 // and the strictly upper triangle keeps the caller's input, so the caller still has the
 // matrix it inverted. Inside, c holds the full symmetric matrix column-major for LAPACK
 // (being symmetric, it reads the same in either order).
-enum class Inverse { LU, Chol, BK };
-
+//
 // Replaces the symmetric matrix in c by its inverse. For Cholesky and Bunch-Kaufman only
 // the upper triangle of c is meaningful afterwards (DPOTRI and DSYTRI write no other);
-// LU writes all of c, but run_invert takes the upper triangle of every method's result, so
+// LU writes all of c, but symat_invert takes the upper triangle of every method's result, so
 // the three agree on which of the two rounding-level variants of an off-diagonal entry
 // they return.
 bool invert(Vec &c, int m, Inverse how) {
@@ -685,10 +702,12 @@ bool invert(Vec &c, int m, Inverse how) {
   return info == 0;
 }
 
+}  // namespace
+
 // On failure (singular, not SPD for Cholesky, non-finite upper triangle, out of memory) A
 // is left exactly as it was. 1.6's contract says nothing about A then; untouched is what
 // lets a caller retry with another method on the same array.
-int run_invert(double *A, int m, Inverse how) noexcept {
+int symat_invert(Inverse how, double *A, int m) noexcept {
   if (A == nullptr) return 1;
   if (m <= 0) return 0;
   try {
@@ -717,7 +736,7 @@ int run_invert(double *A, int m, Inverse how) noexcept {
 
 // A^-1 = U^T U with U upper triangular: invert A through its Cholesky factor, then factor
 // the inverse. Two O(m^3) steps, but both are plain LAPACK calls with the usual checks.
-int run_cholinv(const double *A, double *B, int m) noexcept {
+int mat_cholinv(const double *A, double *B, int m) noexcept {
   if (A == nullptr) return 1;
   if (m <= 0 || B == nullptr) return 0;
   try {
@@ -734,8 +753,6 @@ int run_cholinv(const double *A, double *B, int m) noexcept {
     return 0;
   }
 }
-
-}  // namespace
 
 namespace {
 
@@ -756,6 +773,8 @@ Solve solver(Method method) {
     case Method::QR: return solve_rowmajor<solve_qr>;
     case Method::RefinedQRnoQ: return solve_rowmajor<solve_qr_noq_refined>;
     case Method::SVD: return solve_rowmajor<solve_svd>;
+    case Method::Chol: return solve_rowmajor<solve_chol>;
+    case Method::QRnoQ: return solve_rowmajor<solve_qr_noq>;
   }
   return nullptr;
 }
@@ -774,54 +793,3 @@ bool truncated_cg(const double *A, const double *b, double *x, int m, int maxit,
 }
 
 }  // namespace sba::dense
-
-extern "C" {
-
-int sba_Axb_QR(double *A, double *B, double *x, int m, int iscolmaj) {
-  return sba::dense::run_solver(sba::dense::solve_qr, A, B, x, m, iscolmaj);
-}
-
-int sba_Axb_QRnoQ(double *A, double *B, double *x, int m, int iscolmaj) {
-  return sba::dense::run_solver(sba::dense::solve_qr_noq, A, B, x, m, iscolmaj);
-}
-
-int sba_Axb_Chol(double *A, double *B, double *x, int m, int iscolmaj) {
-  return sba::dense::run_solver(sba::dense::solve_chol, A, B, x, m, iscolmaj);
-}
-
-int sba_Axb_LDLt(double *A, double *B, double *x, int m, int iscolmaj) {
-  return sba::dense::run_solver(sba::dense::solve_ldlt, A, B, x, m, iscolmaj);
-}
-
-int sba_Axb_LU(double *A, double *B, double *x, int m, int iscolmaj) {
-  return sba::dense::run_solver(sba::dense::solve_lu, A, B, x, m, iscolmaj);
-}
-
-int sba_Axb_SVD(double *A, double *B, double *x, int m, int iscolmaj) {
-  return sba::dense::run_solver(sba::dense::solve_svd, A, B, x, m, iscolmaj);
-}
-
-int sba_Axb_BK(double *A, double *B, double *x, int m, int iscolmaj) {
-  return sba::dense::run_solver(sba::dense::solve_bk, A, B, x, m, iscolmaj);
-}
-
-int sba_Axb_CG(double *A, double *B, double *x, int m, int niter, double eps, int prec,
-               int iscolmaj) {
-  return sba::dense::run_cg(A, B, x, m, niter, eps, prec, iscolmaj);
-}
-
-int sba_symat_invert_LU(double *A, int m) {
-  return sba::dense::run_invert(A, m, sba::dense::Inverse::LU);
-}
-
-int sba_symat_invert_Chol(double *A, int m) {
-  return sba::dense::run_invert(A, m, sba::dense::Inverse::Chol);
-}
-
-int sba_symat_invert_BK(double *A, int m) {
-  return sba::dense::run_invert(A, m, sba::dense::Inverse::BK);
-}
-
-int sba_mat_cholinv(double *A, double *B, int m) { return sba::dense::run_cholinv(A, B, m); }
-
-}  // extern "C"

@@ -1,8 +1,10 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-// The dense solvers of the sba_Axb_* helpers, for the library's own use: the helpers turn every
-// failure into a return value of 0, including running out of memory, which the LM loop would
-// take for a failed factorization and answer with more damping. Here std::bad_alloc passes
-// through, so that a solve out of memory ends in SBA_ERROR.
+// The dense solvers of sba.h's helpers: the helpers themselves, with sba.h's contract, which
+// the C boundary exports (c_api_dense.cpp), and the same solvers for the library's own use.
+// The helpers turn every failure into a return value of 0, including running out of memory,
+// which the LM loop would take for a failed factorization and answer with more damping; for
+// the library's use std::bad_alloc passes through, so that a solve out of memory ends in
+// SBA_ERROR.
 #ifndef SBA_SRC_DENSE_H
 #define SBA_SRC_DENSE_H
 
@@ -10,11 +12,27 @@
 
 namespace sba::dense {
 
-// LDLt, BK, LU, QR, SVD: as the matching sba_Axb_* helper. RefinedQRnoQ: the semi-normal
-// equations of QR without Q (as sba_Axb_QRnoQ), without its strict test on R's diagonal but
-// followed by corrected semi-normal refinement, and failing when the refined residual is not
-// small (see dense.cpp).
-enum class Method { LDLt, BK, LU, QR, RefinedQRnoQ, SVD };
+// LDLt, BK, LU, QR, SVD, Chol, QRnoQ: as the matching sba_Axb_* helper. RefinedQRnoQ: the
+// semi-normal equations of QR without Q (as sba_Axb_QRnoQ), without its strict test on R's
+// diagonal but followed by corrected semi-normal refinement, and failing when the refined
+// residual is not small (see dense.cpp).
+enum class Method { LDLt, BK, LU, QR, RefinedQRnoQ, SVD, Chol, QRnoQ };
+
+// ---- sba.h's helpers, with its contract (dense.cpp's opening comment) ----
+// None of them throws: every failure, running out of memory included, returns 0.
+
+// sba_Axb_<method>(A, B, x, m, iscolmaj).
+int axb(Method method, const double *A, const double *B, double *x, int m, int iscolmaj) noexcept;
+// sba_Axb_CG(A, B, x, m, niter, eps, prec, iscolmaj).
+int axb_cg(const double *A, const double *B, double *x, int m, int niter, double eps, int prec,
+           int iscolmaj) noexcept;
+// sba_symat_invert_<how>(A, m).
+enum class Inverse { LU, Chol, BK };
+int symat_invert(Inverse how, double *A, int m) noexcept;
+// sba_mat_cholinv(A, B, m).
+int mat_cholinv(const double *A, double *B, int m) noexcept;
+
+// ---- for the library ----
 
 // Solves A x = b for the row-major m x m A (none of them writes A or b); false when it fails
 // (singular, not finite). May throw std::bad_alloc.

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <vector>
 
-#include "dense.h"
 #include "lapack.h"
 #include "small_dense.h"
 
@@ -185,22 +184,21 @@ class BlockJacobiCg final : public Equilibrated {
 
 }  // namespace
 
-std::unique_ptr<DenseFactorization> make_dense_factorization(LinSolver kind, i64 n, int cnp,
-                                                             ThreadPool &pool) {
-  switch (kind) {
-    case LinSolver::Chol:
-      if (n <= kOwnCholeskyMax) return std::make_unique<OwnCholesky>(n, pool);
-      return std::make_unique<LapackCholesky>(n, pool);
-    case LinSolver::CholLapack: return std::make_unique<LapackCholesky>(n, pool);
-    case LinSolver::LDLt: return std::make_unique<AxbMethod>(n, pool, dense::Method::LDLt);
-    case LinSolver::BK: return std::make_unique<AxbMethod>(n, pool, dense::Method::BK);
-    case LinSolver::LU: return std::make_unique<AxbMethod>(n, pool, dense::Method::LU);
-    case LinSolver::QR: return std::make_unique<AxbMethod>(n, pool, dense::Method::QR);
-    case LinSolver::QRnoQ: return std::make_unique<AxbMethod>(n, pool, dense::Method::RefinedQRnoQ);
-    case LinSolver::SVD: return std::make_unique<AxbMethod>(n, pool, dense::Method::SVD);
-    case LinSolver::CG: return std::make_unique<BlockJacobiCg>(n, cnp, pool);
-    default: return nullptr;
-  }
+std::unique_ptr<DenseFactorization> make_cholesky(i64 n, ThreadPool &pool) {
+  if (n <= kOwnCholeskyMax) return std::make_unique<OwnCholesky>(n, pool);
+  return std::make_unique<LapackCholesky>(n, pool);
+}
+
+std::unique_ptr<DenseFactorization> make_lapack_cholesky(i64 n, ThreadPool &pool) {
+  return std::make_unique<LapackCholesky>(n, pool);
+}
+
+std::unique_ptr<DenseFactorization> make_axb_factorization(dense::Method method, i64 n, ThreadPool &pool) {
+  return std::make_unique<AxbMethod>(n, pool, method);
+}
+
+std::unique_ptr<DenseFactorization> make_block_jacobi_cg(i64 n, int cnp, ThreadPool &pool) {
+  return std::make_unique<BlockJacobiCg>(n, cnp, pool);
 }
 
 }  // namespace sba

@@ -1,15 +1,16 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // The dense factorizations of the reduced camera system S, behind one interface and chosen
 // once per solve (the way Ceres picks its dense Cholesky backend): the dense Schur solver
-// assembles S where the factorization asks for it and hands it over.
+// picks one for its linear solver (make_dense_factorization, step_solver.h), assembles S where
+// the factorization asks for it and hands it over.
 #ifndef SBA_SRC_DENSE_FACTORIZATION_H
 #define SBA_SRC_DENSE_FACTORIZATION_H
 
 #include <memory>
 
-#include "layout.h"
-#include "linear_solver.h"
+#include "dense.h"
 #include "parallel.h"
+#include "types.h"
 
 namespace sba {
 
@@ -30,10 +31,15 @@ class DenseFactorization {
   i64 n_, ld_;
 };
 
-// The factorization behind a dense linear solver (Chol, CholLapack, LDLt, BK, LU, QR, QRnoQ,
-// SVD, CG) for S of order n made of cnp x cnp camera blocks; null for any other kind.
-std::unique_ptr<DenseFactorization> make_dense_factorization(LinSolver kind, i64 n, int cnp,
-                                                             ThreadPool &pool);
+// The factorizations of S of order n:
+// Cholesky, the library's own up to the order where LAPACK's is faster, LAPACK's beyond;
+std::unique_ptr<DenseFactorization> make_cholesky(i64 n, ThreadPool &pool);
+// LAPACK's Cholesky (DPOTRF/DPOTRS) at every order;
+std::unique_ptr<DenseFactorization> make_lapack_cholesky(i64 n, ThreadPool &pool);
+// a method of the sba_Axb_* helpers (dense.h), on S scaled to a unit diagonal;
+std::unique_ptr<DenseFactorization> make_axb_factorization(dense::Method method, i64 n, ThreadPool &pool);
+// conjugate gradients preconditioned by S's cnp x cnp diagonal blocks, on S scaled the same.
+std::unique_ptr<DenseFactorization> make_block_jacobi_cg(i64 n, int cnp, ThreadPool &pool);
 
 // The library's own dense Cholesky (src/dense_chol_impl.h) in the build the CPU runs (isa.h):
 // S = U^T U in place (S row-major upper with row stride ld; U in the same place, LAPACK's

@@ -17,6 +17,74 @@ std::string from_env(const char *name) {
   return value ? value : "";
 }
 
+// The thread count: ext's, else SBA_NUM_THREADS's, else left to the library (auto_threads).
+void choose_threads(const DriverArgs &a, const sba_ext_options &ext, const Environment &env,
+                    const Logger &log, Options *o) {
+  int threads = ext.nthreads;
+  if (threads <= 0) {
+    threads = parse_thread_count(env.num_threads.c_str());
+    if (threads < 0) {
+      log.notice("%s: SBA_NUM_THREADS=\"%s\" is not a positive integer: ignored (the library "
+                 "chooses the thread count)",
+                 a.name, env.num_threads.c_str());
+      threads = 0;
+    }
+  }
+  o->auto_threads = threads <= 0;  // fit_threads chooses (and caps an explicit count)
+  o->nthreads = std::max(1, threads);
+}
+
+// What ext hands over as it is: the callbacks and the camera parameters' arrays.
+void pass_through(const sba_ext_options &ext, Options *o) {
+  o->progress = ext.progress;
+  o->progress_ctx = ext.progress_ctx;
+  o->cancel = ext.cancel;
+  o->cancel_ctx = ext.cancel_ctx;
+  o->parallel_callbacks = ext.parallel_callbacks != 0;
+  o->cams.fixed = ext.cam_fixed;
+  o->cams.fixed_per_camera = ext.cam_fixed_per_camera != 0;
+  o->cams.param_group = ext.cam_param_group;
+  o->cams.group = ext.cam_group;
+  o->cams.shared = ext.cam_shared;
+}
+
+// Opt-in only: how the host's threads are scheduled is the host's business.
+void choose_avoid_shared_cores(const DriverArgs &a, const sba_ext_options &ext, const Environment &env,
+                               const Logger &log, Options *o) {
+  o->avoid_shared_cores = ext.avoid_shared_cores != 0;
+  if (!o->avoid_shared_cores && !env.avoid_shared_cores.empty()) {
+    o->avoid_shared_cores = env.avoid_shared_cores == "1";
+    if (!o->avoid_shared_cores && env.avoid_shared_cores != "0")
+      log.notice("%s: SBA_AVOID_SHARED_CORES=\"%s\" is neither 0 nor 1: ignored (off)", a.name,
+                 env.avoid_shared_cores.c_str());
+  }
+}
+
+// ext's robust loss, if it names one; false, with what is wrong in *error, for an unknown
+// name or a scale out of range.
+bool choose_loss(const sba_ext_options &ext, Options *o, std::string *error) {
+  if (!ext.loss) return true;
+  LossKind kind;
+  if (!loss_from_name(ext.loss, &kind)) {
+    *error = std::string("unknown loss \"") + ext.loss + "\" (known: " + loss_names() + ")";
+    return false;
+  }
+  const double scale = ext.loss_scale == 0.0 ? 1.0 : ext.loss_scale;
+  // The losses divide and multiply by scale^2; outside this range it overflows or
+  // underflows, and the solve would fail for a reason that blames x or stop at once.
+  if (!(scale >= kMinLossScale && scale <= kMaxLossScale)) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf,
+                  "loss_scale must be positive and within [%.3g, %.3g], where its square and "
+                  "inverse square are normal numbers (got %g)",
+                  kMinLossScale, kMaxLossScale, ext.loss_scale);
+    *error = buf;
+    return false;
+  }
+  o->loss = Loss(kind, scale);
+  return true;
+}
+
 }  // namespace
 
 Environment read_environment() {
@@ -82,57 +150,10 @@ bool options_from(const DriverArgs &a, const sba_ext_options &ext, const Environ
       log.notice("%s: unknown SBA_STRATEGY \"%s\" (known: %s); using sba", a.name,
                  env.strategy.c_str(), strategy_names());
   }
-  int threads = ext.nthreads;
-  if (threads <= 0) {
-    threads = parse_thread_count(env.num_threads.c_str());
-    if (threads < 0) {
-      log.notice("%s: SBA_NUM_THREADS=\"%s\" is not a positive integer: ignored (the library "
-                 "chooses the thread count)",
-                 a.name, env.num_threads.c_str());
-      threads = 0;
-    }
-  }
-  o->auto_threads = threads <= 0;  // fit_threads chooses (and caps an explicit count)
-  o->nthreads = std::max(1, threads);
-  o->progress = ext.progress;
-  o->progress_ctx = ext.progress_ctx;
-  o->cancel = ext.cancel;
-  o->cancel_ctx = ext.cancel_ctx;
-  o->parallel_callbacks = ext.parallel_callbacks != 0;
-  o->cams.fixed = ext.cam_fixed;
-  o->cams.fixed_per_camera = ext.cam_fixed_per_camera != 0;
-  o->cams.param_group = ext.cam_param_group;
-  o->cams.group = ext.cam_group;
-  o->cams.shared = ext.cam_shared;
-  // Opt-in only: how the host's threads are scheduled is the host's business.
-  o->avoid_shared_cores = ext.avoid_shared_cores != 0;
-  if (!o->avoid_shared_cores && !env.avoid_shared_cores.empty()) {
-    o->avoid_shared_cores = env.avoid_shared_cores == "1";
-    if (!o->avoid_shared_cores && env.avoid_shared_cores != "0")
-      log.notice("%s: SBA_AVOID_SHARED_CORES=\"%s\" is neither 0 nor 1: ignored (off)", a.name,
-                 env.avoid_shared_cores.c_str());
-  }
-  if (ext.loss) {
-    LossKind kind;
-    if (!loss_from_name(ext.loss, &kind)) {
-      *error = std::string("unknown loss \"") + ext.loss + "\" (known: " + loss_names() + ")";
-      return false;
-    }
-    const double scale = ext.loss_scale == 0.0 ? 1.0 : ext.loss_scale;
-    // The losses divide and multiply by scale^2; outside this range it overflows or
-    // underflows, and the solve would fail for a reason that blames x or stop at once.
-    if (!(scale >= kMinLossScale && scale <= kMaxLossScale)) {
-      char buf[160];
-      std::snprintf(buf, sizeof buf,
-                    "loss_scale must be positive and within [%.3g, %.3g], where its square and "
-                    "inverse square are normal numbers (got %g)",
-                    kMinLossScale, kMaxLossScale, ext.loss_scale);
-      *error = buf;
-      return false;
-    }
-    o->loss = Loss(kind, scale);
-  }
-  return true;
+  choose_threads(a, ext, env, log, o);
+  pass_through(ext, o);
+  choose_avoid_shared_cores(a, ext, env, log, o);
+  return choose_loss(ext, o, error);
 }
 
 }  // namespace sba

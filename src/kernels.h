@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-// The block kernels of an LM iteration (normal equations, damped point blocks, the Schur
-// complement and the back-substitution), compiled for the common block sizes
+// The normal equations of an LM iteration, the vocabulary that the kernels, the linear solvers
+// and the covariance share, and the block kernels over them (normal equations, damped point
+// blocks, the Schur complement and the back-substitution), compiled for the common block sizes
 // (mnp, cnp, pnp) = (2,6,3), (2,7,3), (2,9,3), (2,11,3), (2,16,3) with a run-time-sized
 // fallback, and run on a thread pool. Every output entry is computed by one thread, adding
 // its terms in a fixed order, so results do not depend on the number of threads.
@@ -16,7 +17,27 @@
 
 namespace sba {
 
-struct NormalEquations;
+// The normal equations of the current (weighted) Jacobian: the undamped U_j, V_i and
+// e_a = A^T e, e_b = B^T e, formed from the Jacobian blocks A_ij, B_ij as U_j = sum_i A_ij^T
+// A_ij, V_i = sum_j B_ij^T B_ij, W_ij = A_ij^T B_ij. Blocks of fixed cameras and points are
+// not meaningful.
+struct NormalEquations {
+  const double *jac = nullptr;  // callback layout: A_ij then B_ij per projection
+  const double *U = nullptr, *V = nullptr, *ea = nullptr, *eb = nullptr;
+};
+
+// W_ij = A_ij^T B_ij (cnp x pnp, row-major) of projection k.
+inline void form_W(const Layout &lay, const double *jac, i64 k, double *W) {
+  const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp;
+  const double *A = jac + k * lay.jblk();
+  const double *B = A + mnp * cnp;
+  for (int a = 0; a < cnp; ++a)
+    for (int b = 0; b < pnp; ++b) {
+      double s = 0.0;
+      for (int r = 0; r < mnp; ++r) s += A[r * cnp + a] * B[r * pnp + b];
+      W[a * pnp + b] = s;
+    }
+}
 
 // Where the Schur assembly finds block S_jk (free-camera indices j <= k).
 //  - Dense S: row-major inside an (nS x nS) matrix with row stride ld; the assembly zeroes

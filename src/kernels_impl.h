@@ -15,7 +15,6 @@
 #include "column_split.h"
 #include "kernels.h"
 #include "madd.h"
-#include "normal_equations.h"
 #include "small_dense.h"
 
 namespace sba {

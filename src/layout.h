@@ -4,16 +4,14 @@
 #ifndef SBA_SRC_LAYOUT_H
 #define SBA_SRC_LAYOUT_H
 
-#include <cstdint>
 #include <string>
 #include <vector>
 
 #include "camera_map.h"
 #include "sba_export.h"
+#include "types.h"
 
 namespace sba {
-
-using i64 = std::int64_t;
 
 // What p holds: motion+structure, cameras only (sba_mot_*), or points only (sba_str_*).
 enum class Mode { MotStr, Mot, Str };

@@ -14,8 +14,8 @@
 
 #include <vector>
 
+#include "kernels.h"
 #include "layout.h"
-#include "normal_equations.h"
 #include "parallel.h"
 
 namespace sba {

@@ -78,93 +78,118 @@ void mapped_point_couplings(const MappedSchur &ms, const double *jac, int i, int
   }
 }
 
-void mapped_assemble_columns(const MappedSchur &ms, int B0, int B1, const NormalEquations &ne, const double *Vinv,
-                             double mu, const UnknownBlocks &S, double *rhs, MappedSchur::Scratch &sc) {
-  if (B0 >= B1) return;
-  const Layout &lay = ms.layout();
-  const CameraMap &map = lay.cams;
-  const int cnp = lay.cnp, pnp = lay.pnp;
-  const bool diagonal = S.kind == UnknownBlocks::Kind::Diagonal;
+namespace {
+
+// Zeroes what the assembly of the block columns [B0, B1) adds to: the columns of a dense S
+// down to their last row, or the diagonal blocks of a block-diagonal S.
+void clear_columns(const CameraMap &map, int B0, int B1, const UnknownBlocks &S) {
   const int *start = map.block_start.data();
   if (S.kind == UnknownBlocks::Kind::Dense)
     for (i64 r = 0; r < start[B1]; ++r) {
       double *row = S.base + r * S.ld;
       std::fill(row + start[B0], row + start[B1], 0.0);
     }
-  if (diagonal)
+  if (S.kind == UnknownBlocks::Kind::Diagonal)
     for (int B = B0; B < B1; ++B) {
       const i64 n = map.block_size(B);
       std::fill(S.base + S.diag[B], S.base + S.diag[B] + n * n, 0.0);
     }
-  // U's blocks, the damping and e_a, camera by camera in ascending order.
-  for (int B = B0; B < B1; ++B) {
-    const int nB = map.block_size(B);
-    const int *colsB = map.block_columns(B);
-    double *rB = rhs ? rhs + start[B] : nullptr;
-    if (rB) std::fill(rB, rB + nB, 0.0);
-    for (int q = map.block_cam_start[size_t(B)]; q < map.block_cam_start[size_t(B) + 1]; ++q) {
-      const int j = map.block_cams[size_t(q)];
-      const double *Uj = ne.U + i64(j) * cnp * cnp, *eaj = ne.ea + i64(j) * cnp;
-      if (rB)
-        for (int o = 0; o < nB; ++o) rB[o] += eaj[colsB[o]];
-      for (int qb = map.cam_start[size_t(j)]; qb < map.cam_start[size_t(j) + 1]; ++qb) {
-        const int b = map.cam_blocks[size_t(qb)];
-        if (b > B) break;
-        if (diagonal && b != B) continue;
-        const int nb = map.block_size(b);
-        const int *colsb = map.block_columns(b);
-        const UnknownBlocks::Block blk = S.block(b, B);
-        for (int o1 = 0; o1 < nb; ++o1)
-          for (int o2 = 0; o2 < nB; ++o2) {
-            const double u = Uj[colsb[o1] * cnp + colsB[o2]];
-            if (blk.transposed)
-              blk.p[o2 * blk.ld + o1] += u;
-            else
-              blk.p[o1 * blk.ld + o2] += u;
-          }
-      }
+}
+
+// U's blocks, the damping and e_a into block column B (rhs: its right-hand side, or null),
+// camera by camera in ascending order.
+void add_camera_terms(const Layout &lay, int B, const NormalEquations &ne, double mu, const UnknownBlocks &S,
+                      double *rhs) {
+  const CameraMap &map = lay.cams;
+  const int cnp = lay.cnp;
+  const bool diagonal = S.kind == UnknownBlocks::Kind::Diagonal;
+  const int nB = map.block_size(B);
+  const int *colsB = map.block_columns(B);
+  if (rhs) std::fill(rhs, rhs + nB, 0.0);
+  for (int q = map.block_cam_start[size_t(B)]; q < map.block_cam_start[size_t(B) + 1]; ++q) {
+    const int j = map.block_cams[size_t(q)];
+    const double *Uj = ne.U + i64(j) * cnp * cnp, *eaj = ne.ea + i64(j) * cnp;
+    if (rhs)
+      for (int o = 0; o < nB; ++o) rhs[o] += eaj[colsB[o]];
+    for (int qb = map.cam_start[size_t(j)]; qb < map.cam_start[size_t(j) + 1]; ++qb) {
+      const int b = map.cam_blocks[size_t(qb)];
+      if (b > B) break;
+      if (diagonal && b != B) continue;
+      const int nb = map.block_size(b);
+      const int *colsb = map.block_columns(b);
+      const UnknownBlocks::Block blk = S.block(b, B);
+      for (int o1 = 0; o1 < nb; ++o1)
+        for (int o2 = 0; o2 < nB; ++o2) {
+          const double u = Uj[colsb[o1] * cnp + colsB[o2]];
+          if (blk.transposed)
+            blk.p[o2 * blk.ld + o1] += u;
+          else
+            blk.p[o1 * blk.ld + o2] += u;
+        }
     }
-    const UnknownBlocks::Block d = S.block(B, B);
-    for (int o = 0; o < nB; ++o) d.p[o * d.ld + o] += mu;
   }
-  if (pnp == 0) return;
-  // The points, in ascending order: Z^T of the blocks up to the range's end, then
-  // Y^T = V*^-1 Z^T of those in the range, and the pairs they close.
+  const UnknownBlocks::Block d = S.block(B, B);
+  for (int o = 0; o < nB; ++o) d.p[o * d.ld + o] += mu;
+}
+
+// Point i's terms of the block columns F[lo, hi) (F: the blocks the point touches): Z^T of
+// its blocks up to hi, then Y^T = V*^-1 Z^T of those in the range, the right-hand sides, and
+// the pairs they close.
+void add_point_terms(const MappedSchur &ms, int i, int lo, int hi, const NormalEquations &ne, const double *Vinv,
+                     const UnknownBlocks &S, double *rhs, MappedSchur::Scratch &sc) {
+  const Layout &lay = ms.layout();
+  const CameraMap &map = lay.cams;
+  const int pnp = lay.pnp;
+  const bool diagonal = S.kind == UnknownBlocks::Kind::Diagonal;
+  const int *F = ms.point_blocks(i);
   i64 *zoff = sc.zoff.data();
   double *Zt = sc.Zt.data(), *Yt = sc.Yt.data();
+  zoff[0] = 0;
+  for (int s = 0; s < hi; ++s) zoff[s + 1] = zoff[s] + i64(map.block_size(F[s])) * pnp;
+  mapped_point_couplings(ms, ne.jac, i, hi, zoff, Zt, sc.W.data());
+  const double *Vi = Vinv + i64(i) * pnp * pnp, *ebi = ne.eb + i64(i) * pnp;
+  for (int s = lo; s < hi; ++s) {
+    const int B = F[s], nB = map.block_size(B);
+    const double *z = Zt + zoff[s];
+    double *y = Yt + zoff[s];
+    for (int d = 0; d < pnp; ++d)
+      for (int o = 0; o < nB; ++o) {
+        double v = 0.0;
+        for (int e = 0; e < pnp; ++e) v += Vi[d * pnp + e] * z[e * nB + o];
+        y[d * nB + o] = v;
+      }
+    if (rhs) {
+      double *rB = rhs + map.block_start[size_t(B)];
+      for (int d = 0; d < pnp; ++d)
+        for (int o = 0; o < nB; ++o) rB[o] -= ebi[d] * y[d * nB + o];
+    }
+    for (int s1 = diagonal ? s : 0; s1 <= s; ++s1) {
+      const int b = F[s1], nb = map.block_size(b);
+      const UnknownBlocks::Block blk = S.block(b, B);
+      if (blk.transposed)
+        pair_update(nB, nb, pnp, y, Zt + zoff[s1], blk.p, blk.ld);
+      else
+        pair_update(nb, nB, pnp, Zt + zoff[s1], y, blk.p, blk.ld);
+    }
+  }
+}
+
+}  // namespace
+
+void mapped_assemble_columns(const MappedSchur &ms, int B0, int B1, const NormalEquations &ne, const double *Vinv,
+                             double mu, const UnknownBlocks &S, double *rhs, MappedSchur::Scratch &sc) {
+  if (B0 >= B1) return;
+  const Layout &lay = ms.layout();
+  clear_columns(lay.cams, B0, B1, S);
+  for (int B = B0; B < B1; ++B)
+    add_camera_terms(lay, B, ne, mu, S, rhs ? rhs + lay.cams.block_start[size_t(B)] : nullptr);
+  if (lay.pnp == 0) return;
+  // The points, in ascending order, that touch a block column of the range.
   for (int i = lay.ncon; i < lay.n; ++i) {
     const int *F = ms.point_blocks(i), nF = ms.point_nblocks(i);
     const int lo = find_block(F, nF, B0);
     if (lo == nF || F[lo] >= B1) continue;
-    const int hi = find_block(F, nF, B1);
-    zoff[0] = 0;
-    for (int s = 0; s < hi; ++s) zoff[s + 1] = zoff[s] + i64(map.block_size(F[s])) * pnp;
-    mapped_point_couplings(ms, ne.jac, i, hi, zoff, Zt, sc.W.data());
-    const double *Vi = Vinv + i64(i) * pnp * pnp, *ebi = ne.eb + i64(i) * pnp;
-    for (int s = lo; s < hi; ++s) {
-      const int B = F[s], nB = map.block_size(B);
-      const double *z = Zt + zoff[s];
-      double *y = Yt + zoff[s];
-      for (int d = 0; d < pnp; ++d)
-        for (int o = 0; o < nB; ++o) {
-          double v = 0.0;
-          for (int e = 0; e < pnp; ++e) v += Vi[d * pnp + e] * z[e * nB + o];
-          y[d * nB + o] = v;
-        }
-      if (rhs) {
-        double *rB = rhs + start[B];
-        for (int d = 0; d < pnp; ++d)
-          for (int o = 0; o < nB; ++o) rB[o] -= ebi[d] * y[d * nB + o];
-      }
-      for (int s1 = diagonal ? s : 0; s1 <= s; ++s1) {
-        const int b = F[s1], nb = map.block_size(b);
-        const UnknownBlocks::Block blk = S.block(b, B);
-        if (blk.transposed)
-          pair_update(nB, nb, pnp, y, Zt + zoff[s1], blk.p, blk.ld);
-        else
-          pair_update(nb, nB, pnp, Zt + zoff[s1], y, blk.p, blk.ld);
-      }
-    }
+    add_point_terms(ms, i, lo, find_block(F, nF, B1), ne, Vinv, S, rhs, sc);
   }
 }
 

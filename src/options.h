@@ -7,24 +7,13 @@
 
 #include <string>
 
+#include "camera_unknowns.h"
 #include "linear_solver.h"
 #include "loss.h"
 #include "sba_export.h"
 #include "strategy.h"
 
 namespace sba {
-
-// Camera parameters held by a mask and shared by groups (sba_ext.h's cam_fixed,
-// cam_param_group, cam_group, cam_shared): the caller's arrays, valid for the call;
-// camera_unknowns.h checks them and makes the Layout's CameraMap.
-struct CameraParamOptions {
-  const char *fixed = nullptr;  // cnp flags, or m * cnp with fixed_per_camera
-  bool fixed_per_camera = false;
-  const int *param_group = nullptr;  // m * cnp group numbers, -1 for none
-  const int *group = nullptr;        // m group numbers, -1 for none
-  const char *shared = nullptr;      // cnp flags
-  bool any() const { return fixed || param_group || group || shared; }
-};
 
 struct Options {
   LinSolver solver = LinSolver::Chol;

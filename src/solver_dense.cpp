@@ -100,6 +100,21 @@ class MappedDenseSchurSolver final : public StepSolver {
 
 }  // namespace
 
+std::unique_ptr<DenseFactorization> make_dense_factorization(LinSolver kind, i64 n, int cnp, ThreadPool &pool) {
+  switch (kind) {
+    case LinSolver::Chol: return make_cholesky(n, pool);
+    case LinSolver::CholLapack: return make_lapack_cholesky(n, pool);
+    case LinSolver::LDLt: return make_axb_factorization(dense::Method::LDLt, n, pool);
+    case LinSolver::BK: return make_axb_factorization(dense::Method::BK, n, pool);
+    case LinSolver::LU: return make_axb_factorization(dense::Method::LU, n, pool);
+    case LinSolver::QR: return make_axb_factorization(dense::Method::QR, n, pool);
+    case LinSolver::QRnoQ: return make_axb_factorization(dense::Method::RefinedQRnoQ, n, pool);
+    case LinSolver::SVD: return make_axb_factorization(dense::Method::SVD, n, pool);
+    case LinSolver::CG: return make_block_jacobi_cg(n, cnp, pool);
+    default: return nullptr;
+  }
+}
+
 std::unique_ptr<StepSolver> make_dense_schur_solver(LinSolver kind, const SolveContext &ctx) {
   const Layout &lay = ctx.lay;
   // Block Jacobi (CG's preconditioner) over the cameras' blocks; over shared unknowns, whose

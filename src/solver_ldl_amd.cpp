@@ -7,8 +7,8 @@
 #include <cmath>
 #include <vector>
 
+#include "kernels.h"
 #include "mapped_schur.h"
-#include "normal_equations.h"
 #include "step_solver.h"
 #include "suitesparse_status.h"
 #include "unknowns.h"

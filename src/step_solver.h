@@ -11,10 +11,11 @@
 #include "kernels.h"
 #include "layout.h"
 #include "linear_solver.h"
-#include "normal_equations.h"
 #include "parallel.h"
 
 namespace sba {
+
+class DenseFactorization;
 
 // What every solver works with: the problem, the threads, the block kernels.
 struct SolveContext {
@@ -49,6 +50,10 @@ std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext 
 
 // make_step_solver: step_solver.cpp; the others: solver_*.cpp.
 std::unique_ptr<StepSolver> make_dense_schur_solver(LinSolver kind, const SolveContext &ctx);
+// The factorization of S behind a dense linear solver (Chol, CholLapack, LDLt, BK, LU, QR,
+// QRnoQ, SVD, CG: dense_factorization.h) for S of order n made of cnp x cnp camera blocks;
+// null for any other kind. make_dense_schur_solver's choice, declared for the tests.
+std::unique_ptr<DenseFactorization> make_dense_factorization(LinSolver kind, i64 n, int cnp, ThreadPool &pool);
 std::unique_ptr<StepSolver> make_ldl_amd_solver(const SolveContext &ctx);
 std::unique_ptr<StepSolver> make_sparse_schur_solver(const SolveContext &ctx);
 std::unique_ptr<StepSolver> make_iterative_schur_solver(const SolveContext &ctx);

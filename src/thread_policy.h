@@ -5,7 +5,7 @@
 #ifndef SBA_SRC_THREAD_POLICY_H
 #define SBA_SRC_THREAD_POLICY_H
 
-#include "layout.h"
+#include "types.h"
 
 namespace sba {
 

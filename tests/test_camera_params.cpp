@@ -129,8 +129,8 @@ TEST(CameraParams, SharedFocalLengthComesBackToTheTruth) {
   for (int j = 1; j < s.m; ++j) EXPECT_TRUE(same_bits(focal(r, j), focal(r, 0))) << j;
   // Started at 816, back within the noise of 800.
   EXPECT_NEAR(focal(r, 0), kTrueFocal, 1.0);
-  // About the noise: 0.5 px per coordinate.
-  const double nobs = r.info[9] >= 0 ? double(s.scene.nprojections()) : 1.0;
+  // About the noise: 0.5 px per coordinate, two per projection.
+  const double nobs = double(s.scene.nprojections());
   EXPECT_LT(std::sqrt(r.info[1] / (2.0 * nobs)), 0.55);
   // The held principal point, aspect ratio and skew are the bits they started with.
   for (int j = 0; j < s.m; ++j)

@@ -7,7 +7,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -386,6 +389,81 @@ std::vector<cc::Camera> sample_cameras() {
   return cams;
 }
 
+
+// Camera j's dx/da at a and dx/db at each point of `points` against central differences; the
+// parameters from pose_params + its model's count on are padding, which moves nothing. Camera
+// j is of COLMAP model j.
+template <class Model>
+void expect_sba_derivatives(const Model &model, int j, const std::vector<double> &a,
+                            const std::vector<double> &points, int pose_params) {
+  const int cnp = model.cnp();
+  for (std::size_t i = 0; i < points.size() / 3; ++i) {
+    const double *b = points.data() + 3 * i;
+    std::vector<double> A(2 * static_cast<std::size_t>(cnp));
+    double B[6], x[2];
+    model.project_jacobian(j, a.data(), b, x, A.data(), B);
+    for (int c = 0; c < cnp; ++c) {
+      const double h = 1e-6 * std::max(1.0, std::fabs(a[static_cast<std::size_t>(c)]));
+      std::vector<double> lo = a, hi = a;
+      lo[static_cast<std::size_t>(c)] -= h;
+      hi[static_cast<std::size_t>(c)] += h;
+      double xl[2], xh[2];
+      model.project(j, lo.data(), b, xl);
+      model.project(j, hi.data(), b, xh);
+      for (int r = 0; r < 2; ++r) {
+        const double num = (xh[r] - xl[r]) / (2 * h);
+        EXPECT_NEAR(A[static_cast<std::size_t>(r * cnp + c)], num, 1e-6 * std::max(1.0, std::fabs(num)))
+            << cc::model_name(j) << " a" << c << " row " << r;
+      }
+      if (c >= pose_params + cc::param_count(j)) {  // padding: no effect at all
+        EXPECT_EQ(A[static_cast<std::size_t>(c)], 0.0);
+        EXPECT_EQ(A[static_cast<std::size_t>(cnp + c)], 0.0);
+      }
+    }
+    for (int c = 0; c < 3; ++c) {
+      double lo[3] = {b[0], b[1], b[2]}, hi[3] = {b[0], b[1], b[2]};
+      lo[c] -= 1e-6;
+      hi[c] += 1e-6;
+      double xl[2], xh[2];
+      model.project(j, a.data(), lo, xl);
+      model.project(j, a.data(), hi, xh);
+      for (int r = 0; r < 2; ++r) {
+        const double num = (xh[r] - xl[r]) / 2e-6;
+        EXPECT_NEAR(B[r * 3 + c], num, 1e-6 * std::max(1.0, std::fabs(num))) << cc::model_name(j) << " b" << c;
+      }
+    }
+  }
+}
+using Callback = void (*)(double *, struct sba_crsm *, int *, int *, double *, void *);
+
+// The expert callbacks func and fjac of `model` at p (m cameras, then the points), over the
+// index of rowptr, colidx and val (the ordinals), give project_jacobian's numbers bit for bit
+// at the ordinals the index names. Returns func's projections.
+template <class Model>
+std::vector<double> expect_callbacks_agree(const Model &model, Callback func, Callback fjac, std::vector<double> &p,
+                                           std::vector<int> &rowptr, std::vector<int> &colidx,
+                                           std::vector<int> &val) {
+  const int m = model.ncameras(), n = model.npoints(), cnp = model.cnp();
+  const int nvis = static_cast<int>(val.size());
+  sba_crsm idx{n, m, nvis, val.data(), colidx.data(), rowptr.data()};
+  std::vector<double> hx(2 * static_cast<std::size_t>(nvis)), jac(static_cast<std::size_t>(nvis) * 2 * (cnp + 3));
+  func(p.data(), &idx, nullptr, nullptr, hx.data(), cc::as_adata(model));
+  fjac(p.data(), &idx, nullptr, nullptr, jac.data(), cc::as_adata(model));
+  for (int i = 0; i < n; ++i)
+    for (int e = rowptr[i]; e < rowptr[i + 1]; ++e) {
+      const int j = colidx[e], k = val[e];
+      double x[2], B[6];
+      std::vector<double> A(2 * static_cast<std::size_t>(cnp));
+      model.project_jacobian(j, p.data() + j * cnp, p.data() + m * cnp + 3 * i, x, A.data(), B);
+      EXPECT_EQ(hx[2 * k], x[0]);
+      EXPECT_EQ(hx[2 * k + 1], x[1]);
+      const double *blk = jac.data() + static_cast<std::size_t>(k) * 2 * (cnp + 3);
+      for (int c = 0; c < 2 * cnp; ++c) EXPECT_EQ(blk[c], A[static_cast<std::size_t>(c)]);
+      for (int c = 0; c < 6; ++c) EXPECT_EQ(blk[2 * cnp + c], B[c]);
+    }
+  return hx;
+}
+
 }  // namespace
 
 // The pose part: dx/da (rotation v, translation, parameters, padding) and dx/db by differences.
@@ -400,42 +478,7 @@ TEST(ColmapCamera, SbaModelDerivatives) {
     a[0] = 0.01;  // off v = 0, so the rotation derivative is not only the one at the identity
     a[1] = -0.02;
     a[2] = 0.015;
-    for (int i = 0; i < model.npoints(); ++i) {
-      const double *b = points.data() + 3 * i;
-      std::vector<double> A(2 * static_cast<std::size_t>(cnp));
-      double B[6], x[2];
-      model.project_jacobian(j, a.data(), b, x, A.data(), B);
-      for (int c = 0; c < cnp; ++c) {
-        const double h = 1e-6 * std::max(1.0, std::fabs(a[static_cast<std::size_t>(c)]));
-        std::vector<double> lo = a, hi = a;
-        lo[static_cast<std::size_t>(c)] -= h;
-        hi[static_cast<std::size_t>(c)] += h;
-        double xl[2], xh[2];
-        model.project(j, lo.data(), b, xl);
-        model.project(j, hi.data(), b, xh);
-        for (int r = 0; r < 2; ++r) {
-          const double num = (xh[r] - xl[r]) / (2 * h);
-          EXPECT_NEAR(A[static_cast<std::size_t>(r * cnp + c)], num, 1e-6 * std::max(1.0, std::fabs(num)))
-              << cc::model_name(j) << " a" << c << " row " << r;
-        }
-        if (c >= 6 + cc::param_count(j)) {  // padding: no effect at all
-          EXPECT_EQ(A[static_cast<std::size_t>(c)], 0.0);
-          EXPECT_EQ(A[static_cast<std::size_t>(cnp + c)], 0.0);
-        }
-      }
-      for (int c = 0; c < 3; ++c) {
-        double lo[3] = {b[0], b[1], b[2]}, hi[3] = {b[0], b[1], b[2]};
-        lo[c] -= 1e-6;
-        hi[c] += 1e-6;
-        double xl[2], xh[2];
-        model.project(j, a.data(), lo, xl);
-        model.project(j, a.data(), hi, xh);
-        for (int r = 0; r < 2; ++r) {
-          const double num = (xh[r] - xl[r]) / 2e-6;
-          EXPECT_NEAR(B[r * 3 + c], num, 1e-6 * std::max(1.0, std::fabs(num))) << cc::model_name(j) << " b" << c;
-        }
-      }
-    }
+    expect_sba_derivatives(model, j, a, points, cc::kPoseParams);
   }
 }
 
@@ -483,22 +526,8 @@ TEST(ColmapCamera, ExpertCallbacksAgreeWithTheModel) {
     rowptr.push_back(static_cast<int>(colidx.size()));
   }
   const int nvis = static_cast<int>(val.size());
-  sba_crsm idx{n, m, nvis, val.data(), colidx.data(), rowptr.data()};
-  std::vector<double> hx(2 * static_cast<std::size_t>(nvis)), jac(static_cast<std::size_t>(nvis) * 2 * (cnp + 3));
-  cc::motstr_func(p.data(), &idx, nullptr, nullptr, hx.data(), cc::as_adata(model));
-  cc::motstr_fjac(p.data(), &idx, nullptr, nullptr, jac.data(), cc::as_adata(model));
-  for (int i = 0; i < n; ++i)
-    for (int e = rowptr[i]; e < rowptr[i + 1]; ++e) {
-      const int j = colidx[e], k = val[e];
-      double x[2], B[6];
-      std::vector<double> A(2 * static_cast<std::size_t>(cnp));
-      model.project_jacobian(j, p.data() + j * cnp, p.data() + m * cnp + 3 * i, x, A.data(), B);
-      EXPECT_EQ(hx[2 * k], x[0]);
-      EXPECT_EQ(hx[2 * k + 1], x[1]);
-      const double *blk = jac.data() + static_cast<std::size_t>(k) * 2 * (cnp + 3);
-      for (int c = 0; c < 2 * cnp; ++c) EXPECT_EQ(blk[c], A[static_cast<std::size_t>(c)]);
-      for (int c = 0; c < 6; ++c) EXPECT_EQ(blk[2 * cnp + c], B[c]);
-    }
+  const std::vector<double> hx =
+      expect_callbacks_agree(model, cc::motstr_func, cc::motstr_fjac, p, rowptr, colidx, val);
   // The index a thread is given under parallel_callbacks: every row, only the last one not
   // empty. Only that row's slots are written.
   std::vector<double> part(hx.size(), -1.0);
@@ -563,4 +592,201 @@ TEST(ColmapCamera, HeldParametersAreConstants) {
     EXPECT_EQ(back.params, cams[static_cast<std::size_t>(j)].params);
   }
   EXPECT_THROW(cc::CameraModel(cams, points, std::vector<char>(3, 0)), std::invalid_argument);
+}
+
+// ---- the rig camera model ----
+
+namespace {
+
+// An image of every model: a frame pose, and a camera pose in the rig that is not the
+// identity (the reference camera's is checked apart).
+std::vector<cc::RigImage> sample_rig_images() {
+  std::vector<cc::RigImage> images;
+  for (int m = 0; m < cc::kNumModels; ++m) {
+    cc::RigImage im;
+    im.model = m;
+    im.params = sample_params(m);
+    im.q_frame = {0.9 + 0.01 * m, 0.1, -0.2 + 0.03 * m, 0.05};  // not unit: the model normalizes it
+    im.t_frame = {0.1 * m, -0.2, 3 + 0.1 * m};
+    im.q_sensor = {2.0, -0.1 * (m % 3), 0.15, 0.02 * m};
+    im.t_sensor = {-0.3, 0.05 * m, 0.2};
+    images.push_back(im);
+  }
+  return images;
+}
+
+// a_j moved off v_f = v_s = 0, so that neither rotation derivative is only the one at the
+// identity.
+std::vector<double> moved_rig_params(const cc::RigCameraModel &model, int j) {
+  std::vector<double> a(model.initial_camera(j), model.initial_camera(j) + model.cnp());
+  const double v[6] = {0.01, -0.02, 0.015, -0.012, 0.008, 0.02};
+  for (int k = 0; k < 3; ++k) {
+    a[static_cast<std::size_t>(k)] = v[k];
+    a[static_cast<std::size_t>(6 + k)] = v[3 + k];
+  }
+  return a;
+}
+
+// R(q) X + t with R from the quaternion q (not necessarily unit).
+std::array<double, 3> transformed(const sbacameras::euclidean::Quaternion &q, const std::array<double, 3> &t,
+                                  const double X[3]) {
+  double R[9];
+  sbacameras::euclidean::rotation_matrix(sbacameras::euclidean::normalized_rotation(q), R);
+  std::array<double, 3> out;
+  for (int r = 0; r < 3; ++r)
+    out[static_cast<std::size_t>(r)] = R[3 * r] * X[0] + R[3 * r + 1] * X[1] + R[3 * r + 2] * X[2] + t[static_cast<std::size_t>(r)];
+  return out;
+}
+
+}  // namespace
+
+TEST(ColmapRigCamera, ParameterCount) {
+  // 12 pose parameters and the model's, at least the library's 16-wide kernel.
+  EXPECT_EQ(cc::rig_camera_params(2), 16);
+  EXPECT_EQ(cc::rig_camera_params(4), 16);
+  EXPECT_EQ(cc::rig_camera_params(5), 17);
+  EXPECT_EQ(cc::rig_camera_params(16), 28);
+  const cc::RigCameraModel model(sample_rig_images(), {0.1, 0.2, 0.3});
+  EXPECT_EQ(model.cnp(), 28);
+  EXPECT_EQ(model.ncameras(), cc::kNumModels);
+}
+
+// dx/da (frame pose, sensor pose, parameters, padding) and dx/db against central differences.
+TEST(ColmapRigCamera, DerivativesMatchCentralDifferences) {
+  const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2};
+  const cc::RigCameraModel model(sample_rig_images(), points);
+  for (int j = 0; j < model.ncameras(); ++j)
+    expect_sba_derivatives(model, j, moved_rig_params(model, j), points, cc::kRigPoseParams);
+}
+
+// At the start the projection is the model's of R_s (R_f X + t_f) + t_s; the image and its
+// composed camera come back as given.
+TEST(ColmapRigCamera, StartsAtTheComposedPose) {
+  const std::vector<cc::RigImage> images = sample_rig_images();
+  const std::vector<double> points = {0.2, -0.1, 0.3};
+  const cc::RigCameraModel model(images, points);
+  for (int j = 0; j < model.ncameras(); ++j) {
+    const cc::RigImage &in = images[static_cast<std::size_t>(j)];
+    const std::array<double, 3> Xr = transformed(in.q_frame, in.t_frame, points.data());
+    const std::array<double, 3> Xc = transformed(in.q_sensor, in.t_sensor, Xr.data());
+    double want[2], got[2];
+    cc::project(in.model, in.params.data(), Xc.data(), want, nullptr, nullptr);
+    model.project(j, model.initial_camera(j), points.data(), got);
+    EXPECT_NEAR(got[0], want[0], 1e-9) << j;
+    EXPECT_NEAR(got[1], want[1], 1e-9) << j;
+    const cc::RigImage back = model.image(j, model.initial_camera(j));
+    EXPECT_EQ(back.params, in.params);
+    EXPECT_EQ(back.t_frame, in.t_frame);
+    EXPECT_EQ(back.t_sensor, in.t_sensor);
+    // The composed camera projects the point where the rig does.
+    const cc::Camera c = model.camera(j, model.initial_camera(j));
+    const std::array<double, 3> Xc2 = transformed(c.q, c.t, points.data());
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(Xc2[static_cast<std::size_t>(k)], Xc[static_cast<std::size_t>(k)], 1e-12) << j;
+    EXPECT_NEAR(c.q.w * c.q.w + c.q.x * c.q.x + c.q.y * c.q.y + c.q.z * c.q.z, 1.0, 1e-15);
+  }
+}
+
+// A rig's reference camera (the identity in the rig) is the single-camera model with the
+// frame's pose, bit for bit: its pixels and its frame's columns are CameraModel's, and its
+// translation in the rig moves it as its translation in the world does.
+TEST(ColmapRigCamera, ReferenceCameraIsTheFramesPose) {
+  std::vector<cc::RigImage> images = sample_rig_images();
+  std::vector<cc::Camera> cameras;
+  for (cc::RigImage &im : images) {
+    im.q_sensor = {};
+    im.t_sensor = {};
+    cameras.push_back({im.model, im.params, im.q_frame, im.t_frame});
+  }
+  const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2};
+  const cc::RigCameraModel rig(images, points);
+  const cc::CameraModel single(cameras, points);
+  const int cr = rig.cnp(), cs = single.cnp();
+  for (int j = 0; j < rig.ncameras(); ++j) {
+    std::vector<double> a = moved_rig_params(rig, j);
+    for (int k = 6; k < 12; ++k) a[static_cast<std::size_t>(k)] = 0;  // the identity
+    std::vector<double> s(single.initial_camera(j), single.initial_camera(j) + cs);
+    std::copy(a.begin(), a.begin() + 3, s.begin());
+    for (int i = 0; i < 2; ++i) {
+      const double *b = points.data() + 3 * i;
+      std::vector<double> A(2 * static_cast<std::size_t>(cr)), As(2 * static_cast<std::size_t>(cs));
+      double x[2], xs[2], B[6], Bs[6];
+      rig.project_jacobian(j, a.data(), b, x, A.data(), B);
+      single.project_jacobian(j, s.data(), b, xs, As.data(), Bs);
+      EXPECT_EQ(x[0], xs[0]) << j;
+      EXPECT_EQ(x[1], xs[1]) << j;
+      for (int r = 0; r < 2; ++r) {
+        for (int c = 0; c < 6; ++c) {
+          EXPECT_EQ(A[static_cast<std::size_t>(r * cr + c)], As[static_cast<std::size_t>(r * cs + c)]) << j << " " << c;
+          EXPECT_EQ(A[static_cast<std::size_t>(r * cr + 9 + c % 3)], As[static_cast<std::size_t>(r * cs + 3 + c % 3)]);
+        }
+        for (int c = 0; c < cc::param_count(j); ++c)
+          EXPECT_EQ(A[static_cast<std::size_t>(r * cr + 12 + c)], As[static_cast<std::size_t>(r * cs + 6 + c)]);
+      }
+      for (int c = 0; c < 6; ++c) EXPECT_EQ(B[c], Bs[c]);
+    }
+  }
+}
+
+// The expert callbacks give project_jacobian's numbers at the ordinals the index names.
+TEST(ColmapRigCamera, ExpertCallbacksAgreeWithTheModel) {
+  const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2, 0.1, 0.1, 0.1};
+  const cc::RigCameraModel model(sample_rig_images(), points);
+  const int m = model.ncameras(), n = model.npoints();
+  std::vector<double> p;
+  for (int j = 0; j < m; ++j) {
+    const std::vector<double> a = moved_rig_params(model, j);
+    p.insert(p.end(), a.begin(), a.end());
+  }
+  p.insert(p.end(), points.begin(), points.end());
+  std::vector<int> rowptr{0}, colidx, val;  // point i sees cameras i, i+3, ...
+  for (int i = 0; i < n; ++i) {
+    for (int j = i; j < m; j += 3) {
+      colidx.push_back(j);
+      val.push_back(static_cast<int>(val.size()));
+    }
+    rowptr.push_back(static_cast<int>(colidx.size()));
+  }
+  expect_callbacks_agree(model, cc::rig_motstr_func, cc::rig_motstr_fjac, p, rowptr, colidx, val);
+}
+
+// A held parameter (a frame rotation, a sensor translation, a focal length) is read from the
+// initial image whatever a holds, and its column is zero.
+TEST(ColmapRigCamera, HeldParametersAreConstants) {
+  const std::vector<cc::RigImage> images = sample_rig_images();
+  const std::vector<double> points = {0.2, -0.1, 0.3};
+  const cc::RigCameraModel free_model(images, points);
+  const int cnp = free_model.cnp(), m = free_model.ncameras();
+  std::vector<char> held(static_cast<std::size_t>(m * cnp), 0);
+  for (int j = 0; j < m; ++j)
+    for (int c : {1, 10, 12}) held[static_cast<std::size_t>(j * cnp + c)] = 1;  // v_f2, t_s2, f or fx
+  const cc::RigCameraModel model(images, points, held);
+  for (int j = 0; j < m; ++j) {
+    const std::vector<double> a = moved_rig_params(free_model, j);
+    std::vector<double> moved = a;
+    moved[1] = 0.3;
+    moved[10] += 1;
+    moved[12] *= 2;
+    std::vector<double> a_held = a;  // what the held model reads
+    for (int c : {1, 10, 12}) a_held[static_cast<std::size_t>(c)] = free_model.initial_camera(j)[c];
+    double x0[2], x1[2];
+    free_model.project(j, a_held.data(), points.data(), x0);
+    model.project(j, moved.data(), points.data(), x1);
+    EXPECT_EQ(x0[0], x1[0]) << j;
+    EXPECT_EQ(x0[1], x1[1]) << j;
+    std::vector<double> A(2 * static_cast<std::size_t>(cnp)), Af(A.size());
+    model.project_jacobian(j, a_held.data(), points.data(), nullptr, A.data(), nullptr);
+    free_model.project_jacobian(j, a_held.data(), points.data(), nullptr, Af.data(), nullptr);
+    for (int r = 0; r < 2; ++r)
+      for (int c = 0; c < cnp; ++c) {
+        const double want = held[static_cast<std::size_t>(j * cnp + c)] ? 0.0 : Af[static_cast<std::size_t>(r * cnp + c)];
+        EXPECT_EQ(A[static_cast<std::size_t>(r * cnp + c)], want) << j << " " << c;
+      }
+    const cc::RigImage back = model.image(j, moved.data());
+    EXPECT_EQ(back.params, images[static_cast<std::size_t>(j)].params);
+    EXPECT_EQ(back.t_sensor, images[static_cast<std::size_t>(j)].t_sensor);
+  }
+  EXPECT_THROW(cc::RigCameraModel(images, points, std::vector<char>(3, 0)), std::invalid_argument);
+  std::vector<cc::RigImage> bad = images;
+  bad[0].q_sensor = {0, 0, 0, 0};
+  EXPECT_THROW(cc::RigCameraModel(bad, points), std::invalid_argument);
 }

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Covariance of the solution (sba_motstr_covariance[_x]): against a brute-force
 // sigma^2 (J^T J)^-1 on small problems, against the spread of solutions over noisy
-// replicates, and the gauge handling.
+// replicates, and the gauge handling; and the stages of src/covariance.cpp on their own
+// (linked from the library's objects).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,6 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "camera_unknowns.h"
+#include "covariance.h"
+#include "layout.h"
 #include "sba_ext.h"
 #include "synth.h"
 
@@ -419,6 +423,140 @@ TEST(Covariance, APointSeenByNoCameraIsRefusedByName) {
   EXPECT_NE(err.find("point 7 is seen by no camera (V_i has rank 0 < pnp = 3): its covariance is unbounded"),
             std::string::npos)
       << err;
+}
+
+}  // namespace
+
+// ---- the stages, one by one ----
+
+namespace {
+
+// The lines a Logger says, for the messages of a stage.
+void keep_line(void *ctx, int, const char *line) { static_cast<std::vector<std::string> *>(ctx)->push_back(line); }
+
+// Q diag(lambda) Q^T with Q the rotation about (1, 2, 2)/3 by 0.7: a symmetric 3x3 matrix of
+// known eigenvalues, row-major.
+std::vector<double> with_eigenvalues(const double lambda[3]) {
+  const double u[3] = {1.0 / 3, 2.0 / 3, 2.0 / 3}, c = std::cos(0.7), s = std::sin(0.7);
+  double Q[9];
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) {
+      const double cross = r == k ? 0.0 : (((k - r + 3) % 3 == 1 ? -1.0 : 1.0) * u[3 - r - k]);
+      Q[r * 3 + k] = (r == k ? c : 0.0) + (1 - c) * u[r] * u[k] + s * cross;
+    }
+  std::vector<double> A(9, 0.0);
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k)
+      for (int e = 0; e < 3; ++e) A[size_t(r) * 3 + k] += Q[r * 3 + e] * lambda[e] * Q[k * 3 + e];
+  return A;
+}
+
+TEST(CovarianceStages, BlockRankCountsTheDirectionsAboveRounding) {
+  std::vector<double> work;
+  const double full[3] = {9.0, 1.0, 1e-6}, flat[3] = {9.0, 1.0, 1e-17}, line[3] = {4.0, 0.0, 0.0};
+  EXPECT_EQ(sba::block_rank(with_eigenvalues(full).data(), 3, work), 3);
+  // An eigenvalue at rounding level of the largest is no direction, whatever its sign.
+  EXPECT_EQ(sba::block_rank(with_eigenvalues(flat).data(), 3, work), 2);
+  EXPECT_EQ(sba::block_rank(with_eigenvalues(line).data(), 3, work), 1);
+  const std::vector<double> zero(9, 0.0);
+  EXPECT_EQ(sba::block_rank(zero.data(), 3, work), 0);
+}
+
+TEST(CovarianceStages, PseudoInverseInvertsTheDeterminedDirectionsOnly) {
+  const double lambda[3] = {4.0, 0.5, 0.0}, inverse[3] = {0.25, 2.0, 0.0};
+  std::vector<double> S = with_eigenvalues(lambda);
+  const std::vector<double> want = with_eigenvalues(inverse);
+  int polls = 0, rank = -1;
+  const sba::Logger quiet;
+  ASSERT_TRUE(sba::pseudo_inverse(S, 3, [&] { return ++polls < 0; }, quiet, &rank));
+  EXPECT_EQ(rank, 2);
+  EXPECT_EQ(polls, 4);  // after the decomposition, then at each of the 3 eigenvectors
+  for (size_t q = 0; q < 9; ++q) EXPECT_NEAR(S[q], want[q], 1e-13) << q;
+  // Abandoned at the first poll: false, and nothing said.
+  std::vector<std::string> lines;
+  const sba::Logger log(0, keep_line, &lines);
+  S = with_eigenvalues(lambda);
+  EXPECT_FALSE(sba::pseudo_inverse(S, 3, [] { return true; }, log, &rank));
+  EXPECT_TRUE(lines.empty());
+  // Nothing to invert: rank 0, no poll.
+  std::vector<double> none;
+  polls = 0;
+  EXPECT_TRUE(sba::pseudo_inverse(none, 0, [&] { return ++polls < 0; }, quiet, &rank));
+  EXPECT_EQ(rank, 0);
+  EXPECT_EQ(polls, 0);
+}
+
+// Three cameras of two parameters, the first fixed (mcon = 1), seen by one point each.
+sba::Layout three_cameras(const sba::CameraParamOptions &o) {
+  sba::Layout lay;
+  const char vmask[3] = {1, 1, 1};
+  std::string msg;
+  EXPECT_TRUE(sba::build_layout(lay, sba::Mode::MotStr, 1, 3, 1, 0, 2, 3, 2, vmask, &msg)) << msg;
+  lay.cams = sba::make_camera_map(o, lay);
+  return lay;
+}
+
+// S over the free parameters (cameras 1 and 2, parameters 0 and 1): entry (r, c) = 10 r + c.
+std::vector<double> numbered(int n) {
+  std::vector<double> S(size_t(n) * size_t(n));
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c) S[size_t(r) * n + c] = 10.0 * r + c;
+  return S;
+}
+
+TEST(CovarianceStages, WithoutHeldOrSharedParametersTheMapIsTheIdentity) {
+  const sba::ParameterMap T = sba::parameter_map(three_cameras(sba::CameraParamOptions{}));
+  EXPECT_FALSE(T.reduced);
+  EXPECT_EQ(T.nparams, 4);
+  EXPECT_EQ(T.nunknowns, 4);
+}
+
+TEST(CovarianceStages, AHeldParameterIsNoUnknownAndHasNoCovariance) {
+  const char fixed[2] = {0, 1};  // parameter 1 of every camera
+  sba::CameraParamOptions o;
+  o.fixed = fixed;
+  const sba::ParameterMap T = sba::parameter_map(three_cameras(o));
+  ASSERT_TRUE(T.reduced);
+  EXPECT_EQ(T.nparams, 4);
+  EXPECT_EQ(T.nunknowns, 2);
+  EXPECT_EQ(T.unknown, (std::vector<int>{0, -1, 1, -1}));
+  const std::vector<double> Z = sba::to_unknowns(T, numbered(4));
+  EXPECT_EQ(Z, (std::vector<double>{0, 2, 20, 22}));
+  EXPECT_EQ(sba::to_parameters(T, Z), (std::vector<double>{0, 0, 2, 0, 0, 0, 0, 0, 20, 0, 22, 0, 0, 0, 0, 0}));
+}
+
+TEST(CovarianceStages, ASharedParameterIsOneUnknownWhoseRowsAreSummed) {
+  const int group[6] = {-1, -1, 0, -1, 0, -1};  // parameter 0 of cameras 1 and 2
+  sba::CameraParamOptions o;
+  o.param_group = group;
+  const sba::ParameterMap T = sba::parameter_map(three_cameras(o));
+  ASSERT_TRUE(T.reduced);
+  EXPECT_EQ(T.nunknowns, 3);
+  // Blocks by their cameras: camera 1's own parameter 1, the shared one, camera 2's own.
+  EXPECT_EQ(T.unknown, (std::vector<int>{1, 0, 1, 2}));
+  const std::vector<double> Z = sba::to_unknowns(T, numbered(4));
+  EXPECT_EQ(Z, (std::vector<double>{11, 10 + 12, 13, 1 + 21, 0 + 2 + 20 + 22, 3 + 23, 31, 30 + 32, 33}));
+  // Back over the parameters: the shared unknown's entries in each camera's copy.
+  const std::vector<double> S = sba::to_parameters(T, Z);
+  EXPECT_EQ(S[0], 44.0);
+  EXPECT_EQ(S[2], 44.0);
+  EXPECT_EQ(S[1 * 4 + 3], 13.0);
+  EXPECT_EQ(S[3 * 4 + 0], 62.0);
+}
+
+TEST(CovarianceStages, ResidualVarianceNeedsRedundancy) {
+  sba::Layout lay = three_cameras(sba::CameraParamOptions{});  // 3 projections of 2: 6 measurements
+  sba::CovarianceRequest req;
+  std::vector<std::string> lines;
+  const sba::Logger log(0, keep_line, &lines);
+  // 2 determined camera unknowns of 4, the point's 3: dof 1.
+  ASSERT_TRUE(sba::residual_variance(lay, 0.75, 4, 2, log, req));
+  EXPECT_EQ(req.sigma2, 0.75);
+  EXPECT_EQ(req.rank, 5);
+  EXPECT_EQ(req.nfree, 7);
+  EXPECT_FALSE(sba::residual_variance(lay, 0.75, 4, 3, log, req));
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_EQ(lines[0], "sba: no redundancy (measurements - rank = 0): the residual variance is undefined");
 }
 
 }  // namespace

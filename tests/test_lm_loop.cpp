@@ -163,23 +163,6 @@ TEST(LmLoop, RejectedStepThenAcceptedOne) {
   EXPECT_EQ(count_lines(r, "SBA: iteration 0: mu"), 2);
 }
 
-// The paper's retry damps the undamped blocks again; and the next iteration starts from a
-// damping the accepted step lowered, on blocks made anew.
-TEST(LmLoop, CleanRetryDampsTheUndampedBlocks) {
-  Case s;
-  s.opt.itmax = 2;
-  s.opt.strategy = sba::StrategyKind::SbaCleanRetry;
-  const Outcome r = run(s, {solved(-1.0), lm_step()});
-  ASSERT_TRUE(r.ok);
-  ASSERT_EQ(r.calls.size(), 3u);
-  EXPECT_EQ(r.calls[1].mu, 2e-3);
-  EXPECT_EQ(r.calls[1].U, 1.0);
-  EXPECT_LT(r.calls[2].mu, r.calls[1].mu);
-  EXPECT_EQ(r.calls[2].U, 1.0);
-  EXPECT_EQ(r.sum.iterations, 2);
-  expect_counts(r, 4, 2, 3);
-}
-
 // A step that is not finite is no step: the damping grows, as for a failed factorization.
 TEST(LmLoop, NonFiniteStepIsRetried) {
   Case s;

@@ -316,12 +316,19 @@ const char *model_name(int model) { return known(model) ? kModels[model].name : 
 int param_count(int model) { return known(model) ? kModels[model].params : 0; }
 int focal_count(int model) { return known(model) ? kModels[model].focals : 0; }
 
-int camera_params(int max_params) {
-  const int cnp = kPoseParams + max_params;
+namespace {
+
+// cnp rounded up to the next size the library has fixed-size kernels for (src/kernels.h).
+int padded(int cnp) {
   for (int fast : {9, 11, 16})
     if (cnp <= fast) return fast;
   return cnp;
 }
+
+}  // namespace
+
+int camera_params(int max_params) { return padded(kPoseParams + max_params); }
+int rig_camera_params(int max_params) { return padded(kRigPoseParams + max_params); }
 
 ParamKind param_kind(int model, int k) {
   if (model == kEquirectangular) return ParamKind::Size;
@@ -370,36 +377,71 @@ void project(int model, const double *params, const double Xc[3], double x[2], d
     }
 }
 
-// ---- the sba camera model ----
+// ---- the sba camera models ----
+
+namespace {
+
+// The parameter count of camera j's model: throws for an unknown model or a count that is not
+// the model's.
+int checked_param_count(std::size_t j, int model, std::size_t count) {
+  if (!known(model))
+    throw std::invalid_argument("camera " + std::to_string(j) + ": unknown camera model id " + std::to_string(model));
+  if (static_cast<int>(count) != param_count(model))
+    throw std::invalid_argument("camera " + std::to_string(j) + ": " + model_name(model) + " takes " +
+                                std::to_string(param_count(model)) + " parameters");
+  return param_count(model);
+}
+
+// q as a unit rotation with w >= 0, and R(q) into R: throws for the zero quaternion.
+euclidean::Quaternion unit_rotation(std::size_t j, const euclidean::Quaternion &q, double *R) {
+  if (q.w == 0 && q.x == 0 && q.y == 0 && q.z == 0)
+    throw std::invalid_argument("camera " + std::to_string(j) + " has a zero quaternion");
+  const euclidean::Quaternion u = euclidean::normalized_rotation(q);
+  euclidean::rotation_matrix(u, R);
+  return u;
+}
+
+// The rotation qs(v) q0 of the local parametrization, unit with w >= 0.
+euclidean::Quaternion corrected(const double v[3], const euclidean::Quaternion &q0) {
+  const sbaeuc_correction qs = sbaeuc_correction_of(v);
+  return euclidean::normalized_rotation(euclidean::multiply({qs.w, qs.u[0], qs.u[1], qs.u[2]}, q0));
+}
+
+// The largest parameter count of the cameras' models, each checked.
+template <typename C>
+int largest_param_count(const std::vector<C> &cameras) {
+  int np = 0;
+  for (std::size_t j = 0; j < cameras.size(); ++j)
+    np = std::max(np, checked_param_count(j, cameras[j].model, cameras[j].params.size()));
+  return np;
+}
+
+}  // namespace
+
+SbaCameraModel::SbaCameraModel(int m, int cnp, std::vector<double> points, std::vector<char> held)
+    : m_(m), cnp_(cnp), held_(std::move(held)), points0_(std::move(points)) {
+  if (points0_.size() % kPointParams != 0) throw std::invalid_argument("point coordinates must come in threes");
+  const std::size_t size = static_cast<std::size_t>(m) * static_cast<std::size_t>(cnp);
+  if (!held_.empty() && held_.size() != size) throw std::invalid_argument("the held flags must be cnp per camera");
+  cams0_.assign(size, 0.0);
+}
+
+void SbaCameraModel::effective(int j, const double *a, double *out) const {
+  const char *h = held(j);
+  const double *a0 = initial_camera(j);
+  for (int k = 0; k < cnp_; ++k) out[k] = h && h[k] ? a0[k] : a[k];
+}
 
 CameraModel::CameraModel(const std::vector<Camera> &cameras, std::vector<double> points, std::vector<char> held)
-    : held_(std::move(held)), points0_(std::move(points)) {
-  if (points0_.size() % kPointParams != 0) throw std::invalid_argument("point coordinates must come in threes");
-  int np = 0;
-  for (std::size_t j = 0; j < cameras.size(); ++j) {
-    const Camera &c = cameras[j];
-    if (!known(c.model))
-      throw std::invalid_argument("camera " + std::to_string(j) + ": unknown camera model id " +
-                                  std::to_string(c.model));
-    if (static_cast<int>(c.params.size()) != param_count(c.model))
-      throw std::invalid_argument("camera " + std::to_string(j) + ": " + model_name(c.model) + " takes " +
-                                  std::to_string(param_count(c.model)) + " parameters");
-    np = std::max(np, param_count(c.model));
-  }
-  cnp_ = camera_params(np);
+    : SbaCameraModel(static_cast<int>(cameras.size()), camera_params(largest_param_count(cameras)), std::move(points),
+                     std::move(held)) {
   const std::size_t m = cameras.size();
-  if (!held_.empty() && held_.size() != m * static_cast<std::size_t>(cnp_))
-    throw std::invalid_argument("the held flags must be cnp per camera");
   cameras0_.reserve(m);
   R0_.resize(m * 9);
-  cams0_.assign(m * static_cast<std::size_t>(cnp_), 0.0);
   for (std::size_t j = 0; j < m; ++j) {
     Camera c = cameras[j];
-    if (c.q.w == 0 && c.q.x == 0 && c.q.y == 0 && c.q.z == 0)
-      throw std::invalid_argument("camera " + std::to_string(j) + " has a zero quaternion");
-    c.q = euclidean::normalized_rotation(c.q);
-    euclidean::rotation_matrix(c.q, &R0_[j * 9]);
-    double *a = &cams0_[j * static_cast<std::size_t>(cnp_)];  // v = 0: the input rotation
+    c.q = unit_rotation(j, c.q, &R0_[j * 9]);
+    double *a = initial_camera(static_cast<int>(j));  // v = 0: the input rotation
     for (int k = 0; k < 3; ++k) a[3 + k] = c.t[static_cast<std::size_t>(k)];
     std::copy(c.params.begin(), c.params.end(), a + kPoseParams);
     cameras0_.push_back(std::move(c));
@@ -410,23 +452,126 @@ Camera CameraModel::camera(int j, const double *given) const {
   Camera c = cameras0_[static_cast<std::size_t>(j)];
   double a[kPoseParams + kMaxParams];
   effective(j, given, a);
-  const sbaeuc_correction qs = sbaeuc_correction_of(a);
-  c.q = euclidean::normalized_rotation(euclidean::multiply({qs.w, qs.u[0], qs.u[1], qs.u[2]}, c.q));
+  c.q = corrected(a, c.q);
   for (int k = 0; k < 3; ++k) c.t[static_cast<std::size_t>(k)] = a[3 + k];
   std::copy(a + kPoseParams, a + kPoseParams + c.params.size(), c.params.begin());
   return c;
 }
 
+RigCameraModel::RigCameraModel(const std::vector<RigImage> &images, std::vector<double> points,
+                               std::vector<char> held)
+    : SbaCameraModel(static_cast<int>(images.size()), rig_camera_params(largest_param_count(images)),
+                     std::move(points), std::move(held)) {
+  const std::size_t m = images.size();
+  images0_.reserve(m);
+  R0_.resize(m * 18);
+  for (std::size_t j = 0; j < m; ++j) {
+    RigImage im = images[j];
+    im.q_frame = unit_rotation(j, im.q_frame, &R0_[j * 18]);
+    im.q_sensor = unit_rotation(j, im.q_sensor, &R0_[j * 18 + 9]);
+    double *a = initial_camera(static_cast<int>(j));  // v_f = v_s = 0: the input rotations
+    for (int k = 0; k < 3; ++k) {
+      a[3 + k] = im.t_frame[static_cast<std::size_t>(k)];
+      a[9 + k] = im.t_sensor[static_cast<std::size_t>(k)];
+    }
+    std::copy(im.params.begin(), im.params.end(), a + kRigPoseParams);
+    images0_.push_back(std::move(im));
+  }
+}
+
+RigImage RigCameraModel::image(int j, const double *given) const {
+  RigImage im = images0_[static_cast<std::size_t>(j)];
+  double a[kRigPoseParams + kMaxParams];
+  effective(j, given, a);
+  im.q_frame = corrected(a, im.q_frame);
+  im.q_sensor = corrected(a + 6, im.q_sensor);
+  for (int k = 0; k < 3; ++k) {
+    im.t_frame[static_cast<std::size_t>(k)] = a[3 + k];
+    im.t_sensor[static_cast<std::size_t>(k)] = a[9 + k];
+  }
+  std::copy(a + kRigPoseParams, a + kRigPoseParams + im.params.size(), im.params.begin());
+  return im;
+}
+
+Camera RigCameraModel::camera(int j, const double *a) const {
+  const RigImage im = image(j, a);
+  Camera c;
+  c.model = im.model;
+  c.params = im.params;
+  c.q = euclidean::normalized_rotation(euclidean::multiply(im.q_sensor, im.q_frame));
+  double Rs[9];
+  euclidean::rotation_matrix(im.q_sensor, Rs);
+  sbaeuc_mat3_vec(Rs, im.t_frame.data(), c.t.data());
+  for (int k = 0; k < 3; ++k) c.t[static_cast<std::size_t>(k)] += im.t_sensor[static_cast<std::size_t>(k)];
+  return c;
+}
+
 namespace {
+
+// C = A B for row-major 3x3 matrices.
+void mat3_mul(const double *A, const double *B, double *C) {
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) C[r * 3 + c] = A[r * 3] * B[c] + A[r * 3 + 1] * B[3 + c] + A[r * 3 + 2] * B[6 + c];
+}
+
+// One rotation of the local parametrization: the correction at v and R(qs(v)) R0.
+struct LocalRotation {
+  const double *R0;
+  sbaeuc_correction qs;
+  double M[9];
+};
+
+LocalRotation local_rotation(const double *v, const double *R0) {
+  LocalRotation r;
+  r.R0 = R0;
+  r.qs = sbaeuc_correction_of(v);
+  double Rs[9];
+  sbaeuc_rotation_matrix(r.qs.w, r.qs.u[0], r.qs.u[1], r.qs.u[2], Rs);
+  mat3_mul(Rs, R0, r.M);
+  return r;
+}
+
+// d(R(qs(v)) R0 X)/dv (3x3) at the point X.
+void rotation_jacobian(const LocalRotation &r, const double X[3], double Jv[9]) {
+  double Y[3];
+  sbaeuc_mat3_vec(r.R0, X, Y);
+  sbaeuc_rotation_derivative(&r.qs, Y, Jv);
+}
+
+// A = H J for H 2x3 and J 3x3, into columns col..col+2 of the 2 x cnp A.
+void columns(const double *H, const double *J, int cnp, int col, double *A) {
+  for (int r = 0; r < 2; ++r)
+    for (int c = 0; c < 3; ++c)
+      A[r * cnp + col + c] = H[r * 3] * J[c] + H[r * 3 + 1] * J[3 + c] + H[r * 3 + 2] * J[6 + c];
+}
+
+// The camera model's pixels and derivatives at Xc: x, Jx = dx/dXc and the parameters' columns
+// of A (from col, then zero padding to cnp), the held columns zeroed afterwards by finish_A.
+void project_at(int model, int np, const double *params, const double Xc[3], int cnp, int col, double *x, double *A,
+                double Jx[6]) {
+  double Jp[2 * kMaxParams];
+  project(model, params, Xc, x, A ? Jp : nullptr, Jx);
+  if (!A) return;
+  for (int r = 0; r < 2; ++r) {
+    double *Ar = A + r * cnp;
+    for (int k = 0; k < np; ++k) Ar[col + k] = Jp[r * np + k];
+    for (int k = col + np; k < cnp; ++k) Ar[k] = 0.0;
+  }
+}
+
+void zero_held(const char *held, int cnp, double *A) {
+  if (held)
+    for (int r = 0; r < 2; ++r)
+      for (int k = 0; k < cnp; ++k)
+        if (held[k]) A[r * cnp + k] = 0.0;
+}
 
 // What a projection needs of camera j that does not depend on the point.
 struct Frame {
   int model, np;
   double a[kPoseParams + kMaxParams];  // the parameters, held ones at their initial values
   const char *held;                    // cnp flags, or null
-  const double *R0;
-  sbaeuc_correction qs;
-  double M[9];  // R(qs) R(q0_j)
+  LocalRotation rot;
   // Offsets into a rather than pointers: a Frame is copied.
   const double *params() const { return a + kPoseParams; }
   const double *t() const { return a + 3; }
@@ -438,60 +583,88 @@ Frame frame_of(const CameraModel &model, int j, const double *a) {
   f.np = param_count(f.model);
   model.effective(j, a, f.a);
   f.held = model.held(j);
-  f.R0 = model.initial_rotation(j);
-  const double *R0 = f.R0;
-  f.qs = sbaeuc_correction_of(f.a);
-  double Rs[9];
-  sbaeuc_rotation_matrix(f.qs.w, f.qs.u[0], f.qs.u[1], f.qs.u[2], Rs);
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c)
-      f.M[r * 3 + c] = Rs[r * 3] * R0[c] + Rs[r * 3 + 1] * R0[3 + c] + Rs[r * 3 + 2] * R0[6 + c];
+  f.rot = local_rotation(f.a, model.initial_rotation(j));
   return f;
 }
 
 void eval(const Frame &f, int cnp, const double *b, double *x, double *A, double *B) {
   double Xc[3];
-  sbaeuc_mat3_vec(f.M, b, Xc);
+  sbaeuc_mat3_vec(f.rot.M, b, Xc);
   for (int r = 0; r < 3; ++r) Xc[r] += f.t()[r];
-  double Jp[2 * kMaxParams], Jx[6];
-  const bool jac = A || B;
-  project(f.model, f.params(), Xc, x, A ? Jp : nullptr, jac ? Jx : nullptr);
-  if (B)
-    for (int r = 0; r < 2; ++r)
-      for (int c = 0; c < 3; ++c)
-        B[r * 3 + c] = Jx[r * 3] * f.M[c] + Jx[r * 3 + 1] * f.M[3 + c] + Jx[r * 3 + 2] * f.M[6 + c];
+  double Jx[6];
+  project_at(f.model, f.np, f.params(), Xc, cnp, kPoseParams, x, A, (A || B) ? Jx : nullptr);
+  if (B) columns(Jx, f.rot.M, 3, 0, B);
   if (!A) return;
-  double Y[3], Jv[9];
-  sbaeuc_mat3_vec(f.R0, b, Y);
-  sbaeuc_rotation_derivative(&f.qs, Y, Jv);
-  for (int r = 0; r < 2; ++r) {
-    double *Ar = A + r * cnp;
-    const double *H = Jx + r * 3;
+  double Jv[9];
+  rotation_jacobian(f.rot, b, Jv);
+  columns(Jx, Jv, cnp, 0, A);
+  for (int r = 0; r < 2; ++r)
+    for (int c = 0; c < 3; ++c) A[r * cnp + 3 + c] = Jx[r * 3 + c];
+  zero_held(f.held, cnp, A);
+}
+
+// What a projection needs of rig image j that does not depend on the point.
+struct RigFrame {
+  int model, np;
+  double a[kRigPoseParams + kMaxParams];  // the parameters, held ones at their initial values
+  const char *held;                       // cnp flags, or null
+  LocalRotation frame, sensor;            // R_f and R_s
+  double M[9];                            // R_s R_f: d X_c / d X
+  const double *params() const { return a + kRigPoseParams; }
+  const double *t_frame() const { return a + 3; }
+  const double *t_sensor() const { return a + 9; }
+};
+
+RigFrame frame_of(const RigCameraModel &model, int j, const double *a) {
+  RigFrame f;
+  f.model = model.input_image(j).model;
+  f.np = param_count(f.model);
+  model.effective(j, a, f.a);
+  f.held = model.held(j);
+  f.frame = local_rotation(f.a, model.initial_frame_rotation(j));
+  f.sensor = local_rotation(f.a + 6, model.initial_sensor_rotation(j));
+  mat3_mul(f.sensor.M, f.frame.M, f.M);
+  return f;
+}
+
+// X_r = R_f X + t_f in the rig, X_c = R_s X_r + t_s: dX_c/dv_f = R_s dR_f X/dv_f, dX_c/dt_f =
+// R_s, dX_c/dv_s = dR_s X_r/dv_s, dX_c/dt_s = I, dX_c/dX = R_s R_f.
+void eval(const RigFrame &f, int cnp, const double *b, double *x, double *A, double *B) {
+  double Xr[3], Xc[3];
+  sbaeuc_mat3_vec(f.frame.M, b, Xr);
+  for (int r = 0; r < 3; ++r) Xr[r] += f.t_frame()[r];
+  sbaeuc_mat3_vec(f.sensor.M, Xr, Xc);
+  for (int r = 0; r < 3; ++r) Xc[r] += f.t_sensor()[r];
+  double Jx[6];
+  project_at(f.model, f.np, f.params(), Xc, cnp, kRigPoseParams, x, A, (A || B) ? Jx : nullptr);
+  if (B) columns(Jx, f.M, 3, 0, B);
+  if (!A) return;
+  double H[6], Jv[9];  // H = dx/dX_r = Jx R_s
+  columns(Jx, f.sensor.M, 3, 0, H);
+  rotation_jacobian(f.frame, b, Jv);
+  columns(H, Jv, cnp, 0, A);
+  rotation_jacobian(f.sensor, Xr, Jv);
+  columns(Jx, Jv, cnp, 6, A);
+  for (int r = 0; r < 2; ++r)
     for (int c = 0; c < 3; ++c) {
-      Ar[c] = H[0] * Jv[c] + H[1] * Jv[3 + c] + H[2] * Jv[6 + c];
-      Ar[3 + c] = H[c];
+      A[r * cnp + 3 + c] = H[r * 3 + c];
+      A[r * cnp + 9 + c] = Jx[r * 3 + c];
     }
-    for (int k = 0; k < f.np; ++k) Ar[kPoseParams + k] = Jp[r * f.np + k];
-    for (int k = kPoseParams + f.np; k < cnp; ++k) Ar[k] = 0.0;
-    if (f.held)
-      for (int k = 0; k < cnp; ++k)
-        if (f.held[k]) Ar[k] = 0.0;
-  }
+  zero_held(f.held, cnp, A);
 }
 
 inline std::size_t off(int index, int stride) {
   return static_cast<std::size_t>(index) * static_cast<std::size_t>(stride);
 }
 
-const CameraModel &model_of(void *adata) { return *static_cast<const CameraModel *>(adata); }
-
-// The frames of the cameras the rows of idx see, set up once per call rather than once per
-// projection. A call may be given a part of the rows (parallel_callbacks): it prepares only
-// what those rows use.
-template <typename F>
-void for_each_projection(const CameraModel &model, const double *p, const sba_crsm &idx, F &&f) {
+// Calls f(i, frame of camera j, ordinal) for every projection of the rows of idx, the frames
+// of the cameras those rows see set up once per call rather than once per projection. A call
+// may be given a part of the rows (parallel_callbacks): it prepares only what those rows use.
+template <typename Model, typename F>
+void for_each_projection(const Model &model, const double *p, const sba_crsm &idx, F &&f) {
   const int m = model.ncameras(), cnp = model.cnp();
-  std::vector<Frame> frames(static_cast<std::size_t>(m));
+  using Prepared = decltype(frame_of(model, 0, p));
+  std::vector<Prepared> frames(static_cast<std::size_t>(m));
   std::vector<char> ready(static_cast<std::size_t>(m), 0);
   for (int i = 0; i < idx.nr; ++i)
     for (int e = idx.rowptr[i]; e < idx.rowptr[i + 1]; ++e) {
@@ -504,37 +677,55 @@ void for_each_projection(const CameraModel &model, const double *p, const sba_cr
     }
 }
 
-}  // namespace
-
-void CameraModel::effective(int j, const double *a, double *out) const {
-  const char *h = held(j);
-  const double *a0 = initial_camera(j);
-  for (int k = 0; k < cnp_; ++k) out[k] = h && h[k] ? a0[k] : a[k];
-}
-
-void CameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const {
-  const Frame f = frame_of(*this, j, a);
-  eval(f, cnp_, b, x, A, B);
-}
-
-void motstr_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
-  const CameraModel &model = model_of(adata);
+// The expert callbacks of either model (adata a Model): hx, or A_ij then B_ij, at each
+// projection's ordinal.
+template <typename Model>
+void func_of(const double *p, const sba_crsm &idx, double *hx, void *adata) {
+  const Model &model = *static_cast<const Model *>(adata);
   const int cnp = model.cnp();
   const double *pb = p + off(model.ncameras(), cnp);
-  for_each_projection(model, p, *idx, [&](int i, const Frame &f, int k) {
+  for_each_projection(model, p, idx, [&](int i, const auto &f, int k) {
     eval(f, cnp, pb + off(i, kPointParams), hx + off(k, kMeasurementParams), nullptr, nullptr);
   });
 }
 
-void motstr_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adata) {
-  const CameraModel &model = model_of(adata);
+template <typename Model>
+void fjac_of(const double *p, const sba_crsm &idx, double *jac, void *adata) {
+  const Model &model = *static_cast<const Model *>(adata);
   const int cnp = model.cnp();
   const double *pb = p + off(model.ncameras(), cnp);
   const int block = kMeasurementParams * (cnp + kPointParams);
-  for_each_projection(model, p, *idx, [&](int i, const Frame &f, int k) {
+  for_each_projection(model, p, idx, [&](int i, const auto &f, int k) {
     double *A = jac + off(k, block);
     eval(f, cnp, pb + off(i, kPointParams), nullptr, A, A + kMeasurementParams * cnp);
   });
+}
+
+}  // namespace
+
+void CameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const {
+  eval(frame_of(*this, j, a), cnp(), b, x, A, B);
+}
+
+void RigCameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A,
+                                      double *B) const {
+  eval(frame_of(*this, j, a), cnp(), b, x, A, B);
+}
+
+void motstr_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
+  func_of<CameraModel>(p, *idx, hx, adata);
+}
+
+void motstr_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adata) {
+  fjac_of<CameraModel>(p, *idx, jac, adata);
+}
+
+void rig_motstr_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
+  func_of<RigCameraModel>(p, *idx, hx, adata);
+}
+
+void rig_motstr_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adata) {
+  fjac_of<RigCameraModel>(p, *idx, jac, adata);
 }
 
 }  // namespace sbacameras::colmap_camera

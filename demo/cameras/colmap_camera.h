@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // COLMAP's eighteen camera models (docs/formats.md, "COLMAP sparse models") with analytic
-// derivatives, and the sba camera model built on them for sbarefine.
+// derivatives, and the sba camera models built on them for sbarefine: one of an image with a
+// pose of its own, one of an image of a rig (COLMAP 4's frames and rigs).
 //
 // Most models map a point X_c of the camera frame to pixels through u = X/Z, v = Y/Z, then the
 // model's distortion (u, v) -> (u_d, v_d), then x = fx u_d + cx, y = fy v_d + cy (f for both
@@ -125,27 +126,13 @@ struct Camera {
   std::array<double, 3> t{};
 };
 
-// The sba camera model of a set of such cameras. Camera parameter vector a_j (cnp values):
-//   (v1 v2 v3  t1 t2 t3  params of camera j's model  zero padding)
-// The rotation is euclidean.h's local parametrization: R(qs(v)) R(q0_j), v = 0 at the start.
-// cnp = camera_params(the largest parameter count among the cameras), so that cameras of
-// different models share one layout; the padding slots do not enter the projection (zero
-// Jacobian columns) and the caller holds them (sba_ext_options::cam_fixed). The model is
-// immutable once built: the callbacks keep no state and may run on any number of threads at
-// once.
-class CameraModel {
+// What the two sba camera models below keep alike: cnp, every camera's initial parameter
+// vector, the initial points and the held flags, and how a parameter vector is read through
+// them.
+class SbaCameraModel {
  public:
-  // held: empty, or cnp flags per camera (camera j's at j*cnp, as sba_ext_options::cam_fixed
-  // with cam_fixed_per_camera): a held parameter is read from the initial camera whatever p
-  // holds, and its Jacobian column is zero, so that finite differences (the Jacobian check)
-  // and a solve that does not hold it see the same model as one that does.
-  // Throws std::invalid_argument for an unknown model id, a parameter count that is not the
-  // model's, a zero quaternion, points whose count is not a multiple of 3 or held flags of
-  // another size than m*cnp.
-  CameraModel(const std::vector<Camera> &cameras, std::vector<double> points, std::vector<char> held = {});
-
   int cnp() const { return cnp_; }
-  int ncameras() const { return static_cast<int>(cameras0_.size()); }
+  int ncameras() const { return m_; }
   int npoints() const { return static_cast<int>(points0_.size() / kPointParams); }
   const std::vector<double> &initial_camera_params() const { return cams0_; }
   const std::vector<double> &initial_points() const { return points0_; }
@@ -156,6 +143,39 @@ class CameraModel {
   }
   // a with camera j's held parameters replaced by their initial values (cnp values to out).
   void effective(int j, const double *a, double *out) const;
+
+ protected:
+  // Throws std::invalid_argument for points whose count is not a multiple of 3 or held flags
+  // of another size than m*cnp; the initial parameters are m*cnp zeros for the caller to fill.
+  SbaCameraModel(int m, int cnp, std::vector<double> points, std::vector<char> held);
+  double *initial_camera(int j) { return cams0_.data() + static_cast<std::size_t>(j) * cnp_; }
+
+ private:
+  int m_, cnp_;
+  std::vector<char> held_;       // m*cnp flags, or empty
+  std::vector<double> cams0_;    // m*cnp initial camera parameters
+  std::vector<double> points0_;  // n*3
+};
+
+// The sba camera model of a set of such cameras. Camera parameter vector a_j (cnp values):
+//   (v1 v2 v3  t1 t2 t3  params of camera j's model  zero padding)
+// The rotation is euclidean.h's local parametrization: R(qs(v)) R(q0_j), v = 0 at the start.
+// cnp = camera_params(the largest parameter count among the cameras), so that cameras of
+// different models share one layout; the padding slots do not enter the projection (zero
+// Jacobian columns) and the caller holds them (sba_ext_options::cam_fixed). The model is
+// immutable once built: the callbacks keep no state and may run on any number of threads at
+// once.
+class CameraModel : public SbaCameraModel {
+ public:
+  // held: empty, or cnp flags per camera (camera j's at j*cnp, as sba_ext_options::cam_fixed
+  // with cam_fixed_per_camera): a held parameter is read from the initial camera whatever p
+  // holds, and its Jacobian column is zero, so that finite differences (the Jacobian check)
+  // and a solve that does not hold it see the same model as one that does.
+  // Throws std::invalid_argument for an unknown model id, a parameter count that is not the
+  // model's, a zero quaternion, points whose count is not a multiple of 3 or held flags of
+  // another size than m*cnp.
+  CameraModel(const std::vector<Camera> &cameras, std::vector<double> points, std::vector<char> held = {});
+
   const Camera &input_camera(int j) const { return cameras0_[static_cast<std::size_t>(j)]; }
   // R(q0_j), row-major.
   const double *initial_rotation(int j) const { return R0_.data() + static_cast<std::size_t>(j) * 9; }
@@ -171,12 +191,8 @@ class CameraModel {
   }
 
  private:
-  int cnp_ = kPoseParams;
-  std::vector<char> held_;        // m*cnp flags, or empty
   std::vector<Camera> cameras0_;  // q0_j unit with w >= 0
   std::vector<double> R0_;        // R(q0_j), 9 per camera
-  std::vector<double> cams0_;     // m*cnp initial camera parameters
-  std::vector<double> points0_;   // n*3
 };
 
 inline void *as_adata(const CameraModel &model) {
@@ -189,6 +205,73 @@ inline void *as_adata(const CameraModel &model) {
 // they are safe with sba_ext_options::parallel_callbacks.
 void motstr_func(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata);
 void motstr_fjac(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata);
+
+// ---- the images of camera rigs (COLMAP 4's rigs and frames) ----
+
+constexpr int kRigPoseParams = 12;  // the frame's v t, then the sensor's v t
+
+// An image of a rig as sbarefine refines it: a COLMAP model and its parameters, the pose of
+// its frame (rig_from_world: X_r = R(q_frame) X + t_frame) and the pose of its camera in the
+// rig (sensor_from_rig: X_c = R(q_sensor) X_r + t_sensor; the identity for the rig's
+// reference camera).
+struct RigImage {
+  int model = kSimplePinhole;
+  std::vector<double> params;
+  euclidean::Quaternion q_frame;
+  std::array<double, 3> t_frame{};
+  euclidean::Quaternion q_sensor;
+  std::array<double, 3> t_sensor{};
+};
+
+// The cnp of rig images whose largest parameter count is max_params: 12 + max_params, rounded
+// up to 16 (the library's largest fixed-size kernel) when it is below.
+int rig_camera_params(int max_params);
+
+// The sba camera model of the images of rigs: every image is an sba camera whose parameter
+// vector a_j (cnp values) is
+//   (v_f t_f  v_s t_s  params of image j's COLMAP camera  zero padding)
+// with X_c = R_s (R_f X + t_f) + t_s, R_f = R(qs(v_f)) R(q_frame), R_s = R(qs(v_s)) R(q_sensor)
+// in euclidean.h's local parametrization, v_f = v_s = 0 at the start. The images of one frame
+// start from one frame pose and the images of one camera from one sensor pose, so that the
+// caller can share these columns among them (sba_ext_options::cam_param_group): the frame's
+// pose by frame, the sensor's by camera, the intrinsics by COLMAP camera. Held flags,
+// padding and threads as CameraModel's.
+class RigCameraModel : public SbaCameraModel {
+ public:
+  // Throws std::invalid_argument as CameraModel's constructor does (a zero quaternion of
+  // either pose included).
+  RigCameraModel(const std::vector<RigImage> &images, std::vector<double> points, std::vector<char> held = {});
+
+  // Image j as given, both quaternions unit with w >= 0.
+  const RigImage &input_image(int j) const { return images0_[static_cast<std::size_t>(j)]; }
+  // R(q_frame) and R(q_sensor) of image j as given, row-major.
+  const double *initial_frame_rotation(int j) const { return R0_.data() + static_cast<std::size_t>(j) * 18; }
+  const double *initial_sensor_rotation(int j) const { return initial_frame_rotation(j) + 9; }
+
+  // Image j from its parameters a: the model's parameters, q_frame = qs(v_f) q_frame0 and
+  // q_sensor = qs(v_s) q_sensor0 (unit, w >= 0), the translations.
+  RigImage image(int j, const double *a) const;
+  // Image j as one camera: its parameters and its pose sensor_from_rig times rig_from_world.
+  Camera camera(int j, const double *a) const;
+
+  // As CameraModel's: x, A = dx/da (2 x cnp), B = dx/db (2 x 3), the callbacks' numbers.
+  void project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const;
+  void project(int j, const double *a, const double *b, double x[2]) const {
+    project_jacobian(j, a, b, x, nullptr, nullptr);
+  }
+
+ private:
+  std::vector<RigImage> images0_;  // quaternions unit with w >= 0
+  std::vector<double> R0_;         // R(q_frame), R(q_sensor): 18 per image
+};
+
+inline void *as_adata(const RigCameraModel &model) {
+  return const_cast<void *>(static_cast<const void *>(&model));
+}
+
+// The expert callbacks of a RigCameraModel (adata), as motstr_func and motstr_fjac.
+void rig_motstr_func(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata);
+void rig_motstr_fjac(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata);
 
 }  // namespace sbacameras::colmap_camera
 

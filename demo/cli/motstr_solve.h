@@ -41,6 +41,7 @@ struct MotstrInputs {
   int cam_fixed_per_camera = 0;
   const int *cam_group = nullptr;
   const char *cam_shared = nullptr;
+  const int *cam_param_group = nullptr;
 };
 
 class MotstrSolve {
@@ -81,6 +82,7 @@ class MotstrSolve {
     ext.cam_fixed_per_camera = in.cam_fixed_per_camera;
     ext.cam_group = in.cam_group;
     ext.cam_shared = in.cam_shared;
+    ext.cam_param_group = in.cam_param_group;
     // The time limit and the iteration times count from the solve's start, not from what the
     // program did before it (an initial PLY file, say).
     control_.emplace(so_.max_time, &progress_);

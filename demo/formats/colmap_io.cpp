@@ -129,10 +129,10 @@ Pose rig_pose(const Pose &s, const std::array<double, 4> &q, const std::array<do
   return f;
 }
 
-// An image's place among the frames: its frame (an index into Model::frames), and its
-// camera's pose in the frame's rig, null for the rig's reference sensor.
-struct Placement {
-  std::size_t frame = IdIndex::kNone;
+// An image's place among the frames: its frame, its rig and its camera's place in the rig
+// (ImagePlace), and its camera's pose in the frame's rig, null for the rig's reference sensor.
+struct Placement : ImagePlace {
+  Placement() { frame = IdIndex::kNone; }
   const Pose *sensor_from_rig = nullptr;
 };
 
@@ -188,7 +188,8 @@ bool place_images(const Model &model, const std::string &where, std::vector<Plac
         return fail(error, where + image + " is in frame " + std::to_string(model.frames[place[i].frame].id) +
                                " and in " + frame);
       place[i].frame = f;
-      const std::size_t k = sensor_at[s].second;
+      place[i].rig = r;
+      const std::size_t k = place[i].sensor = sensor_at[s].second;
       if (k == 0) continue;  // the reference sensor
       const RigSensor &sensor = rig.sensors[k];
       if (!sensor.has_pose)
@@ -243,6 +244,11 @@ void poses_from_frames(Model *model) {
     im.q = p.q;
     im.t = p.t;
   }
+}
+
+std::vector<ImagePlace> image_places(const Model &model) {
+  const std::vector<Placement> place = placements(model);
+  return {place.begin(), place.end()};
 }
 
 void frames_from_poses(Model *model, const std::vector<char> &posed) {

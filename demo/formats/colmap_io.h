@@ -191,6 +191,15 @@ bool check_model(const Model &model, const std::string &name, std::string *error
 // it for another sensor (a unit quaternion). Nothing changes in a model without them.
 void poses_from_frames(Model *model);
 
+// Where an image of a checked model with rigs and frames is: its frame (an index into
+// Model::frames), its frame's rig (into Model::rigs) and its camera among the rig's sensors
+// (0: the reference sensor).
+struct ImagePlace {
+  std::size_t frame = 0, rig = 0, sensor = 0;
+};
+// Each image's (one per Model::images).
+std::vector<ImagePlace> image_places(const Model &model);
+
 // The reverse, after the poses of some images have changed: the rig_from_world of the frame of
 // each image flagged in `posed` (one flag per Model::images) becomes the image's pose for the
 // reference sensor (the same bits), inverse(sensor_from_rig) times it for another, so that

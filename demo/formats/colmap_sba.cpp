@@ -164,80 +164,191 @@ std::string parse_image_names(const Model &model, const std::string &text, const
   return {};
 }
 
-bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::vector<char> &held_pose, int mcon,
-            const std::string &name, ColmapProblem *out, std::string *error) {
-  const std::string where = name + ": ";
-  std::unordered_map<std::uint32_t, int> camera_index, image_index;
-  for (std::size_t c = 0; c < model.cameras.size(); ++c) camera_index.emplace(model.cameras[c].id, static_cast<int>(c));
-  const int m = static_cast<int>(model.images.size());
-  const int n = static_cast<int>(model.points.size());
-  if (m == 0 || n == 0) return fail(error, where + "the model has no images or no points");
-  // Each image's pose is a free unknown: the images of a frame would leave their rig's shape.
-  if (model.has_rigs)
-    for (const Frame &f : model.frames) {
-      const auto images = std::count_if(f.data.begin(), f.data.end(),
-                                        [](const DataId &d) { return d.sensor.type == SensorType::Camera; });
-      if (images > 1)
-        return fail(error, where + "frame " + std::to_string(f.id) + " holds " + std::to_string(images) +
-                               " images (rig " + std::to_string(f.rig_id) +
-                               "): rigs of several cameras are not refined yet");
-    }
-  for (int j = 0; j < m; ++j) image_index.emplace(model.images[at(j)].id, j);
-  // An image is a camera of the problem when it sees a point (every point is seen: check_model).
-  std::vector<int> camera_of(at(m), -1);
-  for (const Point3D &pt : model.points)
-    for (const TrackElement &e : pt.track) camera_of[at(image_index.at(e.image_id))] = 0;
-  ColmapProblem p;
+std::size_t frames_of_several_images(const Model &model) {
+  return static_cast<std::size_t>(std::count_if(model.frames.begin(), model.frames.end(), [](const Frame &f) {
+    return std::count_if(f.data.begin(), f.data.end(),
+                         [](const DataId &d) { return d.sensor.type == SensorType::Camera; }) > 1;
+  }));
+}
+
+namespace {
+
+// Whether the model is refined through its rigs and frames (the rig camera model): when a
+// frame holds several images, which then share its pose, or when the options hold what the
+// frames' poses alone hold (COLMAP 4 then still refines the cameras' poses in their rigs). With
+// every pose of a frame of one image refined, its image's pose is a free pose of its own
+// however its camera sits in the rig: the model is refined as one without rigs, bit for bit.
+bool refined_as_rigs(const Model &model, const RefinePoses &poses) {
+  if (!model.has_rigs) return false;
+  return !poses.rig_from_world || poses.constant_rig_from_world_rotation || frames_of_several_images(model) > 0;
+}
+
+// Whether COLMAP's options hold parameter k of a camera of model `model` (the padding beyond
+// its parameters included).
+bool intrinsic_held(const RefineIntrinsics &refine, int model, int k) {
+  if (k >= cc::param_count(model)) return true;
+  switch (cc::param_kind(model, k)) {
+    case cc::ParamKind::Focal: return !refine.focal;
+    case cc::ParamKind::Principal: return !refine.principal;
+    case cc::ParamKind::Extra: return !refine.distortion;
+    case cc::ParamKind::Size: break;  // no COLMAP option refines it
+  }
+  return true;
+}
+
+// Holds the rotation (first 3) and the translation (last 3) of the pose at fixed as asked.
+void hold_pose(char *fixed, bool rotation, bool translation) {
+  if (rotation) std::fill_n(fixed, 3, 1);
+  if (translation) std::fill_n(fixed + 3, 3, 1);
+}
+
+// The rigged problem's cameras, held flags and groups (ColmapProblem), its cameras' images in
+// p->images; camera_index maps a CAMERA_ID to its index in Model::cameras.
+void rig_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
+                 const std::vector<char> &held_pose, int mcon,
+                 const std::unordered_map<std::uint32_t, int> &camera_index, ColmapProblem *p) {
+  const std::vector<ImagePlace> places = image_places(model);
+  const int ms = static_cast<int>(p->images.size());
+  p->rigged = true;
   int np = 0;
-  for (int j = 0; j < m; ++j) {
-    if (camera_of[at(j)] < 0) continue;
+  std::vector<int> camera(at(ms));  // each sba camera's index in Model::cameras
+  for (int j = 0; j < ms; ++j) {
+    const Image &im = model.images[at(p->images[at(j)])];
+    const ImagePlace &pl = places[at(p->images[at(j)])];
+    const Camera &c = model.cameras[at(camera[at(j)] = camera_index.at(im.camera_id))];
+    cc::RigImage r;
+    r.model = c.model;
+    r.params = c.params;
+    const Pose &f = model.frames[pl.frame].rig_from_world;
+    r.q_frame = {f.q[0], f.q[1], f.q[2], f.q[3]};
+    r.t_frame = f.t;
+    if (pl.sensor > 0) {  // the reference sensor's pose in its rig is the identity
+      const Pose &s = model.rigs[pl.rig].sensors[pl.sensor].sensor_from_rig;
+      r.q_sensor = {s.q[0], s.q[1], s.q[2], s.q[3]};
+      r.t_sensor = s.t;
+    }
+    np = std::max(np, cc::param_count(c.model));
+    p->rig_images.push_back(std::move(r));
+    p->places.push_back(pl);
+  }
+  const int cnp = p->cnp = cc::rig_camera_params(np);
+  // What holds a frame's pose, a camera's pose in its rig and its parameters in all their
+  // images: an image below mcon (held whole) or, for the poses, a held image.
+  std::vector<char> frame_held(model.frames.size(), poses.rig_from_world ? 0 : 1);
+  std::vector<char> sensor_held(model.cameras.size(), poses.sensor_from_rig ? 0 : 1);
+  std::vector<char> camera_held(model.cameras.size(), 0);
+  std::vector<char> frame_used(model.frames.size(), 0), sensor_used(model.cameras.size(), 0),
+      camera_used(model.cameras.size(), 0);
+  for (int j = 0; j < ms; ++j) {
+    const ImagePlace &pl = p->places[at(j)];
+    const int c = camera[at(j)];
+    const bool held = j < mcon || (!held_pose.empty() && held_pose[at(p->images[at(j)])]);
+    if (held) frame_held[pl.frame] = sensor_held[at(c)] = 1;
+    if (j < mcon) camera_held[at(c)] = 1;
+    p->held_poses += held_pose.empty() ? 0 : held_pose[at(p->images[at(j)])];
+    ++camera_used[at(c)];
+    frame_used[pl.frame] = 1;
+    sensor_used[at(c)] = pl.sensor > 0;
+  }
+  for (std::size_t f = 0; f < frame_used.size(); ++f) {
+    p->frames += frame_used[f];
+    p->held_frames += frame_used[f] && frame_held[f];
+  }
+  for (std::size_t c = 0; c < sensor_used.size(); ++c) {
+    p->sensors += sensor_used[c];
+    p->held_sensors += sensor_used[c] && sensor_held[c];
+    p->shared_cameras += camera_used[c] > 1 && !camera_held[c];
+  }
+  p->cam_fixed.assign(at(ms) * at(cnp), 0);
+  p->cam_param_group.assign(at(ms) * at(cnp), -1);
+  for (int j = 0; j < ms; ++j) {
+    const ImagePlace &pl = p->places[at(j)];
+    const int c = camera[at(j)], model_id = model.cameras[at(c)].model;
+    char *fixed = &p->cam_fixed[at(j) * at(cnp)];
+    int *group = &p->cam_param_group[at(j) * at(cnp)];
+    const bool reference = pl.sensor == 0;
+    hold_pose(fixed, frame_held[pl.frame] || poses.constant_rig_from_world_rotation, frame_held[pl.frame]);
+    hold_pose(fixed + 6, reference || sensor_held[at(c)], reference || sensor_held[at(c)]);
+    for (int k = 0; k < cnp - cc::kRigPoseParams; ++k)
+      fixed[cc::kRigPoseParams + k] = camera_held[at(c)] || intrinsic_held(refine, model_id, k) ? 1 : 0;
+    if (j < mcon) continue;  // a camera below mcon shares nothing
+    std::fill_n(group, 6, static_cast<int>(pl.frame));
+    if (!reference) std::fill_n(group + 6, 6, c);
+    std::fill(group + cc::kRigPoseParams, group + cnp, c);
+  }
+}
+
+// The unrigged problem's cameras, held flags and groups (ColmapProblem), as rig_problem.
+void image_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
+                   const std::vector<char> &held_pose, int mcon,
+                   const std::unordered_map<std::uint32_t, int> &camera_index, ColmapProblem *p) {
+  int np = 0;
+  for (int j : p->images) {
     const Image &im = model.images[at(j)];
     const Camera &c = model.cameras[at(camera_index.at(im.camera_id))];
-    camera_of[at(j)] = static_cast<int>(p.cameras.size());
     cc::Camera cam;
     cam.model = c.model;
     cam.params = c.params;
     cam.q = {im.q[0], im.q[1], im.q[2], im.q[3]};
     for (int k = 0; k < 3; ++k) cam.t[at(k)] = im.t[at(k)];
     np = std::max(np, cc::param_count(c.model));
-    p.cameras.push_back(std::move(cam));
-    p.images.push_back(j);
+    p->cameras.push_back(std::move(cam));
   }
-  const int ms = static_cast<int>(p.cameras.size());
-  const int cnp = p.cnp = cc::camera_params(np);
+  const int ms = static_cast<int>(p->cameras.size());
+  const int cnp = p->cnp = cc::camera_params(np);
   // Each COLMAP camera's sba cameras; one below mcon holds the camera's parameters in all.
   std::vector<std::vector<int>> users(model.cameras.size());
-  for (int j = 0; j < ms; ++j) users[at(camera_index.at(model.images[at(p.images[at(j)])].camera_id))].push_back(j);
-  p.cam_fixed.assign(at(ms) * at(cnp), 0);
-  p.cam_group.assign(at(ms), -1);
-  p.cam_shared.assign(at(cnp), 0);
-  for (int k = cc::kPoseParams; k < cnp; ++k) p.cam_shared[at(k)] = 1;
+  for (int j = 0; j < ms; ++j) users[at(camera_index.at(model.images[at(p->images[at(j)])].camera_id))].push_back(j);
+  p->cam_fixed.assign(at(ms) * at(cnp), 0);
+  p->cam_group.assign(at(ms), -1);
+  p->cam_shared.assign(at(cnp), 0);
+  for (int k = cc::kPoseParams; k < cnp; ++k) p->cam_shared[at(k)] = 1;
   for (std::size_t c = 0; c < users.size(); ++c) {
     const std::vector<int> &u = users[c];
     if (u.empty()) continue;
     const bool below_mcon = u.front() < mcon;  // u ascends
-    const int model_id = model.cameras[c].model, count = cc::param_count(model_id);
     for (int j : u) {
-      char *fixed = &p.cam_fixed[at(j) * at(cnp)];
-      for (int k = 0; k < cnp - cc::kPoseParams; ++k) {
-        bool held = below_mcon || k >= count;
-        if (!held) switch (cc::param_kind(model_id, k)) {
-            case cc::ParamKind::Focal: held = !refine.focal; break;
-            case cc::ParamKind::Principal: held = !refine.principal; break;
-            case cc::ParamKind::Extra: held = !refine.distortion; break;
-            case cc::ParamKind::Size: held = true; break;  // no COLMAP option refines it
-          }
-        fixed[cc::kPoseParams + k] = held ? 1 : 0;
-      }
-      if (u.size() > 1 && !below_mcon) p.cam_group[at(j)] = u.front();
+      char *fixed = &p->cam_fixed[at(j) * at(cnp)];
+      for (int k = 0; k < cnp - cc::kPoseParams; ++k)
+        fixed[cc::kPoseParams + k] = below_mcon || intrinsic_held(refine, model.cameras[c].model, k) ? 1 : 0;
+      if (u.size() > 1 && !below_mcon) p->cam_group[at(j)] = u.front();
     }
-    if (u.size() > 1 && !below_mcon) ++p.shared_cameras;
+    if (u.size() > 1 && !below_mcon) ++p->shared_cameras;
   }
-  for (int j = 0; j < ms; ++j)
-    if (!held_pose.empty() && held_pose[at(p.images[at(j)])]) {
-      std::fill_n(&p.cam_fixed[at(j) * at(cnp)], cc::kPoseParams, 1);
-      ++p.held_poses;
+  for (int j = 0; j < ms; ++j) {
+    const bool held = !poses.rig_from_world || (!held_pose.empty() && held_pose[at(p->images[at(j)])]);
+    hold_pose(&p->cam_fixed[at(j) * at(cnp)], held || poses.constant_rig_from_world_rotation, held);
+    p->held_poses += held;
+  }
+}
+
+}  // namespace
+
+bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
+            const std::vector<char> &held_pose, int mcon, const std::string &name, ColmapProblem *out,
+            std::string *error) {
+  const std::string where = name + ": ";
+  std::unordered_map<std::uint32_t, int> camera_index, image_index;
+  for (std::size_t c = 0; c < model.cameras.size(); ++c) camera_index.emplace(model.cameras[c].id, static_cast<int>(c));
+  const int m = static_cast<int>(model.images.size());
+  const int n = static_cast<int>(model.points.size());
+  if (m == 0 || n == 0) return fail(error, where + "the model has no images or no points");
+  for (int j = 0; j < m; ++j) image_index.emplace(model.images[at(j)].id, j);
+  // An image is a camera of the problem when it sees a point (every point is seen: check_model).
+  std::vector<int> camera_of(at(m), -1);
+  for (const Point3D &pt : model.points)
+    for (const TrackElement &e : pt.track) camera_of[at(image_index.at(e.image_id))] = 0;
+  ColmapProblem p;
+  for (int j = 0; j < m; ++j)
+    if (camera_of[at(j)] >= 0) {
+      camera_of[at(j)] = static_cast<int>(p.images.size());
+      p.images.push_back(j);
     }
+  if (refined_as_rigs(model, poses))
+    rig_problem(model, refine, poses, held_pose, mcon, camera_index, &p);
+  else
+    image_problem(model, refine, poses, held_pose, mcon, camera_index, &p);
+  const int ms = static_cast<int>(p.images.size());
   eucsba::PointSet &s = p.points;
   s.ncameras = ms;
   s.xyz.reserve(at(n) * 3);
@@ -265,33 +376,27 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::vecto
   return true;
 }
 
-void from_sba(const cc::CameraModel &sba_model, const ColmapProblem &problem, const double *p, int mcon, int ncon,
-              Model *model) {
+namespace {
+
+// Writes a refined pose over (*q, *t): the rotation unless its 3 parameters are all held, the
+// translation unless its 3 are, so that a held part keeps the bits it was read with (the
+// parametrization's round trip would move them). Whether anything was written.
+bool write_pose(const char *fixed, const sbacameras::euclidean::Quaternion &q, const std::array<double, 3> &t,
+                std::array<double, 4> *q_out, std::array<double, 3> *t_out) {
+  const auto held = [](const char *f) { return f[0] && f[1] && f[2]; };
+  if (!held(fixed)) *q_out = {q.w, q.x, q.y, q.z};
+  if (!held(fixed + 3)) *t_out = t;
+  return !held(fixed) || !held(fixed + 3);
+}
+
+// Each refined point (from ncon on) from p, its ERROR the mean distance in pixels between its
+// observations and project(j, a_j, b_i, x).
+template <typename Project>
+void write_points(const ColmapProblem &problem, const double *p, int cnp, int ncon, Project project, Model *model) {
   const int m = static_cast<int>(problem.images.size());
   const int n = static_cast<int>(model->points.size());
-  const int cnp = sba_model.cnp();
-  std::unordered_map<std::uint32_t, Camera *> cameras;
-  for (Camera &c : model->cameras) cameras.emplace(c.id, &c);
   std::unordered_map<std::uint32_t, int> camera_of;  // an image's sba camera
-  std::vector<char> posed(model->images.size(), 0);  // the images whose pose is written
-  for (int j = 0; j < m; ++j) {
-    Image &im = model->images[at(problem.images[at(j)])];
-    camera_of.emplace(im.id, j);
-    if (j < mcon) continue;
-    const char *fixed = &problem.cam_fixed[at(j) * at(cnp)];
-    const cc::Camera c = sba_model.camera(j, p + at(j) * at(cnp));
-    // A held pose is not written: the parametrization's round trip would move its last bits.
-    if (!std::all_of(fixed, fixed + cc::kPoseParams, [](char f) { return f != 0; })) {
-      im.q = {c.q.w, c.q.x, c.q.y, c.q.z};
-      for (int k = 0; k < 3; ++k) im.t[at(k)] = c.t[at(k)];
-      posed[at(problem.images[at(j)])] = 1;
-    }
-    const int group = problem.cam_group[at(j)];
-    if (group >= 0 && group != j) continue;  // the group's first camera writes it
-    Camera *cam = cameras.at(im.camera_id);
-    for (std::size_t k = 0; k < cam->params.size(); ++k)
-      if (!fixed[cc::kPoseParams + k]) cam->params[k] = c.params[k];
-  }
+  for (int j = 0; j < m; ++j) camera_of.emplace(model->images[at(problem.images[at(j)])].id, j);
   const double *points = p + at(m) * at(cnp);
   for (int i = ncon; i < n; ++i) {
     Point3D &pt = model->points[at(i)];
@@ -302,13 +407,74 @@ void from_sba(const cc::CameraModel &sba_model, const ColmapProblem &problem, co
       const int j = camera_of.at(e.image_id);
       const Point2D &obs = model->images[at(problem.images[at(j)])].points[e.point2d_idx];
       double x[2];
-      sba_model.project(j, p + at(j) * at(cnp), b, x);
+      project(j, p + at(j) * at(cnp), b, x);
       sum += std::hypot(x[0] - obs.x, x[1] - obs.y);
     }
     pt.error = sum / static_cast<double>(pt.track.size());
   }
+}
+
+// The parameters of COLMAP camera `cam` that are not held (fixed: its intrinsics' flags) from
+// params.
+void write_params(const char *fixed, const std::vector<double> &params, Camera *cam) {
+  for (std::size_t k = 0; k < cam->params.size(); ++k)
+    if (!fixed[k]) cam->params[k] = params[k];
+}
+
+}  // namespace
+
+void from_sba(const cc::CameraModel &sba_model, const ColmapProblem &problem, const double *p, int mcon, int ncon,
+              Model *model) {
+  const int m = static_cast<int>(problem.images.size());
+  const int cnp = sba_model.cnp();
+  std::unordered_map<std::uint32_t, Camera *> cameras;
+  for (Camera &c : model->cameras) cameras.emplace(c.id, &c);
+  std::vector<char> posed(model->images.size(), 0);  // the images whose pose is written
+  for (int j = mcon; j < m; ++j) {
+    Image &im = model->images[at(problem.images[at(j)])];
+    const char *fixed = &problem.cam_fixed[at(j) * at(cnp)];
+    const cc::Camera c = sba_model.camera(j, p + at(j) * at(cnp));
+    posed[at(problem.images[at(j)])] = write_pose(fixed, c.q, c.t, &im.q, &im.t);
+    const int group = problem.cam_group[at(j)];
+    if (group >= 0 && group != j) continue;  // the group's first camera writes it
+    write_params(fixed + cc::kPoseParams, c.params, cameras.at(im.camera_id));
+  }
+  write_points(problem, p, cnp, ncon,
+               [&](int j, const double *a, const double *b, double *x) { sba_model.project(j, a, b, x); }, model);
   // COLMAP 4 reads the poses from the frames (each of one image: to_sba).
   frames_from_poses(model, posed);
+}
+
+void from_sba(const cc::RigCameraModel &sba_model, const ColmapProblem &problem, const double *p, int mcon,
+              int ncon, Model *model) {
+  const int m = static_cast<int>(problem.images.size());
+  const int cnp = sba_model.cnp();
+  std::unordered_map<std::uint32_t, Camera *> cameras;
+  for (Camera &c : model->cameras) cameras.emplace(c.id, &c);
+  // Each frame, sensor and COLMAP camera is written once, from its first sba camera: all of
+  // them hold the same values.
+  std::vector<char> frame_done(model->frames.size(), 0);
+  std::unordered_map<std::uint32_t, char> camera_done;
+  for (int j = mcon; j < m; ++j) {
+    const ImagePlace &pl = problem.places[at(j)];
+    const char *fixed = &problem.cam_fixed[at(j) * at(cnp)];
+    const cc::RigImage r = sba_model.image(j, p + at(j) * at(cnp));
+    if (!frame_done[pl.frame]) {
+      Pose &f = model->frames[pl.frame].rig_from_world;
+      write_pose(fixed, r.q_frame, r.t_frame, &f.q, &f.t);
+      frame_done[pl.frame] = 1;
+    }
+    const std::uint32_t camera_id = model->images[at(problem.images[at(j)])].camera_id;
+    if (camera_done[camera_id]++) continue;
+    if (pl.sensor > 0) {
+      Pose &s = model->rigs[pl.rig].sensors[pl.sensor].sensor_from_rig;
+      write_pose(fixed + 6, r.q_sensor, r.t_sensor, &s.q, &s.t);
+    }
+    write_params(fixed + cc::kRigPoseParams, r.params, cameras.at(camera_id));
+  }
+  write_points(problem, p, cnp, ncon,
+               [&](int j, const double *a, const double *b, double *x) { sba_model.project(j, a, b, x); }, model);
+  poses_from_frames(model);
 }
 
 bool to_euclidean(const cc::Camera &c, sbacameras::euclidean::Camera *out) {

@@ -12,10 +12,20 @@
 // COLMAP's bundle adjustment options the focal length (f or fx fy), the principal point
 // (cx cy), the extra parameters (the rest), and the poses of the images the caller names.
 //
+// A model whose frames hold several images (rigs of several cameras exposed together, COLMAP
+// 4), or one with rigs and frames whose frames' poses are held in part or whole (COLMAP 4's
+// options), is refined as COLMAP 4 refines it: every image that sees a point is an sba camera of the
+// rig camera model, a_j = (frame pose | sensor pose | params padding) (colmap_camera.h), and
+// sba_ext_options::cam_param_group shares each frame's pose among its images, each camera's
+// pose in its rig among the frames, and each COLMAP camera's parameters among its images; a
+// rig's reference camera has the identity for its pose there, held. A frame's images then
+// keep one rig pose, and a camera one pose in its rig, bit for bit.
+//
 // NVM files (nvm_io.h) still map onto eucsbademo's camera (SbaProblem below).
 #ifndef SBA_DEMO_COLMAP_SBA_H
 #define SBA_DEMO_COLMAP_SBA_H
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -33,6 +43,16 @@ struct RefineIntrinsics {
   bool focal = true;
   bool principal = false;
   bool distortion = true;
+};
+
+// What is refined of the poses, with the names and defaults of COLMAP 4's bundle adjuster:
+// refine_rig_from_world (the frames' poses; without rigs, the images'), refine_sensor_from_rig
+// (the cameras' poses in their rigs) and constant_rig_from_world_rotation (the frames' rotations
+// held, their translations refined).
+struct RefinePoses {
+  bool rig_from_world = true;
+  bool sensor_from_rig = true;
+  bool constant_rig_from_world_rotation = false;
 };
 
 // Parses "none", "all" or a comma-separated list of focal, principal, distortion. Returns
@@ -58,7 +78,18 @@ struct ColmapProblem {
   std::vector<char> cam_shared;  // cnp: the parameter slots (not the pose) a group shares
   int shared_cameras = 0;        // COLMAP cameras refined once for several images
   int held_poses = 0;            // images whose pose is held
+  // A model whose frames hold several images: cameras, cam_group and cam_shared are empty and
+  // these hold the problem instead.
+  bool rigged = false;
+  std::vector<sbacameras::colmap_camera::RigImage> rig_images;  // one per sba camera, as cameras
+  std::vector<ImagePlace> places;   // each sba camera's frame, rig and sensor
+  std::vector<int> cam_param_group;  // m*cnp: frame poses by frame, sensor poses by camera, intrinsics by camera
+  int frames = 0, held_frames = 0;    // the frames of the sba cameras, and those whose pose is held
+  int sensors = 0, held_sensors = 0;  // their cameras that are not a rig's reference, and those held
 };
+
+// The frames of the model that hold several images (none without rigs and frames).
+std::size_t frames_of_several_images(const Model &model);
 
 // Lists of images, for COLMAP's constant poses (sbarefine's --hold-poses and --hold-poses-file,
 // docs/formats.md). An item is matched as given, nothing trimmed: one of plain decimal digits
@@ -88,11 +119,21 @@ std::string parse_image_names(const Model &model, const std::string &text, const
 // empty for none). mcon: the sba cameras below it are held by the solve (sba's mcon); a COLMAP
 // camera that one of them uses has its parameters held in all its images, so that what is
 // written back is one calibration. An image that sees no point has no sba camera (nothing
-// places it): it is held out of the problem, and from_sba leaves it as it was. A model whose
-// frames hold several images (a rig of several cameras, whose images keep one rig pose) is
-// refused: its images' poses are not free unknowns.
-bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::vector<char> &held_pose, int mcon,
-            const std::string &name, ColmapProblem *out, std::string *error);
+// places it): it is held out of the problem, and from_sba leaves it as it was (in a rig, it
+// keeps its place in its frame).
+// Without rigs and frames, or with frames of one image each and poses.rig_from_world without
+// poses.constant_rig_from_world_rotation, each image's pose is its own 6 parameters, held for a
+// held_pose image, without poses.rig_from_world for every image (there are no rigs), its
+// rotation's 3 held with poses.constant_rig_from_world_rotation; poses.sensor_from_rig changes
+// nothing (a frame of one image, free, takes up any change of its camera's pose in the rig).
+// Otherwise (rigged), a frame's pose is held in all its images without poses.rig_from_world,
+// or when one of its images is a held_pose image or below mcon; its rotation with
+// poses.constant_rig_from_world_rotation; a camera's pose in its rig in all its images
+// without poses.sensor_from_rig, or when one of its images is a held_pose image or below mcon:
+// holding an image's pose holds both parts of it, so that it comes back as it was read.
+bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
+            const std::vector<char> &held_pose, int mcon, const std::string &name, ColmapProblem *out,
+            std::string *error);
 
 // Writes the estimate p (m cnp-vectors, then n points) back into the model: the poses of the
 // sba cameras from mcon on that are not held, the points from ncon on, the parameters of each
@@ -102,6 +143,14 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const std::vecto
 // Everything else stays as it was read, bit for bit.
 void from_sba(const sbacameras::colmap_camera::CameraModel &sba_model, const ColmapProblem &problem, const double *p,
               int mcon, int ncon, Model *model);
+
+// The same for a rigged problem: the pose of each frame and of each camera in its rig that is
+// not held (once: from their first sba camera from mcon on), the parameters of each COLMAP
+// camera that are not held, the points from ncon on and their ERROR; then every image's pose
+// is composed from its frame's (poses_from_frames), as COLMAP 4 reads it. A held rotation or
+// translation keeps its bits.
+void from_sba(const sbacameras::colmap_camera::RigCameraModel &sba_model, const ColmapProblem &problem,
+              const double *p, int mcon, int ncon, Model *model);
 
 // A camera of one of the five models eucsbademo's camera expresses (SIMPLE_PINHOLE, PINHOLE,
 // SIMPLE_RADIAL, RADIAL, OPENCV) as that camera; false for the others.

@@ -58,6 +58,8 @@ struct Options {
   std::string intrinsics = "focal,distortion";
   bool intrinsics_given = false;  // --intrinsics or a --refine-* option
   colmap::RefineIntrinsics refine;
+  colmap::RefinePoses poses;
+  bool poses_given = false;          // a --refine-rig-from-world or the like
   std::string hold_poses;            // COLMAP: the images whose pose is held; empty: none
   std::string hold_poses_file;       // COLMAP: a file of the names of more of them; empty: none
   double function_tolerance = -1;    // < 0: not given
@@ -106,15 +108,19 @@ std::vector<sbacli::Option> option_table(Options &o) {
                  o.intrinsics_given = true;
                  return colmap::parse_refine_intrinsics(v, &o.refine);
                }});
-  // COLMAP's names for the same choice, one flag each; the options apply in the order given,
-  // so a --refine-* after --intrinsics overrides that part of it, and one before is overridden.
-  const auto flag = [&o](bool colmap::RefineIntrinsics::*field) {
-    return [&o, field](const std::string &v) -> std::string {
+  // A 0|1 option: flag `field` of *flags, and *given set.
+  const auto zero_one = [](auto *flags, auto field, bool *given) {
+    return [flags, field, given](const std::string &v) -> std::string {
       if (v != "0" && v != "1") return "expected 0 or 1";
-      o.refine.*field = v == "1";
-      o.intrinsics_given = true;
+      flags->*field = v == "1";
+      *given = true;
       return {};
     };
+  };
+  // COLMAP's names for the same choice, one flag each; the options apply in the order given,
+  // so a --refine-* after --intrinsics overrides that part of it, and one before is overridden.
+  const auto flag = [&](bool colmap::RefineIntrinsics::*field) {
+    return zero_one(&o.refine, field, &o.intrinsics_given);
   };
   t.push_back({"refine-focal-length", "0|1",
                "COLMAP's refine_focal_length: refine f (or fx and fy) (default 1)", flag(&colmap::RefineIntrinsics::focal)});
@@ -124,10 +130,25 @@ std::vector<sbacli::Option> option_table(Options &o) {
                "COLMAP's refine_extra_params: refine the parameters after the principal point (the\n"
                "distortion; FOV's omega) (default 1)",
                flag(&colmap::RefineIntrinsics::distortion)});
+  // COLMAP 4's names for what is refined of the poses.
+  const auto pose_flag = [&](bool colmap::RefinePoses::*field) { return zero_one(&o.poses, field, &o.poses_given); };
+  t.push_back({"refine-rig-from-world", "0|1",
+               "COLMAP 4's refine_rig_from_world: refine the frames' poses (an image's, without rigs)\n"
+               "(default 1)",
+               pose_flag(&colmap::RefinePoses::rig_from_world)});
+  t.push_back({"refine-sensor-from-rig", "0|1",
+               "COLMAP 4's refine_sensor_from_rig: refine the poses of the cameras in their rigs, one\n"
+               "for all the frames of a rig (default 1; a rig's reference camera stays the identity)",
+               pose_flag(&colmap::RefinePoses::sensor_from_rig)});
+  t.push_back({"constant-rig-from-world-rotation", "0|1",
+               "COLMAP 4's constant_rig_from_world_rotation: hold the rotations of the frames' poses,\n"
+               "refine their translations (default 0)",
+               pose_flag(&colmap::RefinePoses::constant_rig_from_world_rotation)});
   t.push_back({"hold-poses", "LIST",
-               "COLMAP: hold the poses of these images (COLMAP's constant poses): all, or items\n"
-               "separated by commas, matched as given (nothing trimmed): plain decimal digits without a\n"
-               "leading zero name an IMAGE_ID (or, when no image has it, a NAME); anything else a NAME",
+               "COLMAP: hold the poses of these images (COLMAP's constant poses; in a rig, the pose of\n"
+               "the image's frame and of its camera in the rig): all, or items separated by commas,\n"
+               "matched as given (nothing trimmed): plain decimal digits without a leading zero name an\n"
+               "IMAGE_ID (or, when no image has it, a NAME); anything else a NAME",
                [&o](const std::string &v) -> std::string {
                  if (v.empty()) return "expected all or a comma-separated list of images";
                  // The list is checked here; its items are looked up once the model is read.
@@ -188,9 +209,9 @@ void print_usage(std::FILE *out) {
       "  with COLMAP's own camera models: every image that sees a point an sba camera, a camera\n"
       "  shared by several images refined once for all of them (one that sees none is written\n"
       "  back as read); by default the focal length and the extra parameters refined, the\n"
-      "  principal point held, as COLMAP's bundle adjuster does; COLMAP 4's rigs and frames\n"
-      "  files are written back, each frame with its image's refined pose, and a frame of\n"
-      "  several images (a rig of several cameras) is refused;\n"
+      "  principal point held, as COLMAP's bundle adjuster does; with COLMAP 4's rigs and frames,\n"
+      "  as COLMAP 4 refines them: one pose per frame for its images, one pose per camera in its\n"
+      "  rig for all the frames (the rig's reference camera at the identity), both written back;\n"
       "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera,\n"
       "  always refined: --intrinsics and --refine-* are refused); its image list (list.txt) with\n"
       "  --bundler-list;\n"
@@ -329,6 +350,7 @@ struct Loaded {
   std::unique_ptr<euclidean::CameraModel> sba_model;
   colmap::ColmapProblem colmap_problem;
   std::unique_ptr<colmap_camera::CameraModel> colmap_model;
+  std::unique_ptr<colmap_camera::RigCameraModel> rig_model;  // a rigged COLMAP model's, in place of colmap_model
   nvm::Model nvm;
   bundler::Bundle bundle;
   bundler::ImageList list;
@@ -383,11 +405,12 @@ bool write_eucsba(const std::string &prefix, const Loaded &l, const double *p, s
   return write_eucsba(prefix, cams, l.problem.points, xyz, outputs, why);
 }
 
-// The same for a COLMAP model, whose cameras must be of the five models eucsbademo's camera
+// The same for a COLMAP model (a CameraModel or a RigCameraModel, whose images are written
+// with their composed poses), whose cameras must be of the five models eucsbademo's camera
 // expresses.
-bool write_eucsba_colmap(const std::string &prefix, const Loaded &l, const double *p,
-                         sbaformats::OutputSet *outputs, std::string *why) {
-  const colmap_camera::CameraModel &model = *l.colmap_model;
+template <typename Model>
+bool write_eucsba_colmap(const std::string &prefix, const Model &model, const eucsba::PointSet &points,
+                         const double *p, sbaformats::OutputSet *outputs, std::string *why) {
   std::vector<euclidean::Camera> cams(static_cast<std::size_t>(model.ncameras()));
   for (int j = 0; j < model.ncameras(); ++j) {
     const colmap_camera::Camera c = model.camera(j, p + static_cast<std::size_t>(j) * model.cnp());
@@ -397,15 +420,13 @@ bool write_eucsba_colmap(const std::string &prefix, const Loaded &l, const doubl
       return false;
     }
   }
-  return write_eucsba(prefix, cams, l.colmap_problem.points, p + static_cast<std::size_t>(model.ncameras()) * model.cnp(),
-                      outputs, why);
+  return write_eucsba(prefix, cams, points, p + static_cast<std::size_t>(model.ncameras()) * model.cnp(), outputs,
+                      why);
 }
 
-// The job of l->colmap_problem through COLMAP's camera models.
-void colmap_job(Loaded *l, Job *job) {
-  colmap::ColmapProblem &pr = l->colmap_problem;
-  l->colmap_model = std::make_unique<colmap_camera::CameraModel>(pr.cameras, pr.points.xyz, pr.cam_fixed);
-  const colmap_camera::CameraModel &sm = *l->colmap_model;
+// What the job of a COLMAP problem takes from its sba camera model, whichever it is.
+template <typename Model>
+void model_job(const Model &sm, colmap::ColmapProblem &pr, Job *job) {
   job->in.m = pr.points.ncameras;
   job->in.n = pr.points.npoints();
   job->in.cnp = sm.cnp();
@@ -413,17 +434,34 @@ void colmap_job(Loaded *l, Job *job) {
   job->in.x = pr.points.x.data();
   job->in.cam_fixed = pr.cam_fixed.data();
   job->in.cam_fixed_per_camera = 1;
-  job->in.cam_group = pr.cam_group.data();
-  job->in.cam_shared = pr.cam_shared.data();
   job->p = sm.initial_camera_params();
   job->p.insert(job->p.end(), sm.initial_points().begin(), sm.initial_points().end());
-  job->in.func = colmap_camera::motstr_func;
-  job->in.fjac = colmap_camera::motstr_fjac;
   job->in.adata = colmap_camera::as_adata(sm);
   const int m = job->in.m, cnp = job->in.cnp;
   job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
     sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
   };
+}
+
+// The job of l->colmap_problem through COLMAP's camera models: each image a camera of its own,
+// its intrinsics shared by the images of its COLMAP camera (cam_group), or, in a rigged model,
+// an image of a rig, its frame's and its camera's poses shared too (cam_param_group).
+void colmap_job(Loaded *l, Job *job) {
+  colmap::ColmapProblem &pr = l->colmap_problem;
+  if (pr.rigged) {
+    l->rig_model = std::make_unique<colmap_camera::RigCameraModel>(pr.rig_images, pr.points.xyz, pr.cam_fixed);
+    model_job(*l->rig_model, pr, job);
+    job->in.cam_param_group = pr.cam_param_group.data();
+    job->in.func = colmap_camera::rig_motstr_func;
+    job->in.fjac = colmap_camera::rig_motstr_fjac;
+    return;
+  }
+  l->colmap_model = std::make_unique<colmap_camera::CameraModel>(pr.cameras, pr.points.xyz, pr.cam_fixed);
+  model_job(*l->colmap_model, pr, job);
+  job->in.cam_group = pr.cam_group.data();
+  job->in.cam_shared = pr.cam_shared.data();
+  job->in.func = colmap_camera::motstr_func;
+  job->in.fjac = colmap_camera::motstr_fjac;
 }
 
 // "OPENCV (3 cameras), PINHOLE (1 camera)": the models of the cameras the solve uses.
@@ -468,7 +506,8 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
   std::vector<char> held;
   if (!held_poses(o, l->model, &held, error)) return false;
-  if (!colmap::to_sba(l->model, o.refine, held, o.solve.mcon, o.input, &l->colmap_problem, error)) return false;
+  if (!colmap::to_sba(l->model, o.refine, o.poses, held, o.solve.mcon, o.input, &l->colmap_problem, error))
+    return false;
   colmap_job(l, job);
   const colmap::ColmapProblem &pr = l->colmap_problem;
   char line[512];
@@ -484,30 +523,46 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   if (held_out > 0)
     job->summary += "\n" + std::to_string(held_out) + (held_out == 1 ? " image sees" : " images see") +
                     " no point: held out of the solve and written back as read";
-  if (l->model.has_rigs) {
-    const auto count = [](std::size_t n, const char *what) {
-      return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
-    };
+  const auto count = [](std::size_t n, const char *what) {
+    return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
+  };
+  if (pr.rigged)
+    job->summary += "\nRigs and frames (COLMAP 4): " + count(l->model.rigs.size(), "rig") + ", " +
+                    count(l->model.frames.size(), "frame") + ", " +
+                    std::to_string(colmap::frames_of_several_images(l->model)) + " of several images: refined as COLMAP 4 refines them, a frame's pose once for its images, "
+                    "a camera's pose in its rig once for its frames (a rig's reference camera at the identity), "
+                    "written back to the frames and the rigs and composed into the images";
+  else if (l->model.has_rigs)
     job->summary +=
         "\nRigs and frames (COLMAP 4): " + count(l->model.rigs.size(), "rig") + ", " +
         count(l->model.frames.size(), "frame") +
         " of one image at most: each image's pose is its frame's, refined and written back to both";
-  }
   const auto yes_no = [](bool b) { return b ? "refined" : "held"; };
   job->model = camera_models(l->model, pr) + "; focal length " + yes_no(o.refine.focal) +
                   ", principal point " + yes_no(o.refine.principal) + ", extra parameters " +
                   yes_no(o.refine.distortion) + "; " + std::to_string(pr.shared_cameras) +
-                  (pr.shared_cameras == 1 ? " camera" : " cameras") + " shared by several images, refined once; " +
-                  std::to_string(pr.held_poses) + (pr.held_poses == 1 ? " pose" : " poses") + " held";
+                  (pr.shared_cameras == 1 ? " camera" : " cameras") + " shared by several images, refined once; ";
+  if (pr.rigged)
+    job->model += "rig_from_world of " + count(static_cast<std::size_t>(pr.frames), "frame") + " (" +
+                  std::to_string(pr.held_frames) + " held), sensor_from_rig of " +
+                  count(static_cast<std::size_t>(pr.sensors), "camera") + " (" + std::to_string(pr.held_sensors) +
+                  " held); ";
+  job->model += std::to_string(pr.held_poses) + (pr.held_poses == 1 ? " pose" : " poses") + " held";
   job->summary += "\nCamera models: " + job->model;
   job->initial = cloud(l->model);
   for (int j : pr.images) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, sbaformats::OutputSet *outputs,
                         std::string *why) {
-    if (o.solve.itmax > 0)
-      colmap::from_sba(*l->colmap_model, l->colmap_problem, p, o.solve.mcon, o.solve.ncon, &l->model);
+    const colmap::ColmapProblem &problem = l->colmap_problem;
+    if (o.solve.itmax > 0 && problem.rigged)
+      colmap::from_sba(*l->rig_model, problem, p, o.solve.mcon, o.solve.ncon, &l->model);
+    else if (o.solve.itmax > 0)
+      colmap::from_sba(*l->colmap_model, problem, p, o.solve.mcon, o.solve.ncon, &l->model);
     *final_cloud = cloud(l->model);
-    if (!o.write_eucsba.empty() && !write_eucsba_colmap(o.write_eucsba, *l, p, outputs, why)) return false;
+    if (!o.write_eucsba.empty() &&
+        !(problem.rigged ? write_eucsba_colmap(o.write_eucsba, *l->rig_model, problem.points, p, outputs, why)
+                         : write_eucsba_colmap(o.write_eucsba, *l->colmap_model, problem.points, p, outputs, why)))
+      return false;
     if (o.write.empty()) return true;
     const colmap::Encoding out =
         o.write_format.empty() ? l->encoding
@@ -647,6 +702,8 @@ int refine_main(int argc, char **argv) {
       {!o.write_list.empty(), format == Format::Bundler, "--write-list", "Bundler files"},
       {!o.hold_poses.empty(), format == Format::Colmap, "--hold-poses", "COLMAP models"},
       {!o.hold_poses_file.empty(), format == Format::Colmap, "--hold-poses-file", "COLMAP models"},
+      {o.poses_given, format == Format::Colmap, "--refine-rig-from-world (or --refine-sensor-from-rig, "
+       "--constant-rig-from-world-rotation)", "COLMAP models"},
       {o.intrinsics_given, format != Format::Bundler, "--intrinsics (or --refine-*)",
        "COLMAP models and NVM files (a bundle's f, k1 and k2 are always refined)"}};
   for (const auto &opt : kFormatOptions)

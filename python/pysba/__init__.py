@@ -13,6 +13,9 @@ numpy arrays in, numpy arrays out::
   eucsbademo and balsba models, at the same speed and with the same results).
 - :func:`motstr`, :func:`mot` and :func:`str` take a camera model written in Python:
   vectorized callbacks over all the observations at once.
+- :func:`read_colmap` and :func:`write_colmap` read and write COLMAP sparse models (a
+  :class:`ColmapModel`), :func:`refine_colmap` refines one as the sbarefine program does,
+  and :func:`from_pycolmap` and :func:`to_pycolmap` convert from and to pycolmap.
 
 Every solve releases the GIL while the library works. Ctrl-C stops it after the current
 iteration and raises KeyboardInterrupt with the partial :class:`Result` as its ``result``
@@ -25,6 +28,7 @@ from __future__ import annotations
 import builtins
 import enum
 import itertools
+import math
 import os
 from typing import Any, Callable, Optional, Sequence, Tuple
 
@@ -36,6 +40,9 @@ from ._core import Progress
 __all__ = [
     "Problem", "Result", "Reason", "Progress", "SolveError", "read_eucsbademo", "read_bal",
     "solve", "motstr", "mot", "str", "solver_names", "strategy_names", "SBA_VERSION",
+    "ColmapModel", "ColmapCamera", "ColmapImage", "ColmapPoints3D", "ColmapRig", "ColmapSensor",
+    "ColmapFrame", "NO_POINT3D", "read_colmap", "write_colmap", "refine_colmap", "from_pycolmap",
+    "to_pycolmap",
 ]
 
 SBA_VERSION: builtins.str = _core.SBA_VERSION
@@ -151,9 +158,11 @@ class Result:
     prints it: info[0] and info[1] over the number of observations), ``iterations``,
     ``reason`` (a :class:`Reason`: ``.name``, ``.text`` and the 1.6 number), ``info`` (sba's ten
     values), ``nfev``, ``njev``, ``nlinsys``, ``threads``, ``solver`` and ``strategy``
-    (what ran: with ``solver="auto"``, the default, the solver auto chose), ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a
-    robust loss), ``outliers`` (observations beyond the loss scale), ``log`` (the library's
-    warnings)
+    (what ran: with ``solver="auto"``, the default, the solver auto chose),
+    ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a
+    robust loss), ``rms_initial``/``rms_final`` (the RMS reprojection error in pixels of that
+    squared error, as sbarefine reports it), ``outliers`` (observations beyond the loss scale),
+    ``log`` (the library's warnings), ``model`` (:func:`refine_colmap`'s refined model, else None)
     and, with ``covariance=True``, ``camera_covariance`` (m, cnp, cnp), ``point_covariance``
     (n, pnp, pnp), ``sigma2``, ``rank`` and ``nfree`` (see sba_ext.h). For eucsbademo
     problems the camera covariance is over the optimized parameters (intrinsics, the
@@ -176,6 +185,9 @@ class Result:
         self.strategy: Optional[builtins.str] = report["strategy"]
         self.sq_error_initial: float = report["sq_error_initial"]
         self.sq_error_final: float = report["sq_error_final"]
+        self.rms_initial = math.sqrt(self.sq_error_initial / nobs)
+        self.rms_final = math.sqrt(self.sq_error_final / nobs)
+        self.model: Optional["ColmapModel"] = report.get("model")
         self.outliers: int = report["outliers"]
         self.log: list = list(report["warnings"])
         self.camera_covariance: Optional[np.ndarray] = report.get("camera_covariance")
@@ -403,3 +415,8 @@ def _str(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point
 # is why the code above says builtins.str wherever it means the type.
 _str.__name__ = _str.__qualname__ = "str"
 globals()["str"] = _str
+
+# COLMAP models: after everything above, which they use.
+from ._colmap import (NO_POINT3D, ColmapCamera, ColmapFrame, ColmapImage, ColmapModel,  # noqa: E402
+                      ColmapPoints3D, ColmapRig, ColmapSensor, from_pycolmap, read_colmap, refine_colmap,
+                      to_pycolmap, write_colmap)

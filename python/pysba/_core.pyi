@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """Type stubs of the compiled part of pysba (use the functions of the pysba package)."""
-from typing import Any, Callable, Dict, Optional
+from typing import Any, Callable, Dict, List, Optional
 
 import numpy as np
 
@@ -35,5 +35,11 @@ def solve_python(refine: str, project: Callable[..., Any], jacobian: Optional[Ca
                  cameras: np.ndarray, points: np.ndarray, camera_index: np.ndarray,
                  point_index: np.ndarray, observations: np.ndarray,
                  covariances: Optional[np.ndarray], **kwargs: Any) -> Dict[str, Any]: ...
+def read_colmap(path: bytes) -> Dict[str, Any]: ...
+def write_colmap(model: Any, path: bytes, encoding: str) -> None: ...
+def refine_colmap(model: Any, held_images: List[int], refine_focal_length: bool,
+                  refine_principal_point: bool, refine_extra_params: bool,
+                  refine_rig_from_world: bool, refine_sensor_from_rig: bool,
+                  constant_rig_from_world_rotation: bool, **kwargs: Any) -> Dict[str, Any]: ...
 def solver_names() -> str: ...
 def strategy_names() -> str: ...

@@ -12,6 +12,15 @@
 
 namespace pysba {
 
+void raise_file_error(PyObject *type, const std::string &message) {
+  PyObject *text = PyUnicode_DecodeFSDefaultAndSize(message.data(), Py_ssize_t(message.size()));
+  if (text) {
+    PyErr_SetObject(type, text);
+    Py_DECREF(text);
+  }
+  throw py::error_already_set();
+}
+
 py::array_t<double> copy_of(const double *data, std::vector<py::ssize_t> shape) {
   py::array_t<double> out(std::move(shape));
   if (out.size() > 0) std::memcpy(out.mutable_data(), data, sizeof(double) * size_t(out.size()));

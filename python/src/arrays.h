@@ -19,6 +19,11 @@ namespace py = pybind11;
 using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
 using Indices = py::array_t<long long, py::array::c_style | py::array::forcecast>;
 
+// Raises type (OSError, ValueError) with a reader's message, which names the file as the
+// caller spelled it: bytes in the file system's encoding, decoded back as os.fsdecode does (a
+// name that is not UTF-8 keeps its bytes as lone surrogates instead of failing to decode).
+[[noreturn]] void raise_file_error(PyObject *type, const std::string &message);
+
 // A numpy array over v's data without copying it: the array owns the vector from now on.
 template <class T>
 py::array_t<T> adopt(std::vector<T> &&v, std::vector<py::ssize_t> shape) {

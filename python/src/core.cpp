@@ -13,6 +13,7 @@
 #include "arrays.h"
 #include "cameras/bal_camera.h"
 #include "cameras/euclidean.h"
+#include "colmap.h"
 #include "formats/bal_io.h"
 #include "formats/eucsba_io.h"
 #include "python_model.h"
@@ -26,15 +27,6 @@ namespace bal_camera = sbacameras::bal;
 
 namespace pysba {
 namespace {
-
-// A reader's message names the file as the caller spelled it: bytes in the file system's
-// encoding, decoded back as os.fsdecode does (a name that is not UTF-8 keeps its bytes as
-// lone surrogates instead of failing to decode).
-[[noreturn]] void raise_file_error(PyObject *type, const std::string &message) {
-  const PyRef text(PyUnicode_DecodeFSDefaultAndSize(message.data(), Py_ssize_t(message.size())));
-  if (text) PyErr_SetObject(type, text.get());
-  throw py::error_already_set();
-}
 
 // ---- eucsbademo's Euclidean cameras, as rows of the camera files ----
 
@@ -288,6 +280,7 @@ PYBIND11_MODULE(_core, mod) {
         return adopt(std::move(v), {len});
       },
       py::arg("obj"), py::arg("what"), py::arg("bound"));
+  add_colmap(mod);
   mod.def("solver_names", [] { return std::string(sba_linsolver_names()); });
   mod.def("strategy_names", [] { return std::string(sba_strategy_names()); });
   mod.def("stop_reason_text", &sba_stop_reason_text, py::arg("reason"));

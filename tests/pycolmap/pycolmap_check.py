@@ -16,8 +16,14 @@ with rigs and frames, as COLMAP 4 writes them. Cases:
             split): the images of the cameras that are not the rig's reference are composed
             from the rig's sensor poses. The same checks, text into a new folder and binary in
             place.
-  refused   pycolmap's rig of three cameras, three images a frame: sbarefine refuses it (exit
-            1, its message), writes nothing and leaves the model as it was.
+  rigs      two rigs of three cameras, three images a frame, the cameras' poses in their rigs
+            and focal lengths perturbed too: sbarefine refines them as COLMAP 4 does, text and
+            binary, into a new folder and in place, with the checks above (every image's pose
+            the composition of its frame's and its camera's in the rig: the rigs rigid), the
+            rigs' reference cameras still without a pose, the others' poses refined; and
+            pycolmap.bundle_adjustment at its defaults on the same model is the yardstick:
+            sbarefine's RMS (pycolmap's projection of what it wrote) is no worse than
+            pycolmap's x (1 + 1e-6).
 Exit status: 0 every check passed, 1 a check failed, 2 bad usage, 77 no pycolmap (ctest's
 SKIP_RETURN_CODE): `scripts/deps.sh test` makes a venv with it (build/pycolmap-venv).
 
@@ -53,10 +59,10 @@ def files(encoding):
     return sorted(name + x for name in ("cameras", "images", "points3D", "rigs", "frames"))
 
 
-def synthesize(pycolmap, cameras_per_rig, seed):
+def synthesize(pycolmap, cameras_per_rig, seed, rigs=None):
     pycolmap.set_random_seed(seed)
     o = pycolmap.SyntheticDatasetOptions()
-    o.num_rigs = 2 if cameras_per_rig == 1 else 1
+    o.num_rigs = rigs or (2 if cameras_per_rig == 1 else 1)
     o.num_cameras_per_rig = cameras_per_rig
     o.num_frames_per_rig = 8 if cameras_per_rig == 1 else 5
     o.num_points3D = 300
@@ -200,32 +206,77 @@ def case_one_image_frames(pycolmap, colmap_real, args):
          lambda run: check_written(pycolmap, colmap_real, before, run[1], run[2], refine(args, run[0], run[1])))
 
 
-def snapshot(d):
+def perturb_rigs(pycolmap, rec):
+    """Turns each camera's pose in its rig (not the reference's) by about 0.01 rad and shifts it
+    by 1 cm, and lengthens the focal lengths by 1%: synthesize_noise moves only the frames."""
+    import numpy as np
+    for rig_id in sorted(rec.rigs):
+        rig = rec.rigs[rig_id]
+        for k, (sensor, pose) in enumerate(sorted(rig.non_ref_sensors.items(), key=lambda s: s[0].id)):
+            turn = pycolmap.Rigid3d(pycolmap.Rotation3d(np.array([0.01, -0.005 * k, 0.004])),
+                                    np.array([0.01, -0.01, 0.005]))
+            rig.set_sensor_from_rig(sensor, turn * pose)
+    for camera in rec.cameras.values():
+        params = camera.params.copy()
+        params[0] *= 1.01
+        camera.params = params
+
+
+def sensor_poses(rec):
+    """Each rig's sensors' poses (camera id: (xyzw, t)), None for its reference."""
     out = {}
-    for name in sorted(os.listdir(d)):
-        with open(os.path.join(d, name), "rb") as f:
-            out[name] = f.read()
+    for rig in rec.rigs.values():
+        out[rig.ref_sensor_id.id] = None
+        for sensor, pose in rig.non_ref_sensors.items():
+            out[sensor.id] = ([float(v) for v in pose.rotation.quat], [float(v) for v in pose.translation])
     return out
 
 
-def case_refused(pycolmap, colmap_real, args):
-    rec = synthesize(pycolmap, 3, 13)
+def case_rigs(pycolmap, colmap_real, args):
+    rec = synthesize(pycolmap, 3, 13, rigs=2)
+    perturb_rigs(pycolmap, rec)
+    expect(rec.num_frames() < len(rec.images), "the model has no frame of several images")
+    source = os.path.join(args.work, "rigs_reference")
+    write(rec, source, "binary")
+    reference = pycolmap.Reconstruction(source)
+    options = pycolmap.BundleAdjustmentOptions()
+    options.print_summary = False
+    pycolmap.bundle_adjustment(reference, options)
+    theirs = rms(pycolmap, reference)
+    runs = []
     for encoding in ("text", "binary"):
-        model = os.path.join(args.work, "rig_" + encoding)
+        model = os.path.join(args.work, "rigs_input_" + encoding)
         write(rec, model, encoding)
-        frames = snapshot(model)
-        for out in (model, os.path.join(args.work, "rig_out")):
-            r = subprocess.run([args.sbarefine, model, "--write", out], capture_output=True, text=True, timeout=600)
-            expect(r.returncode == 1, "%s: exit %d, expected 1" % (model, r.returncode))
-            expect(r.stderr.startswith(model + ": frame ") and
-                   r.stderr.endswith(" holds 3 images (rig 1): rigs of several cameras are not refined yet\n"),
-                   "%s: %r" % (model, r.stderr))
-            expect(snapshot(model) == frames, "%s changed" % model)
-            expect(not os.path.exists(os.path.join(args.work, "rig_out")), "rig_out was made")
-        print("PASS %s: refused, left as it was" % model)
+        runs += [("rigs_new_" + encoding, model, encoding), ("rigs_inplace_" + encoding, model, encoding)]
+    before = pycolmap.Reconstruction(os.path.join(args.work, "rigs_input_binary"))
+    expect(rms(pycolmap, before) > 10 * theirs, "the perturbed model fits already")
+    start = sensor_poses(before)
+
+    def check(run):
+        name, source, encoding = run
+        out = os.path.join(args.work, name)
+        shutil.rmtree(out, ignore_errors=True)
+        model = source
+        if "inplace" in name:
+            shutil.copytree(source, out)
+            model = out
+        final = refine(args, model, out)
+        check_written(pycolmap, colmap_real, before, out, encoding, final)
+        mine = rms(pycolmap, pycolmap.Reconstruction(out))
+        expect(mine <= theirs * (1 + 1e-6), "%s: RMS %.17g, pycolmap.bundle_adjustment's %.17g" % (out, mine, theirs))
+        refined = sensor_poses(pycolmap.Reconstruction(out))
+        expect(sorted(refined) == sorted(start), "%s: the rigs' cameras changed" % out)
+        for camera_id, pose in refined.items():
+            if start[camera_id] is None:
+                expect(pose is None, "%s: reference camera %d has a pose in its rig" % (out, camera_id))
+                continue
+            moved = max(abs(a - b) for a, b in zip(pose[1], start[camera_id][1]))
+            expect(moved > 1e-6, "%s: camera %d's pose in its rig was not refined" % (out, camera_id))
+        print("PASS %s: RMS %.9g px, pycolmap.bundle_adjustment's %.9g px" % (out, mine, theirs))
+    each(runs, check)
 
 
-CASES = {"written": case_written, "one_image_frames": case_one_image_frames, "refused": case_refused}
+CASES = {"written": case_written, "one_image_frames": case_one_image_frames, "rigs": case_rigs}
 
 
 def main(argv):

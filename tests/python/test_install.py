@@ -5,10 +5,11 @@ Slow (each builds the library): ctest runs them as a test of its own.
 
 - --no-build-isolation: with what is installed (Debian's setuptools, wheel, pybind11-dev).
 - with build isolation: pip installs pyproject.toml's build requirements into a build
-  environment of its own. With no package index here, they come from a wheelhouse: Debian's
-  setuptools and wheel .whl files, and a wheel of Debian's python3-pybind11 distribution
-  (the pybind11 package as pip installs it). Debian's pybind11 CMake files are hidden from
-  CMake, so the build must find pybind11 through the build environment's
+  environment of its own: from the package index, into a venv of the python3 first on PATH
+  with nothing of the system's. Where the index cannot be reached, from a wheelhouse:
+  Debian's setuptools and wheel .whl files, and a wheel of Debian's python3-pybind11
+  distribution (the pybind11 package as pip installs it). Debian's pybind11 CMake files are
+  hidden from CMake, so the build must find pybind11 through the build environment's
   `python -m pybind11 --cmakedir`, as on a machine without pybind11-dev."""
 import base64
 import hashlib
@@ -35,21 +36,24 @@ print(f"{result.final_mse:g} {result.iterations} {result.reason.name}")
 WHEELS = Path("/usr/share/python-wheels")
 
 
-def install_and_solve(tmp_path, pip_args, extra_env=None):
-    """pip install (pip_args) a clean copy of the tree into a new venv, delete the copy, and
-    solve 7cams with the installed package. Returns pip's output (its standard output and
-    error: where the build's lines go depends on pip's version)."""
+def install_and_solve(tmp_path, pip_args, extra_env=None, base=sys.executable, index=False):
+    """pip install (pip_args) a clean copy of the tree into a new venv of the Python base
+    (with its system site packages unless the package index is used: then every package comes
+    from there), delete the copy, and solve 7cams with the installed package. Returns pip's
+    output (its standard output and error: where the build's lines go depends on pip's
+    version)."""
     data = [need(DEMO / "7cams.txt"), DEMO / "7pts.txt", DEMO / "calib.txt"]
     src = tmp_path / "src"
     # What a clean clone holds: no build trees, no caches.
     shutil.copytree(REPO, src, ignore=shutil.ignore_patterns(".git", "build", "build-*", "__pycache__",
                                                                "*.egg-info", ".pytest_cache"))
     venv = tmp_path / "venv"
-    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True)
+    subprocess.run([base, "-m", "venv", *([] if index else ["--system-site-packages"]), str(venv)], check=True)
     python = venv / "bin" / "python"
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "LD_LIBRARY_PATH", "LD_PRELOAD")}
     env.setdefault("CMAKE_BUILD_PARALLEL_LEVEL", "2")
-    env["PIP_NO_INDEX"] = "1"
+    if not index:
+        env["PIP_NO_INDEX"] = "1"
     env.update(extra_env or {})
     pip = subprocess.run([str(python), "-m", "pip", "install", "-v", *pip_args, str(src)], env=env, cwd=tmp_path,
                          capture_output=True, text=True)
@@ -85,7 +89,21 @@ def wheel_of_installed(name, wheelhouse):
     return path
 
 
+def index_reachable(url="https://pypi.org/simple/pybind11/"):
+    """Whether pip's package index answers (a machine without network skips the test)."""
+    import urllib.request
+    index = os.environ.get("PIP_INDEX_URL")
+    try:
+        with urllib.request.urlopen(index.rstrip("/") + "/pybind11/" if index else url, timeout=20) as r:
+            return r.status == 200
+    except OSError:
+        return False
+
+
 def test_pip_install_with_build_isolation(tmp_path):
+    if shutil.which("python3") and index_reachable():
+        pytest.skip("build isolation is tested from the package index "
+                    "(test_pip_install_from_the_index_with_the_python_on_path)")
     wheels = [next(WHEELS.glob(f"{n}-*.whl"), None) for n in ("setuptools", "wheel")]
     try:
         importlib.metadata.distribution("pybind11")
@@ -108,3 +126,16 @@ def test_pip_install_with_build_isolation(tmp_path):
     # From the isolated build environment pip made: not Debian's, not the venv's.
     assert len(found) == 1 and "/pip-build-env-" in found[0] and "/share/cmake/pybind11" in found[0], \
         found or out[-4000:]
+
+
+def test_pip_install_from_the_index_with_the_python_on_path(tmp_path):
+    # What a user of another Python (pyenv, conda, python.org) types: `pip install .` in a
+    # fresh venv, the build requirements and numpy from the package index.
+    base = shutil.which("python3")
+    if base is None:
+        pytest.skip("no python3 on PATH")
+    if not index_reachable():
+        pytest.skip("the package index is not reachable")
+    out = install_and_solve(tmp_path, [], base=base, index=True)
+    found = [line for line in out.splitlines() if "sba: pybind11" in line]
+    assert len(found) == 1 and "/pip-build-env-" in found[0], found or out[-4000:]

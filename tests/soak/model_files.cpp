@@ -68,7 +68,7 @@ bool unit(const euclidean::Quaternion &q) {
 bool solve(const colmap::Model &model, bool *rotations) {
   colmap::ColmapProblem pr;
   std::string error;
-  if (!colmap::to_sba(model, {false, false, false}, {}, 0, "soak", &pr, &error)) return false;
+  if (!colmap::to_sba(model, {false, false, false}, {}, {}, 0, "soak", &pr, &error)) return false;
   const colmap_camera::CameraModel sm(pr.cameras, pr.points.xyz, pr.cam_fixed);
   *rotations = true;
   for (int j = 0; j < sm.ncameras(); ++j) *rotations = *rotations && unit(sm.input_camera(j).q);

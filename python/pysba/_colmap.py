@@ -1,0 +1,369 @@
+# SPDX-License-Identifier: BSD-3-Clause
+"""COLMAP sparse models in pysba: read, written and refined by the sbarefine program's own
+code (the C++ reader and writer, COLMAP's camera models, sbarefine's solve), and converted
+to and from pycolmap. The functions and classes are pysba's (see its __init__)."""
+from __future__ import annotations
+
+import dataclasses
+import errno
+import math
+import numbers
+import os
+import tempfile
+from typing import Any, Callable, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from . import Progress, Result, _core, _finish, _options
+
+NO_POINT3D: int = 2**64 - 1
+"""The POINT3D_ID of a keypoint that observes no 3D point (-1 in COLMAP's text files)."""
+
+
+@dataclasses.dataclass(eq=False)
+class ColmapCamera:
+    """A COLMAP camera: ``id`` (CAMERA_ID), ``model`` (COLMAP's name: "SIMPLE_PINHOLE",
+    "PINHOLE", "OPENCV", ...: all eighteen), ``width`` and ``height`` in pixels, ``params`` in
+    COLMAP's order (a float array: f cx cy, fx fy cx cy k1 k2 p1 p2, ...)."""
+
+    id: int
+    model: str
+    width: int
+    height: int
+    params: np.ndarray
+
+
+@dataclasses.dataclass(eq=False, repr=False)
+class ColmapImage:
+    """A COLMAP image: ``id`` (IMAGE_ID), ``name``, ``camera_id``, its pose ``q`` (qw qx qy qz)
+    and ``t``, world to camera (X_cam = R(q) X + t), and its keypoints: ``points2D`` (k, 2) in
+    pixels and ``point3D_ids`` (k,) uint64, the 3D point each one observes, or
+    :data:`NO_POINT3D` (-1 is taken for it too)."""
+
+    id: int
+    name: str
+    camera_id: int
+    q: np.ndarray
+    t: np.ndarray
+    points2D: np.ndarray
+    point3D_ids: np.ndarray
+
+    def __repr__(self) -> str:
+        return (f"ColmapImage(id={self.id}, name={self.name!r}, camera_id={self.camera_id}, "
+                f"points2D={len(self.points2D)})")
+
+
+@dataclasses.dataclass(eq=False, repr=False)
+class ColmapPoints3D:
+    """A model's 3D points as arrays, one row per point: ``ids`` (n,) uint64 (POINT3D_ID),
+    ``xyz`` (n, 3), ``rgb`` (n, 3) uint8, ``error`` (n,) (the mean reprojection error in
+    pixels), and their tracks: point k is seen by keypoint ``track_point2D_idxs[e]`` of the
+    image ``track_image_ids[e]`` for e in ``track_offsets[k]:track_offsets[k + 1]`` (both
+    uint32; track_offsets (n + 1,) rises from 0 to the number of track elements)."""
+
+    ids: np.ndarray
+    xyz: np.ndarray
+    rgb: np.ndarray
+    error: np.ndarray
+    track_offsets: np.ndarray
+    track_image_ids: np.ndarray
+    track_point2D_idxs: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def track(self, k: int) -> Tuple[np.ndarray, np.ndarray]:
+        """Point k's track (k a row, not an id): its image ids and their keypoint indices."""
+        lo, hi = self.track_offsets[k], self.track_offsets[k + 1]
+        return self.track_image_ids[lo:hi], self.track_point2D_idxs[lo:hi]
+
+    def __repr__(self) -> str:
+        return f"ColmapPoints3D({len(self)} points, {len(self.track_image_ids)} track elements)"
+
+
+@dataclasses.dataclass(eq=False)
+class ColmapSensor:
+    """A sensor of a rig: ``type`` ("CAMERA" or "IMU"), ``id`` (a camera's CAMERA_ID), and its
+    pose in the rig ``q``, ``t`` (sensor_from_rig), both None when it has none (the rig's
+    reference sensor, first in its rig, never has one)."""
+
+    type: str
+    id: int
+    q: Optional[np.ndarray] = None
+    t: Optional[np.ndarray] = None
+
+
+@dataclasses.dataclass(eq=False)
+class ColmapRig:
+    """A rig (COLMAP 4): ``id`` and its ``sensors``, the reference sensor first."""
+
+    id: int
+    sensors: List[ColmapSensor]
+
+
+@dataclasses.dataclass(eq=False)
+class ColmapFrame:
+    """A frame (COLMAP 4), one pose of a rig: ``id``, ``rig_id``, the pose ``q``, ``t``
+    (rig_from_world) and its ``data``, one ``(type, sensor_id, data_id)`` per measurement (a
+    camera's data_id is the IMAGE_ID of its image)."""
+
+    id: int
+    rig_id: int
+    q: np.ndarray
+    t: np.ndarray
+    data: List[Tuple[str, int, int]]
+
+
+class ColmapModel:
+    """A COLMAP sparse model: ``cameras`` (a list of :class:`ColmapCamera`), ``images`` (of
+    :class:`ColmapImage`), ``points3D`` (a :class:`ColmapPoints3D`), and ``rigs`` and
+    ``frames`` (lists of :class:`ColmapRig` and :class:`ColmapFrame`, or both None for a model
+    without them, as COLMAP 3 wrote them), each in file order with every field of the files.
+
+    With rigs and frames an image's pose is its frame's, as COLMAP 4 reads it: read_colmap
+    gives each image the pose composed from its frame, refine_colmap starts from that pose
+    whatever the image holds and writes the refined pose to both, as sbarefine does, and
+    write_colmap writes both as they are (change a frame's pose, not only its image's). A model is
+    checked when it is written or refined, as the reader checks files: ValueError or
+    TypeError with the message naming the record (``images[3].q``, ``model: image 7 uses
+    camera 9, which cameras does not hold``)."""
+
+    def __init__(self, cameras: Sequence[ColmapCamera] = (), images: Sequence[ColmapImage] = (),
+                 points3D: Optional[ColmapPoints3D] = None, rigs: Optional[List[ColmapRig]] = None,
+                 frames: Optional[List[ColmapFrame]] = None):
+        self.cameras = list(cameras)
+        self.images = list(images)
+        if points3D is None:
+            points3D = ColmapPoints3D(np.zeros(0, np.uint64), np.zeros((0, 3)), np.zeros((0, 3), np.uint8),
+                                      np.zeros(0), np.zeros(1, np.uint64), np.zeros(0, np.uint32),
+                                      np.zeros(0, np.uint32))
+        self.points3D = points3D
+        self.rigs = rigs
+        self.frames = frames
+
+    def __repr__(self) -> str:
+        more = "" if self.rigs is None else f", rigs={len(self.rigs)}, frames={len(self.frames or ())}"
+        return (f"ColmapModel(cameras={len(self.cameras)}, images={len(self.images)}, "
+                f"points3D={len(self.points3D)}{more})")
+
+
+def _model(d: dict) -> ColmapModel:
+    """The ColmapModel of _core's plain values."""
+    rigs = frames = None
+    if d["rigs"] is not None:
+        rigs = [ColmapRig(rig_id, [ColmapSensor(kind, sensor_id, *(pose or (None, None)))
+                                   for kind, sensor_id, pose in sensors])
+                for rig_id, sensors in d["rigs"]]
+        frames = [ColmapFrame(frame_id, rig_id, q, t, data) for frame_id, rig_id, (q, t), data in d["frames"]]
+    return ColmapModel([ColmapCamera(*c) for c in d["cameras"]], [ColmapImage(*im) for im in d["images"]],
+                       ColmapPoints3D(*d["points3D"]), rigs, frames)
+
+
+def _path(path: Any) -> bytes:
+    """path in the file system's encoding, as _readable in __init__ gives it."""
+    if not isinstance(path, (str, bytes, os.PathLike)):
+        raise TypeError(f"path must be a str, bytes or os.PathLike, got {type(path).__name__}")
+    return os.fsencode(path)
+
+
+def _directory(path: Any) -> bytes:
+    """_path(path), after making sure it is a directory: FileNotFoundError,
+    NotADirectoryError or PermissionError otherwise."""
+    path = _path(path)
+    os.stat(path)
+    if not os.path.isdir(path):
+        raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), os.fsdecode(path))
+    return path
+
+
+def _check_model(model: Any) -> None:
+    if not isinstance(model, ColmapModel):
+        raise TypeError(f"model must be a pysba.ColmapModel, got {type(model).__name__}")
+
+
+def read_colmap(path: Any) -> ColmapModel:
+    """Reads the COLMAP sparse model in the directory path: cameras, images and points3D,
+    and rigs and frames when they are there, binary (.bin) or text (.txt; binary first when
+    both are there, as COLMAP reads them). OSError for files that cannot be read (or no
+    model), ValueError with the reader's ``file:line: message`` (text) or ``file: byte N:
+    message`` (binary) for bad content or a model whose files disagree."""
+    return _model(_core.read_colmap(_directory(path)))
+
+
+def write_colmap(model: ColmapModel, path: Any, encoding: str = "binary") -> None:
+    """Writes the model into the directory path (made if missing), as sbarefine writes one:
+    cameras, images and points3D, and rigs and frames when the model has them, in the
+    encoding ("binary" or "text"), all files or none. The other encoding's model files in
+    path are removed, and so are this encoding's rigs and frames when the model has none, so
+    that path holds one model. ValueError or TypeError for a model the reader would refuse
+    (see :class:`ColmapModel`), OSError for files that cannot be written."""
+    _check_model(model)
+    if not isinstance(encoding, str):
+        raise TypeError(f"encoding must be a str, got {type(encoding).__name__}")
+    _core.write_colmap(model, _path(path), encoding)
+
+
+def _held_images(model: ColmapModel, hold_poses: Any) -> List[int]:
+    """The rows of model.images that hold_poses names."""
+    if hold_poses is None:
+        return []
+    if isinstance(hold_poses, str):
+        if hold_poses != "all":
+            raise ValueError(f"hold_poses must be 'all' or a list of IMAGE_IDs (ints) and NAMEs (strs), "
+                             f"got {hold_poses!r}")
+        return list(range(len(model.images)))
+    try:
+        items = list(hold_poses)
+    except TypeError:
+        raise TypeError(f"hold_poses must be 'all' or a list of IMAGE_IDs (ints) and NAMEs (strs), "
+                        f"got {type(hold_poses).__name__}") from None
+    by_id: dict = {}
+    by_name: dict = {}
+    for k, im in enumerate(model.images):
+        by_id.setdefault(im.id, []).append(k)
+        by_name.setdefault(im.name, []).append(k)
+    held = set()
+    for k, item in enumerate(items):
+        if isinstance(item, str):
+            rows, what = by_name.get(item), f"the NAME {item!r}"
+        elif isinstance(item, numbers.Integral) and not isinstance(item, (bool, np.bool_)):
+            rows, what = by_id.get(int(item)), f"the IMAGE_ID {int(item)}"
+        else:
+            raise TypeError(f"hold_poses[{k}] must be an IMAGE_ID (int) or a NAME (str), got "
+                            f"{type(item).__name__}")
+        if not rows:
+            raise ValueError(f"hold_poses[{k}]: no image has {what}")
+        held.update(rows)
+    return sorted(held)
+
+
+def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any) -> Tuple[Any, Any]:
+    """strategy and opts as sbarefine sets them for a COLMAP model. COLMAP's bundle adjuster
+    stops at Ceres's function_tolerance, a relative change of the cost, which is the
+    trust-region strategy's eps4 (sba's eps4 is a relative reduction of the RMS error instead):
+    a tolerance sets eps4 (at least 4 ulp, a change rounding can make) and, unless a strategy
+    is given, that strategy. Without one, COLMAP's default 0 holds unless a strategy or an eps4
+    is given, which then keep sba's tests. opts that are not 5 values go on as given, for
+    _core to say what is wrong with them."""
+    values = None
+    if opts is not None and not isinstance(opts, (str, bytes)):
+        try:
+            values = list(opts)
+        except TypeError:
+            pass
+    if opts is not None and (values is None or len(values) != 5):
+        return strategy, opts
+    if function_tolerance is None:
+        if strategy is not None or (values is not None and values[4] != 0):
+            return strategy, opts
+        function_tolerance = 0.0
+    if isinstance(function_tolerance, (bool, np.bool_)) or not isinstance(function_tolerance, numbers.Real):
+        raise TypeError(f"function_tolerance must be a number, got {type(function_tolerance).__name__}")
+    if not (0 <= function_tolerance < math.inf):
+        raise ValueError(f"function_tolerance must be finite and >= 0, got {function_tolerance}")
+    values = values if values is not None else [1e-3, 1e-12, 1e-12, 1e-12, 0.0]
+    values[4] = max(float(function_tolerance), 4 * np.finfo(np.float64).eps)
+    return (strategy if strategy is not None else "trust-region"), values
+
+
+def _is_reconstruction(model: Any) -> bool:
+    """Whether model is a pycolmap.Reconstruction, without importing pycolmap."""
+    kind = type(model)
+    return kind.__name__ == "Reconstruction" and kind.__module__.split(".")[0] == "pycolmap"
+
+
+def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_principal_point: bool = False,
+                  refine_extra_params: bool = True, refine_rig_from_world: bool = True,
+                  refine_sensor_from_rig: bool = True, constant_rig_from_world_rotation: bool = False,
+                  hold_poses: Any = None, solver: Optional[str] = None, threads: int = 0,
+                  strategy: Optional[str] = None, loss: Optional[str] = None,
+                  loss_scale: float = 1.0, itmax: int = 100, opts: Optional[Sequence[float]] = None,
+                  function_tolerance: Optional[float] = None, mcon: int = 0, ncon: int = 0,
+                  progress: Optional[Callable[[Progress], Any]] = None) -> Tuple[Any, Result]:
+    """Bundle-adjusts a COLMAP model as sbarefine does (the same numbers, bit for bit, as
+    ``sbarefine MODEL --write OUT`` with the same options), with COLMAP's camera models and
+    COLMAP's defaults, and returns ``(refined model, Result)``; the model is left unchanged.
+    model is a :class:`ColmapModel` or a pycolmap.Reconstruction (then the refined model is
+    one too).
+
+    Every image that sees a point is refined (its pose), with its camera's parameters: a camera
+    shared by several images once for all of them; every 3D point is refined, and its
+    ``error`` becomes its mean reprojection error. An image that sees no point is left as it
+    is. With rigs and frames, as COLMAP 4 refines them: a frame's pose (rig_from_world) once
+    for its images, a camera's pose in its rig (sensor_from_rig) once for all the frames of the
+    rig (the rig's reference camera at the identity), written back to the frames and the rigs
+    and composed into the images.
+
+    refine_focal_length, refine_principal_point, refine_extra_params
+        COLMAP's bundle adjustment options (the focal length and the parameters after the
+        principal point refined, the principal point held, by default).
+    hold_poses
+        Images whose pose is held (COLMAP's constant poses): "all", or a list of IMAGE_IDs
+        (ints) and NAMEs (strs, every image of that name); an item that names no image is a
+        ValueError.
+    itmax, function_tolerance
+        COLMAP's max_num_iterations (100) and function_tolerance (Ceres's relative cost
+        change; None: COLMAP's 0, unless strategy or opts[4] is given, which then keep sba's
+        tests). A tolerance sets opts[4] to it (at least 4 ulp) and the strategy, unless
+        given, to "trust-region". itmax 0 returns the model as given.
+    mcon, ncon
+        The first mcon images that see a point (their cameras' parameters too, in all their
+        images) and the first ncon points are held.
+
+    The other arguments are :func:`solve`'s. The Result's ``model`` is the refined
+    :class:`ColmapModel` (also on the ``result`` of a KeyboardInterrupt: the last accepted
+    estimate), ``rms_initial`` and ``rms_final`` are sbarefine's RMS reprojection errors in
+    pixels, ``cameras`` and ``points`` the sba parameters (rotation, translation and camera
+    parameters of each image that sees a point; the points' coordinates).
+    """
+    reconstruction = _is_reconstruction(model)
+    colmap_model = from_pycolmap(model) if reconstruction else model
+    _check_model(colmap_model)
+    flags = (("refine_focal_length", refine_focal_length),
+             ("refine_principal_point", refine_principal_point),
+             ("refine_extra_params", refine_extra_params),
+             ("refine_rig_from_world", refine_rig_from_world),
+             ("refine_sensor_from_rig", refine_sensor_from_rig),
+             ("constant_rig_from_world_rotation", constant_rig_from_world_rotation))
+    for name, flag in flags:
+        if not isinstance(flag, (bool, np.bool_)):
+            raise TypeError(f"{name} must be a bool, got {type(flag).__name__}")
+    held = _held_images(colmap_model, hold_poses)
+    strategy, opts = _colmap_stop(strategy, opts, function_tolerance)
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
+    report = _core.refine_colmap(colmap_model, held, *(bool(flag) for _, flag in flags), **kw)
+    report["model"] = _model(report["model"])
+    result = _finish(report)
+    return (to_pycolmap(result.model) if reconstruction else result.model), result
+
+
+def _pycolmap() -> Any:
+    try:
+        import pycolmap
+    except ImportError as e:
+        raise ImportError(f"pysba's conversions to and from pycolmap need pycolmap (pip install pycolmap), "
+                          f"which cannot be imported: {e}") from e
+    return pycolmap
+
+
+def from_pycolmap(reconstruction: Any) -> ColmapModel:
+    """The :class:`ColmapModel` of a pycolmap.Reconstruction, every field as pycolmap writes
+    it (through a binary model in a temporary directory)."""
+    pycolmap = _pycolmap()
+    if not isinstance(reconstruction, pycolmap.Reconstruction):
+        raise TypeError(f"reconstruction must be a pycolmap.Reconstruction, got "
+                        f"{type(reconstruction).__name__}")
+    with tempfile.TemporaryDirectory(prefix="pysba-") as d:
+        reconstruction.write_binary(d)
+        return read_colmap(d)
+
+
+def to_pycolmap(model: ColmapModel) -> Any:
+    """The pycolmap.Reconstruction of a :class:`ColmapModel` (through a binary model in a
+    temporary directory, which pycolmap reads). ValueError or TypeError for a model the
+    reader would refuse."""
+    pycolmap = _pycolmap()
+    _check_model(model)
+    with tempfile.TemporaryDirectory(prefix="pysba-") as d:
+        write_colmap(model, d, "binary")
+        return pycolmap.Reconstruction(d)

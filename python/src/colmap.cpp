@@ -1,0 +1,516 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "colmap.h"
+
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "arrays.h"
+#include "cameras/colmap_camera.h"
+#include "formats/colmap_check.h"
+#include "formats/colmap_io.h"
+#include "formats/colmap_sba.h"
+#include "gil.h"
+#include "option_values.h"
+#include "run.h"
+#include "session.h"
+
+namespace colmap = sbaformats::colmap;
+namespace colmap_camera = sbacameras::colmap_camera;
+
+namespace pysba {
+namespace {
+
+constexpr std::uint64_t kU32 = 0xffffffffu;
+constexpr std::uint64_t kU64 = ~std::uint64_t{0};
+// How the library's messages name a model that came from Python, where a file's path would be.
+const char *const kModelName = "model";
+
+// ---- a model from Python: its attributes, each checked and named as the caller wrote it ----
+
+py::object get(py::handle obj, const char *name) { return obj.attr(name); }
+
+std::string type_name(py::handle v) { return Py_TYPE(v.ptr())->tp_name; }
+
+// v, an int (or what operator.index takes, but not a bool), in [0, max].
+std::uint64_t whole_number(py::handle v, std::uint64_t max, const std::string &where) {
+  if (PyBool_Check(v.ptr()) || !PyIndex_Check(v.ptr()))
+    throw py::type_error(where + " must be an int, got " + type_name(v));
+  const PyRef i(PyNumber_Index(v.ptr()));
+  if (!i) throw py::error_already_set();
+  const unsigned long long x = PyLong_AsUnsignedLongLong(i.get());
+  const bool overflow = x == ~0ULL && PyErr_Occurred();
+  if (overflow) PyErr_Clear();
+  if (overflow || x > max)
+    throw py::value_error(where + " must be in [0, " + std::to_string(max) + "], got " +
+                          std::string(py::str(i.handle())));
+  return x;
+}
+
+// obj as integers in [0, max], of the given shape (-1: any size), in C order: a TypeError for
+// an array of another kind (floats, bools, strs), except an empty one, which has no entries to
+// be of the wrong kind ([] is an array of floats to numpy). minus_one: -1 stands for max, as
+// POINT3D_ID -1 is the unsigned 2^64 - 1 of the binary files.
+template <class T>
+std::vector<T> whole_numbers(py::handle obj, std::uint64_t max, const std::string &what,
+                             std::vector<py::ssize_t> shape, bool minus_one = false) {
+  const py::array a = py::array::ensure(obj);
+  const char kind = a ? a.dtype().kind() : '?';
+  if (kind != 'i' && kind != 'u' && !(a && a.size() == 0 && kind == 'f'))
+    throw py::type_error(what + " must be an array of integers, got " + what_it_is(obj));
+  const std::vector<py::ssize_t> got = check_shape(a, what.c_str(), std::move(shape));
+  const std::vector<long long> dims(got.begin(), got.end());
+  std::vector<T> out(static_cast<size_t>(a.size()));
+  const auto bad = [&](py::ssize_t k, const std::string &value) {
+    return py::value_error(entry_name(what, dims, k) + " = " + value + " is not in [0, " +
+                           std::to_string(max) + "]" + (minus_one ? " (nor -1)" : ""));
+  };
+  if (kind == 'u') {
+    const auto u = py::array_t<std::uint64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+    for (py::ssize_t k = 0; k < a.size(); ++k) {
+      if (u.data()[k] > max) throw bad(k, std::to_string(u.data()[k]));
+      out[size_t(k)] = static_cast<T>(u.data()[k]);
+    }
+  } else if (kind == 'i') {
+    const Indices s = Indices::ensure(a);
+    for (py::ssize_t k = 0; k < a.size(); ++k) {
+      const long long v = s.data()[k];
+      if (minus_one && v == -1) {
+        out[size_t(k)] = static_cast<T>(max);
+        continue;
+      }
+      if (v < 0 || static_cast<std::uint64_t>(v) > max) throw bad(k, std::to_string(v));
+      out[size_t(k)] = static_cast<T>(v);
+    }
+  }
+  return out;
+}
+
+// obj as finite numbers of the given shape (-1: any size).
+Doubles finite_numbers(py::handle obj, const std::string &what, std::vector<py::ssize_t> shape) {
+  Doubles a = float_array(obj, what.c_str());
+  check_shape(a, what.c_str(), std::move(shape));
+  check_finite(a, what.c_str());
+  return a;
+}
+
+template <size_t N>
+std::array<double, N> finite_vector(py::handle obj, const std::string &what) {
+  const Doubles a = finite_numbers(obj, what, {py::ssize_t(N)});
+  std::array<double, N> out;
+  std::copy_n(a.data(), N, out.begin());
+  return out;
+}
+
+// A str as the bytes the files hold: UTF-8, and a name read from bytes that are not UTF-8
+// back as those bytes (surrogateescape, as name_of gives it).
+std::string text(py::handle v, const std::string &where) {
+  if (!PyUnicode_Check(v.ptr())) throw py::type_error(where + " must be a str, got " + type_name(v));
+  const PyRef b(PyUnicode_AsEncodedString(v.ptr(), "utf-8", "surrogateescape"));
+  if (!b) throw py::error_already_set();
+  return std::string(PyBytes_AS_STRING(b.get()), size_t(PyBytes_GET_SIZE(b.get())));
+}
+
+// The items of a list (or of anything iterable but a str).
+py::list items(py::handle v, const std::string &where) {
+  PyObject *list = PyUnicode_Check(v.ptr()) || PyBytes_Check(v.ptr()) ? nullptr : PySequence_List(v.ptr());
+  if (!list) {
+    PyErr_Clear();
+    throw py::type_error(where + " must be a list, got " + type_name(v));
+  }
+  return py::reinterpret_steal<py::list>(list);
+}
+
+std::string at(const std::string &what, size_t k) { return what + "[" + std::to_string(k) + "]"; }
+
+int model_id(const std::string &name, const std::string &where) {
+  for (int k = 0; colmap::camera_model_name(k); ++k)
+    if (name == colmap::camera_model_name(k)) return k;
+  std::string known;
+  for (int k = 0; colmap::camera_model_name(k); ++k)
+    known += std::string(k ? ", " : "") + colmap::camera_model_name(k);
+  throw py::value_error(where + ": unknown camera model '" + name + "' (COLMAP's are " + known + ")");
+}
+
+const char *sensor_type_text(colmap::SensorType type) {
+  return type == colmap::SensorType::Camera ? "CAMERA" : "IMU";
+}
+
+colmap::SensorType sensor_type(py::handle v, const std::string &where) {
+  const std::string t = text(v, where);
+  if (t == "CAMERA") return colmap::SensorType::Camera;
+  if (t == "IMU") return colmap::SensorType::Imu;
+  throw py::value_error(where + " must be 'CAMERA' or 'IMU', got '" + t + "'");
+}
+
+// A pose's q and t (qw qx qy qz, t), into *out.
+void pose_of(py::handle obj, const std::string &where, colmap::Pose *out) {
+  out->q = finite_vector<4>(get(obj, "q"), where + ".q");
+  out->t = finite_vector<3>(get(obj, "t"), where + ".t");
+}
+
+colmap::Camera camera_of(py::handle c, const std::string &where) {
+  colmap::Camera out;
+  out.id = static_cast<std::uint32_t>(whole_number(get(c, "id"), kU32, where + ".id"));
+  out.model = model_id(text(get(c, "model"), where + ".model"), where + ".model");
+  out.width = whole_number(get(c, "width"), kU64, where + ".width");
+  out.height = whole_number(get(c, "height"), kU64, where + ".height");
+  const Doubles params = finite_numbers(get(c, "params"), where + ".params", {-1});
+  out.params.assign(params.data(), params.data() + params.size());
+  return out;
+}
+
+colmap::Image image_of(py::handle im, const std::string &where) {
+  colmap::Image out;
+  out.id = static_cast<std::uint32_t>(whole_number(get(im, "id"), kU32, where + ".id"));
+  out.name = text(get(im, "name"), where + ".name");
+  out.camera_id = static_cast<std::uint32_t>(whole_number(get(im, "camera_id"), kU32, where + ".camera_id"));
+  colmap::Pose pose;
+  pose_of(im, where, &pose);
+  out.q = pose.q;
+  out.t = pose.t;
+  const Doubles xy = finite_numbers(get(im, "points2D"), where + ".points2D", {-1, 2});
+  const std::vector<std::uint64_t> ids = whole_numbers<std::uint64_t>(
+      get(im, "point3D_ids"), colmap::kNoPoint, where + ".point3D_ids", {xy.shape(0)}, true);
+  out.points.resize(ids.size());
+  for (size_t k = 0; k < ids.size(); ++k) out.points[k] = {xy.data()[2 * k], xy.data()[2 * k + 1], ids[k]};
+  return out;
+}
+
+std::vector<colmap::Point3D> points_of(py::handle pts) {
+  const std::string w = "points3D.";
+  const std::vector<std::uint64_t> ids = whole_numbers<std::uint64_t>(get(pts, "ids"), kU64, w + "ids", {-1});
+  const py::ssize_t n = py::ssize_t(ids.size());
+  const Doubles xyz = finite_numbers(get(pts, "xyz"), w + "xyz", {n, 3});
+  const std::vector<std::uint8_t> rgb = whole_numbers<std::uint8_t>(get(pts, "rgb"), 255, w + "rgb", {n, 3});
+  const Doubles error = finite_numbers(get(pts, "error"), w + "error", {n});
+  const std::vector<std::uint64_t> offsets =
+      whole_numbers<std::uint64_t>(get(pts, "track_offsets"), kU64, w + "track_offsets", {n + 1});
+  const std::vector<std::uint32_t> images =
+      whole_numbers<std::uint32_t>(get(pts, "track_image_ids"), kU32, w + "track_image_ids", {-1});
+  const std::vector<std::uint32_t> idxs = whole_numbers<std::uint32_t>(
+      get(pts, "track_point2D_idxs"), kU32, w + "track_point2D_idxs", {py::ssize_t(images.size())});
+  // Point k's track is elements track_offsets[k] to track_offsets[k + 1] - 1.
+  for (size_t k = 0; k <= ids.size(); ++k) {
+    const bool ends = k == 0 ? offsets[k] == 0 : k < ids.size() || offsets[k] == images.size();
+    if (!ends || (k > 0 && offsets[k] < offsets[k - 1]))
+      throw py::value_error(
+          w + "track_offsets must rise from 0 to len(track_image_ids) = " + std::to_string(images.size()) +
+          ", got track_offsets[" + std::to_string(k) + "] = " + std::to_string(offsets[k]));
+  }
+  std::vector<colmap::Point3D> out(ids.size());
+  for (size_t k = 0; k < ids.size(); ++k) {
+    colmap::Point3D &p = out[k];
+    p.id = ids[k];
+    std::copy_n(xyz.data() + 3 * k, 3, p.xyz.begin());
+    std::copy_n(rgb.data() + 3 * k, 3, p.rgb.begin());
+    p.error = error.data()[k];
+    for (std::uint64_t e = offsets[k]; e < offsets[k + 1]; ++e) p.track.push_back({images[e], idxs[e]});
+  }
+  return out;
+}
+
+colmap::Rig rig_of(py::handle r, const std::string &where) {
+  colmap::Rig out;
+  out.id = static_cast<std::uint32_t>(whole_number(get(r, "id"), kU32, where + ".id"));
+  const py::list sensors = items(get(r, "sensors"), where + ".sensors");
+  for (size_t k = 0; k < sensors.size(); ++k) {
+    const py::handle s = sensors[k];
+    const std::string sw = at(where + ".sensors", k);
+    colmap::RigSensor rs;
+    rs.sensor.type = sensor_type(get(s, "type"), sw + ".type");
+    rs.sensor.id = static_cast<std::uint32_t>(whole_number(get(s, "id"), kU32, sw + ".id"));
+    const bool no_q = get(s, "q").is_none(), no_t = get(s, "t").is_none();
+    if (no_q != no_t)
+      throw py::value_error(sw + ": q and t go together: both None (no pose in the rig) or both given");
+    rs.has_pose = !no_q;
+    if (rs.has_pose) pose_of(s, sw, &rs.sensor_from_rig);
+    out.sensors.push_back(rs);
+  }
+  return out;
+}
+
+colmap::Frame frame_of(py::handle f, const std::string &where) {
+  colmap::Frame out;
+  out.id = static_cast<std::uint32_t>(whole_number(get(f, "id"), kU32, where + ".id"));
+  out.rig_id = static_cast<std::uint32_t>(whole_number(get(f, "rig_id"), kU32, where + ".rig_id"));
+  pose_of(f, where, &out.rig_from_world);
+  const py::list data = items(get(f, "data"), where + ".data");
+  for (size_t k = 0; k < data.size(); ++k) {
+    const std::string dw = at(where + ".data", k);
+    const py::list d = items(data[k], dw);
+    if (d.size() != 3)
+      throw py::value_error(dw + " must be (type, sensor_id, data_id), got " + std::to_string(d.size()) +
+                            " values");
+    colmap::DataId id;
+    id.sensor.type = sensor_type(d[0], dw + "[0]");
+    id.sensor.id = static_cast<std::uint32_t>(whole_number(d[1], kU32, dw + "[1]"));
+    id.id = whole_number(d[2], kU64, dw + "[2]");
+    out.data.push_back(id);
+  }
+  return out;
+}
+
+template <class Record, class Convert>
+std::vector<Record> records(py::handle list, const char *what, Convert convert) {
+  const py::list l = items(list, what);
+  std::vector<Record> out;
+  out.reserve(l.size());
+  for (size_t k = 0; k < l.size(); ++k) out.push_back(convert(l[k], at(what, k)));
+  return out;
+}
+
+// A ColmapModel (its attributes: see pysba/_colmap.py), checked as the readers check a model
+// (ValueError or TypeError otherwise), so that what write_model makes of it reads back.
+colmap::Model model_of(py::handle obj) {
+  colmap::Model m;
+  m.cameras = records<colmap::Camera>(get(obj, "cameras"), "cameras", camera_of);
+  m.images = records<colmap::Image>(get(obj, "images"), "images", image_of);
+  m.points = points_of(get(obj, "points3D"));
+  const py::object rigs = get(obj, "rigs"), frames = get(obj, "frames");
+  if (rigs.is_none() != frames.is_none())
+    throw py::value_error(
+        "rigs and frames go together, as COLMAP 4 refuses a model with one of the two: both "
+        "lists, or both None");
+  m.has_rigs = !rigs.is_none();
+  if (m.has_rigs) {
+    m.rigs = records<colmap::Rig>(rigs, "rigs", rig_of);
+    m.frames = records<colmap::Frame>(frames, "frames", frame_of);
+  }
+  std::string error;
+  if (!colmap::check_records(m, kModelName, &error) || !colmap::check_model(m, kModelName, &error))
+    throw py::value_error(error);
+  return m;
+}
+
+// ---- a model to Python: plain values that pysba/__init__.py makes its classes of ----
+
+template <size_t N>
+py::array_t<double> vector_of(const std::array<double, N> &v) {
+  return copy_of(v.data(), {py::ssize_t(N)});
+}
+
+py::str name_of(const std::string &name) {
+  PyObject *s = PyUnicode_DecodeUTF8(name.data(), Py_ssize_t(name.size()), "surrogateescape");
+  if (!s) throw py::error_already_set();
+  return py::reinterpret_steal<py::str>(s);
+}
+
+py::tuple python_image(const colmap::Image &im) {
+  const size_t k = im.points.size();
+  std::vector<double> xy(2 * k);
+  std::vector<std::uint64_t> ids(k);
+  for (size_t i = 0; i < k; ++i) {
+    xy[2 * i] = im.points[i].x;
+    xy[2 * i + 1] = im.points[i].y;
+    ids[i] = im.points[i].point3d_id;
+  }
+  return py::make_tuple(im.id, name_of(im.name), im.camera_id, vector_of(im.q), vector_of(im.t),
+                        adopt(std::move(xy), {py::ssize_t(k), 2}), adopt(std::move(ids), {py::ssize_t(k)}));
+}
+
+py::tuple python_points(const std::vector<colmap::Point3D> &points) {
+  const size_t n = points.size();
+  std::vector<std::uint64_t> ids(n), offsets(n + 1, 0);
+  std::vector<double> xyz(3 * n), error(n);
+  std::vector<std::uint8_t> rgb(3 * n);
+  std::vector<std::uint32_t> images, idxs;
+  for (size_t k = 0; k < n; ++k) {
+    const colmap::Point3D &p = points[k];
+    ids[k] = p.id;
+    std::copy(p.xyz.begin(), p.xyz.end(), xyz.begin() + 3 * k);
+    std::copy(p.rgb.begin(), p.rgb.end(), rgb.begin() + 3 * k);
+    error[k] = p.error;
+    for (const colmap::TrackElement &e : p.track) {
+      images.push_back(e.image_id);
+      idxs.push_back(e.point2d_idx);
+    }
+    offsets[k + 1] = images.size();
+  }
+  const py::ssize_t len = py::ssize_t(n), elements = py::ssize_t(images.size());
+  return py::make_tuple(adopt(std::move(ids), {len}), adopt(std::move(xyz), {len, 3}),
+                        adopt(std::move(rgb), {len, 3}), adopt(std::move(error), {len}),
+                        adopt(std::move(offsets), {len + 1}), adopt(std::move(images), {elements}),
+                        adopt(std::move(idxs), {elements}));
+}
+
+py::object python_pose(const colmap::Pose &p) { return py::make_tuple(vector_of(p.q), vector_of(p.t)); }
+
+py::dict python_model(const colmap::Model &m) {
+  py::list cameras, images, rigs, frames;
+  for (const colmap::Camera &c : m.cameras)
+    cameras.append(py::make_tuple(c.id, colmap::camera_model_name(c.model), c.width, c.height,
+                                  copy_of(c.params.data(), {py::ssize_t(c.params.size())})));
+  for (const colmap::Image &im : m.images) images.append(python_image(im));
+  for (const colmap::Rig &r : m.rigs) {
+    py::list sensors;
+    for (const colmap::RigSensor &s : r.sensors)
+      sensors.append(py::make_tuple(sensor_type_text(s.sensor.type), s.sensor.id,
+                                    s.has_pose ? python_pose(s.sensor_from_rig) : py::none()));
+    rigs.append(py::make_tuple(r.id, sensors));
+  }
+  for (const colmap::Frame &f : m.frames) {
+    py::list data;
+    for (const colmap::DataId &d : f.data)
+      data.append(py::make_tuple(sensor_type_text(d.sensor.type), d.sensor.id, d.id));
+    frames.append(py::make_tuple(f.id, f.rig_id, python_pose(f.rig_from_world), data));
+  }
+  py::dict d;
+  d["cameras"] = cameras;
+  d["images"] = images;
+  d["points3D"] = python_points(m.points);
+  d["rigs"] = m.has_rigs ? py::object(rigs) : py::object(py::none());
+  d["frames"] = m.has_rigs ? py::object(frames) : py::object(py::none());
+  return d;
+}
+
+// ---- reading, writing, refining ----
+
+// Whether a message of read_model is about reaching the files (OSError) rather than what
+// they hold (ValueError): "DIR: no COLMAP model ...", or "DIR/FILE: " and a reason below.
+bool unreadable(const std::string &error, const std::string &dir) {
+  if (error.rfind(dir + ": no COLMAP model", 0) == 0) return true;
+  const std::string folder = dir.empty() || dir.back() == '/' ? dir : dir + "/";
+  if (error.rfind(folder, 0) != 0) return false;
+  const size_t colon = error.find(": ", folder.size());
+  if (colon == std::string::npos || error.find_first_of("/:", folder.size()) < colon) return false;
+  for (const char *reason : {"cannot open: ", "is a directory", "not a regular file", "read error"})
+    if (error.compare(colon + 2, std::string::traits_type::length(reason), reason) == 0) return true;
+  return false;
+}
+
+py::dict read_colmap(const std::string &dir) {
+  colmap::Model m;
+  std::string error;
+  if (!without_gil([&] { return colmap::read_model(dir, &m, nullptr, &error); }))
+    raise_file_error(unreadable(error, dir) ? PyExc_OSError : PyExc_ValueError, error);
+  return python_model(m);
+}
+
+void write_colmap(py::handle model, const std::string &dir, const std::string &encoding) {
+  if (encoding != "text" && encoding != "binary")
+    throw py::value_error("encoding must be 'text' or 'binary', got '" + encoding + "'");
+  const colmap::Model m = model_of(model);
+  const colmap::Encoding e = encoding == "text" ? colmap::Encoding::Text : colmap::Encoding::Binary;
+  std::string error;
+  if (!without_gil([&] { return colmap::write_model(dir, m, e, &error); }))
+    raise_file_error(PyExc_OSError, error);
+}
+
+// An sba camera model of to_sba's problem (CameraModel, or RigCameraModel for a rigged one),
+// its invalid_argument a ValueError.
+template <typename SbaModel, typename... Args>
+std::unique_ptr<SbaModel> sba_model(Args &&...args) {
+  try {
+    return std::make_unique<SbaModel>(std::forward<Args>(args)...);
+  } catch (const std::invalid_argument &e) {
+    throw py::value_error(e.what());
+  }
+}
+
+// The solve of pr through the sba camera model sm and its callbacks, with the held (and, in
+// d's caller, shared) parameters to_sba chose; sm's estimate written back into model by
+// from_sba unless nothing was solved (itmax 0).
+template <typename SbaModel>
+py::dict solve_model(const SbaModel &sm, const colmap::ColmapProblem &pr, Run &run, SolveOptions &o,
+                     colmap::Model &model) {
+  Observations &obs = run.obs;
+  obs.n = pr.points.npoints();
+  obs.m = pr.points.ncameras;
+  obs.mnp = 2;
+  obs.point = pr.points.pairs.point;
+  obs.camera = pr.points.pairs.camera;
+  obs.x = pr.points.x;
+  obs.order.resize(obs.point.size());
+  std::iota(obs.order.begin(), obs.order.end(), 0LL);
+  const int m = obs.m, n = obs.n, cnp = sm.cnp();
+  run.p = sm.initial_camera_params();
+  run.p.insert(run.p.end(), sm.initial_points().begin(), sm.initial_points().end());
+  run.cnp = cnp;
+  run.pnp = 3;
+  run.adata = colmap_camera::as_adata(sm);
+  run.parallel = true;  // the callbacks are re-entrant, as sbarefine runs them
+  o.has_fixed = true;
+  o.fixed = pr.cam_fixed;
+  o.fixed_shape = {m, cnp};
+
+  Session session(o);
+  py::dict d = run_driver(run, session, o);
+  if (o.itmax > 0 && d["ret"].cast<int>() != SBA_ERROR) colmap::from_sba(sm, pr, run.p.data(), o.mcon, o.ncon, &model);
+  d["model"] = python_model(model);
+  d["cameras"] = copy_of(run.p.data(), {m, cnp});
+  d["points"] = copy_of(run.p.data() + size_t(m) * size_t(cnp), {n, 3});
+  d["nobs"] = obs.nobs();
+  return d;
+}
+
+// The solve sbarefine runs on a COLMAP model (its load_colmap and colmap_job): the problem of
+// to_sba through COLMAP's camera models, each image's intrinsics shared by the images of its
+// camera (camera groups), or, in a model whose frames hold several images, through the rig
+// camera model, the frames' and the cameras' poses in their rigs shared too (per-parameter
+// groups). The one place that knows how a ColmapProblem is solved: what to_sba makes of other
+// models goes here too.
+py::dict refine_model(colmap::Model model, const colmap::RefineIntrinsics &refine, const colmap::RefinePoses &poses,
+                      const std::vector<char> &held, SolveOptions o) {
+  colmap::ColmapProblem pr;
+  std::string error;
+  if (!colmap::to_sba(model, refine, poses, held, o.mcon, kModelName, &pr, &error)) throw py::value_error(error);
+  Run run;
+  if (pr.rigged) {
+    const auto sm = sba_model<colmap_camera::RigCameraModel>(pr.rig_images, pr.points.xyz, pr.cam_fixed);
+    run.func = colmap_camera::rig_motstr_func;
+    run.fjac = colmap_camera::rig_motstr_fjac;
+    o.has_param_groups = true;
+    o.param_groups = pr.cam_param_group;
+    o.param_groups_shape = {pr.points.ncameras, sm->cnp()};
+    return solve_model(*sm, pr, run, o, model);
+  }
+  const auto sm = sba_model<colmap_camera::CameraModel>(pr.cameras, pr.points.xyz, pr.cam_fixed);
+  run.func = colmap_camera::motstr_func;
+  run.fjac = colmap_camera::motstr_fjac;
+  o.has_groups = o.has_shared = true;
+  o.groups = pr.cam_group;
+  o.shared = pr.cam_shared;
+  return solve_model(*sm, pr, run, o, model);
+}
+
+py::dict refine_colmap(py::handle model, const std::vector<long long> &held_images, bool focal,
+                       bool principal, bool extra, bool rig_from_world, bool sensor_from_rig,
+                       bool constant_rotation, const py::kwargs &kw) {
+  const SolveOptions o = solve_options(kw);
+  colmap::Model m = model_of(model);
+  // As read_model gives it: each image's pose its frame's, which is what a reader of the
+  // model takes (and the same bits for a model read_colmap gave).
+  colmap::poses_from_frames(&m);
+  std::vector<char> held(held_images.empty() ? 0 : m.images.size(), 0);
+  for (long long k : held_images) {
+    if (k < 0 || size_t(k) >= m.images.size())
+      throw py::value_error("held image " + std::to_string(k) + " is not in [0, " +
+                            std::to_string(m.images.size()) + ")");
+    held[size_t(k)] = 1;
+  }
+  return refine_model(std::move(m), {focal, principal, extra}, {rig_from_world, sensor_from_rig, constant_rotation},
+                      held, o);
+}
+
+}  // namespace
+
+void add_colmap(py::module_ &mod) {
+  mod.def("read_colmap", &read_colmap, py::arg("path"));
+  mod.def("write_colmap", &write_colmap, py::arg("model"), py::arg("path"), py::arg("encoding"));
+  mod.def("refine_colmap", &refine_colmap, py::arg("model"), py::arg("held_images"),
+          py::arg("refine_focal_length"), py::arg("refine_principal_point"), py::arg("refine_extra_params"),
+          py::arg("refine_rig_from_world"), py::arg("refine_sensor_from_rig"),
+          py::arg("constant_rig_from_world_rotation"));
+}
+
+}  // namespace pysba

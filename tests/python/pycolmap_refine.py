@@ -1,0 +1,160 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-3-Clause
+"""pysba with pycolmap (PyPI): a scene of pycolmap.synthesize_dataset, with noise, converted
+to pysba and back unchanged, and refined by pysba.refine_colmap with pycolmap agreeing on
+the result.
+
+Checks: to_pycolmap(from_pycolmap(rec)) is rec, the same bits (every image's pose, every
+camera's parameters, every point's coordinates, color, error and track, the rigs and frames);
+refine_colmap(from_pycolmap(rec)) refines the poses, and pycolmap's own projection of the
+refined model gives the Result's final RMS reprojection error (1e-6 relative);
+refine_colmap(rec) gives a pycolmap.Reconstruction, the same as converting that result.
+A scene of two rigs of three cameras (frames of three images), the cameras' poses in their rigs
+and focal lengths moved: refine_colmap(rec) ends no worse than pycolmap.bundle_adjustment at
+its defaults (1 + 1e-6) by pycolmap's projection, and every image's pose is its frame's
+composed with its camera's pose in the rig (1e-12).
+
+Exit status: 0 every check passed, 1 a check failed, 77 (ctest's SKIP_RETURN_CODE) no Python
+here can import both pycolmap and pysba, or a sanitizer build (pycolmap is not built with
+the sanitizers).
+
+  pycolmap_refine.py [--python PY]
+With --python, a Python that cannot import pycolmap runs this script with PY instead (pysba
+found as here, by PYTHONPATH: the module is CPython's extension ABI, so PY must be the same
+CPython version as the one pysba was built for).
+"""
+import argparse
+import os
+import sys
+
+# The scene and the RMS error by pycolmap's projection are sbarefine's test's (tests/pycolmap).
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "pycolmap"))
+from pycolmap_check import Failure, expect, perturb_rigs, rms, synthesize  # noqa: E402
+
+SKIP = 77
+REEXEC = "PYSBA_PYCOLMAP_REEXEC"
+
+
+def values(x):
+    return [float(v) for v in x]
+
+
+def pose(p):
+    return values(p.rotation.quat) + values(p.translation)
+
+
+def same_reconstruction(a, b, what):
+    """a and b hold the same values, bit for bit (floats compared as Python floats, which
+    are the doubles themselves)."""
+    expect(sorted(a.cameras) == sorted(b.cameras) and sorted(a.images) == sorted(b.images) and
+           sorted(a.points3D) == sorted(b.points3D), what + ": other ids")
+    for k, c in a.cameras.items():
+        d = b.cameras[k]
+        expect((c.model, c.width, c.height, values(c.params)) ==
+               (d.model, d.width, d.height, values(d.params)),
+               "%s: camera %d" % (what, k))
+    for k, im in a.images.items():
+        other = b.images[k]
+        expect((im.name, im.camera_id, im.frame_id) == (other.name, other.camera_id, other.frame_id),
+               "%s: image %d" % (what, k))
+        expect(pose(im.cam_from_world()) == pose(other.cam_from_world()), "%s: image %d's pose" % (what, k))
+        expect([(values(p.xy), p.point3D_id) for p in im.points2D] ==
+               [(values(p.xy), p.point3D_id) for p in other.points2D], "%s: image %d's keypoints" % (what, k))
+    for k, p in a.points3D.items():
+        q = b.points3D[k]
+        expect((values(p.xyz), values(p.color), float(p.error)) ==
+               (values(q.xyz), values(q.color), float(q.error)),
+               "%s: point %d" % (what, k))
+        expect([(e.image_id, e.point2D_idx) for e in p.track.elements] ==
+               [(e.image_id, e.point2D_idx) for e in q.track.elements], "%s: point %d's track" % (what, k))
+    expect(sorted(a.frames) == sorted(b.frames) and sorted(a.rigs) == sorted(b.rigs),
+           what + ": rigs or frames")
+    for k, f in a.frames.items():
+        expect(pose(f.rig_from_world) == pose(b.frames[k].rig_from_world), "%s: frame %d" % (what, k))
+
+
+def run(pycolmap, pysba):
+    rec = synthesize(pycolmap, 1, 7)
+    model = pysba.from_pycolmap(rec)
+    expect(repr(model) == "ColmapModel(cameras=2, images=16, points3D=300, rigs=2, frames=16)", repr(model))
+    same_reconstruction(rec, pysba.to_pycolmap(model), "to_pycolmap(from_pycolmap(rec))")
+    print("PASS to_pycolmap(from_pycolmap(rec)) is rec")
+
+    refined, result = pysba.refine_colmap(model)
+    back = pysba.to_pycolmap(refined)
+    moved = max(abs(a - b) for k, im in back.images.items()
+                for a, b in zip(values(im.cam_from_world().translation),
+                                values(rec.images[k].cam_from_world().translation)))
+    expect(moved > 1e-3, "no pose was refined (%g)" % moved)
+    theirs = rms(pycolmap, back)
+    expect(result.rms_final < 0.5 * result.rms_initial, "the error did not drop: %r" % result)
+    expect(abs(theirs - result.rms_final) <= 1e-6 * result.rms_final,
+           "pycolmap's RMS %.17g, pysba's %.17g" % (theirs, result.rms_final))
+    print("PASS refine_colmap: RMS %.9g px -> %.9g px, pycolmap's %.9g px"
+          % (result.rms_initial, result.rms_final, theirs))
+
+    direct, again = pysba.refine_colmap(rec)
+    expect(isinstance(direct, pycolmap.Reconstruction),
+           "refine_colmap(rec) gave a %s" % type(direct).__name__)
+    expect(again.info.tolist() == result.info.tolist(), "refine_colmap(rec) solved another problem")
+    same_reconstruction(back, direct, "refine_colmap(rec)")
+    print("PASS refine_colmap(rec) is a pycolmap.Reconstruction, the same")
+
+    rigs = synthesize(pycolmap, 3, 13, rigs=2)
+    perturb_rigs(pycolmap, rigs)
+    expect(rigs.num_frames() < len(rigs.images), "the rig scene has no frame of several images")
+    reference = pycolmap.Reconstruction(rigs)
+    options = pycolmap.BundleAdjustmentOptions()
+    options.print_summary = False
+    pycolmap.bundle_adjustment(reference, options)
+    theirs = rms(pycolmap, reference)
+    refined, result = pysba.refine_colmap(rigs)
+    mine = rms(pycolmap, refined)
+    expect(abs(mine - result.rms_final) <= 1e-6 * mine, "pycolmap's RMS %.17g, pysba's %.17g" % (mine, result.rms_final))
+    expect(mine <= theirs * (1 + 1e-6), "rigs: RMS %.17g, pycolmap.bundle_adjustment's %.17g" % (mine, theirs))
+    worst = 0.0
+    for im in refined.images.values():
+        frame = refined.frames[im.frame_id]
+        rig = refined.rigs[frame.rig_id]
+        composed = frame.rig_from_world
+        if rig.ref_sensor_id.id != im.camera_id:
+            composed = rig.sensor_from_rig(pycolmap.sensor_t(pycolmap.SensorType.CAMERA, im.camera_id)) * composed
+        worst = max(worst, float(abs(im.cam_from_world().matrix() - composed.matrix()).max()))
+    expect(worst <= 1e-12, "rigs: an image's pose is %g from its frame's and its rig's" % worst)
+    print("PASS refine_colmap of rigs: RMS %.9g px, pycolmap.bundle_adjustment's %.9g px, rigid to %g"
+          % (mine, theirs, worst))
+
+
+def main(argv):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--python", default="", help="a Python with pycolmap, used when this one has none")
+    args = ap.parse_args(argv)
+    if os.environ.get("PYSBA_SANITIZED"):
+        print("pycolmap_refine: SKIPPED: a sanitizer build (pycolmap is not built with the sanitizers)")
+        return SKIP
+    try:
+        import pycolmap
+    except ImportError as e:
+        if args.python and not os.environ.get(REEXEC) and os.access(args.python, os.X_OK):
+            os.environ[REEXEC] = "1"
+            os.execv(args.python, [args.python, os.path.abspath(__file__)] + argv)
+        print("pycolmap_refine: SKIPPED: %s cannot import pycolmap (%s); scripts/deps.sh test makes a venv "
+              "with it" % (sys.executable, e))
+        return SKIP
+    try:
+        import pysba
+    except ImportError as e:
+        print("pycolmap_refine: SKIPPED: %s (Python %s) has pycolmap but cannot import pysba: %s"
+              % (sys.executable, sys.version.split()[0], e))
+        return SKIP
+    print("pycolmap %s, pysba %s, Python %s" % (pycolmap.__version__, pysba.__file__, sys.version.split()[0]))
+    try:
+        run(pycolmap, pysba)
+    except Failure as f:
+        print("FAIL %s" % f)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,527 @@
+# SPDX-License-Identifier: BSD-3-Clause
+"""pysba's COLMAP models: read and written as the C++ reader and writer do (the files sbarefine
+writes), refined as sbarefine refines them (the same bits), and refused with the reader's
+messages. Models come from sbagen (PYSBA_SBAGEN), sbarefine is PYSBA_SBAREFINE; ctest sets
+both. The conversions to and from pycolmap are tests/python/pycolmap_refine.py's."""
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import pysba
+
+
+def program(var):
+    exe = os.environ.get(var)
+    if not exe:
+        pytest.skip(f"{var} is not set (ctest sets it)")
+    return exe
+
+
+def sbagen(out, kind="varKD", *args):
+    """A COLMAP model of 6 images and 60 points, text (out/t) and binary (out/b)."""
+    out.mkdir(exist_ok=True)
+    subprocess.run([program("PYSBA_SBAGEN"), "--cameras", "6", "--points", "60", "--quiet", "--kind", kind,
+                    "--out", str(out / "g"), "--colmap", str(out / "t"), "--colmap-binary", str(out / "b"),
+                    *args], check=True)
+    return out / "t", out / "b"
+
+
+def files(d):
+    return {name: (d / name).read_bytes() for name in sorted(os.listdir(d))}
+
+
+def rad(a):
+    """The unit quaternion of a rotation by a about x, 17 digits a value."""
+    return [math.cos(a / 2), math.sin(a / 2), 0.0, 0.0]
+
+
+def rigged(tmp_path):
+    """sbagen's varKD text model with rigs and frames added, every kind of field the files have:
+    rig 1 of camera 100 (its reference), camera 101 (posed in the rig) and an IMU without a
+    pose; one rig for each other camera; a rig of no sensor; one frame per image (ids that are
+    not image ids; the IMU's measurement in image 10's frame) and a frame of no measurement."""
+    text, _ = sbagen(tmp_path)
+    model = pysba.read_colmap(text)
+    q = " ".join(repr(v) for v in rad(0.01) + [0.01, 0.0, 0.0])
+    rigs = ["# Rig list", f"1 3 CAMERA 100 CAMERA 101 1 {q} IMU 7 0"]
+    rigs += [f"{k} 1 CAMERA {100 + k - 1}" for k in range(3, 7)] + ["9 0"]
+    frames = ["# Frame list"]
+    for j, im in enumerate(model.images):
+        rig = 1 if j < 2 else j + 1
+        pose = " ".join(repr(float(v)) for v in list(im.q) + list(im.t))
+        data = f"2 CAMERA {im.camera_id} {im.id} IMU 7 55" if j == 0 else f"1 CAMERA {im.camera_id} {im.id}"
+        frames.append(f"{900 + j} {rig} {pose} {data}")
+    frames.append("999 9 1 0 0 0 0 0 0 0")
+    (text / "rigs.txt").write_text("\n".join(rigs) + "\n")
+    (text / "frames.txt").write_text("\n".join(frames) + "\n")
+    return text
+
+
+def same_array(a, b, what):
+    assert isinstance(a, np.ndarray) and isinstance(b, np.ndarray), what
+    assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), what
+
+
+def same_pose(a, b, what):
+    if a.q is None or b.q is None:
+        assert a.q is None and b.q is None and a.t is None and b.t is None, what
+        return
+    same_array(a.q, b.q, what + ".q")
+    same_array(a.t, b.t, what + ".t")
+
+
+def same_model(a, b):
+    """Every field of a and b, the same bits."""
+    assert [(c.id, c.model, c.width, c.height) for c in a.cameras] == \
+        [(c.id, c.model, c.width, c.height) for c in b.cameras]
+    for k, (c, d) in enumerate(zip(a.cameras, b.cameras)):
+        same_array(c.params, d.params, f"cameras[{k}].params")
+    assert [(i.id, i.name, i.camera_id) for i in a.images] == [(i.id, i.name, i.camera_id) for i in b.images]
+    for k, (i, j) in enumerate(zip(a.images, b.images)):
+        same_pose(i, j, f"images[{k}]")
+        same_array(i.points2D, j.points2D, f"images[{k}].points2D")
+        same_array(i.point3D_ids, j.point3D_ids, f"images[{k}].point3D_ids")
+    for name in ("ids", "xyz", "rgb", "error", "track_offsets", "track_image_ids", "track_point2D_idxs"):
+        same_array(getattr(a.points3D, name), getattr(b.points3D, name), f"points3D.{name}")
+    assert (a.rigs is None) == (b.rigs is None) and (a.frames is None) == (b.frames is None)
+    if a.rigs is None:
+        return
+    assert [(r.id, [(s.type, s.id) for s in r.sensors]) for r in a.rigs] == \
+        [(r.id, [(s.type, s.id) for s in r.sensors]) for r in b.rigs]
+    for k, (r, s) in enumerate(zip(a.rigs, b.rigs)):
+        for i, (x, y) in enumerate(zip(r.sensors, s.sensors)):
+            same_pose(x, y, f"rigs[{k}].sensors[{i}]")
+    assert [(f.id, f.rig_id, list(f.data)) for f in a.frames] == \
+        [(f.id, f.rig_id, list(f.data)) for f in b.frames]
+    for k, (f, g) in enumerate(zip(a.frames, b.frames)):
+        same_pose(f, g, f"frames[{k}]")
+
+
+# ---- reading and writing ----
+
+def test_read_gives_every_field(tmp_path):
+    model = pysba.read_colmap(rigged(tmp_path))
+    assert repr(model) == "ColmapModel(cameras=6, images=6, points3D=60, rigs=6, frames=7)"
+    c = model.cameras[0]
+    assert (c.id, c.model, c.width, c.height, c.params.shape) == (100, "OPENCV", 640, 480, (8,))
+    im = model.images[0]
+    assert (im.id, im.name, im.camera_id) == (10, "img_0000.png", 100)
+    # sbagen's first keypoint of every image observes no point.
+    assert im.point3D_ids.dtype == np.uint64 and im.point3D_ids[0] == pysba.NO_POINT3D
+    assert im.points2D[0].tolist() == [0.5, 0.5]
+    assert im.point3D_ids[1] == 1007 and model.points3D.ids[1] == 1007
+    pts = model.points3D
+    assert len(pts) == 60 and pts.ids.dtype == np.uint64 and pts.rgb.dtype == np.uint8
+    assert pts.track_offsets[0] == 0 and pts.track_offsets[-1] == len(pts.track_image_ids)
+    images, idxs = pts.track(1)  # point 1007, seen by image 10's keypoint 1, and others
+    assert images[0] == 10 and idxs[0] == 1
+    rig = model.rigs[0]
+    assert [(s.type, s.id, s.q is None) for s in rig.sensors] == \
+        [("CAMERA", 100, True), ("CAMERA", 101, False), ("IMU", 7, True)]
+    assert rig.sensors[1].q.tolist() == rad(0.01) and rig.sensors[1].t.tolist() == [0.01, 0.0, 0.0]
+    assert model.rigs[-1].id == 9 and model.rigs[-1].sensors == []
+    assert model.frames[0].data == [("CAMERA", 100, 10), ("IMU", 7, 55)]
+    assert (model.frames[-1].id, model.frames[-1].data) == (999, [])
+    # Image 13's pose is composed from its frame's in rig 1 (COLMAP 4), not read from images.txt.
+    plain = pysba.read_colmap(sbagen(tmp_path / "plain")[0])
+    assert model.frames[1].q.tolist() == plain.images[1].q.tolist()
+    assert not np.allclose(model.images[1].t, plain.images[1].t)
+
+
+@pytest.mark.parametrize("encoding", ["text", "binary"])
+def test_a_rewrite_is_the_same_files(tmp_path, encoding):
+    text, binary = sbagen(tmp_path)
+    source = text if encoding == "text" else binary
+    pysba.write_colmap(pysba.read_colmap(source), tmp_path / "out", encoding)
+    assert files(tmp_path / "out") == files(source)
+
+
+@pytest.mark.parametrize("encoding", ["text", "binary"])
+def test_round_trip_with_rigs_keeps_every_field(tmp_path, encoding):
+    model = pysba.read_colmap(rigged(tmp_path))
+    pysba.write_colmap(model, tmp_path / "a", encoding)
+    back = pysba.read_colmap(tmp_path / "a")
+    same_model(model, back)
+    pysba.write_colmap(back, tmp_path / "b", encoding)
+    extension = ".txt" if encoding == "text" else ".bin"
+    names = [n + extension for n in ("cameras", "frames", "images", "points3D", "rigs")]
+    assert sorted(os.listdir(tmp_path / "a")) == names
+    assert files(tmp_path / "a") == files(tmp_path / "b")
+
+
+@pytest.mark.parametrize("encoding", ["text", "binary"])
+def test_written_as_sbarefine_converts(tmp_path, encoding):
+    # sbarefine --itmax 0 writes the model as read, converted to --write-format.
+    source = rigged(tmp_path)
+    sb = tmp_path / "sbarefine"
+    subprocess.run([program("PYSBA_SBAREFINE"), str(source), "--itmax", "0", "--write", str(sb),
+                    "--write-format", encoding], check=True, capture_output=True)
+    pysba.write_colmap(pysba.read_colmap(source), tmp_path / "pysba", encoding)
+    assert files(tmp_path / "pysba") == files(sb)
+
+
+def test_write_leaves_one_model(tmp_path):
+    out = tmp_path / "out"
+    pysba.write_colmap(pysba.read_colmap(rigged(tmp_path)), out, "text")
+    plain = pysba.read_colmap(tmp_path / "b")
+    assert plain.rigs is None
+    pysba.write_colmap(plain, out, "binary")
+    # The text model went, and no rigs and frames are left for COLMAP to pose the images by.
+    assert sorted(os.listdir(out)) == ["cameras.bin", "images.bin", "points3D.bin"]
+    same_model(pysba.read_colmap(out), plain)
+
+
+def test_a_model_made_in_python(tmp_path):
+    # Two images of one SIMPLE_PINHOLE camera seeing one point; -1 stands for NO_POINT3D; lists
+    # and ints of any kind are taken.
+    pts = pysba.ColmapPoints3D(ids=np.array([5]), xyz=[[0.0, 0.0, 5.0]], rgb=[[1, 2, 3]], error=[0.0],
+                               track_offsets=[0, 2], track_image_ids=[1, 2], track_point2D_idxs=[0, 1])
+    images = [pysba.ColmapImage(1, "a b.png", 1, [1, 0, 0, 0], [0, 0, 0], [[50, 50]], [5]),
+              pysba.ColmapImage(2, "b.png", 1, [1, 0, 0, 0], [1, 0, 0], [[0, 0], [30, 50]],
+                                np.array([-1, 5]))]
+    camera = pysba.ColmapCamera(1, "SIMPLE_PINHOLE", 100, 100, [100.0, 50, 50])
+    model = pysba.ColmapModel([camera], images, pts)
+    pysba.write_colmap(model, tmp_path / "m", "text")
+    back = pysba.read_colmap(tmp_path / "m")
+    assert back.images[0].name == "a b.png" and back.images[1].point3D_ids.tolist() == [pysba.NO_POINT3D, 5]
+    assert back.images[1].points2D.tolist() == [[0, 0], [30, 50]]
+    assert back.points3D.rgb.tolist() == [[1, 2, 3]]
+    cameras = (tmp_path / "m" / "cameras.txt").read_text().splitlines()
+    assert cameras[-1] == "1 SIMPLE_PINHOLE 100 100 100 50 50"
+
+
+def test_names_that_are_not_utf8_come_back(tmp_path):
+    text, _ = sbagen(tmp_path)
+    model = pysba.read_colmap(text)
+    model.images[0].name = os.fsdecode(b"caf\xe9.png")  # Latin-1: a lone surrogate in Python
+    pysba.write_colmap(model, tmp_path / "out", "binary")
+    assert b"caf\xe9.png\0" in (tmp_path / "out" / "images.bin").read_bytes()
+    assert pysba.read_colmap(tmp_path / "out").images[0].name == model.images[0].name
+
+
+# ---- refining: sbarefine's numbers ----
+
+def sbarefine(model, out, args):
+    cmd = [program("PYSBA_SBAREFINE"), str(model), "--write", str(out), "--json", str(out) + ".json",
+           "--no-progress", *map(str, args)]
+    subprocess.run(cmd, check=True, capture_output=True)
+    with open(str(out) + ".json") as f:
+        return json.load(f)
+
+
+def same_as_sbarefine(tmp_path, model_dir, encoding, args, kw):
+    report = sbarefine(model_dir, tmp_path / "sbarefine", args)
+    model = pysba.read_colmap(model_dir)
+    refined, result = pysba.refine_colmap(model, **kw)
+    pysba.write_colmap(refined, tmp_path / "pysba", encoding)
+    assert files(tmp_path / "pysba") == files(tmp_path / "sbarefine")
+    info = report["info"]
+    assert result.info.tolist() == [info[k] for k in ("initial_error", "final_error", "gradient_inf_norm",
+                                                      "step_norm_sq", "mu_ratio", "iterations", "stop_reason",
+                                                      "function_evals", "jacobian_evals", "linear_systems")]
+    assert (result.rms_initial, result.rms_final) == (report["rms_px"]["initial"], report["rms_px"]["final"])
+    assert (result.sq_error_initial, result.sq_error_final) == (report["squared_error"]["initial"],
+                                                                report["squared_error"]["final"])
+    assert (result.solver, result.strategy) == (report["solver"], report["strategy"])
+    assert result.model is refined
+    # The input is left as it was.
+    same_model(model, pysba.read_colmap(model_dir))
+    return result
+
+
+def test_refine_at_colmaps_defaults_is_sbarefines(tmp_path):
+    text, _ = sbagen(tmp_path)
+    r = same_as_sbarefine(tmp_path, text, "text", [], {})
+    # COLMAP's defaults: the trust-region strategy until the cost stops changing.
+    assert r.strategy == "trust-region" and r.iterations >= 3 and r.rms_final < 0.6 < 16 < r.rms_initial
+
+
+def test_refine_with_options_is_sbarefines(tmp_path):
+    # One PINHOLE camera shared by every image (refined once), binary, other options.
+    _, binary = sbagen(tmp_path, "fixed")
+    same_as_sbarefine(tmp_path, binary, "binary",
+                      ["--refine-principal-point", "1", "--refine-extra-params", "0", "--hold-poses",
+                       "13,img_0004.png", "--loss", "cauchy", "--loss-scale", "2", "--threads", "2"],
+                      dict(refine_principal_point=True, refine_extra_params=False,
+                           hold_poses=[13, "img_0004.png"], loss="cauchy", loss_scale=2.0, threads=2))
+
+
+def test_refine_with_sbas_tests_is_sbarefines(tmp_path):
+    text, _ = sbagen(tmp_path, "varK")
+    r = same_as_sbarefine(tmp_path, text, "text",
+                          ["--strategy", "sba", "--itmax", "5", "--mcon", "1", "--ncon", "3"],
+                          dict(strategy="sba", itmax=5, mcon=1, ncon=3))
+    assert r.strategy == "sba" and r.iterations == 5
+
+
+def test_refine_with_a_tolerance_is_sbarefines(tmp_path):
+    text, _ = sbagen(tmp_path)
+    r = same_as_sbarefine(tmp_path, text, "text", ["--function-tolerance", "1e-4", "--intrinsics", "none"],
+                          dict(function_tolerance=1e-4, refine_focal_length=False, refine_extra_params=False))
+    assert r.strategy == "trust-region" and r.reason == pysba.Reason.REDUCTION
+
+
+def test_refine_with_rigs_is_sbarefines(tmp_path):
+    r = same_as_sbarefine(tmp_path, rigged(tmp_path), "text", [], {})
+    # Each frame got its image's refined pose: the reference camera's bit for bit.
+    model = r.model
+    assert model.frames[0].q.tobytes() == model.images[0].q.tobytes()
+    assert model.frames[0].t.tobytes() == model.images[0].t.tobytes()
+
+
+def test_frames_pose_the_images(tmp_path):
+    # Frame 902 (rig 3, whose reference camera 102 image 16 is) moved: COLMAP 4 takes image 16's
+    # pose from it. write_colmap writes both as given; read_colmap and refine_colmap take the
+    # frame's.
+    model = pysba.read_colmap(rigged(tmp_path))
+    before = model.images[2].t.copy()
+    model.frames[2].t = model.frames[2].t + [0.05, 0, 0]
+    pysba.write_colmap(model, tmp_path / "out", "text")
+    lines = (tmp_path / "out" / "images.txt").read_text().splitlines()
+    assert float(lines[8].split()[5]) == before[0]
+    assert pysba.read_colmap(tmp_path / "out").images[2].t.tolist() == model.frames[2].t.tolist()
+    refined, _ = pysba.refine_colmap(model, hold_poses=[16])
+    assert refined.images[2].t.tolist() == model.frames[2].t.tolist()
+
+
+def test_threads_give_the_same_model(tmp_path):
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    one, r1 = pysba.refine_colmap(model, threads=1)
+    two, r2 = pysba.refine_colmap(model, threads=2)
+    same_model(one, two)
+    assert r1.info.tolist() == r2.info.tolist()
+
+
+def test_progress_stops_with_the_model_so_far(tmp_path):
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    seen = []
+    stopped, r = pysba.refine_colmap(model, progress=lambda s: seen.append(s.iteration) or s.iteration == 2)
+    assert seen == [1, 2] and r.reason == pysba.Reason.USER and r.iterations == 2
+    two, _ = pysba.refine_colmap(model, itmax=2)
+    same_model(stopped, two)
+
+
+def test_keyboard_interrupt_keeps_the_model_so_far(tmp_path):
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+
+    def interrupt(state):
+        if state.iteration == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt) as e:
+        pysba.refine_colmap(model, progress=interrupt)
+    r = e.value.result
+    assert r.reason == pysba.Reason.USER and r.iterations == 2
+    same_model(r.model, pysba.refine_colmap(model, itmax=2)[0])
+
+
+def test_itmax_0_gives_the_model_as_given(tmp_path):
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    same, _ = pysba.refine_colmap(model, itmax=0)
+    same_model(same, model)
+
+
+# ---- refusals ----
+
+def test_unreadable_models_raise_oserror(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        pysba.read_colmap(tmp_path / "absent")
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(NotADirectoryError):
+        pysba.read_colmap(tmp_path / "file")
+    with pytest.raises(OSError, match=re.escape(f"{tmp_path}: no COLMAP model (cameras.txt or cameras.bin)")):
+        pysba.read_colmap(tmp_path)
+    text, _ = sbagen(tmp_path)
+    (text / "images.txt").unlink()
+    (text / "images.txt").mkdir()
+    with pytest.raises(OSError, match=re.escape(f"{text}/images.txt: is a directory")):
+        pysba.read_colmap(text)
+    with pytest.raises(TypeError, match="path must be a str, bytes or os.PathLike, got int"):
+        pysba.read_colmap(3)
+
+
+def test_bad_models_raise_the_readers_message(tmp_path):
+    text, binary = sbagen(tmp_path)
+    lines = (text / "cameras.txt").read_text().splitlines()
+    lines[4] = lines[4].replace("OPENCV", "OPENCVX")
+    (text / "cameras.txt").write_text("\n".join(lines) + "\n")
+    with pytest.raises(ValueError, match=re.escape(f"{text}/cameras.txt:5: unknown camera model 'OPENCVX'")):
+        pysba.read_colmap(text)
+    (binary / "rigs.bin").write_bytes(b"\0" * 8)
+    message = f"{binary}: rigs.bin without frames.bin: COLMAP 4 refuses"
+    with pytest.raises(ValueError, match=re.escape(message)):
+        pysba.read_colmap(binary)
+
+
+def broken(tmp_path, change):
+    model = pysba.read_colmap(rigged(tmp_path))
+    change(model)
+    return model
+
+
+def set_attr(obj, name, value):
+    setattr(obj, name, value)
+
+
+@pytest.mark.parametrize("change, error, message", [
+    (lambda m: set_attr(m.images[0], "camera_id", 999), ValueError,
+     "model: image 10 uses camera 999, which cameras does not hold"),
+    (lambda m: m.images[0].q.__setitem__(0, np.nan), ValueError, r"images[0].q[0] is not finite (nan)"),
+    (lambda m: set_attr(m.images[0], "q", np.zeros(4)), ValueError,
+     "model: image 10: the quaternion is zero"),
+    (lambda m: set_attr(m.images[0], "t", [1, 2]), ValueError, "images[0].t must have shape (3,), got (2,)"),
+    (lambda m: set_attr(m.images[1], "name", " x"), ValueError, "model: image 13: the name \" x\" is empty"),
+    (lambda m: set_attr(m.images[1], "name", b"x"), TypeError, "images[1].name must be a str, got bytes"),
+    (lambda m: set_attr(m.images[1], "id", 10), ValueError, "model: image 10 appears twice"),
+    (lambda m: set_attr(m.images[1], "id", 2**32), ValueError,
+     "images[1].id must be in [0, 4294967295], got 4294967296"),
+    (lambda m: set_attr(m.images[1], "id", 13.0), TypeError, "images[1].id must be an int, got float"),
+    (lambda m: set_attr(m.images[1], "point3D_ids", m.images[1].point3D_ids[:-1]), ValueError,
+     "images[1].point3D_ids must have shape ("),
+    (lambda m: m.images[1].point3D_ids.__setitem__(1, 12345), ValueError,
+     "model: image 13 POINTS2D 1 names point 12345, which points3D does not hold"),
+    (lambda m: set_attr(m.cameras[0], "model", "PINHOLE"), ValueError,
+     "model: camera 100: PINHOLE has 4 parameters, found 8"),
+    (lambda m: set_attr(m.cameras[0], "model", "PINHOLEX"), ValueError,
+     "cameras[0].model: unknown camera model 'PINHOLEX' (COLMAP's are SIMPLE_PINHOLE, PINHOLE,"),
+    (lambda m: m.cameras[0].params.__setitem__(1, -2), ValueError,
+     "model: camera 100: OPENCV's fy must be positive, got -2"),
+    (lambda m: set_attr(m.cameras[0], "width", -1), ValueError,
+     "cameras[0].width must be in [0, 18446744073709551615], got -1"),
+    (lambda m: set_attr(m.points3D, "rgb", np.full((60, 3), 256)), ValueError,
+     "points3D.rgb[0, 0] = 256 is not in [0, 255]"),
+    (lambda m: set_attr(m.points3D, "xyz", m.points3D.xyz.astype(str)), TypeError,
+     "points3D.xyz must be an array of numbers, got an array of <U"),
+    (lambda m: set_attr(m.points3D, "ids", m.points3D.ids.astype(float)), TypeError,
+     "points3D.ids must be an array of integers, got an array of float64"),
+    (lambda m: m.points3D.ids.__setitem__(0, pysba.NO_POINT3D), ValueError,
+     "model: POINT3D_ID -1 is not an identifier"),
+    (lambda m: m.points3D.track_offsets.__setitem__(1, 0), ValueError,
+     "model: point 1000 has an empty track"),
+    (lambda m: m.points3D.track_offsets.__setitem__(1, 10**6), ValueError,
+     "points3D.track_offsets must rise from 0 to len(track_image_ids) = "),
+    (lambda m: set_attr(m, "frames", None), ValueError, "rigs and frames go together"),
+    (lambda m: set_attr(m.rigs[0].sensors[0], "q", [1, 0, 0, 0]), ValueError,
+     "rigs[0].sensors[0]: q and t go together"),
+    (lambda m: set_attr(m.rigs[0], "sensors", [pysba.ColmapSensor("CAMERA", 100, [1, 0, 0, 0], [0, 0, 0])] +
+                        m.rigs[0].sensors[1:]),
+     ValueError, "model: rig 1: its reference sensor CAMERA 100 has a pose in the rig"),
+    (lambda m: set_attr(m.rigs[0].sensors[2], "type", "LIDAR"), ValueError,
+     "rigs[0].sensors[2].type must be 'CAMERA' or 'IMU', got 'LIDAR'"),
+    (lambda m: m.rigs[0].sensors.append(m.rigs[0].sensors[1]), ValueError,
+     "model: rig 1 lists CAMERA 101 twice"),
+    (lambda m: m.rigs[1].sensors.append(m.rigs[0].sensors[1]), ValueError,
+     "model: CAMERA 101 is a sensor of rig 1 and of rig 3: a sensor belongs to one rig"),
+    (lambda m: m.frames[0].data.append(("CAMERA", 100)), ValueError,
+     "frames[0].data[2] must be (type, sensor_id, data_id), got 2 values"),
+    (lambda m: m.frames[0].data.append(("IMU", 7, 55)), ValueError, "model: frame 900 lists IMU 7 55 twice"),
+    (lambda m: m.frames[0].data.append(("CAMERA", 102, 16)), ValueError,
+     "model: frame 900 holds data of CAMERA 102, which rig 1 does not hold"),
+    (lambda m: set_attr(m.frames[1], "id", 900), ValueError, "model: frame 900 appears twice"),
+    (lambda m: set_attr(m.frames[1], "q", [0, 0, 0, 0]), ValueError,
+     "model: frame 901: the quaternion is zero"),
+    (lambda m: set_attr(m.rigs[0].sensors[1], "q", [0, 0, 0, 0]), ValueError,
+     "model: rig 1: the quaternion of CAMERA 101 is zero"),
+    (lambda m: set_attr(m.rigs[1], "id", 1), ValueError, "model: rig 1 appears twice"),
+    (lambda m: set_attr(m.cameras[1], "id", 100), ValueError, "model: camera 100 appears twice"),
+    (lambda m: m.points3D.ids.__setitem__(1, 1000), ValueError, "model: point 1000 appears twice"),
+    (lambda m: set_attr(m, "images", 3), TypeError, "images must be a list, got int"),
+])
+def test_models_the_reader_would_refuse(tmp_path, change, error, message):
+    model = broken(tmp_path, change)
+    with pytest.raises(error, match=re.escape(message)):
+        pysba.write_colmap(model, tmp_path / "out", "binary")
+    with pytest.raises(error, match=re.escape(message)):
+        pysba.refine_colmap(model)
+    assert not (tmp_path / "out").exists()
+
+
+def test_write_refusals(tmp_path):
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    with pytest.raises(ValueError, match="encoding must be 'text' or 'binary', got 'json'"):
+        pysba.write_colmap(model, tmp_path / "out", "json")
+    with pytest.raises(TypeError, match="model must be a pysba.ColmapModel, got dict"):
+        pysba.write_colmap({}, tmp_path / "out")
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(OSError, match=re.escape(f"{tmp_path}/file")):
+        pysba.write_colmap(model, tmp_path / "file")
+    assert (tmp_path / "file").read_text() == "x"
+
+
+def two_image_frame(tmp_path):
+    """rigged()'s model with frame 900 holding images 10 and 13 (rig 1's two cameras exposed
+    together), written as text."""
+    model = pysba.read_colmap(rigged(tmp_path))
+    model.frames[0].data.append(model.frames[1].data[0])
+    model.frames.pop(1)
+    pysba.write_colmap(model, tmp_path / "rig2", "text")
+    return tmp_path / "rig2"
+
+
+# The two images were not taken by a rig: the more of the rig is held, the worse they fit (the
+# frames' rotations held, or the frames' poses, which the noise moved, held altogether).
+@pytest.mark.parametrize("args, kw, rms", [
+    ([], {}, (0.52, 0.54)),
+    (["--constant-rig-from-world-rotation", "1"],
+     dict(constant_rig_from_world_rotation=True), (1.2, 1.25)),
+    (["--refine-rig-from-world", "0", "--solver", "sparse-chol"],
+     dict(refine_rig_from_world=False, solver="sparse-chol"), (6.4, 6.6))])
+def test_refine_a_frame_of_two_images_is_sbarefines(tmp_path, args, kw, rms):
+    r = same_as_sbarefine(tmp_path, two_image_frame(tmp_path), "text", args, kw)
+    # Image 10 (camera 100, the rig's reference) has its frame's pose bit for bit; image 13
+    # (camera 101) its frame's composed with the camera's pose in the rig.
+    frame = r.model.frames[0]
+    assert [d[2] for d in frame.data if d[0] == "CAMERA"] == [10, 13]
+    image = {im.id: im for im in r.model.images}
+    assert frame.q.tobytes() == image[10].q.tobytes() and frame.t.tobytes() == image[10].t.tobytes()
+    assert not np.array_equal(frame.t, image[13].t)
+    assert rms[0] < r.rms_final < rms[1] and r.rms_initial > 16
+
+
+def test_refine_refusals(tmp_path):
+    source = rigged(tmp_path)
+    model = pysba.read_colmap(source)
+    for kw, error, message in [
+            (dict(hold_poses=[10, "nope.png"]), ValueError,
+             "hold_poses[1]: no image has the NAME 'nope.png'"),
+            (dict(hold_poses=[11]), ValueError, "hold_poses[0]: no image has the IMAGE_ID 11"),
+            (dict(hold_poses=[True]), TypeError,
+             "hold_poses[0] must be an IMAGE_ID (int) or a NAME (str), got bool"),
+            (dict(hold_poses="img_0000.png"), ValueError, "hold_poses must be 'all' or a list of IMAGE_IDs"),
+            (dict(refine_focal_length=1), TypeError, "refine_focal_length must be a bool, got int"),
+            (dict(refine_sensor_from_rig=None), TypeError, "refine_sensor_from_rig must be a bool, got NoneType"),
+            (dict(function_tolerance=-1), ValueError, "function_tolerance must be finite and >= 0, got -1"),
+            (dict(function_tolerance="0"), TypeError, "function_tolerance must be a number, got str"),
+            (dict(opts=[1e-3]), ValueError, "opts must hold 5 values"),
+            (dict(mcon=7), ValueError, "mcon must be in [0, 6], got 7"),
+            (dict(threads=1.5), TypeError, "threads must be an int, got float")]:
+        with pytest.raises(error, match=re.escape(message)):
+            pysba.refine_colmap(model, **kw)
+    with pytest.raises(TypeError, match="model must be a pysba.ColmapModel, got str"):
+        pysba.refine_colmap(str(source))
+    empty = pysba.ColmapModel()
+    with pytest.raises(ValueError, match="model: the model has no images or no points"):
+        pysba.refine_colmap(empty)
+
+
+def test_held_poses_are_kept(tmp_path):
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    refined, _ = pysba.refine_colmap(model, hold_poses=[13, "img_0004.png"])
+    moved = [not (a.q.tobytes() == b.q.tobytes() and a.t.tobytes() == b.t.tobytes())
+             for a, b in zip(model.images, refined.images)]
+    assert moved == [True, False, True, True, False, True]
+    everything, _ = pysba.refine_colmap(model, hold_poses="all")
+    assert all(a.t.tobytes() == b.t.tobytes() for a, b in zip(model.images, everything.images))
+
+
+def test_pycolmap_is_named_when_missing(monkeypatch):
+    monkeypatch.setitem(sys.modules, "pycolmap", None)  # import pycolmap raises ImportError
+    for f in (pysba.from_pycolmap, pysba.to_pycolmap):
+        with pytest.raises(ImportError, match=r"need pycolmap \(pip install pycolmap\)"):
+            f(pysba.ColmapModel())
