@@ -9,7 +9,9 @@
  *   ext.linsolver = "sparse-chol";
  *   ret = sba_motstr_levmar_x_ext(..same arguments as sba_motstr_levmar_x.., &ext);
  *
- * A NULL ext means the defaults, i.e. exactly the 1.6 entry point.
+ * A NULL ext is exactly the 1.6 entry point. An ext from sba_ext_options_init with nothing
+ * set differs from it in one thing: the linear solver, "auto" rather than 1.6's "chol" (see
+ * linsolver below).
  */
 #ifndef SBA_EXT_H
 #define SBA_EXT_H
@@ -78,7 +80,7 @@ struct sba_ext_result {
    * a loss): the ones the loss treats as outliers. */
   long long outliers_final;
   int nthreads;           /* threads used (after the caps, see sba_ext_options.nthreads) */
-  const char *linsolver;  /* linear solver used (a static string) */
+  const char *linsolver;  /* linear solver used (a static string): the one "auto" chose, never "auto" */
   int robust;             /* nonzero if a robust loss was used */
   const char *strategy;   /* LM strategy used (a static string) */
 };
@@ -87,16 +89,23 @@ struct sba_ext_options {
   /* sizeof(struct sba_ext_options) as the caller was compiled: lets later versions add
    * fields at the end without breaking programs built against this one. */
   size_t size;
-  /* Linear solver of the augmented normal equations, by name (see README):
-   * "chol" (default, dense S by Cholesky as in 1.6: the library's own, the same bits for
+  /* Linear solver of the augmented normal equations, by name (see README, docs/solvers.md):
+   * "auto" (one of chol, sparse-chol and iterative-schur, chosen from the problem's shape:
+   * the unknowns of the reduced camera system S after holding and sharing, how many of S's
+   * blocks and of its Cholesky factor's are nonzero, the observations, and the memory each
+   * would need against the memory available; result->linsolver names the one chosen, and
+   * verbose says why), "chol" (dense S by Cholesky as in 1.6: the library's own, the same bits for
    * any thread count, up to 2048 unknowns; LAPACK's DPOTRF/DPOTRS beyond), "chol-lapack"
    * (dense S by DPOTRF/DPOTRS at every size), "ldlt", "bk", "lu", "qr", "qrnoq", "svd",
    * "cg" (dense S), "ldl-amd" (whole system, AMD + sparse LDL^T), "sparse-chol" (sparse S,
    * CHOLMOD), "iterative-schur" (S never formed: preconditioned conjugate gradients on
    * products S x made from the Jacobian blocks, an inexact step whose accuracy tightens as
    * the gradient falls; memory proportional to the observations; for many cameras that share
-   * points with many others, where a dense or sparse S is too large to factor). NULL: the environment variable SBA_LINSOLVER if set, else "chol". An unknown
-   * name here is a bad argument (SBA_ERROR). */
+   * points with many others, where a dense or sparse S is too large to factor).
+   * NULL: the environment variable SBA_LINSOLVER if set, else "auto". The entry points of
+   * sba.h, and those here given a NULL ext, are sba 1.6's: for them the default is 1.6's
+   * "chol" (SBA_LINSOLVER still applies). An unknown name here is a bad argument
+   * (SBA_ERROR); in SBA_LINSOLVER it is ignored, with a warning, for the default. */
   const char *linsolver;
   /* Threads for the normal equations and the Schur complement; 0: the environment variable
    * SBA_NUM_THREADS if set, else every hardware thread but at most one per 10,000
@@ -223,7 +232,7 @@ struct sba_ext_options {
 extern void sba_ext_options_init(struct sba_ext_options *opt);
 /* Zeroes *res and sets res->size. */
 extern void sba_ext_result_init(struct sba_ext_result *res);
-/* The known linear solver names, space-separated. */
+/* The known linear solver names, space-separated ("auto" among them). */
 extern const char *sba_linsolver_names(void);
 /* 1 if name (NULL allowed) is one of them, else 0. */
 extern int sba_linsolver_valid(const char *name);
@@ -286,9 +295,9 @@ extern int sba_str_levmar_ext(
 /* ---- visibility as a list: problems whose dense n*m vmask would not fit ----
  * A 20000-camera, 2-million-point problem needs a 40 GB vmask; these entry points take the
  * visible (point, camera) pairs instead, in the order of x: sorted by point, then by camera,
- * each pair once. Memory then grows with the number of observations only (with a sparse
- * solver: the default linear solver of these entry points is "sparse-chol", since a dense S of
- * many thousand cameras does not fit either). Callbacks receive the same struct sba_crsm
+ * each pair once. Memory then grows with the number of observations only (with a solver that
+ * fits: the default linear solver of these entry points, with or without ext, is "auto",
+ * which never picks a dense S that the memory cannot hold; SBA_LINSOLVER applies). Callbacks receive the same struct sba_crsm
  * index as with a vmask, but hx and the Jacobian may exceed 2^31 entries here: callbacks must
  * compute their offsets in 64-bit arithmetic, e.g. (size_t)idxij->val[k] * blocksize. */
 struct sba_visibility {

@@ -2,6 +2,7 @@
 #include "mex_callbacks.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <string>
@@ -265,6 +266,12 @@ int solve(Gateway &g, std::vector<double> &p, double info[SBA_INFOSZ]) {
   ext.log_ctx = &g;
   ext.progress = progress;
   ext.progress_ctx = &g;
+  // sba 1.6's calling convention keeps 1.6's solver, chol (the extension drivers' own
+  // default for a caller that names none is auto), unless SBA_LINSOLVER names another.
+  const char *env = std::getenv("SBA_LINSOLVER");
+  ext.linsolver = env && *env && sba_linsolver_valid(env) ? env : "chol";
+  if (env && *env && !sba_linsolver_valid(env))
+    mexPrintf("sba: unknown SBA_LINSOLVER \"%s\" (known: %s); using chol\n", env, sba_linsolver_names());
   if (!g.strategy.empty()) ext.strategy = g.strategy.c_str();
   if (!g.cam_fixed.empty()) {
     ext.cam_fixed = g.cam_fixed.data();

@@ -21,6 +21,7 @@
 #include "log.h"
 #include "model.h"
 #include "options.h"
+#include "solver_choice.h"
 #include "strategy.h"
 #include "thread_policy.h"
 #include "unknowns.h"
@@ -114,6 +115,16 @@ bool validate_and_lay_out(const DriverArgs &a, const sba_ext_options &ext, const
   return true;
 }
 
+// "auto" made the solver it stands for, from the problem as laid out (solver_choice.h), and
+// said when verbose: the report names the solver that ran, this line why.
+void resolve_auto(const DriverArgs &a, const Layout &lay, const Logger &log, Options *opt) {
+  if (opt->solver != LinSolver::Auto) return;
+  const SolverShape shape = shape_of(lay, available_memory());
+  opt->solver = choose_linsolver(shape);
+  if (log.verbose() > 0)
+    log.info(1, "%s: linear solver auto: %s (%s)", a.name, linsolver_name(opt->solver), describe(shape).c_str());
+}
+
 // The caller's result struct, filled as far as the caller's struct goes.
 void write_result(const sba_ext_options &ext, const Options &opt, const Summary &sum) {
   if (!ext.result || ext.result->size < sizeof(size_t)) return;
@@ -183,6 +194,7 @@ int run_driver(const DriverArgs &a) {
     Layout lay;
     const auto no_extra_check = [] { return std::string(); };
     if (!validate_and_lay_out(a, ext, env, log, no_extra_check, &opt, &lay)) return;
+    resolve_auto(a, lay, log, &opt);
     const std::unique_ptr<Model> model = make_model(lay, a.callbacks, opt.parallel_callbacks);
     // itmax == 0: check the Jacobian; the solve below then only scores p (info[0] == info[1]).
     if (a.itmax == 0) {

@@ -121,10 +121,11 @@ bool options_from(const DriverArgs &a, const sba_ext_options &ext, const Environ
   }
   if (!o->is_valid(error)) return false;
 
-  if (a.by_pairs && !ext.linsolver) {
-    // A problem given by pairs is one whose dense structures would not fit.
-    o->solver = LinSolver::SparseChol;
-  } else if (ext.linsolver) {
+  // The solver no one names: sba 1.6's for its own entry points (an _ext call given no ext
+  // is one of them); for a caller of the extensions, one chosen from the problem.
+  const LinSolver by_default = a.ext || a.by_pairs ? LinSolver::Auto : LinSolver::Chol;
+  o->solver = by_default;
+  if (ext.linsolver) {
     if (!linsolver_from_name(ext.linsolver, &o->solver)) {
       *error = std::string("unknown linear solver \"") + ext.linsolver + "\" (known: " +
                linsolver_names() + ")";
@@ -132,9 +133,11 @@ bool options_from(const DriverArgs &a, const sba_ext_options &ext, const Environ
     }
   } else if (!env.linsolver.empty()) {
     // A typo is not an error of a call that succeeds: a warning.
-    if (!linsolver_from_name(env.linsolver, &o->solver))
-      log.notice("%s: unknown SBA_LINSOLVER \"%s\" (known: %s); using chol", a.name,
-                 env.linsolver.c_str(), linsolver_names());
+    if (!linsolver_from_name(env.linsolver, &o->solver)) {
+      o->solver = by_default;
+      log.notice("%s: unknown SBA_LINSOLVER \"%s\" (known: %s); using %s", a.name,
+                 env.linsolver.c_str(), linsolver_names(), linsolver_name(by_default));
+    }
   }
   if (ext.strategy) {
     if (!strategy_from_name(ext.strategy, &o->strategy)) {

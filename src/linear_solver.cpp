@@ -15,7 +15,7 @@ constexpr NamedSolver kSolvers[] = {
     {"lu", LinSolver::LU},     {"qr", LinSolver::QR},         {"qrnoq", LinSolver::QRnoQ},
     {"svd", LinSolver::SVD},   {"cg", LinSolver::CG},         {"ldl-amd", LinSolver::LdlAmd},
     {"sparse-chol", LinSolver::SparseChol}, {"chol-lapack", LinSolver::CholLapack},
-    {"iterative-schur", LinSolver::IterativeSchur},
+    {"iterative-schur", LinSolver::IterativeSchur}, {"auto", LinSolver::Auto},
 };
 
 constexpr auto kSolverNames = joined_names<joined_length(kSolvers)>(kSolvers);

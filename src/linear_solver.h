@@ -23,6 +23,7 @@ enum class LinSolver {
   LdlAmd,      // no Schur complement: the whole system, AMD ordering + sparse LDL^T
   SparseChol,  // sparse S (cameras sharing points), CHOLMOD Cholesky
   IterativeSchur,  // S never formed: truncated CG on S x products, S's block diagonal as preconditioner
+  Auto,        // one of chol, sparse-chol and iterative-schur, chosen from the problem (solver_choice.h)
 };
 
 // "chol", "ldlt", ... ; false for an unknown name.

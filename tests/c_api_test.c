@@ -146,6 +146,22 @@ int main(void) {
     CHECK(sba_stop_reason_text(k) != NULL && strcmp(sba_stop_reason_text(k), "unknown") != 0);
   CHECK(strcmp(sba_stop_reason_text(SBA_STOP_USER + 1), "unknown") == 0);
 
+  /* "auto" is a solver name; an extension call that names none is auto, and the result names
+   * the solver it chose (chol for a problem this small), never "auto". */
+  CHECK(sba_linsolver_valid("auto") == 1 && strstr(sba_linsolver_names(), " auto") != NULL);
+  { struct sba_ext_options ext;
+    struct sba_ext_result res;
+    sba_ext_options_init(&ext);
+    sba_ext_result_init(&res);
+    ext.result = &res;
+    p[1] = 2.5; p[2] = 0.5; p[3] = -0.7; p[4] = 3.2;
+    ret = sba_motstr_levmar_x_ext(3, 0, 2, 1, vmask, p, 1, 1, x, NULL, 1, func, fjac, NULL, 50, 0, NULL, info, &ext);
+    CHECK(ret > 0 && res.linsolver != NULL && strcmp(res.linsolver, "chol") == 0);
+    ext.linsolver = "automatic";
+    ext.quiet = 1;
+    ret = sba_motstr_levmar_x_ext(3, 0, 2, 1, vmask, p, 1, 1, x, NULL, 1, func, fjac, NULL, 50, 0, NULL, info, &ext);
+    CHECK(ret == SBA_ERROR); }
+
   CHECK(strstr(SBA_VERSION, "1.6") != NULL);
   if (failures) fprintf(stderr, "%d check(s) failed\n", failures);
   else printf("C API: all checks passed\n");

@@ -170,6 +170,71 @@ TEST(Cli, PositionalArgumentsCounted) {
   }
 }
 
+// Which solver runs when none is named (docs/solvers.md): sba 1.6's chol in eucsbademo; auto
+// in balsba and sbarefine, which say what it chose in the summary and in --json, and whose run
+// is the chosen solver's, bit for bit. The problem: a road of 300 cameras, each point seen by
+// consecutive ones, so S is banded and of about 1800 unknowns, beyond the size auto gives chol.
+TEST(Cli, DefaultSolverOfEachProgram) {
+  unsetenv("SBA_LINSOLVER");
+  const std::string dir = ::testing::TempDir() + "test_cli_solver." + std::to_string(getpid());
+  ASSERT_EQ(std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "/auto' '" + dir + "/named'").c_str()), 0);
+  const std::string gen = dir + "/gen";
+  Output o = run(SBAGEN_EXE, {"--out", gen, "--trajectory", "path", "--cameras", "300", "--points", "3000",
+                              "--colmap-binary", dir + "/model", "--bundler", dir + "/bundle.out", "--quiet"});
+  ASSERT_EQ(o.status, 0) << o.err;
+  o = run(SBAREFINE_EXE, {dir + "/bundle.out", "--itmax", "0", "--write-bal", dir + "/problem.bal", "--no-progress"});
+  ASSERT_EQ(o.status, 0) << o.err;
+  const auto solver_line = [](const std::string &out) {
+    const std::size_t at = out.find("\nSolver ");
+    return at == std::string::npos ? std::string() : out.substr(at + 1, out.find(" on ", at) - at - 1);
+  };
+  // eucsbademo: chol, asked for by no one; auto when asked.
+  const std::vector<std::string> files{gen + "-cams.txt", gen + "-pts.txt", gen + "-calib.txt"};
+  std::vector<std::string> args = files;
+  args.insert(args.end(), {"--itmax", "1", "--json", dir + "/e.json"});
+  o = run(EUCSBADEMO_EXE, args);
+  ASSERT_EQ(o.status, 0) << o.err;
+  EXPECT_EQ(solver_line(o.out), "Solver chol");
+  std::string json = slurp(dir + "/e.json");
+  EXPECT_NE(json.find("\"options\": {\"solver\": null, "), std::string::npos) << json.substr(0, 600);
+  EXPECT_NE(json.find("\n  \"solver\": \"chol\",\n"), std::string::npos);
+  args.push_back("--solver=auto");
+  o = run(EUCSBADEMO_EXE, args);
+  ASSERT_EQ(o.status, 0) << o.err;
+  EXPECT_EQ(solver_line(o.out), "Solver sparse-chol (auto)");
+  json = slurp(dir + "/e.json");
+  EXPECT_NE(json.find("\"options\": {\"solver\": \"auto\", "), std::string::npos) << json.substr(0, 600);
+  EXPECT_NE(json.find("\n  \"solver\": \"sparse-chol\",\n"), std::string::npos);
+  // balsba and sbarefine: auto, which writes what sparse-chol writes.
+  const struct {
+    const char *exe, *input, *written;
+  } programs[] = {{BALSBA_EXE, "/problem.bal", "/refined.bal"}, {SBAREFINE_EXE, "/model", ""}};
+  for (const auto &p : programs) {
+    for (const char *how : {"auto", "named"}) {
+      std::vector<std::string> a{dir + p.input, "--itmax", "2", "--no-progress", "--json", dir + "/" + how + ".json",
+                                 "--write", dir + "/" + how + p.written};
+      if (std::string(how) == "named") a.insert(a.end(), {"--solver", "sparse-chol"});
+      o = run(p.exe, a);
+      ASSERT_EQ(o.status, 0) << p.exe << " " << how << ": " << o.err;
+      json = slurp(dir + "/" + how + ".json");
+      EXPECT_NE(json.find("\n  \"solver\": \"sparse-chol\",\n"), std::string::npos) << p.exe << " " << how;
+      if (std::string(how) == "auto") {
+        EXPECT_EQ(solver_line(o.out), "Solver sparse-chol (auto)") << p.exe << o.out;
+        EXPECT_NE(json.find("\"options\": {\"solver\": \"auto\", "), std::string::npos) << p.exe;
+      } else {
+        EXPECT_EQ(solver_line(o.out), "Solver sparse-chol") << p.exe << o.out;
+      }
+    }
+    for (const std::string f : {"/refined.bal", "/cameras.bin", "/images.bin", "/points3D.bin"}) {
+      if ((f == "/refined.bal") != (std::string(p.written) == "/refined.bal")) continue;
+      const std::string by_auto = slurp(dir + "/auto" + f), named = slurp(dir + "/named" + f);
+      EXPECT_FALSE(by_auto.empty()) << f;
+      EXPECT_TRUE(by_auto == named) << p.exe << f << ": auto's result is not sparse-chol's";
+    }
+  }
+  EXPECT_EQ(std::system(("rm -rf '" + dir + "'").c_str()), 0);
+}
+
 // sbarefine takes the format from the file and refuses, before reading it through, the options
 // of other formats.
 TEST(Cli, SbarefineOptionsOfAnotherFormat) {

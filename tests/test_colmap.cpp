@@ -1643,8 +1643,8 @@ TEST(Sbarefine, MemoryFollowsTheObservations) {
   std::filesystem::remove_all(dir);
 }
 
-// The solve by visibility pairs keeps the programs' default solver: SBA_LINSOLVER when set,
-// else chol (the pairs entry point's own default is sparse-chol); an unknown name is said.
+// sbarefine's default solver: SBA_LINSOLVER when set, else auto, which chooses chol for a
+// model this small and says so; an unknown name in the variable is said, and auto used.
 TEST(Sbarefine, DefaultSolverAsDocumented) {
   const std::string dir = temp_dir("default_solver");
   const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 4, 40);
@@ -1652,11 +1652,12 @@ TEST(Sbarefine, DefaultSolverAsDocumented) {
   ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error)) << error;
   const struct {
     std::string env, solver, err;
-  } cases[] = {{"unset SBA_LINSOLVER; ", "chol", ""},
+  } cases[] = {{"unset SBA_LINSOLVER; ", "chol (auto)", ""},
                {"SBA_LINSOLVER=lu ", "lu", ""},
-               {"SBA_LINSOLVER=nope ", "chol",
+               {"SBA_LINSOLVER=auto ", "chol (auto)", ""},
+               {"SBA_LINSOLVER=nope ", "chol (auto)",
                 std::string("sbarefine: unknown SBA_LINSOLVER \"nope\" (known: ") + sba_linsolver_names() +
-                    "); using chol\n"}};
+                    "); using auto\n"}};
   for (const auto &c : cases) {
     const Outcome r = run(dir + "/in --itmax 1", c.env);
     EXPECT_EQ(r.status, 0) << c.env;

@@ -1027,7 +1027,8 @@ TEST(Progress, CalledAfterEveryIterationIncludingTheLast) {
 
 // An unknown SBA_LINSOLVER does not stop an unmodified 1.6 program, so it is not an error of
 // the call: a warning (level 1), shown verbose or not (the program's user set it, and needs
-// to know it is ignored).
+// to know it is ignored). This call gives options, so the default it falls back to is auto,
+// which picks chol for a problem this small.
 TEST(Drivers, UnknownSbaLinsolverIsAWarning) {
   synth::Problem pb = synth::make(40, 4, 0.5, 0.05, 66);
   ASSERT_EQ(setenv("SBA_LINSOLVER", "chlo", 1), 0);
@@ -1041,7 +1042,7 @@ TEST(Drivers, UnknownSbaLinsolverIsAWarning) {
   EXPECT_EQ(loud.log.find("0 "), std::string::npos) << loud.log;  // no error-level line
   EXPECT_GT(quiet.ret, 0);
   EXPECT_EQ(quiet.log, "1 sba_motstr_levmar_x: unknown SBA_LINSOLVER \"chlo\" (known: " +
-                           std::string(sba_linsolver_names()) + "); using chol\n");
+                           std::string(sba_linsolver_names()) + "); using auto\n");
 }
 
 }  // namespace
@@ -1050,7 +1051,8 @@ namespace {
 
 // The solver names come from one table: the list the C API hands out and the check agree.
 TEST(LinsolverNames, ListAndValidityCheckAgree) {
-  EXPECT_STREQ(sba_linsolver_names(), "chol ldlt bk lu qr qrnoq svd cg ldl-amd sparse-chol chol-lapack iterative-schur");
+  EXPECT_STREQ(sba_linsolver_names(),
+               "chol ldlt bk lu qr qrnoq svd cg ldl-amd sparse-chol chol-lapack iterative-schur auto");
   std::string names = sba_linsolver_names(), name;
   int count = 0;
   for (size_t k = 0; k <= names.size(); ++k)
@@ -1061,7 +1063,7 @@ TEST(LinsolverNames, ListAndValidityCheckAgree) {
     } else {
       name += names[k];
     }
-  EXPECT_EQ(count, 12);
+  EXPECT_EQ(count, 13);
   for (const char *bad : {"", "CHOL", "chol ", " chol", "ldl", "sparse", "nope"})
     EXPECT_EQ(sba_linsolver_valid(bad), 0) << "'" << bad << "'";
   EXPECT_EQ(sba_linsolver_valid(nullptr), 0);

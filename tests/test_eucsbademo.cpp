@@ -274,7 +274,7 @@ const std::regex kElapsedLine(R"(Elapsed time: \d+\.\d\d seconds, \d+\.\d\d msec
 // The lines after sba 1.6's: the RMS reprojection error, the stop reason in words, the solver.
 const std::regex kRmsLine(R"(RMS reprojection error: initial \S+ px, final \S+ px)");
 const std::regex kStopLine(R"(Stop reason (\d+): .+)");
-const std::regex kSolverLine(R"(Solver \S+ on \d+ threads?(, strategy \S+)?, \d+\.\d\d\d s)");
+const std::regex kSolverLine(R"(Solver \S+( \(auto\))? on \d+ threads?(, strategy \S+)?, \d+\.\d\d\d s)");
 
 // How many lines at the end of out are the report after sba 1.6's lines (0 if they are not
 // there, or not in order).

@@ -134,9 +134,11 @@ TEST(VisibilityPairs, SameResultAsTheVmaskEntryPoints) {
   synth::Problem pb = synth::make(60, 6, 0.5, 0.05, 61);
   const Pairs pairs(pb);
   const sba_visibility vis = pairs.vis();
-  sba_ext_options ext;
+  sba_ext_options ext;  // no solver named: auto, as for the pairs entry points without options
   sba_ext_options_init(&ext);
-  ext.linsolver = "sparse-chol";
+  sba_ext_result res;
+  sba_ext_result_init(&res);
+  ext.result = &res;
   std::vector<double> a = pb.p0, b = pb.p0, c = pb.p0;
   double ia[SBA_INFOSZ], ib[SBA_INFOSZ], ic[SBA_INFOSZ];
   const int ra = sba_motstr_levmar_x_ext(pb.n, 0, pb.m, 1, pb.vmask.data(), a.data(), kCnp, kPnp,
@@ -144,11 +146,12 @@ TEST(VisibilityPairs, SameResultAsTheVmaskEntryPoints) {
                                          synth::fjac_motstr, &pb, 100, 0, nullptr, ia, &ext);
   const int rb = sba_motstr_levmar_x_vis(pb.n, 0, pb.m, 1, &vis, b.data(), kCnp, kPnp, pb.x.data(),
                                          nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &pb,
-                                         100, 0, nullptr, ib, nullptr);  // sparse-chol by default
+                                         100, 0, nullptr, ib, nullptr);
   const int rc = sba_motstr_levmar_vis(pb.n, 0, pb.m, 1, &vis, c.data(), kCnp, kPnp, pb.x.data(),
                                        nullptr, kMnp, synth::proj_motstr, synth::projac_motstr, &pb,
                                        100, 0, nullptr, ic, nullptr);
   ASSERT_GT(ra, 0);
+  EXPECT_STREQ(res.linsolver, "chol");  // 36 camera unknowns: a dense S
   EXPECT_EQ(rb, ra);
   EXPECT_EQ(rc, ra);
   EXPECT_EQ(b, a);

@@ -95,10 +95,10 @@ INSTANTIATE_TEST_SUITE_P(Solvers, EverySolver, ::testing::ValuesIn(kAllSolvers),
                            return s;
                          });
 
-// A long sequence: each point seen by a few consecutive cameras, so S is banded.
-TEST(Solvers, SparseCholMatchesCholOnABandedProblem) {
-  synth::Problem pb = synth::make(200, 30, 0.5, 0.03, 34, 0.0);
-  // Replace the random visibility by runs of 3 consecutive cameras.
+// A long sequence of m cameras: each of the n points seen by 3 consecutive cameras, so S is
+// banded; noise-free measurements.
+synth::Problem banded(int n, int m, unsigned seed) {
+  synth::Problem pb = synth::make(n, m, 0.5, 0.03, seed, 0.0);
   pb.vmask.assign(pb.vmask.size(), 0);
   for (int i = 0; i < pb.n; ++i)
     for (int d = 0; d < 3; ++d) pb.vmask[size_t(i) * pb.m + (i * (pb.m - 2) / pb.n + d)] = 1;
@@ -112,6 +112,11 @@ TEST(Solvers, SparseCholMatchesCholOnABandedProblem) {
         pb.x.insert(pb.x.end(), xij, xij + 2);
         ++pb.nvis;
       }
+  return pb;
+}
+
+TEST(Solvers, SparseCholMatchesCholOnABandedProblem) {
+  synth::Problem pb = banded(200, 30, 34);
   const Outcome ref = solve_with(pb, "chol", 1), sp = solve_with(pb, "sparse-chol", 1),
                 la = solve_with(pb, "ldl-amd", 1);
   ASSERT_GT(ref.ret, 0);
@@ -162,22 +167,175 @@ TEST(Solvers, EnvironmentVariableSwitchesTheLegacyEntryPoints) {
   EXPECT_EQ(explicit_chol.p, chol.p);
 }
 
-// ---------------------------------------------------------------- log sink, quiet, progress
-
+// Every line a log sink receives, with its level.
 struct Captured {
   std::vector<std::pair<int, std::string>> lines;
 };
 void capture(void *ctx, int level, const char *line) {
   static_cast<Captured *>(ctx)->lines.emplace_back(level, line);
 }
+// Default options whose log sink is c.
+sba_ext_options logging_to(Captured *c) {
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.log = capture;
+  ext.log_ctx = c;
+  return ext;
+}
+
+// ---------------------------------------------------------------- auto
+
+// One solve of at most itmax iterations by the expert extension driver with `solver` (null:
+// none named), reporting into *res.
+Outcome solve_reported(synth::Problem &pb, const char *solver, int itmax, sba_ext_result *res) {
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  sba_ext_result_init(res);
+  ext.linsolver = solver;
+  ext.result = res;
+  Outcome o;
+  o.p = pb.p0;
+  o.ret = sba_motstr_levmar_x_ext(pb.n, 0, pb.m, 1, pb.vmask.data(), o.p.data(), kCnp, kPnp, pb.x.data(), nullptr,
+                                  kMnp, synth::func_motstr, synth::fjac_motstr, &pb, itmax, 0, nullptr, o.info, &ext);
+  return o;
+}
+
+TEST(AutoSolver, IsANameOfTheList) {
+  EXPECT_EQ(sba_linsolver_valid("auto"), 1);
+  const std::string names = std::string(" ") + sba_linsolver_names() + " ";
+  EXPECT_NE(names.find(" auto "), std::string::npos) << names;
+}
+
+// One problem of each regime (docs/solvers.md): auto runs the solver the rule picks for it,
+// says which in the result, and gives that solver's bits.
+TEST(AutoSolver, PicksBySizeAndSparsityAndGivesThatSolversBits) {
+  const struct {
+    const char *what;
+    synth::Problem pb;
+    const char *expected;
+  } cases[] = {
+      {"8 cameras", synth::make(60, 8, 0.5, 0.05, 41), "chol"},
+      // 1194 camera unknowns (one camera fixed), S banded.
+      {"a sequence of 200 cameras", banded(600, 200, 42), "sparse-chol"},
+      // 1194 camera unknowns, each point seen by about 10 of the 200 cameras: S dense.
+      {"200 cameras seeing each other", synth::make(2000, 200, 0.5, 0.03, 43, 0.05), "iterative-schur"},
+  };
+  for (auto c : cases) {
+    sba_ext_result by_auto, by_name;
+    const Outcome a = solve_reported(c.pb, "auto", 3, &by_auto);
+    const Outcome e = solve_reported(c.pb, c.expected, 3, &by_name);
+    ASSERT_GT(a.ret, 0) << c.what;
+    ASSERT_NE(by_auto.linsolver, nullptr) << c.what;
+    EXPECT_STREQ(by_auto.linsolver, c.expected) << c.what;
+    EXPECT_STREQ(by_name.linsolver, c.expected) << c.what;
+    EXPECT_EQ(a.ret, e.ret) << c.what;
+    EXPECT_EQ(a.p, e.p) << c.what;
+    for (int k = 0; k < SBA_INFOSZ; ++k) EXPECT_EQ(a.info[k], e.info[k]) << c.what << " info[" << k << "]";
+  }
+}
+
+// What no name means: sba 1.6's chol for the 1.6 entry points and an _ext call without ext;
+// auto for an _ext call given options and for the pairs entry points; SBA_LINSOLVER before
+// either.
+TEST(AutoSolver, DefaultByEntryPoint) {
+  synth::Problem pb = banded(600, 200, 44);
+  sba_ext_result res;
+  const Outcome chol = solve_reported(pb, "chol", 2, &res), sparse = solve_reported(pb, "sparse-chol", 2, &res);
+  ASSERT_GT(chol.ret, 0);
+  ASSERT_NE(chol.p, sparse.p);  // different arithmetic, different last bits
+  const auto legacy = [&] {
+    std::vector<double> p = pb.p0;
+    sba_motstr_levmar_x(pb.n, 0, pb.m, 1, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(), nullptr, kMnp,
+                        synth::func_motstr, synth::fjac_motstr, &pb, 2, 0, nullptr, nullptr);
+    return p;
+  };
+  const auto null_ext = [&] {
+    std::vector<double> p = pb.p0;
+    sba_motstr_levmar_x_ext(pb.n, 0, pb.m, 1, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(), nullptr, kMnp,
+                            synth::func_motstr, synth::fjac_motstr, &pb, 2, 0, nullptr, nullptr, nullptr);
+    return p;
+  };
+  std::vector<int> point, camera;
+  for (int i = 0; i < pb.n; ++i)
+    for (int j = 0; j < pb.m; ++j)
+      if (pb.vmask[size_t(i) * pb.m + j]) point.push_back(i), camera.push_back(j);
+  const sba_visibility vis{static_cast<long long>(point.size()), point.data(), camera.data()};
+  const auto pairs = [&] {
+    std::vector<double> p = pb.p0;
+    sba_motstr_levmar_x_vis(pb.n, 0, pb.m, 1, &vis, p.data(), kCnp, kPnp, pb.x.data(), nullptr, kMnp,
+                            synth::func_motstr, synth::fjac_motstr, &pb, 2, 0, nullptr, nullptr, nullptr);
+    return p;
+  };
+  unsetenv("SBA_LINSOLVER");
+  EXPECT_EQ(legacy(), chol.p);
+  EXPECT_EQ(null_ext(), chol.p);
+  EXPECT_EQ(pairs(), sparse.p);
+  const Outcome unnamed = solve_reported(pb, nullptr, 2, &res);
+  EXPECT_EQ(unnamed.p, sparse.p);
+  EXPECT_STREQ(res.linsolver, "sparse-chol");
+  // SBA_LINSOLVER=auto gives the 1.6 entry points the choice; a name there wins over auto.
+  ASSERT_EQ(setenv("SBA_LINSOLVER", "auto", 1), 0);
+  EXPECT_EQ(legacy(), sparse.p);
+  ASSERT_EQ(setenv("SBA_LINSOLVER", "chol", 1), 0);
+  EXPECT_EQ(pairs(), chol.p);
+  EXPECT_EQ(solve_reported(pb, nullptr, 2, &res).p, chol.p);
+  EXPECT_STREQ(res.linsolver, "chol");
+  // A name it does not know is said, and the entry point's own default used.
+  ASSERT_EQ(setenv("SBA_LINSOLVER", "nonsense", 1), 0);
+  testing::internal::CaptureStderr();
+  const Outcome fallback = solve_reported(pb, nullptr, 2, &res);
+  const std::vector<double> legacy_fallback = legacy();
+  const std::string err = testing::internal::GetCapturedStderr();
+  unsetenv("SBA_LINSOLVER");
+  EXPECT_EQ(fallback.p, sparse.p);
+  EXPECT_STREQ(res.linsolver, "sparse-chol");
+  EXPECT_EQ(legacy_fallback, chol.p);
+  // (The _ext entry points are named as their 1.6 counterparts in messages.)
+  EXPECT_NE(err.find("sba_motstr_levmar_x: unknown SBA_LINSOLVER \"nonsense\" (known: " +
+                     std::string(sba_linsolver_names()) + "); using auto\n"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find("sba_motstr_levmar_x: unknown SBA_LINSOLVER \"nonsense\" (known: " +
+                     std::string(sba_linsolver_names()) + "); using chol\n"),
+            std::string::npos)
+      << err;
+}
+
+// Verbose, the choice is said with the numbers it was made from; not verbose, nothing is.
+TEST(AutoSolver, VerboseSaysWhatItChoseAndWhy) {
+  synth::Problem pb = banded(600, 200, 45);
+  for (int verbose : {0, 1}) {
+    Captured log;
+    const sba_ext_options ext = logging_to(&log);
+    std::vector<double> p = pb.p0;
+    ASSERT_GT(sba_motstr_levmar_x_ext(pb.n, 0, pb.m, 1, pb.vmask.data(), p.data(), kCnp, kPnp, pb.x.data(), nullptr,
+                                      kMnp, synth::func_motstr, synth::fjac_motstr, &pb, 1, verbose, nullptr, nullptr,
+                                      &ext),
+              0);
+    const auto said = std::find_if(log.lines.begin(), log.lines.end(), [](const std::pair<int, std::string> &l) {
+      return l.second.find("linear solver auto") != std::string::npos;
+    });
+    if (verbose == 0) {
+      EXPECT_EQ(said, log.lines.end());
+      continue;
+    }
+    ASSERT_NE(said, log.lines.end());
+    const std::string &line = said->second;
+    EXPECT_EQ(said->first, SBA_LOG_INFO);
+    EXPECT_EQ(line.rfind("sba_motstr_levmar_x: linear solver auto: sparse-chol (S of 1194 unknowns in 199 blocks, ", 0),
+              0u)
+        << line;
+    EXPECT_NE(line.find(" passes over the Jacobian of 1800 observations; MiB besides the common "), std::string::npos)
+        << line;
+  }
+}
+
+// ---------------------------------------------------------------- log sink, quiet, progress
 
 TEST(ExtOptions, LogSinkReceivesErrorsAndProgress) {
   synth::Problem pb = synth::make(40, 4, 0.1, 0.05, 37);
   Captured c;
-  sba_ext_options ext;
-  sba_ext_options_init(&ext);
-  ext.log = capture;
-  ext.log_ctx = &c;
+  const sba_ext_options ext = logging_to(&c);
   std::vector<double> p = pb.p0;
   testing::internal::CaptureStdout();
   testing::internal::CaptureStderr();
@@ -190,12 +348,17 @@ TEST(ExtOptions, LogSinkReceivesErrorsAndProgress) {
   EXPECT_EQ(testing::internal::GetCapturedStdout(), "");
   EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
   EXPECT_EQ(ret, SBA_ERROR);
-  ASSERT_GE(c.lines.size(), 4u);
-  // 1.6's line first, then the library's own, which only a sink receives.
-  EXPECT_EQ(c.lines.front().first, SBA_LOG_INFO);
-  EXPECT_EQ(c.lines.front().second.rfind("initial motstr-SBA error ", 0), 0u) << c.lines.front().second;
+  ASSERT_GE(c.lines.size(), 5u);
+  // What auto chose (this ext names no solver), then 1.6's line, then the library's own, which
+  // only a sink receives.
+  EXPECT_EQ(c.lines[0].first, SBA_LOG_INFO);
+  EXPECT_EQ(c.lines[0].second.rfind("sba_motstr_levmar_x: linear solver auto: chol (S of 24 unknowns in 4 blocks", 0),
+            0u)
+      << c.lines[0].second;
   EXPECT_EQ(c.lines[1].first, SBA_LOG_INFO);
-  EXPECT_EQ(c.lines[1].second.rfind("SBA: initial error ", 0), 0u) << c.lines[1].second;
+  EXPECT_EQ(c.lines[1].second.rfind("initial motstr-SBA error ", 0), 0u) << c.lines[1].second;
+  EXPECT_EQ(c.lines[2].first, SBA_LOG_INFO);
+  EXPECT_EQ(c.lines[2].second.rfind("SBA: initial error ", 0), 0u) << c.lines[2].second;
   EXPECT_EQ(c.lines.back().first, SBA_LOG_ERROR);
   EXPECT_NE(c.lines.back().second.find("mcon must be in [0, m]"), std::string::npos);
 }

@@ -77,6 +77,7 @@ class MotstrSolve {
     // The callbacks are re-entrant and walk the index by rows: the threads share them.
     sba_ext_options ext;
     init_ext(so_, program_, &sink_, &result_, &ext);
+    solver_ = ext.linsolver;
     ext.cam_fixed = in.cam_fixed;
     ext.cam_fixed_per_camera = in.cam_fixed_per_camera;
     ext.cam_group = in.cam_group;
@@ -145,6 +146,7 @@ class MotstrSolve {
     Report report = make_report(program_, input_, in_.m, in_.n, nobs_, variables(), so_, ret_, info_, result_,
                                 seconds_, *control_);
     report.model = model_;
+    report.solver_requested = solver_;
     print_report(stdout, report);
     if (!so_.json.empty()) {
       add_per_camera(in_.m, *in_.vis, in_.x, project, &report);
@@ -178,6 +180,7 @@ class MotstrSolve {
   int ret_ = 0;
   double seconds_ = 0;
   std::string model_;
+  std::string solver_;  // the solver asked for, the program's default included; empty: none ran
 };
 
 }  // namespace sbacli

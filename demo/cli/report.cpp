@@ -99,9 +99,11 @@ void print_report(std::FILE *out, const Report &r) {
   std::fprintf(out, "Stop reason %d: %s\n", reason, stop_reason_text(reason).c_str());
   // The strategy is named when it is not 1.6's, the one a legacy user expects.
   const bool named = r.result.strategy && std::strcmp(r.result.strategy, "sba") != 0;
-  std::fprintf(out, "Solver %s on %d thread%s%s%s, %.3f s\n", r.result.linsolver ? r.result.linsolver : "none",
-               r.result.nthreads, r.result.nthreads == 1 ? "" : "s", named ? ", strategy " : "",
-               named ? r.result.strategy : "", r.seconds);
+  // A solver the library chose says so.
+  const bool chosen = r.result.linsolver && r.solver_requested == "auto";
+  std::fprintf(out, "Solver %s%s on %d thread%s%s%s, %.3f s\n", r.result.linsolver ? r.result.linsolver : "none",
+               chosen ? " (auto)" : "", r.result.nthreads, r.result.nthreads == 1 ? "" : "s",
+               named ? ", strategy " : "", named ? r.result.strategy : "", r.seconds);
 }
 
 bool write_json(const std::string &path, const Report &r, std::string *error,

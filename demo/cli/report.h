@@ -37,7 +37,7 @@ struct Report {
   int cameras = 0, points = 0;
   long long observations = 0, variables = 0;
   // options
-  std::string solver_requested;  // empty: the library's choice
+  std::string solver_requested;  // what was asked ("auto": the library chose); empty: the library's default
   std::string strategy_requested;  // empty: the library's choice
   int threads_requested = 0;     // 0: the library's choice
   int itmax = 0;

@@ -88,11 +88,11 @@ Outcome run(const Solve &s, Refinement refinement, int itmax) {
   void *adata = as_adata(s.model);
   const double *opts = o.opts.data();
   double *info = out.info.data();
-  // Always the extension drivers; with the defaults they are the 1.6 entry points. Without
-  // --solver, linsolver stays NULL so that SBA_LINSOLVER keeps working.
+  // Always the extension drivers; with the defaults they are the 1.6 entry points, whose
+  // solver is 1.6's chol (the extension drivers' own default is auto), or SBA_LINSOLVER.
   sba_ext_options ext;
   sba_ext_options_init(&ext);
-  if (!o.linsolver.empty()) ext.linsolver = o.linsolver.c_str();
+  ext.linsolver = sbacli::linsolver_of(o.linsolver, "eucsbademo", "chol");
   if (!o.strategy.empty()) ext.strategy = o.strategy.c_str();
   ext.nthreads = o.nthreads;
   // The model's callbacks are re-entrant and walk the index by rows: let the threads share them.

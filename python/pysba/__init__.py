@@ -158,7 +158,8 @@ class Result:
     prints it: info[0] and info[1] over the number of observations), ``iterations``,
     ``reason`` (a :class:`Reason`: ``.name``, ``.text`` and the 1.6 number), ``info`` (sba's ten
     values), ``nfev``, ``njev``, ``nlinsys``, ``threads``, ``solver`` and ``strategy``
-    (what ran), ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a
+    (what ran: with ``solver="auto"``, the default, the solver auto chose),
+    ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a
     robust loss), ``rms_initial``/``rms_final`` (the RMS reprojection error in pixels of that
     squared error, as sbarefine reports it), ``outliers`` (observations beyond the loss scale),
     ``log`` (the library's warnings), ``model`` (:func:`refine_colmap`'s refined model, else None)
@@ -270,7 +271,9 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
     :class:`Result`; the problem is left unchanged.
 
     solver
-        The linear solver (:func:`solver_names`); None: $SBA_LINSOLVER, else "chol".
+        The linear solver (:func:`solver_names`); None: $SBA_LINSOLVER, else "auto" (chol,
+        sparse-chol or iterative-schur, chosen from the problem: docs/solvers.md); the
+        result's ``solver`` names the one that ran.
     threads
         0: the library's choice; results do not depend on it.
     strategy

@@ -217,13 +217,14 @@ SolveOptions solve_options(const py::dict &kw) {
   }
   o.solver = k.text("solver");
   if (o.solver.empty()) {
-    // The pairs entry points pysba calls default to sparse-chol, which is not the drivers'
-    // (nor the programs') default: pysba names the default as the drivers choose it.
+    // Named here rather than left to the library, so that the notice about a bad
+    // SBA_LINSOLVER reaches the result's log: the variable, else auto (the library chooses,
+    // and the result says what).
     const char *env = std::getenv("SBA_LINSOLVER");
-    o.solver = env && *env && sba_linsolver_valid(env) ? env : "chol";
+    o.solver = env && *env && sba_linsolver_valid(env) ? env : "auto";
     if (env && *env && !sba_linsolver_valid(env))
       o.notice = std::string("pysba: unknown SBA_LINSOLVER \"") + env + "\" (known: " + sba_linsolver_names() +
-                 "); using chol";
+                 "); using auto";
   }
   if (const py::handle v = k.get("fixed_params"); !v.is_none()) {
     o.fixed = flags(v, "fixed_params", &o.fixed_shape);

@@ -33,7 +33,7 @@ struct SolveOptions {
   int itmax = 150;
   std::array<double, SBA_OPTSSZ> opts{SBA_INIT_MU, SBA_STOP_THRESH, SBA_STOP_THRESH,
                                       SBA_STOP_THRESH, 0.0};
-  std::string solver;  // as given, else $SBA_LINSOLVER if valid, else "chol" (see solve_options)
+  std::string solver;  // as given, else $SBA_LINSOLVER if valid, else "auto" (see solve_options)
   std::string notice;  // why $SBA_LINSOLVER was not used, for the result's log
   int threads = 0;
   std::string strategy;  // empty: the library's choice

@@ -87,6 +87,23 @@ function test_options()
   end
   printf('verbose output:\n%s', out);
 
+  % The solver is sba 1.6's chol, named, not auto (the extension drivers' default, which says
+  % what it chose when verbose), unless SBA_LINSOLVER names one: auto, say.
+  sbatest_assert(isempty(strfind(out, 'linear solver auto')), 'the default solver is auto:\n%s', out);
+  old = getenv('SBA_LINSOLVER');
+  setenv('SBA_LINSOLVER', 'auto');
+  restore = onCleanup(@() setenv('SBA_LINSOLVER', old));
+  out = evalc('[ret, popt, info] = sbatest_run(prob, ''verbose'', 1);');
+  sbatest_assert(ret == ret0 && isequal(popt, popt0), 'SBA_LINSOLVER=auto: not chol''s result');
+  sbatest_assert(~isempty(strfind(out, 'sba_motstr_levmar: linear solver auto: chol (S of 42 unknowns')), ...
+                 'SBA_LINSOLVER=auto: no line saying what auto chose:\n%s', out);
+  setenv('SBA_LINSOLVER', 'nonsense');
+  out = evalc('[ret, popt] = sbatest_run(prob);');
+  sbatest_assert(ret == ret0 && isequal(popt, popt0), 'SBA_LINSOLVER=nonsense: not chol''s result');
+  sbatest_assert(~isempty(strfind(out, 'unknown SBA_LINSOLVER "nonsense"')) && ...
+                 ~isempty(strfind(out, '); using chol')), 'SBA_LINSOLVER=nonsense: not said:\n%s', out);
+  clear restore;
+
   % 'strategy=trust-region', just before or just after reftype: the same minimum in fewer
   % iterations; 'strategy=sba' is the default; an unknown name is an argument error.
   args = {prob.n, 0, prob.m, 0, prob.vmask, prob.p0, 6, 3, prob.x, 2, ['sbaeuc_proj@' lib], ...

@@ -92,15 +92,40 @@ def test_trust_region_as_eucsbademo_runs_it(cams54):
     assert printed(r) == line
 
 
-def test_default_solver_is_the_drivers_default(cams7, monkeypatch):
-    # pysba calls the pairs entry points, whose own default is sparse-chol; solver=None keeps
-    # meaning $SBA_LINSOLVER, else chol, as for eucsbademo.
+def sequence(m, n):
+    """A BAL problem of m cameras in a row along x, looking down -z (BAL's convention), whose
+    n points are each seen by 3 consecutive cameras: S banded. Noise-free, started 1% off."""
+    rng = np.random.default_rng(7)
+    cams = np.zeros((m, 9))
+    cams[:, 3] = -np.arange(m, dtype=float)  # t = -c for R = I
+    cams[:, 6] = 500.0
+    first = np.arange(n) * (m - 2) // n
+    pts = np.column_stack([first + 1.0 + rng.uniform(-1, 1, n), rng.uniform(-1, 1, n), rng.uniform(-8, -4, n)])
+    cam_idx = (first[:, None] + np.arange(3)).ravel()
+    pt_idx = np.repeat(np.arange(n), 3)
+    P = pts[pt_idx] + cams[cam_idx, 3:6]
+    obs = -500.0 * P[:, :2] / P[:, 2:3]
+    start_cams = cams + np.where(np.arange(9) < 6, 0.01, 0.0) * rng.uniform(-1, 1, (m, 9))
+    return pysba.Problem("bal", start_cams, pts * (1 + 0.01 * rng.uniform(-1, 1, (n, 3))), cam_idx, pt_idx, obs)
+
+
+def test_default_solver_is_auto(cams7, monkeypatch):
+    # solver=None means $SBA_LINSOLVER, else auto, as for balsba; the result names the solver
+    # that ran: chol for the small problem, sparse-chol for a long sequence, with its bits.
+    monkeypatch.delenv("SBA_LINSOLVER", raising=False)
     assert pysba.solve(cams7, itmax=2).solver == "chol"
-    monkeypatch.setenv("SBA_LINSOLVER", "sparse-chol")
-    assert pysba.solve(cams7, itmax=2).solver == "sparse-chol"
+    seq = sequence(300, 1500)
+    chosen = pysba.solve(seq, itmax=2, mcon=1)
+    named = pysba.solve(seq, itmax=2, mcon=1, solver="sparse-chol")
+    assert chosen.solver == "sparse-chol" and pysba.solve(seq, itmax=2, mcon=1, solver="auto").solver == "sparse-chol"
+    assert np.array_equal(chosen.cameras, named.cameras) and np.array_equal(chosen.points, named.points)
+    assert np.array_equal(chosen.info, named.info)
+    monkeypatch.setenv("SBA_LINSOLVER", "lu")
+    assert pysba.solve(cams7, itmax=2).solver == "lu"
     monkeypatch.setenv("SBA_LINSOLVER", "magic")
-    r = pysba.solve(cams7, itmax=2)
-    assert r.solver == "chol" and any('unknown SBA_LINSOLVER "magic"' in line for line in r.log)
+    r = pysba.solve(seq, itmax=1, mcon=1)
+    assert r.solver == "sparse-chol" and any('unknown SBA_LINSOLVER "magic"' in line and "using auto" in line
+                                             for line in r.log)
 
 
 def test_threads_give_the_same_bits(cams54):

@@ -1,0 +1,162 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "solver_choice.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iterator>
+
+#if defined(__unix__) || defined(__APPLE__)
+#include <sys/resource.h>
+#include <unistd.h>
+#endif
+
+#include "schur_pattern.h"
+#include "suitesparse_status.h"
+
+namespace sba {
+namespace {
+
+i64 triangle(i64 b) { return b * (b + 1) / 2; }
+
+// The mean order of S's blocks, and so the scalar entries a count of blocks stands for.
+double block_order(const SolverShape &s) { return s.blocks > 0 ? double(s.unknowns) / double(s.blocks) : 0.0; }
+
+}  // namespace
+
+double pass_flops(const SolverShape &s) {
+  return 2.0 * double(s.observations) * s.mnp * (block_order(s) + s.pnp);
+}
+
+SolverMemory solver_memory(const SolverShape &s) {
+  const double d = sizeof(double), b = block_order(s), n = double(s.unknowns);
+  const double nobs = double(s.observations) * s.mnp, jblk = double(s.mnp) * (s.cnp + s.pnp);
+  const double point_blocks = double(s.points) * s.pnp * s.pnp;
+  SolverMemory m;
+  // The Jacobian, the residual and the measurements, the normal equations' blocks, p and the
+  // step, and the index (three ints per projection).
+  m.common = d * (double(s.observations) * jblk + 2 * nobs + double(s.blocks) * b * b + point_blocks +
+                  2 * (n + double(s.points) * s.pnp)) +
+             3.0 * sizeof(int) * double(s.observations);
+  // S in full, and the point blocks' inverses where unknowns are shared.
+  m.chol = d * (n * n + point_blocks);
+  // S's blocks and the factor's, the factor counted twice for the supernodes' padding and
+  // CHOLMOD's workspace.
+  m.sparse_chol = d * ((double(s.s_blocks) + 2 * double(s.factor_blocks)) * b * b + point_blocks);
+  // The point blocks' inverses, the chunks' partial sums (32 per unknown, with the
+  // preconditioner's) and CG's vectors.
+  m.iterative_schur = d * (point_blocks + n * (32 * (b + 1) + 6));
+  return m;
+}
+
+LinSolver choose_linsolver(const SolverShape &s) {
+  if (s.unknowns <= 0) return LinSolver::Chol;
+  const SolverMemory mem = solver_memory(s);
+  const struct {
+    LinSolver solver;
+    double bytes;
+    bool wanted;
+  } candidates[] = {
+      {LinSolver::Chol, mem.chol, s.unknowns <= kDenseMaxUnknowns},
+      {LinSolver::SparseChol, mem.sparse_chol, s.factor_flops <= kSparseMaxPasses * pass_flops(s)},
+      {LinSolver::IterativeSchur, mem.iterative_schur, true},
+  };
+  const auto fits = [&](double own) { return s.available_bytes <= 0 || mem.common + own <= s.available_bytes; };
+  for (const auto &c : candidates)
+    if (c.wanted && fits(c.bytes)) return c.solver;
+  // Nothing fits: the least memory is the best chance.
+  const auto *least = std::min_element(std::begin(candidates), std::end(candidates),
+                                       [](const auto &a, const auto &b) { return a.bytes < b.bytes; });
+  return least->solver;
+}
+
+std::string describe(const SolverShape &s) {
+  const i64 all = triangle(s.blocks);
+  const double pct = all > 0 ? 100.0 / double(all) : 0.0;
+  const SolverMemory m = solver_memory(s);
+  const auto mb = [](double bytes) { return bytes / (1024.0 * 1024.0); };
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "S of %lld unknowns in %lld blocks, %s%.3g%% of them nonzero, %.3g%% in its factor, whose "
+                "factorization costs %.3g passes over the Jacobian of %lld observations; MiB besides the common "
+                "%.0f: chol %.0f, sparse-chol %.0f, iterative-schur %.0f; %.0f MiB available",
+                static_cast<long long>(s.unknowns), static_cast<long long>(s.blocks),
+                s.s_partial ? "at least " : "", double(s.s_blocks) * pct,
+                double(s.factor_blocks) * pct, s.factor_flops / std::max(1.0, pass_flops(s)),
+                static_cast<long long>(s.observations), mb(m.common), mb(m.chol), mb(m.sparse_chol),
+                mb(m.iterative_schur), mb(s.available_bytes));
+  return buf;
+}
+
+SolverShape shape_of(const Layout &lay, double available_bytes) {
+  SolverShape s;
+  s.observations = lay.nvis;
+  s.points = lay.free_pts();
+  s.cnp = lay.cnp;
+  s.pnp = lay.pnp;
+  s.mnp = lay.mnp;
+  s.available_bytes = available_bytes;
+  if (lay.free_cams() == 0 || (lay.free_pts() == 0 && !lay.cams.shared())) return s;
+  s.unknowns = lay.camera_unknowns();
+  s.blocks = lay.cams.shared() ? lay.cams.nblocks() : lay.free_cams();
+  const double b = block_order(s), nb = double(s.blocks);
+  s.factor_blocks = triangle(s.blocks);
+  s.factor_flops = double(s.unknowns) * double(s.unknowns) * double(s.unknowns) / 3;
+  // A factor whose columns hold f_k blocks below the diagonal takes sum f_k (f_k + 1) / 2
+  // block multiply-subtracts of 2 b^3 operations, at least (sum f_k)^2 / nb b^3, and sum f_k is
+  // at least S's blocks off the diagonal: past this many blocks of S, sparse-chol is out.
+  const double enough = nb + std::sqrt(kSparseMaxPasses * pass_flops(s) * nb / (b * b * b));
+  SchurPattern pat;
+  const bool counted = schur_pattern(lay, i64(std::min(enough, double(s.factor_blocks))), &pat);
+  s.s_blocks = pat.nnz();
+  s.s_partial = !counted;
+  if (!counted) return s;
+  double info[AMD_INFO];
+  amd_block_order(pat, info);
+  s.factor_blocks = std::min(s.factor_blocks, i64(info[AMD_LNZ]) + s.blocks);
+  // Each diagonal block's own Cholesky, b^3 / 3, and the updates.
+  s.factor_flops = nb * b * b * b / 3 + 2 * b * b * b * info[AMD_NMULTSUBS_LDL];
+  return s;
+}
+
+double available_memory() {
+  double bytes = 0;
+#if defined(__linux__)
+  if (std::FILE *f = std::fopen("/proc/meminfo", "r")) {
+    char line[256];
+    unsigned long long kb = 0;
+    while (std::fgets(line, sizeof line, f))
+      if (std::sscanf(line, "MemAvailable: %llu kB", &kb) == 1) {
+        bytes = double(kb) * 1024.0;
+        break;
+      }
+    std::fclose(f);
+  }
+#endif
+#if defined(__unix__) || defined(__APPLE__)
+#if defined(_SC_PHYS_PAGES)
+  if (bytes <= 0) {
+    const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGESIZE);
+    if (pages > 0 && size > 0) bytes = double(pages) * double(size);
+  }
+#endif
+  // Under an address-space limit what the process has mapped already counts against it.
+  rlimit lim{};
+  if (getrlimit(RLIMIT_AS, &lim) == 0 && lim.rlim_cur != RLIM_INFINITY) {
+    double mapped = 0;
+#if defined(__linux__)
+    if (std::FILE *f = std::fopen("/proc/self/statm", "r")) {
+      unsigned long long pages = 0;
+      if (std::fscanf(f, "%llu", &pages) == 1) mapped = double(pages) * double(sysconf(_SC_PAGESIZE));
+      std::fclose(f);
+    }
+#endif
+    // A limit already reached leaves one byte, not 0, which would mean "unknown".
+    const double room = std::max(1.0, double(lim.rlim_cur) - mapped);
+    bytes = bytes > 0 ? std::min(bytes, room) : room;
+  }
+#endif
+  return bytes;
+}
+
+}  // namespace sba

@@ -1,0 +1,76 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+// The linear solver "auto" stands for: chol, sparse-chol or iterative-schur, chosen from the
+// problem's shape and the memory the machine has. The rule is a pure function of a few
+// numbers (choose_linsolver), measured against the series of bench/auto_solver.py
+// (docs/solvers.md has the figures); shape_of takes those numbers from a layout.
+#ifndef SBA_SRC_SOLVER_CHOICE_H
+#define SBA_SRC_SOLVER_CHOICE_H
+
+#include <string>
+
+#include "layout.h"
+#include "linear_solver.h"
+
+namespace sba {
+
+// Up to this many camera unknowns a dense S is factored in about the time the other
+// solvers take (or less), exactly, and the same bits for any thread count: chol.
+constexpr i64 kDenseMaxUnknowns = 1000;
+// Beyond that, sparse-chol when factoring S in its AMD order costs at most this many passes
+// over the Jacobian (the work of one product S x of iterative-schur, which takes tens of
+// them per step, and more where S is ill-conditioned); iterative-schur otherwise. The banded
+// S of a camera path costs a few passes, the dense S of a photo collection hundreds to
+// thousands.
+constexpr double kSparseMaxPasses = 50;
+
+// What the choice looks at.
+struct SolverShape {
+  // The order of the reduced camera system S (the camera side's unknowns, after holding and
+  // sharing) and its block rows (free cameras, or blocks of shared unknowns). 0 unknowns: no
+  // choice to make (no free cameras, or no free points and nothing shared: the system is
+  // block diagonal and solved block by block whatever the solver).
+  i64 unknowns = 0, blocks = 0;
+  // S's nonzero blocks and those of its Cholesky factor after an AMD ordering of its block
+  // graph, each in the upper triangle with the diagonal, and that factorization's floating-
+  // point operations. When S has too many blocks for a sparse factorization to be chosen,
+  // shape_of stops counting: the factor is then taken as dense (blocks * (blocks + 1) / 2
+  // blocks, unknowns^3 / 3 operations) and s_blocks is the count so far.
+  i64 s_blocks = 0, factor_blocks = 0;
+  double factor_flops = 0;
+  bool s_partial = false;  // counting stopped: s_blocks is a lower bound
+  i64 observations = 0;  // visible projections
+  i64 points = 0;        // free points
+  int cnp = 0, pnp = 0, mnp = 0;
+  double available_bytes = 0;  // memory the solve may use; 0: unknown (then anything fits)
+};
+
+// The floating-point operations of one pass over the Jacobian: every projection's mnp x
+// (camera block + pnp) entries multiplied and added once.
+double pass_flops(const SolverShape &s);
+
+// Bytes each candidate needs: `common` for what every solve holds (Jacobian, residuals,
+// normal equations' blocks, index), the others for the solver's own arrays.
+struct SolverMemory {
+  double common = 0, chol = 0, sparse_chol = 0, iterative_schur = 0;
+};
+SolverMemory solver_memory(const SolverShape &s);
+
+// The rule: chol, sparse-chol or iterative-schur for a problem of shape s (docs/solvers.md).
+// Never one whose memory (common + own) exceeds s.available_bytes, unless none fits, in which
+// case the one needing least.
+LinSolver choose_linsolver(const SolverShape &s);
+
+// The shape and the memory in words, for the verbose line that says what auto chose and why.
+std::string describe(const SolverShape &s);
+
+// The shape of lay's problem, with available_bytes as given.
+SolverShape shape_of(const Layout &lay, double available_bytes);
+
+// The memory a solve may take now: the system's available memory (Linux: MemAvailable of
+// /proc/meminfo; elsewhere the physical pages), no more than the address-space limit
+// (RLIMIT_AS) allows. 0 when unknown.
+double available_memory();
+
+}  // namespace sba
+
+#endif

@@ -1,0 +1,237 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The choice behind the linear solver "auto" (src/solver_choice.h): the rule as a function of
+// the shape numbers, the memory it counts, the shape it reads from a layout (S's blocks, its
+// factor's after AMD, holding and sharing), and the memory it takes as available.
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "camera_unknowns.h"
+#include "layout.h"
+#include "solver_choice.h"
+
+namespace {
+
+using sba::i64;
+using sba::LinSolver;
+using sba::SolverShape;
+
+constexpr double kGiB = 1024.0 * 1024.0 * 1024.0;
+
+// A problem of `cameras` free cameras of 6 unknowns, 100 points each seen by 5 of them, pnp 3,
+// mnp 2; S's blocks filling the given share of its upper triangle, its factor as many blocks
+// again, and a factorization that costs `passes` passes over the Jacobian.
+SolverShape shape(i64 cameras, double s_share, double passes, double available = 0) {
+  SolverShape s;
+  s.unknowns = 6 * cameras;
+  s.blocks = cameras;
+  const i64 all = cameras * (cameras + 1) / 2;
+  s.s_blocks = i64(s_share * double(all));
+  s.factor_blocks = std::min(all, 2 * s.s_blocks);
+  s.points = 100 * cameras;
+  s.observations = 5 * s.points;
+  s.cnp = 6;
+  s.pnp = 3;
+  s.mnp = 2;
+  s.factor_flops = passes * sba::pass_flops(s);
+  s.available_bytes = available;
+  return s;
+}
+
+// The same with the factor of a dense S.
+SolverShape dense(i64 cameras, double available = 0) {
+  SolverShape s = shape(cameras, 1, 0, available);
+  s.factor_flops = double(s.unknowns) * double(s.unknowns) * double(s.unknowns) / 3;
+  return s;
+}
+
+TEST(SolverChoice, PassesOverTheJacobian) {
+  // 50,000 projections of 2 x (6 + 3) entries.
+  EXPECT_DOUBLE_EQ(sba::pass_flops(shape(100, 1, 0)), 2.0 * 50000 * 2 * 9);
+}
+
+TEST(SolverChoice, NoUnknownsNoChoice) {
+  // The motion-only and structure-only drivers, or no free points: the system is block
+  // diagonal and the name only reported.
+  SolverShape s = dense(1000);
+  s.unknowns = 0;
+  EXPECT_EQ(sba::choose_linsolver(s), LinSolver::Chol);
+}
+
+TEST(SolverChoice, SmallProblemsTakeChol) {
+  for (i64 cams : {i64(2), i64(10), i64(100), sba::kDenseMaxUnknowns / 6}) {
+    EXPECT_EQ(sba::choose_linsolver(dense(cams)), LinSolver::Chol) << cams;
+    EXPECT_EQ(sba::choose_linsolver(shape(cams, 0.01, 1)), LinSolver::Chol) << cams;
+  }
+  SolverShape edge = dense(200);
+  edge.unknowns = sba::kDenseMaxUnknowns;
+  EXPECT_EQ(sba::choose_linsolver(edge), LinSolver::Chol);
+  edge.unknowns += 1;
+  EXPECT_EQ(sba::choose_linsolver(edge), LinSolver::IterativeSchur);
+}
+
+TEST(SolverChoice, CheapSparseFactorTakesSparseChol) {
+  EXPECT_EQ(sba::choose_linsolver(shape(1000, 0.005, 2)), LinSolver::SparseChol);
+  EXPECT_EQ(sba::choose_linsolver(shape(10000, 0.0005, sba::kSparseMaxPasses)), LinSolver::SparseChol);
+  // A few hundred cameras along a path: S a fifth full, but banded.
+  EXPECT_EQ(sba::choose_linsolver(shape(200, 0.2, 10)), LinSolver::SparseChol);
+  // Sparse S, but a factor that fills in: a costly factorization.
+  EXPECT_EQ(sba::choose_linsolver(shape(1000, 0.02, 2 * sba::kSparseMaxPasses)), LinSolver::IterativeSchur);
+}
+
+TEST(SolverChoice, LargeDenseTakesIterativeSchur) {
+  EXPECT_EQ(sba::choose_linsolver(dense(300)), LinSolver::IterativeSchur);
+  EXPECT_EQ(sba::choose_linsolver(dense(10000, 20 * kGiB)), LinSolver::IterativeSchur);
+}
+
+TEST(SolverChoice, MemoryCountsWhatEachHolds) {
+  const SolverShape s = shape(100, 0.5, 0);
+  const sba::SolverMemory m = sba::solver_memory(s);
+  const double d = sizeof(double), point_blocks = 10000.0 * 9;
+  EXPECT_DOUBLE_EQ(m.chol, d * (600.0 * 600.0 + point_blocks));
+  EXPECT_DOUBLE_EQ(m.sparse_chol, d * ((double(s.s_blocks) + 2.0 * double(s.factor_blocks)) * 36 + point_blocks));
+  EXPECT_DOUBLE_EQ(m.iterative_schur, d * (point_blocks + 600.0 * (32 * 7 + 6)));
+  // The Jacobian alone: 50,000 projections of 2 x 9.
+  EXPECT_GT(m.common, d * 50000 * 18);
+  EXPECT_LT(m.common, 2 * d * 50000 * 18);
+}
+
+TEST(SolverChoice, NeverWhatDoesNotFit) {
+  // chol would be the choice, but its S does not fit: the sparse factor does.
+  SolverShape s = shape(150, 0.02, 5);
+  const sba::SolverMemory m = sba::solver_memory(s);
+  s.available_bytes = m.common + (m.chol + m.sparse_chol) / 2;
+  ASSERT_LT(m.sparse_chol, m.chol);
+  EXPECT_EQ(sba::choose_linsolver(s), LinSolver::SparseChol);
+  // A dense S that does not fit, whose factorization would cost too much anyway: iterative-schur.
+  SolverShape big = dense(150);
+  const sba::SolverMemory md = sba::solver_memory(big);
+  ASSERT_LT(md.iterative_schur, md.chol);
+  big.available_bytes = md.common + (md.chol + md.iterative_schur) / 2;
+  EXPECT_EQ(sba::choose_linsolver(big), LinSolver::IterativeSchur);
+  // Nothing fits: the one that needs least, here chol's small S.
+  SolverShape tiny = dense(4, 1.0);
+  const sba::SolverMemory mt = sba::solver_memory(tiny);
+  ASSERT_LT(mt.chol, mt.iterative_schur);
+  EXPECT_EQ(sba::choose_linsolver(tiny), LinSolver::Chol);
+  // 10,000 cameras of a photo collection: a dense S of 60,000 unknowns is 26.8 GiB.
+  const SolverShape photo = dense(10000, 20 * kGiB);
+  EXPECT_GT(sba::solver_memory(photo).chol, 20 * kGiB);
+  EXPECT_EQ(sba::choose_linsolver(photo), LinSolver::IterativeSchur);
+}
+
+// A layout of m cameras whose points are each seen by `run` consecutive cameras (S banded),
+// or by every camera (`run` 0: S dense).
+sba::Layout layout(int m, int n, int run) {
+  std::vector<char> vmask(size_t(n) * size_t(m), 0);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j)
+      if (run == 0 || (j >= i % (m - run + 1) && j < i % (m - run + 1) + run)) vmask[size_t(i) * size_t(m) + size_t(j)] = 1;
+  sba::Layout lay;
+  std::string msg;
+  EXPECT_TRUE(sba::build_layout(lay, sba::Mode::MotStr, n, m, 0, 0, 6, 3, 2, vmask.data(), &msg)) << msg;
+  return lay;
+}
+
+TEST(SolverChoice, ShapeOfABandedProblem) {
+  const sba::Layout lay = layout(300, 3000, 3);
+  const SolverShape s = sba::shape_of(lay, 5 * kGiB);
+  EXPECT_EQ(s.unknowns, 1800);
+  EXPECT_EQ(s.blocks, 300);
+  EXPECT_EQ(s.observations, 9000);
+  EXPECT_EQ(s.points, 3000);
+  EXPECT_EQ(s.available_bytes, 5 * kGiB);
+  // Each camera with itself and the two before it.
+  EXPECT_EQ(s.s_blocks, 300 + 299 + 298);
+  EXPECT_FALSE(s.s_partial);
+  // AMD keeps a band's factor within a few times the band, and its work to a few dozen block
+  // operations of 2 * 6^3 per camera, where a dense S's would be 1800^3 / 3.
+  EXPECT_GE(s.factor_blocks, s.s_blocks);
+  EXPECT_LE(s.factor_blocks, 2 * s.s_blocks);
+  EXPECT_GT(s.factor_flops, 300 * 216 / 3.0);
+  EXPECT_LT(s.factor_flops, 300 * 216 * 20.0);
+  EXPECT_EQ(sba::choose_linsolver(s), LinSolver::SparseChol);
+}
+
+TEST(SolverChoice, ShapeOfADenseProblemStopsCounting) {
+  const sba::Layout lay = layout(200, 400, 0);
+  const SolverShape s = sba::shape_of(lay, 0);
+  EXPECT_EQ(s.unknowns, 1200);
+  // Counting stops where even the least fill-in would cost more than kSparseMaxPasses passes,
+  // (s_blocks - 200)^2 / 200 * 6^3 flops > 50 passes of 2 * 80,000 * 2 * 9 flops, i.e. past
+  // 11,747 blocks: at the end of the column that passes it, the 153rd.
+  ASSERT_EQ(sba::kSparseMaxPasses, 50);
+  EXPECT_TRUE(s.s_partial);
+  EXPECT_EQ(s.s_blocks, 153 * 154 / 2);
+  EXPECT_EQ(s.factor_blocks, 200 * 201 / 2);
+  EXPECT_DOUBLE_EQ(s.factor_flops, 1200.0 * 1200 * 1200 / 3);
+  EXPECT_EQ(sba::choose_linsolver(s), LinSolver::IterativeSchur);
+}
+
+TEST(SolverChoice, ShapeFollowsFixedCamerasAndPoints) {
+  sba::Layout lay = layout(10, 50, 3);
+  lay.mcon = 4;
+  SolverShape s = sba::shape_of(lay, 0);
+  EXPECT_EQ(s.blocks, 6);
+  EXPECT_EQ(s.unknowns, 36);
+  // Points only: nothing to choose.
+  lay.mcon = 10;
+  EXPECT_EQ(sba::shape_of(lay, 0).unknowns, 0);
+  lay.mcon = 0;
+  lay.ncon = 50;
+  EXPECT_EQ(sba::shape_of(lay, 0).unknowns, 0);
+}
+
+TEST(SolverChoice, ShapeCountsSharedUnknowns) {
+  // A hundred cameras with a pose each and one shared intrinsic (parameter 5): 501 unknowns
+  // in 101 blocks; the shared block couples every camera, so S's pattern is the band plus a
+  // full row and column.
+  sba::Layout lay = layout(100, 500, 3);
+  std::vector<int> group(100, 0);
+  const char shared[6] = {0, 0, 0, 0, 0, 1};
+  sba::CameraParamOptions o;
+  o.group = group.data();
+  o.shared = shared;
+  std::vector<double> p(size_t(lay.nvars()), 1.0);
+  ASSERT_EQ(sba::check_camera_params(o, lay, p.data()), "");
+  lay.cams = sba::make_camera_map(o, lay);
+  const SolverShape s = sba::shape_of(lay, 0);
+  EXPECT_EQ(s.unknowns, 501);
+  EXPECT_EQ(s.blocks, 101);
+  EXPECT_EQ(s.s_blocks, 100 + 99 + 98 + 101);
+}
+
+TEST(SolverChoice, AvailableMemoryHonoursTheAddressSpaceLimit) {
+  const double free_now = sba::available_memory();
+  EXPECT_GT(free_now, 0);
+  // In a child: with RLIMIT_AS a little above what the process has mapped, no more than
+  // that headroom is available.
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    long pages = 0;
+    if (FILE *f = std::fopen("/proc/self/statm", "r")) {
+      if (std::fscanf(f, "%ld", &pages) != 1) pages = 0;
+      std::fclose(f);
+    }
+    const double mapped = double(pages) * double(sysconf(_SC_PAGESIZE));
+    const double headroom = 64.0 * 1024 * 1024;
+    rlimit lim{};
+    lim.rlim_cur = lim.rlim_max = rlim_t(mapped + headroom);
+    if (pages <= 0 || setrlimit(RLIMIT_AS, &lim) != 0) _exit(2);
+    const double avail = sba::available_memory();
+    _exit(avail > 0 && avail <= headroom + 1024 * 1024 ? 0 : 1);
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+}
+
+}  // namespace
