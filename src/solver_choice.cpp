@@ -99,6 +99,11 @@ SolverShape shape_of(const Layout &lay, double available_bytes) {
   if (lay.free_cams() == 0 || (lay.free_pts() == 0 && !lay.cams.shared())) return s;
   s.unknowns = lay.camera_unknowns();
   s.blocks = lay.cams.shared() ? lay.cams.nblocks() : lay.free_cams();
+  // Every camera parameter held: S is empty, and its blocks have no order to divide by.
+  if (s.unknowns <= 0 || s.blocks <= 0) {
+    s.unknowns = s.blocks = 0;
+    return s;
+  }
   const double b = block_order(s), nb = double(s.blocks);
   s.factor_blocks = triangle(s.blocks);
   s.factor_flops = double(s.unknowns) * double(s.unknowns) * double(s.unknowns) / 3;

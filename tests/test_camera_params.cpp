@@ -489,6 +489,26 @@ TEST(CameraParams, ASharedParameterIsCountedOnce) {
   EXPECT_NE(own.log.find("fewer measurements (6) than free parameters (9)"), std::string::npos) << own.log;
 }
 
+TEST(CameraParams, EveryParameterHeldAndSharedSolvesThePointsAlone) {
+  // Every camera parameter held, all in one shared group: the points are the only unknowns.
+  // The solver no one named (auto) has no camera system to choose for; the solve is the one
+  // with every parameter held and nothing shared.
+  synth::Problem pb = synth::make(30, 4, 0.5, 0.05, 23);
+  SynthCall c;
+  c.fixed = {1, 1, 1, 1, 1, 1};
+  const SynthResult held = run_synth(pb, pb.p0, c);
+  ASSERT_GE(held.ret, 1) << held.log;
+  c.group = {0, 0, 0, 0};
+  c.shared = {1, 1, 1, 1, 1, 1};
+  std::vector<double> p0 = pb.p0;
+  for (int j = 1; j < 4; ++j)  // one value per shared parameter
+    std::copy(p0.begin(), p0.begin() + 6, p0.begin() + 6 * j);
+  const SynthResult r = run_synth(pb, p0, c);
+  ASSERT_GE(r.ret, 1) << r.log;
+  for (size_t a = 0; a < 24; ++a) EXPECT_TRUE(same_bits(r.p[a], p0[a])) << a;
+  EXPECT_LT(r.info[1], r.info[0]);
+}
+
 TEST(CameraParams, SharedWithoutGroupsIsABadArgument) {
   synth::Problem pb = synth::make(20, 4, 0.5, 0.05, 23);
   SynthCall c;

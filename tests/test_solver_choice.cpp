@@ -207,6 +207,27 @@ TEST(SolverChoice, ShapeCountsSharedUnknowns) {
   EXPECT_EQ(s.s_blocks, 100 + 99 + 98 + 101);
 }
 
+TEST(SolverChoice, EveryCameraParameterHeldLeavesNothingToChoose) {
+  // Free cameras and points, but no camera unknown: S is empty, and the shape says so
+  // without dividing by its empty blocks (which made the pattern's bound a NaN).
+  sba::Layout lay = layout(10, 50, 3);
+  const char held[6] = {1, 1, 1, 1, 1, 1};
+  const std::vector<int> one(10, 0);  // one group sharing everything: the mapped form
+  sba::CameraParamOptions o;
+  o.fixed = held;
+  o.group = one.data();
+  o.shared = held;
+  std::vector<double> p(size_t(lay.nvars()), 1.0);
+  ASSERT_EQ(sba::check_camera_params(o, lay, p.data()), "");
+  lay.cams = sba::make_camera_map(o, lay);
+  const SolverShape s = sba::shape_of(lay, 0);
+  EXPECT_EQ(s.unknowns, 0);
+  EXPECT_EQ(s.s_blocks, 0);
+  EXPECT_FALSE(s.s_partial);
+  EXPECT_EQ(s.factor_flops, 0.0);
+  EXPECT_EQ(sba::choose_linsolver(s), LinSolver::Chol);
+}
+
 TEST(SolverChoice, AvailableMemoryHonoursTheAddressSpaceLimit) {
   const double free_now = sba::available_memory();
   EXPECT_GT(free_now, 0);
