@@ -139,6 +139,15 @@ sba::Layout layout(int m, int n, int run) {
   return lay;
 }
 
+// Gives lay the camera map of o, checked as the drivers check it (every parameter 1.0).
+testing::AssertionResult map_cameras(const sba::CameraParamOptions &o, sba::Layout *lay) {
+  std::vector<double> p(size_t(lay->nvars()), 1.0);
+  const std::string error = sba::check_camera_params(o, *lay, p.data());
+  if (!error.empty()) return testing::AssertionFailure() << error;
+  lay->cams = sba::make_camera_map(o, *lay);
+  return testing::AssertionSuccess();
+}
+
 TEST(SolverChoice, ShapeOfABandedProblem) {
   const sba::Layout lay = layout(300, 3000, 3);
   const SolverShape s = sba::shape_of(lay, 5 * kGiB);
@@ -198,9 +207,7 @@ TEST(SolverChoice, ShapeCountsSharedUnknowns) {
   sba::CameraParamOptions o;
   o.group = group.data();
   o.shared = shared;
-  std::vector<double> p(size_t(lay.nvars()), 1.0);
-  ASSERT_EQ(sba::check_camera_params(o, lay, p.data()), "");
-  lay.cams = sba::make_camera_map(o, lay);
+  ASSERT_TRUE(map_cameras(o, &lay));
   const SolverShape s = sba::shape_of(lay, 0);
   EXPECT_EQ(s.unknowns, 501);
   EXPECT_EQ(s.blocks, 101);
@@ -217,9 +224,7 @@ TEST(SolverChoice, EveryCameraParameterHeldLeavesNothingToChoose) {
   o.fixed = held;
   o.group = one.data();
   o.shared = held;
-  std::vector<double> p(size_t(lay.nvars()), 1.0);
-  ASSERT_EQ(sba::check_camera_params(o, lay, p.data()), "");
-  lay.cams = sba::make_camera_map(o, lay);
+  ASSERT_TRUE(map_cameras(o, &lay));
   const SolverShape s = sba::shape_of(lay, 0);
   EXPECT_EQ(s.unknowns, 0);
   EXPECT_EQ(s.s_blocks, 0);
