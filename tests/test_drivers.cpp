@@ -1039,7 +1039,10 @@ TEST(Drivers, UnknownSbaLinsolverIsAWarning) {
   EXPECT_EQ(loud.res.linsolver, std::string("chol"));
   EXPECT_NE(loud.log.find("1 sba_motstr_levmar_x: unknown SBA_LINSOLVER \"chlo\""), std::string::npos)
       << loud.log;
-  EXPECT_EQ(loud.log.find("0 "), std::string::npos) << loud.log;  // no error-level line
+  // No error-level line. Each line starts with its level; a figure ending in 0 elsewhere in
+  // a line (the MiB available, say) is not one.
+  EXPECT_EQ(loud.log.rfind("0 ", 0), std::string::npos) << loud.log;
+  EXPECT_EQ(loud.log.find("\n0 "), std::string::npos) << loud.log;
   EXPECT_GT(quiet.ret, 0);
   EXPECT_EQ(quiet.log, "1 sba_motstr_levmar_x: unknown SBA_LINSOLVER \"chlo\" (known: " +
                            std::string(sba_linsolver_names()) + "); using auto\n");
