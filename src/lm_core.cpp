@@ -557,14 +557,19 @@ class LevenbergMarquardt {
   }
 
   // The strategy's verdict on the candidate, given the reduction dL the linear model
-  // predicted; an accepted step moves p and lowers the damping (stop 4 may fire).
+  // predicted; an accepted step moves p and lowers the damping (stop 4 may fire, and may on a
+  // rejected one too).
   Attempt accept_or_reject(double *p, double dL, double dp2, const Cost &cn) {
     const double epsn = cn.cost, dF = eps_ - epsn, nvis = double(lay_.nvis);
     log_.legacy(2, "\ndamping term %8g, gain ratio %8g, errors %8g / %8g = %g\n", mu_,
                 dF / (dL != 0.0 ? dL : DBL_EPSILON), eps_ / nvis, epsn / nvis, eps_ / epsn);
     log_.info(2, "SBA: iteration %d: mu %g, error %g -> %g, ||dp||^2 %g, gain ratio %g", it_, mu_,
               eps_, epsn, dp2, dL != 0.0 ? dF / dL : 0.0);
-    if (!strategy_.acceptable(dF, dL)) return Attempt::kRejected;
+    if (!strategy_.acceptable(dF, dL)) {
+      if (!strategy_.converged_on_rejection(eps_, epsn)) return Attempt::kRejected;
+      stop_ = kStopReduction;
+      return Attempt::kStopped;
+    }
     if (strategy_.converged(eps_, epsn)) stop_ = kStopReduction;
     st_.accept(p);
     sum_.moved = true;

@@ -5,8 +5,8 @@
 // trust-region account and Ceres's documentation describe it: the damping term is
 // mu diag(J^T J) (Marquardt), so that it is as strong in every direction relative to the
 // curvature there, with the diagonal kept within a floor and a ceiling; a trial point must
-// win a minimum fraction of the predicted reduction; and the solve ends when an accepted step
-// changes the cost by less than a relative tolerance, the stopping rule its users expect.
+// win a minimum fraction of the predicted reduction; and the solve ends when a step, taken or
+// not, changes the cost by less than a relative tolerance, the stopping rule its users expect.
 #include "strategy.h"
 
 #include <algorithm>
@@ -146,7 +146,7 @@ constexpr double kMinGain = 1e-3;
 // The damping moves within these bounds, the reciprocals of Ceres's default largest and
 // smallest trust-region radii; on the scaled system they are relative to curvature 1.
 constexpr double kMinDamping = 1e-16, kMaxDamping = 1e32;
-// Relative cost change below which an accepted step ends the solve (Ceres's default
+// Relative cost change below which a step ends the solve (Ceres's default
 // function_tolerance), used when opts[4] is 0.
 constexpr double kDefaultCostTolerance = 1e-6;
 
@@ -227,6 +227,10 @@ class TrustRegion final : public Strategy {
     return mu > kMaxDamping || nu > INT_MAX / 2;
   }
   bool converged(double e, double en) const override { return e - en <= ftol_ * e; }
+  // Ceres's function tolerance bounds the change of the cost up or down. At a minimum, where a
+  // step moves the cost by rounding only, a rejected step then ends the solve instead of a
+  // run of smaller and smaller steps (each a factorization) ending on eps2 at the same point.
+  bool converged_on_rejection(double e, double en) const override { return std::fabs(e - en) <= ftol_ * e; }
   const double *scale() const override { return s_.data(); }
 
  private:

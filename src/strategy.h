@@ -69,6 +69,9 @@ class Strategy {
   virtual bool exhausted(double mu, int nu) const = 0;
   // Stop reason 4 after an accepted step from cost e to cost en.
   virtual bool converged(double e, double en) const = 0;
+  // Stop reason 4 after a rejected step from cost e to cost en: no more to gain at any
+  // damping. sba 1.6 has no such test: it damps on until one of its other tests fires.
+  virtual bool converged_on_rejection(double, double) const { return false; }
   // Per parameter, the factor s of the change of variables of the latest linearization
   // (dp = s dq in the units of p), or null when the solver works in the units of p.
   virtual const double *scale() const { return nullptr; }

@@ -357,6 +357,48 @@ TEST(StrategyStep, SbaKeepsTheStep) {
   EXPECT_EQ(dp, 0.5);
 }
 
+// The trust region's cost tolerance (eps4) bounds the change of the cost either way: a step
+// that raises the cost by no more than eps4 of it is rejected and ends the solve (reason 4, p
+// as it was), where damping on would only shrink the step to the same point. One that raises
+// it by more is rejected and the solve goes on.
+TEST(LmLoopStops, TrustRegionRejectedStepWithinTheCostTolerance) {
+  Case s;
+  s.opt.strategy = sba::StrategyKind::TrustRegion;
+  s.opt.eps4 = 0.1;
+  // J^T J = 1: the scaled step is the step. Cost 4 -> 2.05^2 = 4.2025, up by 0.2025 <= 0.4.
+  const Outcome r = run(s, {solved(-0.05), lm_step()});
+  ASSERT_TRUE(r.ok);
+  EXPECT_EQ(r.sum.reason, sba::kStopReduction);
+  EXPECT_EQ(r.sum.iterations, 1);
+  ASSERT_EQ(r.calls.size(), 1u);
+  expect_counts(r, 2, 1, 1);
+  EXPECT_EQ(r.p, kP0);
+  EXPECT_EQ(r.sum.err, kCost0);
+
+  // Cost 4 -> 2.5^2 = 6.25, up by 2.25 > 0.4: rejected, and the next attempt is taken.
+  Case t;
+  t.opt.strategy = sba::StrategyKind::TrustRegion;
+  t.opt.eps4 = 0.1;
+  t.opt.itmax = 1;
+  const Outcome u = run(t, {solved(-0.5), lm_step()});
+  ASSERT_TRUE(u.ok);
+  EXPECT_EQ(u.sum.reason, sba::kStopItmax);
+  ASSERT_EQ(u.calls.size(), 2u);
+  EXPECT_GT(u.p, kP0 + 1.0);
+}
+
+// sba 1.6's strategy has no such test: the same step is rejected and the damping grows.
+TEST(LmLoopStops, SbaDampsOnAfterARejectedStepWithinEps4) {
+  Case s;
+  s.opt.eps4 = 0.1;
+  s.opt.itmax = 1;
+  const Outcome r = run(s, {solved(-0.05), lm_step()});
+  ASSERT_TRUE(r.ok);
+  ASSERT_EQ(r.calls.size(), 2u);
+  EXPECT_EQ(r.calls[1].mu, 2e-3);
+  EXPECT_GT(r.p, kP0 + 1.0);
+}
+
 // The loop with the trust region: the solver sees the scaled system, p moves by the step in
 // its own units.
 TEST(LmLoop, TrustRegionStepInTheUnitsOfP) {

@@ -77,8 +77,8 @@ struct Options {
 // COLMAP's bundle adjuster is Ceres's Levenberg-Marquardt with its defaults
 // (max_num_iterations 100, function_tolerance 0): a COLMAP model is refined as COLMAP refines
 // it unless the command line says otherwise, with the trust-region strategy, whose eps4 is
-// Ceres's relative cost change. A tolerance of 0 runs until an accepted step no longer changes
-// the cost beyond rounding. The other formats keep sba's algorithm and the programs' limit.
+// Ceres's relative cost change. A tolerance of 0 runs until a step no longer changes the cost
+// beyond rounding. The other formats keep sba's algorithm and the programs' limit.
 void resolve_defaults(bool colmap_model, Options *o) {
   sbacli::SolveOptions &so = o->solve;
   if (so.itmax < 0) so.itmax = colmap_model ? 100 : 150;
@@ -168,11 +168,11 @@ std::vector<sbacli::Option> option_table(Options &o) {
                  return sbacli::to_int(v, 0, std::numeric_limits<int>::max(), &o.solve.itmax);
                }});
   t.push_back({"function-tolerance", "X",
-               "COLMAP's (Ceres's) function_tolerance: stop when an accepted step changes the cost by\n"
-               "at most X relatively. Sets --eps4 X and, unless --strategy is given, the trust-region\n"
+               "COLMAP's (Ceres's) function_tolerance: stop when a step changes the cost by at most X\n"
+               "relatively, up or down. Sets --eps4 X and, unless --strategy is given, the trust-region\n"
                "strategy, whose eps4 is this test (sba's eps4 is a relative RMS reduction instead).\n"
-               "A COLMAP model is refined at COLMAP's default, 0: until an accepted step changes the\n"
-               "cost by no more than rounding (give --strategy or --eps4 for sba's tests instead)",
+               "A COLMAP model is refined at COLMAP's default, 0: until a step changes the cost by no\n"
+               "more than rounding (give --strategy or --eps4 for sba's tests instead)",
                [&o](const std::string &v) { return sbacli::to_real(v, 0.0, false, &o.function_tolerance); }});
   t.push_back({"write-eucsba", "PREFIX",
                "COLMAP, NVM: also write the refined model as eucsbademo files PREFIX-cams.txt (17\n"
