@@ -71,10 +71,11 @@ clean:
 #   make check-tsan       the concurrency tests under ThreadSanitizer (build-tsan/)
 #   make check-fuzz       every libFuzzer target of fuzz/ for FUZZ_SECONDS each, FUZZ_JOBS at once (build-fuzz/)
 #   make soak             SOAK_N random solves with random faults (and SOAK_ASAN_N under ASan)
-#   make check-bench      sba_bench (bench/, with Ceres) built in BENCH_BUILD and its measurements checked
+#   make check-bench      sba_bench (bench/, with Ceres) built in BUILD and its measurements checked
 ASAN_BUILD ?= build-asan
 TSAN_BUILD ?= build-tsan
 FUZZ_BUILD ?= build-fuzz
+# bench/run_suite.sh's tree (check-bench uses BUILD), removed by clean-checks
 BENCH_BUILD ?= build-bench
 FUZZ_SECONDS ?= 60
 SOAK_N ?= 1000
@@ -126,13 +127,15 @@ soak: configure configure-asan
 	cmake --build $(ASAN_BUILD) -j $(JOBS) --target sba_soak
 	ASAN_OPTIONS=detect_leaks=1 $(ASAN_BUILD)/tests/sba_soak --solves $(SOAK_ASAN_N) --seed $(SOAK_SEED)
 
-# The instrument behind the README's performance figures: built as bench/run_suite.sh builds
-# it, run on a small problem, its JSON checked (results and memory accounting, no timings).
-check-bench: deps-test
+# The instrument behind the README's performance figures, run on a small problem, its JSON
+# checked (results and memory accounting, no timings). It is built in BUILD, whose library
+# make test has already built (Release unless CMAKE_FLAGS says otherwise): the bench is turned
+# on there explicitly, since a tree first configured before Ceres was installed keeps it off.
+check-bench: deps-test configure
 	@sh scripts/deps.sh bench
-	cmake -S . -B $(BENCH_BUILD) -DCMAKE_BUILD_TYPE=Release -DSBA_BUILD_BENCH=ON -DSBA_BUILD_PYTHON=OFF >/dev/null
-	cmake --build $(BENCH_BUILD) -j $(JOBS) --target sba_bench
-	python3 bench/check_bench.py $(BENCH_BUILD)/bench/sba_bench
+	cmake -S . -B $(BUILD) -DSBA_BUILD_BENCH=ON >/dev/null
+	cmake --build $(BUILD) -j $(JOBS) --target sba_bench
+	python3 bench/check_bench.py $(BUILD)/bench/sba_bench
 
 clean-checks:
 	rm -rf $(ASAN_BUILD) $(TSAN_BUILD) $(FUZZ_BUILD) $(BENCH_BUILD)
