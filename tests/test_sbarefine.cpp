@@ -57,7 +57,7 @@ TEST(Sbarefine, SameErrorAsEucsbademoTextAndBinary) {
   ASSERT_GT(tied, 0.1);
   ASSERT_LT(tied, 1.0);
   std::string error;
-  double text_error = 0;
+  double text_error = NAN;
   for (const char *enc : {"text", "binary"}) {
     const std::string in = dir + "/in-" + enc, out = dir + "/out-" + enc;
     ASSERT_TRUE(colmap::write_model(in, s.model,
@@ -70,8 +70,9 @@ TEST(Sbarefine, SameErrorAsEucsbademoTextAndBinary) {
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_LT(final_error(r.out), tied) << r.out;
     EXPECT_GT(final_error(r.out), 0.8 * tied) << r.out;
-    if (text_error == 0) text_error = final_error(r.out);
-    EXPECT_EQ(final_error(r.out), text_error);
+    // The binary model refines to the text model's error, to the bit.
+    if (std::string(enc) == "text") text_error = final_error(r.out);
+    else EXPECT_EQ(final_error(r.out), text_error);
     EXPECT_NE(r.out.find("\nCamera models: OPENCV (10 cameras); focal length refined, principal point held, extra "
                          "parameters refined; 0 cameras shared by several images, refined once; 0 poses held\n"),
               std::string::npos)
@@ -778,7 +779,11 @@ TEST(Sbarefine, MemoryFollowsTheObservations) {
 #endif
   const int m = 10000, n = 200000;
   const long long limit_kb = 1400000;
-  ASSERT_GT(static_cast<long long>(m) * n, limit_kb * 1024);
+  // The limit is in force where sbarefine runs: a buffer of the dense mask's n x m bytes cannot
+  // be had under it (were it not, the solve below would prove nothing).
+  const std::string dense = "ulimit -v " + std::to_string(limit_kb) + "; dd if=/dev/zero of=/dev/null count=1 bs=" +
+                            std::to_string(static_cast<long long>(m) * n) + " 2>/dev/null";
+  ASSERT_NE(std::system(dense.c_str()), 0) << dense;
   const std::string dir = temp_dir("sparse_memory");
   std::string error;
   ASSERT_TRUE(colmap::write_model(dir + "/in", sparse_model(m, n), colmap::Encoding::Binary, &error)) << error;
@@ -1139,8 +1144,8 @@ TEST(SbarefineColmapModels, SolversAndStrategiesAgree) {
                             " --strategy " + strategy);
       ASSERT_EQ(r.status, 0) << solver << " " << strategy << "\n" << r.err;
       const double rms = final_rms(r.out);
-      if (reference == 0) reference = rms;
-      EXPECT_NEAR(rms, reference, 1e-6 * reference) << solver << " " << strategy << "\n" << r.out;
+      if (reference == 0) reference = rms;  // the first run's, which the others must reach
+      else EXPECT_NEAR(rms, reference, 1e-6 * reference) << solver << " " << strategy << "\n" << r.out;
     }
   EXPECT_GT(reference, 0.5);
   EXPECT_LT(reference, 0.8);
@@ -2023,8 +2028,8 @@ TEST(SbarefineRigs, SolversAndStrategiesAgree) {
                             " --strategy " + strategy + " --json " + dir + "/r.json");
       ASSERT_EQ(r.status, 0) << solver << " " << strategy << "\n" << r.err;
       const double rms = json_final_rms(dir + "/r.json");
-      if (reference == 0) reference = rms;
-      EXPECT_NEAR(rms, reference, 1e-9 * reference) << solver << " " << strategy << "\n" << r.out;
+      if (reference == 0) reference = rms;  // the first run's, which the others must reach
+      else EXPECT_NEAR(rms, reference, 1e-9 * reference) << solver << " " << strategy << "\n" << r.out;
       // sba's damping crawls where the trust region's scaled damping strides.
       const bool sba = std::string(strategy) == "sba";
       EXPECT_GE(iterations(r.out), sba ? 15 : 3) << solver << " " << strategy << "\n" << r.out;
