@@ -130,11 +130,6 @@ TEST(NvmRoundTrip, CrlfAndOddSpacingReadAsWritten) {
 
 // ---- strictness ----
 
-struct Bad {
-  std::string text;
-  const char *message;
-};
-
 TEST(NvmReader, Errors) {
   const std::string head = "NVM_V3\n\n2\na.jpg 500 1 0 0 0 0 0 -5 0 0\nb.jpg 500 1 0 0 0 1 0 -5 0 0\n1\n";
   const Bad cases[] = {

@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Tests of the scene generator (data/generator/sbagen.h): determinism, counts, geometry of
 // the truth, tracks, noise and covariance statistics, outliers, the files it writes, and that
-// sba refines a generated problem back to its ground truth.
+// sba refines a generated problem back to its ground truth; the sbagen program's COLMAP and
+// Bundler files.
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -11,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -18,11 +21,16 @@
 #include <vector>
 
 #include "cameras/euclidean.h"
+#include "colmap_fixtures.h"
+#include "formats/bundler_io.h"
+#include "formats/colmap_io.h"
 #include "formats/eucsba_io.h"
 #include "sba.h"
 #include "sbagen.h"
 
 namespace eucsba = sbaformats::eucsba;
+namespace colmap = sbaformats::colmap;
+namespace bundler = sbaformats::bundler;
 namespace euclidean = sbacameras::euclidean;
 
 namespace {
@@ -824,6 +832,34 @@ TEST(SbagenSolve, CovariancesWeightTheFit) {
   ASSERT_NE(sol.ret, SBA_ERROR);
   const double expected = expected_mse(s, 1.0);
   EXPECT_NEAR(sol.info[1] / s.nprojections(), expected, 0.15 * expected);
+}
+
+// ---- the program ----
+
+// sbagen writes the same scenes as files.
+TEST(Sbagen, WritesColmapAndBundlerFiles) {
+  const TempDir dir("program");
+  const std::string gen = std::string(SBAGEN_EXE) + " --cameras 6 --points 60 --quiet --out " + dir.file("g");
+  ASSERT_EQ(std::system((gen + " --kind varKD --colmap " + dir.file("t") + " --colmap-binary " + dir.file("b")).c_str()),
+            0);
+  colmap::Model text, binary;
+  std::string error;
+  ASSERT_TRUE(colmap::read_model(dir.file("t"), &text, nullptr, &error)) << error;
+  ASSERT_TRUE(colmap::read_model(dir.file("b"), &binary, nullptr, &error)) << error;
+  refinetest::expect_same(text, binary);
+  ASSERT_EQ(text.cameras.size(), 6u);
+  EXPECT_EQ(text.cameras[0].model, colmap::kOpenCV);
+  EXPECT_EQ(text.images[5].name, "img_0005.png");
+  EXPECT_EQ(text.points[1].id, 1007u);
+  const int st = std::system((gen + " --kind varKD --bundler " + dir.file("x.out") + " 2>" + dir.file("err")).c_str());
+  EXPECT_EQ(WEXITSTATUS(st), 1);
+  EXPECT_EQ(slurp(dir.file("err")), "sbagen: camera 0 has an aspect ratio, a skew or distortion terms beyond k1 k2, "
+                                    "which Bundler cannot hold\n");
+  ASSERT_EQ(std::system((gen + " --kind varK --bundler " + dir.file("g.out")).c_str()), 0);
+  bundler::Bundle b;
+  ASSERT_TRUE(bundler::read_bundle(dir.file("g.out"), &b, &error)) << error;
+  EXPECT_EQ(b.cameras.size(), 6u);
+  EXPECT_EQ(b.points.size(), 60u);
 }
 
 }  // namespace
