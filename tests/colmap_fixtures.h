@@ -24,12 +24,13 @@
 #include "formats/colmap_sba.h"
 #include "formats/eucsba_io.h"
 #include "sbagen.h"
+#include "scratch.h"
 
 namespace refinetest {
 
 // An empty directory of this process for the test `name`.
 inline std::string temp_dir(const std::string &name) {
-  const std::string d = testing::TempDir() + "test_refine_" + std::to_string(::getpid()) + "_" + name;
+  const std::string d = sbatest::scratch_dir() + "test_refine_" + std::to_string(::getpid()) + "_" + name;
   std::filesystem::remove_all(d);
   std::filesystem::create_directories(d);
   return d;

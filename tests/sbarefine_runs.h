@@ -16,6 +16,7 @@
 #include <string>
 
 #include "colmap_fixtures.h"
+#include "scratch.h"
 
 namespace refinetest {
 
@@ -27,7 +28,7 @@ struct Outcome {
 // sbarefine with args (words split by the shell), after the shell text `before` (a pipe
 // into it, a ulimit).
 inline Outcome run(const std::string &args, const std::string &before = "") {
-  const std::string base = testing::TempDir() + "test_refine_run_" + std::to_string(::getpid());
+  const std::string base = sbatest::scratch_dir() + "test_refine_run_" + std::to_string(::getpid());
   const std::string command = before + SBAREFINE_EXE + " " + args + " >" + base + ".out 2>" + base + ".err";
   const int st = std::system(command.c_str());
   Outcome r;

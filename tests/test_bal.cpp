@@ -27,6 +27,7 @@
 #include "ply_file.h"
 #include "sba.h"
 #include "sba_ext.h"
+#include "scratch.h"
 
 namespace bal = sbaformats::bal;
 namespace bal_camera = sbacameras::bal;
@@ -50,7 +51,7 @@ bool exists(const std::string &path) {
 // ctest runs each test in its own process, several at a time: the process id keeps their
 // scratch files (balsba's captured output among them) apart.
 std::string temp_path(const std::string &name) {
-  return testing::TempDir() + "test_bal_" + std::to_string(::getpid()) + "_" + name;
+  return sbatest::scratch_dir() + "test_bal_" + std::to_string(::getpid()) + "_" + name;
 }
 
 std::string write_temp(const std::string &name, const std::string &text) {

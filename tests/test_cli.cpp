@@ -17,6 +17,7 @@
 
 #include "sba.h"
 #include "sba_ext.h"
+#include "scratch.h"
 
 namespace {
 
@@ -50,7 +51,7 @@ std::string slurp(const std::string &path) {
 // Runs exe with args (each passed as one word) and captures stdout, stderr and the status;
 // standard input from stdin_path.
 Output run(const std::string &exe, const std::vector<std::string> &args, const std::string &stdin_path = "/dev/null") {
-  const std::string base = ::testing::TempDir() + "test_cli." + std::to_string(getpid());
+  const std::string base = sbatest::scratch_dir() + "test_cli." + std::to_string(getpid());
   std::string cmd = "exec '" + exe + "'";
   for (const std::string &a : args) cmd += " '" + a + "'";
   cmd += " >" + base + ".out 2>" + base + ".err <'" + stdin_path + "'";
@@ -176,7 +177,7 @@ TEST(Cli, PositionalArgumentsCounted) {
 // consecutive ones, so S is banded and of about 1800 unknowns, beyond the size auto gives chol.
 TEST(Cli, DefaultSolverOfEachProgram) {
   unsetenv("SBA_LINSOLVER");
-  const std::string dir = ::testing::TempDir() + "test_cli_solver." + std::to_string(getpid());
+  const std::string dir = sbatest::scratch_dir() + "test_cli_solver." + std::to_string(getpid());
   ASSERT_EQ(std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "/auto' '" + dir + "/named'").c_str()), 0);
   const std::string gen = dir + "/gen";
   Output o = run(SBAGEN_EXE, {"--out", gen, "--trajectory", "path", "--cameras", "300", "--points", "3000",
@@ -239,7 +240,7 @@ TEST(Cli, DefaultSolverOfEachProgram) {
 // of other formats.
 TEST(Cli, SbarefineOptionsOfAnotherFormat) {
   const Program p{"sbarefine", SBAREFINE_EXE, "itmax", ""};
-  const std::string nvm = ::testing::TempDir() + "test_cli." + std::to_string(getpid()) + ".nvm";
+  const std::string nvm = sbatest::scratch_dir() + "test_cli." + std::to_string(getpid()) + ".nvm";
   std::ofstream(nvm) << "NVM_V3\n\n1\na.jpg 500 1 0 0 0 0 0 -5 0 0\n1\n0 0 0 1 2 3 1 0 0 1 2\n";
   expect_usage_error(p, {"--write-format=binary", nvm}, "--write-format is for COLMAP models");
   expect_usage_error(p, {"--write-bal", "x.bal", nvm}, "--write-bal is for Bundler files");
@@ -252,7 +253,7 @@ TEST(Cli, SbarefineOptionsOfAnotherFormat) {
 // A PLY file that cannot be written stops each program before its solve: status 1, the path
 // and the reason on stderr, nothing on stdout.
 TEST(Cli, UnwritablePlyStopsEveryProgramBeforeTheSolve) {
-  const std::string nowhere = ::testing::TempDir() + "test_cli.no-such-dir/x.ply";
+  const std::string nowhere = sbatest::scratch_dir() + "test_cli.no-such-dir/x.ply";
   const std::string data = std::string(SBA_PROJECT_DIR) + "/data/orbit-fixedK-";
   const std::pair<std::string, std::vector<std::string>> kRuns[] = {
       {EUCSBADEMO_EXE, {data + "cams.txt", data + "pts.txt", data + "calib.txt"}},
@@ -300,7 +301,7 @@ class EucsbademoInputs : public ::testing::Test {
 };
 
 TEST_F(EucsbademoInputs, Bzip2AndStandardInputGiveTheSameRun) {
-  const std::string tmp = ::testing::TempDir() + "test_cli." + std::to_string(getpid());
+  const std::string tmp = sbatest::scratch_dir() + "test_cli." + std::to_string(getpid());
   const Output plain = run(EUCSBADEMO_EXE, {"--threads=1", data("cams"), data("pts"), data("calib")});
   ASSERT_EQ(plain.status, 0) << plain.err;
   ASSERT_NE(plain.out.find("SBA returned"), std::string::npos);

@@ -23,6 +23,8 @@
 #include <thread>
 #include <vector>
 
+#include "scratch.h"
+
 namespace {
 
 std::string slurp(const std::string &path) {
@@ -117,7 +119,7 @@ int stopped_after(const ChildRun &r, int sig) {
 class EucsbademoStop : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = ::testing::TempDir() + "test_interrupt." + std::to_string(getpid()) + "/";
+    dir_ = sbatest::scratch_dir() + "test_interrupt." + std::to_string(getpid()) + "/";
     ASSERT_EQ(std::system(("mkdir -p " + dir_).c_str()), 0);
     // 120 cameras, 12,000 points: with the SVD solver on one thread each iteration takes a
     // good fraction of a second, and the whole solve several seconds.
@@ -227,7 +229,7 @@ TEST_F(EucsbademoStop, MaxTimeStopsWithStatusZero) {
 // spend them in its eigendecomposition, which cannot be interrupted); the signal is sent once
 // the iteration's line (--verbose=2) is out.
 TEST(EucsbademoCovarianceStop, SignalAbandonsTheCovarianceAndKeepsTheResult) {
-  const std::string dir = ::testing::TempDir() + "test_interrupt_cov." + std::to_string(getpid()) + "/";
+  const std::string dir = sbatest::scratch_dir() + "test_interrupt_cov." + std::to_string(getpid()) + "/";
   ASSERT_EQ(std::system(("mkdir -p " + dir).c_str()), 0);
   const std::string gen = std::string(SBAGEN_EXE) + " --quiet --out " + dir +
                           "cov --cameras 60 --points 60000 --perturb-rotation 0.03 --perturb-points 0.05 --seed 3";
@@ -264,7 +266,7 @@ TEST(EucsbademoCovarianceStop, SignalAbandonsTheCovarianceAndKeepsTheResult) {
 TEST(BalsbaStop, SignalStopsWithTheLastAcceptedEstimate) {
   const std::string problem = std::string(SBA_SHARED_DATA_DIR) + "/bal/problem-49-7776-pre.txt.bz2";
   if (!exists(problem)) GTEST_SKIP() << problem << " is absent";
-  const std::string base = ::testing::TempDir() + "test_interrupt_bal." + std::to_string(getpid());
+  const std::string base = sbatest::scratch_dir() + "test_interrupt_bal." + std::to_string(getpid());
   const std::string out = base + "-stopped.txt", out_n = base + "-itmax.txt";
   const std::string ply = base + "-stopped.ply", ply_n = base + "-itmax.ply";
   const std::vector<std::string> common{problem, "--solver=svd", "--threads=1", "--no-progress"};
@@ -292,7 +294,7 @@ TEST(BalsbaStop, SignalStopsWithTheLastAcceptedEstimate) {
 TEST(BalsbaStop, MaxTimeStopsWithStatusZero) {
   const std::string problem = std::string(SBA_SHARED_DATA_DIR) + "/bal/problem-49-7776-pre.txt.bz2";
   if (!exists(problem)) GTEST_SKIP() << problem << " is absent";
-  const std::string base = ::testing::TempDir() + "test_interrupt_bal_time." + std::to_string(getpid());
+  const std::string base = sbatest::scratch_dir() + "test_interrupt_bal_time." + std::to_string(getpid());
   const ChildRun r = run_child(BALSBA_EXE, {problem, "--solver=svd", "--threads=1", "--max-time", "0.5"}, base,
                                [](pid_t, const std::string &) {});
   EXPECT_EQ(r.exit_status, 0) << r.err;

@@ -1459,7 +1459,9 @@ TEST(SbarefineColmapModels, ColmapReachesTheSameMinimum) {
     std::filesystem::remove_all(theirs);
     std::filesystem::create_directories(theirs);
     ASSERT_TRUE(colmap::write_model(in, s.model, colmap::Encoding::Text, &error)) << error;
-    const std::string ba = std::string(exe) + " bundle_adjuster --input_path " + in + " --output_path " + theirs +
+    // COLMAP's log files go where glog is told, not into /tmp.
+    const std::string ba = "GLOG_log_dir=" + dir + " " + std::string(exe) + " bundle_adjuster --input_path " + in +
+                           " --output_path " + theirs +
                            " --BundleAdjustment.max_num_iterations 500 --BundleAdjustment.function_tolerance 1e-12"
                            " --BundleAdjustment.gradient_tolerance 1e-14 --BundleAdjustment.parameter_tolerance 1e-14"
                            " >" + dir + "/colmap.log 2>&1";

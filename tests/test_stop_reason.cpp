@@ -12,6 +12,7 @@
 
 #include "cli/report.h"
 #include "sba_ext.h"
+#include "scratch.h"
 
 namespace {
 
@@ -54,7 +55,7 @@ std::string read_all(std::FILE *f) {
 // The programs' "Stop reason" line and --json's stop_reason carry the library's words; a stop
 // on request also says what asks these programs to stop.
 TEST(StopReason, TheReportPrintsTheLibrarysWords) {
-  const std::string json_path = testing::TempDir() + "stop_reason.json";
+  const std::string json_path = sbatest::scratch_dir() + "stop_reason.json";
   for (int r = SBA_STOP_NONE - 1; r <= SBA_STOP_USER + 1; ++r) {
     sbacli::Report report;
     report.info[6] = r;
