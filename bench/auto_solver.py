@@ -286,6 +286,8 @@ def main(argv):
         write_report(a, runs)
         return 0
     os.makedirs(a.work, exist_ok=True)
+    # COLMAP's glog writes a log file for every run into /tmp unless told another directory.
+    os.environ.setdefault("GLOG_log_dir", a.work)
     for n in [int(s) for s in a.sizes.split(",")]:
         for t in a.trajectories.split(","):
             for c in a.cameras.split(","):

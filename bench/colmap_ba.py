@@ -255,6 +255,8 @@ def main(argv):
         return 1
     work = a.work or tempfile.mkdtemp(prefix="colmap_ba.")
     os.makedirs(work, exist_ok=True)
+    # COLMAP's glog writes a log file for every run into /tmp unless told another directory.
+    os.environ.setdefault("GLOG_log_dir", work)
     version = subprocess.run([a.colmap, "-h"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                              text=True).stdout.strip().splitlines()[0]
     programs = [("colmap", None)] + [("sbarefine", s or None) for s in a.solvers.split(",")]

@@ -477,6 +477,8 @@ def main(argv):
     work = a.keep or tempfile.mkdtemp(prefix="colmap_real.")
     if a.keep:
         os.makedirs(work, exist_ok=True)
+    # COLMAP's glog writes a log file for every run into /tmp unless told another directory.
+    os.environ.setdefault("GLOG_log_dir", work)
     failed = []
     try:
         for n in names:
