@@ -174,8 +174,8 @@ struct sba_ext_options {
    * [1e-6, 1e32]) with mu starting at tau/10 (on the scaled system), a trial point is taken only when it achieves at
    * least 1e-3 of the predicted reduction, and a step whose relative cost change
    * |||e||^2 - ||e_new||^2| / ||e||^2 is at most eps4 ends the solve with reason 4, taken if it
-   * lowers the cost enough, left otherwise (eps4 = 0, the default of opts, means 1e-6). It usually needs several times fewer iterations from
-   * the same start. Stop reasons 1, 2, 3, 5 and 6 keep their meaning (6 also when mu would
+   * lowers the cost enough, left otherwise (eps4 = 0, the default of opts, means 1e-6). It
+   * usually needs several times fewer iterations from the same start. Stop reasons 1, 2, 3, 5 and 6 keep their meaning (6 also when mu would
    * exceed 1e32); info[4] is mu relative to the scaled system.
    * NULL: the environment variable SBA_STRATEGY if set (an unknown name there is ignored
    * with a warning), else "sba". An unknown name here is a bad argument (SBA_ERROR). */

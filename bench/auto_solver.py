@@ -286,8 +286,7 @@ def main(argv):
         write_report(a, runs)
         return 0
     os.makedirs(a.work, exist_ok=True)
-    # COLMAP's glog writes a log file for every run into /tmp unless told another directory.
-    os.environ.setdefault("GLOG_log_dir", a.work)
+    colmap_real.colmap_logs_into(a.work)
     for n in [int(s) for s in a.sizes.split(",")]:
         for t in a.trajectories.split(","):
             for c in a.cameras.split(","):

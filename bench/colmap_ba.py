@@ -255,8 +255,7 @@ def main(argv):
         return 1
     work = a.work or tempfile.mkdtemp(prefix="colmap_ba.")
     os.makedirs(work, exist_ok=True)
-    # COLMAP's glog writes a log file for every run into /tmp unless told another directory.
-    os.environ.setdefault("GLOG_log_dir", work)
+    colmap_real.colmap_logs_into(work)
     version = subprocess.run([a.colmap, "-h"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                              text=True).stdout.strip().splitlines()[0]
     programs = [("colmap", None)] + [("sbarefine", s or None) for s in a.solvers.split(",")]

@@ -243,6 +243,12 @@ class Failure(Exception):
     pass
 
 
+def colmap_logs_into(directory):
+    """COLMAP's glog writes a log file for every run into /tmp unless told another directory:
+    this process's COLMAP runs write theirs into `directory` (unless GLOG_log_dir is set)."""
+    os.environ.setdefault("GLOG_log_dir", directory)
+
+
 def run(cmd, what):
     try:
         r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=TIMEOUT)
@@ -477,8 +483,7 @@ def main(argv):
     work = a.keep or tempfile.mkdtemp(prefix="colmap_real.")
     if a.keep:
         os.makedirs(work, exist_ok=True)
-    # COLMAP's glog writes a log file for every run into /tmp unless told another directory.
-    os.environ.setdefault("GLOG_log_dir", work)
+    colmap_logs_into(work)
     failed = []
     try:
         for n in names:
