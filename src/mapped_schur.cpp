@@ -14,8 +14,8 @@ UnknownBlocks::Block UnknownBlocks::block(int b, int B) const {
   switch (kind) {
     case Kind::Dense:
       return {base + i64(start[b]) * ld + start[B], ld, false};
-    case Kind::Diagonal:
-      return {base + diag[b], i64(start[b + 1] - start[b]), false};
+    case Kind::Clusters:
+      return {base + origin[b] + i64(pos[b]) * order[b] + pos[B], order[b], false};
     case Kind::Sparse:
       break;
   }

@@ -28,16 +28,24 @@ namespace sba {
 //    each height[c] entries long, holding the block rows rows[colstart[c] .. colstart[c+1])
 //    (ascending, c first), the one at s starting rowoff[s] into the column; the column
 //    starts at colbase[c]. Zeroed by the caller.
-//  - Diagonal: only the diagonal blocks, block b's size^2 entries row-major from diag[b].
+//  - Clusters: the blocks of S's principal submatrices over disjoint sets of blocks (each
+//    block in exactly one, alone or with others): block b's cluster holds b's rows from
+//    row pos[b] of its order[b] x order[b] row-major matrix at base + origin[b], the blocks
+//    in ascending order. Block (b, B) is held when b and B are in one cluster (the same
+//    origin); the upper block triangle is filled, diagonal blocks whole. Zeroed by the caller.
 struct UnknownBlocks {
-  enum class Kind { Dense, Sparse, Diagonal };
+  enum class Kind { Dense, Sparse, Clusters };
   Kind kind = Kind::Dense;
   double *base = nullptr;
   i64 ld = 0;
   const int *start = nullptr;  // block b's first unknown: CameraMap::block_start
   const int *perm = nullptr, *rows = nullptr;
   const i64 *colstart = nullptr, *colbase = nullptr, *height = nullptr, *rowoff = nullptr;
-  const i64 *diag = nullptr;
+  const i64 *origin = nullptr;
+  const int *pos = nullptr, *order = nullptr;
+
+  // Whether block (b, B), b <= B, is held.
+  bool holds(int b, int B) const { return kind != Kind::Clusters || origin[b] == origin[B]; }
 
   struct Block {
     double *p;

@@ -80,19 +80,14 @@ void mapped_point_couplings(const MappedSchur &ms, const double *jac, int i, int
 
 namespace {
 
-// Zeroes what the assembly of the block columns [B0, B1) adds to: the columns of a dense S
-// down to their last row, or the diagonal blocks of a block-diagonal S.
+// Zeroes what the assembly of the block columns [B0, B1) adds to in a dense S: the columns
+// down to their last row (the other kinds are zeroed by the caller).
 void clear_columns(const CameraMap &map, int B0, int B1, const UnknownBlocks &S) {
   const int *start = map.block_start.data();
   if (S.kind == UnknownBlocks::Kind::Dense)
     for (i64 r = 0; r < start[B1]; ++r) {
       double *row = S.base + r * S.ld;
       std::fill(row + start[B0], row + start[B1], 0.0);
-    }
-  if (S.kind == UnknownBlocks::Kind::Diagonal)
-    for (int B = B0; B < B1; ++B) {
-      const i64 n = map.block_size(B);
-      std::fill(S.base + S.diag[B], S.base + S.diag[B] + n * n, 0.0);
     }
 }
 
@@ -102,7 +97,6 @@ void add_camera_terms(const Layout &lay, int B, const NormalEquations &ne, doubl
                       double *rhs) {
   const CameraMap &map = lay.cams;
   const int cnp = lay.cnp;
-  const bool diagonal = S.kind == UnknownBlocks::Kind::Diagonal;
   const int nB = map.block_size(B);
   const int *colsB = map.block_columns(B);
   if (rhs) std::fill(rhs, rhs + nB, 0.0);
@@ -114,7 +108,7 @@ void add_camera_terms(const Layout &lay, int B, const NormalEquations &ne, doubl
     for (int qb = map.cam_start[size_t(j)]; qb < map.cam_start[size_t(j) + 1]; ++qb) {
       const int b = map.cam_blocks[size_t(qb)];
       if (b > B) break;
-      if (diagonal && b != B) continue;
+      if (!S.holds(b, B)) continue;
       const int nb = map.block_size(b);
       const int *colsb = map.block_columns(b);
       const UnknownBlocks::Block blk = S.block(b, B);
@@ -140,7 +134,7 @@ void add_point_terms(const MappedSchur &ms, int i, int lo, int hi, const NormalE
   const Layout &lay = ms.layout();
   const CameraMap &map = lay.cams;
   const int pnp = lay.pnp;
-  const bool diagonal = S.kind == UnknownBlocks::Kind::Diagonal;
+  const bool clusters = S.kind == UnknownBlocks::Kind::Clusters;
   const int *F = ms.point_blocks(i);
   i64 *zoff = sc.zoff.data();
   double *Zt = sc.Zt.data(), *Yt = sc.Yt.data();
@@ -163,8 +157,9 @@ void add_point_terms(const MappedSchur &ms, int i, int lo, int hi, const NormalE
       for (int d = 0; d < pnp; ++d)
         for (int o = 0; o < nB; ++o) rB[o] -= ebi[d] * y[d * nB + o];
     }
-    for (int s1 = diagonal ? s : 0; s1 <= s; ++s1) {
+    for (int s1 = 0; s1 <= s; ++s1) {
       const int b = F[s1], nb = map.block_size(b);
+      if (clusters && !S.holds(b, B)) continue;
       const UnknownBlocks::Block blk = S.block(b, B);
       if (blk.transposed)
         pair_update(nB, nb, pnp, y, Zt + zoff[s1], blk.p, blk.ld);

@@ -22,9 +22,19 @@
 // W_ij^T, one Cholesky-factored cnp x cnp block per camera, made once per damped system in
 // the same chunked pass by point.
 //
+// With shared unknowns, a camera's parameters fall into several blocks (camera_map.h), and
+// S's diagonal blocks over them would leave out what a camera's own block preconditions
+// without sharing: the coupling of its pose to its lens. The preconditioner is then S's
+// principal submatrix over clusters of blocks, each factored whole: a shared block (a lens)
+// with the own blocks (the poses) of the cameras that touch it and nothing else, up to
+// kMaxCluster unknowns; every other block alone. A principal submatrix of an SPD S is SPD, so
+// any clustering gives a valid PCG preconditioner; this one keeps each lens with the poses it
+// moves with, as the camera block does without sharing.
+//
 // Memory: the point blocks' inverses (n pnp^2), kChunks (cnp + 1) doubles per unknown of S
 // for the partial sums, and six vectors of S's order: no array of cameras x cameras or
-// anything per observation beyond the Jacobian LM already holds.
+// anything per observation beyond the Jacobian LM already holds. With shared unknowns, the
+// clusters' matrices add at most kMaxCluster doubles per unknown.
 //
 // Stopping: an inexact Newton (truncated) step. CG stops when ||S da - rhs|| <= eta ||rhs||,
 // with the forcing term eta = min(kEtaMax, sqrt(||g|| / ||g_0||)) (g = J^T e on the free
@@ -61,6 +71,12 @@ namespace {
 // benchmarks behind it.
 constexpr double kEtaMax = 1e-3;
 constexpr int kMaxIterations = 500;
+
+// The largest order of a cluster of the preconditioner with shared unknowns (see the top):
+// its factorization costs the cube and its storage the square, and a lens shared by a
+// thousand images would otherwise make one dense block of S's whole order. 128 holds a lens
+// of up to 8 unknowns with the poses of 20 images.
+constexpr int kMaxCluster = 128;
 
 // The point pass of S x runs in this many chunks of points, each with its own partial sums
 // (kChunks x S's order doubles): a fixed number, so that the sums' order does not depend on
@@ -99,13 +115,11 @@ class IterativeSchurSolver final : public StepSolver {
     Vinv_.resize(size_t(lay.n) * size_t(pnp()) * size_t(pnp()));
     if (lay.cams.shared()) {
       // Over shared unknowns the products run on the cameras' parameters (xc_, yc_, all m
-      // cameras' as in p) and are reduced to the unknowns; the preconditioner is S's diagonal
-      // blocks over the unknowns' blocks.
+      // cameras' as in p) and are reduced to the unknowns; the preconditioner is S over
+      // clusters of the unknowns' blocks.
       schur_ = std::make_unique<MappedSchur>(lay, T);
       const CameraMap &map = lay.cams;
-      dstart_.assign(size_t(map.nblocks()) + 1, 0);
-      for (int b = 0; b < map.nblocks(); ++b) dstart_[size_t(b) + 1] = dstart_[size_t(b)] + i64(map.block_size(b)) * map.block_size(b);
-      D_.resize(size_t(dstart_.back()));
+      find_clusters(map);
       xc_.resize(size_t(lay.m) * size_t(cnp()));
       yc_.resize(xc_.size());
     } else {
@@ -165,6 +179,17 @@ class IterativeSchurSolver final : public StepSolver {
     std::copy(D_.begin(), D_.end(), D);
     return true;
   }
+
+  // z = M^-1 r, the preconditioner made at damping mu (iterative_schur_apply_preconditioner).
+  bool apply_preconditioner(const NormalEquations &ne, double mu, const double *r, double *z) {
+    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
+    if (!make_preconditioner(ne, mu)) return false;
+    precondition(r, z);
+    return true;
+  }
+
+  // The CG iterations of the last solve.
+  int cg_iterations() const { return cg_iterations_; }
 
  private:
   int mnp() const { return M ? M : lay_.mnp; }
@@ -359,36 +384,102 @@ class IterativeSchurSolver final : public StepSolver {
     return std::all_of(ok.begin(), ok.end(), [](int v) { return v != 0; });
   }
 
-  // The diagonal blocks of S over the unknowns' blocks, Cholesky-factored.
+  // The clusters of the preconditioner (see the top of the file): a shared block K with the
+  // own blocks of the cameras that touch K and nothing else, in ascending block order while
+  // the cluster's order stays within kMaxCluster; every other block alone.
+  void find_clusters(const CameraMap &map) {
+    const int nb = map.nblocks();
+    const auto cams = [&](int b) { return map.block_cam_start[size_t(b) + 1] - map.block_cam_start[size_t(b)]; };
+    std::vector<int> owner(size_t(nb), -1);  // the shared block whose cluster takes block b
+    std::vector<int> size(size_t(nb), 0);    // a shared block's cluster order so far
+    for (int K = 0; K < nb; ++K)
+      if (cams(K) > 1) owner[size_t(K)] = K, size[size_t(K)] = map.block_size(K);
+    for (int b = 0; b < nb; ++b) {
+      if (cams(b) != 1) continue;
+      const int j = map.block_cams[size_t(map.block_cam_start[size_t(b)])];
+      const int q0 = map.cam_start[size_t(j)];
+      if (map.cam_start[size_t(j) + 1] - q0 != 2) continue;
+      const int K = map.cam_blocks[size_t(q0)] == b ? map.cam_blocks[size_t(q0) + 1] : map.cam_blocks[size_t(q0)];
+      if (cams(K) < 2 || size[size_t(K)] + map.block_size(b) > kMaxCluster) continue;
+      owner[size_t(b)] = K;
+      size[size_t(K)] += map.block_size(b);
+    }
+    // Clusters in the order of their first block; each one's blocks ascending.
+    cluster_start_.assign(1, 0);
+    cluster_blocks_.clear();
+    origin_.assign(size_t(nb), 0);
+    pos_.assign(size_t(nb), 0);
+    order_.assign(size_t(nb), 0);
+    std::vector<std::vector<int>> members(static_cast<size_t>(nb));
+    for (int b = 0; b < nb; ++b) members[size_t(owner[size_t(b)] >= 0 ? owner[size_t(b)] : b)].push_back(b);
+    std::vector<int> first(size_t(nb), -1);  // cluster by its first block
+    for (int b = 0; b < nb; ++b)
+      if (!members[size_t(b)].empty()) first[size_t(members[size_t(b)][0])] = b;
+    i64 origin = 0;
+    for (int f = 0; f < nb; ++f) {
+      if (first[size_t(f)] < 0) continue;
+      const std::vector<int> &c = members[size_t(first[size_t(f)])];
+      int n = 0;
+      for (int b : c) pos_[size_t(b)] = n, n += map.block_size(b);
+      for (int b : c) origin_[size_t(b)] = origin, order_[size_t(b)] = n;
+      cluster_blocks_.insert(cluster_blocks_.end(), c.begin(), c.end());
+      cluster_start_.push_back(int(cluster_blocks_.size()));
+      origin += i64(n) * n;
+    }
+    D_.resize(size_t(origin));
+  }
+
+  // Cluster k's order and matrix.
+  int cluster_order(int k) const { return order_[size_t(cluster_blocks_[size_t(cluster_start_[size_t(k)])])]; }
+  double *cluster_matrix(int k) { return D_.data() + origin_[size_t(cluster_blocks_[size_t(cluster_start_[size_t(k)])])]; }
+  int nclusters() const { return int(cluster_start_.size()) - 1; }
+
+  // S's principal submatrix over each cluster, Cholesky-factored.
   bool make_mapped_preconditioner(const NormalEquations &ne, double mu) {
     const CameraMap &map = lay_.cams;
     UnknownBlocks D;
-    D.kind = UnknownBlocks::Kind::Diagonal;
+    D.kind = UnknownBlocks::Kind::Clusters;
     D.base = D_.data();
     D.start = map.block_start.data();
-    D.diag = dstart_.data();
+    D.origin = origin_.data();
+    D.pos = pos_.data();
+    D.order = order_.data();
+    std::fill(D_.begin(), D_.end(), 0.0);
     schur_->assemble(ctx_.pool, ne, Vinv_.data(), mu, D, nullptr);
-    return ctx_.pool.all_ranges(map.nblocks(), [&](int, i64 b0, i64 b1) {
-      for (i64 b = b0; b < b1; ++b)
-        if (!small::chol(D_.data() + dstart_[size_t(b)], map.block_size(int(b)))) return false;
+    return ctx_.pool.all_ranges(nclusters(), [&](int, i64 k0, i64 k1) {
+      for (i64 k = k0; k < k1; ++k) {
+        const int n = cluster_order(int(k));
+        double *A = cluster_matrix(int(k));
+        // The assembly fills the upper block triangle; chol reads the lower.
+        for (int r = 0; r < n; ++r)
+          for (int c = 0; c < r; ++c) A[r * n + c] = A[c * n + r];
+        if (!small::chol(A, n)) return false;
+      }
       return true;
+    });
+  }
+
+  // z = M^-1 r over the clusters.
+  void precondition_mapped(const double *r, double *z) {
+    const CameraMap &map = lay_.cams;
+    ctx_.pool.for_range(nclusters(), [&](i64 k0, i64 k1) {
+      std::vector<double> v;
+      for (i64 k = k0; k < k1; ++k) {
+        const int *c0 = cluster_blocks_.data() + cluster_start_[size_t(k)];
+        const int *c1 = cluster_blocks_.data() + cluster_start_[size_t(k) + 1];
+        v.resize(size_t(cluster_order(int(k))));
+        for (const int *b = c0; b < c1; ++b)
+          std::copy_n(r + map.block_start[size_t(*b)], map.block_size(*b), v.data() + pos_[size_t(*b)]);
+        small::chol_solve(cluster_matrix(int(k)), v.data(), int(v.size()));
+        for (const int *b = c0; b < c1; ++b)
+          std::copy_n(v.data() + pos_[size_t(*b)], map.block_size(*b), z + map.block_start[size_t(*b)]);
+      }
     });
   }
 
   // z = D^-1 r.
   void precondition(const double *r, double *z) {
-    if (schur_) {
-      const CameraMap &map = lay_.cams;
-      ctx_.pool.for_range(map.nblocks(), [&](i64 b0, i64 b1) {
-        for (i64 b = b0; b < b1; ++b) {
-          const int n = map.block_size(int(b));
-          double *zb = z + map.block_start[size_t(b)];
-          std::copy_n(r + map.block_start[size_t(b)], n, zb);
-          small::chol_solve(D_.data() + dstart_[size_t(b)], zb, n);
-        }
-      });
-      return;
-    }
+    if (schur_) return precondition_mapped(r, z);
     ctx_.pool.for_range(nc_, [&](i64 j0, i64 j1) {
       const int cn = cnp();
       for (i64 j = j0; j < j1; ++j) {
@@ -404,7 +495,8 @@ class IterativeSchurSolver final : public StepSolver {
     const i64 n = nS_;
     double *x = x_.data(), *r = r_.data(), *z = z_.data(), *p = p_.data(), *q = q_.data();
     const double *b = rhs_.data();
-    int iterations = 0;
+    int &iterations = cg_iterations_;
+    iterations = 0;
     std::fill(x, x + n, 0.0);
     std::copy_n(b, n, r);
     const double bb = dot(b, b, n);
@@ -458,8 +550,11 @@ class IterativeSchurSolver final : public StepSolver {
   std::vector<double> rhs_, x_, r_, z_, p_, q_;
   std::vector<double> scratch_;           // per thread: run-time-sized blocks
   double g0_ = -1.0;                      // ||g|| at the first solve
+  int cg_iterations_ = 0;                 // CG's iterations in the last solve
   std::unique_ptr<MappedSchur> schur_;    // with shared unknowns (else null)
-  std::vector<i64> dstart_;               // and D_'s blocks' offsets
+  std::vector<int> cluster_start_, cluster_blocks_;  // and the preconditioner's clusters' blocks
+  std::vector<i64> origin_;               // and per block, its cluster's matrix in D_
+  std::vector<int> pos_, order_;          // its first row there, and the cluster's order
   std::vector<double> xc_, yc_;           // and the products' vectors over the parameters
 };
 
@@ -487,6 +582,15 @@ bool iterative_schur_product(const SolveContext &ctx, const NormalEquations &ne,
 
 bool iterative_schur_preconditioner(const SolveContext &ctx, const NormalEquations &ne, double mu, double *D) {
   return with_solver(ctx, [&](auto s) { return s->preconditioner(ne, mu, D); });
+}
+
+bool iterative_schur_apply_preconditioner(const SolveContext &ctx, const NormalEquations &ne, double mu,
+                                          const double *r, double *z) {
+  return with_solver(ctx, [&](auto s) { return s->apply_preconditioner(ne, mu, r, z); });
+}
+
+int iterative_schur_cg_iterations(const SolveContext &ctx, const NormalEquations &ne, double mu, double *dp) {
+  return with_solver(ctx, [&](auto s) { return s->solve(ne, mu, dp) == StepStatus::Solved ? s->cg_iterations() : -1; });
 }
 
 }  // namespace sba

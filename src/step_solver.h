@@ -66,6 +66,13 @@ bool iterative_schur_product(const SolveContext &ctx, const NormalEquations &ne,
 // camera, Cholesky-factored (L in the lower triangle of each cnp x cnp block of D, row-major;
 // above it, whatever the factorization left). False as the solver fails. For the tests.
 bool iterative_schur_preconditioner(const SolveContext &ctx, const NormalEquations &ne, double mu, double *D);
+// z = M^-1 r over S's unknowns, M the iterative solver's preconditioner at damping mu; false
+// as the solver fails. For the tests.
+bool iterative_schur_apply_preconditioner(const SolveContext &ctx, const NormalEquations &ne, double mu,
+                                          const double *r, double *z);
+// One step of the iterative solver at damping mu into dp: its CG iterations, or -1 if it
+// failed. For the tests.
+int iterative_schur_cg_iterations(const SolveContext &ctx, const NormalEquations &ne, double mu, double *dp);
 
 }  // namespace sba
 
