@@ -69,8 +69,10 @@ std::vector<double> step(const Problem &pb, sba::LinSolver kind, int threads, do
   return dp;
 }
 
-// The explicitly assembled S at damping mu, both triangles (nS x nS, row-major).
-std::vector<double> assembled_S(const Problem &pb, sba::ThreadPool &pool, const sba::Kernels &kernels, double mu) {
+// The explicitly assembled S at damping mu, both triangles (nS x nS, row-major), and its
+// right-hand side into rhs (unless null).
+std::vector<double> assembled_S(const Problem &pb, sba::ThreadPool &pool, const sba::Kernels &kernels, double mu,
+                                std::vector<double> *rhs_out = nullptr) {
   const i64 nS = pb.nS();
   std::vector<double> S(static_cast<size_t>(nS * nS), 0.0), rhs(static_cast<size_t>(nS));
   sba::BlockMap dense;
@@ -80,6 +82,7 @@ std::vector<double> assembled_S(const Problem &pb, sba::ThreadPool &pool, const 
   EXPECT_TRUE(kernels.assemble(pool, pb.ne(), nullptr, mu, dense, rhs.data()));
   for (i64 r = 0; r < nS; ++r)  // the assembly fills the upper triangle
     for (i64 c = 0; c < r; ++c) S[size_t(r * nS + c)] = S[size_t(c * nS + r)];
+  if (rhs_out) *rhs_out = rhs;
   return S;
 }
 
@@ -180,7 +183,8 @@ void quadratic_terms(const Problem &pb, const std::vector<double> &dp, double mu
 
 // The first solve stops at the loosest forcing term, with a step that is still a descent
 // direction whose model reduction is what LM computes for an exact step; with a gradient
-// 1e-12 times the first, the forcing term is 1e-6 and the step is the dense Cholesky step.
+// 1e-12 times the first, the forcing term is at its floor and the step the dense Cholesky
+// step to 1e-5.
 TEST_P(IterativeSchur, StepMatchesCholAsTheGradientFalls) {
   const int cnp = GetParam();
   Problem pb(400, 15, 2, 7, cnp, 21u + unsigned(cnp));
@@ -213,6 +217,38 @@ TEST_P(IterativeSchur, StepMatchesCholAsTheGradientFalls) {
   diff = 0.0;
   for (size_t q = 0; q < ref.size(); ++q) diff = std::max(diff, std::fabs(dp[q] / s - ref[q]));
   EXPECT_LT(diff, 1e-5 * norm);
+}
+
+// The forcing term tightens with the gradient down to a floor of 1e-4: with a gradient 1e-12
+// times the first (sqrt: 1e-6), CG stops at the first iterate whose residual is within 1e-4
+// of the right-hand side's norm.
+TEST_P(IterativeSchur, ForcingTermStopsAtItsFloor) {
+  const int cnp = GetParam();
+  Problem pb(400, 15, 2, 7, cnp, 23u + unsigned(cnp));
+  const double mu = 1e-3;
+  const sba::Layout &lay = pb.lay;
+  sba::ThreadPool pool(1);
+  const auto kernels = sba::make_kernels(lay, pool.size());
+  const auto solver = sba::make_step_solver(sba::LinSolver::IterativeSchur, sba::SolveContext{lay, pool, *kernels});
+  std::vector<double> dp(size_t(lay.nvars()));
+  ASSERT_EQ(solver->solve(pb.ne(), mu, dp.data()), sba::StepStatus::Solved);
+  for (double &v : pb.ea) v *= 1e-12;
+  for (double &v : pb.eb) v *= 1e-12;
+  ASSERT_EQ(solver->solve(pb.ne(), mu, dp.data()), sba::StepStatus::Solved);
+  std::vector<double> rhs;
+  const std::vector<double> S = assembled_S(pb, pool, *kernels, mu, &rhs);
+  const i64 nS = pb.nS();
+  const double *da = dp.data() + lay.a_off(lay.mcon);
+  double rr = 0.0, bb = 0.0;
+  for (i64 r = 0; r < nS; ++r) {
+    double v = -rhs[size_t(r)];
+    for (i64 c = 0; c < nS; ++c) v += S[size_t(r * nS + c)] * da[c];
+    rr += v * v;
+    bb += rhs[size_t(r)] * rhs[size_t(r)];
+  }
+  const double relative = std::sqrt(rr / bb);
+  EXPECT_LE(relative, 1e-4);
+  EXPECT_GT(relative, 1e-6);
 }
 
 TEST_P(IterativeSchur, SameBitsForAnyThreadCount) {
