@@ -31,7 +31,9 @@ each started), the largest peak RSS, the iterations, and the RMS reprojection er
 written model measured by one yardstick for both (tests/colmap_real/colmap_real.py's projection
 of COLMAP's camera models); then each row's time and peak RSS against the same images unshared,
 and sbarefine's against COLMAP's. A run still going after --timeout seconds is killed and shown
-as timed out (its peak RSS is up to then); the repeats of that row stop there.
+as timed out (its peak RSS is up to then); the repeats of that row stop there. --skip leaves
+out rows named PROGRAM@SHARING (colmap, or an sbarefine solver: colmap@own,chol@own), such as
+runs known to time out.
 
 Threads: COLMAP 3.8's bundle_adjuster has no option for them (Ceres gets every hardware
 thread); sbarefine is given --threads THREADS (default 2, this machine's core count).
@@ -40,7 +42,7 @@ thread); sbarefine is given --threads THREADS (default 2, this machine's core co
       [--colmap colmap] [--sizes 100,300,1000] [--repeat 3] [--threads 2] [--configs default,held] \\
       [--scene fixed|opencv] [--sharing own,pairs,groups:N] [--trajectory orbit|photo] \\
       [--points-per-image 100 | --points N] [--solvers LIST] [--timeout SEC] \\
-      [--out bench/results/colmap_ba] [--work DIR]
+      [--skip colmap@own,...] [--out bench/results/colmap_ba] [--work DIR]
 writes OUT.md (the tables and the exact commands) and OUT.json (one JSON object a run).
 """
 import argparse
@@ -246,6 +248,7 @@ def main(argv):
     ap.add_argument("--timeout", type=float, help="seconds after which a run is killed and shown as timed out")
     ap.add_argument("--out", default=os.path.join(HERE, "results", "colmap_ba"))
     ap.add_argument("--configs", default="default,held", help="which configurations, comma-separated")
+    ap.add_argument("--skip", default="", help="rows left out, PROGRAM@SHARING comma-separated: colmap@own,chol@own")
     ap.add_argument("--work", help="scenes and outputs here, kept (default: a temporary directory, removed)")
     a = ap.parse_args(argv)
     if a.scene == "fixed" and a.sharing != [("own", 1)]:
@@ -273,6 +276,8 @@ def main(argv):
                       % (n, len(scene.cameras), sharing, len(scene.points), nobs, rms0), flush=True)
                 for config in a.configs.split(","):
                     for program, solver in programs:
+                        if "%s@%s" % (solver or program, sharing) in a.skip.split(","):
+                            continue
                         key = {"images": n, "points": len(scene.points), "observations": nobs,
                                "cameras": len(scene.cameras), "sharing": sharing, "config": config,
                                "program": program, "solver": solver}
@@ -379,7 +384,8 @@ def write_report(a, version, rows, runs, cmds):
                        (["--sharing", ",".join(s for s, _ in a.sharing)] if a.scene == "opencv" else []) +
                        (["--points", str(a.points)] if a.points else ["--points-per-image", str(a.points_per_image)]) +
                        (["--solvers", a.solvers] if a.solvers else []) +
-                       (["--timeout", "%g" % a.timeout] if a.timeout else []))]
+                       (["--timeout", "%g" % a.timeout] if a.timeout else []) +
+                       (["--skip", a.skip] if a.skip else []))]
     lines += [c for c in cmds] + ["```", ""]
     with open(a.out + ".md", "w", encoding="utf-8") as f:
         f.write("\n".join(lines))
