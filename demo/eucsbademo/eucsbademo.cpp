@@ -335,38 +335,17 @@ std::vector<sbacli::CameraResidual> camera_residuals(const CameraModel &model, c
   return per_camera;
 }
 
-int demo_main(int argc, char **argv) {
-  DemoOptions o;
-  std::string error;
-  if (!parse_command_line(argc, argv, &o, &error)) {
-    std::fprintf(stderr, "eucsbademo: %s\n", error.c_str());
+// --mcon and --ncon within the problem, and every output writable, before anything is
+// solved: the exit status, said, or -1.
+int check_run(const DemoOptions &o, const PointSet &points) {
+  if (o.mcon > points.ncameras) {
+    std::fprintf(stderr, "eucsbademo: --mcon %d is more than the %d cameras\n", o.mcon, points.ncameras);
     return kExitUsage;
   }
-  if (o.help) {
-    print_usage(stdout);
-    return 0;
-  }
-  if (o.version) {
-    std::printf("eucsbademo (sba %s)\n", SBA_VERSION);
-    return 0;
-  }
-
-  Problem problem;
-  if (Status s = load_problem(o.files[0], o.files[1], o.files.size() > 2 ? o.files[2] : "", &problem); !s) {
-    std::fprintf(stderr, "%s\n", s.to_string().c_str());
-    return kExitFailure;
-  }
-  PointSet &points = problem.points;
-  const int n = points.npoints(), m = points.ncameras, nprojs = points.nprojections();
-  if (o.mcon > m) {
-    std::fprintf(stderr, "eucsbademo: --mcon %d is more than the %d cameras\n", o.mcon, m);
+  if (o.ncon > points.npoints()) {
+    std::fprintf(stderr, "eucsbademo: --ncon %d is more than the %d points\n", o.ncon, points.npoints());
     return kExitUsage;
   }
-  if (o.ncon > n) {
-    std::fprintf(stderr, "eucsbademo: --ncon %d is more than the %d points\n", o.ncon, n);
-    return kExitUsage;
-  }
-
   for (const std::string *path :
        {&o.write_cams, &o.write_pts, &o.write_pts_tracks, &o.write_stddev, &o.json, &o.initial_ply, &o.final_ply}) {
     if (Status s = check_writable(*path); !s) {
@@ -374,92 +353,80 @@ int demo_main(int argc, char **argv) {
       return kExitFailure;
     }
   }
+  return -1;
+}
 
-  // sba 1.6's demo holds intrinsics by zeroing their columns of the analytic Jacobian, so
-  // its finite differences refine every one of them, while its Method line still names
-  // nccalib and ncdist. Asked for on the command line, they are held with differences too.
-  const bool hold = o.analytic || o.held_given;
-  const CameraModel model(problem.kind, problem.cameras, points.xyz, hold ? o.nccalib : 0, hold ? o.ncdist : 0);
-  // Every file of the run is published at its end, together, or none is (output_file.h).
-  sbaformats::OutputSet outputs;
-  if (!sbacli::write_ply_option(o.initial_ply, cloud(model, nullptr, nullptr), &outputs)) return kExitFailure;
-  std::fprintf(stderr, "%s\n", kind_banner(problem.kind));
-
-  sbacli::TtyProgress progress(o.progress, nprojs);
-  sbacli::RunControl control(o.max_time, &progress);
-  sbacli::RunControl::catch_signals();
-  const Solve solve{o, model, points, control};
-  const auto start = std::chrono::steady_clock::now();
-  Outcome out;
+// The refinement --refine asks for: 1.6's motion first, then motion and structure if motion
+// alone leaves more than kMotionOnlyErrorLimit.
+Outcome refine(const Solve &solve, int nprojs) {
+  const DemoOptions &o = solve.options;
   switch (o.refine) {
     case RefineMode::MotionStructure:
-      out = run(solve, Refinement::MotionStructure, itmax_for(o, Refinement::MotionStructure));
-      break;
-    case RefineMode::Motion: out = run(solve, Refinement::Motion, itmax_for(o, Refinement::Motion)); break;
-    case RefineMode::Structure:
-      out = run(solve, Refinement::Structure, itmax_for(o, Refinement::Structure));
-      break;
-    case RefineMode::MotionThenMotionStructure:
-      out = run(solve, Refinement::Motion, itmax_for(o, Refinement::Motion));
-      if (out.ret != SBA_ERROR && !control.stop_requested() && out.info[1] / nprojs > kMotionOnlyErrorLimit) {
-        if (o.verbose > 0)
-          std::fprintf(stderr, "motion only left a mean squared error of %g: refining motion and structure\n",
-                       out.info[1] / nprojs);
-        control.next_solve();
-        out = run(solve, Refinement::MotionStructure, itmax_for(o, Refinement::MotionStructure));
-      }
-      break;
+      return run(solve, Refinement::MotionStructure, itmax_for(o, Refinement::MotionStructure));
+    case RefineMode::Motion: return run(solve, Refinement::Motion, itmax_for(o, Refinement::Motion));
+    case RefineMode::Structure: return run(solve, Refinement::Structure, itmax_for(o, Refinement::Structure));
+    case RefineMode::MotionThenMotionStructure: break;
   }
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  progress.finish();
-
-  if (out.ret == SBA_ERROR) {
-    std::fprintf(stderr, "eucsbademo: %s failed (SBA_ERROR): no result\n",
-                 driver_name(out.refinement, o.expert));
-    return kExitFailure;
+  Outcome out = run(solve, Refinement::Motion, itmax_for(o, Refinement::Motion));
+  if (out.ret != SBA_ERROR && !solve.control.stop_requested() && out.info[1] / nprojs > kMotionOnlyErrorLimit) {
+    if (o.verbose > 0)
+      std::fprintf(stderr, "motion only left a mean squared error of %g: refining motion and structure\n",
+                   out.info[1] / nprojs);
+    solve.control.next_solve();
+    out = run(solve, Refinement::MotionStructure, itmax_for(o, Refinement::MotionStructure));
   }
+  return out;
+}
 
-  // Files first: if one cannot be written, the run failed and says nothing that looks like
-  // success. The standard deviations are computed before any file is written: when the
-  // library refuses them, no result file appears; when a stop signal abandons them, the
-  // result is written without them.
-  std::string stddev;
-  bool stddev_abandoned = false;
+// The result files into outputs. Files first: if one cannot be written, the run failed and
+// says nothing that looks like success. The standard deviations are computed before any
+// file is written: when the library refuses them, no result file appears; when a stop signal
+// abandons them (*stddev_abandoned), the result is written without them.
+bool write_outputs(const DemoOptions &o, const CameraModel &model, PointSet &points, CameraKind kind,
+                   const Outcome &out, sbaformats::OutputSet *outputs, bool *stddev_abandoned) {
+  std::string stddev, error;
+  *stddev_abandoned = false;
   if (!o.write_stddev.empty())
-    if (Status s = stddev_text(o, model, points, out, &stddev, &stddev_abandoned); !s) {
+    if (Status s = stddev_text(o, model, points, out, &stddev, stddev_abandoned); !s) {
       std::fprintf(stderr, "%s\n", s.to_string().c_str());
-      return kExitFailure;
+      return false;
     }
   Status written;
-  const bool results = outputs.publish_last([&] {
-    written = write_results(o, model, points, problem.kind, out, &outputs);
-    return written.ok();
-  });
-  if (!results) {
+  if (!outputs->publish_last([&] {
+        written = write_results(o, model, points, kind, out, outputs);
+        return written.ok();
+      })) {
     std::fprintf(stderr, "%s\n", written.to_string().c_str());
-    return kExitFailure;
+    return false;
   }
-  if (!o.write_stddev.empty() && !stddev_abandoned &&
-      !sbaformats::write_whole_file(o.write_stddev, stddev, &error, &outputs)) {
+  if (!o.write_stddev.empty() && !*stddev_abandoned &&
+      !sbaformats::write_whole_file(o.write_stddev, stddev, &error, outputs)) {
     std::fprintf(stderr, "%s\n", error.c_str());
-    return kExitFailure;
+    return false;
   }
-  if (!sbacli::write_ply_option(o.final_ply, final_cloud(model, out), &outputs)) return kExitFailure;
+  return sbacli::write_ply_option(o.final_ply, final_cloud(model, out), outputs);
+}
 
-  // The variables of the refinement that produced the result.
+// The variables of the refinement that produced the result.
+long long variables(const Outcome &out, const CameraModel &model, const PointSet &points) {
   long long nvars = 0;
-  if (out.refinement != Refinement::Structure) nvars += static_cast<long long>(m) * model.cnp();
-  if (out.refinement != Refinement::Motion) nvars += static_cast<long long>(n) * kPointParams;
+  if (out.refinement != Refinement::Structure) nvars += static_cast<long long>(points.ncameras) * model.cnp();
+  if (out.refinement != Refinement::Motion) nvars += static_cast<long long>(points.npoints()) * kPointParams;
+  return nvars;
+}
 
+// sba 1.6's demo's lines: the sizes, the method, the result and the time.
+void print_result(const DemoOptions &o, const PointSet &points, CameraKind kind, const Outcome &out,
+                  long long nvars, double seconds) {
+  const int nprojs = points.nprojections();
   std::string distortion = "without distortion", intrinsics = "fixed intrinsics";
-  if (problem.kind == CameraKind::VaryingIntrinsicsDistortion)
+  if (kind == CameraKind::VaryingIntrinsicsDistortion)
     distortion = "variable distortion (" + std::to_string(o.ncdist) + " fixed)";
-  if (problem.kind != CameraKind::FixedIntrinsics)
-    intrinsics = "variable intrinsics (" + std::to_string(o.nccalib) + " fixed)";
+  if (kind != CameraKind::FixedIntrinsics) intrinsics = "variable intrinsics (" + std::to_string(o.nccalib) + " fixed)";
 
   const std::array<double, SBA_INFOSZ> &info = out.info;
-  std::printf("SBA using %d 3D pts, %d frames and %d image projections, %lld variables\n", n, m, nprojs,
-              nvars);
+  std::printf("SBA using %d 3D pts, %d frames and %d image projections, %lld variables\n", points.npoints(),
+              points.ncameras, nprojs, nvars);
   std::printf("\nMethod %s, %s driver, %s Jacobian, %s covariances, %s, %s\n", method_name(o.refine),
               o.expert ? "expert" : "simple", o.analytic ? "analytic" : "approximate",
               points.has_covariances() ? "with" : "without", distortion.c_str(), intrinsics.c_str());
@@ -473,13 +440,17 @@ int demo_main(int argc, char **argv) {
                 "[initial %g], %lld projections beyond the scale\n",
                 o.loss.c_str(), o.loss_scale, out.result.sq_error_final / nprojs,
                 out.result.sq_error_initial / nprojs, out.result.outliers_final);
+}
 
+// The run's report (the summary lines after 1.6's, and --json).
+sbacli::Report make_report(const DemoOptions &o, const PointSet &points, const Outcome &out, long long nvars,
+                           double seconds, const sbacli::RunControl &control) {
   sbacli::Report report;
   report.program = "eucsbademo";
   report.inputs = o.files;
-  report.cameras = m;
-  report.points = n;
-  report.observations = nprojs;
+  report.cameras = points.ncameras;
+  report.points = points.npoints();
+  report.observations = points.nprojections();
   report.variables = nvars;
   report.solver_requested = o.linsolver;
   report.strategy_requested = o.strategy;
@@ -496,19 +467,13 @@ int demo_main(int argc, char **argv) {
   report.result = out.result;
   report.seconds = seconds;
   report.iterations = control.iterations();
-  sbacli::print_report(stdout, report);
-  if (!o.json.empty()) {
-    report.per_camera = camera_residuals(model, points, out);
-    if (!sbacli::write_json(o.json, report, &error, &outputs)) {
-      std::fprintf(stderr, "%s\n", error.c_str());
-      return kExitFailure;
-    }
-  }
-  if (!sbaformats::publish_outputs("eucsbademo", &outputs)) return kExitFailure;
+  return report;
+}
 
-  // A stopped solve is a result (written above), but the status says it was cut short by a
-  // signal; a time limit the user set is an ordinary end. A covariance a signal abandoned is
-  // said the same way: the result is written without it, the status is the signal's.
+// A stopped solve is a result (written), but the status says it was cut short by a signal;
+// a time limit the user set is an ordinary end. A covariance a signal abandoned is said the
+// same way: the result is written without it, the status is the signal's.
+int exit_status(const DemoOptions &o, const Outcome &out, const sbacli::RunControl &control, bool stddev_abandoned) {
   int status = 0;
   if (out.info[6] == SBA_STOP_USER)
     status = sbacli::stopped_status("eucsbademo", control, o.max_time, static_cast<int>(out.info[5]));
@@ -518,6 +483,68 @@ int demo_main(int argc, char **argv) {
     status = 128 + control.stop_signal();
   }
   return status;
+}
+
+int demo_main(int argc, char **argv) {
+  DemoOptions o;
+  std::string error;
+  if (!parse_command_line(argc, argv, &o, &error)) {
+    std::fprintf(stderr, "eucsbademo: %s\n", error.c_str());
+    return kExitUsage;
+  }
+  if (o.help) {
+    print_usage(stdout);
+    return 0;
+  }
+  if (o.version) {
+    std::printf("eucsbademo (sba %s)\n", SBA_VERSION);
+    return 0;
+  }
+  Problem problem;
+  if (Status s = load_problem(o.files[0], o.files[1], o.files.size() > 2 ? o.files[2] : "", &problem); !s) {
+    std::fprintf(stderr, "%s\n", s.to_string().c_str());
+    return kExitFailure;
+  }
+  PointSet &points = problem.points;
+  if (const int status = check_run(o, points); status >= 0) return status;
+
+  // sba 1.6's demo holds intrinsics by zeroing their columns of the analytic Jacobian, so
+  // its finite differences refine every one of them, while its Method line still names
+  // nccalib and ncdist. Asked for on the command line, they are held with differences too.
+  const bool hold = o.analytic || o.held_given;
+  const CameraModel model(problem.kind, problem.cameras, points.xyz, hold ? o.nccalib : 0, hold ? o.ncdist : 0);
+  // Every file of the run is published at its end, together, or none is (output_file.h).
+  sbaformats::OutputSet outputs;
+  if (!sbacli::write_ply_option(o.initial_ply, cloud(model, nullptr, nullptr), &outputs)) return kExitFailure;
+  std::fprintf(stderr, "%s\n", kind_banner(problem.kind));
+
+  sbacli::TtyProgress progress(o.progress, points.nprojections());
+  sbacli::RunControl control(o.max_time, &progress);
+  sbacli::RunControl::catch_signals();
+  const auto start = std::chrono::steady_clock::now();
+  const Outcome out = refine(Solve{o, model, points, control}, points.nprojections());
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  progress.finish();
+  if (out.ret == SBA_ERROR) {
+    std::fprintf(stderr, "eucsbademo: %s failed (SBA_ERROR): no result\n", driver_name(out.refinement, o.expert));
+    return kExitFailure;
+  }
+
+  bool stddev_abandoned = false;
+  if (!write_outputs(o, model, points, problem.kind, out, &outputs, &stddev_abandoned)) return kExitFailure;
+  const long long nvars = variables(out, model, points);
+  print_result(o, points, problem.kind, out, nvars, seconds);
+  sbacli::Report report = make_report(o, points, out, nvars, seconds, control);
+  sbacli::print_report(stdout, report);
+  if (!o.json.empty()) {
+    report.per_camera = camera_residuals(model, points, out);
+    if (!sbacli::write_json(o.json, report, &error, &outputs)) {
+      std::fprintf(stderr, "%s\n", error.c_str());
+      return kExitFailure;
+    }
+  }
+  if (!sbaformats::publish_outputs("eucsbademo", &outputs)) return kExitFailure;
+  return exit_status(o, out, control, stddev_abandoned);
 }
 
 }  // namespace
