@@ -89,6 +89,95 @@ void resolve_defaults(bool colmap_model, Options *o) {
   if (so.strategy.empty()) so.strategy = "trust-region";
 }
 
+// A 0|1 option: flag `field` of *flags, and *given set.
+template <class Flags>
+sbacli::Apply zero_one(Flags *flags, bool Flags::*field, bool *given) {
+  return [flags, field, given](const std::string &v) -> std::string {
+    if (v != "0" && v != "1") return "expected 0 or 1";
+    flags->*field = v == "1";
+    *given = true;
+    return {};
+  };
+}
+
+// --intrinsics, and COLMAP's names for the same choice, one flag each; the options apply in
+// the order given, so a --refine-* after --intrinsics overrides that part of it, and one
+// before is overridden.
+void add_intrinsics_options(std::vector<sbacli::Option> *t, Options &o) {
+  t->push_back({"intrinsics", "LIST",
+                "the intrinsics refined: none, all, or a comma-separated list of focal, principal,\n"
+                "distortion (default focal,distortion, as COLMAP: the principal point held); the\n"
+                "--refine-* options below set one each, the last given winning. NVM: the focal length\n"
+                "or nothing (its radial distortion is held, its principal point absent)",
+                [&o](const std::string &v) {
+                  o.intrinsics = v;
+                  o.intrinsics_given = true;
+                  return colmap::parse_refine_intrinsics(v, &o.refine);
+                }});
+  const auto flag = [&](bool colmap::RefineIntrinsics::*field) {
+    return zero_one(&o.refine, field, &o.intrinsics_given);
+  };
+  t->push_back({"refine-focal-length", "0|1", "COLMAP's refine_focal_length: refine f (or fx and fy) (default 1)",
+                flag(&colmap::RefineIntrinsics::focal)});
+  t->push_back({"refine-principal-point", "0|1", "COLMAP's refine_principal_point: refine cx and cy (default 0)",
+                flag(&colmap::RefineIntrinsics::principal)});
+  t->push_back({"refine-extra-params", "0|1",
+                "COLMAP's refine_extra_params: refine the parameters after the principal point (the\n"
+                "distortion; FOV's omega) (default 1)",
+                flag(&colmap::RefineIntrinsics::distortion)});
+}
+
+// COLMAP 4's names for what is refined of the poses, and the poses held.
+void add_pose_options(std::vector<sbacli::Option> *t, Options &o) {
+  const auto flag = [&](bool colmap::RefinePoses::*field) { return zero_one(&o.poses, field, &o.poses_given); };
+  t->push_back({"refine-rig-from-world", "0|1",
+                "COLMAP 4's refine_rig_from_world: refine the frames' poses (an image's, without rigs)\n"
+                "(default 1)",
+                flag(&colmap::RefinePoses::rig_from_world)});
+  t->push_back({"refine-sensor-from-rig", "0|1",
+                "COLMAP 4's refine_sensor_from_rig: refine the poses of the cameras in their rigs, one\n"
+                "for all the frames of a rig (default 1; a rig's reference camera stays the identity)",
+                flag(&colmap::RefinePoses::sensor_from_rig)});
+  t->push_back({"constant-rig-from-world-rotation", "0|1",
+                "COLMAP 4's constant_rig_from_world_rotation: hold the rotations of the frames' poses,\n"
+                "refine their translations (default 0)",
+                flag(&colmap::RefinePoses::constant_rig_from_world_rotation)});
+  t->push_back({"hold-poses", "LIST",
+                "COLMAP: hold the poses of these images (COLMAP's constant poses; in a rig, the pose of\n"
+                "the image's frame and of its camera in the rig): all, or items separated by commas,\n"
+                "matched as given (nothing trimmed): plain decimal digits without a leading zero name an\n"
+                "IMAGE_ID (or, when no image has it, a NAME); anything else a NAME",
+                [&o](const std::string &v) -> std::string {
+                  if (v.empty()) return "expected all or a comma-separated list of images";
+                  // The list is checked here; its items are looked up once the model is read.
+                  std::vector<std::string> items;
+                  if (std::string why = colmap::split_image_list(v, &items); !why.empty()) return why;
+                  o.hold_poses = v;
+                  return {};
+                }});
+  t->push_back({"hold-poses-file", "FILE",
+                "COLMAP: hold the poses of the images named in FILE, one NAME a line, matched exactly (a\n"
+                "name may hold commas; a line is never an IMAGE_ID; blank lines are skipped); with\n"
+                "--hold-poses, the images of both",
+                [&o](const std::string &v) { return sbacli::to_file(v, &o.hold_poses_file); }});
+}
+
+// The outputs and inputs of one format each.
+void add_format_options(std::vector<sbacli::Option> *t, Options &o) {
+  t->push_back({"write-eucsba", "PREFIX",
+                "COLMAP, NVM: also write the refined model as eucsbademo files PREFIX-cams.txt (17\n"
+                "values a line) and PREFIX-pts.txt",
+                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_eucsba); }});
+  t->push_back({"write-bal", "FILE", "Bundler: also write the refined model as a BAL problem",
+                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_bal); }});
+  t->push_back({"bundler-list", "FILE",
+                "Bundler: the image list of the bundle (list.txt: PATH or PATH 0 FOCAL, a line per camera);\n"
+                "its paths name the cameras in messages and in --json",
+                [&o](const std::string &v) { return sbacli::to_file(v, &o.bundler_list); }});
+  t->push_back({"write-list", "FILE", "Bundler: write the image list of --bundler-list to FILE as it was read",
+                [&o](const std::string &v) { return sbacli::to_file(v, &o.write_list); }});
+}
+
 std::vector<sbacli::Option> option_table(Options &o) {
   std::vector<sbacli::Option> t;
   sbacli::add_solve_options(
@@ -98,70 +187,8 @@ std::vector<sbacli::Option> option_table(Options &o) {
        [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }});
   t.push_back({"write-format", "F", "the format of --write: text or binary (default: the input's)",
                [&o](const std::string &v) { return sbacli::to_choice(v, {"text", "binary"}, &o.write_format); }});
-  t.push_back({"intrinsics", "LIST",
-               "the intrinsics refined: none, all, or a comma-separated list of focal, principal,\n"
-               "distortion (default focal,distortion, as COLMAP: the principal point held); the\n"
-               "--refine-* options below set one each, the last given winning. NVM: the focal length\n"
-               "or nothing (its radial distortion is held, its principal point absent)",
-               [&o](const std::string &v) {
-                 o.intrinsics = v;
-                 o.intrinsics_given = true;
-                 return colmap::parse_refine_intrinsics(v, &o.refine);
-               }});
-  // A 0|1 option: flag `field` of *flags, and *given set.
-  const auto zero_one = [](auto *flags, auto field, bool *given) {
-    return [flags, field, given](const std::string &v) -> std::string {
-      if (v != "0" && v != "1") return "expected 0 or 1";
-      flags->*field = v == "1";
-      *given = true;
-      return {};
-    };
-  };
-  // COLMAP's names for the same choice, one flag each; the options apply in the order given,
-  // so a --refine-* after --intrinsics overrides that part of it, and one before is overridden.
-  const auto flag = [&](bool colmap::RefineIntrinsics::*field) {
-    return zero_one(&o.refine, field, &o.intrinsics_given);
-  };
-  t.push_back({"refine-focal-length", "0|1",
-               "COLMAP's refine_focal_length: refine f (or fx and fy) (default 1)", flag(&colmap::RefineIntrinsics::focal)});
-  t.push_back({"refine-principal-point", "0|1", "COLMAP's refine_principal_point: refine cx and cy (default 0)",
-               flag(&colmap::RefineIntrinsics::principal)});
-  t.push_back({"refine-extra-params", "0|1",
-               "COLMAP's refine_extra_params: refine the parameters after the principal point (the\n"
-               "distortion; FOV's omega) (default 1)",
-               flag(&colmap::RefineIntrinsics::distortion)});
-  // COLMAP 4's names for what is refined of the poses.
-  const auto pose_flag = [&](bool colmap::RefinePoses::*field) { return zero_one(&o.poses, field, &o.poses_given); };
-  t.push_back({"refine-rig-from-world", "0|1",
-               "COLMAP 4's refine_rig_from_world: refine the frames' poses (an image's, without rigs)\n"
-               "(default 1)",
-               pose_flag(&colmap::RefinePoses::rig_from_world)});
-  t.push_back({"refine-sensor-from-rig", "0|1",
-               "COLMAP 4's refine_sensor_from_rig: refine the poses of the cameras in their rigs, one\n"
-               "for all the frames of a rig (default 1; a rig's reference camera stays the identity)",
-               pose_flag(&colmap::RefinePoses::sensor_from_rig)});
-  t.push_back({"constant-rig-from-world-rotation", "0|1",
-               "COLMAP 4's constant_rig_from_world_rotation: hold the rotations of the frames' poses,\n"
-               "refine their translations (default 0)",
-               pose_flag(&colmap::RefinePoses::constant_rig_from_world_rotation)});
-  t.push_back({"hold-poses", "LIST",
-               "COLMAP: hold the poses of these images (COLMAP's constant poses; in a rig, the pose of\n"
-               "the image's frame and of its camera in the rig): all, or items separated by commas,\n"
-               "matched as given (nothing trimmed): plain decimal digits without a leading zero name an\n"
-               "IMAGE_ID (or, when no image has it, a NAME); anything else a NAME",
-               [&o](const std::string &v) -> std::string {
-                 if (v.empty()) return "expected all or a comma-separated list of images";
-                 // The list is checked here; its items are looked up once the model is read.
-                 std::vector<std::string> items;
-                 if (std::string why = colmap::split_image_list(v, &items); !why.empty()) return why;
-                 o.hold_poses = v;
-                 return {};
-               }});
-  t.push_back({"hold-poses-file", "FILE",
-               "COLMAP: hold the poses of the images named in FILE, one NAME a line, matched exactly (a\n"
-               "name may hold commas; a line is never an IMAGE_ID; blank lines are skipped); with\n"
-               "--hold-poses, the images of both",
-               [&o](const std::string &v) { return sbacli::to_file(v, &o.hold_poses_file); }});
+  add_intrinsics_options(&t, o);
+  add_pose_options(&t, o);
   t.push_back({"max-num-iterations", "N",
                "COLMAP's name of --itmax (default 100 for a COLMAP model, as COLMAP; 150 for the others)",
                [&o](const std::string &v) {
@@ -174,18 +201,7 @@ std::vector<sbacli::Option> option_table(Options &o) {
                "A COLMAP model is refined at COLMAP's default, 0: until a step changes the cost by no\n"
                "more than rounding (give --strategy or --eps4 for sba's tests instead)",
                [&o](const std::string &v) { return sbacli::to_real(v, 0.0, false, &o.function_tolerance); }});
-  t.push_back({"write-eucsba", "PREFIX",
-               "COLMAP, NVM: also write the refined model as eucsbademo files PREFIX-cams.txt (17\n"
-               "values a line) and PREFIX-pts.txt",
-               [&o](const std::string &v) { return sbacli::to_file(v, &o.write_eucsba); }});
-  t.push_back({"write-bal", "FILE", "Bundler: also write the refined model as a BAL problem",
-               [&o](const std::string &v) { return sbacli::to_file(v, &o.write_bal); }});
-  t.push_back({"bundler-list", "FILE",
-               "Bundler: the image list of the bundle (list.txt: PATH or PATH 0 FOCAL, a line per camera);\n"
-               "its paths name the cameras in messages and in --json",
-               [&o](const std::string &v) { return sbacli::to_file(v, &o.bundler_list); }});
-  t.push_back({"write-list", "FILE", "Bundler: write the image list of --bundler-list to FILE as it was read",
-               [&o](const std::string &v) { return sbacli::to_file(v, &o.write_list); }});
+  add_format_options(&t, o);
   sbacli::add_ply_options(&t, &o.initial_ply, &o.final_ply, true);
   return t;
 }
@@ -652,99 +668,90 @@ bool load_bundle(const Options &o, const std::string &text, Loaded *l, Job *job,
   return true;
 }
 
-int refine_main(int argc, char **argv) {
-  Options o;
-  std::string error;
-  const bool parsed = parse_command_line(argc, argv, &o, &error);
-  if (const int status = sbacli::answer_command_line("sbarefine", parsed, error, o.help, o.version, print_usage);
-      status >= 0)
-    return status;
-  sbacli::SolveOptions &so = o.solve;
-  Input input;
-  if (!look_at_input(o.input, &input, &error)) {
-    std::fprintf(stderr, "%s\n", error.c_str());
-    return kExitFailure;
-  }
-  // Every output before anything is read: --write is a model directory for a directory.
+// Every output, before anything is read (--write is a model directory for a directory):
+// kExitFailure, said, if one cannot be written, else -1.
+int check_outputs(const Options &o, const Input &input) {
   const std::string write_file = input.directory ? "" : o.write;
   const std::string eucsba_cams = o.write_eucsba.empty() ? "" : o.write_eucsba + "-cams.txt";
   const std::string eucsba_pts = o.write_eucsba.empty() ? "" : o.write_eucsba + "-pts.txt";
-  if (!sbacli::outputs_writable({&write_file, &eucsba_cams, &eucsba_pts, &so.json, &o.initial_ply, &o.final_ply,
-                                  &o.write_bal, &o.write_list}))
+  if (!sbacli::outputs_writable({&write_file, &eucsba_cams, &eucsba_pts, &o.solve.json, &o.initial_ply,
+                                  &o.final_ply, &o.write_bal, &o.write_list}))
     return kExitFailure;
   if (input.directory && !o.write.empty()) {
     colmap::Encoding encoding = o.write_format == "binary" ? colmap::Encoding::Binary : colmap::Encoding::Text;
-    std::string unknown;  // no model to write: its reader says why below
+    std::string unknown, error;  // no model to write: its reader says why later
     if ((!o.write_format.empty() || colmap::model_encoding(o.input, &encoding, &unknown)) &&
         !colmap::model_writable(o.write, encoding, &error)) {
       std::fprintf(stderr, "%s\n", error.c_str());
       return kExitFailure;
     }
   }
+  return -1;
+}
 
-  const auto read_start = std::chrono::steady_clock::now();
-  Loaded loaded;
-  Job job;
-  if (!input.directory && !open_input(o.input, &input, &error)) {
-    std::fprintf(stderr, "%s\n", error.c_str());
-    return kExitFailure;
-  }
-  const Format format = input.format;
+// The options given for another format than the input's, or missing what they need:
+// kExitUsage, said, else -1 with the defaults that depend on the format resolved.
+int check_format_options(Format format, Options *o) {
   // An option of another format: named with the formats it is for.
   const struct {
     bool given, allowed;
     const char *option, *formats;
   } kFormatOptions[] = {
-      {!o.write_format.empty(), format == Format::Colmap, "--write-format", "COLMAP models"},
-      {!o.write_eucsba.empty(), format != Format::Bundler, "--write-eucsba", "COLMAP models and NVM files"},
-      {!o.write_bal.empty(), format == Format::Bundler, "--write-bal", "Bundler files"},
-      {!o.bundler_list.empty(), format == Format::Bundler, "--bundler-list", "Bundler files"},
-      {!o.write_list.empty(), format == Format::Bundler, "--write-list", "Bundler files"},
-      {!o.hold_poses.empty(), format == Format::Colmap, "--hold-poses", "COLMAP models"},
-      {!o.hold_poses_file.empty(), format == Format::Colmap, "--hold-poses-file", "COLMAP models"},
-      {o.poses_given, format == Format::Colmap, "--refine-rig-from-world (or --refine-sensor-from-rig, "
+      {!o->write_format.empty(), format == Format::Colmap, "--write-format", "COLMAP models"},
+      {!o->write_eucsba.empty(), format != Format::Bundler, "--write-eucsba", "COLMAP models and NVM files"},
+      {!o->write_bal.empty(), format == Format::Bundler, "--write-bal", "Bundler files"},
+      {!o->bundler_list.empty(), format == Format::Bundler, "--bundler-list", "Bundler files"},
+      {!o->write_list.empty(), format == Format::Bundler, "--write-list", "Bundler files"},
+      {!o->hold_poses.empty(), format == Format::Colmap, "--hold-poses", "COLMAP models"},
+      {!o->hold_poses_file.empty(), format == Format::Colmap, "--hold-poses-file", "COLMAP models"},
+      {o->poses_given, format == Format::Colmap, "--refine-rig-from-world (or --refine-sensor-from-rig, "
        "--constant-rig-from-world-rotation)", "COLMAP models"},
-      {o.intrinsics_given, format != Format::Bundler, "--intrinsics (or --refine-*)",
+      {o->intrinsics_given, format != Format::Bundler, "--intrinsics (or --refine-*)",
        "COLMAP models and NVM files (a bundle's f, k1 and k2 are always refined)"}};
   for (const auto &opt : kFormatOptions)
     if (opt.given && !opt.allowed) {
       std::fprintf(stderr, "sbarefine: %s is for %s\n", opt.option, opt.formats);
       return kExitUsage;
     }
-  resolve_defaults(format == Format::Colmap, &o);
-  if (!o.write_list.empty() && o.bundler_list.empty()) {
+  resolve_defaults(format == Format::Colmap, o);
+  if (!o->write_list.empty() && o->bundler_list.empty()) {
     std::fprintf(stderr, "sbarefine: --write-list writes the list of --bundler-list, which is not given\n");
     return kExitUsage;
   }
-  if (format == Format::Nvm && o.refine.principal) {
+  if (format == Format::Nvm && o->refine.principal) {
     std::fprintf(stderr, "sbarefine: --intrinsics %s: an NVM file has no principal point (its measurements are "
-                         "relative to the image centre)\n", o.intrinsics.c_str());
+                         "relative to the image centre)\n", o->intrinsics.c_str());
     return kExitUsage;
   }
+  return -1;
+}
+
+// The input's text (a file's rest, after open_input's look at its start) into the job.
+bool load_input(const Options &o, Input *input, Loaded *loaded, Job *job, std::string *error) {
   bool (*const load)(const Options &, const std::string &, Loaded *, Job *, std::string *) =
-      format == Format::Bundler ? load_bundle : format == Format::Nvm ? load_nvm : load_colmap;
-  if ((input.file && !colmap::read_rest(input.file, o.input, true, &input.text, &error)) ||
-      !load(o, input.text, &loaded, &job, &error)) {
-    std::fprintf(stderr, "%s\n", error.c_str());
-    return kExitFailure;
-  }
-  const double read_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
+      input->format == Format::Bundler ? load_bundle : input->format == Format::Nvm ? load_nvm : load_colmap;
+  return (!input->file || colmap::read_rest(input->file, o.input, true, &input->text, error)) &&
+         load(o, input->text, loaded, job, error);
+}
+
+// The solve (none with --itmax 0, which rewrites and converts the model as read), then every
+// output: the program's exit status.
+int solve_and_write(const Options &o, Job &job, double read_seconds) {
   job.in.p = job.p.data();
-  sbacli::MotstrSolve solve("sbarefine", o.input, so, job.in);
+  sbacli::MotstrSolve solve("sbarefine", o.input, o.solve, job.in);
   solve.describe(job.model);
   if (const int status = solve.check_fixed(); status >= 0) return status;
   // Every file of the run is published at its end, together, or none is (output_file.h).
   sbaformats::OutputSet outputs;
   if (!sbacli::write_ply_option(o.initial_ply, job.initial, &outputs)) return kExitFailure;
   const std::vector<double> &p = job.p;
-  // --itmax 0 rewrites (and converts) the model as read.
-  if (so.itmax == 0)
+  if (o.solve.itmax == 0)
     solve.score([&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); });
   else if (!solve.run())
     return kExitFailure;
 
   Cloud final_cloud;
+  std::string error;
   if (!job.finish(p.data(), &final_cloud, &outputs, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
@@ -757,6 +764,37 @@ int refine_main(int argc, char **argv) {
   return solve.finish(
       read_seconds, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); }, job.camera_names,
       o.write, &outputs);
+}
+
+int refine_main(int argc, char **argv) {
+  Options o;
+  std::string error;
+  const bool parsed = parse_command_line(argc, argv, &o, &error);
+  if (const int status = sbacli::answer_command_line("sbarefine", parsed, error, o.help, o.version, print_usage);
+      status >= 0)
+    return status;
+  Input input;
+  if (!look_at_input(o.input, &input, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
+  if (const int status = check_outputs(o, input); status >= 0) return status;
+
+  const auto read_start = std::chrono::steady_clock::now();
+  if (!input.directory && !open_input(o.input, &input, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
+  if (const int status = check_format_options(input.format, &o); status >= 0) return status;
+  Loaded loaded;
+  Job job;
+  if (!load_input(o, &input, &loaded, &job, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
+  const double read_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
+  return solve_and_write(o, job, read_seconds);
 }
 
 }  // namespace
