@@ -265,19 +265,23 @@ const char *const kPointParamNames[kPointParams] = {"X", "Y", "Z"};
 // a header announcing more than the file holds cannot exhaust memory by itself.
 constexpr std::size_t kMaxReserve = std::size_t(1) << 16;
 
-bool parse(Tokens &tok, const std::string &name, Problem *out, std::string *error) {
-  // The end of the text where more was expected: the source's error if it had one (a
-  // truncated or corrupt bzip2 file), else the truncation.
-  auto ended = [&](const std::string &truncated) {
-    return fail(error, name, tok.failed() ? tok.error() : truncated);
-  };
-  const char *const header_names[3] = {"number of cameras", "number of points",
-                                       "number of observations"};
-  long long counts[3];
+// The end of the text where more was expected: the source's error if it had one (a
+// truncated or corrupt bzip2 file), else the truncation.
+bool ended(const Tokens &tok, const std::string &name, const std::string &truncated, std::string *error) {
+  return fail(error, name, tok.failed() ? tok.error() : truncated);
+}
+
+std::size_t reserve_for(long long values) {
+  return std::min<std::size_t>(static_cast<std::size_t>(values), kMaxReserve);
+}
+
+// The header's three counts, each in 1..INT_MAX, and no more observations than pairs.
+bool parse_header(Tokens &tok, const std::string &name, long long counts[3], std::string *error) {
+  const char *const header_names[3] = {"number of cameras", "number of points", "number of observations"};
   for (int c = 0; c < 3; ++c) {
     if (!tok.next()) {
-      if (c == 0) return ended("empty file: expected the header 'ncameras npoints nobservations'");
-      return ended("truncated file: the header 'ncameras npoints nobservations' is incomplete");
+      if (c == 0) return ended(tok, name, "empty file: expected the header 'ncameras npoints nobservations'", error);
+      return ended(tok, name, "truncated file: the header 'ncameras npoints nobservations' is incomplete", error);
     }
     if (!tok.integer(&counts[c]))
       return fail(error, name, at_line(tok.line()) + std::string("header: the ") + header_names[c] +
@@ -287,40 +291,38 @@ bool parse(Tokens &tok, const std::string &name, Problem *out, std::string *erro
                                    " must be between 1 and " + std::to_string(INT_MAX) + ", got " +
                                    std::to_string(counts[c]));
   }
-  const int ncams = static_cast<int>(counts[0]), npts = static_cast<int>(counts[1]);
-  const long long nobs = counts[2];
-  if (nobs > counts[0] * counts[1])
-    return fail(error, name, "header: " + std::to_string(nobs) + " observations but only " +
+  if (counts[2] > counts[0] * counts[1])
+    return fail(error, name, "header: " + std::to_string(counts[2]) + " observations but only " +
                                  std::to_string(counts[0] * counts[1]) +
                                  " camera-point pairs (each pair is observed at most once)");
+  return true;
+}
 
-  const std::string expected = "expected " + std::to_string(nobs) + " observations, " +
-                               std::to_string(ncams) + " cameras and " + std::to_string(npts) + " points";
-  auto reserve = [](long long values) { return std::min<std::size_t>(static_cast<std::size_t>(values), kMaxReserve); };
-  Problem p;
-  p.ncameras = ncams;
-  p.npoints = npts;
-  p.observations.reserve(reserve(nobs));
-  std::vector<long long> obs_line;
-  obs_line.reserve(reserve(nobs));
+// p's nobs observations, and the line of each (for the repeats' message). expected: what
+// the header announced, for the truncation's message.
+bool parse_observations(Tokens &tok, const std::string &name, long long nobs, const std::string &expected,
+                        Problem *p, std::vector<long long> *obs_line, std::string *error) {
+  p->observations.reserve(reserve_for(nobs));
+  obs_line->reserve(reserve_for(nobs));
   for (long long k = 0; k < nobs; ++k) {
     Observation o;
     auto what = [k] { return "observation " + std::to_string(k) + ": "; };
     const char *const fields[4] = {"camera index", "point index", "x", "y"};
     for (int f = 0; f < 4; ++f) {
       if (!tok.next())
-        return ended("truncated file: it ends inside observation " + std::to_string(k) + " (" + expected + ")");
+        return ended(tok, name,
+                     "truncated file: it ends inside observation " + std::to_string(k) + " (" + expected + ")", error);
       if (f < 2) {
         long long v;
         if (!tok.integer(&v))
           return fail(error, name, at_line(tok.line()) + what() + "the " + fields[f] +
                                        " must be an integer, got " + tok.quoted());
-        const int limit = f == 0 ? ncams : npts;
+        const int limit = f == 0 ? p->ncameras : p->npoints;
         if (v < 0 || v >= limit)
           return fail(error, name, at_line(tok.line()) + what() + "the " + fields[f] + " " +
                                        std::to_string(v) + " is out of range 0.." + std::to_string(limit - 1));
         (f == 0 ? o.camera : o.point) = static_cast<int>(v);
-        if (f == 0) obs_line.push_back(tok.line());
+        if (f == 0) obs_line->push_back(tok.line());
       } else {
         double v;
         if (!tok.real(&v))
@@ -329,42 +331,34 @@ bool parse(Tokens &tok, const std::string &name, Problem *out, std::string *erro
         (f == 2 ? o.x : o.y) = v;
       }
     }
-    p.observations.push_back(o);
+    p->observations.push_back(o);
   }
+  return true;
+}
 
-  const long long ncamvals = 9LL * ncams, nptvals = 3LL * npts;
-  p.cameras.reserve(reserve(ncamvals));
-  for (long long c = 0; c < ncamvals; ++c) {
-    const long long j = c / kCameraParams, q = c % kCameraParams;
+// count objects (cameras or points, named `what`) of n values each, named by `names`, into
+// *values.
+bool parse_values(Tokens &tok, const std::string &name, long long count, int n, const char *const *names,
+                  const char *what, const std::string &expected, std::vector<double> *values, std::string *error) {
+  values->reserve(reserve_for(count * n));
+  for (long long c = 0; c < count * n; ++c) {
+    const long long j = c / n, q = c % n;
     double v;
     if (!tok.next())
-      return ended("truncated file: it ends inside camera " + std::to_string(j) + " (" + expected + ")");
+      return ended(tok, name,
+                   "truncated file: it ends inside " + std::string(what) + " " + std::to_string(j) + " (" + expected +
+                       ")", error);
     if (!tok.real(&v))
-      return fail(error, name, at_line(tok.line()) + "camera " + std::to_string(j) + ": " +
-                                   kCameraParamNames[q] + " must be a finite number, got " + tok.quoted());
-    p.cameras.push_back(v);
+      return fail(error, name, at_line(tok.line()) + what + " " + std::to_string(j) + ": " + names[q] +
+                                   " must be a finite number, got " + tok.quoted());
+    values->push_back(v);
   }
-  p.points.reserve(reserve(nptvals));
-  for (long long c = 0; c < nptvals; ++c) {
-    const long long i = c / kPointParams, q = c % kPointParams;
-    double v;
-    if (!tok.next())
-      return ended("truncated file: it ends inside point " + std::to_string(i) + " (" + expected + ")");
-    if (!tok.real(&v))
-      return fail(error, name, at_line(tok.line()) + "point " + std::to_string(i) + ": " +
-                                   kPointParamNames[q] + " must be a finite number, got " + tok.quoted());
-    p.points.push_back(v);
-  }
-  // Reading stops at the first value beyond the announced ones: whatever follows (a
-  // decompression bomb, a second problem) is not read.
-  if (tok.next())
-    return fail(error, name, at_line(tok.line()) + "more data than the header announces (" +
-                                 std::to_string(nobs) + " observations, " + std::to_string(ncams) +
-                                 " cameras, " + std::to_string(npts) + " points): " + tok.quoted() +
-                                 " after the last point");
-  if (tok.failed()) return fail(error, name, tok.error());
+  return true;
+}
 
-  // At most one observation per (point, camera): sba has one slot per pair.
+// At most one observation per (point, camera): sba has one slot per pair.
+bool check_no_repeats(const Problem &p, const std::vector<long long> &obs_line, const std::string &name,
+                      std::string *error) {
   std::vector<int> idx(p.observations.size());
   std::iota(idx.begin(), idx.end(), 0);
   const auto &obs = p.observations;
@@ -379,7 +373,33 @@ bool parse(Tokens &tok, const std::string &name, Problem *out, std::string *erro
                                    std::to_string(b.camera) + " (already observation " +
                                    std::to_string(idx[k - 1]) + ")");
   }
+  return true;
+}
 
+bool parse(Tokens &tok, const std::string &name, Problem *out, std::string *error) {
+  long long counts[3];
+  if (!parse_header(tok, name, counts, error)) return false;
+  Problem p;
+  p.ncameras = static_cast<int>(counts[0]);
+  p.npoints = static_cast<int>(counts[1]);
+  const long long nobs = counts[2];
+  const std::string expected = "expected " + std::to_string(nobs) + " observations, " +
+                               std::to_string(p.ncameras) + " cameras and " + std::to_string(p.npoints) + " points";
+  std::vector<long long> obs_line;
+  if (!parse_observations(tok, name, nobs, expected, &p, &obs_line, error) ||
+      !parse_values(tok, name, p.ncameras, kCameraParams, kCameraParamNames, "camera", expected, &p.cameras,
+                    error) ||
+      !parse_values(tok, name, p.npoints, kPointParams, kPointParamNames, "point", expected, &p.points, error))
+    return false;
+  // Reading stops at the first value beyond the announced ones: whatever follows (a
+  // decompression bomb, a second problem) is not read.
+  if (tok.next())
+    return fail(error, name, at_line(tok.line()) + "more data than the header announces (" +
+                                 std::to_string(nobs) + " observations, " + std::to_string(p.ncameras) +
+                                 " cameras, " + std::to_string(p.npoints) + " points): " + tok.quoted() +
+                                 " after the last point");
+  if (tok.failed()) return fail(error, name, tok.error());
+  if (!check_no_repeats(p, obs_line, name, error)) return false;
   *out = std::move(p);
   return true;
 }

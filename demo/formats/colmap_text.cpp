@@ -445,13 +445,11 @@ void format_rigs_and_frames(const Model &model, Files *f) {
   }
 }
 
-}  // namespace
-
-Files format_text(const Model &model) {
-  Files f;
+// cameras.txt.
+std::string format_cameras(const Model &model) {
   std::size_t size = 200;
   for (const Camera &c : model.cameras) size += kU32Chars + 32 + 2 * kU64Chars + kRealChars * c.params.size() + 1;
-  std::string &cams = f.cameras;
+  std::string cams;
   cams.reserve(size);
   cams += "# Camera list with one line of data per camera:\n"
           "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
@@ -472,12 +470,16 @@ Files format_text(const Model &model) {
     }
     cams += '\n';
   }
+  return cams;
+}
 
-  size = 200;
+// images.txt.
+std::string format_images(const Model &model) {
+  std::size_t size = 200;
   for (const Image &im : model.images)
     size += kU32Chars + 7 * kRealChars + kU32Chars + im.name.size() + 2 +
             (kRealChars + kRealChars + kU64Chars) * im.points.size();
-  std::string &ims = f.images;
+  std::string ims;
   ims.reserve(size);
   ims += "# Image list with two lines of data per image:\n"
          "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n"
@@ -505,11 +507,15 @@ Files format_text(const Model &model) {
     }
     ims += '\n';
   }
+  return ims;
+}
 
-  size = 200;
+// points3D.txt.
+std::string format_points(const Model &model) {
+  std::size_t size = 200;
   for (const Point3D &p : model.points)
     size += kU64Chars + 4 * kRealChars + 3 * kU8Chars + (kU32Chars + kU32Chars) * p.track.size() + 1;
-  std::string &pts = f.points;
+  std::string pts;
   pts.reserve(size);
   pts += "# 3D point list with one line of data per point:\n"
          "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
@@ -536,6 +542,16 @@ Files format_text(const Model &model) {
     }
     pts += '\n';
   }
+  return pts;
+}
+
+}  // namespace
+
+Files format_text(const Model &model) {
+  Files f;
+  f.cameras = format_cameras(model);
+  f.images = format_images(model);
+  f.points = format_points(model);
   format_rigs_and_frames(model, &f);
   return f;
 }

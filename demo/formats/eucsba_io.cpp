@@ -358,6 +358,91 @@ Status read_calibration(const std::string &path, euclidean::Intrinsics *out) {
   return {};
 }
 
+namespace {
+
+struct Projection {
+  int frame;
+  double x, y;
+  double cov[4];
+};
+
+// The covariance form of a point line with nframes projections in its values after the 4th:
+// the first point's fixes it for the file (*form_line, its line, 0 before), every later one
+// must hold the same.
+Status check_form(const DataLines &in, long long nframes, int *form_line, CovarianceForm *file_form) {
+  const std::size_t rest = in.size() - 4;
+  CovarianceForm form;
+  if (*form_line == 0) {
+    if (!form_for(rest, nframes, &form))
+      return in.error("nframes is " + std::to_string(nframes) + " but " + std::to_string(rest) +
+                      " values follow it: expected " + std::to_string(3 * nframes) + " (f x y per frame), " +
+                      std::to_string(6 * nframes) + " or " + std::to_string(7 * nframes) + " (with covariances)");
+    *file_form = form;
+    *form_line = in.line();
+  } else if (rest != static_cast<std::size_t>(nframes) * form_width(*file_form)) {
+    if (form_for(rest, nframes, &form))
+      return in.error(std::string("inconsistent covariance form: ") + form_name(form) + " here, " +
+                      form_name(*file_form) + " on line " + std::to_string(*form_line));
+    return in.error("nframes is " + std::to_string(nframes) + " but " + std::to_string(rest) +
+                    " values follow it: expected " + std::to_string(nframes * form_width(*file_form)) + " (" +
+                    form_name(*file_form) + " as on line " + std::to_string(*form_line) + ")");
+  }
+  return {};
+}
+
+// The projection whose frame index is value `first` of the line.
+Status parse_projection(const DataLines &in, std::size_t first, CovarianceForm form, int ncameras, Projection *out) {
+  long long frame = 0;
+  std::string why;
+  if (!parse_integer(in[first], &frame, &why)) return in.error("frame index: " + why);
+  if (frame < 0 || frame >= ncameras)
+    return in.error("frame index " + std::to_string(frame) + " out of range [0, " + std::to_string(ncameras) + ")");
+  Projection p{static_cast<int>(frame), 0, 0, {0, 0, 0, 0}};
+  double v[6];
+  if (Status s = parse_reals(in, first + 1, form_width(form) - 1, v, "value"); !s) return s;
+  p.x = v[0];
+  p.y = v[1];
+  if (form == CovarianceForm::UpperTriangular) {
+    p.cov[0] = v[2];
+    p.cov[1] = p.cov[2] = v[3];
+    p.cov[3] = v[4];
+  } else if (form == CovarianceForm::Full) {
+    // The file repeats cxy; two different numbers there mean the matrix is not a
+    // covariance, which is worth saying rather than silently averaging away.
+    const double tol = 1e-9 * (std::fabs(v[2]) + std::fabs(v[5]));
+    if (std::fabs(v[3] - v[4]) > tol)
+      return in.error("covariance of frame " + std::to_string(frame) + " is not symmetric");
+    p.cov[0] = v[2];
+    p.cov[1] = p.cov[2] = 0.5 * (v[3] + v[4]);
+    p.cov[3] = v[5];
+  }
+  if (form != CovarianceForm::None && !(p.cov[0] > 0 && p.cov[0] * p.cov[3] - p.cov[1] * p.cov[1] > 0))
+    return in.error("covariance of frame " + std::to_string(frame) + " is not positive definite");
+  *out = p;
+  return {};
+}
+
+// The line's nframes projections, by ascending frame (sba wants each point's measurements so;
+// files need not be sorted), each frame once.
+Status parse_track(const DataLines &in, long long nframes, CovarianceForm form, int ncameras,
+                   std::vector<Projection> *track) {
+  track->clear();
+  for (long long f = 0; f < nframes; ++f) {
+    Projection p;
+    if (Status s = parse_projection(in, 4 + static_cast<std::size_t>(f) * form_width(form), form, ncameras, &p); !s)
+      return s;
+    track->push_back(p);
+  }
+  std::stable_sort(track->begin(), track->end(),
+                   [](const Projection &a, const Projection &b) { return a.frame < b.frame; });
+  for (std::size_t k = 1; k < track->size(); ++k)
+    if ((*track)[k].frame == (*track)[k - 1].frame)
+      return in.error("frame " + std::to_string((*track)[k].frame) + " appears twice in this track");
+  return {};
+}
+
+}  // namespace
+
 Status read_points(const std::string &path, int ncameras, PointSet *out) {
   DataLines in(path, points_line_limit(ncameras));
   if (Status s = in.open(); !s) return s;
@@ -368,14 +453,7 @@ Status read_points(const std::string &path, int ncameras, PointSet *out) {
   // Each point's visible cameras, to build vmask once the number of points is known.
   std::vector<int> frames_of;     // concatenated, ascending per point
   std::vector<int> frames_begin{0};
-
-  struct Projection {
-    int frame;
-    double x, y;
-    double cov[4];
-  };
   std::vector<Projection> track;
-
   while (in.next()) {
     if (in.size() < 4)
       return in.error("expected X Y Z nframes and the projections, found " + std::to_string(in.size()) +
@@ -387,68 +465,10 @@ Status read_points(const std::string &path, int ncameras, PointSet *out) {
     if (!parse_integer(in[3], &nframes, &why)) return in.error("nframes: " + why);
     if (nframes < 1) return in.error("nframes is " + std::to_string(nframes) + ", must be at least 1");
     if (nframes > ncameras)
-      return in.error("nframes is " + std::to_string(nframes) + ", more than the " +
-                      std::to_string(ncameras) + " cameras");
-
-    const std::size_t rest = in.size() - 4;
-    CovarianceForm form;
-    if (form_line == 0) {
-      if (!form_for(rest, nframes, &form))
-        return in.error("nframes is " + std::to_string(nframes) + " but " + std::to_string(rest) +
-                        " values follow it: expected " + std::to_string(3 * nframes) + " (f x y per frame), " +
-                        std::to_string(6 * nframes) + " or " + std::to_string(7 * nframes) +
-                        " (with covariances)");
-      result.form = form;
-      form_line = in.line();
-    } else if (rest != static_cast<std::size_t>(nframes) * form_width(result.form)) {
-      if (form_for(rest, nframes, &form))
-        return in.error(std::string("inconsistent covariance form: ") + form_name(form) +
-                        " here, " + form_name(result.form) + " on line " + std::to_string(form_line));
-      return in.error("nframes is " + std::to_string(nframes) + " but " + std::to_string(rest) +
-                      " values follow it: expected " +
-                      std::to_string(nframes * form_width(result.form)) + " (" +
-                      form_name(result.form) + " as on line " + std::to_string(form_line) + ")");
-    }
-
-    const int width = form_width(result.form);
-    track.clear();
-    for (long long f = 0; f < nframes; ++f) {
-      const std::size_t first = 4 + static_cast<std::size_t>(f) * width;
-      long long frame = 0;
-      if (!parse_integer(in[first], &frame, &why)) return in.error("frame index: " + why);
-      if (frame < 0 || frame >= ncameras)
-        return in.error("frame index " + std::to_string(frame) + " out of range [0, " +
-                        std::to_string(ncameras) + ")");
-      Projection p{static_cast<int>(frame), 0, 0, {0, 0, 0, 0}};
-      double v[6];
-      if (Status s = parse_reals(in, first + 1, width - 1, v, "value"); !s) return s;
-      p.x = v[0];
-      p.y = v[1];
-      if (result.form == CovarianceForm::UpperTriangular) {
-        p.cov[0] = v[2];
-        p.cov[1] = p.cov[2] = v[3];
-        p.cov[3] = v[4];
-      } else if (result.form == CovarianceForm::Full) {
-        // The file repeats cxy; two different numbers there mean the matrix is not a
-        // covariance, which is worth saying rather than silently averaging away.
-        const double tol = 1e-9 * (std::fabs(v[2]) + std::fabs(v[5]));
-        if (std::fabs(v[3] - v[4]) > tol)
-          return in.error("covariance of frame " + std::to_string(frame) + " is not symmetric");
-        p.cov[0] = v[2];
-        p.cov[1] = p.cov[2] = 0.5 * (v[3] + v[4]);
-        p.cov[3] = v[5];
-      }
-      if (result.form != CovarianceForm::None &&
-          !(p.cov[0] > 0 && p.cov[0] * p.cov[3] - p.cov[1] * p.cov[1] > 0))
-        return in.error("covariance of frame " + std::to_string(frame) + " is not positive definite");
-      track.push_back(p);
-    }
-    // sba wants each point's measurements by ascending camera; files need not be sorted.
-    std::stable_sort(track.begin(), track.end(),
-                     [](const Projection &a, const Projection &b) { return a.frame < b.frame; });
-    for (std::size_t k = 1; k < track.size(); ++k)
-      if (track[k].frame == track[k - 1].frame)
-        return in.error("frame " + std::to_string(track[k].frame) + " appears twice in this track");
+      return in.error("nframes is " + std::to_string(nframes) + ", more than the " + std::to_string(ncameras) +
+                      " cameras");
+    if (Status s = check_form(in, nframes, &form_line, &result.form); !s) return s;
+    if (Status s = parse_track(in, nframes, result.form, ncameras, &track); !s) return s;
 
     if (result.x.size() / 2 + track.size() > static_cast<std::size_t>(std::numeric_limits<int>::max() / 2))
       return in.error("too many projections for sba's int sizes");
