@@ -526,6 +526,122 @@ bool inside(const Options &o, const double x[2]) {
   return x[0] >= 0 && x[0] <= o.image_width - 1 && x[1] >= 0 && x[1] <= o.image_height - 1;
 }
 
+// The n points and their tracks, seen by the cameras of s as vis says.
+bool place_points(const Options &o, const Visibility &vis, Random &rng, Scene *s, std::string *error) {
+  const int m = o.cameras, n = o.points;
+  const std::size_t expected = static_cast<std::size_t>(n) * ((o.track_min + std::min(o.track_max, m)) / 2 + 1);
+  s->true_points.reserve(3 * static_cast<std::size_t>(n));
+  s->track_begin.reserve(static_cast<std::size_t>(n) + 1);
+  s->track_cameras.reserve(expected);
+  s->true_x.reserve(2 * expected);
+  s->track_begin.push_back(0);
+  TrackBuilder tb;
+  std::vector<int> scratch;
+  std::vector<double> scratch_x;
+  std::vector<char> tried;
+  for (int i = 0; i < n; ++i) {
+    double X[3];
+    // The track length is drawn first and kept while placements fail, so that the lengths
+    // that are harder to place (long runs on a path) are not under-represented; after
+    // kAttemptsPerLength failures it is drawn again.
+    int L = 0;
+    for (int attempt = 0;; ++attempt) {
+      if (attempt == kMaxAttempts)
+        return fail(error, "could not place point " + std::to_string(i) + " in " + std::to_string(kMaxAttempts) +
+                               " attempts: the cameras do not see enough of the scene for tracks of " +
+                               std::to_string(o.track_min) + ".." + std::to_string(o.track_max));
+      if (attempt % kAttemptsPerLength == 0)
+        L = o.trajectory == Trajectory::Photo ? photo_track_length(o, rng)
+                                              : rng.between(o.track_min, std::min(o.track_max, m));
+      // A photo collection's points are the landmark's, seen as the orbit's are.
+      const bool ok = o.trajectory == Trajectory::Path ? path_point(o, vis, s->true_cameras, L, rng, &tb, X)
+                                                       : orbit_point(o, vis, L, rng, &tb, X, &scratch, &scratch_x, &tried);
+      if (ok) break;
+    }
+    tb.commit(X, s);
+  }
+  return true;
+}
+
+// The measurements: the true projections with noise (redrawn in the rare case it leaves the
+// image).
+void add_noise(const Options &o, Random &rng, Scene *s) {
+  const std::size_t N = s->track_cameras.size();
+  eucsba::PointSet &ps = s->measurements;
+  ps.ncameras = o.cameras;
+  ps.form = o.covariances ? eucsba::CovarianceForm::UpperTriangular : eucsba::CovarianceForm::None;
+  ps.x.resize(2 * N);
+  if (o.covariances) ps.covx.resize(4 * N);
+  for (std::size_t k = 0; k < N; ++k) {
+    double *x = &ps.x[2 * k];
+    const double *xt = &s->true_x[2 * k];
+    if (o.noise == 0) {
+      x[0] = xt[0];
+      x[1] = xt[1];
+      continue;
+    }
+    do {
+      double e[2];
+      draw_noise(o, rng, e, o.covariances ? &ps.covx[4 * k] : nullptr);
+      x[0] = xt[0] + e[0];
+      x[1] = xt[1] + e[1];
+    } while (!inside(o, x));
+  }
+}
+
+// --outliers of the measurements replaced by points of the image at least a few sigma_max
+// from the truth.
+void add_outliers(const Options &o, double sigma_max, Random &rng, Scene *s) {
+  const std::size_t N = s->track_cameras.size();
+  eucsba::PointSet &ps = s->measurements;
+  s->outlier.assign(N, 0);
+  const auto want = static_cast<std::size_t>(std::llround(o.outliers * static_cast<double>(N)));
+  const double min_dist = std::min(std::max(5.0, 10 * sigma_max), 0.25 * std::min(o.image_width, o.image_height));
+  std::size_t left = want;
+  for (std::size_t k = 0; k < N && left > 0; ++k) {
+    // Selection sampling: each measurement is taken with probability left / remaining.
+    if (rng.below(N - k) >= left) continue;
+    --left;
+    s->outlier[k] = 1;
+    double *x = &ps.x[2 * k];
+    const double *xt = &s->true_x[2 * k];
+    do {
+      x[0] = rng.uniform(0, o.image_width - 1);
+      x[1] = rng.uniform(0, o.image_height - 1);
+    } while (std::hypot(x[0] - xt[0], x[1] - xt[1]) < min_dist);
+  }
+}
+
+// The initial estimate: the true cameras and points, perturbed.
+void perturb(const Options &o, Random &rng, Scene *s) {
+  s->initial_cameras = s->true_cameras;
+  for (Camera &c : s->initial_cameras) {
+    const double wx = o.perturb_rotation * rng.normal(), wy = o.perturb_rotation * rng.normal(),
+                 wz = o.perturb_rotation * rng.normal();
+    // Turn the camera about its own centre C = -R^T t (not about the world origin, which
+    // may be far away on a path), then shift t.
+    double R[9];
+    euclidean::rotation_matrix(c.q, R);
+    double C[3];
+    for (int a = 0; a < 3; ++a) C[a] = -(R[a] * c.t[0] + R[3 + a] * c.t[1] + R[6 + a] * c.t[2]);
+    c.q = euclidean::normalized_rotation(euclidean::multiply(small_rotation(wx, wy, wz), c.q));
+    euclidean::rotation_matrix(c.q, R);
+    for (int r = 0; r < 3; ++r)
+      c.t[r] = -(R[3 * r] * C[0] + R[3 * r + 1] * C[1] + R[3 * r + 2] * C[2]) +
+               o.perturb_translation * s->scene_scale * rng.normal();
+    if (o.kind == CameraKind::FixedIntrinsics) continue;
+    c.k.fu *= 1 + o.perturb_intrinsics * rng.normal();
+    c.k.u0 *= 1 + o.perturb_intrinsics * rng.normal();
+    c.k.v0 *= 1 + o.perturb_intrinsics * rng.normal();
+    if (o.kind != CameraKind::VaryingIntrinsicsDistortion) continue;
+    c.kc[0] += o.perturb_intrinsics * rng.normal();
+    c.kc[1] += o.perturb_intrinsics * rng.normal();
+  }
+  eucsba::PointSet &ps = s->measurements;
+  ps.xyz = s->true_points;
+  for (double &v : ps.xyz) v += o.perturb_points * s->scene_scale * rng.normal();
+}
+
 }  // namespace
 
 // ---- generate ----
@@ -554,107 +670,12 @@ bool generate(const Options &o, Scene *scene, std::string *error) {
   const double margin = std::max(1.0, 5 * sigma_max);
   const double min_depth = o.trajectory == Trajectory::Path ? kPathDepthMin : 0.1;
   const Visibility vis(o.kind, s.true_cameras, o.image_width, o.image_height, margin, min_depth);
-
-  const std::size_t expected = static_cast<std::size_t>(n) * ((o.track_min + std::min(o.track_max, m)) / 2 + 1);
-  s.true_points.reserve(3 * static_cast<std::size_t>(n));
-  s.track_begin.reserve(static_cast<std::size_t>(n) + 1);
-  s.track_cameras.reserve(expected);
-  s.true_x.reserve(2 * expected);
-  s.track_begin.push_back(0);
-  TrackBuilder tb;
-  std::vector<int> scratch;
-  std::vector<double> scratch_x;
-  std::vector<char> tried;
-  for (int i = 0; i < n; ++i) {
-    double X[3];
-    // The track length is drawn first and kept while placements fail, so that the lengths
-    // that are harder to place (long runs on a path) are not under-represented; after
-    // kAttemptsPerLength failures it is drawn again.
-    int L = 0;
-    for (int attempt = 0;; ++attempt) {
-      if (attempt == kMaxAttempts)
-        return fail(error, "could not place point " + std::to_string(i) + " in " + std::to_string(kMaxAttempts) +
-                               " attempts: the cameras do not see enough of the scene for tracks of " +
-                               std::to_string(o.track_min) + ".." + std::to_string(o.track_max));
-      if (attempt % kAttemptsPerLength == 0)
-        L = o.trajectory == Trajectory::Photo ? photo_track_length(o, rng)
-                                              : rng.between(o.track_min, std::min(o.track_max, m));
-      // A photo collection's points are the landmark's, seen as the orbit's are.
-      const bool ok = o.trajectory == Trajectory::Path ? path_point(o, vis, s.true_cameras, L, rng, &tb, X)
-                                                       : orbit_point(o, vis, L, rng, &tb, X, &scratch, &scratch_x, &tried);
-      if (ok) break;
-    }
-    tb.commit(X, &s);
-  }
-  const std::size_t N = s.track_cameras.size();
-
-  // Measurements: noise (redrawn in the rare case it leaves the image), then outliers.
-  eucsba::PointSet &ps = s.measurements;
-  ps.ncameras = m;
-  ps.form = o.covariances ? eucsba::CovarianceForm::UpperTriangular : eucsba::CovarianceForm::None;
-  ps.x.resize(2 * N);
-  if (o.covariances) ps.covx.resize(4 * N);
-  for (std::size_t k = 0; k < N; ++k) {
-    double *x = &ps.x[2 * k];
-    const double *xt = &s.true_x[2 * k];
-    if (o.noise == 0) {
-      x[0] = xt[0];
-      x[1] = xt[1];
-      continue;
-    }
-    do {
-      double e[2];
-      draw_noise(o, rng, e, o.covariances ? &ps.covx[4 * k] : nullptr);
-      x[0] = xt[0] + e[0];
-      x[1] = xt[1] + e[1];
-    } while (!inside(o, x));
-  }
-  s.outlier.assign(N, 0);
-  const auto want = static_cast<std::size_t>(std::llround(o.outliers * static_cast<double>(N)));
-  const double min_dist = std::min(std::max(5.0, 10 * sigma_max), 0.25 * std::min(o.image_width, o.image_height));
-  std::size_t left = want;
-  for (std::size_t k = 0; k < N && left > 0; ++k) {
-    // Selection sampling: each measurement is taken with probability left / remaining.
-    if (rng.below(N - k) >= left) continue;
-    --left;
-    s.outlier[k] = 1;
-    double *x = &ps.x[2 * k];
-    const double *xt = &s.true_x[2 * k];
-    do {
-      x[0] = rng.uniform(0, o.image_width - 1);
-      x[1] = rng.uniform(0, o.image_height - 1);
-    } while (std::hypot(x[0] - xt[0], x[1] - xt[1]) < min_dist);
-  }
-
-  // The initial estimate.
-  s.initial_cameras = s.true_cameras;
-  for (Camera &c : s.initial_cameras) {
-    const double wx = o.perturb_rotation * rng.normal(), wy = o.perturb_rotation * rng.normal(),
-                 wz = o.perturb_rotation * rng.normal();
-    // Turn the camera about its own centre C = -R^T t (not about the world origin, which
-    // may be far away on a path), then shift t.
-    double R[9];
-    euclidean::rotation_matrix(c.q, R);
-    double C[3];
-    for (int a = 0; a < 3; ++a) C[a] = -(R[a] * c.t[0] + R[3 + a] * c.t[1] + R[6 + a] * c.t[2]);
-    c.q = euclidean::normalized_rotation(euclidean::multiply(small_rotation(wx, wy, wz), c.q));
-    euclidean::rotation_matrix(c.q, R);
-    for (int r = 0; r < 3; ++r)
-      c.t[r] = -(R[3 * r] * C[0] + R[3 * r + 1] * C[1] + R[3 * r + 2] * C[2]) +
-               o.perturb_translation * s.scene_scale * rng.normal();
-    if (o.kind == CameraKind::FixedIntrinsics) continue;
-    c.k.fu *= 1 + o.perturb_intrinsics * rng.normal();
-    c.k.u0 *= 1 + o.perturb_intrinsics * rng.normal();
-    c.k.v0 *= 1 + o.perturb_intrinsics * rng.normal();
-    if (o.kind != CameraKind::VaryingIntrinsicsDistortion) continue;
-    c.kc[0] += o.perturb_intrinsics * rng.normal();
-    c.kc[1] += o.perturb_intrinsics * rng.normal();
-  }
-  ps.xyz = s.true_points;
-  for (double &v : ps.xyz) v += o.perturb_points * s.scene_scale * rng.normal();
-
+  if (!place_points(o, vis, rng, &s, error)) return false;
+  add_noise(o, rng, &s);
+  add_outliers(o, sigma_max, rng, &s);
+  perturb(o, rng, &s);
   if (o.dense_vmask_limit > 0 && static_cast<std::size_t>(n) * static_cast<std::size_t>(m) <= o.dense_vmask_limit)
-    ps.vmask = dense_vmask(s);
+    s.measurements.vmask = dense_vmask(s);
 
   *scene = std::move(s);
   return true;

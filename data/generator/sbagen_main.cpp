@@ -108,104 +108,125 @@ std::string in_option_names(const std::string &message) {
   return out;
 }
 
+// A real option; ranges are checked by Options::IsValid, in the words of the options (see
+// parse).
+sbacli::Apply real_option(double *field) {
+  return [field](const std::string &v) -> std::string {
+    double x = 0;
+    if (std::string why = sbacli::to_real(v, -HUGE_VAL, false, &x); !why.empty()) return "expected a finite number";
+    *field = x;
+    return {};
+  };
+}
+
+sbacli::Apply flag_option(bool *field) {
+  return [field](const std::string &) -> std::string {
+    *field = true;
+    return {};
+  };
+}
+
+// The scene's size and shape.
+void add_scene_options(std::vector<sbacli::Option> *t, sbagen::Options &o) {
+  t->push_back({"cameras", "M", "number of cameras (default 20)",
+                [&o](const std::string &v) { return sbacli::to_int(v, 2, INT_MAX, &o.cameras); }});
+  t->push_back({"points", "N", "number of points (default 1500)",
+                [&o](const std::string &v) { return sbacli::to_int(v, 1, INT_MAX, &o.points); }});
+  t->push_back({"trajectory", "T",
+                "orbit: cameras around the points looking at their centre; path: cameras moving along\n"
+                "a road, each point seen by consecutive cameras; photo: a photo collection of a\n"
+                "landmark, clusters of cameras that all see most points, heavy-tailed track lengths\n"
+                "(default orbit)",
+                [&o](const std::string &v) -> std::string {
+                  std::string name;
+                  if (std::string why = sbacli::to_choice(v, {"orbit", "path", "photo"}, &name); !why.empty())
+                    return why;
+                  sbagen::trajectory_from_name(name, &o.trajectory);
+                  return {};
+                }});
+  t->push_back({"track-min", "K", "fewest cameras seeing a point, >= 2 (default 2)",
+                [&o](const std::string &v) { return sbacli::to_int(v, 2, INT_MAX, &o.track_min); }});
+  t->push_back({"track-max", "K", "most cameras seeing a point (default 10)",
+                [&o](const std::string &v) { return sbacli::to_int(v, 2, INT_MAX, &o.track_max); }});
+  t->push_back({"arc", "DEG", "orbit: arc the cameras spread over, (0, 360] (default 360)", real_option(&o.orbit_arc_deg)});
+  t->push_back({"yaw", "DEG", "path: view direction off the road, -90..90 (default 0: ahead)", real_option(&o.path_yaw_deg)});
+  t->push_back({"turn", "DEG", "path: largest heading change of the road's S-curve (default 10)",
+                real_option(&o.path_turn_deg)});
+}
+
+// The cameras' model.
+void add_camera_options(std::vector<sbacli::Option> *t, sbagen::Options &o) {
+  t->push_back({"kind", "K",
+                "fixed (one K, cnp 6), varK (per-camera K, cnp 11) or varKD (per-camera K and\n"
+                "distortion, cnp 16) (default fixed)",
+                [&o](const std::string &v) -> std::string {
+                  std::string name;
+                  if (std::string why = sbacli::to_choice(v, {"fixed", "varK", "varKD"}, &name); !why.empty())
+                    return why;
+                  o.kind = name == "fixed"  ? euclidean::CameraKind::FixedIntrinsics
+                           : name == "varK" ? euclidean::CameraKind::VaryingIntrinsics
+                                            : euclidean::CameraKind::VaryingIntrinsicsDistortion;
+                  return {};
+                }});
+  t->push_back({"image", "WxH", "image size in pixels (default 640x480)",
+                [&o](const std::string &v) { return to_image(v, &o.image_width, &o.image_height); }});
+  t->push_back({"focal", "F", "focal length in pixels (default 800)", real_option(&o.focal)});
+  t->push_back({"intrinsics-spread", "S", "varK/varKD: relative per-camera spread of K (default 0.01)",
+                real_option(&o.intrinsics_spread)});
+  t->push_back({"distortion", "D", "varKD: |kc0| <= D, |kc1| <= D/4 (default 0.1)", real_option(&o.distortion)});
+}
+
+// The measurements' noise and outliers, the initial estimate's perturbations, the seed.
+void add_measurement_options(std::vector<sbacli::Option> *t, sbagen::Options &o) {
+  t->push_back({"noise", "SIGMA", "Gaussian pixel noise (default 0.5)", real_option(&o.noise)});
+  t->push_back({"covariances", "", "random SPD 2x2 covariance per measurement, noise drawn from it",
+                flag_option(&o.covariances)});
+  t->push_back({"outliers", "FRAC", "fraction of measurements replaced by gross outliers (default 0)",
+                real_option(&o.outliers)});
+  t->push_back({"perturb-rotation", "R", "initial estimate: radians per axis (default 0.01)",
+                real_option(&o.perturb_rotation)});
+  t->push_back({"perturb-translation", "T", "initial estimate: scene units per component of t (default 0.02)",
+                real_option(&o.perturb_translation)});
+  t->push_back({"perturb-points", "P", "initial estimate: scene units per coordinate (default 0.02)",
+                real_option(&o.perturb_points)});
+  t->push_back({"perturb-intrinsics", "I",
+                "initial estimate, varK/varKD: relative fu u0 v0, absolute kc0 kc1 (default 0.01)",
+                real_option(&o.perturb_intrinsics)});
+  t->push_back({"no-perturb", "", "start at the truth (the four perturbations set to 0)",
+                [&o](const std::string &) -> std::string {
+                  o.perturb_rotation = o.perturb_translation = o.perturb_points = o.perturb_intrinsics = 0;
+                  return {};
+                }});
+  t->push_back({"seed", "S", "random seed, a 64-bit unsigned integer (default 1)",
+                [&o](const std::string &v) { return to_seed(v, &o.seed); }});
+}
+
+// The other formats the initial problem is written in, and the summary.
+void add_output_options(std::vector<sbacli::Option> *t, Cli &cli) {
+  t->push_back({"colmap", "DIR",
+                "also write the initial problem as a COLMAP text model into DIR (not with --covariances)",
+                [&cli](const std::string &v) { return sbacli::to_file(v, &cli.colmap_text); }});
+  t->push_back({"colmap-binary", "DIR", "the same as a COLMAP binary model",
+                [&cli](const std::string &v) { return sbacli::to_file(v, &cli.colmap_binary); }});
+  t->push_back({"bundler", "FILE",
+                "also write the initial problem as a Bundler bundle.out (--kind varK or fixed: Bundler\n"
+                "has no tangential distortion; not with --covariances)",
+                [&cli](const std::string &v) { return sbacli::to_file(v, &cli.bundler); }});
+  t->push_back({"nvm", "FILE",
+                "also write the initial problem as a VisualSFM NVM file (--kind varK or fixed: NVM's\n"
+                "radial distortion is not eucsbademo's; not with --covariances)",
+                [&cli](const std::string &v) { return sbacli::to_file(v, &cli.nvm); }});
+  t->push_back({"quiet", "", "no summary on stdout", flag_option(&cli.quiet)});
+}
+
 std::vector<sbacli::Option> option_table(Cli &cli) {
-  sbagen::Options &o = cli.options;
-  const int kIntMax = INT_MAX;
-  auto real = [](double *field) {
-    return [field](const std::string &v) -> std::string {
-      // Ranges are checked by Options::IsValid, in the words of the options (see parse).
-      double x = 0;
-      if (std::string why = sbacli::to_real(v, -HUGE_VAL, false, &x); !why.empty()) return "expected a finite number";
-      *field = x;
-      return {};
-    };
-  };
-  auto flag = [](bool *field) {
-    return [field](const std::string &) -> std::string {
-      *field = true;
-      return {};
-    };
-  };
   std::vector<sbacli::Option> t;
   t.push_back({"out", "PREFIX", "write PREFIX-cams.txt, PREFIX-pts.txt ... (required)",
                [&cli](const std::string &v) { return sbacli::to_file(v, &cli.prefix); }});
-  t.push_back({"cameras", "M", "number of cameras (default 20)",
-               [&o](const std::string &v) { return sbacli::to_int(v, 2, kIntMax, &o.cameras); }});
-  t.push_back({"points", "N", "number of points (default 1500)",
-               [&o](const std::string &v) { return sbacli::to_int(v, 1, kIntMax, &o.points); }});
-  t.push_back({"trajectory", "T",
-               "orbit: cameras around the points looking at their centre; path: cameras moving along\n"
-               "a road, each point seen by consecutive cameras; photo: a photo collection of a\n"
-               "landmark, clusters of cameras that all see most points, heavy-tailed track lengths\n"
-               "(default orbit)",
-               [&o](const std::string &v) -> std::string {
-                 std::string name;
-                 if (std::string why = sbacli::to_choice(v, {"orbit", "path", "photo"}, &name); !why.empty())
-                   return why;
-                 sbagen::trajectory_from_name(name, &o.trajectory);
-                 return {};
-               }});
-  t.push_back({"track-min", "K", "fewest cameras seeing a point, >= 2 (default 2)",
-               [&o](const std::string &v) { return sbacli::to_int(v, 2, kIntMax, &o.track_min); }});
-  t.push_back({"track-max", "K", "most cameras seeing a point (default 10)",
-               [&o](const std::string &v) { return sbacli::to_int(v, 2, kIntMax, &o.track_max); }});
-  t.push_back({"arc", "DEG", "orbit: arc the cameras spread over, (0, 360] (default 360)", real(&o.orbit_arc_deg)});
-  t.push_back({"yaw", "DEG", "path: view direction off the road, -90..90 (default 0: ahead)", real(&o.path_yaw_deg)});
-  t.push_back({"turn", "DEG", "path: largest heading change of the road's S-curve (default 10)",
-               real(&o.path_turn_deg)});
-  t.push_back({"kind", "K",
-               "fixed (one K, cnp 6), varK (per-camera K, cnp 11) or varKD (per-camera K and\n"
-               "distortion, cnp 16) (default fixed)",
-               [&o](const std::string &v) -> std::string {
-                 std::string name;
-                 if (std::string why = sbacli::to_choice(v, {"fixed", "varK", "varKD"}, &name); !why.empty())
-                   return why;
-                 o.kind = name == "fixed"  ? euclidean::CameraKind::FixedIntrinsics
-                          : name == "varK" ? euclidean::CameraKind::VaryingIntrinsics
-                                           : euclidean::CameraKind::VaryingIntrinsicsDistortion;
-                 return {};
-               }});
-  t.push_back({"image", "WxH", "image size in pixels (default 640x480)",
-               [&o](const std::string &v) { return to_image(v, &o.image_width, &o.image_height); }});
-  t.push_back({"focal", "F", "focal length in pixels (default 800)", real(&o.focal)});
-  t.push_back({"intrinsics-spread", "S", "varK/varKD: relative per-camera spread of K (default 0.01)",
-               real(&o.intrinsics_spread)});
-  t.push_back({"distortion", "D", "varKD: |kc0| <= D, |kc1| <= D/4 (default 0.1)", real(&o.distortion)});
-  t.push_back({"noise", "SIGMA", "Gaussian pixel noise (default 0.5)", real(&o.noise)});
-  t.push_back({"covariances", "", "random SPD 2x2 covariance per measurement, noise drawn from it",
-               flag(&o.covariances)});
-  t.push_back({"outliers", "FRAC", "fraction of measurements replaced by gross outliers (default 0)",
-               real(&o.outliers)});
-  t.push_back({"perturb-rotation", "R", "initial estimate: radians per axis (default 0.01)",
-               real(&o.perturb_rotation)});
-  t.push_back({"perturb-translation", "T", "initial estimate: scene units per component of t (default 0.02)",
-               real(&o.perturb_translation)});
-  t.push_back({"perturb-points", "P", "initial estimate: scene units per coordinate (default 0.02)",
-               real(&o.perturb_points)});
-  t.push_back({"perturb-intrinsics", "I",
-               "initial estimate, varK/varKD: relative fu u0 v0, absolute kc0 kc1 (default 0.01)",
-               real(&o.perturb_intrinsics)});
-  t.push_back({"no-perturb", "", "start at the truth (the four perturbations set to 0)",
-               [&o](const std::string &) -> std::string {
-                 o.perturb_rotation = o.perturb_translation = o.perturb_points = o.perturb_intrinsics = 0;
-                 return {};
-               }});
-  t.push_back({"seed", "S", "random seed, a 64-bit unsigned integer (default 1)",
-               [&o](const std::string &v) { return to_seed(v, &o.seed); }});
-  t.push_back({"colmap", "DIR",
-               "also write the initial problem as a COLMAP text model into DIR (not with --covariances)",
-               [&cli](const std::string &v) { return sbacli::to_file(v, &cli.colmap_text); }});
-  t.push_back({"colmap-binary", "DIR", "the same as a COLMAP binary model",
-               [&cli](const std::string &v) { return sbacli::to_file(v, &cli.colmap_binary); }});
-  t.push_back({"bundler", "FILE",
-               "also write the initial problem as a Bundler bundle.out (--kind varK or fixed: Bundler\n"
-               "has no tangential distortion; not with --covariances)",
-               [&cli](const std::string &v) { return sbacli::to_file(v, &cli.bundler); }});
-  t.push_back({"nvm", "FILE",
-               "also write the initial problem as a VisualSFM NVM file (--kind varK or fixed: NVM's\n"
-               "radial distortion is not eucsbademo's; not with --covariances)",
-               [&cli](const std::string &v) { return sbacli::to_file(v, &cli.nvm); }});
-  t.push_back({"quiet", "", "no summary on stdout", flag(&cli.quiet)});
+  add_scene_options(&t, cli.options);
+  add_camera_options(&t, cli.options);
+  add_measurement_options(&t, cli.options);
+  add_output_options(&t, cli);
   return t;
 }
 

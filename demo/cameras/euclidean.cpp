@@ -123,10 +123,72 @@ struct Kernel {
     eval(f, b, x, A, B);
   }
 
+  // The normalized point after distortion. Bouguet: x_d = (1 + kc0 r^2 + kc1 r^4 + kc4 r^6)
+  // x_n + tangential terms (kc2, kc3); D = d(x_d, y_d) / d(x_n, y_n), r2 = r^2.
+  static void distort(const double *kc, double xn, double yn, double *xd, double *yd, double D[4], double *r2) {
+    *xd = xn;
+    *yd = yn;
+    D[0] = 1;
+    D[1] = D[2] = 0;
+    D[3] = 1;
+    *r2 = 0;
+    if constexpr (kHasDistortion) {
+      const double q = *r2 = xn * xn + yn * yn;
+      const double radial = 1 + q * (kc[0] + q * (kc[1] + q * kc[4]));
+      const double dradial_dr2 = kc[0] + q * (2 * kc[1] + 3 * q * kc[4]);
+      *xd = radial * xn + 2 * kc[2] * xn * yn + kc[3] * (q + 2 * xn * xn);
+      *yd = radial * yn + kc[2] * (q + 2 * yn * yn) + 2 * kc[3] * xn * yn;
+      D[0] = radial + 2 * xn * xn * dradial_dr2 + 2 * kc[2] * yn + 6 * kc[3] * xn;
+      D[1] = 2 * xn * yn * dradial_dr2 + 2 * kc[2] * xn + 2 * kc[3] * yn;
+      D[2] = 2 * xn * yn * dradial_dr2 + 2 * kc[2] * xn + 2 * kc[3] * yn;
+      D[3] = radial + 2 * yn * yn * dradial_dr2 + 6 * kc[2] * yn + 2 * kc[3] * xn;
+    }
+  }
+
+  // The camera rows A (2 x cnp) at point b: the intrinsics' and the distortion's (held ones
+  // zero) from the distorted point (xd, yd), the pose's through H = d pixel / d X_c.
+  static void camera_jacobian(const Frame &f, const double *b, double xn, double yn, double xd, double yd, double r2,
+                              const double H[6], double *A) {
+    const double fu = f.in[0], ar = f.in[3], sk = f.in[4], fv = fu * ar;
+    constexpr int cnp = L::cnp;
+    double *A0 = A, *A1 = A + cnp;
+    if constexpr (kHasIntrinsics) {
+      const double du[kIntrinsicParams] = {xd, 1, 0, 0, yd};
+      const double dv[kIntrinsicParams] = {ar * yd, 0, 1, fu * yd, 0};
+      for (int c = 0; c < kIntrinsicParams; ++c) {
+        A0[L::intr + c] = c < f.free_intr ? du[c] : 0.0;
+        A1[L::intr + c] = c < f.free_intr ? dv[c] : 0.0;
+      }
+    }
+    if constexpr (kHasDistortion) {
+      // d(x_d, y_d) / d kc, then through Kd.
+      const double r4 = r2 * r2, xy2 = 2 * xn * yn;
+      const double dx[kDistortionParams] = {r2 * xn, r4 * xn, xy2, r2 + 2 * xn * xn, r4 * r2 * xn};
+      const double dy[kDistortionParams] = {r2 * yn, r4 * yn, r2 + 2 * yn * yn, xy2, r4 * r2 * yn};
+      for (int c = 0; c < kDistortionParams; ++c) {
+        const bool free = c < f.free_dist;
+        A0[L::dist + c] = free ? fu * dx[c] + sk * dy[c] : 0.0;
+        A1[L::dist + c] = free ? fv * dy[c] : 0.0;
+      }
+    }
+    double Jv[9];
+    if (f.has_dRv) {
+      for (int e = 0; e < 9; ++e) Jv[e] = b[0] * f.dRv[e] + b[1] * f.dRv[9 + e] + b[2] * f.dRv[18 + e];
+    } else {
+      double Y[3];
+      sbaeuc_mat3_vec(f.R0, b, Y);
+      sbaeuc_rotation_derivative(&f.qs, Y, Jv);
+    }
+    for (int c = 0; c < 3; ++c) {
+      A0[L::rot + c] = H[0] * Jv[c] + H[1] * Jv[3 + c] + H[2] * Jv[6 + c];
+      A1[L::rot + c] = H[3] * Jv[c] + H[4] * Jv[3 + c] + H[5] * Jv[6 + c];
+      A0[L::trans + c] = H[c];
+      A1[L::trans + c] = H[3 + c];
+    }
+  }
+
   static void eval(const Frame &f, const double *b, double *x, double *A, double *B) {
     const double fu = f.in[0], u0 = f.in[1], v0 = f.in[2], ar = f.in[3], sk = f.in[4];
-    const double *kc = f.kc;
-    const int free_intr = f.free_intr, free_dist = f.free_dist;
     const double *M = f.M;
 
     // X_c = R(qs) R(q0) X + t: the correction acts after the input rotation.
@@ -136,22 +198,8 @@ struct Kernel {
 
     const double iz = 1.0 / Xc[2];
     const double xn = Xc[0] * iz, yn = Xc[1] * iz;
-
-    // Bouguet: x_d = (1 + kc0 r^2 + kc1 r^4 + kc4 r^6) x_n + tangential terms (kc2, kc3).
-    double xd = xn, yd = yn;
-    double D[4] = {1, 0, 0, 1};  // d(x_d, y_d) / d(x_n, y_n)
-    double r2 = 0, radial = 1;
-    if constexpr (kHasDistortion) {
-      r2 = xn * xn + yn * yn;
-      radial = 1 + r2 * (kc[0] + r2 * (kc[1] + r2 * kc[4]));
-      const double dradial_dr2 = kc[0] + r2 * (2 * kc[1] + 3 * r2 * kc[4]);
-      xd = radial * xn + 2 * kc[2] * xn * yn + kc[3] * (r2 + 2 * xn * xn);
-      yd = radial * yn + kc[2] * (r2 + 2 * yn * yn) + 2 * kc[3] * xn * yn;
-      D[0] = radial + 2 * xn * xn * dradial_dr2 + 2 * kc[2] * yn + 6 * kc[3] * xn;
-      D[1] = 2 * xn * yn * dradial_dr2 + 2 * kc[2] * xn + 2 * kc[3] * yn;
-      D[2] = 2 * xn * yn * dradial_dr2 + 2 * kc[2] * xn + 2 * kc[3] * yn;
-      D[3] = radial + 2 * yn * yn * dradial_dr2 + 6 * kc[2] * yn + 2 * kc[3] * xn;
-    }
+    double xd, yd, D[4], r2;
+    distort(f.kc, xn, yn, &xd, &yd, D, &r2);
 
     const double fv = fu * ar;
     if (x) {
@@ -172,45 +220,7 @@ struct Kernel {
         for (int c = 0; c < 3; ++c)
           B[r * 3 + c] = H[r * 3] * M[c] + H[r * 3 + 1] * M[3 + c] + H[r * 3 + 2] * M[6 + c];
     }
-    if (!A) return;
-
-    constexpr int cnp = L::cnp;
-    double *A0 = A, *A1 = A + cnp;
-
-    if constexpr (kHasIntrinsics) {
-      const double du[kIntrinsicParams] = {xd, 1, 0, 0, yd};
-      const double dv[kIntrinsicParams] = {ar * yd, 0, 1, fu * yd, 0};
-      for (int c = 0; c < kIntrinsicParams; ++c) {
-        A0[L::intr + c] = c < free_intr ? du[c] : 0.0;
-        A1[L::intr + c] = c < free_intr ? dv[c] : 0.0;
-      }
-    }
-    if constexpr (kHasDistortion) {
-      // d(x_d, y_d) / d kc, then through Kd.
-      const double r4 = r2 * r2, xy2 = 2 * xn * yn;
-      const double dx[kDistortionParams] = {r2 * xn, r4 * xn, xy2, r2 + 2 * xn * xn, r4 * r2 * xn};
-      const double dy[kDistortionParams] = {r2 * yn, r4 * yn, r2 + 2 * yn * yn, xy2, r4 * r2 * yn};
-      for (int c = 0; c < kDistortionParams; ++c) {
-        const bool free = c < free_dist;
-        A0[L::dist + c] = free ? fu * dx[c] + sk * dy[c] : 0.0;
-        A1[L::dist + c] = free ? fv * dy[c] : 0.0;
-      }
-    }
-
-    double Jv[9];
-    if (f.has_dRv) {
-      for (int e = 0; e < 9; ++e) Jv[e] = b[0] * f.dRv[e] + b[1] * f.dRv[9 + e] + b[2] * f.dRv[18 + e];
-    } else {
-      double Y[3];
-      sbaeuc_mat3_vec(f.R0, b, Y);
-      sbaeuc_rotation_derivative(&f.qs, Y, Jv);
-    }
-    for (int c = 0; c < 3; ++c) {
-      A0[L::rot + c] = H[0] * Jv[c] + H[1] * Jv[3 + c] + H[2] * Jv[6 + c];
-      A1[L::rot + c] = H[3] * Jv[c] + H[4] * Jv[3 + c] + H[5] * Jv[6 + c];
-      A0[L::trans + c] = H[c];
-      A1[L::trans + c] = H[3 + c];
-    }
+    if (A) camera_jacobian(f, b, xn, yn, xd, yd, r2, H, A);
   }
 };
 
