@@ -197,6 +197,109 @@ void check_host_function(const Callback &cb, const char *role) {
             format("%s: no function named '%s' was found.", role, cb.name.c_str()));
 }
 
+// opts: up to SBA_OPTSSZ finite values, the defaults for the rest (said in *warning).
+void read_opts(Gateway &g, const mxArray *o, std::string *warning) {
+  const std::size_t len = mxGetNumberOfElements(o);
+  const double *v = mxGetPr(o);
+  for (std::size_t q = 0; q < len; ++q) {
+    if (!std::isfinite(v[q])) bad_arg("invalidArgument", format("opts(%zu) is not finite.", q + 1));
+    g.opts[q] = v[q];
+  }
+  if (len > 0 && len < SBA_OPTSSZ)
+    *warning = format(
+        "opts has %zu of the %d values; the defaults are used for the rest "
+        "(tau 1e-03, eps1 to eps3 1e-12, eps4 0).",
+        len, SBA_OPTSSZ);
+}
+
+// 'strategy=NAME' and the options struct (beyond 1.6), which may come just before or just
+// after reftype, each once; no reftype or problem data of a 1.6 call begins so.
+struct TrailingOptions {
+  Gateway &g;
+  int nrhs;
+  const mxArray **prhs;
+  bool have_struct = false;
+
+  bool strategy(int at) {
+    if (!mxIsChar(prhs[at])) return false;
+    const std::string v = string_arg(prhs[at]);
+    if (v.compare(0, 9, "strategy=") != 0) return false;
+    g.strategy = v.substr(9);
+    if (!sba_strategy_valid(g.strategy.c_str()))
+      bad_arg("unknownStrategy", format("unknown strategy '%s' (expected one of: %s).", g.strategy.c_str(),
+                                        sba_strategy_names()));
+    return true;
+  }
+  // Whether argument `at` is one of them (read), else it is left.
+  bool take(int at) {
+    if (at >= nrhs) return false;
+    if (g.strategy.empty() && strategy(at)) return true;
+    if (have_struct) return false;
+    switch (role(prhs[at])) {
+      case StructRole::kData:
+        return false;
+      case StructRole::kRefused:
+        refuse_options_struct(describe(prhs[at]));
+      case StructRole::kOptions:
+        break;
+    }
+    read_options_struct(g, prhs[at]);
+    have_struct = true;
+    return true;
+  }
+};
+
+RefType reftype_arg(const mxArray *a) {
+  std::string r = string_arg(a);
+  for (char &c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (r == "motstr") return RefType::MotStr;
+  if (r == "mot") return RefType::Mot;
+  if (r == "str") return RefType::Str;
+  bad_arg("unknownReftype", format("unknown reftype '%s' (expected 'motstr', 'mot' or 'str').", r.c_str()));
+}
+
+// What depends on the reftype and the sizes: the camera options, cnp and pnp, vmask, and p0,
+// x and covx of their lengths.
+void check_problem(Gateway &g, const mxArray *p0, const mxArray *x, const mxArray *covx) {
+  const bool camera_options = !g.cam_fixed.empty() || !g.cam_group.empty() || !g.cam_param_group.empty();
+  if (g.reftype == RefType::Str && camera_options)
+    bad_arg("invalidArgument",
+            "fixed_params, camera_groups, shared_params and param_groups apply to cameras, which reftype "
+            "'str' does not refine.");
+  if (g.reftype != RefType::Str && g.cnp == 0)
+    bad_arg("invalidArgument", format("cnp must be positive for reftype '%s'.", reftype_name(g.reftype)));
+  if (g.reftype != RefType::Mot && g.pnp == 0)
+    bad_arg("invalidArgument", format("pnp must be positive for reftype '%s'.", reftype_name(g.reftype)));
+  if (g.nvis == 0) bad_arg("invalidArgument", "vmask has no nonzero entry: there is nothing to fit.");
+  const std::size_t nvars = static_cast<std::size_t>(g.m) * g.cnp + static_cast<std::size_t>(g.n) * g.pnp;
+  const double *pv = vector_arg(p0, "p0", nvars, "m*cnp + n*pnp");
+  g.p0.assign(pv, pv + nvars);
+  g.p0_arg = p0;
+  const std::size_t nobs = static_cast<std::size_t>(g.nvis) * g.mnp;
+  g.x = vector_arg(x, "x", nobs, "nvis*mnp (nvis: the nonzeros of vmask)");
+  if (covx && mxGetNumberOfElements(covx) > 0) g.covx = vector_arg(covx, "covx", nobs * g.mnp, "nvis*mnp*mnp");
+}
+
+// proj and projac, the extra arguments a native one is handed, and that a host one exists.
+void read_callbacks(Gateway &g, const std::string &proj, const std::string &projac) {
+  parse_callback(g.proj, proj, "proj");
+  if (!projac.empty()) parse_callback(g.projac, projac, "projac");
+  if (g.proj.kind == Callback::kNative || g.projac.kind == Callback::kNative) {
+    for (std::size_t q = 0; q < g.extra.size(); ++q) {
+      const mxArray *e = g.extra[q];
+      if (!mxIsDouble(e) || mxIsComplex(e) || mxIsSparse(e))
+        bad_arg("invalidArgument",
+                format("extra argument %zu must be a real dense double array for NAME@LIBRARY "
+                       "callbacks (got a %s).",
+                       q + 1, describe(e).c_str()));
+      g.extra_ptrs.push_back(mxGetPr(e));
+    }
+  }
+  g.extra_ptrs.push_back(nullptr);  // never empty: data() is valid even without extra data
+  check_host_function(g.proj, "proj");
+  check_host_function(g.projac, "projac");
+}
+
 }  // namespace
 
 // The argument list of 1.6 (docs/mex.md, "The call").
@@ -237,107 +340,15 @@ void parse(Gateway &g, int nrhs, const mxArray *prhs[], std::string *warning) {
     g.verbose = v > 100 ? 100 : (v < 0 ? 0 : static_cast<int>(v));
   }
   if (k < nrhs && is_real_double(prhs[k]) && mxGetNumberOfElements(prhs[k]) <= SBA_OPTSSZ &&
-      (is_vector_shape(prhs[k]) || mxGetNumberOfElements(prhs[k]) == 0)) {
-    const mxArray *o = prhs[k++];
-    const std::size_t len = mxGetNumberOfElements(o);
-    const double *v = mxGetPr(o);
-    for (std::size_t q = 0; q < len; ++q) {
-      if (!std::isfinite(v[q]))
-        bad_arg("invalidArgument", format("opts(%zu) is not finite.", q + 1));
-      g.opts[q] = v[q];
-    }
-    if (len > 0 && len < SBA_OPTSSZ)
-      *warning = format(
-          "opts has %zu of the %d values; the defaults are used for the rest "
-          "(tau 1e-03, eps1 to eps3 1e-12, eps4 0).",
-          len, SBA_OPTSSZ);
-  }
-  // 'strategy=NAME' and the options struct (beyond 1.6) may come just before or just after
-  // reftype, each once; no reftype or problem data of a 1.6 call begins so.
-  auto strategy_option = [&](int at) {
-    if (!mxIsChar(prhs[at])) return false;
-    const std::string v = string_arg(prhs[at]);
-    if (v.compare(0, 9, "strategy=") != 0) return false;
-    g.strategy = v.substr(9);
-    if (!sba_strategy_valid(g.strategy.c_str()))
-      bad_arg("unknownStrategy", format("unknown strategy '%s' (expected one of: %s).",
-                                        g.strategy.c_str(), sba_strategy_names()));
-    return true;
-  };
-  bool have_struct = false;
-  auto option = [&](int at) {
-    if (at >= nrhs) return false;
-    if (g.strategy.empty() && strategy_option(at)) return true;
-    if (have_struct) return false;
-    switch (role(prhs[at])) {
-      case StructRole::kData:
-        return false;
-      case StructRole::kRefused:
-        refuse_options_struct(describe(prhs[at]));
-      case StructRole::kOptions:
-        break;
-    }
-    read_options_struct(g, prhs[at]);
-    have_struct = true;
-    return true;
-  };
-  while (option(k)) ++k;
-  if (k < nrhs && mxIsChar(prhs[k])) {
-    std::string r = string_arg(prhs[k++]);
-    for (char &c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    if (r == "motstr")
-      g.reftype = RefType::MotStr;
-    else if (r == "mot")
-      g.reftype = RefType::Mot;
-    else if (r == "str")
-      g.reftype = RefType::Str;
-    else
-      bad_arg("unknownReftype",
-              format("unknown reftype '%s' (expected 'motstr', 'mot' or 'str').", r.c_str()));
-  }
-  while (option(k)) ++k;
+      (is_vector_shape(prhs[k]) || mxGetNumberOfElements(prhs[k]) == 0))
+    read_opts(g, prhs[k++], warning);
+  TrailingOptions options{g, nrhs, prhs};
+  while (options.take(k)) ++k;
+  if (k < nrhs && mxIsChar(prhs[k])) g.reftype = reftype_arg(prhs[k++]);
+  while (options.take(k)) ++k;
   for (; k < nrhs; ++k) g.extra.push_back(prhs[k]);
-  const bool camera_options = !g.cam_fixed.empty() || !g.cam_group.empty() || !g.cam_param_group.empty();
-  if (g.reftype == RefType::Str && camera_options)
-    bad_arg("invalidArgument",
-            "fixed_params, camera_groups, shared_params and param_groups apply to cameras, which reftype "
-            "'str' does not refine.");
-
-  // Sizes that depend on what came before.
-  if (g.reftype != RefType::Str && g.cnp == 0)
-    bad_arg("invalidArgument",
-            format("cnp must be positive for reftype '%s'.", reftype_name(g.reftype)));
-  if (g.reftype != RefType::Mot && g.pnp == 0)
-    bad_arg("invalidArgument",
-            format("pnp must be positive for reftype '%s'.", reftype_name(g.reftype)));
-  if (g.nvis == 0)
-    bad_arg("invalidArgument", "vmask has no nonzero entry: there is nothing to fit.");
-  const std::size_t nvars =
-      static_cast<std::size_t>(g.m) * g.cnp + static_cast<std::size_t>(g.n) * g.pnp;
-  const double *pv = vector_arg(p0, "p0", nvars, "m*cnp + n*pnp");
-  g.p0.assign(pv, pv + nvars);
-  g.p0_arg = p0;
-  const std::size_t nobs = static_cast<std::size_t>(g.nvis) * g.mnp;
-  g.x = vector_arg(x, "x", nobs, "nvis*mnp (nvis: the nonzeros of vmask)");
-  if (covx && mxGetNumberOfElements(covx) > 0)
-    g.covx = vector_arg(covx, "covx", nobs * g.mnp, "nvis*mnp*mnp");
-
-  parse_callback(g.proj, proj, "proj");
-  if (!projac.empty()) parse_callback(g.projac, projac, "projac");
-  if (g.proj.kind == Callback::kNative || g.projac.kind == Callback::kNative) {
-    for (std::size_t q = 0; q < g.extra.size(); ++q) {
-      const mxArray *e = g.extra[q];
-      if (!mxIsDouble(e) || mxIsComplex(e) || mxIsSparse(e))
-        bad_arg("invalidArgument",
-                format("extra argument %zu must be a real dense double array for NAME@LIBRARY "
-                       "callbacks (got a %s).",
-                       q + 1, describe(e).c_str()));
-      g.extra_ptrs.push_back(mxGetPr(e));
-    }
-  }
-  g.extra_ptrs.push_back(nullptr);  // never empty: data() is valid even without extra data
-  check_host_function(g.proj, "proj");
-  check_host_function(g.projac, "projac");
+  check_problem(g, p0, x, covx);
+  read_callbacks(g, proj, projac);
 }
 
 }  // namespace sba_mex

@@ -61,6 +61,48 @@ void copy_text(char *dst, std::size_t size, const std::string &src) {
 // The first line of a block of text.
 std::string first_line(const std::string &s) { return s.substr(0, s.find('\n')); }
 
+// The parameters the driver refines: all of p0, its cameras or its points.
+std::vector<double> refined_params(const Gateway &g) {
+  const std::size_t acount = static_cast<std::size_t>(g.m) * g.cnp;
+  if (g.reftype == RefType::Mot) return std::vector<double>(g.p0.begin(), g.p0.begin() + acount);
+  if (g.reftype == RefType::Str) return std::vector<double>(g.p0.begin() + acount, g.p0.end());
+  return g.p0;
+}
+
+// sba 1.6's demo's lines, with verbose.
+void print_result(const Gateway &g, int ret, const double info[SBA_INFOSZ], double seconds) {
+  long long nvars = 0;
+  if (g.reftype != RefType::Str) nvars += static_cast<long long>(g.m) * g.cnp;
+  if (g.reftype != RefType::Mot) nvars += static_cast<long long>(g.n) * g.pnp;
+  mexPrintf("SBA using %d 3D pts, %d frames and %lld image projections, %lld variables\n", g.n, g.m, g.nvis,
+            nvars);
+  mexPrintf(
+      "\nSBA returned %d in %g iter, reason %g, error %g [initial %g], %d/%d func/fjac "
+      "evals, %d lin. systems\n",
+      ret, info[5], info[6], info[1] / double(g.nvis), info[0] / double(g.nvis), static_cast<int>(info[7]),
+      static_cast<int>(info[8]), static_cast<int>(info[9]));
+  mexPrintf("Elapsed time: %.2f seconds, %.2f msecs\n", seconds, seconds * 1000.0);
+}
+
+// [ret, popt, info]: popt is p0 with the refined part p replaced, in p0's orientation.
+void set_outputs(const Gateway &g, const std::vector<double> &p, int ret, const double info[SBA_INFOSZ], int nlhs,
+                 mxArray *plhs[]) {
+  plhs[0] = mxCreateDoubleScalar(ret);
+  if (nlhs > 1) {
+    std::vector<double> popt = g.p0;
+    const std::size_t off = g.reftype == RefType::Str ? static_cast<std::size_t>(g.m) * g.cnp : 0;
+    std::copy(p.begin(), p.end(), popt.begin() + off);
+    mxArray *po = mxCreateDoubleMatrix(mxGetM(g.p0_arg), mxGetN(g.p0_arg), mxREAL);
+    std::memcpy(mxGetPr(po), popt.data(), sizeof(double) * popt.size());
+    plhs[1] = po;
+  }
+  if (nlhs > 2) {
+    mxArray *io = mxCreateDoubleMatrix(1, SBA_INFOSZ, mxREAL);
+    std::memcpy(mxGetPr(io), info, sizeof(double) * SBA_INFOSZ);
+    plhs[2] = io;
+  }
+}
+
 // Does the whole call. Every C++ object lives in here; what is left to raise goes to *out, and
 // an exception of the host to *rethrow.
 void run_gateway(int nlhs, mxArray *plhs[], int nrhs, const mxArray *prhs[], Outcome *out,
@@ -82,12 +124,7 @@ void run_gateway(int nlhs, mxArray *plhs[], int nrhs, const mxArray *prhs[], Out
 
     trial_call(g);
 
-    // The parameters the driver refines: all of p0, its cameras or its points.
-    std::vector<double> p;
-    const std::size_t acount = static_cast<std::size_t>(g.m) * g.cnp;
-    if (g.reftype == RefType::MotStr) p = g.p0;
-    if (g.reftype == RefType::Mot) p.assign(g.p0.begin(), g.p0.begin() + acount);
-    if (g.reftype == RefType::Str) p.assign(g.p0.begin() + acount, g.p0.end());
+    std::vector<double> p = refined_params(g);
     double info[SBA_INFOSZ] = {0};
     int ret = SBA_ERROR;
     double seconds = 0;
@@ -125,35 +162,9 @@ void run_gateway(int nlhs, mxArray *plhs[], int nrhs, const mxArray *prhs[], Out
       copy_text(out->solver_warning, sizeof out->solver_warning, text);
     }
 
-    if (g.verbose) {
-      long long nvars = 0;
-      if (g.reftype != RefType::Str) nvars += static_cast<long long>(g.m) * g.cnp;
-      if (g.reftype != RefType::Mot) nvars += static_cast<long long>(g.n) * g.pnp;
-      mexPrintf("SBA using %d 3D pts, %d frames and %lld image projections, %lld variables\n", g.n,
-                g.m, g.nvis, nvars);
-      mexPrintf(
-          "\nSBA returned %d in %g iter, reason %g, error %g [initial %g], %d/%d func/fjac "
-          "evals, %d lin. systems\n",
-          ret, info[5], info[6], info[1] / double(g.nvis), info[0] / double(g.nvis),
-          static_cast<int>(info[7]), static_cast<int>(info[8]), static_cast<int>(info[9]));
-      mexPrintf("Elapsed time: %.2f seconds, %.2f msecs\n", seconds, seconds * 1000.0);
-    }
+    if (g.verbose) print_result(g, ret, info, seconds);
 
-    // Outputs: popt is p0 with the refined part replaced, in p0's orientation.
-    plhs[0] = mxCreateDoubleScalar(ret);
-    if (nlhs > 1) {
-      std::vector<double> popt = g.p0;
-      const std::size_t off = g.reftype == RefType::Str ? acount : 0;
-      std::copy(p.begin(), p.end(), popt.begin() + off);
-      mxArray *po = mxCreateDoubleMatrix(mxGetM(g.p0_arg), mxGetN(g.p0_arg), mxREAL);
-      std::memcpy(mxGetPr(po), popt.data(), sizeof(double) * popt.size());
-      plhs[1] = po;
-    }
-    if (nlhs > 2) {
-      mxArray *io = mxCreateDoubleMatrix(1, SBA_INFOSZ, mxREAL);
-      std::memcpy(mxGetPr(io), info, sizeof info);
-      plhs[2] = io;
-    }
+    set_outputs(g, p, ret, info, nlhs, plhs);
   } catch (const ArgError &e) {
     error(e.id, e.message);
   } catch (const std::bad_alloc &) {
