@@ -4,13 +4,10 @@
 // (docs/formats.md). Options cover what 1.6 fixed at compile time.
 #include <algorithm>
 #include <array>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <exception>
-#include <new>
 #include <string>
 #include <vector>
 
@@ -176,14 +173,6 @@ const char *kind_banner(CameraKind kind) {
   return "";
 }
 
-// Makes sure the files --write-* name can be written before a long solve, without truncating
-// an existing file and without leaving a new one behind.
-Status check_writable(const std::string &path) {
-  std::string why;
-  if (!path.empty() && !sbaformats::probe_writable(path, &why)) return Status::error(path, 0, why);
-  return {};
-}
-
 // Writes the files --write-* asked for into the run's outputs, from the refined (or, for what a
 // refinement left alone, the initial) cameras and points.
 Status write_results(const DemoOptions &o, const CameraModel &model, const PointSet &points,
@@ -346,13 +335,11 @@ int check_run(const DemoOptions &o, const PointSet &points) {
     std::fprintf(stderr, "eucsbademo: --ncon %d is more than the %d points\n", o.ncon, points.npoints());
     return kExitUsage;
   }
-  for (const std::string *path :
-       {&o.write_cams, &o.write_pts, &o.write_pts_tracks, &o.write_stddev, &o.json, &o.initial_ply, &o.final_ply}) {
-    if (Status s = check_writable(*path); !s) {
-      std::fprintf(stderr, "%s\n", s.to_string().c_str());
-      return kExitFailure;
-    }
-  }
+  // Writable before a long solve, without truncating an existing file and without leaving a
+  // new one behind.
+  if (!sbacli::outputs_writable(
+          {&o.write_cams, &o.write_pts, &o.write_pts_tracks, &o.write_stddev, &o.json, &o.initial_ply, &o.final_ply}))
+    return kExitFailure;
   return -1;
 }
 
@@ -488,18 +475,10 @@ int exit_status(const DemoOptions &o, const Outcome &out, const sbacli::RunContr
 int demo_main(int argc, char **argv) {
   DemoOptions o;
   std::string error;
-  if (!parse_command_line(argc, argv, &o, &error)) {
-    std::fprintf(stderr, "eucsbademo: %s\n", error.c_str());
-    return kExitUsage;
-  }
-  if (o.help) {
-    print_usage(stdout);
-    return 0;
-  }
-  if (o.version) {
-    std::printf("eucsbademo (sba %s)\n", SBA_VERSION);
-    return 0;
-  }
+  const bool parsed = parse_command_line(argc, argv, &o, &error);
+  if (const int status = sbacli::answer_command_line("eucsbademo", parsed, error, o.help, o.version, print_usage);
+      status >= 0)
+    return status;
   Problem problem;
   if (Status s = load_problem(o.files[0], o.files[1], o.files.size() > 2 ? o.files[2] : "", &problem); !s) {
     std::fprintf(stderr, "%s\n", s.to_string().c_str());
@@ -550,19 +529,4 @@ int demo_main(int argc, char **argv) {
 }  // namespace
 }  // namespace eucsbademo
 
-int main(int argc, char **argv) {
-  // Nothing may escape main: a bad file or a full memory is a message and a status.
-  try {
-    const int status = eucsbademo::demo_main(argc, argv);
-    // A report that did not reach stdout is a failed run, not a success.
-    if (status == 0 && !sbaformats::stdout_written("eucsbademo")) return 1;
-    return status;
-  } catch (const std::bad_alloc &) {
-    std::fprintf(stderr, "eucsbademo: out of memory\n");
-  } catch (const std::exception &e) {
-    std::fprintf(stderr, "eucsbademo: %s\n", e.what());
-  } catch (...) {
-    std::fprintf(stderr, "eucsbademo: unexpected error\n");
-  }
-  return 1;
-}
+int main(int argc, char **argv) { return sbacli::guarded_main("eucsbademo", eucsbademo::demo_main, argc, argv); }
