@@ -134,7 +134,6 @@ void add_point_terms(const MappedSchur &ms, int i, int lo, int hi, const NormalE
   const Layout &lay = ms.layout();
   const CameraMap &map = lay.cams;
   const int pnp = lay.pnp;
-  const bool clusters = S.kind == UnknownBlocks::Kind::Clusters;
   const int *F = ms.point_blocks(i);
   i64 *zoff = sc.zoff.data();
   double *Zt = sc.Zt.data(), *Yt = sc.Yt.data();
@@ -159,7 +158,7 @@ void add_point_terms(const MappedSchur &ms, int i, int lo, int hi, const NormalE
     }
     for (int s1 = 0; s1 <= s; ++s1) {
       const int b = F[s1], nb = map.block_size(b);
-      if (clusters && !S.holds(b, B)) continue;
+      if (!S.holds(b, B)) continue;
       const UnknownBlocks::Block blk = S.block(b, B);
       if (blk.transposed)
         pair_update(nB, nb, pnp, y, Zt + zoff[s1], blk.p, blk.ld);

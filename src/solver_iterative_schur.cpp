@@ -396,10 +396,9 @@ class IterativeSchurSolver final : public StepSolver {
   void find_clusters(const CameraMap &map) {
     const int nb = map.nblocks();
     const auto cams = [&](int b) { return map.block_cam_start[size_t(b) + 1] - map.block_cam_start[size_t(b)]; };
-    std::vector<int> owner(size_t(nb), -1);  // the shared block whose cluster takes block b
-    std::vector<int> size(size_t(nb), 0);    // a shared block's cluster order so far
-    for (int K = 0; K < nb; ++K)
-      if (cams(K) > 1) owner[size_t(K)] = K, size[size_t(K)] = map.block_size(K);
+    std::vector<int> root(static_cast<size_t>(nb));  // the block whose cluster b joins (b when alone)
+    std::vector<int> size(static_cast<size_t>(nb));  // a root's cluster order so far
+    for (int b = 0; b < nb; ++b) root[size_t(b)] = b, size[size_t(b)] = map.block_size(b);
     for (int b = 0; b < nb; ++b) {
       if (cams(b) != 1) continue;
       const int j = map.block_cams[size_t(map.block_cam_start[size_t(b)])];
@@ -407,24 +406,21 @@ class IterativeSchurSolver final : public StepSolver {
       if (map.cam_start[size_t(j) + 1] - q0 != 2) continue;
       const int K = map.cam_blocks[size_t(q0)] == b ? map.cam_blocks[size_t(q0) + 1] : map.cam_blocks[size_t(q0)];
       if (cams(K) < 2 || size[size_t(K)] + map.block_size(b) > kMaxCluster) continue;
-      owner[size_t(b)] = K;
+      root[size_t(b)] = K;
       size[size_t(K)] += map.block_size(b);
     }
-    // Clusters in the order of their first block; each one's blocks ascending.
+    // Each cluster's blocks ascending; the clusters in the order of their first blocks.
+    std::vector<std::vector<int>> members(static_cast<size_t>(nb));
+    for (int b = 0; b < nb; ++b) members[size_t(root[size_t(b)])].push_back(b);
     cluster_start_.assign(1, 0);
     cluster_blocks_.clear();
     origin_.assign(size_t(nb), 0);
     pos_.assign(size_t(nb), 0);
     order_.assign(size_t(nb), 0);
-    std::vector<std::vector<int>> members(static_cast<size_t>(nb));
-    for (int b = 0; b < nb; ++b) members[size_t(owner[size_t(b)] >= 0 ? owner[size_t(b)] : b)].push_back(b);
-    std::vector<int> first(size_t(nb), -1);  // cluster by its first block
-    for (int b = 0; b < nb; ++b)
-      if (!members[size_t(b)].empty()) first[size_t(members[size_t(b)][0])] = b;
     i64 origin = 0;
     for (int f = 0; f < nb; ++f) {
-      if (first[size_t(f)] < 0) continue;
-      const std::vector<int> &c = members[size_t(first[size_t(f)])];
+      const std::vector<int> &c = members[size_t(root[size_t(f)])];
+      if (c.front() != f) continue;
       int n = 0;
       for (int b : c) pos_[size_t(b)] = n, n += map.block_size(b);
       for (int b : c) origin_[size_t(b)] = origin, order_[size_t(b)] = n;
