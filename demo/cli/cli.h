@@ -61,6 +61,9 @@ std::string to_file(const std::string &text, std::string *out);
 // The LM options of sba's opts[]: --opts=TAU,EPS1,EPS2,EPS3,EPS4 and --tau, --eps1 .. --eps4.
 void add_lm_options(std::vector<Option> *options, std::array<double, 5> *opts);
 
+// --strategy NAME into *strategy (checked by to_strategy).
+Option strategy_option(std::string *strategy);
+
 struct Parsed {
   std::vector<std::string> positional;  // arguments that are not options, in order
   bool help = false;

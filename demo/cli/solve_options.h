@@ -47,13 +47,7 @@ inline void add_solve_options(std::vector<Option> *t, SolveOptions &o, const Opt
                 "the environment variable SBA_LINSOLVER if set, else auto: chol, sparse-chol or\n"
                 "iterative-schur, chosen from the problem's size, its sparsity and the memory)",
                 [&o](const std::string &v) { return to_linsolver(v, &o.solver); }});
-  t->push_back({"strategy", "NAME",
-                "how LM damps, accepts steps and stops: sba (sba 1.6's algorithm, the default),\n"
-                "sba-clean-retry (the same, but a rejected step is retried on the undamped normal\n"
-                "equations, as the sba paper writes it) or trust-region (Marquardt's scaled damping and\n"
-                "a relative cost tolerance: usually far fewer iterations); default: the environment\n"
-                "variable SBA_STRATEGY if set, else sba",
-                [&o](const std::string &v) { return to_strategy(v, &o.strategy); }});
+  t->push_back(strategy_option(&o.strategy));
   t->push_back({"threads", "N",
                 "threads; 0 (the default): SBA_NUM_THREADS if set, else every hardware thread, but at\n"
                 "most one per 10,000 observations. The result does not depend on it",

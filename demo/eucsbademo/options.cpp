@@ -72,13 +72,7 @@ void add_solver_options(std::vector<sbacli::Option> *t, DemoOptions &o) {
                 "the environment variable SBA_LINSOLVER if set, else chol as in sba 1.6; this option\n"
                 "overrides SBA_LINSOLVER)",
                 [&o](const std::string &v) { return sbacli::to_linsolver(v, &o.linsolver); }});
-  t->push_back({"strategy", "NAME",
-                "how LM damps, accepts steps and stops: sba (sba 1.6's algorithm, the default),\n"
-                "sba-clean-retry (the same, but a rejected step is retried on the undamped normal\n"
-                "equations, as the sba paper writes it) or trust-region (Marquardt's scaled damping and\n"
-                "a relative cost tolerance: usually far fewer iterations); default: the environment\n"
-                "variable SBA_STRATEGY if set, else sba",
-                [&o](const std::string &v) { return sbacli::to_strategy(v, &o.strategy); }});
+  t->push_back(sbacli::strategy_option(&o.strategy));
   t->push_back({"threads", "N",
                 "threads for the normal equations and the Schur complement; 0 (the default): the\n"
                 "environment variable SBA_NUM_THREADS if set, else every hardware thread, but at most\n"
