@@ -95,17 +95,19 @@ bool acceptable(const std::vector<OptionField> &fields, std::size_t m, std::size
   if (fixed && !(finite_matrix(*fixed) &&
                  ((is_vector(*fixed) && fixed->numel == cnp) || (fixed->rows == m && fixed->cols == cnp))))
     return false;
-  if (per_param) {
-    if (!finite_matrix(*per_param) || per_param->rows != m || per_param->cols != cnp) return false;
-    for (double g : per_param->values)
-      if (g != std::trunc(g) || g < -1 || g > 2147483647.0) return false;
-  }
-  if (!groups != !shared) return false;
-  if (!groups) return true;
-  if (!finite_matrix(*groups) || !is_vector(*groups) || groups->numel != m) return false;
-  for (double g : groups->values)
-    if (g != std::trunc(g) || g < -1 || g > double(m) - 1) return false;
-  return finite_matrix(*shared) && is_vector(*shared) && shared->numel == cnp;
+  // Group numbers need only be whole numbers an int holds: which are groups is the library's
+  // rule, not the gateway's.
+  auto whole_ints = [](const OptionField &f) {
+    for (double g : f.values)
+      if (g != std::trunc(g) || g < -2147483648.0 || g > 2147483647.0) return false;
+    return true;
+  };
+  if (per_param && !(finite_matrix(*per_param) && per_param->rows == m && per_param->cols == cnp &&
+                     whole_ints(*per_param)))
+    return false;
+  if (groups && !(finite_matrix(*groups) && is_vector(*groups) && groups->numel == m && whole_ints(*groups)))
+    return false;
+  return !shared || (finite_matrix(*shared) && is_vector(*shared) && shared->numel == cnp);
 }
 
 const OptionField *field(const std::vector<OptionField> &fields, const char *name) {

@@ -139,7 +139,7 @@ void check_flag(const Value &v, const std::string &where) {
 
 void check_group(const Value &v, const std::string &where) {
   long long expected = 0;
-  const bool is_group = integer_in(v, -1, INT_MAX, &expected);
+  const bool is_group = integer_in(v, INT_MIN, INT_MAX, &expected);
   try {
     const int g = pysba::group_number(v, where);
     require(is_group, "a group number taken from " + pysba::python_text(v));

@@ -261,7 +261,8 @@ RefType reftype_arg(const mxArray *a) {
 // What depends on the reftype and the sizes: the camera options, cnp and pnp, vmask, and p0,
 // x and covx of their lengths.
 void check_problem(Gateway &g, const mxArray *p0, const mxArray *x, const mxArray *covx) {
-  const bool camera_options = !g.cam_fixed.empty() || !g.cam_group.empty() || !g.cam_param_group.empty();
+  const bool camera_options =
+      !g.cam_fixed.empty() || !g.cam_group.empty() || !g.cam_shared.empty() || !g.cam_param_group.empty();
   if (g.reftype == RefType::Str && camera_options)
     bad_arg("invalidArgument",
             "fixed_params, camera_groups, shared_params and param_groups apply to cameras, which reftype "

@@ -277,10 +277,8 @@ int solve(Gateway &g, std::vector<double> &p, double info[SBA_INFOSZ]) {
     ext.cam_fixed = g.cam_fixed.data();
     ext.cam_fixed_per_camera = g.cam_fixed_per_camera;
   }
-  if (!g.cam_group.empty()) {
-    ext.cam_group = g.cam_group.data();
-    ext.cam_shared = g.cam_shared.data();
-  }
+  if (!g.cam_group.empty()) ext.cam_group = g.cam_group.data();
+  if (!g.cam_shared.empty()) ext.cam_shared = g.cam_shared.data();
   if (!g.cam_param_group.empty()) ext.cam_param_group = g.cam_param_group.data();
   const bool jac = g.projac.kind != Callback::kNone;
   double *covx = const_cast<double *>(g.covx), *x = const_cast<double *>(g.x);

@@ -28,11 +28,13 @@ const std::vector<double> &matrix_values(const OptionField &f) {
   return f.values;
 }
 
-// The group number g at `where` ("camera_groups(3)"): a whole number, -1 or in [0, most].
-int group_number(double g, const std::string &where, double most) {
-  if (g != std::floor(g) || g < -1 || g > most)
-    bad_arg("invalidArgument", format("%s must be -1 (no group) or a group number in [0, %.15g] (got %.15g).",
-                                      where.c_str(), most, g));
+// The group number g at `where` ("camera_groups(3)") as the library's int: a whole number an
+// int holds. Which numbers are groups (-1 for none, a camera group in [0, m-1]) is the
+// library's rule, checked with the rest of the options.
+int group_number(double g, const std::string &where) {
+  if (g != std::floor(g) || g < INT_MIN || g > INT_MAX)
+    bad_arg("invalidArgument", format("%s must be a whole number within [%d, %d] (got %.15g).", where.c_str(),
+                                      INT_MIN, INT_MAX, g));
   return static_cast<int>(g);
 }
 
@@ -45,7 +47,7 @@ std::vector<int> param_groups(const OptionField &f, std::size_t m, std::size_t c
   std::vector<int> out(m * cnp);
   for (std::size_t j = 0; j < m; ++j)
     for (std::size_t c = 0; c < cnp; ++c)
-      out[j * cnp + c] = group_number(v[c * m + j], format("param_groups(%zu,%zu)", j + 1, c + 1), INT_MAX);
+      out[j * cnp + c] = group_number(v[c * m + j], format("param_groups(%zu,%zu)", j + 1, c + 1));
   return out;
 }
 
@@ -95,22 +97,21 @@ CameraOptions camera_options(const std::vector<OptionField> &fields, std::size_t
                                   cnp, m, cnp, fixed->rows, fixed->cols));
     }
   }
-  // With camera_groups too, both go to the library, which refuses the pair: one check.
+  // Whatever combination is given goes to the library, which refuses one without the other
+  // (camera_groups, shared_params) or both forms at once: one check.
   if (per_param) o.param_group = param_groups(*per_param, m, cnp);
-  if (groups && !shared)
-    bad_arg("invalidArgument", "camera_groups needs shared_params (the cnp flags of what a group shares).");
-  if (shared && !groups)
-    bad_arg("invalidArgument", "shared_params needs camera_groups (a group number per camera).");
-  if (!groups) return o;
-  const std::vector<double> &gv = matrix_values(*groups);
-  if (!is_vector_shape(*groups) || gv.size() != m)
-    bad_arg("wrongSize", format("camera_groups must have m = %zu values (got %zu).", m, gv.size()));
-  for (std::size_t j = 0; j < m; ++j)
-    o.group.push_back(group_number(gv[j], format("camera_groups(%zu)", j + 1), static_cast<double>(m) - 1));
-  const std::vector<double> &sv = matrix_values(*shared);
-  if (!is_vector_shape(*shared) || sv.size() != cnp)
-    bad_arg("wrongSize", format("shared_params must have cnp = %zu flags (got %zu).", cnp, sv.size()));
-  for (double x : sv) o.shared.push_back(x != 0.0);
+  if (groups) {
+    const std::vector<double> &gv = matrix_values(*groups);
+    if (!is_vector_shape(*groups) || gv.size() != m)
+      bad_arg("wrongSize", format("camera_groups must have m = %zu values (got %zu).", m, gv.size()));
+    for (std::size_t j = 0; j < m; ++j) o.group.push_back(group_number(gv[j], format("camera_groups(%zu)", j + 1)));
+  }
+  if (shared) {
+    const std::vector<double> &sv = matrix_values(*shared);
+    if (!is_vector_shape(*shared) || sv.size() != cnp)
+      bad_arg("wrongSize", format("shared_params must have cnp = %zu flags (got %zu).", cnp, sv.size()));
+    for (double x : sv) o.shared.push_back(x != 0.0);
+  }
   return o;
 }
 

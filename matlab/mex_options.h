@@ -38,9 +38,11 @@ struct OptionField {
 };
 
 // The held and shared camera parameters in sba_ext_options' layout: fixed has cnp flags
-// (every camera; fixed_per_camera false) or m*cnp (camera j's at j*cnp); group m numbers and
-// shared cnp flags, or both empty; param_group m*cnp numbers (camera j's parameter c at
-// j*cnp + c) or empty. Whether the groups keep the sharing rules is the library's to check.
+// (every camera; fixed_per_camera false) or m*cnp (camera j's at j*cnp); group m numbers or
+// empty; shared cnp flags or empty; param_group m*cnp numbers (camera j's parameter c at
+// j*cnp + c) or empty. Only the fields' types and sizes are checked here: which combinations
+// and group numbers are valid is the library's to check (Options::is_valid), and its message
+// is what the caller sees.
 struct CameraOptions {
   std::vector<char> fixed;
   bool fixed_per_camera = false;

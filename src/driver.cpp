@@ -92,9 +92,10 @@ Logger make_logger(const DriverArgs &a, const sba_ext_options &ext) {
 }
 
 // Everything a call checks and builds before its model exists, in this order: the problem,
-// the options, what the entry point itself asks (`extra`, once the options are known), the
-// index, the held and shared camera parameters, the data; then the thread count fitted to the
-// problem. Logs the first problem found and returns false.
+// the options' names, what the entry point itself asks (`extra`, once the options are known),
+// the index, the options' values (Options::is_valid, which needs the index for the held and
+// shared camera parameters), the data; then the thread count fitted to the problem. Logs the
+// first problem found and returns false.
 template <class Extra>
 bool validate_and_lay_out(const DriverArgs &a, const sba_ext_options &ext, const Environment &env,
                           const Logger &log, Extra extra, Options *opt, Layout *lay) {
@@ -102,7 +103,7 @@ bool validate_and_lay_out(const DriverArgs &a, const sba_ext_options &ext, const
   if (msg.empty()) options_from(a, ext, env, log, opt, &msg);
   if (msg.empty()) msg = extra();
   if (msg.empty()) make_layout(a, *lay, &msg);
-  if (msg.empty()) msg = check_camera_params(opt->cams, *lay, a.p);
+  if (msg.empty()) opt->is_valid(*lay, a.p, &msg);
   if (msg.empty()) {
     lay->cams = make_camera_map(opt->cams, *lay);
     msg = check_data(a, *lay);

@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 
@@ -60,8 +59,8 @@ void choose_avoid_shared_cores(const DriverArgs &a, const sba_ext_options &ext, 
   }
 }
 
-// ext's robust loss, if it names one; false, with what is wrong in *error, for an unknown
-// name or a scale out of range.
+// ext's robust loss, if it names one (its scale is checked with the rest, Options::is_valid);
+// false, with what is wrong in *error, for an unknown name.
 bool choose_loss(const sba_ext_options &ext, Options *o, std::string *error) {
   if (!ext.loss) return true;
   LossKind kind;
@@ -70,17 +69,6 @@ bool choose_loss(const sba_ext_options &ext, Options *o, std::string *error) {
     return false;
   }
   const double scale = ext.loss_scale == 0.0 ? 1.0 : ext.loss_scale;
-  // The losses divide and multiply by scale^2; outside this range it overflows or
-  // underflows, and the solve would fail for a reason that blames x or stop at once.
-  if (!(scale >= kMinLossScale && scale <= kMaxLossScale)) {
-    char buf[160];
-    std::snprintf(buf, sizeof buf,
-                  "loss_scale must be positive and within [%.3g, %.3g], where its square and "
-                  "inverse square are normal numbers (got %g)",
-                  kMinLossScale, kMaxLossScale, ext.loss_scale);
-    *error = buf;
-    return false;
-  }
   o->loss = Loss(kind, scale);
   return true;
 }
@@ -119,7 +107,6 @@ bool options_from(const DriverArgs &a, const sba_ext_options &ext, const Environ
     o->eps3 = std::fabs(a.opts[3]);
     o->eps4 = std::fabs(a.opts[4]);
   }
-  if (!o->is_valid(error)) return false;
 
   // The solver no one names: sba 1.6's for its own entry points (an _ext call given no ext
   // is one of them); for a caller of the extensions, one chosen from the problem.

@@ -27,11 +27,12 @@ Environment read_environment();
 // programs pass a shorter one), the rest at their defaults.
 sba_ext_options read_ext(const sba_ext_options *ext);
 
-// *o from a's itmax and opts (checked by Options::is_valid), then from ext, with env where ext
-// leaves a choice open. A setting of env that cannot be used is a notice (shown verbose or
-// not: for an unmodified 1.6 program nothing else would tell) and otherwise ignored, so that a
-// typo does not stop the program. False, with the first setting that cannot be used in
-// *error; the notices before it have been logged.
+// *o from a's itmax and opts, then from ext, with env where ext leaves a choice open; the
+// values are checked afterwards, once the problem is laid out (Options::is_valid). A setting
+// of env that cannot be used is a notice (shown verbose or not: for an unmodified 1.6 program
+// nothing else would tell) and otherwise ignored, so that a typo does not stop the program.
+// False, with the first name that is not known (a solver, a strategy, a loss) in *error; the
+// notices before it have been logged.
 bool options_from(const DriverArgs &a, const sba_ext_options &ext, const Environment &env,
                   const Logger &log, Options *o, std::string *error);
 

@@ -21,11 +21,12 @@ constexpr double kMinLossScale = 0x1p-511, kMaxLossScale = 0x1p511;
 class Loss {
  public:
   Loss() = default;
-  // scale in [kMinLossScale, kMaxLossScale].
+  // Usable for a scale in [kMinLossScale, kMaxLossScale] (Options::is_valid).
   Loss(LossKind kind, double scale) : kind_(kind), c_(scale), c2_(scale * scale) {}
 
   LossKind kind() const { return kind_; }
   bool robust() const { return kind_ != LossKind::None; }
+  double scale() const { return c_; }
   // A squared residual beyond this is where the loss stops being quadratic: an outlier.
   double scale2() const { return c2_; }
 

@@ -2,10 +2,27 @@
 #include "options.h"
 
 #include <cmath>
+#include <cstdio>
 
 namespace sba {
 
-bool Options::is_valid(std::string *error) const {
+namespace {
+
+// The losses divide and multiply by scale^2; outside this range it overflows or underflows,
+// and the solve would fail for a reason that blames x or stop at once.
+std::string check_loss(const Loss &loss) {
+  if (!loss.robust() || (loss.scale() >= kMinLossScale && loss.scale() <= kMaxLossScale)) return {};
+  char buf[160];
+  std::snprintf(buf, sizeof buf,
+                "loss_scale must be positive and within [%.3g, %.3g], where its square and "
+                "inverse square are normal numbers (got %g)",
+                kMinLossScale, kMaxLossScale, loss.scale());
+  return buf;
+}
+
+}  // namespace
+
+bool Options::is_valid(const Layout &lay, const double *p, std::string *error) const {
   if (itmax < 0) {
     *error = "itmax must be >= 0 (got " + std::to_string(itmax) + ")";
     return false;
@@ -21,7 +38,9 @@ bool Options::is_valid(std::string *error) const {
     *error = "opts[0] (tau: the initial damping is |tau| * max diag(J^T J)) must be nonzero";
     return false;
   }
-  return true;
+  *error = check_loss(loss);
+  if (error->empty()) *error = check_camera_params(cams, lay, p);
+  return error->empty();
 }
 
 }  // namespace sba

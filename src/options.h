@@ -34,10 +34,13 @@ struct Options {
   void *cancel_ctx = nullptr;
   CameraParamOptions cams;
 
-  // False, with the first thing wrong in *error, when a value cannot be used: a negative
-  // itmax, a tolerance or tau that is not finite, a zero tau. The tolerances and tau are
-  // named as the opts[] entries they come from (tau opts[0], eps1..eps4 opts[1..4]).
-  bool is_valid(std::string *error) const;
+  // The one check of everything the options carry, for the problem lay and the initial
+  // estimate p: false, with the first thing wrong in *error, when a value cannot be used. A
+  // negative itmax, a tolerance or tau that is not finite, a zero tau (named as the opts[]
+  // entries they come from: tau opts[0], eps1..eps4 opts[1..4]); a robust loss's scale out of
+  // range; held and shared camera parameters that do not fit the problem
+  // (check_camera_params). The bindings pass their values through and report this message.
+  bool is_valid(const Layout &lay, const double *p, std::string *error) const;
 };
 
 }  // namespace sba

@@ -1,22 +1,36 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The options' one validity check (src/options.h) and the thread-count policy
-// (src/thread_policy.h), linked from the library's objects. Through the C API, test_drivers
-// checks the same messages as a caller sees them.
+// (src/thread_policy.h), linked from the library's objects. Through the C API, test_drivers,
+// test_robust and test_camera_params check the same messages as a caller sees them.
 #include <gtest/gtest.h>
 
 #include <climits>
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "options.h"
 #include "thread_policy.h"
 
 namespace {
 
+// Three cameras of 2 parameters seeing two points, every parameter 1.0.
+struct Problem {
+  Problem() {
+    const std::vector<char> vmask(2 * 3, 1);
+    std::string msg;
+    EXPECT_TRUE(sba::build_layout(lay, sba::Mode::MotStr, 2, 3, 0, 0, 2, 3, 2, vmask.data(), &msg)) << msg;
+    p.assign(size_t(lay.nvars()), 1.0);
+  }
+  sba::Layout lay;
+  std::vector<double> p;
+};
+
 std::string why_invalid(const sba::Options &o) {
+  const Problem pb;
   std::string error;
-  return o.is_valid(&error) ? std::string("valid") : error;
+  return o.is_valid(pb.lay, pb.p.data(), &error) ? std::string("valid") : error;
 }
 
 TEST(Options, DefaultsAreValid) { EXPECT_EQ(why_invalid(sba::Options()), "valid"); }
@@ -48,6 +62,44 @@ TEST(Options, TheFirstProblemInTheCallersOrderIsReported) {
   EXPECT_EQ(why_invalid(o), "itmax must be >= 0 (got -5)");
   o.itmax = 0;
   EXPECT_EQ(why_invalid(o), "opts[1] is not finite");
+  o = sba::Options();
+  o.loss = sba::Loss(sba::LossKind::Huber, -1.0);
+  const int groups[] = {0, 0, 0};
+  o.cams.group = groups;
+  EXPECT_EQ(why_invalid(o).rfind("loss_scale must be positive", 0), 0u) << why_invalid(o);
+}
+
+// The loss's scale is checked only for a robust loss, as the solve uses it only then.
+TEST(Options, ALossScaleOutsideWhatItsSquareCanHoldIsRefused) {
+  sba::Options o;
+  for (double scale : {0.0, -2.0, 0x1p-512, 0x1p512, std::nan(""), HUGE_VAL}) {
+    o.loss = sba::Loss(sba::LossKind::Cauchy, scale);
+    EXPECT_EQ(why_invalid(o).rfind("loss_scale must be positive and within [", 0), 0u) << scale;
+    o.loss = sba::Loss(sba::LossKind::None, scale);
+    EXPECT_EQ(why_invalid(o), "valid") << scale;
+  }
+  for (double scale : {0x1p-511, 1.0, 0x1p511}) {
+    o.loss = sba::Loss(sba::LossKind::Tukey, scale);
+    EXPECT_EQ(why_invalid(o), "valid") << scale;
+  }
+}
+
+// The camera parameters' arrays are checked against the problem in the same call.
+TEST(Options, HeldAndSharedCameraParametersAreCheckedWithTheRest) {
+  sba::Options o;
+  const int groups[] = {0, 0, 3};
+  const char shared[] = {1, 0};
+  o.cams.group = groups;
+  EXPECT_EQ(why_invalid(o), "cam_group is given but cam_shared is NULL");
+  o.cams.shared = shared;
+  EXPECT_EQ(why_invalid(o), "cam_group[2] = 3 is neither -1 nor a group number in [0, m-1]");
+  const int fine[] = {0, 0, -1};
+  o.cams.group = fine;
+  EXPECT_EQ(why_invalid(o), "valid");
+  const char held[] = {1, 0, 0, 0, 0, 0};
+  o.cams.fixed = held;
+  o.cams.fixed_per_camera = true;
+  EXPECT_EQ(why_invalid(o), "parameter 0 is shared by cameras 0 and 1 (group 0) but held (cam_fixed) in only one of them");
 }
 
 TEST(ThreadPolicy, ThreadCountText) {

@@ -303,10 +303,12 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
         (cnp,) for every camera, or (m, cnp) camera by camera. None: only mcon's.
     camera_groups, shared_params
         Camera parameters shared by groups of cameras (one lens for several images): a group
-        number per camera (integers, -1: none) and the cnp flags of the parameters a group
-        shares. A group's shared parameters start from its first camera's and are solved as
-        one. Other values (strs, fractions, NaN, bools as group numbers) raise TypeError or
-        ValueError naming the entry.
+        number per camera (integers, -1: none; [0, m-1]: a group) and the cnp flags of the
+        parameters a group shares; give both. A group's shared parameters start from its
+        first camera's and are solved as one. Other values (strs, fractions, NaN, bools as
+        group numbers) raise TypeError or ValueError naming the entry; the library's refusals
+        (a number that is no group, one of the two without the other) are ValueErrors with
+        its message.
     param_groups
         Camera parameters shared parameter by parameter, for groupings that differ from one
         parameter to the next (a rig: the focal length by physical camera, the pose by

@@ -104,16 +104,16 @@ char flag_value(const Value &v, const std::string &where) {
 }
 
 int group_number(const Value &v, const std::string &where) {
-  const OptionError out_of_range{false, where + " must be -1 or a group number in [0, " +
+  const OptionError out_of_range{false, where + " must be an integer within [" + std::to_string(INT_MIN) + ", " +
                                             std::to_string(INT_MAX) + "], got " + python_text(v)};
   switch (v.kind) {
     case Value::kInt:
-      if (!v.fits || v.integer < -1 || v.integer > INT_MAX) throw out_of_range;
+      if (!v.fits || v.integer < INT_MIN || v.integer > INT_MAX) throw out_of_range;
       return static_cast<int>(v.integer);
     case Value::kFloat:
       if (!std::isfinite(v.real) || v.real != std::floor(v.real))
         throw OptionError{false, where + " must be an integer, got " + python_text(v)};
-      if (v.real < -1 || v.real > INT_MAX) throw out_of_range;
+      if (v.real < INT_MIN || v.real > INT_MAX) throw out_of_range;
       return static_cast<int>(v.real);
     case Value::kBool:  // a bool is not a group number
     case Value::kOther:

@@ -44,8 +44,8 @@ std::string python_text(const Value &v);
 // The flag at `where` (such as "fixed_params[2]"): 0 or 1. Throws OptionError.
 char flag_value(const Value &v, const std::string &where);
 
-// The group number at `where` (such as "camera_groups[3]"): -1 or in [0, INT_MAX]. Throws
-// OptionError.
+// The group number at `where` (such as "camera_groups[3]") as the library's int: an integer an
+// int holds (which numbers are groups is the library's rule). Throws OptionError.
 int group_number(const Value &v, const std::string &where);
 
 // "what[i, j]": the entry at flat index k (C order) of an array of the given shape.

@@ -189,8 +189,6 @@ void check_camera_params(const SolveOptions &o, int m, int cnp) {
   if (o.has_groups && o.groups.size() != size_t(m))
     throw py::value_error("camera_groups must hold one group per camera (" + std::to_string(m) + "), got " +
                           std::to_string(o.groups.size()));
-  if (o.has_groups != o.has_shared)
-    throw py::value_error("camera_groups and shared_params go together: give both or neither");
   if (o.has_param_groups) python_errors([&] { require_shape("param_groups", o.param_groups_shape, all); });
 }
 
@@ -284,10 +282,8 @@ const sba_ext_options *Session::ext(bool parallel) {
     ext_.cam_fixed = options_.fixed.data();
     ext_.cam_fixed_per_camera = options_.fixed_shape.size() == 2;
   }
-  if (options_.has_groups) {
-    ext_.cam_group = options_.groups.data();
-    ext_.cam_shared = options_.shared.data();
-  }
+  if (options_.has_groups) ext_.cam_group = options_.groups.data();
+  if (options_.has_shared) ext_.cam_shared = options_.shared.data();
   // In C order, row j is camera j's: the library's layout (camera j's parameter c at j*cnp + c).
   if (options_.has_param_groups) ext_.cam_param_group = options_.param_groups.data();
   sba_ext_result_init(&result_);

@@ -45,15 +45,17 @@ struct SolveOptions {
   // Camera parameters held (fixed_params: cnp flags, or m x cnp) and shared by groups
   // (camera_groups: m group numbers, -1 for none; shared_params: cnp flags) or parameter by
   // parameter (param_groups: m x cnp group numbers, in C order as the library takes them), as
-  // given: their sizes are checked against the cameras by check_camera_params, the sharing
-  // rules by the library.
+  // given: their sizes are checked against the cameras by check_camera_params; which
+  // combinations and group numbers are valid is the library's one check, whose message the
+  // caller sees.
   bool has_fixed = false, has_groups = false, has_shared = false, has_param_groups = false;
   std::vector<char> fixed, shared;
   std::vector<long long> fixed_shape, param_groups_shape;
   std::vector<int> groups, param_groups;
 };
 
-// ValueError unless the camera parameter options of o fit m cameras of cnp parameters.
+// ValueError unless the camera parameter options of o have the shapes of m cameras of cnp
+// parameters.
 void check_camera_params(const SolveOptions &o, int m, int cnp);
 
 // Reads the keyword arguments the extension functions share (see pysba/__init__.py): TypeError

@@ -83,11 +83,14 @@ function test_camera_params()
       'fixed_params must have cnp = 7 flags \(for every camera\) or be m x cnp = 6 x 7 \(got 1 x 5\)'
     struct('fixed_params', [0 0 0 NaN 0 0 0]), 'sba:invalidArgument', 'fixed_params\(4\) is not finite'
     struct('fixed_params', {{1}}), 'sba:invalidArgument', 'fixed_params must be a dense real or logical matrix'
-    struct('camera_groups', zeros(1, 6)), 'sba:invalidArgument', 'camera_groups needs shared_params'
-    struct('shared_params', ones(1, 7)), 'sba:invalidArgument', 'shared_params needs camera_groups'
-    setfield(one, 'camera_groups', [0 0 0 0 0 6]), 'sba:invalidArgument', ...
-      'camera_groups\(6\) must be -1 \(no group\) or a group number in \[0, 5\] \(got 6\)'
-    setfield(one, 'camera_groups', [0 0.5 0 0 0 0]), 'sba:invalidArgument', 'camera_groups\(2\) must be'
+    struct('camera_groups', zeros(1, 6)), 'sba:invalidProblem', 'cam_group is given but cam_shared is NULL$'
+    struct('shared_params', ones(1, 7)), 'sba:invalidProblem', 'cam_shared is given but cam_group is NULL$'
+    setfield(one, 'camera_groups', [0 0 0 0 0 6]), 'sba:invalidProblem', ...
+      'cam_group\[5\] = 6 is neither -1 nor a group number in \[0, m-1\]$'
+    setfield(one, 'camera_groups', [0 -2 0 0 0 0]), 'sba:invalidProblem', ...
+      'cam_group\[1\] = -2 is neither -1 nor a group number in \[0, m-1\]$'
+    setfield(one, 'camera_groups', [0 0.5 0 0 0 0]), 'sba:invalidArgument', ...
+      'camera_groups\(2\) must be a whole number within \[-2147483648, 2147483647\] \(got 0.5\)\.$'
     setfield(one, 'camera_groups', zeros(1, 5)), 'sba:wrongSize', 'camera_groups must have m = 6 values \(got 5\)'
     setfield(one, 'shared_params', [0 1]), 'sba:wrongSize', 'shared_params must have cnp = 7 flags \(got 2\)'
     setfield(one, 'camera_group', 1), 'sba:invalidArgument', ...
@@ -150,21 +153,24 @@ function param_groups_of_a_rig()
                  'a rig as one group: error %.9g', info1(2));
 end
 
-% Bad param_groups: an error naming the field, or the solver's refusal.
+% Bad param_groups: an error naming the field where it is not an int array of m x cnp, else
+% the library's refusal.
 function bad_param_groups(s)
   pg = -ones(s.m, 7);
   pg(:, 7) = 0;                               % one focal length
   pairs = pg;
   pairs(:, 1:3) = repmat(floor((0:s.m - 1)' / 2), 1, 3);
-  range = 'must be -1 \(no group\) or a group number in \[0, 2147483647\]';
+  range = 'must be a whole number within \[-2147483648, 2147483647\]';
   cases = {
     struct('param_groups', zeros(6, 6)), 'sba:wrongSize', ...
       'param_groups must be m x cnp = 6 x 7 \(got 6 x 6\)\.$'
     struct('param_groups', pg'), 'sba:wrongSize', 'param_groups must be m x cnp = 6 x 7 \(got 7 x 6\)\.$'
     struct('param_groups', with(pg, 2, 3, 0.5)), 'sba:invalidArgument', ...
       ['param_groups\(2,3\) ', range, ' \(got 0.5\)\.$']
-    struct('param_groups', with(pg, 6, 1, -2)), 'sba:invalidArgument', ...
-      ['param_groups\(6,1\) ', range, ' \(got -2\)\.$']
+    struct('param_groups', with(pg, 6, 1, -2)), 'sba:invalidProblem', ...
+      'cam_param_group\[35\] = -2 is neither -1 nor a group number >= 0$'
+    struct('param_groups', with(pg, 6, 1, -2^31 - 1)), 'sba:invalidArgument', ...
+      ['param_groups\(6,1\) ', range, ' \(got -2147483649\)\.$']
     struct('param_groups', with(pg, 1, 7, 2^31)), 'sba:invalidArgument', ...
       ['param_groups\(1,7\) ', range, ' \(got 2147483648\)\.$']
     struct('param_groups', with(pg, 3, 2, NaN)), 'sba:invalidArgument', 'param_groups\(9\) is not finite\.$'

@@ -79,28 +79,26 @@ def test_bad_shapes_are_value_errors():
     args = (project, cams, pts, ci, pi, obs)
     with pytest.raises(ValueError, match=r"fixed_params must have shape \(7,\) or \(4, 7\), got \(6,\)"):
         pysba.motstr(*args, fixed_params=[0] * 6)
-    with pytest.raises(ValueError, match="camera_groups and shared_params go together"):
-        pysba.motstr(*args, camera_groups=[0] * 4)
     with pytest.raises(ValueError, match=r"camera_groups must hold one group per camera \(4\), got 3"):
         pysba.motstr(*args, camera_groups=[0] * 3, shared_params=SHARED_F)
     with pytest.raises(TypeError, match="camera_groups must be a 1-D array of ints"):
         pysba.motstr(*args, camera_groups="abc", shared_params=SHARED_F)
 
 
-# Group numbers are integers: any integer dtype (values -1 or in [0, 2^31 - 1]), Python ints,
-# and floats only when they hold integers. Nothing is rounded, wrapped or read as a bool.
+# Group numbers are integers an int holds: any integer dtype, Python ints, and floats only when
+# they hold integers. Nothing is rounded, wrapped or read as a bool. Which numbers are groups
+# is the library's rule (test_the_library_refuses_group_numbers_that_are_no_group).
 @pytest.mark.parametrize("groups, error, message", [
     ([0, 0.5, 0, 0], ValueError, "camera_groups[1] must be an integer, got 0.5"),
     (np.array([0, 0, 1.2, 0]), ValueError, "camera_groups[2] must be an integer, got 1.2"),
     ([0, 0, float("nan"), 0], ValueError, "camera_groups[2] must be an integer, got nan"),
     (np.array([0, 0, 0, -np.inf]), ValueError, "camera_groups[3] must be an integer, got -inf"),
     (np.array([0, 0, 2**64 - 1, 0], np.uint64), ValueError,
-     "camera_groups[2] must be -1 or a group number in [0, 2147483647], got 18446744073709551615"),
-    ([0, 2**31, 0, 0], ValueError, "camera_groups[1] must be -1 or a group number in [0, 2147483647], got 2147483648"),
-    ([0, 0, 0, -2**70], ValueError,
-     "camera_groups[3] must be -1 or a group number in [0, 2147483647], got -1180591620717411303424"),
-    ([0, -5, 0, 0], ValueError, "camera_groups[1] must be -1 or a group number in [0, 2147483647], got -5"),
-    ([0, 0, -2.0, 0], ValueError, "camera_groups[2] must be -1 or a group number in [0, 2147483647], got -2.0"),
+     "camera_groups[2] must be an integer within [-2147483648, 2147483647], got 18446744073709551615"),
+    ([0, 2**31, 0, 0], ValueError, "camera_groups[1] must be an integer within [-2147483648, 2147483647], got 2147483648"),
+    ([0, 0, 0, -2**70], ValueError, "camera_groups[3] must be an integer within [-2147483648, 2147483647], got -1180591620717411303424"),
+    ([0, -2**31 - 1, 0, 0], ValueError, "camera_groups[1] must be an integer within [-2147483648, 2147483647], got -2147483649"),
+    ([0, 0, -2147483649.0, 0], ValueError, "camera_groups[2] must be an integer within [-2147483648, 2147483647], got -2147483649.0"),
     ([0, True, 0, 0], TypeError, "camera_groups[1] must be an integer, got True"),
     (np.zeros(4, bool), TypeError, "camera_groups[0] must be an integer, got False"),
     ([0, 0, "1", 0], TypeError, "camera_groups[2] must be an integer, got '1'"),
@@ -194,9 +192,9 @@ def _group_verdict(e):
         value = x
     else:
         return TypeError, f"must be an integer, got {_value_text(e)}"
-    if -1 <= value <= 2**31 - 1:
+    if -2**31 <= value <= 2**31 - 1:
         return None
-    return ValueError, f"must be -1 or a group number in [0, 2147483647], got {_value_text(e)}"
+    return ValueError, f"must be an integer within [-2147483648, 2147483647], got {_value_text(e)}"
 
 
 def _flag_verdict(e):
@@ -389,10 +387,9 @@ def test_a_stereo_rig_shares_the_rotation_by_frame_and_the_focal_length_by_all(s
     (np.ones((4, 7), bool), TypeError, "param_groups[0, 0] must be an integer, got True"),
     ([[0] * 7] * 3 + [[0] * 6 + [None]], TypeError, "param_groups[3, 6] must be an integer, got None"),
     ([[0] * 7] * 3 + [[0] * 6 + [0.5]], ValueError, "param_groups[3, 6] must be an integer, got 0.5"),
-    ([[0] * 7, [0, 0, -2, 0, 0, 0, 0]] + [[0] * 7] * 2, ValueError,
-     "param_groups[1, 2] must be -1 or a group number in [0, 2147483647], got -2"),
-    (np.full((4, 7), 2**31, np.int64), ValueError,
-     "param_groups[0, 0] must be -1 or a group number in [0, 2147483647], got 2147483648"),
+    ([[0] * 7, [0, 0, -2**31 - 1, 0, 0, 0, 0]] + [[0] * 7] * 2, ValueError,
+     "param_groups[1, 2] must be an integer within [-2147483648, 2147483647], got -2147483649"),
+    (np.full((4, 7), 2**31, np.int64), ValueError, "param_groups[0, 0] must be an integer within [-2147483648, 2147483647], got 2147483648"),
     (np.zeros((4, 6), int), ValueError, "param_groups must have shape (4, 7), got (4, 6)"),
     (np.zeros((7, 4), int), ValueError, "param_groups must have shape (4, 7), got (7, 4)"),
     ([[0] * 7] * 3, ValueError, "param_groups must have shape (4, 7), got (3, 7)"),
@@ -437,3 +434,27 @@ def test_the_library_refusals_of_param_groups_are_value_errors_with_its_message(
         pysba.motstr(*args, param_groups=groups, mcon=1)
     assert str(e.value) == ("sba_motstr_levmar_x_vis: cam_param_group[0] = 0: camera 0 is below mcon = 1 "
                             "(held whole) and shares nothing")
+    groups[1, 2] = -2
+    with pytest.raises(ValueError) as e:
+        pysba.motstr(*args, param_groups=groups)
+    assert str(e.value) == ("sba_motstr_levmar_x_vis: cam_param_group[9] = -2 is neither -1 nor a group "
+                            "number >= 0")
+
+
+# pysba passes the group numbers an int holds and the arrays it is given, whichever are given:
+# the library says which are groups and which go together, and its message is the error.
+@pytest.mark.parametrize("kw, message", [
+    (dict(camera_groups=[0] * 4), "cam_group is given but cam_shared is NULL"),
+    (dict(shared_params=SHARED_F), "cam_shared is given but cam_group is NULL"),
+    (dict(camera_groups=[0, -5, 0, 0], shared_params=SHARED_F),
+     "cam_group[1] = -5 is neither -1 nor a group number in [0, m-1]"),
+    (dict(camera_groups=[0, 0, -2.0, 0], shared_params=SHARED_F),
+     "cam_group[2] = -2 is neither -1 nor a group number in [0, m-1]"),
+    (dict(camera_groups=np.array([0, 0, 0, 4], np.uint8), shared_params=SHARED_F),
+     "cam_group[3] = 4 is neither -1 nor a group number in [0, m-1]"),
+])
+def test_the_library_refuses_group_numbers_that_are_no_group(kw, message):
+    cams, pts, ci, pi, obs = scene(m=4, n=20)
+    with pytest.raises(ValueError) as e:
+        pysba.motstr(project, cams, pts, ci, pi, obs, **kw)
+    assert str(e.value) == "sba_motstr_levmar_x_vis: " + message
