@@ -27,7 +27,7 @@ that many images on: auto's run is that solver's, bit for bit, so it runs once):
     times the growth of an N^2 cost to this size, exceeds --timeout.
 A run still going after --timeout seconds is killed and shown as timed out.
 
-  bench/auto_solver.py --sbagen build/data/sbagen --sbarefine build/demo/sbarefine \\
+  bench/auto_solver.py --sbagen build/demo/sbagen --sbarefine build/demo/sbarefine \\
       [--sizes 50,100,300,1000] [--trajectories photo,orbit,path] [--cameras shared,own] \\
       [--solvers chol,sparse-chol,iterative-schur,auto] [--timeout 900] [--mem-limit 12] \\
       [--repeat 3 --repeat-below 30] [--once-from 3000] \\

@@ -10,7 +10,7 @@
 
 #include "formats/bal_io.h"
 #include "formats/eucsba_io.h"
-#include "sbagen.h"
+#include "generator/sbagen.h"
 
 namespace eucsba = sbaformats::eucsba;
 namespace bal = sbaformats::bal;

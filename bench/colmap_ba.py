@@ -38,7 +38,7 @@ runs known to time out.
 Threads: COLMAP 3.8's bundle_adjuster has no option for them (Ceres gets every hardware
 thread); sbarefine is given --threads THREADS (default 2, this machine's core count).
 
-  bench/colmap_ba.py --sbagen build/data/sbagen --sbarefine build/demo/sbarefine \\
+  bench/colmap_ba.py --sbagen build/demo/sbagen --sbarefine build/demo/sbarefine \\
       [--colmap colmap] [--sizes 100,300,1000] [--repeat 3] [--threads 2] [--configs default,held] \\
       [--scene fixed|opencv] [--sharing own,pairs,groups:N] [--trajectory orbit|photo] \\
       [--points-per-image 100 | --points N] [--solvers LIST] [--timeout SEC] \\

@@ -42,7 +42,7 @@ mkdir -p "$data/work" "$data/before"
 # consecutive cameras, 2.4 million observations; 97 MB binary, 162 MB text.
 if [ ! -f "$data/txt/points3D.txt" ] || [ ! -f "$data/bin/points3D.bin" ]; then
   rm -rf "$data/txt" "$data/bin"
-  "$build/data/sbagen" --out "$data/scene" --cameras 2000 --points 400000 --trajectory path \
+  "$build/demo/sbagen" --out "$data/scene" --cameras 2000 --points 400000 --trajectory path \
     --track-min 2 --track-max 10 --kind varKD --colmap "$data/txt" >/dev/null
   mkdir -p "$data/bin"
   "$colmap" model_converter --input_path "$data/txt" --output_path "$data/bin" --output_type BIN >/dev/null 2>&1

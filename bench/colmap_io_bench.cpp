@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// COLMAP model reading and writing: read_model and write_model (demo/formats/colmap_io.h) in
+// COLMAP model reading and writing: read_model and write_model (lib/formats/colmap_io.h) in
 // this process, sbarefine --itmax 0 (the same conversion as a program), and COLMAP's own
 // `colmap model_converter`, on the same model, for the four conversions bin->bin, txt->txt,
 // bin->txt and txt->bin. Each is run --repeat times, interleaved so that a burst of load on

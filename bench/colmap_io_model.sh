@@ -7,7 +7,7 @@
 #
 #   bench/colmap_io_model.sh OUTDIR [SBAGEN] [KIND]
 #
-# SBAGEN: the sbagen program (default build/data/sbagen); KIND: sbagen's --kind, varKD (the
+# SBAGEN: the sbagen program (default build/demo/sbagen); KIND: sbagen's --kind, varKD (the
 # default: an OPENCV camera per image, which sbarefine reads today), varK (PINHOLE per image)
 # or fixed (one PINHOLE camera shared by every image). The scene depends only on the options
 # here (seed 36): the same command makes the same model.
@@ -16,7 +16,7 @@ set -eu
 
 [ $# -ge 1 ] || { echo "usage: $0 OUTDIR [SBAGEN] [KIND]" >&2; exit 2; }
 out=$1
-sbagen=${2:-build/data/sbagen}
+sbagen=${2:-build/demo/sbagen}
 kind=${3:-varKD}
 colmap=${COLMAP:-$(command -v colmap || echo /usr/bin/colmap)}
 [ -x "$sbagen" ] || { echo "$0: no sbagen program at $sbagen (build the target sbagen_cli)" >&2; exit 1; }

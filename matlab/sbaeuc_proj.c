@@ -25,7 +25,7 @@
 #include <stddef.h>
 
 /* The rotation, shared with eucsbademo's camera model. */
-#include "../demo/cameras/euclidean_rotation.h"
+#include "../lib/cameras/euclidean_rotation.h"
 
 #if defined(__GNUC__)
 #define SBAEUC_EXPORT __attribute__((visibility("default")))

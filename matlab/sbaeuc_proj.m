@@ -20,7 +20,7 @@ function x = sbaeuc_proj(j, i, aj, bi, qr0, cal)
 % boundary rotation (0, v/|v|), so that the prediction stays real and finite.
 %
 % The same model in C is sbaeuc_proj.c, whose rotation eucsbademo's camera model shares
-% (demo/cameras/euclidean_rotation.h in the source tree).
+% (lib/cameras/euclidean_rotation.h in the source tree).
 %
 % See also SBAEUC_PROJAC, SBAEUC_PROJAC_MOT, SBAEUC_PROJAC_STR, EUCSBADEMO, SBA.
 

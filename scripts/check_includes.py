@@ -3,7 +3,7 @@
 """Checks the include graph of the project's own sources: no cycle, no catch-all header, and
 the library's layers in their order.
 
-    check_includes.py [REPO]      check REPO's src/, demo/ and python/src/ (default: the
+    check_includes.py [REPO]      check REPO's src/, lib/, demo/ and python/src/ (default: the
                                   repository this script is in); exit 1 naming what is wrong
     check_includes.py --selftest  check that the checks find a cycle, a catch-all header, an
                                   upward include and a file in no layer in made-up trees, and
@@ -23,7 +23,7 @@ names its files in backquotes in its second column, as paths under src/ (the "sr
 written or left out) or as patterns ("kernels.*", "solver_*.cpp"); names of files outside
 src/ (sba.h) match nothing there. Every file of src/ must be named by exactly one row, and may
 include only files of its own row and the rows below it; it may include nothing of the
-clients (demo/, python/src/), which sit above the whole library.
+clients (lib/, demo/, python/src/), which sit above the whole library.
 
 Only quoted includes are followed ("x.h"), resolved against the including file's folder, then
 against each checked folder; what resolves to no file of a checked folder (sba.h, the
@@ -38,7 +38,7 @@ import re
 import sys
 import tempfile
 
-ROOTS = ("src", "demo", "python/src")
+ROOTS = ("src", "lib", "demo", "python/src")
 LIBRARY = "src"
 LAYER_DOC = "docs/architecture.md"
 HEADER_EXT = (".h", ".hpp")

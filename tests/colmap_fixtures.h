@@ -23,7 +23,7 @@
 #include "formats/colmap_io.h"
 #include "formats/colmap_sba.h"
 #include "formats/eucsba_io.h"
-#include "sbagen.h"
+#include "generator/sbagen.h"
 #include "scratch.h"
 
 namespace refinetest {

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-// The PLY files of the programs' --initial-ply and --final-ply (demo/formats/ply.h), read
+// The PLY files of the programs' --initial-ply and --final-ply (lib/formats/ply.h), read
 // back by the tests: the vertex count the header announces, and each vertex's position and color.
 #ifndef SBA_TESTS_PLY_FILE_H
 #define SBA_TESTS_PLY_FILE_H

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// BAL support (demo/formats/bal_io.h, demo/cameras/bal_camera.h): the reader on the shared
+// BAL support (lib/formats/bal_io.h, lib/cameras/bal_camera.h): the reader on the shared
 // BAL files and on malformed inputs, the analytic Jacobian against finite differences, the writer's round
 // trip, and a regression solve of the Ladybug problem-49-7776 with sba.
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Bundler's bundle files and image lists (demo/formats/bundler_io.h): the round trip, the
+// Bundler's bundle files and image lists (lib/formats/bundler_io.h): the round trip, the
 // reader on malformed input, and the rotations it converts. sbarefine on bundles:
 // test_sbarefine.cpp.
 #include <gtest/gtest.h>

@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "cameras/euclidean.h"
+#include "generator/sbagen.h"
 #include "sba_ext.h"
-#include "sbagen.h"
 #include "synth.h"
 
 namespace {

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// COLMAP's camera models (demo/cameras/colmap_camera.h): projections against numbers worked
+// COLMAP's camera models (lib/cameras/colmap_camera.h): projections against numbers worked
 // out by hand from the documented formulas and against COLMAP's own (pycolmap's), analytic
 // derivatives against central differences (r = 0 and FOV's omega = 0 included), and the sba
 // camera model's pose part and callbacks.

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// COLMAP sparse models (demo/formats/colmap_io.h, demo/formats/colmap_sba.h): the readers on
+// COLMAP sparse models (lib/formats/colmap_io.h, lib/formats/colmap_sba.h): the readers on
 // malformed input, the text and binary round trips, the writer's replacement of a model, rigs and
 // frames (COLMAP 4), and the image lists of --hold-poses. sbarefine on these models:
 // test_sbarefine.cpp.

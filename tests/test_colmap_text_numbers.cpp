@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The numbers of the text formats (demo/formats/text_tokens.h, demo/formats/colmap_text.cpp):
+// The numbers of the text formats (lib/formats/text_tokens.h, lib/formats/colmap_text.cpp):
 // a COLMAP text model with awkward values (denormals, the largest double, -0, values that need
 // all 17 digits) is written as the exact text it has always been and reads back to the same
 // bits; g17 is printf's %.17g and the token reader takes what strtod takes, to the same value.

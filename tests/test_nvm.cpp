@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// VisualSFM NVM files (demo/formats/nvm_io.h) and sbarefine on them: the reader on malformed input,
+// VisualSFM NVM files (lib/formats/nvm_io.h) and sbarefine on them: the reader on malformed input,
 // round trips that keep the rest of the file, the mapping (centres, undistorted
 // measurements), and refinement of a generated scene against the same scene through
 // eucsbademo's files.

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The files of a run (demo/formats/output_file.h): a write error said as it is, and a set of
+// The files of a run (lib/formats/output_file.h): a write error said as it is, and a set of
 // files that is put in place whole or not at all.
 #include <gtest/gtest.h>
 

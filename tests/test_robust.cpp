@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "cameras/euclidean.h"
+#include "generator/sbagen.h"
 #include "sba_ext.h"
-#include "sbagen.h"
 
 namespace euclidean = sbacameras::euclidean;
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Tests of the scene generator (data/generator/sbagen.h): determinism, counts, geometry of
+// Tests of the scene generator (lib/generator/sbagen.h): determinism, counts, geometry of
 // the truth, tracks, noise and covariance statistics, outliers, the files it writes, and that
 // sba refines a generated problem back to its ground truth; the sbagen program's COLMAP and
 // Bundler files.
@@ -25,8 +25,8 @@
 #include "formats/bundler_io.h"
 #include "formats/colmap_io.h"
 #include "formats/eucsba_io.h"
+#include "generator/sbagen.h"
 #include "sba.h"
-#include "sbagen.h"
 
 namespace eucsba = sbaformats::eucsba;
 namespace colmap = sbaformats::colmap;

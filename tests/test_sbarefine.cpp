@@ -29,9 +29,9 @@
 #include "formats/bundler_io.h"
 #include "formats/colmap_io.h"
 #include "formats/eucsba_io.h"
+#include "generator/sbagen.h"
 #include "sanitized.h"
 #include "sba_ext.h"
-#include "sbagen.h"
 #include "sbarefine_runs.h"
 
 namespace colmap = sbaformats::colmap;

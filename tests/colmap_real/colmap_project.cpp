@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// sbarefine's projection of COLMAP's camera models (demo/cameras/colmap_camera.h), for
+// sbarefine's projection of COLMAP's camera models (lib/cameras/colmap_camera.h), for
 // pycolmap_models.py to compare with COLMAP's own: each line of standard input
 //   MODEL_ID PARAMS... X Y Z
 // (the model's parameter count of PARAMS, then a point of the camera frame) gives a line

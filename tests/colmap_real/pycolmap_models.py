@@ -4,7 +4,7 @@
 
 For every model, random parameters around a sample that exercises each of its terms and random
 points of the camera frame (in front of the camera, and behind it) are projected by
-colmap_project (demo/cameras/colmap_camera.h through a small program) and by pycolmap's
+colmap_project (lib/cameras/colmap_camera.h through a small program) and by pycolmap's
 Camera.img_from_cam without its cheirality check (the formula wherever it has a value, as a
 bundle adjustment's residual sees it). They must agree to 1e-10 relative (of the pixel
 coordinate, or of 1 near 0), and be non-finite together (DIVISION outside its field of view).

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """eucsbademo's camera model with fixed intrinsics, written again in numpy as a user would
 write a model of their own: the test of the Python-callback drivers compares it with the
-library's built-in model (demo/cameras/euclidean.h).
+library's built-in model (lib/cameras/euclidean.h).
 
 Camera j keeps its input rotation q0_j; the optimizer sees (v, t), v the vector part of a
 unit correction qs = (sqrt(1 - |v|^2), v), so that X_c = R(qs) R(q0_j) X + t, and the pixel

@@ -19,8 +19,8 @@
 #include "formats/colmap_sba.h"
 #include "formats/output_file.h"
 #include "formats/ply.h"
+#include "generator/sbagen.h"
 #include "sba_ext.h"
-#include "sbagen.h"
 
 namespace colmap = sbaformats::colmap;
 namespace euclidean = sbacameras::euclidean;

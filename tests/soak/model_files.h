@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // The soak's model files (tests/soak/soak.cpp): a generated scene as a COLMAP model with
 // quaternions of any size and names that are not UTF-8, and a run's outputs written over it as
-// the programs write them (one set, demo/formats/output_file.h): the model, over the input or
+// the programs write them (one set, lib/formats/output_file.h): the model, over the input or
 // into a directory the run makes, with a PLY file and a report beside it. The disk may fill at
 // any byte (a file size limit stands for it), a report may go to a full disk (/dev/full) or
 // find its name taken by a directory when the files are renamed. The model is then read back

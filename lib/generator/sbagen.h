@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // sbagen: synthetic bundle adjustment problems with ground truth, for eucsbademo's camera
-// model (../../demo/cameras/euclidean.h) and file formats (docs/formats.md).
+// model (../cameras/euclidean.h) and file formats (docs/formats.md).
 //
 // A scene is a set of true cameras and points, the tracks saying which cameras see which
 // point, noisy measurements of the true projections (optionally with per-measurement 2x2

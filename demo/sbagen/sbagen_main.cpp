@@ -18,7 +18,7 @@
 #include "formats/colmap_io.h"
 #include "formats/colmap_sba.h"
 #include "formats/nvm_io.h"
-#include "sbagen.h"
+#include "generator/sbagen.h"
 
 namespace colmap = sbaformats::colmap;
 namespace bundler = sbaformats::bundler;
