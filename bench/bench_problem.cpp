@@ -114,10 +114,7 @@ void fill_eucsba(euclidean::CameraKind kind, const std::vector<euclidean::Camera
 bool load_eucsba(const std::string &cams, const std::string &pts, const std::string &calib, Problem *out,
                  std::string *error) {
   eucsba::Problem problem;
-  if (eucsba::Status s = eucsba::load_problem(cams, pts, calib, &problem); !s) {
-    *error = s.to_string();
-    return false;
-  }
+  if (!eucsba::load_problem(cams, pts, calib, &problem, error)) return false;
   if (problem.points.has_covariances()) {
     *error = pts + ": measurement covariances are not supported by the benchmark";
     return false;

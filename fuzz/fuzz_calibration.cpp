@@ -13,10 +13,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
   static const sbafuzz::InputFile file("calib.txt");
   if (!file.write(data, size)) return 0;
   euclidean::Intrinsics k;
-  const eucsba::Status st = eucsba::read_calibration(file.path(), &k);
-  if (!st.ok()) {
-    sbafuzz::check_error_line(st.to_string(), file.path() + ":");
-    sbafuzz::require(st.line() > 0, "a format error without a line number: " + st.to_string());
+  std::string error;
+  if (!eucsba::read_calibration(file.path(), &k, &error)) {
+    sbafuzz::check_format_error(error, file.path());
     return 0;
   }
   const double v[] = {k.fu, k.u0, k.v0, k.ar, k.s};

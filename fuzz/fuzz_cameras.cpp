@@ -14,10 +14,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
   static const sbafuzz::InputFile file("cams.txt");
   if (!file.write(data, size)) return 0;
   eucsba::CameraFile cams;
-  const eucsba::Status st = eucsba::read_cameras(file.path(), &cams);
-  if (!st.ok()) {
-    sbafuzz::check_error_line(st.to_string(), file.path() + ":");
-    sbafuzz::require(st.line() > 0, "a format error without a line number: " + st.to_string());
+  std::string error;
+  if (!eucsba::read_cameras(file.path(), &cams, &error)) {
+    sbafuzz::check_format_error(error, file.path());
     return 0;
   }
   sbafuzz::require(!cams.cameras.empty(), "accepted a file without cameras");

@@ -7,6 +7,7 @@
 
 #include <unistd.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -59,6 +60,15 @@ inline void check_error_line(const std::string &msg, const std::string &prefix) 
   require(msg.compare(0, prefix.size(), prefix) == 0,
           "error message does not start with '" + prefix + "': " + msg);
   require(msg.size() > prefix.size() + 1, "error message without a message: " + msg);
+}
+
+// A reader's error about what a file holds, which the file can always be opened here: one line,
+// "<path>:<line>: <message>" with the line where it is.
+inline void check_format_error(const std::string &msg, const std::string &path) {
+  check_error_line(msg, path + ":");
+  require(msg.size() > path.size() + 1 && std::isdigit(static_cast<unsigned char>(msg[path.size() + 1])) &&
+              msg[path.size() + 1] != '0',
+          "a format error without a line number: " + msg);
 }
 
 // A text format's reader and writer agree: what parse read from the input (parsed) formats

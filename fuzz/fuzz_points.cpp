@@ -15,10 +15,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
   static const sbafuzz::InputFile file("pts.txt");
   if (!file.write(data, size)) return 0;
   eucsba::PointSet pts;
-  const eucsba::Status st = eucsba::read_points(file.path(), kCameras, &pts);
-  if (!st.ok()) {
-    sbafuzz::check_error_line(st.to_string(), file.path() + ":");
-    sbafuzz::require(st.line() > 0, "a format error without a line number: " + st.to_string());
+  std::string error;
+  if (!eucsba::read_points(file.path(), kCameras, &pts, &error)) {
+    sbafuzz::check_format_error(error, file.path());
     return 0;
   }
   using sbafuzz::require;

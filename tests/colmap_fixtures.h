@@ -109,10 +109,9 @@ inline GeneratedScene generate_scene(const std::string &dir, sbacameras::euclide
   EXPECT_TRUE(sbagen::generate(o, &s, &error)) << error;
   GeneratedScene out;
   out.prefix = dir + "/s";
-  EXPECT_TRUE(sbagen::write_problem(s, out.prefix));
+  EXPECT_TRUE(sbagen::write_problem(s, out.prefix, &error)) << error;
   const auto files = sbagen::problem_files(out.prefix, s);
-  const sbaformats::eucsba::Status st = sbaformats::eucsba::load_problem(files.cams, files.pts, files.calib, &out.problem);
-  EXPECT_TRUE(st) << st.to_string();
+  EXPECT_TRUE(sbaformats::eucsba::load_problem(files.cams, files.pts, files.calib, &out.problem, &error)) << error;
   return out;
 }
 

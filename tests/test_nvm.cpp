@@ -234,8 +234,11 @@ Refinement make_refinement(const std::string &name) {
       refinetest::generate_scene(r.dir, euclidean::CameraKind::VaryingIntrinsics, 10, 200);
   r.cams = r.dir + "/kd-cams.txt";
   r.pts = s.prefix + "-pts.txt";
-  EXPECT_TRUE(eucsba::write_cameras(r.cams, euclidean::CameraKind::VaryingIntrinsicsDistortion, s.problem.cameras));
-  EXPECT_TRUE(eucsba::load_problem(r.cams, r.pts, "", &r.problem));
+  std::string error;
+  EXPECT_TRUE(
+      eucsba::write_cameras(r.cams, euclidean::CameraKind::VaryingIntrinsicsDistortion, s.problem.cameras, &error))
+      << error;
+  EXPECT_TRUE(eucsba::load_problem(r.cams, r.pts, "", &r.problem, &error)) << error;
   r.expected = eucsbademo_error("--nccalib 4 --ncdist 5 " + r.cams + " " + r.pts);
   return r;
 }

@@ -690,7 +690,8 @@ TEST(SbagenFiles, WrittenProblemsLoadBack) {
     o.outliers = kind == CameraKind::FixedIntrinsics ? 0.05 : 0;
     const Scene s = make(o);
     const std::string prefix = dir.file(sbagen::camera_kind_name(kind));
-    ASSERT_TRUE(sbagen::write_problem(s, prefix).ok());
+    std::string error;
+    ASSERT_TRUE(sbagen::write_problem(s, prefix, &error)) << error;
     const sbagen::ProblemFiles f = sbagen::problem_files(prefix, s);
     EXPECT_EQ(f.cams, prefix + "-cams.txt");
     EXPECT_EQ(f.truth_pts, prefix + "-truth-pts.txt");
@@ -700,11 +701,9 @@ TEST(SbagenFiles, WrittenProblemsLoadBack) {
     EXPECT_EQ(std::filesystem::exists(prefix + "-outliers.txt"), o.outliers > 0);
 
     eucsba::Problem initial, truth;
-    eucsba::Status st = eucsba::load_problem(f.cams, f.pts, f.calib, &initial);
-    ASSERT_TRUE(st.ok()) << st.to_string();
+    ASSERT_TRUE(eucsba::load_problem(f.cams, f.pts, f.calib, &initial, &error)) << error;
     expect_loaded(initial, s, s.initial_cameras, s.initial_points(), s.measurements.x);
-    st = eucsba::load_problem(f.truth_cams, f.truth_pts, f.calib, &truth);
-    ASSERT_TRUE(st.ok()) << st.to_string();
+    ASSERT_TRUE(eucsba::load_problem(f.truth_cams, f.truth_pts, f.calib, &truth, &error)) << error;
     expect_loaded(truth, s, s.true_cameras, s.true_points, s.true_x);
 
     if (!f.outliers.empty()) {
@@ -734,8 +733,9 @@ TEST(SbagenFiles, SparseWriterMatchesTheDemoWriter) {
     const Scene dense = make(o);
     o.dense_vmask_limit = 0;
     const Scene sparse = make(o);
-    ASSERT_TRUE(sbagen::write_problem(dense, dir.file("dense")).ok());
-    ASSERT_TRUE(sbagen::write_problem(sparse, dir.file("sparse")).ok());
+    std::string error;
+    ASSERT_TRUE(sbagen::write_problem(dense, dir.file("dense"), &error)) << error;
+    ASSERT_TRUE(sbagen::write_problem(sparse, dir.file("sparse"), &error)) << error;
     for (const char *suffix : {"-pts.txt", "-truth-pts.txt", "-cams.txt"}) {
       const std::string a = slurp(dir.file("dense") + suffix), b = slurp(dir.file("sparse") + suffix);
       EXPECT_FALSE(a.empty());
@@ -746,9 +746,9 @@ TEST(SbagenFiles, SparseWriterMatchesTheDemoWriter) {
 
 TEST(SbagenFiles, UnwritablePrefixIsAnError) {
   const Scene s = make(small_orbit());
-  const eucsba::Status st = sbagen::write_problem(s, "/nonexistent-dir/for/sure/x");
-  EXPECT_FALSE(st.ok());
-  EXPECT_NE(st.to_string().find("/nonexistent-dir/for/sure/x-cams.txt"), std::string::npos);
+  std::string error;
+  EXPECT_FALSE(sbagen::write_problem(s, "/nonexistent-dir/for/sure/x", &error));
+  EXPECT_EQ(error.rfind("/nonexistent-dir/for/sure/x-cams.txt: cannot open for writing: ", 0), 0u) << error;
 }
 
 // ---- refinement back to the truth ----

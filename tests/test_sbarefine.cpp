@@ -373,7 +373,8 @@ TEST(Sbarefine, HugeAndTinyQuaternionsAreRotations) {
     }
     std::vector<euclidean::Camera> cameras = s.problem.cameras;
     for (euclidean::Camera &c : cameras) c.q = {c.q.w * scale, c.q.x * scale, c.q.y * scale, c.q.z * scale};
-    ASSERT_TRUE(eucsba::write_cameras(dir + "/scaled-cams.txt", s.problem.kind, cameras));
+    std::string error;
+    ASSERT_TRUE(eucsba::write_cameras(dir + "/scaled-cams.txt", s.problem.kind, cameras, &error)) << error;
     EXPECT_NEAR(eucsbademo_error(dir + "/scaled-cams.txt " + s.prefix + "-pts.txt"), demo_unit, 1e-6 * demo_unit)
         << scale;
   }
@@ -830,14 +831,16 @@ TEST(Sbarefine, BundlerSameErrorAsEucsbademo) {
   // Bundler refines f, k1, k2 and holds the principal point: eucsbademo's varKD with the
   // distortion starting at zero, --nccalib 4 --ncdist 3, refines the same model.
   const std::string cams = dir + "/kd-cams.txt";
-  ASSERT_TRUE(eucsba::write_cameras(cams, euclidean::CameraKind::VaryingIntrinsicsDistortion, s.problem.cameras));
+  std::string error;
+  ASSERT_TRUE(eucsba::write_cameras(cams, euclidean::CameraKind::VaryingIntrinsicsDistortion, s.problem.cameras,
+                                    &error))
+      << error;
   eucsba::Problem kd;
-  ASSERT_TRUE(eucsba::load_problem(cams, s.prefix + "-pts.txt", "", &kd));
+  ASSERT_TRUE(eucsba::load_problem(cams, s.prefix + "-pts.txt", "", &kd, &error)) << error;
   const double expected = eucsbademo_error("--nccalib 4 --ncdist 3 " + cams + " " + s.prefix + "-pts.txt");
   ASSERT_GT(expected, 0.1);
   ASSERT_LT(expected, 1.0);
   bundler::Bundle b;
-  std::string error;
   ASSERT_TRUE(bundler::from_problem(kd.cameras, kd.points, &b, &error)) << error;
   b.cameras.insert(b.cameras.begin(), bundler::Camera{});  // unregistered, and shifts the indices
   for (bundler::Point &p : b.points)

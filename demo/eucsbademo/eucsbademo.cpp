@@ -175,8 +175,8 @@ const char *kind_banner(CameraKind kind) {
 
 // Writes the files --write-* asked for into the run's outputs, from the refined (or, for what a
 // refinement left alone, the initial) cameras and points.
-Status write_results(const DemoOptions &o, const CameraModel &model, const PointSet &points,
-                     CameraKind kind, const Outcome &out, sbaformats::OutputSet *outputs) {
+bool write_results(const DemoOptions &o, const CameraModel &model, const PointSet &points, CameraKind kind,
+                   const Outcome &out, sbaformats::OutputSet *outputs, std::string *error) {
   const int m = model.ncameras(), cnp = model.cnp();
   const bool has_cams = out.refinement != Refinement::Structure;
   const bool has_pts = out.refinement != Refinement::Motion;
@@ -185,15 +185,15 @@ Status write_results(const DemoOptions &o, const CameraModel &model, const Point
     cams.reserve(m);
     for (int j = 0; j < m; ++j)
       cams.push_back(model.camera(j, has_cams ? out.p.data() + j * cnp : model.initial_camera(j)));
-    if (Status s = write_cameras(o.write_cams, kind, cams, outputs); !s) return s;
+    if (!write_cameras(o.write_cams, kind, cams, error, outputs)) return false;
   }
   std::vector<double> xyz = model.initial_points();
   if (has_pts) std::copy(out.p.end() - xyz.size(), out.p.end(), xyz.begin());
   if (!o.write_pts.empty())
-    if (Status s = write_points_xyz(o.write_pts, xyz, outputs); !s) return s;
+    if (!write_points_xyz(o.write_pts, xyz, error, outputs)) return false;
   if (!o.write_pts_tracks.empty())
-    if (Status s = write_points(o.write_pts_tracks, points, xyz, outputs); !s) return s;
-  return {};
+    if (!write_points(o.write_pts_tracks, points, xyz, error, outputs)) return false;
+  return true;
 }
 
 // The covariance's messages as the library prints them by default, but for its error once a
@@ -207,13 +207,16 @@ void covariance_log(void *, int level, const char *line) {
 // line per camera (cnp values) then one per point (3), after a motion-and-structure run.
 // Computed into *text before any file is written, so that a covariance the library refuses
 // (a point seen by one camera only) leaves no result files behind. A stop signal (Ctrl-C),
-// before or during it, abandons it: *abandoned is then true, *text empty, and the status a
-// success, since the solve's result stands without it.
-Status stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &points, const Outcome &out,
-                   std::string *text, bool *abandoned) {
+// before or during it, abandons it: *abandoned is then true, *text empty, and the result true,
+// since the solve's result stands without it. False, with the file and why in *error, when the
+// covariance cannot be had.
+bool stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &points, const Outcome &out,
+                 std::string *text, bool *abandoned, std::string *error) {
   const std::string &path = o.write_stddev;
-  if (out.refinement != Refinement::MotionStructure)
-    return Status::error(path, 0, "standard deviations need a motion-and-structure refinement");
+  if (out.refinement != Refinement::MotionStructure) {
+    *error = path + ": standard deviations need a motion-and-structure refinement";
+    return false;
+  }
   const int n = points.npoints(), m = points.ncameras, cnp = model.cnp();
   std::vector<int> cams(static_cast<size_t>(m)), pts(static_cast<size_t>(n));
   for (int j = 0; j < m; ++j) cams[size_t(j)] = j;
@@ -244,8 +247,9 @@ Status stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &poi
                               points.x.data(), points.has_covariances() ? points.covx.data() : nullptr,
                               kMeasurementParams, cb.func, cb.fjac, as_adata(model), &req, &ext) != 0) {
     *abandoned = sbacli::g_stop_signal != 0;
-    if (*abandoned) return {};
-    return Status::error(path, 0, "the covariance of the solution could not be computed: no file written");
+    if (*abandoned) return true;
+    *error = path + ": the covariance of the solution could not be computed: no file written";
+    return false;
   }
   char buf[160];
   auto add = [&](const char *fmt, auto... args) {
@@ -264,7 +268,7 @@ Status stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &poi
   for (int i = 0; i < n; ++i)
     add("%.6e %.6e %.6e\n", std::sqrt(std::max(0.0, ptcov[size_t(i) * 9])),
         std::sqrt(std::max(0.0, ptcov[size_t(i) * 9 + 4])), std::sqrt(std::max(0.0, ptcov[size_t(i) * 9 + 8])));
-  return {};
+  return true;
 }
 
 // The points and camera centres for --initial-ply and --final-ply: cams and pts are the
@@ -374,16 +378,12 @@ bool write_outputs(const DemoOptions &o, const CameraModel &model, PointSet &poi
   std::string stddev, error;
   *stddev_abandoned = false;
   if (!o.write_stddev.empty())
-    if (Status s = stddev_text(o, model, points, out, &stddev, stddev_abandoned); !s) {
-      std::fprintf(stderr, "%s\n", s.to_string().c_str());
+    if (!stddev_text(o, model, points, out, &stddev, stddev_abandoned, &error)) {
+      std::fprintf(stderr, "%s\n", error.c_str());
       return false;
     }
-  Status written;
-  if (!outputs->publish_last([&] {
-        written = write_results(o, model, points, kind, out, outputs);
-        return written.ok();
-      })) {
-    std::fprintf(stderr, "%s\n", written.to_string().c_str());
+  if (!outputs->publish_last([&] { return write_results(o, model, points, kind, out, outputs, &error); })) {
+    std::fprintf(stderr, "%s\n", error.c_str());
     return false;
   }
   if (!o.write_stddev.empty() && !*stddev_abandoned &&
@@ -480,8 +480,8 @@ int demo_main(int argc, char **argv) {
       status >= 0)
     return status;
   Problem problem;
-  if (Status s = load_problem(o.files[0], o.files[1], o.files.size() > 2 ? o.files[2] : "", &problem); !s) {
-    std::fprintf(stderr, "%s\n", s.to_string().c_str());
+  if (!load_problem(o.files[0], o.files[1], o.files.size() > 2 ? o.files[2] : "", &problem, &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
   PointSet &points = problem.points;

@@ -289,8 +289,8 @@ int main(int argc, char **argv) {
       std::fprintf(stderr, "sbagen: %s\n", why.c_str());
       return 1;
     }
-    if (eucsba::Status st = sbagen::write_problem(scene, cli.prefix); !st) {
-      std::fprintf(stderr, "sbagen: %s\n", st.to_string().c_str());
+    if (!sbagen::write_problem(scene, cli.prefix, &why)) {
+      std::fprintf(stderr, "sbagen: %s\n", why.c_str());
       return 1;
     }
     for (const auto &out : {std::make_pair(&cli.colmap_text, colmap::Encoding::Text),

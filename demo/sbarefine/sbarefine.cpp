@@ -405,10 +405,8 @@ bool write_eucsba(const std::string &prefix, const std::vector<euclidean::Camera
                   std::string *why) {
   const std::vector<double> points(xyz, xyz + 3 * static_cast<std::size_t>(pointset.npoints()));
   const euclidean::CameraKind kind = euclidean::CameraKind::VaryingIntrinsicsDistortion;
-  eucsba::Status st = eucsba::write_cameras(prefix + "-cams.txt", kind, cams, outputs);
-  if (st) st = eucsba::write_points(prefix + "-pts.txt", pointset, points, outputs);
-  if (!st) *why = st.to_string();
-  return static_cast<bool>(st);
+  return eucsba::write_cameras(prefix + "-cams.txt", kind, cams, why, outputs) &&
+         eucsba::write_points(prefix + "-pts.txt", pointset, points, why, outputs);
 }
 
 bool write_eucsba(const std::string &prefix, const Loaded &l, const double *p, sbaformats::OutputSet *outputs,

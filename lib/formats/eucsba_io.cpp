@@ -18,6 +18,29 @@
 
 namespace sbaformats::eucsba {
 
+int camera_file_values(euclidean::CameraKind kind) { return euclidean::camera_params(kind) + 1; }
+
+namespace {
+
+// Success, or the first error found in a file: where (file, line) and what, until the public
+// functions below say it as their *error.
+class Status {
+ public:
+  Status() = default;  // success
+  static Status error(std::string file, int line, std::string message);
+
+  bool ok() const { return !failed_; }
+  explicit operator bool() const { return ok(); }
+  // "<file>:<line>: <message>", or "<file>: <message>" when line is 0 (open, write).
+  std::string to_string() const;
+
+ private:
+  bool failed_ = false;
+  std::string file_;
+  int line_ = 0;
+  std::string message_;
+};
+
 Status Status::error(std::string file, int line, std::string message) {
   Status s;
   s.failed_ = true;
@@ -33,9 +56,11 @@ std::string Status::to_string() const {
   return file_ + ": " + message_;
 }
 
-int camera_file_values(euclidean::CameraKind kind) { return euclidean::camera_params(kind) + 1; }
-
-namespace {
+// The public functions' form of a Status: false, with its text in *error, for a failure.
+bool reported(const Status &s, std::string *error) {
+  if (!s) *error = s.to_string();
+  return s.ok();
+}
 
 // The longest line a reader takes. Lines are read whole before being split, so a file
 // without line breaks (/dev/zero, a binary file) would otherwise be read into memory entire.
@@ -273,9 +298,7 @@ Status close_written(const std::string &path, SetFile *file) {
   return {};
 }
 
-}  // namespace
-
-Status read_cameras(const std::string &path, CameraFile *out) {
+Status read_cameras_status(const std::string &path, CameraFile *out) {
   DataLines in(path);
   if (Status s = in.open(); !s) return s;
   CameraFile result;
@@ -322,7 +345,7 @@ Status read_cameras(const std::string &path, CameraFile *out) {
   return {};
 }
 
-Status read_calibration(const std::string &path, euclidean::Intrinsics *out) {
+Status read_calibration_status(const std::string &path, euclidean::Intrinsics *out) {
   DataLines in(path);
   if (Status s = in.open(); !s) return s;
   double K[3][3];
@@ -357,8 +380,6 @@ Status read_calibration(const std::string &path, euclidean::Intrinsics *out) {
   out->ar = ar;
   return {};
 }
-
-namespace {
 
 struct Projection {
   int frame;
@@ -441,9 +462,7 @@ Status parse_track(const DataLines &in, long long nframes, CovarianceForm form, 
   return {};
 }
 
-}  // namespace
-
-Status read_points(const std::string &path, int ncameras, PointSet *out) {
+Status read_points_status(const std::string &path, int ncameras, PointSet *out) {
   DataLines in(path, points_line_limit(ncameras));
   if (Status s = in.open(); !s) return s;
 
@@ -493,10 +512,10 @@ Status read_points(const std::string &path, int ncameras, PointSet *out) {
   return {};
 }
 
-Status load_problem(const std::string &cams_path, const std::string &pts_path,
+Status load_problem_status(const std::string &cams_path, const std::string &pts_path,
                     const std::string &calib_path, Problem *out) {
   CameraFile cams;
-  if (Status s = read_cameras(cams_path, &cams); !s) return s;
+  if (Status s = read_cameras_status(cams_path, &cams); !s) return s;
   const bool fixed = cams.kind == euclidean::CameraKind::FixedIntrinsics;
   if (fixed && calib_path.empty())
     return Status::error(cams_path, cams.first_line,
@@ -512,16 +531,16 @@ Status load_problem(const std::string &cams_path, const std::string &pts_path,
   result.cameras = std::move(cams.cameras);
   if (fixed) {
     euclidean::Intrinsics K;
-    if (Status s = read_calibration(calib_path, &K); !s) return s;
+    if (Status s = read_calibration_status(calib_path, &K); !s) return s;
     for (euclidean::Camera &c : result.cameras) c.k = K;
   }
-  if (Status s = read_points(pts_path, static_cast<int>(result.cameras.size()), &result.points); !s)
+  if (Status s = read_points_status(pts_path, static_cast<int>(result.cameras.size()), &result.points); !s)
     return s;
   *out = std::move(result);
   return {};
 }
 
-Status write_cameras(const std::string &path, euclidean::CameraKind kind,
+Status write_cameras_status(const std::string &path, euclidean::CameraKind kind,
                      const std::vector<euclidean::Camera> &cameras, OutputSet *outputs) {
   SetFile f(outputs);
   if (Status s = open_for_writing(path, &f); !s) return s;
@@ -546,7 +565,7 @@ Status write_cameras(const std::string &path, euclidean::CameraKind kind,
   return close_written(path, &f);
 }
 
-Status write_points_xyz(const std::string &path, const std::vector<double> &xyz, OutputSet *outputs) {
+Status write_points_xyz_status(const std::string &path, const std::vector<double> &xyz, OutputSet *outputs) {
   SetFile f(outputs);
   if (Status s = open_for_writing(path, &f); !s) return s;
   for (std::size_t i = 0; i + 2 < xyz.size(); i += 3)
@@ -554,7 +573,7 @@ Status write_points_xyz(const std::string &path, const std::vector<double> &xyz,
   return close_written(path, &f);
 }
 
-Status write_points(const std::string &path, const PointSet &tracks, const std::vector<double> &xyz,
+Status write_points_status(const std::string &path, const PointSet &tracks, const std::vector<double> &xyz,
                     OutputSet *outputs) {
   if (xyz.size() != tracks.xyz.size())
     return Status::error(path, 0, "internal error: " + std::to_string(xyz.size() / 3) +
@@ -593,7 +612,7 @@ Status write_points(const std::string &path, const PointSet &tracks, const std::
   return close_written(path, &f);
 }
 
-Status read_points_xyz(const std::string &path, std::vector<double> *xyz) {
+Status read_points_xyz_status(const std::string &path, std::vector<double> *xyz) {
   DataLines in(path);
   if (Status s = in.open(); !s) return s;
   std::vector<double> result;
@@ -607,6 +626,44 @@ Status read_points_xyz(const std::string &path, std::vector<double> *xyz) {
   if (result.empty()) return in.error_at(in.last_line(), "no points (empty or comment-only file)");
   *xyz = std::move(result);
   return {};
+}
+
+}  // namespace
+
+bool read_cameras(const std::string &path, CameraFile *out, std::string *error) {
+  return reported(read_cameras_status(path, out), error);
+}
+
+bool read_calibration(const std::string &path, euclidean::Intrinsics *out, std::string *error) {
+  return reported(read_calibration_status(path, out), error);
+}
+
+bool read_points(const std::string &path, int ncameras, PointSet *out, std::string *error) {
+  return reported(read_points_status(path, ncameras, out), error);
+}
+
+bool load_problem(const std::string &cams_path, const std::string &pts_path, const std::string &calib_path,
+                  Problem *out, std::string *error) {
+  return reported(load_problem_status(cams_path, pts_path, calib_path, out), error);
+}
+
+bool write_cameras(const std::string &path, euclidean::CameraKind kind,
+                   const std::vector<euclidean::Camera> &cameras, std::string *error, OutputSet *outputs) {
+  return reported(write_cameras_status(path, kind, cameras, outputs), error);
+}
+
+bool write_points_xyz(const std::string &path, const std::vector<double> &xyz, std::string *error,
+                      OutputSet *outputs) {
+  return reported(write_points_xyz_status(path, xyz, outputs), error);
+}
+
+bool write_points(const std::string &path, const PointSet &tracks, const std::vector<double> &xyz,
+                  std::string *error, OutputSet *outputs) {
+  return reported(write_points_status(path, tracks, xyz, outputs), error);
+}
+
+bool read_points_xyz(const std::string &path, std::vector<double> *xyz, std::string *error) {
+  return reported(read_points_xyz_status(path, xyz), error);
 }
 
 }  // namespace sbaformats::eucsba

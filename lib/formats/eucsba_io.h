@@ -28,27 +28,9 @@ namespace euclidean = sbacameras::euclidean;
 
 namespace sbaformats::eucsba {
 
-// Success, or the first error found in a file. Readers and writers never throw for bad
-// input; they may throw std::bad_alloc.
-class Status {
- public:
-  Status() = default;  // success
-  static Status error(std::string file, int line, std::string message);
-
-  bool ok() const { return !failed_; }
-  explicit operator bool() const { return ok(); }
-  const std::string &file() const { return file_; }
-  int line() const { return line_; }  // 0 when no line is concerned (open, write)
-  const std::string &message() const { return message_; }
-  // "<file>:<line>: <message>", or "<file>: <message>" when line is 0.
-  std::string to_string() const;
-
- private:
-  bool failed_ = false;
-  std::string file_;
-  int line_ = 0;
-  std::string message_;
-};
+// The readers and writers return false at the first error, with "<file>:<line>: <message>" in
+// *error ("<file>: <message>" where no line is concerned: open, write), as the other formats
+// do. They never throw for bad input; they may throw std::bad_alloc.
 
 // Values on a camera line of each kind: 7, 12 or 17.
 int camera_file_values(euclidean::CameraKind kind);
@@ -62,11 +44,11 @@ struct CameraFile {
 // Lines of 7 (q t), 12 (fu u0 v0 ar s q t) or 17 (fu u0 v0 ar s kc0..kc4 q t) values, the same
 // count on every line. Quaternions are kept as written (normalized by the model); a zero one
 // is an error.
-Status read_cameras(const std::string &path, CameraFile *out);
+bool read_cameras(const std::string &path, CameraFile *out, std::string *error);
 
 // Three rows of three: K = [fu s u0; 0 fv v0; 0 0 1], giving ar = fv / fu. The lower triangle
 // must be (0, 0, 0) and K[2][2] = 1, fu and fv nonzero.
-Status read_calibration(const std::string &path, euclidean::Intrinsics *out);
+bool read_calibration(const std::string &path, euclidean::Intrinsics *out, std::string *error);
 
 // How projections carry covariances in a points file.
 enum class CovarianceForm {
@@ -120,7 +102,7 @@ void for_each_projection(const PointSet &points, F f) {
 // its covariance, one form for the whole file). Frames may come in any order within a line
 // (they are sorted) but each at most once, and must lie in [0, ncameras). Covariances must
 // be positive definite.
-Status read_points(const std::string &path, int ncameras, PointSet *out);
+bool read_points(const std::string &path, int ncameras, PointSet *out, std::string *error);
 
 // A whole eucsbademo problem: the camera kind comes from the camera file; a calibration file
 // goes with 7-value camera lines and only with them.
@@ -130,8 +112,8 @@ struct Problem {
   PointSet points;
 };
 // calib_path empty: no calibration file.
-Status load_problem(const std::string &cams_path, const std::string &pts_path,
-                    const std::string &calib_path, Problem *out);
+bool load_problem(const std::string &cams_path, const std::string &pts_path, const std::string &calib_path,
+                  Problem *out, std::string *error);
 
 // ---- writers (%.10e numbers) ----
 // Each file appears whole or not at all; with `outputs`, when that set of a run's outputs is
@@ -139,17 +121,17 @@ Status load_problem(const std::string &cams_path, const std::string &pts_path,
 
 // Cameras in the input format of their kind, quaternions as given (callers pass them unit
 // with w >= 0, as CameraModel::camera returns them).
-Status write_cameras(const std::string &path, euclidean::CameraKind kind,
-                     const std::vector<euclidean::Camera> &cameras, OutputSet *outputs = nullptr);
+bool write_cameras(const std::string &path, euclidean::CameraKind kind,
+                   const std::vector<euclidean::Camera> &cameras, std::string *error, OutputSet *outputs = nullptr);
 // One `X Y Z` line per point.
-Status write_points_xyz(const std::string &path, const std::vector<double> &xyz,
-                        OutputSet *outputs = nullptr);
+bool write_points_xyz(const std::string &path, const std::vector<double> &xyz, std::string *error,
+                      OutputSet *outputs = nullptr);
 // A points file (readable by read_points) with the coordinates xyz and the projections and
 // covariances of tracks (by vmask or by pairs), in tracks' covariance form.
-Status write_points(const std::string &path, const PointSet &tracks, const std::vector<double> &xyz,
-                    OutputSet *outputs = nullptr);
+bool write_points(const std::string &path, const PointSet &tracks, const std::vector<double> &xyz,
+                  std::string *error, OutputSet *outputs = nullptr);
 // Reads `X Y Z` lines back.
-Status read_points_xyz(const std::string &path, std::vector<double> *xyz);
+bool read_points_xyz(const std::string &path, std::vector<double> *xyz, std::string *error);
 
 }  // namespace sbaformats::eucsba
 

@@ -24,7 +24,6 @@ constexpr double kPi = 3.14159265358979323846;
 using euclidean::Camera;
 using euclidean::CameraKind;
 using euclidean::Quaternion;
-using eucsba::Status;
 
 // ---- Random ----
 
@@ -701,17 +700,23 @@ struct FileCloser {
 };
 using File = std::unique_ptr<std::FILE, FileCloser>;
 
-Status open_for_writing(const std::string &path, File *f) {
-  f->reset(std::fopen(path.c_str(), "w"));
-  if (!*f) return Status::error(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
-  return {};
+// "<path>: <message>", the formats' form of an error that concerns no line.
+bool fail(std::string *error, const std::string &path, const std::string &message) {
+  *error = path + ": " + message;
+  return false;
 }
 
-Status close_written(const std::string &path, File *f) {
+bool open_for_writing(const std::string &path, File *f, std::string *error) {
+  f->reset(std::fopen(path.c_str(), "w"));
+  if (!*f) return fail(error, path, std::string("cannot open for writing: ") + std::strerror(errno));
+  return true;
+}
+
+bool close_written(const std::string &path, File *f, std::string *error) {
   const bool bad = std::ferror(f->get()) != 0;
   const bool close_failed = std::fclose(f->release()) != 0;
-  if (bad || close_failed) return Status::error(path, 0, "write failed");
-  return {};
+  if (bad || close_failed) return fail(error, path, "write failed");
+  return true;
 }
 
 }  // namespace
@@ -727,26 +732,26 @@ ProblemFiles problem_files(const std::string &prefix, const Scene &scene) {
   return f;
 }
 
-Status write_calibration(const std::string &path, const euclidean::Intrinsics &k) {
+bool write_calibration(const std::string &path, const euclidean::Intrinsics &k, std::string *error) {
   File f;
-  if (Status s = open_for_writing(path, &f); !s) return s;
+  if (!open_for_writing(path, &f, error)) return false;
   std::fputs("# K = [fu s u0; 0 fv v0; 0 0 1]\n", f.get());
   std::fprintf(f.get(), "%.10e %.10e %.10e\n", k.fu, k.s, k.u0);
   std::fprintf(f.get(), "0 %.10e %.10e\n", k.fu * k.ar, k.v0);
   std::fputs("0 0 1\n", f.get());
-  return close_written(path, &f);
+  return close_written(path, &f, error);
 }
 
-Status write_points_sparse(const std::string &path, const Scene &scene, const std::vector<double> &xyz,
-                           const std::vector<double> &x) {
+bool write_points_sparse(const std::string &path, const Scene &scene, const std::vector<double> &xyz,
+                         const std::vector<double> &x, std::string *error) {
   const std::size_t N = scene.nprojections();
   if (xyz.size() != scene.true_points.size() || x.size() != 2 * N)
-    return Status::error(path, 0, "internal error: coordinates or projections do not match the scene");
+    return fail(error, path, "internal error: coordinates or projections do not match the scene");
   const eucsba::CovarianceForm form =
       scene.measurements.has_covariances() ? scene.measurements.form : eucsba::CovarianceForm::None;
   const std::vector<double> &covx = scene.measurements.covx;
   File f;
-  if (Status s = open_for_writing(path, &f); !s) return s;
+  if (!open_for_writing(path, &f, error)) return false;
   std::fputs("# X Y Z  nframes  frame0 x0 y0", f.get());
   if (form == eucsba::CovarianceForm::UpperTriangular) std::fputs(" cxx0 cxy0 cyy0", f.get());
   if (form == eucsba::CovarianceForm::Full) std::fputs(" cxx0 cxy0 cxy0 cyy0", f.get());
@@ -764,19 +769,19 @@ Status write_points_sparse(const std::string &path, const Scene &scene, const st
     }
     std::fputc('\n', f.get());
   }
-  return close_written(path, &f);
+  return close_written(path, &f, error);
 }
 
-Status write_problem(const Scene &scene, const std::string &prefix) {
+bool write_problem(const Scene &scene, const std::string &prefix, std::string *error) {
   const ProblemFiles files = problem_files(prefix, scene);
-  if (Status s = eucsba::write_cameras(files.cams, scene.kind, scene.initial_cameras); !s) return s;
-  if (Status s = eucsba::write_cameras(files.truth_cams, scene.kind, scene.true_cameras); !s) return s;
+  if (!eucsba::write_cameras(files.cams, scene.kind, scene.initial_cameras, error)) return false;
+  if (!eucsba::write_cameras(files.truth_cams, scene.kind, scene.true_cameras, error)) return false;
   if (!files.calib.empty())
-    if (Status s = write_calibration(files.calib, scene.true_cameras.at(0).k); !s) return s;
+    if (!write_calibration(files.calib, scene.true_cameras.at(0).k, error)) return false;
 
   const eucsba::PointSet &ps = scene.measurements;
   if (scene.has_dense_vmask()) {
-    if (Status s = eucsba::write_points(files.pts, ps, ps.xyz); !s) return s;
+    if (!eucsba::write_points(files.pts, ps, ps.xyz, error)) return false;
     eucsba::PointSet truth;  // the same tracks with the exact projections
     truth.ncameras = ps.ncameras;
     truth.form = ps.form;
@@ -784,22 +789,22 @@ Status write_problem(const Scene &scene, const std::string &prefix) {
     truth.vmask = ps.vmask;
     truth.x = scene.true_x;
     truth.covx = ps.covx;
-    if (Status s = eucsba::write_points(files.truth_pts, truth, truth.xyz); !s) return s;
+    if (!eucsba::write_points(files.truth_pts, truth, truth.xyz, error)) return false;
   } else {
-    if (Status s = write_points_sparse(files.pts, scene, ps.xyz, ps.x); !s) return s;
-    if (Status s = write_points_sparse(files.truth_pts, scene, scene.true_points, scene.true_x); !s) return s;
+    if (!write_points_sparse(files.pts, scene, ps.xyz, ps.x, error)) return false;
+    if (!write_points_sparse(files.truth_pts, scene, scene.true_points, scene.true_x, error)) return false;
   }
 
   if (!files.outliers.empty()) {
     File f;
-    if (Status s = open_for_writing(files.outliers, &f); !s) return s;
+    if (!open_for_writing(files.outliers, &f, error)) return false;
     std::fputs("# point camera: the measurements of the points file that are gross outliers\n", f.get());
     for (int i = 0; i < scene.npoints(); ++i)
       for (std::size_t k = scene.track_begin[i]; k < scene.track_begin[i + 1]; ++k)
         if (scene.outlier[k]) std::fprintf(f.get(), "%d %d\n", i, scene.track_cameras[k]);
-    if (Status s = close_written(files.outliers, &f); !s) return s;
+    if (!close_written(files.outliers, &f, error)) return false;
   }
-  return {};
+  return true;
 }
 
 }  // namespace sbagen

@@ -183,15 +183,16 @@ ProblemFiles problem_files(const std::string &prefix, const Scene &scene);
 //   PREFIX-outliers.txt    `point camera` of every gross outlier (only when there are some)
 // The points files go through sbaformats::eucsba::write_points when the scene has its dense vmask and
 // through write_points_sparse otherwise (the same text).
-sbaformats::eucsba::Status write_problem(const Scene &scene, const std::string &prefix);
+// False, with the file and why in *error, when a file cannot be written.
+bool write_problem(const Scene &scene, const std::string &prefix, std::string *error);
 
 // A points file in sbaformats::eucsba::write_points' format from the sparse tracks: coordinates xyz
 // (3 per point), the projections x (2 per projection) and the scene's covariances.
-sbaformats::eucsba::Status write_points_sparse(const std::string &path, const Scene &scene,
-                                   const std::vector<double> &xyz, const std::vector<double> &x);
+bool write_points_sparse(const std::string &path, const Scene &scene, const std::vector<double> &xyz,
+                         const std::vector<double> &x, std::string *error);
 
 // The calibration file of eucsbademo: K = [fu s u0; 0 fu*ar v0; 0 0 1], three rows.
-sbaformats::eucsba::Status write_calibration(const std::string &path, const sbacameras::euclidean::Intrinsics &k);
+bool write_calibration(const std::string &path, const sbacameras::euclidean::Intrinsics &k, std::string *error);
 
 const char *trajectory_name(Trajectory t);      // "orbit", "path", "photo"
 // The trajectory of a name trajectory_name gives; false for any other name.

@@ -91,10 +91,14 @@ void indices_of_vmask(const std::vector<char> &vmask, int n, int m, std::vector<
 
 py::dict read_eucsbademo(const std::string &cams, const std::string &pts, const std::string &calib) {
   eucsba::Problem problem;
-  const eucsba::Status status = without_gil([&] { return eucsba::load_problem(cams, pts, calib, &problem); });
-  if (!status) {
-    // Line 0: the file could not be opened or read at all; otherwise its content is wrong.
-    raise_file_error(status.line() == 0 ? PyExc_OSError : PyExc_ValueError, status.to_string());
+  std::string error;
+  if (!without_gil([&] { return eucsba::load_problem(cams, pts, calib, &problem, &error); })) {
+    // "<file>: why", with no line: the file could not be opened at all (OSError); otherwise,
+    // "<file>:<line>: why", its content is wrong.
+    bool unreachable = false;
+    for (const std::string *file : {&cams, &pts, &calib})
+      unreachable = unreachable || (!file->empty() && error.rfind(*file + ": ", 0) == 0);
+    raise_file_error(unreachable ? PyExc_OSError : PyExc_ValueError, error);
   }
   eucsba::PointSet &ps = problem.points;
   const int m = ps.ncameras, n = ps.npoints(), nobs = ps.nprojections();
