@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-// COLMAP sparse models in pysba: the demo's reader and writer (formats/colmap_io.h), and the
+// COLMAP sparse models in pysba: lib/'s reader and writer (formats/colmap_io.h), and the
 // refinement sbarefine runs on a model (formats/colmap_sba.h). The model crosses into Python
 // as plain values (tuples, lists and numpy arrays) that pysba/__init__.py turns into its
 // ColmapModel, and comes back as that ColmapModel's attributes, read and checked here.
