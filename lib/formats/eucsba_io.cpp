@@ -22,43 +22,29 @@ int camera_file_values(euclidean::CameraKind kind) { return euclidean::camera_pa
 
 namespace {
 
-// Success, or the first error found in a file: where (file, line) and what, until the public
-// functions below say it as their *error.
+// Success, or the first error found in a file, already as the text the public functions
+// below give in *error.
 class Status {
  public:
   Status() = default;  // success
-  static Status error(std::string file, int line, std::string message);
-
-  bool ok() const { return !failed_; }
-  explicit operator bool() const { return ok(); }
   // "<file>:<line>: <message>", or "<file>: <message>" when line is 0 (open, write).
-  std::string to_string() const;
+  static Status error(const std::string &file, int line, const std::string &message) {
+    Status s;
+    s.text_ = line > 0 ? file + ":" + std::to_string(line) + ": " + message : file + ": " + message;
+    return s;
+  }
+
+  bool ok() const { return text_.empty(); }
+  explicit operator bool() const { return ok(); }
+  const std::string &text() const { return text_; }
 
  private:
-  bool failed_ = false;
-  std::string file_;
-  int line_ = 0;
-  std::string message_;
+  std::string text_;  // never empty for an error: it starts with the file and ": "
 };
-
-Status Status::error(std::string file, int line, std::string message) {
-  Status s;
-  s.failed_ = true;
-  s.file_ = std::move(file);
-  s.line_ = line;
-  s.message_ = std::move(message);
-  return s;
-}
-
-std::string Status::to_string() const {
-  if (!failed_) return "ok";
-  if (line_ > 0) return file_ + ":" + std::to_string(line_) + ": " + message_;
-  return file_ + ": " + message_;
-}
 
 // The public functions' form of a Status: false, with its text in *error, for a failure.
 bool reported(const Status &s, std::string *error) {
-  if (!s) *error = s.to_string();
+  if (!s) *error = s.text();
   return s.ok();
 }
 
@@ -152,7 +138,7 @@ class DataLines {
 
   Status error(std::string message) const { return error_at(line_, std::move(message)); }
   Status error_at(int line, std::string message) const {
-    return Status::error(path_, line, std::move(message));
+    return Status::error(path_, line, message);
   }
 
  private:
