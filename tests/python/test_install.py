@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """`pip install .` from a copy of the source tree into a fresh venv, by both routes of
-docs/python.md, then pysba imported from there, in a clean environment, solves a problem.
-Slow (each builds the library): ctest runs them as a test of its own.
+docs/python.md, and from an sdist of it; then pysba imported from there, in a clean
+environment, solves a problem. Slow (each builds the library): ctest runs them as a test of
+its own.
 
 - --no-build-isolation: with what is installed (Debian's setuptools, wheel, pybind11-dev).
 - with build isolation: pip installs pyproject.toml's build requirements into a build
@@ -36,12 +37,12 @@ print(f"{result.final_mse:g} {result.iterations} {result.reason.name}")
 WHEELS = Path("/usr/share/python-wheels")
 
 
-def install_and_solve(tmp_path, pip_args, extra_env=None, base=sys.executable, index=False):
+def install_and_solve(tmp_path, pip_args, extra_env=None, base=sys.executable, index=False, sdist=False):
     """pip install (pip_args) a clean copy of the tree into a new venv of the Python base
     (with its system site packages unless the package index is used: then every package comes
-    from there), delete the copy, and solve 7cams with the installed package. Returns pip's
-    output (its standard output and error: where the build's lines go depends on pip's
-    version)."""
+    from there), or with sdist the source distribution setuptools makes of that copy; delete
+    the copy, and solve 7cams with the installed package. Returns pip's output (its standard
+    output and error: where the build's lines go depends on pip's version)."""
     data = [need(DEMO / "7cams.txt"), DEMO / "7pts.txt", DEMO / "calib.txt"]
     src = tmp_path / "src"
     # What a clean clone holds: no build trees, no caches.
@@ -55,10 +56,20 @@ def install_and_solve(tmp_path, pip_args, extra_env=None, base=sys.executable, i
     if not index:
         env["PIP_NO_INDEX"] = "1"
     env.update(extra_env or {})
-    pip = subprocess.run([str(python), "-m", "pip", "install", "-v", *pip_args, str(src)], env=env, cwd=tmp_path,
-                         capture_output=True, text=True)
+    target = src
+    if sdist:
+        # PEP 517's hook, as `python -m build --sdist` calls it, with the setuptools installed.
+        made = subprocess.run([str(python), "-c", "import sys; from setuptools import build_meta; "
+                               "print(build_meta.build_sdist(sys.argv[1]))", str(tmp_path / "dist")],
+                              env=env, cwd=src, capture_output=True, text=True)
+        assert made.returncode == 0, made.stdout[-4000:] + made.stderr[-4000:]
+        target = tmp_path / "dist" / made.stdout.split()[-1]
+    pip = subprocess.run([str(python), "-m", "pip", "install", "-v", *pip_args, str(target)], env=env,
+                         cwd=tmp_path, capture_output=True, text=True)
     assert pip.returncode == 0, pip.stdout[-4000:] + pip.stderr[-4000:]
-    shutil.rmtree(src)  # the installed package must not need the source tree
+    # The installed package must not need the source tree.
+    shutil.rmtree(src)
+    shutil.rmtree(tmp_path / "dist", ignore_errors=True)
     out = subprocess.run([str(python), "-c", SCRIPT, *map(str, data)], check=True, env=env, cwd=tmp_path,
                          capture_output=True, text=True).stdout.split("\n")
     assert Path(out[0]).is_relative_to(venv)
@@ -68,6 +79,12 @@ def install_and_solve(tmp_path, pip_args, extra_env=None, base=sys.executable, i
 
 def test_pip_install_without_build_isolation(tmp_path):
     install_and_solve(tmp_path, ["--no-build-isolation"])
+
+
+def test_pip_install_from_an_sdist(tmp_path):
+    # An sdist holds only what MANIFEST.in adds to setuptools' defaults: the build must find
+    # the library's sources, headers and CMake files in it.
+    install_and_solve(tmp_path, ["--no-build-isolation"], sdist=True)
 
 
 def wheel_of_installed(name, wheelhouse):
