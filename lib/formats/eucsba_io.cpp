@@ -136,8 +136,8 @@ class DataLines {
   // say line 1.
   int last_line() const { return std::max(line_, 1); }
 
-  Status error(std::string message) const { return error_at(line_, std::move(message)); }
-  Status error_at(int line, std::string message) const {
+  Status error(const std::string &message) const { return error_at(line_, message); }
+  Status error_at(int line, const std::string &message) const {
     return Status::error(path_, line, message);
   }
 

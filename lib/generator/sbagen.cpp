@@ -208,7 +208,8 @@ Quaternion small_rotation(double wx, double wy, double wz) {
 
 // Which projections count as visible: in front of the camera, within a radius where the lens
 // distortion is still monotonic (so no point from outside the field of view folds back into
-// the image), and inside the image with a margin. Projection itself is eucsbademo's camera model (cameras/euclidean.h).
+// the image), and inside the image with a margin. Projection itself is eucsbademo's camera
+// model (cameras/euclidean.h).
 class Visibility {
  public:
   Visibility(CameraKind kind, const std::vector<Camera> &cameras, int width, int height, double margin,
