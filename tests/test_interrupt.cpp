@@ -10,6 +10,7 @@
 // two runs round alike).
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -40,15 +41,17 @@ struct ChildRun {
 };
 
 // Starts exe with args, stdout and stderr to files; calls act(pid, err_path) while it runs,
-// then waits for it.
+// then waits for it. ignoring: a signal the program is started with ignored (0: none).
 template <class Act>
-ChildRun run_child(const std::string &exe, const std::vector<std::string> &args, const std::string &base, Act act) {
+ChildRun run_child(const std::string &exe, const std::vector<std::string> &args, const std::string &base, Act act,
+                   int ignoring = 0) {
   const std::string out = base + ".out", err = base + ".err";
   std::remove(out.c_str());
   std::remove(err.c_str());
   const pid_t pid = fork();
   if (pid == 0) {
     if (!std::freopen(out.c_str(), "w", stdout) || !std::freopen(err.c_str(), "w", stderr)) _exit(127);
+    if (ignoring != 0) signal(ignoring, SIG_IGN);  // kept across exec
     std::vector<char *> argv{const_cast<char *>(exe.c_str())};
     for (const std::string &a : args) argv.push_back(const_cast<char *>(a.c_str()));
     argv.push_back(nullptr);
@@ -205,9 +208,59 @@ TEST_F(EucsbademoStop, SecondSignalEndsTheProgramAtOnce) {
                           });
   EXPECT_EQ(r.exit_status, 130);
   EXPECT_EQ(r.out, "");  // no summary: it did not wait for the iteration to end
-  EXPECT_EQ(r.err, "Starting BA with fixed intrinsic parameters\n");
+  EXPECT_EQ(r.err, "Starting BA with fixed intrinsic parameters\neucsbademo: stopped at once by a second signal\n");
   EXPECT_FALSE(exists(cams));
   EXPECT_FALSE(exists(ply));
+}
+
+// A signal that comes once the solve has ended stops nothing: the program abandons the files it
+// has not published yet and ends with the signal's status. The signal is sent while eucsbademo
+// waits to write the points into a FIFO that nobody reads yet, after its solve.
+TEST_F(EucsbademoStop, SignalAfterTheSolveAbandonsTheFiles) {
+  const std::string fifo = dir_ + "late.fifo", cams = dir_ + "late-cams.txt", ply = dir_ + "late.ply";
+  std::remove(fifo.c_str());
+  std::remove(cams.c_str());
+  std::remove(ply.c_str());
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  const std::string data = std::string(SBA_PROJECT_DIR) + "/data/orbit-fixedK-";
+  const ChildRun r = run_child(EUCSBADEMO_EXE,
+                               {"--no-progress", "--write-cams=" + cams, "--final-ply=" + ply, "--write-pts=" + fifo,
+                                data + "cams.txt", data + "pts.txt", data + "calib.txt"},
+                               dir_ + "late", [&](pid_t pid, const std::string &err) {
+                                 ASSERT_TRUE(wait_for(err, "Starting BA"));
+                                 std::this_thread::sleep_for(std::chrono::milliseconds(500));
+                                 kill(pid, SIGINT);
+                                 ASSERT_TRUE(wait_delivered(pid, SIGINT));
+                                 EXPECT_FALSE(slurp(fifo).empty());  // opens it: the program goes on
+                               });
+  EXPECT_EQ(r.exit_status, 130) << r.err;
+  int reason = 0;
+  EXPECT_GE(iterations(r.out, &reason), 1) << r.out;
+  EXPECT_NE(reason, 9);
+  EXPECT_EQ(r.err, "Starting BA with fixed intrinsic parameters\neucsbademo: interrupted by SIGINT after the solve: "
+                   "no file written\n");
+  EXPECT_FALSE(exists(cams));
+  EXPECT_FALSE(exists(ply));
+  std::remove(fifo.c_str());
+}
+
+// A program started with SIGINT ignored (a background job of a script) leaves it ignored: the
+// solve runs to its end, and SIGTERM still stops it.
+TEST_F(EucsbademoStop, IgnoredSignalStaysIgnored) {
+  const auto send = [](int sig) {
+    return [sig](pid_t pid, const std::string &err) {
+      ASSERT_TRUE(wait_for(err, "Starting BA"));
+      std::this_thread::sleep_for(std::chrono::milliseconds(800));
+      kill(pid, sig);
+    };
+  };
+  const ChildRun ignored = run_child(EUCSBADEMO_EXE, args({"--itmax=2"}), dir_ + "ignored", send(SIGINT), SIGINT);
+  EXPECT_EQ(ignored.exit_status, 0) << ignored.err;
+  int reason = 0;
+  EXPECT_EQ(iterations(ignored.out, &reason), 2) << ignored.out;
+  EXPECT_EQ(reason, 3);
+  const ChildRun term = run_child(EUCSBADEMO_EXE, args({}), dir_ + "term", send(SIGTERM), SIGINT);
+  EXPECT_GE(stopped_after(term, SIGTERM), 1);
 }
 
 TEST_F(EucsbademoStop, MaxTimeStopsWithStatusZero) {

@@ -86,7 +86,7 @@ class MotstrSolve {
     // The time limit and the iteration times count from the solve's start, not from what the
     // program did before it (an initial PLY file, say).
     control_.emplace(so_.max_time, &progress_);
-    RunControl::catch_signals();
+    RunControl::catch_signals(program_);
     control_->attach(&ext);
     const auto start = std::chrono::steady_clock::now();
     const sba_visibility vis{static_cast<long long>(in.vis->size()), in.vis->point.data(), in.vis->camera.data()};
@@ -158,6 +158,7 @@ class MotstrSolve {
         return kExitFailure;
       }
     }
+    if (const int status = control_->late_signal(program_, info_[6] == SBA_STOP_USER, outputs)) return status;
     if (!sbaformats::publish_outputs(program_, outputs)) return kExitFailure;
     if (!written.empty()) std::printf("Wrote %s\n", written.c_str());
     // A stopped solve is a result (written above), but the status says it was cut short by a

@@ -4,7 +4,10 @@
 // (info[6] = SBA_STOP_USER, p at the last accepted estimate). Two things ask for it:
 // - SIGINT or SIGTERM: the first one asks the solve to stop, so that the program can still
 //   print its summary and write its results; a second one ends the process at once, for a
-//   user who will not wait for the iteration to end.
+//   user who will not wait for the iteration to end. A first one that comes after the solve
+//   has ended stops nothing: the program abandons its files and ends as the signal asked
+//   (late_signal). A signal the program was started with ignored stays ignored (a background
+//   job of a script), and at exit the signals are the system's again.
 // - a time limit (--max-time), checked after each iteration.
 // It also keeps the error and time of every iteration, for --json. A covariance computed after
 // the solve (eucsbademo --write-stddev) has no iterations: a stop signal abandons it through the
@@ -17,19 +20,28 @@
 
 #include <chrono>
 #include <csignal>
+#include <cstdio>
+#include <cstring>
 #include <vector>
 
 #include "cli/tty_progress.h"
+#include "formats/output_file.h"
 #include "sba_ext.h"
 
 namespace sbacli {
 
 // The first stop signal received (0: none). A signal handler can only talk to the program
-// through such a flag, so it is the one piece of global state the programs keep.
+// through such a flag, so it is the one piece of global state the programs keep, with the
+// line the second signal prints (set before the handler is installed, read-only after).
 inline volatile std::sig_atomic_t g_stop_signal = 0;
+inline char g_second_signal_line[96] = "";
 
 extern "C" inline void on_stop_signal(int sig) {
-  if (g_stop_signal != 0) _exit(128 + sig);  // the second signal: at once (async-signal-safe)
+  if (g_stop_signal != 0) {  // the second signal: at once, with only async-signal-safe calls
+    const ssize_t said = write(STDERR_FILENO, g_second_signal_line, std::strlen(g_second_signal_line));
+    (void)said;
+    _exit(128 + sig);
+  }
   g_stop_signal = sig;
 }
 
@@ -49,14 +61,31 @@ class RunControl {
   RunControl(const RunControl &) = delete;
   RunControl &operator=(const RunControl &) = delete;
 
-  // SIGINT and SIGTERM stop the solve instead of the process (see above).
-  static void catch_signals() {
-    struct sigaction sa {};
-    sa.sa_handler = on_stop_signal;
-    sigemptyset(&sa.sa_mask);
-    sa.sa_flags = SA_RESTART;
-    sigaction(SIGINT, &sa, nullptr);
-    sigaction(SIGTERM, &sa, nullptr);
+  // SIGINT and SIGTERM stop the solve instead of the process (see above), unless ignored.
+  static void catch_signals(const char *program) {
+    std::snprintf(g_second_signal_line, sizeof g_second_signal_line, "%s: stopped at once by a second signal\n",
+                  program);
+    for (const int sig : {SIGINT, SIGTERM}) {
+      struct sigaction old {};
+      if (sigaction(sig, nullptr, &old) != 0 || old.sa_handler == SIG_IGN) continue;
+      struct sigaction sa {};
+      sa.sa_handler = on_stop_signal;
+      sigemptyset(&sa.sa_mask);
+      sa.sa_flags = SA_RESTART;
+      sigaction(sig, &sa, nullptr);
+    }
+  }
+  // The system's handling of SIGINT and SIGTERM again (where catch_signals took it): what is
+  // left of the program (its exit) ends at a signal.
+  static void release_signals() {
+    for (const int sig : {SIGINT, SIGTERM}) {
+      struct sigaction old {};
+      if (sigaction(sig, nullptr, &old) != 0 || old.sa_handler != on_stop_signal) continue;
+      struct sigaction sa {};
+      sa.sa_handler = SIG_DFL;
+      sigemptyset(&sa.sa_mask);
+      sigaction(sig, &sa, nullptr);
+    }
   }
 
   // Installs the progress callback for the next solve.
@@ -79,6 +108,15 @@ class RunControl {
   const char *stop_signal_name() const { return g_stop_signal == SIGINT ? "SIGINT" : "SIGTERM"; }
   bool timed_out() const { return timed_out_; }
   bool stop_requested() const { return g_stop_signal != 0 || timed_out_; }
+  // A stop signal that stopped nothing (solve_stopped false: it came once the computation had
+  // ended) ends the run without its files: they are discarded, the signal is said on stderr,
+  // and 128 + the signal is returned; 0 when there was no such signal.
+  int late_signal(const char *program, bool solve_stopped, sbaformats::OutputSet *outputs) const {
+    if (g_stop_signal == 0 || solve_stopped) return 0;
+    outputs->discard();
+    std::fprintf(stderr, "%s: interrupted by %s after the solve: no file written\n", program, stop_signal_name());
+    return 128 + g_stop_signal;
+  }
   double seconds() const {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   }

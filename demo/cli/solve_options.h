@@ -262,11 +262,9 @@ void add_per_camera(int m, const sbaformats::Visibility &vis, const double *x, P
 // exception escaped (out of memory above all), with one line saying so.
 template <class Main>
 int guarded_main(const char *program, Main run, int argc, char **argv) {
+  int status = kExitFailure;
   try {
-    const int status = run(argc, argv);
-    // A report that did not reach stdout is a failed run, not a success.
-    if (status == 0 && !sbaformats::stdout_written(program)) return kExitFailure;
-    return status;
+    status = run(argc, argv);
   } catch (const std::bad_alloc &) {
     std::fprintf(stderr, "%s: out of memory\n", program);
   } catch (const std::exception &e) {
@@ -274,7 +272,10 @@ int guarded_main(const char *program, Main run, int argc, char **argv) {
   } catch (...) {
     std::fprintf(stderr, "%s: unexpected error\n", program);
   }
-  return kExitFailure;
+  RunControl::release_signals();
+  // A report that did not reach stdout is a failed run, not a success.
+  if (status == 0 && !sbaformats::stdout_written(program)) return kExitFailure;
+  return status;
 }
 
 }  // namespace sbacli

@@ -499,7 +499,7 @@ int demo_main(int argc, char **argv) {
 
   sbacli::TtyProgress progress(o.progress, points.nprojections());
   sbacli::RunControl control(o.max_time, &progress);
-  sbacli::RunControl::catch_signals();
+  sbacli::RunControl::catch_signals("eucsbademo");
   const auto start = std::chrono::steady_clock::now();
   const Outcome out = refine(Solve{o, model, points, control}, points.nprojections());
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -522,6 +522,8 @@ int demo_main(int argc, char **argv) {
       return kExitFailure;
     }
   }
+  const bool stopped = out.info[6] == SBA_STOP_USER || stddev_abandoned;
+  if (const int status = control.late_signal("eucsbademo", stopped, &outputs)) return status;
   if (!sbaformats::publish_outputs("eucsbademo", &outputs)) return kExitFailure;
   return exit_status(o, out, control, stddev_abandoned);
 }
