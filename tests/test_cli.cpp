@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -15,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "sanitized.h"
 #include "sba.h"
 #include "sba_ext.h"
 #include "scratch.h"
@@ -269,6 +271,39 @@ TEST(Cli, UnwritablePlyStopsEveryProgramBeforeTheSolve) {
       EXPECT_EQ(o.out, "");
       EXPECT_EQ(o.err, nowhere + ": cannot open for writing: No such file or directory\n");
     }
+}
+
+// Each program under an address-space limit (ulimit -v), from one too small to load the shared
+// libraries to one with room to spare, with OpenBLAS's thread count left to OpenBLAS: it ends,
+// within a minute, with its answer (status 0), a clean failure (status 1 and one line), or the
+// dynamic loader's refusal to map a library (127) before the program runs; never killed by a
+// signal or hung at exit (a timeout kills it: status 137). On a machine of one core OpenBLAS
+// starts no worker thread, and the limit changes less.
+TEST(Cli, EveryProgramEndsUnderAnyAddressSpaceLimit) {
+#ifdef SBA_TEST_SANITIZED
+  GTEST_SKIP() << "RLIMIT_AS cannot work under a sanitizer (it reserves terabytes of shadow memory)";
+#endif
+  const std::string data = std::string(SBA_PROJECT_DIR) + "/data/orbit-fixedK-";
+  std::vector<std::pair<std::string, std::vector<std::string>>> runs;
+  for (const Program &p : programs()) runs.push_back({p.name, {p.exe, "--version"}});
+  runs.push_back({"eucsbademo", {EUCSBADEMO_EXE, data + "cams.txt", data + "pts.txt", data + "calib.txt"}});
+  for (const long long mib : {40, 48, 56, 64, 80, 96, 128, 160, 200, 256, 512}) {
+    for (const auto &[name, words] : runs) {
+      std::string inner = "ulimit -v " + std::to_string(mib * 1024) + "; exec";
+      for (const std::string &w : words) inner += " '" + w + "'";
+      const Output o = run("/usr/bin/env", {"-u", "OPENBLAS_NUM_THREADS", "-u", "GOTO_NUM_THREADS", "-u",
+                                            "OMP_NUM_THREADS", "timeout", "-s", "KILL", "60", "sh", "-c", inner});
+      SCOPED_TRACE(name + " " + words.back() + " under " + std::to_string(mib) + " MiB");
+      if (o.status == 127) {
+        EXPECT_NE(o.err.find("error while loading shared libraries"), std::string::npos) << o.err;
+        continue;
+      }
+      EXPECT_TRUE(o.status == 0 || (o.status == 1 && std::count(o.err.begin(), o.err.end(), '\n') == 1))
+          << "status " << o.status << "\n" << o.err;
+      if (o.status == 0 && words.back() == "--version") EXPECT_EQ(o.out, name + " (sba " + SBA_VERSION + ")\n");
+      if (o.status == 0 && words.back() != "--version") EXPECT_NE(o.out.find("SBA returned"), std::string::npos);
+    }
+  }
 }
 
 // eucsbademo reads bzip2-compressed files and one of its files from standard input ('-').

@@ -607,7 +607,8 @@ TEST(Sbarefine, FullDiskLeavesTheInputModelAsItWas) {
 // here), leaves the directory as it was: the input model written over by --write (in its own
 // encoding or the other), no model directory made by --write, no eucsbademo files of
 // --write-eucsba. So does a disk that fills at the second of the eucsbademo files (a file size
-// limit stands for it).
+// limit stands for it: a write past it fails, as on a full disk, instead of SIGXFSZ killing
+// the program), or at the model's first file.
 TEST(Sbarefine, FailedRunLeavesNoFileAndTheInputAsItWas) {
   const std::string scene_dir = temp_dir("failed_run_scene"), dir = temp_dir("failed_run");
   const Scene s = make_scene(scene_dir, euclidean::CameraKind::VaryingIntrinsics, 6, 60);
@@ -624,7 +625,8 @@ TEST(Sbarefine, FailedRunLeavesNoFileAndTheInputAsItWas) {
       {"--write-eucsba " + dir + "/e --write " + model + " --initial-ply " + dir + "/i.ply --final-ply /dev/full", "",
        kFull},
       // 8 blocks of 512 bytes: the cameras file fits, the points file does not.
-      {"--write-eucsba " + dir + "/e", "trap '' XFSZ; ulimit -f 8; ", dir + "/e-pts.txt: write failed: File too large\n"},
+      {"--write-eucsba " + dir + "/e", "ulimit -f 8; ", dir + "/e-pts.txt: write failed: File too large\n"},
+      {"--write " + dir + "/new", "ulimit -f 1; ", dir + "/new/images.txt: write failed: File too large\n"},
   };
   for (const auto &c : cases) {
     SCOPED_TRACE(c.args);
