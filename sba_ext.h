@@ -93,7 +93,7 @@ struct sba_ext_options {
    * "auto" (one of chol, sparse-chol and iterative-schur, chosen from the problem's shape:
    * the unknowns of the reduced camera system S after holding and sharing, how many of S's
    * blocks and of its Cholesky factor's are nonzero, the observations, and the memory each
-   * would need against the memory available; result->linsolver names the one chosen, and
+   * would need against a budget (memory_budget below); result->linsolver names the one chosen, and
    * verbose says why), "chol" (dense S by Cholesky as in 1.6: the library's own, the same bits for
    * any thread count, up to 2048 unknowns; LAPACK's DPOTRF/DPOTRS beyond), "chol-lapack"
    * (dense S by DPOTRF/DPOTRS at every size), "ldlt", "bk", "lu", "qr", "qrnoq", "svd",
@@ -226,6 +226,16 @@ struct sba_ext_options {
    * Exclusive with cam_group/cam_shared (which mean cam_param_group[j*cnp+c] = cam_group[j]
    * where cam_shared[c] is nonzero, else -1). */
   const int *cam_param_group;
+  /* The memory, in bytes, that linsolver "auto" plans a solve within: it takes the first of
+   * chol, sparse-chol and iterative-schur that its rule prefers and whose memory (what every
+   * solve holds, the Jacobian and the normal equations' blocks, plus the solver's own) fits,
+   * and when even the one that needs least does not fit, the call fails (SBA_ERROR, reason 0)
+   * with a message giving what it needs. 0: the machine's physical memory, or the
+   * address-space limit (RLIMIT_AS) where that is lower. The budget is a setting, not a
+   * reading of the memory free at the moment: the same problem and options choose the same
+   * solver, and give the same result, whatever else the machine is doing. A solver named in
+   * linsolver is run whatever it needs. */
+  size_t memory_budget;
 };
 
 /* Fills *opt with the defaults (every field zero/NULL) and opt->size. */

@@ -116,14 +116,26 @@ bool validate_and_lay_out(const DriverArgs &a, const sba_ext_options &ext, const
   return true;
 }
 
-// "auto" made the solver it stands for, from the problem as laid out (solver_choice.h), and
-// said when verbose: the report names the solver that ran, this line why.
-void resolve_auto(const DriverArgs &a, const Layout &lay, const Logger &log, Options *opt) {
-  if (opt->solver != LinSolver::Auto) return;
-  const SolverShape shape = shape_of(lay, available_memory());
+// "auto" made the solver it stands for, from the problem as laid out and the memory budget
+// (solver_choice.h), and said when verbose: the report names the solver that ran, this line
+// why. False, said, when even the solver that needs least does not fit the budget.
+bool resolve_auto(const DriverArgs &a, const Layout &lay, const Logger &log, Options *opt) {
+  if (opt->solver != LinSolver::Auto) return true;
+  const MemoryBudget budget = memory_budget(opt->memory_budget);
+  const SolverShape shape = shape_of(lay, budget.bytes);
   opt->solver = choose_linsolver(shape);
+  const double needs = solver_bytes(shape, opt->solver);
+  if (budget.bytes > 0 && needs > budget.bytes) {
+    const auto mib = [](double bytes) { return bytes / (1024.0 * 1024.0); };
+    log.error("%s: linear solver auto: the leanest solver for this problem, %s, needs about %.0f MiB, more than "
+              "the budget of %.0f MiB (%s)",
+              a.name, linsolver_name(opt->solver), mib(needs), mib(budget.bytes), budget.what);
+    return false;
+  }
   if (log.verbose() > 0)
-    log.info(1, "%s: linear solver auto: %s (%s)", a.name, linsolver_name(opt->solver), describe(shape).c_str());
+    log.info(1, "%s: linear solver auto: %s (%s, %s)", a.name, linsolver_name(opt->solver), describe(shape).c_str(),
+             budget.what);
+  return true;
 }
 
 // The caller's result struct, filled as far as the caller's struct goes.
@@ -195,7 +207,7 @@ int run_driver(const DriverArgs &a) {
     Layout lay;
     const auto no_extra_check = [] { return std::string(); };
     if (!validate_and_lay_out(a, ext, env, log, no_extra_check, &opt, &lay)) return;
-    resolve_auto(a, lay, log, &opt);
+    if (!resolve_auto(a, lay, log, &opt)) return;
     const std::unique_ptr<Model> model = make_model(lay, a.callbacks, opt.parallel_callbacks);
     // itmax == 0: check the Jacobian; the solve below then only scores p (info[0] == info[1]).
     if (a.itmax == 0) {

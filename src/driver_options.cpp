@@ -45,6 +45,7 @@ void pass_through(const sba_ext_options &ext, Options *o) {
   o->cams.param_group = ext.cam_param_group;
   o->cams.group = ext.cam_group;
   o->cams.shared = ext.cam_shared;
+  o->memory_budget = double(ext.memory_budget);
 }
 
 // Opt-in only: how the host's threads are scheduled is the host's business.

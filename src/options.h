@@ -33,6 +33,7 @@ struct Options {
   int (*cancel)(void *ctx) = nullptr;
   void *cancel_ctx = nullptr;
   CameraParamOptions cams;
+  double memory_budget = 0;  // bytes "auto" plans within; 0: the machine's (memory_budget())
 
   // The one check of everything the options carry, for the problem lay and the initial
   // estimate p: false, with the first thing wrong in *error, when a value cannot be used. A

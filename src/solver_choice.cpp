@@ -40,13 +40,25 @@ SolverMemory solver_memory(const SolverShape &s) {
              3.0 * sizeof(int) * double(s.observations);
   // S in full, and the point blocks' inverses where unknowns are shared.
   m.chol = d * (n * n + point_blocks);
-  // S's blocks and the factor's, the factor counted twice for the supernodes' padding and
-  // CHOLMOD's workspace.
-  m.sparse_chol = d * ((double(s.s_blocks) + 2 * double(s.factor_blocks)) * b * b + point_blocks);
+  // S's blocks and the factor's, the factor counted three times for the supernodes' padding
+  // and CHOLMOD's workspace, which for a factor that fills in come near twice the factor.
+  m.sparse_chol = d * ((double(s.s_blocks) + 3 * double(s.factor_blocks)) * b * b + point_blocks);
   // The point blocks' inverses, the chunks' partial sums (32 per unknown, with the
   // preconditioner's) and CG's vectors.
   m.iterative_schur = d * (point_blocks + n * (32 * (b + 1) + 6));
   return m;
+}
+
+double solver_bytes(const SolverShape &s, LinSolver solver) {
+  const SolverMemory m = solver_memory(s);
+  switch (solver) {
+    case LinSolver::SparseChol:
+      return m.common + m.sparse_chol;
+    case LinSolver::IterativeSchur:
+      return m.common + m.iterative_schur;
+    default:
+      return m.common + m.chol;
+  }
 }
 
 LinSolver choose_linsolver(const SolverShape &s) {
@@ -61,7 +73,7 @@ LinSolver choose_linsolver(const SolverShape &s) {
       {LinSolver::SparseChol, mem.sparse_chol, s.factor_flops <= kSparseMaxPasses * pass_flops(s)},
       {LinSolver::IterativeSchur, mem.iterative_schur, true},
   };
-  const auto fits = [&](double own) { return s.available_bytes <= 0 || mem.common + own <= s.available_bytes; };
+  const auto fits = [&](double own) { return s.budget_bytes <= 0 || mem.common + own <= s.budget_bytes; };
   for (const auto &c : candidates)
     if (c.wanted && fits(c.bytes)) return c.solver;
   // Nothing fits: the least memory is the best chance.
@@ -79,23 +91,23 @@ std::string describe(const SolverShape &s) {
   std::snprintf(buf, sizeof buf,
                 "S of %lld unknowns in %lld blocks, %s%.3g%% of them nonzero, %.3g%% in its factor, whose "
                 "factorization costs %.3g passes over the Jacobian of %lld observations; MiB besides the common "
-                "%.0f: chol %.0f, sparse-chol %.0f, iterative-schur %.0f; %.0f MiB available",
+                "%.0f: chol %.0f, sparse-chol %.0f, iterative-schur %.0f; a budget of %.0f MiB",
                 static_cast<long long>(s.unknowns), static_cast<long long>(s.blocks),
                 s.s_partial ? "at least " : "", double(s.s_blocks) * pct,
                 double(s.factor_blocks) * pct, s.factor_flops / std::max(1.0, pass_flops(s)),
                 static_cast<long long>(s.observations), mb(m.common), mb(m.chol), mb(m.sparse_chol),
-                mb(m.iterative_schur), mb(s.available_bytes));
+                mb(m.iterative_schur), mb(s.budget_bytes));
   return buf;
 }
 
-SolverShape shape_of(const Layout &lay, double available_bytes) {
+SolverShape shape_of(const Layout &lay, double budget_bytes) {
   SolverShape s;
   s.observations = lay.nvis;
   s.points = lay.free_pts();
   s.cnp = lay.cnp;
   s.pnp = lay.pnp;
   s.mnp = lay.mnp;
-  s.available_bytes = available_bytes;
+  s.budget_bytes = budget_bytes;
   if (lay.free_cams() == 0 || (lay.free_pts() == 0 && !lay.cams.shared())) return s;
   s.unknowns = lay.camera_unknowns();
   s.blocks = lay.cams.shared() ? lay.cams.nblocks() : lay.free_cams();
@@ -124,44 +136,20 @@ SolverShape shape_of(const Layout &lay, double available_bytes) {
   return s;
 }
 
-double available_memory() {
-  double bytes = 0;
-#if defined(__linux__)
-  if (std::FILE *f = std::fopen("/proc/meminfo", "r")) {
-    char line[256];
-    unsigned long long kb = 0;
-    while (std::fgets(line, sizeof line, f))
-      if (std::sscanf(line, "MemAvailable: %llu kB", &kb) == 1) {
-        bytes = double(kb) * 1024.0;
-        break;
-      }
-    std::fclose(f);
-  }
-#endif
+MemoryBudget memory_budget(double asked) {
+  if (asked > 0) return {asked, "memory_budget"};
+  MemoryBudget budget{0, "physical memory"};
 #if defined(__unix__) || defined(__APPLE__)
 #if defined(_SC_PHYS_PAGES)
-  if (bytes <= 0) {
-    const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGESIZE);
-    if (pages > 0 && size > 0) bytes = double(pages) * double(size);
-  }
+  const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGESIZE);
+  if (pages > 0 && size > 0) budget.bytes = double(pages) * double(size);
 #endif
-  // Under an address-space limit what the process has mapped already counts against it.
   rlimit lim{};
-  if (getrlimit(RLIMIT_AS, &lim) == 0 && lim.rlim_cur != RLIM_INFINITY) {
-    double mapped = 0;
-#if defined(__linux__)
-    if (std::FILE *f = std::fopen("/proc/self/statm", "r")) {
-      unsigned long long pages = 0;
-      if (std::fscanf(f, "%llu", &pages) == 1) mapped = double(pages) * double(sysconf(_SC_PAGESIZE));
-      std::fclose(f);
-    }
+  if (getrlimit(RLIMIT_AS, &lim) == 0 && lim.rlim_cur != RLIM_INFINITY &&
+      (budget.bytes <= 0 || double(lim.rlim_cur) < budget.bytes))
+    budget = {double(lim.rlim_cur), "address-space limit"};
 #endif
-    // A limit already reached leaves one byte, not 0, which would mean "unknown".
-    const double room = std::max(1.0, double(lim.rlim_cur) - mapped);
-    bytes = bytes > 0 ? std::min(bytes, room) : room;
-  }
-#endif
-  return bytes;
+  return budget;
 }
 
 }  // namespace sba

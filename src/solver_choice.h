@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // The linear solver "auto" stands for: chol, sparse-chol or iterative-schur, chosen from the
-// problem's shape and the memory the machine has. The rule is a pure function of a few
+// problem's shape and a memory budget. The rule is a pure function of a few
 // numbers (choose_linsolver), measured against the series of bench/auto_solver.py
 // (docs/solvers.md has the figures); shape_of takes those numbers from a layout.
 #ifndef SBA_SRC_SOLVER_CHOICE_H
@@ -41,7 +41,7 @@ struct SolverShape {
   i64 observations = 0;  // visible projections
   i64 points = 0;        // free points
   int cnp = 0, pnp = 0, mnp = 0;
-  double available_bytes = 0;  // memory the solve may use; 0: unknown (then anything fits)
+  double budget_bytes = 0;  // memory the solve may plan with; 0: no budget (then anything fits)
 };
 
 // The floating-point operations of one pass over the Jacobian: every projection's mnp x
@@ -49,27 +49,35 @@ struct SolverShape {
 double pass_flops(const SolverShape &s);
 
 // Bytes each candidate needs: `common` for what every solve holds (Jacobian, residuals,
-// normal equations' blocks, index), the others for the solver's own arrays.
+// normal equations' blocks, index), the others for the solver's own arrays. Measured against
+// what the solves allocate in test_solver_choice (SolverMemory.*).
 struct SolverMemory {
   double common = 0, chol = 0, sparse_chol = 0, iterative_schur = 0;
 };
 SolverMemory solver_memory(const SolverShape &s);
+// common + the solver's own, for chol, sparse-chol or iterative-schur.
+double solver_bytes(const SolverShape &s, LinSolver solver);
 
 // The rule: chol, sparse-chol or iterative-schur for a problem of shape s (docs/solvers.md).
-// Never one whose memory (common + own) exceeds s.available_bytes, unless none fits, in which
-// case the one needing least.
+// Never one whose memory (solver_bytes) exceeds s.budget_bytes, unless none fits, in which
+// case the one needing least (which the caller then refuses).
 LinSolver choose_linsolver(const SolverShape &s);
 
 // The shape and the memory in words, for the verbose line that says what auto chose and why.
 std::string describe(const SolverShape &s);
 
-// The shape of lay's problem, with available_bytes as given.
-SolverShape shape_of(const Layout &lay, double available_bytes);
+// The shape of lay's problem, with budget_bytes as given.
+SolverShape shape_of(const Layout &lay, double budget_bytes);
 
-// The memory a solve may take now: the system's available memory (Linux: MemAvailable of
-// /proc/meminfo; elsewhere the physical pages), no more than the address-space limit
-// (RLIMIT_AS) allows. 0 when unknown.
-double available_memory();
+// The budget auto plans within: `asked` when positive (sba_ext_options.memory_budget), else the
+// machine's physical memory, or the address-space limit (RLIMIT_AS) where lower. Settings, not
+// readings of the moment's free memory, so that a problem is solved the same way, to the bit,
+// whatever else runs. bytes 0: unknown (no physical memory size, no limit).
+struct MemoryBudget {
+  double bytes = 0;
+  const char *what = "";  // where it comes from, for messages
+};
+MemoryBudget memory_budget(double asked);
 
 }  // namespace sba
 
