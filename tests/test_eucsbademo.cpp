@@ -935,7 +935,7 @@ TEST(EucsbademoPly, CentresOfEveryCameraKind) {
 // sba-clean-retry, whose retries damp the undamped blocks: with 1.6's retries (the default), a
 // rejected step restarts the damping high, and stop 4 then ends the run wherever along a flat
 // valley that happens, which says nothing about the solver (the default strategy's stops on
-// these problems are checked against 1.6's in FlatValleysStopWhere16Stops).
+// these problems are checked against 1.6's in FlatValleysStopOnTheValleyFloor).
 //
 // Measured (Release, 2 threads, OpenBLAS) with --itmax 2000 and sba-clean-retry, every solver
 // reaches chol's minimum on every problem; the varying-K problems are badly conditioned (focal
@@ -1048,23 +1048,28 @@ INSTANTIATE_TEST_SUITE_P(
     solver_case_name);
 
 // The default strategy on the flat valleys, with every solver: 1.6's retries restart the
-// damping high after a rejected step and stop 4 ends the run along the valley, within 0.2% of
-// the range of 1.6's own four runs (Sba16 above), never at itmax. But for svd: its
-// pseudo-inverse solves the indefinite S of such a retry instead of failing, the damping is not
-// restarted, and it walks down the valley as the clean retries do, into itmax on 7camsvarK.
-TEST(Eucsbademo, FlatValleysStopWhere16Stops) {
+// damping high after a rejected step, and stop 4 (eps4 = 0: a relative reduction lost in
+// rounding) ends the run somewhere along the valley, never at itmax. Where depends on the
+// solver and on the rounding of the BLAS's kernels and thread count, as it does for 1.6, whose
+// own runs (two builds, 1 and 2 threads, seven OpenBLAS kernels) stop up to 0.22% above the
+// valley's floor (the minimum the clean retries reach, k7camsvarKMinimum). Ours, over the same
+// kernels and the library's portable ones, stop up to 0.42% above it (cg and iterative-schur,
+// whose inexact steps end the walk sooner); the bound is 0.6%. But for svd: its pseudo-inverse
+// solves the indefinite S of such a retry instead of failing, the damping is not restarted, and
+// it walks down the valley as the clean retries do, into itmax on 7camsvarK.
+TEST(Eucsbademo, FlatValleysStopOnTheValleyFloor) {
   REQUIRE_DEMO_DATA();
   std::istringstream in(sba_linsolver_names());
   for (std::string solver; in >> solver;)
-    for (const auto &[p, lo, hi] :
-         {std::tuple{&k7camsvarK, 0.65966, 0.660449}, std::tuple{&k9camsvarK, 0.599938, 0.600206}}) {
+    for (const auto &[p, floor] : {std::pair{&k7camsvarK, k7camsvarKMinimum}, std::pair{&k9camsvarK, k9camsvarKMinimum}}) {
       SCOPED_TRACE(std::string(p->name) + " --solver=" + solver);
       Summary s;
       const DemoRun run = run_problem(*p, {"--solver=" + solver});
       EXPECT_SUCCESSFUL_RUN(run, p->banner, s);
       EXPECT_TRUE(s.reason == "2" || s.reason == "4" || solver == "svd") << "reason " << s.reason;
-      EXPECT_GE(s.error_value(), lo * (1 - 0.002));
-      EXPECT_LE(s.error_value(), hi * (1 + 0.002));
+      const double minimum = std::strtod(floor, nullptr);
+      EXPECT_GE(s.error_value(), minimum * (1 - 1e-6)) << s.error;
+      EXPECT_LE(s.error_value(), minimum * (1 + 0.006)) << s.error;
     }
 }
 

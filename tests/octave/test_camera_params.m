@@ -127,7 +127,11 @@ function param_groups_as_camera_groups(s, groups, ret, p, info)
 end
 
 % A stereo rig over three places: the rotation shared by the two cameras of a place, the focal
-% length by all six, the translations their own.
+% length by all six, the translations their own. Nothing holds the gauge, and the scale of
+% the scene (with it the focal length) is barely observed: sba's default stop (eps4 = 0, the
+% relative reduction lost in rounding) ends the run somewhere along that valley, after 19 to 38
+% iterations as the BLAS rounds, within 1e-5 of its floor. The floor itself is the problem's:
+% a trust-region run to a relative cost change of 1e-14 reaches it.
 function param_groups_of_a_rig()
   s = sbatest_focal_scene(800 * ones(1, 6), true);
   f = 7 * (0:s.m - 1) + 7;
@@ -142,14 +146,22 @@ function param_groups_of_a_rig()
                  'a rig: the copies of a shared parameter differ');
   sbatest_assert(numel(unique(a(1, 1:2:end))) == 3 && numel(unique(a(4, :))) == 6, ...
                  'a rig: parameters shared that were not to be');
-  sbatest_assert(abs(p(f(1)) - 800.102689) < 1e-4 && abs(info(2) - 20.9879443) < 1e-6 * 21, ...
-                 'a rig: focal length %.6f, error %.9g', p(f(1)), info(2));
+  floor_error = 20.98777061;                      % and a focal length of 800.014446
+  sbatest_assert(info(2) >= floor_error * (1 - 1e-9) && info(2) <= floor_error * (1 + 1e-5) && ...
+                 abs(p(f(1)) - 800.014446) < 0.2, 'a rig: focal length %.6f, error %.9g', p(f(1)), info(2));
+  tight = scene_args(s);
+  tight{15} = [1e-3 1e-30 1e-30 1e-30 1e-14];                 % opts
+  [rt, pt, it] = sba(tight{:}, 'motstr', 'strategy=trust-region', struct('param_groups', pg));
+  printf('a rig, converged: focal length %.6f, %d iterations, error %.10g\n', pt(f(1)), rt, it(2));
+  sbatest_assert(rt > 0 && abs(it(2) - floor_error) < 1e-9 * floor_error && abs(pt(f(1)) - 800.014446) < 1e-3, ...
+                 'a rig, converged: focal length %.6f, error %.10g', pt(f(1)), it(2));
   % One grouping for both (every camera sharing the rotation and the focal length) turns the
-  % three places alike: a far worse fit.
+  % three places alike: a far worse fit, whose end moves with the BLAS's rounding by a few parts
+  % in 1e7.
   [ret1, ~, info1] = run_scene(s, 'motstr', struct('camera_groups', zeros(1, s.m), ...
                                                     'shared_params', [1 1 1 0 0 0 1]));
   printf('a rig as one group: error %.9g\n', info1(2));
-  sbatest_assert(ret1 > 0 && abs(info1(2) - 215304.388) < 1e-6 * 215304, ...
+  sbatest_assert(ret1 > 0 && abs(info1(2) - 215304.388) < 1e-5 * 215304, ...
                  'a rig as one group: error %.9g', info1(2));
 end
 
