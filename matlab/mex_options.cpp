@@ -17,14 +17,22 @@ bool is_option_field(const std::string &name) {
 
 bool is_vector_shape(const OptionField &f) { return f.rows == 1 || f.cols == 1; }
 
-// The values of a field that must be a dense real or logical matrix, all finite.
-const std::vector<double> &matrix_values(const OptionField &f) {
+// Element k (column-major) of f as the messages name it: (row,col) in a matrix, (k) in a
+// vector.
+std::string element_name(const OptionField &f, std::size_t k, bool as_matrix) {
+  if (!as_matrix) return format("%s(%zu)", f.name.c_str(), k + 1);
+  return format("%s(%zu,%zu)", f.name.c_str(), k % f.rows + 1, k / f.rows + 1);
+}
+
+// The values of a field that must be a dense real or logical matrix, all finite; as_matrix
+// says how a message names an element.
+const std::vector<double> &matrix_values(const OptionField &f, bool as_matrix) {
   if (!f.matrix)
     bad_arg("invalidArgument", format("%s must be a dense real or logical matrix (got a %s).", f.name.c_str(),
                                       f.description.c_str()));
   for (std::size_t k = 0; k < f.values.size(); ++k)
     if (!std::isfinite(f.values[k]))
-      bad_arg("invalidArgument", format("%s(%zu) is not finite.", f.name.c_str(), k + 1));
+      bad_arg("invalidArgument", format("%s is not finite.", element_name(f, k, as_matrix).c_str()));
   return f.values;
 }
 
@@ -40,7 +48,7 @@ int group_number(double g, const std::string &where) {
 
 // param_groups: m x cnp, row j camera j's, to the library's camera-major layout.
 std::vector<int> param_groups(const OptionField &f, std::size_t m, std::size_t cnp) {
-  const std::vector<double> &v = matrix_values(f);
+  const std::vector<double> &v = matrix_values(f, true);
   if (f.rows != m || f.cols != cnp)
     bad_arg("wrongSize",
             format("param_groups must be m x cnp = %zu x %zu (got %zu x %zu).", m, cnp, f.rows, f.cols));
@@ -83,7 +91,7 @@ CameraOptions camera_options(const std::vector<OptionField> &fields, std::size_t
   }
   CameraOptions o;
   if (fixed) {
-    const std::vector<double> &v = matrix_values(*fixed);
+    const std::vector<double> &v = matrix_values(*fixed, !is_vector_shape(*fixed));
     if (is_vector_shape(*fixed) && v.size() == cnp) {
       for (double x : v) o.fixed.push_back(x != 0.0);
     } else if (fixed->rows == m && fixed->cols == cnp) {
@@ -101,13 +109,13 @@ CameraOptions camera_options(const std::vector<OptionField> &fields, std::size_t
   // (camera_groups, shared_params) or both forms at once: one check.
   if (per_param) o.param_group = param_groups(*per_param, m, cnp);
   if (groups) {
-    const std::vector<double> &gv = matrix_values(*groups);
+    const std::vector<double> &gv = matrix_values(*groups, !is_vector_shape(*groups));
     if (!is_vector_shape(*groups) || gv.size() != m)
       bad_arg("wrongSize", format("camera_groups must have m = %zu values (got %zu).", m, gv.size()));
     for (std::size_t j = 0; j < m; ++j) o.group.push_back(group_number(gv[j], format("camera_groups(%zu)", j + 1)));
   }
   if (shared) {
-    const std::vector<double> &sv = matrix_values(*shared);
+    const std::vector<double> &sv = matrix_values(*shared, !is_vector_shape(*shared));
     if (!is_vector_shape(*shared) || sv.size() != cnp)
       bad_arg("wrongSize", format("shared_params must have cnp = %zu flags (got %zu).", cnp, sv.size()));
     for (double x : sv) o.shared.push_back(x != 0.0);

@@ -83,6 +83,8 @@ function test_camera_params()
       'fixed_params must have cnp = 7 flags \(for every camera\) or be m x cnp = 6 x 7 \(got 1 x 5\)'
     struct('fixed_params', [0 0 0 NaN 0 0 0]), 'sba:invalidArgument', 'fixed_params\(4\) is not finite'
     struct('fixed_params', {{1}}), 'sba:invalidArgument', 'fixed_params must be a dense real or logical matrix'
+    struct('fixed_params', with(double(held), 2, 4, NaN)), 'sba:invalidArgument', ...
+      'fixed_params\(2,4\) is not finite\.$'
     struct('camera_groups', zeros(1, 6)), 'sba:invalidProblem', 'cam_group is given but cam_shared is NULL$'
     struct('shared_params', ones(1, 7)), 'sba:invalidProblem', 'cam_shared is given but cam_group is NULL$'
     setfield(one, 'camera_groups', [0 0 0 0 0 6]), 'sba:invalidProblem', ...
@@ -173,7 +175,7 @@ function bad_param_groups(s)
       ['param_groups\(6,1\) ', range, ' \(got -2147483649\)\.$']
     struct('param_groups', with(pg, 1, 7, 2^31)), 'sba:invalidArgument', ...
       ['param_groups\(1,7\) ', range, ' \(got 2147483648\)\.$']
-    struct('param_groups', with(pg, 3, 2, NaN)), 'sba:invalidArgument', 'param_groups\(9\) is not finite\.$'
+    struct('param_groups', with(pg, 3, 2, NaN)), 'sba:invalidArgument', 'param_groups\(3,2\) is not finite\.$'
     struct('param_groups', {{pg}}), 'sba:invalidArgument', ...
       'param_groups must be a dense real or logical matrix'
     setfield(struct('param_groups', pg), 'camera_group', 1), 'sba:invalidArgument', ...
