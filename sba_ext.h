@@ -367,7 +367,11 @@ extern int sba_str_levmar_x_vis(
  * for it: its missing direction would couple into S and change the other blocks, and an
  * inverse of a rounding-level pivot is noise. Remove such points (or their projections) and
  * ask again.
- * With a robust loss in ext, J and e are reweighted as in the last iteration of the solve. */
+ * With a robust loss in ext, J and e are reweighted as in the last iteration of the solve.
+ * With shared camera parameters in ext (cam_group/cam_shared, cam_param_group), the covariance
+ * is taken where a solve would start from p: every copy of a shared parameter at its first
+ * camera's value (the one of least index), as a solve returns them. p itself is not
+ * changed. */
 struct sba_covariance_request {
   size_t size;           /* sizeof(struct sba_covariance_request); sba_covariance_request_init */
   int ncams;             /* cameras wanted ... */

@@ -14,6 +14,9 @@
 // has nothing to refine (the motion-only driver with every camera parameter held) or fewer
 // measurements than unknowns, and a solve must return every held parameter (and every camera
 // below mcon) with its bits, and every camera sharing a parameter with the same bits in it.
+// The covariance (sba_motstr_covariance) at the start, whose copies of a shared parameter
+// differ, must be the covariance where a solve starts, every copy at its first camera's
+// value, to the bit, and leave p as given.
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <climits>
@@ -143,6 +146,67 @@ int next_group(FuzzedDataProvider &in, int m) {
   }
 }
 
+// The covariance of every camera and point at p, as sba_motstr_covariance gives it.
+struct Covariance {
+  int ret = 0, rank = 0, nfree = 0;
+  double sigma2 = 0;
+  std::vector<double> camcov, ptcov;
+  bool operator==(const Covariance &o) const {
+    return ret == o.ret && rank == o.rank && nfree == o.nfree && same_bits(sigma2, o.sigma2) &&
+           camcov.size() == o.camcov.size() && ptcov.size() == o.ptcov.size() &&
+           std::memcmp(camcov.data(), o.camcov.data(), camcov.size() * sizeof(double)) == 0 &&
+           std::memcmp(ptcov.data(), o.ptcov.data(), ptcov.size() * sizeof(double)) == 0;
+  }
+};
+
+Covariance covariance(Problem &p, std::vector<double> &at, std::vector<char> &vmask, std::vector<double> &x,
+                      const sba_ext_options &ext) {
+  Covariance c;
+  std::vector<int> cams(size_t(p.m)), pts(size_t(p.n));
+  for (int j = 0; j < p.m; ++j) cams[size_t(j)] = j;
+  for (int i = 0; i < p.n; ++i) pts[size_t(i)] = i;
+  c.camcov.assign(size_t(p.m) * p.cnp * p.cnp, 0.0);
+  c.ptcov.assign(size_t(p.n) * p.pnp * p.pnp, 0.0);
+  sba_covariance_request req;
+  sba_covariance_request_init(&req);
+  req.ncams = p.m;
+  req.cams = cams.data();
+  req.camcov = c.camcov.data();
+  req.npts = p.n;
+  req.pts = pts.data();
+  req.ptcov = c.ptcov.data();
+  Log log;  // the solve's log left to the solve
+  sba_ext_options own = ext;
+  own.log_ctx = &log;
+  c.ret = sba_motstr_covariance(p.n, 0, p.m, p.mcon, vmask.data(), at.data(), p.cnp, p.pnp, x.data(), nullptr,
+                                kMnp, motstr_proj, motstr_projac, &p, &req, &own);
+  for (const std::string &e : log.errors)
+    require(!e.empty() && e.find('\n') == std::string::npos, "a covariance error of more than one line: " + e);
+  c.rank = req.rank;
+  c.nfree = req.nfree;
+  c.sigma2 = req.sigma2;
+  return c;
+}
+
+// At x0 (whose shared copies differ) the covariance is the one at x0 with each copy at its
+// first camera's value, and x0 is left as given.
+void check_covariance(Problem &p, const std::vector<double> &x0, std::vector<char> &vmask, std::vector<double> &x,
+                      const sba_ext_options &ext) {
+  std::vector<double> tied = x0, given = x0;
+  std::map<std::pair<int, int>, int> first;
+  for (int j = 0; j < p.m; ++j)
+    for (int a = 0; a < p.cnp; ++a) {
+      const int g = group_of(p, ext.cam_group, ext.cam_shared, ext.cam_param_group, j, a);
+      if (g == -1) continue;
+      const int f = first.emplace(std::make_pair(a, g), j).first->second;
+      tied[size_t(j) * p.cnp + a] = x0[size_t(f) * p.cnp + a];
+    }
+  const Covariance want = covariance(p, tied, vmask, x, ext);
+  const Covariance got = covariance(p, given, vmask, x, ext);
+  require(std::memcmp(given.data(), x0.data(), x0.size() * sizeof(double)) == 0, "the covariance changed p");
+  require(got == want, "the covariance at p is not the one where the shared copies are tied");
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size) {
@@ -209,6 +273,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     require(log.errors.size() == 1, "a refusal with " + std::to_string(log.errors.size()) + " error lines");
     return 0;
   }
+  if (!motion_only) check_covariance(p, x0, vmask, x, ext);
   auto held = [&](int j, int a) {
     return j < p.mcon || (!fixed.empty() && fixed[per_camera ? j * p.cnp + a : a] != 0);
   };

@@ -7,9 +7,12 @@
 // flags or an m x cnp matrix, camera_groups m numbers in -1..m-1 with shared_params' cnp
 // flags, nonzero meaning set, param_groups an m x cnp matrix of whole numbers in
 // -1..2147483647 (with camera_groups too: the library refuses the pair, not the gateway);
-// anything else is refused with one line, ending in a full stop, under the identifier
-// sba:invalidArgument or sba:wrongSize. What is taken must be exactly what was given, in
-// sba_ext_options' layout (param_groups: row j's numbers at j*cnp).
+// flags may be logical, group numbers may not (false would be group 0); anything else is
+// refused with one line, ending in a full stop, under the identifier sba:invalidArgument or
+// sba:wrongSize, and a value that is not finite is named where it is: the first one in
+// column-major order, by (row,col) in a matrix (param_groups always) and by (k) in a vector.
+// What is taken must be exactly what was given, in sba_ext_options' layout (param_groups:
+// row j's numbers at j*cnp).
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <cmath>
@@ -62,14 +65,16 @@ OptionField next_field(FuzzedDataProvider &in, std::size_t m, std::size_t cnp) {
                ? kNames[in.ConsumeIntegralInRange<size_t>(0, kOptionNames - 1)]
                : kNames[in.ConsumeIntegralInRange<size_t>(0, sizeof kNames / sizeof *kNames - 1)];
   f.matrix = in.ConsumeIntegralInRange<int>(0, 7) != 0;
+  f.logical = f.matrix && in.ConsumeIntegralInRange<int>(0, 3) == 0;
   // Mostly the sizes that fit, m x cnp, 1 x cnp and 1 x m, or their transposes.
   const std::size_t sizes[] = {m, cnp, 1, 0, in.ConsumeIntegralInRange<size_t>(0, 8)};
   f.rows = sizes[in.ConsumeIntegralInRange<size_t>(0, 4)];
   f.cols = sizes[in.ConsumeIntegralInRange<size_t>(0, 4)];
   f.numel = f.rows * f.cols;
-  f.description = std::to_string(f.rows) + "x" + std::to_string(f.cols) + (f.matrix ? " double" : " cell");
+  f.description = std::to_string(f.rows) + "x" + std::to_string(f.cols) +
+                  (f.logical ? " logical" : f.matrix ? " double" : " cell");
   if (f.matrix)
-    for (std::size_t k = 0; k < f.numel; ++k) f.values.push_back(next_number(in, m));
+    for (std::size_t k = 0; k < f.numel; ++k) f.values.push_back(f.logical ? in.ConsumeBool() : next_number(in, m));
   return f;
 }
 
@@ -102,10 +107,11 @@ bool acceptable(const std::vector<OptionField> &fields, std::size_t m, std::size
       if (g != std::trunc(g) || g < -2147483648.0 || g > 2147483647.0) return false;
     return true;
   };
-  if (per_param && !(finite_matrix(*per_param) && per_param->rows == m && per_param->cols == cnp &&
-                     whole_ints(*per_param)))
+  if (per_param && !(finite_matrix(*per_param) && !per_param->logical && per_param->rows == m &&
+                     per_param->cols == cnp && whole_ints(*per_param)))
     return false;
-  if (groups && !(finite_matrix(*groups) && is_vector(*groups) && groups->numel == m && whole_ints(*groups)))
+  if (groups && !(finite_matrix(*groups) && !groups->logical && is_vector(*groups) && groups->numel == m &&
+                  whole_ints(*groups)))
     return false;
   return !shared || (finite_matrix(*shared) && is_vector(*shared) && shared->numel == cnp);
 }
@@ -142,6 +148,27 @@ void check_taken(const sba_mex::CameraOptions &o, const std::vector<OptionField>
     for (std::size_t c = 0; c < cnp; ++c)
       require(o.param_group[j * cnp + c] == per_param->values[c * m + j],
               "param_groups(" + std::to_string(j + 1) + "," + std::to_string(c + 1) + ") taken as another");
+}
+
+// A refusal of a value that is not finite ("param_groups(2,3) is not finite."): the element
+// it names is the first such of its field, by (row,col) in a matrix and by (k) in a vector.
+void check_not_finite(const ArgError &e, const std::vector<OptionField> &fields) {
+  const std::string tail = " is not finite.";
+  const std::string &msg = e.message;
+  if (msg.size() < tail.size() || msg.compare(msg.size() - tail.size(), tail.size(), tail) != 0) return;
+  const std::string where = msg.substr(0, msg.size() - tail.size());
+  const OptionField *f = nullptr;
+  for (const OptionField &g : fields)
+    if (where.compare(0, g.name.size() + 1, g.name + "(") == 0) f = &g;
+  require(f && f->matrix, "a value that is not finite named in no matrix field: " + msg);
+  std::size_t k = 0;
+  while (k < f->values.size() && std::isfinite(f->values[k])) ++k;
+  require(k < f->values.size(), "a field of finite values refused as not finite: " + msg);
+  const bool as_matrix = f->name == "param_groups" || !is_vector(*f);
+  const std::string due = f->name + (as_matrix ? "(" + std::to_string(k % f->rows + 1) + "," +
+                                                     std::to_string(k / f->rows + 1) + ")"
+                                               : "(" + std::to_string(k + 1) + ")");
+  require(where == due, "the value that is not finite named " + where + ", not " + due);
 }
 
 void check_refusal(const ArgError &e) {
@@ -204,6 +231,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
   } catch (const ArgError &e) {
     require(!ok, "a good options struct refused: " + e.message);
     check_refusal(e);
+    check_not_finite(e, fields);
   }
   return 0;
 }

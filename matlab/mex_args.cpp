@@ -137,6 +137,7 @@ void read_options_struct(Gateway &g, const mxArray *s) {
       o.description = describe(v);
       o.matrix = is_real_numeric(v) && !mxIsSparse(v) && mxGetNumberOfDimensions(v) == 2;
       if (o.matrix) {
+        o.logical = mxIsLogical(v);
         o.rows = mxGetM(v);
         o.cols = mxGetN(v);
         for (std::size_t k = 0; k < o.numel; ++k) o.values.push_back(element(v, k));

@@ -17,15 +17,37 @@ bool is_option_field(const std::string &name) {
 
 bool is_vector_shape(const OptionField &f) { return f.rows == 1 || f.cols == 1; }
 
-// The values of a field that must be a dense real or logical matrix, all finite.
-const std::vector<double> &matrix_values(const OptionField &f) {
+// Element k (column-major) of f as the messages name it: (row,col) in a matrix, (k) in a
+// vector.
+std::string element_name(const OptionField &f, std::size_t k, bool as_matrix) {
+  if (!as_matrix) return format("%s(%zu)", f.name.c_str(), k + 1);
+  return format("%s(%zu,%zu)", f.name.c_str(), k % f.rows + 1, k / f.rows + 1);
+}
+
+// f's values, all finite; as_matrix says how a message names an element.
+const std::vector<double> &finite_values(const OptionField &f, bool as_matrix) {
+  for (std::size_t k = 0; k < f.values.size(); ++k)
+    if (!std::isfinite(f.values[k]))
+      bad_arg("invalidArgument", format("%s is not finite.", element_name(f, k, as_matrix).c_str()));
+  return f.values;
+}
+
+// The values of a field of flags: a dense real or logical matrix, nonzero meaning set.
+const std::vector<double> &flag_values(const OptionField &f) {
   if (!f.matrix)
     bad_arg("invalidArgument", format("%s must be a dense real or logical matrix (got a %s).", f.name.c_str(),
                                       f.description.c_str()));
-  for (std::size_t k = 0; k < f.values.size(); ++k)
-    if (!std::isfinite(f.values[k]))
-      bad_arg("invalidArgument", format("%s(%zu) is not finite.", f.name.c_str(), k + 1));
-  return f.values;
+  return finite_values(f, !is_vector_shape(f));
+}
+
+// The values of a field of group numbers: a dense real numeric matrix. A logical one is
+// refused rather than read as numbers: false would be group 0, and every parameter left
+// unmarked would be shared.
+const std::vector<double> &group_values(const OptionField &f, bool as_matrix) {
+  if (!f.matrix || f.logical)
+    bad_arg("invalidArgument", format("%s must be a dense real numeric matrix of group numbers (got a %s).",
+                                      f.name.c_str(), f.description.c_str()));
+  return finite_values(f, as_matrix);
 }
 
 // The group number g at `where` ("camera_groups(3)") as the library's int: a whole number an
@@ -40,7 +62,7 @@ int group_number(double g, const std::string &where) {
 
 // param_groups: m x cnp, row j camera j's, to the library's camera-major layout.
 std::vector<int> param_groups(const OptionField &f, std::size_t m, std::size_t cnp) {
-  const std::vector<double> &v = matrix_values(f);
+  const std::vector<double> &v = group_values(f, true);
   if (f.rows != m || f.cols != cnp)
     bad_arg("wrongSize",
             format("param_groups must be m x cnp = %zu x %zu (got %zu x %zu).", m, cnp, f.rows, f.cols));
@@ -83,7 +105,7 @@ CameraOptions camera_options(const std::vector<OptionField> &fields, std::size_t
   }
   CameraOptions o;
   if (fixed) {
-    const std::vector<double> &v = matrix_values(*fixed);
+    const std::vector<double> &v = flag_values(*fixed);
     if (is_vector_shape(*fixed) && v.size() == cnp) {
       for (double x : v) o.fixed.push_back(x != 0.0);
     } else if (fixed->rows == m && fixed->cols == cnp) {
@@ -101,13 +123,13 @@ CameraOptions camera_options(const std::vector<OptionField> &fields, std::size_t
   // (camera_groups, shared_params) or both forms at once: one check.
   if (per_param) o.param_group = param_groups(*per_param, m, cnp);
   if (groups) {
-    const std::vector<double> &gv = matrix_values(*groups);
+    const std::vector<double> &gv = group_values(*groups, !is_vector_shape(*groups));
     if (!is_vector_shape(*groups) || gv.size() != m)
       bad_arg("wrongSize", format("camera_groups must have m = %zu values (got %zu).", m, gv.size()));
     for (std::size_t j = 0; j < m; ++j) o.group.push_back(group_number(gv[j], format("camera_groups(%zu)", j + 1)));
   }
   if (shared) {
-    const std::vector<double> &sv = matrix_values(*shared);
+    const std::vector<double> &sv = flag_values(*shared);
     if (!is_vector_shape(*shared) || sv.size() != cnp)
       bad_arg("wrongSize", format("shared_params must have cnp = %zu flags (got %zu).", cnp, sv.size()));
     for (double x : sv) o.shared.push_back(x != 0.0);

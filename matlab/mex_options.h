@@ -32,6 +32,7 @@ struct OptionField {
   std::string name;
   std::size_t numel = 0;           // 0: not given ([])
   bool matrix = false;             // a dense real numeric or logical 2-D array
+  bool logical = false;            // a logical one, when matrix
   std::size_t rows = 0, cols = 0;  // its size, when matrix
   std::vector<double> values;      // its values column-major, when matrix
   std::string description;         // what it is, for messages ("1x3 cell")

@@ -65,7 +65,8 @@ function varargout = sba(varargin)
 %                            c; -1 is a parameter of its own; the columns' numbers are
 %                            unrelated (a rig: the focal length by camera, the pose by
 %                            frame). Not with camera_groups and shared_params.
-%           A struct with none of these fields is problem data.
+%           Flags are numeric or logical; group numbers are numeric, never logical (false
+%           would be group 0). A struct with none of these fields is problem data.
 %   extra1, extra2, ...  everything after those: problem data passed unchanged to every call
 %           of proj and projac
 %

@@ -20,6 +20,7 @@
 #include "lapack.h"
 #include "linearization.h"
 #include "parallel.h"
+#include "unknowns.h"
 
 namespace sba {
 namespace {
@@ -326,6 +327,15 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
                 const Options &opt, const Logger &log, CovarianceRequest &req) {
   Canceller cancel(opt);
   if (cancel.stop(log, true)) return false;
+  // Taken where a solve starts and ends: every shared parameter's copies at its first
+  // camera's value (tie_copies). At copies that differ, each image's projections would see
+  // its own value, and J would not be the unknowns'. p is the caller's: the tie is on a copy.
+  std::vector<double> tied;
+  if (lay.cams.shared()) {
+    tied.assign(p, p + lay.nvars());
+    tie_copies(lay, tied.data());
+    p = tied.data();
+  }
   ThreadPool pool(opt.nthreads, opt.avoid_shared_cores);
   const ModelThreads lend(model, &pool);
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());

@@ -140,6 +140,49 @@ class AxbMethod final : public Equilibrated {
   dense::Solve solve_;
 };
 
+// The SVD's pseudo-solve sums over singular vectors that rounding spreads over every
+// unknown. An unknown that S leaves on its own (its row zero but for the diagonal: a camera
+// that sees no point, where only the damping sits) would then get a step of rounding size,
+// where the other factorizations keep it apart and give it b_r / S_rr, zero when its
+// right-hand side is. Such an unknown is solved alone and the SVD sees the others; an S
+// without one goes to the SVD as it is.
+class DecoupledSvd final : public Equilibrated {
+ public:
+  DecoupledSvd(i64 n, ThreadPool &pool) : Equilibrated(n, pool), svd_(dense::solver(dense::Method::SVD)) {}
+
+ private:
+  bool solve_scaled(const double *S, const double *b, double *x, int n) override {
+    coupled_.clear();
+    for (int r = 0; r < n; ++r) {
+      const double *row = S + i64(r) * n;
+      bool alone = true;
+      for (int c = 0; c < n && alone; ++c) alone = c == r || row[c] == 0.0;
+      if (alone)
+        x[r] = b[r] / row[r];
+      else
+        coupled_.push_back(r);
+    }
+    const int k = int(coupled_.size());
+    if (k == n) return svd_(S, b, x, n);
+    if (k == 0) return true;
+    A_.resize(size_t(k) * size_t(k));
+    bk_.resize(size_t(k));
+    xk_.resize(size_t(k));
+    for (int a = 0; a < k; ++a) {
+      const double *row = S + i64(coupled_[size_t(a)]) * n;
+      for (int c = 0; c < k; ++c) A_[size_t(a) * size_t(k) + size_t(c)] = row[coupled_[size_t(c)]];
+      bk_[size_t(a)] = b[coupled_[size_t(a)]];
+    }
+    if (!svd_(A_.data(), bk_.data(), xk_.data(), k)) return false;
+    for (int a = 0; a < k; ++a) x[coupled_[size_t(a)]] = xk_[size_t(a)];
+    return true;
+  }
+
+  dense::Solve svd_;
+  std::vector<int> coupled_;
+  std::vector<double> A_, bk_, xk_;
+};
+
 // z = M^-1 r with M the camera blocks of S (block Jacobi), by their Cholesky factors.
 class CameraBlocks final : public dense::Preconditioner {
  public:
@@ -195,6 +238,10 @@ std::unique_ptr<DenseFactorization> make_lapack_cholesky(i64 n, ThreadPool &pool
 
 std::unique_ptr<DenseFactorization> make_axb_factorization(dense::Method method, i64 n, ThreadPool &pool) {
   return std::make_unique<AxbMethod>(n, pool, method);
+}
+
+std::unique_ptr<DenseFactorization> make_svd(i64 n, ThreadPool &pool) {
+  return std::make_unique<DecoupledSvd>(n, pool);
 }
 
 std::unique_ptr<DenseFactorization> make_block_jacobi_cg(i64 n, int cnp, ThreadPool &pool) {

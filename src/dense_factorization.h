@@ -38,6 +38,9 @@ std::unique_ptr<DenseFactorization> make_cholesky(i64 n, ThreadPool &pool);
 std::unique_ptr<DenseFactorization> make_lapack_cholesky(i64 n, ThreadPool &pool);
 // a method of the sba_Axb_* helpers (dense.h), on S scaled to a unit diagonal;
 std::unique_ptr<DenseFactorization> make_axb_factorization(dense::Method method, i64 n, ThreadPool &pool);
+// the SVD's pseudo-solve (sba_Axb_SVD's) on S scaled the same, the unknowns that S leaves
+// uncoupled (a camera that sees no point) solved alone;
+std::unique_ptr<DenseFactorization> make_svd(i64 n, ThreadPool &pool);
 // conjugate gradients preconditioned by S's cnp x cnp diagonal blocks, on S scaled the same.
 std::unique_ptr<DenseFactorization> make_block_jacobi_cg(i64 n, int cnp, ThreadPool &pool);
 

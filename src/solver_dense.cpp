@@ -109,7 +109,7 @@ std::unique_ptr<DenseFactorization> make_dense_factorization(LinSolver kind, i64
     case LinSolver::LU: return make_axb_factorization(dense::Method::LU, n, pool);
     case LinSolver::QR: return make_axb_factorization(dense::Method::QR, n, pool);
     case LinSolver::QRnoQ: return make_axb_factorization(dense::Method::RefinedQRnoQ, n, pool);
-    case LinSolver::SVD: return make_axb_factorization(dense::Method::SVD, n, pool);
+    case LinSolver::SVD: return make_svd(n, pool);
     case LinSolver::CG: return make_block_jacobi_cg(n, cnp, pool);
     default: return nullptr;
   }

@@ -792,6 +792,68 @@ TEST(CameraParamGroups, CovarianceOfARig) {
   EXPECT_FALSE(same_bits(camcov[size_t(4 * kRigCnp + 4)], camcov[size_t(cc + 4 * kRigCnp + 4)]));
 }
 
+// What sba_motstr_covariance_x gives for the rig at p: two cameras' blocks, a point's.
+struct RigCovariance {
+  int ret = 0, rank = 0, nfree = 0;
+  double sigma2 = 0;
+  std::vector<double> camcov = std::vector<double>(2 * kRigCnp * kRigCnp), ptcov = std::vector<double>(9);
+};
+
+RigCovariance rig_covariance(RigScene &s, std::vector<double> &p) {
+  RigCovariance c;
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.quiet = 1;
+  ext.cam_fixed = s.held.data();
+  ext.cam_fixed_per_camera = 1;
+  ext.cam_param_group = s.group.data();
+  sba_covariance_request req;
+  sba_covariance_request_init(&req);
+  const int cams[2] = {4, 7}, pts[1] = {5};
+  req.ncams = 2;
+  req.cams = cams;
+  req.camcov = c.camcov.data();
+  req.npts = 1;
+  req.pts = pts;
+  req.ptcov = c.ptcov.data();
+  c.ret = sba_motstr_covariance_x(s.n, 0, s.m, 0, s.vmask.data(), p.data(), kRigCnp, 3, s.x.data(), nullptr, 2,
+                                  rig_func, nullptr, &s, &req, &ext);
+  c.rank = req.rank;
+  c.nfree = req.nfree;
+  c.sigma2 = req.sigma2;
+  return c;
+}
+
+// At a p whose shared copies differ, the covariance is taken where a solve would start: every
+// copy at its first camera's value. Taken at the copies as given, the Jacobian would not be
+// the one of a rig (each image's own values in its own projections), nor its rank.
+TEST(CameraParamGroups, CovarianceTakesEachSharedParameterAtItsFirstCamera) {
+  RigScene s = make_rig(10, 150, 31);
+  const SynthResult r = run_rig(s, RigRun{});
+  ASSERT_GT(r.ret, 0) << r.log;
+  std::vector<double> tied = r.p;
+  const RigCovariance want = rig_covariance(s, tied);
+  ASSERT_EQ(want.ret, 0);
+  // Every copy but its group's first moved (the held ones stay, with one value in all).
+  std::vector<double> apart = r.p;
+  for (int j = 0; j < s.m; ++j)
+    for (int q = 0; q < kRigCnp; ++q) {
+      const size_t k = size_t(j) * kRigCnp + q;
+      int first = 0;
+      while (s.group[size_t(first) * kRigCnp + q] != s.group[k]) ++first;
+      if (first < j && !s.held[k]) apart[k] += q == 0 ? 5.0 : 0.01 * (1 + q % 3);
+    }
+  const std::vector<double> given = apart;
+  const RigCovariance got = rig_covariance(s, apart);
+  ASSERT_EQ(got.ret, 0);
+  EXPECT_TRUE(same_vector(apart, given));  // p is the caller's, left as given
+  EXPECT_EQ(got.nfree, want.nfree);
+  EXPECT_EQ(got.rank, want.rank);
+  EXPECT_TRUE(same_bits(got.sigma2, want.sigma2));
+  EXPECT_TRUE(same_vector(got.camcov, want.camcov));
+  EXPECT_TRUE(same_vector(got.ptcov, want.ptcov));
+}
+
 // Each solver and strategy reaches the rig's minimum, whose error a run to a relative cost
 // change of 1e-14 gives (the default runs stop at eps4 = 0 or the trust region's 1e-6, along
 // directions the BLAS's rounding decides: within 2e-6 of it).

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <mutex>
 #include <set>
 #include <string>
@@ -85,6 +86,54 @@ TEST_P(EverySolver, NoiseFreeDataReachesZero) {
   const Outcome o = solve_with(pb, GetParam());
   ASSERT_GT(o.ret, 0) << GetParam();
   EXPECT_LT(o.info[1] / pb.nvis, 1e-12) << GetParam();
+}
+
+// pb with camera j seeing no point: its projections taken out of vmask and x.
+synth::Problem without_camera(synth::Problem pb, int j) {
+  std::vector<double> x;
+  size_t k = 0;
+  for (int i = 0; i < pb.n; ++i)
+    for (int c = 0; c < pb.m; ++c) {
+      char &seen = pb.vmask[size_t(i) * pb.m + c];
+      if (!seen) continue;
+      if (c == j) {
+        seen = 0;
+        --pb.nvis;
+      } else {
+        x.insert(x.end(), pb.x.begin() + long(k), pb.x.begin() + long(k + kMnp));
+      }
+      k += kMnp;
+    }
+  pb.x = x;
+  return pb;
+}
+
+// A camera that sees no point has no equations: only the damping sits on its rows of S, its
+// right-hand side is zero, and so is its step. It comes back with the bits it went in with,
+// whatever solves the step and whatever damps it, and the others' solve is not disturbed.
+TEST_P(EverySolver, ACameraThatSeesNoPointKeepsItsBits) {
+  const int lone = 3;
+  synth::Problem pb = without_camera(synth::make(100, 7, 0.5, 0.05, 34, 0.9), lone);
+  for (int i = 0; i < pb.n; ++i) {
+    int seen = 0;
+    for (int j = 0; j < pb.m; ++j) seen += pb.vmask[size_t(i) * pb.m + j];
+    ASSERT_GE(seen, 2) << "point " << i;
+  }
+  for (const char *strategy : {"sba", "sba-clean-retry", "trust-region"}) {
+    sba_ext_options ext;
+    sba_ext_options_init(&ext);
+    ext.linsolver = GetParam();
+    ext.strategy = strategy;
+    const Outcome o = solve(pb, &ext);
+    ASSERT_GT(o.ret, 0) << GetParam() << " " << strategy;
+    for (int c = 0; c < kCnp; ++c) {
+      const size_t q = size_t(lone) * kCnp + c;
+      EXPECT_EQ(std::memcmp(&o.p[q], &pb.p0[q], sizeof(double)), 0)
+          << GetParam() << " " << strategy << ": parameter " << c << " moved from " << pb.p0[q] << " to " << o.p[q];
+    }
+    EXPECT_NE(o.p[0], pb.p0[0]) << GetParam() << " " << strategy;
+    EXPECT_LT(o.info[1] / pb.nvis, 1.0) << GetParam() << " " << strategy;
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Solvers, EverySolver, ::testing::ValuesIn(kAllSolvers),

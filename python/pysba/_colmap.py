@@ -4,6 +4,7 @@ code (the C++ reader and writer, COLMAP's camera models, sbarefine's solve), and
 to and from pycolmap. The functions and classes are pysba's (see its __init__)."""
 from __future__ import annotations
 
+import collections.abc
 import dataclasses
 import errno
 import math
@@ -212,11 +213,17 @@ def _held_images(model: ColmapModel, hold_poses: Any) -> List[int]:
             raise ValueError(f"hold_poses must be 'all' or a list of IMAGE_IDs (ints) and NAMEs (strs), "
                              f"got {hold_poses!r}")
         return list(range(len(model.images)))
-    try:
-        items = list(hold_poses)
-    except TypeError:
+    # bytes iterate as small ints and a mapping as its keys: read as lists, both would name
+    # images their caller never meant.
+    items = None
+    if not isinstance(hold_poses, (bytes, bytearray, memoryview, collections.abc.Mapping)):
+        try:
+            items = list(hold_poses)
+        except TypeError:
+            pass
+    if items is None:
         raise TypeError(f"hold_poses must be 'all' or a list of IMAGE_IDs (ints) and NAMEs (strs), "
-                        f"got {type(hold_poses).__name__}") from None
+                        f"got {type(hold_poses).__name__}")
     by_id: dict = {}
     by_name: dict = {}
     for k, im in enumerate(model.images):
@@ -300,7 +307,7 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     hold_poses
         Images whose pose is held (COLMAP's constant poses): "all", or a list of IMAGE_IDs
         (ints) and NAMEs (strs, every image of that name); an item that names no image is a
-        ValueError.
+        ValueError. bytes and dicts are TypeErrors, not lists of their bytes or keys.
     itmax, function_tolerance
         COLMAP's max_num_iterations (100) and function_tolerance (Ceres's relative cost
         change; None: COLMAP's 0, unless strategy or opts[4] is given, which then keep sba's

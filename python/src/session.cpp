@@ -168,10 +168,13 @@ std::vector<char> flags(py::handle v, const char *name, std::vector<long long> *
   return python_errors([&] { return flag_values(values, name, *shape); });
 }
 
-// The group numbers named name (camera_groups, param_groups), an array of `dims` dimensions.
+// The group numbers named name: camera_groups (`dims` 1), an array of one dimension, or
+// param_groups (2), any array. What is no array (a number, a str) is a TypeError; param_groups'
+// shape is checked against (m, cnp) once they are known (check_camera_params), and its
+// ValueError says both shapes, whatever the dimensions of the one it got.
 std::vector<int> groups(py::handle v, const char *name, size_t dims, std::vector<long long> *shape) {
   const std::vector<Value> values = option_values(v, name, "integers", shape);
-  if (shape->size() != dims)
+  if (dims == 1 ? shape->size() != 1 : shape->empty())
     throw Keywords::wrong_type(name, dims == 1 ? "a 1-D array of ints" : "a 2-D array of ints", v);
   return python_errors([&] { return group_numbers(values, name, *shape); });
 }

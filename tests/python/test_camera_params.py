@@ -378,9 +378,11 @@ def test_a_stereo_rig_shares_the_rotation_by_frame_and_the_focal_length_by_all(s
 
 
 @pytest.mark.parametrize("groups, error, message", [
-    ([0] * 7, TypeError, "param_groups must be a 2-D array of ints, got list"),
+    ([0] * 7, ValueError, "param_groups must have shape (4, 7), got (7,)"),
+    (np.zeros(28, int), ValueError, "param_groups must have shape (4, 7), got (28,)"),
     ("abc", TypeError, "param_groups must be a 2-D array of ints, got str"),
-    (np.zeros((4, 7, 1), int), TypeError, "param_groups must be a 2-D array of ints, got numpy.ndarray"),
+    (3, TypeError, "param_groups must be a 2-D array of ints, got int"),
+    (np.zeros((4, 7, 1), int), ValueError, "param_groups must have shape (4, 7), got (4, 7, 1)"),
     (np.array([["0"] * 7] * 4), TypeError, "param_groups must be an array of integers, got an array of <U1"),
     (np.zeros((4, 7), object), TypeError,
      "param_groups must be an array of integers, got an array of object"),

@@ -494,6 +494,13 @@ def test_refine_refusals(tmp_path):
             (dict(hold_poses=[True]), TypeError,
              "hold_poses[0] must be an IMAGE_ID (int) or a NAME (str), got bool"),
             (dict(hold_poses="img_0000.png"), ValueError, "hold_poses must be 'all' or a list of IMAGE_IDs"),
+            # Not read as lists: bytes as IMAGE_IDs (bytes([10]) as image 10), a dict as its keys.
+            (dict(hold_poses=bytes([10])), TypeError,
+             "hold_poses must be 'all' or a list of IMAGE_IDs (ints) and NAMEs (strs), got bytes"),
+            (dict(hold_poses=bytearray([10])), TypeError,
+             "hold_poses must be 'all' or a list of IMAGE_IDs (ints) and NAMEs (strs), got bytearray"),
+            (dict(hold_poses={10: True}), TypeError,
+             "hold_poses must be 'all' or a list of IMAGE_IDs (ints) and NAMEs (strs), got dict"),
             (dict(refine_focal_length=1), TypeError, "refine_focal_length must be a bool, got int"),
             (dict(refine_sensor_from_rig=None), TypeError, "refine_sensor_from_rig must be a bool, got NoneType"),
             (dict(function_tolerance=-1), ValueError, "function_tolerance must be finite and >= 0, got -1"),
@@ -516,6 +523,10 @@ def test_held_poses_are_kept(tmp_path):
     moved = [not (a.q.tobytes() == b.q.tobytes() and a.t.tobytes() == b.t.tobytes())
              for a, b in zip(model.images, refined.images)]
     assert moved == [True, False, True, True, False, True]
+    # Any sequence of IDs and NAMEs (a tuple; numpy integers as IDs) names the same images.
+    for given in ((13, "img_0004.png"), [np.int64(13), "img_0004.png"]):
+        again, _ = pysba.refine_colmap(model, hold_poses=given)
+        assert all(a.t.tobytes() == b.t.tobytes() for a, b in zip(refined.images, again.images))
     everything, _ = pysba.refine_colmap(model, hold_poses="all")
     assert all(a.t.tobytes() == b.t.tobytes() for a, b in zip(model.images, everything.images))
 
