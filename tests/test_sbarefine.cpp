@@ -19,6 +19,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <random>
 #include <string>
 #include <unordered_map>
@@ -2042,6 +2043,35 @@ TEST(SbarefineRigs, SolversAndStrategiesAgree) {
     }
   EXPECT_GT(reference, 0.63);
   EXPECT_LT(reference, 0.635);
+}
+
+}  // namespace
+
+namespace {
+
+// The images of each camera that see a point.
+std::map<std::uint32_t, int> seeing_images(const colmap::Model &m) {
+  std::map<std::uint32_t, int> out;
+  for (const colmap::Image &im : m.images)
+    out[im.camera_id] +=
+        std::any_of(im.points.begin(), im.points.end(), [](const colmap::Point2D &p) { return p.point3d_id != colmap::kNoPoint; });
+  return out;
+}
+
+// A camera shared by more images than a char counts (a rig of two cameras over 130 frames)
+// is shared, and so counted.
+TEST(SbarefineRigs, CameraOfManyFramesIsShared) {
+  const std::string dir = temp_dir("rig_many_frames");
+  const RigScene s = make_rig_scene(1, 2, 130, 400, 0.5);
+  for (const auto &[camera, images] : seeing_images(s.model)) EXPECT_GE(images, 128) << camera;
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error)) << error;
+  const Outcome r = run(dir + "/in --itmax 0");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("; 2 cameras shared by several images, refined once; rig_from_world of 130 frames (0 held), "
+                       "sensor_from_rig of 1 camera (0 held); 0 poses held\n"),
+            std::string::npos)
+      << r.out;
 }
 
 }  // namespace

@@ -237,8 +237,8 @@ void rig_problem(const Model &model, const RefineIntrinsics &refine, const Refin
   std::vector<char> frame_held(model.frames.size(), poses.rig_from_world ? 0 : 1);
   std::vector<char> sensor_held(model.cameras.size(), poses.sensor_from_rig ? 0 : 1);
   std::vector<char> camera_held(model.cameras.size(), 0);
-  std::vector<char> frame_used(model.frames.size(), 0), sensor_used(model.cameras.size(), 0),
-      camera_used(model.cameras.size(), 0);
+  std::vector<char> frame_used(model.frames.size(), 0), sensor_used(model.cameras.size(), 0);
+  std::vector<int> camera_used(model.cameras.size(), 0);  // images per camera: far more than a char holds
   for (int j = 0; j < ms; ++j) {
     const ImagePlace &pl = p->places[at(j)];
     const int c = camera[at(j)];
@@ -454,7 +454,7 @@ void from_sba(const cc::RigCameraModel &sba_model, const ColmapProblem &problem,
   // Each frame, sensor and COLMAP camera is written once, from its first sba camera: all of
   // them hold the same values.
   std::vector<char> frame_done(model->frames.size(), 0);
-  std::unordered_map<std::uint32_t, char> camera_done;
+  std::unordered_map<std::uint32_t, char> camera_done;  // flags, set once
   for (int j = mcon; j < m; ++j) {
     const ImagePlace &pl = problem.places[at(j)];
     const char *fixed = &problem.cam_fixed[at(j) * at(cnp)];
@@ -465,7 +465,9 @@ void from_sba(const cc::RigCameraModel &sba_model, const ColmapProblem &problem,
       frame_done[pl.frame] = 1;
     }
     const std::uint32_t camera_id = model->images[at(problem.images[at(j)])].camera_id;
-    if (camera_done[camera_id]++) continue;
+    char &done = camera_done[camera_id];
+    if (done) continue;
+    done = 1;
     if (pl.sensor > 0) {
       Pose &s = model->rigs[pl.rig].sensors[pl.sensor].sensor_from_rig;
       write_pose(fixed + 6, r.q_sensor, r.t_sensor, &s.q, &s.t);
