@@ -2074,4 +2074,65 @@ TEST(SbarefineRigs, CameraOfManyFramesIsShared) {
       << r.out;
 }
 
+// The model with image `id`'s observations gone: its keypoints matched to no point, and the
+// points only it saw removed.
+colmap::Model without_observations(colmap::Model m, std::uint32_t id) {
+  for (colmap::Image &im : m.images)
+    if (im.id == id)
+      for (colmap::Point2D &k : im.points) k.point3d_id = colmap::kNoPoint;
+  for (colmap::Point3D &pt : m.points)
+    pt.track.erase(std::remove_if(pt.track.begin(), pt.track.end(),
+                                  [id](const colmap::TrackElement &e) { return e.image_id == id; }),
+                   pt.track.end());
+  m.points.erase(std::remove_if(m.points.begin(), m.points.end(),
+                                [](const colmap::Point3D &pt) { return pt.track.empty(); }),
+                 m.points.end());
+  return m;
+}
+
+// An image that sees no point in a frame of several images keeps its place in the frame: it
+// moves with the frame's refined pose, and the summary says so. Held (--hold-poses), it holds
+// its frame's pose and its camera's pose in the rig, as an image that sees points does, and
+// comes back as read.
+TEST(SbarefineRigs, HeldImageThatSeesNoPointHoldsItsFrame) {
+  const std::string dir = temp_dir("rig_unseen_held");
+  // Image 203: frame 2 (rig 50), camera 3, which is not the rig's reference.
+  const colmap::Model m = without_observations(make_rig_scene(2, 3, 8, 300, 0.5).model, 203);
+  std::string error;
+  ASSERT_TRUE(colmap::check_model(m, "unseen", &error)) << error;
+  const std::string in = dir + "/in", out = dir + "/out";
+  ASSERT_TRUE(colmap::write_model(in, m, colmap::Encoding::Binary, &error)) << error;
+  const colmap::Model input = files_of(in, colmap::Encoding::Binary);
+  const auto image = [](const colmap::Model &model, std::uint32_t id) {
+    return *std::find_if(model.images.begin(), model.images.end(), [id](const colmap::Image &im) { return im.id == id; });
+  };
+  Outcome r = run(in + " --write " + out);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("\n1 image sees no point: held out of the solve; 0 written back as read, 1 moved with its "
+                       "refined frame or rig (its place there kept)\n"),
+            std::string::npos)
+      << r.out;
+  colmap::Model written = files_of(out, colmap::Encoding::Binary);
+  EXPECT_GT(pose_distance(pose_of(image(written, 203)), pose_of(image(input, 203))), 1e-4);
+  expect_rigid(out, colmap::Encoding::Binary);
+
+  r = run(in + " --write " + out + " --hold-poses 203");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("\n1 image sees no point: held out of the solve and written back as read\n"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("rig_from_world of 8 frames (1 held), sensor_from_rig of 4 cameras (1 held); 1 pose held\n"),
+            std::string::npos)
+      << r.out;
+  written = files_of(out, colmap::Encoding::Binary);
+  EXPECT_EQ(image(written, 203).q, image(input, 203).q);
+  EXPECT_EQ(image(written, 203).t, image(input, 203).t);
+  EXPECT_EQ(written.frames[2].rig_from_world.q, input.frames[2].rig_from_world.q);
+  EXPECT_EQ(written.frames[2].rig_from_world.t, input.frames[2].rig_from_world.t);
+  EXPECT_EQ(written.rigs[0].sensors[2].sensor_from_rig.q, input.rigs[0].sensors[2].sensor_from_rig.q);
+  EXPECT_EQ(written.rigs[0].sensors[2].sensor_from_rig.t, input.rigs[0].sensors[2].sensor_from_rig.t);
+  EXPECT_NE(written.frames[3].rig_from_world.t, input.frames[3].rig_from_world.t);
+  expect_rigid(out, colmap::Encoding::Binary);
+}
+
 }  // namespace

@@ -227,7 +227,8 @@ void print_usage(std::FILE *out) {
       "  back as read); by default the focal length and the extra parameters refined, the\n"
       "  principal point held, as COLMAP's bundle adjuster does; with COLMAP 4's rigs and frames,\n"
       "  as COLMAP 4 refines them: one pose per frame for its images, one pose per camera in its\n"
-      "  rig for all the frames (the rig's reference camera at the identity), both written back;\n"
+      "  rig for all the frames (the rig's reference camera at the identity), both written back\n"
+      "  (an image that sees no point keeps its place in its frame and rig);\n"
       "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera,\n"
       "  always refined: --intrinsics and --refine-* are refused); its image list (list.txt) with\n"
       "  --bundler-list;\n"
@@ -516,6 +517,21 @@ bool held_poses(const Options &o, const colmap::Model &model, std::vector<char> 
   return true;
 }
 
+// The summary's line on the images that see no point (none: empty): held out of the solve, and
+// written back as read, or, in a rig, kept at their place in a frame or rig whose pose is
+// refined, and moved with it.
+std::string unseen_images(const colmap::Model &model, const colmap::ColmapProblem &pr) {
+  const std::size_t unseen = model.images.size() - pr.images.size();
+  if (unseen == 0) return {};
+  std::string line = "\n" + std::to_string(unseen) + (unseen == 1 ? " image sees" : " images see") +
+                     " no point: held out of the solve";
+  if (pr.unseen_moved == 0) return line + " and written back as read";
+  const std::size_t moved = static_cast<std::size_t>(pr.unseen_moved);
+  return line + "; " + std::to_string(unseen - moved) + " written back as read, " + std::to_string(moved) +
+         " moved with " + (moved == 1 ? "its" : "their") + " refined frame or rig (" + (moved == 1 ? "its" : "their") +
+         " place there kept)";
+}
+
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
   std::vector<char> held;
@@ -533,10 +549,7 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   // values for the ones refined.
   if (l->encoding == colmap::Encoding::Binary && colmap::has_model(o.input, colmap::Encoding::Text))
     job->summary += "\nThe text model beside it is not read: binary is read first, as COLMAP does";
-  const std::size_t held_out = l->model.images.size() - pr.images.size();
-  if (held_out > 0)
-    job->summary += "\n" + std::to_string(held_out) + (held_out == 1 ? " image sees" : " images see") +
-                    " no point: held out of the solve and written back as read";
+  job->summary += unseen_images(l->model, pr);
   const auto count = [](std::size_t n, const char *what) {
     return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
   };

@@ -292,7 +292,8 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     is. With rigs and frames, as COLMAP 4 refines them: a frame's pose (rig_from_world) once
     for its images, a camera's pose in its rig (sensor_from_rig) once for all the frames of the
     rig (the rig's reference camera at the identity), written back to the frames and the rigs
-    and composed into the images.
+    and composed into the images (an image that sees no point too: it keeps its place in its
+    frame, and moves with it unless it is held).
 
     refine_focal_length, refine_principal_point, refine_extra_params
         COLMAP's bundle adjustment options (the focal length and the parameters after the
@@ -300,7 +301,9 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     hold_poses
         Images whose pose is held (COLMAP's constant poses): "all", or a list of IMAGE_IDs
         (ints) and NAMEs (strs, every image of that name); an item that names no image is a
-        ValueError.
+        ValueError. With rigs and frames, holding an image (one that sees no point too)
+        holds its frame's pose and its camera's pose in the rig, so that it comes back as
+        read.
     itmax, function_tolerance
         COLMAP's max_num_iterations (100) and function_tolerance (Ceres's relative cost
         change; None: COLMAP's 0, unless strategy or opts[4] is given, which then keep sba's

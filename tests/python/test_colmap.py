@@ -520,6 +520,46 @@ def test_held_poses_are_kept(tmp_path):
     assert all(a.t.tobytes() == b.t.tobytes() for a, b in zip(model.images, everything.images))
 
 
+def without_observations(model, image_id):
+    """The model with image image_id's observations gone (its keypoints observe no point, and a
+    point only it saw goes)."""
+    for im in model.images:
+        if im.id == image_id:
+            im.point3D_ids = np.full_like(im.point3D_ids, pysba.NO_POINT3D)
+    p = model.points3D
+    keep, offsets, images, idxs = [], [0], [], []
+    for k in range(len(p)):
+        ids, at = p.track(k)
+        kept = ids != image_id
+        if kept.any():
+            keep.append(k)
+            images += ids[kept].tolist()
+            idxs += at[kept].tolist()
+            offsets.append(len(images))
+    model.points3D = pysba.ColmapPoints3D(p.ids[keep], p.xyz[keep], p.rgb[keep], p.error[keep],
+                                          np.array(offsets, np.uint64), np.array(images, np.uint32),
+                                          np.array(idxs, np.uint32))
+    return model
+
+
+def test_a_held_image_that_sees_no_point_holds_its_frame(tmp_path):
+    # Frame 900 holds images 10 (camera 100, rig 1's reference) and 13 (camera 101), which sees
+    # no point: it keeps its place in the frame, and moves with it unless it is held.
+    model = pysba.read_colmap(rigged(tmp_path))
+    model.frames[0].data.append(("CAMERA", 101, 13))
+    del model.frames[1]
+    model = without_observations(model, 13)
+    pysba.write_colmap(model, tmp_path / "two", "binary")
+    model = pysba.read_colmap(tmp_path / "two")
+    free, _ = pysba.refine_colmap(model)
+    assert free.images[1].t.tobytes() != model.images[1].t.tobytes()
+    held, _ = pysba.refine_colmap(model, hold_poses=[13])
+    for a, b in ((held.images[1], model.images[1]), (held.frames[0], model.frames[0]),
+                 (held.rigs[0].sensors[1], model.rigs[0].sensors[1])):
+        assert a.q.tobytes() == b.q.tobytes() and a.t.tobytes() == b.t.tobytes()
+    assert held.images[2].t.tobytes() != model.images[2].t.tobytes()
+
+
 def test_pycolmap_is_named_when_missing(monkeypatch):
     monkeypatch.setitem(sys.modules, "pycolmap", None)  # import pycolmap raises ImportError
     for f in (pysba.from_pycolmap, pysba.to_pycolmap):
