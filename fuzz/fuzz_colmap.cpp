@@ -179,6 +179,7 @@ void check_accepted(colmap::Model m) {
     for (const colmap::Image &im : m.images) posed.push_back(alone.count(im.id) ? 1 : 0);
     colmap::Model again = m;
     colmap::frames_from_poses(&again, posed);
+    for (colmap::Image &im : again.images) im.q = {0, 0, 0, 0};  // composed anew, none kept
     colmap::poses_from_frames(&again);
     for (std::size_t i = 0; i < m.images.size(); ++i) {
       const colmap::Image &a = m.images[i], &b = again.images[i];

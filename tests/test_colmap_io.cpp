@@ -655,17 +655,21 @@ TEST(ColmapRigs, ModelChecks) {
   EXPECT_FALSE(colmap::check_model(m, "dir", &error));
 }
 
+// pycolmap's poses of images 2 and 3 of rig_model, composed from the same rigs and frames
+// (qw qx qy qz tx ty tz): what COLMAP 4 writes into the images file.
+constexpr std::array<double, 7> kPycolmapPoses[] = {
+    {0.35040136316000259, -0.32580562698845256, 0.87788775064583591, -0.019562090488183363,
+     0.058413656075267516, 0.0048271336011198483, 4.9961147707462841},
+    {0.32789662038726664, -0.8204826386597095, -0.46696923004372537, -0.035096783171394343,
+     -0.012789534076308449, 0.070022004531223037, 4.950387123054794}};
+
 // read_model gives each image its frame's pose, as COLMAP 4 does, whatever images.txt says:
 // the reference sensor's the same bits, another sensor's composed (pycolmap's composition of
 // the same files, to rounding). frames_from_poses gives the frames back.
 TEST(ColmapRigs, ImagesTakeTheirFramesPoses) {
   const std::string dir = temp_dir("rig_poses");
   const colmap::Model m = rig_model();
-  const std::array<double, 7> pycolmap[] = {
-      {0.35040136316000259, -0.32580562698845256, 0.87788775064583591, -0.019562090488183363,
-       0.058413656075267516, 0.0048271336011198483, 4.9961147707462841},
-      {0.32789662038726664, -0.8204826386597095, -0.46696923004372537, -0.035096783171394343,
-       -0.012789534076308449, 0.070022004531223037, 4.950387123054794}};
+  const auto &pycolmap = kPycolmapPoses;
   std::string error;
   for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
     const std::string out = dir + (e == colmap::Encoding::Text ? "/text" : "/binary");
@@ -694,6 +698,46 @@ TEST(ColmapRigs, ImagesTakeTheirFramesPoses) {
       for (int c = 0; c < 3; ++c)
         EXPECT_NEAR(back.frames[f].rig_from_world.t[c], m.frames[f].rig_from_world.t[c], 1e-14) << f << c;
     }
+  }
+}
+
+// An images file that holds the composed poses as COLMAP 4 wrote them (pycolmap's, which differ
+// from read_model's own composition in their last bits) is read with those bits and written
+// back the same bytes; one that holds another pose gets the frame's.
+TEST(ColmapRigs, ComposedPosesAsWrittenComeBack) {
+  const std::string dir = temp_dir("rig_poses_as_written");
+  colmap::Model m = rig_model();
+  m.images[0].q = m.frames[0].rig_from_world.q;
+  m.images[0].t = m.frames[0].rig_from_world.t;
+  for (std::size_t k = 0; k < 2; ++k) {
+    std::copy_n(kPycolmapPoses[k].begin(), 4, m.images[k + 1].q.begin());
+    std::copy_n(kPycolmapPoses[k].begin() + 4, 3, m.images[k + 1].t.begin());
+  }
+  // read_model's own composition is not pycolmap's, bit for bit.
+  colmap::Model composed = m;
+  for (colmap::Image &im : composed.images) im.q = {0, 0, 0, 0};  // no pose to keep
+  colmap::poses_from_frames(&composed);
+  EXPECT_NE(composed.images[2].q, m.images[2].q);
+  std::string error;
+  for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+    const std::string out = dir + (e == colmap::Encoding::Text ? "/text" : "/binary");
+    const std::string images = out + (e == colmap::Encoding::Text ? "/images.txt" : "/images.bin");
+    ASSERT_TRUE(colmap::write_model(out, m, e, &error)) << error;
+    colmap::Model back;
+    ASSERT_TRUE(colmap::read_model(out, &back, nullptr, &error)) << error;
+    for (std::size_t k = 0; k < 3; ++k) {
+      EXPECT_EQ(back.images[k].q, m.images[k].q) << k;
+      EXPECT_EQ(back.images[k].t, m.images[k].t) << k;
+    }
+    EXPECT_EQ(colmap::format_model(back, e).images, read_file(images));
+    // Moved by more than rounding, the images file's pose is not the frame's: the frame's wins.
+    colmap::Model other = m;
+    other.images[2].t[2] += 1e-12;
+    ASSERT_TRUE(colmap::write_model(out, other, e, &error)) << error;
+    ASSERT_TRUE(colmap::read_model(out, &back, nullptr, &error)) << error;
+    EXPECT_EQ(back.images[2].q, composed.images[2].q);
+    EXPECT_EQ(back.images[2].t, composed.images[2].t);
+    EXPECT_EQ(back.images[1].t, m.images[1].t);
   }
 }
 

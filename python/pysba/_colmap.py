@@ -121,7 +121,8 @@ class ColmapModel:
     without them, as COLMAP 3 wrote them), each in file order with every field of the files.
 
     With rigs and frames an image's pose is its frame's, as COLMAP 4 reads it: read_colmap
-    gives each image the pose composed from its frame, refine_colmap starts from that pose
+    gives each image the pose composed from its frame (the images file's own bits where they
+    are that pose but for rounding, as COLMAP writes them), refine_colmap starts from that pose
     whatever the image holds and writes the refined pose to both, as sbarefine does, and
     write_colmap writes both as they are (change a frame's pose, not only its image's). A model is
     checked when it is written or refined, as the reader checks files: ValueError or
