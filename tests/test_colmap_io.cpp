@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "colmap_fixtures.h"
+#include "formats/colmap_check.h"
 #include "formats/colmap_io.h"
 #include "formats/text_tokens.h"
 
@@ -738,6 +739,83 @@ TEST(ColmapRigs, ComposedPosesAsWrittenComeBack) {
     EXPECT_EQ(back.images[2].q, composed.images[2].q);
     EXPECT_EQ(back.images[2].t, composed.images[2].t);
     EXPECT_EQ(back.images[1].t, m.images[1].t);
+  }
+}
+
+// COLMAP's invalid id, 2^32 - 1 (kInvalidCameraId, kInvalidImageId, kInvalidRigId,
+// kInvalidFrameId), which COLMAP refuses in a model: refused where it stands in the files, text
+// and binary, and in a model made in memory (what pysba writes).
+TEST(ColmapReader, InvalidIdsAreRefused) {
+  const std::string invalid = " 4294967295 is COLMAP's invalid id (";
+  std::string error;
+  std::vector<colmap::Camera> cams;
+  EXPECT_FALSE(colmap::parse_cameras_text("1 PINHOLE 640 480 1 1 3 4\n4294967295 PINHOLE 640 480 1 1 3 4\n", "c.txt",
+                                          &cams, &error));
+  EXPECT_EQ(error, "c.txt:2: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
+  std::vector<colmap::Image> ims;
+  EXPECT_FALSE(colmap::parse_images_text("4294967295 1 0 0 0 0 0 0 1 a.png\n\n", "i.txt", &ims, &error));
+  EXPECT_EQ(error, "i.txt:1: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_images_text("1 1 0 0 0 0 0 0 4294967295 a.png\n\n", "i.txt", &ims, &error));
+  EXPECT_EQ(error, "i.txt:1: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
+  std::vector<colmap::Point3D> pts;
+  EXPECT_FALSE(colmap::parse_points_text("1 0 0 0 1 2 3 0.5 4294967295 0\n", "p.txt", &pts, &error));
+  EXPECT_EQ(error, "p.txt:1: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
+  std::vector<colmap::Rig> rigs;
+  EXPECT_FALSE(colmap::parse_rigs_text("4294967295 1 CAMERA 1\n", "r.txt", &rigs, &error));
+  EXPECT_EQ(error, "r.txt:1: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
+  std::vector<colmap::Frame> frames;
+  EXPECT_FALSE(colmap::parse_frames_text("4294967295 1 1 0 0 0 0 0 0 0\n", "f.txt", &frames, &error));
+  EXPECT_EQ(error, "f.txt:1: FRAME_ID" + invalid + "kInvalidFrameId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_frames_text("1 4294967295 1 0 0 0 0 0 0 0\n", "f.txt", &frames, &error));
+  EXPECT_EQ(error, "f.txt:1: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
+
+  // Binary: the same records with the id at its byte.
+  colmap::Model m = rig_model();
+  m.points.push_back({5, {0, 0, 1}, {1, 2, 3}, 0.5, {{1, 0}}});
+  m.images[0].points.push_back({1, 2, 5});
+  ASSERT_TRUE(colmap::check_model(m, "m", &error)) << error;
+  const colmap::Files f = colmap::format_model(m, colmap::Encoding::Binary);
+  const auto with_invalid = [](std::string bytes, std::size_t at) { return bytes.replace(at, 4, 4, '\xff'); };
+  EXPECT_FALSE(colmap::parse_cameras_binary(with_invalid(f.cameras, 8 + 56), "c.bin", &cams, &error));
+  EXPECT_EQ(error, "c.bin: byte 64: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_images_binary(with_invalid(f.images, 8), "i.bin", &ims, &error));
+  EXPECT_EQ(error, "i.bin: byte 8: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_images_binary(with_invalid(f.images, 8 + 60), "i.bin", &ims, &error));
+  EXPECT_EQ(error, "i.bin: byte 68: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_points_binary(with_invalid(f.points, 8 + 51), "p.bin", &pts, &error));
+  EXPECT_EQ(error, "p.bin: byte 59: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_rigs_binary(with_invalid(f.rigs, 8), "r.bin", &rigs, &error));
+  EXPECT_EQ(error, "r.bin: byte 8: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_frames_binary(with_invalid(f.frames, 8), "f.bin", &frames, &error));
+  EXPECT_EQ(error, "f.bin: byte 8: FRAME_ID" + invalid + "kInvalidFrameId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_frames_binary(with_invalid(f.frames, 12), "f.bin", &frames, &error));
+  EXPECT_EQ(error, "f.bin: byte 12: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
+
+  // A model made in memory, as pysba writes one: the record named.
+  const struct {
+    std::function<void(colmap::Model *)> edit;
+    std::string message;
+  } cases[] = {
+      {[](colmap::Model *x) { x->cameras[1].id = 0xffffffffu; },
+       "m: camera 4294967295: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses"},
+      {[](colmap::Model *x) { x->images[2].id = 0xffffffffu; },
+       "m: image 4294967295: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses"},
+      {[](colmap::Model *x) { x->images[2].camera_id = 0xffffffffu; },
+       "m: image 3: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses"},
+      {[](colmap::Model *x) { x->points[0].track[0].image_id = 0xffffffffu; },
+       "m: point 5: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses"},
+      {[](colmap::Model *x) { x->rigs[0].id = 0xffffffffu; },
+       "m: rig 4294967295: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses"},
+      {[](colmap::Model *x) { x->frames[1].id = 0xffffffffu; },
+       "m: frame 4294967295: FRAME_ID" + invalid + "kInvalidFrameId), which COLMAP refuses"},
+      {[](colmap::Model *x) { x->frames[1].rig_id = 0xffffffffu; },
+       "m: frame 12: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses"},
+  };
+  for (const auto &c : cases) {
+    colmap::Model bad = m;
+    c.edit(&bad);
+    EXPECT_FALSE(colmap::check_records(bad, "m", &error)) << c.message;
+    EXPECT_EQ(error, c.message);
   }
 }
 

@@ -2205,3 +2205,27 @@ TEST(SbarefineRigs, ComposedPosesComeBackAsRead) {
 }
 
 }  // namespace
+
+namespace {
+
+// COLMAP's invalid camera id, which pycolmap refuses to read, is refused before anything is
+// written, in either encoding.
+TEST(Sbarefine, InvalidCameraIdIsRefused) {
+  const std::string dir = temp_dir("invalid_id");
+  colmap::Model m = make_scene(dir, euclidean::CameraKind::FixedIntrinsics, 4, 30).model;
+  m.cameras[0].id = 0xffffffffu;
+  for (colmap::Image &im : m.images) im.camera_id = 0xffffffffu;
+  std::string error;
+  for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+    const bool text = e == colmap::Encoding::Text;
+    const std::string in = dir + (text ? "/text" : "/binary"), out = dir + "/out";
+    ASSERT_TRUE(colmap::write_model(in, m, e, &error)) << error;
+    const Outcome r = run(in + " --write " + out);
+    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.err, in + (text ? "/cameras.txt:4: " : "/cameras.bin: byte 8: ") +
+                         "CAMERA_ID 4294967295 is COLMAP's invalid id (kInvalidCameraId), which COLMAP refuses\n");
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
+}
+
+}  // namespace

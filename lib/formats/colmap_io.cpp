@@ -41,6 +41,17 @@ std::string bad_intrinsics(const Camera &c) {
   return {};
 }
 
+std::string invalid_id(const std::string &what) {
+  static const char *const kNames[][2] = {{"CAMERA_ID", "kInvalidCameraId"},
+                                          {"IMAGE_ID", "kInvalidImageId"},
+                                          {"RIG_ID", "kInvalidRigId"},
+                                          {"FRAME_ID", "kInvalidFrameId"}};
+  std::string constant = "its invalid id";
+  for (const auto &n : kNames)
+    if (what == n[0]) constant = n[1];
+  return what + " " + std::to_string(kInvalidId) + " is COLMAP's invalid id (" + constant + "), which COLMAP refuses";
+}
+
 std::string printable(const std::string &s) {
   std::string out;
   for (char c : s) {

@@ -432,6 +432,15 @@ def set_attr(obj, name, value):
     (lambda m: set_attr(m.cameras[1], "id", 100), ValueError, "model: camera 100 appears twice"),
     (lambda m: m.points3D.ids.__setitem__(1, 1000), ValueError, "model: point 1000 appears twice"),
     (lambda m: set_attr(m, "images", 3), TypeError, "images must be a list, got int"),
+    (lambda m: set_attr(m.cameras[1], "id", 2**32 - 1), ValueError,
+     "model: camera 4294967295: CAMERA_ID 4294967295 is COLMAP's invalid id (kInvalidCameraId), which COLMAP "
+     "refuses"),
+    (lambda m: set_attr(m.images[1], "id", 2**32 - 1), ValueError,
+     "model: image 4294967295: IMAGE_ID 4294967295 is COLMAP's invalid id (kInvalidImageId)"),
+    (lambda m: set_attr(m.rigs[1], "id", 2**32 - 1), ValueError,
+     "model: rig 4294967295: RIG_ID 4294967295 is COLMAP's invalid id (kInvalidRigId)"),
+    (lambda m: set_attr(m.frames[1], "id", 2**32 - 1), ValueError,
+     "model: frame 4294967295: FRAME_ID 4294967295 is COLMAP's invalid id (kInvalidFrameId)"),
 ])
 def test_models_the_reader_would_refuse(tmp_path, change, error, message):
     model = broken(tmp_path, change)
@@ -545,10 +554,7 @@ def without_observations(model, image_id):
 def test_a_held_image_that_sees_no_point_holds_its_frame(tmp_path):
     # Frame 900 holds images 10 (camera 100, rig 1's reference) and 13 (camera 101), which sees
     # no point: it keeps its place in the frame, and moves with it unless it is held.
-    model = pysba.read_colmap(rigged(tmp_path))
-    model.frames[0].data.append(("CAMERA", 101, 13))
-    del model.frames[1]
-    model = without_observations(model, 13)
+    model = without_observations(pysba.read_colmap(two_image_frame(tmp_path)), 13)
     pysba.write_colmap(model, tmp_path / "two", "binary")
     model = pysba.read_colmap(tmp_path / "two")
     free, _ = pysba.refine_colmap(model)
