@@ -38,6 +38,11 @@ std::string bad_intrinsics(const Camera &c) {
     const double ar = c.params[1] / c.params[0];
     if (!std::isfinite(ar) || ar == 0) return camera + "aspect ratio fy / fx overflows or underflows";
   }
+  // A panorama's size scales its pixels as a focal length does: one of no size, or a negative
+  // one (a mirrored panorama), is no camera either.
+  if (c.model == kEquirectangular)
+    for (std::size_t k = 0; k < 2; ++k)
+      if (!(c.params[k] > 0)) return camera + (k == 0 ? "w" : "h") + " must be positive, got " + g17(c.params[k]);
   return {};
 }
 

@@ -63,8 +63,9 @@ std::string repeated_sensor(const Rig &rig);
 std::string repeated_data(const Frame &frame);
 
 // Why a camera's intrinsics are not a camera, empty when they are: a focal length must be
-// positive, and fy / fx (the aspect ratio sba keeps) a number neither infinite nor zero;
-// otherwise the solve would meet an infinite aspect ratio or a mirrored image, far from here.
+// positive, and fy / fx (the aspect ratio sba keeps) a number neither infinite nor zero, and so
+// must EQUIRECTANGULAR's w and h; otherwise the solve would meet an infinite aspect ratio or a
+// mirrored image, far from here.
 std::string bad_intrinsics(const Camera &c);
 
 // s as a message quotes it: at most 40 characters, then "...", any byte outside printable

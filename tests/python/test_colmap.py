@@ -392,6 +392,8 @@ def set_attr(obj, name, value):
      "cameras[0].model: unknown camera model 'PINHOLEX' (COLMAP's are SIMPLE_PINHOLE, PINHOLE,"),
     (lambda m: m.cameras[0].params.__setitem__(1, -2), ValueError,
      "model: camera 100: OPENCV's fy must be positive, got -2"),
+    (lambda m: (set_attr(m.cameras[0], "model", "EQUIRECTANGULAR"), set_attr(m.cameras[0], "params", [0.0, 480])),
+     ValueError, "model: camera 100: EQUIRECTANGULAR's w must be positive, got 0"),
     (lambda m: set_attr(m.cameras[0], "width", -1), ValueError,
      "cameras[0].width must be in [0, 18446744073709551615], got -1"),
     (lambda m: set_attr(m.points3D, "rgb", np.full((60, 3), 256)), ValueError,
