@@ -2229,3 +2229,27 @@ TEST(Sbarefine, InvalidCameraIdIsRefused) {
 }
 
 }  // namespace
+
+namespace {
+
+// A distortion that overflows the projections (OPENCV's k1 = 1e200) is named, with the image,
+// its camera and the point, before a solve could only say that the error is not finite; with
+// --itmax 0, which solves nothing, the model is rewritten as read.
+TEST(Sbarefine, OverflowingProjectionIsNamed) {
+  const std::string dir = temp_dir("overflow");
+  colmap::Model m = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 4, 30).model;
+  m.cameras[1].params[4] = 1e200;  // camera 101's k1
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", m, colmap::Encoding::Text, &error)) << error;
+  Outcome r = run(dir + "/in --write " + dir + "/out");
+  EXPECT_EQ(r.status, 1);
+  const std::string named = dir + "/in: image 13 (img_0001.png), camera 101 (OPENCV): point ";
+  EXPECT_EQ(r.err.rfind(named, 0), 0u) << r.err;
+  EXPECT_NE(r.err.find(" px, where its squared reprojection error is not finite\n"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
+  r = run(dir + "/in --itmax 0 --write " + dir + "/out");
+  EXPECT_EQ(r.status, 0) << r.err;
+}
+
+}  // namespace

@@ -540,6 +540,13 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
     return false;
   colmap_job(l, job);
   const colmap::ColmapProblem &pr = l->colmap_problem;
+  // The library can only say that the initial error is not finite; the model can say where.
+  if (o.solve.itmax > 0) {
+    const std::vector<double> &p = job->p;
+    *error = colmap::nonfinite_error(l->model, pr, o.input,
+                                     [&](int j, int i, double x[2]) { job->project(p.data(), j, i, x); });
+    if (!error->empty()) return false;
+  }
   char line[512];
   std::snprintf(line, sizeof line, "COLMAP model %s (%s): %zu images, %zu cameras, %d points",
                 o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", l->model.images.size(),

@@ -415,6 +415,29 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePose
   return true;
 }
 
+std::string nonfinite_error(const Model &model, const ColmapProblem &problem, const std::string &name,
+                            const std::function<void(int j, int i, double x[2])> &project) {
+  const eucsba::PointSet &s = problem.points;
+  for (std::size_t k = 0; k < s.pairs.size(); ++k) {
+    const int i = s.pairs.point[k], j = s.pairs.camera[k];
+    double x[2];
+    project(j, i, x);
+    const double dx = x[0] - s.x[2 * k], dy = x[1] - s.x[2 * k + 1];
+    if (std::isfinite(dx * dx + dy * dy)) continue;
+    const Image &im = model.images[at(problem.images[at(j)])];
+    const auto camera = std::find_if(model.cameras.begin(), model.cameras.end(),
+                                     [&](const Camera &c) { return c.id == im.camera_id; });
+    char pixels[64];
+    std::snprintf(pixels, sizeof pixels, "(%g, %g)", x[0], x[1]);
+    const std::string image_name = quoted(im.name);  // its control characters as \xHH, in quotes
+    return name + ": image " + std::to_string(im.id) + " (" + image_name.substr(1, image_name.size() - 2) +
+           "), camera " + std::to_string(im.camera_id) + " (" + camera_model_name(camera->model) + "): point " +
+           std::to_string(model.points[at(i)].id) + " projects to " + pixels +
+           " px, where its squared reprojection error is not finite";
+  }
+  return {};
+}
+
 namespace {
 
 // Writes a refined pose over (*q, *t): the rotation unless its 3 parameters are all held, the

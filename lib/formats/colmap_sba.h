@@ -26,6 +26,7 @@
 #define SBA_DEMO_COLMAP_SBA_H
 
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -138,6 +139,15 @@ std::string parse_image_names(const Model &model, const std::string &text, const
 bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
             const std::vector<char> &held_pose, int mcon, const std::string &name, ColmapProblem *out,
             std::string *error);
+
+// Why the solve of a problem to_sba made of model cannot start, empty when it can: the first
+// observation, in the problem's order, whose squared reprojection error at the start is not
+// finite (a parameter that overflows the projection, as OPENCV's k1 = 1e200 does), named by its
+// image, that image's camera and the point: "NAME: image 13 (a.png), camera 101 (OPENCV):
+// point 1007 projects to (1.2e+202, 3.4e+201) px, where its squared reprojection error is not
+// finite". project(j, i, x) gives sba camera j's projection of point i at the start.
+std::string nonfinite_error(const Model &model, const ColmapProblem &problem, const std::string &name,
+                            const std::function<void(int j, int i, double x[2])> &project);
 
 // Writes the estimate p (m cnp-vectors, then n points) back into the model: the poses of the
 // sba cameras from mcon on that are not held, the points from ncon on, the parameters of each

@@ -314,6 +314,9 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         The first mcon images that see a point (their cameras' parameters too, in all their
         images) and the first ncon points are held.
 
+    A model whose reprojection error at the start is not finite (a parameter that overflows
+    the projection) is a ValueError naming the first such observation's image, camera and point.
+
     The other arguments are :func:`solve`'s. The Result's ``model`` is the refined
     :class:`ColmapModel` (also on the ``result`` of a KeyboardInterrupt: the last accepted
     estimate), ``rms_initial`` and ``rms_final`` are sbarefine's RMS reprojection errors in

@@ -568,6 +568,15 @@ def test_a_held_image_that_sees_no_point_holds_its_frame(tmp_path):
     assert held.images[2].t.tobytes() != model.images[2].t.tobytes()
 
 
+def test_an_overflowing_projection_is_named(tmp_path):
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    model.cameras[1].params[4] = 1e200  # camera 101's k1
+    for itmax in (100, 0):  # the library evaluates the error with itmax 0 too
+        with pytest.raises(ValueError, match=re.escape("model: image 13 (img_0001.png), camera 101 (OPENCV): point ")
+                           + ".* px, where its squared reprojection error is not finite$"):
+            pysba.refine_colmap(model, itmax=itmax)
+
+
 def test_pycolmap_is_named_when_missing(monkeypatch):
     monkeypatch.setitem(sys.modules, "pycolmap", None)  # import pycolmap raises ImportError
     for f in (pysba.from_pycolmap, pysba.to_pycolmap):
