@@ -2253,3 +2253,48 @@ TEST(Sbarefine, OverflowingProjectionIsNamed) {
 }
 
 }  // namespace
+
+namespace {
+
+// sbarefine's sizes line and --json's sizes: "variables" the parameters as sba 1.6 counts them
+// (every image's cnp, every point's 3, held ones and each image's copy of a shared one
+// included; cnp 11 for PINHOLE's 6 + 4, padded to a kernel's size, 16 in a rig), "unknowns"
+// what the solve estimates. One PINHOLE camera shared by 10 images, its principal point held:
+// 10 poses, fx and fy once, the points (fewer with --mcon, --ncon and --hold-poses). A rig scene
+// of 2 rigs x 3 cameras over 8 frames: 8 frames' poses, 4 cameras' poses in their rigs, 6
+// cameras' f and k, the points.
+TEST(Sbarefine, UnknownsAreCountedOnce) {
+  const std::string dir = temp_dir("unknowns");
+  const Scene s = make_scene(dir, euclidean::CameraKind::FixedIntrinsics);
+  const RigScene rigs = make_rig_scene(2, 3, 8, 300, 0.5);
+  const long long n = static_cast<long long>(s.model.points.size());
+  ASSERT_EQ(rigs.model.points.size(), 300u);
+  const struct {
+    const colmap::Model &model;
+    std::string args;
+    long long unknowns, parameters;
+  } cases[] = {
+      {s.model, "", 10 * 6 + 2 + 3 * n, 10 * 11 + 3 * n},
+      // Images 10 and 13 held whole, and so their camera in all its images; image 19's pose.
+      {s.model, "--mcon 2 --ncon 5 --hold-poses 19", 7 * 6 + 3 * (n - 5), 10 * 11 + 3 * n},
+      {rigs.model, "", 8 * 6 + 4 * 6 + 6 * 2 + 900, 24 * 16 + 900},
+  };
+  std::string error;
+  for (const auto &c : cases) {
+    ASSERT_TRUE(colmap::write_model(dir + "/in", c.model, colmap::Encoding::Binary, &error)) << error;
+    const Outcome r = run(dir + "/in --itmax 1 --json " + dir + "/r.json " + c.args);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find(" observations, " + std::to_string(c.unknowns) + " unknowns (" +
+                         std::to_string(c.parameters) +
+                         " parameters, held ones and each copy of a shared one included)\n"),
+              std::string::npos)
+        << c.args << "\n" << r.out;
+    const std::string json = read_file(dir + "/r.json");
+    EXPECT_NE(json.find("\"variables\": " + std::to_string(c.parameters) + ", \"unknowns\": " +
+                        std::to_string(c.unknowns) + "}"),
+              std::string::npos)
+        << c.args << "\n" << json;
+  }
+}
+
+}  // namespace

@@ -777,8 +777,10 @@ int solve_and_write(const Options &o, Job &job, double read_seconds) {
   if (!sbacli::write_ply_option(o.final_ply, final_cloud, &outputs)) return kExitFailure;
 
   const std::size_t eol = job.summary.find('\n');
-  std::printf("%s, %d observations, %lld variables%s\n", job.summary.substr(0, eol).c_str(), solve.observations(),
-              solve.variables(), eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
+  std::printf("%s, %d observations, %lld unknowns (%lld parameters, held ones and each copy of a shared one "
+              "included)%s\n",
+              job.summary.substr(0, eol).c_str(), solve.observations(), solve.unknowns(), solve.variables(),
+              eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
   return solve.finish(
       read_seconds, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); }, job.camera_names,
       o.write, &outputs);
