@@ -44,6 +44,9 @@ struct MotstrInputs {
   const int *cam_group = nullptr;
   const char *cam_shared = nullptr;
   const int *cam_param_group = nullptr;
+  // Parameters of each camera that the callbacks hold rather than cam_fixed (eucsbademo's camera
+  // model holds its trailing intrinsics by a zero derivative): not unknowns either.
+  int cam_held_by_callbacks = 0;
 };
 
 class MotstrSolve {
@@ -139,11 +142,12 @@ class MotstrSolve {
     return static_cast<long long>(in_.m) * in_.cnp + static_cast<long long>(in_.n) * in_.pnp;
   }
   // What the solve estimates, as sba_ext.h defines the unknowns: the parameters of the cameras
-  // from mcon on that are not held (cam_fixed), a shared one once for its group (cam_group and
-  // cam_shared, or cam_param_group), and the points from ncon on.
+  // from mcon on that are not held (cam_fixed, or by the callbacks), a shared one once for its
+  // group (cam_group and cam_shared, or cam_param_group), and the points from ncon on.
   long long unknowns() const {
     const MotstrInputs &in = in_;
-    long long count = static_cast<long long>(in.n - so_.ncon) * in.pnp;
+    long long count = static_cast<long long>(in.n - so_.ncon) * in.pnp -
+                      static_cast<long long>(in.m - so_.mcon) * in.cam_held_by_callbacks;
     std::vector<std::pair<int, int>> shared;  // (parameter, group) of each shared unknown, once
     for (int j = so_.mcon; j < in.m; ++j)
       for (int c = 0; c < in.cnp; ++c) {

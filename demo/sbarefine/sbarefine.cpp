@@ -394,6 +394,7 @@ void eucsba_job(Loaded *l, Job *job) {
   job->in.func = cb.func;
   job->in.fjac = cb.fjac;
   job->in.adata = euclidean::as_adata(sm);
+  job->in.cam_held_by_callbacks = pr.nccalib + pr.ncdist;
   const int m = job->in.m, cnp = job->in.cnp;
   job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
     sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
