@@ -6,10 +6,11 @@
 // text; 11: the same converted to binary first, so that the binary readers meet them whole).
 // The rest is the content. What parses must format back to content that parses to the same
 // records, and a text file's formatted form must be a fixed point; what parses keeps the
-// readers' promises (positive focal lengths, quaternions that normalize, names the text format
-// can hold). A model that check_model accepts keeps its promises too: every image in one frame,
+// readers' promises (positive focal lengths and panorama sizes, quaternions that normalize,
+// names the text format can hold, no id that is COLMAP's invalid one). A model that check_model accepts keeps its promises too: every image in one frame,
 // a finite pose composed for each, the frames' poses recovered from those (frames_from_poses),
-// and its files read back as the same model.
+// its files read back as the same model, and its problem (to_sba) holding what a held image's
+// pose holds, in a rig or not, whether the image sees points or not.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -21,6 +22,7 @@
 #include "cameras/colmap_camera.h"
 #include "cameras/euclidean.h"
 #include "formats/colmap_io.h"
+#include "formats/colmap_sba.h"
 #include "fuzz_common.h"
 
 namespace colmap = sbaformats::colmap;
@@ -50,19 +52,30 @@ void require_rotation(const std::array<double, 4> &q, const std::string &what) {
   sbafuzz::require_rotation(euclidean::normalized_rotation({q[0], q[1], q[2], q[3]}), what);
 }
 
+// COLMAP's invalid id of cameras, images, rigs and frames, which the readers refuse.
+constexpr std::uint32_t kInvalidId = 0xffffffffu;
+
 // What the readers promise of what they accept, beyond its syntax.
 void require_valid(const colmap::Camera &c) {
-  // The focal lengths (f, or fx and fy) lead the parameters and are positive.
+  require(c.id != kInvalidId, "accepted COLMAP's invalid camera id");
+  // The focal lengths (f, or fx and fy) lead the parameters and are positive, and so is a
+  // panorama's size.
   const int focals = sbacameras::colmap_camera::focal_count(c.model);
   for (int k = 0; k < focals; ++k)
     require(c.params[std::size_t(k)] > 0, "accepted a focal length that is not positive");
+  if (c.model == colmap::kEquirectangular)
+    require(c.params[0] > 0 && c.params[1] > 0, "accepted a panorama's size that is not positive");
 }
 void require_valid(const colmap::Image &im) {
+  require(im.id != kInvalidId && im.camera_id != kInvalidId, "accepted COLMAP's invalid image or camera id");
   require_rotation(im.q, "an image's quaternion");
   require(!im.name.empty() && im.name.front() != ' ' && im.name.back() != ' ', "accepted a name text cannot hold");
 }
-void require_valid(const colmap::Point3D &) {}
+void require_valid(const colmap::Point3D &p) {
+  for (const colmap::TrackElement &e : p.track) require(e.image_id != kInvalidId, "accepted COLMAP's invalid image id");
+}
 void require_valid(const colmap::Rig &rig) {
+  require(rig.id != kInvalidId, "accepted COLMAP's invalid rig id");
   for (std::size_t k = 1; k < rig.sensors.size(); ++k)
     if (rig.sensors[k].has_pose) require_rotation(rig.sensors[k].sensor_from_rig.q, "a sensor's quaternion");
   for (std::size_t j = 0; j < rig.sensors.size(); ++j)
@@ -70,6 +83,7 @@ void require_valid(const colmap::Rig &rig) {
       require(!(rig.sensors[j].sensor == rig.sensors[k].sensor), "accepted a sensor twice in a rig");
 }
 void require_valid(const colmap::Frame &f) {
+  require(f.id != kInvalidId && f.rig_id != kInvalidId, "accepted COLMAP's invalid frame or rig id");
   require_rotation(f.rig_from_world.q, "a frame's quaternion");
   for (std::size_t j = 0; j < f.data.size(); ++j)
     for (std::size_t k = 0; k < j; ++k)
@@ -143,6 +157,39 @@ double size_of(const std::array<double, 3> &t) {
   return std::max({std::fabs(t[0]), std::fabs(t[1]), std::fabs(t[2])});
 }
 
+// to_sba's problem of an accepted model whose first image's pose is held (--hold-poses): that
+// image's pose is held whether it sees points or not. In a rigged problem, every sba camera of
+// its frame holds the frame's pose, and every one of its camera holds the camera's pose in the
+// rig; otherwise its own sba camera, if it has one, holds its 6 pose parameters. It is counted
+// held.
+void check_held_first_image(const colmap::Model &m) {
+  if (m.images.empty() || m.points.empty()) return;
+  std::vector<char> held(m.images.size(), 0);
+  held[0] = 1;
+  colmap::ColmapProblem pr;
+  std::string error;
+  if (!colmap::to_sba(m, {}, {}, held, 0, "fuzz-model", &pr, &error)) {
+    sbafuzz::check_error_line(error, "fuzz-model: ");
+    return;
+  }
+  require(pr.held_poses >= 1, "a held image is not counted held");
+  const auto all = [](const char *f, int n) { return std::all_of(f, f + n, [](char c) { return c != 0; }); };
+  const std::size_t cnp = static_cast<std::size_t>(pr.cnp);
+  if (!pr.rigged) {
+    for (std::size_t j = 0; j < pr.images.size(); ++j)
+      if (pr.images[j] == 0) require(all(&pr.cam_fixed[j * cnp], 6), "a held image's pose is refined");
+    return;
+  }
+  const colmap::ImagePlace first = colmap::image_places(m)[0];
+  for (std::size_t j = 0; j < pr.images.size(); ++j) {
+    const colmap::ImagePlace &pl = pr.places[j];
+    const char *fixed = &pr.cam_fixed[j * cnp];
+    if (pl.frame == first.frame) require(all(fixed, 6), "the frame of a held image is refined");
+    if (m.images[std::size_t(pr.images[j])].camera_id == m.images[0].camera_id)
+      require(all(fixed + 6, 6), "the pose in its rig of a held image's camera is refined");
+  }
+}
+
 // A model accepted by check_model keeps check_model's promises: each image in one frame as data
 // of its camera, in that frame's rig. Its images get finite poses from their frames; frames
 // made from those poses give them back (the same bits for a rig's reference sensor); its files,
@@ -160,6 +207,7 @@ void check_accepted(colmap::Model m) {
     for (const colmap::Image &im : m.images)
       require(in_frames[im.id] == 1, "accepted an image not in one frame");
   }
+  check_held_first_image(m);
   colmap::poses_from_frames(&m);
   for (const colmap::Image &im : m.images) {
     sbafuzz::require_finite(im.t.begin(), im.t.end(), "a composed translation");
@@ -179,6 +227,7 @@ void check_accepted(colmap::Model m) {
     for (const colmap::Image &im : m.images) posed.push_back(alone.count(im.id) ? 1 : 0);
     colmap::Model again = m;
     colmap::frames_from_poses(&again, posed);
+    for (colmap::Image &im : again.images) im.q = {0, 0, 0, 0};  // composed anew, none kept
     colmap::poses_from_frames(&again);
     for (std::size_t i = 0; i < m.images.size(); ++i) {
       const colmap::Image &a = m.images[i], &b = again.images[i];

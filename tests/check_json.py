@@ -4,7 +4,8 @@
 
 usage: check_json.py EUCSBADEMO BALSBA PROJECT_DIR SHARED_DATA_DIR SCRATCH_DIR
 
-Every number the JSON object and the printed lines share must agree: the sizes, every info[]
+Every number the JSON object and the printed lines share must agree: the sizes (balsba's
+"unknowns", which it does not print, equal to its "variables": it holds nothing), every info[]
 value the "SBA returned" line shows, the RMS errors, the stop reason, the solver and threads.
 The JSON's own additions are checked for consistency: one iteration entry per iteration, the
 last one's error equal to info[1], and per-camera observations and RMS that add up to the
@@ -36,7 +37,9 @@ STOP = re.compile(r"Stop reason (\d+): (.+)")
 SOLVER = re.compile(r"Solver (\S+)( \(auto\))? on (\d+) threads?(?:, strategy (\S+))?, (\d+\.\d+) s")
 
 
-def run(label, cmd, sizes_re, json_path, weighted, asked=None):
+def run(label, cmd, sizes_re, json_path, weighted, asked=None, all_unknown=None):
+    """all_unknown: None for a program whose report counts no unknowns (eucsbademo: no
+    "unknowns" key), True where every parameter is one (balsba without --mcon and --ncon)."""
     proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     if proc.returncode != 0:
         failures.append("%s: exit status %d: %s" % (label, proc.returncode, proc.stderr))
@@ -55,6 +58,11 @@ def run(label, cmd, sizes_re, json_path, weighted, asked=None):
         for k, v in printed.items():
             check(sizes[k] == v, "%s: sizes.%s %s, printed %d" % (label, k, sizes[k], v))
     nobs = sizes["observations"]
+    # "variables" counts the parameters as sba 1.6 does; "unknowns" what the solve estimates.
+    check(("unknowns" in sizes) == (all_unknown is not None), "%s: sizes %s" % (label, sorted(sizes)))
+    if all_unknown:
+        check(sizes["unknowns"] == sizes["variables"], "%s: sizes.unknowns %s, variables %s" %
+              (label, sizes["unknowns"], sizes["variables"]))
 
     m = RETURNED.search(out)
     check(m is not None, "%s: no 'SBA returned' line" % label)
@@ -127,7 +135,7 @@ def main():
         out = os.path.join(scratch, "bal.json")
         run("balsba", [balsba, bal, "--itmax=5", "--strategy=trust-region", "--json", out],
             r": (?P<cameras>\d+) cameras, (?P<points>\d+) points, (?P<observations>\d+) observations, "
-            r"(?P<variables>\d+) variables", out, False, "auto")
+            r"(?P<variables>\d+) variables", out, False, "auto", all_unknown=True)
     else:
         print("check_json: %s is absent: balsba not checked" % bal)
     for f in failures:

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "colmap_fixtures.h"
+#include "formats/colmap_check.h"
 #include "formats/colmap_io.h"
 #include "formats/text_tokens.h"
 
@@ -151,6 +152,10 @@ TEST(ColmapReader, CameraTextErrors) {
       {"1 RAD_TAN_THIN_PRISM_FISHEYE 640 480 1 2 3 4 5 6 7 8 9 10 11 12\n",
        "c.txt:1: RAD_TAN_THIN_PRISM_FISHEYE has 16 parameters, found 12"},
       {"1 EQUIRECTANGULAR 640 480 640 480 1\n", "c.txt:1: EQUIRECTANGULAR has 2 parameters, found 3"},
+      {"4 EQUIRECTANGULAR 640 480 0 480\n", "c.txt:1: camera 4: EQUIRECTANGULAR's w must be positive, got 0"},
+      {"4 EQUIRECTANGULAR 640 480 -640 480\n",
+       "c.txt:1: camera 4: EQUIRECTANGULAR's w must be positive, got -640"},
+      {"4 EQUIRECTANGULAR 640 480 640 -0\n", "c.txt:1: camera 4: EQUIRECTANGULAR's h must be positive, got -0"},
       {"1 SIMPLE_DIVISION 640 480 -500 320 240 0.1\n",
        "c.txt:1: camera 1: SIMPLE_DIVISION's f must be positive, got -500"},
       {"1 EUCM 640 480 500 0 320 240 0.5 1\n", "c.txt:1: camera 1: EUCM's fy must be positive, got 0"},
@@ -655,17 +660,21 @@ TEST(ColmapRigs, ModelChecks) {
   EXPECT_FALSE(colmap::check_model(m, "dir", &error));
 }
 
+// pycolmap's poses of images 2 and 3 of rig_model, composed from the same rigs and frames
+// (qw qx qy qz tx ty tz): what COLMAP 4 writes into the images file.
+constexpr std::array<double, 7> kPycolmapPoses[] = {
+    {0.35040136316000259, -0.32580562698845256, 0.87788775064583591, -0.019562090488183363,
+     0.058413656075267516, 0.0048271336011198483, 4.9961147707462841},
+    {0.32789662038726664, -0.8204826386597095, -0.46696923004372537, -0.035096783171394343,
+     -0.012789534076308449, 0.070022004531223037, 4.950387123054794}};
+
 // read_model gives each image its frame's pose, as COLMAP 4 does, whatever images.txt says:
 // the reference sensor's the same bits, another sensor's composed (pycolmap's composition of
 // the same files, to rounding). frames_from_poses gives the frames back.
 TEST(ColmapRigs, ImagesTakeTheirFramesPoses) {
   const std::string dir = temp_dir("rig_poses");
   const colmap::Model m = rig_model();
-  const std::array<double, 7> pycolmap[] = {
-      {0.35040136316000259, -0.32580562698845256, 0.87788775064583591, -0.019562090488183363,
-       0.058413656075267516, 0.0048271336011198483, 4.9961147707462841},
-      {0.32789662038726664, -0.8204826386597095, -0.46696923004372537, -0.035096783171394343,
-       -0.012789534076308449, 0.070022004531223037, 4.950387123054794}};
+  const auto &pycolmap = kPycolmapPoses;
   std::string error;
   for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
     const std::string out = dir + (e == colmap::Encoding::Text ? "/text" : "/binary");
@@ -694,6 +703,123 @@ TEST(ColmapRigs, ImagesTakeTheirFramesPoses) {
       for (int c = 0; c < 3; ++c)
         EXPECT_NEAR(back.frames[f].rig_from_world.t[c], m.frames[f].rig_from_world.t[c], 1e-14) << f << c;
     }
+  }
+}
+
+// An images file that holds the composed poses as COLMAP 4 wrote them (pycolmap's, which differ
+// from read_model's own composition in their last bits) is read with those bits and written
+// back the same bytes; one that holds another pose gets the frame's.
+TEST(ColmapRigs, ComposedPosesAsWrittenComeBack) {
+  const std::string dir = temp_dir("rig_poses_as_written");
+  colmap::Model m = rig_model();
+  m.images[0].q = m.frames[0].rig_from_world.q;
+  m.images[0].t = m.frames[0].rig_from_world.t;
+  for (std::size_t k = 0; k < 2; ++k) {
+    std::copy_n(kPycolmapPoses[k].begin(), 4, m.images[k + 1].q.begin());
+    std::copy_n(kPycolmapPoses[k].begin() + 4, 3, m.images[k + 1].t.begin());
+  }
+  // read_model's own composition is not pycolmap's, bit for bit.
+  colmap::Model composed = m;
+  for (colmap::Image &im : composed.images) im.q = {0, 0, 0, 0};  // no pose to keep
+  colmap::poses_from_frames(&composed);
+  EXPECT_NE(composed.images[2].q, m.images[2].q);
+  std::string error;
+  for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+    const std::string out = dir + (e == colmap::Encoding::Text ? "/text" : "/binary");
+    const std::string images = out + (e == colmap::Encoding::Text ? "/images.txt" : "/images.bin");
+    ASSERT_TRUE(colmap::write_model(out, m, e, &error)) << error;
+    colmap::Model back;
+    ASSERT_TRUE(colmap::read_model(out, &back, nullptr, &error)) << error;
+    for (std::size_t k = 0; k < 3; ++k) {
+      EXPECT_EQ(back.images[k].q, m.images[k].q) << k;
+      EXPECT_EQ(back.images[k].t, m.images[k].t) << k;
+    }
+    EXPECT_EQ(colmap::format_model(back, e).images, read_file(images));
+    // Moved by more than rounding, the images file's pose is not the frame's: the frame's wins.
+    colmap::Model other = m;
+    other.images[2].t[2] += 1e-12;
+    ASSERT_TRUE(colmap::write_model(out, other, e, &error)) << error;
+    ASSERT_TRUE(colmap::read_model(out, &back, nullptr, &error)) << error;
+    EXPECT_EQ(back.images[2].q, composed.images[2].q);
+    EXPECT_EQ(back.images[2].t, composed.images[2].t);
+    EXPECT_EQ(back.images[1].t, m.images[1].t);
+  }
+}
+
+// COLMAP's invalid id, 2^32 - 1 (kInvalidCameraId, kInvalidImageId, kInvalidRigId,
+// kInvalidFrameId), which COLMAP refuses in a model: refused where it stands in the files, text
+// and binary, and in a model made in memory (what pysba writes).
+TEST(ColmapReader, InvalidIdsAreRefused) {
+  const std::string invalid = " 4294967295 is COLMAP's invalid id (";
+  std::string error;
+  std::vector<colmap::Camera> cams;
+  EXPECT_FALSE(colmap::parse_cameras_text("1 PINHOLE 640 480 1 1 3 4\n4294967295 PINHOLE 640 480 1 1 3 4\n", "c.txt",
+                                          &cams, &error));
+  EXPECT_EQ(error, "c.txt:2: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
+  std::vector<colmap::Image> ims;
+  EXPECT_FALSE(colmap::parse_images_text("4294967295 1 0 0 0 0 0 0 1 a.png\n\n", "i.txt", &ims, &error));
+  EXPECT_EQ(error, "i.txt:1: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_images_text("1 1 0 0 0 0 0 0 4294967295 a.png\n\n", "i.txt", &ims, &error));
+  EXPECT_EQ(error, "i.txt:1: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
+  std::vector<colmap::Point3D> pts;
+  EXPECT_FALSE(colmap::parse_points_text("1 0 0 0 1 2 3 0.5 4294967295 0\n", "p.txt", &pts, &error));
+  EXPECT_EQ(error, "p.txt:1: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
+  std::vector<colmap::Rig> rigs;
+  EXPECT_FALSE(colmap::parse_rigs_text("4294967295 1 CAMERA 1\n", "r.txt", &rigs, &error));
+  EXPECT_EQ(error, "r.txt:1: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
+  std::vector<colmap::Frame> frames;
+  EXPECT_FALSE(colmap::parse_frames_text("4294967295 1 1 0 0 0 0 0 0 0\n", "f.txt", &frames, &error));
+  EXPECT_EQ(error, "f.txt:1: FRAME_ID" + invalid + "kInvalidFrameId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_frames_text("1 4294967295 1 0 0 0 0 0 0 0\n", "f.txt", &frames, &error));
+  EXPECT_EQ(error, "f.txt:1: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
+
+  // Binary: the same records with the id at its byte.
+  colmap::Model m = rig_model();
+  m.points.push_back({5, {0, 0, 1}, {1, 2, 3}, 0.5, {{1, 0}}});
+  m.images[0].points.push_back({1, 2, 5});
+  ASSERT_TRUE(colmap::check_model(m, "m", &error)) << error;
+  const colmap::Files f = colmap::format_model(m, colmap::Encoding::Binary);
+  const auto with_invalid = [](std::string bytes, std::size_t at) { return bytes.replace(at, 4, 4, '\xff'); };
+  EXPECT_FALSE(colmap::parse_cameras_binary(with_invalid(f.cameras, 8 + 56), "c.bin", &cams, &error));
+  EXPECT_EQ(error, "c.bin: byte 64: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_images_binary(with_invalid(f.images, 8), "i.bin", &ims, &error));
+  EXPECT_EQ(error, "i.bin: byte 8: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_images_binary(with_invalid(f.images, 8 + 60), "i.bin", &ims, &error));
+  EXPECT_EQ(error, "i.bin: byte 68: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_points_binary(with_invalid(f.points, 8 + 51), "p.bin", &pts, &error));
+  EXPECT_EQ(error, "p.bin: byte 59: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_rigs_binary(with_invalid(f.rigs, 8), "r.bin", &rigs, &error));
+  EXPECT_EQ(error, "r.bin: byte 8: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_frames_binary(with_invalid(f.frames, 8), "f.bin", &frames, &error));
+  EXPECT_EQ(error, "f.bin: byte 8: FRAME_ID" + invalid + "kInvalidFrameId), which COLMAP refuses");
+  EXPECT_FALSE(colmap::parse_frames_binary(with_invalid(f.frames, 12), "f.bin", &frames, &error));
+  EXPECT_EQ(error, "f.bin: byte 12: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
+
+  // A model made in memory, as pysba writes one: the record named.
+  const struct {
+    std::function<void(colmap::Model *)> edit;
+    std::string message;
+  } cases[] = {
+      {[](colmap::Model *x) { x->cameras[1].id = 0xffffffffu; },
+       "m: camera 4294967295: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses"},
+      {[](colmap::Model *x) { x->images[2].id = 0xffffffffu; },
+       "m: image 4294967295: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses"},
+      {[](colmap::Model *x) { x->images[2].camera_id = 0xffffffffu; },
+       "m: image 3: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses"},
+      {[](colmap::Model *x) { x->points[0].track[0].image_id = 0xffffffffu; },
+       "m: point 5: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses"},
+      {[](colmap::Model *x) { x->rigs[0].id = 0xffffffffu; },
+       "m: rig 4294967295: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses"},
+      {[](colmap::Model *x) { x->frames[1].id = 0xffffffffu; },
+       "m: frame 4294967295: FRAME_ID" + invalid + "kInvalidFrameId), which COLMAP refuses"},
+      {[](colmap::Model *x) { x->frames[1].rig_id = 0xffffffffu; },
+       "m: frame 12: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses"},
+  };
+  for (const auto &c : cases) {
+    colmap::Model bad = m;
+    c.edit(&bad);
+    EXPECT_FALSE(colmap::check_records(bad, "m", &error)) << c.message;
+    EXPECT_EQ(error, c.message);
   }
 }
 

@@ -332,6 +332,14 @@ TEST(SbarefineNvm, HeldFocalAndHeldCamerasAsFixedK) {
       run(dir + "/in.nvm --intrinsics none --mcon 1 --write " + dir + "/out.nvm --json " + dir + "/r.json");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("Intrinsics refined: none (nccalib 5); "), std::string::npos) << r.out;
+  // The unknowns: the 9 cameras' poses from --mcon 1 on and the points; the intrinsics, which
+  // eucsbademo's camera model holds, are parameters only (16 a camera).
+  const std::string unknowns = std::to_string(9 * 6 + 3 * m.points.size()),
+                    parameters = std::to_string(10 * 16 + 3 * m.points.size());
+  EXPECT_NE(r.out.find(" observations, " + unknowns + " unknowns (" + parameters + " parameters, "), std::string::npos)
+      << r.out;
+  EXPECT_NE(read_file(dir + "/r.json").find("\"variables\": " + parameters + ", \"unknowns\": " + unknowns + "}"),
+            std::string::npos);
   EXPECT_NEAR(final_error(r.out), expected, 1e-6 * expected) << r.out;
   nvm::Model back;
   ASSERT_TRUE(nvm::read_nvm(dir + "/out.nvm", &back, &error)) << error;

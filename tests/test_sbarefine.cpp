@@ -19,6 +19,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <random>
 #include <string>
 #include <unordered_map>
@@ -1657,7 +1658,8 @@ int iterations(const std::string &out) {
 colmap::Pose pose_of(const colmap::Image &im) { return {im.q, im.t}; }
 
 // In the model written to out: every image's pose in the images file is its frame's composed
-// with its camera's pose in the rig (poses_from_frames, bit for bit), and, independently, the
+// with its camera's pose in the rig (poses_from_frames, bit for bit: the scenes here hold
+// sbarefine's own compositions), and, independently, the
 // pose of every image of a frame relative to the frame's reference image is its camera's pose
 // in the rigs file (1e-12): each frame's images are exactly as rigid as the rigs say, with one
 // pose per camera for all the frames.
@@ -1665,7 +1667,10 @@ void expect_rigid(const std::string &out, colmap::Encoding e) {
   const colmap::Model written = files_of(out, e);
   colmap::Model composed = written;
   std::string error;
-  for (colmap::Image &im : composed.images) im.points.clear();
+  for (colmap::Image &im : composed.images) {
+    im.points.clear();
+    im.q = {0, 0, 0, 0};  // no pose that poses_from_frames would keep
+  }
   ASSERT_TRUE(colmap::check_model(composed, out, &error)) << error;
   colmap::poses_from_frames(&composed);
   for (std::size_t j = 0; j < written.images.size(); ++j) {
@@ -2049,6 +2054,254 @@ TEST(SbarefineRigs, SolversAndStrategiesAgree) {
     }
   EXPECT_GT(reference, 0.63);
   EXPECT_LT(reference, 0.635);
+}
+
+}  // namespace
+
+namespace {
+
+// The images of each camera that see a point.
+std::map<std::uint32_t, int> seeing_images(const colmap::Model &m) {
+  std::map<std::uint32_t, int> out;
+  for (const colmap::Image &im : m.images)
+    out[im.camera_id] +=
+        std::any_of(im.points.begin(), im.points.end(), [](const colmap::Point2D &p) { return p.point3d_id != colmap::kNoPoint; });
+  return out;
+}
+
+// A camera shared by more images than a char counts (a rig of two cameras over 130 frames)
+// is shared, and so counted.
+TEST(SbarefineRigs, CameraOfManyFramesIsShared) {
+  const std::string dir = temp_dir("rig_many_frames");
+  const RigScene s = make_rig_scene(1, 2, 130, 400, 0.5);
+  for (const auto &[camera, images] : seeing_images(s.model)) EXPECT_GE(images, 128) << camera;
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error)) << error;
+  const Outcome r = run(dir + "/in --itmax 0");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("; 2 cameras shared by several images, refined once; rig_from_world of 130 frames (0 held), "
+                       "sensor_from_rig of 1 camera (0 held); 0 poses held\n"),
+            std::string::npos)
+      << r.out;
+}
+
+// The model with image `id`'s observations gone: its keypoints matched to no point, and the
+// points only it saw removed.
+colmap::Model without_observations(colmap::Model m, std::uint32_t id) {
+  for (colmap::Image &im : m.images)
+    if (im.id == id)
+      for (colmap::Point2D &k : im.points) k.point3d_id = colmap::kNoPoint;
+  for (colmap::Point3D &pt : m.points)
+    pt.track.erase(std::remove_if(pt.track.begin(), pt.track.end(),
+                                  [id](const colmap::TrackElement &e) { return e.image_id == id; }),
+                   pt.track.end());
+  m.points.erase(std::remove_if(m.points.begin(), m.points.end(),
+                                [](const colmap::Point3D &pt) { return pt.track.empty(); }),
+                 m.points.end());
+  return m;
+}
+
+// An image that sees no point in a frame of several images keeps its place in the frame: it
+// moves with the frame's refined pose, and the summary says so. Held (--hold-poses), it holds
+// its frame's pose and its camera's pose in the rig, as an image that sees points does, and
+// comes back as read.
+TEST(SbarefineRigs, HeldImageThatSeesNoPointHoldsItsFrame) {
+  const std::string dir = temp_dir("rig_unseen_held");
+  // Image 203: frame 2 (rig 50), camera 3, which is not the rig's reference.
+  const colmap::Model m = without_observations(make_rig_scene(2, 3, 8, 300, 0.5).model, 203);
+  std::string error;
+  ASSERT_TRUE(colmap::check_model(m, "unseen", &error)) << error;
+  const std::string in = dir + "/in", out = dir + "/out";
+  ASSERT_TRUE(colmap::write_model(in, m, colmap::Encoding::Binary, &error)) << error;
+  const colmap::Model input = files_of(in, colmap::Encoding::Binary);
+  const auto image = [](const colmap::Model &model, std::uint32_t id) {
+    return *std::find_if(model.images.begin(), model.images.end(), [id](const colmap::Image &im) { return im.id == id; });
+  };
+  Outcome r = run(in + " --write " + out);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("\n1 image sees no point: held out of the solve; 0 written back as read, 1 moved with its "
+                       "refined frame or rig (its place there kept)\n"),
+            std::string::npos)
+      << r.out;
+  colmap::Model written = files_of(out, colmap::Encoding::Binary);
+  EXPECT_GT(pose_distance(pose_of(image(written, 203)), pose_of(image(input, 203))), 1e-4);
+  expect_rigid(out, colmap::Encoding::Binary);
+
+  r = run(in + " --write " + out + " --hold-poses 203");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("\n1 image sees no point: held out of the solve and written back as read\n"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("rig_from_world of 8 frames (1 held), sensor_from_rig of 4 cameras (1 held); 1 pose held\n"),
+            std::string::npos)
+      << r.out;
+  written = files_of(out, colmap::Encoding::Binary);
+  EXPECT_EQ(image(written, 203).q, image(input, 203).q);
+  EXPECT_EQ(image(written, 203).t, image(input, 203).t);
+  EXPECT_EQ(written.frames[2].rig_from_world.q, input.frames[2].rig_from_world.q);
+  EXPECT_EQ(written.frames[2].rig_from_world.t, input.frames[2].rig_from_world.t);
+  EXPECT_EQ(written.rigs[0].sensors[2].sensor_from_rig.q, input.rigs[0].sensors[2].sensor_from_rig.q);
+  EXPECT_EQ(written.rigs[0].sensors[2].sensor_from_rig.t, input.rigs[0].sensors[2].sensor_from_rig.t);
+  EXPECT_NE(written.frames[3].rig_from_world.t, input.frames[3].rig_from_world.t);
+  expect_rigid(out, colmap::Encoding::Binary);
+}
+
+// The pose of a camera whose pose in its rig is s, the rig at f, as another program's arithmetic
+// composes it (COLMAP's writes the images file so): the quaternions' product as it stands, and
+// t_S + R_S t_F with R_S applied in the cross-product form, which rounds otherwise than a
+// rotation matrix.
+colmap::Pose composed_otherwise(const colmap::Pose &s, const colmap::Pose &f) {
+  const double w = s.q[0], x = s.q[1], y = s.q[2], z = s.q[3];
+  colmap::Pose p;
+  p.q = {w * f.q[0] - x * f.q[1] - y * f.q[2] - z * f.q[3], w * f.q[1] + x * f.q[0] + y * f.q[3] - z * f.q[2],
+         w * f.q[2] - x * f.q[3] + y * f.q[0] + z * f.q[1], w * f.q[3] + x * f.q[2] - y * f.q[1] + z * f.q[0]};
+  const std::array<double, 3> &v = f.t;
+  const std::array<double, 3> uv = {2 * (y * v[2] - z * v[1]), 2 * (z * v[0] - x * v[2]), 2 * (x * v[1] - y * v[0])};
+  const std::array<double, 3> uuv = {y * uv[2] - z * uv[1], z * uv[0] - x * uv[2], x * uv[1] - y * uv[0]};
+  for (int k = 0; k < 3; ++k) p.t[k] = v[k] + w * uv[k] + uuv[k] + s.t[k];
+  return p;
+}
+
+// A rig scene whose images file holds the poses of the images that are not their rig's
+// reference as another program composed them (composed_otherwise); how many of them differ
+// from sbarefine's own composition, bit for bit, in *differ.
+colmap::Model composed_elsewhere(colmap::Model m, int *differ) {
+  const colmap::Model ours = m;
+  *differ = 0;
+  for (std::size_t f = 0; f < m.frames.size(); ++f) {
+    const colmap::Rig &rig = *std::find_if(m.rigs.begin(), m.rigs.end(),
+                                           [&](const colmap::Rig &r) { return r.id == m.frames[f].rig_id; });
+    for (const colmap::DataId &d : m.frames[f].data)
+      for (std::size_t k = 1; k < rig.sensors.size(); ++k) {
+        if (rig.sensors[k].sensor.id != d.sensor.id) continue;
+        const auto im = std::find_if(m.images.begin(), m.images.end(),
+                                     [&](const colmap::Image &i) { return i.id == d.id; });
+        const colmap::Pose p = composed_otherwise(rig.sensors[k].sensor_from_rig, m.frames[f].rig_from_world);
+        im->q = p.q;
+        im->t = p.t;
+        const colmap::Image &own = ours.images[static_cast<std::size_t>(im - m.images.begin())];
+        *differ += own.q != p.q || own.t != p.t;
+      }
+  }
+  return m;
+}
+
+// A rig model as another program wrote it, its images' poses composed by that program's
+// arithmetic, comes back the same bytes with --itmax 0; after a solve, a held image's pose
+// comes back as read too.
+TEST(SbarefineRigs, ComposedPosesComeBackAsRead) {
+  const std::string dir = temp_dir("rig_as_read");
+  int differ = 0;
+  const colmap::Model m = composed_elsewhere(make_rig_scene(2, 3, 8, 300, 0.5).model, &differ);
+  EXPECT_GE(differ, 8);  // of the 16 images that are not their rig's reference
+  std::string error;
+  const std::string in = dir + "/in", out = dir + "/out";
+  ASSERT_TRUE(colmap::write_model(in, m, colmap::Encoding::Binary, &error)) << error;
+  Outcome r = run(in + " --itmax 0 --write " + out);
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const std::string &f : model_files(colmap::Encoding::Binary))
+    EXPECT_TRUE(read_file(out + "/" + f) == read_file(in + "/" + f)) << f;  // the bytes, not shown
+  // Image 202: frame 2 (rig 50), camera 2, which is not the rig's reference.
+  r = run(in + " --write " + out + " --hold-poses 202");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const colmap::Model written = files_of(out, colmap::Encoding::Binary);
+  for (std::size_t j = 0; j < m.images.size(); ++j) {
+    const bool held = m.images[j].id == 201 || m.images[j].id == 202;
+    EXPECT_EQ(written.images[j].q == m.images[j].q && written.images[j].t == m.images[j].t, held) << m.images[j].id;
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// COLMAP's invalid camera id, which pycolmap refuses to read, is refused before anything is
+// written, in either encoding.
+TEST(Sbarefine, InvalidCameraIdIsRefused) {
+  const std::string dir = temp_dir("invalid_id");
+  colmap::Model m = make_scene(dir, euclidean::CameraKind::FixedIntrinsics, 4, 30).model;
+  m.cameras[0].id = 0xffffffffu;
+  for (colmap::Image &im : m.images) im.camera_id = 0xffffffffu;
+  std::string error;
+  for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
+    const bool text = e == colmap::Encoding::Text;
+    const std::string in = dir + (text ? "/text" : "/binary"), out = dir + "/out";
+    ASSERT_TRUE(colmap::write_model(in, m, e, &error)) << error;
+    const Outcome r = run(in + " --write " + out);
+    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.err, in + (text ? "/cameras.txt:4: " : "/cameras.bin: byte 8: ") +
+                         "CAMERA_ID 4294967295 is COLMAP's invalid id (kInvalidCameraId), which COLMAP refuses\n");
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// A distortion that overflows the projections (OPENCV's k1 = 1e200) is named, with the image,
+// its camera and the point, before a solve could only say that the error is not finite; with
+// --itmax 0, which solves nothing, the model is rewritten as read.
+TEST(Sbarefine, OverflowingProjectionIsNamed) {
+  const std::string dir = temp_dir("overflow");
+  colmap::Model m = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 4, 30).model;
+  m.cameras[1].params[4] = 1e200;  // camera 101's k1
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", m, colmap::Encoding::Text, &error)) << error;
+  Outcome r = run(dir + "/in --write " + dir + "/out");
+  EXPECT_EQ(r.status, 1);
+  const std::string named = dir + "/in: image 13 (img_0001.png), camera 101 (OPENCV): point ";
+  EXPECT_EQ(r.err.rfind(named, 0), 0u) << r.err;
+  EXPECT_NE(r.err.find(" px, where its squared reprojection error is not finite\n"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
+  r = run(dir + "/in --itmax 0 --write " + dir + "/out");
+  EXPECT_EQ(r.status, 0) << r.err;
+}
+
+}  // namespace
+
+namespace {
+
+// sbarefine's sizes line and --json's sizes: "variables" the parameters as sba 1.6 counts them
+// (every image's cnp, every point's 3, held ones and each image's copy of a shared one
+// included; cnp 11 for PINHOLE's 6 + 4, padded to a kernel's size, 16 in a rig), "unknowns"
+// what the solve estimates. One PINHOLE camera shared by 10 images, its principal point held:
+// 10 poses, fx and fy once, the points (fewer with --mcon, --ncon and --hold-poses). A rig scene
+// of 2 rigs x 3 cameras over 8 frames: 8 frames' poses, 4 cameras' poses in their rigs, 6
+// cameras' f and k, the points.
+TEST(Sbarefine, UnknownsAreCountedOnce) {
+  const std::string dir = temp_dir("unknowns");
+  const Scene s = make_scene(dir, euclidean::CameraKind::FixedIntrinsics);
+  const RigScene rigs = make_rig_scene(2, 3, 8, 300, 0.5);
+  const long long n = static_cast<long long>(s.model.points.size());
+  ASSERT_EQ(rigs.model.points.size(), 300u);
+  const struct {
+    const colmap::Model &model;
+    std::string args;
+    long long unknowns, parameters;
+  } cases[] = {
+      {s.model, "", 10 * 6 + 2 + 3 * n, 10 * 11 + 3 * n},
+      // Images 10 and 13 held whole, and so their camera in all its images; image 19's pose.
+      {s.model, "--mcon 2 --ncon 5 --hold-poses 19", 7 * 6 + 3 * (n - 5), 10 * 11 + 3 * n},
+      {rigs.model, "", 8 * 6 + 4 * 6 + 6 * 2 + 900, 24 * 16 + 900},
+  };
+  std::string error;
+  for (const auto &c : cases) {
+    ASSERT_TRUE(colmap::write_model(dir + "/in", c.model, colmap::Encoding::Binary, &error)) << error;
+    const Outcome r = run(dir + "/in --itmax 1 --json " + dir + "/r.json " + c.args);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find(" observations, " + std::to_string(c.unknowns) + " unknowns (" +
+                         std::to_string(c.parameters) +
+                         " parameters, held ones and each copy of a shared one included)\n"),
+              std::string::npos)
+        << c.args << "\n" << r.out;
+    const std::string json = read_file(dir + "/r.json");
+    EXPECT_NE(json.find("\"variables\": " + std::to_string(c.parameters) + ", \"unknowns\": " +
+                        std::to_string(c.unknowns) + "}"),
+              std::string::npos)
+        << c.args << "\n" << json;
+  }
 }
 
 }  // namespace

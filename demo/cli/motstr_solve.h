@@ -6,12 +6,14 @@
 #ifndef SBA_DEMO_MOTSTR_SOLVE_H
 #define SBA_DEMO_MOTSTR_SOLVE_H
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstddef>
 #include <cstdio>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cli/cli.h"
@@ -42,6 +44,9 @@ struct MotstrInputs {
   const int *cam_group = nullptr;
   const char *cam_shared = nullptr;
   const int *cam_param_group = nullptr;
+  // Parameters of each camera that the callbacks hold rather than cam_fixed (eucsbademo's camera
+  // model holds its trailing intrinsics by a zero derivative): not unknowns either.
+  int cam_held_by_callbacks = 0;
 };
 
 class MotstrSolve {
@@ -131,8 +136,31 @@ class MotstrSolve {
   void describe(const std::string &model) { model_ = model; }
 
   int observations() const { return nobs_; }
+  // The parameters as sba 1.6 counts them: every camera's cnp and every point's pnp, held ones
+  // and each camera's copy of a shared one included.
   long long variables() const {
     return static_cast<long long>(in_.m) * in_.cnp + static_cast<long long>(in_.n) * in_.pnp;
+  }
+  // What the solve estimates, as sba_ext.h defines the unknowns: the parameters of the cameras
+  // from mcon on that are not held (cam_fixed, or by the callbacks), a shared one once for its
+  // group (cam_group and cam_shared, or cam_param_group), and the points from ncon on.
+  long long unknowns() const {
+    const MotstrInputs &in = in_;
+    long long count = static_cast<long long>(in.n - so_.ncon) * in.pnp -
+                      static_cast<long long>(in.m - so_.mcon) * in.cam_held_by_callbacks;
+    std::vector<std::pair<int, int>> shared;  // (parameter, group) of each shared unknown, once
+    for (int j = so_.mcon; j < in.m; ++j)
+      for (int c = 0; c < in.cnp; ++c) {
+        const std::size_t jc = static_cast<std::size_t>(j) * static_cast<std::size_t>(in.cnp) + static_cast<std::size_t>(c);
+        if (in.cam_fixed && in.cam_fixed[in.cam_fixed_per_camera ? jc : static_cast<std::size_t>(c)]) continue;
+        int group = -1;
+        if (in.cam_param_group) group = in.cam_param_group[jc];
+        else if (in.cam_group && in.cam_shared && in.cam_shared[c]) group = in.cam_group[j];
+        if (group < 0) ++count;
+        else shared.emplace_back(c, group);
+      }
+    std::sort(shared.begin(), shared.end());
+    return count + (std::unique(shared.begin(), shared.end()) - shared.begin());
   }
 
   // After the program's sizes line: sba 1.6's summary, the report, --json (each camera's
@@ -145,6 +173,7 @@ class MotstrSolve {
     print_summary(nobs_, ret_, info_, seconds_, read_seconds, result_, so_);
     Report report = make_report(program_, input_, in_.m, in_.n, nobs_, variables(), so_, ret_, info_, result_,
                                 seconds_, *control_);
+    report.unknowns = unknowns();
     report.model = model_;
     report.solver_requested = solver_;
     print_report(stdout, report);

@@ -120,7 +120,8 @@ bool write_json(const std::string &path, const Report &r, std::string *error,
   if (!r.model.empty()) field("model", quoted(r.model));
   field("sizes", "{\"cameras\": " + std::to_string(r.cameras) + ", \"points\": " + std::to_string(r.points) +
                      ", \"observations\": " + std::to_string(r.observations) +
-                     ", \"variables\": " + std::to_string(r.variables) + "}");
+                     ", \"variables\": " + std::to_string(r.variables) +
+                     (r.unknowns >= 0 ? ", \"unknowns\": " + std::to_string(r.unknowns) : "") + "}");
   std::string opts = "[";
   for (std::size_t k = 0; k < r.opts.size(); ++k) opts += (k ? ", " : "") + number(r.opts[k]);
   field("options", "{\"solver\": " + (r.solver_requested.empty() ? "null" : quoted(r.solver_requested)) +

@@ -35,7 +35,10 @@ struct Report {
   std::string model;
   // sizes
   int cameras = 0, points = 0;
-  long long observations = 0, variables = 0;
+  // variables: the parameters as sba 1.6 counts them (every camera's and every point's, held
+  // ones and each copy of a shared one included); unknowns: what the solve estimates (-1: not
+  // counted, and not written).
+  long long observations = 0, variables = 0, unknowns = -1;
   // options
   std::string solver_requested;  // what was asked ("auto": the library chose); empty: the library's default
   std::string strategy_requested;  // empty: the library's choice

@@ -227,7 +227,8 @@ void print_usage(std::FILE *out) {
       "  back as read); by default the focal length and the extra parameters refined, the\n"
       "  principal point held, as COLMAP's bundle adjuster does; with COLMAP 4's rigs and frames,\n"
       "  as COLMAP 4 refines them: one pose per frame for its images, one pose per camera in its\n"
-      "  rig for all the frames (the rig's reference camera at the identity), both written back;\n"
+      "  rig for all the frames (the rig's reference camera at the identity), both written back\n"
+      "  (an image that sees no point keeps its place in its frame and rig);\n"
       "- a Bundler file (bundle.out, v0.3), refined with the BAL camera model (f, k1, k2 per camera,\n"
       "  always refined: --intrinsics and --refine-* are refused); its image list (list.txt) with\n"
       "  --bundler-list;\n"
@@ -393,6 +394,7 @@ void eucsba_job(Loaded *l, Job *job) {
   job->in.func = cb.func;
   job->in.fjac = cb.fjac;
   job->in.adata = euclidean::as_adata(sm);
+  job->in.cam_held_by_callbacks = pr.nccalib + pr.ncdist;
   const int m = job->in.m, cnp = job->in.cnp;
   job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
     sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
@@ -516,6 +518,21 @@ bool held_poses(const Options &o, const colmap::Model &model, std::vector<char> 
   return true;
 }
 
+// The summary's line on the images that see no point (none: empty): held out of the solve, and
+// written back as read, or, in a rig, kept at their place in a frame or rig whose pose is
+// refined, and moved with it.
+std::string unseen_images(const colmap::Model &model, const colmap::ColmapProblem &pr) {
+  const std::size_t unseen = model.images.size() - pr.images.size();
+  if (unseen == 0) return {};
+  std::string line = "\n" + std::to_string(unseen) + (unseen == 1 ? " image sees" : " images see") +
+                     " no point: held out of the solve";
+  if (pr.unseen_moved == 0) return line + " and written back as read";
+  const std::size_t moved = static_cast<std::size_t>(pr.unseen_moved);
+  return line + "; " + std::to_string(unseen - moved) + " written back as read, " + std::to_string(moved) +
+         " moved with " + (moved == 1 ? "its" : "their") + " refined frame or rig (" + (moved == 1 ? "its" : "their") +
+         " place there kept)";
+}
+
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
   std::vector<char> held;
@@ -524,6 +541,13 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
     return false;
   colmap_job(l, job);
   const colmap::ColmapProblem &pr = l->colmap_problem;
+  // The library can only say that the initial error is not finite; the model can say where.
+  if (o.solve.itmax > 0) {
+    const std::vector<double> &p = job->p;
+    *error = colmap::nonfinite_error(l->model, pr, o.input,
+                                     [&](int j, int i, double x[2]) { job->project(p.data(), j, i, x); });
+    if (!error->empty()) return false;
+  }
   char line[512];
   std::snprintf(line, sizeof line, "COLMAP model %s (%s): %zu images, %zu cameras, %d points",
                 o.input.c_str(), l->encoding == colmap::Encoding::Text ? "text" : "binary", l->model.images.size(),
@@ -533,10 +557,7 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   // values for the ones refined.
   if (l->encoding == colmap::Encoding::Binary && colmap::has_model(o.input, colmap::Encoding::Text))
     job->summary += "\nThe text model beside it is not read: binary is read first, as COLMAP does";
-  const std::size_t held_out = l->model.images.size() - pr.images.size();
-  if (held_out > 0)
-    job->summary += "\n" + std::to_string(held_out) + (held_out == 1 ? " image sees" : " images see") +
-                    " no point: held out of the solve and written back as read";
+  job->summary += unseen_images(l->model, pr);
   const auto count = [](std::size_t n, const char *what) {
     return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
   };
@@ -757,8 +778,10 @@ int solve_and_write(const Options &o, Job &job, double read_seconds) {
   if (!sbacli::write_ply_option(o.final_ply, final_cloud, &outputs)) return kExitFailure;
 
   const std::size_t eol = job.summary.find('\n');
-  std::printf("%s, %d observations, %lld variables%s\n", job.summary.substr(0, eol).c_str(), solve.observations(),
-              solve.variables(), eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
+  std::printf("%s, %d observations, %lld unknowns (%lld parameters, held ones and each copy of a shared one "
+              "included)%s\n",
+              job.summary.substr(0, eol).c_str(), solve.observations(), solve.unknowns(), solve.variables(),
+              eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
   return solve.finish(
       read_seconds, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); }, job.camera_names,
       o.write, &outputs);

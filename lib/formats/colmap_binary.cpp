@@ -30,6 +30,14 @@ class ByteReader {
     *v = static_cast<std::uint32_t>(w);
     return true;
   }
+  // An id of a camera, an image, a rig or a frame (what: CAMERA_ID, IMAGE_ID, RIG_ID,
+  // FRAME_ID), COLMAP's invalid one refused.
+  bool id(std::uint32_t *v, const char *what, std::string *error) {
+    const std::size_t at = pos_;
+    if (!u32(v, what, error)) return false;
+    if (*v == kInvalidId) return fail(error, where(at) + invalid_id(what));
+    return true;
+  }
   bool u8(std::uint8_t *v, const char *what, std::string *error) {
     std::uint64_t w;
     if (!uint<1>(&w, what, error)) return false;
@@ -202,7 +210,7 @@ bool parse_cameras_binary(const std::string &bytes, const std::string &name, std
     Camera c;
     const std::size_t at = r.pos();
     std::uint32_t model;
-    if (!r.u32(&c.id, "CAMERA_ID", error) || !r.u32(&model, "MODEL_ID", error)) return false;
+    if (!r.id(&c.id, "CAMERA_ID", error) || !r.u32(&model, "MODEL_ID", error)) return false;
     const int m = static_cast<int>(static_cast<std::int32_t>(model));
     if (m < 0 || m >= kNumModels)
       return fail(error, r.where(at) + "camera " + std::to_string(c.id) + ": unknown camera model id " +
@@ -234,11 +242,11 @@ bool parse_images_binary(const std::string &bytes, const std::string &name, std:
   for (std::uint64_t i = 0; i < n; ++i) {
     Image im;
     const std::size_t at = r.pos();
-    if (!r.u32(&im.id, "IMAGE_ID", error)) return false;
+    if (!r.id(&im.id, "IMAGE_ID", error)) return false;
     if (!read_pose(&r, &im.q, &im.t, error)) return false;
     if (is_zero(im.q))
       return fail(error, r.where(at) + "image " + std::to_string(im.id) + ": the quaternion is zero");
-    if (!r.u32(&im.camera_id, "CAMERA_ID", error) || !r.cstring(&im.name, "the image name", error)) return false;
+    if (!r.id(&im.camera_id, "CAMERA_ID", error) || !r.cstring(&im.name, "the image name", error)) return false;
     // The text format keeps a name on one line, between blanks that its reader trims: a name
     // it cannot hold is refused here, not lost or made unreadable by a rewrite as text.
     if (im.name.empty() || im.name.find_first_of("\r\n") != std::string::npos || is_blank(im.name.front()) ||
@@ -283,7 +291,7 @@ bool parse_points_binary(const std::string &bytes, const std::string &name, std:
     if (!r.count(&nt, 8, "the track length", error)) return false;
     p.track.resize(static_cast<std::size_t>(nt));
     for (TrackElement &e : p.track)
-      if (!r.u32(&e.image_id, "IMAGE_ID", error) || !r.u32(&e.point2d_idx, "POINT2D_IDX", error)) return false;
+      if (!r.id(&e.image_id, "IMAGE_ID", error) || !r.u32(&e.point2d_idx, "POINT2D_IDX", error)) return false;
     if (!ids.insert(p.id, i)) return fail(error, r.where(at) + "point " + std::to_string(p.id) + " appears twice");
     points.push_back(std::move(p));
   }
@@ -305,7 +313,7 @@ bool parse_rigs_binary(const std::string &bytes, const std::string &name, std::v
     Rig rig;
     const std::size_t at = r.pos();
     std::uint64_t ns;
-    if (!r.u32(&rig.id, "RIG_ID", error)) return false;
+    if (!r.id(&rig.id, "RIG_ID", error)) return false;
     const std::string of_rig = "rig " + std::to_string(rig.id) + ": ";
     // The reference sensor takes 8 bytes, each other one 9 or 65.
     if (!r.count32(&ns, 8, "the number of sensors", error)) return false;
@@ -349,7 +357,7 @@ bool parse_frames_binary(const std::string &bytes, const std::string &name, std:
   for (std::uint64_t i = 0; i < n; ++i) {
     Frame f;
     const std::size_t at = r.pos();
-    if (!r.u32(&f.id, "FRAME_ID", error) || !r.u32(&f.rig_id, "RIG_ID", error) ||
+    if (!r.id(&f.id, "FRAME_ID", error) || !r.id(&f.rig_id, "RIG_ID", error) ||
         !read_pose(&r, &f.rig_from_world.q, &f.rig_from_world.t, error))
       return false;
     if (is_zero(f.rig_from_world.q))

@@ -25,6 +25,7 @@ bool unique_ids(const std::vector<Record> &records, const char *what, const std:
 bool check_cameras(const std::vector<Camera> &cameras, const std::string &where, std::string *error) {
   for (const Camera &c : cameras) {
     const std::string camera = "camera " + std::to_string(c.id) + ": ";
+    if (c.id == kInvalidId) return fail(error, where + camera + invalid_id("CAMERA_ID"));
     if (!camera_model_name(c.model))
       return fail(error, where + camera + "unknown camera model id " + std::to_string(c.model));
     const int np = camera_model_params(c.model);
@@ -46,6 +47,8 @@ bool text_holds_name(const std::string &name) {
 bool check_images(const std::vector<Image> &images, const std::string &where, std::string *error) {
   for (const Image &im : images) {
     const std::string image = "image " + std::to_string(im.id) + ": ";
+    if (im.id == kInvalidId) return fail(error, where + image + invalid_id("IMAGE_ID"));
+    if (im.camera_id == kInvalidId) return fail(error, where + image + invalid_id("CAMERA_ID"));
     if (is_zero(im.q)) return fail(error, where + image + "the quaternion is zero");
     if (!text_holds_name(im.name))
       return fail(error, where + image + "the name \"" + printable(im.name) +
@@ -56,13 +59,18 @@ bool check_images(const std::vector<Image> &images, const std::string &where, st
 }
 
 bool check_points(const std::vector<Point3D> &points, const std::string &where, std::string *error) {
-  for (const Point3D &p : points)
+  for (const Point3D &p : points) {
     if (p.id == kNoPoint) return fail(error, where + "POINT3D_ID -1 is not an identifier");
+    for (const TrackElement &e : p.track)
+      if (e.image_id == kInvalidId)
+        return fail(error, where + "point " + std::to_string(p.id) + ": " + invalid_id("IMAGE_ID"));
+  }
   return unique_ids(points, "point", where, error);
 }
 
 bool check_rigs(const std::vector<Rig> &rigs, const std::string &where, std::string *error) {
   for (const Rig &rig : rigs) {
+    if (rig.id == kInvalidId) return fail(error, where + "rig " + std::to_string(rig.id) + ": " + invalid_id("RIG_ID"));
     if (!rig.sensors.empty() && rig.sensors.front().has_pose)
       return fail(error, where + "rig " + std::to_string(rig.id) + ": its reference sensor " +
                              sensor_name(rig.sensors.front().sensor) +
@@ -78,6 +86,9 @@ bool check_rigs(const std::vector<Rig> &rigs, const std::string &where, std::str
 
 bool check_frames(const std::vector<Frame> &frames, const std::string &where, std::string *error) {
   for (const Frame &f : frames) {
+    const std::string frame = "frame " + std::to_string(f.id) + ": ";
+    if (f.id == kInvalidId) return fail(error, where + frame + invalid_id("FRAME_ID"));
+    if (f.rig_id == kInvalidId) return fail(error, where + frame + invalid_id("RIG_ID"));
     if (is_zero(f.rig_from_world.q))
       return fail(error, where + "frame " + std::to_string(f.id) + ": the quaternion is zero");
     if (const std::string why = repeated_data(f); !why.empty()) return fail(error, where + why);

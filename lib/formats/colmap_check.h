@@ -17,7 +17,9 @@ namespace sbaformats::colmap {
 // quaternion (an image's, a frame's, a sensor's pose in its rig), a pose for a rig's reference
 // sensor (the files hold none: it is the rig's origin), an image name the text format cannot
 // hold (empty, a line break, a NUL byte, a blank at either end), POINT3D_ID -1 as a point's id,
-// a sensor listed twice in its rig or a measurement twice in its frame. The numbers must be
+// COLMAP's invalid id 2^32 - 1 as the id of a camera, an image, a rig or a frame or where one
+// is named (an image's camera, a track's image, a frame's rig), a sensor listed twice in its rig
+// or a measurement twice in its frame. The numbers must be
 // finite (the caller checks them where it can name them better), and how the records agree is
 // check_model's. False with "NAME: " and the record named by its id, as the readers name it
 // ("camera 3: PINHOLE's fx must be positive, got -1").

@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <iterator>
+#include <limits>
 #include <tuple>
 #include <vector>
 
@@ -37,7 +38,23 @@ std::string bad_intrinsics(const Camera &c) {
     const double ar = c.params[1] / c.params[0];
     if (!std::isfinite(ar) || ar == 0) return camera + "aspect ratio fy / fx overflows or underflows";
   }
+  // A panorama's size scales its pixels as a focal length does: one of no size, or a negative
+  // one (a mirrored panorama), is no camera either.
+  if (c.model == kEquirectangular)
+    for (std::size_t k = 0; k < 2; ++k)
+      if (!(c.params[k] > 0)) return camera + (k == 0 ? "w" : "h") + " must be positive, got " + g17(c.params[k]);
   return {};
+}
+
+std::string invalid_id(const std::string &what) {
+  static const char *const kNames[][2] = {{"CAMERA_ID", "kInvalidCameraId"},
+                                          {"IMAGE_ID", "kInvalidImageId"},
+                                          {"RIG_ID", "kInvalidRigId"},
+                                          {"FRAME_ID", "kInvalidFrameId"}};
+  std::string constant = "its invalid id";
+  for (const auto &n : kNames)
+    if (what == n[0]) constant = n[1];
+  return what + " " + std::to_string(kInvalidId) + " is COLMAP's invalid id (" + constant + "), which COLMAP refuses";
 }
 
 std::string printable(const std::string &s) {
@@ -229,6 +246,34 @@ std::vector<Placement> placements(const Model &model) {
 
 }  // namespace
 
+namespace {
+
+// How far, in units of the rounding, another composition of the same poses may be from
+// compose's: each quaternion component to kComposeUlps eps, each translation component to
+// kComposeUlps eps times the size of the translations composed. The operations on either side
+// (a product of quaternions, a rotation, a sum) round a few eps each; a pose that differs more
+// is another pose.
+constexpr double kComposeUlps = 32;
+
+// Whether the pose (q, t) is c, the pose compose gave of s and f, but for the rounding of
+// another program's arithmetic (the sign of a quaternion aside: q and -q are one rotation).
+bool same_but_rounding(const Pose &c, const Pose &s, const Pose &f, const std::array<double, 4> &q,
+                       const std::array<double, 3> &t) {
+  const double eps = kComposeUlps * std::numeric_limits<double>::epsilon();
+  double d_plus = 0, d_minus = 0, dt = 0, size = 0;
+  for (int k = 0; k < 4; ++k) {
+    d_plus = std::max(d_plus, std::fabs(q[k] - c.q[k]));
+    d_minus = std::max(d_minus, std::fabs(q[k] + c.q[k]));
+  }
+  for (int k = 0; k < 3; ++k) {
+    dt = std::max(dt, std::fabs(t[k] - c.t[k]));
+    size = std::max(size, std::fabs(f.t[k]) + std::fabs(s.t[k]));
+  }
+  return std::min(d_plus, d_minus) <= eps && dt <= eps * size;
+}
+
+}  // namespace
+
 void poses_from_frames(Model *model) {
   if (!model->has_rigs) return;
   const std::vector<Placement> place = placements(*model);
@@ -241,6 +286,9 @@ void poses_from_frames(Model *model) {
       continue;
     }
     const Pose p = compose(*place[i].sensor_from_rig, frame);
+    // An image that holds this pose already, as COLMAP's arithmetic composed it into the
+    // images file, keeps those bits: what nothing changes comes back as it was read.
+    if (same_but_rounding(p, *place[i].sensor_from_rig, frame, im.q, im.t)) continue;
     im.q = p.q;
     im.t = p.t;
   }

@@ -188,7 +188,10 @@ bool check_model(const Model &model, const std::string &name, std::string *error
 
 // The pose of each image of a checked model with rigs and frames, from its frame: the frame's
 // rig_from_world itself for the rig's reference sensor (the same bits), sensor_from_rig times
-// it for another sensor (a unit quaternion). Nothing changes in a model without them.
+// it for another sensor (a unit quaternion), unless the image holds that pose already but for
+// the rounding of another program's arithmetic (COLMAP writes the poses it composed into the
+// images file): those bits are kept, so that a model nothing changes comes back as read.
+// Nothing changes in a model without rigs and frames.
 void poses_from_frames(Model *model);
 
 // Where an image of a checked model with rigs and frames is: its frame (an index into

@@ -41,6 +41,14 @@ inline bool is_zero(const std::array<double, 4> &q) {
   return q[0] == 0 && q[1] == 0 && q[2] == 0 && q[3] == 0;
 }
 
+// COLMAP's invalid id of a camera, an image, a rig and a frame (its kInvalidCameraId,
+// kInvalidImageId, kInvalidRigId, kInvalidFrameId: 2^32 - 1): COLMAP refuses a model that holds
+// one, so the readers refuse it where it stands, and check_records in a model made in memory.
+constexpr std::uint32_t kInvalidId = 0xffffffffu;
+// Why the field `what` (CAMERA_ID, IMAGE_ID, RIG_ID or FRAME_ID) cannot be kInvalidId:
+// "CAMERA_ID 4294967295 is COLMAP's invalid id (kInvalidCameraId), which COLMAP refuses".
+std::string invalid_id(const std::string &what);
+
 // The text format's name of a sensor type.
 inline const char *sensor_type_name(SensorType type) { return type == SensorType::Camera ? "CAMERA" : "IMU"; }
 // A sensor as the messages name it: "CAMERA 2".
@@ -55,8 +63,9 @@ std::string repeated_sensor(const Rig &rig);
 std::string repeated_data(const Frame &frame);
 
 // Why a camera's intrinsics are not a camera, empty when they are: a focal length must be
-// positive, and fy / fx (the aspect ratio sba keeps) a number neither infinite nor zero;
-// otherwise the solve would meet an infinite aspect ratio or a mirrored image, far from here.
+// positive, and fy / fx (the aspect ratio sba keeps) a number neither infinite nor zero, and so
+// must EQUIRECTANGULAR's w and h; otherwise the solve would meet an infinite aspect ratio or a
+// mirrored image, far from here.
 std::string bad_intrinsics(const Camera &c);
 
 // s as a message quotes it: at most 40 characters, then "...", any byte outside printable

@@ -202,20 +202,25 @@ void hold_pose(char *fixed, bool rotation, bool translation) {
   if (translation) std::fill_n(fixed + 3, 3, 1);
 }
 
-// The rigged problem's cameras, held flags and groups (ColmapProblem), its cameras' images in
-// p->images; camera_index maps a CAMERA_ID to its index in Model::cameras.
-void rig_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
-                 const std::vector<char> &held_pose, int mcon,
-                 const std::unordered_map<std::uint32_t, int> &camera_index, ColmapProblem *p) {
-  const std::vector<ImagePlace> places = image_places(model);
-  const int ms = static_cast<int>(p->images.size());
-  p->rigged = true;
+// What holds a frame's pose, a camera's pose in its rig and its parameters in all their images
+// of a rigged problem (flags by Model::frames and Model::cameras): an image below mcon (held
+// whole) or, for the poses, a held image, whether it sees points or not: holding an image's
+// pose holds both parts of it, so that it comes back as read.
+struct RigHolds {
+  std::vector<char> frame, sensor, camera;
+};
+
+// The sba cameras of a rigged problem (p->rig_images, p->places), their COLMAP cameras' indices
+// in *camera; the largest parameter count among those cameras.
+int rig_images(const Model &model, const std::vector<ImagePlace> &places,
+               const std::unordered_map<std::uint32_t, int> &camera_index, std::vector<int> *camera,
+               ColmapProblem *p) {
   int np = 0;
-  std::vector<int> camera(at(ms));  // each sba camera's index in Model::cameras
-  for (int j = 0; j < ms; ++j) {
-    const Image &im = model.images[at(p->images[at(j)])];
-    const ImagePlace &pl = places[at(p->images[at(j)])];
-    const Camera &c = model.cameras[at(camera[at(j)] = camera_index.at(im.camera_id))];
+  for (const int i : p->images) {
+    const Image &im = model.images[at(i)];
+    const ImagePlace &pl = places[at(i)];
+    camera->push_back(camera_index.at(im.camera_id));
+    const Camera &c = model.cameras[at(camera->back())];
     cc::RigImage r;
     r.model = c.model;
     r.params = c.params;
@@ -231,34 +236,64 @@ void rig_problem(const Model &model, const RefineIntrinsics &refine, const Refin
     p->rig_images.push_back(std::move(r));
     p->places.push_back(pl);
   }
-  const int cnp = p->cnp = cc::rig_camera_params(np);
-  // What holds a frame's pose, a camera's pose in its rig and its parameters in all their
-  // images: an image below mcon (held whole) or, for the poses, a held image.
-  std::vector<char> frame_held(model.frames.size(), poses.rig_from_world ? 0 : 1);
-  std::vector<char> sensor_held(model.cameras.size(), poses.sensor_from_rig ? 0 : 1);
-  std::vector<char> camera_held(model.cameras.size(), 0);
+  return np;
+}
+
+// The holds of a rigged problem, and its counts (ColmapProblem: frames, sensors, shared cameras,
+// held poses, images that see no point and move with a refined frame or rig).
+RigHolds rig_holds(const Model &model, const RefinePoses &poses, const std::vector<char> &held_pose, int mcon,
+                   const std::vector<ImagePlace> &places, const std::unordered_map<std::uint32_t, int> &camera_index,
+                   ColmapProblem *p) {
+  RigHolds h{std::vector<char>(model.frames.size(), poses.rig_from_world ? 0 : 1),
+             std::vector<char>(model.cameras.size(), poses.sensor_from_rig ? 0 : 1),
+             std::vector<char>(model.cameras.size(), 0)};
   std::vector<char> frame_used(model.frames.size(), 0), sensor_used(model.cameras.size(), 0),
-      camera_used(model.cameras.size(), 0);
-  for (int j = 0; j < ms; ++j) {
-    const ImagePlace &pl = p->places[at(j)];
-    const int c = camera[at(j)];
-    const bool held = j < mcon || (!held_pose.empty() && held_pose[at(p->images[at(j)])]);
-    if (held) frame_held[pl.frame] = sensor_held[at(c)] = 1;
-    if (j < mcon) camera_held[at(c)] = 1;
-    p->held_poses += held_pose.empty() ? 0 : held_pose[at(p->images[at(j)])];
-    ++camera_used[at(c)];
+      seeing(model.images.size(), 0);
+  std::vector<int> camera_used(model.cameras.size(), 0);  // images per camera: far more than a char holds
+  for (std::size_t j = 0; j < p->images.size(); ++j) {
+    const ImagePlace &pl = p->places[j];
+    const std::size_t c = at(camera_index.at(model.images[at(p->images[j])].camera_id));
+    if (static_cast<int>(j) < mcon) h.frame[pl.frame] = h.sensor[c] = h.camera[c] = 1;
+    ++camera_used[c];
     frame_used[pl.frame] = 1;
-    sensor_used[at(c)] = pl.sensor > 0;
+    sensor_used[c] = pl.sensor > 0;
+    seeing[at(p->images[j])] = 1;
+  }
+  for (std::size_t i = 0; i < model.images.size(); ++i) {
+    if (held_pose.empty() || !held_pose[i]) continue;
+    h.frame[places[i].frame] = h.sensor[at(camera_index.at(model.images[i].camera_id))] = 1;
+    ++p->held_poses;
   }
   for (std::size_t f = 0; f < frame_used.size(); ++f) {
     p->frames += frame_used[f];
-    p->held_frames += frame_used[f] && frame_held[f];
+    p->held_frames += frame_used[f] && h.frame[f];
   }
   for (std::size_t c = 0; c < sensor_used.size(); ++c) {
     p->sensors += sensor_used[c];
-    p->held_sensors += sensor_used[c] && sensor_held[c];
-    p->shared_cameras += camera_used[c] > 1 && !camera_held[c];
+    p->held_sensors += sensor_used[c] && h.sensor[c];
+    p->shared_cameras += camera_used[c] > 1 && !h.camera[c];
   }
+  // An image that sees no point keeps its place in its frame and rig: it moves when the frame's
+  // pose, or its camera's pose in the rig, is refined for the images that see points.
+  for (std::size_t i = 0; i < model.images.size(); ++i) {
+    if (seeing[i]) continue;
+    const std::size_t f = places[i].frame, c = at(camera_index.at(model.images[i].camera_id));
+    p->unseen_moved += (frame_used[f] && !h.frame[f]) || (sensor_used[c] && !h.sensor[c]);
+  }
+  return h;
+}
+
+// The rigged problem's cameras, held flags and groups (ColmapProblem), its cameras' images in
+// p->images; camera_index maps a CAMERA_ID to its index in Model::cameras.
+void rig_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
+                 const std::vector<char> &held_pose, int mcon,
+                 const std::unordered_map<std::uint32_t, int> &camera_index, ColmapProblem *p) {
+  const std::vector<ImagePlace> places = image_places(model);
+  const int ms = static_cast<int>(p->images.size());
+  p->rigged = true;
+  std::vector<int> camera;  // each sba camera's index in Model::cameras
+  const int cnp = p->cnp = cc::rig_camera_params(rig_images(model, places, camera_index, &camera, p));
+  const RigHolds h = rig_holds(model, poses, held_pose, mcon, places, camera_index, p);
   p->cam_fixed.assign(at(ms) * at(cnp), 0);
   p->cam_param_group.assign(at(ms) * at(cnp), -1);
   for (int j = 0; j < ms; ++j) {
@@ -267,10 +302,10 @@ void rig_problem(const Model &model, const RefineIntrinsics &refine, const Refin
     char *fixed = &p->cam_fixed[at(j) * at(cnp)];
     int *group = &p->cam_param_group[at(j) * at(cnp)];
     const bool reference = pl.sensor == 0;
-    hold_pose(fixed, frame_held[pl.frame] || poses.constant_rig_from_world_rotation, frame_held[pl.frame]);
-    hold_pose(fixed + 6, reference || sensor_held[at(c)], reference || sensor_held[at(c)]);
+    hold_pose(fixed, h.frame[pl.frame] || poses.constant_rig_from_world_rotation, h.frame[pl.frame]);
+    hold_pose(fixed + 6, reference || h.sensor[at(c)], reference || h.sensor[at(c)]);
     for (int k = 0; k < cnp - cc::kRigPoseParams; ++k)
-      fixed[cc::kRigPoseParams + k] = camera_held[at(c)] || intrinsic_held(refine, model_id, k) ? 1 : 0;
+      fixed[cc::kRigPoseParams + k] = h.camera[at(c)] || intrinsic_held(refine, model_id, k) ? 1 : 0;
     if (j < mcon) continue;  // a camera below mcon shares nothing
     std::fill_n(group, 6, static_cast<int>(pl.frame));
     if (!reference) std::fill_n(group + 6, 6, c);
@@ -315,11 +350,15 @@ void image_problem(const Model &model, const RefineIntrinsics &refine, const Ref
     }
     if (u.size() > 1 && !below_mcon) ++p->shared_cameras;
   }
+  std::vector<char> seeing(model.images.size(), 0);
   for (int j = 0; j < ms; ++j) {
     const bool held = !poses.rig_from_world || (!held_pose.empty() && held_pose[at(p->images[at(j)])]);
     hold_pose(&p->cam_fixed[at(j) * at(cnp)], held || poses.constant_rig_from_world_rotation, held);
     p->held_poses += held;
+    seeing[at(p->images[at(j)])] = 1;
   }
+  // A held image that sees no point is held out of the problem, and counted as held too.
+  for (std::size_t i = 0; i < seeing.size(); ++i) p->held_poses += !seeing[i] && !held_pose.empty() && held_pose[i];
 }
 
 }  // namespace
@@ -374,6 +413,29 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePose
   }
   *out = std::move(p);
   return true;
+}
+
+std::string nonfinite_error(const Model &model, const ColmapProblem &problem, const std::string &name,
+                            const std::function<void(int j, int i, double x[2])> &project) {
+  const eucsba::PointSet &s = problem.points;
+  for (std::size_t k = 0; k < s.pairs.size(); ++k) {
+    const int i = s.pairs.point[k], j = s.pairs.camera[k];
+    double x[2];
+    project(j, i, x);
+    const double dx = x[0] - s.x[2 * k], dy = x[1] - s.x[2 * k + 1];
+    if (std::isfinite(dx * dx + dy * dy)) continue;
+    const Image &im = model.images[at(problem.images[at(j)])];
+    const auto camera = std::find_if(model.cameras.begin(), model.cameras.end(),
+                                     [&](const Camera &c) { return c.id == im.camera_id; });
+    char pixels[64];
+    std::snprintf(pixels, sizeof pixels, "(%g, %g)", x[0], x[1]);
+    const std::string image_name = quoted(im.name);  // its control characters as \xHH, in quotes
+    return name + ": image " + std::to_string(im.id) + " (" + image_name.substr(1, image_name.size() - 2) +
+           "), camera " + std::to_string(im.camera_id) + " (" + camera_model_name(camera->model) + "): point " +
+           std::to_string(model.points[at(i)].id) + " projects to " + pixels +
+           " px, where its squared reprojection error is not finite";
+  }
+  return {};
 }
 
 namespace {
@@ -454,7 +516,7 @@ void from_sba(const cc::RigCameraModel &sba_model, const ColmapProblem &problem,
   // Each frame, sensor and COLMAP camera is written once, from its first sba camera: all of
   // them hold the same values.
   std::vector<char> frame_done(model->frames.size(), 0);
-  std::unordered_map<std::uint32_t, char> camera_done;
+  std::unordered_map<std::uint32_t, char> camera_done;  // flags, set once
   for (int j = mcon; j < m; ++j) {
     const ImagePlace &pl = problem.places[at(j)];
     const char *fixed = &problem.cam_fixed[at(j) * at(cnp)];
@@ -465,7 +527,9 @@ void from_sba(const cc::RigCameraModel &sba_model, const ColmapProblem &problem,
       frame_done[pl.frame] = 1;
     }
     const std::uint32_t camera_id = model->images[at(problem.images[at(j)])].camera_id;
-    if (camera_done[camera_id]++) continue;
+    char &done = camera_done[camera_id];
+    if (done) continue;
+    done = 1;
     if (pl.sensor > 0) {
       Pose &s = model->rigs[pl.rig].sensors[pl.sensor].sensor_from_rig;
       write_pose(fixed + 6, r.q_sensor, r.t_sensor, &s.q, &s.t);

@@ -26,6 +26,7 @@
 #define SBA_DEMO_COLMAP_SBA_H
 
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -77,7 +78,10 @@ struct ColmapProblem {
   std::vector<int> cam_group;    // m: the group of a shared COLMAP camera, -1 for none
   std::vector<char> cam_shared;  // cnp: the parameter slots (not the pose) a group shares
   int shared_cameras = 0;        // COLMAP cameras refined once for several images
-  int held_poses = 0;            // images whose pose is held
+  int held_poses = 0;            // images whose pose is held, whether they see points or not
+  // Images that see no point (Model::images without a camera of the problem) whose frame's pose
+  // or camera's pose in the rig is refined (rigged only): they keep their place there, and move.
+  int unseen_moved = 0;
   // A model whose frames hold several images: cameras, cam_group and cam_shared are empty and
   // these hold the problem instead.
   bool rigged = false;
@@ -127,13 +131,23 @@ std::string parse_image_names(const Model &model, const std::string &text, const
 // rotation's 3 held with poses.constant_rig_from_world_rotation; poses.sensor_from_rig changes
 // nothing (a frame of one image, free, takes up any change of its camera's pose in the rig).
 // Otherwise (rigged), a frame's pose is held in all its images without poses.rig_from_world,
-// or when one of its images is a held_pose image or below mcon; its rotation with
-// poses.constant_rig_from_world_rotation; a camera's pose in its rig in all its images
-// without poses.sensor_from_rig, or when one of its images is a held_pose image or below mcon:
-// holding an image's pose holds both parts of it, so that it comes back as it was read.
+// or when one of its images is a held_pose image (one that sees no point included) or below
+// mcon; its rotation with poses.constant_rig_from_world_rotation; a camera's pose in its rig in
+// all its images without poses.sensor_from_rig, or when one of its images is a held_pose image
+// (seeing points or not) or below mcon: holding an image's pose holds both parts of it, so that
+// it comes back as it was read.
 bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
             const std::vector<char> &held_pose, int mcon, const std::string &name, ColmapProblem *out,
             std::string *error);
+
+// Why the solve of a problem to_sba made of model cannot start, empty when it can: the first
+// observation, in the problem's order, whose squared reprojection error at the start is not
+// finite (a parameter that overflows the projection, as OPENCV's k1 = 1e200 does), named by its
+// image, that image's camera and the point: "NAME: image 13 (a.png), camera 101 (OPENCV):
+// point 1007 projects to (1.2e+202, 3.4e+201) px, where its squared reprojection error is not
+// finite". project(j, i, x) gives sba camera j's projection of point i at the start.
+std::string nonfinite_error(const Model &model, const ColmapProblem &problem, const std::string &name,
+                            const std::function<void(int j, int i, double x[2])> &project);
 
 // Writes the estimate p (m cnp-vectors, then n points) back into the model: the poses of the
 // sba cameras from mcon on that are not held, the points from ncon on, the parameters of each

@@ -103,13 +103,23 @@ bool uint_field(const TextReader &r, std::size_t k, const char *what, std::uint6
                          quoted(r.tokens()[k]));
 }
 
+constexpr std::uint64_t kU32 = 0xffffffffu;
+
+// An id of a camera, an image, a rig or a frame (what: CAMERA_ID, IMAGE_ID, RIG_ID, FRAME_ID),
+// COLMAP's invalid one refused.
+bool id_field(const TextReader &r, std::size_t k, const char *what, std::uint32_t *out, std::string *error) {
+  std::uint64_t v;
+  if (!uint_field(r, k, what, kU32, &v, error)) return false;
+  if (v == kInvalidId) return fail(error, r.where() + invalid_id(what));
+  *out = static_cast<std::uint32_t>(v);
+  return true;
+}
+
 int model_by_name(std::string_view name) {
   for (int i = 0; i < kNumModels; ++i)
     if (name == kModels[i].name) return i;
   return -1;
 }
-
-constexpr std::uint64_t kU32 = 0xffffffffu;
 
 // QW QX QY QZ TX TY TZ from token k on.
 bool pose_fields(const TextReader &r, std::size_t k, std::array<double, 4> *q, std::array<double, 3> *t,
@@ -148,9 +158,7 @@ bool parse_cameras_text(const std::string &text, const std::string &name, std::v
       return fail(error, r.where() + "expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[], found " +
                              std::to_string(t.size()) + " values");
     Camera c;
-    std::uint64_t v;
-    if (!uint_field(r, 0, "CAMERA_ID", kU32, &v, error)) return false;
-    c.id = static_cast<std::uint32_t>(v);
+    if (!id_field(r, 0, "CAMERA_ID", &c.id, error)) return false;
     c.model = model_by_name(t[1]);
     if (c.model < 0) return fail(error, r.where() + "unknown camera model " + quoted(t[1]));
     if (!uint_field(r, 2, "WIDTH", UINT64_MAX, &c.width, error)) return false;
@@ -182,13 +190,10 @@ bool parse_images_text(const std::string &text, const std::string &name, std::ve
       return fail(error, r.where() + "expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME, found " +
                              std::to_string(t.size()) + " values");
     Image im;
-    std::uint64_t v;
-    if (!uint_field(r, 0, "IMAGE_ID", kU32, &v, error)) return false;
-    im.id = static_cast<std::uint32_t>(v);
+    if (!id_field(r, 0, "IMAGE_ID", &im.id, error)) return false;
     if (!pose_fields(r, 1, &im.q, &im.t, error)) return false;
     if (is_zero(im.q)) return fail(error, r.where() + "the quaternion is zero");
-    if (!uint_field(r, 8, "CAMERA_ID", kU32, &v, error)) return false;
-    im.camera_id = static_cast<std::uint32_t>(v);
+    if (!id_field(r, 8, "CAMERA_ID", &im.camera_id, error)) return false;
     // The name is the rest of the line, so that it may hold blanks: from the tenth token to
     // the end of the last.
     const std::string_view line = r.line();
@@ -250,8 +255,7 @@ bool parse_points_text(const std::string &text, const std::string &name, std::ve
     p.track.resize((t.size() - 8) / 2);
     for (std::size_t k = 0; k < p.track.size(); ++k) {
       std::uint64_t v;
-      if (!uint_field(r, 8 + 2 * k, "IMAGE_ID", kU32, &v, error)) return false;
-      p.track[k].image_id = static_cast<std::uint32_t>(v);
+      if (!id_field(r, 8 + 2 * k, "IMAGE_ID", &p.track[k].image_id, error)) return false;
       if (!uint_field(r, 9 + 2 * k, "POINT2D_IDX", kU32, &v, error)) return false;
       p.track[k].point2d_idx = static_cast<std::uint32_t>(v);
     }
@@ -276,9 +280,8 @@ bool parse_rigs_text(const std::string &text, const std::string &name, std::vect
                              std::to_string(t.size()) + " values");
     Rig rig;
     std::uint64_t v, n;
-    if (!uint_field(r, 0, "RIG_ID", kU32, &v, error) || !uint_field(r, 1, "NUM_SENSORS", kU32, &n, error))
+    if (!id_field(r, 0, "RIG_ID", &rig.id, error) || !uint_field(r, 1, "NUM_SENSORS", kU32, &n, error))
       return false;
-    rig.id = static_cast<std::uint32_t>(v);
     const std::string of_rig = "rig " + std::to_string(rig.id) + ": ";
     // The reference sensor takes two values, each other one three or ten: the values of the
     // line bound the sensors read before they are counted.
@@ -332,11 +335,8 @@ bool parse_frames_text(const std::string &text, const std::string &name, std::ve
                              "expected FRAME_ID RIG_ID QW QX QY QZ TX TY TZ NUM_DATA_IDS DATA_IDS[], found " +
                              std::to_string(t.size()) + " values");
     Frame f;
-    std::uint64_t v, n;
-    if (!uint_field(r, 0, "FRAME_ID", kU32, &v, error)) return false;
-    f.id = static_cast<std::uint32_t>(v);
-    if (!uint_field(r, 1, "RIG_ID", kU32, &v, error)) return false;
-    f.rig_id = static_cast<std::uint32_t>(v);
+    std::uint64_t n;
+    if (!id_field(r, 0, "FRAME_ID", &f.id, error) || !id_field(r, 1, "RIG_ID", &f.rig_id, error)) return false;
     if (!pose_fields(r, 2, &f.rig_from_world.q, &f.rig_from_world.t, error)) return false;
     if (is_zero(f.rig_from_world.q)) return fail(error, r.where() + "the quaternion is zero");
     if (!uint_field(r, 9, "NUM_DATA_IDS", kU32, &n, error)) return false;

@@ -122,7 +122,8 @@ class ColmapModel:
     without them, as COLMAP 3 wrote them), each in file order with every field of the files.
 
     With rigs and frames an image's pose is its frame's, as COLMAP 4 reads it: read_colmap
-    gives each image the pose composed from its frame, refine_colmap starts from that pose
+    gives each image the pose composed from its frame (the images file's own bits where they
+    are that pose but for rounding, as COLMAP writes them), refine_colmap starts from that pose
     whatever the image holds and writes the refined pose to both, as sbarefine does, and
     write_colmap writes both as they are (change a frame's pose, not only its image's). A model is
     checked when it is written or refined, as the reader checks files: ValueError or
@@ -299,7 +300,8 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     is. With rigs and frames, as COLMAP 4 refines them: a frame's pose (rig_from_world) once
     for its images, a camera's pose in its rig (sensor_from_rig) once for all the frames of the
     rig (the rig's reference camera at the identity), written back to the frames and the rigs
-    and composed into the images.
+    and composed into the images (an image that sees no point too: it keeps its place in its
+    frame, and moves with it unless it is held).
 
     refine_focal_length, refine_principal_point, refine_extra_params
         COLMAP's bundle adjustment options (the focal length and the parameters after the
@@ -307,7 +309,9 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     hold_poses
         Images whose pose is held (COLMAP's constant poses): "all", or a list of IMAGE_IDs
         (ints) and NAMEs (strs, every image of that name); an item that names no image is a
-        ValueError. bytes and dicts are TypeErrors, not lists of their bytes or keys.
+        ValueError; bytes and dicts are TypeErrors, not lists of their bytes or keys. With rigs
+        and frames, holding an image (one that sees no point too) holds its frame's pose and
+        its camera's pose in the rig, so that it comes back as read.
     itmax, function_tolerance
         COLMAP's max_num_iterations (100) and function_tolerance (Ceres's relative cost
         change; None: COLMAP's 0, unless strategy or opts[4] is given, which then keep sba's
@@ -316,6 +320,9 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     mcon, ncon
         The first mcon images that see a point (their cameras' parameters too, in all their
         images) and the first ncon points are held.
+
+    A model whose reprojection error at the start is not finite (a parameter that overflows
+    the projection) is a ValueError naming the first such observation's image, camera and point.
 
     The other arguments are :func:`solve`'s. The Result's ``model`` is the refined
     :class:`ColmapModel` (also on the ``result`` of a KeyboardInterrupt: the last accepted

@@ -442,6 +442,13 @@ py::dict solve_model(const SbaModel &sm, const colmap::ColmapProblem &pr, Run &r
   o.has_fixed = true;
   o.fixed = pr.cam_fixed;
   o.fixed_shape = {m, cnp};
+  // The library can only say that the initial error is not finite (with itmax 0 too, which it
+  // still evaluates); the model can say where.
+  const double *p = run.p.data();
+  const std::string why = colmap::nonfinite_error(model, pr, kModelName, [&](int j, int i, double x[2]) {
+    sm.project(j, p + size_t(j) * size_t(cnp), p + size_t(m) * size_t(cnp) + 3 * size_t(i), x);
+  });
+  if (!why.empty()) throw py::value_error(why);
 
   Session session(o);
   py::dict d = run_driver(run, session, o);

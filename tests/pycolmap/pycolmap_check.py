@@ -24,6 +24,8 @@ with rigs and frames, as COLMAP 4 writes them. Cases:
             pycolmap.bundle_adjustment at its defaults on the same model is the yardstick:
             sbarefine's RMS (pycolmap's projection of what it wrote) is no worse than
             pycolmap's x (1 + 1e-6).
+  as_read   the rig model of `rigs` as pycolmap writes it (binary), rewritten by sbarefine
+            with --itmax 0: the same bytes, each image's pose the one pycolmap composed.
 Exit status: 0 every check passed, 1 a check failed, 2 bad usage, 77 no pycolmap (ctest's
 SKIP_RETURN_CODE): `scripts/deps.sh test` makes a venv with it (build/pycolmap-venv).
 
@@ -276,7 +278,21 @@ def case_rigs(pycolmap, colmap_real, args):
     each(runs, check)
 
 
-CASES = {"written": case_written, "one_image_frames": case_one_image_frames, "rigs": case_rigs}
+def case_as_read(pycolmap, colmap_real, args):
+    rec = synthesize(pycolmap, 3, 13, rigs=2)
+    model = os.path.join(args.work, "as_read_input")
+    write(rec, model, "binary")
+    out = os.path.join(args.work, "as_read")
+    shutil.rmtree(out, ignore_errors=True)
+    refine(args, model, out, ["--itmax", "0"])
+    for name in files("binary"):
+        with open(os.path.join(model, name), "rb") as a, open(os.path.join(out, name), "rb") as b:
+            expect(a.read() == b.read(), "%s: %s is not the bytes pycolmap wrote" % (out, name))
+    print("PASS %s: the five files pycolmap wrote, the same bytes" % out)
+
+
+CASES = {"written": case_written, "one_image_frames": case_one_image_frames, "rigs": case_rigs,
+         "as_read": case_as_read}
 
 
 def main(argv):

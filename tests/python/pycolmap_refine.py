@@ -12,7 +12,8 @@ refine_colmap(rec) gives a pycolmap.Reconstruction, the same as converting that 
 A scene of two rigs of three cameras (frames of three images), the cameras' poses in their rigs
 and focal lengths moved: refine_colmap(rec) ends no worse than pycolmap.bundle_adjustment at
 its defaults (1 + 1e-6) by pycolmap's projection, and every image's pose is its frame's
-composed with its camera's pose in the rig (1e-12).
+composed with its camera's pose in the rig (1e-12). Of that scene from_pycolmap and
+refine_colmap(itmax=0) give every image pycolmap's own pose, the same bits.
 
 Exit status: 0 every check passed, 1 a check failed, 77 (ctest's SKIP_RETURN_CODE) no Python
 here can import both pycolmap and pysba, or a sanitizer build (pycolmap is not built with
@@ -103,6 +104,17 @@ def run(pycolmap, pysba):
     rigs = synthesize(pycolmap, 3, 13, rigs=2)
     perturb_rigs(pycolmap, rigs)
     expect(rigs.num_frames() < len(rigs.images), "the rig scene has no frame of several images")
+    # Every image's pose is pycolmap's own, bit for bit (its composition, which pysba's would
+    # round otherwise), and so is what refine_colmap gives back without a solve.
+    as_read = pysba.from_pycolmap(rigs)
+    unsolved, _ = pysba.refine_colmap(as_read, itmax=0)
+    for model, what in ((as_read, "from_pycolmap"), (unsolved, "refine_colmap(itmax=0)")):
+        for im in model.images:
+            theirs = rigs.images[im.id].cam_from_world()
+            xyzw = values(theirs.rotation.quat)
+            expect(values(im.q) == xyzw[3:] + xyzw[:3] and values(im.t) == values(theirs.translation),
+                   "rigs: %s: image %d's pose is not pycolmap's" % (what, im.id))
+    print("PASS from_pycolmap and refine_colmap(itmax=0) of rigs: pycolmap's poses, the same bits")
     reference = pycolmap.Reconstruction(rigs)
     options = pycolmap.BundleAdjustmentOptions()
     options.print_summary = False

@@ -392,6 +392,8 @@ def set_attr(obj, name, value):
      "cameras[0].model: unknown camera model 'PINHOLEX' (COLMAP's are SIMPLE_PINHOLE, PINHOLE,"),
     (lambda m: m.cameras[0].params.__setitem__(1, -2), ValueError,
      "model: camera 100: OPENCV's fy must be positive, got -2"),
+    (lambda m: (set_attr(m.cameras[0], "model", "EQUIRECTANGULAR"), set_attr(m.cameras[0], "params", [0.0, 480])),
+     ValueError, "model: camera 100: EQUIRECTANGULAR's w must be positive, got 0"),
     (lambda m: set_attr(m.cameras[0], "width", -1), ValueError,
      "cameras[0].width must be in [0, 18446744073709551615], got -1"),
     (lambda m: set_attr(m.points3D, "rgb", np.full((60, 3), 256)), ValueError,
@@ -432,6 +434,15 @@ def set_attr(obj, name, value):
     (lambda m: set_attr(m.cameras[1], "id", 100), ValueError, "model: camera 100 appears twice"),
     (lambda m: m.points3D.ids.__setitem__(1, 1000), ValueError, "model: point 1000 appears twice"),
     (lambda m: set_attr(m, "images", 3), TypeError, "images must be a list, got int"),
+    (lambda m: set_attr(m.cameras[1], "id", 2**32 - 1), ValueError,
+     "model: camera 4294967295: CAMERA_ID 4294967295 is COLMAP's invalid id (kInvalidCameraId), which COLMAP "
+     "refuses"),
+    (lambda m: set_attr(m.images[1], "id", 2**32 - 1), ValueError,
+     "model: image 4294967295: IMAGE_ID 4294967295 is COLMAP's invalid id (kInvalidImageId)"),
+    (lambda m: set_attr(m.rigs[1], "id", 2**32 - 1), ValueError,
+     "model: rig 4294967295: RIG_ID 4294967295 is COLMAP's invalid id (kInvalidRigId)"),
+    (lambda m: set_attr(m.frames[1], "id", 2**32 - 1), ValueError,
+     "model: frame 4294967295: FRAME_ID 4294967295 is COLMAP's invalid id (kInvalidFrameId)"),
 ])
 def test_models_the_reader_would_refuse(tmp_path, change, error, message):
     model = broken(tmp_path, change)
@@ -529,6 +540,52 @@ def test_held_poses_are_kept(tmp_path):
         assert all(a.t.tobytes() == b.t.tobytes() for a, b in zip(refined.images, again.images))
     everything, _ = pysba.refine_colmap(model, hold_poses="all")
     assert all(a.t.tobytes() == b.t.tobytes() for a, b in zip(model.images, everything.images))
+
+
+def without_observations(model, image_id):
+    """The model with image image_id's observations gone (its keypoints observe no point, and a
+    point only it saw goes)."""
+    for im in model.images:
+        if im.id == image_id:
+            im.point3D_ids = np.full_like(im.point3D_ids, pysba.NO_POINT3D)
+    p = model.points3D
+    keep, offsets, images, idxs = [], [0], [], []
+    for k in range(len(p)):
+        ids, at = p.track(k)
+        kept = ids != image_id
+        if kept.any():
+            keep.append(k)
+            images += ids[kept].tolist()
+            idxs += at[kept].tolist()
+            offsets.append(len(images))
+    model.points3D = pysba.ColmapPoints3D(p.ids[keep], p.xyz[keep], p.rgb[keep], p.error[keep],
+                                          np.array(offsets, np.uint64), np.array(images, np.uint32),
+                                          np.array(idxs, np.uint32))
+    return model
+
+
+def test_a_held_image_that_sees_no_point_holds_its_frame(tmp_path):
+    # Frame 900 holds images 10 (camera 100, rig 1's reference) and 13 (camera 101), which sees
+    # no point: it keeps its place in the frame, and moves with it unless it is held.
+    model = without_observations(pysba.read_colmap(two_image_frame(tmp_path)), 13)
+    pysba.write_colmap(model, tmp_path / "two", "binary")
+    model = pysba.read_colmap(tmp_path / "two")
+    free, _ = pysba.refine_colmap(model)
+    assert free.images[1].t.tobytes() != model.images[1].t.tobytes()
+    held, _ = pysba.refine_colmap(model, hold_poses=[13])
+    for a, b in ((held.images[1], model.images[1]), (held.frames[0], model.frames[0]),
+                 (held.rigs[0].sensors[1], model.rigs[0].sensors[1])):
+        assert a.q.tobytes() == b.q.tobytes() and a.t.tobytes() == b.t.tobytes()
+    assert held.images[2].t.tobytes() != model.images[2].t.tobytes()
+
+
+def test_an_overflowing_projection_is_named(tmp_path):
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    model.cameras[1].params[4] = 1e200  # camera 101's k1
+    for itmax in (100, 0):  # the library evaluates the error with itmax 0 too
+        with pytest.raises(ValueError, match=re.escape("model: image 13 (img_0001.png), camera 101 (OPENCV): point ")
+                           + ".* px, where its squared reprojection error is not finite$"):
+            pysba.refine_colmap(model, itmax=itmax)
 
 
 def test_pycolmap_is_named_when_missing(monkeypatch):
