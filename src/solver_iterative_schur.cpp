@@ -109,7 +109,9 @@ std::vector<i64> split_by_work(const std::vector<int> &ptr, int first, int count
 template <int M, int C, int P>
 class IterativeSchurSolver final : public StepSolver {
  public:
-  explicit IterativeSchurSolver(const SolveContext &ctx) : ctx_(ctx), lay_(ctx.lay) {
+  // max_cluster: the largest order of a cluster of the preconditioner (the tests compare
+  // kMaxCluster with 0, S's diagonal blocks alone).
+  explicit IterativeSchurSolver(const SolveContext &ctx, int max_cluster = kMaxCluster) : ctx_(ctx), lay_(ctx.lay) {
     const Layout &lay = lay_;
     nc_ = lay.free_cams();
     np_ = lay.free_pts();
@@ -125,7 +127,7 @@ class IterativeSchurSolver final : public StepSolver {
       // clusters of the unknowns' blocks.
       schur_ = std::make_unique<MappedSchur>(lay, T);
       const CameraMap &map = lay.cams;
-      find_clusters(map);
+      find_clusters(map, max_cluster);
       xc_.resize(size_t(lay.m) * size_t(cnp()));
       yc_.resize(xc_.size());
     } else {
@@ -392,8 +394,8 @@ class IterativeSchurSolver final : public StepSolver {
 
   // The clusters of the preconditioner (see the top of the file): a shared block K with the
   // own blocks of the cameras that touch K and nothing else, in ascending block order while
-  // the cluster's order stays within kMaxCluster; every other block alone.
-  void find_clusters(const CameraMap &map) {
+  // the cluster's order stays within max_cluster; every other block alone.
+  void find_clusters(const CameraMap &map, int max_cluster) {
     const int nb = map.nblocks();
     const auto cams = [&](int b) { return map.block_cam_start[size_t(b) + 1] - map.block_cam_start[size_t(b)]; };
     std::vector<int> root(static_cast<size_t>(nb));  // the block whose cluster b joins (b when alone)
@@ -405,7 +407,7 @@ class IterativeSchurSolver final : public StepSolver {
       const int q0 = map.cam_start[size_t(j)];
       if (map.cam_start[size_t(j) + 1] - q0 != 2) continue;
       const int K = map.cam_blocks[size_t(q0)] == b ? map.cam_blocks[size_t(q0) + 1] : map.cam_blocks[size_t(q0)];
-      if (cams(K) < 2 || size[size_t(K)] + map.block_size(b) > kMaxCluster) continue;
+      if (cams(K) < 2 || size[size_t(K)] + map.block_size(b) > max_cluster) continue;
       root[size_t(b)] = K;
       size[size_t(K)] += map.block_size(b);
     }
@@ -562,13 +564,13 @@ class IterativeSchurSolver final : public StepSolver {
 
 // fn(solver) with the solver compiled for the layout's block sizes.
 template <class Fn>
-auto with_solver(const SolveContext &ctx, Fn fn) {
+auto with_solver(const SolveContext &ctx, Fn fn, int max_cluster = kMaxCluster) {
   const Layout &lay = ctx.lay;
   if (lay.mnp == 2 && lay.pnp == 3) {
-    if (lay.cnp == 6) return fn(std::make_unique<IterativeSchurSolver<2, 6, 3>>(ctx));
-    if (lay.cnp == 9) return fn(std::make_unique<IterativeSchurSolver<2, 9, 3>>(ctx));
+    if (lay.cnp == 6) return fn(std::make_unique<IterativeSchurSolver<2, 6, 3>>(ctx, max_cluster));
+    if (lay.cnp == 9) return fn(std::make_unique<IterativeSchurSolver<2, 9, 3>>(ctx, max_cluster));
   }
-  return fn(std::make_unique<IterativeSchurSolver<0, 0, 0>>(ctx));
+  return fn(std::make_unique<IterativeSchurSolver<0, 0, 0>>(ctx, max_cluster));
 }
 
 }  // namespace
@@ -591,8 +593,11 @@ bool iterative_schur_apply_preconditioner(const SolveContext &ctx, const NormalE
   return with_solver(ctx, [&](auto s) { return s->apply_preconditioner(ne, mu, r, z); });
 }
 
-int iterative_schur_cg_iterations(const SolveContext &ctx, const NormalEquations &ne, double mu, double *dp) {
-  return with_solver(ctx, [&](auto s) { return s->solve(ne, mu, dp) == StepStatus::Solved ? s->cg_iterations() : -1; });
+int iterative_schur_cg_iterations(const SolveContext &ctx, const NormalEquations &ne, double mu, double *dp,
+                                  bool clusters) {
+  return with_solver(
+      ctx, [&](auto s) { return s->solve(ne, mu, dp) == StepStatus::Solved ? s->cg_iterations() : -1; },
+      clusters ? kMaxCluster : 0);
 }
 
 }  // namespace sba

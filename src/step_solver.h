@@ -71,8 +71,10 @@ bool iterative_schur_preconditioner(const SolveContext &ctx, const NormalEquatio
 bool iterative_schur_apply_preconditioner(const SolveContext &ctx, const NormalEquations &ne, double mu,
                                           const double *r, double *z);
 // One step of the iterative solver at damping mu into dp: its CG iterations, or -1 if it
-// failed. For the tests.
-int iterative_schur_cg_iterations(const SolveContext &ctx, const NormalEquations &ne, double mu, double *dp);
+// failed; with shared unknowns, clusters false preconditions with S's diagonal blocks alone
+// instead of its clusters. For the tests.
+int iterative_schur_cg_iterations(const SolveContext &ctx, const NormalEquations &ne, double mu, double *dp,
+                                  bool clusters = true);
 
 }  // namespace sba
 
