@@ -80,7 +80,10 @@ struct sba_ext_result {
    * a loss): the ones the loss treats as outliers. */
   long long outliers_final;
   int nthreads;           /* threads used (after the caps, see sba_ext_options.nthreads) */
-  const char *linsolver;  /* linear solver used (a static string): the one "auto" chose, never "auto" */
+  /* linear solver used (a static string): the one "auto" chose, never "auto"; "block-diagonal"
+   * where the system is block diagonal (no free points, or no free cameras, and no shared
+   * camera parameters), which one small Cholesky per camera or point solves whatever was asked */
+  const char *linsolver;
   int robust;             /* nonzero if a robust loss was used */
   const char *strategy;   /* LM strategy used (a static string) */
 };

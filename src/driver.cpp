@@ -22,6 +22,7 @@
 #include "model.h"
 #include "options.h"
 #include "solver_choice.h"
+#include "step_solver.h"
 #include "strategy.h"
 #include "thread_policy.h"
 #include "unknowns.h"
@@ -138,6 +139,18 @@ bool resolve_auto(const DriverArgs &a, const Layout &lay, const Logger &log, Opt
   return true;
 }
 
+// The solver that runs, which the result names: one small Cholesky per block where the system
+// is block diagonal, whatever was asked; else the one asked for, auto resolved.
+bool choose_solver(const DriverArgs &a, const Layout &lay, const Logger &log, Options *opt) {
+  if (!block_diagonal(lay)) return resolve_auto(a, lay, log, opt);
+  if (log.verbose() > 0)
+    log.info(1, "%s: linear solver: block-diagonal, %s asked (no free %s: each %s's step is solved alone)", a.name,
+             linsolver_name(opt->solver), lay.free_cams() == 0 ? "cameras" : "points",
+             lay.free_cams() == 0 ? "point" : "camera");
+  opt->solver = LinSolver::BlockDiagonal;
+  return true;
+}
+
 // The caller's result struct, filled as far as the caller's struct goes.
 void write_result(const sba_ext_options &ext, const Options &opt, const Summary &sum) {
   if (!ext.result || ext.result->size < sizeof(size_t)) return;
@@ -207,7 +220,7 @@ int run_driver(const DriverArgs &a) {
     Layout lay;
     const auto no_extra_check = [] { return std::string(); };
     if (!validate_and_lay_out(a, ext, env, log, no_extra_check, &opt, &lay)) return;
-    if (!resolve_auto(a, lay, log, &opt)) return;
+    if (!choose_solver(a, lay, log, &opt)) return;
     const std::unique_ptr<Model> model = make_model(lay, a.callbacks, opt.parallel_callbacks);
     // itmax == 0: check the Jacobian; the solve below then only scores p (info[0] == info[1]).
     if (a.itmax == 0) {

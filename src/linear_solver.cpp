@@ -27,6 +27,7 @@ bool linsolver_from_name(const std::string &name, LinSolver *out) {
 }
 
 const char *linsolver_name(LinSolver kind) {
+  if (kind == LinSolver::BlockDiagonal) return "block-diagonal";
   for (const NamedSolver &s : kSolvers)
     if (s.value == kind) return s.name;
   return "?";

@@ -24,6 +24,9 @@ enum class LinSolver {
   SparseChol,  // sparse S (cameras sharing points), CHOLMOD Cholesky
   IterativeSchur,  // S never formed: truncated CG on S x products, S's block diagonal as preconditioner
   Auto,        // one of chol, sparse-chol and iterative-schur, chosen from the problem (solver_choice.h)
+  // One small Cholesky per free camera or point: what runs where the system is block diagonal
+  // (block_diagonal, step_solver.h), whatever was asked. Named in reports, never chosen by name.
+  BlockDiagonal,
 };
 
 // "chol", "ldlt", ... ; false for an unknown name.

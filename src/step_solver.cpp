@@ -93,11 +93,13 @@ std::unique_ptr<StepSolver> pinned(std::unique_ptr<StepSolver> s, const Layout &
 
 }  // namespace
 
+bool block_diagonal(const Layout &lay) {
+  return lay.free_cams() == 0 || (lay.free_pts() == 0 && !lay.cams.shared());
+}
+
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx) {
   const Layout &lay = ctx.lay;
-  // Shared unknowns couple the cameras that share them: without free points the system is
-  // then no longer block diagonal.
-  if (lay.free_cams() == 0 || (lay.free_pts() == 0 && !lay.cams.shared())) return pinned(std::make_unique<BlockDiagonalSolver>(ctx), lay);
+  if (kind == LinSolver::BlockDiagonal || block_diagonal(lay)) return pinned(std::make_unique<BlockDiagonalSolver>(ctx), lay);
   switch (kind) {
     case LinSolver::LdlAmd:
       return pinned(make_ldl_amd_solver(ctx), lay);

@@ -41,9 +41,13 @@ class StepSolver {
   virtual StepStatus solve(const NormalEquations &ne, double mu, double *dp) = 0;
 };
 
-// The solver for a problem. Problems without free points or without free cameras (the
-// motion-only and structure-only drivers, mcon == m, ncon == n) are block diagonal and
-// always use per-block Cholesky, whatever `kind` says, unless cameras share unknowns. Each
+// Whether lay's normal equations are block diagonal: no free points or no free cameras (the
+// motion-only and structure-only drivers, mcon == m, ncon == n), unless cameras share
+// unknowns, which couples them without any point.
+bool block_diagonal(const Layout &lay);
+
+// The solver for a problem. A block diagonal one (block_diagonal) always uses per-block
+// Cholesky (LinSolver::BlockDiagonal), whatever `kind` says. Each
 // solver works over the layout's camera unknowns (camera_map.h): sba 1.6's per-camera
 // blocks, or the blocks of shared unknowns.
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx);
