@@ -2,29 +2,34 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """Compare eucsbademo with sba 1.6's own demo on the sba distribution's seven data sets.
 
-sba 1.6 is not bitwise reproducible: its results move with the BLAS's thread count and with
-the compiler's rounding. Its envelope is four runs: two builds (plain, and with FMA
-contraction), each at 1 and 2 OpenBLAS threads. Given a directory that holds 1.6's demo
-built once per compile-time variant (BUILD/eucsbademo16-HOWTO-DRIVER-JACOBIAN for the builds
-named by --builds), this script runs the four reference runs and ours on every variant
+sba 1.6 is not bitwise reproducible: its results move with the BLAS's thread count, the BLAS's
+kernels and the compiler's rounding. Its envelope is two builds (plain, and with FMA
+contraction), each at 1 and 2 OpenBLAS threads, under each OpenBLAS kernel named by
+--coretypes (OPENBLAS_CORETYPE; "default" is the one OpenBLAS picks for the CPU). Given a
+directory that holds 1.6's demo built once per compile-time variant
+(BUILD/eucsbademo16-HOWTO-DRIVER-JACOBIAN for the builds named by --builds), this script runs
+those reference runs and ours on every variant
 (HOWTO motstr, mot, str, mot-then-motstr; DRIVER expert or simple; JACOBIAN analytic or
 numeric; the simple structure-only ones only with --simple-str: they take minutes) and
 reports two judgements:
 
-(a) "minimum": ours ends at 1.6's minimum (the printed error equal where 1.6's four runs
+(a) "minimum": ours ends at 1.6's minimum (the printed error equal where 1.6's runs
     agree, else within their range; on the flat valleys of 7camsvarK and 9camsvarK within
     0.2% of that range, and there the iterations within [min/1.25 - 3, 1.25 max + 3] of
     1.6's), and does not run into itmax where 1.6 stops.
-(b) "in kind", against each build's pair of runs: iterations within that window of the
-    pair's, the stop reason one of theirs (2 and 4 stand for each other), the function and
-    Jacobian evaluations and the linear systems each within 35% of one of the pair's, and
+(b) "in kind", against each build's runs: iterations within that window of the build's,
+    the stop reason one of theirs (2 and 4 stand for each other), the function and
+    Jacobian evaluations and the linear systems each within 35% of one of the build's, and
     the minimum as in (a). The same judgement of each of 1.6's builds against the other is
     printed beside it: what "as close as 1.6 is to itself" means.
 
-1.6's runs are cached (--cache) since they do not change. Example:
+1.6's runs are cached (--cache) since they do not change. --envelope prints, for each
+variant, the range of 1.6's iterations and final errors over all its runs: the figures the
+tests' tables of 1.6's behaviour hold. Example:
 
   scripts/compare_sba16.py --sba16 PATH/sba16 --data PATH/sba-demo \\
-      --demo build/demo/eucsbademo --cache /tmp/sba16.json
+      --demo build/demo/eucsbademo --cache /tmp/sba16.json \\
+      --coretypes default,Haswell,SandyBridge,Nehalem,Prescott --envelope
 """
 import argparse
 import concurrent.futures
@@ -113,36 +118,52 @@ def near(a, refs, field):
     return any(abs(a - x[field]) <= 0.35 * x[field] for x in refs)
 
 
-def judge_b(v, r, pair, refs, same_run=False):
+def judge_b(v, r, runs, refs):
     if r is None or not minimum_ok(v, r, refs):
         return False
-    lo, hi = window([x["iters"] for x in pair])
+    lo, hi = window([x["iters"] for x in runs])
     if not lo <= r["iters"] <= hi:
         return False
     same = {2: 4, 4: 2}
-    if not any(r["reason"] == x["reason"] or same.get(r["reason"]) == x["reason"] for x in pair):
+    if not any(r["reason"] == x["reason"] or same.get(r["reason"]) == x["reason"] for x in runs):
         return False
     counters = ("nfev", "njev", "nlin")
-    if same_run:
-        return any(all(near(r[f], [x], f) for f in counters) for x in pair)
-    return all(near(r[f], pair, f) for f in counters)
+    return all(near(r[f], runs, f) for f in counters)
+
+
+def ref_key(v, b, t, c):
+    return "%s.%s.%d" % (key(v), b, t) + ("" if c == "default" else "." + c)
+
+
+def envelope(v, refs):
+    its = [x["iters"] for x in refs]
+    errs = sorted(float(x["error"]) for x in refs)
+    reasons = sorted(set(x["reason"] for x in refs))
+    return "%-40s 1.6 over %d runs: %d..%d iterations, error %g..%g, reasons %s" % (
+        key(v), len(refs), min(its), max(its), errs[0], errs[-1], reasons)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sba16", required=True, help="directory holding 1.6's demo builds")
     ap.add_argument("--builds", default="bin,bin-fma", help="its two build directories")
+    ap.add_argument("--coretypes", default="default", help="comma-separated OPENBLAS_CORETYPE values for 1.6's runs")
     ap.add_argument("--data", required=True, help="the sba distribution's demo data")
     ap.add_argument("--demo", required=True, help="our eucsbademo")
     ap.add_argument("--cache", help="JSON file caching 1.6's runs")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--simple-str", action="store_true", help="also the simple structure-only variants")
     ap.add_argument("--only", help="comma-separated data sets")
+    ap.add_argument("--match", help="only the variants whose key (SET.HOWTO.DRIVER.JACOBIAN) matches this regex")
+    ap.add_argument("--envelope", action="store_true", help="print 1.6's range on each variant")
     ap.add_argument("--verbose", action="store_true", help="one line per variant")
     ap.add_argument("extra", nargs="*", help="further options for our eucsbademo (after --)")
     a = ap.parse_args()
     builds = a.builds.split(",")
-    vs = [v for v in variants(a.simple_str) if not a.only or v[0] in a.only.split(",")]
+    cores = a.coretypes.split(",")
+    runs = [(b, t, c) for b in builds for t in (1, 2) for c in cores]
+    vs = [v for v in variants(a.simple_str) if (not a.only or v[0] in a.only.split(","))
+          and (not a.match or re.search(a.match, key(v)))]
     cache = {}
     if a.cache and os.path.exists(a.cache):
         with open(a.cache) as f:
@@ -152,14 +173,16 @@ def main():
     with concurrent.futures.ThreadPoolExecutor(a.jobs) as ex:
         for v in vs:
             s, how, drv, jac = v
-            for b in builds:
-                for t in (1, 2):
-                    k = "%s.%s.%d" % (key(v), b, t)
-                    if k in cache:
-                        continue
-                    exe = os.path.join(a.sba16, b, "eucsbademo16-%s-%s-%s" % (how, drv, jac))
-                    env = dict(os.environ, OPENBLAS_NUM_THREADS=str(t))
-                    jobs[k] = ex.submit(run, [exe] + files(a.data, s), env)
+            for b, t, c in runs:
+                k = ref_key(v, b, t, c)
+                if k in cache:
+                    continue
+                exe = os.path.join(a.sba16, b, "eucsbademo16-%s-%s-%s" % (how, drv, jac))
+                env = dict(os.environ, OPENBLAS_NUM_THREADS=str(t))
+                env.pop("OPENBLAS_CORETYPE", None)
+                if c != "default":
+                    env["OPENBLAS_CORETYPE"] = c
+                jobs[k] = ex.submit(run, [exe] + files(a.data, s), env)
             opts = ["--refine=" + OUR_REFINE[how], "--" + drv] + (["--numeric-jacobian"] if jac == "numeric" else [])
             jobs["ours." + key(v)] = ex.submit(run, [a.demo] + opts + a.extra + files(a.data, s))
         for k, fut in jobs.items():
@@ -176,17 +199,18 @@ def main():
         r["iters"], r["reason"], r["error"], r["nfev"], r["njev"], r["nlin"])
     count_a, fails_a = 0, []
     kind = {("ours", b): 0 for b in builds}
-    for b in builds:
-        for t in (1, 2):
-            for o in builds:
-                if o != b:
-                    kind[("%s@%d" % (b, t), o)] = 0
+    for b, t, c in runs:
+        for o in builds:
+            if o != b:
+                kind[("%s@%d/%s" % (b, t, c), o)] = 0
     for v in vs:
-        refs = {(b, t): cache["%s.%s.%d" % (key(v), b, t)] for b in builds for t in (1, 2)}
+        refs = {r: cache[ref_key(v, *r)] for r in runs}
         if any(x is None for x in refs.values()):
             print("1.6 failed on", key(v), file=sys.stderr)
             continue
         allrefs = list(refs.values())
+        if a.envelope:
+            print(envelope(v, allrefs))
         ours = jobs["ours." + key(v)]
         ok_a = judge_a(v, ours, allrefs)
         count_a += ok_a
@@ -194,24 +218,26 @@ def main():
             fails_a.append(key(v))
         marks = []
         for b in builds:
-            pair = [refs[(b, 1)], refs[(b, 2)]]
-            ok = judge_b(v, ours, pair, allrefs)
+            mine = [refs[r] for r in runs if r[0] == b]
+            ok = judge_b(v, ours, mine, allrefs)
             kind[("ours", b)] += ok
             marks.append("%s:%s" % (b, "ok" if ok else "--"))
-            for t in (1, 2):
+            for r in runs:
+                if r[0] != b:
+                    continue
                 for o in builds:
                     if o != b:
-                        kind[("%s@%d" % (b, t), o)] += judge_b(v, refs[(b, t)], [refs[(o, 1)], refs[(o, 2)]], allrefs)
+                        other = [refs[x] for x in runs if x[0] == o]
+                        kind[("%s@%d/%s" % r, o)] += judge_b(v, refs[r], other, allrefs)
         if a.verbose:
-            print("%-40s ours %-34s | %s | a:%s %s" % (key(v), fmt(ours), " ".join(
-                fmt(refs[(b, t)]) for b in builds for t in (1, 2)), "ok" if ok_a else "FAIL", " ".join(marks)))
+            print("%-40s ours %-34s | a:%s %s" % (key(v), fmt(ours), "ok" if ok_a else "FAIL", " ".join(marks)))
     n = len(vs)
     print("variants: %d" % n)
     print("(a) 1.6's minimum, no itmax where 1.6 stops: %d of %d" % (count_a, n))
     for k in fails_a:
         print("    fails:", k)
     for (who, against), c in kind.items():
-        print("(b) %-12s judged in kind against %-8s %d of %d" % (who, against + "'s pair:", c, n))
+        print("(b) %-24s judged in kind against %-8s %d of %d" % (who, against + "'s runs:", c, n))
 
 
 if __name__ == "__main__":

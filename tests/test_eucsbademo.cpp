@@ -414,17 +414,19 @@ const PublishedRun kPublished[] = {
 // Golden comparison. Text must match exactly; on the "SBA returned" line the errors may differ
 // by a relative 1e-5, and the counts by a little, because iteration and evaluation counts
 // depend on rounding: a faster library that orders its sums differently, or another
-// BLAS/LAPACK, takes a few more or fewer steps to the same minimum (1.6's own 54cams run takes
-// 16 to 21 iterations on different machines). So every count (returned value, iterations,
-// function and Jacobian evaluations, linear systems) may differ by max(2, 25%) of the golden
-// count, the trial counts (function evaluations, linear systems) by 30%: rejected attempts
-// come and go with the path. The reason must be a convergence stop; 2 and 4 stand for each
-// other, since which of the two ends a run at the minimum is a matter of rounding (1.6's
-// stop 4 fires on about one tiny step in four, and the ASan build, compiled otherwise, ends
-// runs differently from the release build). A run that stop 2 ends has first grown the
-// damping through a series of rejected attempts, up to kStopTwoTail more trials.
+// BLAS/LAPACK kernel, takes a few more or fewer steps to the same minimum (1.6's own 54cams run
+// takes 17 to 22 iterations over its builds, thread counts and OpenBLAS kernels). So the
+// returned value, the iterations and the Jacobian evaluations may differ by max(2, 25%) of the
+// golden count. The trial counts (function evaluations, linear systems) are the iterations
+// plus the rejected attempts, which come and go with the path (1.6's own 9cams runs solve 15
+// to 28 systems in 15 to 20 iterations): each is checked against the run's own iterations,
+// one per iteration at least (a run that stop 2 ends may not evaluate its last step), at
+// most twice as many plus kStopTwoTail. The reason must be a convergence stop; 2 and 4 stand for each other, since
+// which of the two ends a run at the minimum is a matter of rounding (1.6's stop 4 fires on
+// about one tiny step in four, and the ASan build, compiled otherwise, ends runs differently
+// from the release build). A run that stop 2 ends has first grown the damping through a
+// series of rejected attempts, up to kStopTwoTail more trials.
 int count_slack(int golden) { return std::max(2, static_cast<int>(std::ceil(0.25 * golden))); }
-int trial_slack(int golden) { return std::max(2, static_cast<int>(std::ceil(0.3 * golden))); }
 constexpr int kStopTwoTail = 10;
 
 void expect_counts_near(const char *what, int actual, int golden, int slack) {
@@ -467,19 +469,20 @@ void expect_matches_golden(const std::string &out, const std::string &golden_fil
     near("iterations", 2);
     const bool two_or_four = (a[3] == "2" || a[3] == "4") && (g[3] == "2" || g[3] == "4");
     EXPECT_TRUE(a[3] == g[3] || two_or_four) << "reason " << a[3] << ", golden " << g[3];
-    const int tail = a[3] == g[3] ? 0 : kStopTwoTail;
-    const auto near_trials = [&](const char *what, int field) {
-      expect_counts_near(what, std::stoi(a[field]), std::stoi(g[field]),
-                         trial_slack(std::stoi(g[field])) + tail);
+    const int iterations = std::stoi(a[2]);
+    const auto trials = [&](const char *what, int field) {
+      const int n = std::stoi(a[field]);
+      EXPECT_GE(n, iterations) << what << " in " << iterations << " iterations";
+      EXPECT_LE(n, 2 * iterations + kStopTwoTail) << what << " in " << iterations << " iterations";
     };
     for (int f : {4, 5}) {
       const double av = std::stod(a[f]), gv = std::stod(g[f]);
       EXPECT_LE(std::fabs(av - gv), 1e-5 * std::fabs(gv))
           << (f == 4 ? "error " : "initial error ") << a[f] << ", golden " << g[f];
     }
-    near_trials("function evaluations", 6);
+    trials("function evaluations", 6);
     near("Jacobian evaluations", 7);
-    near_trials("linear systems", 8);
+    trials("linear systems", 8);
   }
 }
 
@@ -533,12 +536,14 @@ INSTANTIATE_TEST_SUITE_P(Eucsbademo, Published, ::testing::ValuesIn(kPublished),
                          });
 
 // sba 1.6's own demo on the seven problems, as 1.6 itself runs on this machine kind: built
-// plain (-O2) and with FMA contraction, each with OpenBLAS at 1 and 2 threads. Those four runs
-// are 1.6's envelope: its iterations and the error it ends at move with rounding. At eps4 = 0,
-// stop 4 is 1.6's relative-reduction test firing through rounding: about one accepted step in
-// four whose relative decrease is far below 1e-8 ends the run, so the reason is checked to be
-// 2 or 4, not the same one. Ours must end at 1.6's minimum (its error to 6 digits where the
-// four runs agree) in iterations within [min/1.25 - 3, 1.25 max + 3] of 1.6's. On 7camsvarK and
+// plain (-O2) and with FMA contraction, each with OpenBLAS at 1 and 2 threads under five of
+// OpenBLAS's kernels (OPENBLAS_CORETYPE default, Haswell, SandyBridge, Nehalem, Prescott;
+// scripts/compare_sba16.py --envelope). Those twenty runs are 1.6's envelope: its iterations
+// and the error it ends at move with rounding. At eps4 = 0, stop 4 is 1.6's relative-reduction
+// test firing through rounding: about one accepted step in four whose relative decrease is far
+// below 1e-8 ends the run, so the reason is checked to be 2 or 4, not the same one. Ours must
+// end at 1.6's minimum (its error to 6 digits where the runs agree) in iterations within
+// [min/1.25 - 3, 1.25 max + 3] of 1.6's. On 7camsvarK and
 // 9camsvarK the valley is flat: one rejected step makes 1.6 retry on the blocks as the failed
 // attempt left them, which restarts the damping high, and the run then ends by stop 4 wherever
 // that happens along the valley; there the error is checked against 1.6's range, widened by
@@ -546,7 +551,7 @@ INSTANTIATE_TEST_SUITE_P(Eucsbademo, Published, ::testing::ValuesIn(kPublished),
 struct Sba16Run {
   DemoProblem problem;
   int min_iterations, max_iterations;
-  const char *min_error, *max_error;  // equal where the four runs agree
+  const char *min_error, *max_error;  // equal where the runs agree
   bool flat;
 };
 
@@ -573,12 +578,12 @@ TEST_P(Sba16, StopsByAConvergenceTestWhere16Does) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Eucsbademo, Sba16,
-                         ::testing::Values(Sba16Run{k7cams, 16, 17, "0.675396", "0.675396", false},
+                         ::testing::Values(Sba16Run{k7cams, 14, 18, "0.675396", "0.675396", false},
                                            Sba16Run{k9cams, 15, 20, "0.619559", "0.619559", false},
-                                           Sba16Run{k54cams, 19, 21, "0.176473", "0.176473", false},
-                                           Sba16Run{k7camsvarK, 52, 103, "0.65966", "0.660449", true},
-                                           Sba16Run{k9camsvarK, 51, 74, "0.599938", "0.600206", true},
-                                           Sba16Run{k54camsvarK, 36, 46, "0.134928", "0.134928", false},
+                                           Sba16Run{k54cams, 17, 22, "0.176473", "0.176473", false},
+                                           Sba16Run{k7camsvarK, 52, 125, "0.659254", "0.66045", true},
+                                           Sba16Run{k9camsvarK, 49, 107, "0.599938", "0.600576", true},
+                                           Sba16Run{k54camsvarK, 36, 48, "0.134928", "0.134928", false},
                                            Sba16Run{k54camsvarKD, 34, 43, "0.128779", "0.128779", false}),
                          [](const ::testing::TestParamInfo<Sba16Run> &info) {
                            return std::string(info.param.problem.name);
@@ -614,7 +619,7 @@ TEST_P(SameMinimum, AsThePublishedRun) {
 // --numeric-jacobian with varying K: 1.6's demo holds intrinsics only by zeroing their
 // analytic Jacobian columns, so its finite differences refine every intrinsic (its Method line
 // still says "2 fixed"), and so does ours unless --nccalib/--ncdist is given. 54camsvarK then
-// ends where 1.6's four runs end, at 0.167764 after 113 to 117 iterations: forward
+// ends where 1.6's runs end, at 0.167764 after 112 to 120 iterations: forward
 // differences with sba's step max(1e-4 |p|, 1e-6), about 0.1 for focal lengths around 1e3,
 // stop LM above the analytic minimum (0.134928). 7camsvarK's valley is flat: see
 // NumericJacobianRefinesEveryIntrinsicUnlessAsked.
@@ -657,9 +662,10 @@ INSTANTIATE_TEST_SUITE_P(Eucsbademo, SameMinimum, ::testing::ValuesIn(kVariants)
                            return id;
                          });
 
-// 7camsvarK with --numeric-jacobian refines every intrinsic, as 1.6's demo does (its four runs
-// end at 0.658018 to 0.658677 after 35 to 62 iterations), while --nccalib=2 asked for holds
-// skew and aspect ratio (and LM runs into itmax above 0.66 in that model's flat valley).
+// 7camsvarK with --numeric-jacobian refines every intrinsic, as 1.6's demo does (its twenty runs
+// of Sba16 above end at 0.657814 to 0.658677 after 33 to 150 iterations, one of them at itmax),
+// while --nccalib=2 asked for holds skew and aspect ratio (and LM runs into itmax above 0.66 in
+// that model's flat valley).
 TEST(Eucsbademo, NumericJacobianRefinesEveryIntrinsicUnlessAsked) {
   REQUIRE_DEMO_DATA();
   Summary all, held;
@@ -667,10 +673,9 @@ TEST(Eucsbademo, NumericJacobianRefinesEveryIntrinsicUnlessAsked) {
   EXPECT_SUCCESSFUL_RUN(run_all, kVaryingBanner, all);
   EXPECT_NE(all.method_line.find("approximate Jacobian"), std::string::npos) << all.method_line;
   EXPECT_NE(all.method_line.find("variable intrinsics (2 fixed)"), std::string::npos) << all.method_line;
-  EXPECT_GE(all.error_value(), 0.658018 * (1 - 0.002));
+  EXPECT_GE(all.error_value(), 0.657814 * (1 - 0.002));
   EXPECT_LE(all.error_value(), 0.658677 * (1 + 0.002));
-  EXPECT_GE(all.iterations(), 35 / 1.25 - 3);
-  EXPECT_LE(all.iterations(), 1.25 * 62 + 3);
+  EXPECT_GE(all.iterations(), 33 / 1.25 - 3);
   const DemoRun run_held = run_problem(k7camsvarK, {"--numeric-jacobian", "--nccalib=2"});
   EXPECT_SUCCESSFUL_RUN(run_held, kVaryingBanner, held);
   EXPECT_GT(held.error_value(), 0.66);
@@ -1122,15 +1127,20 @@ TEST(Eucsbademo, TrustRegionReachesThePublishedMinimaInFewerIterations) {
     EXPECT_GE(tr.iterations(), 5);
     EXPECT_LE(tr.iterations(), c.max_iterations);
   }
-  Summary opt, env, both;
+  Summary opt, env, both, sba;
   EXPECT_SUCCESSFUL_RUN(run_problem(k9cams, {"--strategy=trust-region"}), kFixedBanner, opt);
   EXPECT_SUCCESSFUL_RUN(run_problem(k9cams, {}, {{"SBA_STRATEGY", "trust-region"}}), kFixedBanner, env);
   EXPECT_SUCCESSFUL_RUN(run_problem(k9cams, {"--strategy=sba"}, {{"SBA_STRATEGY", "trust-region"}}),
                         kFixedBanner, both);
+  EXPECT_SUCCESSFUL_RUN(run_problem(k9cams, {}), kFixedBanner, sba);
   EXPECT_EQ(env.iters, opt.iters);
   EXPECT_EQ(env.error, opt.error);
-  EXPECT_EQ(both.iters, "14");  // 1.6's strategy: the golden run's figures
-  EXPECT_EQ(both.reason, "4");
+  // The option wins: 1.6's strategy, step for step.
+  EXPECT_EQ(both.iters, sba.iters);
+  EXPECT_EQ(both.nfunc, sba.nfunc);
+  EXPECT_EQ(both.nlin, sba.nlin);
+  EXPECT_EQ(both.error, sba.error);
+  EXPECT_NE(both.iters, opt.iters);
   const DemoRun bad = run_problem(k9cams, {"--strategy=fast"});
   EXPECT_EQ(bad.status, 2) << bad;
   EXPECT_NE(bad.err.find("expected one of: sba sba-clean-retry trust-region"), std::string::npos) << bad;
