@@ -39,14 +39,16 @@ def printed(result):
 
 def test_54cams_reaches_sba_result(cams54):
     r = pysba.solve(cams54)
-    if not OPTIMIZED:
-        pytest.skip("the figures are the optimized build's")
-    assert f"{r.final_mse:g}" == "0.176473"
+    # sba 1.6's published minimum, to its six digits; where the run stops moves with the
+    # kernels' rounding, as 1.6's own do (17 to 22 iterations, stop 2 or 4, over its builds,
+    # thread counts and OpenBLAS kernels): within the windows the C tests give 1.6's runs.
+    assert r.final_mse == pytest.approx(0.176473, abs=1.5e-6)
     assert f"{r.initial_mse:g}" == "2.14707"
-    assert r.iterations == 21 and r.reason == pysba.Reason.STEP and int(r.reason) == 2
-    # The last step is rejected and retried on the blocks as it left them (sba 1.6's retries):
-    # the factorizations fail until the damping dominates, and no trial point is evaluated.
-    assert (r.nfev, r.njev, r.nlinsys) == (22, 21, 29)
+    assert 17 / 1.25 - 3 <= r.iterations <= 1.25 * 22 + 3
+    assert r.reason in (pysba.Reason.STEP, pysba.Reason.REDUCTION) and int(r.reason) in (2, 4)
+    # One Jacobian per iteration; a function evaluation and a linear system at least per
+    # iteration, and a few more for the rejected attempts.
+    assert r.njev == r.iterations and r.iterations <= r.nfev and r.iterations <= r.nlinsys <= 2 * r.iterations + 10
     assert r.info.shape == (10,) and r.info[1] == pytest.approx(0.176473 * 24609, rel=1e-5)
     assert r.cameras.shape == (54, 7) and r.points.shape == (5207, 3)
     # The problem is left as it was; the result is new arrays.
@@ -63,9 +65,10 @@ def test_varying_intrinsics_as_eucsbademo_prints_it():
     p = pysba.read_eucsbademo(*files)
     assert p.cameras.shape == (7, 12) and p.calibration is None
     r = pysba.solve(p)
-    # sba 1.6's figures on its flat valley: 52 to 103 iterations, 0.65966 to 0.660449.
-    if OPTIMIZED:
-        assert (f"{r.final_mse:g}", r.iterations, r.reason) == ("0.66045", 53, pysba.Reason.REDUCTION)
+    # A flat valley: sba 1.6's own runs stop anywhere from 0.659254 to 0.66045 (stop 4, after 52
+    # to 125 iterations), above its floor, 0.658995, where the clean retries end; the C tests
+    # (FlatValleysStopOnTheValleyFloor) hold every solver within 0.6% of that floor.
+    assert 0.658995 * (1 - 1e-6) <= r.final_mse <= 0.658995 * 1.006 and r.reason == pysba.Reason.REDUCTION
     assert printed(r) == program_line("PYSBA_EUCSBADEMO", files)
     # Two more trailing intrinsics held (eucsbademo --nccalib 4): a different minimum.
     held = pysba.solve(p, nccalib=4)
@@ -76,9 +79,9 @@ def test_varying_intrinsics_as_eucsbademo_prints_it():
 
 def test_bal_as_balsba_prints_it(bal21):
     r = pysba.solve(bal21)
-    if OPTIMIZED:
-        assert (f"{r.final_mse:g}", f"{r.initial_mse:g}", r.iterations, r.reason) == \
-            ("1.66664", "242.12", 28, pysba.Reason.REDUCTION)
+    # The minimum to six digits; the iterations to it (28 or 30 as the kernels round) are
+    # balsba's, which the line below compares.
+    assert (f"{r.final_mse:g}", f"{r.initial_mse:g}", r.reason) == ("1.66664", "242.12", pysba.Reason.REDUCTION)
     line = program_line("PYSBA_BALSBA", [BAL / "problem-21-11315-pre.txt.bz2", "--no-progress"])
     assert printed(r) == line
 
