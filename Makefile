@@ -9,7 +9,7 @@ JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 PYTHON ?= $(shell test -x /usr/bin/python3 && echo /usr/bin/python3 || command -v python3)
 
 .PHONY: all help configure test demo install clean deps-build deps-test mex mex-test deps-mex \
-	check-sanitize check-valgrind check-tsan check-fuzz soak check-bench configure-asan clean-checks
+	check-kernels check-sanitize check-valgrind check-tsan check-fuzz soak check-bench configure-asan clean-checks
 
 # The main job: a generated 20-camera problem (data/README.md) through eucsbademo.
 DEMO_PROBLEM ?= data/orbit-fixedK
@@ -24,7 +24,7 @@ help:
 	@echo 'make install      install into PREFIX (now $(PREFIX))'
 	@echo 'make mex          the MATLAB/GNU Octave interface in $(BUILD)/matlab (make mex-test: its tests)'
 	@echo 'make clean        remove $(BUILD)'
-	@echo 'make check-sanitize check-valgrind check-tsan check-fuzz soak check-bench: reliability checks'
+	@echo 'make check-kernels check-sanitize check-valgrind check-tsan check-fuzz soak check-bench: reliability checks'
 	@echo 'Variables: BUILD=$(BUILD) PREFIX=$(PREFIX) JOBS=$(JOBS) CMAKE_FLAGS=...'
 
 deps-build:
@@ -66,6 +66,8 @@ clean:
 	rm -rf $(BUILD)
 
 # ---- reliability checks (README, "Reliability") ----
+#   make check-kernels    the numeric tests again under other OpenBLAS kernels and the library's
+#                         portable ones (scripts/check_kernels.sh), in BUILD
 #   make check-sanitize   the test suite under AddressSanitizer + UBSan + LeakSanitizer (build-asan/)
 #   make check-valgrind   eucsbademo on DEMO_PROBLEM under valgrind memcheck
 #   make check-tsan       the concurrency tests under ThreadSanitizer (build-tsan/)
@@ -92,6 +94,10 @@ SAN_CMAKE_FLAGS = -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSBA_BUILD_TESTS=ON -DSBA_B
 	-DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1"
 ASAN_FLAGS = -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 TSAN_FLAGS = -fsanitize=thread -fno-omit-frame-pointer
+
+check-kernels: deps-test configure
+	cmake --build $(BUILD) -j $(JOBS)
+	sh scripts/check_kernels.sh $(BUILD) $(JOBS)
 
 configure-asan: deps-test
 	cmake -S . -B $(ASAN_BUILD) $(SAN_CMAKE_FLAGS) -DSBA_BUILD_PYTHON=ON -DPython_EXECUTABLE=$(PYTHON) \
