@@ -759,39 +759,6 @@ TEST(CameraParamGroups, ARigIsRefinedAsOneRig) {
   EXPECT_LT(own.info[1], r.info[1]);  // more freedom, a lower error
 }
 
-TEST(CameraParamGroups, CovarianceOfARig) {
-  RigScene s = make_rig(10, 150, 31);
-  const SynthResult r = run_rig(s, RigRun{});
-  ASSERT_GT(r.ret, 0) << r.log;
-  std::vector<double> p = r.p;
-  sba_ext_options ext;
-  sba_ext_options_init(&ext);
-  ext.quiet = 1;
-  ext.cam_fixed = s.held.data();
-  ext.cam_fixed_per_camera = 1;
-  ext.cam_param_group = s.group.data();
-  sba_covariance_request req;
-  sba_covariance_request_init(&req);
-  const int cams[2] = {4, 7};  // frame 1's second camera, frame 2's second
-  std::vector<double> camcov(2 * kRigCnp * kRigCnp);
-  req.ncams = 2;
-  req.cams = cams;
-  req.camcov = camcov.data();
-  ASSERT_EQ(0, sba_motstr_covariance_x(s.n, 0, s.m, 0, s.vmask.data(), p.data(), kRigCnp, 3, s.x.data(), nullptr, 2,
-                                       rig_func, nullptr, &s, &req, &ext));
-  // The unknowns: 10 frame poses, 2 sensor poses and 3 focal lengths, 3 per point; the gauge
-  // (a similarity: 7 directions) is left free.
-  EXPECT_EQ(req.nfree, 10 * 6 + 2 * 6 + 3 + 150 * 3);
-  EXPECT_EQ(req.rank, req.nfree - 7);
-  // The second camera's focal length and pose in the rig are one unknown in both images: the
-  // same variances; the frames' poses are not.
-  const int cc = kRigCnp * kRigCnp;
-  EXPECT_GT(camcov[0], 0.0);
-  EXPECT_TRUE(same_bits(camcov[0], camcov[size_t(cc)]));
-  for (int q = 7; q < 13; ++q) EXPECT_TRUE(same_bits(camcov[size_t(q * kRigCnp + q)], camcov[size_t(cc + q * kRigCnp + q)]));
-  EXPECT_FALSE(same_bits(camcov[size_t(4 * kRigCnp + 4)], camcov[size_t(cc + 4 * kRigCnp + 4)]));
-}
-
 // What sba_motstr_covariance_x gives for the rig at p: two cameras' blocks, a point's.
 struct RigCovariance {
   int ret = 0, rank = 0, nfree = 0;
@@ -822,6 +789,27 @@ RigCovariance rig_covariance(RigScene &s, std::vector<double> &p) {
   c.nfree = req.nfree;
   c.sigma2 = req.sigma2;
   return c;
+}
+
+TEST(CameraParamGroups, CovarianceOfARig) {
+  RigScene s = make_rig(10, 150, 31);
+  const SynthResult r = run_rig(s, RigRun{});
+  ASSERT_GT(r.ret, 0) << r.log;
+  std::vector<double> p = r.p;
+  const RigCovariance c = rig_covariance(s, p);  // frame 1's second camera, frame 2's second
+  ASSERT_EQ(c.ret, 0);
+  // The unknowns: 10 frame poses, 2 sensor poses and 3 focal lengths, 3 per point; the gauge
+  // (a similarity: 7 directions) is left free.
+  EXPECT_EQ(c.nfree, 10 * 6 + 2 * 6 + 3 + 150 * 3);
+  EXPECT_EQ(c.rank, c.nfree - 7);
+  // The second camera's focal length and pose in the rig are one unknown in both images: the
+  // same variances; the frames' poses are not.
+  const std::vector<double> &camcov = c.camcov;
+  const int cc = kRigCnp * kRigCnp;
+  EXPECT_GT(camcov[0], 0.0);
+  EXPECT_TRUE(same_bits(camcov[0], camcov[size_t(cc)]));
+  for (int q = 7; q < 13; ++q) EXPECT_TRUE(same_bits(camcov[size_t(q * kRigCnp + q)], camcov[size_t(cc + q * kRigCnp + q)]));
+  EXPECT_FALSE(same_bits(camcov[size_t(4 * kRigCnp + 4)], camcov[size_t(cc + 4 * kRigCnp + 4)]));
 }
 
 // At a p whose shared copies differ, the covariance is taken where a solve would start: every
