@@ -98,6 +98,19 @@ int group_of(const Problem &p, const int *group, const char *shared, const int *
   return group && shared[a] ? group[j] : -1;
 }
 
+// Camera j's parameter a (at j * cnp + a): the first camera of its group, whose value the
+// group's copies take, or -1 for a parameter of its own.
+std::vector<int> first_cameras(const Problem &p, const int *group, const char *shared, const int *param_group) {
+  std::vector<int> out(size_t(p.m) * p.cnp, -1);
+  std::map<std::pair<int, int>, int> first;  // (parameter, group number) -> its first camera
+  for (int j = 0; j < p.m; ++j)
+    for (int a = 0; a < p.cnp; ++a) {
+      const int g = group_of(p, group, shared, param_group, j, a);
+      if (g != -1) out[size_t(j) * p.cnp + a] = first.emplace(std::make_pair(a, g), j).first->second;
+    }
+  return out;
+}
+
 // The rules, as sba_ext.h states them: empty when the options keep them, else which one is broken.
 std::string broken_rule(const Problem &p, const double *x0, const char *fixed, bool per_camera, const int *group,
                         const char *shared, const int *param_group) {
@@ -113,12 +126,11 @@ std::string broken_rule(const Problem &p, const double *x0, const char *fixed, b
       if (j < p.mcon) return "a camera below mcon in a group";
     }
   auto held = [&](int j, int a) { return fixed && fixed[per_camera ? j * p.cnp + a : a] != 0; };
-  std::map<std::pair<int, int>, int> first;  // (parameter, group number) -> its first camera
+  const std::vector<int> first = first_cameras(p, group, shared, param_group);
   for (int j = 0; j < p.m; ++j)
     for (int a = 0; a < p.cnp; ++a) {
-      const int g = group_of(p, group, shared, param_group, j, a);
-      if (g == -1) continue;
-      const int f = first.emplace(std::make_pair(a, g), j).first->second;
+      const int f = first[size_t(j) * p.cnp + a];
+      if (f == -1) continue;
       if (held(j, a) != held(f, a)) return "a shared parameter held in only some of its cameras";
       if (held(j, a) && !same_bits(x0[j * p.cnp + a], x0[f * p.cnp + a]))
         return "a shared parameter held with different values";
@@ -193,14 +205,9 @@ Covariance covariance(Problem &p, std::vector<double> &at, std::vector<char> &vm
 void check_covariance(Problem &p, const std::vector<double> &x0, std::vector<char> &vmask, std::vector<double> &x,
                       const sba_ext_options &ext) {
   std::vector<double> tied = x0, given = x0;
-  std::map<std::pair<int, int>, int> first;
-  for (int j = 0; j < p.m; ++j)
-    for (int a = 0; a < p.cnp; ++a) {
-      const int g = group_of(p, ext.cam_group, ext.cam_shared, ext.cam_param_group, j, a);
-      if (g == -1) continue;
-      const int f = first.emplace(std::make_pair(a, g), j).first->second;
-      tied[size_t(j) * p.cnp + a] = x0[size_t(f) * p.cnp + a];
-    }
+  const std::vector<int> first = first_cameras(p, ext.cam_group, ext.cam_shared, ext.cam_param_group);
+  for (size_t k = 0; k < first.size(); ++k)
+    if (first[k] != -1) tied[k] = x0[size_t(first[k]) * p.cnp + k % size_t(p.cnp)];
   const Covariance want = covariance(p, tied, vmask, x, ext);
   const Covariance got = covariance(p, given, vmask, x, ext);
   require(std::memcmp(given.data(), x0.data(), x0.size() * sizeof(double)) == 0, "the covariance changed p");
@@ -307,13 +314,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
   if (motion_only)
     for (size_t q = size_t(p.m) * p.cnp; q < sol.size(); ++q)
       require(same_bits(sol[q], x0[q]), "the motion-only driver moved a point");
-  std::map<std::pair<int, int>, int> first;
-  for (int j = 0; j < p.m; ++j)
-    for (int a = 0; a < p.cnp; ++a) {
-      const int g = group_of(p, ext.cam_group, ext.cam_shared, ext.cam_param_group, j, a);
-      if (g == -1) continue;
-      const int f = first.emplace(std::make_pair(a, g), j).first->second;
-      require(same_bits(sol[j * p.cnp + a], sol[f * p.cnp + a]), "the cameras sharing a parameter differ in it");
-    }
+  const std::vector<int> first = first_cameras(p, ext.cam_group, ext.cam_shared, ext.cam_param_group);
+  for (size_t k = 0; k < first.size(); ++k)
+    if (first[k] != -1)
+      require(same_bits(sol[k], sol[size_t(first[k]) * p.cnp + k % size_t(p.cnp)]),
+              "the cameras sharing a parameter differ in it");
   return 0;
 }
