@@ -5,6 +5,7 @@ to and from pycolmap. The functions and classes are pysba's (see its __init__)."
 from __future__ import annotations
 
 import collections.abc
+import copy
 import dataclasses
 import errno
 import math
@@ -39,13 +40,14 @@ class ColmapImage:
     """A COLMAP image: ``id`` (IMAGE_ID), ``name``, ``camera_id``, its pose ``q`` (qw qx qy qz)
     and ``t``, world to camera (X_cam = R(q) X + t), and its keypoints: ``points2D`` (k, 2) in
     pixels and ``point3D_ids`` (k,) uint64, the 3D point each one observes, or
-    :data:`NO_POINT3D` (-1 is taken for it too)."""
+    :data:`NO_POINT3D` (-1 is taken for it too). ``q`` and ``t`` are both None for an image of a
+    frame without a pose (see :class:`ColmapFrame`), which observes no point."""
 
     id: int
     name: str
     camera_id: int
-    q: np.ndarray
-    t: np.ndarray
+    q: Optional[np.ndarray]
+    t: Optional[np.ndarray]
     points2D: np.ndarray
     point3D_ids: np.ndarray
 
@@ -106,12 +108,17 @@ class ColmapRig:
 class ColmapFrame:
     """A frame (COLMAP 4), one pose of a rig: ``id``, ``rig_id``, the pose ``q``, ``t``
     (rig_from_world) and its ``data``, one ``(type, sensor_id, data_id)`` per measurement (a
-    camera's data_id is the IMAGE_ID of its image)."""
+    camera's data_id is the IMAGE_ID of its image).
+
+    ``q`` and ``t`` are both None for a frame without a pose, which a pycolmap.Reconstruction
+    holds (a frame not registered, or deregistered) and COLMAP's files do not; its images have
+    none either. Such frames and their images are kept where they are, but neither written by
+    :func:`write_colmap`, as COLMAP writes none, nor refined by :func:`refine_colmap`."""
 
     id: int
     rig_id: int
-    q: np.ndarray
-    t: np.ndarray
+    q: Optional[np.ndarray]
+    t: Optional[np.ndarray]
     data: List[Tuple[str, int, int]]
 
 
@@ -301,7 +308,8 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     for its images, a camera's pose in its rig (sensor_from_rig) once for all the frames of the
     rig (the rig's reference camera at the identity), written back to the frames and the rigs
     and composed into the images (an image that sees no point too: it keeps its place in its
-    frame, and moves with it unless it is held).
+    frame, and moves with it unless it is held). A frame without a pose (not registered, see
+    :class:`ColmapFrame`) and its images are left out of the solve and given back as they were.
 
     refine_focal_length, refine_principal_point, refine_extra_params
         COLMAP's bundle adjustment options (the focal length and the parameters after the
@@ -346,9 +354,20 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     strategy, opts = _colmap_stop(strategy, opts, function_tolerance)
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
     report = _core.refine_colmap(colmap_model, held, *(bool(flag) for _, flag in flags), **kw)
-    report["model"] = _model(report["model"])
+    report["model"] = _with_unposed(_model(report["model"]), colmap_model)
     result = _finish(report)
     return (to_pycolmap(result.model) if reconstruction else result.model), result
+
+
+def _with_unposed(refined: ColmapModel, given: ColmapModel) -> ColmapModel:
+    """refined, the images and frames of given that have a pose refined, with given's images and
+    frames without one put back (as copies) where given has them."""
+    for name in ("images", "frames"):
+        records = getattr(given, name)
+        if records is not None and any(r.q is None for r in records):
+            solved = iter(getattr(refined, name))
+            setattr(refined, name, [copy.deepcopy(r) if r.q is None else next(solved) for r in records])
+    return refined
 
 
 def _pycolmap() -> Any:
@@ -362,22 +381,58 @@ def _pycolmap() -> Any:
 
 def from_pycolmap(reconstruction: Any) -> ColmapModel:
     """The :class:`ColmapModel` of a pycolmap.Reconstruction, every field as pycolmap writes
-    it (through a binary model in a temporary directory)."""
+    it (through a binary model in a temporary directory), and the frames pycolmap holds without
+    a pose (not registered) with their images, which its files leave out, taken from the
+    Reconstruction: every image, frame, rig and camera, in pycolmap's order (by id)."""
     pycolmap = _pycolmap()
     if not isinstance(reconstruction, pycolmap.Reconstruction):
         raise TypeError(f"reconstruction must be a pycolmap.Reconstruction, got "
                         f"{type(reconstruction).__name__}")
     with tempfile.TemporaryDirectory(prefix="pysba-") as d:
         reconstruction.write_binary(d)
-        return read_colmap(d)
+        model = read_colmap(d)
+    unposed = [f for f in reconstruction.frames.values() if not f.has_pose()]
+    for frame in unposed:
+        data = sorted((d.sensor_id.type.name, d.sensor_id.id, d.id) for d in frame.data_ids)
+        model.frames.append(ColmapFrame(frame.frame_id, frame.rig_id, None, None, data))
+        for kind, _, image_id in data:
+            if kind == "CAMERA":
+                im = reconstruction.images[image_id]
+                points = list(im.points2D)
+                model.images.append(ColmapImage(
+                    im.image_id, im.name, im.camera_id, None, None,
+                    np.array([p.xy for p in points], np.float64).reshape(-1, 2),
+                    np.array([p.point3D_id for p in points], np.uint64)))
+    if unposed:
+        model.frames.sort(key=lambda f: f.id)
+        model.images.sort(key=lambda im: im.id)
+    return model
 
 
 def to_pycolmap(model: ColmapModel) -> Any:
     """The pycolmap.Reconstruction of a :class:`ColmapModel` (through a binary model in a
-    temporary directory, which pycolmap reads). ValueError or TypeError for a model the
-    reader would refuse."""
+    temporary directory, which pycolmap reads), with its frames without a pose and their images
+    added to it unregistered. ValueError or TypeError for a model the reader would refuse."""
     pycolmap = _pycolmap()
     _check_model(model)
     with tempfile.TemporaryDirectory(prefix="pysba-") as d:
         write_colmap(model, d, "binary")
-        return pycolmap.Reconstruction(d)
+        reconstruction = pycolmap.Reconstruction(d)
+    # write_colmap checked the frames without a pose: each image of one has none either.
+    frame_of = {}
+    for f in model.frames or ():
+        if f.q is None:
+            frame = pycolmap.Frame(frame_id=f.id, rig_id=f.rig_id)
+            for kind, sensor_id, data_id in f.data:
+                sensor = pycolmap.sensor_t(getattr(pycolmap.SensorType, kind), sensor_id)
+                frame.add_data_id(pycolmap.data_t(sensor, data_id))
+                if kind == "CAMERA":
+                    frame_of[data_id] = f.id
+            reconstruction.add_frame(frame)
+    for im in model.images:
+        if im.q is None:
+            image = pycolmap.Image(name=im.name, keypoints=np.asarray(im.points2D, np.float64).reshape(-1, 2),
+                                   camera_id=im.camera_id, image_id=im.id)
+            image.frame_id = frame_of[im.id]
+            reconstruction.add_image(image)
+    return reconstruction

@@ -588,6 +588,65 @@ def test_an_overflowing_projection_is_named(tmp_path):
             pysba.refine_colmap(model, itmax=itmax)
 
 
+def with_unposed_frame(model):
+    """The model with a frame of rig 1 (camera 100's) without a pose, as pycolmap holds a frame it
+    has not registered, and its image 7, which observes no point, both first."""
+    model.images.insert(0, pysba.ColmapImage(7, "unposed.png", 100, None, None, np.array([[1.5, 2.5], [3.0, 4.0]]),
+                                             np.full(2, pysba.NO_POINT3D, np.uint64)))
+    model.frames.insert(0, pysba.ColmapFrame(7, 1, None, None, [("CAMERA", 100, 7)]))
+    return model
+
+
+def test_frames_without_a_pose_are_neither_written_nor_refined(tmp_path):
+    source = rigged(tmp_path)
+    model, unposed = pysba.read_colmap(source), with_unposed_frame(pysba.read_colmap(source))
+    pysba.write_colmap(unposed, tmp_path / "a", "binary")
+    pysba.write_colmap(model, tmp_path / "b", "binary")
+    assert files(tmp_path / "a") == files(tmp_path / "b")
+    # Held by IMAGE_ID and by row (mcon): the rows of the model given, the unposed image among them.
+    mine, r = pysba.refine_colmap(unposed, hold_poses=[13], mcon=1)
+    theirs, again = pysba.refine_colmap(model, hold_poses=[13], mcon=1)
+    assert r.info.tolist() == again.info.tolist()
+    first, frame = mine.images.pop(0), mine.frames.pop(0)
+    same_model(mine, theirs)
+    given = unposed.images[0]
+    assert first is not given and (first.id, first.name, first.q, first.t) == (7, "unposed.png", None, None)
+    same_array(first.points2D, given.points2D, "points2D")
+    same_array(first.point3D_ids, given.point3D_ids, "point3D_ids")
+    assert frame is not unposed.frames[0] and (frame.id, frame.q, frame.data) == (7, None, [("CAMERA", 100, 7)])
+
+
+def test_frames_without_a_pose_that_pycolmap_would_refuse(tmp_path):
+    source = rigged(tmp_path)
+    for change, message in [
+            (lambda m: set_attr(m.images[0], "t", [0.0, 0, 0]),
+             "images[0]: q and t go together: both None (no pose: not registered) or both given"),
+            (lambda m: set_attr(m.frames[0], "q", [1.0, 0, 0, 0]),
+             "frames[0]: q and t go together: both None (no pose: not registered) or both given"),
+            (lambda m: m.images[0].point3D_ids.__setitem__(1, 1007),
+             "images[0] has no pose (not registered) but observes point 1007 (point3D_ids[1]): an image without "
+             "a pose observes no point"),
+            (lambda m: m.frames[0].data.append(("CAMERA", 100, 10)),
+             "images[1] has a pose, but its frame 7 has none: COLMAP 4 registers the images of a frame with it"),
+            (lambda m: m.frames[1].data.append(("CAMERA", 100, 7)),
+             "images[0] has no pose (q and t None), but its frame 900 has one: COLMAP 4 registers the images of "
+             "a frame with it"),
+            (lambda m: m.frames[0].data.pop(),
+             "images[0] has no pose (q and t None) and is in no frame"),
+            (lambda m: m.frames[0].data.append(("CAMERA", 101, 8)),
+             "frames[0] has no pose (q and t None), but its image 8 is none of the images without one")]:
+        model = with_unposed_frame(pysba.read_colmap(source))
+        change(model)
+        for f in (lambda: pysba.write_colmap(model, tmp_path / "out"), lambda: pysba.refine_colmap(model)):
+            with pytest.raises(ValueError, match=re.escape(message)):
+                f()
+    plain = pysba.read_colmap(sbagen(tmp_path / "plain")[0])
+    plain.images[0].q = plain.images[0].t = None
+    with pytest.raises(ValueError, match=re.escape("images[0] has no pose (q and t None), which only an image of a "
+                                                   "frame without one may have, and the model has no frames")):
+        pysba.write_colmap(plain, tmp_path / "out")
+
+
 def test_pycolmap_is_named_when_missing(monkeypatch):
     monkeypatch.setitem(sys.modules, "pycolmap", None)  # import pycolmap raises ImportError
     for f in (pysba.from_pycolmap, pysba.to_pycolmap):
