@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """pysba against the C programs and the library's own models, its errors, and Ctrl-C."""
+import builtins
 import os
 import re
 import signal
@@ -249,7 +250,7 @@ def test_motion_only_and_structure_only(cams7):
     # From perturbed points with the cameras held at the optimum, structure only finds the
     # optimum's points again; likewise motion only finds its cameras.
     noisy_pts = best.points + np.random.default_rng(2).normal(scale=1e-3, size=best.points.shape)
-    s = pysba.str(m.project, best.cameras, noisy_pts, *args, jacobian=m.jacobian)
+    s = pysba.structure(m.project, best.cameras, noisy_pts, *args, jacobian=m.jacobian)
     assert np.array_equal(s.cameras, best.cameras)
     assert np.allclose(s.points, best.points, atol=1e-6) and s.final_mse == pytest.approx(best.final_mse, rel=1e-6)
     noisy_cams = best.cameras + np.random.default_rng(3).normal(scale=1e-4, size=best.cameras.shape)
@@ -257,6 +258,17 @@ def test_motion_only_and_structure_only(cams7):
                   jacobian=lambda *x: (m.jacobian(*x)[0], None))
     assert np.array_equal(a.points, best.points)
     assert np.allclose(a.cameras, best.cameras, atol=1e-6) and a.final_mse == pytest.approx(best.final_mse, rel=1e-6)
+
+
+def test_star_import_shadows_no_builtin():
+    namespace = {}
+    exec("from pysba import *\nfive = str(5)", namespace)
+    assert namespace["five"] == "5"
+    assert [name for name in namespace if name != "__builtins__" and hasattr(builtins, name)] == []
+    # sba's name for the structure-only driver, kept for the code that calls it by it.
+    assert pysba.str is pysba.structure and "str" not in pysba.__all__ and "structure" in pysba.__all__
+    exec("from pysba import str as sba_str", namespace)
+    assert namespace["sba_str"] is pysba.structure
 
 
 @pytest.mark.parametrize("error", [ZeroDivisionError("from the model"), KeyboardInterrupt()])
