@@ -161,7 +161,8 @@ class Result:
     ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a
     robust loss), ``rms_initial``/``rms_final`` (the RMS reprojection error in pixels of that
     squared error, as sbarefine reports it), ``outliers`` (observations beyond the loss scale),
-    ``log`` (the library's warnings), ``model`` (:func:`refine_colmap`'s refined model, else None)
+    ``log`` (the library's warnings), ``model`` (:func:`refine_colmap`'s refined model, of the
+    type it returns, else None)
     and, with ``covariance=True``, ``camera_covariance`` (m, cnp, cnp), ``point_covariance``
     (n, pnp, pnp), ``sigma2``, ``rank`` and ``nfree`` (see sba_ext.h). For eucsbademo
     problems the camera covariance is over the optimized parameters (intrinsics, the
@@ -186,7 +187,7 @@ class Result:
         self.sq_error_final: float = report["sq_error_final"]
         self.rms_initial = math.sqrt(self.sq_error_initial / nobs)
         self.rms_final = math.sqrt(self.sq_error_final / nobs)
-        self.model: Optional["ColmapModel"] = report.get("model")
+        self.model: Any = report.get("model")
         self.outliers: int = report["outliers"]
         self.log: list = list(report["warnings"])
         self.camera_covariance: Optional[np.ndarray] = report.get("camera_covariance")

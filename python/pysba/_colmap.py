@@ -190,6 +190,23 @@ def _check_model(model: Any) -> None:
         raise TypeError(f"model must be a pysba.ColmapModel, got {type(model).__name__}")
 
 
+def _is_reconstruction(model: Any) -> bool:
+    """Whether model is a pycolmap.Reconstruction, without importing pycolmap."""
+    kind = type(model)
+    return kind.__name__ == "Reconstruction" and kind.__module__.split(".")[0] == "pycolmap"
+
+
+def _as_model(model: Any) -> ColmapModel:
+    """model as a ColmapModel: itself, or a pycolmap.Reconstruction's conversion."""
+    if _is_reconstruction(model):
+        return from_pycolmap(model)
+    if not isinstance(model, ColmapModel):
+        path = isinstance(model, (str, bytes, os.PathLike))
+        raise TypeError(f"model must be a pysba.ColmapModel or a pycolmap.Reconstruction, got {type(model).__name__}"
+                        + (" (pysba.read_colmap(path) reads the model in a folder)" if path else ""))
+    return model
+
+
 def read_colmap(path: Any) -> ColmapModel:
     """Reads the COLMAP sparse model in the directory path: cameras, images and points3D,
     and rigs and frames when they are there, binary (.bin) or text (.txt; binary first when
@@ -199,14 +216,15 @@ def read_colmap(path: Any) -> ColmapModel:
     return _model(_core.read_colmap(_directory(path)))
 
 
-def write_colmap(model: ColmapModel, path: Any, encoding: str = "binary") -> None:
-    """Writes the model into the directory path (made if missing), as sbarefine writes one:
+def write_colmap(model: Any, path: Any, encoding: str = "binary") -> None:
+    """Writes the model (a :class:`ColmapModel`, or a pycolmap.Reconstruction, converted by
+    :func:`from_pycolmap`) into the directory path (made if missing), as sbarefine writes one:
     cameras, images and points3D, and rigs and frames when the model has them, in the
     encoding ("binary" or "text"), all files or none. The other encoding's model files in
     path are removed, and so are this encoding's rigs and frames when the model has none, so
     that path holds one model. ValueError or TypeError for a model the reader would refuse
     (see :class:`ColmapModel`), OSError for files that cannot be written."""
-    _check_model(model)
+    model = _as_model(model)
     if not isinstance(encoding, str):
         raise TypeError(f"encoding must be a str, got {type(encoding).__name__}")
     _core.write_colmap(model, _path(path), encoding)
@@ -281,12 +299,6 @@ def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any) -> Tuple[Any
     return (strategy if strategy is not None else "trust-region"), values
 
 
-def _is_reconstruction(model: Any) -> bool:
-    """Whether model is a pycolmap.Reconstruction, without importing pycolmap."""
-    kind = type(model)
-    return kind.__name__ == "Reconstruction" and kind.__module__.split(".")[0] == "pycolmap"
-
-
 def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_principal_point: bool = False,
                   refine_extra_params: bool = True, refine_rig_from_world: bool = True,
                   refine_sensor_from_rig: bool = True, constant_rig_from_world_rotation: bool = False,
@@ -332,15 +344,14 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     A model whose reprojection error at the start is not finite (a parameter that overflows
     the projection) is a ValueError naming the first such observation's image, camera and point.
 
-    The other arguments are :func:`solve`'s. The Result's ``model`` is the refined
-    :class:`ColmapModel` (also on the ``result`` of a KeyboardInterrupt: the last accepted
-    estimate), ``rms_initial`` and ``rms_final`` are sbarefine's RMS reprojection errors in
+    The other arguments are :func:`solve`'s. The Result's ``model`` is the refined model, the
+    one returned (a pycolmap.Reconstruction for one given; also on the ``result`` of a
+    KeyboardInterrupt or SolveError: the last accepted estimate), ``rms_initial`` and ``rms_final`` are sbarefine's RMS reprojection errors in
     pixels, ``cameras`` and ``points`` the sba parameters (rotation, translation and camera
     parameters of each image that sees a point; the points' coordinates).
     """
     reconstruction = _is_reconstruction(model)
-    colmap_model = from_pycolmap(model) if reconstruction else model
-    _check_model(colmap_model)
+    colmap_model = _as_model(model)
     flags = (("refine_focal_length", refine_focal_length),
              ("refine_principal_point", refine_principal_point),
              ("refine_extra_params", refine_extra_params),
@@ -354,9 +365,11 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     strategy, opts = _colmap_stop(strategy, opts, function_tolerance)
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
     report = _core.refine_colmap(colmap_model, held, *(bool(flag) for _, flag in flags), **kw)
-    report["model"] = _with_unposed(_model(report["model"]), colmap_model)
+    refined = _with_unposed(_model(report["model"]), colmap_model)
+    # The Result's model, also on an exception's result, is of the type returned.
+    report["model"] = to_pycolmap(refined) if reconstruction else refined
     result = _finish(report)
-    return (to_pycolmap(result.model) if reconstruction else result.model), result
+    return result.model, result
 
 
 def _with_unposed(refined: ColmapModel, given: ColmapModel) -> ColmapModel:

@@ -8,7 +8,9 @@ Checks: to_pycolmap(from_pycolmap(rec)) is rec, the same bits (every image's pos
 camera's parameters, every point's coordinates, color, error and track, the rigs and frames);
 refine_colmap(from_pycolmap(rec)) refines the poses, and pycolmap's own projection of the
 refined model gives the Result's final RMS reprojection error (1e-6 relative);
-refine_colmap(rec) gives a pycolmap.Reconstruction, the same as converting that result.
+refine_colmap(rec) gives a pycolmap.Reconstruction, the same as converting that result, and
+its Result's model is that Reconstruction, also on a KeyboardInterrupt's result;
+write_colmap(rec) writes the files of write_colmap(from_pycolmap(rec)).
 A scene of two rigs of three cameras (frames of three images), the cameras' poses in their rigs
 and focal lengths moved: refine_colmap(rec) ends no worse than pycolmap.bundle_adjustment at
 its defaults (1 + 1e-6) by pycolmap's projection, and every image's pose is its frame's
@@ -30,6 +32,7 @@ CPython version as the one pysba was built for).
 import argparse
 import os
 import sys
+import tempfile
 
 # The scene and the RMS error by pycolmap's projection are sbarefine's test's (tests/pycolmap).
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "pycolmap"))
@@ -107,11 +110,36 @@ def run(pycolmap, pysba):
           % (result.rms_initial, result.rms_final, theirs))
 
     direct, again = pysba.refine_colmap(rec)
-    expect(isinstance(direct, pycolmap.Reconstruction),
-           "refine_colmap(rec) gave a %s" % type(direct).__name__)
+    expect(isinstance(direct, pycolmap.Reconstruction) and again.model is direct,
+           "refine_colmap(rec) gave a %s, its result's model a %s" % (type(direct).__name__,
+                                                                     type(again.model).__name__))
     expect(again.info.tolist() == result.info.tolist(), "refine_colmap(rec) solved another problem")
     same_reconstruction(back, direct, "refine_colmap(rec)")
     print("PASS refine_colmap(rec) is a pycolmap.Reconstruction, the same")
+
+    def interrupt(state):
+        if state.iteration == 2:
+            raise KeyboardInterrupt
+
+    try:
+        pysba.refine_colmap(rec, progress=interrupt)
+        expect(False, "refine_colmap(rec) went on after a KeyboardInterrupt")
+    except KeyboardInterrupt as e:
+        so_far = e.result.model
+        expect(isinstance(so_far, pycolmap.Reconstruction),
+               "a KeyboardInterrupt's result.model is a %s" % type(so_far).__name__)
+        same_reconstruction(pysba.refine_colmap(rec, itmax=2)[0], so_far, "refine_colmap(rec) interrupted")
+    print("PASS a KeyboardInterrupt in refine_colmap(rec) carries the Reconstruction so far")
+
+    import tempfile
+    with tempfile.TemporaryDirectory() as d:
+        written = []
+        for k, given in enumerate((rec, model)):
+            pysba.write_colmap(given, os.path.join(d, str(k)))
+            written.append({name: open(os.path.join(d, str(k), name), "rb").read()
+                            for name in sorted(os.listdir(os.path.join(d, str(k))))})
+        expect(written[0] == written[1], "write_colmap(rec) wrote other files than write_colmap(from_pycolmap(rec))")
+    print("PASS write_colmap(rec) writes what write_colmap(from_pycolmap(rec)) writes")
 
     rigs = synthesize(pycolmap, 3, 13, rigs=2)
     perturb_rigs(pycolmap, rigs)
@@ -158,7 +186,6 @@ def unregistered(pycolmap, pysba):
     pycolmap's files leave out, are kept: from_pycolmap holds them without a pose and
     to_pycolmap gives them back; refine_colmap gives them back as they were and solves the
     registered ones' problem, the problem of the files pycolmap writes."""
-    import tempfile
     rec = synthesize(pycolmap, 2, 11, rigs=2)
     ids = sorted(rec.frames)
     gone = [ids[1], ids[len(ids) // 2 + 1]]

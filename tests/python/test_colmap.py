@@ -457,7 +457,8 @@ def test_write_refusals(tmp_path):
     model = pysba.read_colmap(sbagen(tmp_path)[0])
     with pytest.raises(ValueError, match="encoding must be 'text' or 'binary', got 'json'"):
         pysba.write_colmap(model, tmp_path / "out", "json")
-    with pytest.raises(TypeError, match="model must be a pysba.ColmapModel, got dict"):
+    with pytest.raises(TypeError, match=re.escape("model must be a pysba.ColmapModel or a pycolmap.Reconstruction, "
+                                                  "got dict")):
         pysba.write_colmap({}, tmp_path / "out")
     (tmp_path / "file").write_text("x")
     with pytest.raises(OSError, match=re.escape(f"{tmp_path}/file")):
@@ -521,8 +522,12 @@ def test_refine_refusals(tmp_path):
             (dict(threads=1.5), TypeError, "threads must be an int, got float")]:
         with pytest.raises(error, match=re.escape(message)):
             pysba.refine_colmap(model, **kw)
-    with pytest.raises(TypeError, match="model must be a pysba.ColmapModel, got str"):
-        pysba.refine_colmap(str(source))
+    for f in (pysba.refine_colmap, lambda m: pysba.write_colmap(m, tmp_path / "out")):
+        for path in (str(source), source):
+            with pytest.raises(TypeError, match=re.escape(
+                    f"model must be a pysba.ColmapModel or a pycolmap.Reconstruction, got {type(path).__name__} "
+                    f"(pysba.read_colmap(path) reads the model in a folder)")):
+                f(path)
     empty = pysba.ColmapModel()
     with pytest.raises(ValueError, match="model: the model has no images or no points"):
         pysba.refine_colmap(empty)
