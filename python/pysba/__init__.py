@@ -280,7 +280,8 @@ def solve(problem: Problem, *, solver: Optional[str] = None, threads: int = 0,
         How LM damps, accepts steps and stops (:func:`strategy_names`): "sba" (sba 1.6's
         algorithm), "sba-clean-retry" (the same, each retry damping the undamped normal
         equations, as the sba paper states it) or "trust-region" (Marquardt's scaled
-        damping; usually fewer iterations). None: $SBA_STRATEGY, else "sba".
+        damping; usually fewer iterations). None: $SBA_STRATEGY, else "sba" (refine_colmap:
+        "trust-region", COLMAP's, see there), in solve, motstr, mot and structure alike.
     loss, loss_scale
         Robust loss ("huber", "cauchy", "soft-l1", "tukey"; None: least squares) and its
         scale in pixels.

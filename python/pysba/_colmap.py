@@ -337,6 +337,11 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         change; None: COLMAP's 0, unless strategy or opts[4] is given, which then keep sba's
         tests). A tolerance sets opts[4] to it (at least 4 ulp) and the strategy, unless
         given, to "trust-region". itmax 0 returns the model as given.
+    strategy, solver
+        As :func:`solve`'s, but strategy None runs "trust-region" (COLMAP's
+        Levenberg-Marquardt), whatever $SBA_STRATEGY says, unless opts[4] is given without
+        function_tolerance: then solve()'s default ($SBA_STRATEGY, else "sba"). solver None:
+        $SBA_LINSOLVER, else "auto", as solve()'s.
     mcon, ncon
         The first mcon images that see a point (their cameras' parameters too, in all their
         images) and the first ncon points are held.

@@ -290,6 +290,19 @@ def test_frames_pose_the_images(tmp_path):
     assert refined.images[2].t.tolist() == model.frames[2].t.tolist()
 
 
+def test_the_strategy_run_by_default_is_the_one_documented(tmp_path, monkeypatch):
+    # COLMAP's (Ceres's trust region), whatever SBA_STRATEGY says, where solve()'s is sba's.
+    monkeypatch.setenv("SBA_STRATEGY", "sba-clean-retry")
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    assert pysba.refine_colmap(model)[1].strategy == "trust-region"
+    assert pysba.refine_colmap(model, opts=[1e-3, 1e-12, 1e-12, 1e-12, 1e-9])[1].strategy == "sba-clean-retry"
+    doc = " ".join(pysba.refine_colmap.__doc__.split())
+    assert ('strategy None runs "trust-region" (COLMAP\'s Levenberg-Marquardt), whatever $SBA_STRATEGY says, '
+            'unless opts[4] is given without function_tolerance: then solve()\'s default') in doc
+    solve = " ".join(pysba.solve.__doc__.split())
+    assert 'None: $SBA_STRATEGY, else "sba" (refine_colmap: "trust-region", COLMAP\'s, see there)' in solve
+
+
 def test_threads_give_the_same_model(tmp_path):
     model = pysba.read_colmap(sbagen(tmp_path)[0])
     one, r1 = pysba.refine_colmap(model, threads=1)
