@@ -3,6 +3,7 @@
 metadata): the library is compiled into the module, so the installed package needs no
 libsba.so and no LD_LIBRARY_PATH."""
 import os
+import re
 import shlex
 import shutil
 import subprocess
@@ -13,6 +14,15 @@ from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
 ROOT = Path(__file__).resolve().parent
+
+
+def library_version():
+    """The library's version, as sba.h's SBA_VERSION ends with it ("(sba-cpp 0.1.0)"): the
+    version the programs' --version and pysba.__version__ give."""
+    found = re.search(r'#define SBA_VERSION ".*\(sba-cpp ([^)]+)\)"', (ROOT / "sba.h").read_text())
+    if not found:
+        raise RuntimeError("sba.h: no version in SBA_VERSION")
+    return found.group(1)
 
 
 class CMakeBuild(build_ext):
@@ -38,4 +48,5 @@ class CMakeBuild(build_ext):
         shutil.copyfile(built[0], target)
 
 
-setup(ext_modules=[Extension("pysba._core", sources=[])], cmdclass={"build_ext": CMakeBuild})
+setup(version=library_version(), ext_modules=[Extension("pysba._core", sources=[])],
+      cmdclass={"build_ext": CMakeBuild})

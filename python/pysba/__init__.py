@@ -29,6 +29,9 @@ import enum
 import itertools
 import math
 import os
+import re
+import sys
+import warnings
 from typing import Any, Callable, Optional, Sequence, Tuple
 
 import numpy as np
@@ -45,6 +48,13 @@ __all__ = [
 ]
 
 SBA_VERSION: str = _core.SBA_VERSION
+
+# The library's version, as SBA_VERSION ends with it ("(sba-cpp 0.1.0)"), which the programs'
+# --version print and setup.py gives the package.
+_version = re.fullmatch(r".*\(sba-cpp ([0-9][0-9A-Za-z.+-]*)\)", SBA_VERSION)
+if _version is None:
+    raise ImportError(f"pysba cannot read the library's version in SBA_VERSION {SBA_VERSION!r}")
+__version__: str = _version.group(1)
 
 
 class Reason(enum.IntEnum):
@@ -201,8 +211,20 @@ class Result:
                 f"iterations={self.iterations}, reason={self.reason.name})")
 
 
+def _warn(message: str) -> None:
+    """A RuntimeWarning attributed to the line that called pysba (the first frame outside it)."""
+    level, frame = 2, sys._getframe(1)
+    while frame is not None and os.path.dirname(frame.f_code.co_filename) == os.path.dirname(__file__):
+        level, frame = level + 1, frame.f_back
+    warnings.warn(message, RuntimeWarning, stacklevel=level)
+
+
 def _finish(report: dict) -> Result:
-    """The Result of a report from _core, or the exception it stands for."""
+    """The Result of a report from _core, or the exception it stands for. The library's
+    warnings, which it gives unasked only for an environment variable it ignores, are Python
+    warnings too, as the programs print them, in pysba's name rather than the C driver's."""
+    for line in dict.fromkeys(report["warnings"]):
+        _warn(re.sub(r"^sba_\w+: ", "pysba: ", line))
     result = Result(report)
     error = report["error"]
     if error is not None:
@@ -230,10 +252,10 @@ def _readable(path: Any, name: str = "path") -> bytes:
     one that is not UTF-8 (a str with lone surrogates, as os.fsdecode gives for it)."""
     if not isinstance(path, (str, bytes, os.PathLike)):
         raise TypeError(f"{name} must be a str, bytes or os.PathLike, got {type(path).__name__}")
-    path = os.fsencode(path)
+    # Opened as given, so that an error names the path as the caller wrote it.
     with open(path, "rb"):
         pass
-    return path
+    return os.fsencode(path)
 
 
 def read_eucsbademo(cams: Any, pts: Any, calib: Any = None) -> Problem:

@@ -178,11 +178,12 @@ def _path(path: Any) -> bytes:
 def _directory(path: Any) -> bytes:
     """_path(path), after making sure it is a directory: FileNotFoundError,
     NotADirectoryError or PermissionError otherwise."""
-    path = _path(path)
+    encoded = _path(path)
+    # Looked at as given, so that an error names the path as the caller wrote it.
     os.stat(path)
-    if not os.path.isdir(path):
-        raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), os.fsdecode(path))
-    return path
+    if not os.path.isdir(encoded):
+        raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), os.fsdecode(encoded))
+    return encoded
 
 
 def _check_model(model: Any) -> None:
