@@ -4,7 +4,8 @@
 numpy arrays in, numpy arrays out::
 
     import pysba
-    problem = pysba.read_eucsbademo("54cams.txt", "54pts.txt", "calib.txt")
+    problem = pysba.read_eucsbademo("data/orbit-fixedK-cams.txt", "data/orbit-fixedK-pts.txt",
+                                    "data/orbit-fixedK-calib.txt")  # in the repository
     result = pysba.solve(problem)
     print(result.initial_mse, "->", result.final_mse, result.reason.name)
 

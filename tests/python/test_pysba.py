@@ -284,6 +284,20 @@ def test_motion_only_and_structure_only(cams7):
     assert np.allclose(a.cameras, best.cameras, atol=1e-6) and a.final_mse == pytest.approx(best.final_mse, rel=1e-6)
 
 
+def test_the_readmes_python_section(monkeypatch, capsys):
+    # Its example runs from the repository root on files the repository holds, and it says what
+    # `pip install .` builds with.
+    section = (REPO / "README.md").read_text().split("\n## Python\n")[1].split("\n## ")[0]
+    code = "\n".join(line[4:] for line in section.splitlines() if line.startswith("    "))
+    monkeypatch.chdir(REPO)
+    exec(code, {})
+    # The minimum data/README.md gives for the problem.
+    assert re.fullmatch(r"Result\(final_mse=0.348015, initial_mse=216.4, .*\)\n", capsys.readouterr().out)
+    text = " ".join(section.split())
+    for requirement in ("CMake", "LAPACK", "SuiteSparse", "bzip2", "pybind11-dev python3-numpy"):
+        assert requirement in text
+
+
 def test_version_is_the_librarys():
     # As the programs' --version names it (sba.h's SBA_VERSION), which CMake's project and the
     # package's metadata (setup.py) take too.
