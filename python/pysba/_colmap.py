@@ -11,6 +11,7 @@ import errno
 import math
 import numbers
 import os
+import sys
 import tempfile
 from typing import Any, Callable, List, Optional, Sequence, Tuple
 
@@ -307,7 +308,7 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                   strategy: Optional[str] = None, loss: Optional[str] = None,
                   loss_scale: float = 1.0, itmax: int = 100, opts: Optional[Sequence[float]] = None,
                   function_tolerance: Optional[float] = None, mcon: int = 0, ncon: int = 0,
-                  progress: Optional[Callable[[Progress], Any]] = None) -> Tuple[Any, Result]:
+                  progress: Optional[Callable[[Progress], Any]] = None, verbose: bool = False) -> Tuple[Any, Result]:
     """Bundle-adjusts a COLMAP model as sbarefine does (the same numbers, bit for bit, as
     ``sbarefine MODEL --write OUT`` with the same options), with COLMAP's camera models and
     COLMAP's defaults, and returns ``(refined model, Result)``; the model is left unchanged.
@@ -346,6 +347,13 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     mcon, ncon
         The first mcon images that see a point (their cameras' parameters too, in all their
         images) and the first ncon points are held.
+    progress, verbose
+        progress, as :func:`solve`'s, is called with a :class:`Progress` after every iteration
+        (its ``error`` is the sum of squared reprojection errors, in pixels squared: the RMS
+        is sqrt(error / observations)); a true return value stops the
+        solve, an exception stops it and propagates. verbose=True shows the progress on
+        sys.stderr: the problem's size, a line per iteration (the RMS reprojection error in
+        pixels, or the cost with a robust loss) and the end, whatever progress does.
 
     A model whose reprojection error at the start is not finite (a parameter that overflows
     the projection) is a ValueError naming the first such observation's image, camera and point.
@@ -364,18 +372,40 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
              ("refine_rig_from_world", refine_rig_from_world),
              ("refine_sensor_from_rig", refine_sensor_from_rig),
              ("constant_rig_from_world_rotation", constant_rig_from_world_rotation))
-    for name, flag in flags:
+    for name, flag in flags + (("verbose", verbose),):
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name} must be a bool, got {type(flag).__name__}")
     held = _held_images(colmap_model, hold_poses)
     strategy, opts = _colmap_stop(strategy, opts, function_tolerance)
+    if verbose:
+        progress = _shown(colmap_model, loss not in (None, "none"), progress)
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
     report = _core.refine_colmap(colmap_model, held, *(bool(flag) for _, flag in flags), **kw)
     refined = _with_unposed(_model(report["model"]), colmap_model)
     # The Result's model, also on an exception's result, is of the type returned.
     report["model"] = to_pycolmap(refined) if reconstruction else refined
     result = _finish(report)
+    if verbose:
+        print(f"refine_colmap: RMS {result.rms_initial:.6g} px -> {result.rms_final:.6g} px in {result.iterations} "
+              f"iterations: {result.reason.text}", file=sys.stderr, flush=True)
     return result.model, result
+
+
+def _shown(model: ColmapModel, robust: bool, progress: Optional[Callable[[Progress], Any]]) -> Callable[[Progress], Any]:
+    """refine_colmap's verbose: the problem's size on sys.stderr now, and a progress callback
+    that shows each iteration there before it calls progress (if any)."""
+    observations = len(model.points3D.track_image_ids)
+    images = sum(im.q is not None for im in model.images)
+    print(f"refine_colmap: {images} images, {len(model.cameras)} cameras, {len(model.points3D)} points, "
+          f"{observations} observations", file=sys.stderr, flush=True)
+
+    def show(state: Progress) -> Any:
+        error = f"cost {state.error:.6g}" if robust else f"RMS {math.sqrt(state.error / observations):.6g} px"
+        print(f"refine_colmap: iteration {state.iteration}: {error}, mu {state.mu:.3g}, step {state.dp_norm:.3g}, "
+              f"{state.elapsed:.2f} s", file=sys.stderr, flush=True)
+        return None if progress is None else progress(state)
+
+    return show
 
 
 def _with_unposed(refined: ColmapModel, given: ColmapModel) -> ColmapModel:

@@ -320,6 +320,29 @@ def test_progress_stops_with_the_model_so_far(tmp_path):
     same_model(stopped, two)
 
 
+def test_verbose_shows_the_progress(tmp_path, capsys):
+    # On stderr: the problem, a line per iteration (through the progress callback, the caller's
+    # called too), the end; the solve is the same.
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    quiet, r = pysba.refine_colmap(model)
+    assert capsys.readouterr().err == ""
+    seen = []
+    loud, again = pysba.refine_colmap(model, verbose=True, progress=lambda s: seen.append(s.iteration))
+    same_model(loud, quiet)
+    assert again.info.tolist() == r.info.tolist() and seen == list(range(1, r.iterations + 1))
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0] == "refine_colmap: 6 images, 6 cameras, 60 points, 250 observations"
+    assert r.rms_final == math.sqrt(r.sq_error_final / 250)
+    assert len(lines) == r.iterations + 2
+    for k, line in enumerate(lines[1:-1]):
+        assert re.fullmatch(rf"refine_colmap: iteration {k + 1}: RMS \S+ px, mu \S+, step \S+, \S+ s", line), line
+    assert f"RMS {r.rms_final:.6g} px," in lines[-2]
+    assert lines[-1] == (f"refine_colmap: RMS {r.rms_initial:.6g} px -> {r.rms_final:.6g} px in {r.iterations} "
+                         f"iterations: {r.reason.text}")
+    with pytest.raises(TypeError, match="verbose must be a bool, got int"):
+        pysba.refine_colmap(model, verbose=1)
+
+
 def test_keyboard_interrupt_keeps_the_model_so_far(tmp_path):
     model = pysba.read_colmap(sbagen(tmp_path)[0])
 
