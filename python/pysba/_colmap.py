@@ -313,7 +313,10 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     ``sbarefine MODEL --write OUT`` with the same options), with COLMAP's camera models and
     COLMAP's defaults, and returns ``(refined model, Result)``; the model is left unchanged.
     model is a :class:`ColmapModel` or a pycolmap.Reconstruction (then the refined model is
-    one too).
+    one too, converted by :func:`from_pycolmap` and :func:`to_pycolmap`, which write and read
+    the whole model through files and hold copies of it: for large models, refine the model's
+    files instead, :func:`read_colmap`, refine_colmap, :func:`write_colmap`, then
+    pycolmap.Reconstruction(path)).
 
     Every image that sees a point is refined (its pose), with its camera's parameters: a camera
     shared by several images once for all of them; every 3D point is refined, and its
@@ -432,7 +435,12 @@ def from_pycolmap(reconstruction: Any) -> ColmapModel:
     """The :class:`ColmapModel` of a pycolmap.Reconstruction, every field as pycolmap writes
     it (through a binary model in a temporary directory), and the frames pycolmap holds without
     a pose (not registered) with their images, which its files leave out, taken from the
-    Reconstruction: every image, frame, rig and camera, in pycolmap's order (by id)."""
+    Reconstruction: every image, frame, rig and camera, in pycolmap's order (by id).
+
+    The model goes through files: pycolmap writes it into a temporary directory, and pysba
+    reads it, a model's disk space and time, and a copy in memory beside pycolmap's. For large
+    models, read the model's files with :func:`read_colmap` instead (and write them with
+    :func:`write_colmap`)."""
     pycolmap = _pycolmap()
     if not isinstance(reconstruction, pycolmap.Reconstruction):
         raise TypeError(f"reconstruction must be a pycolmap.Reconstruction, got "
@@ -461,7 +469,11 @@ def from_pycolmap(reconstruction: Any) -> ColmapModel:
 def to_pycolmap(model: ColmapModel) -> Any:
     """The pycolmap.Reconstruction of a :class:`ColmapModel` (through a binary model in a
     temporary directory, which pycolmap reads), with its frames without a pose and their images
-    added to it unregistered. ValueError or TypeError for a model the reader would refuse."""
+    added to it unregistered. ValueError or TypeError for a model the reader would refuse.
+
+    The model goes through files, as in :func:`from_pycolmap`. For large models,
+    :func:`write_colmap` the model and have pycolmap read that folder (and start from
+    :func:`read_colmap` rather than from_pycolmap)."""
     pycolmap = _pycolmap()
     _check_model(model)
     with tempfile.TemporaryDirectory(prefix="pysba-") as d:

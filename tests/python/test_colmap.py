@@ -688,6 +688,14 @@ def test_frames_without_a_pose_that_pycolmap_would_refuse(tmp_path):
         pysba.write_colmap(plain, tmp_path / "out")
 
 
+def test_the_pycolmap_route_points_large_models_to_the_files():
+    # Its conversions write and read whole models: for large ones the docs send the user to the
+    # files, read and written by pysba, until a Reconstruction is read in memory.
+    for f in (pysba.from_pycolmap, pysba.to_pycolmap, pysba.refine_colmap):
+        doc = " ".join(f.__doc__.split())
+        assert "large models" in doc and "read_colmap" in doc and "write_colmap" in doc, f.__name__
+
+
 def test_pycolmap_is_named_when_missing(monkeypatch):
     monkeypatch.setitem(sys.modules, "pycolmap", None)  # import pycolmap raises ImportError
     for f in (pysba.from_pycolmap, pysba.to_pycolmap):
