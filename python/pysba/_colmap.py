@@ -353,19 +353,20 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     progress, verbose
         progress, as :func:`solve`'s, is called with a :class:`Progress` after every iteration
         (its ``error`` is the sum of squared reprojection errors, in pixels squared: the RMS
-        is sqrt(error / observations)); a true return value stops the
-        solve, an exception stops it and propagates. verbose=True shows the progress on
-        sys.stderr: the problem's size, a line per iteration (the RMS reprojection error in
-        pixels, or the cost with a robust loss) and the end, whatever progress does.
+        is sqrt(error / observations)); a true return value stops the solve, an exception
+        stops it and propagates. verbose=True shows the progress on sys.stderr: the
+        problem's size, a line per iteration (the RMS reprojection error in pixels, or the
+        cost with a robust loss) and the end, whatever progress does.
 
     A model whose reprojection error at the start is not finite (a parameter that overflows
     the projection) is a ValueError naming the first such observation's image, camera and point.
 
     The other arguments are :func:`solve`'s. The Result's ``model`` is the refined model, the
     one returned (a pycolmap.Reconstruction for one given; also on the ``result`` of a
-    KeyboardInterrupt or SolveError: the last accepted estimate), ``rms_initial`` and ``rms_final`` are sbarefine's RMS reprojection errors in
-    pixels, ``cameras`` and ``points`` the sba parameters (rotation, translation and camera
-    parameters of each image that sees a point; the points' coordinates).
+    KeyboardInterrupt or SolveError: the last accepted estimate), ``rms_initial`` and
+    ``rms_final`` are sbarefine's RMS reprojection errors in pixels, ``cameras`` and
+    ``points`` the sba parameters (rotation, translation and camera parameters of each image
+    that sees a point; the points' coordinates).
     """
     reconstruction = _is_reconstruction(model)
     colmap_model = _as_model(model)
@@ -394,7 +395,8 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     return result.model, result
 
 
-def _shown(model: ColmapModel, robust: bool, progress: Optional[Callable[[Progress], Any]]) -> Callable[[Progress], Any]:
+def _shown(model: ColmapModel, robust: bool,
+           progress: Optional[Callable[[Progress], Any]]) -> Callable[[Progress], Any]:
     """refine_colmap's verbose: the problem's size on sys.stderr now, and a progress callback
     that shows each iteration there before it calls progress (if any)."""
     observations = len(model.points3D.track_image_ids)
