@@ -4,14 +4,15 @@
 numpy arrays in, numpy arrays out::
 
     import pysba
-    problem = pysba.read_eucsbademo("54cams.txt", "54pts.txt", "calib.txt")
+    problem = pysba.read_eucsbademo("data/orbit-fixedK-cams.txt", "data/orbit-fixedK-pts.txt",
+                                    "data/orbit-fixedK-calib.txt")  # in the repository
     result = pysba.solve(problem)
     print(result.initial_mse, "->", result.final_mse, result.reason.name)
 
 - :func:`read_eucsbademo` and :func:`read_bal` read problems into a :class:`Problem`;
   :func:`solve` refines them with the library's own camera models (the C programs'
   eucsbademo and balsba models, at the same speed and with the same results).
-- :func:`motstr`, :func:`mot` and :func:`str` take a camera model written in Python:
+- :func:`motstr`, :func:`mot` and :func:`structure` take a camera model written in Python:
   vectorized callbacks over all the observations at once.
 - :func:`read_colmap` and :func:`write_colmap` read and write COLMAP sparse models (a
   :class:`ColmapModel`), :func:`refine_colmap` refines one as the sbarefine program does,
@@ -25,11 +26,13 @@ fails numerically :class:`SolveError`, a RuntimeError that carries the ``result`
 """
 from __future__ import annotations
 
-import builtins
 import enum
 import itertools
 import math
 import os
+import re
+import sys
+import warnings
 from typing import Any, Callable, Optional, Sequence, Tuple
 
 import numpy as np
@@ -39,13 +42,20 @@ from ._core import Progress
 
 __all__ = [
     "Problem", "Result", "Reason", "Progress", "SolveError", "read_eucsbademo", "read_bal",
-    "solve", "motstr", "mot", "str", "solver_names", "strategy_names", "SBA_VERSION",
+    "solve", "motstr", "mot", "structure", "solver_names", "strategy_names", "SBA_VERSION",
     "ColmapModel", "ColmapCamera", "ColmapImage", "ColmapPoints3D", "ColmapRig", "ColmapSensor",
     "ColmapFrame", "NO_POINT3D", "read_colmap", "write_colmap", "refine_colmap", "from_pycolmap",
     "to_pycolmap",
 ]
 
-SBA_VERSION: builtins.str = _core.SBA_VERSION
+SBA_VERSION: str = _core.SBA_VERSION
+
+# The library's version, as SBA_VERSION ends with it ("(sba-cpp 0.1.0)"), which the programs'
+# --version print and setup.py gives the package.
+_version = re.fullmatch(r".*\(sba-cpp ([0-9][0-9A-Za-z.+-]*)\)", SBA_VERSION)
+if _version is None:
+    raise ImportError(f"pysba cannot read the library's version in SBA_VERSION {SBA_VERSION!r}")
+__version__: str = _version.group(1)
 
 
 class Reason(enum.IntEnum):
@@ -64,7 +74,7 @@ class Reason(enum.IntEnum):
     USER = 9  # the progress callback or Ctrl-C
 
     @property
-    def text(self) -> builtins.str:
+    def text(self) -> str:
         """The reason in words (sba_stop_reason_text), e.g. ``"small step: ||dp|| <= eps2 ||p||"``."""
         return _core.stop_reason_text(int(self))
 
@@ -80,7 +90,7 @@ class SolveError(RuntimeError):
     """The library failed to solve (or to compute the covariance); ``result`` holds where
     the solve stood (the last accepted estimate)."""
 
-    def __init__(self, message: builtins.str, result: Optional["Result"] = None):
+    def __init__(self, message: str, result: Optional["Result"] = None):
         super().__init__(message)
         self.result = result
 
@@ -116,10 +126,10 @@ class Problem:
         The 3x3 K of eucsbademo's 7-value cameras; None otherwise.
     """
 
-    def __init__(self, model: builtins.str, cameras: Any, points: Any, camera_index: Any,
+    def __init__(self, model: str, cameras: Any, points: Any, camera_index: Any,
                  point_index: Any, observations: Any, covariances: Any = None,
                  calibration: Any = None):
-        if not isinstance(model, builtins.str):
+        if not isinstance(model, str):
             raise TypeError(f"model must be a str, got {type(model).__name__}")
         if model not in ("eucsbademo", "bal"):
             raise ValueError(f"model must be 'eucsbademo' or 'bal', got {model!r}")
@@ -145,7 +155,7 @@ class Problem:
     def nobservations(self) -> int:
         return int(self.observations.shape[0])
 
-    def __repr__(self) -> builtins.str:
+    def __repr__(self) -> str:
         return (f"Problem(model={self.model!r}, cameras={self.ncameras}, points={self.npoints}, "
                 f"observations={self.nobservations})")
 
@@ -162,7 +172,8 @@ class Result:
     ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a
     robust loss), ``rms_initial``/``rms_final`` (the RMS reprojection error in pixels of that
     squared error, as sbarefine reports it), ``outliers`` (observations beyond the loss scale),
-    ``log`` (the library's warnings), ``model`` (:func:`refine_colmap`'s refined model, else None)
+    ``log`` (the library's warnings), ``model`` (:func:`refine_colmap`'s refined model, of the
+    type it returns, else None)
     and, with ``covariance=True``, ``camera_covariance`` (m, cnp, cnp), ``point_covariance``
     (n, pnp, pnp), ``sigma2``, ``rank`` and ``nfree`` (see sba_ext.h). For eucsbademo
     problems the camera covariance is over the optimized parameters (intrinsics, the
@@ -181,13 +192,13 @@ class Result:
         self.reason = Reason(int(info[6])) if int(info[6]) in Reason._value2member_map_ else Reason.NONE
         self.nfev, self.njev, self.nlinsys = int(info[7]), int(info[8]), int(info[9])
         self.threads: int = report["threads"]
-        self.solver: Optional[builtins.str] = report["solver"]
-        self.strategy: Optional[builtins.str] = report["strategy"]
+        self.solver: Optional[str] = report["solver"]
+        self.strategy: Optional[str] = report["strategy"]
         self.sq_error_initial: float = report["sq_error_initial"]
         self.sq_error_final: float = report["sq_error_final"]
         self.rms_initial = math.sqrt(self.sq_error_initial / nobs)
         self.rms_final = math.sqrt(self.sq_error_final / nobs)
-        self.model: Optional["ColmapModel"] = report.get("model")
+        self.model: Any = report.get("model")
         self.outliers: int = report["outliers"]
         self.log: list = list(report["warnings"])
         self.camera_covariance: Optional[np.ndarray] = report.get("camera_covariance")
@@ -196,13 +207,25 @@ class Result:
         self.rank: Optional[int] = report.get("rank")
         self.nfree: Optional[int] = report.get("nfree")
 
-    def __repr__(self) -> builtins.str:
+    def __repr__(self) -> str:
         return (f"Result(final_mse={self.final_mse:g}, initial_mse={self.initial_mse:g}, "
                 f"iterations={self.iterations}, reason={self.reason.name})")
 
 
+def _warn(message: str) -> None:
+    """A RuntimeWarning attributed to the line that called pysba (the first frame outside it)."""
+    level, frame = 2, sys._getframe(1)
+    while frame is not None and os.path.dirname(frame.f_code.co_filename) == os.path.dirname(__file__):
+        level, frame = level + 1, frame.f_back
+    warnings.warn(message, RuntimeWarning, stacklevel=level)
+
+
 def _finish(report: dict) -> Result:
-    """The Result of a report from _core, or the exception it stands for."""
+    """The Result of a report from _core, or the exception it stands for. The library's
+    warnings, which it gives unasked only for an environment variable it ignores, are Python
+    warnings too, as the programs print them, in pysba's name rather than the C driver's."""
+    for line in dict.fromkeys(report["warnings"]):
+        _warn(re.sub(r"^sba_\w+: ", "pysba: ", line))
     result = Result(report)
     error = report["error"]
     if error is not None:
@@ -223,17 +246,17 @@ def _finish(report: dict) -> Result:
     return result
 
 
-def _readable(path: Any, name: builtins.str = "path") -> bytes:
+def _readable(path: Any, name: str = "path") -> bytes:
     """path in the file system's encoding, after opening it once: a missing or unreadable
     file raises the usual OSError subclass (FileNotFoundError, PermissionError,
     IsADirectoryError). Bytes, so that any name Python can open reaches the reader, also
     one that is not UTF-8 (a str with lone surrogates, as os.fsdecode gives for it)."""
-    if not isinstance(path, (builtins.str, bytes, os.PathLike)):
+    if not isinstance(path, (str, bytes, os.PathLike)):
         raise TypeError(f"{name} must be a str, bytes or os.PathLike, got {type(path).__name__}")
-    path = os.fsencode(path)
+    # Opened as given, so that an error names the path as the caller wrote it.
     with open(path, "rb"):
         pass
-    return path
+    return os.fsencode(path)
 
 
 def read_eucsbademo(cams: Any, pts: Any, calib: Any = None) -> Problem:
@@ -259,9 +282,9 @@ def _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, nco
                 itmax=itmax, opts=opts, mcon=mcon, ncon=ncon, progress=progress, **more)
 
 
-def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: int = 0,
-          strategy: Optional[builtins.str] = None,
-          loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 150,
+def solve(problem: Problem, *, solver: Optional[str] = None, threads: int = 0,
+          strategy: Optional[str] = None,
+          loss: Optional[str] = None, loss_scale: float = 1.0, itmax: int = 150,
           opts: Optional[Sequence[float]] = None, mcon: int = 0, ncon: int = 0,
           progress: Optional[Callable[[Progress], Any]] = None, covariance: bool = False,
           nccalib: int = 2, ncdist: int = 3, fixed_params: Any = None, camera_groups: Any = None,
@@ -280,7 +303,8 @@ def solve(problem: Problem, *, solver: Optional[builtins.str] = None, threads: i
         How LM damps, accepts steps and stops (:func:`strategy_names`): "sba" (sba 1.6's
         algorithm), "sba-clean-retry" (the same, each retry damping the undamped normal
         equations, as the sba paper states it) or "trust-region" (Marquardt's scaled
-        damping; usually fewer iterations). None: $SBA_STRATEGY, else "sba".
+        damping; usually fewer iterations). None: $SBA_STRATEGY, else "sba" (refine_colmap:
+        "trust-region", COLMAP's, see there), in solve, motstr, mot and structure alike.
     loss, loss_scale
         Robust loss ("huber", "cauchy", "soft-l1", "tukey"; None: least squares) and its
         scale in pixels.
@@ -350,9 +374,9 @@ def _python_model(refine, project, cameras, points, camera_index, point_index, o
 
 def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
            observations: Any, *, jacobian: Optional[JacobianFn] = None, covariances: Any = None,
-           solver: Optional[builtins.str] = None, threads: int = 0,
-           strategy: Optional[builtins.str] = None,
-           loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 150,
+           solver: Optional[str] = None, threads: int = 0,
+           strategy: Optional[str] = None,
+           loss: Optional[str] = None, loss_scale: float = 1.0, itmax: int = 150,
            opts: Optional[Sequence[float]] = None, mcon: int = 0, ncon: int = 0,
            progress: Optional[Callable[[Progress], Any]] = None,
            covariance: bool = False, fixed_params: Any = None, camera_groups: Any = None,
@@ -384,9 +408,9 @@ def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, poi
 
 def mot(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
         observations: Any, *, jacobian: Optional[JacobianFn] = None, covariances: Any = None,
-        solver: Optional[builtins.str] = None, threads: int = 0,
-        strategy: Optional[builtins.str] = None,
-        loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 100,
+        solver: Optional[str] = None, threads: int = 0,
+        strategy: Optional[str] = None,
+        loss: Optional[str] = None, loss_scale: float = 1.0, itmax: int = 100,
         opts: Optional[Sequence[float]] = None, mcon: int = 0,
         progress: Optional[Callable[[Progress], Any]] = None, fixed_params: Any = None,
         camera_groups: Any = None, shared_params: Any = None, param_groups: Any = None) -> Result:
@@ -399,24 +423,27 @@ def mot(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_
                          observations, jacobian, covariances, kw)
 
 
-def _str(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
-         observations: Any, *, jacobian: Optional[JacobianFn] = None, covariances: Any = None,
-         solver: Optional[builtins.str] = None, threads: int = 0,
-         strategy: Optional[builtins.str] = None,
-         loss: Optional[builtins.str] = None, loss_scale: float = 1.0, itmax: int = 100,
-         opts: Optional[Sequence[float]] = None, ncon: int = 0,
-         progress: Optional[Callable[[Progress], Any]] = None) -> Result:
-    """As :func:`motstr`, refining the points only (sba_str_levmar_x): the cameras are data.
-    jacobian may return (None, B)."""
+def structure(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_index: Any,
+              observations: Any, *, jacobian: Optional[JacobianFn] = None, covariances: Any = None,
+              solver: Optional[str] = None, threads: int = 0, strategy: Optional[str] = None,
+              loss: Optional[str] = None, loss_scale: float = 1.0, itmax: int = 100,
+              opts: Optional[Sequence[float]] = None, ncon: int = 0,
+              progress: Optional[Callable[[Progress], Any]] = None) -> Result:
+    """As :func:`motstr`, refining the points only (sba_str_levmar_x, "str" in sba's names,
+    which pysba also answers to as ``pysba.str``): the cameras are data. jacobian may return
+    (None, B)."""
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, 0, ncon, progress)
     return _python_model("str", project, cameras, points, camera_index, point_index,
                          observations, jacobian, covariances, kw)
 
 
-# sba's name for structure-only refinement. It shadows the builtin inside this module, which
-# is why the code above says builtins.str wherever it means the type.
-_str.__name__ = _str.__qualname__ = "str"
-globals()["str"] = _str
+def __getattr__(name: str) -> Any:
+    # pysba.str, sba's name for structure(), for the code written with it: an attribute of the
+    # module only when asked for, so that no `from pysba import *` shadows the builtin.
+    if name == "str":
+        return structure
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 # COLMAP models: after everything above, which they use.
 from ._colmap import (NO_POINT3D, ColmapCamera, ColmapFrame, ColmapImage, ColmapModel,  # noqa: E402

@@ -5,11 +5,13 @@ to and from pycolmap. The functions and classes are pysba's (see its __init__)."
 from __future__ import annotations
 
 import collections.abc
+import copy
 import dataclasses
 import errno
 import math
 import numbers
 import os
+import sys
 import tempfile
 from typing import Any, Callable, List, Optional, Sequence, Tuple
 
@@ -39,13 +41,14 @@ class ColmapImage:
     """A COLMAP image: ``id`` (IMAGE_ID), ``name``, ``camera_id``, its pose ``q`` (qw qx qy qz)
     and ``t``, world to camera (X_cam = R(q) X + t), and its keypoints: ``points2D`` (k, 2) in
     pixels and ``point3D_ids`` (k,) uint64, the 3D point each one observes, or
-    :data:`NO_POINT3D` (-1 is taken for it too)."""
+    :data:`NO_POINT3D` (-1 is taken for it too). ``q`` and ``t`` are both None for an image of a
+    frame without a pose (see :class:`ColmapFrame`), which observes no point."""
 
     id: int
     name: str
     camera_id: int
-    q: np.ndarray
-    t: np.ndarray
+    q: Optional[np.ndarray]
+    t: Optional[np.ndarray]
     points2D: np.ndarray
     point3D_ids: np.ndarray
 
@@ -106,12 +109,17 @@ class ColmapRig:
 class ColmapFrame:
     """A frame (COLMAP 4), one pose of a rig: ``id``, ``rig_id``, the pose ``q``, ``t``
     (rig_from_world) and its ``data``, one ``(type, sensor_id, data_id)`` per measurement (a
-    camera's data_id is the IMAGE_ID of its image)."""
+    camera's data_id is the IMAGE_ID of its image).
+
+    ``q`` and ``t`` are both None for a frame without a pose, which a pycolmap.Reconstruction
+    holds (a frame not registered, or deregistered) and COLMAP's files do not; its images have
+    none either. Such frames and their images are kept where they are, but neither written by
+    :func:`write_colmap`, as COLMAP writes none, nor refined by :func:`refine_colmap`."""
 
     id: int
     rig_id: int
-    q: np.ndarray
-    t: np.ndarray
+    q: Optional[np.ndarray]
+    t: Optional[np.ndarray]
     data: List[Tuple[str, int, int]]
 
 
@@ -171,16 +179,34 @@ def _path(path: Any) -> bytes:
 def _directory(path: Any) -> bytes:
     """_path(path), after making sure it is a directory: FileNotFoundError,
     NotADirectoryError or PermissionError otherwise."""
-    path = _path(path)
+    encoded = _path(path)
+    # Looked at as given, so that an error names the path as the caller wrote it.
     os.stat(path)
-    if not os.path.isdir(path):
-        raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), os.fsdecode(path))
-    return path
+    if not os.path.isdir(encoded):
+        raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), os.fsdecode(encoded))
+    return encoded
 
 
 def _check_model(model: Any) -> None:
     if not isinstance(model, ColmapModel):
         raise TypeError(f"model must be a pysba.ColmapModel, got {type(model).__name__}")
+
+
+def _is_reconstruction(model: Any) -> bool:
+    """Whether model is a pycolmap.Reconstruction, without importing pycolmap."""
+    kind = type(model)
+    return kind.__name__ == "Reconstruction" and kind.__module__.split(".")[0] == "pycolmap"
+
+
+def _as_model(model: Any) -> ColmapModel:
+    """model as a ColmapModel: itself, or a pycolmap.Reconstruction's conversion."""
+    if _is_reconstruction(model):
+        return from_pycolmap(model)
+    if not isinstance(model, ColmapModel):
+        path = isinstance(model, (str, bytes, os.PathLike))
+        raise TypeError(f"model must be a pysba.ColmapModel or a pycolmap.Reconstruction, got {type(model).__name__}"
+                        + (" (pysba.read_colmap(path) reads the model in a folder)" if path else ""))
+    return model
 
 
 def read_colmap(path: Any) -> ColmapModel:
@@ -192,14 +218,15 @@ def read_colmap(path: Any) -> ColmapModel:
     return _model(_core.read_colmap(_directory(path)))
 
 
-def write_colmap(model: ColmapModel, path: Any, encoding: str = "binary") -> None:
-    """Writes the model into the directory path (made if missing), as sbarefine writes one:
+def write_colmap(model: Any, path: Any, encoding: str = "binary") -> None:
+    """Writes the model (a :class:`ColmapModel`, or a pycolmap.Reconstruction, converted by
+    :func:`from_pycolmap`) into the directory path (made if missing), as sbarefine writes one:
     cameras, images and points3D, and rigs and frames when the model has them, in the
     encoding ("binary" or "text"), all files or none. The other encoding's model files in
     path are removed, and so are this encoding's rigs and frames when the model has none, so
     that path holds one model. ValueError or TypeError for a model the reader would refuse
     (see :class:`ColmapModel`), OSError for files that cannot be written."""
-    _check_model(model)
+    model = _as_model(model)
     if not isinstance(encoding, str):
         raise TypeError(f"encoding must be a str, got {type(encoding).__name__}")
     _core.write_colmap(model, _path(path), encoding)
@@ -274,12 +301,6 @@ def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any) -> Tuple[Any
     return (strategy if strategy is not None else "trust-region"), values
 
 
-def _is_reconstruction(model: Any) -> bool:
-    """Whether model is a pycolmap.Reconstruction, without importing pycolmap."""
-    kind = type(model)
-    return kind.__name__ == "Reconstruction" and kind.__module__.split(".")[0] == "pycolmap"
-
-
 def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_principal_point: bool = False,
                   refine_extra_params: bool = True, refine_rig_from_world: bool = True,
                   refine_sensor_from_rig: bool = True, constant_rig_from_world_rotation: bool = False,
@@ -287,12 +308,15 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                   strategy: Optional[str] = None, loss: Optional[str] = None,
                   loss_scale: float = 1.0, itmax: int = 100, opts: Optional[Sequence[float]] = None,
                   function_tolerance: Optional[float] = None, mcon: int = 0, ncon: int = 0,
-                  progress: Optional[Callable[[Progress], Any]] = None) -> Tuple[Any, Result]:
+                  progress: Optional[Callable[[Progress], Any]] = None, verbose: bool = False) -> Tuple[Any, Result]:
     """Bundle-adjusts a COLMAP model as sbarefine does (the same numbers, bit for bit, as
     ``sbarefine MODEL --write OUT`` with the same options), with COLMAP's camera models and
     COLMAP's defaults, and returns ``(refined model, Result)``; the model is left unchanged.
     model is a :class:`ColmapModel` or a pycolmap.Reconstruction (then the refined model is
-    one too).
+    one too, converted by :func:`from_pycolmap` and :func:`to_pycolmap`, which write and read
+    the whole model through files and hold copies of it: for large models, refine the model's
+    files instead, :func:`read_colmap`, refine_colmap, :func:`write_colmap`, then
+    pycolmap.Reconstruction(path)).
 
     Every image that sees a point is refined (its pose), with its camera's parameters: a camera
     shared by several images once for all of them; every 3D point is refined, and its
@@ -301,7 +325,8 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     for its images, a camera's pose in its rig (sensor_from_rig) once for all the frames of the
     rig (the rig's reference camera at the identity), written back to the frames and the rigs
     and composed into the images (an image that sees no point too: it keeps its place in its
-    frame, and moves with it unless it is held).
+    frame, and moves with it unless it is held). A frame without a pose (not registered, see
+    :class:`ColmapFrame`) and its images are left out of the solve and given back as they were.
 
     refine_focal_length, refine_principal_point, refine_extra_params
         COLMAP's bundle adjustment options (the focal length and the parameters after the
@@ -317,38 +342,86 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         change; None: COLMAP's 0, unless strategy or opts[4] is given, which then keep sba's
         tests). A tolerance sets opts[4] to it (at least 4 ulp) and the strategy, unless
         given, to "trust-region". itmax 0 returns the model as given.
+    strategy, solver
+        As :func:`solve`'s, but strategy None runs "trust-region" (COLMAP's
+        Levenberg-Marquardt), whatever $SBA_STRATEGY says, unless opts[4] is given without
+        function_tolerance: then solve()'s default ($SBA_STRATEGY, else "sba"). solver None:
+        $SBA_LINSOLVER, else "auto", as solve()'s.
     mcon, ncon
         The first mcon images that see a point (their cameras' parameters too, in all their
         images) and the first ncon points are held.
+    progress, verbose
+        progress, as :func:`solve`'s, is called with a :class:`Progress` after every iteration
+        (its ``error`` is the sum of squared reprojection errors, in pixels squared: the RMS
+        is sqrt(error / observations)); a true return value stops the solve, an exception
+        stops it and propagates. verbose=True shows the progress on sys.stderr: the
+        problem's size, a line per iteration (the RMS reprojection error in pixels, or the
+        cost with a robust loss) and the end, whatever progress does.
 
     A model whose reprojection error at the start is not finite (a parameter that overflows
     the projection) is a ValueError naming the first such observation's image, camera and point.
 
-    The other arguments are :func:`solve`'s. The Result's ``model`` is the refined
-    :class:`ColmapModel` (also on the ``result`` of a KeyboardInterrupt: the last accepted
-    estimate), ``rms_initial`` and ``rms_final`` are sbarefine's RMS reprojection errors in
-    pixels, ``cameras`` and ``points`` the sba parameters (rotation, translation and camera
-    parameters of each image that sees a point; the points' coordinates).
+    The other arguments are :func:`solve`'s. The Result's ``model`` is the refined model, the
+    one returned (a pycolmap.Reconstruction for one given; also on the ``result`` of a
+    KeyboardInterrupt or SolveError: the last accepted estimate), ``rms_initial`` and
+    ``rms_final`` are sbarefine's RMS reprojection errors in pixels, ``cameras`` and
+    ``points`` the sba parameters (rotation, translation and camera parameters of each image
+    that sees a point; the points' coordinates).
     """
     reconstruction = _is_reconstruction(model)
-    colmap_model = from_pycolmap(model) if reconstruction else model
-    _check_model(colmap_model)
+    colmap_model = _as_model(model)
     flags = (("refine_focal_length", refine_focal_length),
              ("refine_principal_point", refine_principal_point),
              ("refine_extra_params", refine_extra_params),
              ("refine_rig_from_world", refine_rig_from_world),
              ("refine_sensor_from_rig", refine_sensor_from_rig),
              ("constant_rig_from_world_rotation", constant_rig_from_world_rotation))
-    for name, flag in flags:
+    for name, flag in flags + (("verbose", verbose),):
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name} must be a bool, got {type(flag).__name__}")
     held = _held_images(colmap_model, hold_poses)
     strategy, opts = _colmap_stop(strategy, opts, function_tolerance)
+    if verbose:
+        progress = _shown(colmap_model, loss not in (None, "none"), progress)
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
     report = _core.refine_colmap(colmap_model, held, *(bool(flag) for _, flag in flags), **kw)
-    report["model"] = _model(report["model"])
+    refined = _with_unposed(_model(report["model"]), colmap_model)
+    # The Result's model, also on an exception's result, is of the type returned.
+    report["model"] = to_pycolmap(refined) if reconstruction else refined
     result = _finish(report)
-    return (to_pycolmap(result.model) if reconstruction else result.model), result
+    if verbose:
+        print(f"refine_colmap: RMS {result.rms_initial:.6g} px -> {result.rms_final:.6g} px in {result.iterations} "
+              f"iterations: {result.reason.text}", file=sys.stderr, flush=True)
+    return result.model, result
+
+
+def _shown(model: ColmapModel, robust: bool,
+           progress: Optional[Callable[[Progress], Any]]) -> Callable[[Progress], Any]:
+    """refine_colmap's verbose: the problem's size on sys.stderr now, and a progress callback
+    that shows each iteration there before it calls progress (if any)."""
+    observations = len(model.points3D.track_image_ids)
+    images = sum(im.q is not None for im in model.images)
+    print(f"refine_colmap: {images} images, {len(model.cameras)} cameras, {len(model.points3D)} points, "
+          f"{observations} observations", file=sys.stderr, flush=True)
+
+    def show(state: Progress) -> Any:
+        error = f"cost {state.error:.6g}" if robust else f"RMS {math.sqrt(state.error / observations):.6g} px"
+        print(f"refine_colmap: iteration {state.iteration}: {error}, mu {state.mu:.3g}, step {state.dp_norm:.3g}, "
+              f"{state.elapsed:.2f} s", file=sys.stderr, flush=True)
+        return None if progress is None else progress(state)
+
+    return show
+
+
+def _with_unposed(refined: ColmapModel, given: ColmapModel) -> ColmapModel:
+    """refined, the images and frames of given that have a pose refined, with given's images and
+    frames without one put back (as copies) where given has them."""
+    for name in ("images", "frames"):
+        records = getattr(given, name)
+        if records is not None and any(r.q is None for r in records):
+            solved = iter(getattr(refined, name))
+            setattr(refined, name, [copy.deepcopy(r) if r.q is None else next(solved) for r in records])
+    return refined
 
 
 def _pycolmap() -> Any:
@@ -362,22 +435,67 @@ def _pycolmap() -> Any:
 
 def from_pycolmap(reconstruction: Any) -> ColmapModel:
     """The :class:`ColmapModel` of a pycolmap.Reconstruction, every field as pycolmap writes
-    it (through a binary model in a temporary directory)."""
+    it (through a binary model in a temporary directory), and the frames pycolmap holds without
+    a pose (not registered) with their images, which its files leave out, taken from the
+    Reconstruction: every image, frame, rig and camera, in pycolmap's order (by id).
+
+    The model goes through files: pycolmap writes it into a temporary directory, and pysba
+    reads it, a model's disk space and time, and a copy in memory beside pycolmap's. For large
+    models, read the model's files with :func:`read_colmap` instead (and write them with
+    :func:`write_colmap`)."""
     pycolmap = _pycolmap()
     if not isinstance(reconstruction, pycolmap.Reconstruction):
         raise TypeError(f"reconstruction must be a pycolmap.Reconstruction, got "
                         f"{type(reconstruction).__name__}")
     with tempfile.TemporaryDirectory(prefix="pysba-") as d:
         reconstruction.write_binary(d)
-        return read_colmap(d)
+        model = read_colmap(d)
+    unposed = [f for f in reconstruction.frames.values() if not f.has_pose()]
+    for frame in unposed:
+        data = sorted((d.sensor_id.type.name, d.sensor_id.id, d.id) for d in frame.data_ids)
+        model.frames.append(ColmapFrame(frame.frame_id, frame.rig_id, None, None, data))
+        for kind, _, image_id in data:
+            if kind == "CAMERA":
+                im = reconstruction.images[image_id]
+                points = list(im.points2D)
+                model.images.append(ColmapImage(
+                    im.image_id, im.name, im.camera_id, None, None,
+                    np.array([p.xy for p in points], np.float64).reshape(-1, 2),
+                    np.array([p.point3D_id for p in points], np.uint64)))
+    if unposed:
+        model.frames.sort(key=lambda f: f.id)
+        model.images.sort(key=lambda im: im.id)
+    return model
 
 
 def to_pycolmap(model: ColmapModel) -> Any:
     """The pycolmap.Reconstruction of a :class:`ColmapModel` (through a binary model in a
-    temporary directory, which pycolmap reads). ValueError or TypeError for a model the
-    reader would refuse."""
+    temporary directory, which pycolmap reads), with its frames without a pose and their images
+    added to it unregistered. ValueError or TypeError for a model the reader would refuse.
+
+    The model goes through files, as in :func:`from_pycolmap`. For large models,
+    :func:`write_colmap` the model and have pycolmap read that folder (and start from
+    :func:`read_colmap` rather than from_pycolmap)."""
     pycolmap = _pycolmap()
     _check_model(model)
     with tempfile.TemporaryDirectory(prefix="pysba-") as d:
         write_colmap(model, d, "binary")
-        return pycolmap.Reconstruction(d)
+        reconstruction = pycolmap.Reconstruction(d)
+    # write_colmap checked the frames without a pose: each image of one has none either.
+    frame_of = {}
+    for f in model.frames or ():
+        if f.q is None:
+            frame = pycolmap.Frame(frame_id=f.id, rig_id=f.rig_id)
+            for kind, sensor_id, data_id in f.data:
+                sensor = pycolmap.sensor_t(getattr(pycolmap.SensorType, kind), sensor_id)
+                frame.add_data_id(pycolmap.data_t(sensor, data_id))
+                if kind == "CAMERA":
+                    frame_of[data_id] = f.id
+            reconstruction.add_frame(frame)
+    for im in model.images:
+        if im.q is None:
+            image = pycolmap.Image(name=im.name, keypoints=np.asarray(im.points2D, np.float64).reshape(-1, 2),
+                                   camera_id=im.camera_id, image_id=im.id)
+            image.frame_id = frame_of[im.id]
+            reconstruction.add_image(image)
+    return reconstruction

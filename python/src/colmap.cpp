@@ -11,6 +11,8 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -158,6 +160,15 @@ void pose_of(py::handle obj, const std::string &where, colmap::Pose *out) {
   out->t = finite_vector<3>(get(obj, "t"), where + ".t");
 }
 
+// Whether obj (a rig's sensor, a frame, an image) has a pose: its q and t both given, not
+// both None.
+bool has_pose(py::handle obj, const std::string &where, const char *none_means) {
+  const bool no_q = get(obj, "q").is_none(), no_t = get(obj, "t").is_none();
+  if (no_q != no_t)
+    throw py::value_error(where + ": q and t go together: both None (" + none_means + ") or both given");
+  return !no_q;
+}
+
 colmap::Camera camera_of(py::handle c, const std::string &where) {
   colmap::Camera out;
   out.id = static_cast<std::uint32_t>(whole_number(get(c, "id"), kU32, where + ".id"));
@@ -169,15 +180,19 @@ colmap::Camera camera_of(py::handle c, const std::string &where) {
   return out;
 }
 
-colmap::Image image_of(py::handle im, const std::string &where) {
+// An image, and in *posed whether it has a pose (an image without one keeps the default).
+colmap::Image image_of(py::handle im, const std::string &where, bool *posed) {
   colmap::Image out;
   out.id = static_cast<std::uint32_t>(whole_number(get(im, "id"), kU32, where + ".id"));
   out.name = text(get(im, "name"), where + ".name");
   out.camera_id = static_cast<std::uint32_t>(whole_number(get(im, "camera_id"), kU32, where + ".camera_id"));
-  colmap::Pose pose;
-  pose_of(im, where, &pose);
-  out.q = pose.q;
-  out.t = pose.t;
+  *posed = has_pose(im, where, "no pose: not registered");
+  if (*posed) {
+    colmap::Pose pose;
+    pose_of(im, where, &pose);
+    out.q = pose.q;
+    out.t = pose.t;
+  }
   const Doubles xy = finite_numbers(get(im, "points2D"), where + ".points2D", {-1, 2});
   const std::vector<std::uint64_t> ids = whole_numbers<std::uint64_t>(
       get(im, "point3D_ids"), colmap::kNoPoint, where + ".point3D_ids", {xy.shape(0)}, true);
@@ -229,21 +244,20 @@ colmap::Rig rig_of(py::handle r, const std::string &where) {
     colmap::RigSensor rs;
     rs.sensor.type = sensor_type(get(s, "type"), sw + ".type");
     rs.sensor.id = static_cast<std::uint32_t>(whole_number(get(s, "id"), kU32, sw + ".id"));
-    const bool no_q = get(s, "q").is_none(), no_t = get(s, "t").is_none();
-    if (no_q != no_t)
-      throw py::value_error(sw + ": q and t go together: both None (no pose in the rig) or both given");
-    rs.has_pose = !no_q;
+    rs.has_pose = has_pose(s, sw, "no pose in the rig");
     if (rs.has_pose) pose_of(s, sw, &rs.sensor_from_rig);
     out.sensors.push_back(rs);
   }
   return out;
 }
 
-colmap::Frame frame_of(py::handle f, const std::string &where) {
+// A frame, and in *posed whether it has a pose.
+colmap::Frame frame_of(py::handle f, const std::string &where, bool *posed) {
   colmap::Frame out;
   out.id = static_cast<std::uint32_t>(whole_number(get(f, "id"), kU32, where + ".id"));
   out.rig_id = static_cast<std::uint32_t>(whole_number(get(f, "rig_id"), kU32, where + ".rig_id"));
-  pose_of(f, where, &out.rig_from_world);
+  *posed = has_pose(f, where, "no pose: not registered");
+  if (*posed) pose_of(f, where, &out.rig_from_world);
   const py::list data = items(get(f, "data"), where + ".data");
   for (size_t k = 0; k < data.size(); ++k) {
     const std::string dw = at(where + ".data", k);
@@ -269,12 +283,87 @@ std::vector<Record> records(py::handle list, const char *what, Convert convert) 
   return out;
 }
 
+// The records of a list that have a pose, and the place among them of each item of the list
+// (-1: none, for one without a pose) in *rows.
+template <class Record, class Convert>
+std::vector<Record> posed_records(py::handle list, const char *what, Convert convert, std::vector<long long> *rows,
+                                  std::vector<Record> *unposed) {
+  const py::list l = items(list, what);
+  std::vector<Record> out;
+  for (size_t k = 0; k < l.size(); ++k) {
+    bool posed = false;
+    Record r = convert(l[k], at(what, k), &posed);
+    rows->push_back(posed ? static_cast<long long>(out.size()) : -1);
+    (posed ? out : *unposed).push_back(std::move(r));
+  }
+  return out;
+}
+
+// The frame of each image that a list of frames names (a camera's data), by IMAGE_ID.
+std::unordered_map<std::uint64_t, std::uint32_t> frames_by_image(const std::vector<colmap::Frame> &frames) {
+  std::unordered_map<std::uint64_t, std::uint32_t> out;
+  for (const colmap::Frame &f : frames)
+    for (const colmap::DataId &d : f.data)
+      if (d.sensor.type == colmap::SensorType::Camera) out.emplace(d.id, f.id);
+  return out;
+}
+
+// The frames without a pose and their images are what pycolmap holds of a frame it has not
+// registered (or has deregistered): neither COLMAP's files nor a solve have a place for them,
+// so they stay out of the model, but what to_pycolmap gives pycolmap of them must hold
+// together: an image without a pose is in a frame without one and observes no point, and such
+// a frame holds only images without a pose.
+void check_unposed(const colmap::Model &m, const std::vector<long long> &image_rows,
+                   const std::vector<colmap::Image> &images, const std::vector<long long> &frame_rows,
+                   const std::vector<colmap::Frame> &frames) {
+  const auto posed_frame = frames_by_image(m.frames), unposed_frame = frames_by_image(frames);
+  const std::string rule = ": COLMAP 4 registers the images of a frame with it";
+  std::unordered_set<std::uint64_t> unposed;
+  size_t next = 0;
+  for (size_t k = 0; k < image_rows.size(); ++k) {
+    const std::string where = at("images", k);
+    if (image_rows[k] >= 0) {
+      const auto f = unposed_frame.find(m.images[size_t(image_rows[k])].id);
+      if (f != unposed_frame.end())
+        throw py::value_error(where + " has a pose, but its frame " + std::to_string(f->second) + " has none" + rule);
+      continue;
+    }
+    const colmap::Image &im = images[next++];
+    unposed.insert(im.id);
+    if (!m.has_rigs)
+      throw py::value_error(where + " has no pose (q and t None), which only an image of a frame without one may "
+                            "have, and the model has no frames");
+    if (const auto f = posed_frame.find(im.id); f != posed_frame.end())
+      throw py::value_error(where + " has no pose (q and t None), but its frame " + std::to_string(f->second) +
+                            " has one" + rule);
+    if (!unposed_frame.count(im.id)) throw py::value_error(where + " has no pose (q and t None) and is in no frame");
+    for (size_t i = 0; i < im.points.size(); ++i)
+      if (im.points[i].point3d_id != colmap::kNoPoint)
+        throw py::value_error(where + " has no pose (not registered) but observes point " +
+                              std::to_string(im.points[i].point3d_id) + " (point3D_ids[" + std::to_string(i) +
+                              "]): an image without a pose observes no point");
+  }
+  next = 0;
+  for (size_t k = 0; k < frame_rows.size(); ++k) {
+    if (frame_rows[k] >= 0) continue;
+    for (const colmap::DataId &d : frames[next++].data)
+      if (d.sensor.type == colmap::SensorType::Camera && !unposed.count(d.id))
+        throw py::value_error(at("frames", k) + " has no pose (q and t None), but its image " + std::to_string(d.id) +
+                              " is none of the images without one");
+  }
+}
+
 // A ColmapModel (its attributes: see pysba/_colmap.py), checked as the readers check a model
-// (ValueError or TypeError otherwise), so that what write_model makes of it reads back.
-colmap::Model model_of(py::handle obj) {
+// (ValueError or TypeError otherwise), so that what write_model makes of it reads back. Its
+// frames without a pose and their images are left out (check_unposed); image_rows, when given,
+// receives the place in the result of each of the ColmapModel's images (-1: left out).
+colmap::Model model_of(py::handle obj, std::vector<long long> *image_rows = nullptr) {
   colmap::Model m;
+  std::vector<long long> rows, frame_rows;
+  std::vector<colmap::Image> unposed_images;
+  std::vector<colmap::Frame> unposed_frames;
   m.cameras = records<colmap::Camera>(get(obj, "cameras"), "cameras", camera_of);
-  m.images = records<colmap::Image>(get(obj, "images"), "images", image_of);
+  m.images = posed_records<colmap::Image>(get(obj, "images"), "images", image_of, &rows, &unposed_images);
   m.points = points_of(get(obj, "points3D"));
   const py::object rigs = get(obj, "rigs"), frames = get(obj, "frames");
   if (rigs.is_none() != frames.is_none())
@@ -284,11 +373,13 @@ colmap::Model model_of(py::handle obj) {
   m.has_rigs = !rigs.is_none();
   if (m.has_rigs) {
     m.rigs = records<colmap::Rig>(rigs, "rigs", rig_of);
-    m.frames = records<colmap::Frame>(frames, "frames", frame_of);
+    m.frames = posed_records<colmap::Frame>(frames, "frames", frame_of, &frame_rows, &unposed_frames);
   }
+  check_unposed(m, rows, unposed_images, frame_rows, unposed_frames);
   std::string error;
   if (!colmap::check_records(m, kModelName, &error) || !colmap::check_model(m, kModelName, &error))
     throw py::value_error(error);
+  if (image_rows) *image_rows = std::move(rows);
   return m;
 }
 
@@ -494,16 +585,18 @@ py::dict refine_colmap(py::handle model, const std::vector<long long> &held_imag
                        bool principal, bool extra, bool rig_from_world, bool sensor_from_rig,
                        bool constant_rotation, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
-  colmap::Model m = model_of(model);
+  std::vector<long long> rows;
+  colmap::Model m = model_of(model, &rows);
   // As read_model gives it: each image's pose its frame's, which is what a reader of the
   // model takes (and the same bits for a model read_colmap gave).
   colmap::poses_from_frames(&m);
+  // held_images are rows of the ColmapModel's images; one without a pose is not solved.
   std::vector<char> held(held_images.empty() ? 0 : m.images.size(), 0);
   for (long long k : held_images) {
-    if (k < 0 || size_t(k) >= m.images.size())
-      throw py::value_error("held image " + std::to_string(k) + " is not in [0, " +
-                            std::to_string(m.images.size()) + ")");
-    held[size_t(k)] = 1;
+    if (k < 0 || size_t(k) >= rows.size())
+      throw py::value_error("held image " + std::to_string(k) + " is not in [0, " + std::to_string(rows.size()) +
+                            ")");
+    if (rows[size_t(k)] >= 0) held[size_t(rows[size_t(k)])] = 1;
   }
   return refine_model(std::move(m), {focal, principal, extra}, {rig_from_world, sensor_from_rig, constant_rotation},
                       held, o);

@@ -252,6 +252,9 @@ SolveOptions solve_options(const py::dict &kw) {
     throw py::value_error("unknown solver '" + o.solver + "' (known: " + sba_linsolver_names() + ")");
   if (!o.strategy.empty() && !sba_strategy_valid(o.strategy.c_str()))
     throw py::value_error("unknown strategy '" + o.strategy + "' (known: " + sba_strategy_names() + ")");
+  // Named here too, as the keyword: the library's refusal would name its C driver.
+  if (!o.loss.empty() && !sba_loss_valid(o.loss.c_str()))
+    throw py::value_error("unknown loss '" + o.loss + "' (known: " + sba_loss_names() + ")");
   if (!o.progress.is_none() && !PyCallable_Check(o.progress.ptr()))
     throw Keywords::wrong_type("progress", "callable or None", o.progress);
   return o;

@@ -8,12 +8,17 @@ Checks: to_pycolmap(from_pycolmap(rec)) is rec, the same bits (every image's pos
 camera's parameters, every point's coordinates, color, error and track, the rigs and frames);
 refine_colmap(from_pycolmap(rec)) refines the poses, and pycolmap's own projection of the
 refined model gives the Result's final RMS reprojection error (1e-6 relative);
-refine_colmap(rec) gives a pycolmap.Reconstruction, the same as converting that result.
+refine_colmap(rec) gives a pycolmap.Reconstruction, the same as converting that result, and
+its Result's model is that Reconstruction, also on a KeyboardInterrupt's result;
+write_colmap(rec) writes the files of write_colmap(from_pycolmap(rec)).
 A scene of two rigs of three cameras (frames of three images), the cameras' poses in their rigs
 and focal lengths moved: refine_colmap(rec) ends no worse than pycolmap.bundle_adjustment at
 its defaults (1 + 1e-6) by pycolmap's projection, and every image's pose is its frame's
 composed with its camera's pose in the rig (1e-12). Of that scene from_pycolmap and
-refine_colmap(itmax=0) give every image pycolmap's own pose, the same bits.
+refine_colmap(itmax=0) give every image pycolmap's own pose, the same bits. A scene with two
+frames deregistered: from_pycolmap and to_pycolmap keep them and their images, without a pose;
+refine_colmap gives them back as they were and solves what pycolmap writes of the scene, the
+same bits.
 
 Exit status: 0 every check passed, 1 a check failed, 77 (ctest's SKIP_RETURN_CODE) no Python
 here can import both pycolmap and pysba, or a sanitizer build (pycolmap is not built with
@@ -27,6 +32,7 @@ CPython version as the one pysba was built for).
 import argparse
 import os
 import sys
+import tempfile
 
 # The scene and the RMS error by pycolmap's projection are sbarefine's test's (tests/pycolmap).
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "pycolmap"))
@@ -44,6 +50,10 @@ def pose(p):
     return values(p.rotation.quat) + values(p.translation)
 
 
+def data_ids(frame):
+    return sorted((int(d.sensor_id.type.value), d.sensor_id.id, d.id) for d in frame.data_ids)
+
+
 def same_reconstruction(a, b, what):
     """a and b hold the same values, bit for bit (floats compared as Python floats, which
     are the doubles themselves)."""
@@ -56,9 +66,10 @@ def same_reconstruction(a, b, what):
                "%s: camera %d" % (what, k))
     for k, im in a.images.items():
         other = b.images[k]
-        expect((im.name, im.camera_id, im.frame_id) == (other.name, other.camera_id, other.frame_id),
-               "%s: image %d" % (what, k))
-        expect(pose(im.cam_from_world()) == pose(other.cam_from_world()), "%s: image %d's pose" % (what, k))
+        expect((im.name, im.camera_id, im.frame_id, im.has_pose) ==
+               (other.name, other.camera_id, other.frame_id, other.has_pose), "%s: image %d" % (what, k))
+        expect(not im.has_pose or pose(im.cam_from_world()) == pose(other.cam_from_world()),
+               "%s: image %d's pose" % (what, k))
         expect([(values(p.xy), p.point3D_id) for p in im.points2D] ==
                [(values(p.xy), p.point3D_id) for p in other.points2D], "%s: image %d's keypoints" % (what, k))
     for k, p in a.points3D.items():
@@ -71,7 +82,11 @@ def same_reconstruction(a, b, what):
     expect(sorted(a.frames) == sorted(b.frames) and sorted(a.rigs) == sorted(b.rigs),
            what + ": rigs or frames")
     for k, f in a.frames.items():
-        expect(pose(f.rig_from_world) == pose(b.frames[k].rig_from_world), "%s: frame %d" % (what, k))
+        g = b.frames[k]
+        expect((f.rig_id, data_ids(f), f.has_pose()) == (g.rig_id, data_ids(g), g.has_pose()),
+               "%s: frame %d" % (what, k))
+        expect(not f.has_pose() or pose(f.rig_from_world) == pose(g.rig_from_world),
+               "%s: frame %d's pose" % (what, k))
 
 
 def run(pycolmap, pysba):
@@ -95,11 +110,36 @@ def run(pycolmap, pysba):
           % (result.rms_initial, result.rms_final, theirs))
 
     direct, again = pysba.refine_colmap(rec)
-    expect(isinstance(direct, pycolmap.Reconstruction),
-           "refine_colmap(rec) gave a %s" % type(direct).__name__)
+    expect(isinstance(direct, pycolmap.Reconstruction) and again.model is direct,
+           "refine_colmap(rec) gave a %s, its result's model a %s" % (type(direct).__name__,
+                                                                     type(again.model).__name__))
     expect(again.info.tolist() == result.info.tolist(), "refine_colmap(rec) solved another problem")
     same_reconstruction(back, direct, "refine_colmap(rec)")
     print("PASS refine_colmap(rec) is a pycolmap.Reconstruction, the same")
+
+    def interrupt(state):
+        if state.iteration == 2:
+            raise KeyboardInterrupt
+
+    try:
+        pysba.refine_colmap(rec, progress=interrupt)
+        expect(False, "refine_colmap(rec) went on after a KeyboardInterrupt")
+    except KeyboardInterrupt as e:
+        so_far = e.result.model
+        expect(isinstance(so_far, pycolmap.Reconstruction),
+               "a KeyboardInterrupt's result.model is a %s" % type(so_far).__name__)
+        same_reconstruction(pysba.refine_colmap(rec, itmax=2)[0], so_far, "refine_colmap(rec) interrupted")
+    print("PASS a KeyboardInterrupt in refine_colmap(rec) carries the Reconstruction so far")
+
+    import tempfile
+    with tempfile.TemporaryDirectory() as d:
+        written = []
+        for k, given in enumerate((rec, model)):
+            pysba.write_colmap(given, os.path.join(d, str(k)))
+            written.append({name: open(os.path.join(d, str(k), name), "rb").read()
+                            for name in sorted(os.listdir(os.path.join(d, str(k))))})
+        expect(written[0] == written[1], "write_colmap(rec) wrote other files than write_colmap(from_pycolmap(rec))")
+    print("PASS write_colmap(rec) writes what write_colmap(from_pycolmap(rec)) writes")
 
     rigs = synthesize(pycolmap, 3, 13, rigs=2)
     perturb_rigs(pycolmap, rigs)
@@ -137,6 +177,65 @@ def run(pycolmap, pysba):
           % (mine, theirs, worst))
 
 
+def keypoints(im):
+    return [(values(p.xy), p.point3D_id) for p in im.points2D]
+
+
+def unregistered(pycolmap, pysba):
+    """A frame without a pose (deregistered, as a mapper leaves one) and its images, which
+    pycolmap's files leave out, are kept: from_pycolmap holds them without a pose and
+    to_pycolmap gives them back; refine_colmap gives them back as they were and solves the
+    registered ones' problem, the problem of the files pycolmap writes."""
+    rec = synthesize(pycolmap, 2, 11, rigs=2)
+    ids = sorted(rec.frames)
+    gone = [ids[1], ids[len(ids) // 2 + 1]]
+    for k in gone:
+        rec.deregister_frame(k)
+    expect(rec.num_reg_frames() == len(ids) - 2 and len(rec.images) == 2 * len(ids), rec.summary())
+    model = pysba.from_pycolmap(rec)
+    expect(repr(model) == "ColmapModel(cameras=4, images=20, points3D=300, rigs=2, frames=10)", repr(model))
+    for f in model.frames:
+        expect((f.q is None and f.t is None) == (f.id in gone), "from_pycolmap: frame %d's pose" % f.id)
+    for im in model.images:
+        theirs = rec.images[im.id]
+        expect((im.q is None and im.t is None) == (not theirs.has_pose), "from_pycolmap: image %d's pose" % im.id)
+        expect(list(zip(im.points2D.tolist(), im.point3D_ids.tolist())) == keypoints(theirs),
+               "from_pycolmap: image %d's keypoints" % im.id)
+    same_reconstruction(rec, pysba.to_pycolmap(model), "to_pycolmap(from_pycolmap(rec)) with unregistered frames")
+    print("PASS from_pycolmap and to_pycolmap keep the frames without a pose and their images")
+
+    with tempfile.TemporaryDirectory() as d:
+        rec.write_binary(d)
+        registered = pysba.read_colmap(d)
+    expect(len(registered.images) == 16, "pycolmap wrote %d images" % len(registered.images))
+    alone, result = pysba.refine_colmap(registered)
+    refined, again = pysba.refine_colmap(model)
+    expect(again.info.tolist() == result.info.tolist(), "refine_colmap: another problem than the registered ones'")
+    expect([im.id for im in refined.images] == [im.id for im in model.images] and
+           [f.id for f in refined.frames] == [f.id for f in model.frames], "refine_colmap: other images or frames")
+    posed = {im.id: im for im in alone.images}
+    for im, before in zip(refined.images, model.images):
+        if im.id in posed:
+            expect(values(im.q) + values(im.t) == values(posed[im.id].q) + values(posed[im.id].t),
+                   "refine_colmap: image %d's pose is not the registered model's" % im.id)
+        else:
+            expect(im.q is None and im.t is None and im is not before and
+                   list(zip(im.points2D.tolist(), im.point3D_ids.tolist())) ==
+                   list(zip(before.points2D.tolist(), before.point3D_ids.tolist())),
+                   "refine_colmap: image %d was not given back as it was" % im.id)
+    back, third = pysba.refine_colmap(rec)
+    expect(isinstance(back, pycolmap.Reconstruction) and third.info.tolist() == result.info.tolist(),
+           "refine_colmap(rec): another problem")
+    expect(sorted(back.frames) == ids and len(back.images) == 20 and back.num_reg_frames() == len(ids) - 2,
+           "refine_colmap(rec): %s" % back.summary())
+    same_reconstruction(pysba.to_pycolmap(refined), back, "refine_colmap(rec) with unregistered frames")
+    for k in gone:
+        expect(not back.frames[k].has_pose() and data_ids(back.frames[k]) == data_ids(rec.frames[k]),
+               "refine_colmap(rec): frame %d" % k)
+    print("PASS refine_colmap keeps the frames without a pose and their images as they were, "
+          "and solves the registered ones")
+
+
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--python", default="", help="a Python with pycolmap, used when this one has none")
@@ -162,6 +261,7 @@ def main(argv):
     print("pycolmap %s, pysba %s, Python %s" % (pycolmap.__version__, pysba.__file__, sys.version.split()[0]))
     try:
         run(pycolmap, pysba)
+        unregistered(pycolmap, pysba)
     except Failure as f:
         print("FAIL %s" % f)
         return 1

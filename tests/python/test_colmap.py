@@ -290,6 +290,19 @@ def test_frames_pose_the_images(tmp_path):
     assert refined.images[2].t.tolist() == model.frames[2].t.tolist()
 
 
+def test_the_strategy_run_by_default_is_the_one_documented(tmp_path, monkeypatch):
+    # COLMAP's (Ceres's trust region), whatever SBA_STRATEGY says, where solve()'s is sba's.
+    monkeypatch.setenv("SBA_STRATEGY", "sba-clean-retry")
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    assert pysba.refine_colmap(model)[1].strategy == "trust-region"
+    assert pysba.refine_colmap(model, opts=[1e-3, 1e-12, 1e-12, 1e-12, 1e-9])[1].strategy == "sba-clean-retry"
+    doc = " ".join(pysba.refine_colmap.__doc__.split())
+    assert ('strategy None runs "trust-region" (COLMAP\'s Levenberg-Marquardt), whatever $SBA_STRATEGY says, '
+            'unless opts[4] is given without function_tolerance: then solve()\'s default') in doc
+    solve = " ".join(pysba.solve.__doc__.split())
+    assert 'None: $SBA_STRATEGY, else "sba" (refine_colmap: "trust-region", COLMAP\'s, see there)' in solve
+
+
 def test_threads_give_the_same_model(tmp_path):
     model = pysba.read_colmap(sbagen(tmp_path)[0])
     one, r1 = pysba.refine_colmap(model, threads=1)
@@ -305,6 +318,29 @@ def test_progress_stops_with_the_model_so_far(tmp_path):
     assert seen == [1, 2] and r.reason == pysba.Reason.USER and r.iterations == 2
     two, _ = pysba.refine_colmap(model, itmax=2)
     same_model(stopped, two)
+
+
+def test_verbose_shows_the_progress(tmp_path, capsys):
+    # On stderr: the problem, a line per iteration (through the progress callback, the caller's
+    # called too), the end; the solve is the same.
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    quiet, r = pysba.refine_colmap(model)
+    assert capsys.readouterr().err == ""
+    seen = []
+    loud, again = pysba.refine_colmap(model, verbose=True, progress=lambda s: seen.append(s.iteration))
+    same_model(loud, quiet)
+    assert again.info.tolist() == r.info.tolist() and seen == list(range(1, r.iterations + 1))
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0] == "refine_colmap: 6 images, 6 cameras, 60 points, 250 observations"
+    assert r.rms_final == math.sqrt(r.sq_error_final / 250)
+    assert len(lines) == r.iterations + 2
+    for k, line in enumerate(lines[1:-1]):
+        assert re.fullmatch(rf"refine_colmap: iteration {k + 1}: RMS \S+ px, mu \S+, step \S+, \S+ s", line), line
+    assert f"RMS {r.rms_final:.6g} px," in lines[-2]
+    assert lines[-1] == (f"refine_colmap: RMS {r.rms_initial:.6g} px -> {r.rms_final:.6g} px in {r.iterations} "
+                         f"iterations: {r.reason.text}")
+    with pytest.raises(TypeError, match="verbose must be a bool, got int"):
+        pysba.refine_colmap(model, verbose=1)
 
 
 def test_keyboard_interrupt_keeps_the_model_so_far(tmp_path):
@@ -457,7 +493,8 @@ def test_write_refusals(tmp_path):
     model = pysba.read_colmap(sbagen(tmp_path)[0])
     with pytest.raises(ValueError, match="encoding must be 'text' or 'binary', got 'json'"):
         pysba.write_colmap(model, tmp_path / "out", "json")
-    with pytest.raises(TypeError, match="model must be a pysba.ColmapModel, got dict"):
+    with pytest.raises(TypeError, match=re.escape("model must be a pysba.ColmapModel or a pycolmap.Reconstruction, "
+                                                  "got dict")):
         pysba.write_colmap({}, tmp_path / "out")
     (tmp_path / "file").write_text("x")
     with pytest.raises(OSError, match=re.escape(f"{tmp_path}/file")):
@@ -521,8 +558,12 @@ def test_refine_refusals(tmp_path):
             (dict(threads=1.5), TypeError, "threads must be an int, got float")]:
         with pytest.raises(error, match=re.escape(message)):
             pysba.refine_colmap(model, **kw)
-    with pytest.raises(TypeError, match="model must be a pysba.ColmapModel, got str"):
-        pysba.refine_colmap(str(source))
+    for f in (pysba.refine_colmap, lambda m: pysba.write_colmap(m, tmp_path / "out")):
+        for path in (str(source), source):
+            with pytest.raises(TypeError, match=re.escape(
+                    f"model must be a pysba.ColmapModel or a pycolmap.Reconstruction, got {type(path).__name__} "
+                    f"(pysba.read_colmap(path) reads the model in a folder)")):
+                f(path)
     empty = pysba.ColmapModel()
     with pytest.raises(ValueError, match="model: the model has no images or no points"):
         pysba.refine_colmap(empty)
@@ -586,6 +627,73 @@ def test_an_overflowing_projection_is_named(tmp_path):
         with pytest.raises(ValueError, match=re.escape("model: image 13 (img_0001.png), camera 101 (OPENCV): point ")
                            + ".* px, where its squared reprojection error is not finite$"):
             pysba.refine_colmap(model, itmax=itmax)
+
+
+def with_unposed_frame(model):
+    """The model with a frame of rig 1 (camera 100's) without a pose, as pycolmap holds a frame it
+    has not registered, and its image 7, which observes no point, both first."""
+    model.images.insert(0, pysba.ColmapImage(7, "unposed.png", 100, None, None, np.array([[1.5, 2.5], [3.0, 4.0]]),
+                                             np.full(2, pysba.NO_POINT3D, np.uint64)))
+    model.frames.insert(0, pysba.ColmapFrame(7, 1, None, None, [("CAMERA", 100, 7)]))
+    return model
+
+
+def test_frames_without_a_pose_are_neither_written_nor_refined(tmp_path):
+    source = rigged(tmp_path)
+    model, unposed = pysba.read_colmap(source), with_unposed_frame(pysba.read_colmap(source))
+    pysba.write_colmap(unposed, tmp_path / "a", "binary")
+    pysba.write_colmap(model, tmp_path / "b", "binary")
+    assert files(tmp_path / "a") == files(tmp_path / "b")
+    # Held by IMAGE_ID and by row (mcon): the rows of the model given, the unposed image among them.
+    mine, r = pysba.refine_colmap(unposed, hold_poses=[13], mcon=1)
+    theirs, again = pysba.refine_colmap(model, hold_poses=[13], mcon=1)
+    assert r.info.tolist() == again.info.tolist()
+    first, frame = mine.images.pop(0), mine.frames.pop(0)
+    same_model(mine, theirs)
+    given = unposed.images[0]
+    assert first is not given and (first.id, first.name, first.q, first.t) == (7, "unposed.png", None, None)
+    same_array(first.points2D, given.points2D, "points2D")
+    same_array(first.point3D_ids, given.point3D_ids, "point3D_ids")
+    assert frame is not unposed.frames[0] and (frame.id, frame.q, frame.data) == (7, None, [("CAMERA", 100, 7)])
+
+
+def test_frames_without_a_pose_that_pycolmap_would_refuse(tmp_path):
+    source = rigged(tmp_path)
+    for change, message in [
+            (lambda m: set_attr(m.images[0], "t", [0.0, 0, 0]),
+             "images[0]: q and t go together: both None (no pose: not registered) or both given"),
+            (lambda m: set_attr(m.frames[0], "q", [1.0, 0, 0, 0]),
+             "frames[0]: q and t go together: both None (no pose: not registered) or both given"),
+            (lambda m: m.images[0].point3D_ids.__setitem__(1, 1007),
+             "images[0] has no pose (not registered) but observes point 1007 (point3D_ids[1]): an image without "
+             "a pose observes no point"),
+            (lambda m: m.frames[0].data.append(("CAMERA", 100, 10)),
+             "images[1] has a pose, but its frame 7 has none: COLMAP 4 registers the images of a frame with it"),
+            (lambda m: m.frames[1].data.append(("CAMERA", 100, 7)),
+             "images[0] has no pose (q and t None), but its frame 900 has one: COLMAP 4 registers the images of "
+             "a frame with it"),
+            (lambda m: m.frames[0].data.pop(),
+             "images[0] has no pose (q and t None) and is in no frame"),
+            (lambda m: m.frames[0].data.append(("CAMERA", 101, 8)),
+             "frames[0] has no pose (q and t None), but its image 8 is none of the images without one")]:
+        model = with_unposed_frame(pysba.read_colmap(source))
+        change(model)
+        for f in (lambda: pysba.write_colmap(model, tmp_path / "out"), lambda: pysba.refine_colmap(model)):
+            with pytest.raises(ValueError, match=re.escape(message)):
+                f()
+    plain = pysba.read_colmap(sbagen(tmp_path / "plain")[0])
+    plain.images[0].q = plain.images[0].t = None
+    with pytest.raises(ValueError, match=re.escape("images[0] has no pose (q and t None), which only an image of a "
+                                                   "frame without one may have, and the model has no frames")):
+        pysba.write_colmap(plain, tmp_path / "out")
+
+
+def test_the_pycolmap_route_points_large_models_to_the_files():
+    # Its conversions write and read whole models: for large ones the docs send the user to the
+    # files, read and written by pysba, until a Reconstruction is read in memory.
+    for f in (pysba.from_pycolmap, pysba.to_pycolmap, pysba.refine_colmap):
+        doc = " ".join(f.__doc__.split())
+        assert "large models" in doc and "read_colmap" in doc and "write_colmap" in doc, f.__name__
 
 
 def test_pycolmap_is_named_when_missing(monkeypatch):

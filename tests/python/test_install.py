@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """`pip install .` from a copy of the source tree into a fresh venv, by both routes of
 docs/python.md, and from an sdist of it; then pysba imported from there, in a clean
-environment, solves a problem. Slow (each builds the library): ctest runs them as a test of
+environment, solves a problem, its version is the package's, and the venv's sbarefine command
+runs the program. Slow (each builds the library): ctest runs them as a test of
 its own.
 
 - --no-build-isolation: with what is installed (Debian's setuptools, wheel, pybind11-dev).
@@ -27,11 +28,12 @@ import pytest
 from conftest import DEMO, REPO, need
 
 SCRIPT = """
-import sys, pysba
+import importlib.metadata, sys, pysba
 problem = pysba.read_eucsbademo(sys.argv[1], sys.argv[2], sys.argv[3])
 result = pysba.solve(problem)
 print(pysba.__file__)
 print(f"{result.final_mse:g} {result.iterations} {result.reason.name}")
+print(importlib.metadata.version("pysba"), pysba.__version__, pysba.SBA_VERSION)
 """
 
 WHEELS = Path("/usr/share/python-wheels")
@@ -74,7 +76,30 @@ def install_and_solve(tmp_path, pip_args, extra_env=None, base=sys.executable, i
                          capture_output=True, text=True).stdout.split("\n")
     assert Path(out[0]).is_relative_to(venv)
     assert out[1] == "0.675396 17 STEP"
+    version, library_version, sba_version = out[2].split(" ", 2)
+    assert version == library_version
+    check_sbarefine(venv, env, tmp_path, sba_version)
     return pip.stdout + pip.stderr
+
+
+def check_sbarefine(venv, env, tmp_path, sba_version):
+    """The venv's sbarefine command is the program (its --version), and refines a model of the
+    build's sbagen (when ctest names it) as the build's sbarefine does."""
+    command = venv / "bin" / "sbarefine"
+    version = subprocess.run([str(command), "--version"], env=env, capture_output=True, text=True, check=True)
+    assert version.stdout.startswith(f"sbarefine (sba {sba_version})"), version.stdout
+    sbagen, built = os.environ.get("PYSBA_SBAGEN"), os.environ.get("PYSBA_SBAREFINE")
+    if not sbagen or not built:
+        return
+    subprocess.run([sbagen, "--cameras", "6", "--points", "60", "--quiet", "--out", str(tmp_path / "g"),
+                    "--colmap", str(tmp_path / "model")], check=True)
+    lines = []
+    for k, exe in enumerate((str(command), built)):
+        run = subprocess.run([exe, str(tmp_path / "model"), "--threads", "1", "--write", str(tmp_path / f"out{k}")],
+                             env=env, capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr
+        lines.append([line for line in run.stdout.splitlines() if line.startswith("SBA returned")])
+    assert lines[0] == lines[1] and len(lines[0]) == 1, lines
 
 
 def test_pip_install_without_build_isolation(tmp_path):

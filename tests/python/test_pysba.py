@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """pysba against the C programs and the library's own models, its errors, and Ctrl-C."""
+import builtins
 import os
 import re
 import signal
@@ -7,6 +8,7 @@ import subprocess
 import sys
 import threading
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -126,9 +128,32 @@ def test_default_solver_is_auto(cams7, monkeypatch):
     monkeypatch.setenv("SBA_LINSOLVER", "lu")
     assert pysba.solve(cams7, itmax=2).solver == "lu"
     monkeypatch.setenv("SBA_LINSOLVER", "magic")
-    r = pysba.solve(seq, itmax=1, mcon=1)
+    with pytest.warns(RuntimeWarning, match='unknown SBA_LINSOLVER "magic"'):
+        r = pysba.solve(seq, itmax=1, mcon=1)
     assert r.solver == "sparse-chol" and any('unknown SBA_LINSOLVER "magic"' in line and "using auto" in line
                                              for line in r.log)
+
+
+def test_ignored_environment_variables_are_python_warnings(cams7, monkeypatch):
+    # As the programs print them: a warning the user sees, attributed to the caller's line,
+    # named as pysba's, once each; the result's log keeps the library's lines.
+    monkeypatch.setenv("SBA_LINSOLVER", "magic")
+    monkeypatch.setenv("SBA_STRATEGY", "dogleg")
+    m = Euclidean(cams7.cameras, cams7.calibration)
+    args = (cams7.camera_index, cams7.point_index, cams7.observations)
+    for run in (lambda: pysba.solve(cams7, itmax=1, covariance=True),
+                lambda: pysba.motstr(m.project, m.initial, cams7.points, *args, itmax=1)):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            r = run()
+        names = pysba.solver_names()
+        assert [(w.category, str(w.message), w.filename) for w in caught] == [
+            (RuntimeWarning, f'pysba: unknown SBA_LINSOLVER "magic" (known: {" ".join(names)}); using auto',
+             __file__),
+            (RuntimeWarning, 'pysba: unknown SBA_STRATEGY "dogleg" (known: sba sba-clean-retry trust-region); '
+             'using sba', __file__)]
+        assert r.log[1] == ('sba_motstr_levmar_x_vis: unknown SBA_STRATEGY "dogleg" (known: sba sba-clean-retry '
+                            'trust-region); using sba')
 
 
 def test_threads_give_the_same_bits(cams54):
@@ -249,7 +274,7 @@ def test_motion_only_and_structure_only(cams7):
     # From perturbed points with the cameras held at the optimum, structure only finds the
     # optimum's points again; likewise motion only finds its cameras.
     noisy_pts = best.points + np.random.default_rng(2).normal(scale=1e-3, size=best.points.shape)
-    s = pysba.str(m.project, best.cameras, noisy_pts, *args, jacobian=m.jacobian)
+    s = pysba.structure(m.project, best.cameras, noisy_pts, *args, jacobian=m.jacobian)
     assert np.array_equal(s.cameras, best.cameras)
     assert np.allclose(s.points, best.points, atol=1e-6) and s.final_mse == pytest.approx(best.final_mse, rel=1e-6)
     noisy_cams = best.cameras + np.random.default_rng(3).normal(scale=1e-4, size=best.cameras.shape)
@@ -257,6 +282,39 @@ def test_motion_only_and_structure_only(cams7):
                   jacobian=lambda *x: (m.jacobian(*x)[0], None))
     assert np.array_equal(a.points, best.points)
     assert np.allclose(a.cameras, best.cameras, atol=1e-6) and a.final_mse == pytest.approx(best.final_mse, rel=1e-6)
+
+
+def test_the_readmes_python_section(monkeypatch, capsys):
+    # Its example runs from the repository root on files the repository holds, and it says what
+    # `pip install .` builds with.
+    section = (REPO / "README.md").read_text().split("\n## Python\n")[1].split("\n## ")[0]
+    code = "\n".join(line[4:] for line in section.splitlines() if line.startswith("    "))
+    monkeypatch.chdir(REPO)
+    exec(code, {})
+    # The minimum data/README.md gives for the problem.
+    assert re.fullmatch(r"Result\(final_mse=0.348015, initial_mse=216.4, .*\)\n", capsys.readouterr().out)
+    text = " ".join(section.split())
+    for requirement in ("CMake", "LAPACK", "SuiteSparse", "bzip2", "pybind11-dev python3-numpy"):
+        assert requirement in text
+
+
+def test_version_is_the_librarys():
+    # As the programs' --version names it (sba.h's SBA_VERSION), which CMake's project and the
+    # package's metadata (setup.py) take too.
+    declared = re.search(r'#define SBA_VERSION "1.6-compatible \(sba-cpp ([0-9.]+)\)"', (REPO / "sba.h").read_text())
+    assert pysba.__version__ == declared.group(1) and pysba.SBA_VERSION.endswith(f"(sba-cpp {pysba.__version__})")
+    assert f"project(sba VERSION {pysba.__version__} " in (REPO / "CMakeLists.txt").read_text()
+
+
+def test_star_import_shadows_no_builtin():
+    namespace = {}
+    exec("from pysba import *\nfive = str(5)", namespace)
+    assert namespace["five"] == "5"
+    assert [name for name in namespace if name != "__builtins__" and hasattr(builtins, name)] == []
+    # sba's name for the structure-only driver, kept for the code that calls it by it.
+    assert pysba.str is pysba.structure and "str" not in pysba.__all__ and "structure" in pysba.__all__
+    exec("from pysba import str as sba_str", namespace)
+    assert namespace["sba_str"] is pysba.structure
 
 
 @pytest.mark.parametrize("error", [ZeroDivisionError("from the model"), KeyboardInterrupt()])
@@ -501,6 +559,12 @@ def test_daemon_thread_solving_at_exit(model, cams54):
 def test_files_that_cannot_be_read(tmp_path):
     with pytest.raises(FileNotFoundError):
         pysba.read_bal(tmp_path / "absent.txt")
+    # The path as given, not its bytes.
+    absent = str(tmp_path / "absent.txt")
+    for read in (pysba.read_bal, lambda p: pysba.read_eucsbademo(p, p), pysba.read_colmap):
+        with pytest.raises(FileNotFoundError) as e:
+            read(absent)
+        assert e.value.filename == absent and str(e.value) == f"[Errno 2] No such file or directory: {absent!r}"
     with pytest.raises(IsADirectoryError):
         pysba.read_eucsbademo(tmp_path, tmp_path, None)
     with pytest.raises(FileNotFoundError):
@@ -525,7 +589,8 @@ def test_bad_arguments_raise_value_error(cams7):
                       (dict(itmax=-1), "itmax"),
                       (dict(mcon=8), "mcon"), (dict(ncon=-1), "ncon"),
                       (dict(opts=[1, 2]), "opts must hold 5"),
-                      (dict(loss="nope"), "nope"), (dict(loss="huber", loss_scale=-1.0), "loss_scale"),
+                      (dict(loss="nope"), "^unknown loss 'nope' \\(known: none huber cauchy soft-l1 tukey\\)$"),
+                      (dict(loss="huber", loss_scale=-1.0), "loss_scale"),
                       (dict(opts=[0, 1e-12, 1e-12, 1e-12, 0]), "tau")]:
         with pytest.raises(ValueError, match=match):
             pysba.solve(p, **kw)
