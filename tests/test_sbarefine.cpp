@@ -1139,6 +1139,23 @@ TEST(SbarefineColmapModels, DefaultsAreColmaps) {
   EXPECT_EQ(r.out.find(", strategy "), std::string::npos) << r.out;
   r = run(dir + "/in --eps4 1e-3 --itmax 1");  // sba's eps4: sba's tests
   EXPECT_EQ(r.out.find(", strategy "), std::string::npos) << r.out;
+  // SBA_STRATEGY is the default of the other formats, not of a COLMAP model's COLMAP defaults.
+  r = run(dir + "/in --itmax 1", "SBA_STRATEGY=sba-clean-retry ");
+  EXPECT_NE(r.out.find(", strategy trust-region, "), std::string::npos) << r.out;
+  r = run(dir + "/in --eps4 1e-3 --itmax 1", "SBA_STRATEGY=sba-clean-retry ");
+  EXPECT_NE(r.out.find(", strategy sba-clean-retry, "), std::string::npos) << r.out;
+  // --help says so, and what --itmax is for each format.
+  r = run("--help");
+  EXPECT_NE(r.out.find("        a relative cost tolerance: usually far fewer iterations); default: trust-region\n"
+                       "        for a COLMAP model (COLMAP's bundle adjuster runs Ceres's Levenberg-Marquardt), unless\n"
+                       "        --eps4 (or --opts) gives sba's relative error test; otherwise (a Bundler or NVM file) the\n"
+                       "        environment variable SBA_STRATEGY if set, else sba\n"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("  --itmax=N\n        maximum iterations (default 100 for a COLMAP model, as COLMAP; 150 for "
+                       "a Bundler or NVM file)\n"),
+            std::string::npos)
+      << r.out;
 }
 
 // The shared-camera problem through every linear solver and both strategies: one minimum.

@@ -107,13 +107,13 @@ std::string to_file(const std::string &text, std::string *out) {
   return {};
 }
 
-Option strategy_option(std::string *strategy) {
+Option strategy_option(std::string *strategy, const char *default_text) {
   return {"strategy", "NAME",
-          "how LM damps, accepts steps and stops: sba (sba 1.6's algorithm, the default),\n"
-          "sba-clean-retry (the same, but a rejected step is retried on the undamped normal\n"
-          "equations, as the sba paper writes it) or trust-region (Marquardt's scaled damping and\n"
-          "a relative cost tolerance: usually far fewer iterations); default: the environment\n"
-          "variable SBA_STRATEGY if set, else sba",
+          std::string("how LM damps, accepts steps and stops: sba (sba 1.6's algorithm),\n"
+                      "sba-clean-retry (the same, but a rejected step is retried on the undamped normal\n"
+                      "equations, as the sba paper writes it) or trust-region (Marquardt's scaled damping and\n"
+                      "a relative cost tolerance: usually far fewer iterations); default: ") +
+              (default_text ? default_text : "the environment\nvariable SBA_STRATEGY if set, else sba"),
           [strategy](const std::string &v) { return to_strategy(v, strategy); }};
 }
 

@@ -61,8 +61,9 @@ std::string to_file(const std::string &text, std::string *out);
 // The LM options of sba's opts[]: --opts=TAU,EPS1,EPS2,EPS3,EPS4 and --tau, --eps1 .. --eps4.
 void add_lm_options(std::vector<Option> *options, std::array<double, 5> *opts);
 
-// --strategy NAME into *strategy (checked by to_strategy).
-Option strategy_option(std::string *strategy);
+// --strategy NAME into *strategy (checked by to_strategy). default_text: what --help says the
+// program runs when it is not given, after "default: " (null: the library's default).
+Option strategy_option(std::string *strategy, const char *default_text = nullptr);
 
 struct Parsed {
   std::vector<std::string> positional;  // arguments that are not options, in order

@@ -180,11 +180,20 @@ void add_format_options(std::vector<sbacli::Option> *t, Options &o) {
 
 std::vector<sbacli::Option> option_table(Options &o) {
   std::vector<sbacli::Option> t;
+  // What resolve_defaults makes of an option not given, for each format.
+  sbacli::SolveDefaults defaults;
+  defaults.strategy =
+      "trust-region\n"
+      "for a COLMAP model (COLMAP's bundle adjuster runs Ceres's Levenberg-Marquardt), unless\n"
+      "--eps4 (or --opts) gives sba's relative error test; otherwise (a Bundler or NVM file) the\n"
+      "environment variable SBA_STRATEGY if set, else sba";
+  defaults.itmax = "default 100 for a COLMAP model, as COLMAP; 150 for a Bundler or NVM file";
   sbacli::add_solve_options(
       &t, o.solve,
       {"write", "OUT", "write the refined model in the input's format: a COLMAP model into the directory\n"
                         "OUT (created if missing), a Bundler or NVM file to the file OUT",
-       [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }});
+       [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }},
+      defaults);
   t.push_back({"write-format", "F", "the format of --write: text or binary (default: the input's)",
                [&o](const std::string &v) { return sbacli::to_choice(v, {"text", "binary"}, &o.write_format); }});
   add_intrinsics_options(&t, o);
