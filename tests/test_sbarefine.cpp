@@ -523,28 +523,53 @@ TEST(SbarefineRigs, ConversionsLeaveNoStaleFile) {
   std::string error;
   ASSERT_TRUE(colmap::write_model(model, in, colmap::Encoding::Binary, &error)) << error;
   const std::string frames_bin = read_file(model + "/frames.bin");
+  // What was removed is said, with why, after the "Wrote" line.
+  const auto removed = [&](const std::string &folder, const char *x, const std::string &line) {
+    std::string paths;
+    for (const char *f : {"cameras", "frames", "rigs", "points3D", "images"})
+      paths += (paths.empty() ? "" : ", ") + folder + "/" + f + x;
+    return "\nWrote " + folder + "\nRemoved the " + (x[1] == 't' ? "text" : "binary") + " model (" + paths + "): " +
+           line + "\n";
+  };
+  const std::string binary_removed = "COLMAP reads a folder's binary model first, and would have read it, not the "
+                                     "text model written";
+  const std::string text_removed = "a folder holds one model, and a reader that takes the text one would have "
+                                   "read stale values (COLMAP reads the binary one first)";
   Outcome r = run(model + " --itmax 0 --write " + model + " --write-format text");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(entries(model), model_files(colmap::Encoding::Text));
   EXPECT_EQ(read_file(model + "/frames.txt"), colmap::format_model(in, colmap::Encoding::Text).frames);
+  EXPECT_NE(r.out.find(removed(model, ".bin", binary_removed)), std::string::npos) << r.out;
   r = run(model + " --itmax 0 --write " + model + " --write-format binary");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(entries(model), model_files(colmap::Encoding::Binary));
   EXPECT_EQ(read_file(model + "/frames.bin"), frames_bin);
+  EXPECT_NE(r.out.find(removed(model, ".txt", text_removed)), std::string::npos) << r.out;
   // A refined conversion, into a folder holding the other encoding's model.
   ASSERT_TRUE(colmap::write_model(dir + "/out", in, colmap::Encoding::Text, &error)) << error;
   r = run(model + " --write " + dir + "/out --write-format binary");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(entries(dir + "/out"), model_files(colmap::Encoding::Binary));
+  EXPECT_NE(r.out.find(removed(dir + "/out", ".txt", text_removed)), std::string::npos) << r.out;
   r = run(model + " --write " + model + " --write-format text");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(entries(model), model_files(colmap::Encoding::Text));
+  // Nothing to remove, nothing said.
+  r = run(model + " --write " + model);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out.find("Removed"), std::string::npos) << r.out;
   // A COLMAP 3 model written over it: three files, as it was read.
   ASSERT_TRUE(colmap::write_model(dir + "/plain", s.model, colmap::Encoding::Text, &error)) << error;
   r = run(dir + "/plain --write " + model);
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(entries(model), model_files(colmap::Encoding::Text, false));
   EXPECT_EQ(entries(dir + "/plain"), model_files(colmap::Encoding::Text, false));
+  EXPECT_NE(r.out.find("\nWrote " + model + "\nRemoved the rigs and frames of another model (" + model +
+                       "/rigs.txt, " + model +
+                       "/frames.txt): the model written has none, and COLMAP 4 would compose its images' poses from "
+                       "them\n"),
+            std::string::npos)
+      << r.out;
 }
 
 // A model with one of the two files, which COLMAP 4 refuses to read: refused, nothing

@@ -166,7 +166,7 @@ class MotstrSolve {
   // After the program's sizes line: sba 1.6's summary, the report, --json (each camera's
   // error through project(j, i, x) at the result, named by `names` where given) into the
   // run's outputs, which are then published (publish_outputs), "Wrote OUT" when `written` is
-  // not empty; the exit status.
+  // not empty, and a line for the files publishing removed (print_removed); the exit status.
   template <class Project>
   int finish(double read_seconds, Project project, const std::vector<std::string> &names,
              const std::string &written, sbaformats::OutputSet *outputs) {
@@ -190,6 +190,7 @@ class MotstrSolve {
     if (const int status = control_->late_signal(program_, info_[6] == SBA_STOP_USER, outputs)) return status;
     if (!sbaformats::publish_outputs(program_, outputs)) return kExitFailure;
     if (!written.empty()) std::printf("Wrote %s\n", written.c_str());
+    print_removed(stdout, *outputs);
     // A stopped solve is a result (written above), but the status says it was cut short by a
     // signal; a time limit the user set is an ordinary end.
     if (info_[6] == SBA_STOP_USER) return stopped_status(program_, *control_, so_.max_time, static_cast<int>(info_[5]));

@@ -106,6 +106,19 @@ void print_report(std::FILE *out, const Report &r) {
                named ? ", strategy " : "", named ? r.result.strategy : "", r.seconds);
 }
 
+void print_removed(std::FILE *out, const sbaformats::OutputSet &outputs) {
+  const std::vector<sbaformats::OutputSet::Removal> &removed = outputs.removed();
+  for (std::size_t k = 0; k < removed.size();) {
+    std::string paths = removed[k].path;
+    std::size_t next = k + 1;
+    for (; next < removed.size() && removed[next].what == removed[k].what && removed[next].why == removed[k].why;
+         ++next)
+      paths += ", " + removed[next].path;
+    std::fprintf(out, "Removed %s (%s): %s\n", removed[k].what.c_str(), paths.c_str(), removed[k].why.c_str());
+    k = next;
+  }
+}
+
 bool write_json(const std::string &path, const Report &r, std::string *error,
                 sbaformats::OutputSet *outputs) {
   std::string j = "{\n";

@@ -69,6 +69,10 @@ std::string stop_reason_text(int reason);
 // The lines printed after sba 1.6's summary.
 void print_report(std::FILE *out, const Report &r);
 
+// What a run's outputs removed when they were published (OutputSet::removed), a line for each
+// reason: "Removed WHAT (PATH, PATH ...): WHY".
+void print_removed(std::FILE *out, const sbaformats::OutputSet &outputs);
+
 // Writes the report as one JSON object to path (whole or not at all, see output_file.h; with
 // `outputs`, when that set of the run's outputs is committed): false with "PATH: why" in *error
 // if it cannot.

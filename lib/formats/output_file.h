@@ -274,11 +274,18 @@ class OutputSet {
     return true;
   }
 
-  // path is removed once every file of the set is in place (a missing one is no error);
-  // `what` says in a failure's message what it is ("PATH: cannot remove WHAT: why").
-  void remove_on_commit(const std::string &path, const std::string &what) {
-    removals_.push_back({path, what});
+  // A file commit() removes: `what` it is ("PATH: cannot remove WHAT: why" when that fails),
+  // and `why` it goes, for the program to say (removed()).
+  struct Removal {
+    std::string path, what, why;
+  };
+
+  // path is removed once every file of the set is in place (a missing one is no error).
+  void remove_on_commit(const std::string &path, const std::string &what, const std::string &why) {
+    removals_.push_back({path, what, why});
   }
+  // The files the last commit removed (those of remove_on_commit that were there), in order.
+  const std::vector<Removal> &removed() const { return removed_; }
 
   // Renames every file onto its name (devices and FIFOs: already written), then removes the
   // files remove_on_commit named. False with "PATH: why" in *error on the first failure; the
@@ -292,12 +299,16 @@ class OutputSet {
         if (e.last == last && !e.file->publish(&why)) return failed(e.path, why, error);
     files_.clear();
     made_.clear();
-    for (const Removal &r : removals_)
-      if (std::remove(r.path.c_str()) != 0 && errno != ENOENT) {
+    removed_.clear();
+    for (const Removal &r : removals_) {
+      if (std::remove(r.path.c_str()) == 0) {
+        removed_.push_back(r);
+      } else if (errno != ENOENT) {
         why = std::strerror(errno);
         removals_.clear();
         return failed(r.path, "cannot remove " + r.what + ": " + why, error);
       }
+    }
     removals_.clear();
     return true;
   }
@@ -318,10 +329,6 @@ class OutputSet {
     std::string path;                  // as the caller named it, for messages
     bool last;
   };
-  struct Removal {
-    std::string path, what;
-  };
-
   bool failed(const std::string &path, const std::string &why, std::string *error) {
     if (error) *error = path + ": " + why;
     discard();
@@ -331,6 +338,7 @@ class OutputSet {
   std::vector<Entry> files_;
   std::vector<std::string> made_;  // directories made, in order
   std::vector<Removal> removals_;
+  std::vector<Removal> removed_;
 };
 
 // The file a writer streams into: in *set (renamed when the set is committed) or, set null, a
