@@ -703,6 +703,35 @@ TEST(Sbarefine, OutputsCheckedBeforeTheSolve) {
   EXPECT_EQ(entries(dir + "/in"), kTextFiles);
 }
 
+// A model written back into a folder that takes no new file, whose files are all writable: the
+// folder is named, before anything is read or solved, and nothing changes. Run by a user other
+// than root (nobody, through setpriv, when the test runs as root), whom the folder refuses.
+TEST(Sbarefine, AFolderThatTakesNoNewFileIsNamed) {
+  std::string as_user;
+  if (::geteuid() == 0) {
+    if (std::system("setpriv --reuid=65534 --regid=65534 --clear-groups true 2>/dev/null") != 0)
+      GTEST_SKIP() << "root, and no setpriv to run sbarefine as another user";
+    as_user = "setpriv --reuid=65534 --regid=65534 --clear-groups ";
+  }
+  const std::string dir = temp_dir("read_only_model");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 6, 60);
+  const std::string model = dir + "/ro";
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(model, colmap4(s.model, false), colmap::Encoding::Binary, &error)) << error;
+  const std::vector<std::string> files = entries(model);
+  for (const std::string &f : files) ASSERT_EQ(::chmod((model + "/" + f).c_str(), 0666), 0) << f;
+  const std::string before = read_file(model + "/images.bin");
+  ASSERT_EQ(::chmod(model.c_str(), 0555), 0);
+  const Outcome r = run(model + " --write " + model, as_user);
+  ASSERT_EQ(::chmod(model.c_str(), 0755), 0);
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_EQ(r.out, "");
+  EXPECT_EQ(r.err, model + "/images.bin: cannot create files in the folder " + model +
+                       ": Permission denied (a file is written under a temporary name beside its own, then renamed)\n");
+  EXPECT_EQ(entries(model), files);
+  EXPECT_EQ(read_file(model + "/images.bin"), before);
+}
+
 // Names and paths that are not UTF-8 (an image name with the bytes 0xff 0xfe) go to --json as
 // Python's surrogateescape writes them, \udcff \udcfe: valid JSON, from which those bytes come
 // back; UTF-8 goes as it is.

@@ -36,6 +36,30 @@
 
 namespace sbaformats {
 
+// The folder a file at path is written in (its temporary made there and renamed onto it): the
+// folder of path as named, or, for a symbolic link, of the file it leads to.
+inline std::string folder_of(const std::string &path) {
+  std::string file = path;
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0 && S_ISLNK(st.st_mode))
+    if (char *real = ::realpath(path.c_str(), nullptr)) {
+      file = real;
+      std::free(real);
+    }
+  const std::size_t slash = file.find_last_of('/');
+  if (slash == std::string::npos) return ".";
+  return slash == 0 ? "/" : file.substr(0, slash);
+}
+
+// Why a file cannot be made in the folder of path, for the errno of a failure that is the
+// folder's rather than the file's (no permission, a read-only file system); empty for another.
+// A writable file in such a folder cannot be replaced either: its replacement is a new file.
+inline std::string folder_refusal(const std::string &path, int err) {
+  if (err != EACCES && err != EPERM && err != EROFS) return {};
+  return "cannot create files in the folder " + folder_of(path) + ": " + std::strerror(err) +
+         " (a file is written under a temporary name beside its own, then renamed)";
+}
+
 class OutputFile {
  public:
   OutputFile() = default;
@@ -45,7 +69,8 @@ class OutputFile {
   ~OutputFile() { discard(); }
 
   // Creates the file to write. On failure returns false with the reason (strerror text, e.g.
-  // "cannot open for writing: No such file or directory") in *why.
+  // "cannot open for writing: No such file or directory", or folder_refusal's for a folder that
+  // takes no new file) in *why.
   bool open(const std::string &path, std::string *why) {
     discard();
     final_ = path;
@@ -69,6 +94,13 @@ class OutputFile {
       // 0666 less the umask, as fopen would create it.
       const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
       if (fd < 0 && errno == EEXIST) continue;
+      if (fd < 0) {
+        const std::string refusal = folder_refusal(path, errno);
+        if (!refusal.empty()) {
+          if (why) *why = refusal;
+          return false;
+        }
+      }
       if (fd >= 0) {
         temp_ = temp;
         // A file being replaced keeps its permission bits.
@@ -387,6 +419,8 @@ inline bool write_whole_file(const std::string &path, const std::string &text, s
 // Checks before a long computation that path can be written, without changing an existing
 // file and without leaving a new one behind: false with the reason in *why if not. Devices
 // and FIFOs pass unopened: opening a FIFO could block, or end the stream its reader waits on.
+// The folder must take a new file (the temporary a file is written under), even when the file
+// itself is writable.
 inline bool probe_writable(const std::string &path, std::string *why) {
   struct stat st {};
   const bool existed = ::stat(path.c_str(), &st) == 0;
@@ -395,6 +429,13 @@ inline bool probe_writable(const std::string &path, std::string *why) {
     return false;
   }
   if (existed && !S_ISREG(st.st_mode)) return true;
+  if (::faccessat(AT_FDCWD, folder_of(path).c_str(), W_OK | X_OK, AT_EACCESS) != 0) {
+    const std::string refusal = folder_refusal(path, errno);
+    if (!refusal.empty()) {
+      if (why) *why = refusal;
+      return false;
+    }
+  }
   std::FILE *probe = std::fopen(path.c_str(), "a");
   if (!probe) {
     if (why) *why = std::string("cannot open for writing: ") + std::strerror(errno);
