@@ -294,6 +294,50 @@ TEST(Sbarefine, HeldValuesComeBackBitForBit) {
   }
 }
 
+// The sizes and what is refined are printed once the model is read, before the solve (here
+// before the library's --verbose lines); after the RMS error comes COLMAP's mean reprojection
+// error (each point's mean distance, averaged over the points), the mean of the ERROR values of
+// the refined model written, and its initial and final errors as a run that solves nothing
+// (--itmax 0) reports them.
+TEST(Sbarefine, SummaryFirstAndColmapsMeanError) {
+  const std::string dir = temp_dir("summary_first");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  Outcome r = run(dir + "/in --verbose 1 --write " + dir + "/out --json " + dir + "/r.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::size_t sizes = r.out.find("COLMAP model " + dir + "/in (text): ");
+  const std::size_t models = r.out.find("\nCamera models: ");
+  const std::size_t solve = r.out.find("sba_motstr_levmar_x_vis: ");
+  ASSERT_NE(solve, std::string::npos) << r.out;
+  EXPECT_EQ(sizes, 0u) << r.out;
+  EXPECT_LT(models, solve) << r.out;
+  const std::string json = read_file(dir + "/r.json");
+  const std::size_t at = json.find("\"mean_px\": {\"initial\": ");
+  ASSERT_NE(at, std::string::npos) << json;
+  char *end = nullptr;
+  const double initial = std::strtod(json.c_str() + at + 23, &end);
+  const double final = std::strtod(std::strstr(end, "\"final\": ") + 9, nullptr);
+  char line[128];
+  std::snprintf(line, sizeof line, "\nMean reprojection error (COLMAP's): initial %.6g px, final %.6g px\n", initial,
+                final);
+  EXPECT_NE(r.out.find(std::string("px\n") + (line + 1)), std::string::npos) << r.out;  // after the RMS line
+  EXPECT_GT(initial, 2 * final);
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  double sum = 0;
+  for (const colmap::Point3D &pt : back.points) sum += pt.error;
+  EXPECT_NEAR(sum / static_cast<double>(back.points.size()), final, 1e-12 * final);
+  r = run(dir + "/out --itmax 0 --json " + dir + "/again.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string again = read_file(dir + "/again.json");
+  const std::size_t at0 = again.find("\"mean_px\": {\"initial\": ");
+  ASSERT_NE(at0, std::string::npos) << again;
+  const double initial0 = std::strtod(again.c_str() + at0 + 23, &end);
+  EXPECT_EQ(std::strtod(std::strstr(end, "\"final\": ") + 9, nullptr), initial0);
+  EXPECT_NEAR(initial0, final, 1e-9 * final);
+}
+
 TEST(Sbarefine, MaxTimeStopsAfterAnIterationAndStillWrites) {
   const std::string dir = temp_dir("maxtime");
   const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
@@ -311,7 +355,14 @@ TEST(Sbarefine, MaxTimeStopsAfterAnIterationAndStillWrites) {
 TEST(Sbarefine, CommandLineErrors) {
   Outcome r = run("--refine-focal-length 2 x");
   EXPECT_EQ(r.status, 2);
-  EXPECT_EQ(r.err, "sbarefine: bad value '2' for --refine-focal-length: expected 0 or 1\n");
+  EXPECT_EQ(r.err, "sbarefine: bad value '2' for --refine-focal-length: expected 1, true, yes or on, or 0, false, no or off (in any case)\n");
+  for (const char *bad : {"--refine-focal-length=", "--refine-focal-length=tru", "--refine-focal-length=y"}) {
+    r = run(std::string(bad) + " x");
+    EXPECT_EQ(r.status, 2) << bad;
+    EXPECT_EQ(r.err, std::string("sbarefine: bad value '") + (std::strchr(bad, '=') + 1) +
+                         "' for --refine-focal-length: expected 1, true, yes or on, or 0, false, no or off (in any case)\n")
+        << bad;
+  }
   r = run("--function-tolerance -1 x");
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(r.err, "sbarefine: bad value '-1' for --function-tolerance: expected a non-negative number\n");
@@ -337,6 +388,26 @@ TEST(Sbarefine, CommandLineErrors) {
   r = run(dir + " --intrinsics none --mcon 2");
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.err, dir + "/cameras.txt:1: camera 1: PINHOLE's fx must be positive, got 0\n");
+}
+
+// COLMAP's boolean options take what COLMAP's command line takes (boost::program_options'
+// bool): 1, true, yes, on and 0, false, no, off, in any case.
+TEST(Sbarefine, ColmapBooleansAsColmapReadsThem) {
+  const std::string dir = temp_dir("booleans");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 6, 60);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  const struct {
+    const char *yes, *no;
+  } spellings[] = {{"1", "0"}, {"true", "false"}, {"TRUE", "False"}, {"yes", "no"}, {"Yes", "NO"}, {"on", "off"},
+                   {"ON", "Off"}};
+  for (const auto &b : spellings) {
+    const Outcome r = run(dir + "/in --itmax 0 --refine-focal-length=" + b.no + " --refine-principal-point " +
+                          b.yes + " --refine-extra-params=" + b.no);
+    ASSERT_EQ(r.status, 0) << b.yes << " " << r.err;
+    EXPECT_NE(r.out.find("; focal length held, principal point refined, extra parameters held; "), std::string::npos)
+        << b.yes << "\n" << r.out;
+  }
 }
 
 // A quaternion of any nonzero size is a rotation, in a COLMAP model (text and binary) as in
@@ -624,7 +695,9 @@ TEST(Sbarefine, FullDiskLeavesTheInputModelAsItWas) {
   const Outcome r = run(model + " --write " + model);
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.err, model + "/points3D.bin: write failed: No space left on device\n");
-  EXPECT_EQ(r.out, "");
+  // What was read is said before the solve; no result after a failed write.
+  EXPECT_EQ(r.out.rfind("COLMAP model " + model + " (binary): 10 images, ", 0), 0u) << r.out;
+  EXPECT_EQ(r.out.find("SBA returned"), std::string::npos) << r.out;
   EXPECT_EQ(entries(model), kBinaryFiles);
   EXPECT_TRUE(contents(model, kBinaryFiles) == before);
 }
@@ -2026,7 +2099,7 @@ TEST(SbarefineRigs, PoseOptions) {
   }
   r = run(in + " --refine-sensor-from-rig 2");
   EXPECT_EQ(r.status, 2);
-  EXPECT_EQ(r.err, "sbarefine: bad value '2' for --refine-sensor-from-rig: expected 0 or 1\n");
+  EXPECT_EQ(r.err, "sbarefine: bad value '2' for --refine-sensor-from-rig: expected 1, true, yes or on, or 0, false, no or off (in any case)\n");
   r = run("--help");
   for (std::string opt : {"refine-rig-from-world", "refine-sensor-from-rig", "constant-rig-from-world-rotation"}) {
     std::string colmap_name = opt;

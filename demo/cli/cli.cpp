@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "cli/cli.h"
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -63,6 +64,22 @@ std::string to_real(const std::string &text, double lo, bool strict, double *out
   }
   *out = v;
   return {};
+}
+
+std::string to_bool(const std::string &text, bool *out) {
+  std::string lower = text;
+  for (char &c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (const char *yes : {"1", "true", "yes", "on"})
+    if (lower == yes) {
+      *out = true;
+      return {};
+    }
+  for (const char *no : {"0", "false", "no", "off"})
+    if (lower == no) {
+      *out = false;
+      return {};
+    }
+  return "expected 1, true, yes or on, or 0, false, no or off (in any case)";
 }
 
 std::string to_choice(const std::string &text, const std::vector<std::string> &choices, std::string *out) {

@@ -41,6 +41,9 @@ struct Option {
 // LLONG_MAX); a larger number is then "too large", not "not an integer".
 std::string to_int(const std::string &text, long long lo, long long hi, int *out);
 std::string to_int64(const std::string &text, long long lo, long long hi, long long *out);
+// A boolean as boost::program_options reads one (COLMAP's options): 1, true, yes or on, 0,
+// false, no or off, in any case.
+std::string to_bool(const std::string &text, bool *out);
 // A finite number >= lo, or > lo when strict.
 std::string to_real(const std::string &text, double lo, bool strict, double *out);
 // One of choices, stored as given.

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstddef>
 #include <cstdio>
 #include <optional>
@@ -135,6 +136,13 @@ class MotstrSolve {
   // The report's "model" (see Report::model).
   void describe(const std::string &model) { model_ = model; }
 
+  // COLMAP's mean reprojection error (mean_error_by_point) at p as it is, before the solve:
+  // finish() then reports it, initial and final, beside the RMS error.
+  template <class Project>
+  void report_mean_error(Project project) {
+    mean_initial_ = mean_error_by_point(*in_.vis, in_.x, project);
+  }
+
   int observations() const { return nobs_; }
   // The parameters as sba 1.6 counts them: every camera's cnp and every point's pnp, held ones
   // and each camera's copy of a shared one included.
@@ -176,6 +184,10 @@ class MotstrSolve {
     report.unknowns = unknowns();
     report.model = model_;
     report.solver_requested = solver_;
+    if (!std::isnan(mean_initial_)) {
+      report.mean_initial = mean_initial_;
+      report.mean_final = mean_error_by_point(*in_.vis, in_.x, project);
+    }
     print_report(stdout, report);
     if (!so_.json.empty()) {
       add_per_camera(in_.m, *in_.vis, in_.x, project, &report);
@@ -211,6 +223,7 @@ class MotstrSolve {
   int ret_ = 0;
   double seconds_ = 0;
   std::string model_;
+  double mean_initial_ = NAN;  // report_mean_error's; NaN: not reported
   std::string solver_;  // the solver asked for, the program's default included; empty: none ran
 };
 

@@ -96,6 +96,9 @@ std::string stop_reason_text(int reason) {
 void print_report(std::FILE *out, const Report &r) {
   const int reason = static_cast<int>(r.info[6]);
   std::fprintf(out, "RMS reprojection error: initial %.6g px, final %.6g px\n", r.rms_initial(), r.rms_final());
+  if (!std::isnan(r.mean_final))
+    std::fprintf(out, "Mean reprojection error (COLMAP's): initial %.6g px, final %.6g px\n", r.mean_initial,
+                 r.mean_final);
   std::fprintf(out, "Stop reason %d: %s\n", reason, stop_reason_text(reason).c_str());
   // The strategy is named when it is not 1.6's, the one a legacy user expects.
   const bool named = r.result.strategy && std::strcmp(r.result.strategy, "sba") != 0;
@@ -157,6 +160,8 @@ bool write_json(const std::string &path, const Report &r, std::string *error,
   field("squared_error", "{\"initial\": " + number(r.result.sq_error_initial) +
                              ", \"final\": " + number(r.result.sq_error_final) + "}");
   field("rms_px", "{\"initial\": " + number(r.rms_initial()) + ", \"final\": " + number(r.rms_final()) + "}");
+  if (!std::isnan(r.mean_final))
+    field("mean_px", "{\"initial\": " + number(r.mean_initial) + ", \"final\": " + number(r.mean_final) + "}");
   std::string its = "[";
   for (std::size_t k = 0; k < r.iterations.size(); ++k) {
     const RunControl::Iteration &it = r.iterations[k];

@@ -5,6 +5,7 @@
 #define SBA_DEMO_SOLVE_OPTIONS_H
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -265,6 +266,28 @@ void add_per_camera(int m, const sbaformats::Visibility &vis, const double *x, P
     r->per_camera[static_cast<std::size_t>(j)].observations += 1;
     r->per_camera[static_cast<std::size_t>(j)].sum_sq += dx * dx + dy * dy;
   }
+}
+
+// COLMAP's mean reprojection error (Reconstruction::ComputeMeanReprojectionError, what its
+// model_analyzer and pycolmap report): each point's mean pixel distance over its observations
+// (the ERROR of a refined point that sbarefine writes), averaged over the points. project as
+// add_per_camera's; vis lists each point's observations together. NaN for no observation.
+template <class Project>
+double mean_error_by_point(const sbaformats::Visibility &vis, const double *x, Project project) {
+  double total = 0;
+  long long points = 0;
+  for (std::size_t k = 0; k < vis.size(); ++points) {
+    const int i = vis.point[k];
+    double sum = 0;
+    long long count = 0;
+    for (; k < vis.size() && vis.point[k] == i; ++k, ++count) {
+      double xp[2];
+      project(vis.camera[k], i, xp);
+      sum += std::hypot(xp[0] - x[2 * k], xp[1] - x[2 * k + 1]);
+    }
+    total += sum / static_cast<double>(count);
+  }
+  return points > 0 ? total / static_cast<double>(points) : NAN;
 }
 
 // main() of a program: its exit status, 1 when the report did not reach stdout or an

@@ -89,12 +89,14 @@ void resolve_defaults(bool colmap_model, Options *o) {
   if (so.strategy.empty()) so.strategy = "trust-region";
 }
 
-// A 0|1 option: flag `field` of *flags, and *given set.
+// A boolean option of COLMAP's, 0|1 or as COLMAP's command line takes it (sbacli::to_bool):
+// flag `field` of *flags, and *given set.
 template <class Flags>
 sbacli::Apply zero_one(Flags *flags, bool Flags::*field, bool *given) {
   return [flags, field, given](const std::string &v) -> std::string {
-    if (v != "0" && v != "1") return "expected 0 or 1";
-    flags->*field = v == "1";
+    bool value = false;
+    if (std::string why = sbacli::to_bool(v, &value); !why.empty()) return why;
+    flags->*field = value;
     *given = true;
     return {};
   };
@@ -244,18 +246,21 @@ void print_usage(std::FILE *out) {
       "- a VisualSFM file (NVM_V3, its first model), refined with eucsbademo's camera model, the\n"
       "  focal length refined (--intrinsics focal or none) and the radial distortion held.\n"
       "\n"
-      "Options (a value may follow as --opt=VALUE or --opt VALUE; '--' ends the options):\n",
+      "Options (a value may follow as --opt=VALUE or --opt VALUE; '--' ends the options; an option\n"
+      "of 0|1 also takes true|false, yes|no and on|off, in any case, as COLMAP's command line):\n",
       out);
   Options scratch;
   sbacli::print_options(out, option_table(scratch));
   std::fprintf(out, "\nLinear solvers (--solver): %s\n", sba_linsolver_names());
   std::fputs(
       "\n"
-      "Prints what balsba prints: the sizes, sba 1.6's summary (mean squared reprojection error in\n"
-      "pixels^2 per observation ...), the RMS reprojection error in pixels, the stop reason, the\n"
-      "solver and threads used. The written model keeps every identifier, name, color and\n"
-      "unrefined value; a refined point's ERROR becomes its mean reprojection error. --itmax 0\n"
-      "writes the model as read (a conversion), without a solve and without a Jacobian check.\n"
+      "Prints the sizes and what is refined once the model is read, then what balsba prints: sba\n"
+      "1.6's summary (mean squared reprojection error in pixels^2 per observation ...), the RMS\n"
+      "reprojection error in pixels, COLMAP's mean reprojection error (each point's mean distance\n"
+      "in pixels, averaged over the points), the stop reason, the solver and threads used. The\n"
+      "written model keeps every identifier, name, color and unrefined value; a refined point's\n"
+      "ERROR becomes its mean reprojection error. --itmax 0 writes the model as read (a\n"
+      "conversion), without a solve and without a Jacobian check.\n"
       "Exit status: 0 done (--max-time included), 1 a file cannot be read or written or the solver\n"
       "fails, 2 bad options, 130 (SIGINT) or 143 (SIGTERM) when a signal stopped the solve.\n",
       out);
@@ -769,12 +774,21 @@ int solve_and_write(const Options &o, Job &job, double read_seconds) {
   sbacli::MotstrSolve solve("sbarefine", o.input, o.solve, job.in);
   solve.describe(job.model);
   if (const int status = solve.check_fixed(); status >= 0) return status;
+  // What was read, at once: a large model takes long to solve, and a user sees its sizes first.
+  const std::size_t eol = job.summary.find('\n');
+  std::printf("%s, %d observations, %lld unknowns (%lld parameters, held ones and each copy of a shared one "
+              "included)%s\n",
+              job.summary.substr(0, eol).c_str(), solve.observations(), solve.unknowns(), solve.variables(),
+              eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
+  std::fflush(stdout);
+  const std::vector<double> &p = job.p;
+  const auto project = [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); };
+  solve.report_mean_error(project);
   // Every file of the run is published at its end, together, or none is (output_file.h).
   sbaformats::OutputSet outputs;
   if (!sbacli::write_ply_option(o.initial_ply, job.initial, &outputs)) return kExitFailure;
-  const std::vector<double> &p = job.p;
   if (o.solve.itmax == 0)
-    solve.score([&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); });
+    solve.score(project);
   else if (!solve.run())
     return kExitFailure;
 
@@ -785,15 +799,7 @@ int solve_and_write(const Options &o, Job &job, double read_seconds) {
     return kExitFailure;
   }
   if (!sbacli::write_ply_option(o.final_ply, final_cloud, &outputs)) return kExitFailure;
-
-  const std::size_t eol = job.summary.find('\n');
-  std::printf("%s, %d observations, %lld unknowns (%lld parameters, held ones and each copy of a shared one "
-              "included)%s\n",
-              job.summary.substr(0, eol).c_str(), solve.observations(), solve.unknowns(), solve.variables(),
-              eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
-  return solve.finish(
-      read_seconds, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); }, job.camera_names,
-      o.write, &outputs);
+  return solve.finish(read_seconds, project, job.camera_names, o.write, &outputs);
 }
 
 int refine_main(int argc, char **argv) {
