@@ -1348,6 +1348,90 @@ TEST(SbarefineColmapModels, HeldParametersComeBackBitForBit) {
   EXPECT_EQ(bad.err, "sbarefine: --hold-poses: " + dir + "/in: no image has the IMAGE_ID or NAME '11'\n");
 }
 
+// COLMAP's other constants: --hold-intrinsics holds every parameter of the cameras named, in
+// all their images, --hold-points the points named, with --ncon's and --hold-points-file's; all
+// of them come back bit for bit (a point's ERROR too), the rest moves. The summary counts them,
+// the unknowns go down by what is held, and holding all of a kind reaches the minimum of the
+// options that hold all of it (--intrinsics none, --ncon N) to the bit. Unknown identifiers are
+// named (exit status 1), items that are no identifier refused as bad options (2).
+TEST(SbarefineColmapModels, HoldIntrinsicsAndPoints) {
+  const std::string dir = temp_dir("hold_constants");
+  const std::vector<double> truth = {800, 810, 320, 240, 0.05, -0.01, 0.001, -0.002};
+  const ColmapScene s = make_colmap_scene(colmap::kOpenCV, truth, {805, 815, 322, 238, 0.04, -0.01, 0, 0}, false, 6, 120,
+                                          0.5, {0, 1});
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error)) << error;
+  const std::vector<colmap::Point3D> &pts = s.model.points;
+  const auto id = [&](std::size_t i) { return std::to_string(pts[i].id); };
+  write_file(dir + "/ids.txt", id(50) + "\n\n" + id(51) + "\r\n");
+  const Outcome plain = run(dir + "/in --hold-poses 10,13 --json " + dir + "/plain.json");
+  ASSERT_EQ(plain.status, 0) << plain.err;
+  const Outcome r = run(dir + "/in --hold-poses img_0.png,img_1.png --hold-intrinsics 101,104 --ncon 2 "
+                        "--hold-points " + id(7) + "," + id(30) + " --hold-points-file " + dir + "/ids.txt --write " +
+                        dir + "/out --json " + dir + "/r.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("; 2 poses held; intrinsics of 2 cameras held; 6 points held\n"), std::string::npos) << r.out;
+  const auto unknowns = [&](const std::string &json) {
+    const std::string text = read_file(json);
+    return std::atoll(text.c_str() + text.find("\"unknowns\": ") + 12);
+  };
+  EXPECT_EQ(unknowns(dir + "/plain.json") - unknowns(dir + "/r.json"), 2 * 6 + 6 * 3);  // fx fy k1 k2 p1 p2; xyz
+  EXPECT_NE(read_file(dir + "/r.json").find("\"ncon\": 6,"), std::string::npos);  // every point held comes first
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  for (std::size_t c = 0; c < back.cameras.size(); ++c) {
+    const bool held = back.cameras[c].id == 101 || back.cameras[c].id == 104;
+    EXPECT_EQ(back.cameras[c].params == s.model.cameras[c].params, held) << c;
+  }
+  for (std::size_t i = 0; i < back.points.size(); ++i) {
+    const bool held = i < 2 || i == 7 || i == 30 || i == 50 || i == 51;
+    EXPECT_EQ(back.points[i].xyz == pts[i].xyz, held) << i;
+    EXPECT_EQ(back.points[i].error == pts[i].error, held) << i;
+    EXPECT_EQ(back.points[i].id, pts[i].id) << i;
+    EXPECT_EQ(back.points[i].track.size(), pts[i].track.size()) << i;
+  }
+  // All of a kind held, as the options that hold all of it.
+  const auto same_minimum = [&](const std::string &a, const std::string &b) {
+    const Outcome ra = run(dir + "/in --hold-poses 10,13 " + a), rb = run(dir + "/in --hold-poses 10,13 " + b);
+    ASSERT_EQ(ra.status, 0) << ra.err;
+    ASSERT_EQ(rb.status, 0) << rb.err;
+    EXPECT_EQ(final_error(ra.out), final_error(rb.out)) << a << " against " << b;
+    EXPECT_NE(final_error(ra.out), final_error(plain.out)) << a;
+  };
+  same_minimum("--hold-intrinsics all", "--intrinsics none");
+  same_minimum("--hold-points all", "--ncon 120");
+  // Errors.
+  const struct {
+    std::string args, err;
+    int status;
+  } bad[] = {
+      {"--hold-intrinsics 7", "sbarefine: --hold-intrinsics: " + dir + "/in: no camera has the CAMERA_ID '7'\n", 1},
+      {"--hold-points 5", "sbarefine: --hold-points: " + dir + "/in: no point has the POINT3D_ID '5'\n", 1},
+      {"--hold-intrinsics 101,x", "sbarefine: bad value '101,x' for --hold-intrinsics: item 2: 'x' is not a CAMERA_ID "
+                                  "(plain decimal digits without a leading zero)\n", 2},
+      {"--hold-intrinsics 0101", "sbarefine: bad value '0101' for --hold-intrinsics: item 1: '0101' is not a "
+                                 "CAMERA_ID (plain decimal digits without a leading zero)\n", 2},
+      {"--hold-intrinsics 4294967296", "sbarefine: bad value '4294967296' for --hold-intrinsics: item 1: '4294967296' "
+                                       "is not a CAMERA_ID (plain decimal digits without a leading zero)\n", 2},
+      {"--hold-points 1,", "sbarefine: bad value '1,' for --hold-points: item 2 is empty (two commas in a row, or a "
+                           "comma at an end)\n", 2},
+      {"--hold-points-file " + dir + "/bad.txt", "sbarefine: --hold-points-file: " + dir + "/in: " + dir +
+                                                     "/bad.txt:2: 'x 1' is not a POINT3D_ID (plain decimal digits "
+                                                     "without a leading zero)\n", 1},
+  };
+  write_file(dir + "/bad.txt", id(3) + "\nx 1\n");
+  for (const auto &b : bad) {
+    const Outcome e = run(dir + "/in " + b.args);
+    EXPECT_EQ(e.status, b.status) << b.args;
+    EXPECT_EQ(e.err, b.err) << b.args;
+    EXPECT_EQ(e.out, "") << b.args;
+  }
+  const Outcome help = run("--help");
+  for (const char *option : {"hold-intrinsics=LIST", "hold-sensor-from-rig=LIST", "hold-points=LIST",
+                             "hold-points-file=FILE"})
+    EXPECT_NE(help.out.find(std::string("\n  --") + option + "\n        COLMAP"), std::string::npos) << option;
+}
+
 // --hold-poses-file: a NAME a line, matched exactly, so that a name that holds a comma, or one
 // that is another image's IMAGE_ID, can be held; with --hold-poses, the images of both. Errors
 // name the item as given.
@@ -1923,6 +2007,52 @@ TEST(SbarefineRigs, RigsOfSeveralCamerasAreRefinedRigid) {
     ASSERT_EQ(r.status, 0) << r.err;
     for (const std::string &f : model_files(e)) EXPECT_EQ(read_file(in + "/" + f), read_file(out + "/" + f)) << f;
   }
+}
+
+// COLMAP 4's constant sensor_from_rig poses: --hold-sensor-from-rig holds the poses of the
+// cameras named in their rigs, for all the frames, bit for bit, the others' refined (a rig's
+// reference camera, at the identity, may be named: nothing changes); with the intrinsics of a
+// camera and points held too, the rigs stay rigid. A model refined without its rigs (frames of
+// one image) takes the option and refines as without it.
+TEST(SbarefineRigs, HoldSensorFromRig) {
+  const std::string dir = temp_dir("hold_sensors");
+  const RigScene s = make_rig_scene(2, 3, 8, 300, 0.5);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  const std::string held_point = std::to_string(s.model.points[5].id);
+  const Outcome r = run(dir + "/in --hold-sensor-from-rig 1,2,13 --hold-intrinsics 3 --hold-points " + held_point +
+                        " --write " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("rig_from_world of 8 frames (0 held), sensor_from_rig of 4 cameras (2 held); 0 poses held; "
+                       "intrinsics of 1 camera held; 1 point held\n"),
+            std::string::npos)
+      << r.out;
+  expect_rigid(dir + "/out", colmap::Encoding::Text);
+  const colmap::Model written = files_of(dir + "/out", colmap::Encoding::Text);
+  for (std::size_t g = 0; g < written.rigs.size(); ++g)
+    for (std::size_t k = 1; k < written.rigs[g].sensors.size(); ++k) {
+      const colmap::RigSensor &w = written.rigs[g].sensors[k], &start = s.model.rigs[g].sensors[k];
+      const bool held = w.sensor.id == 2 || w.sensor.id == 13;
+      EXPECT_EQ(w.sensor_from_rig.q == start.sensor_from_rig.q && w.sensor_from_rig.t == start.sensor_from_rig.t,
+                held)
+          << w.sensor.id;
+    }
+  for (std::size_t c = 0; c < written.cameras.size(); ++c)
+    EXPECT_EQ(written.cameras[c].params == s.model.cameras[c].params, written.cameras[c].id == 3)
+        << written.cameras[c].id;
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  for (std::size_t i = 0; i < back.points.size(); ++i) EXPECT_EQ(back.points[i].xyz == s.model.points[i].xyz, i == 5) << i;
+  const Outcome unknown = run(dir + "/in --hold-sensor-from-rig 99");
+  EXPECT_EQ(unknown.status, 1);
+  EXPECT_EQ(unknown.err, "sbarefine: --hold-sensor-from-rig: " + dir + "/in: no camera has the CAMERA_ID '99'\n");
+  // Frames of one image: nothing to hold.
+  const Scene plain = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 6, 80);
+  ASSERT_TRUE(colmap::write_model(dir + "/plain", colmap4(plain.model, true), colmap::Encoding::Text, &error)) << error;
+  const Outcome free = run(dir + "/plain"), held = run(dir + "/plain --hold-sensor-from-rig all");
+  ASSERT_EQ(free.status, 0) << free.err;
+  ASSERT_EQ(held.status, 0) << held.err;
+  EXPECT_EQ(final_error(held.out), final_error(free.out));
 }
 
 // A model of cameras each in a rig of its own (colmap4, plain) but one frame that holds two

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -62,6 +63,10 @@ struct Options {
   bool poses_given = false;          // a --refine-rig-from-world or the like
   std::string hold_poses;            // COLMAP: the images whose pose is held; empty: none
   std::string hold_poses_file;       // COLMAP: a file of the names of more of them; empty: none
+  std::string hold_intrinsics;       // COLMAP: the cameras whose intrinsics are held; empty: none
+  std::string hold_sensors;          // COLMAP: the cameras whose poses in their rigs are held; empty: none
+  std::string hold_points;           // COLMAP: the points held; empty: none
+  std::string hold_points_file;      // COLMAP: a file of the POINT3D_IDs of more of them; empty: none
   double function_tolerance = -1;    // < 0: not given
   std::string initial_ply, final_ply;
   std::string write_eucsba;  // COLMAP, NVM: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
@@ -164,6 +169,38 @@ void add_pose_options(std::vector<sbacli::Option> *t, Options &o) {
                 [&o](const std::string &v) { return sbacli::to_file(v, &o.hold_poses_file); }});
 }
 
+// COLMAP's other constants (colmap::Constants): the intrinsics of cameras, the poses of cameras
+// in their rigs, points. The lists are checked here; their items are looked up once the model is
+// read.
+void add_constant_options(std::vector<sbacli::Option> *t, Options &o) {
+  const auto id_list = [](std::string *out, const char *kind, std::uint64_t max) -> sbacli::Apply {
+    return [out, kind, max](const std::string &v) -> std::string {
+      if (v.empty()) return std::string("expected all or ") + kind + "s separated by commas";
+      if (std::string why = colmap::check_id_list(v, kind, max); !why.empty()) return why;
+      *out = v;
+      return {};
+    };
+  };
+  t->push_back({"hold-intrinsics", "LIST",
+                "COLMAP: hold every intrinsic parameter of these cameras, in all their images (COLMAP's\n"
+                "constant camera intrinsics): all, or CAMERA_IDs separated by commas, each plain decimal\n"
+                "digits without a leading zero",
+                id_list(&o.hold_intrinsics, "CAMERA_ID", UINT32_MAX)});
+  t->push_back({"hold-sensor-from-rig", "LIST",
+                "COLMAP 4: hold the poses of these cameras in their rigs, for all the frames (COLMAP's\n"
+                "constant sensor_from_rig poses): all, or CAMERA_IDs as --hold-intrinsics's (a rig's\n"
+                "reference camera is at the identity, held anyway)",
+                id_list(&o.hold_sensors, "CAMERA_ID", UINT32_MAX)});
+  t->push_back({"hold-points", "LIST",
+                "COLMAP: hold these points (COLMAP's constant points): all, or POINT3D_IDs separated by\n"
+                "commas, each plain decimal digits without a leading zero; with --ncon, the points of both",
+                id_list(&o.hold_points, "POINT3D_ID", UINT64_MAX)});
+  t->push_back({"hold-points-file", "FILE",
+                "COLMAP: hold the points whose POINT3D_IDs FILE holds, one a line (blank lines are\n"
+                "skipped); with --hold-points, the points of both",
+                [&o](const std::string &v) { return sbacli::to_file(v, &o.hold_points_file); }});
+}
+
 // The outputs and inputs of one format each.
 void add_format_options(std::vector<sbacli::Option> *t, Options &o) {
   t->push_back({"write-eucsba", "PREFIX",
@@ -200,6 +237,7 @@ std::vector<sbacli::Option> option_table(Options &o) {
                [&o](const std::string &v) { return sbacli::to_choice(v, {"text", "binary"}, &o.write_format); }});
   add_intrinsics_options(&t, o);
   add_pose_options(&t, o);
+  add_constant_options(&t, o);
   t.push_back({"max-num-iterations", "N",
                "COLMAP's name of --itmax (default 100 for a COLMAP model, as COLMAP; 150 for the others)",
                [&o](const std::string &v) {
@@ -313,6 +351,9 @@ struct Job {
   Cloud initial;
   std::vector<std::string> camera_names;  // the image of each sba camera; empty: unnamed
   std::string model;                      // --json's "model": the camera models, what is refined
+  // The points held at the start of the problem's (sba's ncon), when it is not --ncon (a COLMAP
+  // model's constant points come first: ColmapProblem::held_points); -1: --ncon.
+  int ncon = -1;
   // Writes the refined model (p) where --write says, and the files derived from it, into the
   // run's outputs, the model marked to be published last; returns it for --final-ply. With
   // --itmax 0 nothing was refined: the model is written as read, not as p, whose rotations and
@@ -532,6 +573,35 @@ bool held_poses(const Options &o, const colmap::Model &model, std::vector<char> 
   return true;
 }
 
+// COLMAP's constants of the command line (--hold-poses and the like) looked up in the model.
+bool constants_of(const Options &o, const colmap::Model &model, colmap::Constants *c, std::string *error) {
+  if (!held_poses(o, model, &c->poses, error)) return false;
+  const struct {
+    const std::string &list;
+    std::string (*parse)(const colmap::Model &, const std::string &, std::vector<char> *);
+    std::vector<char> *held;
+    const char *option;
+  } lists[] = {{o.hold_intrinsics, colmap::parse_camera_list, &c->intrinsics, "--hold-intrinsics"},
+               {o.hold_sensors, colmap::parse_camera_list, &c->sensor_from_rig, "--hold-sensor-from-rig"},
+               {o.hold_points, colmap::parse_point_list, &c->points, "--hold-points"}};
+  for (const auto &l : lists)
+    if (std::string why; !l.list.empty() && !(why = l.parse(model, l.list, l.held)).empty()) {
+      *error = std::string("sbarefine: ") + l.option + ": " + o.input + ": " + why;
+      return false;
+    }
+  if (o.hold_points_file.empty()) return true;
+  std::string ids, why;
+  if (!colmap::read_whole_file(o.hold_points_file, true, &ids, &why)) {
+    *error = "sbarefine: --hold-points-file: " + why;
+    return false;
+  }
+  if (!(why = colmap::parse_point_ids(model, ids, o.hold_points_file, &c->points)).empty()) {
+    *error = "sbarefine: --hold-points-file: " + o.input + ": " + why;
+    return false;
+  }
+  return true;
+}
+
 // The summary's line on the images that see no point (none: empty): held out of the solve, and
 // written back as read, or, in a rig, kept at their place in a frame or rig whose pose is
 // refined, and moved with it.
@@ -549,12 +619,14 @@ std::string unseen_images(const colmap::Model &model, const colmap::ColmapProble
 
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
-  std::vector<char> held;
-  if (!held_poses(o, l->model, &held, error)) return false;
-  if (!colmap::to_sba(l->model, o.refine, o.poses, held, o.solve.mcon, o.input, &l->colmap_problem, error))
+  colmap::Constants constants;
+  if (!constants_of(o, l->model, &constants, error) ||
+      !colmap::to_sba(l->model, o.refine, o.poses, constants, o.solve.mcon, o.solve.ncon, o.input,
+                      &l->colmap_problem, error))
     return false;
   colmap_job(l, job);
   const colmap::ColmapProblem &pr = l->colmap_problem;
+  job->ncon = pr.held_points;
   // The library can only say that the initial error is not finite; the model can say where.
   if (o.solve.itmax > 0) {
     const std::vector<double> &p = job->p;
@@ -597,6 +669,10 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
                   count(static_cast<std::size_t>(pr.sensors), "camera") + " (" + std::to_string(pr.held_sensors) +
                   " held); ";
   job->model += std::to_string(pr.held_poses) + (pr.held_poses == 1 ? " pose" : " poses") + " held";
+  if (!o.hold_intrinsics.empty())
+    job->model += "; intrinsics of " + count(static_cast<std::size_t>(pr.held_intrinsics), "camera") + " held";
+  if (!o.hold_points.empty() || !o.hold_points_file.empty())
+    job->model += "; " + count(static_cast<std::size_t>(pr.held_points), "point") + " held";
   job->summary += "\nCamera models: " + job->model;
   job->initial = cloud(l->model);
   for (int j : pr.images) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
@@ -604,9 +680,9 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
                         std::string *why) {
     const colmap::ColmapProblem &problem = l->colmap_problem;
     if (o.solve.itmax > 0 && problem.rigged)
-      colmap::from_sba(*l->rig_model, problem, p, o.solve.mcon, o.solve.ncon, &l->model);
+      colmap::from_sba(*l->rig_model, problem, p, o.solve.mcon, problem.held_points, &l->model);
     else if (o.solve.itmax > 0)
-      colmap::from_sba(*l->colmap_model, problem, p, o.solve.mcon, o.solve.ncon, &l->model);
+      colmap::from_sba(*l->colmap_model, problem, p, o.solve.mcon, problem.held_points, &l->model);
     *final_cloud = cloud(l->model);
     if (!o.write_eucsba.empty() &&
         !(problem.rigged ? write_eucsba_colmap(o.write_eucsba, *l->rig_model, problem.points, p, outputs, why)
@@ -737,6 +813,10 @@ int check_format_options(Format format, Options *o) {
       {!o->write_list.empty(), format == Format::Bundler, "--write-list", "Bundler files"},
       {!o->hold_poses.empty(), format == Format::Colmap, "--hold-poses", "COLMAP models"},
       {!o->hold_poses_file.empty(), format == Format::Colmap, "--hold-poses-file", "COLMAP models"},
+      {!o->hold_intrinsics.empty(), format == Format::Colmap, "--hold-intrinsics", "COLMAP models"},
+      {!o->hold_sensors.empty(), format == Format::Colmap, "--hold-sensor-from-rig", "COLMAP models"},
+      {!o->hold_points.empty(), format == Format::Colmap, "--hold-points", "COLMAP models"},
+      {!o->hold_points_file.empty(), format == Format::Colmap, "--hold-points-file", "COLMAP models"},
       {o->poses_given, format == Format::Colmap, "--refine-rig-from-world (or --refine-sensor-from-rig, "
        "--constant-rig-from-world-rotation)", "COLMAP models"},
       {o->intrinsics_given, format != Format::Bundler, "--intrinsics (or --refine-*)",
@@ -771,7 +851,9 @@ bool load_input(const Options &o, Input *input, Loaded *loaded, Job *job, std::s
 // output: the program's exit status.
 int solve_and_write(const Options &o, Job &job, double read_seconds) {
   job.in.p = job.p.data();
-  sbacli::MotstrSolve solve("sbarefine", o.input, o.solve, job.in);
+  sbacli::SolveOptions so = o.solve;
+  if (job.ncon >= 0) so.ncon = job.ncon;
+  sbacli::MotstrSolve solve("sbarefine", o.input, so, job.in);
   solve.describe(job.model);
   if (const int status = solve.check_fixed(); status >= 0) return status;
   // What was read, at once: a large model takes long to solve, and a user sees its sizes first.
