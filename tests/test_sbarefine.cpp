@@ -5,6 +5,7 @@
 // failed runs that leave every file as it was. NVM files: test_nvm.cpp.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
 #include <sys/mount.h>
 #include <sys/statvfs.h>
 #include <sys/wait.h>
@@ -336,6 +337,55 @@ TEST(Sbarefine, SummaryFirstAndColmapsMeanError) {
   const double initial0 = std::strtod(again.c_str() + at0 + 23, &end);
   EXPECT_EQ(std::strtod(std::strstr(end, "\"final\": ") + 9, nullptr), initial0);
   EXPECT_NEAR(initial0, final, 1e-9 * final);
+}
+
+// sbarefine with args, its stderr a terminal (a pseudo-terminal) and its stdout the file
+// out_file: what the terminal got, and the exit status in *status.
+std::string run_on_terminal(const std::string &args, const std::string &out_file, int *status) {
+  const int master = ::posix_openpt(O_RDWR | O_NOCTTY);
+  if (master < 0 || ::grantpt(master) != 0 || ::unlockpt(master) != 0) return "no pseudo-terminal";
+  const std::string slave = ::ptsname(master);
+  const std::string command = std::string(SBAREFINE_EXE) + " " + args + " >" + out_file + " </dev/null";
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::setsid();
+    const int fd = ::open(slave.c_str(), O_RDWR);
+    if (fd < 0 || ::dup2(fd, STDERR_FILENO) < 0) ::_exit(127);
+    ::close(fd);
+    ::close(master);
+    ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char *>(nullptr));
+    ::_exit(127);
+  }
+  std::string got;
+  char buf[4096];
+  for (ssize_t n; (n = ::read(master, buf, sizeof buf)) > 0;) got.append(buf, static_cast<std::size_t>(n));
+  ::close(master);
+  int st = 0;
+  ::waitpid(child, &st, 0);
+  *status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return got;
+}
+
+// With stderr a terminal, a progress line while the model is read and while it is written, as
+// while it is solved (taken away again when the phase is short, as here); none with
+// --no-progress, and none when stderr is not a terminal.
+TEST(Sbarefine, ProgressOnATerminalWhileReadingAndWriting) {
+  const std::string dir = temp_dir("tty_progress");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error)) << error;
+  int status = -1;
+  std::string tty = run_on_terminal(dir + "/in --write " + dir + "/out", dir + "/stdout", &status);
+  ASSERT_EQ(status, 0) << tty;
+  EXPECT_NE(tty.find("\r  reading " + dir + "/in"), std::string::npos) << tty;
+  EXPECT_NE(tty.find("\r  writing " + dir + "/out"), std::string::npos) << tty;
+  EXPECT_NE(read_file(dir + "/stdout").find("\nWrote " + dir + "/out\n"), std::string::npos);
+  tty = run_on_terminal(dir + "/in --no-progress --write " + dir + "/out", dir + "/stdout", &status);
+  ASSERT_EQ(status, 0) << tty;
+  EXPECT_EQ(tty, "");
+  const Outcome r = run(dir + "/in --write " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err, "");
 }
 
 TEST(Sbarefine, MaxTimeStopsAfterAnIterationAndStillWrites) {

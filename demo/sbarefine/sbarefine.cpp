@@ -28,6 +28,7 @@
 #include "cli/motstr_solve.h"
 #include "cli/ply_options.h"
 #include "cli/solve_options.h"
+#include "cli/tty_progress.h"
 #include "formats/bal_io.h"
 #include "formats/bundler_io.h"
 #include "formats/colmap_io.h"
@@ -416,6 +417,7 @@ bool open_input(const std::string &path, Input *in, std::string *error) {
 
 // The state a job's callbacks point into, kept alive for the whole run.
 struct Loaded {
+  std::string warning;  // said once the input is read; empty: none
   colmap::Model model;
   colmap::Encoding encoding = colmap::Encoding::Text;
   colmap::SbaProblem problem;  // NVM
@@ -703,11 +705,10 @@ bool load_nvm(const Options &o, const std::string &text, Loaded *l, Job *job, st
     return false;
   // A warning, not a refusal: the solve still runs, and its error says how badly it fits.
   if (nvm::looks_uncentred(l->nvm))
-    std::fprintf(stderr,
-                 "sbarefine: warning: %s: the measurements look measured from the image corner, not from its centre "
-                 "as NVM's are (99%% of them have x >= 0 and y >= 0); COLMAP writes NVM files so, and they do not "
-                 "refine to a small error\n",
-                 o.input.c_str());
+    l->warning = "sbarefine: warning: " + o.input +
+                 ": the measurements look measured from the image corner, not from its centre as NVM's are (99% "
+                 "of them have x >= 0 and y >= 0); COLMAP writes NVM files so, and they do not refine to a small "
+                 "error";
   eucsba_job(l, job);
   job->summary = "NVM file " + o.input + ": " + std::to_string(job->in.m) + " cameras, " + std::to_string(job->in.n) +
                  " points";
@@ -876,7 +877,10 @@ int solve_and_write(const Options &o, Job &job, double read_seconds) {
 
   Cloud final_cloud;
   std::string error;
-  if (!job.finish(p.data(), &final_cloud, &outputs, &error)) {
+  sbacli::TtyPhase writing(o.solve.progress && !o.write.empty(), "writing " + o.write);
+  const bool written = job.finish(p.data(), &final_cloud, &outputs, &error);
+  writing.end();
+  if (!written) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
@@ -906,10 +910,14 @@ int refine_main(int argc, char **argv) {
   if (const int status = check_format_options(input.format, &o); status >= 0) return status;
   Loaded loaded;
   Job job;
-  if (!load_input(o, &input, &loaded, &job, &error)) {
+  sbacli::TtyPhase reading(o.solve.progress, "reading " + o.input);
+  const bool read = load_input(o, &input, &loaded, &job, &error);
+  reading.end();
+  if (!read) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
+  if (!loaded.warning.empty()) std::fprintf(stderr, "%s\n", loaded.warning.c_str());
   const double read_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
   return solve_and_write(o, job, read_seconds);
