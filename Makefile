@@ -13,13 +13,15 @@ PYTHON ?= $(shell test -x /usr/bin/python3 && echo /usr/bin/python3 || command -
 
 # The main job: a generated 20-camera problem (data/README.md) through eucsbademo.
 DEMO_PROBLEM ?= data/orbit-fixedK
+# The programs make demo builds: every one the README runs from build/demo.
+DEMO_PROGRAMS = eucsbademo balsba sbarefine sbagen
 
 all: deps-build configure
 	cmake --build $(BUILD) -j $(JOBS)
 
 help:
 	@echo 'make              build the library, the programs (and the tests when GoogleTest is installed)'
-	@echo 'make demo         install missing build packages, build, run eucsbademo on $(DEMO_PROBLEM)'
+	@echo 'make demo         install missing build packages, build the programs ($(DEMO_PROGRAMS)), run eucsbademo on $(DEMO_PROBLEM)'
 	@echo 'make test         install missing build and test packages (pycolmap: a venv in BUILD), build, run the whole test suite (pysba too)'
 	@echo 'make install      install into PREFIX (now $(PREFIX))'
 	@echo 'make mex          the MATLAB/GNU Octave interface in $(BUILD)/matlab (make mex-test: its tests)'
@@ -43,7 +45,7 @@ test: deps-test configure
 	ctest --test-dir $(BUILD) --output-on-failure --no-tests=error -j $(JOBS)
 
 demo: deps-build configure
-	cmake --build $(BUILD) -j $(JOBS) --target eucsbademo
+	cmake --build $(BUILD) -j $(JOBS) --target $(DEMO_PROGRAMS)
 	$(BUILD)/demo/eucsbademo $(DEMO_PROBLEM)-cams.txt $(DEMO_PROBLEM)-pts.txt $(DEMO_PROBLEM)-calib.txt
 
 deps-mex:

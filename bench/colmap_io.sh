@@ -35,7 +35,7 @@ if [ ! -x "$colmap" ]; then
   exit 1
 fi
 
-cmake --build "$build" --target colmap_io_bench sbarefine sbagen_cli -j2
+cmake --build "$build" --target colmap_io_bench sbarefine sbagen -j2
 data="$build/colmap_io"
 mkdir -p "$data/work" "$data/before"
 # The model: a road of 2,000 cameras (OPENCV, one per image), 400,000 points seen by 2 to 10

@@ -19,7 +19,7 @@ out=$1
 sbagen=${2:-build/demo/sbagen}
 kind=${3:-varKD}
 colmap=${COLMAP:-$(command -v colmap || echo /usr/bin/colmap)}
-[ -x "$sbagen" ] || { echo "$0: no sbagen program at $sbagen (build the target sbagen_cli)" >&2; exit 1; }
+[ -x "$sbagen" ] || { echo "$0: no sbagen program at $sbagen (build the target sbagen)" >&2; exit 1; }
 [ -x "$colmap" ] || { echo "$0: no colmap program at $colmap (scripts/deps.sh test installs it)" >&2; exit 1; }
 
 mkdir -p "$out/binary"

@@ -246,6 +246,9 @@ TEST(Cli, SbarefineOptionsOfAnotherFormat) {
   std::ofstream(nvm) << "NVM_V3\n\n1\na.jpg 500 1 0 0 0 0 0 -5 0 0\n1\n0 0 0 1 2 3 1 0 0 1 2\n";
   expect_usage_error(p, {"--write-format=binary", nvm}, "--write-format is for COLMAP models");
   expect_usage_error(p, {"--write-bal", "x.bal", nvm}, "--write-bal is for Bundler files");
+  for (const char *option : {"--hold-intrinsics", "--hold-sensor-from-rig", "--hold-points"})
+    expect_usage_error(p, {option, "1", nvm}, std::string(option) + " is for COLMAP models");
+  expect_usage_error(p, {"--hold-points-file", "ids.txt", nvm}, "--hold-points-file is for COLMAP models");
   expect_usage_error(p, {"--intrinsics=all", nvm},
                      "--intrinsics all: an NVM file has no principal point (its measurements are relative to the "
                      "image centre)");

@@ -5,6 +5,7 @@
 // failed runs that leave every file as it was. NVM files: test_nvm.cpp.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
 #include <sys/mount.h>
 #include <sys/statvfs.h>
 #include <sys/wait.h>
@@ -294,6 +295,99 @@ TEST(Sbarefine, HeldValuesComeBackBitForBit) {
   }
 }
 
+// The sizes and what is refined are printed once the model is read, before the solve (here
+// before the library's --verbose lines); after the RMS error comes COLMAP's mean reprojection
+// error (each point's mean distance, averaged over the points), the mean of the ERROR values of
+// the refined model written, and its initial and final errors as a run that solves nothing
+// (--itmax 0) reports them.
+TEST(Sbarefine, SummaryFirstAndColmapsMeanError) {
+  const std::string dir = temp_dir("summary_first");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  Outcome r = run(dir + "/in --verbose 1 --write " + dir + "/out --json " + dir + "/r.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::size_t sizes = r.out.find("COLMAP model " + dir + "/in (text): ");
+  const std::size_t models = r.out.find("\nCamera models: ");
+  const std::size_t solve = r.out.find("sba_motstr_levmar_x_vis: ");
+  ASSERT_NE(solve, std::string::npos) << r.out;
+  EXPECT_EQ(sizes, 0u) << r.out;
+  EXPECT_LT(models, solve) << r.out;
+  const std::string json = read_file(dir + "/r.json");
+  const std::size_t at = json.find("\"mean_px\": {\"initial\": ");
+  ASSERT_NE(at, std::string::npos) << json;
+  char *end = nullptr;
+  const double initial = std::strtod(json.c_str() + at + 23, &end);
+  const double final = std::strtod(std::strstr(end, "\"final\": ") + 9, nullptr);
+  char line[128];
+  std::snprintf(line, sizeof line, "\nMean reprojection error (COLMAP's): initial %.6g px, final %.6g px\n", initial,
+                final);
+  EXPECT_NE(r.out.find(std::string("px\n") + (line + 1)), std::string::npos) << r.out;  // after the RMS line
+  EXPECT_GT(initial, 2 * final);
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  double sum = 0;
+  for (const colmap::Point3D &pt : back.points) sum += pt.error;
+  EXPECT_NEAR(sum / static_cast<double>(back.points.size()), final, 1e-12 * final);
+  r = run(dir + "/out --itmax 0 --json " + dir + "/again.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string again = read_file(dir + "/again.json");
+  const std::size_t at0 = again.find("\"mean_px\": {\"initial\": ");
+  ASSERT_NE(at0, std::string::npos) << again;
+  const double initial0 = std::strtod(again.c_str() + at0 + 23, &end);
+  EXPECT_EQ(std::strtod(std::strstr(end, "\"final\": ") + 9, nullptr), initial0);
+  EXPECT_NEAR(initial0, final, 1e-9 * final);
+}
+
+// sbarefine with args, its stderr a terminal (a pseudo-terminal) and its stdout the file
+// out_file: what the terminal got, and the exit status in *status.
+std::string run_on_terminal(const std::string &args, const std::string &out_file, int *status) {
+  const int master = ::posix_openpt(O_RDWR | O_NOCTTY);
+  if (master < 0 || ::grantpt(master) != 0 || ::unlockpt(master) != 0) return "no pseudo-terminal";
+  const std::string slave = ::ptsname(master);
+  const std::string command = std::string(SBAREFINE_EXE) + " " + args + " >" + out_file + " </dev/null";
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::setsid();
+    const int fd = ::open(slave.c_str(), O_RDWR);
+    if (fd < 0 || ::dup2(fd, STDERR_FILENO) < 0) ::_exit(127);
+    ::close(fd);
+    ::close(master);
+    ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char *>(nullptr));
+    ::_exit(127);
+  }
+  std::string got;
+  char buf[4096];
+  for (ssize_t n; (n = ::read(master, buf, sizeof buf)) > 0;) got.append(buf, static_cast<std::size_t>(n));
+  ::close(master);
+  int st = 0;
+  ::waitpid(child, &st, 0);
+  *status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return got;
+}
+
+// With stderr a terminal, a progress line while the model is read and while it is written, as
+// while it is solved (taken away again when the phase is short, as here); none with
+// --no-progress, and none when stderr is not a terminal.
+TEST(Sbarefine, ProgressOnATerminalWhileReadingAndWriting) {
+  const std::string dir = temp_dir("tty_progress");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error)) << error;
+  int status = -1;
+  std::string tty = run_on_terminal(dir + "/in --write " + dir + "/out", dir + "/stdout", &status);
+  ASSERT_EQ(status, 0) << tty;
+  EXPECT_NE(tty.find("\r  reading " + dir + "/in"), std::string::npos) << tty;
+  EXPECT_NE(tty.find("\r  writing " + dir + "/out"), std::string::npos) << tty;
+  EXPECT_NE(read_file(dir + "/stdout").find("\nWrote " + dir + "/out\n"), std::string::npos);
+  tty = run_on_terminal(dir + "/in --no-progress --write " + dir + "/out", dir + "/stdout", &status);
+  ASSERT_EQ(status, 0) << tty;
+  EXPECT_EQ(tty, "");
+  const Outcome r = run(dir + "/in --write " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+}
+
 TEST(Sbarefine, MaxTimeStopsAfterAnIterationAndStillWrites) {
   const std::string dir = temp_dir("maxtime");
   const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
@@ -311,7 +405,14 @@ TEST(Sbarefine, MaxTimeStopsAfterAnIterationAndStillWrites) {
 TEST(Sbarefine, CommandLineErrors) {
   Outcome r = run("--refine-focal-length 2 x");
   EXPECT_EQ(r.status, 2);
-  EXPECT_EQ(r.err, "sbarefine: bad value '2' for --refine-focal-length: expected 0 or 1\n");
+  EXPECT_EQ(r.err, "sbarefine: bad value '2' for --refine-focal-length: expected 1, true, yes or on, or 0, false, no or off (in any case)\n");
+  for (const char *bad : {"--refine-focal-length=", "--refine-focal-length=tru", "--refine-focal-length=y"}) {
+    r = run(std::string(bad) + " x");
+    EXPECT_EQ(r.status, 2) << bad;
+    EXPECT_EQ(r.err, std::string("sbarefine: bad value '") + (std::strchr(bad, '=') + 1) +
+                         "' for --refine-focal-length: expected 1, true, yes or on, or 0, false, no or off (in any case)\n")
+        << bad;
+  }
   r = run("--function-tolerance -1 x");
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(r.err, "sbarefine: bad value '-1' for --function-tolerance: expected a non-negative number\n");
@@ -337,6 +438,26 @@ TEST(Sbarefine, CommandLineErrors) {
   r = run(dir + " --intrinsics none --mcon 2");
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.err, dir + "/cameras.txt:1: camera 1: PINHOLE's fx must be positive, got 0\n");
+}
+
+// COLMAP's boolean options take what COLMAP's command line takes (boost::program_options'
+// bool): 1, true, yes, on and 0, false, no, off, in any case.
+TEST(Sbarefine, ColmapBooleansAsColmapReadsThem) {
+  const std::string dir = temp_dir("booleans");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 6, 60);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  const struct {
+    const char *yes, *no;
+  } spellings[] = {{"1", "0"}, {"true", "false"}, {"TRUE", "False"}, {"yes", "no"}, {"Yes", "NO"}, {"on", "off"},
+                   {"ON", "Off"}};
+  for (const auto &b : spellings) {
+    const Outcome r = run(dir + "/in --itmax 0 --refine-focal-length=" + b.no + " --refine-principal-point " +
+                          b.yes + " --refine-extra-params=" + b.no);
+    ASSERT_EQ(r.status, 0) << b.yes << " " << r.err;
+    EXPECT_NE(r.out.find("; focal length held, principal point refined, extra parameters held; "), std::string::npos)
+        << b.yes << "\n" << r.out;
+  }
 }
 
 // A quaternion of any nonzero size is a rotation, in a COLMAP model (text and binary) as in
@@ -523,28 +644,53 @@ TEST(SbarefineRigs, ConversionsLeaveNoStaleFile) {
   std::string error;
   ASSERT_TRUE(colmap::write_model(model, in, colmap::Encoding::Binary, &error)) << error;
   const std::string frames_bin = read_file(model + "/frames.bin");
+  // What was removed is said, with why, after the "Wrote" line.
+  const auto removed = [&](const std::string &folder, const char *x, const std::string &line) {
+    std::string paths;
+    for (const char *f : {"cameras", "frames", "rigs", "points3D", "images"})
+      paths += (paths.empty() ? "" : ", ") + folder + "/" + f + x;
+    return "\nWrote " + folder + "\nRemoved the " + (x[1] == 't' ? "text" : "binary") + " model (" + paths + "): " +
+           line + "\n";
+  };
+  const std::string binary_removed = "COLMAP reads a folder's binary model first, and would have read it, not the "
+                                     "text model written";
+  const std::string text_removed = "a folder holds one model, and a reader that takes the text one would have "
+                                   "read stale values (COLMAP reads the binary one first)";
   Outcome r = run(model + " --itmax 0 --write " + model + " --write-format text");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(entries(model), model_files(colmap::Encoding::Text));
   EXPECT_EQ(read_file(model + "/frames.txt"), colmap::format_model(in, colmap::Encoding::Text).frames);
+  EXPECT_NE(r.out.find(removed(model, ".bin", binary_removed)), std::string::npos) << r.out;
   r = run(model + " --itmax 0 --write " + model + " --write-format binary");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(entries(model), model_files(colmap::Encoding::Binary));
   EXPECT_EQ(read_file(model + "/frames.bin"), frames_bin);
+  EXPECT_NE(r.out.find(removed(model, ".txt", text_removed)), std::string::npos) << r.out;
   // A refined conversion, into a folder holding the other encoding's model.
   ASSERT_TRUE(colmap::write_model(dir + "/out", in, colmap::Encoding::Text, &error)) << error;
   r = run(model + " --write " + dir + "/out --write-format binary");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(entries(dir + "/out"), model_files(colmap::Encoding::Binary));
+  EXPECT_NE(r.out.find(removed(dir + "/out", ".txt", text_removed)), std::string::npos) << r.out;
   r = run(model + " --write " + model + " --write-format text");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(entries(model), model_files(colmap::Encoding::Text));
+  // Nothing to remove, nothing said.
+  r = run(model + " --write " + model);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out.find("Removed"), std::string::npos) << r.out;
   // A COLMAP 3 model written over it: three files, as it was read.
   ASSERT_TRUE(colmap::write_model(dir + "/plain", s.model, colmap::Encoding::Text, &error)) << error;
   r = run(dir + "/plain --write " + model);
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(entries(model), model_files(colmap::Encoding::Text, false));
   EXPECT_EQ(entries(dir + "/plain"), model_files(colmap::Encoding::Text, false));
+  EXPECT_NE(r.out.find("\nWrote " + model + "\nRemoved the rigs and frames of another model (" + model +
+                       "/rigs.txt, " + model +
+                       "/frames.txt): the model written has none, and COLMAP 4 would compose its images' poses from "
+                       "them\n"),
+            std::string::npos)
+      << r.out;
 }
 
 // A model with one of the two files, which COLMAP 4 refuses to read: refused, nothing
@@ -599,7 +745,9 @@ TEST(Sbarefine, FullDiskLeavesTheInputModelAsItWas) {
   const Outcome r = run(model + " --write " + model);
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.err, model + "/points3D.bin: write failed: No space left on device\n");
-  EXPECT_EQ(r.out, "");
+  // What was read is said before the solve; no result after a failed write.
+  EXPECT_EQ(r.out.rfind("COLMAP model " + model + " (binary): 10 images, ", 0), 0u) << r.out;
+  EXPECT_EQ(r.out.find("SBA returned"), std::string::npos) << r.out;
   EXPECT_EQ(entries(model), kBinaryFiles);
   EXPECT_TRUE(contents(model, kBinaryFiles) == before);
 }
@@ -676,6 +824,35 @@ TEST(Sbarefine, OutputsCheckedBeforeTheSolve) {
   }
   // The model checked is left as it was.
   EXPECT_EQ(entries(dir + "/in"), kTextFiles);
+}
+
+// A model written back into a folder that takes no new file, whose files are all writable: the
+// folder is named, before anything is read or solved, and nothing changes. Run by a user other
+// than root (nobody, through setpriv, when the test runs as root), whom the folder refuses.
+TEST(Sbarefine, AFolderThatTakesNoNewFileIsNamed) {
+  std::string as_user;
+  if (::geteuid() == 0) {
+    if (std::system("setpriv --reuid=65534 --regid=65534 --clear-groups true 2>/dev/null") != 0)
+      GTEST_SKIP() << "root, and no setpriv to run sbarefine as another user";
+    as_user = "setpriv --reuid=65534 --regid=65534 --clear-groups ";
+  }
+  const std::string dir = temp_dir("read_only_model");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 6, 60);
+  const std::string model = dir + "/ro";
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(model, colmap4(s.model, false), colmap::Encoding::Binary, &error)) << error;
+  const std::vector<std::string> files = entries(model);
+  for (const std::string &f : files) ASSERT_EQ(::chmod((model + "/" + f).c_str(), 0666), 0) << f;
+  const std::string before = read_file(model + "/images.bin");
+  ASSERT_EQ(::chmod(model.c_str(), 0555), 0);
+  const Outcome r = run(model + " --write " + model, as_user);
+  ASSERT_EQ(::chmod(model.c_str(), 0755), 0);
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_EQ(r.out, "");
+  EXPECT_EQ(r.err, model + "/images.bin: cannot create files in the folder " + model +
+                       ": Permission denied (a file is written under a temporary name beside its own, then renamed)\n");
+  EXPECT_EQ(entries(model), files);
+  EXPECT_EQ(read_file(model + "/images.bin"), before);
 }
 
 // Names and paths that are not UTF-8 (an image name with the bytes 0xff 0xfe) go to --json as
@@ -1139,6 +1316,23 @@ TEST(SbarefineColmapModels, DefaultsAreColmaps) {
   EXPECT_EQ(r.out.find(", strategy "), std::string::npos) << r.out;
   r = run(dir + "/in --eps4 1e-3 --itmax 1");  // sba's eps4: sba's tests
   EXPECT_EQ(r.out.find(", strategy "), std::string::npos) << r.out;
+  // SBA_STRATEGY is the default of the other formats, not of a COLMAP model's COLMAP defaults.
+  r = run(dir + "/in --itmax 1", "SBA_STRATEGY=sba-clean-retry ");
+  EXPECT_NE(r.out.find(", strategy trust-region, "), std::string::npos) << r.out;
+  r = run(dir + "/in --eps4 1e-3 --itmax 1", "SBA_STRATEGY=sba-clean-retry ");
+  EXPECT_NE(r.out.find(", strategy sba-clean-retry, "), std::string::npos) << r.out;
+  // --help says so, and what --itmax is for each format.
+  r = run("--help");
+  EXPECT_NE(r.out.find("        a relative cost tolerance: usually far fewer iterations); default: trust-region\n"
+                       "        for a COLMAP model (COLMAP's bundle adjuster runs Ceres's Levenberg-Marquardt), unless\n"
+                       "        --eps4 (or --opts) gives sba's relative error test; otherwise (a Bundler or NVM file) the\n"
+                       "        environment variable SBA_STRATEGY if set, else sba\n"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("  --itmax=N\n        maximum iterations (default 100 for a COLMAP model, as COLMAP; 150 for "
+                       "a Bundler or NVM file)\n"),
+            std::string::npos)
+      << r.out;
 }
 
 // The shared-camera problem through every linear solver and both strategies: one minimum.
@@ -1202,6 +1396,90 @@ TEST(SbarefineColmapModels, HeldParametersComeBackBitForBit) {
   const Outcome bad = run(dir + "/in --hold-poses 11");
   EXPECT_EQ(bad.status, 1);
   EXPECT_EQ(bad.err, "sbarefine: --hold-poses: " + dir + "/in: no image has the IMAGE_ID or NAME '11'\n");
+}
+
+// COLMAP's other constants: --hold-intrinsics holds every parameter of the cameras named, in
+// all their images, --hold-points the points named, with --ncon's and --hold-points-file's; all
+// of them come back bit for bit (a point's ERROR too), the rest moves. The summary counts them,
+// the unknowns go down by what is held, and holding all of a kind reaches the minimum of the
+// options that hold all of it (--intrinsics none, --ncon N) to the bit. Unknown identifiers are
+// named (exit status 1), items that are no identifier refused as bad options (2).
+TEST(SbarefineColmapModels, HoldIntrinsicsAndPoints) {
+  const std::string dir = temp_dir("hold_constants");
+  const std::vector<double> truth = {800, 810, 320, 240, 0.05, -0.01, 0.001, -0.002};
+  const ColmapScene s = make_colmap_scene(colmap::kOpenCV, truth, {805, 815, 322, 238, 0.04, -0.01, 0, 0}, false, 6, 120,
+                                          0.5, {0, 1});
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Binary, &error)) << error;
+  const std::vector<colmap::Point3D> &pts = s.model.points;
+  const auto id = [&](std::size_t i) { return std::to_string(pts[i].id); };
+  write_file(dir + "/ids.txt", id(50) + "\n\n" + id(51) + "\r\n");
+  const Outcome plain = run(dir + "/in --hold-poses 10,13 --json " + dir + "/plain.json");
+  ASSERT_EQ(plain.status, 0) << plain.err;
+  const Outcome r = run(dir + "/in --hold-poses img_0.png,img_1.png --hold-intrinsics 101,104 --ncon 2 "
+                        "--hold-points " + id(7) + "," + id(30) + " --hold-points-file " + dir + "/ids.txt --write " +
+                        dir + "/out --json " + dir + "/r.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("; 2 poses held; intrinsics of 2 cameras held; 6 points held\n"), std::string::npos) << r.out;
+  const auto unknowns = [&](const std::string &json) {
+    const std::string text = read_file(json);
+    return std::atoll(text.c_str() + text.find("\"unknowns\": ") + 12);
+  };
+  EXPECT_EQ(unknowns(dir + "/plain.json") - unknowns(dir + "/r.json"), 2 * 6 + 6 * 3);  // fx fy k1 k2 p1 p2; xyz
+  EXPECT_NE(read_file(dir + "/r.json").find("\"ncon\": 6,"), std::string::npos);  // every point held comes first
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  for (std::size_t c = 0; c < back.cameras.size(); ++c) {
+    const bool held = back.cameras[c].id == 101 || back.cameras[c].id == 104;
+    EXPECT_EQ(back.cameras[c].params == s.model.cameras[c].params, held) << c;
+  }
+  for (std::size_t i = 0; i < back.points.size(); ++i) {
+    const bool held = i < 2 || i == 7 || i == 30 || i == 50 || i == 51;
+    EXPECT_EQ(back.points[i].xyz == pts[i].xyz, held) << i;
+    EXPECT_EQ(back.points[i].error == pts[i].error, held) << i;
+    EXPECT_EQ(back.points[i].id, pts[i].id) << i;
+    EXPECT_EQ(back.points[i].track.size(), pts[i].track.size()) << i;
+  }
+  // All of a kind held, as the options that hold all of it.
+  const auto same_minimum = [&](const std::string &a, const std::string &b) {
+    const Outcome ra = run(dir + "/in --hold-poses 10,13 " + a), rb = run(dir + "/in --hold-poses 10,13 " + b);
+    ASSERT_EQ(ra.status, 0) << ra.err;
+    ASSERT_EQ(rb.status, 0) << rb.err;
+    EXPECT_EQ(final_error(ra.out), final_error(rb.out)) << a << " against " << b;
+    EXPECT_NE(final_error(ra.out), final_error(plain.out)) << a;
+  };
+  same_minimum("--hold-intrinsics all", "--intrinsics none");
+  same_minimum("--hold-points all", "--ncon 120");
+  // Errors.
+  const struct {
+    std::string args, err;
+    int status;
+  } bad[] = {
+      {"--hold-intrinsics 7", "sbarefine: --hold-intrinsics: " + dir + "/in: no camera has the CAMERA_ID '7'\n", 1},
+      {"--hold-points 5", "sbarefine: --hold-points: " + dir + "/in: no point has the POINT3D_ID '5'\n", 1},
+      {"--hold-intrinsics 101,x", "sbarefine: bad value '101,x' for --hold-intrinsics: item 2: 'x' is not a CAMERA_ID "
+                                  "(plain decimal digits without a leading zero)\n", 2},
+      {"--hold-intrinsics 0101", "sbarefine: bad value '0101' for --hold-intrinsics: item 1: '0101' is not a "
+                                 "CAMERA_ID (plain decimal digits without a leading zero)\n", 2},
+      {"--hold-intrinsics 4294967296", "sbarefine: bad value '4294967296' for --hold-intrinsics: item 1: '4294967296' "
+                                       "is not a CAMERA_ID (plain decimal digits without a leading zero)\n", 2},
+      {"--hold-points 1,", "sbarefine: bad value '1,' for --hold-points: item 2 is empty (two commas in a row, or a "
+                           "comma at an end)\n", 2},
+      {"--hold-points-file " + dir + "/bad.txt", "sbarefine: --hold-points-file: " + dir + "/in: " + dir +
+                                                     "/bad.txt:2: 'x 1' is not a POINT3D_ID (plain decimal digits "
+                                                     "without a leading zero)\n", 1},
+  };
+  write_file(dir + "/bad.txt", id(3) + "\nx 1\n");
+  for (const auto &b : bad) {
+    const Outcome e = run(dir + "/in " + b.args);
+    EXPECT_EQ(e.status, b.status) << b.args;
+    EXPECT_EQ(e.err, b.err) << b.args;
+    EXPECT_EQ(e.out, "") << b.args;
+  }
+  const Outcome help = run("--help");
+  for (const char *option : {"hold-intrinsics=LIST", "hold-sensor-from-rig=LIST", "hold-points=LIST",
+                             "hold-points-file=FILE"})
+    EXPECT_NE(help.out.find(std::string("\n  --") + option + "\n        COLMAP"), std::string::npos) << option;
 }
 
 // --hold-poses-file: a NAME a line, matched exactly, so that a name that holds a comma, or one
@@ -1781,6 +2059,52 @@ TEST(SbarefineRigs, RigsOfSeveralCamerasAreRefinedRigid) {
   }
 }
 
+// COLMAP 4's constant sensor_from_rig poses: --hold-sensor-from-rig holds the poses of the
+// cameras named in their rigs, for all the frames, bit for bit, the others' refined (a rig's
+// reference camera, at the identity, may be named: nothing changes); with the intrinsics of a
+// camera and points held too, the rigs stay rigid. A model refined without its rigs (frames of
+// one image) takes the option and refines as without it.
+TEST(SbarefineRigs, HoldSensorFromRig) {
+  const std::string dir = temp_dir("hold_sensors");
+  const RigScene s = make_rig_scene(2, 3, 8, 300, 0.5);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  const std::string held_point = std::to_string(s.model.points[5].id);
+  const Outcome r = run(dir + "/in --hold-sensor-from-rig 1,2,13 --hold-intrinsics 3 --hold-points " + held_point +
+                        " --write " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("rig_from_world of 8 frames (0 held), sensor_from_rig of 4 cameras (2 held); 0 poses held; "
+                       "intrinsics of 1 camera held; 1 point held\n"),
+            std::string::npos)
+      << r.out;
+  expect_rigid(dir + "/out", colmap::Encoding::Text);
+  const colmap::Model written = files_of(dir + "/out", colmap::Encoding::Text);
+  for (std::size_t g = 0; g < written.rigs.size(); ++g)
+    for (std::size_t k = 1; k < written.rigs[g].sensors.size(); ++k) {
+      const colmap::RigSensor &w = written.rigs[g].sensors[k], &start = s.model.rigs[g].sensors[k];
+      const bool held = w.sensor.id == 2 || w.sensor.id == 13;
+      EXPECT_EQ(w.sensor_from_rig.q == start.sensor_from_rig.q && w.sensor_from_rig.t == start.sensor_from_rig.t,
+                held)
+          << w.sensor.id;
+    }
+  for (std::size_t c = 0; c < written.cameras.size(); ++c)
+    EXPECT_EQ(written.cameras[c].params == s.model.cameras[c].params, written.cameras[c].id == 3)
+        << written.cameras[c].id;
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  for (std::size_t i = 0; i < back.points.size(); ++i) EXPECT_EQ(back.points[i].xyz == s.model.points[i].xyz, i == 5) << i;
+  const Outcome unknown = run(dir + "/in --hold-sensor-from-rig 99");
+  EXPECT_EQ(unknown.status, 1);
+  EXPECT_EQ(unknown.err, "sbarefine: --hold-sensor-from-rig: " + dir + "/in: no camera has the CAMERA_ID '99'\n");
+  // Frames of one image: nothing to hold.
+  const Scene plain = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion, 6, 80);
+  ASSERT_TRUE(colmap::write_model(dir + "/plain", colmap4(plain.model, true), colmap::Encoding::Text, &error)) << error;
+  const Outcome free = run(dir + "/plain"), held = run(dir + "/plain --hold-sensor-from-rig all");
+  ASSERT_EQ(free.status, 0) << free.err;
+  ASSERT_EQ(held.status, 0) << held.err;
+  EXPECT_EQ(final_error(held.out), final_error(free.out));
+}
+
 // A model of cameras each in a rig of its own (colmap4, plain) but one frame that holds two
 // images: rig 100 gets camera 101, and the first frame the image of camera 101 beside its own.
 // Camera 101's pose in the rig is that image's pose relative to the other's (P_101 P_100^-1),
@@ -1955,7 +2279,7 @@ TEST(SbarefineRigs, PoseOptions) {
   }
   r = run(in + " --refine-sensor-from-rig 2");
   EXPECT_EQ(r.status, 2);
-  EXPECT_EQ(r.err, "sbarefine: bad value '2' for --refine-sensor-from-rig: expected 0 or 1\n");
+  EXPECT_EQ(r.err, "sbarefine: bad value '2' for --refine-sensor-from-rig: expected 1, true, yes or on, or 0, false, no or off (in any case)\n");
   r = run("--help");
   for (std::string opt : {"refine-rig-from-world", "refine-sensor-from-rig", "constant-rig-from-world-rotation"}) {
     std::string colmap_name = opt;

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "cli/cli.h"
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -65,6 +66,22 @@ std::string to_real(const std::string &text, double lo, bool strict, double *out
   return {};
 }
 
+std::string to_bool(const std::string &text, bool *out) {
+  std::string lower = text;
+  for (char &c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (const char *yes : {"1", "true", "yes", "on"})
+    if (lower == yes) {
+      *out = true;
+      return {};
+    }
+  for (const char *no : {"0", "false", "no", "off"})
+    if (lower == no) {
+      *out = false;
+      return {};
+    }
+  return "expected 1, true, yes or on, or 0, false, no or off (in any case)";
+}
+
 std::string to_choice(const std::string &text, const std::vector<std::string> &choices, std::string *out) {
   for (const std::string &c : choices)
     if (text == c) {
@@ -107,13 +124,13 @@ std::string to_file(const std::string &text, std::string *out) {
   return {};
 }
 
-Option strategy_option(std::string *strategy) {
+Option strategy_option(std::string *strategy, const char *default_text) {
   return {"strategy", "NAME",
-          "how LM damps, accepts steps and stops: sba (sba 1.6's algorithm, the default),\n"
-          "sba-clean-retry (the same, but a rejected step is retried on the undamped normal\n"
-          "equations, as the sba paper writes it) or trust-region (Marquardt's scaled damping and\n"
-          "a relative cost tolerance: usually far fewer iterations); default: the environment\n"
-          "variable SBA_STRATEGY if set, else sba",
+          std::string("how LM damps, accepts steps and stops: sba (sba 1.6's algorithm),\n"
+                      "sba-clean-retry (the same, but a rejected step is retried on the undamped normal\n"
+                      "equations, as the sba paper writes it) or trust-region (Marquardt's scaled damping and\n"
+                      "a relative cost tolerance: usually far fewer iterations); default: ") +
+              (default_text ? default_text : "the environment\nvariable SBA_STRATEGY if set, else sba"),
           [strategy](const std::string &v) { return to_strategy(v, strategy); }};
 }
 

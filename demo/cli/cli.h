@@ -41,6 +41,9 @@ struct Option {
 // LLONG_MAX); a larger number is then "too large", not "not an integer".
 std::string to_int(const std::string &text, long long lo, long long hi, int *out);
 std::string to_int64(const std::string &text, long long lo, long long hi, long long *out);
+// A boolean as boost::program_options reads one (COLMAP's options): 1, true, yes or on, 0,
+// false, no or off, in any case.
+std::string to_bool(const std::string &text, bool *out);
 // A finite number >= lo, or > lo when strict.
 std::string to_real(const std::string &text, double lo, bool strict, double *out);
 // One of choices, stored as given.
@@ -61,8 +64,9 @@ std::string to_file(const std::string &text, std::string *out);
 // The LM options of sba's opts[]: --opts=TAU,EPS1,EPS2,EPS3,EPS4 and --tau, --eps1 .. --eps4.
 void add_lm_options(std::vector<Option> *options, std::array<double, 5> *opts);
 
-// --strategy NAME into *strategy (checked by to_strategy).
-Option strategy_option(std::string *strategy);
+// --strategy NAME into *strategy (checked by to_strategy). default_text: what --help says the
+// program runs when it is not given, after "default: " (null: the library's default).
+Option strategy_option(std::string *strategy, const char *default_text = nullptr);
 
 struct Parsed {
   std::vector<std::string> positional;  // arguments that are not options, in order

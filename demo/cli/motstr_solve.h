@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstddef>
 #include <cstdio>
 #include <optional>
@@ -135,6 +136,13 @@ class MotstrSolve {
   // The report's "model" (see Report::model).
   void describe(const std::string &model) { model_ = model; }
 
+  // COLMAP's mean reprojection error (mean_error_by_point) at p as it is, before the solve:
+  // finish() then reports it, initial and final, beside the RMS error.
+  template <class Project>
+  void report_mean_error(Project project) {
+    mean_initial_ = mean_error_by_point(*in_.vis, in_.x, project);
+  }
+
   int observations() const { return nobs_; }
   // The parameters as sba 1.6 counts them: every camera's cnp and every point's pnp, held ones
   // and each camera's copy of a shared one included.
@@ -166,7 +174,7 @@ class MotstrSolve {
   // After the program's sizes line: sba 1.6's summary, the report, --json (each camera's
   // error through project(j, i, x) at the result, named by `names` where given) into the
   // run's outputs, which are then published (publish_outputs), "Wrote OUT" when `written` is
-  // not empty; the exit status.
+  // not empty, and a line for the files publishing removed (print_removed); the exit status.
   template <class Project>
   int finish(double read_seconds, Project project, const std::vector<std::string> &names,
              const std::string &written, sbaformats::OutputSet *outputs) {
@@ -176,6 +184,10 @@ class MotstrSolve {
     report.unknowns = unknowns();
     report.model = model_;
     report.solver_requested = solver_;
+    if (!std::isnan(mean_initial_)) {
+      report.mean_initial = mean_initial_;
+      report.mean_final = mean_error_by_point(*in_.vis, in_.x, project);
+    }
     print_report(stdout, report);
     if (!so_.json.empty()) {
       add_per_camera(in_.m, *in_.vis, in_.x, project, &report);
@@ -190,6 +202,7 @@ class MotstrSolve {
     if (const int status = control_->late_signal(program_, info_[6] == SBA_STOP_USER, outputs)) return status;
     if (!sbaformats::publish_outputs(program_, outputs)) return kExitFailure;
     if (!written.empty()) std::printf("Wrote %s\n", written.c_str());
+    print_removed(stdout, *outputs);
     // A stopped solve is a result (written above), but the status says it was cut short by a
     // signal; a time limit the user set is an ordinary end.
     if (info_[6] == SBA_STOP_USER) return stopped_status(program_, *control_, so_.max_time, static_cast<int>(info_[5]));
@@ -210,6 +223,7 @@ class MotstrSolve {
   int ret_ = 0;
   double seconds_ = 0;
   std::string model_;
+  double mean_initial_ = NAN;  // report_mean_error's; NaN: not reported
   std::string solver_;  // the solver asked for, the program's default included; empty: none ran
 };
 

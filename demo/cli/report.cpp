@@ -96,6 +96,9 @@ std::string stop_reason_text(int reason) {
 void print_report(std::FILE *out, const Report &r) {
   const int reason = static_cast<int>(r.info[6]);
   std::fprintf(out, "RMS reprojection error: initial %.6g px, final %.6g px\n", r.rms_initial(), r.rms_final());
+  if (!std::isnan(r.mean_final))
+    std::fprintf(out, "Mean reprojection error (COLMAP's): initial %.6g px, final %.6g px\n", r.mean_initial,
+                 r.mean_final);
   std::fprintf(out, "Stop reason %d: %s\n", reason, stop_reason_text(reason).c_str());
   // The strategy is named when it is not 1.6's, the one a legacy user expects.
   const bool named = r.result.strategy && std::strcmp(r.result.strategy, "sba") != 0;
@@ -104,6 +107,19 @@ void print_report(std::FILE *out, const Report &r) {
   std::fprintf(out, "Solver %s%s on %d thread%s%s%s, %.3f s\n", r.result.linsolver ? r.result.linsolver : "none",
                chosen ? " (auto)" : "", r.result.nthreads, r.result.nthreads == 1 ? "" : "s",
                named ? ", strategy " : "", named ? r.result.strategy : "", r.seconds);
+}
+
+void print_removed(std::FILE *out, const sbaformats::OutputSet &outputs) {
+  const std::vector<sbaformats::OutputSet::Removal> &removed = outputs.removed();
+  for (std::size_t k = 0; k < removed.size();) {
+    std::string paths = removed[k].path;
+    std::size_t next = k + 1;
+    for (; next < removed.size() && removed[next].what == removed[k].what && removed[next].why == removed[k].why;
+         ++next)
+      paths += ", " + removed[next].path;
+    std::fprintf(out, "Removed %s (%s): %s\n", removed[k].what.c_str(), paths.c_str(), removed[k].why.c_str());
+    k = next;
+  }
 }
 
 bool write_json(const std::string &path, const Report &r, std::string *error,
@@ -144,6 +160,8 @@ bool write_json(const std::string &path, const Report &r, std::string *error,
   field("squared_error", "{\"initial\": " + number(r.result.sq_error_initial) +
                              ", \"final\": " + number(r.result.sq_error_final) + "}");
   field("rms_px", "{\"initial\": " + number(r.rms_initial()) + ", \"final\": " + number(r.rms_final()) + "}");
+  if (!std::isnan(r.mean_final))
+    field("mean_px", "{\"initial\": " + number(r.mean_initial) + ", \"final\": " + number(r.mean_final) + "}");
   std::string its = "[";
   for (std::size_t k = 0; k < r.iterations.size(); ++k) {
     const RunControl::Iteration &it = r.iterations[k];

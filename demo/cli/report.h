@@ -6,6 +6,7 @@
 #define SBA_DEMO_REPORT_H
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -56,6 +57,9 @@ struct Report {
   double seconds = 0;  // the solve, as the 1.6 "Elapsed time" line
   std::vector<RunControl::Iteration> iterations;
   std::vector<CameraResidual> per_camera;
+  // COLMAP's mean reprojection error in pixels, initial and final (mean_error_by_point,
+  // solve_options.h); NaN: not reported.
+  double mean_initial = NAN, mean_final = NAN;
 
   // Root mean square of the projections' pixel distances, from the plain squared errors.
   double rms_initial() const;
@@ -66,8 +70,13 @@ struct Report {
 // request.
 std::string stop_reason_text(int reason);
 
-// The lines printed after sba 1.6's summary.
+// The lines printed after sba 1.6's summary: the RMS error (and COLMAP's mean error, when the
+// report has it), the stop reason, the solver.
 void print_report(std::FILE *out, const Report &r);
+
+// What a run's outputs removed when they were published (OutputSet::removed), a line for each
+// reason: "Removed WHAT (PATH, PATH ...): WHY".
+void print_removed(std::FILE *out, const sbaformats::OutputSet &outputs);
 
 // Writes the report as one JSON object to path (whole or not at all, see output_file.h; with
 // `outputs`, when that set of the run's outputs is committed): false with "PATH: why" in *error

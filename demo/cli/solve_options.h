@@ -5,6 +5,7 @@
 #define SBA_DEMO_SOLVE_OPTIONS_H
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -38,21 +39,30 @@ struct SolveOptions {
   std::string json;     // the run as one JSON object; empty: not written
 };
 
+// What a program's --help says of a default that is its own, not the library's or 150
+// iterations (null: that one).
+struct SolveDefaults {
+  const char *strategy = nullptr;  // after "default: " (strategy_option)
+  const char *itmax = nullptr;     // in the parentheses after "maximum iterations"
+};
+
 // The rows of the options above, in --help order; `write` (the program's own output option)
 // goes after --loss-scale.
-inline void add_solve_options(std::vector<Option> *t, SolveOptions &o, const Option &write) {
+inline void add_solve_options(std::vector<Option> *t, SolveOptions &o, const Option &write,
+                              const SolveDefaults &defaults = {}) {
   const int kIntMax = std::numeric_limits<int>::max();
   t->push_back({"solver", "NAME",
                 "linear solver of the normal equations, one of those listed below (default:\n"
                 "the environment variable SBA_LINSOLVER if set, else auto: chol, sparse-chol or\n"
                 "iterative-schur, chosen from the problem's size, its sparsity and the memory)",
                 [&o](const std::string &v) { return to_linsolver(v, &o.solver); }});
-  t->push_back(strategy_option(&o.strategy));
+  t->push_back(strategy_option(&o.strategy, defaults.strategy));
   t->push_back({"threads", "N",
                 "threads; 0 (the default): SBA_NUM_THREADS if set, else every hardware thread, but at\n"
                 "most one per 10,000 observations. The result does not depend on it",
                 [&o](const std::string &v) { return to_threads(v, &o.threads); }});
-  t->push_back({"itmax", "N", "maximum iterations (default 150)",
+  t->push_back({"itmax", "N",
+                std::string("maximum iterations (") + (defaults.itmax ? defaults.itmax : "default 150") + ")",
                 [&o](const std::string &v) { return to_int(v, 0, kIntMax, &o.itmax); }});
   add_lm_options(t, &o.opts);
   t->push_back({"mcon", "N",
@@ -256,6 +266,28 @@ void add_per_camera(int m, const sbaformats::Visibility &vis, const double *x, P
     r->per_camera[static_cast<std::size_t>(j)].observations += 1;
     r->per_camera[static_cast<std::size_t>(j)].sum_sq += dx * dx + dy * dy;
   }
+}
+
+// COLMAP's mean reprojection error (Reconstruction::ComputeMeanReprojectionError, what its
+// model_analyzer and pycolmap report): each point's mean pixel distance over its observations
+// (the ERROR of a refined point that sbarefine writes), averaged over the points. project as
+// add_per_camera's; vis lists each point's observations together. NaN for no observation.
+template <class Project>
+double mean_error_by_point(const sbaformats::Visibility &vis, const double *x, Project project) {
+  double total = 0;
+  long long points = 0;
+  for (std::size_t k = 0; k < vis.size(); ++points) {
+    const int i = vis.point[k];
+    double sum = 0;
+    long long count = 0;
+    for (; k < vis.size() && vis.point[k] == i; ++k, ++count) {
+      double xp[2];
+      project(vis.camera[k], i, xp);
+      sum += std::hypot(xp[0] - x[2 * k], xp[1] - x[2 * k + 1]);
+    }
+    total += sum / static_cast<double>(count);
+  }
+  return points > 0 ? total / static_cast<double>(points) : NAN;
 }
 
 // main() of a program: its exit status, 1 when the report did not reach stdout or an

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -27,6 +28,7 @@
 #include "cli/motstr_solve.h"
 #include "cli/ply_options.h"
 #include "cli/solve_options.h"
+#include "cli/tty_progress.h"
 #include "formats/bal_io.h"
 #include "formats/bundler_io.h"
 #include "formats/colmap_io.h"
@@ -62,6 +64,10 @@ struct Options {
   bool poses_given = false;          // a --refine-rig-from-world or the like
   std::string hold_poses;            // COLMAP: the images whose pose is held; empty: none
   std::string hold_poses_file;       // COLMAP: a file of the names of more of them; empty: none
+  std::string hold_intrinsics;       // COLMAP: the cameras whose intrinsics are held; empty: none
+  std::string hold_sensors;          // COLMAP: the cameras whose poses in their rigs are held; empty: none
+  std::string hold_points;           // COLMAP: the points held; empty: none
+  std::string hold_points_file;      // COLMAP: a file of the POINT3D_IDs of more of them; empty: none
   double function_tolerance = -1;    // < 0: not given
   std::string initial_ply, final_ply;
   std::string write_eucsba;  // COLMAP, NVM: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
@@ -89,12 +95,14 @@ void resolve_defaults(bool colmap_model, Options *o) {
   if (so.strategy.empty()) so.strategy = "trust-region";
 }
 
-// A 0|1 option: flag `field` of *flags, and *given set.
+// A boolean option of COLMAP's, 0|1 or as COLMAP's command line takes it (sbacli::to_bool):
+// flag `field` of *flags, and *given set.
 template <class Flags>
 sbacli::Apply zero_one(Flags *flags, bool Flags::*field, bool *given) {
   return [flags, field, given](const std::string &v) -> std::string {
-    if (v != "0" && v != "1") return "expected 0 or 1";
-    flags->*field = v == "1";
+    bool value = false;
+    if (std::string why = sbacli::to_bool(v, &value); !why.empty()) return why;
+    flags->*field = value;
     *given = true;
     return {};
   };
@@ -162,6 +170,38 @@ void add_pose_options(std::vector<sbacli::Option> *t, Options &o) {
                 [&o](const std::string &v) { return sbacli::to_file(v, &o.hold_poses_file); }});
 }
 
+// COLMAP's other constants (colmap::Constants): the intrinsics of cameras, the poses of cameras
+// in their rigs, points. The lists are checked here; their items are looked up once the model is
+// read.
+void add_constant_options(std::vector<sbacli::Option> *t, Options &o) {
+  const auto id_list = [](std::string *out, const char *kind, std::uint64_t max) -> sbacli::Apply {
+    return [out, kind, max](const std::string &v) -> std::string {
+      if (v.empty()) return std::string("expected all or ") + kind + "s separated by commas";
+      if (std::string why = colmap::check_id_list(v, kind, max); !why.empty()) return why;
+      *out = v;
+      return {};
+    };
+  };
+  t->push_back({"hold-intrinsics", "LIST",
+                "COLMAP: hold every intrinsic parameter of these cameras, in all their images (COLMAP's\n"
+                "constant camera intrinsics): all, or CAMERA_IDs separated by commas, each plain decimal\n"
+                "digits without a leading zero",
+                id_list(&o.hold_intrinsics, "CAMERA_ID", UINT32_MAX)});
+  t->push_back({"hold-sensor-from-rig", "LIST",
+                "COLMAP 4: hold the poses of these cameras in their rigs, for all the frames (COLMAP's\n"
+                "constant sensor_from_rig poses): all, or CAMERA_IDs as --hold-intrinsics's (a rig's\n"
+                "reference camera is at the identity, held anyway)",
+                id_list(&o.hold_sensors, "CAMERA_ID", UINT32_MAX)});
+  t->push_back({"hold-points", "LIST",
+                "COLMAP: hold these points (COLMAP's constant points): all, or POINT3D_IDs separated by\n"
+                "commas, each plain decimal digits without a leading zero; with --ncon, the points of both",
+                id_list(&o.hold_points, "POINT3D_ID", UINT64_MAX)});
+  t->push_back({"hold-points-file", "FILE",
+                "COLMAP: hold the points whose POINT3D_IDs FILE holds, one a line (blank lines are\n"
+                "skipped); with --hold-points, the points of both",
+                [&o](const std::string &v) { return sbacli::to_file(v, &o.hold_points_file); }});
+}
+
 // The outputs and inputs of one format each.
 void add_format_options(std::vector<sbacli::Option> *t, Options &o) {
   t->push_back({"write-eucsba", "PREFIX",
@@ -180,15 +220,25 @@ void add_format_options(std::vector<sbacli::Option> *t, Options &o) {
 
 std::vector<sbacli::Option> option_table(Options &o) {
   std::vector<sbacli::Option> t;
+  // What resolve_defaults makes of an option not given, for each format.
+  sbacli::SolveDefaults defaults;
+  defaults.strategy =
+      "trust-region\n"
+      "for a COLMAP model (COLMAP's bundle adjuster runs Ceres's Levenberg-Marquardt), unless\n"
+      "--eps4 (or --opts) gives sba's relative error test; otherwise (a Bundler or NVM file) the\n"
+      "environment variable SBA_STRATEGY if set, else sba";
+  defaults.itmax = "default 100 for a COLMAP model, as COLMAP; 150 for a Bundler or NVM file";
   sbacli::add_solve_options(
       &t, o.solve,
       {"write", "OUT", "write the refined model in the input's format: a COLMAP model into the directory\n"
                         "OUT (created if missing), a Bundler or NVM file to the file OUT",
-       [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }});
+       [&o](const std::string &v) { return sbacli::to_file(v, &o.write); }},
+      defaults);
   t.push_back({"write-format", "F", "the format of --write: text or binary (default: the input's)",
                [&o](const std::string &v) { return sbacli::to_choice(v, {"text", "binary"}, &o.write_format); }});
   add_intrinsics_options(&t, o);
   add_pose_options(&t, o);
+  add_constant_options(&t, o);
   t.push_back({"max-num-iterations", "N",
                "COLMAP's name of --itmax (default 100 for a COLMAP model, as COLMAP; 150 for the others)",
                [&o](const std::string &v) {
@@ -235,18 +285,21 @@ void print_usage(std::FILE *out) {
       "- a VisualSFM file (NVM_V3, its first model), refined with eucsbademo's camera model, the\n"
       "  focal length refined (--intrinsics focal or none) and the radial distortion held.\n"
       "\n"
-      "Options (a value may follow as --opt=VALUE or --opt VALUE; '--' ends the options):\n",
+      "Options (a value may follow as --opt=VALUE or --opt VALUE; '--' ends the options; an option\n"
+      "of 0|1 also takes true|false, yes|no and on|off, in any case, as COLMAP's command line):\n",
       out);
   Options scratch;
   sbacli::print_options(out, option_table(scratch));
   std::fprintf(out, "\nLinear solvers (--solver): %s\n", sba_linsolver_names());
   std::fputs(
       "\n"
-      "Prints what balsba prints: the sizes, sba 1.6's summary (mean squared reprojection error in\n"
-      "pixels^2 per observation ...), the RMS reprojection error in pixels, the stop reason, the\n"
-      "solver and threads used. The written model keeps every identifier, name, color and\n"
-      "unrefined value; a refined point's ERROR becomes its mean reprojection error. --itmax 0\n"
-      "writes the model as read (a conversion), without a solve and without a Jacobian check.\n"
+      "Prints the sizes and what is refined once the model is read, then what balsba prints: sba\n"
+      "1.6's summary (mean squared reprojection error in pixels^2 per observation ...), the RMS\n"
+      "reprojection error in pixels, COLMAP's mean reprojection error (each point's mean distance\n"
+      "in pixels, averaged over the points), the stop reason, the solver and threads used. The\n"
+      "written model keeps every identifier, name, color and unrefined value; a refined point's\n"
+      "ERROR becomes its mean reprojection error. --itmax 0 writes the model as read (a\n"
+      "conversion), without a solve and without a Jacobian check.\n"
       "Exit status: 0 done (--max-time included), 1 a file cannot be read or written or the solver\n"
       "fails, 2 bad options, 130 (SIGINT) or 143 (SIGTERM) when a signal stopped the solve.\n",
       out);
@@ -299,6 +352,9 @@ struct Job {
   Cloud initial;
   std::vector<std::string> camera_names;  // the image of each sba camera; empty: unnamed
   std::string model;                      // --json's "model": the camera models, what is refined
+  // The points held at the start of the problem's (sba's ncon), when it is not --ncon (a COLMAP
+  // model's constant points come first: ColmapProblem::held_points); -1: --ncon.
+  int ncon = -1;
   // Writes the refined model (p) where --write says, and the files derived from it, into the
   // run's outputs, the model marked to be published last; returns it for --final-ply. With
   // --itmax 0 nothing was refined: the model is written as read, not as p, whose rotations and
@@ -361,6 +417,7 @@ bool open_input(const std::string &path, Input *in, std::string *error) {
 
 // The state a job's callbacks point into, kept alive for the whole run.
 struct Loaded {
+  std::string warning;  // said once the input is read; empty: none
   colmap::Model model;
   colmap::Encoding encoding = colmap::Encoding::Text;
   colmap::SbaProblem problem;  // NVM
@@ -518,6 +575,35 @@ bool held_poses(const Options &o, const colmap::Model &model, std::vector<char> 
   return true;
 }
 
+// COLMAP's constants of the command line (--hold-poses and the like) looked up in the model.
+bool constants_of(const Options &o, const colmap::Model &model, colmap::Constants *c, std::string *error) {
+  if (!held_poses(o, model, &c->poses, error)) return false;
+  const struct {
+    const std::string &list;
+    std::string (*parse)(const colmap::Model &, const std::string &, std::vector<char> *);
+    std::vector<char> *held;
+    const char *option;
+  } lists[] = {{o.hold_intrinsics, colmap::parse_camera_list, &c->intrinsics, "--hold-intrinsics"},
+               {o.hold_sensors, colmap::parse_camera_list, &c->sensor_from_rig, "--hold-sensor-from-rig"},
+               {o.hold_points, colmap::parse_point_list, &c->points, "--hold-points"}};
+  for (const auto &l : lists)
+    if (std::string why; !l.list.empty() && !(why = l.parse(model, l.list, l.held)).empty()) {
+      *error = std::string("sbarefine: ") + l.option + ": " + o.input + ": " + why;
+      return false;
+    }
+  if (o.hold_points_file.empty()) return true;
+  std::string ids, why;
+  if (!colmap::read_whole_file(o.hold_points_file, true, &ids, &why)) {
+    *error = "sbarefine: --hold-points-file: " + why;
+    return false;
+  }
+  if (!(why = colmap::parse_point_ids(model, ids, o.hold_points_file, &c->points)).empty()) {
+    *error = "sbarefine: --hold-points-file: " + o.input + ": " + why;
+    return false;
+  }
+  return true;
+}
+
 // The summary's line on the images that see no point (none: empty): held out of the solve, and
 // written back as read, or, in a rig, kept at their place in a frame or rig whose pose is
 // refined, and moved with it.
@@ -535,12 +621,14 @@ std::string unseen_images(const colmap::Model &model, const colmap::ColmapProble
 
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
-  std::vector<char> held;
-  if (!held_poses(o, l->model, &held, error)) return false;
-  if (!colmap::to_sba(l->model, o.refine, o.poses, held, o.solve.mcon, o.input, &l->colmap_problem, error))
+  colmap::Constants constants;
+  if (!constants_of(o, l->model, &constants, error) ||
+      !colmap::to_sba(l->model, o.refine, o.poses, constants, o.solve.mcon, o.solve.ncon, o.input,
+                      &l->colmap_problem, error))
     return false;
   colmap_job(l, job);
   const colmap::ColmapProblem &pr = l->colmap_problem;
+  job->ncon = pr.held_points;
   // The library can only say that the initial error is not finite; the model can say where.
   if (o.solve.itmax > 0) {
     const std::vector<double> &p = job->p;
@@ -583,6 +671,10 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
                   count(static_cast<std::size_t>(pr.sensors), "camera") + " (" + std::to_string(pr.held_sensors) +
                   " held); ";
   job->model += std::to_string(pr.held_poses) + (pr.held_poses == 1 ? " pose" : " poses") + " held";
+  if (!o.hold_intrinsics.empty())
+    job->model += "; intrinsics of " + count(static_cast<std::size_t>(pr.held_intrinsics), "camera") + " held";
+  if (!o.hold_points.empty() || !o.hold_points_file.empty())
+    job->model += "; " + count(static_cast<std::size_t>(pr.held_points), "point") + " held";
   job->summary += "\nCamera models: " + job->model;
   job->initial = cloud(l->model);
   for (int j : pr.images) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
@@ -590,9 +682,9 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
                         std::string *why) {
     const colmap::ColmapProblem &problem = l->colmap_problem;
     if (o.solve.itmax > 0 && problem.rigged)
-      colmap::from_sba(*l->rig_model, problem, p, o.solve.mcon, o.solve.ncon, &l->model);
+      colmap::from_sba(*l->rig_model, problem, p, o.solve.mcon, problem.held_points, &l->model);
     else if (o.solve.itmax > 0)
-      colmap::from_sba(*l->colmap_model, problem, p, o.solve.mcon, o.solve.ncon, &l->model);
+      colmap::from_sba(*l->colmap_model, problem, p, o.solve.mcon, problem.held_points, &l->model);
     *final_cloud = cloud(l->model);
     if (!o.write_eucsba.empty() &&
         !(problem.rigged ? write_eucsba_colmap(o.write_eucsba, *l->rig_model, problem.points, p, outputs, why)
@@ -613,11 +705,10 @@ bool load_nvm(const Options &o, const std::string &text, Loaded *l, Job *job, st
     return false;
   // A warning, not a refusal: the solve still runs, and its error says how badly it fits.
   if (nvm::looks_uncentred(l->nvm))
-    std::fprintf(stderr,
-                 "sbarefine: warning: %s: the measurements look measured from the image corner, not from its centre "
-                 "as NVM's are (99%% of them have x >= 0 and y >= 0); COLMAP writes NVM files so, and they do not "
-                 "refine to a small error\n",
-                 o.input.c_str());
+    l->warning = "sbarefine: warning: " + o.input +
+                 ": the measurements look measured from the image corner, not from its centre as NVM's are (99% "
+                 "of them have x >= 0 and y >= 0); COLMAP writes NVM files so, and they do not refine to a small "
+                 "error";
   eucsba_job(l, job);
   job->summary = "NVM file " + o.input + ": " + std::to_string(job->in.m) + " cameras, " + std::to_string(job->in.n) +
                  " points";
@@ -723,6 +814,10 @@ int check_format_options(Format format, Options *o) {
       {!o->write_list.empty(), format == Format::Bundler, "--write-list", "Bundler files"},
       {!o->hold_poses.empty(), format == Format::Colmap, "--hold-poses", "COLMAP models"},
       {!o->hold_poses_file.empty(), format == Format::Colmap, "--hold-poses-file", "COLMAP models"},
+      {!o->hold_intrinsics.empty(), format == Format::Colmap, "--hold-intrinsics", "COLMAP models"},
+      {!o->hold_sensors.empty(), format == Format::Colmap, "--hold-sensor-from-rig", "COLMAP models"},
+      {!o->hold_points.empty(), format == Format::Colmap, "--hold-points", "COLMAP models"},
+      {!o->hold_points_file.empty(), format == Format::Colmap, "--hold-points-file", "COLMAP models"},
       {o->poses_given, format == Format::Colmap, "--refine-rig-from-world (or --refine-sensor-from-rig, "
        "--constant-rig-from-world-rotation)", "COLMAP models"},
       {o->intrinsics_given, format != Format::Bundler, "--intrinsics (or --refine-*)",
@@ -757,34 +852,40 @@ bool load_input(const Options &o, Input *input, Loaded *loaded, Job *job, std::s
 // output: the program's exit status.
 int solve_and_write(const Options &o, Job &job, double read_seconds) {
   job.in.p = job.p.data();
-  sbacli::MotstrSolve solve("sbarefine", o.input, o.solve, job.in);
+  sbacli::SolveOptions so = o.solve;
+  if (job.ncon >= 0) so.ncon = job.ncon;
+  sbacli::MotstrSolve solve("sbarefine", o.input, so, job.in);
   solve.describe(job.model);
   if (const int status = solve.check_fixed(); status >= 0) return status;
-  // Every file of the run is published at its end, together, or none is (output_file.h).
-  sbaformats::OutputSet outputs;
-  if (!sbacli::write_ply_option(o.initial_ply, job.initial, &outputs)) return kExitFailure;
-  const std::vector<double> &p = job.p;
-  if (o.solve.itmax == 0)
-    solve.score([&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); });
-  else if (!solve.run())
-    return kExitFailure;
-
-  Cloud final_cloud;
-  std::string error;
-  if (!job.finish(p.data(), &final_cloud, &outputs, &error)) {
-    std::fprintf(stderr, "%s\n", error.c_str());
-    return kExitFailure;
-  }
-  if (!sbacli::write_ply_option(o.final_ply, final_cloud, &outputs)) return kExitFailure;
-
+  // What was read, at once: a large model takes long to solve, and a user sees its sizes first.
   const std::size_t eol = job.summary.find('\n');
   std::printf("%s, %d observations, %lld unknowns (%lld parameters, held ones and each copy of a shared one "
               "included)%s\n",
               job.summary.substr(0, eol).c_str(), solve.observations(), solve.unknowns(), solve.variables(),
               eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
-  return solve.finish(
-      read_seconds, [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); }, job.camera_names,
-      o.write, &outputs);
+  std::fflush(stdout);
+  const std::vector<double> &p = job.p;
+  const auto project = [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); };
+  solve.report_mean_error(project);
+  // Every file of the run is published at its end, together, or none is (output_file.h).
+  sbaformats::OutputSet outputs;
+  if (!sbacli::write_ply_option(o.initial_ply, job.initial, &outputs)) return kExitFailure;
+  if (o.solve.itmax == 0)
+    solve.score(project);
+  else if (!solve.run())
+    return kExitFailure;
+
+  Cloud final_cloud;
+  std::string error;
+  sbacli::TtyPhase writing(o.solve.progress && !o.write.empty(), "writing " + o.write);
+  const bool written = job.finish(p.data(), &final_cloud, &outputs, &error);
+  writing.end();
+  if (!written) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitFailure;
+  }
+  if (!sbacli::write_ply_option(o.final_ply, final_cloud, &outputs)) return kExitFailure;
+  return solve.finish(read_seconds, project, job.camera_names, o.write, &outputs);
 }
 
 int refine_main(int argc, char **argv) {
@@ -809,10 +910,14 @@ int refine_main(int argc, char **argv) {
   if (const int status = check_format_options(input.format, &o); status >= 0) return status;
   Loaded loaded;
   Job job;
-  if (!load_input(o, &input, &loaded, &job, &error)) {
+  sbacli::TtyPhase reading(o.solve.progress, "reading " + o.input);
+  const bool read = load_input(o, &input, &loaded, &job, &error);
+  reading.end();
+  if (!read) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitFailure;
   }
+  if (!loaded.warning.empty()) std::fprintf(stderr, "%s\n", loaded.warning.c_str());
   const double read_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
   return solve_and_write(o, job, read_seconds);

@@ -555,16 +555,24 @@ bool write_model(const std::string &dir, const Model &model, Encoding encoding, 
       return false;
   // The other encoding's model goes, or a reader could take it for this one; its cameras file
   // first, without which no reader takes the others for a model.
-  const Encoding other = encoding == Encoding::Text ? Encoding::Binary : Encoding::Text;
+  const bool text = encoding == Encoding::Text;
+  const Encoding other = text ? Encoding::Binary : Encoding::Text;
+  const char *why = text ? "COLMAP reads a folder's binary model first, and would have read it, not the text "
+                           "model written"
+                         : "a folder holds one model, and a reader that takes the text one would have read "
+                           "stale values (COLMAP reads the binary one first)";
   for (auto file = std::rbegin(kModelFiles); file != std::rend(kModelFiles); ++file)
-    set->remove_on_commit(slashed(dir) + file->name + extension(other), "the model of the other format");
+    set->remove_on_commit(slashed(dir) + file->name + extension(other),
+                          text ? "the binary model" : "the text model", why);
   // So do rigs and frames of another model beside one without them: COLMAP 4 would take the
   // images' poses from those frames.
   if (!model.has_rigs)
     for (const ModelFile &file : kModelFiles)
       if (file.rig_file)
         set->remove_on_commit(slashed(dir) + file.name + extension(encoding),
-                              "the rigs and frames of another model");
+                              "the rigs and frames of another model",
+                              "the model written has none, and COLMAP 4 would compose its images' poses from "
+                              "them");
   return outputs || own.commit(error);
 }
 

@@ -164,6 +164,113 @@ std::string parse_image_names(const Model &model, const std::string &text, const
   return {};
 }
 
+namespace {
+
+// item as an identifier of at most max, written as an IMAGE_ID of an image list is (plain
+// decimal digits without a leading zero): false when it is not one.
+bool decimal_id(const std::string &item, std::uint64_t max, std::uint64_t *id) {
+  if (item.empty() || (item.size() > 1 && item[0] == '0')) return false;
+  std::uint64_t v = 0;
+  for (const char c : item) {
+    if (c < '0' || c > '9') return false;
+    const std::uint64_t d = static_cast<std::uint64_t>(c - '0');
+    if (v > (max - d) / 10) return false;
+    v = 10 * v + d;
+  }
+  *id = v;
+  return true;
+}
+
+std::string not_an_id(const std::string &item, const char *kind) {
+  return quoted(item) + " is not a " + kind + " (plain decimal digits without a leading zero)";
+}
+
+// The identifiers of the elements of a model's list (Model::cameras, Model::points) and what
+// messages call them, for the lists of identifiers.
+struct IdIndex {
+  const char *kind, *noun;  // "CAMERA_ID", "camera"
+  std::uint64_t max;
+  std::unordered_map<std::uint64_t, std::size_t> index;
+
+  // Flags the element of item; why not, empty when it is flagged.
+  std::string hold(const std::string &item, std::vector<char> *held) const {
+    std::uint64_t id = 0;
+    if (!decimal_id(item, max, &id)) return not_an_id(item, kind);
+    const auto it = index.find(id);
+    if (it == index.end()) return std::string("no ") + noun + " has the " + kind + " " + quoted(item);
+    (*held)[it->second] = 1;
+    return {};
+  }
+};
+
+IdIndex camera_ids(const Model &model) {
+  IdIndex ids{"CAMERA_ID", "camera", 0xffffffffu, {}};
+  for (std::size_t c = 0; c < model.cameras.size(); ++c) ids.index.emplace(model.cameras[c].id, c);
+  return ids;
+}
+
+IdIndex point_ids(const Model &model) {
+  IdIndex ids{"POINT3D_ID", "point", UINT64_MAX, {}};
+  for (std::size_t i = 0; i < model.points.size(); ++i) ids.index.emplace(model.points[i].id, i);
+  return ids;
+}
+
+// parse_camera_list and parse_point_list over ids, of `size` elements.
+std::string parse_id_list(const IdIndex &ids, std::size_t size, const std::string &list, std::vector<char> *held) {
+  std::vector<char> h = *held;
+  h.resize(size, 0);
+  if (list == "all") {
+    std::fill(h.begin(), h.end(), 1);
+  } else {
+    std::vector<std::string> items;
+    if (std::string why = split_image_list(list, &items); !why.empty()) return why;
+    for (const std::string &item : items)
+      if (std::string why = ids.hold(item, &h); !why.empty()) return why;
+  }
+  *held = std::move(h);
+  return {};
+}
+
+}  // namespace
+
+std::string check_id_list(const std::string &list, const char *kind, std::uint64_t max) {
+  if (list == "all") return {};
+  std::vector<std::string> items;
+  if (std::string why = split_image_list(list, &items); !why.empty()) return why;
+  for (std::size_t k = 0; k < items.size(); ++k) {
+    std::uint64_t id = 0;
+    if (!decimal_id(items[k], max, &id)) return "item " + std::to_string(k + 1) + ": " + not_an_id(items[k], kind);
+  }
+  return {};
+}
+
+std::string parse_camera_list(const Model &model, const std::string &list, std::vector<char> *held) {
+  return parse_id_list(camera_ids(model), model.cameras.size(), list, held);
+}
+
+std::string parse_point_list(const Model &model, const std::string &list, std::vector<char> *held) {
+  return parse_id_list(point_ids(model), model.points.size(), list, held);
+}
+
+std::string parse_point_ids(const Model &model, const std::string &text, const std::string &name,
+                            std::vector<char> *held) {
+  std::vector<char> h = *held;
+  h.resize(model.points.size(), 0);
+  const IdIndex ids = point_ids(model);
+  std::size_t pos = 0;
+  for (int line = 1; pos < text.size(); ++line) {
+    const std::size_t eol = std::min(text.find('\n', pos), text.size());
+    // A '\r' is taken off only as part of a "\r\n" line break.
+    const std::size_t end = eol < text.size() && eol > pos && text[eol - 1] == '\r' ? eol - 1 : eol;
+    const std::string item = text.substr(pos, end - pos);
+    pos = eol + 1;
+    if (item.empty()) continue;
+    if (std::string why = ids.hold(item, &h); !why.empty()) return name + ":" + std::to_string(line) + ": " + why;
+  }
+  *held = std::move(h);
+  return {};
+}
+
 std::size_t frames_of_several_images(const Model &model) {
   return static_cast<std::size_t>(std::count_if(model.frames.begin(), model.frames.end(), [](const Frame &f) {
     return std::count_if(f.data.begin(), f.data.end(),
@@ -239,14 +346,21 @@ int rig_images(const Model &model, const std::vector<ImagePlace> &places,
   return np;
 }
 
+// The flag of item k of flags, a vector of Constants (empty: none is set).
+bool flagged(const std::vector<char> &flags, std::size_t k) { return !flags.empty() && flags[k]; }
+
 // The holds of a rigged problem, and its counts (ColmapProblem: frames, sensors, shared cameras,
 // held poses, images that see no point and move with a refined frame or rig).
-RigHolds rig_holds(const Model &model, const RefinePoses &poses, const std::vector<char> &held_pose, int mcon,
+RigHolds rig_holds(const Model &model, const RefinePoses &poses, const Constants &constants, int mcon,
                    const std::vector<ImagePlace> &places, const std::unordered_map<std::uint32_t, int> &camera_index,
                    ColmapProblem *p) {
   RigHolds h{std::vector<char>(model.frames.size(), poses.rig_from_world ? 0 : 1),
              std::vector<char>(model.cameras.size(), poses.sensor_from_rig ? 0 : 1),
              std::vector<char>(model.cameras.size(), 0)};
+  for (std::size_t c = 0; c < model.cameras.size(); ++c) {
+    if (flagged(constants.sensor_from_rig, c)) h.sensor[c] = 1;
+    if (flagged(constants.intrinsics, c)) h.camera[c] = 1;
+  }
   std::vector<char> frame_used(model.frames.size(), 0), sensor_used(model.cameras.size(), 0),
       seeing(model.images.size(), 0);
   std::vector<int> camera_used(model.cameras.size(), 0);  // images per camera: far more than a char holds
@@ -260,7 +374,7 @@ RigHolds rig_holds(const Model &model, const RefinePoses &poses, const std::vect
     seeing[at(p->images[j])] = 1;
   }
   for (std::size_t i = 0; i < model.images.size(); ++i) {
-    if (held_pose.empty() || !held_pose[i]) continue;
+    if (!flagged(constants.poses, i)) continue;
     h.frame[places[i].frame] = h.sensor[at(camera_index.at(model.images[i].camera_id))] = 1;
     ++p->held_poses;
   }
@@ -272,6 +386,7 @@ RigHolds rig_holds(const Model &model, const RefinePoses &poses, const std::vect
     p->sensors += sensor_used[c];
     p->held_sensors += sensor_used[c] && h.sensor[c];
     p->shared_cameras += camera_used[c] > 1 && !h.camera[c];
+    p->held_intrinsics += camera_used[c] > 0 && flagged(constants.intrinsics, c);
   }
   // An image that sees no point keeps its place in its frame and rig: it moves when the frame's
   // pose, or its camera's pose in the rig, is refined for the images that see points.
@@ -286,14 +401,14 @@ RigHolds rig_holds(const Model &model, const RefinePoses &poses, const std::vect
 // The rigged problem's cameras, held flags and groups (ColmapProblem), its cameras' images in
 // p->images; camera_index maps a CAMERA_ID to its index in Model::cameras.
 void rig_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
-                 const std::vector<char> &held_pose, int mcon,
-                 const std::unordered_map<std::uint32_t, int> &camera_index, ColmapProblem *p) {
+                 const Constants &constants, int mcon, const std::unordered_map<std::uint32_t, int> &camera_index,
+                 ColmapProblem *p) {
   const std::vector<ImagePlace> places = image_places(model);
   const int ms = static_cast<int>(p->images.size());
   p->rigged = true;
   std::vector<int> camera;  // each sba camera's index in Model::cameras
   const int cnp = p->cnp = cc::rig_camera_params(rig_images(model, places, camera_index, &camera, p));
-  const RigHolds h = rig_holds(model, poses, held_pose, mcon, places, camera_index, p);
+  const RigHolds h = rig_holds(model, poses, constants, mcon, places, camera_index, p);
   p->cam_fixed.assign(at(ms) * at(cnp), 0);
   p->cam_param_group.assign(at(ms) * at(cnp), -1);
   for (int j = 0; j < ms; ++j) {
@@ -315,8 +430,8 @@ void rig_problem(const Model &model, const RefineIntrinsics &refine, const Refin
 
 // The unrigged problem's cameras, held flags and groups (ColmapProblem), as rig_problem.
 void image_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
-                   const std::vector<char> &held_pose, int mcon,
-                   const std::unordered_map<std::uint32_t, int> &camera_index, ColmapProblem *p) {
+                   const Constants &constants, int mcon, const std::unordered_map<std::uint32_t, int> &camera_index,
+                   ColmapProblem *p) {
   int np = 0;
   for (int j : p->images) {
     const Image &im = model.images[at(j)];
@@ -331,7 +446,8 @@ void image_problem(const Model &model, const RefineIntrinsics &refine, const Ref
   }
   const int ms = static_cast<int>(p->cameras.size());
   const int cnp = p->cnp = cc::camera_params(np);
-  // Each COLMAP camera's sba cameras; one below mcon holds the camera's parameters in all.
+  // Each COLMAP camera's sba cameras; one below mcon holds the camera's parameters in all, and so
+  // do constant intrinsics.
   std::vector<std::vector<int>> users(model.cameras.size());
   for (int j = 0; j < ms; ++j) users[at(camera_index.at(model.images[at(p->images[at(j)])].camera_id))].push_back(j);
   p->cam_fixed.assign(at(ms) * at(cnp), 0);
@@ -341,30 +457,81 @@ void image_problem(const Model &model, const RefineIntrinsics &refine, const Ref
   for (std::size_t c = 0; c < users.size(); ++c) {
     const std::vector<int> &u = users[c];
     if (u.empty()) continue;
-    const bool below_mcon = u.front() < mcon;  // u ascends
+    const bool held = u.front() < mcon || flagged(constants.intrinsics, c);  // u ascends
     for (int j : u) {
       char *fixed = &p->cam_fixed[at(j) * at(cnp)];
       for (int k = 0; k < cnp - cc::kPoseParams; ++k)
-        fixed[cc::kPoseParams + k] = below_mcon || intrinsic_held(refine, model.cameras[c].model, k) ? 1 : 0;
-      if (u.size() > 1 && !below_mcon) p->cam_group[at(j)] = u.front();
+        fixed[cc::kPoseParams + k] = held || intrinsic_held(refine, model.cameras[c].model, k) ? 1 : 0;
+      if (u.size() > 1 && !held) p->cam_group[at(j)] = u.front();
     }
-    if (u.size() > 1 && !below_mcon) ++p->shared_cameras;
+    if (u.size() > 1 && !held) ++p->shared_cameras;
+    p->held_intrinsics += flagged(constants.intrinsics, c);
   }
   std::vector<char> seeing(model.images.size(), 0);
   for (int j = 0; j < ms; ++j) {
-    const bool held = !poses.rig_from_world || (!held_pose.empty() && held_pose[at(p->images[at(j)])]);
+    const bool held = !poses.rig_from_world || flagged(constants.poses, at(p->images[at(j)]));
     hold_pose(&p->cam_fixed[at(j) * at(cnp)], held || poses.constant_rig_from_world_rotation, held);
     p->held_poses += held;
     seeing[at(p->images[at(j)])] = 1;
   }
   // A held image that sees no point is held out of the problem, and counted as held too.
-  for (std::size_t i = 0; i < seeing.size(); ++i) p->held_poses += !seeing[i] && !held_pose.empty() && held_pose[i];
+  for (std::size_t i = 0; i < seeing.size(); ++i) p->held_poses += !seeing[i] && flagged(constants.poses, i);
+}
+
+}  // namespace
+
+namespace {
+
+// The order of the problem's points (ColmapProblem::point_order) and how many lead it held
+// (held_points): with constant points, the first ncon points and the constant ones, in the
+// file's order, then the others; otherwise the file's order and ncon as given.
+void order_points(const Model &model, const std::vector<char> &constant, int ncon, ColmapProblem *p) {
+  p->held_points = ncon;
+  if (constant.empty()) return;
+  const std::size_t n = model.points.size();
+  if (ncon >= static_cast<int>(n)) return;  // every point held, or a --ncon the solve refuses
+  const auto held = [&](std::size_t i) { return static_cast<int>(i) < ncon || constant[i]; };
+  for (const bool first : {true, false})
+    for (std::size_t i = 0; i < n; ++i)
+      if (held(i) == first) p->point_order.push_back(static_cast<int>(i));
+  p->held_points = static_cast<int>(std::count_if(p->point_order.begin(), p->point_order.end(),
+                                                  [&](int i) { return held(at(i)); }));
+}
+
+// The problem's points and their projections (ColmapProblem::points) in the order of
+// order_points; camera_of: each image's sba camera, image_index: an IMAGE_ID's image.
+void problem_points(const Model &model, const std::unordered_map<std::uint32_t, int> &image_index,
+                    const std::vector<int> &camera_of, ColmapProblem *p) {
+  const int n = static_cast<int>(model.points.size());
+  eucsba::PointSet &s = p->points;
+  s.ncameras = static_cast<int>(p->images.size());
+  s.xyz.reserve(at(n) * 3);
+  std::vector<std::pair<int, const Point2D *>> track;
+  for (int k = 0; k < n; ++k) {
+    const Point3D &pt = model.points[p->point_order.empty() ? at(k) : at(p->point_order[at(k)])];
+    s.xyz.insert(s.xyz.end(), pt.xyz.begin(), pt.xyz.end());
+    track.clear();
+    for (const TrackElement &e : pt.track) {
+      const int j = image_index.at(e.image_id);
+      track.push_back({camera_of[at(j)], &model.images[at(j)].points[e.point2d_idx]});
+    }
+    // sba's layout: a point's projections with the cameras ascending.
+    std::sort(track.begin(), track.end(),
+              [](const std::pair<int, const Point2D *> &a, const std::pair<int, const Point2D *> &b) {
+                return a.first < b.first;
+              });
+    for (const auto &t : track) {
+      s.pairs.add(k, t.first);
+      s.x.push_back(t.second->x);
+      s.x.push_back(t.second->y);
+    }
+  }
 }
 
 }  // namespace
 
 bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
-            const std::vector<char> &held_pose, int mcon, const std::string &name, ColmapProblem *out,
+            const Constants &constants, int mcon, int ncon, const std::string &name, ColmapProblem *out,
             std::string *error) {
   const std::string where = name + ": ";
   std::unordered_map<std::uint32_t, int> camera_index, image_index;
@@ -384,35 +551,21 @@ bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePose
       p.images.push_back(j);
     }
   if (refined_as_rigs(model, poses))
-    rig_problem(model, refine, poses, held_pose, mcon, camera_index, &p);
+    rig_problem(model, refine, poses, constants, mcon, camera_index, &p);
   else
-    image_problem(model, refine, poses, held_pose, mcon, camera_index, &p);
-  const int ms = static_cast<int>(p.images.size());
-  eucsba::PointSet &s = p.points;
-  s.ncameras = ms;
-  s.xyz.reserve(at(n) * 3);
-  std::vector<std::pair<int, const Point2D *>> track;
-  for (int i = 0; i < n; ++i) {
-    const Point3D &pt = model.points[at(i)];
-    s.xyz.insert(s.xyz.end(), pt.xyz.begin(), pt.xyz.end());
-    track.clear();
-    for (const TrackElement &e : pt.track) {
-      const int j = image_index.at(e.image_id);
-      track.push_back({camera_of[at(j)], &model.images[at(j)].points[e.point2d_idx]});
-    }
-    // sba's layout: a point's projections with the cameras ascending.
-    std::sort(track.begin(), track.end(),
-              [](const std::pair<int, const Point2D *> &a, const std::pair<int, const Point2D *> &b) {
-                return a.first < b.first;
-              });
-    for (const auto &t : track) {
-      s.pairs.add(i, t.first);
-      s.x.push_back(t.second->x);
-      s.x.push_back(t.second->y);
-    }
-  }
+    image_problem(model, refine, poses, constants, mcon, camera_index, &p);
+  order_points(model, constants.points, ncon, &p);
+  problem_points(model, image_index, camera_of, &p);
   *out = std::move(p);
   return true;
+}
+
+bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
+            const std::vector<char> &held_pose, int mcon, const std::string &name, ColmapProblem *out,
+            std::string *error) {
+  Constants constants;
+  constants.poses = held_pose;
+  return to_sba(model, refine, poses, constants, mcon, 0, name, out, error);
 }
 
 std::string nonfinite_error(const Model &model, const ColmapProblem &problem, const std::string &name,
@@ -432,7 +585,8 @@ std::string nonfinite_error(const Model &model, const ColmapProblem &problem, co
     const std::string image_name = quoted(im.name);  // its control characters as \xHH, in quotes
     return name + ": image " + std::to_string(im.id) + " (" + image_name.substr(1, image_name.size() - 2) +
            "), camera " + std::to_string(im.camera_id) + " (" + camera_model_name(camera->model) + "): point " +
-           std::to_string(model.points[at(i)].id) + " projects to " + pixels +
+           std::to_string(model.points[problem.point_order.empty() ? at(i) : at(problem.point_order[at(i)])].id) +
+           " projects to " + pixels +
            " px, where its squared reprojection error is not finite";
   }
   return {};
@@ -451,8 +605,8 @@ bool write_pose(const char *fixed, const sbacameras::euclidean::Quaternion &q, c
   return !held(fixed) || !held(fixed + 3);
 }
 
-// Each refined point (from ncon on) from p, its ERROR the mean distance in pixels between its
-// observations and project(j, a_j, b_i, x).
+// Each refined point (the problem's from ncon on, in the model's place of each) from p, its
+// ERROR the mean distance in pixels between its observations and project(j, a_j, b_i, x).
 template <typename Project>
 void write_points(const ColmapProblem &problem, const double *p, int cnp, int ncon, Project project, Model *model) {
   const int m = static_cast<int>(problem.images.size());
@@ -460,10 +614,10 @@ void write_points(const ColmapProblem &problem, const double *p, int cnp, int nc
   std::unordered_map<std::uint32_t, int> camera_of;  // an image's sba camera
   for (int j = 0; j < m; ++j) camera_of.emplace(model->images[at(problem.images[at(j)])].id, j);
   const double *points = p + at(m) * at(cnp);
-  for (int i = ncon; i < n; ++i) {
-    Point3D &pt = model->points[at(i)];
-    const double *b = points + 3 * at(i);
-    for (int k = 0; k < 3; ++k) pt.xyz[at(k)] = b[k];
+  for (int k = ncon; k < n; ++k) {
+    Point3D &pt = model->points[problem.point_order.empty() ? at(k) : at(problem.point_order[at(k)])];
+    const double *b = points + 3 * at(k);
+    for (int c = 0; c < 3; ++c) pt.xyz[at(c)] = b[c];
     double sum = 0;
     for (const TrackElement &e : pt.track) {
       const int j = camera_of.at(e.image_id);

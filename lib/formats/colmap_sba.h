@@ -26,6 +26,7 @@
 #define SBA_DEMO_COLMAP_SBA_H
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -90,6 +91,21 @@ struct ColmapProblem {
   std::vector<int> cam_param_group;  // m*cnp: frame poses by frame, sensor poses by camera, intrinsics by camera
   int frames = 0, held_frames = 0;    // the frames of the sba cameras, and those whose pose is held
   int sensors = 0, held_sensors = 0;  // their cameras that are not a rig's reference, and those held
+  int held_intrinsics = 0;  // COLMAP cameras of the sba cameras whose intrinsics are constant (Constants)
+  // Problem point k is Model::points[point_order[k]] (empty: the file's order, k itself), and the
+  // first held_points of them are held (sba's ncon, in the solve and in from_sba).
+  std::vector<int> point_order;
+  int held_points = 0;
+};
+
+// What COLMAP's BundleAdjustmentConfig holds constant beyond the options, named as it names
+// them: poses (flags by Model::images; in a rig, the image's frame's pose and its camera's pose
+// in the rig), camera intrinsics (by Model::cameras: every parameter of the camera, in all its
+// images), sensor_from_rig poses (by Model::cameras: the camera's pose in its rig, in every
+// frame; a reference camera's is the identity, held anyway), points (by Model::points). An
+// empty vector holds nothing.
+struct Constants {
+  std::vector<char> poses, intrinsics, sensor_from_rig, points;
 };
 
 // The frames of the model that hold several images (none without rigs and frames).
@@ -119,6 +135,28 @@ std::string parse_image_list(const Model &model, const std::string &list, std::v
 std::string parse_image_names(const Model &model, const std::string &text, const std::string &name,
                               std::vector<char> *held);
 
+// Lists of identifiers, for COLMAP's other constants (sbarefine's --hold-intrinsics and
+// --hold-sensor-from-rig, of CAMERA_IDs, and --hold-points, of POINT3D_IDs): "all", or items
+// separated by commas, each written as an IMAGE_ID of an image list is (plain decimal digits
+// without a leading zero), and matched exactly.
+
+// Whether list is such a list of identifiers of at most max (kind names them in the message:
+// "CAMERA_ID"): why not (the first bad item, quoted and numbered from 1), empty when it is.
+std::string check_id_list(const std::string &list, const char *kind, std::uint64_t max);
+
+// Flags the cameras list names: *held has one flag per Model::cameras (it is sized so), and is
+// changed only when the list is good. Returns why not ("no camera has the CAMERA_ID '7'").
+std::string parse_camera_list(const Model &model, const std::string &list, std::vector<char> *held);
+
+// The same for points: one flag per Model::points ("no point has the POINT3D_ID '7'").
+std::string parse_point_list(const Model &model, const std::string &list, std::vector<char> *held);
+
+// The same for the text of a file of POINT3D_IDs (name stands for it in messages): one a line,
+// as in a list; only the line break is taken off, and blank lines are skipped. Errors are
+// "NAME:LINE: why".
+std::string parse_point_ids(const Model &model, const std::string &text, const std::string &name,
+                            std::vector<char> *held);
+
 // The problem of a model checked by check_model. held_pose: one flag per Model::images (or
 // empty for none). mcon: the sba cameras below it are held by the solve (sba's mcon); a COLMAP
 // camera that one of them uses has its parameters held in all its images, so that what is
@@ -136,6 +174,15 @@ std::string parse_image_names(const Model &model, const std::string &text, const
 // all its images without poses.sensor_from_rig, or when one of its images is a held_pose image
 // (seeing points or not) or below mcon: holding an image's pose holds both parts of it, so that
 // it comes back as it was read.
+// With constants beyond the poses (constants.poses is held_pose): constant intrinsics are held
+// as mcon holds a camera's (in all its images, out of any group); constant sensor_from_rig poses
+// as poses.sensor_from_rig holds them all (in a rigged problem; otherwise nothing changes, as
+// there); constant points, and the first ncon points, are put first in the problem's points, and
+// out->held_points counts them (see ColmapProblem; without constant points it is ncon, and the
+// order the file's).
+bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
+            const Constants &constants, int mcon, int ncon, const std::string &name, ColmapProblem *out,
+            std::string *error);
 bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
             const std::vector<char> &held_pose, int mcon, const std::string &name, ColmapProblem *out,
             std::string *error);
@@ -150,7 +197,8 @@ std::string nonfinite_error(const Model &model, const ColmapProblem &problem, co
                             const std::function<void(int j, int i, double x[2])> &project);
 
 // Writes the estimate p (m cnp-vectors, then n points) back into the model: the poses of the
-// sba cameras from mcon on that are not held, the points from ncon on, the parameters of each
+// sba cameras from mcon on that are not held, the problem's points from ncon on (each into its
+// place in the model, point_order), the parameters of each
 // COLMAP camera that are not held (once per camera: a group's from its first sba camera),
 // and each refined point's ERROR as its mean reprojection error in pixels; with rigs and
 // frames, the frame of each image whose pose is written gets that pose (frames_from_poses).

@@ -36,6 +36,30 @@
 
 namespace sbaformats {
 
+// The folder a file at path is written in (its temporary made there and renamed onto it): the
+// folder of path as named, or, for a symbolic link, of the file it leads to.
+inline std::string folder_of(const std::string &path) {
+  std::string file = path;
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0 && S_ISLNK(st.st_mode))
+    if (char *real = ::realpath(path.c_str(), nullptr)) {
+      file = real;
+      std::free(real);
+    }
+  const std::size_t slash = file.find_last_of('/');
+  if (slash == std::string::npos) return ".";
+  return slash == 0 ? "/" : file.substr(0, slash);
+}
+
+// Why a file cannot be made in the folder of path, for the errno of a failure that is the
+// folder's rather than the file's (no permission, a read-only file system); empty for another.
+// A writable file in such a folder cannot be replaced either: its replacement is a new file.
+inline std::string folder_refusal(const std::string &path, int err) {
+  if (err != EACCES && err != EPERM && err != EROFS) return {};
+  return "cannot create files in the folder " + folder_of(path) + ": " + std::strerror(err) +
+         " (a file is written under a temporary name beside its own, then renamed)";
+}
+
 class OutputFile {
  public:
   OutputFile() = default;
@@ -45,7 +69,8 @@ class OutputFile {
   ~OutputFile() { discard(); }
 
   // Creates the file to write. On failure returns false with the reason (strerror text, e.g.
-  // "cannot open for writing: No such file or directory") in *why.
+  // "cannot open for writing: No such file or directory", or folder_refusal's for a folder that
+  // takes no new file) in *why.
   bool open(const std::string &path, std::string *why) {
     discard();
     final_ = path;
@@ -69,6 +94,13 @@ class OutputFile {
       // 0666 less the umask, as fopen would create it.
       const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
       if (fd < 0 && errno == EEXIST) continue;
+      if (fd < 0) {
+        const std::string refusal = folder_refusal(path, errno);
+        if (!refusal.empty()) {
+          if (why) *why = refusal;
+          return false;
+        }
+      }
       if (fd >= 0) {
         temp_ = temp;
         // A file being replaced keeps its permission bits.
@@ -274,11 +306,18 @@ class OutputSet {
     return true;
   }
 
-  // path is removed once every file of the set is in place (a missing one is no error);
-  // `what` says in a failure's message what it is ("PATH: cannot remove WHAT: why").
-  void remove_on_commit(const std::string &path, const std::string &what) {
-    removals_.push_back({path, what});
+  // A file commit() removes: `what` it is ("PATH: cannot remove WHAT: why" when that fails),
+  // and `why` it goes, for the program to say (removed()).
+  struct Removal {
+    std::string path, what, why;
+  };
+
+  // path is removed once every file of the set is in place (a missing one is no error).
+  void remove_on_commit(const std::string &path, const std::string &what, const std::string &why) {
+    removals_.push_back({path, what, why});
   }
+  // The files the last commit removed (those of remove_on_commit that were there), in order.
+  const std::vector<Removal> &removed() const { return removed_; }
 
   // Renames every file onto its name (devices and FIFOs: already written), then removes the
   // files remove_on_commit named. False with "PATH: why" in *error on the first failure; the
@@ -292,12 +331,16 @@ class OutputSet {
         if (e.last == last && !e.file->publish(&why)) return failed(e.path, why, error);
     files_.clear();
     made_.clear();
-    for (const Removal &r : removals_)
-      if (std::remove(r.path.c_str()) != 0 && errno != ENOENT) {
+    removed_.clear();
+    for (const Removal &r : removals_) {
+      if (std::remove(r.path.c_str()) == 0) {
+        removed_.push_back(r);
+      } else if (errno != ENOENT) {
         why = std::strerror(errno);
         removals_.clear();
         return failed(r.path, "cannot remove " + r.what + ": " + why, error);
       }
+    }
     removals_.clear();
     return true;
   }
@@ -318,10 +361,6 @@ class OutputSet {
     std::string path;                  // as the caller named it, for messages
     bool last;
   };
-  struct Removal {
-    std::string path, what;
-  };
-
   bool failed(const std::string &path, const std::string &why, std::string *error) {
     if (error) *error = path + ": " + why;
     discard();
@@ -331,6 +370,7 @@ class OutputSet {
   std::vector<Entry> files_;
   std::vector<std::string> made_;  // directories made, in order
   std::vector<Removal> removals_;
+  std::vector<Removal> removed_;
 };
 
 // The file a writer streams into: in *set (renamed when the set is committed) or, set null, a
@@ -379,6 +419,8 @@ inline bool write_whole_file(const std::string &path, const std::string &text, s
 // Checks before a long computation that path can be written, without changing an existing
 // file and without leaving a new one behind: false with the reason in *why if not. Devices
 // and FIFOs pass unopened: opening a FIFO could block, or end the stream its reader waits on.
+// The folder must take a new file (the temporary a file is written under), even when the file
+// itself is writable.
 inline bool probe_writable(const std::string &path, std::string *why) {
   struct stat st {};
   const bool existed = ::stat(path.c_str(), &st) == 0;
@@ -387,6 +429,13 @@ inline bool probe_writable(const std::string &path, std::string *why) {
     return false;
   }
   if (existed && !S_ISREG(st.st_mode)) return true;
+  if (::faccessat(AT_FDCWD, folder_of(path).c_str(), W_OK | X_OK, AT_EACCESS) != 0) {
+    const std::string refusal = folder_refusal(path, errno);
+    if (!refusal.empty()) {
+      if (why) *why = refusal;
+      return false;
+    }
+  }
   std::FILE *probe = std::fopen(path.c_str(), "a");
   if (!probe) {
     if (why) *why = std::string("cannot open for writing: ") + std::strerror(errno);

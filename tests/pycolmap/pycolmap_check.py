@@ -9,7 +9,8 @@ with rigs and frames, as COLMAP 4 writes them. Cases:
             encoding in place and into a new folder. pycolmap reads every model sbarefine
             writes; each image's pose there (composed from its frame) is the pose sbarefine
             wrote into the images file (1e-12); the RMS reprojection error pycolmap's
-            projection gives is sbarefine's final RMS (--json, 1e-6 relative); the poses were
+            projection gives is sbarefine's final RMS (--json, 1e-6 relative), and COLMAP's mean
+            reprojection error of the model sbarefine's final mean (1e-9); the poses were
             refined; the folder holds the five files of its encoding and nothing else.
   one_image_frames
             a rig of three cameras whose frames each hold one image (pycolmap's rig, its frames
@@ -162,7 +163,15 @@ def check_written(pycolmap, colmap_real, before, out, encoding, final_rms):
     theirs = rms(pycolmap, rec)
     expect(abs(theirs - final_rms) <= 1e-6 * final_rms,
            "%s: pycolmap's RMS %.17g, sbarefine's final %.17g" % (out, theirs, final_rms))
-    print("PASS %s: %d images, %d frames; RMS %.9g px both" % (out, len(rec.images), rec.num_frames(), theirs))
+    # COLMAP's mean reprojection error of the model written (from its points' ERROR) is the one
+    # sbarefine reports.
+    with open(out + ".json") as f:
+        mean = json.load(f)["mean_px"]["final"]
+    colmaps = rec.compute_mean_reprojection_error()
+    expect(abs(colmaps - mean) <= 1e-9 * mean,
+           "%s: COLMAP's mean reprojection error %.17g, sbarefine's final %.17g" % (out, colmaps, mean))
+    print("PASS %s: %d images, %d frames; RMS %.9g px, mean %.9g px both"
+          % (out, len(rec.images), rec.num_frames(), theirs, colmaps))
 
 
 def case_written(pycolmap, colmap_real, args):
