@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The process of each program set up for the limits a user may put on it, before anything else
-// runs: compiled into each program (demo/CMakeLists.txt), not into sbacli, whose other users
-// (tests, benchmarks) choose their own process settings.
+// runs: linked into each program and sba_bench (the object library sbaprocess,
+// demo/CMakeLists.txt), not into sbacli, whose other users (the tests, the micro-benchmarks)
+// choose their own process settings.
 //
 // - A file-size limit (ulimit -f): a write past it fails with EFBIG, which the writers report and
 //   clean up after as they do a full disk, instead of SIGXFSZ killing the program midway
