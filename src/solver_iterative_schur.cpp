@@ -31,10 +31,13 @@
 // any clustering gives a valid PCG preconditioner; this one keeps each lens with the poses it
 // moves with, as the camera block does without sharing.
 //
-// Memory: the point blocks' inverses (n pnp^2), kChunks (cnp + 1) doubles per unknown of S
-// for the partial sums, and six vectors of S's order: no array of cameras x cameras or
-// anything per observation beyond the Jacobian LM already holds. With shared unknowns, the
-// clusters' matrices add at most kMaxCluster doubles per unknown.
+// Memory: the point blocks' inverses (n pnp^2), kChunks doubles per free camera parameter for
+// the products' partial sums, and six vectors of S's order; for S's diagonal blocks,
+// kChunks + 1 blocks per camera (the chunks' partial sums and the factored block); with
+// shared unknowns instead, the clusters' matrices (at most kMaxCluster doubles per unknown),
+// two vectors over the cameras' parameters and one more of S's order. No array of cameras x
+// cameras, or anything per observation beyond the Jacobian LM already holds. auto's estimate
+// (solver_choice.cpp) counts these.
 //
 // Stopping: an inexact Newton (truncated) step. CG stops when ||S da - rhs|| <= eta ||rhs||,
 // with the forcing term eta = sqrt(||g|| / ||g_0||) within [kEtaMin, kEtaMax] (g = J^T e on
@@ -740,6 +743,8 @@ bool iterative_schur_apply_preconditioner(const SolveContext &ctx, const NormalE
                                           const double *r, double *z) {
   return with_solver(ctx, [&](auto s) { return s->apply_preconditioner(ne, mu, r, z); });
 }
+
+i64 iterative_schur_cluster_doubles(const CameraMap &map) { return find_clusters(map, kMaxCluster).doubles; }
 
 int iterative_schur_cg_iterations(const SolveContext &ctx, const NormalEquations &ne, double mu, double *dp,
                                   bool clusters) {
