@@ -22,8 +22,8 @@
 // keep one rig pose, and a camera one pose in its rig, bit for bit.
 //
 // NVM files (nvm_io.h) still map onto eucsbademo's camera (SbaProblem below).
-#ifndef SBA_DEMO_COLMAP_SBA_H
-#define SBA_DEMO_COLMAP_SBA_H
+#ifndef SBA_LIB_FORMATS_COLMAP_SBA_H
+#define SBA_LIB_FORMATS_COLMAP_SBA_H
 
 #include <cstddef>
 #include <cstdint>
@@ -230,4 +230,4 @@ bool from_problem(euclidean::CameraKind kind, const std::vector<euclidean::Camer
 
 }  // namespace sbaformats::colmap
 
-#endif  // SBA_DEMO_COLMAP_SBA_H
+#endif  // SBA_LIB_FORMATS_COLMAP_SBA_H

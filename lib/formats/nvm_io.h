@@ -12,8 +12,8 @@
 // and no distortion terms; only the focal length may be refined besides pose and structure.
 //
 // Errors are one line, "<file>:<line>: <message>", or "<file>: <message>" for the model.
-#ifndef SBA_DEMO_NVM_IO_H
-#define SBA_DEMO_NVM_IO_H
+#ifndef SBA_LIB_FORMATS_NVM_IO_H
+#define SBA_LIB_FORMATS_NVM_IO_H
 
 #include <array>
 #include <string>
@@ -101,4 +101,4 @@ bool from_problem(const std::vector<euclidean::Camera> &cameras, const eucsba::P
 
 }  // namespace sbaformats::nvm
 
-#endif  // SBA_DEMO_NVM_IO_H
+#endif  // SBA_LIB_FORMATS_NVM_IO_H

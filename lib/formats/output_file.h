@@ -17,8 +17,8 @@
 // FIFO, are written directly: renaming a temporary onto them would replace the device node or
 // link instead of writing to it. A symbolic link to a regular file keeps pointing where it
 // did: its target is replaced.
-#ifndef SBA_DEMO_OUTPUT_FILE_H
-#define SBA_DEMO_OUTPUT_FILE_H
+#ifndef SBA_LIB_FORMATS_OUTPUT_FILE_H
+#define SBA_LIB_FORMATS_OUTPUT_FILE_H
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -476,4 +476,4 @@ inline bool publish_outputs(const char *program, OutputSet *outputs) {
 
 }  // namespace sbaformats
 
-#endif  // SBA_DEMO_OUTPUT_FILE_H
+#endif  // SBA_LIB_FORMATS_OUTPUT_FILE_H
