@@ -37,6 +37,19 @@ int close_fd(void *cookie) {
   return rc;
 }
 
+// Syncs the folder of a file just renamed into it, so that the rename outlives a power loss;
+// 0, or the errno of the failure. A folder that cannot be opened for reading (permission to
+// write and search only) cannot be synced by this process, and some file systems sync no
+// folder (EINVAL): neither is a failure of the write, and the file is whole either way.
+int sync_folder(const std::string &file) {
+  const int fd = ::open(folder_of(file).c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return 0;
+  int err = ::fsync(fd) == 0 ? 0 : errno;
+  ::close(fd);
+  if (err == EINVAL || err == ENOTSUP || err == EOPNOTSUPP) err = 0;
+  return err;
+}
+
 bool failed(const char *what, std::string *why) {
   if (why) *why = std::string(what) + std::strerror(errno);
   return false;
@@ -106,17 +119,29 @@ bool OutputFile::open(const std::string &path, std::string *why) {
   return failed("cannot open for writing: ", why);
 }
 
-bool OutputFile::commit(std::string *why) { return close(why) && publish(why); }
+bool OutputFile::commit(std::string *why) {
+  if (!close(why)) return false;
+  if (publish(why)) return true;
+  unpublish();
+  return false;
+}
 
 bool OutputFile::close(std::string *why) {
   if (!file_) {
     if (why) *why = "write failed: not open";
     return false;
   }
+  // A file to be renamed reaches the disk before the rename does (see the top of the header).
+  // A file written in place is a device or a FIFO, which nothing renames and most cannot sync.
+  bool synced = true;
+  if (!temp_.empty() && std::fflush(file_) == 0 && ::fsync(io_.fd) != 0) {
+    synced = false;
+    if (io_.error == 0) io_.error = errno;
+  }
   const bool write_error = std::ferror(file_) != 0;
   const bool closed = std::fclose(file_) == 0;  // flushes through write_fd, closes through close_fd
   file_ = nullptr;
-  if (write_error || !closed) {
+  if (write_error || !closed || !synced) {
     const int err = io_.error != 0 ? io_.error : EIO;
     discard();
     errno = err;
@@ -126,14 +151,22 @@ bool OutputFile::close(std::string *why) {
 }
 
 bool OutputFile::publish(std::string *why) {
-  if (!temp_.empty() && std::rename(temp_.c_str(), final_.c_str()) != 0) {
+  if (temp_.empty()) {
+    created_ = false;
+    return true;
+  }
+  if (std::rename(temp_.c_str(), final_.c_str()) != 0) {
     const int rename_err = errno;
     discard();
     errno = rename_err;
     return failed("cannot replace the file: ", why);
   }
-  created_ = !temp_.empty() && !replaces_;
+  created_ = !replaces_;
   temp_.clear();
+  if (const int err = sync_folder(final_)) {
+    errno = err;
+    return failed("write failed: ", why);
+  }
   return true;
 }
 

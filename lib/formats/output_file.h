@@ -5,9 +5,13 @@
 //
 // A result file is written under a temporary name beside its final one (FILE.tmp.PID, with a
 // counter appended if that name is taken) and renamed onto the final name once it has been
-// written and closed without error. A run that fails or is killed midway therefore never leaves
-// a truncated file under the final name, and an existing file there stays as it was until the
-// new one replaces it. A stale FILE.tmp.* may remain only when the process is killed.
+// written, synced to the disk and closed without error; the folder is synced after the rename.
+// A run that fails or is killed midway therefore never leaves a truncated file under the final
+// name, and an existing file there stays as it was until the new one replaces it. The syncs
+// extend that to a power loss: without the first, the rename could reach the disk before the
+// data and leave an empty or partial file under the final name; without the second, the
+// rename itself could be lost after the run has said it succeeded. A stale FILE.tmp.* may
+// remain only when the process is killed (or the power lost) midway.
 //
 // The files of one run (a model, its reports, a COLMAP model's files) form an OutputSet: all
 // are written and closed before any is renamed, so that a run that fails leaves no new file, no
@@ -52,13 +56,18 @@ class OutputFile {
 
   std::FILE *get() const { return file_; }
 
-  // Closes the file and gives it its final name. On a write, close or rename error returns
+  // Closes the file and gives it its final name. On a write, sync, close or rename error returns
   // false with the reason in *why; the temporary is then removed and the final name untouched.
+  // A failure to sync the folder after the rename is said as a write error too, and the file
+  // the rename put where nothing was is removed again.
   bool commit(std::string *why);
 
-  // commit() in two steps, for files that appear together: close() ends the writing (false,
-  // the temporary removed, on a write or close error), publish() renames the closed file onto
-  // its final name. A file closed and not published is removed with its OutputFile.
+  // commit() in two steps, for files that appear together: close() ends the writing (the data
+  // synced to the disk unless the file is written in place; false, the temporary removed, on a
+  // write, sync or close error: "write failed: REASON"), publish() renames the closed file onto
+  // its final name and syncs its folder (false on a failure of either; after a failed sync of
+  // the folder the file is in place, and unpublish() takes it back). A file closed and not
+  // published is removed with its OutputFile.
   bool close(std::string *why);
   bool publish(std::string *why);
 
@@ -123,7 +132,7 @@ class OutputSet {
   // OutputFile::open gives it) in *why, when it cannot be created.
   OutputFile *create(const std::string &path, std::string *why);
   // Ends the writing of a file create() returned: false, with the reason in *why and the file
-  // no longer part of the set, on a write or close error.
+  // no longer part of the set, on a write, sync or close error.
   bool close(OutputFile *file, std::string *why);
   // Takes a file create() returned out of the set, its temporary removed: a writer that gives
   // up on it.
