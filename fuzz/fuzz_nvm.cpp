@@ -29,7 +29,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
   require(once.compare(0, m.header.size() + 1, m.header + "\n") == 0, "the header is not written back as read");
   require(once.size() >= m.rest.size() && once.compare(once.size() - m.rest.size(), m.rest.size(), m.rest) == 0,
           "the rest of the file is not written back as read");
-  colmap::SbaProblem p;
+  nvm::SbaProblem p;
   if (!nvm::to_sba(m, true, name, &p, &error)) {
     sbafuzz::check_error_line(error, name + ": ");
     return 0;

@@ -17,13 +17,16 @@ includes a.h), which no compiler notices but which ties the two together all the
 A catch-all header holds nothing but includes (and its guard): it hides what a file really
 uses, and every file that includes it depends on all of it.
 
-The layers are read from the table under "## Layers" in docs/architecture.md, top to bottom,
-so that the document the reader is sent to is the one the check holds the code to: each row
-names its files in backquotes in its second column, as paths under src/ (the "src/" may be
-written or left out) or as patterns ("kernels.*", "solver_*.cpp"); names of files outside
-src/ (sba.h) match nothing there. Every file of src/ must be named by exactly one row, and may
-include only files of its own row and the rows below it; it may include nothing of the
-clients (lib/, demo/, python/src/), which sit above the whole library.
+The layers are read from tables of docs/architecture.md, top to bottom, so that the document
+the reader is sent to is the one the check holds the code to: the library's (src/) from the
+table under "## Layers", lib/'s from the table under "## Layers of lib/". Each row names its
+files in backquotes in its second column, as paths under its folder (the "src/" or "lib/" may
+be written or left out) or as patterns ("kernels.*", "solver_*.cpp", "cameras/*"); names of
+files outside the folder (sba.h) match nothing there. Every file of the folder must be named
+by exactly one row, and may include only files of its own row and the rows below it, and
+nothing of the folder's clients: src/ includes nothing of lib/, demo/ or python/src/, which
+sit above the whole library; lib/ includes nothing of demo/ or python/src/, its clients, nor
+of src/, which it uses through the public headers only.
 
 Only quoted includes are followed ("x.h"), resolved against the including file's folder, then
 against each checked folder; what resolves to no file of a checked folder (sba.h, the
@@ -39,8 +42,11 @@ import sys
 import tempfile
 
 ROOTS = ("src", "lib", "demo", "python/src")
-LIBRARY = "src"
 LAYER_DOC = "docs/architecture.md"
+# The folders held to layers: each with the heading of its table in LAYER_DOC and how an
+# include out of the folder is said.
+LAYERED = (("src", "## Layers", "a client of the library"),
+           ("lib", "## Layers of lib/", "outside lib/ (lib/ uses the library through its public headers only)"))
 HEADER_EXT = (".h", ".hpp")
 SOURCE_EXT = HEADER_EXT + (".c", ".cc", ".cpp")
 
@@ -229,15 +235,16 @@ def find_catch_alls(repo, files):
     return messages
 
 
-def read_layers(repo):
-    """[(layer, [pattern, ...]), ...] from the layers table of LAYER_DOC, top row first."""
+def read_layers(repo, folder, heading):
+    """[(layer, [pattern, ...]), ...] from the table under heading in LAYER_DOC, top row first;
+    patterns relative to folder."""
     path = os.path.join(repo, LAYER_DOC)
     if not os.path.isfile(path):
         return []
     rows, in_section = [], False
     for line in read(repo, LAYER_DOC).splitlines():
-        if line.startswith("## "):
-            in_section = line.strip() == "## Layers"
+        if line.startswith("#"):
+            in_section = line.strip() == heading
             continue
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
         if not in_section or not line.lstrip().startswith("|") or len(cells) < 2:
@@ -245,22 +252,22 @@ def read_layers(repo):
         if cells[0] == "layer" or set(cells[0]) <= set("-: "):
             continue  # the header row and the line under it
         names = re.findall(r"`([^`]+)`", cells[1])
-        prefix = LIBRARY + "/"
+        prefix = folder + "/"
         rows.append((cells[0], [n[len(prefix):] if n.startswith(prefix) else n for n in names]))
     return rows
 
 
-def find_layer_violations(repo, files, includes):
-    """One message per file of the library in no layer or in two, and per include that points
-    up the table or out of the library."""
-    rows = read_layers(repo)
-    library = [f for f in files if f.startswith(LIBRARY + "/")]
+def find_layer_violations(repo, files, includes, folder, heading, outside):
+    """One message per file of folder in no layer or in two, and per include that points up
+    its table or out of the folder."""
+    rows = read_layers(repo, folder, heading)
+    own = [f for f in files if f.startswith(folder + "/")]
     if not rows:
-        return ["%s has no table under \"## Layers\": the layers cannot be checked" % LAYER_DOC] \
-            if library else []
+        return ["%s has no table under \"%s\": the layers cannot be checked" % (LAYER_DOC, heading)] \
+            if own else []
     messages, level = [], {}
-    for f in library:
-        name = f[len(LIBRARY) + 1:]
+    for f in own:
+        name = f[len(folder) + 1:]
         found = [i for i, (_, patterns) in enumerate(rows)
                  if any(fnmatch.fnmatchcase(name, p) for p in patterns)]
         if not found:
@@ -274,8 +281,8 @@ def find_layer_violations(repo, files, includes):
     for f, target in includes:
         if f not in level:
             continue
-        if not target.startswith(LIBRARY + "/"):
-            messages.append("%s includes %s, a client of the library" % (f, target))
+        if not target.startswith(folder + "/"):
+            messages.append("%s includes %s, %s" % (f, target, outside))
         elif target in level and level[target] < level[f]:
             messages.append("upward include: %s (%s) includes %s (%s, above it)" % (
                 f, rows[level[f]][0], target, rows[level[target]][0]))
@@ -286,14 +293,20 @@ def check(repo, roots=ROOTS):
     roots = [r for r in roots if os.path.isdir(os.path.join(repo, r))]
     files = source_files(repo, roots)
     includes = file_includes(repo, files, roots)
-    return (find_cycles(include_edges(files, includes)) + find_catch_alls(repo, files) +
-            find_layer_violations(repo, files, includes))
+    messages = find_cycles(include_edges(files, includes)) + find_catch_alls(repo, files)
+    for folder, heading, outside in LAYERED:
+        messages += find_layer_violations(repo, files, includes, folder, heading, outside)
+    return messages
 
 
-def layers_doc(*rows):
-    """A made-up docs/architecture.md whose layers table has these (layer, where) rows."""
-    return "# Architecture\n\n## Layers\n\n| layer | where | what it holds |\n|---|---|---|\n" + \
-        "".join("| %s | %s | things |\n" % row for row in rows) + "\n## Rules\n\n| a | `*` |\n"
+def layers_doc(*rows, lib=(("all", "`*`"),)):
+    """A made-up docs/architecture.md whose layers tables have these (layer, where) rows: src/'s
+    and lib/'s."""
+    def table(heading, table_rows):
+        return "## %s\n\n| layer | where | what it holds |\n|---|---|---|\n" % heading + \
+            "".join("| %s | %s | things |\n" % row for row in table_rows) + "\n"
+    return "# Architecture\n\n" + table("Layers", rows) + table("Layers of lib/", lib) + \
+        "## Rules\n\n| a | `*` |\n"
 
 
 def selftest():
@@ -339,6 +352,27 @@ def selftest():
                      ["src/c.h is in no layer"]),
         "two_layers": ({LAYER_DOC: layers_doc(("top", "`*.h`"), ("bottom", "`a.h`")), "src/a.h": "int a;\n"},
                        ["src/a.h is in two layers of %s's table: top and bottom" % LAYER_DOC]),
+        # lib/'s layers: generator -> formats -> cameras, by folder
+        "lib_layers_down": ({LAYER_DOC: layers_doc(("all", "`*`"), lib=(
+                                 ("generator", "`generator/*`"), ("formats", "`lib/formats/*`"),
+                                 ("cameras", "`cameras/*`"))),
+                             "lib/generator/g.h": '#include "formats/f.h"\n#include "cameras/c.h"\nint g;\n',
+                             "lib/formats/f.h": '#include "cameras/c.h"\n#include "sba.h"\nint f;\n',
+                             "lib/cameras/c.h": "int c;\n", "lib/cameras/c.cpp": '#include "cameras/c.h"\n'},
+                            []),
+        "lib_upward_include": ({LAYER_DOC: layers_doc(("all", "`*`"), lib=(
+                                    ("formats", "`formats/*`"), ("cameras", "`cameras/*`"))),
+                                "lib/formats/f.h": "int f;\n", "lib/cameras/c.cpp": '#include "formats/f.h"\n'},
+                               ["upward include: lib/cameras/c.cpp (cameras) includes lib/formats/f.h "
+                                "(formats, above it)"]),
+        "lib_includes_the_library": ({"lib/formats/f.cpp": '#include "../../src/a.h"\n', "src/a.h": "int a;\n"},
+                                     ["lib/formats/f.cpp includes src/a.h, outside lib/"]),
+        "lib_no_layer": ({LAYER_DOC: layers_doc(("all", "`*`"), lib=(("cameras", "`cameras/*`"),)),
+                          "lib/cameras/c.h": "int c;\n", "lib/extra/e.h": "int e;\n"},
+                         ["lib/extra/e.h is in no layer"]),
+        "lib_no_table": ({LAYER_DOC: "# Architecture\n\n## Layers\n\n| layer | where |\n|---|---|\n| x | `*` |\n",
+                          "lib/cameras/c.h": "int c;\n"},
+                         ["%s has no table under \"## Layers of lib/\"" % LAYER_DOC]),
         # a table under another heading is not the layers' table
         "no_table": ({LAYER_DOC: "# Architecture\n\n## Other\n\n| layer | where |\n|---|---|\n| x | `*` |\n",
                       "src/a.h": "int a;\n"},

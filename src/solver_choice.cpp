@@ -12,6 +12,7 @@
 #endif
 
 #include "schur_pattern.h"
+#include "step_solver.h"
 #include "suitesparse_status.h"
 
 namespace sba {
@@ -21,6 +22,25 @@ i64 triangle(i64 b) { return b * (b + 1) / 2; }
 
 // The mean order of S's blocks, and so the scalar entries a count of blocks stands for.
 double block_order(const SolverShape &s) { return s.blocks > 0 ? double(s.unknowns) / double(s.blocks) : 0.0; }
+
+// The free cameras' parameters: the unknowns, or with sharing the parameters they map to.
+double camera_params(const SolverShape &s) {
+  return double(s.shared_params > 0 ? s.shared_params : s.unknowns);
+}
+
+// What iterative-schur holds besides the point blocks' inverses (solver_iterative_schur.cpp):
+// the point pass's partial sums, kChunks (32) per camera parameter, and CG's six vectors of
+// S's order; without sharing, the preconditioner's partial sums (32 camera blocks per camera)
+// and its factored blocks; with sharing, the clusters' matrices and their index (a 64-bit
+// offset and four ints per block), the products' two vectors over the cameras' parameters,
+// the gradient over the unknowns, and the assembly's list of each point's blocks (at least
+// one int per projection).
+double iterative_schur_doubles(const SolverShape &s) {
+  const double n = double(s.unknowns), b = block_order(s);
+  if (s.shared_params == 0) return n * (32 * (b + 1) + b + 6);
+  return 34 * camera_params(s) + double(s.cluster_doubles) + 3 * double(s.blocks) + 7 * n +
+         double(s.observations) * sizeof(int) / sizeof(double);
+}
 
 }  // namespace
 
@@ -33,19 +53,21 @@ SolverMemory solver_memory(const SolverShape &s) {
   const double nobs = double(s.observations) * s.mnp, jblk = double(s.mnp) * (s.cnp + s.pnp);
   const double point_blocks = double(s.points) * s.pnp * s.pnp;
   SolverMemory m;
-  // The Jacobian, the residual and the measurements, the normal equations' blocks, p and the
-  // step, and the index (three ints per projection).
-  m.common = d * (double(s.observations) * jblk + 2 * nobs + double(s.blocks) * b * b + point_blocks +
-                  2 * (n + double(s.points) * s.pnp)) +
+  // The Jacobian, the residual and the measurements, the normal equations' blocks (a camera's
+  // cnp x cnp, shared unknowns or not), p and the step, and the index (three ints per
+  // projection); with sharing, the map of each camera parameter to its unknown (an int and a
+  // flag) and the damping's share of each (a double).
+  const double params = camera_params(s);
+  m.common = d * (double(s.observations) * jblk + 2 * nobs + params * s.cnp + point_blocks +
+                  2 * (params + double(s.points) * s.pnp)) +
              3.0 * sizeof(int) * double(s.observations);
+  if (s.shared_params > 0) m.common += params * (d + sizeof(int) + 1);
   // S in full, and the point blocks' inverses where unknowns are shared.
   m.chol = d * (n * n + point_blocks);
   // S's blocks and the factor's, the factor counted three times for the supernodes' padding
   // and CHOLMOD's workspace, which for a factor that fills in come near twice the factor.
   m.sparse_chol = d * ((double(s.s_blocks) + 3 * double(s.factor_blocks)) * b * b + point_blocks);
-  // The point blocks' inverses, the chunks' partial sums (32 per unknown, with the
-  // preconditioner's) and CG's vectors.
-  m.iterative_schur = d * (point_blocks + n * (32 * (b + 1) + 6));
+  m.iterative_schur = d * (point_blocks + iterative_schur_doubles(s));
   return m;
 }
 
@@ -111,6 +133,10 @@ SolverShape shape_of(const Layout &lay, double budget_bytes) {
   if (lay.free_cams() == 0 || (lay.free_pts() == 0 && !lay.cams.shared())) return s;
   s.unknowns = lay.camera_unknowns();
   s.blocks = lay.cams.shared() ? lay.cams.nblocks() : lay.free_cams();
+  if (lay.cams.shared()) {
+    s.shared_params = i64(lay.free_cams()) * lay.cnp;
+    s.cluster_doubles = iterative_schur_cluster_doubles(lay.cams);
+  }
   // Every camera parameter held: S is empty, and its blocks have no order to divide by.
   if (s.unknowns <= 0 || s.blocks <= 0) {
     s.unknowns = s.blocks = 0;

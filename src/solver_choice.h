@@ -41,6 +41,11 @@ struct SolverShape {
   i64 observations = 0;  // visible projections
   i64 points = 0;        // free points
   int cnp = 0, pnp = 0, mnp = 0;
+  // With shared unknowns (0 without): the free cameras' parameters, over which iterative-
+  // schur's products run, and the doubles of its preconditioner's matrices, one per cluster
+  // of S's blocks (iterative_schur_cluster_doubles). Without sharing, the parameters are the
+  // unknowns and the preconditioner S's diagonal blocks.
+  i64 shared_params = 0, cluster_doubles = 0;
   double budget_bytes = 0;  // memory the solve may plan with; 0: no budget (then anything fits)
 };
 

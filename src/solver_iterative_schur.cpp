@@ -31,10 +31,13 @@
 // any clustering gives a valid PCG preconditioner; this one keeps each lens with the poses it
 // moves with, as the camera block does without sharing.
 //
-// Memory: the point blocks' inverses (n pnp^2), kChunks (cnp + 1) doubles per unknown of S
-// for the partial sums, and six vectors of S's order: no array of cameras x cameras or
-// anything per observation beyond the Jacobian LM already holds. With shared unknowns, the
-// clusters' matrices add at most kMaxCluster doubles per unknown.
+// Memory: the point blocks' inverses (n pnp^2), kChunks doubles per free camera parameter for
+// the products' partial sums, and six vectors of S's order; for S's diagonal blocks,
+// kChunks + 1 blocks per camera (the chunks' partial sums and the factored block); with
+// shared unknowns instead, the clusters' matrices (at most kMaxCluster doubles per unknown),
+// two vectors over the cameras' parameters and one more of S's order. No array of cameras x
+// cameras, or anything per observation beyond the Jacobian LM already holds. auto's estimate
+// (solver_choice.cpp) counts these.
 //
 // Stopping: an inexact Newton (truncated) step. CG stops when ||S da - rhs|| <= eta ||rhs||,
 // with the forcing term eta = sqrt(||g|| / ||g_0||) within [kEtaMin, kEtaMax] (g = J^T e on
@@ -106,107 +109,44 @@ std::vector<i64> split_by_work(const std::vector<int> &ptr, int first, int count
   return cut;
 }
 
+// The block sizes, compiled (M, C, P nonzero) or read from the layout.
 template <int M, int C, int P>
-class IterativeSchurSolver final : public StepSolver {
- public:
-  // max_cluster: the largest order of a cluster of the preconditioner (the tests compare
-  // kMaxCluster with 0, S's diagonal blocks alone).
-  explicit IterativeSchurSolver(const SolveContext &ctx, int max_cluster = kMaxCluster) : ctx_(ctx), lay_(ctx.lay) {
-    const Layout &lay = lay_;
-    nc_ = lay.free_cams();
-    np_ = lay.free_pts();
-    nC_ = i64(nc_) * cnp();
-    nS_ = lay.camera_unknowns();
-    const int T = ctx.pool.size();
-    chunk_ = split_by_work(lay.rowptr, lay.ncon, np_, kChunks);
-    partial_.resize(size_t(kChunks) * size_t(nC_));
-    Vinv_.resize(size_t(lay.n) * size_t(pnp()) * size_t(pnp()));
-    if (lay.cams.shared()) {
-      // Over shared unknowns the products run on the cameras' parameters (xc_, yc_, all m
-      // cameras' as in p) and are reduced to the unknowns; the preconditioner is S over
-      // clusters of the unknowns' blocks.
-      schur_ = std::make_unique<MappedSchur>(lay, T);
-      const CameraMap &map = lay.cams;
-      find_clusters(map, max_cluster);
-      xc_.resize(size_t(lay.m) * size_t(cnp()));
-      yc_.resize(xc_.size());
-    } else {
-      Dpartial_.resize(partial_.size() * size_t(cnp()));
-      D_.resize(size_t(nS_) * size_t(cnp()));
-    }
-    for (std::vector<double> *v : {&rhs_, &x_, &r_, &z_, &p_, &q_}) v->resize(size_t(nS_));
-    // Per thread: the point pass's mnp + 2 pnp, or the preconditioner's mnp (pnp + mnp + cnp).
-    const int mn = mnp(), cn = cnp(), pn = pnp();
-    scratch_.resize(size_t(T) * size_t(std::max(mn + 2 * pn, mn * (pn + mn + cn))));
-  }
-
-  StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
-    const Layout &lay = lay_;
-    ThreadPool &pool = ctx_.pool;
-    std::fill(dp, dp + lay.a_off(lay.mcon), 0.0);
-    std::fill(dp + lay.b_off(0), dp + lay.b_off(lay.ncon), 0.0);
-    if (!ctx_.kernels.invert_damped_V(pool, ne.V, mu, Vinv_.data())) return StepStatus::SingularPointBlock;
-
-    // rhs = e_a - W V*^-1 e_b, and the forcing term from the gradient's norm.
-    const int pn = pnp();
-    point_pass(ne, nullptr);
-    const double *ga = ne.ea + lay.a_off(lay.mcon);
-    if (schur_) {
-      gather(ne, 0.0, nullptr, ga, yc_.data() + lay.a_off(lay.mcon));
-      to_unknowns(lay, yc_.data(), rhs_.data());
-      to_unknowns(lay, ne.ea, x_.data());  // the gradient over the unknowns, for its norm
-      ga = x_.data();
-    } else {
-      gather(ne, 0.0, nullptr, ga, rhs_.data());
-    }
-    const double *eb_free = ne.eb + i64(lay.ncon) * pn;
-    const double g2 = dot(ga, ga, nS_) + dot(eb_free, eb_free, i64(np_) * pn);
-    if (!std::isfinite(g2)) return StepStatus::Failed;
-    if (g0_ < 0.0) g0_ = std::sqrt(g2);
-    const double eta = g0_ > 0.0 ? std::clamp(std::sqrt(std::sqrt(g2) / g0_), kEtaMin, kEtaMax) : kEtaMax;
-
-    if (!make_preconditioner(ne, mu)) return StepStatus::Failed;
-    double *da = schur_ ? q_.data() : dp + lay.a_off(lay.mcon);
-    if (!conjugate_gradients(ne, mu, eta, da)) return StepStatus::Failed;
-    if (schur_) to_cameras(lay, da, -0.0, dp);
-    ctx_.kernels.back_substitute(pool, ne, Vinv_.data(), mu, dp);
-    return StepStatus::Solved;
-  }
-
-  // y = S x on its own (iterative_schur_product).
-  bool product(const NormalEquations &ne, double mu, const double *x, double *y) {
-    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
-    multiply(ne, mu, x, y);
-    return true;
-  }
-
-  // The factored preconditioner on its own (iterative_schur_preconditioner).
-  bool preconditioner(const NormalEquations &ne, double mu, double *D) {
-    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
-    if (!make_preconditioner(ne, mu)) return false;
-    std::copy(D_.begin(), D_.end(), D);
-    return true;
-  }
-
-  // z = M^-1 r, the preconditioner made at damping mu (iterative_schur_apply_preconditioner).
-  bool apply_preconditioner(const NormalEquations &ne, double mu, const double *r, double *z) {
-    if (!ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
-    if (!make_preconditioner(ne, mu)) return false;
-    precondition(r, z);
-    return true;
-  }
-
-  // The CG iterations of the last solve.
-  int cg_iterations() const { return cg_iterations_; }
-
- private:
+class BlockSizes {
+ protected:
+  explicit BlockSizes(const Layout &lay) : lay_(lay) {}
   int mnp() const { return M ? M : lay_.mnp; }
   int cnp() const { return C ? C : lay_.cnp; }
   int pnp() const { return P ? P : lay_.pnp; }
+  const Layout &lay_;
+};
 
-  double dot(const double *a, const double *b, i64 n) {
-    return deterministic_sum(ctx_.pool, n, [=](i64 k) { return a[k] * b[k]; });
+// The pass over the free points behind both products, S x and the right-hand side: the
+// point blocks' inverses, and the points in kChunks chunks, each adding its terms into
+// partial sums of its own over the free cameras' parameters.
+template <int M, int C, int P>
+class PointPass : BlockSizes<M, C, P> {
+  using BlockSizes<M, C, P>::mnp;
+  using BlockSizes<M, C, P>::cnp;
+  using BlockSizes<M, C, P>::pnp;
+  using BlockSizes<M, C, P>::lay_;
+
+ public:
+  explicit PointPass(const SolveContext &ctx)
+      : BlockSizes<M, C, P>(ctx.lay), ctx_(ctx), nc_(ctx.lay.free_cams()), nC_(i64(nc_) * cnp()) {
+    chunk_ = split_by_work(lay_.rowptr, lay_.ncon, lay_.free_pts(), kChunks);
+    partial_.resize(size_t(kChunks) * size_t(nC_));
+    Vinv_.resize(size_t(lay_.n) * size_t(pnp()) * size_t(pnp()));
+    // Per thread: u, w and t_i of a point, when their sizes are known only at run time.
+    scratch_.resize(size_t(ctx.pool.size()) * size_t(mnp() + 2 * pnp()));
   }
+
+  // Every free point's (V_i + mu I)^-1; false if one is not positive definite.
+  bool invert(const NormalEquations &ne, double mu) {
+    return ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data());
+  }
+  const double *Vinv() const { return Vinv_.data(); }
+  // The chunks' ranges of free points: chunk c holds points [chunks[c], chunks[c + 1]).
+  const std::vector<i64> &chunks() const { return chunk_; }
 
   // The point pass of S x (x given) or of the right-hand side (x null): for each free point,
   // t_i = V*_i^-1 sum_j W_ij^T x_j (or V*_i^-1 e_b,i), and its terms -W_ij t_i, added into
@@ -298,29 +238,72 @@ class IterativeSchurSolver final : public StepSolver {
     });
   }
 
-  // y = S x. Over shared unknowns, through the cameras' parameters: S = P^T (U - W V*^-1
-  // W^T) P + mu I with P the map from the unknowns to the parameters.
-  void multiply(const NormalEquations &ne, double mu, const double *x, double *y) {
-    if (!schur_) {
-      point_pass(ne, x);
-      gather(ne, mu, x, nullptr, y);
-      return;
-    }
-    const Layout &lay = lay_;
-    to_cameras(lay, x, 0.0, xc_.data());
-    point_pass(ne, xc_.data() + lay.a_off(lay.mcon));
-    gather(ne, 0.0, xc_.data() + lay.a_off(lay.mcon), nullptr, yc_.data() + lay.a_off(lay.mcon));
-    to_unknowns(lay, yc_.data(), y);
-    ctx_.pool.for_range(nS_, [=](i64 e0, i64 e1) {
-      for (i64 e = e0; e < e1; ++e) y[e] += mu * x[e];
+ private:
+  SolveContext ctx_;
+  int nc_;                       // the free cameras
+  i64 nC_;                       // and their parameters
+  std::vector<i64> chunk_;       // the chunks' ranges of free points
+  std::vector<double> partial_;  // the chunks' partial sums
+  std::vector<double> Vinv_;     // (V_i + mu I)^-1
+  std::vector<double> scratch_;  // per thread: run-time-sized vectors
+};
+
+// The preconditioner M of the conjugate gradients: made once per damped system, applied at
+// every iteration.
+class Preconditioner {
+ public:
+  virtual ~Preconditioner() = default;
+  // M at damping mu, factored; Vinv: every free point's (V_i + mu I)^-1. False if M is not
+  // positive definite (then neither is S at this damping, up to rounding).
+  virtual bool make(const NormalEquations &ne, const double *Vinv, double mu) = 0;
+  // z = M^-1 r over S's unknowns.
+  virtual void apply(const double *r, double *z) const = 0;
+  // The factored matrices (iterative_schur_preconditioner).
+  virtual const std::vector<double> &factors() const = 0;
+};
+
+// Without shared unknowns: S's block diagonal, D_j = U_j + mu I - sum_i W_ij V*_i^-1 W_ij^T,
+// one cnp x cnp block per free camera, Cholesky-factored. The sums by chunk of points, for the
+// reasons of PointPass::point_pass.
+template <int M, int C, int P>
+class BlockJacobi final : public Preconditioner, BlockSizes<M, C, P> {
+  using BlockSizes<M, C, P>::mnp;
+  using BlockSizes<M, C, P>::cnp;
+  using BlockSizes<M, C, P>::pnp;
+  using BlockSizes<M, C, P>::lay_;
+
+ public:
+  // chunks: the point pass's (PointPass::chunks), which outlive this.
+  BlockJacobi(const SolveContext &ctx, const std::vector<i64> &chunks)
+      : BlockSizes<M, C, P>(ctx.lay), ctx_(ctx), chunk_(chunks), nc_(ctx.lay.free_cams()) {
+    const size_t blocks = size_t(nc_) * size_t(cnp()) * size_t(cnp());
+    Dpartial_.resize(size_t(kChunks) * blocks);
+    D_.resize(blocks);
+    // Per thread: BV, Y and N (see add_chunks), when their sizes are known only at run time.
+    scratch_.resize(size_t(ctx.pool.size()) * size_t(mnp() * (pnp() + mnp() + cnp())));
+  }
+
+  bool make(const NormalEquations &ne, const double *Vinv, double mu) override {
+    add_chunks(ne, Vinv);
+    return factor(ne, mu);
+  }
+
+  void apply(const double *r, double *z) const override {
+    ctx_.pool.for_range(nc_, [&](i64 j0, i64 j1) {
+      const int cn = cnp();
+      for (i64 j = j0; j < j1; ++j) {
+        double *zj = z + j * cn;
+        std::copy_n(r + j * cn, cn, zj);
+        small::chol_solve<C>(D_.data() + j * cn * cn, zj, cn);
+      }
     });
   }
 
-  // D_j = U_j + mu I - sum_i W_ij V*_i^-1 W_ij^T, Cholesky-factored; false if one is not
-  // positive definite (then neither is S at this damping, up to rounding). The sums by
-  // chunk of points, for the reasons of point_pass.
-  bool make_preconditioner(const NormalEquations &ne, double mu) {
-    if (schur_) return make_mapped_preconditioner(ne, mu);
+  const std::vector<double> &factors() const override { return D_; }
+
+ private:
+  // Each chunk's sums -sum_i W_ij V*_i^-1 W_ij^T over its points, the lower triangles.
+  void add_chunks(const NormalEquations &ne, const double *Vinv) {
     const Layout &lay = lay_;
     const int jb = lay.jblk();
     const i64 blocks = i64(nc_) * cnp() * cnp();
@@ -337,7 +320,7 @@ class IterativeSchurSolver final : public StepSolver {
         std::fill(Dc, Dc + blocks, 0.0);
         for (i64 q = chunk_[size_t(c)]; q < chunk_[size_t(c) + 1]; ++q) {
           const int i = int(q) + lay.ncon;
-          const double *Vi = Vinv_.data() + i64(i) * pn * pn;
+          const double *Vi = Vinv + i64(i) * pn * pn;
           for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
             const int j = lay.colidx[k] - lay.mcon;
             if (j < 0) continue;
@@ -374,12 +357,17 @@ class IterativeSchurSolver final : public StepSolver {
         }
       }
     });
+  }
+
+  // D_j = U_j + mu I + the chunks' sums in chunk order, factored.
+  bool factor(const NormalEquations &ne, double mu) {
+    const i64 blocks = i64(nc_) * cnp() * cnp(), mcon = lay_.mcon;
     std::vector<int> ok(size_t(nc_), 1);
     ctx_.pool.for_range(nc_, [&](i64 j0, i64 j1) {
       const int cn = cnp(), cc = cn * cn;
       for (i64 j = j0; j < j1; ++j) {
         double *Dj = D_.data() + j * cc;
-        std::copy_n(ne.U + (j + lay.mcon) * cc, cc, Dj);
+        std::copy_n(ne.U + (j + mcon) * cc, cc, Dj);
         for (int a = 0; a < cn; ++a) Dj[a * cn + a] += mu;
         for (int c = 0; c < kChunks; ++c) {
           const double *pc = Dpartial_.data() + c * blocks + j * cc;
@@ -392,68 +380,89 @@ class IterativeSchurSolver final : public StepSolver {
     return std::all_of(ok.begin(), ok.end(), [](int v) { return v != 0; });
   }
 
-  // The clusters of the preconditioner (see the top of the file): a shared block K with the
-  // own blocks of the cameras that touch K and nothing else, in ascending block order while
-  // the cluster's order stays within max_cluster; every other block alone.
-  void find_clusters(const CameraMap &map, int max_cluster) {
-    const int nb = map.nblocks();
-    const auto cams = [&](int b) { return map.block_cam_start[size_t(b) + 1] - map.block_cam_start[size_t(b)]; };
-    std::vector<int> root(static_cast<size_t>(nb));  // the block whose cluster b joins (b when alone)
-    std::vector<int> size(static_cast<size_t>(nb));  // a root's cluster order so far
-    for (int b = 0; b < nb; ++b) root[size_t(b)] = b, size[size_t(b)] = map.block_size(b);
-    for (int b = 0; b < nb; ++b) {
-      if (cams(b) != 1) continue;
-      const int j = map.block_cams[size_t(map.block_cam_start[size_t(b)])];
-      const int q0 = map.cam_start[size_t(j)];
-      if (map.cam_start[size_t(j) + 1] - q0 != 2) continue;
-      const int K = map.cam_blocks[size_t(q0)] == b ? map.cam_blocks[size_t(q0) + 1] : map.cam_blocks[size_t(q0)];
-      if (cams(K) < 2 || size[size_t(K)] + map.block_size(b) > max_cluster) continue;
-      root[size_t(b)] = K;
-      size[size_t(K)] += map.block_size(b);
-    }
-    // Each cluster's blocks ascending; the clusters in the order of their first blocks.
-    std::vector<std::vector<int>> members(static_cast<size_t>(nb));
-    for (int b = 0; b < nb; ++b) members[size_t(root[size_t(b)])].push_back(b);
-    cluster_start_.assign(1, 0);
-    cluster_blocks_.clear();
-    origin_.assign(size_t(nb), 0);
-    pos_.assign(size_t(nb), 0);
-    order_.assign(size_t(nb), 0);
-    i64 origin = 0;
-    for (int f = 0; f < nb; ++f) {
-      const std::vector<int> &c = members[size_t(root[size_t(f)])];
-      if (c.front() != f) continue;
-      int n = 0;
-      for (int b : c) pos_[size_t(b)] = n, n += map.block_size(b);
-      for (int b : c) origin_[size_t(b)] = origin, order_[size_t(b)] = n;
-      cluster_blocks_.insert(cluster_blocks_.end(), c.begin(), c.end());
-      cluster_start_.push_back(int(cluster_blocks_.size()));
-      origin += i64(n) * n;
-    }
-    D_.resize(size_t(origin));
+  SolveContext ctx_;
+  const std::vector<i64> &chunk_;
+  int nc_;                        // the free cameras
+  std::vector<double> Dpartial_;  // the chunks' partial sums of the blocks
+  std::vector<double> D_;         // the factored blocks
+  std::vector<double> scratch_;   // per thread: run-time-sized blocks
+};
+
+// The clusters of the preconditioner over shared unknowns (see the top of the file): a shared
+// block K with the own blocks of the cameras that touch K and nothing else, in ascending block
+// order while the cluster's order stays within max_cluster; every other block alone.
+struct Clusters {
+  std::vector<int> start, blocks;  // cluster k's blocks: blocks[start[k] .. start[k + 1]), ascending
+  std::vector<i64> origin;         // per block, its cluster's matrix (order x order) from there
+  std::vector<int> pos, order;     // its first row in that matrix, and the cluster's order
+  i64 doubles = 0;                 // the matrices' doubles: their orders squared, summed
+
+  int count() const { return int(start.size()) - 1; }
+  int order_of(int k) const { return order[size_t(blocks[size_t(start[size_t(k)])])]; }
+  i64 origin_of(int k) const { return origin[size_t(blocks[size_t(start[size_t(k)])])]; }
+};
+
+Clusters find_clusters(const CameraMap &map, int max_cluster) {
+  const int nb = map.nblocks();
+  const auto cams = [&](int b) { return map.block_cam_start[size_t(b) + 1] - map.block_cam_start[size_t(b)]; };
+  std::vector<int> root(static_cast<size_t>(nb));  // the block whose cluster b joins (b when alone)
+  std::vector<int> size(static_cast<size_t>(nb));  // a root's cluster order so far
+  for (int b = 0; b < nb; ++b) root[size_t(b)] = b, size[size_t(b)] = map.block_size(b);
+  for (int b = 0; b < nb; ++b) {
+    if (cams(b) != 1) continue;
+    const int j = map.block_cams[size_t(map.block_cam_start[size_t(b)])];
+    const int q0 = map.cam_start[size_t(j)];
+    if (map.cam_start[size_t(j) + 1] - q0 != 2) continue;
+    const int K = map.cam_blocks[size_t(q0)] == b ? map.cam_blocks[size_t(q0) + 1] : map.cam_blocks[size_t(q0)];
+    if (cams(K) < 2 || size[size_t(K)] + map.block_size(b) > max_cluster) continue;
+    root[size_t(b)] = K;
+    size[size_t(K)] += map.block_size(b);
+  }
+  // Each cluster's blocks ascending; the clusters in the order of their first blocks.
+  std::vector<std::vector<int>> members(static_cast<size_t>(nb));
+  for (int b = 0; b < nb; ++b) members[size_t(root[size_t(b)])].push_back(b);
+  Clusters cl;
+  cl.start.assign(1, 0);
+  cl.origin.assign(size_t(nb), 0);
+  cl.pos.assign(size_t(nb), 0);
+  cl.order.assign(size_t(nb), 0);
+  for (int f = 0; f < nb; ++f) {
+    const std::vector<int> &c = members[size_t(root[size_t(f)])];
+    if (c.front() != f) continue;
+    int n = 0;
+    for (int b : c) cl.pos[size_t(b)] = n, n += map.block_size(b);
+    for (int b : c) cl.origin[size_t(b)] = cl.doubles, cl.order[size_t(b)] = n;
+    cl.blocks.insert(cl.blocks.end(), c.begin(), c.end());
+    cl.start.push_back(int(cl.blocks.size()));
+    cl.doubles += i64(n) * n;
+  }
+  return cl;
+}
+
+// With shared unknowns: S's principal submatrix over each cluster of its blocks, assembled
+// by the reduced camera system's assembly (mapped_schur.h), Cholesky-factored.
+class ClusterJacobi final : public Preconditioner {
+ public:
+  // schur: the assembly, which outlives this.
+  ClusterJacobi(const SolveContext &ctx, const MappedSchur &schur, int max_cluster)
+      : ctx_(ctx), schur_(schur), clusters_(find_clusters(ctx.lay.cams, max_cluster)) {
+    D_.resize(size_t(clusters_.doubles));
   }
 
-  // Cluster k's order and matrix.
-  int cluster_order(int k) const { return order_[size_t(cluster_blocks_[size_t(cluster_start_[size_t(k)])])]; }
-  double *cluster_matrix(int k) { return D_.data() + origin_[size_t(cluster_blocks_[size_t(cluster_start_[size_t(k)])])]; }
-  int nclusters() const { return int(cluster_start_.size()) - 1; }
-
-  // S's principal submatrix over each cluster, Cholesky-factored.
-  bool make_mapped_preconditioner(const NormalEquations &ne, double mu) {
-    const CameraMap &map = lay_.cams;
+  bool make(const NormalEquations &ne, const double *Vinv, double mu) override {
     UnknownBlocks D;
     D.kind = UnknownBlocks::Kind::Clusters;
     D.base = D_.data();
-    D.start = map.block_start.data();
-    D.origin = origin_.data();
-    D.pos = pos_.data();
-    D.order = order_.data();
+    D.start = ctx_.lay.cams.block_start.data();
+    D.origin = clusters_.origin.data();
+    D.pos = clusters_.pos.data();
+    D.order = clusters_.order.data();
     std::fill(D_.begin(), D_.end(), 0.0);
-    schur_->assemble(ctx_.pool, ne, Vinv_.data(), mu, D, nullptr);
-    return ctx_.pool.all_ranges(nclusters(), [&](int, i64 k0, i64 k1) {
+    schur_.assemble(ctx_.pool, ne, Vinv, mu, D, nullptr);
+    return ctx_.pool.all_ranges(clusters_.count(), [&](int, i64 k0, i64 k1) {
       for (i64 k = k0; k < k1; ++k) {
-        const int n = cluster_order(int(k));
-        double *A = cluster_matrix(int(k));
+        const int n = clusters_.order_of(int(k));
+        double *A = D_.data() + clusters_.origin_of(int(k));
         // The assembly fills the upper block triangle; chol reads the lower.
         for (int r = 0; r < n; ++r)
           for (int c = 0; c < r; ++c) A[r * n + c] = A[c * n + r];
@@ -463,54 +472,125 @@ class IterativeSchurSolver final : public StepSolver {
     });
   }
 
-  // z = M^-1 r over the clusters.
-  void precondition_mapped(const double *r, double *z) {
-    const CameraMap &map = lay_.cams;
-    ctx_.pool.for_range(nclusters(), [&](i64 k0, i64 k1) {
+  void apply(const double *r, double *z) const override {
+    const CameraMap &map = ctx_.lay.cams;
+    ctx_.pool.for_range(clusters_.count(), [&](i64 k0, i64 k1) {
       std::vector<double> v;
       for (i64 k = k0; k < k1; ++k) {
-        const int *c0 = cluster_blocks_.data() + cluster_start_[size_t(k)];
-        const int *c1 = cluster_blocks_.data() + cluster_start_[size_t(k) + 1];
-        v.resize(size_t(cluster_order(int(k))));
+        const int *c0 = clusters_.blocks.data() + clusters_.start[size_t(k)];
+        const int *c1 = clusters_.blocks.data() + clusters_.start[size_t(k) + 1];
+        v.resize(size_t(clusters_.order_of(int(k))));
         for (const int *b = c0; b < c1; ++b)
-          std::copy_n(r + map.block_start[size_t(*b)], map.block_size(*b), v.data() + pos_[size_t(*b)]);
-        small::chol_solve(cluster_matrix(int(k)), v.data(), int(v.size()));
+          std::copy_n(r + map.block_start[size_t(*b)], map.block_size(*b), v.data() + clusters_.pos[size_t(*b)]);
+        small::chol_solve(D_.data() + clusters_.origin_of(int(k)), v.data(), int(v.size()));
         for (const int *b = c0; b < c1; ++b)
-          std::copy_n(v.data() + pos_[size_t(*b)], map.block_size(*b), z + map.block_start[size_t(*b)]);
+          std::copy_n(v.data() + clusters_.pos[size_t(*b)], map.block_size(*b), z + map.block_start[size_t(*b)]);
       }
     });
   }
 
-  // z = D^-1 r.
-  void precondition(const double *r, double *z) {
-    if (schur_) return precondition_mapped(r, z);
-    ctx_.pool.for_range(nc_, [&](i64 j0, i64 j1) {
-      const int cn = cnp();
-      for (i64 j = j0; j < j1; ++j) {
-        double *zj = z + j * cn;
-        std::copy_n(r + j * cn, cn, zj);
-        small::chol_solve<C>(D_.data() + j * cn * cn, zj, cn);
-      }
-    });
+  const std::vector<double> &factors() const override { return D_; }
+
+ private:
+  SolveContext ctx_;
+  const MappedSchur &schur_;
+  Clusters clusters_;
+  std::vector<double> D_;  // the clusters' matrices, factored
+};
+
+// The solver, whatever the form of S: the right-hand side, the forcing term, truncated PCG on
+// S da = rhs and the points' steps by back-substitution. S's form (its products, its
+// preconditioner, its unknowns' map onto the cameras) is the subclass's.
+template <int M, int C, int P>
+class IterativeSchurSolver : public StepSolver {
+ public:
+  StepStatus solve(const NormalEquations &ne, double mu, double *dp) final {
+    const Layout &lay = lay_;
+    std::fill(dp, dp + lay.a_off(lay.mcon), 0.0);
+    std::fill(dp + lay.b_off(0), dp + lay.b_off(lay.ncon), 0.0);
+    if (!pass_.invert(ne, mu)) return StepStatus::SingularPointBlock;
+
+    // rhs = e_a - W V*^-1 e_b, and the forcing term from the gradient's norm.
+    const int pn = P ? P : lay.pnp;
+    const double ga2 = right_hand_side(ne, rhs_.data());
+    const double *eb_free = ne.eb + i64(lay.ncon) * pn;
+    const double g2 = ga2 + dot(eb_free, eb_free, i64(lay.free_pts()) * pn);
+    if (!std::isfinite(g2)) return StepStatus::Failed;
+    if (g0_ < 0.0) g0_ = std::sqrt(g2);
+    const double eta = g0_ > 0.0 ? std::clamp(std::sqrt(std::sqrt(g2) / g0_), kEtaMin, kEtaMax) : kEtaMax;
+
+    if (!preconditioner().make(ne, pass_.Vinv(), mu)) return StepStatus::Failed;
+    if (!conjugate_gradients(ne, mu, eta)) return StepStatus::Failed;
+    camera_step(x_.data(), dp);
+    ctx_.kernels.back_substitute(ctx_.pool, ne, pass_.Vinv(), mu, dp);
+    return StepStatus::Solved;
   }
 
-  // Truncated PCG from x = 0 on S da = rhs_; false when no descent direction came out.
-  bool conjugate_gradients(const NormalEquations &ne, double mu, double eta, double *da) {
+  // y = S x on its own (iterative_schur_product).
+  bool product(const NormalEquations &ne, double mu, const double *x, double *y) {
+    if (!pass_.invert(ne, mu)) return false;
+    multiply(ne, mu, x, y);
+    return true;
+  }
+
+  // The factored preconditioner on its own (iterative_schur_preconditioner).
+  bool factored_preconditioner(const NormalEquations &ne, double mu, double *D) {
+    if (!pass_.invert(ne, mu) || !preconditioner().make(ne, pass_.Vinv(), mu)) return false;
+    const std::vector<double> &factors = preconditioner().factors();
+    std::copy(factors.begin(), factors.end(), D);
+    return true;
+  }
+
+  // z = M^-1 r, the preconditioner made at damping mu (iterative_schur_apply_preconditioner).
+  bool apply_preconditioner(const NormalEquations &ne, double mu, const double *r, double *z) {
+    if (!pass_.invert(ne, mu) || !preconditioner().make(ne, pass_.Vinv(), mu)) return false;
+    preconditioner().apply(r, z);
+    return true;
+  }
+
+  // The CG iterations of the last solve.
+  int cg_iterations() const { return cg_iterations_; }
+
+ protected:
+  // unknowns: S's order.
+  IterativeSchurSolver(const SolveContext &ctx, i64 unknowns) : ctx_(ctx), lay_(ctx.lay), pass_(ctx), nS_(unknowns) {
+    for (std::vector<double> *v : {&rhs_, &x_, &r_, &z_, &p_, &q_}) v->resize(size_t(nS_));
+  }
+
+  virtual Preconditioner &preconditioner() = 0;
+  // rhs = e_a - W V*^-1 e_b over S's unknowns, the point pass's sums added to the gradient's
+  // camera part; returns that part's squared norm over the unknowns.
+  virtual double right_hand_side(const NormalEquations &ne, double *rhs) = 0;
+  // y = S x.
+  virtual void multiply(const NormalEquations &ne, double mu, const double *x, double *y) = 0;
+  // The free cameras' part of dp from S's solution da.
+  virtual void camera_step(const double *da, double *dp) = 0;
+
+  double dot(const double *a, const double *b, i64 n) {
+    return deterministic_sum(ctx_.pool, n, [=](i64 k) { return a[k] * b[k]; });
+  }
+
+  SolveContext ctx_;
+  const Layout &lay_;
+  PointPass<M, C, P> pass_;
+
+ private:
+  // Truncated PCG from x = 0 on S x = rhs_, leaving x in x_; false when no descent direction
+  // came out.
+  bool conjugate_gradients(const NormalEquations &ne, double mu, double eta) {
     const i64 n = nS_;
     double *x = x_.data(), *r = r_.data(), *z = z_.data(), *p = p_.data(), *q = q_.data();
     const double *b = rhs_.data();
+    const Preconditioner &M_inv = preconditioner();
     int &iterations = cg_iterations_;
     iterations = 0;
     std::fill(x, x + n, 0.0);
     std::copy_n(b, n, r);
     const double bb = dot(b, b, n);
     if (!std::isfinite(bb)) return false;
-    if (bb == 0.0) {
-      std::fill(da, da + n, 0.0);
-      return true;
-    }
+    if (bb == 0.0) return true;  // x = 0
     const double tol2 = eta * eta * bb;
-    precondition(r, z);
+    M_inv.apply(r, z);
     double rz = dot(r, z, n);
     if (!(rz > 0.0)) return false;
     std::copy_n(z, n, p);
@@ -528,7 +608,7 @@ class IterativeSchurSolver final : public StepSolver {
       ++iterations;
       if (!std::isfinite(rr)) return false;
       if (rr <= tol2) break;
-      precondition(r, z);
+      M_inv.apply(r, z);
       const double rz_next = dot(r, z, n);
       if (!(rz_next > 0.0)) break;
       const double beta = rz_next / rz;
@@ -537,40 +617,111 @@ class IterativeSchurSolver final : public StepSolver {
         for (i64 e = e0; e < e1; ++e) p[e] = z[e] + beta * p[e];
       });
     }
-    if (iterations == 0 || !(dot(b, x, n) > 0.0)) return false;
-    std::copy_n(x, n, da);
-    return true;
+    return iterations > 0 && dot(b, x, n) > 0.0;
   }
 
-  SolveContext ctx_;
-  const Layout &lay_;
-  int nc_ = 0, np_ = 0;
-  i64 nC_ = 0;  // the free cameras' parameters
-  i64 nS_ = 0;  // S's order: the camera unknowns
-  std::vector<i64> chunk_;                // the chunks' ranges of free points
-  std::vector<double> partial_;           // the chunks' partial sums of the point pass
-  std::vector<double> Dpartial_;          // and of the preconditioner's blocks
-  std::vector<double> Vinv_, D_;          // (V_i + mu I)^-1, the preconditioner
+  i64 nS_;  // S's order: the camera unknowns
   std::vector<double> rhs_, x_, r_, z_, p_, q_;
-  std::vector<double> scratch_;           // per thread: run-time-sized blocks
-  double g0_ = -1.0;                      // ||g|| at the first solve
-  int cg_iterations_ = 0;                 // CG's iterations in the last solve
-  std::unique_ptr<MappedSchur> schur_;    // with shared unknowns (else null)
-  std::vector<int> cluster_start_, cluster_blocks_;  // and the preconditioner's clusters' blocks
-  std::vector<i64> origin_;               // and per block, its cluster's matrix in D_
-  std::vector<int> pos_, order_;          // its first row there, and the cluster's order
-  std::vector<double> xc_, yc_;           // and the products' vectors over the parameters
+  double g0_ = -1.0;        // ||g|| at the first solve
+  int cg_iterations_ = 0;  // CG's iterations in the last solve
 };
+
+// S over the free cameras' parameters, one block per camera: sba 1.6's layout.
+template <int M, int C, int P>
+class CameraIterativeSchur final : public IterativeSchurSolver<M, C, P> {
+  using Base = IterativeSchurSolver<M, C, P>;
+
+ public:
+  explicit CameraIterativeSchur(const SolveContext &ctx)
+      : Base(ctx, ctx.lay.camera_unknowns()), jacobi_(ctx, this->pass_.chunks()) {}
+
+ private:
+  Preconditioner &preconditioner() override { return jacobi_; }
+
+  double right_hand_side(const NormalEquations &ne, double *rhs) override {
+    const Layout &lay = this->lay_;
+    const double *ga = ne.ea + lay.a_off(lay.mcon);
+    this->pass_.point_pass(ne, nullptr);
+    this->pass_.gather(ne, 0.0, nullptr, ga, rhs);
+    return this->dot(ga, ga, lay.camera_unknowns());
+  }
+
+  void multiply(const NormalEquations &ne, double mu, const double *x, double *y) override {
+    this->pass_.point_pass(ne, x);
+    this->pass_.gather(ne, mu, x, nullptr, y);
+  }
+
+  void camera_step(const double *da, double *dp) override {
+    const Layout &lay = this->lay_;
+    std::copy_n(da, lay.camera_unknowns(), dp + lay.a_off(lay.mcon));
+  }
+
+  BlockJacobi<M, C, P> jacobi_;
+};
+
+// S over shared unknowns: the products run on the cameras' parameters (xc_, yc_, all m
+// cameras' as in p) and are reduced to the unknowns, S = P^T (U - W V*^-1 W^T) P + mu I with
+// P the map from the unknowns to the parameters; the preconditioner is S over clusters of the
+// unknowns' blocks.
+template <int M, int C, int P>
+class SharedIterativeSchur final : public IterativeSchurSolver<M, C, P> {
+  using Base = IterativeSchurSolver<M, C, P>;
+
+ public:
+  SharedIterativeSchur(const SolveContext &ctx, int max_cluster)
+      : Base(ctx, ctx.lay.camera_unknowns()),
+        schur_(ctx.lay, ctx.pool.size()),
+        clusters_(ctx, schur_, max_cluster),
+        xc_(size_t(ctx.lay.m) * size_t(ctx.lay.cnp)),
+        yc_(xc_.size()),
+        g_(size_t(ctx.lay.camera_unknowns())) {}
+
+ private:
+  Preconditioner &preconditioner() override { return clusters_; }
+
+  double right_hand_side(const NormalEquations &ne, double *rhs) override {
+    const Layout &lay = this->lay_;
+    this->pass_.point_pass(ne, nullptr);
+    this->pass_.gather(ne, 0.0, nullptr, ne.ea + lay.a_off(lay.mcon), yc_.data() + lay.a_off(lay.mcon));
+    to_unknowns(lay, yc_.data(), rhs);
+    to_unknowns(lay, ne.ea, g_.data());
+    return this->dot(g_.data(), g_.data(), i64(g_.size()));
+  }
+
+  void multiply(const NormalEquations &ne, double mu, const double *x, double *y) override {
+    const Layout &lay = this->lay_;
+    to_cameras(lay, x, 0.0, xc_.data());
+    this->pass_.point_pass(ne, xc_.data() + lay.a_off(lay.mcon));
+    this->pass_.gather(ne, 0.0, xc_.data() + lay.a_off(lay.mcon), nullptr, yc_.data() + lay.a_off(lay.mcon));
+    to_unknowns(lay, yc_.data(), y);
+    this->ctx_.pool.for_range(i64(g_.size()), [=](i64 e0, i64 e1) {
+      for (i64 e = e0; e < e1; ++e) y[e] += mu * x[e];
+    });
+  }
+
+  void camera_step(const double *da, double *dp) override { to_cameras(this->lay_, da, -0.0, dp); }
+
+  MappedSchur schur_;
+  ClusterJacobi clusters_;
+  std::vector<double> xc_, yc_;  // the products' vectors over the cameras' parameters
+  std::vector<double> g_;        // the gradient's camera part over the unknowns, for its norm
+};
+
+template <int M, int C, int P>
+std::unique_ptr<IterativeSchurSolver<M, C, P>> make_solver(const SolveContext &ctx, int max_cluster) {
+  if (ctx.lay.cams.shared()) return std::make_unique<SharedIterativeSchur<M, C, P>>(ctx, max_cluster);
+  return std::make_unique<CameraIterativeSchur<M, C, P>>(ctx);
+}
 
 // fn(solver) with the solver compiled for the layout's block sizes.
 template <class Fn>
 auto with_solver(const SolveContext &ctx, Fn fn, int max_cluster = kMaxCluster) {
   const Layout &lay = ctx.lay;
   if (lay.mnp == 2 && lay.pnp == 3) {
-    if (lay.cnp == 6) return fn(std::make_unique<IterativeSchurSolver<2, 6, 3>>(ctx, max_cluster));
-    if (lay.cnp == 9) return fn(std::make_unique<IterativeSchurSolver<2, 9, 3>>(ctx, max_cluster));
+    if (lay.cnp == 6) return fn(make_solver<2, 6, 3>(ctx, max_cluster));
+    if (lay.cnp == 9) return fn(make_solver<2, 9, 3>(ctx, max_cluster));
   }
-  return fn(std::make_unique<IterativeSchurSolver<0, 0, 0>>(ctx, max_cluster));
+  return fn(make_solver<0, 0, 0>(ctx, max_cluster));
 }
 
 }  // namespace
@@ -585,13 +736,15 @@ bool iterative_schur_product(const SolveContext &ctx, const NormalEquations &ne,
 }
 
 bool iterative_schur_preconditioner(const SolveContext &ctx, const NormalEquations &ne, double mu, double *D) {
-  return with_solver(ctx, [&](auto s) { return s->preconditioner(ne, mu, D); });
+  return with_solver(ctx, [&](auto s) { return s->factored_preconditioner(ne, mu, D); });
 }
 
 bool iterative_schur_apply_preconditioner(const SolveContext &ctx, const NormalEquations &ne, double mu,
                                           const double *r, double *z) {
   return with_solver(ctx, [&](auto s) { return s->apply_preconditioner(ne, mu, r, z); });
 }
+
+i64 iterative_schur_cluster_doubles(const CameraMap &map) { return find_clusters(map, kMaxCluster).doubles; }
 
 int iterative_schur_cg_iterations(const SolveContext &ctx, const NormalEquations &ne, double mu, double *dp,
                                   bool clusters) {

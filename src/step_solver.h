@@ -74,6 +74,9 @@ bool iterative_schur_preconditioner(const SolveContext &ctx, const NormalEquatio
 // as the solver fails. For the tests.
 bool iterative_schur_apply_preconditioner(const SolveContext &ctx, const NormalEquations &ne, double mu,
                                           const double *r, double *z);
+// The doubles of the iterative solver's preconditioner over map's shared unknowns: a matrix
+// per cluster of S's blocks, its order squared. For auto's memory estimate (solver_choice.h).
+i64 iterative_schur_cluster_doubles(const CameraMap &map);
 // One step of the iterative solver at damping mu into dp: its CG iterations, or -1 if it
 // failed; with shared unknowns, clusters false preconditions with S's diagonal blocks alone
 // instead of its clusters. For the tests.

@@ -178,7 +178,7 @@ TEST(NvmMapping, CentresAndUndistortedMeasurements) {
   nvm::Model m;
   std::string error;
   ASSERT_TRUE(nvm::parse_nvm(text, "n.nvm", &m, &error)) << error;
-  colmap::SbaProblem p;
+  nvm::SbaProblem p;
   ASSERT_TRUE(nvm::to_sba(m, true, "n.nvm", &p, &error)) << error;
   EXPECT_EQ(p.nccalib, 4);
   EXPECT_EQ(p.ncdist, 5);

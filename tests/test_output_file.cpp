@@ -1,6 +1,11 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The files of a run (lib/formats/output_file.h): a write error said as it is, and a set of
-// files that is put in place whole or not at all.
+// The files of a run (lib/formats/output_file.h): a write error said as it is, a file synced
+// to the disk before its rename and its folder after it, and a set of files that is put in
+// place whole or not at all.
+//
+// fsync and rename are interposed in this test's binary only (-Wl,--wrap=fsync,--wrap=rename,
+// tests/CMakeLists.txt): every call is recorded while a test asks, and an fsync can be made
+// to fail.
 #include <gtest/gtest.h>
 
 #include <grp.h>
@@ -8,12 +13,45 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include "colmap_fixtures.h"
 #include "formats/output_file.h"
+
+namespace interposed {
+bool recording = false;
+std::vector<std::string> calls;  // "fsync PATH" (the descriptor's file), "rename FROM TO"
+int fail_fsync = 0;              // fsync calls to let through before the one that fails
+int fail_errno = 0;              // its errno; 0: none fails
+}  // namespace interposed
+
+extern "C" {
+int __real_fsync(int fd);
+int __real_rename(const char *from, const char *to);
+
+int __wrap_fsync(int fd) {
+  if (interposed::recording) {
+    char path[4096];
+    const ssize_t n = ::readlink(("/proc/self/fd/" + std::to_string(fd)).c_str(), path, sizeof path - 1);
+    interposed::calls.push_back("fsync " + std::string(path, n > 0 ? static_cast<std::size_t>(n) : 0));
+  }
+  if (interposed::fail_errno != 0 && interposed::fail_fsync-- == 0) {
+    errno = interposed::fail_errno;
+    interposed::fail_errno = 0;
+    return -1;
+  }
+  return __real_fsync(fd);
+}
+
+int __wrap_rename(const char *from, const char *to) {
+  if (interposed::recording) interposed::calls.push_back(std::string("rename ") + from + " " + to);
+  return __real_rename(from, to);
+}
+}
 
 namespace {
 
@@ -139,6 +177,97 @@ TEST(OutputSet, FailedRenameTakesBackTheNewFilesAndLeavesTheModel) {
   EXPECT_EQ(entries(dir), (std::vector<std::string>{"model.txt", "new", "r.ply"}));
   EXPECT_EQ(read_file(model), "NEW\n");
   EXPECT_EQ(read_file(dir + "/new/report.json"), "{}\n");
+}
+
+// Records the calls of fsync and rename while it lives; with an errno, the (skip + 1)th fsync
+// from now fails with it.
+class Interposed {
+ public:
+  explicit Interposed(int fail_errno = 0, int skip = 0) {
+    interposed::calls.clear();
+    interposed::recording = true;
+    interposed::fail_errno = fail_errno;
+    interposed::fail_fsync = skip;
+  }
+  ~Interposed() {
+    interposed::recording = false;
+    interposed::fail_errno = 0;
+  }
+  const std::vector<std::string> &calls() const { return interposed::calls; }
+};
+
+// The file's data reaches the disk before the rename that gives it its name, and the rename
+// before the run says it is done: fsync of the temporary, the rename, fsync of the folder, in
+// that order, for a file of its own and for each file of a set (all closed, so synced, before
+// any is renamed). A file written in place (a device) is neither synced nor renamed.
+TEST(OutputFile, SyncedBeforeTheRenameAndTheFolderAfter) {
+  const std::string dir = std::filesystem::canonical(temp_dir("synced")).string();
+  const std::string pid = std::to_string(::getpid());
+  std::string error;
+  {
+    Interposed io;
+    ASSERT_TRUE(sbaformats::write_whole_file(dir + "/a.txt", "A\n", &error)) << error;
+    const std::string temp = dir + "/a.txt.tmp." + pid;
+    EXPECT_EQ(io.calls(), (std::vector<std::string>{"fsync " + temp, "rename " + temp + " " + dir + "/a.txt",
+                                                    "fsync " + dir}));
+  }
+  EXPECT_EQ(read_file(dir + "/a.txt"), "A\n");
+  {
+    Interposed io;
+    sbaformats::OutputSet set;
+    ASSERT_TRUE(sbaformats::write_whole_file(dir + "/b.txt", "B\n", &error, &set)) << error;
+    ASSERT_TRUE(sbaformats::write_whole_file(dir + "/a.txt", "A2\n", &error, &set)) << error;
+    ASSERT_TRUE(set.commit(&error)) << error;
+    const std::string a = dir + "/a.txt", b = dir + "/b.txt";
+    EXPECT_EQ(io.calls(), (std::vector<std::string>{"fsync " + b + ".tmp." + pid, "fsync " + a + ".tmp." + pid,
+                                                    "rename " + b + ".tmp." + pid + " " + b, "fsync " + dir,
+                                                    "rename " + a + ".tmp." + pid + " " + a, "fsync " + dir}));
+  }
+  EXPECT_EQ(read_file(dir + "/a.txt"), "A2\n");
+  EXPECT_EQ(read_file(dir + "/b.txt"), "B\n");
+  {
+    Interposed io;
+    ASSERT_TRUE(sbaformats::write_whole_file("/dev/null", "x", &error)) << error;
+    EXPECT_TRUE(io.calls().empty());
+  }
+}
+
+// A failed sync is a failed write: the file's path and the reason, the temporary removed, the
+// final name as it was (absent, or the old file); in a set, no file of the set left. A sync of
+// the folder that fails after the rename takes back the file the rename put where nothing was.
+TEST(OutputFile, FailedSyncIsAWriteError) {
+  const std::string dir = std::filesystem::canonical(temp_dir("sync_fails")).string();
+  std::string error;
+  write_file(dir + "/old.txt", "OLD\n");
+  for (const int err : {EIO, ENOSPC}) {
+    SCOPED_TRACE(std::strerror(err));
+    for (const char *name : {"/new.txt", "/old.txt"}) {
+      Interposed io(err);
+      EXPECT_FALSE(sbaformats::write_whole_file(dir + name, "NEW\n", &error));
+      EXPECT_EQ(error, dir + name + ": write failed: " + std::strerror(err));
+      EXPECT_EQ(io.calls().size(), 1u);  // the failed sync, and neither a rename nor a sync after it
+    }
+    EXPECT_EQ(entries(dir), std::vector<std::string>{"old.txt"});
+    EXPECT_EQ(read_file(dir + "/old.txt"), "OLD\n");
+  }
+  {
+    // The second file of a set fails its sync as its writer closes it; the run gives up.
+    Interposed io(EIO, 1);
+    sbaformats::OutputSet set;
+    ASSERT_TRUE(sbaformats::write_whole_file(dir + "/a.txt", "A\n", &error, &set)) << error;
+    EXPECT_FALSE(sbaformats::write_whole_file(dir + "/old.txt", "NEW\n", &error, &set));
+    EXPECT_EQ(error, dir + "/old.txt: write failed: Input/output error");
+  }
+  EXPECT_EQ(entries(dir), std::vector<std::string>{"old.txt"});
+  EXPECT_EQ(read_file(dir + "/old.txt"), "OLD\n");
+  {
+    // The folder's sync after the rename: the new file goes again.
+    Interposed io(EIO, 1);
+    EXPECT_FALSE(sbaformats::write_whole_file(dir + "/new.txt", "NEW\n", &error));
+    EXPECT_EQ(error, dir + "/new.txt: write failed: Input/output error");
+    EXPECT_EQ(io.calls().size(), 3u);
+  }
+  EXPECT_EQ(entries(dir), std::vector<std::string>{"old.txt"});
 }
 
 }  // namespace

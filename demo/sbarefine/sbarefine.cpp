@@ -420,7 +420,7 @@ struct Loaded {
   std::string warning;  // said once the input is read; empty: none
   colmap::Model model;
   colmap::Encoding encoding = colmap::Encoding::Text;
-  colmap::SbaProblem problem;  // NVM
+  nvm::SbaProblem problem;  // NVM
   std::unique_ptr<euclidean::CameraModel> sba_model;
   colmap::ColmapProblem colmap_problem;
   std::unique_ptr<colmap_camera::CameraModel> colmap_model;
@@ -436,7 +436,7 @@ struct Loaded {
 
 // The job of l->problem through eucsbademo's camera model (COLMAP models and NVM files).
 void eucsba_job(Loaded *l, Job *job) {
-  colmap::SbaProblem &pr = l->problem;
+  nvm::SbaProblem &pr = l->problem;
   l->sba_model = std::make_unique<euclidean::CameraModel>(euclidean::CameraKind::VaryingIntrinsicsDistortion, pr.cameras,
                                                        pr.points.xyz, pr.nccalib, pr.ncdist);
   const euclidean::CameraModel &sm = *l->sba_model;

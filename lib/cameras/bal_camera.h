@@ -13,8 +13,8 @@
 //   R(w) X = X + alpha (w x X) + beta w x (w x X),
 // and both coefficients (and their derivatives in s) switch to their Taylor series for
 // |w| < 1/4, where the closed forms lose digits to cancellation (and divide by zero at w = 0).
-#ifndef SBA_DEMO_BAL_CAMERA_H
-#define SBA_DEMO_BAL_CAMERA_H
+#ifndef SBA_LIB_CAMERAS_BAL_CAMERA_H
+#define SBA_LIB_CAMERAS_BAL_CAMERA_H
 
 struct sba_crsm;
 
@@ -49,4 +49,4 @@ void motstr_fjac(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, do
 
 }  // namespace sbacameras::bal
 
-#endif  // SBA_DEMO_BAL_CAMERA_H
+#endif  // SBA_LIB_CAMERAS_BAL_CAMERA_H

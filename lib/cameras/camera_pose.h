@@ -2,8 +2,8 @@
 // A camera's pose both ways: X_c = R X + t (R row-major, world to camera) has its centre at
 // C = -R^T t, and t = -R C. Formats that store the centre (NVM) and the PLY files of the
 // programs share these.
-#ifndef SBA_DEMO_CAMERA_POSE_H
-#define SBA_DEMO_CAMERA_POSE_H
+#ifndef SBA_LIB_CAMERAS_CAMERA_POSE_H
+#define SBA_LIB_CAMERAS_CAMERA_POSE_H
 
 #include <array>
 
@@ -22,4 +22,4 @@ inline void camera_translation(const double R[9], const std::array<double, 3> &c
 
 }  // namespace sbacameras
 
-#endif  // SBA_DEMO_CAMERA_POSE_H
+#endif  // SBA_LIB_CAMERAS_CAMERA_POSE_H

@@ -53,8 +53,8 @@
 // that the point is in front of the camera, nor EUCM's region of validity: the pixels are the
 // formula's wherever it has a value, as COLMAP's projection without its cheirality check gives
 // them.
-#ifndef SBA_DEMO_COLMAP_CAMERA_H
-#define SBA_DEMO_COLMAP_CAMERA_H
+#ifndef SBA_LIB_CAMERAS_COLMAP_CAMERA_H
+#define SBA_LIB_CAMERAS_COLMAP_CAMERA_H
 
 #include <array>
 #include <vector>
@@ -275,4 +275,4 @@ void rig_motstr_fjac(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs
 
 }  // namespace sbacameras::colmap_camera
 
-#endif  // SBA_DEMO_COLMAP_CAMERA_H
+#endif  // SBA_LIB_CAMERAS_COLMAP_CAMERA_H

@@ -14,8 +14,8 @@
 //   VaryingIntrinsics             (fu u0 v0 ar s  v1 v2 v3  t1 t2 t3)                cnp 11
 //   VaryingIntrinsicsDistortion   (fu u0 v0 ar s  kc0..kc4  v1 v2 v3  t1 t2 t3)      cnp 16
 // Point parameters b_i = (X Y Z), pnp 3; projections (u v) in pixels, mnp 2.
-#ifndef SBA_DEMO_EUCLIDEAN_H
-#define SBA_DEMO_EUCLIDEAN_H
+#ifndef SBA_LIB_CAMERAS_EUCLIDEAN_H
+#define SBA_LIB_CAMERAS_EUCLIDEAN_H
 
 #include <array>
 #include <vector>
@@ -175,4 +175,4 @@ StrCallbacks str_callbacks(CameraKind kind);
 
 }  // namespace sbacameras::euclidean
 
-#endif  // SBA_DEMO_EUCLIDEAN_H
+#endif  // SBA_LIB_CAMERAS_EUCLIDEAN_H

@@ -18,8 +18,8 @@
  * Matrices are row-major 3x3. Every function is static inline: the header has no object file
  * of its own and can be included by a file compiled alone (mex, mkoctfile).
  */
-#ifndef SBA_DEMO_EUCLIDEAN_ROTATION_H
-#define SBA_DEMO_EUCLIDEAN_ROTATION_H
+#ifndef SBA_LIB_CAMERAS_EUCLIDEAN_ROTATION_H
+#define SBA_LIB_CAMERAS_EUCLIDEAN_ROTATION_H
 
 #include <math.h>
 
@@ -102,4 +102,4 @@ static inline void sbaeuc_rotation_derivative(const sbaeuc_correction *qs, const
                       dRY_du[r * 3 + 2] * qs->du[6 + c] + 2 * uxY[r] * qs->dw[c];
 }
 
-#endif /* SBA_DEMO_EUCLIDEAN_ROTATION_H */
+#endif /* SBA_LIB_CAMERAS_EUCLIDEAN_ROTATION_H */

@@ -10,8 +10,8 @@
 //   ncameras times:       9 camera parameters   (w1 w2 w3  t1 t2 t3  f k1 k2)
 //   npoints times:        3 point coordinates   (X Y Z)
 // and nothing after the last point.
-#ifndef SBA_DEMO_BAL_IO_H
-#define SBA_DEMO_BAL_IO_H
+#ifndef SBA_LIB_FORMATS_BAL_IO_H
+#define SBA_LIB_FORMATS_BAL_IO_H
 
 #include <cstddef>
 #include <string>
@@ -104,4 +104,4 @@ bool write_problem(const std::string &path, const Problem &problem, std::string 
 
 }  // namespace sbaformats::bal
 
-#endif  // SBA_DEMO_BAL_IO_H
+#endif  // SBA_LIB_FORMATS_BAL_IO_H

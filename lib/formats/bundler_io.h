@@ -5,8 +5,8 @@
 // k2 |p|^4) p, in pixels from the image centre with y up.
 //
 // Errors are one line, "<file>:<line>: <message>".
-#ifndef SBA_DEMO_BUNDLER_IO_H
-#define SBA_DEMO_BUNDLER_IO_H
+#ifndef SBA_LIB_FORMATS_BUNDLER_IO_H
+#define SBA_LIB_FORMATS_BUNDLER_IO_H
 
 #include <array>
 #include <string>
@@ -92,4 +92,4 @@ bool from_problem(const std::vector<euclidean::Camera> &cameras, const eucsba::P
 
 }  // namespace sbaformats::bundler
 
-#endif  // SBA_DEMO_BUNDLER_IO_H
+#endif  // SBA_LIB_FORMATS_BUNDLER_IO_H

@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // Reading a bzip2-compressed file through stdio, so that a reader written for plain text
 // (eucsbademo's line reader) reads compressed files unchanged.
-#ifndef SBA_DEMO_BZIP2_STREAM_H
-#define SBA_DEMO_BZIP2_STREAM_H
+#ifndef SBA_LIB_FORMATS_BZIP2_STREAM_H
+#define SBA_LIB_FORMATS_BZIP2_STREAM_H
 
 #include <cstdio>
 #include <string>
@@ -21,4 +21,4 @@ std::FILE *open_bzip2_stream(std::FILE *compressed, std::string *error);
 
 }  // namespace sbaformats
 
-#endif  // SBA_DEMO_BZIP2_STREAM_H
+#endif  // SBA_LIB_FORMATS_BZIP2_STREAM_H

@@ -2,8 +2,8 @@
 // A COLMAP model made in memory (pysba's, from Python objects) rather than read from files,
 // checked record by record as the readers check each file (colmap_io.h): so that what
 // write_model makes of it, read_model reads back, and to_sba gets a model it can take.
-#ifndef SBA_DEMO_COLMAP_CHECK_H
-#define SBA_DEMO_COLMAP_CHECK_H
+#ifndef SBA_LIB_FORMATS_COLMAP_CHECK_H
+#define SBA_LIB_FORMATS_COLMAP_CHECK_H
 
 #include <string>
 
@@ -27,4 +27,4 @@ bool check_records(const Model &model, const std::string &name, std::string *err
 
 }  // namespace sbaformats::colmap
 
-#endif  // SBA_DEMO_COLMAP_CHECK_H
+#endif  // SBA_LIB_FORMATS_COLMAP_CHECK_H

@@ -6,8 +6,8 @@
 // COLMAP's eighteen camera models, ids 0..17, are accepted (cameras/colmap_camera.h).
 // Errors are one line: "<file>:<line>: <message>" for text, "<file>: byte N: <message>" for
 // binary, "<file>: <message>" for what concerns a whole file or the model.
-#ifndef SBA_DEMO_COLMAP_IO_H
-#define SBA_DEMO_COLMAP_IO_H
+#ifndef SBA_LIB_FORMATS_COLMAP_IO_H
+#define SBA_LIB_FORMATS_COLMAP_IO_H
 
 #include <array>
 #include <cstdint>
@@ -251,4 +251,4 @@ bool read_rest(std::FILE *f, const std::string &path, bool text, std::string *ou
 
 }  // namespace sbaformats::colmap
 
-#endif  // SBA_DEMO_COLMAP_IO_H
+#endif  // SBA_LIB_FORMATS_COLMAP_IO_H

@@ -2,8 +2,8 @@
 // What the COLMAP text format (colmap_text.cpp), the binary format (colmap_binary.cpp) and the
 // model's files (colmap_io.cpp) share beyond colmap_io.h: COLMAP's camera models, the messages
 // about them, and the formatting of a model in each encoding.
-#ifndef SBA_DEMO_COLMAP_IO_IMPL_H
-#define SBA_DEMO_COLMAP_IO_IMPL_H
+#ifndef SBA_LIB_FORMATS_COLMAP_IO_IMPL_H
+#define SBA_LIB_FORMATS_COLMAP_IO_IMPL_H
 
 #include <array>
 #include <cstddef>
@@ -145,4 +145,4 @@ Files format_binary(const Model &model);
 
 }  // namespace sbaformats::colmap
 
-#endif  // SBA_DEMO_COLMAP_IO_IMPL_H
+#endif  // SBA_LIB_FORMATS_COLMAP_IO_IMPL_H

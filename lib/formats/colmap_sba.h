@@ -20,10 +20,8 @@
 // pose in its rig among the frames, and each COLMAP camera's parameters among its images; a
 // rig's reference camera has the identity for its pose there, held. A frame's images then
 // keep one rig pose, and a camera one pose in its rig, bit for bit.
-//
-// NVM files (nvm_io.h) still map onto eucsbademo's camera (SbaProblem below).
-#ifndef SBA_DEMO_COLMAP_SBA_H
-#define SBA_DEMO_COLMAP_SBA_H
+#ifndef SBA_LIB_FORMATS_COLMAP_SBA_H
+#define SBA_LIB_FORMATS_COLMAP_SBA_H
 
 #include <cstddef>
 #include <cstdint>
@@ -60,14 +58,6 @@ struct RefinePoses {
 // Parses "none", "all" or a comma-separated list of focal, principal, distortion. Returns
 // why the text is bad (empty when good).
 std::string parse_refine_intrinsics(const std::string &text, RefineIntrinsics *out);
-
-// An NVM file's problem through eucsbademo's camera model (nvm::to_sba fills it).
-struct SbaProblem {
-  std::vector<euclidean::Camera> cameras;  // one per camera, in file order
-  std::vector<int> images;                 // unused by nvm::to_sba: empty
-  eucsba::PointSet points;                 // one per 3D point, in file order; visibility as pairs
-  int nccalib = 5, ncdist = 5;             // trailing intrinsics / distortion terms held
-};
 
 // A COLMAP model's problem.
 struct ColmapProblem {
@@ -230,4 +220,4 @@ bool from_problem(euclidean::CameraKind kind, const std::vector<euclidean::Camer
 
 }  // namespace sbaformats::colmap
 
-#endif  // SBA_DEMO_COLMAP_SBA_H
+#endif  // SBA_LIB_FORMATS_COLMAP_SBA_H

@@ -10,8 +10,8 @@
 // (4 + 7 * ncameras) * 64 bytes, if that is more: "<file>:<line>: line longer than N bytes".
 // The rest of such a line is not read, so a file without line breaks (/dev/zero) is refused
 // at once instead of being read into memory.
-#ifndef SBA_DEMO_EUCSBA_IO_H
-#define SBA_DEMO_EUCSBA_IO_H
+#ifndef SBA_LIB_FORMATS_EUCSBA_IO_H
+#define SBA_LIB_FORMATS_EUCSBA_IO_H
 
 #include <array>
 #include <string>
@@ -135,4 +135,4 @@ bool read_points_xyz(const std::string &path, std::vector<double> *xyz, std::str
 
 }  // namespace sbaformats::eucsba
 
-#endif  // SBA_DEMO_EUCSBA_IO_H
+#endif  // SBA_LIB_FORMATS_EUCSBA_IO_H

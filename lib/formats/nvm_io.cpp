@@ -157,11 +157,11 @@ bool looks_uncentred(const Model &m) {
   return true;
 }
 
-bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::SbaProblem *out,
+bool to_sba(const Model &m, bool refine_focal, const std::string &name, SbaProblem *out,
             std::string *error) {
   const int ncams = static_cast<int>(m.cameras.size()), n = static_cast<int>(m.points.size());
   if (ncams == 0 || n == 0) return fail(error, name + ": the first model has no cameras or no points");
-  colmap::SbaProblem p;
+  SbaProblem p;
   p.nccalib = refine_focal ? 4 : 5;
   p.ncdist = sbacameras::euclidean::kDistortionParams;
   for (std::size_t j = 0; j < m.cameras.size(); ++j) {

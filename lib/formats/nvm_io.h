@@ -12,15 +12,14 @@
 // and no distortion terms; only the focal length may be refined besides pose and structure.
 //
 // Errors are one line, "<file>:<line>: <message>", or "<file>: <message>" for the model.
-#ifndef SBA_DEMO_NVM_IO_H
-#define SBA_DEMO_NVM_IO_H
+#ifndef SBA_LIB_FORMATS_NVM_IO_H
+#define SBA_LIB_FORMATS_NVM_IO_H
 
 #include <array>
 #include <string>
 #include <vector>
 
 #include "cameras/euclidean.h"
-#include "formats/colmap_sba.h"
 #include "formats/eucsba_io.h"
 
 namespace sbaformats {
@@ -82,11 +81,18 @@ bool write_nvm(const std::string &path, const Model &m, std::string *error, Outp
 // any one); corner-based ones fill one, their mean about 1.7 standard deviations from 0.
 bool looks_uncentred(const Model &m);
 
+// An NVM file's problem through eucsbademo's camera model (to_sba fills it).
+struct SbaProblem {
+  std::vector<euclidean::Camera> cameras;  // one per camera, in file order
+  eucsba::PointSet points;                 // one per 3D point, in file order; visibility as pairs
+  int nccalib = 5, ncdist = 5;             // trailing intrinsics / distortion terms held
+};
+
 // The model as a problem of eucsbademo's VaryingIntrinsicsDistortion cameras, one per NVM
 // camera in file order, every intrinsic held but the focal length when refine_focal
 // (nccalib 4, else 5; ncdist 5). False with a message for a model without points, a camera
 // that sees none, and a translation -R C or an undistorted measurement that overflows.
-bool to_sba(const Model &m, bool refine_focal, const std::string &name, colmap::SbaProblem *out,
+bool to_sba(const Model &m, bool refine_focal, const std::string &name, SbaProblem *out,
             std::string *error);
 // The estimate p (as eucsbademo lays it out) back into the model: f, q and C of the cameras
 // from mcon on, the points from ncon on. Everything else stays as it was read.
@@ -101,4 +107,4 @@ bool from_problem(const std::vector<euclidean::Camera> &cameras, const eucsba::P
 
 }  // namespace sbaformats::nvm
 
-#endif  // SBA_DEMO_NVM_IO_H
+#endif  // SBA_LIB_FORMATS_NVM_IO_H

@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // A model's points and camera centres as an ASCII PLY file, which any point-cloud viewer opens:
 // what --initial-ply and --final-ply write (cli/ply_options.h).
-#ifndef SBA_DEMO_PLY_H
-#define SBA_DEMO_PLY_H
+#ifndef SBA_LIB_FORMATS_PLY_H
+#define SBA_LIB_FORMATS_PLY_H
 
 #include <array>
 #include <string>
@@ -27,4 +27,4 @@ bool write_ply(const std::string &path, const Cloud &cloud, std::string *error, 
 
 }  // namespace sbaformats
 
-#endif  // SBA_DEMO_PLY_H
+#endif  // SBA_LIB_FORMATS_PLY_H

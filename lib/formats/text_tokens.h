@@ -3,8 +3,8 @@
 // at a time with the line each is on, and the strict conversions their readers share: a
 // number must be the whole token, decimal and finite, an integer must lie in its range.
 // Errors are one line, "<file>:<line>: <message>", and never echo a control byte.
-#ifndef SBA_DEMO_TEXT_TOKENS_H
-#define SBA_DEMO_TEXT_TOKENS_H
+#ifndef SBA_LIB_FORMATS_TEXT_TOKENS_H
+#define SBA_LIB_FORMATS_TEXT_TOKENS_H
 
 #include <cctype>
 #include <charconv>
@@ -148,4 +148,4 @@ inline void append_uint(std::string *out, unsigned long long v) {
 
 }  // namespace sbaformats
 
-#endif  // SBA_DEMO_TEXT_TOKENS_H
+#endif  // SBA_LIB_FORMATS_TEXT_TOKENS_H

@@ -3,8 +3,8 @@
 // measurements (point by point, cameras ascending): what sba's _vis entry points take
 // (sba_ext.h). Its memory follows the observations, where the dense n*m vmask of the 1.6
 // entry points follows cameras times points and does not fit a large sparse model.
-#ifndef SBA_DEMO_VISIBILITY_H
-#define SBA_DEMO_VISIBILITY_H
+#ifndef SBA_LIB_FORMATS_VISIBILITY_H
+#define SBA_LIB_FORMATS_VISIBILITY_H
 
 #include <cstddef>
 #include <vector>
@@ -31,4 +31,4 @@ struct Visibility {
 
 }  // namespace sbaformats
 
-#endif  // SBA_DEMO_VISIBILITY_H
+#endif  // SBA_LIB_FORMATS_VISIBILITY_H

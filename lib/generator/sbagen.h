@@ -19,8 +19,8 @@
 // Size: memory is O(n + m + observations). The sparse tracks (track_begin / track_cameras)
 // are always built; the dense n*m vmask that sba's C API takes is built only when n*m is at
 // most Options::dense_vmask_limit (dense_vmask() builds it on demand).
-#ifndef SBAGEN_H
-#define SBAGEN_H
+#ifndef SBA_LIB_GENERATOR_SBAGEN_H
+#define SBA_LIB_GENERATOR_SBAGEN_H
 
 #include <cstddef>
 #include <cstdint>
@@ -201,4 +201,4 @@ const char *camera_kind_name(sbacameras::euclidean::CameraKind kind);  // "fixed
 
 }  // namespace sbagen
 
-#endif  // SBAGEN_H
+#endif  // SBA_LIB_GENERATOR_SBAGEN_H
