@@ -59,7 +59,6 @@
 #include "mapped_schur.h"
 #include "small_dense.h"
 #include "step_solver.h"
-#include "unknowns.h"
 
 namespace sba {
 namespace {
@@ -121,7 +120,7 @@ class IterativeSchurSolver final : public StepSolver {
     chunk_ = split_by_work(lay.rowptr, lay.ncon, np_, kChunks);
     partial_.resize(size_t(kChunks) * size_t(nC_));
     Vinv_.resize(size_t(lay.n) * size_t(pnp()) * size_t(pnp()));
-    if (lay.cams.shared()) {
+    if (!lay.cams.per_camera()) {
       // Over shared unknowns the products run on the cameras' parameters (xc_, yc_, all m
       // cameras' as in p) and are reduced to the unknowns; the preconditioner is S over
       // clusters of the unknowns' blocks.
@@ -153,8 +152,8 @@ class IterativeSchurSolver final : public StepSolver {
     const double *ga = ne.ea + lay.a_off(lay.mcon);
     if (schur_) {
       gather(ne, 0.0, nullptr, ga, yc_.data() + lay.a_off(lay.mcon));
-      to_unknowns(lay, yc_.data(), rhs_.data());
-      to_unknowns(lay, ne.ea, x_.data());  // the gradient over the unknowns, for its norm
+      lay.cams.reduce(yc_.data(), rhs_.data());
+      lay.cams.reduce(ne.ea, x_.data());  // the gradient over the unknowns, for its norm
       ga = x_.data();
     } else {
       gather(ne, 0.0, nullptr, ga, rhs_.data());
@@ -168,7 +167,7 @@ class IterativeSchurSolver final : public StepSolver {
     if (!make_preconditioner(ne, mu)) return StepStatus::Failed;
     double *da = schur_ ? q_.data() : dp + lay.a_off(lay.mcon);
     if (!conjugate_gradients(ne, mu, eta, da)) return StepStatus::Failed;
-    if (schur_) to_cameras(lay, da, -0.0, dp);
+    if (schur_) lay.cams.expand(da, -0.0, dp);
     ctx_.kernels.back_substitute(pool, ne, Vinv_.data(), mu, dp);
     return StepStatus::Solved;
   }
@@ -307,10 +306,10 @@ class IterativeSchurSolver final : public StepSolver {
       return;
     }
     const Layout &lay = lay_;
-    to_cameras(lay, x, 0.0, xc_.data());
+    lay.cams.expand(x, 0.0, xc_.data());
     point_pass(ne, xc_.data() + lay.a_off(lay.mcon));
     gather(ne, 0.0, xc_.data() + lay.a_off(lay.mcon), nullptr, yc_.data() + lay.a_off(lay.mcon));
-    to_unknowns(lay, yc_.data(), y);
+    lay.cams.reduce(yc_.data(), y);
     ctx_.pool.for_range(nS_, [=](i64 e0, i64 e1) {
       for (i64 e = e0; e < e1; ++e) y[e] += mu * x[e];
     });
@@ -397,16 +396,16 @@ class IterativeSchurSolver final : public StepSolver {
   // the cluster's order stays within max_cluster; every other block alone.
   void find_clusters(const CameraMap &map, int max_cluster) {
     const int nb = map.nblocks();
-    const auto cams = [&](int b) { return map.block_cam_start[size_t(b) + 1] - map.block_cam_start[size_t(b)]; };
+    const auto cams = [&](int b) { return map.block_ncams(b); };
     std::vector<int> root(static_cast<size_t>(nb));  // the block whose cluster b joins (b when alone)
     std::vector<int> size(static_cast<size_t>(nb));  // a root's cluster order so far
     for (int b = 0; b < nb; ++b) root[size_t(b)] = b, size[size_t(b)] = map.block_size(b);
     for (int b = 0; b < nb; ++b) {
       if (cams(b) != 1) continue;
-      const int j = map.block_cams[size_t(map.block_cam_start[size_t(b)])];
-      const int q0 = map.cam_start[size_t(j)];
-      if (map.cam_start[size_t(j) + 1] - q0 != 2) continue;
-      const int K = map.cam_blocks[size_t(q0)] == b ? map.cam_blocks[size_t(q0) + 1] : map.cam_blocks[size_t(q0)];
+      const int j = *map.block_cams_begin(b);
+      const int *q0 = map.cam_blocks_begin(j);
+      if (map.cam_blocks_end(j) - q0 != 2) continue;
+      const int K = q0[0] == b ? q0[1] : q0[0];
       if (cams(K) < 2 || size[size_t(K)] + map.block_size(b) > max_cluster) continue;
       root[size_t(b)] = K;
       size[size_t(K)] += map.block_size(b);
@@ -444,7 +443,7 @@ class IterativeSchurSolver final : public StepSolver {
     UnknownBlocks D;
     D.kind = UnknownBlocks::Kind::Clusters;
     D.base = D_.data();
-    D.start = map.block_start.data();
+    D.start = map.block_starts();
     D.origin = origin_.data();
     D.pos = pos_.data();
     D.order = order_.data();
@@ -473,10 +472,10 @@ class IterativeSchurSolver final : public StepSolver {
         const int *c1 = cluster_blocks_.data() + cluster_start_[size_t(k) + 1];
         v.resize(size_t(cluster_order(int(k))));
         for (const int *b = c0; b < c1; ++b)
-          std::copy_n(r + map.block_start[size_t(*b)], map.block_size(*b), v.data() + pos_[size_t(*b)]);
+          std::copy_n(r + map.block_start(*b), map.block_size(*b), v.data() + pos_[size_t(*b)]);
         small::chol_solve(cluster_matrix(int(k)), v.data(), int(v.size()));
         for (const int *b = c0; b < c1; ++b)
-          std::copy_n(v.data() + pos_[size_t(*b)], map.block_size(*b), z + map.block_start[size_t(*b)]);
+          std::copy_n(v.data() + pos_[size_t(*b)], map.block_size(*b), z + map.block_start(*b));
       }
     });
   }
