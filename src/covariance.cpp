@@ -229,48 +229,6 @@ int block_rank(const double *V, int n, std::vector<double> &work) {
   return rank;
 }
 
-ParameterMap parameter_map(const Layout &lay) {
-  ParameterMap T;
-  const int cnp = lay.cnp;
-  T.nparams = T.nunknowns = lay.free_cams() * cnp;
-  T.reduced = (lay.cams.shared() || lay.cams.any_held()) && cnp > 0;
-  if (!T.reduced) return T;
-  T.unknown.assign(size_t(T.nparams), -1);
-  if (lay.cams.shared()) {
-    std::copy(lay.cams.unknown.begin() + i64(lay.mcon) * cnp, lay.cams.unknown.end(), T.unknown.begin());
-    T.nunknowns = lay.cams.nunknowns;
-    return T;
-  }
-  int nz = 0;
-  for (i64 q = 0; q < i64(T.unknown.size()); ++q)
-    if (!lay.cams.held[size_t(i64(lay.mcon) * cnp + q)]) T.unknown[size_t(q)] = nz++;
-  T.nunknowns = nz;
-  return T;
-}
-
-std::vector<double> to_unknowns(const ParameterMap &T, const std::vector<double> &S) {
-  const int nA = T.nparams, nS = T.nunknowns;
-  std::vector<double> Z(size_t(nS) * size_t(nS), 0.0);
-  for (int r = 0; r < nA; ++r) {
-    if (T.unknown[size_t(r)] < 0) continue;
-    double *row = Z.data() + size_t(T.unknown[size_t(r)]) * nS;
-    for (int c = 0; c < nA; ++c)
-      if (T.unknown[size_t(c)] >= 0) row[T.unknown[size_t(c)]] += S[size_t(r) * nA + size_t(c)];
-  }
-  return Z;
-}
-
-std::vector<double> to_parameters(const ParameterMap &T, const std::vector<double> &Z) {
-  const int nA = T.nparams, nS = T.nunknowns;
-  std::vector<double> S(size_t(nA) * size_t(nA));
-  for (int r = 0; r < nA; ++r)
-    for (int c = 0; c < nA; ++c) {
-      const int zr = T.unknown[size_t(r)], zc = T.unknown[size_t(c)];
-      S[size_t(r) * nA + size_t(c)] = zr < 0 || zc < 0 ? 0.0 : Z[size_t(zr) * nS + size_t(zc)];
-    }
-  return S;
-}
-
 bool pseudo_inverse(std::vector<double> &S, int n, const std::function<bool()> &stop, const Logger &log,
                     int *rank) {
   *rank = 0;
@@ -353,12 +311,13 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
   }
 
   // S over the unknowns, its pseudo-inverse, and that back over the parameters.
-  const ParameterMap T = parameter_map(lay);
+  const CameraMap &map = lay.cams;
+  const int nparams = lay.free_cams() * lay.cnp, nunknowns = map.unknowns();
   std::vector<double> S;
-  if (T.nparams > 0) {
+  if (nparams > 0) {
     S = parameter_schur(lay, pool, *kernels, ne, Vinv.data());
     if (cancel.stop(log, true)) return false;
-    if (T.reduced) S = to_unknowns(T, S);
+    if (!map.plain()) S = map.reduce_matrix(S);
   }
   int rank_S = 0;
   // Polled at once after the eigendecomposition, then as any loop polls.
@@ -367,11 +326,11 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
     first = false;
     return cancel.stop(log, now);
   };
-  if (!pseudo_inverse(S, T.nunknowns, stop, log, &rank_S)) return false;
-  if (T.reduced) S = to_parameters(T, S);
-  if (!residual_variance(lay, lin.sq_err, T.nunknowns, rank_S, log, req)) return false;
+  if (!pseudo_inverse(S, nunknowns, stop, log, &rank_S)) return false;
+  if (!map.plain()) S = map.expand_matrix(S);
+  if (!residual_variance(lay, lin.sq_err, nunknowns, rank_S, log, req)) return false;
 
-  const CameraCovariance C{S.data(), T.nparams, lay.mcon, lay.cnp};
+  const CameraCovariance C{S.data(), nparams, lay.mcon, lay.cnp};
   camera_blocks(lay, C, req);
   PointBlocks point_block(lay, ne, Vinv.data(), C);
   for (int q = 0; q < req.npts; ++q) {

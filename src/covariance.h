@@ -35,21 +35,6 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
 // is scratch. A free point whose V_i has rank < pnp has no covariance.
 int block_rank(const double *V, int n, std::vector<double> &work);
 
-// The free cameras' parameters and the unknowns they map to (camera_map.h). With held or
-// shared parameters (reduced) the unknowns are fewer: S over them is T^T S T, where T maps
-// each unknown to the parameters it moves, and the parameters' covariance is T S^+ T^T.
-// Without, T is the identity and S is used as it is.
-struct ParameterMap {
-  bool reduced = false;
-  int nparams = 0, nunknowns = 0;
-  std::vector<int> unknown;  // reduced: per free parameter ((j - mcon) cnp + c), its unknown; -1: held
-};
-ParameterMap parameter_map(const Layout &lay);
-// T^T S T: S over the parameters (nparams^2, row-major) to S over the unknowns.
-std::vector<double> to_unknowns(const ParameterMap &T, const std::vector<double> &S);
-// T Z T^T: Z over the unknowns back over the parameters, zero for the held ones.
-std::vector<double> to_parameters(const ParameterMap &T, const std::vector<double> &Z);
-
 // The symmetric n x n S (row-major, full) replaced by its pseudo-inverse Q diag(1/lambda) Q^T,
 // from its eigendecomposition, eigenvalues at rounding level of the largest one counted as
 // zero; *rank the others. stop is polled after the decomposition and at each eigenvector;

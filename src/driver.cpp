@@ -125,6 +125,7 @@ bool resolve_auto(const DriverArgs &a, const Layout &lay, const Logger &log, Opt
   const MemoryBudget budget = memory_budget(opt->memory_budget);
   const SolverShape shape = shape_of(lay, budget.bytes);
   opt->solver = choose_linsolver(shape);
+  if (opt->solver == LinSolver::SparseChol) opt->schur_analysis = shape.analysis;
   const double needs = solver_bytes(shape, opt->solver);
   if (budget.bytes > 0 && needs > budget.bytes) {
     const auto mib = [](double bytes) { return bytes / (1024.0 * 1024.0); };

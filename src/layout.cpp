@@ -35,6 +35,7 @@ void finish_layout(Layout &lay) {
   lay.idx.val = lay.val.data();
   lay.idx.colidx = lay.colidx.data();
   lay.idx.rowptr = lay.rowptr.data();
+  lay.cams = CameraMap(m, lay.mcon, lay.cnp);
 }
 
 }  // namespace

@@ -30,8 +30,9 @@ struct Layout {
   // Where each camera's projections start in the camera-major order (see by_camera()).
   std::vector<int> colptr;
   sba_crsm idx{};  // views rowptr/colidx/val for the callbacks
-  // How the free cameras' parameters map to the unknowns of the camera side (camera_map.h);
-  // empty for sba 1.6's one unknown per parameter.
+  // How the free cameras' parameters map to the unknowns of the camera side (camera_map.h):
+  // build_layout makes the plain one, sba 1.6's one unknown per parameter; the drivers refine
+  // it from the held and shared parameters (make_camera_map).
   CameraMap cams;
 
   i64 nvars() const { return i64(m) * cnp + i64(n) * pnp; }
@@ -46,7 +47,7 @@ struct Layout {
   int free_pts() const { return pnp > 0 ? n - ncon : 0; }
   i64 free_vars() const { return i64(free_cams()) * cnp + i64(free_pts()) * pnp; }
   // The order of the reduced camera system: the camera side's unknowns.
-  i64 camera_unknowns() const { return cams.shared() ? i64(cams.nunknowns) : i64(free_cams()) * cnp; }
+  i64 camera_unknowns() const { return cams.order(); }
 };
 
 // The index column-compressed by camera (points ascending): for slot s of camera j's range

@@ -200,13 +200,13 @@ void weight_jacobian(ThreadPool &pool, const Layout &lay, const double *wts, dou
 // -0.0 by the solvers.
 void zero_held_columns(ThreadPool &pool, const Layout &lay, double *jac) {
   const int mnp = lay.mnp, cnp = lay.cnp, jb = lay.jblk();
-  const char *held = lay.cams.held.data();
+  const CameraMap &map = lay.cams;
   pool.for_range(lay.nvis, [&](i64 b, i64 e) {
     for (i64 k = b; k < e; ++k) {
-      const char *h = held + i64(lay.colidx[size_t(k)]) * cnp;
+      const int j = lay.colidx[size_t(k)];
       double *A = jac + k * jb;
       for (int c = 0; c < cnp; ++c)
-        if (h[c])
+        if (map.held(j, c))
           for (int r = 0; r < mnp; ++r) A[r * cnp + c] = 0.0;
     }
   });
@@ -259,23 +259,15 @@ const char *legacy_name(Mode mode) {
 // shared unknown's gradient and diagonal entry are its copies' sums; a held parameter's are 0).
 void gradient_stats(const Layout &lay, const Workspace &w, double *ginf, double *maxdiag) {
   double g = 0.0, d = 0.0;
-  const int cnp = lay.cnp, pnp = lay.pnp;
-  if (lay.cams.shared()) {
-    std::vector<double> gu(size_t(lay.cams.nunknowns)), du(gu.size()), diag(size_t(lay.m) * cnp);
-    for (int j = lay.mcon; j < lay.m; ++j)
-      for (int a = 0; a < cnp; ++a) diag[size_t(j) * cnp + a] = w.U[size_t(i64(j) * cnp * cnp + a * (cnp + 1))];
-    to_unknowns(lay, w.ea.data(), gu.data());
-    to_unknowns(lay, diag.data(), du.data());
+  const int pnp = lay.pnp;
+  if (lay.free_cams() > 0) {
+    std::vector<double> gu(size_t(lay.camera_unknowns())), du(gu.size());
+    lay.cams.reduce(w.ea.data(), gu.data());
+    lay.cams.reduce_diagonal(w.U.data(), du.data());
     for (size_t u = 0; u < gu.size(); ++u) {
       g = std::max(g, std::fabs(gu[u]));
       d = std::max(d, du[u]);
     }
-  } else {
-    for (int j = lay.mcon; j < lay.m && cnp; ++j)
-      for (int a = 0; a < cnp; ++a) {
-        g = std::max(g, std::fabs(w.ea[size_t(i64(j) * cnp + a)]));
-        d = std::max(d, w.U[size_t(i64(j) * cnp * cnp + a * (cnp + 1))]);
-      }
   }
   for (int i = lay.ncon; i < lay.n && pnp; ++i)
     for (int a = 0; a < pnp; ++a) {
@@ -661,7 +653,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   const ModelThreads lend(model, &pool);
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());
   Steps st(lay, model, x, opt.loss, log, pool, *kernels, covx != nullptr);
-  std::unique_ptr<StepSolver> solver = make_step_solver(opt.solver, SolveContext{lay, pool, *kernels});
+  std::unique_ptr<StepSolver> solver = make_step_solver(opt.solver, SolveContext{lay, pool, *kernels, opt.schur_analysis.get()});
   if (wrap) solver = wrap(std::move(solver));
   const std::unique_ptr<Strategy> strategy = make_strategy(opt.strategy, lay, opt.eps4);
   if (!st.weigh(covx)) return false;

@@ -28,32 +28,17 @@ UnknownBlocks::Block UnknownBlocks::block(int b, int B) const {
 MappedSchur::MappedSchur(const Layout &lay, int threads) : lay_(lay), avx2_(use_avx2_build()) {
   const CameraMap &map = lay.cams;
   const int nb = map.nblocks(), pnp = lay.pnp;
-  // Each point's blocks, and the work of each block column: the pairs it closes.
-  pstart_.assign(size_t(lay.n) + 1, 0);
+  // The work of each block column: the pairs it closes.
   std::vector<double> work(size_t(nb), 0.0);
-  for (int b = 0; b < nb; ++b)
-    work[size_t(b)] = double(map.block_cam_start[size_t(b) + 1] - map.block_cam_start[size_t(b)]) *
-                      map.block_size(b);
-  std::vector<int> list;
+  for (int b = 0; b < nb; ++b) work[size_t(b)] = double(map.block_ncams(b)) * map.block_size(b);
   for (int i = 0; i < lay.n; ++i) {
-    list.clear();
-    if (i >= lay.ncon && pnp > 0)
-      for (int k = lay.rowptr[size_t(i)]; k < lay.rowptr[size_t(i) + 1]; ++k) {
-        const int j = lay.colidx[size_t(k)];
-        if (j < lay.mcon) continue;
-        list.insert(list.end(), map.cam_blocks.begin() + map.cam_start[size_t(j)],
-                    map.cam_blocks.begin() + map.cam_start[size_t(j) + 1]);
-      }
-    std::sort(list.begin(), list.end());
-    list.erase(std::unique(list.begin(), list.end()), list.end());
-    pblocks_.insert(pblocks_.end(), list.begin(), list.end());
-    pstart_[size_t(i) + 1] = int(pblocks_.size());
+    const int *list = point_blocks(i), nl = point_nblocks(i);
     i64 z = 0;
-    for (size_t s = 0; s < list.size(); ++s) {
+    for (int s = 0; s < nl; ++s) {
       const int b = list[s];
       z += i64(map.block_size(b)) * pnp;
       double rows = 0.0;
-      for (size_t s1 = 0; s1 <= s; ++s1) rows += map.block_size(list[s1]);
+      for (int s1 = 0; s1 <= s; ++s1) rows += map.block_size(list[s1]);
       work[size_t(b)] += rows * map.block_size(b) * pnp;
     }
     zmax_ = std::max(zmax_, z);

@@ -38,7 +38,7 @@ struct UnknownBlocks {
   Kind kind = Kind::Dense;
   double *base = nullptr;
   i64 ld = 0;
-  const int *start = nullptr;  // block b's first unknown: CameraMap::block_start
+  const i64 *start = nullptr;  // block b's first unknown: CameraMap::block_starts
   const int *perm = nullptr, *rows = nullptr;
   const i64 *colstart = nullptr, *colbase = nullptr, *height = nullptr, *rowoff = nullptr;
   const i64 *origin = nullptr;
@@ -60,9 +60,9 @@ class MappedSchur {
   // For a layout with shared unknowns and free points or not; threads: the pool's size.
   MappedSchur(const Layout &lay, int threads);
 
-  // Point i's blocks, ascending.
-  const int *point_blocks(int i) const { return pblocks_.data() + pstart_[size_t(i)]; }
-  int point_nblocks(int i) const { return pstart_[size_t(i) + 1] - pstart_[size_t(i)]; }
+  // Point i's blocks, ascending (the map's index).
+  const int *point_blocks(int i) const { return lay_.cams.point_blocks(i); }
+  int point_nblocks(int i) const { return lay_.cams.point_nblocks(i); }
 
   // The blocks of S that `S` holds and (unless null) rhs over the unknowns, at damping mu;
   // Vinv: every free point's (V_i + mu I)^-1 (Kernels::invert_damped_V).
@@ -88,7 +88,6 @@ class MappedSchur {
  private:
   const Layout &lay_;
   bool avx2_ = false;                  // the AVX2 build of the loops runs (isa.h)
-  std::vector<int> pstart_, pblocks_;  // per point, its blocks
   std::vector<int> split_;             // threads + 1 boundaries in blocks, of about equal work
   i64 zmax_ = 0;
   mutable std::vector<Scratch> scratch_;

@@ -65,8 +65,8 @@ void mapped_point_couplings(const MappedSchur &ms, const double *jac, int i, int
       for (int r = 1; r < mnp; ++r)
         for (int c = 0; c < cnp; ++c) w[c] += B[r * pnp + d] * A[r * cnp + c];
     }
-    for (int q = map.cam_start[size_t(j)]; q < map.cam_start[size_t(j) + 1]; ++q) {
-      const int b = map.cam_blocks[size_t(q)];
+    for (const int *q = map.cam_blocks_begin(j); q != map.cam_blocks_end(j); ++q) {
+      const int b = *q;
       const int s = find_block(F, nF, b);
       if (s >= upto) continue;
       const int n = map.block_size(b);
@@ -83,7 +83,7 @@ namespace {
 // Zeroes what the assembly of the block columns [B0, B1) adds to in a dense S: the columns
 // down to their last row (the other kinds are zeroed by the caller).
 void clear_columns(const CameraMap &map, int B0, int B1, const UnknownBlocks &S) {
-  const int *start = map.block_start.data();
+  const i64 *start = map.block_starts();
   if (S.kind == UnknownBlocks::Kind::Dense)
     for (i64 r = 0; r < start[B1]; ++r) {
       double *row = S.base + r * S.ld;
@@ -100,13 +100,13 @@ void add_camera_terms(const Layout &lay, int B, const NormalEquations &ne, doubl
   const int nB = map.block_size(B);
   const int *colsB = map.block_columns(B);
   if (rhs) std::fill(rhs, rhs + nB, 0.0);
-  for (int q = map.block_cam_start[size_t(B)]; q < map.block_cam_start[size_t(B) + 1]; ++q) {
-    const int j = map.block_cams[size_t(q)];
+  for (const int *q = map.block_cams_begin(B); q != map.block_cams_end(B); ++q) {
+    const int j = *q;
     const double *Uj = ne.U + i64(j) * cnp * cnp, *eaj = ne.ea + i64(j) * cnp;
     if (rhs)
       for (int o = 0; o < nB; ++o) rhs[o] += eaj[colsB[o]];
-    for (int qb = map.cam_start[size_t(j)]; qb < map.cam_start[size_t(j) + 1]; ++qb) {
-      const int b = map.cam_blocks[size_t(qb)];
+    for (const int *qb = map.cam_blocks_begin(j); qb != map.cam_blocks_end(j); ++qb) {
+      const int b = *qb;
       if (b > B) break;
       if (!S.holds(b, B)) continue;
       const int nb = map.block_size(b);
@@ -152,7 +152,7 @@ void add_point_terms(const MappedSchur &ms, int i, int lo, int hi, const NormalE
         y[d * nB + o] = v;
       }
     if (rhs) {
-      double *rB = rhs + map.block_start[size_t(B)];
+      double *rB = rhs + map.block_start(B);
       for (int d = 0; d < pnp; ++d)
         for (int o = 0; o < nB; ++o) rB[o] -= ebi[d] * y[d * nB + o];
     }
@@ -176,7 +176,7 @@ void mapped_assemble_columns(const MappedSchur &ms, int B0, int B1, const Normal
   const Layout &lay = ms.layout();
   clear_columns(lay.cams, B0, B1, S);
   for (int B = B0; B < B1; ++B)
-    add_camera_terms(lay, B, ne, mu, S, rhs ? rhs + lay.cams.block_start[size_t(B)] : nullptr);
+    add_camera_terms(lay, B, ne, mu, S, rhs ? rhs + lay.cams.block_start(B) : nullptr);
   if (lay.pnp == 0) return;
   // The points, in ascending order, that touch a block column of the range.
   for (int i = lay.ncon; i < lay.n; ++i) {

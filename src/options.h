@@ -5,12 +5,14 @@
 #ifndef SBA_SRC_OPTIONS_H
 #define SBA_SRC_OPTIONS_H
 
+#include <memory>
 #include <string>
 
 #include "camera_unknowns.h"
 #include "linear_solver.h"
 #include "loss.h"
 #include "sba_export.h"
+#include "schur_pattern.h"
 #include "strategy.h"
 
 namespace sba {
@@ -34,6 +36,9 @@ struct Options {
   void *cancel_ctx = nullptr;
   CameraParamOptions cams;
   double memory_budget = 0;  // bytes "auto" plans within; 0: the machine's (memory_budget())
+  // What auto measured of S to choose sparse-chol (its pattern and ordering), which that
+  // solver then uses rather than compute again; null otherwise.
+  std::shared_ptr<const SchurAnalysis> schur_analysis;
 
   // The one check of everything the options carry, for the problem lay and the initial
   // estimate p: false, with the first thing wrong in *error, when a value cannot be used. A

@@ -3,53 +3,57 @@
 
 #include <algorithm>
 
-#include "mapped_schur.h"
 #include "suitesparse_status.h"
 
 namespace sba {
+
+namespace {
+
+// The Blocks shape (camera_map.h): blocks are coupled by a common point or a common camera.
+bool mapped_pattern(const Layout &lay, i64 max_blocks, SchurPattern *pat) {
+  std::vector<int> *rows = &pat->rows;
+  const CameraMap &map = lay.cams;
+  const int nb = map.nblocks();
+  // Each block's free points.
+  std::vector<i64> pstart(size_t(nb) + 1, 0);
+  for (int i = lay.ncon; i < lay.n; ++i)
+    for (int s = 0; s < map.point_nblocks(i); ++s) ++pstart[size_t(map.point_blocks(i)[s]) + 1];
+  for (int b = 0; b < nb; ++b) pstart[size_t(b) + 1] += pstart[size_t(b)];
+  std::vector<int> pts(static_cast<size_t>(pstart[size_t(nb)]));
+  std::vector<i64> fill(pstart.begin(), pstart.end() - 1);
+  for (int i = lay.ncon; i < lay.n; ++i)
+    for (int s = 0; s < map.point_nblocks(i); ++s) pts[size_t(fill[size_t(map.point_blocks(i)[s])]++)] = i;
+  std::vector<int> mark(size_t(nb), -1);
+  pat->colstart.assign(size_t(nb) + 1, 0);
+  const auto add = [&](int b, int B) {
+    if (mark[size_t(b)] == B) return;
+    mark[size_t(b)] = B;
+    rows->push_back(b);
+  };
+  for (int B = 0; B < nb; ++B) {
+    const size_t first = rows->size();
+    add(B, B);
+    for (i64 q = pstart[size_t(B)]; q < pstart[size_t(B) + 1]; ++q) {
+      const int i = pts[size_t(q)];
+      for (int s = 0; s < map.point_nblocks(i) && map.point_blocks(i)[s] < B; ++s) add(map.point_blocks(i)[s], B);
+    }
+    for (const int *j = map.block_cams_begin(B); j != map.block_cams_end(B); ++j)
+      for (const int *b = map.cam_blocks_begin(*j); b != map.cam_blocks_end(*j) && *b < B; ++b) add(*b, B);
+    if (i64(rows->size()) > max_blocks) return false;
+    std::sort(rows->begin() + long(first), rows->end());
+    pat->colstart[size_t(B) + 1] = i64(rows->size());
+  }
+  return true;
+}
+
+}  // namespace
 
 bool schur_pattern(const Layout &lay, i64 max_blocks, SchurPattern *pat) {
   std::vector<int> *rows = &pat->rows;
   std::vector<i64> *colstart = &pat->colstart;
   rows->clear();
-  if (lay.cams.shared()) {
-    const CameraMap &map = lay.cams;
-    const int nb = map.nblocks();
-    const MappedSchur schur(lay, 1);
-    // Each block's free points.
-    std::vector<i64> pstart(size_t(nb) + 1, 0);
-    for (int i = lay.ncon; i < lay.n; ++i)
-      for (int s = 0; s < schur.point_nblocks(i); ++s) ++pstart[size_t(schur.point_blocks(i)[s]) + 1];
-    for (int b = 0; b < nb; ++b) pstart[size_t(b) + 1] += pstart[size_t(b)];
-    std::vector<int> pts(static_cast<size_t>(pstart[size_t(nb)]));
-    std::vector<i64> fill(pstart.begin(), pstart.end() - 1);
-    for (int i = lay.ncon; i < lay.n; ++i)
-      for (int s = 0; s < schur.point_nblocks(i); ++s) pts[size_t(fill[size_t(schur.point_blocks(i)[s])]++)] = i;
-    std::vector<int> mark(size_t(nb), -1);
-    colstart->assign(size_t(nb) + 1, 0);
-    const auto add = [&](int b, int B) {
-      if (mark[size_t(b)] == B) return;
-      mark[size_t(b)] = B;
-      rows->push_back(b);
-    };
-    for (int B = 0; B < nb; ++B) {
-      const size_t first = rows->size();
-      add(B, B);
-      for (i64 q = pstart[size_t(B)]; q < pstart[size_t(B) + 1]; ++q) {
-        const int i = pts[size_t(q)];
-        for (int s = 0; s < schur.point_nblocks(i) && schur.point_blocks(i)[s] < B; ++s) add(schur.point_blocks(i)[s], B);
-      }
-      for (int q = map.block_cam_start[size_t(B)]; q < map.block_cam_start[size_t(B) + 1]; ++q) {
-        const int j = map.block_cams[size_t(q)];
-        for (int qb = map.cam_start[size_t(j)]; qb < map.cam_start[size_t(j) + 1] && map.cam_blocks[size_t(qb)] < B; ++qb)
-          add(map.cam_blocks[size_t(qb)], B);
-      }
-      if (i64(rows->size()) > max_blocks) return false;
-      std::sort(rows->begin() + long(first), rows->end());
-      (*colstart)[size_t(B) + 1] = i64(rows->size());
-    }
-    return true;
-  }
+  if (!lay.cams.per_camera()) return mapped_pattern(lay, max_blocks, pat);
+  // The PerCamera shape: blocks are the free cameras, coupled by the points they see.
   const int nc = lay.free_cams();
   std::vector<int> colrow, mark(size_t(nc), -1);
   by_camera(lay, &colrow, nullptr);

@@ -6,6 +6,7 @@
 #ifndef SBA_SRC_SCHUR_PATTERN_H
 #define SBA_SRC_SCHUR_PATTERN_H
 
+#include <memory>
 #include <vector>
 
 #include "layout.h"
@@ -28,6 +29,14 @@ struct SchurPattern {
 // (and hold) the pattern of a dense S, whose columns cost the sum of their cameras' track
 // lengths each.
 bool schur_pattern(const Layout &lay, i64 max_blocks, SchurPattern *pat);
+
+// S's pattern and the AMD order of its block graph, as the choice of solver computes them
+// (shape_of, solver_choice.h) and hands them to the sparse solver it chose, which would
+// otherwise compute them again.
+struct SchurAnalysis {
+  SchurPattern pattern;
+  std::vector<int> order;  // amd_block_order's
+};
 
 // AMD's fill-reducing ordering of the pattern's block graph: order[k] is the block that goes
 // to position k. info: null, or AMD_INFO doubles that receive AMD's statistics (among them

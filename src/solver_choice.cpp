@@ -130,10 +130,10 @@ SolverShape shape_of(const Layout &lay, double budget_bytes) {
   s.pnp = lay.pnp;
   s.mnp = lay.mnp;
   s.budget_bytes = budget_bytes;
-  if (lay.free_cams() == 0 || (lay.free_pts() == 0 && !lay.cams.shared())) return s;
+  if (lay.free_cams() == 0 || (lay.free_pts() == 0 && lay.cams.per_camera())) return s;
   s.unknowns = lay.camera_unknowns();
-  s.blocks = lay.cams.shared() ? lay.cams.nblocks() : lay.free_cams();
-  if (lay.cams.shared()) {
+  s.blocks = lay.cams.nblocks();
+  if (!lay.cams.per_camera()) {
     s.shared_params = i64(lay.free_cams()) * lay.cnp;
     s.cluster_doubles = iterative_schur_cluster_doubles(lay.cams);
   }
@@ -149,13 +149,14 @@ SolverShape shape_of(const Layout &lay, double budget_bytes) {
   // block multiply-subtracts of 2 b^3 operations, at least (sum f_k)^2 / nb b^3, and sum f_k is
   // at least S's blocks off the diagonal: past this many blocks of S, sparse-chol is out.
   const double enough = nb + std::sqrt(kSparseMaxPasses * pass_flops(s) * nb / (b * b * b));
-  SchurPattern pat;
-  const bool counted = schur_pattern(lay, i64(std::min(enough, double(s.factor_blocks))), &pat);
-  s.s_blocks = pat.nnz();
+  auto analysis = std::make_shared<SchurAnalysis>();
+  const bool counted = schur_pattern(lay, i64(std::min(enough, double(s.factor_blocks))), &analysis->pattern);
+  s.s_blocks = analysis->pattern.nnz();
   s.s_partial = !counted;
   if (!counted) return s;
   double info[AMD_INFO];
-  amd_block_order(pat, info);
+  analysis->order = amd_block_order(analysis->pattern, info);
+  s.analysis = std::move(analysis);
   s.factor_blocks = std::min(s.factor_blocks, i64(info[AMD_LNZ]) + s.blocks);
   // Each diagonal block's own Cholesky, b^3 / 3, and the updates.
   s.factor_flops = nb * b * b * b / 3 + 2 * b * b * b * info[AMD_NMULTSUBS_LDL];

@@ -6,10 +6,12 @@
 #ifndef SBA_SRC_SOLVER_CHOICE_H
 #define SBA_SRC_SOLVER_CHOICE_H
 
+#include <memory>
 #include <string>
 
 #include "layout.h"
 #include "linear_solver.h"
+#include "schur_pattern.h"
 
 namespace sba {
 
@@ -47,6 +49,9 @@ struct SolverShape {
   // unknowns and the preconditioner S's diagonal blocks.
   i64 shared_params = 0, cluster_doubles = 0;
   double budget_bytes = 0;  // memory the solve may plan with; 0: no budget (then anything fits)
+  // S's pattern and AMD order when they were counted whole (not s_partial), for the sparse
+  // solver to use as they are.
+  std::shared_ptr<const SchurAnalysis> analysis;
 };
 
 // The floating-point operations of one pass over the Jacobian: every projection's mnp x

@@ -62,7 +62,6 @@
 #include "mapped_schur.h"
 #include "small_dense.h"
 #include "step_solver.h"
-#include "unknowns.h"
 
 namespace sba {
 namespace {
@@ -404,16 +403,16 @@ struct Clusters {
 
 Clusters find_clusters(const CameraMap &map, int max_cluster) {
   const int nb = map.nblocks();
-  const auto cams = [&](int b) { return map.block_cam_start[size_t(b) + 1] - map.block_cam_start[size_t(b)]; };
+  const auto cams = [&](int b) { return map.block_ncams(b); };
   std::vector<int> root(static_cast<size_t>(nb));  // the block whose cluster b joins (b when alone)
   std::vector<int> size(static_cast<size_t>(nb));  // a root's cluster order so far
   for (int b = 0; b < nb; ++b) root[size_t(b)] = b, size[size_t(b)] = map.block_size(b);
   for (int b = 0; b < nb; ++b) {
     if (cams(b) != 1) continue;
-    const int j = map.block_cams[size_t(map.block_cam_start[size_t(b)])];
-    const int q0 = map.cam_start[size_t(j)];
-    if (map.cam_start[size_t(j) + 1] - q0 != 2) continue;
-    const int K = map.cam_blocks[size_t(q0)] == b ? map.cam_blocks[size_t(q0) + 1] : map.cam_blocks[size_t(q0)];
+    const int j = *map.block_cams_begin(b);
+    const int *q0 = map.cam_blocks_begin(j);
+    if (map.cam_blocks_end(j) - q0 != 2) continue;
+    const int K = q0[0] == b ? q0[1] : q0[0];
     if (cams(K) < 2 || size[size_t(K)] + map.block_size(b) > max_cluster) continue;
     root[size_t(b)] = K;
     size[size_t(K)] += map.block_size(b);
@@ -453,7 +452,7 @@ class ClusterJacobi final : public Preconditioner {
     UnknownBlocks D;
     D.kind = UnknownBlocks::Kind::Clusters;
     D.base = D_.data();
-    D.start = ctx_.lay.cams.block_start.data();
+    D.start = ctx_.lay.cams.block_starts();
     D.origin = clusters_.origin.data();
     D.pos = clusters_.pos.data();
     D.order = clusters_.order.data();
@@ -481,10 +480,10 @@ class ClusterJacobi final : public Preconditioner {
         const int *c1 = clusters_.blocks.data() + clusters_.start[size_t(k) + 1];
         v.resize(size_t(clusters_.order_of(int(k))));
         for (const int *b = c0; b < c1; ++b)
-          std::copy_n(r + map.block_start[size_t(*b)], map.block_size(*b), v.data() + clusters_.pos[size_t(*b)]);
+          std::copy_n(r + map.block_start(*b), map.block_size(*b), v.data() + clusters_.pos[size_t(*b)]);
         small::chol_solve(D_.data() + clusters_.origin_of(int(k)), v.data(), int(v.size()));
         for (const int *b = c0; b < c1; ++b)
-          std::copy_n(v.data() + clusters_.pos[size_t(*b)], map.block_size(*b), z + map.block_start[size_t(*b)]);
+          std::copy_n(v.data() + clusters_.pos[size_t(*b)], map.block_size(*b), z + map.block_start(*b));
       }
     });
   }
@@ -683,23 +682,23 @@ class SharedIterativeSchur final : public IterativeSchurSolver<M, C, P> {
     const Layout &lay = this->lay_;
     this->pass_.point_pass(ne, nullptr);
     this->pass_.gather(ne, 0.0, nullptr, ne.ea + lay.a_off(lay.mcon), yc_.data() + lay.a_off(lay.mcon));
-    to_unknowns(lay, yc_.data(), rhs);
-    to_unknowns(lay, ne.ea, g_.data());
+    lay.cams.reduce(yc_.data(), rhs);
+    lay.cams.reduce(ne.ea, g_.data());
     return this->dot(g_.data(), g_.data(), i64(g_.size()));
   }
 
   void multiply(const NormalEquations &ne, double mu, const double *x, double *y) override {
     const Layout &lay = this->lay_;
-    to_cameras(lay, x, 0.0, xc_.data());
+    lay.cams.expand(x, 0.0, xc_.data());
     this->pass_.point_pass(ne, xc_.data() + lay.a_off(lay.mcon));
     this->pass_.gather(ne, 0.0, xc_.data() + lay.a_off(lay.mcon), nullptr, yc_.data() + lay.a_off(lay.mcon));
-    to_unknowns(lay, yc_.data(), y);
+    lay.cams.reduce(yc_.data(), y);
     this->ctx_.pool.for_range(i64(g_.size()), [=](i64 e0, i64 e1) {
       for (i64 e = e0; e < e1; ++e) y[e] += mu * x[e];
     });
   }
 
-  void camera_step(const double *da, double *dp) override { to_cameras(this->lay_, da, -0.0, dp); }
+  void camera_step(const double *da, double *dp) override { this->lay_.cams.expand(da, -0.0, dp); }
 
   MappedSchur schur_;
   ClusterJacobi clusters_;
@@ -709,7 +708,7 @@ class SharedIterativeSchur final : public IterativeSchurSolver<M, C, P> {
 
 template <int M, int C, int P>
 std::unique_ptr<IterativeSchurSolver<M, C, P>> make_solver(const SolveContext &ctx, int max_cluster) {
-  if (ctx.lay.cams.shared()) return std::make_unique<SharedIterativeSchur<M, C, P>>(ctx, max_cluster);
+  if (!ctx.lay.cams.per_camera()) return std::make_unique<SharedIterativeSchur<M, C, P>>(ctx, max_cluster);
   return std::make_unique<CameraIterativeSchur<M, C, P>>(ctx);
 }
 

@@ -11,7 +11,6 @@
 #include "mapped_schur.h"
 #include "step_solver.h"
 #include "suitesparse_status.h"
-#include "unknowns.h"
 
 extern "C" {
 #include <suitesparse/ldl.h>
@@ -169,23 +168,23 @@ class LdlAmdSolver final : public StepSolver {
 // camera with (U's blocks over the unknowns) and the points that see its block (Z's); a
 // point's, the unknowns of its blocks and itself. The values are put in place by looking
 // each entry up in its column, which costs a logarithm per entry over LdlAmdSolver's fixed
-// positions: this solver is the whole-system reference, not the fast one.
+// positions: this solver is the whole-system reference, not the fast one, and LdlAmdSolver
+// stays a class of its own so that sba 1.6's layout keeps those fixed positions.
 class MappedLdlAmdSolver final : public StepSolver {
  public:
   explicit MappedLdlAmdSolver(const SolveContext &ctx) : ctx_(ctx), lay_(ctx.lay), schur_(ctx.lay, 1) {
     const Layout &lay = lay_;
     const CameraMap &map = lay.cams;
     const int pnp = lay.pnp, nb = map.nblocks();
-    nS_ = map.nunknowns;
+    nS_ = map.unknowns();
     N_ = nS_ + i64(lay.free_pts()) * pnp;
     // Per block, the blocks it shares a camera with and the points that see it.
     std::vector<std::vector<int>> coupled(static_cast<size_t>(nb)), points(static_cast<size_t>(nb));
     for (int j = lay.mcon; j < lay.m; ++j)
-      for (int q = map.cam_start[size_t(j)]; q < map.cam_start[size_t(j) + 1]; ++q)
-        for (int r = map.cam_start[size_t(j)]; r < map.cam_start[size_t(j) + 1]; ++r)
-          coupled[size_t(map.cam_blocks[size_t(q)])].push_back(map.cam_blocks[size_t(r)]);
+      for (const int *q = map.cam_blocks_begin(j); q != map.cam_blocks_end(j); ++q)
+        coupled[size_t(*q)].insert(coupled[size_t(*q)].end(), map.cam_blocks_begin(j), map.cam_blocks_end(j));
     for (int i = lay.ncon; i < lay.n && pnp > 0; ++i)
-      for (int s = 0; s < schur_.point_nblocks(i); ++s) points[size_t(schur_.point_blocks(i)[s])].push_back(i);
+      for (int s = 0; s < map.point_nblocks(i); ++s) points[size_t(map.point_blocks(i)[s])].push_back(i);
     std::vector<std::vector<sslong>> cols(static_cast<size_t>(N_));
     for (int B = 0; B < nb; ++B) {
       std::vector<int> &c = coupled[size_t(B)];
@@ -193,16 +192,16 @@ class MappedLdlAmdSolver final : public StepSolver {
       c.erase(std::unique(c.begin(), c.end()), c.end());
       std::vector<sslong> rows;
       for (int b : c)
-        for (int u = map.block_start[size_t(b)]; u < map.block_start[size_t(b) + 1]; ++u) rows.push_back(u);
+        for (i64 u = map.block_start(b); u < map.block_start(b + 1); ++u) rows.push_back(sslong(u));
       for (int i : points[size_t(B)])
         for (int a = 0; a < pnp; ++a) rows.push_back(pt_col(i, a));
-      for (int u = map.block_start[size_t(B)]; u < map.block_start[size_t(B) + 1]; ++u) cols[size_t(u)] = rows;
+      for (i64 u = map.block_start(B); u < map.block_start(B + 1); ++u) cols[size_t(u)] = rows;
     }
     for (int i = lay.ncon; i < lay.n && pnp > 0; ++i) {
       std::vector<sslong> rows;
-      for (int s = 0; s < schur_.point_nblocks(i); ++s) {
-        const int b = schur_.point_blocks(i)[s];
-        for (int u = map.block_start[size_t(b)]; u < map.block_start[size_t(b) + 1]; ++u) rows.push_back(u);
+      for (int s = 0; s < map.point_nblocks(i); ++s) {
+        const int b = map.point_blocks(i)[s];
+        for (i64 u = map.block_start(b); u < map.block_start(b + 1); ++u) rows.push_back(sslong(u));
       }
       for (int a = 0; a < pnp; ++a) rows.push_back(pt_col(i, a));
       for (int a = 0; a < pnp; ++a) cols[size_t(pt_col(i, a))] = rows;
@@ -242,10 +241,10 @@ class MappedLdlAmdSolver final : public StepSolver {
     for (int j = lay.mcon; j < lay.m; ++j) {
       const double *U = ne.U + i64(j) * cnp * cnp;
       for (int a = 0; a < cnp; ++a) {
-        const int ua = map.unknown[size_t(j) * cnp + a];
+        const int ua = map.unknown(j, a);
         if (ua < 0) continue;
         for (int b = 0; b < cnp; ++b) {
-          const int ub = map.unknown[size_t(j) * cnp + b];
+          const int ub = map.unknown(j, b);
           if (ub >= 0) at(ua, ub) += U[a * cnp + b];
         }
       }
@@ -253,17 +252,17 @@ class MappedLdlAmdSolver final : public StepSolver {
     for (i64 u = 0; u < nS_; ++u) at(u, u) += mu;
     std::vector<i64> zoff;
     for (int i = lay.ncon; i < lay.n && pnp > 0; ++i) {
-      const int nF = schur_.point_nblocks(i);
+      const int nF = map.point_nblocks(i);
       zoff.assign(size_t(nF) + 1, 0);
-      for (int s = 0; s < nF; ++s) zoff[size_t(s) + 1] = zoff[size_t(s)] + i64(map.block_size(schur_.point_blocks(i)[s])) * pnp;
+      for (int s = 0; s < nF; ++s) zoff[size_t(s) + 1] = zoff[size_t(s)] + i64(map.block_size(map.point_blocks(i)[s])) * pnp;
       schur_.point_couplings(ne.jac, i, nF, zoff.data(), Zt_.data(), W_.data());
       for (int s = 0; s < nF; ++s) {
-        const int b = schur_.point_blocks(i)[s], n = map.block_size(b);
+        const int b = map.point_blocks(i)[s], n = map.block_size(b);
         for (int d = 0; d < pnp; ++d)
           for (int o = 0; o < n; ++o) {
             const double z = Zt_[size_t(zoff[size_t(s)] + d * n + o)];
-            at(map.block_start[size_t(b)] + o, pt_col(i, d)) = z;
-            at(pt_col(i, d), map.block_start[size_t(b)] + o) = z;
+            at(map.block_start(b) + o, pt_col(i, d)) = z;
+            at(pt_col(i, d), map.block_start(b) + o) = z;
           }
       }
       const double *V = ne.V + i64(i) * pnp * pnp;
@@ -276,7 +275,7 @@ class MappedLdlAmdSolver final : public StepSolver {
     if (done != N_) return StepStatus::Failed;
     for (i64 q = 0; q < N_; ++q)
       if (!(D_[size_t(q)] > 0.0)) return StepStatus::Failed;
-    to_unknowns(lay, ne.ea, x_.data());
+    map.reduce(ne.ea, x_.data());
     for (int i = lay.ncon; i < lay.n; ++i)
       for (int a = 0; a < pnp; ++a) x_[size_t(pt_col(i, a))] = ne.eb[i64(i) * pnp + a];
     ldl_l_perm(N_, Y_.data(), x_.data(), P_.data());
@@ -286,7 +285,7 @@ class MappedLdlAmdSolver final : public StepSolver {
     ldl_l_permt(N_, x_.data(), Y_.data(), P_.data());
     for (i64 q = 0; q < N_; ++q)
       if (!std::isfinite(x_[size_t(q)])) return StepStatus::Failed;
-    to_cameras(lay, x_.data(), -0.0, dp);
+    map.expand(x_.data(), -0.0, dp);
     for (int i = lay.ncon; i < lay.n; ++i)
       for (int a = 0; a < pnp; ++a) dp[lay.b_off(i) + a] = x_[size_t(pt_col(i, a))];
     return StepStatus::Solved;
@@ -311,7 +310,7 @@ class MappedLdlAmdSolver final : public StepSolver {
 }  // namespace
 
 std::unique_ptr<StepSolver> make_ldl_amd_solver(const SolveContext &ctx) {
-  if (ctx.lay.cams.shared()) return std::make_unique<MappedLdlAmdSolver>(ctx);
+  if (!ctx.lay.cams.per_camera()) return std::make_unique<MappedLdlAmdSolver>(ctx);
   return std::make_unique<LdlAmdSolver>(ctx);
 }
 

@@ -19,11 +19,10 @@
 #include <memory>
 #include <vector>
 
-#include "mapped_schur.h"
+#include "schur_assembly.h"
 #include "schur_pattern.h"
 #include "step_solver.h"
 #include "suitesparse_status.h"
-#include "unknowns.h"
 
 namespace sba {
 namespace {
@@ -51,27 +50,23 @@ struct Pattern {
   }
 };
 
-// The order of block b of S (unpermuted) and its first unknown.
-int block_order(const Layout &lay, int b) { return lay.cams.shared() ? lay.cams.block_size(b) : lay.cnp; }
-i64 block_first(const Layout &lay, int b) {
-  return lay.cams.shared() ? i64(lay.cams.block_start[size_t(b)]) : i64(b) * lay.cnp;
-}
-
-// The AMD ordering of the block graph, then the blocks of the lower triangle of P S P^T
-// block column by block column: block (b, B) of S goes to column min(perm b, perm B), row
-// max(perm b, perm B).
-Pattern make_pattern(const Layout &lay) {
-  SchurPattern blocks;
-  schur_pattern(lay, std::numeric_limits<i64>::max(), &blocks);
+// The AMD ordering of the block graph (auto's when it made one: SolveContext::analysis),
+// then the blocks of the lower triangle of P S P^T block column by block column: block
+// (b, B) of S goes to column min(perm b, perm B), row max(perm b, perm B).
+Pattern make_pattern(const Layout &lay, const SchurAnalysis *given) {
+  SchurAnalysis made;
+  if (!given) {
+    schur_pattern(lay, std::numeric_limits<i64>::max(), &made.pattern);
+    made.order = amd_block_order(made.pattern, nullptr);
+  }
+  const SchurAnalysis &analysis = given ? *given : made;
+  const SchurPattern &blocks = analysis.pattern;
   const int nc = blocks.nblocks();
   const std::vector<int> &rows = blocks.rows;
   const std::vector<i64> &colstart = blocks.colstart;
   Pattern pat;
-  {
-    const std::vector<int> order = amd_block_order(blocks, nullptr);
-    pat.perm.resize(size_t(nc));
-    for (int q = 0; q < nc; ++q) pat.perm[size_t(order[size_t(q)])] = q;
-  }
+  pat.perm.resize(size_t(nc));
+  for (int q = 0; q < nc; ++q) pat.perm[size_t(analysis.order[size_t(q)])] = q;
   const std::vector<int> &perm = pat.perm;
   pat.colstart.assign(size_t(nc) + 1, 0);
   for (int k = 0; k < nc; ++k)
@@ -89,12 +84,12 @@ Pattern make_pattern(const Layout &lay) {
     std::sort(pat.rows.begin() + long(pat.colstart[size_t(c)]), pat.rows.begin() + long(pat.colstart[size_t(c) + 1]));
   // Sizes and offsets in the permuted order.
   pat.size.resize(size_t(nc));
-  for (int b = 0; b < nc; ++b) pat.size[size_t(perm[size_t(b)])] = block_order(lay, b);
+  for (int b = 0; b < nc; ++b) pat.size[size_t(perm[size_t(b)])] = lay.cams.block_size(b);
   pat.start.assign(size_t(nc) + 1, 0);
   for (int c = 0; c < nc; ++c) pat.start[size_t(c) + 1] = pat.start[size_t(c)] + pat.size[size_t(c)];
   // Offsets only with shared unknowns: with the cameras' blocks they follow from cnp, and
   // this solver's memory is what it is for.
-  if (!lay.cams.shared()) return pat;
+  if (lay.cams.per_camera()) return pat;
   pat.colbase.assign(size_t(nc) + 1, 0);
   pat.height.assign(size_t(nc), 0);
   pat.rowoff.resize(pat.rows.size());
@@ -182,12 +177,7 @@ class SparseSchurSolver final : public StepSolver {
  public:
   // The int solver may turn out too small for the factor; the long one then shares the pattern.
   SparseSchurSolver(const SolveContext &ctx, std::shared_ptr<const Pattern> pat)
-      : ctx_(ctx), lay_(ctx.lay), pat_(std::move(pat)), rhs_(size_t(lay_.camera_unknowns())) {
-    if (lay_.cams.shared()) {
-      schur_ = std::make_unique<MappedSchur>(lay_, ctx.pool.size());
-      Vinv_.resize(size_t(lay_.n) * size_t(lay_.pnp) * size_t(lay_.pnp));
-      du_.resize(rhs_.size());
-    }
+      : ctx_(ctx), lay_(ctx.lay), pat_(std::move(pat)), assembly_(ctx), rhs_(size_t(lay_.camera_unknowns())) {
     build_matrix();
   }
   // False when the factor is too large for this index type.
@@ -209,39 +199,30 @@ class SparseSchurSolver final : public StepSolver {
       throw_cholmod_failure(direct_ ? "cholmod_super_numeric" : "cholmod_factorize", chol_.cm.status);
     if (chol_.L->minor < chol_.L->n) return StepStatus::Failed;  // not positive definite at this damping
     if (!solve_factored(dp)) return StepStatus::Failed;
-    if (lay_.free_pts() > 0)
-      ctx_.kernels.back_substitute(ctx_.pool, ne, schur_ ? Vinv_.data() : nullptr, mu, dp);
+    assembly_.finish(ne, mu, dp);
     return StepStatus::Solved;
   }
 
  private:
   // S into CHOLMOD's arrays (Ax, zeroed) and rhs_; false if some V_i + mu I is singular.
   bool assemble(const NormalEquations &ne, double mu, double *Ax) {
-    if (schur_) {
-      // Every point's inverse kept: the mapped assembly takes them made.
-      if (lay_.free_pts() > 0 && !ctx_.kernels.invert_damped_V(ctx_.pool, ne.V, mu, Vinv_.data())) return false;
-      UnknownBlocks map;
-      map.kind = UnknownBlocks::Kind::Sparse;
-      map.base = Ax;
-      map.start = lay_.cams.block_start.data();
-      map.perm = pat_->perm.data();
-      map.rows = pat_->rows.data();
-      map.colstart = pat_->colstart.data();
-      map.colbase = pat_->colbase.data();
-      map.height = pat_->height.data();
-      map.rowoff = pat_->rowoff.data();
-      schur_->assemble(ctx_.pool, ne, Vinv_.data(), mu, map, rhs_.data());
-      return true;
-    }
-    BlockMap map;
-    map.base = Ax;
-    map.cnp = lay_.cnp;
-    map.perm = pat_->perm.data();
-    map.rows = pat_->rows.data();
-    map.colstart = pat_->colstart.data();
-    // The point blocks' inverses are made where they are used rather than kept (n pnp^2
-    // doubles, as much as S itself on a long sequence).
-    return ctx_.kernels.assemble(ctx_.pool, ne, nullptr, mu, map, rhs_.data());
+    BlockMap cams;
+    cams.base = Ax;
+    cams.cnp = lay_.cnp;
+    cams.perm = pat_->perm.data();
+    cams.rows = pat_->rows.data();
+    cams.colstart = pat_->colstart.data();
+    UnknownBlocks unknowns;
+    unknowns.kind = UnknownBlocks::Kind::Sparse;
+    unknowns.base = Ax;
+    unknowns.start = lay_.cams.block_starts();
+    unknowns.perm = pat_->perm.data();
+    unknowns.rows = pat_->rows.data();
+    unknowns.colstart = pat_->colstart.data();
+    unknowns.colbase = pat_->colbase.data();
+    unknowns.height = pat_->height.data();
+    unknowns.rowoff = pat_->rowoff.data();
+    return assembly_.assemble(ne, mu, cams, unknowns, rhs_.data());
   }
 
   // The cameras' steps (dp's free cameras) from the factor and rhs_, through CHOLMOD's
@@ -251,22 +232,21 @@ class SparseSchurSolver final : public StepSolver {
     const std::vector<int> &perm = pat_->perm;
     double *b = static_cast<double *>(chol_.B->x);
     for (int q = 0; q < nb; ++q)
-      std::copy_n(rhs_.data() + block_first(lay_, q), block_order(lay_, q), b + pat_->start[size_t(perm[size_t(q)])]);
+      std::copy_n(rhs_.data() + lay_.cams.block_start(q), lay_.cams.block_size(q), b + pat_->start[size_t(perm[size_t(q)])]);
     cholmod_dense *X = Api::solve(CHOLMOD_A, chol_.L, chol_.B, &chol_.cm);
     if (!X) throw_cholmod_failure("cholmod_solve", chol_.cm.status);
     const double *x = static_cast<const double *>(X->x);
-    double *da = schur_ ? du_.data() : dp + lay_.a_off(lay_.mcon);
+    double *da = assembly_.solution(dp);
     bool finite = true;
     for (int q = 0; q < nb; ++q) {
       const double *xq = x + pat_->start[size_t(perm[size_t(q)])];
-      double *out = da + block_first(lay_, q);
-      for (int a = 0; a < block_order(lay_, q); ++a) {
+      double *out = da + lay_.cams.block_start(q);
+      for (int a = 0; a < lay_.cams.block_size(q); ++a) {
         out[a] = xq[a];
         finite = finite && std::isfinite(xq[a]);
       }
     }
     Api::free_dense(&X, &chol_.cm);
-    if (schur_) to_cameras(lay_, du_.data(), -0.0, dp);
     return finite;
   }
 
@@ -322,9 +302,8 @@ class SparseSchurSolver final : public StepSolver {
   SolveContext ctx_;
   const Layout &lay_;
   std::shared_ptr<const Pattern> pat_;
+  SchurAssembly assembly_;
   std::vector<double> rhs_;
-  std::unique_ptr<MappedSchur> schur_;  // with shared unknowns: their assembly
-  std::vector<double> Vinv_, du_;       // and its point blocks' inverses, the unknowns' step
   Cholmod<Api> chol_;
   bool direct_ = false;  // L is unpermuted: factor A itself (no copy)
 };
@@ -332,7 +311,7 @@ class SparseSchurSolver final : public StepSolver {
 }  // namespace
 
 std::unique_ptr<StepSolver> make_sparse_schur_solver(const SolveContext &ctx) {
-  auto pat = std::make_shared<const Pattern>(make_pattern(ctx.lay));
+  auto pat = std::make_shared<const Pattern>(make_pattern(ctx.lay, ctx.analysis));
   if (pat->nnz() <= INT_MAX) {
     auto s = std::make_unique<SparseSchurSolver<IntApi>>(ctx, pat);
     if (s->analyzed()) return s;

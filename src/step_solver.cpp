@@ -66,18 +66,16 @@ class BlockDiagonalSolver final : public StepSolver {
   std::vector<double> blk_;  // one d x d block per thread
 };
 
-// Held camera parameters in sba 1.6's layout (camera_map.h): their columns are zero, so the
-// solvers find a step of 0 for them; it is made -0.0, the identity of addition, so that
-// p + dp leaves their bits as they are (-0.0 included). Over shared unknowns the solvers
-// write -0.0 for them themselves.
+// Held camera parameters (camera_map.h) get the step -0.0, the identity of addition, so that
+// p + dp leaves their bits as they are (-0.0 included). In the PerCamera shape their columns
+// are zero, so the solvers find a step of 0 for their pinned rows of S; in the Blocks shape
+// they are no rows of S, and the map's expansion gives them -0.0 already.
 class PinHeld final : public StepSolver {
  public:
   PinHeld(std::unique_ptr<StepSolver> inner, const Layout &lay) : inner_(std::move(inner)), lay_(lay) {}
   StepStatus solve(const NormalEquations &ne, double mu, double *dp) override {
     const StepStatus st = inner_->solve(ne, mu, dp);
-    const char *held = lay_.cams.held.data();
-    for (i64 q = i64(lay_.mcon) * lay_.cnp; q < i64(lay_.m) * lay_.cnp; ++q)
-      if (held[q]) dp[q] = -0.0;
+    lay_.cams.pin_held(dp);
     return st;
   }
 
@@ -87,14 +85,14 @@ class PinHeld final : public StepSolver {
 };
 
 std::unique_ptr<StepSolver> pinned(std::unique_ptr<StepSolver> s, const Layout &lay) {
-  if (!s || !lay.cams.any_held() || lay.cams.shared()) return s;
+  if (!s || !lay.cams.any_held()) return s;
   return std::make_unique<PinHeld>(std::move(s), lay);
 }
 
 }  // namespace
 
 bool block_diagonal(const Layout &lay) {
-  return lay.free_cams() == 0 || (lay.free_pts() == 0 && !lay.cams.shared());
+  return lay.free_cams() == 0 || (lay.free_pts() == 0 && lay.cams.per_camera());
 }
 
 std::unique_ptr<StepSolver> make_step_solver(LinSolver kind, const SolveContext &ctx) {

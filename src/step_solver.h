@@ -12,16 +12,20 @@
 #include "layout.h"
 #include "linear_solver.h"
 #include "parallel.h"
+#include "schur_pattern.h"
 
 namespace sba {
 
 class DenseFactorization;
 
-// What every solver works with: the problem, the threads, the block kernels.
+// What every solver works with: the problem, the threads, the block kernels; and, when the
+// choice of solver has made them (auto), S's pattern and its ordering, which the sparse
+// solver then takes as they are.
 struct SolveContext {
   const Layout &lay;
   ThreadPool &pool;
   const Kernels &kernels;
+  const SchurAnalysis *analysis = nullptr;
 };
 
 // What became of one damped solve. sba 1.6 counts an attempt as a linear system once its

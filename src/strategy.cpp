@@ -16,7 +16,6 @@
 
 #include "kernels.h"
 #include "named.h"
-#include "unknowns.h"
 
 namespace sba {
 namespace {
@@ -161,16 +160,15 @@ class TrustRegion final : public Strategy {
     const int cnp = lay_.cnp, pnp = lay_.pnp, mnp = lay_.mnp, jb = lay_.jblk();
     double *s = s_.data();
     const auto scale = [](double d) { return 1.0 / std::sqrt(std::clamp(d, kMinDiagonal, kMaxDiagonal)); };
-    // A shared unknown is scaled by its own diagonal entry, its copies' sum, and every copy by
-    // that one scale: the copies' steps, mapped back, are then the same number.
-    if (lay_.cams.shared()) shared_scales(U);
-    // Blocks of fixed cameras and points keep scale 1: nothing reads them.
+    // Each row of S is scaled by its own diagonal entry: a shared unknown by its copies' sum,
+    // and every copy by that one scale, so that the copies' steps, mapped back, are the same
+    // number. Blocks of fixed cameras and points keep scale 1: nothing reads them.
+    if (lay_.free_cams() > 0) camera_scales(U);
     pool.for_range(lay_.m, [&](i64 b, i64 e) {
       for (i64 j = b; j < e; ++j) {
         if (!lay_.cam_free(int(j))) continue;
-        double *u = U + j * cnp * cnp, *sj = s + lay_.a_off(int(j));
-        if (!lay_.cams.shared())
-          for (int a = 0; a < cnp; ++a) sj[a] = scale(u[a * (cnp + 1)]);
+        double *u = U + j * cnp * cnp;
+        const double *sj = s + lay_.a_off(int(j));
         for (int a = 0; a < cnp; ++a) {
           for (int c = 0; c < cnp; ++c) u[a * cnp + c] *= sj[a] * sj[c];
           ea[j * cnp + a] *= sj[a];
@@ -234,15 +232,12 @@ class TrustRegion final : public Strategy {
   const double *scale() const override { return s_.data(); }
 
  private:
-  // s_ over the free cameras from the unknowns' diagonal entries (held parameters: 1).
-  void shared_scales(const double *U) {
-    const int cnp = lay_.cnp;
-    std::vector<double> diag(size_t(lay_.m) * cnp, 0.0), du(size_t(lay_.cams.nunknowns));
-    for (int j = lay_.mcon; j < lay_.m; ++j)
-      for (int a = 0; a < cnp; ++a) diag[size_t(j) * cnp + a] = U[i64(j) * cnp * cnp + a * (cnp + 1)];
-    to_unknowns(lay_, diag.data(), du.data());
-    for (double &d : du) d = 1.0 / std::sqrt(std::clamp(d, kMinDiagonal, kMaxDiagonal));
-    to_cameras(lay_, du.data(), 1.0, s_.data());
+  // s_ over the free cameras from the diagonal entries of S's rows (held parameters: 1).
+  void camera_scales(const double *U) {
+    std::vector<double> d(size_t(lay_.camera_unknowns()));
+    lay_.cams.reduce_diagonal(U, d.data());
+    for (double &x : d) x = 1.0 / std::sqrt(std::clamp(x, kMinDiagonal, kMaxDiagonal));
+    lay_.cams.expand(d.data(), 1.0, s_.data());
   }
 
   void to_parameters(ThreadPool &pool, double *dp) const override {
@@ -269,10 +264,13 @@ bool reduction_stalled(double e, double en, double eps4) {
 
 Strategy::Strategy(const Layout &lay) : lay_(lay) {
   const CameraMap &map = lay.cams;
-  if (!map.shared()) return;
+  if (!map.shared()) return;  // every unknown is one parameter: no share to weigh
   share_.assign(size_t(lay.m) * size_t(lay.cnp), 0.0);
-  for (size_t q = 0; q < share_.size(); ++q)
-    if (map.unknown[q] >= 0) share_[q] = 1.0 / map.copies[size_t(map.unknown[q])];
+  for (int j = lay.mcon; j < lay.m; ++j)
+    for (int c = 0; c < lay.cnp; ++c) {
+      const int u = map.unknown(j, c);
+      if (u >= 0) share_[size_t(lay.a_off(j) + c)] = 1.0 / map.copies(u);
+    }
 }
 
 // g is e_a over the camera part of dp and e_b over the point part; fixed entries of dp are 0.

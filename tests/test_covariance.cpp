@@ -504,40 +504,45 @@ std::vector<double> numbered(int n) {
   return S;
 }
 
+// The covariance's unknowns are the layout's camera map's (camera_map.h): S over the free
+// parameters reduced to them, and the pseudo-inverse expanded back.
 TEST(CovarianceStages, WithoutHeldOrSharedParametersTheMapIsTheIdentity) {
-  const sba::ParameterMap T = sba::parameter_map(three_cameras(sba::CameraParamOptions{}));
-  EXPECT_FALSE(T.reduced);
-  EXPECT_EQ(T.nparams, 4);
-  EXPECT_EQ(T.nunknowns, 4);
+  const sba::Layout lay = three_cameras(sba::CameraParamOptions{});
+  EXPECT_TRUE(lay.cams.plain());
+  EXPECT_EQ(lay.free_cams() * lay.cnp, 4);
+  EXPECT_EQ(lay.cams.unknowns(), 4);
 }
 
 TEST(CovarianceStages, AHeldParameterIsNoUnknownAndHasNoCovariance) {
   const char fixed[2] = {0, 1};  // parameter 1 of every camera
   sba::CameraParamOptions o;
   o.fixed = fixed;
-  const sba::ParameterMap T = sba::parameter_map(three_cameras(o));
-  ASSERT_TRUE(T.reduced);
-  EXPECT_EQ(T.nparams, 4);
-  EXPECT_EQ(T.nunknowns, 2);
-  EXPECT_EQ(T.unknown, (std::vector<int>{0, -1, 1, -1}));
-  const std::vector<double> Z = sba::to_unknowns(T, numbered(4));
+  const sba::Layout lay = three_cameras(o);
+  const sba::CameraMap &T = lay.cams;
+  ASSERT_FALSE(T.plain());
+  EXPECT_EQ(T.unknowns(), 2);
+  EXPECT_EQ((std::vector<int>{T.unknown(1, 0), T.unknown(1, 1), T.unknown(2, 0), T.unknown(2, 1)}),
+            (std::vector<int>{0, -1, 1, -1}));
+  const std::vector<double> Z = T.reduce_matrix(numbered(4));
   EXPECT_EQ(Z, (std::vector<double>{0, 2, 20, 22}));
-  EXPECT_EQ(sba::to_parameters(T, Z), (std::vector<double>{0, 0, 2, 0, 0, 0, 0, 0, 20, 0, 22, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(T.expand_matrix(Z), (std::vector<double>{0, 0, 2, 0, 0, 0, 0, 0, 20, 0, 22, 0, 0, 0, 0, 0}));
 }
 
 TEST(CovarianceStages, ASharedParameterIsOneUnknownWhoseRowsAreSummed) {
   const int group[6] = {-1, -1, 0, -1, 0, -1};  // parameter 0 of cameras 1 and 2
   sba::CameraParamOptions o;
   o.param_group = group;
-  const sba::ParameterMap T = sba::parameter_map(three_cameras(o));
-  ASSERT_TRUE(T.reduced);
-  EXPECT_EQ(T.nunknowns, 3);
+  const sba::Layout lay = three_cameras(o);
+  const sba::CameraMap &T = lay.cams;
+  ASSERT_FALSE(T.plain());
+  EXPECT_EQ(T.unknowns(), 3);
   // Blocks by their cameras: camera 1's own parameter 1, the shared one, camera 2's own.
-  EXPECT_EQ(T.unknown, (std::vector<int>{1, 0, 1, 2}));
-  const std::vector<double> Z = sba::to_unknowns(T, numbered(4));
+  EXPECT_EQ((std::vector<int>{T.unknown(1, 0), T.unknown(1, 1), T.unknown(2, 0), T.unknown(2, 1)}),
+            (std::vector<int>{1, 0, 1, 2}));
+  const std::vector<double> Z = T.reduce_matrix(numbered(4));
   EXPECT_EQ(Z, (std::vector<double>{11, 10 + 12, 13, 1 + 21, 0 + 2 + 20 + 22, 3 + 23, 31, 30 + 32, 33}));
   // Back over the parameters: the shared unknown's entries in each camera's copy.
-  const std::vector<double> S = sba::to_parameters(T, Z);
+  const std::vector<double> S = T.expand_matrix(Z);
   EXPECT_EQ(S[0], 44.0);
   EXPECT_EQ(S[2], 44.0);
   EXPECT_EQ(S[1 * 4 + 3], 13.0);

@@ -333,9 +333,9 @@ struct SharedProblem {
   const sba::CameraMap &map() const { return pb.lay.cams; }
   // The block holding camera j's parameter c.
   int block_of(int j, int c) const {
-    const int u = map().unknown[size_t(j * 9 + c)];
+    const int u = map().unknown(j, c);
     int b = 0;
-    while (map().block_start[size_t(b) + 1] <= u) ++b;
+    while (map().block_start(b + 1) <= u) ++b;
     return b;
   }
 };
@@ -347,7 +347,7 @@ double preconditioned_error(const SharedProblem &sp, int threads, double mu, con
   const i64 nS = sp.pb.lay.camera_unknowns();
   std::vector<double> x(static_cast<size_t>(nS), 0.0), r(static_cast<size_t>(nS)), z(static_cast<size_t>(nS));
   for (int b : on)
-    for (int u = map.block_start[size_t(b)]; u < map.block_start[size_t(b) + 1]; ++u)
+    for (i64 u = map.block_start(b); u < map.block_start(b + 1); ++u)
       x[size_t(u)] = std::cos(1.7 * u + 0.3) * std::pow(10.0, double(u % 3) - 1.0);
   sba::ThreadPool pool(threads);
   const auto kernels = sba::make_kernels(sp.pb.lay, pool.size());
@@ -356,7 +356,7 @@ double preconditioned_error(const SharedProblem &sp, int threads, double mu, con
   EXPECT_TRUE(sba::iterative_schur_apply_preconditioner(ctx, sp.pb.ne(), mu, r.data(), z.data()));
   double worst = 0.0, scale = 0.0;
   for (int b : on)
-    for (int u = map.block_start[size_t(b)]; u < map.block_start[size_t(b) + 1]; ++u) {
+    for (i64 u = map.block_start(b); u < map.block_start(b + 1); ++u) {
       worst = std::max(worst, std::fabs(z[size_t(u)] - x[size_t(u)]));
       scale = std::max(scale, std::fabs(x[size_t(u)]));
     }

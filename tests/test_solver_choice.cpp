@@ -120,15 +120,15 @@ TEST(SolverChoice, NeverWhatDoesNotFit) {
 }
 
 // A layout of m cameras whose points are each seen by `run` consecutive cameras (S banded),
-// or by every camera (`run` 0: S dense).
-sba::Layout layout(int m, int n, int run) {
+// or by every camera (`run` 0: S dense); the first mcon cameras and ncon points fixed.
+sba::Layout layout(int m, int n, int run, int mcon = 0, int ncon = 0) {
   std::vector<char> vmask(size_t(n) * size_t(m), 0);
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < m; ++j)
       if (run == 0 || (j >= i % (m - run + 1) && j < i % (m - run + 1) + run)) vmask[size_t(i) * size_t(m) + size_t(j)] = 1;
   sba::Layout lay;
   std::string msg;
-  EXPECT_TRUE(sba::build_layout(lay, sba::Mode::MotStr, n, m, 0, 0, 6, 3, 2, vmask.data(), &msg)) << msg;
+  EXPECT_TRUE(sba::build_layout(lay, sba::Mode::MotStr, n, m, mcon, ncon, 6, 3, 2, vmask.data(), &msg)) << msg;
   return lay;
 }
 
@@ -177,17 +177,13 @@ TEST(SolverChoice, ShapeOfADenseProblemStopsCounting) {
 }
 
 TEST(SolverChoice, ShapeFollowsFixedCamerasAndPoints) {
-  sba::Layout lay = layout(10, 50, 3);
-  lay.mcon = 4;
-  SolverShape s = sba::shape_of(lay, 0);
+  // Each layout built with its fixed cameras and points, whose camera map follows them.
+  SolverShape s = sba::shape_of(layout(10, 50, 3, 4), 0);
   EXPECT_EQ(s.blocks, 6);
   EXPECT_EQ(s.unknowns, 36);
   // Points only: nothing to choose.
-  lay.mcon = 10;
-  EXPECT_EQ(sba::shape_of(lay, 0).unknowns, 0);
-  lay.mcon = 0;
-  lay.ncon = 50;
-  EXPECT_EQ(sba::shape_of(lay, 0).unknowns, 0);
+  EXPECT_EQ(sba::shape_of(layout(10, 50, 3, 10), 0).unknowns, 0);
+  EXPECT_EQ(sba::shape_of(layout(10, 50, 3, 0, 50), 0).unknowns, 0);
 }
 
 TEST(SolverChoice, ShapeCountsSharedUnknowns) {
