@@ -8,8 +8,8 @@
 // records, and a text file's formatted form must be a fixed point; what parses keeps the
 // readers' promises (positive focal lengths and panorama sizes, quaternions that normalize,
 // names the text format can hold, no id that is COLMAP's invalid one). A model that check_model accepts keeps its promises too: every image in one frame,
-// a finite pose composed for each, the frames' poses recovered from those (frames_from_poses),
-// its files read back as the same model, and its problem (to_sba) holding what a held image's
+// a finite pose composed for each, the frames' poses recovered from those (frame_pose),
+// its files read back as the same model, and its problem (colmap::Problem) holding what a held image's
 // pose holds, in a rig or not, whether the image sees points or not.
 #include <algorithm>
 #include <cmath>
@@ -22,6 +22,7 @@
 #include "cameras/colmap_camera.h"
 #include "cameras/euclidean.h"
 #include "formats/colmap_io.h"
+#include "formats/colmap_problem.h"
 #include "formats/colmap_sba.h"
 #include "fuzz_common.h"
 
@@ -157,7 +158,7 @@ double size_of(const std::array<double, 3> &t) {
   return std::max({std::fabs(t[0]), std::fabs(t[1]), std::fabs(t[2])});
 }
 
-// to_sba's problem of an accepted model whose first image's pose is held (--hold-poses): that
+// The problem of an accepted model whose first image's pose is held (--hold-poses): that
 // image's pose is held whether it sees points or not. In a rigged problem, every sba camera of
 // its frame holds the frame's pose, and every one of its camera holds the camera's pose in the
 // rig; otherwise its own sba camera, if it has one, holds its 6 pose parameters. It is counted
@@ -166,26 +167,29 @@ void check_held_first_image(const colmap::Model &m) {
   if (m.images.empty() || m.points.empty()) return;
   std::vector<char> held(m.images.size(), 0);
   held[0] = 1;
-  colmap::ColmapProblem pr;
+  colmap::Options options;
+  options.constants.poses = held;
+  colmap::Problem pr;
   std::string error;
-  if (!colmap::to_sba(m, {}, {}, held, 0, "fuzz-model", &pr, &error)) {
+  if (!colmap::Problem::build(m, options, "fuzz-model", &pr, &error)) {
     sbafuzz::check_error_line(error, "fuzz-model: ");
     return;
   }
-  require(pr.held_poses >= 1, "a held image is not counted held");
+  require(pr.counts().held_poses >= 1, "a held image is not counted held");
   const auto all = [](const char *f, int n) { return std::all_of(f, f + n, [](char c) { return c != 0; }); };
-  const std::size_t cnp = static_cast<std::size_t>(pr.cnp);
-  if (!pr.rigged) {
-    for (std::size_t j = 0; j < pr.images.size(); ++j)
-      if (pr.images[j] == 0) require(all(&pr.cam_fixed[j * cnp], 6), "a held image's pose is refined");
+  const std::size_t cnp = static_cast<std::size_t>(pr.cnp());
+  const std::vector<int> &images = pr.images();
+  if (!pr.rigged()) {
+    for (std::size_t j = 0; j < images.size(); ++j)
+      if (images[j] == 0) require(all(&pr.cam_fixed()[j * cnp], 6), "a held image's pose is refined");
     return;
   }
-  const colmap::ImagePlace first = colmap::image_places(m)[0];
-  for (std::size_t j = 0; j < pr.images.size(); ++j) {
-    const colmap::ImagePlace &pl = pr.places[j];
-    const char *fixed = &pr.cam_fixed[j * cnp];
-    if (pl.frame == first.frame) require(all(fixed, 6), "the frame of a held image is refined");
-    if (m.images[std::size_t(pr.images[j])].camera_id == m.images[0].camera_id)
+  const std::vector<colmap::ImagePlace> places = colmap::image_places(m);
+  for (std::size_t j = 0; j < images.size(); ++j) {
+    const colmap::ImagePlace &pl = places[std::size_t(images[j])];
+    const char *fixed = &pr.cam_fixed()[j * cnp];
+    if (pl.frame == places[0].frame) require(all(fixed, 6), "the frame of a held image is refined");
+    if (m.images[std::size_t(images[j])].camera_id == m.images[0].camera_id)
       require(all(fixed + 6, 6), "the pose in its rig of a held image's camera is refined");
   }
 }
@@ -208,10 +212,10 @@ void check_accepted(colmap::Model m) {
       require(in_frames[im.id] == 1, "accepted an image not in one frame");
   }
   check_held_first_image(m);
-  colmap::poses_from_frames(&m);
-  for (const colmap::Image &im : m.images) {
-    sbafuzz::require_finite(im.t.begin(), im.t.end(), "a composed translation");
-    require_rotation(im.q, "a composed quaternion");
+  const std::vector<colmap::Pose> poses = colmap::image_poses(m);
+  for (const colmap::Pose &pose : poses) {
+    sbafuzz::require_finite(pose.t.begin(), pose.t.end(), "a composed translation");
+    require_rotation(pose.q, "a composed quaternion");
   }
   if (m.has_rigs) {
     // Frames from the poses of the images alone in their frames, and the poses from those
@@ -223,14 +227,18 @@ void check_accepted(colmap::Model m) {
         if (d.sensor.type == colmap::SensorType::Camera) ids.push_back(d.id);
       if (ids.size() == 1) alone[ids[0]] = 1;
     }
-    std::vector<char> posed;
-    for (const colmap::Image &im : m.images) posed.push_back(alone.count(im.id) ? 1 : 0);
     colmap::Model again = m;
-    colmap::frames_from_poses(&again, posed);
-    for (colmap::Image &im : again.images) im.q = {0, 0, 0, 0};  // composed anew, none kept
-    colmap::poses_from_frames(&again);
+    const std::vector<colmap::ImagePlace> places = colmap::image_places(m);
     for (std::size_t i = 0; i < m.images.size(); ++i) {
-      const colmap::Image &a = m.images[i], &b = again.images[i];
+      if (!alone.count(m.images[i].id)) continue;
+      const colmap::ImagePlace &pl = places[i];
+      again.frames[pl.frame].rig_from_world =
+          colmap::frame_pose(poses[i], pl.sensor == 0 ? nullptr : &m.rigs[pl.rig].sensors[pl.sensor].sensor_from_rig);
+    }
+    for (colmap::Image &im : again.images) im.q = {0, 0, 0, 0};  // composed anew, none kept
+    const std::vector<colmap::Pose> again_poses = colmap::image_poses(again);
+    for (std::size_t i = 0; i < m.images.size(); ++i) {
+      const colmap::Pose &a = poses[i], &b = again_poses[i];
       double scale = 1 + size_of(a.t);
       for (const colmap::Rig &r : m.rigs)
         for (const colmap::RigSensor &s : r.sensors) scale += s.has_pose ? size_of(s.sensor_from_rig.t) : 0;
@@ -241,7 +249,7 @@ void check_accepted(colmap::Model m) {
           {std::fabs(qa.w - qb.w), std::fabs(qa.x - qb.x), std::fabs(qa.y - qb.y), std::fabs(qa.z - qb.z)});
       double dt = 0;
       for (int k = 0; k < 3; ++k) dt = std::max(dt, std::fabs(a.t[k] - b.t[k]));
-      require(dq <= 1e-12 && dt <= 1e-12 * scale, "frames_from_poses does not give the poses back");
+      require(dq <= 1e-12 && dt <= 1e-12 * scale, "frames made from the poses do not give them back");
     }
   }
   for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {

@@ -44,7 +44,10 @@ colmap::Model rigged(colmap::Model m) {
   for (const colmap::Image &im : m.images)
     m.frames.push_back(
         {100 + im.id, 5, {}, {{{SensorType::Camera, im.camera_id}, im.id}, {{SensorType::Imu, 2}, im.id}}});
-  colmap::frames_from_poses(&m, std::vector<char>(m.images.size(), 1));
+  const std::vector<colmap::ImagePlace> places = colmap::image_places(m);
+  for (std::size_t i = 0; i < m.images.size(); ++i)
+    m.frames[places[i].frame].rig_from_world = colmap::frame_pose(
+        {m.images[i].q, m.images[i].t}, &m.rigs[places[i].rig].sensors[places[i].sensor].sensor_from_rig);
   m.frames.push_back({7, 5, {}, {}});
   return m;
 }

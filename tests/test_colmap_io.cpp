@@ -668,9 +668,10 @@ constexpr std::array<double, 7> kPycolmapPoses[] = {
     {0.32789662038726664, -0.8204826386597095, -0.46696923004372537, -0.035096783171394343,
      -0.012789534076308449, 0.070022004531223037, 4.950387123054794}};
 
-// read_model gives each image its frame's pose, as COLMAP 4 does, whatever images.txt says:
+// An image's pose is its frame's, as COLMAP 4 reads it, whatever images.txt says (image_poses):
 // the reference sensor's the same bits, another sensor's composed (pycolmap's composition of
-// the same files, to rounding). frames_from_poses gives the frames back.
+// the same files, to rounding). The inverse of the camera's pose in the rig composed with the
+// image's pose gives the frame back.
 TEST(ColmapRigs, ImagesTakeTheirFramesPoses) {
   const std::string dir = temp_dir("rig_poses");
   const colmap::Model m = rig_model();
@@ -685,19 +686,22 @@ TEST(ColmapRigs, ImagesTakeTheirFramesPoses) {
     colmap::Model back;
     ASSERT_TRUE(colmap::read_model(out, &back, nullptr, &error)) << error;
     EXPECT_TRUE(back.has_rigs);
-    EXPECT_EQ(back.images[0].q, m.frames[0].rig_from_world.q);
-    EXPECT_EQ(back.images[0].t, m.frames[0].rig_from_world.t);
+    const std::vector<colmap::Pose> poses = colmap::image_poses(back);
+    EXPECT_EQ(poses[0].q, m.frames[0].rig_from_world.q);
+    EXPECT_EQ(poses[0].t, m.frames[0].rig_from_world.t);
     for (int k = 0; k < 2; ++k) {
-      const colmap::Image &im = back.images[static_cast<std::size_t>(k + 1)];
+      const colmap::Pose &im = poses[static_cast<std::size_t>(k + 1)];
       for (int c = 0; c < 4; ++c) EXPECT_NEAR(im.q[c], pycolmap[k][c], 1e-14) << k << c;
       for (int c = 0; c < 3; ++c) EXPECT_NEAR(im.t[c], pycolmap[k][4 + c], 1e-14) << k << c;
     }
     // The rigs and frames as read.
     EXPECT_EQ(colmap::format_model(back, colmap::Encoding::Text).frames, kPycolmapFrames);
-    colmap::frames_from_poses(&back, {1, 1, 1});
-    EXPECT_EQ(back.frames[0].rig_from_world.q, m.frames[0].rig_from_world.q);
-    EXPECT_EQ(back.frames[0].rig_from_world.t, m.frames[0].rig_from_world.t);
-    for (std::size_t f = 1; f < 3; ++f) {
+    const std::vector<colmap::ImagePlace> places = colmap::image_places(back);
+    for (std::size_t i = 1; i < 3; ++i) {
+      const colmap::ImagePlace &pl = places[i];
+      const std::size_t f = pl.frame;
+      back.frames[f].rig_from_world = colmap::frame_pose(
+          poses[i], pl.sensor == 0 ? nullptr : &back.rigs[pl.rig].sensors[pl.sensor].sensor_from_rig);
       for (int c = 0; c < 4; ++c)
         EXPECT_NEAR(back.frames[f].rig_from_world.q[c], m.frames[f].rig_from_world.q[c], 1e-14) << f << c;
       for (int c = 0; c < 3; ++c)
@@ -718,11 +722,11 @@ TEST(ColmapRigs, ComposedPosesAsWrittenComeBack) {
     std::copy_n(kPycolmapPoses[k].begin(), 4, m.images[k + 1].q.begin());
     std::copy_n(kPycolmapPoses[k].begin() + 4, 3, m.images[k + 1].t.begin());
   }
-  // read_model's own composition is not pycolmap's, bit for bit.
-  colmap::Model composed = m;
-  for (colmap::Image &im : composed.images) im.q = {0, 0, 0, 0};  // no pose to keep
-  colmap::poses_from_frames(&composed);
-  EXPECT_NE(composed.images[2].q, m.images[2].q);
+  // The library's own composition is not pycolmap's, bit for bit.
+  const colmap::ImagePlace place = colmap::image_places(m)[2];
+  const colmap::Pose composed = sbacameras::compose(m.rigs[place.rig].sensors[place.sensor].sensor_from_rig,
+                                                    m.frames[place.frame].rig_from_world);
+  EXPECT_NE(composed.q, m.images[2].q);
   std::string error;
   for (colmap::Encoding e : {colmap::Encoding::Text, colmap::Encoding::Binary}) {
     const std::string out = dir + (e == colmap::Encoding::Text ? "/text" : "/binary");
@@ -731,8 +735,8 @@ TEST(ColmapRigs, ComposedPosesAsWrittenComeBack) {
     colmap::Model back;
     ASSERT_TRUE(colmap::read_model(out, &back, nullptr, &error)) << error;
     for (std::size_t k = 0; k < 3; ++k) {
-      EXPECT_EQ(back.images[k].q, m.images[k].q) << k;
-      EXPECT_EQ(back.images[k].t, m.images[k].t) << k;
+      EXPECT_EQ(colmap::image_poses(back)[k].q, m.images[k].q) << k;
+      EXPECT_EQ(colmap::image_poses(back)[k].t, m.images[k].t) << k;
     }
     EXPECT_EQ(colmap::format_model(back, e).images, read_file(images));
     // Moved by more than rounding, the images file's pose is not the frame's: the frame's wins.
@@ -740,9 +744,9 @@ TEST(ColmapRigs, ComposedPosesAsWrittenComeBack) {
     other.images[2].t[2] += 1e-12;
     ASSERT_TRUE(colmap::write_model(out, other, e, &error)) << error;
     ASSERT_TRUE(colmap::read_model(out, &back, nullptr, &error)) << error;
-    EXPECT_EQ(back.images[2].q, composed.images[2].q);
-    EXPECT_EQ(back.images[2].t, composed.images[2].t);
-    EXPECT_EQ(back.images[1].t, m.images[1].t);
+    EXPECT_EQ(colmap::image_poses(back)[2].q, composed.q);
+    EXPECT_EQ(colmap::image_poses(back)[2].t, composed.t);
+    EXPECT_EQ(colmap::image_poses(back)[1].t, m.images[1].t);
   }
 }
 
@@ -917,6 +921,23 @@ TEST(ColmapImageList, NamesAreMatchedExactly) {
   EXPECT_EQ(held_ids(m, "010,all"), "16,31");  // all means every image only as the whole list
   EXPECT_EQ(held_ids(m, "a b.png "), "error: no image has the NAME 'a b.png '");
   EXPECT_EQ(held_ids(m, "A B.PNG"), "error: no image has the NAME 'A B.PNG'");
+}
+
+// Items that say what they are (pysba's ints and strs) by the same rule: an IMAGE_ID names its
+// image alone, a NAME every image of that name, digits or not.
+TEST(ColmapImageList, ItemsOfAKnownKind) {
+  const colmap::Model m = images_named({{10, "img_0.png"}, {13, "10"}, {25, "dup.png"}, {28, "dup.png"}});
+  const colmap::ImageIndex index(m.images);
+  std::vector<char> held(m.images.size(), 0);
+  EXPECT_EQ(index.hold_id(10, &held), "");
+  EXPECT_EQ(held, (std::vector<char>{1, 0, 0, 0}));
+  EXPECT_EQ(index.hold_name("10", &held), "");
+  EXPECT_EQ(index.hold_name("dup.png", &held), "");
+  EXPECT_EQ(held, (std::vector<char>{1, 1, 1, 1}));
+  EXPECT_EQ(index.hold_id(11, &held), "no image has the IMAGE_ID 11");
+  EXPECT_EQ(index.hold_id(4294967306u, &held), "no image has the IMAGE_ID 4294967306");  // 2^32 + 10
+  EXPECT_EQ(index.hold_name("img_0.png\n", &held), "no image has the NAME 'img_0.png\\x0a'");
+  EXPECT_EQ(index.hold_text("10", &held), "");
 }
 
 TEST(ColmapImageList, EmptyItemsAreRefused) {

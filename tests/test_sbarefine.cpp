@@ -504,6 +504,27 @@ TEST(Sbarefine, HugeAndTinyQuaternionsAreRotations) {
 
 // ---- sbarefine on models with rigs and frames ----
 
+// Each frame's pose, of a checked model whose frames hold one image each, such that its image's
+// pose (its q and t) composes from it.
+void frames_from_images(colmap::Model *m) {
+  const std::vector<colmap::ImagePlace> places = colmap::image_places(*m);
+  for (std::size_t i = 0; i < m->images.size(); ++i) {
+    const colmap::ImagePlace &pl = places[i];
+    m->frames[pl.frame].rig_from_world = colmap::frame_pose(
+        {m->images[i].q, m->images[i].t}, pl.sensor == 0 ? nullptr : &m->rigs[pl.rig].sensors[pl.sensor].sensor_from_rig);
+  }
+}
+
+// The images file's poses of a model with rigs and frames set to the poses the frames give
+// (image_poses), as COLMAP 4 writes them.
+void composed_records(colmap::Model *m) {
+  const std::vector<colmap::Pose> poses = colmap::image_poses(*m);
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    m->images[i].q = poses[i].q;
+    m->images[i].t = poses[i].t;
+  }
+}
+
 // A model as COLMAP 4 writes it: rigs and frames beside the three files. Plain: one rig per
 // camera (its id the camera's), one frame per image, as COLMAP 4 writes ordinary data, but with
 // frame ids that are not the image ids. Posed: one rig of an IMU (the reference) and every
@@ -535,7 +556,7 @@ colmap::Model colmap4(colmap::Model m, bool posed) {
     if (posed) f.data.push_back({{SensorType::Imu, 3}, 77 + im.id});
     m.frames.push_back(f);
   }
-  colmap::frames_from_poses(&m, std::vector<char>(m.images.size(), 1));
+  frames_from_images(&m);
   return m;
 }
 
@@ -598,10 +619,11 @@ void expect_refined_frames(const colmap::Model &in, colmap::Encoding e, const st
   composed.points.clear();
   for (colmap::Image &im : composed.images) im.points.clear();
   ASSERT_TRUE(colmap::check_model(composed, out, &error)) << error;
-  colmap::poses_from_frames(&composed);
+  const std::vector<colmap::Pose> composed_poses = colmap::image_poses(composed);
   double moved = 0;
   for (std::size_t j = 0; j < in.images.size(); ++j) {
-    const colmap::Image &p = written.images[j], &c = composed.images[j];
+    const colmap::Image &p = written.images[j];
+    const colmap::Pose &c = composed_poses[j];
     for (int k = 0; k < 3; ++k) moved = std::max(moved, std::fabs(p.t[k] - in.images[j].t[k]));
     if (!posed) {
       EXPECT_EQ(written.frames[j].rig_from_world.q, p.q) << j;
@@ -1886,7 +1908,7 @@ RigScene make_rig_scene(int rigs, int per_rig, int frames, int points, double no
   }
   for (colmap::Model *m : {&out.model, &out.truth}) {
     EXPECT_TRUE(colmap::check_model(*m, "rig scene", &error)) << error;
-    colmap::poses_from_frames(m);  // the images file holds the composed poses, as COLMAP 4 writes it
+    composed_records(m);  // the images file holds the composed poses, as COLMAP 4 writes it
   }
   return out;
 }
@@ -1936,7 +1958,7 @@ int iterations(const std::string &out) {
 colmap::Pose pose_of(const colmap::Image &im) { return {im.q, im.t}; }
 
 // In the model written to out: every image's pose in the images file is its frame's composed
-// with its camera's pose in the rig (poses_from_frames, bit for bit: the scenes here hold
+// with its camera's pose in the rig (image_poses, bit for bit: the scenes here hold
 // sbarefine's own compositions), and, independently, the
 // pose of every image of a frame relative to the frame's reference image is its camera's pose
 // in the rigs file (1e-12): each frame's images are exactly as rigid as the rigs say, with one
@@ -1947,13 +1969,13 @@ void expect_rigid(const std::string &out, colmap::Encoding e) {
   std::string error;
   for (colmap::Image &im : composed.images) {
     im.points.clear();
-    im.q = {0, 0, 0, 0};  // no pose that poses_from_frames would keep
+    im.q = {0, 0, 0, 0};  // no pose that image_poses would keep
   }
   ASSERT_TRUE(colmap::check_model(composed, out, &error)) << error;
-  colmap::poses_from_frames(&composed);
+  const std::vector<colmap::Pose> composed_poses = colmap::image_poses(composed);
   for (std::size_t j = 0; j < written.images.size(); ++j) {
-    EXPECT_EQ(written.images[j].q, composed.images[j].q) << j;
-    EXPECT_EQ(written.images[j].t, composed.images[j].t) << j;
+    EXPECT_EQ(written.images[j].q, composed_poses[j].q) << j;
+    EXPECT_EQ(written.images[j].t, composed_poses[j].t) << j;
   }
   std::unordered_map<std::uint32_t, const colmap::Image *> image;
   for (const colmap::Image &im : written.images) image[im.id] = &im;

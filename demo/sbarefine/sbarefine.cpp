@@ -32,6 +32,7 @@
 #include "formats/bal_io.h"
 #include "formats/bundler_io.h"
 #include "formats/colmap_io.h"
+#include "formats/colmap_problem.h"
 #include "formats/colmap_sba.h"
 #include "formats/nvm_io.h"
 #include "formats/output_file.h"
@@ -80,19 +81,15 @@ struct Options {
   Options() { solve.itmax = -1; }
 };
 
-// COLMAP's bundle adjuster is Ceres's Levenberg-Marquardt with its defaults
-// (max_num_iterations 100, function_tolerance 0): a COLMAP model is refined as COLMAP refines
-// it unless the command line says otherwise, with the trust-region strategy, whose eps4 is
-// Ceres's relative cost change. A tolerance of 0 runs until a step no longer changes the cost
-// beyond rounding. The other formats keep sba's algorithm and the programs' limit.
+// A COLMAP model is refined as COLMAP refines it unless the command line says otherwise: its
+// iteration limit and its stopping rule (colmap_stop_rule). The other formats keep sba's
+// algorithm and the programs' limit, and take --function-tolerance as COLMAP's rule does.
 void resolve_defaults(bool colmap_model, Options *o) {
   sbacli::SolveOptions &so = o->solve;
-  if (so.itmax < 0) so.itmax = colmap_model ? 100 : 150;
-  double ftol = o->function_tolerance;
-  if (ftol < 0 && colmap_model && so.strategy.empty() && so.opts[4] == 0.0) ftol = 0.0;
-  if (ftol < 0) return;
-  so.opts[4] = std::max(ftol, 4 * std::numeric_limits<double>::epsilon());
-  if (so.strategy.empty()) so.strategy = "trust-region";
+  if (so.itmax < 0) so.itmax = colmap_model ? colmap::kDefaultItmax : 150;
+  if ((colmap_model || o->function_tolerance >= 0) &&
+      colmap::colmap_stop_rule(o->function_tolerance, !so.strategy.empty(), &so.opts[4]) && so.strategy.empty())
+    so.strategy = colmap::kColmapStrategy;
 }
 
 // A boolean option of COLMAP's, 0|1 or as COLMAP's command line takes it (sbacli::to_bool):
@@ -313,10 +310,10 @@ Cloud cloud(const colmap::Model &model) {
     c.points.push_back(p.xyz);
     c.colors.push_back({p.rgb[0], p.rgb[1], p.rgb[2]});
   }
-  for (const colmap::Image &im : model.images) {
+  for (const colmap::Pose &pose : colmap::image_poses(model)) {
     double R[9];
-    euclidean::rotation_matrix(euclidean::normalized_rotation({im.q[0], im.q[1], im.q[2], im.q[3]}), R);
-    c.centres.push_back(sbacameras::camera_centre(R, im.t.data()));
+    euclidean::rotation_matrix(euclidean::normalized_rotation({pose.q[0], pose.q[1], pose.q[2], pose.q[3]}), R);
+    c.centres.push_back(sbacameras::camera_centre(R, pose.t.data()));
   }
   return c;
 }
@@ -353,7 +350,7 @@ struct Job {
   std::vector<std::string> camera_names;  // the image of each sba camera; empty: unnamed
   std::string model;                      // --json's "model": the camera models, what is refined
   // The points held at the start of the problem's (sba's ncon), when it is not --ncon (a COLMAP
-  // model's constant points come first: ColmapProblem::held_points); -1: --ncon.
+  // model's constant points come first: colmap::Problem::held_points); -1: --ncon.
   int ncon = -1;
   // Writes the refined model (p) where --write says, and the files derived from it, into the
   // run's outputs, the model marked to be published last; returns it for --final-ply. With
@@ -422,9 +419,7 @@ struct Loaded {
   colmap::Encoding encoding = colmap::Encoding::Text;
   nvm::SbaProblem problem;  // NVM
   std::unique_ptr<euclidean::CameraModel> sba_model;
-  colmap::ColmapProblem colmap_problem;
-  std::unique_ptr<colmap_camera::CameraModel> colmap_model;
-  std::unique_ptr<colmap_camera::RigCameraModel> rig_model;  // a rigged COLMAP model's, in place of colmap_model
+  colmap::Problem colmap_problem;
   nvm::Model nvm;
   bundler::Bundle bundle;
   bundler::ImageList list;
@@ -478,70 +473,47 @@ bool write_eucsba(const std::string &prefix, const Loaded &l, const double *p, s
   return write_eucsba(prefix, cams, l.problem.points, xyz, outputs, why);
 }
 
-// The same for a COLMAP model (a CameraModel or a RigCameraModel, whose images are written
-// with their composed poses), whose cameras must be of the five models eucsbademo's camera
+// The same for a COLMAP model, whose cameras must be of the five models eucsbademo's camera
 // expresses.
-template <typename Model>
-bool write_eucsba_colmap(const std::string &prefix, const Model &model, const eucsba::PointSet &points,
-                         const double *p, sbaformats::OutputSet *outputs, std::string *why) {
-  std::vector<euclidean::Camera> cams(static_cast<std::size_t>(model.ncameras()));
-  for (int j = 0; j < model.ncameras(); ++j) {
-    const colmap_camera::Camera c = model.camera(j, p + static_cast<std::size_t>(j) * model.cnp());
-    if (!colmap::to_euclidean(c, &cams[static_cast<std::size_t>(j)])) {
+bool write_eucsba_colmap(const std::string &prefix, const colmap::Problem &problem, const double *p,
+                         sbaformats::OutputSet *outputs, std::string *why) {
+  const std::vector<colmap_camera::Camera> cameras = problem.cameras(p);
+  std::vector<euclidean::Camera> cams(cameras.size());
+  for (std::size_t j = 0; j < cameras.size(); ++j) {
+    if (!colmap::to_euclidean(cameras[j], &cams[j])) {
       *why = prefix + "-cams.txt: eucsbademo's camera cannot express COLMAP's " +
-             colmap_camera::model_name(c.model) + " (only SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV)";
+             colmap_camera::model_name(cameras[j].model) +
+             " (only SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV)";
       return false;
     }
   }
-  return write_eucsba(prefix, cams, points, p + static_cast<std::size_t>(model.ncameras()) * model.cnp(), outputs,
+  const std::size_t m = cameras.size();
+  return write_eucsba(prefix, cams, problem.points(), p + m * static_cast<std::size_t>(problem.cnp()), outputs,
                       why);
 }
 
-// What the job of a COLMAP problem takes from its sba camera model, whichever it is.
-template <typename Model>
-void model_job(const Model &sm, colmap::ColmapProblem &pr, Job *job) {
-  job->in.m = pr.points.ncameras;
-  job->in.n = pr.points.npoints();
-  job->in.cnp = sm.cnp();
-  job->in.vis = &pr.points.pairs;
-  job->in.x = pr.points.x.data();
-  job->in.cam_fixed = pr.cam_fixed.data();
+// The job of a COLMAP problem: its arrays and callbacks as the solve takes them.
+void colmap_job(const colmap::Problem &pr, Job *job) {
+  job->in.m = pr.ncameras();
+  job->in.n = pr.npoints();
+  job->in.cnp = pr.cnp();
+  job->in.vis = &pr.points().pairs;
+  job->in.x = const_cast<double *>(pr.points().x.data());  // sba's x is not const, but only read
+  job->in.cam_fixed = pr.cam_fixed().data();
   job->in.cam_fixed_per_camera = 1;
-  job->p = sm.initial_camera_params();
-  job->p.insert(job->p.end(), sm.initial_points().begin(), sm.initial_points().end());
-  job->in.adata = colmap_camera::as_adata(sm);
-  const int m = job->in.m, cnp = job->in.cnp;
-  job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
-    sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
-  };
-}
-
-// The job of l->colmap_problem through COLMAP's camera models: each image a camera of its own,
-// its intrinsics shared by the images of its COLMAP camera (cam_group), or, in a rigged model,
-// an image of a rig, its frame's and its camera's poses shared too (cam_param_group).
-void colmap_job(Loaded *l, Job *job) {
-  colmap::ColmapProblem &pr = l->colmap_problem;
-  if (pr.rigged) {
-    l->rig_model = std::make_unique<colmap_camera::RigCameraModel>(pr.rig_images, pr.points.xyz, pr.cam_fixed);
-    model_job(*l->rig_model, pr, job);
-    job->in.cam_param_group = pr.cam_param_group.data();
-    job->in.func = colmap_camera::rig_motstr_func;
-    job->in.fjac = colmap_camera::rig_motstr_fjac;
-    return;
-  }
-  l->colmap_model = std::make_unique<colmap_camera::CameraModel>(pr.cameras, pr.points.xyz, pr.cam_fixed);
-  model_job(*l->colmap_model, pr, job);
-  job->in.cam_group = pr.cam_group.data();
-  job->in.cam_shared = pr.cam_shared.data();
-  job->in.func = colmap_camera::motstr_func;
-  job->in.fjac = colmap_camera::motstr_fjac;
+  job->in.cam_param_group = pr.cam_param_group().data();
+  job->in.func = pr.func();
+  job->in.fjac = pr.fjac();
+  job->in.adata = pr.adata();
+  job->p = pr.initial_params();
+  job->project = [&pr](const double *p, int j, int i, double x[2]) { pr.project(p, j, i, x); };
 }
 
 // "OPENCV (3 cameras), PINHOLE (1 camera)": the models of the cameras the solve uses.
-std::string camera_models(const colmap::Model &model, const colmap::ColmapProblem &pr) {
+std::string camera_models(const colmap::Model &model, const colmap::Problem &pr) {
   std::vector<int> count(colmap_camera::kNumModels, 0);
   std::vector<char> seen(model.cameras.size(), 0);
-  for (int j : pr.images)
+  for (int j : pr.images())
     for (std::size_t c = 0; c < model.cameras.size(); ++c)
       if (model.cameras[c].id == model.images[static_cast<std::size_t>(j)].camera_id && !seen[c]) {
         seen[c] = 1;
@@ -607,13 +579,13 @@ bool constants_of(const Options &o, const colmap::Model &model, colmap::Constant
 // The summary's line on the images that see no point (none: empty): held out of the solve, and
 // written back as read, or, in a rig, kept at their place in a frame or rig whose pose is
 // refined, and moved with it.
-std::string unseen_images(const colmap::Model &model, const colmap::ColmapProblem &pr) {
-  const std::size_t unseen = model.images.size() - pr.images.size();
+std::string unseen_images(const colmap::Model &model, const colmap::Problem &pr) {
+  const std::size_t unseen = model.images.size() - pr.images().size();
   if (unseen == 0) return {};
   std::string line = "\n" + std::to_string(unseen) + (unseen == 1 ? " image sees" : " images see") +
                      " no point: held out of the solve";
-  if (pr.unseen_moved == 0) return line + " and written back as read";
-  const std::size_t moved = static_cast<std::size_t>(pr.unseen_moved);
+  if (pr.counts().unseen_moved == 0) return line + " and written back as read";
+  const std::size_t moved = static_cast<std::size_t>(pr.counts().unseen_moved);
   return line + "; " + std::to_string(unseen - moved) + " written back as read, " + std::to_string(moved) +
          " moved with " + (moved == 1 ? "its" : "their") + " refined frame or rig (" + (moved == 1 ? "its" : "their") +
          " place there kept)";
@@ -621,19 +593,20 @@ std::string unseen_images(const colmap::Model &model, const colmap::ColmapProble
 
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
-  colmap::Constants constants;
-  if (!constants_of(o, l->model, &constants, error) ||
-      !colmap::to_sba(l->model, o.refine, o.poses, constants, o.solve.mcon, o.solve.ncon, o.input,
-                      &l->colmap_problem, error))
+  colmap::Options options;
+  options.intrinsics = o.refine;
+  options.poses = o.poses;
+  options.mcon = o.solve.mcon;
+  options.ncon = o.solve.ncon;
+  if (!constants_of(o, l->model, &options.constants, error) ||
+      !colmap::Problem::build(l->model, options, o.input, &l->colmap_problem, error))
     return false;
-  colmap_job(l, job);
-  const colmap::ColmapProblem &pr = l->colmap_problem;
-  job->ncon = pr.held_points;
+  const colmap::Problem &pr = l->colmap_problem;
+  colmap_job(pr, job);
+  job->ncon = pr.held_points();
   // The library can only say that the initial error is not finite; the model can say where.
   if (o.solve.itmax > 0) {
-    const std::vector<double> &p = job->p;
-    *error = colmap::nonfinite_error(l->model, pr, o.input,
-                                     [&](int j, int i, double x[2]) { job->project(p.data(), j, i, x); });
+    *error = pr.nonfinite_error(l->model, o.input);
     if (!error->empty()) return false;
   }
   char line[512];
@@ -649,7 +622,8 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   const auto count = [](std::size_t n, const char *what) {
     return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
   };
-  if (pr.rigged)
+  const colmap::Problem::Counts &n = pr.counts();
+  if (pr.rigged())
     job->summary += "\nRigs and frames (COLMAP 4): " + count(l->model.rigs.size(), "rig") + ", " +
                     count(l->model.frames.size(), "frame") + ", " +
                     std::to_string(colmap::frames_of_several_images(l->model)) + " of several images: refined as COLMAP 4 refines them, a frame's pose once for its images, "
@@ -663,33 +637,27 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   const auto yes_no = [](bool b) { return b ? "refined" : "held"; };
   job->model = camera_models(l->model, pr) + "; focal length " + yes_no(o.refine.focal) +
                   ", principal point " + yes_no(o.refine.principal) + ", extra parameters " +
-                  yes_no(o.refine.distortion) + "; " + std::to_string(pr.shared_cameras) +
-                  (pr.shared_cameras == 1 ? " camera" : " cameras") + " shared by several images, refined once; ";
-  if (pr.rigged)
-    job->model += "rig_from_world of " + count(static_cast<std::size_t>(pr.frames), "frame") + " (" +
-                  std::to_string(pr.held_frames) + " held), sensor_from_rig of " +
-                  count(static_cast<std::size_t>(pr.sensors), "camera") + " (" + std::to_string(pr.held_sensors) +
+                  yes_no(o.refine.distortion) + "; " + std::to_string(n.shared_cameras) +
+                  (n.shared_cameras == 1 ? " camera" : " cameras") + " shared by several images, refined once; ";
+  if (pr.rigged())
+    job->model += "rig_from_world of " + count(static_cast<std::size_t>(n.frames), "frame") + " (" +
+                  std::to_string(n.held_frames) + " held), sensor_from_rig of " +
+                  count(static_cast<std::size_t>(n.sensors), "camera") + " (" + std::to_string(n.held_sensors) +
                   " held); ";
-  job->model += std::to_string(pr.held_poses) + (pr.held_poses == 1 ? " pose" : " poses") + " held";
+  job->model += std::to_string(n.held_poses) + (n.held_poses == 1 ? " pose" : " poses") + " held";
   if (!o.hold_intrinsics.empty())
-    job->model += "; intrinsics of " + count(static_cast<std::size_t>(pr.held_intrinsics), "camera") + " held";
+    job->model += "; intrinsics of " + count(static_cast<std::size_t>(n.held_intrinsics), "camera") + " held";
   if (!o.hold_points.empty() || !o.hold_points_file.empty())
-    job->model += "; " + count(static_cast<std::size_t>(pr.held_points), "point") + " held";
+    job->model += "; " + count(static_cast<std::size_t>(pr.held_points()), "point") + " held";
   job->summary += "\nCamera models: " + job->model;
   job->initial = cloud(l->model);
-  for (int j : pr.images) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
+  for (int j : pr.images()) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, sbaformats::OutputSet *outputs,
                         std::string *why) {
-    const colmap::ColmapProblem &problem = l->colmap_problem;
-    if (o.solve.itmax > 0 && problem.rigged)
-      colmap::from_sba(*l->rig_model, problem, p, o.solve.mcon, problem.held_points, &l->model);
-    else if (o.solve.itmax > 0)
-      colmap::from_sba(*l->colmap_model, problem, p, o.solve.mcon, problem.held_points, &l->model);
+    const colmap::Problem &problem = l->colmap_problem;
+    if (o.solve.itmax > 0) problem.apply(p, &l->model);
     *final_cloud = cloud(l->model);
-    if (!o.write_eucsba.empty() &&
-        !(problem.rigged ? write_eucsba_colmap(o.write_eucsba, *l->rig_model, problem.points, p, outputs, why)
-                         : write_eucsba_colmap(o.write_eucsba, *l->colmap_model, problem.points, p, outputs, why)))
-      return false;
+    if (!o.write_eucsba.empty() && !write_eucsba_colmap(o.write_eucsba, problem, p, outputs, why)) return false;
     if (o.write.empty()) return true;
     const colmap::Encoding out =
         o.write_format.empty() ? l->encoding

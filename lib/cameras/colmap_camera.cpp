@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "cameras/euclidean_rotation.h"
+#include "cameras/rigid_pose.h"
 
 namespace sbacameras::colmap_camera {
 
@@ -498,11 +499,12 @@ Camera RigCameraModel::camera(int j, const double *a) const {
   Camera c;
   c.model = im.model;
   c.params = im.params;
-  c.q = euclidean::normalized_rotation(euclidean::multiply(im.q_sensor, im.q_frame));
-  double Rs[9];
-  euclidean::rotation_matrix(im.q_sensor, Rs);
-  sbaeuc_mat3_vec(Rs, im.t_frame.data(), c.t.data());
-  for (int k = 0; k < 3; ++k) c.t[static_cast<std::size_t>(k)] += im.t_sensor[static_cast<std::size_t>(k)];
+  const auto pose = [](const euclidean::Quaternion &q, const std::array<double, 3> &t) {
+    return RigidPose{{q.w, q.x, q.y, q.z}, t};
+  };
+  const RigidPose p = compose(pose(im.q_sensor, im.t_sensor), pose(im.q_frame, im.t_frame));
+  c.q = euclidean::normalized_rotation({p.q[0], p.q[1], p.q[2], p.q[3]});
+  c.t = p.t;
   return c;
 }
 

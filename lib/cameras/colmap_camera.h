@@ -251,7 +251,8 @@ class RigCameraModel : public SbaCameraModel {
   // Image j from its parameters a: the model's parameters, q_frame = qs(v_f) q_frame0 and
   // q_sensor = qs(v_s) q_sensor0 (unit, w >= 0), the translations.
   RigImage image(int j, const double *a) const;
-  // Image j as one camera: its parameters and its pose sensor_from_rig times rig_from_world.
+  // Image j as one camera: its parameters and its pose compose(sensor_from_rig, rig_from_world)
+  // (rigid_pose.h), normalized.
   Camera camera(int j, const double *a) const;
 
   // As CameraModel's: x, A = dx/da (2 x cnp), B = dx/db (2 x 3), the callbacks' numbers.

@@ -380,7 +380,7 @@ bool parse_frames_binary(const std::string &bytes, const std::string &name, std:
   return true;
 }
 
-Files format_binary(const Model &model) {
+Files format_binary(const Model &model, const std::vector<Pose> &poses) {
   Files f;
   {
     ByteWriter w(&f.cameras, cameras_bytes(model));
@@ -396,9 +396,10 @@ Files format_binary(const Model &model) {
   {
     ByteWriter w(&f.images, images_bytes(model));
     w.uint<8>(model.images.size());
-    for (const Image &im : model.images) {
+    for (std::size_t i = 0; i < model.images.size(); ++i) {
+      const Image &im = model.images[i];
       w.uint<4>(im.id);
-      write_pose(&w, im.q, im.t);
+      write_pose(&w, poses[i].q, poses[i].t);
       w.uint<4>(im.camera_id);
       w.cstring(im.name);
       w.uint<8>(im.points.size());

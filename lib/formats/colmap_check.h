@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // A COLMAP model made in memory (pysba's, from Python objects) rather than read from files,
 // checked record by record as the readers check each file (colmap_io.h): so that what
-// write_model makes of it, read_model reads back, and to_sba gets a model it can take.
+// write_model makes of it, read_model reads back, and colmap::Problem gets a model it can take.
 #ifndef SBA_LIB_FORMATS_COLMAP_CHECK_H
 #define SBA_LIB_FORMATS_COLMAP_CHECK_H
 

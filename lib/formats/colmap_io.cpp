@@ -19,7 +19,6 @@
 #include <tuple>
 #include <vector>
 
-#include "cameras/euclidean.h"
 #include "formats/colmap_io_impl.h"
 #include "formats/output_file.h"
 #include "formats/text_tokens.h"
@@ -106,8 +105,6 @@ int camera_model_params(int model) { return model >= 0 && model < kNumModels ? k
 
 namespace {
 
-namespace euc = sbacameras::euclidean;
-
 // How far from 1 the squared norm of a sensor_from_rig quaternion may be. COLMAP composes an
 // image's pose with the quaternion as written, not normalized, so that the translation it
 // gives differs from the rotation's by about this much of its size: far below what the
@@ -115,36 +112,6 @@ namespace euc = sbacameras::euclidean;
 // one written to ten digits; one written by hand to a few is refused rather than read as
 // another pose than COLMAP's.
 constexpr double kUnitNormTolerance = 1e-10;
-
-euc::Quaternion quaternion(const std::array<double, 4> &q) { return {q[0], q[1], q[2], q[3]}; }
-std::array<double, 4> components(const euc::Quaternion &q) { return {q.w, q.x, q.y, q.z}; }
-
-// S F: the pose of a sensor whose pose in its rig is s, the rig's pose f (X_cam = S (F X)):
-// q = q_S q_F, t = R_S t_F + t_S. Both quaternions are taken as rotations (normalized, as
-// every pose's is when it is used), so that the product is one for any norm f's has.
-Pose compose(const Pose &s, const Pose &f) {
-  const euc::Quaternion qs = euc::normalized_rotation(quaternion(s.q));
-  double R[9];
-  euc::rotation_matrix(qs, R);
-  Pose p;
-  p.q = components(euc::multiply(qs, euc::normalized_rotation(quaternion(f.q))));
-  for (int r = 0; r < 3; ++r)
-    p.t[r] = R[3 * r] * f.t[0] + R[3 * r + 1] * f.t[1] + R[3 * r + 2] * f.t[2] + s.t[r];
-  return p;
-}
-
-// S^-1 P: the rig's pose at which the sensor whose pose in the rig is s has the pose p:
-// q = q_S^* q_P, t = R_S^T (t_P - t_S).
-Pose rig_pose(const Pose &s, const std::array<double, 4> &q, const std::array<double, 3> &t) {
-  const euc::Quaternion qs = euc::normalized_rotation(quaternion(s.q));
-  double R[9];
-  euc::rotation_matrix(qs, R);
-  Pose f;
-  f.q = components(euc::multiply({qs.w, -qs.x, -qs.y, -qs.z}, euc::normalized_rotation(quaternion(q))));
-  const double d[3] = {t[0] - s.t[0], t[1] - s.t[1], t[2] - s.t[2]};
-  for (int c = 0; c < 3; ++c) f.t[c] = R[c] * d[0] + R[3 + c] * d[1] + R[6 + c] * d[2];
-  return f;
-}
 
 // An image's place among the frames: its frame, its rig and its camera's place in the rig
 // (ImagePlace), and its camera's pose in the frame's rig, null for the rig's reference sensor.
@@ -221,7 +188,7 @@ bool place_images(const Model &model, const std::string &where, std::vector<Plac
                         " has norm " + g17(std::sqrt(norm2)) +
                         ": COLMAP composes its images' poses with it as written, which is a rotation only at "
                         "norm 1");
-      const Pose composed = compose(sensor.sensor_from_rig, fr.rig_from_world);
+      const Pose composed = sbacameras::compose(sensor.sensor_from_rig, fr.rig_from_world);
       if (!std::all_of(composed.t.begin(), composed.t.end(), [](double v) { return std::isfinite(v); }))
         return fail(error, where + frame + ": the pose of " + image + ", composed in rig " +
                                std::to_string(rig.id) + ", overflows");
@@ -274,45 +241,43 @@ bool same_but_rounding(const Pose &c, const Pose &s, const Pose &f, const std::a
 
 }  // namespace
 
-void poses_from_frames(Model *model) {
-  if (!model->has_rigs) return;
-  const std::vector<Placement> place = placements(*model);
+namespace {
+
+std::vector<Pose> own_poses(const Model &model) {
+  std::vector<Pose> poses(model.images.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) poses[i] = {model.images[i].q, model.images[i].t};
+  return poses;
+}
+
+}  // namespace
+
+std::vector<Pose> image_poses(const Model &model) {
+  if (!model.has_rigs) return own_poses(model);
+  std::vector<Pose> poses(model.images.size());
+  std::vector<Placement> place;
+  if (!place_images(model, {}, &place, nullptr)) return own_poses(model);
   for (std::size_t i = 0; i < place.size(); ++i) {
-    Image &im = model->images[i];
-    const Pose &frame = model->frames[place[i].frame].rig_from_world;
+    const Image &im = model.images[i];
+    const Pose &frame = model.frames[place[i].frame].rig_from_world;
     if (!place[i].sensor_from_rig) {
-      im.q = frame.q;
-      im.t = frame.t;
+      poses[i] = frame;
       continue;
     }
-    const Pose p = compose(*place[i].sensor_from_rig, frame);
-    // An image that holds this pose already, as COLMAP's arithmetic composed it into the
-    // images file, keeps those bits: what nothing changes comes back as it was read.
-    if (same_but_rounding(p, *place[i].sensor_from_rig, frame, im.q, im.t)) continue;
-    im.q = p.q;
-    im.t = p.t;
+    const Pose p = sbacameras::compose(*place[i].sensor_from_rig, frame);
+    // The images file's own bits, where they are this pose as COLMAP's arithmetic composed it:
+    // what nothing changed is written back as it was read.
+    poses[i] = same_but_rounding(p, *place[i].sensor_from_rig, frame, im.q, im.t) ? Pose{im.q, im.t} : p;
   }
+  return poses;
+}
+
+Pose frame_pose(const Pose &pose, const Pose *sensor_from_rig) {
+  return sensor_from_rig ? sbacameras::between(*sensor_from_rig, pose) : pose;
 }
 
 std::vector<ImagePlace> image_places(const Model &model) {
   const std::vector<Placement> place = placements(model);
   return {place.begin(), place.end()};
-}
-
-void frames_from_poses(Model *model, const std::vector<char> &posed) {
-  if (!model->has_rigs) return;
-  const std::vector<Placement> place = placements(*model);
-  for (std::size_t i = 0; i < place.size(); ++i) {
-    if (!posed[i]) continue;
-    const Image &im = model->images[i];
-    Pose &frame = model->frames[place[i].frame].rig_from_world;
-    if (!place[i].sensor_from_rig) {
-      frame.q = im.q;
-      frame.t = im.t;
-      continue;
-    }
-    frame = rig_pose(*place[i].sensor_from_rig, im.q, im.t);
-  }
 }
 
 bool check_model(const Model &model, const std::string &name, std::string *error) {
@@ -521,15 +486,14 @@ bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::str
     return false;
   m.has_rigs = rigs;
   if (!check_model(m, dir, error)) return false;
-  // As COLMAP 4 reads them: the frames' poses, whatever the images file holds.
-  poses_from_frames(&m);
   *out = std::move(m);
   if (encoding) *encoding = enc;
   return true;
 }
 
 Files format_model(const Model &model, Encoding encoding) {
-  return encoding == Encoding::Binary ? format_binary(model) : format_text(model);
+  const std::vector<Pose> poses = image_poses(model);
+  return encoding == Encoding::Binary ? format_binary(model, poses) : format_text(model, poses);
 }
 bool model_writable(const std::string &dir, Encoding encoding, std::string *error) {
   // A directory made here goes with `probe`: the write makes it.

@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "cameras/rigid_pose.h"
+
 namespace sbaformats {
 class OutputSet;  // output_file.h
 }  // namespace sbaformats
@@ -62,10 +64,14 @@ struct Point2D {
   std::uint64_t point3d_id = kNoPoint;
 };
 
+// An image. Its pose, world to camera (X_cam = R(q) X + t, qw qx qy qz), is q and t in a model
+// without rigs and frames. In a model with them it is derived (image_poses): q and t are only
+// what the images file held, COLMAP's rendering of that derived pose, which the writer writes
+// again where it still is that pose but for rounding.
 struct Image {
   std::uint32_t id = 0;
-  std::array<double, 4> q{1, 0, 0, 0};  // qw qx qy qz: world to camera
-  std::array<double, 3> t{};            // X_cam = R(q) X + t
+  std::array<double, 4> q{1, 0, 0, 0};
+  std::array<double, 3> t{};
   std::uint32_t camera_id = 0;
   std::string name;
   std::vector<Point2D> points;
@@ -85,10 +91,7 @@ struct Point3D {
 };
 
 // A pose X_out = R(q) X_in + t, the quaternion Hamilton's, qw first (as an image's).
-struct Pose {
-  std::array<double, 4> q{1, 0, 0, 0};
-  std::array<double, 3> t{};
-};
+using Pose = sbacameras::RigidPose;
 
 // COLMAP's sensor types, by the values of the binary files (the text names them).
 enum class SensorType : std::int32_t { Camera = 0, Imu = 1 };
@@ -125,9 +128,9 @@ struct Frame {
   std::vector<DataId> data;
 };
 
-// A model in file order. COLMAP 4 reads an image's pose from its frame when the model has rigs
-// and frames: the pose of its camera in the frame's rig times the frame's rig_from_world.
-// read_model gives each image that pose, whatever the images file held.
+// A model in file order. With rigs and frames an image's pose is derived, as COLMAP 4 derives
+// it: the pose of its camera in the frame's rig times the frame's rig_from_world (image_poses);
+// without them it is the image's own.
 struct Model {
   std::vector<Camera> cameras;
   std::vector<Image> images;
@@ -186,13 +189,18 @@ bool parse_frames_binary(const std::string &bytes, const std::string &name, std:
 // overflow. name prefixes the message (the model's directory).
 bool check_model(const Model &model, const std::string &name, std::string *error);
 
-// The pose of each image of a checked model with rigs and frames, from its frame: the frame's
-// rig_from_world itself for the rig's reference sensor (the same bits), sensor_from_rig times
-// it for another sensor (a unit quaternion), unless the image holds that pose already but for
-// the rounding of another program's arithmetic (COLMAP writes the poses it composed into the
-// images file): those bits are kept, so that a model nothing changes comes back as read.
-// Nothing changes in a model without rigs and frames.
-void poses_from_frames(Model *model);
+// The pose of each image of a checked model (one per Model::images). Without rigs and frames,
+// the image's q and t. With them, the image's frame's rig_from_world itself for the rig's
+// reference sensor (the same bits), compose(sensor_from_rig, rig_from_world) for another
+// sensor; but the image's q and t where they are that pose but for the rounding of another
+// program's arithmetic (COLMAP writes the poses it composed into the images file), so that a
+// model nothing changed is written back as it was read.
+std::vector<Pose> image_poses(const Model &model);
+
+// The reverse: the rig_from_world of a frame at which a camera whose pose in the rig is
+// *sensor_from_rig has the pose `pose`: `pose` itself (the same bits) for the rig's reference
+// sensor (sensor_from_rig null), between(*sensor_from_rig, pose) for another.
+Pose frame_pose(const Pose &pose, const Pose *sensor_from_rig);
 
 // Where an image of a checked model with rigs and frames is: its frame (an index into
 // Model::frames), its frame's rig (into Model::rigs) and its camera among the rig's sensors
@@ -203,17 +211,10 @@ struct ImagePlace {
 // Each image's (one per Model::images).
 std::vector<ImagePlace> image_places(const Model &model);
 
-// The reverse, after the poses of some images have changed: the rig_from_world of the frame of
-// each image flagged in `posed` (one flag per Model::images) becomes the image's pose for the
-// reference sensor (the same bits), inverse(sensor_from_rig) times it for another, so that
-// composing it gives the image's pose again. The model is checked, and each such frame holds
-// no other image (the other's pose would move with it).
-void frames_from_poses(Model *model, const std::vector<char> &posed);
-
 // Reads DIR/{cameras,images,points3D}.{txt,bin} (encoding from the files found, see above),
 // and DIR/{rigs,frames} of the same encoding when they are there: both or neither, as COLMAP 4
-// refuses a model with one of the two. The images' poses are then their frames'
-// (poses_from_frames). Each must be a regular file: a directory or a device there (/dev/zero)
+// refuses a model with one of the two. The images keep the poses their file holds (see Image).
+// Each must be a regular file: a directory or a device there (/dev/zero)
 // is refused by name.
 bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::string *error);
 // Writes the model's files into dir (created if missing), all or none of them: the rigs and
@@ -224,7 +225,7 @@ bool read_model(const std::string &dir, Model *out, Encoding *encoding, std::str
 // none, so that dir holds one model and COLMAP composes no pose from another's frames. Text numbers have 17
 // significant digits, so that they read back to the same doubles. With `outputs`, the files
 // and the directory are part of that set of a run's outputs (output_file.h), renamed and
-// removed when it is committed.
+// removed when it is committed. The images file holds image_poses(model).
 bool write_model(const std::string &dir, const Model &model, Encoding encoding, std::string *error,
                  OutputSet *outputs = nullptr);
 

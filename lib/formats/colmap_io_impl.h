@@ -140,8 +140,8 @@ class IdIndex {
 };
 
 // format_model for each encoding.
-Files format_text(const Model &model);
-Files format_binary(const Model &model);
+Files format_text(const Model &model, const std::vector<Pose> &poses);
+Files format_binary(const Model &model, const std::vector<Pose> &poses);
 
 }  // namespace sbaformats::colmap
 

@@ -45,9 +45,6 @@ std::string parse_refine_intrinsics(const std::string &text, RefineIntrinsics *o
   return {};
 }
 
-namespace {
-
-// An item as a message quotes it: as given, but a control character as \xHH.
 std::string quoted(const std::string &item) {
   std::string out = "'";
   for (const char c : item) {
@@ -63,6 +60,8 @@ std::string quoted(const std::string &item) {
   return out + "'";
 }
 
+namespace {
+
 // Whether item is written as an IMAGE_ID is (plain decimal digits, no leading zero), with its
 // value in *id when an IMAGE_ID (32 bits) can have it.
 bool plain_decimal(const std::string &item, std::uint32_t *id, bool *fits) {
@@ -77,41 +76,43 @@ bool plain_decimal(const std::string &item, std::uint32_t *id, bool *fits) {
   return true;
 }
 
-// Model::images by IMAGE_ID and by NAME (names may repeat), for the items of image lists.
-class ImageLookup {
- public:
-  explicit ImageLookup(const Model &model) {
-    for (std::size_t j = 0; j < model.images.size(); ++j) {
-      by_id_.emplace(model.images[j].id, j);
-      by_name_.emplace(model.images[j].name, j);
-    }
-  }
-
-  // Sets the flags of the images that item names, an item of digits an IMAGE_ID first when
-  // ids. Returns why it names none, empty when it names one.
-  std::string hold(const std::string &item, bool ids, std::vector<char> *held) const {
-    std::uint32_t id = 0;
-    bool fits = false;
-    const bool digits = ids && plain_decimal(item, &id, &fits);
-    if (digits && fits) {
-      const auto it = by_id_.find(id);
-      if (it != by_id_.end()) {
-        (*held)[it->second] = 1;
-        return {};
-      }
-    }
-    const auto [first, last] = by_name_.equal_range(item);
-    for (auto it = first; it != last; ++it) (*held)[it->second] = 1;
-    if (first != last) return {};
-    return std::string("no image has the ") + (digits ? "IMAGE_ID or NAME " : "NAME ") + quoted(item);
-  }
-
- private:
-  std::unordered_map<std::uint32_t, std::size_t> by_id_;
-  std::unordered_multimap<std::string, std::size_t> by_name_;
-};
-
 }  // namespace
+
+ImageIndex::ImageIndex(const std::vector<Image> &images) {
+  for (std::size_t j = 0; j < images.size(); ++j) {
+    by_id_.emplace(images[j].id, j);
+    by_name_.emplace(images[j].name, j);
+  }
+}
+
+bool ImageIndex::flag_id(std::uint64_t id, std::vector<char> *held) const {
+  const auto it = id <= 0xffffffffu ? by_id_.find(static_cast<std::uint32_t>(id)) : by_id_.end();
+  if (it == by_id_.end()) return false;
+  (*held)[it->second] = 1;
+  return true;
+}
+
+bool ImageIndex::flag_name(const std::string &name, std::vector<char> *held) const {
+  const auto [first, last] = by_name_.equal_range(name);
+  for (auto it = first; it != last; ++it) (*held)[it->second] = 1;
+  return first != last;
+}
+
+std::string ImageIndex::hold_id(std::uint64_t id, std::vector<char> *held) const {
+  return flag_id(id, held) ? std::string() : "no image has the IMAGE_ID " + std::to_string(id);
+}
+
+std::string ImageIndex::hold_name(const std::string &name, std::vector<char> *held) const {
+  return flag_name(name, held) ? std::string() : "no image has the NAME " + quoted(name);
+}
+
+std::string ImageIndex::hold_text(const std::string &item, std::vector<char> *held) const {
+  std::uint32_t id = 0;
+  bool fits = false;
+  const bool digits = plain_decimal(item, &id, &fits);
+  if ((digits && fits && flag_id(id, held)) || flag_name(item, held)) return {};
+  return std::string("no image has the ") + (digits ? "IMAGE_ID or NAME " : "NAME ") + quoted(item);
+}
 
 std::string split_image_list(const std::string &list, std::vector<std::string> *items) {
   std::vector<std::string> out;
@@ -136,9 +137,9 @@ std::string parse_image_list(const Model &model, const std::string &list, std::v
   } else {
     std::vector<std::string> items;
     if (std::string why = split_image_list(list, &items); !why.empty()) return why;
-    const ImageLookup images(model);
+    const ImageIndex images(model.images);
     for (const std::string &item : items)
-      if (std::string why = images.hold(item, true, &h); !why.empty()) return why;
+      if (std::string why = images.hold_text(item, &h); !why.empty()) return why;
   }
   *held = std::move(h);
   return {};
@@ -148,7 +149,7 @@ std::string parse_image_names(const Model &model, const std::string &text, const
                               std::vector<char> *held) {
   std::vector<char> h = *held;
   h.resize(model.images.size(), 0);
-  const ImageLookup images(model);
+  const ImageIndex images(model.images);
   std::size_t pos = 0;
   for (int line = 1; pos < text.size(); ++line) {
     const std::size_t eol = std::min(text.find('\n', pos), text.size());
@@ -157,7 +158,7 @@ std::string parse_image_names(const Model &model, const std::string &text, const
     const std::string item = text.substr(pos, end - pos);
     pos = eol + 1;
     if (item.empty()) continue;
-    if (std::string why = images.hold(item, false, &h); !why.empty())
+    if (std::string why = images.hold_name(item, &h); !why.empty())
       return name + ":" + std::to_string(line) + ": " + why;
   }
   *held = std::move(h);
@@ -276,423 +277,6 @@ std::size_t frames_of_several_images(const Model &model) {
     return std::count_if(f.data.begin(), f.data.end(),
                          [](const DataId &d) { return d.sensor.type == SensorType::Camera; }) > 1;
   }));
-}
-
-namespace {
-
-// Whether the model is refined through its rigs and frames (the rig camera model): when a
-// frame holds several images, which then share its pose, or when the options hold what the
-// frames' poses alone hold (COLMAP 4 then still refines the cameras' poses in their rigs). With
-// every pose of a frame of one image refined, its image's pose is a free pose of its own
-// however its camera sits in the rig: the model is refined as one without rigs, bit for bit.
-bool refined_as_rigs(const Model &model, const RefinePoses &poses) {
-  if (!model.has_rigs) return false;
-  return !poses.rig_from_world || poses.constant_rig_from_world_rotation || frames_of_several_images(model) > 0;
-}
-
-// Whether COLMAP's options hold parameter k of a camera of model `model` (the padding beyond
-// its parameters included).
-bool intrinsic_held(const RefineIntrinsics &refine, int model, int k) {
-  if (k >= cc::param_count(model)) return true;
-  switch (cc::param_kind(model, k)) {
-    case cc::ParamKind::Focal: return !refine.focal;
-    case cc::ParamKind::Principal: return !refine.principal;
-    case cc::ParamKind::Extra: return !refine.distortion;
-    case cc::ParamKind::Size: break;  // no COLMAP option refines it
-  }
-  return true;
-}
-
-// Holds the rotation (first 3) and the translation (last 3) of the pose at fixed as asked.
-void hold_pose(char *fixed, bool rotation, bool translation) {
-  if (rotation) std::fill_n(fixed, 3, 1);
-  if (translation) std::fill_n(fixed + 3, 3, 1);
-}
-
-// What holds a frame's pose, a camera's pose in its rig and its parameters in all their images
-// of a rigged problem (flags by Model::frames and Model::cameras): an image below mcon (held
-// whole) or, for the poses, a held image, whether it sees points or not: holding an image's
-// pose holds both parts of it, so that it comes back as read.
-struct RigHolds {
-  std::vector<char> frame, sensor, camera;
-};
-
-// The sba cameras of a rigged problem (p->rig_images, p->places), their COLMAP cameras' indices
-// in *camera; the largest parameter count among those cameras.
-int rig_images(const Model &model, const std::vector<ImagePlace> &places,
-               const std::unordered_map<std::uint32_t, int> &camera_index, std::vector<int> *camera,
-               ColmapProblem *p) {
-  int np = 0;
-  for (const int i : p->images) {
-    const Image &im = model.images[at(i)];
-    const ImagePlace &pl = places[at(i)];
-    camera->push_back(camera_index.at(im.camera_id));
-    const Camera &c = model.cameras[at(camera->back())];
-    cc::RigImage r;
-    r.model = c.model;
-    r.params = c.params;
-    const Pose &f = model.frames[pl.frame].rig_from_world;
-    r.q_frame = {f.q[0], f.q[1], f.q[2], f.q[3]};
-    r.t_frame = f.t;
-    if (pl.sensor > 0) {  // the reference sensor's pose in its rig is the identity
-      const Pose &s = model.rigs[pl.rig].sensors[pl.sensor].sensor_from_rig;
-      r.q_sensor = {s.q[0], s.q[1], s.q[2], s.q[3]};
-      r.t_sensor = s.t;
-    }
-    np = std::max(np, cc::param_count(c.model));
-    p->rig_images.push_back(std::move(r));
-    p->places.push_back(pl);
-  }
-  return np;
-}
-
-// The flag of item k of flags, a vector of Constants (empty: none is set).
-bool flagged(const std::vector<char> &flags, std::size_t k) { return !flags.empty() && flags[k]; }
-
-// The holds of a rigged problem, and its counts (ColmapProblem: frames, sensors, shared cameras,
-// held poses, images that see no point and move with a refined frame or rig).
-RigHolds rig_holds(const Model &model, const RefinePoses &poses, const Constants &constants, int mcon,
-                   const std::vector<ImagePlace> &places, const std::unordered_map<std::uint32_t, int> &camera_index,
-                   ColmapProblem *p) {
-  RigHolds h{std::vector<char>(model.frames.size(), poses.rig_from_world ? 0 : 1),
-             std::vector<char>(model.cameras.size(), poses.sensor_from_rig ? 0 : 1),
-             std::vector<char>(model.cameras.size(), 0)};
-  for (std::size_t c = 0; c < model.cameras.size(); ++c) {
-    if (flagged(constants.sensor_from_rig, c)) h.sensor[c] = 1;
-    if (flagged(constants.intrinsics, c)) h.camera[c] = 1;
-  }
-  std::vector<char> frame_used(model.frames.size(), 0), sensor_used(model.cameras.size(), 0),
-      seeing(model.images.size(), 0);
-  std::vector<int> camera_used(model.cameras.size(), 0);  // images per camera: far more than a char holds
-  for (std::size_t j = 0; j < p->images.size(); ++j) {
-    const ImagePlace &pl = p->places[j];
-    const std::size_t c = at(camera_index.at(model.images[at(p->images[j])].camera_id));
-    if (static_cast<int>(j) < mcon) h.frame[pl.frame] = h.sensor[c] = h.camera[c] = 1;
-    ++camera_used[c];
-    frame_used[pl.frame] = 1;
-    sensor_used[c] = pl.sensor > 0;
-    seeing[at(p->images[j])] = 1;
-  }
-  for (std::size_t i = 0; i < model.images.size(); ++i) {
-    if (!flagged(constants.poses, i)) continue;
-    h.frame[places[i].frame] = h.sensor[at(camera_index.at(model.images[i].camera_id))] = 1;
-    ++p->held_poses;
-  }
-  for (std::size_t f = 0; f < frame_used.size(); ++f) {
-    p->frames += frame_used[f];
-    p->held_frames += frame_used[f] && h.frame[f];
-  }
-  for (std::size_t c = 0; c < sensor_used.size(); ++c) {
-    p->sensors += sensor_used[c];
-    p->held_sensors += sensor_used[c] && h.sensor[c];
-    p->shared_cameras += camera_used[c] > 1 && !h.camera[c];
-    p->held_intrinsics += camera_used[c] > 0 && flagged(constants.intrinsics, c);
-  }
-  // An image that sees no point keeps its place in its frame and rig: it moves when the frame's
-  // pose, or its camera's pose in the rig, is refined for the images that see points.
-  for (std::size_t i = 0; i < model.images.size(); ++i) {
-    if (seeing[i]) continue;
-    const std::size_t f = places[i].frame, c = at(camera_index.at(model.images[i].camera_id));
-    p->unseen_moved += (frame_used[f] && !h.frame[f]) || (sensor_used[c] && !h.sensor[c]);
-  }
-  return h;
-}
-
-// The rigged problem's cameras, held flags and groups (ColmapProblem), its cameras' images in
-// p->images; camera_index maps a CAMERA_ID to its index in Model::cameras.
-void rig_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
-                 const Constants &constants, int mcon, const std::unordered_map<std::uint32_t, int> &camera_index,
-                 ColmapProblem *p) {
-  const std::vector<ImagePlace> places = image_places(model);
-  const int ms = static_cast<int>(p->images.size());
-  p->rigged = true;
-  std::vector<int> camera;  // each sba camera's index in Model::cameras
-  const int cnp = p->cnp = cc::rig_camera_params(rig_images(model, places, camera_index, &camera, p));
-  const RigHolds h = rig_holds(model, poses, constants, mcon, places, camera_index, p);
-  p->cam_fixed.assign(at(ms) * at(cnp), 0);
-  p->cam_param_group.assign(at(ms) * at(cnp), -1);
-  for (int j = 0; j < ms; ++j) {
-    const ImagePlace &pl = p->places[at(j)];
-    const int c = camera[at(j)], model_id = model.cameras[at(c)].model;
-    char *fixed = &p->cam_fixed[at(j) * at(cnp)];
-    int *group = &p->cam_param_group[at(j) * at(cnp)];
-    const bool reference = pl.sensor == 0;
-    hold_pose(fixed, h.frame[pl.frame] || poses.constant_rig_from_world_rotation, h.frame[pl.frame]);
-    hold_pose(fixed + 6, reference || h.sensor[at(c)], reference || h.sensor[at(c)]);
-    for (int k = 0; k < cnp - cc::kRigPoseParams; ++k)
-      fixed[cc::kRigPoseParams + k] = h.camera[at(c)] || intrinsic_held(refine, model_id, k) ? 1 : 0;
-    if (j < mcon) continue;  // a camera below mcon shares nothing
-    std::fill_n(group, 6, static_cast<int>(pl.frame));
-    if (!reference) std::fill_n(group + 6, 6, c);
-    std::fill(group + cc::kRigPoseParams, group + cnp, c);
-  }
-}
-
-// The unrigged problem's cameras, held flags and groups (ColmapProblem), as rig_problem.
-void image_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
-                   const Constants &constants, int mcon, const std::unordered_map<std::uint32_t, int> &camera_index,
-                   ColmapProblem *p) {
-  int np = 0;
-  for (int j : p->images) {
-    const Image &im = model.images[at(j)];
-    const Camera &c = model.cameras[at(camera_index.at(im.camera_id))];
-    cc::Camera cam;
-    cam.model = c.model;
-    cam.params = c.params;
-    cam.q = {im.q[0], im.q[1], im.q[2], im.q[3]};
-    for (int k = 0; k < 3; ++k) cam.t[at(k)] = im.t[at(k)];
-    np = std::max(np, cc::param_count(c.model));
-    p->cameras.push_back(std::move(cam));
-  }
-  const int ms = static_cast<int>(p->cameras.size());
-  const int cnp = p->cnp = cc::camera_params(np);
-  // Each COLMAP camera's sba cameras; one below mcon holds the camera's parameters in all, and so
-  // do constant intrinsics.
-  std::vector<std::vector<int>> users(model.cameras.size());
-  for (int j = 0; j < ms; ++j) users[at(camera_index.at(model.images[at(p->images[at(j)])].camera_id))].push_back(j);
-  p->cam_fixed.assign(at(ms) * at(cnp), 0);
-  p->cam_group.assign(at(ms), -1);
-  p->cam_shared.assign(at(cnp), 0);
-  for (int k = cc::kPoseParams; k < cnp; ++k) p->cam_shared[at(k)] = 1;
-  for (std::size_t c = 0; c < users.size(); ++c) {
-    const std::vector<int> &u = users[c];
-    if (u.empty()) continue;
-    const bool held = u.front() < mcon || flagged(constants.intrinsics, c);  // u ascends
-    for (int j : u) {
-      char *fixed = &p->cam_fixed[at(j) * at(cnp)];
-      for (int k = 0; k < cnp - cc::kPoseParams; ++k)
-        fixed[cc::kPoseParams + k] = held || intrinsic_held(refine, model.cameras[c].model, k) ? 1 : 0;
-      if (u.size() > 1 && !held) p->cam_group[at(j)] = u.front();
-    }
-    if (u.size() > 1 && !held) ++p->shared_cameras;
-    p->held_intrinsics += flagged(constants.intrinsics, c);
-  }
-  std::vector<char> seeing(model.images.size(), 0);
-  for (int j = 0; j < ms; ++j) {
-    const bool held = !poses.rig_from_world || flagged(constants.poses, at(p->images[at(j)]));
-    hold_pose(&p->cam_fixed[at(j) * at(cnp)], held || poses.constant_rig_from_world_rotation, held);
-    p->held_poses += held;
-    seeing[at(p->images[at(j)])] = 1;
-  }
-  // A held image that sees no point is held out of the problem, and counted as held too.
-  for (std::size_t i = 0; i < seeing.size(); ++i) p->held_poses += !seeing[i] && flagged(constants.poses, i);
-}
-
-}  // namespace
-
-namespace {
-
-// The order of the problem's points (ColmapProblem::point_order) and how many lead it held
-// (held_points): with constant points, the first ncon points and the constant ones, in the
-// file's order, then the others; otherwise the file's order and ncon as given.
-void order_points(const Model &model, const std::vector<char> &constant, int ncon, ColmapProblem *p) {
-  p->held_points = ncon;
-  if (constant.empty()) return;
-  const std::size_t n = model.points.size();
-  if (ncon >= static_cast<int>(n)) return;  // every point held, or a --ncon the solve refuses
-  const auto held = [&](std::size_t i) { return static_cast<int>(i) < ncon || constant[i]; };
-  for (const bool first : {true, false})
-    for (std::size_t i = 0; i < n; ++i)
-      if (held(i) == first) p->point_order.push_back(static_cast<int>(i));
-  p->held_points = static_cast<int>(std::count_if(p->point_order.begin(), p->point_order.end(),
-                                                  [&](int i) { return held(at(i)); }));
-}
-
-// The problem's points and their projections (ColmapProblem::points) in the order of
-// order_points; camera_of: each image's sba camera, image_index: an IMAGE_ID's image.
-void problem_points(const Model &model, const std::unordered_map<std::uint32_t, int> &image_index,
-                    const std::vector<int> &camera_of, ColmapProblem *p) {
-  const int n = static_cast<int>(model.points.size());
-  eucsba::PointSet &s = p->points;
-  s.ncameras = static_cast<int>(p->images.size());
-  s.xyz.reserve(at(n) * 3);
-  std::vector<std::pair<int, const Point2D *>> track;
-  for (int k = 0; k < n; ++k) {
-    const Point3D &pt = model.points[p->point_order.empty() ? at(k) : at(p->point_order[at(k)])];
-    s.xyz.insert(s.xyz.end(), pt.xyz.begin(), pt.xyz.end());
-    track.clear();
-    for (const TrackElement &e : pt.track) {
-      const int j = image_index.at(e.image_id);
-      track.push_back({camera_of[at(j)], &model.images[at(j)].points[e.point2d_idx]});
-    }
-    // sba's layout: a point's projections with the cameras ascending.
-    std::sort(track.begin(), track.end(),
-              [](const std::pair<int, const Point2D *> &a, const std::pair<int, const Point2D *> &b) {
-                return a.first < b.first;
-              });
-    for (const auto &t : track) {
-      s.pairs.add(k, t.first);
-      s.x.push_back(t.second->x);
-      s.x.push_back(t.second->y);
-    }
-  }
-}
-
-}  // namespace
-
-bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
-            const Constants &constants, int mcon, int ncon, const std::string &name, ColmapProblem *out,
-            std::string *error) {
-  const std::string where = name + ": ";
-  std::unordered_map<std::uint32_t, int> camera_index, image_index;
-  for (std::size_t c = 0; c < model.cameras.size(); ++c) camera_index.emplace(model.cameras[c].id, static_cast<int>(c));
-  const int m = static_cast<int>(model.images.size());
-  const int n = static_cast<int>(model.points.size());
-  if (m == 0 || n == 0) return fail(error, where + "the model has no images or no points");
-  for (int j = 0; j < m; ++j) image_index.emplace(model.images[at(j)].id, j);
-  // An image is a camera of the problem when it sees a point (every point is seen: check_model).
-  std::vector<int> camera_of(at(m), -1);
-  for (const Point3D &pt : model.points)
-    for (const TrackElement &e : pt.track) camera_of[at(image_index.at(e.image_id))] = 0;
-  ColmapProblem p;
-  for (int j = 0; j < m; ++j)
-    if (camera_of[at(j)] >= 0) {
-      camera_of[at(j)] = static_cast<int>(p.images.size());
-      p.images.push_back(j);
-    }
-  if (refined_as_rigs(model, poses))
-    rig_problem(model, refine, poses, constants, mcon, camera_index, &p);
-  else
-    image_problem(model, refine, poses, constants, mcon, camera_index, &p);
-  order_points(model, constants.points, ncon, &p);
-  problem_points(model, image_index, camera_of, &p);
-  *out = std::move(p);
-  return true;
-}
-
-bool to_sba(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
-            const std::vector<char> &held_pose, int mcon, const std::string &name, ColmapProblem *out,
-            std::string *error) {
-  Constants constants;
-  constants.poses = held_pose;
-  return to_sba(model, refine, poses, constants, mcon, 0, name, out, error);
-}
-
-std::string nonfinite_error(const Model &model, const ColmapProblem &problem, const std::string &name,
-                            const std::function<void(int j, int i, double x[2])> &project) {
-  const eucsba::PointSet &s = problem.points;
-  for (std::size_t k = 0; k < s.pairs.size(); ++k) {
-    const int i = s.pairs.point[k], j = s.pairs.camera[k];
-    double x[2];
-    project(j, i, x);
-    const double dx = x[0] - s.x[2 * k], dy = x[1] - s.x[2 * k + 1];
-    if (std::isfinite(dx * dx + dy * dy)) continue;
-    const Image &im = model.images[at(problem.images[at(j)])];
-    const auto camera = std::find_if(model.cameras.begin(), model.cameras.end(),
-                                     [&](const Camera &c) { return c.id == im.camera_id; });
-    char pixels[64];
-    std::snprintf(pixels, sizeof pixels, "(%g, %g)", x[0], x[1]);
-    const std::string image_name = quoted(im.name);  // its control characters as \xHH, in quotes
-    return name + ": image " + std::to_string(im.id) + " (" + image_name.substr(1, image_name.size() - 2) +
-           "), camera " + std::to_string(im.camera_id) + " (" + camera_model_name(camera->model) + "): point " +
-           std::to_string(model.points[problem.point_order.empty() ? at(i) : at(problem.point_order[at(i)])].id) +
-           " projects to " + pixels +
-           " px, where its squared reprojection error is not finite";
-  }
-  return {};
-}
-
-namespace {
-
-// Writes a refined pose over (*q, *t): the rotation unless its 3 parameters are all held, the
-// translation unless its 3 are, so that a held part keeps the bits it was read with (the
-// parametrization's round trip would move them). Whether anything was written.
-bool write_pose(const char *fixed, const sbacameras::euclidean::Quaternion &q, const std::array<double, 3> &t,
-                std::array<double, 4> *q_out, std::array<double, 3> *t_out) {
-  const auto held = [](const char *f) { return f[0] && f[1] && f[2]; };
-  if (!held(fixed)) *q_out = {q.w, q.x, q.y, q.z};
-  if (!held(fixed + 3)) *t_out = t;
-  return !held(fixed) || !held(fixed + 3);
-}
-
-// Each refined point (the problem's from ncon on, in the model's place of each) from p, its
-// ERROR the mean distance in pixels between its observations and project(j, a_j, b_i, x).
-template <typename Project>
-void write_points(const ColmapProblem &problem, const double *p, int cnp, int ncon, Project project, Model *model) {
-  const int m = static_cast<int>(problem.images.size());
-  const int n = static_cast<int>(model->points.size());
-  std::unordered_map<std::uint32_t, int> camera_of;  // an image's sba camera
-  for (int j = 0; j < m; ++j) camera_of.emplace(model->images[at(problem.images[at(j)])].id, j);
-  const double *points = p + at(m) * at(cnp);
-  for (int k = ncon; k < n; ++k) {
-    Point3D &pt = model->points[problem.point_order.empty() ? at(k) : at(problem.point_order[at(k)])];
-    const double *b = points + 3 * at(k);
-    for (int c = 0; c < 3; ++c) pt.xyz[at(c)] = b[c];
-    double sum = 0;
-    for (const TrackElement &e : pt.track) {
-      const int j = camera_of.at(e.image_id);
-      const Point2D &obs = model->images[at(problem.images[at(j)])].points[e.point2d_idx];
-      double x[2];
-      project(j, p + at(j) * at(cnp), b, x);
-      sum += std::hypot(x[0] - obs.x, x[1] - obs.y);
-    }
-    pt.error = sum / static_cast<double>(pt.track.size());
-  }
-}
-
-// The parameters of COLMAP camera `cam` that are not held (fixed: its intrinsics' flags) from
-// params.
-void write_params(const char *fixed, const std::vector<double> &params, Camera *cam) {
-  for (std::size_t k = 0; k < cam->params.size(); ++k)
-    if (!fixed[k]) cam->params[k] = params[k];
-}
-
-}  // namespace
-
-void from_sba(const cc::CameraModel &sba_model, const ColmapProblem &problem, const double *p, int mcon, int ncon,
-              Model *model) {
-  const int m = static_cast<int>(problem.images.size());
-  const int cnp = sba_model.cnp();
-  std::unordered_map<std::uint32_t, Camera *> cameras;
-  for (Camera &c : model->cameras) cameras.emplace(c.id, &c);
-  std::vector<char> posed(model->images.size(), 0);  // the images whose pose is written
-  for (int j = mcon; j < m; ++j) {
-    Image &im = model->images[at(problem.images[at(j)])];
-    const char *fixed = &problem.cam_fixed[at(j) * at(cnp)];
-    const cc::Camera c = sba_model.camera(j, p + at(j) * at(cnp));
-    posed[at(problem.images[at(j)])] = write_pose(fixed, c.q, c.t, &im.q, &im.t);
-    const int group = problem.cam_group[at(j)];
-    if (group >= 0 && group != j) continue;  // the group's first camera writes it
-    write_params(fixed + cc::kPoseParams, c.params, cameras.at(im.camera_id));
-  }
-  write_points(problem, p, cnp, ncon,
-               [&](int j, const double *a, const double *b, double *x) { sba_model.project(j, a, b, x); }, model);
-  // COLMAP 4 reads the poses from the frames (each of one image: to_sba).
-  frames_from_poses(model, posed);
-}
-
-void from_sba(const cc::RigCameraModel &sba_model, const ColmapProblem &problem, const double *p, int mcon,
-              int ncon, Model *model) {
-  const int m = static_cast<int>(problem.images.size());
-  const int cnp = sba_model.cnp();
-  std::unordered_map<std::uint32_t, Camera *> cameras;
-  for (Camera &c : model->cameras) cameras.emplace(c.id, &c);
-  // Each frame, sensor and COLMAP camera is written once, from its first sba camera: all of
-  // them hold the same values.
-  std::vector<char> frame_done(model->frames.size(), 0);
-  std::unordered_map<std::uint32_t, char> camera_done;  // flags, set once
-  for (int j = mcon; j < m; ++j) {
-    const ImagePlace &pl = problem.places[at(j)];
-    const char *fixed = &problem.cam_fixed[at(j) * at(cnp)];
-    const cc::RigImage r = sba_model.image(j, p + at(j) * at(cnp));
-    if (!frame_done[pl.frame]) {
-      Pose &f = model->frames[pl.frame].rig_from_world;
-      write_pose(fixed, r.q_frame, r.t_frame, &f.q, &f.t);
-      frame_done[pl.frame] = 1;
-    }
-    const std::uint32_t camera_id = model->images[at(problem.images[at(j)])].camera_id;
-    char &done = camera_done[camera_id];
-    if (done) continue;
-    done = 1;
-    if (pl.sensor > 0) {
-      Pose &s = model->rigs[pl.rig].sensors[pl.sensor].sensor_from_rig;
-      write_pose(fixed + 6, r.q_sensor, r.t_sensor, &s.q, &s.t);
-    }
-    write_params(fixed + cc::kRigPoseParams, r.params, cameras.at(camera_id));
-  }
-  write_points(problem, p, cnp, ncon,
-               [&](int j, const double *a, const double *b, double *x) { sba_model.project(j, a, b, x); }, model);
-  poses_from_frames(model);
 }
 
 bool to_euclidean(const cc::Camera &c, sbacameras::euclidean::Camera *out) {

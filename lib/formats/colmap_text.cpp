@@ -474,7 +474,7 @@ std::string format_cameras(const Model &model) {
 }
 
 // images.txt.
-std::string format_images(const Model &model) {
+std::string format_images(const Model &model, const std::vector<Pose> &poses) {
   std::size_t size = 200;
   for (const Image &im : model.images)
     size += kU32Chars + 7 * kRealChars + kU32Chars + im.name.size() + 2 +
@@ -487,9 +487,10 @@ std::string format_images(const Model &model) {
          "# Number of images: ";
   append_uint(&ims, model.images.size());
   ims += '\n';
-  for (const Image &im : model.images) {
+  for (std::size_t i = 0; i < model.images.size(); ++i) {
+    const Image &im = model.images[i];
     append_uint(&ims, im.id);
-    append_pose(&ims, im.q, im.t);
+    append_pose(&ims, poses[i].q, poses[i].t);
     ims += ' ';
     append_uint(&ims, im.camera_id);
     ims += ' ';
@@ -547,10 +548,10 @@ std::string format_points(const Model &model) {
 
 }  // namespace
 
-Files format_text(const Model &model) {
+Files format_text(const Model &model, const std::vector<Pose> &poses) {
   Files f;
   f.cameras = format_cameras(model);
-  f.images = format_images(model);
+  f.images = format_images(model, poses);
   f.points = format_points(model);
   format_rigs_and_frames(model, &f);
   return f;

@@ -39,7 +39,8 @@ class ColmapCamera:
 @dataclasses.dataclass(eq=False, repr=False)
 class ColmapImage:
     """A COLMAP image: ``id`` (IMAGE_ID), ``name``, ``camera_id``, its pose ``q`` (qw qx qy qz)
-    and ``t``, world to camera (X_cam = R(q) X + t), and its keypoints: ``points2D`` (k, 2) in
+    and ``t``, world to camera (X_cam = R(q) X + t; in a model with rigs and frames, derived from
+    its frame: see :class:`ColmapModel`), and its keypoints: ``points2D`` (k, 2) in
     pixels and ``point3D_ids`` (k,) uint64, the 3D point each one observes, or
     :data:`NO_POINT3D` (-1 is taken for it too). ``q`` and ``t`` are both None for an image of a
     frame without a pose (see :class:`ColmapFrame`), which observes no point."""
@@ -129,11 +130,13 @@ class ColmapModel:
     ``frames`` (lists of :class:`ColmapRig` and :class:`ColmapFrame`, or both None for a model
     without them, as COLMAP 3 wrote them), each in file order with every field of the files.
 
-    With rigs and frames an image's pose is its frame's, as COLMAP 4 reads it: read_colmap
-    gives each image the pose composed from its frame (the images file's own bits where they
-    are that pose but for rounding, as COLMAP writes them), refine_colmap starts from that pose
-    whatever the image holds and writes the refined pose to both, as sbarefine does, and
-    write_colmap writes both as they are (change a frame's pose, not only its image's). A model is
+    With rigs and frames an image's pose is derived, as COLMAP 4 derives it: its frame's
+    rig_from_world composed with its camera's pose in the rig. read_colmap and refine_colmap
+    give each image that pose (the images file's own bits where they are that pose but for
+    rounding, as COLMAP writes them); write_colmap and refine_colmap derive it again from the
+    frame whatever the image's q and t hold, and refine_colmap writes its result to the frames
+    and rigs. To move an image of a rig, change its frame's pose (or its camera's in the rig):
+    its q and t are read-only in effect. A model is
     checked when it is written or refined, as the reader checks files: ValueError or
     TypeError with the message naming the record (``images[3].q``, ``model: image 7 uses
     camera 9, which cameras does not hold``)."""
@@ -232,15 +235,16 @@ def write_colmap(model: Any, path: Any, encoding: str = "binary") -> None:
     _core.write_colmap(model, _path(path), encoding)
 
 
-def _held_images(model: ColmapModel, hold_poses: Any) -> List[int]:
-    """The rows of model.images that hold_poses names."""
+def _held_images(hold_poses: Any) -> Tuple[bool, List[Any]]:
+    """hold_poses checked for its types, as (every image, the items: ints and strs); the
+    library looks the items up, by the one rule of every list of images."""
     if hold_poses is None:
-        return []
+        return False, []
     if isinstance(hold_poses, str):
         if hold_poses != "all":
             raise ValueError(f"hold_poses must be 'all' or a list of IMAGE_IDs (ints) and NAMEs (strs), "
                              f"got {hold_poses!r}")
-        return list(range(len(model.images)))
+        return True, []
     # bytes iterate as small ints and a mapping as its keys: read as lists, both would name
     # images their caller never meant.
     items = None
@@ -252,34 +256,24 @@ def _held_images(model: ColmapModel, hold_poses: Any) -> List[int]:
     if items is None:
         raise TypeError(f"hold_poses must be 'all' or a list of IMAGE_IDs (ints) and NAMEs (strs), "
                         f"got {type(hold_poses).__name__}")
-    by_id: dict = {}
-    by_name: dict = {}
-    for k, im in enumerate(model.images):
-        by_id.setdefault(im.id, []).append(k)
-        by_name.setdefault(im.name, []).append(k)
-    held = set()
+    checked = []
     for k, item in enumerate(items):
         if isinstance(item, str):
-            rows, what = by_name.get(item), f"the NAME {item!r}"
+            checked.append(item)
         elif isinstance(item, numbers.Integral) and not isinstance(item, (bool, np.bool_)):
-            rows, what = by_id.get(int(item)), f"the IMAGE_ID {int(item)}"
+            checked.append(int(item))
         else:
             raise TypeError(f"hold_poses[{k}] must be an IMAGE_ID (int) or a NAME (str), got "
                             f"{type(item).__name__}")
-        if not rows:
-            raise ValueError(f"hold_poses[{k}]: no image has {what}")
-        held.update(rows)
-    return sorted(held)
+    return False, checked
 
 
 def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any) -> Tuple[Any, Any]:
-    """strategy and opts as sbarefine sets them for a COLMAP model. COLMAP's bundle adjuster
-    stops at Ceres's function_tolerance, a relative change of the cost, which is the
-    trust-region strategy's eps4 (sba's eps4 is a relative reduction of the RMS error instead):
-    a tolerance sets eps4 (at least 4 ulp, a change rounding can make) and, unless a strategy
-    is given, that strategy. Without one, COLMAP's default 0 holds unless a strategy or an eps4
-    is given, which then keep sba's tests. opts that are not 5 values go on as given, for
-    _core to say what is wrong with them."""
+    """strategy and opts as sbarefine sets them for a COLMAP model, by COLMAP's stopping rule
+    (the library's colmap_stop_rule: a tolerance sets eps4 and, unless a strategy is given, the
+    trust-region strategy; without one, COLMAP's default 0 holds unless a strategy or an eps4
+    is given). opts that are not 5 values go on as given, for _core to say what is wrong with
+    them."""
     values = None
     if opts is not None and not isinstance(opts, (str, bytes)):
         try:
@@ -288,17 +282,23 @@ def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any) -> Tuple[Any
             pass
     if opts is not None and (values is None or len(values) != 5):
         return strategy, opts
-    if function_tolerance is None:
-        if strategy is not None or (values is not None and values[4] != 0):
-            return strategy, opts
-        function_tolerance = 0.0
-    if isinstance(function_tolerance, (bool, np.bool_)) or not isinstance(function_tolerance, numbers.Real):
-        raise TypeError(f"function_tolerance must be a number, got {type(function_tolerance).__name__}")
-    if not (0 <= function_tolerance < math.inf):
-        raise ValueError(f"function_tolerance must be finite and >= 0, got {function_tolerance}")
+    if function_tolerance is not None:
+        if isinstance(function_tolerance, (bool, np.bool_)) or not isinstance(function_tolerance, numbers.Real):
+            raise TypeError(f"function_tolerance must be a number, got {type(function_tolerance).__name__}")
+        if not (0 <= function_tolerance < math.inf):
+            raise ValueError(f"function_tolerance must be finite and >= 0, got {function_tolerance}")
+    eps4 = values[4] if values is not None else 0.0
+    if not isinstance(eps4, numbers.Real):
+        if function_tolerance is None:
+            return strategy, opts  # given, and _core says what is wrong with it
+        eps4 = 0.0  # replaced by the tolerance
+    rule = _core.colmap_stop_rule(-1.0 if function_tolerance is None else float(function_tolerance),
+                                  strategy is not None, float(eps4))
+    if rule is None:
+        return strategy, opts
     values = values if values is not None else [1e-3, 1e-12, 1e-12, 1e-12, 0.0]
-    values[4] = max(float(function_tolerance), 4 * np.finfo(np.float64).eps)
-    return (strategy if strategy is not None else "trust-region"), values
+    values[4] = rule[1]
+    return (strategy if strategy is not None else rule[0]), values
 
 
 def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_principal_point: bool = False,
@@ -379,12 +379,12 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     for name, flag in flags + (("verbose", verbose),):
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name} must be a bool, got {type(flag).__name__}")
-    held = _held_images(colmap_model, hold_poses)
+    hold_all, held = _held_images(hold_poses)
     strategy, opts = _colmap_stop(strategy, opts, function_tolerance)
     if verbose:
         progress = _shown(colmap_model, loss not in (None, "none"), progress)
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
-    report = _core.refine_colmap(colmap_model, held, *(bool(flag) for _, flag in flags), **kw)
+    report = _core.refine_colmap(colmap_model, hold_all, held, *(bool(flag) for _, flag in flags), **kw)
     refined = _with_unposed(_model(report["model"]), colmap_model)
     # The Result's model, also on an exception's result, is of the type returned.
     report["model"] = to_pycolmap(refined) if reconstruction else refined

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """Type stubs of the compiled part of pysba (use the functions of the pysba package)."""
-from typing import Any, Callable, Dict, List, Optional
+from typing import Any, Callable, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 
@@ -37,7 +37,9 @@ def solve_python(refine: str, project: Callable[..., Any], jacobian: Optional[Ca
                  covariances: Optional[np.ndarray], **kwargs: Any) -> Dict[str, Any]: ...
 def read_colmap(path: bytes) -> Dict[str, Any]: ...
 def write_colmap(model: Any, path: bytes, encoding: str) -> None: ...
-def refine_colmap(model: Any, held_images: List[int], refine_focal_length: bool,
+def colmap_stop_rule(function_tolerance: float, strategy_given: bool,
+                     eps4: float) -> Optional[Tuple[str, float]]: ...
+def refine_colmap(model: Any, hold_all: bool, hold_poses: List[Union[int, str]], refine_focal_length: bool,
                   refine_principal_point: bool, refine_extra_params: bool,
                   refine_rig_from_world: bool, refine_sensor_from_rig: bool,
                   constant_rig_from_world_rotation: bool, **kwargs: Any) -> Dict[str, Any]: ...

@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
-#include <memory>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -17,9 +16,9 @@
 #include <vector>
 
 #include "arrays.h"
-#include "cameras/colmap_camera.h"
 #include "formats/colmap_check.h"
 #include "formats/colmap_io.h"
+#include "formats/colmap_problem.h"
 #include "formats/colmap_sba.h"
 #include "gil.h"
 #include "option_values.h"
@@ -27,7 +26,6 @@
 #include "session.h"
 
 namespace colmap = sbaformats::colmap;
-namespace colmap_camera = sbacameras::colmap_camera;
 
 namespace pysba {
 namespace {
@@ -396,7 +394,8 @@ py::str name_of(const std::string &name) {
   return py::reinterpret_steal<py::str>(s);
 }
 
-py::tuple python_image(const colmap::Image &im) {
+// An image with its pose (colmap::image_poses: derived from its frame in a model with rigs).
+py::tuple python_image(const colmap::Image &im, const colmap::Pose &pose) {
   const size_t k = im.points.size();
   std::vector<double> xy(2 * k);
   std::vector<std::uint64_t> ids(k);
@@ -405,7 +404,7 @@ py::tuple python_image(const colmap::Image &im) {
     xy[2 * i + 1] = im.points[i].y;
     ids[i] = im.points[i].point3d_id;
   }
-  return py::make_tuple(im.id, name_of(im.name), im.camera_id, vector_of(im.q), vector_of(im.t),
+  return py::make_tuple(im.id, name_of(im.name), im.camera_id, vector_of(pose.q), vector_of(pose.t),
                         adopt(std::move(xy), {py::ssize_t(k), 2}), adopt(std::move(ids), {py::ssize_t(k)}));
 }
 
@@ -441,7 +440,8 @@ py::dict python_model(const colmap::Model &m) {
   for (const colmap::Camera &c : m.cameras)
     cameras.append(py::make_tuple(c.id, colmap::camera_model_name(c.model), c.width, c.height,
                                   copy_of(c.params.data(), {py::ssize_t(c.params.size())})));
-  for (const colmap::Image &im : m.images) images.append(python_image(im));
+  const std::vector<colmap::Pose> poses = colmap::image_poses(m);
+  for (size_t i = 0; i < m.images.size(); ++i) images.append(python_image(m.images[i], poses[i]));
   for (const colmap::Rig &r : m.rigs) {
     py::list sensors;
     for (const colmap::RigSensor &s : r.sensors)
@@ -497,53 +497,45 @@ void write_colmap(py::handle model, const std::string &dir, const std::string &e
     raise_file_error(PyExc_OSError, error);
 }
 
-// An sba camera model of to_sba's problem (CameraModel, or RigCameraModel for a rigged one),
-// its invalid_argument a ValueError.
-template <typename SbaModel, typename... Args>
-std::unique_ptr<SbaModel> sba_model(Args &&...args) {
-  try {
-    return std::make_unique<SbaModel>(std::forward<Args>(args)...);
-  } catch (const std::invalid_argument &e) {
-    throw py::value_error(e.what());
-  }
-}
-
-// The solve of pr through the sba camera model sm and its callbacks, with the held (and, in
-// d's caller, shared) parameters to_sba chose; sm's estimate written back into model by
-// from_sba unless nothing was solved (itmax 0).
-template <typename SbaModel>
-py::dict solve_model(const SbaModel &sm, const colmap::ColmapProblem &pr, Run &run, SolveOptions &o,
-                     colmap::Model &model) {
-  Observations &obs = run.obs;
-  obs.n = pr.points.npoints();
-  obs.m = pr.points.ncameras;
-  obs.mnp = 2;
-  obs.point = pr.points.pairs.point;
-  obs.camera = pr.points.pairs.camera;
-  obs.x = pr.points.x;
-  obs.order.resize(obs.point.size());
-  std::iota(obs.order.begin(), obs.order.end(), 0LL);
-  const int m = obs.m, n = obs.n, cnp = sm.cnp();
-  run.p = sm.initial_camera_params();
-  run.p.insert(run.p.end(), sm.initial_points().begin(), sm.initial_points().end());
-  run.cnp = cnp;
-  run.pnp = 3;
-  run.adata = colmap_camera::as_adata(sm);
-  run.parallel = true;  // the callbacks are re-entrant, as sbarefine runs them
-  o.has_fixed = true;
-  o.fixed = pr.cam_fixed;
-  o.fixed_shape = {m, cnp};
+// The solve sbarefine runs on a COLMAP model: the problem colmap::Problem builds, solved
+// through its callbacks with its held and shared parameters, and written back into the model
+// by Problem::apply unless nothing was solved (itmax 0).
+py::dict refine_model(colmap::Model model, const colmap::Options &options, SolveOptions o) {
+  colmap::Problem pr;
+  std::string error;
+  if (!colmap::Problem::build(model, options, kModelName, &pr, &error)) throw py::value_error(error);
   // The library can only say that the initial error is not finite (with itmax 0 too, which it
   // still evaluates); the model can say where.
-  const double *p = run.p.data();
-  const std::string why = colmap::nonfinite_error(model, pr, kModelName, [&](int j, int i, double x[2]) {
-    sm.project(j, p + size_t(j) * size_t(cnp), p + size_t(m) * size_t(cnp) + 3 * size_t(i), x);
-  });
-  if (!why.empty()) throw py::value_error(why);
-
+  if (std::string why = pr.nonfinite_error(model, kModelName); !why.empty()) throw py::value_error(why);
+  Run run;
+  Observations &obs = run.obs;
+  const sbaformats::eucsba::PointSet &points = pr.points();
+  const int m = pr.ncameras(), n = pr.npoints(), cnp = pr.cnp();
+  obs.n = n;
+  obs.m = m;
+  obs.mnp = 2;
+  obs.point = points.pairs.point;
+  obs.camera = points.pairs.camera;
+  obs.x = points.x;
+  obs.order.resize(obs.point.size());
+  std::iota(obs.order.begin(), obs.order.end(), 0LL);
+  run.p = pr.initial_params();
+  run.cnp = cnp;
+  run.pnp = 3;
+  run.func = pr.func();
+  run.fjac = pr.fjac();
+  run.adata = pr.adata();
+  run.parallel = true;  // the callbacks are re-entrant, as sbarefine runs them
+  o.has_fixed = true;
+  o.fixed = pr.cam_fixed();
+  o.fixed_shape = {m, cnp};
+  o.has_param_groups = true;
+  o.param_groups = pr.cam_param_group();
+  o.param_groups_shape = {m, cnp};
+  o.ncon = pr.held_points();
   Session session(o);
   py::dict d = run_driver(run, session, o);
-  if (o.itmax > 0 && d["ret"].cast<int>() != SBA_ERROR) colmap::from_sba(sm, pr, run.p.data(), o.mcon, o.ncon, &model);
+  if (o.itmax > 0 && d["ret"].cast<int>() != SBA_ERROR) pr.apply(run.p.data(), &model);
   d["model"] = python_model(model);
   d["cameras"] = copy_of(run.p.data(), {m, cnp});
   d["points"] = copy_of(run.p.data() + size_t(m) * size_t(cnp), {n, 3});
@@ -551,55 +543,65 @@ py::dict solve_model(const SbaModel &sm, const colmap::ColmapProblem &pr, Run &r
   return d;
 }
 
-// The solve sbarefine runs on a COLMAP model (its load_colmap and colmap_job): the problem of
-// to_sba through COLMAP's camera models, each image's intrinsics shared by the images of its
-// camera (camera groups), or, in a model whose frames hold several images, through the rig
-// camera model, the frames' and the cameras' poses in their rigs shared too (per-parameter
-// groups). The one place that knows how a ColmapProblem is solved: what to_sba makes of other
-// models goes here too.
-py::dict refine_model(colmap::Model model, const colmap::RefineIntrinsics &refine, const colmap::RefinePoses &poses,
-                      const std::vector<char> &held, SolveOptions o) {
-  colmap::ColmapProblem pr;
-  std::string error;
-  if (!colmap::to_sba(model, refine, poses, held, o.mcon, kModelName, &pr, &error)) throw py::value_error(error);
-  Run run;
-  if (pr.rigged) {
-    const auto sm = sba_model<colmap_camera::RigCameraModel>(pr.rig_images, pr.points.xyz, pr.cam_fixed);
-    run.func = colmap_camera::rig_motstr_func;
-    run.fjac = colmap_camera::rig_motstr_fjac;
-    o.has_param_groups = true;
-    o.param_groups = pr.cam_param_group;
-    o.param_groups_shape = {pr.points.ncameras, sm->cnp()};
-    return solve_model(*sm, pr, run, o, model);
+// The images of a ColmapModel (every one, with a pose or not: its id and name) that hold_poses
+// names, by the one matching rule of the lists of images (colmap::ImageIndex): all of them, or
+// each item's, an int an IMAGE_ID and a str a NAME (pysba checked the types). Flags by the images
+// of the model solved: rows gives each ColmapModel image's place there (-1: without a pose, not
+// solved); empty when nothing is held.
+std::vector<char> held_poses(py::handle model, bool all, const py::list &named, const std::vector<long long> &rows,
+                             size_t solved) {
+  if (!all && named.empty()) return {};
+  const py::list images = items(get(model, "images"), "images");
+  std::vector<colmap::Image> listed(images.size());
+  for (size_t k = 0; k < images.size(); ++k) {
+    listed[k].id = static_cast<std::uint32_t>(whole_number(get(images[k], "id"), kU32, at("images", k) + ".id"));
+    listed[k].name = text(get(images[k], "name"), at("images", k) + ".name");
   }
-  const auto sm = sba_model<colmap_camera::CameraModel>(pr.cameras, pr.points.xyz, pr.cam_fixed);
-  run.func = colmap_camera::motstr_func;
-  run.fjac = colmap_camera::motstr_fjac;
-  o.has_groups = o.has_shared = true;
-  o.groups = pr.cam_group;
-  o.shared = pr.cam_shared;
-  return solve_model(*sm, pr, run, o, model);
+  const colmap::ImageIndex index(listed);
+  std::vector<char> flags(listed.size(), all ? 1 : 0);
+  for (size_t k = 0; k < named.size(); ++k) {
+    const py::handle item = named[k];
+    std::string why;
+    if (PyUnicode_Check(item.ptr())) {
+      why = index.hold_name(text(item, at("hold_poses", k)), &flags);
+    } else {
+      const unsigned long long id = PyLong_AsUnsignedLongLong(item.ptr());
+      if (id == ~0ULL && PyErr_Occurred()) {  // negative, or past 64 bits: no IMAGE_ID
+        PyErr_Clear();
+        why = "no image has the IMAGE_ID " + std::string(py::str(item));
+      } else {
+        why = index.hold_id(id, &flags);
+      }
+    }
+    if (!why.empty()) throw py::value_error(at("hold_poses", k) + ": " + why);
+  }
+  std::vector<char> held(solved, 0);
+  for (size_t k = 0; k < flags.size(); ++k)
+    if (flags[k] && rows[k] >= 0) held[size_t(rows[k])] = 1;
+  return held;
 }
 
-py::dict refine_colmap(py::handle model, const std::vector<long long> &held_images, bool focal,
-                       bool principal, bool extra, bool rig_from_world, bool sensor_from_rig,
-                       bool constant_rotation, const py::kwargs &kw) {
+py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_poses, bool focal, bool principal,
+                       bool extra, bool rig_from_world, bool sensor_from_rig, bool constant_rotation,
+                       const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   std::vector<long long> rows;
   colmap::Model m = model_of(model, &rows);
-  // As read_model gives it: each image's pose its frame's, which is what a reader of the
-  // model takes (and the same bits for a model read_colmap gave).
-  colmap::poses_from_frames(&m);
-  // held_images are rows of the ColmapModel's images; one without a pose is not solved.
-  std::vector<char> held(held_images.empty() ? 0 : m.images.size(), 0);
-  for (long long k : held_images) {
-    if (k < 0 || size_t(k) >= rows.size())
-      throw py::value_error("held image " + std::to_string(k) + " is not in [0, " + std::to_string(rows.size()) +
-                            ")");
-    if (rows[size_t(k)] >= 0) held[size_t(rows[size_t(k)])] = 1;
-  }
-  return refine_model(std::move(m), {focal, principal, extra}, {rig_from_world, sensor_from_rig, constant_rotation},
-                      held, o);
+  std::vector<char> held = held_poses(model, hold_all, hold_poses, rows, m.images.size());
+  colmap::Options options;
+  options.intrinsics = {focal, principal, extra};
+  options.poses = {rig_from_world, sensor_from_rig, constant_rotation};
+  options.constants.poses = std::move(held);
+  options.mcon = o.mcon;
+  options.ncon = o.ncon;
+  return refine_model(std::move(m), options, o);
+}
+
+// COLMAP's stopping rule (colmap::colmap_stop_rule): None when it leaves sba's tests, else the
+// strategy to run unless one is given, and eps4.
+py::object colmap_stop_rule(double function_tolerance, bool strategy_given, double eps4) {
+  if (!colmap::colmap_stop_rule(function_tolerance, strategy_given, &eps4)) return py::none();
+  return py::make_tuple(colmap::kColmapStrategy, eps4);
 }
 
 }  // namespace
@@ -607,7 +609,9 @@ py::dict refine_colmap(py::handle model, const std::vector<long long> &held_imag
 void add_colmap(py::module_ &mod) {
   mod.def("read_colmap", &read_colmap, py::arg("path"));
   mod.def("write_colmap", &write_colmap, py::arg("model"), py::arg("path"), py::arg("encoding"));
-  mod.def("refine_colmap", &refine_colmap, py::arg("model"), py::arg("held_images"),
+  mod.def("colmap_stop_rule", &colmap_stop_rule, py::arg("function_tolerance"), py::arg("strategy_given"),
+          py::arg("eps4"));
+  mod.def("refine_colmap", &refine_colmap, py::arg("model"), py::arg("hold_all"), py::arg("hold_poses"),
           py::arg("refine_focal_length"), py::arg("refine_principal_point"), py::arg("refine_extra_params"),
           py::arg("refine_rig_from_world"), py::arg("refine_sensor_from_rig"),
           py::arg("constant_rig_from_world_rotation"));

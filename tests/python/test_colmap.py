@@ -277,14 +277,14 @@ def test_refine_with_rigs_is_sbarefines(tmp_path):
 
 def test_frames_pose_the_images(tmp_path):
     # Frame 902 (rig 3, whose reference camera 102 image 16 is) moved: COLMAP 4 takes image 16's
-    # pose from it. write_colmap writes both as given; read_colmap and refine_colmap take the
-    # frame's.
+    # pose from it, and so do write_colmap (the images file holds the frame's pose, whatever
+    # the image's q and t say), read_colmap and refine_colmap.
     model = pysba.read_colmap(rigged(tmp_path))
     before = model.images[2].t.copy()
     model.frames[2].t = model.frames[2].t + [0.05, 0, 0]
     pysba.write_colmap(model, tmp_path / "out", "text")
     lines = (tmp_path / "out" / "images.txt").read_text().splitlines()
-    assert float(lines[8].split()[5]) == before[0]
+    assert float(lines[8].split()[5]) == model.frames[2].t[0] != before[0]
     assert pysba.read_colmap(tmp_path / "out").images[2].t.tolist() == model.frames[2].t.tolist()
     refined, _ = pysba.refine_colmap(model, hold_poses=[16])
     assert refined.images[2].t.tolist() == model.frames[2].t.tolist()

@@ -16,6 +16,7 @@
 #include "cameras/colmap_camera.h"
 #include "cameras/euclidean.h"
 #include "formats/colmap_io.h"
+#include "formats/colmap_problem.h"
 #include "formats/colmap_sba.h"
 #include "formats/output_file.h"
 #include "formats/ply.h"
@@ -66,29 +67,27 @@ bool unit(const euclidean::Quaternion &q) {
 // The model's solve as sbarefine runs it (intrinsics held), a few iterations: true when it
 // ends finite and no worse than it began; *rotations whether every camera's is one.
 bool solve(const colmap::Model &model, bool *rotations) {
-  colmap::ColmapProblem pr;
+  colmap::Options options;
+  options.intrinsics = {false, false, false};
+  colmap::Problem pr;
   std::string error;
-  if (!colmap::to_sba(model, {false, false, false}, {}, {}, 0, "soak", &pr, &error)) return false;
-  const colmap_camera::CameraModel sm(pr.cameras, pr.points.xyz, pr.cam_fixed);
+  if (!colmap::Problem::build(model, options, "soak", &pr, &error)) return false;
+  std::vector<double> p = pr.initial_params();
   *rotations = true;
-  for (int j = 0; j < sm.ncameras(); ++j) *rotations = *rotations && unit(sm.input_camera(j).q);
-  std::vector<double> p = sm.initial_camera_params();
-  p.insert(p.end(), sm.initial_points().begin(), sm.initial_points().end());
-  const sbaformats::Visibility &v = pr.points.pairs;
+  for (const colmap_camera::Camera &c : pr.cameras(p.data())) *rotations = *rotations && unit(c.q);
+  const sbaformats::Visibility &v = pr.points().pairs;
   const sba_visibility vis{static_cast<long long>(v.size()), v.point.data(), v.camera.data()};
   sba_ext_options ext;
   sba_ext_options_init(&ext);
   ext.linsolver = "chol";
-  ext.cam_fixed = pr.cam_fixed.data();
+  ext.cam_fixed = pr.cam_fixed().data();
   ext.cam_fixed_per_camera = 1;
-  ext.cam_group = pr.cam_group.data();
-  ext.cam_shared = pr.cam_shared.data();
+  ext.cam_param_group = pr.cam_param_group().data();
   ext.quiet = 1;
   double info[SBA_INFOSZ] = {};
-  const int ret = sba_motstr_levmar_x_vis(sm.npoints(), 0, sm.ncameras(), 0, &vis, p.data(), sm.cnp(), 3,
-                                          pr.points.x.data(), nullptr, 2, colmap_camera::motstr_func,
-                                          colmap_camera::motstr_fjac, colmap_camera::as_adata(sm), 20,
-                                          0, nullptr, info, &ext);
+  std::vector<double> x = pr.points().x;
+  const int ret = sba_motstr_levmar_x_vis(pr.npoints(), 0, pr.ncameras(), 0, &vis, p.data(), pr.cnp(), 3, x.data(),
+                                          nullptr, 2, pr.func(), pr.fjac(), pr.adata(), 20, 0, nullptr, info, &ext);
   return ret >= 0 && std::isfinite(info[1]) && info[1] <= info[0] * (1 + 1e-12);
 }
 

@@ -1,0 +1,584 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "formats/colmap_problem.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+#include <unordered_map>
+#include <utility>
+
+namespace sbaformats::colmap {
+
+namespace cc = sbacameras::colmap_camera;
+
+bool colmap_stop_rule(double function_tolerance, bool strategy_given, double *eps4) {
+  if (function_tolerance < 0 && !strategy_given && *eps4 == 0.0) function_tolerance = 0.0;
+  if (function_tolerance < 0) return false;
+  *eps4 = std::max(function_tolerance, 4 * std::numeric_limits<double>::epsilon());
+  return true;
+}
+
+namespace {
+
+std::size_t at(int i) { return static_cast<std::size_t>(i); }
+
+// The problem as the builder lays it out, before the camera model is made of it: the sba
+// cameras as images of their own (cameras) or of rigs (rig_images, places), their holds and
+// groups, the points.
+struct Draft {
+  std::vector<cc::Camera> cameras;
+  std::vector<int> images;
+  eucsba::PointSet points;
+  int cnp = 0;
+  std::vector<char> cam_fixed;
+  std::vector<int> cam_param_group;
+  Problem::Counts counts;
+  bool rigged = false;
+  std::vector<cc::RigImage> rig_images;
+  std::vector<ImagePlace> places;
+  std::vector<int> point_order;
+  int held_points = 0;
+};
+
+// Whether the model is refined through its rigs and frames (the rig camera model): when a
+// frame holds several images, which then share its pose, or when the options hold what the
+// frames' poses alone hold (COLMAP 4 then still refines the cameras' poses in their rigs). With
+// every pose of a frame of one image refined, its image's pose is a free pose of its own
+// however its camera sits in the rig: the model is refined as one without rigs, bit for bit.
+bool refined_as_rigs(const Model &model, const RefinePoses &poses) {
+  if (!model.has_rigs) return false;
+  return !poses.rig_from_world || poses.constant_rig_from_world_rotation || frames_of_several_images(model) > 0;
+}
+
+// Whether COLMAP's options hold parameter k of a camera of model `model` (the padding beyond
+// its parameters included).
+bool intrinsic_held(const RefineIntrinsics &refine, int model, int k) {
+  if (k >= cc::param_count(model)) return true;
+  switch (cc::param_kind(model, k)) {
+    case cc::ParamKind::Focal: return !refine.focal;
+    case cc::ParamKind::Principal: return !refine.principal;
+    case cc::ParamKind::Extra: return !refine.distortion;
+    case cc::ParamKind::Size: break;  // no COLMAP option refines it
+  }
+  return true;
+}
+
+// Holds the rotation (first 3) and the translation (last 3) of the pose at fixed as asked.
+void hold_pose(char *fixed, bool rotation, bool translation) {
+  if (rotation) std::fill_n(fixed, 3, 1);
+  if (translation) std::fill_n(fixed + 3, 3, 1);
+}
+
+// What holds a frame's pose, a camera's pose in its rig and its parameters in all their images
+// of a rigged problem (flags by Model::frames and Model::cameras): an image below mcon (held
+// whole) or, for the poses, a held image, whether it sees points or not: holding an image's
+// pose holds both parts of it, so that it comes back as read.
+struct RigHolds {
+  std::vector<char> frame, sensor, camera;
+};
+
+// The sba cameras of a rigged problem (p->rig_images, p->places), their COLMAP cameras' indices
+// in *camera; the largest parameter count among those cameras.
+int rig_images(const Model &model, const std::vector<ImagePlace> &places,
+               const std::unordered_map<std::uint32_t, int> &camera_index, std::vector<int> *camera,
+               Draft *p) {
+  int np = 0;
+  for (const int i : p->images) {
+    const Image &im = model.images[at(i)];
+    const ImagePlace &pl = places[at(i)];
+    camera->push_back(camera_index.at(im.camera_id));
+    const Camera &c = model.cameras[at(camera->back())];
+    cc::RigImage r;
+    r.model = c.model;
+    r.params = c.params;
+    const Pose &f = model.frames[pl.frame].rig_from_world;
+    r.q_frame = {f.q[0], f.q[1], f.q[2], f.q[3]};
+    r.t_frame = f.t;
+    if (pl.sensor > 0) {  // the reference sensor's pose in its rig is the identity
+      const Pose &s = model.rigs[pl.rig].sensors[pl.sensor].sensor_from_rig;
+      r.q_sensor = {s.q[0], s.q[1], s.q[2], s.q[3]};
+      r.t_sensor = s.t;
+    }
+    np = std::max(np, cc::param_count(c.model));
+    p->rig_images.push_back(std::move(r));
+    p->places.push_back(pl);
+  }
+  return np;
+}
+
+// The flag of item k of flags, a vector of Constants (empty: none is set).
+bool flagged(const std::vector<char> &flags, std::size_t k) { return !flags.empty() && flags[k]; }
+
+// The holds of a rigged problem, and its counts (Draft: frames, sensors, shared cameras,
+// held poses, images that see no point and move with a refined frame or rig).
+RigHolds rig_holds(const Model &model, const RefinePoses &poses, const Constants &constants, int mcon,
+                   const std::vector<ImagePlace> &places, const std::unordered_map<std::uint32_t, int> &camera_index,
+                   Draft *p) {
+  RigHolds h{std::vector<char>(model.frames.size(), poses.rig_from_world ? 0 : 1),
+             std::vector<char>(model.cameras.size(), poses.sensor_from_rig ? 0 : 1),
+             std::vector<char>(model.cameras.size(), 0)};
+  for (std::size_t c = 0; c < model.cameras.size(); ++c) {
+    if (flagged(constants.sensor_from_rig, c)) h.sensor[c] = 1;
+    if (flagged(constants.intrinsics, c)) h.camera[c] = 1;
+  }
+  std::vector<char> frame_used(model.frames.size(), 0), sensor_used(model.cameras.size(), 0),
+      seeing(model.images.size(), 0);
+  std::vector<int> camera_used(model.cameras.size(), 0);  // images per camera: far more than a char holds
+  for (std::size_t j = 0; j < p->images.size(); ++j) {
+    const ImagePlace &pl = p->places[j];
+    const std::size_t c = at(camera_index.at(model.images[at(p->images[j])].camera_id));
+    if (static_cast<int>(j) < mcon) h.frame[pl.frame] = h.sensor[c] = h.camera[c] = 1;
+    ++camera_used[c];
+    frame_used[pl.frame] = 1;
+    sensor_used[c] = pl.sensor > 0;
+    seeing[at(p->images[j])] = 1;
+  }
+  for (std::size_t i = 0; i < model.images.size(); ++i) {
+    if (!flagged(constants.poses, i)) continue;
+    h.frame[places[i].frame] = h.sensor[at(camera_index.at(model.images[i].camera_id))] = 1;
+    ++p->counts.held_poses;
+  }
+  for (std::size_t f = 0; f < frame_used.size(); ++f) {
+    p->counts.frames += frame_used[f];
+    p->counts.held_frames += frame_used[f] && h.frame[f];
+  }
+  for (std::size_t c = 0; c < sensor_used.size(); ++c) {
+    p->counts.sensors += sensor_used[c];
+    p->counts.held_sensors += sensor_used[c] && h.sensor[c];
+    p->counts.shared_cameras += camera_used[c] > 1 && !h.camera[c];
+    p->counts.held_intrinsics += camera_used[c] > 0 && flagged(constants.intrinsics, c);
+  }
+  // An image that sees no point keeps its place in its frame and rig: it moves when the frame's
+  // pose, or its camera's pose in the rig, is refined for the images that see points.
+  for (std::size_t i = 0; i < model.images.size(); ++i) {
+    if (seeing[i]) continue;
+    const std::size_t f = places[i].frame, c = at(camera_index.at(model.images[i].camera_id));
+    p->counts.unseen_moved += (frame_used[f] && !h.frame[f]) || (sensor_used[c] && !h.sensor[c]);
+  }
+  return h;
+}
+
+// The rigged problem's cameras, held flags and groups (Draft), its cameras' images in
+// p->images; camera_index maps a CAMERA_ID to its index in Model::cameras.
+void rig_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
+                 const Constants &constants, int mcon, const std::unordered_map<std::uint32_t, int> &camera_index,
+                 Draft *p) {
+  const std::vector<ImagePlace> places = image_places(model);
+  const int ms = static_cast<int>(p->images.size());
+  p->rigged = true;
+  std::vector<int> camera;  // each sba camera's index in Model::cameras
+  const int cnp = p->cnp = cc::rig_camera_params(rig_images(model, places, camera_index, &camera, p));
+  const RigHolds h = rig_holds(model, poses, constants, mcon, places, camera_index, p);
+  p->cam_fixed.assign(at(ms) * at(cnp), 0);
+  p->cam_param_group.assign(at(ms) * at(cnp), -1);
+  for (int j = 0; j < ms; ++j) {
+    const ImagePlace &pl = p->places[at(j)];
+    const int c = camera[at(j)], model_id = model.cameras[at(c)].model;
+    char *fixed = &p->cam_fixed[at(j) * at(cnp)];
+    int *group = &p->cam_param_group[at(j) * at(cnp)];
+    const bool reference = pl.sensor == 0;
+    hold_pose(fixed, h.frame[pl.frame] || poses.constant_rig_from_world_rotation, h.frame[pl.frame]);
+    hold_pose(fixed + 6, reference || h.sensor[at(c)], reference || h.sensor[at(c)]);
+    for (int k = 0; k < cnp - cc::kRigPoseParams; ++k)
+      fixed[cc::kRigPoseParams + k] = h.camera[at(c)] || intrinsic_held(refine, model_id, k) ? 1 : 0;
+    if (j < mcon) continue;  // a camera below mcon shares nothing
+    std::fill_n(group, 6, static_cast<int>(pl.frame));
+    if (!reference) std::fill_n(group + 6, 6, c);
+    std::fill(group + cc::kRigPoseParams, group + cnp, c);
+  }
+}
+
+// The unrigged problem's cameras, held flags and groups (Draft), as rig_problem.
+void image_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
+                   const Constants &constants, int mcon, const std::unordered_map<std::uint32_t, int> &camera_index,
+                   Draft *p) {
+  int np = 0;
+  const std::vector<Pose> image_pose = image_poses(model);  // a frame of one image: its image's
+  for (int j : p->images) {
+    const Image &im = model.images[at(j)];
+    const Pose &pose = image_pose[at(j)];
+    const Camera &c = model.cameras[at(camera_index.at(im.camera_id))];
+    cc::Camera cam;
+    cam.model = c.model;
+    cam.params = c.params;
+    cam.q = {pose.q[0], pose.q[1], pose.q[2], pose.q[3]};
+    cam.t = pose.t;
+    np = std::max(np, cc::param_count(c.model));
+    p->cameras.push_back(std::move(cam));
+  }
+  const int ms = static_cast<int>(p->cameras.size());
+  const int cnp = p->cnp = cc::camera_params(np);
+  // Each COLMAP camera's sba cameras; one below mcon holds the camera's parameters in all, and so
+  // do constant intrinsics.
+  std::vector<std::vector<int>> users(model.cameras.size());
+  for (int j = 0; j < ms; ++j) users[at(camera_index.at(model.images[at(p->images[at(j)])].camera_id))].push_back(j);
+  p->cam_fixed.assign(at(ms) * at(cnp), 0);
+  p->cam_param_group.assign(at(ms) * at(cnp), -1);
+  for (std::size_t c = 0; c < users.size(); ++c) {
+    const std::vector<int> &u = users[c];
+    if (u.empty()) continue;
+    const bool held = u.front() < mcon || flagged(constants.intrinsics, c);  // u ascends
+    for (int j : u) {
+      char *fixed = &p->cam_fixed[at(j) * at(cnp)];
+      for (int k = 0; k < cnp - cc::kPoseParams; ++k)
+        fixed[cc::kPoseParams + k] = held || intrinsic_held(refine, model.cameras[c].model, k) ? 1 : 0;
+      // The camera's parameters, not the image's pose, in the group of its first sba camera.
+      if (u.size() > 1 && !held)
+        std::fill(&p->cam_param_group[at(j) * at(cnp) + cc::kPoseParams], &p->cam_param_group[at(j + 1) * at(cnp)],
+                  u.front());
+    }
+    if (u.size() > 1 && !held) ++p->counts.shared_cameras;
+    p->counts.held_intrinsics += flagged(constants.intrinsics, c);
+  }
+  std::vector<char> seeing(model.images.size(), 0);
+  for (int j = 0; j < ms; ++j) {
+    const bool held = !poses.rig_from_world || flagged(constants.poses, at(p->images[at(j)]));
+    hold_pose(&p->cam_fixed[at(j) * at(cnp)], held || poses.constant_rig_from_world_rotation, held);
+    p->counts.held_poses += held;
+    seeing[at(p->images[at(j)])] = 1;
+  }
+  // A held image that sees no point is held out of the problem, and counted as held too.
+  for (std::size_t i = 0; i < seeing.size(); ++i) p->counts.held_poses += !seeing[i] && flagged(constants.poses, i);
+}
+
+
+
+// The order of the problem's points (Draft::point_order) and how many lead it held
+// (held_points): with constant points, the first ncon points and the constant ones, in the
+// file's order, then the others; otherwise the file's order and ncon as given.
+void order_points(const Model &model, const std::vector<char> &constant, int ncon, Draft *p) {
+  p->held_points = ncon;
+  if (constant.empty()) return;
+  const std::size_t n = model.points.size();
+  if (ncon >= static_cast<int>(n)) return;  // every point held, or a --ncon the solve refuses
+  const auto held = [&](std::size_t i) { return static_cast<int>(i) < ncon || constant[i]; };
+  for (const bool first : {true, false})
+    for (std::size_t i = 0; i < n; ++i)
+      if (held(i) == first) p->point_order.push_back(static_cast<int>(i));
+  p->held_points = static_cast<int>(std::count_if(p->point_order.begin(), p->point_order.end(),
+                                                  [&](int i) { return held(at(i)); }));
+}
+
+// The problem's points and their projections (Draft::points) in the order of
+// order_points; camera_of: each image's sba camera, image_index: an IMAGE_ID's image.
+void problem_points(const Model &model, const std::unordered_map<std::uint32_t, int> &image_index,
+                    const std::vector<int> &camera_of, Draft *p) {
+  const int n = static_cast<int>(model.points.size());
+  eucsba::PointSet &s = p->points;
+  s.ncameras = static_cast<int>(p->images.size());
+  s.xyz.reserve(at(n) * 3);
+  std::vector<std::pair<int, const Point2D *>> track;
+  for (int k = 0; k < n; ++k) {
+    const Point3D &pt = model.points[p->point_order.empty() ? at(k) : at(p->point_order[at(k)])];
+    s.xyz.insert(s.xyz.end(), pt.xyz.begin(), pt.xyz.end());
+    track.clear();
+    for (const TrackElement &e : pt.track) {
+      const int j = image_index.at(e.image_id);
+      track.push_back({camera_of[at(j)], &model.images[at(j)].points[e.point2d_idx]});
+    }
+    // sba's layout: a point's projections with the cameras ascending.
+    std::sort(track.begin(), track.end(),
+              [](const std::pair<int, const Point2D *> &a, const std::pair<int, const Point2D *> &b) {
+                return a.first < b.first;
+              });
+    for (const auto &t : track) {
+      s.pairs.add(k, t.first);
+      s.x.push_back(t.second->x);
+      s.x.push_back(t.second->y);
+    }
+  }
+}
+
+
+// The draft of a model: its sba cameras, holds, groups and points.
+bool draft_of(const Model &model, const Options &o, const std::string &name, Draft *out, std::string *error) {
+  std::unordered_map<std::uint32_t, int> camera_index, image_index;
+  for (std::size_t c = 0; c < model.cameras.size(); ++c) camera_index.emplace(model.cameras[c].id, static_cast<int>(c));
+  const int m = static_cast<int>(model.images.size());
+  if (m == 0 || model.points.empty()) {
+    *error = name + ": the model has no images or no points";
+    return false;
+  }
+  for (int j = 0; j < m; ++j) image_index.emplace(model.images[at(j)].id, j);
+  // An image is a camera of the problem when it sees a point (every point is seen: check_model).
+  std::vector<int> camera_of(at(m), -1);
+  for (const Point3D &pt : model.points)
+    for (const TrackElement &e : pt.track) camera_of[at(image_index.at(e.image_id))] = 0;
+  Draft p;
+  for (int j = 0; j < m; ++j)
+    if (camera_of[at(j)] >= 0) {
+      camera_of[at(j)] = static_cast<int>(p.images.size());
+      p.images.push_back(j);
+    }
+  if (refined_as_rigs(model, o.poses))
+    rig_problem(model, o.intrinsics, o.poses, o.constants, o.mcon, camera_index, &p);
+  else
+    image_problem(model, o.intrinsics, o.poses, o.constants, o.mcon, camera_index, &p);
+  order_points(model, o.constants.points, o.ncon, &p);
+  problem_points(model, image_index, camera_of, &p);
+  *out = std::move(p);
+  return true;
+}
+
+// Writes a refined pose over *out: the rotation unless its 3 parameters are all held, the
+// translation unless its 3 are, so that a held part keeps the bits it was read with (the
+// parametrization's round trip would move them). Whether anything was written.
+bool write_pose(const char *fixed, const sbacameras::euclidean::Quaternion &q, const std::array<double, 3> &t,
+                Pose *out) {
+  const auto held = [](const char *f) { return f[0] && f[1] && f[2]; };
+  if (!held(fixed)) out->q = {q.w, q.x, q.y, q.z};
+  if (!held(fixed + 3)) out->t = t;
+  return !held(fixed) || !held(fixed + 3);
+}
+
+// The parameters of COLMAP camera `cam` that are not held (fixed: its intrinsics' flags) from
+// params.
+void write_params(const char *fixed, const std::vector<double> &params, Camera *cam) {
+  for (std::size_t k = 0; k < cam->params.size(); ++k)
+    if (!fixed[k]) cam->params[k] = params[k];
+}
+
+// A model's records by id, for apply.
+template <typename Record>
+std::unordered_map<std::uint64_t, Record *> index_of(std::vector<Record> &records) {
+  std::unordered_map<std::uint64_t, Record *> index;
+  index.reserve(records.size());
+  for (Record &r : records) index.emplace(r.id, &r);
+  return index;
+}
+
+template <typename Record>
+Record &find(const std::unordered_map<std::uint64_t, Record *> &index, std::uint64_t id, const char *what) {
+  const auto it = index.find(id);
+  if (it == index.end())
+    throw std::invalid_argument(std::string("the model has no ") + what + " " + std::to_string(id) +
+                                " of the problem's");
+  return *it->second;
+}
+
+}  // namespace
+
+struct Problem::Builder {
+  // The ids of each sba camera of d, built of model, into out.
+  static void ids(const Model &model, const Draft &d, Problem *out) {
+    std::vector<char> params_written(model.cameras.size(), 0);
+    std::unordered_map<std::uint32_t, std::size_t> camera_index;
+    for (std::size_t c = 0; c < model.cameras.size(); ++c) camera_index.emplace(model.cameras[c].id, c);
+    const std::vector<ImagePlace> places = model.has_rigs ? image_places(model) : std::vector<ImagePlace>{};
+    for (std::size_t j = 0; j < d.images.size(); ++j) {
+      const Image &im = model.images[at(d.images[j])];
+      CameraIds r;
+      r.image = im.id;
+      r.camera = im.camera_id;
+      if (model.has_rigs) {
+        const ImagePlace &pl = places[at(d.images[j])];
+        r.frame = model.frames[pl.frame].id;
+        r.rig = model.rigs[pl.rig].id;
+        r.reference = pl.sensor == 0;
+      }
+      char &written = params_written[camera_index.at(im.camera_id)];
+      // Below mcon nothing is written; from mcon on, the first of a camera's images writes it.
+      r.writes_params = static_cast<int>(j) >= out->mcon_ && !written;
+      if (r.writes_params) written = 1;
+      out->ids_.push_back(r);
+    }
+    const std::size_t n = model.points.size();
+    for (std::size_t k = 0; k < n; ++k)
+      out->point_ids_.push_back(model.points[d.point_order.empty() ? k : at(d.point_order[k])].id);
+  }
+};
+
+template <typename F>
+decltype(auto) Problem::with_model(F f) const {
+  return rig_model_ ? f(*rig_model_) : f(*image_model_);
+}
+
+bool Problem::build(const Model &model, const Options &options, const std::string &name, Problem *out,
+                    std::string *error) {
+  Draft d;
+  if (!draft_of(model, options, name, &d, error)) return false;
+  Problem p;
+  p.mcon_ = options.mcon;
+  p.has_rigs_ = model.has_rigs;
+  try {
+    if (d.rigged)
+      p.rig_model_ = std::make_unique<cc::RigCameraModel>(d.rig_images, d.points.xyz, d.cam_fixed);
+    else
+      p.image_model_ = std::make_unique<cc::CameraModel>(d.cameras, d.points.xyz, d.cam_fixed);
+  } catch (const std::invalid_argument &e) {
+    *error = name + ": " + e.what();
+    return false;
+  }
+  p.p0_ = p.with_model([](const auto &sm) {
+    std::vector<double> p0 = sm.initial_camera_params();
+    p0.insert(p0.end(), sm.initial_points().begin(), sm.initial_points().end());
+    return p0;
+  });
+  Builder::ids(model, d, &p);
+  p.images_ = std::move(d.images);
+  p.points_ = std::move(d.points);
+  p.cnp_ = d.cnp;
+  p.held_points_ = d.held_points;
+  p.rigged_ = d.rigged;
+  p.cam_fixed_ = std::move(d.cam_fixed);
+  p.cam_param_group_ = std::move(d.cam_param_group);
+  p.counts_ = d.counts;
+  *out = std::move(p);
+  return true;
+}
+
+Problem::Problem() = default;
+Problem::Problem(Problem &&) noexcept = default;
+Problem &Problem::operator=(Problem &&) noexcept = default;
+Problem::~Problem() = default;
+
+Problem::Callback Problem::func() const { return rigged_ ? cc::rig_motstr_func : cc::motstr_func; }
+Problem::Callback Problem::fjac() const { return rigged_ ? cc::rig_motstr_fjac : cc::motstr_fjac; }
+void *Problem::adata() const {
+  return with_model([](const auto &sm) { return cc::as_adata(sm); });
+}
+
+void Problem::project(const double *p, int j, int i, double x[2]) const {
+  const std::size_t m = images_.size();
+  with_model([&](const auto &sm) {
+    sm.project(j, p + at(j) * at(cnp_), p + m * at(cnp_) + 3 * at(i), x);
+  });
+}
+
+std::vector<cc::Camera> Problem::cameras(const double *p) const {
+  std::vector<cc::Camera> out;
+  for (int j = 0; j < ncameras(); ++j)
+    out.push_back(with_model([&](const auto &sm) { return sm.camera(j, p + at(j) * at(cnp_)); }));
+  return out;
+}
+
+std::string Problem::nonfinite_error(const Model &model, const std::string &name) const {
+  const eucsba::PointSet &s = points_;
+  for (std::size_t k = 0; k < s.pairs.size(); ++k) {
+    const int i = s.pairs.point[k], j = s.pairs.camera[k];
+    double x[2];
+    project(p0_.data(), j, i, x);
+    const double dx = x[0] - s.x[2 * k], dy = x[1] - s.x[2 * k + 1];
+    if (std::isfinite(dx * dx + dy * dy)) continue;
+    const Image &im = model.images[at(images_[at(j)])];
+    const auto camera = std::find_if(model.cameras.begin(), model.cameras.end(),
+                                     [&](const Camera &c) { return c.id == im.camera_id; });
+    char pixels[64];
+    std::snprintf(pixels, sizeof pixels, "(%g, %g)", x[0], x[1]);
+    const std::string image_name = quoted(im.name);  // its control characters as \xHH, in quotes
+    return name + ": image " + std::to_string(im.id) + " (" + image_name.substr(1, image_name.size() - 2) +
+           "), camera " + std::to_string(im.camera_id) + " (" + camera_model_name(camera->model) + "): point " +
+           std::to_string(point_ids_[at(i)]) + " projects to " + pixels +
+           " px, where its squared reprojection error is not finite";
+  }
+  return {};
+}
+
+// The records of the model apply writes into, by id.
+struct Problem::Index {
+  explicit Index(Model *model)
+      : cameras(index_of(model->cameras)),
+        images(index_of(model->images)),
+        points(index_of(model->points)),
+        frames(index_of(model->frames)),
+        rigs(index_of(model->rigs)) {}
+  std::unordered_map<std::uint64_t, Camera *> cameras;
+  std::unordered_map<std::uint64_t, Image *> images;
+  std::unordered_map<std::uint64_t, Point3D *> points;
+  std::unordered_map<std::uint64_t, Frame *> frames;
+  std::unordered_map<std::uint64_t, Rig *> rigs;
+};
+
+namespace {
+
+// The pose in rig `rig` of camera `camera`, not the rig's reference.
+Pose &sensor_pose(Rig &rig, std::uint32_t camera) {
+  const auto s = std::find_if(rig.sensors.begin(), rig.sensors.end(), [&](const RigSensor &x) {
+    return x.sensor.type == SensorType::Camera && x.sensor.id == camera;
+  });
+  if (s == rig.sensors.end())
+    throw std::invalid_argument("rig " + std::to_string(rig.id) + " has no camera " + std::to_string(camera));
+  return s->sensor_from_rig;
+}
+
+}  // namespace
+
+void Problem::write_image(int j, const double *a, const Index &index) const {
+  const CameraIds &r = ids_[at(j)];
+  const char *fixed = &cam_fixed_[at(j) * at(cnp_)];
+  const cc::Camera c = image_model_->camera(j, a);
+  if (!has_rigs_) {
+    Image &im = find(index.images, r.image, "image");
+    Pose pose{im.q, im.t};
+    write_pose(fixed, c.q, c.t, &pose);
+    im.q = pose.q;
+    im.t = pose.t;
+  } else if (Pose pose; write_pose(fixed, c.q, c.t, &pose)) {
+    // The image's pose is derived from its frame, of this image alone (build), which takes the
+    // refined pose. Both parts of it are refined, or both held. The image's q and t, the images
+    // file's rendering of its pose, take the refined pose's bits, which the frame composes to
+    // but for rounding, so that the file holds the pose the solve found (image_poses).
+    find(index.frames, r.frame, "frame").rig_from_world =
+        frame_pose(pose, r.reference ? nullptr : &sensor_pose(find(index.rigs, r.rig, "rig"), r.camera));
+    Image &im = find(index.images, r.image, "image");
+    im.q = pose.q;
+    im.t = pose.t;
+  }
+  if (r.writes_params) write_params(fixed + cc::kPoseParams, c.params, &find(index.cameras, r.camera, "camera"));
+}
+
+void Problem::write_rig_image(int j, const double *a, const Index &index,
+                              std::unordered_map<std::uint32_t, char> *frames_done) const {
+  const CameraIds &r = ids_[at(j)];
+  const char *fixed = &cam_fixed_[at(j) * at(cnp_)];
+  const cc::RigImage im = rig_model_->image(j, a);
+  // Each frame, camera pose in a rig and COLMAP camera is written once, from its first sba
+  // camera: all of them hold the same values.
+  if (char &done = (*frames_done)[r.frame]; !done) {
+    done = 1;
+    write_pose(fixed, im.q_frame, im.t_frame, &find(index.frames, r.frame, "frame").rig_from_world);
+  }
+  if (!r.writes_params) return;
+  if (!r.reference)
+    write_pose(fixed + 6, im.q_sensor, im.t_sensor, &sensor_pose(find(index.rigs, r.rig, "rig"), r.camera));
+  write_params(fixed + cc::kRigPoseParams, im.params, &find(index.cameras, r.camera, "camera"));
+}
+
+void Problem::write_points(const double *p, const Index &index) const {
+  const std::size_t m = images_.size();
+  std::unordered_map<std::uint32_t, int> camera_of;  // an image's sba camera
+  for (std::size_t j = 0; j < m; ++j) camera_of.emplace(ids_[j].image, static_cast<int>(j));
+  const double *points = p + m * at(cnp_);
+  for (std::size_t k = at(held_points_); k < point_ids_.size(); ++k) {
+    Point3D &pt = find(index.points, point_ids_[k], "point");
+    const double *b = points + 3 * k;
+    for (int c = 0; c < 3; ++c) pt.xyz[at(c)] = b[c];
+    double sum = 0;
+    for (const TrackElement &e : pt.track) {
+      const int j = camera_of.at(e.image_id);
+      const Point2D &obs = find(index.images, e.image_id, "image").points[e.point2d_idx];
+      double x[2];
+      with_model([&](const auto &sm) { sm.project(j, p + at(j) * at(cnp_), b, x); });
+      sum += std::hypot(x[0] - obs.x, x[1] - obs.y);
+    }
+    pt.error = sum / static_cast<double>(pt.track.size());
+  }
+}
+
+void Problem::apply(const double *p, Model *model) const {
+  const Index index(model);
+  std::unordered_map<std::uint32_t, char> frames_done;
+  for (int j = mcon_; j < ncameras(); ++j) {
+    const double *a = p + at(j) * at(cnp_);
+    if (rigged_)
+      write_rig_image(j, a, index, &frames_done);
+    else
+      write_image(j, a, index);
+  }
+  write_points(p, index);
+}
+
+}  // namespace sbaformats::colmap

@@ -1,0 +1,190 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+// The one COLMAP problem: a COLMAP model and COLMAP's bundle adjustment options in, what
+// sba_motstr_levmar_x_ext needs out, and the refined values written back into a model by id.
+// Every front end (sbarefine, pysba) builds it, hands its arrays to the solve, and applies the
+// result; none of them knows how a model maps onto sba (docs/architecture.md, "The COLMAP
+// problem").
+//
+// Every image that sees a point is one sba camera, every 3D point one sba point. The camera
+// model is one of COLMAP's own (cameras/colmap_camera.h):
+// - an image with a pose of its own (a model without rigs and frames, or one whose frames hold
+//   one image each and whose frames' poses are all refined), a_j = (v t params padding): its
+//   pose, and a copy of its COLMAP camera's parameters in COLMAP's order;
+// - otherwise an image of a rig, a_j = (frame pose | sensor pose | params padding), as COLMAP
+//   4 refines it.
+// Either way sba_ext_options::cam_param_group shares what COLMAP refines once: a COLMAP
+// camera's parameters among its images, and in a rig a frame's pose among its images and a
+// camera's pose in its rig among the frames (a rig's reference camera has the identity there,
+// held). cam_fixed holds the padding and EQUIRECTANGULAR's size (w h) always, and what
+// COLMAP's options and constants hold (Options).
+#ifndef SBA_LIB_FORMATS_COLMAP_PROBLEM_H
+#define SBA_LIB_FORMATS_COLMAP_PROBLEM_H
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "cameras/colmap_camera.h"
+#include "formats/colmap_io.h"
+#include "formats/colmap_sba.h"
+#include "formats/eucsba_io.h"
+#include "sba.h"
+
+namespace sbaformats::colmap {
+
+// COLMAP's bundle adjuster's defaults for what the options of sba do not name: Ceres's
+// max_num_iterations and function_tolerance.
+constexpr int kDefaultItmax = 100;
+
+// The strategy whose eps4 is COLMAP's function_tolerance.
+constexpr const char *kColmapStrategy = "trust-region";
+
+// COLMAP's stopping rule on sba's options. COLMAP's bundle adjuster is Ceres's
+// Levenberg-Marquardt, which stops at function_tolerance, a relative change of the cost: the
+// trust-region strategy's eps4 (sba's eps4 is a relative reduction of the RMS error instead).
+// function_tolerance < 0 means not given: then COLMAP's default, 0, unless a strategy or an
+// eps4 is given (strategy_given, *eps4 not 0), which keep sba's tests. A tolerance sets *eps4
+// to it, at least 4 ulp (a change rounding can make, so that a tolerance of 0 runs until a step
+// no longer changes the cost beyond rounding), and returns true: the strategy, unless given, is
+// then kColmapStrategy. False, *eps4 unchanged, when the rule leaves sba's tests.
+bool colmap_stop_rule(double function_tolerance, bool strategy_given, double *eps4);
+
+// What the solve holds beyond the parameters' own flags: COLMAP's options and constants, and
+// sba's mcon (the first mcon sba cameras held; a COLMAP camera one of them uses has its
+// parameters held in all its images, so that what is written back is one calibration) and
+// ncon (the first ncon points).
+struct Options {
+  RefineIntrinsics intrinsics;
+  RefinePoses poses;
+  Constants constants;
+  int mcon = 0, ncon = 0;
+};
+
+class Problem {
+ public:
+  // What the reports print of a problem.
+  struct Counts {
+    int shared_cameras = 0;   // COLMAP cameras refined once for several images
+    int held_poses = 0;       // images whose pose is held, whether they see points or not
+    int unseen_moved = 0;     // images that see no point but move with a refined frame or rig
+    int frames = 0, held_frames = 0;    // rigged: the frames of the sba cameras, those held
+    int sensors = 0, held_sensors = 0;  // rigged: their cameras that are not a rig's reference
+    int held_intrinsics = 0;  // COLMAP cameras of the sba cameras with constant intrinsics
+  };
+
+  // The problem of a model check_model accepted. False with "NAME: why" for a model that has
+  // no problem (no images or no points, a camera model the camera models refuse). An image that
+  // sees no point has no sba camera (nothing places it): it is held out of the problem; apply
+  // leaves it as it was, or, in a rig, at its place in its frame.
+  //
+  // Without rigs and frames, or with frames of one image each and poses.rig_from_world without
+  // poses.constant_rig_from_world_rotation, each image's pose is its own 6 parameters, held for
+  // a held image (constants.poses), without poses.rig_from_world for every image, its rotation's
+  // 3 held with poses.constant_rig_from_world_rotation; poses.sensor_from_rig changes nothing
+  // (a frame of one image, free, takes up any change of its camera's pose in the rig).
+  // Otherwise (rigged), a frame's pose is held in all its images without poses.rig_from_world,
+  // or when one of its images is held (one that sees no point included) or below mcon; its
+  // rotation with poses.constant_rig_from_world_rotation; a camera's pose in its rig in all its
+  // images without poses.sensor_from_rig, with constants.sensor_from_rig, or when one of its
+  // images is held or below mcon: holding an image's pose holds both parts of it, so that it
+  // comes back as it was read.
+  // Constant intrinsics are held as mcon holds a camera's (in all its images, shared by none);
+  // constant points, and the first ncon points, are put first in the problem's points
+  // (held_points counts them; without constant points it is ncon, and the order the file's).
+  static bool build(const Model &model, const Options &options, const std::string &name, Problem *out,
+                    std::string *error);
+
+  Problem();
+  Problem(Problem &&) noexcept;
+  Problem &operator=(Problem &&) noexcept;
+  ~Problem();
+
+  // ---- what the solve takes ----
+  int ncameras() const { return static_cast<int>(images_.size()); }
+  int npoints() const { return points_.npoints(); }
+  int cnp() const { return cnp_; }
+  // p0: m cnp-vectors, then n points.
+  const std::vector<double> &initial_params() const { return p0_; }
+  // The projections, sba's visibility as pairs (by point, cameras ascending), and their
+  // measurements.
+  const eucsba::PointSet &points() const { return points_; }
+  // The expert callbacks and their adata (a camera model of colmap_camera.h, immutable: the
+  // callbacks may run on any number of threads at once).
+  using Callback = void (*)(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *out,
+                            void *adata);
+  Callback func() const;
+  Callback fjac() const;
+  void *adata() const;
+  // m*cnp flags (sba_ext_options::cam_fixed with cam_fixed_per_camera) and group numbers
+  // (cam_param_group).
+  const std::vector<char> &cam_fixed() const { return cam_fixed_; }
+  const std::vector<int> &cam_param_group() const { return cam_param_group_; }
+  // The points held at the start (sba's ncon): the options' ncon and the constant points.
+  int held_points() const { return held_points_; }
+
+  // ---- what the reports print ----
+  // Whether the images are images of rigs (the rig camera model).
+  bool rigged() const { return rigged_; }
+  const Counts &counts() const { return counts_; }
+  // Each sba camera's image, an index into the model's images.
+  const std::vector<int> &images() const { return images_; }
+  // Point i's projection in sba camera j at the parameters p (m*cnp + 3n values).
+  void project(const double *p, int j, int i, double x[2]) const;
+  // Each sba camera at the parameters p as one camera: its model, parameters and pose
+  // (composed from its frame's and its camera's in a rig).
+  std::vector<sbacameras::colmap_camera::Camera> cameras(const double *p) const;
+  // Why the solve of the model the problem was built of cannot start, empty when it can: the
+  // first observation, in the problem's order, whose squared reprojection error at the start
+  // is not finite (a parameter that overflows the projection, as OPENCV's k1 = 1e200 does),
+  // named by its image, that image's camera and the point: "NAME: image 13 (a.png), camera 101
+  // (OPENCV): point 1007 projects to (1.2e+202, 3.4e+201) px, where its squared reprojection
+  // error is not finite".
+  std::string nonfinite_error(const Model &model, const std::string &name) const;
+
+  // Writes the estimate p (m cnp-vectors, then n points) into model, a model with the ids of
+  // the one the problem was built of (that model, or a copy): by camera, image, frame, rig and
+  // point id, never by position. What is refined: the poses of the sba cameras from mcon on
+  // that are not held (an image's own; in a rig, its frame's and its camera's pose in the rig;
+  // in a model whose frames hold one image each, its frame's, so that the frame composes to
+  // the refined pose, which the image's q and t then hold, as the images file will), each COLMAP
+  // camera's parameters that are not held, the points from
+  // held_points on and their ERROR, the mean reprojection error in pixels. A held rotation or
+  // translation, and everything else, keeps its bits.
+  void apply(const double *p, Model *model) const;
+
+ private:
+  struct Builder;
+  struct Index;
+  // Each sba camera's record, by id.
+  struct CameraIds {
+    std::uint32_t image = 0, camera = 0, frame = 0, rig = 0;
+    bool reference = true;      // the rig's reference sensor (or no rigs)
+    bool writes_params = true;  // the first sba camera of its COLMAP camera
+  };
+  template <typename F>
+  decltype(auto) with_model(F f) const;
+  void write_image(int j, const double *a, const Index &index) const;
+  void write_rig_image(int j, const double *a, const Index &index,
+                       std::unordered_map<std::uint32_t, char> *frames_done) const;
+  void write_points(const double *p, const Index &index) const;
+
+  std::vector<int> images_;
+  std::vector<CameraIds> ids_;
+  std::vector<std::uint64_t> point_ids_;  // problem point k's POINT3D_ID
+  eucsba::PointSet points_;
+  int cnp_ = 0, mcon_ = 0, held_points_ = 0;
+  bool rigged_ = false;
+  bool has_rigs_ = false;
+  std::vector<char> cam_fixed_;
+  std::vector<int> cam_param_group_;
+  std::vector<double> p0_;
+  Counts counts_;
+  std::unique_ptr<sbacameras::colmap_camera::CameraModel> image_model_;
+  std::unique_ptr<sbacameras::colmap_camera::RigCameraModel> rig_model_;
+};
+
+}  // namespace sbaformats::colmap
+
+#endif  // SBA_LIB_FORMATS_COLMAP_PROBLEM_H
