@@ -429,7 +429,7 @@ struct Loaded {
   bal_camera::CallbackData bal_data;
 };
 
-// The job of l->problem through eucsbademo's camera model (COLMAP models and NVM files).
+// The job of l->problem (an NVM file) through eucsbademo's camera model.
 void eucsba_job(Loaded *l, Job *job) {
   nvm::SbaProblem &pr = l->problem;
   l->sba_model = std::make_unique<euclidean::CameraModel>(euclidean::CameraKind::VaryingIntrinsicsDistortion, pr.cameras,
