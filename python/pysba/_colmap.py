@@ -268,6 +268,31 @@ def _held_images(hold_poses: Any) -> Tuple[bool, List[Any]]:
     return False, checked
 
 
+def _held_ids(name: str, kind: str, given: Any) -> Tuple[bool, List[int]]:
+    """A hold_* list of identifiers (kind: "CAMERA_IDs", "POINT3D_IDs") checked for its types, as
+    (every one, the ids); the library looks the ids up, as sbarefine's --hold-* lists."""
+    if given is None:
+        return False, []
+    if isinstance(given, str):
+        if given != "all":
+            raise ValueError(f"{name} must be 'all' or a list of {kind} (ints), got {given!r}")
+        return True, []
+    # As in _held_images: bytes would be read as small ids, a mapping as its keys.
+    items = None
+    if not isinstance(given, (bytes, bytearray, memoryview, collections.abc.Mapping)):
+        try:
+            items = list(given)
+        except TypeError:
+            pass
+    if items is None:
+        raise TypeError(f"{name} must be 'all' or a list of {kind} (ints), got {type(given).__name__}")
+    for k, item in enumerate(items):
+        # A float or a bool is not an id, even one that holds an integer.
+        if not isinstance(item, numbers.Integral) or isinstance(item, (bool, np.bool_)):
+            raise TypeError(f"{name}[{k}] must be a {kind[:-1]} (int), got {type(item).__name__}")
+    return False, [int(item) for item in items]
+
+
 def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any) -> Tuple[Any, Any]:
     """strategy and opts as sbarefine sets them for a COLMAP model, by COLMAP's stopping rule
     (the library's colmap_stop_rule: a tolerance sets eps4 and, unless a strategy is given, the
@@ -304,7 +329,8 @@ def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any) -> Tuple[Any
 def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_principal_point: bool = False,
                   refine_extra_params: bool = True, refine_rig_from_world: bool = True,
                   refine_sensor_from_rig: bool = True, constant_rig_from_world_rotation: bool = False,
-                  hold_poses: Any = None, solver: Optional[str] = None, threads: int = 0,
+                  hold_poses: Any = None, hold_intrinsics: Any = None, hold_sensor_from_rig: Any = None,
+                  hold_points: Any = None, solver: Optional[str] = None, threads: int = 0,
                   strategy: Optional[str] = None, loss: Optional[str] = None,
                   loss_scale: float = 1.0, itmax: int = 100, opts: Optional[Sequence[float]] = None,
                   function_tolerance: Optional[float] = None, mcon: int = 0, ncon: int = 0,
@@ -337,6 +363,14 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         ValueError; bytes and dicts are TypeErrors, not lists of their bytes or keys. With rigs
         and frames, holding an image (one that sees no point too) holds its frame's pose and
         its camera's pose in the rig, so that it comes back as read.
+    hold_intrinsics, hold_sensor_from_rig, hold_points
+        COLMAP's other constants, as sbarefine's --hold-intrinsics, --hold-sensor-from-rig and
+        --hold-points: "all", or a list of ids (ints): CAMERA_IDs whose every parameter is held,
+        in all their images; CAMERA_IDs whose pose in their rig is held, for all the frames (a
+        rig's reference camera is at the identity, held anyway; nothing without rigs); POINT3D_IDs
+        whose coordinates are held (with ncon, the points of both). An id the model does not have
+        is a ValueError (``hold_points[2]: no point has the POINT3D_ID '5'``); bools, floats,
+        bytes and dicts are TypeErrors.
     itmax, function_tolerance
         COLMAP's max_num_iterations (100) and function_tolerance (Ceres's relative cost
         change; None: COLMAP's 0, unless strategy or opts[4] is given, which then keep sba's
@@ -380,11 +414,14 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name} must be a bool, got {type(flag).__name__}")
     hold_all, held = _held_images(hold_poses)
+    constants = dict(hold_intrinsics=_held_ids("hold_intrinsics", "CAMERA_IDs", hold_intrinsics),
+                     hold_sensor_from_rig=_held_ids("hold_sensor_from_rig", "CAMERA_IDs", hold_sensor_from_rig),
+                     hold_points=_held_ids("hold_points", "POINT3D_IDs", hold_points))
     strategy, opts = _colmap_stop(strategy, opts, function_tolerance)
     if verbose:
         progress = _shown(colmap_model, loss not in (None, "none"), progress)
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
-    report = _core.refine_colmap(colmap_model, hold_all, held, *(bool(flag) for _, flag in flags), **kw)
+    report = _core.refine_colmap(colmap_model, hold_all, held, *(bool(flag) for _, flag in flags), **constants, **kw)
     refined = _with_unposed(_model(report["model"]), colmap_model)
     # The Result's model, also on an exception's result, is of the type returned.
     report["model"] = to_pycolmap(refined) if reconstruction else refined

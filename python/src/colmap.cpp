@@ -581,9 +581,58 @@ std::vector<char> held_poses(py::handle model, bool all, const py::list &named, 
   return held;
 }
 
+// A list of identifiers of refine_colmap (hold_intrinsics, hold_sensor_from_rig: CAMERA_IDs;
+// hold_points: POINT3D_IDs): what it names, and what messages call it.
+struct IdList {
+  const char *option, *noun, *kind;  // "hold_points", "point", "POINT3D_ID"
+  std::uint64_t max;
+  std::string (*parse)(const colmap::Model &, const std::string &, std::vector<char> *);
+};
+
+// The flags (one per Model::cameras or Model::points) of what a list of identifiers names: all
+// of them, or each item's (ints: pysba checked the types). The items go to the library's
+// parse_camera_list or parse_point_list as sbarefine's --hold-intrinsics, --hold-sensor-from-rig
+// and --hold-points give them, as one list of their decimal texts, so that an id names what it
+// names there. An int no id can be (negative, or past the kind's range) names nothing, as an
+// id the model does not have. Empty when nothing is held.
+std::vector<char> held_ids(const colmap::Model &m, const IdList &l, bool all, const py::list &named) {
+  std::vector<char> held;
+  if (!all && named.empty()) return held;
+  std::string list = "all";
+  std::vector<size_t> ends;  // where the text of items 0..k ends in list
+  std::string beyond;        // why the first int that is no id names nothing (the items before it are parsed)
+  if (!all) {
+    list.clear();
+    for (size_t k = 0; k < named.size() && beyond.empty(); ++k) {
+      const unsigned long long id = PyLong_AsUnsignedLongLong(named[k].ptr());
+      if ((id == ~0ULL && PyErr_Occurred()) || id > l.max) {
+        PyErr_Clear();
+        beyond = at(l.option, k) + ": no " + l.noun + " has the " + l.kind + " '" +
+                 std::string(py::str(named[k])) + "'";
+      } else {
+        list += (k ? "," : "") + std::to_string(id);
+        ends.push_back(list.size());
+      }
+    }
+  }
+  const std::string why = ends.empty() && !all ? std::string() : l.parse(m, list, &held);
+  if (why.empty() && !beyond.empty()) throw py::value_error(beyond);
+  if (why.empty()) return held;
+  // The library names the first item that names nothing, not its place: the shortest prefix of
+  // the list that it refuses ends with that item (a few more parses, on the way to an error).
+  size_t good = 0, bad = ends.size();
+  while (bad - good > 1) {
+    const size_t mid = (good + bad) / 2;
+    std::vector<char> scratch;
+    (l.parse(m, list.substr(0, ends[mid - 1]), &scratch).empty() ? good : bad) = mid;
+  }
+  throw py::value_error(at(l.option, bad - 1) + ": " + why);
+}
+
 py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_poses, bool focal, bool principal,
                        bool extra, bool rig_from_world, bool sensor_from_rig, bool constant_rotation,
-                       const py::kwargs &kw) {
+                       const py::tuple &hold_intrinsics, const py::tuple &hold_sensor_from_rig,
+                       const py::tuple &hold_points, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   std::vector<long long> rows;
   colmap::Model m = model_of(model, &rows);
@@ -592,6 +641,20 @@ py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_pos
   options.intrinsics = {focal, principal, extra};
   options.poses = {rig_from_world, sensor_from_rig, constant_rotation};
   options.constants.poses = std::move(held);
+  // Each (all, ids) as pysba/_colmap.py's _held_ids gives it.
+  const struct {
+    const py::tuple &given;
+    IdList list;
+    std::vector<char> *held;
+  } lists[] = {
+      {hold_intrinsics, {"hold_intrinsics", "camera", "CAMERA_ID", UINT32_MAX, colmap::parse_camera_list},
+       &options.constants.intrinsics},
+      {hold_sensor_from_rig, {"hold_sensor_from_rig", "camera", "CAMERA_ID", UINT32_MAX, colmap::parse_camera_list},
+       &options.constants.sensor_from_rig},
+      {hold_points, {"hold_points", "point", "POINT3D_ID", UINT64_MAX, colmap::parse_point_list},
+       &options.constants.points}};
+  for (const auto &l : lists)
+    *l.held = held_ids(m, l.list, l.given[0].cast<bool>(), l.given[1].cast<py::list>());
   options.mcon = o.mcon;
   options.ncon = o.ncon;
   return refine_model(std::move(m), options, o);
@@ -614,7 +677,8 @@ void add_colmap(py::module_ &mod) {
   mod.def("refine_colmap", &refine_colmap, py::arg("model"), py::arg("hold_all"), py::arg("hold_poses"),
           py::arg("refine_focal_length"), py::arg("refine_principal_point"), py::arg("refine_extra_params"),
           py::arg("refine_rig_from_world"), py::arg("refine_sensor_from_rig"),
-          py::arg("constant_rig_from_world_rotation"));
+          py::arg("constant_rig_from_world_rotation"), py::arg("hold_intrinsics"), py::arg("hold_sensor_from_rig"),
+          py::arg("hold_points"));
 }
 
 }  // namespace pysba

@@ -14,7 +14,10 @@ write_colmap(rec) writes the files of write_colmap(from_pycolmap(rec)).
 A scene of two rigs of three cameras (frames of three images), the cameras' poses in their rigs
 and focal lengths moved: refine_colmap(rec) ends no worse than pycolmap.bundle_adjustment at
 its defaults (1 + 1e-6) by pycolmap's projection, and every image's pose is its frame's
-composed with its camera's pose in the rig (1e-12). Of that scene from_pycolmap and
+composed with its camera's pose in the rig (1e-12); with a camera's intrinsics, a camera's pose
+in its rig and points held (hold_intrinsics, hold_sensor_from_rig, hold_points), refine_colmap(rec)
+solves refine_colmap(from_pycolmap(rec))'s problem and gives back the held values with pycolmap's
+bits. Of that scene from_pycolmap and
 refine_colmap(itmax=0) give every image pycolmap's own pose, the same bits. A scene with two
 frames deregistered: from_pycolmap and to_pycolmap keep them and their images, without a pose;
 refine_colmap gives them back as they were and solves what pycolmap writes of the scene, the
@@ -175,6 +178,30 @@ def run(pycolmap, pysba):
     expect(worst <= 1e-12, "rigs: an image's pose is %g from its frame's and its rig's" % worst)
     print("PASS refine_colmap of rigs: RMS %.9g px, pycolmap.bundle_adjustment's %.9g px, rigid to %g"
           % (mine, theirs, worst))
+
+    # COLMAP's other constants on a Reconstruction: camera 1's intrinsics, camera 2's pose in rig
+    # 1 and five points held come back with pycolmap's bits; the solve is the converted model's.
+    sensor = pycolmap.sensor_t(pycolmap.SensorType.CAMERA, 2)
+    points = sorted(rigs.points3D)[:5]
+    kw = dict(hold_intrinsics=[1], hold_sensor_from_rig=[2], hold_points=points)
+    held, result = pysba.refine_colmap(rigs, **kw)
+    converted, again = pysba.refine_colmap(pysba.from_pycolmap(rigs), **kw)
+    expect(isinstance(held, pycolmap.Reconstruction) and again.info.tolist() == result.info.tolist(),
+           "held: refine_colmap(rec) solved another problem than refine_colmap(from_pycolmap(rec))")
+    same_reconstruction(pysba.to_pycolmap(converted), held, "held: refine_colmap(rec)")
+    expect(values(held.cameras[1].params) == values(rigs.cameras[1].params), "held: camera 1's parameters moved")
+    expect(values(held.cameras[2].params) != values(rigs.cameras[2].params), "held: camera 2's parameters kept")
+    expect(pose(held.rigs[1].sensor_from_rig(sensor)) == pose(rigs.rigs[1].sensor_from_rig(sensor)),
+           "held: camera 2's pose in rig 1 moved")
+    other = pycolmap.sensor_t(pycolmap.SensorType.CAMERA, 3)
+    expect(pose(held.rigs[1].sensor_from_rig(other)) != pose(rigs.rigs[1].sensor_from_rig(other)),
+           "held: camera 3's pose in rig 1 kept")
+    expect(all(values(held.points3D[k].xyz) == values(rigs.points3D[k].xyz) for k in points),
+           "held: a held point moved")
+    expect(sum(values(held.points3D[k].xyz) != values(rigs.points3D[k].xyz) for k in rigs.points3D) ==
+           len(rigs.points3D) - len(points), "held: a point not held was kept")
+    print("PASS refine_colmap(rec) with hold_intrinsics, hold_sensor_from_rig and hold_points: "
+          "pycolmap's bits where held")
 
 
 def keypoints(im):

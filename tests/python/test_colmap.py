@@ -569,6 +569,40 @@ def test_refine_refusals(tmp_path):
         pysba.refine_colmap(empty)
 
 
+def test_hold_refusals(tmp_path):
+    # The exact message and type; the ids are rigged()'s (cameras 100 to 105, points 1000 + 7i).
+    model = pysba.read_colmap(rigged(tmp_path))
+    for kw, error, message in [
+        # The first item that names nothing, wherever it is, whatever follows it.
+        (dict(hold_intrinsics=[100, 7]), ValueError, "hold_intrinsics[1]: no camera has the CAMERA_ID '7'"),
+        (dict(hold_intrinsics=[-1]), ValueError, "hold_intrinsics[0]: no camera has the CAMERA_ID '-1'"),
+        (dict(hold_intrinsics=[2**32]), ValueError,
+         "hold_intrinsics[0]: no camera has the CAMERA_ID '4294967296'"),
+        (dict(hold_sensor_from_rig=[101, 99, -1]), ValueError,
+         "hold_sensor_from_rig[1]: no camera has the CAMERA_ID '99'"),
+        (dict(hold_sensor_from_rig=[101, -1, 99]), ValueError,
+         "hold_sensor_from_rig[1]: no camera has the CAMERA_ID '-1'"),
+        (dict(hold_points=[1000, 1007, 5, 1014, 6]), ValueError, "hold_points[2]: no point has the POINT3D_ID '5'"),
+        (dict(hold_points=[1001]), ValueError, "hold_points[0]: no point has the POINT3D_ID '1001'"),
+        (dict(hold_points=[2**64]), ValueError, "hold_points[0]: no point has the POINT3D_ID '18446744073709551616'"),
+        (dict(hold_points=[1000, True]), TypeError, "hold_points[1] must be a POINT3D_ID (int), got bool"),
+        (dict(hold_points=[1000.0]), TypeError, "hold_points[0] must be a POINT3D_ID (int), got float"),
+        (dict(hold_intrinsics=["100"]), TypeError, "hold_intrinsics[0] must be a CAMERA_ID (int), got str"),
+        (dict(hold_intrinsics="none"), ValueError,
+         "hold_intrinsics must be 'all' or a list of CAMERA_IDs (ints), got 'none'"),
+        (dict(hold_intrinsics=bytes([100])), TypeError,
+         "hold_intrinsics must be 'all' or a list of CAMERA_IDs (ints), got bytes"),
+        (dict(hold_sensor_from_rig={101: True}), TypeError,
+         "hold_sensor_from_rig must be 'all' or a list of CAMERA_IDs (ints), got dict"),
+        (dict(hold_points=1000), TypeError, "hold_points must be 'all' or a list of POINT3D_IDs (ints), got int"),
+        (dict(hold_points=1000.5), TypeError,
+         "hold_points must be 'all' or a list of POINT3D_IDs (ints), got float"),
+    ]:
+        with pytest.raises(Exception) as e:
+            pysba.refine_colmap(model, **kw)
+        assert type(e.value) is error and str(e.value) == message, kw
+
+
 def test_held_poses_are_kept(tmp_path):
     model = pysba.read_colmap(sbagen(tmp_path)[0])
     refined, _ = pysba.refine_colmap(model, hold_poses=[13, "img_0004.png"])
@@ -581,6 +615,69 @@ def test_held_poses_are_kept(tmp_path):
         assert all(a.t.tobytes() == b.t.tobytes() for a, b in zip(refined.images, again.images))
     everything, _ = pysba.refine_colmap(model, hold_poses="all")
     assert all(a.t.tobytes() == b.t.tobytes() for a, b in zip(model.images, everything.images))
+
+
+# COLMAP's other constants: the same lists as sbarefine's --hold-* options, the same bits.
+
+def test_held_intrinsics_are_sbarefines(tmp_path):
+    # Cameras 101 and 104 (OPENCV, each of one image) keep their parameters; the others move.
+    text, _ = sbagen(tmp_path)
+    r = same_as_sbarefine(tmp_path, text, "text", ["--hold-intrinsics", "101,104"],
+                          dict(hold_intrinsics=[101, np.uint32(104)]))
+    given = pysba.read_colmap(text)
+    kept = [a.params.tobytes() == b.params.tobytes() for a, b in zip(given.cameras, r.model.cameras)]
+    assert [c.id for c in given.cameras] == [100, 101, 102, 103, 104, 105]
+    assert kept == [False, True, False, False, True, False]
+
+
+def test_all_intrinsics_held_are_sbarefines(tmp_path):
+    _, binary = sbagen(tmp_path, "fixed")
+    r = same_as_sbarefine(tmp_path, binary, "binary", ["--hold-intrinsics", "all"], dict(hold_intrinsics="all"))
+    assert r.model.cameras[0].params.tobytes() == pysba.read_colmap(binary).cameras[0].params.tobytes()
+
+
+def test_held_sensor_from_rig_is_sbarefines(tmp_path):
+    # Camera 101's pose in rig 1, which frame 900 (images 10 and 13) refines when it is free.
+    source = two_image_frame(tmp_path)
+    given = pysba.read_colmap(source)
+    free, _ = pysba.refine_colmap(given)
+    sensor = given.rigs[0].sensors[1]
+    assert sensor.id == 101 and free.rigs[0].sensors[1].t.tobytes() != sensor.t.tobytes()
+    for n, (arg, kw) in enumerate((("101", (101,)), ("all", "all"))):
+        (tmp_path / str(n)).mkdir()
+        r = same_as_sbarefine(tmp_path / str(n), source, "text", ["--hold-sensor-from-rig", arg],
+                              dict(hold_sensor_from_rig=kw))
+        held = r.model.rigs[0].sensors[1]
+        assert held.q.tobytes() == sensor.q.tobytes() and held.t.tobytes() == sensor.t.tobytes()
+        # The frames still move.
+        assert r.model.frames[0].t.tobytes() != given.frames[0].t.tobytes()
+
+
+def test_held_points_are_sbarefines(tmp_path):
+    # Points 1413, 1000 and 1007 (rows 59, 0 and 1) and, with ncon 3, the first three (1014, row
+    # 2, too) keep their coordinates; the others move.
+    text, _ = sbagen(tmp_path)
+    given = pysba.read_colmap(text)
+    ids = given.points3D.ids
+    assert ids[[0, 1, 59]].tolist() == [1000, 1007, 1413]
+    r = same_as_sbarefine(tmp_path, text, "text", ["--hold-points", "1413,1000,1007", "--ncon", "3"],
+                          dict(hold_points=ids[[59, 0, 1]], ncon=3))
+    kept = [a.tobytes() == b.tobytes() for a, b in zip(given.points3D.xyz, r.model.points3D.xyz)]
+    assert [k for k, same in enumerate(kept) if same] == [0, 1, 2, 59]
+    everything, _ = pysba.refine_colmap(given, hold_points="all")
+    assert everything.points3D.xyz.tobytes() == given.points3D.xyz.tobytes()
+
+
+def test_a_missing_id_is_sbarefines_message(tmp_path):
+    # The same words as sbarefine's, which reads the list by the same code.
+    text, _ = sbagen(tmp_path)
+    run = subprocess.run([program("PYSBA_SBAREFINE"), str(text), "--hold-points", "1000,5"],
+                         capture_output=True, text=True)
+    assert run.returncode == 1
+    assert run.stderr.splitlines()[0] == f"sbarefine: --hold-points: {text}: no point has the POINT3D_ID '5'"
+    with pytest.raises(ValueError) as e:
+        pysba.refine_colmap(pysba.read_colmap(text), hold_points=[1000, 5])
+    assert str(e.value) == "hold_points[1]: no point has the POINT3D_ID '5'"
 
 
 def without_observations(model, image_id):
