@@ -10,7 +10,6 @@
 #include "formats/nvm_io.h"
 #include "fuzz_common.h"
 
-namespace colmap = sbaformats::colmap;
 namespace nvm = sbaformats::nvm;
 namespace euclidean = sbacameras::euclidean;
 
