@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "cameras/colmap_camera.h"
 #include "cameras/rigid_pose.h"
 
 namespace sbaformats {
@@ -23,27 +24,27 @@ class OutputSet;  // output_file.h
 
 namespace sbaformats::colmap {
 
-// COLMAP's model ids of its camera models.
-enum CameraModelId : int {
-  kSimplePinhole = 0,        // f cx cy
-  kPinhole = 1,              // fx fy cx cy
-  kSimpleRadial = 2,         // f cx cy k
-  kRadial = 3,               // f cx cy k1 k2
-  kOpenCV = 4,               // fx fy cx cy k1 k2 p1 p2
-  kOpenCVFisheye = 5,        // fx fy cx cy k1 k2 k3 k4
-  kFullOpenCV = 6,           // fx fy cx cy k1 k2 p1 p2 k3 k4 k5 k6
-  kFov = 7,                  // fx fy cx cy omega
-  kSimpleRadialFisheye = 8,  // f cx cy k
-  kRadialFisheye = 9,        // f cx cy k1 k2
-  kThinPrismFisheye = 10,    // fx fy cx cy k1 k2 p1 p2 k3 k4 sx1 sy1
-  kRadTanThinPrismFisheye = 11,  // fx fy cx cy k0 k1 k2 k3 k4 k5 p0 p1 s0 s1 s2 s3
-  kSimpleDivision = 12,      // f cx cy k
-  kDivision = 13,            // fx fy cx cy k
-  kSimpleFisheye = 14,       // f cx cy
-  kFisheye = 15,             // fx fy cx cy
-  kEucm = 16,                // fx fy cx cy alpha beta
-  kEquirectangular = 17      // w h: the panorama's size in pixels
-};
+// COLMAP's model ids of its camera models: colmap_camera.h's, whose comment gives each one's
+// parameters.
+using CameraModelId = sbacameras::colmap_camera::ModelId;
+using sbacameras::colmap_camera::kSimplePinhole;
+using sbacameras::colmap_camera::kPinhole;
+using sbacameras::colmap_camera::kSimpleRadial;
+using sbacameras::colmap_camera::kRadial;
+using sbacameras::colmap_camera::kOpenCV;
+using sbacameras::colmap_camera::kOpenCVFisheye;
+using sbacameras::colmap_camera::kFullOpenCV;
+using sbacameras::colmap_camera::kFov;
+using sbacameras::colmap_camera::kSimpleRadialFisheye;
+using sbacameras::colmap_camera::kRadialFisheye;
+using sbacameras::colmap_camera::kThinPrismFisheye;
+using sbacameras::colmap_camera::kRadTanThinPrismFisheye;
+using sbacameras::colmap_camera::kSimpleDivision;
+using sbacameras::colmap_camera::kDivision;
+using sbacameras::colmap_camera::kSimpleFisheye;
+using sbacameras::colmap_camera::kFisheye;
+using sbacameras::colmap_camera::kEucm;
+using sbacameras::colmap_camera::kEquirectangular;
 
 // The model's name, or nullptr for an id outside the accepted ones.
 const char *camera_model_name(int model);
