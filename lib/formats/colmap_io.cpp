@@ -25,37 +25,6 @@
 
 namespace sbaformats::colmap {
 
-std::string bad_intrinsics(const Camera &c) {
-  const ModelInfo &m = kModels[c.model];
-  const std::string camera = "camera " + std::to_string(c.id) + ": " + m.name + "'s ";
-  static const char *const kFocal[2][2] = {{"f", ""}, {"fx", "fy"}};
-  for (int k = 0; k < m.focals; ++k) {
-    const double f = c.params[static_cast<std::size_t>(k)];
-    if (!(f > 0)) return camera + kFocal[m.focals - 1][k] + " must be positive, got " + g17(f);
-  }
-  if (m.focals == 2) {
-    const double ar = c.params[1] / c.params[0];
-    if (!std::isfinite(ar) || ar == 0) return camera + "aspect ratio fy / fx overflows or underflows";
-  }
-  // A panorama's size scales its pixels as a focal length does: one of no size, or a negative
-  // one (a mirrored panorama), is no camera either.
-  if (c.model == kEquirectangular)
-    for (std::size_t k = 0; k < 2; ++k)
-      if (!(c.params[k] > 0)) return camera + (k == 0 ? "w" : "h") + " must be positive, got " + g17(c.params[k]);
-  return {};
-}
-
-std::string invalid_id(const std::string &what) {
-  static const char *const kNames[][2] = {{"CAMERA_ID", "kInvalidCameraId"},
-                                          {"IMAGE_ID", "kInvalidImageId"},
-                                          {"RIG_ID", "kInvalidRigId"},
-                                          {"FRAME_ID", "kInvalidFrameId"}};
-  std::string constant = "its invalid id";
-  for (const auto &n : kNames)
-    if (what == n[0]) constant = n[1];
-  return what + " " + std::to_string(kInvalidId) + " is COLMAP's invalid id (" + constant + "), which COLMAP refuses";
-}
-
 std::string printable(const std::string &s) {
   std::string out;
   for (char c : s) {
@@ -65,43 +34,9 @@ std::string printable(const std::string &s) {
   return out;
 }
 
-namespace {
+const char *camera_model_name(int model) { return sbacameras::colmap_camera::model_name(model); }
 
-std::uint64_t sensor_key(const SensorId &s) {
-  return std::uint64_t{static_cast<std::uint32_t>(s.type)} << 32 | s.id;
-}
-
-}  // namespace
-
-std::string repeated_sensor(const Rig &rig) {
-  std::vector<std::uint64_t> keys;
-  keys.reserve(rig.sensors.size());
-  for (const RigSensor &s : rig.sensors) keys.push_back(sensor_key(s.sensor));
-  std::sort(keys.begin(), keys.end());
-  const auto twice = std::adjacent_find(keys.begin(), keys.end());
-  if (twice == keys.end()) return {};
-  const SensorId s{static_cast<SensorType>(*twice >> 32), static_cast<std::uint32_t>(*twice)};
-  return "rig " + std::to_string(rig.id) + " lists " + sensor_name(s) + " twice";
-}
-
-std::string repeated_data(const Frame &frame) {
-  std::vector<std::tuple<std::uint64_t, std::uint64_t>> keys;
-  keys.reserve(frame.data.size());
-  for (const DataId &d : frame.data) keys.emplace_back(sensor_key(d.sensor), d.id);
-  std::sort(keys.begin(), keys.end());
-  const auto twice = std::adjacent_find(keys.begin(), keys.end());
-  if (twice == keys.end()) return {};
-  const std::uint64_t key = std::get<0>(*twice);
-  const SensorId s{static_cast<SensorType>(key >> 32), static_cast<std::uint32_t>(key)};
-  return "frame " + std::to_string(frame.id) + " lists " + sensor_name(s) + " " +
-         std::to_string(std::get<1>(*twice)) + " twice";
-}
-
-const char *camera_model_name(int model) {
-  return model >= 0 && model < kNumModels ? kModels[model].name : nullptr;
-}
-
-int camera_model_params(int model) { return model >= 0 && model < kNumModels ? kModels[model].params : 0; }
+int camera_model_params(int model) { return sbacameras::colmap_camera::param_count(model); }
 
 namespace {
 
