@@ -195,7 +195,8 @@ bool check_model(const Model &model, const std::string &name, std::string *error
 // reference sensor (the same bits), compose(sensor_from_rig, rig_from_world) for another
 // sensor; but the image's q and t where they are that pose but for the rounding of another
 // program's arithmetic (COLMAP writes the poses it composed into the images file), so that a
-// model nothing changed is written back as it was read.
+// model nothing changed is written back as it was read. Of a model check_model refuses, the
+// images' own poses where its frames do not place every image.
 std::vector<Pose> image_poses(const Model &model);
 
 // The reverse: the rig_from_world of a frame at which a camera whose pose in the rig is
@@ -209,8 +210,11 @@ Pose frame_pose(const Pose &pose, const Pose *sensor_from_rig);
 struct ImagePlace {
   std::size_t frame = 0, rig = 0, sensor = 0;
 };
-// Each image's (one per Model::images).
+// Each image's (one per Model::images): an index of the model's ids, which check_model does not
+// keep. A caller that needs it more than once builds it once and passes it on.
 std::vector<ImagePlace> image_places(const Model &model);
+// image_poses of a checked model with the places image_places gave of it.
+std::vector<Pose> image_poses(const Model &model, const std::vector<ImagePlace> &places);
 
 // Reads DIR/{cameras,images,points3D}.{txt,bin} (encoding from the files found, see above),
 // and DIR/{rigs,frames} of the same encoding when they are there: both or neither, as COLMAP 4
