@@ -160,6 +160,12 @@ TEST(ColmapCheck, FrameRules) {
 // cameras before the images, the points, the rigs and the frames.
 TEST(ColmapCheck, OrderOfProblems) {
   expect_refused({
+      {"id before model",
+       [](colmap::Model *m) {
+         m->cameras[1].id = kInvalid;
+         m->cameras[1].model = 18;
+       },
+       "camera 4294967295: CAMERA_ID" + kInvalidIs + "kInvalidCameraId), which COLMAP refuses"},
       {"own before twice",
        [](colmap::Model *m) {
          m->cameras[1].id = 1;
@@ -182,6 +188,22 @@ TEST(ColmapCheck, OrderOfProblems) {
 }
 
 // ---- the readers give the same message ----
+
+// The binary reader checks a camera's id and model id before it reads the parameters (their
+// count is the model's), in check_records' order: the id first.
+TEST(ColmapCheck, BinaryCameraHeadInCheckRecordsOrder) {
+  std::string bytes = colmap::format_model(good_model(), colmap::Encoding::Binary).cameras;
+  bytes.replace(8, 4, 4, '\xff');  // the first camera's id
+  bytes[12] = 18;                   // its model id
+  std::vector<colmap::Camera> cams;
+  std::string error;
+  EXPECT_FALSE(colmap::parse_cameras_binary(bytes, "c.bin", &cams, &error));
+  EXPECT_EQ(error, "c.bin: byte 8: camera 4294967295: CAMERA_ID" + kInvalidIs +
+                       "kInvalidCameraId), which COLMAP refuses");
+  bytes.replace(8, 4, 4, '\0');
+  EXPECT_FALSE(colmap::parse_cameras_binary(bytes, "c.bin", &cams, &error));
+  EXPECT_EQ(error, "c.bin: byte 8: camera 0: unknown camera model id 18");
+}
 
 // error without the reader's place: "DIR/cameras.txt:4: " or "DIR/cameras.bin: byte 8: ",
 // and *file the file named there ("cameras.txt").

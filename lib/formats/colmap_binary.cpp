@@ -211,7 +211,7 @@ bool parse_cameras_binary(const std::string &bytes, const std::string &name, std
     if (!r.u32(&c.id, "CAMERA_ID", error) || !r.u32(&model, "MODEL_ID", error)) return false;
     // COLMAP's int32: the model's parameter count tells how many values follow.
     c.model = static_cast<int>(static_cast<std::int32_t>(model));
-    if (!r.keeps_rules(at, unknown_model(c), error)) return false;
+    if (!r.keeps_rules(at, camera_head_problem(c), error)) return false;
     if (!r.u64(&c.width, "WIDTH", error) || !r.u64(&c.height, "HEIGHT", error)) return false;
     c.params.resize(static_cast<std::size_t>(camera_model_params(c.model)));
     for (double &p : c.params)

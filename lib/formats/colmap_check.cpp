@@ -97,15 +97,16 @@ std::string repeated_data(const Frame &frame) {
 
 }  // namespace
 
-std::string unknown_model(const Camera &c) {
-  if (camera_model_name(c.model)) return {};
-  return "camera " + std::to_string(c.id) + ": unknown camera model id " + std::to_string(c.model);
+std::string camera_head_problem(const Camera &c) {
+  const std::string camera = "camera " + std::to_string(c.id) + ": ";
+  if (c.id == kInvalidId) return camera + invalid_id("CAMERA_ID");
+  if (!camera_model_name(c.model)) return camera + "unknown camera model id " + std::to_string(c.model);
+  return {};
 }
 
 std::string camera_problem(const Camera &c) {
+  if (std::string why = camera_head_problem(c); !why.empty()) return why;
   const std::string camera = "camera " + std::to_string(c.id) + ": ";
-  if (c.id == kInvalidId) return camera + invalid_id("CAMERA_ID");
-  if (std::string why = unknown_model(c); !why.empty()) return why;
   const int np = camera_model_params(c.model);
   if (c.params.size() != static_cast<std::size_t>(np))
     return camera + camera_model_name(c.model) + " has " + std::to_string(np) + " parameters, found " +

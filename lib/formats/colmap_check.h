@@ -22,9 +22,9 @@ namespace sbaformats::colmap {
 // parameter count that is not the model's, a focal length that is not positive or an aspect
 // ratio fy / fx that is infinite or zero (EQUIRECTANGULAR: a w or h that is not positive).
 std::string camera_problem(const Camera &c);
-// Of camera_problem's, only the model id: what a binary reader must know before it can read
-// the parameters.
-std::string unknown_model(const Camera &c);
+// Of camera_problem's, those before the parameters (the id, the model id), in its order: what
+// a binary reader checks before the model's parameter count tells it what follows.
+std::string camera_head_problem(const Camera &c);
 // An image: the invalid id as its id or its camera's, a zero quaternion, a name the text format
 // cannot hold (empty, a line break, a NUL byte, a blank at either end).
 std::string image_problem(const Image &im);
