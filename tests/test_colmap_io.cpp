@@ -150,8 +150,8 @@ TEST(ColmapRoundTrip, EighteenCameraModels) {
 TEST(ColmapReader, CameraTextErrors) {
   const Bad cases[] = {
       {"1 RAD_TAN_THIN_PRISM_FISHEYE 640 480 1 2 3 4 5 6 7 8 9 10 11 12\n",
-       "c.txt:1: RAD_TAN_THIN_PRISM_FISHEYE has 16 parameters, found 12"},
-      {"1 EQUIRECTANGULAR 640 480 640 480 1\n", "c.txt:1: EQUIRECTANGULAR has 2 parameters, found 3"},
+       "c.txt:1: camera 1: RAD_TAN_THIN_PRISM_FISHEYE has 16 parameters, found 12"},
+      {"1 EQUIRECTANGULAR 640 480 640 480 1\n", "c.txt:1: camera 1: EQUIRECTANGULAR has 2 parameters, found 3"},
       {"4 EQUIRECTANGULAR 640 480 0 480\n", "c.txt:1: camera 4: EQUIRECTANGULAR's w must be positive, got 0"},
       {"4 EQUIRECTANGULAR 640 480 -640 480\n",
        "c.txt:1: camera 4: EQUIRECTANGULAR's w must be positive, got -640"},
@@ -159,9 +159,9 @@ TEST(ColmapReader, CameraTextErrors) {
       {"1 SIMPLE_DIVISION 640 480 -500 320 240 0.1\n",
        "c.txt:1: camera 1: SIMPLE_DIVISION's f must be positive, got -500"},
       {"1 EUCM 640 480 500 0 320 240 0.5 1\n", "c.txt:1: camera 1: EUCM's fy must be positive, got 0"},
-      {"1 FULL_OPENCV 640 480 1 2 3 4 5 6 7 8 9 10 11\n", "c.txt:1: FULL_OPENCV has 12 parameters, found 11"},
+      {"1 FULL_OPENCV 640 480 1 2 3 4 5 6 7 8 9 10 11\n", "c.txt:1: camera 1: FULL_OPENCV has 12 parameters, found 11"},
       {"1 FISHY 640 480 1 2 3\n", "c.txt:1: unknown camera model 'FISHY'"},
-      {"#\n1 PINHOLE 640 480 1 2 3\n", "c.txt:2: PINHOLE has 4 parameters, found 3"},
+      {"#\n1 PINHOLE 640 480 1 2 3\n", "c.txt:2: camera 1: PINHOLE has 4 parameters, found 3"},
       {"1 PINHOLE 640 480 1 2 3 nan\n", "c.txt:1: a camera parameter must be a finite number, got 'nan'"},
       {"-1 PINHOLE 640 480 1 2 3 4\n", "c.txt:1: CAMERA_ID must be an integer from 0 to 4294967295, got '-1'"},
       {"1 PINHOLE 640 480 1 2 3 4\n1 PINHOLE 640 480 1 2 3 4\n", "c.txt:2: camera 1 appears twice"},
@@ -184,7 +184,7 @@ TEST(ColmapReader, CameraTextErrors) {
 
 TEST(ColmapReader, ImageAndPointTextErrors) {
   const Bad images[] = {
-      {"1 0 0 0 0 0 0 0 1 a.png\n\n", "i.txt:1: the quaternion is zero"},
+      {"1 0 0 0 0 0 0 0 1 a.png\n\n", "i.txt:1: image 1: the quaternion is zero"},
       {"1 1 0 0 0 0 0 0 1 a.png\n", "i.txt:1: the image's line of POINTS2D (X Y POINT3D_ID ...) is missing"},
       {"1 1 0 0 0 0 0 0 1 a.png\n1 2\n", "i.txt:2: POINTS2D come in triples X Y POINT3D_ID, found 2 values"},
       {"1 1 0 0 0 0 0 0 1 a.png\n1 2 -2\n",
@@ -239,12 +239,17 @@ TEST(ColmapReader, BinaryErrors) {
   EXPECT_EQ(error, "c.bin: byte 8: camera 100: OPENCV's fx must be positive, got 0");
   // Names the text format cannot hold: a line break, blanks only, a blank at either end.
   ASSERT_EQ(f.images.substr(72, 13), std::string("img_0000.png\0", 13));
-  for (const char *name : {"img_\n000.png", "            ", " img_000.png", "img_000.png\t"}) {
+  const std::pair<const char *, const char *> names[] = {{"img_\n000.png", "img_?000.png"},
+                                                         {"            ", "            "},
+                                                         {" img_000.png", " img_000.png"},
+                                                         {"img_000.png\t", "img_000.png?"}};
+  for (const auto &[name, shown] : names) {
     bad = f.images;
     bad.replace(72, 12, name);
     EXPECT_FALSE(colmap::parse_images_binary(bad, "i.bin", &ims, &error)) << name;
-    EXPECT_EQ(error, "i.bin: byte 8: image 10: the name is empty, holds a line break or begins or ends with a "
-                     "blank, which the text format cannot hold");
+    EXPECT_EQ(error, std::string("i.bin: byte 8: image 10: the name \"") + shown +
+                         "\" is empty, holds a line break or a NUL byte, or begins or ends with a blank, which the "
+                         "model files cannot hold");
   }
   bad = f.points;
   bad[7] = 1;
@@ -517,7 +522,7 @@ TEST(ColmapRigs, TextErrors) {
        "f.txt:1: frame 1 has NUM_DATA_IDS 2, followed by 3 values (SENSOR_TYPE SENSOR_ID DATA_ID each)"},
       {"1 1 1 0 0 0 0 0 0 99999999999\n",
        "f.txt:1: NUM_DATA_IDS must be an integer from 0 to 4294967295, got '99999999999'"},
-      {"1 1 0 0 0 0 0 0 0 0\n", "f.txt:1: the quaternion is zero"},
+      {"1 1 0 0 0 0 0 0 0 0\n", "f.txt:1: frame 1: the quaternion is zero"},
       {"1 1 1 0 0 0 0 nan 0 0\n", "f.txt:1: TY must be a finite number, got 'nan'"},
       {"1 1 1 0 0 0 0 0 0 1 LIDAR 1 1\n", "f.txt:1: SENSOR_TYPE must be CAMERA or IMU, got 'LIDAR'"},
       {"1 1 1 0 0 0 0 0 0 1 CAMERA 1 -1\n",
@@ -751,7 +756,7 @@ TEST(ColmapRigs, ComposedPosesAsWrittenComeBack) {
 }
 
 // COLMAP's invalid id, 2^32 - 1 (kInvalidCameraId, kInvalidImageId, kInvalidRigId,
-// kInvalidFrameId), which COLMAP refuses in a model: refused where it stands in the files, text
+// kInvalidFrameId), which COLMAP refuses in a model: refused with its record in the files, text
 // and binary, and in a model made in memory (what pysba writes).
 TEST(ColmapReader, InvalidIdsAreRefused) {
   const std::string invalid = " 4294967295 is COLMAP's invalid id (";
@@ -759,25 +764,25 @@ TEST(ColmapReader, InvalidIdsAreRefused) {
   std::vector<colmap::Camera> cams;
   EXPECT_FALSE(colmap::parse_cameras_text("1 PINHOLE 640 480 1 1 3 4\n4294967295 PINHOLE 640 480 1 1 3 4\n", "c.txt",
                                           &cams, &error));
-  EXPECT_EQ(error, "c.txt:2: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
+  EXPECT_EQ(error, "c.txt:2: camera 4294967295: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
   std::vector<colmap::Image> ims;
   EXPECT_FALSE(colmap::parse_images_text("4294967295 1 0 0 0 0 0 0 1 a.png\n\n", "i.txt", &ims, &error));
-  EXPECT_EQ(error, "i.txt:1: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
+  EXPECT_EQ(error, "i.txt:1: image 4294967295: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
   EXPECT_FALSE(colmap::parse_images_text("1 1 0 0 0 0 0 0 4294967295 a.png\n\n", "i.txt", &ims, &error));
-  EXPECT_EQ(error, "i.txt:1: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
+  EXPECT_EQ(error, "i.txt:1: image 1: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
   std::vector<colmap::Point3D> pts;
   EXPECT_FALSE(colmap::parse_points_text("1 0 0 0 1 2 3 0.5 4294967295 0\n", "p.txt", &pts, &error));
-  EXPECT_EQ(error, "p.txt:1: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
+  EXPECT_EQ(error, "p.txt:1: point 1: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
   std::vector<colmap::Rig> rigs;
   EXPECT_FALSE(colmap::parse_rigs_text("4294967295 1 CAMERA 1\n", "r.txt", &rigs, &error));
-  EXPECT_EQ(error, "r.txt:1: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
+  EXPECT_EQ(error, "r.txt:1: rig 4294967295: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
   std::vector<colmap::Frame> frames;
   EXPECT_FALSE(colmap::parse_frames_text("4294967295 1 1 0 0 0 0 0 0 0\n", "f.txt", &frames, &error));
-  EXPECT_EQ(error, "f.txt:1: FRAME_ID" + invalid + "kInvalidFrameId), which COLMAP refuses");
+  EXPECT_EQ(error, "f.txt:1: frame 4294967295: FRAME_ID" + invalid + "kInvalidFrameId), which COLMAP refuses");
   EXPECT_FALSE(colmap::parse_frames_text("1 4294967295 1 0 0 0 0 0 0 0\n", "f.txt", &frames, &error));
-  EXPECT_EQ(error, "f.txt:1: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
+  EXPECT_EQ(error, "f.txt:1: frame 1: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
 
-  // Binary: the same records with the id at its byte.
+  // Binary: the same records, named at their first byte.
   colmap::Model m = rig_model();
   m.points.push_back({5, {0, 0, 1}, {1, 2, 3}, 0.5, {{1, 0}}});
   m.images[0].points.push_back({1, 2, 5});
@@ -785,19 +790,19 @@ TEST(ColmapReader, InvalidIdsAreRefused) {
   const colmap::Files f = colmap::format_model(m, colmap::Encoding::Binary);
   const auto with_invalid = [](std::string bytes, std::size_t at) { return bytes.replace(at, 4, 4, '\xff'); };
   EXPECT_FALSE(colmap::parse_cameras_binary(with_invalid(f.cameras, 8 + 56), "c.bin", &cams, &error));
-  EXPECT_EQ(error, "c.bin: byte 64: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
+  EXPECT_EQ(error, "c.bin: byte 64: camera 4294967295: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
   EXPECT_FALSE(colmap::parse_images_binary(with_invalid(f.images, 8), "i.bin", &ims, &error));
-  EXPECT_EQ(error, "i.bin: byte 8: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
+  EXPECT_EQ(error, "i.bin: byte 8: image 4294967295: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
   EXPECT_FALSE(colmap::parse_images_binary(with_invalid(f.images, 8 + 60), "i.bin", &ims, &error));
-  EXPECT_EQ(error, "i.bin: byte 68: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
+  EXPECT_EQ(error, "i.bin: byte 8: image 1: CAMERA_ID" + invalid + "kInvalidCameraId), which COLMAP refuses");
   EXPECT_FALSE(colmap::parse_points_binary(with_invalid(f.points, 8 + 51), "p.bin", &pts, &error));
-  EXPECT_EQ(error, "p.bin: byte 59: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
+  EXPECT_EQ(error, "p.bin: byte 8: point 5: IMAGE_ID" + invalid + "kInvalidImageId), which COLMAP refuses");
   EXPECT_FALSE(colmap::parse_rigs_binary(with_invalid(f.rigs, 8), "r.bin", &rigs, &error));
-  EXPECT_EQ(error, "r.bin: byte 8: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
+  EXPECT_EQ(error, "r.bin: byte 8: rig 4294967295: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
   EXPECT_FALSE(colmap::parse_frames_binary(with_invalid(f.frames, 8), "f.bin", &frames, &error));
-  EXPECT_EQ(error, "f.bin: byte 8: FRAME_ID" + invalid + "kInvalidFrameId), which COLMAP refuses");
+  EXPECT_EQ(error, "f.bin: byte 8: frame 4294967295: FRAME_ID" + invalid + "kInvalidFrameId), which COLMAP refuses");
   EXPECT_FALSE(colmap::parse_frames_binary(with_invalid(f.frames, 12), "f.bin", &frames, &error));
-  EXPECT_EQ(error, "f.bin: byte 12: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
+  EXPECT_EQ(error, "f.bin: byte 8: frame 11: RIG_ID" + invalid + "kInvalidRigId), which COLMAP refuses");
 
   // A model made in memory, as pysba writes one: the record named.
   const struct {

@@ -426,7 +426,7 @@ TEST(Sbarefine, CommandLineErrors) {
   write_file(dir + "/cameras.txt", "1 FISHEYE 640 480 300 320 240\n");
   r = run(dir);
   EXPECT_EQ(r.status, 1);
-  EXPECT_EQ(r.err, dir + "/cameras.txt:1: FISHEYE has 4 parameters, found 3\n");
+  EXPECT_EQ(r.err, dir + "/cameras.txt:1: camera 1: FISHEYE has 4 parameters, found 3\n");
   write_file(dir + "/cameras.txt", "1 KANNALA_BRANDT 640 480 300 320 240\n");
   r = run(dir);
   EXPECT_EQ(r.status, 1);
@@ -2576,7 +2576,7 @@ TEST(Sbarefine, InvalidCameraIdIsRefused) {
     const Outcome r = run(in + " --write " + out);
     EXPECT_EQ(r.status, 1);
     EXPECT_EQ(r.err, in + (text ? "/cameras.txt:4: " : "/cameras.bin: byte 8: ") +
-                         "CAMERA_ID 4294967295 is COLMAP's invalid id (kInvalidCameraId), which COLMAP refuses\n");
+                         "camera 4294967295: CAMERA_ID 4294967295 is COLMAP's invalid id (kInvalidCameraId), which COLMAP refuses\n");
     EXPECT_FALSE(std::filesystem::exists(out));
   }
 }

@@ -15,22 +15,6 @@ namespace sbacameras::colmap_camera {
 
 namespace {
 
-struct ModelInfo {
-  const char *name;
-  int params;
-  int focals;
-};
-constexpr ModelInfo kModels[kNumModels] = {
-    {"SIMPLE_PINHOLE", 3, 1},        {"PINHOLE", 4, 2},
-    {"SIMPLE_RADIAL", 4, 1},         {"RADIAL", 5, 1},
-    {"OPENCV", 8, 2},                {"OPENCV_FISHEYE", 8, 2},
-    {"FULL_OPENCV", 12, 2},          {"FOV", 5, 2},
-    {"SIMPLE_RADIAL_FISHEYE", 4, 1}, {"RADIAL_FISHEYE", 5, 1},
-    {"THIN_PRISM_FISHEYE", 12, 2},   {"RAD_TAN_THIN_PRISM_FISHEYE", 16, 2},
-    {"SIMPLE_DIVISION", 4, 1},       {"DIVISION", 5, 2},
-    {"SIMPLE_FISHEYE", 3, 1},        {"FISHEYE", 4, 2},
-    {"EUCM", 6, 2},                  {"EQUIRECTANGULAR", 2, 0}};
-
 bool known(int model) { return model >= 0 && model < kNumModels; }
 
 // g(s) = atan(r) / r with s = r^2, and dg/ds. The closed form of dg/ds cancels as s -> 0,

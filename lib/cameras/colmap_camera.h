@@ -87,6 +87,43 @@ enum ModelId : int {
 };
 constexpr int kNumModels = 18;
 constexpr int kMaxParams = 16;  // RAD_TAN_THIN_PRISM_FISHEYE
+
+// COLMAP's table of its models, the one the programs, pysba and the file formats read: each
+// row carries its id, so that a row out of the enum's order does not compile.
+struct ModelInfo {
+  ModelId id;
+  const char *name;
+  int params;
+  int focals;  // f, or fx and fy, leading the parameters; 0 for EQUIRECTANGULAR's w h
+};
+inline constexpr ModelInfo kModels[] = {
+    {kSimplePinhole, "SIMPLE_PINHOLE", 3, 1},
+    {kPinhole, "PINHOLE", 4, 2},
+    {kSimpleRadial, "SIMPLE_RADIAL", 4, 1},
+    {kRadial, "RADIAL", 5, 1},
+    {kOpenCV, "OPENCV", 8, 2},
+    {kOpenCVFisheye, "OPENCV_FISHEYE", 8, 2},
+    {kFullOpenCV, "FULL_OPENCV", 12, 2},
+    {kFov, "FOV", 5, 2},
+    {kSimpleRadialFisheye, "SIMPLE_RADIAL_FISHEYE", 4, 1},
+    {kRadialFisheye, "RADIAL_FISHEYE", 5, 1},
+    {kThinPrismFisheye, "THIN_PRISM_FISHEYE", 12, 2},
+    {kRadTanThinPrismFisheye, "RAD_TAN_THIN_PRISM_FISHEYE", 16, 2},
+    {kSimpleDivision, "SIMPLE_DIVISION", 4, 1},
+    {kDivision, "DIVISION", 5, 2},
+    {kSimpleFisheye, "SIMPLE_FISHEYE", 3, 1},
+    {kFisheye, "FISHEYE", 4, 2},
+    {kEucm, "EUCM", 6, 2},
+    {kEquirectangular, "EQUIRECTANGULAR", 2, 0}};
+
+// Whether row k of the table is model id k, and none has more parameters than kMaxParams.
+constexpr bool table_is_by_id() {
+  for (int k = 0; k < kNumModels; ++k)
+    if (kModels[k].id != k || kModels[k].params > kMaxParams) return false;
+  return true;
+}
+static_assert(sizeof kModels / sizeof kModels[0] == kNumModels, "one row per model id");
+static_assert(table_is_by_id(), "kModels is indexed by ModelId");
 constexpr int kPoseParams = 6;  // v1 v2 v3 t1 t2 t3
 constexpr int kPointParams = 3;
 constexpr int kMeasurementParams = 2;

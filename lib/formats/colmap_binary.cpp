@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "formats/colmap_check.h"
 #include "formats/colmap_io_impl.h"
 
 namespace sbaformats::colmap {
@@ -30,13 +31,10 @@ class ByteReader {
     *v = static_cast<std::uint32_t>(w);
     return true;
   }
-  // An id of a camera, an image, a rig or a frame (what: CAMERA_ID, IMAGE_ID, RIG_ID,
-  // FRAME_ID), COLMAP's invalid one refused.
-  bool id(std::uint32_t *v, const char *what, std::string *error) {
-    const std::size_t at = pos_;
-    if (!u32(v, what, error)) return false;
-    if (*v == kInvalidId) return fail(error, where(at) + invalid_id(what));
-    return true;
+  // The record read from byte `at` keeps the rules of colmap_check.h: false with its byte and
+  // why.
+  bool keeps_rules(std::size_t at, const std::string &why, std::string *error) const {
+    return why.empty() || fail(error, where(at) + why);
   }
   bool u8(std::uint8_t *v, const char *what, std::string *error) {
     std::uint64_t w;
@@ -210,19 +208,16 @@ bool parse_cameras_binary(const std::string &bytes, const std::string &name, std
     Camera c;
     const std::size_t at = r.pos();
     std::uint32_t model;
-    if (!r.id(&c.id, "CAMERA_ID", error) || !r.u32(&model, "MODEL_ID", error)) return false;
-    const int m = static_cast<int>(static_cast<std::int32_t>(model));
-    if (m < 0 || m >= kNumModels)
-      return fail(error, r.where(at) + "camera " + std::to_string(c.id) + ": unknown camera model id " +
-                             std::to_string(m));
-    c.model = m;
+    if (!r.u32(&c.id, "CAMERA_ID", error) || !r.u32(&model, "MODEL_ID", error)) return false;
+    // COLMAP's int32: the model's parameter count tells how many values follow.
+    c.model = static_cast<int>(static_cast<std::int32_t>(model));
+    if (!r.keeps_rules(at, camera_head_problem(c), error)) return false;
     if (!r.u64(&c.width, "WIDTH", error) || !r.u64(&c.height, "HEIGHT", error)) return false;
-    c.params.resize(static_cast<std::size_t>(kModels[m].params));
+    c.params.resize(static_cast<std::size_t>(camera_model_params(c.model)));
     for (double &p : c.params)
       if (!r.real(&p, "a camera parameter", error)) return false;
-    if (const std::string why = bad_intrinsics(c); !why.empty()) return fail(error, r.where(at) + why);
-    if (!ids.insert(c.id, i))
-      return fail(error, r.where(at) + "camera " + std::to_string(c.id) + " appears twice");
+    if (!r.keeps_rules(at, camera_problem(c), error)) return false;
+    if (!ids.insert(c.id, i)) return fail(error, r.where(at) + appears_twice("camera", c.id));
     cams.push_back(std::move(c));
   }
   if (!r.at_end(error)) return false;
@@ -242,25 +237,19 @@ bool parse_images_binary(const std::string &bytes, const std::string &name, std:
   for (std::uint64_t i = 0; i < n; ++i) {
     Image im;
     const std::size_t at = r.pos();
-    if (!r.id(&im.id, "IMAGE_ID", error)) return false;
+    if (!r.u32(&im.id, "IMAGE_ID", error)) return false;
     if (!read_pose(&r, &im.q, &im.t, error)) return false;
-    if (is_zero(im.q))
-      return fail(error, r.where(at) + "image " + std::to_string(im.id) + ": the quaternion is zero");
-    if (!r.id(&im.camera_id, "CAMERA_ID", error) || !r.cstring(&im.name, "the image name", error)) return false;
-    // The text format keeps a name on one line, between blanks that its reader trims: a name
-    // it cannot hold is refused here, not lost or made unreadable by a rewrite as text.
-    if (im.name.empty() || im.name.find_first_of("\r\n") != std::string::npos || is_blank(im.name.front()) ||
-        is_blank(im.name.back()))
-      return fail(error, r.where(at) + "image " + std::to_string(im.id) +
-                             ": the name is empty, holds a line break or begins or ends with a blank, which the "
-                             "text format cannot hold");
+    if (!r.u32(&im.camera_id, "CAMERA_ID", error) || !r.cstring(&im.name, "the image name", error)) return false;
+    // A name the text format cannot hold is refused too (image_problem), not lost or made
+    // unreadable by a rewrite as text.
+    if (!r.keeps_rules(at, image_problem(im), error)) return false;
     std::uint64_t np;
     if (!r.count(&np, 24, "the number of POINTS2D", error)) return false;
     im.points.resize(static_cast<std::size_t>(np));
     for (Point2D &p : im.points)
       if (!r.real(&p.x, "X", error) || !r.real(&p.y, "Y", error) || !r.u64(&p.point3d_id, "POINT3D_ID", error))
         return false;
-    if (!ids.insert(im.id, i)) return fail(error, r.where(at) + "image " + std::to_string(im.id) + " appears twice");
+    if (!ids.insert(im.id, i)) return fail(error, r.where(at) + appears_twice("image", im.id));
     images.push_back(std::move(im));
   }
   if (!r.at_end(error)) return false;
@@ -281,7 +270,6 @@ bool parse_points_binary(const std::string &bytes, const std::string &name, std:
     Point3D p;
     const std::size_t at = r.pos();
     if (!r.u64(&p.id, "POINT3D_ID", error)) return false;
-    if (p.id == kNoPoint) return fail(error, r.where(at) + "POINT3D_ID -1 is not an identifier");
     for (double &v : p.xyz)
       if (!r.real(&v, "a coordinate", error)) return false;
     for (std::uint8_t &c : p.rgb)
@@ -291,8 +279,9 @@ bool parse_points_binary(const std::string &bytes, const std::string &name, std:
     if (!r.count(&nt, 8, "the track length", error)) return false;
     p.track.resize(static_cast<std::size_t>(nt));
     for (TrackElement &e : p.track)
-      if (!r.id(&e.image_id, "IMAGE_ID", error) || !r.u32(&e.point2d_idx, "POINT2D_IDX", error)) return false;
-    if (!ids.insert(p.id, i)) return fail(error, r.where(at) + "point " + std::to_string(p.id) + " appears twice");
+      if (!r.u32(&e.image_id, "IMAGE_ID", error) || !r.u32(&e.point2d_idx, "POINT2D_IDX", error)) return false;
+    if (!r.keeps_rules(at, point_problem(p), error)) return false;
+    if (!ids.insert(p.id, i)) return fail(error, r.where(at) + appears_twice("point", p.id));
     points.push_back(std::move(p));
   }
   if (!r.at_end(error)) return false;
@@ -313,7 +302,7 @@ bool parse_rigs_binary(const std::string &bytes, const std::string &name, std::v
     Rig rig;
     const std::size_t at = r.pos();
     std::uint64_t ns;
-    if (!r.id(&rig.id, "RIG_ID", error)) return false;
+    if (!r.u32(&rig.id, "RIG_ID", error)) return false;
     const std::string of_rig = "rig " + std::to_string(rig.id) + ": ";
     // The reference sensor takes 8 bytes, each other one 9 or 65.
     if (!r.count32(&ns, 8, "the number of sensors", error)) return false;
@@ -331,13 +320,9 @@ bool parse_rigs_binary(const std::string &bytes, const std::string &name, std::v
                                " must be 0 or 1, got " + std::to_string(has_pose));
       s.has_pose = has_pose == 1;
       if (s.has_pose && !read_pose(&r, &s.sensor_from_rig.q, &s.sensor_from_rig.t, error)) return false;
-      if (s.has_pose && is_zero(s.sensor_from_rig.q))
-        return fail(error,
-                    r.where(sensor_at) + of_rig + "the quaternion of " + sensor_name(s.sensor) + " is zero");
     }
-    if (const std::string why = repeated_sensor(rig); !why.empty()) return fail(error, r.where(at) + why);
-    if (!ids.insert(rig.id, i))
-      return fail(error, r.where(at) + "rig " + std::to_string(rig.id) + " appears twice");
+    if (!r.keeps_rules(at, rig_problem(rig), error)) return false;
+    if (!ids.insert(rig.id, i)) return fail(error, r.where(at) + appears_twice("rig", rig.id));
     rigs.push_back(std::move(rig));
   }
   if (!r.at_end(error)) return false;
@@ -357,11 +342,9 @@ bool parse_frames_binary(const std::string &bytes, const std::string &name, std:
   for (std::uint64_t i = 0; i < n; ++i) {
     Frame f;
     const std::size_t at = r.pos();
-    if (!r.id(&f.id, "FRAME_ID", error) || !r.id(&f.rig_id, "RIG_ID", error) ||
+    if (!r.u32(&f.id, "FRAME_ID", error) || !r.u32(&f.rig_id, "RIG_ID", error) ||
         !read_pose(&r, &f.rig_from_world.q, &f.rig_from_world.t, error))
       return false;
-    if (is_zero(f.rig_from_world.q))
-      return fail(error, r.where(at) + "frame " + std::to_string(f.id) + ": the quaternion is zero");
     std::uint64_t nd;
     const std::string of_frame = "frame " + std::to_string(f.id) + ": ";
     if (!r.count32(&nd, 16, "the number of data ids", error)) return false;
@@ -370,9 +353,8 @@ bool parse_frames_binary(const std::string &bytes, const std::string &name, std:
       if (!r.sensor_type(&d.sensor.type, of_frame, error) || !r.u32(&d.sensor.id, "SENSOR_ID", error) ||
           !r.u64(&d.id, "DATA_ID", error))
         return false;
-    if (const std::string why = repeated_data(f); !why.empty()) return fail(error, r.where(at) + why);
-    if (!ids.insert(f.id, i))
-      return fail(error, r.where(at) + "frame " + std::to_string(f.id) + " appears twice");
+    if (!r.keeps_rules(at, frame_problem(f), error)) return false;
+    if (!ids.insert(f.id, i)) return fail(error, r.where(at) + appears_twice("frame", f.id));
     frames.push_back(std::move(f));
   }
   if (!r.at_end(error)) return false;

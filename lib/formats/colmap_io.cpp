@@ -25,37 +25,6 @@
 
 namespace sbaformats::colmap {
 
-std::string bad_intrinsics(const Camera &c) {
-  const ModelInfo &m = kModels[c.model];
-  const std::string camera = "camera " + std::to_string(c.id) + ": " + m.name + "'s ";
-  static const char *const kFocal[2][2] = {{"f", ""}, {"fx", "fy"}};
-  for (int k = 0; k < m.focals; ++k) {
-    const double f = c.params[static_cast<std::size_t>(k)];
-    if (!(f > 0)) return camera + kFocal[m.focals - 1][k] + " must be positive, got " + g17(f);
-  }
-  if (m.focals == 2) {
-    const double ar = c.params[1] / c.params[0];
-    if (!std::isfinite(ar) || ar == 0) return camera + "aspect ratio fy / fx overflows or underflows";
-  }
-  // A panorama's size scales its pixels as a focal length does: one of no size, or a negative
-  // one (a mirrored panorama), is no camera either.
-  if (c.model == kEquirectangular)
-    for (std::size_t k = 0; k < 2; ++k)
-      if (!(c.params[k] > 0)) return camera + (k == 0 ? "w" : "h") + " must be positive, got " + g17(c.params[k]);
-  return {};
-}
-
-std::string invalid_id(const std::string &what) {
-  static const char *const kNames[][2] = {{"CAMERA_ID", "kInvalidCameraId"},
-                                          {"IMAGE_ID", "kInvalidImageId"},
-                                          {"RIG_ID", "kInvalidRigId"},
-                                          {"FRAME_ID", "kInvalidFrameId"}};
-  std::string constant = "its invalid id";
-  for (const auto &n : kNames)
-    if (what == n[0]) constant = n[1];
-  return what + " " + std::to_string(kInvalidId) + " is COLMAP's invalid id (" + constant + "), which COLMAP refuses";
-}
-
 std::string printable(const std::string &s) {
   std::string out;
   for (char c : s) {
@@ -65,43 +34,9 @@ std::string printable(const std::string &s) {
   return out;
 }
 
-namespace {
+const char *camera_model_name(int model) { return sbacameras::colmap_camera::model_name(model); }
 
-std::uint64_t sensor_key(const SensorId &s) {
-  return std::uint64_t{static_cast<std::uint32_t>(s.type)} << 32 | s.id;
-}
-
-}  // namespace
-
-std::string repeated_sensor(const Rig &rig) {
-  std::vector<std::uint64_t> keys;
-  keys.reserve(rig.sensors.size());
-  for (const RigSensor &s : rig.sensors) keys.push_back(sensor_key(s.sensor));
-  std::sort(keys.begin(), keys.end());
-  const auto twice = std::adjacent_find(keys.begin(), keys.end());
-  if (twice == keys.end()) return {};
-  const SensorId s{static_cast<SensorType>(*twice >> 32), static_cast<std::uint32_t>(*twice)};
-  return "rig " + std::to_string(rig.id) + " lists " + sensor_name(s) + " twice";
-}
-
-std::string repeated_data(const Frame &frame) {
-  std::vector<std::tuple<std::uint64_t, std::uint64_t>> keys;
-  keys.reserve(frame.data.size());
-  for (const DataId &d : frame.data) keys.emplace_back(sensor_key(d.sensor), d.id);
-  std::sort(keys.begin(), keys.end());
-  const auto twice = std::adjacent_find(keys.begin(), keys.end());
-  if (twice == keys.end()) return {};
-  const std::uint64_t key = std::get<0>(*twice);
-  const SensorId s{static_cast<SensorType>(key >> 32), static_cast<std::uint32_t>(key)};
-  return "frame " + std::to_string(frame.id) + " lists " + sensor_name(s) + " " +
-         std::to_string(std::get<1>(*twice)) + " twice";
-}
-
-const char *camera_model_name(int model) {
-  return model >= 0 && model < kNumModels ? kModels[model].name : nullptr;
-}
-
-int camera_model_params(int model) { return model >= 0 && model < kNumModels ? kModels[model].params : 0; }
+int camera_model_params(int model) { return sbacameras::colmap_camera::param_count(model); }
 
 namespace {
 
@@ -113,17 +48,10 @@ namespace {
 // another pose than COLMAP's.
 constexpr double kUnitNormTolerance = 1e-10;
 
-// An image's place among the frames: its frame, its rig and its camera's place in the rig
-// (ImagePlace), and its camera's pose in the frame's rig, null for the rig's reference sensor.
-struct Placement : ImagePlace {
-  Placement() { frame = IdIndex::kNone; }
-  const Pose *sensor_from_rig = nullptr;
-};
-
 // The rigs and frames of a model agree with each other and with its cameras and images (see
-// check_model), and each image's place in them: false with the first disagreement.
-bool place_images(const Model &model, const std::string &where, std::vector<Placement> *out,
-                  std::string *error) {
+// check_model): false with the first disagreement. Where each image is, once it is known that
+// every image has one place, is find_places'.
+bool check_rigs(const Model &model, const std::string &where, std::string *error) {
   constexpr std::size_t kNone = IdIndex::kNone;
   IdIndex cameras(model.cameras.size()), images(model.images.size()), rigs(model.rigs.size()), sensors;
   for (std::size_t k = 0; k < model.cameras.size(); ++k) cameras.insert(model.cameras[k].id, k);
@@ -145,7 +73,7 @@ bool place_images(const Model &model, const std::string &where, std::vector<Plac
       sensor_at.emplace_back(r, k);
     }
   }
-  std::vector<Placement> place(model.images.size());
+  std::vector<std::size_t> frame_of(model.images.size(), kNone);
   for (std::size_t f = 0; f < model.frames.size(); ++f) {
     const Frame &fr = model.frames[f];
     const std::string frame = "frame " + std::to_string(fr.id);
@@ -168,12 +96,11 @@ bool place_images(const Model &model, const std::string &where, std::vector<Plac
       if (model.images[i].camera_id != d.sensor.id)
         return fail(error, where + frame + " holds " + image + " as data of " + sensor_name(d.sensor) +
                                ", but the image's camera is " + std::to_string(model.images[i].camera_id));
-      if (place[i].frame != kNone)
-        return fail(error, where + image + " is in frame " + std::to_string(model.frames[place[i].frame].id) +
+      if (frame_of[i] != kNone)
+        return fail(error, where + image + " is in frame " + std::to_string(model.frames[frame_of[i]].id) +
                                " and in " + frame);
-      place[i].frame = f;
-      place[i].rig = r;
-      const std::size_t k = place[i].sensor = sensor_at[s].second;
+      frame_of[i] = f;
+      const std::size_t k = sensor_at[s].second;
       if (k == 0) continue;  // the reference sensor
       const RigSensor &sensor = rig.sensors[k];
       if (!sensor.has_pose)
@@ -192,23 +119,41 @@ bool place_images(const Model &model, const std::string &where, std::vector<Plac
       if (!std::all_of(composed.t.begin(), composed.t.end(), [](double v) { return std::isfinite(v); }))
         return fail(error, where + frame + ": the pose of " + image + ", composed in rig " +
                                std::to_string(rig.id) + ", overflows");
-      place[i].sensor_from_rig = &sensor.sensor_from_rig;
     }
   }
-  for (std::size_t i = 0; i < place.size(); ++i)
-    if (place[i].frame == kNone)
+  for (std::size_t i = 0; i < frame_of.size(); ++i)
+    if (frame_of[i] == kNone)
       return fail(error, where + "image " + std::to_string(model.images[i].id) + " is in no frame");
-  *out = std::move(place);
   return true;
 }
 
-// Every place of a model that check_model accepted.
-std::vector<Placement> placements(const Model &model) {
-  std::vector<Placement> place;
-  const bool placed = place_images(model, {}, &place, nullptr);
-  assert(placed);
-  (void)placed;
-  return place;
+// Each image's place among the frames (one per Model::images): false when a frame names a rig,
+// or a camera's measurement an image or a sensor of its rig, that the model does not hold, or
+// when an image is in no frame or its camera has no pose in the rig, where no pose of it can be
+// composed. In a model check_model accepted, every image has its one place; in another, an
+// image in several frames is placed in the last.
+bool find_places(const Model &model, std::vector<ImagePlace> *out) {
+  constexpr std::size_t kNone = IdIndex::kNone;
+  IdIndex images(model.images.size()), rigs(model.rigs.size());
+  for (std::size_t k = 0; k < model.images.size(); ++k) images.insert(model.images[k].id, k);
+  for (std::size_t k = 0; k < model.rigs.size(); ++k) rigs.insert(model.rigs[k].id, k);
+  std::vector<ImagePlace> place(model.images.size(), ImagePlace{kNone, kNone, kNone});
+  for (std::size_t f = 0; f < model.frames.size(); ++f) {
+    const std::size_t r = rigs.find(model.frames[f].rig_id);
+    if (r == kNone) return false;
+    const std::vector<RigSensor> &sensors = model.rigs[r].sensors;
+    for (const DataId &d : model.frames[f].data) {
+      if (d.sensor.type != SensorType::Camera) continue;
+      const std::size_t i = d.id <= 0xffffffffu ? images.find(d.id) : kNone;
+      // A rig holds a handful of sensors: a look-up by key would cost more than the scan.
+      const auto k = std::find_if(sensors.begin(), sensors.end(),
+                                  [&](const RigSensor &s) { return s.sensor == d.sensor; });
+      if (i == kNone || k == sensors.end() || (k != sensors.begin() && !k->has_pose)) return false;
+      place[i] = {f, r, static_cast<std::size_t>(k - sensors.begin())};
+    }
+  }
+  *out = std::move(place);
+  return std::none_of(out->begin(), out->end(), [](const ImagePlace &p) { return p.frame == kNone; });
 }
 
 }  // namespace
@@ -251,24 +196,29 @@ std::vector<Pose> own_poses(const Model &model) {
 
 }  // namespace
 
-std::vector<Pose> image_poses(const Model &model) {
+std::vector<Pose> image_poses(const Model &model, const std::vector<ImagePlace> &places) {
   if (!model.has_rigs) return own_poses(model);
   std::vector<Pose> poses(model.images.size());
-  std::vector<Placement> place;
-  if (!place_images(model, {}, &place, nullptr)) return own_poses(model);
-  for (std::size_t i = 0; i < place.size(); ++i) {
+  for (std::size_t i = 0; i < places.size(); ++i) {
     const Image &im = model.images[i];
-    const Pose &frame = model.frames[place[i].frame].rig_from_world;
-    if (!place[i].sensor_from_rig) {
+    const Pose &frame = model.frames[places[i].frame].rig_from_world;
+    if (places[i].sensor == 0) {  // the rig's reference sensor
       poses[i] = frame;
       continue;
     }
-    const Pose p = sbacameras::compose(*place[i].sensor_from_rig, frame);
+    const Pose &sensor = model.rigs[places[i].rig].sensors[places[i].sensor].sensor_from_rig;
+    const Pose p = sbacameras::compose(sensor, frame);
     // The images file's own bits, where they are this pose as COLMAP's arithmetic composed it:
     // what nothing changed is written back as it was read.
-    poses[i] = same_but_rounding(p, *place[i].sensor_from_rig, frame, im.q, im.t) ? Pose{im.q, im.t} : p;
+    poses[i] = same_but_rounding(p, sensor, frame, im.q, im.t) ? Pose{im.q, im.t} : p;
   }
   return poses;
+}
+
+std::vector<Pose> image_poses(const Model &model) {
+  std::vector<ImagePlace> places;
+  if (!model.has_rigs || !find_places(model, &places)) return own_poses(model);
+  return image_poses(model, places);
 }
 
 Pose frame_pose(const Pose &pose, const Pose *sensor_from_rig) {
@@ -276,8 +226,11 @@ Pose frame_pose(const Pose &pose, const Pose *sensor_from_rig) {
 }
 
 std::vector<ImagePlace> image_places(const Model &model) {
-  const std::vector<Placement> place = placements(model);
-  return {place.begin(), place.end()};
+  std::vector<ImagePlace> places;
+  const bool placed = find_places(model, &places);
+  assert(placed);
+  (void)placed;
+  return places;
 }
 
 bool check_model(const Model &model, const std::string &name, std::string *error) {
@@ -348,8 +301,7 @@ bool check_model(const Model &model, const std::string &name, std::string *error
   if (elements != observations)
     return fail(error, where + "the tracks of points3D list " + std::to_string(elements) +
                            " observations, the images name points in " + std::to_string(observations));
-  std::vector<Placement> place;
-  return !model.has_rigs || place_images(model, where, &place, error);
+  return !model.has_rigs || check_rigs(model, where, error);
 }
 
 // ---- files ----

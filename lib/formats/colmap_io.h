@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "cameras/colmap_camera.h"
 #include "cameras/rigid_pose.h"
 
 namespace sbaformats {
@@ -23,27 +24,27 @@ class OutputSet;  // output_file.h
 
 namespace sbaformats::colmap {
 
-// COLMAP's model ids of its camera models.
-enum CameraModelId : int {
-  kSimplePinhole = 0,        // f cx cy
-  kPinhole = 1,              // fx fy cx cy
-  kSimpleRadial = 2,         // f cx cy k
-  kRadial = 3,               // f cx cy k1 k2
-  kOpenCV = 4,               // fx fy cx cy k1 k2 p1 p2
-  kOpenCVFisheye = 5,        // fx fy cx cy k1 k2 k3 k4
-  kFullOpenCV = 6,           // fx fy cx cy k1 k2 p1 p2 k3 k4 k5 k6
-  kFov = 7,                  // fx fy cx cy omega
-  kSimpleRadialFisheye = 8,  // f cx cy k
-  kRadialFisheye = 9,        // f cx cy k1 k2
-  kThinPrismFisheye = 10,    // fx fy cx cy k1 k2 p1 p2 k3 k4 sx1 sy1
-  kRadTanThinPrismFisheye = 11,  // fx fy cx cy k0 k1 k2 k3 k4 k5 p0 p1 s0 s1 s2 s3
-  kSimpleDivision = 12,      // f cx cy k
-  kDivision = 13,            // fx fy cx cy k
-  kSimpleFisheye = 14,       // f cx cy
-  kFisheye = 15,             // fx fy cx cy
-  kEucm = 16,                // fx fy cx cy alpha beta
-  kEquirectangular = 17      // w h: the panorama's size in pixels
-};
+// COLMAP's model ids of its camera models: colmap_camera.h's, whose comment gives each one's
+// parameters.
+using CameraModelId = sbacameras::colmap_camera::ModelId;
+using sbacameras::colmap_camera::kSimplePinhole;
+using sbacameras::colmap_camera::kPinhole;
+using sbacameras::colmap_camera::kSimpleRadial;
+using sbacameras::colmap_camera::kRadial;
+using sbacameras::colmap_camera::kOpenCV;
+using sbacameras::colmap_camera::kOpenCVFisheye;
+using sbacameras::colmap_camera::kFullOpenCV;
+using sbacameras::colmap_camera::kFov;
+using sbacameras::colmap_camera::kSimpleRadialFisheye;
+using sbacameras::colmap_camera::kRadialFisheye;
+using sbacameras::colmap_camera::kThinPrismFisheye;
+using sbacameras::colmap_camera::kRadTanThinPrismFisheye;
+using sbacameras::colmap_camera::kSimpleDivision;
+using sbacameras::colmap_camera::kDivision;
+using sbacameras::colmap_camera::kSimpleFisheye;
+using sbacameras::colmap_camera::kFisheye;
+using sbacameras::colmap_camera::kEucm;
+using sbacameras::colmap_camera::kEquirectangular;
 
 // The model's name, or nullptr for an id outside the accepted ones.
 const char *camera_model_name(int model);
@@ -194,7 +195,8 @@ bool check_model(const Model &model, const std::string &name, std::string *error
 // reference sensor (the same bits), compose(sensor_from_rig, rig_from_world) for another
 // sensor; but the image's q and t where they are that pose but for the rounding of another
 // program's arithmetic (COLMAP writes the poses it composed into the images file), so that a
-// model nothing changed is written back as it was read.
+// model nothing changed is written back as it was read. Of a model check_model refuses, the
+// images' own poses where its frames do not place every image.
 std::vector<Pose> image_poses(const Model &model);
 
 // The reverse: the rig_from_world of a frame at which a camera whose pose in the rig is
@@ -208,8 +210,11 @@ Pose frame_pose(const Pose &pose, const Pose *sensor_from_rig);
 struct ImagePlace {
   std::size_t frame = 0, rig = 0, sensor = 0;
 };
-// Each image's (one per Model::images).
+// Each image's (one per Model::images): an index of the model's ids, which check_model does not
+// keep. A caller that needs it more than once builds it once and passes it on.
 std::vector<ImagePlace> image_places(const Model &model);
+// image_poses of a checked model with the places image_places gave of it.
+std::vector<Pose> image_poses(const Model &model, const std::vector<ImagePlace> &places);
 
 // Reads DIR/{cameras,images,points3D}.{txt,bin} (encoding from the files found, see above),
 // and DIR/{rigs,frames} of the same encoding when they are there: both or neither, as COLMAP 4

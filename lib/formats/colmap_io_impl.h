@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
 // What the COLMAP text format (colmap_text.cpp), the binary format (colmap_binary.cpp) and the
-// model's files (colmap_io.cpp) share beyond colmap_io.h: COLMAP's camera models, the messages
-// about them, and the formatting of a model in each encoding.
+// model's files (colmap_io.cpp) share beyond colmap_io.h: the messages about a model, and the
+// formatting of a model in each encoding. COLMAP's camera models are colmap_camera.h's.
 #ifndef SBA_LIB_FORMATS_COLMAP_IO_IMPL_H
 #define SBA_LIB_FORMATS_COLMAP_IO_IMPL_H
 
@@ -11,43 +11,19 @@
 #include <string>
 #include <vector>
 
+#include "cameras/colmap_camera.h"
 #include "formats/colmap_io.h"
 
 namespace sbaformats::colmap {
 
-struct ModelInfo {
-  const char *name;
-  int params;
-  int focals;  // f, or fx and fy, leading the parameters
-};
-// Indexed by COLMAP's model id: the eighteen models of colmap_camera.h.
-inline constexpr ModelInfo kModels[] = {
-    {"SIMPLE_PINHOLE", 3, 1},        {"PINHOLE", 4, 2},         {"SIMPLE_RADIAL", 4, 1},
-    {"RADIAL", 5, 1},                {"OPENCV", 8, 2},          {"OPENCV_FISHEYE", 8, 2},
-    {"FULL_OPENCV", 12, 2},          {"FOV", 5, 2},             {"SIMPLE_RADIAL_FISHEYE", 4, 1},
-    {"RADIAL_FISHEYE", 5, 1},        {"THIN_PRISM_FISHEYE", 12, 2},
-    {"RAD_TAN_THIN_PRISM_FISHEYE", 16, 2},                      {"SIMPLE_DIVISION", 4, 1},
-    {"DIVISION", 5, 2},              {"SIMPLE_FISHEYE", 3, 1},  {"FISHEYE", 4, 2},
-    {"EUCM", 6, 2},                  {"EQUIRECTANGULAR", 2, 0}};  // w h: no focal length
-inline constexpr int kNumModels = sizeof(kModels) / sizeof(kModels[0]);
+using sbacameras::colmap_camera::kModels;
+using sbacameras::colmap_camera::kNumModels;
+using sbacameras::colmap_camera::ModelInfo;
 
 // What separates values in the text format: a carriage return too, so that a CRLF file or a
 // stray '\r' does not end up inside a value (or as an image name that a rewrite would lose).
 // The binary reader refuses a name the text format could not hold.
 inline bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
-
-// The zero quaternion, which is no rotation: the readers refuse it.
-inline bool is_zero(const std::array<double, 4> &q) {
-  return q[0] == 0 && q[1] == 0 && q[2] == 0 && q[3] == 0;
-}
-
-// COLMAP's invalid id of a camera, an image, a rig and a frame (its kInvalidCameraId,
-// kInvalidImageId, kInvalidRigId, kInvalidFrameId: 2^32 - 1): COLMAP refuses a model that holds
-// one, so the readers refuse it where it stands, and check_records in a model made in memory.
-constexpr std::uint32_t kInvalidId = 0xffffffffu;
-// Why the field `what` (CAMERA_ID, IMAGE_ID, RIG_ID or FRAME_ID) cannot be kInvalidId:
-// "CAMERA_ID 4294967295 is COLMAP's invalid id (kInvalidCameraId), which COLMAP refuses".
-std::string invalid_id(const std::string &what);
 
 // The text format's name of a sensor type.
 inline const char *sensor_type_name(SensorType type) { return type == SensorType::Camera ? "CAMERA" : "IMU"; }
@@ -56,17 +32,10 @@ inline std::string sensor_name(const SensorId &s) {
   return sensor_type_name(s.type) + (" " + std::to_string(s.id));
 }
 
-// Why a rig or a frame cannot be kept as read, empty when it can: a sensor listed twice in the
-// rig ("rig 1 lists CAMERA 2 twice"), a measurement listed twice in the frame (COLMAP keeps
-// them as sets, and would write one back).
-std::string repeated_sensor(const Rig &rig);
-std::string repeated_data(const Frame &frame);
-
-// Why a camera's intrinsics are not a camera, empty when they are: a focal length must be
-// positive, and fy / fx (the aspect ratio sba keeps) a number neither infinite nor zero, and so
-// must EQUIRECTANGULAR's w and h; otherwise the solve would meet an infinite aspect ratio or a
-// mirrored image, far from here.
-std::string bad_intrinsics(const Camera &c);
+// A sensor as one number, its type above its id: the key by which sensors are sorted and found.
+inline std::uint64_t sensor_key(const SensorId &s) {
+  return std::uint64_t{static_cast<std::uint32_t>(s.type)} << 32 | s.id;
+}
 
 // s as a message quotes it: at most 40 characters, then "...", any byte outside printable
 // ASCII as '?'.

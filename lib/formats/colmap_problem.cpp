@@ -39,6 +39,7 @@ struct Draft {
   bool rigged = false;
   std::vector<cc::RigImage> rig_images;
   std::vector<ImagePlace> places;
+  std::vector<ImagePlace> image_places;  // each image's, in a model with rigs: built once, by draft_of
   std::vector<int> point_order;
   int held_points = 0;
 };
@@ -166,7 +167,7 @@ RigHolds rig_holds(const Model &model, const RefinePoses &poses, const Constants
 void rig_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
                  const Constants &constants, int mcon, const std::unordered_map<std::uint32_t, int> &camera_index,
                  Draft *p) {
-  const std::vector<ImagePlace> places = image_places(model);
+  const std::vector<ImagePlace> &places = p->image_places;
   const int ms = static_cast<int>(p->images.size());
   p->rigged = true;
   std::vector<int> camera;  // each sba camera's index in Model::cameras
@@ -196,7 +197,8 @@ void image_problem(const Model &model, const RefineIntrinsics &refine, const Ref
                    const Constants &constants, int mcon, const std::unordered_map<std::uint32_t, int> &camera_index,
                    Draft *p) {
   int np = 0;
-  const std::vector<Pose> image_pose = image_poses(model);  // a frame of one image: its image's
+  // A frame of one image: its image's pose.
+  const std::vector<Pose> image_pose = image_poses(model, p->image_places);
   for (int j : p->images) {
     const Image &im = model.images[at(j)];
     const Pose &pose = image_pose[at(j)];
@@ -313,6 +315,7 @@ bool draft_of(const Model &model, const Options &o, const std::string &name, Dra
       camera_of[at(j)] = static_cast<int>(p.images.size());
       p.images.push_back(j);
     }
+  if (model.has_rigs) p.image_places = image_places(model);
   if (refined_as_rigs(model, o.poses))
     rig_problem(model, o.intrinsics, o.poses, o.constants, o.mcon, camera_index, &p);
   else
@@ -367,7 +370,7 @@ struct Problem::Builder {
     std::vector<char> params_written(model.cameras.size(), 0);
     std::unordered_map<std::uint32_t, std::size_t> camera_index;
     for (std::size_t c = 0; c < model.cameras.size(); ++c) camera_index.emplace(model.cameras[c].id, c);
-    const std::vector<ImagePlace> places = model.has_rigs ? image_places(model) : std::vector<ImagePlace>{};
+    const std::vector<ImagePlace> &places = d.image_places;
     for (std::size_t j = 0; j < d.images.size(); ++j) {
       const Image &im = model.images[at(d.images[j])];
       CameraIds r;

@@ -7,6 +7,7 @@
 #include <string_view>
 #include <vector>
 
+#include "formats/colmap_check.h"
 #include "formats/colmap_io_impl.h"
 #include "formats/text_tokens.h"
 
@@ -105,14 +106,18 @@ bool uint_field(const TextReader &r, std::size_t k, const char *what, std::uint6
 
 constexpr std::uint64_t kU32 = 0xffffffffu;
 
-// An id of a camera, an image, a rig or a frame (what: CAMERA_ID, IMAGE_ID, RIG_ID, FRAME_ID),
-// COLMAP's invalid one refused.
+// An id of a camera, an image, a rig or a frame (what: CAMERA_ID, IMAGE_ID, RIG_ID, FRAME_ID):
+// any 32-bit value, COLMAP's invalid one refused with the record (colmap_check.h).
 bool id_field(const TextReader &r, std::size_t k, const char *what, std::uint32_t *out, std::string *error) {
   std::uint64_t v;
   if (!uint_field(r, k, what, kU32, &v, error)) return false;
-  if (v == kInvalidId) return fail(error, r.where() + invalid_id(what));
   *out = static_cast<std::uint32_t>(v);
   return true;
+}
+
+// The record read from r's line keeps the rules of colmap_check.h: false with the line and why.
+bool keeps_rules(const TextReader &r, const std::string &why, std::string *error) {
+  return why.empty() || fail(error, r.where() + why);
 }
 
 int model_by_name(std::string_view name) {
@@ -163,16 +168,12 @@ bool parse_cameras_text(const std::string &text, const std::string &name, std::v
     if (c.model < 0) return fail(error, r.where() + "unknown camera model " + quoted(t[1]));
     if (!uint_field(r, 2, "WIDTH", UINT64_MAX, &c.width, error)) return false;
     if (!uint_field(r, 3, "HEIGHT", UINT64_MAX, &c.height, error)) return false;
-    const int np = kModels[c.model].params;
-    if (t.size() != 4 + static_cast<std::size_t>(np))
-      return fail(error, r.where() + std::string(t[1]) + " has " + std::to_string(np) + " parameters, found " +
-                             std::to_string(t.size() - 4));
-    c.params.resize(static_cast<std::size_t>(np));
-    for (int k = 0; k < np; ++k)
-      if (!real_field(r, 4 + static_cast<std::size_t>(k), "a camera parameter", &c.params[k], error)) return false;
-    if (const std::string why = bad_intrinsics(c); !why.empty()) return fail(error, r.where() + why);
-    if (!ids.insert(c.id, cams.size()))
-      return fail(error, r.where() + "camera " + std::to_string(c.id) + " appears twice");
+    // Every value after HEIGHT is a parameter: their count is the model's (camera_problem).
+    c.params.resize(t.size() - 4);
+    for (std::size_t k = 0; k < c.params.size(); ++k)
+      if (!real_field(r, 4 + k, "a camera parameter", &c.params[k], error)) return false;
+    if (!keeps_rules(r, camera_problem(c), error)) return false;
+    if (!ids.insert(c.id, cams.size())) return fail(error, r.where() + appears_twice("camera", c.id));
     cams.push_back(std::move(c));
   }
   *out = std::move(cams);
@@ -192,7 +193,6 @@ bool parse_images_text(const std::string &text, const std::string &name, std::ve
     Image im;
     if (!id_field(r, 0, "IMAGE_ID", &im.id, error)) return false;
     if (!pose_fields(r, 1, &im.q, &im.t, error)) return false;
-    if (is_zero(im.q)) return fail(error, r.where() + "the quaternion is zero");
     if (!id_field(r, 8, "CAMERA_ID", &im.camera_id, error)) return false;
     // The name is the rest of the line, so that it may hold blanks: from the tenth token to
     // the end of the last.
@@ -200,8 +200,8 @@ bool parse_images_text(const std::string &text, const std::string &name, std::ve
     const std::size_t name_begin = static_cast<std::size_t>(t[9].data() - line.data());
     const std::size_t name_end = static_cast<std::size_t>(t.back().data() + t.back().size() - line.data());
     im.name.assign(line.substr(name_begin, name_end - name_begin));
-    if (!ids.insert(im.id, images.size()))
-      return fail(error, r.where() + "image " + std::to_string(im.id) + " appears twice");
+    if (!keeps_rules(r, image_problem(im), error)) return false;
+    if (!ids.insert(im.id, images.size())) return fail(error, r.where() + appears_twice("image", im.id));
     const int image_line = r.lineno();
     if (!r.next_line())
       return fail(error, name + ":" + std::to_string(image_line) +
@@ -259,8 +259,8 @@ bool parse_points_text(const std::string &text, const std::string &name, std::ve
       if (!uint_field(r, 9 + 2 * k, "POINT2D_IDX", kU32, &v, error)) return false;
       p.track[k].point2d_idx = static_cast<std::uint32_t>(v);
     }
-    if (!ids.insert(p.id, points.size()))
-      return fail(error, r.where() + "point " + std::to_string(p.id) + " appears twice");
+    if (!keeps_rules(r, point_problem(p), error)) return false;
+    if (!ids.insert(p.id, points.size())) return fail(error, r.where() + appears_twice("point", p.id));
     points.push_back(std::move(p));
   }
   *out = std::move(points);
@@ -303,9 +303,6 @@ bool parse_rigs_text(const std::string &text, const std::string &name, std::vect
                                    std::to_string(i + 1) + " of " + std::to_string(n));
           Pose &p = sensor.sensor_from_rig;
           if (!pose_fields(r, k, &p.q, &p.t, error)) return false;
-          if (is_zero(p.q))
-            return fail(error,
-                        r.where() + of_rig + "the quaternion of " + sensor_name(sensor.sensor) + " is zero");
           k += 7;
         }
       }
@@ -314,9 +311,8 @@ bool parse_rigs_text(const std::string &text, const std::string &name, std::vect
     if (k != t.size())
       return fail(error, r.where() + of_rig + std::to_string(t.size() - k) + " values after its " +
                              std::to_string(n) + " sensors");
-    if (const std::string why = repeated_sensor(rig); !why.empty()) return fail(error, r.where() + why);
-    if (!ids.insert(rig.id, rigs.size()))
-      return fail(error, r.where() + "rig " + std::to_string(rig.id) + " appears twice");
+    if (!keeps_rules(r, rig_problem(rig), error)) return false;
+    if (!ids.insert(rig.id, rigs.size())) return fail(error, r.where() + appears_twice("rig", rig.id));
     rigs.push_back(std::move(rig));
   }
   *out = std::move(rigs);
@@ -338,7 +334,6 @@ bool parse_frames_text(const std::string &text, const std::string &name, std::ve
     std::uint64_t n;
     if (!id_field(r, 0, "FRAME_ID", &f.id, error) || !id_field(r, 1, "RIG_ID", &f.rig_id, error)) return false;
     if (!pose_fields(r, 2, &f.rig_from_world.q, &f.rig_from_world.t, error)) return false;
-    if (is_zero(f.rig_from_world.q)) return fail(error, r.where() + "the quaternion is zero");
     if (!uint_field(r, 9, "NUM_DATA_IDS", kU32, &n, error)) return false;
     // Three values a measurement: n is bounded by the line before it is multiplied.
     if ((t.size() - 10) % 3 != 0 || (t.size() - 10) / 3 != n)
@@ -351,9 +346,8 @@ bool parse_frames_text(const std::string &text, const std::string &name, std::ve
           !uint_field(r, 12 + 3 * i, "DATA_ID", UINT64_MAX, &f.data[i].id, error))
         return false;
     }
-    if (const std::string why = repeated_data(f); !why.empty()) return fail(error, r.where() + why);
-    if (!ids.insert(f.id, frames.size()))
-      return fail(error, r.where() + "frame " + std::to_string(f.id) + " appears twice");
+    if (!keeps_rules(r, frame_problem(f), error)) return false;
+    if (!ids.insert(f.id, frames.size())) return fail(error, r.where() + appears_twice("frame", f.id));
     frames.push_back(std::move(f));
   }
   *out = std::move(frames);
