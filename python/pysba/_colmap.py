@@ -235,49 +235,15 @@ def write_colmap(model: Any, path: Any, encoding: str = "binary") -> None:
     _core.write_colmap(model, _path(path), encoding)
 
 
-def _held_images(hold_poses: Any) -> Tuple[bool, List[Any]]:
-    """hold_poses checked for its types, as (every image, the items: ints and strs); the
-    library looks the items up, by the one rule of every list of images."""
-    if hold_poses is None:
-        return False, []
-    if isinstance(hold_poses, str):
-        if hold_poses != "all":
-            raise ValueError(f"hold_poses must be 'all' or a list of IMAGE_IDs (ints) and NAMEs (strs), "
-                             f"got {hold_poses!r}")
-        return True, []
-    # bytes iterate as small ints and a mapping as its keys: read as lists, both would name
-    # images their caller never meant.
-    items = None
-    if not isinstance(hold_poses, (bytes, bytearray, memoryview, collections.abc.Mapping)):
-        try:
-            items = list(hold_poses)
-        except TypeError:
-            pass
-    if items is None:
-        raise TypeError(f"hold_poses must be 'all' or a list of IMAGE_IDs (ints) and NAMEs (strs), "
-                        f"got {type(hold_poses).__name__}")
-    checked = []
-    for k, item in enumerate(items):
-        if isinstance(item, str):
-            checked.append(item)
-        elif isinstance(item, numbers.Integral) and not isinstance(item, (bool, np.bool_)):
-            checked.append(int(item))
-        else:
-            raise TypeError(f"hold_poses[{k}] must be an IMAGE_ID (int) or a NAME (str), got "
-                            f"{type(item).__name__}")
-    return False, checked
-
-
-def _held_ids(name: str, kind: str, given: Any) -> Tuple[bool, List[int]]:
-    """A hold_* list of identifiers (kind: "CAMERA_IDs", "POINT3D_IDs") checked for its types, as
-    (every one, the ids); the library looks the ids up, as sbarefine's --hold-* lists."""
-    if given is None:
-        return False, []
+def _hold_items(name: str, given: Any, wanted: str) -> Tuple[bool, List[Any]]:
+    """A hold_* argument as (every one, its items, unchecked): "all", or an iterable; wanted
+    says what the caller takes, for the messages."""
     if isinstance(given, str):
         if given != "all":
-            raise ValueError(f"{name} must be 'all' or a list of {kind} (ints), got {given!r}")
+            raise ValueError(f"{name} must be 'all' or a list of {wanted}, got {given!r}")
         return True, []
-    # As in _held_images: bytes would be read as small ids, a mapping as its keys.
+    # bytes iterate as small ints and a mapping as its keys: read as lists, both would name
+    # images or ids their caller never meant.
     items = None
     if not isinstance(given, (bytes, bytearray, memoryview, collections.abc.Mapping)):
         try:
@@ -285,12 +251,38 @@ def _held_ids(name: str, kind: str, given: Any) -> Tuple[bool, List[int]]:
         except TypeError:
             pass
     if items is None:
-        raise TypeError(f"{name} must be 'all' or a list of {kind} (ints), got {type(given).__name__}")
+        raise TypeError(f"{name} must be 'all' or a list of {wanted}, got {type(given).__name__}")
+    return False, items
+
+
+def _is_id(item: Any) -> bool:
+    # A float or a bool is not an id, even one that holds an integer.
+    return isinstance(item, numbers.Integral) and not isinstance(item, (bool, np.bool_))
+
+
+def _held_images(hold_poses: Any) -> Tuple[bool, List[Any]]:
+    """hold_poses checked for its types, as (every image, the items: ints and strs); the
+    library looks the items up, by the one rule of every list of images."""
+    if hold_poses is None:
+        return False, []
+    every, items = _hold_items("hold_poses", hold_poses, "IMAGE_IDs (ints) and NAMEs (strs)")
     for k, item in enumerate(items):
-        # A float or a bool is not an id, even one that holds an integer.
-        if not isinstance(item, numbers.Integral) or isinstance(item, (bool, np.bool_)):
+        if not isinstance(item, str) and not _is_id(item):
+            raise TypeError(f"hold_poses[{k}] must be an IMAGE_ID (int) or a NAME (str), got "
+                            f"{type(item).__name__}")
+    return every, [item if isinstance(item, str) else int(item) for item in items]
+
+
+def _held_ids(name: str, kind: str, given: Any) -> Tuple[bool, List[int]]:
+    """A hold_* list of identifiers (kind: "CAMERA_IDs", "POINT3D_IDs") checked for its types, as
+    (every one, the ids); the library looks the ids up, as sbarefine's --hold-* lists."""
+    if given is None:
+        return False, []
+    every, items = _hold_items(name, given, f"{kind} (ints)")
+    for k, item in enumerate(items):
+        if not _is_id(item):
             raise TypeError(f"{name}[{k}] must be a {kind[:-1]} (int), got {type(item).__name__}")
-    return False, [int(item) for item in items]
+    return every, [int(item) for item in items]
 
 
 def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any) -> Tuple[Any, Any]:
