@@ -145,11 +145,12 @@ std::string parse_image_list(const Model &model, const std::string &list, std::v
   return {};
 }
 
-std::string parse_image_names(const Model &model, const std::string &text, const std::string &name,
-                              std::vector<char> *held) {
-  std::vector<char> h = *held;
-  h.resize(model.images.size(), 0);
-  const ImageIndex images(model.images);
+namespace {
+
+// Each line of a file of names or ids (name stands for it in messages) through hold, blank lines
+// skipped; the first reason hold gives, as "NAME:LINE: why", or empty.
+template <class Hold>
+std::string hold_lines(const std::string &text, const std::string &name, Hold hold) {
   std::size_t pos = 0;
   for (int line = 1; pos < text.size(); ++line) {
     const std::size_t eol = std::min(text.find('\n', pos), text.size());
@@ -158,9 +159,21 @@ std::string parse_image_names(const Model &model, const std::string &text, const
     const std::string item = text.substr(pos, end - pos);
     pos = eol + 1;
     if (item.empty()) continue;
-    if (std::string why = images.hold_name(item, &h); !why.empty())
-      return name + ":" + std::to_string(line) + ": " + why;
+    if (std::string why = hold(item); !why.empty()) return name + ":" + std::to_string(line) + ": " + why;
   }
+  return {};
+}
+
+}  // namespace
+
+std::string parse_image_names(const Model &model, const std::string &text, const std::string &name,
+                              std::vector<char> *held) {
+  std::vector<char> h = *held;
+  h.resize(model.images.size(), 0);
+  const ImageIndex images(model.images);
+  if (std::string why = hold_lines(text, name, [&](const std::string &item) { return images.hold_name(item, &h); });
+      !why.empty())
+    return why;
   *held = std::move(h);
   return {};
 }
@@ -258,16 +271,9 @@ std::string parse_point_ids(const Model &model, const std::string &text, const s
   std::vector<char> h = *held;
   h.resize(model.points.size(), 0);
   const IdIndex ids = point_ids(model);
-  std::size_t pos = 0;
-  for (int line = 1; pos < text.size(); ++line) {
-    const std::size_t eol = std::min(text.find('\n', pos), text.size());
-    // A '\r' is taken off only as part of a "\r\n" line break.
-    const std::size_t end = eol < text.size() && eol > pos && text[eol - 1] == '\r' ? eol - 1 : eol;
-    const std::string item = text.substr(pos, end - pos);
-    pos = eol + 1;
-    if (item.empty()) continue;
-    if (std::string why = ids.hold(item, &h); !why.empty()) return name + ":" + std::to_string(line) + ": " + why;
-  }
+  if (std::string why = hold_lines(text, name, [&](const std::string &item) { return ids.hold(item, &h); });
+      !why.empty())
+    return why;
   *held = std::move(h);
   return {};
 }
