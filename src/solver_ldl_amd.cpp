@@ -5,6 +5,7 @@
 // visibility, so only the numeric factorization is repeated.
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include "kernels.h"
@@ -20,6 +21,56 @@ namespace sba {
 namespace {
 
 using sslong = SuiteSparse_long;
+
+// The factorization both solvers below share: AMD's ordering and LDL's symbolic analysis of a
+// pattern fixed for the solve (the upper and the lower triangle, compressed by column, the
+// row indices of each column sorted), then for each damping value the numeric factorization
+// and the solve. The matrix is positive definite in exact arithmetic but where sba 1.6's
+// retries leave an indefinite diagonal on the point blocks; a non-positive pivot means one of
+// the two, and the step would not be a descent direction: the damped system has failed, as
+// 1.6's Cholesky of S fails there.
+class LdlFactor {
+ public:
+  // LDL's prototypes take the pattern by pointers to non-const; it is only read.
+  LdlFactor(sslong n, sslong *Ap, sslong *Ai)
+      : n_(n), P_(size_t(n)), Pinv_(size_t(n)), Lp_(size_t(n) + 1), parent_(size_t(n)), lnz_(size_t(n)),
+        flag_(size_t(n)), pattern_(size_t(n)), D_(size_t(n)), Y_(size_t(n)) {
+    // The pattern is valid by construction: only memory should fail.
+    if (const int status = amd_l_order(n, Ap, Ai, P_.data(), nullptr, nullptr); status != AMD_OK)
+      throw_amd_failure("amd_l_order", status);
+    ldl_l_symbolic(n, Ap, Ai, Lp_.data(), parent_.data(), lnz_.data(), flag_.data(), P_.data(), Pinv_.data());
+    Li_.resize(size_t(Lp_[size_t(n)]));
+    Lx_.resize(Li_.size());
+  }
+
+  // Factors the matrix of values Ax over the pattern; false where a pivot is not positive.
+  bool factor(sslong *Ap, sslong *Ai, double *Ax) {
+    const sslong done = ldl_l_numeric(n_, Ap, Ai, Ax, Lp_.data(), parent_.data(), lnz_.data(), Li_.data(),
+                                      Lx_.data(), D_.data(), Y_.data(), pattern_.data(), flag_.data(), P_.data(),
+                                      Pinv_.data());
+    if (done != n_) return false;
+    for (sslong q = 0; q < n_; ++q)
+      if (!(D_[size_t(q)] > 0.0)) return false;
+    return true;
+  }
+
+  // x := A^-1 x; false where the solution is not finite.
+  bool solve(double *x) {
+    ldl_l_perm(n_, Y_.data(), x, P_.data());
+    ldl_l_lsolve(n_, Y_.data(), Lp_.data(), Li_.data(), Lx_.data());
+    ldl_l_dsolve(n_, Y_.data(), D_.data());
+    ldl_l_ltsolve(n_, Y_.data(), Lp_.data(), Li_.data(), Lx_.data());
+    ldl_l_permt(n_, x, Y_.data(), P_.data());
+    for (sslong q = 0; q < n_; ++q)
+      if (!std::isfinite(x[q])) return false;
+    return true;
+  }
+
+ private:
+  sslong n_;
+  std::vector<sslong> P_, Pinv_, Lp_, parent_, lnz_, flag_, pattern_, Li_;
+  std::vector<double> D_, Y_, Lx_;
+};
 
 class LdlAmdSolver final : public StepSolver {
  public:
@@ -69,22 +120,7 @@ class LdlAmdSolver final : public StepSolver {
         for (int c = 0; c < pnp; ++c) Ai_[size_t(q++)] = pt_col(i, c);
       }
 
-    P_.resize(size_t(N_));
-    Pinv_.resize(size_t(N_));
-    // The pattern is valid by construction: only memory should fail.
-    if (const int status = amd_l_order(N_, Ap_.data(), Ai_.data(), P_.data(), nullptr, nullptr); status != AMD_OK)
-      throw_amd_failure("amd_l_order", status);
-    Lp_.resize(size_t(N_) + 1);
-    parent_.resize(size_t(N_));
-    lnz_.resize(size_t(N_));
-    flag_.resize(size_t(N_));
-    ldl_l_symbolic(N_, Ap_.data(), Ai_.data(), Lp_.data(), parent_.data(), lnz_.data(),
-                   flag_.data(), P_.data(), Pinv_.data());
-    Li_.resize(size_t(Lp_[size_t(N_)]));
-    Lx_.resize(Li_.size());
-    D_.resize(size_t(N_));
-    Y_.resize(size_t(N_));
-    pattern_.resize(size_t(N_));
+    ldl_.emplace(N_, Ap_.data(), Ai_.data());
     x_.resize(size_t(N_));
     W_.resize(size_t(cnp) * size_t(pnp));
   }
@@ -123,33 +159,17 @@ class LdlAmdSolver final : public StepSolver {
           for (int a = 0; a < cnp; ++a) col[a] = W[a * pnp + b];
         }
       }
-    const sslong done =
-        ldl_l_numeric(N_, Ap_.data(), Ai_.data(), Ax_.data(), Lp_.data(), parent_.data(),
-                      lnz_.data(), Li_.data(), Lx_.data(), D_.data(), Y_.data(), pattern_.data(),
-                      flag_.data(), P_.data(), Pinv_.data());
-    if (done != N_) return StepStatus::Failed;
-    // The damped matrix is positive definite in exact arithmetic but where sba 1.6's retries
-    // leave an indefinite diagonal on the point blocks; a non-positive pivot means one of the
-    // two, and the step would not be a descent direction: the damped system has failed, as
-    // 1.6's Cholesky of S fails there.
-    for (i64 q = 0; q < N_; ++q)
-      if (!(D_[size_t(q)] > 0.0)) return StepStatus::Failed;
+    if (!ldl_->factor(Ap_.data(), Ai_.data(), Ax_.data())) return StepStatus::Failed;
     for (int j = lay.mcon; j < lay.m; ++j)
       for (int a = 0; a < cnp; ++a) x_[size_t(cam_col(j, a))] = ne.ea[i64(j) * cnp + a];
     for (int i = lay.ncon; i < lay.n; ++i)
       for (int a = 0; a < pnp; ++a) x_[size_t(pt_col(i, a))] = ne.eb[i64(i) * pnp + a];
-    ldl_l_perm(N_, Y_.data(), x_.data(), P_.data());
-    ldl_l_lsolve(N_, Y_.data(), Lp_.data(), Li_.data(), Lx_.data());
-    ldl_l_dsolve(N_, Y_.data(), D_.data());
-    ldl_l_ltsolve(N_, Y_.data(), Lp_.data(), Li_.data(), Lx_.data());
-    ldl_l_permt(N_, x_.data(), Y_.data(), P_.data());
+    const bool finite = ldl_->solve(x_.data());
     for (int j = lay.mcon; j < lay.m; ++j)
       for (int a = 0; a < cnp; ++a) dp[lay.a_off(j) + a] = x_[size_t(cam_col(j, a))];
     for (int i = lay.ncon; i < lay.n; ++i)
       for (int a = 0; a < pnp; ++a) dp[lay.b_off(i) + a] = x_[size_t(pt_col(i, a))];
-    for (i64 q = 0; q < N_; ++q)
-      if (!std::isfinite(x_[size_t(q)])) return StepStatus::Failed;
-    return StepStatus::Solved;
+    return finite ? StepStatus::Solved : StepStatus::Failed;
   }
 
  private:
@@ -159,8 +179,9 @@ class LdlAmdSolver final : public StepSolver {
   const Layout &lay_;
   i64 nS_ = 0, N_ = 0;
   std::vector<int> pos_in_cam_, pos_in_pt_;
-  std::vector<sslong> Ap_, Ai_, P_, Pinv_, Lp_, parent_, lnz_, flag_, Li_, pattern_;
-  std::vector<double> Ax_, Lx_, D_, Y_, x_, W_;
+  std::vector<sslong> Ap_, Ai_;
+  std::vector<double> Ax_, x_, W_;
+  std::optional<LdlFactor> ldl_;
 };
 
 // The same over shared unknowns (camera_map.h): the columns are the unknowns, then the free
@@ -212,21 +233,7 @@ class MappedLdlAmdSolver final : public StepSolver {
     for (i64 c = 0; c < N_; ++c) std::copy(cols[size_t(c)].begin(), cols[size_t(c)].end(), Ai_.begin() + Ap_[size_t(c)]);
     cols.clear();
     Ax_.resize(Ai_.size());
-    P_.resize(size_t(N_));
-    Pinv_.resize(size_t(N_));
-    if (const int status = amd_l_order(N_, Ap_.data(), Ai_.data(), P_.data(), nullptr, nullptr); status != AMD_OK)
-      throw_amd_failure("amd_l_order", status);
-    Lp_.resize(size_t(N_) + 1);
-    parent_.resize(size_t(N_));
-    lnz_.resize(size_t(N_));
-    flag_.resize(size_t(N_));
-    ldl_l_symbolic(N_, Ap_.data(), Ai_.data(), Lp_.data(), parent_.data(), lnz_.data(), flag_.data(), P_.data(),
-                   Pinv_.data());
-    Li_.resize(size_t(Lp_[size_t(N_)]));
-    Lx_.resize(Li_.size());
-    D_.resize(size_t(N_));
-    Y_.resize(size_t(N_));
-    pattern_.resize(size_t(N_));
+    ldl_.emplace(N_, Ap_.data(), Ai_.data());
     x_.resize(size_t(N_));
     Zt_.resize(size_t(schur_.max_couplings()) + 1);
     W_.resize(size_t(pnp) * size_t(lay.cnp) + 1);
@@ -269,22 +276,11 @@ class MappedLdlAmdSolver final : public StepSolver {
       for (int a = 0; a < pnp; ++a)
         for (int b = 0; b < pnp; ++b) at(pt_col(i, a), pt_col(i, b)) = V[a * pnp + b] + (a == b ? mu : 0.0);
     }
-    const sslong done = ldl_l_numeric(N_, Ap_.data(), Ai_.data(), Ax_.data(), Lp_.data(), parent_.data(), lnz_.data(),
-                                      Li_.data(), Lx_.data(), D_.data(), Y_.data(), pattern_.data(), flag_.data(),
-                                      P_.data(), Pinv_.data());
-    if (done != N_) return StepStatus::Failed;
-    for (i64 q = 0; q < N_; ++q)
-      if (!(D_[size_t(q)] > 0.0)) return StepStatus::Failed;
+    if (!ldl_->factor(Ap_.data(), Ai_.data(), Ax_.data())) return StepStatus::Failed;
     map.reduce(ne.ea, x_.data());
     for (int i = lay.ncon; i < lay.n; ++i)
       for (int a = 0; a < pnp; ++a) x_[size_t(pt_col(i, a))] = ne.eb[i64(i) * pnp + a];
-    ldl_l_perm(N_, Y_.data(), x_.data(), P_.data());
-    ldl_l_lsolve(N_, Y_.data(), Lp_.data(), Li_.data(), Lx_.data());
-    ldl_l_dsolve(N_, Y_.data(), D_.data());
-    ldl_l_ltsolve(N_, Y_.data(), Lp_.data(), Li_.data(), Lx_.data());
-    ldl_l_permt(N_, x_.data(), Y_.data(), P_.data());
-    for (i64 q = 0; q < N_; ++q)
-      if (!std::isfinite(x_[size_t(q)])) return StepStatus::Failed;
+    if (!ldl_->solve(x_.data())) return StepStatus::Failed;
     map.expand(x_.data(), -0.0, dp);
     for (int i = lay.ncon; i < lay.n; ++i)
       for (int a = 0; a < pnp; ++a) dp[lay.b_off(i) + a] = x_[size_t(pt_col(i, a))];
@@ -303,8 +299,9 @@ class MappedLdlAmdSolver final : public StepSolver {
   const Layout &lay_;
   MappedSchur schur_;
   i64 nS_ = 0, N_ = 0;
-  std::vector<sslong> Ap_, Ai_, P_, Pinv_, Lp_, parent_, lnz_, flag_, Li_, pattern_;
-  std::vector<double> Ax_, Lx_, D_, Y_, x_, Zt_, W_;
+  std::vector<sslong> Ap_, Ai_;
+  std::vector<double> Ax_, x_, Zt_, W_;
+  std::optional<LdlFactor> ldl_;
 };
 
 }  // namespace
