@@ -259,7 +259,7 @@ TEST(ColmapReader, BinaryErrors) {
   const double nan = std::nan("");
   std::memcpy(&bad[16], &nan, 8);
   EXPECT_FALSE(colmap::parse_points_binary(bad, "p.bin", &pts, &error));
-  EXPECT_EQ(error, "p.bin: byte 16: a coordinate is not a finite number");
+  EXPECT_EQ(error, "p.bin: byte 16: a coordinate must be a finite number, got nan");
 }
 
 TEST(ColmapReader, ModelConsistency) {
@@ -592,7 +592,7 @@ TEST(ColmapRigs, BinaryErrors) {
   std::string bad = frames;
   std::memcpy(&bad[48], &inf, 8);
   EXPECT_FALSE(colmap::parse_frames_binary(bad, "f.bin", &f, &error));
-  EXPECT_EQ(error, "f.bin: byte 48: a translation component is not a finite number");
+  EXPECT_EQ(error, "f.bin: byte 48: a translation component must be a finite number, got inf");
 }
 
 // What COLMAP 4 refuses to read (its reader throws), or reads into a model whose images have no

@@ -47,7 +47,10 @@ class ByteReader {
     std::uint64_t w;
     if (!uint<8>(&w, what, error)) return false;
     std::memcpy(v, &w, sizeof w);
-    if (!std::isfinite(*v)) return fail(error, where(at) + what + " is not a finite number");
+    // Worded as the text reader words it, with the value in place of the token.
+    if (!std::isfinite(*v))
+      return fail(error, where(at) + what + " must be a finite number, got " +
+                             (std::isnan(*v) ? "nan" : *v > 0 ? "inf" : "-inf"));
     return true;
   }
   // A NUL-terminated string.
