@@ -374,7 +374,10 @@ extern int sba_str_levmar_x_vis(
  * With shared camera parameters in ext (cam_group/cam_shared, cam_param_group), the covariance
  * is taken where a solve would start from p: every copy of a shared parameter at its first
  * camera's value (the one of least index), as a solve returns them. p itself is not
- * changed. */
+ * changed.
+ * When the cameras' reduced system S has full rank (the gauge fixed by held cameras or
+ * parameters), it is inverted by Cholesky factorization; otherwise, or when a pivot falls to
+ * the rounding level of the largest diagonal entry, by the eigendecomposition above. */
 struct sba_covariance_request {
   size_t size;           /* sizeof(struct sba_covariance_request); sba_covariance_request_init */
   int ncams;             /* cameras wanted ... */
@@ -386,6 +389,10 @@ struct sba_covariance_request {
   double sigma2;         /* out: the residual variance the blocks are scaled by */
   int rank;              /* out: rank of J^T J over the free parameters */
   int nfree;             /* out: number of free parameters (full rank: rank == nfree) */
+  /* Nonzero: the blocks of (J^T J)^-1 itself, the covariance for measurements of unit
+   * variance (COLMAP's and Ceres's convention), not scaled by sigma2 (still computed and
+   * returned). A request of a size without this field (an older caller) is scaled. */
+  int unscaled;
 };
 extern void sba_covariance_request_init(struct sba_covariance_request *req);
 

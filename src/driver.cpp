@@ -7,6 +7,7 @@
 #include "driver.h"
 
 #include <algorithm>
+#include <cstddef>
 #include <cstring>
 #include <memory>
 #include <string>
@@ -186,8 +187,9 @@ void count_as_1_6(const DriverArgs &a, const Layout &lay, Summary &sum) {
 // The covariance request, checked and copied; empty string: all good.
 std::string check_request(const DriverArgs &a, const sba_covariance_request *user,
                           CovarianceRequest *req) {
-  if (!user || user->size < sizeof(sba_covariance_request))
+  if (!user || user->size < offsetof(sba_covariance_request, unscaled))
     return "req is NULL or not initialised by sba_covariance_request_init";
+  req->unscaled = user->size >= sizeof(sba_covariance_request) && user->unscaled != 0;
   req->ncams = user->ncams;
   req->cams = user->cams;
   req->camcov = user->camcov;

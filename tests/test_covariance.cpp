@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstddef>
 #include <cmath>
 #include <random>
 #include <string>
@@ -53,7 +54,7 @@ struct Cov {
 };
 
 Cov covariance(synth::Problem &pb, std::vector<double> &p, int mcon, int ncon, bool simple = false,
-               bool analytic = true) {
+               bool analytic = true, int unscaled = 0, size_t size = sizeof(sba_covariance_request)) {
   Cov c;
   for (int j = 0; j < pb.m; ++j) c.cams.push_back(j);
   for (int i = 0; i < pb.n; ++i) c.pts.push_back(i);
@@ -66,6 +67,8 @@ Cov covariance(synth::Problem &pb, std::vector<double> &p, int mcon, int ncon, b
   c.req.npts = pb.n;
   c.req.pts = c.pts.data();
   c.req.ptcov = c.ptcov.data();
+  c.req.unscaled = unscaled;
+  c.req.size = size;
   if (simple)
     c.ret = sba_motstr_covariance(pb.n, ncon, pb.m, mcon, pb.vmask.data(), p.data(), kCnp, kPnp,
                                   pb.x.data(), nullptr, kMnp, synth::proj_motstr,
@@ -160,6 +163,28 @@ TEST(Covariance, MatchesBruteForceInverseWhenTheGaugeIsFixed) {
         }
     EXPECT_LT(worst, 1e-8) << (simple ? "simple" : "expert");
   }
+}
+
+// unscaled gives the blocks of (J^T J)^-1, the scaled ones over sigma2, sigma2 still returned;
+// a request of the size before the field (an older caller's) gets the scaled ones.
+TEST(Covariance, UnscaledBlocksAreTheScaledOverSigma2) {
+  synth::Problem pb = synth::make(25, 5, 0.5, 0.05, 51);
+  std::vector<double> p = pb.p0;
+  ASSERT_GT(solve(pb, p, 2), 0);
+  const Cov scaled = covariance(pb, p, 2, 3);
+  const Cov unscaled = covariance(pb, p, 2, 3, false, true, 1);
+  const Cov older = covariance(pb, p, 2, 3, false, true, 1, offsetof(sba_covariance_request, unscaled));
+  ASSERT_EQ(scaled.ret, 0);
+  ASSERT_EQ(unscaled.ret, 0);
+  ASSERT_EQ(older.ret, 0);
+  ASSERT_GT(scaled.req.sigma2, 0.0);
+  EXPECT_EQ(unscaled.req.sigma2, scaled.req.sigma2);
+  EXPECT_EQ(older.camcov, scaled.camcov);
+  EXPECT_EQ(older.ptcov, scaled.ptcov);
+  for (size_t k = 0; k < scaled.camcov.size(); ++k)
+    EXPECT_NEAR(unscaled.camcov[k] * scaled.req.sigma2, scaled.camcov[k], 1e-12 * std::fabs(scaled.camcov[k])) << k;
+  for (size_t k = 0; k < scaled.ptcov.size(); ++k)
+    EXPECT_NEAR(unscaled.ptcov[k] * scaled.req.sigma2, scaled.ptcov[k], 1e-12 * std::fabs(scaled.ptcov[k])) << k;
 }
 
 TEST(Covariance, AFreeGaugeGivesAPseudoInverseAndItsRank) {
