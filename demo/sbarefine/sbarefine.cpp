@@ -212,7 +212,7 @@ void add_format_options(std::vector<sbacli::Option> *t, Options &o) {
                 "with rigs, each frame's rig_from_world and each camera's sensor_from_rig) and of each\n"
                 "camera's refined parameters to FILE, in COLMAP's convention (pycolmap's\n"
                 "estimate_ba_covariance: unit pixel noise, [rotation, translation] tangent, held\n"
-                "coordinates left out; format in docs/sbarefine.md)",
+                "coordinates left out; format in docs/formats.md)",
                 [&o](const std::string &v) { return sbacli::to_file(v, &o.covariance); }});
   t->push_back({"covariance-points", "",
                 "COLMAP: --covariance also writes every free point's 3x3 (marginal) covariance",
@@ -610,6 +610,15 @@ std::string unseen_images(const colmap::Model &model, const colmap::Problem &pr)
          " place there kept)";
 }
 
+// --covariance of a COLMAP model: its problem's covariances at p, in COLMAP's convention.
+decltype(Job::covariance) colmap_covariance(const Options &o, Loaded *l) {
+  return [&o, l](const double *p, const sba_ext_options &ext, sbaformats::OutputSet *outputs, std::string *why) {
+    colmap::Covariances c;
+    return l->colmap_problem.covariance(l->model, p, ext, o.covariance_points, &c) &&
+           colmap::write_covariances(o.covariance, c, why, outputs);
+  };
+}
+
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
   colmap::Options options;
@@ -671,12 +680,7 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   job->summary += "\nCamera models: " + job->model;
   job->initial = cloud(l->model);
   for (int j : pr.images()) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
-  job->covariance = [&o, l](const double *p, const sba_ext_options &ext, sbaformats::OutputSet *outputs,
-                            std::string *why) {
-    colmap::Covariances c;
-    if (!l->colmap_problem.covariance(l->model, p, ext, o.covariance_points, &c)) return false;
-    return colmap::write_covariances(o.covariance, c, why, outputs);
-  };
+  job->covariance = colmap_covariance(o, l);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, sbaformats::OutputSet *outputs,
                         std::string *why) {
     const colmap::Problem &problem = l->colmap_problem;

@@ -4,10 +4,8 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdio>
-#include <numeric>
 
 #include "cameras/colmap_camera.h"
-#include "formats/colmap_problem.h"
 
 namespace sbaformats::colmap {
 
@@ -20,14 +18,6 @@ constexpr const char *kPointCoords[] = {"x", "y", "z"};
 
 std::size_t at(int k) { return static_cast<std::size_t>(k); }
 
-// The coordinates among `count` from parameter `first` of a camera that its flags leave free.
-std::vector<int> free_coords(const char *fixed, int first, int count) {
-  std::vector<int> coords;
-  for (int k = 0; k < count; ++k)
-    if (!fixed[first + k]) coords.push_back(k);
-  return coords;
-}
-
 // The entries of the n x n row-major C over `coords`, its upper triangle mirrored: the
 // library's blocks are symmetric only up to the rounding of the order of their sums.
 std::vector<double> sub_block(const double *C, int n, const std::vector<int> &coords) {
@@ -37,9 +27,9 @@ std::vector<double> sub_block(const double *C, int n, const std::vector<int> &co
   return out;
 }
 
-// The pose of parameters [first, first + 6) of a camera (a its parameters, cov its cnp x cnp
-// block, fixed its flags) in COLMAP's tangent: T cov T^T with T = diag(d(delta)/dv, I).
-CovarianceBlock pose_block(const double *a, const double *cov, const char *fixed, int cnp, int first) {
+}  // namespace
+
+CovarianceBlock pose_covariance(const double *a, const double *cov, const char *fixed, int cnp, int first) {
   double T[36] = {0};
   double J[9];
   cc::rotation_tangent_jacobian(a + first, J);
@@ -55,11 +45,18 @@ CovarianceBlock pose_block(const double *a, const double *cov, const char *fixed
         for (int l = 0; l < 6; ++l) s += T[r * 6 + k] * cov[at(first + k) * at(cnp) + at(first + l)] * T[c * 6 + l];
       P[r * 6 + c] = s;
     }
+  return param_covariance(P, fixed ? fixed + first : nullptr, 6, 0, 6);
+}
+
+CovarianceBlock param_covariance(const double *cov, const char *fixed, int cnp, int first, int count) {
   CovarianceBlock b;
-  b.coords = free_coords(fixed, first, 6);
-  b.cov = sub_block(P, 6, b.coords);
+  for (int k = 0; k < count; ++k)
+    if (!fixed || !fixed[first + k]) b.coords.push_back(k);
+  b.cov = sub_block(cov + at(first) * at(cnp + 1), cnp, b.coords);
   return b;
 }
+
+namespace {
 
 void append_block(const char *kind, const CovarianceBlock &b, const char *const *names, std::string *text) {
   if (b.coords.empty()) return;
@@ -83,7 +80,7 @@ std::string covariance_text(const Covariances &c) {
   std::string text =
       "# Covariances of a refined COLMAP model for reprojection errors of unit variance (pixels^2;\n"
       "# times SIGMA2 for the errors the model has): poses over COLMAP's tangent [rotation,\n"
-      "# translation], a record per line, held coordinates left out (docs/sbarefine.md)\n";
+      "# translation], a record per line, held coordinates left out (docs/formats.md)\n";
   text += head;
   for (const CovarianceBlock &b : c.images) append_block("IMAGE", b, kPoseCoords, &text);
   for (const CovarianceBlock &b : c.frames) append_block("FRAME", b, kPoseCoords, &text);
@@ -95,95 +92,6 @@ std::string covariance_text(const Covariances &c) {
 
 bool write_covariances(const std::string &path, const Covariances &c, std::string *error, OutputSet *outputs) {
   return write_whole_file(path, covariance_text(c), error, outputs);
-}
-
-bool Problem::covariance(const Model &model, const double *p, const sba_ext_options &ext, bool points,
-                         Covariances *out) const {
-  const int m = ncameras(), n = npoints();
-  std::vector<int> cams(at(m)), pts(points ? at(n - held_points_) : 0);
-  std::iota(cams.begin(), cams.end(), 0);
-  std::iota(pts.begin(), pts.end(), held_points_);
-  std::vector<double> camcov(at(m) * at(cnp_) * at(cnp_)), ptcov(pts.size() * 9);
-  sba_covariance_request req;
-  sba_covariance_request_init(&req);
-  req.ncams = m;
-  req.cams = cams.data();
-  req.camcov = camcov.data();
-  req.npts = static_cast<int>(pts.size());
-  req.pts = pts.data();
-  req.ptcov = ptcov.data();
-  req.unscaled = 1;
-  sba_ext_options e = ext;
-  e.cam_fixed = cam_fixed_.data();
-  e.cam_fixed_per_camera = 1;
-  e.cam_group = nullptr;
-  e.cam_shared = nullptr;
-  e.cam_param_group = cam_param_group_.data();
-  // The library reads p and x without changing them, but takes them as non-const.
-  std::vector<double> pc(p, p + at(m) * at(cnp_) + 3 * at(n));
-  const sba_visibility vis{static_cast<long long>(points_.pairs.size()), points_.pairs.point.data(),
-                           points_.pairs.camera.data()};
-  if (sba_motstr_covariance_x_vis(n, held_points_, m, mcon_, &vis, pc.data(), cnp_, 3,
-                                  const_cast<double *>(points_.x.data()), nullptr, 2, func(), fjac(), adata(), &req,
-                                  &e) != 0)
-    return false;
-  *out = Covariances();
-  out->sigma2 = req.sigma2;
-  out->rank = req.rank;
-  out->nfree = req.nfree;
-  pose_covariances(model, pc.data(), camcov.data(), out);
-  camera_covariances(camcov.data(), out);
-  for (std::size_t q = 0; q < pts.size(); ++q) {
-    CovarianceBlock b;
-    b.id = point_ids_[at(pts[q])];
-    b.coords = {0, 1, 2};
-    b.cov = sub_block(ptcov.data() + 9 * q, 3, b.coords);
-    out->points.push_back(std::move(b));
-  }
-  return true;
-}
-
-void Problem::pose_covariances(const Model &model, const double *p, const double *camcov, Covariances *out) const {
-  std::vector<std::uint32_t> frames_done;
-  for (int j = mcon_; j < ncameras(); ++j) {
-    const CameraIds &r = ids_[at(j)];
-    const double *a = p + at(j) * at(cnp_), *cov = camcov + at(j) * at(cnp_) * at(cnp_);
-    const char *fixed = &cam_fixed_[at(j) * at(cnp_)];
-    if (!rigged_) {
-      CovarianceBlock b = pose_block(a, cov, fixed, cnp_, 0);
-      b.id = r.image;
-      b.name = model.images[at(images_[at(j)])].name;
-      if (!b.coords.empty()) out->images.push_back(std::move(b));
-      continue;
-    }
-    // A frame's pose and a camera's pose in its rig are one each, whichever image holds them.
-    if (std::find(frames_done.begin(), frames_done.end(), r.frame) == frames_done.end()) {
-      frames_done.push_back(r.frame);
-      CovarianceBlock b = pose_block(a, cov, fixed, cnp_, 0);
-      b.id = r.frame;
-      if (!b.coords.empty()) out->frames.push_back(std::move(b));
-    }
-    if (r.writes_params && !r.reference) {
-      CovarianceBlock b = pose_block(a, cov, fixed, cnp_, cc::kPoseParams);
-      b.id = r.camera;
-      if (!b.coords.empty()) out->sensors.push_back(std::move(b));
-    }
-  }
-}
-
-void Problem::camera_covariances(const double *camcov, Covariances *out) const {
-  const int first = rigged_ ? cc::kRigPoseParams : cc::kPoseParams;
-  for (int j = mcon_; j < ncameras(); ++j) {
-    const CameraIds &r = ids_[at(j)];
-    if (!r.writes_params) continue;
-    const int count = static_cast<int>(
-        rigged_ ? rig_model_->input_image(j).params.size() : image_model_->input_camera(j).params.size());
-    CovarianceBlock b;
-    b.id = r.camera;
-    b.coords = free_coords(&cam_fixed_[at(j) * at(cnp_)], first, count);
-    b.cov = sub_block(camcov + at(j) * at(cnp_) * at(cnp_) + first * (cnp_ + 1), cnp_, b.coords);
-    if (!b.coords.empty()) out->cameras.push_back(std::move(b));
-  }
 }
 
 }  // namespace sbaformats::colmap

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: BSD-3-Clause */
-// The covariance of a refined COLMAP model in COLMAP's convention (docs/sbarefine.md,
+// The covariance of a refined COLMAP model in COLMAP's convention (docs/formats.md,
 // "Covariances"), which sbarefine --covariance writes and pysba.refine_colmap(covariance=True)
-// returns: colmap::Problem::covariance computes it, write_covariances writes it.
+// returns: colmap::Problem::covariance computes it from the library's blocks through the
+// functions here, write_covariances writes it.
 //
 // The blocks are those of (J^T J)^-1, the covariance for reprojection errors of unit variance
 // in pixels, as pycolmap's estimate_ba_covariance gives them; sigma2, the residual variance,
@@ -41,7 +42,16 @@ struct Covariances {
   std::vector<CovarianceBlock> points;   // each free point, marginal (cameras not held fixed)
 };
 
-// The covariances as text, a record per line (docs/sbarefine.md):
+// The covariance of the pose at parameters [first, first + 6) of an sba camera of the
+// models of cameras/colmap_camera.h (v t: its local rotation and translation) in COLMAP's
+// tangent: T cov T^T with T = diag(d(delta)/dv, I) at the camera's parameters a, cov its
+// cnp x cnp block of sba's covariance, fixed its held flags (cnp of them, or null).
+CovarianceBlock pose_covariance(const double *a, const double *cov, const char *fixed, int cnp, int first);
+// The covariance of `count` parameters from `first` of a cnp x cnp block (a camera's, or a
+// point's with cnp = first + count), over those that fixed (cnp flags, or null) leaves free.
+CovarianceBlock param_covariance(const double *cov, const char *fixed, int cnp, int first, int count);
+
+// The covariances as text, a record per line (docs/formats.md):
 //   SIGMA2 s RANK r NFREE f
 //   IMAGE IMAGE_ID NAME COORDS values...   FRAME FRAME_ID COORDS values...
 //   SENSOR CAMERA_ID COORDS values...      CAMERA CAMERA_ID COORDS values...
