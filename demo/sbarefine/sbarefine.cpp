@@ -826,6 +826,10 @@ int check_format_options(Format format, Options *o) {
       return kExitUsage;
     }
   resolve_defaults(format == Format::Colmap, o);
+  if (o->covariance_points && o->covariance.empty()) {
+    std::fprintf(stderr, "sbarefine: --covariance-points adds the points to --covariance, which is not given\n");
+    return kExitUsage;
+  }
   if (!o->write_list.empty() && o->bundler_list.empty()) {
     std::fprintf(stderr, "sbarefine: --write-list writes the list of --bundler-list, which is not given\n");
     return kExitUsage;

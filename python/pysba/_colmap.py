@@ -387,7 +387,7 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
 
     covariance, covariance_points
         covariance=True also computes, at the result, the covariances sbarefine's --covariance
-        writes (docs/sbarefine.md, "Covariances"): the Result's ``colmap_covariance``, a dict
+        writes (docs/formats.md, "Covariances"): the Result's ``colmap_covariance``, a dict
         with ``images`` ({IMAGE_ID: (k, k) array}, each image's cam_from_world; with rigs
         ``frames`` {FRAME_ID: ...}, rig_from_world, and ``sensors`` {CAMERA_ID: ...},
         sensor_from_rig, instead), ``cameras`` ({CAMERA_ID: array} over its refined
