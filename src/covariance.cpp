@@ -336,7 +336,7 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
   if (!points_determined(lay, ne.V, cancel, log)) return false;
   std::vector<double> Vinv(lin.V.size());
   if (cancel.stop(log, true)) return false;
-  if (!kernels->invert_damped_V(pool, ne.V, 0.0, Vinv.data())) {
+  if (!kernels->invert_damped_V(pool, ne.V, req.point_damping, Vinv.data())) {
     log.error("sba: a point is not determined by its projections (its V_i is singular): its "
               "covariance is unbounded");
     return false;

@@ -23,7 +23,8 @@ struct CovarianceRequest {
   int npts = 0;
   const int *pts = nullptr;
   double *ptcov = nullptr;
-  bool unscaled = false;  // blocks of (J^T J)^-1, not scaled by sigma2
+  bool unscaled = false;     // blocks of (J^T J)^-1, not scaled by sigma2
+  double point_damping = 0;  // added to every free point's V_i
   double sigma2 = 0;
   int rank = 0, nfree = 0;
 };

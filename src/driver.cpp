@@ -7,6 +7,7 @@
 #include "driver.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cstddef>
 #include <cstring>
 #include <memory>
@@ -189,7 +190,13 @@ std::string check_request(const DriverArgs &a, const sba_covariance_request *use
                           CovarianceRequest *req) {
   if (!user || user->size < offsetof(sba_covariance_request, unscaled))
     return "req is NULL or not initialised by sba_covariance_request_init";
-  req->unscaled = user->size >= sizeof(sba_covariance_request) && user->unscaled != 0;
+  // Each field added after ptcov is read only from a request that is large enough to hold it.
+  const auto holds = [user](size_t offset, size_t size) { return user->size >= offset + size; };
+  req->unscaled = holds(offsetof(sba_covariance_request, unscaled), sizeof user->unscaled) && user->unscaled != 0;
+  if (holds(offsetof(sba_covariance_request, point_damping), sizeof user->point_damping))
+    req->point_damping = user->point_damping;
+  if (!(req->point_damping >= 0.0 && req->point_damping <= DBL_MAX))
+    return "req->point_damping must be finite and >= 0";
   req->ncams = user->ncams;
   req->cams = user->cams;
   req->camcov = user->camcov;
