@@ -73,7 +73,7 @@ struct Options {
   std::string initial_ply, final_ply;
   std::string write_eucsba;  // COLMAP, NVM: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
   std::string covariance;    // COLMAP: the covariances' file; empty: none
-  bool covariance_points = false;
+  colmap::CovarianceOptions covariance_options;
   std::string write_bal;     // Bundler: a BAL problem
   std::string bundler_list;  // Bundler: the image list read; empty: none
   std::string write_list;    // Bundler: where the image list is written back; empty: not
@@ -217,8 +217,14 @@ void add_format_options(std::vector<sbacli::Option> *t, Options &o) {
   t->push_back({"covariance-points", "",
                 "COLMAP: --covariance also writes every free point's 3x3 (marginal) covariance",
                 [&o](const std::string &) {
-                  o.covariance_points = true;
+                  o.covariance_options.points = true;
                   return std::string();
+                }});
+  t->push_back({"covariance-damping", "D",
+                "COLMAP: --covariance adds D to the diagonal of each point's block of J^T J first, as\n"
+                "pycolmap's BACovarianceOptions.damping does (1e-8 there by default) (default 0)",
+                [&o](const std::string &v) {
+                  return sbacli::to_real(v, 0.0, false, &o.covariance_options.point_damping);
                 }});
   t->push_back({"write-bal", "FILE", "Bundler: also write the refined model as a BAL problem",
                 [&o](const std::string &v) { return sbacli::to_file(v, &o.write_bal); }});
@@ -614,7 +620,7 @@ std::string unseen_images(const colmap::Model &model, const colmap::Problem &pr)
 decltype(Job::covariance) colmap_covariance(const Options &o, Loaded *l) {
   return [&o, l](const double *p, const sba_ext_options &ext, sbaformats::OutputSet *outputs, std::string *why) {
     colmap::Covariances c;
-    return l->colmap_problem.covariance(l->model, p, ext, o.covariance_points, &c) &&
+    return l->colmap_problem.covariance(l->model, p, ext, o.covariance_options, &c) &&
            colmap::write_covariances(o.covariance, c, why, outputs);
   };
 }
@@ -826,8 +832,9 @@ int check_format_options(Format format, Options *o) {
       return kExitUsage;
     }
   resolve_defaults(format == Format::Colmap, o);
-  if (o->covariance_points && o->covariance.empty()) {
-    std::fprintf(stderr, "sbarefine: --covariance-points adds the points to --covariance, which is not given\n");
+  if ((o->covariance_options.points || o->covariance_options.point_damping != 0) && o->covariance.empty()) {
+    std::fprintf(stderr, "sbarefine: --covariance-points and --covariance-damping are for --covariance, which is "
+                         "not given\n");
     return kExitUsage;
   }
   if (!o->write_list.empty() && o->bundler_list.empty()) {

@@ -31,6 +31,12 @@ struct CovarianceBlock {
   std::vector<double> cov;  // coords.size() squared, row-major
 };
 
+// What Problem::covariance computes beyond the poses and cameras.
+struct CovarianceOptions {
+  bool points = false;       // every free point's block too
+  double point_damping = 0;  // sba_covariance_request::point_damping (pycolmap's damping)
+};
+
 struct Covariances {
   double sigma2 = 0;  // the residual variance: ||e||^2 / (measurements - rank)
   int rank = 0;       // rank of J^T J over the free parameters

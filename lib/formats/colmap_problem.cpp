@@ -585,10 +585,10 @@ void Problem::apply(const double *p, Model *model) const {
   write_points(p, index);
 }
 
-bool Problem::covariance(const Model &model, const double *p, const sba_ext_options &ext, bool points,
-                         Covariances *out) const {
+bool Problem::covariance(const Model &model, const double *p, const sba_ext_options &ext,
+                         const CovarianceOptions &options, Covariances *out) const {
   const int m = ncameras(), n = npoints();
-  std::vector<int> cams(at(m)), pts(points ? at(n - held_points_) : 0);
+  std::vector<int> cams(at(m)), pts(options.points ? at(n - held_points_) : 0);
   std::iota(cams.begin(), cams.end(), 0);
   std::iota(pts.begin(), pts.end(), held_points_);
   std::vector<double> camcov(at(m) * at(cnp_) * at(cnp_)), ptcov(pts.size() * 9);
@@ -601,6 +601,7 @@ bool Problem::covariance(const Model &model, const double *p, const sba_ext_opti
   req.pts = pts.data();
   req.ptcov = ptcov.data();
   req.unscaled = 1;
+  req.point_damping = options.point_damping;
   sba_ext_options e = ext;
   e.cam_fixed = cam_fixed_.data();
   e.cam_fixed_per_camera = 1;

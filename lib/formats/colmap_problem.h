@@ -159,9 +159,9 @@ class Problem {
   // The covariance at the estimate p (m cnp-vectors, then n points) in COLMAP's convention
   // (colmap_covariance.h), of the model the problem was built of (its images' names): the
   // library's sba_motstr_covariance_x_vis over the problem, with ext's options (threads, loss,
-  // log sink, cancel; the problem's held and shared parameters replace ext's), every free
-  // point's block too when `points`. False when the library refuses, said through ext's sink.
-  bool covariance(const Model &model, const double *p, const sba_ext_options &ext, bool points,
+  // log sink, cancel; the problem's held and shared parameters replace ext's), with `options`.
+  // False when the library refuses, said through ext's sink.
+  bool covariance(const Model &model, const double *p, const sba_ext_options &ext, const CovarianceOptions &options,
                   Covariances *out) const;
 
  private:

@@ -3,11 +3,12 @@
 """sbarefine --covariance against pycolmap's estimate_ba_covariance (PyPI), on the same model.
 
 pycolmap_check.py's scene of two rigs of one camera (every frame one image), with noise,
-written by pycolmap; sbarefine --itmax 0 --covariance at that model, two images' poses
-held (the gauge: rotation, translation and scale), and pycolmap's estimate_ba_covariance of
-the same problem (its default bundle adjuster, those two frames constant) agree: every
-image's pose block and every camera's block of refined parameters equal to 1e-6 relative
-(the largest difference over the block's largest entry), the held poses absent from both. The
+written by pycolmap; sbarefine --itmax 0 --covariance at that model, two images' poses held
+(the gauge: rotation, translation and scale), and pycolmap's estimate_ba_covariance of the
+same problem (its default bundle adjuster, those two frames constant) agree: every image's
+pose block and every camera's block of refined parameters equal to 1e-6 relative (the
+largest difference over the block's largest entry), the held poses absent from both; at
+pycolmap's damping (its default, sbarefine's --covariance-damping set to it) and at none. The
 covariance is the Jacobian's, at any estimate: no solve is needed for both to describe the
 same problem. bench/colmap_covariance.py times the two at 1,000 images with the functions here.
 
@@ -74,11 +75,11 @@ def pycolmap_covariance(pycolmap, rec, held_images, damping=None):
     return cov, seconds
 
 
-def sbarefine_covariance(exe, model, out, held_images, extra=()):
-    """sbarefine --itmax 0 --covariance on model, held_images' poses held: the file read, and
-    the seconds the whole run took."""
+def sbarefine_covariance(exe, model, out, held_images, damping, extra=()):
+    """sbarefine --itmax 0 --covariance --covariance-damping damping on model, held_images' poses
+    held: the file read, and the seconds the whole run took."""
     cmd = [exe, model, "--itmax", "0", "--hold-poses", ",".join(str(i) for i in held_images),
-           "--covariance", out] + list(extra)
+           "--covariance", out, "--covariance-damping", repr(damping)] + list(extra)
     start = time.perf_counter()
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=3600)
     seconds = time.perf_counter() - start
@@ -118,14 +119,17 @@ def check(pycolmap, args):
     os.makedirs(model)
     rec.write_text(model)
     held = sorted(rec.reg_image_ids())[:2]
-    cov, _ = pycolmap_covariance(pycolmap, rec, held)
-    (blocks, head), _ = sbarefine_covariance(args.sbarefine, model, os.path.join(args.work, "cov.txt"), held)
-    expect(sorted(blocks.get("CAMERA", {})) == sorted(rec.cameras),
-           "a block for each camera, got %s" % sorted(blocks.get("CAMERA", {})))
-    expect(head.get("rank") == head.get("nfree"), "the gauge fixed: rank %s of %s" % (head.get("rank"), head.get("nfree")))
-    worst = compare(rec, cov, blocks, held)
-    print("largest relative differences from pycolmap %s: %s" % (pycolmap.__version__, worst))
-    expect(max(worst.values()) <= TOLERANCE, "beyond %g" % TOLERANCE)
+    for damping in (pycolmap.BACovarianceOptions().damping, 0.0):
+        cov, _ = pycolmap_covariance(pycolmap, rec, held, damping)
+        (blocks, head), _ = sbarefine_covariance(args.sbarefine, model, os.path.join(args.work, "cov.txt"), held,
+                                                 damping)
+        expect(sorted(blocks.get("CAMERA", {})) == sorted(rec.cameras),
+               "a block for each camera, got %s" % sorted(blocks.get("CAMERA", {})))
+        expect(head.get("rank") == head.get("nfree"),
+               "the gauge fixed: rank %s of %s" % (head.get("rank"), head.get("nfree")))
+        worst = compare(rec, cov, blocks, held)
+        print("damping %g: largest relative differences from pycolmap %s: %s" % (damping, pycolmap.__version__, worst))
+        expect(max(worst.values()) <= TOLERANCE, "beyond %g" % TOLERANCE)
 
 
 def main(argv):
