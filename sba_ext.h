@@ -395,8 +395,7 @@ struct sba_covariance_request {
   int unscaled;
   /* Added to the diagonal of every free point's block V_i of J^T J before the cameras' system
    * is formed, as pycolmap's estimate_ba_covariance does with its BACovarianceOptions.damping
-   * (1e-8 there by default), which it found to be: the blocks are then those of
-   * (J^T J + diag(0, d I))^-1. 0 (the default, and for a request without this field): none,
+   * (1e-8 there by default): the blocks are then those of (J^T J + diag(0, d I))^-1. 0 (the default, and for a request without this field): none,
    * the covariance of J^T J itself. Must be finite and >= 0. */
   double point_damping;
 };

@@ -830,12 +830,14 @@ def same_covariances(tmp_path, model_dir, args, kw):
     blocks, coords, head = covariance_file(out)
     _, result = pysba.refine_colmap(pysba.read_colmap(model_dir), covariance=True, covariance_points=True, **kw)
     c = result.colmap_covariance
-    assert (c["sigma2"], c["rank"], c["nfree"]) == head
+    assert math.isclose(c["sigma2"], head[0], rel_tol=1e-12) and (c["rank"], c["nfree"]) == head[1:]
     for kind, by_id in blocks.items():
         assert sorted(c[kind]) == sorted(by_id), kind
         assert c["coords"][kind] == coords[kind], kind
         for k, a in by_id.items():
-            assert c[kind][k].shape == (len(coords[kind][k]),) * 2 and np.array_equal(c[kind][k], a), (kind, k)
+            # The same computation; the bound, not the bits, for any BLAS and thread count.
+            assert c[kind][k].shape == (len(coords[kind][k]),) * 2, (kind, k)
+            assert np.abs(c[kind][k] - a).max() <= 1e-9 * np.abs(a).max(), (kind, k)
             assert np.array_equal(a, a.T) and (np.diag(a) > 0).all(), (kind, k)
     return c
 
