@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "colmap_tangent.h"
 #include "sba.h"
 
 namespace cc = sbacameras::colmap_camera;
@@ -791,21 +792,7 @@ TEST(ColmapRigCamera, HeldParametersAreConstants) {
   EXPECT_THROW(cc::RigCameraModel(bad, points), std::invalid_argument);
 }
 
-namespace {
-
-// COLMAP's rotation increment delta between two unit quaternions: q = [cos|delta|,
-// sin|delta| delta/|delta|] * q_hat, the increment taken with w >= 0.
-std::array<double, 3> colmap_increment(const sbacameras::euclidean::Quaternion &q,
-                                       const sbacameras::euclidean::Quaternion &q_hat) {
-  namespace eu = sbacameras::euclidean;
-  eu::Quaternion inc = eu::multiply(q, {q_hat.w, -q_hat.x, -q_hat.y, -q_hat.z});
-  if (inc.w < 0) inc = {-inc.w, -inc.x, -inc.y, -inc.z};
-  const double s = std::sqrt(inc.x * inc.x + inc.y * inc.y + inc.z * inc.z);
-  const double k = s == 0 ? 1.0 : std::atan2(s, inc.w) / s;
-  return {k * inc.x, k * inc.y, k * inc.z};
-}
-
-}  // namespace
+using tangenttest::colmap_increment;
 
 // rotation_tangent_jacobian is d(delta)/dv of the camera model's rotation, by central
 // differences at corrections v_hat away from 0, of cameras whose initial rotations differ.

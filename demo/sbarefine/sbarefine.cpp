@@ -209,7 +209,7 @@ void add_format_options(std::vector<sbacli::Option> *t, Options &o) {
                 [&o](const std::string &v) { return sbacli::to_file(v, &o.write_eucsba); }});
   t->push_back({"covariance", "FILE",
                 "COLMAP: also write the covariance of the refined poses (each image's cam_from_world;\n"
-                "with rigs, each frame's rig_from_world and each camera's sensor_from_rig) and of each\n"
+                "with rigs, also each frame's rig_from_world and camera's sensor_from_rig) and of each\n"
                 "camera's refined parameters to FILE, in COLMAP's convention (pycolmap's\n"
                 "estimate_ba_covariance: unit pixel noise, [rotation, translation] tangent, held\n"
                 "coordinates left out; format in docs/formats.md)",

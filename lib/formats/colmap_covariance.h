@@ -41,8 +41,8 @@ struct Covariances {
   double sigma2 = 0;  // the residual variance: ||e||^2 / (measurements - rank)
   int rank = 0;       // rank of J^T J over the free parameters
   int nfree = 0;      // the free parameters (the camera unknowns and the free points')
-  // Without rigs (or with frames of one image each): each image's cam_from_world. With rigs:
-  // each frame's rig_from_world, and each camera's sensor_from_rig (not a rig's reference).
+  // Each image's cam_from_world. With rigs (frames of several images), also each frame's
+  // rig_from_world and each camera's sensor_from_rig (not a rig's reference camera's).
   std::vector<CovarianceBlock> images, frames, sensors;
   std::vector<CovarianceBlock> cameras;  // each COLMAP camera's refined parameters
   std::vector<CovarianceBlock> points;   // each free point, marginal (cameras not held fixed)
@@ -53,6 +53,14 @@ struct Covariances {
 // tangent: T cov T^T with T = diag(d(delta)/dv, I) at the camera's parameters a, cov its
 // cnp x cnp block of sba's covariance, fixed its held flags (cnp of them, or null).
 CovarianceBlock pose_covariance(const double *a, const double *cov, const char *fixed, int cnp, int first);
+// The covariance of the pose cam_from_world = sensor_from_rig rig_from_world of an image of
+// a rig (cameras/colmap_camera.h's RigCameraModel: a = v_f t_f v_s t_s ...) in COLMAP's
+// tangent, from the 12 x 12 of both poses and their cross-covariance: to first order
+// delta_c = delta_s + R_s delta_f and dt_c = R_s dt_f - 2 [R_s t_f]x delta_s + dt_s, with R_s
+// the sensor's rotation (row-major) and t_f the frame's translation at the estimate. A
+// coordinate that no free parameter moves is left out.
+CovarianceBlock composed_pose_covariance(const double *a, const double *cov, const char *fixed, int cnp,
+                                         const double R_s[9], const double t_f[3]);
 // The covariance of `count` parameters from `first` of a cnp x cnp block (a camera's, or a
 // point's with cnp = first + count), over those that fixed (cnp flags, or null) leaves free.
 CovarianceBlock param_covariance(const double *cov, const char *fixed, int cnp, int first, int count);

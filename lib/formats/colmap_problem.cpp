@@ -643,6 +643,13 @@ void Problem::pose_covariances(const Model &model, const double *p, const double
       if (!b.coords.empty()) out->images.push_back(std::move(b));
       continue;
     }
+    const cc::RigImage im = rig_model_->image(j, a);
+    double R_s[9];
+    sbacameras::euclidean::rotation_matrix(im.q_sensor, R_s);
+    CovarianceBlock c = composed_pose_covariance(a, cov, fixed, cnp_, R_s, im.t_frame.data());
+    c.id = r.image;
+    c.name = model.images[at(images_[at(j)])].name;
+    if (!c.coords.empty()) out->images.push_back(std::move(c));
     // A frame's pose and a camera's pose in its rig are one each, whichever image holds them.
     if (std::find(frames_done.begin(), frames_done.end(), r.frame) == frames_done.end()) {
       frames_done.push_back(r.frame);

@@ -389,9 +389,9 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     covariance, covariance_points, covariance_damping
         covariance=True also computes, at the result, the covariances sbarefine's --covariance
         writes (docs/formats.md, "Covariances"): the Result's ``colmap_covariance``, a dict
-        with ``images`` ({IMAGE_ID: (k, k) array}, each image's cam_from_world; with rigs
+        with ``images`` ({IMAGE_ID: (k, k) array}, each image's cam_from_world; with rigs also
         ``frames`` {FRAME_ID: ...}, rig_from_world, and ``sensors`` {CAMERA_ID: ...},
-        sensor_from_rig, instead), ``cameras`` ({CAMERA_ID: array} over its refined
+        sensor_from_rig), ``cameras`` ({CAMERA_ID: array} over its refined
         parameters), ``points`` ({POINT3D_ID: (3, 3) array}, marginal, with covariance_points),
         ``coords`` (for each of those kinds, {id: the block's coordinates}: "rx".."tz", a
         camera's parameter indices, "x" "y" "z"), ``sigma2``, ``rank`` and ``nfree``. The
