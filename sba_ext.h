@@ -188,9 +188,9 @@ struct sba_ext_options {
    * a nonzero return abandons the computation, which returns SBA_ERROR with the message
    * "...: stopped by the cancel callback" (req's outputs are then unspecified). A covariance
    * has no iterations for the progress callback to stop, and can take far longer than the
-   * solve before it; this is how a host lets its user interrupt it (pysba: Ctrl-C). One
-   * LAPACK call (the eigendecomposition of the reduced camera system, O((cameras*cnp)^3))
-   * cannot be interrupted. Like every callback it must return normally. NULL: never polled;
+   * solve before it; this is how a host lets its user interrupt it (pysba: Ctrl-C). The
+   * LAPACK calls that invert the reduced camera system (its Cholesky factorization, or its
+   * eigendecomposition when it is singular: O((cameras*cnp)^3)) cannot be interrupted. Like every callback it must return normally. NULL: never polled;
    * the drivers never call it. */
   int (*cancel)(void *cancel_ctx);
   void *cancel_ctx;
@@ -374,7 +374,10 @@ extern int sba_str_levmar_x_vis(
  * With shared camera parameters in ext (cam_group/cam_shared, cam_param_group), the covariance
  * is taken where a solve would start from p: every copy of a shared parameter at its first
  * camera's value (the one of least index), as a solve returns them. p itself is not
- * changed. */
+ * changed.
+ * When the cameras' reduced system S has full rank (the gauge fixed by held cameras or
+ * parameters), it is inverted by Cholesky factorization; otherwise, or when a pivot falls to
+ * the rounding level of the largest diagonal entry, by the eigendecomposition above. */
 struct sba_covariance_request {
   size_t size;           /* sizeof(struct sba_covariance_request); sba_covariance_request_init */
   int ncams;             /* cameras wanted ... */
@@ -386,6 +389,15 @@ struct sba_covariance_request {
   double sigma2;         /* out: the residual variance the blocks are scaled by */
   int rank;              /* out: rank of J^T J over the free parameters */
   int nfree;             /* out: number of free parameters (full rank: rank == nfree) */
+  /* Nonzero: the blocks of (J^T J)^-1 itself, the covariance for measurements of unit
+   * variance (COLMAP's and Ceres's convention), not scaled by sigma2 (still computed and
+   * returned). A request of a size without this field (an older caller) is scaled. */
+  int unscaled;
+  /* Added to the diagonal of every free point's block V_i of J^T J before the cameras' system
+   * is formed, as pycolmap's estimate_ba_covariance does with its BACovarianceOptions.damping
+   * (1e-8 there by default): the blocks are then those of (J^T J + diag(0, d I))^-1. 0 (the default, and for a request without this field): none,
+   * the covariance of J^T J itself. Must be finite and >= 0. */
+  double point_damping;
 };
 extern void sba_covariance_request_init(struct sba_covariance_request *req);
 

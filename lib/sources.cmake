@@ -18,6 +18,7 @@ set(SBA_LIB_FORMATS_SOURCES
   formats/colmap_check.cpp
   formats/colmap_sba.cpp
   formats/colmap_problem.cpp
+  formats/colmap_covariance.cpp
   formats/bundler_io.cpp
   formats/nvm_io.cpp
   formats/output_file.cpp

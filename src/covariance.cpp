@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Covariance of the solution through the Schur complement: with J^T J = [U W; W^T V],
 // (J^T J)^-1 has camera blocks S^-1 (S = U - W V^-1 W^T) and point blocks
-// V^-1 + V^-1 W^T S^-1 W V^-1. Only the requested blocks are formed. A gauge that mcon/ncon
-// leave free makes S singular; its pseudo-inverse (from a symmetric eigendecomposition) is
-// used and the rank reported. A point block V_i, by contrast, must have full rank: a point
-// that its projections do not determine (seen by one camera, or by cameras in degenerate
-// positions) is refused by name, since inverting its V_i would turn rounding into numbers.
+// V^-1 + V^-1 W^T S^-1 W V^-1. Only the requested blocks are formed. S of full rank is
+// inverted through its Cholesky factor, far less work than an eigendecomposition. A gauge
+// that mcon/ncon leave free makes S singular; its pseudo-inverse (from a symmetric
+// eigendecomposition) is used and the rank reported. A point block V_i, by contrast, must
+// have full rank: a point that its projections do not determine (seen by one camera, or by
+// cameras in degenerate positions) is refused by name, since inverting its V_i would turn
+// rounding into numbers.
 #include "covariance.h"
 
 #include <algorithm>
@@ -135,34 +137,36 @@ std::vector<double> parameter_schur(const Layout &lay, ThreadPool &pool, const K
   return S;
 }
 
-// The cameras' covariance (up to sigma^2) as S^+ over the parameters holds it: entry (a, b)
-// of block (j, k), free cameras j and k.
+// The cameras' covariance (up to sigma^2) as S^+ over the unknowns holds it: entry (a, b) of
+// block (j, k), free cameras j and k; zero for a held parameter. Reading S through the map
+// rather than expanding it over every camera's parameters keeps one matrix of S's order.
 struct CameraCovariance {
   const double *S;
-  int nA, mcon, cnp;
+  const CameraMap &map;
   double operator()(int j, int k, int a, int b) const {
-    return S[size_t(i64(j - mcon) * cnp + a) * nA + size_t(i64(k - mcon) * cnp + b)];
+    const int u = map.unknown(j, a), w = map.unknown(k, b);
+    return u < 0 || w < 0 ? 0.0 : S[size_t(u) * size_t(map.unknowns()) + size_t(w)];
   }
 };
 
-void camera_blocks(const Layout &lay, const CameraCovariance &C, CovarianceRequest &req) {
+void camera_blocks(const Layout &lay, const CameraCovariance &C, double scale, CovarianceRequest &req) {
   const int cnp = lay.cnp;
   for (int q = 0; q < req.ncams; ++q) {
     const int j = req.cams[q];
     double *out = req.camcov + i64(q) * cnp * cnp;
     for (int a = 0; a < cnp; ++a)
-      for (int b = 0; b < cnp; ++b) out[a * cnp + b] = j >= lay.mcon ? req.sigma2 * C(j, j, a, b) : 0.0;
+      for (int b = 0; b < cnp; ++b) out[a * cnp + b] = j >= lay.mcon ? scale * C(j, j, a, b) : 0.0;
   }
 }
 
 // A point's block V_i^-1 + sum_jk Y_ij^T S^+_jk Y_ik with Y_ij = W_ij V_i^-1 over the free
-// cameras j seeing it, scaled by sigma^2; its work arrays kept from one point to the next.
+// cameras j seeing it, scaled by `scale`; its work arrays kept from one point to the next.
 class PointBlocks {
  public:
   PointBlocks(const Layout &lay, const NormalEquations &ne, const double *Vinv, const CameraCovariance &C)
       : lay_(lay), ne_(ne), Vinv_(Vinv), C_(C), W_(size_t(lay.cnp) * size_t(lay.pnp)) {}
 
-  void operator()(int i, double sigma2, double *out) {
+  void operator()(int i, double scale, double *out) {
     const int cnp = lay_.cnp, pnp = lay_.pnp;
     if (i < lay_.ncon) {
       std::fill(out, out + pnp * pnp, 0.0);
@@ -180,7 +184,7 @@ class PointBlocks {
               for (int d = 0; d < cnp; ++d)
                 s += Y_[t1 * cp + size_t(c) * pnp + a] * C_(cams_[t1], cams_[t2], c, d) *
                      Y_[t2 * cp + size_t(d) * pnp + b];
-        out[a * pnp + b] = sigma2 * s;
+        out[a * pnp + b] = scale * s;
       }
   }
 
@@ -227,6 +231,34 @@ int block_rank(const double *V, int n, std::vector<double> &work) {
   int rank = 0;
   for (double l : lambda) rank += l > tol;
   return rank;
+}
+
+bool spd_inverse(std::vector<double> &S, int n) {
+  if (n == 0) return true;
+  double top = 0.0;
+  for (int r = 0; r < n; ++r) top = std::max(top, S[size_t(r) * n + r]);
+  std::vector<double> L(S);
+  int info = 0;
+  // Row-major S is column-major S^T = S: "L" factors the lower triangle of either view.
+  SBA_F77(dpotrf, DPOTRF)("L", &n, L.data(), &n, &info, 1);
+  if (info != 0) return false;
+  // A pivot L_rr^2 bounds S's smallest eigenvalue from above: one at rounding level is a
+  // direction pseudo_inverse would count as null, and its inverse would be noise.
+  const double tol = top * n * DBL_EPSILON * 100.0;
+  for (int r = 0; r < n; ++r) {
+    const double d = L[size_t(r) * n + r];
+    if (!(d * d > tol)) return false;
+  }
+  SBA_F77(dpotri, DPOTRI)("L", &n, L.data(), &n, &info, 1);
+  if (info != 0) return false;
+  // The lower triangle of the column-major inverse is the upper one of the row-major view.
+  for (int c = 0; c < n; ++c)
+    for (int r = c; r < n; ++r) {
+      const double v = L[size_t(c) * n + r];
+      S[size_t(c) * n + r] = v;
+      S[size_t(r) * n + c] = v;
+    }
+  return true;
 }
 
 bool pseudo_inverse(std::vector<double> &S, int n, const std::function<bool()> &stop, const Logger &log,
@@ -304,7 +336,7 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
   if (!points_determined(lay, ne.V, cancel, log)) return false;
   std::vector<double> Vinv(lin.V.size());
   if (cancel.stop(log, true)) return false;
-  if (!kernels->invert_damped_V(pool, ne.V, 0.0, Vinv.data())) {
+  if (!kernels->invert_damped_V(pool, ne.V, req.point_damping, Vinv.data())) {
     log.error("sba: a point is not determined by its projections (its V_i is singular): its "
               "covariance is unbounded");
     return false;
@@ -326,16 +358,19 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
     first = false;
     return cancel.stop(log, now);
   };
-  if (!pseudo_inverse(S, nunknowns, stop, log, &rank_S)) return false;
-  if (!map.plain()) S = map.expand_matrix(S);
-  if (!residual_variance(lay, lin.sq_err, nunknowns, rank_S, log, req)) return false;
+  if (spd_inverse(S, nunknowns))
+    rank_S = nunknowns;
+  else if (!pseudo_inverse(S, nunknowns, stop, log, &rank_S))
+    return false;
+  if (cancel.stop(log, true) || !residual_variance(lay, lin.sq_err, nunknowns, rank_S, log, req)) return false;
 
-  const CameraCovariance C{S.data(), nparams, lay.mcon, lay.cnp};
-  camera_blocks(lay, C, req);
+  const double scale = req.unscaled ? 1.0 : req.sigma2;
+  const CameraCovariance C{S.data(), map};
+  camera_blocks(lay, C, scale, req);
   PointBlocks point_block(lay, ne, Vinv.data(), C);
   for (int q = 0; q < req.npts; ++q) {
     if (cancel.stop(log)) return false;
-    point_block(req.pts[q], req.sigma2, req.ptcov + i64(q) * lay.pnp * lay.pnp);
+    point_block(req.pts[q], scale, req.ptcov + i64(q) * lay.pnp * lay.pnp);
   }
   return true;
 }

@@ -23,6 +23,8 @@ struct CovarianceRequest {
   int npts = 0;
   const int *pts = nullptr;
   double *ptcov = nullptr;
+  bool unscaled = false;     // blocks of (J^T J)^-1, not scaled by sigma2
+  double point_damping = 0;  // added to every free point's V_i
   double sigma2 = 0;
   int rank = 0, nfree = 0;
 };
@@ -41,6 +43,12 @@ int block_rank(const double *V, int n, std::vector<double> &work);
 // true abandons it. False when it is abandoned or the decomposition fails (said through log).
 bool pseudo_inverse(std::vector<double> &S, int n, const std::function<bool()> &stop, const Logger &log,
                     int *rank);
+
+// The symmetric n x n S (row-major, full) replaced by its inverse through its Cholesky
+// factor, when every pivot lies above the rounding level of S's largest diagonal entry
+// (then S has full rank); false, S unchanged, when one does not or the factorization fails,
+// for pseudo_inverse to decide the rank.
+bool spd_inverse(std::vector<double> &S, int n);
 
 // req's sigma2 = sq_err / (measurements - rank), rank and nfree, for nunknowns camera
 // unknowns of which rank_S are determined and every free point's pnp; false (said through

@@ -7,6 +7,8 @@
 #include "driver.h"
 
 #include <algorithm>
+#include <cfloat>
+#include <cstddef>
 #include <cstring>
 #include <memory>
 #include <string>
@@ -186,8 +188,15 @@ void count_as_1_6(const DriverArgs &a, const Layout &lay, Summary &sum) {
 // The covariance request, checked and copied; empty string: all good.
 std::string check_request(const DriverArgs &a, const sba_covariance_request *user,
                           CovarianceRequest *req) {
-  if (!user || user->size < sizeof(sba_covariance_request))
+  if (!user || user->size < offsetof(sba_covariance_request, unscaled))
     return "req is NULL or not initialised by sba_covariance_request_init";
+  // Each field added after ptcov is read only from a request that is large enough to hold it.
+  const auto holds = [user](size_t offset, size_t size) { return user->size >= offset + size; };
+  req->unscaled = holds(offsetof(sba_covariance_request, unscaled), sizeof user->unscaled) && user->unscaled != 0;
+  if (holds(offsetof(sba_covariance_request, point_damping), sizeof user->point_damping))
+    req->point_damping = user->point_damping;
+  if (!(req->point_damping >= 0.0 && req->point_damping <= DBL_MAX))
+    return "req->point_damping must be finite and >= 0";
   req->ncams = user->ncams;
   req->cams = user->cams;
   req->camcov = user->camcov;

@@ -249,6 +249,10 @@ TEST(Cli, SbarefineOptionsOfAnotherFormat) {
   for (const char *option : {"--hold-intrinsics", "--hold-sensor-from-rig", "--hold-points"})
     expect_usage_error(p, {option, "1", nvm}, std::string(option) + " is for COLMAP models");
   expect_usage_error(p, {"--hold-points-file", "ids.txt", nvm}, "--hold-points-file is for COLMAP models");
+  expect_usage_error(p, {"--covariance", "cov.txt", nvm}, "--covariance is for COLMAP models");
+  for (const std::vector<std::string> &args : {std::vector<std::string>{"--covariance-points", nvm},
+                                               std::vector<std::string>{"--covariance-damping", "1e-8", nvm}})
+    expect_usage_error(p, args, "--covariance-points and --covariance-damping are for --covariance, which is not given");
   expect_usage_error(p, {"--intrinsics=all", nvm},
                      "--intrinsics all: an NVM file has no principal point (its measurements are relative to the "
                      "image centre)");

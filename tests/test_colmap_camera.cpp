@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "colmap_tangent.h"
 #include "sba.h"
 
 namespace cc = sbacameras::colmap_camera;
@@ -789,4 +790,38 @@ TEST(ColmapRigCamera, HeldParametersAreConstants) {
   std::vector<cc::RigImage> bad = images;
   bad[0].q_sensor = {0, 0, 0, 0};
   EXPECT_THROW(cc::RigCameraModel(bad, points), std::invalid_argument);
+}
+
+using tangenttest::colmap_increment;
+
+// rotation_tangent_jacobian is d(delta)/dv of the camera model's rotation, by central
+// differences at corrections v_hat away from 0, of cameras whose initial rotations differ.
+TEST(ColmapCamera, RotationTangentJacobian) {
+  const double v_hats[][3] = {{0, 0, 0}, {0.1, -0.2, 0.05}, {-0.4, 0.3, 0.5}};
+  const double q0s[][4] = {{1, 0, 0, 0}, {0.3, -0.5, 0.7, 0.2}};
+  for (const auto &q0 : q0s) {
+    cc::Camera cam;
+    cam.params = {500, 320, 240};
+    cam.q = {q0[0], q0[1], q0[2], q0[3]};
+    const cc::CameraModel model({cam}, {0, 0, 5});
+    const int cnp = model.cnp();
+    for (const auto &v_hat : v_hats) {
+      std::vector<double> a(model.initial_camera(0), model.initial_camera(0) + cnp);
+      std::copy(v_hat, v_hat + 3, a.begin());
+      const sbacameras::euclidean::Quaternion q_hat = model.camera(0, a.data()).q;
+      double J[9];
+      cc::rotation_tangent_jacobian(v_hat, J);
+      const double h = 1e-6;
+      for (int k = 0; k < 3; ++k) {
+        std::vector<double> ap = a, am = a;
+        ap[static_cast<std::size_t>(k)] += h;
+        am[static_cast<std::size_t>(k)] -= h;
+        const auto dp = colmap_increment(model.camera(0, ap.data()).q, q_hat);
+        const auto dm = colmap_increment(model.camera(0, am.data()).q, q_hat);
+        for (int r = 0; r < 3; ++r)
+          EXPECT_NEAR((dp[static_cast<std::size_t>(r)] - dm[static_cast<std::size_t>(r)]) / (2 * h), J[r * 3 + k], 1e-8)
+              << "v_hat " << v_hat[0] << " row " << r << " column " << k;
+      }
+    }
+  }
 }

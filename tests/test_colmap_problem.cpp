@@ -15,6 +15,7 @@
 
 #include "cameras/colmap_camera.h"
 #include "cameras/rigid_pose.h"
+#include "colmap_tangent.h"
 #include "formats/colmap_io.h"
 #include "formats/colmap_problem.h"
 #include "sba.h"
@@ -445,3 +446,79 @@ TEST(RigidPose, ComposeAndInverse) {
 }
 
 }  // namespace
+
+namespace {
+
+// The pose of camera j at parameters a as COLMAP's tangent moves it from the pose at a_hat:
+// (delta, t - t_hat).
+std::array<double, 6> tangent_step(const cc::RigCameraModel &model, const std::vector<double> &a,
+                                   const std::vector<double> &a_hat) {
+  const cc::Camera c = model.camera(0, a.data()), c_hat = model.camera(0, a_hat.data());
+  const std::array<double, 3> d = tangenttest::colmap_increment(c.q, c_hat.q);
+  return {d[0], d[1], d[2], c.t[0] - c_hat.t[0], c.t[1] - c_hat.t[1], c.t[2] - c_hat.t[2]};
+}
+
+}  // namespace
+
+// composed_pose_covariance is N C N^T with N = d(cam_from_world's tangent)/d(v_f t_f v_s t_s) by
+// central differences of the rig camera model's composed pose, for a covariance C of the 12
+// pose parameters with cross terms; with the sensor's pose held it is the frame's pose_covariance.
+TEST(ColmapCovariance, ImageOfARigComposesFrameAndSensor) {
+  cc::RigImage im;
+  im.params = {500, 320, 240};
+  im.q_frame = {0.9, 0.1, -0.3, 0.2};
+  im.t_frame = {0.4, -1.0, 3.0};
+  im.q_sensor = {0.8, -0.2, 0.1, 0.4};
+  im.t_sensor = {0.3, 0.1, -0.2};
+  const cc::RigCameraModel model({im}, {0, 0, 5});
+  const int cnp = model.cnp();
+  std::vector<double> a(model.initial_camera(0), model.initial_camera(0) + cnp);
+  const double moved[12] = {0.05, -0.1, 0.02, 0.4, -1.0, 3.0, -0.03, 0.08, 0.1, 0.3, 0.1, -0.2};
+  std::copy(moved, moved + 12, a.begin());
+  std::vector<double> C(static_cast<std::size_t>(cnp) * cnp, 0.0);
+  for (int r = 0; r < 12; ++r)
+    for (int c = 0; c < 12; ++c) C[static_cast<std::size_t>(r * cnp + c)] = (r == c ? 2.0 : 0.0) + 0.1 * std::cos(r + c);
+  double N[72];
+  const double h = 1e-6;
+  for (int k = 0; k < 12; ++k) {
+    std::vector<double> ap = a, am = a;
+    ap[static_cast<std::size_t>(k)] += h;
+    am[static_cast<std::size_t>(k)] -= h;
+    const std::array<double, 6> up = tangent_step(model, ap, a), down = tangent_step(model, am, a);
+    for (int r = 0; r < 6; ++r) N[r * 12 + k] = (up[static_cast<std::size_t>(r)] - down[static_cast<std::size_t>(r)]) / (2 * h);
+  }
+  const cc::RigImage at = model.image(0, a.data());
+  double R_s[9];
+  sbacameras::euclidean::rotation_matrix(at.q_sensor, R_s);
+  const colmap::CovarianceBlock b = colmap::composed_pose_covariance(a.data(), C.data(), nullptr, cnp, R_s,
+                                                                     at.t_frame.data());
+  ASSERT_EQ(b.coords, (std::vector<int>{0, 1, 2, 3, 4, 5}));
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) {
+      double want = 0;
+      for (int k = 0; k < 12; ++k)
+        for (int l = 0; l < 12; ++l) want += N[r * 12 + k] * C[static_cast<std::size_t>(k * cnp + l)] * N[c * 12 + l];
+      EXPECT_NEAR(b.cov[static_cast<std::size_t>(r * 6 + c)], want, 1e-7 * (1 + std::fabs(want))) << r << " " << c;
+    }
+  // The sensor's pose held (its rows and columns of C zero, as the library gives them).
+  std::vector<char> fixed;
+  for (int c = 0; c < cnp; ++c) fixed.push_back(c >= 6 && c < 12);
+  for (int r = 0; r < cnp; ++r)
+    for (int c = 0; c < cnp; ++c)
+      if (r >= 6 || c >= 6) C[static_cast<std::size_t>(r * cnp + c)] = 0.0;
+  const colmap::CovarianceBlock held = colmap::composed_pose_covariance(a.data(), C.data(), fixed.data(), cnp, R_s,
+                                                                        at.t_frame.data());
+  const colmap::CovarianceBlock frame = colmap::pose_covariance(a.data(), C.data(), fixed.data(), cnp, 0);
+  ASSERT_EQ(held.coords, frame.coords);
+  ASSERT_EQ(held.coords.size(), 6u);
+  // Then the image's pose is the frame's turned by R_s: diag(R_s, R_s) P_f diag(R_s, R_s)^T.
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) {
+      double want = 0;
+      for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l)
+          want += R_s[(r % 3) * 3 + k] * frame.cov[static_cast<std::size_t>((r / 3 * 3 + k) * 6 + c / 3 * 3 + l)] *
+                  R_s[(c % 3) * 3 + l];
+      EXPECT_NEAR(held.cov[static_cast<std::size_t>(r * 6 + c)], want, 1e-12 * (1 + std::fabs(want))) << r << " " << c;
+    }
+}

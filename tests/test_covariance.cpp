@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstddef>
 #include <cmath>
 #include <random>
 #include <string>
@@ -53,7 +54,8 @@ struct Cov {
 };
 
 Cov covariance(synth::Problem &pb, std::vector<double> &p, int mcon, int ncon, bool simple = false,
-               bool analytic = true) {
+               bool analytic = true, int unscaled = 0, size_t size = sizeof(sba_covariance_request),
+               double point_damping = 0) {
   Cov c;
   for (int j = 0; j < pb.m; ++j) c.cams.push_back(j);
   for (int i = 0; i < pb.n; ++i) c.pts.push_back(i);
@@ -66,6 +68,9 @@ Cov covariance(synth::Problem &pb, std::vector<double> &p, int mcon, int ncon, b
   c.req.npts = pb.n;
   c.req.pts = c.pts.data();
   c.req.ptcov = c.ptcov.data();
+  c.req.unscaled = unscaled;
+  c.req.point_damping = point_damping;
+  c.req.size = size;
   if (simple)
     c.ret = sba_motstr_covariance(pb.n, ncon, pb.m, mcon, pb.vmask.data(), p.data(), kCnp, kPnp,
                                   pb.x.data(), nullptr, kMnp, synth::proj_motstr,
@@ -160,6 +165,59 @@ TEST(Covariance, MatchesBruteForceInverseWhenTheGaugeIsFixed) {
         }
     EXPECT_LT(worst, 1e-8) << (simple ? "simple" : "expert");
   }
+}
+
+// unscaled gives the blocks of (J^T J)^-1, the scaled ones over sigma2, sigma2 still returned;
+// a request of the size before the field (an older caller's) gets the scaled ones.
+TEST(Covariance, UnscaledBlocksAreTheScaledOverSigma2) {
+  synth::Problem pb = synth::make(25, 5, 0.5, 0.05, 51);
+  std::vector<double> p = pb.p0;
+  ASSERT_GT(solve(pb, p, 2), 0);
+  const Cov scaled = covariance(pb, p, 2, 3);
+  const Cov unscaled = covariance(pb, p, 2, 3, false, true, 1);
+  const Cov older = covariance(pb, p, 2, 3, false, true, 1, offsetof(sba_covariance_request, unscaled));
+  ASSERT_EQ(scaled.ret, 0);
+  ASSERT_EQ(unscaled.ret, 0);
+  ASSERT_EQ(older.ret, 0);
+  ASSERT_GT(scaled.req.sigma2, 0.0);
+  EXPECT_EQ(unscaled.req.sigma2, scaled.req.sigma2);
+  EXPECT_EQ(older.camcov, scaled.camcov);
+  EXPECT_EQ(older.ptcov, scaled.ptcov);
+  for (size_t k = 0; k < scaled.camcov.size(); ++k)
+    EXPECT_NEAR(unscaled.camcov[k] * scaled.req.sigma2, scaled.camcov[k], 1e-12 * std::fabs(scaled.camcov[k])) << k;
+  for (size_t k = 0; k < scaled.ptcov.size(); ++k)
+    EXPECT_NEAR(unscaled.ptcov[k] * scaled.req.sigma2, scaled.ptcov[k], 1e-12 * std::fabs(scaled.ptcov[k])) << k;
+}
+
+// point_damping adds d I to every point's V_i: J^T J grows by a positive semi-definite term,
+// so no variance grows and the points' shrink; 0 is no damping at all, to the bit; a negative
+// or non-finite one is refused.
+TEST(Covariance, PointDampingShrinksTheVariances) {
+  synth::Problem pb = synth::make(25, 5, 0.5, 0.05, 51);
+  std::vector<double> p = pb.p0;
+  ASSERT_GT(solve(pb, p, 2), 0);
+  const size_t full = sizeof(sba_covariance_request);
+  const Cov plain = covariance(pb, p, 2, 3, false, true, 1);
+  const Cov zero = covariance(pb, p, 2, 3, false, true, 1, full, 0.0);
+  const Cov damped = covariance(pb, p, 2, 3, false, true, 1, full, 1e3);
+  ASSERT_EQ(damped.ret, 0);
+  EXPECT_EQ(zero.camcov, plain.camcov);
+  EXPECT_EQ(zero.ptcov, plain.ptcov);
+  for (int j = 2; j < pb.m; ++j)
+    for (int a = 0; a < kCnp; ++a) {
+      const size_t k = size_t(j) * kCnp * kCnp + size_t(a) * (kCnp + 1);
+      EXPECT_LE(damped.camcov[k], plain.camcov[k] * (1 + 1e-12)) << j << " " << a;
+    }
+  for (int i = 3; i < pb.n; ++i)
+    for (int a = 0; a < kPnp; ++a) {
+      const size_t k = size_t(i) * kPnp * kPnp + size_t(a) * (kPnp + 1);
+      EXPECT_LT(damped.ptcov[k], plain.ptcov[k]) << i << " " << a;
+    }
+  testing::internal::CaptureStderr();
+  for (double bad : {-1e-8, std::nan(""), HUGE_VAL})
+    EXPECT_EQ(covariance(pb, p, 2, 3, false, true, 1, full, bad).ret, SBA_ERROR) << bad;
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("req->point_damping must be finite and >= 0"), std::string::npos) << err;
 }
 
 TEST(Covariance, AFreeGaugeGivesAPseudoInverseAndItsRank) {

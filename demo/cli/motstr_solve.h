@@ -133,6 +133,25 @@ class MotstrSolve {
     ret_ = 0;
   }
 
+  // A covariance at the result into `path` by compute(ext, error), with the solve's options
+  // (threads, loss, the log sink) and a stop signal's cancel: false, said on stderr, when it
+  // fails (the library's reason, else compute's error). A stop signal abandons it: true, the
+  // run then ends as a late signal ends it (finish), without its files.
+  template <class Compute>
+  bool covariance(const std::string &path, Compute compute) {
+    sba_ext_options ext;
+    sba_ext_result scratch;
+    init_ext(so_, program_, &sink_, &scratch, &ext);
+    ext.result = nullptr;
+    RunControl::attach_cancel(&ext);
+    sink_.first_error.clear();
+    std::string error;
+    if (compute(ext, &error) || g_stop_signal != 0) return true;
+    std::fprintf(stderr, "%s: %s: no covariance: %s\n", program_, path.c_str(),
+                 error.empty() ? sink_.first_error.c_str() : error.c_str());
+    return false;
+  }
+
   // The report's "model" (see Report::model).
   void describe(const std::string &model) { model_ = model; }
 

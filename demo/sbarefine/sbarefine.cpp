@@ -72,6 +72,8 @@ struct Options {
   double function_tolerance = -1;    // < 0: not given
   std::string initial_ply, final_ply;
   std::string write_eucsba;  // COLMAP, NVM: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
+  std::string covariance;    // COLMAP: the covariances' file; empty: none
+  colmap::CovarianceOptions covariance_options;
   std::string write_bal;     // Bundler: a BAL problem
   std::string bundler_list;  // Bundler: the image list read; empty: none
   std::string write_list;    // Bundler: where the image list is written back; empty: not
@@ -205,6 +207,25 @@ void add_format_options(std::vector<sbacli::Option> *t, Options &o) {
                 "COLMAP, NVM: also write the refined model as eucsbademo files PREFIX-cams.txt (17\n"
                 "values a line) and PREFIX-pts.txt",
                 [&o](const std::string &v) { return sbacli::to_file(v, &o.write_eucsba); }});
+  t->push_back({"covariance", "FILE",
+                "COLMAP: also write the covariance of the refined poses (each image's cam_from_world;\n"
+                "with rigs, also each frame's rig_from_world and camera's sensor_from_rig) and of each\n"
+                "camera's refined parameters to FILE, in COLMAP's convention (pycolmap's\n"
+                "estimate_ba_covariance: unit pixel noise, [rotation, translation] tangent, held\n"
+                "coordinates left out; format in docs/formats.md)",
+                [&o](const std::string &v) { return sbacli::to_file(v, &o.covariance); }});
+  t->push_back({"covariance-points", "",
+                "COLMAP: --covariance also writes every free point's 3x3 (marginal) covariance",
+                [&o](const std::string &) {
+                  o.covariance_options.points = true;
+                  return std::string();
+                }});
+  t->push_back({"covariance-damping", "D",
+                "COLMAP: --covariance adds D to the diagonal of each point's block of J^T J first, as\n"
+                "pycolmap's BACovarianceOptions.damping does (1e-8 there by default) (default 0)",
+                [&o](const std::string &v) {
+                  return sbacli::to_real(v, 0.0, false, &o.covariance_options.point_damping);
+                }});
   t->push_back({"write-bal", "FILE", "Bundler: also write the refined model as a BAL problem",
                 [&o](const std::string &v) { return sbacli::to_file(v, &o.write_bal); }});
   t->push_back({"bundler-list", "FILE",
@@ -358,6 +379,10 @@ struct Job {
   // centres went through sba's parametrisation and would come back changed in the last bits.
   std::function<bool(const double *p, Cloud *final_cloud, sbaformats::OutputSet *outputs, std::string *error)>
       finish;
+  // --covariance: the covariances at p into the run's outputs (a COLMAP model's only); false
+  // when the library refuses them (said through ext's sink) or the file cannot be written.
+  std::function<bool(const double *p, const sba_ext_options &ext, sbaformats::OutputSet *outputs, std::string *error)>
+      covariance;
 };
 
 enum class Format { Colmap, Bundler, Nvm };
@@ -591,6 +616,15 @@ std::string unseen_images(const colmap::Model &model, const colmap::Problem &pr)
          " place there kept)";
 }
 
+// --covariance of a COLMAP model: its problem's covariances at p, in COLMAP's convention.
+decltype(Job::covariance) colmap_covariance(const Options &o, Loaded *l) {
+  return [&o, l](const double *p, const sba_ext_options &ext, sbaformats::OutputSet *outputs, std::string *why) {
+    colmap::Covariances c;
+    return l->colmap_problem.covariance(l->model, p, ext, o.covariance_options, &c) &&
+           colmap::write_covariances(o.covariance, c, why, outputs);
+  };
+}
+
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
   colmap::Options options;
@@ -652,6 +686,7 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   job->summary += "\nCamera models: " + job->model;
   job->initial = cloud(l->model);
   for (int j : pr.images()) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
+  job->covariance = colmap_covariance(o, l);
   job->finish = [&o, l](const double *p, Cloud *final_cloud, sbaformats::OutputSet *outputs,
                         std::string *why) {
     const colmap::Problem &problem = l->colmap_problem;
@@ -753,7 +788,7 @@ int check_outputs(const Options &o, const Input &input) {
   const std::string eucsba_cams = o.write_eucsba.empty() ? "" : o.write_eucsba + "-cams.txt";
   const std::string eucsba_pts = o.write_eucsba.empty() ? "" : o.write_eucsba + "-pts.txt";
   if (!sbacli::outputs_writable({&write_file, &eucsba_cams, &eucsba_pts, &o.solve.json, &o.initial_ply,
-                                  &o.final_ply, &o.write_bal, &o.write_list}))
+                                  &o.final_ply, &o.write_bal, &o.write_list, &o.covariance}))
     return kExitFailure;
   if (input.directory && !o.write.empty()) {
     colmap::Encoding encoding = o.write_format == "binary" ? colmap::Encoding::Binary : colmap::Encoding::Text;
@@ -776,6 +811,7 @@ int check_format_options(Format format, Options *o) {
     const char *option, *formats;
   } kFormatOptions[] = {
       {!o->write_format.empty(), format == Format::Colmap, "--write-format", "COLMAP models"},
+      {!o->covariance.empty(), format == Format::Colmap, "--covariance", "COLMAP models"},
       {!o->write_eucsba.empty(), format != Format::Bundler, "--write-eucsba", "COLMAP models and NVM files"},
       {!o->write_bal.empty(), format == Format::Bundler, "--write-bal", "Bundler files"},
       {!o->bundler_list.empty(), format == Format::Bundler, "--bundler-list", "Bundler files"},
@@ -796,6 +832,11 @@ int check_format_options(Format format, Options *o) {
       return kExitUsage;
     }
   resolve_defaults(format == Format::Colmap, o);
+  if ((o->covariance_options.points || o->covariance_options.point_damping != 0) && o->covariance.empty()) {
+    std::fprintf(stderr, "sbarefine: --covariance-points and --covariance-damping are for --covariance, which is "
+                         "not given\n");
+    return kExitUsage;
+  }
   if (!o->write_list.empty() && o->bundler_list.empty()) {
     std::fprintf(stderr, "sbarefine: --write-list writes the list of --bundler-list, which is not given\n");
     return kExitUsage;
@@ -853,6 +894,10 @@ int solve_and_write(const Options &o, Job &job, double read_seconds) {
     return kExitFailure;
   }
   if (!sbacli::write_ply_option(o.final_ply, final_cloud, &outputs)) return kExitFailure;
+  if (!o.covariance.empty() && !solve.covariance(o.covariance, [&](const sba_ext_options &ext, std::string *why) {
+        return job.covariance(p.data(), ext, &outputs, why);
+      }))
+    return kExitFailure;
   return solve.finish(read_seconds, project, job.camera_names, o.write, &outputs);
 }
 

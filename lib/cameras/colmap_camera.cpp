@@ -392,6 +392,25 @@ euclidean::Quaternion corrected(const double v[3], const euclidean::Quaternion &
   return euclidean::normalized_rotation(euclidean::multiply({qs.w, qs.u[0], qs.u[1], qs.u[2]}, q0));
 }
 
+}  // namespace
+
+// The increment qs(v) * qs(v_hat)^* has vector part w_hat u - w u_hat - u x u_hat, whose
+// derivative at v_hat, with u and w those of qs, is w_hat du - u_hat dw^T + [u_hat]x du; to first
+// order that vector part is delta.
+void rotation_tangent_jacobian(const double v_hat[3], double J[9]) {
+  const sbaeuc_correction c = sbaeuc_correction_of(v_hat);
+  const double *u = c.u;
+  const double cross[9] = {0, -u[2], u[1], u[2], 0, -u[0], -u[1], u[0], 0};
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) {
+      double s = c.w * c.du[r * 3 + k] - u[r] * c.dw[k];
+      for (int l = 0; l < 3; ++l) s += cross[r * 3 + l] * c.du[l * 3 + k];
+      J[r * 3 + k] = s;
+    }
+}
+
+namespace {
+
 // The largest parameter count of the cameras' models, each checked.
 template <typename C>
 int largest_param_count(const std::vector<C> &cameras) {

@@ -243,6 +243,13 @@ inline void *as_adata(const CameraModel &model) {
 void motstr_func(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata);
 void motstr_fjac(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata);
 
+// COLMAP's tangent of a rotation, as its covariances are given: the increment delta of
+// q = [cos|delta|, sin|delta| delta/|delta|] * q_hat, a rotation by 2|delta| applied on the left
+// (Ceres's quaternion manifold), as a function of the local rotation parameters v of the
+// models below (R = R(qs(v)) R0) at v_hat: J = d(delta)/dv, 3x3 row-major, so that a
+// covariance C of v is J C J^T in COLMAP's tangent. v_hat must have |v_hat| < 1.
+void rotation_tangent_jacobian(const double v_hat[3], double J[9]);
+
 // ---- the images of camera rigs (COLMAP 4's rigs and frames) ----
 
 constexpr int kRigPoseParams = 12;  // the frame's v t, then the sensor's v t

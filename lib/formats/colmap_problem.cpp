@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdio>
 #include <limits>
+#include <numeric>
 #include <stdexcept>
 #include <unordered_map>
 #include <utility>
@@ -582,6 +583,100 @@ void Problem::apply(const double *p, Model *model) const {
       write_image(j, a, index);
   }
   write_points(p, index);
+}
+
+bool Problem::covariance(const Model &model, const double *p, const sba_ext_options &ext,
+                         const CovarianceOptions &options, Covariances *out) const {
+  const int m = ncameras(), n = npoints();
+  std::vector<int> cams(at(m)), pts(options.points ? at(n - held_points_) : 0);
+  std::iota(cams.begin(), cams.end(), 0);
+  std::iota(pts.begin(), pts.end(), held_points_);
+  std::vector<double> camcov(at(m) * at(cnp_) * at(cnp_)), ptcov(pts.size() * 9);
+  sba_covariance_request req;
+  sba_covariance_request_init(&req);
+  req.ncams = m;
+  req.cams = cams.data();
+  req.camcov = camcov.data();
+  req.npts = static_cast<int>(pts.size());
+  req.pts = pts.data();
+  req.ptcov = ptcov.data();
+  req.unscaled = 1;
+  req.point_damping = options.point_damping;
+  sba_ext_options e = ext;
+  e.cam_fixed = cam_fixed_.data();
+  e.cam_fixed_per_camera = 1;
+  e.cam_group = nullptr;
+  e.cam_shared = nullptr;
+  e.cam_param_group = cam_param_group_.data();
+  // The library reads p and x without changing them, but takes them as non-const.
+  std::vector<double> pc(p, p + at(m) * at(cnp_) + 3 * at(n));
+  const sba_visibility vis{static_cast<long long>(points_.pairs.size()), points_.pairs.point.data(),
+                           points_.pairs.camera.data()};
+  if (sba_motstr_covariance_x_vis(n, held_points_, m, mcon_, &vis, pc.data(), cnp_, 3,
+                                  const_cast<double *>(points_.x.data()), nullptr, 2, func(), fjac(), adata(), &req,
+                                  &e) != 0)
+    return false;
+  *out = Covariances();
+  out->sigma2 = req.sigma2;
+  out->rank = req.rank;
+  out->nfree = req.nfree;
+  pose_covariances(model, pc.data(), camcov.data(), out);
+  camera_covariances(camcov.data(), out);
+  for (std::size_t q = 0; q < pts.size(); ++q) {
+    CovarianceBlock b = param_covariance(ptcov.data() + 9 * q, nullptr, 3, 0, 3);
+    b.id = point_ids_[at(pts[q])];
+    out->points.push_back(std::move(b));
+  }
+  return true;
+}
+
+void Problem::pose_covariances(const Model &model, const double *p, const double *camcov, Covariances *out) const {
+  std::vector<std::uint32_t> frames_done;
+  for (int j = mcon_; j < ncameras(); ++j) {
+    const CameraIds &r = ids_[at(j)];
+    const double *a = p + at(j) * at(cnp_), *cov = camcov + at(j) * at(cnp_) * at(cnp_);
+    const char *fixed = &cam_fixed_[at(j) * at(cnp_)];
+    if (!rigged_) {
+      CovarianceBlock b = pose_covariance(a, cov, fixed, cnp_, 0);
+      b.id = r.image;
+      b.name = model.images[at(images_[at(j)])].name;
+      if (!b.coords.empty()) out->images.push_back(std::move(b));
+      continue;
+    }
+    const cc::RigImage im = rig_model_->image(j, a);
+    double R_s[9];
+    sbacameras::euclidean::rotation_matrix(im.q_sensor, R_s);
+    CovarianceBlock c = composed_pose_covariance(a, cov, fixed, cnp_, R_s, im.t_frame.data());
+    c.id = r.image;
+    c.name = model.images[at(images_[at(j)])].name;
+    if (!c.coords.empty()) out->images.push_back(std::move(c));
+    // A frame's pose and a camera's pose in its rig are one each, whichever image holds them.
+    if (std::find(frames_done.begin(), frames_done.end(), r.frame) == frames_done.end()) {
+      frames_done.push_back(r.frame);
+      CovarianceBlock b = pose_covariance(a, cov, fixed, cnp_, 0);
+      b.id = r.frame;
+      if (!b.coords.empty()) out->frames.push_back(std::move(b));
+    }
+    if (r.writes_params && !r.reference) {
+      CovarianceBlock b = pose_covariance(a, cov, fixed, cnp_, cc::kPoseParams);
+      b.id = r.camera;
+      if (!b.coords.empty()) out->sensors.push_back(std::move(b));
+    }
+  }
+}
+
+void Problem::camera_covariances(const double *camcov, Covariances *out) const {
+  const int first = rigged_ ? cc::kRigPoseParams : cc::kPoseParams;
+  for (int j = mcon_; j < ncameras(); ++j) {
+    const CameraIds &r = ids_[at(j)];
+    if (!r.writes_params) continue;
+    const int count = static_cast<int>(
+        rigged_ ? rig_model_->input_image(j).params.size() : image_model_->input_camera(j).params.size());
+    CovarianceBlock b =
+        param_covariance(camcov + at(j) * at(cnp_) * at(cnp_), &cam_fixed_[at(j) * at(cnp_)], cnp_, first, count);
+    b.id = r.camera;
+    if (!b.coords.empty()) out->cameras.push_back(std::move(b));
+  }
 }
 
 }  // namespace sbaformats::colmap

@@ -27,10 +27,12 @@
 #include <vector>
 
 #include "cameras/colmap_camera.h"
+#include "formats/colmap_covariance.h"
 #include "formats/colmap_io.h"
 #include "formats/colmap_sba.h"
 #include "formats/eucsba_io.h"
 #include "sba.h"
+#include "sba_ext.h"
 
 namespace sbaformats::colmap {
 
@@ -154,6 +156,14 @@ class Problem {
   // translation, and everything else, keeps its bits.
   void apply(const double *p, Model *model) const;
 
+  // The covariance at the estimate p (m cnp-vectors, then n points) in COLMAP's convention
+  // (colmap_covariance.h), of the model the problem was built of (its images' names): the
+  // library's sba_motstr_covariance_x_vis over the problem, with ext's options (threads, loss,
+  // log sink, cancel; the problem's held and shared parameters replace ext's), with `options`.
+  // False when the library refuses, said through ext's sink.
+  bool covariance(const Model &model, const double *p, const sba_ext_options &ext, const CovarianceOptions &options,
+                  Covariances *out) const;
+
  private:
   struct Builder;
   struct Index;
@@ -169,6 +179,10 @@ class Problem {
   void write_rig_image(int j, const double *a, const Index &index,
                        std::unordered_map<std::uint32_t, char> *frames_done) const;
   void write_points(const double *p, const Index &index) const;
+  // covariance's blocks of the poses and of the COLMAP cameras from the sba cameras' blocks
+  // camcov (m of cnp x cnp, unscaled).
+  void pose_covariances(const Model &model, const double *p, const double *camcov, Covariances *out) const;
+  void camera_covariances(const double *camcov, Covariances *out) const;
 
   std::vector<int> images_;
   std::vector<CameraIds> ids_;

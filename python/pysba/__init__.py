@@ -177,7 +177,8 @@ class Result:
     and, with ``covariance=True``, ``camera_covariance`` (m, cnp, cnp), ``point_covariance``
     (n, pnp, pnp), ``sigma2``, ``rank`` and ``nfree`` (see sba_ext.h). For eucsbademo
     problems the camera covariance is over the optimized parameters (intrinsics, the
-    rotation's local correction v, t), not over the file's quaternion.
+    rotation's local correction v, t), not over the file's quaternion. With
+    :func:`refine_colmap`'s ``covariance=True``, ``colmap_covariance`` instead (see there).
     """
 
     def __init__(self, report: dict):
@@ -206,6 +207,7 @@ class Result:
         self.sigma2: Optional[float] = report.get("sigma2")
         self.rank: Optional[int] = report.get("rank")
         self.nfree: Optional[int] = report.get("nfree")
+        self.colmap_covariance: Optional[dict] = report.get("colmap_covariance")
 
     def __repr__(self) -> str:
         return (f"Result(final_mse={self.final_mse:g}, initial_mse={self.initial_mse:g}, "

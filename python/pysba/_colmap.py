@@ -326,7 +326,9 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                   strategy: Optional[str] = None, loss: Optional[str] = None,
                   loss_scale: float = 1.0, itmax: int = 100, opts: Optional[Sequence[float]] = None,
                   function_tolerance: Optional[float] = None, mcon: int = 0, ncon: int = 0,
-                  progress: Optional[Callable[[Progress], Any]] = None, verbose: bool = False) -> Tuple[Any, Result]:
+                  progress: Optional[Callable[[Progress], Any]] = None, verbose: bool = False,
+                  covariance: bool = False, covariance_points: bool = False,
+                  covariance_damping: float = 0.0) -> Tuple[Any, Result]:
     """Bundle-adjusts a COLMAP model as sbarefine does (the same numbers, bit for bit, as
     ``sbarefine MODEL --write OUT`` with the same options), with COLMAP's camera models and
     COLMAP's defaults, and returns ``(refined model, Result)``; the model is left unchanged.
@@ -384,6 +386,23 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         problem's size, a line per iteration (the RMS reprojection error in pixels, or the
         cost with a robust loss) and the end, whatever progress does.
 
+    covariance, covariance_points, covariance_damping
+        covariance=True also computes, at the result, the covariances sbarefine's --covariance
+        writes (docs/formats.md, "Covariances"): the Result's ``colmap_covariance``, a dict
+        with ``images`` ({IMAGE_ID: (k, k) array}, each image's cam_from_world; with rigs also
+        ``frames`` {FRAME_ID: ...}, rig_from_world, and ``sensors`` {CAMERA_ID: ...},
+        sensor_from_rig), ``cameras`` ({CAMERA_ID: array} over its refined
+        parameters), ``points`` ({POINT3D_ID: (3, 3) array}, marginal, with covariance_points),
+        ``coords`` (for each of those kinds, {id: the block's coordinates}: "rx".."tz", a
+        camera's parameter indices, "x" "y" "z"), ``sigma2``, ``rank`` and ``nfree``. The
+        blocks are pycolmap's estimate_ba_covariance's: (J^T J)^-1 for unit pixel noise (times
+        sigma2 for the model's), poses over [rotation, translation] with COLMAP's rotation
+        tangent, held coordinates left out, a block all of whose coordinates are held left out
+        (a held pose, held intrinsics). covariance_damping (sbarefine's --covariance-damping,
+        0 by default) is added to each point's block of J^T J first, as pycolmap's
+        BACovarianceOptions.damping (1e-8 there). A covariance the library refuses (a point its
+        projections do not determine) raises SolveError with the result.
+
     A model whose reprojection error at the start is not finite (a parameter that overflows
     the projection) is a ValueError naming the first such observation's image, camera and point.
 
@@ -402,7 +421,8 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
              ("refine_rig_from_world", refine_rig_from_world),
              ("refine_sensor_from_rig", refine_sensor_from_rig),
              ("constant_rig_from_world_rotation", constant_rig_from_world_rotation))
-    for name, flag in flags + (("verbose", verbose),):
+    for name, flag in flags + (("verbose", verbose), ("covariance", covariance),
+                               ("covariance_points", covariance_points)):
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name} must be a bool, got {type(flag).__name__}")
     hold_all, held = _held_images(hold_poses)
@@ -412,8 +432,11 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     strategy, opts = _colmap_stop(strategy, opts, function_tolerance)
     if verbose:
         progress = _shown(colmap_model, loss not in (None, "none"), progress)
-    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress)
-    report = _core.refine_colmap(colmap_model, hold_all, held, *(bool(flag) for _, flag in flags), **constants, **kw)
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,
+                  covariance=bool(covariance))
+    report = _core.refine_colmap(colmap_model, hold_all, held, *(bool(flag) for _, flag in flags), **constants,
+                                 covariance_points=bool(covariance_points),
+                                 covariance_damping=float(covariance_damping), **kw)
     refined = _with_unposed(_model(report["model"]), colmap_model)
     # The Result's model, also on an exception's result, is of the type returned.
     report["model"] = to_pycolmap(refined) if reconstruction else refined

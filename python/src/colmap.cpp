@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cfloat>
 #include <cstdint>
 #include <numeric>
 #include <stdexcept>
@@ -497,10 +498,67 @@ void write_colmap(py::handle model, const std::string &dir, const std::string &e
     raise_file_error(PyExc_OSError, error);
 }
 
+// Blocks of one kind as {id: (k, k) array}, and their coordinates as {id: tuple} into coords
+// (pose and point coordinates by name, a camera's parameters by index, as sbarefine writes them).
+py::dict covariance_blocks(const std::vector<colmap::CovarianceBlock> &blocks, const char *const *names,
+                           py::dict &coords) {
+  py::dict out;
+  for (const colmap::CovarianceBlock &b : blocks) {
+    const auto k = static_cast<py::ssize_t>(b.coords.size());
+    py::tuple c(b.coords.size());
+    for (size_t q = 0; q < b.coords.size(); ++q)
+      c[q] = names ? py::object(py::str(names[b.coords[q]])) : py::object(py::int_(b.coords[q]));
+    const py::int_ id(b.id);
+    out[id] = copy_of(b.cov.data(), {k, k});
+    coords[id] = c;
+  }
+  return out;
+}
+
+// refine_colmap's covariance=True: the covariances at p in COLMAP's convention
+// (colmap::Problem::covariance) into d["colmap_covariance"], or why the library refused them into
+// d["covariance_error"]; nothing once a callback or Ctrl-C failed the session.
+void colmap_covariance(const colmap::Problem &pr, const colmap::Model &model, const std::vector<double> &p,
+                       Session &session, const colmap::CovarianceOptions &options, py::dict &d) {
+  static const char *const pose[] = {"rx", "ry", "rz", "tx", "ty", "tz"};
+  static const char *const point[] = {"x", "y", "z"};
+  colmap::Covariances c;
+  const size_t nerrors = session.errors().size();
+  const sba_ext_options *ext = session.ext(true);
+  const bool ok = without_gil(session.released_thread(), [&] { return pr.covariance(model, p.data(), *ext, options, &c); });
+  if (session.failed()) {
+    d["error"] = session.error();
+    return;
+  }
+  if (!ok) {
+    const std::vector<std::string> &errors = session.errors();
+    d["covariance_error"] = errors.size() > nerrors ? errors[nerrors] : "the covariance could not be computed";
+    return;
+  }
+  py::dict cov, coords;
+  const struct {
+    const char *kind;
+    const std::vector<colmap::CovarianceBlock> &blocks;
+    const char *const *names;
+  } kinds[] = {{"images", c.images, pose}, {"frames", c.frames, pose}, {"sensors", c.sensors, pose},
+               {"cameras", c.cameras, nullptr}, {"points", c.points, point}};
+  for (const auto &k : kinds) {
+    py::dict kc;
+    cov[k.kind] = covariance_blocks(k.blocks, k.names, kc);
+    coords[k.kind] = kc;
+  }
+  cov["coords"] = coords;
+  cov["sigma2"] = c.sigma2;
+  cov["rank"] = c.rank;
+  cov["nfree"] = c.nfree;
+  d["colmap_covariance"] = cov;
+}
+
 // The solve sbarefine runs on a COLMAP model: the problem colmap::Problem builds, solved
 // through its callbacks with its held and shared parameters, and written back into the model
 // by Problem::apply unless nothing was solved (itmax 0).
-py::dict refine_model(colmap::Model model, const colmap::Options &options, SolveOptions o) {
+py::dict refine_model(colmap::Model model, const colmap::Options &options, SolveOptions o,
+                      const colmap::CovarianceOptions &covariance_options) {
   colmap::Problem pr;
   std::string error;
   if (!colmap::Problem::build(model, options, kModelName, &pr, &error)) throw py::value_error(error);
@@ -533,8 +591,13 @@ py::dict refine_model(colmap::Model model, const colmap::Options &options, Solve
   o.param_groups = pr.cam_param_group();
   o.param_groups_shape = {m, cnp};
   o.ncon = pr.held_points();
+  // The covariance is the problem's, in COLMAP's convention, not run_driver's over sba's parameters.
+  const bool covariance = o.covariance;
+  o.covariance = false;
   Session session(o);
   py::dict d = run_driver(run, session, o);
+  const bool solved = d["ret"].cast<int>() != SBA_ERROR && !session.failed();
+  if (covariance && solved) colmap_covariance(pr, model, run.p, session, covariance_options, d);
   if (o.itmax > 0 && d["ret"].cast<int>() != SBA_ERROR) pr.apply(run.p.data(), &model);
   d["model"] = python_model(model);
   d["cameras"] = copy_of(run.p.data(), {m, cnp});
@@ -632,7 +695,8 @@ std::vector<char> held_ids(const colmap::Model &m, const IdList &l, bool all, co
 py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_poses, bool focal, bool principal,
                        bool extra, bool rig_from_world, bool sensor_from_rig, bool constant_rotation,
                        const py::tuple &hold_intrinsics, const py::tuple &hold_sensor_from_rig,
-                       const py::tuple &hold_points, const py::kwargs &kw) {
+                       const py::tuple &hold_points, bool covariance_points, double covariance_damping,
+                       const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   std::vector<long long> rows;
   colmap::Model m = model_of(model, &rows);
@@ -657,7 +721,9 @@ py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_pos
     *l.held = held_ids(m, l.list, l.given[0].cast<bool>(), l.given[1].cast<py::list>());
   options.mcon = o.mcon;
   options.ncon = o.ncon;
-  return refine_model(std::move(m), options, o);
+  if (!(covariance_damping >= 0.0 && covariance_damping <= DBL_MAX))
+    throw py::value_error("covariance_damping must be finite and >= 0, got " + std::string(py::repr(py::float_(covariance_damping))));
+  return refine_model(std::move(m), options, o, {covariance_points, covariance_damping});
 }
 
 // COLMAP's stopping rule (colmap::colmap_stop_rule): None when it leaves sba's tests, else the
@@ -678,7 +744,7 @@ void add_colmap(py::module_ &mod) {
           py::arg("refine_focal_length"), py::arg("refine_principal_point"), py::arg("refine_extra_params"),
           py::arg("refine_rig_from_world"), py::arg("refine_sensor_from_rig"),
           py::arg("constant_rig_from_world_rotation"), py::arg("hold_intrinsics"), py::arg("hold_sensor_from_rig"),
-          py::arg("hold_points"));
+          py::arg("hold_points"), py::arg("covariance_points"), py::arg("covariance_damping"));
 }
 
 }  // namespace pysba

@@ -300,6 +300,21 @@ def case_as_read(pycolmap, colmap_real, args):
     print("PASS %s: the five files pycolmap wrote, the same bytes" % out)
 
 
+def import_pycolmap(python, script, argv):
+    """pycolmap, or, when this Python cannot import it, script run again with argv by python (a
+    Python with pycolmap) when given, else None, the reason printed for ctest's SKIPPED."""
+    try:
+        import pycolmap
+        return pycolmap
+    except ImportError as e:
+        if python and not os.environ.get(REEXEC) and os.access(python, os.X_OK):
+            os.environ[REEXEC] = "1"
+            os.execv(python, [python, os.path.abspath(script)] + argv)
+        print("%s: SKIPPED: %s cannot import pycolmap (%s); scripts/deps.sh test makes a venv with it" %
+              (os.path.basename(script), sys.executable, e))
+        return None
+
+
 CASES = {"written": case_written, "one_image_frames": case_one_image_frames, "rigs": case_rigs,
          "as_read": case_as_read}
 
@@ -311,14 +326,8 @@ def main(argv):
     ap.add_argument("--work", required=True, help="a scratch directory (emptied)")
     ap.add_argument("cases", nargs="+", choices=sorted(CASES))
     args = ap.parse_args(argv)
-    try:
-        import pycolmap
-    except ImportError as e:
-        if args.python and not os.environ.get(REEXEC) and os.access(args.python, os.X_OK):
-            os.environ[REEXEC] = "1"
-            os.execv(args.python, [args.python, os.path.abspath(__file__)] + argv)
-        print("pycolmap_check: SKIPPED: %s cannot import pycolmap (%s); scripts/deps.sh test makes a venv "
-              "with it" % (sys.executable, e))
+    pycolmap = import_pycolmap(args.python, __file__, argv)
+    if pycolmap is None:
         return SKIP
     sys.path.insert(0, os.path.join(HERE, "..", "colmap_real"))
     import colmap_real

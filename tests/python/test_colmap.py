@@ -798,3 +798,88 @@ def test_pycolmap_is_named_when_missing(monkeypatch):
     for f in (pysba.from_pycolmap, pysba.to_pycolmap):
         with pytest.raises(ImportError, match=r"need pycolmap \(pip install pycolmap\)"):
             f(pysba.ColmapModel())
+
+
+# ---- covariances: sbarefine --covariance's file ----
+
+def covariance_file(path):
+    """sbarefine's --covariance file as refine_colmap's colmap_covariance: {kind: {id: array}},
+    the coordinates, and SIGMA2's line."""
+    kinds = {"IMAGE": "images", "FRAME": "frames", "SENSOR": "sensors", "CAMERA": "cameras", "POINT": "points"}
+    blocks = {k: {} for k in kinds.values()}
+    coords = {k: {} for k in kinds.values()}
+    head = None
+    for line in path.read_text().splitlines():
+        w = line.split()
+        if line.startswith("#"):
+            continue
+        if w[0] == "SIGMA2":
+            head = (float(w[1]), int(w[3]), int(w[5]))
+            continue
+        kind, named = kinds[w[0]], w[0] == "IMAGE"
+        names = w[3 if named else 2].split(",")
+        values = np.array([float(v) for v in w[4 if named else 3:]])
+        blocks[kind][int(w[1])] = values.reshape(len(names), len(names))
+        coords[kind][int(w[1])] = tuple(int(c) if kind == "cameras" else c for c in names)
+    return blocks, coords, head
+
+
+def same_covariances(tmp_path, model_dir, args, kw):
+    out = tmp_path / "cov.txt"
+    sbarefine(model_dir, tmp_path / "sbarefine", [*args, "--covariance", out, "--covariance-points"])
+    blocks, coords, head = covariance_file(out)
+    _, result = pysba.refine_colmap(pysba.read_colmap(model_dir), covariance=True, covariance_points=True, **kw)
+    c = result.colmap_covariance
+    assert math.isclose(c["sigma2"], head[0], rel_tol=1e-12) and (c["rank"], c["nfree"]) == head[1:]
+    for kind, by_id in blocks.items():
+        assert sorted(c[kind]) == sorted(by_id), kind
+        assert c["coords"][kind] == coords[kind], kind
+        for k, a in by_id.items():
+            # The same computation; the bound, not the bits, for any BLAS and thread count.
+            assert c[kind][k].shape == (len(coords[kind][k]),) * 2, (kind, k)
+            assert np.abs(c[kind][k] - a).max() <= 1e-9 * np.abs(a).max(), (kind, k)
+            assert np.array_equal(a, a.T) and (np.diag(a) > 0).all(), (kind, k)
+    return c
+
+
+def test_covariances_are_sbarefines(tmp_path):
+    text, _ = sbagen(tmp_path)
+    model = pysba.read_colmap(text)
+    held = [model.images[0].id, model.images[1].id]
+    c = same_covariances(tmp_path, text, ["--hold-poses", f"{held[0]},{held[1]}"], dict(hold_poses=held))
+    # Each image's pose but the held ones', every camera's focal length and distortion (the
+    # principal point held), every point; the gauge fixed by the two held poses.
+    assert sorted(c["images"]) == sorted(im.id for im in model.images[2:])
+    assert all(v == ("rx", "ry", "rz", "tx", "ty", "tz") for v in c["coords"]["images"].values())
+    assert sorted(c["cameras"]) == sorted(cam.id for cam in model.cameras)
+    assert all(2 not in v and 3 not in v for v in c["coords"]["cameras"].values())
+    assert len(c["points"]) == len(model.points3D) and c["rank"] == c["nfree"]
+    assert not c["frames"] and not c["sensors"]
+
+
+def test_covariances_with_rigs_are_sbarefines(tmp_path):
+    # sbagen's model as one rig of cameras 100 (its reference) and 101, three frames of two
+    # images: images 0, 2, 4 taken with camera 100, 1, 3, 5 with camera 101.
+    text, _ = sbagen(tmp_path)
+    model = pysba.read_colmap(text)
+    for j, im in enumerate(model.images):
+        im.camera_id = 100 + j % 2
+    model.cameras = [cam for cam in model.cameras if cam.id in (100, 101)]
+    rig = tmp_path / "rig"
+    pysba.write_colmap(model, rig, "text")
+    q = " ".join(repr(v) for v in rad(0.01) + [0.01, 0.0, 0.0])
+    frames = ["# Frame list"]
+    for f in range(3):
+        a, b = model.images[2 * f], model.images[2 * f + 1]
+        pose = " ".join(repr(float(v)) for v in list(a.q) + list(a.t))
+        frames.append(f"{900 + f} 1 {pose} 2 CAMERA 100 {a.id} CAMERA 101 {b.id}")
+    (rig / "rigs.txt").write_text(f"# Rig list\n1 2 CAMERA 100 CAMERA 101 1 {q}\n")
+    (rig / "frames.txt").write_text("\n".join(frames) + "\n")
+    # pycolmap's damping of the points' blocks, given to both.
+    c = same_covariances(tmp_path, rig, ["--hold-poses", str(model.images[0].id), "--covariance-damping", "1e-8"],
+                         dict(hold_poses=[model.images[0].id], covariance_damping=1e-8))
+    # Every image's pose but the one held whole (camera 100's in frame 900: camera 101's moves
+    # with the camera's pose in the rig), the free frames' poses and camera 101's in the rig.
+    assert sorted(c["images"]) == sorted(im.id for im in model.images[1:])
+    assert sorted(c["frames"]) == [901, 902] and sorted(c["sensors"]) == [101]
+    assert sorted(c["cameras"]) == [100, 101]
