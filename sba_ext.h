@@ -106,7 +106,11 @@ struct sba_ext_result {
  * or is fixed (mcon, ncon), when it constrains a held camera parameter (cam_fixed), or when its
  * mean, weight or loss cannot be used. A prior on a shared camera parameter (cam_group,
  * cam_param_group) applies once per camera it names, as written: two priors on two cameras
- * that share the parameter count twice. See docs/priors.md. */
+ * that share the parameter count twice. See docs/priors.md.
+ * The three structs below have no size field: their layout is fixed, and a later version that
+ * needs more adds a kind of prior (new fields at the end of sba_ext_options) rather than
+ * changing them. Initialize them with memset or = {0}: every pointer the caller does not set
+ * must be NULL. */
 
 /* How a prior's residual r of k entries is weighted: at most one of the three (all NULL: L =
  * I, r is taken as already weighted). Units: those of r. */
@@ -128,7 +132,9 @@ struct sba_prior_weight {
  * full parameter vector (cnp doubles; held and shared parameters included): read only. The
  * callbacks are called from the thread that called the driver, with data, and must return
  * normally (sba.h). The itmax == 0 Jacobian check also checks jacf against central
- * differences of func. The columns of held parameters are not used. */
+ * differences of func. The columns of held parameters are not used. A residual that is not
+ * finite where the solve evaluates it ends the solve as a projection's would (SBA_ERROR,
+ * info[6] = SBA_STOP_NONFINITE, a message naming the prior). */
 struct sba_camera_prior {
   int camera; /* 0..m-1, not below mcon, with at least one parameter not held */
   int dim;    /* entries of r, 1..64 */

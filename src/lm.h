@@ -30,8 +30,9 @@ enum StopReason : int {
 };
 
 struct Summary {
-  // err0, err: the cost minimized (the robust cost with a loss); sq_err0, sq_err: the plain
-  // sum of squared (covariance-weighted) residuals.
+  // err0, err: the cost minimized (the robust cost with a loss, plus the priors' with
+  // priors); sq_err0, sq_err: the projections' plain sum of squared (covariance-weighted)
+  // residuals.
   double err0 = 0, err = 0, grad_inf = 0, dp2 = 0, mu_ratio = 0;
   double sq_err0 = 0, sq_err = 0;
   // err0 and err in two parts: the projections' cost and the priors' (0 without priors).

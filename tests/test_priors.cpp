@@ -705,6 +705,23 @@ TEST(Priors, BadCountsAndArraysAreRefused) {
   EXPECT_EQ(lines.all.back(), std::string(kWho) + "ncamera_priors must be >= 0 (got -1)");
 }
 
+void nan_func(int, const double *, double *r, void *) { r[0] = NAN; }
+
+TEST(Priors, ACallbackResidualThatIsNotFiniteEndsTheSolveByName) {
+  Bad b;
+  Call c;
+  sba_camera_prior pr{};
+  pr.camera = 2;
+  pr.dim = 1;
+  pr.func = nan_func;
+  c.cams.push_back(pr);
+  const auto r = solve(b.pb, b.pb.p0, c);
+  EXPECT_EQ(r->ret, SBA_ERROR);
+  EXPECT_EQ(r->info[6], SBA_STOP_NONFINITE);
+  ASSERT_FALSE(r->lines.all.empty());
+  EXPECT_EQ(r->lines.all.back(), "sba: the residual of camera prior 0 is not finite at the initial estimate");
+}
+
 TEST(Priors, ACallerOfAnOlderStructIsNotReadPastItsSize) {
   Mixed s;
   s.call.loss = nullptr;
