@@ -429,6 +429,59 @@ TEST(Priors, CovarianceMatchesADenseInverseWithThePriorsRows) {
   EXPECT_LT(worst, 1e-8);
 }
 
+// Point q's projections but the one on its first camera removed (x with them).
+void see_once(synth::Problem &pb, int q) {
+  std::vector<double> x;
+  int k = 0;
+  bool first = true;
+  for (int i = 0; i < pb.n; ++i)
+    for (int j = 0; j < pb.m; ++j) {
+      if (!pb.vmask[size_t(i) * pb.m + j]) continue;
+      const bool keep = i != q || first;
+      if (i == q) first = false;
+      if (keep) x.insert(x.end(), pb.x.begin() + 2 * k, pb.x.begin() + 2 * k + 2);
+      else pb.vmask[size_t(i) * pb.m + j] = 0;
+      ++k;
+    }
+  pb.x = x;
+}
+
+TEST(Priors, APointSeenOnceHasACovarianceWithItsPrior) {
+  Mixed s;
+  s.call.loss = nullptr;
+  see_once(s.pb, 1);
+  const auto solved = solve(s.pb, s.pb.p0, s.call);
+  ASSERT_GT(solved->ret, 0);
+  std::vector<double> p = solved->p;
+  const int pt = 1;
+  double ptcov[kPnp * kPnp];
+  sba_covariance_request req;
+  sba_covariance_request_init(&req);
+  req.npts = 1;
+  req.pts = &pt;
+  req.ptcov = ptcov;
+  sba_ext_options ext;
+  fill_ext(s.call, &ext);
+  Lines lines;
+  ext.log = Lines::sink;
+  ext.log_ctx = &lines;
+  const auto covariance = [&] {
+    return sba_motstr_covariance_x(s.pb.n, 0, s.pb.m, 0, s.pb.vmask.data(), p.data(), kCnp, kPnp, s.pb.x.data(),
+                                   nullptr, kMnp, synth::func_motstr, synth::fjac_motstr, &s.pb, &req, &ext);
+  };
+  // Its one projection leaves it undetermined...
+  ASSERT_EQ(SBA_ERROR, covariance());
+  EXPECT_NE(lines.joined().find("point 1 is seen by one camera only"), std::string::npos) << lines.joined();
+  // ... its prior determines it.
+  const double mean[3] = {p[size_t(s.pb.m) * kCnp + 3], p[size_t(s.pb.m) * kCnp + 4], p[size_t(s.pb.m) * kCnp + 5]};
+  std::vector<sba_point_prior> points = s.call.points;
+  points.push_back(point_prior(1, mean, kSigmaPoint));
+  ext.npoint_priors = int(points.size());
+  ext.point_priors = points.data();
+  ASSERT_EQ(0, covariance()) << lines.joined();
+  for (int a = 0; a < kPnp; ++a) EXPECT_TRUE(ptcov[a * kPnp + a] > 0.0 && std::isfinite(ptcov[a * kPnp + a]));
+}
+
 TEST(Priors, TheJacobianCheckFindsAWrongPriorJacobian) {
   Mixed s;
   s.call.itmax = 0;
@@ -470,6 +523,13 @@ TEST(Priors, HeldAndSharedParameters) {
 
 // The shared lens of a VaryingIntrinsics scene: a prior on the shared focal length of two
 // cameras counts twice, as one prior of half the variance does.
+// What a solve of the Lens scene below asks beside its linear priors.
+struct LensAsked {
+  const char *linsolver = "chol", *strategy = "sba";
+  int nthreads = 1;
+  std::vector<sba_point_prior> points;
+};
+
 struct Lens {
   sbagen::Scene scene;
   std::unique_ptr<sbacameras::euclidean::CameraModel> model;
@@ -498,7 +558,9 @@ struct Lens {
     p0 = model->initial_camera_params();
     p0.insert(p0.end(), model->initial_points().begin(), model->initial_points().end());
   }
-  std::vector<double> solve(const std::vector<sba_camera_linear_prior> &priors) {
+  using Asked = LensAsked;
+  // With the lens shared by every camera and u0 v0 ar s held.
+  std::vector<double> solve(const std::vector<sba_camera_linear_prior> &priors, const Asked &asked = Asked{}) {
     using sbacameras::euclidean::CameraKind;
     using sbacameras::euclidean::Refinement;
     std::vector<double> p = p0;
@@ -512,6 +574,14 @@ struct Lens {
     ext.cam_shared = shared.data();
     ext.ncamera_linear_priors = int(priors.size());
     ext.camera_linear_priors = priors.data();
+    ext.npoint_priors = int(asked.points.size());
+    ext.point_priors = asked.points.data();
+    ext.linsolver = asked.linsolver;
+    ext.strategy = asked.strategy;
+    ext.nthreads = asked.nthreads;
+    sba_ext_result res;
+    sba_ext_result_init(&res);
+    ext.result = &res;
     const double opts[SBA_OPTSSZ] = {1e-3, 1e-14, 1e-14, 1e-14, 0.0};
     std::vector<char> vmask = sbagen::dense_vmask(scene);
     std::vector<double> x = scene.measurements.x;
@@ -520,10 +590,40 @@ struct Lens {
     const int ret = sba_motstr_levmar_x_ext(n, 0, m, 0, vmask.data(), p.data(), kCnp11, 3, x.data(), nullptr, 2,
                                             cb.func, cb.fjac, sbacameras::euclidean::as_adata(*model), 100, 0, opts,
                                             info, &ext);
-    EXPECT_GT(ret, 0);
+    EXPECT_GT(ret, 0) << asked.linsolver << " " << asked.strategy;
+    EXPECT_EQ(res.nthreads, asked.nthreads);
     return p;
   }
 };
+
+TEST(Priors, SharedAndHeldParametersUnderEverySolverAndStrategyGiveTheSameBitsForOneAndTwoThreads) {
+  Lens lens;
+  const int fu = 0;
+  const double mean = 790.0, sigma = 2.0;
+  sba_camera_linear_prior pr{};
+  pr.camera = 2;
+  pr.k = 1;
+  pr.params = &fu;
+  pr.mean = &mean;
+  pr.weight.sigma = &sigma;
+  Lens::Asked asked;
+  const double *pts = lens.p0.data() + size_t(lens.m) * Lens::kCnp11;
+  const double sigma_pt[3] = {0.05, 0.05, 0.05};
+  for (int i = 0; i < 4; ++i) asked.points.push_back(point_prior(10 * i, pts + 30 * i, sigma_pt));
+  const std::vector<double> ref = lens.solve({pr}, asked);
+  for (const std::string &solver : names(sba_linsolver_names()))
+    for (const std::string &strategy : names(sba_strategy_names())) {
+      asked.linsolver = solver.c_str();
+      asked.strategy = strategy.c_str();
+      asked.nthreads = 1;
+      const std::vector<double> one = lens.solve({pr}, asked);
+      asked.nthreads = 2;
+      const std::vector<double> two = lens.solve({pr}, asked);
+      EXPECT_TRUE(same_bits(one, two)) << solver << " " << strategy;
+      EXPECT_NEAR(one[0], ref[0], 1e-3) << solver << " " << strategy;
+      for (int j = 1; j < lens.m; ++j) EXPECT_EQ(one[size_t(j) * Lens::kCnp11], one[0]) << solver << " " << strategy;
+    }
+}
 
 TEST(Priors, APriorOnASharedParameterAppliesOncePerCameraThatNamesIt) {
   Lens lens;
