@@ -18,10 +18,35 @@ namespace {
 // Residuals of more entries are not what a prior is: the blocks are handled as small dense.
 constexpr int kMaxPriorDim = 64;
 
-std::string fmt(const char *format, double a, double b = 0.0, double c = 0.0) {
-  char buf[200];
-  std::snprintf(buf, sizeof buf, format, a, b, c);
+// A value as the messages give it (%g).
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
   return buf;
+}
+
+std::string entry(int r, int c) { return "(" + std::to_string(r) + ", " + std::to_string(c) + ")"; }
+
+// What is wrong with a k x k sqrt_info (finite): empty if nothing.
+std::string check_sqrt_info(const double *a, int k) {
+  for (int r = 0; r < k; ++r) {
+    if (!(a[r * k + r] > 0.0))
+      return "weight.sqrt_info's diagonal must be positive (entry " + entry(r, r) + " is " + num(a[r * k + r]) + ")";
+    for (int c = 0; c < r; ++c)
+      if (a[r * k + c] != 0.0)
+        return "weight.sqrt_info must be upper triangular (entry " + entry(r, c) + " is " + num(a[r * k + c]) + ")";
+  }
+  return {};
+}
+
+// What is wrong with a k x k covariance (finite): empty if nothing.
+std::string check_covariance(const double *a, int k) {
+  for (int r = 0; r < k; ++r)
+    for (int c = r + 1; c < k; ++c)
+      if (a[r * k + c] != a[c * k + r]) return "weight.covariance is not symmetric (entries " + entry(r, c) + ")";
+  std::vector<double> t(a, a + k * k), L(t.size()), tmp(t.size());
+  if (!small::cholinv_upper(t.data(), L.data(), tmp.data(), k)) return "weight.covariance is not positive definite";
+  return {};
 }
 
 // What is wrong with a weight of k entries; empty: nothing.
@@ -30,24 +55,14 @@ std::string check_weight(const sba_prior_weight &w, int k) {
   if (given > 1) return "give at most one of weight.sigma, weight.covariance and weight.sqrt_info";
   for (int c = 0; w.sigma && c < k; ++c)
     if (!(std::isfinite(w.sigma[c]) && w.sigma[c] > 0.0))
-      return fmt("weight.sigma[%.0f] (a standard deviation) must be finite and positive (got %g)", c, w.sigma[c]);
+      return "weight.sigma[" + std::to_string(c) + "] (a standard deviation) must be finite and positive (got " +
+             num(w.sigma[c]) + ")";
   const double *a = w.covariance ? w.covariance : w.sqrt_info;
   const char *name = w.covariance ? "weight.covariance" : "weight.sqrt_info";
   for (int q = 0; a && q < k * k; ++q)
-    if (!std::isfinite(a[q])) return std::string(name) + fmt("[%.0f] is not finite", q);
-  for (int r = 0; w.sqrt_info && r < k; ++r) {
-    if (!(a[r * k + r] > 0.0))
-      return fmt("weight.sqrt_info's diagonal must be positive (entry (%.0f, %.0f) is %g)", r, r, a[r * k + r]);
-    for (int c = 0; c < r; ++c)
-      if (a[r * k + c] != 0.0)
-        return fmt("weight.sqrt_info must be upper triangular (entry (%.0f, %.0f) is %g)", r, c, a[r * k + c]);
-  }
-  if (!w.covariance) return {};
-  for (int r = 0; r < k; ++r)
-    for (int c = r + 1; c < k; ++c)
-      if (a[r * k + c] != a[c * k + r]) return fmt("weight.covariance is not symmetric (entries (%.0f, %.0f))", r, c);
-  std::vector<double> t(a, a + k * k), L(t.size()), tmp(t.size());
-  if (!small::cholinv_upper(t.data(), L.data(), tmp.data(), k)) return "weight.covariance is not positive definite";
+    if (!std::isfinite(a[q])) return std::string(name) + "[" + std::to_string(q) + "] is not finite";
+  if (w.sqrt_info) return check_sqrt_info(a, k);
+  if (w.covariance) return check_covariance(a, k);
   return {};
 }
 
@@ -75,7 +90,10 @@ bool prior_loss(const char *name, double scale, Loss *out, std::string *why) {
   }
   if (scale == 0.0) scale = 1.0;
   if (kind != LossKind::None && !(scale >= kMinLossScale && scale <= kMaxLossScale)) {
-    *why = fmt("loss_scale must be positive and within [%.3g, %.3g] (got %g)", kMinLossScale, kMaxLossScale, scale);
+    char buf[120];
+    std::snprintf(buf, sizeof buf, "loss_scale must be positive and within [%.3g, %.3g] (got %g)", kMinLossScale,
+                  kMaxLossScale, scale);
+    *why = buf;
     return false;
   }
   *out = Loss(kind, scale);
@@ -86,7 +104,7 @@ bool prior_loss(const char *name, double scale, Loss *out, std::string *why) {
 template <class Prior>
 std::string check_common(const Prior &pr, int k, const double *mean) {
   for (int c = 0; mean && c < k; ++c)
-    if (!std::isfinite(mean[c])) return fmt("mean[%.0f] is not finite", c);
+    if (!std::isfinite(mean[c])) return "mean[" + std::to_string(c) + "] is not finite";
   std::string why = check_weight(pr.weight, k);
   Loss loss;
   if (why.empty()) prior_loss(pr.loss, pr.loss_scale, &loss, &why);
