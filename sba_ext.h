@@ -70,8 +70,9 @@ struct sba_ext_result {
   /* sizeof(struct sba_ext_result) as the caller was compiled; set by the caller (or by
    * sba_ext_result_init). */
   size_t size;
-  /* Sum of squared (covariance-weighted) residuals, never robustified: at the start and at
-   * the end. With a robust loss, info[0] and info[1] hold the robust cost instead. */
+  /* Sum of the projections' squared (covariance-weighted) residuals, never robustified: at the
+   * start and at the end. With a robust loss, info[0] and info[1] hold the robust cost instead,
+   * and with priors the cost plus the priors' (see below). */
   double sq_error_initial, sq_error_final;
   /* The robust cost sum_k rho(||e_k||^2) at the start and at the end (the plain squared
    * error when no loss is used). */
@@ -86,6 +87,88 @@ struct sba_ext_result {
   const char *linsolver;
   int robust;             /* nonzero if a robust loss was used */
   const char *strategy;   /* LM strategy used (a static string) */
+  /* The cost apart, at the start and at the end: the projections' (sum_k rho(||e_k||^2), the
+   * loss of sba_ext_options) and the priors' (sum over the priors of each one's
+   * rho(||L r||^2), see sba_camera_prior below; 0 without priors). cost_initial and
+   * cost_final, info[0] and info[1] are their sums: the cost the solve minimizes. */
+  double projection_cost_initial, projection_cost_final;
+  double prior_cost_initial, prior_cost_final;
+};
+
+/* ---- priors: residual blocks beside the projections ----
+ * A prior is a residual r of a few entries that depends on one camera's parameters, or on one
+ * point's, weighted by a square-root information L (L^T L = the inverse of r's covariance):
+ * the solve minimizes the projections' cost plus, for each prior, rho(||L r||^2), with the
+ * prior's own robust loss rho. Priors are given through sba_ext_options (the fields after
+ * memory_budget); the library reads the arrays below during the call only and keeps no
+ * pointer to them. A prior is refused (SBA_ERROR, reason 0, a message naming it, e.g.
+ * "point prior 3 (point 17): mean[1] is not finite") when its camera or point does not exist
+ * or is fixed (mcon, ncon), when it constrains a held camera parameter (cam_fixed), or when its
+ * mean, weight or loss cannot be used. A prior on a shared camera parameter (cam_group,
+ * cam_param_group) applies once per camera it names, as written: two priors on two cameras
+ * that share the parameter count twice. See docs/priors.md.
+ * The three structs below have no size field: their layout is fixed, and a later version that
+ * needs more adds a kind of prior (new fields at the end of sba_ext_options) rather than
+ * changing them. Initialize them with memset or = {0}: every pointer the caller does not set
+ * must be NULL. */
+
+/* How a prior's residual r of k entries is weighted: at most one of the three (all NULL: L =
+ * I, r is taken as already weighted). Units: those of r. */
+struct sba_prior_weight {
+  /* k standard deviations, each finite and > 0: L = diag(1 / sigma). */
+  const double *sigma;
+  /* k x k covariance of r, row-major, finite, symmetric and positive definite: L is the
+   * upper-triangular factor with L^T L = covariance^-1. */
+  const double *covariance;
+  /* k x k square-root information L itself, row-major, upper triangular (every entry below the
+   * diagonal 0), finite, with a positive diagonal. */
+  const double *sqrt_info;
+};
+
+/* A prior on camera camera's parameters given by a callback: r = func(a_j) of dim entries
+ * (say the camera centre, a nonlinear function of most parametrizations, minus a GPS
+ * position: docs/priors.md), weighted by weight (k = dim). func writes r (dim doubles); jacf
+ * writes dr/da_j (dim x cnp, row-major); jacf NULL: forward differences. aj is the camera's
+ * full parameter vector (cnp doubles; held and shared parameters included): read only. The
+ * callbacks are called from the thread that called the driver, with data, and must return
+ * normally (sba.h). The itmax == 0 Jacobian check also checks jacf against central
+ * differences of func. The columns of held parameters are not used. A residual that is not
+ * finite where the solve evaluates it ends the solve as a projection's would (SBA_ERROR,
+ * info[6] = SBA_STOP_NONFINITE, a message naming the prior). */
+struct sba_camera_prior {
+  int camera; /* 0..m-1, not below mcon, with at least one parameter not held */
+  int dim;    /* entries of r, 1..64 */
+  void (*func)(int j, const double *aj, double *r, void *data);
+  void (*jacf)(int j, const double *aj, double *jac, void *data);
+  void *data;
+  struct sba_prior_weight weight;
+  /* this prior's robust loss on ||L r||^2, as sba_ext_options.loss (NULL: none), and its
+   * scale (0 means 1; the same range as loss_scale) */
+  const char *loss;
+  double loss_scale;
+};
+
+/* A prior on chosen parameters of one camera, linear: r = a_j[params] - mean (intrinsics, a
+ * known position in a parametrization that has it as parameters). k entries; params names k
+ * distinct parameters in 0..cnp-1, none held; mean in the units of those parameters. */
+struct sba_camera_linear_prior {
+  int camera; /* 0..m-1, not below mcon */
+  int k;      /* 1..cnp */
+  const int *params;
+  const double *mean;
+  struct sba_prior_weight weight;
+  const char *loss;
+  double loss_scale;
+};
+
+/* A prior on one point: r = b_i - mean (pnp entries; a ground control point, a point known
+ * softly). */
+struct sba_point_prior {
+  int point; /* 0..n-1, not below ncon */
+  const double *mean;
+  struct sba_prior_weight weight;
+  const char *loss;
+  double loss_scale;
 };
 
 struct sba_ext_options {
@@ -239,6 +322,17 @@ struct sba_ext_options {
    * solver, and give the same result, whatever else the machine is doing. A solver named in
    * linsolver is run whatever it needs. */
   size_t memory_budget;
+  /* Priors (see struct sba_camera_prior above): counts and arrays, NULL with a count of 0.
+   * Camera priors need a driver with cameras and point priors one with points. With priors,
+   * info[0], info[1], the progress error and sba_ext_result's cost_* are the projections' cost
+   * plus the priors'; the covariance entry points include the priors' information in J^T J
+   * and their rows among the measurements of the residual variance. */
+  int ncamera_priors;
+  const struct sba_camera_prior *camera_priors;
+  int ncamera_linear_priors;
+  const struct sba_camera_linear_prior *camera_linear_priors;
+  int npoint_priors;
+  const struct sba_point_prior *point_priors;
 };
 
 /* Fills *opt with the defaults (every field zero/NULL) and opt->size. */

@@ -297,10 +297,10 @@ bool pseudo_inverse(std::vector<double> &S, int n, const std::function<bool()> &
 }
 
 bool residual_variance(const Layout &lay, double sq_err, int nunknowns, int rank_S, const Logger &log,
-                       CovarianceRequest &req) {
+                       CovarianceRequest &req, i64 prior_rows) {
   const i64 points = i64(lay.free_pts()) * lay.pnp;
   const i64 rank = rank_S + points;
-  const i64 dof = lay.nvis * lay.mnp - rank;
+  const i64 dof = lay.nvis * lay.mnp + prior_rows - rank;
   if (dof <= 0) {
     log.error("sba: no redundancy (measurements - rank = %lld): the residual variance is "
               "undefined",
@@ -362,7 +362,9 @@ bool covariance(const Layout &lay, Model &model, double *p, const double *x, con
     rank_S = nunknowns;
   else if (!pseudo_inverse(S, nunknowns, stop, log, &rank_S))
     return false;
-  if (cancel.stop(log, true) || !residual_variance(lay, lin.sq_err, nunknowns, rank_S, log, req)) return false;
+  if (cancel.stop(log, true) ||
+      !residual_variance(lay, lin.sq_err, nunknowns, rank_S, log, req, opt.priors.rows(lay)))
+    return false;
 
   const double scale = req.unscaled ? 1.0 : req.sigma2;
   const CameraCovariance C{S.data(), map};

@@ -51,10 +51,11 @@ bool pseudo_inverse(std::vector<double> &S, int n, const std::function<bool()> &
 bool spd_inverse(std::vector<double> &S, int n);
 
 // req's sigma2 = sq_err / (measurements - rank), rank and nfree, for nunknowns camera
-// unknowns of which rank_S are determined and every free point's pnp; false (said through
+// unknowns of which rank_S are determined and every free point's pnp; prior_rows are
+// measurements beside the projections' (the priors' residual entries). False (said through
 // log) when the measurements leave no redundancy.
 bool residual_variance(const Layout &lay, double sq_err, int nunknowns, int rank_S, const Logger &log,
-                       CovarianceRequest &req);
+                       CovarianceRequest &req, i64 prior_rows = 0);
 
 }  // namespace sba
 

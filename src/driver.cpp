@@ -23,6 +23,7 @@
 #include "log.h"
 #include "model.h"
 #include "options.h"
+#include "priors.h"
 #include "solver_choice.h"
 #include "step_solver.h"
 #include "strategy.h"
@@ -68,9 +69,10 @@ void make_layout(const DriverArgs &a, Layout &lay, std::string *msg) {
   if (!ok && msg->empty()) *msg = "invalid problem";
 }
 
-// The data once the index (and the camera map) says how much of it there is.
-std::string check_data(const DriverArgs &a, const Layout &lay) {
-  const i64 nobs = lay.nvis * lay.mnp;
+// The data once the index (and the camera map) says how much of it there is; the priors'
+// residuals count as measurements.
+std::string check_data(const DriverArgs &a, const Layout &lay, const Options &opt) {
+  const i64 nobs = lay.nvis * lay.mnp + opt.priors.rows(lay);
   if (lay.free_vars() == 0) return "every camera and point is fixed (mcon/ncon): nothing to refine";
   const i64 unknowns = count_unknowns(lay);
   if (unknowns == 0) return "every parameter is fixed (mcon/ncon) or held (cam_fixed): nothing to refine";
@@ -79,10 +81,10 @@ std::string check_data(const DriverArgs &a, const Layout &lay) {
            ")";
   i64 bad = first_nonfinite(a.p, lay.nvars());
   if (bad >= 0) return "p[" + std::to_string(bad) + "] is not finite";
-  bad = first_nonfinite(a.x, nobs);
+  bad = first_nonfinite(a.x, lay.nvis * lay.mnp);
   if (bad >= 0) return "x[" + std::to_string(bad) + "] is not finite";
   if (a.covx) {
-    bad = first_nonfinite(a.covx, nobs * lay.mnp);
+    bad = first_nonfinite(a.covx, lay.nvis * lay.mnp * lay.mnp);
     if (bad >= 0) return "covx[" + std::to_string(bad) + "] is not finite";
   }
   return {};
@@ -109,7 +111,7 @@ bool validate_and_lay_out(const DriverArgs &a, const sba_ext_options &ext, const
   if (msg.empty()) opt->is_valid(*lay, a.p, &msg);
   if (msg.empty()) {
     lay->cams = make_camera_map(opt->cams, *lay);
-    msg = check_data(a, *lay);
+    msg = check_data(a, *lay, *opt);
   }
   if (!msg.empty()) {
     log.error("%s: %s", a.name, msg.c_str());
@@ -168,6 +170,10 @@ void write_result(const sba_ext_options &ext, const Options &opt, const Summary 
   r.linsolver = linsolver_name(opt.solver);
   r.robust = opt.loss.robust();
   r.strategy = strategy_name(opt.strategy);
+  r.projection_cost_initial = sum.proj_err0;
+  r.projection_cost_final = sum.proj_err;
+  r.prior_cost_initial = sum.prior_err0;
+  r.prior_cost_final = sum.prior_err;
   const size_t n = std::min(ext.result->size, sizeof r);
   r.size = ext.result->size;
   std::memcpy(static_cast<void *>(ext.result), &r, n);
@@ -240,6 +246,7 @@ int run_driver(const DriverArgs &a) {
                    a.name);
       else
         check_jacobian(lay, *model, a.p, log);
+      if (opt.priors.any()) PriorTerms(opt.priors, lay).check_jacobians(a.p, log);
     }
     const bool ok = solve(lay, *model, a.p, a.x, a.covx, opt, log, sum);
     count_as_1_6(a, lay, sum);

@@ -46,6 +46,12 @@ void pass_through(const sba_ext_options &ext, Options *o) {
   o->cams.group = ext.cam_group;
   o->cams.shared = ext.cam_shared;
   o->memory_budget = double(ext.memory_budget);
+  o->priors.ncamera = ext.ncamera_priors;
+  o->priors.camera = ext.camera_priors;
+  o->priors.nlinear = ext.ncamera_linear_priors;
+  o->priors.linear = ext.camera_linear_priors;
+  o->priors.npoint = ext.npoint_priors;
+  o->priors.point = ext.point_priors;
 }
 
 // Opt-in only: how the host's threads are scheduled is the host's business.

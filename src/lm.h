@@ -30,10 +30,13 @@ enum StopReason : int {
 };
 
 struct Summary {
-  // err0, err: the cost minimized (the robust cost with a loss); sq_err0, sq_err: the plain
-  // sum of squared (covariance-weighted) residuals.
+  // err0, err: the cost minimized (the robust cost with a loss, plus the priors' with
+  // priors); sq_err0, sq_err: the projections' plain sum of squared (covariance-weighted)
+  // residuals.
   double err0 = 0, err = 0, grad_inf = 0, dp2 = 0, mu_ratio = 0;
   double sq_err0 = 0, sq_err = 0;
+  // err0 and err in two parts: the projections' cost and the priors' (0 without priors).
+  double proj_err0 = 0, proj_err = 0, prior_err0 = 0, prior_err = 0;
   i64 outliers = 0;  // projections beyond the loss scale at the end
   int iterations = 0;
   StopReason reason = kStopNone;

@@ -21,6 +21,7 @@
 #include "model.h"
 #include "options.h"
 #include "parallel.h"
+#include "priors.h"
 #include "small_dense.h"
 #include "step_solver.h"
 #include "strategy.h"
@@ -114,8 +115,9 @@ bool make_weights(const Layout &lay, const double *covx, std::vector<double> &wt
 }
 
 struct Cost {
-  double cost = 0;  // sum rho(s_k): what LM minimizes
-  double sq = 0;    // sum s_k
+  double cost = 0;  // sum rho(s_k) plus the priors' cost: what LM minimizes
+  double sq = 0;    // sum s_k, of the projections
+  double proj = 0, prior = 0;  // the cost's two parts (prior: 0 without priors)
 };
 
 // e = W (x - hx), the (covariance-weighted) residual, and its cost; e may be hx itself. With
@@ -300,10 +302,12 @@ namespace {
 // covariance needs once. Each step reports a failure through the log and returns false.
 class Steps {
  public:
+  // priors: null or empty for none.
   Steps(const Layout &lay, Model &model, const double *x, const Loss &loss, const Logger &log,
-        ThreadPool &pool, const Kernels &kernels, bool weighted)
+        ThreadPool &pool, const Kernels &kernels, bool weighted, const PriorTerms *priors)
       : lay_(lay), model_(model), x_(x), loss_(loss), log_(log), pool_(pool),
-        kernels_(kernels), w(lay, weighted, loss.robust(), !model.has_jacobian()) {}
+        kernels_(kernels), w(lay, weighted, loss.robust(), !model.has_jacobian()),
+        priors_(priors && !priors->empty() ? priors : nullptr) {}
 
   // The weights from the measurement covariances (none without covx).
   bool weigh(const double *covx) {
@@ -321,6 +325,18 @@ class Steps {
       return false;
     }
     *c = residual(pool_, lay_, x_, w.f_out(), wts_, loss_, w.e.data(), w.rw.data());
+    return add_priors(p, where, c);
+  }
+
+  // The priors' cost at p into c, whose cost becomes the projections' plus the priors'; false
+  // (said) if a prior's residual is not finite. Without priors c stays as it is.
+  bool add_priors(const double *p, const char *where, Cost *c) const {
+    c->proj = c->cost;
+    if (!priors_) return true;
+    PriorCost pc;
+    if (!priors_->cost(p, log_, where, &pc)) return false;
+    c->prior = pc.cost;
+    c->cost = c->proj + pc.cost;
     return true;
   }
 
@@ -337,6 +353,7 @@ class Steps {
     if (lay_.cams.any_held()) zero_held_columns(pool_, lay_, w.jac.data());
     kernels_.normal_equations(pool_, w.jac.data(), loss_.robust() ? w.er.data() : w.e.data(),
                               w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
+    if (priors_) prior_sq_ = priors_->add_normal_equations(p, w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
     if (!normal_equations_finite(pool_, lay_, w)) {
       log_.error("sba: the Jacobian has a NaN or Inf entry (or overflows)%s", where);
       return false;
@@ -355,7 +372,9 @@ class Steps {
       return false;
     }
     *c = residual(pool_, lay_, x_, w.fn_out(), wts_, loss_, w.en_data(), w.rwn.data());
-    return true;
+    char where[48];
+    std::snprintf(where, sizeof where, " at iteration %d", it);
+    return add_priors(w.dp.data(), where, c);
   }
 
   // The trial point becomes the current one.
@@ -369,6 +388,8 @@ class Steps {
 
   // The robustified residual's squared norm (the squared error the normal equations see).
   double reweighted_sq() const { return sqnorm(pool_, w.er.data(), lay_.nvis * lay_.mnp); }
+  // The priors' share of it at the last linearization (0 without priors).
+  double prior_sq() const { return prior_sq_; }
 
   const Layout &lay_;
   Model &model_;
@@ -381,6 +402,8 @@ class Steps {
 
  private:
   const double *wts_ = nullptr;
+  const PriorTerms *priors_;
+  double prior_sq_ = 0.0;
 };
 
 }  // namespace
@@ -388,7 +411,8 @@ class Steps {
 bool linearize(const Layout &lay, Model &model, double *p, const double *x, const double *covx,
                const Options &opt, const Logger &log, ThreadPool &pool, const Kernels &kernels,
                Linearization *out) {
-  Steps st(lay, model, x, opt.loss, log, pool, kernels, covx != nullptr);
+  const PriorTerms priors(opt.priors, lay);
+  Steps st(lay, model, x, opt.loss, log, pool, kernels, covx != nullptr, &priors);
   Cost c;
   if (!st.weigh(covx) || !st.start(p, "", &c) || !st.linearize(p, "")) return false;
   Workspace &w = st.w;
@@ -399,6 +423,7 @@ bool linearize(const Layout &lay, Model &model, double *p, const double *x, cons
   out->eb.swap(w.eb);
   // With a loss, the IRLS weights make sum rho' s the squared error the model sees.
   out->sq_err = opt.loss.robust() ? st.reweighted_sq() : c.sq;
+  if (opt.priors.any()) out->sq_err += st.prior_sq();
   return true;
 }
 
@@ -452,6 +477,10 @@ class LevenbergMarquardt {
     }
     eps_ = c0.cost;
     sqe_ = c0.sq;
+    proj_ = c0.proj;
+    prior_ = c0.prior;
+    sum_.proj_err0 = proj_;
+    sum_.prior_err0 = prior_;
     log_.legacy(1, "initial %s-SBA error %g [%g]\n", legacy_name(lay_.mode), eps_, eps_ / double(lay_.nvis));
     sum_.err0 = sum_.err = eps_;
     sum_.sq_err0 = sum_.sq_err = sqe_;
@@ -567,6 +596,8 @@ class LevenbergMarquardt {
     sum_.moved = true;
     eps_ = epsn;
     sqe_ = cn.sq;
+    proj_ = cn.proj;
+    prior_ = cn.prior;
     mu_ = strategy_.after_success(mu_, dF / dL);
     nu_ = 2;
     return Attempt::kAccepted;
@@ -598,6 +629,8 @@ class LevenbergMarquardt {
   void record(StopReason reason, int iterations) {
     sum_.err = eps_;
     sum_.sq_err = sqe_;
+    sum_.proj_err = proj_;
+    sum_.prior_err = prior_;
     sum_.reason = reason;
     sum_.iterations = iterations;
     sum_.mu_ratio = maxdiag_ > 0 ? mu_ / maxdiag_ : 0.0;
@@ -638,6 +671,7 @@ class LevenbergMarquardt {
   int it_ = 0;
   StopReason stop_ = kStopNone;
   double eps_ = 0.0, sqe_ = 0.0;  // the cost and squared error at p
+  double proj_ = 0.0, prior_ = 0.0;  // the cost's parts at p
   double mu_ = 0.0, maxdiag_ = 0.0;
   int nu_ = 2;      // the growth of mu at the next rejection
   double p2_ = 0.0;  // ||p||^2 at the start of the iteration
@@ -652,7 +686,8 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   ThreadPool pool(opt.nthreads, opt.avoid_shared_cores);
   const ModelThreads lend(model, &pool);
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());
-  Steps st(lay, model, x, opt.loss, log, pool, *kernels, covx != nullptr);
+  const PriorTerms priors(opt.priors, lay);
+  Steps st(lay, model, x, opt.loss, log, pool, *kernels, covx != nullptr, &priors);
   std::unique_ptr<StepSolver> solver = make_step_solver(opt.solver, SolveContext{lay, pool, *kernels, opt.schur_analysis.get()});
   if (wrap) solver = wrap(std::move(solver));
   const std::unique_ptr<Strategy> strategy = make_strategy(opt.strategy, lay, opt.eps4);

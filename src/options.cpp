@@ -40,6 +40,7 @@ bool Options::is_valid(const Layout &lay, const double *p, std::string *error) c
   }
   *error = check_loss(loss);
   if (error->empty()) *error = check_camera_params(cams, lay, p);
+  if (error->empty()) *error = check_priors(priors, lay, cams);
   return error->empty();
 }
 

@@ -11,6 +11,7 @@
 #include "camera_unknowns.h"
 #include "linear_solver.h"
 #include "loss.h"
+#include "priors.h"
 #include "sba_export.h"
 #include "schur_pattern.h"
 #include "strategy.h"
@@ -35,6 +36,7 @@ struct Options {
   int (*cancel)(void *ctx) = nullptr;
   void *cancel_ctx = nullptr;
   CameraParamOptions cams;
+  PriorOptions priors;  // residuals beside the projections (priors.h); none by default
   double memory_budget = 0;  // bytes "auto" plans within; 0: the machine's (memory_budget())
   // What auto measured of S to choose sparse-chol (its pattern and ordering), which that
   // solver then uses rather than compute again; null otherwise.
@@ -45,7 +47,8 @@ struct Options {
   // negative itmax, a tolerance or tau that is not finite, a zero tau (named as the opts[]
   // entries they come from: tau opts[0], eps1..eps4 opts[1..4]); a robust loss's scale out of
   // range; held and shared camera parameters that do not fit the problem
-  // (check_camera_params). The bindings pass their values through and report this message.
+  // (check_camera_params); priors that do not fit the problem or cannot be used
+  // (check_priors). The bindings pass their values through and report this message.
   bool is_valid(const Layout &lay, const double *p, std::string *error) const;
 };
 

@@ -66,6 +66,16 @@ static void sfunc(double *p, struct sba_crsm *idx, int *r, int *s, double *hx, v
     for (k = idx->rowptr[i]; k < idx->rowptr[i + 1]; ++k) hx[idx->val[k]] = cams[idx->colidx[k]] + p[i];
 }
 
+/* A camera prior by callback: r = a_j - 2 (dim 1), its Jacobian 1. */
+static void cam_prior(int j, const double *aj, double *r, void *data) {
+  (void)j; (void)data;
+  r[0] = aj[0] - 2.0;
+}
+static void cam_prior_jac(int j, const double *aj, double *jac, void *data) {
+  (void)j; (void)aj; (void)data;
+  jac[0] = 1.0;
+}
+
 int main(void) {
   /* 3 points, 2 cameras, all visible; camera 0 fixed (mcon = 1) removes the gauge. */
   char vmask[6] = {1, 1, 1, 1, 1, 1};
@@ -161,6 +171,50 @@ int main(void) {
     ext.quiet = 1;
     ret = sba_motstr_levmar_x_ext(3, 0, 2, 1, vmask, p, 1, 1, x, NULL, 1, func, fjac, NULL, 50, 0, NULL, info, &ext);
     CHECK(ret == SBA_ERROR); }
+
+  /* Priors: a point pulled to 1.5 (sigma 1e-3) against its projections' 1, a camera held near
+   * its value by a callback prior and by a linear one. */
+  { struct sba_ext_options ext;
+    struct sba_ext_result res;
+    struct sba_point_prior pp;
+    struct sba_camera_prior cp;
+    struct sba_camera_linear_prior lp;
+    const double mean = 1.5, sigma = 1e-3, lmean = 2.0, lsigma = 0.5;
+    const int param = 0;
+    sba_ext_options_init(&ext);
+    sba_ext_result_init(&res);
+    memset(&pp, 0, sizeof pp);
+    memset(&cp, 0, sizeof cp);
+    memset(&lp, 0, sizeof lp);
+    pp.point = 0;
+    pp.mean = &mean;
+    pp.weight.sigma = &sigma;
+    cp.camera = 1;
+    cp.dim = 1;
+    cp.func = cam_prior;
+    cp.jacf = cam_prior_jac;
+    cp.loss = "huber";
+    lp.camera = 1;
+    lp.k = 1;
+    lp.params = &param;
+    lp.mean = &lmean;
+    lp.weight.sigma = &lsigma;
+    ext.result = &res;
+    ext.npoint_priors = 1;
+    ext.point_priors = &pp;
+    ext.ncamera_priors = 1;
+    ext.camera_priors = &cp;
+    ext.ncamera_linear_priors = 1;
+    ext.camera_linear_priors = &lp;
+    p[1] = 2.5; p[2] = 0.5; p[3] = -0.7; p[4] = 3.2;
+    ret = sba_motstr_levmar_x_ext(3, 0, 2, 1, vmask, p, 1, 1, x, NULL, 1, func, fjac, NULL, 50, 0, NULL, info, &ext);
+    CHECK(ret > 0 && fabs(p[2] - 1.5) < 1e-3);
+    CHECK(res.prior_cost_final > 0.0 && res.projection_cost_final > 0.0);
+    CHECK(info[1] == res.projection_cost_final + res.prior_cost_final);
+    pp.point = 3; /* no such point */
+    ext.quiet = 1;
+    ret = sba_motstr_levmar_x_ext(3, 0, 2, 1, vmask, p, 1, 1, x, NULL, 1, func, fjac, NULL, 50, 0, NULL, info, &ext);
+    CHECK(ret == SBA_ERROR && info[6] == SBA_STOP_NONE); }
 
   CHECK(strstr(SBA_VERSION, "1.6") != NULL);
   if (failures) fprintf(stderr, "%d check(s) failed\n", failures);
