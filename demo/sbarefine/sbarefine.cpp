@@ -74,6 +74,7 @@ struct Options {
   std::string write_eucsba;  // COLMAP, NVM: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
   std::string covariance;    // COLMAP: the covariances' file; empty: none
   colmap::CovarianceOptions covariance_options;
+  bool covariance_damping_given = false;
   std::string write_bal;     // Bundler: a BAL problem
   std::string bundler_list;  // Bundler: the image list read; empty: none
   std::string write_list;    // Bundler: where the image list is written back; empty: not
@@ -222,8 +223,9 @@ void add_format_options(std::vector<sbacli::Option> *t, Options &o) {
                 }});
   t->push_back({"covariance-damping", "D",
                 "COLMAP: --covariance adds D to the diagonal of each point's block of J^T J first, as\n"
-                "pycolmap's BACovarianceOptions.damping does (1e-8 there by default) (default 0)",
+                "pycolmap's BACovarianceOptions.damping does; 0: (J^T J)^-1 itself (default 1e-8, pycolmap's)",
                 [&o](const std::string &v) {
+                  o.covariance_damping_given = true;
                   return sbacli::to_real(v, 0.0, false, &o.covariance_options.point_damping);
                 }});
   t->push_back({"write-bal", "FILE", "Bundler: also write the refined model as a BAL problem",
@@ -832,7 +834,7 @@ int check_format_options(Format format, Options *o) {
       return kExitUsage;
     }
   resolve_defaults(format == Format::Colmap, o);
-  if ((o->covariance_options.points || o->covariance_options.point_damping != 0) && o->covariance.empty()) {
+  if ((o->covariance_options.points || o->covariance_damping_given) && o->covariance.empty()) {
     std::fprintf(stderr, "sbarefine: --covariance-points and --covariance-damping are for --covariance, which is "
                          "not given\n");
     return kExitUsage;

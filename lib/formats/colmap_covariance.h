@@ -34,7 +34,9 @@ struct CovarianceBlock {
 // What Problem::covariance computes beyond the poses and cameras.
 struct CovarianceOptions {
   bool points = false;       // every free point's block too
-  double point_damping = 0;  // sba_covariance_request::point_damping (pycolmap's damping)
+  // sba_covariance_request::point_damping. COLMAP's default (BACovarianceOptions.damping), so
+  // that the blocks are the numbers a COLMAP user gets from it; 0: (J^T J)^-1 itself.
+  double point_damping = 1e-8;
 };
 
 struct Covariances {

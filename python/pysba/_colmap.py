@@ -328,7 +328,7 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                   function_tolerance: Optional[float] = None, mcon: int = 0, ncon: int = 0,
                   progress: Optional[Callable[[Progress], Any]] = None, verbose: bool = False,
                   covariance: bool = False, covariance_points: bool = False,
-                  covariance_damping: float = 0.0) -> Tuple[Any, Result]:
+                  covariance_damping: float = 1e-8) -> Tuple[Any, Result]:
     """Bundle-adjusts a COLMAP model as sbarefine does (the same numbers, bit for bit, as
     ``sbarefine MODEL --write OUT`` with the same options), with COLMAP's camera models and
     COLMAP's defaults, and returns ``(refined model, Result)``; the model is left unchanged.
@@ -398,9 +398,9 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         blocks are pycolmap's estimate_ba_covariance's: (J^T J)^-1 for unit pixel noise (times
         sigma2 for the model's), poses over [rotation, translation] with COLMAP's rotation
         tangent, held coordinates left out, a block all of whose coordinates are held left out
-        (a held pose, held intrinsics). covariance_damping (sbarefine's --covariance-damping,
-        0 by default) is added to each point's block of J^T J first, as pycolmap's
-        BACovarianceOptions.damping (1e-8 there). A covariance the library refuses (a point its
+        (a held pose, held intrinsics). covariance_damping (sbarefine's --covariance-damping)
+        is added to each point's block of J^T J first, as pycolmap's
+        BACovarianceOptions.damping, whose default it shares (0: (J^T J)^-1 itself). A covariance the library refuses (a point its
         projections do not determine) raises SolveError with the result.
 
     A model whose reprojection error at the start is not finite (a parameter that overflows

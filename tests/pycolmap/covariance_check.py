@@ -8,7 +8,7 @@ written by pycolmap; sbarefine --itmax 0 --covariance at that model, two images'
 same problem (its default bundle adjuster, those two frames constant) agree: every image's
 pose block and every camera's block of refined parameters equal to 1e-6 relative (the
 largest difference over the block's largest entry), the held poses absent from both; at
-pycolmap's damping (its default, sbarefine's --covariance-damping set to it) and at none. The
+each at its default damping (the same: sbarefine's is pycolmap's) and both at none. The
 covariance is the Jacobian's, at any estimate: no solve is needed for both to describe the
 same problem. bench/colmap_covariance.py times the two at 1,000 images with the functions here.
 
@@ -76,10 +76,10 @@ def pycolmap_covariance(pycolmap, rec, held_images, damping=None):
 
 
 def sbarefine_covariance(exe, model, out, held_images, damping, extra=()):
-    """sbarefine --itmax 0 --covariance --covariance-damping damping on model, held_images' poses
-    held: the file read, and the seconds the whole run took."""
+    """sbarefine --itmax 0 --covariance --covariance-damping damping (None: its default) on model,
+    held_images' poses held: the file read, and the seconds the whole run took."""
     cmd = [exe, model, "--itmax", "0", "--hold-poses", ",".join(str(i) for i in held_images),
-           "--covariance", out, "--covariance-damping", repr(damping)] + list(extra)
+           "--covariance", out] + ([] if damping is None else ["--covariance-damping", repr(damping)]) + list(extra)
     start = time.perf_counter()
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=3600)
     seconds = time.perf_counter() - start
@@ -119,7 +119,7 @@ def check(pycolmap, args):
     os.makedirs(model)
     rec.write_text(model)
     held = sorted(rec.reg_image_ids())[:2]
-    for damping in (pycolmap.BACovarianceOptions().damping, 0.0):
+    for damping in (None, 0.0):
         cov, _ = pycolmap_covariance(pycolmap, rec, held, damping)
         (blocks, head), _ = sbarefine_covariance(args.sbarefine, model, os.path.join(args.work, "cov.txt"), held,
                                                  damping)
@@ -128,7 +128,7 @@ def check(pycolmap, args):
         expect(head.get("rank") == head.get("nfree"),
                "the gauge fixed: rank %s of %s" % (head.get("rank"), head.get("nfree")))
         worst = compare(rec, cov, blocks, held)
-        print("damping %g: largest relative differences from pycolmap %s: %s" % (damping, pycolmap.__version__, worst))
+        print("damping %s: largest relative differences from pycolmap %s: %s" % ("default" if damping is None else damping, pycolmap.__version__, worst))
         expect(max(worst.values()) <= TOLERANCE, "beyond %g" % TOLERANCE)
 
 

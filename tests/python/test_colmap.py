@@ -857,6 +857,28 @@ def test_covariances_are_sbarefines(tmp_path):
     assert not c["frames"] and not c["sensors"]
 
 
+def test_covariance_damping_is_pycolmaps_by_default(tmp_path):
+    # pycolmap's BACovarianceOptions.damping (1e-8) is the default of both front ends, so that
+    # their blocks are a COLMAP user's numbers without an option; 0 is J^T J's own inverse.
+    text, _ = sbagen(tmp_path)
+    held = [im.id for im in pysba.read_colmap(text).images[:2]]
+    files = {}
+    for name, extra in (("default", []), ("1e-8", ["--covariance-damping", "1e-8"]),
+                        ("0", ["--covariance-damping", "0"])):
+        out = tmp_path / f"cov-{name}.txt"
+        sbarefine(text, tmp_path / name, ["--itmax", "0", "--hold-poses", f"{held[0]},{held[1]}",
+                                          "--covariance", out, *extra])
+        files[name] = out.read_text()
+    assert files["default"] == files["1e-8"] and files["default"] != files["0"]
+    runs = {}
+    for name, kw in (("default", {}), ("1e-8", dict(covariance_damping=1e-8)), ("0", dict(covariance_damping=0.0))):
+        _, result = pysba.refine_colmap(pysba.read_colmap(text), itmax=0, hold_poses=held, covariance=True, **kw)
+        runs[name] = result.colmap_covariance["images"]
+    same = [np.array_equal(runs["default"][k], runs["1e-8"][k]) for k in runs["default"]]
+    moved = [not np.array_equal(runs["default"][k], runs["0"][k]) for k in runs["default"]]
+    assert all(same) and any(moved)
+
+
 def test_covariances_with_rigs_are_sbarefines(tmp_path):
     # sbagen's model as one rig of cameras 100 (its reference) and 101, three frames of two
     # images: images 0, 2, 4 taken with camera 100, 1, 3, 5 with camera 101.
@@ -875,9 +897,8 @@ def test_covariances_with_rigs_are_sbarefines(tmp_path):
         frames.append(f"{900 + f} 1 {pose} 2 CAMERA 100 {a.id} CAMERA 101 {b.id}")
     (rig / "rigs.txt").write_text(f"# Rig list\n1 2 CAMERA 100 CAMERA 101 1 {q}\n")
     (rig / "frames.txt").write_text("\n".join(frames) + "\n")
-    # pycolmap's damping of the points' blocks, given to both.
-    c = same_covariances(tmp_path, rig, ["--hold-poses", str(model.images[0].id), "--covariance-damping", "1e-8"],
-                         dict(hold_poses=[model.images[0].id], covariance_damping=1e-8))
+    c = same_covariances(tmp_path, rig, ["--hold-poses", str(model.images[0].id)],
+                         dict(hold_poses=[model.images[0].id]))
     # Every image's pose but the one held whole (camera 100's in frame 900: camera 101's moves
     # with the camera's pose in the rig), the free frames' poses and camera 101's in the rig.
     assert sorted(c["images"]) == sorted(im.id for im in model.images[1:])
