@@ -273,8 +273,8 @@ struct sba_ext_options {
    * has no iterations for the progress callback to stop, and can take far longer than the
    * solve before it; this is how a host lets its user interrupt it (pysba: Ctrl-C). The
    * LAPACK calls that invert the reduced camera system (its Cholesky factorization, or its
-   * eigendecomposition when it is singular: O((cameras*cnp)^3)) cannot be interrupted. Like every callback it must return normally. NULL: never polled;
-   * the drivers never call it. */
+   * eigendecomposition when it is singular: O((cameras*cnp)^3)) cannot be interrupted. Like
+   * every callback it must return normally. NULL: never polled; the drivers never call it. */
   int (*cancel)(void *cancel_ctx);
   void *cancel_ctx;
   /* Camera parameters held at their initial values, beyond 1.6's leading mcon cameras (the
@@ -489,8 +489,9 @@ struct sba_covariance_request {
   int unscaled;
   /* Added to the diagonal of every free point's block V_i of J^T J before the cameras' system
    * is formed, as pycolmap's estimate_ba_covariance does with its BACovarianceOptions.damping
-   * (1e-8 there by default): the blocks are then those of (J^T J + diag(0, d I))^-1. 0 (the default, and for a request without this field): none,
-   * the covariance of J^T J itself. Must be finite and >= 0. */
+   * (1e-8 there by default): the blocks are then those of (J^T J + diag(0, d I))^-1. 0 (the
+   * default, and for a request without this field): none, the covariance of J^T J itself.
+   * Must be finite and >= 0. */
   double point_damping;
 };
 extern void sba_covariance_request_init(struct sba_covariance_request *req);
