@@ -86,6 +86,14 @@ Doubles parameter_rows(py::handle obj, const char *what, py::ssize_t width) {
   return a;
 }
 
+Doubles result_array(const py::handle &r, const char *what, std::vector<py::ssize_t> shape) {
+  if (r.is_none()) throw py::value_error(std::string(what) + " is None");
+  Doubles a = Doubles::ensure(r);
+  if (!a) throw py::type_error(std::string(what) + " must be an array of floats");
+  check_shape(a, what, std::move(shape));
+  return a;
+}
+
 std::vector<long long> index_array(py::handle obj, const char *what, long long bound) {
   const py::array a = numeric_array(obj, what, "integers");
   const char kind = a.dtype().kind();

@@ -54,6 +54,11 @@ Doubles parameter_rows(py::handle obj, const char *what, py::ssize_t width);
 // NaN, Inf) or is out of range; TypeError for other types.
 std::vector<long long> index_array(py::handle obj, const char *what, long long bound);
 
+// A callback's result r as an array of the expected shape (a copy when it is not one of
+// float64 already): ValueError for None or a wrong shape, TypeError for what is no array of
+// floats, naming it as what.
+Doubles result_array(const py::handle &r, const char *what, std::vector<py::ssize_t> shape);
+
 // Checks that a has ndim dimensions and the given sizes (-1: any); what names it in the
 // ValueError otherwise. Returns the sizes.
 std::vector<py::ssize_t> check_shape(const py::array &a, const char *what,

@@ -61,15 +61,6 @@ void poison(const sba_crsm *idx, int block, double *out) {
     std::fill_n(out + size_t(idx->val[k]) * block, block, std::numeric_limits<double>::quiet_NaN());
 }
 
-// A copy of the callback's result as an array of the expected shape.
-Doubles result_array(const py::handle &r, const char *what, std::vector<py::ssize_t> shape) {
-  if (r.is_none()) throw py::value_error(std::string(what) + " is None");
-  Doubles a = Doubles::ensure(r);
-  if (!a) throw py::type_error(std::string(what) + " must be an array of floats");
-  check_shape(a, what, std::move(shape));
-  return a;
-}
-
 // callback(cameras, points, cam_idx, pt_idx) of the observations idx lists, and their ordinals.
 PyRef call_model(const PythonModel &pm, py::handle callback, double *p, const Listed &l) {
   const PyRef cams(copy_of(pm.cameras_in(p), {pm.m, pm.cnp})), pts(copy_of(pm.points_in(p), {pm.n, pm.pnp}));

@@ -69,7 +69,7 @@ class Session {
   Session &operator=(const Session &) = delete;
 
   // The options for the library, pointing into this session. parallel: whether the
-  // callbacks may run on several threads at once.
+  // callbacks may run on several threads at once. Without the priors (PriorStructs).
   const sba_ext_options *ext(bool parallel);
 
   // Keeps the Python exception that is set (the GIL held), unless one is kept already.
