@@ -172,6 +172,9 @@ class Result:
     ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a
     robust loss), ``rms_initial``/``rms_final`` (the RMS reprojection error in pixels of that
     squared error, as sbarefine reports it), ``outliers`` (observations beyond the loss scale),
+    ``projection_cost_initial``/``projection_cost_final`` and
+    ``prior_cost_initial``/``prior_cost_final`` (the cost the solve minimizes, info[0] and
+    info[1], apart: the projections' robust cost and the priors', 0 without priors),
     ``log`` (the library's warnings), ``model`` (:func:`refine_colmap`'s refined model, of the
     type it returns, else None)
     and, with ``covariance=True``, ``camera_covariance`` (m, cnp, cnp), ``point_covariance``
@@ -199,6 +202,10 @@ class Result:
         self.sq_error_final: float = report["sq_error_final"]
         self.rms_initial = math.sqrt(self.sq_error_initial / nobs)
         self.rms_final = math.sqrt(self.sq_error_final / nobs)
+        self.projection_cost_initial: float = report["projection_cost_initial"]
+        self.projection_cost_final: float = report["projection_cost_final"]
+        self.prior_cost_initial: float = report["prior_cost_initial"]
+        self.prior_cost_final: float = report["prior_cost_final"]
         self.model: Any = report.get("model")
         self.outliers: int = report["outliers"]
         self.log: list = list(report["warnings"])
@@ -290,7 +297,8 @@ def solve(problem: Problem, *, solver: Optional[str] = None, threads: int = 0,
           opts: Optional[Sequence[float]] = None, mcon: int = 0, ncon: int = 0,
           progress: Optional[Callable[[Progress], Any]] = None, covariance: bool = False,
           nccalib: int = 2, ncdist: int = 3, fixed_params: Any = None, camera_groups: Any = None,
-          shared_params: Any = None, param_groups: Any = None) -> Result:
+          shared_params: Any = None, param_groups: Any = None, point_priors: Any = None,
+          camera_linear_priors: Any = None, camera_priors: Any = None) -> Result:
     """Refines the cameras and points of a problem (motion and structure) with the library's
     camera model for it, as the eucsbademo and balsba programs do, and returns a
     :class:`Result`; the problem is left unchanged.
@@ -346,12 +354,35 @@ def solve(problem: Problem, *, solver: Optional[str] = None, threads: int = 0,
         ``shared_params[c]``, else -1); the library's refusals (that one, a shared parameter
         held in only some of its cameras, a camera below mcon in a group) are ValueErrors
         with its message.
+    point_priors, camera_linear_priors, camera_priors
+        Priors: residuals beside the projections that keep a point near a known position, some
+        camera parameters near known values, or any function of a camera's parameters (its
+        centre: a GPS fix) near zero; each a sequence of dicts (docs/priors.md, docs/python.md):
+
+        - point prior: ``point`` (index), ``mean`` (pnp values);
+        - camera linear prior: ``camera`` (index), ``params`` (indices of the camera's
+          parameters, k of them) and ``mean`` (k values), the residual ``a_j[params] - mean``;
+        - camera prior: ``camera``, ``dim``, ``func(j, a_j)`` returning the residual (dim
+          values) from camera j's parameters (cnp floats, as the solve sees them: for
+          eucsbademo problems the optimized ones, see ``camera_covariance``), optionally
+          ``jac(j, a_j)`` returning its derivatives (dim, cnp) (None: forward differences),
+          called from the calling thread; an exception in them stops the solve and propagates;
+
+        and in each at most one weight: ``sigma`` (k standard deviations), ``covariance``
+        (k x k) or ``sqrt_info`` (k x k upper-triangular L with L^T L the inverse covariance),
+        none meaning the residual is weighted already; and optionally ``loss`` and
+        ``loss_scale`` (as loss= and loss_scale=, for this prior alone). Wrong types and
+        shapes are TypeErrors and ValueErrors naming the entry; values the library refuses (a
+        point that does not exist or is held by ncon, a NaN mean, a negative sigma, a prior on
+        a held parameter) are ValueErrors with its message, which names the prior. The
+        result's ``projection_cost_*`` and ``prior_cost_*`` give the cost apart.
     """
     if not isinstance(problem, Problem):
         raise TypeError("problem must be a pysba.Problem")
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,
                   covariance=covariance, fixed_params=fixed_params, camera_groups=camera_groups,
-                  shared_params=shared_params, param_groups=param_groups)
+                  shared_params=shared_params, param_groups=param_groups, point_priors=point_priors,
+                  camera_linear_priors=camera_linear_priors, camera_priors=camera_priors)
     if problem.model == "bal":
         report = _core.solve_bal(problem.cameras, problem.points, problem.camera_index,
                                  problem.point_index, problem.observations, problem.covariances, **kw)
@@ -382,7 +413,8 @@ def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, poi
            opts: Optional[Sequence[float]] = None, mcon: int = 0, ncon: int = 0,
            progress: Optional[Callable[[Progress], Any]] = None,
            covariance: bool = False, fixed_params: Any = None, camera_groups: Any = None,
-           shared_params: Any = None, param_groups: Any = None) -> Result:
+           shared_params: Any = None, param_groups: Any = None, point_priors: Any = None,
+           camera_linear_priors: Any = None, camera_priors: Any = None) -> Result:
     """Refines cameras (m, cnp) and points (n, pnp) under a camera model written in Python
     (sba_motstr_levmar_x): observation k is camera ``camera_index[k]``'s view of point
     ``point_index[k]``, measured as ``observations[k]`` (mnp values).
@@ -398,12 +430,13 @@ def motstr(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, poi
 
     An exception raised by a callback stops the solve and propagates, with the partial
     result as its ``result`` attribute. The other arguments are those of :func:`solve`
-    (fixed_params, camera_groups, shared_params and param_groups included).
+    (fixed_params, camera_groups, shared_params, param_groups and the priors included).
     The callbacks are called from the calling thread, one at a time.
     """
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,
                   covariance=covariance, fixed_params=fixed_params, camera_groups=camera_groups,
-                  shared_params=shared_params, param_groups=param_groups)
+                  shared_params=shared_params, param_groups=param_groups, point_priors=point_priors,
+                  camera_linear_priors=camera_linear_priors, camera_priors=camera_priors)
     return _python_model("motstr", project, cameras, points, camera_index, point_index,
                          observations, jacobian, covariances, kw)
 
@@ -415,12 +448,14 @@ def mot(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, point_
         loss: Optional[str] = None, loss_scale: float = 1.0, itmax: int = 100,
         opts: Optional[Sequence[float]] = None, mcon: int = 0,
         progress: Optional[Callable[[Progress], Any]] = None, fixed_params: Any = None,
-        camera_groups: Any = None, shared_params: Any = None, param_groups: Any = None) -> Result:
+        camera_groups: Any = None, shared_params: Any = None, param_groups: Any = None,
+        camera_linear_priors: Any = None, camera_priors: Any = None) -> Result:
     """As :func:`motstr`, refining the cameras only (sba_mot_levmar_x): the points are data.
-    jacobian may return (A, None)."""
+    jacobian may return (A, None). Camera priors only: the points are not refined."""
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, 0, progress,
                   fixed_params=fixed_params, camera_groups=camera_groups, shared_params=shared_params,
-                  param_groups=param_groups)
+                  param_groups=param_groups, camera_linear_priors=camera_linear_priors,
+                  camera_priors=camera_priors)
     return _python_model("mot", project, cameras, points, camera_index, point_index,
                          observations, jacobian, covariances, kw)
 
@@ -430,11 +465,12 @@ def structure(project: ProjectFn, cameras: Any, points: Any, camera_index: Any, 
               solver: Optional[str] = None, threads: int = 0, strategy: Optional[str] = None,
               loss: Optional[str] = None, loss_scale: float = 1.0, itmax: int = 100,
               opts: Optional[Sequence[float]] = None, ncon: int = 0,
-              progress: Optional[Callable[[Progress], Any]] = None) -> Result:
+              progress: Optional[Callable[[Progress], Any]] = None, point_priors: Any = None) -> Result:
     """As :func:`motstr`, refining the points only (sba_str_levmar_x, "str" in sba's names,
     which pysba also answers to as ``pysba.str``): the cameras are data. jacobian may return
-    (None, B)."""
-    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, 0, ncon, progress)
+    (None, B). Point priors only: the cameras are not refined."""
+    kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, 0, ncon, progress,
+                  point_priors=point_priors)
     return _python_model("str", project, cameras, points, camera_index, point_index,
                          observations, jacobian, covariances, kw)
 

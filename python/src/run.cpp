@@ -4,7 +4,20 @@
 #include <numeric>
 #include <string>
 
+#include "prior_callbacks.h"
+
 namespace pysba {
+
+namespace {
+
+// The session's options with o's priors, whose structs *priors holds.
+sba_ext_options with_priors(Session &session, const Run &run, const SolveOptions &o, PriorStructs *priors) {
+  sba_ext_options ext = *session.ext(run.parallel);
+  priors->attach(o.priors, session, run.cnp, &ext);
+  return ext;
+}
+
+}  // namespace
 
 py::dict run_driver(Run &run, Session &session, const SolveOptions &o) {
   Observations &obs = run.obs;
@@ -14,21 +27,23 @@ py::dict run_driver(Run &run, Session &session, const SolveOptions &o) {
   if (o.ncon < 0 || o.ncon > n)
     throw py::value_error("ncon must be in [0, " + std::to_string(n) + "], got " + std::to_string(o.ncon));
   if (run.refine != Refine::Str) check_camera_params(o, m, run.cnp);
+  check_prior_shapes(o.priors, run.pnp);
   double info[SBA_INFOSZ] = {0};
-  const sba_ext_options *ext = session.ext(run.parallel);
+  PriorStructs priors;
+  const sba_ext_options ext = with_priors(session, run, o, &priors);
   const sba_visibility vis = obs.vis();
   const int ret = without_gil(session.released_thread(), [&] {
     switch (run.refine) {
       case Refine::MotStr:
         return sba_motstr_levmar_x_vis(n, o.ncon, m, o.mcon, &vis, run.p.data(), run.cnp, run.pnp, obs.x.data(),
                                        obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, o.itmax, 0,
-                                       o.opts.data(), info, ext);
+                                       o.opts.data(), info, &ext);
       case Refine::Mot:
         return sba_mot_levmar_x_vis(n, m, o.mcon, &vis, run.p.data(), run.cnp, obs.x.data(), obs.covx_or_null(),
-                                    mnp, run.func, run.fjac, run.adata, o.itmax, 0, o.opts.data(), info, ext);
+                                    mnp, run.func, run.fjac, run.adata, o.itmax, 0, o.opts.data(), info, &ext);
       case Refine::Str:
         return sba_str_levmar_x_vis(n, o.ncon, m, &vis, run.p.data(), run.pnp, obs.x.data(), obs.covx_or_null(),
-                                    mnp, run.func, run.fjac, run.adata, o.itmax, 0, o.opts.data(), info, ext);
+                                    mnp, run.func, run.fjac, run.adata, o.itmax, 0, o.opts.data(), info, &ext);
     }
     return SBA_ERROR;
   });
@@ -52,10 +67,10 @@ py::dict run_driver(Run &run, Session &session, const SolveOptions &o) {
   // The covariance reads p and does not change it, but takes it as non-const.
   std::vector<double> p = run.p;
   const size_t nerrors = session.errors().size();
-  const sba_ext_options *cov_ext = session.ext(run.parallel);
+  const sba_ext_options cov_ext = with_priors(session, run, o, &priors);
   const int status = without_gil(session.released_thread(), [&] {
     return sba_motstr_covariance_x_vis(n, o.ncon, m, o.mcon, &vis, p.data(), run.cnp, run.pnp, obs.x.data(),
-                                       obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, &req, cov_ext);
+                                       obs.covx_or_null(), mnp, run.func, run.fjac, run.adata, &req, &cov_ext);
   });
   if (session.failed()) {
     d["error"] = session.error();

@@ -81,6 +81,7 @@ SolveOptions solve_options(const py::dict &kw) {
     o.param_groups = groups(v, "param_groups", 2, &o.param_groups_shape);
     o.has_param_groups = true;
   }
+  o.priors = read_priors(kw);
   o.strategy = k.text("strategy");
   o.loss = k.text("loss");
   o.progress = k.get("progress");
@@ -236,6 +237,10 @@ py::dict Session::report(int ret, const double info[SBA_INFOSZ]) const {
   d["sq_error_final"] = result_.sq_error_final;
   d["cost_initial"] = result_.cost_initial;
   d["cost_final"] = result_.cost_final;
+  d["projection_cost_initial"] = result_.projection_cost_initial;
+  d["projection_cost_final"] = result_.projection_cost_final;
+  d["prior_cost_initial"] = result_.prior_cost_initial;
+  d["prior_cost_final"] = result_.prior_cost_final;
   d["outliers"] = result_.outliers_final;
   d["threads"] = result_.nthreads;
   d["solver"] = result_.linsolver ? py::object(py::str(result_.linsolver)) : py::object(py::none());

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "gil.h"
+#include "priors.h"
 #include "sba.h"
 #include "sba_ext.h"
 
@@ -52,6 +53,7 @@ struct SolveOptions {
   std::vector<char> fixed, shared;
   std::vector<long long> fixed_shape, param_groups_shape;
   std::vector<int> groups, param_groups;
+  Priors priors;  // their shapes checked by check_prior_shapes, their values by the library
 };
 
 // ValueError unless the camera parameter options of o have the shapes of m cameras of cnp
