@@ -209,3 +209,19 @@ def test_priors_in_solve_reach_the_builtin_models(cams7):
     r = pysba.solve(cams7, point_priors=[dict(point=i, mean=means[i], sigma=[SIGMA] * 3) for i in range(3)])
     assert r.prior_cost_final > 0
     assert r.projection_cost_final + r.prior_cost_final == pytest.approx(r.info[1], rel=1e-12)
+
+
+def test_camera_priors_in_solve_with_threads(cams7):
+    # solve's own model runs on several threads; the priors' Python callbacks still run on the
+    # calling thread, with the GIL, and the thread count changes nothing.
+    free = pysba.solve(cams7)
+    targets = free.cameras[:, 4:7] + SHIFT  # t of the file's rows: the last three parameters
+
+    def t_prior(j, a):
+        return a[3:6] - targets[j]
+
+    priors = [dict(camera=j, dim=3, func=t_prior, sigma=[SIGMA] * 3) for j in range(1, cams7.ncameras)]
+    one = pysba.solve(cams7, threads=1, camera_priors=priors)
+    two = pysba.solve(cams7, threads=2, camera_priors=priors)
+    assert np.array_equal(one.cameras, two.cameras) and one.prior_cost_final == two.prior_cost_final
+    assert one.prior_cost_final < one.prior_cost_initial
