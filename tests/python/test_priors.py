@@ -187,10 +187,13 @@ def test_bad_types_and_shapes_are_pysbas_errors(scene, kw, error, message):
 @pytest.mark.parametrize("where", ["func", "jac"])
 def test_an_exception_in_a_prior_callback_propagates(scene, where):
     calls = []
+    # func runs at every evaluation of the cost, jac once per linearization: how many
+    # linearizations a solve from the optimum makes is the BLAS's and the build's, the first is not.
+    raise_at = 3 if where == "func" else 1
 
     def raising(j, a):
         calls.append(j)
-        if len(calls) == 3:
+        if len(calls) == raise_at:
             raise ZeroDivisionError("from the prior")
         return a[3:6] if where == "func" else np.hstack([np.zeros((3, 3)), np.eye(3)])
 
@@ -199,7 +202,7 @@ def test_an_exception_in_a_prior_callback_propagates(scene, where):
         prior.update(func=lambda j, a: a[3:6], jac=raising)
     with pytest.raises(ZeroDivisionError, match="from the prior") as e:
         refine(scene, camera_priors=[prior])
-    assert len(calls) == 3 and e.traceback[-1].name == "raising"
+    assert len(calls) == raise_at and e.traceback[-1].name == "raising"
     assert e.value.result.reason == pysba.Reason.USER
 
 
