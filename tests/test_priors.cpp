@@ -521,8 +521,6 @@ TEST(Priors, HeldAndSharedParameters) {
   EXPECT_EQ(0, std::memcmp(p.data(), s.pb.p0.data(), 2 * sizeof(double)));
 }
 
-// The shared lens of a VaryingIntrinsics scene: a prior on the shared focal length of two
-// cameras counts twice, as one prior of half the variance does.
 // What a solve of the Lens scene below asks beside its linear priors.
 struct LensAsked {
   const char *linsolver = "chol", *strategy = "sba";
@@ -625,6 +623,8 @@ TEST(Priors, SharedAndHeldParametersUnderEverySolverAndStrategyGiveTheSameBitsFo
     }
 }
 
+// The shared lens of a VaryingIntrinsics scene: a prior on the shared focal length of two
+// cameras counts twice, as one prior of half the variance does.
 TEST(Priors, APriorOnASharedParameterAppliesOncePerCameraThatNamesIt) {
   Lens lens;
   const int fu = 0;
