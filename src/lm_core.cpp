@@ -372,6 +372,7 @@ class Steps {
       return false;
     }
     *c = residual(pool_, lay_, x_, w.fn_out(), wts_, loss_, w.en_data(), w.rwn.data());
+    if (!priors_) return add_priors(w.dp.data(), "", c);  // no message to word on every trial
     char where[48];
     std::snprintf(where, sizeof where, " at iteration %d", it);
     return add_priors(w.dp.data(), where, c);

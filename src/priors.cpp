@@ -233,12 +233,6 @@ PriorTerms::PriorTerms(const PriorOptions &o, const Layout &lay) : lay_(lay) {
   }
 }
 
-i64 PriorTerms::rows() const {
-  i64 r = 0;
-  for (const Term &t : terms_) r += t.dim;
-  return r;
-}
-
 // r, unweighted: the callback's, or the constrained parameters minus their mean.
 void PriorTerms::residual(const Term &t, const double *p, double *r) const {
   const double *b = block(t, p);

@@ -49,7 +49,6 @@ class PriorTerms {
  public:
   PriorTerms(const PriorOptions &o, const Layout &lay);
   bool empty() const { return terms_.empty(); }
-  i64 rows() const;
   // The priors' cost at p; false (said through log, with where) if a residual is not finite.
   bool cost(const double *p, const Logger &log, const char *where, PriorCost *c) const;
   // Each prior's L J^T L J into its camera's U_j and -(L J)^T L r into e_a,j (held columns
