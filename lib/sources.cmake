@@ -19,6 +19,8 @@ set(SBA_LIB_FORMATS_SOURCES
   formats/colmap_sba.cpp
   formats/colmap_problem.cpp
   formats/colmap_covariance.cpp
+  formats/colmap_priors.cpp
+  formats/colmap_database.cpp
   formats/bundler_io.cpp
   formats/nvm_io.cpp
   formats/output_file.cpp

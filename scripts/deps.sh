@@ -17,7 +17,7 @@
 set -eu
 
 purpose=${1:-build}
-pkgs="g++ make cmake pkg-config liblapack-dev libblas-dev libopenblas-dev libsuitesparse-dev libbz2-dev"
+pkgs="g++ make cmake pkg-config liblapack-dev libblas-dev libopenblas-dev libsuitesparse-dev libbz2-dev libsqlite3-dev"
 # python3-pybind11 and the .whl packages: the test of `pip install .` with build isolation
 # builds its wheelhouse from them (tests/python/test_install.py).
 python_pkgs="python3-dev pybind11-dev python3-numpy python3-pytest python3-venv python3-setuptools python3-pip

@@ -48,6 +48,14 @@ struct MotstrInputs {
   // Parameters of each camera that the callbacks hold rather than cam_fixed (eucsbademo's camera
   // model holds its trailing intrinsics by a zero derivative): not unknowns either.
   int cam_held_by_callbacks = 0;
+  // Priors (sba_ext.h), residuals beside the projections; none by default.
+  int ncamera_priors = 0;
+  const sba_camera_prior *camera_priors = nullptr;
+  int ncamera_linear_priors = 0;
+  const sba_camera_linear_prior *camera_linear_priors = nullptr;
+  int npoint_priors = 0;
+  const sba_point_prior *point_priors = nullptr;
+  int priors() const { return ncamera_priors + ncamera_linear_priors + npoint_priors; }
 };
 
 class MotstrSolve {
@@ -89,6 +97,12 @@ class MotstrSolve {
     ext.cam_group = in.cam_group;
     ext.cam_shared = in.cam_shared;
     ext.cam_param_group = in.cam_param_group;
+    ext.ncamera_priors = in.ncamera_priors;
+    ext.camera_priors = in.camera_priors;
+    ext.ncamera_linear_priors = in.ncamera_linear_priors;
+    ext.camera_linear_priors = in.camera_linear_priors;
+    ext.npoint_priors = in.npoint_priors;
+    ext.point_priors = in.point_priors;
     // The time limit and the iteration times count from the solve's start, not from what the
     // program did before it (an initial PLY file, say).
     control_.emplace(so_.max_time, &progress_);
@@ -201,6 +215,7 @@ class MotstrSolve {
     Report report = make_report(program_, input_, in_.m, in_.n, nobs_, variables(), so_, ret_, info_, result_,
                                 seconds_, *control_);
     report.unknowns = unknowns();
+    report.priors = in_.priors();
     report.model = model_;
     report.solver_requested = solver_;
     if (!std::isnan(mean_initial_)) {

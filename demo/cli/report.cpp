@@ -99,6 +99,10 @@ void print_report(std::FILE *out, const Report &r) {
   if (!std::isnan(r.mean_final))
     std::fprintf(out, "Mean reprojection error (COLMAP's): initial %.6g px, final %.6g px\n", r.mean_initial,
                  r.mean_final);
+  if (r.priors > 0)
+    std::fprintf(out, "Cost with %d prior%s: projections %.9g -> %.9g, priors %.9g -> %.9g\n", r.priors,
+                 r.priors == 1 ? "" : "s", r.result.projection_cost_initial, r.result.projection_cost_final,
+                 r.result.prior_cost_initial, r.result.prior_cost_final);
   std::fprintf(out, "Stop reason %d: %s\n", reason, stop_reason_text(reason).c_str());
   // The strategy is named when it is not 1.6's, the one a legacy user expects.
   const bool named = r.result.strategy && std::strcmp(r.result.strategy, "sba") != 0;
@@ -160,6 +164,16 @@ bool write_json(const std::string &path, const Report &r, std::string *error,
   field("squared_error", "{\"initial\": " + number(r.result.sq_error_initial) +
                              ", \"final\": " + number(r.result.sq_error_final) + "}");
   field("rms_px", "{\"initial\": " + number(r.rms_initial()) + ", \"final\": " + number(r.rms_final()) + "}");
+  if (r.priors > 0) {
+    // The objective is the projections' cost plus the priors': sums of squares (robust where a
+    // loss is given), as sba_ext_result has them.
+    field("priors", std::to_string(r.priors));
+    field("cost", "{\"initial\": " + number(r.result.cost_initial) + ", \"final\": " + number(r.result.cost_final) + "}");
+    field("projection_cost", "{\"initial\": " + number(r.result.projection_cost_initial) +
+                                 ", \"final\": " + number(r.result.projection_cost_final) + "}");
+    field("prior_cost", "{\"initial\": " + number(r.result.prior_cost_initial) +
+                            ", \"final\": " + number(r.result.prior_cost_final) + "}");
+  }
   if (!std::isnan(r.mean_final))
     field("mean_px", "{\"initial\": " + number(r.mean_initial) + ", \"final\": " + number(r.mean_final) + "}");
   std::string its = "[";

@@ -57,6 +57,8 @@ struct Report {
   double seconds = 0;  // the solve, as the 1.6 "Elapsed time" line
   std::vector<RunControl::Iteration> iterations;
   std::vector<CameraResidual> per_camera;
+  // The priors of the solve (sba_ext.h); with some, the costs apart are reported.
+  int priors = 0;
   // COLMAP's mean reprojection error in pixels, initial and final (mean_error_by_point,
   // solve_options.h); NaN: not reported.
   double mean_initial = NAN, mean_final = NAN;

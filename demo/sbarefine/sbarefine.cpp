@@ -17,6 +17,7 @@
 #include <limits>
 #include <memory>
 #include <new>
+#include <unordered_map>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,7 @@
 #include "formats/bal_io.h"
 #include "formats/bundler_io.h"
 #include "formats/colmap_io.h"
+#include "formats/colmap_priors.h"
 #include "formats/colmap_problem.h"
 #include "formats/colmap_sba.h"
 #include "formats/nvm_io.h"
@@ -75,6 +77,11 @@ struct Options {
   std::string covariance;    // COLMAP: the covariances' file; empty: none
   colmap::CovarianceOptions covariance_options;
   bool covariance_damping_given = false;
+  // COLMAP: priors (docs/priors.md). Pose priors from COLMAP's database or a text file (at
+  // most one of the two), ground control points, intrinsics; empty: none.
+  std::string database_path, pose_priors, point_priors, intrinsics_priors;
+  colmap::PosePriorOptions prior_options;
+  bool prior_options_given = false;  // a --prior-position-* or --alignment-max-error
   std::string write_bal;     // Bundler: a BAL problem
   std::string bundler_list;  // Bundler: the image list read; empty: none
   std::string write_list;    // Bundler: where the image list is written back; empty: not
@@ -202,6 +209,64 @@ void add_constant_options(std::vector<sbacli::Option> *t, Options &o) {
                 [&o](const std::string &v) { return sbacli::to_file(v, &o.hold_points_file); }});
 }
 
+// COLMAP 4's pose-prior bundle adjustment, and the other priors: their files and COLMAP's
+// options for them, by COLMAP's names.
+void add_prior_options(std::vector<sbacli::Option> *t, Options &o) {
+  t->push_back({"database-path", "FILE",
+                "COLMAP: the position priors of the images (GPS) from COLMAP's database FILE (its\n"
+                "pose_priors table, COLMAP 4's or 3.x's), WGS84 ones in metres east, north and up of\n"
+                "the first: with at least 3 on images of the model, the model is moved onto them by a\n"
+                "robust similarity, then refined with each image's centre drawn to its prior, weighted\n"
+                "by its covariance, as COLMAP 4's pose-prior bundle adjustment (docs/priors.md)",
+                [&o](const std::string &v) { return sbacli::to_file(v, &o.database_path); }});
+  t->push_back({"pose-priors", "FILE",
+                "COLMAP: the same priors from a text file, a line per image: NAME X Y Z, then optionally\n"
+                "the 9 values of a covariance (row-major) and CARTESIAN (the default) or WGS84",
+                [&o](const std::string &v) { return sbacli::to_file(v, &o.pose_priors); }});
+  const auto given = [&o](std::string why) {
+    if (why.empty()) o.prior_options_given = true;
+    return why;
+  };
+  t->push_back({"prior-position-fallback-stddev", "X",
+                "COLMAP's prior_position_fallback_stddev: the standard deviation, in each axis, of a\n"
+                "position prior without a covariance (default 1)",
+                [&o, given](const std::string &v) {
+                  return given(sbacli::to_real(v, 0.0, true, &o.prior_options.fallback_stddev));
+                }});
+  t->push_back({"prior-position-loss", "NAME",
+                "COLMAP's prior_position_loss_function_type: trivial (least squares, the default) or\n"
+                "cauchy, on each position prior's squared Mahalanobis distance",
+                [&o, given](const std::string &v) {
+                  std::string choice;
+                  if (std::string why = sbacli::to_choice(v, {"trivial", "cauchy"}, &choice); !why.empty()) return why;
+                  o.prior_options.loss = choice == "cauchy" ? "cauchy" : "";
+                  return given({});
+                }});
+  t->push_back({"prior-position-loss-scale", "S",
+                "COLMAP's prior_position_loss_scale: the scale of --prior-position-loss cauchy, in\n"
+                "standard deviations (default 2.7954834829151074, the 95% quantile of chi with 3\n"
+                "degrees of freedom)",
+                [&o, given](const std::string &v) {
+                  return given(sbacli::to_real(v, 0.0, true, &o.prior_options.loss_scale));
+                }});
+  t->push_back({"alignment-max-error", "E",
+                "COLMAP's alignment_ransac max_error: the distance within which a prior agrees with\n"
+                "the similarity moving the model onto the priors; 0 (the default): three times the\n"
+                "priors' RMS standard deviation",
+                [&o, given](const std::string &v) {
+                  return given(sbacli::to_real(v, 0.0, false, &o.prior_options.alignment_max_error));
+                }});
+  t->push_back({"point-priors", "FILE",
+                "COLMAP: ground control points, soft: a line per point, POINT3D_ID X Y Z SIGMA, or\n"
+                "POINT3D_ID X Y Z and a covariance's 9 values; with at least 3 and no position priors,\n"
+                "the model is first moved onto them by a robust similarity",
+                [&o](const std::string &v) { return sbacli::to_file(v, &o.point_priors); }});
+  t->push_back({"intrinsics-priors", "FILE",
+                "COLMAP: priors on intrinsic parameters, a line each: CAMERA_ID PARAM MEAN STDDEV, PARAM\n"
+                "the parameter's index in COLMAP's list for the camera's model, or f, fx, fy, cx, cy",
+                [&o](const std::string &v) { return sbacli::to_file(v, &o.intrinsics_priors); }});
+}
+
 // The outputs and inputs of one format each.
 void add_format_options(std::vector<sbacli::Option> *t, Options &o) {
   t->push_back({"write-eucsba", "PREFIX",
@@ -259,6 +324,7 @@ std::vector<sbacli::Option> option_table(Options &o) {
   add_intrinsics_options(&t, o);
   add_pose_options(&t, o);
   add_constant_options(&t, o);
+  add_prior_options(&t, o);
   t.push_back({"max-num-iterations", "N",
                "COLMAP's name of --itmax (default 100 for a COLMAP model, as COLMAP; 150 for the others)",
                [&o](const std::string &v) {
@@ -447,6 +513,7 @@ struct Loaded {
   nvm::SbaProblem problem;  // NVM
   std::unique_ptr<euclidean::CameraModel> sba_model;
   colmap::Problem colmap_problem;
+  colmap::ProblemPriors priors;
   nvm::Model nvm;
   bundler::Bundle bundle;
   bundler::ImageList list;
@@ -627,8 +694,102 @@ decltype(Job::covariance) colmap_covariance(const Options &o, Loaded *l) {
   };
 }
 
+// The priors the options name, as read and checked against the model.
+struct ModelPriors {
+  std::vector<colmap::PosePrior> poses;  // usable_pose_priors'
+  std::vector<colmap::PointPrior> points;
+  std::vector<colmap::IntrinsicPrior> intrinsics;
+};
+
+// The similarity that moves the centres (or points) src onto the priors dst, as COLMAP 4's
+// pose-prior adjustment moves its model before refining it, applied to model; the summary's
+// words for it.
+std::string align_model(const std::vector<std::array<double, 3>> &src, const std::vector<std::array<double, 3>> &dst,
+                        const std::vector<const std::array<double, 9> *> &covariances, double max_error,
+                        colmap::Model *model) {
+  if (max_error <= 0) {
+    double variance = 0;  // the mean over the priors of each axis's variance
+    for (const std::array<double, 9> *c : covariances) variance += ((*c)[0] + (*c)[4] + (*c)[8]) / 3;
+    max_error = 3 * std::sqrt(variance / static_cast<double>(covariances.size()));
+  }
+  colmap::Similarity x;
+  int inliers = 0;
+  if (!colmap::robust_similarity(src, dst, max_error, &x, &inliers))
+    return "not moved (the model's positions coincide)";
+  colmap::transform_model(x, model);
+  char text[160];
+  std::snprintf(text, sizeof text, "moved onto them by a similarity of scale %.6g (%d of %zu within %.3g)", x.s,
+                inliers, src.size(), max_error);
+  return text;
+}
+
+// The priors of the options (docs/priors.md), into *out, and the model moved onto them when there
+// are enough to place it (not with --itmax 0, which rewrites the model as read): *said tells what
+// was done, for the summary.
+bool read_priors(const Options &o, colmap::Model *model, ModelPriors *out, std::string *said, std::string *error) {
+  std::vector<colmap::PosePrior> read;
+  int unknown = 0;
+  const std::string &source = o.database_path.empty() ? o.pose_priors : o.database_path;
+  if (!o.database_path.empty() && !colmap::read_pose_priors_database(o.database_path, &read, error)) return false;
+  if (!o.pose_priors.empty() && !colmap::read_pose_priors_text(o.pose_priors, *model, &read, &unknown, error))
+    return false;
+  std::size_t wgs84 = 0;
+  for (const colmap::PosePrior &p : read) wgs84 += p.system == colmap::PriorSystem::Wgs84;
+  colmap::wgs84_to_enu(&read);
+  if (!colmap::usable_pose_priors(*model, read, o.prior_options, &out->poses, error)) return false;
+  if (!o.point_priors.empty() && !colmap::read_point_priors(o.point_priors, *model, &out->points, error)) return false;
+  if (!o.intrinsics_priors.empty() &&
+      !colmap::read_intrinsic_priors(o.intrinsics_priors, *model, &out->intrinsics, error))
+    return false;
+  const bool align = o.solve.itmax > 0;
+  if (!source.empty()) {
+    *said = "\nPosition priors: " + std::to_string(out->poses.size()) + " of the " +
+            std::to_string(read.size() + static_cast<std::size_t>(unknown)) + " in " + source +
+            " on images that see points";
+    if (wgs84 > 0) *said += " (" + std::to_string(wgs84) + " WGS84, taken to metres east, north and up of the first)";
+    if (out->poses.size() < static_cast<std::size_t>(colmap::kMinPosePriors)) {
+      *said += ": fewer than 3, so the model is refined without them, as COLMAP does";
+      out->poses.clear();
+    } else if (align) {
+      const std::vector<std::array<double, 3>> centres = colmap::image_centres(*model);
+      std::unordered_map<std::uint32_t, std::size_t> index;
+      for (std::size_t k = 0; k < model->images.size(); ++k) index.emplace(model->images[k].id, k);
+      std::vector<std::array<double, 3>> src, dst;
+      std::vector<const std::array<double, 9> *> cov;
+      for (const colmap::PosePrior &p : out->poses) {
+        src.push_back(centres[index.at(p.image_id)]);
+        dst.push_back(p.position);
+        cov.push_back(&p.covariance);
+      }
+      *said += ": the model " + align_model(src, dst, cov, o.prior_options.alignment_max_error, model) +
+               ", then refined with them";
+    }
+  }
+  if (!out->points.empty()) {
+    *said += "\nPoint priors (ground control points): " + std::to_string(out->points.size()) + " from " + o.point_priors;
+    if (out->poses.empty() && out->points.size() >= static_cast<std::size_t>(colmap::kMinPosePriors) && align) {
+      std::unordered_map<std::uint64_t, std::size_t> index;
+      for (std::size_t k = 0; k < model->points.size(); ++k) index.emplace(model->points[k].id, k);
+      std::vector<std::array<double, 3>> src, dst;
+      std::vector<const std::array<double, 9> *> cov;
+      for (const colmap::PointPrior &p : out->points) {
+        src.push_back(model->points[index.at(p.point_id)].xyz);
+        dst.push_back(p.position);
+        cov.push_back(&p.covariance);
+      }
+      *said += ": the model " + align_model(src, dst, cov, 0, model) + ", then refined with them";
+    }
+  }
+  if (!out->intrinsics.empty())
+    *said += "\nIntrinsics priors: " + std::to_string(out->intrinsics.size()) + " from " + o.intrinsics_priors;
+  return true;
+}
+
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
+  ModelPriors priors;
+  std::string priors_said;
+  if (!read_priors(o, &l->model, &priors, &priors_said, error)) return false;
   colmap::Options options;
   options.intrinsics = o.refine;
   options.poses = o.poses;
@@ -640,6 +801,15 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   const colmap::Problem &pr = l->colmap_problem;
   colmap_job(pr, job);
   job->ncon = pr.held_points();
+  if (!l->priors.build(pr, priors.poses, o.prior_options, priors.points, priors.intrinsics, error)) return false;
+  sba_ext_options ext{};
+  l->priors.attach(&ext);
+  job->in.ncamera_priors = ext.ncamera_priors;
+  job->in.camera_priors = ext.camera_priors;
+  job->in.ncamera_linear_priors = ext.ncamera_linear_priors;
+  job->in.camera_linear_priors = ext.camera_linear_priors;
+  job->in.npoint_priors = ext.npoint_priors;
+  job->in.point_priors = ext.point_priors;
   // The library can only say that the initial error is not finite; the model can say where.
   if (o.solve.itmax > 0) {
     *error = pr.nonfinite_error(l->model, o.input);
@@ -655,6 +825,7 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   if (l->encoding == colmap::Encoding::Binary && colmap::has_model(o.input, colmap::Encoding::Text))
     job->summary += "\nThe text model beside it is not read: binary is read first, as COLMAP does";
   job->summary += unseen_images(l->model, pr);
+  job->summary += priors_said;
   const auto count = [](std::size_t n, const char *what) {
     return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
   };
@@ -824,6 +995,10 @@ int check_format_options(Format format, Options *o) {
       {!o->hold_sensors.empty(), format == Format::Colmap, "--hold-sensor-from-rig", "COLMAP models"},
       {!o->hold_points.empty(), format == Format::Colmap, "--hold-points", "COLMAP models"},
       {!o->hold_points_file.empty(), format == Format::Colmap, "--hold-points-file", "COLMAP models"},
+      {!o->database_path.empty(), format == Format::Colmap, "--database-path", "COLMAP models"},
+      {!o->pose_priors.empty(), format == Format::Colmap, "--pose-priors", "COLMAP models"},
+      {!o->point_priors.empty(), format == Format::Colmap, "--point-priors", "COLMAP models"},
+      {!o->intrinsics_priors.empty(), format == Format::Colmap, "--intrinsics-priors", "COLMAP models"},
       {o->poses_given, format == Format::Colmap, "--refine-rig-from-world (or --refine-sensor-from-rig, "
        "--constant-rig-from-world-rotation)", "COLMAP models"},
       {o->intrinsics_given, format != Format::Bundler, "--intrinsics (or --refine-*)",
@@ -837,6 +1012,15 @@ int check_format_options(Format format, Options *o) {
   if ((o->covariance_options.points || o->covariance_damping_given) && o->covariance.empty()) {
     std::fprintf(stderr, "sbarefine: --covariance-points and --covariance-damping are for --covariance, which is "
                          "not given\n");
+    return kExitUsage;
+  }
+  if (!o->database_path.empty() && !o->pose_priors.empty()) {
+    std::fprintf(stderr, "sbarefine: --database-path and --pose-priors are two sources of the same priors: give one\n");
+    return kExitUsage;
+  }
+  if (o->prior_options_given && o->database_path.empty() && o->pose_priors.empty()) {
+    std::fprintf(stderr, "sbarefine: --prior-position-* and --alignment-max-error are for the position priors of "
+                         "--database-path or --pose-priors, neither of which is given\n");
     return kExitUsage;
   }
   if (!o->write_list.empty() && o->bundler_list.empty()) {

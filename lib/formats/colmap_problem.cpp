@@ -679,4 +679,157 @@ void Problem::camera_covariances(const double *camcov, Covariances *out) const {
   }
 }
 
+// ---- priors ----
+
+void Problem::centre(int j, const double *a, double c[3], double *J) const {
+  const auto centre_at = [&](const double *aj, double out[3]) {
+    const cc::Camera cam = with_model([&](const auto &sm) { return sm.camera(j, aj); });
+    double R[9];
+    sbacameras::euclidean::rotation_matrix(cam.q, R);
+    for (int r = 0; r < 3; ++r) out[r] = -(R[r] * cam.t[0] + R[3 + r] * cam.t[1] + R[6 + r] * cam.t[2]);
+  };
+  centre_at(a, c);
+  if (!J) return;
+  const int np = rigged_ ? cc::kRigPoseParams : cc::kPoseParams;
+  std::fill(J, J + 3 * at(cnp_), 0.0);
+  std::vector<double> x(a, a + cnp_);
+  for (int k = 0; k < np; ++k) {
+    if (held(j, k)) continue;
+    // The rotation parameters are small angles and the translations lengths: a step relative
+    // to the value, at least 1e-6, leaves both the truncation (a centre is quadratic at most
+    // in them) and the rounding near 1e-10 of the centre.
+    const double h = 1e-6 * std::max(1.0, std::fabs(a[k]));
+    double plus[3], minus[3];
+    x[at(k)] = a[k] + h;
+    centre_at(x.data(), plus);
+    x[at(k)] = a[k] - h;
+    centre_at(x.data(), minus);
+    x[at(k)] = a[k];
+    for (int r = 0; r < 3; ++r) J[at(r) * at(cnp_) + at(k)] = (plus[r] - minus[r]) / (2 * h);
+  }
+}
+
+int Problem::camera_of_image(std::uint32_t image_id) const {
+  for (std::size_t j = 0; j < ids_.size(); ++j)
+    if (ids_[j].image == image_id) return static_cast<int>(j);
+  return -1;
+}
+
+int Problem::point_of_id(std::uint64_t point_id) const {
+  for (std::size_t k = 0; k < point_ids_.size(); ++k)
+    if (point_ids_[k] == point_id) return static_cast<int>(k);
+  return -1;
+}
+
+bool Problem::camera_parameter(std::uint32_t camera_id, int k, int *j, int *column) const {
+  for (std::size_t q = 0; q < ids_.size(); ++q)
+    if (ids_[q].camera == camera_id && ids_[q].writes_params) {
+      *j = static_cast<int>(q);
+      *column = (rigged_ ? cc::kRigPoseParams : cc::kPoseParams) + k;
+      return true;
+    }
+  return false;
+}
+
+void ProblemPriors::residual(int j, const double *aj, double *r, void *data) {
+  const Position &p = *static_cast<const Position *>(data);
+  p.problem->centre(j, aj, r, nullptr);
+  for (int k = 0; k < 3; ++k) r[k] -= p.mean[at(k)];
+}
+
+void ProblemPriors::jacobian(int j, const double *aj, double *jac, void *data) {
+  const Position &p = *static_cast<const Position *>(data);
+  double c[3];
+  p.problem->centre(j, aj, c, jac);
+}
+
+bool ProblemPriors::build(const Problem &problem, const std::vector<PosePrior> &poses, const PosePriorOptions &options,
+                          const std::vector<PointPrior> &points, const std::vector<IntrinsicPrior> &intrinsics,
+                          std::string *error) {
+  positions_.clear();
+  linears_.clear();
+  points_.clear();
+  camera_.clear();
+  linear_.clear();
+  point_.clear();
+  loss_ = options.loss;
+  const int np = problem.rigged() ? cc::kRigPoseParams : cc::kPoseParams;
+  for (const PosePrior &pp : poses) {
+    const int j = problem.camera_of_image(pp.image_id);
+    if (j < 0) continue;
+    bool free = false;
+    for (int k = 0; k < np; ++k) free = free || !problem.held(j, k);
+    if (!free || j < problem.mcon()) continue;
+    positions_.push_back({&problem, j, pp.position, pp.covariance});
+  }
+  for (const PointPrior &gp : points) {
+    const int i = problem.point_of_id(gp.point_id);
+    if (i < 0) {
+      *error = gp.where + ": point " + std::to_string(gp.point_id) + " is not in the problem";
+      return false;
+    }
+    if (i < problem.held_points()) {
+      *error = gp.where + ": point " + std::to_string(gp.point_id) + " is held (a constant point): a prior on it "
+                          "cannot move it";
+      return false;
+    }
+    points_.push_back(gp);
+  }
+  std::vector<int> linear_cameras;
+  for (const IntrinsicPrior &ip : intrinsics) {
+    int j = -1, column = -1;
+    if (!problem.camera_parameter(ip.camera_id, ip.param, &j, &column)) {
+      *error = ip.where + ": camera " + std::to_string(ip.camera_id) + " is refined in no image (none of its images "
+                          "sees a point, or all are held by --mcon)";
+      return false;
+    }
+    if (problem.held(j, column)) {
+      *error = ip.where + ": parameter " + std::to_string(ip.param) + " of camera " + std::to_string(ip.camera_id) +
+               " is held (--intrinsics, --refine-*, --hold-intrinsics): a prior on it cannot move it";
+      return false;
+    }
+    linears_.push_back({column, ip.mean, ip.stddev});
+    linear_cameras.push_back(j);
+  }
+  const char *loss = loss_.empty() ? nullptr : loss_.c_str();
+  for (const Position &p : positions_) {
+    sba_camera_prior c{};
+    c.camera = p.j;
+    c.dim = 3;
+    c.func = residual;
+    c.jacf = jacobian;
+    c.data = const_cast<Position *>(&p);
+    c.weight.covariance = p.covariance.data();
+    c.loss = loss;
+    c.loss_scale = options.loss_scale;
+    camera_.push_back(c);
+  }
+  for (std::size_t k = 0; k < linears_.size(); ++k) {
+    sba_camera_linear_prior l{};
+    l.camera = linear_cameras[k];
+    l.k = 1;
+    l.params = &linears_[k].param;
+    l.mean = &linears_[k].mean;
+    l.weight.sigma = &linears_[k].sigma;
+    linear_.push_back(l);
+  }
+  for (const PointPrior &gp : points_) {
+    sba_point_prior q{};
+    q.point = problem.point_of_id(gp.point_id);
+    q.mean = gp.position.data();
+    q.weight.covariance = gp.covariance.data();
+    point_.push_back(q);
+  }
+  return true;
+}
+
+void ProblemPriors::attach(sba_ext_options *ext) const {
+  ext->ncamera_priors = static_cast<int>(camera_.size());
+  ext->camera_priors = camera_.empty() ? nullptr : camera_.data();
+  ext->ncamera_linear_priors = static_cast<int>(linear_.size());
+  ext->camera_linear_priors = linear_.empty() ? nullptr : linear_.data();
+  ext->npoint_priors = static_cast<int>(point_.size());
+  ext->point_priors = point_.empty() ? nullptr : point_.data();
+}
+
 }  // namespace sbaformats::colmap

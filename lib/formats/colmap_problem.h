@@ -29,6 +29,7 @@
 #include "cameras/colmap_camera.h"
 #include "formats/colmap_covariance.h"
 #include "formats/colmap_io.h"
+#include "formats/colmap_priors.h"
 #include "formats/colmap_sba.h"
 #include "formats/eucsba_io.h"
 #include "sba.h"
@@ -125,6 +126,8 @@ class Problem {
   const std::vector<int> &cam_param_group() const { return cam_param_group_; }
   // The points held at the start (sba's ncon): the options' ncon and the constant points.
   int held_points() const { return held_points_; }
+  // The cameras held at the start (sba's mcon).
+  int mcon() const { return mcon_; }
 
   // ---- what the reports print ----
   // Whether the images are images of rigs (the rig camera model).
@@ -164,6 +167,24 @@ class Problem {
   bool covariance(const Model &model, const double *p, const sba_ext_options &ext, const CovarianceOptions &options,
                   Covariances *out) const;
 
+  // ---- what the priors take ----
+  // The projection centre of sba camera j at its parameters a (cnp values): the image's own,
+  // through its camera's pose in its rig in a rig. J, when not null, gets dc/da (3 x cnp,
+  // row-major), by central differences over the pose's parameters (the rest do not move it).
+  void centre(int j, const double *a, double c[3], double *J) const;
+  // The sba camera of an image id, -1 for an image that has none.
+  int camera_of_image(std::uint32_t image_id) const;
+  // The problem's index of a POINT3D_ID, -1 for none.
+  int point_of_id(std::uint64_t point_id) const;
+  // The sba camera whose parameter vector carries COLMAP camera camera_id's parameters (the
+  // first image of it from mcon on), and the position of its parameter k there; false when
+  // no sba camera from mcon on uses the camera.
+  bool camera_parameter(std::uint32_t camera_id, int k, int *j, int *column) const;
+  // Whether parameter c of sba camera j is held.
+  bool held(int j, int c) const {
+    return cam_fixed_[static_cast<std::size_t>(j) * static_cast<std::size_t>(cnp_) + static_cast<std::size_t>(c)] != 0;
+  }
+
  private:
   struct Builder;
   struct Index;
@@ -197,6 +218,52 @@ class Problem {
   Counts counts_;
   std::unique_ptr<sbacameras::colmap_camera::CameraModel> image_model_;
   std::unique_ptr<sbacameras::colmap_camera::RigCameraModel> rig_model_;
+};
+
+// The priors of a problem as the library takes them (sba_ext_options' prior fields), and the
+// values they point to. Position priors are priors on the sba cameras' projection centres
+// (Problem::centre), COLMAP's pose priors; point priors are on the problem's points (ground
+// control points); intrinsics priors are linear priors on the sba camera that carries the
+// COLMAP camera's parameters, so that a camera shared by its images counts once. The problem
+// must outlive them, at the same address (the callbacks point to it).
+class ProblemPriors {
+ public:
+  ProblemPriors() = default;
+  // The library's structs point into the vectors below.
+  ProblemPriors(const ProblemPriors &) = delete;
+  ProblemPriors &operator=(const ProblemPriors &) = delete;
+  // False with "WHERE: why" for a prior the problem cannot take: a point that is held, an
+  // intrinsic parameter that is held or of a camera no refined image uses. A position prior
+  // of an image whose pose is held entirely (or below mcon) is left out: it is a constant.
+  bool build(const Problem &problem, const std::vector<PosePrior> &poses, const PosePriorOptions &options,
+             const std::vector<PointPrior> &points, const std::vector<IntrinsicPrior> &intrinsics,
+             std::string *error);
+  // ext's prior fields pointed at these priors (none when there are none).
+  void attach(sba_ext_options *ext) const;
+  std::size_t size() const { return camera_.size() + linear_.size() + point_.size(); }
+  std::size_t positions() const { return camera_.size(); }
+
+ private:
+  struct Position {
+    const Problem *problem;
+    int j;
+    std::array<double, 3> mean;
+    std::array<double, 9> covariance;
+  };
+  struct Linear {
+    int param;
+    double mean, sigma;
+  };
+  static void residual(int j, const double *aj, double *r, void *data);
+  static void jacobian(int j, const double *aj, double *jac, void *data);
+
+  std::vector<Position> positions_;
+  std::vector<Linear> linears_;
+  std::vector<PointPrior> points_;
+  std::string loss_;
+  std::vector<sba_camera_prior> camera_;
+  std::vector<sba_camera_linear_prior> linear_;
+  std::vector<sba_point_prior> point_;
 };
 
 }  // namespace sbaformats::colmap

@@ -1,0 +1,595 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "formats/colmap_priors.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "cameras/camera_pose.h"
+#include "cameras/colmap_camera.h"
+#include "formats/text_tokens.h"
+
+namespace sbaformats::colmap {
+namespace {
+
+using Vec3 = std::array<double, 3>;
+
+// The lines of a text file that hold something, each as its tokens and its line number.
+struct Line {
+  int number = 0;
+  std::vector<std::string> tokens;
+};
+
+bool read_lines(const std::string &path, std::vector<Line> *out, std::string *error) {
+  std::string text;
+  if (!read_whole_file(path, true, &text, error)) return false;
+  int number = 0;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string::npos) end = text.size();
+    ++number;
+    Line line{number, {}};
+    std::size_t k = pos;
+    while (k < end) {
+      while (k < end && (text[k] == ' ' || text[k] == '\t' || text[k] == '\r')) ++k;
+      const std::size_t b = k;
+      while (k < end && text[k] != ' ' && text[k] != '\t' && text[k] != '\r') ++k;
+      if (k > b) line.tokens.emplace_back(text, b, k - b);
+    }
+    if (!line.tokens.empty() && line.tokens[0][0] != '#') out->push_back(std::move(line));
+    pos = end + 1;
+  }
+  return true;
+}
+
+std::string at(const std::string &path, const Line &line) { return path + ":" + std::to_string(line.number) + ": "; }
+
+bool finite_value(const std::string &tok, const std::string &what, const std::string &where, double *out,
+                  std::string *error) {
+  if (decimal_number(tok, out) && std::isfinite(*out)) return true;
+  *error = where + what + " must be a finite number, got '" + TextTokens::printable(tok) + "'";
+  return false;
+}
+
+// A whole number in [0, hi], plain decimal digits.
+bool id_value(const std::string &tok, const std::string &what, const std::string &where, std::uint64_t hi,
+              std::uint64_t *out, std::string *error) {
+  bool digits = !tok.empty() && tok.size() <= 19;
+  for (char c : tok) digits = digits && c >= '0' && c <= '9';
+  const unsigned long long v = digits ? std::strtoull(tok.c_str(), nullptr, 10) : 0;
+  if (!digits || v > hi) {
+    *error = where + what + " must be a whole number in 0.." + std::to_string(hi) + ", got '" +
+             TextTokens::printable(tok) + "'";
+    return false;
+  }
+  *out = v;
+  return true;
+}
+
+// Whether the row-major 3x3 c is symmetric (to rounding) and positive definite: its Cholesky
+// factor exists.
+bool symmetric_positive_definite(const std::array<double, 9> &c) {
+  double scale = 0;
+  for (double v : c) {
+    if (!std::isfinite(v)) return false;
+    scale = std::max(scale, std::fabs(v));
+  }
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < r; ++k)
+      if (std::fabs(c[r * 3 + k] - c[k * 3 + r]) > 1e-9 * scale) return false;
+  double L[9] = {};
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k <= r; ++k) {
+      double s = c[r * 3 + k];
+      for (int q = 0; q < k; ++q) s -= L[r * 3 + q] * L[k * 3 + q];
+      if (r == k) {
+        if (!(s > 0)) return false;
+        L[r * 3 + r] = std::sqrt(s);
+      } else {
+        L[r * 3 + k] = s / L[k * 3 + k];
+      }
+    }
+  return true;
+}
+
+std::string covariance_message(const std::array<double, 9> &c) {
+  for (double v : c)
+    if (!std::isfinite(v)) return "its covariance has a value that is not finite";
+  return "its covariance is not symmetric positive definite";
+}
+
+// --- the similarity ---
+
+// The eigenvector of the largest eigenvalue of the symmetric 4x4 N, by Jacobi's rotations.
+std::array<double, 4> largest_eigenvector(std::array<double, 16> N) {
+  std::array<double, 16> V{};
+  for (int k = 0; k < 4; ++k) V[k * 4 + k] = 1;
+  for (int sweep = 0; sweep < 50; ++sweep) {
+    double off = 0, diag = 0;
+    for (int p = 0; p < 4; ++p) {
+      diag += N[p * 4 + p] * N[p * 4 + p];
+      for (int q = p + 1; q < 4; ++q) off += N[p * 4 + q] * N[p * 4 + q];
+    }
+    if (off <= 1e-30 * diag || off == 0) break;
+    for (int p = 0; p < 4; ++p)
+      for (int q = p + 1; q < 4; ++q) {
+        const double apq = N[p * 4 + q];
+        if (apq == 0) continue;
+        const double theta = (N[q * 4 + q] - N[p * 4 + p]) / (2 * apq);
+        const double t = (theta >= 0 ? 1 : -1) / (std::fabs(theta) + std::sqrt(theta * theta + 1));
+        const double c = 1 / std::sqrt(t * t + 1), s = t * c;
+        for (int k = 0; k < 4; ++k) {  // N <- N J
+          const double a = N[k * 4 + p], b = N[k * 4 + q];
+          N[k * 4 + p] = c * a - s * b;
+          N[k * 4 + q] = s * a + c * b;
+        }
+        for (int k = 0; k < 4; ++k) {  // N <- J^T N
+          const double a = N[p * 4 + k], b = N[q * 4 + k];
+          N[p * 4 + k] = c * a - s * b;
+          N[q * 4 + k] = s * a + c * b;
+        }
+        for (int k = 0; k < 4; ++k) {
+          const double a = V[k * 4 + p], b = V[k * 4 + q];
+          V[k * 4 + p] = c * a - s * b;
+          V[k * 4 + q] = s * a + c * b;
+        }
+      }
+  }
+  int best = 0;
+  for (int k = 1; k < 4; ++k)
+    if (N[k * 4 + k] > N[best * 4 + best]) best = k;
+  return {V[0 * 4 + best], V[1 * 4 + best], V[2 * 4 + best], V[3 * 4 + best]};
+}
+
+// The least-squares similarity dst ~ s R src + t over the pairs `use` (Horn's closed form with
+// quaternions, the scale as Umeyama's): false when the source points coincide.
+bool fit_similarity(const std::vector<Vec3> &src, const std::vector<Vec3> &dst, const std::vector<int> &use,
+                    Similarity *out) {
+  const double n = static_cast<double>(use.size());
+  Vec3 ms{}, md{};
+  for (int k : use)
+    for (int a = 0; a < 3; ++a) {
+      ms[a] += src[k][a] / n;
+      md[a] += dst[k][a] / n;
+    }
+  double S[9] = {}, var = 0;
+  for (int k : use) {
+    Vec3 x, y;
+    for (int a = 0; a < 3; ++a) {
+      x[a] = src[k][a] - ms[a];
+      y[a] = dst[k][a] - md[a];
+      var += x[a] * x[a];
+    }
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) S[a * 3 + b] += x[a] * y[b];
+  }
+  if (!(var > 0) || !std::isfinite(var)) return false;
+  const double Sxx = S[0], Sxy = S[1], Sxz = S[2], Syx = S[3], Syy = S[4], Syz = S[5], Szx = S[6], Szy = S[7],
+               Szz = S[8];
+  const std::array<double, 16> N = {Sxx + Syy + Szz, Syz - Szy,       Szx - Sxz,        Sxy - Syx,
+                                    Syz - Szy,       Sxx - Syy - Szz, Sxy + Syx,        Szx + Sxz,
+                                    Szx - Sxz,       Sxy + Syx,       -Sxx + Syy - Szz, Syz + Szy,
+                                    Sxy - Syx,       Szx + Sxz,       Syz + Szy,        -Sxx - Syy + Szz};
+  const std::array<double, 4> q = largest_eigenvector(N);
+  const double w = q[0], x = q[1], y = q[2], z = q[3];
+  Similarity r;
+  r.R = {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
+         2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+         2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
+  double dot = 0;
+  for (int k : use)
+    for (int a = 0; a < 3; ++a) {
+      double rx = 0;
+      for (int b = 0; b < 3; ++b) rx += r.R[a * 3 + b] * (src[k][b] - ms[b]);
+      dot += (dst[k][a] - md[a]) * rx;
+    }
+  r.s = dot / var;
+  if (!(r.s > 0) || !std::isfinite(r.s)) return false;
+  for (int a = 0; a < 3; ++a) {
+    double rm = 0;
+    for (int b = 0; b < 3; ++b) rm += r.R[a * 3 + b] * ms[b];
+    r.t[a] = md[a] - r.s * rm;
+  }
+  *out = r;
+  return true;
+}
+
+Vec3 transformed(const Similarity &x, const Vec3 &p) {
+  Vec3 q;
+  for (int a = 0; a < 3; ++a)
+    q[a] = x.s * (x.R[a * 3] * p[0] + x.R[a * 3 + 1] * p[1] + x.R[a * 3 + 2] * p[2]) + x.t[a];
+  return q;
+}
+
+double distance(const Vec3 &a, const Vec3 &b) {
+  return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+}
+
+std::vector<int> inliers_of(const Similarity &x, const std::vector<Vec3> &src, const std::vector<Vec3> &dst,
+                            double max_error) {
+  std::vector<int> in;
+  for (std::size_t k = 0; k < src.size(); ++k)
+    if (distance(transformed(x, src[k]), dst[k]) <= max_error) in.push_back(static_cast<int>(k));
+  return in;
+}
+
+// Whether three points span a plane: the triangle's area is not negligible beside its sides.
+bool spans_plane(const Vec3 &a, const Vec3 &b, const Vec3 &c) {
+  const Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+  const Vec3 w{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+  const double uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2], vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+  return w[0] * w[0] + w[1] * w[1] + w[2] * w[2] > 1e-12 * uu * vv;
+}
+
+constexpr double kDegree = 3.14159265358979323846 / 180;
+
+Vec3 wgs84_to_ecef(const Vec3 &lla) {
+  constexpr double a = 6378137.0, f = 1 / 298.257223563, e2 = f * (2 - f);
+  const double lat = lla[0] * kDegree, lon = lla[1] * kDegree, h = lla[2];
+  const double N = a / std::sqrt(1 - e2 * std::sin(lat) * std::sin(lat));
+  return {(N + h) * std::cos(lat) * std::cos(lon), (N + h) * std::cos(lat) * std::sin(lon),
+          (N * (1 - e2) + h) * std::sin(lat)};
+}
+
+}  // namespace
+
+bool read_pose_priors_text(const std::string &path, const Model &model, std::vector<PosePrior> *out,
+                           int *unknown, std::string *error) {
+  *unknown = 0;
+  std::vector<Line> lines;
+  if (!read_lines(path, &lines, error)) return false;
+  std::unordered_map<std::string, std::uint32_t> by_name;
+  for (const Image &im : model.images) by_name.emplace(im.name, im.id);
+  out->clear();
+  for (const Line &line : lines) {
+    const std::string where = at(path, line);
+    std::vector<std::string> t = line.tokens;
+    PosePrior p;
+    p.where = path + ":" + std::to_string(line.number);
+    p.system = PriorSystem::Cartesian;
+    double probe = 0;
+    if (t.size() == 5 || t.size() == 14) {
+      if (t.back() == "CARTESIAN") p.system = PriorSystem::Cartesian;
+      else if (t.back() == "WGS84") p.system = PriorSystem::Wgs84;
+      else if (!decimal_number(t.back(), &probe)) {
+        *error = where + "the coordinate system must be CARTESIAN or WGS84, got '" +
+                 TextTokens::printable(t.back()) + "'";
+        return false;
+      }
+      if (!decimal_number(t.back(), &probe)) t.pop_back();
+    }
+    if (t.size() != 4 && t.size() != 13) {
+      *error = where + "expected NAME X Y Z, then optionally the 9 values of a covariance and CARTESIAN or WGS84 "
+                       "(got " + std::to_string(line.tokens.size()) + " values)";
+      return false;
+    }
+    const auto image = by_name.find(t[0]);
+    if (image != by_name.end()) p.image_id = image->second;
+    static const char *const kAxes[] = {"X", "Y", "Z"};
+    for (int a = 0; a < 3; ++a)
+      if (!finite_value(t[1 + static_cast<std::size_t>(a)], kAxes[a], where, &p.position[static_cast<std::size_t>(a)], error))
+        return false;
+    if (t.size() == 13) {
+      p.has_covariance = true;
+      for (std::size_t k = 0; k < 9; ++k)
+        if (!finite_value(t[4 + k], "covariance value " + std::to_string(k + 1), where, &p.covariance[k], error))
+          return false;
+    }
+    if (image != by_name.end()) out->push_back(p);
+    else ++*unknown;
+  }
+  return true;
+}
+
+void wgs84_to_enu(std::vector<PosePrior> *priors) {
+  const PosePrior *ref = nullptr;
+  for (const PosePrior &p : *priors)
+    if (p.system == PriorSystem::Wgs84) {
+      ref = &p;
+      break;
+    }
+  if (!ref) return;
+  const Vec3 origin = wgs84_to_ecef(ref->position);
+  const double lat = ref->position[0] * kDegree, lon = ref->position[1] * kDegree;
+  const double sl = std::sin(lat), cl = std::cos(lat), so = std::sin(lon), co = std::cos(lon);
+  // Rows: east, north, up in ECEF.
+  const double R[9] = {-so, co, 0, -sl * co, -sl * so, cl, cl * co, cl * so, sl};
+  std::vector<Vec3> enu;
+  for (const PosePrior &p : *priors) {
+    if (p.system != PriorSystem::Wgs84) continue;
+    const Vec3 e = wgs84_to_ecef(p.position);
+    const Vec3 d{e[0] - origin[0], e[1] - origin[1], e[2] - origin[2]};
+    enu.push_back({R[0] * d[0] + R[1] * d[1] + R[2] * d[2], R[3] * d[0] + R[4] * d[1] + R[5] * d[2],
+                   R[6] * d[0] + R[7] * d[1] + R[8] * d[2]});
+  }
+  std::size_t k = 0;
+  for (PosePrior &p : *priors)
+    if (p.system == PriorSystem::Wgs84) {
+      p.position = enu[k++];
+      p.system = PriorSystem::Cartesian;
+    }
+}
+
+bool usable_pose_priors(const Model &model, const std::vector<PosePrior> &priors, const PosePriorOptions &options,
+                        std::vector<PosePrior> *out, std::string *error) {
+  const double sd = options.fallback_stddev;
+  if (!(sd > 0) || !std::isfinite(sd * sd)) {
+    *error = "the fallback standard deviation of the position priors must be finite and > 0";
+    return false;
+  }
+  std::unordered_map<std::uint32_t, bool> sees;  // image id: whether it sees a point
+  for (const Image &im : model.images) {
+    bool any = false;
+    for (const Point2D &pt : im.points) any = any || pt.point3d_id != kNoPoint;
+    sees.emplace(im.id, any);
+  }
+  std::unordered_set<std::uint32_t> seen;
+  out->clear();
+  for (const PosePrior &p : priors) {
+    const auto image = sees.find(p.image_id);
+    if (image == sees.end()) continue;
+    if (!seen.insert(p.image_id).second) {
+      *error = p.where + ": image " + std::to_string(p.image_id) + " has a position prior already";
+      return false;
+    }
+    // COLMAP's default position, all NaN, means none: a prior of something else (a gravity).
+    if (std::isnan(p.position[0]) && std::isnan(p.position[1]) && std::isnan(p.position[2])) continue;
+    for (double v : p.position)
+      if (!std::isfinite(v)) {
+        *error = p.where + ": its position is not finite";
+        return false;
+      }
+    PosePrior q = p;
+    bool finite = p.has_covariance;
+    for (double v : p.covariance) finite = finite && std::isfinite(v);
+    if (!finite) {
+      q.covariance = {sd * sd, 0, 0, 0, sd * sd, 0, 0, 0, sd * sd};
+      q.has_covariance = true;
+    } else if (!symmetric_positive_definite(q.covariance)) {
+      *error = p.where + ": " + covariance_message(q.covariance);
+      return false;
+    }
+    if (image->second) out->push_back(q);
+  }
+  return true;
+}
+
+bool robust_similarity(const std::vector<Vec3> &src, const std::vector<Vec3> &dst, double max_error,
+                       Similarity *out, int *inliers) {
+  const int n = static_cast<int>(src.size());
+  if (n < 3 || dst.size() != src.size()) return false;
+  std::mt19937_64 random(0x5ba);
+  std::vector<int> best;
+  Similarity best_x;
+  const int max_trials = 10000;
+  double needed = max_trials;
+  for (int trial = 0; trial < max_trials && trial < needed; ++trial) {
+    int a = static_cast<int>(random() % static_cast<unsigned>(n)), b = static_cast<int>(random() % static_cast<unsigned>(n)),
+        c = static_cast<int>(random() % static_cast<unsigned>(n));
+    if (a == b || b == c || a == c || !spans_plane(src[static_cast<std::size_t>(a)], src[static_cast<std::size_t>(b)],
+                                                   src[static_cast<std::size_t>(c)]))
+      continue;
+    Similarity x;
+    if (!fit_similarity(src, dst, {a, b, c}, &x)) continue;
+    std::vector<int> in = inliers_of(x, src, dst, max_error);
+    if (in.size() > best.size()) {
+      best = std::move(in);
+      best_x = x;
+      // Trials until a triple of inliers is drawn with 99% confidence.
+      const double w = static_cast<double>(best.size()) / n;
+      const double miss = 1 - w * w * w;
+      needed = miss <= 0 ? 0 : std::min<double>(max_trials, std::log(0.01) / std::log(miss));
+    }
+  }
+  if (best.size() < 3) {
+    // No triple spans a plane, or none has three pairs within max_error: the least-squares fit
+    // of all pairs, if there is one.
+    std::vector<int> all(static_cast<std::size_t>(n));
+    for (int k = 0; k < n; ++k) all[static_cast<std::size_t>(k)] = k;
+    if (!fit_similarity(src, dst, all, &best_x)) return false;
+    *out = best_x;
+    *inliers = 0;
+    return true;
+  }
+  // Refit on the inliers until they no longer change.
+  for (int round = 0; round < 5; ++round) {
+    Similarity x;
+    if (!fit_similarity(src, dst, best, &x)) break;
+    std::vector<int> in = inliers_of(x, src, dst, max_error);
+    best_x = x;
+    if (in == best || in.size() < 3) break;
+    best = std::move(in);
+  }
+  *out = best_x;
+  *inliers = static_cast<int>(best.size());
+  return true;
+}
+
+void transform_model(const Similarity &x, Model *model) {
+  // X_c = R_c X + t_c with X = R^T (X' - t) / s: s X_c = R_c R^T X' + s t_c - R_c R^T t.
+  const auto move_pose = [&x](std::array<double, 4> *q, std::array<double, 3> *t) {
+    sbacameras::euclidean::Quaternion qc{(*q)[0], (*q)[1], (*q)[2], (*q)[3]};
+    qc = sbacameras::euclidean::normalized_rotation(qc);
+    double Rc[9];
+    sbacameras::euclidean::rotation_matrix(qc, Rc);
+    double M[9];  // R_c R^T
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        M[a * 3 + b] = Rc[a * 3] * x.R[b * 3] + Rc[a * 3 + 1] * x.R[b * 3 + 1] + Rc[a * 3 + 2] * x.R[b * 3 + 2];
+    std::array<double, 3> tn;
+    for (int a = 0; a < 3; ++a)
+      tn[a] = x.s * (*t)[a] - (M[a * 3] * x.t[0] + M[a * 3 + 1] * x.t[1] + M[a * 3 + 2] * x.t[2]);
+    *t = tn;
+    // The quaternion of M (Shepperd's method: the largest of the four squares first).
+    const double tr = M[0] + M[4] + M[8];
+    double w, qx, qy, qz;
+    if (tr >= M[0] && tr >= M[4] && tr >= M[8]) {
+      const double r = std::sqrt(1 + tr);
+      w = r / 2;
+      qx = (M[7] - M[5]) / (2 * r);
+      qy = (M[2] - M[6]) / (2 * r);
+      qz = (M[3] - M[1]) / (2 * r);
+    } else if (M[0] >= M[4] && M[0] >= M[8]) {
+      const double r = std::sqrt(1 + M[0] - M[4] - M[8]);
+      qx = r / 2;
+      w = (M[7] - M[5]) / (2 * r);
+      qy = (M[1] + M[3]) / (2 * r);
+      qz = (M[2] + M[6]) / (2 * r);
+    } else if (M[4] >= M[8]) {
+      const double r = std::sqrt(1 - M[0] + M[4] - M[8]);
+      qy = r / 2;
+      w = (M[2] - M[6]) / (2 * r);
+      qx = (M[1] + M[3]) / (2 * r);
+      qz = (M[5] + M[7]) / (2 * r);
+    } else {
+      const double r = std::sqrt(1 - M[0] - M[4] + M[8]);
+      qz = r / 2;
+      w = (M[3] - M[1]) / (2 * r);
+      qx = (M[2] + M[6]) / (2 * r);
+      qy = (M[5] + M[7]) / (2 * r);
+    }
+    const sbacameras::euclidean::Quaternion qn = sbacameras::euclidean::normalized_rotation({w, qx, qy, qz});
+    *q = {qn.w, qn.x, qn.y, qn.z};
+  };
+  for (Point3D &p : model->points) p.xyz = transformed(x, p.xyz);
+  for (Image &im : model->images) move_pose(&im.q, &im.t);
+  for (Frame &f : model->frames) move_pose(&f.rig_from_world.q, &f.rig_from_world.t);
+  for (Rig &r : model->rigs)
+    for (RigSensor &s : r.sensors)
+      if (s.has_pose)
+        for (double &v : s.sensor_from_rig.t) v *= x.s;
+}
+
+std::vector<Vec3> image_centres(const Model &model) {
+  const std::vector<Pose> poses = image_poses(model);
+  std::vector<Vec3> out;
+  out.reserve(poses.size());
+  for (const Pose &p : poses) {
+    double R[9];
+    sbacameras::euclidean::rotation_matrix(
+        sbacameras::euclidean::normalized_rotation({p.q[0], p.q[1], p.q[2], p.q[3]}), R);
+    out.push_back(sbacameras::camera_centre(R, p.t.data()));
+  }
+  return out;
+}
+
+bool read_point_priors(const std::string &path, const Model &model, std::vector<PointPrior> *out,
+                       std::string *error) {
+  std::vector<Line> lines;
+  if (!read_lines(path, &lines, error)) return false;
+  std::unordered_set<std::uint64_t> ids, seen;
+  for (const Point3D &p : model.points) ids.insert(p.id);
+  out->clear();
+  for (const Line &line : lines) {
+    const std::string where = at(path, line);
+    const std::vector<std::string> &t = line.tokens;
+    if (t.size() != 5 && t.size() != 13) {
+      *error = where + "expected POINT3D_ID X Y Z SIGMA, or POINT3D_ID X Y Z and the 9 values of a covariance (got " +
+               std::to_string(t.size()) + " values)";
+      return false;
+    }
+    PointPrior p;
+    p.where = path + ":" + std::to_string(line.number);
+    if (!id_value(t[0], "POINT3D_ID", where, std::numeric_limits<std::uint64_t>::max() - 1, &p.point_id, error))
+      return false;
+    if (!ids.count(p.point_id)) {
+      *error = where + "no point has POINT3D_ID " + t[0] + " in the model";
+      return false;
+    }
+    if (!seen.insert(p.point_id).second) {
+      *error = where + "point " + t[0] + " has a prior already";
+      return false;
+    }
+    static const char *const kAxes[] = {"X", "Y", "Z"};
+    for (int a = 0; a < 3; ++a)
+      if (!finite_value(t[1 + static_cast<std::size_t>(a)], kAxes[a], where, &p.position[static_cast<std::size_t>(a)], error))
+        return false;
+    if (t.size() == 5) {
+      double sigma = 0;
+      if (!finite_value(t[4], "SIGMA", where, &sigma, error)) return false;
+      if (!(sigma > 0) || !std::isfinite(sigma * sigma)) {
+        *error = where + "SIGMA must be > 0 (and its square finite), got " + t[4];
+        return false;
+      }
+      p.covariance = {sigma * sigma, 0, 0, 0, sigma * sigma, 0, 0, 0, sigma * sigma};
+    } else {
+      for (std::size_t k = 0; k < 9; ++k)
+        if (!finite_value(t[4 + k], "covariance value " + std::to_string(k + 1), where, &p.covariance[k], error))
+          return false;
+      if (!symmetric_positive_definite(p.covariance)) {
+        *error = where + covariance_message(p.covariance);
+        return false;
+      }
+    }
+    out->push_back(p);
+  }
+  return true;
+}
+
+bool read_intrinsic_priors(const std::string &path, const Model &model, std::vector<IntrinsicPrior> *out,
+                           std::string *error) {
+  std::vector<Line> lines;
+  if (!read_lines(path, &lines, error)) return false;
+  std::unordered_map<std::uint32_t, int> models;
+  for (const Camera &c : model.cameras) models.emplace(c.id, c.model);
+  std::unordered_set<std::uint64_t> seen;
+  out->clear();
+  for (const Line &line : lines) {
+    const std::string where = at(path, line);
+    const std::vector<std::string> &t = line.tokens;
+    if (t.size() != 4) {
+      *error = where + "expected CAMERA_ID PARAM MEAN STDDEV (got " + std::to_string(t.size()) + " values)";
+      return false;
+    }
+    IntrinsicPrior p;
+    p.where = path + ":" + std::to_string(line.number);
+    std::uint64_t id = 0;
+    if (!id_value(t[0], "CAMERA_ID", where, 0xffffffffu, &id, error)) return false;
+    const auto cam = models.find(static_cast<std::uint32_t>(id));
+    if (cam == models.end()) {
+      *error = where + "no camera has CAMERA_ID " + t[0] + " in the model";
+      return false;
+    }
+    p.camera_id = static_cast<std::uint32_t>(id);
+    const int model_id = cam->second;
+    const int nparams = camera_model_params(model_id), focals = sbacameras::colmap_camera::focal_count(model_id);
+    const std::string &name = t[1];
+    int k = -1;
+    if (name == "f" && focals == 1) k = 0;
+    else if (name == "fx" && focals == 2) k = 0;
+    else if (name == "fy" && focals == 2) k = 1;
+    else if (name == "cx" && focals > 0) k = focals;
+    else if (name == "cy" && focals > 0) k = focals + 1;
+    else {
+      std::uint64_t index = 0;
+      std::string ignored;
+      if (id_value(name, "PARAM", where, 1000, &index, &ignored) && index < static_cast<std::uint64_t>(nparams))
+        k = static_cast<int>(index);
+    }
+    if (k < 0) {
+      *error = where + "camera " + t[0] + " (" + camera_model_name(model_id) + ") has no parameter '" +
+               TextTokens::printable(name) + "' (its parameters are 0.." + std::to_string(nparams - 1) +
+               (focals == 1 ? ", or f, cx, cy)" : focals == 2 ? ", or fx, fy, cx, cy)" : ")");
+      return false;
+    }
+    p.param = k;
+    if (!seen.insert(static_cast<std::uint64_t>(p.camera_id) << 8 | static_cast<std::uint64_t>(k)).second) {
+      *error = where + "parameter " + std::to_string(k) + " of camera " + t[0] + " has a prior already";
+      return false;
+    }
+    if (!finite_value(t[2], "MEAN", where, &p.mean, error) || !finite_value(t[3], "STDDEV", where, &p.stddev, error))
+      return false;
+    if (!(p.stddev > 0)) {
+      *error = where + "STDDEV must be > 0, got " + t[3];
+      return false;
+    }
+    out->push_back(p);
+  }
+  return true;
+}
+
+}  // namespace sbaformats::colmap

@@ -1,0 +1,135 @@
+/* SPDX-License-Identifier: BSD-3-Clause */
+// Priors of a COLMAP model (docs/priors.md, "sbarefine"): GPS positions of images as COLMAP 4
+// keeps them (its database's pose_priors table, or a text file), ground control points and
+// intrinsics, read and checked here; and what COLMAP's pose-prior bundle adjustment does with
+// positions before the solve: WGS84 to a local east-north-up frame, a missing covariance
+// replaced by a fallback, the model moved onto the priors by a robust similarity. The residuals
+// themselves are the library's priors (sba_ext.h), built by colmap::Problem.
+#ifndef SBA_LIB_FORMATS_COLMAP_PRIORS_H
+#define SBA_LIB_FORMATS_COLMAP_PRIORS_H
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "formats/colmap_io.h"
+
+namespace sbaformats::colmap {
+
+// COLMAP's PosePrior::CoordinateSystem, by the values of its database.
+enum class PriorSystem : int { Undefined = -1, Wgs84 = 0, Cartesian = 1 };
+
+// A position prior of one image: where its projection centre is, and how well that is known.
+// A WGS84 position is latitude and longitude in degrees and altitude in metres.
+struct PosePrior {
+  std::uint32_t image_id = 0;
+  std::array<double, 3> position{};
+  std::array<double, 9> covariance{};  // row-major, when has_covariance
+  bool has_covariance = false;
+  PriorSystem system = PriorSystem::Undefined;
+  std::string where;  // names it in messages: "DB: pose prior 4 (image 7)", "FILE:12"
+};
+
+// The pose_priors table of COLMAP's database at path: COLMAP 4's layout (a prior per data
+// item: those of cameras, whose data is an image), or 3.x's (a prior per image_id), whichever
+// the table has. A position of 3 doubles is required; a covariance of 9 doubles, or NULL
+// (none); the gravity of COLMAP 4 is not read. Rows in pose_prior_id (image_id) order. False
+// with "PATH: why" when the file is not a database, has no such table, or a row's blob has
+// another size than its field's.
+bool read_pose_priors_database(const std::string &path, std::vector<PosePrior> *out, std::string *error);
+
+// A text file of position priors, one a line (docs/priors.md):
+//   NAME X Y Z [C11 C12 C13 C21 C22 C23 C31 C32 C33] [CARTESIAN|WGS84]
+// The covariance row-major; '#' starts a comment line. A NAME that no image of model has is
+// counted in *unknown and left out (the priors of a whole flight, of which the model holds the
+// images it registered). False with "PATH:LINE: why".
+bool read_pose_priors_text(const std::string &path, const Model &model, std::vector<PosePrior> *out,
+                           int *unknown, std::string *error);
+
+// COLMAP's use of the positions, as its pose-prior bundle adjustment takes them.
+struct PosePriorOptions {
+  // A prior without a covariance (none given, or one not finite) gets this standard deviation
+  // in each axis (COLMAP's prior_position_fallback_stddev).
+  double fallback_stddev = 1.0;
+  // The robust loss on each prior's squared Mahalanobis distance: "" (COLMAP's TRIVIAL) or
+  // "cauchy", and its scale (COLMAP's prior_position_loss_scale, sqrt of the 95% quantile of
+  // chi-squared with 3 degrees of freedom).
+  std::string loss;
+  double loss_scale = 2.7954834829151074;
+  // The similarity's inlier threshold, in the priors' units; 0: three times the priors' RMS
+  // standard deviation.
+  double alignment_max_error = 0;
+};
+
+// At least this many usable priors make COLMAP's adjustment a pose-prior one; with fewer it is
+// its adjustment without priors.
+constexpr int kMinPosePriors = 3;
+
+// WGS84 positions to east-north-up metres around the first WGS84 prior (on the WGS84
+// ellipsoid), as COLMAP's database cache converts them; they are then CARTESIAN. Covariances
+// are kept as given.
+void wgs84_to_enu(std::vector<PosePrior> *priors);
+
+// The priors on images of model that see a point (an sba camera each), with their covariance
+// set: given and finite, else the fallback. A prior of an image the model does not hold (one
+// COLMAP did not register) or that sees no point is left out, and so is one without a position
+// (all NaN: COLMAP's default). False with "WHERE: why" for an image given twice, a position
+// that is not finite or a covariance that is not symmetric positive definite, or a fallback
+// that is not finite and > 0.
+bool usable_pose_priors(const Model &model, const std::vector<PosePrior> &priors, const PosePriorOptions &options,
+                        std::vector<PosePrior> *out, std::string *error);
+
+// X' = s R X + t.
+struct Similarity {
+  double s = 1;
+  std::array<double, 9> R{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  std::array<double, 3> t{};
+};
+
+// The similarity that takes src[k] to dst[k] (n >= 3 pairs), robustly: random triples (a fixed
+// seed: the same input gives the same result) fitted by Umeyama's method, the one with the most
+// pairs within max_error kept and refitted on those. False when no triple spans a plane (the
+// points are collinear or coincide).
+bool robust_similarity(const std::vector<std::array<double, 3>> &src, const std::vector<std::array<double, 3>> &dst,
+                       double max_error, Similarity *out, int *inliers);
+
+// model moved by x: points X' = s R X + t, every pose with it (a frame's rig_from_world, or an
+// image's own pose), each translation of a camera in its rig scaled by s.
+void transform_model(const Similarity &x, Model *model);
+
+// The projection centre of each image of model, by image index (image_poses).
+std::vector<std::array<double, 3>> image_centres(const Model &model);
+
+// A ground control point: a prior on a 3D point (docs/priors.md), in the model's frame.
+struct PointPrior {
+  std::uint64_t point_id = 0;
+  std::array<double, 3> position{};
+  std::array<double, 9> covariance{};  // row-major
+  std::string where;                   // "FILE:LINE"
+};
+
+// A text file of point priors, one a line: POINT3D_ID X Y Z SIGMA, or POINT3D_ID X Y Z and the
+// 9 values of a row-major covariance. False with "PATH:LINE: why": an unknown or repeated
+// point, a value not finite, a SIGMA <= 0, a covariance not symmetric positive definite.
+bool read_point_priors(const std::string &path, const Model &model, std::vector<PointPrior> *out,
+                       std::string *error);
+
+// A prior on one intrinsic parameter of a COLMAP camera, in all its images.
+struct IntrinsicPrior {
+  std::uint32_t camera_id = 0;
+  int param = 0;  // index in COLMAP's parameter list of the camera's model
+  double mean = 0, stddev = 1;
+  std::string where;
+};
+
+// A text file of intrinsics priors, one a line: CAMERA_ID PARAM MEAN STDDEV, PARAM the
+// parameter's 0-based index in COLMAP's list for the camera's model, or f, fx, fy, cx, cy. False
+// with "PATH:LINE: why": an unknown camera or parameter, a parameter given twice, a value not
+// finite, STDDEV <= 0.
+bool read_intrinsic_priors(const std::string &path, const Model &model, std::vector<IntrinsicPrior> *out,
+                           std::string *error);
+
+}  // namespace sbaformats::colmap
+
+#endif  // SBA_LIB_FORMATS_COLMAP_PRIORS_H
