@@ -245,6 +245,18 @@ def json_cost(report, name):
     return None
 
 
+def diagnose(pycolmap, args, name, model, extra, report, priors, t_cost, theirs):
+    """A failure's context: how sbarefine stopped, and where it ends with --itmax 1000."""
+    out = os.path.join(args.work, name, "sbarefine_itmax1000")
+    longer = refine_ok(args, model, out, extra + ["--itmax", "1000"])
+    rec = pycolmap.Reconstruction(out)
+    cost = sum(evaluate(pycolmap, rec, priors))
+    return ("; sbarefine stopped after %s iterations (%s); with --itmax 1000 after %s (%s): cost ratio - 1 = %.3g, "
+            "largest centre difference %.3g of the extent" % (report.get("ret"), report.get("stop_reason"),
+                                                              longer.get("ret"), longer.get("stop_reason"),
+                                                              cost / t_cost - 1, largest_centre_difference(rec, theirs)))
+
+
 def check_against_pycolmap(pycolmap, args, name, model, database, held_cameras=()):
     """sbarefine (database and text file) against pycolmap's adjuster on the model: returns
     sbarefine's refined reconstruction (the database's route) and pycolmap's."""
@@ -270,8 +282,13 @@ def check_against_pycolmap(pycolmap, args, name, model, database, held_cameras=(
              o_reprojection, o_prior, o_cost, o_cost / t_cost - 1, difference, extent(theirs)))
     expect(start_prior > 10 * t_prior, "%s: the prior term starts at %.6g, ends at %.6g: the model was not moved"
            % (name, start_prior, t_prior))
-    expect(o_cost <= t_cost * (1 + TOLERANCE), "%s: sbarefine's cost %.17g, pycolmap's %.17g" % (name, o_cost, t_cost))
-    expect(difference <= TOLERANCE, "%s: a centre %.3g of the extent from pycolmap's" % (name, difference))
+    note = ""
+    if o_cost > t_cost * (1 + TOLERANCE) or difference > TOLERANCE:
+        note = diagnose(pycolmap, args, name, model, ["--database-path", database] + hold, report, priors, t_cost,
+                        theirs)
+    expect(o_cost <= t_cost * (1 + TOLERANCE), "%s: sbarefine's cost %.17g, pycolmap's %.17g (ratio - 1 = %.3g)%s"
+           % (name, o_cost, t_cost, o_cost / t_cost - 1, note))
+    expect(difference <= TOLERANCE, "%s: a centre %.3g of the extent from pycolmap's%s" % (name, difference, note))
     for key, mine in (("projection_cost", o_reprojection), ("prior_cost", o_prior)):
         v = json_cost(report, key) if report else None
         if v is not None:
