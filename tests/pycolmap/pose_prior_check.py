@@ -140,12 +140,14 @@ def write_priors_text(pycolmap, rec, raw, path):
             f.write(" ".join([name] + [repr(v) for v in values] + [system]) + "\n")
 
 
-def pycolmap_refine(pycolmap, model, priors, held_cameras=()):
+def pycolmap_refine(pycolmap, model, priors, held_cameras=(), summary_out=None):
     """COLMAP 4's pose-prior bundle adjuster on the model in model, at its defaults: the refined
     reconstruction and Ceres's final cost x 2. The alignment's RANSAC is seeded, so that the
     reference is the same run after run (from some of its random starts Ceres creeps along a
-    valley for its 100 iterations); the run must end in Ceres's CONVERGENCE, a minimum."""
-    rec = pycolmap.Reconstruction(model)
+    valley for its 100 iterations); the run must end in Ceres's CONVERGENCE, a minimum, unless
+    summary_out (a list) is given: Ceres's summary is appended to it instead. model: a directory,
+    or a Reconstruction (refined in place)."""
+    rec = model if isinstance(model, pycolmap.Reconstruction) else pycolmap.Reconstruction(model)
     options = pycolmap.BundleAdjustmentOptions()
     options.print_summary = False
     prior_options = pycolmap.PosePriorBundleAdjustmentOptions()
@@ -157,6 +159,9 @@ def pycolmap_refine(pycolmap, model, priors, held_cameras=()):
         config.set_constant_sensor_from_rig_pose(pycolmap.sensor_t(pycolmap.SensorType.CAMERA, c))
     adjuster = pycolmap.create_pose_prior_bundle_adjuster(options, prior_options, config, priors, rec)
     summary = adjuster.solve().ceres_summary
+    if summary_out is not None:
+        summary_out.append(summary)
+        return rec, 2.0 * summary.final_cost
     expect(summary.termination_type.name == "CONVERGENCE",
            "pycolmap's adjuster ended %s after %d steps" % (summary.termination_type, summary.num_successful_steps))
     return rec, 2.0 * summary.final_cost
@@ -252,9 +257,9 @@ def diagnose(pycolmap, args, name, model, extra, report, priors, t_cost, theirs)
     rec = pycolmap.Reconstruction(out)
     cost = sum(evaluate(pycolmap, rec, priors))
     return ("; sbarefine stopped after %s iterations (%s); with --itmax 1000 after %s (%s): cost ratio - 1 = %.3g, "
-            "largest centre difference %.3g of the extent" % (report.get("ret"), report.get("stop_reason"),
-                                                              longer.get("ret"), longer.get("stop_reason"),
-                                                              cost / t_cost - 1, largest_centre_difference(rec, theirs)))
+            "largest centre difference %.3g of the extent"
+            % (report.get("ret"), report.get("stop_reason"), longer.get("ret"), longer.get("stop_reason"),
+               cost / t_cost - 1, largest_centre_difference(rec, theirs)))
 
 
 def check_against_pycolmap(pycolmap, args, name, model, database, held_cameras=()):
