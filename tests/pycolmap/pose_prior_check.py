@@ -15,11 +15,12 @@ are measured by one function, evaluate(): the sum over the observations of the s
 reprojection error (pycolmap's projection of the point into the image) plus the sum over the
 priors of the Mahalanobis term (c - prior)^T Cov^-1 (c - prior) at the image's projection
 centre c (twice Ceres's final cost with the trivial loss); a prior without a finite covariance
-counts with the fallback 1^2 I. Checks, in each case of at least 3 priors:
+counts with the fallback 1^2 I (see case options for the others). Checks, in each case of at least 3 priors:
   - sbarefine's cost <= pycolmap's x (1 + 1e-6);
   - every image's projection centre is pycolmap's to 1e-6 of the scene's extent (the diagonal of
     the box of pycolmap's centres);
-  - the model moved: its prior term before refinement is over 10 times the final one;
+  - the model moved: the priors' median squared distance (Mahalanobis) before refinement is over
+    10 times pycolmap's final one;
   - --json's cost, projection_cost and prior_cost (final) are evaluate()'s, to 1e-6 relative;
   - the same priors from a text file (--pose-priors, a line per prior: the image's name, the
     position, the covariance row by row, the coordinate system) give the database's result:
@@ -39,6 +40,12 @@ Cases:
               rotation bit for bit unchanged, its translation only scaled (the alignment's
               similarity scales the rig: pycolmap does so), both as pycolmap's; the other
               refined.
+  options     the scene of cartesian (another seed), half of the priors without a covariance (9
+              NaNs in the database, none in the text file), one prior 20 m off:
+              --prior-position-fallback-stddev 2 and --prior-position-loss cauchy
+              (--prior-position-loss-scale, its default given), pycolmap's
+              prior_position_fallback_stddev and Cauchy loss; evaluate() counts the fallback
+              covariance 2^2 I and the loss.
   two_priors  all priors but two deleted: sbarefine with --database-path writes the bytes it
               writes without it, and the same --json costs of reprojection.
   bad_input   a database without the pose_priors table, and one whose prior 2 has a position
@@ -50,10 +57,13 @@ Exit status: 0 every check passed, 1 a check failed, 77 (ctest's SKIP_RETURN_COD
 With --python, a Python that cannot import pycolmap runs this script with PY instead.
 """
 import argparse
+import collections
 import json
+import math
 import os
 import shutil
 import sqlite3
+import struct
 import subprocess
 import sys
 
@@ -61,7 +71,20 @@ from pycolmap_check import SKIP, Failure, expect, import_pycolmap, perturb_rigs
 
 TOLERANCE = 1e-6     # sbarefine against pycolmap
 SAME = 1e-9          # the text file's route against the database's
-FALLBACK_STDDEV = 1.0  # PosePriorBundleAdjustmentOptions.prior_position_fallback_stddev, sbarefine's default
+# PosePriorBundleAdjustmentOptions' prior_position_fallback_stddev and, when cauchy_scale is not
+# None, its Cauchy loss of that scale on the priors (ceres.prior_position_loss_function_type and
+# _scale); the defaults are pycolmap's and sbarefine's.
+PriorSettings = collections.namedtuple("PriorSettings", "fallback cauchy_scale")
+DEFAULT = PriorSettings(1.0, None)
+
+
+def sbarefine_options(settings):
+    out = []
+    if settings.fallback != DEFAULT.fallback:
+        out += ["--prior-position-fallback-stddev", repr(settings.fallback)]
+    if settings.cauchy_scale is not None:
+        out += ["--prior-position-loss", "cauchy", "--prior-position-loss-scale", repr(settings.cauchy_scale)]
+    return out
 
 
 def moved_by_similarity(pycolmap, rec):
@@ -131,17 +154,20 @@ def database_priors(pycolmap, database):
 
 
 def write_priors_text(pycolmap, rec, raw, path):
-    """The priors as sbarefine's --pose-priors file: NAME X Y Z C11..C33 SYSTEM, in their order."""
+    """The priors as sbarefine's --pose-priors file: NAME X Y Z C11..C33 SYSTEM, in their order (a
+    prior without a covariance NAME X Y Z SYSTEM)."""
     with open(path, "w") as f:
         f.write("# NAME X Y Z C11 C12 C13 C21 C22 C23 C31 C32 C33 SYSTEM\n")
         for p in raw:
             name = rec.images[p.corr_data_id.id].name
-            values = [float(v) for v in p.position] + [float(v) for v in p.position_covariance.reshape(9)]
+            values = [float(v) for v in p.position]
+            if p.has_position_cov():
+                values += [float(v) for v in p.position_covariance.reshape(9)]
             system = str(p.coordinate_system).split(".")[-1]
             f.write(" ".join([name] + [repr(v) for v in values] + [system]) + "\n")
 
 
-def pycolmap_refine(pycolmap, model, priors, held_cameras=(), summary_out=None):
+def pycolmap_refine(pycolmap, model, priors, held_cameras=(), summary_out=None, settings=DEFAULT):
     """COLMAP 4's pose-prior bundle adjuster on the model in model, at its defaults: the refined
     reconstruction and Ceres's final cost x 2. The alignment's RANSAC is seeded, so that the
     reference is the same run after run (from some of its random starts Ceres creeps along a
@@ -153,6 +179,10 @@ def pycolmap_refine(pycolmap, model, priors, held_cameras=(), summary_out=None):
     options.print_summary = False
     prior_options = pycolmap.PosePriorBundleAdjustmentOptions()
     prior_options.alignment_ransac.random_seed = 1
+    prior_options.prior_position_fallback_stddev = settings.fallback
+    if settings.cauchy_scale is not None:
+        prior_options.ceres.prior_position_loss_function_type = pycolmap.LossFunctionType.CAUCHY
+        prior_options.ceres.prior_position_loss_scale = settings.cauchy_scale
     config = pycolmap.BundleAdjustmentConfig()
     for i in rec.reg_image_ids():
         config.add_image(i)
@@ -168,11 +198,12 @@ def pycolmap_refine(pycolmap, model, priors, held_cameras=(), summary_out=None):
     return rec, 2.0 * summary.final_cost
 
 
-def evaluate(pycolmap, rec, priors, fallback=FALLBACK_STDDEV):
+def evaluate(pycolmap, rec, priors, settings=DEFAULT):
     """(reprojection, prior): the sum of the squared reprojection errors by pycolmap's
     projection, and the sum of the priors' Mahalanobis terms at their images' projection
     centres (a prior whose image is not in rec is not counted; one without a finite covariance
-    weighted by fallback^2 I)."""
+    weighted by fallback^2 I); with settings' Cauchy loss of scale a, each prior's term s counts
+    as a^2 log(1 + s / a^2), Ceres's CauchyLoss(a) x 2."""
     import numpy as np
     reprojection = 0.0
     for im in rec.images.values():
@@ -190,16 +221,29 @@ def evaluate(pycolmap, rec, priors, fallback=FALLBACK_STDDEV):
         observed = np.array([p.xy for p in seen])
         reprojection += float(((projected - observed) ** 2).sum())
     prior = 0.0
+    for term in squared_distances(pycolmap, rec, priors, settings.fallback):
+        if settings.cauchy_scale is not None:
+            b = settings.cauchy_scale ** 2
+            term = b * math.log1p(term / b)
+        prior += term
+    return reprojection, prior
+
+
+def squared_distances(pycolmap, rec, priors, fallback):
+    """Each prior's (c - prior)^T Cov^-1 (c - prior) at its image's projection centre c, the
+    priors of images not in rec left out, Cov fallback^2 I where it is not finite."""
+    import numpy as np
+    out = []
     for p in priors:
         image_id = p.corr_data_id.id
         if image_id not in rec.images:
             continue
         cov = np.array(p.position_covariance)
         if not np.all(np.isfinite(cov)):
-            cov = fallback * fallback * np.eye(3)
+            cov = fallback ** 2 * np.eye(3)
         d = rec.images[image_id].projection_center() - np.array(p.position)
-        prior += float(d @ np.linalg.solve(cov, d))
-    return reprojection, prior
+        out.append(float(d @ np.linalg.solve(cov, d)))
+    return out
 
 
 def centres(rec):
@@ -251,35 +295,36 @@ def json_cost(report, name):
     return None
 
 
-def diagnose(pycolmap, args, name, model, extra, report, priors, t_cost, theirs):
+def diagnose(pycolmap, args, name, model, extra, report, priors, t_cost, theirs, settings):
     """A failure's context: how sbarefine stopped, and where it ends with --itmax 1000."""
     out = os.path.join(args.work, name, "sbarefine_itmax1000")
     longer = refine_ok(args, model, out, extra + ["--itmax", "1000"])
     rec = pycolmap.Reconstruction(out)
-    cost = sum(evaluate(pycolmap, rec, priors))
+    cost = sum(evaluate(pycolmap, rec, priors, settings))
     return ("; sbarefine stopped after %s iterations (%s); with --itmax 1000 after %s (%s): cost ratio - 1 = %.3g, "
             "largest centre difference %.3g of the extent"
             % (report.get("ret"), report.get("stop_reason"), longer.get("ret"), longer.get("stop_reason"),
                cost / t_cost - 1, largest_centre_difference(rec, theirs)))
 
 
-def check_against_pycolmap(pycolmap, args, name, model, database, held_cameras=()):
+def check_against_pycolmap(pycolmap, args, name, model, database, held_cameras=(), settings=DEFAULT):
     """sbarefine (database and text file) against pycolmap's adjuster on the model: returns
     sbarefine's refined reconstruction (the database's route) and pycolmap's."""
     raw, priors = database_priors(pycolmap, database)
     expect(len(priors) >= 3, "%s: %d priors" % (name, len(priors)))
     start = pycolmap.Reconstruction(model)
-    start_reprojection, start_prior = evaluate(pycolmap, start, priors)
-    theirs, ceres_cost = pycolmap_refine(pycolmap, model, priors, held_cameras)
-    t_reprojection, t_prior = evaluate(pycolmap, theirs, priors)
+    start_reprojection, start_prior = evaluate(pycolmap, start, priors, settings)
+    theirs, ceres_cost = pycolmap_refine(pycolmap, model, priors, held_cameras, settings=settings)
+    t_reprojection, t_prior = evaluate(pycolmap, theirs, priors, settings)
     t_cost = t_reprojection + t_prior
     expect(abs(t_cost - ceres_cost) <= 1e-9 * ceres_cost,
            "%s: evaluate() gives pycolmap's result %.17g, Ceres's final cost x 2 %.17g" % (name, t_cost, ceres_cost))
     hold = ["--hold-sensor-from-rig", ",".join(str(c) for c in held_cameras)] if held_cameras else []
+    hold += sbarefine_options(settings)
     out = os.path.join(args.work, name, "sbarefine_database")
     report = refine_ok(args, model, out, ["--database-path", database] + hold)
     ours = pycolmap.Reconstruction(out)
-    o_reprojection, o_prior = evaluate(pycolmap, ours, priors)
+    o_reprojection, o_prior = evaluate(pycolmap, ours, priors, settings)
     o_cost = o_reprojection + o_prior
     difference = largest_centre_difference(ours, theirs)
     print("%s: %d images, %d priors; cost (reprojection + prior) from %.9g + %.9g: pycolmap %.12g + %.12g = %.12g, "
@@ -292,7 +337,7 @@ def check_against_pycolmap(pycolmap, args, name, model, database, held_cameras=(
     out_text = os.path.join(args.work, name, "sbarefine_text")
     refine_ok(args, model, out_text, ["--pose-priors", text] + hold)
     by_text = pycolmap.Reconstruction(out_text)
-    x_cost = sum(evaluate(pycolmap, by_text, priors))
+    x_cost = sum(evaluate(pycolmap, by_text, priors, settings))
     same = largest_centre_difference(by_text, ours)
     print("%s: --pose-priors: cost %.12g, largest centre difference from --database-path's %.3g of the extent"
           % (name, x_cost, same))
@@ -301,12 +346,14 @@ def check_against_pycolmap(pycolmap, args, name, model, database, held_cameras=(
     def check(ok, what):
         if not ok:
             failed.append(what)
-    check(start_prior > 10 * t_prior, "the prior term starts at %.6g, ends at %.6g: the model was not moved"
-          % (start_prior, t_prior))
+    moved = [sorted(squared_distances(pycolmap, r, priors, settings.fallback)) for r in (start, theirs)]
+    moved = [d[len(d) // 2] for d in moved]
+    check(moved[0] > 10 * moved[1], "the priors' median squared distance starts at %.6g, ends at %.6g: the model "
+          "was not moved" % tuple(moved))
     note = ""
     if o_cost > t_cost * (1 + TOLERANCE) or difference > TOLERANCE:
         note = diagnose(pycolmap, args, name, model, ["--database-path", database] + hold, report, priors, t_cost,
-                        theirs)
+                        theirs, settings)
     check(o_cost <= t_cost * (1 + TOLERANCE), "sbarefine's cost %.17g, pycolmap's %.17g (ratio - 1 = %.3g)"
           % (o_cost, t_cost, o_cost / t_cost - 1))
     check(difference <= TOLERANCE, "a centre %.3g of the extent from pycolmap's" % difference)
@@ -386,6 +433,18 @@ def case_held_sensor_from_rig(pycolmap, args):
                                                               st[held][1][0] / s0[held][1][0], shift))
 
 
+def case_options(pycolmap, args):
+    name = "options"
+    model, database = make_scene(pycolmap, os.path.join(args.work, name), 27, "CARTESIAN", 1, 6, "text")
+    nan = struct.pack("<9d", *[float("nan")] * 9)
+    with sqlite3.connect(database) as c:
+        c.execute("UPDATE pose_priors SET position_covariance = ? WHERE pose_prior_id % 2 = 1", (nan,))
+        blob, = c.execute("SELECT position FROM pose_priors WHERE pose_prior_id = 4").fetchone()
+        x, y, z = struct.unpack("<3d", blob)
+        c.execute("UPDATE pose_priors SET position = ? WHERE pose_prior_id = 4", (struct.pack("<3d", x + 20, y, z),))
+    check_against_pycolmap(pycolmap, args, name, model, database, settings=PriorSettings(2.0, 2.7954834829151074))
+
+
 def model_bytes(d):
     out = {}
     for f in sorted(os.listdir(d)):
@@ -443,7 +502,7 @@ def case_bad_input(pycolmap, args):
 
 CASES = {"cartesian": case_cartesian, "wgs84": case_wgs84, "rigs": case_rigs,
          "rigs_reference_priors": case_rigs_reference_priors, "held_sensor_from_rig": case_held_sensor_from_rig,
-         "two_priors": case_two_priors, "bad_input": case_bad_input}
+         "options": case_options, "two_priors": case_two_priors, "bad_input": case_bad_input}
 
 
 def main(argv):
