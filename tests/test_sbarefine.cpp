@@ -1439,8 +1439,15 @@ TEST(SbarefinePriors, PositionPriorsPlaceTheModel) {
   }
   priors += "not_in_the_model.png 1 2 3\n";
   write_file(dir + "/priors.txt", priors);
-  const Outcome r = run(dir + "/in --pose-priors " + dir + "/priors.txt --write " + dir + "/out --json " + dir + "/r.json");
+  const Outcome r = run(dir + "/in --pose-priors " + dir + "/priors.txt --write " + dir + "/out --json " + dir +
+                        "/r.json --covariance " + dir + "/cov.txt");
   ASSERT_EQ(r.status, 0) << r.err;
+  // The priors fix the gauge: their information in J^T J gives the covariance full rank
+  // (without them a similarity's 7 directions are free).
+  const std::string cov = read_file(dir + "/cov.txt");
+  const std::size_t rank_at = cov.find(" RANK "), nfree_at = cov.find(" NFREE ");
+  ASSERT_NE(nfree_at, std::string::npos) << cov.substr(0, 400);
+  EXPECT_EQ(std::stoll(cov.substr(rank_at + 6)), std::stoll(cov.substr(nfree_at + 7)));
   EXPECT_NE(r.out.find("\nPosition priors: 10 of the 11 in " + dir + "/priors.txt on images that see points: the model "
                        "moved onto them by a similarity of scale 0.33"),
             std::string::npos)
