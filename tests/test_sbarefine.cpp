@@ -30,6 +30,7 @@
 #include "cameras/colmap_camera.h"
 #include "formats/bundler_io.h"
 #include "formats/colmap_io.h"
+#include "formats/colmap_priors.h"
 #include "formats/eucsba_io.h"
 #include "generator/sbagen.h"
 #include "sanitized.h"
@@ -1358,6 +1359,176 @@ TEST(SbarefineColmapModels, DefaultsAreColmaps) {
 }
 
 // The shared-camera problem through every linear solver and both strategies: one minimum.
+// ---- priors (docs/priors.md) ----
+
+// The model of s moved far from the truth by a similarity: scaled by 3, turned and shifted,
+// as a reconstruction without priors comes out of COLMAP, in a frame of its own.
+colmap::Model displaced(const colmap::Model &m) {
+  colmap::Similarity x;
+  const double c = std::cos(1.1), sn = std::sin(1.1);
+  x.R = {c, -sn, 0, sn, c, 0, 0, 0, 1};
+  x.s = 3;
+  x.t = {50, -20, 10};
+  colmap::Model out = m;
+  colmap::transform_model(x, &out);
+  return out;
+}
+
+double distance3(const std::array<double, 3> &a, const std::array<double, 3> &b) {
+  return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+}
+
+// Ground control points: five of the points, known to 1 cm, bring a model that is off by a
+// similarity back into their frame: every control point within its standard deviation of
+// where it was surveyed, every point and camera centre near the truth. Without them the model
+// stays where it was.
+TEST(SbarefinePriors, GroundControlPointsBringTheModelBack) {
+  const std::string dir = temp_dir("gcp");
+  const ColmapScene s = make_colmap_scene(colmap::kSimpleRadial, {800, 320, 240, -0.05}, {800, 320, 240, -0.05}, true,
+                                          10, 300, 0.5, {});
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", displaced(s.model), colmap::Encoding::Text, &error)) << error;
+  std::string gcp;
+  for (std::size_t i : {3u, 50u, 120u, 200u, 290u}) {
+    const colmap::Point3D &p = s.truth.points[i];
+    char line[200];
+    std::snprintf(line, sizeof line, "%llu %.17g %.17g %.17g 0.01\n", static_cast<unsigned long long>(p.id), p.xyz[0],
+                  p.xyz[1], p.xyz[2]);
+    gcp += line;
+  }
+  write_file(dir + "/gcp.txt", gcp);
+  const Outcome r = run(dir + "/in --point-priors " + dir + "/gcp.txt --write " + dir + "/out --json " + dir + "/r.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("\nPoint priors (ground control points): 5 from " + dir + "/gcp.txt: the model moved onto them "
+                       "by a similarity of scale 0.33"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(read_file(dir + "/r.json").find("\n  \"priors\": 5,\n"), std::string::npos);
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  for (std::size_t i : {3u, 50u, 120u, 200u, 290u}) EXPECT_LT(distance3(back.points[i].xyz, s.truth.points[i].xyz), 0.01) << i;
+  double worst = 0;
+  for (std::size_t i = 0; i < back.points.size(); ++i)
+    worst = std::max(worst, distance3(back.points[i].xyz, s.truth.points[i].xyz));
+  const std::vector<std::array<double, 3>> c = colmap::image_centres(back), t = colmap::image_centres(s.truth);
+  for (std::size_t j = 0; j < c.size(); ++j) worst = std::max(worst, distance3(c[j], t[j]));
+  EXPECT_LT(worst, 0.1);
+
+  const Outcome plain = run(dir + "/in --write " + dir + "/plain");
+  ASSERT_EQ(plain.status, 0) << plain.err;
+  ASSERT_TRUE(colmap::read_model(dir + "/plain", &back, nullptr, &error)) << error;
+  EXPECT_GT(distance3(back.points[3].xyz, s.truth.points[3].xyz), 10);
+}
+
+// Position priors on the camera centres (COLMAP's pose priors, from a text file): the model
+// comes into the priors' frame, each centre near its prior; the report and --json give the
+// costs apart. Fewer than 3 priors: refined as without them, to the bit.
+TEST(SbarefinePriors, PositionPriorsPlaceTheModel) {
+  const std::string dir = temp_dir("pose_priors");
+  const ColmapScene s = make_colmap_scene(colmap::kSimpleRadial, {800, 320, 240, -0.05}, {800, 320, 240, -0.05}, true,
+                                          10, 300, 0.5, {});
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", displaced(s.model), colmap::Encoding::Binary, &error)) << error;
+  const std::vector<std::array<double, 3>> truth = colmap::image_centres(s.truth);
+  std::string priors = "# NAME X Y Z covariance\n";
+  for (std::size_t j = 0; j < truth.size(); ++j) {
+    char line[300];
+    std::snprintf(line, sizeof line, "%s %.17g %.17g %.17g 0.0025 0 0 0 0.0025 0 0 0 0.0025 CARTESIAN\n",
+                  s.truth.images[j].name.c_str(), truth[j][0], truth[j][1], truth[j][2]);
+    priors += line;
+  }
+  priors += "not_in_the_model.png 1 2 3\n";
+  write_file(dir + "/priors.txt", priors);
+  const Outcome r = run(dir + "/in --pose-priors " + dir + "/priors.txt --write " + dir + "/out --json " + dir +
+                        "/r.json --covariance " + dir + "/cov.txt");
+  ASSERT_EQ(r.status, 0) << r.err;
+  // The priors fix the gauge: their information in J^T J gives the covariance full rank
+  // (without them a similarity's 7 directions are free).
+  const std::string cov = read_file(dir + "/cov.txt");
+  const std::size_t rank_at = cov.find(" RANK "), nfree_at = cov.find(" NFREE ");
+  ASSERT_NE(nfree_at, std::string::npos) << cov.substr(0, 400);
+  EXPECT_EQ(std::stoll(cov.substr(rank_at + 6)), std::stoll(cov.substr(nfree_at + 7)));
+  EXPECT_NE(r.out.find("\nPosition priors: 10 of the 11 in " + dir + "/priors.txt on images that see points: the model "
+                       "moved onto them by a similarity of scale 0.33"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("\nCost with 10 priors: projections "), std::string::npos) << r.out;
+  const std::string json = read_file(dir + "/r.json");
+  for (const char *key : {"\"priors\": 10", "\"cost\": {\"initial\": ", "\"projection_cost\": {\"initial\": ",
+                          "\"prior_cost\": {\"initial\": "})
+    EXPECT_NE(json.find(key), std::string::npos) << key;
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  const std::vector<std::array<double, 3>> c = colmap::image_centres(back);
+  for (std::size_t j = 0; j < c.size(); ++j) EXPECT_LT(distance3(c[j], truth[j]), 0.15) << j;  // 3 sigma
+
+  // Two priors place nothing: the same bytes as no priors at all.
+  std::string two;
+  for (std::size_t j = 0; j < 2; ++j) two += s.truth.images[j].name + " 1 2 " + std::to_string(j) + "\n";
+  write_file(dir + "/two.txt", two);
+  ASSERT_EQ(run(dir + "/in --pose-priors " + dir + "/two.txt --write " + dir + "/two").status, 0);
+  ASSERT_EQ(run(dir + "/in --write " + dir + "/none").status, 0);
+  for (const char *f : {"/cameras.bin", "/images.bin", "/points3D.bin"})
+    EXPECT_EQ(read_file(dir + "/two" + f), read_file(dir + "/none" + f)) << f;
+}
+
+// An intrinsics prior pulls the shared focal length to its mean as tightly as its deviation
+// says; one on a held parameter is refused.
+TEST(SbarefinePriors, IntrinsicsPriorHoldsTheFocalLengthSoftly) {
+  const std::string dir = temp_dir("intrinsics_priors");
+  const ColmapScene s = make_colmap_scene(colmap::kSimpleRadial, {800, 320, 240, -0.05}, {816, 320, 240, -0.05}, true,
+                                          10, 300, 0.5, {0, 1});
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  write_file(dir + "/k.txt", "1 f 790 0.001\n");
+  Outcome r = run(dir + "/in --hold-poses 10,13 --intrinsics-priors " + dir + "/k.txt --write " + dir + "/out");
+  ASSERT_EQ(r.status, 0) << r.err;
+  colmap::Model back;
+  ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+  EXPECT_NEAR(back.cameras[0].params[0], 790, 0.01);
+  write_file(dir + "/cx.txt", "1 cx 320 1\n");
+  r = run(dir + "/in --intrinsics-priors " + dir + "/cx.txt --write " + dir + "/cx");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.err, dir + "/cx.txt:1: parameter 1 of camera 1 is held (--intrinsics, --refine-*, --hold-intrinsics): a "
+                         "prior on it cannot move it\n");
+  EXPECT_FALSE(std::filesystem::exists(dir + "/cx"));
+}
+
+// Bad priors and bad combinations stop the run before anything is written, with one line.
+TEST(SbarefinePriors, BadPriorsAreRefused) {
+  const std::string dir = temp_dir("bad_priors");
+  const ColmapScene s = make_colmap_scene(colmap::kSimpleRadial, {800, 320, 240, -0.05}, {800, 320, 240, -0.05}, true,
+                                          6, 60, 0.5, {});
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  write_file(dir + "/p.txt", "img_0.png 1 2 3\n");
+  write_file(dir + "/gcp.txt", "1000 1 2 3 -1\n");
+  write_file(dir + "/notadb", "this is not an SQLite database, and it is long enough to show it..............\n");
+  const struct {
+    std::string args, err;
+    int status;
+  } cases[] = {
+      {"--database-path " + dir + "/notadb", dir + "/notadb: ", 1},
+      {"--database-path " + dir + "/missing.db", dir + "/missing.db: cannot open as an SQLite database", 1},
+      {"--point-priors " + dir + "/gcp.txt", dir + "/gcp.txt:1: SIGMA must be > 0 (and its square finite), got -1\n", 1},
+      {"--pose-priors " + dir + "/p.txt --database-path x.db",
+       "sbarefine: --database-path and --pose-priors are two sources of the same priors: give one\n", 2},
+      {"--prior-position-loss cauchy",
+       "sbarefine: --prior-position-* and --alignment-max-error are for the position priors of --database-path or "
+       "--pose-priors, neither of which is given\n", 2},
+      {"--prior-position-loss huber", "sbarefine: bad value 'huber' for --prior-position-loss: expected one of: trivial, cauchy", 2},
+  };
+  for (const auto &c : cases) {
+    const Outcome r = run(dir + "/in " + c.args + " --write " + dir + "/out");
+    EXPECT_EQ(r.status, c.status) << c.args << "\n" << r.err;
+    EXPECT_EQ(r.err.rfind(c.err, 0), 0u) << c.args << "\n" << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/out")) << c.args;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/missing.db"));
+  }
+  const Outcome bundle = run(std::string(SBA_PROJECT_DIR) + "/data/README.md --pose-priors " + dir + "/p.txt");
+  EXPECT_EQ(bundle.status, 1);
+}
+
 TEST(SbarefineColmapModels, SolversAndStrategiesAgree) {
   const std::string dir = temp_dir("shared_solvers");
   const ColmapScene s = make_colmap_scene(colmap::kSimpleRadial, {800, 320, 240, -0.05}, {816, 320, 240, -0.05}, true,

@@ -56,6 +56,15 @@ struct MotstrInputs {
   int npoint_priors = 0;
   const sba_point_prior *point_priors = nullptr;
   int priors() const { return ncamera_priors + ncamera_linear_priors + npoint_priors; }
+  // ext's prior fields set to these.
+  void attach_priors(sba_ext_options *ext) const {
+    ext->ncamera_priors = ncamera_priors;
+    ext->camera_priors = camera_priors;
+    ext->ncamera_linear_priors = ncamera_linear_priors;
+    ext->camera_linear_priors = camera_linear_priors;
+    ext->npoint_priors = npoint_priors;
+    ext->point_priors = point_priors;
+  }
 };
 
 class MotstrSolve {
@@ -97,12 +106,7 @@ class MotstrSolve {
     ext.cam_group = in.cam_group;
     ext.cam_shared = in.cam_shared;
     ext.cam_param_group = in.cam_param_group;
-    ext.ncamera_priors = in.ncamera_priors;
-    ext.camera_priors = in.camera_priors;
-    ext.ncamera_linear_priors = in.ncamera_linear_priors;
-    ext.camera_linear_priors = in.camera_linear_priors;
-    ext.npoint_priors = in.npoint_priors;
-    ext.point_priors = in.point_priors;
+    in.attach_priors(&ext);
     // The time limit and the iteration times count from the solve's start, not from what the
     // program did before it (an initial PLY file, say).
     control_.emplace(so_.max_time, &progress_);
@@ -157,6 +161,8 @@ class MotstrSolve {
     sba_ext_result scratch;
     init_ext(so_, program_, &sink_, &scratch, &ext);
     ext.result = nullptr;
+    // The priors are residuals of the problem: their information is part of J^T J.
+    in_.attach_priors(&ext);
     RunControl::attach_cancel(&ext);
     sink_.first_error.clear();
     std::string error;

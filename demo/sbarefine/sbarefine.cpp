@@ -17,7 +17,6 @@
 #include <limits>
 #include <memory>
 #include <new>
-#include <unordered_map>
 #include <string>
 #include <vector>
 
@@ -701,28 +700,6 @@ struct ModelPriors {
   std::vector<colmap::IntrinsicPrior> intrinsics;
 };
 
-// The similarity that moves the centres (or points) src onto the priors dst, as COLMAP 4's
-// pose-prior adjustment moves its model before refining it, applied to model; the summary's
-// words for it.
-std::string align_model(const std::vector<std::array<double, 3>> &src, const std::vector<std::array<double, 3>> &dst,
-                        const std::vector<const std::array<double, 9> *> &covariances, double max_error,
-                        colmap::Model *model) {
-  if (max_error <= 0) {
-    double variance = 0;  // the mean over the priors of each axis's variance
-    for (const std::array<double, 9> *c : covariances) variance += ((*c)[0] + (*c)[4] + (*c)[8]) / 3;
-    max_error = 3 * std::sqrt(variance / static_cast<double>(covariances.size()));
-  }
-  colmap::Similarity x;
-  int inliers = 0;
-  if (!colmap::robust_similarity(src, dst, max_error, &x, &inliers))
-    return "not moved (the model's positions coincide)";
-  colmap::transform_model(x, model);
-  char text[160];
-  std::snprintf(text, sizeof text, "moved onto them by a similarity of scale %.6g (%d of %zu within %.3g)", x.s,
-                inliers, src.size(), max_error);
-  return text;
-}
-
 // The priors of the options (docs/priors.md), into *out, and the model moved onto them when there
 // are enough to place it (not with --itmax 0, which rewrites the model as read): *said tells what
 // was done, for the summary.
@@ -733,58 +710,17 @@ bool read_priors(const Options &o, colmap::Model *model, ModelPriors *out, std::
   if (!o.database_path.empty() && !colmap::read_pose_priors_database(o.database_path, &read, error)) return false;
   if (!o.pose_priors.empty() && !colmap::read_pose_priors_text(o.pose_priors, *model, &read, &unknown, error))
     return false;
-  std::size_t wgs84 = 0;
-  for (const colmap::PosePrior &p : read) wgs84 += p.system == colmap::PriorSystem::Wgs84;
-  colmap::wgs84_to_enu(&read);
-  if (!colmap::usable_pose_priors(*model, read, o.prior_options, &out->poses, error)) return false;
   if (!o.point_priors.empty() && !colmap::read_point_priors(o.point_priors, *model, &out->points, error)) return false;
   if (!o.intrinsics_priors.empty() &&
       !colmap::read_intrinsic_priors(o.intrinsics_priors, *model, &out->intrinsics, error))
     return false;
-  const bool align = o.solve.itmax > 0;
-  if (!source.empty()) {
-    *said = "\nPosition priors: " + std::to_string(out->poses.size()) + " of the " +
-            std::to_string(read.size() + static_cast<std::size_t>(unknown)) + " in " + source +
-            " on images that see points";
-    if (wgs84 > 0) *said += " (" + std::to_string(wgs84) + " WGS84, taken to metres east, north and up of the first)";
-    if (out->poses.size() < static_cast<std::size_t>(colmap::kMinPosePriors)) {
-      *said += ": fewer than 3, so the model is refined without them, as COLMAP does";
-      out->poses.clear();
-    } else if (align) {
-      const std::vector<std::array<double, 3>> centres = colmap::image_centres(*model);
-      std::unordered_map<std::uint32_t, std::size_t> index;
-      for (std::size_t k = 0; k < model->images.size(); ++k) index.emplace(model->images[k].id, k);
-      std::vector<std::array<double, 3>> src, dst;
-      std::vector<const std::array<double, 9> *> cov;
-      for (const colmap::PosePrior &p : out->poses) {
-        src.push_back(centres[index.at(p.image_id)]);
-        dst.push_back(p.position);
-        cov.push_back(&p.covariance);
-      }
-      *said += ": the model " + align_model(src, dst, cov, o.prior_options.alignment_max_error, model) +
-               ", then refined with them";
-    }
-  }
-  if (!out->points.empty()) {
-    *said += "\nPoint priors (ground control points): " + std::to_string(out->points.size()) + " from " + o.point_priors;
-    if (out->poses.empty() && out->points.size() >= static_cast<std::size_t>(colmap::kMinPosePriors) && align) {
-      std::unordered_map<std::uint64_t, std::size_t> index;
-      for (std::size_t k = 0; k < model->points.size(); ++k) index.emplace(model->points[k].id, k);
-      std::vector<std::array<double, 3>> src, dst;
-      std::vector<const std::array<double, 9> *> cov;
-      for (const colmap::PointPrior &p : out->points) {
-        src.push_back(model->points[index.at(p.point_id)].xyz);
-        dst.push_back(p.position);
-        cov.push_back(&p.covariance);
-      }
-      *said += ": the model " + align_model(src, dst, cov, 0, model) + ", then refined with them";
-    }
-  }
+  if (!colmap::place_on_priors(std::move(read), unknown, source, out->points, o.point_priors, o.prior_options,
+                               o.solve.itmax > 0, model, &out->poses, said, error))
+    return false;
   if (!out->intrinsics.empty())
     *said += "\nIntrinsics priors: " + std::to_string(out->intrinsics.size()) + " from " + o.intrinsics_priors;
   return true;
 }
-
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
   ModelPriors priors;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
 #include <unordered_map>
@@ -588,6 +589,84 @@ bool read_intrinsic_priors(const std::string &path, const Model &model, std::vec
       return false;
     }
     out->push_back(p);
+  }
+  return true;
+}
+
+}  // namespace sbaformats::colmap
+
+namespace sbaformats::colmap {
+namespace {
+
+// The similarity that moves src onto the priors dst, applied to model; the summary's words for
+// it. max_error 0: three times the priors' RMS standard deviation.
+std::string align_model(const std::vector<Vec3> &src, const std::vector<Vec3> &dst,
+                        const std::vector<const std::array<double, 9> *> &covariances, double max_error,
+                        Model *model) {
+  if (max_error <= 0) {
+    double variance = 0;  // the mean over the priors of each axis's variance
+    for (const std::array<double, 9> *c : covariances) variance += ((*c)[0] + (*c)[4] + (*c)[8]) / 3;
+    max_error = 3 * std::sqrt(variance / static_cast<double>(covariances.size()));
+  }
+  Similarity x;
+  int inliers = 0;
+  if (!robust_similarity(src, dst, max_error, &x, &inliers)) return "not moved (its positions coincide)";
+  transform_model(x, model);
+  char text[160];
+  std::snprintf(text, sizeof text, "moved onto them by a similarity of scale %.6g (%d of %zu within %.3g)", x.s,
+                inliers, src.size(), max_error);
+  return text;
+}
+
+}  // namespace
+
+bool place_on_priors(std::vector<PosePrior> read, int unknown, const std::string &source,
+                     const std::vector<PointPrior> &points, const std::string &points_source,
+                     const PosePriorOptions &options, bool align, Model *model, std::vector<PosePrior> *poses,
+                     std::string *said, std::string *error) {
+  said->clear();
+  std::size_t wgs84 = 0;
+  for (const PosePrior &p : read) wgs84 += p.system == PriorSystem::Wgs84;
+  wgs84_to_enu(&read);
+  if (!usable_pose_priors(*model, read, options, poses, error)) return false;
+  const std::size_t enough = static_cast<std::size_t>(kMinPosePriors);
+  if (!source.empty()) {
+    *said = "\nPosition priors: " + std::to_string(poses->size()) + " of the " +
+            std::to_string(read.size() + static_cast<std::size_t>(unknown)) + " in " + source +
+            " on images that see points";
+    if (wgs84 > 0) *said += " (" + std::to_string(wgs84) + " WGS84, taken to metres east, north and up of the first)";
+    if (poses->size() < enough) {
+      *said += ": fewer than 3, so the model is refined without them, as COLMAP does";
+      poses->clear();
+    } else if (align) {
+      const std::vector<Vec3> centres = image_centres(*model);
+      std::unordered_map<std::uint32_t, std::size_t> index;
+      for (std::size_t k = 0; k < model->images.size(); ++k) index.emplace(model->images[k].id, k);
+      std::vector<Vec3> src, dst;
+      std::vector<const std::array<double, 9> *> cov;
+      for (const PosePrior &p : *poses) {
+        src.push_back(centres[index.at(p.image_id)]);
+        dst.push_back(p.position);
+        cov.push_back(&p.covariance);
+      }
+      *said += ": the model " + align_model(src, dst, cov, options.alignment_max_error, model) +
+               ", then refined with them";
+    }
+  }
+  if (!points.empty()) {
+    *said += "\nPoint priors (ground control points): " + std::to_string(points.size()) + " from " + points_source;
+    if (poses->empty() && points.size() >= enough && align) {
+      std::unordered_map<std::uint64_t, std::size_t> index;
+      for (std::size_t k = 0; k < model->points.size(); ++k) index.emplace(model->points[k].id, k);
+      std::vector<Vec3> src, dst;
+      std::vector<const std::array<double, 9> *> cov;
+      for (const PointPrior &p : points) {
+        src.push_back(model->points[index.at(p.point_id)].xyz);
+        dst.push_back(p.position);
+        cov.push_back(&p.covariance);
+      }
+      *said += ": the model " + align_model(src, dst, cov, 0, model) + ", then refined with them";
+    }
   }
   return true;
 }

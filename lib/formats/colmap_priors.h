@@ -115,6 +115,19 @@ struct PointPrior {
 bool read_point_priors(const std::string &path, const Model &model, std::vector<PointPrior> *out,
                        std::string *error);
 
+// What COLMAP 4's pose-prior bundle adjustment does before its solve, for every front end. The
+// position priors `read` (unknown: how many more named images the model does not have; source:
+// where they came from, for the words) go to east-north-up (wgs84_to_enu) and are checked
+// (usable_pose_priors) into *poses. With at least kMinPosePriors of them, model is moved onto
+// them by robust_similarity (when align: a front end that rewrites a model as read does not
+// move it); with fewer, *poses is emptied: COLMAP's adjustment without priors. Without position
+// priors, at least kMinPosePriors point priors (from points_source) move the model onto the
+// control points likewise. *said: what was done, a line each, each starting with a newline.
+bool place_on_priors(std::vector<PosePrior> read, int unknown, const std::string &source,
+                     const std::vector<PointPrior> &points, const std::string &points_source,
+                     const PosePriorOptions &options, bool align, Model *model, std::vector<PosePrior> *poses,
+                     std::string *said, std::string *error);
+
 // A prior on one intrinsic parameter of a COLMAP camera, in all its images.
 struct IntrinsicPrior {
   std::uint32_t camera_id = 0;

@@ -1,0 +1,482 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The priors of a COLMAP model (formats/colmap_priors.h, and ProblemPriors of
+// formats/colmap_problem.h): WGS84 to east-north-up, the robust similarity and the model moved
+// by it, the readers of COLMAP's database (both layouts) and of the text files with their
+// errors, and a solve in which the priors place a model the projections leave free.
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+#include <unistd.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "formats/colmap_io.h"
+#include "formats/colmap_priors.h"
+#include "formats/colmap_problem.h"
+#include "sba.h"
+#include "sba_ext.h"
+
+namespace {
+
+namespace colmap = sbaformats::colmap;
+using Vec3 = std::array<double, 3>;
+
+std::string temp_path(const std::string &name) {
+  return ::testing::TempDir() + "colmap_priors_" + std::to_string(::getpid()) + "_" + name;
+}
+
+void write_file(const std::string &path, const std::string &text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+colmap::PosePrior wgs84(double lat, double lon, double alt) {
+  colmap::PosePrior p;
+  p.system = colmap::PriorSystem::Wgs84;
+  p.position = {lat, lon, alt};
+  return p;
+}
+
+// The east-north-up coordinates are those of the WGS84 ellipsoid (a = 6378137 m, f =
+// 1/298.257223563), around the first prior: 0.001 degrees of latitude at 47.38 N is 111.186 m
+// north, 0.002 degrees of longitude 151.045 m east, 100 m up is 100 m up; the curvature drops a
+// point 3.85 km away by 1.16 m.
+TEST(Wgs84ToEnu, AroundTheFirstPrior) {
+  std::vector<colmap::PosePrior> p = {wgs84(47.3785, 8.5490, 448.0), wgs84(47.3795, 8.5490, 448.0),
+                                      wgs84(47.3785, 8.5510, 448.0), wgs84(47.3785, 8.5490, 548.0),
+                                      wgs84(47.40, 8.60, 500.0)};
+  colmap::PosePrior cartesian;
+  cartesian.system = colmap::PriorSystem::Cartesian;
+  cartesian.position = {1, 2, 3};
+  p.insert(p.begin() + 2, cartesian);
+  colmap::wgs84_to_enu(&p);
+  const Vec3 expected[] = {{0, 0, 0},
+                           {0, 111.1860501248, -9.702815358e-4},
+                           {1, 2, 3},
+                           {151.0450333041, 1.939854052e-3, -1.785131134e-3},
+                           {0, 0, 99.99999999963},
+                           {3850.113151821, 2391.784716439, 50.39116392488}};
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    EXPECT_EQ(p[k].system, colmap::PriorSystem::Cartesian);
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(p[k].position[a], expected[k][a], 1e-6) << k << " " << a;
+  }
+}
+
+TEST(Wgs84ToEnu, SouthernAndEasternHemispheres) {
+  std::vector<colmap::PosePrior> p = {wgs84(-33.87, 151.21, 0.0), wgs84(-33.8688, 151.2093, 10.0)};
+  colmap::wgs84_to_enu(&p);
+  EXPECT_NEAR(p[1].position[0], -64.768705542913, 1e-6);
+  EXPECT_NEAR(p[1].position[1], 133.104024050772, 1e-6);
+  EXPECT_NEAR(p[1].position[2], 9.998277626094, 1e-6);
+}
+
+colmap::Similarity some_similarity() {
+  colmap::Similarity x;
+  const double c = std::cos(0.7), s = std::sin(0.7);  // about z, then a tilt about x
+  const double cx = std::cos(0.3), sx = std::sin(0.3);
+  const double Rz[9] = {c, -s, 0, s, c, 0, 0, 0, 1}, Rx[9] = {1, 0, 0, 0, cx, -sx, 0, sx, cx};
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      double v = 0;
+      for (int k = 0; k < 3; ++k) v += Rx[a * 3 + k] * Rz[k * 3 + b];
+      x.R[static_cast<std::size_t>(a * 3 + b)] = v;
+    }
+  x.s = 2.5;
+  x.t = {100, -40, 7};
+  return x;
+}
+
+Vec3 moved(const colmap::Similarity &x, const Vec3 &p) {
+  Vec3 q;
+  for (int a = 0; a < 3; ++a)
+    q[static_cast<std::size_t>(a)] =
+        x.s * (x.R[static_cast<std::size_t>(a * 3)] * p[0] + x.R[static_cast<std::size_t>(a * 3 + 1)] * p[1] +
+               x.R[static_cast<std::size_t>(a * 3 + 2)] * p[2]) +
+        x.t[static_cast<std::size_t>(a)];
+  return q;
+}
+
+TEST(RobustSimilarity, RecoversTheSimilarityDespiteOutliers) {
+  const colmap::Similarity truth = some_similarity();
+  std::vector<Vec3> src, dst;
+  for (int k = 0; k < 12; ++k) {
+    const Vec3 p{std::cos(k * 0.9) * 3, std::sin(k * 1.3) * 2, 0.5 * k - 2};
+    src.push_back(p);
+    dst.push_back(moved(truth, p));
+  }
+  dst[3][0] += 50;  // two wrong priors
+  dst[8][2] -= 80;
+  colmap::Similarity x;
+  int inliers = 0;
+  ASSERT_TRUE(colmap::robust_similarity(src, dst, 1.0, &x, &inliers));
+  EXPECT_EQ(inliers, 10);
+  EXPECT_NEAR(x.s, 2.5, 1e-12);
+  for (std::size_t k = 0; k < 9; ++k) EXPECT_NEAR(x.R[k], truth.R[k], 1e-12);
+  for (std::size_t k = 0; k < 3; ++k) EXPECT_NEAR(x.t[k], truth.t[k], 1e-10);
+}
+
+TEST(RobustSimilarity, RefusesCollinearPoints) {
+  std::vector<Vec3> src = {{0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {3, 3, 3}};
+  colmap::Similarity x;
+  int inliers = 0;
+  // Collinear points fix no rotation about their line: no triple spans a plane, and the
+  // least-squares fit of all is Horn's, which picks one; coincident points have none.
+  std::vector<Vec3> same = {{1, 1, 1}, {1, 1, 1}, {1, 1, 1}};
+  EXPECT_FALSE(colmap::robust_similarity(same, same, 1.0, &x, &inliers));
+  EXPECT_TRUE(colmap::robust_similarity(src, src, 1.0, &x, &inliers));
+  EXPECT_NEAR(x.s, 1.0, 1e-12);
+}
+
+// A small model: two cameras, three images and four points, all seen by every image.
+colmap::Model small_model() {
+  colmap::Model m;
+  m.cameras = {{1, colmap::kSimplePinhole, 640, 480, {500, 320, 240}}};
+  for (std::uint32_t k = 0; k < 3; ++k) {
+    colmap::Image im;
+    im.id = 10 + k;
+    im.camera_id = 1;
+    im.name = "im" + std::to_string(k) + ".jpg";
+    const double a = 0.1 * k;
+    im.q = {std::cos(a / 2), 0, std::sin(a / 2), 0};
+    im.t = {-0.5 * k, 0.1, 0.2 * k};
+    m.images.push_back(im);
+  }
+  for (std::uint64_t i = 0; i < 4; ++i) {
+    colmap::Point3D pt;
+    pt.id = 100 + i;
+    pt.xyz = {0.3 * static_cast<double>(i) - 0.4, 0.2 * static_cast<double>(i % 2), 5.0 + 0.1 * static_cast<double>(i)};
+    for (colmap::Image &im : m.images) {
+      pt.track.push_back({im.id, static_cast<std::uint32_t>(im.points.size())});
+      im.points.push_back({0, 0, pt.id});
+    }
+    m.points.push_back(pt);
+  }
+  return m;
+}
+
+TEST(TransformModel, MovesCentresAndPointsByTheSimilarity) {
+  colmap::Model m = small_model();
+  const std::vector<Vec3> before = colmap::image_centres(m);
+  const colmap::Model original = m;
+  const colmap::Similarity x = some_similarity();
+  colmap::transform_model(x, &m);
+  const std::vector<Vec3> after = colmap::image_centres(m);
+  for (std::size_t k = 0; k < before.size(); ++k) {
+    const Vec3 want = moved(x, before[k]);
+    for (std::size_t a = 0; a < 3; ++a) EXPECT_NEAR(after[k][a], want[a], 1e-11);
+  }
+  for (std::size_t i = 0; i < m.points.size(); ++i) {
+    const Vec3 want = moved(x, original.points[i].xyz);
+    for (std::size_t a = 0; a < 3; ++a) EXPECT_NEAR(m.points[i].xyz[a], want[a], 1e-12);
+  }
+  // What a camera sees does not change: a point's depth scales by s, its direction stays.
+  for (std::size_t k = 0; k < m.images.size(); ++k) {
+    const auto in_camera = [](const colmap::Image &im, const Vec3 &X) {
+      double R[9];
+      const double w = im.q[0], a = im.q[1], b = im.q[2], c = im.q[3];
+      const double r[9] = {1 - 2 * (b * b + c * c), 2 * (a * b - w * c),     2 * (a * c + w * b),
+                           2 * (a * b + w * c),     1 - 2 * (a * a + c * c), 2 * (b * c - w * a),
+                           2 * (a * c - w * b),     2 * (b * c + w * a),     1 - 2 * (a * a + b * b)};
+      std::copy(r, r + 9, R);
+      return Vec3{R[0] * X[0] + R[1] * X[1] + R[2] * X[2] + im.t[0], R[3] * X[0] + R[4] * X[1] + R[5] * X[2] + im.t[1],
+                  R[6] * X[0] + R[7] * X[1] + R[8] * X[2] + im.t[2]};
+    };
+    const Vec3 c0 = in_camera(original.images[k], original.points[0].xyz), c1 = in_camera(m.images[k], m.points[0].xyz);
+    for (std::size_t a = 0; a < 3; ++a) EXPECT_NEAR(c1[a], x.s * c0[a], 1e-10);
+  }
+}
+
+TEST(PosePriorsText, ReadsNamesCovariancesAndSystems) {
+  const colmap::Model m = small_model();
+  const std::string path = temp_path("poses.txt");
+  write_file(path,
+             "# NAME X Y Z [covariance] [system]\n"
+             "im0.jpg 1 2 3\n"
+             "\n"
+             "im1.jpg 47.1 8.2 400 WGS84\n"
+             "elsewhere.jpg 1 1 1\n"
+             "im2.jpg 4 5 6 2 0 0 0 3 0 0 0 4 CARTESIAN\n");
+  std::vector<colmap::PosePrior> p;
+  int unknown = -1;
+  std::string error;
+  ASSERT_TRUE(colmap::read_pose_priors_text(path, m, &p, &unknown, &error)) << error;
+  EXPECT_EQ(unknown, 1);
+  ASSERT_EQ(p.size(), 3u);
+  EXPECT_EQ(p[0].image_id, 10u);
+  EXPECT_EQ(p[0].system, colmap::PriorSystem::Cartesian);
+  EXPECT_FALSE(p[0].has_covariance);
+  EXPECT_EQ(p[1].system, colmap::PriorSystem::Wgs84);
+  EXPECT_EQ(p[1].where, path + ":4");
+  EXPECT_TRUE(p[2].has_covariance);
+  EXPECT_EQ(p[2].covariance[8], 4.0);
+
+  const struct {
+    const char *text, *message;
+  } bad[] = {
+      {"im0.jpg 1 2\n", ":1: expected NAME X Y Z, then optionally the 9 values of a covariance and CARTESIAN or "
+                        "WGS84 (got 3 values)"},
+      {"im0.jpg 1 2 3 ECEF\n", ":1: the coordinate system must be CARTESIAN or WGS84, got 'ECEF'"},
+      {"\nim0.jpg 1 nan 3\n", ":2: Y must be a finite number, got 'nan'"},
+      {"im0.jpg 1 2 3 1 0 0 0 1 0 0 0 x\n", ":1: covariance value 9 must be a finite number, got 'x'"},
+  };
+  for (const auto &b : bad) {
+    write_file(path, b.text);
+    EXPECT_FALSE(colmap::read_pose_priors_text(path, m, &p, &unknown, &error)) << b.text;
+    EXPECT_EQ(error, path + b.message);
+  }
+}
+
+TEST(PosePriors, UsableOnesGetTheirCovarianceOrTheFallback) {
+  const colmap::Model m = small_model();
+  colmap::PosePrior a, b, none, twice;
+  a.image_id = 10;
+  a.where = "a";
+  a.position = {1, 2, 3};
+  b.image_id = 11;
+  b.where = "b";
+  b.has_covariance = true;
+  b.covariance = {4, 1, 0, 1, 4, 0, 0, 0, 4};
+  none.image_id = 12;
+  none.position = {NAN, NAN, NAN};  // COLMAP's prior without a position
+  colmap::PosePriorOptions options;
+  options.fallback_stddev = 2;
+  std::vector<colmap::PosePrior> out;
+  std::string error;
+  ASSERT_TRUE(colmap::usable_pose_priors(m, {a, b, none}, options, &out, &error)) << error;
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].covariance, (std::array<double, 9>{4, 0, 0, 0, 4, 0, 0, 0, 4}));
+  EXPECT_EQ(out[1].covariance, b.covariance);
+
+  twice = a;
+  twice.where = "c";
+  EXPECT_FALSE(colmap::usable_pose_priors(m, {a, twice}, options, &out, &error));
+  EXPECT_EQ(error, "c: image 10 has a position prior already");
+  colmap::PosePrior singular = b;
+  singular.covariance = {1, 2, 0, 2, 1, 0, 0, 0, 1};
+  EXPECT_FALSE(colmap::usable_pose_priors(m, {singular}, options, &out, &error));
+  EXPECT_EQ(error, "b: its covariance is not symmetric positive definite");
+  colmap::PosePrior infinite = a;
+  infinite.position[1] = INFINITY;
+  EXPECT_FALSE(colmap::usable_pose_priors(m, {infinite}, options, &out, &error));
+  EXPECT_EQ(error, "a: its position is not finite");
+  options.fallback_stddev = 0;
+  EXPECT_FALSE(colmap::usable_pose_priors(m, {a}, options, &out, &error));
+}
+
+// A database with COLMAP 4's pose_priors table, or 3.x's, holding `rows`.
+void make_database(const std::string &path, bool v4, const std::vector<std::string> &rows) {
+  std::remove(path.c_str());
+  sqlite3 *db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  const char *table =
+      v4 ? "CREATE TABLE pose_priors (pose_prior_id INTEGER PRIMARY KEY NOT NULL, corr_data_id INTEGER NOT NULL, "
+           "corr_sensor_id INTEGER NOT NULL, corr_sensor_type INTEGER NOT NULL, position BLOB, position_covariance "
+           "BLOB, gravity BLOB, coordinate_system INTEGER NOT NULL)"
+         : "CREATE TABLE pose_priors (image_id INTEGER PRIMARY KEY NOT NULL, position BLOB, coordinate_system INTEGER "
+           "NOT NULL, position_covariance BLOB)";
+  ASSERT_EQ(sqlite3_exec(db, table, nullptr, nullptr, nullptr), SQLITE_OK);
+  for (const std::string &row : rows) {
+    char *message = nullptr;
+    ASSERT_EQ(sqlite3_exec(db, row.c_str(), nullptr, nullptr, &message), SQLITE_OK) << (message ? message : "");
+  }
+  sqlite3_close(db);
+}
+
+// X'...' of the doubles' bytes, as SQLite writes a blob.
+std::string blob(const std::vector<double> &v) {
+  std::string hex = "X'";
+  const unsigned char *b = reinterpret_cast<const unsigned char *>(v.data());
+  char two[3];
+  for (std::size_t k = 0; k < v.size() * sizeof(double); ++k) {
+    std::snprintf(two, sizeof two, "%02X", b[k]);
+    hex += two;
+  }
+  return hex + "'";
+}
+
+TEST(PosePriorsDatabase, ReadsColmap4sLayout) {
+  const std::string path = temp_path("v4.db");
+  const std::string nan3 = blob({NAN, NAN, NAN});
+  make_database(path, true,
+                {"INSERT INTO pose_priors VALUES (2, 11, 1, 0, " + blob({4, 5, 6}) + ", " +
+                     blob({1, 0, 0, 0, 2, 0, 0, 0, 3}) + ", " + nan3 + ", 1)",
+                 "INSERT INTO pose_priors VALUES (1, 10, 1, 0, " + blob({47.1, 8.2, 400}) + ", NULL, " + nan3 + ", 0)",
+                 "INSERT INTO pose_priors VALUES (3, 7, 1, 1, " + blob({0, 0, 0}) + ", NULL, " + nan3 + ", 1)"});
+  std::vector<colmap::PosePrior> p;
+  std::string error;
+  ASSERT_TRUE(colmap::read_pose_priors_database(path, &p, &error)) << error;
+  ASSERT_EQ(p.size(), 2u);  // the IMU's prior (sensor type 1) places no image
+  EXPECT_EQ(p[0].image_id, 10u);
+  EXPECT_EQ(p[0].system, colmap::PriorSystem::Wgs84);
+  EXPECT_FALSE(p[0].has_covariance);
+  EXPECT_EQ(p[1].image_id, 11u);
+  EXPECT_EQ(p[1].position, (Vec3{4, 5, 6}));
+  EXPECT_TRUE(p[1].has_covariance);
+  EXPECT_EQ(p[1].covariance[4], 2.0);
+  EXPECT_EQ(p[1].where, path + ": pose prior 2 (data 11)");
+}
+
+TEST(PosePriorsDatabase, ReadsColmap3sLayout) {
+  const std::string path = temp_path("v3.db");
+  make_database(path, false, {"INSERT INTO pose_priors VALUES (12, " + blob({1, 2, 3}) + ", 1, NULL)"});
+  std::vector<colmap::PosePrior> p;
+  std::string error;
+  ASSERT_TRUE(colmap::read_pose_priors_database(path, &p, &error)) << error;
+  ASSERT_EQ(p.size(), 1u);
+  EXPECT_EQ(p[0].image_id, 12u);
+  EXPECT_EQ(p[0].position, (Vec3{1, 2, 3}));
+}
+
+TEST(PosePriorsDatabase, RefusesWhatItCannotRead) {
+  std::vector<colmap::PosePrior> p;
+  std::string error;
+  const std::string path = temp_path("bad.db");
+  make_database(path, true, {"INSERT INTO pose_priors VALUES (5, 11, 1, 0, " + blob({4, 5}) + ", NULL, NULL, 1)"});
+  EXPECT_FALSE(colmap::read_pose_priors_database(path, &p, &error));
+  EXPECT_EQ(error, path + ": pose prior 5 (data 11): its position has 16 bytes, expected 24 (3 doubles)");
+  make_database(path, true,
+                {"INSERT INTO pose_priors VALUES (5, 11, 1, 0, " + blob({4, 5, 6}) + ", " + blob({1, 0, 0}) +
+                 ", NULL, 1)"});
+  EXPECT_FALSE(colmap::read_pose_priors_database(path, &p, &error));
+  EXPECT_EQ(error, path + ": pose prior 5 (data 11): its position_covariance has 24 bytes, expected 72 (9 doubles)");
+  make_database(path, true, {"INSERT INTO pose_priors VALUES (5, 11, 1, 0, " + blob({4, 5, 6}) + ", NULL, NULL, 7)"});
+  EXPECT_FALSE(colmap::read_pose_priors_database(path, &p, &error));
+  EXPECT_EQ(error, path + ": pose prior 5 (data 11): its coordinate_system is 7, expected -1 (UNDEFINED), 0 (WGS84) "
+                          "or 1 (CARTESIAN)");
+
+  std::remove(path.c_str());
+  sqlite3 *db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "CREATE TABLE images (image_id INTEGER)", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  EXPECT_FALSE(colmap::read_pose_priors_database(path, &p, &error));
+  EXPECT_EQ(error, path + ": the database has no pose_priors table (COLMAP's database, from 3.9 on, keeps the pose "
+                          "priors there)");
+
+  write_file(path, "not a database at all, but long enough to have a header's worth of bytes in it.......");
+  EXPECT_FALSE(colmap::read_pose_priors_database(path, &p, &error));
+  EXPECT_EQ(error.rfind(path + ": ", 0), 0u) << error;
+  const std::string missing = temp_path("missing.db");
+  EXPECT_FALSE(colmap::read_pose_priors_database(missing, &p, &error));
+  EXPECT_EQ(error.rfind(missing + ": cannot open as an SQLite database", 0), 0u) << error;
+  EXPECT_NE(::access(missing.c_str(), F_OK), 0) << "the reader made a database";
+}
+
+TEST(PointPriors, ReadsSigmasAndCovariancesAndRefusesBadLines) {
+  const colmap::Model m = small_model();
+  const std::string path = temp_path("points.txt");
+  write_file(path, "100 1 2 3 0.5\n103 4 5 6 1 0 0 0 2 0 0 0 3\n");
+  std::vector<colmap::PointPrior> p;
+  std::string error;
+  ASSERT_TRUE(colmap::read_point_priors(path, m, &p, &error)) << error;
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_EQ(p[0].covariance, (std::array<double, 9>{0.25, 0, 0, 0, 0.25, 0, 0, 0, 0.25}));
+  EXPECT_EQ(p[1].point_id, 103u);
+  const struct {
+    const char *text, *message;
+  } bad[] = {{"100 1 2 3 0\n", ":1: SIGMA must be > 0 (and its square finite), got 0"},
+             {"100 1 2 3 -1\n", ":1: SIGMA must be > 0 (and its square finite), got -1"},
+             {"7 1 2 3 1\n", ":1: no point has POINT3D_ID 7 in the model"},
+             {"100 1 2 3 1\n100 1 2 3 1\n", ":2: point 100 has a prior already"},
+             {"100 1 inf 3 1\n", ":1: Y must be a finite number, got 'inf'"},
+             {"100 1 2 3 1 0 0 0 -1 0 0 0 1\n", ":1: its covariance is not symmetric positive definite"},
+             {"100 1 2 3\n", ":1: expected POINT3D_ID X Y Z SIGMA, or POINT3D_ID X Y Z and the 9 values of a "
+                             "covariance (got 4 values)"}};
+  for (const auto &b : bad) {
+    write_file(path, b.text);
+    EXPECT_FALSE(colmap::read_point_priors(path, m, &p, &error)) << b.text;
+    EXPECT_EQ(error, path + b.message);
+  }
+}
+
+TEST(IntrinsicPriors, ReadsNamesAndIndices) {
+  colmap::Model m = small_model();
+  m.cameras.push_back({2, colmap::kOpenCV, 640, 480, {500, 505, 320, 240, 0.1, 0.01, 0, 0}});
+  const std::string path = temp_path("intrinsics.txt");
+  write_file(path, "1 f 510 5\n2 fy 500 2\n2 4 0 0.05\n1 cy 240 1\n");
+  std::vector<colmap::IntrinsicPrior> p;
+  std::string error;
+  ASSERT_TRUE(colmap::read_intrinsic_priors(path, m, &p, &error)) << error;
+  ASSERT_EQ(p.size(), 4u);
+  EXPECT_EQ(p[0].param, 0);
+  EXPECT_EQ(p[1].param, 1);
+  EXPECT_EQ(p[2].param, 4);
+  EXPECT_EQ(p[3].param, 2);
+  const struct {
+    const char *text, *message;
+  } bad[] = {{"1 fx 500 1\n", ":1: camera 1 (SIMPLE_PINHOLE) has no parameter 'fx' (its parameters are 0..2, or f, "
+                              "cx, cy)"},
+             {"2 8 0 1\n", ":1: camera 2 (OPENCV) has no parameter '8' (its parameters are 0..7, or fx, fy, cx, cy)"},
+             {"3 f 500 1\n", ":1: no camera has CAMERA_ID 3 in the model"},
+             {"1 f 500 0\n", ":1: STDDEV must be > 0, got 0"},
+             {"1 f 500 1\n1 0 500 1\n", ":2: parameter 0 of camera 1 has a prior already"}};
+  for (const auto &b : bad) {
+    write_file(path, b.text);
+    EXPECT_FALSE(colmap::read_intrinsic_priors(path, m, &p, &error)) << b.text;
+    EXPECT_EQ(error, path + b.message);
+  }
+}
+
+// The problem's centre and its Jacobian: c = -R^T t of the camera the parameters give, and
+// dc/da against central differences taken far from the ones the problem takes.
+TEST(ProblemPriors, CentreAndItsJacobian) {
+  const colmap::Model m = small_model();
+  colmap::Problem problem;
+  std::string error;
+  ASSERT_TRUE(colmap::Problem::build(m, {}, "m", &problem, &error)) << error;
+  const std::vector<Vec3> centres = colmap::image_centres(m);
+  const int cnp = problem.cnp();
+  std::vector<double> a(problem.initial_params().begin() + cnp, problem.initial_params().begin() + 2 * cnp);
+  double c[3];
+  std::vector<double> J(static_cast<std::size_t>(3 * cnp));
+  problem.centre(1, a.data(), c, J.data());
+  for (int r = 0; r < 3; ++r) EXPECT_NEAR(c[r], centres[1][static_cast<std::size_t>(r)], 1e-14);
+  a[0] += 0.01;
+  a[4] -= 0.2;  // a rotation and a translation away from the start
+  problem.centre(1, a.data(), c, J.data());
+  for (int k = 0; k < cnp; ++k) {
+    std::vector<double> x = a;
+    const double h = 1e-4;
+    double plus[3], minus[3];
+    x[static_cast<std::size_t>(k)] = a[static_cast<std::size_t>(k)] + h;
+    problem.centre(1, x.data(), plus, nullptr);
+    x[static_cast<std::size_t>(k)] = a[static_cast<std::size_t>(k)] - h;
+    problem.centre(1, x.data(), minus, nullptr);
+    for (int r = 0; r < 3; ++r)
+      EXPECT_NEAR(J[static_cast<std::size_t>(r * cnp + k)], (plus[r] - minus[r]) / (2 * h), 1e-7) << r << " " << k;
+  }
+}
+
+TEST(ProblemPriors, RefusesPriorsTheProblemHolds) {
+  const colmap::Model m = small_model();
+  colmap::Options options;
+  options.constants.points = {0, 1, 0, 0};  // point 101
+  colmap::Problem problem;
+  std::string error;
+  ASSERT_TRUE(colmap::Problem::build(m, options, "m", &problem, &error)) << error;
+  colmap::ProblemPriors priors;
+  colmap::PointPrior held;
+  held.point_id = 101;
+  held.where = "gcp:3";
+  EXPECT_FALSE(priors.build(problem, {}, {}, {held}, {}, &error));
+  EXPECT_EQ(error, "gcp:3: point 101 is held (a constant point): a prior on it cannot move it");
+  colmap::IntrinsicPrior cx;
+  cx.camera_id = 1;
+  cx.param = 1;  // the principal point, held at COLMAP's defaults
+  cx.where = "k:1";
+  EXPECT_FALSE(priors.build(problem, {}, {}, {}, {cx}, &error));
+  EXPECT_EQ(error, "k:1: parameter 1 of camera 1 is held (--intrinsics, --refine-*, --hold-intrinsics): a prior on "
+                   "it cannot move it");
+  cx.param = 0;
+  ASSERT_TRUE(priors.build(problem, {}, {}, {}, {cx}, &error)) << error;
+  sba_ext_options ext{};
+  priors.attach(&ext);
+  EXPECT_EQ(ext.ncamera_linear_priors, 1);
+  EXPECT_EQ(ext.camera_linear_priors[0].camera, 0);
+  EXPECT_EQ(ext.camera_linear_priors[0].params[0], 6);  // after the pose's 6
+}
+
+}  // namespace
