@@ -100,6 +100,10 @@ def make(pycolmap, args):
     return model, database, priors
 
 
+def seconds(runs):
+    return ", ".join("%.2f" % s for s in runs)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sbarefine", required=True)
@@ -145,12 +149,13 @@ def main():
     ours = pycolmap.Reconstruction(out)
     t_rep, t_pri = evaluate(pycolmap, theirs, priors)
     o_rep, o_pri = evaluate(pycolmap, ours, priors)
-    print("pycolmap %s create_pose_prior_bundle_adjuster + solve: %.2f s; %s after %d steps (%d unsuccessful)"
-          % (pycolmap.__version__, min(theirs_s), summary.termination_type.name, summary.num_successful_steps,
-             summary.num_unsuccessful_steps))
-    print("sbarefine --database-path (whole run): %.2f s (%.3fx pycolmap's), solve %.2f s; %d iterations, %s, "
-          "solver %s, %d threads" % (min(ours_s), min(ours_s) / min(theirs_s), min(solve_s), report["ret"],
-                                     report["stop_reason"], report["solver"], report["threads"]))
+    print("pycolmap %s create_pose_prior_bundle_adjuster + solve: %.2f s (runs: %s); %s after %d steps "
+          "(%d unsuccessful)" % (pycolmap.__version__, min(theirs_s), seconds(theirs_s), summary.termination_type.name,
+                                 summary.num_successful_steps, summary.num_unsuccessful_steps))
+    print("sbarefine --database-path (whole run): %.2f s (%.3fx pycolmap's; runs: %s), solve %.2f s (runs: %s); "
+          "%d iterations, %s, solver %s, %d threads"
+          % (min(ours_s), min(ours_s) / min(theirs_s), seconds(ours_s), min(solve_s), seconds(solve_s),
+             report["ret"], report["stop_reason"], report["solver"], report["threads"]))
     print("cost pycolmap:  %.12g + %.12g = %.12g" % (t_rep, t_pri, t_rep + t_pri))
     print("cost sbarefine: %.12g + %.12g = %.12g (ratio - 1 = %.3g)" % (o_rep, o_pri, o_rep + o_pri,
                                                                          (o_rep + o_pri) / (t_rep + t_pri) - 1))
