@@ -19,8 +19,8 @@ database, the alignment, the adjustment, writing the model), and its solve alone
 seconds).
 
   colmap_pose_priors.py --sbarefine EXE --sbagen EXE --work DIR [--cameras 1000] [--points 60000]
-                        [--track-min 3] [--track-max 8] [--prior-stddev 0.05] [--threads N]
-                        [--repeat R]
+                        [--track-min 3] [--track-max 8] [--kind fixed|varK] [--prior-stddev 0.05]
+                        [--seed S] [--threads N] [--repeat R]
 Run it with a Python that can import pycolmap (scripts/deps.sh test makes a venv with it).
 """
 import argparse
@@ -71,7 +71,7 @@ def make(pycolmap, args):
     os.makedirs(text)
     prefix = os.path.join(args.work, "gen")
     subprocess.run([args.sbagen, "--out", prefix, "--cameras", str(args.cameras), "--points", str(args.points),
-                    "--track-min", str(args.track_min), "--track-max", str(args.track_max), "--kind", "fixed",
+                    "--track-min", str(args.track_min), "--track-max", str(args.track_max), "--kind", args.kind,
                     "--seed", str(args.seed), "--colmap", text], check=True, stdout=subprocess.DEVNULL)
     rec = pycolmap.Reconstruction(text)
     centres = true_centres(prefix + "-truth-cams.txt")
@@ -113,6 +113,7 @@ def main():
     ap.add_argument("--points", type=int, default=60000)
     ap.add_argument("--track-min", type=int, default=3)
     ap.add_argument("--track-max", type=int, default=8)
+    ap.add_argument("--kind", default="fixed", help="sbagen's --kind: fixed (one camera) or varK (one per image)")
     ap.add_argument("--prior-stddev", type=float, default=0.05, help="the priors' noise and standard deviation, "
                     "in sbagen's units (its point cloud's radius)")
     ap.add_argument("--seed", type=int, default=1, help="sbagen's seed and the priors' noise's")
