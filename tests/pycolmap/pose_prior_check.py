@@ -10,13 +10,15 @@ and the whole model moved by a similarity (scale 0.6), so that the model starts 
 priors and the alignment matters. pycolmap writes the model and the database; pycolmap's
 create_pose_prior_bundle_adjuster (BundleAdjustmentOptions() and
 PosePriorBundleAdjustmentOptions() at their defaults, every registered image in the problem)
-refines a copy of it; sbarefine refines the written model with --database-path. Both results
-are measured by one function, evaluate(): the sum over the observations of the squared
-reprojection error (pycolmap's projection of the point into the image) plus the sum over the
-priors of the Mahalanobis term (c - prior)^T Cov^-1 (c - prior) at the image's projection
-centre c (twice Ceres's final cost with the trivial loss); a prior without a finite covariance
-counts with the fallback 1^2 I (see case options for the others). Checks, in each case of at least 3 priors:
-  - sbarefine's cost <= pycolmap's x (1 + 1e-6);
+refines a copy of it (its alignment's RANSAC seeded, so that the reference does not change from
+run to run, and required to end in Ceres's CONVERGENCE); sbarefine refines the written model
+with --database-path. Both results are measured by one function, evaluate(): the sum over the
+observations of the squared reprojection error (pycolmap's projection of the point into the
+image) plus the sum over the priors of the Mahalanobis term (c - prior)^T Cov^-1 (c - prior) at
+the image's projection centre c; a prior without a finite covariance counts with the fallback
+1^2 I (see case options for the others). On pycolmap's result it must give Ceres's final cost x 2
+(1e-9 relative). Checks, in each case of at least 3 priors:
+  - sbarefine's cost <= pycolmap's x (1 + 1e-6), at the defaults of both (100 iterations at most);
   - every image's projection centre is pycolmap's to 1e-6 of the scene's extent (the diagonal of
     the box of pycolmap's centres);
   - the model moved: the priors' median squared distance (Mahalanobis) before refinement is over
@@ -25,6 +27,8 @@ counts with the fallback 1^2 I (see case options for the others). Checks, in eac
   - the same priors from a text file (--pose-priors, a line per prior: the image's name, the
     position, the covariance row by row, the coordinate system) give the database's result:
     the centres to 1e-9 of the extent, the costs to 1e-9 relative.
+A failed comparison with pycolmap reports how sbarefine stopped and what it reaches with
+--itmax 1000.
 Cases:
   cartesian   two rigs of one camera (12 images), CARTESIAN priors, a text model.
   wgs84       the same with WGS84 priors (latitude, longitude, altitude), a binary model: the
@@ -47,10 +51,11 @@ Cases:
               prior_position_fallback_stddev and Cauchy loss; evaluate() counts the fallback
               covariance 2^2 I and the loss.
   two_priors  all priors but two deleted: sbarefine with --database-path writes the bytes it
-              writes without it, and the same --json costs of reprojection.
+              writes without it, and the same final RMS (--json).
   bad_input   a database without the pose_priors table, and one whose prior 2 has a position
               blob of 16 bytes: sbarefine exits with status 1, one line on stderr naming the
-              table (or the prior), nothing in --write's directory.
+              table (pose_priors), or the prior (2, a word of its own) and "position"; nothing
+              in --write's directory.
 Exit status: 0 every check passed, 1 a check failed, 77 (ctest's SKIP_RETURN_CODE) no pycolmap.
 
   pose_prior_check.py [--python PY] --sbarefine EXE --work DIR CASE...
