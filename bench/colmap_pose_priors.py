@@ -37,8 +37,9 @@ from pose_prior_check import (evaluate, extent, largest_centre_difference, moved
 
 
 def true_centres(path):
-    """sbagen's truth-cams file (q0 q1 q2 q3 tx ty tz a line, world to camera, in the images'
-    order): each camera's centre -R^T t."""
+    """sbagen's truth-cams file (a line per camera, in the images' order, ending with its pose
+    q0 q1 q2 q3 tx ty tz, world to camera, after the intrinsics of --kind varK and varKD): each
+    camera's centre -R^T t."""
     import numpy as np
     out = []
     with open(path) as f:
@@ -46,8 +47,8 @@ def true_centres(path):
             w = line.split()
             if not w or w[0].startswith("#"):
                 continue
-            q = [float(v) for v in w[:4]]
-            t = np.array([float(v) for v in w[4:7]])
+            q = [float(v) for v in w[-7:-3]]
+            t = np.array([float(v) for v in w[-3:]])
             r = np.array(rotation_matrix(q))
             out.append(-r.T @ t)
     return out
