@@ -225,7 +225,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
   }
   const bool ok = acceptable(fields, m, cnp);
   try {
-    const sba_mex::CameraOptions o = sba_mex::camera_options(fields, m, cnp);
+    const sba_mex::CameraOptions o = sba_mex::options_struct(fields, m, cnp, 3).camera;
     require(ok, "an options struct taken against the rules");
     check_taken(o, fields, m, cnp);
   } catch (const ArgError &e) {
