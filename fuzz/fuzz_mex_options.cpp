@@ -155,13 +155,17 @@ OptionField next_prior_field(FuzzedDataProvider &in, int kind, std::size_t m, st
   std::vector<const char *> names;
   for (std::size_t q = 0; q <= kPriorFieldCount[kind]; ++q) {
     const int odds = q < 3 ? 8 : q < kPriorFieldCount[kind] ? 3 : 16;
-    const bool present = q < 3 ? in.ConsumeIntegralInRange<int>(1, odds) != 1 : in.ConsumeIntegralInRange<int>(1, odds) == 1;
+    const bool present =
+        q < 3 ? in.ConsumeIntegralInRange<int>(1, odds) != 1 : in.ConsumeIntegralInRange<int>(1, odds) == 1;
     if (present) names.push_back(kPriorFields[kind][q]);
   }
-  const std::size_t k = kind == 0 ? pnp : kind == 1 ? in.ConsumeIntegralInRange<size_t>(1, 3) : in.ConsumeIntegralInRange<size_t>(0, 3);
+  const std::size_t k = kind == 0   ? pnp
+                        : kind == 1 ? in.ConsumeIntegralInRange<size_t>(1, 3)
+                                    : in.ConsumeIntegralInRange<size_t>(0, 3);
   for (std::size_t e = 0; e < f.numel; ++e) {
     std::vector<OptionField> fields;
-    for (const char *name : names) fields.push_back(next_prior_value(in, name, std::string(name) == "jac" ? cnp : k, m));
+    for (const char *name : names)
+      fields.push_back(next_prior_value(in, name, std::string(name) == "jac" ? cnp : k, m));
     f.elements.push_back(std::move(fields));
   }
   return f;

@@ -221,8 +221,7 @@ void check_host_function(const std::string &fn, const std::string &role) {
 #endif
   if (out) mxDestroyArray(out);
   mxDestroyArray(name);
-  if (!found)
-    bad_arg("functionNotFound", format("%s: no function named '%s' was found.", role.c_str(), fn.c_str()));
+  if (!found) bad_arg("functionNotFound", format("%s: no function named '%s' was found.", role.c_str(), fn.c_str()));
 }
 
 void check_host_function(const Callback &cb, const char *role) {

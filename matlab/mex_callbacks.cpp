@@ -44,8 +44,8 @@ std::string exception_text(const mxArray *ex, const char *what) {
 // its nout results. False if it failed: recorded in g, the message starting with failed(),
 // which is only worded then.
 template <class Failed>
-bool call_function(Gateway &g, const char *fn, std::vector<mxArray *> &in, std::size_t owned, int nout,
-                   mxArray **out, Failed failed) {
+bool call_function(Gateway &g, const char *fn, std::vector<mxArray *> &in, std::size_t owned, int nout, mxArray **out,
+                   Failed failed) {
   for (int k = 0; k < nout; ++k) out[k] = nullptr;
   bool ok = true;
 #if SBA_MEX_OCTAVE
@@ -89,8 +89,8 @@ bool call_function(Gateway &g, const char *fn, std::vector<mxArray *> &in, std::
 }
 
 // Calls a host function: out = fn(j, i, aj, bi, extra...). False if it failed (recorded in g).
-bool call_host(Gateway &g, const Callback &cb, const char *role, int nout, mxArray **out, int j,
-               int i, const double *aj, const double *bi) {
+bool call_host(Gateway &g, const Callback &cb, const char *role, int nout, mxArray **out, int j, int i,
+               const double *aj, const double *bi) {
   std::vector<mxArray *> in(4 + g.extra.size());
   in[0] = mxCreateDoubleScalar(j);
   in[1] = mxCreateDoubleScalar(i);
@@ -234,9 +234,8 @@ void eval_prior_function(const PriorCall &c, const HostFunction &f, const char *
     in.push_back(av);
     for (const mxArray *e : g.extra) in.push_back(const_cast<mxArray *>(e));
     mxArray *out = nullptr;
-    const bool ok = call_function(g, f.handle ? "feval" : f.name.c_str(), in, 0, 1, &out, [&] {
-      return format("%s.%s failed at camera %d", where_q.c_str(), role, j + 1);
-    });
+    const bool ok = call_function(g, f.handle ? "feval" : f.name.c_str(), in, 0, 1, &out,
+                                  [&] { return format("%s.%s failed at camera %d", where_q.c_str(), role, j + 1); });
     mxDestroyArray(jv);
     mxDestroyArray(av);
     if (!ok) {
@@ -244,11 +243,10 @@ void eval_prior_function(const PriorCall &c, const HostFunction &f, const char *
       return;
     }
     if (!take_block(out, rows, cols, dst)) {
-      g.fail("sba:callbackSize",
-             format("%s.%s returned %s at camera %d; expected %s.", where_q.c_str(), role, answer_text(out).c_str(),
-                    j + 1,
-                    cols == 1 ? format("a real vector of dim = %d values", rows).c_str()
-                              : format("dim*cnp = %d values (%d x %d)", len, rows, cols).c_str()));
+      g.fail("sba:callbackSize", format("%s.%s returned %s at camera %d; expected %s.", where_q.c_str(), role,
+                                        answer_text(out).c_str(), j + 1,
+                                        cols == 1 ? format("a real vector of dim = %d values", rows).c_str()
+                                                  : format("dim*cnp = %d values (%d x %d)", len, rows, cols).c_str()));
       fill_nan(dst, len);
     }
     if (out) mxDestroyArray(out);

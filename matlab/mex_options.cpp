@@ -7,9 +7,8 @@
 namespace sba_mex {
 namespace {
 
-constexpr const char *kOptionFields[] = {"fixed_params", "camera_groups",        "shared_params",
-                                         "param_groups", "point_priors",         "camera_linear_priors",
-                                         "camera_priors"};
+constexpr const char *kOptionFields[] = {"fixed_params", "camera_groups",        "shared_params", "param_groups",
+                                         "point_priors", "camera_linear_priors", "camera_priors"};
 
 bool is_option_field(const std::string &name) {
   for (const char *f : kOptionFields)
@@ -67,7 +66,9 @@ int group_number(double g, const std::string &where) {
 enum class PriorKind { kPoint, kLinear, kCallback };
 
 const char *prior_field_name(PriorKind kind) {
-  return kind == PriorKind::kPoint ? "point_priors" : kind == PriorKind::kLinear ? "camera_linear_priors" : "camera_priors";
+  return kind == PriorKind::kPoint    ? "point_priors"
+         : kind == PriorKind::kLinear ? "camera_linear_priors"
+                                      : "camera_priors";
 }
 
 // One element of a prior field, and how messages name it and its fields.
@@ -109,8 +110,8 @@ double scalar(const OptionField &f, const std::string &where) {
 // the prior may constrain is the library's check.
 int index_from_one(double v, const std::string &where) {
   if (!(v == std::floor(v) && v >= 1 && v <= INT_MAX))
-    bad_arg("invalidArgument",
-            format("%s must be a whole number within [1, %d], a 1-based index (got %.15g).", where.c_str(), INT_MAX, v));
+    bad_arg("invalidArgument", format("%s must be a whole number within [1, %d], a 1-based index (got %.15g).",
+                                      where.c_str(), INT_MAX, v));
   return static_cast<int>(v) - 1;
 }
 
@@ -118,8 +119,8 @@ int index_from_one(double v, const std::string &where) {
 std::vector<double> vector_of(const OptionField &f, const std::string &where, std::size_t k, const char *k_text) {
   const std::vector<double> &v = numbers(f, where);
   if (!is_vector_shape(f))
-    bad_arg("wrongSize", format("%s must have %s = %zu values (got a %zu x %zu matrix).", where.c_str(), k_text, k,
-                                f.rows, f.cols));
+    bad_arg("wrongSize",
+            format("%s must have %s = %zu values (got a %zu x %zu matrix).", where.c_str(), k_text, k, f.rows, f.cols));
   if (v.size() != k)
     bad_arg("wrongSize", format("%s must have %s = %zu values (got %zu).", where.c_str(), k_text, k, v.size()));
   return v;
@@ -274,8 +275,7 @@ CameraOptions camera_options(const OptionField *fixed, const OptionField *groups
 
 }  // namespace
 
-StructOptions options_struct(const std::vector<OptionField> &fields, std::size_t m, std::size_t cnp,
-                             std::size_t pnp) {
+StructOptions options_struct(const std::vector<OptionField> &fields, std::size_t m, std::size_t cnp, std::size_t pnp) {
   const OptionField *given[sizeof kOptionFields / sizeof *kOptionFields] = {};
   for (const OptionField &f : fields) {
     std::size_t k = 0;

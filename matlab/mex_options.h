@@ -38,7 +38,7 @@ struct OptionField {
   std::string description;         // what it is, for messages ("1x3 cell")
   bool text = false;               // a char row vector (or ''), its characters in chars
   std::string chars;
-  bool handle = false;             // a function handle
+  bool handle = false;  // a function handle
   // A struct array: each element's fields (numel of them, column-major), each list in the
   // struct's field order.
   bool is_struct = false;
@@ -110,8 +110,7 @@ struct StructOptions {
 // the priors' types and sizes are checked here, the sizes the library will read: whether an
 // index names a camera or point that a prior may constrain, and whether a mean, weight or loss
 // can be used, is the library's check (its message names the prior).
-StructOptions options_struct(const std::vector<OptionField> &fields, std::size_t m, std::size_t cnp,
-                             std::size_t pnp);
+StructOptions options_struct(const std::vector<OptionField> &fields, std::size_t m, std::size_t cnp, std::size_t pnp);
 
 }  // namespace sba_mex
 
