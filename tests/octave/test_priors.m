@@ -14,6 +14,7 @@ function test_priors()
   sbatest_assert(ret == ret0 && isequal(p, p0) && isequal(info, info0), 'empty prior fields change the solve');
 
   point_prior_pins(s, p0);
+  robust_point_prior(s, p0);
   linear_prior_pulls(s, p0);
   callback_priors(s);
   bad_priors(s);
@@ -54,6 +55,33 @@ function point_prior_pins(s, p0)
   [ret, psq] = run_scene(s, 'motstr', struct('point_priors', pc));
   sbatest_assert(ret > 0 && max(abs(psq(b) - mean)) < 1e-5, 'an upper-triangular sqrt_info: %.3g from the mean', ...
                  max(abs(psq(b) - mean)));
+end
+
+% A point prior 50 sigma off (sigma 1e-3, the mean 0.05 away): plain, it pulls the point to
+% the mean; a Cauchy loss of scale 1 drops most of the pull of such an outlier (the loss's
+% weight at 50 sigma is 1 / (1 + 2500): the point stays 0.037 away); with a scale of 1e4 the
+% same loss is quadratic there and pulls as the plain prior does. And in 'str', the cameras
+% held, the plain prior's point ends between its start and the mean.
+function robust_point_prior(s, p0)
+  b = 42 + (3 * 4 + 1:3 * 4 + 3);
+  mean = p0(b) + [0.05 0 0];
+  pp = struct('point', 5, 'mean', mean, 'sigma', 1e-3 * [1 1 1], 'loss', '', 'loss_scale', []);
+  [~, pl] = run_scene(s, 'motstr', struct('point_priors', pp));
+  pp.loss = 'cauchy';
+  pp.loss_scale = 1;
+  [ret, pc] = run_scene(s, 'motstr', struct('point_priors', pp));
+  pp.loss_scale = 1e4;
+  [~, pw] = run_scene(s, 'motstr', struct('point_priors', pp));
+  printf('a point prior 50 sigma off: %.3g from the mean plain, %.3g with cauchy, %.3g with scale 1e4\n', ...
+         norm(pl(b) - mean), norm(pc(b) - mean), norm(pw(b) - mean));
+  sbatest_assert(ret > 0 && norm(pl(b) - mean) < 0.01 && norm(pc(b) - mean) > 0.03 && ...
+                 norm(pw(b) - pl(b)) < 1e-3, 'robust point prior: plain %.3g, cauchy %.3g, scale 1e4 %.3g', ...
+                 norm(pl(b) - mean), norm(pc(b) - mean), norm(pw(b) - mean));
+  pp = struct('point', 5, 'mean', mean, 'sigma', 1e-3 * [1 1 1]);
+  [ret, ps] = run_scene(s, 'str', struct('point_priors', pp));
+  d = norm(ps(b) - mean);
+  sbatest_assert(ret > 0 && d > 1e-4 && d < 0.05 && isequal(ps(1:42), s.p0(1:42)), ...
+                 'a point prior in ''str'': %.3g from the mean', d);
 end
 
 % A linear prior on camera 2's focal length (parameter 7), 10 px below where the solve puts
