@@ -214,8 +214,9 @@ struct PriorCall {
   std::size_t q;
 };
 
-// A callback prior's function f at camera j (the library's index): r = f(j + 1, aj, extra...),
-// `values` numbers of it into dst (rows x cols, row-major as take_block), NaN when it fails.
+// A callback prior's function f (func or jac, role) at camera j (the library's index):
+// f(j + 1, aj, extra...) into dst (rows x cols, row-major, as take_block reads it); NaN when
+// it fails or returns another size, which ends the solve with the failure recorded in g.
 void eval_prior_function(const PriorCall &c, const HostFunction &f, const char *role, int j, const double *aj,
                          double *dst, int rows, int cols) noexcept {
   Gateway &g = *c.g;
