@@ -85,7 +85,7 @@ function varargout = sba(varargin)
 %           prior 0 (point 4)' is point_priors(1), on point 5.
 %           A struct with none of these fields is problem data.
 %   extra1, extra2, ...  everything after those: problem data passed unchanged to every call
-%           of proj and projac
+%           of proj and projac (and of the priors' func and jac)
 %
 % Outputs
 %   ret     the number of iterations, or -1 if the solver failed (with a warning that says
