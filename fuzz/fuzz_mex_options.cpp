@@ -13,6 +13,15 @@
 // column-major order, by (row,col) in a matrix (param_groups always) and by (k) in a vector.
 // What is taken must be exactly what was given, in sba_ext_options' layout (param_groups:
 // row j's numbers at j*cnp).
+// The priors (point_priors, camera_linear_priors, camera_priors) are struct arrays whose
+// elements have fields of any kind: each element may have only its kind's fields; the index
+// fields (point, camera, params) are 1-based whole numbers in [1, 2147483647], dim any whole
+// number an int holds, never logical; mean has pnp values (point) or numel(params) (linear),
+// sigma k values and covariance and sqrt_info are k x k, k being pnp, numel(params) or dim,
+// unchecked when k < 1; loss is a string, loss_scale a scalar, func a name or a handle, jac
+// one too when given; [] is not given, and point, mean, camera, params, dim and func must be.
+// NaN and Inf are the library's to refuse: taken as given. What is taken: the indices less
+// one, the values as given, the matrices row-major.
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <cmath>
@@ -76,6 +85,219 @@ OptionField next_field(FuzzedDataProvider &in, std::size_t m, std::size_t cnp) {
   if (f.matrix)
     for (std::size_t k = 0; k < f.numel; ++k) f.values.push_back(f.logical ? in.ConsumeBool() : next_number(in, m));
   return f;
+}
+
+// ---- priors ----
+
+const char *const kPriorNames[] = {"point_priors", "camera_linear_priors", "camera_priors"};
+// Each kind's fields, then one it does not have ("params" is the linear kind's alone).
+const char *const kPriorFields[3][10] = {
+    {"point", "mean", "sigma", "covariance", "sqrt_info", "loss", "loss_scale", "params"},
+    {"camera", "params", "mean", "sigma", "covariance", "sqrt_info", "loss", "loss_scale", "sigmas"},
+    {"camera", "dim", "func", "jac", "sigma", "covariance", "sqrt_info", "loss", "loss_scale", "params"}};
+const std::size_t kPriorFieldCount[3] = {7, 8, 9};
+
+// A value of an element's field: empty, a matrix of a size near k (or k x k), a string, a
+// function handle or a cell.
+OptionField next_prior_value(FuzzedDataProvider &in, const char *name, std::size_t k, std::size_t m) {
+  OptionField f;
+  f.name = name;
+  const int kind = in.ConsumeIntegralInRange<int>(0, 9);
+  if (kind == 0) {
+    f.matrix = true;  // []
+    f.description = "0x0 double";
+    return f;
+  }
+  if (kind == 1 || kind == 2) {
+    static const char *const kTexts[] = {"huber", "fn", "", "cauchy"};
+    f.text = true;
+    f.chars = kTexts[in.ConsumeIntegralInRange<size_t>(0, 3)];
+    f.numel = f.chars.size();
+    f.rows = f.numel ? 1 : 0;
+    f.cols = f.numel;
+    f.description = "1x" + std::to_string(f.numel) + " char";
+    return f;
+  }
+  if (kind == 3) {
+    f.handle = true;
+    f.numel = 1;
+    f.description = "1x1 function_handle";
+    return f;
+  }
+  if (kind == 4) {
+    f.numel = in.ConsumeIntegralInRange<size_t>(0, 2);
+    f.description = "1x" + std::to_string(f.numel) + " cell";
+    return f;
+  }
+  f.matrix = true;
+  f.logical = in.ConsumeIntegralInRange<int>(0, 7) == 0;
+  const std::size_t sizes[] = {1, k, k + 1, k > 0 ? k - 1 : 0, in.ConsumeIntegralInRange<size_t>(0, 4)};
+  f.rows = sizes[in.ConsumeIntegralInRange<size_t>(0, 4)];
+  f.cols = sizes[in.ConsumeIntegralInRange<size_t>(0, 4)];
+  f.numel = f.rows * f.cols;
+  f.description = std::to_string(f.rows) + "x" + std::to_string(f.cols) + (f.logical ? " logical" : " double");
+  for (std::size_t q = 0; q < f.numel; ++q) f.values.push_back(f.logical ? in.ConsumeBool() : next_number(in, m));
+  return f;
+}
+
+// A prior field: mostly a struct array of up to 3 elements with the same fields.
+OptionField next_prior_field(FuzzedDataProvider &in, int kind, std::size_t m, std::size_t cnp, std::size_t pnp) {
+  if (in.ConsumeIntegralInRange<int>(0, 7) == 0) return next_prior_value(in, kPriorNames[kind], 3, m);
+  OptionField f;
+  f.name = kPriorNames[kind];
+  f.is_struct = true;
+  f.numel = in.ConsumeIntegralInRange<size_t>(0, 3);
+  f.rows = f.numel ? 1 : 0;
+  f.cols = f.numel;
+  f.description = "1x" + std::to_string(f.numel) + " struct";
+  // The first three fields (the required ones, and jac) mostly, the others now and then, the
+  // foreign one seldom.
+  std::vector<const char *> names;
+  for (std::size_t q = 0; q <= kPriorFieldCount[kind]; ++q) {
+    const int odds = q < 3 ? 8 : q < kPriorFieldCount[kind] ? 3 : 16;
+    const bool present =
+        q < 3 ? in.ConsumeIntegralInRange<int>(1, odds) != 1 : in.ConsumeIntegralInRange<int>(1, odds) == 1;
+    if (present) names.push_back(kPriorFields[kind][q]);
+  }
+  const std::size_t k = kind == 0   ? pnp
+                        : kind == 1 ? in.ConsumeIntegralInRange<size_t>(1, 3)
+                                    : in.ConsumeIntegralInRange<size_t>(0, 3);
+  for (std::size_t e = 0; e < f.numel; ++e) {
+    std::vector<OptionField> fields;
+    for (const char *name : names)
+      fields.push_back(next_prior_value(in, name, std::string(name) == "jac" ? cnp : k, m));
+    f.elements.push_back(std::move(fields));
+  }
+  return f;
+}
+
+const OptionField *element_field(const std::vector<OptionField> &fields, const char *name) {
+  for (const OptionField &f : fields)
+    if (f.name == name && f.numel > 0) return &f;
+  return nullptr;
+}
+
+bool numeric(const OptionField *f) { return f && f->matrix && !f->logical; }
+bool vector_shape(const OptionField *f) { return f->rows == 1 || f->cols == 1; }
+bool scalar(const OptionField *f) { return numeric(f) && f->numel == 1; }
+bool one_based(double v) { return v == std::floor(v) && v >= 1 && v <= 2147483647.0; }
+
+// k values (k < 1: any numbers), or k x k.
+bool sized(const OptionField *f, long long k, bool square) {
+  if (!f) return true;
+  if (!numeric(f)) return false;
+  if (k < 1) return true;
+  const std::size_t uk = static_cast<std::size_t>(k);
+  return square ? f->rows == uk && f->cols == uk : vector_shape(f) && f->numel == uk;
+}
+
+bool function_value(const OptionField *f) { return f->handle || (f->text && !f->chars.empty()); }
+
+// docs/mex.md's rules for one element of a prior field of kind 0 (point), 1 (linear) or 2
+// (callback).
+bool prior_acceptable(const std::vector<OptionField> &e, int kind, std::size_t pnp) {
+  for (const OptionField &f : e) {
+    bool known = false;
+    for (std::size_t q = 0; q < kPriorFieldCount[kind]; ++q) known = known || f.name == kPriorFields[kind][q];
+    if (!known) return false;
+  }
+  const OptionField *target = element_field(e, kind == 0 ? "point" : "camera");
+  if (!scalar(target) || !one_based(target->values[0])) return false;
+  long long k = static_cast<long long>(pnp);
+  if (kind == 1) {
+    const OptionField *params = element_field(e, "params");
+    if (!numeric(params) || !vector_shape(params)) return false;
+    for (double v : params->values)
+      if (!one_based(v)) return false;
+    k = static_cast<long long>(params->numel);
+  }
+  if (kind == 2) {
+    const OptionField *dim = element_field(e, "dim"), *func = element_field(e, "func"), *jac = element_field(e, "jac");
+    if (!scalar(dim)) return false;
+    const double d = dim->values[0];
+    if (d != std::trunc(d) || d < -2147483648.0 || d > 2147483647.0) return false;
+    k = static_cast<long long>(d);
+    if (!func || !function_value(func) || (jac && !function_value(jac))) return false;
+  } else {
+    const OptionField *mean = element_field(e, "mean");
+    if (!mean || !sized(mean, k, false)) return false;
+  }
+  const OptionField *loss = element_field(e, "loss"), *scale = element_field(e, "loss_scale");
+  return sized(element_field(e, "sigma"), k, false) && sized(element_field(e, "covariance"), k, true) &&
+         sized(element_field(e, "sqrt_info"), k, true) && (!loss || loss->text) && (!scale || scalar(scale));
+}
+
+bool priors_acceptable(const OptionField &f, int kind, std::size_t pnp) {
+  if (f.numel == 0) return true;
+  if (!f.is_struct) return false;
+  for (const std::vector<OptionField> &e : f.elements)
+    if (!prior_acceptable(e, kind, pnp)) return false;
+  return true;
+}
+
+bool same(double a, double b) { return a == b || (std::isnan(a) && std::isnan(b)); }
+
+// The values of f (absent: none) as taken, row-major when square.
+void check_values(const std::vector<double> &taken, const OptionField *f, bool square, const std::string &what) {
+  if (!f) {
+    require(taken.empty(), what + " taken from nothing");
+    return;
+  }
+  require(taken.size() == f->values.size(), what + " taken with another size");
+  const std::size_t k = square ? f->rows : 1;
+  for (std::size_t q = 0; q < taken.size(); ++q) {
+    const std::size_t from = square ? (q % k) * k + q / k : q;  // taken[r*k + c] is (r, c)
+    require(same(taken[q], f->values[from]), what + " taken as other values");
+  }
+}
+
+void check_base(const sba_mex::PriorBase &p, const std::vector<OptionField> &e, long long k, const std::string &what) {
+  // With k < 1 the matrices are taken as they are, unread by the library.
+  check_values(p.weight.sigma, element_field(e, "sigma"), false, what + ".sigma");
+  check_values(p.weight.covariance, element_field(e, "covariance"), k > 0, what + ".covariance");
+  check_values(p.weight.sqrt_info, element_field(e, "sqrt_info"), k > 0, what + ".sqrt_info");
+  const OptionField *loss = element_field(e, "loss"), *scale = element_field(e, "loss_scale");
+  require(p.has_loss == (loss != nullptr) && (!loss || p.loss == loss->chars), what + ".loss taken as another");
+  require(same(p.loss_scale, scale ? scale->values[0] : 0.0), what + ".loss_scale taken as another");
+}
+
+void check_function(const sba_mex::PriorFunction &fn, const OptionField *f, const std::string &what) {
+  require(fn.given == (f != nullptr), what + " given or not given as the other");
+  if (f) require(fn.handle == f->handle && fn.name == (f->text ? f->chars : ""), what + " taken as another");
+}
+
+void check_priors_taken(const sba_mex::StructOptions &o, const OptionField *const given[3], std::size_t pnp) {
+  require(o.point_priors.size() == (given[0] ? given[0]->numel : 0) &&
+              o.linear_priors.size() == (given[1] ? given[1]->numel : 0) &&
+              o.camera_priors.size() == (given[2] ? given[2]->numel : 0),
+          "another number of priors taken");
+  for (std::size_t q = 0; q < o.point_priors.size(); ++q) {
+    const sba_mex::PointPrior &p = o.point_priors[q];
+    const std::vector<OptionField> &e = given[0]->elements[q];
+    require(p.point == element_field(e, "point")->values[0] - 1, "point_priors: point taken as another");
+    check_values(p.mean, element_field(e, "mean"), false, "point_priors mean");
+    check_base(p, e, static_cast<long long>(pnp), "point_priors");
+  }
+  for (std::size_t q = 0; q < o.linear_priors.size(); ++q) {
+    const sba_mex::LinearPrior &p = o.linear_priors[q];
+    const std::vector<OptionField> &e = given[1]->elements[q];
+    const OptionField *params = element_field(e, "params");
+    require(p.camera == element_field(e, "camera")->values[0] - 1 && p.params.size() == params->numel,
+            "camera_linear_priors: camera or params taken as others");
+    for (std::size_t c = 0; c < p.params.size(); ++c)
+      require(p.params[c] == params->values[c] - 1, "camera_linear_priors: a parameter taken as another");
+    check_values(p.mean, element_field(e, "mean"), false, "camera_linear_priors mean");
+    check_base(p, e, static_cast<long long>(p.params.size()), "camera_linear_priors");
+  }
+  for (std::size_t q = 0; q < o.camera_priors.size(); ++q) {
+    const sba_mex::CallbackPrior &p = o.camera_priors[q];
+    const std::vector<OptionField> &e = given[2]->elements[q];
+    require(p.camera == element_field(e, "camera")->values[0] - 1 && p.dim == element_field(e, "dim")->values[0],
+            "camera_priors: camera or dim taken as another");
+    check_function(p.func, element_field(e, "func"), "camera_priors func");
+    check_function(p.jac, element_field(e, "jac"), "camera_priors jac");
+    check_base(p, e, p.dim, "camera_priors");
+  }
 }
 
 bool finite_matrix(const OptionField &f) {
@@ -178,6 +400,7 @@ void check_refusal(const ArgError &e) {
   bool named = e.message.find("options struct") != std::string::npos;
   for (std::size_t k = 0; k < kOptionNames; ++k)
     named = named || e.message.find(kNames[k]) != std::string::npos;
+  for (const char *name : kPriorNames) named = named || e.message.find(name) != std::string::npos;
   require(named, "a refusal that names no field: " + e.message);
 }
 
@@ -223,11 +446,33 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t *data, std::size_t size
     for (const OptionField &g : fields) repeated = repeated || g.name == f.name;
     if (!repeated) fields.push_back(std::move(f));
   }
-  const bool ok = acceptable(fields, m, cnp);
+  // The priors after the camera fields, from what is left of the input.
+  const std::size_t pnp = in.ConsumeIntegralInRange<size_t>(0, 4);
+  const OptionField *given[3] = {nullptr, nullptr, nullptr};
+  bool priors_ok = true;
+  for (int kind = 0; kind < 3; ++kind)
+    if (in.ConsumeBool()) fields.push_back(next_prior_field(in, kind, m, cnp, pnp));
+  for (const OptionField &f : fields)
+    for (int kind = 0; kind < 3; ++kind)
+      if (f.name == kPriorNames[kind]) {
+        priors_ok = priors_ok && priors_acceptable(f, kind, pnp);
+        if (f.numel > 0) given[kind] = &f;
+      }
+  // A struct with a prior field alone is the options struct.
+  for (int kind = 0; kind < 3; ++kind)
+    if (given[kind])
+      require(sba_mex::struct_role(true, 1, {kPriorNames[kind]}) == sba_mex::StructRole::kOptions &&
+                  sba_mex::struct_role(true, 2, {"foo", kPriorNames[kind]}) == sba_mex::StructRole::kRefused,
+              "a struct with a prior field taken for problem data");
+  std::vector<OptionField> camera_fields;
+  for (const OptionField &f : fields)
+    if (f.name != kPriorNames[0] && f.name != kPriorNames[1] && f.name != kPriorNames[2]) camera_fields.push_back(f);
+  const bool ok = acceptable(camera_fields, m, cnp) && priors_ok;
   try {
-    const sba_mex::CameraOptions o = sba_mex::camera_options(fields, m, cnp);
+    const sba_mex::StructOptions o = sba_mex::options_struct(fields, m, cnp, pnp);
     require(ok, "an options struct taken against the rules");
-    check_taken(o, fields, m, cnp);
+    check_taken(o.camera, fields, m, cnp);
+    check_priors_taken(o, given, pnp);
   } catch (const ArgError &e) {
     require(!ok, "a good options struct refused: " + e.message);
     check_refusal(e);

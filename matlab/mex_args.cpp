@@ -126,31 +126,60 @@ StructRole role(const mxArray *a) {
   return struct_role(mxIsStruct(a), mxGetNumberOfElements(a), fields);
 }
 
-// The held and shared camera parameters of the options struct s, in sba_ext_options' layout.
+// A host value as the options struct's rules see it (mex_options.h), with the fields of every
+// element of a struct array.
+OptionField option_field(const std::string &name, const mxArray *v) {
+  OptionField o;
+  o.name = name;
+  if (!v) return o;  // an element whose field was never set: []
+  o.numel = mxGetNumberOfElements(v);
+  o.description = describe(v);
+  o.matrix = is_real_numeric(v) && !mxIsSparse(v) && mxGetNumberOfDimensions(v) == 2;
+  if (o.matrix) {
+    o.logical = mxIsLogical(v);
+    o.rows = mxGetM(v);
+    o.cols = mxGetN(v);
+    for (std::size_t k = 0; k < o.numel; ++k) o.values.push_back(element(v, k));
+  }
+  o.text = is_string(v);
+  if (o.text) o.chars = string_arg(v);
+  o.handle = mxGetClassID(v) == mxFUNCTION_CLASS;
+  o.is_struct = mxIsStruct(v);
+  for (std::size_t q = 0; o.is_struct && q < o.numel; ++q) {
+    std::vector<OptionField> fields;
+    for (int f = 0; f < mxGetNumberOfFields(v); ++f)
+      fields.push_back(option_field(mxGetFieldNameByNumber(v, f), mxGetFieldByNumber(v, q, f)));
+    o.elements.push_back(std::move(fields));
+  }
+  return o;
+}
+
+// The options struct s: held and shared camera parameters in sba_ext_options' layout, and the
+// priors, with the function handles of the callback priors taken from s itself (which outlives
+// the call).
 void read_options_struct(Gateway &g, const mxArray *s) {
   std::vector<OptionField> fields;
-  for (int f = 0; f < mxGetNumberOfFields(s); ++f) {
-    OptionField o;
-    o.name = mxGetFieldNameByNumber(s, f);
-    if (const mxArray *v = mxGetFieldByNumber(s, 0, f)) {
-      o.numel = mxGetNumberOfElements(v);
-      o.description = describe(v);
-      o.matrix = is_real_numeric(v) && !mxIsSparse(v) && mxGetNumberOfDimensions(v) == 2;
-      if (o.matrix) {
-        o.logical = mxIsLogical(v);
-        o.rows = mxGetM(v);
-        o.cols = mxGetN(v);
-        for (std::size_t k = 0; k < o.numel; ++k) o.values.push_back(element(v, k));
-      }
-    }
-    fields.push_back(std::move(o));
+  for (int f = 0; f < mxGetNumberOfFields(s); ++f)
+    fields.push_back(option_field(mxGetFieldNameByNumber(s, f), mxGetFieldByNumber(s, 0, f)));
+  StructOptions o = options_struct(fields, static_cast<std::size_t>(g.m), static_cast<std::size_t>(g.cnp),
+                                   static_cast<std::size_t>(g.pnp));
+  g.cam_fixed = std::move(o.camera.fixed);
+  g.cam_fixed_per_camera = o.camera.fixed_per_camera;
+  g.cam_group = std::move(o.camera.group);
+  g.cam_shared = std::move(o.camera.shared);
+  g.cam_param_group = std::move(o.camera.param_group);
+  g.point_priors = std::move(o.point_priors);
+  g.linear_priors = std::move(o.linear_priors);
+  g.camera_priors = std::move(o.camera_priors);
+  const mxArray *priors = mxGetField(s, 0, "camera_priors");
+  for (std::size_t q = 0; q < g.camera_priors.size(); ++q) {
+    const CallbackPrior &p = g.camera_priors[q];
+    PriorCallbacks cb;
+    cb.where = format("camera_priors(%zu)", q + 1);
+    cb.func = HostFunction{p.func.name, p.func.handle ? mxGetField(priors, q, "func") : nullptr};
+    if (p.jac.given) cb.jac = HostFunction{p.jac.name, p.jac.handle ? mxGetField(priors, q, "jac") : nullptr};
+    g.prior_callbacks.push_back(std::move(cb));
   }
-  CameraOptions c = camera_options(fields, static_cast<std::size_t>(g.m), static_cast<std::size_t>(g.cnp));
-  g.cam_fixed = std::move(c.fixed);
-  g.cam_fixed_per_camera = c.fixed_per_camera;
-  g.cam_group = std::move(c.group);
-  g.cam_shared = std::move(c.shared);
-  g.cam_param_group = std::move(c.param_group);
 }
 
 void parse_callback(Callback &cb, const std::string &text, const char *role) {
@@ -172,10 +201,9 @@ void parse_callback(Callback &cb, const std::string &text, const char *role) {
   cb.native = cb.library.symbol(cb.name, lib, role);
 }
 
-// Checks that a host function exists, so that a typo is reported as such.
-void check_host_function(const Callback &cb, const char *role) {
-  if (cb.kind != Callback::kHost) return;
-  mxArray *name = mxCreateString(cb.name.c_str());
+// Checks that a host function exists, so that a typo is reported as such; role names it.
+void check_host_function(const std::string &fn, const std::string &role) {
+  mxArray *name = mxCreateString(fn.c_str());
   mxArray *out = nullptr;
   bool found = true;
 #if SBA_MEX_OCTAVE
@@ -193,9 +221,11 @@ void check_host_function(const Callback &cb, const char *role) {
 #endif
   if (out) mxDestroyArray(out);
   mxDestroyArray(name);
-  if (!found)
-    bad_arg("functionNotFound",
-            format("%s: no function named '%s' was found.", role, cb.name.c_str()));
+  if (!found) bad_arg("functionNotFound", format("%s: no function named '%s' was found.", role.c_str(), fn.c_str()));
+}
+
+void check_host_function(const Callback &cb, const char *role) {
+  if (cb.kind == Callback::kHost) check_host_function(cb.name, role);
 }
 
 // opts: up to SBA_OPTSSZ finite values, the defaults for the rest (said in *warning).
@@ -300,6 +330,10 @@ void read_callbacks(Gateway &g, const std::string &proj, const std::string &proj
   g.extra_ptrs.push_back(nullptr);  // never empty: data() is valid even without extra data
   check_host_function(g.proj, "proj");
   check_host_function(g.projac, "projac");
+  for (const PriorCallbacks &p : g.prior_callbacks) {
+    if (!p.func.handle) check_host_function(p.func.name, p.where + ".func");
+    if (!p.jac.handle && !p.jac.name.empty()) check_host_function(p.jac.name, p.where + ".jac");
+  }
 }
 
 }  // namespace

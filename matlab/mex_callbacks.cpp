@@ -40,15 +40,12 @@ std::string exception_text(const mxArray *ex, const char *what) {
 }
 #endif
 
-// Calls a host function: out = fn(j, i, aj, bi, extra...). False if it failed (recorded in g).
-bool call_host(Gateway &g, const Callback &cb, const char *role, int nout, mxArray **out, int j,
-               int i, const double *aj, const double *bi) {
-  std::vector<mxArray *> in(4 + g.extra.size());
-  in[0] = mxCreateDoubleScalar(j);
-  in[1] = mxCreateDoubleScalar(i);
-  in[2] = host_vector(aj, g.cnp, g.p_is_row());
-  in[3] = host_vector(bi, g.pnp, g.p_is_row());
-  for (std::size_t k = 0; k < g.extra.size(); ++k) in[4 + k] = const_cast<mxArray *>(g.extra[k]);
+// Calls the host function fn (a name) on in (the first `owned` of them destroyed here), out
+// its nout results. False if it failed: recorded in g, the message starting with failed(),
+// which is only worded then.
+template <class Failed>
+bool call_function(Gateway &g, const char *fn, std::vector<mxArray *> &in, std::size_t owned, int nout, mxArray **out,
+                   Failed failed) {
   for (int k = 0; k < nout; ++k) out[k] = nullptr;
   bool ok = true;
 #if SBA_MEX_OCTAVE
@@ -56,11 +53,10 @@ bool call_host(Gateway &g, const Callback &cb, const char *role, int nout, mxArr
   // that it never crosses the library. An interrupt (or anything else of Octave's) is kept
   // and rethrown by mexFunction() once the solve has unwound.
   try {
-    mexCallMATLAB(nout, out, static_cast<int>(in.size()), in.data(), cb.name.c_str());
+    mexCallMATLAB(nout, out, static_cast<int>(in.size()), in.data(), fn);
   } catch (const octave::execution_exception &e) {
     ok = false;
-    g.fail("sba:callbackFailed", format("%s '%s' failed at %s: %s", role, cb.name.c_str(),
-                                        where(j, i).c_str(), e.message().c_str()));
+    g.fail("sba:callbackFailed", failed() + ": " + e.message());
   } catch (const octave::interrupt_exception &) {
     ok = false;
     g.host_exception_is_interrupt = true;
@@ -70,22 +66,19 @@ bool call_host(Gateway &g, const Callback &cb, const char *role, int nout, mxArr
     g.keep_host_exception(std::current_exception());
   }
 #else
-  mxArray *ex =
-      mexCallMATLABWithTrap(nout, out, static_cast<int>(in.size()), in.data(), cb.name.c_str());
+  mxArray *ex = mexCallMATLABWithTrap(nout, out, static_cast<int>(in.size()), in.data(), fn);
   if (ex) {
     ok = false;
     const std::string id = exception_text(ex, "identifier");
     if (id.find("interrupt") != std::string::npos) {
       if (g.state == Gateway::State::kRunning) g.state = Gateway::State::kInterrupted;
     } else {
-      g.fail("sba:callbackFailed",
-             format("%s '%s' failed at %s: %s", role, cb.name.c_str(), where(j, i).c_str(),
-                    exception_text(ex, "message").c_str()));
+      g.fail("sba:callbackFailed", failed() + ": " + exception_text(ex, "message"));
     }
     mxDestroyArray(ex);
   }
 #endif
-  for (int k = 0; k < 4; ++k) mxDestroyArray(in[k]);
+  for (std::size_t k = 0; k < owned; ++k) mxDestroyArray(in[k]);
   if (!ok)
     for (int k = 0; k < nout; ++k)
       if (out[k]) {
@@ -93,6 +86,19 @@ bool call_host(Gateway &g, const Callback &cb, const char *role, int nout, mxArr
         out[k] = nullptr;
       }
   return ok;
+}
+
+// Calls a host function: out = fn(j, i, aj, bi, extra...). False if it failed (recorded in g).
+bool call_host(Gateway &g, const Callback &cb, const char *role, int nout, mxArray **out, int j, int i,
+               const double *aj, const double *bi) {
+  std::vector<mxArray *> in(4 + g.extra.size());
+  in[0] = mxCreateDoubleScalar(j);
+  in[1] = mxCreateDoubleScalar(i);
+  in[2] = host_vector(aj, g.cnp, g.p_is_row());
+  in[3] = host_vector(bi, g.pnp, g.p_is_row());
+  for (std::size_t k = 0; k < g.extra.size(); ++k) in[4 + k] = const_cast<mxArray *>(g.extra[k]);
+  return call_function(g, cb.name.c_str(), in, 4, nout, out,
+                       [&] { return format("%s '%s' failed at %s", role, cb.name.c_str(), where(j, i).c_str()); });
 }
 
 // Copies a callback's answer into dst (rows x cols, row-major). A rows x cols matrix is taken as
@@ -202,6 +208,65 @@ void eval_jac(Gateway &g, int j, int i, double *aj, double *bi, double *A, doubl
 
 Gateway &gw(void *adata) { return *static_cast<Gateway *>(adata); }
 
+// The data of callback prior q's C callbacks.
+struct PriorCall {
+  Gateway *g;
+  std::size_t q;
+};
+
+// A callback prior's function f (func or jac, role) at camera j (the library's index):
+// f(j + 1, aj, extra...) into dst (rows x cols, row-major, as take_block reads it); NaN when
+// it fails or returns another size, which ends the solve with the failure recorded in g.
+void eval_prior_function(const PriorCall &c, const HostFunction &f, const char *role, int j, const double *aj,
+                         double *dst, int rows, int cols) noexcept {
+  Gateway &g = *c.g;
+  const int len = rows * cols;
+  try {
+    if (g.stopping()) {
+      fill_nan(dst, len);
+      return;
+    }
+    const std::string &where_q = g.prior_callbacks[c.q].where;
+    // The prior's camera is 1-based, as its camera field; a handle goes through feval.
+    mxArray *jv = mxCreateDoubleScalar(j + 1), *av = host_vector(aj, g.cnp, g.p_is_row());
+    std::vector<mxArray *> in;
+    if (f.handle) in.push_back(const_cast<mxArray *>(f.handle));
+    in.push_back(jv);
+    in.push_back(av);
+    for (const mxArray *e : g.extra) in.push_back(const_cast<mxArray *>(e));
+    mxArray *out = nullptr;
+    const bool ok = call_function(g, f.handle ? "feval" : f.name.c_str(), in, 0, 1, &out,
+                                  [&] { return format("%s.%s failed at camera %d", where_q.c_str(), role, j + 1); });
+    mxDestroyArray(jv);
+    mxDestroyArray(av);
+    if (!ok) {
+      fill_nan(dst, len);
+      return;
+    }
+    if (!take_block(out, rows, cols, dst)) {
+      g.fail("sba:callbackSize", format("%s.%s returned %s at camera %d; expected %s.", where_q.c_str(), role,
+                                        answer_text(out).c_str(), j + 1,
+                                        cols == 1 ? format("a real vector of dim = %d values", rows).c_str()
+                                                  : format("dim*cnp = %d values (%d x %d)", len, rows, cols).c_str()));
+      fill_nan(dst, len);
+    }
+    if (out) mxDestroyArray(out);
+  } catch (...) {
+    g.fail("sba:outOfMemory", "out of memory in a camera prior's callback.");
+    fill_nan(dst, len);
+  }
+}
+
+void prior_func(int j, const double *aj, double *r, void *data) {
+  const PriorCall &c = *static_cast<PriorCall *>(data);
+  eval_prior_function(c, c.g->prior_callbacks[c.q].func, "func", j, aj, r, c.g->camera_priors[c.q].dim, 1);
+}
+
+void prior_jac(int j, const double *aj, double *jac, void *data) {
+  const PriorCall &c = *static_cast<PriorCall *>(data);
+  eval_prior_function(c, c.g->prior_callbacks[c.q].jac, "jac", j, aj, jac, c.g->camera_priors[c.q].dim, c.g->cnp);
+}
+
 // The three shapes of the simple drivers' callbacks; the fixed half comes from p0.
 void motstr_proj(int j, int i, double *aj, double *bi, double *xij, void *adata) {
   eval_proj(gw(adata), j, i, aj, bi, xij);
@@ -224,6 +289,20 @@ void str_proj(int j, int i, double *bi, double *xij, void *adata) {
 void str_projac(int j, int i, double *bi, double *B, void *adata) {
   Gateway &g = gw(adata);
   eval_jac(g, j, i, const_cast<double *>(g.fixed_camera(j)), bi, nullptr, B);
+}
+
+// A library prior struct with p's weight and loss, everything else zero.
+template <class Struct>
+Struct prior_struct(const PriorBase &p) {
+  Struct out;
+  std::memset(&out, 0, sizeof out);
+  const auto array = [](const std::vector<double> &v) { return v.empty() ? nullptr : v.data(); };
+  out.weight.sigma = array(p.weight.sigma);
+  out.weight.covariance = array(p.weight.covariance);
+  out.weight.sqrt_info = array(p.weight.sqrt_info);
+  out.loss = p.has_loss ? p.loss.c_str() : nullptr;
+  out.loss_scale = p.loss_scale;
+  return out;
 }
 
 void log_sink(void *ctx, int level, const char *line) {
@@ -280,6 +359,41 @@ int solve(Gateway &g, std::vector<double> &p, double info[SBA_INFOSZ]) {
   if (!g.cam_group.empty()) ext.cam_group = g.cam_group.data();
   if (!g.cam_shared.empty()) ext.cam_shared = g.cam_shared.data();
   if (!g.cam_param_group.empty()) ext.cam_param_group = g.cam_param_group.data();
+  // The library's structs over the priors read from the options struct, alive for the solve.
+  std::vector<sba_point_prior> point_priors(g.point_priors.size());
+  for (std::size_t q = 0; q < point_priors.size(); ++q) {
+    const PointPrior &p = g.point_priors[q];
+    point_priors[q] = prior_struct<sba_point_prior>(p);
+    point_priors[q].point = p.point;
+    point_priors[q].mean = p.mean.data();
+  }
+  std::vector<sba_camera_linear_prior> linear_priors(g.linear_priors.size());
+  for (std::size_t q = 0; q < linear_priors.size(); ++q) {
+    const LinearPrior &p = g.linear_priors[q];
+    linear_priors[q] = prior_struct<sba_camera_linear_prior>(p);
+    linear_priors[q].camera = p.camera;
+    linear_priors[q].k = static_cast<int>(p.params.size());
+    linear_priors[q].params = p.params.data();
+    linear_priors[q].mean = p.mean.data();
+  }
+  std::vector<sba_camera_prior> camera_priors(g.camera_priors.size());
+  std::vector<PriorCall> calls(camera_priors.size());
+  for (std::size_t q = 0; q < camera_priors.size(); ++q) {
+    const CallbackPrior &p = g.camera_priors[q];
+    calls[q] = PriorCall{&g, q};
+    camera_priors[q] = prior_struct<sba_camera_prior>(p);
+    camera_priors[q].camera = p.camera;
+    camera_priors[q].dim = p.dim;
+    camera_priors[q].func = prior_func;
+    camera_priors[q].jacf = g.prior_callbacks[q].jac.given() ? prior_jac : nullptr;
+    camera_priors[q].data = &calls[q];
+  }
+  ext.npoint_priors = static_cast<int>(point_priors.size());
+  ext.point_priors = point_priors.empty() ? nullptr : point_priors.data();
+  ext.ncamera_linear_priors = static_cast<int>(linear_priors.size());
+  ext.camera_linear_priors = linear_priors.empty() ? nullptr : linear_priors.data();
+  ext.ncamera_priors = static_cast<int>(camera_priors.size());
+  ext.camera_priors = camera_priors.empty() ? nullptr : camera_priors.data();
   const bool jac = g.projac.kind != Callback::kNone;
   double *covx = const_cast<double *>(g.covx), *x = const_cast<double *>(g.x);
   char *vmask = g.vmask.data();

@@ -14,6 +14,7 @@
 
 #include "mex.h"
 #include "mex_error.h"
+#include "mex_options.h"
 #include "sba.h"
 #include "sba_ext.h"
 
@@ -69,6 +70,19 @@ struct Callback {
   Library library;
 };
 
+// A host function of a callback prior: called by name, or through feval when a handle.
+struct HostFunction {
+  std::string name;
+  const mxArray *handle = nullptr;
+  bool given() const { return handle || !name.empty(); }
+};
+
+// The functions of callback prior q, and how messages name it ("camera_priors(2)").
+struct PriorCallbacks {
+  std::string where;
+  HostFunction func, jac;  // jac not given: forward differences
+};
+
 // Everything a solve needs, and how it ended. One per call of the gateway.
 struct Gateway {
   // problem
@@ -89,6 +103,12 @@ struct Gateway {
   std::vector<int> cam_group;
   std::vector<char> cam_shared;
   std::vector<int> cam_param_group;
+  // Priors (the options struct), the library's indices; prior_callbacks[q] are camera_priors[q]'s
+  // functions.
+  std::vector<PointPrior> point_priors;
+  std::vector<LinearPrior> linear_priors;
+  std::vector<CallbackPrior> camera_priors;
+  std::vector<PriorCallbacks> prior_callbacks;
   std::vector<const mxArray *> extra;
   std::vector<double *> extra_ptrs;  // for NAME@LIBRARY callbacks
   Callback proj, projac;

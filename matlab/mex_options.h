@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The options struct of the MEX gateway (beyond 1.6; docs/mex.md, "Held and shared camera
-// parameters"): which value beside reftype is one, and what its fields hold. The rules are
+// parameters" and "Priors"): which value beside reftype is one, and what its fields hold. The rules are
 // written over plain values, not the host's arrays: mex_args.cpp describes the host's value
 // to them, and fuzz/ calls them directly.
 #ifndef SBA_MATLAB_MEX_OPTIONS_H
@@ -36,6 +36,13 @@ struct OptionField {
   std::size_t rows = 0, cols = 0;  // its size, when matrix
   std::vector<double> values;      // its values column-major, when matrix
   std::string description;         // what it is, for messages ("1x3 cell")
+  bool text = false;               // a char row vector (or ''), its characters in chars
+  std::string chars;
+  bool handle = false;  // a function handle
+  // A struct array: each element's fields (numel of them, column-major), each list in the
+  // struct's field order.
+  bool is_struct = false;
+  std::vector<std::vector<OptionField>> elements;
 };
 
 // The held and shared camera parameters in sba_ext_options' layout: fixed has cnp flags
@@ -52,9 +59,58 @@ struct CameraOptions {
   std::vector<int> param_group;
 };
 
-// The fields of an options struct for m cameras of cnp parameters. Raises bad_arg
-// (sba:invalidArgument, sba:wrongSize) naming the field at the first bad one.
-CameraOptions camera_options(const std::vector<OptionField> &fields, std::size_t m, std::size_t cnp);
+// A prior's weight as sba_prior_weight's arrays, row-major; an empty one is not given.
+struct PriorWeight {
+  std::vector<double> sigma, covariance, sqrt_info;
+};
+
+// What the three kinds of prior share. The indices are the library's, from 0.
+struct PriorBase {
+  PriorWeight weight;
+  bool has_loss = false;  // loss given ('' counts: the library takes it as unknown)
+  std::string loss;
+  double loss_scale = 0;
+};
+
+struct PointPrior : PriorBase {
+  int point = 0;
+  std::vector<double> mean;  // pnp values
+};
+
+struct LinearPrior : PriorBase {
+  int camera = 0;
+  std::vector<int> params;   // k parameter indices
+  std::vector<double> mean;  // k values
+};
+
+// A function of a callback prior: a function's name, or a function handle (the gateway takes
+// the handle itself from the struct).
+struct PriorFunction {
+  bool given = false, handle = false;
+  std::string name;  // when given and not a handle
+};
+
+struct CallbackPrior : PriorBase {
+  int camera = 0;
+  int dim = 0;
+  PriorFunction func, jac;  // jac not given: forward differences
+};
+
+// Every field of the options struct, read.
+struct StructOptions {
+  CameraOptions camera;
+  std::vector<PointPrior> point_priors;
+  std::vector<LinearPrior> linear_priors;
+  std::vector<CallbackPrior> camera_priors;
+};
+
+// The fields of an options struct for m cameras of cnp parameters and points of pnp. Raises
+// bad_arg (sba:invalidArgument, sba:wrongSize) naming the field, or the prior and its field
+// ("point_priors(2).mean"), at the first bad one. As for the held and shared parameters, only
+// the priors' types and sizes are checked here, the sizes the library will read: whether an
+// index names a camera or point that a prior may constrain, and whether a mean, weight or loss
+// can be used, is the library's check (its message names the prior).
+StructOptions options_struct(const std::vector<OptionField> &fields, std::size_t m, std::size_t cnp, std::size_t pnp);
 
 }  // namespace sba_mex
 

@@ -66,9 +66,26 @@ function varargout = sba(varargin)
 %                            unrelated (a rig: the focal length by camera, the pose by
 %                            frame). Not with camera_groups and shared_params.
 %           Flags are numeric or logical; group numbers are numeric, never logical (false
-%           would be group 0). A struct with none of these fields is problem data.
+%           would be group 0). The same struct takes priors, residuals beside the
+%           projections that keep a point or camera parameters near known values, each field
+%           a struct array, one element per prior, indices 1-based:
+%             point_priors          point, mean (pnp values): r = b_point - mean
+%             camera_linear_priors  camera, params (k parameter indices), mean (k values):
+%                                   r = a_camera(params) - mean
+%             camera_priors         camera, dim, func, jac: r = func(j, aj, extra1, ...),
+%                                   dim values, j the prior's camera (1-based, unlike proj's
+%                                   j) and aj its parameters; func is a function name or
+%                                   handle; jac (same call) returns dr/daj, dim x cnp; jac
+%                                   '' or absent: forward differences
+%           and in each, optionally, at most one weight, sigma (k standard deviations),
+%           covariance (k x k) or sqrt_info (upper-triangular L, L'*L = inv(covariance)),
+%           and loss ('huber', 'cauchy', 'soft-l1', 'tukey'; '' none) with loss_scale (the
+%           prior's own). info(1) and info(2) then include the priors' cost. The library
+%           checks the values (sba:invalidProblem), its message counting from 0: 'point
+%           prior 0 (point 4)' is point_priors(1), on point 5.
+%           A struct with none of these fields is problem data.
 %   extra1, extra2, ...  everything after those: problem data passed unchanged to every call
-%           of proj and projac
+%           of proj and projac (and of the priors' func and jac)
 %
 % Outputs
 %   ret     the number of iterations, or -1 if the solver failed (with a warning that says
@@ -81,7 +98,7 @@ function varargout = sba(varargin)
 %           4: small relative error reduction, 5: small ||e||, 6: the damping could not grow,
 %           7: proj or projac gave NaN/Inf, 8: singular system, 9: stopped on request
 %           (the list lives in sba_ext.h, SBA_STOP_*; sba_stop_reason_text words each).
-%           The mean squared reprojection error is info(2) / nvis.
+%           The mean squared reprojection error is info(2) / nvis (without priors).
 %
 % Callbacks
 %   j and i are the zero-based camera and point indices; aj (cnp values) and bi (pnp values)

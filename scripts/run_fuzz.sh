@@ -61,7 +61,12 @@ mkdir -p "$work/corpus-hold_poses"
 printf '10,img_0.png,0' > "$work/corpus-hold_poses/ids-and-names"
 printf 'all' > "$work/corpus-hold_poses/all"
 printf 'a,b.png\r\n\n10\ndup.png' > "$work/corpus-hold_poses/names-file"
-targets="cameras points calibration bal colmap bundler nvm hold_poses pysba_options mex_options camera_params"
+# Prior files (fuzz_priors): the first byte picks the kind (0 positions, 1 points, 2 intrinsics).
+mkdir -p "$work/corpus-priors"
+printf '\000a.png 1 2 3\nb.png 4 5 6 1 0 0 0 1 0 0 0 1 CARTESIAN\n10 47.1 8.2 400 WGS84\n' > "$work/corpus-priors/positions"
+printf '\001100 1 2 3 0.5\n103 4 5 6 1 0 0 0 2 0 0 0 3\n' > "$work/corpus-priors/points"
+printf '\0021 f 500 5\n2 fy 505 1\n2 4 0.1 0.01\n' > "$work/corpus-priors/intrinsics"
+targets="cameras points calibration bal colmap bundler nvm hold_poses priors pysba_options mex_options camera_params"
 # Earlier findings: tests/fuzz_regressions/TARGET-*.
 for t in $targets; do
   seed "$t" "$root"/tests/fuzz_regressions/"$t"-*
@@ -76,6 +81,7 @@ fuzz() {  # fuzz TARGET: one target for the time given; its exit code in $work/T
     colmap|bundler) max_len=16384 dict=colmap ;;
     nvm) max_len=16384 dict=nvm ;;
     hold_poses) max_len=1024 dict=hold_poses ;;
+    priors) max_len=2048 dict=eucsba ;;
     *) max_len=4096 dict=eucsba ;;
   esac
   rc=0

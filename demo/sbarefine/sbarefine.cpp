@@ -504,6 +504,13 @@ bool open_input(const std::string &path, Input *in, std::string *error) {
   return true;
 }
 
+// The priors the options name, as read and checked against the model.
+struct ModelPriors {
+  std::vector<colmap::PosePrior> poses;  // usable_pose_priors'
+  std::vector<colmap::PointPrior> points;
+  std::vector<colmap::IntrinsicPrior> intrinsics;
+};
+
 // The state a job's callbacks point into, kept alive for the whole run.
 struct Loaded {
   std::string warning;  // said once the input is read; empty: none
@@ -512,6 +519,8 @@ struct Loaded {
   nvm::SbaProblem problem;  // NVM
   std::unique_ptr<euclidean::CameraModel> sba_model;
   colmap::Problem colmap_problem;
+  ModelPriors model_priors;  // read_priors'
+  std::string priors_said;   // what read_priors did, for the summary
   colmap::ProblemPriors priors;
   nvm::Model nvm;
   bundler::Bundle bundle;
@@ -693,12 +702,6 @@ decltype(Job::covariance) colmap_covariance(const Options &o, Loaded *l) {
   };
 }
 
-// The priors the options name, as read and checked against the model.
-struct ModelPriors {
-  std::vector<colmap::PosePrior> poses;  // usable_pose_priors'
-  std::vector<colmap::PointPrior> points;
-  std::vector<colmap::IntrinsicPrior> intrinsics;
-};
 
 // The priors of the options (docs/priors.md), into *out, and the model moved onto them when there
 // are enough to place it (not with --itmax 0, which rewrites the model as read): *said tells what
@@ -721,11 +724,24 @@ bool read_priors(const Options &o, colmap::Model *model, ModelPriors *out, std::
     *said += "\nIntrinsics priors: " + std::to_string(out->intrinsics.size()) + " from " + o.intrinsics_priors;
   return true;
 }
+// The priors as the problem takes them, into the job's inputs.
+bool attach_priors(const Options &o, const ModelPriors &priors, Loaded *l, Job *job, std::string *error) {
+  if (!l->priors.build(l->colmap_problem, priors.poses, o.prior_options, priors.points, priors.intrinsics, error))
+    return false;
+  sba_ext_options ext{};
+  l->priors.attach(&ext);
+  job->in.ncamera_priors = ext.ncamera_priors;
+  job->in.camera_priors = ext.camera_priors;
+  job->in.ncamera_linear_priors = ext.ncamera_linear_priors;
+  job->in.camera_linear_priors = ext.camera_linear_priors;
+  job->in.npoint_priors = ext.npoint_priors;
+  job->in.point_priors = ext.point_priors;
+  return true;
+}
+
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
-  ModelPriors priors;
-  std::string priors_said;
-  if (!read_priors(o, &l->model, &priors, &priors_said, error)) return false;
+  if (!read_priors(o, &l->model, &l->model_priors, &l->priors_said, error)) return false;
   colmap::Options options;
   options.intrinsics = o.refine;
   options.poses = o.poses;
@@ -737,15 +753,7 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   const colmap::Problem &pr = l->colmap_problem;
   colmap_job(pr, job);
   job->ncon = pr.held_points();
-  if (!l->priors.build(pr, priors.poses, o.prior_options, priors.points, priors.intrinsics, error)) return false;
-  sba_ext_options ext{};
-  l->priors.attach(&ext);
-  job->in.ncamera_priors = ext.ncamera_priors;
-  job->in.camera_priors = ext.camera_priors;
-  job->in.ncamera_linear_priors = ext.ncamera_linear_priors;
-  job->in.camera_linear_priors = ext.camera_linear_priors;
-  job->in.npoint_priors = ext.npoint_priors;
-  job->in.point_priors = ext.point_priors;
+  if (!attach_priors(o, l->model_priors, l, job, error)) return false;
   // The library can only say that the initial error is not finite; the model can say where.
   if (o.solve.itmax > 0) {
     *error = pr.nonfinite_error(l->model, o.input);
@@ -761,7 +769,7 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   if (l->encoding == colmap::Encoding::Binary && colmap::has_model(o.input, colmap::Encoding::Text))
     job->summary += "\nThe text model beside it is not read: binary is read first, as COLMAP does";
   job->summary += unseen_images(l->model, pr);
-  job->summary += priors_said;
+  job->summary += l->priors_said;
   const auto count = [](std::size_t n, const char *what) {
     return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
   };

@@ -24,9 +24,7 @@ struct Line {
   std::vector<std::string> tokens;
 };
 
-bool read_lines(const std::string &path, std::vector<Line> *out, std::string *error) {
-  std::string text;
-  if (!read_whole_file(path, true, &text, error)) return false;
+void lines_of(const std::string &text, std::vector<Line> *out) {
   int number = 0;
   std::size_t pos = 0;
   while (pos < text.size()) {
@@ -44,7 +42,6 @@ bool read_lines(const std::string &path, std::vector<Line> *out, std::string *er
     if (!line.tokens.empty() && line.tokens[0][0] != '#') out->push_back(std::move(line));
     pos = end + 1;
   }
-  return true;
 }
 
 std::string at(const std::string &path, const Line &line) { return path + ":" + std::to_string(line.number) + ": "; }
@@ -240,9 +237,15 @@ Vec3 wgs84_to_ecef(const Vec3 &lla) {
 
 bool read_pose_priors_text(const std::string &path, const Model &model, std::vector<PosePrior> *out,
                            int *unknown, std::string *error) {
+  std::string text;
+  return read_whole_file(path, true, &text, error) && parse_pose_priors_text(text, path, model, out, unknown, error);
+}
+
+bool parse_pose_priors_text(const std::string &text, const std::string &path, const Model &model,
+                            std::vector<PosePrior> *out, int *unknown, std::string *error) {
   *unknown = 0;
   std::vector<Line> lines;
-  if (!read_lines(path, &lines, error)) return false;
+  lines_of(text, &lines);
   std::unordered_map<std::string, std::uint32_t> by_name;
   for (const Image &im : model.images) by_name.emplace(im.name, im.id);
   out->clear();
@@ -480,8 +483,14 @@ std::vector<Vec3> image_centres(const Model &model) {
 
 bool read_point_priors(const std::string &path, const Model &model, std::vector<PointPrior> *out,
                        std::string *error) {
+  std::string text;
+  return read_whole_file(path, true, &text, error) && parse_point_priors(text, path, model, out, error);
+}
+
+bool parse_point_priors(const std::string &text, const std::string &path, const Model &model,
+                        std::vector<PointPrior> *out, std::string *error) {
   std::vector<Line> lines;
-  if (!read_lines(path, &lines, error)) return false;
+  lines_of(text, &lines);
   std::unordered_set<std::uint64_t> ids, seen;
   for (const Point3D &p : model.points) ids.insert(p.id);
   out->clear();
@@ -533,8 +542,14 @@ bool read_point_priors(const std::string &path, const Model &model, std::vector<
 
 bool read_intrinsic_priors(const std::string &path, const Model &model, std::vector<IntrinsicPrior> *out,
                            std::string *error) {
+  std::string text;
+  return read_whole_file(path, true, &text, error) && parse_intrinsic_priors(text, path, model, out, error);
+}
+
+bool parse_intrinsic_priors(const std::string &text, const std::string &path, const Model &model,
+                            std::vector<IntrinsicPrior> *out, std::string *error) {
   std::vector<Line> lines;
-  if (!read_lines(path, &lines, error)) return false;
+  lines_of(text, &lines);
   std::unordered_map<std::uint32_t, int> models;
   for (const Camera &c : model.cameras) models.emplace(c.id, c.model);
   std::unordered_set<std::uint64_t> seen;

@@ -46,6 +46,9 @@ bool read_pose_priors_database(const std::string &path, std::vector<PosePrior> *
 // images it registered). False with "PATH:LINE: why".
 bool read_pose_priors_text(const std::string &path, const Model &model, std::vector<PosePrior> *out,
                            int *unknown, std::string *error);
+// The same of a file's text; name stands for the file in the messages.
+bool parse_pose_priors_text(const std::string &text, const std::string &name, const Model &model,
+                            std::vector<PosePrior> *out, int *unknown, std::string *error);
 
 // COLMAP's use of the positions, as its pose-prior bundle adjustment takes them.
 struct PosePriorOptions {
@@ -114,6 +117,8 @@ struct PointPrior {
 // point, a value not finite, a SIGMA <= 0, a covariance not symmetric positive definite.
 bool read_point_priors(const std::string &path, const Model &model, std::vector<PointPrior> *out,
                        std::string *error);
+bool parse_point_priors(const std::string &text, const std::string &name, const Model &model,
+                        std::vector<PointPrior> *out, std::string *error);
 
 // What COLMAP 4's pose-prior bundle adjustment does before its solve, for every front end. The
 // position priors `read` (unknown: how many more named images the model does not have; source:
@@ -142,6 +147,8 @@ struct IntrinsicPrior {
 // finite, STDDEV <= 0.
 bool read_intrinsic_priors(const std::string &path, const Model &model, std::vector<IntrinsicPrior> *out,
                            std::string *error);
+bool parse_intrinsic_priors(const std::string &text, const std::string &name, const Model &model,
+                            std::vector<IntrinsicPrior> *out, std::string *error);
 
 }  // namespace sbaformats::colmap
 

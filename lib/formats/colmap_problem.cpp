@@ -791,6 +791,11 @@ bool ProblemPriors::build(const Problem &problem, const std::vector<PosePrior> &
     linears_.push_back({column, ip.mean, ip.stddev});
     linear_cameras.push_back(j);
   }
+  make_structs(problem, linear_cameras, options.loss_scale);
+  return true;
+}
+
+void ProblemPriors::make_structs(const Problem &problem, const std::vector<int> &linear_cameras, double loss_scale) {
   const char *loss = loss_.empty() ? nullptr : loss_.c_str();
   for (const Position &p : positions_) {
     sba_camera_prior c{};
@@ -801,7 +806,7 @@ bool ProblemPriors::build(const Problem &problem, const std::vector<PosePrior> &
     c.data = const_cast<Position *>(&p);
     c.weight.covariance = p.covariance.data();
     c.loss = loss;
-    c.loss_scale = options.loss_scale;
+    c.loss_scale = loss_scale;
     camera_.push_back(c);
   }
   for (std::size_t k = 0; k < linears_.size(); ++k) {
@@ -820,7 +825,6 @@ bool ProblemPriors::build(const Problem &problem, const std::vector<PosePrior> &
     q.weight.covariance = gp.covariance.data();
     point_.push_back(q);
   }
-  return true;
 }
 
 void ProblemPriors::attach(sba_ext_options *ext) const {

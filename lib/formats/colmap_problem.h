@@ -254,6 +254,9 @@ class ProblemPriors {
     int param;
     double mean, sigma;
   };
+  // The library's structs over positions_, linears_ (of the sba cameras linear_cameras) and
+  // points_.
+  void make_structs(const Problem &problem, const std::vector<int> &linear_cameras, double loss_scale);
   static void residual(int j, const double *aj, double *r, void *data);
   static void jacobian(int j, const double *aj, double *jac, void *data);
 

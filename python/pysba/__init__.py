@@ -182,6 +182,7 @@ class Result:
     problems the camera covariance is over the optimized parameters (intrinsics, the
     rotation's local correction v, t), not over the file's quaternion. With
     :func:`refine_colmap`'s ``covariance=True``, ``colmap_covariance`` instead (see there).
+    :func:`refine_colmap` with position priors says in ``colmap_priors`` how it used them.
     """
 
     def __init__(self, report: dict):
@@ -215,6 +216,7 @@ class Result:
         self.rank: Optional[int] = report.get("rank")
         self.nfree: Optional[int] = report.get("nfree")
         self.colmap_covariance: Optional[dict] = report.get("colmap_covariance")
+        self.colmap_priors: str = report.get("priors_said", "").strip()
 
     def __repr__(self) -> str:
         return (f"Result(final_mse={self.final_mse:g}, initial_mse={self.initial_mse:g}, "

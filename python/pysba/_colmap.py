@@ -328,7 +328,10 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                   function_tolerance: Optional[float] = None, mcon: int = 0, ncon: int = 0,
                   progress: Optional[Callable[[Progress], Any]] = None, verbose: bool = False,
                   covariance: bool = False, covariance_points: bool = False,
-                  covariance_damping: float = 1e-8) -> Tuple[Any, Result]:
+                  covariance_damping: float = 1e-8, pose_priors: Any = None,
+                  prior_position_fallback_stddev: float = 1.0, prior_position_loss: str = "trivial",
+                  prior_position_loss_scale: float = 2.7954834829151074,
+                  alignment_max_error: float = 0.0) -> Tuple[Any, Result]:
     """Bundle-adjusts a COLMAP model as sbarefine does (the same numbers, bit for bit, as
     ``sbarefine MODEL --write OUT`` with the same options), with COLMAP's camera models and
     COLMAP's defaults, and returns ``(refined model, Result)``; the model is left unchanged.
@@ -403,6 +406,24 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         BACovarianceOptions.damping, whose default it shares (0: (J^T J)^-1 itself). A covariance the library refuses (a point its
         projections do not determine) raises SolveError with the result.
 
+    pose_priors, prior_position_fallback_stddev, prior_position_loss, prior_position_loss_scale,
+    alignment_max_error
+        COLMAP 4's pose-prior bundle adjustment, as sbarefine's --database-path (docs/priors.md):
+        pose_priors is the path of COLMAP's database (its pose_priors table), or a sequence of
+        position priors, each a pycolmap.PosePrior (those of cameras: corr_data_id.id is the
+        IMAGE_ID) or a dict with ``image_id``, ``position`` (3 values), optionally
+        ``covariance`` (3 x 3) and ``coordinate_system`` ("CARTESIAN", the default, or
+        "WGS84"). WGS84 positions become metres east, north and up of the first WGS84 prior,
+        as COLMAP's database cache converts them. Priors of images the model does not hold, or
+        that see no point, are left out. With at least 3, the model is moved onto them by a
+        robust similarity (its inlier distance alignment_max_error, 0: three times the priors'
+        RMS standard deviation), then refined with each image's projection centre drawn to its
+        prior, weighted by its covariance (prior_position_fallback_stddev in each axis without
+        one), with the loss prior_position_loss ("trivial" or "cauchy", of scale
+        prior_position_loss_scale); the result is in the priors' frame, and its
+        ``prior_cost_*`` and ``projection_cost_*`` are the two parts of the cost. With fewer,
+        the model is refined as without priors. The Result's ``colmap_priors`` says which.
+
     A model whose reprojection error at the start is not finite (a parameter that overflows
     the projection) is a ValueError naming the first such observation's image, camera and point.
 
@@ -434,9 +455,23 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         progress = _shown(colmap_model, loss not in (None, "none"), progress)
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,
                   covariance=bool(covariance))
+    database_path, priors = _pose_priors(pose_priors)
+    if prior_position_loss not in ("trivial", "cauchy"):
+        raise ValueError(f"prior_position_loss must be 'trivial' or 'cauchy', got {prior_position_loss!r}")
+    for name, value in (("prior_position_fallback_stddev", prior_position_fallback_stddev),
+                        ("prior_position_loss_scale", prior_position_loss_scale)):
+        if not (_real(name, value) > 0 and math.isfinite(value)):
+            raise ValueError(f"{name} must be finite and > 0, got {value!r}")
+    if not (_real("alignment_max_error", alignment_max_error) >= 0 and math.isfinite(alignment_max_error)):
+        raise ValueError(f"alignment_max_error must be finite and >= 0, got {alignment_max_error!r}")
     report = _core.refine_colmap(colmap_model, hold_all, held, *(bool(flag) for _, flag in flags), **constants,
                                  covariance_points=bool(covariance_points),
-                                 covariance_damping=float(covariance_damping), **kw)
+                                 covariance_damping=float(covariance_damping), database_path=database_path,
+                                 pose_priors=priors,
+                                 prior_position_fallback_stddev=float(prior_position_fallback_stddev),
+                                 prior_position_loss="" if prior_position_loss == "trivial" else "cauchy",
+                                 prior_position_loss_scale=float(prior_position_loss_scale),
+                                 alignment_max_error=float(alignment_max_error), **kw)
     refined = _with_unposed(_model(report["model"]), colmap_model)
     # The Result's model, also on an exception's result, is of the type returned.
     report["model"] = to_pycolmap(refined) if reconstruction else refined
@@ -445,6 +480,59 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         print(f"refine_colmap: RMS {result.rms_initial:.6g} px -> {result.rms_final:.6g} px in {result.iterations} "
               f"iterations: {result.reason.text}", file=sys.stderr, flush=True)
     return result.model, result
+
+
+_SYSTEMS = {"UNDEFINED": -1, "WGS84": 0, "CARTESIAN": 1}
+
+
+def _real(name: str, value: Any) -> float:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
+    return float(value)
+
+
+def _pose_priors(given: Any) -> Tuple[str, list]:
+    """refine_colmap's pose_priors as _core takes them: (a database path, or ""), and a list of
+    (IMAGE_ID, position, covariance (9 values, row-major) or None, coordinate system) tuples."""
+    if given is None:
+        return "", []
+    if isinstance(given, (str, os.PathLike)):
+        return os.fspath(given), []
+    if isinstance(given, (bytes, dict)) or not isinstance(given, collections.abc.Iterable):
+        raise TypeError(f"pose_priors must be a database path or a sequence of priors, got {type(given).__name__}")
+    out = []
+    for k, p in enumerate(given):
+        where = f"pose_priors[{k}]"
+        if isinstance(p, dict):
+            unknown = set(p) - {"image_id", "position", "covariance", "coordinate_system"}
+            if unknown:
+                raise ValueError(f"{where} has an unknown key {sorted(unknown)[0]!r}")
+            if "image_id" not in p or "position" not in p:
+                raise ValueError(f"{where} needs 'image_id' and 'position'")
+            image_id, position = p["image_id"], p["position"]
+            covariance, system = p.get("covariance"), p.get("coordinate_system", "CARTESIAN")
+        elif hasattr(p, "corr_data_id") and hasattr(p, "position"):  # a pycolmap.PosePrior
+            if getattr(p.corr_data_id.sensor_id.type, "name", "CAMERA") != "CAMERA":
+                continue  # a prior of another sensor places no image
+            image_id, position = p.corr_data_id.id, p.position
+            covariance, system = p.position_covariance, p.coordinate_system.name
+        else:
+            raise TypeError(f"{where} must be a pycolmap.PosePrior or a dict, got {type(p).__name__}")
+        if isinstance(image_id, (bool, np.bool_)) or not isinstance(image_id, numbers.Integral) \
+                or not 0 <= int(image_id) <= 0xFFFFFFFF:
+            raise ValueError(f"{where}: image_id must be an IMAGE_ID (an int in 0..4294967295), got {image_id!r}")
+        position = np.asarray(position, dtype=np.float64)
+        if position.size != 3:
+            raise ValueError(f"{where}: position must have 3 values, got {position.size}")
+        if covariance is not None:
+            covariance = np.asarray(covariance, dtype=np.float64)
+            if covariance.size != 9:
+                raise ValueError(f"{where}: covariance must be 3 x 3, got {covariance.size} values")
+            covariance = covariance.reshape(9).tolist()
+        if system not in _SYSTEMS:
+            raise ValueError(f"{where}: coordinate_system must be 'CARTESIAN' or 'WGS84', got {system!r}")
+        out.append((int(image_id), position.reshape(3).tolist(), covariance, _SYSTEMS[system]))
+    return "", out
 
 
 def _shown(model: ColmapModel, robust: bool,

@@ -44,6 +44,10 @@ def refine_colmap(model: Any, hold_all: bool, hold_poses: List[Union[int, str]],
                   refine_rig_from_world: bool, refine_sensor_from_rig: bool,
                   constant_rig_from_world_rotation: bool, hold_intrinsics: Tuple[bool, List[int]],
                   hold_sensor_from_rig: Tuple[bool, List[int]], hold_points: Tuple[bool, List[int]],
+                  covariance_points: bool, covariance_damping: float, database_path: str,
+                  pose_priors: List[Tuple[int, List[float], Optional[List[float]], int]],
+                  prior_position_fallback_stddev: float, prior_position_loss: str,
+                  prior_position_loss_scale: float, alignment_max_error: float,
                   **kwargs: Any) -> Dict[str, Any]: ...
 def solver_names() -> str: ...
 def strategy_names() -> str: ...

@@ -518,14 +518,16 @@ py::dict covariance_blocks(const std::vector<colmap::CovarianceBlock> &blocks, c
 // refine_colmap's covariance=True: the covariances at p in COLMAP's convention
 // (colmap::Problem::covariance) into d["colmap_covariance"], or why the library refused them into
 // d["covariance_error"]; nothing once a callback or Ctrl-C failed the session.
-void colmap_covariance(const colmap::Problem &pr, const colmap::Model &model, const std::vector<double> &p,
-                       Session &session, const colmap::CovarianceOptions &options, py::dict &d) {
+void colmap_covariance(const colmap::Problem &pr, const colmap::ProblemPriors &priors, const colmap::Model &model,
+                       const std::vector<double> &p, Session &session, const colmap::CovarianceOptions &options,
+                       py::dict &d) {
   static const char *const pose[] = {"rx", "ry", "rz", "tx", "ty", "tz"};
   static const char *const point[] = {"x", "y", "z"};
   colmap::Covariances c;
   const size_t nerrors = session.errors().size();
-  const sba_ext_options *ext = session.ext(true);
-  const bool ok = without_gil(session.released_thread(), [&] { return pr.covariance(model, p.data(), *ext, options, &c); });
+  sba_ext_options ext = *session.ext(true);
+  priors.attach(&ext);  // the priors' information is part of J^T J
+  const bool ok = without_gil(session.released_thread(), [&] { return pr.covariance(model, p.data(), ext, options, &c); });
   if (session.failed()) {
     d["error"] = session.error();
     return;
@@ -554,14 +556,36 @@ void colmap_covariance(const colmap::Problem &pr, const colmap::Model &model, co
   d["colmap_covariance"] = cov;
 }
 
+// refine_colmap's position priors (COLMAP's pose priors): from a database, or as given.
+struct PriorInput {
+  std::string database_path;             // empty: priors
+  std::vector<colmap::PosePrior> priors;
+  colmap::PosePriorOptions options;
+};
+
 // The solve sbarefine runs on a COLMAP model: the problem colmap::Problem builds, solved
 // through its callbacks with its held and shared parameters, and written back into the model
-// by Problem::apply unless nothing was solved (itmax 0).
+// by Problem::apply unless nothing was solved (itmax 0). With position priors, the model is
+// first placed on them as sbarefine places it (colmap::place_on_priors), and d["priors_said"]
+// tells how.
 py::dict refine_model(colmap::Model model, const colmap::Options &options, SolveOptions o,
-                      const colmap::CovarianceOptions &covariance_options) {
+                      const colmap::CovarianceOptions &covariance_options, const PriorInput &prior_input) {
   colmap::Problem pr;
   std::string error;
+  std::vector<colmap::PosePrior> read = prior_input.priors, poses;
+  if (!prior_input.database_path.empty() &&
+      !colmap::read_pose_priors_database(prior_input.database_path, &read, &error))
+    throw py::value_error(error);
+  std::string said;
+  const std::string source = !prior_input.database_path.empty() ? prior_input.database_path
+                             : read.empty()                      ? std::string()
+                                                                 : std::string("pose_priors");
+  if (!colmap::place_on_priors(std::move(read), 0, source, {}, {}, prior_input.options, o.itmax > 0, &model, &poses,
+                               &said, &error))
+    throw py::value_error(error);
   if (!colmap::Problem::build(model, options, kModelName, &pr, &error)) throw py::value_error(error);
+  colmap::ProblemPriors priors;
+  if (!priors.build(pr, poses, prior_input.options, {}, {}, &error)) throw py::value_error(error);
   // The library can only say that the initial error is not finite (with itmax 0 too, which it
   // still evaluates); the model can say where.
   if (std::string why = pr.nonfinite_error(model, kModelName); !why.empty()) throw py::value_error(why);
@@ -584,6 +608,7 @@ py::dict refine_model(colmap::Model model, const colmap::Options &options, Solve
   run.fjac = pr.fjac();
   run.adata = pr.adata();
   run.parallel = true;  // the callbacks are re-entrant, as sbarefine runs them
+  if (priors.size() > 0) run.colmap_priors = &priors;
   o.has_fixed = true;
   o.fixed = pr.cam_fixed();
   o.fixed_shape = {m, cnp};
@@ -597,12 +622,14 @@ py::dict refine_model(colmap::Model model, const colmap::Options &options, Solve
   Session session(o);
   py::dict d = run_driver(run, session, o);
   const bool solved = d["ret"].cast<int>() != SBA_ERROR && !session.failed();
-  if (covariance && solved) colmap_covariance(pr, model, run.p, session, covariance_options, d);
+  if (covariance && solved) colmap_covariance(pr, priors, model, run.p, session, covariance_options, d);
   if (o.itmax > 0 && d["ret"].cast<int>() != SBA_ERROR) pr.apply(run.p.data(), &model);
   d["model"] = python_model(model);
   d["cameras"] = copy_of(run.p.data(), {m, cnp});
   d["points"] = copy_of(run.p.data() + size_t(m) * size_t(cnp), {n, 3});
   d["nobs"] = obs.nobs();
+  d["priors_said"] = said;
+  d["npriors"] = priors.size();
   return d;
 }
 
@@ -696,6 +723,8 @@ py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_pos
                        bool extra, bool rig_from_world, bool sensor_from_rig, bool constant_rotation,
                        const py::tuple &hold_intrinsics, const py::tuple &hold_sensor_from_rig,
                        const py::tuple &hold_points, bool covariance_points, double covariance_damping,
+                       const std::string &database_path, const py::list &pose_priors, double fallback_stddev,
+                       const std::string &prior_loss, double prior_loss_scale, double alignment_max_error,
                        const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   std::vector<long long> rows;
@@ -723,7 +752,30 @@ py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_pos
   options.ncon = o.ncon;
   if (!(covariance_damping >= 0.0 && covariance_damping <= DBL_MAX))
     throw py::value_error("covariance_damping must be finite and >= 0, got " + std::string(py::repr(py::float_(covariance_damping))));
-  return refine_model(std::move(m), options, o, {covariance_points, covariance_damping});
+  PriorInput priors;
+  priors.database_path = database_path;
+  priors.options.fallback_stddev = fallback_stddev;
+  priors.options.loss = prior_loss;
+  priors.options.loss_scale = prior_loss_scale;
+  priors.options.alignment_max_error = alignment_max_error;
+  // Each (image_id, position, covariance or None, coordinate system) as pysba/_colmap.py's
+  // _pose_priors gives it, checked there.
+  for (size_t k = 0; k < pose_priors.size(); ++k) {
+    const py::tuple t = pose_priors[k].cast<py::tuple>();
+    colmap::PosePrior p;
+    p.where = at("pose_priors", k);
+    p.image_id = t[0].cast<std::uint32_t>();
+    const std::vector<double> position = t[1].cast<std::vector<double>>();
+    std::copy(position.begin(), position.end(), p.position.begin());
+    if (!t[2].is_none()) {
+      const std::vector<double> cov = t[2].cast<std::vector<double>>();
+      std::copy(cov.begin(), cov.end(), p.covariance.begin());
+      p.has_covariance = true;
+    }
+    p.system = static_cast<colmap::PriorSystem>(t[3].cast<int>());
+    priors.priors.push_back(p);
+  }
+  return refine_model(std::move(m), options, o, {covariance_points, covariance_damping}, priors);
 }
 
 // COLMAP's stopping rule (colmap::colmap_stop_rule): None when it leaves sba's tests, else the
@@ -744,7 +796,9 @@ void add_colmap(py::module_ &mod) {
           py::arg("refine_focal_length"), py::arg("refine_principal_point"), py::arg("refine_extra_params"),
           py::arg("refine_rig_from_world"), py::arg("refine_sensor_from_rig"),
           py::arg("constant_rig_from_world_rotation"), py::arg("hold_intrinsics"), py::arg("hold_sensor_from_rig"),
-          py::arg("hold_points"), py::arg("covariance_points"), py::arg("covariance_damping"));
+          py::arg("hold_points"), py::arg("covariance_points"), py::arg("covariance_damping"),
+          py::arg("database_path"), py::arg("pose_priors"), py::arg("prior_position_fallback_stddev"),
+          py::arg("prior_position_loss"), py::arg("prior_position_loss_scale"), py::arg("alignment_max_error"));
 }
 
 }  // namespace pysba

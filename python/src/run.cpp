@@ -13,7 +13,8 @@ namespace {
 // The session's options with o's priors, whose structs *priors holds.
 sba_ext_options with_priors(Session &session, const Run &run, const SolveOptions &o, PriorStructs *priors) {
   sba_ext_options ext = *session.ext(run.parallel);
-  priors->attach(o.priors, session, run.cnp, &ext);
+  if (run.colmap_priors) run.colmap_priors->attach(&ext);
+  else priors->attach(o.priors, session, run.cnp, &ext);
   return ext;
 }
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "arrays.h"
+#include "formats/colmap_problem.h"
 #include "session.h"
 
 namespace pysba {
@@ -25,6 +26,8 @@ struct Run {
   ExpertFn func = nullptr, fjac = nullptr;  // fjac null: finite differences
   void *adata = nullptr;
   bool parallel = false;  // the callbacks may run on several threads at once
+  // A COLMAP problem's priors (refine_colmap), in place of SolveOptions' Python ones; null: none.
+  const sbaformats::colmap::ProblemPriors *colmap_priors = nullptr;
 };
 
 // Runs the driver of run.refine with the GIL released and returns the session's report.

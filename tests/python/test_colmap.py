@@ -904,3 +904,92 @@ def test_covariances_with_rigs_are_sbarefines(tmp_path):
     assert sorted(c["images"]) == sorted(im.id for im in model.images[1:])
     assert sorted(c["frames"]) == [901, 902] and sorted(c["sensors"]) == [101]
     assert sorted(c["cameras"]) == [100, 101]
+
+
+# ---- position priors (COLMAP 4's pose-prior adjustment) ----
+
+def centre(image):
+    """An image's projection centre, -R^T t."""
+    w, x, y, z = np.asarray(image.q, dtype=np.float64) / np.linalg.norm(image.q)
+    R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                  [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                  [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return -R.T @ np.asarray(image.t, dtype=np.float64)
+
+
+def gps(model):
+    """Priors a similarity away from the model's centres (scale 2, a turn, a shift) with a
+    known error of a few centimetres, as dicts and as sbarefine's text file."""
+    c, s = math.cos(0.4), math.sin(0.4)
+    R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    priors = []
+    for k, im in enumerate(model.images):
+        noise = 0.03 * np.array([math.sin(3 * k), math.cos(5 * k), math.sin(7 * k)])
+        priors.append({"image_id": im.id, "position": 2 * R @ centre(im) + [100, 50, 10] + noise,
+                       "covariance": np.diag([0.01, 0.01, 0.04])})
+    text = "".join(f"{im.name} " + " ".join(repr(float(v)) for v in p["position"]) + " " +
+                   " ".join(repr(float(v)) for v in p["covariance"].ravel()) + " CARTESIAN\n"
+                   for im, p in zip(model.images, priors))
+    return priors, text
+
+
+def test_pose_priors_are_sbarefines(tmp_path):
+    # The same priors through refine_colmap and sbarefine's --pose-priors: the same refined
+    # model to the bit, the same costs apart; the model now in the priors' frame.
+    text, _ = sbagen(tmp_path)
+    model = pysba.read_colmap(text)
+    priors, lines = gps(model)
+    (tmp_path / "gps.txt").write_text(lines)
+    report = sbarefine(text, tmp_path / "sbarefine", ["--pose-priors", tmp_path / "gps.txt"])
+    refined, result = pysba.refine_colmap(model, pose_priors=priors)
+    pysba.write_colmap(refined, tmp_path / "pysba", "text")
+    assert files(tmp_path / "pysba") == files(tmp_path / "sbarefine")
+    assert result.prior_cost_final == report["prior_cost"]["final"]
+    assert result.projection_cost_final == report["projection_cost"]["final"]
+    assert report["priors"] == len(model.images)
+    scale = re.search(r"moved onto them by a similarity of scale ([0-9.]+) \(6 of 6 within", result.colmap_priors)
+    assert scale and abs(float(scale.group(1)) - 2) < 0.01, result.colmap_priors
+    for im, p in zip(refined.images, priors):
+        assert np.linalg.norm(centre(im) - p["position"]) < 0.3
+    # Fewer than 3 priors: as without priors, to the bit.
+    few, _ = pysba.refine_colmap(model, pose_priors=priors[:2])
+    plain, _ = pysba.refine_colmap(model)
+    pysba.write_colmap(few, tmp_path / "few", "text")
+    pysba.write_colmap(plain, tmp_path / "plain", "text")
+    assert files(tmp_path / "few") == files(tmp_path / "plain")
+
+
+@pytest.mark.parametrize("kw, error, message", [
+    (dict(pose_priors=5), TypeError, "pose_priors must be a database path or a sequence of priors, got int"),
+    (dict(pose_priors=[[1, 2, 3]]), TypeError, "pose_priors[0] must be a pycolmap.PosePrior or a dict, got list"),
+    (dict(pose_priors=[{"image_id": 10}]), ValueError, "pose_priors[0] needs 'image_id' and 'position'"),
+    (dict(pose_priors=[{"image_id": 10, "position": [1, 2], "x": 1}]), ValueError,
+     "pose_priors[0] has an unknown key 'x'"),
+    (dict(pose_priors=[{"image_id": -1, "position": [1, 2, 3]}]), ValueError,
+     "pose_priors[0]: image_id must be an IMAGE_ID (an int in 0..4294967295), got -1"),
+    (dict(pose_priors=[{"image_id": 10, "position": [1, 2]}]), ValueError,
+     "pose_priors[0]: position must have 3 values, got 2"),
+    (dict(pose_priors=[{"image_id": 10, "position": [1, 2, 3], "coordinate_system": "ECEF"}]), ValueError,
+     "pose_priors[0]: coordinate_system must be 'CARTESIAN' or 'WGS84', got 'ECEF'"),
+    (dict(pose_priors=[{"image_id": 10, "position": [1, 2, math.inf]}]), ValueError,
+     "pose_priors[0]: its position is not finite"),
+    (dict(pose_priors=[{"image_id": 10, "position": [1, 2, 3], "covariance": np.diag([1.0, -1.0, 1.0])}]),
+     ValueError, "pose_priors[0]: its covariance is not symmetric positive definite"),
+    (dict(prior_position_loss="huber"), ValueError, "prior_position_loss must be 'trivial' or 'cauchy', got 'huber'"),
+    (dict(prior_position_fallback_stddev=0.0), ValueError, "prior_position_fallback_stddev must be finite and > 0"),
+    (dict(alignment_max_error=-1.0), ValueError, "alignment_max_error must be finite and >= 0, got -1.0"),
+])
+def test_pose_priors_refused(tmp_path, kw, error, message):
+    text, _ = sbagen(tmp_path)
+    model = pysba.read_colmap(text)
+    with pytest.raises(error) as e:
+        pysba.refine_colmap(model, **kw)
+    assert str(e.value).startswith(message), str(e.value)
+
+
+def test_pose_priors_from_a_database_that_is_none(tmp_path):
+    text, _ = sbagen(tmp_path)
+    missing = tmp_path / "missing.db"
+    with pytest.raises(ValueError, match="cannot open as an SQLite database"):
+        pysba.refine_colmap(pysba.read_colmap(text), pose_priors=missing)
+    assert not missing.exists()
