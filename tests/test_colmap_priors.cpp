@@ -118,6 +118,33 @@ TEST(RobustSimilarity, RecoversTheSimilarityDespiteOutliers) {
   for (std::size_t k = 0; k < 3; ++k) EXPECT_NEAR(x.t[k], truth.t[k], 1e-10);
 }
 
+// Eight camera centres of a reconstruction and their GPS priors, 1.5 m off each (COLMAP's
+// synthetic noise), all within the threshold of the least-squares fit of all eight: that fit is
+// the one kept (scale 1.976477977112128, Umeyama's), not the fixed point of seven that a triple's
+// refits can settle in (scale 2.136, one prior 4.73 m off), from which the bundle adjustment
+// starts in a worse place.
+TEST(RobustSimilarity, KeepsTheFitOfEveryPairWhenAllAgree) {
+  const std::array<Vec3, 2> pairs[] = {
+      {{{7.608881053192466, -4.491787683023387, 4.726106710675373}, {-4.405961383650423, 2.5223314636161125, 4.265900566190422}}},
+      {{{10.933579211458731, -1.3637081949481666, 1.916793470777634}, {5.255408253305203, 4.792530469179105, -3.0636530380742966}}},
+      {{{8.38405667142245, -2.587698705078429, 5.091442001026748}, {-1.9199433001436201, 4.757784394617979, 4.506689141782016}}},
+      {{{12.62547207213031, -5.274619882094733, 3.6153354479900894}, {2.149256030253051, -1.8620632533084, -1.8309578892796234}}},
+      {{{12.639884124655579, -5.371541073242563, 3.3828480569843435}, {3.4077118319310404, -4.5871438876652295, 1.3010001261744768}}},
+      {{{7.614728146606867, -2.261000994576504, 3.5063411850026407}, {0.16024103908604426, 6.526849518754992, 0.22407854770542968}}},
+      {{{10.872898350238883, -3.7272433280393926, 5.851785360348341}, {5.953653122100679, 0.8450690076609516, 4.3251026625909565}}},
+      {{{11.038740008922822, -1.2133266805532974, 2.5247019307794303}, {6.281412228232879, 3.0162840549440135, -2.72618873254037}}}};
+  std::vector<Vec3> src, dst;
+  for (const auto &p : pairs) {
+    src.push_back(p[0]);
+    dst.push_back(p[1]);
+  }
+  colmap::Similarity x;
+  int inliers = 0;
+  ASSERT_TRUE(colmap::robust_similarity(src, dst, 4.5, &x, &inliers));
+  EXPECT_EQ(inliers, 8);
+  EXPECT_NEAR(x.s, 1.976477977112128, 1e-12);
+}
+
 TEST(RobustSimilarity, RefusesCollinearPoints) {
   std::vector<Vec3> src = {{0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {3, 3, 3}};
   colmap::Similarity x;

@@ -366,50 +366,61 @@ bool robust_similarity(const std::vector<Vec3> &src, const std::vector<Vec3> &ds
                        Similarity *out, int *inliers) {
   const int n = static_cast<int>(src.size());
   if (n < 3 || dst.size() != src.size()) return false;
-  std::mt19937_64 random(0x5ba);
+  std::vector<int> all(static_cast<std::size_t>(n));
+  for (int k = 0; k < n; ++k) all[static_cast<std::size_t>(k)] = k;
+  // A candidate refitted on its inliers until they no longer change (the local optimization
+  // of LO-RANSAC), and kept if it holds more pairs within max_error than the best so far, or
+  // as many closer in sum of squares: a triple's fit is noisy, and its inliers' fit is not.
   std::vector<int> best;
+  double best_sq = 0;
   Similarity best_x;
+  bool found = false;
+  const auto consider = [&](Similarity x) {
+    std::vector<int> in = inliers_of(x, src, dst, max_error);
+    for (int round = 0; round < 10 && in.size() >= 3; ++round) {
+      Similarity y;
+      if (!fit_similarity(src, dst, in, &y)) break;
+      std::vector<int> next = inliers_of(y, src, dst, max_error);
+      if (next.size() < in.size()) break;
+      x = y;
+      const bool same = next == in;
+      in = std::move(next);
+      if (same) break;
+    }
+    double sq = 0;
+    for (int k : in) {
+      const double d = distance(transformed(x, src[static_cast<std::size_t>(k)]), dst[static_cast<std::size_t>(k)]);
+      sq += d * d;
+    }
+    if (!found || in.size() > best.size() || (in.size() == best.size() && sq < best_sq)) {
+      best = std::move(in);
+      best_sq = sq;
+      best_x = x;
+      found = true;
+    }
+  };
+  // The least-squares fit of every pair first: with no outlier it is the answer.
+  Similarity x0;
+  if (fit_similarity(src, dst, all, &x0)) consider(x0);
+  std::mt19937_64 random(0x5ba);
   const int max_trials = 10000;
   double needed = max_trials;
-  for (int trial = 0; trial < max_trials && trial < needed; ++trial) {
-    int a = static_cast<int>(random() % static_cast<unsigned>(n)), b = static_cast<int>(random() % static_cast<unsigned>(n)),
-        c = static_cast<int>(random() % static_cast<unsigned>(n));
-    if (a == b || b == c || a == c || !spans_plane(src[static_cast<std::size_t>(a)], src[static_cast<std::size_t>(b)],
-                                                   src[static_cast<std::size_t>(c)]))
-      continue;
+  for (int trial = 0; trial < max_trials && trial < needed && best.size() < all.size(); ++trial) {
+    const std::size_t a = random() % static_cast<unsigned>(n), b = random() % static_cast<unsigned>(n),
+                      c = random() % static_cast<unsigned>(n);
+    if (a == b || b == c || a == c || !spans_plane(src[a], src[b], src[c])) continue;
     Similarity x;
-    if (!fit_similarity(src, dst, {a, b, c}, &x)) continue;
-    std::vector<int> in = inliers_of(x, src, dst, max_error);
-    if (in.size() > best.size()) {
-      best = std::move(in);
-      best_x = x;
-      // Trials until a triple of inliers is drawn with 99% confidence.
-      const double w = static_cast<double>(best.size()) / n;
-      const double miss = 1 - w * w * w;
-      needed = miss <= 0 ? 0 : std::min<double>(max_trials, std::log(0.01) / std::log(miss));
-    }
+    if (!fit_similarity(src, dst, {static_cast<int>(a), static_cast<int>(b), static_cast<int>(c)}, &x)) continue;
+    consider(x);
+    // Trials until a triple of inliers is drawn with 99% confidence (all of them while there is
+    // no consensus yet).
+    const double w = static_cast<double>(best.size()) / n;
+    const double miss = 1 - w * w * w;
+    if (best.size() >= 3) needed = miss <= 0 ? 0 : std::min<double>(max_trials, std::log(0.01) / std::log(miss));
   }
-  if (best.size() < 3) {
-    // No triple spans a plane, or none has three pairs within max_error: the least-squares fit
-    // of all pairs, if there is one.
-    std::vector<int> all(static_cast<std::size_t>(n));
-    for (int k = 0; k < n; ++k) all[static_cast<std::size_t>(k)] = k;
-    if (!fit_similarity(src, dst, all, &best_x)) return false;
-    *out = best_x;
-    *inliers = 0;
-    return true;
-  }
-  // Refit on the inliers until they no longer change.
-  for (int round = 0; round < 5; ++round) {
-    Similarity x;
-    if (!fit_similarity(src, dst, best, &x)) break;
-    std::vector<int> in = inliers_of(x, src, dst, max_error);
-    best_x = x;
-    if (in == best || in.size() < 3) break;
-    best = std::move(in);
-  }
+  if (!found) return false;
   *out = best_x;
-  *inliers = static_cast<int>(best.size());
+  *inliers = best.size() >= 3 ? static_cast<int>(best.size()) : 0;
   return true;
 }
 

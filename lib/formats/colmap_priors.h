@@ -90,10 +90,12 @@ struct Similarity {
   std::array<double, 3> t{};
 };
 
-// The similarity that takes src[k] to dst[k] (n >= 3 pairs), robustly: random triples (a fixed
-// seed: the same input gives the same result) fitted by Umeyama's method, the one with the most
-// pairs within max_error kept and refitted on those. False when no triple spans a plane (the
-// points are collinear or coincide).
+// The similarity that takes src[k] to dst[k] (n >= 3 pairs), robustly (LO-RANSAC): the
+// least-squares fit of all pairs and of random triples (a fixed seed: the same input gives the
+// same result), each refitted on the pairs within max_error until those no longer change; the
+// one with the most such pairs is kept, of equally many the closest. The fits are Horn's closed
+// form with Umeyama's scale. *inliers: the pairs within max_error (0 when fewer than 3). False
+// when the source points coincide.
 bool robust_similarity(const std::vector<std::array<double, 3>> &src, const std::vector<std::array<double, 3>> &dst,
                        double max_error, Similarity *out, int *inliers);
 
