@@ -45,6 +45,26 @@ Quaternion normalized_rotation(const Quaternion &q) {
 
 void rotation_matrix(const Quaternion &q, double R[9]) { sbaeuc_rotation_matrix(q.w, q.x, q.y, q.z, R); }
 
+Quaternion quaternion_of(const double R[9]) {
+  const double tr = R[0] + R[4] + R[8];
+  Quaternion q;
+  if (tr >= R[0] && tr >= R[4] && tr >= R[8]) {
+    const double s = 2.0 * std::sqrt(1.0 + tr);  // 4w
+    q = {0.25 * s, (R[7] - R[5]) / s, (R[2] - R[6]) / s, (R[3] - R[1]) / s};
+  } else if (R[0] >= R[4] && R[0] >= R[8]) {
+    const double s = 2.0 * std::sqrt(1.0 + R[0] - R[4] - R[8]);  // 4x
+    q = {(R[7] - R[5]) / s, 0.25 * s, (R[1] + R[3]) / s, (R[2] + R[6]) / s};
+  } else if (R[4] >= R[8]) {
+    const double s = 2.0 * std::sqrt(1.0 + R[4] - R[0] - R[8]);  // 4y
+    q = {(R[2] - R[6]) / s, (R[1] + R[3]) / s, 0.25 * s, (R[5] + R[7]) / s};
+  } else {
+    const double s = 2.0 * std::sqrt(1.0 + R[8] - R[0] - R[4]);  // 4z
+    q = {(R[3] - R[1]) / s, (R[2] + R[6]) / s, (R[5] + R[7]) / s, 0.25 * s};
+  }
+  return normalized_rotation(q);
+}
+
+
 namespace {
 
 // Where each block sits in a camera's parameter vector; -1 for a block the kind lacks.

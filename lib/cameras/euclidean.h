@@ -58,6 +58,10 @@ Quaternion multiply(const Quaternion &a, const Quaternion &b);
 Quaternion normalized_rotation(const Quaternion &q);
 // R (row-major 3x3) with R X = q X q^* for a unit q.
 void rotation_matrix(const Quaternion &q, double R[9]);
+// The unit quaternion (w >= 0) of a rotation matrix R (row-major), rotation_matrix's inverse.
+// The largest of 4w, 4x, 4y, 4z is the pivot, for accuracy. No product is added to another, so
+// no compiler fuses one (sbagen's scenes must be the same on every machine).
+Quaternion quaternion_of(const double R[9]);
 
 // K = [fu s u0; 0 fu*ar v0; 0 0 1].
 struct Intrinsics {

@@ -173,11 +173,9 @@ bool fit_similarity(const std::vector<Vec3> &src, const std::vector<Vec3> &dst, 
                                     Szx - Sxz,       Sxy + Syx,       -Sxx + Syy - Szz, Syz + Szy,
                                     Sxy - Syx,       Szx + Sxz,       Syz + Szy,        -Sxx - Syy + Szz};
   const std::array<double, 4> q = largest_eigenvector(N);
-  const double w = q[0], x = q[1], y = q[2], z = q[3];
   Similarity r;
-  r.R = {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
-         2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-         2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
+  sbacameras::euclidean::rotation_matrix(sbacameras::euclidean::normalized_rotation({q[0], q[1], q[2], q[3]}),
+                                         r.R.data());
   double dot = 0;
   for (int k : use)
     for (int a = 0; a < 3; ++a) {
@@ -439,35 +437,7 @@ void transform_model(const Similarity &x, Model *model) {
     for (int a = 0; a < 3; ++a)
       tn[a] = x.s * (*t)[a] - (M[a * 3] * x.t[0] + M[a * 3 + 1] * x.t[1] + M[a * 3 + 2] * x.t[2]);
     *t = tn;
-    // The quaternion of M (Shepperd's method: the largest of the four squares first).
-    const double tr = M[0] + M[4] + M[8];
-    double w, qx, qy, qz;
-    if (tr >= M[0] && tr >= M[4] && tr >= M[8]) {
-      const double r = std::sqrt(1 + tr);
-      w = r / 2;
-      qx = (M[7] - M[5]) / (2 * r);
-      qy = (M[2] - M[6]) / (2 * r);
-      qz = (M[3] - M[1]) / (2 * r);
-    } else if (M[0] >= M[4] && M[0] >= M[8]) {
-      const double r = std::sqrt(1 + M[0] - M[4] - M[8]);
-      qx = r / 2;
-      w = (M[7] - M[5]) / (2 * r);
-      qy = (M[1] + M[3]) / (2 * r);
-      qz = (M[2] + M[6]) / (2 * r);
-    } else if (M[4] >= M[8]) {
-      const double r = std::sqrt(1 - M[0] + M[4] - M[8]);
-      qy = r / 2;
-      w = (M[2] - M[6]) / (2 * r);
-      qx = (M[1] + M[3]) / (2 * r);
-      qz = (M[5] + M[7]) / (2 * r);
-    } else {
-      const double r = std::sqrt(1 - M[0] - M[4] + M[8]);
-      qz = r / 2;
-      w = (M[3] - M[1]) / (2 * r);
-      qx = (M[2] + M[6]) / (2 * r);
-      qy = (M[5] + M[7]) / (2 * r);
-    }
-    const sbacameras::euclidean::Quaternion qn = sbacameras::euclidean::normalized_rotation({w, qx, qy, qz});
+    const sbacameras::euclidean::Quaternion qn = sbacameras::euclidean::quaternion_of(M);
     *q = {qn.w, qn.x, qn.y, qn.z};
   };
   for (Point3D &p : model->points) p.xyz = transformed(x, p.xyz);

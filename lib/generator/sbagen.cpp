@@ -159,27 +159,6 @@ double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 Vec3 cross(Vec3 a, Vec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 Vec3 unit(Vec3 a) { return (1.0 / std::sqrt(dot(a, a))) * a; }
 
-// The unit quaternion (w >= 0) of a rotation matrix (row-major), the inverse of
-// euclidean::rotation_matrix. Uses the largest of w, x, y, z as the pivot for accuracy.
-Quaternion quaternion_of(const double R[9]) {
-  const double tr = R[0] + R[4] + R[8];
-  Quaternion q;
-  if (tr >= R[0] && tr >= R[4] && tr >= R[8]) {
-    const double s = 2.0 * std::sqrt(1.0 + tr);  // 4w
-    q = {0.25 * s, (R[7] - R[5]) / s, (R[2] - R[6]) / s, (R[3] - R[1]) / s};
-  } else if (R[0] >= R[4] && R[0] >= R[8]) {
-    const double s = 2.0 * std::sqrt(1.0 + R[0] - R[4] - R[8]);  // 4x
-    q = {(R[7] - R[5]) / s, 0.25 * s, (R[1] + R[3]) / s, (R[2] + R[6]) / s};
-  } else if (R[4] >= R[8]) {
-    const double s = 2.0 * std::sqrt(1.0 + R[4] - R[0] - R[8]);  // 4y
-    q = {(R[2] - R[6]) / s, (R[1] + R[3]) / s, 0.25 * s, (R[5] + R[7]) / s};
-  } else {
-    const double s = 2.0 * std::sqrt(1.0 + R[8] - R[0] - R[4]);  // 4z
-    q = {(R[3] - R[1]) / s, (R[2] + R[6]) / s, (R[5] + R[7]) / s, 0.25 * s};
-  }
-  return euclidean::normalized_rotation(q);
-}
-
 // A camera at centre C looking along `forward`, image x to the right of it with the world's
 // +Y up (image y down), rolled by `roll` radians about the optical axis. Sets q and t.
 void look_along(Vec3 C, Vec3 forward, double roll, Camera *cam) {
@@ -191,7 +170,7 @@ void look_along(Vec3 C, Vec3 forward, double roll, Camera *cam) {
   const Vec3 x = c * x0 + s * y0;
   const Vec3 y = (-s) * x0 + c * y0;
   const double R[9] = {x.x, x.y, x.z, y.x, y.y, y.z, z.x, z.y, z.z};
-  cam->q = quaternion_of(R);
+  cam->q = euclidean::quaternion_of(R);
   // t = -R C, from the rotation the quaternion actually encodes.
   double Rq[9];
   euclidean::rotation_matrix(cam->q, Rq);
