@@ -709,18 +709,6 @@ void Problem::centre(int j, const double *a, double c[3], double *J) const {
   }
 }
 
-int Problem::camera_of_image(std::uint32_t image_id) const {
-  for (std::size_t j = 0; j < ids_.size(); ++j)
-    if (ids_[j].image == image_id) return static_cast<int>(j);
-  return -1;
-}
-
-int Problem::point_of_id(std::uint64_t point_id) const {
-  for (std::size_t k = 0; k < point_ids_.size(); ++k)
-    if (point_ids_[k] == point_id) return static_cast<int>(k);
-  return -1;
-}
-
 bool Problem::camera_parameter(std::uint32_t camera_id, int k, int *j, int *column) const {
   for (std::size_t q = 0; q < ids_.size(); ++q)
     if (ids_[q].camera == camera_id && ids_[q].writes_params) {
@@ -754,16 +742,23 @@ bool ProblemPriors::build(const Problem &problem, const std::vector<PosePrior> &
   point_.clear();
   loss_ = options.loss;
   const int np = problem.rigged() ? cc::kRigPoseParams : cc::kPoseParams;
+  std::unordered_map<std::uint32_t, int> camera_of;  // IMAGE_ID: sba camera
+  for (int j = 0; j < problem.ncameras(); ++j) camera_of.emplace(problem.image_id(j), j);
   for (const PosePrior &pp : poses) {
-    const int j = problem.camera_of_image(pp.image_id);
-    if (j < 0) continue;
+    const auto found = camera_of.find(pp.image_id);
+    if (found == camera_of.end()) continue;
+    const int j = found->second;
     bool free = false;
     for (int k = 0; k < np; ++k) free = free || !problem.held(j, k);
     if (!free || j < problem.mcon()) continue;
     positions_.push_back({&problem, j, pp.position, pp.covariance});
   }
+  std::unordered_map<std::uint64_t, int> point_of;  // POINT3D_ID: problem point
+  if (!points.empty())
+    for (int i = 0; i < problem.npoints(); ++i) point_of.emplace(problem.point_id(i), i);
   for (const PointPrior &gp : points) {
-    const int i = problem.point_of_id(gp.point_id);
+    const auto found = point_of.find(gp.point_id);
+    const int i = found == point_of.end() ? -1 : found->second;
     if (i < 0) {
       *error = gp.where + ": point " + std::to_string(gp.point_id) + " is not in the problem";
       return false;
@@ -773,9 +768,8 @@ bool ProblemPriors::build(const Problem &problem, const std::vector<PosePrior> &
                           "cannot move it";
       return false;
     }
-    points_.push_back(gp);
+    points_.push_back({i, gp.position, gp.covariance});
   }
-  std::vector<int> linear_cameras;
   for (const IntrinsicPrior &ip : intrinsics) {
     int j = -1, column = -1;
     if (!problem.camera_parameter(ip.camera_id, ip.param, &j, &column)) {
@@ -788,14 +782,13 @@ bool ProblemPriors::build(const Problem &problem, const std::vector<PosePrior> &
                " is held (--intrinsics, --refine-*, --hold-intrinsics): a prior on it cannot move it";
       return false;
     }
-    linears_.push_back({column, ip.mean, ip.stddev});
-    linear_cameras.push_back(j);
+    linears_.push_back({j, column, ip.mean, ip.stddev});
   }
-  make_structs(problem, linear_cameras, options.loss_scale);
+  make_structs(options.loss_scale);
   return true;
 }
 
-void ProblemPriors::make_structs(const Problem &problem, const std::vector<int> &linear_cameras, double loss_scale) {
+void ProblemPriors::make_structs(double loss_scale) {
   const char *loss = loss_.empty() ? nullptr : loss_.c_str();
   for (const Position &p : positions_) {
     sba_camera_prior c{};
@@ -809,20 +802,20 @@ void ProblemPriors::make_structs(const Problem &problem, const std::vector<int> 
     c.loss_scale = loss_scale;
     camera_.push_back(c);
   }
-  for (std::size_t k = 0; k < linears_.size(); ++k) {
+  for (const Linear &p : linears_) {
     sba_camera_linear_prior l{};
-    l.camera = linear_cameras[k];
+    l.camera = p.j;
     l.k = 1;
-    l.params = &linears_[k].param;
-    l.mean = &linears_[k].mean;
-    l.weight.sigma = &linears_[k].sigma;
+    l.params = &p.param;
+    l.mean = &p.mean;
+    l.weight.sigma = &p.sigma;
     linear_.push_back(l);
   }
-  for (const PointPrior &gp : points_) {
+  for (const Point &p : points_) {
     sba_point_prior q{};
-    q.point = problem.point_of_id(gp.point_id);
-    q.mean = gp.position.data();
-    q.weight.covariance = gp.covariance.data();
+    q.point = p.i;
+    q.mean = p.mean.data();
+    q.weight.covariance = p.covariance.data();
     point_.push_back(q);
   }
 }

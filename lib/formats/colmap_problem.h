@@ -172,10 +172,9 @@ class Problem {
   // through its camera's pose in its rig in a rig. J, when not null, gets dc/da (3 x cnp,
   // row-major), by central differences over the pose's parameters (the rest do not move it).
   void centre(int j, const double *a, double c[3], double *J) const;
-  // The sba camera of an image id, -1 for an image that has none.
-  int camera_of_image(std::uint32_t image_id) const;
-  // The problem's index of a POINT3D_ID, -1 for none.
-  int point_of_id(std::uint64_t point_id) const;
+  // Sba camera j's IMAGE_ID, and problem point i's POINT3D_ID.
+  std::uint32_t image_id(int j) const { return ids_[static_cast<std::size_t>(j)].image; }
+  std::uint64_t point_id(int i) const { return point_ids_[static_cast<std::size_t>(i)]; }
   // The sba camera whose parameter vector carries COLMAP camera camera_id's parameters (the
   // first image of it from mcon on), and the position of its parameter k there; false when
   // no sba camera from mcon on uses the camera.
@@ -251,18 +250,22 @@ class ProblemPriors {
     std::array<double, 9> covariance;
   };
   struct Linear {
-    int param;
+    int j, param;
     double mean, sigma;
   };
-  // The library's structs over positions_, linears_ (of the sba cameras linear_cameras) and
-  // points_.
-  void make_structs(const Problem &problem, const std::vector<int> &linear_cameras, double loss_scale);
+  struct Point {
+    int i;
+    std::array<double, 3> mean;
+    std::array<double, 9> covariance;
+  };
+  // The library's structs over positions_, linears_ and points_.
+  void make_structs(double loss_scale);
   static void residual(int j, const double *aj, double *r, void *data);
   static void jacobian(int j, const double *aj, double *jac, void *data);
 
   std::vector<Position> positions_;
   std::vector<Linear> linears_;
-  std::vector<PointPrior> points_;
+  std::vector<Point> points_;
   std::string loss_;
   std::vector<sba_camera_prior> camera_;
   std::vector<sba_camera_linear_prior> linear_;
