@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
+#include <functional>
 #include <optional>
 #include <string>
 #include <utility>
@@ -48,23 +49,10 @@ struct MotstrInputs {
   // Parameters of each camera that the callbacks hold rather than cam_fixed (eucsbademo's camera
   // model holds its trailing intrinsics by a zero derivative): not unknowns either.
   int cam_held_by_callbacks = 0;
-  // Priors (sba_ext.h), residuals beside the projections; none by default.
-  int ncamera_priors = 0;
-  const sba_camera_prior *camera_priors = nullptr;
-  int ncamera_linear_priors = 0;
-  const sba_camera_linear_prior *camera_linear_priors = nullptr;
-  int npoint_priors = 0;
-  const sba_point_prior *point_priors = nullptr;
-  int priors() const { return ncamera_priors + ncamera_linear_priors + npoint_priors; }
-  // ext's prior fields set to these.
-  void attach_priors(sba_ext_options *ext) const {
-    ext->ncamera_priors = ncamera_priors;
-    ext->camera_priors = camera_priors;
-    ext->ncamera_linear_priors = ncamera_linear_priors;
-    ext->camera_linear_priors = camera_linear_priors;
-    ext->npoint_priors = npoint_priors;
-    ext->point_priors = point_priors;
-  }
+  // Priors (sba_ext.h), residuals beside the projections: how many, and what sets an
+  // sba_ext_options' prior fields to them (empty: none).
+  int npriors = 0;
+  std::function<void(sba_ext_options *)> attach_priors;
 };
 
 class MotstrSolve {
@@ -106,7 +94,7 @@ class MotstrSolve {
     ext.cam_group = in.cam_group;
     ext.cam_shared = in.cam_shared;
     ext.cam_param_group = in.cam_param_group;
-    in.attach_priors(&ext);
+    if (in.attach_priors) in.attach_priors(&ext);
     // The time limit and the iteration times count from the solve's start, not from what the
     // program did before it (an initial PLY file, say).
     control_.emplace(so_.max_time, &progress_);
@@ -162,7 +150,7 @@ class MotstrSolve {
     init_ext(so_, program_, &sink_, &scratch, &ext);
     ext.result = nullptr;
     // The priors are residuals of the problem: their information is part of J^T J.
-    in_.attach_priors(&ext);
+    if (in_.attach_priors) in_.attach_priors(&ext);
     RunControl::attach_cancel(&ext);
     sink_.first_error.clear();
     std::string error;
@@ -221,7 +209,7 @@ class MotstrSolve {
     Report report = make_report(program_, input_, in_.m, in_.n, nobs_, variables(), so_, ret_, info_, result_,
                                 seconds_, *control_);
     report.unknowns = unknowns();
-    report.priors = in_.priors();
+    report.priors = in_.npriors;
     report.model = model_;
     report.solver_requested = solver_;
     if (!std::isnan(mean_initial_)) {

@@ -728,14 +728,8 @@ bool read_priors(const Options &o, colmap::Model *model, ModelPriors *out, std::
 bool attach_priors(const Options &o, const ModelPriors &priors, Loaded *l, Job *job, std::string *error) {
   if (!l->priors.build(l->colmap_problem, priors.poses, o.prior_options, priors.points, priors.intrinsics, error))
     return false;
-  sba_ext_options ext{};
-  l->priors.attach(&ext);
-  job->in.ncamera_priors = ext.ncamera_priors;
-  job->in.camera_priors = ext.camera_priors;
-  job->in.ncamera_linear_priors = ext.ncamera_linear_priors;
-  job->in.camera_linear_priors = ext.camera_linear_priors;
-  job->in.npoint_priors = ext.npoint_priors;
-  job->in.point_priors = ext.point_priors;
+  job->in.npriors = static_cast<int>(l->priors.size());
+  if (job->in.npriors > 0) job->in.attach_priors = [l](sba_ext_options *ext) { l->priors.attach(ext); };
   return true;
 }
 
