@@ -61,7 +61,6 @@ Exit status: 0 every check passed, 1 a check failed, 77 (ctest's SKIP_RETURN_COD
   pose_prior_check.py [--python PY] --sbarefine EXE --work DIR CASE...
 With --python, a Python that cannot import pycolmap runs this script with PY instead.
 """
-import argparse
 import collections
 import json
 import math
@@ -72,7 +71,7 @@ import struct
 import subprocess
 import sys
 
-from pycolmap_check import SKIP, Failure, expect, import_pycolmap, perturb_rigs
+from pycolmap_check import Failure, expect, perturb_rigs, run_cases
 
 TOLERANCE = 1e-6     # sbarefine against pycolmap
 SAME = 1e-9          # the text file's route against the database's
@@ -511,27 +510,7 @@ CASES = {"cartesian": case_cartesian, "wgs84": case_wgs84, "rigs": case_rigs,
 
 
 def main(argv):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--python", help="a Python with pycolmap, used when this one has none")
-    ap.add_argument("--sbarefine", required=True)
-    ap.add_argument("--work", required=True, help="a scratch directory (emptied)")
-    ap.add_argument("cases", nargs="+", choices=sorted(CASES))
-    args = ap.parse_args(argv)
-    pycolmap = import_pycolmap(args.python, __file__, argv)
-    if pycolmap is None:
-        return SKIP
-    shutil.rmtree(args.work, ignore_errors=True)
-    os.makedirs(args.work)
-    print("pycolmap %s" % pycolmap.__version__)
-    failed = 0
-    for case in args.cases:
-        try:
-            CASES[case](pycolmap, args)
-            print("PASS %s" % case)
-        except Failure as f:
-            print("FAIL %s: %s" % (case, f))
-            failed += 1
-    return 1 if failed else 0
+    return run_cases(argv, __doc__, __file__, CASES)
 
 
 if __name__ == "__main__":

@@ -319,29 +319,40 @@ CASES = {"written": case_written, "one_image_frames": case_one_image_frames, "ri
          "as_read": case_as_read}
 
 
-def main(argv):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def run_cases(argv, doc, script, cases, run=lambda case, pycolmap, args: case(pycolmap, args)):
+    """The main of a script of cases (this one's, pose_prior_check.py's): its usage (doc's first
+    line) is [--python PY] --sbarefine EXE --work DIR CASE..., the work directory emptied first;
+    run(case, pycolmap, args) runs each case named. The exit status: 0 all passed, 1 one
+    failed, SKIP without pycolmap."""
+    ap = argparse.ArgumentParser(description=doc.split("\n")[0])
     ap.add_argument("--python", help="a Python with pycolmap, used when this one has none")
     ap.add_argument("--sbarefine", required=True)
     ap.add_argument("--work", required=True, help="a scratch directory (emptied)")
-    ap.add_argument("cases", nargs="+", choices=sorted(CASES))
+    ap.add_argument("cases", nargs="+", choices=sorted(cases))
     args = ap.parse_args(argv)
-    pycolmap = import_pycolmap(args.python, __file__, argv)
+    pycolmap = import_pycolmap(args.python, script, argv)
     if pycolmap is None:
         return SKIP
-    sys.path.insert(0, os.path.join(HERE, "..", "colmap_real"))
-    import colmap_real
     shutil.rmtree(args.work, ignore_errors=True)
     os.makedirs(args.work)
     print("pycolmap %s" % pycolmap.__version__)
     failed = 0
-    for case in args.cases:
+    for name in args.cases:
         try:
-            CASES[case](pycolmap, colmap_real, args)
+            run(cases[name], pycolmap, args)
+            print("PASS %s" % name)
         except Failure as f:
-            print("FAIL %s: %s" % (case, f))
+            print("FAIL %s: %s" % (name, f))
             failed += 1
     return 1 if failed else 0
+
+
+def main(argv):
+    def run(case, pycolmap, args):
+        sys.path.insert(0, os.path.join(HERE, "..", "colmap_real"))
+        import colmap_real
+        case(pycolmap, colmap_real, args)
+    return run_cases(argv, __doc__, __file__, CASES, run)
 
 
 if __name__ == "__main__":
