@@ -19,36 +19,23 @@ Run it with a Python that can import pycolmap (scripts/deps.sh test makes a venv
 import argparse
 import os
 import shutil
-import subprocess
 import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "pycolmap"))
 from covariance_check import compare, pycolmap_covariance, sbarefine_covariance  # noqa: E402
+from sbagen_scene import add_scene_options, sbagen_scene  # noqa: E402
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--sbarefine", required=True)
-    ap.add_argument("--sbagen", required=True)
-    ap.add_argument("--work", required=True, help="a scratch directory (emptied)")
-    ap.add_argument("--cameras", type=int, default=1000)
-    ap.add_argument("--points", type=int, default=60000)
-    ap.add_argument("--track-min", type=int, default=3)
-    ap.add_argument("--track-max", type=int, default=8)
-    ap.add_argument("--kind", default="fixed", help="sbagen's --kind: fixed (one camera) or varK (one per image)")
-    ap.add_argument("--threads", type=int, default=0, help="sbarefine's --threads (0: its default)")
-    ap.add_argument("--repeat", type=int, default=1, help="runs of each, the fastest reported")
+    add_scene_options(ap)
     ap.add_argument("--damping", type=float, default=None,
                     help="pycolmap's damping and sbarefine's --covariance-damping (default: pycolmap's)")
     args = ap.parse_args()
     import pycolmap
     shutil.rmtree(args.work, ignore_errors=True)
     model = os.path.join(args.work, "model")
-    os.makedirs(model)
-    subprocess.run([args.sbagen, "--out", os.path.join(args.work, "gen"), "--cameras", str(args.cameras),
-                    "--points", str(args.points), "--track-min", str(args.track_min), "--track-max",
-                    str(args.track_max), "--kind", args.kind, "--colmap", model], check=True,
-                   stdout=subprocess.DEVNULL)
+    sbagen_scene(args, model)
     rec = pycolmap.Reconstruction(model)
     held = sorted(rec.reg_image_ids())[:2]
     extra = ["--threads", str(args.threads)] if args.threads else []

@@ -34,6 +34,7 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "pycolmap"))
 from pose_prior_check import (evaluate, extent, largest_centre_difference, moved_by_similarity,  # noqa: E402
                               pycolmap_refine)
+from sbagen_scene import add_scene_options, sbagen_scene  # noqa: E402
 
 
 def true_centres(path):
@@ -69,11 +70,8 @@ def make(pycolmap, args):
     import numpy as np
     shutil.rmtree(args.work, ignore_errors=True)
     text = os.path.join(args.work, "sbagen_model")
-    os.makedirs(text)
     prefix = os.path.join(args.work, "gen")
-    subprocess.run([args.sbagen, "--out", prefix, "--cameras", str(args.cameras), "--points", str(args.points),
-                    "--track-min", str(args.track_min), "--track-max", str(args.track_max), "--kind", args.kind,
-                    "--seed", str(args.seed), "--colmap", text], check=True, stdout=subprocess.DEVNULL)
+    sbagen_scene(args, text, "--seed", str(args.seed))
     rec = pycolmap.Reconstruction(text)
     centres = true_centres(prefix + "-truth-cams.txt")
     names = sorted((im.name, i) for i, im in rec.images.items())
@@ -107,19 +105,10 @@ def seconds(runs):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--sbarefine", required=True)
-    ap.add_argument("--sbagen", required=True)
-    ap.add_argument("--work", required=True, help="a scratch directory (emptied)")
-    ap.add_argument("--cameras", type=int, default=1000)
-    ap.add_argument("--points", type=int, default=60000)
-    ap.add_argument("--track-min", type=int, default=3)
-    ap.add_argument("--track-max", type=int, default=8)
-    ap.add_argument("--kind", default="fixed", help="sbagen's --kind: fixed (one camera) or varK (one per image)")
+    add_scene_options(ap)
     ap.add_argument("--prior-stddev", type=float, default=0.05, help="the priors' noise and standard deviation, "
                     "in sbagen's units (its point cloud's radius)")
     ap.add_argument("--seed", type=int, default=1, help="sbagen's seed and the priors' noise's")
-    ap.add_argument("--threads", type=int, default=0, help="sbarefine's --threads (0: its default)")
-    ap.add_argument("--repeat", type=int, default=1, help="runs of each, the fastest reported")
     args = ap.parse_args()
     import pycolmap
     load = os.getloadavg()[0]
