@@ -300,9 +300,7 @@ def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any) -> Tuple[Any
     if opts is not None and (values is None or len(values) != 5):
         return strategy, opts
     if function_tolerance is not None:
-        if isinstance(function_tolerance, (bool, np.bool_)) or not isinstance(function_tolerance, numbers.Real):
-            raise TypeError(f"function_tolerance must be a number, got {type(function_tolerance).__name__}")
-        if not (0 <= function_tolerance < math.inf):
+        if not (0 <= _real("function_tolerance", function_tolerance) < math.inf):
             raise ValueError(f"function_tolerance must be finite and >= 0, got {function_tolerance}")
     eps4 = values[4] if values is not None else 0.0
     if not isinstance(eps4, numbers.Real):
@@ -486,6 +484,7 @@ _SYSTEMS = {"UNDEFINED": -1, "WGS84": 0, "CARTESIAN": 1}
 
 
 def _real(name: str, value: Any) -> float:
+    """value as a float, a TypeError naming it unless it is a real number (a bool is not)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a number, got {type(value).__name__}")
     return float(value)
