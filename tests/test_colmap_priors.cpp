@@ -404,8 +404,9 @@ TEST(PointPriors, ReadsSigmasAndCovariancesAndRefusesBadLines) {
   EXPECT_EQ(p[1].point_id, 103u);
   const struct {
     const char *text, *message;
-  } bad[] = {{"100 1 2 3 0\n", ":1: SIGMA must be > 0 (and its square finite), got 0"},
-             {"100 1 2 3 -1\n", ":1: SIGMA must be > 0 (and its square finite), got -1"},
+  } bad[] = {{"100 1 2 3 0\n", ":1: SIGMA must be > 0 (and its square finite and not 0), got 0"},
+             {"100 1 2 3 -1\n", ":1: SIGMA must be > 0 (and its square finite and not 0), got -1"},
+             {"100 1 2 3 1e-300\n", ":1: SIGMA must be > 0 (and its square finite and not 0), got 1e-300"},
              {"7 1 2 3 1\n", ":1: no point has POINT3D_ID 7 in the model"},
              {"100 1 2 3 1\n100 1 2 3 1\n", ":2: point 100 has a prior already"},
              {"100 1 inf 3 1\n", ":1: Y must be a finite number, got 'inf'"},

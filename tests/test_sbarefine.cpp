@@ -1510,7 +1510,7 @@ TEST(SbarefinePriors, BadPriorsAreRefused) {
   } cases[] = {
       {"--database-path " + dir + "/notadb", dir + "/notadb: ", 1},
       {"--database-path " + dir + "/missing.db", dir + "/missing.db: cannot open as an SQLite database", 1},
-      {"--point-priors " + dir + "/gcp.txt", dir + "/gcp.txt:1: SIGMA must be > 0 (and its square finite), got -1\n", 1},
+      {"--point-priors " + dir + "/gcp.txt", dir + "/gcp.txt:1: SIGMA must be > 0 (and its square finite and not 0), got -1\n", 1},
       {"--pose-priors " + dir + "/p.txt --database-path x.db",
        "sbarefine: --database-path and --pose-priors are two sources of the same priors: give one\n", 2},
       {"--prior-position-loss cauchy",

@@ -319,7 +319,7 @@ void wgs84_to_enu(std::vector<PosePrior> *priors) {
 bool usable_pose_priors(const Model &model, const std::vector<PosePrior> &priors, const PosePriorOptions &options,
                         std::vector<PosePrior> *out, std::string *error) {
   const double sd = options.fallback_stddev;
-  if (!(sd > 0) || !std::isfinite(sd * sd)) {
+  if (!(sd > 0) || !(sd * sd > 0) || !std::isfinite(sd * sd)) {
     *error = "the fallback standard deviation of the position priors must be finite and > 0";
     return false;
   }
@@ -502,8 +502,8 @@ bool parse_point_priors(const std::string &text, const std::string &path, const 
     if (t.size() == 5) {
       double sigma = 0;
       if (!finite_value(t[4], "SIGMA", where, &sigma, error)) return false;
-      if (!(sigma > 0) || !std::isfinite(sigma * sigma)) {
-        *error = where + "SIGMA must be > 0 (and its square finite), got " + t[4];
+      if (!(sigma > 0) || !(sigma * sigma > 0) || !std::isfinite(sigma * sigma)) {
+        *error = where + "SIGMA must be > 0 (and its square finite and not 0), got " + t[4];
         return false;
       }
       p.covariance = {sigma * sigma, 0, 0, 0, sigma * sigma, 0, 0, 0, sigma * sigma};
