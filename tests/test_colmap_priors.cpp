@@ -293,6 +293,41 @@ TEST(PosePriors, UsableOnesGetTheirCovarianceOrTheFallback) {
   EXPECT_FALSE(colmap::usable_pose_priors(m, {a}, options, &out, &error));
 }
 
+// Priors at the edge of double's range give a similarity that would send the model to
+// infinity: refused, the model left as it was, not moved to values that are not finite.
+TEST(PlaceOnPriors, RefusesASimilarityBeyondDoublesRange) {
+  colmap::Model m = small_model();
+  const colmap::Model original = m;
+  std::vector<colmap::PosePrior> priors(3);
+  const Vec3 positions[] = {{1e308, 2, 3}, {0, 5, 5}, {47.1, 8.2, 400}};
+  for (std::size_t k = 0; k < 3; ++k) {
+    priors[k].image_id = static_cast<std::uint32_t>(10 + k);
+    priors[k].position = positions[k];
+    priors[k].where = "p";
+  }
+  std::vector<colmap::PosePrior> usable;
+  std::string said, error;
+  EXPECT_FALSE(colmap::place_on_priors(priors, 0, "priors.txt", {}, {}, {}, true, &m, &usable, &said, &error));
+  EXPECT_EQ(error.rfind("priors.txt: the model cannot be moved onto these priors: their similarity (scale ", 0), 0u)
+      << error;
+  for (std::size_t i = 0; i < m.points.size(); ++i) EXPECT_EQ(m.points[i].xyz, original.points[i].xyz);
+
+  std::vector<colmap::PointPrior> points(3);
+  for (std::size_t k = 0; k < 3; ++k) {
+    points[k].point_id = 100 + k;
+    points[k].position = positions[k];
+    points[k].covariance = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  }
+  EXPECT_FALSE(colmap::place_on_priors({}, 0, {}, points, "gcp.txt", {}, true, &m, &usable, &said, &error));
+  EXPECT_EQ(error.rfind("gcp.txt: the model cannot be moved onto these priors", 0), 0u) << error;
+  // Far but in range: moved, and finite.
+  for (std::size_t k = 0; k < 3; ++k) priors[k].position[0] += k == 0 ? -1e308 + 1e6 : 0;
+  ASSERT_TRUE(colmap::place_on_priors(priors, 0, "priors.txt", {}, {}, {}, true, &m, &usable, &said, &error))
+      << error;
+  for (const colmap::Point3D &p : m.points)
+    for (double v : p.xyz) EXPECT_TRUE(std::isfinite(v));
+}
+
 // A database with COLMAP 4's pose_priors table, or 3.x's, holding `rows`.
 void make_database(const std::string &path, bool v4, const std::vector<std::string> &rows) {
   std::remove(path.c_str());

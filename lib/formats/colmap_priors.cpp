@@ -594,11 +594,32 @@ bool parse_intrinsic_priors(const std::string &text, const std::string &path, co
 namespace sbaformats::colmap {
 namespace {
 
-// The similarity that moves src onto the priors dst, applied to model; the summary's words for
-// it. max_error 0: three times the priors' RMS standard deviation.
-std::string align_model(const std::vector<Vec3> &src, const std::vector<Vec3> &dst,
-                        const std::vector<const std::array<double, 9> *> &covariances, double max_error,
-                        Model *model) {
+// Whether x keeps every coordinate of model finite: a bound on |s R X + t| and on each moved
+// translation, from the largest magnitudes (priors far from the model at the edge of double's
+// range give a similarity that would send it to infinity).
+bool keeps_finite(const Similarity &x, const Model &model) {
+  double far = 0;  // the largest coordinate of the model
+  for (const Point3D &p : model.points)
+    for (double v : p.xyz) far = std::max(far, std::fabs(v));
+  const auto pose = [&far](const std::array<double, 3> &t) {
+    for (double v : t) far = std::max(far, std::fabs(v));
+  };
+  for (const Image &im : model.images) pose(im.t);
+  for (const Frame &f : model.frames) pose(f.rig_from_world.t);
+  for (const Rig &r : model.rigs)
+    for (const RigSensor &s : r.sensors) pose(s.sensor_from_rig.t);
+  double shift = 0;
+  for (double v : x.t) shift = std::max(shift, std::fabs(v));
+  const double bound = 3 * x.s * far + 3 * shift;  // inf or NaN when out of range
+  return bound < std::numeric_limits<double>::max() / 4;
+}
+
+// The similarity that moves src onto the priors dst, applied to model; *words: the summary's
+// words for it. max_error 0: three times the priors' RMS standard deviation. False, with
+// *error, when the similarity would take the model out of double's range.
+bool align_model(const std::vector<Vec3> &src, const std::vector<Vec3> &dst,
+                 const std::vector<const std::array<double, 9> *> &covariances, double max_error,
+                 const std::string &source, Model *model, std::string *words, std::string *error) {
   if (max_error <= 0) {
     double variance = 0;  // the mean over the priors of each axis's variance
     for (const std::array<double, 9> *c : covariances) variance += ((*c)[0] + (*c)[4] + (*c)[8]) / 3;
@@ -606,12 +627,25 @@ std::string align_model(const std::vector<Vec3> &src, const std::vector<Vec3> &d
   }
   Similarity x;
   int inliers = 0;
-  if (!robust_similarity(src, dst, max_error, &x, &inliers)) return "not moved (its positions coincide)";
+  if (!robust_similarity(src, dst, max_error, &x, &inliers)) {
+    *words = "not moved (its positions coincide)";
+    return true;
+  }
+  if (!keeps_finite(x, *model)) {
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  ": the model cannot be moved onto these priors: their similarity (scale %.3g) takes it beyond the "
+                  "range of double",
+                  x.s);
+    *error = source + text;
+    return false;
+  }
   transform_model(x, model);
   char text[160];
   std::snprintf(text, sizeof text, "moved onto them by a similarity of scale %.6g (%d of %zu within %.3g)", x.s,
                 inliers, src.size(), max_error);
-  return text;
+  *words = text;
+  return true;
 }
 
 }  // namespace
@@ -645,8 +679,9 @@ bool place_on_priors(std::vector<PosePrior> read, int unknown, const std::string
         dst.push_back(p.position);
         cov.push_back(&p.covariance);
       }
-      *said += ": the model " + align_model(src, dst, cov, options.alignment_max_error, model) +
-               ", then refined with them";
+      std::string words;
+      if (!align_model(src, dst, cov, options.alignment_max_error, source, model, &words, error)) return false;
+      *said += ": the model " + words + ", then refined with them";
     }
   }
   if (!points.empty()) {
@@ -661,7 +696,9 @@ bool place_on_priors(std::vector<PosePrior> read, int unknown, const std::string
         dst.push_back(p.position);
         cov.push_back(&p.covariance);
       }
-      *said += ": the model " + align_model(src, dst, cov, 0, model) + ", then refined with them";
+      std::string words;
+      if (!align_model(src, dst, cov, 0, points_source, model, &words, error)) return false;
+      *said += ": the model " + words + ", then refined with them";
     }
   }
   return true;

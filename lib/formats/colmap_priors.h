@@ -130,6 +130,8 @@ bool parse_point_priors(const std::string &text, const std::string &name, const 
 // move it); with fewer, *poses is emptied: COLMAP's adjustment without priors. Without position
 // priors, at least kMinPosePriors point priors (from points_source) move the model onto the
 // control points likewise. *said: what was done, a line each, each starting with a newline.
+// False with *error: priors that are not usable, or a similarity that would take the model
+// beyond double's range.
 bool place_on_priors(std::vector<PosePrior> read, int unknown, const std::string &source,
                      const std::vector<PointPrior> &points, const std::string &points_source,
                      const PosePriorOptions &options, bool align, Model *model, std::vector<PosePrior> *poses,
