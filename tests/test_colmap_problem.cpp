@@ -355,17 +355,33 @@ TEST(ColmapProblem, NoImagesOrNoPoints) {
 
 TEST(ColmapProblem, StopRule) {
   const double ulp4 = 4 * std::numeric_limits<double>::epsilon();
-  double eps4 = 0;
-  EXPECT_TRUE(colmap::colmap_stop_rule(-1, false, &eps4));  // COLMAP's default, 0
+  double eps1 = 1e-12, eps4 = 0;
+  EXPECT_TRUE(colmap::colmap_stop_rule(-1, -1, false, &eps1, &eps4));  // COLMAP 4's defaults, 0 and 1e-4
   EXPECT_EQ(eps4, ulp4);
+  EXPECT_EQ(eps1, 1e-4);
+  eps1 = 1e-12;
   eps4 = 1e-9;
-  EXPECT_FALSE(colmap::colmap_stop_rule(-1, false, &eps4));  // an eps4 given keeps sba's test
+  EXPECT_FALSE(colmap::colmap_stop_rule(-1, -1, false, &eps1, &eps4));  // an eps4 given keeps sba's tests
   EXPECT_EQ(eps4, 1e-9);
+  EXPECT_EQ(eps1, 1e-12);
   eps4 = 0;
-  EXPECT_FALSE(colmap::colmap_stop_rule(-1, true, &eps4));  // so does a strategy
+  EXPECT_FALSE(colmap::colmap_stop_rule(-1, -1, true, &eps1, &eps4));  // so does a strategy
   EXPECT_EQ(eps4, 0);
-  EXPECT_TRUE(colmap::colmap_stop_rule(1e-6, true, &eps4));
+  EXPECT_EQ(eps1, 1e-12);
+  EXPECT_TRUE(colmap::colmap_stop_rule(1e-6, -1, true, &eps1, &eps4));
   EXPECT_EQ(eps4, 1e-6);
+  EXPECT_EQ(eps1, 1e-4);
+  eps1 = 1e-7;  // an eps1 given is kept
+  eps4 = 0;
+  EXPECT_TRUE(colmap::colmap_stop_rule(-1, -1, false, &eps1, &eps4));
+  EXPECT_EQ(eps1, 1e-7);
+  // A gradient tolerance given is eps1, whether the rule applies or not.
+  eps4 = 0;
+  EXPECT_TRUE(colmap::colmap_stop_rule(-1, 0, false, &eps1, &eps4));
+  EXPECT_EQ(eps1, 0);
+  eps4 = 1e-9;
+  EXPECT_FALSE(colmap::colmap_stop_rule(-1, 1e-3, false, &eps1, &eps4));
+  EXPECT_EQ(eps1, 1e-3);
   EXPECT_EQ(std::string(colmap::kColmapStrategy), "trust-region");
   EXPECT_EQ(colmap::kDefaultItmax, 100);
 }

@@ -1885,7 +1885,19 @@ TEST(SbarefineColmapModels, ColmapOptionNames) {
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("Stop reason 4: "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find(", strategy trust-region, "), std::string::npos) << r.out;
-  EXPECT_NE(read_file(dir + "/r.json").find("\"opts\": [0.001, 1e-12, 1e-12, 1e-12, 0.001]"), std::string::npos);
+  EXPECT_NE(read_file(dir + "/r.json").find("\"opts\": [0.001, 0.0001, 1e-12, 1e-12, 0.001]"), std::string::npos);
+  // COLMAP 4's gradient_tolerance is eps1 (1e-4 unless given); --eps1 given is kept.
+  r = run(dir + "/in --gradient-tolerance 0 --json " + dir + "/r.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(read_file(dir + "/r.json").find("\"opts\": [0.001, 0, 1e-12, 1e-12, 8.8817841970012523e-16]"),
+            std::string::npos);
+  r = run(dir + "/in --eps1 1e-9 --json " + dir + "/r.json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(read_file(dir + "/r.json").find("\"opts\": [0.001, 1e-09, 1e-12, 1e-12, 8.8817841970012523e-16]"),
+            std::string::npos);
+  r = run("--gradient-tolerance -1 " + dir + "/in");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: bad value '-1' for --gradient-tolerance: expected a non-negative number\n");
   r = run(dir + "/in --function-tolerance 1e-3 --strategy sba");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.out.find(", strategy "), std::string::npos) << r.out;
@@ -1948,7 +1960,7 @@ TEST(SbarefineColmapModels, ColmapReachesTheSameMinimum) {
                            " --BundleAdjustment.gradient_tolerance 1e-14 --BundleAdjustment.parameter_tolerance 1e-14"
                            " >" + dir + "/colmap.log 2>&1";
     ASSERT_EQ(std::system(ba.c_str()), 0) << read_file(dir + "/colmap.log");
-    const Outcome ours = run(in + " --itmax 500 --function-tolerance 1e-12");
+    const Outcome ours = run(in + " --itmax 500 --function-tolerance 1e-12 --gradient-tolerance 1e-14");
     ASSERT_EQ(ours.status, 0) << ours.err;
     const Outcome scored = run(theirs + " --itmax 0");
     ASSERT_EQ(scored.status, 0) << scored.err;

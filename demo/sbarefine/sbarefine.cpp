@@ -71,6 +71,7 @@ struct Options {
   std::string hold_points;           // COLMAP: the points held; empty: none
   std::string hold_points_file;      // COLMAP: a file of the POINT3D_IDs of more of them; empty: none
   double function_tolerance = -1;    // < 0: not given
+  double gradient_tolerance = -1;    // < 0: not given
   std::string initial_ply, final_ply;
   std::string write_eucsba;  // COLMAP, NVM: eucsbademo files PREFIX-cams.txt, PREFIX-pts.txt
   std::string covariance;    // COLMAP: the covariances' file; empty: none
@@ -92,13 +93,18 @@ struct Options {
 
 // A COLMAP model is refined as COLMAP refines it unless the command line says otherwise: its
 // iteration limit and its stopping rule (colmap_stop_rule). The other formats keep sba's
-// algorithm and the programs' limit, and take --function-tolerance as COLMAP's rule does.
+// algorithm and the programs' limit, and take --function-tolerance as COLMAP's rule does
+// (--gradient-tolerance alone is their --eps1).
 void resolve_defaults(bool colmap_model, Options *o) {
   sbacli::SolveOptions &so = o->solve;
   if (so.itmax < 0) so.itmax = colmap_model ? colmap::kDefaultItmax : 150;
   if ((colmap_model || o->function_tolerance >= 0) &&
-      colmap::colmap_stop_rule(o->function_tolerance, !so.strategy.empty(), &so.opts[4]) && so.strategy.empty())
+      colmap::colmap_stop_rule(o->function_tolerance, o->gradient_tolerance, !so.strategy.empty(), &so.opts[1],
+                               &so.opts[4]) &&
+      so.strategy.empty())
     so.strategy = colmap::kColmapStrategy;
+  else if (o->gradient_tolerance >= 0)
+    so.opts[1] = o->gradient_tolerance;
 }
 
 // A boolean option of COLMAP's, 0|1 or as COLMAP's command line takes it (sbacli::to_bool):
@@ -336,6 +342,12 @@ std::vector<sbacli::Option> option_table(Options &o) {
                "A COLMAP model is refined at COLMAP's default, 0: until a step changes the cost by no\n"
                "more than rounding (give --strategy or --eps4 for sba's tests instead)",
                [&o](const std::string &v) { return sbacli::to_real(v, 0.0, false, &o.function_tolerance); }});
+  t.push_back({"gradient-tolerance", "X",
+               "COLMAP's (Ceres's) gradient_tolerance: stop when the largest entry of the gradient,\n"
+               "||J^T e||_inf, is at most X. Sets --eps1 X. A COLMAP model is refined at COLMAP 4's\n"
+               "default, 1e-4, unless --eps1 (or --opts) is given or sba's tests are (see\n"
+               "--function-tolerance); COLMAP 3's is 0",
+               [&o](const std::string &v) { return sbacli::to_real(v, 0.0, false, &o.gradient_tolerance); }});
   add_format_options(&t, o);
   sbacli::add_ply_options(&t, &o.initial_ply, &o.final_ply, true);
   return t;

@@ -15,11 +15,16 @@ namespace sbaformats::colmap {
 
 namespace cc = sbacameras::colmap_camera;
 
-bool colmap_stop_rule(double function_tolerance, bool strategy_given, double *eps4) {
+bool colmap_stop_rule(double function_tolerance, double gradient_tolerance, bool strategy_given, double *eps1,
+                      double *eps4) {
   if (function_tolerance < 0 && !strategy_given && *eps4 == 0.0) function_tolerance = 0.0;
-  if (function_tolerance < 0) return false;
-  *eps4 = std::max(function_tolerance, 4 * std::numeric_limits<double>::epsilon());
-  return true;
+  const bool applies = function_tolerance >= 0;
+  if (applies) *eps4 = std::max(function_tolerance, 4 * std::numeric_limits<double>::epsilon());
+  if (gradient_tolerance >= 0)
+    *eps1 = gradient_tolerance;
+  else if (applies && *eps1 == kSbaDefaultEps1)
+    *eps1 = kColmapGradientTolerance;
+  return applies;
 }
 
 namespace {

@@ -44,6 +44,11 @@ constexpr int kDefaultItmax = 100;
 // The strategy whose eps4 is COLMAP's function_tolerance.
 constexpr const char *kColmapStrategy = "trust-region";
 
+// COLMAP 4's gradient_tolerance (its BundleAdjustmentOptions set Ceres's to 1e-4; COLMAP 3.x's
+// is 0), and sba's own eps1, which a caller who gave none has.
+constexpr double kColmapGradientTolerance = 1e-4;
+constexpr double kSbaDefaultEps1 = 1e-12;
+
 // COLMAP's stopping rule on sba's options. COLMAP's bundle adjuster is Ceres's
 // Levenberg-Marquardt, which stops at function_tolerance, a relative change of the cost: the
 // trust-region strategy's eps4 (sba's eps4 is a relative reduction of the RMS error instead).
@@ -52,7 +57,12 @@ constexpr const char *kColmapStrategy = "trust-region";
 // to it, at least 4 ulp (a change rounding can make, so that a tolerance of 0 runs until a step
 // no longer changes the cost beyond rounding), and returns true: the strategy, unless given, is
 // then kColmapStrategy. False, *eps4 unchanged, when the rule leaves sba's tests.
-bool colmap_stop_rule(double function_tolerance, bool strategy_given, double *eps4);
+// Ceres also stops when the largest entry of the gradient is at most gradient_tolerance: sba's
+// stop 1, ||J^T e||_inf <= eps1. gradient_tolerance >= 0 sets *eps1 to it; not given (< 0), the
+// rule sets COLMAP 4's kColmapGradientTolerance when it applies and *eps1 is sba's default (an
+// eps1 given is kept).
+bool colmap_stop_rule(double function_tolerance, double gradient_tolerance, bool strategy_given, double *eps1,
+                      double *eps4);
 
 // What the solve holds beyond the parameters' own flags: COLMAP's options and constants, and
 // sba's mcon (the first mcon sba cameras held; a COLMAP camera one of them uses has its

@@ -285,12 +285,13 @@ def _held_ids(name: str, kind: str, given: Any) -> Tuple[bool, List[int]]:
     return every, [int(item) for item in items]
 
 
-def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any) -> Tuple[Any, Any]:
+def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any, gradient_tolerance: Any) -> Tuple[Any, Any]:
     """strategy and opts as sbarefine sets them for a COLMAP model, by COLMAP's stopping rule
-    (the library's colmap_stop_rule: a tolerance sets eps4 and, unless a strategy is given, the
-    trust-region strategy; without one, COLMAP's default 0 holds unless a strategy or an eps4
-    is given). opts that are not 5 values go on as given, for _core to say what is wrong with
-    them."""
+    (the library's colmap_stop_rule: a function tolerance sets eps4 and, unless a strategy is
+    given, the trust-region strategy; without one, COLMAP's default 0 holds unless a strategy
+    or an eps4 is given; a gradient tolerance sets eps1, and without one COLMAP 4's 1e-4 holds
+    where the rule does, unless opts give an eps1 of their own). opts that are not 5 values go
+    on as given, for _core to say what is wrong with them."""
     values = None
     if opts is not None and not isinstance(opts, (str, bytes)):
         try:
@@ -299,21 +300,28 @@ def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any) -> Tuple[Any
             pass
     if opts is not None and (values is None or len(values) != 5):
         return strategy, opts
-    if function_tolerance is not None:
-        if not (0 <= _real("function_tolerance", function_tolerance) < math.inf):
-            raise ValueError(f"function_tolerance must be finite and >= 0, got {function_tolerance}")
+    for name, tolerance in (("function_tolerance", function_tolerance), ("gradient_tolerance", gradient_tolerance)):
+        if tolerance is not None and not (0 <= _real(name, tolerance) < math.inf):
+            raise ValueError(f"{name} must be finite and >= 0, got {tolerance}")
+    eps1 = values[1] if values is not None else 1e-12
     eps4 = values[4] if values is not None else 0.0
+    if not isinstance(eps1, numbers.Real):
+        if gradient_tolerance is None:
+            return strategy, opts  # given, and _core says what is wrong with it
+        eps1 = 1e-12  # replaced by the tolerance
     if not isinstance(eps4, numbers.Real):
         if function_tolerance is None:
-            return strategy, opts  # given, and _core says what is wrong with it
+            return strategy, opts
         eps4 = 0.0  # replaced by the tolerance
-    rule = _core.colmap_stop_rule(-1.0 if function_tolerance is None else float(function_tolerance),
-                                  strategy is not None, float(eps4))
-    if rule is None:
+    rule, eps1, eps4 = _core.colmap_stop_rule(-1.0 if function_tolerance is None else float(function_tolerance),
+                                              -1.0 if gradient_tolerance is None else float(gradient_tolerance),
+                                              strategy is not None, float(eps1), float(eps4))
+    if rule is None and gradient_tolerance is None:
         return strategy, opts
     values = values if values is not None else [1e-3, 1e-12, 1e-12, 1e-12, 0.0]
-    values[4] = rule[1]
-    return (strategy if strategy is not None else rule[0]), values
+    values[1] = eps1
+    values[4] = eps4
+    return (strategy if strategy is not None or rule is None else rule), values
 
 
 def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_principal_point: bool = False,
@@ -323,7 +331,8 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                   hold_points: Any = None, solver: Optional[str] = None, threads: int = 0,
                   strategy: Optional[str] = None, loss: Optional[str] = None,
                   loss_scale: float = 1.0, itmax: int = 100, opts: Optional[Sequence[float]] = None,
-                  function_tolerance: Optional[float] = None, mcon: int = 0, ncon: int = 0,
+                  function_tolerance: Optional[float] = None, gradient_tolerance: Optional[float] = None,
+                  mcon: int = 0, ncon: int = 0,
                   progress: Optional[Callable[[Progress], Any]] = None, verbose: bool = False,
                   covariance: bool = False, covariance_points: bool = False,
                   covariance_damping: float = 1e-8, pose_priors: Any = None,
@@ -366,11 +375,13 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         whose coordinates are held (with ncon, the points of both). An id the model does not have
         is a ValueError (``hold_points[2]: no point has the POINT3D_ID '5'``); bools, floats,
         bytes and dicts are TypeErrors.
-    itmax, function_tolerance
+    itmax, function_tolerance, gradient_tolerance
         COLMAP's max_num_iterations (100) and function_tolerance (Ceres's relative cost
         change; None: COLMAP's 0, unless strategy or opts[4] is given, which then keep sba's
         tests). A tolerance sets opts[4] to it (at least 4 ulp) and the strategy, unless
-        given, to "trust-region". itmax 0 returns the model as given.
+        given, to "trust-region". gradient_tolerance (Ceres's: the largest entry of the
+        gradient J^T e) sets opts[1]; None: COLMAP 4's 1e-4 where COLMAP's rule holds, unless
+        opts give an eps1 other than sba's 1e-12. itmax 0 returns the model as given.
     strategy, solver
         As :func:`solve`'s, but strategy None runs "trust-region" (COLMAP's
         Levenberg-Marquardt), whatever $SBA_STRATEGY says, unless opts[4] is given without
@@ -448,7 +459,7 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     constants = dict(hold_intrinsics=_held_ids("hold_intrinsics", "CAMERA_IDs", hold_intrinsics),
                      hold_sensor_from_rig=_held_ids("hold_sensor_from_rig", "CAMERA_IDs", hold_sensor_from_rig),
                      hold_points=_held_ids("hold_points", "POINT3D_IDs", hold_points))
-    strategy, opts = _colmap_stop(strategy, opts, function_tolerance)
+    strategy, opts = _colmap_stop(strategy, opts, function_tolerance, gradient_tolerance)
     if verbose:
         progress = _shown(colmap_model, loss not in (None, "none"), progress)
     kw = _options(solver, threads, strategy, loss, loss_scale, itmax, opts, mcon, ncon, progress,

@@ -778,11 +778,12 @@ py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_pos
   return refine_model(std::move(m), options, o, {covariance_points, covariance_damping}, priors);
 }
 
-// COLMAP's stopping rule (colmap::colmap_stop_rule): None when it leaves sba's tests, else the
-// strategy to run unless one is given, and eps4.
-py::object colmap_stop_rule(double function_tolerance, bool strategy_given, double eps4) {
-  if (!colmap::colmap_stop_rule(function_tolerance, strategy_given, &eps4)) return py::none();
-  return py::make_tuple(colmap::kColmapStrategy, eps4);
+// COLMAP's stopping rule (colmap::colmap_stop_rule): (strategy, eps1, eps4), the strategy to
+// run unless one is given, or None when the rule leaves sba's tests (eps4 then unchanged).
+py::tuple colmap_stop_rule(double function_tolerance, double gradient_tolerance, bool strategy_given, double eps1,
+                           double eps4) {
+  const bool applies = colmap::colmap_stop_rule(function_tolerance, gradient_tolerance, strategy_given, &eps1, &eps4);
+  return py::make_tuple(applies ? py::object(py::str(colmap::kColmapStrategy)) : py::object(py::none()), eps1, eps4);
 }
 
 }  // namespace
@@ -790,8 +791,8 @@ py::object colmap_stop_rule(double function_tolerance, bool strategy_given, doub
 void add_colmap(py::module_ &mod) {
   mod.def("read_colmap", &read_colmap, py::arg("path"));
   mod.def("write_colmap", &write_colmap, py::arg("model"), py::arg("path"), py::arg("encoding"));
-  mod.def("colmap_stop_rule", &colmap_stop_rule, py::arg("function_tolerance"), py::arg("strategy_given"),
-          py::arg("eps4"));
+  mod.def("colmap_stop_rule", &colmap_stop_rule, py::arg("function_tolerance"), py::arg("gradient_tolerance"),
+          py::arg("strategy_given"), py::arg("eps1"), py::arg("eps4"));
   mod.def("refine_colmap", &refine_colmap, py::arg("model"), py::arg("hold_all"), py::arg("hold_poses"),
           py::arg("refine_focal_length"), py::arg("refine_principal_point"), py::arg("refine_extra_params"),
           py::arg("refine_rig_from_world"), py::arg("refine_sensor_from_rig"),

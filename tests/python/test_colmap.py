@@ -267,6 +267,21 @@ def test_refine_with_a_tolerance_is_sbarefines(tmp_path):
     assert r.strategy == "trust-region" and r.reason == pysba.Reason.REDUCTION
 
 
+def test_refine_with_a_gradient_tolerance_is_sbarefines(tmp_path):
+    # COLMAP 4's gradient_tolerance, 1e-4 unless given: a looser one stops on the gradient
+    # (reason 1) at sbarefine's bits; opts with an eps1 of their own keep it.
+    text, _ = sbagen(tmp_path)
+    r = same_as_sbarefine(tmp_path, text, "text", ["--gradient-tolerance", "10"], dict(gradient_tolerance=10))
+    assert r.strategy == "trust-region" and r.reason == pysba.Reason.GRADIENT
+    model = pysba.read_colmap(text)
+    _, default = pysba.refine_colmap(model)
+    _, given = pysba.refine_colmap(model, opts=[1e-3, 1e-9, 1e-12, 1e-12, 0])
+    _, same = pysba.refine_colmap(model, gradient_tolerance=1e-9)
+    _, zero = pysba.refine_colmap(model, gradient_tolerance=0)
+    assert default.iterations <= same.iterations <= zero.iterations
+    assert given.iterations == same.iterations and given.rms_final == same.rms_final
+
+
 def test_refine_with_rigs_is_sbarefines(tmp_path):
     r = same_as_sbarefine(tmp_path, rigged(tmp_path), "text", [], {})
     # Each frame got its image's refined pose: the reference camera's bit for bit.
@@ -553,6 +568,8 @@ def test_refine_refusals(tmp_path):
             (dict(refine_sensor_from_rig=None), TypeError, "refine_sensor_from_rig must be a bool, got NoneType"),
             (dict(function_tolerance=-1), ValueError, "function_tolerance must be finite and >= 0, got -1"),
             (dict(function_tolerance="0"), TypeError, "function_tolerance must be a number, got str"),
+            (dict(gradient_tolerance=-1e-3), ValueError, "gradient_tolerance must be finite and >= 0, got -0.001"),
+            (dict(gradient_tolerance=math.inf), ValueError, "gradient_tolerance must be finite and >= 0, got inf"),
             (dict(opts=[1e-3]), ValueError, "opts must hold 5 values"),
             (dict(mcon=7), ValueError, "mcon must be in [0, 6], got 7"),
             (dict(threads=1.5), TypeError, "threads must be an int, got float")]:
