@@ -338,15 +338,18 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                   covariance_damping: float = 1e-8, pose_priors: Any = None,
                   prior_position_fallback_stddev: float = 1.0, prior_position_loss: str = "trivial",
                   prior_position_loss_scale: float = 2.7954834829151074,
-                  alignment_max_error: float = 0.0) -> Tuple[Any, Result]:
+                  alignment_max_error: float = 0.0, in_place: bool = False) -> Tuple[Any, Result]:
     """Bundle-adjusts a COLMAP model as sbarefine does (the same numbers, bit for bit, as
     ``sbarefine MODEL --write OUT`` with the same options), with COLMAP's camera models and
     COLMAP's defaults, and returns ``(refined model, Result)``; the model is left unchanged.
-    model is a :class:`ColmapModel` or a pycolmap.Reconstruction (then the refined model is
-    one too, converted by :func:`from_pycolmap` and :func:`to_pycolmap`, which write and read
-    the whole model through files and hold copies of it: for large models, refine the model's
-    files instead, :func:`read_colmap`, refine_colmap, :func:`write_colmap`, then
-    pycolmap.Reconstruction(path)).
+    model is a :class:`ColmapModel` or a pycolmap.Reconstruction. A Reconstruction is read
+    through pycolmap's API, in memory (no file: its cameras, rigs, frames, poses, points and
+    the keypoints that observe them), and the refined values are written into a copy of it
+    (pycolmap.Reconstruction(model)), returned; with ``in_place=True`` into the given
+    Reconstruction itself, returned: its refined frame poses, poses in rigs, intrinsics, and
+    points' coordinates and errors, everything else (ids, tracks, keypoints, colors, names,
+    what was held) untouched. The values are those of refining the files pycolmap writes of
+    it, bit for bit.
 
     Every image that sees a point is refined (its pose), with its camera's parameters: a camera
     shared by several images once for all of them; every 3D point is refined, and its
@@ -444,7 +447,11 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     that sees a point; the points' coordinates).
     """
     reconstruction = _is_reconstruction(model)
-    colmap_model = _as_model(model)
+    if not isinstance(in_place, (bool, np.bool_)):
+        raise TypeError(f"in_place must be a bool, got {type(in_place).__name__}")
+    if in_place and not reconstruction:
+        raise TypeError(f"in_place=True refines a pycolmap.Reconstruction, got {type(model).__name__}")
+    colmap_model = _from_reconstruction(model) if reconstruction else _as_model(model)
     flags = (("refine_focal_length", refine_focal_length),
              ("refine_principal_point", refine_principal_point),
              ("refine_extra_params", refine_extra_params),
@@ -481,9 +488,13 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                                  prior_position_loss="" if prior_position_loss == "trivial" else "cauchy",
                                  prior_position_loss_scale=float(prior_position_loss_scale),
                                  alignment_max_error=float(alignment_max_error), **kw)
-    refined = _with_unposed(_model(report["model"]), colmap_model)
     # The Result's model, also on an exception's result, is of the type returned.
-    report["model"] = to_pycolmap(refined) if reconstruction else refined
+    if reconstruction:
+        target = model if in_place else _pycolmap().Reconstruction(model)
+        _write_into(target, _model(report["model"]), colmap_model)
+        report["model"] = target
+    else:
+        report["model"] = _with_unposed(_model(report["model"]), colmap_model)
     result = _finish(report)
     if verbose:
         print(f"refine_colmap: RMS {result.rms_initial:.6g} px -> {result.rms_final:.6g} px in {result.iterations} "
@@ -583,6 +594,122 @@ def _pycolmap() -> Any:
     return pycolmap
 
 
+def _sorted_sensors(sensors: Any) -> List[Any]:
+    """pycolmap's sensor_t keys in COLMAP's order (type, then id), as its files hold them."""
+    return sorted(sensors, key=lambda s: (int(s.type.value), s.id))
+
+
+def _pose_of(rigid: Any) -> Tuple[np.ndarray, np.ndarray]:
+    """A pycolmap.Rigid3d as (q, t): qw qx qy qz, the bits pycolmap holds."""
+    xyzw = np.array(rigid.rotation.quat, np.float64)
+    return xyzw[[3, 0, 1, 2]], np.array(rigid.translation, np.float64)
+
+
+def _from_reconstruction(reconstruction: Any) -> ColmapModel:
+    """What refine_colmap reads of a pycolmap.Reconstruction, through pycolmap's API (no file):
+    every camera, rig and frame (a frame without a pose, and its images, without one as in
+    from_pycolmap), every image with its pose as pycolmap composes it and only its keypoints
+    that observe a 3D point (in their order), and every point with its track in its order, the
+    track's keypoint indices into those. The solve of it is the solve of what pycolmap writes:
+    it reads nothing of the keypoints that observe no point."""
+    cameras = [ColmapCamera(c.camera_id, c.model.name, c.width, c.height, np.array(c.params, np.float64))
+               for _, c in sorted(reconstruction.cameras.items())]
+    rigs = []
+    for rig_id, rig in sorted(reconstruction.rigs.items()):
+        ref = rig.ref_sensor_id
+        sensors = [ColmapSensor(ref.type.name, ref.id)]
+        others = rig.non_ref_sensors
+        for sensor in _sorted_sensors(others):
+            pose = others[sensor]
+            sensors.append(ColmapSensor(sensor.type.name, sensor.id, *(_pose_of(pose) if pose is not None
+                                                                      else (None, None))))
+        rigs.append(ColmapRig(rig_id, sensors))
+    frames = []
+    for frame_id, frame in sorted(reconstruction.frames.items()):
+        data = [(d.sensor_id.type.name, d.sensor_id.id, d.id)
+                for d in sorted(frame.data_ids, key=lambda d: (int(d.sensor_id.type.value), d.sensor_id.id, d.id))]
+        q, t = _pose_of(frame.rig_from_world) if frame.has_pose() else (None, None)
+        frames.append(ColmapFrame(frame_id, frame.rig_id, q, t, data))
+    # The tracks, in their order: (image, keypoint) per element, and each point's span.
+    points = reconstruction.points3D
+    ids = np.array(sorted(points.keys()), np.uint64)
+    n = len(ids)
+    xyz, rgb, error = np.empty((n, 3)), np.empty((n, 3), np.uint8), np.empty(n)
+    offsets = np.zeros(n + 1, np.uint64)
+    image_ids: List[int] = []
+    keypoints: List[int] = []
+    for k, point_id in enumerate(ids.tolist()):
+        p = points[point_id]
+        xyz[k], rgb[k], error[k] = p.xyz, p.color, p.error
+        for element in p.track.elements:
+            image_ids.append(element.image_id)
+            keypoints.append(element.point2D_idx)
+        offsets[k + 1] = len(image_ids)
+    track_images = np.array(image_ids, np.uint64)
+    track_keypoints = np.array(keypoints, np.uint64)
+    observer = np.repeat(ids, np.diff(offsets).astype(np.int64))
+    # Each image's observing keypoints, ascending, and each track element's index among them.
+    order = np.argsort((track_images << np.uint64(32)) | track_keypoints, kind="stable")
+    by_image = track_images[order]
+    starts = np.searchsorted(by_image, by_image, side="left")
+    compact = np.empty(len(order), np.uint64)
+    compact[order] = np.arange(len(order), dtype=np.uint64) - starts.astype(np.uint64)
+    bounds = {}
+    if len(order):
+        cut = np.flatnonzero(np.diff(by_image)) + 1
+        for lo, hi in zip(np.concatenate(([0], cut)).tolist(), np.concatenate((cut, [len(order)])).tolist()):
+            bounds[int(by_image[lo])] = (lo, hi)
+    images = []
+    for image_id, im in sorted(reconstruction.images.items()):
+        lo, hi = bounds.get(image_id, (0, 0))
+        rows = order[lo:hi]
+        xy = np.array([im.point2D(k).xy for k in track_keypoints[rows].tolist()], np.float64).reshape(-1, 2)
+        if im.has_pose:
+            q, t = _pose_of(im.cam_from_world())
+        else:
+            q = t = None
+        images.append(ColmapImage(image_id, im.name, im.camera_id, q, t, xy, observer[rows]))
+    return ColmapModel(cameras, images,
+                       ColmapPoints3D(ids, xyz, rgb, error, offsets.astype(np.uint32),
+                                      track_images.astype(np.uint32), compact.astype(np.uint32)),
+                       rigs, frames)
+
+
+def _write_into(reconstruction: Any, refined: ColmapModel, given: ColmapModel) -> None:
+    """refined's values, where they differ from given's (the model _from_reconstruction read of
+    reconstruction), written into reconstruction: cameras' parameters, frames' poses, cameras'
+    poses in their rigs, points' coordinates and errors. An image's pose is its frame's and its
+    camera's in the rig, which pycolmap composes."""
+    pycolmap = _pycolmap()
+
+    def differ(a: Any, b: Any) -> bool:
+        return a is not None and (b is None or a.tobytes() != b.tobytes())
+
+    def rigid(q: np.ndarray, t: np.ndarray) -> Any:
+        return pycolmap.Rigid3d(pycolmap.Rotation3d(np.asarray(q, np.float64)[[1, 2, 3, 0]]),
+                                np.asarray(t, np.float64))
+
+    for c, before in zip(refined.cameras, given.cameras):
+        if differ(c.params, before.params):
+            reconstruction.cameras[c.id].params = c.params
+    for f, before in zip(refined.frames or (), given.frames or ()):
+        if differ(f.q, before.q) or differ(f.t, before.t):
+            reconstruction.frames[f.id].rig_from_world = rigid(f.q, f.t)
+    for r, before in zip(refined.rigs or (), given.rigs or ()):
+        for s, b in zip(r.sensors, before.sensors):
+            if differ(s.q, b.q) or differ(s.t, b.t):
+                sensor = pycolmap.sensor_t(getattr(pycolmap.SensorType, s.type), s.id)
+                reconstruction.rigs[r.id].set_sensor_from_rig(sensor, rigid(s.q, s.t))
+    new, old = refined.points3D, given.points3D
+    moved = np.flatnonzero(np.any(new.xyz.view(np.uint64) != old.xyz.view(np.uint64), axis=1) |
+                           (new.error.view(np.uint64) != old.error.view(np.uint64)))
+    points = reconstruction.points3D
+    for k in moved.tolist():
+        p = points[int(new.ids[k])]
+        p.xyz = new.xyz[k]
+        p.error = float(new.error[k])
+
+
 def from_pycolmap(reconstruction: Any) -> ColmapModel:
     """The :class:`ColmapModel` of a pycolmap.Reconstruction, every field as pycolmap writes
     it (through a binary model in a temporary directory), and the frames pycolmap holds without
@@ -590,9 +717,9 @@ def from_pycolmap(reconstruction: Any) -> ColmapModel:
     Reconstruction: every image, frame, rig and camera, in pycolmap's order (by id).
 
     The model goes through files: pycolmap writes it into a temporary directory, and pysba
-    reads it, a model's disk space and time, and a copy in memory beside pycolmap's. For large
-    models, read the model's files with :func:`read_colmap` instead (and write them with
-    :func:`write_colmap`)."""
+    reads it, a model's disk space and time, and a copy in memory beside pycolmap's.
+    :func:`refine_colmap` of a Reconstruction reads it in memory instead, only what the solve
+    needs."""
     pycolmap = _pycolmap()
     if not isinstance(reconstruction, pycolmap.Reconstruction):
         raise TypeError(f"reconstruction must be a pycolmap.Reconstruction, got "
@@ -623,9 +750,8 @@ def to_pycolmap(model: ColmapModel) -> Any:
     temporary directory, which pycolmap reads), with its frames without a pose and their images
     added to it unregistered. ValueError or TypeError for a model the reader would refuse.
 
-    The model goes through files, as in :func:`from_pycolmap`. For large models,
-    :func:`write_colmap` the model and have pycolmap read that folder (and start from
-    :func:`read_colmap` rather than from_pycolmap)."""
+    The model goes through files, as in :func:`from_pycolmap`. :func:`refine_colmap` of a
+    Reconstruction writes its result into one (a copy, or the one given) in memory instead."""
     pycolmap = _pycolmap()
     _check_model(model)
     with tempfile.TemporaryDirectory(prefix="pysba-") as d:

@@ -21,7 +21,8 @@ bits. Of that scene from_pycolmap and
 refine_colmap(itmax=0) give every image pycolmap's own pose, the same bits. A scene with two
 frames deregistered: from_pycolmap and to_pycolmap keep them and their images, without a pose;
 refine_colmap gives them back as they were and solves what pycolmap writes of the scene, the
-same bits.
+same bits. refine_colmap(rec, in_place=True) refines rec itself, with no file written, to the
+copy's bits, held values, keypoints and an unregistered frame as they were.
 
 Exit status: 0 every check passed, 1 a check failed, 77 (ctest's SKIP_RETURN_CODE) no Python
 here can import both pycolmap and pysba, or a sanitizer build (pycolmap is not built with
@@ -208,6 +209,75 @@ def keypoints(im):
     return [(values(p.xy), p.point3D_id) for p in im.points2D]
 
 
+def in_place(pycolmap, pysba):
+    """refine_colmap(rec, in_place=True) refines rec itself, reading it through pycolmap's API
+    with no file written: the values of refine_colmap(rec) (the copy's), the same bits; held
+    values, ids, tracks and keypoints as they were; a frame without a pose untouched; on a
+    KeyboardInterrupt, rec holds the estimate so far."""
+    import pysba._colmap as pc
+    rec = synthesize(pycolmap, 4, 13, rigs=2)
+    perturb_rigs(pycolmap, rec)
+    gone = sorted(rec.frames)[2]
+    rec.deregister_frame(gone)
+    before = pycolmap.Reconstruction(rec)
+    kw = dict(hold_intrinsics=[1], hold_sensor_from_rig=[2], hold_points=sorted(rec.points3D)[:5])
+    copied, result = pysba.refine_colmap(rec, **kw)
+    same_reconstruction(before, rec, "refine_colmap(rec) changed rec")
+
+    # No file: the route through files would need a temporary directory.
+    def no_files(*args, **kwargs):
+        raise AssertionError("a temporary directory was asked for")
+
+    made = pc.tempfile.TemporaryDirectory
+    pc.tempfile.TemporaryDirectory = no_files
+    try:
+        back, again = pysba.refine_colmap(rec, in_place=True, **kw)
+    finally:
+        pc.tempfile.TemporaryDirectory = made
+    expect(back is rec and again.model is rec, "refine_colmap(rec, in_place=True) gave another object")
+    expect(again.info.tolist() == result.info.tolist(), "in place: another problem")
+    same_reconstruction(copied, rec, "refine_colmap(rec, in_place=True)")
+    for k, im in rec.images.items():
+        expect(keypoints(im) == keypoints(before.images[k]), "in place: image %d's keypoints" % k)
+    sensor = pycolmap.sensor_t(pycolmap.SensorType.CAMERA, 2)
+    expect(values(rec.cameras[1].params) == values(before.cameras[1].params) and
+           pose(rec.rigs[1].sensor_from_rig(sensor)) == pose(before.rigs[1].sensor_from_rig(sensor)) and
+           all(values(rec.points3D[k].xyz) == values(before.points3D[k].xyz) for k in kw["hold_points"]),
+           "in place: a held value moved")
+    expect(values(rec.cameras[2].params) != values(before.cameras[2].params) and
+           sum(pose(f.rig_from_world) != pose(before.frames[k].rig_from_world)
+               for k, f in rec.frames.items() if f.has_pose()) == rec.num_reg_frames(),
+           "in place: a free value was not refined")
+    expect(not rec.frames[gone].has_pose() and data_ids(rec.frames[gone]) == data_ids(before.frames[gone]),
+           "in place: the frame without a pose")
+    print("PASS refine_colmap(rec, in_place=True): rec refined, no file, refine_colmap(rec)'s bits, "
+          "held values, keypoints and the unregistered frame as they were")
+
+    def interrupt(state):
+        if state.iteration == 2:
+            raise KeyboardInterrupt
+
+    rec = pycolmap.Reconstruction(before)
+    try:
+        pysba.refine_colmap(rec, progress=interrupt, in_place=True)
+        expect(False, "refine_colmap(rec, in_place=True) went on after a KeyboardInterrupt")
+    except KeyboardInterrupt as e:
+        expect(e.result.model is rec, "a KeyboardInterrupt's result.model is not rec")
+        same_reconstruction(pysba.refine_colmap(before, itmax=2)[0], rec, "in place, interrupted")
+    for bad, message in ((dict(in_place=1), "in_place must be a bool, got int"),):
+        try:
+            pysba.refine_colmap(rec, **bad)
+            expect(False, "refine_colmap(rec, %r) was taken" % bad)
+        except TypeError as e:
+            expect(str(e) == message, str(e))
+    try:
+        pysba.refine_colmap(pysba.from_pycolmap(rec), in_place=True)
+        expect(False, "refine_colmap(ColmapModel, in_place=True) was taken")
+    except TypeError as e:
+        expect(str(e) == "in_place=True refines a pycolmap.Reconstruction, got ColmapModel", str(e))
+    print("PASS refine_colmap(rec, in_place=True) interrupted leaves rec at the estimate so far; bad in_place refused")
+
+
 def unregistered(pycolmap, pysba):
     """A frame without a pose (deregistered, as a mapper leaves one) and its images, which
     pycolmap's files leave out, are kept: from_pycolmap holds them without a pose and
@@ -289,6 +359,7 @@ def main(argv):
     try:
         run(pycolmap, pysba)
         unregistered(pycolmap, pysba)
+        in_place(pycolmap, pysba)
     except Failure as f:
         print("FAIL %s" % f)
         return 1

@@ -802,12 +802,15 @@ def test_frames_without_a_pose_that_pycolmap_would_refuse(tmp_path):
         pysba.write_colmap(plain, tmp_path / "out")
 
 
-def test_the_pycolmap_route_points_large_models_to_the_files():
-    # Its conversions write and read whole models: for large ones the docs send the user to the
-    # files, read and written by pysba, until a Reconstruction is read in memory.
-    for f in (pysba.from_pycolmap, pysba.to_pycolmap, pysba.refine_colmap):
+def test_the_conversions_point_to_the_refinement_in_memory():
+    # from_pycolmap and to_pycolmap write and read whole models through files: their docs say
+    # so and send the user to refine_colmap, which reads a Reconstruction in memory and can
+    # refine it in place.
+    for f in (pysba.from_pycolmap, pysba.to_pycolmap):
         doc = " ".join(f.__doc__.split())
-        assert "large models" in doc and "read_colmap" in doc and "write_colmap" in doc, f.__name__
+        assert "through files" in doc and ":func:`refine_colmap` of a Reconstruction" in doc, f.__name__
+    doc = " ".join(pysba.refine_colmap.__doc__.split())
+    assert "in memory (no file" in doc and "``in_place=True``" in doc
 
 
 def test_pycolmap_is_named_when_missing(monkeypatch):
