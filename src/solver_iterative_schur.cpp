@@ -718,7 +718,10 @@ auto with_solver(const SolveContext &ctx, Fn fn, int max_cluster = kMaxCluster) 
   const Layout &lay = ctx.lay;
   if (lay.mnp == 2 && lay.pnp == 3) {
     if (lay.cnp == 6) return fn(make_solver<2, 6, 3>(ctx, max_cluster));
+    if (lay.cnp == 7) return fn(make_solver<2, 7, 3>(ctx, max_cluster));
     if (lay.cnp == 9) return fn(make_solver<2, 9, 3>(ctx, max_cluster));
+    if (lay.cnp == 11) return fn(make_solver<2, 11, 3>(ctx, max_cluster));
+    if (lay.cnp == 16) return fn(make_solver<2, 16, 3>(ctx, max_cluster));
   }
   return fn(make_solver<0, 0, 0>(ctx, max_cluster));
 }
