@@ -712,7 +712,10 @@ std::unique_ptr<IterativeSchurSolver<M, C, P>> make_solver(const SolveContext &c
   return std::make_unique<CameraIterativeSchur<M, C, P>>(ctx);
 }
 
-// fn(solver) with the solver compiled for the layout's block sizes.
+// fn(solver) with the solver compiled for the layout's block sizes: those make_kernels has (6, 7,
+// 9, 11, 16: the quaternion camera with fixed and varying intrinsics, BAL's, COLMAP's cameras of
+// four parameters), since the generic instance's point pass, its loops of run-time length
+// neither unrolled nor folded, takes several times as long.
 template <class Fn>
 auto with_solver(const SolveContext &ctx, Fn fn, int max_cluster = kMaxCluster) {
   const Layout &lay = ctx.lay;
