@@ -29,24 +29,8 @@ import os
 import sys
 import time
 
-import numpy as np
-
-
-def synthesize(pycolmap, a, frames):
-    pycolmap.set_random_seed(a.seed)
-    o = pycolmap.SyntheticDatasetOptions()
-    o.num_rigs = a.rigs
-    o.num_cameras_per_rig = a.cameras_per_rig
-    o.num_frames_per_rig = max(1, frames // a.rigs)
-    o.num_points3D = frames * a.points_per_frame
-    o.track_length = a.track_length
-    rec = pycolmap.synthesize_dataset(o)
-    noise = pycolmap.SyntheticNoiseOptions()
-    noise.point2D_stddev = 0.5
-    noise.rig_from_world_translation_stddev = 0.02
-    noise.rig_from_world_rotation_stddev = 0.3
-    pycolmap.synthesize_noise(noise, rec)
-    return rec
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rig_ba import synthesize  # noqa: E402  (the scenes rig_ba.py times)
 
 
 def fastest(repeat, run):
@@ -103,7 +87,7 @@ def main(argv):
           "memory: write | memory / files | whole: files | whole: memory | solve |")
     print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for frames in [int(f) for f in a.frames.split(",")]:
-        rec = synthesize(pycolmap, a, frames)
+        rec = synthesize(pycolmap, a, frames, a.seed)
         keypoints = sum(im.num_points2D() for im in rec.images.values())
         model = pysba.from_pycolmap(rec)
         files_read = fastest(a.repeat, lambda: timed(lambda: pysba.from_pycolmap(rec)))

@@ -29,8 +29,8 @@ Needs a Python that imports pycolmap 4 (`scripts/deps.sh test` makes build/pycol
       [--out bench/results/rig_ba] [--work DIR] [--pysba build/python/pkg]
 With --pysba DIR (the directory holding the pysba package, build/python/pkg), pysba too:
 pysba.read_colmap, pysba.refine_colmap at its defaults (threads=THREADS, solver= each of
---solvers), pysba.write_colmap. (refine_colmap also takes a pycolmap.Reconstruction; it converts
-through a binary model on disk, so that route adds writing and reading the model twice.)
+--solvers), pysba.write_colmap. (refine_colmap also takes a pycolmap.Reconstruction, read in
+memory: bench/pycolmap_conversion.py times that route.)
 
 writes OUT.md (the table and the exact commands) and OUT.json (one JSON object a run).
 """
