@@ -22,7 +22,7 @@ bool colmap_stop_rule(double function_tolerance, double gradient_tolerance, bool
   if (applies) *eps4 = std::max(function_tolerance, 4 * std::numeric_limits<double>::epsilon());
   if (gradient_tolerance >= 0)
     *eps1 = gradient_tolerance;
-  else if (applies && *eps1 == kSbaDefaultEps1)
+  else if (applies && *eps1 == SBA_STOP_THRESH)
     *eps1 = kColmapGradientTolerance;
   return applies;
 }

@@ -45,9 +45,8 @@ constexpr int kDefaultItmax = 100;
 constexpr const char *kColmapStrategy = "trust-region";
 
 // COLMAP 4's gradient_tolerance (its BundleAdjustmentOptions set Ceres's to 1e-4; COLMAP 3.x's
-// is 0), and sba's own eps1, which a caller who gave none has.
+// is 0).
 constexpr double kColmapGradientTolerance = 1e-4;
-constexpr double kSbaDefaultEps1 = 1e-12;
 
 // COLMAP's stopping rule on sba's options. COLMAP's bundle adjuster is Ceres's
 // Levenberg-Marquardt, which stops at function_tolerance, a relative change of the cost: the
@@ -59,8 +58,8 @@ constexpr double kSbaDefaultEps1 = 1e-12;
 // then kColmapStrategy. False, *eps4 unchanged, when the rule leaves sba's tests.
 // Ceres also stops when the largest entry of the gradient is at most gradient_tolerance: sba's
 // stop 1, ||J^T e||_inf <= eps1. gradient_tolerance >= 0 sets *eps1 to it; not given (< 0), the
-// rule sets COLMAP 4's kColmapGradientTolerance when it applies and *eps1 is sba's default (an
-// eps1 given is kept).
+// rule sets COLMAP 4's kColmapGradientTolerance when it applies and *eps1 is sba's default,
+// SBA_STOP_THRESH (an eps1 given is kept).
 bool colmap_stop_rule(double function_tolerance, double gradient_tolerance, bool strategy_given, double *eps1,
                       double *eps4);
 
