@@ -303,25 +303,22 @@ def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any, gradient_tol
     for name, tolerance in (("function_tolerance", function_tolerance), ("gradient_tolerance", gradient_tolerance)):
         if tolerance is not None and not (0 <= _real(name, tolerance) < math.inf):
             raise ValueError(f"{name} must be finite and >= 0, got {tolerance}")
-    eps1 = values[1] if values is not None else 1e-12
-    eps4 = values[4] if values is not None else 0.0
-    if not isinstance(eps1, numbers.Real):
-        if gradient_tolerance is None:
-            return strategy, opts  # given, and _core says what is wrong with it
-        eps1 = 1e-12  # replaced by the tolerance
-    if not isinstance(eps4, numbers.Real):
-        if function_tolerance is None:
-            return strategy, opts
-        eps4 = 0.0  # replaced by the tolerance
-    rule, eps1, eps4 = _core.colmap_stop_rule(-1.0 if function_tolerance is None else float(function_tolerance),
-                                              -1.0 if gradient_tolerance is None else float(gradient_tolerance),
-                                              strategy is not None, float(eps1), float(eps4))
+    defaults = [1e-3, 1e-12, 1e-12, 1e-12, 0.0]  # sba's opts
+    values = values if values is not None else list(defaults)
+    eps = {}
+    for k, tolerance in ((1, gradient_tolerance), (4, function_tolerance)):
+        eps[k] = values[k]
+        if not isinstance(eps[k], numbers.Real):
+            if tolerance is None:
+                return strategy, opts  # given, and _core says what is wrong with it
+            eps[k] = defaults[k]  # replaced by the tolerance
+    rule, values[1], values[4] = _core.colmap_stop_rule(
+        -1.0 if function_tolerance is None else float(function_tolerance),
+        -1.0 if gradient_tolerance is None else float(gradient_tolerance),
+        strategy is not None, float(eps[1]), float(eps[4]))
     if rule is None and gradient_tolerance is None:
         return strategy, opts
-    values = values if values is not None else [1e-3, 1e-12, 1e-12, 1e-12, 0.0]
-    values[1] = eps1
-    values[4] = eps4
-    return (strategy if strategy is not None or rule is None else rule), values
+    return (strategy if strategy is not None else rule), values
 
 
 def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_principal_point: bool = False,
@@ -594,11 +591,6 @@ def _pycolmap() -> Any:
     return pycolmap
 
 
-def _sorted_sensors(sensors: Any) -> List[Any]:
-    """pycolmap's sensor_t keys in COLMAP's order (type, then id), as its files hold them."""
-    return sorted(sensors, key=lambda s: (int(s.type.value), s.id))
-
-
 def _pose_of(rigid: Any) -> Tuple[np.ndarray, np.ndarray]:
     """A pycolmap.Rigid3d as (q, t): qw qx qy qz, the bits pycolmap holds."""
     xyzw = np.array(rigid.rotation.quat, np.float64)
@@ -619,7 +611,7 @@ def _from_reconstruction(reconstruction: Any) -> ColmapModel:
         ref = rig.ref_sensor_id
         sensors = [ColmapSensor(ref.type.name, ref.id)]
         others = rig.non_ref_sensors
-        for sensor in _sorted_sensors(others):
+        for sensor in sorted(others, key=lambda s: (int(s.type.value), s.id)):  # as pycolmap's files
             pose = others[sensor]
             sensors.append(ColmapSensor(sensor.type.name, sensor.id, *(_pose_of(pose) if pose is not None
                                                                       else (None, None))))
@@ -654,15 +646,10 @@ def _from_reconstruction(reconstruction: Any) -> ColmapModel:
     starts = np.searchsorted(by_image, by_image, side="left")
     compact = np.empty(len(order), np.uint64)
     compact[order] = np.arange(len(order), dtype=np.uint64) - starts.astype(np.uint64)
-    bounds = {}
-    if len(order):
-        cut = np.flatnonzero(np.diff(by_image)) + 1
-        for lo, hi in zip(np.concatenate(([0], cut)).tolist(), np.concatenate((cut, [len(order)])).tolist()):
-            bounds[int(by_image[lo])] = (lo, hi)
     images = []
     for image_id, im in sorted(reconstruction.images.items()):
-        lo, hi = bounds.get(image_id, (0, 0))
-        rows = order[lo:hi]
+        key = np.uint64(image_id)  # of the array's type: a Python int would convert the array to float
+        rows = order[np.searchsorted(by_image, key, "left"):np.searchsorted(by_image, key, "right")]
         xy = np.array([im.point2D(k).xy for k in track_keypoints[rows].tolist()], np.float64).reshape(-1, 2)
         if im.has_pose:
             q, t = _pose_of(im.cam_from_world())
