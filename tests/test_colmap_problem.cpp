@@ -332,6 +332,133 @@ TEST(ColmapProblem, FramesOfOneImage) {
   EXPECT_EQ(out.frames[3].rig_from_world.t, m.frames[3].rig_from_world.t);
 }
 
+// A constant rig_from_world holds the frame's pose alone: the pose in the rig of a camera of the
+// frame stays refined, where holding one of its images (constants.poses) holds that too. A frame
+// of one image held while its camera's pose in the rig is refined makes the problem a rig's.
+TEST(ColmapProblem, ConstantFramePoseAlone) {
+  const colmap::Model m = rig_model();
+  colmap::Options o;
+  o.constants.frames = {1, 0};  // frame 40: images 20 and 5
+  const colmap::Problem pr = build(m, o);
+  ASSERT_TRUE(pr.rigged());
+  for (int c = 0; c < 6; ++c) {
+    EXPECT_TRUE(pr.held(0, c)) << c;
+    EXPECT_TRUE(pr.held(2, c)) << c;
+    EXPECT_FALSE(pr.held(1, c)) << c;
+    EXPECT_FALSE(pr.held(2, 6 + c)) << c;  // camera 3's pose in the rig
+  }
+  colmap::Options image_held;
+  image_held.constants.poses = {0, 0, 1, 0};  // image 5
+  const colmap::Problem whole = build(m, image_held);
+  for (int c = 0; c < 12; ++c) EXPECT_TRUE(whole.held(2, c)) << c;
+
+  colmap::Model one = plain_model();
+  one.has_rigs = true;
+  one.rigs.push_back({2, {{{colmap::SensorType::Camera, 7}, false, {}},
+                          {{colmap::SensorType::Camera, 3}, true, {turn(0.1, 0, 1, 0), {-0.5, 0, 0.02}}}}});
+  for (const colmap::Image &im : one.images)
+    one.frames.push_back({100 + im.id, 2, {im.q, im.t}, {{{colmap::SensorType::Camera, im.camera_id}, im.id}}});
+  EXPECT_FALSE(build(one).rigged());
+  colmap::Options frame_held;
+  frame_held.constants.frames = {0, 0, 1, 0};  // image 5's frame
+  const colmap::Problem rigged = build(one, frame_held);
+  ASSERT_TRUE(rigged.rigged());
+  for (int c = 0; c < 6; ++c) {
+    EXPECT_TRUE(rigged.held(2, c)) << c;
+    EXPECT_FALSE(rigged.held(2, 6 + c)) << c;
+  }
+}
+
+// COLMAP's BundleAdjustmentConfig's images and points: each point of plain_model is seen by
+// images 20, 11 and 5 (sba cameras in the model's order of the images that take part).
+TEST(ColmapProblem, SelectionOfImagesAndPoints) {
+  const colmap::Model m = plain_model();
+  colmap::Options o;
+  o.selection.images = {1, 0, 0, 0};  // image 20
+  // Every point is seen beyond the config: held, with image 20's observations.
+  colmap::Problem pr = build(m, o);
+  EXPECT_EQ(pr.images(), (std::vector<int>{0}));
+  EXPECT_EQ(pr.npoints(), 6);
+  EXPECT_EQ(pr.held_points(), 6);
+  EXPECT_EQ(pr.points().pairs.size(), 6u);
+  // Variable points take every observation: images 11 and 5 join, their poses held, camera 7
+  // (image 20's) refined in image 11 too, camera 3 (image 5's alone) held.
+  o.selection.variable_points = {1, 1, 0, 0, 0, 0};
+  // A constant point takes the observations of images with something refined: image 11's
+  // (camera 7), not image 5's.
+  o.constants.points = {0, 0, 1, 0, 0, 0};
+  pr = build(m, o);
+  EXPECT_EQ(pr.images(), (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(pr.npoints(), 6);
+  EXPECT_EQ(pr.held_points(), 4);
+  EXPECT_EQ(pr.points().pairs.size(), 6u + 2 * 2 + 1);
+  EXPECT_EQ(pr.point_id(4), 1000u);
+  EXPECT_EQ(pr.point_id(5), 1007u);
+  for (int c = 0; c < pr.cnp(); ++c) {
+    EXPECT_EQ(pr.held(0, c), c >= 8) << c;            // PINHOLE: cx, cy and padding held
+    EXPECT_EQ(pr.held(1, c), c < 6 || c >= 8) << c;   // the pose held, camera 7 refined
+    EXPECT_TRUE(pr.held(2, c)) << c;                   // outside, camera 3 held
+  }
+  // apply writes only what the problem refines: point 1014 (held) keeps its bits.
+  colmap::Model out = m;
+  std::vector<double> p = pr.initial_params();
+  for (double &v : p) v += 1e-3;
+  pr.apply(p.data(), &out);
+  EXPECT_EQ(out.points[2].xyz, m.points[2].xyz);
+  EXPECT_EQ(out.points[2].error, m.points[2].error);
+  EXPECT_NE(out.points[0].xyz, m.points[0].xyz);
+  EXPECT_EQ(out.images[1].q, m.images[1].q);
+  EXPECT_EQ(out.images[1].t, m.images[1].t);
+  // A track shorter than min_track_length leaves its point out, whatever the lists say.
+  o.selection.min_track_length = 4;
+  colmap::Problem none;
+  std::string error;
+  EXPECT_FALSE(colmap::Problem::build(m, o, "model", &none, &error));
+  EXPECT_EQ(error, "model: the configuration leaves no observation to refine");
+}
+
+// TWO_CAMS_FROM_WORLD over plain_model (images by IMAGE_ID: 5, 11, 20): image 5's pose held,
+// and the coordinate of image 11's translation along which its centre lies farthest from image
+// 5's, in image 5's camera coordinates; nothing when two poses are held already. THREE_POINTS
+// holds the first three points (every track has three observations).
+TEST(ColmapProblem, Gauges) {
+  const colmap::Model m = plain_model();
+  colmap::Options o;
+  o.gauge = colmap::Gauge::TwoCamsFromWorld;
+  const colmap::Problem pr = build(m, o);
+  const colmap::Pose five{m.images[2].q, m.images[2].t}, eleven{m.images[1].q, m.images[1].t};
+  const std::array<double, 3> centre = sbacameras::compose(five, sbacameras::inverse(eleven)).t;
+  std::size_t k = 0;
+  for (std::size_t c = 1; c < 3; ++c)
+    if (std::abs(centre[c]) > std::abs(centre[k])) k = c;
+  for (int c = 0; c < 6; ++c) {
+    EXPECT_TRUE(pr.held(2, c)) << c;
+    EXPECT_EQ(pr.held(1, c), c == 3 + static_cast<int>(k)) << c;
+    EXPECT_FALSE(pr.held(0, c)) << c;
+  }
+  colmap::Model out = m;
+  std::vector<double> p = pr.initial_params();
+  for (double &v : p) v += 1e-3;
+  pr.apply(p.data(), &out);
+  EXPECT_EQ(out.images[1].t[k], m.images[1].t[k]);
+  EXPECT_NE(out.images[1].t[(k + 1) % 3], m.images[1].t[(k + 1) % 3]);
+  EXPECT_EQ(out.images[2].q, m.images[2].q);
+  EXPECT_EQ(out.images[2].t, m.images[2].t);
+
+  o.constants.poses = {1, 1, 0, 0};  // images 20 and 11: the gauge is fixed
+  const colmap::Problem fixed = build(m, o);
+  for (int c = 0; c < 6; ++c) EXPECT_FALSE(fixed.held(2, c)) << c;
+
+  colmap::Options three;
+  three.gauge = colmap::Gauge::ThreePoints;
+  const colmap::Problem points = build(m, three);
+  EXPECT_EQ(points.held_points(), 3);
+  EXPECT_EQ(points.point_id(0), 1000u);
+  EXPECT_EQ(points.point_id(2), 1014u);
+  three.constants.points = {0, 0, 0, 0, 1, 1};
+  EXPECT_EQ(build(m, three).held_points(), 3);
+}
+
 TEST(ColmapProblem, NonFiniteStartNamesTheObservation) {
   colmap::Model m = plain_model();
   m.cameras[1].params[3] = 1e200;

@@ -2,6 +2,7 @@
 #include "formats/colmap_problem.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
@@ -55,9 +56,16 @@ struct Draft {
 // frames' poses alone hold (COLMAP 4 then still refines the cameras' poses in their rigs). With
 // every pose of a frame of one image refined, its image's pose is a free pose of its own
 // however its camera sits in the rig: the model is refined as one without rigs, bit for bit.
-bool refined_as_rigs(const Model &model, const RefinePoses &poses) {
+// A frame of one image that is held while its camera's pose in the rig is refined for other
+// frames (a constant rig_from_world, an image outside the config) moves with that pose: frames_held
+// says there may be one, places where the images are (a camera that is a rig's reference has no
+// such pose).
+bool refined_as_rigs(const Model &model, const RefinePoses &poses, bool frames_held,
+                     const std::vector<ImagePlace> &places) {
   if (!model.has_rigs) return false;
-  return !poses.rig_from_world || poses.constant_rig_from_world_rotation || frames_of_several_images(model) > 0;
+  if (!poses.rig_from_world || poses.constant_rig_from_world_rotation || frames_of_several_images(model) > 0)
+    return true;
+  return frames_held && std::any_of(places.begin(), places.end(), [](const ImagePlace &pl) { return pl.sensor > 0; });
 }
 
 // Whether COLMAP's options hold parameter k of a camera of model `model` (the padding beyond
@@ -121,15 +129,29 @@ bool flagged(const std::vector<char> &flags, std::size_t k) { return !flags.empt
 
 // The holds of a rigged problem, and its counts (Draft: frames, sensors, shared cameras,
 // held poses, images that see no point and move with a refined frame or rig).
-RigHolds rig_holds(const Model &model, const RefinePoses &poses, const Constants &constants, int mcon,
-                   const std::vector<ImagePlace> &places, const std::unordered_map<std::uint32_t, int> &camera_index,
-                   Draft *p) {
+RigHolds rig_holds(const Model &model, const RefinePoses &poses, const Constants &constants,
+                   const std::vector<char> &config, int mcon, const std::vector<ImagePlace> &places,
+                   const std::unordered_map<std::uint32_t, int> &camera_index, Draft *p) {
   RigHolds h{std::vector<char>(model.frames.size(), poses.rig_from_world ? 0 : 1),
              std::vector<char>(model.cameras.size(), poses.sensor_from_rig ? 0 : 1),
              std::vector<char>(model.cameras.size(), 0)};
   for (std::size_t c = 0; c < model.cameras.size(); ++c) {
     if (flagged(constants.sensor_from_rig, c)) h.sensor[c] = 1;
     if (flagged(constants.intrinsics, c)) h.camera[c] = 1;
+  }
+  for (std::size_t f = 0; f < model.frames.size(); ++f)
+    if (flagged(constants.frames, f)) h.frame[f] = 1;
+  // Outside the config's images, what no config image refines is held.
+  if (!config.empty()) {
+    std::vector<char> frame_config(model.frames.size(), 0), camera_config(model.cameras.size(), 0);
+    for (const int i : p->images) {
+      if (!config[at(i)]) continue;
+      frame_config[places[at(i)].frame] = 1;
+      camera_config[at(camera_index.at(model.images[at(i)].camera_id))] = 1;
+    }
+    for (std::size_t f = 0; f < frame_config.size(); ++f) h.frame[f] |= !frame_config[f];
+    for (std::size_t c = 0; c < camera_config.size(); ++c)
+      if (!camera_config[c]) h.sensor[c] = h.camera[c] = 1;
   }
   std::vector<char> frame_used(model.frames.size(), 0), sensor_used(model.cameras.size(), 0),
       seeing(model.images.size(), 0);
@@ -171,14 +193,14 @@ RigHolds rig_holds(const Model &model, const RefinePoses &poses, const Constants
 // The rigged problem's cameras, held flags and groups (Draft), its cameras' images in
 // p->images; camera_index maps a CAMERA_ID to its index in Model::cameras.
 void rig_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
-                 const Constants &constants, int mcon, const std::unordered_map<std::uint32_t, int> &camera_index,
-                 Draft *p) {
+                 const Constants &constants, const std::vector<char> &config, int mcon,
+                 const std::unordered_map<std::uint32_t, int> &camera_index, Draft *p) {
   const std::vector<ImagePlace> &places = p->image_places;
   const int ms = static_cast<int>(p->images.size());
   p->rigged = true;
   std::vector<int> camera;  // each sba camera's index in Model::cameras
   const int cnp = p->cnp = cc::rig_camera_params(rig_images(model, places, camera_index, &camera, p));
-  const RigHolds h = rig_holds(model, poses, constants, mcon, places, camera_index, p);
+  const RigHolds h = rig_holds(model, poses, constants, config, mcon, places, camera_index, p);
   p->cam_fixed.assign(at(ms) * at(cnp), 0);
   p->cam_param_group.assign(at(ms) * at(cnp), -1);
   for (int j = 0; j < ms; ++j) {
@@ -200,8 +222,8 @@ void rig_problem(const Model &model, const RefineIntrinsics &refine, const Refin
 
 // The unrigged problem's cameras, held flags and groups (Draft), as rig_problem.
 void image_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
-                   const Constants &constants, int mcon, const std::unordered_map<std::uint32_t, int> &camera_index,
-                   Draft *p) {
+                   const Constants &constants, const std::vector<char> &config, int mcon,
+                   const std::unordered_map<std::uint32_t, int> &camera_index, Draft *p) {
   int np = 0;
   // A frame of one image: its image's pose.
   const std::vector<Pose> image_pose = image_poses(model, p->image_places);
@@ -228,7 +250,11 @@ void image_problem(const Model &model, const RefineIntrinsics &refine, const Ref
   for (std::size_t c = 0; c < users.size(); ++c) {
     const std::vector<int> &u = users[c];
     if (u.empty()) continue;
-    const bool held = u.front() < mcon || flagged(constants.intrinsics, c);  // u ascends
+    // Outside the config's images, a camera no config image uses is held.
+    const bool outside = !config.empty() && std::none_of(u.begin(), u.end(), [&](int j) {
+      return config[at(p->images[at(j)])] != 0;
+    });
+    const bool held = u.front() < mcon || flagged(constants.intrinsics, c) || outside;  // u ascends
     for (int j : u) {
       char *fixed = &p->cam_fixed[at(j) * at(cnp)];
       for (int k = 0; k < cnp - cc::kPoseParams; ++k)
@@ -243,7 +269,10 @@ void image_problem(const Model &model, const RefineIntrinsics &refine, const Ref
   }
   std::vector<char> seeing(model.images.size(), 0);
   for (int j = 0; j < ms; ++j) {
-    const bool held = !poses.rig_from_world || flagged(constants.poses, at(p->images[at(j)]));
+    const std::size_t i = at(p->images[at(j)]);
+    // A frame of this image alone (refined_as_rigs): holding it holds the image's pose.
+    const bool held = !poses.rig_from_world || flagged(constants.poses, i) || (!config.empty() && !config[i]) ||
+                      (model.has_rigs && flagged(constants.frames, p->image_places[i].frame));
     hold_pose(&p->cam_fixed[at(j) * at(cnp)], held || poses.constant_rig_from_world_rotation, held);
     p->counts.held_poses += held;
     seeing[at(p->images[at(j)])] = 1;
@@ -254,37 +283,248 @@ void image_problem(const Model &model, const RefineIntrinsics &refine, const Ref
 
 
 
-// The order of the problem's points (Draft::point_order) and how many lead it held
-// (held_points): with constant points, the first ncon points and the constant ones, in the
-// file's order, then the others; otherwise the file's order and ncon as given.
-void order_points(const Model &model, const std::vector<char> &constant, int ncon, Draft *p) {
-  p->held_points = ncon;
-  if (constant.empty()) return;
+// The points and observations of the problem (Selection), by Model::points: whether a point is
+// in it, held (before the gauge's), and which of its observations it takes: those in the
+// config's images (Config), every one (Every), or those and the ones in images outside the
+// config that have something refined (Moving).
+struct Chosen {
+  enum Reach : char { Config, Every, Moving };
+  std::vector<char> in, held, reach;
+  std::vector<char> config;  // by Model::images: a config image (empty: every image)
+  std::vector<char> moving;  // by Model::images: outside the config, with something refined
+  bool takes(std::size_t point, std::size_t image) const {
+    return config.empty() || config[image] || reach[point] == Every || (reach[point] == Moving && moving[image]);
+  }
+};
+
+// Whether COLMAP's options refine any parameter of a camera of model `model`.
+bool any_intrinsic_refined(const RefineIntrinsics &refine, int model) {
+  for (int k = 0; k < cc::param_count(model); ++k)
+    if (!intrinsic_held(refine, model, k)) return true;
+  return false;
+}
+
+// The selection of o over the model (image_index: an IMAGE_ID's image, places: the images' in a
+// model with rigs), before the gauge.
+Chosen choose(const Model &model, const Options &o, const std::unordered_map<std::uint32_t, int> &image_index,
+              const std::unordered_map<std::uint32_t, int> &camera_index, const std::vector<ImagePlace> &places) {
+  const Selection &sel = o.selection;
   const std::size_t n = model.points.size();
-  if (ncon >= static_cast<int>(n)) return;  // every point held, or a --ncon the solve refuses
-  const auto held = [&](std::size_t i) { return static_cast<int>(i) < ncon || constant[i]; };
-  for (const bool first : {true, false})
-    for (std::size_t i = 0; i < n; ++i)
-      if (held(i) == first) p->point_order.push_back(static_cast<int>(i));
-  p->held_points = static_cast<int>(std::count_if(p->point_order.begin(), p->point_order.end(),
-                                                  [&](int i) { return held(at(i)); }));
+  Chosen ch;
+  ch.in.assign(n, 1);
+  ch.reach.assign(n, Chosen::Every);
+  ch.held.assign(n, o.refine_points ? 0 : 1);
+  for (std::size_t k = 0; k < n; ++k)
+    if (flagged(o.constants.points, k)) ch.held[k] = 1;
+  const auto long_enough = [&](const Point3D &pt) {
+    return sel.min_track_length <= 0 || pt.track.size() >= static_cast<std::size_t>(sel.min_track_length);
+  };
+  if (sel.images.empty()) {
+    for (std::size_t k = 0; k < n; ++k) ch.in[k] = long_enough(model.points[k]);
+    return ch;
+  }
+  ch.config = sel.images;
+  // What the config's images refine: their cameras' intrinsics, and their cameras' poses in a rig.
+  std::vector<char> camera_config(model.cameras.size(), 0);
+  for (const Point3D &pt : model.points) {
+    if (!long_enough(pt)) continue;
+    for (const TrackElement &e : pt.track) {
+      const std::size_t i = at(image_index.at(e.image_id));
+      if (ch.config[i]) camera_config[at(camera_index.at(model.images[i].camera_id))] = 1;
+    }
+  }
+  ch.moving.assign(model.images.size(), 0);
+  for (std::size_t i = 0; i < model.images.size(); ++i) {
+    if (ch.config[i]) continue;
+    const std::size_t c = at(camera_index.at(model.images[i].camera_id));
+    if (!camera_config[c]) continue;
+    const bool intrinsics = !flagged(o.constants.intrinsics, c) && any_intrinsic_refined(o.intrinsics, model.cameras[c].model);
+    const bool sensor = model.has_rigs && places[i].sensor > 0 && o.poses.sensor_from_rig &&
+                        !flagged(o.constants.sensor_from_rig, c);
+    ch.moving[i] = intrinsics || sensor;
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    const Point3D &pt = model.points[k];
+    std::size_t in_config = 0;
+    for (const TrackElement &e : pt.track) in_config += ch.config[at(image_index.at(e.image_id))] != 0;
+    if (!long_enough(pt)) {
+      ch.in[k] = 0;
+    } else if (flagged(o.constants.points, k)) {
+      ch.reach[k] = Chosen::Moving;
+    } else if (flagged(sel.variable_points, k)) {
+      ch.reach[k] = Chosen::Every;
+    } else {
+      ch.reach[k] = Chosen::Config;
+      ch.in[k] = in_config > 0;
+      if (in_config < pt.track.size()) ch.held[k] = 1;  // it is seen beyond the config
+    }
+  }
+  // A point none of whose observations is taken is left out.
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!ch.in[k]) continue;
+    bool taken = false;
+    for (const TrackElement &e : model.points[k].track) taken = taken || ch.takes(k, at(image_index.at(e.image_id)));
+    ch.in[k] = taken;
+  }
+  return ch;
+}
+
+// The rotation of v by the unit quaternion q (w x y z), and by its inverse.
+std::array<double, 3> rotate(const std::array<double, 4> &q, const std::array<double, 3> &v, bool inverse) {
+  const double w = q[0], x = inverse ? -q[1] : q[1], y = inverse ? -q[2] : q[2], z = inverse ? -q[3] : q[3];
+  // v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)
+  const double cx = y * v[2] - z * v[1], cy = z * v[0] - x * v[2], cz = x * v[1] - y * v[0];
+  return {v[0] + 2 * (w * cx + y * cz - z * cy), v[1] + 2 * (w * cy + z * cx - x * cz),
+          v[2] + 2 * (w * cz + x * cy - y * cx)};
+}
+
+// COLMAP's TWO_CAMS_FROM_WORLD gauge over the draft's holds: the config's images (config, empty:
+// every one) that see points, by IMAGE_ID ascending; an image's pose is fixed when its frame's
+// pose is held and, in a rig, its camera's pose in the rig too (the reference camera's). Two
+// images of different frames fixed already fix the gauge. Otherwise the first image whose
+// frame's pose would fix its own (a reference camera, or one whose pose in the rig is held) has
+// its frame's pose held, unless one is fixed already, and the next such image of another frame
+// has one coordinate of its frame's translation held: the one along which its projection centre
+// lies farthest from the first image's, in that image's camera coordinates. False, nothing held,
+// when there are no two such images (a rig whose reference camera sees nothing).
+bool fix_two_cams(const Model &model, const std::vector<char> &config, Draft *p) {
+  const int cnp = p->cnp;
+  const int ms = static_cast<int>(p->images.size());
+  const auto all_held = [&](int j, int from, int count) {
+    const char *f = &p->cam_fixed[at(j) * at(cnp) + at(from)];
+    return std::all_of(f, f + count, [](char c) { return c != 0; });
+  };
+  const auto sensor_held = [&](int j) { return !p->rigged || p->places[at(j)].sensor == 0 || all_held(j, 6, 6); };
+  const auto frame_of = [&](int j) { return p->rigged ? p->places[at(j)].frame : at(j); };
+  std::vector<int> order;
+  for (int j = 0; j < ms; ++j)
+    if (config.empty() || config[at(p->images[at(j)])]) order.push_back(j);
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return model.images[at(p->images[at(a)])].id < model.images[at(p->images[at(b)])].id;
+  });
+  int anchor = -1, second = -1;
+  bool anchor_fixed = false;
+  for (const int j : order) {
+    if (!all_held(j, 0, 6) || !sensor_held(j)) continue;
+    if (anchor < 0) {
+      anchor = j;
+      anchor_fixed = true;
+    } else if (frame_of(j) != frame_of(anchor)) {
+      return true;  // two fixed already
+    }
+  }
+  for (const int j : order) {
+    if (!sensor_held(j) || (anchor >= 0 && frame_of(j) == frame_of(anchor))) continue;
+    if (anchor < 0) {
+      anchor = j;
+    } else {
+      second = j;
+      break;
+    }
+  }
+  if (anchor < 0 || second < 0) return false;
+  // The anchor's pose (cam_from_world) and the second frame's, at the start.
+  const auto image_pose = [&](int j, std::array<double, 4> *q, std::array<double, 3> *t) {
+    if (!p->rigged) {
+      const cc::Camera &c = p->cameras[at(j)];
+      *q = {c.q.w, c.q.x, c.q.y, c.q.z};
+      *t = c.t;
+      return;
+    }
+    const cc::RigImage &r = p->rig_images[at(j)];
+    *q = {r.q_frame.w, r.q_frame.x, r.q_frame.y, r.q_frame.z};
+    *t = r.t_frame;
+    if (p->places[at(j)].sensor == 0) return;
+    // sensor_from_rig * rig_from_world
+    const std::array<double, 4> s{r.q_sensor.w, r.q_sensor.x, r.q_sensor.y, r.q_sensor.z};
+    const std::array<double, 3> rt = rotate(s, *t, false);
+    *t = {rt[0] + r.t_sensor[0], rt[1] + r.t_sensor[1], rt[2] + r.t_sensor[2]};
+    const std::array<double, 4> f = *q;
+    *q = {s[0] * f[0] - s[1] * f[1] - s[2] * f[2] - s[3] * f[3], s[0] * f[1] + s[1] * f[0] + s[2] * f[3] - s[3] * f[2],
+          s[0] * f[2] - s[1] * f[3] + s[2] * f[0] + s[3] * f[1], s[0] * f[3] + s[1] * f[2] - s[2] * f[1] + s[3] * f[0]};
+  };
+  std::array<double, 4> qa, qb;
+  std::array<double, 3> ta, tb;
+  image_pose(anchor, &qa, &ta);
+  if (p->rigged) {
+    const cc::RigImage &r = p->rig_images[at(second)];
+    qb = {r.q_frame.w, r.q_frame.x, r.q_frame.y, r.q_frame.z};
+    tb = r.t_frame;
+  } else {
+    image_pose(second, &qb, &tb);
+  }
+  const std::array<double, 3> rb = rotate(qb, tb, true);
+  const std::array<double, 3> v = rotate(qa, {-rb[0], -rb[1], -rb[2]}, false);
+  int k = 0;
+  for (int c = 1; c < 3; ++c)
+    if (std::abs(v[at(c)] + ta[at(c)]) > std::abs(v[at(k)] + ta[at(k)])) k = c;
+  for (int j = 0; j < ms; ++j) {
+    char *fixed = &p->cam_fixed[at(j) * at(cnp)];
+    if (!anchor_fixed && frame_of(j) == frame_of(anchor)) std::fill_n(fixed, 6, 1);
+    if (frame_of(j) == frame_of(second)) fixed[3 + k] = 1;
+  }
+  return true;
+}
+
+// COLMAP's THREE_POINTS gauge over the chosen points: unless three points of the problem are held
+// already, the refined ones seen by the most of its observations (the first in the model's order
+// among equals) are held until three are.
+void fix_three_points(const Model &model, const std::unordered_map<std::uint32_t, int> &image_index, Chosen *ch) {
+  const std::size_t n = model.points.size();
+  std::size_t held = 0;
+  std::vector<std::pair<std::size_t, std::size_t>> free;  // (observations taken, point)
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!ch->in[k]) continue;
+    if (ch->held[k]) {
+      ++held;
+      continue;
+    }
+    std::size_t taken = 0;
+    for (const TrackElement &e : model.points[k].track) taken += ch->takes(k, at(image_index.at(e.image_id)));
+    free.push_back({taken, k});
+  }
+  std::stable_sort(free.begin(), free.end(), [](const auto &a, const auto &b) { return a.first > b.first; });
+  for (std::size_t q = 0; held < 3 && q < free.size(); ++q, ++held) ch->held[free[q].second] = 1;
+}
+
+// The order of the problem's points (Draft::point_order) and how many lead it held
+// (held_points): without a selection or held points, the model's order and ncon as given;
+// otherwise the first ncon points and the held ones, in the model's order, then the others, each
+// point the selection takes.
+void order_points(const Model &model, const Chosen &ch, bool selects, int ncon, Draft *p) {
+  p->held_points = ncon;
+  const std::size_t n = model.points.size();
+  const bool any_held = std::any_of(ch.held.begin(), ch.held.end(), [](char c) { return c != 0; });
+  if (!selects && !any_held) return;
+  if (!selects && ncon >= static_cast<int>(n)) return;  // every point held, or a --ncon the solve refuses
+  int k = 0;  // the point's place among those the selection takes
+  std::vector<int> first, rest;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!ch.in[i]) continue;
+    (k++ < ncon || ch.held[i] ? first : rest).push_back(static_cast<int>(i));
+  }
+  p->held_points = static_cast<int>(first.size());
+  p->point_order = std::move(first);
+  p->point_order.insert(p->point_order.end(), rest.begin(), rest.end());
 }
 
 // The problem's points and their projections (Draft::points) in the order of
 // order_points; camera_of: each image's sba camera, image_index: an IMAGE_ID's image.
-void problem_points(const Model &model, const std::unordered_map<std::uint32_t, int> &image_index,
+void problem_points(const Model &model, const Chosen &ch, const std::unordered_map<std::uint32_t, int> &image_index,
                     const std::vector<int> &camera_of, Draft *p) {
-  const int n = static_cast<int>(model.points.size());
+  const int n = p->point_order.empty() ? static_cast<int>(model.points.size()) : static_cast<int>(p->point_order.size());
   eucsba::PointSet &s = p->points;
   s.ncameras = static_cast<int>(p->images.size());
   s.xyz.reserve(at(n) * 3);
   std::vector<std::pair<int, const Point2D *>> track;
   for (int k = 0; k < n; ++k) {
-    const Point3D &pt = model.points[p->point_order.empty() ? at(k) : at(p->point_order[at(k)])];
+    const std::size_t index = p->point_order.empty() ? at(k) : at(p->point_order[at(k)]);
+    const Point3D &pt = model.points[index];
     s.xyz.insert(s.xyz.end(), pt.xyz.begin(), pt.xyz.end());
     track.clear();
     for (const TrackElement &e : pt.track) {
       const int j = image_index.at(e.image_id);
+      if (!ch.takes(index, at(j))) continue;
       track.push_back({camera_of[at(j)], &model.images[at(j)].points[e.point2d_idx]});
     }
     // sba's layout: a point's projections with the cameras ascending.
@@ -300,7 +540,6 @@ void problem_points(const Model &model, const std::unordered_map<std::uint32_t, 
   }
 }
 
-
 // The draft of a model: its sba cameras, holds, groups and points.
 bool draft_of(const Model &model, const Options &o, const std::string &name, Draft *out, std::string *error) {
   std::unordered_map<std::uint32_t, int> camera_index, image_index;
@@ -311,23 +550,38 @@ bool draft_of(const Model &model, const Options &o, const std::string &name, Dra
     return false;
   }
   for (int j = 0; j < m; ++j) image_index.emplace(model.images[at(j)].id, j);
-  // An image is a camera of the problem when it sees a point (every point is seen: check_model).
-  std::vector<int> camera_of(at(m), -1);
-  for (const Point3D &pt : model.points)
-    for (const TrackElement &e : pt.track) camera_of[at(image_index.at(e.image_id))] = 0;
   Draft p;
+  if (model.has_rigs) p.image_places = image_places(model);
+  Chosen ch = choose(model, o, image_index, camera_index, p.image_places);
+  // An image is a camera of the problem when it sees a point the problem takes (without a
+  // selection every point, each seen: check_model).
+  std::vector<int> camera_of(at(m), -1);
+  for (std::size_t k = 0; k < model.points.size(); ++k) {
+    if (!ch.in[k]) continue;
+    for (const TrackElement &e : model.points[k].track) {
+      const std::size_t i = at(image_index.at(e.image_id));
+      if (ch.takes(k, i)) camera_of[i] = 0;
+    }
+  }
   for (int j = 0; j < m; ++j)
     if (camera_of[at(j)] >= 0) {
       camera_of[at(j)] = static_cast<int>(p.images.size());
       p.images.push_back(j);
     }
-  if (model.has_rigs) p.image_places = image_places(model);
-  if (refined_as_rigs(model, o.poses))
-    rig_problem(model, o.intrinsics, o.poses, o.constants, o.mcon, camera_index, &p);
+  if (p.images.empty()) {
+    *error = name + ": the configuration leaves no observation to refine";
+    return false;
+  }
+  const bool frames_held = !o.selection.images.empty() ||
+                           std::any_of(o.constants.frames.begin(), o.constants.frames.end(), [](char c) { return c != 0; });
+  if (refined_as_rigs(model, o.poses, frames_held, p.image_places))
+    rig_problem(model, o.intrinsics, o.poses, o.constants, ch.config, o.mcon, camera_index, &p);
   else
-    image_problem(model, o.intrinsics, o.poses, o.constants, o.mcon, camera_index, &p);
-  order_points(model, o.constants.points, o.ncon, &p);
-  problem_points(model, image_index, camera_of, &p);
+    image_problem(model, o.intrinsics, o.poses, o.constants, ch.config, o.mcon, camera_index, &p);
+  if ((o.gauge == Gauge::TwoCamsFromWorld && !fix_two_cams(model, ch.config, &p)) || o.gauge == Gauge::ThreePoints)
+    fix_three_points(model, image_index, &ch);
+  order_points(model, ch, o.selection.active() || o.gauge == Gauge::ThreePoints, o.ncon, &p);
+  problem_points(model, ch, image_index, camera_of, &p);
   *out = std::move(p);
   return true;
 }
@@ -394,9 +648,9 @@ struct Problem::Builder {
       if (r.writes_params) written = 1;
       out->ids_.push_back(r);
     }
-    const std::size_t n = model.points.size();
-    for (std::size_t k = 0; k < n; ++k)
-      out->point_ids_.push_back(model.points[d.point_order.empty() ? k : at(d.point_order[k])].id);
+    if (d.point_order.empty())
+      for (const Point3D &pt : model.points) out->point_ids_.push_back(pt.id);
+    for (const int k : d.point_order) out->point_ids_.push_back(model.points[at(k)].id);
   }
 };
 

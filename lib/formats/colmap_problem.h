@@ -67,11 +67,16 @@ bool colmap_stop_rule(double function_tolerance, double gradient_tolerance, bool
 // sba's mcon (the first mcon sba cameras held; a COLMAP camera one of them uses has its
 // parameters held in all its images, so that what is written back is one calibration) and
 // ncon (the first ncon points).
+// refine_points is COLMAP's refine_points3D (every point held without it); selection and gauge
+// are its BundleAdjustmentConfig's.
 struct Options {
   RefineIntrinsics intrinsics;
   RefinePoses poses;
   Constants constants;
   int mcon = 0, ncon = 0;
+  bool refine_points = true;
+  Selection selection;
+  Gauge gauge = Gauge::None;
 };
 
 class Problem {

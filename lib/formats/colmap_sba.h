@@ -46,10 +46,38 @@ std::string parse_refine_intrinsics(const std::string &text, RefineIntrinsics *o
 // them: poses (flags by Model::images; in a rig, the image's frame's pose and its camera's pose
 // in the rig), camera intrinsics (by Model::cameras: every parameter of the camera, in all its
 // images), sensor_from_rig poses (by Model::cameras: the camera's pose in its rig, in every
-// frame; a reference camera's is the identity, held anyway), points (by Model::points). An
-// empty vector holds nothing.
+// frame; a reference camera's is the identity, held anyway), points (by Model::points), and
+// rig_from_world poses (by Model::frames: the frame's pose alone, its cameras' poses in the rig
+// refined as the options say). An empty vector holds nothing.
 struct Constants {
-  std::vector<char> poses, intrinsics, sensor_from_rig, points;
+  std::vector<char> poses, intrinsics, sensor_from_rig, points, frames;
+};
+
+// How COLMAP 4's bundle adjuster fixes the gauge (BundleAdjustmentGauge), the 7 directions
+// (a similarity) that move no reprojection: not at all; by the poses of two images
+// (TWO_CAMS_FROM_WORLD: one image's whole pose and one coordinate of another's translation,
+// unless the problem holds two images' poses already); by three points (THREE_POINTS, unless
+// it holds three already).
+enum class Gauge { None, TwoCamsFromWorld, ThreePoints };
+
+// Which observations COLMAP's BundleAdjustmentConfig makes residuals, as COLMAP 4 chooses them:
+// images (flags by Model::images; empty: every image) are the config's images, each of whose
+// observations is a residual, and whose poses, cameras' poses in their rigs and intrinsics are
+// refined as the options and constants say; variable_points (by Model::points) are points
+// refined with every observation of theirs, in any image; and a constant point
+// (Constants::points) is held with its observations in the config's images and in any other
+// image that has something refined (its camera's intrinsics, or its camera's pose in a rig,
+// refined for a config image). Any other point that a config image sees is refined when every
+// image of its track is a config image, and held otherwise, with its observations in the config's
+// images. An image outside the config has its pose held (its frame's, and its camera's in the
+// rig and its intrinsics unless a config image refines them). A point whose track is shorter
+// than min_track_length is left out, whatever the lists say.
+struct Selection {
+  std::vector<char> images, variable_points;
+  int min_track_length = 0;
+  // Whether the selection chooses anything: without it every point and every observation is in
+  // the problem.
+  bool active() const { return !images.empty() || !variable_points.empty() || min_track_length > 0; }
 };
 
 // The frames of the model that hold several images (none without rigs and frames).
