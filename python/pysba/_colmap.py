@@ -281,8 +281,38 @@ def _held_ids(name: str, kind: str, given: Any) -> Tuple[bool, List[int]]:
     every, items = _hold_items(name, given, f"{kind} (ints)")
     for k, item in enumerate(items):
         if not _is_id(item):
-            raise TypeError(f"{name}[{k}] must be a {kind[:-1]} (int), got {type(item).__name__}")
+            article = "an" if kind[0] in "AEIOU" else "a"
+            raise TypeError(f"{name}[{k}] must be {article} {kind[:-1]} (int), got {type(item).__name__}")
     return every, [int(item) for item in items]
+
+
+_GAUGES = {None: "", "two-cams": "two-cams", "three-points": "three-points"}
+
+
+def _config(model: ColmapModel, hold_frames: Any, images: Any, variable_points: Any, min_track_length: Any,
+            refine_points3D: Any, gauge: Any) -> dict:
+    """refine_colmap's BundleAdjustmentConfig arguments, checked for their types, as _core takes
+    them (the library looks the ids up)."""
+    every, frames = _held_ids("hold_frames", "FRAME_IDs", hold_frames)
+    if every:
+        frames = [f.id for f in model.frames or () if f.q is not None]
+    every, points = _held_ids("variable_points", "POINT3D_IDs", variable_points)
+    if every:
+        points = model.points3D.ids.tolist()
+    out = dict(hold_frames=frames, variable_points=points)
+    if images is not None:
+        every, ids = _held_ids("images", "IMAGE_IDs", images)
+        out["images"] = [im.id for im in model.images if im.q is not None] if every else ids
+    if isinstance(min_track_length, (bool, np.bool_)) or not isinstance(min_track_length, numbers.Integral):
+        raise TypeError(f"min_track_length must be an int, got {type(min_track_length).__name__}")
+    out["min_track_length"] = max(int(min_track_length), 0) if int(min_track_length) < 2**31 else 2**31 - 1
+    if not isinstance(refine_points3D, (bool, np.bool_)):
+        raise TypeError(f"refine_points3D must be a bool, got {type(refine_points3D).__name__}")
+    out["refine_points3D"] = bool(refine_points3D)
+    if not isinstance(gauge, (str, type(None))) or gauge not in _GAUGES:
+        raise ValueError(f"gauge must be None, 'two-cams' or 'three-points', got {gauge!r}")
+    out["gauge"] = _GAUGES[gauge]
+    return out
 
 
 def _colmap_stop(strategy: Any, opts: Any, function_tolerance: Any, gradient_tolerance: Any) -> Tuple[Any, Any]:
@@ -335,7 +365,9 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                   covariance_damping: float = 1e-8, pose_priors: Any = None,
                   prior_position_fallback_stddev: float = 1.0, prior_position_loss: str = "trivial",
                   prior_position_loss_scale: float = 2.7954834829151074,
-                  alignment_max_error: float = 0.0, in_place: bool = False) -> Tuple[Any, Result]:
+                  alignment_max_error: float = 0.0, in_place: bool = False, hold_frames: Any = None,
+                  images: Any = None, variable_points: Any = None, min_track_length: int = 0,
+                  refine_points3D: bool = True, gauge: Optional[str] = None) -> Tuple[Any, Result]:
     """Bundle-adjusts a COLMAP model as sbarefine does (the same numbers, bit for bit, as
     ``sbarefine MODEL --write OUT`` with the same options), with COLMAP's camera models and
     COLMAP's defaults, and returns ``(refined model, Result)``; the model is left unchanged.
@@ -390,6 +422,26 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     mcon, ncon
         The first mcon images that see a point (their cameras' parameters too, in all their
         images) and the first ncon points are held.
+
+    hold_frames, images, variable_points, min_track_length, refine_points3D, gauge
+        The rest of COLMAP 4's BundleAdjustmentConfig and options, as its bundle adjuster takes
+        them (:func:`pysba.colmap.bundle_adjustment` passes pycolmap's on). hold_frames: "all",
+        or FRAME_IDs (ints) whose pose (rig_from_world) alone is held, their cameras' poses in
+        the rigs refined as the options say. images: None (every image), or the IMAGE_IDs (ints)
+        of the images whose observations are refined, each with its pose, its camera's pose in
+        its rig and its intrinsics; an image outside them has its pose held, and its camera's
+        pose in the rig and intrinsics too unless one of them refines it. variable_points:
+        POINT3D_IDs refined with every observation of theirs, in any image; hold_points (COLMAP's
+        constant points) are held with their observations in the images and in any image that
+        has something refined. Any other point that the images see is refined when its whole
+        track is in them, held otherwise. A point whose track is shorter than min_track_length
+        is left out (and left as it is). refine_points3D=False holds every point. gauge: None,
+        "two-cams" (COLMAP's TWO_CAMS_FROM_WORLD: the images by IMAGE_ID, the first one's frame
+        pose held and one coordinate of the next one's frame translation, the one along which
+        its centre lies farthest from the first one's, unless two images' poses are held
+        already; three points when no two images can be) or "three-points" (the points seen by
+        the most observations held until three are). An id the model does not have is a
+        ValueError.
     progress, verbose
         progress, as :func:`solve`'s, is called with a :class:`Progress` after every iteration
         (its ``error`` is the sum of squared reprojection errors, in pixels squared: the RMS
@@ -463,6 +515,7 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     constants = dict(hold_intrinsics=_held_ids("hold_intrinsics", "CAMERA_IDs", hold_intrinsics),
                      hold_sensor_from_rig=_held_ids("hold_sensor_from_rig", "CAMERA_IDs", hold_sensor_from_rig),
                      hold_points=_held_ids("hold_points", "POINT3D_IDs", hold_points))
+    config = _config(colmap_model, hold_frames, images, variable_points, min_track_length, refine_points3D, gauge)
     strategy, opts = _colmap_stop(strategy, opts, function_tolerance, gradient_tolerance)
     if verbose:
         progress = _shown(colmap_model, loss not in (None, "none"), progress)
@@ -484,7 +537,7 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                                  prior_position_fallback_stddev=float(prior_position_fallback_stddev),
                                  prior_position_loss="" if prior_position_loss == "trivial" else "cauchy",
                                  prior_position_loss_scale=float(prior_position_loss_scale),
-                                 alignment_max_error=float(alignment_max_error), **kw)
+                                 alignment_max_error=float(alignment_max_error), **config, **kw)
     # The Result's model, also on an exception's result, is of the type returned.
     if reconstruction:
         target = model if in_place else _pycolmap().Reconstruction(model)

@@ -719,13 +719,38 @@ std::vector<char> held_ids(const colmap::Model &m, const IdList &l, bool all, co
   throw py::value_error(at(l.option, bad - 1) + ": " + why);
 }
 
+// Flags by records (a model's frames, images or points: what has each id) of the ids a
+// configuration names (option and kind name them in messages: "hold_frames", "frame with a pose",
+// "FRAME_ID"); an id no record has is a ValueError, as COLMAP refuses one. Empty when none is
+// named.
+template <typename Record>
+std::vector<char> flags_of(const std::vector<Record> &records, const py::list &ids, const char *option,
+                           const char *noun, const char *kind) {
+  std::vector<char> flags;
+  if (ids.empty()) return flags;
+  std::unordered_map<std::uint64_t, std::size_t> index;
+  for (std::size_t k = 0; k < records.size(); ++k) index.emplace(records[k].id, k);
+  flags.assign(records.size(), 0);
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    const unsigned long long id = PyLong_AsUnsignedLongLong(ids[k].ptr());
+    if (id == ~0ULL && PyErr_Occurred()) PyErr_Clear();
+    const auto it = index.find(id);
+    if (it == index.end())
+      throw py::value_error(at(option, k) + ": no " + noun + " has the " + kind + " '" + std::string(py::str(ids[k])) +
+                            "'");
+    flags[it->second] = 1;
+  }
+  return flags;
+}
+
 py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_poses, bool focal, bool principal,
                        bool extra, bool rig_from_world, bool sensor_from_rig, bool constant_rotation,
                        const py::tuple &hold_intrinsics, const py::tuple &hold_sensor_from_rig,
                        const py::tuple &hold_points, bool covariance_points, double covariance_damping,
                        const std::string &database_path, const py::list &pose_priors, double fallback_stddev,
                        const std::string &prior_loss, double prior_loss_scale, double alignment_max_error,
-                       const py::kwargs &kw) {
+                       const py::list &hold_frames, const py::object &config_images, const py::list &variable_points,
+                       int min_track_length, bool refine_points, const std::string &gauge, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   std::vector<long long> rows;
   colmap::Model m = model_of(model, &rows);
@@ -750,6 +775,22 @@ py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_pos
     *l.held = held_ids(m, l.list, l.given[0].cast<bool>(), l.given[1].cast<py::list>());
   options.mcon = o.mcon;
   options.ncon = o.ncon;
+  // COLMAP's BundleAdjustmentConfig (pysba.colmap.bundle_adjustment's): ids pysba took from it.
+  options.constants.frames = flags_of(m.frames, hold_frames, "hold_frames", "frame with a pose", "FRAME_ID");
+  if (!config_images.is_none()) {
+    const py::list images = config_images.cast<py::list>();
+    if (images.empty()) throw py::value_error("images names no image: give None for every one");
+    options.selection.images = flags_of(m.images, images, "images", "image with a pose", "IMAGE_ID");
+  }
+  options.selection.variable_points = flags_of(m.points, variable_points, "variable_points", "point", "POINT3D_ID");
+  options.selection.min_track_length = min_track_length;
+  options.refine_points = refine_points;
+  if (gauge == "two-cams")
+    options.gauge = colmap::Gauge::TwoCamsFromWorld;
+  else if (gauge == "three-points")
+    options.gauge = colmap::Gauge::ThreePoints;
+  else if (!gauge.empty())
+    throw py::value_error("gauge must be '', 'two-cams' or 'three-points', got '" + gauge + "'");
   if (!(covariance_damping >= 0.0 && covariance_damping <= DBL_MAX))
     throw py::value_error("covariance_damping must be finite and >= 0, got " + std::string(py::repr(py::float_(covariance_damping))));
   PriorInput priors;
@@ -799,7 +840,9 @@ void add_colmap(py::module_ &mod) {
           py::arg("constant_rig_from_world_rotation"), py::arg("hold_intrinsics"), py::arg("hold_sensor_from_rig"),
           py::arg("hold_points"), py::arg("covariance_points"), py::arg("covariance_damping"),
           py::arg("database_path"), py::arg("pose_priors"), py::arg("prior_position_fallback_stddev"),
-          py::arg("prior_position_loss"), py::arg("prior_position_loss_scale"), py::arg("alignment_max_error"));
+          py::arg("prior_position_loss"), py::arg("prior_position_loss_scale"), py::arg("alignment_max_error"),
+          py::arg("hold_frames") = py::list(), py::arg("images") = py::none(), py::arg("variable_points") = py::list(),
+          py::arg("min_track_length") = 0, py::arg("refine_points3D") = true, py::arg("gauge") = "");
 }
 
 }  // namespace pysba

@@ -1013,3 +1013,93 @@ def test_pose_priors_from_a_database_that_is_none(tmp_path):
     with pytest.raises(ValueError, match="cannot open as an SQLite database"):
         pysba.refine_colmap(pysba.read_colmap(text), pose_priors=missing)
     assert not missing.exists()
+
+
+# COLMAP 4's BundleAdjustmentConfig beyond the constants (pysba.colmap.bundle_adjustment's; its
+# comparison with pycolmap's adjuster is tests/python/pycolmap_bundle_adjustment.py).
+
+def test_config_refusals(tmp_path):
+    model = pysba.read_colmap(rigged(tmp_path))
+    for kw, error, message in [
+        (dict(hold_frames=[900, 5]), ValueError, "hold_frames[1]: no frame with a pose has the FRAME_ID '5'"),
+        (dict(images=[10, 11]), ValueError, "images[1]: no image with a pose has the IMAGE_ID '11'"),
+        (dict(images=[]), ValueError, "images names no image: give None for every one"),
+        (dict(variable_points=[1000, 1001]), ValueError, "variable_points[1]: no point has the POINT3D_ID '1001'"),
+        (dict(images=[10.0]), TypeError, "images[0] must be an IMAGE_ID (int), got float"),
+        (dict(gauge="two"), ValueError, "gauge must be None, 'two-cams' or 'three-points', got 'two'"),
+        (dict(min_track_length=2.0), TypeError, "min_track_length must be an int, got float"),
+        (dict(refine_points3D=1), TypeError, "refine_points3D must be a bool, got int"),
+        (dict(images=[10], min_track_length=100), ValueError,
+         "model: the configuration leaves no observation to refine"),
+    ]:
+        with pytest.raises(Exception) as e:
+            pysba.refine_colmap(model, **kw)
+        assert type(e.value) is error and str(e.value) == message, kw
+
+
+def poses(model):
+    return [(im.q.tobytes(), im.t.tobytes()) for im in model.images]
+
+
+def test_images_outside_the_config_are_held(tmp_path):
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    ids = [im.id for im in model.images]
+    refined, result = pysba.refine_colmap(model, images=ids[:3])
+    moved = [a != b for a, b in zip(poses(model), poses(refined))]
+    assert moved == [True, True, True, False, False, False]
+    # A point seen beyond the first three images is held; one seen by them alone is refined.
+    p = model.points3D
+    inside = np.array([set(p.track(k)[0].tolist()) <= set(ids[:3]) for k in range(len(p))])
+    assert inside.any() and not inside.all()
+    kept = np.all(refined.points3D.xyz == p.xyz, axis=1)
+    assert np.array_equal(kept, ~inside)
+    # With every point variable, every point moves, with every observation of its.
+    everything, more = pysba.refine_colmap(model, images=ids[:3], variable_points="all")
+    assert len(more.points) == len(p) and more.cameras.shape[0] == len(ids)
+    assert poses(everything)[3:] == poses(model)[3:]
+    assert not np.any(np.all(everything.points3D.xyz == p.xyz, axis=1))
+
+
+def test_two_cams_gauge_holds_two_poses_at_the_same_minimum(tmp_path):
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    free, a = pysba.refine_colmap(model, gauge=None)
+    fixed, b = pysba.refine_colmap(model, gauge="two-cams")
+    order = sorted(range(len(model.images)), key=lambda k: model.images[k].id)
+    first, second = (model.images[k] for k in order[:2])
+    held = fixed.images[order[0]]
+    assert held.q.tobytes() == first.q.tobytes() and held.t.tobytes() == first.t.tobytes()
+    kept = [fixed.images[order[1]].t[c].tobytes() == second.t[c].tobytes() for c in range(3)]
+    assert sum(kept) == 1
+    assert free.images[order[0]].t.tobytes() != first.t.tobytes()
+    # The gauge moves no reprojection: the same minimum.
+    assert b.rms_final == pytest.approx(a.rms_final, rel=1e-6)
+    # Three points held are two coordinates more than the gauge has, as in COLMAP.
+    three, c = pysba.refine_colmap(model, gauge="three-points")
+    assert sum(a.tobytes() == b.tobytes() for a, b in zip(three.points3D.xyz, model.points3D.xyz)) == 3
+    assert a.rms_final < c.rms_final < c.rms_initial
+
+
+def test_min_track_length_and_refine_points3D(tmp_path):
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    lengths = np.diff(model.points3D.track_offsets.astype(np.int64))
+    refined, result = pysba.refine_colmap(model, min_track_length=int(np.median(lengths)) + 1)
+    short = lengths <= np.median(lengths)
+    assert short.any() and not short.all()
+    kept = np.all(refined.points3D.xyz == model.points3D.xyz, axis=1)
+    assert np.array_equal(kept, short)
+    assert len(result.points) == int((~short).sum())
+    held, _ = pysba.refine_colmap(model, refine_points3D=False)
+    assert held.points3D.xyz.tobytes() == model.points3D.xyz.tobytes()
+    assert poses(held) != poses(model)
+
+
+def test_pysba_colmap_needs_pycolmap_to_run():
+    import pysba.colmap
+    try:
+        import pycolmap  # noqa: F401
+    except ImportError:
+        with pytest.raises(ImportError, match="pip install pycolmap"):
+            pysba.colmap.bundle_adjustment(object())
+    else:
+        with pytest.raises(TypeError, match="reconstruction must be a pycolmap.Reconstruction, got object"):
+            pysba.colmap.bundle_adjustment(object())
