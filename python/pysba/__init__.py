@@ -16,7 +16,9 @@ numpy arrays in, numpy arrays out::
   vectorized callbacks over all the observations at once.
 - :func:`read_colmap` and :func:`write_colmap` read and write COLMAP sparse models (a
   :class:`ColmapModel`), :func:`refine_colmap` refines one as the sbarefine program does,
-  and :func:`from_pycolmap` and :func:`to_pycolmap` convert from and to pycolmap.
+  and :func:`from_pycolmap` and :func:`to_pycolmap` convert from and to pycolmap;
+  :func:`pysba.colmap.bundle_adjustment` is pycolmap's bundle adjuster, with its options and
+  configuration, in place.
 
 Every solve releases the GIL while the library works. Ctrl-C stops it after the current
 iteration and raises KeyboardInterrupt with the partial :class:`Result` as its ``result``
@@ -489,3 +491,4 @@ def __getattr__(name: str) -> Any:
 from ._colmap import (NO_POINT3D, ColmapCamera, ColmapFrame, ColmapImage, ColmapModel,  # noqa: E402
                       ColmapPoints3D, ColmapRig, ColmapSensor, from_pycolmap, read_colmap, refine_colmap,
                       to_pycolmap, write_colmap)
+from . import colmap  # noqa: E402,F401  (pysba.colmap: pycolmap's adjuster; imports pycolmap when called)

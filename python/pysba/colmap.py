@@ -1,0 +1,262 @@
+# SPDX-License-Identifier: BSD-3-Clause
+"""sba as COLMAP 4's bundle adjuster, with pycolmap's own options and configuration.
+
+:func:`bundle_adjustment` takes what ``pycolmap.bundle_adjustment`` and
+``pycolmap.create_default_bundle_adjuster(options, config, reconstruction).solve()`` take (a
+``pycolmap.Reconstruction``, ``pycolmap.BundleAdjustmentOptions`` and
+``pycolmap.BundleAdjustmentConfig``; with pose priors, ``pycolmap.PosePriorBundleAdjustmentOptions``
+too) and refines the reconstruction in place, in memory, with sba: the same problem, solved by
+sba's sparse Levenberg-Marquardt. An option that sba does not honour is refused (ValueError),
+never ignored. Needs pycolmap (``pip install pycolmap``).
+"""
+from __future__ import annotations
+
+import sys
+import time
+from typing import Any, Callable, Dict, Optional
+
+from . import Progress, Result
+from ._colmap import _pycolmap, refine_colmap
+
+__all__ = ["bundle_adjustment"]
+
+# Ceres's losses as pysba names them (the same functions of the squared residual, of the same
+# scale).
+_LOSSES = {"TRIVIAL": None, "HUBER": "huber", "SOFT_L1": "soft-l1", "CAUCHY": "cauchy"}
+_PRIOR_LOSSES = {"TRIVIAL": "trivial", "CAUCHY": "cauchy"}
+_GAUGES = {"UNSPECIFIED": None, "TWO_CAMS_FROM_WORLD": "two-cams", "THREE_POINTS": "three-points"}
+
+# Options that choose how Ceres solves each step (its linear solver, its preconditioner, its
+# device, when it goes multi-threaded): sba solves the same steps by its own rules (solver=), so
+# any value of them gives the same problem, refined to the same minimum.
+_HOW_CERES_SOLVES = {
+    "ceres.use_gpu", "ceres.gpu_index", "ceres.min_num_images_gpu_solver",
+    "ceres.min_num_residuals_for_cpu_multi_threading", "ceres.max_num_images_direct_dense_cpu_solver",
+    "ceres.max_num_images_direct_sparse_cpu_solver", "ceres.max_num_images_direct_dense_gpu_solver",
+    "ceres.max_num_images_direct_sparse_gpu_solver", "ceres.auto_select_solver_type",
+    "ceres.solver_options.linear_solver_type", "ceres.solver_options.preconditioner_type",
+    "ceres.solver_options.visibility_clustering_type", "ceres.solver_options.dense_linear_algebra_library_type",
+    "ceres.solver_options.sparse_linear_algebra_library_type", "ceres.solver_options.use_explicit_schur_complement",
+    "ceres.solver_options.min_linear_solver_iterations", "ceres.solver_options.max_linear_solver_iterations",
+    "ceres.solver_options.eta", "ceres.solver_options.jacobi_scaling",
+    "ceres.solver_options.trust_region_problem_dump_directory",
+    "ceres.solver_options.trust_region_problem_dump_format_type",
+}
+# Options that only another choice reads (the line search's with a trust region, the dogleg's
+# with Levenberg-Marquardt, ...), and the options of the other backend: unused as Ceres leaves
+# them with the choices sba honours.
+_UNUSED_PREFIXES = ("caspar.", "ceres.solver_options.line_search_", "ceres.solver_options.max_line_search_",
+                    "ceres.solver_options.min_line_search_", "ceres.solver_options.max_num_line_search_")
+_UNUSED = {
+    "ceres.solver_options.nonlinear_conjugate_gradient_type", "ceres.solver_options.max_lbfgs_rank",
+    "ceres.solver_options.use_approximate_eigenvalue_bfgs_scaling", "ceres.solver_options.dogleg_type",
+    "ceres.solver_options.max_consecutive_nonmonotonic_steps", "ceres.solver_options.inner_iteration_tolerance",
+    "ceres.solver_options.gradient_check_relative_precision",
+    "ceres.solver_options.gradient_check_numeric_derivative_relative_step_size",
+}
+# What sba honours, read below.
+_HONOURED = {
+    "refine_focal_length", "refine_principal_point", "refine_extra_params", "refine_rig_from_world",
+    "refine_sensor_from_rig", "constant_rig_from_world_rotation", "refine_points3D", "min_track_length",
+    "print_summary", "backend", "ceres.loss_function_type", "ceres.loss_function_scale",
+    "ceres.solver_options.max_num_iterations", "ceres.solver_options.max_solver_time_in_seconds",
+    "ceres.solver_options.num_threads", "ceres.solver_options.function_tolerance",
+    "ceres.solver_options.gradient_tolerance", "ceres.solver_options.parameter_tolerance",
+    "ceres.solver_options.logging_type", "ceres.solver_options.minimizer_progress_to_stdout",
+    "ceres.solver_options.minimizer_type", "ceres.solver_options.trust_region_strategy_type",
+}
+
+
+def _flat(d: Dict[str, Any], prefix: str = "") -> Dict[str, Any]:
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flat(v, prefix + k + "."))
+        else:
+            out[prefix + k] = v
+    return out
+
+
+def _name(value: Any) -> str:
+    return getattr(value, "name", str(value))
+
+
+def _refused(given: Dict[str, Any], default: Dict[str, Any], what: str) -> None:
+    """ValueError for the first option of given (flattened) that differs from its default and
+    that sba neither honours nor can leave to Ceres's own choices."""
+    for key in sorted(given):
+        if key in _HONOURED or key in _HOW_CERES_SOLVES or key in _UNUSED or key.startswith(_UNUSED_PREFIXES):
+            continue
+        if key not in default or given[key] != default[key]:
+            raise ValueError(f"{what}.{key} = {_name(given[key])} is not honoured by sba (only "
+                             f"{_name(default.get(key))}, its default, is)")
+
+
+def _options(pycolmap: Any, options: Any) -> Dict[str, Any]:
+    """refine_colmap's arguments for a pycolmap.BundleAdjustmentOptions."""
+    if not isinstance(options, pycolmap.BundleAdjustmentOptions):
+        raise TypeError(f"options must be a pycolmap.BundleAdjustmentOptions, got {type(options).__name__}")
+    given = _flat(options.todict())
+    _refused(given, _flat(pycolmap.BundleAdjustmentOptions().todict()), "options")
+    if _name(given["backend"]) != "CERES":
+        raise ValueError(f"options.backend = {_name(given['backend'])} is not honoured by sba (only CERES, "
+                         "whose problem sba solves)")
+    solver = "ceres.solver_options."
+    for key, only in (("minimizer_type", "TRUST_REGION"), ("trust_region_strategy_type", "LEVENBERG_MARQUARDT")):
+        if _name(given[solver + key]) != only:
+            raise ValueError(f"options.{solver}{key} = {_name(given[solver + key])} is not honoured by sba "
+                             f"(only {only})")
+    loss = _name(given["ceres.loss_function_type"])
+    if loss not in _LOSSES:
+        raise ValueError(f"options.ceres.loss_function_type = {loss} is not honoured by sba")
+    threads = int(given[solver + "num_threads"])
+    kw = dict(refine_focal_length=bool(given["refine_focal_length"]),
+              refine_principal_point=bool(given["refine_principal_point"]),
+              refine_extra_params=bool(given["refine_extra_params"]),
+              refine_rig_from_world=bool(given["refine_rig_from_world"]),
+              refine_sensor_from_rig=bool(given["refine_sensor_from_rig"]),
+              constant_rig_from_world_rotation=bool(given["constant_rig_from_world_rotation"]),
+              refine_points3D=bool(given["refine_points3D"]),
+              min_track_length=int(given["min_track_length"]),
+              loss=_LOSSES[loss], loss_scale=float(given["ceres.loss_function_scale"]),
+              itmax=int(given[solver + "max_num_iterations"]),
+              function_tolerance=float(given[solver + "function_tolerance"]),
+              gradient_tolerance=float(given[solver + "gradient_tolerance"]),
+              threads=threads if threads > 0 else 0)
+    # Ceres's parameter_tolerance (0: no such test) is sba's eps2 on the step's norm.
+    parameter_tolerance = float(given[solver + "parameter_tolerance"])
+    if parameter_tolerance > 0:
+        kw["opts"] = [1e-3, kw["gradient_tolerance"], parameter_tolerance, 1e-12, kw["function_tolerance"]]
+    return kw
+
+
+def _prior_options(pycolmap: Any, prior_options: Any) -> Dict[str, Any]:
+    """refine_colmap's arguments for a pycolmap.PosePriorBundleAdjustmentOptions."""
+    if not isinstance(prior_options, pycolmap.PosePriorBundleAdjustmentOptions):
+        raise TypeError(f"prior_options must be a pycolmap.PosePriorBundleAdjustmentOptions, got "
+                        f"{type(prior_options).__name__}")
+    given = _flat(prior_options.todict())
+    default = _flat(pycolmap.PosePriorBundleAdjustmentOptions().todict())
+    # The alignment's seed and threads: sba's alignment is deterministic, whatever they are.
+    honoured = {"prior_position_fallback_stddev", "alignment_ransac.max_error", "alignment_ransac.random_seed",
+                "alignment_ransac.num_threads", "ceres.prior_position_loss_function_type",
+                "ceres.prior_position_loss_scale"}
+    for key in sorted(given):
+        if key not in honoured and (key not in default or given[key] != default[key]):
+            raise ValueError(f"prior_options.{key} = {_name(given[key])} is not honoured by sba (only "
+                             f"{_name(default.get(key))}, its default, is)")
+    loss = _name(given["ceres.prior_position_loss_function_type"])
+    if loss not in _PRIOR_LOSSES:
+        raise ValueError(f"prior_options.ceres.prior_position_loss_function_type = {loss} is not honoured by sba "
+                         "(TRIVIAL or CAUCHY)")
+    return dict(prior_position_fallback_stddev=float(given["prior_position_fallback_stddev"]),
+                prior_position_loss=_PRIOR_LOSSES[loss],
+                prior_position_loss_scale=float(given["ceres.prior_position_loss_scale"]),
+                alignment_max_error=float(given["alignment_ransac.max_error"]))
+
+
+def _config(pycolmap: Any, config: Any) -> Dict[str, Any]:
+    """refine_colmap's arguments for a pycolmap.BundleAdjustmentConfig."""
+    if not isinstance(config, pycolmap.BundleAdjustmentConfig):
+        raise TypeError(f"config must be a pycolmap.BundleAdjustmentConfig, got {type(config).__name__}")
+    gauge = _name(config.fixed_gauge)
+    if gauge not in _GAUGES:
+        raise ValueError(f"config.fixed_gauge = {gauge} is not honoured by sba")
+    sensors = config.constant_sensor_from_rig_poses
+    return dict(images=sorted(config.images), hold_intrinsics=sorted(config.constant_cam_intrinsics),
+                hold_frames=sorted(config.constant_rig_from_world_poses),
+                hold_sensor_from_rig=sorted(s.id for s in sensors if _name(s.type) == "CAMERA"),
+                hold_points=sorted(config.constant_points), variable_points=sorted(config.variable_points),
+                gauge=_GAUGES[gauge])
+
+
+def _timed(seconds: float, progress: Optional[Callable[[Progress], Any]]) -> Optional[Callable[[Progress], Any]]:
+    """progress, stopping the solve once it has run for seconds (Ceres's max_solver_time_in_seconds)."""
+    if not seconds < 1e9:
+        return progress
+
+    def timed(state: Progress) -> Any:
+        stop = progress(state) if progress is not None else None
+        return stop or state.elapsed >= seconds
+
+    return timed
+
+
+def bundle_adjustment(reconstruction: Any, options: Any = None, config: Any = None, *,
+                      pose_priors: Any = None, prior_options: Any = None, solver: Optional[str] = None,
+                      progress: Optional[Callable[[Progress], Any]] = None) -> Result:
+    """Bundle-adjusts a pycolmap.Reconstruction in place, as pycolmap's bundle adjuster does with
+    the same options and configuration, and returns the :class:`pysba.Result`.
+
+    reconstruction is refined in place, in memory (no file): its frames' poses (rig_from_world),
+    cameras' poses in their rigs (sensor_from_rig), cameras' intrinsics, and points' coordinates
+    and errors where the solve refines them; ids, tracks, keypoints, colours, names, and what is
+    held keep their bits. On a KeyboardInterrupt or :class:`pysba.SolveError` it holds the last
+    accepted estimate.
+
+    options, a pycolmap.BundleAdjustmentOptions (None: its defaults), as COLMAP reads it: the
+    refine_* flags, constant_rig_from_world_rotation, min_track_length, the loss (TRIVIAL,
+    HUBER, SOFT_L1, CAUCHY) and its scale, and of ceres.solver_options max_num_iterations,
+    function_tolerance, gradient_tolerance, parameter_tolerance, num_threads (-1: every core),
+    max_solver_time_in_seconds, and logging_type / minimizer_progress_to_stdout (a line per
+    iteration, on sys.stderr / sys.stdout); print_summary prints one line on sys.stderr at the
+    end. The options that choose how Ceres solves each step (its linear solver and
+    preconditioner, its device, auto_select_solver_type, ...) leave the problem as it is, and
+    sba solves each step by its own rules (solver, as :func:`pysba.solve`'s); options that only
+    another choice of Ceres reads are unused as they are there. Any other option that differs
+    from its default (a line search, a dogleg, other trust-region radii, the CASPAR backend,
+    inner iterations, ...) is a ValueError that names it.
+
+    config, a pycolmap.BundleAdjustmentConfig: its images, constant intrinsics, constant
+    rig_from_world and sensor_from_rig poses, constant and variable points and fixed gauge, as
+    COLMAP 4 reads them (see :func:`pysba.refine_colmap`'s hold_frames, images,
+    variable_points and gauge). None: pycolmap.bundle_adjustment's, every registered image and
+    every point, the gauge TWO_CAMS_FROM_WORLD.
+
+    pose_priors (pycolmap.PosePrior objects, or a database path, as refine_colmap's) with
+    prior_options (a pycolmap.PosePriorBundleAdjustmentOptions; None: its defaults) run
+    COLMAP 4's pose-prior bundle adjustment (pycolmap.create_pose_prior_bundle_adjuster): the
+    model moved onto the priors and refined with them, the gauge left to them.
+
+    progress is called with a :class:`pysba.Progress` after every iteration, as in
+    :func:`pysba.refine_colmap`; a true return value stops the solve.
+    """
+    pycolmap = _pycolmap()
+    if not isinstance(reconstruction, pycolmap.Reconstruction):
+        raise TypeError(f"reconstruction must be a pycolmap.Reconstruction, got {type(reconstruction).__name__}")
+    kw = _options(pycolmap, options if options is not None else pycolmap.BundleAdjustmentOptions())
+    given = _flat((options if options is not None else pycolmap.BundleAdjustmentOptions()).todict())
+    solver_options = "ceres.solver_options."
+    if config is not None:
+        kw.update(_config(pycolmap, config))
+    elif pose_priors is None:
+        kw["gauge"] = "two-cams"
+    if pose_priors is not None:
+        kw["pose_priors"] = pose_priors
+        kw.update(_prior_options(pycolmap, prior_options if prior_options is not None
+                                 else pycolmap.PosePriorBundleAdjustmentOptions()))
+        kw["gauge"] = None  # the priors fix it
+    elif prior_options is not None:
+        raise ValueError("prior_options without pose_priors: give the priors too")
+    progress = _timed(float(given[solver_options + "max_solver_time_in_seconds"]), progress)
+    logging = _name(given[solver_options + "logging_type"]) != "SILENT"
+    to_stdout = bool(given[solver_options + "minimizer_progress_to_stdout"])
+    if logging or to_stdout:
+        progress = _logged(sys.stdout if to_stdout else sys.stderr, progress)
+    start = time.perf_counter()
+    _, result = refine_colmap(reconstruction, in_place=True, solver=solver, progress=progress, **kw)
+    if bool(given["print_summary"]):
+        print(f"pysba.colmap.bundle_adjustment: RMS {result.rms_initial:.6g} px -> {result.rms_final:.6g} px in "
+              f"{result.iterations} iterations, {time.perf_counter() - start:.3f} s: {result.reason.text}",
+              file=sys.stderr, flush=True)
+    return result
+
+
+def _logged(stream: Any, progress: Optional[Callable[[Progress], Any]]) -> Callable[[Progress], Any]:
+    def logged(state: Progress) -> Any:
+        print(f"iteration {state.iteration}: cost {state.error / 2:.6e}, mu {state.mu:.3g}, step {state.dp_norm:.3g}, "
+              f"{state.elapsed:.3f} s", file=stream, flush=True)
+        return None if progress is None else progress(state)
+
+    return logged
+

@@ -1,0 +1,345 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-3-Clause
+"""pysba.colmap.bundle_adjustment against pycolmap's own bundle adjuster (pycolmap 4, from the
+Python package index), with the same pycolmap.BundleAdjustmentOptions and
+BundleAdjustmentConfig, on perturbed scenes of pycolmap.synthesize_dataset: SIMPLE_RADIAL
+cameras, OPENCV cameras, and rigs of three cameras whose poses in the rigs are moved.
+
+Each run, for pycolmap.bundle_adjustment(rec, options) and for
+create_default_bundle_adjuster(options, config, rec).solve() (constant intrinsics, constant
+frame poses, constant sensor poses, constant and variable points, a subset of the images, each
+gauge, each refine_* flag in turn, a robust loss, min_track_length) checks:
+- the object passed in is the one refined, and the Result's model is it;
+- ids, tracks and keypoints are as they were;
+- the final cost over the configuration's residuals (COLMAP's: the config images'
+  observations, and every observation of the variable and constant points), by pycolmap's
+  projection and loss, is pycolmap's or lower (1 + 1e-6);
+- what pycolmap keeps (the held values, the gauge's frame and translation coordinate, the
+  points outside the problem) keeps its bits here, and what pycolmap refines moves here too.
+Options sba does not honour are refused with a message that names them.
+
+Exit status: 0 every check passed, 1 a check failed, 77 (ctest's SKIP_RETURN_CODE) no Python
+here can import both pycolmap and pysba, or a sanitizer build.
+
+  pycolmap_bundle_adjustment.py [--python PY]
+"""
+import argparse
+import math
+import os
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "pycolmap"))
+from pycolmap_check import Failure, expect, perturb_rigs  # noqa: E402
+
+SKIP = 77
+REEXEC = "PYSBA_PYCOLMAP_BA_REEXEC"
+
+
+def values(x):
+    return [float(v) for v in x]
+
+
+def scene(pycolmap, kind, seed):
+    """A perturbed scene: "simple_radial" (two rigs of one camera, 8 frames each), "opencv" (the
+    same with OPENCV cameras), "rigs" (two rigs of three cameras, 5 frames each, the cameras'
+    poses in the rigs and the focal lengths moved). Tracks of different lengths: each point
+    loses a few observations."""
+    import numpy as np
+    pycolmap.set_random_seed(seed)
+    o = pycolmap.SyntheticDatasetOptions()
+    o.num_rigs = 2
+    o.num_cameras_per_rig = 3 if kind == "rigs" else 1
+    o.num_frames_per_rig = 5 if kind == "rigs" else 8
+    o.num_points3D = 200
+    if kind == "opencv":
+        o.camera_model_id = pycolmap.CameraModelId.OPENCV
+        o.camera_params = [1280.0, 1270.0, 512.0, 384.0, 0.03, -0.01, 0.001, -0.002]
+    rec = pycolmap.synthesize_dataset(o)
+    noise = pycolmap.SyntheticNoiseOptions()
+    noise.point2D_stddev = 0.5
+    noise.rig_from_world_translation_stddev = 0.02
+    noise.rig_from_world_rotation_stddev = 0.3
+    pycolmap.synthesize_noise(noise, rec)
+    if kind == "rigs":
+        perturb_rigs(pycolmap, rec)
+    rng = np.random.default_rng(seed)
+    for point_id in sorted(rec.points3D):
+        elements = [(e.image_id, e.point2D_idx) for e in rec.points3D[point_id].track.elements]
+        for k in rng.choice(len(elements), size=int(rng.integers(0, len(elements) - 3)), replace=False):
+            rec.delete_observation(*elements[k])
+    return rec
+
+
+def state(rec):
+    """Everything bundle adjustment may change, by id, as Python floats (the doubles' bits)."""
+    return dict(
+        frames={k: (values(f.rig_from_world.rotation.quat), values(f.rig_from_world.translation))
+                for k, f in rec.frames.items() if f.has_pose()},
+        sensors={(r, s.id): (values(p.rotation.quat), values(p.translation))
+                 for r, rig in rec.rigs.items() for s, p in rig.non_ref_sensors.items()},
+        cameras={k: values(c.params) for k, c in rec.cameras.items()},
+        points={k: values(p.xyz) for k, p in rec.points3D.items()})
+
+
+def structure(rec):
+    """Ids, tracks and keypoints."""
+    return (sorted(rec.cameras), sorted(rec.frames), sorted(rec.rigs),
+            {k: (im.name, im.camera_id, im.frame_id, [(values(p.xy), p.point3D_id) for p in im.points2D])
+             for k, im in rec.images.items()},
+            {k: [(e.image_id, e.point2D_idx) for e in p.track.elements] for k, p in rec.points3D.items()})
+
+
+def residuals(rec, config, min_track_length):
+    """COLMAP's residuals of a configuration, as (image, point, keypoint) (config None: every
+    observation); a constant residual of the set counts the same in both results compared."""
+    out = []
+    for point_id, p in rec.points3D.items():
+        if p.track.length() < min_track_length:
+            continue
+        for e in p.track.elements:
+            if config is None or config.has_image(e.image_id) or config.has_variable_point(point_id) \
+                    or config.has_constant_point(point_id):
+                out.append((e.image_id, point_id, e.point2D_idx))
+    return out
+
+
+def loss(pycolmap, options, s):
+    kind, a = options.ceres.loss_function_type, options.ceres.loss_function_scale
+    if kind == pycolmap.LossFunctionType.TRIVIAL:
+        return s
+    if kind == pycolmap.LossFunctionType.CAUCHY:
+        return a * a * math.log1p(s / (a * a))
+    if kind == pycolmap.LossFunctionType.HUBER:
+        return s if s <= a * a else 2 * a * math.sqrt(s) - a * a
+    return 2 * a * a * (math.sqrt(1 + s / (a * a)) - 1)  # SOFT_L1
+
+
+def cost(pycolmap, rec, options, terms):
+    """Ceres's cost of the terms at rec's values: half the sum of the loss of each squared
+    reprojection error, by pycolmap's projection."""
+    total = 0.0
+    for image_id, point_id, k in terms:
+        im = rec.images[image_id]
+        x = rec.cameras[im.camera_id].img_from_cam(im.cam_from_world() * rec.points3D[point_id].xyz)
+        d = x - im.point2D(k).xy
+        total += loss(pycolmap, options, float(d[0] * d[0] + d[1] * d[1]))
+    return total / 2
+
+
+def changed(before, after, exact):
+    """The keys of each kind whose values differ; a rotation that moved by less than 1e-12 (the
+    normalization pycolmap gives a held quaternion: a few ulp) counts as kept unless exact."""
+    out = {}
+    for kind in before:
+        keys = []
+        for k, v in before[kind].items():
+            w = after[kind][k]
+            if kind in ("frames", "sensors"):
+                rotation = v[0] != w[0] if exact else max(abs(a - b) for a, b in zip(v[0], w[0])) > 1e-12
+                translation = [a != b for a, b in zip(v[1], w[1])]
+                if rotation or any(translation):
+                    keys.append((k, rotation, tuple(translation)))
+            elif v != w:
+                keys.append((k, tuple(a != b for a, b in zip(v, w))))
+        out[kind] = sorted(keys)
+    return out
+
+
+def compare(pycolmap, pysba, name, rec, options, config, *, subset_moves=False):
+    """Runs pycolmap's adjuster and pysba's on copies of rec and checks them (see the docstring).
+    subset_moves: pycolmap moves a value pysba may keep (nothing so far)."""
+    theirs = pycolmap.Reconstruction(rec)
+    if config is None:
+        pycolmap.bundle_adjustment(theirs, options)
+    else:
+        pycolmap.create_default_bundle_adjuster(options, config, theirs).solve()
+    ours = pycolmap.Reconstruction(rec)
+    result = pysba.colmap.bundle_adjustment(ours, options, config)
+    expect(result.model is ours, "%s: the Result's model is not the Reconstruction passed in" % name)
+    expect(structure(ours) == structure(rec), "%s: ids, tracks or keypoints changed" % name)
+    terms = residuals(rec, config, options.min_track_length)
+    c0, c_theirs, c_ours = (cost(pycolmap, r, options, terms) for r in (rec, theirs, ours))
+    expect(c_ours <= c_theirs * (1 + 1e-6), "%s: final cost %.9g, pycolmap's %.9g (from %.6g)"
+           % (name, c_ours, c_theirs, c0))
+    before = state(rec)
+    moved_theirs = changed(before, state(theirs), exact=False)
+    moved_ours = changed(before, state(ours), exact=True)
+    expect(moved_ours == moved_theirs, "%s: what moved differs from pycolmap's: %s against %s"
+           % (name, {k: v for k, v in moved_ours.items() if v != moved_theirs[k]},
+              {k: v for k, v in moved_theirs.items() if v != moved_ours[k]}))
+    print("PASS %s: cost %.6g -> %.9g (pycolmap %.9g), %d residuals, %d iterations, the same values held"
+          % (name, c0, c_ours, c_theirs, len(terms), result.iterations))
+
+
+def configured(pycolmap, rec, images=None, variable="track", constant=(), frames=(), sensors=(), intrinsics=(),
+               gauge=None):
+    """A BundleAdjustmentConfig: images (default every registered one); variable "track" (the
+    points the images see, as COLMAP's mapper adds them), "all", or none; the constants."""
+    config = pycolmap.BundleAdjustmentConfig()
+    images = sorted(rec.reg_image_ids()) if images is None else images
+    for image_id in images:
+        config.add_image(image_id)
+    for point_id, p in rec.points3D.items():
+        if point_id in constant:
+            config.add_constant_point(point_id)
+        elif variable == "all" or (variable == "track" and any(e.image_id in images for e in p.track.elements)):
+            config.add_variable_point(point_id)
+    for frame_id in frames:
+        config.set_constant_rig_from_world_pose(frame_id)
+    for camera_id in sensors:
+        config.set_constant_sensor_from_rig_pose(pycolmap.sensor_t(pycolmap.SensorType.CAMERA, camera_id))
+    for camera_id in intrinsics:
+        config.set_constant_cam_intrinsics(camera_id)
+    if gauge is not None:
+        config.fix_gauge(getattr(pycolmap.BundleAdjustmentGauge, gauge))
+    return config
+
+
+def options_with(pycolmap, **changes):
+    o = pycolmap.BundleAdjustmentOptions()
+    o.print_summary = False
+    for key, value in changes.items():
+        if key.startswith("loss"):
+            setattr(o.ceres, key.replace("loss", "loss_function"), value)
+        else:
+            setattr(o, key, value)
+    return o
+
+
+def against_pycolmap(pycolmap, pysba):
+    for kind, seed in (("simple_radial", 3), ("opencv", 5), ("rigs", 7)):
+        rec = scene(pycolmap, kind, seed)
+        plain = options_with(pycolmap)
+        points = sorted(rec.points3D)
+        frames = sorted(f for f in rec.frames if rec.frames[f].has_pose())
+        images = sorted(rec.reg_image_ids())
+        cameras = sorted(rec.cameras)
+        half = [i for i in images if rec.images[i].frame_id in frames[:len(frames) // 2]]
+        compare(pycolmap, pysba, kind + ": pycolmap.bundle_adjustment", rec, plain, None)
+        compare(pycolmap, pysba, kind + ": every image, TWO_CAMS_FROM_WORLD", rec, plain,
+                configured(pycolmap, rec, gauge="TWO_CAMS_FROM_WORLD"))
+        compare(pycolmap, pysba, kind + ": constants, TWO_CAMS_FROM_WORLD", rec, plain,
+                configured(pycolmap, rec, constant=points[:4], frames=frames[2:3], sensors=cameras[1:2],
+                           intrinsics=cameras[-1:], gauge="TWO_CAMS_FROM_WORLD"))
+        compare(pycolmap, pysba, kind + ": two constant frames fix the gauge", rec, plain,
+                configured(pycolmap, rec, frames=frames[1:3], gauge="TWO_CAMS_FROM_WORLD"))
+        compare(pycolmap, pysba, kind + ": half the frames, their points", rec, plain,
+                configured(pycolmap, rec, images=half))
+        compare(pycolmap, pysba, kind + ": half the frames, no variable point", rec, plain,
+                configured(pycolmap, rec, images=half, variable=None))
+        compare(pycolmap, pysba, kind + ": half the frames, every point variable", rec, plain,
+                configured(pycolmap, rec, images=half, variable="all"))
+        compare(pycolmap, pysba, kind + ": half the frames, constant points", rec, plain,
+                configured(pycolmap, rec, images=half, variable=None, constant=points[::3]))
+        for flag in ("refine_focal_length", "refine_extra_params", "refine_rig_from_world",
+                     "refine_sensor_from_rig", "refine_points3D"):
+            compare(pycolmap, pysba, "%s: %s off" % (kind, flag), rec, options_with(pycolmap, **{flag: False}),
+                    configured(pycolmap, rec, gauge="TWO_CAMS_FROM_WORLD"))
+        compare(pycolmap, pysba, kind + ": refine_principal_point", rec,
+                options_with(pycolmap, refine_principal_point=True), None)
+        compare(pycolmap, pysba, kind + ": constant_rig_from_world_rotation", rec,
+                options_with(pycolmap, constant_rig_from_world_rotation=True), None)
+        compare(pycolmap, pysba, kind + ": CAUCHY loss, min_track_length 6", rec,
+                options_with(pycolmap, loss_type=pycolmap.LossFunctionType.CAUCHY, loss_scale=2.0,
+                             min_track_length=6), None)
+
+
+def pose_priors(pycolmap, pysba):
+    """With pose priors, against pycolmap.create_pose_prior_bundle_adjuster (pose_prior_check.py's
+    scene and reference run): the cost of the reprojections and the priors is pycolmap's or lower
+    (1 + 1e-6), and the object passed in is the one refined."""
+    import tempfile
+    from pose_prior_check import database_priors, evaluate, make_scene, pycolmap_refine
+    with tempfile.TemporaryDirectory(prefix="pysba-ba-") as d:
+        for system, cameras in (("CARTESIAN", 1), ("WGS84", 2)):
+            model, database = make_scene(pycolmap, os.path.join(d, system), 3, system, cameras, 6, "binary")
+            priors = database_priors(pycolmap, database)[1]
+            theirs, _ = pycolmap_refine(pycolmap, model, priors)
+            rec = pycolmap.Reconstruction(model)
+            options = options_with(pycolmap)
+            prior_options = pycolmap.PosePriorBundleAdjustmentOptions()
+            prior_options.alignment_ransac.random_seed = 1
+            config = configured(pycolmap, rec)
+            result = pysba.colmap.bundle_adjustment(rec, options, config, pose_priors=priors,
+                                                    prior_options=prior_options)
+            expect(result.model is rec, "pose priors: the Result's model is not the Reconstruction passed in")
+            mine, other = sum(evaluate(pycolmap, rec, priors)), sum(evaluate(pycolmap, theirs, priors))
+            expect(mine <= other * (1 + 1e-6), "pose priors (%s): cost %.9g, pycolmap's %.9g" % (system, mine, other))
+            print("PASS pose priors (%s, %d camera(s) per rig): cost %.9g (pycolmap %.9g), %d iterations"
+                  % (system, cameras, mine, other, result.iterations))
+
+
+def refusals(pycolmap, pysba):
+    rec = scene(pycolmap, "simple_radial", 3)
+    before = state(rec)
+    o = options_with(pycolmap)
+    # pycolmap keeps Ceres's enums in its pyceres submodule: reached through a value's type.
+    o.ceres.solver_options.minimizer_type = type(o.ceres.solver_options.minimizer_type).LINE_SEARCH
+    cases = [(o, None, "options.ceres.solver_options.minimizer_type = LINE_SEARCH is not honoured by sba "
+                       "(only TRUST_REGION)")]
+    o = options_with(pycolmap)
+    o.ceres.solver_options.use_inner_iterations = True
+    cases.append((o, None, "options.ceres.solver_options.use_inner_iterations = True is not honoured by sba "
+                           "(only False, its default, is)"))
+    o = options_with(pycolmap)
+    o.ceres.solver_options.initial_trust_region_radius = 1.0
+    cases.append((o, None, "options.ceres.solver_options.initial_trust_region_radius = 1.0 is not honoured by "
+                           "sba (only 10000.0, its default, is)"))
+    config = pycolmap.BundleAdjustmentConfig()
+    config.add_image(10 ** 6)
+    cases.append((options_with(pycolmap), config, "images[0]: no image with a pose has the IMAGE_ID '1000000'"))
+    for options, config, message in cases:
+        try:
+            pysba.colmap.bundle_adjustment(rec, options, config)
+            expect(False, "refused options were taken: " + message)
+        except ValueError as e:
+            expect(str(e) == message, "message %r, not %r" % (str(e), message))
+    expect(state(rec) == before, "a refused call changed the reconstruction")
+    # How Ceres solves each step changes no result.
+    o = options_with(pycolmap)
+    o.ceres.solver_options.linear_solver_type = type(o.ceres.solver_options.linear_solver_type).DENSE_SCHUR
+    o.ceres.use_gpu = True
+    a, b = pycolmap.Reconstruction(rec), pycolmap.Reconstruction(rec)
+    pysba.colmap.bundle_adjustment(a, o)
+    pysba.colmap.bundle_adjustment(b, options_with(pycolmap))
+    expect(state(a) == state(b), "Ceres's linear solver and device changed sba's result")
+    print("PASS options sba does not honour are refused by name, the reconstruction untouched; Ceres's choice "
+          "of linear solver and device leaves the result as it is")
+
+
+def main(argv):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--python", default="", help="a Python with pycolmap, used when this one has none")
+    args = ap.parse_args(argv)
+    if os.environ.get("PYSBA_SANITIZED"):
+        print("pycolmap_bundle_adjustment: SKIPPED: a sanitizer build (pycolmap is not built with the sanitizers)")
+        return SKIP
+    try:
+        import pycolmap
+    except ImportError as e:
+        if args.python and not os.environ.get(REEXEC) and os.access(args.python, os.X_OK):
+            os.environ[REEXEC] = "1"
+            os.execv(args.python, [args.python, os.path.abspath(__file__)] + argv)
+        print("pycolmap_bundle_adjustment: SKIPPED: %s cannot import pycolmap (%s); scripts/deps.sh test makes a "
+              "venv with it" % (sys.executable, e))
+        return SKIP
+    try:
+        import pysba
+        import pysba.colmap  # noqa: F401
+    except ImportError as e:
+        print("pycolmap_bundle_adjustment: SKIPPED: %s (Python %s) has pycolmap but cannot import pysba: %s"
+              % (sys.executable, sys.version.split()[0], e))
+        return SKIP
+    print("pycolmap %s, pysba %s, Python %s" % (pycolmap.__version__, pysba.__file__, sys.version.split()[0]))
+    try:
+        against_pycolmap(pycolmap, pysba)
+        pose_priors(pycolmap, pysba)
+        refusals(pycolmap, pysba)
+    except Failure as f:
+        print("FAIL %s" % f)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
