@@ -715,11 +715,11 @@ def _from_reconstruction(reconstruction: Any) -> ColmapModel:
                        rigs, frames)
 
 
-def _write_into(reconstruction: Any, refined: ColmapModel, given: ColmapModel) -> None:
+def _write_into(reconstruction: Any, refined: ColmapModel, given: ColmapModel, errors: bool = True) -> None:
     """refined's values, where they differ from given's (the model _from_reconstruction read of
     reconstruction), written into reconstruction: cameras' parameters, frames' poses, cameras'
-    poses in their rigs, points' coordinates and errors. An image's pose is its frame's and its
-    camera's in the rig, which pycolmap composes."""
+    poses in their rigs, points' coordinates and (with errors) errors. An image's pose is its
+    frame's and its camera's in the rig, which pycolmap composes."""
     pycolmap = _pycolmap()
 
     def differ(a: Any, b: Any) -> bool:
@@ -741,13 +741,15 @@ def _write_into(reconstruction: Any, refined: ColmapModel, given: ColmapModel) -
                 sensor = pycolmap.sensor_t(getattr(pycolmap.SensorType, s.type), s.id)
                 reconstruction.rigs[r.id].set_sensor_from_rig(sensor, rigid(s.q, s.t))
     new, old = refined.points3D, given.points3D
-    moved = np.flatnonzero(np.any(new.xyz.view(np.uint64) != old.xyz.view(np.uint64), axis=1) |
-                           (new.error.view(np.uint64) != old.error.view(np.uint64)))
+    moved = np.any(new.xyz.view(np.uint64) != old.xyz.view(np.uint64), axis=1)
+    if errors:
+        moved |= new.error.view(np.uint64) != old.error.view(np.uint64)
     points = reconstruction.points3D
-    for k in moved.tolist():
+    for k in np.flatnonzero(moved).tolist():
         p = points[int(new.ids[k])]
         p.xyz = new.xyz[k]
-        p.error = float(new.error[k])
+        if errors:
+            p.error = float(new.error[k])
 
 
 def from_pycolmap(reconstruction: Any) -> ColmapModel:

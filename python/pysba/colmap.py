@@ -15,10 +15,10 @@ import sys
 import time
 from typing import Any, Callable, Dict, Optional
 
-from . import Progress, Result
-from ._colmap import _pycolmap, refine_colmap
+from . import Progress, Result, SolveError
+from ._colmap import _from_reconstruction, _pycolmap, _write_into, refine_colmap
 
-__all__ = ["bundle_adjustment"]
+__all__ = ["bundle_adjustment", "adjust_global_bundle"]
 
 # Ceres's losses as pysba names them (the same functions of the squared residual, of the same
 # scale).
@@ -189,10 +189,12 @@ def bundle_adjustment(reconstruction: Any, options: Any = None, config: Any = No
     the same options and configuration, and returns the :class:`pysba.Result`.
 
     reconstruction is refined in place, in memory (no file): its frames' poses (rig_from_world),
-    cameras' poses in their rigs (sensor_from_rig), cameras' intrinsics, and points' coordinates
-    and errors where the solve refines them; ids, tracks, keypoints, colours, names, and what is
-    held keep their bits. On a KeyboardInterrupt or :class:`pysba.SolveError` it holds the last
-    accepted estimate.
+    cameras' poses in their rigs (sensor_from_rig), cameras' intrinsics and points' coordinates
+    where the solve refines them; ids, tracks, keypoints, colours, names, and what is held keep
+    their bits. The points' errors are left as they were, as COLMAP's adjusters leave them,
+    but for config None without priors: then every point's is updated, as
+    pycolmap.bundle_adjustment does. On a KeyboardInterrupt or :class:`pysba.SolveError` the
+    reconstruction holds the last accepted estimate.
 
     options, a pycolmap.BundleAdjustmentOptions (None: its defaults), as COLMAP reads it: the
     refine_* flags, constant_rig_from_world_rotation, min_track_length, the loss (TRIVIAL,
@@ -244,7 +246,21 @@ def bundle_adjustment(reconstruction: Any, options: Any = None, config: Any = No
     if logging or to_stdout:
         progress = _logged(sys.stdout if to_stdout else sys.stderr, progress)
     start = time.perf_counter()
-    _, result = refine_colmap(reconstruction, in_place=True, solver=solver, progress=progress, **kw)
+    # COLMAP's adjusters leave the points' errors as they were; pycolmap.bundle_adjustment (no
+    # config, no priors) updates every point's after the solve.
+    model = _from_reconstruction(reconstruction)
+    try:
+        refined, result = refine_colmap(model, solver=solver, progress=progress, **kw)
+    except (KeyboardInterrupt, SolveError) as e:
+        partial = getattr(e, "result", None)
+        if partial is not None and partial.model is not None:
+            _write_into(reconstruction, partial.model, model, errors=False)
+            partial.model = reconstruction
+        raise
+    _write_into(reconstruction, refined, model, errors=False)
+    result.model = reconstruction
+    if config is None and pose_priors is None:
+        reconstruction.update_point_3d_errors()
     if bool(given["print_summary"]):
         print(f"pysba.colmap.bundle_adjustment: RMS {result.rms_initial:.6g} px -> {result.rms_final:.6g} px in "
               f"{result.iterations} iterations, {time.perf_counter() - start:.3f} s: {result.reason.text}",
@@ -259,4 +275,58 @@ def _logged(stream: Any, progress: Optional[Callable[[Progress], Any]]) -> Calla
         return None if progress is None else progress(state)
 
     return logged
+
+
+def adjust_global_bundle(mapper: Any, mapper_options: Any, ba_options: Any, *, pose_priors: Any = None,
+                         prior_options: Any = None, solver: Optional[str] = None,
+                         progress: Optional[Callable[[Progress], Any]] = None) -> Result:
+    """The global bundle adjustment of pycolmap's incremental mapper, with sba: what
+    ``mapper.adjust_global_bundle(mapper_options, ba_options)`` does, on ``mapper.reconstruction``
+    in place, for a Python pipeline that drives a pycolmap.IncrementalMapper. Returns the
+    :class:`pysba.Result`.
+
+    As COLMAP 4's mapper takes it: the observations behind their cameras are filtered first
+    (the mapper's ObservationManager), then every image of every registered frame is adjusted,
+    with mapper_options' constant_cameras (intrinsics held), constant_rigs (their cameras'
+    poses in the rigs held) and fix_existing_frames (the frames of the reconstruction the mapper
+    began with held), the gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD), and
+    ba_options (a pycolmap.BundleAdjustmentOptions, usually the pipeline's
+    get_global_bundle_adjustment()) read as :func:`bundle_adjustment` reads them. With
+    pose_priors (and prior_options), the pose-prior adjustment instead, its gauge the priors'.
+    A ValueError when fewer than two frames are registered, or for an option that is not
+    honoured (mapper_options.ba_global_ignore_redundant_points3D, which selects points by a
+    coverage of COLMAP's own, is refused).
+    """
+    pycolmap = _pycolmap()
+    if not isinstance(mapper, pycolmap.IncrementalMapper):
+        raise TypeError(f"mapper must be a pycolmap.IncrementalMapper, got {type(mapper).__name__}")
+    if not isinstance(mapper_options, pycolmap.IncrementalMapperOptions):
+        raise TypeError(f"mapper_options must be a pycolmap.IncrementalMapperOptions, got "
+                        f"{type(mapper_options).__name__}")
+    if mapper_options.ba_global_ignore_redundant_points3D:
+        raise ValueError("mapper_options.ba_global_ignore_redundant_points3D = True is not honoured by sba "
+                         "(only False, its default, is)")
+    rec = mapper.reconstruction
+    frames = [f for f in rec.frames.values() if f.has_pose()]
+    if len(frames) < 2:
+        raise ValueError(f"global bundle adjustment needs two registered frames, the reconstruction has {len(frames)}")
+    mapper.observation_manager.filter_observations_with_negative_depth()
+    config = pycolmap.BundleAdjustmentConfig()
+    for frame in frames:
+        for data in frame.data_ids:
+            if _name(data.sensor_id.type) == "CAMERA":
+                config.add_image(data.id)
+    for camera_id in mapper_options.constant_cameras:
+        config.set_constant_cam_intrinsics(camera_id)
+    for rig_id in mapper_options.constant_rigs:
+        for sensor in rec.rigs[rig_id].non_ref_sensors:
+            config.set_constant_sensor_from_rig_pose(sensor)
+    if mapper_options.fix_existing_frames:
+        for frame_id in mapper.existing_frame_ids:
+            if frame_id in rec.frames and rec.frames[frame_id].has_pose():
+                config.set_constant_rig_from_world_pose(frame_id)
+    if pose_priors is None:
+        config.fix_gauge(pycolmap.BundleAdjustmentGauge.TWO_CAMS_FROM_WORLD)
+    return bundle_adjustment(rec, ba_options, config, pose_priors=pose_priors, prior_options=prior_options,
+                             solver=solver, progress=progress)
 

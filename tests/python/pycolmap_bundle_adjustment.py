@@ -15,7 +15,8 @@ gauge, each refine_* flag in turn, a robust loss, min_track_length) checks:
   observations, and every observation of the variable and constant points), by pycolmap's
   projection and loss, is pycolmap's or lower (1 + 1e-6);
 - what pycolmap keeps (the held values, the gauge's frame and translation coordinate, the
-  points outside the problem) keeps its bits here, and what pycolmap refines moves here too.
+  points outside the problem, the points' errors but after pycolmap.bundle_adjustment) keeps
+  its bits here, and what pycolmap refines moves here too.
 Options sba does not honour are refused with a message that names them.
 
 Exit status: 0 every check passed, 1 a check failed, 77 (ctest's SKIP_RETURN_CODE) no Python
@@ -78,7 +79,8 @@ def state(rec):
         sensors={(r, s.id): (values(p.rotation.quat), values(p.translation))
                  for r, rig in rec.rigs.items() for s, p in rig.non_ref_sensors.items()},
         cameras={k: values(c.params) for k, c in rec.cameras.items()},
-        points={k: values(p.xyz) for k, p in rec.points3D.items()})
+        points={k: values(p.xyz) for k, p in rec.points3D.items()},
+        errors={k: [float(p.error)] for k, p in rec.points3D.items()})
 
 
 def structure(rec):
@@ -269,6 +271,79 @@ def pose_priors(pycolmap, pysba):
                   % (system, cameras, mine, other, result.iterations))
 
 
+def mapper_state(pycolmap, database, registered):
+    """A pycolmap.IncrementalMapper of the database part way: its initial pair and the next
+    images up to registered frames, each triangulated (seeded: the same state every time)."""
+    pycolmap.set_random_seed(2)
+    db = pycolmap.Database.open(database)
+    try:
+        cache = pycolmap.DatabaseCache.create(db, pycolmap.DatabaseCacheOptions())
+    finally:
+        db.close()
+    mapper = pycolmap.IncrementalMapper(cache)
+    mapper.begin_reconstruction(pycolmap.Reconstruction())
+    pipeline = pycolmap.IncrementalPipelineOptions()
+    options, tri = pipeline.get_mapper(), pipeline.get_triangulation()
+    (first, second), pose = mapper.find_initial_image_pair(options, -1, -1)
+    mapper.register_initial_image_pair(options, first, second, pose)
+    for image_id in (first, second):
+        mapper.triangulate_image(tri, image_id)
+    while mapper.reconstruction.num_reg_frames() < registered:
+        image_id = next(i for i in mapper.find_next_images(options, False) if mapper.register_next_image(options, i))
+        mapper.triangulate_image(tri, image_id)
+    return cache, mapper, pipeline
+
+
+def mapper_global(pycolmap, pysba):
+    """adjust_global_bundle against the mapper's own, from the same state of a mapper of a
+    synthesized database (a camera per rig, 0.5 px of noise): the same observations left (those
+    behind a camera filtered), the cost pycolmap's or lower (1 + 1e-6), the same values held
+    (the gauge's, the constant cameras', the points' errors)."""
+    import tempfile
+    with tempfile.TemporaryDirectory(prefix="pysba-mapper-") as d:
+        database = os.path.join(d, "database.db")
+        pycolmap.set_random_seed(4)
+        o = pycolmap.SyntheticDatasetOptions()
+        o.num_rigs, o.num_cameras_per_rig, o.num_frames_per_rig, o.num_points3D = 2, 1, 8, 300
+        db = pycolmap.Database.open(database)
+        try:
+            rec = pycolmap.synthesize_dataset(o, db)
+            noise = pycolmap.SyntheticNoiseOptions()
+            noise.point2D_stddev = 0.5
+            pycolmap.synthesize_noise(noise, rec, db)
+        finally:
+            db.close()
+        for constant_cameras in ((), (1,)):
+            runs = {}
+            for who in ("pycolmap", "pysba"):
+                cache, mapper, pipeline = mapper_state(pycolmap, database, 9)
+                options = pipeline.get_mapper()
+                options.constant_cameras = set(constant_cameras)
+                before = pycolmap.Reconstruction(mapper.reconstruction)
+                if who == "pycolmap":
+                    expect(mapper.adjust_global_bundle(options, pipeline.get_global_bundle_adjustment()),
+                           "the mapper's global adjustment failed")
+                else:
+                    result = pysba.colmap.adjust_global_bundle(mapper, options, pipeline.get_global_bundle_adjustment())
+                    expect(result.model is mapper.reconstruction, "adjust_global_bundle: another reconstruction")
+                runs[who] = (before, pycolmap.Reconstruction(mapper.reconstruction))
+            (b0, theirs), (b1, ours) = runs["pycolmap"], runs["pysba"]
+            name = "adjust_global_bundle, constant_cameras %s" % (set(constant_cameras) or "{}")
+            expect(state(b0) == state(b1) and structure(b0) == structure(b1), name + ": the mapper's states differ")
+            expect(structure(theirs) == structure(ours), name + ": other observations left")
+            terms = residuals(ours, None, 0)
+            plain = options_with(pycolmap)
+            c0, c_theirs, c_ours = (cost(pycolmap, r, plain, terms) for r in (b0, theirs, ours))
+            expect(c_ours <= c_theirs * (1 + 1e-6), "%s: cost %.9g, pycolmap's %.9g" % (name, c_ours, c_theirs))
+            before = state(b0)
+            moved_theirs, moved_ours = changed(before, state(theirs), False), changed(before, state(ours), True)
+            expect(moved_ours == moved_theirs, "%s: what moved differs: %s against %s" % (
+                name, {k: v for k, v in moved_ours.items() if v != moved_theirs[k]},
+                {k: v for k, v in moved_theirs.items() if v != moved_ours[k]}))
+            print("PASS %s: %d frames, cost %.6g -> %.9g (pycolmap %.9g), the same values held"
+                  % (name, ours.num_reg_frames(), c0, c_ours, c_theirs))
+
+
 def refusals(pycolmap, pysba):
     rec = scene(pycolmap, "simple_radial", 3)
     before = state(rec)
@@ -334,6 +409,7 @@ def main(argv):
     try:
         against_pycolmap(pycolmap, pysba)
         pose_priors(pycolmap, pysba)
+        mapper_global(pycolmap, pysba)
         refusals(pycolmap, pysba)
     except Failure as f:
         print("FAIL %s" % f)
