@@ -18,7 +18,7 @@ from typing import Any, Callable, Dict, Optional
 from . import Progress, Result, SolveError
 from ._colmap import _from_reconstruction, _pycolmap, _write_into, refine_colmap
 
-__all__ = ["bundle_adjustment", "adjust_global_bundle"]
+__all__ = ["bundle_adjustment", "adjust_global_bundle", "incremental_mapping"]
 
 # Ceres's losses as pysba names them (the same functions of the squared residual, of the same
 # scale).
@@ -329,4 +329,50 @@ def adjust_global_bundle(mapper: Any, mapper_options: Any, ba_options: Any, *, p
         config.fix_gauge(pycolmap.BundleAdjustmentGauge.TWO_CAMS_FROM_WORLD)
     return bundle_adjustment(rec, ba_options, config, pose_priors=pose_priors, prior_options=prior_options,
                              solver=solver, progress=progress)
+
+
+# IncrementalPipelineOptions that the Python pipeline does not honour, with the value it takes.
+_PIPELINE_ONLY = {"use_prior_position": False, "snapshot_frames_freq": 0, "max_runtime_seconds": -1,
+                  "structure_less_registration_only": False}
+
+
+def incremental_mapping(database_path: Any, image_path: Any, output_path: Any, options: Any = None, *,
+                        global_adjustment: str = "sba", timings: Optional[Dict[str, float]] = None) -> Dict[int, Any]:
+    """COLMAP's incremental mapping of a database, as ``pycolmap.incremental_mapping`` runs it,
+    driven from Python through pycolmap's IncrementalMapper, with sba's global bundle adjustment
+    (:func:`adjust_global_bundle`; COLMAP's own local one). Returns the reconstructions by index,
+    each written to output_path/<index>, as pycolmap.incremental_mapping does.
+
+    options is a pycolmap.IncrementalPipelineOptions (None: its defaults); its global
+    adjustment is get_global_bundle_adjustment(), read as :func:`bundle_adjustment` reads it.
+    global_adjustment "colmap" runs the mapper's own instead, the same pipeline otherwise (to
+    compare). timings, a dict, gets the seconds of the local refinements ("local"), of the
+    global adjustments alone ("global", and their number, "global_calls") and of the whole
+    ("total"). Options the pipeline does not honour (use_prior_position, snapshots, a maximum
+    runtime, structure-less registration only) are refused unless at their defaults.
+    """
+    from . import _mapping
+    pycolmap = _pycolmap()
+    options = options if options is not None else pycolmap.IncrementalPipelineOptions()
+    if not isinstance(options, pycolmap.IncrementalPipelineOptions):
+        raise TypeError(f"options must be a pycolmap.IncrementalPipelineOptions, got {type(options).__name__}")
+    for key, default in _PIPELINE_ONLY.items():
+        if getattr(options, key) != default:
+            raise ValueError(f"options.{key} = {getattr(options, key)} is not honoured by pysba's pipeline "
+                             f"(only {default}, its default, is)")
+    if global_adjustment == "sba":
+        _options(pycolmap, options.get_global_bundle_adjustment())  # refused now, not after an hour of mapping
+        adjust: Callable[..., Any] = adjust_global_bundle
+    elif global_adjustment == "colmap":
+        def adjust(mapper: Any, mapper_options: Any, ba_options: Any) -> Any:
+            return mapper.adjust_global_bundle(mapper_options, ba_options)
+    else:
+        raise ValueError(f"global_adjustment must be 'sba' or 'colmap', got {global_adjustment!r}")
+    clock = _mapping.Timings()
+    try:
+        return _mapping.incremental_mapping(pycolmap, database_path, image_path, output_path, options, adjust,
+                                            clock)
+    finally:
+        if timings is not None:
+            timings.update(clock)
 

@@ -344,6 +344,56 @@ def mapper_global(pycolmap, pysba):
                   % (name, ours.num_reg_frames(), c0, c_ours, c_theirs))
 
 
+def mapping(pycolmap, pysba):
+    """incremental_mapping against pycolmap.incremental_mapping on a synthesized database (40
+    frames of one camera, 0.5 px of noise): every image pycolmap registers registered, the
+    number of points within 1% of pycolmap's, the mean reprojection error at most pycolmap's
+    times (1 + 1e-3); with the mapper's own global adjustment the Python pipeline gives
+    pycolmap's models (the same points and error)."""
+    import tempfile
+    with tempfile.TemporaryDirectory(prefix="pysba-mapping-") as d:
+        database = os.path.join(d, "database.db")
+        pycolmap.set_random_seed(5)
+        o = pycolmap.SyntheticDatasetOptions()
+        o.num_rigs, o.num_cameras_per_rig, o.num_frames_per_rig, o.num_points3D = 1, 1, 40, 400
+        db = pycolmap.Database.open(database)
+        try:
+            truth = pycolmap.synthesize_dataset(o, db)
+            noise = pycolmap.SyntheticNoiseOptions()
+            noise.point2D_stddev = 0.5
+            pycolmap.synthesize_noise(noise, truth, db)
+        finally:
+            db.close()
+        options = pycolmap.IncrementalPipelineOptions()
+        options.num_threads = 2
+        theirs = pycolmap.incremental_mapping(database, d, os.path.join(d, "pycolmap"), options)
+        timings = {}
+        same = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "colmap"), options,
+                                                global_adjustment="colmap")
+        ours = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "sba"), options, timings=timings)
+        expect(sorted(theirs) == sorted(ours) == sorted(same) == [0], "models: %s, %s" % (sorted(theirs), sorted(ours)))
+        a, b, c = theirs[0], ours[0], same[0]
+        # Ceres on two threads sums in its own order: the same pipeline, not the same bits.
+        expect(set(c.reg_image_ids()) == set(a.reg_image_ids()) and
+               abs(c.num_points3D() - a.num_points3D()) <= 0.01 * a.num_points3D() and
+               abs(c.compute_mean_reprojection_error() / a.compute_mean_reprojection_error() - 1) <= 1e-4,
+               "the Python pipeline with the mapper's adjustment: %d images, %d points, %.9g px; pycolmap's %d, %d, %.9g"
+               % (c.num_reg_images(), c.num_points3D(), c.compute_mean_reprojection_error(),
+                  a.num_reg_images(), a.num_points3D(), a.compute_mean_reprojection_error()))
+        expect(set(a.reg_image_ids()) <= set(b.reg_image_ids()), "images pycolmap registers are not registered")
+        expect(abs(b.num_points3D() - a.num_points3D()) <= 0.01 * a.num_points3D(),
+               "%d points, pycolmap %d" % (b.num_points3D(), a.num_points3D()))
+        expect(b.compute_mean_reprojection_error() <= a.compute_mean_reprojection_error() * (1 + 1e-3),
+               "mean reprojection error %.9g px, pycolmap's %.9g" % (b.compute_mean_reprojection_error(),
+                                                                     a.compute_mean_reprojection_error()))
+        expect(os.path.isfile(os.path.join(d, "sba", "0", "points3D.bin")), "incremental_mapping wrote no model")
+        expect(timings["global_calls"] > 0 and 0 < timings["global"] < timings["total"], "timings %r" % timings)
+        print("PASS incremental_mapping: %d images, %d points (pycolmap %d), %.6f px (pycolmap %.6f), %d global "
+              "adjustments; the mapper's own gives pycolmap's model" % (
+                  b.num_reg_images(), b.num_points3D(), a.num_points3D(), b.compute_mean_reprojection_error(),
+                  a.compute_mean_reprojection_error(), timings["global_calls"]))
+
+
 def refusals(pycolmap, pysba):
     rec = scene(pycolmap, "simple_radial", 3)
     before = state(rec)
@@ -410,6 +460,7 @@ def main(argv):
         against_pycolmap(pycolmap, pysba)
         pose_priors(pycolmap, pysba)
         mapper_global(pycolmap, pysba)
+        mapping(pycolmap, pysba)
         refusals(pycolmap, pysba)
     except Failure as f:
         print("FAIL %s" % f)
