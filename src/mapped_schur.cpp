@@ -25,7 +25,8 @@ UnknownBlocks::Block UnknownBlocks::block(int b, int B) const {
   return {base + colbase[c] + rowoff[s], height[c], pb > pB};
 }
 
-MappedSchur::MappedSchur(const Layout &lay, int threads) : lay_(lay), avx2_(use_avx2_build()) {
+MappedSchur::MappedSchur(const Layout &lay, int threads, Assembly how, int tile, int chunk)
+    : lay_(lay), avx2_(use_avx2_build()) {
   const CameraMap &map = lay.cams;
   const int nb = map.nblocks(), pnp = lay.pnp;
   // The work of each block column: the pairs it closes.
@@ -57,12 +58,38 @@ MappedSchur::MappedSchur(const Layout &lay, int threads) : lay_(lay), avx2_(use_
   }
   scratch_.resize(size_t(T));
   int maxblocks = 0;
-  for (int i = 0; i < lay.n; ++i) maxblocks = std::max(maxblocks, point_nblocks(i));
+  double pairs = 0.0;
+  for (int i = 0; i < lay.n; ++i) {
+    maxblocks = std::max(maxblocks, point_nblocks(i));
+    pairs += double(point_nblocks(i)) * point_nblocks(i);
+  }
+  // Tiles: runs of blocks up to `tile` unknowns wide, so that a tile of S stays in the
+  // first-level cache while a chunk of points updates it.
+  groups_.assign(1, 0);
+  for (int g = 1; g < nb; ++g)
+    if (map.block_start(g + 1) - map.block_start(groups_.back()) > tile) groups_.push_back(g);
+  groups_.push_back(nb);
+  // Point by point, each point sweeps its pairs of S, the whole of S when it touches every
+  // block; tile by tile, S is swept once a chunk. The tiles cost a look-up per point and tile,
+  // which pays when the points touch, on average, a sixteenth of S's pairs or more (long
+  // tracks, few cameras: a model that COLMAP's mapper is growing).
+  tiled_ = how == Assembly::Tiled ||
+           (how == Assembly::Auto && tile_ngroups() > 1 && pairs >= double(lay.n) * double(nb) * nb / 16.0);
+  tiled_ = tiled_ && pnp > 0 && lay.n > lay.ncon;
+  // A chunk holds at least one point of the longest couplings and up to about 2 MB of them.
+  constexpr i64 kChunkDoubles = i64(1) << 18;
+  const int chunk_points = std::max(chunk, 1);
   for (Scratch &s : scratch_) {
     s.Zt.resize(size_t(zmax_) + 1);
     s.Yt.resize(size_t(zmax_) + 1);
     s.W.resize(size_t(pnp) * size_t(lay.cnp) + 1);
     s.zoff.resize(size_t(maxblocks) + 1);
+    if (!tiled_) continue;
+    Chunk &c = s.chunk;
+    c.buf.resize(size_t(std::max(2 * zmax_, kChunkDoubles)));
+    c.zoff.resize(size_t(std::max<i64>(maxblocks + 1, chunk_points * i64(maxblocks + 1) / 4)));
+    for (std::vector<i64> *v : {&c.base, &c.zbase}) v->resize(chunk_points);
+    for (std::vector<int> *v : {&c.point, &c.lo, &c.hi, &c.sa, &c.sb, &c.cur}) v->resize(chunk_points);
   }
 }
 

@@ -57,8 +57,14 @@ struct UnknownBlocks {
 
 class MappedSchur {
  public:
-  // For a layout with shared unknowns and free points or not; threads: the pool's size.
-  MappedSchur(const Layout &lay, int threads);
+  // How a dense S takes the points' terms: by the rule of tiled() (Auto), or always point by
+  // point, or always tile by tile; the two give the same bits.
+  enum class Assembly { Auto, PointByPoint, Tiled };
+
+  // For a layout with shared unknowns and free points or not; threads: the pool's size;
+  // tile: the tiles' width in unknowns (a tile holds one block at least); chunk: the most
+  // points in a chunk.
+  MappedSchur(const Layout &lay, int threads, Assembly how = Assembly::Auto, int tile = 24, int chunk = 512);
 
   // Point i's blocks, ascending (the map's index).
   const int *point_blocks(int i) const { return lay_.cams.point_blocks(i); }
@@ -79,10 +85,27 @@ class MappedSchur {
 
   const Layout &layout() const { return lay_; }
 
+  // Whether the points touch so much of S that a dense S is better assembled tile by tile, a
+  // chunk of points at a time, than point by point; the tiles' boundaries in blocks (ngroups
+  // + 1 of them, from 0 to the number of blocks).
+  bool tiled() const { return tiled_; }
+  const int *tile_groups() const { return groups_.data(); }
+  int tile_ngroups() const { return int(groups_.size()) - 1; }
+
+  // A chunk of points for the tiled assembly: for the c-th, its point, its block range
+  // [lo, hi) in the columns being assembled, where its Z^T and Y^T start in buf and its
+  // offsets in zoff, and the cursors of the tile loops.
+  struct Chunk {
+    std::vector<double> buf;
+    std::vector<i64> zoff, base, zbase;
+    std::vector<int> point, lo, hi, sa, sb, cur;
+  };
+
   // One thread's room for a point's couplings (Z^T, Y^T, their offsets) and one W^T.
   struct Scratch {
     std::vector<double> Zt, Yt, W;
     std::vector<i64> zoff;
+    Chunk chunk;  // held only when tiled()
   };
 
  private:
@@ -90,6 +113,8 @@ class MappedSchur {
   bool avx2_ = false;                  // the AVX2 build of the loops runs (isa.h)
   std::vector<int> split_;             // threads + 1 boundaries in blocks, of about equal work
   i64 zmax_ = 0;
+  bool tiled_ = false;
+  std::vector<int> groups_;
   mutable std::vector<Scratch> scratch_;
 };
 

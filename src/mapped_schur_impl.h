@@ -9,6 +9,10 @@
 
 #include <algorithm>
 
+#if defined(__AVX2__) && defined(__FMA__)
+#include <immintrin.h>
+#endif
+
 #include "mapped_schur.h"
 
 namespace sba {
@@ -20,7 +24,8 @@ namespace {
 // at compile time for the blocks that dominate (poses of 6 against poses of 6, points of 3),
 // whose loops then unroll into registers.
 template <int N1, int N2, int P>
-inline void pair_update_t(int n1, int n2, int pn, const double *Lt, const double *Rt, double *out, i64 ld) {
+inline void pair_update_t(int n1, int n2, int pn, const double *__restrict Lt, const double *__restrict Rt,
+                          double *__restrict out, i64 ld) {
   if constexpr (N1 > 0) n1 = N1;
   if constexpr (N2 > 0) n2 = N2;
   if constexpr (P > 0) pn = P;
@@ -34,7 +39,36 @@ inline void pair_update_t(int n1, int n2, int pn, const double *Lt, const double
   }
 }
 
+#if defined(__AVX2__) && defined(__FMA__)
+// Poses against poses, points of 3, in vector registers: what the loops above do to each
+// entry (with FMA, one fused multiply-subtract per term, d ascending), four and two entries
+// of a row at a time; the compiler leaves the unrolled loops scalar.
+inline void pair_update_663(const double *__restrict Lt, const double *__restrict Rt, double *__restrict out,
+                            i64 ld) {
+  const __m256d r0 = _mm256_loadu_pd(Rt), r1 = _mm256_loadu_pd(Rt + 6), r2 = _mm256_loadu_pd(Rt + 12);
+  const __m128d t0 = _mm_loadu_pd(Rt + 4), t1 = _mm_loadu_pd(Rt + 10), t2 = _mm_loadu_pd(Rt + 16);
+  for (int a = 0; a < 6; ++a) {
+    double *row = out + a * ld;
+    const __m256d z0 = _mm256_broadcast_sd(Lt + a), z1 = _mm256_broadcast_sd(Lt + 6 + a),
+                  z2 = _mm256_broadcast_sd(Lt + 12 + a);
+    __m256d x = _mm256_loadu_pd(row);
+    __m128d y = _mm_loadu_pd(row + 4);
+    x = _mm256_fnmadd_pd(z0, r0, x);
+    y = _mm_fnmadd_pd(_mm256_castpd256_pd128(z0), t0, y);
+    x = _mm256_fnmadd_pd(z1, r1, x);
+    y = _mm_fnmadd_pd(_mm256_castpd256_pd128(z1), t1, y);
+    x = _mm256_fnmadd_pd(z2, r2, x);
+    y = _mm_fnmadd_pd(_mm256_castpd256_pd128(z2), t2, y);
+    _mm256_storeu_pd(row, x);
+    _mm_storeu_pd(row + 4, y);
+  }
+}
+#endif
+
 void pair_update(int n1, int n2, int pn, const double *Lt, const double *Rt, double *out, i64 ld) {
+#if defined(__AVX2__) && defined(__FMA__)
+  if (pn == 3 && n1 == 6 && n2 == 6) return pair_update_663(Lt, Rt, out, ld);
+#endif
   if (pn == 3 && n1 == 6 && n2 == 6) return pair_update_t<6, 6, 3>(n1, n2, pn, Lt, Rt, out, ld);
   if (pn == 3) return pair_update_t<0, 0, 3>(n1, n2, pn, Lt, Rt, out, ld);
   pair_update_t<0, 0, 0>(n1, n2, pn, Lt, Rt, out, ld);
@@ -126,20 +160,18 @@ void add_camera_terms(const Layout &lay, int B, const NormalEquations &ne, doubl
   for (int o = 0; o < nB; ++o) d.p[o * d.ld + o] += mu;
 }
 
-// Point i's terms of the block columns F[lo, hi) (F: the blocks the point touches): Z^T of
-// its blocks up to hi, then Y^T = V*^-1 Z^T of those in the range, the right-hand sides, and
-// the pairs they close.
-void add_point_terms(const MappedSchur &ms, int i, int lo, int hi, const NormalEquations &ne, const double *Vinv,
-                     const UnknownBlocks &S, double *rhs, MappedSchur::Scratch &sc) {
+// Point i's Z^T of its blocks up to hi and Y^T = V*^-1 Z^T of those in [lo, hi) (F: the
+// blocks the point touches), block s's at Zt + zoff[s] and Yt + zoff[s], and its terms of the
+// right-hand sides of the blocks in [lo, hi).
+void point_terms(const MappedSchur &ms, int i, int lo, int hi, const NormalEquations &ne, const double *Vinv,
+                 double *rhs, i64 *zoff, double *Zt, double *Yt, double *W) {
   const Layout &lay = ms.layout();
   const CameraMap &map = lay.cams;
   const int pnp = lay.pnp;
   const int *F = ms.point_blocks(i);
-  i64 *zoff = sc.zoff.data();
-  double *Zt = sc.Zt.data(), *Yt = sc.Yt.data();
   zoff[0] = 0;
   for (int s = 0; s < hi; ++s) zoff[s + 1] = zoff[s] + i64(map.block_size(F[s])) * pnp;
-  mapped_point_couplings(ms, ne.jac, i, hi, zoff, Zt, sc.W.data());
+  mapped_point_couplings(ms, ne.jac, i, hi, zoff, Zt, W);
   const double *Vi = Vinv + i64(i) * pnp * pnp, *ebi = ne.eb + i64(i) * pnp;
   for (int s = lo; s < hi; ++s) {
     const int B = F[s], nB = map.block_size(B);
@@ -156,6 +188,21 @@ void add_point_terms(const MappedSchur &ms, int i, int lo, int hi, const NormalE
       for (int d = 0; d < pnp; ++d)
         for (int o = 0; o < nB; ++o) rB[o] -= ebi[d] * y[d * nB + o];
     }
+  }
+}
+
+// Point i's terms of the block columns F[lo, hi): its couplings, then the pairs they close.
+void add_point_terms(const MappedSchur &ms, int i, int lo, int hi, const NormalEquations &ne, const double *Vinv,
+                     const UnknownBlocks &S, double *rhs, MappedSchur::Scratch &sc) {
+  const CameraMap &map = ms.layout().cams;
+  const int pnp = ms.layout().pnp;
+  const int *F = ms.point_blocks(i);
+  i64 *zoff = sc.zoff.data();
+  double *Zt = sc.Zt.data(), *Yt = sc.Yt.data();
+  point_terms(ms, i, lo, hi, ne, Vinv, rhs, zoff, Zt, Yt, sc.W.data());
+  for (int s = lo; s < hi; ++s) {
+    const int B = F[s], nB = map.block_size(B);
+    const double *y = Yt + zoff[s];
     for (int s1 = 0; s1 <= s; ++s1) {
       const int b = F[s1], nb = map.block_size(b);
       if (!S.holds(b, B)) continue;
@@ -164,6 +211,83 @@ void add_point_terms(const MappedSchur &ms, int i, int lo, int hi, const NormalE
         pair_update(nB, nb, pnp, y, Zt + zoff[s1], blk.p, blk.ld);
       else
         pair_update(nb, nB, pnp, Zt + zoff[s1], y, blk.p, blk.ld);
+    }
+  }
+}
+
+// The points' terms of a dense S when they touch much of it (MappedSchur::tiled): rather than
+// point by point, each sweeping all of its pairs of S, a chunk of points' couplings is made
+// first, and S is then updated a tile of blocks at a time with every point of the chunk, so
+// that the tile stays in the cache while the points stream past. Each entry of S still takes
+// the points' terms in ascending order of the points, as add_point_terms gives them.
+void add_points_tiled(const MappedSchur &ms, int B0, int B1, const NormalEquations &ne, const double *Vinv,
+                      const UnknownBlocks &S, double *rhs, MappedSchur::Scratch &sc) {
+  const Layout &lay = ms.layout();
+  const CameraMap &map = lay.cams;
+  const int pnp = lay.pnp;
+  const i64 *start = map.block_starts();
+  const int *group = ms.tile_groups(), ngroups = ms.tile_ngroups();
+  MappedSchur::Chunk &ck = sc.chunk;
+  int i = lay.ncon;
+  while (i < lay.n) {
+    // The chunk: the next points touching a block column of [B0, B1), as many as fit.
+    int np = 0;
+    i64 used = 0, zused = 0;
+    for (; i < lay.n && np < int(ck.point.size()); ++i) {
+      const int *F = ms.point_blocks(i), nF = ms.point_nblocks(i);
+      const int lo = find_block(F, nF, B0);
+      if (lo == nF || F[lo] >= B1) continue;
+      const int hi = find_block(F, nF, B1);
+      i64 need = 0;
+      for (int s = 0; s < hi; ++s) need += i64(map.block_size(F[s])) * pnp;
+      if (np > 0 && (used + 2 * need > i64(ck.buf.size()) || zused + hi + 1 > i64(ck.zoff.size()))) break;
+      i64 *zoff = ck.zoff.data() + zused;
+      double *Zt = ck.buf.data() + used, *Yt = Zt + need;
+      point_terms(ms, i, lo, hi, ne, Vinv, rhs, zoff, Zt, Yt, sc.W.data());
+      ck.point[size_t(np)] = i;
+      ck.lo[size_t(np)] = lo;
+      ck.hi[size_t(np)] = hi;
+      ck.base[size_t(np)] = used;
+      ck.zbase[size_t(np)] = zused;
+      used += 2 * need;
+      zused += hi + 1;
+      ++np;
+    }
+    if (np == 0) break;
+    // Tiles of S: the column groups of [B0, B1) against the row groups up to them.
+    for (int gc = 0; gc < ngroups; ++gc) {
+      const int C0 = std::max(group[gc], B0), C1 = std::min(group[gc + 1], B1);
+      if (C0 >= C1) continue;
+      for (int c = 0; c < np; ++c) {
+        const int *F = ms.point_blocks(ck.point[size_t(c)]);
+        const int lo = ck.lo[size_t(c)], hi = ck.hi[size_t(c)];
+        ck.sa[size_t(c)] = lo + find_block(F + lo, hi - lo, C0);
+        ck.sb[size_t(c)] = lo + find_block(F + lo, hi - lo, C1);
+        ck.cur[size_t(c)] = 0;
+      }
+      for (int gr = 0; gr < ngroups && group[gr] < C1; ++gr) {
+        const int R1 = group[gr + 1];
+        for (int c = 0; c < np; ++c) {
+          const int sa = ck.sa[size_t(c)], sb = ck.sb[size_t(c)];
+          if (sa == sb) continue;
+          const int *F = ms.point_blocks(ck.point[size_t(c)]);
+          const int r0 = ck.cur[size_t(c)];
+          int r1 = r0;
+          while (r1 < sb && F[r1] < R1) ++r1;
+          ck.cur[size_t(c)] = r1;
+          if (r0 == r1) continue;
+          const i64 *zoff = ck.zoff.data() + ck.zbase[size_t(c)];
+          const double *Zt = ck.buf.data() + ck.base[size_t(c)], *Yt = Zt + zoff[ck.hi[size_t(c)]];
+          for (int s = sa; s < sb; ++s) {
+            const int B = F[s], nB = map.block_size(B);
+            const double *y = Yt + zoff[s];
+            for (int s1 = r0; s1 < r1 && s1 <= s; ++s1) {
+              const int b = F[s1];
+              pair_update(map.block_size(b), nB, pnp, Zt + zoff[s1], y, S.base + start[b] * S.ld + start[B], S.ld);
+            }
+          }
+        }
+      }
     }
   }
 }
@@ -178,6 +302,7 @@ void mapped_assemble_columns(const MappedSchur &ms, int B0, int B1, const Normal
   for (int B = B0; B < B1; ++B)
     add_camera_terms(lay, B, ne, mu, S, rhs ? rhs + lay.cams.block_start(B) : nullptr);
   if (lay.pnp == 0) return;
+  if (S.kind == UnknownBlocks::Kind::Dense && ms.tiled()) return add_points_tiled(ms, B0, B1, ne, Vinv, S, rhs, sc);
   // The points, in ascending order, that touch a block column of the range.
   for (int i = lay.ncon; i < lay.n; ++i) {
     const int *F = ms.point_blocks(i), nF = ms.point_nblocks(i);

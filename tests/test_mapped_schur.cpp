@@ -20,7 +20,7 @@
 namespace {
 
 using sba::i64;
-constexpr int kM = 5, kN = 12, kCnp = 4, kPnp = 3, kMnp = 2;
+constexpr int kM = 5, kN = 12, kPnp = 3, kMnp = 2;
 
 // x = A^-1 b for a small SPD A (n x n, row-major), by Gauss-Jordan without pivoting.
 std::vector<double> solve_small(std::vector<double> A, std::vector<double> b, int n) {
@@ -35,11 +35,19 @@ std::vector<double> solve_small(std::vector<double> A, std::vector<double> b, in
   return b;
 }
 
+// The cameras' parameters: cnp of them, `a` shared by cameras 1-2 and by cameras 3-4, `b` by
+// cameras 1, 3 and 4, `held` (unless -1) held everywhere.
+struct Sharing {
+  int cnp, a, b, held;
+};
+
 struct Problem {
   sba::Layout lay;
+  int cnp;
   std::vector<double> jac, e, U, V, ea, eb;
 
-  explicit Problem(unsigned seed) {
+  explicit Problem(unsigned seed, Sharing sh = {4, 0, 1, 3}) : cnp(sh.cnp) {
+    const int kCnp = cnp;
     std::mt19937 rng(seed);
     std::normal_distribution<double> g(0.0, 1.0);
     std::vector<char> vmask(size_t(kN) * kM, 0);
@@ -49,21 +57,20 @@ struct Problem {
     // Camera 0 and point 0 fixed.
     EXPECT_TRUE(sba::build_layout(lay, sba::Mode::MotStr, kN, kM, 1, 1, kCnp, kPnp, kMnp, vmask.data(), &msg))
         << msg;
-    // Parameter 3 held everywhere; parameter 0 shared by cameras 1-2 and by cameras 3-4;
-    // parameter 1 by cameras 1, 3 and 4.
     std::vector<int> group(size_t(kM) * kCnp, -1);
-    const int g0[kM] = {-1, 0, 0, 1, 1}, g1[kM] = {-1, 7, -1, 7, 7};
-    for (int j = 0; j < kM; ++j) group[size_t(j * kCnp)] = g0[j], group[size_t(j * kCnp + 1)] = g1[j];
-    const char held[kCnp] = {0, 0, 0, 1};
+    const int ga[kM] = {-1, 0, 0, 1, 1}, gb[kM] = {-1, 7, -1, 7, 7};
+    for (int j = 0; j < kM; ++j) group[size_t(j * kCnp + sh.a)] = ga[j], group[size_t(j * kCnp + sh.b)] = gb[j];
+    std::vector<char> held(size_t(kCnp), 0);
+    if (sh.held >= 0) held[size_t(sh.held)] = 1;
     sba::CameraParamOptions o;
     o.param_group = group.data();
-    o.fixed = held;
+    o.fixed = held.data();
     lay.cams = sba::make_camera_map(o, lay);
     jac.resize(size_t(lay.nvis * lay.jblk()));
     for (double &v : jac) v = g(rng);
     // The held column zeroed, as the LM core does.
-    for (i64 k = 0; k < lay.nvis; ++k)
-      for (int r = 0; r < kMnp; ++r) jac[size_t(k * lay.jblk() + r * kCnp + 3)] = 0.0;
+    for (i64 k = 0; k < lay.nvis && sh.held >= 0; ++k)
+      for (int r = 0; r < kMnp; ++r) jac[size_t(k * lay.jblk() + r * kCnp + sh.held)] = 0.0;
     e.resize(size_t(lay.nvis * kMnp));
     for (double &v : e) v = g(rng);
     U.resize(size_t(kM * kCnp * kCnp));
@@ -78,6 +85,7 @@ struct Problem {
 
 // The reference S (nu x nu, full) and rhs, from the Jacobian blocks.
 void reference(const Problem &pb, double mu, std::vector<double> *S, std::vector<double> *rhs) {
+  const int kCnp = pb.cnp;
   const sba::Layout &lay = pb.lay;
   const sba::CameraMap &map = lay.cams;
   const int nu = map.unknowns();
@@ -126,48 +134,82 @@ void reference(const Problem &pb, double mu, std::vector<double> *S, std::vector
   }
 }
 
+// S's upper block triangle and diagonal blocks (the rest is the assembly's scratch), then rhs,
+// as assembled into a dense S with `threads` threads, each compared with the reference.
+std::vector<double> assembled(const Problem &pb, double mu, int threads, sba::MappedSchur::Assembly how, int tile,
+                              int chunk = 512) {
+  const sba::CameraMap &map = pb.lay.cams;
+  const int nu = map.unknowns();
+  std::vector<double> Sref, rref;
+  reference(pb, mu, &Sref, &rref);
+  sba::ThreadPool pool(threads);
+  const auto kernels = sba::make_kernels(pb.lay, pool.size());
+  std::vector<double> Vinv(pb.V.size());
+  EXPECT_TRUE(kernels->invert_damped_V(pool, pb.V.data(), mu, Vinv.data()));
+  std::vector<double> S(size_t(nu) * nu, 1e300), rhs(size_t(nu), 1e300);
+  sba::UnknownBlocks blocks;
+  blocks.base = S.data();
+  blocks.ld = nu;
+  blocks.start = map.block_starts();
+  const sba::MappedSchur schur(pb.lay, pool.size(), how, tile, chunk);
+  EXPECT_EQ(schur.tiled(), how == sba::MappedSchur::Assembly::Tiled);
+  schur.assemble(pool, pb.ne(), Vinv.data(), mu, blocks, rhs.data());
+  double scale = 0.0;
+  for (double v : Sref) scale = std::max(scale, std::fabs(v));
+  std::vector<double> held;
+  for (int b = 0; b < map.nblocks(); ++b)
+    for (int B = b; B < map.nblocks(); ++B)
+      for (i64 r = map.block_start(b); r < map.block_start(b + 1); ++r)
+        for (i64 c = map.block_start(B); c < map.block_start(B + 1); ++c) {
+          EXPECT_NEAR(S[size_t(r * nu + c)], Sref[size_t(r * nu + c)], 1e-12 * scale) << r << ", " << c;
+          held.push_back(S[size_t(r * nu + c)]);
+        }
+  for (int u = 0; u < nu; ++u) EXPECT_NEAR(rhs[size_t(u)], rref[size_t(u)], 1e-12 * scale) << u;
+  held.insert(held.end(), rhs.begin(), rhs.end());
+  return held;
+}
+
 TEST(MappedSchur, DenseAssemblyMatchesTheReferenceForAnyThreadCount) {
   const Problem pb(17u);
   const sba::CameraMap &map = pb.lay.cams;
   ASSERT_TRUE(map.shared());
-  const int nu = map.unknowns();
   // Parameter 3 held: 4 cameras x 3 free parameters, less the 2 + 1 + 2 copies shared away.
-  ASSERT_EQ(nu, 12 - 1 - 1 - 2);
-  const double mu = 0.7;
-  std::vector<double> Sref, rref;
-  reference(pb, mu, &Sref, &rref);
+  ASSERT_EQ(map.unknowns(), 12 - 1 - 1 - 2);
   std::vector<double> first;
   for (int threads : {1, 2, 3}) {
     SCOPED_TRACE("threads " + std::to_string(threads));
-    sba::ThreadPool pool(threads);
-    const auto kernels = sba::make_kernels(pb.lay, pool.size());
-    std::vector<double> Vinv(pb.V.size());
-    ASSERT_TRUE(kernels->invert_damped_V(pool, pb.V.data(), mu, Vinv.data()));
-    std::vector<double> S(size_t(nu) * nu, 1e300), rhs(size_t(nu), 1e300);
-    sba::UnknownBlocks blocks;
-    blocks.base = S.data();
-    blocks.ld = nu;
-    blocks.start = map.block_starts();
-    const sba::MappedSchur schur(pb.lay, pool.size());
-    schur.assemble(pool, pb.ne(), Vinv.data(), mu, blocks, rhs.data());
-    double scale = 0.0;
-    for (double v : Sref) scale = std::max(scale, std::fabs(v));
-    // The upper block triangle and the diagonal blocks whole (the rest is the assembly's
-    // scratch), then rhs.
-    std::vector<double> held;
-    for (int b = 0; b < map.nblocks(); ++b)
-      for (int B = b; B < map.nblocks(); ++B)
-        for (i64 r = map.block_start(b); r < map.block_start(b + 1); ++r)
-          for (i64 c = map.block_start(B); c < map.block_start(B + 1); ++c) {
-            EXPECT_NEAR(S[size_t(r * nu + c)], Sref[size_t(r * nu + c)], 1e-12 * scale) << r << ", " << c;
-            held.push_back(S[size_t(r * nu + c)]);
-          }
-    for (int u = 0; u < nu; ++u) EXPECT_NEAR(rhs[size_t(u)], rref[size_t(u)], 1e-12 * scale) << u;
-    held.insert(held.end(), rhs.begin(), rhs.end());
+    const std::vector<double> held = assembled(pb, 0.7, threads, sba::MappedSchur::Assembly::PointByPoint, 24);
     if (first.empty())
       first = held;
     else
       EXPECT_EQ(held, first);  // the same bits for any thread count
+  }
+}
+
+// Tile by tile, a chunk of points at a time, S takes each point's terms in the order point by
+// point gives them: the same bits, for any tile width, chunk and thread count. With 8 parameters,
+// cameras 1, 3 and 4's own 6 make blocks of 6 (the poses' case, which has a kernel of its own).
+TEST(MappedSchur, TiledAssemblyGivesThePointByPointBits) {
+  for (const Sharing sh : {Sharing{4, 0, 1, 3}, Sharing{8, 6, 7, -1}}) {
+    SCOPED_TRACE("cnp " + std::to_string(sh.cnp));
+    const Problem pb(23u, sh);
+    const sba::CameraMap &map = pb.lay.cams;
+    ASSERT_TRUE(map.shared());
+    if (sh.cnp == 8) {
+      // Cameras 1-4's own 6 (camera 2's with its own parameter 7) and the 2 + 1 shared.
+      ASSERT_EQ(map.unknowns(), 4 * 6 + 1 + 2 + 1);
+      int sixes = 0;
+      for (int b = 0; b < map.nblocks(); ++b) sixes += map.block_size(b) == 6;
+      EXPECT_EQ(sixes, 3);
+    }
+    const std::vector<double> want = assembled(pb, 0.3, 1, sba::MappedSchur::Assembly::PointByPoint, 24);
+    for (int threads : {1, 2, 3})
+      for (int tile : {1, 3, 7, 24})
+        for (int chunk : {1, 5, 512}) {
+          SCOPED_TRACE("threads " + std::to_string(threads) + ", tile " + std::to_string(tile) + ", chunk " +
+                       std::to_string(chunk));
+          EXPECT_EQ(assembled(pb, 0.3, threads, sba::MappedSchur::Assembly::Tiled, tile, chunk), want);
+        }
   }
 }
 
