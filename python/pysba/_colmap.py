@@ -13,7 +13,7 @@ import numbers
 import os
 import sys
 import tempfile
-from typing import Any, Callable, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -650,13 +650,18 @@ def _pose_of(rigid: Any) -> Tuple[np.ndarray, np.ndarray]:
     return xyzw[[3, 0, 1, 2]], np.array(rigid.translation, np.float64)
 
 
-def _from_reconstruction(reconstruction: Any) -> ColmapModel:
+def _from_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int, np.ndarray]] = None) -> ColmapModel:
     """What refine_colmap reads of a pycolmap.Reconstruction, through pycolmap's API (no file):
     every camera, rig and frame (a frame without a pose, and its images, without one as in
     from_pycolmap), every image with its pose as pycolmap composes it and only its keypoints
     that observe a 3D point (in their order), and every point with its track in its order, the
     track's keypoint indices into those. The solve of it is the solve of what pycolmap writes:
-    it reads nothing of the keypoints that observe no point."""
+    it reads nothing of the keypoints that observe no point.
+
+    keypoint_cache, for a caller whose images' keypoints do not change between calls (a mapper's
+    come from its database): a dict of every keypoint of each image by IMAGE_ID, (k, 2), which
+    this reads from and adds to, each image read whole once rather than its observing
+    keypoints each time."""
     cameras = [ColmapCamera(c.camera_id, c.model.name, c.width, c.height, np.array(c.params, np.float64))
                for _, c in sorted(reconstruction.cameras.items())]
     rigs = []
@@ -703,7 +708,13 @@ def _from_reconstruction(reconstruction: Any) -> ColmapModel:
     for image_id, im in sorted(reconstruction.images.items()):
         key = np.uint64(image_id)  # of the array's type: a Python int would convert the array to float
         rows = order[np.searchsorted(by_image, key, "left"):np.searchsorted(by_image, key, "right")]
-        xy = np.array([im.point2D(k).xy for k in track_keypoints[rows].tolist()], np.float64).reshape(-1, 2)
+        if keypoint_cache is None:
+            xy = np.array([im.point2D(k).xy for k in track_keypoints[rows].tolist()], np.float64).reshape(-1, 2)
+        else:
+            every = keypoint_cache.get(image_id)
+            if every is None:
+                every = keypoint_cache[image_id] = np.array([p.xy for p in im.points2D], np.float64).reshape(-1, 2)
+            xy = every[track_keypoints[rows].astype(np.intp)]
         if im.has_pose:
             q, t = _pose_of(im.cam_from_world())
         else:

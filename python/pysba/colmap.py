@@ -223,6 +223,13 @@ def bundle_adjustment(reconstruction: Any, options: Any = None, config: Any = No
     progress is called with a :class:`pysba.Progress` after every iteration, as in
     :func:`pysba.refine_colmap`; a true return value stops the solve.
     """
+    return _bundle_adjustment(reconstruction, options, config, pose_priors, prior_options, solver, progress, None)
+
+
+def _bundle_adjustment(reconstruction: Any, options: Any, config: Any, pose_priors: Any, prior_options: Any,
+                       solver: Optional[str], progress: Optional[Callable[[Progress], Any]],
+                       keypoints: Optional[Dict[int, Any]]) -> Result:
+    """bundle_adjustment, its keypoints read through keypoints (see _from_reconstruction)."""
     pycolmap = _pycolmap()
     if not isinstance(reconstruction, pycolmap.Reconstruction):
         raise TypeError(f"reconstruction must be a pycolmap.Reconstruction, got {type(reconstruction).__name__}")
@@ -248,7 +255,7 @@ def bundle_adjustment(reconstruction: Any, options: Any = None, config: Any = No
     start = time.perf_counter()
     # COLMAP's adjusters leave the points' errors as they were; pycolmap.bundle_adjustment (no
     # config, no priors) updates every point's after the solve.
-    model = _from_reconstruction(reconstruction)
+    model = _from_reconstruction(reconstruction, keypoints)
     try:
         refined, result = refine_colmap(model, solver=solver, progress=progress, **kw)
     except (KeyboardInterrupt, SolveError) as e:
@@ -297,6 +304,14 @@ def adjust_global_bundle(mapper: Any, mapper_options: Any, ba_options: Any, *, p
     honoured (mapper_options.ba_global_ignore_redundant_points3D, which selects points by a
     coverage of COLMAP's own, is refused).
     """
+    return _adjust_global_bundle(mapper, mapper_options, ba_options, pose_priors, prior_options, solver, progress,
+                                 None)
+
+
+def _adjust_global_bundle(mapper: Any, mapper_options: Any, ba_options: Any, pose_priors: Any, prior_options: Any,
+                          solver: Optional[str], progress: Optional[Callable[[Progress], Any]],
+                          keypoints: Optional[Dict[int, Any]]) -> Result:
+    """adjust_global_bundle, its keypoints read through keypoints (see _from_reconstruction)."""
     pycolmap = _pycolmap()
     if not isinstance(mapper, pycolmap.IncrementalMapper):
         raise TypeError(f"mapper must be a pycolmap.IncrementalMapper, got {type(mapper).__name__}")
@@ -327,8 +342,7 @@ def adjust_global_bundle(mapper: Any, mapper_options: Any, ba_options: Any, *, p
                 config.set_constant_rig_from_world_pose(frame_id)
     if pose_priors is None:
         config.fix_gauge(pycolmap.BundleAdjustmentGauge.TWO_CAMS_FROM_WORLD)
-    return bundle_adjustment(rec, ba_options, config, pose_priors=pose_priors, prior_options=prior_options,
-                             solver=solver, progress=progress)
+    return _bundle_adjustment(rec, ba_options, config, pose_priors, prior_options, solver, progress, keypoints)
 
 
 # IncrementalPipelineOptions that the Python pipeline does not honour, with the value it takes.
@@ -362,7 +376,12 @@ def incremental_mapping(database_path: Any, image_path: Any, output_path: Any, o
                              f"(only {default}, its default, is)")
     if global_adjustment == "sba":
         _options(pycolmap, options.get_global_bundle_adjustment())  # refused now, not after an hour of mapping
-        adjust: Callable[..., Any] = adjust_global_bundle
+        # An image's keypoints are the database's, whatever model the mapper holds it in: read
+        # once for the whole mapping.
+        keypoints: Dict[int, Any] = {}
+
+        def adjust(mapper: Any, mapper_options: Any, ba_options: Any) -> Any:
+            return _adjust_global_bundle(mapper, mapper_options, ba_options, None, None, None, None, keypoints)
     elif global_adjustment == "colmap":
         def adjust(mapper: Any, mapper_options: Any, ba_options: Any) -> Any:
             return mapper.adjust_global_bundle(mapper_options, ba_options)

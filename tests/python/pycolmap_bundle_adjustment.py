@@ -394,6 +394,29 @@ def mapping(pycolmap, pysba):
                   a.compute_mean_reprojection_error(), timings["global_calls"]))
 
 
+def keypoint_cache(pycolmap, pysba):
+    """The mapping's cache of keypoints (an image's are read whole once, then taken from the
+    cache): the model read through it is the model read without, bit for bit, and a second
+    read takes the cache's values."""
+    import numpy as np
+    from pysba import _colmap
+    rec = scene(pycolmap, "rigs", 6)
+    plain, cache = _colmap._from_reconstruction(rec), {}
+    cached = _colmap._from_reconstruction(rec, cache)
+    same = all(a.id == b.id and a.points2D.tobytes() == b.points2D.tobytes() and
+               a.point3D_ids.tobytes() == b.point3D_ids.tobytes() for a, b in zip(plain.images, cached.images))
+    expect(same and len(plain.images) == len(cached.images) > 0, "the cached read differs from the plain one")
+    posed = [im.image_id for im in rec.images.values() if im.has_pose]
+    expect(sorted(cache) == sorted(posed) and all(len(cache[i]) == rec.images[i].num_points2D() for i in posed),
+           "the cache does not hold every keypoint of every image")
+    first = plain.images[0]
+    cache[first.id] = cache[first.id] + 0.25
+    again = _colmap._from_reconstruction(rec, cache)
+    expect(np.array_equal(again.images[0].points2D, first.points2D + 0.25) and len(first.points2D) > 0,
+           "a second read does not take the cache's keypoints")
+    print("PASS the keypoint cache: the same model, %d images' keypoints read once" % len(cache))
+
+
 def refusals(pycolmap, pysba):
     rec = scene(pycolmap, "simple_radial", 3)
     before = state(rec)
@@ -461,6 +484,7 @@ def main(argv):
         pose_priors(pycolmap, pysba)
         mapper_global(pycolmap, pysba)
         mapping(pycolmap, pysba)
+        keypoint_cache(pycolmap, pysba)
         refusals(pycolmap, pysba)
     except Failure as f:
         print("FAIL %s" % f)
