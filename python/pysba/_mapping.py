@@ -31,6 +31,8 @@ class _Pipeline:
     def __init__(self, pycolmap: Any, options: Any, cache: Any, adjust: Callable[..., Any],
                  timings: Timings) -> None:
         self.pycolmap, self.options, self.cache, self.adjust, self.timings = pycolmap, options, cache, adjust, timings
+        # With use_prior_position, the database's position priors (in ENU when they were GPS).
+        self.pose_priors = cache.pose_priors if options.use_prior_position else None
         self.manager = pycolmap.ReconstructionManager()
         # pycolmap's own pipeline object for its initialization and its test of growth.
         self.colmap = pycolmap.IncrementalPipeline(options, cache, self.manager)
@@ -44,7 +46,7 @@ class _Pipeline:
         for _ in range(o.ba_global_max_refinements):
             observations = rec.compute_num_observations()
             start = time.perf_counter()
-            self.adjust(mapper, mapper_options, o.get_global_bundle_adjustment())
+            self.adjust(mapper, mapper_options, o.get_global_bundle_adjustment(), self.pose_priors)
             self.timings.add("global", time.perf_counter() - start)
             self.timings.add("global_calls", 1)
             if not o.use_prior_position:
@@ -147,7 +149,8 @@ class _Pipeline:
 def incremental_mapping(pycolmap: Any, database_path: Any, image_path: Any, output_path: Any, options: Any,
                         adjust: Callable[..., Any], timings: Timings) -> Dict[int, Any]:
     """The models of COLMAP's incremental mapping of the database, each global adjustment by
-    adjust(mapper, mapper_options, ba_options), written to output_path/<index> as pycolmap
+    adjust(mapper, mapper_options, ba_options, pose_priors) (pose_priors: the database's with
+    options.use_prior_position, None otherwise), written to output_path/<index> as pycolmap
     writes them; timings gets the seconds of the steps."""
     start = time.perf_counter()
     db = pycolmap.Database.open(os.fspath(database_path))

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import Any, Callable, Dict, Optional
+from typing import Any, Callable, Dict, Optional, Tuple
 
 from . import Progress, Result, SolveError
 from ._colmap import _from_reconstruction, _pycolmap, _write_into, refine_colmap
@@ -308,11 +308,11 @@ def adjust_global_bundle(mapper: Any, mapper_options: Any, ba_options: Any, *, p
                                  None)
 
 
-def _adjust_global_bundle(mapper: Any, mapper_options: Any, ba_options: Any, pose_priors: Any, prior_options: Any,
-                          solver: Optional[str], progress: Optional[Callable[[Progress], Any]],
-                          keypoints: Optional[Dict[int, Any]]) -> Result:
-    """adjust_global_bundle, its keypoints read through keypoints (see _from_reconstruction)."""
-    pycolmap = _pycolmap()
+def _mapper_config(pycolmap: Any, mapper: Any, mapper_options: Any, gauge: bool) -> Tuple[Any, Any]:
+    """The mapper's Reconstruction and the configuration of its global adjustment, as COLMAP 4's
+    mapper makes it, after the observations behind their cameras are filtered: every image of
+    every registered frame, the mapper options' constant cameras, rigs and existing frames held,
+    and (with gauge) two images' poses."""
     if not isinstance(mapper, pycolmap.IncrementalMapper):
         raise TypeError(f"mapper must be a pycolmap.IncrementalMapper, got {type(mapper).__name__}")
     if not isinstance(mapper_options, pycolmap.IncrementalMapperOptions):
@@ -340,14 +340,32 @@ def _adjust_global_bundle(mapper: Any, mapper_options: Any, ba_options: Any, pos
         for frame_id in mapper.existing_frame_ids:
             if frame_id in rec.frames and rec.frames[frame_id].has_pose():
                 config.set_constant_rig_from_world_pose(frame_id)
-    if pose_priors is None:
+    if gauge:
         config.fix_gauge(pycolmap.BundleAdjustmentGauge.TWO_CAMS_FROM_WORLD)
+    return rec, config
+
+
+def _adjust_global_bundle(mapper: Any, mapper_options: Any, ba_options: Any, pose_priors: Any, prior_options: Any,
+                          solver: Optional[str], progress: Optional[Callable[[Progress], Any]],
+                          keypoints: Optional[Dict[int, Any]]) -> Result:
+    """adjust_global_bundle, its keypoints read through keypoints (see _from_reconstruction)."""
+    rec, config = _mapper_config(_pycolmap(), mapper, mapper_options, pose_priors is None)
     return _bundle_adjustment(rec, ba_options, config, pose_priors, prior_options, solver, progress, keypoints)
 
 
+def _pipeline_prior_options(pycolmap: Any, options: Any) -> Any:
+    """The pose-prior options of a pipeline's use_prior_position: a Cauchy loss of the
+    pipeline's scale on the priors' positions with use_robust_loss_on_prior_position, none
+    otherwise."""
+    prior_options = pycolmap.PosePriorBundleAdjustmentOptions()
+    if options.use_robust_loss_on_prior_position:
+        prior_options.ceres.prior_position_loss_function_type = pycolmap.LossFunctionType.CAUCHY
+        prior_options.ceres.prior_position_loss_scale = options.prior_position_loss_scale
+    return prior_options
+
+
 # IncrementalPipelineOptions that the Python pipeline does not honour, with the value it takes.
-_PIPELINE_ONLY = {"use_prior_position": False, "snapshot_frames_freq": 0, "max_runtime_seconds": -1,
-                  "structure_less_registration_only": False}
+_PIPELINE_ONLY = {"snapshot_frames_freq": 0, "max_runtime_seconds": -1, "structure_less_registration_only": False}
 
 
 def incremental_mapping(database_path: Any, image_path: Any, output_path: Any, options: Any = None, *,
@@ -362,8 +380,11 @@ def incremental_mapping(database_path: Any, image_path: Any, output_path: Any, o
     global_adjustment "colmap" runs the mapper's own instead, the same pipeline otherwise (to
     compare). timings, a dict, gets the seconds of the local refinements ("local"), of the
     global adjustments alone ("global", and their number, "global_calls") and of the whole
-    ("total"). Options the pipeline does not honour (use_prior_position, snapshots, a maximum
-    runtime, structure-less registration only) are refused unless at their defaults.
+    ("total"). With use_prior_position, each global adjustment is the pose-prior adjustment
+    with the database's position priors (:func:`adjust_global_bundle` with pose_priors; a
+    Cauchy loss of prior_position_loss_scale on them with use_robust_loss_on_prior_position),
+    and the model is not normalized. Options the pipeline does not honour (snapshots, a
+    maximum runtime, structure-less registration only) are refused unless at their defaults.
     """
     from . import _mapping
     pycolmap = _pycolmap()
@@ -380,11 +401,18 @@ def incremental_mapping(database_path: Any, image_path: Any, output_path: Any, o
         # once for the whole mapping.
         keypoints: Dict[int, Any] = {}
 
-        def adjust(mapper: Any, mapper_options: Any, ba_options: Any) -> Any:
-            return _adjust_global_bundle(mapper, mapper_options, ba_options, None, None, None, None, keypoints)
+        def adjust(mapper: Any, mapper_options: Any, ba_options: Any, pose_priors: Any) -> Any:
+            prior_options = None if pose_priors is None else _pipeline_prior_options(pycolmap, options)
+            return _adjust_global_bundle(mapper, mapper_options, ba_options, pose_priors, prior_options, None, None,
+                                         keypoints)
     elif global_adjustment == "colmap":
-        def adjust(mapper: Any, mapper_options: Any, ba_options: Any) -> Any:
-            return mapper.adjust_global_bundle(mapper_options, ba_options)
+        def adjust(mapper: Any, mapper_options: Any, ba_options: Any, pose_priors: Any) -> Any:
+            if pose_priors is None:
+                return mapper.adjust_global_bundle(mapper_options, ba_options)
+            # The mapper's own adjustment takes no priors: with them, COLMAP's pose-prior adjuster.
+            rec, config = _mapper_config(pycolmap, mapper, mapper_options, False)
+            return pycolmap.create_pose_prior_bundle_adjuster(ba_options, _pipeline_prior_options(pycolmap, options),
+                                                              config, pose_priors, rec).solve()
     else:
         raise ValueError(f"global_adjustment must be 'sba' or 'colmap', got {global_adjustment!r}")
     clock = _mapping.Timings()

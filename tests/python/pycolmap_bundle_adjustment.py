@@ -394,6 +394,61 @@ def mapping(pycolmap, pysba):
                   a.compute_mean_reprojection_error(), timings["global_calls"]))
 
 
+def mapping_with_priors(pycolmap, pysba):
+    """incremental_mapping with use_prior_position against pycolmap.incremental_mapping on a
+    synthesized database with a position prior per frame (1.5 units of noise on them, 0.5 px
+    on the keypoints), with and without the robust loss on the priors: every image pycolmap
+    registers registered, the points within 1% of pycolmap's, the mean reprojection error at
+    most pycolmap's times (1 + 1e-3), and the model in the priors' frame, its camera centres
+    (unaligned) as close to the truth's as pycolmap's or closer (RMS, to 5%: the priors hold
+    the similarity weakly, and where a solve stops along it is the solver's, not the
+    problem's)."""
+    import tempfile
+    import numpy as np
+    with tempfile.TemporaryDirectory(prefix="pysba-mapping-priors-") as d:
+        database = os.path.join(d, "database.db")
+        pycolmap.set_random_seed(6)
+        o = pycolmap.SyntheticDatasetOptions()
+        o.num_rigs, o.num_cameras_per_rig, o.num_frames_per_rig, o.num_points3D = 1, 1, 30, 300
+        o.prior_position = True
+        db = pycolmap.Database.open(database)
+        try:
+            truth = pycolmap.synthesize_dataset(o, db)
+            noise = pycolmap.SyntheticNoiseOptions()
+            noise.point2D_stddev = 0.5
+            pycolmap.synthesize_noise(noise, truth, db)
+            expect(db.num_pose_priors() == 30, "the database holds %d priors" % db.num_pose_priors())
+        finally:
+            db.close()
+        centres = {im.name: im.projection_center() for im in truth.images.values()}
+
+        def unaligned(rec):
+            d2 = [np.sum(np.square(im.projection_center() - centres[im.name]))
+                  for im in rec.images.values() if im.has_pose]
+            return float(np.sqrt(np.mean(d2)))
+
+        for robust in (False, True):
+            options = pycolmap.IncrementalPipelineOptions()
+            options.num_threads = 2
+            options.use_prior_position = True
+            options.use_robust_loss_on_prior_position = robust
+            theirs = pycolmap.incremental_mapping(database, d, os.path.join(d, "pycolmap"), options)
+            ours = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "sba"), options)
+            expect(sorted(theirs) == sorted(ours) == [0], "models: %s, %s" % (sorted(theirs), sorted(ours)))
+            a, b = theirs[0], ours[0]
+            name = "incremental_mapping with priors%s" % (", robust" if robust else "")
+            expect(set(a.reg_image_ids()) <= set(b.reg_image_ids()), name + ": images pycolmap registers are not")
+            expect(abs(b.num_points3D() - a.num_points3D()) <= 0.01 * a.num_points3D(),
+                   "%s: %d points, pycolmap %d" % (name, b.num_points3D(), a.num_points3D()))
+            ea, eb = a.compute_mean_reprojection_error(), b.compute_mean_reprojection_error()
+            expect(eb <= ea * (1 + 1e-3), "%s: mean reprojection error %.9g px, pycolmap's %.9g" % (name, eb, ea))
+            ca, cb = unaligned(a), unaligned(b)
+            expect(cb <= ca * 1.05, "%s: camera centres %.6g from the truth's, pycolmap's %.6g" % (name, cb, ca))
+            print("PASS %s: %d images, %d points (pycolmap %d), %.6f px (pycolmap %.6f), centres %.4g from the "
+                  "truth unaligned (pycolmap %.4g)" % (name, b.num_reg_images(), b.num_points3D(), a.num_points3D(),
+                                                      eb, ea, cb, ca))
+
+
 def keypoint_cache(pycolmap, pysba):
     """The mapping's cache of keypoints (an image's are read whole once, then taken from the
     cache): the model read through it is the model read without, bit for bit, and a second
@@ -484,6 +539,7 @@ def main(argv):
         pose_priors(pycolmap, pysba)
         mapper_global(pycolmap, pysba)
         mapping(pycolmap, pysba)
+        mapping_with_priors(pycolmap, pysba)
         keypoint_cache(pycolmap, pysba)
         refusals(pycolmap, pysba)
     except Failure as f:
