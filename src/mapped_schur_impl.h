@@ -68,8 +68,9 @@ inline void pair_update_663(const double *__restrict Lt, const double *__restric
 void pair_update(int n1, int n2, int pn, const double *Lt, const double *Rt, double *out, i64 ld) {
 #if defined(__AVX2__) && defined(__FMA__)
   if (pn == 3 && n1 == 6 && n2 == 6) return pair_update_663(Lt, Rt, out, ld);
-#endif
+#else
   if (pn == 3 && n1 == 6 && n2 == 6) return pair_update_t<6, 6, 3>(n1, n2, pn, Lt, Rt, out, ld);
+#endif
   if (pn == 3) return pair_update_t<0, 0, 3>(n1, n2, pn, Lt, Rt, out, ld);
   pair_update_t<0, 0, 0>(n1, n2, pn, Lt, Rt, out, ld);
 }
