@@ -294,6 +294,24 @@ def mapper_state(pycolmap, database, registered):
     return cache, mapper, pipeline
 
 
+def synthesized_database(pycolmap, database, seed, rigs, frames_per_rig, points, prior_position=False):
+    """A database of pycolmap.synthesize_dataset (rigs of one camera, with a position prior
+    per frame with prior_position) with 0.5 px of noise on its keypoints; returns the truth."""
+    pycolmap.set_random_seed(seed)
+    o = pycolmap.SyntheticDatasetOptions()
+    o.num_rigs, o.num_cameras_per_rig, o.num_frames_per_rig, o.num_points3D = rigs, 1, frames_per_rig, points
+    o.prior_position = prior_position
+    db = pycolmap.Database.open(database)
+    try:
+        truth = pycolmap.synthesize_dataset(o, db)
+        noise = pycolmap.SyntheticNoiseOptions()
+        noise.point2D_stddev = 0.5
+        pycolmap.synthesize_noise(noise, truth, db)
+    finally:
+        db.close()
+    return truth
+
+
 def mapper_global(pycolmap, pysba):
     """adjust_global_bundle against the mapper's own, from the same state of a mapper of a
     synthesized database (a camera per rig, 0.5 px of noise): the same observations left (those
@@ -302,17 +320,7 @@ def mapper_global(pycolmap, pysba):
     import tempfile
     with tempfile.TemporaryDirectory(prefix="pysba-mapper-") as d:
         database = os.path.join(d, "database.db")
-        pycolmap.set_random_seed(4)
-        o = pycolmap.SyntheticDatasetOptions()
-        o.num_rigs, o.num_cameras_per_rig, o.num_frames_per_rig, o.num_points3D = 2, 1, 8, 300
-        db = pycolmap.Database.open(database)
-        try:
-            rec = pycolmap.synthesize_dataset(o, db)
-            noise = pycolmap.SyntheticNoiseOptions()
-            noise.point2D_stddev = 0.5
-            pycolmap.synthesize_noise(noise, rec, db)
-        finally:
-            db.close()
+        synthesized_database(pycolmap, database, 4, 2, 8, 300)
         for constant_cameras in ((), (1,)):
             runs = {}
             for who in ("pycolmap", "pysba"):
@@ -353,17 +361,7 @@ def mapping(pycolmap, pysba):
     import tempfile
     with tempfile.TemporaryDirectory(prefix="pysba-mapping-") as d:
         database = os.path.join(d, "database.db")
-        pycolmap.set_random_seed(5)
-        o = pycolmap.SyntheticDatasetOptions()
-        o.num_rigs, o.num_cameras_per_rig, o.num_frames_per_rig, o.num_points3D = 1, 1, 40, 400
-        db = pycolmap.Database.open(database)
-        try:
-            truth = pycolmap.synthesize_dataset(o, db)
-            noise = pycolmap.SyntheticNoiseOptions()
-            noise.point2D_stddev = 0.5
-            pycolmap.synthesize_noise(noise, truth, db)
-        finally:
-            db.close()
+        synthesized_database(pycolmap, database, 5, 1, 40, 400)
         options = pycolmap.IncrementalPipelineOptions()
         options.num_threads = 2
         theirs = pycolmap.incremental_mapping(database, d, os.path.join(d, "pycolmap"), options)
@@ -407,16 +405,9 @@ def mapping_with_priors(pycolmap, pysba):
     import numpy as np
     with tempfile.TemporaryDirectory(prefix="pysba-mapping-priors-") as d:
         database = os.path.join(d, "database.db")
-        pycolmap.set_random_seed(6)
-        o = pycolmap.SyntheticDatasetOptions()
-        o.num_rigs, o.num_cameras_per_rig, o.num_frames_per_rig, o.num_points3D = 1, 1, 30, 300
-        o.prior_position = True
+        truth = synthesized_database(pycolmap, database, 6, 1, 30, 300, prior_position=True)
         db = pycolmap.Database.open(database)
         try:
-            truth = pycolmap.synthesize_dataset(o, db)
-            noise = pycolmap.SyntheticNoiseOptions()
-            noise.point2D_stddev = 0.5
-            pycolmap.synthesize_noise(noise, truth, db)
             expect(db.num_pose_priors() == 30, "the database holds %d priors" % db.num_pose_priors())
         finally:
             db.close()
