@@ -459,6 +459,24 @@ TEST(ColmapProblem, Gauges) {
   EXPECT_EQ(build(m, three).held_points(), 3);
 }
 
+// THREE_POINTS over variable points of a config: the three points COLMAP holds become constant
+// points, so their observations in images outside the config with nothing refined leave the
+// problem. Config image 20, every point variable: image 11 (camera 7, refined by image 20)
+// keeps every observation, image 5 (camera 3, held) loses the three held points'.
+TEST(ColmapProblem, ThreePointsHeldAsConstantPoints) {
+  const colmap::Model m = plain_model();
+  colmap::Options o;
+  o.selection.images = {1, 0, 0, 0};
+  o.selection.variable_points = {1, 1, 1, 1, 1, 1};
+  EXPECT_EQ(build(m, o).points().pairs.size(), 18u);
+  o.gauge = colmap::Gauge::ThreePoints;
+  const colmap::Problem pr = build(m, o);
+  EXPECT_EQ(pr.held_points(), 3);
+  EXPECT_EQ(pr.npoints(), 6);
+  EXPECT_EQ(pr.points().pairs.size(), 15u);
+  EXPECT_EQ(pr.images(), (std::vector<int>{0, 1, 2}));
+}
+
 TEST(ColmapProblem, NonFiniteStartNamesTheObservation) {
   colmap::Model m = plain_model();
   m.cameras[1].params[3] = 1e200;

@@ -468,7 +468,7 @@ bool fix_two_cams(const Model &model, const std::vector<char> &config, Draft *p)
 
 // COLMAP's THREE_POINTS gauge over the chosen points: unless three points of the problem are held
 // already, the refined ones seen by the most of its observations (the first in the model's order
-// among equals) are held until three are.
+// among equals) are held until three are, as constant points.
 void fix_three_points(const Model &model, const std::unordered_map<std::uint32_t, int> &image_index, Chosen *ch) {
   const std::size_t n = model.points.size();
   std::size_t held = 0;
@@ -484,7 +484,18 @@ void fix_three_points(const Model &model, const std::unordered_map<std::uint32_t
     free.push_back({taken, k});
   }
   std::stable_sort(free.begin(), free.end(), [](const auto &a, const auto &b) { return a.first > b.first; });
-  for (std::size_t q = 0; held < 3 && q < free.size(); ++q, ++held) ch->held[free[q].second] = 1;
+  for (std::size_t q = 0; held < 3 && q < free.size(); ++q, ++held) {
+    const std::size_t k = free[q].second;
+    ch->held[k] = 1;
+    // COLMAP makes the gauge's points constant points: a variable point's observations in images
+    // outside the config with nothing refined leave the problem (constant terms), unless none
+    // would be left.
+    if (ch->reach[k] != Chosen::Every) continue;
+    ch->reach[k] = Chosen::Moving;
+    bool taken = false;
+    for (const TrackElement &e : model.points[k].track) taken = taken || ch->takes(k, at(image_index.at(e.image_id)));
+    if (!taken) ch->reach[k] = Chosen::Every;
+  }
 }
 
 // The order of the problem's points (Draft::point_order) and how many lead it held
