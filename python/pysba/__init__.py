@@ -169,7 +169,8 @@ class Result:
     and ``final_mse`` (mean squared reprojection error per observation, as eucsbademo
     prints it: info[0] and info[1] over the number of observations), ``iterations``,
     ``reason`` (a :class:`Reason`: ``.name``, ``.text`` and the 1.6 number), ``info`` (sba's ten
-    values), ``nfev``, ``njev``, ``nlinsys``, ``threads``, ``solver`` and ``strategy``
+    values), ``nfev``, ``njev``, ``nlinsys``, ``nobs`` (the observations solved for),
+    ``threads``, ``solver`` and ``strategy``
     (what ran: with ``solver="auto"``, the default, the solver auto chose),
     ``sq_error_initial``/``sq_error_final`` (plain squared error, also with a
     robust loss), ``rms_initial``/``rms_final`` (the RMS reprojection error in pixels of that
@@ -198,6 +199,7 @@ class Result:
         self.iterations = int(info[5])
         self.reason = Reason(int(info[6])) if int(info[6]) in Reason._value2member_map_ else Reason.NONE
         self.nfev, self.njev, self.nlinsys = int(info[7]), int(info[8]), int(info[9])
+        self.nobs = int(report["nobs"])
         self.threads: int = report["threads"]
         self.solver: Optional[str] = report["solver"]
         self.strategy: Optional[str] = report["strategy"]

@@ -651,21 +651,105 @@ def _pose_of(rigid: Any) -> Tuple[np.ndarray, np.ndarray]:
 
 
 def _from_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int, np.ndarray]] = None) -> ColmapModel:
-    """What refine_colmap reads of a pycolmap.Reconstruction, through pycolmap's API (no file):
-    every camera, rig and frame (a frame without a pose, and its images, without one as in
-    from_pycolmap), every image with its pose as pycolmap composes it and only its keypoints
-    that observe a 3D point (in their order), and every point with its track in its order, the
-    track's keypoint indices into those. The solve of it is the solve of what pycolmap writes:
-    it reads nothing of the keypoints that observe no point.
+    """_read_reconstruction's model of the whole reconstruction."""
+    return _read_reconstruction(reconstruction, keypoint_cache)[0]
+
+
+def _read_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int, np.ndarray]] = None,
+                         part: Optional[Tuple[Any, Any, Any]] = None) -> Tuple[ColmapModel, List[int]]:
+    """What refine_colmap reads of a pycolmap.Reconstruction, through pycolmap's API (no file),
+    and the POINT3D_IDs it must hold: every camera, rig and frame (a frame without a pose, and
+    its images, without one as in from_pycolmap), every image with its pose as pycolmap
+    composes it and only its keypoints that observe a 3D point (in their order), and every
+    point with its track in its order, the track's keypoint indices into those. The solve of it
+    is the solve of what pycolmap writes: it reads nothing of the keypoints that observe no
+    point.
+
+    part, (IMAGE_IDs, variable POINT3D_IDs, constant POINT3D_IDs) of a bundle adjustment's
+    configuration, reads only what that adjustment sees, for a configuration of a few images
+    in a large model (the mapper's local adjustment): the points those images see, each with
+    its whole track when every element of it is in them, with their elements only otherwise
+    (such a point is held, as the configuration holds it, and its id returned); the variable
+    and constant points with their whole tracks; the images of those tracks, the other images
+    of their frames, and their frames, rigs and cameras. The problem is the one of the whole
+    model with that configuration.
 
     keypoint_cache, for a caller whose images' keypoints do not change between calls (a mapper's
     come from its database): a dict of every keypoint of each image by IMAGE_ID, (k, 2), which
     this reads from and adds to, each image read whole once rather than its observing
     keypoints each time."""
-    cameras = [ColmapCamera(c.camera_id, c.model.name, c.width, c.height, np.array(c.params, np.float64))
-               for _, c in sorted(reconstruction.cameras.items())]
+    points = reconstruction.points3D
+    held: List[int] = []
+    seen: Dict[int, List[Tuple[int, int]]] = {}  # part's images' elements of each point they see
+    whole: Optional[set] = None  # the points read with their whole tracks; None: every one
+    if part is None:
+        ids = np.array(sorted(points.keys()), np.uint64)
+    else:
+        config_images, variable, constant = part
+        for image_id in sorted(config_images):
+            im = reconstruction.image(image_id)
+            for k, p in zip(im.get_observation_point2D_idxs(), im.get_observation_points2D()):
+                seen.setdefault(p.point3D_id, []).append((image_id, k))
+        full = set(variable) | set(constant)
+        for point_id, elements in seen.items():
+            if point_id not in full:
+                if points[point_id].track.length() == len(elements):
+                    full.add(point_id)
+                else:
+                    held.append(point_id)
+        ids = np.array(sorted(full | set(seen)), np.uint64)
+        whole = full
+    n = len(ids)
+    xyz, rgb, error = np.empty((n, 3)), np.empty((n, 3), np.uint8), np.empty(n)
+    offsets = np.zeros(n + 1, np.uint64)
+    image_ids: List[int] = []
+    keypoints: List[int] = []
+    # The tracks, in their order (a held point of part: its config images' elements, in theirs):
+    # (image, keypoint) per element, and each point's span.
+    for k, point_id in enumerate(ids.tolist()):
+        p = points[point_id]
+        xyz[k], rgb[k], error[k] = p.xyz, p.color, p.error
+        if whole is None or point_id in whole:
+            for element in p.track.elements:
+                image_ids.append(element.image_id)
+                keypoints.append(element.point2D_idx)
+        else:
+            for image_id, keypoint in seen[point_id]:
+                image_ids.append(image_id)
+                keypoints.append(keypoint)
+        offsets[k + 1] = len(image_ids)
+    track_images = np.array(image_ids, np.uint64)
+    track_keypoints = np.array(keypoints, np.uint64)
+    # The images, frames, rigs and cameras read: all of them, or those of part's tracks, the
+    # frames of their images and those frames' other images.
+    if part is None:
+        image_list = sorted(reconstruction.images.keys())
+        frame_list = sorted(reconstruction.frames.keys())
+        rig_list = sorted(reconstruction.rigs.keys())
+        camera_list = sorted(reconstruction.cameras.keys())
+    else:
+        frame_set = {reconstruction.image(i).frame_id for i in set(image_ids) | set(config_images)}
+        frame_list = sorted(frame_set)
+        image_set = set()
+        rig_set = set()
+        for frame_id in frame_list:
+            frame = reconstruction.frame(frame_id)
+            rig_set.add(frame.rig_id)
+            image_set.update(d.id for d in frame.data_ids if d.sensor_id.type.name == "CAMERA")
+        image_list = sorted(image_set)
+        rig_list = sorted(rig_set)
+        camera_set = {reconstruction.image(i).camera_id for i in image_list}
+        for rig_id in rig_list:
+            rig = reconstruction.rig(rig_id)
+            camera_set.update(s.id for s in [rig.ref_sensor_id, *rig.non_ref_sensors] if s.type.name == "CAMERA")
+        camera_list = sorted(camera_set)
+    cameras = []
+    for camera_id in camera_list:
+        c = reconstruction.camera(camera_id)
+        cameras.append(ColmapCamera(camera_id, c.model.name, c.width, c.height, np.array(c.params, np.float64)))
     rigs = []
-    for rig_id, rig in sorted(reconstruction.rigs.items()):
+    for rig_id in rig_list:
+        rig = reconstruction.rig(rig_id)
         ref = rig.ref_sensor_id
         sensors = [ColmapSensor(ref.type.name, ref.id)]
         others = rig.non_ref_sensors
@@ -675,28 +759,12 @@ def _from_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int,
                                                                       else (None, None))))
         rigs.append(ColmapRig(rig_id, sensors))
     frames = []
-    for frame_id, frame in sorted(reconstruction.frames.items()):
+    for frame_id in frame_list:
+        frame = reconstruction.frame(frame_id)
         data = [(d.sensor_id.type.name, d.sensor_id.id, d.id)
                 for d in sorted(frame.data_ids, key=lambda d: (int(d.sensor_id.type.value), d.sensor_id.id, d.id))]
         q, t = _pose_of(frame.rig_from_world) if frame.has_pose() else (None, None)
         frames.append(ColmapFrame(frame_id, frame.rig_id, q, t, data))
-    # The tracks, in their order: (image, keypoint) per element, and each point's span.
-    points = reconstruction.points3D
-    ids = np.array(sorted(points.keys()), np.uint64)
-    n = len(ids)
-    xyz, rgb, error = np.empty((n, 3)), np.empty((n, 3), np.uint8), np.empty(n)
-    offsets = np.zeros(n + 1, np.uint64)
-    image_ids: List[int] = []
-    keypoints: List[int] = []
-    for k, point_id in enumerate(ids.tolist()):
-        p = points[point_id]
-        xyz[k], rgb[k], error[k] = p.xyz, p.color, p.error
-        for element in p.track.elements:
-            image_ids.append(element.image_id)
-            keypoints.append(element.point2D_idx)
-        offsets[k + 1] = len(image_ids)
-    track_images = np.array(image_ids, np.uint64)
-    track_keypoints = np.array(keypoints, np.uint64)
     observer = np.repeat(ids, np.diff(offsets).astype(np.int64))
     # Each image's observing keypoints, ascending, and each track element's index among them.
     order = np.argsort((track_images << np.uint64(32)) | track_keypoints, kind="stable")
@@ -705,7 +773,8 @@ def _from_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int,
     compact = np.empty(len(order), np.uint64)
     compact[order] = np.arange(len(order), dtype=np.uint64) - starts.astype(np.uint64)
     images = []
-    for image_id, im in sorted(reconstruction.images.items()):
+    for image_id in image_list:
+        im = reconstruction.image(image_id)
         key = np.uint64(image_id)  # of the array's type: a Python int would convert the array to float
         rows = order[np.searchsorted(by_image, key, "left"):np.searchsorted(by_image, key, "right")]
         if keypoint_cache is None:
@@ -720,10 +789,11 @@ def _from_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int,
         else:
             q = t = None
         images.append(ColmapImage(image_id, im.name, im.camera_id, q, t, xy, observer[rows]))
-    return ColmapModel(cameras, images,
-                       ColmapPoints3D(ids, xyz, rgb, error, offsets.astype(np.uint32),
-                                      track_images.astype(np.uint32), compact.astype(np.uint32)),
-                       rigs, frames)
+    model = ColmapModel(cameras, images,
+                        ColmapPoints3D(ids, xyz, rgb, error, offsets.astype(np.uint32),
+                                       track_images.astype(np.uint32), compact.astype(np.uint32)),
+                        rigs, frames)
+    return model, sorted(held)
 
 
 def _write_into(reconstruction: Any, refined: ColmapModel, given: ColmapModel, errors: bool = True) -> None:

@@ -10,14 +10,16 @@ once more at the end; several models when the scene graph breaks.
 """
 from __future__ import annotations
 
+import copy
 import os
 import time
 from typing import Any, Callable, Dict
 
 
 class Timings(dict):
-    """Seconds by step: "local" (the local refinements), "global" (the global adjustments
-    alone), "total"; and "global_calls"."""
+    """Seconds by step: "local" (the local refinements), "local_solve" (their adjustments'
+    solves alone), "global" (the global adjustments alone), "total"; and "local_calls",
+    "global_calls"."""
 
     def add(self, key: str, seconds: float) -> None:
         self[key] = self.get(key, 0.0) + seconds
@@ -29,8 +31,9 @@ def _status(pycolmap: Any, name: str) -> Any:
 
 class _Pipeline:
     def __init__(self, pycolmap: Any, options: Any, cache: Any, adjust: Callable[..., Any],
-                 timings: Timings) -> None:
-        self.pycolmap, self.options, self.cache, self.adjust, self.timings = pycolmap, options, cache, adjust, timings
+                 adjust_local: Callable[..., Any], timings: Timings) -> None:
+        self.pycolmap, self.options, self.cache, self.timings = pycolmap, options, cache, timings
+        self.adjust, self.adjust_local = adjust, adjust_local
         # With use_prior_position, the database's position priors (in ENU when they were GPS).
         self.pose_priors = cache.pose_priors if options.use_prior_position else None
         self.manager = pycolmap.ReconstructionManager()
@@ -57,11 +60,26 @@ class _Pipeline:
         mapper.filter_frames(mapper_options)
 
     def local_refinement(self, mapper: Any, mapper_options: Any, image_id: int) -> None:
+        """The mapper's iterative local refinement of image_id, each adjustment by
+        self.adjust_local: local adjustments (merging, completing and filtering tracks) until few
+        observations change, the robust loss only in the first."""
         o = self.options
+        ba_options, tri = o.get_local_bundle_adjustment(), o.get_triangulation()
         start = time.perf_counter()
-        mapper.iterative_local_refinement(o.ba_local_max_refinements, o.ba_local_max_refinement_change,
-                                          mapper_options, o.get_local_bundle_adjustment(), o.get_triangulation(),
-                                          image_id)
+        # Each round refines the points changed since the image was triangulated, those of the
+        # rounds before too.
+        for refinement in range(o.ba_local_max_refinements):
+            report = self.adjust_local(mapper, mapper_options, ba_options, tri, image_id,
+                                       mapper.get_modified_points3D())
+            changed = report.num_merged_observations + report.num_completed_observations + \
+                report.num_filtered_observations
+            adjusted = report.num_adjusted_observations
+            if adjusted == 0 or changed / adjusted < o.ba_local_max_refinement_change:
+                break
+            if refinement == 0:
+                ba_options = copy.copy(ba_options)
+                ba_options.ceres.loss_function_type = self.pycolmap.LossFunctionType.TRIVIAL
+        mapper.clear_modified_points3D()
         self.timings.add("local", time.perf_counter() - start)
         mapper.filter_frames(mapper_options)
 
@@ -147,10 +165,13 @@ class _Pipeline:
 
 
 def incremental_mapping(pycolmap: Any, database_path: Any, image_path: Any, output_path: Any, options: Any,
-                        adjust: Callable[..., Any], timings: Timings) -> Dict[int, Any]:
+                        adjust: Callable[..., Any], adjust_local: Callable[..., Any],
+                        timings: Timings) -> Dict[int, Any]:
     """The models of COLMAP's incremental mapping of the database, each global adjustment by
     adjust(mapper, mapper_options, ba_options, pose_priors) (pose_priors: the database's with
-    options.use_prior_position, None otherwise), written to output_path/<index> as pycolmap
+    options.use_prior_position, None otherwise), each local one by adjust_local(mapper,
+    mapper_options, ba_options, tri_options, image_id, point3D_ids) (a
+    LocalBundleAdjustmentReport, as the mapper's adjust_local_bundle), written to output_path/<index> as pycolmap
     writes them; timings gets the seconds of the steps."""
     start = time.perf_counter()
     db = pycolmap.Database.open(os.fspath(database_path))
@@ -164,7 +185,7 @@ def incremental_mapping(pycolmap: Any, database_path: Any, image_path: Any, outp
         cache = pycolmap.DatabaseCache.create(db, cache_options)
     finally:
         db.close()
-    pipeline = _Pipeline(pycolmap, options, cache, adjust, timings)
+    pipeline = _Pipeline(pycolmap, options, cache, adjust, adjust_local, timings)
     pipeline.run()
     out = {}
     for index in range(pipeline.manager.size()):

@@ -16,9 +16,9 @@ import time
 from typing import Any, Callable, Dict, Optional, Tuple
 
 from . import Progress, Result, SolveError
-from ._colmap import _from_reconstruction, _pycolmap, _write_into, refine_colmap
+from ._colmap import _pycolmap, _read_reconstruction, _write_into, refine_colmap
 
-__all__ = ["bundle_adjustment", "adjust_global_bundle", "incremental_mapping"]
+__all__ = ["bundle_adjustment", "adjust_global_bundle", "adjust_local_bundle", "incremental_mapping"]
 
 # Ceres's losses as pysba names them (the same functions of the squared residual, of the same
 # scale).
@@ -170,6 +170,21 @@ def _config(pycolmap: Any, config: Any) -> Dict[str, Any]:
                 gauge=_GAUGES[gauge])
 
 
+def _part(pycolmap: Any, reconstruction: Any, config: Any, kw: Dict[str, Any]) -> Optional[Tuple[Any, Any, Any]]:
+    """What of reconstruction to read for config (see _read_reconstruction's part): only what
+    its images and points see when they are a small part of the model (a mapper's local
+    adjustment), everything otherwise (reading a part costs a count of each point's elements)
+    and when a minimum track length needs whole tracks to be read."""
+    if config is None or kw.get("min_track_length", 0) > 1 or 2 * len(config.images) > reconstruction.num_reg_images():
+        return None
+    images, variable, constant = config.images, config.variable_points, config.constant_points
+    # An id the model does not have: the whole read, whose check names it.
+    if not all(reconstruction.exists_image(i) and reconstruction.image(i).has_pose for i in images) or \
+            not all(reconstruction.exists_point3D(p) for p in variable | constant):
+        return None
+    return images, variable, constant
+
+
 def _timed(seconds: float, progress: Optional[Callable[[Progress], Any]]) -> Optional[Callable[[Progress], Any]]:
     """progress, stopping the solve once it has run for seconds (Ceres's max_solver_time_in_seconds)."""
     if not seconds < 1e9:
@@ -255,7 +270,10 @@ def _bundle_adjustment(reconstruction: Any, options: Any, config: Any, pose_prio
     start = time.perf_counter()
     # COLMAP's adjusters leave the points' errors as they were; pycolmap.bundle_adjustment (no
     # config, no priors) updates every point's after the solve.
-    model = _from_reconstruction(reconstruction, keypoints)
+    part = _part(pycolmap, reconstruction, config, kw) if pose_priors is None else None
+    model, held = _read_reconstruction(reconstruction, keypoints, part)
+    if held:
+        kw["hold_points"] = sorted(set(kw["hold_points"]) | set(held))
     try:
         refined, result = refine_colmap(model, solver=solver, progress=progress, **kw)
     except (KeyboardInterrupt, SolveError) as e:
@@ -353,6 +371,103 @@ def _adjust_global_bundle(mapper: Any, mapper_options: Any, ba_options: Any, pos
     return _bundle_adjustment(rec, ba_options, config, pose_priors, prior_options, solver, progress, keypoints)
 
 
+# The longest track of a point the local adjustment refines with all its observations: longer
+# tracks are stable by then, and refining them would make the local adjustment nearly global.
+_LOCAL_MAX_TRACK_LENGTH = 15
+
+
+def adjust_local_bundle(mapper: Any, mapper_options: Any, ba_options: Any, tri_options: Any, image_id: int,
+                        point3D_ids: Any, *, solver: Optional[str] = None) -> Any:
+    """The local bundle adjustment of pycolmap's incremental mapper, with sba: what
+    ``mapper.adjust_local_bundle(mapper_options, ba_options, tri_options, image_id,
+    point3D_ids)`` does, on ``mapper.reconstruction`` in place. Returns the
+    pycolmap.LocalBundleAdjustmentReport.
+
+    As COLMAP 4's mapper takes it: the image and its local bundle
+    (``mapper.find_local_bundle``, the images that share the most points with it) are
+    adjusted, with the points of point3D_ids whose tracks are short (at most 15 observations)
+    refined with all their observations; a camera is held unless every registered image of it
+    is in the bundle, as are mapper_options' constant_cameras, constant_rigs and (with
+    fix_existing_frames) existing frames; the gauge is fixed by three points (THREE_POINTS).
+    Then the refined points' tracks are merged and completed, the image's observations
+    completed, and the points of the adjusted images and of point3D_ids filtered by
+    mapper_options' filter_max_reproj_error and filter_min_tri_angle, as the report counts
+    them. Nothing is adjusted when the image shares no point with another. ba_options (a
+    pycolmap.BundleAdjustmentOptions, usually the pipeline's get_local_bundle_adjustment())
+    is read as :func:`bundle_adjustment` reads it.
+    """
+    pycolmap = _pycolmap()
+
+    def solve(rec: Any, config: Any) -> int:
+        return _bundle_adjustment(rec, ba_options, config, None, None, solver, None, None).nobs
+
+    return _adjust_local_bundle(pycolmap, mapper, mapper_options, tri_options, image_id, point3D_ids, solve)
+
+
+def _local_config(pycolmap: Any, mapper: Any, mapper_options: Any, image_id: int, local_bundle: Any,
+                  point3D_ids: Any) -> Any:
+    """The configuration of the mapper's local adjustment of image_id and its local bundle."""
+    rec = mapper.reconstruction
+    config = pycolmap.BundleAdjustmentConfig()
+    for i in [image_id, *local_bundle]:
+        config.add_image(i)
+    registered = mapper.num_reg_images_per_camera
+    in_bundle: Dict[int, int] = {}
+    for i in config.images:
+        camera_id = rec.image(i).camera_id
+        in_bundle[camera_id] = in_bundle.get(camera_id, 0) + 1
+    # A camera whose other images stay out keeps its intrinsics: they are theirs too.
+    for camera_id, count in in_bundle.items():
+        if count < registered.get(camera_id, 0):
+            config.set_constant_cam_intrinsics(camera_id)
+    for camera_id in mapper_options.constant_cameras:
+        config.set_constant_cam_intrinsics(camera_id)
+    for rig_id in mapper_options.constant_rigs:
+        for sensor in rec.rigs[rig_id].non_ref_sensors:
+            config.set_constant_sensor_from_rig_pose(sensor)
+    if mapper_options.fix_existing_frames:
+        existing = mapper.existing_frame_ids
+        for i in config.images:
+            if rec.image(i).frame_id in existing:
+                config.set_constant_rig_from_world_pose(rec.image(i).frame_id)
+    config.fix_gauge(pycolmap.BundleAdjustmentGauge.THREE_POINTS)
+    for point_id in point3D_ids:
+        if rec.exists_point3D(point_id) and rec.point3D(point_id).track.length() <= _LOCAL_MAX_TRACK_LENGTH:
+            config.add_variable_point(point_id)
+    return config
+
+
+def _adjust_local_bundle(pycolmap: Any, mapper: Any, mapper_options: Any, tri_options: Any, image_id: int,
+                         point3D_ids: Any, solve: Callable[[Any, Any], int]) -> Any:
+    """adjust_local_bundle, the solve by solve(reconstruction, config), which returns the number
+    of observations it adjusted."""
+    if not isinstance(mapper, pycolmap.IncrementalMapper):
+        raise TypeError(f"mapper must be a pycolmap.IncrementalMapper, got {type(mapper).__name__}")
+    if not isinstance(mapper_options, pycolmap.IncrementalMapperOptions):
+        raise TypeError(f"mapper_options must be a pycolmap.IncrementalMapperOptions, got "
+                        f"{type(mapper_options).__name__}")
+    report = pycolmap.LocalBundleAdjustmentReport()
+    local_bundle = mapper.find_local_bundle(mapper_options, image_id)
+    if not local_bundle:
+        return report
+    rec = mapper.reconstruction
+    point3D_ids = set(point3D_ids)
+    config = _local_config(pycolmap, mapper, mapper_options, image_id, local_bundle, point3D_ids)
+    report.num_adjusted_observations = solve(rec, config)
+    refined = set(config.variable_points)
+    tri = mapper.triangulator
+    report.num_merged_observations = tri.merge_tracks(tri_options, refined)
+    # Observations that failed to triangulate before the poses and intrinsics were refined.
+    report.num_completed_observations = tri.complete_tracks(tri_options, refined) + \
+        tri.complete_image(tri_options, image_id)
+    observations = mapper.observation_manager
+    report.num_filtered_observations = observations.filter_points3D_in_images(
+        mapper_options.filter_max_reproj_error, mapper_options.filter_min_tri_angle, set(config.images)) + \
+        observations.filter_points3D(mapper_options.filter_max_reproj_error, mapper_options.filter_min_tri_angle,
+                                     point3D_ids)
+    return report
+
+
 def _pipeline_prior_options(pycolmap: Any, options: Any) -> Any:
     """The pose-prior options of a pipeline's use_prior_position: a Cauchy loss of the
     pipeline's scale on the priors' positions with use_robust_loss_on_prior_position, none
@@ -369,24 +484,28 @@ _PIPELINE_ONLY = {"snapshot_frames_freq": 0, "max_runtime_seconds": -1, "structu
 
 
 def incremental_mapping(database_path: Any, image_path: Any, output_path: Any, options: Any = None, *,
-                        global_adjustment: str = "sba", timings: Optional[Dict[str, float]] = None) -> Dict[int, Any]:
+                        global_adjustment: str = "sba", local_adjustment: str = "colmap",
+                        timings: Optional[Dict[str, float]] = None) -> Dict[int, Any]:
     """COLMAP's incremental mapping of a database, as ``pycolmap.incremental_mapping`` runs it,
     driven from Python through pycolmap's IncrementalMapper, with sba's global bundle adjustment
-    (:func:`adjust_global_bundle`; COLMAP's own local one). Returns the reconstructions by index,
-    each written to output_path/<index>, as pycolmap.incremental_mapping does.
+    (:func:`adjust_global_bundle`) and, with local_adjustment "sba", its local one
+    (:func:`adjust_local_bundle`). Returns the reconstructions by index, each written to
+    output_path/<index>, as pycolmap.incremental_mapping does.
 
-    options is a pycolmap.IncrementalPipelineOptions (None: its defaults); its global
-    adjustment is get_global_bundle_adjustment(), read as :func:`bundle_adjustment` reads it.
-    global_adjustment "colmap" runs the mapper's own instead, the same pipeline otherwise (to
-    compare). timings, a dict, gets the seconds of the local refinements ("local"), of the
-    global adjustments alone ("global", and their number, "global_calls") and of the whole
-    ("total"). With use_prior_position, each global adjustment is the pose-prior adjustment
-    with the database's position priors (:func:`adjust_global_bundle` with pose_priors; a
-    Cauchy loss of prior_position_loss_scale on them with use_robust_loss_on_prior_position),
-    and the model is not normalized. Options the pipeline does not honour (snapshots, a
-    maximum runtime, structure-less registration only) are refused unless at their defaults.
+    options is a pycolmap.IncrementalPipelineOptions (None: its defaults); its global and local
+    adjustments are get_global_bundle_adjustment() and get_local_bundle_adjustment(), read as
+    :func:`bundle_adjustment` reads them. global_adjustment "colmap" runs the mapper's own
+    instead, the same pipeline otherwise (to compare); local_adjustment "colmap" (the default)
+    runs the mapper's own local adjustments (``mapper.adjust_local_bundle``). timings, a dict,
+    gets the seconds of the local refinements ("local"; with sba's, its solves alone,
+    "local_solve", and their number, "local_calls"), of the global adjustments alone
+    ("global", and their number, "global_calls") and of the whole ("total").
+    With use_prior_position, each global adjustment is the pose-prior adjustment with the
+    database's position priors (:func:`adjust_global_bundle` with pose_priors; a Cauchy loss of
+    prior_position_loss_scale on them with use_robust_loss_on_prior_position), and the model is
+    not normalized. Options the pipeline does not honour (snapshots, a maximum runtime,
+    structure-less registration only) are refused unless at their defaults.
     """
-    from . import _mapping
     pycolmap = _pycolmap()
     options = options if options is not None else pycolmap.IncrementalPipelineOptions()
     if not isinstance(options, pycolmap.IncrementalPipelineOptions):
@@ -395,17 +514,36 @@ def incremental_mapping(database_path: Any, image_path: Any, output_path: Any, o
         if getattr(options, key) != default:
             raise ValueError(f"options.{key} = {getattr(options, key)} is not honoured by pysba's pipeline "
                              f"(only {default}, its default, is)")
-    if global_adjustment == "sba":
-        _options(pycolmap, options.get_global_bundle_adjustment())  # refused now, not after an hour of mapping
-        # An image's keypoints are the database's, whatever model the mapper holds it in: read
-        # once for the whole mapping.
-        keypoints: Dict[int, Any] = {}
+    if global_adjustment not in ("sba", "colmap"):
+        raise ValueError(f"global_adjustment must be 'sba' or 'colmap', got {global_adjustment!r}")
+    if local_adjustment not in ("sba", "colmap"):
+        raise ValueError(f"local_adjustment must be 'sba' or 'colmap', got {local_adjustment!r}")
+    return _incremental_mapping(pycolmap, database_path, image_path, output_path, options, global_adjustment,
+                                local_adjustment, timings)
 
+
+def _incremental_mapping(pycolmap: Any, database_path: Any, image_path: Any, output_path: Any, options: Any,
+                         global_adjustment: str, local_adjustment: str, timings: Optional[Dict[str, float]]) -> Dict[int, Any]:
+    """incremental_mapping, its local adjustments also "ceres": the mapper's local adjustment
+    step by step in Python with COLMAP's solve (pycolmap's adjuster), which times the solves
+    apart from the rest (the same problem as the mapper's; the order in which Ceres is given
+    the variable points can differ, and with it the rounding)."""
+    from . import _mapping
+    # Refused now, not after an hour of mapping.
+    if global_adjustment == "sba":
+        _options(pycolmap, options.get_global_bundle_adjustment())
+    if local_adjustment == "sba":
+        _options(pycolmap, options.get_local_bundle_adjustment())
+    # An image's keypoints are the database's, whatever model the mapper holds it in: read once
+    # for the whole mapping.
+    keypoints: Dict[int, Any] = {}
+    clock = _mapping.Timings()
+    if global_adjustment == "sba":
         def adjust(mapper: Any, mapper_options: Any, ba_options: Any, pose_priors: Any) -> Any:
             prior_options = None if pose_priors is None else _pipeline_prior_options(pycolmap, options)
             return _adjust_global_bundle(mapper, mapper_options, ba_options, pose_priors, prior_options, None, None,
                                          keypoints)
-    elif global_adjustment == "colmap":
+    else:
         def adjust(mapper: Any, mapper_options: Any, ba_options: Any, pose_priors: Any) -> Any:
             if pose_priors is None:
                 return mapper.adjust_global_bundle(mapper_options, ba_options)
@@ -413,13 +551,27 @@ def incremental_mapping(database_path: Any, image_path: Any, output_path: Any, o
             rec, config = _mapper_config(pycolmap, mapper, mapper_options, False)
             return pycolmap.create_pose_prior_bundle_adjuster(ba_options, _pipeline_prior_options(pycolmap, options),
                                                               config, pose_priors, rec).solve()
-    else:
-        raise ValueError(f"global_adjustment must be 'sba' or 'colmap', got {global_adjustment!r}")
-    clock = _mapping.Timings()
+
+    def adjust_local(mapper: Any, mapper_options: Any, ba_options: Any, tri_options: Any, image_id: int,
+                     point3D_ids: Any) -> Any:
+        if local_adjustment == "colmap":
+            return mapper.adjust_local_bundle(mapper_options, ba_options, tri_options, image_id, point3D_ids)
+
+        def solve(rec: Any, config: Any) -> int:
+            start = time.perf_counter()
+            if local_adjustment == "sba":
+                adjusted = _bundle_adjustment(rec, ba_options, config, None, None, None, None, keypoints).nobs
+            else:
+                adjusted = pycolmap.create_default_bundle_adjuster(ba_options, config, rec).solve().num_residuals // 2
+            clock.add("local_solve", time.perf_counter() - start)
+            clock.add("local_calls", 1)
+            return adjusted
+
+        return _adjust_local_bundle(pycolmap, mapper, mapper_options, tri_options, image_id, point3D_ids, solve)
+
     try:
         return _mapping.incremental_mapping(pycolmap, database_path, image_path, output_path, options, adjust,
-                                            clock)
+                                            adjust_local, clock)
     finally:
         if timings is not None:
             timings.update(clock)
-

@@ -273,7 +273,8 @@ def pose_priors(pycolmap, pysba):
 
 def mapper_state(pycolmap, database, registered):
     """A pycolmap.IncrementalMapper of the database part way: its initial pair and the next
-    images up to registered frames, each triangulated (seeded: the same state every time)."""
+    images up to registered frames, each triangulated (seeded: the same state every time); and
+    the image registered last."""
     pycolmap.set_random_seed(2)
     db = pycolmap.Database.open(database)
     try:
@@ -288,10 +289,11 @@ def mapper_state(pycolmap, database, registered):
     mapper.register_initial_image_pair(options, first, second, pose)
     for image_id in (first, second):
         mapper.triangulate_image(tri, image_id)
+    image_id = second
     while mapper.reconstruction.num_reg_frames() < registered:
         image_id = next(i for i in mapper.find_next_images(options, False) if mapper.register_next_image(options, i))
         mapper.triangulate_image(tri, image_id)
-    return cache, mapper, pipeline
+    return cache, mapper, pipeline, image_id
 
 
 def synthesized_database(pycolmap, database, seed, rigs, frames_per_rig, points, prior_position=False):
@@ -324,7 +326,7 @@ def mapper_global(pycolmap, pysba):
         for constant_cameras in ((), (1,)):
             runs = {}
             for who in ("pycolmap", "pysba"):
-                cache, mapper, pipeline = mapper_state(pycolmap, database, 9)
+                cache, mapper, pipeline, _ = mapper_state(pycolmap, database, 9)
                 options = pipeline.get_mapper()
                 options.constant_cameras = set(constant_cameras)
                 before = pycolmap.Reconstruction(mapper.reconstruction)
@@ -352,12 +354,148 @@ def mapper_global(pycolmap, pysba):
                   % (name, ours.num_reg_frames(), c0, c_ours, c_theirs))
 
 
+def part_read(pycolmap, pysba):
+    """A configuration of a few images reads only what its adjustment sees (the points of its
+    images, a point held with only its elements there when its track leaves them, the variable
+    and constant points whole): the result is the one of reading everything, bit for bit."""
+    from pysba import colmap as pc
+    for kind, seed in (("simple_radial", 3), ("opencv", 5), ("rigs", 7)):
+        rec = scene(pycolmap, kind, seed)
+        frames = sorted(f for f in rec.frames if rec.frames[f].has_pose())
+        images = sorted(rec.reg_image_ids())
+        points = sorted(rec.points3D)
+        quarter = [i for i in images if rec.images[i].frame_id in frames[:len(frames) // 4]]
+        for name, config in (("constant points", configured(pycolmap, rec, images=quarter, variable=None,
+                                                             constant=points[::3])),
+                             ("THREE_POINTS", configured(pycolmap, rec, images=quarter, variable=None,
+                                                         gauge="THREE_POINTS")),
+                             ("every point variable", configured(pycolmap, rec, images=quarter, variable="all",
+                                                                 gauge="TWO_CAMS_FROM_WORLD"))):
+            runs = []
+            for whole in (False, True):
+                part = pc._part
+                if whole:
+                    pc._part = lambda *args: None
+                try:
+                    ours = pycolmap.Reconstruction(rec)
+                    result = pysba.colmap.bundle_adjustment(ours, options_with(pycolmap), config)
+                finally:
+                    pc._part = part
+                runs.append((state(ours), result.iterations))
+            expect(pc._part(pycolmap, rec, config, {}) is not None, "%s, %s: the whole model read" % (kind, name))
+            expect(runs[0] == runs[1], "%s, %s: the part read gives another result" % (kind, name))
+            print("PASS %s, a quarter of the frames, %s: the part read gives the whole read's result, bit for bit "
+                  "(%d iterations)" % (kind, name, runs[0][1]))
+
+
+def mapper_local(pycolmap, pysba):
+    """adjust_local_bundle against the mapper's own, from the same state of a mapper of a
+    synthesized database (two rigs of one camera, 0.5 px of noise): the same observations
+    adjusted, left, merged, completed and filtered (the report), the local cost pycolmap's or
+    lower (1 + 1e-6), the same frames and cameras refined and held. And the steps around the
+    solve as pysba takes them with COLMAP's solve give the mapper's result (the same problem:
+    the order Ceres is given the points in can differ, and with it the rounding)."""
+    import tempfile
+    from pysba import colmap as pc
+    with tempfile.TemporaryDirectory(prefix="pysba-mapper-local-") as d:
+        database = os.path.join(d, "database.db")
+        synthesized_database(pycolmap, database, 4, 2, 8, 300)
+        # Nine frames: a local bundle of six images, the cameras held (their other images stay
+        # out); five: every image, the cameras refined unless constant.
+        for registered, constant_cameras in ((9, ()), (5, ()), (5, (2,))):
+            runs = {}
+            for who in ("pycolmap", "steps", "pysba"):
+                cache, mapper, pipeline, image_id = mapper_state(pycolmap, database, registered)
+                options = pipeline.get_mapper()
+                options.constant_cameras = set(constant_cameras)
+                ba, tri = pipeline.get_local_bundle_adjustment(), pipeline.get_triangulation()
+                ba.ceres.solver_options.num_threads = 1
+                rec, modified = mapper.reconstruction, mapper.get_modified_points3D()
+                before = pycolmap.Reconstruction(rec)
+                config = pc._local_config(pycolmap, mapper, options, image_id,
+                                          mapper.find_local_bundle(options, image_id), modified)
+                if who == "pycolmap":
+                    report = mapper.adjust_local_bundle(options, ba, tri, image_id, modified)
+                elif who == "steps":
+                    report = pc._adjust_local_bundle(
+                        pycolmap, mapper, options, tri, image_id, modified,
+                        lambda r, c: pycolmap.create_default_bundle_adjuster(ba, c, r).solve().num_residuals // 2)
+                else:
+                    report = pysba.colmap.adjust_local_bundle(mapper, options, ba, tri, image_id, modified)
+                runs[who] = (before, pycolmap.Reconstruction(rec), report, config, ba)
+            name = "adjust_local_bundle, %d frames, constant_cameras %s" % (registered, set(constant_cameras) or "{}")
+            (b0, theirs, r_theirs, config, ba) = runs["pycolmap"]
+            held = sorted(config.constant_cam_intrinsics)
+            expect((len(config.images) < len(b0.reg_image_ids())) == (registered == 9) and
+                   held == ([1, 2] if registered == 9 else sorted(constant_cameras)),
+                   "%s: %d of %d images in the local bundle, cameras %s held" % (
+                       name, len(config.images), len(b0.reg_image_ids()), held))
+            for who in ("steps", "pysba"):
+                b1, ours, r_ours = runs[who][:3]
+                expect(state(b0) == state(b1) and structure(b0) == structure(b1), name + ": the mapper's states differ")
+                expect(r_ours.todict() == r_theirs.todict(), "%s (%s): report %s, the mapper's %s"
+                       % (name, who, r_ours.todict(), r_theirs.todict()))
+                expect(structure(theirs) == structure(ours), "%s (%s): other observations left" % (name, who))
+                moved_theirs = changed(state(b0), state(theirs), False)
+                moved_ours = changed(state(b0), state(ours), who == "pysba")
+                for kind in ("frames", "sensors", "cameras"):
+                    expect(moved_ours[kind] == moved_theirs[kind], "%s (%s): the %s moved differ: %s against %s"
+                           % (name, who, kind, moved_ours[kind], moved_theirs[kind]))
+            terms = residuals(b0, config, 0)
+            c0, c_theirs = cost(pycolmap, b0, ba, terms), cost(pycolmap, theirs, ba, terms)
+            c_steps, c_ours = cost(pycolmap, runs["steps"][1], ba, terms), cost(pycolmap, runs["pysba"][1], ba, terms)
+            expect(abs(c_steps - c_theirs) <= 1e-9 * c_theirs, "%s: the steps with COLMAP's solve: cost %.12g, the "
+                   "mapper's %.12g" % (name, c_steps, c_theirs))
+            expect(c_ours <= c_theirs * (1 + 1e-6), "%s: cost %.9g, pycolmap's %.9g" % (name, c_ours, c_theirs))
+            print("PASS %s: %d of %d images, cameras %s held, %d observations adjusted, cost %.6g -> %.9g (pycolmap "
+                  "%.9g), the same report, frames and cameras refined and held; the steps with COLMAP's solve give "
+                  "its cost (%.12g)" % (name, len(config.images), len(b0.reg_image_ids()), held,
+                                        r_theirs.num_adjusted_observations, c0, c_ours, c_theirs, c_steps))
+
+
+def digest(rec):
+    """Every value and track of rec (the doubles' shortest reprs, which give their bits): two
+    models are the same when these are."""
+    import hashlib
+    values_of = {kind: sorted(by_id.items()) for kind, by_id in state(rec).items()}
+    tracks = sorted(structure(rec)[4].items())
+    return hashlib.sha1(repr((sorted(values_of.items()), tracks)).encode()).hexdigest()
+
+
+def pipeline_bits(pycolmap, pysba):
+    """On one thread, the Python pipeline with the mapper's own adjustments gives
+    pycolmap.incremental_mapping's model bit for bit: at the default options, and with two
+    local refinements after every image (ba_local_max_refinement_change 0: the second without
+    the robust loss, on the points changed since the image was triangulated)."""
+    import tempfile
+    with tempfile.TemporaryDirectory(prefix="pysba-pipeline-") as d:
+        database = os.path.join(d, "database.db")
+        synthesized_database(pycolmap, database, 5, 1, 30, 300)
+        for change in (None, 0.0):
+            options = pycolmap.IncrementalPipelineOptions()
+            options.num_threads = 1
+            options.random_seed = 1
+            if change is not None:
+                options.ba_local_max_refinement_change = change
+            theirs = pycolmap.incremental_mapping(database, d, os.path.join(d, "pycolmap"), options)
+            ours = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "colmap"), options,
+                                                    global_adjustment="colmap", local_adjustment="colmap")
+            name = "the Python pipeline, ba_local_max_refinement_change %s" % (
+                options.ba_local_max_refinement_change)
+            expect(sorted(theirs) == sorted(ours) == [0], "%s: models %s, %s" % (name, sorted(theirs), sorted(ours)))
+            expect(digest(theirs[0]) == digest(ours[0]), "%s: %d images, %d points, %.15g px; pycolmap's %d, %d, %.15g"
+                   % (name, ours[0].num_reg_images(), ours[0].num_points3D(), ours[0].compute_mean_reprojection_error(),
+                      theirs[0].num_reg_images(), theirs[0].num_points3D(), theirs[0].compute_mean_reprojection_error()))
+            print("PASS %s: pycolmap.incremental_mapping's model bit for bit (%d images, %d points)"
+                  % (name, ours[0].num_reg_images(), ours[0].num_points3D()))
+
+
 def mapping(pycolmap, pysba):
     """incremental_mapping against pycolmap.incremental_mapping on a synthesized database (40
     frames of one camera, 0.5 px of noise): every image pycolmap registers registered, the
     number of points within 1% of pycolmap's, the mean reprojection error at most pycolmap's
-    times (1 + 1e-3); with the mapper's own global adjustment the Python pipeline gives
-    pycolmap's models (the same points and error)."""
+    times (1 + 1e-3), with sba's global adjustments and with its local ones too; with the
+    mapper's own the Python pipeline gives pycolmap's models (the same points and error)."""
     import tempfile
     with tempfile.TemporaryDirectory(prefix="pysba-mapping-") as d:
         database = os.path.join(d, "database.db")
@@ -369,8 +507,22 @@ def mapping(pycolmap, pysba):
         same = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "colmap"), options,
                                                 global_adjustment="colmap")
         ours = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "sba"), options, timings=timings)
-        expect(sorted(theirs) == sorted(ours) == sorted(same) == [0], "models: %s, %s" % (sorted(theirs), sorted(ours)))
+        local_timings = {}
+        local = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "sba-local"), options,
+                                                 local_adjustment="sba", timings=local_timings)
+        expect(sorted(theirs) == sorted(ours) == sorted(same) == sorted(local) == [0],
+               "models: %s, %s, %s" % (sorted(theirs), sorted(ours), sorted(local)))
         a, b, c = theirs[0], ours[0], same[0]
+        for what, m in (("sba's global adjustment", b), ("sba's local and global adjustments", local[0])):
+            expect(set(a.reg_image_ids()) <= set(m.reg_image_ids()), what + ": images pycolmap registers are not")
+            expect(abs(m.num_points3D() - a.num_points3D()) <= 0.01 * a.num_points3D(),
+                   "%s: %d points, pycolmap %d" % (what, m.num_points3D(), a.num_points3D()))
+            expect(m.compute_mean_reprojection_error() <= a.compute_mean_reprojection_error() * (1 + 1e-3),
+                   "%s: mean reprojection error %.9g px, pycolmap's %.9g" % (
+                       what, m.compute_mean_reprojection_error(), a.compute_mean_reprojection_error()))
+        expect(local_timings.get("local_calls", 0) > 0 and 0 < local_timings["local_solve"] < local_timings["local"],
+               "timings %r" % local_timings)
+        expect("local_calls" not in timings, "timings %r: local solves counted without sba's" % timings)
         # Ceres on two threads sums in its own order: the same pipeline, not the same bits.
         expect(set(c.reg_image_ids()) == set(a.reg_image_ids()) and
                abs(c.num_points3D() - a.num_points3D()) <= 0.01 * a.num_points3D() and
@@ -378,18 +530,14 @@ def mapping(pycolmap, pysba):
                "the Python pipeline with the mapper's adjustment: %d images, %d points, %.9g px; pycolmap's %d, %d, %.9g"
                % (c.num_reg_images(), c.num_points3D(), c.compute_mean_reprojection_error(),
                   a.num_reg_images(), a.num_points3D(), a.compute_mean_reprojection_error()))
-        expect(set(a.reg_image_ids()) <= set(b.reg_image_ids()), "images pycolmap registers are not registered")
-        expect(abs(b.num_points3D() - a.num_points3D()) <= 0.01 * a.num_points3D(),
-               "%d points, pycolmap %d" % (b.num_points3D(), a.num_points3D()))
-        expect(b.compute_mean_reprojection_error() <= a.compute_mean_reprojection_error() * (1 + 1e-3),
-               "mean reprojection error %.9g px, pycolmap's %.9g" % (b.compute_mean_reprojection_error(),
-                                                                     a.compute_mean_reprojection_error()))
         expect(os.path.isfile(os.path.join(d, "sba", "0", "points3D.bin")), "incremental_mapping wrote no model")
         expect(timings["global_calls"] > 0 and 0 < timings["global"] < timings["total"], "timings %r" % timings)
         print("PASS incremental_mapping: %d images, %d points (pycolmap %d), %.6f px (pycolmap %.6f), %d global "
-              "adjustments; the mapper's own gives pycolmap's model" % (
+              "adjustments; with sba's local adjustments too %d images, %d points, %.6f px (%d local); the mapper's "
+              "own gives pycolmap's model" % (
                   b.num_reg_images(), b.num_points3D(), a.num_points3D(), b.compute_mean_reprojection_error(),
-                  a.compute_mean_reprojection_error(), timings["global_calls"]))
+                  a.compute_mean_reprojection_error(), timings["global_calls"], local[0].num_reg_images(),
+                  local[0].num_points3D(), local[0].compute_mean_reprojection_error(), local_timings["local_calls"]))
 
 
 def mapping_with_priors(pycolmap, pysba):
@@ -528,7 +676,10 @@ def main(argv):
     try:
         against_pycolmap(pycolmap, pysba)
         pose_priors(pycolmap, pysba)
+        part_read(pycolmap, pysba)
         mapper_global(pycolmap, pysba)
+        mapper_local(pycolmap, pysba)
+        pipeline_bits(pycolmap, pysba)
         mapping(pycolmap, pysba)
         mapping_with_priors(pycolmap, pysba)
         keypoint_cache(pycolmap, pysba)
