@@ -1,18 +1,24 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: BSD-3-Clause
 """sba inside COLMAP 4's incremental mapper: pycolmap.incremental_mapping against
-pysba.colmap.incremental_mapping (the same pipeline driven from Python, its global adjustment
-by sba), on databases of pycolmap.synthesize_dataset with 0.5 px of noise on the keypoints.
+pysba.colmap.incremental_mapping (the same pipeline driven from Python, its adjustments by
+sba), on databases of pycolmap.synthesize_dataset with 0.5 px of noise on the keypoints.
 
 For each size it runs, in turn: pycolmap.incremental_mapping (the reference: its wall time);
-pysba's pipeline with the mapper's own global adjustment (the split of the time: the local
-refinements, the global adjustments alone, the rest); pysba's pipeline with sba's. Each model
-is compared with the synthesized truth: registered images, points, mean reprojection error,
-and the camera centres' RMS distance after a similarity onto the truth's centres.
+pysba's pipeline with COLMAP's adjustments (the split of the time: the local refinements and
+their solves alone, the global adjustments, the rest; the local adjustments taken step by step
+in Python with COLMAP's solve to time it); pysba's pipeline with sba's global adjustment; and,
+with --local-sba, with sba's local adjustments too. Each model is compared with the
+synthesized truth: registered images, points, mean reprojection error, and the camera
+centres' RMS distance after a similarity onto the truth's centres.
 
-  colmap_mapping.py --frames 100,150 [--points-per-frame 15] [--kind shared|per-image]
-                    [--threads 2] [--work DIR] [--markdown FILE]
-Needs pycolmap (build/pycolmap-venv) and pysba on PYTHONPATH (build/python/pkg).
+  colmap_mapping.py --frames 100,150 [--points-per-frame 15] [--track-length -1]
+                    [--kind shared|per-image] [--local-sba] [--threads 2] [--work DIR]
+                    [--reuse] [--markdown FILE]
+--track-length is synthesize_dataset's (-1: every point seen by every image; 8: tracks of
+about eight images, as in photo collections). --reuse keeps a database the same arguments
+made before (with its truth). Needs pycolmap (build/pycolmap-venv) and pysba on PYTHONPATH
+(build/python/pkg).
 """
 import argparse
 import os
@@ -21,16 +27,22 @@ import sys
 import time
 
 
-def scene(pycolmap, d, frames, points, kind, seed):
-    """The database d/database.db of a synthesized scene and its truth."""
+def scene(pycolmap, d, frames, points, kind, track_length, seed, reuse):
+    """The database d/database.db of a synthesized scene and its truth (kept in d/truth, with
+    reuse taken from there when the same arguments made them)."""
+    database, truth_path = os.path.join(d, "database.db"), os.path.join(d, "truth")
+    made_by = repr((frames, points, kind, track_length, seed))
+    stamp = os.path.join(d, "made-by")
+    if reuse and os.path.isfile(stamp) and open(stamp).read() == made_by:
+        return database, pycolmap.Reconstruction(truth_path)
     shutil.rmtree(d, ignore_errors=True)
-    os.makedirs(d)
-    database = os.path.join(d, "database.db")
+    os.makedirs(truth_path)
     pycolmap.set_random_seed(seed)
     o = pycolmap.SyntheticDatasetOptions()
     o.num_rigs, o.num_cameras_per_rig = (frames, 1) if kind == "per-image" else (1, 1)
     o.num_frames_per_rig = 1 if kind == "per-image" else frames
     o.num_points3D = points
+    o.track_length = track_length
     db = pycolmap.Database.open(database)
     try:
         truth = pycolmap.synthesize_dataset(o, db)
@@ -39,6 +51,9 @@ def scene(pycolmap, d, frames, points, kind, seed):
         pycolmap.synthesize_noise(noise, truth, db)
     finally:
         db.close()
+    truth.write(truth_path)
+    with open(stamp, "w") as f:
+        f.write(made_by)
     return database, truth
 
 
@@ -63,55 +78,78 @@ def describe(pycolmap, models, truth):
                 error=rec.compute_mean_reprojection_error(), centres=centre_rms(pycolmap, rec, truth))
 
 
+def split(run):
+    """The local refinements' seconds apart from their solves, and the rest of the mapping."""
+    return run["local"] - run.get("local_solve", 0.0), run["total"] - run["local"] - run["global"]
+
+
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--frames", default="100,150")
     ap.add_argument("--points-per-frame", type=int, default=15)
+    ap.add_argument("--track-length", type=int, default=-1)
     ap.add_argument("--kind", choices=("shared", "per-image"), default="shared")
+    ap.add_argument("--local-sba", action="store_true", help="also run sba's local adjustments")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--work", default="/tmp/sba-colmap-mapping")
+    ap.add_argument("--reuse", action="store_true")
     ap.add_argument("--markdown", help="append the table to this file")
     args = ap.parse_args(argv)
     import pycolmap
     import pysba.colmap
     rows = []
     for frames in (int(x) for x in args.frames.split(",")):
-        d = os.path.join(args.work, "%s-%d" % (args.kind, frames))
-        database, truth = scene(pycolmap, d, frames, frames * args.points_per_frame, args.kind, 1)
+        d = os.path.join(args.work, "%s-%d-%d-%d" % (args.kind, frames, args.points_per_frame, args.track_length))
+        database, truth = scene(pycolmap, d, frames, frames * args.points_per_frame, args.kind, args.track_length, 1,
+                                args.reuse)
         options = pycolmap.IncrementalPipelineOptions()
         options.num_threads = args.threads
         start = time.perf_counter()
         models = pycolmap.incremental_mapping(database, d, os.path.join(d, "pycolmap"), options)
         reference = dict(describe(pycolmap, models, truth), seconds=time.perf_counter() - start)
         runs = {}
-        for mode in ("colmap", "sba"):
+        modes = [("colmap", "colmap", "ceres"), ("sba", "sba", "colmap")]
+        if args.local_sba:
+            modes.append(("sba-local", "sba", "sba"))
+        for name, global_adjustment, local_adjustment in modes:
             timings = {}
-            models = pysba.colmap.incremental_mapping(database, d, os.path.join(d, mode), options,
-                                                      global_adjustment=mode, timings=timings)
-            runs[mode] = dict(describe(pycolmap, models, truth), **timings)
+            models = pysba.colmap._incremental_mapping(pycolmap, database, d, os.path.join(d, name), options,
+                                                       global_adjustment, local_adjustment, timings)
+            runs[name] = dict(describe(pycolmap, models, truth), **timings)
         row = dict(frames=frames, reference=reference, **runs)
         rows.append(row)
-        c, s = runs["colmap"], runs["sba"]
-        print("%d frames: pycolmap %.1f s (%d images, %d points, %.4f px, centres %.3g); pipeline with the mapper's "
-              "adjustment %.1f s (local %.1f, global %.1f in %d, rest %.1f); with sba %.1f s (global %.1f: %.2fx; "
-              "%d images, %d points, %.4f px, centres %.3g)" % (
-                  frames, reference["seconds"], reference["images"], reference["points"], reference["error"],
-                  reference["centres"], c["total"], c["local"], c["global"], c["global_calls"],
-                  c["total"] - c["local"] - c["global"], s["total"], s["global"], s["global"] / c["global"],
-                  s["images"], s["points"], s["error"], s["centres"]), flush=True)
+        c = runs["colmap"]
+        line = ("%d frames: pycolmap %.1f s (%d images, %d points, %.4f px, centres %.3g); pipeline with COLMAP's "
+                "adjustments %.1f s (local %.1f, of which solves %.1f in %d; global %.1f in %d; rest %.1f)" % (
+                    frames, reference["seconds"], reference["images"], reference["points"], reference["error"],
+                    reference["centres"], c["total"], c["local"], c["local_solve"], c["local_calls"], c["global"],
+                    c["global_calls"], split(c)[1]))
+        for name in [m[0] for m in modes[1:]]:
+            s = runs[name]
+            local = "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's"
+            line += ("; %s %.1f s (global %.1f: %.2fx; local solves %s; %d images, %d points, %.4f px, centres %.3g)"
+                     % (name, s["total"], s["global"], s["global"] / c["global"], local, s["images"], s["points"],
+                        s["error"], s["centres"]))
+        print(line, flush=True)
     if args.markdown:
         with open(args.markdown, "a") as f:
-            f.write("| frames | pycolmap | its images, points, px, centres | pipeline, mapper's adjustment: total "
-                    "| local | global (calls) | rest | pipeline with sba: total | global | global ratio "
-                    "| images, points, px, centres |\n|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|\n")
+            f.write("| frames | pycolmap | its images, points, px, centres | pipeline, COLMAP's adjustments: total "
+                    "| local: solves (calls) | local: the rest | global (calls) | rest | run | total | global "
+                    "| global ratio | local solves | images, points, px, centres |\n"
+                    "|---:|---:|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---|\n")
             for r in rows:
-                ref, c, s = r["reference"], r["colmap"], r["sba"]
-                f.write("| %d | %.1f s | %d, %d, %.4f, %.3g | %.1f s | %.1f s | %.1f s (%d) | %.1f s | %.1f s | %.1f s "
-                        "| %.2fx | %d, %d, %.4f, %.3g |\n" % (
-                            r["frames"], ref["seconds"], ref["images"], ref["points"], ref["error"], ref["centres"],
-                            c["total"], c["local"], c["global"], c["global_calls"],
-                            c["total"] - c["local"] - c["global"], s["total"], s["global"], s["global"] / c["global"],
-                            s["images"], s["points"], s["error"], s["centres"]))
+                ref, c = r["reference"], r["colmap"]
+                lead = ("| %d | %.1f s | %d, %d, %.4f, %.3g | %.1f s | %.1f s (%d) | %.1f s | %.1f s (%d) | %.1f s " % (
+                    r["frames"], ref["seconds"], ref["images"], ref["points"], ref["error"], ref["centres"],
+                    c["total"], c["local_solve"], c["local_calls"], split(c)[0], c["global"], c["global_calls"],
+                    split(c)[1]))
+                for name in [m[0] for m in modes[1:]]:
+                    s = r[name]
+                    f.write(lead + "| %s | %.1f s | %.1f s | %.2fx | %s | %d, %d, %.4f, %.3g |\n" % (
+                        name, s["total"], s["global"], s["global"] / c["global"],
+                        "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's",
+                        s["images"], s["points"], s["error"], s["centres"]))
+                    lead = "| | | | | | | | "
     return 0
 
 
