@@ -278,6 +278,8 @@ def _held_ids(name: str, kind: str, given: Any) -> Tuple[bool, List[int]]:
     (every one, the ids); the library looks the ids up, as sbarefine's --hold-* lists."""
     if given is None:
         return False, []
+    if isinstance(given, np.ndarray) and given.ndim == 1 and np.issubdtype(given.dtype, np.integer):
+        return False, given.tolist()
     every, items = _hold_items(name, given, f"{kind} (ints)")
     for k, item in enumerate(items):
         if not _is_id(item):
@@ -680,46 +682,60 @@ def _read_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int,
     keypoints each time."""
     points = reconstruction.points3D
     held: List[int] = []
-    seen: Dict[int, List[Tuple[int, int]]] = {}  # part's images' elements of each point they see
-    whole: Optional[set] = None  # the points read with their whole tracks; None: every one
+    span: Dict[int, Tuple[int, int]] = {}  # a held point's elements in part's images: its rows of seen_*
     if part is None:
         ids = np.array(sorted(points.keys()), np.uint64)
     else:
         config_images, variable, constant = part
+        # The config images' observations, by point (each point's in ascending image order).
+        by_image = []
         for image_id in sorted(config_images):
             im = reconstruction.image(image_id)
-            for k, p in zip(im.get_observation_point2D_idxs(), im.get_observation_points2D()):
-                seen.setdefault(p.point3D_id, []).append((image_id, k))
-        full = set(variable) | set(constant)
-        for point_id, elements in seen.items():
-            if point_id not in full:
-                if points[point_id].track.length() == len(elements):
-                    full.add(point_id)
-                else:
-                    held.append(point_id)
-        ids = np.array(sorted(full | set(seen)), np.uint64)
-        whole = full
+            keypoint = np.array(im.get_observation_point2D_idxs(), np.uint64)
+            point = np.array([p.point3D_id for p in im.get_observation_points2D()], np.uint64)
+            by_image.append((point, np.full(len(keypoint), image_id, np.uint64), keypoint))
+        columns = [np.concatenate(c) for c in zip(*by_image)] if by_image else [np.empty(0, np.uint64)] * 3
+        order = np.argsort(columns[0], kind="stable")
+        seen_point, seen_image, seen_keypoint = (c[order] for c in columns)
+        seen_ids, first, count = np.unique(seen_point, return_index=True, return_counts=True)
+        whole = set(variable) | set(constant)
+        for point_id, a, c in zip(seen_ids.tolist(), first.tolist(), count.tolist()):
+            if point_id not in whole and points[point_id].track.length() != c:
+                held.append(point_id)
+                span[point_id] = (a, a + c)
+        ids = np.array(sorted(whole.union(seen_ids.tolist())), np.uint64)
     n = len(ids)
-    xyz, rgb, error = np.empty((n, 3)), np.empty((n, 3), np.uint8), np.empty(n)
-    offsets = np.zeros(n + 1, np.uint64)
+    xyz, rgb, error = np.empty((n, 3)), np.zeros((n, 3), np.uint8), np.zeros(n)
+    # The tracks, in their order: (point, image, keypoint) per element. A held point of part
+    # gets its config images' elements (its rows of seen_*), and neither colour nor error
+    # (nothing of a held point is written back).
+    track_points: List[int] = []
     image_ids: List[int] = []
     keypoints: List[int] = []
-    # The tracks, in their order (a held point of part: its config images' elements, in theirs):
-    # (image, keypoint) per element, and each point's span.
     for k, point_id in enumerate(ids.tolist()):
         p = points[point_id]
-        xyz[k], rgb[k], error[k] = p.xyz, p.color, p.error
-        if whole is None or point_id in whole:
-            for element in p.track.elements:
-                image_ids.append(element.image_id)
-                keypoints.append(element.point2D_idx)
-        else:
-            for image_id, keypoint in seen[point_id]:
-                image_ids.append(image_id)
-                keypoints.append(keypoint)
-        offsets[k + 1] = len(image_ids)
+        xyz[k] = p.xyz
+        if point_id in span:
+            continue
+        rgb[k], error[k] = p.color, p.error
+        for element in p.track.elements:
+            track_points.append(point_id)
+            image_ids.append(element.image_id)
+            keypoints.append(element.point2D_idx)
+    track_points_a = np.array(track_points, np.uint64)
     track_images = np.array(image_ids, np.uint64)
     track_keypoints = np.array(keypoints, np.uint64)
+    if span:
+        rows = np.isin(seen_point, np.array(held, np.uint64))
+        track_points_a = np.concatenate([track_points_a, seen_point[rows]])
+        track_images = np.concatenate([track_images, seen_image[rows]])
+        track_keypoints = np.concatenate([track_keypoints, seen_keypoint[rows]])
+        # By point, each point's elements in the order read.
+        order = np.argsort(track_points_a, kind="stable")
+        track_points_a, track_images, track_keypoints = (a[order] for a in (track_points_a, track_images,
+                                                                             track_keypoints))
+    offsets = np.zeros(n + 1, np.uint64)
+    offsets[1:] = np.searchsorted(track_points_a, ids, side="right")
     # The images, frames, rigs and cameras read: all of them, or those of part's tracks, the
     # frames of their images and those frames' other images.
     if part is None:
@@ -728,7 +744,7 @@ def _read_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int,
         rig_list = sorted(reconstruction.rigs.keys())
         camera_list = sorted(reconstruction.cameras.keys())
     else:
-        frame_set = {reconstruction.image(i).frame_id for i in set(image_ids) | set(config_images)}
+        frame_set = {reconstruction.image(i).frame_id for i in set(np.unique(track_images).tolist()) | set(config_images)}
         frame_list = sorted(frame_set)
         image_set = set()
         rig_set = set()

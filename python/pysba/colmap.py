@@ -15,6 +15,8 @@ import sys
 import time
 from typing import Any, Callable, Dict, Optional, Tuple
 
+import numpy as np
+
 from . import Progress, Result, SolveError
 from ._colmap import _pycolmap, _read_reconstruction, _write_into, refine_colmap
 
@@ -273,7 +275,7 @@ def _bundle_adjustment(reconstruction: Any, options: Any, config: Any, pose_prio
     part = _part(pycolmap, reconstruction, config, kw) if pose_priors is None else None
     model, held = _read_reconstruction(reconstruction, keypoints, part)
     if held:
-        kw["hold_points"] = sorted(set(kw["hold_points"]) | set(held))
+        kw["hold_points"] = np.union1d(np.array(kw["hold_points"], np.uint64), np.array(held, np.uint64))
     try:
         refined, result = refine_colmap(model, solver=solver, progress=progress, **kw)
     except (KeyboardInterrupt, SolveError) as e:
