@@ -328,6 +328,16 @@ def adjust_global_bundle(mapper: Any, mapper_options: Any, ba_options: Any, *, p
                                  None)
 
 
+def _hold_mapper_constants(rec: Any, mapper_options: Any, config: Any) -> None:
+    """The mapper options' constant cameras (intrinsics) and constant rigs (their cameras' poses
+    in the rigs) held in config, as each of the mapper's adjustments holds them."""
+    for camera_id in mapper_options.constant_cameras:
+        config.set_constant_cam_intrinsics(camera_id)
+    for rig_id in mapper_options.constant_rigs:
+        for sensor in rec.rigs[rig_id].non_ref_sensors:
+            config.set_constant_sensor_from_rig_pose(sensor)
+
+
 def _mapper_config(pycolmap: Any, mapper: Any, mapper_options: Any, gauge: bool) -> Tuple[Any, Any]:
     """The mapper's Reconstruction and the configuration of its global adjustment, as COLMAP 4's
     mapper makes it, after the observations behind their cameras are filtered: every image of
@@ -351,11 +361,7 @@ def _mapper_config(pycolmap: Any, mapper: Any, mapper_options: Any, gauge: bool)
         for data in frame.data_ids:
             if _name(data.sensor_id.type) == "CAMERA":
                 config.add_image(data.id)
-    for camera_id in mapper_options.constant_cameras:
-        config.set_constant_cam_intrinsics(camera_id)
-    for rig_id in mapper_options.constant_rigs:
-        for sensor in rec.rigs[rig_id].non_ref_sensors:
-            config.set_constant_sensor_from_rig_pose(sensor)
+    _hold_mapper_constants(rec, mapper_options, config)
     if mapper_options.fix_existing_frames:
         for frame_id in mapper.existing_frame_ids:
             if frame_id in rec.frames and rec.frames[frame_id].has_pose():
@@ -422,11 +428,7 @@ def _local_config(pycolmap: Any, mapper: Any, mapper_options: Any, image_id: int
     for camera_id, count in in_bundle.items():
         if count < registered.get(camera_id, 0):
             config.set_constant_cam_intrinsics(camera_id)
-    for camera_id in mapper_options.constant_cameras:
-        config.set_constant_cam_intrinsics(camera_id)
-    for rig_id in mapper_options.constant_rigs:
-        for sensor in rec.rigs[rig_id].non_ref_sensors:
-            config.set_constant_sensor_from_rig_pose(sensor)
+    _hold_mapper_constants(rec, mapper_options, config)
     if mapper_options.fix_existing_frames:
         existing = mapper.existing_frame_ids
         for i in config.images:

@@ -464,6 +464,16 @@ def digest(rec):
     return hashlib.sha1(repr((sorted(values_of.items()), tracks)).encode()).hexdigest()
 
 
+def as_good_as(name, theirs, ours):
+    """The issue's criteria for a mapping against pycolmap's: every image pycolmap registers
+    registered, the points within 1%, the mean reprojection error pycolmap's or lower (1 + 1e-3)."""
+    expect(set(theirs.reg_image_ids()) <= set(ours.reg_image_ids()), name + ": images pycolmap registers are not")
+    expect(abs(ours.num_points3D() - theirs.num_points3D()) <= 0.01 * theirs.num_points3D(),
+           "%s: %d points, pycolmap %d" % (name, ours.num_points3D(), theirs.num_points3D()))
+    ea, eb = theirs.compute_mean_reprojection_error(), ours.compute_mean_reprojection_error()
+    expect(eb <= ea * (1 + 1e-3), "%s: mean reprojection error %.9g px, pycolmap's %.9g" % (name, eb, ea))
+
+
 def pipeline_bits(pycolmap, pysba):
     """On one thread, the Python pipeline with the mapper's own adjustments gives
     pycolmap.incremental_mapping's model bit for bit, with one camera shared by every image and
@@ -515,12 +525,7 @@ def pipeline_bits(pycolmap, pysba):
             name = "sba's global and local adjustments, %s" % kind
             expect(sorted(sba) == [0], "%s: models %s" % (name, sorted(sba)))
             m = sba[0]
-            expect(set(a.reg_image_ids()) <= set(m.reg_image_ids()), name + ": images pycolmap registers are not")
-            expect(abs(m.num_points3D() - a.num_points3D()) <= 0.01 * a.num_points3D(),
-                   "%s: %d points, pycolmap %d" % (name, m.num_points3D(), a.num_points3D()))
-            expect(m.compute_mean_reprojection_error() <= a.compute_mean_reprojection_error() * (1 + 1e-3),
-                   "%s: mean reprojection error %.9g px, pycolmap's %.9g" % (
-                       name, m.compute_mean_reprojection_error(), a.compute_mean_reprojection_error()))
+            as_good_as(name, a, m)
             print("PASS %s: %d images, %d points (pycolmap %d), %.6f px (pycolmap %.6f)" % (
                 name, m.num_reg_images(), m.num_points3D(), a.num_points3D(), m.compute_mean_reprojection_error(),
                 a.compute_mean_reprojection_error()))
@@ -550,12 +555,7 @@ def mapping(pycolmap, pysba):
                "models: %s, %s, %s" % (sorted(theirs), sorted(ours), sorted(local)))
         a, b, c = theirs[0], ours[0], same[0]
         for what, m in (("sba's global adjustment", b), ("sba's local and global adjustments", local[0])):
-            expect(set(a.reg_image_ids()) <= set(m.reg_image_ids()), what + ": images pycolmap registers are not")
-            expect(abs(m.num_points3D() - a.num_points3D()) <= 0.01 * a.num_points3D(),
-                   "%s: %d points, pycolmap %d" % (what, m.num_points3D(), a.num_points3D()))
-            expect(m.compute_mean_reprojection_error() <= a.compute_mean_reprojection_error() * (1 + 1e-3),
-                   "%s: mean reprojection error %.9g px, pycolmap's %.9g" % (
-                       what, m.compute_mean_reprojection_error(), a.compute_mean_reprojection_error()))
+            as_good_as(what, a, m)
         expect(local_timings.get("local_calls", 0) > 0 and 0 < local_timings["local_solve"] < local_timings["local"],
                "timings %r" % local_timings)
         expect("local_calls" not in timings, "timings %r: local solves counted without sba's" % timings)
