@@ -69,6 +69,7 @@ MappedSchur::MappedSchur(const Layout &lay, int threads, Assembly how, int tile,
   for (int g = 1; g < nb; ++g)
     if (map.block_start(g + 1) - map.block_start(groups_.back()) > tile) groups_.push_back(g);
   groups_.push_back(nb);
+  for (size_t g = 0; g + 1 < groups_.size(); ++g) group_width_ = std::max(group_width_, groups_[g + 1] - groups_[g]);
   // Point by point, each point sweeps its pairs of S, the whole of S when it touches every
   // block; tile by tile, S is swept once a chunk. The tiles cost a look-up per point and tile,
   // which pays when the points touch, on average, a sixteenth of S's pairs or more (long
@@ -89,7 +90,12 @@ MappedSchur::MappedSchur(const Layout &lay, int threads, Assembly how, int tile,
     c.buf.resize(size_t(std::max(2 * zmax_, kChunkDoubles)));
     c.zoff.resize(size_t(std::max<i64>(maxblocks + 1, chunk_points * i64(maxblocks + 1) / 4)));
     for (std::vector<i64> *v : {&c.base, &c.zbase}) v->resize(chunk_points);
-    for (std::vector<int> *v : {&c.point, &c.lo, &c.hi, &c.sa, &c.sb, &c.cur}) v->resize(chunk_points);
+    for (std::vector<int> *v : {&c.point, &c.lo, &c.hi, &c.cur}) v->resize(chunk_points);
+    c.ycount.resize(size_t(group_width_));
+    const size_t table = size_t(group_width_) * size_t(chunk_points);
+    c.yc.resize(table);
+    c.yp.resize(table);
+    c.zp.resize(table);
   }
 }
 

@@ -94,11 +94,16 @@ class MappedSchur {
 
   // A chunk of points for the tiled assembly: for the c-th, its point, its block range
   // [lo, hi) in the columns being assembled, where its Z^T and Y^T start in buf and its
-  // offsets in zoff, and the cursors of the tile loops.
+  // offsets in zoff, and its cursor in its blocks; and a tile's tables (width: the widest
+  // tile's blocks, times the chunk's points): each column block's points (count, their
+  // indices in the chunk, their Y^T) and each row block's Z^T by point (null for a point that
+  // does not touch it).
   struct Chunk {
     std::vector<double> buf;
     std::vector<i64> zoff, base, zbase;
-    std::vector<int> point, lo, hi, sa, sb, cur;
+    std::vector<int> point, lo, hi, cur;
+    std::vector<int> ycount, yc;
+    std::vector<const double *> yp, zp;
   };
 
   // One thread's room for a point's couplings (Z^T, Y^T, their offsets) and one W^T.
@@ -115,6 +120,7 @@ class MappedSchur {
   i64 zmax_ = 0;
   bool tiled_ = false;
   std::vector<int> groups_;
+  int group_width_ = 0;  // the most blocks in a tile group
   mutable std::vector<Scratch> scratch_;
 };
 

@@ -75,6 +75,67 @@ void pair_update(int n1, int n2, int pn, const double *Lt, const double *Rt, dou
   pair_update_t<0, 0, 0>(n1, n2, pn, Lt, Rt, out, ld);
 }
 
+// out less the terms of n points, in their order, each as pair_update gives it: point j's
+// Y^T at yp[j] (n2 wide) and its Z^T at zp[yc[j]] (n1 wide; null: the point has no term).
+void pair_sweep(int n1, int n2, int pn, int n, const int *yc, const double *const *yp, const double *const *zp,
+                double *out, i64 ld) {
+#if defined(__AVX2__) && defined(__FMA__)
+  if (pn == 3 && n1 == 6 && n2 == 6) {
+    // The block in twelve registers, named one by one (as an array the compiler keeps them
+    // on the stack); each point's three terms into it as pair_update_663 takes them: every
+    // entry's terms in the same order, d ascending.
+    __m256d x0 = _mm256_loadu_pd(out), x1 = _mm256_loadu_pd(out + ld), x2 = _mm256_loadu_pd(out + 2 * ld),
+            x3 = _mm256_loadu_pd(out + 3 * ld), x4 = _mm256_loadu_pd(out + 4 * ld),
+            x5 = _mm256_loadu_pd(out + 5 * ld);
+    __m128d y0 = _mm_loadu_pd(out + 4), y1 = _mm_loadu_pd(out + ld + 4), y2 = _mm_loadu_pd(out + 2 * ld + 4),
+            y3 = _mm_loadu_pd(out + 3 * ld + 4), y4 = _mm_loadu_pd(out + 4 * ld + 4),
+            y5 = _mm_loadu_pd(out + 5 * ld + 4);
+    for (int j = 0; j < n; ++j) {
+      const double *L = zp[yc[j]];
+      if (!L) continue;
+      const double *R = yp[j];
+      for (int d = 0; d < 3; ++d, L += 6, R += 6) {
+        const __m256d r = _mm256_loadu_pd(R);
+        const __m128d t = _mm_loadu_pd(R + 4);
+        __m256d z = _mm256_broadcast_sd(L);
+        x0 = _mm256_fnmadd_pd(z, r, x0);
+        y0 = _mm_fnmadd_pd(_mm256_castpd256_pd128(z), t, y0);
+        z = _mm256_broadcast_sd(L + 1);
+        x1 = _mm256_fnmadd_pd(z, r, x1);
+        y1 = _mm_fnmadd_pd(_mm256_castpd256_pd128(z), t, y1);
+        z = _mm256_broadcast_sd(L + 2);
+        x2 = _mm256_fnmadd_pd(z, r, x2);
+        y2 = _mm_fnmadd_pd(_mm256_castpd256_pd128(z), t, y2);
+        z = _mm256_broadcast_sd(L + 3);
+        x3 = _mm256_fnmadd_pd(z, r, x3);
+        y3 = _mm_fnmadd_pd(_mm256_castpd256_pd128(z), t, y3);
+        z = _mm256_broadcast_sd(L + 4);
+        x4 = _mm256_fnmadd_pd(z, r, x4);
+        y4 = _mm_fnmadd_pd(_mm256_castpd256_pd128(z), t, y4);
+        z = _mm256_broadcast_sd(L + 5);
+        x5 = _mm256_fnmadd_pd(z, r, x5);
+        y5 = _mm_fnmadd_pd(_mm256_castpd256_pd128(z), t, y5);
+      }
+    }
+    _mm256_storeu_pd(out, x0);
+    _mm256_storeu_pd(out + ld, x1);
+    _mm256_storeu_pd(out + 2 * ld, x2);
+    _mm256_storeu_pd(out + 3 * ld, x3);
+    _mm256_storeu_pd(out + 4 * ld, x4);
+    _mm256_storeu_pd(out + 5 * ld, x5);
+    _mm_storeu_pd(out + 4, y0);
+    _mm_storeu_pd(out + ld + 4, y1);
+    _mm_storeu_pd(out + 2 * ld + 4, y2);
+    _mm_storeu_pd(out + 3 * ld + 4, y3);
+    _mm_storeu_pd(out + 4 * ld + 4, y4);
+    _mm_storeu_pd(out + 5 * ld + 4, y5);
+    return;
+  }
+#endif
+  for (int j = 0; j < n; ++j)
+    if (const double *L = zp[yc[j]]) pair_update(n1, n2, pn, L, yp[j], out, ld);
+}
+
 // Position of block b in the ascending list [first, first + n), n if absent.
 int find_block(const int *first, int n, int b) {
   return int(std::lower_bound(first, first + n, b) - first);
@@ -219,8 +280,10 @@ void add_point_terms(const MappedSchur &ms, int i, int lo, int hi, const NormalE
 // The points' terms of a dense S when they touch much of it (MappedSchur::tiled): rather than
 // point by point, each sweeping all of its pairs of S, a chunk of points' couplings is made
 // first, and S is then updated a tile of blocks at a time with every point of the chunk, so
-// that the tile stays in the cache while the points stream past. Each entry of S still takes
-// the points' terms in ascending order of the points, as add_point_terms gives them.
+// that the tile stays in the cache while the points stream past, and a block at a time within
+// the tile, so that the block is loaded and stored once for the whole chunk. Each entry of S
+// still takes the points' terms in ascending order of the points, as add_point_terms gives
+// them.
 void add_points_tiled(const MappedSchur &ms, int B0, int B1, const NormalEquations &ne, const double *Vinv,
                       const UnknownBlocks &S, double *rhs, MappedSchur::Scratch &sc) {
   const Layout &lay = ms.layout();
@@ -255,38 +318,47 @@ void add_points_tiled(const MappedSchur &ms, int B0, int B1, const NormalEquatio
       ++np;
     }
     if (np == 0) break;
-    // Tiles of S: the column groups of [B0, B1) against the row groups up to them.
+    // Tiles of S: the column groups of [B0, B1) against the row groups up to them. Each block
+    // of a tile takes the terms of every point of the chunk that touches both its blocks, in
+    // ascending order of the points, while it stays in registers.
     for (int gc = 0; gc < ngroups; ++gc) {
       const int C0 = std::max(group[gc], B0), C1 = std::min(group[gc + 1], B1);
       if (C0 >= C1) continue;
+      std::fill(ck.ycount.begin(), ck.ycount.begin() + (C1 - C0), 0);
       for (int c = 0; c < np; ++c) {
         const int *F = ms.point_blocks(ck.point[size_t(c)]);
         const int lo = ck.lo[size_t(c)], hi = ck.hi[size_t(c)];
-        ck.sa[size_t(c)] = lo + find_block(F + lo, hi - lo, C0);
-        ck.sb[size_t(c)] = lo + find_block(F + lo, hi - lo, C1);
-        ck.cur[size_t(c)] = 0;
+        const i64 *zoff = ck.zoff.data() + ck.zbase[size_t(c)];
+        const double *Yt = ck.buf.data() + ck.base[size_t(c)] + zoff[hi];
+        const int sa = lo + find_block(F + lo, hi - lo, C0);
+        // A point that touches no column of the tile leaves its rows alone: its cursor is at hi.
+        ck.cur[size_t(c)] = sa < hi && F[sa] < C1 ? 0 : hi;
+        for (int s = sa; s < hi && F[s] < C1; ++s) {
+          const size_t k = size_t(F[s] - C0), at = k * size_t(np) + size_t(ck.ycount[k]++);
+          ck.yc[at] = c;
+          ck.yp[at] = Yt + zoff[s];
+        }
       }
       for (int gr = 0; gr < ngroups && group[gr] < C1; ++gr) {
-        const int R1 = group[gr + 1];
+        const int R0 = group[gr], R1 = std::min(group[gr + 1], C1);
+        std::fill(ck.zp.begin(), ck.zp.begin() + i64(R1 - R0) * np, nullptr);
         for (int c = 0; c < np; ++c) {
-          const int sa = ck.sa[size_t(c)], sb = ck.sb[size_t(c)];
-          if (sa == sb) continue;
           const int *F = ms.point_blocks(ck.point[size_t(c)]);
-          const int r0 = ck.cur[size_t(c)];
-          int r1 = r0;
-          while (r1 < sb && F[r1] < R1) ++r1;
-          ck.cur[size_t(c)] = r1;
-          if (r0 == r1) continue;
+          const int hi = ck.hi[size_t(c)];
           const i64 *zoff = ck.zoff.data() + ck.zbase[size_t(c)];
-          const double *Zt = ck.buf.data() + ck.base[size_t(c)], *Yt = Zt + zoff[ck.hi[size_t(c)]];
-          for (int s = sa; s < sb; ++s) {
-            const int B = F[s], nB = map.block_size(B);
-            const double *y = Yt + zoff[s];
-            for (int s1 = r0; s1 < r1 && s1 <= s; ++s1) {
-              const int b = F[s1];
-              pair_update(map.block_size(b), nB, pnp, Zt + zoff[s1], y, S.base + start[b] * S.ld + start[B], S.ld);
-            }
-          }
+          const double *Zt = ck.buf.data() + ck.base[size_t(c)];
+          int s1 = ck.cur[size_t(c)];
+          for (; s1 < hi && F[s1] < R1; ++s1) ck.zp[size_t(F[s1] - R0) * size_t(np) + size_t(c)] = Zt + zoff[s1];
+          ck.cur[size_t(c)] = s1;
+        }
+        for (int B = C0; B < C1; ++B) {
+          const size_t k = size_t(B - C0);
+          const int n = ck.ycount[k];
+          if (n == 0) continue;
+          for (int b = R0; b < std::min(R1, B + 1); ++b)
+            pair_sweep(map.block_size(b), map.block_size(B), pnp, n, ck.yc.data() + k * size_t(np),
+                       ck.yp.data() + k * size_t(np), ck.zp.data() + size_t(b - R0) * size_t(np),
+                       S.base + start[b] * S.ld + start[B], S.ld);
         }
       }
     }
