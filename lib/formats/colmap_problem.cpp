@@ -821,7 +821,7 @@ void Problem::write_rig_image(int j, const double *a, const Index &index,
   write_params(fixed + cc::kRigPoseParams, im.params, &find(index.cameras, r.camera, "camera"));
 }
 
-void Problem::write_points(const double *p, const Index &index) const {
+void Problem::write_points(const double *p, const Index &index, bool errors) const {
   const std::size_t m = images_.size();
   std::unordered_map<std::uint32_t, int> camera_of;  // an image's sba camera
   for (std::size_t j = 0; j < m; ++j) camera_of.emplace(ids_[j].image, static_cast<int>(j));
@@ -830,6 +830,7 @@ void Problem::write_points(const double *p, const Index &index) const {
     Point3D &pt = find(index.points, point_ids_[k], "point");
     const double *b = points + 3 * k;
     for (int c = 0; c < 3; ++c) pt.xyz[at(c)] = b[c];
+    if (!errors) continue;
     double sum = 0;
     for (const TrackElement &e : pt.track) {
       const int j = camera_of.at(e.image_id);
@@ -842,7 +843,7 @@ void Problem::write_points(const double *p, const Index &index) const {
   }
 }
 
-void Problem::apply(const double *p, Model *model) const {
+void Problem::apply(const double *p, Model *model, bool errors) const {
   const Index index(model);
   std::unordered_map<std::uint32_t, char> frames_done;
   for (int j = mcon_; j < ncameras(); ++j) {
@@ -852,7 +853,7 @@ void Problem::apply(const double *p, Model *model) const {
     else
       write_image(j, a, index);
   }
-  write_points(p, index);
+  write_points(p, index, errors);
 }
 
 bool Problem::covariance(const Model &model, const double *p, const sba_ext_options &ext,

@@ -169,9 +169,10 @@ class Problem {
   // in a model whose frames hold one image each, its frame's, so that the frame composes to
   // the refined pose, which the image's q and t then hold, as the images file will), each COLMAP
   // camera's parameters that are not held, the points from
-  // held_points on and their ERROR, the mean reprojection error in pixels. A held rotation or
-  // translation, and everything else, keeps its bits.
-  void apply(const double *p, Model *model) const;
+  // held_points on and (with errors) their ERROR, the mean reprojection error in pixels. A
+  // held rotation or translation, and everything else, keeps its bits. Without errors the
+  // points keep theirs, as COLMAP's adjusters leave them, and no observation is projected.
+  void apply(const double *p, Model *model, bool errors = true) const;
 
   // The covariance at the estimate p (m cnp-vectors, then n points) in COLMAP's convention
   // (colmap_covariance.h), of the model the problem was built of (its images' names): the
@@ -212,7 +213,7 @@ class Problem {
   void write_image(int j, const double *a, const Index &index) const;
   void write_rig_image(int j, const double *a, const Index &index,
                        std::unordered_map<std::uint32_t, char> *frames_done) const;
-  void write_points(const double *p, const Index &index) const;
+  void write_points(const double *p, const Index &index, bool errors) const;
   // covariance's blocks of the poses and of the COLMAP cameras from the sba cameras' blocks
   // camcov (m of cnp x cnp, unscaled).
   void pose_covariances(const Model &model, const double *p, const double *camcov, Covariances *out) const;

@@ -369,7 +369,8 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                   prior_position_loss_scale: float = 2.7954834829151074,
                   alignment_max_error: float = 0.0, in_place: bool = False, hold_frames: Any = None,
                   images: Any = None, variable_points: Any = None, min_track_length: int = 0,
-                  refine_points3D: bool = True, gauge: Optional[str] = None) -> Tuple[Any, Result]:
+                  refine_points3D: bool = True, gauge: Optional[str] = None,
+                  point_errors: bool = True) -> Tuple[Any, Result]:
     """Bundle-adjusts a COLMAP model as sbarefine does (the same numbers, bit for bit, as
     ``sbarefine MODEL --write OUT`` with the same options), with COLMAP's camera models and
     COLMAP's defaults, and returns ``(refined model, Result)``; the model is left unchanged.
@@ -444,6 +445,11 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         already; three points when no two images can be) or "three-points" (the points seen by
         the most observations held until three are). An id the model does not have is a
         ValueError.
+    point_errors
+        True: every refined point's ``error`` becomes its mean reprojection error, as
+        sbarefine writes it; False: the points keep the errors they had, as COLMAP's bundle
+        adjusters leave them (:func:`pysba.colmap.bundle_adjustment`), and the refinement
+        saves a pass over the observations.
     progress, verbose
         progress, as :func:`solve`'s, is called with a :class:`Progress` after every iteration
         (its ``error`` is the sum of squared reprojection errors, in pixels squared: the RMS
@@ -510,7 +516,7 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
              ("refine_sensor_from_rig", refine_sensor_from_rig),
              ("constant_rig_from_world_rotation", constant_rig_from_world_rotation))
     for name, flag in flags + (("verbose", verbose), ("covariance", covariance),
-                               ("covariance_points", covariance_points)):
+                               ("covariance_points", covariance_points), ("point_errors", point_errors)):
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name} must be a bool, got {type(flag).__name__}")
     hold_all, held = _held_images(hold_poses)
@@ -539,11 +545,12 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                                  prior_position_fallback_stddev=float(prior_position_fallback_stddev),
                                  prior_position_loss="" if prior_position_loss == "trivial" else "cauchy",
                                  prior_position_loss_scale=float(prior_position_loss_scale),
-                                 alignment_max_error=float(alignment_max_error), **config, **kw)
+                                 alignment_max_error=float(alignment_max_error), point_errors=bool(point_errors),
+                                 **config, **kw)
     # The Result's model, also on an exception's result, is of the type returned.
     if reconstruction:
         target = model if in_place else _pycolmap().Reconstruction(model)
-        _write_into(target, _model(report["model"]), colmap_model)
+        _write_into(target, _model(report["model"]), colmap_model, errors=bool(point_errors))
         report["model"] = target
     else:
         report["model"] = _with_unposed(_model(report["model"]), colmap_model)

@@ -277,7 +277,7 @@ def _bundle_adjustment(reconstruction: Any, options: Any, config: Any, pose_prio
     if held:
         kw["hold_points"] = np.union1d(np.array(kw["hold_points"], np.uint64), np.array(held, np.uint64))
     try:
-        refined, result = refine_colmap(model, solver=solver, progress=progress, **kw)
+        refined, result = refine_colmap(model, solver=solver, progress=progress, point_errors=False, **kw)
     except (KeyboardInterrupt, SolveError) as e:
         partial = getattr(e, "result", None)
         if partial is not None and partial.model is not None:

@@ -565,11 +565,13 @@ struct PriorInput {
 
 // The solve sbarefine runs on a COLMAP model: the problem colmap::Problem builds, solved
 // through its callbacks with its held and shared parameters, and written back into the model
-// by Problem::apply unless nothing was solved (itmax 0). With position priors, the model is
+// by Problem::apply unless nothing was solved (itmax 0), the points' errors with
+// point_errors. With position priors, the model is
 // first placed on them as sbarefine places it (colmap::place_on_priors), and d["priors_said"]
 // tells how.
 py::dict refine_model(colmap::Model model, const colmap::Options &options, SolveOptions o,
-                      const colmap::CovarianceOptions &covariance_options, const PriorInput &prior_input) {
+                      const colmap::CovarianceOptions &covariance_options, const PriorInput &prior_input,
+                      bool point_errors) {
   colmap::Problem pr;
   std::string error;
   std::vector<colmap::PosePrior> read = prior_input.priors, poses;
@@ -623,7 +625,7 @@ py::dict refine_model(colmap::Model model, const colmap::Options &options, Solve
   py::dict d = run_driver(run, session, o);
   const bool solved = d["ret"].cast<int>() != SBA_ERROR && !session.failed();
   if (covariance && solved) colmap_covariance(pr, priors, model, run.p, session, covariance_options, d);
-  if (o.itmax > 0 && d["ret"].cast<int>() != SBA_ERROR) pr.apply(run.p.data(), &model);
+  if (o.itmax > 0 && d["ret"].cast<int>() != SBA_ERROR) pr.apply(run.p.data(), &model, point_errors);
   d["model"] = python_model(model);
   d["cameras"] = copy_of(run.p.data(), {m, cnp});
   d["points"] = copy_of(run.p.data() + size_t(m) * size_t(cnp), {n, 3});
@@ -750,7 +752,8 @@ py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_pos
                        const std::string &database_path, const py::list &pose_priors, double fallback_stddev,
                        const std::string &prior_loss, double prior_loss_scale, double alignment_max_error,
                        const py::list &hold_frames, const py::object &config_images, const py::list &variable_points,
-                       int min_track_length, bool refine_points, const std::string &gauge, const py::kwargs &kw) {
+                       int min_track_length, bool refine_points, const std::string &gauge, bool point_errors,
+                       const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   std::vector<long long> rows;
   colmap::Model m = model_of(model, &rows);
@@ -816,7 +819,7 @@ py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_pos
     p.system = static_cast<colmap::PriorSystem>(t[3].cast<int>());
     priors.priors.push_back(p);
   }
-  return refine_model(std::move(m), options, o, {covariance_points, covariance_damping}, priors);
+  return refine_model(std::move(m), options, o, {covariance_points, covariance_damping}, priors, point_errors);
 }
 
 // COLMAP's stopping rule (colmap::colmap_stop_rule): (strategy, eps1, eps4), the strategy to
@@ -842,7 +845,8 @@ void add_colmap(py::module_ &mod) {
           py::arg("database_path"), py::arg("pose_priors"), py::arg("prior_position_fallback_stddev"),
           py::arg("prior_position_loss"), py::arg("prior_position_loss_scale"), py::arg("alignment_max_error"),
           py::arg("hold_frames") = py::list(), py::arg("images") = py::none(), py::arg("variable_points") = py::list(),
-          py::arg("min_track_length") = 0, py::arg("refine_points3D") = true, py::arg("gauge") = "");
+          py::arg("min_track_length") = 0, py::arg("refine_points3D") = true, py::arg("gauge") = "",
+          py::arg("point_errors") = true);
 }
 
 }  // namespace pysba

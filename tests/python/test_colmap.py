@@ -326,6 +326,21 @@ def test_threads_give_the_same_model(tmp_path):
     assert r1.info.tolist() == r2.info.tolist()
 
 
+def test_point_errors_false_keeps_the_errors_given(tmp_path):
+    model = pysba.read_colmap(sbagen(tmp_path)[0])
+    model.points3D.error = np.arange(len(model.points3D), dtype=np.float64) + 0.25
+    scored, r1 = pysba.refine_colmap(model)
+    kept, r2 = pysba.refine_colmap(model, point_errors=False)
+    # The same solve and coordinates; only the errors differ: each point's own mean
+    # reprojection error against the ones it was given.
+    assert r1.info.tolist() == r2.info.tolist()
+    same_array(kept.points3D.xyz, scored.points3D.xyz, "xyz")
+    same_array(kept.points3D.error, model.points3D.error, "error")
+    assert np.all(scored.points3D.error < 2) and scored.points3D.error.tobytes() != model.points3D.error.tobytes()
+    with pytest.raises(TypeError, match="point_errors must be a bool, got int"):
+        pysba.refine_colmap(model, point_errors=0)
+
+
 def test_progress_stops_with_the_model_so_far(tmp_path):
     model = pysba.read_colmap(sbagen(tmp_path)[0])
     seen = []
