@@ -75,46 +75,92 @@ void pair_update(int n1, int n2, int pn, const double *Lt, const double *Rt, dou
   pair_update_t<0, 0, 0>(n1, n2, pn, Lt, Rt, out, ld);
 }
 
+// pair_sweep for N1 x N2 blocks and points of 3, the block kept in a local array (registers):
+// each entry's terms in pair_update_t's order.
+template <int N1, int N2>
+inline void pair_sweep_t(int n, const int *yc, const double *const *yp, const double *const *zp, double *out,
+                         i64 ld) {
+  double acc[N1 * N2];
+  for (int a = 0; a < N1; ++a)
+    for (int c = 0; c < N2; ++c) acc[a * N2 + c] = out[a * ld + c];
+  for (int j = 0; j < n; ++j) {
+    const double *L = zp[yc[j]];
+    if (!L) continue;
+    const double *R = yp[j];
+    for (int a = 0; a < N1; ++a)
+      for (int d = 0; d < 3; ++d) {
+        const double z = L[d * N1 + a];
+        for (int c = 0; c < N2; ++c) acc[a * N2 + c] -= z * R[d * N2 + c];
+      }
+  }
+  for (int a = 0; a < N1; ++a)
+    for (int c = 0; c < N2; ++c) out[a * ld + c] = acc[a * N2 + c];
+}
+
+// The sizes of the shared intrinsics' blocks beside the poses' 6 (a shared focal length, or
+// one with a distortion parameter): n2 of them for n1 = N1, false for another n2.
+template <int N1>
+inline bool pair_sweep_n2(int n2, int n, const int *yc, const double *const *yp, const double *const *zp,
+                          double *out, i64 ld) {
+  switch (n2) {
+    case 1: return pair_sweep_t<N1, 1>(n, yc, yp, zp, out, ld), true;
+    case 2: return pair_sweep_t<N1, 2>(n, yc, yp, zp, out, ld), true;
+    case 6: return pair_sweep_t<N1, 6>(n, yc, yp, zp, out, ld), true;
+    default: return false;
+  }
+}
+
+// How many points ahead pair_sweep asks for the couplings it reads.
+constexpr int kAhead = 4;
+
 // out less the terms of n points, in their order, each as pair_update gives it: point j's
 // Y^T at yp[j] (n2 wide) and its Z^T at zp[yc[j]] (n1 wide; null: the point has no term).
-void pair_sweep(int n1, int n2, int pn, int n, const int *yc, const double *const *yp, const double *const *zp,
+// Not inlined: inside the tile loops the compiler runs out of vector registers and keeps an
+// accumulator on the stack, which chains every term through memory.
+__attribute__((noinline)) void pair_sweep(int n1, int n2, int pn, int n, const int *yc, const double *const *yp, const double *const *zp,
                 double *out, i64 ld) {
 #if defined(__AVX2__) && defined(__FMA__)
   if (pn == 3 && n1 == 6 && n2 == 6) {
-    // The block in twelve registers, named one by one (as an array the compiler keeps them
-    // on the stack); each point's three terms into it as pair_update_663 takes them: every
-    // entry's terms in the same order, d ascending.
+    // The block in nine registers, named one by one (as an array the compiler keeps them on
+    // the stack): x_a holds row a's first four entries, y_k the last two of rows 2k and 2k + 1.
+    // Each point's three terms go in as pair_update_663 takes them: every entry's terms in the
+    // same order, d ascending, each one fused multiply-subtract.
     __m256d x0 = _mm256_loadu_pd(out), x1 = _mm256_loadu_pd(out + ld), x2 = _mm256_loadu_pd(out + 2 * ld),
             x3 = _mm256_loadu_pd(out + 3 * ld), x4 = _mm256_loadu_pd(out + 4 * ld),
             x5 = _mm256_loadu_pd(out + 5 * ld);
-    __m128d y0 = _mm_loadu_pd(out + 4), y1 = _mm_loadu_pd(out + ld + 4), y2 = _mm_loadu_pd(out + 2 * ld + 4),
-            y3 = _mm_loadu_pd(out + 3 * ld + 4), y4 = _mm_loadu_pd(out + 4 * ld + 4),
-            y5 = _mm_loadu_pd(out + 5 * ld + 4);
+    __m256d y0 = _mm256_loadu2_m128d(out + ld + 4, out + 4),
+            y1 = _mm256_loadu2_m128d(out + 3 * ld + 4, out + 2 * ld + 4),
+            y2 = _mm256_loadu2_m128d(out + 5 * ld + 4, out + 4 * ld + 4);
     for (int j = 0; j < n; ++j) {
+      // The points' couplings lie apart in the chunk, where the hardware does not foresee the
+      // next one: asked for a few points ahead, each 18 doubles of Z^T and of Y^T.
+      if (j + kAhead < n) {
+        const double *Rf = yp[j + kAhead], *Lf = zp[yc[j + kAhead]];
+        for (int o = 0; o < 18; o += 8) {
+          __builtin_prefetch(Rf + o);
+          if (Lf) __builtin_prefetch(Lf + o);
+        }
+      }
       const double *L = zp[yc[j]];
       if (!L) continue;
       const double *R = yp[j];
+      // Rolled: unrolled, the three terms' loads outnumber the registers left.
+#pragma GCC unroll 1
       for (int d = 0; d < 3; ++d, L += 6, R += 6) {
         const __m256d r = _mm256_loadu_pd(R);
-        const __m128d t = _mm_loadu_pd(R + 4);
-        __m256d z = _mm256_broadcast_sd(L);
-        x0 = _mm256_fnmadd_pd(z, r, x0);
-        y0 = _mm_fnmadd_pd(_mm256_castpd256_pd128(z), t, y0);
-        z = _mm256_broadcast_sd(L + 1);
-        x1 = _mm256_fnmadd_pd(z, r, x1);
-        y1 = _mm_fnmadd_pd(_mm256_castpd256_pd128(z), t, y1);
-        z = _mm256_broadcast_sd(L + 2);
-        x2 = _mm256_fnmadd_pd(z, r, x2);
-        y2 = _mm_fnmadd_pd(_mm256_castpd256_pd128(z), t, y2);
-        z = _mm256_broadcast_sd(L + 3);
-        x3 = _mm256_fnmadd_pd(z, r, x3);
-        y3 = _mm_fnmadd_pd(_mm256_castpd256_pd128(z), t, y3);
-        z = _mm256_broadcast_sd(L + 4);
-        x4 = _mm256_fnmadd_pd(z, r, x4);
-        y4 = _mm_fnmadd_pd(_mm256_castpd256_pd128(z), t, y4);
-        z = _mm256_broadcast_sd(L + 5);
-        x5 = _mm256_fnmadd_pd(z, r, x5);
-        y5 = _mm_fnmadd_pd(_mm256_castpd256_pd128(z), t, y5);
+        const __m256d t = _mm256_broadcast_pd(reinterpret_cast<const __m128d *>(R + 4));  // t4 t5 t4 t5
+        x0 = _mm256_fnmadd_pd(_mm256_broadcast_sd(L), r, x0);
+        x1 = _mm256_fnmadd_pd(_mm256_broadcast_sd(L + 1), r, x1);
+        x2 = _mm256_fnmadd_pd(_mm256_broadcast_sd(L + 2), r, x2);
+        x3 = _mm256_fnmadd_pd(_mm256_broadcast_sd(L + 3), r, x3);
+        x4 = _mm256_fnmadd_pd(_mm256_broadcast_sd(L + 4), r, x4);
+        x5 = _mm256_fnmadd_pd(_mm256_broadcast_sd(L + 5), r, x5);
+        // z_a z_a z_a+1 z_a+1 against t4 t5 t4 t5.
+        y0 = _mm256_fnmadd_pd(_mm256_permute_pd(_mm256_broadcast_pd(reinterpret_cast<const __m128d *>(L)), 12), t, y0);
+        y1 = _mm256_fnmadd_pd(_mm256_permute_pd(_mm256_broadcast_pd(reinterpret_cast<const __m128d *>(L + 2)), 12),
+                              t, y1);
+        y2 = _mm256_fnmadd_pd(_mm256_permute_pd(_mm256_broadcast_pd(reinterpret_cast<const __m128d *>(L + 4)), 12),
+                              t, y2);
       }
     }
     _mm256_storeu_pd(out, x0);
@@ -123,15 +169,16 @@ void pair_sweep(int n1, int n2, int pn, int n, const int *yc, const double *cons
     _mm256_storeu_pd(out + 3 * ld, x3);
     _mm256_storeu_pd(out + 4 * ld, x4);
     _mm256_storeu_pd(out + 5 * ld, x5);
-    _mm_storeu_pd(out + 4, y0);
-    _mm_storeu_pd(out + ld + 4, y1);
-    _mm_storeu_pd(out + 2 * ld + 4, y2);
-    _mm_storeu_pd(out + 3 * ld + 4, y3);
-    _mm_storeu_pd(out + 4 * ld + 4, y4);
-    _mm_storeu_pd(out + 5 * ld + 4, y5);
+    _mm256_storeu2_m128d(out + ld + 4, out + 4, y0);
+    _mm256_storeu2_m128d(out + 3 * ld + 4, out + 2 * ld + 4, y1);
+    _mm256_storeu2_m128d(out + 5 * ld + 4, out + 4 * ld + 4, y2);
     return;
   }
 #endif
+  if (pn == 3 && ((n1 == 1 && pair_sweep_n2<1>(n2, n, yc, yp, zp, out, ld)) ||
+                  (n1 == 2 && pair_sweep_n2<2>(n2, n, yc, yp, zp, out, ld)) ||
+                  (n1 == 6 && pair_sweep_n2<6>(n2, n, yc, yp, zp, out, ld))))
+    return;
   for (int j = 0; j < n; ++j)
     if (const double *L = zp[yc[j]]) pair_update(n1, n2, pn, L, yp[j], out, ld);
 }
