@@ -12,12 +12,12 @@ with --local-sba, with sba's local adjustments too. Each model is compared with 
 synthesized truth: registered images, points, mean reprojection error, and the camera
 centres' RMS distance after a similarity onto the truth's centres.
 
-  colmap_mapping.py --frames 100,150 [--points-per-frame 15] [--track-length -1]
-                    [--kind shared|per-image] [--local-sba] [--threads 2] [--work DIR]
-                    [--reuse] [--markdown FILE]
---track-length is synthesize_dataset's (-1: every point seen by every image; 8: tracks of
-about eight images, as in photo collections). --reuse keeps a database the same arguments
-made before (with its truth). Needs pycolmap (build/pycolmap-venv) and pysba on PYTHONPATH
+  colmap_mapping.py --frames 100,150 [--points-per-frame 15] [--kind shared|per-image]
+                    [--local-sba] [--threads 2] [--work DIR] [--reuse] [--markdown FILE]
+Every point is seen by every image: synthesize_dataset's track_length prunes only the truth's
+tracks (pycolmap 4.2.1), while the database keeps every point's keypoint in every image, matched
+exhaustively, so the mapper's tracks are whole whatever it is. --reuse keeps a database the same
+arguments made before (with its truth). Needs pycolmap (build/pycolmap-venv) and pysba on PYTHONPATH
 (build/python/pkg).
 """
 import argparse
@@ -27,11 +27,11 @@ import sys
 import time
 
 
-def scene(pycolmap, d, frames, points, kind, track_length, seed, reuse):
+def scene(pycolmap, d, frames, points, kind, seed, reuse):
     """The database d/database.db of a synthesized scene and its truth (kept in d/truth, with
     reuse taken from there when the same arguments made them)."""
     database, truth_path = os.path.join(d, "database.db"), os.path.join(d, "truth")
-    made_by = repr((frames, points, kind, track_length, seed))
+    made_by = repr((frames, points, kind, seed))
     stamp = os.path.join(d, "made-by")
     if reuse and os.path.isfile(stamp) and open(stamp).read() == made_by:
         return database, pycolmap.Reconstruction(truth_path)
@@ -42,7 +42,6 @@ def scene(pycolmap, d, frames, points, kind, track_length, seed, reuse):
     o.num_rigs, o.num_cameras_per_rig = (frames, 1) if kind == "per-image" else (1, 1)
     o.num_frames_per_rig = 1 if kind == "per-image" else frames
     o.num_points3D = points
-    o.track_length = track_length
     db = pycolmap.Database.open(database)
     try:
         truth = pycolmap.synthesize_dataset(o, db)
@@ -87,7 +86,6 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--frames", default="100,150")
     ap.add_argument("--points-per-frame", type=int, default=15)
-    ap.add_argument("--track-length", type=int, default=-1)
     ap.add_argument("--kind", choices=("shared", "per-image"), default="shared")
     ap.add_argument("--local-sba", action="store_true", help="also run sba's local adjustments")
     ap.add_argument("--threads", type=int, default=2)
@@ -99,8 +97,8 @@ def main(argv):
     import pysba.colmap
     rows = []
     for frames in (int(x) for x in args.frames.split(",")):
-        d = os.path.join(args.work, "%s-%d-%d-%d" % (args.kind, frames, args.points_per_frame, args.track_length))
-        database, truth = scene(pycolmap, d, frames, frames * args.points_per_frame, args.kind, args.track_length, 1,
+        d = os.path.join(args.work, "%s-%d-%d" % (args.kind, frames, args.points_per_frame))
+        database, truth = scene(pycolmap, d, frames, frames * args.points_per_frame, args.kind, 1,
                                 args.reuse)
         options = pycolmap.IncrementalPipelineOptions()
         options.num_threads = args.threads
