@@ -117,8 +117,8 @@ constexpr int kAhead = 4;
 // Y^T at yp[j] (n2 wide) and its Z^T at zp[yc[j]] (n1 wide; null: the point has no term).
 // Not inlined: inside the tile loops the compiler runs out of vector registers and keeps an
 // accumulator on the stack, which chains every term through memory.
-__attribute__((noinline)) void pair_sweep(int n1, int n2, int pn, int n, const int *yc, const double *const *yp, const double *const *zp,
-                double *out, i64 ld) {
+__attribute__((noinline)) void pair_sweep(int n1, int n2, int pn, int n, const int *yc, const double *const *yp,
+                                          const double *const *zp, double *out, i64 ld) {
 #if defined(__AVX2__) && defined(__FMA__)
   if (pn == 3 && n1 == 6 && n2 == 6) {
     // The block in nine registers, named one by one (as an array the compiler keeps them on
