@@ -31,6 +31,7 @@ MappedSchur::MappedSchur(const Layout &lay, int threads, Assembly how, int tile,
   const int nb = map.nblocks(), pnp = lay.pnp;
   // The work of each block column: the pairs it closes.
   std::vector<double> work(size_t(nb), 0.0);
+  i64 ztotal = 0;  // every point's couplings
   for (int b = 0; b < nb; ++b) work[size_t(b)] = double(map.block_ncams(b)) * map.block_size(b);
   for (int i = 0; i < lay.n; ++i) {
     const int *list = point_blocks(i), nl = point_nblocks(i);
@@ -43,6 +44,7 @@ MappedSchur::MappedSchur(const Layout &lay, int threads, Assembly how, int tile,
       work[size_t(b)] += rows * map.block_size(b) * pnp;
     }
     zmax_ = std::max(zmax_, z);
+    ztotal += z;
   }
   // Contiguous ranges of block columns of about equal work, one per thread.
   const int T = std::max(threads, 1);
@@ -77,9 +79,13 @@ MappedSchur::MappedSchur(const Layout &lay, int threads, Assembly how, int tile,
   tiled_ = how == Assembly::Tiled ||
            (how == Assembly::Auto && tile_ngroups() > 1 && pairs >= double(lay.n) * double(nb) * nb / 16.0);
   tiled_ = tiled_ && pnp > 0 && lay.n > lay.ncon;
-  // A chunk holds at least one point of the longest couplings and up to about 2 MB of them.
+  // A chunk holds at least one point of the longest couplings and up to about 2 MB of them,
+  // never more than all the points' or than its most points': a small problem, solved many
+  // times over (a mapper's local adjustments), does not allocate and clear 2 MB a thread.
   constexpr i64 kChunkDoubles = i64(1) << 18;
   const int chunk_points = std::max(chunk, 1);
+  const i64 chunk_doubles =
+      std::max(2 * zmax_, std::min({kChunkDoubles, 2 * ztotal, 2 * zmax_ * i64(chunk_points)}));
   for (Scratch &s : scratch_) {
     s.Zt.resize(size_t(zmax_) + 1);
     s.Yt.resize(size_t(zmax_) + 1);
@@ -87,7 +93,8 @@ MappedSchur::MappedSchur(const Layout &lay, int threads, Assembly how, int tile,
     s.zoff.resize(size_t(maxblocks) + 1);
     if (!tiled_) continue;
     Chunk &c = s.chunk;
-    c.buf.resize(size_t(std::max(2 * zmax_, kChunkDoubles)));
+    c.buf.reset(new double[size_t(chunk_doubles)]);
+    c.buf_size = chunk_doubles;
     c.zoff.resize(size_t(std::max<i64>(maxblocks + 1, chunk_points * i64(maxblocks + 1) / 4)));
     for (std::vector<i64> *v : {&c.base, &c.zbase}) v->resize(chunk_points);
     for (std::vector<int> *v : {&c.point, &c.lo, &c.hi, &c.cur}) v->resize(chunk_points);

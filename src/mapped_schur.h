@@ -12,6 +12,7 @@
 #ifndef SBA_SRC_MAPPED_SCHUR_H
 #define SBA_SRC_MAPPED_SCHUR_H
 
+#include <memory>
 #include <vector>
 
 #include "kernels.h"
@@ -99,7 +100,11 @@ class MappedSchur {
   // indices in the chunk, their Y^T) and each row block's Z^T by point (null for a point that
   // does not touch it).
   struct Chunk {
-    std::vector<double> buf;
+    // Left undefined, not cleared: every use writes it before reading it, and a small
+    // problem solved over and over (a mapper's local adjustments) should not pay for
+    // clearing it each time.
+    std::unique_ptr<double[]> buf;
+    i64 buf_size = 0;
     std::vector<i64> zoff, base, zbase;
     std::vector<int> point, lo, hi, cur;
     std::vector<int> ycount, yc;

@@ -351,9 +351,9 @@ void add_points_tiled(const MappedSchur &ms, int B0, int B1, const NormalEquatio
       const int hi = find_block(F, nF, B1);
       i64 need = 0;
       for (int s = 0; s < hi; ++s) need += i64(map.block_size(F[s])) * pnp;
-      if (np > 0 && (used + 2 * need > i64(ck.buf.size()) || zused + hi + 1 > i64(ck.zoff.size()))) break;
+      if (np > 0 && (used + 2 * need > ck.buf_size || zused + hi + 1 > i64(ck.zoff.size()))) break;
       i64 *zoff = ck.zoff.data() + zused;
-      double *Zt = ck.buf.data() + used, *Yt = Zt + need;
+      double *Zt = ck.buf.get() + used, *Yt = Zt + need;
       point_terms(ms, i, lo, hi, ne, Vinv, rhs, zoff, Zt, Yt, sc.W.data());
       ck.point[size_t(np)] = i;
       ck.lo[size_t(np)] = lo;
@@ -376,7 +376,7 @@ void add_points_tiled(const MappedSchur &ms, int B0, int B1, const NormalEquatio
         const int *F = ms.point_blocks(ck.point[size_t(c)]);
         const int lo = ck.lo[size_t(c)], hi = ck.hi[size_t(c)];
         const i64 *zoff = ck.zoff.data() + ck.zbase[size_t(c)];
-        const double *Yt = ck.buf.data() + ck.base[size_t(c)] + zoff[hi];
+        const double *Yt = ck.buf.get() + ck.base[size_t(c)] + zoff[hi];
         const int sa = lo + find_block(F + lo, hi - lo, C0);
         // A point that touches no column of the tile leaves its rows alone: its cursor is at hi.
         ck.cur[size_t(c)] = sa < hi && F[sa] < C1 ? 0 : hi;
@@ -393,7 +393,7 @@ void add_points_tiled(const MappedSchur &ms, int B0, int B1, const NormalEquatio
           const int *F = ms.point_blocks(ck.point[size_t(c)]);
           const int hi = ck.hi[size_t(c)];
           const i64 *zoff = ck.zoff.data() + ck.zbase[size_t(c)];
-          const double *Zt = ck.buf.data() + ck.base[size_t(c)];
+          const double *Zt = ck.buf.get() + ck.base[size_t(c)];
           int s1 = ck.cur[size_t(c)];
           for (; s1 < hi && F[s1] < R1; ++s1) ck.zp[size_t(F[s1] - R0) * size_t(np) + size_t(c)] = Zt + zoff[s1];
           ck.cur[size_t(c)] = s1;
