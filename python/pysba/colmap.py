@@ -11,6 +11,7 @@ never ignored. Needs pycolmap (``pip install pycolmap``).
 """
 from __future__ import annotations
 
+import functools
 import sys
 import time
 from typing import Any, Callable, Dict, Optional, Tuple
@@ -94,12 +95,21 @@ def _refused(given: Dict[str, Any], default: Dict[str, Any], what: str) -> None:
                              f"{_name(default.get(key))}, its default, is)")
 
 
-def _options(pycolmap: Any, options: Any) -> Dict[str, Any]:
-    """refine_colmap's arguments for a pycolmap.BundleAdjustmentOptions."""
+@functools.lru_cache(maxsize=None)
+def _default_options(options_type: Any) -> Dict[str, Any]:
+    """The defaults of pycolmap's options_type, flattened: read once (todict is slow enough to
+    count in a mapper's hundreds of small adjustments)."""
+    return _flat(options_type().todict())
+
+
+def _options(pycolmap: Any, options: Any, given: Optional[Dict[str, Any]] = None) -> Dict[str, Any]:
+    """refine_colmap's arguments for a pycolmap.BundleAdjustmentOptions (given: its values,
+    flattened, when the caller has them)."""
     if not isinstance(options, pycolmap.BundleAdjustmentOptions):
         raise TypeError(f"options must be a pycolmap.BundleAdjustmentOptions, got {type(options).__name__}")
-    given = _flat(options.todict())
-    _refused(given, _flat(pycolmap.BundleAdjustmentOptions().todict()), "options")
+    if given is None:
+        given = _flat(options.todict())
+    _refused(given, _default_options(pycolmap.BundleAdjustmentOptions), "options")
     if _name(given["backend"]) != "CERES":
         raise ValueError(f"options.backend = {_name(given['backend'])} is not honoured by sba (only CERES, "
                          "whose problem sba solves)")
@@ -138,7 +148,7 @@ def _prior_options(pycolmap: Any, prior_options: Any) -> Dict[str, Any]:
         raise TypeError(f"prior_options must be a pycolmap.PosePriorBundleAdjustmentOptions, got "
                         f"{type(prior_options).__name__}")
     given = _flat(prior_options.todict())
-    default = _flat(pycolmap.PosePriorBundleAdjustmentOptions().todict())
+    default = _default_options(pycolmap.PosePriorBundleAdjustmentOptions)
     # The alignment's seed and threads: sba's alignment is deterministic, whatever they are.
     honoured = {"prior_position_fallback_stddev", "alignment_ransac.max_error", "alignment_ransac.random_seed",
                 "alignment_ransac.num_threads", "ceres.prior_position_loss_function_type",
@@ -250,8 +260,9 @@ def _bundle_adjustment(reconstruction: Any, options: Any, config: Any, pose_prio
     pycolmap = _pycolmap()
     if not isinstance(reconstruction, pycolmap.Reconstruction):
         raise TypeError(f"reconstruction must be a pycolmap.Reconstruction, got {type(reconstruction).__name__}")
-    kw = _options(pycolmap, options if options is not None else pycolmap.BundleAdjustmentOptions())
-    given = _flat((options if options is not None else pycolmap.BundleAdjustmentOptions()).todict())
+    options = options if options is not None else pycolmap.BundleAdjustmentOptions()
+    given = _flat(options.todict()) if isinstance(options, pycolmap.BundleAdjustmentOptions) else None
+    kw = _options(pycolmap, options, given)
     solver_options = "ceres.solver_options."
     if config is not None:
         kw.update(_config(pycolmap, config))
