@@ -1,14 +1,15 @@
 # SPDX-License-Identifier: BSD-3-Clause
-"""`pip install .` from a copy of the source tree into a fresh venv, by both routes of
-docs/python.md, and from an sdist of it; then pysba imported from there, in a clean
-environment, solves a problem, its version is the package's, and the venv's sbarefine command
-runs the program. Slow (each builds the library): ctest runs them as a test of
-its own.
+"""pip install into a fresh venv by both routes of docs/python.md; then pysba imported from
+there, in a clean environment, solves a problem, its version is the package's, and the venv's
+sbarefine command runs the program. Slow (each builds the library): ctest runs them as a test
+of its own, and each route is taken once.
 
-- --no-build-isolation: with what is installed (Debian's setuptools, wheel, pybind11-dev).
-- with build isolation: pip installs pyproject.toml's build requirements into a build
-  environment of its own: from the package index, into a venv of the python3 first on PATH
-  with nothing of the system's. Where the index cannot be reached, from a wheelhouse:
+- --no-build-isolation: `pip install .` of a copy of the source tree, with what is installed
+  (Debian's setuptools, wheel, pybind11-dev).
+- with build isolation: `pip install` of an sdist of that copy (which must hold everything the
+  build needs), pip installing pyproject.toml's build requirements into a build environment
+  of its own: from the package index, into a venv of the python3 first on PATH with nothing
+  of the system's. Where the index cannot be reached, from a wheelhouse:
   Debian's setuptools and wheel .whl files, and a wheel of Debian's python3-pybind11
   distribution (the pybind11 package as pip installs it). Debian's pybind11 CMake files are
   hidden from CMake, so the build must find pybind11 through the build environment's
@@ -61,8 +62,9 @@ def install_and_solve(tmp_path, pip_args, extra_env=None, base=sys.executable, i
     env.update(extra_env or {})
     target = src
     if sdist:
-        # PEP 517's hook, as `python -m build --sdist` calls it, with the setuptools installed.
-        made = subprocess.run([str(python), "-c", "import sys; from setuptools import build_meta; "
+        # PEP 517's hook, as `python -m build --sdist` calls it, with this interpreter's
+        # setuptools (a venv without the system's packages may have none).
+        made = subprocess.run([sys.executable, "-c", "import sys; from setuptools import build_meta; "
                                "print(build_meta.build_sdist(sys.argv[1]))", str(tmp_path / "dist")],
                               env=env, cwd=src, capture_output=True, text=True)
         assert made.returncode == 0, made.stdout[-4000:] + made.stderr[-4000:]
@@ -110,12 +112,6 @@ def check_sbarefine(venv, env, tmp_path, sba_version):
 
 def test_pip_install_without_build_isolation(tmp_path):
     install_and_solve(tmp_path, ["--no-build-isolation"])
-
-
-def test_pip_install_from_an_sdist(tmp_path):
-    # An sdist holds only what MANIFEST.in adds to setuptools' defaults: the build must find
-    # the library's sources, headers and CMake files in it.
-    install_and_solve(tmp_path, ["--no-build-isolation"], sdist=True)
 
 
 def wheel_of_installed(name, wheelhouse):
@@ -169,7 +165,7 @@ def test_pip_install_with_build_isolation(tmp_path):
     debian = ["/usr/lib/cmake/pybind11", "/usr/share/cmake/pybind11",
               "/usr/lib/python3/dist-packages/pybind11/share/cmake/pybind11"]
     out = install_and_solve(tmp_path, ["--find-links", str(wheelhouse)],
-                            {"CMAKE_ARGS": "-DCMAKE_IGNORE_PATH=" + ";".join(debian)})
+                            {"CMAKE_ARGS": "-DCMAKE_IGNORE_PATH=" + ";".join(debian)}, sdist=True)
     found = [line for line in out.splitlines() if "sba: pybind11" in line]
     # From the isolated build environment pip made: not Debian's, not the venv's.
     assert len(found) == 1 and "/pip-build-env-" in found[0] and "/share/cmake/pybind11" in found[0], \
@@ -177,13 +173,15 @@ def test_pip_install_with_build_isolation(tmp_path):
 
 
 def test_pip_install_from_the_index_with_the_python_on_path(tmp_path):
-    # What a user of another Python (pyenv, conda, python.org) types: `pip install .` in a
-    # fresh venv, the build requirements and numpy from the package index.
+    # What a user of another Python (pyenv, conda, python.org) types: `pip install` in a
+    # fresh venv, the build requirements and numpy from the package index. From an sdist,
+    # which holds only what MANIFEST.in adds to setuptools' defaults: the build must find the
+    # library's sources, headers and CMake files in it.
     base = shutil.which("python3")
     if base is None:
         pytest.skip("no python3 on PATH")
     if not index_reachable():
         pytest.skip("the package index is not reachable")
-    out = install_and_solve(tmp_path, [], base=base, index=True)
+    out = install_and_solve(tmp_path, [], base=base, index=True, sdist=True)
     found = [line for line in out.splitlines() if "sba: pybind11" in line]
     assert len(found) == 1 and "/pip-build-env-" in found[0], found or out[-4000:]
