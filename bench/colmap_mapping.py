@@ -5,15 +5,20 @@ pysba.colmap.incremental_mapping (the same pipeline driven from Python, its adju
 sba), on databases of pycolmap.synthesize_dataset with 0.5 px of noise on the keypoints.
 
 For each size it runs, in turn: pycolmap.incremental_mapping (the reference: its wall time);
-pysba's pipeline with COLMAP's adjustments (the split of the time: the local refinements and
-their solves alone, the global adjustments, the rest; the local adjustments taken step by step
-in Python with COLMAP's solve to time it); pysba's pipeline with sba's global adjustment; and,
-with --local-sba, with sba's local adjustments too. Each model is compared with the
-synthesized truth: registered images, points, mean reprojection error, and the camera
-centres' RMS distance after a similarity onto the truth's centres.
+pysba's pipeline with the mapper's own adjustments ("pipeline": the Python pipeline's own cost
+against pycolmap's); the same with COLMAP's adjustments timed ("colmap": the split of the
+time: the local refinements and their solves alone, the global adjustments, the rest; the
+local adjustments taken step by step in Python with COLMAP's solve to time it); pysba's
+pipeline with sba's global adjustment ("sba"); and, with --local-sba, with sba's local
+adjustments too ("sba-local"). With --repeat N the whole round runs N times, the modes
+interleaved, and every time is the median of the N (a machine whose speed drifts during a run
+then moves every mode alike). Each model is compared with the synthesized truth: registered
+images, points, mean reprojection error, and the camera centres' RMS distance after a
+similarity onto the truth's centres; the runs of a mode must give the same model.
 
   colmap_mapping.py --frames 100,150 [--points-per-frame 15] [--kind shared|per-image]
-                    [--local-sba] [--threads 2] [--work DIR] [--reuse] [--markdown FILE]
+                    [--local-sba] [--repeat 1] [--threads 2] [--work DIR] [--reuse]
+                    [--markdown FILE]
 Every point is seen by every image: synthesize_dataset's track_length prunes only the truth's
 tracks (pycolmap 4.2.1), while the database keeps every point's keypoint in every image, matched
 exhaustively, so the mapper's tracks are whole whatever it is. --reuse keeps a database the same
@@ -23,6 +28,7 @@ arguments made before (with its truth). Needs pycolmap (build/pycolmap-venv) and
 import argparse
 import os
 import shutil
+import statistics
 import sys
 import time
 
@@ -77,6 +83,29 @@ def describe(pycolmap, models, truth):
                 error=rec.compute_mean_reprojection_error(), centres=centre_rms(pycolmap, rec, truth))
 
 
+def combined(runs):
+    """The runs of one mode as one: each time the median of the runs', the model's figures the
+    first run's, which every run must have given."""
+    first = runs[0]
+    model = ("models", "images", "points", "error", "centres")
+    for run in runs[1:]:
+        if any(run.get(k) != first.get(k) for k in model):
+            raise SystemExit("the runs of a mode gave different models: %s against %s" % (
+                {k: run.get(k) for k in model}, {k: first.get(k) for k in model}))
+    out = dict(first)
+    for key, value in first.items():
+        if key not in model and isinstance(value, float):
+            out[key] = statistics.median(run[key] for run in runs)
+    out["spread"] = (min(run.get("total", run.get("seconds")) for run in runs),
+                     max(run.get("total", run.get("seconds")) for run in runs))
+    return out
+
+
+def spread(run):
+    low, high = run["spread"]
+    return "" if low == high else " (%.1f-%.1f)" % (low, high)
+
+
 def split(run):
     """The local refinements' seconds apart from their solves, and the rest of the mapping."""
     return run["local"] - run.get("local_solve", 0.0), run["total"] - run["local"] - run["global"]
@@ -88,6 +117,7 @@ def main(argv):
     ap.add_argument("--points-per-frame", type=int, default=15)
     ap.add_argument("--kind", choices=("shared", "per-image"), default="shared")
     ap.add_argument("--local-sba", action="store_true", help="also run sba's local adjustments")
+    ap.add_argument("--repeat", type=int, default=1, help="run every mode this many times, interleaved")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--work", default="/tmp/sba-colmap-mapping")
     ap.add_argument("--reuse", action="store_true")
@@ -102,52 +132,59 @@ def main(argv):
                                 args.reuse)
         options = pycolmap.IncrementalPipelineOptions()
         options.num_threads = args.threads
-        start = time.perf_counter()
-        models = pycolmap.incremental_mapping(database, d, os.path.join(d, "pycolmap"), options)
-        reference = dict(describe(pycolmap, models, truth), seconds=time.perf_counter() - start)
-        runs = {}
-        modes = [("colmap", "colmap", "ceres"), ("sba", "sba", "colmap")]
+        modes = [("pipeline", "colmap", "colmap"), ("colmap", "colmap", "ceres"), ("sba", "sba", "colmap")]
         if args.local_sba:
             modes.append(("sba-local", "sba", "sba"))
-        for name, global_adjustment, local_adjustment in modes:
-            timings = {}
-            models = pysba.colmap._incremental_mapping(pycolmap, database, d, os.path.join(d, name), options,
-                                                       global_adjustment, local_adjustment, timings)
-            runs[name] = dict(describe(pycolmap, models, truth), **timings)
+        references, runs = [], {name: [] for name, _, _ in modes}
+        for _ in range(args.repeat):
+            start = time.perf_counter()
+            models = pycolmap.incremental_mapping(database, d, os.path.join(d, "pycolmap"), options)
+            references.append(dict(describe(pycolmap, models, truth), seconds=time.perf_counter() - start))
+            for name, global_adjustment, local_adjustment in modes:
+                timings = {}
+                models = pysba.colmap._incremental_mapping(pycolmap, database, d, os.path.join(d, name), options,
+                                                           global_adjustment, local_adjustment, timings)
+                runs[name].append(dict(describe(pycolmap, models, truth), **timings))
+        reference = combined(references)
+        runs = {name: combined(r) for name, r in runs.items()}
         row = dict(frames=frames, reference=reference, **runs)
         rows.append(row)
-        c = runs["colmap"]
-        line = ("%d frames: pycolmap %.1f s (%d images, %d points, %.4f px, centres %.3g); pipeline with COLMAP's "
-                "adjustments %.1f s (local %.1f, of which solves %.1f in %d; global %.1f in %d; rest %.1f)" % (
-                    frames, reference["seconds"], reference["images"], reference["points"], reference["error"],
-                    reference["centres"], c["total"], c["local"], c["local_solve"], c["local_calls"], c["global"],
-                    c["global_calls"], split(c)[1]))
-        for name in [m[0] for m in modes[1:]]:
+        c, p = runs["colmap"], runs["pipeline"]
+        line = ("%d frames, %d run(s): pycolmap %.1f s%s (%d images, %d points, %.4f px, centres %.3g); pipeline "
+                "with the mapper's adjustments %.1f s%s (%.2fx pycolmap); with COLMAP's adjustments timed %.1f s%s "
+                "(local %.1f, of which solves %.1f in %d; global %.1f in %d; rest %.1f)" % (
+                    frames, args.repeat, reference["seconds"], spread(reference), reference["images"],
+                    reference["points"], reference["error"], reference["centres"], p["total"], spread(p),
+                    p["total"] / reference["seconds"], c["total"], spread(c), c["local"], c["local_solve"],
+                    c["local_calls"], c["global"], c["global_calls"], split(c)[1]))
+        for name in [m[0] for m in modes[2:]]:
             s = runs[name]
             local = "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's"
-            line += ("; %s %.1f s (global %.1f: %.2fx; local solves %s; %d images, %d points, %.4f px, centres %.3g)"
-                     % (name, s["total"], s["global"], s["global"] / c["global"], local, s["images"], s["points"],
-                        s["error"], s["centres"]))
+            line += ("; %s %.1f s%s (%.2fx pycolmap; global %.1f: %.2fx; local solves %s; %d images, %d points, "
+                     "%.4f px, centres %.3g)" % (name, s["total"], spread(s), s["total"] / reference["seconds"],
+                                                 s["global"], s["global"] / c["global"], local, s["images"],
+                                                 s["points"], s["error"], s["centres"]))
         print(line, flush=True)
     if args.markdown:
         with open(args.markdown, "a") as f:
-            f.write("| frames | pycolmap | its images, points, px, centres | pipeline, COLMAP's adjustments: total "
-                    "| local: solves (calls) | local: the rest | global (calls) | rest | run | total | global "
-                    "| global ratio | local solves | images, points, px, centres |\n"
-                    "|---:|---:|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---|\n")
+            f.write("| frames | runs | pycolmap | its images, points, px, centres | pipeline, COLMAP's adjustments "
+                    "timed: total | local: solves (calls) | local: the rest | global (calls) | rest | run | total "
+                    "| of pycolmap's | global | global ratio | local solves | images, points, px, centres |\n"
+                    "|---:|---:|---:|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---|\n")
             for r in rows:
                 ref, c = r["reference"], r["colmap"]
-                lead = ("| %d | %.1f s | %d, %d, %.4f, %.3g | %.1f s | %.1f s (%d) | %.1f s | %.1f s (%d) | %.1f s " % (
-                    r["frames"], ref["seconds"], ref["images"], ref["points"], ref["error"], ref["centres"],
-                    c["total"], c["local_solve"], c["local_calls"], split(c)[0], c["global"], c["global_calls"],
-                    split(c)[1]))
-                for name in [m[0] for m in modes[1:]]:
+                lead = ("| %d | %d | %.1f s%s | %d, %d, %.4f, %.3g | %.1f s%s | %.1f s (%d) | %.1f s | %.1f s (%d) "
+                        "| %.1f s " % (r["frames"], args.repeat, ref["seconds"], spread(ref), ref["images"],
+                                       ref["points"], ref["error"], ref["centres"], c["total"], spread(c),
+                                       c["local_solve"], c["local_calls"], split(c)[0], c["global"],
+                                       c["global_calls"], split(c)[1]))
+                for name in [modes[0][0]] + [m[0] for m in modes[2:]]:
                     s = r[name]
-                    f.write(lead + "| %s | %.1f s | %.1f s | %.2fx | %s | %d, %d, %.4f, %.3g |\n" % (
-                        name, s["total"], s["global"], s["global"] / c["global"],
-                        "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's",
+                    f.write(lead + "| %s | %.1f s%s | %.2fx | %.1f s | %.2fx | %s | %d, %d, %.4f, %.3g |\n" % (
+                        name, s["total"], spread(s), s["total"] / ref["seconds"], s["global"],
+                        s["global"] / c["global"], "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's",
                         s["images"], s["points"], s["error"], s["centres"]))
-                    lead = "| | | | | | | | "
+                    lead = "| | | | | | | | | "
     return 0
 
 
