@@ -14,7 +14,7 @@ adjustments too ("sba-local"). With --repeat N the whole round runs N times, the
 interleaved, and every time is the median of the N (a machine whose speed drifts during a run
 then moves every mode alike). Each model is compared with the synthesized truth: registered
 images, points, mean reprojection error, and the camera centres' RMS distance after a
-similarity onto the truth's centres; the runs of a mode must give the same model.
+similarity onto the truth's centres (a range where the runs of a mode differ).
 
   colmap_mapping.py --frames 100,150 [--points-per-frame 15] [--kind shared|per-image]
                     [--local-sba] [--repeat 1] [--threads 2] [--work DIR] [--reuse]
@@ -84,21 +84,32 @@ def describe(pycolmap, models, truth):
 
 
 def combined(runs):
-    """The runs of one mode as one: each time the median of the runs', the model's figures the
-    first run's, which every run must have given."""
+    """The runs of one mode as one: each time the median of the runs', each figure of the
+    model the first run's, with "_range" the lowest and highest where the runs differ (the
+    mapper's RANSAC on several threads need not give the same model twice)."""
     first = runs[0]
     model = ("models", "images", "points", "error", "centres")
-    for run in runs[1:]:
-        if any(run.get(k) != first.get(k) for k in model):
-            raise SystemExit("the runs of a mode gave different models: %s against %s" % (
-                {k: run.get(k) for k in model}, {k: first.get(k) for k in model}))
     out = dict(first)
+    for key in model:
+        values = [run.get(key) for run in runs]
+        if any(v != values[0] for v in values):
+            out[key + "_range"] = (min(values), max(values))
     for key, value in first.items():
         if key not in model and isinstance(value, float):
             out[key] = statistics.median(run[key] for run in runs)
     out["spread"] = (min(run.get("total", run.get("seconds")) for run in runs),
                      max(run.get("total", run.get("seconds")) for run in runs))
     return out
+
+
+def figures(run):
+    """A model's figures: images, points, mean error and centres' RMS, each as a range where
+    the runs differ."""
+    def one(key, form):
+        low, high = run.get(key + "_range", (run[key], run[key]))
+        return form % low if low == high else (form + "-" + form) % (low, high)
+    return "%s images, %s points, %s px, centres %s" % (one("images", "%d"), one("points", "%d"),
+                                                      one("error", "%.4f"), one("centres", "%.3g"))
 
 
 def spread(run):
@@ -150,40 +161,39 @@ def main(argv):
         row = dict(frames=frames, reference=reference, **runs)
         rows.append(row)
         c, p = runs["colmap"], runs["pipeline"]
-        line = ("%d frames, %d run(s): pycolmap %.1f s%s (%d images, %d points, %.4f px, centres %.3g); pipeline "
+        line = ("%d frames, %d run(s): pycolmap %.1f s%s (%s); pipeline "
                 "with the mapper's adjustments %.1f s%s (%.2fx pycolmap); with COLMAP's adjustments timed %.1f s%s "
                 "(local %.1f, of which solves %.1f in %d; global %.1f in %d; rest %.1f)" % (
-                    frames, args.repeat, reference["seconds"], spread(reference), reference["images"],
-                    reference["points"], reference["error"], reference["centres"], p["total"], spread(p),
+                    frames, args.repeat, reference["seconds"], spread(reference), figures(reference), p["total"],
+                    spread(p),
                     p["total"] / reference["seconds"], c["total"], spread(c), c["local"], c["local_solve"],
                     c["local_calls"], c["global"], c["global_calls"], split(c)[1]))
         for name in [m[0] for m in modes[2:]]:
             s = runs[name]
             local = "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's"
-            line += ("; %s %.1f s%s (%.2fx pycolmap; global %.1f: %.2fx; local solves %s; %d images, %d points, "
-                     "%.4f px, centres %.3g)" % (name, s["total"], spread(s), s["total"] / reference["seconds"],
-                                                 s["global"], s["global"] / c["global"], local, s["images"],
-                                                 s["points"], s["error"], s["centres"]))
+            line += "; %s %.1f s%s (%.2fx pycolmap; global %.1f: %.2fx; local solves %s; %s)" % (
+                name, s["total"], spread(s), s["total"] / reference["seconds"], s["global"], s["global"] / c["global"],
+                local, figures(s))
         print(line, flush=True)
     if args.markdown:
         with open(args.markdown, "a") as f:
-            f.write("| frames | runs | pycolmap | its images, points, px, centres | pipeline, COLMAP's adjustments "
+            f.write("| frames | runs | pycolmap | its model | pipeline, COLMAP's adjustments "
                     "timed: total | local: solves (calls) | local: the rest | global (calls) | rest | run | total "
-                    "| of pycolmap's | global | global ratio | local solves | images, points, px, centres |\n"
+                    "| of pycolmap's | global | global ratio | local solves | model |\n"
                     "|---:|---:|---:|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---|\n")
             for r in rows:
                 ref, c = r["reference"], r["colmap"]
-                lead = ("| %d | %d | %.1f s%s | %d, %d, %.4f, %.3g | %.1f s%s | %.1f s (%d) | %.1f s | %.1f s (%d) "
-                        "| %.1f s " % (r["frames"], args.repeat, ref["seconds"], spread(ref), ref["images"],
-                                       ref["points"], ref["error"], ref["centres"], c["total"], spread(c),
+                lead = ("| %d | %d | %.1f s%s | %s | %.1f s%s | %.1f s (%d) | %.1f s | %.1f s (%d) "
+                        "| %.1f s " % (r["frames"], args.repeat, ref["seconds"], spread(ref), figures(ref),
+                                       c["total"], spread(c),
                                        c["local_solve"], c["local_calls"], split(c)[0], c["global"],
                                        c["global_calls"], split(c)[1]))
                 for name in [modes[0][0]] + [m[0] for m in modes[2:]]:
                     s = r[name]
-                    f.write(lead + "| %s | %.1f s%s | %.2fx | %.1f s | %.2fx | %s | %d, %d, %.4f, %.3g |\n" % (
+                    f.write(lead + "| %s | %.1f s%s | %.2fx | %.1f s | %.2fx | %s | %s |\n" % (
                         name, s["total"], spread(s), s["total"] / ref["seconds"], s["global"],
                         s["global"] / c["global"], "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's",
-                        s["images"], s["points"], s["error"], s["centres"]))
+                        figures(s)))
                     lead = "| | | | | | | | | "
     return 0
 
