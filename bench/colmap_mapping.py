@@ -107,7 +107,11 @@ def figures(run):
     the runs differ."""
     def one(key, form):
         low, high = run.get(key + "_range", (run[key], run[key]))
-        return form % low if low == high else (form + "-" + form) % (low, high)
+        if low == high:
+            return form % low
+        if form % low == form % high:  # differing in digits the form does not show
+            form = "%.7g"
+        return (form + "-" + form) % (low, high)
     return "%s images, %s points, %s px, centres %s" % (one("images", "%d"), one("points", "%d"),
                                                       one("error", "%.4f"), one("centres", "%.3g"))
 
