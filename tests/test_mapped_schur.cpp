@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "camera_unknowns.h"
+#include "counting_malloc.h"
 #include "kernels.h"
 #include "layout.h"
 #include "mapped_schur.h"
@@ -211,6 +212,23 @@ TEST(MappedSchur, TiledAssemblyGivesThePointByPointBits) {
           EXPECT_EQ(assembled(pb, 0.3, threads, sba::MappedSchur::Assembly::Tiled, tile, chunk), want);
         }
   }
+}
+
+// A small problem's room for the tiled assembly is in proportion to its points, not a fixed
+// 2 MB a thread: a mapper solves small problems hundreds of times over, each solve with its
+// own.
+TEST(MappedSchur, TiledAssemblyRoomOfASmallProblemIsInProportionToIt) {
+#ifdef SBA_TEST_SANITIZED
+  GTEST_SKIP() << "needs the counting malloc, which the sanitizers replace";
+#else
+  const Problem pb(23u);
+  const long long before = malloc_count::live();
+  const sba::MappedSchur schur(pb.lay, 2, sba::MappedSchur::Assembly::Tiled);
+  ASSERT_TRUE(schur.tiled());
+  const long long held = malloc_count::live() - before;
+  EXPECT_GT(held, 0);
+  EXPECT_LT(held, 64 * 1024) << "bytes held by a tiled assembly of " << kN << " points on 2 threads";
+#endif
 }
 
 }  // namespace
