@@ -97,8 +97,7 @@ def combined(runs):
     for key, value in first.items():
         if key not in model and isinstance(value, float):
             out[key] = statistics.median(run[key] for run in runs)
-    out["spread"] = (min(run.get("total", run.get("seconds")) for run in runs),
-                     max(run.get("total", run.get("seconds")) for run in runs))
+    out["spread"] = (min(run["total"] for run in runs), max(run["total"] for run in runs))
     return out
 
 
@@ -154,7 +153,7 @@ def main(argv):
         for _ in range(args.repeat):
             start = time.perf_counter()
             models = pycolmap.incremental_mapping(database, d, os.path.join(d, "pycolmap"), options)
-            references.append(dict(describe(pycolmap, models, truth), seconds=time.perf_counter() - start))
+            references.append(dict(describe(pycolmap, models, truth), total=time.perf_counter() - start))
             for name, global_adjustment, local_adjustment in modes:
                 timings = {}
                 models = pysba.colmap._incremental_mapping(pycolmap, database, d, os.path.join(d, name), options,
@@ -168,15 +167,14 @@ def main(argv):
         line = ("%d frames, %d run(s): pycolmap %.1f s%s (%s); pipeline "
                 "with the mapper's adjustments %.1f s%s (%.2fx pycolmap); with COLMAP's adjustments timed %.1f s%s "
                 "(local %.1f, of which solves %.1f in %d; global %.1f in %d; rest %.1f)" % (
-                    frames, args.repeat, reference["seconds"], spread(reference), figures(reference), p["total"],
-                    spread(p),
-                    p["total"] / reference["seconds"], c["total"], spread(c), c["local"], c["local_solve"],
+                    frames, args.repeat, reference["total"], spread(reference), figures(reference), p["total"],
+                    spread(p), p["total"] / reference["total"], c["total"], spread(c), c["local"], c["local_solve"],
                     c["local_calls"], c["global"], c["global_calls"], split(c)[1]))
         for name in [m[0] for m in modes[2:]]:
             s = runs[name]
             local = "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's"
             line += "; %s %.1f s%s (%.2fx pycolmap; global %.1f: %.2fx; local solves %s; %s)" % (
-                name, s["total"], spread(s), s["total"] / reference["seconds"], s["global"], s["global"] / c["global"],
+                name, s["total"], spread(s), s["total"] / reference["total"], s["global"], s["global"] / c["global"],
                 local, figures(s))
         print(line, flush=True)
     if args.markdown:
@@ -188,14 +186,14 @@ def main(argv):
             for r in rows:
                 ref, c = r["reference"], r["colmap"]
                 lead = ("| %d | %d | %.1f s%s | %s | %.1f s%s | %.1f s (%d) | %.1f s | %.1f s (%d) "
-                        "| %.1f s " % (r["frames"], args.repeat, ref["seconds"], spread(ref), figures(ref),
+                        "| %.1f s " % (r["frames"], args.repeat, ref["total"], spread(ref), figures(ref),
                                        c["total"], spread(c),
                                        c["local_solve"], c["local_calls"], split(c)[0], c["global"],
                                        c["global_calls"], split(c)[1]))
                 for name in [modes[0][0]] + [m[0] for m in modes[2:]]:
                     s = r[name]
                     f.write(lead + "| %s | %.1f s%s | %.2fx | %.1f s | %.2fx | %s | %s |\n" % (
-                        name, s["total"], spread(s), s["total"] / ref["seconds"], s["global"],
+                        name, s["total"], spread(s), s["total"] / ref["total"], s["global"],
                         s["global"] / c["global"], "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's",
                         figures(s)))
                     lead = "| | | | | | | | | "

@@ -80,9 +80,8 @@ MappedSchur::MappedSchur(const Layout &lay, int threads, Assembly how, int tile,
            (how == Assembly::Auto && tile_ngroups() > 1 && pairs >= double(lay.n) * double(nb) * nb / 16.0);
   tiled_ = tiled_ && pnp > 0 && lay.n > lay.ncon;
   // A chunk holds at least one point of the longest couplings and up to about 2 MB of them,
-  // never more than all the points' or than its most points' (nor more points than there
-  // are): a small problem, solved many times over (a mapper's local adjustments), does not
-  // allocate and clear 2 MB a thread.
+  // but never more room than its points can use: a small problem, solved many times over (a
+  // mapper's local adjustments), should not allocate 2 MB a thread each time.
   constexpr i64 kChunkDoubles = i64(1) << 18;
   const int chunk_points = std::max(std::min(chunk, lay.n - lay.ncon), 1);
   const i64 chunk_doubles =

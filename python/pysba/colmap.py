@@ -102,13 +102,12 @@ def _default_options(options_type: Any) -> Dict[str, Any]:
     return _flat(options_type().todict())
 
 
-def _options(pycolmap: Any, options: Any, given: Optional[Dict[str, Any]] = None) -> Dict[str, Any]:
-    """refine_colmap's arguments for a pycolmap.BundleAdjustmentOptions (given: its values,
-    flattened, when the caller has them)."""
+def _options(pycolmap: Any, options: Any) -> Tuple[Dict[str, Any], Dict[str, Any]]:
+    """refine_colmap's arguments for a pycolmap.BundleAdjustmentOptions, and its values
+    flattened."""
     if not isinstance(options, pycolmap.BundleAdjustmentOptions):
         raise TypeError(f"options must be a pycolmap.BundleAdjustmentOptions, got {type(options).__name__}")
-    if given is None:
-        given = _flat(options.todict())
+    given = _flat(options.todict())
     _refused(given, _default_options(pycolmap.BundleAdjustmentOptions), "options")
     if _name(given["backend"]) != "CERES":
         raise ValueError(f"options.backend = {_name(given['backend'])} is not honoured by sba (only CERES, "
@@ -139,7 +138,7 @@ def _options(pycolmap: Any, options: Any, given: Optional[Dict[str, Any]] = None
     parameter_tolerance = float(given[solver + "parameter_tolerance"])
     if parameter_tolerance > 0:
         kw["opts"] = [1e-3, kw["gradient_tolerance"], parameter_tolerance, 1e-12, kw["function_tolerance"]]
-    return kw
+    return kw, given
 
 
 def _prior_options(pycolmap: Any, prior_options: Any) -> Dict[str, Any]:
@@ -260,9 +259,7 @@ def _bundle_adjustment(reconstruction: Any, options: Any, config: Any, pose_prio
     pycolmap = _pycolmap()
     if not isinstance(reconstruction, pycolmap.Reconstruction):
         raise TypeError(f"reconstruction must be a pycolmap.Reconstruction, got {type(reconstruction).__name__}")
-    options = options if options is not None else pycolmap.BundleAdjustmentOptions()
-    given = _flat(options.todict()) if isinstance(options, pycolmap.BundleAdjustmentOptions) else None
-    kw = _options(pycolmap, options, given)
+    kw, given = _options(pycolmap, options if options is not None else pycolmap.BundleAdjustmentOptions())
     solver_options = "ceres.solver_options."
     if config is not None:
         kw.update(_config(pycolmap, config))
