@@ -659,13 +659,84 @@ def _pose_of(rigid: Any) -> Tuple[np.ndarray, np.ndarray]:
     return xyzw[[3, 0, 1, 2]], np.array(rigid.translation, np.float64)
 
 
-def _from_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int, np.ndarray]] = None) -> ColmapModel:
+class _ReadCache:
+    """What a caller that reads the same Reconstruction again and again (a mapper's, at each of
+    its adjustments) keeps from one read to the next, so that each read asks pycolmap only for
+    what changed: pycolmap hands a track over one Python object per element, and a model of
+    long tracks costs more to read element by element than to solve.
+
+    keypoints, for images whose keypoints do not change between reads (a mapper's come from its
+    database): every keypoint of each image by IMAGE_ID, (k, 2), each image's read whole once,
+    from the database at database_path (the mapper's, whose float keypoints are its images'),
+    opened at the first read and kept open until close(), where it has as many as the image,
+    from the image otherwise.
+
+    tracks: by POINT3D_ID, a copy of the point's pycolmap.Track as last read, with its IMAGE_IDs
+    and keypoint indices in its order (see _read_track). A point whose track compares equal to
+    the copy, or to the copy with the new elements appended (one comparison in pycolmap,
+    whatever the track's length), takes the rest from here, so an entry is right whatever
+    happened to the point since."""
+
+    def __init__(self, database_path: Any = None) -> None:
+        self.database_path = database_path
+        self.database: Any = None
+        self.keypoints: Dict[int, np.ndarray] = {}
+        self.tracks: Dict[int, Tuple[Any, List[int], List[int]]] = {}
+
+    def close(self) -> None:
+        if self.database is not None:
+            self.database.close()
+            self.database = None
+
+    def keypoints_of(self, image_id: int, image: Any) -> np.ndarray:
+        """Every keypoint of the image, (k, 2)."""
+        every = self.keypoints.get(image_id)
+        if every is None:
+            k = image.num_points2D()
+            if self.database is None and self.database_path is not None:
+                self.database = _pycolmap().Database.open(os.fspath(self.database_path))
+            if self.database is not None and self.database.exists_image(image_id):
+                read = np.asarray(self.database.read_keypoints(image_id))
+                if read.ndim == 2 and read.shape[1] >= 2:
+                    every = read[:, :2].astype(np.float64)
+            if every is None or len(every) != k:
+                every = np.array([p.xy for p in image.points2D], np.float64).reshape(-1, 2)
+            self.keypoints[image_id] = every
+        return every
+
+
+def _read_track(track: Any, known: Optional[Tuple[Any, List[int], List[int]]]) -> Tuple[Any, List[int], List[int]]:
+    """A pycolmap.Track as a _ReadCache keeps it: a copy, its IMAGE_IDs and keypoint indices.
+    known, the point's entry of the last read, is returned (updated in place) when the track is
+    the same or that track with elements appended (a mapper's tracks grow at their end as
+    images are registered), so that only the new elements are read."""
+    if known is not None:
+        copied, image_ids, keypoints = known
+        had = len(image_ids)
+        grown = track.length() - had
+        if grown == 0 and track == copied:
+            return known
+        if grown > 0:
+            new = [track.element(i) for i in range(had, had + grown)]
+            for element in new:
+                copied.add_element(element)
+            if track == copied:
+                image_ids += [e.image_id for e in new]
+                keypoints += [e.point2D_idx for e in new]
+                return known
+    elements = track.elements
+    # A copy: the Track pycolmap returns can be a view of the point's own.
+    return track.__copy__(), [e.image_id for e in elements], [e.point2D_idx for e in elements]
+
+
+def _from_reconstruction(reconstruction: Any, cache: Optional[_ReadCache] = None) -> ColmapModel:
     """_read_reconstruction's model of the whole reconstruction."""
-    return _read_reconstruction(reconstruction, keypoint_cache)[0]
+    return _read_reconstruction(reconstruction, cache)[0]
 
 
-def _read_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int, np.ndarray]] = None,
-                         part: Optional[Tuple[Any, Any, Any]] = None) -> Tuple[ColmapModel, List[int]]:
+def _read_reconstruction(reconstruction: Any, cache: Optional[_ReadCache] = None,
+                         part: Optional[Tuple[Any, Any, Any]] = None,
+                         appearance: bool = True) -> Tuple[ColmapModel, List[int]]:
     """What refine_colmap reads of a pycolmap.Reconstruction, through pycolmap's API (no file),
     and the POINT3D_IDs it must hold: every camera, rig and frame (a frame without a pose, and
     its images, without one as in from_pycolmap), every image with its pose as pycolmap
@@ -683,10 +754,11 @@ def _read_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int,
     of their frames, and their frames, rigs and cameras. The problem is the one of the whole
     model with that configuration.
 
-    keypoint_cache, for a caller whose images' keypoints do not change between calls (a mapper's
-    come from its database): a dict of every keypoint of each image by IMAGE_ID, (k, 2), which
-    this reads from and adds to, each image read whole once rather than its observing
-    keypoints each time."""
+    cache, a _ReadCache this reads from and updates: the same model as without it, bit for bit,
+    for a caller whose images' keypoints do not change between reads.
+
+    appearance False leaves the points' colours and errors zero, for a caller that neither
+    uses nor writes them back (a bundle adjustment)."""
     points = reconstruction.points3D
     held: List[int] = []
     span: Dict[int, Tuple[int, int]] = {}  # a held point's elements in part's images: its rows of seen_*
@@ -712,24 +784,36 @@ def _read_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int,
                 span[point_id] = (a, a + c)
         ids = np.array(sorted(whole.union(seen_ids.tolist())), np.uint64)
     n = len(ids)
-    xyz, rgb, error = np.empty((n, 3)), np.zeros((n, 3), np.uint8), np.zeros(n)
+    rgb, error = np.zeros((n, 3), np.uint8), np.zeros(n)
     # The tracks, in their order: (point, image, keypoint) per element. A held point of part
     # gets its config images' elements (its rows of seen_*), and neither colour nor error
     # (nothing of a held point is written back).
-    track_points: List[int] = []
+    rows_xyz: List[Any] = []
+    lengths: List[int] = []
     image_ids: List[int] = []
     keypoints: List[int] = []
+    known = cache.tracks if cache is not None else {}
+    kept: Dict[int, Tuple[Any, List[int], List[int]]] = {}
     for k, point_id in enumerate(ids.tolist()):
         p = points[point_id]
-        xyz[k] = p.xyz
+        rows_xyz.append(p.xyz)
         if point_id in span:
+            lengths.append(0)
             continue
-        rgb[k], error[k] = p.color, p.error
-        for element in p.track.elements:
-            track_points.append(point_id)
-            image_ids.append(element.image_id)
-            keypoints.append(element.point2D_idx)
-    track_points_a = np.array(track_points, np.uint64)
+        if appearance:
+            rgb[k], error[k] = p.color, p.error
+        entry = kept[point_id] = _read_track(p.track, known.get(point_id))
+        image_ids += entry[1]
+        keypoints += entry[2]
+        lengths.append(len(entry[1]))
+    xyz = np.array(rows_xyz, np.float64).reshape(n, 3)
+    if cache is not None:
+        # A whole read forgets the points gone from the model; a part's, nothing.
+        if part is None:
+            cache.tracks = kept
+        else:
+            cache.tracks.update(kept)
+    track_points_a = np.repeat(ids, np.array(lengths, np.int64))
     track_images = np.array(image_ids, np.uint64)
     track_keypoints = np.array(keypoints, np.uint64)
     if span:
@@ -800,13 +884,10 @@ def _read_reconstruction(reconstruction: Any, keypoint_cache: Optional[Dict[int,
         im = reconstruction.image(image_id)
         key = np.uint64(image_id)  # of the array's type: a Python int would convert the array to float
         rows = order[np.searchsorted(by_image, key, "left"):np.searchsorted(by_image, key, "right")]
-        if keypoint_cache is None:
+        if cache is None:
             xy = np.array([im.point2D(k).xy for k in track_keypoints[rows].tolist()], np.float64).reshape(-1, 2)
         else:
-            every = keypoint_cache.get(image_id)
-            if every is None:
-                every = keypoint_cache[image_id] = np.array([p.xy for p in im.points2D], np.float64).reshape(-1, 2)
-            xy = every[track_keypoints[rows].astype(np.intp)]
+            xy = cache.keypoints_of(image_id, im)[track_keypoints[rows].astype(np.intp)]
         if im.has_pose:
             q, t = _pose_of(im.cam_from_world())
         else:

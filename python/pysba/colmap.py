@@ -19,7 +19,7 @@ from typing import Any, Callable, Dict, Optional, Tuple
 import numpy as np
 
 from . import Progress, Result, SolveError
-from ._colmap import _pycolmap, _read_reconstruction, _write_into, refine_colmap
+from ._colmap import _pycolmap, _read_reconstruction, _ReadCache, _write_into, refine_colmap
 
 __all__ = ["bundle_adjustment", "adjust_global_bundle", "adjust_local_bundle", "incremental_mapping"]
 
@@ -254,8 +254,8 @@ def bundle_adjustment(reconstruction: Any, options: Any = None, config: Any = No
 
 def _bundle_adjustment(reconstruction: Any, options: Any, config: Any, pose_priors: Any, prior_options: Any,
                        solver: Optional[str], progress: Optional[Callable[[Progress], Any]],
-                       keypoints: Optional[Dict[int, Any]]) -> Result:
-    """bundle_adjustment, its keypoints read through keypoints (see _from_reconstruction)."""
+                       cache: Optional[_ReadCache]) -> Result:
+    """bundle_adjustment, reading the reconstruction through cache (see _read_reconstruction)."""
     pycolmap = _pycolmap()
     if not isinstance(reconstruction, pycolmap.Reconstruction):
         raise TypeError(f"reconstruction must be a pycolmap.Reconstruction, got {type(reconstruction).__name__}")
@@ -281,7 +281,7 @@ def _bundle_adjustment(reconstruction: Any, options: Any, config: Any, pose_prio
     # COLMAP's adjusters leave the points' errors as they were; pycolmap.bundle_adjustment (no
     # config, no priors) updates every point's after the solve.
     part = _part(pycolmap, reconstruction, config, kw) if pose_priors is None else None
-    model, held = _read_reconstruction(reconstruction, keypoints, part)
+    model, held = _read_reconstruction(reconstruction, cache, part, appearance=False)
     if held:
         kw["hold_points"] = np.union1d(np.array(kw["hold_points"], np.uint64), np.array(held, np.uint64))
     try:
@@ -381,10 +381,10 @@ def _mapper_config(pycolmap: Any, mapper: Any, mapper_options: Any, gauge: bool)
 
 def _adjust_global_bundle(mapper: Any, mapper_options: Any, ba_options: Any, pose_priors: Any, prior_options: Any,
                           solver: Optional[str], progress: Optional[Callable[[Progress], Any]],
-                          keypoints: Optional[Dict[int, Any]]) -> Result:
-    """adjust_global_bundle, its keypoints read through keypoints (see _from_reconstruction)."""
+                          cache: Optional[_ReadCache]) -> Result:
+    """adjust_global_bundle, reading the reconstruction through cache (see _read_reconstruction)."""
     rec, config = _mapper_config(_pycolmap(), mapper, mapper_options, pose_priors is None)
-    return _bundle_adjustment(rec, ba_options, config, pose_priors, prior_options, solver, progress, keypoints)
+    return _bundle_adjustment(rec, ba_options, config, pose_priors, prior_options, solver, progress, cache)
 
 
 # The longest track of a point the local adjustment refines with all its observations: longer
@@ -547,14 +547,14 @@ def _incremental_mapping(pycolmap: Any, database_path: Any, image_path: Any, out
     if local_adjustment == "sba":
         _options(pycolmap, options.get_local_bundle_adjustment())
     # An image's keypoints are the database's, whatever model the mapper holds it in: read once
-    # for the whole mapping.
-    keypoints: Dict[int, Any] = {}
+    # for the whole mapping, from the database; a track, again only once it has changed.
+    cache = _ReadCache(database_path)
     clock = _mapping.Timings()
     if global_adjustment == "sba":
         def adjust(mapper: Any, mapper_options: Any, ba_options: Any, pose_priors: Any) -> Any:
             prior_options = None if pose_priors is None else _pipeline_prior_options(pycolmap, options)
             return _adjust_global_bundle(mapper, mapper_options, ba_options, pose_priors, prior_options, None, None,
-                                         keypoints)
+                                         cache)
     else:
         def adjust(mapper: Any, mapper_options: Any, ba_options: Any, pose_priors: Any) -> Any:
             if pose_priors is None:
@@ -572,7 +572,7 @@ def _incremental_mapping(pycolmap: Any, database_path: Any, image_path: Any, out
         def solve(rec: Any, config: Any) -> int:
             start = time.perf_counter()
             if local_adjustment == "sba":
-                adjusted = _bundle_adjustment(rec, ba_options, config, None, None, None, None, keypoints).nobs
+                adjusted = _bundle_adjustment(rec, ba_options, config, None, None, None, None, cache).nobs
             else:
                 adjusted = pycolmap.create_default_bundle_adjuster(ba_options, config, rec).solve().num_residuals // 2
             clock.add("local_solve", time.perf_counter() - start)
@@ -585,5 +585,6 @@ def _incremental_mapping(pycolmap: Any, database_path: Any, image_path: Any, out
         return _mapping.incremental_mapping(pycolmap, database_path, image_path, output_path, options, adjust,
                                             adjust_local, clock)
     finally:
+        cache.close()
         if timings is not None:
             timings.update(clock)

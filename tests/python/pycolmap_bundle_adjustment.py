@@ -627,27 +627,102 @@ def mapping_with_priors(pycolmap, pysba):
                                                       eb, ea, cb, ca))
 
 
-def keypoint_cache(pycolmap, pysba):
-    """The mapping's cache of keypoints (an image's are read whole once, then taken from the
-    cache): the model read through it is the model read without, bit for bit, and a second
-    read takes the cache's values."""
+def same_model(a, b):
+    """Whether two ColmapModels read of a Reconstruction hold the same bits: images (their
+    keypoints and points), points and tracks."""
+    pa, pb = a.points3D, b.points3D
+    return (len(a.images) == len(b.images) and
+            all(x.id == y.id and x.points2D.tobytes() == y.points2D.tobytes() and
+                x.point3D_ids.tobytes() == y.point3D_ids.tobytes() for x, y in zip(a.images, b.images)) and
+            all(getattr(pa, f).tobytes() == getattr(pb, f).tobytes()
+                for f in ("ids", "xyz", "track_offsets", "track_image_ids", "track_point2D_idxs")))
+
+
+def read_cache(pycolmap, pysba):
+    """The mapping's cache of what it read (an image's keypoints are read whole once, a track
+    again only where it changed): the model read through it is the model read without, bit for
+    bit, after tracks grow, change at the same length, change and grow, and points go and come;
+    a grown track is read on from the cache's entry, and an unchanged one taken from it."""
     import numpy as np
     from pysba import _colmap
     rec = scene(pycolmap, "rigs", 6)
-    plain, cache = _colmap._from_reconstruction(rec), {}
+    plain, cache = _colmap._from_reconstruction(rec), _colmap._ReadCache()
     cached = _colmap._from_reconstruction(rec, cache)
-    same = all(a.id == b.id and a.points2D.tobytes() == b.points2D.tobytes() and
-               a.point3D_ids.tobytes() == b.point3D_ids.tobytes() for a, b in zip(plain.images, cached.images))
-    expect(same and len(plain.images) == len(cached.images) > 0, "the cached read differs from the plain one")
+    expect(same_model(plain, cached) and len(plain.images) > 0, "the cached read differs from the plain one")
     posed = [im.image_id for im in rec.images.values() if im.has_pose]
-    expect(sorted(cache) == sorted(posed) and all(len(cache[i]) == rec.images[i].num_points2D() for i in posed),
+    expect(sorted(cache.keypoints) == sorted(posed) and
+           all(len(cache.keypoints[i]) == rec.images[i].num_points2D() for i in posed),
            "the cache does not hold every keypoint of every image")
-    first = plain.images[0]
-    cache[first.id] = cache[first.id] + 0.25
+    expect(sorted(cache.tracks) == sorted(rec.points3D), "the cache does not hold every track")
+    # Keypoints that observe no point (the scene's deleted observations), to observe with.
+    free = [(i, k) for i in posed for k in range(rec.images[i].num_points2D())
+            if not rec.images[i].point2D(k).has_point3D()]
+    expect(len(free) >= 6, "the scene has %d free keypoints, 6 wanted" % len(free))
+    ids = sorted(rec.points3D)
+    grown, same_length, changed, gone, kept = ids[:5]
+    grown_entry = cache.tracks[grown]
+
+    def observe(point_id):
+        rec.add_observation(point_id, pycolmap.TrackElement(*free.pop()))
+
+    def drop_first(point_id):
+        e = rec.points3D[point_id].track.elements[0]
+        rec.delete_observation(e.image_id, e.point2D_idx)
+
+    observe(grown)
+    drop_first(same_length)
+    observe(same_length)
+    drop_first(changed)
+    observe(changed)
+    observe(changed)
+    rec.delete_point3D(gone)
+    new = rec.add_point3D(np.array([0.5, 0.25, 4.0]), pycolmap.Track())
+    observe(new)
+    observe(new)
     again = _colmap._from_reconstruction(rec, cache)
-    expect(np.array_equal(again.images[0].points2D, first.points2D + 0.25) and len(first.points2D) > 0,
+    expect(same_model(again, _colmap._from_reconstruction(rec)), "after tracks changed, the cached read differs "
+           "from the plain one")
+    expect(cache.tracks[grown] is grown_entry, "a grown track was read again from its start")
+    expect(gone not in cache.tracks and new in cache.tracks, "the cache keeps a deleted point or lacks a new one")
+    # An unchanged track is the cache's: its entry, its first two elements swapped, is what a
+    # read gives.
+    for column in cache.tracks[kept][1:]:
+        column[0], column[1] = column[1], column[0]
+    expect(not same_model(_colmap._from_reconstruction(rec, cache), again),
+           "an unchanged track was read again, not taken from the cache")
+    first = again.images[0]
+    cache.keypoints[first.id] = cache.keypoints[first.id] + 0.25
+    shifted = _colmap._from_reconstruction(rec, cache)
+    expect(np.array_equal(shifted.images[0].points2D, first.points2D + 0.25) and len(first.points2D) > 0,
            "a second read does not take the cache's keypoints")
-    print("PASS the keypoint cache: the same model, %d images' keypoints read once" % len(cache))
+    # A mapper's images' keypoints, read from its database: the bits of its images' own.
+    import tempfile
+    with tempfile.TemporaryDirectory(prefix="pysba-keypoints-") as d:
+        database = os.path.join(d, "database.db")
+        synthesized_database(pycolmap, database, 3, 1, 6, 100)
+        db = pycolmap.Database.open(database)
+        try:
+            images = pycolmap.DatabaseCache.create(db, pycolmap.DatabaseCacheOptions()).images
+        finally:
+            db.close()
+        from_database = _colmap._ReadCache(database)
+        try:
+            same = all(from_database.keypoints_of(i, im).tobytes() ==
+                       np.array([p.xy for p in im.points2D], np.float64).reshape(-1, 2).tobytes()
+                       for i, im in images.items())
+            expect(len(images) == 6 and same, "the keypoints read from the database are not the mapper's images' bits")
+            # Taken from the database, not the image: an image of as many keypoints, all zero.
+            i, im = next(iter(images.items()))
+            from_database.keypoints.clear()
+            blank = pycolmap.Image(name="blank", keypoints=np.zeros((im.num_points2D(), 2)))
+            expect(from_database.keypoints_of(i, blank).tobytes() ==
+                   np.array([p.xy for p in im.points2D], np.float64).reshape(-1, 2).tobytes(),
+                   "the keypoints were not read from the database")
+        finally:
+            from_database.close()
+    print("PASS the read cache: the same model after tracks grew, changed and came and went; %d images' "
+          "keypoints read once (a mapper's from its database, the same bits), grown tracks read on, unchanged "
+          "ones taken from the cache" % len(cache.keypoints))
 
 
 def refusals(pycolmap, pysba):
@@ -721,7 +796,7 @@ def main(argv):
         pipeline_bits(pycolmap, pysba)
         mapping(pycolmap, pysba)
         mapping_with_priors(pycolmap, pysba)
-        keypoint_cache(pycolmap, pysba)
+        read_cache(pycolmap, pysba)
         refusals(pycolmap, pysba)
     except Failure as f:
         print("FAIL %s" % f)
