@@ -48,16 +48,21 @@ struct Distortion {
 // A model names which of these terms its extra parameters are (the rest are zero).
 enum Role { N1, N2, N3, N4, D1, D2, D3, P1, P2, SX, SY, SX2, SY2, kRoles };
 
+// kRational: the model has denominator terms (FULL_OPENCV's). Without them Dn is 1 and dDn 0,
+// and R, dR/ds and the numerator's derivatives are taken as N, dN and x s^i, the values the
+// quotients give, without the divisions: this runs for every observation at every evaluation.
+// kDerivatives false: (ud, vd) alone, the same values, for an evaluation of the residuals.
+template <bool kRational, bool kDerivatives = true>
 void radtan(const int *roles, int ne, const double *extra, double x, double y, Distortion *out) {
   double c[kRoles] = {};
   for (int k = 0; k < ne; ++k) c[roles[k]] = extra[k];
   const double s = x * x + y * y;
   const double N = 1 + s * (c[N1] + s * (c[N2] + s * (c[N3] + s * c[N4])));
   const double dN = c[N1] + s * (2 * c[N2] + s * (3 * c[N3] + s * 4 * c[N4]));
-  const double Dn = 1 + s * (c[D1] + s * (c[D2] + s * c[D3]));
+  const double Dn = kRational ? 1 + s * (c[D1] + s * (c[D2] + s * c[D3])) : 1.0;
   const double dDn = c[D1] + s * (2 * c[D2] + s * 3 * c[D3]);
-  const double R = N / Dn;
-  const double dR = (dN * Dn - N * dDn) / (Dn * Dn);  // dR/ds
+  const double R = kRational ? N / Dn : N;
+  const double dR = kRational ? (dN * Dn - N * dDn) / (Dn * Dn) : dN;  // dR/ds
   const double p1 = c[P1], p2 = c[P2];
   // The thin prism's terms sx s + sx2 s^2 (and sy's) and their derivatives in s.
   const double tx = s * (c[SX] + s * c[SX2]), ty = s * (c[SY] + s * c[SY2]);
@@ -65,6 +70,7 @@ void radtan(const int *roles, int ne, const double *extra, double x, double y, D
   const double xy = x * y;
   out->ud = x * R + 2 * p1 * xy + p2 * (s + 2 * x * x) + tx;
   out->vd = y * R + p1 * (s + 2 * y * y) + 2 * p2 * xy + ty;
+  if (!kDerivatives) return;
   out->D[0] = R + 2 * x * x * dR + 2 * p1 * y + 6 * p2 * x + 2 * dtx * x;
   out->D[1] = 2 * xy * dR + 2 * p1 * x + 2 * p2 * y + 2 * dtx * y;
   out->D[2] = 2 * xy * dR + 2 * p1 * x + 2 * p2 * y + 2 * dty * x;
@@ -73,11 +79,11 @@ void radtan(const int *roles, int ne, const double *extra, double x, double y, D
   double si = 1;
   for (int i = 0; i < 4; ++i) {  // dR/dn_i = s^i / Dn
     si *= s;
-    du[N1 + i] = x * si / Dn;
-    dv[N1 + i] = y * si / Dn;
+    du[N1 + i] = kRational ? x * si / Dn : x * si;
+    dv[N1 + i] = kRational ? y * si / Dn : y * si;
   }
   si = 1;
-  for (int i = 0; i < 3; ++i) {  // dR/dd_i = -N s^i / Dn^2
+  for (int i = 0; kRational && i < 3; ++i) {  // dR/dd_i = -N s^i / Dn^2
     si *= s;
     du[D1 + i] = -x * N * si / (Dn * Dn);
     dv[D1 + i] = -y * N * si / (Dn * Dn);
@@ -164,7 +170,7 @@ void fov(double omega, double u, double v, Distortion *out) {
 // model's list): the derivatives chained through the second stage.
 void then_radtan(const int *roles, int ne, const double *extra, int nfirst, Distortion *d) {
   Distortion s;
-  radtan(roles, ne, extra, d->ud, d->vd, &s);
+  radtan<false>(roles, ne, extra, d->ud, d->vd, &s);
   const double *A = s.D, *B = d->D;
   Distortion out;
   out.ud = s.ud;
@@ -197,15 +203,23 @@ void rad_tan_thin_prism(const double *extra, double u, double v, Distortion *out
   then_radtan(kRolesRadTan, 6, extra + 6, 6, out);
 }
 
-void distort(int model, const double *extra, double u, double v, Distortion *out) {
+// derivatives false: only (ud, vd) are wanted; the polynomial models then form nothing else.
+void distort(int model, const double *extra, double u, double v, Distortion *out, bool derivatives) {
   static constexpr int kRolesRadial[2] = {N1, N2};
   static constexpr int kRolesOpenCV[4] = {N1, N2, P1, P2};
   static constexpr int kRolesFull[8] = {N1, N2, P1, P2, N3, D1, D2, D3};
+  if (!derivatives) switch (model) {
+      case kSimpleRadial: return radtan<false, false>(kRolesRadial, 1, extra, u, v, out);
+      case kRadial: return radtan<false, false>(kRolesRadial, 2, extra, u, v, out);
+      case kOpenCV: return radtan<false, false>(kRolesOpenCV, 4, extra, u, v, out);
+      case kFullOpenCV: return radtan<true, false>(kRolesFull, 8, extra, u, v, out);
+      default: break;
+    }
   switch (model) {
-    case kSimpleRadial: return radtan(kRolesRadial, 1, extra, u, v, out);
-    case kRadial: return radtan(kRolesRadial, 2, extra, u, v, out);
-    case kOpenCV: return radtan(kRolesOpenCV, 4, extra, u, v, out);
-    case kFullOpenCV: return radtan(kRolesFull, 8, extra, u, v, out);
+    case kSimpleRadial: return radtan<false>(kRolesRadial, 1, extra, u, v, out);
+    case kRadial: return radtan<false>(kRolesRadial, 2, extra, u, v, out);
+    case kOpenCV: return radtan<false>(kRolesOpenCV, 4, extra, u, v, out);
+    case kFullOpenCV: return radtan<true>(kRolesFull, 8, extra, u, v, out);
     case kOpenCVFisheye: return fisheye(4, extra, u, v, out);
     case kSimpleRadialFisheye: return fisheye(1, extra, u, v, out);
     case kRadialFisheye: return fisheye(2, extra, u, v, out);
@@ -275,9 +289,9 @@ void equirectangular(const double *X, Distortion *d, double *J) {
   J[5] = -X[1] * X[2] / (n2 * q);
 }
 
-// (ud, vd) of the camera-frame point Xc through a model's extra parameters, with J =
-// d(ud, vd)/dXc and the derivatives in the extra parameters.
-void map_point(int model, const double *extra, const double Xc[3], Distortion *d, double J[6]) {
+// (ud, vd) of the camera-frame point Xc through a model's extra parameters, with (derivatives)
+// J = d(ud, vd)/dXc and the derivatives in the extra parameters.
+void map_point(int model, const double *extra, const double Xc[3], Distortion *d, double J[6], bool derivatives) {
   switch (model) {
     case kSimpleDivision: case kDivision: return division(extra[0], Xc, d, J);
     case kEucm: return eucm(extra, Xc, d, J);
@@ -287,7 +301,8 @@ void map_point(int model, const double *extra, const double Xc[3], Distortion *d
   // (u, v) = (X, Y) / Z, then the distortion in the image plane.
   const double iz = 1 / Xc[2];
   const double u = Xc[0] * iz, v = Xc[1] * iz;
-  distort(model, extra, u, v, d);
+  distort(model, extra, u, v, d, derivatives);
+  if (!derivatives) return;
   const double P[6] = {iz, 0, -u * iz, 0, iz, -v * iz};
   for (int r = 0; r < 2; ++r)
     for (int c = 0; c < 3; ++c) J[r * 3 + c] = d->D[r * 2] * P[c] + d->D[r * 2 + 1] * P[3 + c];
@@ -333,7 +348,7 @@ void project(int model, const double *params, const double Xc[3], double x[2], d
   const double cy = panorama ? params[1] / 2 : params[nf + 1];
   Distortion d{};
   double J[6];  // d(ud, vd)/dXc
-  map_point(model, params + nf + 2, Xc, &d, J);
+  map_point(model, params + nf + 2, Xc, &d, J, Jp || Jx);
   if (x) {
     x[0] = fx * d.ud + cx;
     x[1] = fy * d.vd + cy;
