@@ -9,7 +9,8 @@ pysba's pipeline with the mapper's own adjustments ("pipeline": the Python pipel
 against pycolmap's); the same with COLMAP's adjustments timed ("colmap": the split of the
 time: the local refinements and their solves alone, the global adjustments, the rest; the
 local adjustments taken step by step in Python with COLMAP's solve to time it); pysba's
-pipeline with sba's global adjustment ("sba"); and, with --local-sba, with sba's local
+pipeline with sba's global adjustment ("sba", with the part of its time spent reading the
+mapper's model through pycolmap's API); and, with --local-sba, with sba's local
 adjustments too ("sba-local"). With --repeat N the whole round runs N times, the modes
 interleaved, and every time is the median of the N (a machine whose speed drifts during a run
 then moves every mode alike). Each model is compared with the synthesized truth: registered
@@ -173,9 +174,9 @@ def main(argv):
         for name in [m[0] for m in modes[2:]]:
             s = runs[name]
             local = "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's"
-            line += "; %s %.1f s%s (%.2fx pycolmap; global %.1f: %.2fx; local solves %s; %s)" % (
-                name, s["total"], spread(s), s["total"] / reference["total"], s["global"], s["global"] / c["global"],
-                local, figures(s))
+            line += "; %s %.1f s%s (%.2fx pycolmap; global %.1f, reading %.1f: %.2fx; local solves %s; %s)" % (
+                name, s["total"], spread(s), s["total"] / reference["total"], s["global"], s.get("global_read", 0.0),
+                s["global"] / c["global"], local, figures(s))
         print(line, flush=True)
     if args.markdown:
         with open(args.markdown, "a") as f:
@@ -192,8 +193,9 @@ def main(argv):
                                        c["global_calls"], split(c)[1]))
                 for name in [modes[0][0]] + [m[0] for m in modes[2:]]:
                     s = r[name]
-                    f.write(lead + "| %s | %.1f s%s | %.2fx | %.1f s | %.2fx | %s | %s |\n" % (
+                    f.write(lead + "| %s | %.1f s%s | %.2fx | %.1f s%s | %.2fx | %s | %s |\n" % (
                         name, s["total"], spread(s), s["total"] / ref["total"], s["global"],
+                        " (reading %.1f s)" % s["global_read"] if "global_read" in s else "",
                         s["global"] / c["global"], "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's",
                         figures(s)))
                     lead = "| | | | | | | | | "

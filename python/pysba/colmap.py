@@ -281,7 +281,10 @@ def _bundle_adjustment(reconstruction: Any, options: Any, config: Any, pose_prio
     # COLMAP's adjusters leave the points' errors as they were; pycolmap.bundle_adjustment (no
     # config, no priors) updates every point's after the solve.
     part = _part(pycolmap, reconstruction, config, kw) if pose_priors is None else None
+    read = time.perf_counter()
     model, held = _read_reconstruction(reconstruction, cache, part, appearance=False)
+    if cache is not None:
+        cache.seconds += time.perf_counter() - read
     if held:
         kw["hold_points"] = np.union1d(np.array(kw["hold_points"], np.uint64), np.array(held, np.uint64))
     try:
@@ -511,7 +514,8 @@ def incremental_mapping(database_path: Any, image_path: Any, output_path: Any, o
     runs the mapper's own local adjustments (``mapper.adjust_local_bundle``). timings, a dict,
     gets the seconds of the local refinements ("local"; with sba's, its solves alone,
     "local_solve", and their number, "local_calls"), of the global adjustments alone
-    ("global", and their number, "global_calls") and of the whole ("total").
+    ("global", and their number, "global_calls"; with sba's, the part of it spent reading the
+    model through pycolmap's API, "global_read") and of the whole ("total").
     With use_prior_position, each global adjustment is the pose-prior adjustment with the
     database's position priors (:func:`adjust_global_bundle` with pose_priors; a Cauchy loss of
     prior_position_loss_scale on them with use_robust_loss_on_prior_position), and the model is
@@ -553,8 +557,12 @@ def _incremental_mapping(pycolmap: Any, database_path: Any, image_path: Any, out
     if global_adjustment == "sba":
         def adjust(mapper: Any, mapper_options: Any, ba_options: Any, pose_priors: Any) -> Any:
             prior_options = None if pose_priors is None else _pipeline_prior_options(pycolmap, options)
-            return _adjust_global_bundle(mapper, mapper_options, ba_options, pose_priors, prior_options, None, None,
-                                         cache)
+            before = cache.seconds
+            try:
+                return _adjust_global_bundle(mapper, mapper_options, ba_options, pose_priors, prior_options, None,
+                                             None, cache)
+            finally:
+                clock.add("global_read", cache.seconds - before)
     else:
         def adjust(mapper: Any, mapper_options: Any, ba_options: Any, pose_priors: Any) -> Any:
             if pose_priors is None:
