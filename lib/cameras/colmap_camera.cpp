@@ -203,23 +203,26 @@ void rad_tan_thin_prism(const double *extra, double u, double v, Distortion *out
   then_radtan(kRolesRadTan, 6, extra + 6, 6, out);
 }
 
-// derivatives false: only (ud, vd) are wanted; the polynomial models then form nothing else.
-void distort(int model, const double *extra, double u, double v, Distortion *out, bool derivatives) {
+// The polynomial models' distortion; false for another model.
+template <bool kDerivatives>
+bool polynomial(int model, const double *extra, double u, double v, Distortion *out) {
   static constexpr int kRolesRadial[2] = {N1, N2};
   static constexpr int kRolesOpenCV[4] = {N1, N2, P1, P2};
   static constexpr int kRolesFull[8] = {N1, N2, P1, P2, N3, D1, D2, D3};
-  if (!derivatives) switch (model) {
-      case kSimpleRadial: return radtan<false, false>(kRolesRadial, 1, extra, u, v, out);
-      case kRadial: return radtan<false, false>(kRolesRadial, 2, extra, u, v, out);
-      case kOpenCV: return radtan<false, false>(kRolesOpenCV, 4, extra, u, v, out);
-      case kFullOpenCV: return radtan<true, false>(kRolesFull, 8, extra, u, v, out);
-      default: break;
-    }
   switch (model) {
-    case kSimpleRadial: return radtan<false>(kRolesRadial, 1, extra, u, v, out);
-    case kRadial: return radtan<false>(kRolesRadial, 2, extra, u, v, out);
-    case kOpenCV: return radtan<false>(kRolesOpenCV, 4, extra, u, v, out);
-    case kFullOpenCV: return radtan<true>(kRolesFull, 8, extra, u, v, out);
+    case kSimpleRadial: return radtan<false, kDerivatives>(kRolesRadial, 1, extra, u, v, out), true;
+    case kRadial: return radtan<false, kDerivatives>(kRolesRadial, 2, extra, u, v, out), true;
+    case kOpenCV: return radtan<false, kDerivatives>(kRolesOpenCV, 4, extra, u, v, out), true;
+    case kFullOpenCV: return radtan<true, kDerivatives>(kRolesFull, 8, extra, u, v, out), true;
+    default: return false;
+  }
+}
+
+// derivatives false: only (ud, vd) are wanted; the polynomial models then form nothing else.
+void distort(int model, const double *extra, double u, double v, Distortion *out, bool derivatives) {
+  if (derivatives ? polynomial<true>(model, extra, u, v, out) : polynomial<false>(model, extra, u, v, out))
+    return;
+  switch (model) {
     case kOpenCVFisheye: return fisheye(4, extra, u, v, out);
     case kSimpleRadialFisheye: return fisheye(1, extra, u, v, out);
     case kRadialFisheye: return fisheye(2, extra, u, v, out);

@@ -682,7 +682,7 @@ class _ReadCache:
         self.database: Any = None
         self.keypoints: Dict[int, np.ndarray] = {}
         self.tracks: Dict[int, Tuple[Any, List[int], List[int]]] = {}
-        self.seconds = 0.0  # spent in the reads, for the caller's timings
+        self.seconds = 0.0  # in the adjustments' reads through this cache, for the caller's timings
 
     def close(self) -> None:
         if self.database is not None:
