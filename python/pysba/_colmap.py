@@ -675,13 +675,20 @@ class _ReadCache:
     and keypoint indices in its order (see _read_track). A point whose track compares equal to
     the copy, or to the copy with the new elements appended (one comparison in pycolmap,
     whatever the track's length), takes the rest from here, so an entry is right whatever
-    happened to the point since."""
+    happened to the point since.
+
+    observations: by IMAGE_ID, for the images a part's read takes its observations from, a copy
+    of the image's keypoints (its pycolmap.Point2DList, which holds each keypoint's POINT3D_ID)
+    and the indices and POINT3D_IDs of those that observe a point. An image whose keypoints
+    compare equal to the copy (one comparison in pycolmap) takes them from here: the mapper's
+    local adjustments read the same few images again and again, most of them unchanged."""
 
     def __init__(self, database_path: Any = None) -> None:
         self.database_path = database_path
         self.database: Any = None
         self.keypoints: Dict[int, np.ndarray] = {}
         self.tracks: Dict[int, Tuple[Any, List[int], List[int]]] = {}
+        self.observations: Dict[int, Tuple[Any, np.ndarray, np.ndarray]] = {}
         self.seconds = 0.0  # in the adjustments' reads through this cache, for the caller's timings
 
     def close(self) -> None:
@@ -704,6 +711,20 @@ class _ReadCache:
                 every = np.array([p.xy for p in image.points2D], np.float64).reshape(-1, 2)
             self.keypoints[image_id] = every
         return every
+
+
+def _observations(image: Any, cache: Optional[_ReadCache]) -> Tuple[np.ndarray, np.ndarray]:
+    """The image's keypoints that observe a 3D point, in their order: their indices and their
+    POINT3D_IDs (uint64), through cache when there is one."""
+    if cache is not None:
+        known = cache.observations.get(image.image_id)
+        if known is not None and image.points2D == known[0]:
+            return known[1], known[2]
+    keypoint = np.array(image.get_observation_point2D_idxs(), np.uint64)
+    point = np.array([p.point3D_id for p in image.get_observation_points2D()], np.uint64)
+    if cache is not None:
+        cache.observations[image.image_id] = (_pycolmap().Point2DList(image.points2D), keypoint, point)
+    return keypoint, point
 
 
 def _read_track(track: Any, known: Optional[Tuple[Any, List[int], List[int]]]) -> Tuple[Any, List[int], List[int]]:
@@ -762,6 +783,7 @@ def _read_reconstruction(reconstruction: Any, cache: Optional[_ReadCache] = None
     uses nor writes them back (a bundle adjustment)."""
     points = reconstruction.points3D
     held: List[int] = []
+    looked: Dict[int, Any] = {}  # the points already looked up, by POINT3D_ID
     span: Dict[int, Tuple[int, int]] = {}  # a held point's elements in part's images: its rows of seen_*
     if part is None:
         ids = np.array(sorted(points.keys()), np.uint64)
@@ -770,9 +792,7 @@ def _read_reconstruction(reconstruction: Any, cache: Optional[_ReadCache] = None
         # The config images' observations, by point (each point's in ascending image order).
         by_image = []
         for image_id in sorted(config_images):
-            im = reconstruction.image(image_id)
-            keypoint = np.array(im.get_observation_point2D_idxs(), np.uint64)
-            point = np.array([p.point3D_id for p in im.get_observation_points2D()], np.uint64)
+            keypoint, point = _observations(reconstruction.image(image_id), cache)
             by_image.append((point, np.full(len(keypoint), image_id, np.uint64), keypoint))
         columns = [np.concatenate(c) for c in zip(*by_image)] if by_image else [np.empty(0, np.uint64)] * 3
         order = np.argsort(columns[0], kind="stable")
@@ -780,9 +800,11 @@ def _read_reconstruction(reconstruction: Any, cache: Optional[_ReadCache] = None
         seen_ids, first, count = np.unique(seen_point, return_index=True, return_counts=True)
         whole = set(variable) | set(constant)
         for point_id, a, c in zip(seen_ids.tolist(), first.tolist(), count.tolist()):
-            if point_id not in whole and points[point_id].track.length() != c:
-                held.append(point_id)
-                span[point_id] = (a, a + c)
+            if point_id not in whole:
+                p = looked[point_id] = points[point_id]
+                if p.track.length() != c:
+                    held.append(point_id)
+                    span[point_id] = (a, a + c)
         ids = np.array(sorted(whole.union(seen_ids.tolist())), np.uint64)
     n = len(ids)
     rgb, error = np.zeros((n, 3), np.uint8), np.zeros(n)
@@ -796,7 +818,7 @@ def _read_reconstruction(reconstruction: Any, cache: Optional[_ReadCache] = None
     known = cache.tracks if cache is not None else {}
     kept: Dict[int, Tuple[Any, List[int], List[int]]] = {}
     for k, point_id in enumerate(ids.tolist()):
-        p = points[point_id]
+        p = looked.get(point_id) or points[point_id]
         rows_xyz.append(p.xyz)
         if point_id in span:
             lengths.append(0)

@@ -641,9 +641,11 @@ def same_model(a, b):
 
 def read_cache(pycolmap, pysba):
     """The mapping's cache of what it read (an image's keypoints are read whole once, a track
-    again only where it changed): the model read through it is the model read without, bit for
-    bit, after tracks grow, change at the same length, change and grow, and points go and come;
-    a grown track is read on from the cache's entry, and an unchanged one taken from it."""
+    again only where it changed, a part's image's observations again only when its keypoints
+    changed): the model read through it is the model read without, bit for bit, after tracks
+    grow, change at the same length, change and grow, and points go and come, and after an
+    image's observations change; a grown track is read on from the cache's entry, and an
+    unchanged track or image taken from it."""
     import numpy as np
     from pysba import _colmap
     rec = scene(pycolmap, "rigs", 6)
@@ -696,6 +698,32 @@ def read_cache(pycolmap, pysba):
     shifted = _colmap._from_reconstruction(rec, cache)
     expect(np.array_equal(shifted.images[0].points2D, first.points2D + 0.25) and len(first.points2D) > 0,
            "a second read does not take the cache's keypoints")
+    # A part's read (a local adjustment's few images): an image's observations are read again
+    # only when its keypoints changed.
+    some = sorted((i for i in posed if any(not rec.images[i].point2D(k).has_point3D()
+                                           for k in range(rec.images[i].num_points2D()))), reverse=True)[:1]
+    some += [i for i in posed if i not in some][:1]
+    part, part_cache = (some, [], []), _colmap._ReadCache()
+
+    def part_read(through):
+        return _colmap._read_reconstruction(rec, through, part, appearance=False)
+
+    (read_first, held), (plain_first, plain_held) = part_read(part_cache), part_read(None)
+    expect(len(some) == 2 and same_model(read_first, plain_first) and held == plain_held and
+           sorted(part_cache.observations) == sorted(some), "a part's cached read differs from the plain one")
+    image = rec.images[some[0]]
+    keypoint = next(k for k in range(image.num_points2D()) if not image.point2D(k).has_point3D())
+    unseen = next(i for i in ids[5:] if some[0] not in [e.image_id for e in rec.points3D[i].track.elements])
+    rec.add_observation(unseen, pycolmap.TrackElement(some[0], keypoint))
+    (read_again, held), (plain_again, plain_held) = part_read(part_cache), part_read(None)
+    expect(same_model(read_again, plain_again) and held == plain_held and not same_model(read_again, plain_first),
+           "after an image's observations changed, a part's cached read differs from the plain one")
+    # An unchanged image's observations are the cache's: its entry, two points swapped, is what
+    # a read gives.
+    points_seen = part_cache.observations[some[1]][2]
+    points_seen[[0, 1]] = points_seen[[1, 0]]
+    expect(not same_model(part_read(part_cache)[0], plain_again),
+           "an unchanged image's observations were read again, not taken from the cache")
     # A mapper's images' keypoints, read from its database: the bits of its images' own.
     import tempfile
     with tempfile.TemporaryDirectory(prefix="pysba-keypoints-") as d:
@@ -723,7 +751,7 @@ def read_cache(pycolmap, pysba):
             from_database.close()
     print("PASS the read cache: the same model after tracks grew, changed and came and went; %d images' "
           "keypoints read once (a mapper's from its database, the same bits), grown tracks read on, unchanged "
-          "ones taken from the cache" % len(cache.keypoints))
+          "ones taken from the cache, a part's unchanged images' observations too" % len(cache.keypoints))
 
 
 def refusals(pycolmap, pysba):
