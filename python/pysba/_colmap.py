@@ -681,14 +681,18 @@ class _ReadCache:
     of the image's keypoints (its pycolmap.Point2DList, which holds each keypoint's POINT3D_ID)
     and the indices and POINT3D_IDs of those that observe a point. An image whose keypoints
     compare equal to the copy (one comparison in pycolmap) takes them from here: the mapper's
-    local adjustments read the same few images again and again, most of them unchanged."""
+    local adjustments read the same few images again and again, most of them unchanged. Only
+    the OBSERVED_IMAGES images read last are kept, the least recently read dropped first, so that
+    the copies stay a small part of the mapper's own model however many images it holds."""
+
+    OBSERVED_IMAGES = 64
 
     def __init__(self, database_path: Any = None) -> None:
         self.database_path = database_path
         self.database: Any = None
         self.keypoints: Dict[int, np.ndarray] = {}
         self.tracks: Dict[int, Tuple[Any, List[int], List[int]]] = {}
-        self.observations: Dict[int, Tuple[Any, np.ndarray, np.ndarray]] = {}
+        self.observations: Dict[int, Tuple[Any, np.ndarray, np.ndarray]] = collections.OrderedDict()
         self.seconds = 0.0  # in the adjustments' reads through this cache, for the caller's timings
 
     def close(self) -> None:
@@ -719,11 +723,15 @@ def _observations(image: Any, cache: Optional[_ReadCache]) -> Tuple[np.ndarray, 
     if cache is not None:
         known = cache.observations.get(image.image_id)
         if known is not None and image.points2D == known[0]:
+            cache.observations.move_to_end(image.image_id)
             return known[1], known[2]
     keypoint = np.array(image.get_observation_point2D_idxs(), np.uint64)
     point = np.array([p.point3D_id for p in image.get_observation_points2D()], np.uint64)
     if cache is not None:
         cache.observations[image.image_id] = (_pycolmap().Point2DList(image.points2D), keypoint, point)
+        cache.observations.move_to_end(image.image_id)
+        while len(cache.observations) > cache.OBSERVED_IMAGES:
+            cache.observations.popitem(last=False)
     return keypoint, point
 
 

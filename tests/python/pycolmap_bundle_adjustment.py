@@ -724,6 +724,11 @@ def read_cache(pycolmap, pysba):
     points_seen[[0, 1]] = points_seen[[1, 0]]
     expect(not same_model(part_read(part_cache)[0], plain_again),
            "an unchanged image's observations were read again, not taken from the cache")
+    # The least recently read images dropped beyond the cache's bound, the read the same.
+    bounded = _colmap._ReadCache()
+    bounded.OBSERVED_IMAGES = 1
+    expect(same_model(part_read(bounded)[0], plain_again) and list(bounded.observations) == [max(some)],
+           "a cache bounded to one image holds %s" % list(bounded.observations))
     # A mapper's images' keypoints, read from its database: the bits of its images' own.
     import tempfile
     with tempfile.TemporaryDirectory(prefix="pysba-keypoints-") as d:
