@@ -5,7 +5,7 @@
 Each scene is made by pycolmap.synthesize_dataset: --rigs rigs of --cameras-per-rig cameras
 (SIMPLE_RADIAL, pycolmap's default), --frames frames in all (spread over the rigs), so that
 every frame holds one image of each camera of its rig; --points-per-frame points per frame,
-each seen by --track-length images. Noise as COLMAP's own tests add it: 0.5 px on the
+each seen by --track-length images (0: by every image). Noise as COLMAP's own tests add it: 0.5 px on the
 observations, 0.02 on the frames' translations and 0.3 deg on their rotations; written by
 pycolmap as a binary model (cameras, images, points3D, rigs, frames).
 
@@ -51,6 +51,11 @@ sys.path.insert(0, HERE)
 from colmap_ba import timed  # noqa: E402  (a process under /usr/bin/time -v)
 
 
+def track_length(a, frames):
+    """--track-length, or with 0 every image of the scene (frames * cameras_per_rig)."""
+    return a.track_length if a.track_length > 0 else max(1, frames // a.rigs) * a.rigs * a.cameras_per_rig
+
+
 def synthesize(pycolmap, a, frames, seed):
     pycolmap.set_random_seed(seed)
     o = pycolmap.SyntheticDatasetOptions()
@@ -58,7 +63,7 @@ def synthesize(pycolmap, a, frames, seed):
     o.num_cameras_per_rig = a.cameras_per_rig
     o.num_frames_per_rig = max(1, frames // a.rigs)
     o.num_points3D = frames * a.points_per_frame
-    o.track_length = a.track_length
+    o.track_length = track_length(a, frames)
     rec = pycolmap.synthesize_dataset(o)
     noise = pycolmap.SyntheticNoiseOptions()
     noise.point2D_stddev = 0.5
@@ -163,7 +168,7 @@ def main(argv):
         cmds.append("synthesize_dataset(num_rigs=%d, num_cameras_per_rig=%d, num_frames_per_rig=%d, "
                     "num_points3D=%d, track_length=%d), seed %d, noise 0.5 px, 0.02, 0.3 deg -> %s"
                     % (a.rigs, a.cameras_per_rig, max(1, frames // a.rigs), frames * a.points_per_frame,
-                       a.track_length, a.seed, inp))
+                       track_length(a, frames), a.seed, inp))
         programs = [("pycolmap", None)] + [("sbarefine", s) for s in solvers]
         if a.pysba:
             programs += [("pysba", s) for s in solvers]
@@ -226,14 +231,15 @@ def write_report(a, runs, cmds):
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     lines = ["# sbarefine against pycolmap.bundle_adjustment on rig scenes", "",
              "Written by `bench/rig_ba.py` (see bench/README.md) on %s; %d rigs of %d cameras, %d points per frame "
-             "seen by %d images each; the median of %d wall times; peak RSS from /usr/bin/time -v; RMS by pycolmap's "
+             "seen by %s each; the median of %d wall times; peak RSS from /usr/bin/time -v; RMS by pycolmap's "
              "projection of each written model; rigidity: the largest difference between an image's pose and its "
              "frame's composed with its camera's in the rig. Adjustment alone: pycolmap's bundle_adjustment call, "
              "sbarefine's solve (its --json seconds: reading and writing the model excluded), pysba's refine_colmap "
              "call (reading and writing excluded, as for sbarefine). sbarefine and pysba "
              "with threads=%d, pycolmap every hardware thread (%d here). The load column is the 1-minute load "
              "average when each run started."
-             % (now, a.rigs, a.cameras_per_rig, a.points_per_frame, a.track_length, a.repeat, a.threads,
+             % (now, a.rigs, a.cameras_per_rig, a.points_per_frame,
+                "%d images" % a.track_length if a.track_length > 0 else "every image", a.repeat, a.threads,
                 os.cpu_count()), "",
              "| frames | images | observations | program | wall s (all) | load | adjustment alone s | peak RSS MiB | "
              "iterations | RMS px (initial) | rigidity | wall / pycolmap's | adjustment / pycolmap's |",
