@@ -42,6 +42,34 @@ double iterative_schur_doubles(const SolverShape &s) {
          double(s.observations) * sizeof(int) / sizeof(double);
 }
 
+// Forming S once: a free point touching blocks of orders b_1 .. b_t adds a pnp-deep product
+// of 2 pnp b_k b_l operations to each block pair k <= l, pnp ((sum b)^2 + sum b^2) in all.
+double assembly_flops(const Layout &lay) {
+  if (lay.pnp == 0) return 0;
+  const CameraMap &cams = lay.cams;
+  double flops = 0;
+  for (int i = lay.ncon; i < lay.n; ++i) {
+    double sum = 0, squares = 0;
+    if (cams.per_camera()) {
+      const double b = lay.cnp;
+      for (int k = lay.rowptr[size_t(i)]; k < lay.rowptr[size_t(i) + 1]; ++k)
+        if (lay.colidx[size_t(k)] >= lay.mcon) {
+          sum += b;
+          squares += b * b;
+        }
+    } else {
+      const int *blocks = cams.point_blocks(i);
+      for (int k = 0; k < cams.point_nblocks(i); ++k) {
+        const double b = cams.block_size(blocks[k]);
+        sum += b;
+        squares += b * b;
+      }
+    }
+    flops += lay.pnp * (sum * sum + squares);
+  }
+  return flops;
+}
+
 }  // namespace
 
 double pass_flops(const SolverShape &s) {
@@ -86,13 +114,14 @@ double solver_bytes(const SolverShape &s, LinSolver solver) {
 LinSolver choose_linsolver(const SolverShape &s) {
   if (s.unknowns <= 0) return LinSolver::Chol;
   const SolverMemory mem = solver_memory(s);
+  const bool assembly_cheap = s.assembly_flops <= kAssemblyMaxPasses * pass_flops(s);
   const struct {
     LinSolver solver;
     double bytes;
     bool wanted;
   } candidates[] = {
       {LinSolver::Chol, mem.chol, s.unknowns <= kDenseMaxUnknowns},
-      {LinSolver::SparseChol, mem.sparse_chol, s.factor_flops <= kSparseMaxPasses * pass_flops(s)},
+      {LinSolver::SparseChol, mem.sparse_chol, s.factor_flops <= kSparseMaxPasses * pass_flops(s) && assembly_cheap},
       {LinSolver::IterativeSchur, mem.iterative_schur, true},
   };
   const auto fits = [&](double own) { return s.budget_bytes <= 0 || mem.common + own <= s.budget_bytes; };
@@ -109,15 +138,16 @@ std::string describe(const SolverShape &s) {
   const double pct = all > 0 ? 100.0 / double(all) : 0.0;
   const SolverMemory m = solver_memory(s);
   const auto mb = [](double bytes) { return bytes / (1024.0 * 1024.0); };
-  char buf[512];
+  char buf[640];
   std::snprintf(buf, sizeof buf,
                 "S of %lld unknowns in %lld blocks, %s%.3g%% of them nonzero, %.3g%% in its factor, whose "
-                "factorization costs %.3g passes over the Jacobian of %lld observations; MiB besides the common "
-                "%.0f: chol %.0f, sparse-chol %.0f, iterative-schur %.0f; a budget of %.0f MiB",
+                "factorization costs %.3g passes over the Jacobian of %lld observations and forming it %.3g; MiB "
+                "besides the common %.0f: chol %.0f, sparse-chol %.0f, iterative-schur %.0f; a budget of %.0f MiB",
                 static_cast<long long>(s.unknowns), static_cast<long long>(s.blocks),
                 s.s_partial ? "at least " : "", double(s.s_blocks) * pct,
                 double(s.factor_blocks) * pct, s.factor_flops / std::max(1.0, pass_flops(s)),
-                static_cast<long long>(s.observations), mb(m.common), mb(m.chol), mb(m.sparse_chol),
+                static_cast<long long>(s.observations), s.assembly_flops / std::max(1.0, pass_flops(s)),
+                mb(m.common), mb(m.chol), mb(m.sparse_chol),
                 mb(m.iterative_schur), mb(s.budget_bytes));
   return buf;
 }
@@ -142,6 +172,7 @@ SolverShape shape_of(const Layout &lay, double budget_bytes) {
     s.unknowns = s.blocks = 0;
     return s;
   }
+  s.assembly_flops = assembly_flops(lay);
   const double b = block_order(s), nb = double(s.blocks);
   s.factor_blocks = triangle(s.blocks);
   s.factor_flops = double(s.unknowns) * double(s.unknowns) * double(s.unknowns) / 3;

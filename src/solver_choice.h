@@ -24,6 +24,13 @@ constexpr i64 kDenseMaxUnknowns = 1000;
 // S of a camera path costs a few passes, the dense S of a photo collection hundreds to
 // thousands.
 constexpr double kSparseMaxPasses = 50;
+// A factorization first forms S, where each point adds the products of its couplings to every
+// pair of the blocks it touches: work that grows with the square of its track, where a product
+// of iterative-schur's grows with the track. Long tracks make a pass costly and so the factor
+// of a dense S look cheap in passes; past this many passes for forming S once (tracks of more
+// than about a hundred cameras each, as where every point is seen by every image of a mapper's
+// model), iterative-schur rather than sparse-chol, whatever the factor costs.
+constexpr double kAssemblyMaxPasses = 400;
 
 // What the choice looks at.
 struct SolverShape {
@@ -40,6 +47,9 @@ struct SolverShape {
   i64 s_blocks = 0, factor_blocks = 0;
   double factor_flops = 0;
   bool s_partial = false;  // counting stopped: s_blocks is a lower bound
+  // The floating-point operations of forming S once from the points' couplings: for each
+  // free point, 2 pnp b b' for every pair of the blocks (of orders b, b') it touches.
+  double assembly_flops = 0;
   i64 observations = 0;  // visible projections
   i64 points = 0;        // free points
   int cnp = 0, pnp = 0, mnp = 0;

@@ -95,6 +95,19 @@ TEST(SolverChoice, LargeDenseTakesIterativeSchur) {
   EXPECT_EQ(sba::choose_linsolver(dense(10000, 20 * kGiB)), LinSolver::IterativeSchur);
 }
 
+TEST(SolverChoice, LongTracksTakeIterativeSchur) {
+  // Forming S costs more than kAssemblyMaxPasses passes: not sparse-chol, whatever the factor
+  // costs; at the bound, the choice is as before. A small S still takes chol.
+  SolverShape small = dense(100);
+  small.assembly_flops = 10 * sba::kAssemblyMaxPasses * sba::pass_flops(small);
+  EXPECT_EQ(sba::choose_linsolver(small), LinSolver::Chol);
+  SolverShape banded = shape(1000, 0.005, 2);
+  banded.assembly_flops = sba::kAssemblyMaxPasses * sba::pass_flops(banded);
+  EXPECT_EQ(sba::choose_linsolver(banded), LinSolver::SparseChol);
+  banded.assembly_flops *= 1.01;
+  EXPECT_EQ(sba::choose_linsolver(banded), LinSolver::IterativeSchur);
+}
+
 TEST(SolverChoice, NeverWhatDoesNotFit) {
   // chol would be the choice, but its S does not fit: the sparse factor does.
   SolverShape s = shape(150, 0.02, 5);
@@ -176,6 +189,36 @@ TEST(SolverChoice, ShapeOfADenseProblemStopsCounting) {
   EXPECT_EQ(sba::choose_linsolver(s), LinSolver::IterativeSchur);
 }
 
+TEST(SolverChoice, ShapeCountsFormingS) {
+  // Every point seen by every camera: each of the n points adds 2 * 3 * 6 * 6 operations to
+  // each of the m (m + 1) / 2 pairs of cameras. A pass over the Jacobian is 2 * n m * 2 * 9.
+  ASSERT_EQ(sba::kAssemblyMaxPasses, 400);
+  const SolverShape hundred = sba::shape_of(layout(100, 300, 0), 0);
+  EXPECT_DOUBLE_EQ(hundred.assembly_flops, 300.0 * 3 * 36 * 100 * 101);
+  EXPECT_DOUBLE_EQ(sba::pass_flops(hundred), 2.0 * 30000 * 2 * 9);
+  EXPECT_EQ(sba::choose_linsolver(hundred), LinSolver::Chol);
+  // 200 cameras seeing 2,000 points: S's 1,200 unknowns are too many for chol, and the points'
+  // long tracks make a pass costly enough that S's dense factor costs 40 passes, which would
+  // take sparse-chol; but forming S costs 603.
+  const SolverShape longer = sba::shape_of(layout(200, 2000, 0), 0);
+  EXPECT_EQ(longer.unknowns, 1200);
+  EXPECT_FALSE(longer.s_partial);
+  EXPECT_LE(longer.factor_flops, sba::kSparseMaxPasses * sba::pass_flops(longer));
+  EXPECT_DOUBLE_EQ(longer.assembly_flops, 2000.0 * 3 * 36 * 200 * 201);
+  EXPECT_EQ(sba::choose_linsolver(longer), LinSolver::IterativeSchur);
+  // Fixed cameras and points add nothing: 6 free cameras, each point of the band seeing up to 3
+  // of them, 20 free points.
+  const sba::Layout fixed = layout(10, 50, 3, 4, 30);
+  double flops = 0;
+  for (int i = 30; i < 50; ++i) {
+    int t = 0;
+    for (int k = fixed.rowptr[size_t(i)]; k < fixed.rowptr[size_t(i) + 1]; ++k) t += fixed.colidx[size_t(k)] >= 4;
+    flops += 3.0 * 36 * t * (t + 1);
+  }
+  EXPECT_GT(flops, 0);
+  EXPECT_DOUBLE_EQ(sba::shape_of(fixed, 0).assembly_flops, flops);
+}
+
 TEST(SolverChoice, ShapeFollowsFixedCamerasAndPoints) {
   // Each layout built with its fixed cameras and points, whose camera map follows them.
   SolverShape s = sba::shape_of(layout(10, 50, 3, 4), 0);
@@ -201,6 +244,9 @@ TEST(SolverChoice, ShapeCountsSharedUnknowns) {
   EXPECT_EQ(s.unknowns, 501);
   EXPECT_EQ(s.blocks, 101);
   EXPECT_EQ(s.s_blocks, 100 + 99 + 98 + 101);
+  // Each point touches its 3 cameras' own blocks of 5 and the shared one of 1: (3 * 5 + 1)^2
+  // + 3 * 5^2 + 1^2 times pnp.
+  EXPECT_DOUBLE_EQ(s.assembly_flops, 500.0 * 3 * (16 * 16 + 76));
 }
 
 TEST(SolverChoice, EveryCameraParameterHeldLeavesNothingToChoose) {
