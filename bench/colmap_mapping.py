@@ -6,7 +6,7 @@ sba), on databases of pycolmap.synthesize_dataset with 0.5 px of noise on the ke
 
 For each size it runs, in turn: pycolmap.incremental_mapping (the reference: its wall time);
 pysba's pipeline with the mapper's own adjustments ("pipeline": the Python pipeline's own cost
-against pycolmap's); the same with COLMAP's adjustments timed ("colmap": the split of the
+against pycolmap's; left out with --no-pipeline); the same with COLMAP's adjustments timed ("colmap": the split of the
 time: the local refinements and their solves alone, the global adjustments, the rest; the
 local adjustments taken step by step in Python with COLMAP's solve to time it); pysba's
 pipeline with sba's global adjustment ("sba", with the part of its time spent reading the
@@ -18,7 +18,7 @@ images, points, mean reprojection error, and the camera centres' RMS distance af
 similarity onto the truth's centres (a range where the runs of a mode differ).
 
   colmap_mapping.py --frames 100,150 [--points-per-frame 15] [--kind shared|per-image]
-                    [--local-sba] [--repeat 1] [--threads 2] [--work DIR] [--reuse]
+                    [--local-sba] [--no-pipeline] [--repeat 1] [--threads 2] [--work DIR] [--reuse]
                     [--markdown FILE]
 Every point is seen by every image: synthesize_dataset's track_length prunes only the truth's
 tracks (pycolmap 4.2.1), while the database keeps every point's keypoint in every image, matched
@@ -132,6 +132,8 @@ def main(argv):
     ap.add_argument("--points-per-frame", type=int, default=15)
     ap.add_argument("--kind", choices=("shared", "per-image"), default="shared")
     ap.add_argument("--local-sba", action="store_true", help="also run sba's local adjustments")
+    ap.add_argument("--no-pipeline", action="store_true",
+                    help="leave out the pipeline with the mapper's own adjustments (its cost against pycolmap's)")
     ap.add_argument("--repeat", type=int, default=1, help="run every mode this many times, interleaved")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--work", default="/tmp/sba-colmap-mapping")
@@ -150,6 +152,10 @@ def main(argv):
         modes = [("pipeline", "colmap", "colmap"), ("colmap", "colmap", "ceres"), ("sba", "sba", "colmap")]
         if args.local_sba:
             modes.append(("sba-local", "sba", "sba"))
+        if args.no_pipeline:
+            modes = modes[1:]
+        # The modes shown against COLMAP's adjustments timed ("colmap"), in the order run.
+        shown = [name for name, _, _ in modes if name != "colmap"]
         references, runs = [], {name: [] for name, _, _ in modes}
         for _ in range(args.repeat):
             start = time.perf_counter()
@@ -164,14 +170,17 @@ def main(argv):
         runs = {name: combined(r) for name, r in runs.items()}
         row = dict(frames=frames, reference=reference, **runs)
         rows.append(row)
-        c, p = runs["colmap"], runs["pipeline"]
-        line = ("%d frames, %d run(s): pycolmap %.1f s%s (%s); pipeline "
-                "with the mapper's adjustments %.1f s%s (%.2fx pycolmap); with COLMAP's adjustments timed %.1f s%s "
-                "(local %.1f, of which solves %.1f in %d; global %.1f in %d; rest %.1f)" % (
-                    frames, args.repeat, reference["total"], spread(reference), figures(reference), p["total"],
-                    spread(p), p["total"] / reference["total"], c["total"], spread(c), c["local"], c["local_solve"],
-                    c["local_calls"], c["global"], c["global_calls"], split(c)[1]))
-        for name in [m[0] for m in modes[2:]]:
+        c = runs["colmap"]
+        line = "%d frames, %d run(s): pycolmap %.1f s%s (%s); " % (
+            frames, args.repeat, reference["total"], spread(reference), figures(reference))
+        if "pipeline" in runs:
+            p = runs["pipeline"]
+            line += "pipeline with the mapper's adjustments %.1f s%s (%.2fx pycolmap); " % (
+                p["total"], spread(p), p["total"] / reference["total"])
+        line += ("with COLMAP's adjustments timed %.1f s%s (local %.1f, of which solves %.1f in %d; global %.1f "
+                 "in %d; rest %.1f)" % (c["total"], spread(c), c["local"], c["local_solve"], c["local_calls"],
+                                        c["global"], c["global_calls"], split(c)[1]))
+        for name in [n for n in shown if n != "pipeline"]:
             s = runs[name]
             local = "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's"
             line += "; %s %.1f s%s (%.2fx pycolmap; global %.1f, reading %.1f: %.2fx; local solves %s; %s)" % (
@@ -191,7 +200,7 @@ def main(argv):
                                        c["total"], spread(c),
                                        c["local_solve"], c["local_calls"], split(c)[0], c["global"],
                                        c["global_calls"], split(c)[1]))
-                for name in [modes[0][0]] + [m[0] for m in modes[2:]]:
+                for name in shown:
                     s = r[name]
                     f.write(lead + "| %s | %.1f s%s | %.2fx | %.1f s%s | %.2fx | %s | %s |\n" % (
                         name, s["total"], spread(s), s["total"] / ref["total"], s["global"],
