@@ -60,6 +60,8 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 TAUS = (0.1, 0.01, 0.003)
+# Final costs closer than this, relatively, are the same minimum.
+SAME_COST = 1e-9
 CERES = {
     "default": None,
     "dense": ("DENSE_SCHUR", None),
@@ -84,7 +86,8 @@ def rotations(w):
 
 def bal_to_colmap(path, out):
     """Writes BAL problem `path` as a COLMAP text model in directory out (see the opening
-    comment); returns (cameras, points, observations) written and the observations left out."""
+    comment); returns (cameras, points, observations) written, and the observations behind their
+    cameras, the points and their other observations left out."""
     opener = bz2.open if path.endswith(".bz2") else open
     with opener(path, "rt") as f:
         tokens = f.read().split()
@@ -101,8 +104,10 @@ def bal_to_colmap(path, out):
     cam_idx, pt_idx = obs[:, 0].astype(int), obs[:, 1].astype(int)
     depth = np.einsum("kj,kj->k", R[cam_idx, 2, :], pts[pt_idx]) + cams[cam_idx, 5]
     keep = depth < 0
+    behind = int((~keep).sum())
     seen = np.bincount(pt_idx[keep], minlength=n)
     keep &= seen[pt_idx] >= 2
+    lost = (n - int((seen >= 2).sum()), k - behind - int(keep.sum()))
     obs, cam_idx = obs[keep], cam_idx[keep]
     used = np.flatnonzero(seen >= 2)
     renumber = np.full(n, -1)
@@ -140,7 +145,7 @@ def bal_to_colmap(path, out):
         for i in range(n):
             track = " ".join("%d %d" % e for e in tracks[i])
             f.write("%d %.17g %.17g %.17g 128 128 128 0 %s\n" % (i + 1, *pts[i], track))
-    return m, n, k, int((~keep).sum())
+    return m, n, k, behind, lost
 
 
 def worker_ceres(inp, config, threads, report, out):
@@ -243,9 +248,11 @@ def make_problem(a, spec, work):
         subprocess.run(cmd, check=True)
         name, made = "%s %d" % (kind, n), " ".join(cmd)
     elif kind == "bal":
-        dropped = bal_to_colmap(arg, text)[3]
+        behind, lost = bal_to_colmap(arg, text)[3:]
         name = os.path.basename(arg).split(".")[0]
-        made = "BAL %s, converted; %d observations behind their cameras left out" % (os.path.basename(arg), dropped)
+        made = "BAL %s, converted; %d observations behind their cameras left out" % (os.path.basename(arg), behind)
+        if lost[0]:
+            made += ", and %d points then seen fewer than twice (%d more observations)" % lost
     else:
         raise SystemExit("pycolmap_ceres.py: unknown problem %r (photo:N, orbit:N or bal:FILE)" % spec)
     import pycolmap
@@ -359,6 +366,10 @@ def write_report(a, version, runs):
                 end = min(c["seconds"] for c in ceres)
                 lines.append("%s against the best Ceres run at each tolerance: %s (10%%, 1%%, 0.3%%); to the end "
                              "%.2fx." % (r["run"], ", ".join(ratios), r["seconds"] / end))
+                peer_final = min(c["final"] for c in ceres)
+                if r["final"] > peer_final * (1 + SAME_COST):
+                    lines[-1] += " It ends %.1e above Ceres's lowest final cost: a loss whatever its time." % (
+                        r["final"] / peer_final - 1)
         lines.append("")
     with open(a.out + ".md", "w", encoding="utf-8") as f:
         f.write("\n".join(lines))
