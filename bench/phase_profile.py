@@ -3,7 +3,7 @@
 """Where a solve's time goes, by sampling: each phase's CPU seconds per iteration against its
 bound on this machine.
 
-  /usr/bin/python3 bench/phase_profile.py [--build build] [--threads 2] [--runs NAME,...]
+  /usr/bin/python3 bench/phase_profile.py [--build build] [--data DIR] [--threads 2] [--runs NAME,...]
       [--strategies sba,trust-region] [--colmap NAME=DIR,...] [--out bench/results/phase_profile]
 
 (any Python with numpy; Linux perf on PATH).
@@ -48,7 +48,6 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-SHARED = os.path.join(ROOT, "..", "shared", "data")
 PHASES = ["linearization", "assembly", "factor/solve", "CG", "threads", "rest"]
 # First match wins: the order matters where names overlap (chol::factor before "factor").
 RULES = [
@@ -140,7 +139,7 @@ def profile(cmd, work, tag):
 def runs_of(a, work):
     """[(name, program, strategy, cmd, json path, (cnp, pnp))]."""
     demo = os.path.join(a.build, "demo")
-    sba_demo, bal = os.path.join(SHARED, "sba-demo"), os.path.join(SHARED, "bal")
+    sba_demo, bal = os.path.join(a.data, "sba-demo"), os.path.join(a.data, "bal")
     out = []
     for strategy in a.strategies.split(","):
         for name in a.runs.split(","):
@@ -167,6 +166,8 @@ def runs_of(a, work):
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--build", default=os.path.join(ROOT, "build"))
+    ap.add_argument("--data", default=os.path.join(ROOT, "..", "shared", "data"),
+                    help="the directory holding sba-demo/ and bal/ (as run_suite.py's --data)")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--runs", default="54cams,problem-16")
     ap.add_argument("--colmap", default="", help="NAME=DIR,...: COLMAP models for sbarefine")
