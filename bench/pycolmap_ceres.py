@@ -99,7 +99,8 @@ def bal_to_colmap(path, out):
     pos += 9 * m
     pts = np.array(tokens[pos:pos + 3 * n], np.float64).reshape(n, 3)
     # An observation of a point behind its camera is a residual of BAL's camera but none of
-    # COLMAP 4's (its cost is zero there): left out, and with it a point seen fewer than twice.
+    # COLMAP's (pycolmap 4 costs it zero, colmap 3.8's adjuster leaves it out): left out here,
+    # and with it a point seen fewer than twice.
     R = rotations(cams[:, 0:3])
     cam_idx, pt_idx = obs[:, 0].astype(int), obs[:, 1].astype(int)
     depth = np.einsum("kj,kj->k", R[cam_idx, 2, :], pts[pt_idx]) + cams[cam_idx, 5]
