@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cfloat>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -273,9 +274,9 @@ TEST(ColmapCamera, ProjectionsAsPycolmap) {
   }
 }
 
-// No model refuses a point behind the camera (COLMAP's residuals do not either). The models of
-// u = X/Z see -X_c where they see X_c; the division models, EUCM and the panorama, functions
-// of the point itself, do not.
+// project gives the formula's pixels behind the camera too (`refused` says where COLMAP's
+// projection gives none). The models of u = X/Z see -X_c where they see X_c; the division
+// models, EUCM and the panorama, functions of the point itself, do not.
 TEST(ColmapCamera, PointsBehindTheCamera) {
   const double front[3] = {0.2, -0.1, 1.5}, behind[3] = {-0.2, 0.1, -1.5};
   for (int m = 0; m < cc::kNumModels; ++m) {
@@ -288,6 +289,40 @@ TEST(ColmapCamera, PointsBehindTheCamera) {
       EXPECT_GT(std::hypot(a[0] - b[0], a[1] - b[1]), 10.0) << cc::model_name(m);
     else
       EXPECT_EQ(a, b) << cc::model_name(m);
+  }
+}
+
+// Where COLMAP 4's projection (pycolmap 4.2.1's Camera.img_from_cam) gives no pixel: every
+// model below the epsilon of doubles in depth (2.2e-16 refused, 2.220446049250313e-16 not),
+// but the division models, which refuse only where Z^2 < 4 k rho (k = 0.1 at (0.1, 0.2, 1e-20)
+// refused, k = -0.1 at (0.1, 0.2, 0) and at (0.1, 0.2, -1) not), and EQUIRECTANGULAR, which
+// refuses none.
+TEST(ColmapCamera, RefusedWhereColmapGivesNoPixel) {
+  for (int m = 0; m < cc::kNumModels; ++m) {
+    std::vector<double> params = sample_params(m);
+    const bool division = m == cc::kSimpleDivision || m == cc::kDivision;
+    const bool by_depth = !division && m != cc::kEquirectangular;
+    const double at_epsilon[3] = {0.1, 0.2, 2.220446049250313e-16}, below[3] = {0.1, 0.2, 2.2e-16},
+                 behind[3] = {0.1, 0.2, -0.5}, front[3] = {0.1, 0.2, 1.0};
+    const auto expected = [&](const double *X) {
+      if (division) return X[2] * X[2] - 4 * params.back() * (X[0] * X[0] + X[1] * X[1]) < 0;
+      return by_depth && X[2] < DBL_EPSILON;
+    };
+    EXPECT_FALSE(cc::refused(m, params.data(), front)) << cc::model_name(m);
+    for (const double *X : {at_epsilon, below, behind})
+      EXPECT_EQ(cc::refused(m, params.data(), X), expected(X)) << cc::model_name(m) << " " << X[2];
+    if (by_depth) {
+      EXPECT_FALSE(cc::refused(m, params.data(), at_epsilon)) << cc::model_name(m);
+      EXPECT_TRUE(cc::refused(m, params.data(), below)) << cc::model_name(m);
+    }
+    if (!division) continue;
+    const double tiny[3] = {0.1, 0.2, 1e-20}, plane[3] = {0.1, 0.2, 0.0}, back[3] = {0.1, 0.2, -1.0};
+    params.back() = 0.1;
+    EXPECT_TRUE(cc::refused(m, params.data(), tiny)) << cc::model_name(m);
+    EXPECT_FALSE(cc::refused(m, params.data(), back)) << cc::model_name(m);
+    params.back() = -0.1;
+    EXPECT_FALSE(cc::refused(m, params.data(), tiny)) << cc::model_name(m);
+    EXPECT_FALSE(cc::refused(m, params.data(), plane)) << cc::model_name(m);
   }
 }
 
@@ -540,6 +575,61 @@ TEST(ColmapCamera, ExpertCallbacksAgreeWithTheModel) {
     const bool mine = k >= rowptr[n - 1];
     EXPECT_EQ(part[2 * static_cast<std::size_t>(k)], mine ? hx[2 * static_cast<std::size_t>(k)] : -1.0) << k;
   }
+}
+
+// Given the measurements, the callbacks cost a projection COLMAP refuses nothing, as COLMAP 4's
+// cost does: hx is its measurement and its Jacobian zero. The others, and every projection
+// without measurements, are project_jacobian's.
+TEST(ColmapCamera, RefusedProjectionsCostNothingGivenTheMeasurements) {
+  const std::vector<double> points = {0.2, -0.1, 0.3, 0.1, 0.2, -12.0, -0.3, 0.1, 0.2};  // the second behind
+  cc::CameraModel model(sample_cameras(), points);
+  const int m = model.ncameras(), n = model.npoints(), cnp = model.cnp();
+  std::vector<double> p = model.initial_camera_params();
+  p.insert(p.end(), points.begin(), points.end());
+  std::vector<int> rowptr{0}, colidx, val;  // every point in every camera
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < m; ++j) {
+      colidx.push_back(j);
+      val.push_back(static_cast<int>(val.size()));
+    }
+    rowptr.push_back(static_cast<int>(colidx.size()));
+  }
+  const int nvis = static_cast<int>(val.size());
+  std::vector<double> x(2 * static_cast<std::size_t>(nvis));
+  for (std::size_t k = 0; k < x.size(); ++k) x[k] = 100.0 + static_cast<double>(k);
+  sba_crsm idx{n, m, nvis, val.data(), colidx.data(), rowptr.data()};
+  const std::size_t block = 2 * static_cast<std::size_t>(cnp + 3);
+  std::vector<double> hx_free(x.size()), jac_free(static_cast<std::size_t>(nvis) * block);
+  cc::motstr_func(p.data(), &idx, nullptr, nullptr, hx_free.data(), cc::as_adata(model));
+  cc::motstr_fjac(p.data(), &idx, nullptr, nullptr, jac_free.data(), cc::as_adata(model));
+  model.set_measurements(x.data());
+  std::vector<double> hx(x.size()), jac(jac_free.size());
+  cc::motstr_func(p.data(), &idx, nullptr, nullptr, hx.data(), cc::as_adata(model));
+  cc::motstr_fjac(p.data(), &idx, nullptr, nullptr, jac.data(), cc::as_adata(model));
+  int refused = 0, shown = 0;
+  for (int i = 0; i < n; ++i)
+    for (int e = rowptr[i]; e < rowptr[i + 1]; ++e) {
+      const int j = colidx[e];
+      const std::size_t k = static_cast<std::size_t>(val[e]);
+      double px[2];
+      const bool ok = model.project(j, p.data() + static_cast<std::size_t>(j) * cnp, points.data() + 3 * i, px);
+      EXPECT_EQ(hx_free[2 * k], px[0]);
+      EXPECT_EQ(hx_free[2 * k + 1], px[1]);
+      const double *J = jac.data() + k * block;
+      if (ok) {
+        ++shown;
+        EXPECT_EQ(hx[2 * k], px[0]) << j << " " << i;
+        EXPECT_TRUE(std::equal(J, J + block, jac_free.data() + k * block)) << j << " " << i;
+      } else {
+        ++refused;
+        EXPECT_EQ(hx[2 * k], x[2 * k]) << j << " " << i;
+        EXPECT_EQ(hx[2 * k + 1], x[2 * k + 1]) << j << " " << i;
+        EXPECT_TRUE(std::all_of(J, J + block, [](double v) { return v == 0.0; })) << j << " " << i;
+      }
+    }
+  // The point behind: refused by every camera but the two division models and the panorama.
+  EXPECT_EQ(refused, cc::kNumModels - 3);
+  EXPECT_EQ(shown, 3 * cc::kNumModels - refused);
 }
 
 TEST(ColmapCamera, RefusesBadCameras) {

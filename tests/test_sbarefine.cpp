@@ -41,6 +41,7 @@ namespace colmap = sbaformats::colmap;
 namespace bundler = sbaformats::bundler;
 namespace eucsba = sbaformats::eucsba;
 namespace euclidean = sbacameras::euclidean;
+namespace colmap_camera = sbacameras::colmap_camera;
 
 namespace {
 
@@ -1980,6 +1981,92 @@ std::array<double, 3> posed(const std::array<double, 4> &q, const std::array<dou
   std::array<double, 3> out;
   for (int r = 0; r < 3; ++r) out[r] = R[3 * r] * X[0] + R[3 * r + 1] * X[1] + R[3 * r + 2] * X[2] + t[r];
   return out;
+}
+
+// A point a metre behind image `behind`'s centre, observed there (at a pixel 20 px off the
+// mirrored projection) and in the images that see it in front, within the image, at its
+// projection (the first max_front of them): in `with` as a point of POINT3D_ID id, in
+// `without` as keypoints alone (the observation behind dropped, and the point with it when one
+// other image sees it). Returns how many images see it in front.
+std::size_t point_behind(colmap::Model *with, colmap::Model *without, std::size_t behind, std::uint64_t id,
+                         std::size_t max_front) {
+  const colmap::Image &b = with->images[behind];
+  double R[9];
+  euclidean::rotation_matrix(euclidean::normalized_rotation({b.q[0], b.q[1], b.q[2], b.q[3]}), R);
+  double P[3];
+  for (int c = 0; c < 3; ++c)  // centre -R^T t, less the viewing direction (R's third row)
+    P[c] = -(R[c] * b.t[0] + R[3 + c] * b.t[1] + R[6 + c] * b.t[2]) - R[6 + c];
+  colmap::Point3D pt;
+  pt.id = id;
+  pt.xyz = {P[0], P[1], P[2]};
+  std::vector<std::pair<std::size_t, std::array<double, 2>>> seen;
+  for (std::size_t j = 0; j < with->images.size(); ++j) {
+    const colmap::Image &im = with->images[j];
+    const colmap::Camera &cam = with->cameras[j];  // one camera per image, in order
+    const std::array<double, 3> Xc = posed(im.q, im.t, P);
+    double x[2];
+    if (j == behind) {
+      const double mirrored[3] = {-Xc[0], -Xc[1], -Xc[2]};
+      colmap_camera::project(cam.model, cam.params.data(), mirrored, x, nullptr, nullptr);
+      seen.push_back({j, {x[0] + 20, x[1] + 20}});
+      continue;
+    }
+    if (Xc[2] <= 0) continue;
+    colmap_camera::project(cam.model, cam.params.data(), Xc.data(), x, nullptr, nullptr);
+    if (x[0] >= 0 && x[0] < double(cam.width) && x[1] >= 0 && x[1] < double(cam.height) && seen.size() <= max_front)
+      seen.push_back({j, {x[0], x[1]}});
+  }
+  const bool kept = seen.size() >= 3;
+  colmap::Point3D in_without = pt;
+  for (const auto &[j, x] : seen) {
+    colmap::Image &a = with->images[j], &b = without->images[j];
+    const auto k = static_cast<std::uint32_t>(a.points.size());
+    a.points.push_back({x[0], x[1], id});
+    pt.track.push_back({a.id, k});
+    const bool assigned = kept && j != behind;
+    b.points.push_back({x[0], x[1], assigned ? id : colmap::kNoPoint});
+    if (assigned) in_without.track.push_back({b.id, k});
+  }
+  with->points.push_back(pt);
+  if (kept) without->points.push_back(in_without);
+  return seen.size() - 1;
+}
+
+// COLMAP's bundle_adjuster removes the observations behind their cameras before it solves, and
+// writes the model without them: sbarefine solves and writes the model with them as the model
+// without them, to the bit, and says what it removed. A point left seen once goes with them.
+TEST(SbarefineColmapModels, ObservationsBehindTheirCamerasRemovedAsColmapDoes) {
+  const std::string dir = temp_dir("behind");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsics, 10, 100);
+  colmap::Model with = s.model, without = s.model;
+  std::size_t kept = 0, deleted = 0;
+  for (std::size_t j = 0; j < with.images.size() && (kept < 2 || deleted < 1); ++j) {
+    colmap::Model w = with, wo = without;
+    const std::size_t front = point_behind(&w, &wo, j, 9000 + j, kept < 2 ? with.images.size() : 1);
+    if (front >= 2 && kept < 2) ++kept;
+    else if (front == 1 && kept == 2) ++deleted;
+    else continue;
+    with = std::move(w);
+    without = std::move(wo);
+  }
+  ASSERT_EQ(kept, 2u);
+  ASSERT_EQ(deleted, 1u);
+  std::string error;
+  ASSERT_TRUE(colmap::check_model(with, "with", &error)) << error;
+  ASSERT_TRUE(colmap::check_model(without, "without", &error)) << error;
+  ASSERT_TRUE(colmap::write_model(dir + "/with", with, colmap::Encoding::Text, &error)) << error;
+  ASSERT_TRUE(colmap::write_model(dir + "/without", without, colmap::Encoding::Text, &error)) << error;
+  const Outcome a = run(dir + "/with --write " + dir + "/with-out");
+  ASSERT_EQ(a.status, 0) << a.err;
+  const Outcome b = run(dir + "/without --write " + dir + "/without-out");
+  ASSERT_EQ(b.status, 0) << b.err;
+  EXPECT_NE(a.out.find("\n3 observations behind their cameras removed, as COLMAP's bundle_adjuster removes them, "
+                       "and 1 point left seen fewer than twice\n"),
+            std::string::npos)
+      << a.out;
+  EXPECT_EQ(b.out.find("behind their cameras"), std::string::npos) << b.out;
+  EXPECT_EQ(final_error(a.out), final_error(b.out));
+  EXPECT_EQ(contents(dir + "/with-out", kTextFiles), contents(dir + "/without-out", kTextFiles));
 }
 
 // A rotation by angle a about the axis (x, y, z) of unit length.

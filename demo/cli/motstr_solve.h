@@ -124,7 +124,7 @@ class MotstrSolve {
     double sq = 0;
     for (std::size_t k = 0; k < in_.vis->size(); ++k) {
       double xp[2];
-      project(in_.vis->camera[k], in_.vis->point[k], xp);
+      projection_or_measurement(project, in_.vis->camera[k], in_.vis->point[k], in_.x + 2 * k, xp);
       const double dx = xp[0] - in_.x[2 * k], dy = xp[1] - in_.x[2 * k + 1];
       sq += dx * dx + dy * dy;
     }

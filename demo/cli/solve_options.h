@@ -13,6 +13,7 @@
 #include <new>
 #include <limits>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "cli/cli.h"
@@ -253,15 +254,30 @@ inline Report make_report(const char *program, const std::string &input, int m, 
   return r;
 }
 
+// xp = the projection of point i in camera j through project(j, i, xp), or the measurement
+// x_k (2 values) where project returns false: a projection the camera model refuses (a point
+// behind a COLMAP camera), which the solve costs nothing.
+template <class Project>
+void projection_or_measurement(Project &project, int j, int i, const double *x_k, double xp[2]) {
+  if constexpr (std::is_same_v<decltype(project(j, i, xp)), bool>) {
+    if (project(j, i, xp)) return;
+    xp[0] = x_k[0];
+    xp[1] = x_k[1];
+  } else {
+    project(j, i, xp);
+  }
+}
+
 // Each camera's squared pixel distances at the result, for --json: project(j, i, x) gives
-// the projection of point i in camera j; x holds measurement k of vis at x[2k], x[2k + 1].
+// the projection of point i in camera j (projection_or_measurement); x holds measurement k of
+// vis at x[2k], x[2k + 1].
 template <class Project>
 void add_per_camera(int m, const sbaformats::Visibility &vis, const double *x, Project project, Report *r) {
   r->per_camera.assign(static_cast<std::size_t>(m), {});
   for (std::size_t k = 0; k < vis.size(); ++k) {
     const int j = vis.camera[k];
     double xp[2];
-    project(j, vis.point[k], xp);
+    projection_or_measurement(project, j, vis.point[k], x + 2 * k, xp);
     const double dx = xp[0] - x[2 * k], dy = xp[1] - x[2 * k + 1];
     r->per_camera[static_cast<std::size_t>(j)].observations += 1;
     r->per_camera[static_cast<std::size_t>(j)].sum_sq += dx * dx + dy * dy;
@@ -282,7 +298,7 @@ double mean_error_by_point(const sbaformats::Visibility &vis, const double *x, P
     long long count = 0;
     for (; k < vis.size() && vis.point[k] == i; ++k, ++count) {
       double xp[2];
-      project(vis.camera[k], i, xp);
+      projection_or_measurement(project, vis.camera[k], i, x + 2 * k, xp);
       sum += std::hypot(xp[0] - x[2 * k], xp[1] - x[2 * k + 1]);
     }
     total += sum / static_cast<double>(count);

@@ -444,8 +444,9 @@ struct Job {
   std::string summary;  // the sizes line
   std::vector<double> p;
   sbacli::MotstrInputs in;  // in.p is pointed at p when the solve starts
-  // The projection of point i in camera j with the parameters p.
-  std::function<void(const double *p, int j, int i, double x[2])> project;
+  // The projection of point i in camera j with the parameters p; false where the camera model
+  // refuses it (a point behind a COLMAP camera), whose cost is zero.
+  std::function<bool(const double *p, int j, int i, double x[2])> project;
   Cloud initial;
   std::vector<std::string> camera_names;  // the image of each sba camera; empty: unnamed
   std::string model;                      // --json's "model": the camera models, what is refined
@@ -564,6 +565,7 @@ void eucsba_job(Loaded *l, Job *job) {
   const int m = job->in.m, cnp = job->in.cnp;
   job->project = [&sm, m, cnp](const double *p, int j, int i, double x[2]) {
     sm.project(j, p + static_cast<std::size_t>(j) * cnp, p + static_cast<std::size_t>(m) * cnp + 3 * static_cast<std::size_t>(i), x);
+    return true;
   };
 }
 
@@ -620,7 +622,7 @@ void colmap_job(const colmap::Problem &pr, Job *job) {
   job->in.fjac = pr.fjac();
   job->in.adata = pr.adata();
   job->p = pr.initial_params();
-  job->project = [&pr](const double *p, int j, int i, double x[2]) { pr.project(p, j, i, x); };
+  job->project = [&pr](const double *p, int j, int i, double x[2]) { return pr.project(p, j, i, x); };
 }
 
 // "OPENCV (3 cameras), PINHOLE (1 camera)": the models of the cameras the solve uses.
@@ -745,9 +747,30 @@ bool attach_priors(const Options &o, const ModelPriors &priors, Loaded *l, Job *
   return true;
 }
 
-bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
+// The model and its priors, less the observations behind their cameras: COLMAP's
+// bundle_adjuster removes them before it solves, and writes the model without them.
+bool read_colmap_input(const Options &o, Loaded *l, colmap::DepthFilter *behind, std::string *error) {
   if (!colmap::read_model(o.input, &l->model, &l->encoding, error)) return false;
   if (!read_priors(o, &l->model, &l->model_priors, &l->priors_said, error)) return false;
+  *behind = colmap::filter_negative_depth(&l->model);
+  return true;
+}
+
+// The summary's line on what read_colmap_input removed, empty when nothing.
+std::string removed_behind(const colmap::DepthFilter &behind) {
+  const std::size_t n = behind.observations.size();
+  if (n == 0) return {};
+  std::string said = "\n" + std::to_string(n) + (n == 1 ? " observation" : " observations") +
+                     " behind their cameras removed, as COLMAP's bundle_adjuster removes them";
+  if (behind.points > 0)
+    said += ", and " + std::to_string(behind.points) + (behind.points == 1 ? " point" : " points") +
+            " left seen fewer than twice";
+  return said;
+}
+
+bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
+  colmap::DepthFilter behind;
+  if (!read_colmap_input(o, l, &behind, error)) return false;
   colmap::Options options;
   options.intrinsics = o.refine;
   options.poses = o.poses;
@@ -774,6 +797,7 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   // values for the ones refined.
   if (l->encoding == colmap::Encoding::Binary && colmap::has_model(o.input, colmap::Encoding::Text))
     job->summary += "\nThe text model beside it is not read: binary is read first, as COLMAP does";
+  job->summary += removed_behind(behind);
   job->summary += unseen_images(l->model, pr);
   job->summary += l->priors_said;
   const auto count = [](std::size_t n, const char *what) {
@@ -881,6 +905,7 @@ bool load_bundle(const Options &o, const std::string &text, Loaded *l, Job *job,
   job->project = [m](const double *p, int j, int i, double x[2]) {
     bal_camera::project(p + static_cast<std::size_t>(j) * bal_camera::kCameraParams,
                  p + static_cast<std::size_t>(m) * bal_camera::kCameraParams + 3 * static_cast<std::size_t>(i), x);
+    return true;
   };
   job->summary = "Bundler file " + o.input + ": " + std::to_string(l->bundle.cameras.size()) + " cameras (" +
                  std::to_string(m) + " registered), " + std::to_string(job->in.n) + " points";
@@ -1010,7 +1035,7 @@ int solve_and_write(const Options &o, Job &job, double read_seconds) {
               eol == std::string::npos ? "" : job.summary.substr(eol).c_str());
   std::fflush(stdout);
   const std::vector<double> &p = job.p;
-  const auto project = [&](int j, int i, double x[2]) { job.project(p.data(), j, i, x); };
+  const auto project = [&](int j, int i, double x[2]) { return job.project(p.data(), j, i, x); };
   solve.report_mean_error(project);
   // Every file of the run is published at its end, together, or none is (output_file.h).
   sbaformats::OutputSet outputs;

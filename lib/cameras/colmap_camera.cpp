@@ -2,6 +2,7 @@
 #include "cameras/colmap_camera.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <cstddef>
 #include <stdexcept>
@@ -440,6 +441,17 @@ int largest_param_count(const std::vector<C> &cameras) {
 
 }  // namespace
 
+bool refused(int model, const double *params, const double Xc[3]) {
+  switch (model) {
+    case kSimpleDivision: case kDivision: {
+      const double k = params[param_count(model) - 1];
+      return Xc[2] * Xc[2] - 4 * k * (Xc[0] * Xc[0] + Xc[1] * Xc[1]) < 0;
+    }
+    case kEquirectangular: return false;
+    default: return Xc[2] < DBL_EPSILON;
+  }
+}
+
 SbaCameraModel::SbaCameraModel(int m, int cnp, std::vector<double> points, std::vector<char> held)
     : m_(m), cnp_(cnp), held_(std::move(held)), points0_(std::move(points)) {
   if (points0_.size() % kPointParams != 0) throw std::invalid_argument("point coordinates must come in threes");
@@ -610,20 +622,37 @@ Frame frame_of(const CameraModel &model, int j, const double *a) {
   return f;
 }
 
-void eval(const Frame &f, int cnp, const double *b, double *x, double *A, double *B) {
+// What a projection COLMAP refuses gives with measurements (SbaCameraModel::set_measurements):
+// hx its measurement obs, a zero Jacobian. False, as eval returns for it.
+bool cost_nothing(const double *obs, int cnp, double *x, double *A, double *B) {
+  if (x) {
+    x[0] = obs[0];
+    x[1] = obs[1];
+  }
+  if (A) std::fill(A, A + 2 * cnp, 0.0);
+  if (B) std::fill(B, B + 6, 0.0);
+  return false;
+}
+
+// The projection of b and its Jacobian (any of x, A, B null), false where COLMAP refuses it;
+// there, with obs (the projection's measurement), as cost_nothing says.
+bool eval(const Frame &f, int cnp, const double *b, const double *obs, double *x, double *A, double *B) {
   double Xc[3];
   sbaeuc_mat3_vec(f.rot.M, b, Xc);
   for (int r = 0; r < 3; ++r) Xc[r] += f.t()[r];
+  const bool shown = !refused(f.model, f.params(), Xc);
+  if (!shown && obs) return cost_nothing(obs, cnp, x, A, B);
   double Jx[6];
   project_at(f.model, f.np, f.params(), Xc, cnp, kPoseParams, x, A, (A || B) ? Jx : nullptr);
   if (B) columns(Jx, f.rot.M, 3, 0, B);
-  if (!A) return;
+  if (!A) return shown;
   double Jv[9];
   rotation_jacobian(f.rot, b, Jv);
   columns(Jx, Jv, cnp, 0, A);
   for (int r = 0; r < 2; ++r)
     for (int c = 0; c < 3; ++c) A[r * cnp + 3 + c] = Jx[r * 3 + c];
   zero_held(f.held, cnp, A);
+  return shown;
 }
 
 // What a projection needs of rig image j that does not depend on the point.
@@ -652,16 +681,18 @@ RigFrame frame_of(const RigCameraModel &model, int j, const double *a) {
 
 // X_r = R_f X + t_f in the rig, X_c = R_s X_r + t_s: dX_c/dv_f = R_s dR_f X/dv_f, dX_c/dt_f =
 // R_s, dX_c/dv_s = dR_s X_r/dv_s, dX_c/dt_s = I, dX_c/dX = R_s R_f.
-void eval(const RigFrame &f, int cnp, const double *b, double *x, double *A, double *B) {
+bool eval(const RigFrame &f, int cnp, const double *b, const double *obs, double *x, double *A, double *B) {
   double Xr[3], Xc[3];
   sbaeuc_mat3_vec(f.frame.M, b, Xr);
   for (int r = 0; r < 3; ++r) Xr[r] += f.t_frame()[r];
   sbaeuc_mat3_vec(f.sensor.M, Xr, Xc);
   for (int r = 0; r < 3; ++r) Xc[r] += f.t_sensor()[r];
+  const bool shown = !refused(f.model, f.params(), Xc);
+  if (!shown && obs) return cost_nothing(obs, cnp, x, A, B);
   double Jx[6];
   project_at(f.model, f.np, f.params(), Xc, cnp, kRigPoseParams, x, A, (A || B) ? Jx : nullptr);
   if (B) columns(Jx, f.M, 3, 0, B);
-  if (!A) return;
+  if (!A) return shown;
   double H[6], Jv[9];  // H = dx/dX_r = Jx R_s
   columns(Jx, f.sensor.M, 3, 0, H);
   rotation_jacobian(f.frame, b, Jv);
@@ -674,6 +705,7 @@ void eval(const RigFrame &f, int cnp, const double *b, double *x, double *A, dou
       A[r * cnp + 9 + c] = Jx[r * 3 + c];
     }
   zero_held(f.held, cnp, A);
+  return shown;
 }
 
 inline std::size_t off(int index, int stride) {
@@ -707,8 +739,10 @@ void func_of(const double *p, const sba_crsm &idx, double *hx, void *adata) {
   const Model &model = *static_cast<const Model *>(adata);
   const int cnp = model.cnp();
   const double *pb = p + off(model.ncameras(), cnp);
+  const double *x = model.measurements();
   for_each_projection(model, p, idx, [&](int i, const auto &f, int k) {
-    eval(f, cnp, pb + off(i, kPointParams), hx + off(k, kMeasurementParams), nullptr, nullptr);
+    eval(f, cnp, pb + off(i, kPointParams), x ? x + off(k, kMeasurementParams) : nullptr,
+         hx + off(k, kMeasurementParams), nullptr, nullptr);
   });
 }
 
@@ -718,21 +752,23 @@ void fjac_of(const double *p, const sba_crsm &idx, double *jac, void *adata) {
   const int cnp = model.cnp();
   const double *pb = p + off(model.ncameras(), cnp);
   const int block = kMeasurementParams * (cnp + kPointParams);
+  const double *x = model.measurements();
   for_each_projection(model, p, idx, [&](int i, const auto &f, int k) {
     double *A = jac + off(k, block);
-    eval(f, cnp, pb + off(i, kPointParams), nullptr, A, A + kMeasurementParams * cnp);
+    eval(f, cnp, pb + off(i, kPointParams), x ? x + off(k, kMeasurementParams) : nullptr, nullptr, A,
+         A + kMeasurementParams * cnp);
   });
 }
 
 }  // namespace
 
-void CameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const {
-  eval(frame_of(*this, j, a), cnp(), b, x, A, B);
+bool CameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const {
+  return eval(frame_of(*this, j, a), cnp(), b, nullptr, x, A, B);
 }
 
-void RigCameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A,
+bool RigCameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A,
                                       double *B) const {
-  eval(frame_of(*this, j, a), cnp(), b, x, A, B);
+  return eval(frame_of(*this, j, a), cnp(), b, nullptr, x, A, B);
 }
 
 void motstr_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {

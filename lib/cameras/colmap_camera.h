@@ -49,10 +49,12 @@
 //                             panorama's size, not parameters of a lens: COLMAP never refines
 //                             them.
 // Where a formula has no value, the projection is not finite, as COLMAP's is: DIVISION with
-// Z^2 < 4 k rho (k > 0: a ray farther off the axis than the model reaches). No model checks
-// that the point is in front of the camera, nor EUCM's region of validity: the pixels are the
-// formula's wherever it has a value, as COLMAP's projection without its cheirality check gives
-// them.
+// Z^2 < 4 k rho (k > 0: a ray farther off the axis than the model reaches). `project` checks
+// neither that the point is in front of the camera nor EUCM's region of validity: the pixels
+// are the formula's wherever it has a value, as COLMAP's projection without its cheirality
+// check gives them. `refused` is that check: where COLMAP's projection gives no pixel, COLMAP
+// 4's reprojection cost is zero, and so is the cost of the sba models below once they are given
+// the measurements.
 #ifndef SBA_LIB_CAMERAS_COLMAP_CAMERA_H
 #define SBA_LIB_CAMERAS_COLMAP_CAMERA_H
 
@@ -154,6 +156,12 @@ ParamKind param_kind(int model, int k);
 // need their denominators not 0).
 void project(int model, const double *params, const double Xc[3], double x[2], double *Jp, double *Jx);
 
+// Whether COLMAP's projection gives no pixel for the camera-frame point Xc: Xc[2] below the
+// epsilon of doubles (a point behind the camera, or on its plane) for every model but three.
+// The division models refuse only a ray their formula has no value for (Z^2 < 4 k rho), and
+// EQUIRECTANGULAR refuses none.
+bool refused(int model, const double *params, const double Xc[3]);
+
 // A camera as sbarefine refines it: a COLMAP model and its parameters, and the pose
 // X_c = R(q) X + t.
 struct Camera {
@@ -180,6 +188,13 @@ class SbaCameraModel {
   }
   // a with camera j's held parameters replaced by their initial values (cnp values to out).
   void effective(int j, const double *a, double *out) const;
+  // The measurements of the projections, 2 per ordinal (sba's x, in the order of idxij's
+  // ordinals), or null (the default). With them, the callbacks cost a projection COLMAP refuses
+  // (`refused`) nothing, as COLMAP 4's cost does: its hx is its measurement and its Jacobian is
+  // zero. The caller sets them before the callbacks run, and keeps x alive and unchanged
+  // while the model is used.
+  void set_measurements(const double *x) { measurements_ = x; }
+  const double *measurements() const { return measurements_; }
 
  protected:
   // Throws std::invalid_argument for points whose count is not a multiple of 3 or held flags
@@ -192,6 +207,7 @@ class SbaCameraModel {
   std::vector<char> held_;       // m*cnp flags, or empty
   std::vector<double> cams0_;    // m*cnp initial camera parameters
   std::vector<double> points0_;  // n*3
+  const double *measurements_ = nullptr;
 };
 
 // The sba camera model of a set of such cameras. Camera parameter vector a_j (cnp values):
@@ -221,10 +237,11 @@ class CameraModel : public SbaCameraModel {
   Camera camera(int j, const double *a) const;
 
   // The projection of point b in camera j with parameters a, and A = dx/da (2 x cnp), B =
-  // dx/db (2 x 3), row-major; any of x, A, B may be null. The same numbers as the callbacks.
-  void project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const;
-  void project(int j, const double *a, const double *b, double x[2]) const {
-    project_jacobian(j, a, b, x, nullptr, nullptr);
+  // dx/db (2 x 3), row-major; any of x, A, B may be null. The numbers of the callbacks without
+  // measurements: the formula's, where COLMAP refuses the point too. False where it does.
+  bool project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const;
+  bool project(int j, const double *a, const double *b, double x[2]) const {
+    return project_jacobian(j, a, b, x, nullptr, nullptr);
   }
 
  private:
@@ -299,10 +316,10 @@ class RigCameraModel : public SbaCameraModel {
   // (rigid_pose.h), normalized.
   Camera camera(int j, const double *a) const;
 
-  // As CameraModel's: x, A = dx/da (2 x cnp), B = dx/db (2 x 3), the callbacks' numbers.
-  void project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const;
-  void project(int j, const double *a, const double *b, double x[2]) const {
-    project_jacobian(j, a, b, x, nullptr, nullptr);
+  // As CameraModel's: x, A = dx/da (2 x cnp), B = dx/db (2 x 3), false where COLMAP refuses.
+  bool project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const;
+  bool project(int j, const double *a, const double *b, double x[2]) const {
+    return project_jacobian(j, a, b, x, nullptr, nullptr);
   }
 
  private:

@@ -17,8 +17,11 @@
 #include <iterator>
 #include <limits>
 #include <tuple>
+#include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
+#include "cameras/euclidean.h"
 #include "formats/colmap_io_impl.h"
 #include "formats/output_file.h"
 #include "formats/text_tokens.h"
@@ -219,6 +222,50 @@ std::vector<Pose> image_poses(const Model &model) {
   std::vector<ImagePlace> places;
   if (!model.has_rigs || !find_places(model, &places)) return own_poses(model);
   return image_poses(model, places);
+}
+
+DepthFilter filter_negative_depth(Model *model) {
+  DepthFilter out;
+  const std::vector<Pose> poses = image_poses(*model);
+  std::unordered_map<std::uint64_t, std::size_t> point_at;
+  for (std::size_t k = 0; k < model->points.size(); ++k) point_at.emplace(model->points[k].id, k);
+  std::unordered_set<std::uint64_t> touched;  // the points that lost an observation: COLMAP
+                                              // deletes a point as its track falls below two
+  for (std::size_t i = 0; i < model->images.size(); ++i) {
+    Image &im = model->images[i];
+    const Pose &pose = poses[i];
+    // The third row of R(q), q normalized (of any size, as a pose's quaternion is read).
+    double R[9];
+    sbacameras::euclidean::rotation_matrix(
+        sbacameras::euclidean::normalized_rotation({pose.q[0], pose.q[1], pose.q[2], pose.q[3]}), R);
+    const double *r = R + 6;
+    for (std::size_t k = 0; k < im.points.size(); ++k) {
+      Point2D &obs = im.points[k];
+      if (obs.point3d_id == kNoPoint) continue;
+      Point3D &pt = model->points[point_at.at(obs.point3d_id)];
+      const double depth = r[0] * pt.xyz[0] + r[1] * pt.xyz[1] + r[2] * pt.xyz[2] + pose.t[2];
+      if (depth >= std::numeric_limits<double>::epsilon()) continue;
+      const TrackElement e{im.id, static_cast<std::uint32_t>(k)};
+      out.observations.push_back(e);
+      pt.track.erase(std::find_if(pt.track.begin(), pt.track.end(), [&](const TrackElement &t) {
+        return t.image_id == e.image_id && t.point2d_idx == e.point2d_idx;
+      }));
+      obs.point3d_id = kNoPoint;
+      touched.insert(pt.id);
+    }
+  }
+  if (out.observations.empty()) return out;
+  std::unordered_map<std::uint32_t, std::size_t> image_at;
+  for (std::size_t i = 0; i < model->images.size(); ++i) image_at.emplace(model->images[i].id, i);
+  const auto last = std::remove_if(model->points.begin(), model->points.end(), [&](const Point3D &pt) {
+    if (pt.track.size() >= 2 || touched.count(pt.id) == 0) return false;
+    for (const TrackElement &e : pt.track)
+      model->images[image_at.at(e.image_id)].points[e.point2d_idx].point3d_id = kNoPoint;
+    return true;
+  });
+  out.points = static_cast<std::size_t>(model->points.end() - last);
+  model->points.erase(last, model->points.end());
+  return out;
 }
 
 Pose frame_pose(const Pose &pose, const Pose *sensor_from_rig) {

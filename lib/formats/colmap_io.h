@@ -199,6 +199,18 @@ bool check_model(const Model &model, const std::string &name, std::string *error
 // images' own poses where its frames do not place every image.
 std::vector<Pose> image_poses(const Model &model);
 
+// COLMAP's filter of the observations of points that are not in front of their image's camera
+// (its FilterObservationsWithNegativeDepth, which COLMAP's bundle_adjuster and
+// pycolmap.bundle_adjustment run before the solve): an observation whose point's depth in the
+// camera (the third coordinate of the point in the camera's frame, by image_poses) is below
+// the epsilon of doubles leaves its point's track and its keypoint, and a point left with
+// fewer than two observations is deleted, its keypoints freed. A checked model stays one.
+struct DepthFilter {
+  std::vector<TrackElement> observations;  // the observations removed for their depth
+  std::size_t points = 0;                  // the points deleted with them
+};
+DepthFilter filter_negative_depth(Model *model);
+
 // The reverse: the rig_from_world of a frame at which a camera whose pose in the rig is
 // *sensor_from_rig has the pose `pose`: `pose` itself (the same bits) for the rig's reference
 // sensor (sensor_from_rig null), between(*sensor_from_rig, pose) for another.

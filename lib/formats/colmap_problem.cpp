@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cfloat>
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
@@ -694,6 +695,12 @@ bool Problem::build(const Model &model, const Options &options, const std::strin
   Builder::ids(model, d, &p);
   p.images_ = std::move(d.images);
   p.points_ = std::move(d.points);
+  // COLMAP 4 costs an observation whose point its projection refuses (behind the camera)
+  // nothing; the models do so given the measurements, whose buffer moves with the problem.
+  if (p.rig_model_)
+    p.rig_model_->set_measurements(p.points_.x.data());
+  else
+    p.image_model_->set_measurements(p.points_.x.data());
   p.cnp_ = d.cnp;
   p.held_points_ = d.held_points;
   p.rigged_ = d.rigged;
@@ -715,10 +722,10 @@ void *Problem::adata() const {
   return with_model([](const auto &sm) { return cc::as_adata(sm); });
 }
 
-void Problem::project(const double *p, int j, int i, double x[2]) const {
+bool Problem::project(const double *p, int j, int i, double x[2]) const {
   const std::size_t m = images_.size();
-  with_model([&](const auto &sm) {
-    sm.project(j, p + at(j) * at(cnp_), p + m * at(cnp_) + 3 * at(i), x);
+  return with_model([&](const auto &sm) {
+    return sm.project(j, p + at(j) * at(cnp_), p + m * at(cnp_) + 3 * at(i), x);
   });
 }
 
@@ -734,7 +741,7 @@ std::string Problem::nonfinite_error(const Model &model, const std::string &name
   for (std::size_t k = 0; k < s.pairs.size(); ++k) {
     const int i = s.pairs.point[k], j = s.pairs.camera[k];
     double x[2];
-    project(p0_.data(), j, i, x);
+    if (!project(p0_.data(), j, i, x)) continue;  // COLMAP's cost of it is zero
     const double dx = x[0] - s.x[2 * k], dy = x[1] - s.x[2 * k + 1];
     if (std::isfinite(dx * dx + dy * dy)) continue;
     const Image &im = model.images[at(images_[at(j)])];
@@ -836,8 +843,12 @@ void Problem::write_points(const double *p, const Index &index, bool errors) con
       const int j = camera_of.at(e.image_id);
       const Point2D &obs = find(index.images, e.image_id, "image").points[e.point2d_idx];
       double x[2];
-      with_model([&](const auto &sm) { sm.project(j, p + at(j) * at(cnp_), b, x); });
-      sum += std::hypot(x[0] - obs.x, x[1] - obs.y);
+      // COLMAP's error of an observation its projection refuses is the root of the largest
+      // double, so that its filters remove the point.
+      if (with_model([&](const auto &sm) { return sm.project(j, p + at(j) * at(cnp_), b, x); }))
+        sum += std::hypot(x[0] - obs.x, x[1] - obs.y);
+      else
+        sum += std::sqrt(DBL_MAX);
     }
     pt.error = sum / static_cast<double>(pt.track.size());
   }

@@ -149,8 +149,10 @@ class Problem {
   const Counts &counts() const { return counts_; }
   // Each sba camera's image, an index into the model's images.
   const std::vector<int> &images() const { return images_; }
-  // Point i's projection in sba camera j at the parameters p (m*cnp + 3n values).
-  void project(const double *p, int j, int i, double x[2]) const;
+  // Point i's projection in sba camera j at the parameters p (m*cnp + 3n values), the formula's
+  // pixels; false where COLMAP's projection refuses the point (colmap_camera.h's `refused`),
+  // whose cost the solve takes as zero.
+  bool project(const double *p, int j, int i, double x[2]) const;
   // Each sba camera at the parameters p as one camera: its model, parameters and pose
   // (composed from its frame's and its camera's in a rig).
   std::vector<sbacameras::colmap_camera::Camera> cameras(const double *p) const;
@@ -168,10 +170,11 @@ class Problem {
   // that are not held (an image's own; in a rig, its frame's and its camera's pose in the rig;
   // in a model whose frames hold one image each, its frame's, so that the frame composes to
   // the refined pose, which the image's q and t then hold, as the images file will), each COLMAP
-  // camera's parameters that are not held, the points from
-  // held_points on and (with errors) their ERROR, the mean reprojection error in pixels. A
-  // held rotation or translation, and everything else, keeps its bits. Without errors the
-  // points keep theirs, as COLMAP's adjusters leave them, and no observation is projected.
+  // camera's parameters that are not held, the points from held_points on and (with errors)
+  // their ERROR, the mean reprojection error in pixels (an observation COLMAP's projection
+  // refuses counts the root of the largest double there, as in COLMAP). A held rotation or
+  // translation, and everything else, keeps its bits. Without errors the points keep theirs,
+  // as COLMAP's adjusters leave them, and no observation is projected.
   void apply(const double *p, Model *model, bool errors = true) const;
 
   // The covariance at the estimate p (m cnp-vectors, then n points) in COLMAP's convention

@@ -179,7 +179,8 @@ class Result:
     ``prior_cost_initial``/``prior_cost_final`` (the cost the solve minimizes, info[0] and
     info[1], apart: the projections' robust cost and the priors', 0 without priors),
     ``log`` (the library's warnings), ``model`` (:func:`refine_colmap`'s refined model, of the
-    type it returns, else None)
+    type it returns, else None), ``behind`` (the observations :func:`refine_colmap` removed
+    for their depth, as (IMAGE_ID, POINT2D_IDX); else empty)
     and, with ``covariance=True``, ``camera_covariance`` (m, cnp, cnp), ``point_covariance``
     (n, pnp, pnp), ``sigma2``, ``rank`` and ``nfree`` (see sba_ext.h). For eucsbademo
     problems the camera covariance is over the optimized parameters (intrinsics, the
@@ -212,6 +213,7 @@ class Result:
         self.prior_cost_initial: float = report["prior_cost_initial"]
         self.prior_cost_final: float = report["prior_cost_final"]
         self.model: Any = report.get("model")
+        self.behind: list = list(report.get("behind", []))
         self.outliers: int = report["outliers"]
         self.log: list = list(report["warnings"])
         self.camera_covariance: Optional[np.ndarray] = report.get("camera_covariance")

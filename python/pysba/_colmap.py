@@ -370,7 +370,7 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                   alignment_max_error: float = 0.0, in_place: bool = False, hold_frames: Any = None,
                   images: Any = None, variable_points: Any = None, min_track_length: int = 0,
                   refine_points3D: bool = True, gauge: Optional[str] = None,
-                  point_errors: bool = True) -> Tuple[Any, Result]:
+                  point_errors: bool = True, remove_behind: bool = True) -> Tuple[Any, Result]:
     """Bundle-adjusts a COLMAP model as sbarefine does (the same numbers, bit for bit, as
     ``sbarefine MODEL --write OUT`` with the same options), with COLMAP's camera models and
     COLMAP's defaults, and returns ``(refined model, Result)``; the model is left unchanged.
@@ -450,6 +450,14 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         sbarefine writes it; False: the points keep the errors they had, as COLMAP's bundle
         adjusters leave them (:func:`pysba.colmap.bundle_adjustment`), and the refinement
         saves a pass over the observations.
+    remove_behind
+        True: the observations whose point is behind its image's camera (its depth there
+        below the epsilon of doubles) are removed from the model before the solve, and a point
+        left with fewer than two observations with them, as COLMAP's bundle_adjuster and
+        pycolmap.bundle_adjustment remove them (and sbarefine); the result's model is without
+        them (with in_place=True, the Reconstruction given too), and ``Result.behind`` lists
+        them as (IMAGE_ID, POINT2D_IDX). False: they stay, and cost nothing, as in COLMAP's
+        cost (pycolmap's bundle adjusters that take a configuration keep them so).
     progress, verbose
         progress, as :func:`solve`'s, is called with a :class:`Progress` after every iteration
         (its ``error`` is the sum of squared reprojection errors, in pixels squared: the RMS
@@ -516,7 +524,8 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
              ("refine_sensor_from_rig", refine_sensor_from_rig),
              ("constant_rig_from_world_rotation", constant_rig_from_world_rotation))
     for name, flag in flags + (("verbose", verbose), ("covariance", covariance),
-                               ("covariance_points", covariance_points), ("point_errors", point_errors)):
+                               ("covariance_points", covariance_points), ("point_errors", point_errors),
+                               ("remove_behind", remove_behind)):
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name} must be a bool, got {type(flag).__name__}")
     hold_all, held = _held_images(hold_poses)
@@ -546,10 +555,13 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
                                  prior_position_loss="" if prior_position_loss == "trivial" else "cauchy",
                                  prior_position_loss_scale=float(prior_position_loss_scale),
                                  alignment_max_error=float(alignment_max_error), point_errors=bool(point_errors),
-                                 **config, **kw)
+                                 remove_behind=bool(remove_behind), **config, **kw)
+    behind = report["behind"]
     # The Result's model, also on an exception's result, is of the type returned.
     if reconstruction:
         target = model if in_place else _pycolmap().Reconstruction(model)
+        for image_id, point2D_idx in behind:  # pycolmap deletes a point left seen once with it
+            target.delete_observation(image_id, point2D_idx)
         _write_into(target, _model(report["model"]), colmap_model, errors=bool(point_errors))
         report["model"] = target
     else:

@@ -218,8 +218,10 @@ def bundle_adjustment(reconstruction: Any, options: Any = None, config: Any = No
     cameras' poses in their rigs (sensor_from_rig), cameras' intrinsics and points' coordinates
     where the solve refines them; ids, tracks, keypoints, colours, names, and what is held keep
     their bits. The points' errors are left as they were, as COLMAP's adjusters leave them,
-    but for config None without priors: then every point's is updated, as
-    pycolmap.bundle_adjustment does. On a KeyboardInterrupt or :class:`pysba.SolveError` the
+    but for config None without priors: then, as pycolmap.bundle_adjustment does, the
+    observations behind their cameras are removed first (and a point left seen once with
+    them) and every point's error is updated after. An observation behind its camera that
+    stays costs nothing, as in COLMAP's cost. On a KeyboardInterrupt or :class:`pysba.SolveError` the
     reconstruction holds the last accepted estimate.
 
     options, a pycolmap.BundleAdjustmentOptions (None: its defaults), as COLMAP reads it: the
@@ -280,6 +282,11 @@ def _bundle_adjustment(reconstruction: Any, options: Any, config: Any, pose_prio
     start = time.perf_counter()
     # COLMAP's adjusters leave the points' errors as they were; pycolmap.bundle_adjustment (no
     # config, no priors) updates every point's after the solve.
+    if config is None and pose_priors is None:
+        # pycolmap.bundle_adjustment removes the observations behind their cameras first, as
+        # COLMAP's bundle_adjuster does; its adjusters that take a configuration keep them, at
+        # no cost (the solve's too).
+        pycolmap.ObservationManager(reconstruction).filter_observations_with_negative_depth()
     part = _part(pycolmap, reconstruction, config, kw) if pose_priors is None else None
     read = time.perf_counter()
     model, held = _read_reconstruction(reconstruction, cache, part, appearance=False)
@@ -288,7 +295,8 @@ def _bundle_adjustment(reconstruction: Any, options: Any, config: Any, pose_prio
     if held:
         kw["hold_points"] = np.union1d(np.array(kw["hold_points"], np.uint64), np.array(held, np.uint64))
     try:
-        refined, result = refine_colmap(model, solver=solver, progress=progress, point_errors=False, **kw)
+        refined, result = refine_colmap(model, solver=solver, progress=progress, point_errors=False,
+                                        remove_behind=False, **kw)
     except (KeyboardInterrupt, SolveError) as e:
         partial = getattr(e, "result", None)
         if partial is not None and partial.model is not None:

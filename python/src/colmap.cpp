@@ -566,12 +566,13 @@ struct PriorInput {
 // The solve sbarefine runs on a COLMAP model: the problem colmap::Problem builds, solved
 // through its callbacks with its held and shared parameters, and written back into the model
 // by Problem::apply unless nothing was solved (itmax 0), the points' errors with
-// point_errors. With position priors, the model is
+// point_errors; d["behind"] lists the observations removed before (behind). With position
+// priors, the model is
 // first placed on them as sbarefine places it (colmap::place_on_priors), and d["priors_said"]
 // tells how.
 py::dict refine_model(colmap::Model model, const colmap::Options &options, SolveOptions o,
                       const colmap::CovarianceOptions &covariance_options, const PriorInput &prior_input,
-                      bool point_errors) {
+                      bool point_errors, const colmap::DepthFilter &behind) {
   colmap::Problem pr;
   std::string error;
   std::vector<colmap::PosePrior> read = prior_input.priors, poses;
@@ -632,6 +633,9 @@ py::dict refine_model(colmap::Model model, const colmap::Options &options, Solve
   d["nobs"] = obs.nobs();
   d["priors_said"] = said;
   d["npriors"] = priors.size();
+  py::list removed;
+  for (const colmap::TrackElement &e : behind.observations) removed.append(py::make_tuple(e.image_id, e.point2d_idx));
+  d["behind"] = removed;
   return d;
 }
 
@@ -753,10 +757,12 @@ py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_pos
                        const std::string &prior_loss, double prior_loss_scale, double alignment_max_error,
                        const py::list &hold_frames, const py::object &config_images, const py::list &variable_points,
                        int min_track_length, bool refine_points, const std::string &gauge, bool point_errors,
-                       const py::kwargs &kw) {
+                       bool remove_behind, const py::kwargs &kw) {
   const SolveOptions o = solve_options(kw);
   std::vector<long long> rows;
   colmap::Model m = model_of(model, &rows);
+  colmap::DepthFilter behind;  // sbarefine's filter, before the points are indexed: it deletes some
+  if (remove_behind) behind = colmap::filter_negative_depth(&m);
   std::vector<char> held = held_poses(model, hold_all, hold_poses, rows, m.images.size());
   colmap::Options options;
   options.intrinsics = {focal, principal, extra};
@@ -819,7 +825,8 @@ py::dict refine_colmap(py::handle model, bool hold_all, const py::list &hold_pos
     p.system = static_cast<colmap::PriorSystem>(t[3].cast<int>());
     priors.priors.push_back(p);
   }
-  return refine_model(std::move(m), options, o, {covariance_points, covariance_damping}, priors, point_errors);
+  return refine_model(std::move(m), options, o, {covariance_points, covariance_damping}, priors, point_errors,
+                      behind);
 }
 
 // COLMAP's stopping rule (colmap::colmap_stop_rule): (strategy, eps1, eps4), the strategy to
@@ -846,7 +853,7 @@ void add_colmap(py::module_ &mod) {
           py::arg("prior_position_loss"), py::arg("prior_position_loss_scale"), py::arg("alignment_max_error"),
           py::arg("hold_frames") = py::list(), py::arg("images") = py::none(), py::arg("variable_points") = py::list(),
           py::arg("min_track_length") = 0, py::arg("refine_points3D") = true, py::arg("gauge") = "",
-          py::arg("point_errors") = true);
+          py::arg("point_errors") = true, py::arg("remove_behind") = true);
 }
 
 }  // namespace pysba

@@ -121,8 +121,12 @@ def cost(pycolmap, rec, options, terms):
     reprojection error, by pycolmap's projection."""
     total = 0.0
     for image_id, point_id, k in terms:
+        if point_id not in rec.points3D:
+            continue  # deleted with an observation behind its camera
         im = rec.images[image_id]
         x = rec.cameras[im.camera_id].img_from_cam(im.cam_from_world() * rec.points3D[point_id].xyz)
+        if x is None:
+            continue  # COLMAP 4's cost of a point its projection refuses (behind the camera) is zero
         d = x - im.point2D(k).xy
         total += loss(pycolmap, options, float(d[0] * d[0] + d[1] * d[1]))
     return total / 2
@@ -158,12 +162,16 @@ def compare(pycolmap, pysba, name, rec, options, config, *, subset_moves=False):
     ours = pycolmap.Reconstruction(rec)
     result = pysba.colmap.bundle_adjustment(ours, options, config)
     expect(result.model is ours, "%s: the Result's model is not the Reconstruction passed in" % name)
-    expect(structure(ours) == structure(rec), "%s: ids, tracks or keypoints changed" % name)
+    # pycolmap's own: rec's, but that pycolmap.bundle_adjustment removes the observations
+    # behind their cameras
+    expect(structure(ours) == structure(theirs), "%s: ids, tracks or keypoints are not pycolmap's" % name)
     terms = residuals(rec, config, options.min_track_length)
     c0, c_theirs, c_ours = (cost(pycolmap, r, options, terms) for r in (rec, theirs, ours))
     expect(c_ours <= c_theirs * (1 + 1e-6), "%s: final cost %.9g, pycolmap's %.9g (from %.6g)"
            % (name, c_ours, c_theirs, c0))
     before = state(rec)
+    for kind in ("points", "errors"):  # a point pycolmap deleted, with its observation behind a camera
+        before[kind] = {k: v for k, v in before[kind].items() if k in theirs.points3D}
     moved_theirs = changed(before, state(theirs), exact=False)
     moved_ours = changed(before, state(ours), exact=True)
     expect(moved_ours == moved_theirs, "%s: what moved differs from pycolmap's: %s against %s"
@@ -244,6 +252,68 @@ def against_pycolmap(pycolmap, pysba):
         compare(pycolmap, pysba, kind + ": CAUCHY loss, min_track_length 6", rec,
                 options_with(pycolmap, loss_type=pycolmap.LossFunctionType.CAUCHY, loss_scale=2.0,
                              min_track_length=6), None)
+
+
+def with_points_behind(pycolmap, rec, count):
+    """rec with `count` new points, each behind one image (a metre behind its centre) that
+    observes it 20 px off the formula's mirrored pixel, and in front of the two or more images
+    that see it there, observed without noise (free keypoints of rec's images). Returns the
+    (image, point) pairs behind."""
+    import numpy as np
+    ids = sorted(rec.images)
+    used, behind = set(), []
+    for a in ids:
+        im = rec.images[a]
+        P = im.projection_center() - im.viewing_direction()
+        placed = []
+        for b in ids:
+            ib = rec.images[b]
+            cam = rec.cameras[ib.camera_id]
+            X = ib.cam_from_world() * P
+            if b == a:
+                x = cam.params[0] * X[:2] / X[2] + cam.params[1:3] + 20.0
+            else:
+                x = cam.img_from_cam(X)
+                if x is None or not (0 <= x[0] < cam.width and 0 <= x[1] < cam.height):
+                    continue
+            free = [k for k, p in enumerate(ib.points2D) if not p.has_point3D() and (b, k) not in used]
+            placed.append((b, free[0], np.array(x)))
+        if len(placed) < 3:
+            continue
+        track = pycolmap.Track()
+        for b, k, x in placed:
+            used.add((b, k))
+            rec.images[b].points2D[k].xy = x
+            track.add_element(b, k)
+        behind.append((a, rec.add_point3D(P, track)))
+        if len(behind) == count:
+            break
+    expect(len(behind) == count, "only %d points could be put behind an image" % len(behind))
+    return behind
+
+
+def points_behind(pycolmap, pysba):
+    """Observations of points behind their cameras, which COLMAP 4's cost takes as zero:
+    pycolmap.bundle_adjustment removes them first (the point with them where one is left seen
+    once) and its adjusters with a configuration keep them; pysba does as each does, and
+    refine_colmap (sbarefine's solve) removes them as pycolmap.bundle_adjustment does."""
+    rec = scene(pycolmap, "simple_radial", 3)
+    behind = with_points_behind(pycolmap, rec, 3)
+    plain = options_with(pycolmap)
+    compare(pycolmap, pysba, "points behind: pycolmap.bundle_adjustment", rec, plain, None)
+    compare(pycolmap, pysba, "points behind: every image, TWO_CAMS_FROM_WORLD", rec, plain,
+            configured(pycolmap, rec, gauge="TWO_CAMS_FROM_WORLD"))
+    given = structure(rec)
+    refined, result = pysba.refine_colmap(rec)
+    expect(structure(rec) == given, "refine_colmap changed the model it was given")
+    theirs = pycolmap.Reconstruction(rec)
+    pycolmap.bundle_adjustment(theirs, plain)
+    expect(structure(refined) == structure(theirs), "refine_colmap: the tracks are not pycolmap.bundle_adjustment's")
+    removed = sorted((a, k) for a, p in behind for k in [next(e.point2D_idx for e in rec.points3D[p].track.elements
+                                                                  if e.image_id == a)])
+    expect(sorted(result.behind) == removed, "refine_colmap: Result.behind %s, not %s" % (result.behind, removed))
+    print("PASS points behind their cameras: %d observations, removed as pycolmap.bundle_adjustment removes them, "
+          "kept at no cost as its adjusters keep them" % len(behind))
 
 
 def pose_priors(pycolmap, pysba):
@@ -823,6 +893,7 @@ def main(argv):
     print("pycolmap %s, pysba %s, Python %s" % (pycolmap.__version__, pysba.__file__, sys.version.split()[0]))
     try:
         against_pycolmap(pycolmap, pysba)
+        points_behind(pycolmap, pysba)
         pose_priors(pycolmap, pysba)
         part_read(pycolmap, pysba)
         mapper_global(pycolmap, pysba)

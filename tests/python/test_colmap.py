@@ -668,9 +668,29 @@ def test_all_intrinsics_held_are_sbarefines(tmp_path):
     assert r.model.cameras[0].params.tobytes() == pysba.read_colmap(binary).cameras[0].params.tobytes()
 
 
+def quaternion_product(a, b):
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+
+
 def test_held_sensor_from_rig_is_sbarefines(tmp_path):
-    # Camera 101's pose in rig 1, which frame 900 (images 10 and 13) refines when it is free.
-    source = two_image_frame(tmp_path)
+    # Camera 101's pose in rig 1, which frame 900 (images 10 and 13) refines when it is free:
+    # two_image_frame's model, but that the pose is where image 13 is seen from image 10 (their
+    # frames' poses in rigged()), so that holding it holds a pose that fits. Held where it does
+    # not, the solve finds no minimum but with the points behind the two images, where COLMAP's
+    # cost of them is zero.
+    model = pysba.read_colmap(rigged(tmp_path))
+    a, b = model.frames[0], model.frames[1]
+    q = quaternion_product(b.q, a.q * np.array([1.0, -1.0, -1.0, -1.0]))
+    rotate = quaternion_product(quaternion_product(q, np.concatenate([[0.0], a.t])), q * np.array([1, -1, -1, -1]))
+    sensor = model.rigs[0].sensors[1]
+    sensor.q, sensor.t = q, b.t - rotate[1:]
+    model.frames[0].data.append(model.frames[1].data[0])
+    model.frames.pop(1)
+    pysba.write_colmap(model, tmp_path / "fit", "text")
+    source = tmp_path / "fit"
     given = pysba.read_colmap(source)
     free, _ = pysba.refine_colmap(given)
     sensor = given.rigs[0].sensors[1]
