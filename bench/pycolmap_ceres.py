@@ -195,9 +195,8 @@ def run_ceres(a, inp, config, work):
         r["solver"] = CERES[config][0]
     # Ceres's cost after each iteration, to the 7 digits it prints; iteration 0 is the start. A
     # rejected step repeats the cost of the iterate kept. The final cost to all its digits is
-    # the written model's, measured as sbarefine measures its own (its --itmax 0); where they
-    # differ by more than those digits, an observation has gone behind its camera, where
-    # COLMAP 4's cost is zero and the camera's projection is not (own_final: Ceres's).
+    # the written model's, measured as sbarefine measures its own (its --itmax 0, which, as
+    # COLMAP does, leaves out an observation behind its camera; own_final: Ceres's).
     r.update(initial=trace[0][1], final=score(a, out, work), own_final=trace[-1][1], trace=trace[1:],
              seconds=trace[-1][0], iterations=len(trace) - 1, cmd=cmd[1:])
     return r
