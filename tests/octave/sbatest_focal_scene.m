@@ -35,7 +35,10 @@ function s = sbatest_focal_scene(focals, rig)
   end
   start = cams;
   start(:, 7) = 1.02 * start(:, 7);
+  % The solves project through the same formula in C (the interpreter's calls would be most
+  % of their time); a test that wants the .m route sets s.proj = 'sbatest_focal_proj'.
   s = struct('n', n, 'm', m, 'cnp', 7, 'pnp', 3, 'mnp', 2, 'vmask', ones(n, m), 'x', x, ...
+             'proj', ['sbatest_focal_proj@' sbatest_lib('focal')], ...
              'truth', [reshape(cams', 1, []), reshape(pts', 1, [])], ...
              'p0', [reshape(start', 1, []), reshape((pts + 0.01 * cos(3 * pts))', 1, [])]);
 end

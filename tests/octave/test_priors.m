@@ -127,8 +127,8 @@ function callback_priors(s)
   fmean = 790;
   lin = struct('camera', 2, 'params', 7, 'mean', fmean, 'sigma', 0.01);
   [~, pl, il] = run_scene(s, 'motstr', struct('camera_linear_priors', lin));
-  extra = struct('f', [0 fmean 0 0 0 0]);     % indexed by j: 1-based, or f(j) is 0
-  func = @(j, a, e) a(7) - e.f(j);
+  extra = [0 fmean 0 0 0 0];                  % indexed by j: 1-based, or 0
+  func = @(j, a, e) a(7) - e(j);
   cp = struct('camera', 2, 'dim', 1, 'func', func, 'sigma', 0.01);
   [ret, p, info] = run_scene(s, 'motstr', struct('camera_priors', cp), extra);
   printf('callback prior: f2 %.9f, error %.9g (the linear prior: %.9f, %.9g)\n', p(14), info(2), pl(14), il(2));
@@ -269,6 +269,6 @@ end
 % sba's arguments up to opts for the scene s: camera 1 held, finite-difference Jacobians,
 % 200 iterations.
 function args = scene_args(s)
-  args = {s.n, 0, s.m, 1, s.vmask, s.p0, s.cnp, s.pnp, s.x, s.mnp, 'sbatest_focal_proj', '', ...
+  args = {s.n, 0, s.m, 1, s.vmask, s.p0, s.cnp, s.pnp, s.x, s.mnp, s.proj, '', ...
           200, 0, []};
 end
