@@ -17,7 +17,6 @@ function test_camera_params()
   [ret, p, info] = run_scene(s, 'motstr', one);
   printf('one shared focal length: %.6f (truth 800, start 816), %d iterations, error %.9g\n', ...
          p(f(1)), ret, info(2));
-  % This scene's figures: 799.805372 and an error of 20.4649433, the iterations as the rounding goes.
   sbatest_assert(ret >= 15 && ret <= 25, 'shared focal length: %d iterations', ret);
   sbatest_assert(all(p(f) == p(f(1))), 'the cameras of the group end with different focal lengths');
   sbatest_assert(abs(p(f(1)) - 799.805372) < 1e-4 && abs(info(2) - 20.4649433) < 1e-6 * 20.5, ...
