@@ -31,7 +31,7 @@
 #                            strategies, chol, the BAL camera's callbacks) runs here on that
 #                            problem in Problem49TrustRegionReachesTheMinimum, and on smaller
 #                            problems in the other tests.
-#   python_install           pip-installs the package into venvs, built by pip's own CMake run
+#   python_install_*         pip-installs the package into venvs, built by pip's own CMake run
 #                            without the sanitizer flags: it tests the packaging, not memory.
 # The other pysba tests (python_pysba) run, python3 with ASan's runtime preloaded and leak
 # detection off for them (python/CMakeLists.txt); the one that limits the address space skips.
@@ -48,7 +48,7 @@ logs=$build/sanitizer-logs
 rm -rf "$logs"
 mkdir -p "$logs"
 
-exclude='^(Scale\.TwentyThousand.*|BalSolve\.Problem49(AsSba16|CleanRetryRegression)|install_consumer|colmap_real_full_opencv|Eucsbademo.*/54cams.*|octave_.*|python_install)$'
+exclude='^(Scale\.TwentyThousand.*|BalSolve\.Problem49(AsSba16|CleanRetryRegression)|install_consumer|colmap_real_full_opencv|Eucsbademo.*/54cams.*|octave_.*|python_install_.*)$'
 export ASAN_OPTIONS="detect_leaks=1:check_initialization_order=1:strict_init_order=1:detect_stack_use_after_return=1:log_path=$logs/asan"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:log_path=$logs/ubsan"
 

@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: BSD-3-Clause
 """pip install into a fresh venv by both routes of docs/python.md; then pysba imported from
 there, in a clean environment, solves a problem, its version is the package's, and the venv's
-sbarefine command runs the program. Slow (each builds the library): ctest runs them as a test
-of its own, and each route is taken once.
+sbarefine command runs the program. Slow (each builds the library): ctest runs each route as a
+test of its own (python_install_local, python_install_index), each route taken once.
 
 - --no-build-isolation: `pip install .` of a copy of the source tree, with what is installed
   (Debian's setuptools, wheel, pybind11-dev).
