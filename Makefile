@@ -93,7 +93,7 @@ SOAK_SEED ?= 1
 # compile.
 SAN_CMAKE_FLAGS = -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSBA_BUILD_TESTS=ON -DSBA_BUILD_MEX=OFF \
 	-DSBA_BUILD_PYTHON=OFF -DSBA_BUILD_BENCH=OFF -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g1" \
-	-DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1"
+	-DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DSBA_TEST_OPTIMIZATION=-Og
 ASAN_FLAGS = -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 TSAN_FLAGS = -fsanitize=thread -fno-omit-frame-pointer
 
