@@ -27,7 +27,7 @@
 #                            same code at an eighth of the size.
 #   BalSolve.Problem49AsSba16, BalSolve.Problem49CleanRetryRegression
 #                            sba 1.6's strategy on BAL problem-49 for 150 and about 80
-#                            iterations: five minutes of CPU under ASan. The same code (the
+#                            iterations, the longest of this run under ASan. The same code (the
 #                            strategies, chol, the BAL camera's callbacks) runs here on that
 #                            problem in Problem49TrustRegionReachesTheMinimum, and on smaller
 #                            problems in the other tests.
