@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: BSD-3-Clause
 # The sources of lib/'s libraries, listed once, relative to lib/: lib/CMakeLists.txt builds them
-# into sbacameras and sbaformats, and the builds that compile them in with flags of their own
-# (pysba's extension module, python/CMakeLists.txt; the fuzz targets, fuzz/CMakeLists.txt)
-# take the same lists, so that a new file of lib/ reaches every build that uses lib/.
+# into sbacameras and sbaformats, and the fuzz targets (fuzz/CMakeLists.txt), which compile them
+# in with flags of their own, take the same lists, so that a new file of lib/ reaches every
+# build that uses lib/.
 set(SBA_LIB_CAMERAS_SOURCES
   cameras/euclidean.cpp
   cameras/colmap_camera.cpp
