@@ -36,9 +36,11 @@ deps-build:
 deps-test:
 	@SBA_PYCOLMAP_VENV=$(BUILD)/pycolmap-venv sh scripts/deps.sh test
 
+# The test files at -O1 (tests/CMakeLists.txt, SBA_TEST_OPTIMIZATION): they compile in half the
+# time, and what they test keeps the build's flags.
 configure:
 	cmake -S . -B $(BUILD) -DCMAKE_INSTALL_PREFIX=$(PREFIX) -DSBA_BUILD_TESTS=ON -DPython_EXECUTABLE=$(PYTHON) \
-		$(CMAKE_FLAGS) >/dev/null
+		-DSBA_TEST_OPTIMIZATION=-O1 $(CMAKE_FLAGS) >/dev/null
 
 test: deps-test configure
 	cmake --build $(BUILD) -j $(JOBS)
