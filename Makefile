@@ -36,8 +36,7 @@ deps-build:
 deps-test:
 	@SBA_PYCOLMAP_VENV=$(BUILD)/pycolmap-venv sh scripts/deps.sh test
 
-# The test files at -O1 (tests/CMakeLists.txt, SBA_TEST_OPTIMIZATION): they compile in half the
-# time, and what they test keeps the build's flags.
+# The test files at -O1: why, and the exception, in tests/CMakeLists.txt (SBA_TEST_OPTIMIZATION).
 configure:
 	cmake -S . -B $(BUILD) -DCMAKE_INSTALL_PREFIX=$(PREFIX) -DSBA_BUILD_TESTS=ON -DPython_EXECUTABLE=$(PYTHON) \
 		-DSBA_TEST_OPTIMIZATION=-O1 $(CMAKE_FLAGS) >/dev/null
