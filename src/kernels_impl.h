@@ -83,14 +83,132 @@ inline __attribute__((always_inline)) void pair_update(int n, int pn, const doub
   }
 }
 
+#if defined(__AVX2__) && defined(__FMA__)
+// A row of N doubles in registers: N / 4 vectors of four, then one of two and one scalar as
+// N's remainder needs. Each operation rounds every entry as the scalar expression beside it,
+// so code written with rows gives the bits of the same loops written entry by entry (the
+// compiler's own vectorization of those loops, with 9- or 11-wide rows, falls back to scalar
+// code or shuffles each value out of a vector).
+template <int N>
+struct Row {
+  static constexpr int V4 = N / 4, R2 = N % 4 >= 2, R1 = N % 2;
+  __m256d v[V4 > 0 ? V4 : 1];
+  __m128d h;
+  double s;
+
+  static inline __attribute__((always_inline)) Row load(const double *x) {
+    Row r{};
+#pragma GCC unroll 4
+    for (int k = 0; k < V4; ++k) r.v[k] = _mm256_loadu_pd(x + 4 * k);
+    if constexpr (R2) r.h = _mm_loadu_pd(x + 4 * V4);
+    if constexpr (R1) r.s = x[N - 1];
+    return r;
+  }
+  inline __attribute__((always_inline)) void store(double *x) const {
+#pragma GCC unroll 4
+    for (int k = 0; k < V4; ++k) _mm256_storeu_pd(x + 4 * k, v[k]);
+    if constexpr (R2) _mm_storeu_pd(x + 4 * V4, h);
+    if constexpr (R1) x[N - 1] = s;
+  }
+  // a * y[c]
+  static inline __attribute__((always_inline)) Row mul(double a, const Row &y) {
+    Row r{};
+    const __m256d b = _mm256_set1_pd(a);
+#pragma GCC unroll 4
+    for (int k = 0; k < V4; ++k) r.v[k] = _mm256_mul_pd(b, y.v[k]);
+    if constexpr (R2) r.h = _mm_mul_pd(_mm256_castpd256_pd128(b), y.h);
+    if constexpr (R1) r.s = a * y.s;
+    return r;
+  }
+  // x[c] = fma(a, y[c], x[c])
+  inline __attribute__((always_inline)) void fmadd(double a, const Row &y) {
+    const __m256d b = _mm256_set1_pd(a);
+#pragma GCC unroll 4
+    for (int k = 0; k < V4; ++k) v[k] = _mm256_fmadd_pd(b, y.v[k], v[k]);
+    if constexpr (R2) h = _mm_fmadd_pd(_mm256_castpd256_pd128(b), y.h, h);
+    if constexpr (R1) s = __builtin_fma(a, y.s, s);
+  }
+  // x[c] + y[c]
+  inline __attribute__((always_inline)) void add(const Row &y) {
+#pragma GCC unroll 4
+    for (int k = 0; k < V4; ++k) v[k] = _mm256_add_pd(v[k], y.v[k]);
+    if constexpr (R2) h = _mm_add_pd(h, y.h);
+    if constexpr (R1) s = s + y.s;
+  }
+  // x[c] = fma(-a, y[c], x[c]), which is x[c] - a * y[c] contracted
+  inline __attribute__((always_inline)) void fnmadd(double a, const Row &y) {
+    const __m256d b = _mm256_set1_pd(a);
+#pragma GCC unroll 4
+    for (int k = 0; k < V4; ++k) v[k] = _mm256_fnmadd_pd(b, y.v[k], v[k]);
+    if constexpr (R2) h = _mm_fnmadd_pd(_mm256_castpd256_pd128(b), y.h, h);
+    if constexpr (R1) s = __builtin_fma(-a, y.s, s);
+  }
+};
+#endif
+
+// S_jk -= Y_ij W_ik^T for the pairs of one track that end at one entry (camera k): the track's
+// first `count` entries, entry q's Y^T at Yt + q * stride and its block row of S at
+// S + (cols[q] - mcon) * rowstride. Each entry of S gets pair_update's operations in
+// pair_update's order, so the bits are the same. With AVX2, W_ik^T stays in registers for the
+// whole column (written through S, the compiler would reload it for every pair).
+template <int N, int D>
+inline __attribute__((always_inline)) void column_pairs(int n, int pn, const double *Yt, int stride, int count,
+                                                        const int *cols, int mcon, const double *Wt, double *S,
+                                                        i64 rowstride, i64 ld) {
+#if defined(__AVX2__) && defined(__FMA__)
+  if constexpr (N > 0 && D > 0) {
+    Row<N> w[D];
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d) w[d] = Row<N>::load(Wt + d * N);
+    for (int q = 0; q < count; ++q) {
+      const double *Y = Yt + i64(q) * stride;
+      double *Sjk = S + i64(cols[q] - mcon) * rowstride;
+#pragma GCC unroll 16
+      for (int a = 0; a < N; ++a) {
+        Row<N> acc = Row<N>::load(Sjk + a * ld);
+#pragma GCC unroll 4
+        for (int d = 0; d < D; ++d) acc.fnmadd(Y[d * N + a], w[d]);
+        acc.store(Sjk + a * ld);
+      }
+    }
+    return;
+  }
+#endif
+  for (int q = 0; q < count; ++q)
+    pair_update<N, D>(n, pn, Yt + i64(q) * stride, Wt, S + i64(cols[q] - mcon) * rowstride, ld);
+}
+
 // One projection's W_ij^T = B^T A and Y_ij^T = V*_i^-1 W_ij^T (pnp x cnp each; A is mnp x cnp,
 // B mnp x pnp, Vi pnp x pnp, all row-major). Every sum starts from its first term. With the
-// sizes fixed, both products are built in locals and stored once: written through the
-// scratch arrays, the compiler cannot rule out aliasing and falls back to scalar code.
+// sizes fixed, both products are built in locals (with AVX2, rows of registers) and stored
+// once: written through the scratch arrays, the compiler cannot rule out aliasing and falls
+// back to scalar code.
 template <int M, int N, int D>
 inline __attribute__((always_inline)) void track_products(int mn, int n, int pn, const double *A,
                                                           const double *B, const double *Vi,
                                                           double *__restrict Wt, double *__restrict Yt) {
+#if defined(__AVX2__) && defined(__FMA__)
+  if constexpr (M > 0 && N > 0 && D > 0) {
+    Row<N> a[M], w[D], y[D];
+#pragma GCC unroll 4
+    for (int r = 0; r < M; ++r) a[r] = Row<N>::load(A + r * N);
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d) {
+      w[d] = Row<N>::mul(B[d], a[0]);
+#pragma GCC unroll 4
+      for (int r = 1; r < M; ++r) w[d].fmadd(B[r * D + d], a[r]);
+      w[d].store(Wt + d * N);
+    }
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d) {
+      y[d] = Row<N>::mul(Vi[d * D], w[0]);
+#pragma GCC unroll 4
+      for (int e = 1; e < D; ++e) y[d].fmadd(Vi[d * D + e], w[e]);
+      y[d].store(Yt + d * N);
+    }
+    return;
+  }
+#endif
   if constexpr (M > 0 && N > 0 && D > 0) {
     double w[D][N], y[D][N];
 #pragma GCC unroll 4
@@ -151,6 +269,26 @@ inline __attribute__((always_inline)) void rhs_update(int n, int pn, const doubl
 template <int M, int N>
 inline __attribute__((always_inline)) void gram_update(int mn, int n, const double *X,
                                                        const double *e, double *G, double *g) {
+#if defined(__AVX2__) && defined(__FMA__)
+  if constexpr (M == 2 && N > 0) {
+    // As below; the compiler contracts s0 x0 + s1 x1 to fma(s0, x0, s1 x1).
+    const Row<N> x0 = Row<N>::load(X), x1 = Row<N>::load(X + N);
+    Row<N> t = Row<N>::mul(e[1], x1);
+    t.fmadd(e[0], x0);
+    Row<N> acc = Row<N>::load(g);
+    acc.add(t);
+    acc.store(g);
+#pragma GCC unroll 16
+    for (int a = 0; a < N; ++a) {
+      t = Row<N>::mul(X[N + a], x1);
+      t.fmadd(X[a], x0);
+      acc = Row<N>::load(G + a * N);
+      acc.add(t);
+      acc.store(G + a * N);
+    }
+    return;
+  }
+#endif
   if constexpr (M == 2 && N > 0) {
     // Both rows of a 2-D projection in one pass: each entry of G is loaded and stored once.
     double x0[N], x1[N];
@@ -396,8 +534,7 @@ class KernelsT final : public Kernels {
                                                   double *rhs, Scratch &sc) const {
     if (k0 >= k1) return true;
     const Layout &lay = lay_;
-    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
-    const int cp = cn * pn;
+    const int cn = cnp(), pn = pnp(), cp = cn * pn;
     if (!S.perm)  // dense S: block rows 0 .. k1 - 1 of these block columns
       for (i64 r = 0; r < i64(k1) * cn; ++r) {
         double *row = S.base + r * S.ld;
@@ -425,29 +562,19 @@ class KernelsT final : public Kernels {
       point_inverses(Vinv, ne.V, mu, pts, nb, sc, Vib);
       for (int b = 0; b < nb; ++b) {
         const int i = pts[b], f = fb[b], lo = lob[b], hi = hib[b];
-        const double *Vi = Vib[b];
-        if (!Vi) return false;
-        const double *ebi = ne.eb + i64(i) * pn;
-        // W_ij^T = B^T A and Y_ij^T = V*_i^-1 W_ij^T for the track up to this range's end.
-        for (int q = f; q < hi; ++q) {
-          const double *A = ne.jac + i64(q) * jb, *B = A + mn * cn;
-          track_products<M, C, P>(mn, cn, pn, A, B, Vi, sc.Wt.data() + (q - f) * cp,
-                                  sc.Yt.data() + (q - f) * cp);
-        }
+        if (!Vib[b]) return false;
+        products(ne, i, f, lo, hi, Vib[b], sc.Wt.data(), sc.Yt.data(), rhs);
         for (int q2 = lo; q2 < hi; ++q2) {
           const int k = lay.colidx[q2] - lay.mcon;
           const double *Wt2 = sc.Wt.data() + (q2 - f) * cp;
           const double *Yt2 = sc.Yt.data() + (q2 - f) * cp;
-          rhs_update<C, P>(cn, pn, Yt2, ebi, rhs + i64(k) * cn);
           // S_jk -= Y_ij W_ik^T, row by row: S_jk[a][.] -= sum_d Y^T[d][a] W^T[d][.]; where
           // the map stores S_jk^T, S_jk^T -= Y_ik W_ij^T instead. The diagonal block is updated
           // whole, like the others (its strict lower triangle is never read), which keeps the
           // rows vectorized.
           if (!S.perm) {  // dense S: the hot loop of the default solver, kept branch-free
-            for (int q1 = f; q1 <= q2; ++q1) {
-              const double *Yt1 = sc.Yt.data() + (q1 - f) * cp;
-              pair_update<C, P>(cn, pn, Yt1, Wt2, S.block(lay.colidx[q1] - lay.mcon, k).p, S.ld);
-            }
+            column_pairs<C, P>(cn, pn, sc.Yt.data(), cp, q2 - f + 1, lay.colidx.data() + f, lay.mcon, Wt2,
+                               S.base + i64(k) * cn, i64(cn) * S.ld, S.ld);
             continue;
           }
           for (int q1 = f; q1 <= q2; ++q1) {
@@ -463,6 +590,21 @@ class KernelsT final : public Kernels {
       }
     }
     return true;
+  }
+
+  // Point i's W_ij^T and Y_ij^T for its track's entries [f, hi) into Wt and Yt (entry f's
+  // first), and the terms of rhs of its entries [lo, hi).
+  void products(const NormalEquations &ne, int i, int f, int lo, int hi, const double *Vi, double *Wt,
+                double *Yt, double *rhs) const {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk(), cp = cn * pn;
+    for (int q = f; q < hi; ++q) {
+      const double *A = ne.jac + i64(q) * jb, *B = A + mn * cn;
+      track_products<M, C, P>(mn, cn, pn, A, B, Vi, Wt + (q - f) * cp, Yt + (q - f) * cp);
+    }
+    const double *ebi = ne.eb + i64(i) * pn;
+    for (int q = lo; q < hi; ++q)
+      rhs_update<C, P>(cn, pn, Yt + (q - f) * cp, ebi, rhs + i64(lay.colidx[q] - lay.mcon) * cn);
   }
 
   // db_i = V*_i^-1 (e_b,i - sum_j W_ij^T da_j) for the points [i0, i1), every sum a chain

@@ -198,6 +198,63 @@ TEST_P(KernelsLayout, ThreadCountsGiveTheSameBits) {
   EXPECT_EQ(one.dp2, one.dp);
 }
 
+// A dense S's products are written with rows of vector registers (where the CPU has AVX2), a
+// sparse S's entry by entry, each entry's sums in point order. Where the sparse layout stores
+// S_jk as it is (the identity order), both make each entry from the same products in the same
+// order and must give the same bits: the dense S, the default solver's, is what sba 1.6's
+// results are compared with.
+TEST_P(KernelsLayout, DenseAssemblyGivesTheSparseLayoutsBits) {
+  const int cnp = GetParam(), n = 4000, m = 64;
+  Fixture f(n, m, cnp, 23u + unsigned(cnp));
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE("threads " + std::to_string(threads));
+    sba::ThreadPool pool(threads);
+    const auto kernels = sba::make_kernels(f.lay, pool.size());
+    kernels->normal_equations(pool, f.jac.data(), f.e.data(), f.U.data(), f.V.data(), f.ea.data(), f.eb.data());
+    const double mu = 0.5;
+    std::vector<double> Vinv(f.V.size());
+    ASSERT_TRUE(kernels->invert_damped_V(pool, f.V.data(), mu, Vinv.data()));
+    const int nS = m * cnp;
+    std::vector<double> S(size_t(nS) * size_t(nS), 0.0), rhs(static_cast<size_t>(nS));
+    sba::BlockMap dense;
+    dense.base = S.data();
+    dense.ld = nS;
+    dense.cnp = cnp;
+    ASSERT_TRUE(kernels->assemble(pool, f.ne(), Vinv.data(), mu, dense, rhs.data()));
+
+    std::vector<int> perm(static_cast<size_t>(m)), rows;
+    std::vector<i64> colstart(1, 0);
+    for (int c = 0; c < m; ++c) {
+      perm[size_t(c)] = c;
+      for (int r = c; r < m; ++r) rows.push_back(r);
+      colstart.push_back(i64(rows.size()));
+    }
+    std::vector<double> blocks(rows.size() * size_t(cnp) * size_t(cnp), 0.0), rhs2(static_cast<size_t>(nS));
+    sba::BlockMap sparse;
+    sparse.base = blocks.data();
+    sparse.cnp = cnp;
+    sparse.perm = perm.data();
+    sparse.rows = rows.data();
+    sparse.colstart = colstart.data();
+    ASSERT_TRUE(kernels->assemble(pool, f.ne(), Vinv.data(), mu, sparse, rhs2.data()));
+    EXPECT_EQ(rhs, rhs2);
+    i64 differ = 0, coupled = 0;
+    for (int j = 0; j < m; ++j)
+      for (int k = j; k < m; ++k) {
+        const sba::BlockMap::Block b = sparse.block(j, k);
+        ASSERT_FALSE(b.transposed);
+        for (int a = 0; a < cnp; ++a)
+          for (int c = j == k ? a : 0; c < cnp; ++c) {
+            const double want = b.p[a * b.ld + c], got = S[size_t(j * cnp + a) * size_t(nS) + size_t(k * cnp + c)];
+            differ += got != want;
+            coupled += j != k && want != 0.0;
+          }
+      }
+    EXPECT_EQ(differ, 0);
+    EXPECT_GT(coupled, i64(m) * (m - 1) / 4 * cnp * cnp);  // most camera pairs share points
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Kernels, KernelsLayout, ::testing::Values(6, 9, 5),
                          [](const ::testing::TestParamInfo<int> &p) { return "cnp" + std::to_string(p.param); });
 
