@@ -99,6 +99,9 @@ class Kernels {
   // Vinv as for assemble (with null, a block that cannot be inverted gives NaNs).
   virtual void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv,
                                double mu, double *dp) const = 0;
+  // A_ij *= diag(s_j) and B_ij *= diag(s_i) for every projection (s: a scale per variable, in
+  // the layout's order): the Jacobian in variables scaled by s.
+  virtual void scale_jacobian(ThreadPool &pool, const double *s, double *jac) const = 0;
 };
 
 // Kernels for the layout's block sizes, with the assembly split over `threads` threads.

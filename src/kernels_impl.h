@@ -436,6 +436,10 @@ class KernelsT final : public Kernels {
         split_.size() == 2);
   }
 
+  void scale_jacobian(ThreadPool &pool, const double *s, double *jac) const override {
+    pool.for_range(lay_.n, [&](i64 b, i64 e) { scale_points(s, jac, b, e); });
+  }
+
   void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                        double *dp) const override {
     pool.for_range_t(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
@@ -484,6 +488,24 @@ class KernelsT final : public Kernels {
     if (sc) {
       std::copy(Ut, Ut + nu, Uo);
       std::copy(eat, eat + nea, eao);
+    }
+  }
+
+  // The projections of the points [i0, i1) scaled (scale_jacobian), out of line for the
+  // fixed sizes' loops.
+  __attribute__((noinline)) void scale_points(const double *s, double *jac, i64 i0, i64 i1) const {
+    const Layout &lay = lay_;
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
+    for (i64 i = i0; i < i1; ++i) {
+      const double *si = s + lay.b_off(int(i));
+      for (int k = lay.rowptr[size_t(i)]; k < lay.rowptr[size_t(i) + 1]; ++k) {
+        double *A = jac + i64(k) * jb, *B = A + mn * cn;
+        const double *sj = s + lay.a_off(lay.colidx[size_t(k)]);
+        for (int r = 0; r < mn; ++r) {
+          for (int c = 0; c < cn; ++c) A[r * cn + c] *= sj[c];
+          for (int c = 0; c < pn; ++c) B[r * pn + c] *= si[c];
+        }
+      }
     }
   }
 

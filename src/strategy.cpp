@@ -112,7 +112,7 @@ class Sba16 final : public Strategy {
   double initial_damping(double tau, double maxdiag) const override {
     return std::max({tau * maxdiag, kMinRelativeDamping * maxdiag, DBL_MIN});
   }
-  void linearized(ThreadPool &, double *, double *, double *, double *, double *) override {}
+  void linearized(ThreadPool &, const Kernels &, double *, double *, double *, double *, double *) override {}
   double solved_max_diagonal(double maxdiag) const override { return maxdiag; }
   bool acceptable(double dF, double dL) const override { return dL > 0.0 && dF > 0.0; }
   double after_success(double mu, double rho) const override {
@@ -155,9 +155,9 @@ class TrustRegion final : public Strategy {
       : Strategy(lay), ftol_(eps4 > 0.0 ? eps4 : kDefaultCostTolerance),
         s_(size_t(lay.nvars()), 1.0) {}
 
-  void linearized(ThreadPool &pool, double *jac, double *U, double *V, double *ea,
+  void linearized(ThreadPool &pool, const Kernels &kernels, double *jac, double *U, double *V, double *ea,
                   double *eb) override {
-    const int cnp = lay_.cnp, pnp = lay_.pnp, mnp = lay_.mnp, jb = lay_.jblk();
+    const int cnp = lay_.cnp, pnp = lay_.pnp;
     double *s = s_.data();
     const auto scale = [](double d) { return 1.0 / std::sqrt(std::clamp(d, kMinDiagonal, kMaxDiagonal)); };
     // Each row of S is scaled by its own diagonal entry: a shared unknown by its copies' sum,
@@ -186,20 +186,8 @@ class TrustRegion final : public Strategy {
         }
       }
     });
-    // The Jacobian blocks the solvers read (W_ij = A_ij^T B_ij), by point rows.
-    pool.for_range(lay_.n, [&](i64 b, i64 e) {
-      for (i64 i = b; i < e; ++i) {
-        const double *si = s + lay_.b_off(int(i));
-        for (int k = lay_.rowptr[size_t(i)]; k < lay_.rowptr[size_t(i) + 1]; ++k) {
-          double *A = jac + i64(k) * jb, *B = A + mnp * cnp;
-          const double *sj = s + lay_.a_off(lay_.colidx[size_t(k)]);
-          for (int r = 0; r < mnp; ++r) {
-            for (int c = 0; c < cnp; ++c) A[r * cnp + c] *= sj[c];
-            for (int c = 0; c < pnp; ++c) B[r * pnp + c] *= si[c];
-          }
-        }
-      }
-    });
+    // The Jacobian blocks the solvers read (W_ij = A_ij^T B_ij).
+    kernels.scale_jacobian(pool, s, jac);
   }
 
   // On the scaled system the curvature is 1 in every well-seen direction, and 1.6's rule
