@@ -46,49 +46,13 @@ inline __attribute__((always_inline)) void scale_row(int n, double s, const doub
   }
 }
 
-// S_jk -= Y_ij W_ik^T for one pair of a track, with Y and W given transposed (pnp x n): row a
-// of S_jk loses sum_d Y^T[d][a] W^T[d][.]. W^T is loaded into locals once and every row is
-// accumulated in a local array, so the compiler sees no aliasing and keeps them in vector
-// registers.
-template <int N, int D>
-inline __attribute__((always_inline)) void pair_update(int n, int pn, const double *Yt,
-                                                       const double *Wt, double *S, i64 ld) {
-  if constexpr (N > 0 && D > 0) {
-    double w[D][N];
-#pragma GCC unroll 4
-    for (int d = 0; d < D; ++d)
-#pragma GCC unroll 16
-      for (int c = 0; c < N; ++c) w[d][c] = Wt[d * N + c];
-#pragma GCC unroll 16
-    for (int a = 0; a < N; ++a) {
-      double acc[N];
-      double *row = S + a * ld;
-#pragma GCC unroll 16
-      for (int c = 0; c < N; ++c) acc[c] = row[c];
-#pragma GCC unroll 4
-      for (int d = 0; d < D; ++d) {
-        const double y = Yt[d * N + a];
-#pragma GCC unroll 16
-        for (int c = 0; c < N; ++c) acc[c] -= y * w[d][c];
-      }
-#pragma GCC unroll 16
-      for (int c = 0; c < N; ++c) row[c] = acc[c];
-    }
-  } else {
-    for (int a = 0; a < n; ++a)
-      for (int d = 0; d < pn; ++d) {
-        const double y = Yt[d * n + a];
-        for (int c = 0; c < n; ++c) S[a * ld + c] -= y * Wt[d * n + c];
-      }
-  }
-}
-
 #if defined(__AVX2__) && defined(__FMA__)
 // A row of N doubles in registers: N / 4 vectors of four, then one of two and one scalar as
 // N's remainder needs. Each operation rounds every entry as the scalar expression beside it,
-// so code written with rows gives the bits of the same loops written entry by entry (the
-// compiler's own vectorization of those loops, with 9- or 11-wide rows, falls back to scalar
-// code or shuffles each value out of a vector).
+// so code written with rows gives the bits of the same loops written entry by entry as the
+// optimizing compiler builds them, a * b + c contracted to one fused operation, and the same
+// bits at any optimization level. The compiler's own vectorization of those loops, with 9- or
+// 11-wide rows, falls back to scalar code or shuffles each value out of a vector.
 template <int N>
 struct Row {
   static constexpr int V4 = N / 4, R2 = N % 4 >= 2, R1 = N % 2;
@@ -146,6 +110,67 @@ struct Row {
 };
 #endif
 
+#if defined(__AVX2__) && defined(__FMA__)
+// S_jk -= Y_ij W_ik^T with W_ik^T's rows already in registers (w), row by row of S_jk as
+// pair_update below.
+template <int N, int D>
+inline __attribute__((always_inline)) void pair_rows(const Row<N> *w, const double *Yt, double *S, i64 ld) {
+#pragma GCC unroll 16
+  for (int a = 0; a < N; ++a) {
+    Row<N> acc = Row<N>::load(S + a * ld);
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d) acc.fnmadd(Yt[d * N + a], w[d]);
+    acc.store(S + a * ld);
+  }
+}
+#endif
+
+// S_jk -= Y_ij W_ik^T for one pair of a track, with Y and W given transposed (pnp x n): row a
+// of S_jk loses sum_d Y^T[d][a] W^T[d][.]. W^T is loaded into locals once and every row is
+// accumulated in a local array, so the compiler sees no aliasing and keeps them in vector
+// registers.
+template <int N, int D>
+inline __attribute__((always_inline)) void pair_update(int n, int pn, const double *Yt,
+                                                       const double *Wt, double *S, i64 ld) {
+#if defined(__AVX2__) && defined(__FMA__)
+  if constexpr (N > 0 && D > 0) {
+    Row<N> w[D];
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d) w[d] = Row<N>::load(Wt + d * N);
+    pair_rows<N, D>(w, Yt, S, ld);
+    return;
+  }
+#endif
+  if constexpr (N > 0 && D > 0) {
+    double w[D][N];
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d)
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) w[d][c] = Wt[d * N + c];
+#pragma GCC unroll 16
+    for (int a = 0; a < N; ++a) {
+      double acc[N];
+      double *row = S + a * ld;
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) acc[c] = row[c];
+#pragma GCC unroll 4
+      for (int d = 0; d < D; ++d) {
+        const double y = Yt[d * N + a];
+#pragma GCC unroll 16
+        for (int c = 0; c < N; ++c) acc[c] -= y * w[d][c];
+      }
+#pragma GCC unroll 16
+      for (int c = 0; c < N; ++c) row[c] = acc[c];
+    }
+  } else {
+    for (int a = 0; a < n; ++a)
+      for (int d = 0; d < pn; ++d) {
+        const double y = Yt[d * n + a];
+        for (int c = 0; c < n; ++c) S[a * ld + c] -= y * Wt[d * n + c];
+      }
+  }
+}
+
 // S_jk -= Y_ij W_ik^T for the pairs of one track that end at one entry (camera k): the track's
 // first `count` entries, entry q's Y^T at Yt + q * stride and its block row of S at
 // S + (cols[q] - mcon) * rowstride. Each entry of S gets pair_update's operations in
@@ -160,17 +185,8 @@ inline __attribute__((always_inline)) void column_pairs(int n, int pn, const dou
     Row<N> w[D];
 #pragma GCC unroll 4
     for (int d = 0; d < D; ++d) w[d] = Row<N>::load(Wt + d * N);
-    for (int q = 0; q < count; ++q) {
-      const double *Y = Yt + i64(q) * stride;
-      double *Sjk = S + i64(cols[q] - mcon) * rowstride;
-#pragma GCC unroll 16
-      for (int a = 0; a < N; ++a) {
-        Row<N> acc = Row<N>::load(Sjk + a * ld);
-#pragma GCC unroll 4
-        for (int d = 0; d < D; ++d) acc.fnmadd(Y[d * N + a], w[d]);
-        acc.store(Sjk + a * ld);
-      }
-    }
+    for (int q = 0; q < count; ++q)
+      pair_rows<N, D>(w, Yt + i64(q) * stride, S + i64(cols[q] - mcon) * rowstride, ld);
     return;
   }
 #endif

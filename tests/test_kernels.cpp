@@ -198,11 +198,11 @@ TEST_P(KernelsLayout, ThreadCountsGiveTheSameBits) {
   EXPECT_EQ(one.dp2, one.dp);
 }
 
-// A dense S's products are written with rows of vector registers (where the CPU has AVX2), a
-// sparse S's entry by entry, each entry's sums in point order. Where the sparse layout stores
-// S_jk as it is (the identity order), both make each entry from the same products in the same
-// order and must give the same bits: the dense S, the default solver's, is what sba 1.6's
-// results are compared with.
+// A dense S takes a track's pairs a column at a time, W_ik^T held for the column; a sparse S a
+// pair at a time, through the map. Where the sparse layout stores S_jk as it is (the identity
+// order), both make each entry from the same products in the same order, point by point, and
+// must give the same bits: the dense S, the default solver's, is what sba 1.6's results are
+// compared with.
 TEST_P(KernelsLayout, DenseAssemblyGivesTheSparseLayoutsBits) {
   const int cnp = GetParam(), n = 4000, m = 64;
   Fixture f(n, m, cnp, 23u + unsigned(cnp));
