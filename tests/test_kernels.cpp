@@ -53,6 +53,41 @@ struct Fixture {
   sba::NormalEquations ne() const { return {jac.data(), U.data(), V.data(), ea.data(), eb.data()}; }
 };
 
+// S over all of f's cameras at damping mu, from its normal equations: dense, with the stored
+// inverses Vinv, and in the sparse layout with every camera pair stored under the camera order
+// perm (block columns of the lower triangle of P S P^T), with sparse_Vinv (null: made on the
+// fly). Pairs that share no point stay zero.
+struct BothLayouts {
+  std::vector<double> S, rhs, blocks, rhs2;
+  std::vector<int> rows;
+  std::vector<i64> colstart{0};
+  sba::BlockMap sparse;
+
+  BothLayouts(const Fixture &f, sba::ThreadPool &pool, const sba::Kernels &kernels, double mu,
+              const double *Vinv, const double *sparse_Vinv, const std::vector<int> &perm) {
+    const int m = f.lay.m, cnp = f.lay.cnp, nS = m * cnp;
+    S.assign(size_t(nS) * size_t(nS), 0.0);
+    rhs.assign(size_t(nS), 0.0);
+    sba::BlockMap dense;
+    dense.base = S.data();
+    dense.ld = nS;
+    dense.cnp = cnp;
+    EXPECT_TRUE(kernels.assemble(pool, f.ne(), Vinv, mu, dense, rhs.data()));
+    for (int c = 0; c < m; ++c) {
+      for (int r = c; r < m; ++r) rows.push_back(r);
+      colstart.push_back(i64(rows.size()));
+    }
+    blocks.assign(rows.size() * size_t(cnp) * size_t(cnp), 0.0);
+    rhs2.assign(size_t(nS), 0.0);
+    sparse.base = blocks.data();
+    sparse.cnp = cnp;
+    sparse.perm = perm.data();
+    sparse.rows = rows.data();
+    sparse.colstart = colstart.data();
+    EXPECT_TRUE(kernels.assemble(pool, f.ne(), sparse_Vinv, mu, sparse, rhs2.data()));
+  }
+};
+
 class KernelsLayout : public ::testing::TestWithParam<int> {};
 
 // Every stored block of the sparse layout, under a scrambled camera ordering (so that many
@@ -71,32 +106,13 @@ TEST_P(KernelsLayout, SparseLayoutHoldsTheDenseBlocks) {
     ASSERT_TRUE(kernels->invert_damped_V(pool, f.V.data(), mu, Vinv.data()));
 
     const int nS = m * cnp;
-    std::vector<double> S(size_t(nS) * size_t(nS), 0.0), rhs(static_cast<size_t>(nS));
-    sba::BlockMap dense;
-    dense.base = S.data();
-    dense.ld = nS;
-    dense.cnp = cnp;
-    ASSERT_TRUE(kernels->assemble(pool, f.ne(), Vinv.data(), mu, dense, rhs.data()));
-
-    // Every camera pair stored (a superset of the pairs that share points: the others stay
-    // zero), in block columns of the lower triangle of P S P^T.
     std::vector<int> perm(static_cast<size_t>(m));
     for (int j = 0; j < m; ++j) perm[size_t(j)] = (j * 5 + 3) % m;  // 5 is prime to 12
-    std::vector<int> rows;
-    std::vector<i64> colstart(1, 0);
-    for (int c = 0; c < m; ++c) {
-      for (int r = c; r < m; ++r) rows.push_back(r);
-      colstart.push_back(i64(rows.size()));
-    }
-    std::vector<double> blocks(rows.size() * size_t(cnp) * size_t(cnp), 0.0), rhs2(static_cast<size_t>(nS));
-    sba::BlockMap sparse;
-    sparse.base = blocks.data();
-    sparse.cnp = cnp;
-    sparse.perm = perm.data();
-    sparse.rows = rows.data();
-    sparse.colstart = colstart.data();
-    ASSERT_TRUE(kernels->assemble(pool, f.ne(), nullptr, mu, sparse, rhs2.data()));
-    EXPECT_EQ(rhs, rhs2);
+    const BothLayouts both(f, pool, *kernels, mu, Vinv.data(), nullptr, perm);
+    const std::vector<double> &S = both.S, &blocks = both.blocks;
+    const std::vector<i64> &colstart = both.colstart;
+    const sba::BlockMap &sparse = both.sparse;
+    EXPECT_EQ(both.rhs, both.rhs2);
 
     int transposed = 0;
     for (int j = 0; j < m; ++j)
@@ -215,29 +231,12 @@ TEST_P(KernelsLayout, DenseAssemblyGivesTheSparseLayoutsBits) {
     std::vector<double> Vinv(f.V.size());
     ASSERT_TRUE(kernels->invert_damped_V(pool, f.V.data(), mu, Vinv.data()));
     const int nS = m * cnp;
-    std::vector<double> S(size_t(nS) * size_t(nS), 0.0), rhs(static_cast<size_t>(nS));
-    sba::BlockMap dense;
-    dense.base = S.data();
-    dense.ld = nS;
-    dense.cnp = cnp;
-    ASSERT_TRUE(kernels->assemble(pool, f.ne(), Vinv.data(), mu, dense, rhs.data()));
-
-    std::vector<int> perm(static_cast<size_t>(m)), rows;
-    std::vector<i64> colstart(1, 0);
-    for (int c = 0; c < m; ++c) {
-      perm[size_t(c)] = c;
-      for (int r = c; r < m; ++r) rows.push_back(r);
-      colstart.push_back(i64(rows.size()));
-    }
-    std::vector<double> blocks(rows.size() * size_t(cnp) * size_t(cnp), 0.0), rhs2(static_cast<size_t>(nS));
-    sba::BlockMap sparse;
-    sparse.base = blocks.data();
-    sparse.cnp = cnp;
-    sparse.perm = perm.data();
-    sparse.rows = rows.data();
-    sparse.colstart = colstart.data();
-    ASSERT_TRUE(kernels->assemble(pool, f.ne(), Vinv.data(), mu, sparse, rhs2.data()));
-    EXPECT_EQ(rhs, rhs2);
+    std::vector<int> perm(static_cast<size_t>(m));
+    for (int c = 0; c < m; ++c) perm[size_t(c)] = c;
+    const BothLayouts both(f, pool, *kernels, mu, Vinv.data(), Vinv.data(), perm);
+    const std::vector<double> &S = both.S;
+    const sba::BlockMap &sparse = both.sparse;
+    EXPECT_EQ(both.rhs, both.rhs2);
     i64 differ = 0, coupled = 0;
     for (int j = 0; j < m; ++j)
       for (int k = j; k < m; ++k) {
