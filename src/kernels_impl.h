@@ -108,9 +108,7 @@ struct Row {
     if constexpr (R1) s = __builtin_fma(-a, y.s, s);
   }
 };
-#endif
 
-#if defined(__AVX2__) && defined(__FMA__)
 // S_jk -= Y_ij W_ik^T with W_ik^T's rows already in registers (w), row by row of S_jk as
 // pair_update below.
 template <int N, int D>
