@@ -24,7 +24,48 @@ namespace sba {
 struct NormalEquations {
   const double *jac = nullptr;  // callback layout: A_ij then B_ij per projection
   const double *U = nullptr, *V = nullptr, *ea = nullptr, *eb = nullptr;
+  // With single-precision storage (Options::single_jacobian) the blocks are here instead, and
+  // jac is null. Every kernel widens them to double before it computes.
+  const float *jac32 = nullptr;
 };
+
+// The stored Jacobian blocks, to be changed in place: in double, or in single precision
+// (NormalEquations::jac32); one of the two is set.
+struct JacobianBlocks {
+  double *jac = nullptr;
+  float *jac32 = nullptr;
+};
+
+// n of one projection's Jacobian entries as doubles: the stored ones themselves, or, stored in
+// single precision, widened into buf (exactly: every float is a double). The kernels then
+// compute in double, and on widened blocks give the bits they give on double blocks of the
+// same values. N > 0 fixes n at compile time. In an unnamed namespace: the kernels are
+// compiled for several instruction sets, and each translation unit must keep its own copy.
+namespace {
+template <int N>
+inline __attribute__((always_inline)) const double *widened(const double *x, int, double *) {
+  return x;
+}
+template <int N>
+inline __attribute__((always_inline)) const double *widened(const float *x, int n, double *buf) {
+  if constexpr (N > 0) {
+#pragma GCC unroll 8
+    for (int c = 0; c < N; ++c) buf[c] = x[c];
+  } else {
+    for (int c = 0; c < n; ++c) buf[c] = x[c];
+  }
+  return buf;
+}
+
+// Projection k's blocks (jb entries) of ne as doubles, in buf where they are stored in single
+// precision.
+template <int N>
+inline __attribute__((always_inline)) const double *projection_blocks(const NormalEquations &ne, i64 k, int jb,
+                                                                      double *buf) {
+  return ne.jac32 ? widened<N>(ne.jac32 + k * jb, jb, buf) : ne.jac + k * jb;
+}
+
+}  // namespace
 
 // W_ij = A_ij^T B_ij (cnp x pnp, row-major) of projection k.
 inline void form_W(const Layout &lay, const double *jac, i64 k, double *W) {
@@ -79,6 +120,9 @@ class Kernels {
   // Jacobian and residual. U and V get their full (mirrored) blocks.
   virtual void normal_equations(ThreadPool &pool, const double *jac, const double *e, double *U,
                                 double *V, double *ea, double *eb) const = 0;
+  // The same from single-precision blocks: the bits of the above on the blocks widened.
+  virtual void normal_equations(ThreadPool &pool, const float *jac, const double *e, double *U,
+                                double *V, double *ea, double *eb) const = 0;
   // Vinv_i = (V_i + mu I)^-1 for the free points; false if one is singular. V_i + mu I is
   // positive definite but on the retries of sba 1.6's strategy (strategy.cpp), where it may be
   // indefinite and is inverted all the same, as 1.6 does.
@@ -102,6 +146,8 @@ class Kernels {
   // A_ij *= diag(s_j) and B_ij *= diag(s_i) for every projection (s: a scale per variable, in
   // the layout's order): the Jacobian in variables scaled by s.
   virtual void scale_jacobian(ThreadPool &pool, const double *s, double *jac) const = 0;
+  // The same on single-precision blocks: each product rounded to float.
+  virtual void scale_jacobian(ThreadPool &pool, const double *s, float *jac) const = 0;
 };
 
 // Kernels for the layout's block sizes, with the assembly split over `threads` threads.

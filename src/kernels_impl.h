@@ -391,6 +391,7 @@ class KernelsT final : public Kernels {
       s.Wt.resize(size_t(maxtrack) * size_t(cnp()) * size_t(pnp()) + 1);
       s.Yt.resize(s.Wt.size());
       s.blk.resize(size_t(std::max(cnp(), pnp())) + size_t(mnp()));
+      s.wide.resize(size_t(lay.jblk()));
       s.damped.resize(size_t(kBatch) * size_t(pnp()) * size_t(pnp()));
       s.inv.resize(s.damped.size());
       // U_j and e_a,j of a thread's cameras are accumulated here, then copied out: where two
@@ -410,22 +411,11 @@ class KernelsT final : public Kernels {
 
   void normal_equations(ThreadPool &pool, const double *jac, const double *e, double *U, double *V,
                         double *ea, double *eb) const override {
-    const Layout &lay = lay_;
-    // One job for both parts: a thread that finishes its cameras early starts on its
-    // points instead of waiting for the others.
-    const int T = pool.size();
-    const i64 nc = cnp() > 0 ? lay.m - lay.mcon : 0, np = pnp() > 0 ? lay.n - lay.ncon : 0;
-    auto part = [&](int t) {
-      const i64 c0 = nc * t / T, c1 = nc * (t + 1) / T, p0 = np * t / T, p1 = np * (t + 1) / T;
-      if (c0 < c1)
-        gram_cameras(jac, e, U, ea, int(c0) + lay.mcon, int(c1) + lay.mcon,
-                     T > 1 ? &scratch_[size_t(t)] : nullptr);
-      if (p0 < p1) gram_points(jac, e, V, eb, p0 + lay.ncon, p1 + lay.ncon);
-    };
-    if (T == 1)
-      part(0);
-    else
-      pool.run(part);
+    gram(pool, jac, e, U, V, ea, eb);
+  }
+  void normal_equations(ThreadPool &pool, const float *jac, const double *e, double *U, double *V,
+                        double *ea, double *eb) const override {
+    gram(pool, jac, e, U, V, ea, eb);
   }
 
   bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const override {
@@ -453,11 +443,17 @@ class KernelsT final : public Kernels {
   void scale_jacobian(ThreadPool &pool, const double *s, double *jac) const override {
     pool.for_range(lay_.n, [&](i64 b, i64 e) { scale_points(s, jac, b, e); });
   }
+  void scale_jacobian(ThreadPool &pool, const double *s, float *jac) const override {
+    pool.for_range(lay_.n, [&](i64 b, i64 e) { scale_points(s, jac, b, e); });
+  }
 
   void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                        double *dp) const override {
     pool.for_range_t(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
-      back_substitute_points(ne, Vinv, mu, dp, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
+      if (ne.jac32)
+        back_substitute_points(ne.jac32, ne, Vinv, mu, dp, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
+      else
+        back_substitute_points(ne.jac, ne, Vinv, mu, dp, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
     });
   }
 
@@ -467,6 +463,7 @@ class KernelsT final : public Kernels {
 
   struct Scratch {
     std::vector<double> Wt, Yt, blk;  // one track's W_ij^T and Y_ij^T; small vectors
+    std::vector<double> wide;         // one projection's blocks widened (run-time sizes)
     std::vector<double> damped, inv;  // kBatch blocks V_i + mu I (overwritten), their inverses
     std::vector<double> gram;         // this thread's U_j and e_a,j, with several threads
   };
@@ -483,8 +480,9 @@ class KernelsT final : public Kernels {
   // visited camera by camera, and every U_j still adds its terms in ascending point order,
   // the same for any number of threads. U_j[a][c] and U_j[c][a] get the same products in
   // the same order, so U_j comes out exactly symmetric.
-  __attribute__((noinline)) void gram_cameras(const double *jac, const double *e, double *U, double *ea,
-                                              int j0, int j1, Scratch *sc) const {
+  template <class J>
+  __attribute__((noinline)) void gram_cameras(const J *jac, const double *e, double *U, double *ea,
+                                              int j0, int j1, Scratch *sc, double *wide) const {
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), jb = lay.jblk();
     const i64 nu = i64(j1 - j0) * cn * cn, nea = i64(j1 - j0) * cn;
@@ -494,10 +492,13 @@ class KernelsT final : public Kernels {
     std::fill(Ut, Ut + nu, 0.0);
     std::fill(eat, eat + nea, 0.0);
     const int *colidx = lay.colidx.data();
+    double wl[M * C > 0 ? M * C : 1];
+    if (M * C > 0) wide = wl;
     for (i64 k = 0; k < lay.nvis; ++k) {
       const int j = colidx[k];
       if (j < j0 || j >= j1) continue;
-      gram_update<M, C>(mn, cn, jac + k * jb, e + k * mn, Ut + i64(j - j0) * cn * cn, eat + i64(j - j0) * cn);
+      const double *A = widened<M * C>(jac + k * jb, mn * cn, wide);
+      gram_update<M, C>(mn, cn, A, e + k * mn, Ut + i64(j - j0) * cn * cn, eat + i64(j - j0) * cn);
     }
     if (sc) {
       std::copy(Ut, Ut + nu, Uo);
@@ -507,13 +508,14 @@ class KernelsT final : public Kernels {
 
   // The projections of the points [i0, i1) scaled (scale_jacobian), out of line for the
   // fixed sizes' loops.
-  __attribute__((noinline)) void scale_points(const double *s, double *jac, i64 i0, i64 i1) const {
+  template <class J>
+  __attribute__((noinline)) void scale_points(const double *s, J *jac, i64 i0, i64 i1) const {
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
     for (i64 i = i0; i < i1; ++i) {
       const double *si = s + lay.b_off(int(i));
       for (int k = lay.rowptr[size_t(i)]; k < lay.rowptr[size_t(i) + 1]; ++k) {
-        double *A = jac + i64(k) * jb, *B = A + mn * cn;
+        J *A = jac + i64(k) * jb, *B = A + mn * cn;
         const double *sj = s + lay.a_off(lay.colidx[size_t(k)]);
         for (int r = 0; r < mn; ++r) {
           for (int c = 0; c < cn; ++c) A[r * cn + c] *= sj[c];
@@ -524,18 +526,45 @@ class KernelsT final : public Kernels {
   }
 
   // V_i and e_b,i for the points [i0, i1).
-  __attribute__((noinline)) void gram_points(const double *jac, const double *e, double *V, double *eb,
-                                             i64 i0, i64 i1) const {
+  template <class J>
+  __attribute__((noinline)) void gram_points(const J *jac, const double *e, double *V, double *eb,
+                                             i64 i0, i64 i1, double *wide) const {
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
     const int *rowptr = lay.rowptr.data();
+    double wl[M * P > 0 ? M * P : 1];
+    if (M * P > 0) wide = wl;
     for (i64 i = i0; i < i1; ++i) {
       double *__restrict Vi = V + i * pn * pn, *__restrict ebi = eb + i * pn;
       std::fill(Vi, Vi + pn * pn, 0.0);
       std::fill(ebi, ebi + pn, 0.0);
-      for (int k = rowptr[i]; k < rowptr[i + 1]; ++k)
-        gram_update<M, P>(mn, pn, jac + i64(k) * jb + mn * cn, e + i64(k) * mn, Vi, ebi);
+      for (int k = rowptr[i]; k < rowptr[i + 1]; ++k) {
+        const double *B = widened<M * P>(jac + i64(k) * jb + mn * cn, mn * pn, wide);
+        gram_update<M, P>(mn, pn, B, e + i64(k) * mn, Vi, ebi);
+      }
     }
+  }
+
+  // normal_equations of blocks stored as J.
+  template <class J>
+  void gram(ThreadPool &pool, const J *jac, const double *e, double *U, double *V, double *ea,
+            double *eb) const {
+    const Layout &lay = lay_;
+    // One job for both parts: a thread that finishes its cameras early starts on its
+    // points instead of waiting for the others.
+    const int T = pool.size();
+    const i64 nc = cnp() > 0 ? lay.m - lay.mcon : 0, np = pnp() > 0 ? lay.n - lay.ncon : 0;
+    auto part = [&](int t) {
+      const i64 c0 = nc * t / T, c1 = nc * (t + 1) / T, p0 = np * t / T, p1 = np * (t + 1) / T;
+      if (c0 < c1)
+        gram_cameras(jac, e, U, ea, int(c0) + lay.mcon, int(c1) + lay.mcon,
+                     T > 1 ? &scratch_[size_t(t)] : nullptr, scratch_[size_t(t)].wide.data());
+      if (p0 < p1) gram_points(jac, e, V, eb, p0 + lay.ncon, p1 + lay.ncon, scratch_[size_t(t)].wide.data());
+    };
+    if (T == 1)
+      part(0);
+    else
+      pool.run(part);
   }
 
   // (V_i + mu I)^-1 for the points [i0, i1); false at the first singular one.
@@ -599,7 +628,10 @@ class KernelsT final : public Kernels {
       for (int b = 0; b < nb; ++b) {
         const int i = pts[b], f = fb[b], lo = lob[b], hi = hib[b];
         if (!Vib[b]) return false;
-        products(ne, i, f, lo, hi, Vib[b], sc.Wt.data(), sc.Yt.data(), rhs);
+        if (ne.jac32)
+          products(ne.jac32, ne, i, f, lo, hi, Vib[b], sc, rhs);
+        else
+          products(ne.jac, ne, i, f, lo, hi, Vib[b], sc, rhs);
         for (int q2 = lo; q2 < hi; ++q2) {
           const int k = lay.colidx[q2] - lay.mcon;
           const double *Wt2 = sc.Wt.data() + (q2 - f) * cp;
@@ -630,12 +662,16 @@ class KernelsT final : public Kernels {
 
   // Point i's W_ij^T and Y_ij^T for its track's entries [f, hi) into Wt and Yt (entry f's
   // first), and the terms of rhs of its entries [lo, hi).
-  void products(const NormalEquations &ne, int i, int f, int lo, int hi, const double *Vi, double *Wt,
-                double *Yt, double *rhs) const {
+  template <class J>
+  void products(const J *jac, const NormalEquations &ne, int i, int f, int lo, int hi, const double *Vi,
+                Scratch &sc, double *rhs) const {
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk(), cp = cn * pn;
+    double *Wt = sc.Wt.data(), *Yt = sc.Yt.data();
+    double wl[M > 0 ? M * (C + P) : 1];
+    double *wide = M > 0 ? wl : sc.wide.data();
     for (int q = f; q < hi; ++q) {
-      const double *A = ne.jac + i64(q) * jb, *B = A + mn * cn;
+      const double *A = widened<M * (C + P)>(jac + i64(q) * jb, jb, wide), *B = A + mn * cn;
       track_products<M, C, P>(mn, cn, pn, A, B, Vi, Wt + (q - f) * cp, Yt + (q - f) * cp);
     }
     const double *ebi = ne.eb + i64(i) * pn;
@@ -646,7 +682,8 @@ class KernelsT final : public Kernels {
   // db_i = V*_i^-1 (e_b,i - sum_j W_ij^T da_j) for the points [i0, i1), every sum a chain
   // of fused multiply-adds. With the sizes fixed, t and u are locals that the compiler keeps
   // in registers; otherwise they live in the thread's scratch.
-  __attribute__((noinline)) void back_substitute_points(const NormalEquations &ne, const double *Vinv,
+  template <class J>
+  __attribute__((noinline)) void back_substitute_points(const J *jac, const NormalEquations &ne, const double *Vinv,
                                                         double mu, double *dp, i64 i0, i64 i1,
                                                         Scratch &sc) const {
     const Layout &lay = lay_;
@@ -654,6 +691,8 @@ class KernelsT final : public Kernels {
     const int *rowptr = lay.rowptr.data(), *colidx = lay.colidx.data();
     double tl[P > 0 ? P : 1], ul[M > 0 ? M : 1];
     double *t = P > 0 ? tl : sc.blk.data(), *u = M > 0 ? ul : sc.blk.data() + pn;
+    double wl[M > 0 ? M * (C + P) : 1];
+    double *wide = M > 0 ? wl : sc.wide.data();
     const double *Vib[kBatch];
     int pts[kBatch];
     for (i64 i = i0; i < i1; ++i) {
@@ -667,7 +706,7 @@ class KernelsT final : public Kernels {
       for (int k = rowptr[i]; k < rowptr[i + 1]; ++k) {
         const int j = colidx[k];
         if (j < lay.mcon) continue;
-        const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn;
+        const double *A = widened<M * (C + P)>(jac + i64(k) * jb, jb, wide), *B = A + mn * cn;
         const double *daj = dp + lay.a_off(j);
         // W^T da = B^T (A da): two thin products instead of forming W.
         for (int r = 0; r < mn; ++r) {

@@ -505,7 +505,8 @@ class LevenbergMarquardt {
     if (!st_.linearize(p, where)) return false;
     // Stop 1 looks at the gradient in the units of p, whatever the strategy solves in.
     gradient_stats(lay_, w_, &sum_.grad_inf, &maxdiag_);
-    strategy_.linearized(pool_, kernels_, w_.jac.data(), w_.U.data(), w_.V.data(), w_.ea.data(), w_.eb.data());
+    strategy_.linearized(pool_, kernels_, JacobianBlocks{w_.jac.data(), nullptr}, w_.U.data(), w_.V.data(),
+                         w_.ea.data(), w_.eb.data());
     maxdiag_ = strategy_.solved_max_diagonal(maxdiag_);
     if (it_ == 0) mu_ = strategy_.initial_damping(opt_.tau, maxdiag_);
     if (sum_.grad_inf <= opt_.eps1) {

@@ -135,8 +135,9 @@ class PointPass : BlockSizes<M, C, P> {
     chunk_ = split_by_work(lay_.rowptr, lay_.ncon, lay_.free_pts(), kChunks);
     partial_.resize(size_t(kChunks) * size_t(nC_));
     Vinv_.resize(size_t(lay_.n) * size_t(pnp()) * size_t(pnp()));
-    // Per thread: u, w and t_i of a point, when their sizes are known only at run time.
-    scratch_.resize(size_t(ctx.pool.size()) * size_t(mnp() + 2 * pnp()));
+    // Per thread: u, w and t_i of a point and a projection's widened blocks, when their sizes
+    // are known only at run time.
+    scratch_.resize(size_t(ctx.pool.size()) * size_t(mnp() + 2 * pnp() + lay_.jblk()));
   }
 
   // Every free point's (V_i + mu I)^-1; false if one is not positive definite.
@@ -163,8 +164,9 @@ class PointPass : BlockSizes<M, C, P> {
       // closure, and the small loops below would neither unroll nor vectorize.
       const int mn = mnp(), cn = cnp(), pn = pnp();
       double *sc = scratch_.data() + size_t(t) * per;
-      double ul[M > 0 ? M : 1], wl[P > 0 ? P : 1], tl[P > 0 ? P : 1];
+      double ul[M > 0 ? M : 1], wl[P > 0 ? P : 1], tl[P > 0 ? P : 1], jl[M > 0 ? M * (C + P) : 1];
       double *u = M > 0 ? ul : sc, *w = P > 0 ? wl : sc + mn, *ti = P > 0 ? tl : sc + mn + pn;
+      double *wide = M > 0 ? jl : sc + mn + 2 * pn;
       for (i64 c = c0; c < c1; ++c) {
         double *yc = partial_.data() + c * nC_;
         std::fill(yc, yc + nC_, 0.0);
@@ -177,7 +179,8 @@ class PointPass : BlockSizes<M, C, P> {
             for (int k = k0; k < k1; ++k) {
               const int j = lay.colidx[k] - lay.mcon;
               if (j < 0) continue;
-              const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn, *xj = x + i64(j) * cn;
+              const double *A = projection_blocks<M * (C + P)>(ne, k, jb, wide), *B = A + mn * cn;
+              const double *xj = x + i64(j) * cn;
               for (int r = 0; r < mn; ++r) {
                 double v = 0.0;
                 for (int a = 0; a < cn; ++a) v += A[r * cn + a] * xj[a];
@@ -197,7 +200,7 @@ class PointPass : BlockSizes<M, C, P> {
           for (int k = k0; k < k1; ++k) {
             const int j = lay.colidx[k] - lay.mcon;
             if (j < 0) continue;
-            const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn;
+            const double *A = projection_blocks<M * (C + P)>(ne, k, jb, wide), *B = A + mn * cn;
             double *yj = yc + i64(j) * cn;
             for (int r = 0; r < mn; ++r) {
               double v = 0.0;
@@ -278,8 +281,9 @@ class BlockJacobi final : public Preconditioner, BlockSizes<M, C, P> {
     const size_t blocks = size_t(nc_) * size_t(cnp()) * size_t(cnp());
     Dpartial_.resize(size_t(kChunks) * blocks);
     D_.resize(blocks);
-    // Per thread: BV, Y and N (see add_chunks), when their sizes are known only at run time.
-    scratch_.resize(size_t(ctx.pool.size()) * size_t(mnp() * (pnp() + mnp() + cnp())));
+    // Per thread: BV, Y and N (see add_chunks) and a projection's widened blocks, when their
+    // sizes are known only at run time.
+    scratch_.resize(size_t(ctx.pool.size()) * size_t(mnp() * (pnp() + mnp() + cnp()) + lay_.jblk()));
   }
 
   bool make(const NormalEquations &ne, const double *Vinv, double mu) override {
@@ -314,6 +318,8 @@ class BlockJacobi final : public Preconditioner, BlockSizes<M, C, P> {
       double BVl[M > 0 ? M * P : 1], Yl[M > 0 ? M * M : 1], Nl[M > 0 ? M * C : 1];
       double *sc = scratch_.data() + size_t(t) * per;
       double *BV = M > 0 ? BVl : sc, *Y = M > 0 ? Yl : sc + mn * pn, *N = M > 0 ? Nl : sc + mn * (pn + mn);
+      double jl[M > 0 ? M * (C + P) : 1];
+      double *wide = M > 0 ? jl : sc + mn * (pn + mn + cn);
       for (i64 c = c0; c < c1; ++c) {
         double *Dc = Dpartial_.data() + c * blocks;
         std::fill(Dc, Dc + blocks, 0.0);
@@ -323,7 +329,7 @@ class BlockJacobi final : public Preconditioner, BlockSizes<M, C, P> {
           for (int k = lay.rowptr[i]; k < lay.rowptr[i + 1]; ++k) {
             const int j = lay.colidx[k] - lay.mcon;
             if (j < 0) continue;
-            const double *A = ne.jac + i64(k) * jb, *B = A + mn * cn;
+            const double *A = projection_blocks<M * (C + P)>(ne, k, jb, wide), *B = A + mn * cn;
             // W_ij V*_i^-1 W_ij^T = A^T (B V*_i^-1 B^T) A: through the mnp x mnp middle
             // factor, about 60% of the multiply-adds of forming W_ij = A^T B first.
             for (int r = 0; r < mn; ++r)

@@ -112,7 +112,7 @@ class Sba16 final : public Strategy {
   double initial_damping(double tau, double maxdiag) const override {
     return std::max({tau * maxdiag, kMinRelativeDamping * maxdiag, DBL_MIN});
   }
-  void linearized(ThreadPool &, const Kernels &, double *, double *, double *, double *, double *) override {}
+  void linearized(ThreadPool &, const Kernels &, JacobianBlocks, double *, double *, double *, double *) override {}
   double solved_max_diagonal(double maxdiag) const override { return maxdiag; }
   bool acceptable(double dF, double dL) const override { return dL > 0.0 && dF > 0.0; }
   double after_success(double mu, double rho) const override {
@@ -155,7 +155,7 @@ class TrustRegion final : public Strategy {
       : Strategy(lay), ftol_(eps4 > 0.0 ? eps4 : kDefaultCostTolerance),
         s_(size_t(lay.nvars()), 1.0) {}
 
-  void linearized(ThreadPool &pool, const Kernels &kernels, double *jac, double *U, double *V, double *ea,
+  void linearized(ThreadPool &pool, const Kernels &kernels, JacobianBlocks jac, double *U, double *V, double *ea,
                   double *eb) override {
     const int cnp = lay_.cnp, pnp = lay_.pnp;
     double *s = s_.data();
@@ -187,7 +187,10 @@ class TrustRegion final : public Strategy {
       }
     });
     // The Jacobian blocks the solvers read (W_ij = A_ij^T B_ij).
-    kernels.scale_jacobian(pool, s, jac);
+    if (jac.jac32)
+      kernels.scale_jacobian(pool, s, jac.jac32);
+    else
+      kernels.scale_jacobian(pool, s, jac.jac);
   }
 
   // On the scaled system the curvature is 1 in every well-seen direction, and 1.6's rule

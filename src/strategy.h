@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "kernels.h"
 #include "layout.h"
 #include "parallel.h"
 
@@ -32,8 +33,6 @@ const char *strategy_names();
 // strategy.cpp): the "sba" strategies' convergence test.
 bool reduction_stalled(double e, double en, double eps4);
 
-class Kernels;
-
 class Strategy {
  public:
   explicit Strategy(const Layout &lay);
@@ -41,8 +40,8 @@ class Strategy {
   // Called once per iteration with the normal equations just formed (undamped U_j, V_i,
   // e_a, e_b, and the Jacobian blocks the solvers read). A strategy may change variables
   // here: the solver then works in its variables, and step_in_parameters maps its step back.
-  virtual void linearized(ThreadPool &pool, const Kernels &kernels, double *jac, double *U, double *V,
-                          double *ea, double *eb) = 0;
+  virtual void linearized(ThreadPool &pool, const Kernels &kernels, JacobianBlocks jac, double *U,
+                          double *V, double *ea, double *eb) = 0;
   // The damping of the first iteration, from opts[0] and the largest diagonal entry of
   // J^T J (of the system the solver sees).
   virtual double initial_damping(double tau, double maxdiag) const = 0;

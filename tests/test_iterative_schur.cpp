@@ -258,6 +258,30 @@ TEST_P(IterativeSchur, SameBitsForAnyThreadCount) {
   EXPECT_EQ(one, step(pb, sba::LinSolver::IterativeSchur, 3, 0.1));
 }
 
+// Blocks stored in single precision are widened before any arithmetic: the step (the point
+// passes of every product, the preconditioner) has the bits of the step from double blocks
+// holding the same values, and differs from the step of the unrounded blocks.
+TEST_P(IterativeSchur, SinglePrecisionBlocksGiveTheBitsOfTheirWidenedValues) {
+  const Problem pb(500, 15, 2, 5, GetParam(), 53u);
+  const std::vector<float> j32(pb.jac.begin(), pb.jac.end());
+  const std::vector<double> widened(j32.begin(), j32.end());
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE("threads " + std::to_string(threads));
+    sba::ThreadPool pool(threads);
+    const auto kernels = sba::make_kernels(pb.lay, pool.size());
+    const auto solve = [&](const double *jac, const float *jac32) {
+      const auto solver = sba::make_step_solver(sba::LinSolver::IterativeSchur, sba::SolveContext{pb.lay, pool, *kernels});
+      std::vector<double> dp(size_t(pb.lay.nvars()), -1.0);
+      const sba::NormalEquations ne{jac, pb.U.data(), pb.V.data(), pb.ea.data(), pb.eb.data(), jac32};
+      EXPECT_EQ(solver->solve(ne, 0.1, dp.data()), sba::StepStatus::Solved);
+      return dp;
+    };
+    const std::vector<double> single = solve(nullptr, j32.data());
+    EXPECT_EQ(single, solve(widened.data(), nullptr));
+    EXPECT_NE(single, solve(pb.jac.data(), nullptr));
+  }
+}
+
 // A NaN in the normal equations, a damped point block that is singular and a reduced system
 // that is indefinite are failures (LM then raises the damping), never a crash or a step with
 // NaNs. (An indefinite point block is inverted, as sba 1.6 inverts the blocks its retries

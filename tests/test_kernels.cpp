@@ -88,6 +88,27 @@ struct BothLayouts {
   }
 };
 
+// The free cameras' dense S and right-hand side at damping mu from ne, with the stored point
+// inverses Vinv (or null: made on the fly), and the back-substitution of a fixed camera step.
+struct DenseStep {
+  std::vector<double> S, rhs, dp;
+
+  DenseStep(sba::ThreadPool &pool, const sba::Kernels &kernels, const sba::Layout &lay, const sba::NormalEquations &ne,
+            const double *Vinv, double mu) {
+    const i64 nS = i64(lay.free_cams()) * lay.cnp;
+    S.assign(size_t(nS * nS), 0.0);
+    rhs.assign(size_t(nS), 0.0);
+    sba::BlockMap dense;
+    dense.base = S.data();
+    dense.ld = nS;
+    dense.cnp = lay.cnp;
+    EXPECT_TRUE(kernels.assemble(pool, ne, Vinv, mu, dense, rhs.data()));
+    dp.assign(size_t(lay.nvars()), 0.0);
+    for (i64 q = 0; q < nS; ++q) dp[size_t(lay.a_off(lay.mcon) + q)] = std::cos(double(q) + 0.5);
+    kernels.back_substitute(pool, ne, Vinv, mu, dp.data());
+  }
+};
+
 class KernelsLayout : public ::testing::TestWithParam<int> {};
 
 // Every stored block of the sparse layout, under a scrambled camera ordering (so that many
@@ -156,8 +177,8 @@ TEST_P(KernelsLayout, ThreadCountsGiveTheSameBits) {
   Fixture f(n, m, cnp, 11u + unsigned(cnp));
   f.lay.mcon = 9;  // three free cameras
   struct Out {
-    std::vector<double> U, V, ea, eb, Vinv, S, rhs, dp;
-    std::vector<double> S2, rhs2, dp2;  // with the inverses made on the fly, as the solvers do
+    std::vector<double> U, V, ea, eb, Vinv;
+    std::vector<DenseStep> steps;  // with the stored inverses, and made on the fly as the solvers do
   };
   auto run = [&](int threads) {
     Out o;
@@ -169,30 +190,15 @@ TEST_P(KernelsLayout, ThreadCountsGiveTheSameBits) {
     const double mu = 0.25;
     o.Vinv.assign(f.V.size(), 0.0);
     EXPECT_TRUE(kernels->invert_damped_V(pool, o.V.data(), mu, o.Vinv.data()));
-    const int nS = (m - f.lay.mcon) * cnp;
-    o.S.assign(size_t(nS) * size_t(nS), 0.0);
-    o.rhs.assign(size_t(nS), 0.0);
-    sba::BlockMap dense;
-    dense.base = o.S.data();
-    dense.ld = nS;
-    dense.cnp = cnp;
     const sba::NormalEquations ne{f.jac.data(), o.U.data(), o.V.data(), o.ea.data(), o.eb.data()};
-    EXPECT_TRUE(kernels->assemble(pool, ne, o.Vinv.data(), mu, dense, o.rhs.data()));
-    o.dp.assign(size_t(f.lay.nvars()), 0.0);
-    for (int q = 0; q < nS; ++q) o.dp[size_t(f.lay.a_off(f.lay.mcon) + q)] = std::cos(q + 0.5);
-    kernels->back_substitute(pool, ne, o.Vinv.data(), mu, o.dp.data());
-    o.S2.assign(o.S.size(), 0.0);
-    o.rhs2.assign(o.rhs.size(), 0.0);
-    dense.base = o.S2.data();
-    EXPECT_TRUE(kernels->assemble(pool, ne, nullptr, mu, dense, o.rhs2.data()));
-    o.dp2.assign(o.dp.size(), 0.0);
-    for (int q = 0; q < nS; ++q) o.dp2[size_t(f.lay.a_off(f.lay.mcon) + q)] = std::cos(q + 0.5);
-    kernels->back_substitute(pool, ne, nullptr, mu, o.dp2.data());
+    o.steps.emplace_back(pool, *kernels, f.lay, ne, o.Vinv.data(), mu);
+    o.steps.emplace_back(pool, *kernels, f.lay, ne, nullptr, mu);
     return o;
   };
   const Out one = run(1);
-  EXPECT_NE(std::count(one.S.begin(), one.S.end(), 0.0), i64(one.S.size()));
-  EXPECT_TRUE(std::all_of(one.dp.begin(), one.dp.end(), [](double v) { return std::isfinite(v); }));
+  const DenseStep &stored = one.steps[0], &fly = one.steps[1];
+  EXPECT_NE(std::count(stored.S.begin(), stored.S.end(), 0.0), i64(stored.S.size()));
+  EXPECT_TRUE(std::all_of(stored.dp.begin(), stored.dp.end(), [](double v) { return std::isfinite(v); }));
   for (int threads : {2, 3, 5}) {
     SCOPED_TRACE("threads " + std::to_string(threads));
     const Out o = run(threads);
@@ -201,17 +207,16 @@ TEST_P(KernelsLayout, ThreadCountsGiveTheSameBits) {
     EXPECT_EQ(o.ea, one.ea);
     EXPECT_EQ(o.eb, one.eb);
     EXPECT_EQ(o.Vinv, one.Vinv);
-    EXPECT_EQ(o.S, one.S);
-    EXPECT_EQ(o.rhs, one.rhs);
-    EXPECT_EQ(o.dp, one.dp);
-    EXPECT_EQ(o.S2, one.S2);
-    EXPECT_EQ(o.rhs2, one.rhs2);
-    EXPECT_EQ(o.dp2, one.dp2);
+    for (size_t k = 0; k < o.steps.size(); ++k) {
+      EXPECT_EQ(o.steps[k].S, one.steps[k].S);
+      EXPECT_EQ(o.steps[k].rhs, one.steps[k].rhs);
+      EXPECT_EQ(o.steps[k].dp, one.steps[k].dp);
+    }
   }
   // The 3x3 inverses made four at a time are the stored ones, bit for bit.
-  EXPECT_EQ(one.S2, one.S);
-  EXPECT_EQ(one.rhs2, one.rhs);
-  EXPECT_EQ(one.dp2, one.dp);
+  EXPECT_EQ(fly.S, stored.S);
+  EXPECT_EQ(fly.rhs, stored.rhs);
+  EXPECT_EQ(fly.dp, stored.dp);
 }
 
 // A dense S takes a track's pairs a column at a time, W_ik^T held for the column; a sparse S a
@@ -251,6 +256,54 @@ TEST_P(KernelsLayout, DenseAssemblyGivesTheSparseLayoutsBits) {
       }
     EXPECT_EQ(differ, 0);
     EXPECT_GT(coupled, i64(m) * (m - 1) / 4 * cnp * cnp);  // most camera pairs share points
+  }
+}
+
+// Blocks stored in single precision are widened before any arithmetic: every kernel gives on
+// them the bits it gives on double blocks holding the same (float) values, with free and
+// fixed cameras, the inverses stored or made on the fly, and 1 and 2 threads. Against the
+// unrounded Jacobian the results differ, so the single-precision blocks were read.
+TEST_P(KernelsLayout, SinglePrecisionBlocksGiveTheBitsOfTheirWidenedValues) {
+  const int cnp = GetParam(), n = 600, m = 12;
+  Fixture f(n, m, cnp, 31u + unsigned(cnp));
+  f.lay.mcon = 2;
+  const std::vector<float> j32(f.jac.begin(), f.jac.end());
+  const std::vector<double> widened(j32.begin(), j32.end());
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE("threads " + std::to_string(threads));
+    sba::ThreadPool pool(threads);
+    const auto kernels = sba::make_kernels(f.lay, pool.size());
+    // The normal equations and the step of mu 0.5, from jac or from jac32.
+    const auto run = [&](const double *jac, const float *jac32, bool stored) {
+      std::vector<double> U(f.U.size()), V(f.V.size()), ea(f.ea.size()), eb(f.eb.size()), Vinv(f.V.size());
+      if (jac32)
+        kernels->normal_equations(pool, jac32, f.e.data(), U.data(), V.data(), ea.data(), eb.data());
+      else
+        kernels->normal_equations(pool, jac, f.e.data(), U.data(), V.data(), ea.data(), eb.data());
+      EXPECT_TRUE(kernels->invert_damped_V(pool, V.data(), 0.5, Vinv.data()));
+      const sba::NormalEquations ne{jac, U.data(), V.data(), ea.data(), eb.data(), jac32};
+      const DenseStep step(pool, *kernels, f.lay, ne, stored ? Vinv.data() : nullptr, 0.5);
+      return std::vector<std::vector<double>>{U, V, ea, eb, step.S, step.rhs, step.dp};
+    };
+    for (bool stored : {true, false}) {
+      SCOPED_TRACE(stored ? "inverses stored" : "inverses on the fly");
+      const auto single = run(nullptr, j32.data(), stored), wide = run(widened.data(), nullptr, stored);
+      const auto full = run(f.jac.data(), nullptr, stored);
+      for (size_t k = 0; k < single.size(); ++k) {
+        EXPECT_EQ(single[k], wide[k]) << k;
+        EXPECT_NE(single[k], full[k]) << k;
+      }
+    }
+    // Scaling rounds each product to float.
+    std::vector<double> s(size_t(f.lay.nvars()));
+    for (size_t q = 0; q < s.size(); ++q) s[q] = 0.5 + std::sin(double(q));
+    std::vector<float> scaled32 = j32;
+    std::vector<double> scaled = widened;
+    kernels->scale_jacobian(pool, s.data(), scaled32.data());
+    kernels->scale_jacobian(pool, s.data(), scaled.data());
+    i64 differ = 0;
+    for (size_t q = 0; q < scaled.size(); ++q) differ += scaled32[q] != static_cast<float>(scaled[q]);
+    EXPECT_EQ(differ, 0);
   }
 }
 

@@ -341,7 +341,7 @@ TEST(StrategyStep, TrustRegionPredictsInTheSolversVariablesThenScalesTheStep) {
   const std::unique_ptr<sba::Strategy> tr = sba::make_strategy(sba::StrategyKind::TrustRegion, lay, 0.0);
   const std::unique_ptr<sba::Kernels> kernels = sba::make_kernels(lay, pool.size());
   double jac = 2.0, U = 4.0, ea = 6.0;
-  tr->linearized(pool, *kernels, &jac, &U, nullptr, &ea, nullptr);
+  tr->linearized(pool, *kernels, sba::JacobianBlocks{&jac, nullptr}, &U, nullptr, &ea, nullptr);
   EXPECT_EQ(U, 1.0);
   EXPECT_EQ(ea, 3.0);
   double dp = 0.5;
