@@ -333,6 +333,19 @@ struct sba_ext_options {
   const struct sba_camera_linear_prior *camera_linear_priors;
   int npoint_priors;
   const struct sba_point_prior *point_priors;
+  /* Nonzero: the Jacobian is stored in single precision, half its memory (8 bytes per
+   * projection and parameter instead of 16 with mnp 2) and half of what each iteration reads
+   * of it. The callback's blocks are weighted and reweighted in double, give the gradient
+   * J^T e in double, and only then are rounded to float; everything computed from the stored
+   * blocks is computed in double. The solve thus ends where the gradient is small, at the
+   * same minimum, but its steps come from rounded blocks: iterations and stop reasons may
+   * differ from a solve in double, and on an ill-conditioned problem (intrinsics refined
+   * with the poses) 1.6's strategy may stall above the minimum where the trust region does
+   * not (docs/solvers.md). Only with the simple drivers (an expert driver's fjac fills a whole
+   * double Jacobian, which would then exist twice), one block of parameters per camera (no
+   * cam_group, cam_shared or cam_param_group) and a solver other than ldl-amd; otherwise the
+   * call fails (SBA_ERROR). 0 (the default): double, as in 1.6. */
+  int single_precision_jacobian;
 };
 
 /* Fills *opt with the defaults (every field zero/NULL) and opt->size. */

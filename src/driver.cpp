@@ -111,7 +111,8 @@ bool validate_and_lay_out(const DriverArgs &a, const sba_ext_options &ext, const
   if (msg.empty()) opt->is_valid(*lay, a.p, &msg);
   if (msg.empty()) {
     lay->cams = make_camera_map(opt->cams, *lay);
-    msg = check_data(a, *lay, *opt);
+    msg = check_single_jacobian(*opt, *lay, a.callbacks.simple);
+    if (msg.empty()) msg = check_data(a, *lay, *opt);
   }
   if (!msg.empty()) {
     log.error("%s: %s", a.name, msg.c_str());
@@ -127,7 +128,8 @@ bool validate_and_lay_out(const DriverArgs &a, const sba_ext_options &ext, const
 bool resolve_auto(const DriverArgs &a, const Layout &lay, const Logger &log, Options *opt) {
   if (opt->solver != LinSolver::Auto) return true;
   const MemoryBudget budget = memory_budget(opt->memory_budget);
-  const SolverShape shape = shape_of(lay, budget.bytes);
+  SolverShape shape = shape_of(lay, budget.bytes);
+  if (opt->single_jacobian) shape.jacobian_entry_bytes = int(sizeof(float));
   opt->solver = choose_linsolver(shape);
   if (opt->solver == LinSolver::SparseChol) opt->schur_analysis = shape.analysis;
   const double needs = solver_bytes(shape, opt->solver);

@@ -46,6 +46,7 @@ void pass_through(const sba_ext_options &ext, Options *o) {
   o->cams.group = ext.cam_group;
   o->cams.shared = ext.cam_shared;
   o->memory_budget = double(ext.memory_budget);
+  o->single_jacobian = ext.single_precision_jacobian != 0;
   o->priors.ncamera = ext.ncamera_priors;
   o->priors.camera = ext.camera_priors;
   o->priors.nlinear = ext.ncamera_linear_priors;

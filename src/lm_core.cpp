@@ -54,7 +54,8 @@ struct Workspace {
   // the LM loop needs e(p) again only after a step is accepted, when e(p + dp) takes its
   // place anyway. A robust loss keeps both, since the outlier count is made from the
   // residual at the last accepted point.
-  Workspace(const Layout &lay, bool weighted, bool robust, bool keep_hx) {
+  // single: the Jacobian in single precision (Options::single_jacobian).
+  Workspace(const Layout &lay, bool weighted, bool robust, bool keep_hx, bool single) {
     const i64 nobs = lay.nvis * lay.mnp;
     const auto alloc = [](std::vector<double> &v, i64 n) { resize_prefaulted(v, size_t(n)); };
     alloc(e, nobs);
@@ -63,7 +64,21 @@ struct Workspace {
       alloc(hx, nobs);
       alloc(hxn, nobs);
     }
-    alloc(jac, lay.nvis * lay.jblk());
+    if (single) {
+      resize_prefaulted(jac32, size_t(lay.nvis * lay.jblk()));
+      // The gradient from the blocks in double: by chunks of points (their ranges set by the
+      // observations, whatever the thread count), each chunk's share of e_a on its own.
+      chunks.resize(kGradientChunks + 1);
+      for (int c = 0; c <= kGradientChunks; ++c)
+        chunks[size_t(c)] = std::lower_bound(lay.rowptr.begin(), lay.rowptr.end(), lay.nvis * c / kGradientChunks) -
+                            lay.rowptr.begin();
+      chunks[kGradientChunks] = lay.n;
+      alloc(ga, i64(kGradientChunks) * lay.m * lay.cnp);
+      alloc(gb, i64(lay.n) * lay.pnp);
+      if (weighted) alloc(wscratch, i64(kGradientChunks) * lay.jblk());
+    } else {
+      alloc(jac, lay.nvis * lay.jblk());
+    }
     if (weighted) alloc(wts, nobs * lay.mnp);
     alloc(U, i64(lay.m) * lay.cnp * lay.cnp);
     alloc(ea, i64(lay.m) * lay.cnp);
@@ -77,7 +92,11 @@ struct Workspace {
     }
   }
   NormalEquations view() const {
-    return NormalEquations{jac.data(), U.data(), V.data(), ea.data(), eb.data()};
+    return NormalEquations{jac32.empty() ? jac.data() : nullptr, U.data(), V.data(), ea.data(), eb.data(),
+                           jac32.empty() ? nullptr : jac32.data()};
+  }
+  JacobianBlocks blocks() {
+    return jac32.empty() ? JacobianBlocks{jac.data(), nullptr} : JacobianBlocks{nullptr, jac32.data()};
   }
   // Where f(p) and f(p + dp) are written.
   double *f_out() { return hx.empty() ? e.data() : hx.data(); }
@@ -85,6 +104,12 @@ struct Workspace {
   double *en_data() { return en.empty() ? e.data() : en.data(); }
   // dp: the step, then (once it is in the units of p) the trial point p + dp.
   std::vector<double> hx, e, hxn, en, jac, wts, U, ea, V, eb, dp;
+  // With the Jacobian in single precision: the blocks instead of jac, the chunks of points
+  // of the gradient, their shares of e_a and e_b, and their scratch for the weighting.
+  static constexpr int kGradientChunks = 32;
+  std::vector<float> jac32;
+  std::vector<i64> chunks;
+  std::vector<double> ga, gb, wscratch;
   // With a robust loss: sqrt(rho') per projection at p and at the trial point, and the
   // reweighted residual that the normal equations see.
   std::vector<double> rw, rwn, er;
@@ -158,59 +183,61 @@ Cost residual(ThreadPool &pool, const Layout &lay, const double *x, const double
   return c;
 }
 
-// The IRLS step: J_k <- sqrt(rho'_k) J_k and er_k = sqrt(rho'_k) e_k, so that the normal
-// equations are those of sum rho'_k ||e_k - J_k dp||^2 (gradient exact, Hessian without the
-// second-order term of rho, which can make the system indefinite for redescending losses).
-void reweight(ThreadPool &pool, const Layout &lay, const double *rw, const double *e,
-              double *jac, double *er) {
+// The IRLS step for projection k: J_k <- sqrt(rho'_k) J_k and er_k = sqrt(rho'_k) e_k, so
+// that the normal equations are those of sum rho'_k ||e_k - J_k dp||^2 (gradient exact,
+// Hessian without the second-order term of rho, which can make the system indefinite for
+// redescending losses).
+inline void reweight_projection(const Layout &lay, i64 k, const double *rw, const double *e, double *Jk,
+                                double *er) {
   const int mnp = lay.mnp, jb = lay.jblk();
-  pool.for_range(lay.nvis, [&](i64 b, i64 end) {
-    for (i64 k = b; k < end; ++k) {
-      for (int q = 0; q < jb; ++q) jac[k * jb + q] *= rw[k];
-      for (int r = 0; r < mnp; ++r) er[k * mnp + r] = rw[k] * e[k * mnp + r];
-    }
-  });
+  for (int q = 0; q < jb; ++q) Jk[q] *= rw[k];
+  for (int r = 0; r < mnp; ++r) er[k * mnp + r] = rw[k] * e[k * mnp + r];
 }
 
-// Jacobian blocks A_ij, B_ij <- W_ij A_ij, W_ij B_ij.
-void weight_jacobian(ThreadPool &pool, const Layout &lay, const double *wts, double *jac) {
+// Projection k's blocks A_ij, B_ij (at Jk) <- W_ij A_ij, W_ij B_ij; t: jblk() scratch.
+inline void weigh_projection(const Layout &lay, i64 k, const double *wts, double *Jk, double *t) {
   const int mnp = lay.mnp, cnp = lay.cnp, pnp = lay.pnp, ncol = cnp + pnp;
-  pool.for_range(lay.nvis, [&](i64 b, i64 end) {
-    std::vector<double> t(size_t(mnp) * size_t(ncol));
-    for (i64 k = b; k < end; ++k) {
-      double *J = jac + k * lay.jblk();
-      const double *w = wts + k * mnp * mnp;
-      // The A and B blocks lie one after the other, each row-major; row r of the
-      // projection is A's row r followed by B's row r.
-      auto at = [&](int r, int c) -> double & {
-        return c < cnp ? J[r * cnp + c] : J[mnp * cnp + r * pnp + (c - cnp)];
-      };
-      for (int r = 0; r < mnp; ++r)
-        for (int c = 0; c < ncol; ++c) {
-          double s = 0.0;
-          for (int q = r; q < mnp; ++q) s += w[r * mnp + q] * at(q, c);
-          t[size_t(r) * ncol + c] = s;
-        }
-      for (int r = 0; r < mnp; ++r)
-        for (int c = 0; c < ncol; ++c) at(r, c) = t[size_t(r) * ncol + c];
+  const double *w = wts + k * mnp * mnp;
+  // The A and B blocks lie one after the other, each row-major; row r of the projection is
+  // A's row r followed by B's row r.
+  auto at = [&](int r, int c) -> double & {
+    return c < cnp ? Jk[r * cnp + c] : Jk[mnp * cnp + r * pnp + (c - cnp)];
+  };
+  for (int r = 0; r < mnp; ++r)
+    for (int c = 0; c < ncol; ++c) {
+      double s = 0.0;
+      for (int q = r; q < mnp; ++q) s += w[r * mnp + q] * at(q, c);
+      t[r * ncol + c] = s;
     }
-  });
+  for (int r = 0; r < mnp; ++r)
+    for (int c = 0; c < ncol; ++c) at(r, c) = t[r * ncol + c];
 }
 
-// The Jacobian columns of the held camera parameters zeroed: nothing of them reaches the
-// normal equations (their rows of U_j and e_a come out zero), and their step is pinned at
-// -0.0 by the solvers.
+// The Jacobian columns of camera j's held parameters zeroed in projection k's A_ij (at Jk):
+// nothing of them reaches the normal equations (their rows of U_j and e_a come out zero), and
+// their step is pinned at -0.0 by the solvers.
+inline void zero_held_projection(const Layout &lay, int j, double *Jk) {
+  const int mnp = lay.mnp, cnp = lay.cnp;
+  for (int c = 0; c < cnp; ++c)
+    if (lay.cams.held(j, c))
+      for (int r = 0; r < mnp; ++r) Jk[r * cnp + c] = 0.0;
+}
+
+// The three over the whole Jacobian.
+void reweight(ThreadPool &pool, const Layout &lay, const double *rw, const double *e, double *jac, double *er) {
+  pool.for_range(lay.nvis, [&](i64 b, i64 end) {
+    for (i64 k = b; k < end; ++k) reweight_projection(lay, k, rw, e, jac + k * lay.jblk(), er);
+  });
+}
+void weight_jacobian(ThreadPool &pool, const Layout &lay, const double *wts, double *jac) {
+  pool.for_range(lay.nvis, [&](i64 b, i64 end) {
+    std::vector<double> t(size_t(lay.jblk()));
+    for (i64 k = b; k < end; ++k) weigh_projection(lay, k, wts, jac + k * lay.jblk(), t.data());
+  });
+}
 void zero_held_columns(ThreadPool &pool, const Layout &lay, double *jac) {
-  const int mnp = lay.mnp, cnp = lay.cnp, jb = lay.jblk();
-  const CameraMap &map = lay.cams;
   pool.for_range(lay.nvis, [&](i64 b, i64 e) {
-    for (i64 k = b; k < e; ++k) {
-      const int j = lay.colidx[size_t(k)];
-      double *A = jac + k * jb;
-      for (int c = 0; c < cnp; ++c)
-        if (map.held(j, c))
-          for (int r = 0; r < mnp; ++r) A[r * cnp + c] = 0.0;
-    }
+    for (i64 k = b; k < e; ++k) zero_held_projection(lay, lay.colidx[size_t(k)], jac + k * lay.jblk());
   });
 }
 
@@ -303,10 +330,11 @@ namespace {
 class Steps {
  public:
   // priors: null or empty for none.
+  // single: the Jacobian in single precision (the model must be able to give it).
   Steps(const Layout &lay, Model &model, const double *x, const Loss &loss, const Logger &log,
-        ThreadPool &pool, const Kernels &kernels, bool weighted, const PriorTerms *priors)
+        ThreadPool &pool, const Kernels &kernels, bool weighted, const PriorTerms *priors, bool single)
       : lay_(lay), model_(model), x_(x), loss_(loss), log_(log), pool_(pool),
-        kernels_(kernels), w(lay, weighted, loss.robust(), !model.has_jacobian()),
+        kernels_(kernels), w(lay, weighted, loss.robust(), !model.has_jacobian(), single && model.single()),
         priors_(priors && !priors->empty() ? priors : nullptr) {}
 
   // The weights from the measurement covariances (none without covx).
@@ -343,22 +371,83 @@ class Steps {
   // J at p (the callback's or by differences), weighted and reweighted as the residual is,
   // and its normal equations U_j, V_i, e_a, e_b.
   bool linearize(double *p, const char *where) {
-    if (model_.has_jacobian())
-      model_.jacobian(p, w.jac.data());
-    else
-      model_.fd_jacobian(p, w.hx.data(), w.jac.data());
-    if (wts_) weight_jacobian(pool_, lay_, wts_, w.jac.data());
-    if (loss_.robust())
-      reweight(pool_, lay_, w.rw.data(), w.e.data(), w.jac.data(), w.er.data());
-    if (lay_.cams.any_held()) zero_held_columns(pool_, lay_, w.jac.data());
-    kernels_.normal_equations(pool_, w.jac.data(), loss_.robust() ? w.er.data() : w.e.data(),
-                              w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
+    if (w.jac32.empty()) {
+      if (model_.has_jacobian())
+        model_.jacobian(p, w.jac.data());
+      else
+        model_.fd_jacobian(p, w.hx.data(), w.jac.data());
+      if (wts_) weight_jacobian(pool_, lay_, wts_, w.jac.data());
+      if (loss_.robust()) reweight(pool_, lay_, w.rw.data(), w.e.data(), w.jac.data(), w.er.data());
+      if (lay_.cams.any_held()) zero_held_columns(pool_, lay_, w.jac.data());
+      kernels_.normal_equations(pool_, w.jac.data(), loss_.robust() ? w.er.data() : w.e.data(), w.U.data(),
+                                w.V.data(), w.ea.data(), w.eb.data());
+    } else {
+      linearize_single(p);
+    }
     if (priors_) prior_sq_ = priors_->add_normal_equations(p, w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
     if (!normal_equations_finite(pool_, lay_, w)) {
       log_.error("sba: the Jacobian has a NaN or Inf entry (or overflows)%s", where);
       return false;
     }
     return true;
+  }
+
+  // linearize with the Jacobian stored in single precision. The model hands over each point's
+  // blocks in double; they are weighted, reweighted and held there, give their terms of the
+  // gradient, and only then are rounded to storage. U_j and V_i come from the rounded blocks,
+  // but e_a and e_b, which say where the minimum is, from the blocks in double: the solve
+  // then stops at the minimum of the problem, not of its rounded linearization.
+  void linearize_single(double *p) {
+    double *ga = w.ga.data();
+    pool_.for_range(i64(w.ga.size()), [ga](i64 b, i64 e) { std::fill(ga + b, ga + e, 0.0); });
+    model_.point_jacobians(p, w.hx.data(), w.chunks.data(), Workspace::kGradientChunks, {take_point, this});
+    kernels_.normal_equations(pool_, w.jac32.data(), loss_.robust() ? w.er.data() : w.e.data(), w.U.data(),
+                              w.V.data(), w.ea.data(), w.eb.data());
+    const int cnp = lay_.cnp, pnp = lay_.pnp;
+    const i64 stride = i64(lay_.m) * cnp;
+    pool_.for_range(lay_.m - lay_.mcon, [&](i64 b, i64 e) {
+      for (i64 q = (b + lay_.mcon) * cnp; q < (e + lay_.mcon) * cnp; ++q) {
+        double s = 0.0;
+        for (int c = 0; c < Workspace::kGradientChunks; ++c) s += w.ga[size_t(c * stride + q)];
+        w.ea[size_t(q)] = s;
+      }
+    });
+    std::copy(w.gb.begin() + i64(lay_.ncon) * pnp, w.gb.end(), w.eb.begin() + i64(lay_.ncon) * pnp);
+  }
+  static void take_point(void *ctx, int chunk, int i, double *blocks) {
+    static_cast<Steps *>(ctx)->take(chunk, i, blocks);
+  }
+  // Point i's blocks in double (chunk c's): see linearize_single.
+  void take(int c, int i, double *blocks) {
+    const int mnp = lay_.mnp, cnp = lay_.cnp, pnp = lay_.pnp, jb = lay_.jblk();
+    const bool robust = loss_.robust();
+    const int r0 = lay_.rowptr[size_t(i)], r1 = lay_.rowptr[size_t(i) + 1];
+    double *ga = w.ga.data() + i64(c) * lay_.m * cnp, *gbi = w.gb.data() + i64(i) * pnp;
+    std::fill_n(gbi, pnp, 0.0);
+    for (int k = r0; k < r1; ++k) {
+      double *Jk = blocks + i64(k - r0) * jb;
+      const int j = lay_.colidx[size_t(k)];
+      if (wts_) weigh_projection(lay_, k, wts_, Jk, w.wscratch.data() + i64(c) * jb);
+      const double *res = w.e.data() + i64(k) * mnp;
+      if (robust) {
+        reweight_projection(lay_, k, w.rw.data(), w.e.data(), Jk, w.er.data());
+        res = w.er.data() + i64(k) * mnp;
+      }
+      if (lay_.cams.any_held()) zero_held_projection(lay_, j, Jk);
+      const double *A = Jk, *B = Jk + mnp * cnp;
+      if (lay_.cam_free(j))
+        for (int a = 0; a < cnp; ++a) {
+          double s = 0.0;
+          for (int r = 0; r < mnp; ++r) s += A[r * cnp + a] * res[r];
+          ga[j * cnp + a] += s;
+        }
+      for (int d = 0; d < pnp; ++d) {
+        double s = 0.0;
+        for (int r = 0; r < mnp; ++r) s += B[r * pnp + d] * res[r];
+        gbi[d] += s;
+      }
+      std::copy_n(Jk, jb, w.jac32.data() + i64(k) * jb);
+    }
   }
 
   // f and the residual at the trial point w.dp (which holds p + dp); its cost in *c.
@@ -413,7 +502,8 @@ bool linearize(const Layout &lay, Model &model, double *p, const double *x, cons
                const Options &opt, const Logger &log, ThreadPool &pool, const Kernels &kernels,
                Linearization *out) {
   const PriorTerms priors(opt.priors, lay);
-  Steps st(lay, model, x, opt.loss, log, pool, kernels, covx != nullptr, &priors);
+  // The covariance is made from a Jacobian in double, whatever the solve stored.
+  Steps st(lay, model, x, opt.loss, log, pool, kernels, covx != nullptr, &priors, false);
   Cost c;
   if (!st.weigh(covx) || !st.start(p, "", &c) || !st.linearize(p, "")) return false;
   Workspace &w = st.w;
@@ -505,8 +595,7 @@ class LevenbergMarquardt {
     if (!st_.linearize(p, where)) return false;
     // Stop 1 looks at the gradient in the units of p, whatever the strategy solves in.
     gradient_stats(lay_, w_, &sum_.grad_inf, &maxdiag_);
-    strategy_.linearized(pool_, kernels_, JacobianBlocks{w_.jac.data(), nullptr}, w_.U.data(), w_.V.data(),
-                         w_.ea.data(), w_.eb.data());
+    strategy_.linearized(pool_, kernels_, w_.blocks(), w_.U.data(), w_.V.data(), w_.ea.data(), w_.eb.data());
     maxdiag_ = strategy_.solved_max_diagonal(maxdiag_);
     if (it_ == 0) mu_ = strategy_.initial_damping(opt_.tau, maxdiag_);
     if (sum_.grad_inf <= opt_.eps1) {
@@ -689,7 +778,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   const ModelThreads lend(model, &pool);
   const std::unique_ptr<Kernels> kernels = make_kernels(lay, pool.size());
   const PriorTerms priors(opt.priors, lay);
-  Steps st(lay, model, x, opt.loss, log, pool, *kernels, covx != nullptr, &priors);
+  Steps st(lay, model, x, opt.loss, log, pool, *kernels, covx != nullptr, &priors, opt.single_jacobian);
   std::unique_ptr<StepSolver> solver = make_step_solver(opt.solver, SolveContext{lay, pool, *kernels, opt.schur_analysis.get()});
   if (wrap) solver = wrap(std::move(solver));
   const std::unique_ptr<Strategy> strategy = make_strategy(opt.strategy, lay, opt.eps4);

@@ -29,15 +29,23 @@ void prefault(void *p, std::size_t bytes) {
 #endif
 }
 
-void resize_prefaulted(std::vector<double> &v, std::size_t n) {
+namespace {
+
+template <class T>
+void resize_prefaulted_t(std::vector<T> &v, std::size_t n) {
   // Below a few pages the allocation most likely comes from memory the process has
   // already touched, and the system call would cost more than it saves.
   constexpr std::size_t kMinBytes = 64 * 1024;
-  if (n * sizeof(double) >= kMinBytes && v.capacity() < n) {
+  if (n * sizeof(T) >= kMinBytes && v.capacity() < n) {
     v.reserve(n);
-    prefault(v.data(), n * sizeof(double));
+    prefault(v.data(), n * sizeof(T));
   }
   v.resize(n);
 }
+
+}  // namespace
+
+void resize_prefaulted(std::vector<double> &v, std::size_t n) { resize_prefaulted_t(v, n); }
+void resize_prefaulted(std::vector<float> &v, std::size_t n) { resize_prefaulted_t(v, n); }
 
 }  // namespace sba

@@ -17,6 +17,7 @@ void prefault(void *p, std::size_t bytes);
 
 // v.resize(n) for an empty v, the pages of a large allocation mapped by prefault first.
 void resize_prefaulted(std::vector<double> &v, std::size_t n);
+void resize_prefaulted(std::vector<float> &v, std::size_t n);
 
 }  // namespace sba
 

@@ -157,41 +157,70 @@ class SimpleModel final : public Model {
   }
   bool has_jacobian() const override { return cb_.projac != nullptr; }
   void jacobian(double *p, double *jac) override {
-    const int asz = lay_.mnp * lay_.cnp;
     points([&](int, int i) {
-      for (int k = lay_.rowptr[i]; k < lay_.rowptr[i + 1]; ++k) {
-        const int j = lay_.colidx[k];
-        double *blk = jac + i64(k) * lay_.jblk();
-        cb_.projac(cb_, j, i, aj(p, j), bi(p, i), blk, blk + asz);
-      }
+      for (int k = lay_.rowptr[i]; k < lay_.rowptr[i + 1]; ++k) analytic_block(p, k, i, jac + i64(k) * lay_.jblk());
     });
   }
   // A projection depends only on its own camera and point, so each is differenced against
   // those blocks alone: cnp + pnp proj calls per projection. The perturbations are made in
   // copies of a_j and b_i: other threads may be reading the same camera.
   void fd_jacobian(double *p, const double *hx, double *jac) override {
-    const int mnp = lay_.mnp, cnp = lay_.cnp, pnp = lay_.pnp;
     const size_t T = rows_.size() - 1;
-    std::vector<std::vector<double>> scratch(T, std::vector<double>(size_t(mnp + cnp + pnp)));
+    std::vector<std::vector<double>> scratch(T, std::vector<double>(size_t(lay_.mnp + lay_.cnp + lay_.pnp)));
     points([&](int t, int i) {
-      double *xp = scratch[size_t(t)].data(), *a = xp + mnp, *b = a + cnp;
-      for (int k = lay_.rowptr[i]; k < lay_.rowptr[i + 1]; ++k) {
-        const int j = lay_.colidx[k];
-        if (cnp) std::copy_n(p + lay_.a_off(j), cnp, a);
-        if (pnp) std::copy_n(p + lay_.b_off(i), pnp, b);
-        const double *x0 = hx + i64(k) * mnp;
-        double *blk = jac + i64(k) * lay_.jblk();
-        std::fill(blk, blk + lay_.jblk(), 0.0);
-        if (lay_.cam_free(j))
-          for (int l = 0; l < cnp; ++l) diff_column(j, i, a, b, a + l, x0, xp, blk + l, cnp);
-        if (lay_.pt_free(i))
-          for (int l = 0; l < pnp; ++l)
-            diff_column(j, i, a, b, b + l, x0, xp, blk + mnp * cnp + l, pnp);
-      }
+      for (int k = lay_.rowptr[i]; k < lay_.rowptr[i + 1]; ++k)
+        fd_block(p, hx, k, i, jac + i64(k) * lay_.jblk(), scratch[size_t(t)].data());
     });
+  }
+  bool single() const override { return true; }
+  void point_jacobians(double *p, const double *hx, const i64 *chunks, int nchunks, PointSink sink) override {
+    const int jb = lay_.jblk();
+    int maxtrack = 0;
+    for (int i = 0; i < lay_.n; ++i) maxtrack = std::max(maxtrack, lay_.rowptr[i + 1] - lay_.rowptr[i]);
+    const size_t T = pool_ ? size_t(pool_->size()) : 1;
+    std::vector<std::vector<double>> scratch(
+        T, std::vector<double>(size_t(maxtrack) * size_t(jb) + size_t(lay_.mnp + lay_.cnp + lay_.pnp)));
+    const auto run = [&](int t, i64 c0, i64 c1) {
+      double *blocks = scratch[size_t(t)].data(), *xp = blocks + i64(maxtrack) * jb;
+      for (i64 c = c0; c < c1; ++c)
+        for (i64 i = chunks[c]; i < chunks[c + 1]; ++i) {
+          const int r0 = lay_.rowptr[size_t(i)];
+          for (int k = r0; k < lay_.rowptr[size_t(i) + 1]; ++k) {
+            double *blk = blocks + i64(k - r0) * jb;
+            if (cb_.projac)
+              analytic_block(p, k, int(i), blk);
+            else
+              fd_block(p, hx, k, int(i), blk, xp);
+          }
+          sink.fn(sink.ctx, int(c), int(i), blocks);
+        }
+    };
+    if (pool_)
+      pool_->for_range_t(nchunks, run);
+    else
+      run(0, 0, nchunks);
   }
 
  private:
+  // Projection k's blocks (of point i) into blk, from the callback.
+  void analytic_block(double *p, int k, int i, double *blk) {
+    const int j = lay_.colidx[size_t(k)];
+    cb_.projac(cb_, j, i, aj(p, j), bi(p, i), blk, blk + lay_.mnp * lay_.cnp);
+  }
+  // The same by forward differences from f(p) in hx (xp: mnp + cnp + pnp scratch).
+  void fd_block(double *p, const double *hx, int k, int i, double *blk, double *xp) {
+    const int mnp = lay_.mnp, cnp = lay_.cnp, pnp = lay_.pnp, j = lay_.colidx[size_t(k)];
+    double *a = xp + mnp, *b = a + cnp;
+    if (cnp) std::copy_n(p + lay_.a_off(j), cnp, a);
+    if (pnp) std::copy_n(p + lay_.b_off(i), pnp, b);
+    const double *x0 = hx + i64(k) * mnp;
+    std::fill(blk, blk + lay_.jblk(), 0.0);
+    if (lay_.cam_free(j))
+      for (int l = 0; l < cnp; ++l) diff_column(j, i, a, b, a + l, x0, xp, blk + l, cnp);
+    if (lay_.pt_free(i))
+      for (int l = 0; l < pnp; ++l) diff_column(j, i, a, b, b + l, x0, xp, blk + mnp * cnp + l, pnp);
+  }
+
   double *aj(double *p, int j) const { return lay_.cnp ? p + lay_.a_off(j) : nullptr; }
   double *bi(double *p, int i) const { return lay_.pnp ? p + lay_.b_off(i) : nullptr; }
 

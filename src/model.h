@@ -34,6 +34,21 @@ class Model {
   // Forward-difference Jacobian at p, given hx = f(p); p is not modified. Its evaluations
   // of f are not counted in info[7]: sba 1.6 counts only those of the LM loop.
   virtual void fd_jacobian(double *p, const double *hx, double *jac) = 0;
+  // Single precision (Options::single_jacobian) is for a model that makes the Jacobian
+  // projection by projection, so that no double copy of the whole Jacobian is ever made.
+  virtual bool single() const { return false; }
+  // For such a model: the Jacobian at p point by point in double, by the callback or (without
+  // one) by differences from f(p) in hx (unused with a callback). Chunk c is the points
+  // [chunks[c], chunks[c + 1]), taken in order on one thread; each point's blocks (its
+  // projections' A_ij then B_ij, in measurement order, writable) go to sink.fn(sink.ctx, c, i,
+  // blocks), which may run on several threads at once for different chunks.
+  struct PointSink {
+    void (*fn)(void *ctx, int chunk, int i, double *blocks);
+    void *ctx;
+  };
+  virtual void point_jacobians(double *p, const double *hx, const i64 *chunks, int nchunks, PointSink sink) {
+    (void)p, (void)hx, (void)chunks, (void)nchunks, (void)sink;
+  }
 };
 
 // Lends the solve's pool to the model for the scope of a solve: the model must not keep a

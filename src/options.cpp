@@ -22,6 +22,18 @@ std::string check_loss(const Loss &loss) {
 
 }  // namespace
 
+std::string check_single_jacobian(const Options &opt, const Layout &lay, bool per_projection) {
+  if (!opt.single_jacobian) return "";
+  if (!per_projection)
+    return "single_precision_jacobian needs the simple drivers' per-projection callbacks: an "
+           "expert driver's fjac fills the whole Jacobian in double";
+  if (!lay.cams.per_camera())
+    return "single_precision_jacobian does not work with shared camera parameters (cam_group, "
+           "cam_shared, cam_param_group)";
+  if (opt.solver == LinSolver::LdlAmd) return "single_precision_jacobian does not work with ldl-amd";
+  return "";
+}
+
 bool Options::is_valid(const Layout &lay, const double *p, std::string *error) const {
   if (itmax < 0) {
     *error = "itmax must be >= 0 (got " + std::to_string(itmax) + ")";

@@ -38,6 +38,11 @@ struct Options {
   CameraParamOptions cams;
   PriorOptions priors;  // residuals beside the projections (priors.h); none by default
   double memory_budget = 0;  // bytes "auto" plans within; 0: the machine's (memory_budget())
+  // The Jacobian blocks stored in single precision, every computation on them in double:
+  // half the Jacobian's memory and bandwidth. Needs a model that makes the Jacobian
+  // projection by projection (Model::single), one camera block per camera, and a solver that
+  // reads the blocks through the kernels (not ldl-amd): check_single_jacobian.
+  bool single_jacobian = false;
   // What auto measured of S to choose sparse-chol (its pattern and ordering), which that
   // solver then uses rather than compute again; null otherwise.
   std::shared_ptr<const SchurAnalysis> schur_analysis;
@@ -51,6 +56,11 @@ struct Options {
   // (check_priors). The bindings pass their values through and report this message.
   bool is_valid(const Layout &lay, const double *p, std::string *error) const;
 };
+
+// Why single_jacobian cannot be honoured for the problem lay (its camera map made) with a
+// model that makes the Jacobian projection by projection or not (per_projection); empty if
+// it can, or if it is not asked for.
+std::string check_single_jacobian(const Options &opt, const Layout &lay, bool per_projection);
 
 }  // namespace sba
 

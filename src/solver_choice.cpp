@@ -86,8 +86,8 @@ SolverMemory solver_memory(const SolverShape &s) {
   // projection); with sharing, the map of each camera parameter to its unknown (an int and a
   // flag) and the damping's share of each (a double).
   const double params = camera_params(s);
-  m.common = d * (double(s.observations) * jblk + 2 * nobs + params * s.cnp + point_blocks +
-                  2 * (params + double(s.points) * s.pnp)) +
+  m.common = double(s.jacobian_entry_bytes) * double(s.observations) * jblk +
+             d * (2 * nobs + params * s.cnp + point_blocks + 2 * (params + double(s.points) * s.pnp)) +
              3.0 * sizeof(int) * double(s.observations);
   if (s.shared_params > 0) m.common += params * (d + sizeof(int) + 1);
   // S in full, and the point blocks' inverses where unknowns are shared.

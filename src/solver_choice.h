@@ -53,6 +53,7 @@ struct SolverShape {
   i64 observations = 0;  // visible projections
   i64 points = 0;        // free points
   int cnp = 0, pnp = 0, mnp = 0;
+  int jacobian_entry_bytes = 8;  // 4 with the Jacobian stored in single precision
   // With shared unknowns (0 without): the free cameras' parameters, over which iterative-
   // schur's products run, and the doubles of its preconditioner's matrices, one per cluster
   // of S's blocks (iterative_schur_cluster_doubles). Without sharing, the parameters are the

@@ -92,6 +92,7 @@ Outcome run(const Solve &s, Refinement refinement, int itmax) {
   ext.linsolver = sbacli::linsolver_of(o.linsolver, "eucsbademo", "chol");
   if (!o.strategy.empty()) ext.strategy = o.strategy.c_str();
   ext.nthreads = o.nthreads;
+  ext.single_precision_jacobian = o.single_jacobian;
   // The model's callbacks are re-entrant and walk the index by rows: let the threads share them.
   ext.parallel_callbacks = 1;
   if (!o.loss.empty()) {

@@ -39,6 +39,10 @@ void add_problem_options(std::vector<sbacli::Option> *t, DemoOptions &o) {
                 [&o](const std::string &) { return flag(&o.expert, false); }});
   t->push_back({"expert", "", "use the expert driver (whole-vector callbacks; the default)",
                 [&o](const std::string &) { return flag(&o.expert, true); }});
+  t->push_back({"single-precision-jacobian", "",
+                "store the Jacobian in single precision, half its memory (with --simple; every\n"
+                "computation on it stays in double)",
+                [&o](const std::string &) { return flag(&o.single_jacobian, true); }});
   t->push_back({"numeric-jacobian", "",
                 "finite-difference Jacobian instead of the analytic one; as in sba 1.6's demo, whose\n"
                 "differences see every parameter, no intrinsic or distortion term is then held unless\n"

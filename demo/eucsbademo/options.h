@@ -24,6 +24,7 @@ enum class RefineMode {
 struct DemoOptions {
   RefineMode refine = RefineMode::MotionStructure;
   bool expert = true;           // expert (func/fjac) or simple (proj/projac) driver
+  bool single_jacobian = false;  // the Jacobian stored in single precision (simple driver)
   bool analytic = true;         // analytic Jacobian, or finite differences (fjac/projac NULL)
   int itmax = -1;               // -1: 150 for motion+structure, 100 for motion or structure
   std::array<double, 5> opts{1e-3, 1e-12, 1e-12, 1e-12, 0.0};  // tau, eps1..eps4
