@@ -62,6 +62,7 @@ std::string json_record(const std::string &stamp, const Problem &prob, const Pro
   field("engine", json_string(r.spec.engine == Engine::Sba ? "sba" : "ceres"));
   field("solver", json_string(r.spec.solver));
   field("strategy", r.spec.engine == Engine::Sba ? json_string(r.spec.strategy) : "null");
+  field("jacobian", r.spec.engine == Engine::Sba ? json_string(r.spec.jacobian) : "null");
   field("ceres_tolerances", r.spec.engine == Engine::Ceres ? json_string(r.spec.ceres_tight ? "1e-12" : "default") : "null");
   field("threads", std::to_string(r.spec.threads));
   field("threads_auto", r.spec.auto_threads ? "true" : "false");

@@ -34,6 +34,20 @@ Problem::ExpertFn Problem::fjac() const {
   return euclidean::expert_callbacks(euc->kind(), euclidean::Refinement::MotionStructure).fjac;
 }
 
+namespace {
+
+void bal_proj(int, int, double *a, double *b, double *x, void *) { bal_camera::project(a, b, x); }
+void bal_projac(int, int, double *a, double *b, double *A, double *B, void *) {
+  bal_camera::project_jacobian(a, b, nullptr, A, B);
+}
+
+}  // namespace
+
+euclidean::MotStrCallbacks Problem::simple() const {
+  if (model_kind == ModelKind::Bal) return {bal_proj, bal_projac};
+  return euclidean::motstr_callbacks(euc->kind());
+}
+
 std::vector<int> Problem::held_camera_params() const {
   std::vector<int> held;
   if (model_kind != ModelKind::Eucsba || euc->kind() == euclidean::CameraKind::FixedIntrinsics) return held;

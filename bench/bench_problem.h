@@ -40,6 +40,8 @@ struct Problem {
                             void *adata);
   ExpertFn func() const;
   ExpertFn fjac() const;
+  // The simple drivers' per-projection callbacks of the same model, on the same adata.
+  sbacameras::euclidean::MotStrCallbacks simple() const;
   // Indices of camera parameters held constant by the model (eucsbademo's nccalib/ncdist
   // defaults for varying intrinsics); empty for fixed K and for BAL.
   std::vector<int> held_camera_params() const;

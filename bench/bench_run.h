@@ -26,9 +26,12 @@ struct RunSpec {
   bool avoid_shared_cores = false;  // sba: what the library runs with (flag or environment)
   std::string strategy = "sba";     // sba: the LM strategy
   bool ceres_tight = false;         // Ceres: tolerances 1e-12 instead of its defaults
+  // sba: "double" (the expert driver, as its users call it), "simple" (the simple driver's
+  // per-projection callbacks) or "single" (those, with single_precision_jacobian).
+  std::string jacobian = "double";
   std::string label() const {
     if (engine == Engine::Ceres) return "ceres " + solver + (ceres_tight ? " tight" : "");
-    return "sba " + solver + (strategy == "sba" ? "" : " " + strategy);
+    return "sba " + solver + (strategy == "sba" ? "" : " " + strategy) + (jacobian == "double" ? "" : " " + jacobian);
   }
 };
 

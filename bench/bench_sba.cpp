@@ -76,9 +76,16 @@ void run_sba(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunRes
   // The visibility as (point, camera) pairs: no n*m vmask needed (see Problem::vmask).
   const sba_visibility vis{static_cast<long long>(prob.obs_point.size()), prob.obs_point.data(),
                            prob.obs_camera.data()};
-  const int ret = sba_motstr_levmar_x_vis(prob.n, 0, prob.m, 0, &vis, p.data(), prob.cnp, Problem::pnp,
-                                          prob.x.data(), nullptr, Problem::mnp, prob.func(), prob.fjac(),
-                                          prob.adata(), itmax, 0, nullptr, info.data(), &ext);
+  ext.single_precision_jacobian = spec.jacobian == "single";
+  const sbacameras::euclidean::MotStrCallbacks simple = prob.simple();
+  const int ret =
+      spec.jacobian == "double"
+          ? sba_motstr_levmar_x_vis(prob.n, 0, prob.m, 0, &vis, p.data(), prob.cnp, Problem::pnp, prob.x.data(),
+                                    nullptr, Problem::mnp, prob.func(), prob.fjac(), prob.adata(), itmax, 0, nullptr,
+                                    info.data(), &ext)
+          : sba_motstr_levmar_vis(prob.n, 0, prob.m, 0, &vis, p.data(), prob.cnp, Problem::pnp, prob.x.data(),
+                                  nullptr, Problem::mnp, simple.proj, simple.projac, prob.adata(), itmax, 0, nullptr,
+                                  info.data(), &ext);
   r->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r->cpu_seconds = process_cpu_seconds() - cpu0;
   r->peak_rss = status_kb("VmHWM") * 1024;

@@ -65,6 +65,7 @@ struct Options {
   std::string cams, pts, calib, bal, gen, name;
   std::vector<std::string> solvers{"chol"};
   std::vector<std::string> strategies{"sba"};
+  std::vector<std::string> jacobians{"double"};
   std::vector<std::string> ceres{"dense", "sparse"};
   bool ceres_tight = false;  // --ceres-tight
   std::vector<int> threads;
@@ -134,6 +135,19 @@ std::vector<sbacli::Option> option_table(Options &o, std::string *threads) {
                  }
                  if (names.empty()) return "expected strategy names, comma-separated";
                  o.strategies = names;
+                 return {};
+               }});
+  t.push_back({"jacobian", "LIST",
+               "how sba gets and stores the Jacobian, comma-separated (default double): double (the\n"
+               "expert driver), simple (the simple driver, per projection), single (the simple\n"
+               "driver with the Jacobian stored in single precision)",
+               [&o](const std::string &v) -> std::string {
+                 std::vector<std::string> names = split(v);
+                 for (const std::string &item : names)
+                   if (item != "double" && item != "simple" && item != "single")
+                     return "'" + item + "': expected double, simple or single";
+                 if (names.empty()) return "expected double, simple or single, comma-separated";
+                 o.jacobians = names;
                  return {};
                }});
   t.push_back({"ceres", "LIST",
@@ -336,7 +350,11 @@ std::vector<RunSpec> make_specs(const Options &o) {
     const bool all = o.threads_auto[k] != 0;
     const int bt = o.blas_same && blas_settable ? t : 0;
     for (const std::string &s : o.solvers)
-      for (const std::string &st : o.strategies) specs.push_back({Engine::Sba, s, t, all, bt, avoid, st});
+      for (const std::string &st : o.strategies)
+        for (const std::string &jac : o.jacobians) {
+          specs.push_back({Engine::Sba, s, t, all, bt, avoid, st});
+          specs.back().jacobian = jac;
+        }
     for (const std::string &c : o.ceres) {
       const char *name = c == "dense" ? "DENSE_SCHUR" : c == "sparse" ? "SPARSE_SCHUR" : "ITERATIVE_SCHUR";
       specs.push_back({Engine::Ceres, name, t, all, bt, false, "", o.ceres_tight});
