@@ -1148,8 +1148,8 @@ TEST(Eucsbademo, TrustRegionReachesThePublishedMinimaInFewerIterations) {
 
 // --single-precision-jacobian (the simple driver's Jacobian stored in single precision) with
 // the trust region reaches the published minima of the 54-camera sets, with the Jacobian by
-// differences, a robust loss and fixed cameras and points too; 1.6's strategy reaches that of
-// the fixed-K set. With the expert driver the run fails, with the library's reason.
+// differences, a robust loss and fixed cameras and points too, and the motion-only and
+// structure-only minima; 1.6's strategy reaches that of the fixed-K set. With the expert driver the run fails, with the library's reason.
 TEST(Eucsbademo, SinglePrecisionJacobianReachesThePublishedMinima) {
   REQUIRE_DEMO_DATA();
   struct Case {
@@ -1167,7 +1167,9 @@ TEST(Eucsbademo, SinglePrecisionJacobianReachesThePublishedMinima) {
                         Case{k54camsvarKD, kDistortionBanner, "0.128779", tr},
                         Case{k54cams, kFixedBanner, "0.176473", with({"--numeric-jacobian"})},
                         Case{k54cams, kFixedBanner, "0.182322", with({"--mcon=3", "--ncon=20"})},
-                        Case{k54cams, kFixedBanner, "0.176473", {"--simple", "--single-precision-jacobian"}}}) {
+                        Case{k54cams, kFixedBanner, "0.176473", {"--simple", "--single-precision-jacobian"}},
+                        Case{k54cams, kFixedBanner, "1.89375", with({"--refine=mot"})},
+                        Case{k54cams, kFixedBanner, "0.406279", with({"--refine=str"})}}) {
     SCOPED_TRACE(c.problem.name + (" " + c.options.back()));
     Summary s;
     const DemoRun r = run_problem(c.problem, c.options);
