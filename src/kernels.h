@@ -144,10 +144,9 @@ class Kernels {
   virtual void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv,
                                double mu, double *dp) const = 0;
   // A_ij *= diag(s_j) and B_ij *= diag(s_i) for every projection (s: a scale per variable, in
-  // the layout's order): the Jacobian in variables scaled by s.
-  virtual void scale_jacobian(ThreadPool &pool, const double *s, double *jac) const = 0;
-  // The same on single-precision blocks: each product rounded to float.
-  virtual void scale_jacobian(ThreadPool &pool, const double *s, float *jac) const = 0;
+  // the layout's order): the Jacobian in variables scaled by s. Single-precision blocks get
+  // each product rounded to float.
+  virtual void scale_jacobian(ThreadPool &pool, const double *s, JacobianBlocks jac) const = 0;
 };
 
 // Kernels for the layout's block sizes, with the assembly split over `threads` threads.

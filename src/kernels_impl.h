@@ -440,11 +440,13 @@ class KernelsT final : public Kernels {
         split_.size() == 2);
   }
 
-  void scale_jacobian(ThreadPool &pool, const double *s, double *jac) const override {
-    pool.for_range(lay_.n, [&](i64 b, i64 e) { scale_points(s, jac, b, e); });
-  }
-  void scale_jacobian(ThreadPool &pool, const double *s, float *jac) const override {
-    pool.for_range(lay_.n, [&](i64 b, i64 e) { scale_points(s, jac, b, e); });
+  void scale_jacobian(ThreadPool &pool, const double *s, JacobianBlocks jac) const override {
+    pool.for_range(lay_.n, [&](i64 b, i64 e) {
+      if (jac.jac32)
+        scale_points(s, jac.jac32, b, e);
+      else
+        scale_points(s, jac.jac, b, e);
+    });
   }
 
   void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,

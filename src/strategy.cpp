@@ -187,10 +187,7 @@ class TrustRegion final : public Strategy {
       }
     });
     // The Jacobian blocks the solvers read (W_ij = A_ij^T B_ij).
-    if (jac.jac32)
-      kernels.scale_jacobian(pool, s, jac.jac32);
-    else
-      kernels.scale_jacobian(pool, s, jac.jac);
+    kernels.scale_jacobian(pool, s, jac);
   }
 
   // On the scaled system the curvature is 1 in every well-seen direction, and 1.6's rule

@@ -299,8 +299,8 @@ TEST_P(KernelsLayout, SinglePrecisionBlocksGiveTheBitsOfTheirWidenedValues) {
     for (size_t q = 0; q < s.size(); ++q) s[q] = 0.5 + std::sin(double(q));
     std::vector<float> scaled32 = j32;
     std::vector<double> scaled = widened;
-    kernels->scale_jacobian(pool, s.data(), scaled32.data());
-    kernels->scale_jacobian(pool, s.data(), scaled.data());
+    kernels->scale_jacobian(pool, s.data(), sba::JacobianBlocks{nullptr, scaled32.data()});
+    kernels->scale_jacobian(pool, s.data(), sba::JacobianBlocks{scaled.data(), nullptr});
     i64 differ = 0;
     for (size_t q = 0; q < scaled.size(); ++q) differ += scaled32[q] != static_cast<float>(scaled[q]);
     EXPECT_EQ(differ, 0);
