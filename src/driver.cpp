@@ -108,6 +108,12 @@ bool validate_and_lay_out(const DriverArgs &a, const sba_ext_options &ext, const
   if (msg.empty()) options_from(a, ext, env, log, opt, &msg);
   if (msg.empty()) msg = extra();
   if (msg.empty()) make_layout(a, *lay, &msg);
+  // The index's val array is for the expert callbacks alone (their idxij): 4 bytes per
+  // projection that a simple driver's solve does without.
+  if (msg.empty() && a.callbacks.simple) {
+    std::vector<int>().swap(lay->val);
+    lay->idx.val = nullptr;
+  }
   if (msg.empty()) opt->is_valid(*lay, a.p, &msg);
   if (msg.empty()) {
     lay->cams = make_camera_map(opt->cams, *lay);
@@ -130,6 +136,7 @@ bool resolve_auto(const DriverArgs &a, const Layout &lay, const Logger &log, Opt
   const MemoryBudget budget = memory_budget(opt->memory_budget);
   SolverShape shape = shape_of(lay, budget.bytes);
   if (opt->single_jacobian) shape.jacobian_entry_bytes = int(sizeof(float));
+  shape.expert_index = !a.callbacks.simple;  // as validate_and_lay_out keeps it
   opt->solver = choose_linsolver(shape);
   if (opt->solver == LinSolver::SparseChol) opt->schur_analysis = shape.analysis;
   const double needs = solver_bytes(shape, opt->solver);

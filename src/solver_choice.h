@@ -54,6 +54,7 @@ struct SolverShape {
   i64 points = 0;        // free points
   int cnp = 0, pnp = 0, mnp = 0;
   int jacobian_entry_bytes = 8;  // 4 with the Jacobian stored in single precision
+  bool expert_index = true;      // the index's val array, kept for the expert callbacks
   // With shared unknowns (0 without): the free cameras' parameters, over which iterative-
   // schur's products run, and the doubles of its preconditioner's matrices, one per cluster
   // of S's blocks (iterative_schur_cluster_doubles). Without sharing, the parameters are the
