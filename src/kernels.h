@@ -120,9 +120,10 @@ class Kernels {
   // Jacobian and residual. U and V get their full (mirrored) blocks.
   virtual void normal_equations(ThreadPool &pool, const double *jac, const double *e, double *U,
                                 double *V, double *ea, double *eb) const = 0;
-  // The same from single-precision blocks: the bits of the above on the blocks widened.
-  virtual void normal_equations(ThreadPool &pool, const float *jac, const double *e, double *U,
-                                double *V, double *ea, double *eb) const = 0;
+  // U_j and V_i alone from single-precision blocks: the bits of the above on the blocks
+  // widened. Their gradient is not formed here: it is made from the blocks in double, before
+  // they were rounded (lm_core.cpp).
+  virtual void normal_matrices(ThreadPool &pool, const float *jac, double *U, double *V) const = 0;
   // Vinv_i = (V_i + mu I)^-1 for the free points; false if one is singular. V_i + mu I is
   // positive definite but on the retries of sba 1.6's strategy (strategy.cpp), where it may be
   // indefinite and is inverted all the same, as 1.6 does.

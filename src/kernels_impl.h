@@ -10,6 +10,7 @@
 #include <cmath>
 #ifdef __AVX__
 #include <immintrin.h>
+#include <type_traits>
 #endif
 
 #include "column_split.h"
@@ -280,23 +281,27 @@ inline __attribute__((always_inline)) void rhs_update(int n, int pn, const doubl
 
 // G += X^T X and g += X^T e for one projection's mnp x n block X (row-major): the
 // contribution of one measurement to U_j, e_a,j (X = A_ij) or to V_i, e_b,i (X = B_ij).
-template <int M, int N>
+// Without the gradient (Grad false) e and g are not read: the gradient of single-precision
+// blocks is made in double before they are rounded (lm_core.cpp).
+template <int M, int N, bool Grad = true>
 inline __attribute__((always_inline)) void gram_update(int mn, int n, const double *X,
                                                        const double *e, double *G, double *g) {
 #if defined(__AVX2__) && defined(__FMA__)
   if constexpr (M == 2 && N > 0) {
     // As below; the compiler contracts s0 x0 + s1 x1 to fma(s0, x0, s1 x1).
     const Row<N> x0 = Row<N>::load(X), x1 = Row<N>::load(X + N);
-    Row<N> t = Row<N>::mul(e[1], x1);
-    t.fmadd(e[0], x0);
-    Row<N> acc = Row<N>::load(g);
-    acc.add(t);
-    acc.store(g);
+    if constexpr (Grad) {
+      Row<N> t = Row<N>::mul(e[1], x1);
+      t.fmadd(e[0], x0);
+      Row<N> acc = Row<N>::load(g);
+      acc.add(t);
+      acc.store(g);
+    }
 #pragma GCC unroll 16
     for (int a = 0; a < N; ++a) {
-      t = Row<N>::mul(X[N + a], x1);
+      Row<N> t = Row<N>::mul(X[N + a], x1);
       t.fmadd(X[a], x0);
-      acc = Row<N>::load(G + a * N);
+      Row<N> acc = Row<N>::load(G + a * N);
       acc.add(t);
       acc.store(G + a * N);
     }
@@ -308,8 +313,10 @@ inline __attribute__((always_inline)) void gram_update(int mn, int n, const doub
     double x0[N], x1[N];
 #pragma GCC unroll 16
     for (int c = 0; c < N; ++c) x0[c] = X[c], x1[c] = X[N + c];
+    if constexpr (Grad) {
 #pragma GCC unroll 16
-    for (int c = 0; c < N; ++c) g[c] += e[0] * x0[c] + e[1] * x1[c];
+      for (int c = 0; c < N; ++c) g[c] += e[0] * x0[c] + e[1] * x1[c];
+    }
 #pragma GCC unroll 16
     for (int a = 0; a < N; ++a) {
       const double s0 = x0[a], s1 = x1[a];
@@ -320,7 +327,8 @@ inline __attribute__((always_inline)) void gram_update(int mn, int n, const doub
   } else {
     for (int r = 0; r < mn; ++r) {
       const double *x = X + r * n;
-      for (int c = 0; c < n; ++c) g[c] += e[r] * x[c];
+      if constexpr (Grad)
+        for (int c = 0; c < n; ++c) g[c] += e[r] * x[c];
       for (int a = 0; a < n; ++a)
         for (int c = 0; c < n; ++c) G[a * n + c] += x[a] * x[c];
     }
@@ -413,9 +421,8 @@ class KernelsT final : public Kernels {
                         double *ea, double *eb) const override {
     gram(pool, jac, e, U, V, ea, eb);
   }
-  void normal_equations(ThreadPool &pool, const float *jac, const double *e, double *U, double *V,
-                        double *ea, double *eb) const override {
-    gram(pool, jac, e, U, V, ea, eb);
+  void normal_matrices(ThreadPool &pool, const float *jac, double *U, double *V) const override {
+    gram(pool, jac, nullptr, U, V, nullptr, nullptr);
   }
 
   bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const override {
@@ -481,14 +488,16 @@ class KernelsT final : public Kernels {
   // (point by point), taking those of these cameras, so the Jacobian is streamed rather than
   // visited camera by camera, and every U_j still adds its terms in ascending point order,
   // the same for any number of threads. U_j[a][c] and U_j[c][a] get the same products in
-  // the same order, so U_j comes out exactly symmetric.
+  // the same order, so U_j comes out exactly symmetric. Blocks in single precision give U_j
+  // alone (normal_matrices).
   template <class J>
   __attribute__((noinline)) void gram_cameras(const J *jac, const double *e, double *U, double *ea,
                                               int j0, int j1, Scratch *sc, double *wide) const {
+    constexpr bool grad = std::is_same_v<J, double>;
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), jb = lay.jblk();
-    const i64 nu = i64(j1 - j0) * cn * cn, nea = i64(j1 - j0) * cn;
-    double *Uo = U + i64(j0) * cn * cn, *eao = ea + i64(j0) * cn;
+    const i64 nu = i64(j1 - j0) * cn * cn, nea = grad ? i64(j1 - j0) * cn : 0;
+    double *Uo = U + i64(j0) * cn * cn, *eao = grad ? ea + i64(j0) * cn : nullptr;
     double *Ut = sc ? align_to_line(sc->gram.data()) : Uo;
     double *eat = sc ? Ut + nu : eao;
     std::fill(Ut, Ut + nu, 0.0);
@@ -500,7 +509,10 @@ class KernelsT final : public Kernels {
       const int j = colidx[k];
       if (j < j0 || j >= j1) continue;
       const double *A = widened<M * C>(jac + k * jb, mn * cn, wide);
-      gram_update<M, C>(mn, cn, A, e + k * mn, Ut + i64(j - j0) * cn * cn, eat + i64(j - j0) * cn);
+      if constexpr (grad)
+        gram_update<M, C>(mn, cn, A, e + k * mn, Ut + i64(j - j0) * cn * cn, eat + i64(j - j0) * cn);
+      else
+        gram_update<M, C, false>(mn, cn, A, nullptr, Ut + i64(j - j0) * cn * cn, nullptr);
     }
     if (sc) {
       std::copy(Ut, Ut + nu, Uo);
@@ -527,22 +539,26 @@ class KernelsT final : public Kernels {
     }
   }
 
-  // V_i and e_b,i for the points [i0, i1).
+  // V_i and e_b,i for the points [i0, i1) (V_i alone from single-precision blocks).
   template <class J>
   __attribute__((noinline)) void gram_points(const J *jac, const double *e, double *V, double *eb,
                                              i64 i0, i64 i1, double *wide) const {
+    constexpr bool grad = std::is_same_v<J, double>;
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
     const int *rowptr = lay.rowptr.data();
     double wl[M * P > 0 ? M * P : 1];
     if (M * P > 0) wide = wl;
     for (i64 i = i0; i < i1; ++i) {
-      double *__restrict Vi = V + i * pn * pn, *__restrict ebi = eb + i * pn;
+      double *__restrict Vi = V + i * pn * pn, *__restrict ebi = grad ? eb + i * pn : nullptr;
       std::fill(Vi, Vi + pn * pn, 0.0);
-      std::fill(ebi, ebi + pn, 0.0);
+      if constexpr (grad) std::fill(ebi, ebi + pn, 0.0);
       for (int k = rowptr[i]; k < rowptr[i + 1]; ++k) {
         const double *B = widened<M * P>(jac + i64(k) * jb + mn * cn, mn * pn, wide);
-        gram_update<M, P>(mn, pn, B, e + i64(k) * mn, Vi, ebi);
+        if constexpr (grad)
+          gram_update<M, P>(mn, pn, B, e + i64(k) * mn, Vi, ebi);
+        else
+          gram_update<M, P, false>(mn, pn, B, nullptr, Vi, nullptr);
       }
     }
   }

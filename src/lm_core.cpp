@@ -401,8 +401,7 @@ class Steps {
     double *ga = w.ga.data();
     pool_.for_range(i64(w.ga.size()), [ga](i64 b, i64 e) { std::fill(ga + b, ga + e, 0.0); });
     model_.point_jacobians(p, w.hx.data(), w.chunks.data(), Workspace::kGradientChunks, {take_point, this});
-    kernels_.normal_equations(pool_, w.jac32.data(), loss_.robust() ? w.er.data() : w.e.data(), w.U.data(),
-                              w.V.data(), w.ea.data(), w.eb.data());
+    kernels_.normal_matrices(pool_, w.jac32.data(), w.U.data(), w.V.data());
     const int cnp = lay_.cnp, pnp = lay_.pnp;
     const i64 stride = i64(lay_.m) * cnp;
     pool_.for_range(lay_.m - lay_.mcon, [&](i64 b, i64 e) {

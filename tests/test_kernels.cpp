@@ -273,13 +273,18 @@ TEST_P(KernelsLayout, SinglePrecisionBlocksGiveTheBitsOfTheirWidenedValues) {
     SCOPED_TRACE("threads " + std::to_string(threads));
     sba::ThreadPool pool(threads);
     const auto kernels = sba::make_kernels(f.lay, pool.size());
-    // The normal equations and the step of mu 0.5, from jac or from jac32.
+    // The normal equations and the step of mu 0.5, from jac or from jac32. From jac32 the
+    // kernels make U and V alone; e_a and e_b are those of the widened blocks, as the solve
+    // makes them from the blocks before rounding.
     const auto run = [&](const double *jac, const float *jac32, bool stored) {
       std::vector<double> U(f.U.size()), V(f.V.size()), ea(f.ea.size()), eb(f.eb.size()), Vinv(f.V.size());
-      if (jac32)
-        kernels->normal_equations(pool, jac32, f.e.data(), U.data(), V.data(), ea.data(), eb.data());
-      else
+      if (jac32) {
+        std::vector<double> U2(U.size()), V2(V.size());
+        kernels->normal_equations(pool, widened.data(), f.e.data(), U2.data(), V2.data(), ea.data(), eb.data());
+        kernels->normal_matrices(pool, jac32, U.data(), V.data());
+      } else {
         kernels->normal_equations(pool, jac, f.e.data(), U.data(), V.data(), ea.data(), eb.data());
+      }
       EXPECT_TRUE(kernels->invert_damped_V(pool, V.data(), 0.5, Vinv.data()));
       const sba::NormalEquations ne{jac, U.data(), V.data(), ea.data(), eb.data(), jac32};
       const DenseStep step(pool, *kernels, f.lay, ne, stored ? Vinv.data() : nullptr, 0.5);
