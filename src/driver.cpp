@@ -136,7 +136,9 @@ bool resolve_auto(const DriverArgs &a, const Layout &lay, const Logger &log, Opt
   const MemoryBudget budget = memory_budget(opt->memory_budget);
   SolverShape shape = shape_of(lay, budget.bytes);
   if (opt->single_jacobian) shape.jacobian_entry_bytes = int(sizeof(float));
-  shape.expert_index = !a.callbacks.simple;  // as validate_and_lay_out keeps it
+  // As lm_core.cpp's Workspace and validate_and_lay_out keep them.
+  shape.residual_kept = !(opt->single_jacobian && a.callbacks.per_projection.projac);
+  shape.expert_index = !a.callbacks.simple;
   opt->solver = choose_linsolver(shape);
   if (opt->solver == LinSolver::SparseChol) opt->schur_analysis = shape.analysis;
   const double needs = solver_bytes(shape, opt->solver);

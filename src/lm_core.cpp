@@ -54,15 +54,24 @@ struct Workspace {
   // the LM loop needs e(p) again only after a step is accepted, when e(p + dp) takes its
   // place anyway. A robust loss keeps both, since the outlier count is made from the
   // residual at the last accepted point.
-  // single: the Jacobian in single precision (Options::single_jacobian).
-  Workspace(const Layout &lay, bool weighted, bool robust, bool keep_hx, bool single) {
+  // single: the Jacobian in single precision (Options::single_jacobian). With the model's
+  // Jacobian (not by differences) it is also `streamed`: nothing is kept per projection but
+  // the blocks. An evaluation sums the cost point by point, and the linearization has the
+  // model make f(p) again beside each point's blocks (one more projection per Jacobian block,
+  // for the 16 bytes per observation of the residual; with a robust loss, 56).
+  Workspace(const Layout &lay, bool weighted, bool robust, bool keep_hx, bool single)
+      : streamed(single && !keep_hx) {
     const i64 nobs = lay.nvis * lay.mnp;
     const auto alloc = [](std::vector<double> &v, i64 n) { resize_prefaulted(v, size_t(n)); };
-    alloc(e, nobs);
-    if (robust) alloc(en, nobs);
+    if (!streamed) alloc(e, nobs);
+    if (robust && !streamed) alloc(en, nobs);
     if (keep_hx) {
       alloc(hx, nobs);
       alloc(hxn, nobs);
+    }
+    if (streamed) {
+      parts.resize(kGradientChunks);
+      alloc(escratch, i64(kGradientChunks) * 2 * lay.mnp);
     }
     if (single) {
       resize_prefaulted(jac32, size_t(lay.nvis * lay.jblk()));
@@ -85,7 +94,7 @@ struct Workspace {
     alloc(V, i64(lay.n) * lay.pnp * lay.pnp);
     alloc(eb, i64(lay.n) * lay.pnp);
     alloc(dp, lay.nvars());
-    if (robust) {
+    if (robust && !streamed) {
       alloc(rw, lay.nvis);
       alloc(rwn, lay.nvis);
       alloc(er, nobs);
@@ -110,6 +119,17 @@ struct Workspace {
   std::vector<float> jac32;
   std::vector<i64> chunks;
   std::vector<double> ga, gb, wscratch;
+  // Streamed: what an evaluation sums over each chunk of points (in the chunk's order, then
+  // the chunks' in theirs, for the same sums on any number of threads), and each chunk's
+  // scratch for a projection's residual.
+  struct ChunkCost {
+    double cost = 0, sq = 0, dist = 0;  // dist: the unweighted reprojection distances
+    i64 outliers = 0;
+    i64 bad = -1;  // the first coordinate of f that is not finite, or -1
+  };
+  const bool streamed;
+  std::vector<ChunkCost> parts;
+  std::vector<double> escratch;
   // With a robust loss: sqrt(rho') per projection at p and at the trial point, and the
   // reweighted residual that the normal equations see.
   std::vector<double> rw, rwn, er;
@@ -143,7 +163,24 @@ struct Cost {
   double cost = 0;  // sum rho(s_k) plus the priors' cost: what LM minimizes
   double sq = 0;    // sum s_k, of the projections
   double proj = 0, prior = 0;  // the cost's two parts (prior: 0 without priors)
+  i64 outliers = 0;  // with a robust loss, s_k beyond its scale (counted by streamed evaluations)
 };
+
+inline double squared(const double *v, int n) {
+  double s = 0.0;
+  for (int r = 0; r < n; ++r) s += v[r] * v[r];
+  return s;
+}
+
+// e_k <- W_ij e_k (w: its upper triangular weight; t: mnp scratch).
+inline void weigh_residual(int mnp, const double *w, double *ek, double *t) {
+  for (int r = 0; r < mnp; ++r) {
+    double s = 0.0;
+    for (int c = r; c < mnp; ++c) s += w[r * mnp + c] * ek[c];
+    t[r] = s;
+  }
+  std::copy(t, t + mnp, ek);
+}
 
 // e = W (x - hx), the (covariance-weighted) residual, and its cost; e may be hx itself. With
 // a robust loss, rw gets sqrt(rho'(s_k)) of every projection k (s_k = ||e_k||^2), the IRLS
@@ -155,16 +192,7 @@ Cost residual(ThreadPool &pool, const Layout &lay, const double *x, const double
     for (i64 q = b * mnp; q < end * mnp; ++q) e[q] = x[q] - hx[q];
     if (wts) {
       std::vector<double> t(static_cast<size_t>(mnp));
-      for (i64 k = b; k < end; ++k) {
-        double *ek = e + k * mnp;
-        const double *w = wts + k * mnp * mnp;
-        for (int r = 0; r < mnp; ++r) {
-          double s = 0.0;
-          for (int c = r; c < mnp; ++c) s += w[r * mnp + c] * ek[c];
-          t[size_t(r)] = s;
-        }
-        std::copy(t.begin(), t.end(), ek);
-      }
+      for (i64 k = b; k < end; ++k) weigh_residual(mnp, wts + k * mnp * mnp, e + k * mnp, t.data());
     }
     if (loss.robust())
       for (i64 k = b; k < end; ++k) {
@@ -187,11 +215,11 @@ Cost residual(ThreadPool &pool, const Layout &lay, const double *x, const double
 // that the normal equations are those of sum rho'_k ||e_k - J_k dp||^2 (gradient exact,
 // Hessian without the second-order term of rho, which can make the system indefinite for
 // redescending losses).
-inline void reweight_projection(const Layout &lay, i64 k, const double *rw, const double *e, double *Jk,
-                                double *er) {
+// r: sqrt(rho'_k); ek: e_k, erk: where er_k goes (may be ek).
+inline void reweight_projection(const Layout &lay, double r, const double *ek, double *Jk, double *erk) {
   const int mnp = lay.mnp, jb = lay.jblk();
-  for (int q = 0; q < jb; ++q) Jk[q] *= rw[k];
-  for (int r = 0; r < mnp; ++r) er[k * mnp + r] = rw[k] * e[k * mnp + r];
+  for (int q = 0; q < jb; ++q) Jk[q] *= r;
+  for (int c = 0; c < mnp; ++c) erk[c] = r * ek[c];
 }
 
 // Projection k's blocks A_ij, B_ij (at Jk) <- W_ij A_ij, W_ij B_ij; t: jblk() scratch.
@@ -226,7 +254,8 @@ inline void zero_held_projection(const Layout &lay, int j, double *Jk) {
 // The three over the whole Jacobian.
 void reweight(ThreadPool &pool, const Layout &lay, const double *rw, const double *e, double *jac, double *er) {
   pool.for_range(lay.nvis, [&](i64 b, i64 end) {
-    for (i64 k = b; k < end; ++k) reweight_projection(lay, k, rw, e, jac + k * lay.jblk(), er);
+    for (i64 k = b; k < end; ++k)
+      reweight_projection(lay, rw[k], e + k * lay.mnp, jac + k * lay.jblk(), er + k * lay.mnp);
   });
 }
 void weight_jacobian(ThreadPool &pool, const Layout &lay, const double *wts, double *jac) {
@@ -267,16 +296,19 @@ double mean_reprojection_error(ThreadPool &pool, const Layout &lay, const double
   return sum / double(lay.nvis);
 }
 
-// 1.6's line at verbose > 0 naming the first projection that is NaN or Inf.
-void report_invalid_projection(const Layout &lay, const double *hx, const Logger &log) {
-  const i64 len = lay.nvis * lay.mnp;
-  i64 q = 0;
-  while (q < len && std::isfinite(hx[q])) ++q;
-  if (q == len) return;
+// 1.6's line at verbose > 0 naming the projection of coordinate q of f, NaN or Inf.
+void report_invalid_coordinate(const Layout &lay, i64 q, const Logger &log) {
   const i64 k = q / lay.mnp;
   const int i = int(std::upper_bound(lay.rowptr.begin(), lay.rowptr.end(), k) - lay.rowptr.begin()) - 1;
   log.legacy(1, "SBA: component %d of the estimated projection of point %d on camera %d is invalid!\n",
              int(q % lay.mnp), i, lay.colidx[size_t(k)]);
+}
+// The same for the first such coordinate of hx, if any.
+void report_invalid_projection(const Layout &lay, const double *hx, const Logger &log) {
+  const i64 len = lay.nvis * lay.mnp;
+  i64 q = 0;
+  while (q < len && std::isfinite(hx[q])) ++q;
+  if (q < len) report_invalid_coordinate(lay, q, log);
 }
 
 // The driver's name in 1.6's lines.
@@ -347,6 +379,14 @@ class Steps {
 
   // f(p) and the residual at the starting point.
   bool start(double *p, const char *where, Cost *c) {
+    if (w.streamed) {
+      if (!stream_cost(p, false, c)) {
+        log_.error("sba: the projection function returned NaN or Inf%s", where);
+        return false;
+      }
+      outliers_ = c->outliers;
+      return add_priors(p, where, c);
+    }
     model_.eval(p, w.f_out());
     if (!all_finite(pool_, w.f_out(), lay_.nvis * lay_.mnp)) {
       log_.error("sba: the projection function returned NaN or Inf%s", where);
@@ -400,7 +440,8 @@ class Steps {
   void linearize_single(double *p) {
     double *ga = w.ga.data();
     pool_.for_range(i64(w.ga.size()), [ga](i64 b, i64 e) { std::fill(ga + b, ga + e, 0.0); });
-    model_.point_jacobians(p, w.hx.data(), w.chunks.data(), Workspace::kGradientChunks, {take_point, this});
+    model_.point_jacobians(p, w.streamed ? nullptr : w.hx.data(), w.chunks.data(), Workspace::kGradientChunks,
+                           {take_point, this});
     kernels_.normal_matrices(pool_, w.jac32.data(), w.U.data(), w.V.data());
     const int cnp = lay_.cnp, pnp = lay_.pnp;
     const i64 stride = i64(lay_.m) * cnp;
@@ -413,13 +454,13 @@ class Steps {
     });
     std::copy(w.gb.begin() + i64(lay_.ncon) * pnp, w.gb.end(), w.eb.begin() + i64(lay_.ncon) * pnp);
   }
-  static void take_point(void *ctx, int chunk, int i, double *blocks) {
-    static_cast<Steps *>(ctx)->take(chunk, i, blocks);
+  static void take_point(void *ctx, int chunk, int i, double *blocks, const double *f) {
+    static_cast<Steps *>(ctx)->take(chunk, i, blocks, f);
   }
-  // Point i's blocks in double (chunk c's): see linearize_single.
-  void take(int c, int i, double *blocks) {
+  // Point i's blocks in double (chunk c's), and when streamed its projections f: see
+  // linearize_single.
+  void take(int c, int i, double *blocks, const double *f) {
     const int mnp = lay_.mnp, cnp = lay_.cnp, pnp = lay_.pnp, jb = lay_.jblk();
-    const bool robust = loss_.robust();
     const int r0 = lay_.rowptr[size_t(i)], r1 = lay_.rowptr[size_t(i) + 1];
     double *ga = w.ga.data() + i64(c) * lay_.m * cnp, *gbi = w.gb.data() + i64(i) * pnp;
     std::fill_n(gbi, pnp, 0.0);
@@ -427,11 +468,7 @@ class Steps {
       double *Jk = blocks + i64(k - r0) * jb;
       const int j = lay_.colidx[size_t(k)];
       if (wts_) weigh_projection(lay_, k, wts_, Jk, w.wscratch.data() + i64(c) * jb);
-      const double *res = w.e.data() + i64(k) * mnp;
-      if (robust) {
-        reweight_projection(lay_, k, w.rw.data(), w.e.data(), Jk, w.er.data());
-        res = w.er.data() + i64(k) * mnp;
-      }
+      const double *res = gradient_residual(c, k, f ? f + i64(k - r0) * mnp : nullptr, Jk);
       if (lay_.cams.any_held()) zero_held_projection(lay_, j, Jk);
       const double *A = Jk, *B = Jk + mnp * cnp;
       if (lay_.cam_free(j))
@@ -449,8 +486,90 @@ class Steps {
     }
   }
 
+  // The residual that projection k's weighted blocks Jk meet in the gradient, Jk reweighted
+  // with a robust loss: e_k made from its projection fk (streamed, in chunk c's scratch), or
+  // the stored one (fk null).
+  const double *gradient_residual(int c, i64 k, const double *fk, double *Jk) {
+    const int mnp = lay_.mnp;
+    if (fk) {
+      double *ek = w.escratch.data() + i64(c) * 2 * mnp;
+      projection_residual(k, fk, ek, ek + mnp);
+      if (loss_.robust()) reweight_projection(lay_, std::sqrt(loss_.weight(squared(ek, mnp))), ek, Jk, ek);
+      return ek;
+    }
+    if (!loss_.robust()) return w.e.data() + k * mnp;
+    reweight_projection(lay_, w.rw[size_t(k)], w.e.data() + k * mnp, Jk, w.er.data() + k * mnp);
+    return w.er.data() + k * mnp;
+  }
+
+  // e_k = W_ij (x_k - f_k) of projection k into ek (t: mnp scratch).
+  void projection_residual(i64 k, const double *fk, double *ek, double *t) const {
+    const int mnp = lay_.mnp;
+    for (int r = 0; r < mnp; ++r) ek[r] = x_[k * mnp + r] - fk[r];
+    if (wts_) weigh_residual(mnp, wts_ + k * mnp * mnp, ek, t);
+  }
+
+  // Streamed: f at p and its cost, point by point, keeping nothing per projection. False if f
+  // is not finite somewhere (said at verbose > 0, as report_invalid_projection does). A trial
+  // point's evaluation says its mean reprojection error at verbose > 1, as evaluate_trial does.
+  bool stream_cost(double *p, bool trial, Cost *c) {
+    std::fill(w.parts.begin(), w.parts.end(), Workspace::ChunkCost{});
+    model_.point_projections(p, w.chunks.data(), Workspace::kGradientChunks, {cost_point, this});
+    Workspace::ChunkCost sum;
+    for (const Workspace::ChunkCost &pc : w.parts) {
+      if (pc.bad >= 0 && sum.bad < 0) sum.bad = pc.bad;
+      sum.cost += pc.cost;
+      sum.sq += pc.sq;
+      sum.dist += pc.dist;
+      sum.outliers += pc.outliers;
+    }
+    if (trial && log_.verbose() > 1) log_.legacy(2, "mean reprojection error %g\n", sum.dist / double(lay_.nvis));
+    if (sum.bad >= 0) {
+      if (trial && log_.verbose() > 0) report_invalid_coordinate(lay_, sum.bad, log_);
+      return false;
+    }
+    *c = Cost{};
+    c->cost = loss_.robust() ? sum.cost : sum.sq;
+    c->sq = sum.sq;
+    c->outliers = sum.outliers;
+    return true;
+  }
+  static void cost_point(void *ctx, int chunk, int i, double *, const double *f) {
+    static_cast<Steps *>(ctx)->add_cost(chunk, i, f);
+  }
+  // Point i's share of stream_cost, into chunk c's sums.
+  void add_cost(int c, int i, const double *f) {
+    Workspace::ChunkCost &pc = w.parts[size_t(c)];
+    const int mnp = lay_.mnp, d = std::min(mnp, 2), r0 = lay_.rowptr[size_t(i)];
+    double *ek = w.escratch.data() + i64(c) * 2 * mnp;
+    for (int k = r0; k < lay_.rowptr[size_t(i) + 1]; ++k) {
+      const double *fk = f + i64(k - r0) * mnp;
+      for (int r = 0; r < mnp && pc.bad < 0; ++r)
+        if (!std::isfinite(fk[r])) pc.bad = i64(k) * mnp + r;
+      if (log_.verbose() > 1) {  // the unweighted distance of the first two coordinates
+        double s = 0.0;
+        for (int r = 0; r < d; ++r) s += (x_[i64(k) * mnp + r] - fk[r]) * (x_[i64(k) * mnp + r] - fk[r]);
+        pc.dist += std::sqrt(s);
+      }
+      projection_residual(k, fk, ek, ek + mnp);
+      const double s = squared(ek, mnp);
+      pc.sq += s;
+      if (loss_.robust()) {
+        pc.cost += loss_.rho(s);
+        pc.outliers += s > loss_.scale2();
+      }
+    }
+  }
+
   // f and the residual at the trial point w.dp (which holds p + dp); its cost in *c.
   bool evaluate_trial(int it, Cost *c) {
+    if (w.streamed) {
+      if (!stream_cost(w.dp.data(), true, c)) {
+        log_.error("sba: the projection function returned NaN or Inf at iteration %d", it);
+        return false;
+      }
+      return trial_priors(it, c);
+    }
     model_.eval(w.dp.data(), w.fn_out());
     if (log_.verbose() > 1)
       log_.legacy(2, "mean reprojection error %g\n", mean_reprojection_error(pool_, lay_, x_, w.fn_out()));
@@ -460,19 +579,31 @@ class Steps {
       return false;
     }
     *c = residual(pool_, lay_, x_, w.fn_out(), wts_, loss_, w.en_data(), w.rwn.data());
+    return trial_priors(it, c);
+  }
+  bool trial_priors(int it, Cost *c) const {
     if (!priors_) return add_priors(w.dp.data(), "", c);  // no message to word on every trial
     char where[48];
     std::snprintf(where, sizeof where, " at iteration %d", it);
     return add_priors(w.dp.data(), where, c);
   }
 
-  // The trial point becomes the current one.
-  void accept(double *p) {
+  // The trial point, whose cost is c, becomes the current one.
+  void accept(double *p, const Cost &c) {
     const double *pn = w.dp.data();
     pool_.for_range(lay_.nvars(), [&](i64 b, i64 e) { std::copy(pn + b, pn + e, p + b); });
     w.hx.swap(w.hxn);
     if (!w.en.empty()) w.e.swap(w.en);
     w.rw.swap(w.rwn);
+    outliers_ = c.outliers;
+  }
+
+  // With a robust loss, the projections whose s_k at p is beyond the loss's scale.
+  i64 outliers() const {
+    if (w.streamed) return outliers_;
+    i64 n = 0;
+    for (i64 k = 0; k < lay_.nvis; ++k) n += squared(w.e.data() + k * lay_.mnp, lay_.mnp) > loss_.scale2();
+    return n;
   }
 
   // The robustified residual's squared norm (the squared error the normal equations see).
@@ -493,6 +624,7 @@ class Steps {
   const double *wts_ = nullptr;
   const PriorTerms *priors_;
   double prior_sq_ = 0.0;
+  i64 outliers_ = 0;  // streamed: outliers() at p
 };
 
 }  // namespace
@@ -682,7 +814,7 @@ class LevenbergMarquardt {
       return Attempt::kStopped;
     }
     if (strategy_.converged(eps_, epsn)) stop_ = kStopReduction;
-    st_.accept(p);
+    st_.accept(p, cn);
     sum_.moved = true;
     eps_ = epsn;
     sqe_ = cn.sq;
@@ -734,12 +866,7 @@ class LevenbergMarquardt {
   void finish() {
     record(stop_, it_);
     sum_.ok = true;
-    if (opt_.loss.robust())
-      for (i64 k = 0; k < lay_.nvis; ++k) {
-        double sk = 0.0;
-        for (int r = 0; r < lay_.mnp; ++r) sk += w_.e[size_t(k * lay_.mnp + r)] * w_.e[size_t(k * lay_.mnp + r)];
-        sum_.outliers += sk > opt_.loss.scale2();
-      }
+    if (opt_.loss.robust()) sum_.outliers += st_.outliers();
     log_.info(1, "SBA: %d iterations, stop reason %d, final error %g, %g per measurement", it_,
               int(stop_), eps_, eps_ / double(lay_.nvis));
   }

@@ -135,7 +135,7 @@ class ExpertModel final : public Model {
 class SimpleModel final : public Model {
  public:
   SimpleModel(const Layout &lay, const SimpleCallbacks &cb, bool concurrent)
-      : lay_(lay), cb_(cb), concurrent_(concurrent) {}
+      : lay_(lay), cb_(cb), concurrent_(concurrent), maxtrack_(longest_track(lay)) {}
 
   void use_threads(ThreadPool *pool) override {
     pool_ = concurrent_ && pool && pool->size() > 1 ? pool : nullptr;
@@ -174,25 +174,39 @@ class SimpleModel final : public Model {
   }
   bool single() const override { return true; }
   void point_jacobians(double *p, const double *hx, const i64 *chunks, int nchunks, PointSink sink) override {
-    const int jb = lay_.jblk();
-    int maxtrack = 0;
-    for (int i = 0; i < lay_.n; ++i) maxtrack = std::max(maxtrack, lay_.rowptr[i + 1] - lay_.rowptr[i]);
+    by_points(p, hx, chunks, nchunks, sink, true);
+  }
+  void point_projections(double *p, const i64 *chunks, int nchunks, PointSink sink) override {
+    by_points(p, nullptr, chunks, nchunks, sink, false);
+  }
+
+ private:
+  // point_jacobians (blocks) or point_projections: a point's blocks and, without hx, its
+  // projections, made in one thread's scratch and handed to sink.
+  void by_points(double *p, const double *hx, const i64 *chunks, int nchunks, PointSink sink, bool blocks) {
+    const int jb = blocks ? lay_.jblk() : 0, mnp = lay_.mnp;
+    const int fd = lay_.mnp + lay_.cnp + lay_.pnp;
+    const size_t per = size_t(maxtrack_) * size_t(jb + (hx ? 0 : mnp)) + size_t(fd);
     const size_t T = pool_ ? size_t(pool_->size()) : 1;
-    std::vector<std::vector<double>> scratch(
-        T, std::vector<double>(size_t(maxtrack) * size_t(jb) + size_t(lay_.mnp + lay_.cnp + lay_.pnp)));
+    std::vector<std::vector<double>> scratch(T, std::vector<double>(per));
     const auto run = [&](int t, i64 c0, i64 c1) {
-      double *blocks = scratch[size_t(t)].data(), *xp = blocks + i64(maxtrack) * jb;
+      double *blk = scratch[size_t(t)].data(), *f = hx ? nullptr : blk + i64(maxtrack_) * jb;
+      double *xp = blk + i64(maxtrack_) * (jb + (hx ? 0 : mnp));
       for (i64 c = c0; c < c1; ++c)
         for (i64 i = chunks[c]; i < chunks[c + 1]; ++i) {
           const int r0 = lay_.rowptr[size_t(i)];
           for (int k = r0; k < lay_.rowptr[size_t(i) + 1]; ++k) {
-            double *blk = blocks + i64(k - r0) * jb;
+            if (f) {
+              const int j = lay_.colidx[size_t(k)];
+              cb_.proj(cb_, j, int(i), aj(p, j), bi(p, int(i)), f + i64(k - r0) * mnp);
+            }
+            if (!blocks) continue;
             if (cb_.projac)
-              analytic_block(p, k, int(i), blk);
+              analytic_block(p, k, int(i), blk + i64(k - r0) * jb);
             else
-              fd_block(p, hx, k, int(i), blk, xp);
+              fd_block(p, hx, k, int(i), blk + i64(k - r0) * jb, xp);
           }
-          sink.fn(sink.ctx, int(c), int(i), blocks);
+          sink.fn(sink.ctx, int(c), int(i), blocks ? blk : nullptr, f);
         }
     };
     if (pool_)
@@ -201,7 +215,6 @@ class SimpleModel final : public Model {
       run(0, 0, nchunks);
   }
 
- private:
   // Projection k's blocks (of point i) into blk, from the callback.
   void analytic_block(double *p, int k, int i, double *blk) {
     const int j = lay_.colidx[size_t(k)];
@@ -246,9 +259,17 @@ class SimpleModel final : public Model {
     for (int r = 0; r < lay_.mnp; ++r) col[r * stride] = (xp[r] - x0[r]) / d;
   }
 
+  // The most projections of one point: the size of by_points' scratch.
+  static int longest_track(const Layout &lay) {
+    int t = 0;
+    for (int i = 0; i < lay.n; ++i) t = std::max(t, lay.rowptr[size_t(i) + 1] - lay.rowptr[size_t(i)]);
+    return t;
+  }
+
   const Layout &lay_;
   SimpleCallbacks cb_;
   bool concurrent_;
+  int maxtrack_;
   ThreadPool *pool_ = nullptr;
   std::vector<int> rows_{0, 0};
 };

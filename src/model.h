@@ -38,16 +38,23 @@ class Model {
   // projection by projection, so that no double copy of the whole Jacobian is ever made.
   virtual bool single() const { return false; }
   // For such a model: the Jacobian at p point by point in double, by the callback or (without
-  // one) by differences from f(p) in hx (unused with a callback). Chunk c is the points
+  // one) by differences from f(p) in hx (then not null). Chunk c is the points
   // [chunks[c], chunks[c + 1]), taken in order on one thread; each point's blocks (its
   // projections' A_ij then B_ij, in measurement order, writable) go to sink.fn(sink.ctx, c, i,
-  // blocks), which may run on several threads at once for different chunks.
+  // blocks, f), which may run on several threads at once for different chunks. f is the
+  // point's projections f(p) in measurement order, made there by the callback when hx is null
+  // (so that f(p) need not be kept between an evaluation and the linearization), else null.
   struct PointSink {
-    void (*fn)(void *ctx, int chunk, int i, double *blocks);
+    void (*fn)(void *ctx, int chunk, int i, double *blocks, const double *f);
     void *ctx;
   };
   virtual void point_jacobians(double *p, const double *hx, const i64 *chunks, int nchunks, PointSink sink) {
     (void)p, (void)hx, (void)chunks, (void)nchunks, (void)sink;
+  }
+  // f(p) by the same chunks, for a solve that does not keep it: each point's projections go
+  // to sink.fn(sink.ctx, c, i, nullptr, f).
+  virtual void point_projections(double *p, const i64 *chunks, int nchunks, PointSink sink) {
+    (void)p, (void)chunks, (void)nchunks, (void)sink;
   }
 };
 

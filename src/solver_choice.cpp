@@ -81,13 +81,15 @@ SolverMemory solver_memory(const SolverShape &s) {
   const double nobs = double(s.observations) * s.mnp, jblk = double(s.mnp) * (s.cnp + s.pnp);
   const double point_blocks = double(s.points) * s.pnp * s.pnp;
   SolverMemory m;
-  // The Jacobian, the residual and the measurements, the normal equations' blocks (a camera's
-  // cnp x cnp, shared unknowns or not), p and the step, and the index (three ints per
-  // projection, two without the expert callbacks' val); with sharing, the map of each camera
-  // parameter to its unknown (an int and a flag) and the damping's share of each (a double).
+  // The Jacobian, the residual (unless streamed) and the measurements, the normal equations'
+  // blocks (a camera's cnp x cnp, shared unknowns or not), p and the step, and the index
+  // (three ints per projection, two without the expert callbacks' val); with sharing, the map
+  // of each camera parameter to its unknown (an int and a flag) and the damping's share of
+  // each (a double).
   const double params = camera_params(s);
   m.common = double(s.jacobian_entry_bytes) * double(s.observations) * jblk +
-             d * (2 * nobs + params * s.cnp + point_blocks + 2 * (params + double(s.points) * s.pnp)) +
+             d * ((s.residual_kept ? 2 : 1) * nobs + params * s.cnp + point_blocks +
+                  2 * (params + double(s.points) * s.pnp)) +
              (s.expert_index ? 3.0 : 2.0) * sizeof(int) * double(s.observations);
   if (s.shared_params > 0) m.common += params * (d + sizeof(int) + 1);
   // S in full, and the point blocks' inverses where unknowns are shared.

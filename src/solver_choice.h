@@ -54,6 +54,7 @@ struct SolverShape {
   i64 points = 0;        // free points
   int cnp = 0, pnp = 0, mnp = 0;
   int jacobian_entry_bytes = 8;  // 4 with the Jacobian stored in single precision
+  bool residual_kept = true;     // false when the solve streams it (single precision, lm_core.cpp)
   bool expert_index = true;      // the index's val array, kept for the expert callbacks
   // With shared unknowns (0 without): the free cameras' parameters, over which iterative-
   // schur's products run, and the doubles of its preconditioner's matrices, one per cluster

@@ -262,6 +262,49 @@ TEST(Faults, NonFiniteValueAtTheStartLeavesPUntouchedInEveryDriver) {
   }
 }
 
+// With the Jacobian in single precision the simple drivers keep no residual: an evaluation
+// sums the error as proj gives it, and the linearization calls proj again beside projac.
+// A NaN or Inf from proj (mid-way: in an evaluation or in a linearization; at the start) or
+// from projac fails the solve as in double, with p the last accepted estimate; one that throws
+// gives back every allocation.
+TEST(Faults, SpoiledCallbacksWithTheJacobianInSinglePrecision) {
+  sba_ext_options ext;
+  sba_ext_options_init(&ext);
+  ext.single_precision_jacobian = 1;
+  for (Driver d : {Driver::MotStr, Driver::Mot, Driver::Str})
+    for (Sabotage::Kind kind : {Sabotage::NanValue, Sabotage::InfValue, Sabotage::NanJac, Sabotage::ThrowValue})
+      for (long calls : {0L, 3L, 4L}) {
+        SCOPED_TRACE(std::string(name_of(d)) + " fault " + std::to_string(int(kind)) + " after " +
+                     std::to_string(calls));
+        Rig su(d, 60, 5, 0.3, 107);
+        su.sab.kind = kind;
+        su.sab.after = calls * su.pb.nvis;
+        Call c = su.base();
+        c.ext = &ext;
+        testing::internal::CaptureStderr();
+        const long live = g_live_news.load();
+        const int ret = call(d, c, &su.sab);
+        const long after = g_live_news.load();
+        const std::string err = testing::internal::GetCapturedStderr();
+        EXPECT_EQ(after, live) << "allocations not given back";
+        EXPECT_EQ(ret, SBA_ERROR);
+        EXPECT_TRUE(su.sab.fired.load());
+        if (kind == Sabotage::ThrowValue) {
+          EXPECT_NE(err.find("callback failure injected by the test"), std::string::npos) << err;
+          continue;
+        }
+        EXPECT_EQ(su.info[6], 7);
+        EXPECT_NE(err.find("NaN or Inf"), std::string::npos) << err;
+        if (calls == 0 && kind != Sabotage::NanJac) {
+          EXPECT_NE(err.find("initial estimate"), std::string::npos) << err;
+          EXPECT_EQ(su.p, su.p0);
+          continue;
+        }
+        EXPECT_TRUE(all_finite(su.p));
+        EXPECT_NEAR(su.sq_error_of(su.p), su.info[1], 1e-9 * su.info[1]);
+      }
+}
+
 // A C++ callback that throws must not take the caller down with it (nor leak).
 TEST(Faults, ThrowingCallbackIsAnErrorAndFreesEverything) {
   for (Driver d : kAllDrivers)
