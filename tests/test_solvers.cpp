@@ -806,8 +806,10 @@ TEST(CholSolver, ResultsDoNotDependOnTheBlasThreads) {
 namespace {
 
 // Callbacks called concurrently (parallel_callbacks) compute exactly what the serial calls
-// compute: the same bits, for both driver kinds, analytic and finite-difference Jacobians;
-// and they are really called from more than one thread (and only then).
+// compute: the same bits, for both driver kinds, analytic and finite-difference Jacobians,
+// and the simple drivers with the Jacobian in single precision (with a robust loss, whose
+// residuals are then summed and made again chunk by chunk); and they are really called from
+// more than one thread (and only then).
 struct SeenThreads {
   const synth::Problem *pb;
   std::mutex mu;
@@ -836,13 +838,16 @@ void seen_projac(int j, int i, double *a, double *b, double *A, double *B, void 
 
 TEST(ParallelCallbacks, SameBitsAsSerialCallsForEveryDriverKind) {
   synth::Problem pb = synth::make(150, 8, 0.5, 0.05, 42);
-  for (bool simple : {false, true})
+  for (int kind = 0; kind < 3; ++kind)
     for (bool analytic : {true, false}) {
+      const bool simple = kind > 0, single = kind == 2;
       auto run = [&](int threads, int parallel, size_t *nthreads_seen) {
         sba_ext_options ext;
         sba_ext_options_init(&ext);
         ext.nthreads = threads;
         ext.parallel_callbacks = parallel;
+        ext.single_precision_jacobian = single;
+        if (single) ext.loss = "cauchy";
         SeenThreads seen;
         seen.pb = &pb;
         Outcome o;
@@ -860,8 +865,8 @@ TEST(ParallelCallbacks, SameBitsAsSerialCallsForEveryDriverKind) {
         *nthreads_seen = seen.ids.size();
         return o;
       };
-      const char *what = simple ? (analytic ? "simple analytic" : "simple fd")
-                                : (analytic ? "expert analytic" : "expert fd");
+      const std::string what = std::string(!simple ? "expert" : single ? "simple single" : "simple") +
+                               (analytic ? " analytic" : " fd");
       size_t seen = 0;
       const Outcome serial = run(1, 0, &seen);
       ASSERT_GT(serial.ret, 0);
