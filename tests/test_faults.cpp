@@ -262,6 +262,20 @@ TEST(Faults, NonFiniteValueAtTheStartLeavesPUntouchedInEveryDriver) {
   }
 }
 
+// One call of d with its stderr captured and the allocations it did not give back counted.
+struct Captured {
+  int ret;
+  long leaked;
+  std::string err;
+};
+Captured call_counting(Driver d, const Call &c, Rig &su) {
+  testing::internal::CaptureStderr();
+  const long live = g_live_news.load();
+  const int ret = call(d, c, &su.sab);
+  const long leaked = g_live_news.load() - live;
+  return Captured{ret, leaked, testing::internal::GetCapturedStderr()};
+}
+
 // With the Jacobian in single precision the simple drivers keep no residual: an evaluation
 // sums the error as proj gives it, and the linearization calls proj again beside projac.
 // A NaN or Inf from proj (mid-way: in an evaluation or in a linearization; at the start) or
@@ -281,13 +295,10 @@ TEST(Faults, SpoiledCallbacksWithTheJacobianInSinglePrecision) {
         su.sab.after = calls * su.pb.nvis;
         Call c = su.base();
         c.ext = &ext;
-        testing::internal::CaptureStderr();
-        const long live = g_live_news.load();
-        const int ret = call(d, c, &su.sab);
-        const long after = g_live_news.load();
-        const std::string err = testing::internal::GetCapturedStderr();
-        EXPECT_EQ(after, live) << "allocations not given back";
-        EXPECT_EQ(ret, SBA_ERROR);
+        const Captured r = call_counting(d, c, su);
+        const std::string &err = r.err;
+        EXPECT_EQ(r.leaked, 0) << "allocations not given back";
+        EXPECT_EQ(r.ret, SBA_ERROR);
         EXPECT_TRUE(su.sab.fired.load());
         if (kind == Sabotage::ThrowValue) {
           EXPECT_NE(err.find("callback failure injected by the test"), std::string::npos) << err;
@@ -315,14 +326,10 @@ TEST(Faults, ThrowingCallbackIsAnErrorAndFreesEverything) {
       su.sab.after = int(2 * (is_expert(d) ? 1 : su.pb.nvis));
       Call c = su.base();
       c.jac = !fd_jacobian;
-      testing::internal::CaptureStderr();
-      const long live = g_live_news.load();
-      const int ret = call(d, c, &su.sab);
-      const long after = g_live_news.load();
-      const std::string err = testing::internal::GetCapturedStderr();
-      EXPECT_EQ(after, live) << "allocations not given back";
-      EXPECT_EQ(ret, SBA_ERROR);
-      EXPECT_NE(err.find("callback failure injected by the test"), std::string::npos) << err;
+      const Captured r = call_counting(d, c, su);
+      EXPECT_EQ(r.leaked, 0) << "allocations not given back";
+      EXPECT_EQ(r.ret, SBA_ERROR);
+      EXPECT_NE(r.err.find("callback failure injected by the test"), std::string::npos) << r.err;
       EXPECT_TRUE(all_finite(su.p));
     }
 }
