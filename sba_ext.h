@@ -343,11 +343,10 @@ struct sba_ext_options {
    * with the poses) 1.6's strategy may stall above the minimum where the trust region does
    * not (docs/solvers.md). With projac given, the residual is not kept either: each error
    * is summed point by point, and proj is called again beside projac when the Jacobian is
-   * made (the counts of evaluations in info[] are unchanged). Only with the simple drivers (an
-   * expert driver's fjac fills a whole
-   * double Jacobian, which would then exist twice), one block of parameters per camera (no
-   * cam_group, cam_shared or cam_param_group) and a solver other than ldl-amd; otherwise the
-   * call fails (SBA_ERROR). 0 (the default): double, as in 1.6. */
+   * made (calls that info[7] does not count). Only with the simple drivers (an expert
+   * driver's fjac fills a whole double Jacobian, which would then exist twice), one block of
+   * parameters per camera (no cam_group, cam_shared or cam_param_group) and a solver other
+   * than ldl-amd; otherwise the call fails (SBA_ERROR). 0 (the default): double, as in 1.6. */
   int single_precision_jacobian;
 };
 
