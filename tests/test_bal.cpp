@@ -742,6 +742,34 @@ TEST(BalSba, SolvesAndWrites) {
   EXPECT_NE(after.points, before.points);
 }
 
+// --single-precision-jacobian runs the simple driver with the Jacobian in single precision:
+// the same minimum as the expert driver in double (problem-16 with the trust region, where both
+// stop at it), with the evaluations counted per projection as 1.6's simple drivers count them;
+// a solver that cannot take it is refused with the reason, and nothing is written.
+TEST(BalSba, SinglePrecisionJacobianReachesTheSameMinimum) {
+  const std::string path = bal_dir() + "/problem-16-22106-pre.txt.bz2";
+  REQUIRE_FILE(path);
+  const std::string report = temp_path("single-16.json");
+  const Output dbl = run_balsba(path + " --strategy=trust-region");
+  const Output single = run_balsba(path + " --strategy=trust-region --single-precision-jacobian --json " + report);
+  ASSERT_EQ(dbl.status, 0) << dbl.err;
+  ASSERT_EQ(single.status, 0) << single.err;
+  EXPECT_NE(slurp(report).find("\"max_time\": null, \"jacobian\": \"single\"}"), std::string::npos) << slurp(report);
+  for (const Output *o : {&dbl, &single}) {
+    EXPECT_NE(o->out.find("reason 4, error 0.430825 [initial 99.9943]"), std::string::npos) << o->out;
+    EXPECT_NE(o->out.find("final 0.656373 px"), std::string::npos) << o->out;
+  }
+  // 83718 projections: the evaluations of the LM loop, one call of proj per projection each.
+  EXPECT_NE(single.out.find("in 7 iter, reason 4"), std::string::npos) << single.out;
+  EXPECT_NE(single.out.find("669744/586026 func/fjac evals"), std::string::npos) << single.out;
+  const std::string written = temp_path("refused-16.txt");
+  std::remove(written.c_str());
+  const Output refused = run_balsba(path + " --single-precision-jacobian --solver=ldl-amd --write " + written);
+  EXPECT_EQ(refused.status, 1);
+  EXPECT_NE(refused.err.find("ldl-amd"), std::string::npos) << refused.err;
+  EXPECT_FALSE(std::ifstream(written).good());
+}
+
 // A report that cannot be written is a failure, with the reason on stderr, not exit status 0.
 TEST(BalSba, StdoutWriteErrorIsAFailure) {
   Output o = run_balsba("--help", "", "/dev/full");

@@ -53,6 +53,12 @@ struct MotstrInputs {
   // sba_ext_options' prior fields to them (empty: none).
   int npriors = 0;
   std::function<void(sba_ext_options *)> attach_priors;
+  // The same model's per-projection callbacks, on the same adata: with single_jacobian the
+  // solve runs the simple driver (sba_motstr_levmar_vis) with the Jacobian stored in single
+  // precision (sba_ext_options.single_precision_jacobian), which the expert driver refuses.
+  void (*proj)(int j, int i, double *aj, double *bi, double *xij, void *adata) = nullptr;
+  void (*projac)(int j, int i, double *aj, double *bi, double *Aij, double *Bij, void *adata) = nullptr;
+  bool single_jacobian = false;
 };
 
 class MotstrSolve {
@@ -102,9 +108,14 @@ class MotstrSolve {
     control_->attach(&ext);
     const auto start = std::chrono::steady_clock::now();
     const sba_visibility vis{static_cast<long long>(in.vis->size()), in.vis->point.data(), in.vis->camera.data()};
-    ret_ = sba_motstr_levmar_x_vis(in.n, so_.ncon, in.m, so_.mcon, &vis, in.p, in.cnp, in.pnp, in.x, nullptr, 2,
-                                   in.func, in.fjac, in.adata, so_.itmax, so_.verbose, so_.opts.data(), info_.data(),
-                                   &ext);
+    ext.single_precision_jacobian = in.single_jacobian;
+    if (in.single_jacobian)
+      ret_ = sba_motstr_levmar_vis(in.n, so_.ncon, in.m, so_.mcon, &vis, in.p, in.cnp, in.pnp, in.x, nullptr, 2, in.proj,
+                                   in.projac, in.adata, so_.itmax, so_.verbose, so_.opts.data(), info_.data(), &ext);
+    else
+      ret_ = sba_motstr_levmar_x_vis(in.n, so_.ncon, in.m, so_.mcon, &vis, in.p, in.cnp, in.pnp, in.x, nullptr, 2,
+                                     in.func, in.fjac, in.adata, so_.itmax, so_.verbose, so_.opts.data(), info_.data(),
+                                     &ext);
     seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     progress_.finish();
     if (ret_ != SBA_ERROR) return true;
@@ -212,6 +223,7 @@ class MotstrSolve {
     report.priors = in_.npriors;
     report.model = model_;
     report.solver_requested = solver_;
+    report.single_jacobian = in_.single_jacobian;
     if (!std::isnan(mean_initial_)) {
       report.mean_initial = mean_initial_;
       report.mean_final = mean_error_by_point(*in_.vis, in_.x, project);

@@ -151,7 +151,8 @@ bool write_json(const std::string &path, const Report &r, std::string *error,
                        ", \"loss\": " + quoted(r.loss.empty() ? "none" : r.loss) +
                        ", \"loss_scale\": " + number(r.loss_scale) + ", \"mcon\": " + std::to_string(r.mcon) +
                        ", \"ncon\": " + std::to_string(r.ncon) +
-                       ", \"max_time\": " + (r.max_time > 0 ? number(r.max_time) : "null") + "}");
+                       ", \"max_time\": " + (r.max_time > 0 ? number(r.max_time) : "null") +
+                       ", \"jacobian\": " + quoted(r.single_jacobian ? "single" : "double") + "}");
   field("ret", std::to_string(r.ret));
   std::string info = "{";
   for (int k = 0; k < SBA_INFOSZ; ++k) info += std::string(k ? ", " : "") + quoted(kInfoNames[k]) + ": " + number(r.info[k]);

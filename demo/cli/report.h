@@ -50,6 +50,7 @@ struct Report {
   double loss_scale = 1.0;
   int mcon = 0, ncon = 0;
   double max_time = 0;
+  bool single_jacobian = false;  // the Jacobian stored in single precision
   // result
   int ret = SBA_ERROR;
   std::array<double, SBA_INFOSZ> info{};

@@ -450,6 +450,7 @@ sbacli::Report make_report(const DemoOptions &o, const PointSet &points, const O
   report.mcon = o.mcon;
   report.ncon = o.ncon;
   report.max_time = o.max_time;
+  report.single_jacobian = o.single_jacobian;
   report.ret = out.ret;
   report.info = out.info;
   report.result = out.result;
