@@ -34,17 +34,8 @@ Problem::ExpertFn Problem::fjac() const {
   return euclidean::expert_callbacks(euc->kind(), euclidean::Refinement::MotionStructure).fjac;
 }
 
-namespace {
-
-void bal_proj(int, int, double *a, double *b, double *x, void *) { bal_camera::project(a, b, x); }
-void bal_projac(int, int, double *a, double *b, double *A, double *B, void *) {
-  bal_camera::project_jacobian(a, b, nullptr, A, B);
-}
-
-}  // namespace
-
 euclidean::MotStrCallbacks Problem::simple() const {
-  if (model_kind == ModelKind::Bal) return {bal_proj, bal_projac};
+  if (model_kind == ModelKind::Bal) return {bal_camera::motstr_proj, bal_camera::motstr_projac};
   return euclidean::motstr_callbacks(euc->kind());
 }
 

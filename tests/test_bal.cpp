@@ -490,7 +490,8 @@ struct TwoCameraScene {
   void fjac(double *jac) { bal_camera::motstr_fjac(p.data(), &idx, nullptr, nullptr, jac, &data); }
 };
 
-// The callbacks address outputs by idxij.val.
+// The callbacks address outputs by idxij.val. The simple driver's callbacks (balsba
+// --single-precision-jacobian) give each projection the same bits.
 TEST(BalModel, ExpertCallbacksFollowTheMeasurementOrdinals) {
   TwoCameraScene sc;
   double hx[6], jac[3 * 24];
@@ -498,12 +499,18 @@ TEST(BalModel, ExpertCallbacksFollowTheMeasurementOrdinals) {
   sc.fjac(jac);
   const int cams[3] = {0, 1, 1}, pts[3] = {0, 0, 1};
   for (int k = 0; k < 3; ++k) {
-    double x[2], A[18], B[6];
-    bal_camera::project_jacobian(&sc.p[9 * cams[k]], &sc.p[18 + 3 * pts[k]], x, A, B);
+    double x[2], A[18], B[6], xs[2], J[24];
+    double *a = &sc.p[9 * cams[k]], *b = &sc.p[18 + 3 * pts[k]];
+    bal_camera::project_jacobian(a, b, x, A, B);
     EXPECT_EQ(hx[2 * k], x[0]);
     EXPECT_EQ(hx[2 * k + 1], x[1]);
     for (int c = 0; c < 18; ++c) EXPECT_EQ(jac[24 * k + c], A[c]);
     for (int c = 0; c < 6; ++c) EXPECT_EQ(jac[24 * k + 18 + c], B[c]);
+    bal_camera::motstr_proj(cams[k], pts[k], a, b, xs, nullptr);
+    bal_camera::motstr_projac(cams[k], pts[k], a, b, J, J + 18, nullptr);
+    EXPECT_EQ(xs[0], x[0]);
+    EXPECT_EQ(xs[1], x[1]);
+    for (int c = 0; c < 24; ++c) EXPECT_EQ(J[c], jac[24 * k + c]) << k << " " << c;
   }
 }
 

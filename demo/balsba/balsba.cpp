@@ -58,12 +58,6 @@ std::vector<sbacli::Option> option_table(Options &o) {
   return t;
 }
 
-// The BAL model's per-projection callbacks, for --single-precision-jacobian.
-void bal_proj(int, int, double *a, double *b, double *x, void *) { bal_camera::project(a, b, x); }
-void bal_projac(int, int, double *a, double *b, double *A, double *B, void *) {
-  bal_camera::project_jacobian(a, b, nullptr, A, B);
-}
-
 // The points and camera centres of a BAL problem, which has no colors.
 sbaformats::Cloud cloud(const bal::Problem &problem) {
   sbaformats::Cloud c;
@@ -140,8 +134,8 @@ int bal_main(int argc, char **argv) {
   in.x = s.x.data();
   in.func = bal_camera::motstr_func;
   in.fjac = bal_camera::motstr_fjac;
-  in.proj = bal_proj;
-  in.projac = bal_projac;
+  in.proj = bal_camera::motstr_proj;
+  in.projac = bal_camera::motstr_projac;
   in.single_jacobian = o.single_jacobian;
   bal_camera::CallbackData data;
   data.ncameras = s.m;

@@ -230,4 +230,9 @@ void motstr_fjac(double *p, sba_crsm *idx, int *, int *, double *jac, void *adat
   });
 }
 
+void motstr_proj(int, int, double *aj, double *bi, double *xij, void *) { project(aj, bi, xij); }
+void motstr_projac(int, int, double *aj, double *bi, double *Aij, double *Bij, void *) {
+  project_jacobian(aj, bi, nullptr, Aij, Bij);
+}
+
 }  // namespace sbacameras::bal

@@ -47,6 +47,11 @@ struct CallbackData {
 void motstr_func(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata);
 void motstr_fjac(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *jac, void *adata);
 
+// The same model's per-projection callbacks for the simple driver (sba_motstr_levmar's proj and
+// projac): camera a_j and point b_i are handed over, adata is not read.
+void motstr_proj(int j, int i, double *aj, double *bi, double *xij, void *adata);
+void motstr_projac(int j, int i, double *aj, double *bi, double *Aij, double *Bij, void *adata);
+
 }  // namespace sbacameras::bal
 
 #endif  // SBA_LIB_CAMERAS_BAL_CAMERA_H
