@@ -8,9 +8,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 #ifdef __AVX__
 #include <immintrin.h>
-#include <type_traits>
 #endif
 
 #include "column_split.h"
@@ -509,10 +509,8 @@ class KernelsT final : public Kernels {
       const int j = colidx[k];
       if (j < j0 || j >= j1) continue;
       const double *A = widened<M * C>(jac + k * jb, mn * cn, wide);
-      if constexpr (grad)
-        gram_update<M, C>(mn, cn, A, e + k * mn, Ut + i64(j - j0) * cn * cn, eat + i64(j - j0) * cn);
-      else
-        gram_update<M, C, false>(mn, cn, A, nullptr, Ut + i64(j - j0) * cn * cn, nullptr);
+      gram_update<M, C, grad>(mn, cn, A, grad ? e + k * mn : nullptr, Ut + i64(j - j0) * cn * cn,
+                              grad ? eat + i64(j - j0) * cn : nullptr);
     }
     if (sc) {
       std::copy(Ut, Ut + nu, Uo);
@@ -555,10 +553,7 @@ class KernelsT final : public Kernels {
       if constexpr (grad) std::fill(ebi, ebi + pn, 0.0);
       for (int k = rowptr[i]; k < rowptr[i + 1]; ++k) {
         const double *B = widened<M * P>(jac + i64(k) * jb + mn * cn, mn * pn, wide);
-        if constexpr (grad)
-          gram_update<M, P>(mn, pn, B, e + i64(k) * mn, Vi, ebi);
-        else
-          gram_update<M, P, false>(mn, pn, B, nullptr, Vi, nullptr);
+        gram_update<M, P, grad>(mn, pn, B, grad ? e + i64(k) * mn : nullptr, Vi, ebi);
       }
     }
   }
