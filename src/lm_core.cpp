@@ -283,16 +283,18 @@ bool normal_equations_finite(ThreadPool &pool, const Layout &lay, const Workspac
          all_finite(pool, w.eb.data() + lay.ncon * i64(lay.pnp), fp * lay.pnp);
 }
 
-// What sba 1.6 prints at verbose > 1 after each trial point: the mean Euclidean distance
-// between the first two coordinates of the measured and the predicted projections,
-// unweighted.
+// The Euclidean distance between the first two coordinates of a measured projection xk and
+// the predicted fk, unweighted.
+inline double reprojection_distance(const double *xk, const double *fk, int mnp) {
+  double s = 0.0;
+  for (int r = 0; r < std::min(mnp, 2); ++r) s += (xk[r] - fk[r]) * (xk[r] - fk[r]);
+  return std::sqrt(s);
+}
+// What sba 1.6 prints at verbose > 1 after each trial point: the mean of those distances.
 double mean_reprojection_error(ThreadPool &pool, const Layout &lay, const double *x, const double *hx) {
-  const int mnp = lay.mnp, d = std::min(mnp, 2);
-  const double sum = deterministic_sum(pool, lay.nvis, [=](i64 k) {
-    double s = 0.0;
-    for (int r = 0; r < d; ++r) s += (x[k * mnp + r] - hx[k * mnp + r]) * (x[k * mnp + r] - hx[k * mnp + r]);
-    return std::sqrt(s);
-  });
+  const int mnp = lay.mnp;
+  const double sum = deterministic_sum(
+      pool, lay.nvis, [=](i64 k) { return reprojection_distance(x + k * mnp, hx + k * mnp, mnp); });
   return sum / double(lay.nvis);
 }
 
@@ -540,17 +542,13 @@ class Steps {
   // Point i's share of stream_cost, into chunk c's sums.
   void add_cost(int c, int i, const double *f) {
     Workspace::ChunkCost &pc = w.parts[size_t(c)];
-    const int mnp = lay_.mnp, d = std::min(mnp, 2), r0 = lay_.rowptr[size_t(i)];
+    const int mnp = lay_.mnp, r0 = lay_.rowptr[size_t(i)];
     double *ek = w.escratch.data() + i64(c) * 2 * mnp;
     for (int k = r0; k < lay_.rowptr[size_t(i) + 1]; ++k) {
       const double *fk = f + i64(k - r0) * mnp;
       for (int r = 0; r < mnp && pc.bad < 0; ++r)
         if (!std::isfinite(fk[r])) pc.bad = i64(k) * mnp + r;
-      if (log_.verbose() > 1) {  // the unweighted distance of the first two coordinates
-        double s = 0.0;
-        for (int r = 0; r < d; ++r) s += (x_[i64(k) * mnp + r] - fk[r]) * (x_[i64(k) * mnp + r] - fk[r]);
-        pc.dist += std::sqrt(s);
-      }
+      if (log_.verbose() > 1) pc.dist += reprojection_distance(x_ + i64(k) * mnp, fk, mnp);
       projection_residual(k, fk, ek, ek + mnp);
       const double s = squared(ek, mnp);
       pc.sq += s;
