@@ -749,6 +749,29 @@ TEST(BalSba, SolvesAndWrites) {
   EXPECT_NE(after.points, before.points);
 }
 
+// balsba moves its solve's workers off a core another of its threads uses unless
+// SBA_AVOID_SHARED_CORES says otherwise, says so in its report, and solves the same either way.
+TEST(BalSba, ThreadPlacementIsTheProgramsChoice) {
+  const std::string path = bal_dir() + "/problem-49-7776-pre.txt.bz2";
+  REQUIRE_FILE(path);
+  const std::string report = temp_path("placement-49.json");
+  std::string first;
+  for (const auto &[setup, on] : std::vector<std::pair<std::string, bool>>{
+           {"unset SBA_AVOID_SHARED_CORES", true}, {"export SBA_AVOID_SHARED_CORES=0", false}}) {
+    SCOPED_TRACE(setup);
+    const Output o = run_balsba(path + " --itmax 3 --threads 2 --json " + report, setup);
+    ASSERT_EQ(o.status, 0) << o.err;
+    EXPECT_NE(slurp(report).find(std::string("\"threads\": 2, \"avoid_shared_cores\": ") + (on ? "true" : "false")),
+              std::string::npos)
+        << slurp(report);
+    const std::string tail = o.out.substr(o.out.find("SBA returned"));
+    const std::string result = tail.substr(0, tail.find("Elapsed"));
+    if (first.empty()) first = result;
+    EXPECT_EQ(result, first);
+  }
+  EXPECT_NE(first.find("SBA returned 3 in 3 iter"), std::string::npos) << first;
+}
+
 // --single-precision-jacobian runs the simple driver with the Jacobian in single precision:
 // the same minimum as the expert driver in double (problem-16 with the trust region, where both
 // stop at it), with the evaluations counted per projection as 1.6's simple drivers count them;

@@ -1201,6 +1201,37 @@ TEST(Eucsbademo, ThreadsDoNotChangeTheResult) {
   EXPECT_TRUE(same_to_digits(three.error, one.error, 6));
 }
 
+// The program owns its process: its solve's workers move off a core that another of its
+// threads uses, unless SBA_AVOID_SHARED_CORES says otherwise, and the report says which.
+// Where the threads run does not change a bit of the result.
+TEST(Eucsbademo, ThreadPlacementIsTheProgramsChoiceAndLeavesTheResult) {
+  REQUIRE_DEMO_DATA();
+  TempDir dir;
+  const std::string json = dir.file("report.json");
+  // The text from "name": to the end of its value (an object's closing brace, or the next comma).
+  const auto field = [](const std::string &text, const std::string &name) {
+    const size_t at = text.find("\"" + name + "\": ");
+    if (at == std::string::npos) return std::string("(absent)");
+    const size_t value = at + name.size() + 4;
+    return text.substr(at, (text[value] == '{' ? text.find('}', value) + 1 : text.find_first_of(",}", value)) - at);
+  };
+  std::string info;
+  for (const auto &[env, on] : std::vector<std::pair<std::optional<std::string>, bool>>{
+           {std::nullopt, true}, {"0", false}, {"1", true}}) {
+    SCOPED_TRACE(env ? "SBA_AVOID_SHARED_CORES=" + *env : "SBA_AVOID_SHARED_CORES unset");
+    Summary s;
+    const DemoRun r = run_problem(k9cams, {"--threads=2", "--json=" + json}, {{"SBA_AVOID_SHARED_CORES", env}});
+    EXPECT_SUCCESSFUL_RUN(r, kFixedBanner, s);
+    const std::string report = read_text(json);
+    EXPECT_EQ(field(report, "avoid_shared_cores"), std::string("\"avoid_shared_cores\": ") + (on ? "true" : "false"));
+    EXPECT_EQ(field(report, "threads"), "\"threads\": 2");
+    // Every info[] value, the errors to 17 digits, as in the first run.
+    if (info.empty()) info = field(report, "info");
+    EXPECT_NE(info.find("\"final_error\": 1500.57"), std::string::npos) << info;
+    EXPECT_EQ(field(report, "info"), info);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // g. Bad command lines and bad files, through the executable: a non-zero status (1 for files,
 // 2 for the command line), nothing on stdout, one line on stderr naming the file and line.

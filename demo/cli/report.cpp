@@ -147,6 +147,7 @@ bool write_json(const std::string &path, const Report &r, std::string *error,
   field("options", "{\"solver\": " + (r.solver_requested.empty() ? "null" : quoted(r.solver_requested)) +
                        ", \"strategy\": " + (r.strategy_requested.empty() ? "null" : quoted(r.strategy_requested)) +
                        ", \"threads\": " + std::to_string(r.threads_requested) +
+                       ", \"avoid_shared_cores\": " + (r.avoid_shared_cores ? "true" : "false") +
                        ", \"itmax\": " + std::to_string(r.itmax) + ", \"opts\": " + opts + "]" +
                        ", \"loss\": " + quoted(r.loss.empty() ? "none" : r.loss) +
                        ", \"loss_scale\": " + number(r.loss_scale) + ", \"mcon\": " + std::to_string(r.mcon) +

@@ -44,6 +44,7 @@ struct Report {
   std::string solver_requested;  // what was asked ("auto": the library chose); empty: the library's default
   std::string strategy_requested;  // empty: the library's choice
   int threads_requested = 0;     // 0: the library's choice
+  bool avoid_shared_cores = false;  // sba_ext_options.avoid_shared_cores, or the environment's
   int itmax = 0;
   std::array<double, 5> opts{};
   std::string loss;  // empty: least squares

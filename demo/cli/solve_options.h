@@ -60,7 +60,9 @@ inline void add_solve_options(std::vector<Option> *t, SolveOptions &o, const Opt
   t->push_back(strategy_option(&o.strategy, defaults.strategy));
   t->push_back({"threads", "N",
                 "threads; 0 (the default): SBA_NUM_THREADS if set, else every hardware thread, but at\n"
-                "most one per 10,000 observations. The result does not depend on it",
+                "most one per 10,000 observations. The result does not depend on it. A worker that\n"
+                "finds itself on the core of another of them moves to a free core\n"
+                "(SBA_AVOID_SHARED_CORES=0: left to the scheduler)",
                 [&o](const std::string &v) { return to_threads(v, &o.threads); }});
   t->push_back({"itmax", "N",
                 std::string("maximum iterations (") + (defaults.itmax ? defaults.itmax : "default 150") + ")",
@@ -172,6 +174,18 @@ inline const char *linsolver_of(const std::string &given, const char *program, c
   return fallback;
 }
 
+// The programs own their processes, so they make the choice the library leaves to its host
+// (docs/threads.md): a worker that finds itself on the core of another of the solve's threads
+// moves to a core none of them uses. A new thread starts on its creator's core, and on a
+// virtual machine the kernel can keep the two there for much of a short solve. Where
+// SBA_AVOID_SHARED_CORES is set, it decides, as in any host (ext_avoid_shared_cores leaves the
+// option to it).
+inline bool avoids_shared_cores() {
+  const char *env = std::getenv("SBA_AVOID_SHARED_CORES");
+  return !env || std::string(env) == "1";
+}
+inline int ext_avoid_shared_cores() { return std::getenv("SBA_AVOID_SHARED_CORES") ? 0 : 1; }
+
 // The extension options of a solve: solver, strategy, threads, loss, the log sink and the
 // result record. The callbacks must be re-entrant (they are shared by the threads).
 inline void init_ext(const SolveOptions &o, const char *program, LogSink *sink, sba_ext_result *result,
@@ -180,6 +194,7 @@ inline void init_ext(const SolveOptions &o, const char *program, LogSink *sink, 
   ext->linsolver = linsolver_of(o.solver, program, "auto");
   ext->strategy = o.strategy.empty() ? nullptr : o.strategy.c_str();
   ext->nthreads = o.threads;
+  ext->avoid_shared_cores = ext_avoid_shared_cores();
   ext->parallel_callbacks = 1;
   ext->log = log_line;
   ext->log_ctx = sink;
@@ -196,6 +211,7 @@ inline void report_options(const SolveOptions &o, Report *r) {
   r->solver_requested = o.solver;
   r->strategy_requested = o.strategy;
   r->threads_requested = o.threads;
+  r->avoid_shared_cores = avoids_shared_cores();
   r->itmax = o.itmax;
   r->opts = o.opts;
   r->loss = o.loss;

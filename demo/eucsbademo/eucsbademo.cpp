@@ -92,6 +92,7 @@ Outcome run(const Solve &s, Refinement refinement, int itmax) {
   ext.linsolver = sbacli::linsolver_of(o.linsolver, "eucsbademo", "chol");
   if (!o.strategy.empty()) ext.strategy = o.strategy.c_str();
   ext.nthreads = o.nthreads;
+  ext.avoid_shared_cores = sbacli::ext_avoid_shared_cores();
   ext.single_precision_jacobian = o.single_jacobian;
   // The model's callbacks are re-entrant and walk the index by rows: let the threads share them.
   ext.parallel_callbacks = 1;
@@ -234,6 +235,7 @@ bool stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &point
   sba_ext_options ext;
   sba_ext_options_init(&ext);
   ext.nthreads = o.nthreads;
+  ext.avoid_shared_cores = sbacli::ext_avoid_shared_cores();
   ext.parallel_callbacks = 1;
   if (!o.loss.empty()) {
     ext.loss = o.loss.c_str();
@@ -443,6 +445,7 @@ sbacli::Report make_report(const DemoOptions &o, const PointSet &points, const O
   report.solver_requested = o.linsolver;
   report.strategy_requested = o.strategy;
   report.threads_requested = o.nthreads;
+  report.avoid_shared_cores = sbacli::avoids_shared_cores();
   report.itmax = itmax_for(o, out.refinement);
   report.opts = o.opts;
   report.loss = o.loss;

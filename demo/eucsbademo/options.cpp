@@ -80,7 +80,9 @@ void add_solver_options(std::vector<sbacli::Option> *t, DemoOptions &o) {
   t->push_back({"threads", "N",
                 "threads for the normal equations and the Schur complement; 0 (the default): the\n"
                 "environment variable SBA_NUM_THREADS if set, else every hardware thread, but at most\n"
-                "one per 10,000 projections. The result does not depend on it",
+                "one per 10,000 projections. The result does not depend on it. A worker that finds\n"
+                "itself on the core of another of them moves to a free core (SBA_AVOID_SHARED_CORES=0:\n"
+                "left to the scheduler)",
                 [&o](const std::string &v) { return sbacli::to_threads(v, &o.nthreads); }});
   t->push_back({"loss", "NAME",
                 "robust loss on each projection's squared residual: none (least squares, the default),\n"
