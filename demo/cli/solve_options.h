@@ -178,13 +178,12 @@ inline const char *linsolver_of(const std::string &given, const char *program, c
 // (docs/threads.md): a worker that finds itself on the core of another of the solve's threads
 // moves to a core none of them uses. A new thread starts on its creator's core, and on a
 // virtual machine the kernel can keep the two there for much of a short solve. Where
-// SBA_AVOID_SHARED_CORES is set, it decides, as in any host (ext_avoid_shared_cores leaves the
-// option to it).
+// SBA_AVOID_SHARED_CORES is set, it decides, as in any host: off unless it is 1 (the library
+// reads it too, and says what is wrong with another value).
 inline bool avoids_shared_cores() {
   const char *env = std::getenv("SBA_AVOID_SHARED_CORES");
   return !env || std::string(env) == "1";
 }
-inline int ext_avoid_shared_cores() { return std::getenv("SBA_AVOID_SHARED_CORES") ? 0 : 1; }
 
 // The extension options of a solve: solver, strategy, threads, loss, the log sink and the
 // result record. The callbacks must be re-entrant (they are shared by the threads).
@@ -194,7 +193,7 @@ inline void init_ext(const SolveOptions &o, const char *program, LogSink *sink, 
   ext->linsolver = linsolver_of(o.solver, program, "auto");
   ext->strategy = o.strategy.empty() ? nullptr : o.strategy.c_str();
   ext->nthreads = o.threads;
-  ext->avoid_shared_cores = ext_avoid_shared_cores();
+  ext->avoid_shared_cores = avoids_shared_cores();
   ext->parallel_callbacks = 1;
   ext->log = log_line;
   ext->log_ctx = sink;

@@ -92,7 +92,7 @@ Outcome run(const Solve &s, Refinement refinement, int itmax) {
   ext.linsolver = sbacli::linsolver_of(o.linsolver, "eucsbademo", "chol");
   if (!o.strategy.empty()) ext.strategy = o.strategy.c_str();
   ext.nthreads = o.nthreads;
-  ext.avoid_shared_cores = sbacli::ext_avoid_shared_cores();
+  ext.avoid_shared_cores = sbacli::avoids_shared_cores();
   ext.single_precision_jacobian = o.single_jacobian;
   // The model's callbacks are re-entrant and walk the index by rows: let the threads share them.
   ext.parallel_callbacks = 1;
@@ -235,7 +235,7 @@ bool stddev_text(const DemoOptions &o, const CameraModel &model, PointSet &point
   sba_ext_options ext;
   sba_ext_options_init(&ext);
   ext.nthreads = o.nthreads;
-  ext.avoid_shared_cores = sbacli::ext_avoid_shared_cores();
+  ext.avoid_shared_cores = sbacli::avoids_shared_cores();
   ext.parallel_callbacks = 1;
   if (!o.loss.empty()) {
     ext.loss = o.loss.c_str();
