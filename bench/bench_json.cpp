@@ -83,6 +83,10 @@ std::string json_record(const std::string &stamp, const Problem &prob, const Pro
   for (std::size_t k = 0; k < r.all_seconds.size(); ++k) all += (k ? ", " : "") + json_number(r.all_seconds[k]);
   field("repeats", std::to_string(r.all_seconds.size()));
   field("seconds_all", all + "]");
+  std::string rt = "[";
+  for (std::size_t k = 0; k < r.all_core_rt.size(); ++k)
+    rt += (k ? ", [" : "[") + json_number(r.all_core_rt[k][0]) + ", " + json_number(r.all_core_rt[k][1]) + "]";
+  field("core_round_trip_ns_all", rt + "]");
   field("setup_seconds", json_number(x.setup_seconds));
   field("cpu_seconds", json_number(x.ok ? x.cpu_seconds : NAN));
   field("seconds_per_iteration", json_number(c.per_iter));

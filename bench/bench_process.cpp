@@ -2,6 +2,8 @@
 // sba_bench's process side: the memory and CPU accounting of a run (from /proc/self and
 // getrusage), the BLAS's threads, and the child process each run is measured in.
 #include <dirent.h>
+#include <pthread.h>
+#include <sched.h>
 #include <dlfcn.h>
 #include <fcntl.h>
 #include <malloc.h>
@@ -15,6 +17,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -31,6 +34,56 @@
 namespace sbabench {
 
 int hardware_threads() { return std::max(1, static_cast<int>(std::thread::hardware_concurrency())); }
+
+double core_round_trip_ns() {
+  cpu_set_t mask;
+  CPU_ZERO(&mask);
+  if (sched_getaffinity(0, sizeof mask, &mask) != 0) return NAN;
+  int cpus[2] = {-1, -1}, found = 0;
+  for (int c = 0; c < CPU_SETSIZE && found < 2; ++c)
+    if (CPU_ISSET(c, &mask)) cpus[found++] = c;
+  if (found < 2) return NAN;
+  constexpr int kWarm = 200, kTrips = 2000;
+  struct alignas(64) Line {
+    std::atomic<int> turn{0};
+  } line;
+  std::atomic<int> pinned{0};
+  const auto pin = [&pinned](int cpu) {
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(cpu, &one);
+    if (pthread_setaffinity_np(pthread_self(), sizeof one, &one) == 0) pinned.fetch_add(1);
+  };
+  // Turn 2k+1 is the timer's write, 2k+2 the echo's.
+  const auto await = [&line](int turn) {
+    while (line.turn.load(std::memory_order_acquire) != turn) {
+#if defined(__x86_64__) || defined(__i386__)
+      __builtin_ia32_pause();
+#endif
+    }
+  };
+  double ns = NAN;
+  std::thread echo([&] {
+    pin(cpus[1]);
+    for (int k = 0; k < kWarm + kTrips; ++k) {
+      await(2 * k + 1);
+      line.turn.store(2 * k + 2, std::memory_order_release);
+    }
+  });
+  std::thread timer([&] {
+    pin(cpus[0]);
+    std::chrono::steady_clock::time_point start;
+    for (int k = 0; k < kWarm + kTrips; ++k) {
+      if (k == kWarm) start = std::chrono::steady_clock::now();
+      line.turn.store(2 * k + 1, std::memory_order_release);
+      await(2 * k + 2);
+    }
+    ns = std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start).count() / kTrips;
+  });
+  timer.join();
+  echo.join();
+  return pinned.load() == 2 ? ns : NAN;
+}
 
 long long status_kb(const char *field) {
   std::FILE *f = std::fopen("/proc/self/status", "r");
@@ -119,6 +172,8 @@ void execute(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunRes
       set(spec.blas_threads);
       wait_for_idle_threads();
     }
+  // The price of the cores' exchanges around the solve, once the BLAS's threads are idle.
+  const double before = core_round_trip_ns();
   try {
     if (spec.engine == Engine::Sba) run_sba(prob, spec, itmax, consume, r, trace);
     else run_ceres(prob, spec, itmax, consume, r, trace);
@@ -130,6 +185,9 @@ void execute(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunRes
     set_status(r, std::string("exception: ") + e.what());
   }
   r->ntrace = static_cast<int>(trace->size());
+  r->core_rt_before = before;
+  wait_for_idle_threads();  // a BLAS the solve called may still spin
+  r->core_rt_after = core_round_trip_ns();
 }
 
 // Frees what the run does not use, so that the child's RSS is the run's: both sba (through

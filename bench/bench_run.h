@@ -54,6 +54,8 @@ struct RunResult {
   long long file_rss_start = 0, file_rss_end = 0;  // bytes: RssFile + RssShmem around the solve
   int hwm_reset = 0;         // 1 if the reset worked (else peak includes the loading)
   int ntrace = 0;
+  // core_round_trip_ns just before and just after the solve (NaN: not measured)
+  double core_rt_before = NAN, core_rt_after = NAN;
 };
 
 // (seconds since the solve started, ||e||^2) at each iteration.
@@ -65,12 +67,20 @@ struct Run {
   Trace trace;
   long long child_maxrss = 0;                // ru_maxrss of the child, bytes (cross-check)
   std::vector<double> all_seconds;           // every repetition's time (--repeat), in run order
+  std::vector<std::array<double, 2>> all_core_rt;  // every repetition's core_rt_before/after
   double ttb = NAN;                          // time to best, seconds (NaN: never)
 };
 
 // ---- the process: its hardware, memory and CPU accounting (bench_process.cpp) ----
 
 int hardware_threads();
+
+// The mean time, in nanoseconds, for a cache line to go from one CPU to another and back:
+// two short-lived threads, each held on one of the first two CPUs of this process's mask,
+// take turns writing it. A virtual machine's two vCPUs can sit on one cache (tens of ns) or
+// on two (hundreds), and the host can move them from one placement to the other at any time;
+// a run's threads then exchange their data at that price. NaN with fewer than two CPUs.
+double core_round_trip_ns();
 
 // A field of /proc/self/status in kB; -1 if absent.
 long long status_kb(const char *field);

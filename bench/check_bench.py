@@ -10,7 +10,8 @@ Ceres's default tolerance), sba's iterations are in the window this problem take
 strategy, each run's comparison with the fastest Ceres run is what its fields say, a
 1-thread run took one core's CPU time, and the memory fields add up (the data peak holds
 at least the Jacobian and at most the peak; after the warm-up no code page of sba's solve is
-first touched during the measured solve).
+first touched during the measured solve), and each run carries the price of a cache line's
+round trip between two CPUs before and after it (a positive figure, or null with one CPU).
 Timings are not checked: they belong to the suite, not to a pass/fail test.
 
     check_bench.py path/to/sba_bench
@@ -86,6 +87,12 @@ def main():
                   name + ": ratio_time_vs_ceres_best is not its time over the fastest Ceres run's")
             check(r["worse_than_ceres_best"] == (r["final_mse"] > peer["final_mse"] * (1 + 1e-6)),
                   name + ": worse_than_ceres_best disagrees with the final errors")
+        trips = r["core_round_trip_ns_all"]
+        two_cpus = len(os.sched_getaffinity(0)) >= 2
+        check(len(trips) == r["repeats"] and all(len(t) == 2 for t in trips),
+              "%s: core_round_trip_ns_all %s, not one [before, after] per repetition" % (name, trips))
+        check(all((0 < v < 1e7) if two_cpus else v is None for t in trips for v in t),
+              "%s: core_round_trip_ns_all %s with %s CPUs" % (name, trips, "two or more" if two_cpus else "one"))
         peak, data = r["peak_rss_bytes"], r["data_peak_bytes"]
         check(r["peak_rss_reset"], name + ": VmHWM could not be reset, the peak includes the loading")
         # jacobian_bytes is the Jacobian in double; in single precision it takes half.

@@ -380,14 +380,19 @@ std::vector<Run> run_rounds(const Options &o, Problem &prob, const std::vector<R
                                 : run_inline(prob, spec, o.itmax, o.warm_up));
       const Run &r = reps[k].back();
       if (r.r.ok)
-        std::fprintf(stderr, "%s, %.3f s, final MSE %.6g\n", r.r.status, r.r.seconds, r.r.final_err / nobs);
+        std::fprintf(stderr, "%s, %.3f s, final MSE %.6g, core round trip %.0f/%.0f ns\n", r.r.status, r.r.seconds,
+                     r.r.final_err / nobs, r.r.core_rt_before, r.r.core_rt_after);
       else
         std::fprintf(stderr, "%s%s%s\n", r.r.status, r.r.message[0] ? ": " : "", r.r.message);
     }
   std::vector<Run> runs;
   for (std::vector<Run> &rs : reps) {
     std::vector<double> times;
-    for (const Run &r : rs) times.push_back(r.r.ok ? r.r.seconds : NAN);
+    std::vector<std::array<double, 2>> core_rt;
+    for (const Run &r : rs) {
+      times.push_back(r.r.ok ? r.r.seconds : NAN);
+      core_rt.push_back({r.r.core_rt_before, r.r.core_rt_after});
+    }
     // A failed repetition is what gets reported; else the (lower) median.
     std::size_t pick = 0;
     const auto failed = std::find_if(rs.begin(), rs.end(), [](const Run &r) { return !r.r.ok; });
@@ -401,6 +406,7 @@ std::vector<Run> run_rounds(const Options &o, Problem &prob, const std::vector<R
     }
     runs.push_back(std::move(rs[pick]));
     runs.back().all_seconds = times;
+    runs.back().all_core_rt = core_rt;
   }
   return runs;
 }
