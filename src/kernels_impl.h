@@ -61,50 +61,52 @@ struct Row {
   __m128d h;
   double s;
 
-  static inline __attribute__((always_inline)) Row load(const double *x) {
+  // k0 in the operations below: the vectors of four before the k0-th are left out (left zero
+  // by load), for rows of which only the entries from 4 k0 on are wanted.
+  static inline __attribute__((always_inline)) Row load(const double *x, int k0 = 0) {
     Row r{};
 #pragma GCC unroll 4
-    for (int k = 0; k < V4; ++k) r.v[k] = _mm256_loadu_pd(x + 4 * k);
+    for (int k = k0; k < V4; ++k) r.v[k] = _mm256_loadu_pd(x + 4 * k);
     if constexpr (R2) r.h = _mm_loadu_pd(x + 4 * V4);
     if constexpr (R1) r.s = x[N - 1];
     return r;
   }
-  inline __attribute__((always_inline)) void store(double *x) const {
+  inline __attribute__((always_inline)) void store(double *x, int k0 = 0) const {
 #pragma GCC unroll 4
-    for (int k = 0; k < V4; ++k) _mm256_storeu_pd(x + 4 * k, v[k]);
+    for (int k = k0; k < V4; ++k) _mm256_storeu_pd(x + 4 * k, v[k]);
     if constexpr (R2) _mm_storeu_pd(x + 4 * V4, h);
     if constexpr (R1) x[N - 1] = s;
   }
   // a * y[c]
-  static inline __attribute__((always_inline)) Row mul(double a, const Row &y) {
+  static inline __attribute__((always_inline)) Row mul(double a, const Row &y, int k0 = 0) {
     Row r{};
     const __m256d b = _mm256_set1_pd(a);
 #pragma GCC unroll 4
-    for (int k = 0; k < V4; ++k) r.v[k] = _mm256_mul_pd(b, y.v[k]);
+    for (int k = k0; k < V4; ++k) r.v[k] = _mm256_mul_pd(b, y.v[k]);
     if constexpr (R2) r.h = _mm_mul_pd(_mm256_castpd256_pd128(b), y.h);
     if constexpr (R1) r.s = a * y.s;
     return r;
   }
   // x[c] = fma(a, y[c], x[c])
-  inline __attribute__((always_inline)) void fmadd(double a, const Row &y) {
+  inline __attribute__((always_inline)) void fmadd(double a, const Row &y, int k0 = 0) {
     const __m256d b = _mm256_set1_pd(a);
 #pragma GCC unroll 4
-    for (int k = 0; k < V4; ++k) v[k] = _mm256_fmadd_pd(b, y.v[k], v[k]);
+    for (int k = k0; k < V4; ++k) v[k] = _mm256_fmadd_pd(b, y.v[k], v[k]);
     if constexpr (R2) h = _mm_fmadd_pd(_mm256_castpd256_pd128(b), y.h, h);
     if constexpr (R1) s = __builtin_fma(a, y.s, s);
   }
   // x[c] + y[c]
-  inline __attribute__((always_inline)) void add(const Row &y) {
+  inline __attribute__((always_inline)) void add(const Row &y, int k0 = 0) {
 #pragma GCC unroll 4
-    for (int k = 0; k < V4; ++k) v[k] = _mm256_add_pd(v[k], y.v[k]);
+    for (int k = k0; k < V4; ++k) v[k] = _mm256_add_pd(v[k], y.v[k]);
     if constexpr (R2) h = _mm_add_pd(h, y.h);
     if constexpr (R1) s = s + y.s;
   }
   // x[c] = fma(-a, y[c], x[c]), which is x[c] - a * y[c] contracted
-  inline __attribute__((always_inline)) void fnmadd(double a, const Row &y) {
+  inline __attribute__((always_inline)) void fnmadd(double a, const Row &y, int k0 = 0) {
     const __m256d b = _mm256_set1_pd(a);
 #pragma GCC unroll 4
-    for (int k = 0; k < V4; ++k) v[k] = _mm256_fnmadd_pd(b, y.v[k], v[k]);
+    for (int k = k0; k < V4; ++k) v[k] = _mm256_fnmadd_pd(b, y.v[k], v[k]);
     if constexpr (R2) h = _mm_fnmadd_pd(_mm256_castpd256_pd128(b), y.h, h);
     if constexpr (R1) s = __builtin_fma(-a, y.s, s);
   }
@@ -120,6 +122,20 @@ inline __attribute__((always_inline)) void pair_rows(const Row<N> *w, const doub
 #pragma GCC unroll 4
     for (int d = 0; d < D; ++d) acc.fnmadd(Yt[d * N + a], w[d]);
     acc.store(S + a * ld);
+  }
+}
+
+// pair_rows for a diagonal block S_kk, whose strict lower triangle nothing reads: each row
+// leaves out the vectors of four that lie wholly left of the diagonal. The entries it updates
+// get pair_rows's operations, so the upper triangle has pair_rows's bits.
+template <int N, int D>
+inline __attribute__((always_inline)) void pair_rows_upper(const Row<N> *w, const double *Yt, double *S, i64 ld) {
+#pragma GCC unroll 16
+  for (int a = 0; a < N; ++a) {
+    Row<N> acc = Row<N>::load(S + a * ld, a / 4);
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d) acc.fnmadd(Yt[d * N + a], w[d], a / 4);
+    acc.store(S + a * ld, a / 4);
   }
 }
 #endif
@@ -172,9 +188,11 @@ inline __attribute__((always_inline)) void pair_update(int n, int pn, const doub
 
 // S_jk -= Y_ij W_ik^T for the pairs of one track that end at one entry (camera k): the track's
 // first `count` entries, entry q's Y^T at Yt + q * stride and its block row of S at
-// S + (cols[q] - mcon) * rowstride. Each entry of S gets pair_update's operations in
-// pair_update's order, so the bits are the same. With AVX2, W_ik^T stays in registers for the
-// whole column (written through S, the compiler would reload it for every pair).
+// S + (cols[q] - mcon) * rowstride; the last of them is the entry itself, the diagonal block.
+// Each entry of S gets pair_update's operations in pair_update's order, so the bits are the
+// same. With AVX2, W_ik^T stays in registers for the whole column (written through S, the
+// compiler would reload it for every pair), and the diagonal block is updated in its upper
+// triangle only (pair_rows_upper): with tracks of a few images, many of the pairs.
 template <int N, int D>
 inline __attribute__((always_inline)) void column_pairs(int n, int pn, const double *Yt, int stride, int count,
                                                         const int *cols, int mcon, const double *Wt, double *S,
@@ -184,8 +202,12 @@ inline __attribute__((always_inline)) void column_pairs(int n, int pn, const dou
     Row<N> w[D];
 #pragma GCC unroll 4
     for (int d = 0; d < D; ++d) w[d] = Row<N>::load(Wt + d * N);
-    for (int q = 0; q < count; ++q)
+    for (int q = 0; q + 1 < count; ++q)
       pair_rows<N, D>(w, Yt + i64(q) * stride, S + i64(cols[q] - mcon) * rowstride, ld);
+    if (count > 0) {
+      const int q = count - 1;
+      pair_rows_upper<N, D>(w, Yt + i64(q) * stride, S + i64(cols[q] - mcon) * rowstride, ld);
+    }
     return;
   }
 #endif
@@ -279,11 +301,22 @@ inline __attribute__((always_inline)) void rhs_update(int n, int pn, const doubl
   }
 }
 
+// G's strict lower triangle set from its upper one (G n x n, row-major).
+template <int N>
+inline void mirror_lower(int n, double *G) {
+  const int nn = N > 0 ? N : n;
+  for (int a = 1; a < nn; ++a)
+    for (int c = 0; c < a; ++c) G[a * nn + c] = G[c * nn + a];
+}
+
 // G += X^T X and g += X^T e for one projection's mnp x n block X (row-major): the
 // contribution of one measurement to U_j, e_a,j (X = A_ij) or to V_i, e_b,i (X = B_ij).
 // Without the gradient (Grad false) e and g are not read: the gradient of single-precision
-// blocks is made in double before they are rounded (lm_core.cpp).
-template <int M, int N, bool Grad = true>
+// blocks is made in double before they are rounded (lm_core.cpp). G[a][c] and G[c][a] get the
+// same products in the same order; with Upper, the AVX2 rows may leave out entries left of the
+// diagonal, and the caller copies the upper triangle down once G is complete (mirror_lower),
+// which gives the same bits.
+template <int M, int N, bool Grad = true, bool Upper = false>
 inline __attribute__((always_inline)) void gram_update(int mn, int n, const double *X,
                                                        const double *e, double *G, double *g) {
 #if defined(__AVX2__) && defined(__FMA__)
@@ -299,11 +332,12 @@ inline __attribute__((always_inline)) void gram_update(int mn, int n, const doub
     }
 #pragma GCC unroll 16
     for (int a = 0; a < N; ++a) {
-      Row<N> t = Row<N>::mul(X[N + a], x1);
-      t.fmadd(X[a], x0);
-      Row<N> acc = Row<N>::load(G + a * N);
-      acc.add(t);
-      acc.store(G + a * N);
+      const int k0 = Upper ? a / 4 : 0;
+      Row<N> t = Row<N>::mul(X[N + a], x1, k0);
+      t.fmadd(X[a], x0, k0);
+      Row<N> acc = Row<N>::load(G + a * N, k0);
+      acc.add(t, k0);
+      acc.store(G + a * N, k0);
     }
     return;
   }
@@ -488,8 +522,8 @@ class KernelsT final : public Kernels {
   // (point by point), taking those of these cameras, so the Jacobian is streamed rather than
   // visited camera by camera, and every U_j still adds its terms in ascending point order,
   // the same for any number of threads. U_j[a][c] and U_j[c][a] get the same products in
-  // the same order, so U_j comes out exactly symmetric. Blocks in single precision give U_j
-  // alone (normal_matrices).
+  // the same order, so U_j is exactly symmetric: only its upper triangle is accumulated, and
+  // copied down at the end. Blocks in single precision give U_j alone (normal_matrices).
   template <class J>
   __attribute__((noinline)) void gram_cameras(const J *jac, const double *e, double *U, double *ea,
                                               int j0, int j1, Scratch *sc, double *wide) const {
@@ -509,9 +543,10 @@ class KernelsT final : public Kernels {
       const int j = colidx[k];
       if (j < j0 || j >= j1) continue;
       const double *A = widened<M * C>(jac + k * jb, mn * cn, wide);
-      gram_update<M, C, grad>(mn, cn, A, grad ? e + k * mn : nullptr, Ut + i64(j - j0) * cn * cn,
-                              grad ? eat + i64(j - j0) * cn : nullptr);
+      gram_update<M, C, grad, true>(mn, cn, A, grad ? e + k * mn : nullptr, Ut + i64(j - j0) * cn * cn,
+                                    grad ? eat + i64(j - j0) * cn : nullptr);
     }
+    for (int j = j0; j < j1; ++j) mirror_lower<C>(cn, Ut + i64(j - j0) * cn * cn);
     if (sc) {
       std::copy(Ut, Ut + nu, Uo);
       std::copy(eat, eat + nea, eao);
