@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <cmath>
 #include <type_traits>
+#include <utility>
+#include <vector>
 #ifdef __AVX__
 #include <immintrin.h>
 #endif
@@ -422,6 +424,26 @@ inline __attribute__((always_inline)) void spd_inverse3_lanes(lanes4 *a, lanes4 
 // Block sizes as template arguments (0: take the run-time value), so that the loops of the
 // common sizes are fully unrolled and vectorized. Blocks that the Schur assembly multiplies
 // are kept transposed (pnp x cnp) so that every inner loop runs along a cnp-long row.
+// T + 1 boundaries over the items [lo, hi), item i costing prefix[i + 1] - prefix[i]: slot t
+// takes [b_t, b_t+1), about a T-th of the cost each (evenly by count when nothing costs). The
+// loops split this way compute each item alone, so the bits do not depend on the boundaries.
+inline std::vector<i64> balanced_split(const int *prefix, i64 lo, i64 hi, int T) {
+  std::vector<i64> b(size_t(T) + 1, lo);
+  b[size_t(T)] = hi;
+  const i64 total = i64(prefix[hi]) - prefix[lo];
+  i64 i = lo;
+  for (int t = 1; t < T; ++t) {
+    if (total <= 0) {
+      b[size_t(t)] = lo + (hi - lo) * t / T;
+      continue;
+    }
+    const i64 want = prefix[lo] + total * t / T;
+    while (i < hi && prefix[i + 1] <= want) ++i;
+    b[size_t(t)] = i;
+  }
+  return b;
+}
+
 template <int M, int C, int P>
 class KernelsT final : public Kernels {
  public:
@@ -436,15 +458,25 @@ class KernelsT final : public Kernels {
       s.wide.resize(size_t(lay.jblk()));
       s.damped.resize(size_t(kBatch) * size_t(pnp()) * size_t(pnp()));
       s.inv.resize(s.damped.size());
-      // U_j and e_a,j of a thread's cameras are accumulated here, then copied out: where two
-      // threads' ranges meet, the blocks of the last camera of one and the first of the
-      // other share cache lines.
-      if (threads > 1 && cnp() > 0) {
-        const i64 per = (lay.m - lay.mcon + threads - 1) / threads;
-        s.gram.resize(size_t(per * (cnp() * cnp() + cnp()) + 7));
-      }
     }
     split_ = split_schur_columns(lay, std::max(threads, 1));
+    // The passes over the projections split by their number: a point costs its track, a
+    // camera the projections it makes, and BAL's points and cameras vary by tens.
+    const int T = std::max(threads, 1);
+    std::vector<int> per_camera(size_t(lay.m) + 1, 0);
+    for (i64 k = 0; k < lay.nvis; ++k) ++per_camera[size_t(lay.colidx[size_t(k)]) + 1];
+    for (int j = 0; j < lay.m; ++j) per_camera[size_t(j) + 1] += per_camera[size_t(j)];
+    cameras_ = balanced_split(per_camera.data(), lay.mcon, lay.m, T);
+    points_ = balanced_split(lay.rowptr.data(), lay.ncon, lay.n, T);
+    all_points_ = balanced_split(lay.rowptr.data(), 0, lay.n, T);
+    // U_j and e_a,j of a thread's cameras are accumulated here, then copied out: where two
+    // threads' ranges meet, the blocks of the last camera of one and the first of the
+    // other share cache lines.
+    if (T > 1 && cnp() > 0)
+      for (int t = 0; t < T; ++t) {
+        const i64 count = cameras_[size_t(t) + 1] - cameras_[size_t(t)];
+        scratch_[size_t(t)].gram.resize(size_t(count * (cnp() * cnp() + cnp()) + 7));
+      }
   }
 
   int mnp() const { return M ? M : lay_.mnp; }
@@ -482,7 +514,7 @@ class KernelsT final : public Kernels {
   }
 
   void scale_jacobian(ThreadPool &pool, const double *s, JacobianBlocks jac) const override {
-    pool.for_range(lay_.n, [&](i64 b, i64 e) {
+    over(pool, all_points_, [&](int, i64 b, i64 e) {
       if (jac.jac32)
         scale_points(s, jac.jac32, b, e);
       else
@@ -492,11 +524,11 @@ class KernelsT final : public Kernels {
 
   void back_substitute(ThreadPool &pool, const NormalEquations &ne, const double *Vinv, double mu,
                        double *dp) const override {
-    pool.for_range_t(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
+    over(pool, points_, [&](int t, i64 b, i64 end) {
       if (ne.jac32)
-        back_substitute_points(ne.jac32, ne, Vinv, mu, dp, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
+        back_substitute_points(ne.jac32, ne, Vinv, mu, dp, b, end, scratch_[size_t(t)]);
       else
-        back_substitute_points(ne.jac, ne, Vinv, mu, dp, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
+        back_substitute_points(ne.jac, ne, Vinv, mu, dp, b, end, scratch_[size_t(t)]);
     });
   }
 
@@ -597,22 +629,43 @@ class KernelsT final : public Kernels {
   template <class J>
   void gram(ThreadPool &pool, const J *jac, const double *e, double *U, double *V, double *ea,
             double *eb) const {
-    const Layout &lay = lay_;
     // One job for both parts: a thread that finishes its cameras early starts on its
     // points instead of waiting for the others.
     const int T = pool.size();
-    const i64 nc = cnp() > 0 ? lay.m - lay.mcon : 0, np = pnp() > 0 ? lay.n - lay.ncon : 0;
     auto part = [&](int t) {
-      const i64 c0 = nc * t / T, c1 = nc * (t + 1) / T, p0 = np * t / T, p1 = np * (t + 1) / T;
-      if (c0 < c1)
-        gram_cameras(jac, e, U, ea, int(c0) + lay.mcon, int(c1) + lay.mcon,
-                     T > 1 ? &scratch_[size_t(t)] : nullptr, scratch_[size_t(t)].wide.data());
-      if (p0 < p1) gram_points(jac, e, V, eb, p0 + lay.ncon, p1 + lay.ncon, scratch_[size_t(t)].wide.data());
+      const auto [c0, c1] = slot(cameras_, t, T);
+      const auto [p0, p1] = slot(points_, t, T);
+      if (cnp() > 0 && c0 < c1)
+        gram_cameras(jac, e, U, ea, int(c0), int(c1), T > 1 ? &scratch_[size_t(t)] : nullptr,
+                     scratch_[size_t(t)].wide.data());
+      if (pnp() > 0 && p0 < p1) gram_points(jac, e, V, eb, p0, p1, scratch_[size_t(t)].wide.data());
     };
     if (T == 1)
       part(0);
     else
       pool.run(part);
+  }
+
+  // Slot t's range of split, made for the pool's size at construction; an even share of
+  // split's items for a pool of another size.
+  static std::pair<i64, i64> slot(const std::vector<i64> &split, int t, int T) {
+    if (split.size() == size_t(T) + 1) return {split[size_t(t)], split[size_t(t) + 1]};
+    const i64 lo = split.front(), n = split.back() - lo;
+    return {lo + n * t / T, lo + n * (t + 1) / T};
+  }
+
+  // fn(t, begin, end) for each slot's range of split, concurrently.
+  template <class Fn>
+  static void over(ThreadPool &pool, const std::vector<i64> &split, Fn fn) {
+    const int T = pool.size();
+    const auto one = [&](int t) {
+      const auto [b, e] = slot(split, t, T);
+      if (b < e) fn(t, b, e);
+    };
+    if (T == 1)
+      one(0);
+    else
+      pool.run(one);
   }
 
   // (V_i + mu I)^-1 for the points [i0, i1); false at the first singular one.
@@ -858,6 +911,9 @@ class KernelsT final : public Kernels {
 
   const Layout &lay_;
   std::vector<int> split_;  // threads + 1 boundaries in free-camera indices
+  // threads + 1 boundaries, balanced by projections: of the free cameras, of the free points,
+  // of every point
+  std::vector<i64> cameras_, points_, all_points_;
   mutable std::vector<Scratch> scratch_;
 };
 
