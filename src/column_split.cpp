@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The cost model behind split_schur_columns (column_split.h).
+// The cost models behind split_schur_columns and the splits by projections (column_split.h).
 #include "column_split.h"
 
 #include <algorithm>
@@ -63,7 +63,36 @@ void columns_costs(const Layout &lay, int k0, std::vector<double> &before,
   }
 }
 
+// threads + 1 boundaries over the items [lo, hi), item i costing prefix[i + 1] - prefix[i].
+std::vector<i64> balanced_split(const int *prefix, i64 lo, i64 hi, int threads) {
+  std::vector<i64> b(size_t(threads) + 1, lo);
+  b[size_t(threads)] = hi;
+  const i64 total = i64(prefix[hi]) - prefix[lo];
+  i64 i = lo;
+  for (int t = 1; t < threads; ++t) {
+    if (total <= 0) {
+      b[size_t(t)] = lo + (hi - lo) * t / threads;
+      continue;
+    }
+    const i64 want = prefix[lo] + total * t / threads;
+    while (i < hi && prefix[i + 1] <= want) ++i;
+    b[size_t(t)] = i;
+  }
+  return b;
+}
+
 }  // namespace
+
+std::vector<i64> split_cameras_by_projections(const Layout &lay, int threads) {
+  std::vector<int> before(size_t(lay.m) + 1, 0);  // projections of the cameras before each
+  for (i64 k = 0; k < lay.nvis; ++k) ++before[size_t(lay.colidx[size_t(k)]) + 1];
+  for (int j = 0; j < lay.m; ++j) before[size_t(j) + 1] += before[size_t(j)];
+  return balanced_split(before.data(), lay.mcon, lay.m, threads);
+}
+
+std::vector<i64> split_points_by_projections(const Layout &lay, int first, int threads) {
+  return balanced_split(lay.rowptr.data(), first, lay.n, threads);
+}
 
 // Block columns of S split over the threads so that their costs (columns_cost) match: each
 // boundary in turn is the first column where the range before it outweighs the rest shared

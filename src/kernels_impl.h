@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <cmath>
 #include <type_traits>
-#include <utility>
 #include <vector>
 #ifdef __AVX__
 #include <immintrin.h>
@@ -424,26 +423,6 @@ inline __attribute__((always_inline)) void spd_inverse3_lanes(lanes4 *a, lanes4 
 // Block sizes as template arguments (0: take the run-time value), so that the loops of the
 // common sizes are fully unrolled and vectorized. Blocks that the Schur assembly multiplies
 // are kept transposed (pnp x cnp) so that every inner loop runs along a cnp-long row.
-// T + 1 boundaries over the items [lo, hi), item i costing prefix[i + 1] - prefix[i]: slot t
-// takes [b_t, b_t+1), about a T-th of the cost each (evenly by count when nothing costs). The
-// loops split this way compute each item alone, so the bits do not depend on the boundaries.
-inline std::vector<i64> balanced_split(const int *prefix, i64 lo, i64 hi, int T) {
-  std::vector<i64> b(size_t(T) + 1, lo);
-  b[size_t(T)] = hi;
-  const i64 total = i64(prefix[hi]) - prefix[lo];
-  i64 i = lo;
-  for (int t = 1; t < T; ++t) {
-    if (total <= 0) {
-      b[size_t(t)] = lo + (hi - lo) * t / T;
-      continue;
-    }
-    const i64 want = prefix[lo] + total * t / T;
-    while (i < hi && prefix[i + 1] <= want) ++i;
-    b[size_t(t)] = i;
-  }
-  return b;
-}
-
 template <int M, int C, int P>
 class KernelsT final : public Kernels {
  public:
@@ -459,16 +438,11 @@ class KernelsT final : public Kernels {
       s.damped.resize(size_t(kBatch) * size_t(pnp()) * size_t(pnp()));
       s.inv.resize(s.damped.size());
     }
-    split_ = split_schur_columns(lay, std::max(threads, 1));
-    // The passes over the projections split by their number: a point costs its track, a
-    // camera the projections it makes, and BAL's points and cameras vary by tens.
     const int T = std::max(threads, 1);
-    std::vector<int> per_camera(size_t(lay.m) + 1, 0);
-    for (i64 k = 0; k < lay.nvis; ++k) ++per_camera[size_t(lay.colidx[size_t(k)]) + 1];
-    for (int j = 0; j < lay.m; ++j) per_camera[size_t(j) + 1] += per_camera[size_t(j)];
-    cameras_ = balanced_split(per_camera.data(), lay.mcon, lay.m, T);
-    points_ = balanced_split(lay.rowptr.data(), lay.ncon, lay.n, T);
-    all_points_ = balanced_split(lay.rowptr.data(), 0, lay.n, T);
+    split_ = split_schur_columns(lay, T);
+    cameras_ = split_cameras_by_projections(lay, T);
+    points_ = split_points_by_projections(lay, lay.ncon, T);
+    all_points_ = split_points_by_projections(lay, 0, T);
     // U_j and e_a,j of a thread's cameras are accumulated here, then copied out: where two
     // threads' ranges meet, the blocks of the last camera of one and the first of the
     // other share cache lines.
@@ -633,8 +607,8 @@ class KernelsT final : public Kernels {
     // points instead of waiting for the others.
     const int T = pool.size();
     auto part = [&](int t) {
-      const auto [c0, c1] = slot(cameras_, t, T);
-      const auto [p0, p1] = slot(points_, t, T);
+      const i64 c0 = cameras_[size_t(t)], c1 = cameras_[size_t(t) + 1];
+      const i64 p0 = points_[size_t(t)], p1 = points_[size_t(t) + 1];
       if (cnp() > 0 && c0 < c1)
         gram_cameras(jac, e, U, ea, int(c0), int(c1), T > 1 ? &scratch_[size_t(t)] : nullptr,
                      scratch_[size_t(t)].wide.data());
@@ -646,23 +620,14 @@ class KernelsT final : public Kernels {
       pool.run(part);
   }
 
-  // Slot t's range of split, made for the pool's size at construction; an even share of
-  // split's items for a pool of another size.
-  static std::pair<i64, i64> slot(const std::vector<i64> &split, int t, int T) {
-    if (split.size() == size_t(T) + 1) return {split[size_t(t)], split[size_t(t) + 1]};
-    const i64 lo = split.front(), n = split.back() - lo;
-    return {lo + n * t / T, lo + n * (t + 1) / T};
-  }
-
-  // fn(t, begin, end) for each slot's range of split, concurrently.
+  // fn(t, begin, end) for each range of split (cameras_, points_ or all_points_), concurrently.
   template <class Fn>
   static void over(ThreadPool &pool, const std::vector<i64> &split, Fn fn) {
-    const int T = pool.size();
     const auto one = [&](int t) {
-      const auto [b, e] = slot(split, t, T);
+      const i64 b = split[size_t(t)], e = split[size_t(t) + 1];
       if (b < e) fn(t, b, e);
     };
-    if (T == 1)
+    if (pool.size() == 1)
       one(0);
     else
       pool.run(one);
@@ -910,9 +875,10 @@ class KernelsT final : public Kernels {
   }
 
   const Layout &lay_;
-  std::vector<int> split_;  // threads + 1 boundaries in free-camera indices
-  // threads + 1 boundaries, balanced by projections: of the free cameras, of the free points,
-  // of every point
+  // threads + 1 boundaries each, for the pool of that size the kernels are made for (as
+  // scratch_): the assembly's in free-camera indices; by projections, of the free cameras,
+  // the free points and every point
+  std::vector<int> split_;
   std::vector<i64> cameras_, points_, all_points_;
   mutable std::vector<Scratch> scratch_;
 };

@@ -597,6 +597,44 @@ TEST(DenseFactorization, TruncatedCgTakesWhatItsBudgetAllows) {
 // (cnp 6, pnp 3, mnp 2: block products plus the W and Y products of the track) and [b, 40)
 // costs 54 (40 * 41 - b (b + 1)) + 90 * 40 (the later thread recomputes the track's products
 // from its start): equal at b = 28.3, so two threads meet at column 28 or 29, not at 20.
+// The passes over the projections split cameras and points by their projections: with tracks
+// growing from 2 to 40 cameras along the points, each seen by the last cameras (so that the
+// later cameras make more projections), each range holds a T-th of them to within one
+// camera's or point's.
+TEST(ColumnSplit, ProjectionsSplitEvenly) {
+  const int n = 400, m = 40;
+  std::vector<char> vmask(size_t(n) * size_t(m), 0);
+  for (int i = 0; i < n; ++i)
+    for (int j = m - 2 - i * (m - 2) / n; j < m; ++j) vmask[size_t(i) * size_t(m) + size_t(j)] = 1;
+  for (int mcon : {0, 5})
+    for (int threads : {1, 2, 3, 7}) {
+      SCOPED_TRACE(std::to_string(mcon) + " fixed, " + std::to_string(threads) + " threads");
+      sba::Layout lay;
+      std::string msg;
+      ASSERT_TRUE(sba::build_layout(lay, sba::Mode::MotStr, n, m, mcon, 10, 6, 3, 2, vmask.data(), &msg)) << msg;
+      std::vector<i64> per_camera(size_t(m), 0);
+      for (i64 k = 0; k < lay.nvis; ++k) ++per_camera[size_t(lay.colidx[size_t(k)])];
+      const auto track = [&](i64 i) { return i64(lay.rowptr[size_t(i) + 1] - lay.rowptr[size_t(i)]); };
+      const auto camera = [&](i64 j) { return per_camera[size_t(j)]; };
+      const auto check = [&](const std::vector<i64> &b, i64 lo, i64 hi, const auto &cost) {
+        ASSERT_EQ(b.size(), size_t(threads) + 1);
+        EXPECT_EQ(b.front(), lo);
+        EXPECT_EQ(b.back(), hi);
+        EXPECT_TRUE(std::is_sorted(b.begin(), b.end()));
+        i64 total = 0, largest = 0;
+        for (i64 x = lo; x < hi; ++x) total += cost(x), largest = std::max(largest, cost(x));
+        for (int t = 0; t < threads; ++t) {
+          i64 part = 0;
+          for (i64 x = b[size_t(t)]; x < b[size_t(t) + 1]; ++x) part += cost(x);
+          EXPECT_LE(std::abs(part * threads - total), threads * largest) << "range " << t;
+        }
+      };
+      check(sba::split_cameras_by_projections(lay, threads), mcon, m, camera);
+      check(sba::split_points_by_projections(lay, 10, threads), 10, n, track);
+      check(sba::split_points_by_projections(lay, 0, threads), 0, n, track);
+    }
+}
+
 TEST(ColumnSplit, BalancesTheCostOfTheAssembly) {
   const int n = 200, m = 40;
   std::vector<char> vmask(size_t(n) * size_t(m), 1);
