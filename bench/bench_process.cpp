@@ -2,12 +2,12 @@
 // sba_bench's process side: the memory and CPU accounting of a run (from /proc/self and
 // getrusage), the BLAS's threads, and the child process each run is measured in.
 #include <dirent.h>
-#include <pthread.h>
-#include <sched.h>
 #include <dlfcn.h>
 #include <fcntl.h>
 #include <malloc.h>
 #include <poll.h>
+#include <pthread.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
