@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "cameras/euclidean_rotation.h"
 #include "colmap_tangent.h"
 #include "sba.h"
 
@@ -880,6 +881,97 @@ TEST(ColmapRigCamera, HeldParametersAreConstants) {
   std::vector<cc::RigImage> bad = images;
   bad[0].q_sensor = {0, 0, 0, 0};
   EXPECT_THROW(cc::RigCameraModel(bad, points), std::invalid_argument);
+}
+
+namespace {
+
+// Columns col..col+2 of the 2 x cnp A against H Jv, H the columns h..h+2 of A: equal to
+// rounding.
+void expect_chained(const std::vector<double> &A, int cnp, int col, int h, const double Jv[9], const char *what) {
+  for (int r = 0; r < 2; ++r) {
+    const double *H = A.data() + r * cnp + h;
+    const double scale = std::fabs(H[0]) + std::fabs(H[1]) + std::fabs(H[2]);
+    for (int c = 0; c < 3; ++c) {
+      const double expected = H[0] * Jv[c] + H[1] * Jv[3 + c] + H[2] * Jv[6 + c];
+      double size = 0;
+      for (int k = 0; k < 3; ++k) size = std::max(size, std::fabs(Jv[k * 3 + c]));
+      EXPECT_NEAR(A[static_cast<std::size_t>(r * cnp + col + c)], expected, 1e-14 * (1 + scale * size))
+          << what << " row " << r << " column " << col + c;
+    }
+  }
+}
+
+// d(R(qs(v)) Y)/dv of the quaternion correction, differentiated as a quaternion.
+void quaternion_derivative(const double v[3], const double *R0, const double X[3], double Jv[9]) {
+  double Y[3];
+  sbaeuc_mat3_vec(R0, X, Y);
+  const sbaeuc_correction qs = sbaeuc_correction_of(v);
+  sbaeuc_rotation_derivative(&qs, Y, Jv);
+}
+
+// Corrections inside the unit ball and outside it, where the rotation is the boundary one.
+constexpr double kCorrections[][3] = {{0, 0, 0}, {0.01, -0.02, 0.015}, {-0.4, 0.3, 0.5}, {0.9, -0.6, 0.3}};
+
+}  // namespace
+
+// The rotation's columns of A are the translation's (dx/dt = dx/dX_c) times the quaternion's
+// derivative d(R(qs(v)) R0 X)/dv, to rounding, however the model forms them.
+TEST(ColmapCamera, RotationColumnsAreTheQuaternionDerivative) {
+  const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2};
+  const cc::CameraModel model(sample_cameras(), points);
+  const int cnp = model.cnp();
+  int checked = 0;
+  for (int j = 0; j < model.ncameras(); ++j)
+    for (const auto &v : kCorrections) {
+      std::vector<double> a(model.initial_camera(j), model.initial_camera(j) + cnp);
+      std::copy(v, v + 3, a.begin());
+      for (std::size_t i = 0; i < points.size() / 3; ++i) {
+        std::vector<double> A(2 * static_cast<std::size_t>(cnp));
+        double x[2], B[6], Jv[9];
+        if (!model.project_jacobian(j, a.data(), points.data() + 3 * i, x, A.data(), B)) continue;  // no pixel
+        ++checked;
+        quaternion_derivative(v, model.initial_rotation(j), points.data() + 3 * i, Jv);
+        expect_chained(A, cnp, 0, 3, Jv, cc::model_name(j));
+      }
+    }
+  EXPECT_EQ(checked, model.ncameras() * 8);  // every corrected camera sees both points
+}
+
+// The same for a rig image's frame rotation (beside the frame's translation, dx/dt_f = dx/dX_r)
+// and its sensor rotation (beside the sensor's, dx/dt_s = dx/dX_c) at X_r = R_f X + t_f.
+TEST(ColmapRigCamera, RotationColumnsAreTheQuaternionDerivative) {
+  const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2};
+  const cc::RigCameraModel model(sample_rig_images(), points);
+  const int cnp = model.cnp();
+  int checked = 0;
+  for (int j = 0; j < model.ncameras(); ++j)
+    for (const auto &v : kCorrections) {
+      std::vector<double> a = moved_rig_params(model, j);
+      std::copy(v, v + 3, a.begin());
+      std::copy(v, v + 3, a.begin() + 6);
+      for (std::size_t i = 0; i < points.size() / 3; ++i) {
+        const double *X = points.data() + 3 * i;
+        std::vector<double> A(2 * static_cast<std::size_t>(cnp));
+        double x[2], B[6], Jv[9];
+        if (!model.project_jacobian(j, a.data(), X, x, A.data(), B)) continue;  // no pixel
+        ++checked;
+        quaternion_derivative(v, model.initial_frame_rotation(j), X, Jv);
+        expect_chained(A, cnp, 0, 3, Jv, cc::model_name(j));
+        const sbaeuc_correction qf = sbaeuc_correction_of(v);
+        double Rf[9], Mf[9], Xr[3];
+        sbaeuc_rotation_matrix(qf.w, qf.u[0], qf.u[1], qf.u[2], Rf);
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) {
+            const double *R0 = model.initial_frame_rotation(j);
+            Mf[r * 3 + c] = Rf[r * 3] * R0[c] + Rf[r * 3 + 1] * R0[3 + c] + Rf[r * 3 + 2] * R0[6 + c];
+          }
+        sbaeuc_mat3_vec(Mf, X, Xr);
+        for (int r = 0; r < 3; ++r) Xr[r] += a[static_cast<std::size_t>(3 + r)];
+        quaternion_derivative(v, model.initial_sensor_rotation(j), Xr, Jv);
+        expect_chained(A, cnp, 6, 9, Jv, cc::model_name(j));
+      }
+    }
+  EXPECT_EQ(checked, 112);  // of 144: the larger corrections turn some points out of view
 }
 
 using tangenttest::colmap_increment;
