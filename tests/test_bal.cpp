@@ -462,6 +462,38 @@ TEST(BalModel, JacobianMatchesFiniteDifferences) {
   }
 }
 
+// The rotation's columns against central differences extrapolated (Richardson: (4 D(h/2) -
+// D(h)) / 3, error of order h^4), which resolve them to about 1e-11: on both sides of the
+// series' limit (|w| = 1/4) in directions where every term of the rotation shows.
+TEST(BalModel, RotationColumnsMatchExtrapolatedDifferences) {
+  const double dirs[][3] = {{0.3, -0.5, 0.8}, {-0.6, 0.64, 0.48}};
+  const double norms[] = {1e-6, 0.1, 0.2499999, 0.2500001, 0.9, 2.5};
+  const double b[3] = {0.7, -1.3, 2.1};
+  for (const auto &d : dirs)
+    for (double n : norms) {
+      const double nd = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+      double a[9] = {d[0] / nd * n, d[1] / nd * n, d[2] / nd * n, 0.3, -0.2, -6.0, 520.0, -0.08, 0.02};
+      double x[2], A[18], B[6];
+      bal_camera::project_jacobian(a, b, x, A, B);
+      for (int c = 0; c < 3; ++c) {
+        const auto central = [&](double h, int r) {
+          double ap[9], am[9], xp[2], xm[2];
+          std::copy(a, a + 9, ap);
+          std::copy(a, a + 9, am);
+          ap[c] += h;
+          am[c] -= h;
+          bal_camera::project(ap, b, xp);
+          bal_camera::project(am, b, xm);
+          return (xp[r] - xm[r]) / (2 * h);
+        };
+        for (int r = 0; r < 2; ++r) {
+          const double h = 1e-3, fd = (4 * central(h / 2, r) - central(h, r)) / 3;
+          EXPECT_NEAR(A[r * 9 + c], fd, 1e-9 * std::max(1.0, std::fabs(fd))) << "|w| " << n << " row " << r << " column " << c;
+        }
+      }
+    }
+}
+
 TEST(BalModel, JacobianOnARealProblem) {
   const std::string path = bal_dir() + "/problem-49-7776-pre.txt.bz2";
   REQUIRE_FILE(path);

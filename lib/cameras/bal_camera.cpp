@@ -15,9 +15,9 @@ namespace {
 constexpr double kSeriesLimit = 1.0 / 16.0;
 constexpr int kSeriesTerms = 8;
 
-// alpha(s) = sin(t)/t and beta(s) = (1 - cos t)/t^2 with t = sqrt(s), and d/ds of both.
+// alpha(s) = sin(t)/t and beta(s) = (1 - cos t)/t^2 with t = sqrt(s).
 struct Coefficients {
-  double alpha, beta, dalpha, dbeta;
+  double alpha, beta;
 };
 
 // alpha = sum_k (-1)^k s^k / (2k+1)!,  beta = sum_k (-1)^k s^k / (2k+2)!.
@@ -38,28 +38,19 @@ constexpr SeriesTable kSeries;
 Coefficients coefficients(double s) {
   Coefficients c{};
   if (s < kSeriesLimit) {
-    // Horner from the last term; the derivative series is sum_k k c_k s^(k-1).
-    double a = 0, b = 0, da = 0, db = 0;
+    // Horner from the last term.
+    double a = 0, b = 0;
     for (int k = kSeriesTerms - 1; k >= 0; --k) {
       a = a * s + kSeries.a[k];
       b = b * s + kSeries.b[k];
-      if (k > 0) {
-        da = da * s + k * kSeries.a[k];
-        db = db * s + k * kSeries.b[k];
-      }
     }
-    c = {a, b, da, db};
+    c = {a, b};
     return c;
   }
   const double t = std::sqrt(s);
-  const double sn = std::sin(t), cs = std::cos(t), sh = std::sin(0.5 * t);
-  const double one_minus_cos = 2.0 * sh * sh;  // without the cancellation of 1 - cos t
-  c.alpha = sn / t;
-  c.beta = one_minus_cos / s;
-  // d/ds = (1/(2t)) d/dt:  dalpha/dt = (t cos t - sin t)/t^2,
-  //                         dbeta/dt = (t sin t - 2 (1 - cos t))/t^3.
-  c.dalpha = (t * cs - sn) / (2.0 * t * s);
-  c.dbeta = (t * sn - 2.0 * one_minus_cos) / (2.0 * s * s);
+  const double sh = std::sin(0.5 * t);
+  c.alpha = std::sin(t) / t;
+  c.beta = 2.0 * sh * sh / s;  // (1 - cos t) without its cancellation
   return c;
 }
 
@@ -91,19 +82,39 @@ void rotation_matrix(const double w[3], double R[9]) {
 
 namespace {
 
+// gamma(s) = (1 - alpha)/s = (t - sin t)/t^3, from its series sum_k (-1)^k s^k / (2k+3)!
+// below kSeriesLimit, where 1 - alpha cancels.
+double gamma_of(double s, double alpha) {
+  if (s >= kSeriesLimit) return (1.0 - alpha) / s;
+  double g = 0;
+  for (int k = kSeriesTerms - 2; k >= 0; --k) g = g * s - kSeries.a[k + 1];
+  return g;
+}
+
 // What a projection needs of its camera's rotation and does not depend on the point: the
 // callbacks make it once per camera instead of once per observation (three sines and a
-// cosine each time); the values are the same either way.
+// cosine each time); the values are the same either way. G is the left Jacobian of the
+// rotation, alpha I + beta [w]x + gamma w w^T: d(R(w) X)/dw = -[R(w) X]x G for every X.
 struct RotationTerms {
   double s;
   Coefficients c;
   double R[9];
+  double G[9];
 };
 
 void rotation_terms(const double w[3], RotationTerms *rt) {
   rt->s = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
   rt->c = coefficients(rt->s);
   fill_rotation(w, rt->s, rt->c, rt->R);
+  const double alpha = rt->c.alpha, beta = rt->c.beta, gamma = gamma_of(rt->s, alpha);
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) rt->G[r * 3 + k] = gamma * w[r] * w[k] + (r == k ? alpha : 0.0);
+  rt->G[1] -= beta * w[2];
+  rt->G[2] += beta * w[1];
+  rt->G[3] += beta * w[2];
+  rt->G[5] -= beta * w[0];
+  rt->G[6] -= beta * w[1];
+  rt->G[7] += beta * w[0];
 }
 
 void project_with(const double a[kCameraParams], const RotationTerms &rt, const double b[kPointParams],
@@ -144,25 +155,18 @@ void project_with(const double a[kCameraParams], const RotationTerms &rt, const 
   }
   if (!A) return;
 
-  // d Q / d w = 2 alpha' (w x X) w^T + alpha d(w x X)/dw + 2 beta' (w x (w x X)) w^T
-  //           + beta d(w x (w x X))/dw, with
-  //   d(w x X)/dw = -[X]x,   d(w x (w x X))/dw = (w.X) I + w X^T - 2 X w^T.
-  const double wdotX = w[0] * b[0] + w[1] * b[1] + w[2] * b[2];
-  const double mXx[9] = {0, b[2], -b[1], -b[2], 0, b[0], b[1], -b[0], 0};  // -[X]x
-  double dQdw[9];
-  for (int r = 0; r < 3; ++r) {
-    const double u = 2.0 * (c.dalpha * wX[r] + c.dbeta * wwX[r]);
-    for (int k = 0; k < 3; ++k) {
-      const double dww = (r == k ? wdotX : 0.0) + w[r] * b[k] - 2.0 * b[r] * w[k];
-      dQdw[r * 3 + k] = u * w[k] + c.alpha * mXx[r * 3 + k] + c.beta * dww;
-    }
-  }
+  // d Q / d w = -[RX]x G with RX = Q - t: row h of H becomes (RX x h) G, the camera's G made
+  // once for all its points.
+  const double RX[3] = {Q[0] - t[0], Q[1] - t[1], Q[2] - t[2]};
   double *A0 = A, *A1 = A + kCameraParams;
-  for (int k = 0; k < 3; ++k) {
-    A0[k] = H[0] * dQdw[k] + H[1] * dQdw[3 + k] + H[2] * dQdw[6 + k];
-    A1[k] = H[3] * dQdw[k] + H[4] * dQdw[3 + k] + H[5] * dQdw[6 + k];
-    A0[3 + k] = H[k];  // d Q / d t = I
-    A1[3 + k] = H[3 + k];
+  for (int r = 0; r < 2; ++r) {
+    const double *h = H + r * 3;
+    const double k3[3] = {RX[1] * h[2] - RX[2] * h[1], RX[2] * h[0] - RX[0] * h[2], RX[0] * h[1] - RX[1] * h[0]};
+    double *Ar = r == 0 ? A0 : A1;
+    for (int k = 0; k < 3; ++k) {
+      Ar[k] = k3[0] * rt.G[k] + k3[1] * rt.G[3 + k] + k3[2] * rt.G[6 + k];
+      Ar[3 + k] = h[k];  // d Q / d t = I
+    }
   }
   A0[6] = d * px;
   A1[6] = d * py;
