@@ -27,6 +27,10 @@ struct NormalEquations {
   // With single-precision storage (Options::single_jacobian) the blocks are here instead, and
   // jac is null. Every kernel widens them to double before it computes.
   const float *jac32 = nullptr;
+  // Per parameter, in the layout's order, the factor D_q of a damping mu D_q where the kernels
+  // damp a diagonal (Marquardt's, without scaling the Jacobian: strategy.cpp); null: mu.
+  // Only the solvers whose StepSolver::takes_damping() says so are handed one.
+  const double *damping = nullptr;
 };
 
 // The stored Jacobian blocks, to be changed in place: in double, or in single precision
@@ -124,11 +128,15 @@ class Kernels {
   // widened. Their gradient is not formed here: it is made from the blocks in double, before
   // they were rounded (lm_core.cpp).
   virtual void normal_matrices(ThreadPool &pool, const float *jac, double *U, double *V) const = 0;
-  // Vinv_i = (V_i + mu I)^-1 for the free points; false if one is singular. V_i + mu I is
+  // Vinv_i = (V_i + mu I)^-1 for the free points (damping: NormalEquations::damping, or null);
+  // false if one is singular. V_i + mu I is
   // positive definite but on the retries of sba 1.6's strategy (strategy.cpp), where it may be
   // indefinite and is inverted all the same, as 1.6 does.
-  virtual bool invert_damped_V(ThreadPool &pool, const double *V, double mu,
+  virtual bool invert_damped_V(ThreadPool &pool, const double *V, double mu, const double *damping,
                                double *Vinv) const = 0;
+  bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const {
+    return invert_damped_V(pool, V, mu, nullptr, Vinv);
+  }
   // The diagonal of each free point's (V_i + mu I)^-1, made as the other kernels make the
   // inverse, into diag (pnp entries per point, by point); NaN where V_i + mu I is singular.
   virtual void damped_inverse_diagonals(ThreadPool &pool, const double *V, double mu,

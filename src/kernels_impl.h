@@ -465,9 +465,10 @@ class KernelsT final : public Kernels {
     gram(pool, jac, nullptr, U, V, nullptr, nullptr);
   }
 
-  bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const override {
+  bool invert_damped_V(ThreadPool &pool, const double *V, double mu, const double *damping,
+                       double *Vinv) const override {
     return pool.all_ranges(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
-      return invert_points(V, mu, Vinv, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
+      return invert_points(V, mu, damping, Vinv, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
     });
   }
 
@@ -634,11 +635,11 @@ class KernelsT final : public Kernels {
   }
 
   // (V_i + mu I)^-1 for the points [i0, i1); false at the first singular one.
-  __attribute__((noinline)) bool invert_points(const double *V, double mu, double *Vinv, i64 i0, i64 i1,
-                                               Scratch &sc) const {
+  __attribute__((noinline)) bool invert_points(const double *V, double mu, const double *damping, double *Vinv,
+                                               i64 i0, i64 i1, Scratch &sc) const {
     const int pn = pnp();
     for (i64 i = i0; i < i1; ++i)
-      if (!damped_inverse(V, mu, i, sc.damped.data(), Vinv + i * pn * pn)) return false;
+      if (!damped_inverse(V, mu, damping, i, sc.damped.data(), Vinv + i * pn * pn)) return false;
     return true;
   }
 
@@ -652,7 +653,7 @@ class KernelsT final : public Kernels {
     for (i64 i = i0; i < i1; i += kBatch) {
       const int count = int(std::min<i64>(i1 - i, kBatch));
       for (int b = 0; b < count; ++b) pts[b] = int(i) + b;
-      point_inverses(nullptr, V, mu, pts, count, sc, Vib);
+      point_inverses(nullptr, V, mu, nullptr, pts, count, sc, Vib);
       for (int b = 0; b < count; ++b)
         for (int a = 0; a < pn; ++a) diag[(i + b) * pn + a] = Vib[b] ? Vib[b][a * pn + a] : NAN;
     }
@@ -678,7 +679,7 @@ class KernelsT final : public Kernels {
       const double *Uk = ne.U + i64(k + lay.mcon) * cn * cn;
       for (int a = 0; a < cn; ++a) {
         for (int c = 0; c < cn; ++c) Skk[a * ld + c] = Uk[a * cn + c];
-        Skk[a * ld + a] += mu;
+        Skk[a * ld + a] += ne.damping ? mu * ne.damping[lay.a_off(k + lay.mcon) + a] : mu;
       }
       const double *eak = ne.ea + i64(k + lay.mcon) * cn;
       for (int a = 0; a < cn; ++a) rhs[i64(k) * cn + a] = eak[a];
@@ -690,7 +691,7 @@ class KernelsT final : public Kernels {
       int nb = 0;
       for (; next < lay.n && nb < kBatch; ++next)
         if (track_in_columns(next, k0, k1, fb[nb], lob[nb], hib[nb])) pts[nb++] = next;
-      point_inverses(Vinv, ne.V, mu, pts, nb, sc, Vib);
+      point_inverses(Vinv, ne.V, mu, ne.damping, pts, nb, sc, Vib);
       for (int b = 0; b < nb; ++b) {
         const int i = pts[b], f = fb[b], lo = lob[b], hi = hib[b];
         if (!Vib[b]) return false;
@@ -766,7 +767,7 @@ class KernelsT final : public Kernels {
       if (slot == 0) {
         const int count = int(std::min<i64>(i1 - i, kBatch));
         for (int b = 0; b < count; ++b) pts[b] = int(i) + b;
-        point_inverses(Vinv, ne.V, mu, pts, count, sc, Vib);
+        point_inverses(Vinv, ne.V, mu, ne.damping, pts, count, sc, Vib);
       }
       for (int c = 0; c < pn; ++c) t[c] = ne.eb[i * pn + c];
       for (int k = rowptr[i]; k < rowptr[i + 1]; ++k) {
@@ -801,14 +802,19 @@ class KernelsT final : public Kernels {
   // positive definite but where sba 1.6's retries have left an indefinite diagonal on it
   // (strategy.cpp): Cholesky first, and where it refuses, the symmetric-indefinite inverse
   // that 1.6's Bunch-Kaufman gives.
-  bool damped_inverse(const double *V, double mu, i64 i, double *work, double *inv) const {
+  bool damped_inverse(const double *V, double mu, const double *damping, i64 i, double *work, double *inv) const {
     const int pn = pnp();
     const double *Vi = V + i * pn * pn;
-    for (int a = 0; a < pn * pn; ++a) work[a] = Vi[a];
-    for (int a = 0; a < pn; ++a) work[a * pn + a] += mu;
+    const auto damp = [&] {
+      for (int a = 0; a < pn * pn; ++a) work[a] = Vi[a];
+      if (damping)
+        for (int a = 0; a < pn; ++a) work[a * pn + a] += mu * damping[lay_.b_off(int(i)) + a];
+      else
+        for (int a = 0; a < pn; ++a) work[a * pn + a] += mu;
+    };
+    damp();
     if (small::spd_inverse<P>(work, inv, pn)) return true;
-    for (int a = 0; a < pn * pn; ++a) work[a] = Vi[a];
-    for (int a = 0; a < pn; ++a) work[a * pn + a] += mu;
+    damp();
     return small::sym_inverse<P>(work, inv, pn);
   }
 
@@ -816,11 +822,15 @@ class KernelsT final : public Kernels {
   // Vinv, or made in sc (null where singular). Made together, their square
   // roots and divisions overlap (3x3 blocks: four to a vector); made as each point's turn
   // came, every point would wait for its own (kernels_benchmark's Solve1 shows the cost).
-  void point_inverses(const double *Vinv, const double *V, double mu, const int *pts, int count, Scratch &sc,
-                      const double **out) const {
+  // Inlined, with inverses3, into the loops of the assembly and the back-substitution that
+  // call it for every batch of points.
+  __attribute__((always_inline)) void point_inverses(const double *Vinv, const double *V, double mu,
+                                                     const double *damping, const int *pts, int count, Scratch &sc,
+                                                     const double **out) const {
     if constexpr (P == 3) {
       if (!Vinv) {
-        for (int g = 0; g < count; g += 4) inverses3(V, mu, pts + g, std::min(4, count - g), sc, g, out + g);
+        for (int g = 0; g < count; g += 4)
+          inverses3(V, mu, damping, pts + g, std::min(4, count - g), sc, g, out + g);
         return;
       }
     }
@@ -832,20 +842,24 @@ class KernelsT final : public Kernels {
         continue;
       }
       double *inv = sc.inv.data() + b * pp;
-      out[b] = damped_inverse(V, mu, i, sc.damped.data() + b * pp, inv) ? inv : nullptr;
+      out[b] = damped_inverse(V, mu, damping, i, sc.damped.data() + b * pp, inv) ? inv : nullptr;
     }
   }
 
   // (V_i + mu I)^-1 of up to four points pts[0 .. count) through spd_inverse3_lanes, into
   // sc.inv's slots from slot0 on. Missing lanes get the identity.
-  void inverses3(const double *V, double mu, const int *pts, int count, Scratch &sc, int slot0,
-                 const double **out) const {
+  __attribute__((always_inline)) void inverses3(const double *V, double mu, const double *damping, const int *pts,
+                                                int count, Scratch &sc, int slot0, const double **out) const {
     lanes4 a[9], inv[9];
     for (int e = 0; e < 9; ++e)
       for (int l = 0; l < 4; ++l)
         a[e][l] = l < count ? V[i64(pts[l]) * 9 + e] : (e % 4 == 0 ? 1.0 : 0.0);
-    for (int e = 0; e < 9; e += 4)
-      for (int l = 0; l < count; ++l) a[e][l] += mu;
+    if (damping)
+      for (int e = 0; e < 9; e += 4)
+        for (int l = 0; l < count; ++l) a[e][l] += mu * damping[lay_.b_off(pts[l]) + e / 4];
+    else
+      for (int e = 0; e < 9; e += 4)
+        for (int l = 0; l < count; ++l) a[e][l] += mu;
     mask4 ok;
     spd_inverse3_lanes(a, inv, ok);
     for (int l = 0; l < count; ++l) {
@@ -854,7 +868,7 @@ class KernelsT final : public Kernels {
         for (int e = 0; e < 9; ++e) dst[e] = inv[e][l];
         out[l] = dst;
       } else {  // not positive definite: damped_inverse's fallback, one block
-        out[l] = damped_inverse(V, mu, pts[l], sc.damped.data() + (slot0 + l) * 9, dst) ? dst : nullptr;
+        out[l] = damped_inverse(V, mu, damping, pts[l], sc.damped.data() + (slot0 + l) * 9, dst) ? dst : nullptr;
       }
     }
   }

@@ -658,7 +658,8 @@ class LevenbergMarquardt {
  public:
   LevenbergMarquardt(const Layout &lay, Steps &st, StepSolver &solver, Strategy &strategy, const Options &opt, const Logger &log, Summary &sum,
                      std::chrono::steady_clock::time_point t0)
-      : lay_(lay), st_(st), w_(st.w), ne_(st.w.view()), pool_(st.pool_), kernels_(st.kernels_),
+      : lay_(lay), st_(st), w_(st.w), ne_(damped(st.w.view(), strategy.damping())), pool_(st.pool_),
+        kernels_(st.kernels_),
         solver_(solver), strategy_(strategy), opt_(opt), log_(log), sum_(sum),
         t0_(t0), nvars_(lay.nvars()) {}
 
@@ -678,6 +679,11 @@ class LevenbergMarquardt {
   }
 
  private:
+  static NormalEquations damped(NormalEquations ne, const double *damping) {
+    ne.damping = damping;
+    return ne;
+  }
+
   // What became of one damped solve.
   enum class Attempt {
     kAccepted,  // p moved to the candidate
@@ -905,7 +911,7 @@ bool solve(const Layout &lay, Model &model, double *p, const double *x, const do
   Steps st(lay, model, x, opt.loss, log, pool, *kernels, covx != nullptr, &priors, opt.single_jacobian);
   std::unique_ptr<StepSolver> solver = make_step_solver(opt.solver, SolveContext{lay, pool, *kernels, opt.schur_analysis.get()});
   if (wrap) solver = wrap(std::move(solver));
-  const std::unique_ptr<Strategy> strategy = make_strategy(opt.strategy, lay, opt.eps4);
+  const std::unique_ptr<Strategy> strategy = make_strategy(opt.strategy, lay, opt.eps4, solver->takes_damping());
   if (!st.weigh(covx)) return false;
   // A solve that iterates starts with every shared parameter's copies equal; one that fails
   // before its first step, or only scores p (itmax 0), leaves p as the caller gave it.

@@ -50,6 +50,8 @@ class DenseSchurSolver final : public StepSolver {
     assembly_.finish(ne, mu, dp);
     return StepStatus::Solved;
   }
+  // The per-camera assembly damps as the kernels do; the map of shared unknowns adds mu alone.
+  bool takes_damping() const override { return ctx_.lay.cams.per_camera(); }
 
  private:
   std::unique_ptr<DenseFactorization> factorization_;

@@ -202,6 +202,8 @@ class SparseSchurSolver final : public StepSolver {
     assembly_.finish(ne, mu, dp);
     return StepStatus::Solved;
   }
+  // As the dense solver: per-camera blocks only.
+  bool takes_damping() const override { return lay_.cams.per_camera(); }
 
  private:
   // S into CHOLMOD's arrays (Ax, zeroed) and rhs_; false if some V_i + mu I is singular.

@@ -78,6 +78,7 @@ class PinHeld final : public StepSolver {
     lay_.cams.pin_held(dp);
     return st;
   }
+  bool takes_damping() const override { return inner_->takes_damping(); }
 
  private:
   std::unique_ptr<StepSolver> inner_;

@@ -43,6 +43,10 @@ class StepSolver {
   // free parameters, where U and V are ne's blocks as they are (sba 1.6's retries hand them
   // over with the diagonals its previous attempts left: strategy.h, before_retry).
   virtual StepStatus solve(const NormalEquations &ne, double mu, double *dp) = 0;
+  // Whether solve() damps each parameter q by mu ne.damping[q] when ne.damping is set (the
+  // trust region's Marquardt damping without a change of variables); a solver that does not
+  // is handed ne.damping null, and the strategy scales the normal equations instead.
+  virtual bool takes_damping() const { return false; }
 };
 
 // Whether lay's normal equations are block diagonal: no free points or no free cameras (the

@@ -132,11 +132,14 @@ class Sba16 final : public Strategy {
   std::unique_ptr<Sba16Retry> retry_;
 };
 
-// The solver works in scaled variables q = D^(1/2) p with D = diag(J^T J) clamped to
-// [kMinDiagonal, kMaxDiagonal]: its system (S J^T J S + mu I) dq = S J^T e with S = D^(-1/2)
-// is (J^T J + mu D) dp = J^T e, Marquardt's, and every linear solver keeps its mu I
-// interface. The floor keeps a parameter the data hardly see (or a column held at zero)
-// from being left undamped; the bounds are those Ceres documents for its LM diagonal.
+// The system is (J^T J + mu D) dp = J^T e, Marquardt's, with D = diag(J^T J) clamped to
+// [kMinDiagonal, kMaxDiagonal]. A solver that takes a damping per parameter
+// (StepSolver::takes_damping) is handed D and solves it as it stands. The others keep their
+// mu I interface: they work in scaled variables q = D^(1/2) p, whose system (S J^T J S + mu I)
+// dq = S J^T e with S = D^(-1/2) is the same one, at the cost of scaling the normal equations
+// and every Jacobian block. The floor keeps a parameter the data hardly see (or a column held
+// at zero) from being left undamped; the bounds are those Ceres documents for its LM
+// diagonal.
 constexpr double kMinDiagonal = 1e-6, kMaxDiagonal = 1e32;
 // A trial point must achieve this fraction of the predicted reduction (Ceres's
 // min_relative_decrease): a step that barely lowers the cost is a sign the region is too
@@ -151,12 +154,16 @@ constexpr double kDefaultCostTolerance = 1e-6;
 
 class TrustRegion final : public Strategy {
  public:
-  TrustRegion(const Layout &lay, double eps4)
-      : Strategy(lay), ftol_(eps4 > 0.0 ? eps4 : kDefaultCostTolerance),
+  TrustRegion(const Layout &lay, double eps4, bool solver_damps)
+      : Strategy(lay), ftol_(eps4 > 0.0 ? eps4 : kDefaultCostTolerance), damps_(solver_damps),
         s_(size_t(lay.nvars()), 1.0) {}
 
   void linearized(ThreadPool &pool, const Kernels &kernels, JacobianBlocks jac, double *U, double *V, double *ea,
                   double *eb) override {
+    if (damps_) {
+      set_damping(pool, U, V);
+      return;
+    }
     const int cnp = lay_.cnp, pnp = lay_.pnp;
     double *s = s_.data();
     const auto scale = [](double d) { return 1.0 / std::sqrt(std::clamp(d, kMinDiagonal, kMaxDiagonal)); };
@@ -217,9 +224,27 @@ class TrustRegion final : public Strategy {
   // step moves the cost by rounding only, a rejected step then ends the solve instead of a
   // run of smaller and smaller steps (each a factorization) ending on eps2 at the same point.
   bool converged_on_rejection(double e, double en) const override { return std::fabs(e - en) <= ftol_ * e; }
-  const double *scale() const override { return s_.data(); }
+  const double *damping() const override { return damps_ ? s_.data() : nullptr; }
 
  private:
+  // s_ = D over the free cameras and points (held ones: 1), without a change of variables.
+  // The solvers that take it have a block per camera: no unknown is shared.
+  void set_damping(ThreadPool &pool, const double *U, const double *V) {
+    const int cnp = lay_.cnp, pnp = lay_.pnp;
+    double *d = s_.data();
+    const auto clamped = [](double x) { return std::clamp(x, kMinDiagonal, kMaxDiagonal); };
+    pool.for_range(lay_.m, [&](i64 b, i64 e) {
+      for (i64 j = b; j < e; ++j)
+        if (lay_.cam_free(int(j)))
+          for (int a = 0; a < cnp; ++a) d[lay_.a_off(int(j)) + a] = clamped(U[(j * cnp + a) * cnp + a]);
+    });
+    pool.for_range(lay_.n, [&](i64 b, i64 e) {
+      for (i64 i = b; i < e; ++i)
+        if (lay_.pt_free(int(i)))
+          for (int a = 0; a < pnp; ++a) d[lay_.b_off(int(i)) + a] = clamped(V[(i * pnp + a) * pnp + a]);
+    });
+  }
+
   // s_ over the free cameras from the diagonal entries of S's rows (held parameters: 1).
   void camera_scales(const double *U) {
     std::vector<double> d(size_t(lay_.camera_unknowns()));
@@ -229,6 +254,7 @@ class TrustRegion final : public Strategy {
   }
 
   void to_parameters(ThreadPool &pool, double *dp) const override {
+    if (damps_) return;  // the solver's step is in the units of p
     const double *s = s_.data();
     pool.for_range(lay_.nvars(), [&](i64 b, i64 e) {
       for (i64 q = b; q < e; ++q) dp[q] *= s[q];
@@ -236,7 +262,8 @@ class TrustRegion final : public Strategy {
   }
 
   double ftol_;
-  std::vector<double> s_;  // per parameter: D^(-1/2) of its latest linearization
+  bool damps_;             // the solver damps by s_ (D) rather than working in scaled variables
+  std::vector<double> s_;  // per parameter: D, or D^(-1/2), of its latest linearization
 };
 
 }  // namespace
@@ -268,10 +295,11 @@ double Strategy::step_in_parameters(ThreadPool &pool, const double *ea, const do
                                     double mu, double *dp) const {
   const i64 ncam = i64(lay_.m) * lay_.cnp;
   const double *share = share_.empty() ? nullptr : share_.data();
+  const double *d = damping();
   const double predicted = deterministic_sum(pool, lay_.nvars(), [=](i64 q) {
     const double g = q < ncam ? ea[q] : eb[q - ncam];
     const double w = share && q < ncam ? share[q] : 1.0;
-    return dp[q] * (mu * dp[q] * w + g);
+    return dp[q] * ((d ? mu * d[q] : mu) * dp[q] * w + g);
   });
   to_parameters(pool, dp);
   return predicted;
@@ -289,8 +317,8 @@ const char *strategy_name(StrategyKind kind) {
 
 const char *strategy_names() { return kStrategyNames.text; }
 
-std::unique_ptr<Strategy> make_strategy(StrategyKind kind, const Layout &lay, double eps4) {
-  if (kind == StrategyKind::TrustRegion) return std::make_unique<TrustRegion>(lay, eps4);
+std::unique_ptr<Strategy> make_strategy(StrategyKind kind, const Layout &lay, double eps4, bool solver_damps) {
+  if (kind == StrategyKind::TrustRegion) return std::make_unique<TrustRegion>(lay, eps4, solver_damps);
   return std::make_unique<Sba16>(lay, eps4, kind == StrategyKind::Sba);
 }
 

@@ -39,7 +39,8 @@ class Strategy {
   virtual ~Strategy() = default;
   // Called once per iteration with the normal equations just formed (undamped U_j, V_i,
   // e_a, e_b, and the Jacobian blocks the solvers read). A strategy may change variables
-  // here: the solver then works in its variables, and step_in_parameters maps its step back.
+  // here: the solver then works in its variables, and step_in_parameters maps its step back;
+  // or, with damping(), set the damping of each parameter instead.
   virtual void linearized(ThreadPool &pool, const Kernels &kernels, JacobianBlocks jac, double *U,
                           double *V, double *ea, double *eb) = 0;
   // The damping of the first iteration, from opts[0] and the largest diagonal entry of
@@ -48,7 +49,8 @@ class Strategy {
   // The largest diagonal entry of the system the solver sees, from that of J^T J.
   virtual double solved_max_diagonal(double maxdiag) const = 0;
   // The step dp the solver returned at damping mu, given the gradient e_a, e_b it was handed:
-  // returns the reduction its linear model predicts, dp^T (mu dp + g) with g = J^T e, and
+  // returns the reduction its linear model predicts, dp^T (mu D dp + g) with g = J^T e (D:
+  // damping(), or I), and
   // turns dp, in place, into the step in the units of p. The reduction is computed first, in
   // the solver's variables, where mu and g belong: after the change back they no longer apply.
   double step_in_parameters(ThreadPool &pool, const double *ea, const double *eb, double mu,
@@ -71,9 +73,10 @@ class Strategy {
   // Stop reason 4 after a rejected step from cost e to cost en: no more to gain at any
   // damping. sba 1.6 has no such test: it damps on until one of its other tests fires.
   virtual bool converged_on_rejection(double, double) const { return false; }
-  // Per parameter, the factor s of the change of variables of the latest linearization
-  // (dp = s dq in the units of p), or null when the solver works in the units of p.
-  virtual const double *scale() const { return nullptr; }
+  // Per parameter, the factor D_q of the damping mu D_q the solver is to apply
+  // (NormalEquations::damping), set by each linearization; null for mu alone. Its address
+  // does not change during a solve.
+  virtual const double *damping() const { return nullptr; }
 
  protected:
   const Layout &lay_;
@@ -86,7 +89,10 @@ class Strategy {
 };
 
 // eps4 is opts[4]; the trust region reads 0 as its default relative cost tolerance.
-std::unique_ptr<Strategy> make_strategy(StrategyKind kind, const Layout &lay, double eps4);
+// solver_damps: the solver takes a damping per parameter (StepSolver::takes_damping), which
+// the trust region then uses rather than scaling the normal equations and the Jacobian.
+std::unique_ptr<Strategy> make_strategy(StrategyKind kind, const Layout &lay, double eps4,
+                                        bool solver_damps = false);
 
 }  // namespace sba
 

@@ -349,6 +349,26 @@ TEST(StrategyStep, TrustRegionPredictsInTheSolversVariablesThenScalesTheStep) {
   EXPECT_EQ(dp, 0.25);
 }
 
+// With a solver that damps each parameter (StepSolver::takes_damping) nothing is scaled: the
+// solver is handed D = diag(J^T J) = 4 and solves in the units of p, and the same step, 0.25
+// here for the 0.5 above, predicts the same reduction.
+TEST(StrategyStep, TrustRegionWithADampingSolverStaysInTheUnitsOfP) {
+  const sba::Layout lay = one_parameter();
+  sba::ThreadPool pool(1);
+  const std::unique_ptr<sba::Strategy> tr = sba::make_strategy(sba::StrategyKind::TrustRegion, lay, 0.0, true);
+  const std::unique_ptr<sba::Kernels> kernels = sba::make_kernels(lay, pool.size());
+  double jac = 2.0, U = 4.0, ea = 6.0;
+  tr->linearized(pool, *kernels, sba::JacobianBlocks{&jac, nullptr}, &U, nullptr, &ea, nullptr);
+  EXPECT_EQ(jac, 2.0);
+  EXPECT_EQ(U, 4.0);
+  EXPECT_EQ(ea, 6.0);
+  ASSERT_NE(tr->damping(), nullptr);
+  EXPECT_EQ(tr->damping()[0], 4.0);
+  double dp = 0.25;
+  EXPECT_EQ(tr->step_in_parameters(pool, &ea, nullptr, 0.25, &dp), 0.5 * (0.25 * 0.5 + 3.0));
+  EXPECT_EQ(dp, 0.25);
+}
+
 TEST(StrategyStep, SbaKeepsTheStep) {
   const sba::Layout lay = one_parameter();
   sba::ThreadPool pool(1);

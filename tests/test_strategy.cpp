@@ -472,6 +472,80 @@ void expect_blocks(const std::vector<double> &before, const std::vector<double> 
 
 }  // namespace retry
 
+// Hands each solve to the solver it wraps, and says that it takes a damping per parameter only
+// when `pass` is set; records whether it was handed one.
+class DampingPassed final : public sba::StepSolver {
+ public:
+  DampingPassed(std::unique_ptr<sba::StepSolver> inner, bool pass, bool *handed)
+      : inner_(std::move(inner)), pass_(pass), handed_(handed) {}
+  sba::StepStatus solve(const sba::NormalEquations &ne, double mu, double *dp) override {
+    if (ne.damping) *handed_ = true;
+    return inner_->solve(ne, mu, dp);
+  }
+  bool takes_damping() const override { return pass_ && inner_->takes_damping(); }
+
+ private:
+  std::unique_ptr<sba::StepSolver> inner_;
+  bool pass_;
+  bool *handed_;
+};
+
+struct TrustRegionRun {
+  sba::Summary sum;
+  std::vector<double> p;
+  bool handed = false;
+};
+
+// The trust region on a synth problem (first camera and three points fixed) through `kind`,
+// the solver's damping per parameter used or not.
+TrustRegionRun trust_region(sba::LinSolver kind, bool pass) {
+  synth::Problem pb = synth::make(150, 8, 0.5, 0.05, 77);
+  pb.fixed_points = pb.truth.data() + pb.m * synth::kCnp;
+  pb.fixed_cams = pb.truth.data();
+  sba::Layout lay;
+  std::string msg;
+  EXPECT_TRUE(sba::build_layout(lay, sba::Mode::MotStr, pb.n, pb.m, 1, 3, synth::kCnp, synth::kPnp, synth::kMnp,
+                                pb.vmask.data(), &msg));
+  const std::unique_ptr<sba::Model> model =
+      sba::make_expert_model(lay, synth::func_motstr, synth::fjac_motstr, &pb, false);
+  TrustRegionRun r;
+  r.p = pb.p0;
+  sba::Options opt;
+  opt.itmax = 100;
+  opt.strategy = sba::StrategyKind::TrustRegion;
+  opt.solver = kind;
+  const sba::Logger quiet;
+  EXPECT_TRUE(sba::solve(lay, *model, r.p.data(), pb.x.data(), nullptr, opt, quiet, r.sum,
+                         [&](std::unique_ptr<sba::StepSolver> s) -> std::unique_ptr<sba::StepSolver> {
+                           return std::make_unique<DampingPassed>(std::move(s), pass, &r.handed);
+                         }));
+  return r;
+}
+
+}  // namespace
+
+// Marquardt's damping mu diag(J^T J) taken as it stands by the solvers that can (the Schur
+// solvers over per-camera blocks) is the scaled system the others solve: the same steps to
+// rounding, so the same iterations, evaluations and minimum.
+TEST(Strategy, TrustRegionDampingPerParameterIsTheScaledSystem) {
+  for (sba::LinSolver kind : {sba::LinSolver::Chol, sba::LinSolver::LU, sba::LinSolver::SparseChol}) {
+    SCOPED_TRACE(int(kind));
+    const TrustRegionRun damped = trust_region(kind, true), scaled = trust_region(kind, false);
+    EXPECT_TRUE(damped.handed);
+    EXPECT_FALSE(scaled.handed);
+    EXPECT_EQ(damped.sum.reason, sba::kStopReduction);
+    EXPECT_EQ(damped.sum.reason, scaled.sum.reason);
+    EXPECT_EQ(damped.sum.iterations, scaled.sum.iterations);
+    EXPECT_EQ(damped.sum.nfev, scaled.sum.nfev);
+    EXPECT_EQ(damped.sum.nlinsys, scaled.sum.nlinsys);
+    EXPECT_NEAR(damped.sum.err / scaled.sum.err, 1.0, 1e-12);
+    for (size_t q = 0; q < damped.p.size(); ++q)
+      EXPECT_NEAR(damped.p[q], scaled.p[q], 1e-9 * std::max(1.0, std::fabs(scaled.p[q]))) << q;
+  }
+}
+
+namespace {
+
 // 1.6's motion-and-structure driver: U_j's diagonal accumulates every attempt's mu; V_i's
 // diagonal is the diagonal of the previous attempt's (V_i + mu I)^-1, which makes the block
 // indefinite (inverted all the same).
