@@ -81,9 +81,11 @@ def test_varying_intrinsics_as_eucsbademo_prints_it():
 
 def test_bal_as_balsba_prints_it(bal21):
     r = pysba.solve(bal21)
-    # The minimum to six digits; the iterations to it (28 or 30 as the kernels round) are
-    # balsba's, which the line below compares.
-    assert (f"{r.final_mse:g}", f"{r.initial_mse:g}", r.reason) == ("1.66664", "242.12", pysba.Reason.REDUCTION)
+    # The minimum to six digits; the iterations to it (28 to 31 as the build rounds) and how
+    # the flat end stops (stop 4; stop 2 after a few rejected steps in the sanitizers' -O1
+    # build) are balsba's, which the line below compares.
+    assert (f"{r.final_mse:g}", f"{r.initial_mse:g}") == ("1.66664", "242.12")
+    assert r.reason in (pysba.Reason.REDUCTION, pysba.Reason.STEP) and 28 <= r.iterations <= 31
     line = program_line("PYSBA_BALSBA", [BAL / "problem-21-11315-pre.txt.bz2", "--no-progress"])
     assert printed(r) == line
 
