@@ -128,15 +128,11 @@ class Kernels {
   // widened. Their gradient is not formed here: it is made from the blocks in double, before
   // they were rounded (lm_core.cpp).
   virtual void normal_matrices(ThreadPool &pool, const float *jac, double *U, double *V) const = 0;
-  // Vinv_i = (V_i + mu I)^-1 for the free points (damping: NormalEquations::damping, or null);
-  // false if one is singular. V_i + mu I is
+  // Vinv_i = (V_i + mu I)^-1 for the free points; false if one is singular. V_i + mu I is
   // positive definite but on the retries of sba 1.6's strategy (strategy.cpp), where it may be
   // indefinite and is inverted all the same, as 1.6 does.
-  virtual bool invert_damped_V(ThreadPool &pool, const double *V, double mu, const double *damping,
+  virtual bool invert_damped_V(ThreadPool &pool, const double *V, double mu,
                                double *Vinv) const = 0;
-  bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const {
-    return invert_damped_V(pool, V, mu, nullptr, Vinv);
-  }
   // The diagonal of each free point's (V_i + mu I)^-1, made as the other kernels make the
   // inverse, into diag (pnp entries per point, by point); NaN where V_i + mu I is singular.
   virtual void damped_inverse_diagonals(ThreadPool &pool, const double *V, double mu,

@@ -465,10 +465,9 @@ class KernelsT final : public Kernels {
     gram(pool, jac, nullptr, U, V, nullptr, nullptr);
   }
 
-  bool invert_damped_V(ThreadPool &pool, const double *V, double mu, const double *damping,
-                       double *Vinv) const override {
+  bool invert_damped_V(ThreadPool &pool, const double *V, double mu, double *Vinv) const override {
     return pool.all_ranges(lay_.n - lay_.ncon, [&](int t, i64 b, i64 end) {
-      return invert_points(V, mu, damping, Vinv, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
+      return invert_points(V, mu, Vinv, b + lay_.ncon, end + lay_.ncon, scratch_[size_t(t)]);
     });
   }
 
@@ -635,11 +634,11 @@ class KernelsT final : public Kernels {
   }
 
   // (V_i + mu I)^-1 for the points [i0, i1); false at the first singular one.
-  __attribute__((noinline)) bool invert_points(const double *V, double mu, const double *damping, double *Vinv,
-                                               i64 i0, i64 i1, Scratch &sc) const {
+  __attribute__((noinline)) bool invert_points(const double *V, double mu, double *Vinv, i64 i0, i64 i1,
+                                               Scratch &sc) const {
     const int pn = pnp();
     for (i64 i = i0; i < i1; ++i)
-      if (!damped_inverse(V, mu, damping, i, sc.damped.data(), Vinv + i * pn * pn)) return false;
+      if (!damped_inverse(V, mu, nullptr, i, sc.damped.data(), Vinv + i * pn * pn)) return false;
     return true;
   }
 

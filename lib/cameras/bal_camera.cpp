@@ -6,6 +6,7 @@
 #include <memory>
 #include <new>
 
+#include "cameras/camera_pose.h"
 #include "sba.h"
 
 namespace sbacameras::bal {
@@ -155,18 +156,13 @@ void project_with(const double a[kCameraParams], const RotationTerms &rt, const 
   }
   if (!A) return;
 
-  // d Q / d w = -[RX]x G with RX = Q - t: row h of H becomes (RX x h) G, the camera's G made
-  // once for all its points.
+  // d Q / d w through the left Jacobian G, at R X = Q - t.
   const double RX[3] = {Q[0] - t[0], Q[1] - t[1], Q[2] - t[2]};
+  rotation_columns(H, RX, rt.G, kCameraParams, 0, A);
   double *A0 = A, *A1 = A + kCameraParams;
-  for (int r = 0; r < 2; ++r) {
-    const double *h = H + r * 3;
-    const double k3[3] = {RX[1] * h[2] - RX[2] * h[1], RX[2] * h[0] - RX[0] * h[2], RX[0] * h[1] - RX[1] * h[0]};
-    double *Ar = r == 0 ? A0 : A1;
-    for (int k = 0; k < 3; ++k) {
-      Ar[k] = k3[0] * rt.G[k] + k3[1] * rt.G[3 + k] + k3[2] * rt.G[6 + k];
-      Ar[3 + k] = h[k];  // d Q / d t = I
-    }
+  for (int k = 0; k < 3; ++k) {
+    A0[3 + k] = H[k];  // d Q / d t = I
+    A1[3 + k] = H[3 + k];
   }
   A0[6] = d * px;
   A1[6] = d * py;

@@ -9,6 +9,7 @@
 #include <string>
 #include <utility>
 
+#include "cameras/camera_pose.h"
 #include "cameras/euclidean_rotation.h"
 #include "cameras/rigid_pose.h"
 
@@ -566,17 +567,6 @@ LocalRotation local_rotation(const double *v, const double *R0) {
   rotation_tangent_jacobian(v, r.G);
   for (double &g : r.G) g *= 2;
   return r;
-}
-
-// Columns col..col+2 of the 2 x cnp A: H d(M X)/dv for H 2x3, with MX = M X. The left
-// increment gives d(M X)/dv = -[MX]x G, a camera's G once for all its points: each row h of H
-// becomes (MX x h) G, fewer operations per projection than differentiating the quaternion.
-void rotation_columns(const double *H, const double MX[3], const double G[9], int cnp, int col, double *A) {
-  for (int r = 0; r < 2; ++r) {
-    const double *h = H + r * 3;
-    const double k[3] = {MX[1] * h[2] - MX[2] * h[1], MX[2] * h[0] - MX[0] * h[2], MX[0] * h[1] - MX[1] * h[0]};
-    for (int c = 0; c < 3; ++c) A[r * cnp + col + c] = k[0] * G[c] + k[1] * G[3 + c] + k[2] * G[6 + c];
-  }
 }
 
 // A = H J for H 2x3 and J 3x3, into columns col..col+2 of the 2 x cnp A.
