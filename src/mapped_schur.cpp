@@ -36,11 +36,11 @@ MappedSchur::MappedSchur(const Layout &lay, int threads, Assembly how, int tile,
   for (int i = 0; i < lay.n; ++i) {
     const int *list = point_blocks(i), nl = point_nblocks(i);
     i64 z = 0;
+    double rows = 0.0;  // the unknowns of the point's blocks up to and including b
     for (int s = 0; s < nl; ++s) {
       const int b = list[s];
       z += i64(map.block_size(b)) * pnp;
-      double rows = 0.0;
-      for (int s1 = 0; s1 <= s; ++s1) rows += map.block_size(list[s1]);
+      rows += map.block_size(b);
       work[size_t(b)] += rows * map.block_size(b) * pnp;
     }
     zmax_ = std::max(zmax_, z);

@@ -32,12 +32,15 @@ bool mapped_pattern(const Layout &lay, i64 max_blocks, SchurPattern *pat) {
   };
   for (int B = 0; B < nb; ++B) {
     const size_t first = rows->size();
+    // Once column B holds every block up to its own, nothing more can join it: with long
+    // tracks, most columns are full after their first points.
+    const auto full = [&] { return rows->size() - first == size_t(B) + 1; };
     add(B, B);
-    for (i64 q = pstart[size_t(B)]; q < pstart[size_t(B) + 1]; ++q) {
+    for (i64 q = pstart[size_t(B)]; q < pstart[size_t(B) + 1] && !full(); ++q) {
       const int i = pts[size_t(q)];
       for (int s = 0; s < map.point_nblocks(i) && map.point_blocks(i)[s] < B; ++s) add(map.point_blocks(i)[s], B);
     }
-    for (const int *j = map.block_cams_begin(B); j != map.block_cams_end(B); ++j)
+    for (const int *j = map.block_cams_begin(B); j != map.block_cams_end(B) && !full(); ++j)
       for (const int *b = map.cam_blocks_begin(*j); b != map.cam_blocks_end(*j) && *b < B; ++b) add(*b, B);
     if (i64(rows->size()) > max_blocks) return false;
     std::sort(rows->begin() + long(first), rows->end());
@@ -61,7 +64,7 @@ bool schur_pattern(const Layout &lay, i64 max_blocks, SchurPattern *pat) {
   for (int k = 0; k < nc; ++k) {
     const int cam = k + lay.mcon;
     const size_t first = rows->size();
-    for (int s = lay.colptr[cam]; s < lay.colptr[cam + 1]; ++s) {
+    for (int s = lay.colptr[cam]; s < lay.colptr[cam + 1] && rows->size() - first < size_t(k) + 1; ++s) {
       const int i = colrow[size_t(s)];
       if (i < lay.ncon) continue;
       for (int q = lay.rowptr[i]; q < lay.rowptr[i + 1]; ++q) {

@@ -67,6 +67,36 @@ TEST(SchurPattern, SharedBlocksAreCoupledByCommonCamerasToo) {
   EXPECT_EQ(pat.rows, (std::vector<int>{0, 0, 1, 1, 2, 1, 2, 3, 3, 4}));
 }
 
+// Three cameras of two parameters; point 0 seen by cameras 0 and 2, point 1 by all three,
+// point 2 by 1 and 2: column 2 fills up at point 1, and point 2 has nothing to add to it.
+sba::Layout full_three() {
+  const char vmask[9] = {1, 0, 1,  //
+                         1, 1, 1,  //
+                         0, 1, 1};
+  sba::Layout lay;
+  std::string msg;
+  EXPECT_TRUE(sba::build_layout(lay, sba::Mode::MotStr, 3, 3, 0, 0, 2, 3, 2, vmask, &msg)) << msg;
+  return lay;
+}
+
+TEST(SchurPattern, ColumnsThatFillUpHoldEveryBlockOnce) {
+  sba::SchurPattern pat;
+  ASSERT_TRUE(sba::schur_pattern(full_three(), 100, &pat));
+  EXPECT_EQ(pat.colstart, (std::vector<i64>{0, 1, 3, 6}));
+  EXPECT_EQ(pat.rows, (std::vector<int>{0, 0, 1, 0, 1, 2}));
+  // Parameter 1 shared by all three cameras: blocks 0, 1, 2 each camera's parameter 0 and
+  // block 3 the shared one, which every camera and point couples to the others.
+  sba::Layout lay = full_three();
+  const int group[6] = {-1, 0, -1, 0, -1, 0};
+  sba::CameraParamOptions o;
+  o.param_group = group;
+  lay.cams = sba::make_camera_map(o, lay);
+  ASSERT_EQ(lay.cams.nblocks(), 4);
+  ASSERT_TRUE(sba::schur_pattern(lay, 100, &pat));
+  EXPECT_EQ(pat.colstart, (std::vector<i64>{0, 1, 3, 6, 10}));
+  EXPECT_EQ(pat.rows, (std::vector<int>{0, 0, 1, 0, 1, 2, 0, 1, 2, 3}));
+}
+
 TEST(SchurPattern, AmdOrdersEveryBlockOnce) {
   sba::SchurPattern pat;
   ASSERT_TRUE(sba::schur_pattern(four_cameras(), 100, &pat));
