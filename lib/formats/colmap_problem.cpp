@@ -738,12 +738,24 @@ std::vector<cc::Camera> Problem::cameras(const double *p) const {
 
 std::string Problem::nonfinite_error(const Model &model, const std::string &name) const {
   const eucsba::PointSet &s = points_;
+  // Every projection through the solve's own callback, which sets each camera up once: one
+  // COLMAP refuses comes back as its measurement, at no cost, as the solve will cost it.
+  const int nobs = s.nprojections(), n = npoints();
+  std::vector<int> rowptr(at(n) + 1, 0), colidx(s.pairs.camera), val(at(nobs));
+  for (int k = 0; k < nobs; ++k) {
+    ++rowptr[at(s.pairs.point[at(k)]) + 1];
+    val[at(k)] = k;
+  }
+  std::partial_sum(rowptr.begin(), rowptr.end(), rowptr.begin());
+  sba_crsm idx{n, ncameras(), nobs, val.data(), colidx.data(), rowptr.data()};
+  std::vector<double> hx(2 * at(nobs));
+  func()(const_cast<double *>(p0_.data()), &idx, nullptr, nullptr, hx.data(), adata());
   for (std::size_t k = 0; k < s.pairs.size(); ++k) {
+    const double dx = hx[2 * k] - s.x[2 * k], dy = hx[2 * k + 1] - s.x[2 * k + 1];
+    if (std::isfinite(dx * dx + dy * dy)) continue;
     const int i = s.pairs.point[k], j = s.pairs.camera[k];
     double x[2];
-    if (!project(p0_.data(), j, i, x)) continue;  // COLMAP's cost of it is zero
-    const double dx = x[0] - s.x[2 * k], dy = x[1] - s.x[2 * k + 1];
-    if (std::isfinite(dx * dx + dy * dy)) continue;
+    project(p0_.data(), j, i, x);
     const Image &im = model.images[at(images_[at(j)])];
     const auto camera = std::find_if(model.cameras.begin(), model.cameras.end(),
                                      [&](const Camera &c) { return c.id == im.camera_id; });
