@@ -515,6 +515,7 @@ class KernelsT final : public Kernels {
     std::vector<double> wide;         // one projection's blocks widened (run-time sizes)
     std::vector<double> damped, inv;  // kBatch blocks V_i + mu I (overwritten), their inverses
     std::vector<double> gram;         // this thread's U_j and e_a,j, with several threads
+    std::vector<double> packed;       // its block columns of a dense S (packed_offset)
   };
 
   // The work of one thread's range, out of line. Called from the pool's std::function, an
@@ -658,21 +659,43 @@ class KernelsT final : public Kernels {
     }
   }
 
-  // S's block columns [k0, k1) (free cameras) and their blocks of rhs, adding the points'
-  // contributions in ascending point order; false if some V_i + mu I is singular.
-  __attribute__((noinline)) bool assemble_columns(int k0, int k1, const NormalEquations &ne,
-                                                  const double *Vinv, double mu, const BlockMap &S,
-                                                  double *rhs, Scratch &sc) const {
-    if (k0 >= k1) return true;
+  // Where the assembly writes dense S's block columns: block j of column k at
+  // column(k) + j * rowstride, its rows ld apart; in S itself, or in the thread's packed copy.
+  struct DenseColumns {
+    double *base;
+    i64 rowstride, ld;
+    bool packed;
+    int k0, cn;
+    double *column(int k) const {
+      return packed ? base + (i64(k - k0) * (k0 + 1) + i64(k - k0) * (k - k0 - 1) / 2) * rowstride
+                    : base + i64(k) * cn;
+    }
+  };
+
+  // S's block columns [k0, k1) and their blocks of rhs before the points' terms: the diagonal
+  // blocks U_k + mu D_k, the rest zero. A dense S is assembled in the thread's packed copy of
+  // its block columns, blocks 0 .. k of column k one after the other, where S's upper triangle
+  // fits in kMaxPackedS. Updated in S itself, a block's rows lie S's row apart and straddle
+  // twice the cache lines, and two threads' columns share the lines where they meet.
+  DenseColumns start_columns(int k0, int k1, const NormalEquations &ne, double mu, const BlockMap &S, double *rhs,
+                             Scratch &sc) const {
     const Layout &lay = lay_;
-    const int cn = cnp(), pn = pnp(), cp = cn * pn;
-    if (!S.perm)  // dense S: block rows 0 .. k1 - 1 of these block columns
-      for (i64 r = 0; r < i64(k1) * cn; ++r) {
+    const int cn = cnp(), nc = lay.free_cams();
+    const bool packed = !S.perm && i64(nc) * (nc + 1) / 2 * cn * cn <= kMaxPackedS;
+    DenseColumns out{S.base, i64(cn) * S.ld, S.ld, false, k0, cn};
+    if (packed) {
+      sc.packed.assign(size_t((i64(k1 - k0) * (k0 + 1) + i64(k1 - k0) * (k1 - k0 - 1) / 2) * cn * cn), 0.0);
+      out = DenseColumns{sc.packed.data(), i64(cn) * cn, cn, true, k0, cn};
+    }
+    if (!S.perm)  // dense S: block rows 0 .. k1 - 1 of these columns; packed, those below the
+      for (i64 r = 0; r < i64(k1) * cn; ++r) {  // diagonal alone, the rest copied in at the end
         double *row = S.base + r * S.ld;
-        std::fill(row + i64(k0) * cn, row + i64(k1) * cn, 0.0);
+        const int kz = packed ? std::min(std::max(int(r / cn), k0), k1) : k1;
+        std::fill(row + i64(k0) * cn, row + i64(kz) * cn, 0.0);
       }
     for (int k = k0; k < k1; ++k) {
-      const BlockMap::Block blk = S.block(k, k);
+      const BlockMap::Block blk =
+          S.perm ? S.block(k, k) : BlockMap::Block{out.column(k) + k * out.rowstride, out.ld, false};
       double *Skk = blk.p;
       const i64 ld = blk.ld;
       const double *Uk = ne.U + i64(k + lay.mcon) * cn * cn;
@@ -683,6 +706,30 @@ class KernelsT final : public Kernels {
       const double *eak = ne.ea + i64(k + lay.mcon) * cn;
       for (int a = 0; a < cn; ++a) rhs[i64(k) * cn + a] = eak[a];
     }
+    return out;
+  }
+
+  // The packed copy of block columns [k0, k1) into S.
+  void finish_columns(int k0, int k1, const DenseColumns &dc, const BlockMap &S) const {
+    if (!dc.packed) return;
+    const int cn = cnp();
+    for (int k = k0; k < k1; ++k)
+      for (int j = 0; j <= k; ++j)
+        for (int a = 0; a < cn; ++a) {
+          const double *from = dc.column(k) + j * dc.rowstride + a * dc.ld;
+          std::copy(from, from + cn, S.base + (i64(j) * cn + a) * S.ld + i64(k) * cn);
+        }
+  }
+
+  // S's block columns [k0, k1) (free cameras) and their blocks of rhs, adding the points'
+  // contributions in ascending point order; false if some V_i + mu I is singular.
+  __attribute__((noinline)) bool assemble_columns(int k0, int k1, const NormalEquations &ne,
+                                                  const double *Vinv, double mu, const BlockMap &S,
+                                                  double *rhs, Scratch &sc) const {
+    if (k0 >= k1) return true;
+    const Layout &lay = lay_;
+    const int cn = cnp(), pn = pnp(), cp = cn * pn;
+    const DenseColumns dc = start_columns(k0, k1, ne, mu, S, rhs, sc);
     // The points whose tracks meet these columns, kBatch at a time: their inverses first.
     int pts[kBatch], fb[kBatch], lob[kBatch], hib[kBatch];
     const double *Vib[kBatch];
@@ -708,7 +755,7 @@ class KernelsT final : public Kernels {
           // rows vectorized.
           if (!S.perm) {  // dense S: the hot loop of the default solver, kept branch-free
             column_pairs<C, P>(cn, pn, sc.Yt.data(), cp, q2 - f + 1, lay.colidx.data() + f, lay.mcon, Wt2,
-                               S.base + i64(k) * cn, i64(cn) * S.ld, S.ld);
+                               dc.column(k), dc.rowstride, dc.ld);
             continue;
           }
           for (int q1 = f; q1 <= q2; ++q1) {
@@ -723,6 +770,7 @@ class KernelsT final : public Kernels {
         }
       }
     }
+    finish_columns(k0, k1, dc, S);
     return true;
   }
 

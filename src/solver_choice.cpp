@@ -11,6 +11,7 @@
 #include <unistd.h>
 #endif
 
+#include "kernels.h"
 #include "schur_pattern.h"
 #include "step_solver.h"
 #include "suitesparse_status.h"
@@ -92,8 +93,11 @@ SolverMemory solver_memory(const SolverShape &s) {
                   2 * (params + double(s.points) * s.pnp)) +
              (s.expert_index ? 3.0 : 2.0) * sizeof(int) * double(s.observations);
   if (s.shared_params > 0) m.common += params * (d + sizeof(int) + 1);
-  // S in full, and the point blocks' inverses where unknowns are shared.
+  // S in full, and the point blocks' inverses where unknowns are shared; per camera, the
+  // threads' packed copies of S's upper triangle that the assembly fills (kMaxPackedS).
   m.chol = d * (n * n + point_blocks);
+  const double upper = n * (n + b) / 2;
+  if (s.shared_params == 0 && upper <= double(kMaxPackedS)) m.chol += d * upper;
   // S's blocks and the factor's, the factor counted three times for the supernodes' padding
   // and CHOLMOD's workspace, which for a factor that fills in come near twice the factor.
   m.sparse_chol = d * ((double(s.s_blocks) + 3 * double(s.factor_blocks)) * b * b + point_blocks);
