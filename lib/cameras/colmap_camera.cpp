@@ -558,12 +558,14 @@ struct LocalRotation {
   double G[9];
 };
 
-LocalRotation local_rotation(const double *v, const double *R0) {
-  LocalRotation r;
+// G only where a Jacobian will be formed (tangent): a projection alone does not read it.
+LocalRotation local_rotation(const double *v, const double *R0, bool tangent) {
+  LocalRotation r{};
   const sbaeuc_correction qs = sbaeuc_correction_of(v);
   double Rs[9];
   sbaeuc_rotation_matrix(qs.w, qs.u[0], qs.u[1], qs.u[2], Rs);
   mat3_mul(Rs, R0, r.M);
+  if (!tangent) return r;
   rotation_tangent_jacobian(v, r.G);
   for (double &g : r.G) g *= 2;
   return r;
@@ -608,13 +610,13 @@ struct Frame {
   const double *t() const { return a + 3; }
 };
 
-Frame frame_of(const CameraModel &model, int j, const double *a) {
+Frame frame_of(const CameraModel &model, int j, const double *a, bool tangent) {
   Frame f;
   f.model = model.input_camera(j).model;
   f.np = param_count(f.model);
   model.effective(j, a, f.a);
   f.held = model.held(j);
-  f.rot = local_rotation(f.a, model.initial_rotation(j));
+  f.rot = local_rotation(f.a, model.initial_rotation(j), tangent);
   return f;
 }
 
@@ -661,14 +663,14 @@ struct RigFrame {
   const double *t_sensor() const { return a + 9; }
 };
 
-RigFrame frame_of(const RigCameraModel &model, int j, const double *a) {
+RigFrame frame_of(const RigCameraModel &model, int j, const double *a, bool tangent) {
   RigFrame f;
   f.model = model.input_image(j).model;
   f.np = param_count(f.model);
   model.effective(j, a, f.a);
   f.held = model.held(j);
-  f.frame = local_rotation(f.a, model.initial_frame_rotation(j));
-  f.sensor = local_rotation(f.a + 6, model.initial_sensor_rotation(j));
+  f.frame = local_rotation(f.a, model.initial_frame_rotation(j), tangent);
+  f.sensor = local_rotation(f.a + 6, model.initial_sensor_rotation(j), tangent);
   mat3_mul(f.sensor.M, f.frame.M, f.M);
   return f;
 }
@@ -707,17 +709,18 @@ inline std::size_t off(int index, int stride) {
 // Calls f(i, frame of camera j, ordinal) for every projection of the rows of idx, the frames
 // of the cameras those rows see set up once per call rather than once per projection. A call
 // may be given a part of the rows (parallel_callbacks): it prepares only what those rows use.
+// tangent: the frames are for Jacobians.
 template <typename Model, typename F>
-void for_each_projection(const Model &model, const double *p, const sba_crsm &idx, F &&f) {
+void for_each_projection(const Model &model, const double *p, const sba_crsm &idx, bool tangent, F &&f) {
   const int m = model.ncameras(), cnp = model.cnp();
-  using Prepared = decltype(frame_of(model, 0, p));
+  using Prepared = decltype(frame_of(model, 0, p, tangent));
   std::vector<Prepared> frames(static_cast<std::size_t>(m));
   std::vector<char> ready(static_cast<std::size_t>(m), 0);
   for (int i = 0; i < idx.nr; ++i)
     for (int e = idx.rowptr[i]; e < idx.rowptr[i + 1]; ++e) {
       const int j = idx.colidx[e];
       if (!ready[static_cast<std::size_t>(j)]) {
-        frames[static_cast<std::size_t>(j)] = frame_of(model, j, p + off(j, cnp));
+        frames[static_cast<std::size_t>(j)] = frame_of(model, j, p + off(j, cnp), tangent);
         ready[static_cast<std::size_t>(j)] = 1;
       }
       f(i, frames[static_cast<std::size_t>(j)], idx.val[e]);
@@ -732,7 +735,7 @@ void func_of(const double *p, const sba_crsm &idx, double *hx, void *adata) {
   const int cnp = model.cnp();
   const double *pb = p + off(model.ncameras(), cnp);
   const double *x = model.measurements();
-  for_each_projection(model, p, idx, [&](int i, const auto &f, int k) {
+  for_each_projection(model, p, idx, false, [&](int i, const auto &f, int k) {
     eval(f, cnp, pb + off(i, kPointParams), x ? x + off(k, kMeasurementParams) : nullptr,
          hx + off(k, kMeasurementParams), nullptr, nullptr);
   });
@@ -745,7 +748,7 @@ void fjac_of(const double *p, const sba_crsm &idx, double *jac, void *adata) {
   const double *pb = p + off(model.ncameras(), cnp);
   const int block = kMeasurementParams * (cnp + kPointParams);
   const double *x = model.measurements();
-  for_each_projection(model, p, idx, [&](int i, const auto &f, int k) {
+  for_each_projection(model, p, idx, true, [&](int i, const auto &f, int k) {
     double *A = jac + off(k, block);
     eval(f, cnp, pb + off(i, kPointParams), x ? x + off(k, kMeasurementParams) : nullptr, nullptr, A,
          A + kMeasurementParams * cnp);
@@ -755,12 +758,12 @@ void fjac_of(const double *p, const sba_crsm &idx, double *jac, void *adata) {
 }  // namespace
 
 bool CameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const {
-  return eval(frame_of(*this, j, a), cnp(), b, nullptr, x, A, B);
+  return eval(frame_of(*this, j, a, A != nullptr), cnp(), b, nullptr, x, A, B);
 }
 
 bool RigCameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A,
                                       double *B) const {
-  return eval(frame_of(*this, j, a), cnp(), b, nullptr, x, A, B);
+  return eval(frame_of(*this, j, a, A != nullptr), cnp(), b, nullptr, x, A, B);
 }
 
 void motstr_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {
