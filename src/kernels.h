@@ -159,8 +159,10 @@ class Kernels {
   virtual void scale_jacobian(ThreadPool &pool, const double *s, JacobianBlocks jac) const = 0;
 };
 
-// Kernels for the layout's block sizes, with the assembly split over `threads` threads.
-std::unique_ptr<Kernels> make_kernels(const Layout &lay, int threads);
+// Kernels for the layout's block sizes, with the assembly split over `threads` threads; a
+// dense S whose upper triangle has at most max_packed doubles assembled through packed copies
+// (kMaxPackedS; the tests compare both ways).
+std::unique_ptr<Kernels> make_kernels(const Layout &lay, int threads, i64 max_packed = kMaxPackedS);
 
 }  // namespace sba
 

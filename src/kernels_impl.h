@@ -426,7 +426,7 @@ inline __attribute__((always_inline)) void spd_inverse3_lanes(lanes4 *a, lanes4 
 template <int M, int C, int P>
 class KernelsT final : public Kernels {
  public:
-  KernelsT(const Layout &lay, int threads) : lay_(lay) {
+  KernelsT(const Layout &lay, int threads, i64 max_packed) : lay_(lay), max_packed_(max_packed) {
     int maxtrack = 0;
     for (int i = 0; i < lay.n; ++i) maxtrack = std::max(maxtrack, lay.rowptr[i + 1] - lay.rowptr[i]);
     scratch_.resize(size_t(std::max(threads, 1)));
@@ -674,14 +674,15 @@ class KernelsT final : public Kernels {
 
   // S's block columns [k0, k1) and their blocks of rhs before the points' terms: the diagonal
   // blocks U_k + mu D_k, the rest zero. A dense S is assembled in the thread's packed copy of
-  // its block columns, blocks 0 .. k of column k one after the other, where S's upper triangle
-  // fits in kMaxPackedS. Updated in S itself, a block's rows lie S's row apart and straddle
-  // twice the cache lines, and two threads' columns share the lines where they meet.
+  // its block columns, blocks 0 .. k of column k one after the other, where S's upper
+  // triangle fits in max_packed_ doubles. Updated in S itself, a block's rows lie S's row apart
+  // and straddle twice the cache lines, and two threads' columns share the lines where they
+  // meet.
   DenseColumns start_columns(int k0, int k1, const NormalEquations &ne, double mu, const BlockMap &S, double *rhs,
                              Scratch &sc) const {
     const Layout &lay = lay_;
     const int cn = cnp(), nc = lay.free_cams();
-    const bool packed = !S.perm && i64(nc) * (nc + 1) / 2 * cn * cn <= kMaxPackedS;
+    const bool packed = !S.perm && i64(nc) * (nc + 1) / 2 * cn * cn <= max_packed_;
     DenseColumns out{S.base, i64(cn) * S.ld, S.ld, false, k0, cn};
     if (packed) {
       sc.packed.assign(size_t((i64(k1 - k0) * (k0 + 1) + i64(k1 - k0) * (k1 - k0 - 1) / 2) * cn * cn), 0.0);
@@ -936,6 +937,7 @@ class KernelsT final : public Kernels {
   }
 
   const Layout &lay_;
+  const i64 max_packed_;  // see start_columns
   // threads + 1 boundaries each, for the pool of that size the kernels are made for (as
   // scratch_): the assembly's in free-camera indices; by projections, of the free cameras,
   // the free points and every point
@@ -946,18 +948,18 @@ class KernelsT final : public Kernels {
 
 }  // namespace
 
-std::unique_ptr<Kernels> make_kernels(const Layout &lay, int threads) {
+std::unique_ptr<Kernels> make_kernels(const Layout &lay, int threads, i64 max_packed) {
   if (lay.mnp == 2 && lay.pnp == 3) {
     switch (lay.cnp) {
-      case 6: return std::make_unique<KernelsT<2, 6, 3>>(lay, threads);
-      case 7: return std::make_unique<KernelsT<2, 7, 3>>(lay, threads);
-      case 9: return std::make_unique<KernelsT<2, 9, 3>>(lay, threads);
-      case 11: return std::make_unique<KernelsT<2, 11, 3>>(lay, threads);
-      case 16: return std::make_unique<KernelsT<2, 16, 3>>(lay, threads);
+      case 6: return std::make_unique<KernelsT<2, 6, 3>>(lay, threads, max_packed);
+      case 7: return std::make_unique<KernelsT<2, 7, 3>>(lay, threads, max_packed);
+      case 9: return std::make_unique<KernelsT<2, 9, 3>>(lay, threads, max_packed);
+      case 11: return std::make_unique<KernelsT<2, 11, 3>>(lay, threads, max_packed);
+      case 16: return std::make_unique<KernelsT<2, 16, 3>>(lay, threads, max_packed);
       default: break;
     }
   }
-  return std::make_unique<KernelsT<0, 0, 0>>(lay, threads);
+  return std::make_unique<KernelsT<0, 0, 0>>(lay, threads, max_packed);
 }
 
 }  // namespace SBA_KERNELS_NS

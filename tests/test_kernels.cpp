@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <random>
 #include <string>
 #include <vector>
@@ -217,6 +219,59 @@ TEST_P(KernelsLayout, ThreadCountsGiveTheSameBits) {
   EXPECT_EQ(fly.S, stored.S);
   EXPECT_EQ(fly.rhs, stored.rhs);
   EXPECT_EQ(fly.dp, stored.dp);
+}
+
+// A dense S is assembled through each thread's packed copy of its block columns, or, past
+// max_packed, in S itself: every entry S holds, and the step, the same bits both ways, with
+// every thread count. S starts as NaN, so that an entry one way writes and the other leaves
+// shows.
+TEST_P(KernelsLayout, PackedAssemblyGivesTheBitsOfTheAssemblyInPlace) {
+  const int cnp = GetParam(), n = 600, m = 16;
+  Fixture f(n, m, cnp, 31u + unsigned(cnp));
+  f.lay.mcon = 2;
+  const i64 nS = i64(m - f.lay.mcon) * cnp;
+  const auto assemble = [&](int threads, i64 max_packed, std::vector<double> *S, std::vector<double> *rhs,
+                            std::vector<double> *dp) {
+    sba::ThreadPool pool(threads);
+    const auto kernels = sba::make_kernels(f.lay, pool.size(), max_packed);
+    std::vector<double> U(f.U.size()), V(f.V.size()), ea(f.ea.size()), eb(f.eb.size());
+    kernels->normal_equations(pool, f.jac.data(), f.e.data(), U.data(), V.data(), ea.data(), eb.data());
+    const sba::NormalEquations ne{f.jac.data(), U.data(), V.data(), ea.data(), eb.data()};
+    const double mu = 0.125;
+    S->assign(size_t(nS * nS), NAN);
+    rhs->assign(size_t(nS), NAN);
+    sba::BlockMap dense;
+    dense.base = S->data();
+    dense.ld = nS;
+    dense.cnp = cnp;
+    EXPECT_TRUE(kernels->assemble(pool, ne, nullptr, mu, dense, rhs->data()));
+    dp->assign(size_t(f.lay.nvars()), 0.0);
+    for (i64 q = 0; q < nS; ++q) (*dp)[size_t(f.lay.a_off(f.lay.mcon) + q)] = std::sin(double(q) + 0.25);
+    kernels->back_substitute(pool, ne, nullptr, mu, dp->data());
+  };
+  const auto bits = [](const std::vector<double> &v) {
+    std::vector<std::uint64_t> b(v.size());
+    std::memcpy(b.data(), v.data(), v.size() * sizeof(double));
+    return b;
+  };
+  for (int threads : {1, 2, 3}) {
+    SCOPED_TRACE("threads " + std::to_string(threads));
+    std::vector<double> S1, rhs1, dp1, S2, rhs2, dp2;
+    assemble(threads, sba::kMaxPackedS, &S1, &rhs1, &dp1);
+    assemble(threads, 0, &S2, &rhs2, &dp2);
+    EXPECT_EQ(bits(S1), bits(S2));
+    EXPECT_EQ(bits(rhs1), bits(rhs2));
+    EXPECT_EQ(bits(dp1), bits(dp2));
+    // The upper triangle is all written, and the points couple the cameras.
+    i64 unwritten = 0, coupled = 0;
+    for (i64 r = 0; r < nS; ++r)
+      for (i64 c = r; c < nS; ++c) {
+        unwritten += std::isnan(S1[size_t(r * nS + c)]);
+        coupled += r / cnp != c / cnp && S1[size_t(r * nS + c)] != 0.0;
+      }
+    EXPECT_EQ(unwritten, 0);
+    EXPECT_GT(coupled, nS * nS / 8);
+  }
 }
 
 // A dense S takes a track's pairs a column at a time, W_ik^T held for the column; a sparse S a
