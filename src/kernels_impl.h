@@ -717,8 +717,10 @@ class KernelsT final : public Kernels {
     for (int k = k0; k < k1; ++k)
       for (int j = 0; j <= k; ++j)
         for (int a = 0; a < cn; ++a) {
+          // A row of a block, too short for a call to memmove to pay.
           const double *from = dc.column(k) + j * dc.rowstride + a * dc.ld;
-          std::copy(from, from + cn, S.base + (i64(j) * cn + a) * S.ld + i64(k) * cn);
+          double *to = S.base + (i64(j) * cn + a) * S.ld + i64(k) * cn;
+          for (int c = 0; c < cn; ++c) to[c] = from[c];
         }
   }
 
