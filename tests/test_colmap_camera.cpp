@@ -11,6 +11,7 @@
 #include <array>
 #include <cfloat>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -972,6 +973,41 @@ TEST(ColmapRigCamera, RotationColumnsAreTheQuaternionDerivative) {
       }
     }
   EXPECT_EQ(checked, 112);  // of 144: the larger corrections turn some points out of view
+}
+
+// CachedProjection keeps each camera's frame while its parameters keep their bits: its
+// projections, and whether the model shows the point, are project()'s, bit for bit, as the
+// parameters of one camera and then another change between calls, and back.
+template <class Model>
+void expect_cached_projections(const Model &model, const std::vector<double> &points,
+                               std::vector<double> (*params)(const Model &, int)) {
+  cc::CachedProjection<Model> cache(model);
+  int checked = 0;
+  for (int round = 0; round < 2; ++round)
+    for (int j = 0; j < model.ncameras(); ++j)
+      for (const auto &v : kCorrections) {
+        std::vector<double> a = params(model, j);
+        std::copy(v, v + 3, a.begin());
+        for (int twice = 0; twice < 2; ++twice)
+          for (std::size_t i = 0; i < points.size() / 3; ++i) {
+            double want[2] = {0, 0}, got[2] = {0, 0};
+            const bool shown = model.project(j, a.data(), points.data() + 3 * i, want);
+            EXPECT_EQ(cache.project(j, a.data(), points.data() + 3 * i, got), shown);
+            EXPECT_EQ(std::memcmp(want, got, sizeof want), 0) << cc::model_name(j);
+            ++checked;
+          }
+      }
+  EXPECT_EQ(checked, 2 * model.ncameras() * 4 * 2 * int(points.size() / 3));
+}
+
+std::vector<double> camera_params(const cc::CameraModel &model, int j) {
+  return std::vector<double>(model.initial_camera(j), model.initial_camera(j) + model.cnp());
+}
+
+TEST(ColmapCamera, CachedProjectionIsProject) {
+  const std::vector<double> points = {0.2, -0.1, 0.3, -0.5, 0.4, -0.2};
+  expect_cached_projections(cc::CameraModel(sample_cameras(), points), points, camera_params);
+  expect_cached_projections(cc::RigCameraModel(sample_rig_images(), points), points, moved_rig_params);
 }
 
 using tangenttest::colmap_increment;

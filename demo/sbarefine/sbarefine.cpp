@@ -622,7 +622,8 @@ void colmap_job(const colmap::Problem &pr, Job *job) {
   job->in.fjac = pr.fjac();
   job->in.adata = pr.adata();
   job->p = pr.initial_params();
-  job->project = [&pr](const double *p, int j, int i, double x[2]) { return pr.project(p, j, i, x); };
+  // The reports project every observation, one thread at a time.
+  job->project = pr.cached_project();
 }
 
 // "OPENCV (3 cameras), PINHOLE (1 camera)": the models of the cameras the solve uses.

@@ -5,6 +5,7 @@
 #include <cfloat>
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -756,6 +757,41 @@ void fjac_of(const double *p, const sba_crsm &idx, double *jac, void *adata) {
 }
 
 }  // namespace
+
+template <class Model>
+struct CachedProjection<Model>::Impl {
+  using Prepared = decltype(frame_of(std::declval<const Model &>(), 0, nullptr, false));
+  const Model &model;
+  std::vector<Prepared> frames;
+  std::vector<double> params;  // each camera's, as its frame was made
+  std::vector<char> ready;
+};
+
+template <class Model>
+CachedProjection<Model>::CachedProjection(const Model &model)
+    : impl_(new Impl{model, std::vector<typename Impl::Prepared>(off(model.ncameras(), 1)),
+                     std::vector<double>(off(model.ncameras(), model.cnp())),
+                     std::vector<char>(off(model.ncameras(), 1), 0)}) {}
+
+template <class Model>
+CachedProjection<Model>::~CachedProjection() = default;
+
+template <class Model>
+bool CachedProjection<Model>::project(int j, const double *a, const double *b, double x[2]) {
+  Impl &c = *impl_;
+  const int cnp = c.model.cnp();
+  double *kept = c.params.data() + off(j, cnp);
+  const std::size_t bytes = off(cnp, sizeof(double));
+  if (!c.ready[off(j, 1)] || std::memcmp(a, kept, bytes) != 0) {
+    c.frames[off(j, 1)] = frame_of(c.model, j, a, false);
+    std::memcpy(kept, a, bytes);
+    c.ready[off(j, 1)] = 1;
+  }
+  return eval(c.frames[off(j, 1)], cnp, b, nullptr, x, nullptr, nullptr);
+}
+
+template class CachedProjection<CameraModel>;
+template class CachedProjection<RigCameraModel>;
 
 bool CameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const {
   return eval(frame_of(*this, j, a, A != nullptr), cnp(), b, nullptr, x, A, B);

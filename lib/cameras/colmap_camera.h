@@ -59,6 +59,7 @@
 #define SBA_LIB_CAMERAS_COLMAP_CAMERA_H
 
 #include <array>
+#include <memory>
 #include <vector>
 
 #include "cameras/euclidean.h"
@@ -330,6 +331,24 @@ class RigCameraModel : public SbaCameraModel {
 inline void *as_adata(const RigCameraModel &model) {
   return const_cast<void *>(static_cast<const void *>(&model));
 }
+
+// project() of a CameraModel or RigCameraModel, each camera's frame (its rotation and what
+// else does not depend on the point) kept from one projection to the next while the camera's
+// parameters keep their bits: the same numbers, for reports that project every observation
+// in turn. Not for concurrent use.
+template <class Model>
+class CachedProjection {
+ public:
+  explicit CachedProjection(const Model &model);
+  ~CachedProjection();
+  CachedProjection(const CachedProjection &) = delete;
+  CachedProjection &operator=(const CachedProjection &) = delete;
+  bool project(int j, const double *a, const double *b, double x[2]);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 // The expert callbacks of a RigCameraModel (adata), as motstr_func and motstr_fjac.
 void rig_motstr_func(double *p, struct sba_crsm *idxij, int *rcidxs, int *rcsubs, double *hx, void *adata);

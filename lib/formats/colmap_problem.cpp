@@ -729,6 +729,16 @@ bool Problem::project(const double *p, int j, int i, double x[2]) const {
   });
 }
 
+std::function<bool(const double *p, int j, int i, double x[2])> Problem::cached_project() const {
+  const std::size_t m = images_.size(), cnp = at(cnp_);
+  return with_model([&](const auto &sm) -> std::function<bool(const double *, int, int, double *)> {
+    auto cache = std::make_shared<cc::CachedProjection<std::decay_t<decltype(sm)>>>(sm);
+    return [cache, m, cnp](const double *p, int j, int i, double x[2]) {
+      return cache->project(j, p + at(j) * cnp, p + m * cnp + 3 * at(i), x);
+    };
+  });
+}
+
 std::vector<cc::Camera> Problem::cameras(const double *p) const {
   std::vector<cc::Camera> out;
   for (int j = 0; j < ncameras(); ++j)
@@ -845,6 +855,7 @@ void Problem::write_points(const double *p, const Index &index, bool errors) con
   std::unordered_map<std::uint32_t, int> camera_of;  // an image's sba camera
   for (std::size_t j = 0; j < m; ++j) camera_of.emplace(ids_[j].image, static_cast<int>(j));
   const double *points = p + m * at(cnp_);
+  const auto project = cached_project();
   for (std::size_t k = at(held_points_); k < point_ids_.size(); ++k) {
     Point3D &pt = find(index.points, point_ids_[k], "point");
     const double *b = points + 3 * k;
@@ -857,7 +868,7 @@ void Problem::write_points(const double *p, const Index &index, bool errors) con
       double x[2];
       // COLMAP's error of an observation its projection refuses is the root of the largest
       // double, so that its filters remove the point.
-      if (with_model([&](const auto &sm) { return sm.project(j, p + at(j) * at(cnp_), b, x); }))
+      if (project(p, j, static_cast<int>(k), x))
         sum += std::hypot(x[0] - obs.x, x[1] - obs.y);
       else
         sum += std::sqrt(DBL_MAX);

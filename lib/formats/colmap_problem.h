@@ -21,6 +21,7 @@
 #define SBA_LIB_FORMATS_COLMAP_PROBLEM_H
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <unordered_map>
@@ -153,6 +154,9 @@ class Problem {
   // pixels; false where COLMAP's projection refuses the point (colmap_camera.h's `refused`),
   // whose cost the solve takes as zero.
   bool project(const double *p, int j, int i, double x[2]) const;
+  // project(), for a caller that projects many observations in turn (one thread at a time): each
+  // camera set up once while its parameters stay as they were.
+  std::function<bool(const double *p, int j, int i, double x[2])> cached_project() const;
   // Each sba camera at the parameters p as one camera: its model, parameters and pose
   // (composed from its frame's and its camera's in a rig).
   std::vector<sbacameras::colmap_camera::Camera> cameras(const double *p) const;
