@@ -84,6 +84,11 @@ inline void form_W(const Layout &lay, const double *jac, i64 k, double *W) {
     }
 }
 
+// The largest upper triangle of a dense S, in doubles (32 MiB), whose assembly goes through
+// each thread's packed copy of its block columns (kernels_impl.h, start_columns): that much
+// memory besides S.
+constexpr i64 kMaxPackedS = i64(1) << 22;
+
 // Where the Schur assembly finds block S_jk (free-camera indices j <= k).
 //  - Dense S: row-major inside an (nS x nS) matrix with row stride ld; the assembly zeroes
 //    and fills the upper block triangle, each thread its own block columns (zeroed by
@@ -95,11 +100,6 @@ inline void form_W(const Layout &lay, const double *jac, i64 k, double *W) {
 //    other, each nb_c * cnp entries long (nb_c blocks). Stored block (r, c), r >= c, read
 //    row-major with row stride nb_c * cnp, is then block (c, r) of P S P^T: S_jk itself when
 //    perm[j] <= perm[k], otherwise S_jk^T, which the assembly then computes in its place.
-// The largest upper triangle of a dense S, in doubles (32 MiB), whose assembly goes through
-// each thread's packed copy of its block columns (kernels_impl.h, start_columns): that much
-// memory besides S.
-constexpr i64 kMaxPackedS = i64(1) << 22;
-
 struct BlockMap {
   double *base = nullptr;
   i64 ld = 0;  // dense S: nS

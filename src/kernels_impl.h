@@ -666,10 +666,9 @@ class KernelsT final : public Kernels {
     i64 rowstride, ld;
     bool packed;
     int k0, cn;
-    double *column(int k) const {
-      return packed ? base + (i64(k - k0) * (k0 + 1) + i64(k - k0) * (k - k0 - 1) / 2) * rowstride
-                    : base + i64(k) * cn;
-    }
+    // The blocks of a packed copy's columns k0 .. k - 1, each holding blocks 0 .. its own.
+    static i64 blocks_before(int k0, int k) { return i64(k - k0) * (k0 + 1) + i64(k - k0) * (k - k0 - 1) / 2; }
+    double *column(int k) const { return packed ? base + blocks_before(k0, k) * rowstride : base + i64(k) * cn; }
   };
 
   // S's block columns [k0, k1) and their blocks of rhs before the points' terms: the diagonal
@@ -685,7 +684,7 @@ class KernelsT final : public Kernels {
     const bool packed = !S.perm && i64(nc) * (nc + 1) / 2 * cn * cn <= max_packed_;
     DenseColumns out{S.base, i64(cn) * S.ld, S.ld, false, k0, cn};
     if (packed) {
-      sc.packed.assign(size_t((i64(k1 - k0) * (k0 + 1) + i64(k1 - k0) * (k1 - k0 - 1) / 2) * cn * cn), 0.0);
+      sc.packed.assign(size_t(DenseColumns::blocks_before(k0, k1) * cn * cn), 0.0);
       out = DenseColumns{sc.packed.data(), i64(cn) * cn, cn, true, k0, cn};
     }
     if (!S.perm)  // dense S: block rows 0 .. k1 - 1 of these columns; packed, those below the

@@ -855,7 +855,8 @@ void Problem::write_points(const double *p, const Index &index, bool errors) con
   std::unordered_map<std::uint32_t, int> camera_of;  // an image's sba camera
   for (std::size_t j = 0; j < m; ++j) camera_of.emplace(ids_[j].image, static_cast<int>(j));
   const double *points = p + m * at(cnp_);
-  const auto project = cached_project();
+  std::function<bool(const double *, int, int, double *)> project;
+  if (errors) project = cached_project();
   for (std::size_t k = at(held_points_); k < point_ids_.size(); ++k) {
     Point3D &pt = find(index.points, point_ids_[k], "point");
     const double *b = points + 3 * k;
