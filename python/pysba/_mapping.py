@@ -30,15 +30,19 @@ def _status(pycolmap: Any, name: str) -> Any:
 
 
 class _Pipeline:
-    def __init__(self, pycolmap: Any, options: Any, cache: Any, adjust: Callable[..., Any],
+    def __init__(self, pycolmap: Any, options: Any, database: Any, adjust: Callable[..., Any],
                  adjust_local: Callable[..., Any], timings: Timings) -> None:
-        self.pycolmap, self.options, self.cache, self.timings = pycolmap, options, cache, timings
+        self.pycolmap, self.options, self.timings = pycolmap, options, timings
         self.adjust, self.adjust_local = adjust, adjust_local
-        # With use_prior_position, the database's position priors (in ENU when they were GPS).
-        self.pose_priors = cache.pose_priors if options.use_prior_position else None
         self.manager = pycolmap.ReconstructionManager()
-        # pycolmap's own pipeline object for its initialization and its test of growth.
-        self.colmap = pycolmap.IncrementalPipeline(options, cache, self.manager)
+        # pycolmap's own pipeline object, for its initialization and its test of growth, made
+        # from the database: it loads the database's cache as pycolmap's incremental_mapping
+        # does, and the mapper takes that cache. Given a cache made here instead, it copies it,
+        # which costs more than the loading.
+        self.colmap = pycolmap.IncrementalPipeline(options, database, self.manager)
+        self.cache = self.colmap.database_cache
+        # With use_prior_position, the database's position priors (in ENU when they were GPS).
+        self.pose_priors = self.cache.pose_priors if options.use_prior_position else None
 
     def global_refinement(self, mapper: Any, mapper_options: Any) -> None:
         """The mapper's iterative global refinement, each adjustment by self.adjust."""
@@ -176,17 +180,10 @@ def incremental_mapping(pycolmap: Any, database_path: Any, image_path: Any, outp
     start = time.perf_counter()
     db = pycolmap.Database.open(os.fspath(database_path))
     try:
-        cache_options = pycolmap.DatabaseCacheOptions()
-        cache_options.min_num_matches = options.min_num_matches
-        cache_options.ignore_watermarks = options.ignore_watermarks
-        cache_options.image_names = set(options.image_names)
-        cache_options.load_all_images = options.load_all_images
-        cache_options.convert_pose_priors_to_enu = options.use_prior_position
-        cache = pycolmap.DatabaseCache.create(db, cache_options)
+        pipeline = _Pipeline(pycolmap, options, db, adjust, adjust_local, timings)
+        pipeline.run()
     finally:
         db.close()
-    pipeline = _Pipeline(pycolmap, options, cache, adjust, adjust_local, timings)
-    pipeline.run()
     out = {}
     for index in range(pipeline.manager.size()):
         rec = pipeline.manager.get(index)
