@@ -5,6 +5,7 @@
 #ifndef SBA_SRC_PARALLEL_H
 #define SBA_SRC_PARALLEL_H
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -167,6 +168,19 @@ inline double *align_to_line(double *p) {
   return p + ((64 - addr % 64) % 64) / sizeof(double);
 }
 
+// The sums of the kBlock-long blocks b .. b + C - 1 of f into partial, each block's a chain of
+// additions in ascending order. A chain waits for each addition before the next, so one block
+// at a time runs at the adder's latency; C chains side by side fill its pipeline, and each
+// block's sum keeps the bits it has alone.
+template <int C, class F>
+inline void block_sums(std::int64_t b, std::int64_t block, F &f, double *partial) {
+  double s[C] = {};
+  for (std::int64_t k = 0; k < block; ++k)
+#pragma GCC unroll 8
+    for (int c = 0; c < C; ++c) s[c] += f((b + c) * block + k);
+  for (int c = 0; c < C; ++c) partial[b + c] = s[c];
+}
+
 // sum_k f(k) over [0, n), summed in fixed blocks and then in block order: the same bits for
 // any thread count.
 template <class F>
@@ -175,10 +189,16 @@ double deterministic_sum(ThreadPool &pool, std::int64_t n, F f) {
   const std::int64_t nb = (n + kBlock - 1) / kBlock;
   std::vector<double> partial(size_t(nb > 0 ? nb : 0), 0.0);
   pool.for_range(nb, [&](std::int64_t b0, std::int64_t b1) {
-    for (std::int64_t b = b0; b < b1; ++b) {
+    // The whole blocks, eight, four, two or one at a time; the last, shorter block alone.
+    const std::int64_t whole = std::min(b1, n / kBlock);
+    std::int64_t b = b0;
+    for (; b + 8 <= whole; b += 8) block_sums<8>(b, kBlock, f, partial.data());
+    if (b + 4 <= whole) block_sums<4>(b, kBlock, f, partial.data()), b += 4;
+    if (b + 2 <= whole) block_sums<2>(b, kBlock, f, partial.data()), b += 2;
+    if (b + 1 <= whole) block_sums<1>(b, kBlock, f, partial.data()), b += 1;
+    if (b < b1) {
       double s = 0.0;
-      const std::int64_t e = b * kBlock + kBlock < n ? b * kBlock + kBlock : n;
-      for (std::int64_t k = b * kBlock; k < e; ++k) s += f(k);
+      for (std::int64_t k = b * kBlock; k < n; ++k) s += f(k);
       partial[size_t(b)] = s;
     }
   });

@@ -6,9 +6,12 @@
 // other than out of memory cannot be provoked through the API).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <new>
 #include <stdexcept>
 #include <string>
@@ -206,6 +209,39 @@ TEST(ThreadPool, AllRangesAndAllMembersAndTheirResults) {
       return t == 0;
     }, true));
     EXPECT_EQ(calls.load(), 1);
+  }
+}
+
+// deterministic_sum's definition: blocks of 4096 terms, each summed in ascending order, then
+// the blocks' sums in block order. Terms of mixed magnitudes make every other order round
+// differently. Lengths around whole blocks and numbers of blocks that each thread's share
+// splits into eights, fours, twos and ones.
+TEST(ThreadPool, DeterministicSumIsItsBlocksInOrder) {
+  std::vector<double> v(size_t(4096) * 23 + 3);
+  std::uint64_t x = 12345;
+  for (double &t : v) {
+    x = x * 6364136223846793005ULL + 1442695040888963407ULL;
+    t = double(x >> 11) * 0x1p-53 * ((x >> 7) % 3 == 0 ? 1e8 : 1.0) - 0.3;
+  }
+  const auto reference = [&](std::int64_t n) {
+    double total = 0.0;
+    for (std::int64_t b = 0; b < n; b += 4096) {
+      double s = 0.0;
+      for (std::int64_t k = b; k < std::min<std::int64_t>(n, b + 4096); ++k) s += v[size_t(k)] * v[size_t(k)];
+      total += s;
+    }
+    return total;
+  };
+  for (int threads : {1, 2, 3}) {
+    sba::ThreadPool pool(threads);
+    for (std::int64_t n : {std::int64_t(0), std::int64_t(1), std::int64_t(4095), std::int64_t(4096),
+                           std::int64_t(4097), std::int64_t(4096) * 3, std::int64_t(4096) * 8 + 5,
+                           std::int64_t(4096) * 15, std::int64_t(4096) * 23 + 3}) {
+      SCOPED_TRACE(testing::Message() << threads << " threads, n " << n);
+      const double got = sba::deterministic_sum(pool, n, [&](std::int64_t k) { return v[size_t(k)] * v[size_t(k)]; });
+      const double want = reference(n);
+      EXPECT_EQ(std::memcmp(&got, &want, sizeof got), 0) << got << " against " << want;
+    }
   }
 }
 
