@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -544,6 +545,57 @@ TEST(BalModel, ExpertCallbacksFollowTheMeasurementOrdinals) {
     EXPECT_EQ(xs[1], x[1]);
     for (int c = 0; c < 24; ++c) EXPECT_EQ(J[c], jac[24 * k + c]) << k << " " << c;
   }
+}
+
+// The callbacks project two observations at a time, side by side, and an odd one alone: each
+// projection must get project_jacobian's bits wherever it falls, over all of problem-49's rows
+// and over parts of them of odd and even lengths (concurrent callbacks get parts).
+TEST(BalModel, CallbacksGiveEveryProjectionItsOwnBits) {
+  const std::string path = bal_dir() + "/problem-49-7776-pre.txt.bz2";
+  REQUIRE_FILE(path);
+  bal::Problem prob;
+  std::string error;
+  ASSERT_TRUE(bal::read_problem(path, &prob, &error)) << error;
+  bal::SbaLayout s;
+  ASSERT_TRUE(bal::to_sba(prob, path, &s, &error)) << error;
+  const int nobs = s.nobservations();
+  std::vector<int> rowptr(size_t(s.n) + 1, 0);
+  std::vector<int> colidx(static_cast<size_t>(nobs)), val(static_cast<size_t>(nobs));
+  for (int k = 0; k < nobs; ++k) {
+    rowptr[size_t(s.vis.point[size_t(k)]) + 1]++;
+    colidx[size_t(k)] = s.vis.camera[size_t(k)];
+    val[size_t(k)] = k;
+  }
+  for (int i = 0; i < s.n; ++i) rowptr[size_t(i) + 1] += rowptr[size_t(i)];
+  bal_camera::CallbackData data{s.m};
+  // Rows [r0, r1) as the index of a part: its own row pointers, the ordinals global.
+  const auto part = [&](int r0, int r1, double *hx, double *jac) {
+    std::vector<int> rp(rowptr.begin() + r0, rowptr.begin() + r1 + 1);
+    const int e0 = rp[0];
+    for (int &r : rp) r -= e0;
+    sba_crsm idx{r1 - r0, s.m, rp.back(), val.data() + e0, colidx.data() + e0, rp.data()};
+    double *pb = s.p.data() + 9 * s.m + 3 * r0;
+    std::vector<double> pp(s.p.begin(), s.p.begin() + 9 * s.m);
+    pp.insert(pp.end(), pb, pb + 3 * (r1 - r0));
+    bal_camera::motstr_func(pp.data(), &idx, nullptr, nullptr, hx, &data);
+    bal_camera::motstr_fjac(pp.data(), &idx, nullptr, nullptr, jac, &data);
+  };
+  std::vector<double> hx(size_t(nobs) * 2, NAN), jac(size_t(nobs) * 24, NAN);
+  const int cuts[] = {0, 1, 2, 5, 6, 101, 1000, 1001, s.n};
+  for (int c = 0; c + 1 < int(std::size(cuts)); ++c) part(cuts[c], cuts[c + 1], hx.data(), jac.data());
+  std::vector<double> whole_hx(hx.size(), NAN), whole_jac(jac.size(), NAN);
+  part(0, s.n, whole_hx.data(), whole_jac.data());
+  int differing = 0;
+  for (int k = 0; k < nobs; ++k) {
+    double x[2], J[24];
+    const double *a = s.p.data() + 9 * colidx[size_t(k)], *b = s.p.data() + 9 * s.m + 3 * s.vis.point[size_t(k)];
+    bal_camera::project_jacobian(a, b, x, J, J + 18);
+    const double *got[4] = {hx.data() + 2 * k, whole_hx.data() + 2 * k, jac.data() + 24 * k, whole_jac.data() + 24 * k};
+    if (std::memcmp(got[0], x, sizeof x) || std::memcmp(got[1], x, sizeof x) || std::memcmp(got[2], J, sizeof J) ||
+        std::memcmp(got[3], J, sizeof J))
+      ++differing;
+  }
+  EXPECT_EQ(differing, 0) << "of " << nobs << " projections";
 }
 
 // The callbacks make each camera's rotation terms once, in a buffer of the call; without

@@ -24,11 +24,12 @@ inline void camera_translation(const double R[9], const std::array<double, 3> &c
 // of the rotation's parameters turns R into exp([G dw]x) R to first order. Then d(R X)/dw =
 // -[R X]x G: each row h of H becomes (R X x h) G, G made once per camera for all its points,
 // fewer operations per projection than differentiating the rotation's own parameters.
-inline void rotation_columns(const double H[6], const double RX[3], const double G[9], int cnp, int col,
-                             double *A) {
+// T is double, or a vector of doubles that carries several projections side by side.
+template <class T>
+inline void rotation_columns(const T H[6], const T RX[3], const T G[9], int cnp, int col, T *A) {
   for (int r = 0; r < 2; ++r) {
-    const double *h = H + r * 3;
-    const double k[3] = {RX[1] * h[2] - RX[2] * h[1], RX[2] * h[0] - RX[0] * h[2], RX[0] * h[1] - RX[1] * h[0]};
+    const T *h = H + r * 3;
+    const T k[3] = {RX[1] * h[2] - RX[2] * h[1], RX[2] * h[0] - RX[0] * h[2], RX[0] * h[1] - RX[1] * h[0]};
     for (int c = 0; c < 3; ++c) A[r * cnp + col + c] = k[0] * G[c] + k[1] * G[3 + c] + k[2] * G[6 + c];
   }
 }
