@@ -189,16 +189,17 @@ double deterministic_sum(ThreadPool &pool, std::int64_t n, F f) {
   const std::int64_t nb = (n + kBlock - 1) / kBlock;
   std::vector<double> partial(size_t(nb > 0 ? nb : 0), 0.0);
   pool.for_range(nb, [&](std::int64_t b0, std::int64_t b1) {
-    // The whole blocks, eight, four, two or one at a time; the last, shorter block alone.
+    // Whole blocks eight, four or two at a time; the rest (the last block may be shorter)
+    // one at a time.
     const std::int64_t whole = std::min(b1, n / kBlock);
     std::int64_t b = b0;
     for (; b + 8 <= whole; b += 8) block_sums<8>(b, kBlock, f, partial.data());
     if (b + 4 <= whole) block_sums<4>(b, kBlock, f, partial.data()), b += 4;
     if (b + 2 <= whole) block_sums<2>(b, kBlock, f, partial.data()), b += 2;
-    if (b + 1 <= whole) block_sums<1>(b, kBlock, f, partial.data()), b += 1;
-    if (b < b1) {
+    for (; b < b1; ++b) {
       double s = 0.0;
-      for (std::int64_t k = b * kBlock; k < n; ++k) s += f(k);
+      const std::int64_t e = std::min(n, b * kBlock + kBlock);
+      for (std::int64_t k = b * kBlock; k < e; ++k) s += f(k);
       partial[size_t(b)] = s;
     }
   });
