@@ -11,15 +11,20 @@ time: the local refinements and their solves alone, the global adjustments, the 
 local adjustments taken step by step in Python with COLMAP's solve to time it); pysba's
 pipeline with sba's global adjustment ("sba", with the part of its time spent reading the
 mapper's model through pycolmap's API); and, with --local-sba, with sba's local
-adjustments too ("sba-local"). With --repeat N the whole round runs N times, the modes
-interleaved, and every time is the median of the N (a machine whose speed drifts during a run
-then moves every mode alike). Each model is compared with the synthesized truth: registered
-images, points, mean reprojection error, and the camera centres' RMS distance after a
-similarity onto the truth's centres (a range where the runs of a mode differ).
+adjustments too ("sba-local"; with --no-global-only, instead of "sba"). With --repeat N the
+whole round runs N times, the modes interleaved, and every time is the median of the N (a
+machine whose speed drifts during a run then moves every mode alike). Each model is compared
+with the synthesized truth: registered images, points, mean reprojection error, and the
+camera centres' RMS distance after a similarity onto the truth's centres (a range where the
+runs of a mode differ).
 
-  colmap_mapping.py --frames 100,150 [--points-per-frame 15] [--kind shared|per-image]
-                    [--local-sba] [--no-pipeline] [--repeat 1] [--threads 2] [--work DIR] [--reuse]
-                    [--markdown FILE]
+  colmap_mapping.py --frames 100,150 [--points-per-frame 15] [--kind shared|per-image|rigs]
+                    [--priors] [--local-sba [--no-global-only]] [--no-pipeline] [--repeat 1]
+                    [--threads 2] [--work DIR] [--reuse] [--markdown FILE]
+--kind: one camera shared by every image (FRAMES frames of a rig of one camera), a camera per
+image, or a rig of two cameras (FRAMES / 2 frames of two images: FRAMES images either way).
+--priors: a position prior per frame in the database, and the mappings with
+use_prior_position (each global adjustment the pose-prior adjustment).
 Every point is seen by every image: synthesize_dataset's track_length prunes only the truth's
 tracks (pycolmap 4.2.1), while the database keeps every point's keypoint in every image, matched
 exhaustively, so the mapper's tracks are whole whatever it is. --reuse keeps a database the same
@@ -34,11 +39,11 @@ import sys
 import time
 
 
-def scene(pycolmap, d, frames, points, kind, seed, reuse):
+def scene(pycolmap, d, frames, points, kind, seed, reuse, priors=False):
     """The database d/database.db of a synthesized scene and its truth (kept in d/truth, with
     reuse taken from there when the same arguments made them)."""
     database, truth_path = os.path.join(d, "database.db"), os.path.join(d, "truth")
-    made_by = repr((frames, points, kind, seed))
+    made_by = repr((frames, points, kind, seed) + (("priors",) if priors else ()))
     stamp = os.path.join(d, "made-by")
     if reuse and os.path.isfile(stamp) and open(stamp).read() == made_by:
         return database, pycolmap.Reconstruction(truth_path)
@@ -46,8 +51,9 @@ def scene(pycolmap, d, frames, points, kind, seed, reuse):
     os.makedirs(truth_path)
     pycolmap.set_random_seed(seed)
     o = pycolmap.SyntheticDatasetOptions()
-    o.num_rigs, o.num_cameras_per_rig = (frames, 1) if kind == "per-image" else (1, 1)
-    o.num_frames_per_rig = 1 if kind == "per-image" else frames
+    o.num_rigs, o.num_cameras_per_rig, o.num_frames_per_rig = {
+        "shared": (1, 1, frames), "per-image": (frames, 1, 1), "rigs": (1, 2, frames // 2)}[kind]
+    o.prior_position = priors
     o.num_points3D = points
     db = pycolmap.Database.open(database)
     try:
@@ -130,10 +136,13 @@ def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--frames", default="100,150")
     ap.add_argument("--points-per-frame", type=int, default=15)
-    ap.add_argument("--kind", choices=("shared", "per-image"), default="shared")
+    ap.add_argument("--kind", choices=("shared", "per-image", "rigs"), default="shared")
+    ap.add_argument("--priors", action="store_true", help="position priors, mapped with use_prior_position")
     ap.add_argument("--local-sba", action="store_true", help="also run sba's local adjustments")
     ap.add_argument("--no-pipeline", action="store_true",
                     help="leave out the pipeline with the mapper's own adjustments (its cost against pycolmap's)")
+    ap.add_argument("--no-global-only", action="store_true",
+                    help="with --local-sba, leave out sba's global adjustments with COLMAP's local ones")
     ap.add_argument("--repeat", type=int, default=1, help="run every mode this many times, interleaved")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--work", default="/tmp/sba-colmap-mapping")
@@ -144,14 +153,18 @@ def main(argv):
     import pysba.colmap
     rows = []
     for frames in (int(x) for x in args.frames.split(",")):
-        d = os.path.join(args.work, "%s-%d-%d" % (args.kind, frames, args.points_per_frame))
+        d = os.path.join(args.work, "%s-%d-%d%s" % (args.kind, frames, args.points_per_frame,
+                                                     "-priors" if args.priors else ""))
         database, truth = scene(pycolmap, d, frames, frames * args.points_per_frame, args.kind, 1,
-                                args.reuse)
+                                args.reuse, args.priors)
         options = pycolmap.IncrementalPipelineOptions()
         options.num_threads = args.threads
+        options.use_prior_position = args.priors
         modes = [("pipeline", "colmap", "colmap"), ("colmap", "colmap", "ceres"), ("sba", "sba", "colmap")]
         if args.local_sba:
             modes.append(("sba-local", "sba", "sba"))
+            if args.no_global_only:
+                modes.remove(("sba", "sba", "colmap"))
         if args.no_pipeline:
             modes = modes[1:]
         # The modes shown against COLMAP's adjustments timed ("colmap"), in the order run.
@@ -168,11 +181,14 @@ def main(argv):
                 runs[name].append(dict(describe(pycolmap, models, truth), **timings))
         reference = combined(references)
         runs = {name: combined(r) for name, r in runs.items()}
-        row = dict(frames=frames, reference=reference, **runs)
+        # The scene as the tables name it: its images, and its kind where it is not the default.
+        tags = [t for t in (args.kind if args.kind != "shared" else None, "priors" if args.priors else None) if t]
+        label = "%d%s" % (frames, " (%s)" % ", ".join(tags) if tags else "")
+        row = dict(frames=label, reference=reference, **runs)
         rows.append(row)
         c = runs["colmap"]
-        line = "%d frames, %d run(s): pycolmap %.1f s%s (%s); " % (
-            frames, args.repeat, reference["total"], spread(reference), figures(reference))
+        line = "%s frames, %d run(s): pycolmap %.1f s%s (%s); " % (
+            label, args.repeat, reference["total"], spread(reference), figures(reference))
         if "pipeline" in runs:
             p = runs["pipeline"]
             line += "pipeline with the mapper's adjustments %.1f s%s (%.2fx pycolmap); " % (
@@ -195,7 +211,7 @@ def main(argv):
                     "|---:|---:|---:|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---|\n")
             for r in rows:
                 ref, c = r["reference"], r["colmap"]
-                lead = ("| %d | %d | %.1f s%s | %s | %.1f s%s | %.1f s (%d) | %.1f s | %.1f s (%d) "
+                lead = ("| %s | %d | %.1f s%s | %s | %.1f s%s | %.1f s (%d) | %.1f s | %.1f s (%d) "
                         "| %.1f s " % (r["frames"], args.repeat, ref["total"], spread(ref), figures(ref),
                                        c["total"], spread(c),
                                        c["local_solve"], c["local_calls"], split(c)[0], c["global"],
