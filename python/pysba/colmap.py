@@ -507,19 +507,18 @@ _PIPELINE_ONLY = {"snapshot_frames_freq": 0, "max_runtime_seconds": -1, "structu
 
 
 def incremental_mapping(database_path: Any, image_path: Any, output_path: Any, options: Any = None, *,
-                        global_adjustment: str = "sba", local_adjustment: str = "colmap",
+                        global_adjustment: str = "sba", local_adjustment: str = "sba",
                         timings: Optional[Dict[str, float]] = None) -> Dict[int, Any]:
     """COLMAP's incremental mapping of a database, as ``pycolmap.incremental_mapping`` runs it,
-    driven from Python through pycolmap's IncrementalMapper, with sba's global bundle adjustment
-    (:func:`adjust_global_bundle`) and, with local_adjustment "sba", its local one
-    (:func:`adjust_local_bundle`). Returns the reconstructions by index, each written to
+    driven from Python through pycolmap's IncrementalMapper, with sba's global and local bundle
+    adjustments (:func:`adjust_global_bundle`, :func:`adjust_local_bundle`). Returns the reconstructions by index, each written to
     output_path/<index>, as pycolmap.incremental_mapping does.
 
     options is a pycolmap.IncrementalPipelineOptions (None: its defaults); its global and local
     adjustments are get_global_bundle_adjustment() and get_local_bundle_adjustment(), read as
     :func:`bundle_adjustment` reads them. global_adjustment "colmap" runs the mapper's own
-    instead, the same pipeline otherwise (to compare); local_adjustment "colmap" (the default)
-    runs the mapper's own local adjustments (``mapper.adjust_local_bundle``). timings, a dict,
+    instead, the same pipeline otherwise (to compare); local_adjustment "colmap" the mapper's own
+    local adjustments (``mapper.adjust_local_bundle``). timings, a dict,
     gets the seconds of the local refinements ("local"; with sba's, its solves alone,
     "local_solve", and their number, "local_calls"), of the global adjustments alone
     ("global", and their number, "global_calls"; with sba's, the part of it spent reading the

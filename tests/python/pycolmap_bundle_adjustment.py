@@ -620,10 +620,11 @@ def mapping(pycolmap, pysba):
         timings = {}
         same = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "colmap"), options,
                                                 global_adjustment="colmap")
-        ours = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "sba"), options, timings=timings)
-        local_timings = {}
+        ours = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "sba"), options,
+                                                local_adjustment="colmap", timings=timings)
+        local_timings = {}  # the default: sba's local adjustments too
         local = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "sba-local"), options,
-                                                 local_adjustment="sba", timings=local_timings)
+                                                 timings=local_timings)
         expect(sorted(theirs) == sorted(ours) == sorted(same) == sorted(local) == [0],
                "models: %s, %s, %s" % (sorted(theirs), sorted(ours), sorted(local)))
         a, b, c = theirs[0], ours[0], same[0]
