@@ -511,15 +511,16 @@ def incremental_mapping(database_path: Any, image_path: Any, output_path: Any, o
                         timings: Optional[Dict[str, float]] = None) -> Dict[int, Any]:
     """COLMAP's incremental mapping of a database, as ``pycolmap.incremental_mapping`` runs it,
     driven from Python through pycolmap's IncrementalMapper, with sba's global and local bundle
-    adjustments (:func:`adjust_global_bundle`, :func:`adjust_local_bundle`). Returns the reconstructions by index, each written to
-    output_path/<index>, as pycolmap.incremental_mapping does.
+    adjustments (:func:`adjust_global_bundle`, :func:`adjust_local_bundle`). Returns the
+    reconstructions by index, each written to output_path/<index>, as
+    pycolmap.incremental_mapping does.
 
     options is a pycolmap.IncrementalPipelineOptions (None: its defaults); its global and local
     adjustments are get_global_bundle_adjustment() and get_local_bundle_adjustment(), read as
     :func:`bundle_adjustment` reads them. global_adjustment "colmap" runs the mapper's own
-    instead, the same pipeline otherwise (to compare); local_adjustment "colmap" the mapper's own
-    local adjustments (``mapper.adjust_local_bundle``). timings, a dict,
-    gets the seconds of the local refinements ("local"; with sba's, its solves alone,
+    instead, the same pipeline otherwise (to compare), and local_adjustment "colmap" the
+    mapper's own local adjustments (``mapper.adjust_local_bundle``). timings, a dict, gets the
+    seconds of the local refinements ("local"; with sba's, its solves alone,
     "local_solve", and their number, "local_calls"), of the global adjustments alone
     ("global", and their number, "global_calls"; with sba's, the part of it spent reading the
     model through pycolmap's API, "global_read") and of the whole ("total").

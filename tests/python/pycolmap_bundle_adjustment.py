@@ -619,7 +619,7 @@ def mapping(pycolmap, pysba):
         theirs = pycolmap.incremental_mapping(database, d, os.path.join(d, "pycolmap"), options)
         timings = {}
         same = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "colmap"), options,
-                                                global_adjustment="colmap")
+                                                global_adjustment="colmap", local_adjustment="colmap")
         ours = pysba.colmap.incremental_mapping(database, d, os.path.join(d, "sba"), options,
                                                 local_adjustment="colmap", timings=timings)
         local_timings = {}  # the default: sba's local adjustments too
