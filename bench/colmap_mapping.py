@@ -8,7 +8,8 @@ For each size it runs, in turn: pycolmap.incremental_mapping (the reference: its
 pysba's pipeline with the mapper's own adjustments ("pipeline": the Python pipeline's own cost
 against pycolmap's; left out with --no-pipeline); the same with COLMAP's adjustments timed ("colmap": the split of the
 time: the local refinements and their solves alone, the global adjustments, the rest; the
-local adjustments taken step by step in Python with COLMAP's solve to time it); pysba's
+local adjustments taken step by step in Python with COLMAP's solve to time it; left out with
+--no-split, for the models and the whole mapping's time alone, without the global ratio); pysba's
 pipeline with sba's global adjustment ("sba", with the part of its time spent reading the
 mapper's model through pycolmap's API); and, with --local-sba, with sba's local
 adjustments too ("sba-local"; with --no-global-only, instead of "sba"). With --repeat N the
@@ -19,7 +20,8 @@ camera centres' RMS distance after a similarity onto the truth's centres (a rang
 runs of a mode differ).
 
   colmap_mapping.py --frames 100,150 [--points-per-frame 15] [--kind shared|per-image|rigs]
-                    [--priors] [--local-sba [--no-global-only]] [--no-pipeline] [--repeat 1]
+                    [--priors] [--local-sba [--no-global-only]] [--no-pipeline] [--no-split]
+                    [--repeat 1]
                     [--threads 2] [--work DIR] [--reuse] [--markdown FILE]
 --kind: one camera shared by every image (FRAMES frames of a rig of one camera), a camera per
 image, or a rig of two cameras (FRAMES / 2 frames of two images: FRAMES images either way).
@@ -143,6 +145,8 @@ def main(argv):
                     help="leave out the pipeline with the mapper's own adjustments (its cost against pycolmap's)")
     ap.add_argument("--no-global-only", action="store_true",
                     help="with --local-sba, leave out sba's global adjustments with COLMAP's local ones")
+    ap.add_argument("--no-split", action="store_true",
+                    help="leave out the pipeline with COLMAP's adjustments timed (the split, the global ratio)")
     ap.add_argument("--repeat", type=int, default=1, help="run every mode this many times, interleaved")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--work", default="/tmp/sba-colmap-mapping")
@@ -167,6 +171,8 @@ def main(argv):
                 modes.remove(("sba", "sba", "colmap"))
         if args.no_pipeline:
             modes = modes[1:]
+        if args.no_split:
+            modes = [m for m in modes if m[0] != "colmap"]
         # The modes shown against COLMAP's adjustments timed ("colmap"), in the order run.
         shown = [name for name, _, _ in modes if name != "colmap"]
         references, runs = [], {name: [] for name, _, _ in modes}
@@ -186,22 +192,23 @@ def main(argv):
         label = "%d%s" % (frames, " (%s)" % ", ".join(tags) if tags else "")
         row = dict(frames=label, reference=reference, **runs)
         rows.append(row)
-        c = runs["colmap"]
-        line = "%s frames, %d run(s): pycolmap %.1f s%s (%s); " % (
+        c = runs.get("colmap")
+        line = "%s frames, %d run(s): pycolmap %.1f s%s (%s)" % (
             label, args.repeat, reference["total"], spread(reference), figures(reference))
         if "pipeline" in runs:
             p = runs["pipeline"]
-            line += "pipeline with the mapper's adjustments %.1f s%s (%.2fx pycolmap); " % (
+            line += "; pipeline with the mapper's adjustments %.1f s%s (%.2fx pycolmap)" % (
                 p["total"], spread(p), p["total"] / reference["total"])
-        line += ("with COLMAP's adjustments timed %.1f s%s (local %.1f, of which solves %.1f in %d; global %.1f "
-                 "in %d; rest %.1f)" % (c["total"], spread(c), c["local"], c["local_solve"], c["local_calls"],
-                                        c["global"], c["global_calls"], split(c)[1]))
+        if c:
+            line += ("; with COLMAP's adjustments timed %.1f s%s (local %.1f, of which solves %.1f in %d; global "
+                     "%.1f in %d; rest %.1f)" % (c["total"], spread(c), c["local"], c["local_solve"],
+                                                 c["local_calls"], c["global"], c["global_calls"], split(c)[1]))
         for name in [n for n in shown if n != "pipeline"]:
             s = runs[name]
             local = "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's"
-            line += "; %s %.1f s%s (%.2fx pycolmap; global %.1f, reading %.1f: %.2fx; local solves %s; %s)" % (
+            line += "; %s %.1f s%s (%.2fx pycolmap; global %.1f, reading %.1f%s; local solves %s; %s)" % (
                 name, s["total"], spread(s), s["total"] / reference["total"], s["global"], s.get("global_read", 0.0),
-                s["global"] / c["global"], local, figures(s))
+                ": %.2fx" % (s["global"] / c["global"]) if c else "", local, figures(s))
         print(line, flush=True)
     if args.markdown:
         with open(args.markdown, "a") as f:
@@ -210,18 +217,19 @@ def main(argv):
                     "| of pycolmap's | global | global ratio | local solves | model |\n"
                     "|---:|---:|---:|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---|\n")
             for r in rows:
-                ref, c = r["reference"], r["colmap"]
-                lead = ("| %s | %d | %.1f s%s | %s | %.1f s%s | %.1f s (%d) | %.1f s | %.1f s (%d) "
-                        "| %.1f s " % (r["frames"], args.repeat, ref["total"], spread(ref), figures(ref),
-                                       c["total"], spread(c),
-                                       c["local_solve"], c["local_calls"], split(c)[0], c["global"],
-                                       c["global_calls"], split(c)[1]))
+                ref, c = r["reference"], r.get("colmap")
+                lead = "| %s | %d | %.1f s%s | %s " % (r["frames"], args.repeat, ref["total"], spread(ref),
+                                                        figures(ref))
+                lead += ("| %.1f s%s | %.1f s (%d) | %.1f s | %.1f s (%d) | %.1f s " % (
+                    c["total"], spread(c), c["local_solve"], c["local_calls"], split(c)[0], c["global"],
+                    c["global_calls"], split(c)[1]) if c else "| - | - | - | - | - ")
                 for name in shown:
                     s = r[name]
-                    f.write(lead + "| %s | %.1f s%s | %.2fx | %.1f s%s | %.2fx | %s | %s |\n" % (
+                    f.write(lead + "| %s | %.1f s%s | %.2fx | %.1f s%s | %s | %s | %s |\n" % (
                         name, s["total"], spread(s), s["total"] / ref["total"], s["global"],
                         " (reading %.1f s)" % s["global_read"] if "global_read" in s else "",
-                        s["global"] / c["global"], "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's",
+                        "%.2fx" % (s["global"] / c["global"]) if c else "-",
+                        "%.1f s" % s["local_solve"] if "local_solve" in s else "COLMAP's",
                         figures(s)))
                     lead = "| | | | | | | | | "
     return 0
