@@ -13,7 +13,9 @@
 #   DenseCholesky.*                                      the dense Cholesky of S, whose phases
 #                                                        meet at spin barriers, on 2, 3, 5 threads
 #   ThreadPool.*                                         the pool's workers leaving the caller's
-#                                                        core (the CPU slots they share)
+#                                                        core (the CPU slots they share), and
+#                                                        the caller taking over the part of a
+#                                                        worker that has not begun it
 #   ThreadPoolDeathTest.*                                a thread of the pool ended inside a job
 #                                                        (forced unwind), each in a child process
 # No suppressions are used. LAPACK/BLAS, SuiteSparse and libgomp are not instrumented: TSan

@@ -28,8 +28,13 @@ int current_cpu() {
 }  // namespace
 
 ThreadPool::ThreadPool(int nthreads, bool avoid_shared_cores)
-    : avoid_shared_cores_(avoid_shared_cores), cpu_(new std::atomic<int>[size_t(std::max(nthreads, 1))]) {
-  for (int t = 0; t < std::max(nthreads, 1); ++t) cpu_[t].store(-1, std::memory_order_relaxed);
+    : taken_(new std::atomic<std::uint64_t>[size_t(std::max(nthreads, 1))]),
+      avoid_shared_cores_(avoid_shared_cores),
+      cpu_(new std::atomic<int>[size_t(std::max(nthreads, 1))]) {
+  for (int t = 0; t < std::max(nthreads, 1); ++t) {
+    cpu_[t].store(-1, std::memory_order_relaxed);
+    taken_[t].store(0, std::memory_order_relaxed);
+  }
   for (int t = 1; t < nthreads; ++t) {
     try {
       workers_.emplace_back([this, t] { work(t - 1); });
@@ -90,6 +95,9 @@ SBA_CATCHES_FORCED_UNWIND void ThreadPool::work(int id) {
     }
     if (stop_.load(std::memory_order_acquire)) return;
     seen = generation_.load(std::memory_order_acquire);
+    // The caller may have done this part already (and even have begun the next job): then
+    // job_ is not this generation's, and there is nothing to do or to report.
+    if (!take(id, seen)) continue;
     const std::function<void(int)> *job = job_;
     if (avoid_shared_cores_) avoid_shared_core(id, &cooldown);
     try {
@@ -111,6 +119,12 @@ SBA_CATCHES_FORCED_UNWIND void ThreadPool::work(int id) {
     }
     job_done();
   }
+}
+
+// Whether the part of worker id in job `generation` falls to the one asking (the worker or
+// the caller): the first to ask gets it.
+bool ThreadPool::take(int id, std::uint64_t generation) {
+  return taken_[id].exchange(generation, std::memory_order_acq_rel) != generation;
 }
 
 void ThreadPool::job_done() {
@@ -191,15 +205,36 @@ SBA_CATCHES_FORCED_UNWIND void ThreadPool::run(const std::function<void(int)> &f
   job_ = &fn;
   if (avoid_shared_cores_) cpu_[size() - 1].store(current_cpu(), std::memory_order_relaxed);
   pending_.store(int(workers_.size()), std::memory_order_relaxed);
+  std::uint64_t generation;
   {
     std::lock_guard<std::mutex> lock(mu_);
     error_ = nullptr;
-    generation_.fetch_add(1, std::memory_order_release);
+    generation = generation_.fetch_add(1, std::memory_order_release) + 1;
   }
   wake_.notify_all();
   std::exception_ptr mine;
   try {
     fn(size() - 1);
+    // The parts of workers that have not begun theirs yet are done here rather than waited
+    // for: on a machine busier than its cores, a woken worker can wait milliseconds for one,
+    // many times a job's length, and a solve runs thousands of jobs.
+    for (int w = 0; w < int(workers_.size()); ++w) {
+      if (!take(w, generation)) continue;
+      try {
+        fn(w);
+      }
+#if SBA_HAVE_FORCED_UNWIND
+      catch (abi::__forced_unwind &) {
+        job_done();
+        throw;
+      }
+#endif
+      catch (...) {
+        std::lock_guard<std::mutex> lock(mu_);
+        if (!error_) error_ = std::current_exception();
+      }
+      job_done();
+    }
   }
 #if SBA_HAVE_FORCED_UNWIND
   catch (abi::__forced_unwind &) {

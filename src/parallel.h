@@ -29,7 +29,10 @@ class ThreadPool {
   ThreadPool &operator=(const ThreadPool &) = delete;
 
   int size() const { return int(workers_.size()) + 1; }
-  // fn(t) for every t in [0, size()), concurrently; returns when all are done. The first
+  // fn(t) for every t in [0, size()), concurrently; returns when all are done. A worker's
+  // fn(t) that it has not begun by the time the caller is done with its own runs in the
+  // calling thread instead, so fn(t) must not depend on the thread that runs it (only on t),
+  // and may wait for another member (a SpinBarrier) only where every member waits. The first
   // exception thrown by any of them is rethrown here. A forced unwind (a thread ended by
   // pthread_exit or pthread_cancel inside fn) is let through in the thread it ends: in the
   // calling thread once the workers are done with fn; in a worker, which then ends, as
@@ -109,6 +112,7 @@ class ThreadPool {
     return true;
   }
   void work(int id);
+  bool take(int id, std::uint64_t generation);
   void job_done();
   void wait_for_workers();
   void avoid_shared_core(int id, int *cooldown);
@@ -126,6 +130,8 @@ class ThreadPool {
   std::atomic<bool> stop_{false};
   std::atomic<bool> resting_{false};
   std::atomic<bool> lost_worker_{false};  // a worker was ended by a forced unwind
+  // By worker: the last generation whose part was taken, by the worker or by the caller.
+  std::unique_ptr<std::atomic<std::uint64_t>[]> taken_;
   std::exception_ptr error_;  // guarded by mu_
   const bool avoid_shared_cores_;
   // The CPU each member last ran a job on (the caller's: last), -1 if unknown; kept only

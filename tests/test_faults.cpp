@@ -378,6 +378,9 @@ struct EndedSolve {
     EndedSolve &s = *static_cast<EndedSolve *>(adata);
     if (s.end_a_worker && !pthread_equal(pthread_self(), s.caller) && s.worker_calls.fetch_add(1) == 0)
       pthread_exit(nullptr);
+    // The caller, done with its part of a job, would do a worker's part that has not begun:
+    // its first call waits (a few seconds at most) for the worker's, so that one is made.
+    for (int k = 0; k < 5000 && s.end_a_worker && s.worker_calls.load() == 0; ++k) usleep(1000);
     synth::func_motstr(p, idx, rcidxs, rcsubs, hx, &s.pb);
   }
   static void *solve(void *arg) {

@@ -15,11 +15,13 @@
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #if defined(__linux__)
 #include <pthread.h>
 #include <sched.h>
+#include <signal.h>
 #include <sys/mman.h>
 #include <unistd.h>
 #endif
@@ -89,10 +91,25 @@ struct Round {
   int worker_cpu = -1;
   cpu_set_t worker_mask;
 };
+
+// fn() as member 0's part of a job, in the worker's own thread: the others wait until it has
+// begun, so that the caller, done with its part, does not take that one over.
+template <class Fn>
+void on_worker(sba::ThreadPool &pool, Fn fn) {
+  std::atomic<bool> begun{false};
+  pool.run([&](int t) {
+    if (t == 0) {
+      begun = true;
+      fn();
+    } else {
+      while (!begun.load()) std::this_thread::yield();
+    }
+  });
+}
+
 bool worker_next_to_caller(sba::ThreadPool &pool, int here, const cpu_set_t &all, Round *r) {
   std::atomic<int> placed{-1};
-  pool.run([&](int t) {
-    if (t != 0) return;
+  on_worker(pool, [&] {
     cpu_set_t to;
     CPU_ZERO(&to);
     CPU_SET(here, &to);
@@ -101,8 +118,7 @@ bool worker_next_to_caller(sba::ThreadPool &pool, int here, const cpu_set_t &all
   });
   if (placed.load() != here) return false;
   CPU_ZERO(&r->worker_mask);
-  pool.run([&](int t) {
-    if (t != 0) return;
+  on_worker(pool, [&] {
     r->worker_cpu = sched_getcpu();
     sched_getaffinity(0, sizeof r->worker_mask, &r->worker_mask);
   });
@@ -257,6 +273,74 @@ TEST(ThreadPool, RunsWithinAndAfterForeignThreads) {
   EXPECT_EQ(n.load(), 2 * pool.size());
 }
 
+// Every part of every job runs once, whether its worker or the caller (done with its own
+// part first) runs it: jobs whose caller's part is empty, so that the two race for the
+// workers' parts.
+TEST(ThreadPool, EveryPartRunsOnceWhoeverRunsIt) {
+  sba::ThreadPool pool(3);
+  ASSERT_EQ(pool.size(), 3);
+  const int jobs = 20000;
+  std::vector<int> count(3, 0);
+  for (int job = 0; job < jobs; ++job)
+    pool.run([&](int t) {
+      if (t < 2) ++count[size_t(t)];
+    });
+  EXPECT_EQ(count[0], jobs);
+  EXPECT_EQ(count[1], jobs);
+}
+
+#if defined(__linux__)
+// A worker held in a signal handler until released: a thread the scheduler does not run.
+std::atomic<bool> hold_worker{false}, worker_held{false};
+void held_here(int) {
+  worker_held = true;
+  while (hold_worker.load()) {
+  }
+}
+
+// A worker that cannot run (descheduled on a machine busier than its cores; here held in a
+// signal handler) does not hold the job up: the caller, done with its part, does the
+// worker's. Waiting for the worker instead would return only once a watchdog releases it.
+TEST(ThreadPool, TheCallerDoesThePartOfAWorkerThatCannotRun) {
+  sba::ThreadPool pool(2);
+  ASSERT_EQ(pool.size(), 2);
+  pthread_t worker{};
+  on_worker(pool, [&] { worker = pthread_self(); });
+  struct sigaction held {}, old {};
+  held.sa_handler = held_here;
+  sigemptyset(&held.sa_mask);
+  ASSERT_EQ(sigaction(SIGUSR1, &held, &old), 0);
+  hold_worker = true;
+  worker_held = false;
+  ASSERT_EQ(pthread_kill(worker, SIGUSR1), 0);
+  for (int k = 0; k < 5000 && !worker_held.load(); ++k) usleep(1000);
+  if (!worker_held.load()) {
+    hold_worker = false;
+    sigaction(SIGUSR1, &old, nullptr);
+    GTEST_SKIP() << "the signal did not reach the worker";
+  }
+  std::atomic<bool> returned{false};
+  std::thread watchdog([&] {
+    for (int k = 0; k < 3000 && !returned.load(); ++k) usleep(1000);
+    hold_worker = false;
+  });
+  pthread_t ran{};
+  pool.run([&](int t) {
+    if (t == 0) ran = pthread_self();
+  });
+  returned = true;
+  const bool released_by_watchdog = !hold_worker.load();
+  hold_worker = false;
+  watchdog.join();
+  sigaction(SIGUSR1, &old, nullptr);
+  EXPECT_FALSE(released_by_watchdog);
+  EXPECT_TRUE(pthread_equal(ran, pthread_self()));
+  // The worker, back, takes its own parts again.
+  on_worker(pool, [&] { ran = pthread_self(); });
+  EXPECT_TRUE(pthread_equal(ran, worker));
+}
+#endif
+
 // The message a failure carries (empty for one that is not a std::runtime_error).
 template <class Throw>
 std::string internal_error(Throw fn) {
@@ -319,11 +403,7 @@ int worker_ended_case() {
   std::string first, second;
   {
     sba::ThreadPool pool(3);
-    first = internal_error([&] {
-      pool.run([](int t) {
-        if (t == 0) pthread_exit(nullptr);
-      });
-    });
+    first = internal_error([&] { on_worker(pool, [] { pthread_exit(nullptr); }); });
     second = internal_error([&] { pool.run([](int) {}); });
   }
   std::fprintf(stderr, "first: %s\nsecond: %s\n", first.c_str(), second.c_str());

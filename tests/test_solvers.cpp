@@ -6,6 +6,7 @@
 #include <malloc.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -809,14 +810,25 @@ namespace {
 // compute: the same bits, for both driver kinds, analytic and finite-difference Jacobians,
 // and the simple drivers with the Jacobian in single precision (with a robust loss, whose
 // residuals are then summed and made again chunk by chunk); and they are really called from
-// more than one thread (and only then).
+// more than one thread (and only then). The pool's caller, done with its part of a job, does
+// the parts of workers that have not begun theirs, so on a busy machine a worker may not get
+// to call one: the caller's calls wait (for at most a few seconds) until every thread asked
+// for has made one, while the workers' parts of that job are still theirs.
 struct SeenThreads {
   const synth::Problem *pb;
+  std::thread::id caller = std::this_thread::get_id();
+  size_t want = 1;
   std::mutex mu;
   std::set<std::thread::id> ids;
   void note() {
-    std::lock_guard<std::mutex> lock(mu);
+    std::unique_lock<std::mutex> lock(mu);
     ids.insert(std::this_thread::get_id());
+    if (std::this_thread::get_id() != caller) return;
+    for (int k = 0; k < 5000 && ids.size() < want; ++k) {
+      lock.unlock();
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      lock.lock();
+    }
   }
 };
 void seen_func(double *p, sba_crsm *idx, int *r, int *c, double *hx, void *ad) {
@@ -850,6 +862,7 @@ TEST(ParallelCallbacks, SameBitsAsSerialCallsForEveryDriverKind) {
         if (single) ext.loss = "cauchy";
         SeenThreads seen;
         seen.pb = &pb;
+        seen.want = parallel ? size_t(threads) : 1;
         Outcome o;
         o.p = pb.p0;
         if (simple)
