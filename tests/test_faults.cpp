@@ -577,6 +577,10 @@ int oom_child_main(const char *spec) {
   if (std::sscanf(spec, "%31s %d %d %d %ld %d %d", linsolver, &nthreads, &simple, &covx, &headroom, &fd,
                   &warm) < 6)
     return 3;
+  // One malloc arena for every thread: a block that the limit keeps from being mapped is
+  // then not found instead in the free space of another thread's arena, whose size depends
+  // on which threads ran which parts of the warm-up's jobs (the scheduler's choice).
+  mallopt(M_ARENA_MAX, 1);
   // 120 cameras, 2000 points seen about 4 times: a dense S of 720 x 720 (4 MB).
   Rig su(Driver::MotStrX, 2000, 120, 0.3, 106, 4.0 / 120.0);
   sba_ext_options ext;
