@@ -100,25 +100,31 @@ SBA_CATCHES_FORCED_UNWIND void ThreadPool::work(int id) {
     if (!take(id, seen)) continue;
     const std::function<void(int)> *job = job_;
     if (avoid_shared_cores_) avoid_shared_core(id, &cooldown);
-    try {
-      (*job)(id);
-    }
-#if SBA_HAVE_FORCED_UNWIND
-    catch (abi::__forced_unwind &) {
-      // This thread is being ended (pthread_exit or pthread_cancel in a callback) and must
-      // be let go; the caller, waiting for the job, is told by run(), which also refuses
-      // the later jobs that would wait for this member forever.
-      lost_worker_.store(true, std::memory_order_release);
-      job_done();
-      throw;
-    }
-#endif
-    catch (...) {
-      std::lock_guard<std::mutex> lock(mu_);
-      if (!error_) error_ = std::current_exception();
-    }
-    job_done();
+    do_part(*job, id, true);
   }
+}
+
+// Part id of job, counted done however it ends; the first exception of the job's parts is
+// kept for run() to rethrow. A forced unwind (pthread_exit or pthread_cancel in a callback)
+// is let through: the thread is being ended and must be let go. A worker's then also marks
+// the pool short of a member: the caller, waiting for the job, is told by run(), which also
+// refuses the later jobs that would wait for this member forever.
+SBA_CATCHES_FORCED_UNWIND void ThreadPool::do_part(const std::function<void(int)> &job, int id, bool worker) {
+  try {
+    job(id);
+  }
+#if SBA_HAVE_FORCED_UNWIND
+  catch (abi::__forced_unwind &) {
+    if (worker) lost_worker_.store(true, std::memory_order_release);
+    job_done();
+    throw;
+  }
+#endif
+  catch (...) {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (!error_) error_ = std::current_exception();
+  }
+  job_done();
 }
 
 // Whether the part of worker id in job `generation` falls to the one asking (the worker or
@@ -218,23 +224,8 @@ SBA_CATCHES_FORCED_UNWIND void ThreadPool::run(const std::function<void(int)> &f
     // The parts of workers that have not begun theirs yet are done here rather than waited
     // for: on a machine busier than its cores, a woken worker can wait milliseconds for one,
     // many times a job's length, and a solve runs thousands of jobs.
-    for (int w = 0; w < int(workers_.size()); ++w) {
-      if (!take(w, generation)) continue;
-      try {
-        fn(w);
-      }
-#if SBA_HAVE_FORCED_UNWIND
-      catch (abi::__forced_unwind &) {
-        job_done();
-        throw;
-      }
-#endif
-      catch (...) {
-        std::lock_guard<std::mutex> lock(mu_);
-        if (!error_) error_ = std::current_exception();
-      }
-      job_done();
-    }
+    for (int w = 0; w < int(workers_.size()); ++w)
+      if (take(w, generation)) do_part(fn, w, false);
   }
 #if SBA_HAVE_FORCED_UNWIND
   catch (abi::__forced_unwind &) {

@@ -113,6 +113,7 @@ class ThreadPool {
   }
   void work(int id);
   bool take(int id, std::uint64_t generation);
+  void do_part(const std::function<void(int)> &job, int id, bool worker);
   void job_done();
   void wait_for_workers();
   void avoid_shared_core(int id, int *cooldown);
