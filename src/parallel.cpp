@@ -128,9 +128,16 @@ SBA_CATCHES_FORCED_UNWIND void ThreadPool::do_part(const std::function<void(int)
 }
 
 // Whether the part of worker id in job `generation` falls to the one asking (the worker or
-// the caller): the first to ask gets it.
+// the caller): the first to ask gets it. A worker can ask for a job that is long over (it was
+// descheduled after reading the generation, and the caller did its parts in that job and in
+// later ones): the generations taken only grow, so such a late ask gets nothing and does not
+// give the part of a later job away.
 bool ThreadPool::take(int id, std::uint64_t generation) {
-  return taken_[id].exchange(generation, std::memory_order_acq_rel) != generation;
+  std::uint64_t last = taken_[id].load(std::memory_order_acquire);
+  while (last < generation)
+    if (taken_[id].compare_exchange_weak(last, generation, std::memory_order_acq_rel, std::memory_order_acquire))
+      return true;
+  return false;
 }
 
 void ThreadPool::job_done() {
