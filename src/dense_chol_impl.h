@@ -18,6 +18,7 @@
 #endif
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #ifdef __AVX__
 #include <immintrin.h>
@@ -219,7 +220,7 @@ inline bool diagonal_block(double *S, i64 ld, i64 p0, i64 p1, double *inv) {
 inline bool factor(ThreadPool &pool, double *S, i64 n, i64 ld, i64 ncols) {
   const int T = pool.size();
   double inv[kPanel];
-  if (T == 1 || n < 128) {
+  if (T == 1 || n < 128 || !pool.together()) {
     for (i64 p0 = 0; p0 < n; p0 += kPanel) {
       const i64 p1 = std::min(n, p0 + kPanel);
       if (!diagonal_block(S, ld, p0, p1, inv)) return false;
@@ -234,9 +235,12 @@ inline bool factor(ThreadPool &pool, double *S, i64 n, i64 ld, i64 ncols) {
   // trailing update.
   SpinBarrier barrier(T);
   bool ok = true;  // written by thread 0 before a barrier, read by all after it
+  double waiting = 0.0;  // the caller's (member T - 1's) time at the barriers
+  const auto start = std::chrono::steady_clock::now();
   pool.run([&](int t) {
+    auto sync = [&] { t == T - 1 ? barrier.wait(&waiting) : barrier.wait(); };
     if (t == 0) ok = diagonal_block(S, ld, 0, std::min<i64>(n, kPanel), inv);
-    barrier.wait();
+    sync();
     if (!ok) return;
     for (i64 p0 = 0; p0 < n; p0 += kPanel) {
       const i64 p1 = std::min(n, p0 + kPanel), p2 = std::min(n, p1 + kPanel);
@@ -247,7 +251,7 @@ inline bool factor(ThreadPool &pool, double *S, i64 n, i64 ld, i64 ncols) {
       const i64 c0 = p1 + (wc * t / T) / 8 * 8, c1 = t + 1 == T ? ncols : p1 + (wc * (t + 1) / T) / 8 * 8;
       if (c0 < c1) panel_columns(S, ld, p0, p1, inv, c0, c1);
       if (w == 0) return;
-      barrier.wait();
+      sync();
       auto bound = [&](int k) -> i64 {
         if (k >= T) return n;
         const i64 x = p1 + i64(double(w) * (1.0 - std::sqrt(1.0 - double(k) / T))) / 4 * 4;
@@ -262,10 +266,13 @@ inline bool factor(ThreadPool &pool, double *S, i64 n, i64 ld, i64 ncols) {
       } else if (r0 < r1) {
         trailing_rows(S, ld, ncols, p0, p1, r0, r1);
       }
-      barrier.wait();
+      sync();
       if (!ok) return;
     }
   });
+  // A factorization that fails stops at its first bad pivot, before any phase's waits mean
+  // anything.
+  if (ok) pool.waited(waiting, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   return ok;
 }
 

@@ -201,6 +201,28 @@ void ThreadPool::avoid_shared_core(int id, int *cooldown) {
 #endif
 }
 
+bool ThreadPool::together() {
+  if (workers_.empty()) return false;
+  if (alone_ == 0) return true;
+  --alone_;
+  return false;
+}
+
+// On cores of the job's own, the caller waits at a barrier for the imbalance of a phase
+// (near the smallest sizes run on several threads, up to about half the job); a member that
+// lost its core costs a scheduler's time slice per barrier, many times a phase, and the
+// caller waits nearly all the job. Three quarters lies between.
+void ThreadPool::waited(double barrier_seconds, double job_seconds) {
+  if (barrier_seconds <= 0.75 * job_seconds) {
+    strikes_ = 0;
+    backoff_ = kFirstBackoff;
+  } else if (++strikes_ == 2) {
+    strikes_ = 0;
+    alone_ = backoff_;
+    backoff_ = std::min(2 * backoff_, kMaxBackoff);
+  }
+}
+
 namespace {
 
 [[noreturn]] void throw_lost_worker() {

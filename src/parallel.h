@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <exception>
@@ -39,6 +40,20 @@ class ThreadPool {
   // std::runtime_error here, and every later run() throws it at once (the pool is short of
   // a member).
   void run(const std::function<void(int)> &fn);
+
+  // A job whose members wait for each other (SpinBarrier) runs at the pace of the member
+  // that last got a core: on a machine busier than its cores, every barrier can wait
+  // milliseconds for a member the scheduler has set aside while the others spin, and the
+  // caller cannot take over a part that has begun. Such a kernel runs on every member only
+  // when together() says so, and then tells waited() how long its caller's part spent at
+  // the barriers; after two jobs in a row that were mostly waiting (one alone can be the
+  // workers' first wake-up), the next ones run on one thread for a while, and for twice as
+  // long each time it happens again without a good job between. Both are called by the
+  // caller, between jobs.
+  bool together();
+  void waited(double barrier_seconds, double job_seconds);
+  // The jobs handed to the workers so far.
+  std::uint64_t jobs() const { return generation_.load(std::memory_order_relaxed); }
 
   // For its lifetime the workers sleep instead of spinning for the next job: made around a
   // long call into another library (LAPACK, CHOLMOD) that runs its own threads, so that our
@@ -135,6 +150,12 @@ class ThreadPool {
   std::unique_ptr<std::atomic<std::uint64_t>[]> taken_;
   std::exception_ptr error_;  // guarded by mu_
   const bool avoid_shared_cores_;
+  // together(): the jobs still to run alone, how many the next backing off sends there, and
+  // the mostly waiting jobs in a row.
+  int alone_ = 0;
+  int strikes_ = 0;
+  int backoff_ = kFirstBackoff;
+  static constexpr int kFirstBackoff = 16, kMaxBackoff = 1024;
   // The CPU each member last ran a job on (the caller's: last), -1 if unknown; kept only
   // when avoid_shared_cores_.
   std::unique_ptr<std::atomic<int>[]> cpu_;
@@ -159,6 +180,12 @@ class SpinBarrier {
 #endif
       if (k % 64 == 0) std::this_thread::yield();
     }
+  }
+  // wait(), adding the seconds it took to *spent.
+  void wait(double *spent) {
+    const auto start = std::chrono::steady_clock::now();
+    wait();
+    *spent += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
 
  private:

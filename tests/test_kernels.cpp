@@ -5,12 +5,22 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
+
+#if defined(__linux__)
+#include <signal.h>
+#include <sys/syscall.h>
+#include <time.h>
+#include <unistd.h>
+#endif
 
 #include "column_split.h"
 #include "layout.h"
@@ -535,6 +545,78 @@ TEST(DenseCholesky, MatchesLapackAndThreadCountsGiveTheSameBits) {
     }
   }
 }
+
+#if defined(__linux__)
+// Holds the thread it interrupts for 10 ms, asleep: a member of the pool that the scheduler
+// has set aside, as on a machine with more running threads than cores.
+void held_for_a_while(int) {
+  const int saved = errno;
+  timespec left{0, 10000000};
+  while (nanosleep(&left, &left) != 0 && errno == EINTR) {
+  }
+  errno = saved;
+}
+
+// While the pool's worker runs only now and then (held 10 ms of every 10.5 ms, from the start, by a timer
+// whose signal goes to it alone), the factorization soon stops waiting for it at every
+// barrier and runs on the calling thread, with the same bits. Before, every one of them ran
+// on both members, at the held one's pace. The order is one whose factorization on both
+// members outlasts the worker's free half millisecond.
+TEST(DenseCholesky, RunsAloneWhileAMemberIsMostlyKeptFromRunning) {
+  const i64 n = 512, ld = 520;
+  const std::vector<double> S = random_spd(n, ld, 3u);
+  sba::ThreadPool one(1), pool(2);
+  ASSERT_EQ(pool.size(), 2);
+  std::vector<double> U1(S);
+  ASSERT_TRUE(sba::own_dense_cholesky()(one, U1.data(), n, ld, 0));
+  // A job whose worker part has begun (the caller waits for it): it runs on the worker's
+  // own thread, after any signal pending for it has been handled.
+  auto on_worker = [&pool](auto fn) {
+    std::atomic<bool> begun{false};
+    pool.run([&](int t) {
+      if (t == 0) {
+        fn();
+        begun = true;
+      } else {
+        while (!begun.load()) std::this_thread::yield();
+      }
+    });
+  };
+  pid_t worker = 0;
+  on_worker([&] { worker = pid_t(syscall(SYS_gettid)); });
+  struct sigaction held {}, old {};
+  held.sa_handler = held_for_a_while;
+  sigemptyset(&held.sa_mask);
+  ASSERT_EQ(sigaction(SIGUSR2, &held, &old), 0);
+  sigevent to_worker{};
+  to_worker.sigev_notify = SIGEV_THREAD_ID;
+  to_worker.sigev_signo = SIGUSR2;
+  to_worker._sigev_un._tid = worker;  // sigev_notify_thread_id, which glibc's header lacks
+  timer_t timer{};
+  ASSERT_EQ(timer_create(CLOCK_MONOTONIC, &to_worker, &timer), 0);
+  itimerspec every{};
+  every.it_value.tv_nsec = 1;
+  every.it_interval.tv_nsec = 10500000;
+  ASSERT_EQ(timer_settime(timer, 0, &every, nullptr), 0);
+  const int kFactorizations = 40;
+  const std::uint64_t before = pool.jobs();
+  bool same = true;
+  for (int k = 0; k < kFactorizations && same; ++k) {
+    std::vector<double> U(S);
+    same = sba::own_dense_cholesky()(pool, U.data(), n, ld, 0);
+    for (i64 r = 0; r < n && same; ++r)
+      same = std::equal(U.begin() + r * ld + r, U.begin() + r * ld + n, U1.begin() + r * ld + r);
+  }
+  const std::uint64_t on_both = pool.jobs() - before;
+  timer_delete(timer);
+  on_worker([] {});  // the last signal handled
+  sigaction(SIGUSR2, &old, nullptr);
+  EXPECT_TRUE(same);
+  // Two that waited, 16 alone, two again, then 32 alone: 4, if each job on both members
+  // meets a hold.
+  EXPECT_LE(on_both, 6u);
+}
+#endif
 
 // A matrix that is not positive definite, a zero pivot, a NaN or an Inf on the diagonal (in
 // the first panel, a later one, or the serial path's last row) make the factorization fail on
