@@ -5,14 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <random>
 #include <string>
-#include <thread>
 #include <vector>
 
 #if defined(__linux__)
@@ -30,6 +28,7 @@
 #include "lapack.h"
 #include "step_solver.h"
 #include "parallel.h"
+#include "pool_parts.h"
 
 namespace {
 
@@ -557,11 +556,11 @@ void held_for_a_while(int) {
   errno = saved;
 }
 
-// While the pool's worker runs only now and then (held 10 ms of every 10.5 ms, from the start, by a timer
-// whose signal goes to it alone), the factorization soon stops waiting for it at every
-// barrier and runs on the calling thread, with the same bits. Before, every one of them ran
-// on both members, at the held one's pace. The order is one whose factorization on both
-// members outlasts the worker's free half millisecond.
+// While the pool's worker runs only now and then (held 10 ms of every 10.5 ms, from the
+// start, by a timer whose signal goes to it alone), the factorization soon stops waiting for
+// it at every barrier and runs on the calling thread, with the same bits. Before, every one
+// of them ran on both members, at the held one's pace. The order is one whose factorization
+// on both members outlasts the worker's free half millisecond.
 TEST(DenseCholesky, RunsAloneWhileAMemberIsMostlyKeptFromRunning) {
   const i64 n = 512, ld = 520;
   const std::vector<double> S = random_spd(n, ld, 3u);
@@ -569,21 +568,8 @@ TEST(DenseCholesky, RunsAloneWhileAMemberIsMostlyKeptFromRunning) {
   ASSERT_EQ(pool.size(), 2);
   std::vector<double> U1(S);
   ASSERT_TRUE(sba::own_dense_cholesky()(one, U1.data(), n, ld, 0));
-  // A job whose worker part has begun (the caller waits for it): it runs on the worker's
-  // own thread, after any signal pending for it has been handled.
-  auto on_worker = [&pool](auto fn) {
-    std::atomic<bool> begun{false};
-    pool.run([&](int t) {
-      if (t == 0) {
-        fn();
-        begun = true;
-      } else {
-        while (!begun.load()) std::this_thread::yield();
-      }
-    });
-  };
   pid_t worker = 0;
-  on_worker([&] { worker = pid_t(syscall(SYS_gettid)); });
+  on_worker(pool, [&] { worker = pid_t(syscall(SYS_gettid)); });
   struct sigaction held {}, old {};
   held.sa_handler = held_for_a_while;
   sigemptyset(&held.sa_mask);
@@ -609,7 +595,7 @@ TEST(DenseCholesky, RunsAloneWhileAMemberIsMostlyKeptFromRunning) {
   }
   const std::uint64_t on_both = pool.jobs() - before;
   timer_delete(timer);
-  on_worker([] {});  // the last signal handled
+  on_worker(pool, [] {});  // the last signal handled
   sigaction(SIGUSR2, &old, nullptr);
   EXPECT_TRUE(same);
   // Two that waited, 16 alone, two again, then 32 alone: 4, if each job on both members

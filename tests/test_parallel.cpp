@@ -28,6 +28,7 @@
 
 #include "memory.h"
 #include "parallel.h"
+#include "pool_parts.h"
 #include "suitesparse_status.h"
 
 #if defined(__linux__)
@@ -91,21 +92,6 @@ struct Round {
   int worker_cpu = -1;
   cpu_set_t worker_mask;
 };
-
-// fn() as member 0's part of a job, in the worker's own thread: the others wait until it has
-// begun, so that the caller, done with its part, does not take that one over.
-template <class Fn>
-void on_worker(sba::ThreadPool &pool, Fn fn) {
-  std::atomic<bool> begun{false};
-  pool.run([&](int t) {
-    if (t == 0) {
-      begun = true;
-      fn();
-    } else {
-      while (!begun.load()) std::this_thread::yield();
-    }
-  });
-}
 
 bool worker_next_to_caller(sba::ThreadPool &pool, int here, const cpu_set_t &all, Round *r) {
   std::atomic<int> placed{-1};
