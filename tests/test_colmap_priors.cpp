@@ -99,14 +99,21 @@ Vec3 moved(const colmap::Similarity &x, const Vec3 &p) {
   return q;
 }
 
+// Twelve points in general position, and their images under truth each moved by noise times
+// (k mod 4 - 1.4) along axis k mod 3.
+void twelve_pairs(const colmap::Similarity &truth, double noise, std::vector<Vec3> *src, std::vector<Vec3> *dst) {
+  for (int k = 0; k < 12; ++k) {
+    const Vec3 p{std::cos(k * 0.9) * 3, std::sin(k * 1.3) * 2, 0.5 * k - 2};
+    src->push_back(p);
+    dst->push_back(moved(truth, p));
+    dst->back()[static_cast<std::size_t>(k % 3)] += noise * (k % 4 - 1.4);
+  }
+}
+
 TEST(RobustSimilarity, RecoversTheSimilarityDespiteOutliers) {
   const colmap::Similarity truth = some_similarity();
   std::vector<Vec3> src, dst;
-  for (int k = 0; k < 12; ++k) {
-    const Vec3 p{std::cos(k * 0.9) * 3, std::sin(k * 1.3) * 2, 0.5 * k - 2};
-    src.push_back(p);
-    dst.push_back(moved(truth, p));
-  }
+  twelve_pairs(truth, 0, &src, &dst);
   dst[3][0] += 50;  // two wrong priors
   dst[8][2] -= 80;
   colmap::Similarity x;
@@ -157,11 +164,86 @@ TEST(RobustSimilarity, RefusesCollinearPoints) {
   EXPECT_NEAR(x.s, 1.0, 1e-12);
 }
 
+// The priors' cost sum rho(e^T C^-1 e) of the points y against dst, covariances C (each
+// diagonal here), rho Cauchy's of scale c, or least squares for c 0.
+double priors_cost(const std::vector<Vec3> &y, const std::vector<Vec3> &dst, const std::vector<std::array<double, 9>> &C,
+                   double c) {
+  double cost = 0;
+  for (std::size_t k = 0; k < y.size(); ++k) {
+    double s = 0;
+    for (std::size_t a = 0; a < 3; ++a) s += (y[k][a] - dst[k][a]) * (y[k][a] - dst[k][a]) / C[k][a * 4];
+    cost += c > 0 ? c * c * std::log1p(s / (c * c)) : s;
+  }
+  return cost;
+}
+
+// Twelve priors, two of them far off. The robust fit leaves those two out; the solve's
+// position priors do not, and a similarity moves the cost the priors add without moving the
+// projections': least_cost_similarity takes the robust fit to that cost's minimum, which with
+// equal round covariances and least squares is the fit of all twelve.
+TEST(LeastCostSimilarity, TakesTheRobustFitToThePriorsLeastCost) {
+  std::vector<Vec3> src, dst;
+  twelve_pairs(some_similarity(), 0.05, &src, &dst);
+  dst[3][0] += 5;
+  dst[8][2] -= 8;
+  colmap::Similarity robust, all;
+  int inliers = 0;
+  ASSERT_TRUE(colmap::robust_similarity(src, dst, 1.0, &robust, &inliers));
+  ASSERT_EQ(inliers, 10);
+  ASSERT_TRUE(colmap::robust_similarity(src, dst, 1e9, &all, &inliers));
+  ASSERT_EQ(inliers, 12);
+  ASSERT_GT(std::fabs(robust.s - all.s), 1e-3);
+
+  const std::array<double, 9> round = {2.25, 0, 0, 0, 2.25, 0, 0, 0, 2.25};
+  std::vector<const std::array<double, 9> *> covariances(12, &round);
+  colmap::Similarity x = robust;
+  ASSERT_TRUE(colmap::least_cost_similarity(src, dst, covariances, "", 0, &x));
+  EXPECT_NEAR(x.s, all.s, 1e-12);
+  for (std::size_t k = 0; k < 9; ++k) EXPECT_NEAR(x.R[k], all.R[k], 1e-12);
+  for (std::size_t k = 0; k < 3; ++k) EXPECT_NEAR(x.t[k], all.t[k], 1e-10);
+  // At its minimum already: nothing to do.
+  EXPECT_FALSE(colmap::least_cost_similarity(src, dst, covariances, "", 0, &x));
+
+  // Covariances of their own, long in one axis, and Cauchy's loss: the cost the solve adds is
+  // at a minimum over similarities, which each of the seven one-parameter moves shows (the
+  // cost rises both ways), and below the robust fit's.
+  std::vector<std::array<double, 9>> own(12);
+  for (std::size_t k = 0; k < 12; ++k) {
+    own[k] = {0.5 + 0.1 * static_cast<double>(k), 0, 0, 0, 1, 0, 0, 0, 4.0 - 0.2 * static_cast<double>(k)};
+    covariances[k] = &own[k];
+  }
+  const double scale = 2.7954834829151074;
+  x = robust;
+  ASSERT_TRUE(colmap::least_cost_similarity(src, dst, covariances, "cauchy", scale, &x));
+  const auto cost_of = [&](const colmap::Similarity &z) {
+    std::vector<Vec3> y;
+    for (const Vec3 &p : src) y.push_back(moved(z, p));
+    return priors_cost(y, dst, own, scale);
+  };
+  const double at = cost_of(x);
+  EXPECT_LT(at, cost_of(robust) - 0.1);
+  for (int d = 0; d < 7; ++d)
+    for (double h : {-1e-4, 1e-4}) {
+      colmap::Similarity z = x;
+      if (d == 0) z.s *= 1 + h;
+      if (d >= 4) z.t[static_cast<std::size_t>(d - 4)] += h;
+      if (d >= 1 && d <= 3) {  // z.R turned by h about axis d - 1 (on the left)
+        const std::size_t a = static_cast<std::size_t>(d % 3), b = static_cast<std::size_t>((d + 1) % 3);
+        for (std::size_t col = 0; col < 3; ++col) {
+          const double u = z.R[a * 3 + col], v = z.R[b * 3 + col];
+          z.R[a * 3 + col] = std::cos(h) * u - std::sin(h) * v;
+          z.R[b * 3 + col] = std::sin(h) * u + std::cos(h) * v;
+        }
+      }
+      EXPECT_GT(cost_of(z), at) << "parameter " << d << ", step " << h;
+    }
+}
+
 // A small model: two cameras, three images and four points, all seen by every image.
-colmap::Model small_model() {
+colmap::Model small_model(std::uint32_t images = 3) {
   colmap::Model m;
   m.cameras = {{1, colmap::kSimplePinhole, 640, 480, {500, 320, 240}}};
-  for (std::uint32_t k = 0; k < 3; ++k) {
+  for (std::uint32_t k = 0; k < images; ++k) {
     colmap::Image im;
     im.id = 10 + k;
     im.camera_id = 1;
@@ -291,6 +373,40 @@ TEST(PosePriors, UsableOnesGetTheirCovarianceOrTheFallback) {
   EXPECT_EQ(error, "a: its position is not finite");
   options.fallback_stddev = 0;
   EXPECT_FALSE(colmap::usable_pose_priors(m, {a}, options, &out, &error));
+}
+
+// Eight images with priors, one far off: place_on_priors leaves the model where the
+// solve's priors cost least, the least-squares fit of all eight centres (the fallback
+// covariance is round), not the robust fit of the seven from which the solve would have to
+// turn and scale the whole model back, a little every iteration.
+TEST(PlaceOnPriors, LeavesTheModelWhereThePriorsCostLeast) {
+  colmap::Model m = small_model(8);
+  const std::vector<Vec3> centres = colmap::image_centres(m);
+  const colmap::Similarity truth = some_similarity();
+  std::vector<colmap::PosePrior> priors(8);
+  std::vector<Vec3> dst;
+  for (std::size_t k = 0; k < 8; ++k) {
+    priors[k].image_id = static_cast<std::uint32_t>(10 + k);
+    priors[k].position = moved(truth, centres[k]);
+    priors[k].position[k % 3] += 0.1 * static_cast<double>(k % 3) - 0.1;
+    priors[k].where = "p";
+    dst.push_back(priors[k].position);
+  }
+  priors[5].position[1] += 20;
+  dst[5][1] += 20;
+  colmap::Similarity all;
+  int inliers = 0;
+  ASSERT_TRUE(colmap::robust_similarity(centres, dst, 1e9, &all, &inliers));
+  std::vector<colmap::PosePrior> usable;
+  std::string said, error;
+  ASSERT_TRUE(colmap::place_on_priors(priors, 0, "priors.txt", {}, {}, {}, true, &m, &usable, &said, &error))
+      << error;
+  EXPECT_NE(said.find(" (7 of 8 within 3), then refined with them"), std::string::npos) << said;
+  const std::vector<Vec3> placed = colmap::image_centres(m);
+  for (std::size_t k = 0; k < 8; ++k) {
+    const Vec3 want = moved(all, centres[k]);
+    for (std::size_t a = 0; a < 3; ++a) EXPECT_NEAR(placed[k][a], want[a], 1e-9) << "image " << k;
+  }
 }
 
 // Priors at the edge of double's range give a similarity that would send the model to

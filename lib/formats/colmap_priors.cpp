@@ -422,6 +422,184 @@ bool robust_similarity(const std::vector<Vec3> &src, const std::vector<Vec3> &ds
   return true;
 }
 
+namespace {
+
+// The priors' cost of the points y: sum over k of rho(e^T W_k e), e = y_k - dst_k, W_k the
+// inverse of the k-th covariance, rho the loss (Cauchy's c^2 log(1 + s / c^2), or s); the
+// weights rho'(s) into *weight when given.
+double priors_cost(const std::vector<Vec3> &y, const std::vector<Vec3> &dst, const std::vector<std::array<double, 9>> &W,
+                   double cauchy2, std::vector<double> *weight) {
+  double cost = 0;
+  for (std::size_t k = 0; k < y.size(); ++k) {
+    const Vec3 e{y[k][0] - dst[k][0], y[k][1] - dst[k][1], y[k][2] - dst[k][2]};
+    double s = 0;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) s += e[a] * W[k][a * 3 + b] * e[b];
+    cost += cauchy2 > 0 ? cauchy2 * std::log1p(s / cauchy2) : s;
+    if (weight) (*weight)[k] = cauchy2 > 0 ? 1 / (1 + s / cauchy2) : 1;
+  }
+  return cost;
+}
+
+// The inverse of the symmetric positive definite 3x3 c (row-major), by cofactors.
+std::array<double, 9> inverse3(const std::array<double, 9> &c) {
+  std::array<double, 9> a{};
+  a[0] = c[4] * c[8] - c[5] * c[7];
+  a[1] = c[2] * c[7] - c[1] * c[8];
+  a[2] = c[1] * c[5] - c[2] * c[4];
+  a[3] = c[5] * c[6] - c[3] * c[8];
+  a[4] = c[0] * c[8] - c[2] * c[6];
+  a[5] = c[2] * c[3] - c[0] * c[5];
+  a[6] = c[3] * c[7] - c[4] * c[6];
+  a[7] = c[1] * c[6] - c[0] * c[7];
+  a[8] = c[0] * c[4] - c[1] * c[3];
+  const double det = c[0] * a[0] + c[1] * a[3] + c[2] * a[6];
+  for (double &v : a) v /= det;
+  return a;
+}
+
+// Solves the symmetric positive definite n x n system H x = g (row-major) in place of g by
+// Cholesky's factorization; false when a pivot is not positive.
+template <int n>
+bool solve_spd(std::array<double, n * n> H, std::array<double, n> *g) {
+  for (int j = 0; j < n; ++j) {
+    for (int k = 0; k < j; ++k) H[j * n + j] -= H[j * n + k] * H[j * n + k];
+    if (!(H[j * n + j] > 0)) return false;
+    H[j * n + j] = std::sqrt(H[j * n + j]);
+    for (int i = j + 1; i < n; ++i) {
+      for (int k = 0; k < j; ++k) H[i * n + j] -= H[i * n + k] * H[j * n + k];
+      H[i * n + j] /= H[j * n + j];
+    }
+  }
+  for (int i = 0; i < n; ++i) {  // L y = g
+    for (int k = 0; k < i; ++k) (*g)[i] -= H[i * n + k] * (*g)[k];
+    (*g)[i] /= H[i * n + i];
+  }
+  for (int i = n - 1; i >= 0; --i) {  // L^T x = y
+    for (int k = i + 1; k < n; ++k) (*g)[i] -= H[k * n + i] * (*g)[k];
+    (*g)[i] /= H[i * n + i];
+  }
+  return true;
+}
+
+// y after the similarity near the identity d = (log scale, rotation vector, translation),
+// about the centre m: m + e^sigma Exp(omega) (y - m) + tau; as a Similarity in *as.
+std::vector<Vec3> moved(const std::vector<Vec3> &y, const Vec3 &m, const std::array<double, 7> &d, Similarity *as) {
+  const double theta = std::sqrt(d[1] * d[1] + d[2] * d[2] + d[3] * d[3]);
+  const double f = theta > 0 ? std::sin(theta / 2) / theta : 0.5;
+  sbacameras::euclidean::rotation_matrix({std::cos(theta / 2), f * d[1], f * d[2], f * d[3]}, as->R.data());
+  as->s = std::exp(d[0]);
+  for (int a = 0; a < 3; ++a)
+    as->t[a] = m[a] + d[4 + a] - as->s * (as->R[a * 3] * m[0] + as->R[a * 3 + 1] * m[1] + as->R[a * 3 + 2] * m[2]);
+  std::vector<Vec3> out(y.size());
+  for (std::size_t k = 0; k < y.size(); ++k) out[k] = transformed(*as, y[k]);
+  return out;
+}
+
+// b after a: x -> s_b R_b (s_a R_a x + t_a) + t_b.
+Similarity compose(const Similarity &b, const Similarity &a) {
+  Similarity c;
+  c.s = b.s * a.s;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      c.R[i * 3 + j] = b.R[i * 3] * a.R[j] + b.R[i * 3 + 1] * a.R[3 + j] + b.R[i * 3 + 2] * a.R[6 + j];
+  c.t = transformed(b, a.t);
+  return c;
+}
+
+}  // namespace
+
+bool least_cost_similarity(const std::vector<Vec3> &src, const std::vector<Vec3> &dst,
+                           const std::vector<const std::array<double, 9> *> &covariances, const std::string &loss,
+                           double loss_scale, Similarity *x) {
+  const std::size_t n = src.size();
+  if (n < 3 || dst.size() != n || covariances.size() != n) return false;
+  std::vector<std::array<double, 9>> W(n);
+  for (std::size_t k = 0; k < n; ++k) W[k] = inverse3(*covariances[k]);
+  const double cauchy2 = loss == "cauchy" ? loss_scale * loss_scale : 0;
+  std::vector<Vec3> y(n);
+  for (std::size_t k = 0; k < n; ++k) y[k] = transformed(*x, src[k]);
+  std::vector<double> weight(n);
+  double cost = priors_cost(y, dst, W, cauchy2, &weight);
+  bool changed = false;
+  int small = 0;  // short steps in a row
+  // Newton's method on the reweighted cost (the loss as weights), with the Gauss-Newton
+  // matrix where the whole Hessian is not positive definite (far from the minimum): the priors
+  // are noisy, so the residuals are not small, and Gauss-Newton alone would creep, even drift,
+  // along a direction the priors hold weakly. A step is halved until the cost falls; a short
+  // one need only not raise it beyond its rounding, in which its gain drowns.
+  for (int iteration = 0; iteration < 100 && small < 3 && std::isfinite(cost); ++iteration) {
+    Vec3 m{};
+    for (const Vec3 &v : y)
+      for (int a = 0; a < 3; ++a) m[a] += v[a] / static_cast<double>(n);
+    double spread = 0;
+    std::array<double, 49> H{}, S{};
+    std::array<double, 7> g{};
+    for (std::size_t k = 0; k < n; ++k) {
+      const Vec3 u{y[k][0] - m[0], y[k][1] - m[1], y[k][2] - m[2]};
+      spread += (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) / static_cast<double>(n);
+      // d y / d(sigma, omega, tau) at the identity: u, -[u]x, I.
+      const double J[3][7] = {{u[0], 0, u[2], -u[1], 1, 0, 0},
+                              {u[1], -u[2], 0, u[0], 0, 1, 0},
+                              {u[2], u[1], -u[0], 0, 0, 0, 1}};
+      double WJ[3][7] = {};
+      Vec3 v{};  // w W e
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+          const double w = weight[k] * W[k][a * 3 + b];
+          for (int c = 0; c < 7; ++c) WJ[a][c] += w * J[b][c];
+          v[a] += w * (y[k][b] - dst[k][b]);
+        }
+      for (int c = 0; c < 7; ++c) {
+        for (int a = 0; a < 3; ++a) g[c] -= J[a][c] * v[a];
+        for (int e = 0; e < 7; ++e)
+          for (int a = 0; a < 3; ++a) H[c * 7 + e] += J[a][c] * WJ[a][e];
+      }
+      // v . d2y: d2y/dsigma2 = u, d2y/dsigma domega_a = e_a x u, d2y/domega_a domega_b the
+      // symmetric part of e_a x (e_b x u) = e_b u_a - u delta_ab.
+      const double vu = v[0] * u[0] + v[1] * u[1] + v[2] * u[2];
+      const Vec3 uv{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+      S[0] += vu;
+      for (int a = 0; a < 3; ++a) {
+        S[1 + a] += uv[a];
+        S[(1 + a) * 7] += uv[a];
+        for (int b = 0; b < 3; ++b) S[(1 + a) * 7 + 1 + b] += 0.5 * (v[b] * u[a] + v[a] * u[b]) - (a == b ? vu : 0);
+      }
+    }
+    std::array<double, 49> N = H;
+    for (int c = 0; c < 49; ++c) N[c] += S[c];
+    std::array<double, 7> d = g;
+    if (!solve_spd<7>(N, &d)) {
+      // A touch of damping keeps a direction the priors do not hold (collinear centres turning
+      // about their line) from making the system singular.
+      for (int c = 0; c < 7; ++c) H[c * 7 + c] *= 1 + 1e-12;
+      d = g;
+      if (!solve_spd<7>(H, &d)) break;
+    }
+    double size = 0;  // the step's largest effect, relative to the points' spread
+    for (int c = 0; c < 7; ++c) size = std::max(size, std::fabs(d[c]) / (c < 4 ? 1 : std::sqrt(spread)));
+    if (size < 1e-14) break;
+    small = size < 1e-6 ? small + 1 : 0;
+    bool taken = false;
+    for (int half = 0; half < 30 && !taken; ++half) {
+      Similarity step;
+      std::vector<Vec3> next = moved(y, m, d, &step);
+      const double next_cost = priors_cost(next, dst, W, cauchy2, &weight);
+      if (next_cost < cost || (small > 0 && next_cost <= cost * (1 + 1e-14))) {
+        taken = true;
+        cost = next_cost;
+        y = std::move(next);
+        *x = compose(step, *x);
+        changed = true;
+      } else {
+        for (double &v : d) v /= 2;
+      }
+    }
+    if (!taken) break;
+  }
+  return changed;
+}
+
 void transform_model(const Similarity &x, Model *model) {
   // X_c = R_c X + t_c with X = R^T (X' - t) / s: s X_c = R_c R^T X' + s t_c - R_c R^T t.
   const auto move_pose = [&x](std::array<double, 4> *q, std::array<double, 3> *t) {
@@ -619,7 +797,8 @@ bool keeps_finite(const Similarity &x, const Model &model) {
 // *error, when the similarity would take the model out of double's range.
 bool align_model(const std::vector<Vec3> &src, const std::vector<Vec3> &dst,
                  const std::vector<const std::array<double, 9> *> &covariances, double max_error,
-                 const std::string &source, Model *model, std::string *words, std::string *error) {
+                 const std::string &loss, double loss_scale, const std::string &source, Model *model,
+                 std::string *words, std::string *error) {
   if (max_error <= 0) {
     double variance = 0;  // the mean over the priors of each axis's variance
     for (const std::array<double, 9> *c : covariances) variance += ((*c)[0] + (*c)[4] + (*c)[8]) / 3;
@@ -631,6 +810,8 @@ bool align_model(const std::vector<Vec3> &src, const std::vector<Vec3> &dst,
     *words = "not moved (its positions coincide)";
     return true;
   }
+  const Similarity robust = x;
+  least_cost_similarity(src, dst, covariances, loss, loss_scale, &x);
   if (!keeps_finite(x, *model)) {
     char text[200];
     std::snprintf(text, sizeof text,
@@ -642,7 +823,7 @@ bool align_model(const std::vector<Vec3> &src, const std::vector<Vec3> &dst,
   }
   transform_model(x, model);
   char text[160];
-  std::snprintf(text, sizeof text, "moved onto them by a similarity of scale %.6g (%d of %zu within %.3g)", x.s,
+  std::snprintf(text, sizeof text, "moved onto them by a similarity of scale %.6g (%d of %zu within %.3g)", robust.s,
                 inliers, src.size(), max_error);
   *words = text;
   return true;
@@ -680,7 +861,9 @@ bool place_on_priors(std::vector<PosePrior> read, int unknown, const std::string
         cov.push_back(&p.covariance);
       }
       std::string words;
-      if (!align_model(src, dst, cov, options.alignment_max_error, source, model, &words, error)) return false;
+      if (!align_model(src, dst, cov, options.alignment_max_error, options.loss, options.loss_scale, source, model,
+                       &words, error))
+        return false;
       *said += ": the model " + words + ", then refined with them";
     }
   }
@@ -697,7 +880,7 @@ bool place_on_priors(std::vector<PosePrior> read, int unknown, const std::string
         cov.push_back(&p.covariance);
       }
       std::string words;
-      if (!align_model(src, dst, cov, 0, points_source, model, &words, error)) return false;
+      if (!align_model(src, dst, cov, 0, "", 0, points_source, model, &words, error)) return false;
       *said += ": the model " + words + ", then refined with them";
     }
   }

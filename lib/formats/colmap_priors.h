@@ -99,6 +99,16 @@ struct Similarity {
 bool robust_similarity(const std::vector<std::array<double, 3>> &src, const std::vector<std::array<double, 3>> &dst,
                        double max_error, Similarity *out, int *inliers);
 
+// *x, the robust fit of src to dst, then moved to the least cost of the priors dst (with
+// their covariances and loss: "" or "cauchy" of loss_scale) that a similarity of src reaches:
+// the cost that the solve's position priors then add, and which the projections do not see
+// change (they move with the whole model). Without it, the solve would spend its iterations
+// turning and scaling the whole model by steps that its linear model of the projections holds
+// back. False, and *x as it was, when no step lowers that cost.
+bool least_cost_similarity(const std::vector<std::array<double, 3>> &src, const std::vector<std::array<double, 3>> &dst,
+                           const std::vector<const std::array<double, 9> *> &covariances, const std::string &loss,
+                           double loss_scale, Similarity *x);
+
 // model moved by x: points X' = s R X + t, every pose with it (a frame's rig_from_world, or an
 // image's own pose), each translation of a camera in its rig scaled by s.
 void transform_model(const Similarity &x, Model *model);

@@ -494,7 +494,8 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
         as COLMAP's database cache converts them. Priors of images the model does not hold, or
         that see no point, are left out. With at least 3, the model is moved onto them by a
         robust similarity (its inlier distance alignment_max_error, 0: three times the priors'
-        RMS standard deviation), then refined with each image's projection centre drawn to its
+        RMS standard deviation) and on to the similarity at which the priors' cost is least,
+        then refined with each image's projection centre drawn to its
         prior, weighted by its covariance (prior_position_fallback_stddev in each axis without
         one), with the loss prior_position_loss ("trivial" or "cauchy", of scale
         prior_position_loss_scale); the result is in the priors' frame, and its
