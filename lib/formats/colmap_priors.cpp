@@ -507,6 +507,59 @@ Similarity compose(const Similarity &b, const Similarity &a) {
   return c;
 }
 
+// Newton's system for a similarity near the identity d = (log scale, rotation vector,
+// translation) about the centre of y (moved's), of the priors' cost reweighted by weight: the
+// Gauss-Newton matrix H, the second derivatives' part S, the negative gradient g.
+struct NewtonSystem {
+  Vec3 centre{};
+  double spread = 0;  // the mean squared distance of y from centre
+  std::array<double, 49> H{}, S{};
+  std::array<double, 7> g{};
+};
+
+NewtonSystem newton_system(const std::vector<Vec3> &y, const std::vector<Vec3> &dst,
+                           const std::vector<std::array<double, 9>> &W, const std::vector<double> &weight) {
+  const std::size_t n = y.size();
+  NewtonSystem out;
+  Vec3 &m = out.centre;
+  std::array<double, 49> &H = out.H, &S = out.S;
+  std::array<double, 7> &g = out.g;
+  for (const Vec3 &v : y)
+    for (int a = 0; a < 3; ++a) m[a] += v[a] / static_cast<double>(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const Vec3 u{y[k][0] - m[0], y[k][1] - m[1], y[k][2] - m[2]};
+    out.spread += (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) / static_cast<double>(n);
+    // d y / d(sigma, omega, tau) at the identity: u, -[u]x, I.
+    const double J[3][7] = {{u[0], 0, u[2], -u[1], 1, 0, 0},
+                            {u[1], -u[2], 0, u[0], 0, 1, 0},
+                            {u[2], u[1], -u[0], 0, 0, 0, 1}};
+    double WJ[3][7] = {};
+    Vec3 v{};  // w W e
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) {
+        const double w = weight[k] * W[k][a * 3 + b];
+        for (int c = 0; c < 7; ++c) WJ[a][c] += w * J[b][c];
+        v[a] += w * (y[k][b] - dst[k][b]);
+      }
+    for (int c = 0; c < 7; ++c) {
+      for (int a = 0; a < 3; ++a) g[c] -= J[a][c] * v[a];
+      for (int e = 0; e < 7; ++e)
+        for (int a = 0; a < 3; ++a) H[c * 7 + e] += J[a][c] * WJ[a][e];
+    }
+    // v . d2y: d2y/dsigma2 = u, d2y/dsigma domega_a = e_a x u, d2y/domega_a domega_b the
+    // symmetric part of e_a x (e_b x u) = e_b u_a - u delta_ab.
+    const double vu = v[0] * u[0] + v[1] * u[1] + v[2] * u[2];
+    const Vec3 uv{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+    S[0] += vu;
+    for (int a = 0; a < 3; ++a) {
+      S[1 + a] += uv[a];
+      S[(1 + a) * 7] += uv[a];
+      for (int b = 0; b < 3; ++b) S[(1 + a) * 7 + 1 + b] += 0.5 * (v[b] * u[a] + v[a] * u[b]) - (a == b ? vu : 0);
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 bool least_cost_similarity(const std::vector<Vec3> &src, const std::vector<Vec3> &dst,
@@ -529,61 +582,25 @@ bool least_cost_similarity(const std::vector<Vec3> &src, const std::vector<Vec3>
   // along a direction the priors hold weakly. A step is halved until the cost falls; a short
   // one need only not raise it beyond its rounding, in which its gain drowns.
   for (int iteration = 0; iteration < 100 && small < 3 && std::isfinite(cost); ++iteration) {
-    Vec3 m{};
-    for (const Vec3 &v : y)
-      for (int a = 0; a < 3; ++a) m[a] += v[a] / static_cast<double>(n);
-    double spread = 0;
-    std::array<double, 49> H{}, S{};
-    std::array<double, 7> g{};
-    for (std::size_t k = 0; k < n; ++k) {
-      const Vec3 u{y[k][0] - m[0], y[k][1] - m[1], y[k][2] - m[2]};
-      spread += (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) / static_cast<double>(n);
-      // d y / d(sigma, omega, tau) at the identity: u, -[u]x, I.
-      const double J[3][7] = {{u[0], 0, u[2], -u[1], 1, 0, 0},
-                              {u[1], -u[2], 0, u[0], 0, 1, 0},
-                              {u[2], u[1], -u[0], 0, 0, 0, 1}};
-      double WJ[3][7] = {};
-      Vec3 v{};  // w W e
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) {
-          const double w = weight[k] * W[k][a * 3 + b];
-          for (int c = 0; c < 7; ++c) WJ[a][c] += w * J[b][c];
-          v[a] += w * (y[k][b] - dst[k][b]);
-        }
-      for (int c = 0; c < 7; ++c) {
-        for (int a = 0; a < 3; ++a) g[c] -= J[a][c] * v[a];
-        for (int e = 0; e < 7; ++e)
-          for (int a = 0; a < 3; ++a) H[c * 7 + e] += J[a][c] * WJ[a][e];
-      }
-      // v . d2y: d2y/dsigma2 = u, d2y/dsigma domega_a = e_a x u, d2y/domega_a domega_b the
-      // symmetric part of e_a x (e_b x u) = e_b u_a - u delta_ab.
-      const double vu = v[0] * u[0] + v[1] * u[1] + v[2] * u[2];
-      const Vec3 uv{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
-      S[0] += vu;
-      for (int a = 0; a < 3; ++a) {
-        S[1 + a] += uv[a];
-        S[(1 + a) * 7] += uv[a];
-        for (int b = 0; b < 3; ++b) S[(1 + a) * 7 + 1 + b] += 0.5 * (v[b] * u[a] + v[a] * u[b]) - (a == b ? vu : 0);
-      }
-    }
-    std::array<double, 49> N = H;
-    for (int c = 0; c < 49; ++c) N[c] += S[c];
-    std::array<double, 7> d = g;
+    NewtonSystem sys = newton_system(y, dst, W, weight);
+    std::array<double, 49> N = sys.H;
+    for (int c = 0; c < 49; ++c) N[c] += sys.S[c];
+    std::array<double, 7> d = sys.g;
     if (!solve_spd<7>(N, &d)) {
       // A touch of damping keeps a direction the priors do not hold (collinear centres turning
       // about their line) from making the system singular.
-      for (int c = 0; c < 7; ++c) H[c * 7 + c] *= 1 + 1e-12;
-      d = g;
-      if (!solve_spd<7>(H, &d)) break;
+      for (int c = 0; c < 7; ++c) sys.H[c * 7 + c] *= 1 + 1e-12;
+      d = sys.g;
+      if (!solve_spd<7>(sys.H, &d)) break;
     }
     double size = 0;  // the step's largest effect, relative to the points' spread
-    for (int c = 0; c < 7; ++c) size = std::max(size, std::fabs(d[c]) / (c < 4 ? 1 : std::sqrt(spread)));
+    for (int c = 0; c < 7; ++c) size = std::max(size, std::fabs(d[c]) / (c < 4 ? 1 : std::sqrt(sys.spread)));
     if (size < 1e-14) break;
     small = size < 1e-6 ? small + 1 : 0;
     bool taken = false;
     for (int half = 0; half < 30 && !taken; ++half) {
       Similarity step;
-      std::vector<Vec3> next = moved(y, m, d, &step);
+      std::vector<Vec3> next = moved(y, sys.centre, d, &step);
       const double next_cost = priors_cost(next, dst, W, cauchy2, &weight);
       if (next_cost < cost || (small > 0 && next_cost <= cost * (1 + 1e-14))) {
         taken = true;
