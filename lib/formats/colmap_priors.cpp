@@ -68,6 +68,30 @@ bool id_value(const std::string &tok, const std::string &what, const std::string
   return true;
 }
 
+// Solves the symmetric positive definite n x n system H x = g (row-major) in place of g by
+// Cholesky's factorization; false when a pivot is not positive.
+template <int n>
+bool solve_spd(std::array<double, n * n> H, std::array<double, n> *g) {
+  for (int j = 0; j < n; ++j) {
+    for (int k = 0; k < j; ++k) H[j * n + j] -= H[j * n + k] * H[j * n + k];
+    if (!(H[j * n + j] > 0)) return false;
+    H[j * n + j] = std::sqrt(H[j * n + j]);
+    for (int i = j + 1; i < n; ++i) {
+      for (int k = 0; k < j; ++k) H[i * n + j] -= H[i * n + k] * H[j * n + k];
+      H[i * n + j] /= H[j * n + j];
+    }
+  }
+  for (int i = 0; i < n; ++i) {  // L y = g
+    for (int k = 0; k < i; ++k) (*g)[i] -= H[i * n + k] * (*g)[k];
+    (*g)[i] /= H[i * n + i];
+  }
+  for (int i = n - 1; i >= 0; --i) {  // L^T x = y
+    for (int k = i + 1; k < n; ++k) (*g)[i] -= H[k * n + i] * (*g)[k];
+    (*g)[i] /= H[i * n + i];
+  }
+  return true;
+}
+
 // Whether the row-major 3x3 c is symmetric (to rounding) and positive definite: its Cholesky
 // factor exists.
 bool symmetric_positive_definite(const std::array<double, 9> &c) {
@@ -79,19 +103,8 @@ bool symmetric_positive_definite(const std::array<double, 9> &c) {
   for (int r = 0; r < 3; ++r)
     for (int k = 0; k < r; ++k)
       if (std::fabs(c[r * 3 + k] - c[k * 3 + r]) > 1e-9 * scale) return false;
-  double L[9] = {};
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k <= r; ++k) {
-      double s = c[r * 3 + k];
-      for (int q = 0; q < k; ++q) s -= L[r * 3 + q] * L[k * 3 + q];
-      if (r == k) {
-        if (!(s > 0)) return false;
-        L[r * 3 + r] = std::sqrt(s);
-      } else {
-        L[r * 3 + k] = s / L[k * 3 + k];
-      }
-    }
-  return true;
+  std::array<double, 3> x{};
+  return solve_spd<3>(c, &x);
 }
 
 std::string covariance_message(const std::array<double, 9> &c) {
@@ -456,30 +469,6 @@ std::array<double, 9> inverse3(const std::array<double, 9> &c) {
   const double det = c[0] * a[0] + c[1] * a[3] + c[2] * a[6];
   for (double &v : a) v /= det;
   return a;
-}
-
-// Solves the symmetric positive definite n x n system H x = g (row-major) in place of g by
-// Cholesky's factorization; false when a pivot is not positive.
-template <int n>
-bool solve_spd(std::array<double, n * n> H, std::array<double, n> *g) {
-  for (int j = 0; j < n; ++j) {
-    for (int k = 0; k < j; ++k) H[j * n + j] -= H[j * n + k] * H[j * n + k];
-    if (!(H[j * n + j] > 0)) return false;
-    H[j * n + j] = std::sqrt(H[j * n + j]);
-    for (int i = j + 1; i < n; ++i) {
-      for (int k = 0; k < j; ++k) H[i * n + j] -= H[i * n + k] * H[j * n + k];
-      H[i * n + j] /= H[j * n + j];
-    }
-  }
-  for (int i = 0; i < n; ++i) {  // L y = g
-    for (int k = 0; k < i; ++k) (*g)[i] -= H[i * n + k] * (*g)[k];
-    (*g)[i] /= H[i * n + i];
-  }
-  for (int i = n - 1; i >= 0; --i) {  // L^T x = y
-    for (int k = i + 1; k < n; ++k) (*g)[i] -= H[k * n + i] * (*g)[k];
-    (*g)[i] /= H[i * n + i];
-  }
-  return true;
 }
 
 // y after the similarity near the identity d = (log scale, rotation vector, translation),
