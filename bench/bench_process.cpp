@@ -165,15 +165,19 @@ void wait_for_idle_threads() {
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
 }
 
-void execute(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunResult *r,
+// probe: measure the price of the cores' exchanges before and after the solve, the latter
+// once the BLAS's threads are idle. Not in a run in the program's own process (--no-fork),
+// which times the whole process: a program that has solved exits at once, without waiting
+// for OpenBLAS's workers to stop spinning (up to a tenth of a second after their last call,
+// or after the library loaded).
+void execute(Problem &prob, const RunSpec &spec, int itmax, bool consume, bool probe, RunResult *r,
              Trace *trace) {
   if (spec.blas_threads > 0)
     if (BlasSetThreads set = blas_set_threads()) {
       set(spec.blas_threads);
       wait_for_idle_threads();
     }
-  // The price of the cores' exchanges around the solve, once the BLAS's threads are idle.
-  const double before = core_round_trip_ns();
+  const double before = probe ? core_round_trip_ns() : NAN;
   try {
     if (spec.engine == Engine::Sba) run_sba(prob, spec, itmax, consume, r, trace);
     else run_ceres(prob, spec, itmax, consume, r, trace);
@@ -186,6 +190,7 @@ void execute(Problem &prob, const RunSpec &spec, int itmax, bool consume, RunRes
   }
   r->ntrace = static_cast<int>(trace->size());
   r->core_rt_before = before;
+  if (!probe) return;
   wait_for_idle_threads();  // a BLAS the solve called may still spin
   r->core_rt_after = core_round_trip_ns();
 }
@@ -211,10 +216,10 @@ bool write_all(int fd, const void *data, std::size_t size) {
 
 // One iteration of the run, its memory handed back: the pages of code (and the threads) the
 // measured solve will use are in place before its peak is reset.
-void warm_up(Problem &prob, const RunSpec &spec) {
+void warm_up(Problem &prob, const RunSpec &spec, bool probe) {
   RunResult r;
   Trace trace;
-  execute(prob, spec, 1, false, &r, &trace);
+  execute(prob, spec, 1, false, probe, &r, &trace);
   malloc_trim(0);
 }
 
@@ -240,10 +245,10 @@ Run run_forked(Problem &prob, const RunSpec &spec, int itmax, double timeout, bo
   if (pid == 0) {
     ::close(fds[0]);
     release_unused(prob, spec.engine);
-    if (warm) warm_up(prob, spec);
+    if (warm) warm_up(prob, spec, true);
     RunResult r;
     Trace trace;
-    execute(prob, spec, itmax, true, &r, &trace);
+    execute(prob, spec, itmax, true, true, &r, &trace);
     const bool ok = write_all(fds[1], &r, sizeof r) &&
                     write_all(fds[1], trace.data(), trace.size() * sizeof(trace[0]));
     ::close(fds[1]);
@@ -297,8 +302,8 @@ Run run_forked(Problem &prob, const RunSpec &spec, int itmax, double timeout, bo
 Run run_inline(Problem &prob, const RunSpec &spec, int itmax, bool warm) {
   Run run;
   run.spec = spec;
-  if (warm) warm_up(prob, spec);
-  execute(prob, spec, itmax, false, &run.r, &run.trace);
+  if (warm) warm_up(prob, spec, false);
+  execute(prob, spec, itmax, false, false, &run.r, &run.trace);
   return run;
 }
 

@@ -12,6 +12,8 @@ strategy, each run's comparison with the fastest Ceres run is what its fields sa
 at least the Jacobian and at most the peak; after the warm-up no code page of sba's solve is
 first touched during the measured solve), and each run carries the price of a cache line's
 round trip between two CPUs before and after it (a positive figure, or null with one CPU).
+A run in sba_bench's own process (--no-fork, whole_process.py's) measures no round trip: it
+would wait for the BLAS's idle workers after the solve, which a program that exits does not.
 Timings are not checked: they belong to the suite, not to a pass/fail test.
 
     check_bench.py path/to/sba_bench
@@ -50,6 +52,13 @@ def main():
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
         with open(out) as f:
             runs = [json.loads(line) for line in f]
+        here = os.path.join(tmp, "inline.json")
+        cmd = [exe, "--gen", SPEC, "--solvers", "chol", "--strategy", "trust-region", "--ceres", "none",
+               "--threads", "2", "--itmax", str(ITMAX), "--no-fork", "--blas-threads=default", "--out", here]
+        print("$ " + " ".join(cmd))
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+        with open(here) as f:
+            inline = [json.loads(line) for line in f]
 
     check(len(runs) == 22, "expected 22 runs (2 sba solvers x 2 strategies x 2 Jacobians + 3 Ceres, 1 and 2 "
           "threads), got %d" % len(runs))
@@ -107,6 +116,9 @@ def main():
             grown = r["file_rss_end_bytes"] - r["file_rss_start_bytes"]
             check(grown <= 256 * 1024,
                   "%s: %d bytes of code first touched during the measured solve despite --warm-up" % (name, grown))
+
+    check(len(inline) == 1 and inline[0]["ok"] and inline[0]["core_round_trip_ns_all"] == [[None, None]],
+          "--no-fork run: %s" % [(r["status"], r["core_round_trip_ns_all"]) for r in inline])
 
     for f in failures:
         print("check-bench: FAIL: " + f)

@@ -208,7 +208,9 @@ std::vector<sbacli::Option> option_table(Options &o, std::string *threads) {
                "program asks, unless SBA_AVOID_SHARED_CORES=1 is in the environment (the header says\n"
                "which)",
                flag(&o.avoid_shared_cores)});
-  t.push_back({"no-fork", "", "run in this process (peak RSS then is the process's)",
+  t.push_back({"no-fork", "",
+               "run in this process (peak RSS then is the process's; the round trips between CPUs are\n"
+               "not measured)",
                [&o](const std::string &) -> std::string {
                  o.fork = false;
                  return {};
