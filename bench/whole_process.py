@@ -12,9 +12,13 @@ at its defaults. The commands run in rounds, in the same order every round, and 
 median, minimum and maximum wall times are reported with its final mean squared error (from
 sba_bench's output; eucsbademo's from its "error" line).
 
-    python3 bench/whole_process.py [--build build-bench] [--rounds 30]
+    python3 bench/whole_process.py [--build build-bench] [--rounds 30] [--with-env NAME=VALUE]
 
-writes bench/results/whole_process.md and .json. Only the standard library is used.
+writes bench/results/whole_process.md and .json. With --with-env every command also runs with
+the variable in its environment, in the same rounds, right after its run without it, and is
+compared with the peer's run with it (OPENBLAS_THREAD_TIMEOUT=24: OpenBLAS's idle workers
+spin a few milliseconds instead of a tenth of a second, docs/threads.md). Only the standard
+library is used.
 """
 
 import argparse
@@ -59,7 +63,7 @@ RUNS = [
 PEER = "Ceres DENSE_SCHUR"
 
 
-def commands(build, name, cams, calib):
+def commands(build, name, cams, calib, with_env):
     files = [os.path.join(DATA, cams), os.path.join(DATA, "54pts.txt")]
     if calib:
         files.append(os.path.join(DATA, calib))
@@ -68,7 +72,16 @@ def commands(build, name, cams, calib):
         bench += ["--calib", files[2]]
     bench += ["--name", name, "--threads", "all", "--repeat", "1", "--no-fork", "--blas-threads=default"]
     demo = [os.path.relpath(os.path.join(build, "demo", "eucsbademo"), ROOT)] + files
-    return [(label, demo if args is None else bench + args, avoid) for label, args, avoid in RUNS]
+    out = []
+    for label, args, avoid in RUNS:
+        env = {} if avoid is None else {"SBA_AVOID_SHARED_CORES": avoid}
+        cmd = demo if args is None else bench + args
+        # The runs without the variable go without it whatever the caller's environment holds.
+        out.append((label, cmd, {**env, with_env[0]: None} if with_env else env, PEER))
+        if with_env:
+            suffix = f", {with_env[0]}={with_env[1]}"
+            out.append((label + suffix, cmd, {**env, with_env[0]: with_env[1]}, PEER + suffix))
+    return out
 
 
 def final_error(label, out):
@@ -80,13 +93,12 @@ def final_error(label, out):
 
 
 def measure(cmds, rounds):
-    times = {label: [] for label, _, _ in cmds}
-    errors = {label: None for label, _, _ in cmds}
+    times = {label: [] for label, *_ in cmds}
+    errors = {label: None for label, *_ in cmds}
     for _ in range(rounds):
-        for label, cmd, avoid in cmds:
-            env = {k: v for k, v in os.environ.items() if k != "SBA_AVOID_SHARED_CORES"}
-            if avoid is not None:
-                env["SBA_AVOID_SHARED_CORES"] = avoid
+        for label, cmd, added, _ in cmds:
+            env = {k: v for k, v in os.environ.items() if k != "SBA_AVOID_SHARED_CORES" and k not in added}
+            env.update({k: v for k, v in added.items() if v is not None})
             start = time.perf_counter()
             done = subprocess.run(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
             elapsed = time.perf_counter() - start
@@ -98,16 +110,16 @@ def measure(cmds, rounds):
 
 
 def table(name, cmds, times, errors):
-    peer = statistics.median(times[PEER])
     rows = [f"### {name}", "", "| run | median [s] | min [s] | max [s] | / Ceres DENSE_SCHUR | final MSE |",
             "|---|---:|---:|---:|---:|---|"]
-    for label, _, _ in cmds:
+    for label, _, _, peer_label in cmds:
         t = times[label]
         err = "-" if errors[label] is None else f"{errors[label]:.8g}"
+        peer = statistics.median(times[peer_label])
         rows.append(f"| {label} | {statistics.median(t):.4f} | {min(t):.4f} | {max(t):.4f} | "
                     f"{statistics.median(t) / peer:.2f}x | {err} |")
-    rows += ["", "Commands:", ""] + ["    " + ("" if avoid is None else f"SBA_AVOID_SHARED_CORES={avoid} ") + " ".join(cmd)
-                                     for _, cmd, avoid in cmds] + [""]
+    rows += ["", "Commands:", ""] + ["    " + "".join(f"{k}={v} " for k, v in added.items() if v is not None) +
+                                     " ".join(cmd) for _, cmd, added, _ in cmds] + [""]
     return rows
 
 
@@ -118,22 +130,32 @@ def main():
     ap.add_argument("--rounds", type=int, default=30, help="runs of every command (default 30)")
     ap.add_argument("--out", default=os.path.join(HERE, "results", "whole_process"),
                     help="output path without extension (default bench/results/whole_process)")
+    ap.add_argument("--with-env", metavar="NAME=VALUE",
+                    help="run every command also with this variable in its environment")
     args = ap.parse_args()
+    with_env = None
+    if args.with_env is not None:
+        name, sep, value = args.with_env.partition("=")
+        if not sep or not name:
+            ap.error("--with-env takes NAME=VALUE")
+        with_env = (name, value)
+    options = f"--rounds {args.rounds}" + (f" --with-env {args.with_env}" if with_env else "")
     started = datetime.datetime.now(datetime.timezone.utc)
     load = os.getloadavg()[0]
     md = ["# Whole processes on the 54-camera problems", "",
-          f"Written by `bench/whole_process.py --rounds {args.rounds}` (see its opening comment) on "
+          f"Written by `bench/whole_process.py {options}` (see its opening comment) on "
           f"{started:%Y-%m-%d %H:%M} UTC, {os.cpu_count()} hardware threads, {platform.machine()}, "
           f"load average {load:.2f} at the start. Wall times of whole processes, {args.rounds} rounds.", ""]
-    record = {"date": started.isoformat(), "rounds": args.rounds, "cpus": os.cpu_count(), "load": load, "problems": []}
+    record = {"date": started.isoformat(), "rounds": args.rounds, "with_env": args.with_env, "cpus": os.cpu_count(),
+              "load": load, "problems": []}
     for name, cams, calib in PROBLEMS:
-        cmds = commands(args.build, name, cams, calib)
+        cmds = commands(args.build, name, cams, calib, with_env)
         times, errors = measure(cmds, args.rounds)
         md += table(name, cmds, times, errors)
         record["problems"].append({"name": name, "runs": [
-            {"label": label, "command": cmd, "avoid_shared_cores_env": avoid, "times": times[label],
-             "final_mse": errors[label]} for label, cmd, avoid in cmds]})
-        print(f"{name}: " + ", ".join(f"{label} {statistics.median(times[label]):.4f} s" for label, _, _ in cmds))
+            {"label": label, "command": cmd, "env": {k: v for k, v in added.items() if v is not None},
+             "times": times[label], "final_mse": errors[label]} for label, cmd, added, _ in cmds]})
+        print(f"{name}: " + ", ".join(f"{label} {statistics.median(times[label]):.4f} s" for label, *_ in cmds))
     with open(args.out + ".md", "w") as f:
         f.write("\n".join(md))
     with open(args.out + ".json", "w") as f:
