@@ -161,14 +161,15 @@ void ThreadPool::wait_for_workers() {
 // free of this pool may be the one the host keeps for something else, so a library does not
 // do this unasked.
 // A thread that another wakes, or a new one, can be put on the waker's core when its own
-// core looks busy, and on a virtual machine an idle virtual CPU can look busy (the host
-// may have lent it out). The caller and a worker then take turns on one core until the
-// kernel's load balancer parts them, milliseconds later. So a worker that finds itself on
-// the core of the caller or of a worker before it moves to a core that none of them uses,
-// if its mask allows one: a short-lived affinity mask without the pool's cores makes the
-// kernel move it at once, and its own mask put back lets it move freely again. Only the
-// worker's own mask changes, never the caller's. Where there is no such core (more threads
-// than cores), it looks again 64 jobs later.
+// core looks busy: on a virtual machine an idle virtual CPU can (the host may have lent it
+// out), and so does a core where OpenBLAS's idle workers spin, for a tenth of a second
+// after OpenBLAS loads or last ran them (docs/threads.md). The caller and a worker then
+// take turns on one core until the kernel's load balancer parts them, milliseconds later.
+// So a worker that finds itself on the core of the caller or of a worker before it moves to
+// a core that none of them uses, if its mask allows one: a short-lived affinity mask without
+// the pool's cores makes the kernel move it at once, and its own mask put back lets it move
+// freely again. Only the worker's own mask changes, never the caller's. Where there is no
+// such core (more threads than cores), it looks again 64 jobs later.
 void ThreadPool::avoid_shared_core(int id, int *cooldown) {
 #if defined(__linux__)
   const int here = current_cpu(), T = size();
