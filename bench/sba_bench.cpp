@@ -381,13 +381,13 @@ std::vector<Run> run_rounds(const Options &o, Problem &prob, const std::vector<R
       reps[k].push_back(o.fork ? run_forked(prob, spec, o.itmax, o.timeout, o.warm_up)
                                 : run_inline(prob, spec, o.itmax, o.warm_up));
       const Run &r = reps[k].back();
-      if (r.r.ok && o.fork)
-        std::fprintf(stderr, "%s, %.3f s, final MSE %.6g, core round trip %.0f/%.0f ns\n", r.r.status, r.r.seconds,
-                     r.r.final_err / nobs, r.r.core_rt_before, r.r.core_rt_after);
-      else if (r.r.ok)
-        std::fprintf(stderr, "%s, %.3f s, final MSE %.6g\n", r.r.status, r.r.seconds, r.r.final_err / nobs);
-      else
+      if (r.r.ok) {
+        std::fprintf(stderr, "%s, %.3f s, final MSE %.6g", r.r.status, r.r.seconds, r.r.final_err / nobs);
+        if (o.fork) std::fprintf(stderr, ", core round trip %.0f/%.0f ns", r.r.core_rt_before, r.r.core_rt_after);
+        std::fputc('\n', stderr);
+      } else {
         std::fprintf(stderr, "%s%s%s\n", r.r.status, r.r.message[0] ? ": " : "", r.r.message);
+      }
     }
   std::vector<Run> runs;
   for (std::vector<Run> &rs : reps) {

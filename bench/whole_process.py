@@ -74,14 +74,19 @@ def commands(build, name, cams, calib, with_env):
     demo = [os.path.relpath(os.path.join(build, "demo", "eucsbademo"), ROOT)] + files
     out = []
     for label, args, avoid in RUNS:
-        env = {} if avoid is None else {"SBA_AVOID_SHARED_CORES": avoid}
+        # None: unset, whatever the caller's environment holds.
+        env = {"SBA_AVOID_SHARED_CORES": avoid}
         cmd = demo if args is None else bench + args
-        # The runs without the variable go without it whatever the caller's environment holds.
         out.append((label, cmd, {**env, with_env[0]: None} if with_env else env, PEER))
         if with_env:
             suffix = f", {with_env[0]}={with_env[1]}"
             out.append((label + suffix, cmd, {**env, with_env[0]: with_env[1]}, PEER + suffix))
     return out
+
+
+def set_vars(env):
+    """The variables a run sets (those it unsets are None in env)."""
+    return {k: v for k, v in env.items() if v is not None}
 
 
 def final_error(label, out):
@@ -97,8 +102,8 @@ def measure(cmds, rounds):
     errors = {label: None for label, *_ in cmds}
     for _ in range(rounds):
         for label, cmd, added, _ in cmds:
-            env = {k: v for k, v in os.environ.items() if k != "SBA_AVOID_SHARED_CORES" and k not in added}
-            env.update({k: v for k, v in added.items() if v is not None})
+            env = {k: v for k, v in os.environ.items() if k not in added}
+            env.update(set_vars(added))
             start = time.perf_counter()
             done = subprocess.run(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
             elapsed = time.perf_counter() - start
@@ -118,7 +123,7 @@ def table(name, cmds, times, errors):
         peer = statistics.median(times[peer_label])
         rows.append(f"| {label} | {statistics.median(t):.4f} | {min(t):.4f} | {max(t):.4f} | "
                     f"{statistics.median(t) / peer:.2f}x | {err} |")
-    rows += ["", "Commands:", ""] + ["    " + "".join(f"{k}={v} " for k, v in added.items() if v is not None) +
+    rows += ["", "Commands:", ""] + ["    " + "".join(f"{k}={v} " for k, v in set_vars(added).items()) +
                                      " ".join(cmd) for _, cmd, added, _ in cmds] + [""]
     return rows
 
@@ -153,8 +158,8 @@ def main():
         times, errors = measure(cmds, args.rounds)
         md += table(name, cmds, times, errors)
         record["problems"].append({"name": name, "runs": [
-            {"label": label, "command": cmd, "env": {k: v for k, v in added.items() if v is not None},
-             "times": times[label], "final_mse": errors[label]} for label, cmd, added, _ in cmds]})
+            {"label": label, "command": cmd, "env": set_vars(added), "times": times[label],
+             "final_mse": errors[label]} for label, cmd, added, _ in cmds]})
         print(f"{name}: " + ", ".join(f"{label} {statistics.median(times[label]):.4f} s" for label, *_ in cmds))
     with open(args.out + ".md", "w") as f:
         f.write("\n".join(md))
