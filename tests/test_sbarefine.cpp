@@ -78,7 +78,8 @@ TEST(Sbarefine, SameErrorAsEucsbademoTextAndBinary) {
     if (std::string(enc) == "text") text_error = final_error(r.out);
     else EXPECT_EQ(final_error(r.out), text_error);
     EXPECT_NE(r.out.find("\nCamera models: OPENCV (10 cameras); focal length refined, principal point held, extra "
-                         "parameters refined; 0 cameras shared by several images, refined once; 0 poses held\n"),
+                         "parameters refined; 0 cameras shared by several images, refined once; 0 poses held; "
+                         "gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)\n"),
               std::string::npos)
         << r.out;
     colmap::Model back;
@@ -94,7 +95,12 @@ TEST(Sbarefine, SameErrorAsEucsbademoTextAndBinary) {
       EXPECT_EQ(back.images[j].points.size(), s.model.images[j].points.size());
       EXPECT_EQ(back.images[j].points[1].x, s.model.images[j].points[1].x);
       EXPECT_EQ(back.images[j].points[0].point3d_id, colmap::kNoPoint);
-      EXPECT_NE(back.images[j].t, s.model.images[j].t);
+      // The gauge as COLMAP fixes it (TWO_CAMS_FROM_WORLD): the first image's pose held, and of
+      // the second one coordinate of its translation; every other pose refined.
+      const std::array<double, 3> &t = back.images[j].t, &t0 = s.model.images[j].t;
+      const int kept = (t[0] == t0[0]) + (t[1] == t0[1]) + (t[2] == t0[2]);
+      EXPECT_EQ(kept, j == 0 ? 3 : j == 1 ? 1 : 0) << j;
+      EXPECT_EQ(back.images[j].q == s.model.images[j].q, j == 0) << j;
       const colmap::Camera &c = back.cameras[j], &c0 = s.model.cameras[j];
       EXPECT_EQ(c.id, c0.id);
       EXPECT_EQ(c.params[2], c0.params[2]);  // cx
@@ -133,7 +139,8 @@ TEST(Sbarefine, SharedCameraHeldIntrinsicsAsFixedK) {
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NEAR(final_error(r.out), expected, 1e-6 * expected) << r.out;
   EXPECT_NE(r.out.find("\nCamera models: PINHOLE (1 camera); focal length held, principal point held, extra parameters "
-                       "held; 1 camera shared by several images, refined once; 0 poses held\n"),
+                       "held; 1 camera shared by several images, refined once; 0 poses held; "
+                       "gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)\n"),
             std::string::npos)
       << r.out;
   colmap::Model back;
@@ -203,10 +210,11 @@ TEST(Sbarefine, ImageWithoutObservationsWrittenBackAsRead) {
     EXPECT_EQ(held.points[k].point3d_id, colmap::kNoPoint);
   }
   EXPECT_EQ(back.cameras[3].params, m.cameras[3].params);
-  // The others refined, to the same values as without the image.
+  // The others refined (but the pose of the first, which fixes the gauge), to the same values as
+  // without the image.
   for (std::size_t j = 0, k = 0; j < back.images.size(); ++j) {
     if (j == 3) continue;
-    EXPECT_NE(back.images[j].t, m.images[j].t);
+    EXPECT_EQ(back.images[j].t == m.images[j].t, j == 0) << j;
     EXPECT_NE(back.cameras[j].params, m.cameras[j].params);
     EXPECT_EQ(back.images[j].q, back_without.images[k].q);
     EXPECT_EQ(back.images[j].t, back_without.images[k].t);
@@ -489,11 +497,16 @@ TEST(Sbarefine, HugeAndTinyQuaternionsAreRotations) {
       const Outcome r = run(in + " --write " + out);
       ASSERT_EQ(r.status, 0) << r.err;
       EXPECT_NEAR(final_error(r.out), expected, 1e-9 * expected) << r.out;
-      // The same minimum; the gauge left free lets the poses differ in the eighth digit.
+      // The same minimum and the same poses. The first image's pose fixes the gauge and comes
+      // back as read, scaled: the rotations are compared.
       colmap::Model back;
       ASSERT_TRUE(colmap::read_model(out, &back, nullptr, &error)) << error;
-      for (std::size_t j = 0; j < back.images.size(); ++j)
-        for (int k = 0; k < 4; ++k) EXPECT_NEAR(back.images[j].q[k], refined.images[j].q[k], 1e-6);
+      for (std::size_t j = 0; j < back.images.size(); ++j) {
+        const std::array<double, 4> &q = back.images[j].q, &q1 = refined.images[j].q;
+        const double n = std::hypot(std::hypot(q[0], q[1]), std::hypot(q[2], q[3]));
+        const double n1 = std::hypot(std::hypot(q1[0], q1[1]), std::hypot(q1[2], q1[3]));
+        for (int k = 0; k < 4; ++k) EXPECT_NEAR(q[k] / n, q1[k] / n1, 1e-6) << j;
+      }
     }
     std::vector<euclidean::Camera> cameras = s.problem.cameras;
     for (euclidean::Camera &c : cameras) c.q = {c.q.w * scale, c.q.x * scale, c.q.y * scale, c.q.z * scale};
@@ -1298,10 +1311,12 @@ TEST(SbarefineColmapModels, SharedCameraFocalComesBack) {
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(read_file(dir + "/r.json")
                 .find("\n  \"model\": \"SIMPLE_RADIAL (1 camera); focal length refined, principal point held, extra "
-                      "parameters refined; 1 camera shared by several images, refined once; 2 poses held\",\n"),
+                      "parameters refined; 1 camera shared by several images, refined once; 2 poses held; "
+                      "gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)\",\n"),
             std::string::npos);
   EXPECT_NE(r.out.find("\nCamera models: SIMPLE_RADIAL (1 camera); focal length refined, principal point held, extra "
-                       "parameters refined; 1 camera shared by several images, refined once; 2 poses held\n"),
+                       "parameters refined; 1 camera shared by several images, refined once; 2 poses held; "
+                       "gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)\n"),
             std::string::npos)
       << r.out;
   EXPECT_LT(final_rms(r.out), 0.75) << r.out;  // noise sigma 0.5 px per coordinate: RMS about 0.7
@@ -1614,7 +1629,8 @@ TEST(SbarefineColmapModels, HoldIntrinsicsAndPoints) {
                         "--hold-points " + id(7) + "," + id(30) + " --hold-points-file " + dir + "/ids.txt --write " +
                         dir + "/out --json " + dir + "/r.json");
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_NE(r.out.find("; 2 poses held; intrinsics of 2 cameras held; 6 points held\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("; 2 poses held; intrinsics of 2 cameras held; 6 points held; "
+                       "gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)\n"), std::string::npos) << r.out;
   const auto unknowns = [&](const std::string &json) {
     const std::string text = read_file(json);
     return std::atoll(text.c_str() + text.find("\"unknowns\": ") + 12);
@@ -1917,6 +1933,52 @@ TEST(SbarefineColmapModels, ColmapOptionNames) {
   r = run(dir + "/b.out --hold-poses-file " + dir + "/names.txt");
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(r.err, "sbarefine: --hold-poses-file is for COLMAP models\n");
+  r = run(dir + "/b.out --gauge none");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: --gauge is for COLMAP models\n");
+}
+
+// The gauge, the similarity of the whole model that moves no projection: fixed by default as
+// COLMAP's bundle adjuster fixes it (TWO_CAMS_FROM_WORLD: one image's pose held whole, and one
+// coordinate of another's translation, SameErrorAsEucsbademoTextAndBinary checks which), by three
+// points held (THREE_POINTS), or left free. Two images and none reach the same minimum; three
+// points hold nine coordinates, two more than the gauge has, and end no lower. Priors fix it
+// themselves (SbarefinePriors).
+TEST(SbarefineColmapModels, GaugeChoices) {
+  const std::string dir = temp_dir("colmap_gauge");
+  const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
+  std::string error;
+  ASSERT_TRUE(colmap::write_model(dir + "/in", s.model, colmap::Encoding::Text, &error)) << error;
+  const struct {
+    const char *args, *said;
+    int held_poses, held_points;
+  } cases[] = {{"", "gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)\n", 1, 0},
+               {"--gauge two-cams", "gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)\n", 1, 0},
+               {"--gauge three-points", "gauge fixed by three points (THREE_POINTS)\n", 0, 3},
+               {"--gauge none", "gauge free\n", 0, 0}};
+  double minimum = NAN;
+  for (const auto &c : cases) {
+    SCOPED_TRACE(c.args);
+    const Outcome r = run(dir + "/in --write " + dir + "/out " + c.args);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("; 0 poses held; " + std::string(c.said)), std::string::npos) << r.out;
+    if (std::isnan(minimum)) minimum = final_error(r.out);
+    if (c.held_points > 0)
+      EXPECT_GT(final_error(r.out), minimum) << r.out;
+    else
+      EXPECT_NEAR(final_error(r.out), minimum, 1e-6 * minimum) << r.out;
+    colmap::Model back;
+    ASSERT_TRUE(colmap::read_model(dir + "/out", &back, nullptr, &error)) << error;
+    int poses = 0, points = 0;
+    for (std::size_t j = 0; j < back.images.size(); ++j)
+      poses += back.images[j].q == s.model.images[j].q && back.images[j].t == s.model.images[j].t;
+    for (std::size_t i = 0; i < back.points.size(); ++i) points += back.points[i].xyz == s.model.points[i].xyz;
+    EXPECT_EQ(poses, c.held_poses);
+    EXPECT_EQ(points, c.held_points);
+  }
+  const Outcome r = run(dir + "/in --gauge sideways");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.err, "sbarefine: bad value 'sideways' for --gauge: expected two-cams, three-points or none\n");
 }
 
 // COLMAP's own bundle adjuster (/usr/bin/colmap, skipped without it) on the same model
@@ -2312,7 +2374,8 @@ TEST(SbarefineRigs, RigsOfSeveralCamerasAreRefinedRigid) {
               std::string::npos)
         << r.out;
     EXPECT_NE(r.out.find("; 6 cameras shared by several images, refined once; rig_from_world of 8 frames (0 held), "
-                         "sensor_from_rig of 4 cameras (0 held); 0 poses held\n"),
+                         "sensor_from_rig of 4 cameras (0 held); 0 poses held; "
+                         "gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)\n"),
               std::string::npos)
         << r.out;
     EXPECT_NEAR(initial_rms(r.out), 15.6271, 1e-4) << r.out;
@@ -2336,8 +2399,14 @@ TEST(SbarefineRigs, RigsOfSeveralCamerasAreRefinedRigid) {
         EXPECT_LT(translation_distance(w.sensor_from_rig, truth.sensor_from_rig), 0.02) << g << " " << k;
         EXPECT_GT(translation_distance(w.sensor_from_rig, start.sensor_from_rig), 1e-4) << g << " " << k;
       }
-    for (std::size_t f = 0; f < written.frames.size(); ++f)
-      EXPECT_GT(pose_distance(written.frames[f].rig_from_world, s.model.frames[f].rig_from_world), 1e-4) << f;
+    // Every frame's pose refined but one, the frame of the image that fixes the gauge.
+    int held_frames = 0;
+    for (std::size_t f = 0; f < written.frames.size(); ++f) {
+      const double d = pose_distance(written.frames[f].rig_from_world, s.model.frames[f].rig_from_world);
+      held_frames += d == 0;
+      if (d != 0) EXPECT_GT(d, 1e-4) << f;
+    }
+    EXPECT_EQ(held_frames, 1);
     for (std::size_t c = 0; c < written.cameras.size(); ++c) {
       const double f = written.cameras[c].params[0], truth = s.truth.cameras[c].params[0];
       EXPECT_LT(std::fabs(f - truth), 0.3 * std::fabs(s.model.cameras[c].params[0] - truth)) << c;
@@ -2373,7 +2442,8 @@ TEST(SbarefineRigs, HoldSensorFromRig) {
                         " --write " + dir + "/out");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("rig_from_world of 8 frames (0 held), sensor_from_rig of 4 cameras (2 held); 0 poses held; "
-                       "intrinsics of 1 camera held; 1 point held\n"),
+                       "intrinsics of 1 camera held; 1 point held; "
+                       "gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)\n"),
             std::string::npos)
       << r.out;
   expect_rigid(dir + "/out", colmap::Encoding::Text);
@@ -2449,7 +2519,8 @@ TEST(SbarefineRigs, AFrameOfTwoImagesIsRefined) {
               std::string::npos)
         << r.out;
     EXPECT_NE(r.out.find("; 0 cameras shared by several images, refined once; rig_from_world of 5 frames (0 held), "
-                         "sensor_from_rig of 1 camera (0 held); 0 poses held\n"),
+                         "sensor_from_rig of 1 camera (0 held); 0 poses held; "
+                         "gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)\n"),
               std::string::npos)
         << r.out;
     // Camera 101's pose in the rig is free: the minimum is that of the model without rigs.
@@ -2486,7 +2557,7 @@ void read_written(const std::string &dir, const colmap::Model &like, colmap::Mod
 // its frame's pose and its camera's pose in the rig, in every frame (the image's pose comes back
 // as read, and so does the pose of the frame's reference image); --mcon holds the first image's
 // frame, camera pose and intrinsics. The options are for COLMAP models, 0 or 1, and --help
-// lists them.
+// lists them. The gauge is left free (--gauge none): only what the options hold stays.
 TEST(SbarefineRigs, PoseOptions) {
   const std::string dir = temp_dir("rigs_options");
   const RigScene s = make_rig_scene(2, 3, 8, 300, 0.5);
@@ -2495,7 +2566,7 @@ TEST(SbarefineRigs, PoseOptions) {
   ASSERT_TRUE(colmap::write_model(in, s.model, colmap::Encoding::Text, &error)) << error;
   const auto refine = [&](const std::string &args) {
     std::filesystem::remove_all(out);
-    const Outcome r = run(in + " --write " + out + " " + args);
+    const Outcome r = run(in + " --write " + out + " --gauge none " + args);
     EXPECT_EQ(r.status, 0) << args << "\n" << r.err;
     return r;
   };
@@ -2551,7 +2622,7 @@ TEST(SbarefineRigs, PoseOptions) {
   // --mcon 1: image 1 (frame 0, camera 1, rig 50's reference) is held whole.
   r = refine("--mcon 1");
   EXPECT_NE(r.out.find("; 5 cameras shared by several images, refined once; rig_from_world of 8 frames (1 held), "
-                       "sensor_from_rig of 4 cameras (0 held); 0 poses held\n"),
+                       "sensor_from_rig of 4 cameras (0 held); 0 poses held; gauge free\n"),
             std::string::npos)
       << r.out;
   ASSERT_NO_FATAL_FAILURE(read_written(out, s.model, &written));
@@ -2593,7 +2664,7 @@ TEST(SbarefineRigs, PoseOptions) {
 // their rotations, and --refine-sensor-from-rig changes nothing. With an IMU for the rig's
 // reference and every camera posed in the rig (colmap4, posed), holding the frames' poses in
 // part or whole still refines the cameras' poses in the rig, one for all the frames, as COLMAP
-// 4 does.
+// 4 does. The gauge is left free (--gauge none): only what the options hold stays.
 TEST(SbarefineRigs, PoseOptionsOnFramesOfOneImage) {
   const std::string dir = temp_dir("rigs_one_image");
   const Scene s = make_scene(dir, euclidean::CameraKind::VaryingIntrinsicsDistortion);
@@ -2602,7 +2673,7 @@ TEST(SbarefineRigs, PoseOptionsOnFramesOfOneImage) {
   ASSERT_TRUE(colmap::write_model(plain, s.model, colmap::Encoding::Text, &error)) << error;
   const auto refine = [&](const std::string &model, const std::string &args) {
     std::filesystem::remove_all(out);
-    const Outcome r = run(model + " --write " + out + " " + args);
+    const Outcome r = run(model + " --write " + out + " --gauge none " + args);
     EXPECT_EQ(r.status, 0) << args << "\n" << r.err;
     return r;
   };
@@ -2611,7 +2682,7 @@ TEST(SbarefineRigs, PoseOptionsOnFramesOfOneImage) {
   r = refine(plain, "--refine-sensor-from-rig 0");
   EXPECT_EQ(read_file(out + "/images.txt"), images);
   r = refine(plain, "--refine-rig-from-world 0");
-  EXPECT_NE(r.out.find("; 10 poses held\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("; 10 poses held; gauge free\n"), std::string::npos) << r.out;
   colmap::Model written;
   ASSERT_NO_FATAL_FAILURE(read_written(out, s.model, &written));
   for (std::size_t j = 0; j < written.images.size(); ++j) {
@@ -2632,7 +2703,8 @@ TEST(SbarefineRigs, PoseOptionsOnFramesOfOneImage) {
                        "refines them"),
             std::string::npos)
       << r.out;
-  EXPECT_NE(r.out.find("rig_from_world of 10 frames (10 held), sensor_from_rig of 10 cameras (0 held); 0 poses held\n"),
+  EXPECT_NE(r.out.find("rig_from_world of 10 frames (10 held), sensor_from_rig of 10 cameras (0 held); 0 poses held; "
+                       "gauge free\n"),
             std::string::npos)
       << r.out;
   EXPECT_EQ(read_file(out + "/frames.txt"), read_file(posed + "/frames.txt"));
@@ -2703,7 +2775,8 @@ TEST(SbarefineRigs, CameraOfManyFramesIsShared) {
   const Outcome r = run(dir + "/in --itmax 0");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("; 2 cameras shared by several images, refined once; rig_from_world of 130 frames (0 held), "
-                       "sensor_from_rig of 1 camera (0 held); 0 poses held\n"),
+                       "sensor_from_rig of 1 camera (0 held); 0 poses held; "
+                       "gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)\n"),
             std::string::npos)
       << r.out;
 }
@@ -2755,7 +2828,8 @@ TEST(SbarefineRigs, HeldImageThatSeesNoPointHoldsItsFrame) {
   EXPECT_NE(r.out.find("\n1 image sees no point: held out of the solve and written back as read\n"),
             std::string::npos)
       << r.out;
-  EXPECT_NE(r.out.find("rig_from_world of 8 frames (1 held), sensor_from_rig of 4 cameras (1 held); 1 pose held\n"),
+  EXPECT_NE(r.out.find("rig_from_world of 8 frames (1 held), sensor_from_rig of 4 cameras (1 held); 1 pose held; "
+                       "gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)\n"),
             std::string::npos)
       << r.out;
   written = files_of(out, colmap::Encoding::Binary);
@@ -2904,10 +2978,13 @@ TEST(Sbarefine, UnknownsAreCountedOnce) {
     std::string args;
     long long unknowns, parameters;
   } cases[] = {
-      {s.model, "", 10 * 6 + 2 + 3 * n, 10 * 11 + 3 * n},
-      // Images 10 and 13 held whole, and so their camera in all its images; image 19's pose.
+      // The gauge holds the first image's pose (its frame's) and one coordinate of another's.
+      {s.model, "", 10 * 6 + 2 + 3 * n - 7, 10 * 11 + 3 * n},
+      {s.model, "--gauge none", 10 * 6 + 2 + 3 * n, 10 * 11 + 3 * n},
+      // Images 10 and 13 held whole, and so their camera in all its images (the gauge fixed
+      // by them); image 19's pose.
       {s.model, "--mcon 2 --ncon 5 --hold-poses 19", 7 * 6 + 3 * (n - 5), 10 * 11 + 3 * n},
-      {rigs.model, "", 8 * 6 + 4 * 6 + 6 * 2 + 900, 24 * 16 + 900},
+      {rigs.model, "", 8 * 6 + 4 * 6 + 6 * 2 + 900 - 7, 24 * 16 + 900},
   };
   std::string error;
   for (const auto &c : cases) {

@@ -66,6 +66,7 @@ struct Options {
   bool poses_given = false;          // a --refine-rig-from-world or the like
   std::string hold_poses;            // COLMAP: the images whose pose is held; empty: none
   std::string hold_poses_file;       // COLMAP: a file of the names of more of them; empty: none
+  std::string gauge;                 // COLMAP: two-cams, three-points or none; empty: the default
   std::string hold_intrinsics;       // COLMAP: the cameras whose intrinsics are held; empty: none
   std::string hold_sensors;          // COLMAP: the cameras whose poses in their rigs are held; empty: none
   std::string hold_points;           // COLMAP: the points held; empty: none
@@ -180,6 +181,19 @@ void add_pose_options(std::vector<sbacli::Option> *t, Options &o) {
                 "name may hold commas; a line is never an IMAGE_ID; blank lines are skipped); with\n"
                 "--hold-poses, the images of both",
                 [&o](const std::string &v) { return sbacli::to_file(v, &o.hold_poses_file); }});
+  t->push_back({"gauge", "NAME",
+                "COLMAP: how the gauge is fixed, the similarity of the whole model that moves no\n"
+                "projection: two-cams (COLMAP's TWO_CAMS_FROM_WORLD: the first image's pose held and one\n"
+                "coordinate of the next image's translation, unless two poses are held already),\n"
+                "three-points (THREE_POINTS: three points held) or none (free). Default two-cams, as\n"
+                "COLMAP's bundle adjuster fixes it; none with position priors or ground control points,\n"
+                "which fix it themselves",
+                [&o](const std::string &v) -> std::string {
+                  if (v != "two-cams" && v != "three-points" && v != "none")
+                    return "expected two-cams, three-points or none";
+                  o.gauge = v;
+                  return {};
+                }});
 }
 
 // COLMAP's other constants (colmap::Constants): the intrinsics of cameras, the poses of cameras
@@ -769,6 +783,54 @@ std::string removed_behind(const colmap::DepthFilter &behind) {
   return said;
 }
 
+// The gauge of --gauge, else COLMAP's bundle adjuster's, unless priors that are used place the
+// model: COLMAP's pose-prior adjustment holds no pose for the gauge, and ground control points
+// fix it as position priors do.
+colmap::Gauge gauge_of(const Options &o, const ModelPriors &priors) {
+  if (o.gauge == "none") return colmap::Gauge::None;
+  if (o.gauge == "three-points") return colmap::Gauge::ThreePoints;
+  if (o.gauge.empty() && (!priors.poses.empty() || !priors.points.empty())) return colmap::Gauge::None;
+  return colmap::Gauge::TwoCamsFromWorld;
+}
+
+// The summary's words on the gauge.
+std::string gauge_said(colmap::Gauge g) {
+  switch (g) {
+    case colmap::Gauge::TwoCamsFromWorld:
+      return "; gauge fixed by two images' poses (TWO_CAMS_FROM_WORLD)";
+    case colmap::Gauge::ThreePoints:
+      return "; gauge fixed by three points (THREE_POINTS)";
+    case colmap::Gauge::None:
+      break;
+  }
+  return "; gauge free";
+}
+
+// "N things", "1 thing".
+std::string count(std::size_t n, const char *what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
+
+// The summary's "Camera models:" line (and --json's "model"): the models, what is refined of
+// them and of the poses, what is held, and the gauge.
+std::string what_is_refined(const Options &o, const colmap::Model &model, const colmap::Problem &pr) {
+  const colmap::Problem::Counts &n = pr.counts();
+  const auto yes_no = [](bool b) { return b ? "refined" : "held"; };
+  std::string said = camera_models(model, pr) + "; focal length " + yes_no(o.refine.focal) + ", principal point " +
+                     yes_no(o.refine.principal) + ", extra parameters " + yes_no(o.refine.distortion) + "; " +
+                     count(static_cast<std::size_t>(n.shared_cameras), "camera") +
+                     " shared by several images, refined once; ";
+  if (pr.rigged())
+    said += "rig_from_world of " + count(static_cast<std::size_t>(n.frames), "frame") + " (" +
+            std::to_string(n.held_frames) + " held), sensor_from_rig of " +
+            count(static_cast<std::size_t>(n.sensors), "camera") + " (" + std::to_string(n.held_sensors) + " held); ";
+  said += count(static_cast<std::size_t>(n.held_poses), "pose") + " held";
+  if (!o.hold_intrinsics.empty())
+    said += "; intrinsics of " + count(static_cast<std::size_t>(n.held_intrinsics), "camera") + " held";
+  if (!o.hold_points.empty() || !o.hold_points_file.empty())
+    said += "; " + count(static_cast<std::size_t>(pr.held_points()), "point") + " held";
+  said += gauge_said(n.gauge);
+  return said;
+}
+
 bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std::string *error) {
   colmap::DepthFilter behind;
   if (!read_colmap_input(o, l, &behind, error)) return false;
@@ -777,6 +839,7 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   options.poses = o.poses;
   options.mcon = o.solve.mcon;
   options.ncon = o.solve.ncon;
+  options.gauge = gauge_of(o, l->model_priors);
   if (!constants_of(o, l->model, &options.constants, error) ||
       !colmap::Problem::build(l->model, options, o.input, &l->colmap_problem, error))
     return false;
@@ -801,10 +864,6 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
   job->summary += removed_behind(behind);
   job->summary += unseen_images(l->model, pr);
   job->summary += l->priors_said;
-  const auto count = [](std::size_t n, const char *what) {
-    return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
-  };
-  const colmap::Problem::Counts &n = pr.counts();
   if (pr.rigged())
     job->summary += "\nRigs and frames (COLMAP 4): " + count(l->model.rigs.size(), "rig") + ", " +
                     count(l->model.frames.size(), "frame") + ", " +
@@ -816,21 +875,7 @@ bool load_colmap(const Options &o, const std::string &, Loaded *l, Job *job, std
         "\nRigs and frames (COLMAP 4): " + count(l->model.rigs.size(), "rig") + ", " +
         count(l->model.frames.size(), "frame") +
         " of one image at most: each image's pose is its frame's, refined and written back to both";
-  const auto yes_no = [](bool b) { return b ? "refined" : "held"; };
-  job->model = camera_models(l->model, pr) + "; focal length " + yes_no(o.refine.focal) +
-                  ", principal point " + yes_no(o.refine.principal) + ", extra parameters " +
-                  yes_no(o.refine.distortion) + "; " + std::to_string(n.shared_cameras) +
-                  (n.shared_cameras == 1 ? " camera" : " cameras") + " shared by several images, refined once; ";
-  if (pr.rigged())
-    job->model += "rig_from_world of " + count(static_cast<std::size_t>(n.frames), "frame") + " (" +
-                  std::to_string(n.held_frames) + " held), sensor_from_rig of " +
-                  count(static_cast<std::size_t>(n.sensors), "camera") + " (" + std::to_string(n.held_sensors) +
-                  " held); ";
-  job->model += std::to_string(n.held_poses) + (n.held_poses == 1 ? " pose" : " poses") + " held";
-  if (!o.hold_intrinsics.empty())
-    job->model += "; intrinsics of " + count(static_cast<std::size_t>(n.held_intrinsics), "camera") + " held";
-  if (!o.hold_points.empty() || !o.hold_points_file.empty())
-    job->model += "; " + count(static_cast<std::size_t>(pr.held_points()), "point") + " held";
+  job->model = what_is_refined(o, l->model, pr);
   job->summary += "\nCamera models: " + job->model;
   job->initial = cloud(l->model);
   for (int j : pr.images()) job->camera_names.push_back(l->model.images[static_cast<std::size_t>(j)].name);
@@ -967,6 +1012,7 @@ int check_format_options(Format format, Options *o) {
       {!o->write_list.empty(), format == Format::Bundler, "--write-list", "Bundler files"},
       {!o->hold_poses.empty(), format == Format::Colmap, "--hold-poses", "COLMAP models"},
       {!o->hold_poses_file.empty(), format == Format::Colmap, "--hold-poses-file", "COLMAP models"},
+      {!o->gauge.empty(), format == Format::Colmap, "--gauge", "COLMAP models"},
       {!o->hold_intrinsics.empty(), format == Format::Colmap, "--hold-intrinsics", "COLMAP models"},
       {!o->hold_sensors.empty(), format == Format::Colmap, "--hold-sensor-from-rig", "COLMAP models"},
       {!o->hold_points.empty(), format == Format::Colmap, "--hold-points", "COLMAP models"},

@@ -590,8 +590,12 @@ bool draft_of(const Model &model, const Options &o, const std::string &name, Dra
     rig_problem(model, o.intrinsics, o.poses, o.constants, ch.config, o.mcon, camera_index, &p);
   else
     image_problem(model, o.intrinsics, o.poses, o.constants, ch.config, o.mcon, camera_index, &p);
-  if ((o.gauge == Gauge::TwoCamsFromWorld && !fix_two_cams(model, ch.config, &p)) || o.gauge == Gauge::ThreePoints)
+  if (o.gauge == Gauge::TwoCamsFromWorld && fix_two_cams(model, ch.config, &p)) {
+    p.counts.gauge = Gauge::TwoCamsFromWorld;
+  } else if (o.gauge != Gauge::None) {
     fix_three_points(model, image_index, &ch);
+    p.counts.gauge = Gauge::ThreePoints;
+  }
   order_points(model, ch, o.selection.active() || o.gauge == Gauge::ThreePoints, o.ncon, &p);
   problem_points(model, ch, image_index, camera_of, &p);
   *out = std::move(p);

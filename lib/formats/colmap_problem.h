@@ -90,6 +90,9 @@ class Problem {
     int frames = 0, held_frames = 0;    // rigged: the frames of the sba cameras, those held
     int sensors = 0, held_sensors = 0;  // rigged: their cameras that are not a rig's reference
     int held_intrinsics = 0;  // COLMAP cameras of the sba cameras with constant intrinsics
+    // How the gauge is fixed: the options' gauge, or ThreePoints where TwoCamsFromWorld finds no
+    // two images to fix it with (COLMAP falls back so too).
+    Gauge gauge = Gauge::None;
   };
 
   // The problem of a model check_model accepted. False with "NAME: why" for a model that has

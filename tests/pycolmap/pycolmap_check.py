@@ -27,6 +27,10 @@ with rigs and frames, as COLMAP 4 writes them. Cases:
             pycolmap's x (1 + 1e-6).
   as_read   the rig model of `rigs` as pycolmap writes it (binary), rewritten by sbarefine
             with --itmax 0: the same bytes, each image's pose the one pycolmap composed.
+  gauge     the model of `written` (binary) refined by pycolmap.bundle_adjustment at its defaults
+            and by sbarefine at its own: both hold the same image's pose whole and the same
+            coordinate of another image's translation (COLMAP's TWO_CAMS_FROM_WORLD gauge), every
+            other pose number refined; sbarefine's RMS no worse than pycolmap's x (1 + 1e-6).
 Exit status: 0 every check passed, 1 a check failed, 2 bad usage, 77 no pycolmap (ctest's
 SKIP_RETURN_CODE): `scripts/deps.sh test` makes a venv with it (build/pycolmap-venv).
 
@@ -300,6 +304,50 @@ def case_as_read(pycolmap, colmap_real, args):
     print("PASS %s: the five files pycolmap wrote, the same bytes" % out)
 
 
+def kept(before, after):
+    """Per image id, which of its pose's numbers came back exactly: (the rotation, [tx, ty, tz])."""
+    out = {}
+    for image_id, im in before.images.items():
+        a, b = im.cam_from_world(), after.images[image_id].cam_from_world()
+        same_q = [float(v) for v in a.rotation.quat] == [float(v) for v in b.rotation.quat]
+        out[image_id] = (same_q, [float(x) == float(y) for x, y in zip(a.translation, b.translation)])
+    return out
+
+
+def gauge_of(kept_numbers, who):
+    """The image whose pose is held whole, and the other image and the coordinate of its
+    translation held; every other number must have changed."""
+    whole = [i for i, (q, t) in kept_numbers.items() if q and all(t)]
+    partial = [(i, t.index(True)) for i, (q, t) in kept_numbers.items() if not q and t.count(True) == 1]
+    rest = [i for i, (q, t) in kept_numbers.items() if (q or any(t)) and i not in whole + [p[0] for p in partial]]
+    expect(len(whole) == 1 and len(partial) == 1 and not rest,
+           "%s: held whole %s, one coordinate %s, other numbers kept in %s" % (who, whole, partial, rest))
+    return whole[0], partial[0]
+
+
+def case_gauge(pycolmap, colmap_real, args):
+    rec = synthesize(pycolmap, 1, 7)
+    model = os.path.join(args.work, "gauge_input")
+    write(rec, model, "binary")
+    before = pycolmap.Reconstruction(model)
+    reference = pycolmap.Reconstruction(model)
+    options = pycolmap.BundleAdjustmentOptions()
+    options.print_summary = False
+    pycolmap.bundle_adjustment(reference, options)
+    theirs = gauge_of(kept(before, reference), "pycolmap.bundle_adjustment")
+    out = os.path.join(args.work, "gauge")
+    shutil.rmtree(out, ignore_errors=True)
+    refine(args, model, out)
+    refined = pycolmap.Reconstruction(out)
+    mine = gauge_of(kept(before, refined), "sbarefine")
+    expect(mine == theirs, "sbarefine holds image %d and image %d's t[%d], pycolmap image %d and image %d's t[%d]"
+           % (mine[0], mine[1][0], mine[1][1], theirs[0], theirs[1][0], theirs[1][1]))
+    rms_mine, rms_theirs = rms(pycolmap, refined), rms(pycolmap, reference)
+    expect(rms_mine <= rms_theirs * (1 + 1e-6), "%s: RMS %.17g, pycolmap's %.17g" % (out, rms_mine, rms_theirs))
+    print("PASS %s: image %d's pose and image %d's t[%d] held, as pycolmap holds them; RMS %.9g px, pycolmap's %.9g px"
+          % (out, mine[0], mine[1][0], mine[1][1], rms_mine, rms_theirs))
+
+
 def import_pycolmap(python, script, argv):
     """pycolmap, or, when this Python cannot import it, script run again with argv by python (a
     Python with pycolmap) when given, else None, the reason printed for ctest's SKIPPED."""
@@ -316,7 +364,7 @@ def import_pycolmap(python, script, argv):
 
 
 CASES = {"written": case_written, "one_image_frames": case_one_image_frames, "rigs": case_rigs,
-         "as_read": case_as_read}
+         "as_read": case_as_read, "gauge": case_gauge}
 
 
 def run_cases(argv, doc, script, cases, run=lambda case, pycolmap, args: case(pycolmap, args)):
