@@ -216,6 +216,9 @@ def sbarefine(model, out, args):
 
 
 def same_as_sbarefine(tmp_path, model_dir, encoding, args, kw):
+    # refine_colmap's gauge is its config's (None, as in COLMAP's BundleAdjustmentConfig: free);
+    # sbarefine holds it as COLMAP's bundle adjuster does unless told: both are given the same.
+    args = list(args) + ["--gauge", kw.get("gauge") or "none"]
     report = sbarefine(model_dir, tmp_path / "sbarefine", args)
     model = pysba.read_colmap(model_dir)
     refined, result = pysba.refine_colmap(model, **kw)
@@ -881,7 +884,8 @@ def covariance_file(path):
 
 def same_covariances(tmp_path, model_dir, args, kw):
     out = tmp_path / "cov.txt"
-    sbarefine(model_dir, tmp_path / "sbarefine", [*args, "--covariance", out, "--covariance-points"])
+    sbarefine(model_dir, tmp_path / "sbarefine",
+              [*args, "--gauge", kw.get("gauge") or "none", "--covariance", out, "--covariance-points"])
     blocks, coords, head = covariance_file(out)
     _, result = pysba.refine_colmap(pysba.read_colmap(model_dir), covariance=True, covariance_points=True, **kw)
     c = result.colmap_covariance
