@@ -352,7 +352,10 @@ void project(int model, const double *params, const double Xc[3], double x[2], d
   const double fy = panorama ? params[1] / kPi : params[nf - 1];
   const double cx = panorama ? params[0] / 2 : params[nf];
   const double cy = panorama ? params[1] / 2 : params[nf + 1];
-  Distortion d{};
+  // Not value-initialized: every mapping writes what is read of it (ud and vd; D or J with
+  // derivatives; Eu and Ev for the model's extra parameters), and zeroing the whole struct
+  // for every projection costs more than some models' arithmetic.
+  Distortion d;
   double J[6];  // d(ud, vd)/dXc
   map_point(model, params + nf + 2, Xc, &d, J, Jp || Jx);
   if (x) {
@@ -593,18 +596,29 @@ void project_at(int model, int np, const double *params, const double Xc[3], int
   }
 }
 
-void zero_held(const char *held, int cnp, double *A) {
-  if (held)
-    for (int r = 0; r < 2; ++r)
-      for (int k = 0; k < cnp; ++k)
-        if (held[k]) A[r * cnp + k] = 0.0;
+// A camera's held columns (of its cnp flags), listed once per camera so that the Jacobian of
+// each projection zeroes them without testing every column's flag.
+struct HeldColumns {
+  int n = 0;
+  unsigned char col[kRigPoseParams + kMaxParams];
+};
+
+HeldColumns held_columns(const char *held, int cnp) {
+  HeldColumns h;
+  for (int k = 0; held && k < cnp; ++k)
+    if (held[k]) h.col[h.n++] = static_cast<unsigned char>(k);
+  return h;
+}
+
+void zero_held(const HeldColumns &held, int cnp, double *A) {
+  for (int i = 0; i < held.n; ++i) A[held.col[i]] = A[cnp + held.col[i]] = 0.0;
 }
 
 // What a projection needs of camera j that does not depend on the point.
 struct Frame {
   int model, np;
   double a[kPoseParams + kMaxParams];  // the parameters, held ones at their initial values
-  const char *held;                    // cnp flags, or null
+  HeldColumns held;
   LocalRotation rot;
   // Offsets into a rather than pointers: a Frame is copied.
   const double *params() const { return a + kPoseParams; }
@@ -616,7 +630,7 @@ Frame frame_of(const CameraModel &model, int j, const double *a, bool tangent) {
   f.model = model.input_camera(j).model;
   f.np = param_count(f.model);
   model.effective(j, a, f.a);
-  f.held = model.held(j);
+  f.held = held_columns(model.held(j), model.cnp());
   f.rot = local_rotation(f.a, model.initial_rotation(j), tangent);
   return f;
 }
@@ -656,7 +670,7 @@ bool eval(const Frame &f, int cnp, const double *b, const double *obs, double *x
 struct RigFrame {
   int model, np;
   double a[kRigPoseParams + kMaxParams];  // the parameters, held ones at their initial values
-  const char *held;                       // cnp flags, or null
+  HeldColumns held;
   LocalRotation frame, sensor;            // R_f and R_s
   double M[9];                            // R_s R_f: d X_c / d X
   const double *params() const { return a + kRigPoseParams; }
@@ -669,7 +683,7 @@ RigFrame frame_of(const RigCameraModel &model, int j, const double *a, bool tang
   f.model = model.input_image(j).model;
   f.np = param_count(f.model);
   model.effective(j, a, f.a);
-  f.held = model.held(j);
+  f.held = held_columns(model.held(j), model.cnp());
   f.frame = local_rotation(f.a, model.initial_frame_rotation(j), tangent);
   f.sensor = local_rotation(f.a + 6, model.initial_sensor_rotation(j), tangent);
   mat3_mul(f.sensor.M, f.frame.M, f.M);
