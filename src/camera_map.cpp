@@ -12,6 +12,7 @@ CameraMap::CameraMap(int m, int mcon, int cnp) : m_(m), mcon_(std::min(mcon, m))
   nunknowns_ = free * cnp;
   block_start_.resize(size_t(free) + 1);
   for (int b = 0; b <= free; ++b) block_start_[size_t(b)] = i64(b) * cnp;
+  held_start_.assign(size_t(std::max(m, 0)) + 1, 0);
 }
 
 namespace {
@@ -40,8 +41,12 @@ CameraMap::CameraMap(int m, int mcon, int cnp, const std::vector<char> &held, co
     : CameraMap(m, mcon, cnp) {
   if (cnp == 0) return;
   const size_t all = size_t(m) * size_t(cnp);
-  for (int j = mcon_; j < m && !held.empty(); ++j)
-    for (int c = 0; c < cnp; ++c) any_held_ = any_held_ || held[size_t(j) * cnp + c];
+  for (int j = mcon_; j < m && !held.empty(); ++j) {
+    for (int c = 0; c < cnp; ++c)
+      if (held[size_t(j) * cnp + c]) held_cols_.push_back(c);
+    held_start_[size_t(j) + 1] = int(held_cols_.size());
+  }
+  any_held_ = !held_cols_.empty();
   bool any_shared = false;
   if (!share.empty())
     for (const auto &kc : key_counts(share, m, mcon_, cnp)) any_shared = any_shared || kc.second > 1;

@@ -73,6 +73,10 @@ class CameraMap {
   }
   bool held(int j, int c) const { return any_held_ && j >= mcon_ && unknown(j, c) < 0; }
   bool any_held() const { return any_held_; }
+  // Camera j's held parameters, ascending (none for a camera below mcon): the columns its
+  // Jacobian blocks must have zero, listed once so that zeroing them costs no test per column.
+  const int *held_begin(int j) const { return held_cols_.data() + held_start_[std::size_t(j)]; }
+  const int *held_end(int j) const { return held_cols_.data() + held_start_[std::size_t(j) + 1]; }
   // Whether the unknowns are the free cameras' parameters themselves, in order (none held,
   // none shared): every map to and from them is then the identity.
   bool plain() const { return unknown_.empty(); }
@@ -132,6 +136,8 @@ class CameraMap {
   int m_ = 0, mcon_ = 0, cnp_ = 0;
   int nunknowns_ = 0;
   bool any_held_ = false;
+  // held_begin/held_end's index: m + 1 starts into held_cols_ (all zero without held ones).
+  std::vector<int> held_start_, held_cols_;
   // m * cnp: each camera parameter's unknown, -1 below mcon or held; empty for the plain map.
   std::vector<int> unknown_;
   // S's blocks' first rows, nblocks + 1 of them: the cameras' in the PerCamera shape.

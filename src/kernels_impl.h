@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <type_traits>
 #include <vector>
 #ifdef __AVX__
@@ -46,6 +47,23 @@ inline __attribute__((always_inline)) void scale_row(int n, double s, const doub
   } else {
     for (int c = 0; c < n; ++c) y[c] = s * x[c];
   }
+}
+
+// The rows of S_jk that the pairs of camera j update: a held parameter's Jacobian column is
+// zero, so each of its terms Y_ij W_ik^T is a zero, which only the sign of a zero entry
+// would notice; its row of S keeps U_j + mu D_j's. Bit a for row a; rows past the mask's
+// width are always updated.
+using RowMask = std::uint64_t;
+inline __attribute__((always_inline)) bool updates(RowMask rows, int a) { return a >= 64 || (rows >> a & 1); }
+
+// Every camera's RowMask: all rows, less those of its held parameters.
+inline std::vector<RowMask> row_masks(const Layout &lay) {
+  std::vector<RowMask> rows(size_t(std::max(lay.m, 0)), ~RowMask(0));
+  if (lay.cams.any_held())
+    for (int j = lay.mcon; j < lay.m; ++j)
+      for (const int *c = lay.cams.held_begin(j); c != lay.cams.held_end(j); ++c)
+        if (*c < 64) rows[size_t(j)] &= ~(RowMask(1) << *c);
+  return rows;
 }
 
 #if defined(__AVX2__) && defined(__FMA__)
@@ -116,9 +134,11 @@ struct Row {
 // S_jk -= Y_ij W_ik^T with W_ik^T's rows already in registers (w), row by row of S_jk as
 // pair_update below.
 template <int N, int D>
-inline __attribute__((always_inline)) void pair_rows(const Row<N> *w, const double *Yt, double *S, i64 ld) {
+inline __attribute__((always_inline)) void pair_rows(const Row<N> *w, const double *Yt, double *S, i64 ld,
+                                                     RowMask rows) {
 #pragma GCC unroll 16
   for (int a = 0; a < N; ++a) {
+    if (!updates(rows, a)) continue;
     Row<N> acc = Row<N>::load(S + a * ld);
 #pragma GCC unroll 4
     for (int d = 0; d < D; ++d) acc.fnmadd(Yt[d * N + a], w[d]);
@@ -130,9 +150,11 @@ inline __attribute__((always_inline)) void pair_rows(const Row<N> *w, const doub
 // leaves out the vectors of four that lie wholly left of the diagonal. The entries it updates
 // get pair_rows's operations, so the upper triangle has pair_rows's bits.
 template <int N, int D>
-inline __attribute__((always_inline)) void pair_rows_upper(const Row<N> *w, const double *Yt, double *S, i64 ld) {
+inline __attribute__((always_inline)) void pair_rows_upper(const Row<N> *w, const double *Yt, double *S, i64 ld,
+                                                           RowMask rows) {
 #pragma GCC unroll 16
   for (int a = 0; a < N; ++a) {
+    if (!updates(rows, a)) continue;
     Row<N> acc = Row<N>::load(S + a * ld, a / 4);
 #pragma GCC unroll 4
     for (int d = 0; d < D; ++d) acc.fnmadd(Yt[d * N + a], w[d], a / 4);
@@ -147,13 +169,13 @@ inline __attribute__((always_inline)) void pair_rows_upper(const Row<N> *w, cons
 // registers.
 template <int N, int D>
 inline __attribute__((always_inline)) void pair_update(int n, int pn, const double *Yt,
-                                                       const double *Wt, double *S, i64 ld) {
+                                                       const double *Wt, double *S, i64 ld, RowMask rows) {
 #if defined(__AVX2__) && defined(__FMA__)
   if constexpr (N > 0 && D > 0) {
     Row<N> w[D];
 #pragma GCC unroll 4
     for (int d = 0; d < D; ++d) w[d] = Row<N>::load(Wt + d * N);
-    pair_rows<N, D>(w, Yt, S, ld);
+    pair_rows<N, D>(w, Yt, S, ld, rows);
     return;
   }
 #endif
@@ -165,6 +187,7 @@ inline __attribute__((always_inline)) void pair_update(int n, int pn, const doub
       for (int c = 0; c < N; ++c) w[d][c] = Wt[d * N + c];
 #pragma GCC unroll 16
     for (int a = 0; a < N; ++a) {
+      if (!updates(rows, a)) continue;
       double acc[N];
       double *row = S + a * ld;
 #pragma GCC unroll 16
@@ -180,7 +203,7 @@ inline __attribute__((always_inline)) void pair_update(int n, int pn, const doub
     }
   } else {
     for (int a = 0; a < n; ++a)
-      for (int d = 0; d < pn; ++d) {
+      for (int d = 0; d < pn && updates(rows, a); ++d) {
         const double y = Yt[d * n + a];
         for (int c = 0; c < n; ++c) S[a * ld + c] -= y * Wt[d * n + c];
       }
@@ -197,23 +220,23 @@ inline __attribute__((always_inline)) void pair_update(int n, int pn, const doub
 template <int N, int D>
 inline __attribute__((always_inline)) void column_pairs(int n, int pn, const double *Yt, int stride, int count,
                                                         const int *cols, int mcon, const double *Wt, double *S,
-                                                        i64 rowstride, i64 ld) {
+                                                        i64 rowstride, i64 ld, const RowMask *rows) {
 #if defined(__AVX2__) && defined(__FMA__)
   if constexpr (N > 0 && D > 0) {
     Row<N> w[D];
 #pragma GCC unroll 4
     for (int d = 0; d < D; ++d) w[d] = Row<N>::load(Wt + d * N);
     for (int q = 0; q + 1 < count; ++q)
-      pair_rows<N, D>(w, Yt + i64(q) * stride, S + i64(cols[q] - mcon) * rowstride, ld);
+      pair_rows<N, D>(w, Yt + i64(q) * stride, S + i64(cols[q] - mcon) * rowstride, ld, rows[cols[q]]);
     if (count > 0) {
       const int q = count - 1;
-      pair_rows_upper<N, D>(w, Yt + i64(q) * stride, S + i64(cols[q] - mcon) * rowstride, ld);
+      pair_rows_upper<N, D>(w, Yt + i64(q) * stride, S + i64(cols[q] - mcon) * rowstride, ld, rows[cols[q]]);
     }
     return;
   }
 #endif
   for (int q = 0; q < count; ++q)
-    pair_update<N, D>(n, pn, Yt + i64(q) * stride, Wt, S + i64(cols[q] - mcon) * rowstride, ld);
+    pair_update<N, D>(n, pn, Yt + i64(q) * stride, Wt, S + i64(cols[q] - mcon) * rowstride, ld, rows[cols[q]]);
 }
 
 // One projection's W_ij^T = B^T A and Y_ij^T = V*_i^-1 W_ij^T (pnp x cnp each; A is mnp x cnp,
@@ -426,7 +449,8 @@ inline __attribute__((always_inline)) void spd_inverse3_lanes(lanes4 *a, lanes4 
 template <int M, int C, int P>
 class KernelsT final : public Kernels {
  public:
-  KernelsT(const Layout &lay, int threads, i64 max_packed) : lay_(lay), max_packed_(max_packed) {
+  KernelsT(const Layout &lay, int threads, i64 max_packed)
+      : lay_(lay), max_packed_(max_packed), rows_(row_masks(lay)) {
     int maxtrack = 0;
     for (int i = 0; i < lay.n; ++i) maxtrack = std::max(maxtrack, lay.rowptr[i + 1] - lay.rowptr[i]);
     scratch_.resize(size_t(std::max(threads, 1)));
@@ -757,7 +781,7 @@ class KernelsT final : public Kernels {
           // rows vectorized.
           if (!S.perm) {  // dense S: the hot loop of the default solver, kept branch-free
             column_pairs<C, P>(cn, pn, sc.Yt.data(), cp, q2 - f + 1, lay.colidx.data() + f, lay.mcon, Wt2,
-                               dc.column(k), dc.rowstride, dc.ld);
+                               dc.column(k), dc.rowstride, dc.ld, rows_.data());
             continue;
           }
           for (int q1 = f; q1 <= q2; ++q1) {
@@ -765,9 +789,9 @@ class KernelsT final : public Kernels {
             const double *Wt1 = sc.Wt.data() + (q1 - f) * cp;
             const BlockMap::Block Sjk = S.block(lay.colidx[q1] - lay.mcon, k);
             if (Sjk.transposed)
-              pair_update<C, P>(cn, pn, Yt2, Wt1, Sjk.p, Sjk.ld);
+              pair_update<C, P>(cn, pn, Yt2, Wt1, Sjk.p, Sjk.ld, rows_[size_t(k + lay.mcon)]);
             else
-              pair_update<C, P>(cn, pn, Yt1, Wt2, Sjk.p, Sjk.ld);
+              pair_update<C, P>(cn, pn, Yt1, Wt2, Sjk.p, Sjk.ld, rows_[size_t(lay.colidx[q1])]);
           }
         }
       }
@@ -939,6 +963,7 @@ class KernelsT final : public Kernels {
 
   const Layout &lay_;
   const i64 max_packed_;  // see start_columns
+  std::vector<RowMask> rows_;  // row_masks: each camera's rows of S that its points update
   // threads + 1 boundaries each, for the pool of that size the kernels are made for (as
   // scratch_): the assembly's in free-camera indices; by projections, of the free cameras,
   // the free points and every point

@@ -244,11 +244,15 @@ inline void weigh_projection(const Layout &lay, i64 k, const double *wts, double
 // The Jacobian columns of camera j's held parameters zeroed in projection k's A_ij (at Jk):
 // nothing of them reaches the normal equations (their rows of U_j and e_a come out zero), and
 // their step is pinned at -0.0 by the solvers.
+// An entry that is already +0.0 (a model that zeroes them itself) is not written, which
+// leaves its cache line clean.
 inline void zero_held_projection(const Layout &lay, int j, double *Jk) {
   const int mnp = lay.mnp, cnp = lay.cnp;
-  for (int c = 0; c < cnp; ++c)
-    if (lay.cams.held(j, c))
-      for (int r = 0; r < mnp; ++r) Jk[r * cnp + c] = 0.0;
+  for (const int *c = lay.cams.held_begin(j); c != lay.cams.held_end(j); ++c)
+    for (int r = 0; r < mnp; ++r) {
+      double &x = Jk[r * cnp + *c];
+      if (x != 0.0 || std::signbit(x)) x = 0.0;
+    }
 }
 
 // The three over the whole Jacobian.

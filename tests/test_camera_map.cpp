@@ -59,6 +59,10 @@ TEST(CameraMap, HeldParametersAreNoUnknownsButKeepTheirPinnedRowsOfS) {
   EXPECT_TRUE(map.held(1, 0));
   EXPECT_TRUE(map.held(2, 1));
   EXPECT_FALSE(map.held(2, 0));
+  // Each camera's held columns, listed: none for the fixed camera.
+  EXPECT_EQ(std::vector<int>(map.held_begin(0), map.held_end(0)), std::vector<int>{});
+  EXPECT_EQ(std::vector<int>(map.held_begin(1), map.held_end(1)), std::vector<int>{0});
+  EXPECT_EQ(std::vector<int>(map.held_begin(2), map.held_end(2)), std::vector<int>{1});
   const std::vector<double> x{9, 9, 1, 2, 3, 4};
   std::vector<double> r(4), back(6, 0.5);
   map.reduce(x.data(), r.data());

@@ -419,6 +419,64 @@ TEST_P(KernelsLayout, CameraBlocksAreExactlySymmetricSums) {
   }
 }
 
+// A held parameter's Jacobian column is zero, and the assembly leaves its rows of S alone:
+// they keep U_j + mu I's (zero off the diagonal block), and every other entry is, bit for bit,
+// what the same Jacobian gives without held flags, in the dense S and in the sparse layout
+// (under a scrambled order, so that transposed blocks take their rows from the other camera).
+// Camera 3 holds everything, camera 5 nothing, the others their parameter j % cnp and the last.
+TEST_P(KernelsLayout, HeldParametersRowsOfSAreUPlusTheDampingAlone) {
+  const int cnp = GetParam(), n = 600, m = 12;
+  Fixture f(n, m, cnp, 31u + unsigned(cnp));
+  std::vector<char> held(size_t(m * cnp), 0);
+  for (int j = 0; j < m; ++j)
+    for (int c = 0; c < cnp; ++c)
+      held[size_t(j * cnp + c)] = j == 3 || (j != 5 && (c == j % cnp || c == cnp - 1));
+  for (i64 k = 0; k < f.lay.nvis; ++k)
+    for (int r = 0; r < 2; ++r)
+      for (int c = 0; c < cnp; ++c)
+        if (held[size_t(f.lay.colidx[size_t(k)] * cnp + c)]) f.jac[size_t(k * f.lay.jblk() + r * cnp + c)] = 0.0;
+  Fixture g = f;
+  g.lay.cams = sba::CameraMap(m, 0, cnp, held, {});
+  ASSERT_TRUE(g.lay.cams.any_held());
+  std::vector<int> perm(static_cast<size_t>(m));
+  for (int j = 0; j < m; ++j) perm[size_t(j)] = (j * 5 + 3) % m;
+  const double mu = 0.5;
+  const int nS = m * cnp;
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE("threads " + std::to_string(threads));
+    sba::ThreadPool pool(threads);
+    const auto plain = sba::make_kernels(f.lay, pool.size()), masked = sba::make_kernels(g.lay, pool.size());
+    plain->normal_equations(pool, f.jac.data(), f.e.data(), f.U.data(), f.V.data(), f.ea.data(), f.eb.data());
+    masked->normal_equations(pool, g.jac.data(), g.e.data(), g.U.data(), g.V.data(), g.ea.data(), g.eb.data());
+    std::vector<double> Vinv(f.V.size());
+    ASSERT_TRUE(plain->invert_damped_V(pool, f.V.data(), mu, Vinv.data()));
+    const BothLayouts want(f, pool, *plain, mu, Vinv.data(), Vinv.data(), perm);
+    const BothLayouts got(g, pool, *masked, mu, Vinv.data(), nullptr, perm);
+    EXPECT_EQ(got.rhs, want.rhs);
+    EXPECT_EQ(got.rhs2, want.rhs2);
+    i64 differ = 0, held_rows = 0, moved = 0;
+    for (int j = 0; j < m; ++j)
+      for (int k = j; k < m; ++k) {
+        const sba::BlockMap::Block b = got.sparse.block(j, k), w = want.sparse.block(j, k);
+        for (int a = 0; a < cnp; ++a)
+          for (int c = j == k ? a : 0; c < cnp; ++c) {
+            const size_t q = size_t(j * cnp + a) * size_t(nS) + size_t(k * cnp + c);
+            const double sparse_got = b.transposed ? b.p[c * b.ld + a] : b.p[a * b.ld + c];
+            const double sparse_want = w.transposed ? w.p[c * w.ld + a] : w.p[a * w.ld + c];
+            differ += got.S[q] != want.S[q] || sparse_got != sparse_want;
+            if (!held[size_t(j * cnp + a)] && !held[size_t(k * cnp + c)]) continue;
+            // A held row (or column) of S: U_j's entry plus the damping, or zero.
+            ++held_rows;
+            const double start = j == k ? g.U[size_t((j * cnp + a) * cnp + c)] + (a == c ? mu : 0.0) : 0.0;
+            moved += got.S[q] != start || sparse_got != start;
+          }
+      }
+    EXPECT_EQ(differ, 0);
+    EXPECT_EQ(moved, 0);
+    EXPECT_GT(held_rows, i64(m) * m / 2 * 2 * cnp);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Kernels, KernelsLayout, ::testing::Values(6, 9, 5),
                          [](const ::testing::TestParamInfo<int> &p) { return "cnp" + std::to_string(p.param); });
 
