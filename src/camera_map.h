@@ -32,6 +32,7 @@
 #ifndef SBA_SRC_CAMERA_MAP_H
 #define SBA_SRC_CAMERA_MAP_H
 
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
@@ -77,6 +78,16 @@ class CameraMap {
   // Jacobian blocks must have zero, listed once so that zeroing them costs no test per column.
   const int *held_begin(int j) const { return held_cols_.data() + held_start_[std::size_t(j)]; }
   const int *held_end(int j) const { return held_cols_.data() + held_start_[std::size_t(j) + 1]; }
+  // Camera j's held columns zeroed in its Jacobian block A (rows x cnp, row-major). An entry
+  // already +0.0 is not written, so that where a model zeroes them itself the Jacobian's
+  // cache lines stay clean.
+  void zero_held(int j, int rows, double *A) const {
+    for (const int *c = held_begin(j); c != held_end(j); ++c)
+      for (int r = 0; r < rows; ++r) {
+        double &x = A[r * cnp_ + *c];
+        if (x != 0.0 || std::signbit(x)) x = 0.0;
+      }
+  }
   // Whether the unknowns are the free cameras' parameters themselves, in order (none held,
   // none shared): every map to and from them is then the identity.
   bool plain() const { return unknown_.empty(); }

@@ -129,6 +129,11 @@ class Kernels {
   // Jacobian and residual. U and V get their full (mirrored) blocks.
   virtual void normal_equations(ThreadPool &pool, const double *jac, const double *e, double *U,
                                 double *V, double *ea, double *eb) const = 0;
+  // The same, for a Jacobian whose columns of held camera parameters (the Layout's map) may
+  // not be zero: each free camera's blocks have them zeroed as its U_j is summed, where they
+  // are read anyway, rather than in a pass of their own over the Jacobian.
+  virtual void held_normal_equations(ThreadPool &pool, double *jac, const double *e, double *U, double *V,
+                                     double *ea, double *eb) const = 0;
   // U_j and V_i alone from single-precision blocks: the bits of the above on the blocks
   // widened. Their gradient is not formed here: it is made from the blocks in double, before
   // they were rounded (lm_core.cpp).

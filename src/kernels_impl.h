@@ -485,6 +485,10 @@ class KernelsT final : public Kernels {
                         double *ea, double *eb) const override {
     gram(pool, jac, e, U, V, ea, eb);
   }
+  void held_normal_equations(ThreadPool &pool, double *jac, const double *e, double *U, double *V, double *ea,
+                             double *eb) const override {
+    gram(pool, jac, e, U, V, ea, eb, jac);
+  }
   void normal_matrices(ThreadPool &pool, const float *jac, double *U, double *V) const override {
     gram(pool, jac, nullptr, U, V, nullptr, nullptr);
   }
@@ -555,9 +559,10 @@ class KernelsT final : public Kernels {
   // the same for any number of threads. U_j[a][c] and U_j[c][a] get the same products in
   // the same order, so U_j is exactly symmetric: only its upper triangle is accumulated, and
   // copied down at the end. Blocks in single precision give U_j alone (normal_matrices).
+  // held: null, or jac itself, whose blocks get their held columns zeroed first.
   template <class J>
   __attribute__((noinline)) void gram_cameras(const J *jac, const double *e, double *U, double *ea,
-                                              int j0, int j1, Scratch *sc, double *wide) const {
+                                              int j0, int j1, Scratch *sc, double *wide, double *held) const {
     constexpr bool grad = std::is_same_v<J, double>;
     const Layout &lay = lay_;
     const int mn = mnp(), cn = cnp(), jb = lay.jblk();
@@ -573,6 +578,7 @@ class KernelsT final : public Kernels {
     for (i64 k = 0; k < lay.nvis; ++k) {
       const int j = colidx[k];
       if (j < j0 || j >= j1) continue;
+      if (held) lay.cams.zero_held(j, mn, held + k * jb);
       const double *A = widened<M * C>(jac + k * jb, mn * cn, wide);
       gram_update<M, C, grad, true>(mn, cn, A, grad ? e + k * mn : nullptr, Ut + i64(j - j0) * cn * cn,
                                     grad ? eat + i64(j - j0) * cn : nullptr);
@@ -624,10 +630,10 @@ class KernelsT final : public Kernels {
     }
   }
 
-  // normal_equations of blocks stored as J.
+  // normal_equations of blocks stored as J; held: as gram_cameras's.
   template <class J>
   void gram(ThreadPool &pool, const J *jac, const double *e, double *U, double *V, double *ea,
-            double *eb) const {
+            double *eb, double *held = nullptr) const {
     // One job for both parts: a thread that finishes its cameras early starts on its
     // points instead of waiting for the others.
     const int T = pool.size();
@@ -636,7 +642,7 @@ class KernelsT final : public Kernels {
       const i64 p0 = points_[size_t(t)], p1 = points_[size_t(t) + 1];
       if (cnp() > 0 && c0 < c1)
         gram_cameras(jac, e, U, ea, int(c0), int(c1), T > 1 ? &scratch_[size_t(t)] : nullptr,
-                     scratch_[size_t(t)].wide.data());
+                     scratch_[size_t(t)].wide.data(), held);
       if (pnp() > 0 && p0 < p1) gram_points(jac, e, V, eb, p0, p1, scratch_[size_t(t)].wide.data());
     };
     if (T == 1)

@@ -241,21 +241,7 @@ inline void weigh_projection(const Layout &lay, i64 k, const double *wts, double
     for (int c = 0; c < ncol; ++c) at(r, c) = t[r * ncol + c];
 }
 
-// The Jacobian columns of camera j's held parameters zeroed in projection k's A_ij (at Jk):
-// nothing of them reaches the normal equations (their rows of U_j and e_a come out zero), and
-// their step is pinned at -0.0 by the solvers.
-// An entry that is already +0.0 (a model that zeroes them itself) is not written, which
-// leaves its cache line clean.
-inline void zero_held_projection(const Layout &lay, int j, double *Jk) {
-  const int mnp = lay.mnp, cnp = lay.cnp;
-  for (const int *c = lay.cams.held_begin(j); c != lay.cams.held_end(j); ++c)
-    for (int r = 0; r < mnp; ++r) {
-      double &x = Jk[r * cnp + *c];
-      if (x != 0.0 || std::signbit(x)) x = 0.0;
-    }
-}
-
-// The three over the whole Jacobian.
+// The two over the whole Jacobian.
 void reweight(ThreadPool &pool, const Layout &lay, const double *rw, const double *e, double *jac, double *er) {
   pool.for_range(lay.nvis, [&](i64 b, i64 end) {
     for (i64 k = b; k < end; ++k)
@@ -266,11 +252,6 @@ void weight_jacobian(ThreadPool &pool, const Layout &lay, const double *wts, dou
   pool.for_range(lay.nvis, [&](i64 b, i64 end) {
     std::vector<double> t(size_t(lay.jblk()));
     for (i64 k = b; k < end; ++k) weigh_projection(lay, k, wts, jac + k * lay.jblk(), t.data());
-  });
-}
-void zero_held_columns(ThreadPool &pool, const Layout &lay, double *jac) {
-  pool.for_range(lay.nvis, [&](i64 b, i64 e) {
-    for (i64 k = b; k < e; ++k) zero_held_projection(lay, lay.colidx[size_t(k)], jac + k * lay.jblk());
   });
 }
 
@@ -424,9 +405,14 @@ class Steps {
         model_.fd_jacobian(p, w.hx.data(), w.jac.data());
       if (wts_) weight_jacobian(pool_, lay_, wts_, w.jac.data());
       if (loss_.robust()) reweight(pool_, lay_, w.rw.data(), w.e.data(), w.jac.data(), w.er.data());
-      if (lay_.cams.any_held()) zero_held_columns(pool_, lay_, w.jac.data());
-      kernels_.normal_equations(pool_, w.jac.data(), loss_.robust() ? w.er.data() : w.e.data(), w.U.data(),
-                                w.V.data(), w.ea.data(), w.eb.data());
+      // The held parameters' Jacobian columns are zeroed (as the kernels read them): nothing
+      // of them reaches the normal equations, their rows of U_j and e_a come out zero, and
+      // their step is pinned at -0.0 by the solvers.
+      const double *e = loss_.robust() ? w.er.data() : w.e.data();
+      if (lay_.cams.any_held())
+        kernels_.held_normal_equations(pool_, w.jac.data(), e, w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
+      else
+        kernels_.normal_equations(pool_, w.jac.data(), e, w.U.data(), w.V.data(), w.ea.data(), w.eb.data());
     } else {
       linearize_single(p);
     }
@@ -475,7 +461,7 @@ class Steps {
       const int j = lay_.colidx[size_t(k)];
       if (wts_) weigh_projection(lay_, k, wts_, Jk, w.wscratch.data() + i64(c) * jb);
       const double *res = gradient_residual(c, k, f ? f + i64(k - r0) * mnp : nullptr, Jk);
-      if (lay_.cams.any_held()) zero_held_projection(lay_, j, Jk);
+      if (lay_.cams.any_held()) lay_.cams.zero_held(j, mnp, Jk);
       const double *A = Jk, *B = Jk + mnp * cnp;
       if (lay_.cam_free(j))
         for (int a = 0; a < cnp; ++a) {

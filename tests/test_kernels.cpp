@@ -477,6 +477,41 @@ TEST_P(KernelsLayout, HeldParametersRowsOfSAreUPlusTheDampingAlone) {
   }
 }
 
+// held_normal_equations zeroes the held columns of the cameras' blocks and gives the bits
+// normal_equations gives on the Jacobian zeroed beforehand, for 1 and 2 threads; the rest of
+// the Jacobian is untouched.
+TEST_P(KernelsLayout, HeldNormalEquationsZeroTheHeldColumnsAsTheyRead) {
+  const int cnp = GetParam(), n = 500, m = 12;
+  Fixture f(n, m, cnp, 41u + unsigned(cnp));
+  std::vector<char> held(size_t(m * cnp), 0);
+  for (int j = 0; j < m; ++j) held[size_t(j * cnp + (j + 1) % cnp)] = held[size_t(j * cnp + cnp - 1)] = 1;
+  f.lay.cams = sba::CameraMap(m, 0, cnp, held, {});
+  std::vector<double> zeroed = f.jac;
+  i64 nonzero = 0;
+  for (i64 k = 0; k < f.lay.nvis; ++k)
+    for (int r = 0; r < 2; ++r)
+      for (int c = 0; c < cnp; ++c) {
+        double &x = zeroed[size_t(k * f.lay.jblk() + r * cnp + c)];
+        if (!held[size_t(f.lay.colidx[size_t(k)] * cnp + c)]) continue;
+        nonzero += x != 0.0;
+        x = 0.0;
+      }
+  ASSERT_GT(nonzero, f.lay.nvis);
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE("threads " + std::to_string(threads));
+    sba::ThreadPool pool(threads);
+    const auto kernels = sba::make_kernels(f.lay, pool.size());
+    std::vector<double> jac = f.jac, U(f.U.size()), V(f.V.size()), ea(f.ea.size()), eb(f.eb.size());
+    kernels->held_normal_equations(pool, jac.data(), f.e.data(), U.data(), V.data(), ea.data(), eb.data());
+    kernels->normal_equations(pool, zeroed.data(), f.e.data(), f.U.data(), f.V.data(), f.ea.data(), f.eb.data());
+    EXPECT_EQ(jac, zeroed);
+    EXPECT_EQ(U, f.U);
+    EXPECT_EQ(V, f.V);
+    EXPECT_EQ(ea, f.ea);
+    EXPECT_EQ(eb, f.eb);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Kernels, KernelsLayout, ::testing::Values(6, 9, 5),
                          [](const ::testing::TestParamInfo<int> &p) { return "cnp" + std::to_string(p.param); });
 
