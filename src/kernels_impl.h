@@ -785,7 +785,7 @@ class KernelsT final : public Kernels {
           // the map stores S_jk^T, S_jk^T -= Y_ik W_ij^T instead. The diagonal block is updated
           // whole, like the others (its strict lower triangle is never read), which keeps the
           // rows vectorized.
-          if (!S.perm) {  // dense S: the hot loop of the default solver, kept branch-free
+          if (!S.perm) {  // dense S: the hot loop of the default solver, without the map's lookups
             column_pairs<C, P>(cn, pn, sc.Yt.data(), cp, q2 - f + 1, lay.colidx.data() + f, lay.mcon, Wt2,
                                dc.column(k), dc.rowstride, dc.ld, rows_.data());
             continue;
