@@ -202,11 +202,13 @@ inline __attribute__((always_inline)) void pair_update(int n, int pn, const doub
       for (int c = 0; c < N; ++c) row[c] = acc[c];
     }
   } else {
-    for (int a = 0; a < n; ++a)
-      for (int d = 0; d < pn && updates(rows, a); ++d) {
+    for (int a = 0; a < n; ++a) {
+      if (!updates(rows, a)) continue;
+      for (int d = 0; d < pn; ++d) {
         const double y = Yt[d * n + a];
         for (int c = 0; c < n; ++c) S[a * ld + c] -= y * Wt[d * n + c];
       }
+    }
   }
 }
 
