@@ -687,6 +687,64 @@ TEST(ColmapCamera, HeldParametersAreConstants) {
   EXPECT_THROW(cc::CameraModel(cams, points, std::vector<char>(3, 0)), std::invalid_argument);
 }
 
+// A camera that carries only some of its model's parameters (kept) projects as the full model
+// with the others at their given values, its columns are the full model's columns of those
+// parameters, and camera() gives the others back as given; cnp is that of the count kept.
+TEST(ColmapCamera, KeptParametersAreTheFullModelsColumns) {
+  const std::vector<cc::Camera> cams = sample_cameras();
+  const std::vector<double> points = {0.2, -0.1, 0.3};
+  const cc::CameraModel full(cams, points);
+  const int m = full.ncameras(), cnp = full.cnp();
+  std::vector<std::vector<int>> kept(static_cast<std::size_t>(m));
+  int most = 0;
+  for (int j = 0; j < m; ++j) {  // every other parameter, from the second: the first held
+    for (int k = 1; k < cc::param_count(cams[static_cast<std::size_t>(j)].model); k += 2)
+      kept[static_cast<std::size_t>(j)].push_back(k);
+    most = std::max(most, static_cast<int>(kept[static_cast<std::size_t>(j)].size()));
+  }
+  const cc::CameraModel model(cams, points, {}, kept);
+  const int kn = model.cnp();
+  EXPECT_EQ(kn, cc::camera_params(most));
+  EXPECT_LT(kn, cnp);
+  for (int j = 0; j < m; ++j) {
+    const std::vector<int> &kj = kept[static_cast<std::size_t>(j)];
+    // The full model's parameters, moved; the compact vector carries the pose and the kept ones.
+    std::vector<double> a(full.initial_camera(j), full.initial_camera(j) + cnp), b(static_cast<std::size_t>(kn), 0.0);
+    a[0] = 0.01;
+    a[5] += 0.2;
+    for (std::size_t s = 0; s < kj.size(); ++s) a[static_cast<std::size_t>(6 + kj[s])] *= 1.01;
+    std::copy(a.begin(), a.begin() + 6, b.begin());
+    for (std::size_t s = 0; s < kj.size(); ++s) b[6 + s] = a[static_cast<std::size_t>(6 + kj[s])];
+    for (int k = 0; k < cc::param_count(cams[static_cast<std::size_t>(j)].model); ++k) {
+      const auto it = std::find(kj.begin(), kj.end(), k);
+      EXPECT_EQ(model.param_column(j, k), it == kj.end() ? -1 : 6 + static_cast<int>(it - kj.begin())) << j << " " << k;
+    }
+    double x0[2], x1[2];
+    std::vector<double> A(2 * static_cast<std::size_t>(cnp)), Ak(2 * static_cast<std::size_t>(kn)), B(6), Bk(6);
+    full.project_jacobian(j, a.data(), points.data(), x0, A.data(), B.data());
+    model.project_jacobian(j, b.data(), points.data(), x1, Ak.data(), Bk.data());
+    EXPECT_EQ(x0[0], x1[0]) << j;
+    EXPECT_EQ(x0[1], x1[1]) << j;
+    EXPECT_EQ(B, Bk) << j;
+    for (int r = 0; r < 2; ++r)
+      for (int c = 0; c < kn; ++c) {
+        const std::size_t s = static_cast<std::size_t>(c - 6);
+        const double want = c < 6 ? A[static_cast<std::size_t>(r * cnp + c)]
+                            : s < kj.size() ? A[static_cast<std::size_t>(r * cnp + 6 + kj[s])]
+                                            : 0.0;  // padding
+        EXPECT_EQ(Ak[static_cast<std::size_t>(r * kn + c)], want) << j << " " << r << " " << c;
+      }
+    const cc::Camera back = model.camera(j, b.data()), want = full.camera(j, a.data());
+    EXPECT_EQ(back.params, want.params) << j;
+    EXPECT_EQ(back.t, want.t) << j;
+  }
+  const std::vector<std::vector<int>> unordered(static_cast<std::size_t>(m), std::vector<int>{1, 0});
+  EXPECT_THROW(cc::CameraModel(cams, points, {}, unordered), std::invalid_argument);
+  const std::vector<std::vector<int>> beyond(static_cast<std::size_t>(m), std::vector<int>{cc::kMaxParams});
+  EXPECT_THROW(cc::CameraModel(cams, points, {}, beyond), std::invalid_argument);
+  EXPECT_THROW(cc::CameraModel(cams, points, {}, std::vector<std::vector<int>>(2)), std::invalid_argument);
+}
+
 // ---- the rig camera model ----
 
 namespace {

@@ -116,8 +116,9 @@ TEST(ColmapProblem, PlainModelLayout) {
   EXPECT_EQ(pr.images(), (std::vector<int>{0, 1, 2}));  // image 9 sees no point
   EXPECT_EQ(pr.ncameras(), 3);
   EXPECT_EQ(pr.npoints(), 6);
+  // A camera's vector carries the parameters refined: PINHOLE's fx, fy, SIMPLE_RADIAL's f, k.
   const int cnp = pr.cnp();
-  EXPECT_EQ(cnp, cc::camera_params(4));
+  EXPECT_EQ(cnp, cc::camera_params(2));
   ASSERT_EQ(pr.initial_params().size(), static_cast<std::size_t>(3 * cnp + 18));
   // The start: v = 0, the translations, the cameras' parameters, the points.
   EXPECT_EQ(pr.initial_params()[5], 0.1);  // image 20's t: (0, 0, 0.1)
@@ -130,12 +131,29 @@ TEST(ColmapProblem, PlainModelLayout) {
     for (int c = 0; c < cnp; ++c)
       EXPECT_EQ(g[static_cast<std::size_t>(j * cnp + c)], c >= 6 && j < 2 ? 0 : -1) << j << " " << c;
   // COLMAP's defaults: the focal length and the extra parameters refined, the principal point
-  // and the padding held.
+  // held, and so not carried; the padding held.
   const std::vector<char> &f = pr.cam_fixed();
-  const std::vector<char> pinhole = {0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1}, radial = {0, 0, 0, 0, 0, 0, 0, 1, 1, 0, 1};
-  ASSERT_EQ(cnp, 11);
+  const std::vector<char> pinhole = {0, 0, 0, 0, 0, 0, 0, 0, 1}, radial = {0, 0, 0, 0, 0, 0, 0, 0, 1};
+  ASSERT_EQ(cnp, 9);
   EXPECT_EQ(std::vector<char>(f.begin(), f.begin() + cnp), pinhole);
   EXPECT_EQ(std::vector<char>(f.begin() + 2 * cnp, f.end()), radial);
+  EXPECT_EQ(pr.initial_params()[static_cast<std::size_t>(2 * cnp) + 7], 0.01);  // camera 3's k
+  // Where each COLMAP parameter is: camera 7's (PINHOLE) fx fy at 6, 7, its cx cy nowhere;
+  // camera 3's (SIMPLE_RADIAL) f at 6, k at 7, of its sba camera 2.
+  int j = -1, column = -2;
+  const std::pair<int, int> pinhole_at[] = {{0, 6}, {1, 7}, {2, -1}, {3, -1}};
+  for (const auto &[k, at] : pinhole_at) {
+    ASSERT_TRUE(pr.camera_parameter(7, k, &j, &column));
+    EXPECT_EQ(j, 0);
+    EXPECT_EQ(column, at) << k;
+    EXPECT_EQ(pr.held(j, column), at < 0) << k;
+  }
+  const std::pair<int, int> radial_at[] = {{0, 6}, {1, -1}, {2, -1}, {3, 7}};
+  for (const auto &[k, at] : radial_at) {
+    ASSERT_TRUE(pr.camera_parameter(3, k, &j, &column));
+    EXPECT_EQ(j, 2);
+    EXPECT_EQ(column, at) << k;
+  }
   EXPECT_EQ(pr.counts().shared_cameras, 1);
   EXPECT_EQ(pr.counts().held_poses, 0);
   EXPECT_EQ(pr.held_points(), 0);
@@ -209,7 +227,7 @@ TEST(ColmapProblem, ApplyWritesById) {
   EXPECT_EQ(in_order.cameras[0].params[0], p[6]);
   EXPECT_EQ(in_order.cameras[0].params[1], p[7]);
   EXPECT_EQ(in_order.cameras[0].params[2], 320);
-  EXPECT_EQ(in_order.cameras[1].params[3], p[static_cast<std::size_t>(2 * cnp) + 9]);
+  EXPECT_EQ(in_order.cameras[1].params[3], p[static_cast<std::size_t>(2 * cnp) + 7]);
   EXPECT_EQ(in_order.cameras[1].params[1], 320);
   // The points and their errors: each point's mean distance to its measurements.
   EXPECT_EQ(in_order.points[2].xyz[0], p[static_cast<std::size_t>(3 * cnp) + 6]);

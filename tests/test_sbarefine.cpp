@@ -2979,11 +2979,13 @@ TEST(Sbarefine, UnknownsAreCountedOnce) {
     long long unknowns, parameters;
   } cases[] = {
       // The gauge holds the first image's pose (its frame's) and one coordinate of another's.
-      {s.model, "", 10 * 6 + 2 + 3 * n - 7, 10 * 11 + 3 * n},
-      {s.model, "--gauge none", 10 * 6 + 2 + 3 * n, 10 * 11 + 3 * n},
+      // An image's parameters are its pose and its PINHOLE camera's refined fx, fy: the held
+      // principal point takes no column, and 8 are padded to 9.
+      {s.model, "", 10 * 6 + 2 + 3 * n - 7, 10 * 9 + 3 * n},
+      {s.model, "--gauge none", 10 * 6 + 2 + 3 * n, 10 * 9 + 3 * n},
       // Images 10 and 13 held whole, and so their camera in all its images (the gauge fixed
       // by them); image 19's pose.
-      {s.model, "--mcon 2 --ncon 5 --hold-poses 19", 7 * 6 + 3 * (n - 5), 10 * 11 + 3 * n},
+      {s.model, "--mcon 2 --ncon 5 --hold-poses 19", 7 * 6 + 3 * (n - 5), 10 * 9 + 3 * n},
       {rigs.model, "", 8 * 6 + 4 * 6 + 6 * 2 + 900 - 7, 24 * 16 + 900},
   };
   std::string error;

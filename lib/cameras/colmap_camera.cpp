@@ -444,6 +444,16 @@ int largest_param_count(const std::vector<C> &cameras) {
   return np;
 }
 
+// The largest number of model parameters that a camera's vector carries: every one, or those
+// `kept` gives it (CameraModel); every camera checked.
+template <typename C>
+int largest_carried(const std::vector<C> &cameras, const std::vector<std::vector<int>> &kept) {
+  const int np = largest_param_count(cameras);
+  if (!kept.empty() && kept.size() != cameras.size())
+    throw std::invalid_argument("the parameters kept must be given per camera");
+  return kept.empty() ? np : largest_kept(kept);
+}
+
 }  // namespace
 
 bool refused(int model, const double *params, const double Xc[3]) {
@@ -457,23 +467,55 @@ bool refused(int model, const double *params, const double Xc[3]) {
   }
 }
 
-SbaCameraModel::SbaCameraModel(int m, int cnp, std::vector<double> points, std::vector<char> held)
-    : m_(m), cnp_(cnp), held_(std::move(held)), points0_(std::move(points)) {
+SbaCameraModel::SbaCameraModel(int m, int cnp, int first, std::vector<double> points, std::vector<char> held)
+    : m_(m), cnp_(cnp), first_(first), held_(std::move(held)), points0_(std::move(points)) {
   if (points0_.size() % kPointParams != 0) throw std::invalid_argument("point coordinates must come in threes");
   const std::size_t size = static_cast<std::size_t>(m) * static_cast<std::size_t>(cnp);
   if (!held_.empty() && held_.size() != size) throw std::invalid_argument("the held flags must be cnp per camera");
   cams0_.assign(size, 0.0);
+  params0_.assign(static_cast<std::size_t>(m) * kMaxParams, 0.0);
+  slot_.assign(static_cast<std::size_t>(m) * kMaxParams, -1);
+  nparams_.assign(static_cast<std::size_t>(m), 0);
 }
 
-void SbaCameraModel::effective(int j, const double *a, double *out) const {
+void SbaCameraModel::set_params(int j, const std::vector<double> &params, const std::vector<int> *kept) {
+  const std::size_t at = static_cast<std::size_t>(j) * kMaxParams;
+  const int np = static_cast<int>(params.size());
+  std::copy(params.begin(), params.end(), params0_.begin() + static_cast<std::ptrdiff_t>(at));
+  nparams_[static_cast<std::size_t>(j)] = static_cast<signed char>(np);
+  const int nk = kept ? static_cast<int>(kept->size()) : np;
+  for (int s = 0; s < nk; ++s) {
+    const int k = kept ? (*kept)[static_cast<std::size_t>(s)] : s;
+    if (k < 0 || k >= np || (s > 0 && kept && k <= (*kept)[static_cast<std::size_t>(s) - 1]))
+      throw std::invalid_argument("camera " + std::to_string(j) + ": the parameters kept must be ascending indices " +
+                                  "of its model's " + std::to_string(np));
+    slot_[at + static_cast<std::size_t>(k)] = static_cast<signed char>(s);
+    initial_camera(j)[first_ + s] = params[static_cast<std::size_t>(k)];
+  }
+}
+
+void SbaCameraModel::expanded(int j, const double *a, double *out) const {
   const char *h = held(j);
   const double *a0 = initial_camera(j);
-  for (int k = 0; k < cnp_; ++k) out[k] = h && h[k] ? a0[k] : a[k];
+  const auto value = [&](int c) { return h && h[c] ? a0[c] : a[c]; };
+  for (int c = 0; c < first_; ++c) out[c] = value(c);
+  const std::size_t at = static_cast<std::size_t>(j) * kMaxParams;
+  for (int k = 0; k < nparams_[static_cast<std::size_t>(j)]; ++k) {
+    const int s = slot_[at + static_cast<std::size_t>(k)];
+    out[first_ + k] = s < 0 ? params0_[at + static_cast<std::size_t>(k)] : value(first_ + s);
+  }
 }
 
-CameraModel::CameraModel(const std::vector<Camera> &cameras, std::vector<double> points, std::vector<char> held)
-    : SbaCameraModel(static_cast<int>(cameras.size()), camera_params(largest_param_count(cameras)), std::move(points),
-                     std::move(held)) {
+int largest_kept(const std::vector<std::vector<int>> &kept) {
+  std::size_t most = 0;
+  for (const std::vector<int> &k : kept) most = std::max(most, k.size());
+  return static_cast<int>(most);
+}
+
+CameraModel::CameraModel(const std::vector<Camera> &cameras, std::vector<double> points, std::vector<char> held,
+                         const std::vector<std::vector<int>> &kept)
+    : SbaCameraModel(static_cast<int>(cameras.size()),
+                     camera_params(largest_carried(cameras, kept)), kPoseParams, std::move(points), std::move(held)) {
   const std::size_t m = cameras.size();
   cameras0_.reserve(m);
   R0_.resize(m * 9);
@@ -482,7 +524,7 @@ CameraModel::CameraModel(const std::vector<Camera> &cameras, std::vector<double>
     c.q = unit_rotation(j, c.q, &R0_[j * 9]);
     double *a = initial_camera(static_cast<int>(j));  // v = 0: the input rotation
     for (int k = 0; k < 3; ++k) a[3 + k] = c.t[static_cast<std::size_t>(k)];
-    std::copy(c.params.begin(), c.params.end(), a + kPoseParams);
+    set_params(static_cast<int>(j), c.params, kept.empty() ? nullptr : &kept[j]);
     cameras0_.push_back(std::move(c));
   }
 }
@@ -490,7 +532,7 @@ CameraModel::CameraModel(const std::vector<Camera> &cameras, std::vector<double>
 Camera CameraModel::camera(int j, const double *given) const {
   Camera c = cameras0_[static_cast<std::size_t>(j)];
   double a[kPoseParams + kMaxParams];
-  effective(j, given, a);
+  expanded(j, given, a);
   c.q = corrected(a, c.q);
   for (int k = 0; k < 3; ++k) c.t[static_cast<std::size_t>(k)] = a[3 + k];
   std::copy(a + kPoseParams, a + kPoseParams + c.params.size(), c.params.begin());
@@ -498,9 +540,9 @@ Camera CameraModel::camera(int j, const double *given) const {
 }
 
 RigCameraModel::RigCameraModel(const std::vector<RigImage> &images, std::vector<double> points,
-                               std::vector<char> held)
-    : SbaCameraModel(static_cast<int>(images.size()), rig_camera_params(largest_param_count(images)),
-                     std::move(points), std::move(held)) {
+                               std::vector<char> held, const std::vector<std::vector<int>> &kept)
+    : SbaCameraModel(static_cast<int>(images.size()), rig_camera_params(largest_carried(images, kept)),
+                     kRigPoseParams, std::move(points), std::move(held)) {
   const std::size_t m = images.size();
   images0_.reserve(m);
   R0_.resize(m * 18);
@@ -513,7 +555,7 @@ RigCameraModel::RigCameraModel(const std::vector<RigImage> &images, std::vector<
       a[3 + k] = im.t_frame[static_cast<std::size_t>(k)];
       a[9 + k] = im.t_sensor[static_cast<std::size_t>(k)];
     }
-    std::copy(im.params.begin(), im.params.end(), a + kRigPoseParams);
+    set_params(static_cast<int>(j), im.params, kept.empty() ? nullptr : &kept[j]);
     images0_.push_back(std::move(im));
   }
 }
@@ -521,7 +563,7 @@ RigCameraModel::RigCameraModel(const std::vector<RigImage> &images, std::vector<
 RigImage RigCameraModel::image(int j, const double *given) const {
   RigImage im = images0_[static_cast<std::size_t>(j)];
   double a[kRigPoseParams + kMaxParams];
-  effective(j, given, a);
+  expanded(j, given, a);
   im.q_frame = corrected(a, im.q_frame);
   im.q_sensor = corrected(a + 6, im.q_sensor);
   for (int k = 0; k < 3; ++k) {
@@ -583,16 +625,22 @@ void columns(const double *H, const double *J, int cnp, int col, double *A) {
 }
 
 // The camera model's pixels and derivatives at Xc: x, Jx = dx/dXc and the parameters' columns
-// of A (from col, then zero padding to cnp), the held columns zeroed afterwards by finish_A.
-void project_at(int model, int np, const double *params, const double Xc[3], int cnp, int col, double *x, double *A,
-                double Jx[6]) {
+// of A (parameter k at col + slots[k] where that is not -1, then zero padding to cnp), the held
+// columns zeroed afterwards by zero_held.
+void project_at(int model, int np, const double *params, const double Xc[3], int cnp, int col,
+                const signed char *slots, double *x, double *A, double Jx[6]) {
   double Jp[2 * kMaxParams];
   project(model, params, Xc, x, A ? Jp : nullptr, Jx);
   if (!A) return;
   for (int r = 0; r < 2; ++r) {
     double *Ar = A + r * cnp;
-    for (int k = 0; k < np; ++k) Ar[col + k] = Jp[r * np + k];
-    for (int k = col + np; k < cnp; ++k) Ar[k] = 0.0;
+    int end = col;  // the slots are 0, 1, ... in the order of k
+    for (int k = 0; k < np; ++k) {
+      if (slots[k] < 0) continue;
+      end = col + slots[k];
+      Ar[end++] = Jp[r * np + k];
+    }
+    for (int c = end; c < cnp; ++c) Ar[c] = 0.0;
   }
 }
 
@@ -617,7 +665,8 @@ void zero_held(const HeldColumns &held, int cnp, double *A) {
 // What a projection needs of camera j that does not depend on the point.
 struct Frame {
   int model, np;
-  double a[kPoseParams + kMaxParams];  // the parameters, held ones at their initial values
+  double a[kPoseParams + kMaxParams];  // the pose and the model's parameters (expanded)
+  const signed char *slots;            // the model's parameters' columns after the pose
   HeldColumns held;
   LocalRotation rot;
   // Offsets into a rather than pointers: a Frame is copied.
@@ -629,7 +678,8 @@ Frame frame_of(const CameraModel &model, int j, const double *a, bool tangent) {
   Frame f;
   f.model = model.input_camera(j).model;
   f.np = param_count(f.model);
-  model.effective(j, a, f.a);
+  model.expanded(j, a, f.a);
+  f.slots = model.slots(j);
   f.held = held_columns(model.held(j), model.cnp());
   f.rot = local_rotation(f.a, model.initial_rotation(j), tangent);
   return f;
@@ -656,7 +706,7 @@ bool eval(const Frame &f, int cnp, const double *b, const double *obs, double *x
   const bool shown = !refused(f.model, f.params(), Xc);
   if (!shown && obs) return cost_nothing(obs, cnp, x, A, B);
   double Jx[6];
-  project_at(f.model, f.np, f.params(), Xc, cnp, kPoseParams, x, A, (A || B) ? Jx : nullptr);
+  project_at(f.model, f.np, f.params(), Xc, cnp, kPoseParams, f.slots, x, A, (A || B) ? Jx : nullptr);
   if (B) columns(Jx, f.rot.M, 3, 0, B);
   if (!A) return shown;
   rotation_columns(Jx, MX, f.rot.G, cnp, 0, A);
@@ -669,7 +719,8 @@ bool eval(const Frame &f, int cnp, const double *b, const double *obs, double *x
 // What a projection needs of rig image j that does not depend on the point.
 struct RigFrame {
   int model, np;
-  double a[kRigPoseParams + kMaxParams];  // the parameters, held ones at their initial values
+  double a[kRigPoseParams + kMaxParams];  // the poses and the model's parameters (expanded)
+  const signed char *slots;               // the model's parameters' columns after the poses
   HeldColumns held;
   LocalRotation frame, sensor;            // R_f and R_s
   double M[9];                            // R_s R_f: d X_c / d X
@@ -682,7 +733,8 @@ RigFrame frame_of(const RigCameraModel &model, int j, const double *a, bool tang
   RigFrame f;
   f.model = model.input_image(j).model;
   f.np = param_count(f.model);
-  model.effective(j, a, f.a);
+  model.expanded(j, a, f.a);
+  f.slots = model.slots(j);
   f.held = held_columns(model.held(j), model.cnp());
   f.frame = local_rotation(f.a, model.initial_frame_rotation(j), tangent);
   f.sensor = local_rotation(f.a + 6, model.initial_sensor_rotation(j), tangent);
@@ -701,7 +753,7 @@ bool eval(const RigFrame &f, int cnp, const double *b, const double *obs, double
   const bool shown = !refused(f.model, f.params(), Xc);
   if (!shown && obs) return cost_nothing(obs, cnp, x, A, B);
   double Jx[6];
-  project_at(f.model, f.np, f.params(), Xc, cnp, kRigPoseParams, x, A, (A || B) ? Jx : nullptr);
+  project_at(f.model, f.np, f.params(), Xc, cnp, kRigPoseParams, f.slots, x, A, (A || B) ? Jx : nullptr);
   if (B) columns(Jx, f.M, 3, 0, B);
   if (!A) return shown;
   double H[6];  // H = dx/dX_r = Jx R_s

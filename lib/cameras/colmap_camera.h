@@ -187,8 +187,19 @@ class SbaCameraModel {
   const char *held(int j) const {
     return held_.empty() ? nullptr : held_.data() + static_cast<std::size_t>(j) * cnp_;
   }
-  // a with camera j's held parameters replaced by their initial values (cnp values to out).
-  void effective(int j, const double *a, double *out) const;
+  // Camera j's parameters as its model reads them, from its parameter vector a: the pose's
+  // (first() values) and then its COLMAP model's parameters in COLMAP's order, a held
+  // parameter at its initial value and one that a does not carry at its given value.
+  void expanded(int j, const double *a, double *out) const;
+  // The column of a_j that carries camera j's model parameter k (0 <= k < kMaxParams); -1
+  // where a_j does not carry it (CameraModel's `kept`), or the model has no parameter k.
+  int param_column(int j, int k) const {
+    const int s = slot_[static_cast<std::size_t>(j) * kMaxParams + static_cast<std::size_t>(k)];
+    return s < 0 ? -1 : first_ + s;
+  }
+  // Camera j's model parameters' columns after the pose's: param_column's less the pose's
+  // count, or -1.
+  const signed char *slots(int j) const { return slot_.data() + static_cast<std::size_t>(j) * kMaxParams; }
   // The measurements of the projections, 2 per ordinal (sba's x, in the order of idxij's
   // ordinals), or null (the default). With them, the callbacks cost a projection COLMAP refuses
   // (`refused`) nothing, as COLMAP 4's cost does: its hx is its measurement and its Jacobian is
@@ -199,24 +210,34 @@ class SbaCameraModel {
 
  protected:
   // Throws std::invalid_argument for points whose count is not a multiple of 3 or held flags
-  // of another size than m*cnp; the initial parameters are m*cnp zeros for the caller to fill.
-  SbaCameraModel(int m, int cnp, std::vector<double> points, std::vector<char> held);
+  // of another size than m*cnp; the initial parameters are m*cnp zeros for the caller to fill
+  // (set_params the model's parameters, from column `first` on).
+  SbaCameraModel(int m, int cnp, int first, std::vector<double> points, std::vector<char> held);
   double *initial_camera(int j) { return cams0_.data() + static_cast<std::size_t>(j) * cnp_; }
+  // Camera j's model parameters as given, and those its parameter vector carries: `kept`
+  // (ascending indices), or every one when kept is null; into its initial vector in that order.
+  void set_params(int j, const std::vector<double> &params, const std::vector<int> *kept);
 
  private:
-  int m_, cnp_;
-  std::vector<char> held_;       // m*cnp flags, or empty
-  std::vector<double> cams0_;    // m*cnp initial camera parameters
-  std::vector<double> points0_;  // n*3
+  int m_, cnp_, first_;
+  std::vector<char> held_;           // m*cnp flags, or empty
+  std::vector<double> cams0_;        // m*cnp initial camera parameters
+  std::vector<double> params0_;      // m*kMaxParams: each camera's model parameters as given
+  std::vector<signed char> slot_;    // m*kMaxParams: model parameter k at column first + slot, or -1
+  std::vector<signed char> nparams_;  // each camera's model parameter count
+  std::vector<double> points0_;      // n*3
   const double *measurements_ = nullptr;
 };
 
+// The largest number of model parameters that `kept` gives a camera (CameraModel).
+int largest_kept(const std::vector<std::vector<int>> &kept);
+
 // The sba camera model of a set of such cameras. Camera parameter vector a_j (cnp values):
-//   (v1 v2 v3  t1 t2 t3  params of camera j's model  zero padding)
+//   (v1 v2 v3  t1 t2 t3  params of camera j's model (those kept)  zero padding)
 // The rotation is euclidean.h's local parametrization: R(qs(v)) R(q0_j), v = 0 at the start.
-// cnp = camera_params(the largest parameter count among the cameras), so that cameras of
-// different models share one layout; the padding slots do not enter the projection (zero
-// Jacobian columns) and the caller holds them (sba_ext_options::cam_fixed). The model is
+// cnp = camera_params(the largest parameter count, or count kept, among the cameras), so that
+// cameras of different models share one layout; the padding slots do not enter the projection
+// (zero Jacobian columns) and the caller holds them (sba_ext_options::cam_fixed). The model is
 // immutable once built: the callbacks keep no state and may run on any number of threads at
 // once.
 class CameraModel : public SbaCameraModel {
@@ -225,10 +246,17 @@ class CameraModel : public SbaCameraModel {
   // with cam_fixed_per_camera): a held parameter is read from the initial camera whatever p
   // holds, and its Jacobian column is zero, so that finite differences (the Jacobian check)
   // and a solve that does not hold it see the same model as one that does.
+  // kept: empty, or per camera the indices (ascending) of the model parameters that a_j
+  // carries, in that order after the pose; the others stay at their given values, as held ones
+  // do, but take no column: a problem that holds the principal points, as COLMAP does by
+  // default, has camera blocks two columns narrower (cnp = camera_params(the largest count
+  // kept)), and every block operation of a solve is cheaper for it.
   // Throws std::invalid_argument for an unknown model id, a parameter count that is not the
-  // model's, a zero quaternion, points whose count is not a multiple of 3 or held flags of
-  // another size than m*cnp.
-  CameraModel(const std::vector<Camera> &cameras, std::vector<double> points, std::vector<char> held = {});
+  // model's, a zero quaternion, points whose count is not a multiple of 3, held flags of
+  // another size than m*cnp, or kept lists that are not one per camera of ascending indices of
+  // its model's parameters.
+  CameraModel(const std::vector<Camera> &cameras, std::vector<double> points, std::vector<char> held = {},
+              const std::vector<std::vector<int>> &kept = {});
 
   const Camera &input_camera(int j) const { return cameras0_[static_cast<std::size_t>(j)]; }
   // R(q0_j), row-major.
@@ -291,7 +319,7 @@ int rig_camera_params(int max_params);
 
 // The sba camera model of the images of rigs: every image is an sba camera whose parameter
 // vector a_j (cnp values) is
-//   (v_f t_f  v_s t_s  params of image j's COLMAP camera  zero padding)
+//   (v_f t_f  v_s t_s  params of image j's COLMAP camera (those kept)  zero padding)
 // with X_c = R_s (R_f X + t_f) + t_s, R_f = R(qs(v_f)) R(q_frame), R_s = R(qs(v_s)) R(q_sensor)
 // in euclidean.h's local parametrization, v_f = v_s = 0 at the start. The images of one frame
 // start from one frame pose and the images of one camera from one sensor pose, so that the
@@ -300,9 +328,11 @@ int rig_camera_params(int max_params);
 // padding and threads as CameraModel's.
 class RigCameraModel : public SbaCameraModel {
  public:
+  // kept as CameraModel's (cnp = rig_camera_params(the largest count kept)).
   // Throws std::invalid_argument as CameraModel's constructor does (a zero quaternion of
   // either pose included).
-  RigCameraModel(const std::vector<RigImage> &images, std::vector<double> points, std::vector<char> held = {});
+  RigCameraModel(const std::vector<RigImage> &images, std::vector<double> points, std::vector<char> held = {},
+                 const std::vector<std::vector<int>> &kept = {});
 
   // Image j as given, both quaternions unit with w >= 0.
   const RigImage &input_image(int j) const { return images0_[static_cast<std::size_t>(j)]; }

@@ -100,10 +100,20 @@ CovarianceBlock composed_pose_covariance(const double *a, const double *cov, con
 }
 
 CovarianceBlock param_covariance(const double *cov, const char *fixed, int cnp, int first, int count) {
+  std::vector<int> columns(at(count));
+  for (int k = 0; k < count; ++k) columns[at(k)] = first + k;
+  return param_covariance(cov, fixed, cnp, columns.data(), count);
+}
+
+CovarianceBlock param_covariance(const double *cov, const char *fixed, int cnp, const int *columns, int count) {
   CovarianceBlock b;
+  std::vector<int> taken;
   for (int k = 0; k < count; ++k)
-    if (!fixed || !fixed[first + k]) b.coords.push_back(k);
-  b.cov = sub_block(cov + at(first) * at(cnp + 1), cnp, b.coords);
+    if (columns[k] >= 0 && !(fixed && fixed[columns[k]])) {
+      b.coords.push_back(k);
+      taken.push_back(columns[k]);
+    }
+  b.cov = sub_block(cov, cnp, taken);
   return b;
 }
 

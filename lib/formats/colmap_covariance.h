@@ -66,6 +66,9 @@ CovarianceBlock composed_pose_covariance(const double *a, const double *cov, con
 // The covariance of `count` parameters from `first` of a cnp x cnp block (a camera's, or a
 // point's with cnp = first + count), over those that fixed (cnp flags, or null) leaves free.
 CovarianceBlock param_covariance(const double *cov, const char *fixed, int cnp, int first, int count);
+// The same for `count` parameters at the columns `columns` of the block, -1 for a parameter the
+// block does not carry (left out, as a held one is).
+CovarianceBlock param_covariance(const double *cov, const char *fixed, int cnp, const int *columns, int count);
 
 // The covariances as text, a record per line (docs/formats.md):
 //   SIGMA2 s RANK r NFREE f

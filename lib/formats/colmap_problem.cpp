@@ -38,6 +38,7 @@ std::size_t at(int i) { return static_cast<std::size_t>(i); }
 // groups, the points.
 struct Draft {
   std::vector<cc::Camera> cameras;
+  std::vector<std::vector<int>> kept;  // each camera's model parameters that a_j carries (CameraModel)
   std::vector<int> images;
   eucsba::PointSet points;
   int cnp = 0;
@@ -97,11 +98,10 @@ struct RigHolds {
 };
 
 // The sba cameras of a rigged problem (p->rig_images, p->places), their COLMAP cameras' indices
-// in *camera; the largest parameter count among those cameras.
-int rig_images(const Model &model, const std::vector<ImagePlace> &places,
+// in *camera.
+void rig_images(const Model &model, const std::vector<ImagePlace> &places,
                const std::unordered_map<std::uint32_t, int> &camera_index, std::vector<int> *camera,
                Draft *p) {
-  int np = 0;
   for (const int i : p->images) {
     const Image &im = model.images[at(i)];
     const ImagePlace &pl = places[at(i)];
@@ -118,11 +118,9 @@ int rig_images(const Model &model, const std::vector<ImagePlace> &places,
       r.q_sensor = {s.q[0], s.q[1], s.q[2], s.q[3]};
       r.t_sensor = s.t;
     }
-    np = std::max(np, cc::param_count(c.model));
     p->rig_images.push_back(std::move(r));
     p->places.push_back(pl);
   }
-  return np;
 }
 
 // The flag of item k of flags, a vector of Constants (empty: none is set).
@@ -200,20 +198,27 @@ void rig_problem(const Model &model, const RefineIntrinsics &refine, const Refin
   const int ms = static_cast<int>(p->images.size());
   p->rigged = true;
   std::vector<int> camera;  // each sba camera's index in Model::cameras
-  const int cnp = p->cnp = cc::rig_camera_params(rig_images(model, places, camera_index, &camera, p));
+  rig_images(model, places, camera_index, &camera, p);
   const RigHolds h = rig_holds(model, poses, constants, config, mcon, places, camera_index, p);
+  // The parameters held take no column (RigCameraModel's kept), as in image_problem.
+  p->kept.assign(at(ms), {});
+  for (int j = 0; j < ms; ++j) {
+    const int c = camera[at(j)], model_id = model.cameras[at(c)].model;
+    for (int k = 0; k < cc::param_count(model_id); ++k)
+      if (!h.camera[at(c)] && !intrinsic_held(refine, model_id, k)) p->kept[at(j)].push_back(k);
+  }
+  const int cnp = p->cnp = cc::rig_camera_params(cc::largest_kept(p->kept));
   p->cam_fixed.assign(at(ms) * at(cnp), 0);
   p->cam_param_group.assign(at(ms) * at(cnp), -1);
   for (int j = 0; j < ms; ++j) {
     const ImagePlace &pl = p->places[at(j)];
-    const int c = camera[at(j)], model_id = model.cameras[at(c)].model;
+    const int c = camera[at(j)];
     char *fixed = &p->cam_fixed[at(j) * at(cnp)];
     int *group = &p->cam_param_group[at(j) * at(cnp)];
     const bool reference = pl.sensor == 0;
     hold_pose(fixed, h.frame[pl.frame] || poses.constant_rig_from_world_rotation, h.frame[pl.frame]);
     hold_pose(fixed + 6, reference || h.sensor[at(c)], reference || h.sensor[at(c)]);
-    for (int k = 0; k < cnp - cc::kRigPoseParams; ++k)
-      fixed[cc::kRigPoseParams + k] = h.camera[at(c)] || intrinsic_held(refine, model_id, k) ? 1 : 0;
+    std::fill(fixed + cc::kRigPoseParams + p->kept[at(j)].size(), fixed + cnp, 1);  // the padding
     if (j < mcon) continue;  // a camera below mcon shares nothing
     std::fill_n(group, 6, static_cast<int>(pl.frame));
     if (!reference) std::fill_n(group + 6, 6, c);
@@ -225,7 +230,6 @@ void rig_problem(const Model &model, const RefineIntrinsics &refine, const Refin
 void image_problem(const Model &model, const RefineIntrinsics &refine, const RefinePoses &poses,
                    const Constants &constants, const std::vector<char> &config, int mcon,
                    const std::unordered_map<std::uint32_t, int> &camera_index, Draft *p) {
-  int np = 0;
   // A frame of one image: its image's pose.
   const std::vector<Pose> image_pose = image_poses(model, p->image_places);
   for (int j : p->images) {
@@ -237,17 +241,16 @@ void image_problem(const Model &model, const RefineIntrinsics &refine, const Ref
     cam.params = c.params;
     cam.q = {pose.q[0], pose.q[1], pose.q[2], pose.q[3]};
     cam.t = pose.t;
-    np = std::max(np, cc::param_count(c.model));
     p->cameras.push_back(std::move(cam));
   }
   const int ms = static_cast<int>(p->cameras.size());
-  const int cnp = p->cnp = cc::camera_params(np);
   // Each COLMAP camera's sba cameras; one below mcon holds the camera's parameters in all, and so
-  // do constant intrinsics.
+  // do constant intrinsics. The parameters held take no column (CameraModel's kept): a_j
+  // carries the camera's free parameters alone.
   std::vector<std::vector<int>> users(model.cameras.size());
   for (int j = 0; j < ms; ++j) users[at(camera_index.at(model.images[at(p->images[at(j)])].camera_id))].push_back(j);
-  p->cam_fixed.assign(at(ms) * at(cnp), 0);
-  p->cam_param_group.assign(at(ms) * at(cnp), -1);
+  std::vector<char> camera_held(model.cameras.size(), 0);
+  p->kept.assign(at(ms), {});
   for (std::size_t c = 0; c < users.size(); ++c) {
     const std::vector<int> &u = users[c];
     if (u.empty()) continue;
@@ -256,10 +259,23 @@ void image_problem(const Model &model, const RefineIntrinsics &refine, const Ref
       return config[at(p->images[at(j)])] != 0;
     });
     const bool held = u.front() < mcon || flagged(constants.intrinsics, c) || outside;  // u ascends
+    camera_held[c] = held;
+    std::vector<int> kept;
+    for (int k = 0; k < cc::param_count(model.cameras[c].model); ++k)
+      if (!held && !intrinsic_held(refine, model.cameras[c].model, k)) kept.push_back(k);
+    for (int j : u) p->kept[at(j)] = kept;
+  }
+  const int cnp = p->cnp = cc::camera_params(cc::largest_kept(p->kept));
+  p->cam_fixed.assign(at(ms) * at(cnp), 0);
+  p->cam_param_group.assign(at(ms) * at(cnp), -1);
+  for (std::size_t c = 0; c < users.size(); ++c) {
+    const std::vector<int> &u = users[c];
+    if (u.empty()) continue;
+    const bool held = camera_held[c];
     for (int j : u) {
+      // Beyond the parameters kept, the padding.
       char *fixed = &p->cam_fixed[at(j) * at(cnp)];
-      for (int k = 0; k < cnp - cc::kPoseParams; ++k)
-        fixed[cc::kPoseParams + k] = held || intrinsic_held(refine, model.cameras[c].model, k) ? 1 : 0;
+      std::fill(fixed + cc::kPoseParams + p->kept[at(j)].size(), fixed + cnp, 1);
       // The camera's parameters, not the image's pose, in the group of its first sba camera.
       if (u.size() > 1 && !held)
         std::fill(&p->cam_param_group[at(j) * at(cnp) + cc::kPoseParams], &p->cam_param_group[at(j + 1) * at(cnp)],
@@ -613,11 +629,12 @@ bool write_pose(const char *fixed, const sbacameras::euclidean::Quaternion &q, c
   return !held(fixed) || !held(fixed + 3);
 }
 
-// The parameters of COLMAP camera `cam` that are not held (fixed: its intrinsics' flags) from
-// params.
-void write_params(const char *fixed, const std::vector<double> &params, Camera *cam) {
+// The parameters of COLMAP camera `cam` that sba camera j of sm refines (fixed: its cnp flags)
+// from params, its model's parameters.
+void write_params(const cc::SbaCameraModel &sm, int j, const char *fixed, const std::vector<double> &params,
+                  Camera *cam) {
   for (std::size_t k = 0; k < cam->params.size(); ++k)
-    if (!fixed[k]) cam->params[k] = params[k];
+    if (const int c = sm.param_column(j, static_cast<int>(k)); c >= 0 && !fixed[c]) cam->params[k] = params[k];
 }
 
 // A model's records by id, for apply.
@@ -684,9 +701,9 @@ bool Problem::build(const Model &model, const Options &options, const std::strin
   p.has_rigs_ = model.has_rigs;
   try {
     if (d.rigged)
-      p.rig_model_ = std::make_unique<cc::RigCameraModel>(d.rig_images, d.points.xyz, d.cam_fixed);
+      p.rig_model_ = std::make_unique<cc::RigCameraModel>(d.rig_images, d.points.xyz, d.cam_fixed, d.kept);
     else
-      p.image_model_ = std::make_unique<cc::CameraModel>(d.cameras, d.points.xyz, d.cam_fixed);
+      p.image_model_ = std::make_unique<cc::CameraModel>(d.cameras, d.points.xyz, d.cam_fixed, d.kept);
   } catch (const std::invalid_argument &e) {
     *error = name + ": " + e.what();
     return false;
@@ -834,7 +851,7 @@ void Problem::write_image(int j, const double *a, const Index &index) const {
     im.q = pose.q;
     im.t = pose.t;
   }
-  if (r.writes_params) write_params(fixed + cc::kPoseParams, c.params, &find(index.cameras, r.camera, "camera"));
+  if (r.writes_params) write_params(*image_model_, j, fixed, c.params, &find(index.cameras, r.camera, "camera"));
 }
 
 void Problem::write_rig_image(int j, const double *a, const Index &index,
@@ -851,7 +868,7 @@ void Problem::write_rig_image(int j, const double *a, const Index &index,
   if (!r.writes_params) return;
   if (!r.reference)
     write_pose(fixed + 6, im.q_sensor, im.t_sensor, &sensor_pose(find(index.rigs, r.rig, "rig"), r.camera));
-  write_params(fixed + cc::kRigPoseParams, im.params, &find(index.cameras, r.camera, "camera"));
+  write_params(*rig_model_, j, fixed, im.params, &find(index.cameras, r.camera, "camera"));
 }
 
 void Problem::write_points(const double *p, const Index &index, bool errors) const {
@@ -976,14 +993,15 @@ void Problem::pose_covariances(const Model &model, const double *p, const double
 }
 
 void Problem::camera_covariances(const double *camcov, Covariances *out) const {
-  const int first = rigged_ ? cc::kRigPoseParams : cc::kPoseParams;
   for (int j = mcon_; j < ncameras(); ++j) {
     const CameraIds &r = ids_[at(j)];
     if (!r.writes_params) continue;
     const int count = static_cast<int>(
         rigged_ ? rig_model_->input_image(j).params.size() : image_model_->input_camera(j).params.size());
+    int columns[cc::kMaxParams];
+    for (int k = 0; k < count; ++k) columns[k] = with_model([&](const auto &sm) { return sm.param_column(j, k); });
     CovarianceBlock b =
-        param_covariance(camcov + at(j) * at(cnp_) * at(cnp_), &cam_fixed_[at(j) * at(cnp_)], cnp_, first, count);
+        param_covariance(camcov + at(j) * at(cnp_) * at(cnp_), &cam_fixed_[at(j) * at(cnp_)], cnp_, columns, count);
     b.id = r.camera;
     if (!b.coords.empty()) out->cameras.push_back(std::move(b));
   }
@@ -1023,7 +1041,7 @@ bool Problem::camera_parameter(std::uint32_t camera_id, int k, int *j, int *colu
   for (std::size_t q = 0; q < ids_.size(); ++q)
     if (ids_[q].camera == camera_id && ids_[q].writes_params) {
       *j = static_cast<int>(q);
-      *column = (rigged_ ? cc::kRigPoseParams : cc::kPoseParams) + k;
+      *column = k < 0 || k >= cc::kMaxParams ? -1 : with_model([&](const auto &sm) { return sm.param_column(*j, k); });
       return true;
     }
   return false;

@@ -9,7 +9,8 @@
 // model is one of COLMAP's own (cameras/colmap_camera.h):
 // - an image with a pose of its own (a model without rigs and frames, or one whose frames hold
 //   one image each and whose frames' poses are all refined), a_j = (v t params padding): its
-//   pose, and a copy of its COLMAP camera's parameters in COLMAP's order;
+//   pose, and a copy of the parameters of its COLMAP camera that are refined, in COLMAP's order
+//   (one that is held takes no column);
 // - otherwise an image of a rig, a_j = (frame pose | sensor pose | params padding), as COLMAP
 //   4 refines it.
 // Either way sba_ext_options::cam_param_group shares what COLMAP refines once: a COLMAP
@@ -201,12 +202,14 @@ class Problem {
   std::uint32_t image_id(int j) const { return ids_[static_cast<std::size_t>(j)].image; }
   std::uint64_t point_id(int i) const { return point_ids_[static_cast<std::size_t>(i)]; }
   // The sba camera whose parameter vector carries COLMAP camera camera_id's parameters (the
-  // first image of it from mcon on), and the position of its parameter k there; false when
-  // no sba camera from mcon on uses the camera.
+  // first image of it from mcon on), and the position of its parameter k there, -1 where it
+  // carries no such parameter (one held takes no column); false when no sba camera from mcon on
+  // uses the camera.
   bool camera_parameter(std::uint32_t camera_id, int k, int *j, int *column) const;
-  // Whether parameter c of sba camera j is held.
+  // Whether parameter c of sba camera j is held; c -1 (camera_parameter's) is.
   bool held(int j, int c) const {
-    return cam_fixed_[static_cast<std::size_t>(j) * static_cast<std::size_t>(cnp_) + static_cast<std::size_t>(c)] != 0;
+    return c < 0 ||
+           cam_fixed_[static_cast<std::size_t>(j) * static_cast<std::size_t>(cnp_) + static_cast<std::size_t>(c)] != 0;
   }
 
  private:

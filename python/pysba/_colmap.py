@@ -509,8 +509,8 @@ def refine_colmap(model: Any, *, refine_focal_length: bool = True, refine_princi
     one returned (a pycolmap.Reconstruction for one given; also on the ``result`` of a
     KeyboardInterrupt or SolveError: the last accepted estimate), ``rms_initial`` and
     ``rms_final`` are sbarefine's RMS reprojection errors in pixels, ``cameras`` and
-    ``points`` the sba parameters (rotation, translation and camera parameters of each image
-    that sees a point; the points' coordinates).
+    ``points`` the sba parameters (rotation, translation and the camera parameters refined,
+    in COLMAP's order, of each image that sees a point; the points' coordinates).
     """
     reconstruction = _is_reconstruction(model)
     if not isinstance(in_place, (bool, np.bool_)):
