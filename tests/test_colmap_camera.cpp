@@ -12,6 +12,7 @@
 #include <cfloat>
 #include <cmath>
 #include <cstring>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -181,6 +182,42 @@ TEST(ColmapCamera, ProjectionsByHand) {
 // --cpp prints them: Camera(model, params=the sample parameters above).img_from_cam(points,
 // check_cheirality=False)), at points in front of the camera, on its axis, far off it, behind
 // it, and one outside DIVISION's field of view, where COLMAP has no pixel either.
+// SIMPLE_RADIAL and RADIAL are OPENCV with the terms they lack at zero: their pixels and
+// derivatives are OPENCV's, bit for bit, at points on and off the axis, with distortion of
+// either sign (their own code writes out only the terms that are not zero).
+TEST(ColmapCamera, RadialModelsAreOpenCVWithoutTheirTerms) {
+  const double ks[][2] = {{0, 0}, {-0.21, 0.07}, {0.13, -0.011}, {3e-4, 2e-6}};
+  std::vector<std::array<double, 3>> points = {{0, 0, 2}, {2e-9, -3e-9, 1}, {0.8, 0.8, 0.4}};
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  // Many points: another order of the same operations rounds differently at a few of them.
+  for (int i = 0; i < 200; ++i) points.push_back({u(rng), u(rng), 1.5 + u(rng)});
+  for (const auto &k : ks)
+    for (const auto &point : points)
+      for (const int model : {cc::kSimpleRadial, cc::kRadial}) {
+        const double *X = point.data();
+        const double k2 = model == cc::kRadial ? k[1] : 0.0;
+        const std::vector<double> own = model == cc::kRadial ? std::vector<double>{612.5, 320.5, 240.25, k[0], k2}
+                                                              : std::vector<double>{612.5, 320.5, 240.25, k[0]};
+        const std::vector<double> opencv = {612.5, 612.5, 320.5, 240.25, k[0], k2, 0, 0};
+        const int np = cc::param_count(model);
+        double x[2], xo[2], Jp[2 * cc::kMaxParams], Jo[2 * cc::kMaxParams], Jx[6], Jxo[6];
+        cc::project(model, own.data(), X, x, Jp, Jx);
+        cc::project(cc::kOpenCV, opencv.data(), X, xo, Jo, Jxo);
+        const std::string at = std::to_string(model) + " k1 " + std::to_string(k[0]) + " X " + std::to_string(X[0]);
+        EXPECT_EQ(x[0], xo[0]) << at;
+        EXPECT_EQ(x[1], xo[1]) << at;
+        for (int c = 0; c < 6; ++c) EXPECT_EQ(Jx[c], Jxo[c]) << at << " Jx " << c;
+        // f against fx and fy; k1 (and k2) against OPENCV's, whose parameters come 3 later.
+        EXPECT_EQ(Jp[0], Jo[0]) << at;
+        EXPECT_EQ(Jp[np], Jo[8 + 1]) << at;
+        for (int e = 3; e < np; ++e) {
+          EXPECT_EQ(Jp[e], Jo[e + 1]) << at << " " << e;
+          EXPECT_EQ(Jp[np + e], Jo[8 + e + 1]) << at << " " << e;
+        }
+      }
+}
+
 TEST(ColmapCamera, ProjectionsAsPycolmap) {
   const double points[6][3] = {{0.3, -0.45, 1.0}, {-0.8, 0.6, 1.2}, {0.0, 0.0, 2.0},
                                {1.5, 0.4, 1.0},   {0.2, -0.1, -1.0}, {3.0, 2.0, 1.0}};

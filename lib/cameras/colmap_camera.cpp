@@ -105,6 +105,30 @@ void radtan(const int *roles, int ne, const double *extra, double x, double y, D
   }
 }
 
+// radtan for SIMPLE_RADIAL and RADIAL (ne 1: k1; 2: k1, k2), the terms that are not zero
+// written out: each value is radtan's, whose other terms add zeros (a zero's sign aside), and
+// these two are the most common COLMAP models, projected for every observation at every
+// evaluation.
+template <bool kDerivatives>
+void radial(int ne, const double *k, double x, double y, Distortion *out) {
+  const double s = x * x + y * y;
+  const double R = ne > 1 ? 1 + s * (k[0] + s * k[1]) : 1 + s * k[0];
+  out->ud = x * R;
+  out->vd = y * R;
+  if (!kDerivatives) return;
+  const double dR = ne > 1 ? k[0] + s * (2 * k[1]) : k[0];  // dR/ds
+  const double xy = x * y;
+  out->D[0] = R + 2 * x * x * dR;
+  out->D[1] = out->D[2] = 2 * xy * dR;
+  out->D[3] = R + 2 * y * y * dR;
+  out->Eu[0] = x * s;
+  out->Ev[0] = y * s;
+  if (ne > 1) {
+    out->Eu[1] = x * (s * s);
+    out->Ev[1] = y * (s * s);
+  }
+}
+
 // (ud, vd) = (u, v) F(s), s = u^2 + v^2, and its derivatives in u and v; Fs = dF/ds.
 void scale_radially(double u, double v, double F, double Fs, Distortion *out) {
   out->ud = u * F;
@@ -209,12 +233,11 @@ void rad_tan_thin_prism(const double *extra, double u, double v, Distortion *out
 // The polynomial models' distortion; false for another model.
 template <bool kDerivatives>
 bool polynomial(int model, const double *extra, double u, double v, Distortion *out) {
-  static constexpr int kRolesRadial[2] = {N1, N2};
   static constexpr int kRolesOpenCV[4] = {N1, N2, P1, P2};
   static constexpr int kRolesFull[8] = {N1, N2, P1, P2, N3, D1, D2, D3};
   switch (model) {
-    case kSimpleRadial: return radtan<false, kDerivatives>(kRolesRadial, 1, extra, u, v, out), true;
-    case kRadial: return radtan<false, kDerivatives>(kRolesRadial, 2, extra, u, v, out), true;
+    case kSimpleRadial: return radial<kDerivatives>(1, extra, u, v, out), true;
+    case kRadial: return radial<kDerivatives>(2, extra, u, v, out), true;
     case kOpenCV: return radtan<false, kDerivatives>(kRolesOpenCV, 4, extra, u, v, out), true;
     case kFullOpenCV: return radtan<true, kDerivatives>(kRolesFull, 8, extra, u, v, out), true;
     default: return false;
