@@ -70,10 +70,8 @@ bool refined_as_rigs(const Model &model, const RefinePoses &poses, bool frames_h
   return frames_held && std::any_of(places.begin(), places.end(), [](const ImagePlace &pl) { return pl.sensor > 0; });
 }
 
-// Whether COLMAP's options hold parameter k of a camera of model `model` (the padding beyond
-// its parameters included).
+// Whether COLMAP's options hold parameter k of a camera of model `model`.
 bool intrinsic_held(const RefineIntrinsics &refine, int model, int k) {
-  if (k >= cc::param_count(model)) return true;
   switch (cc::param_kind(model, k)) {
     case cc::ParamKind::Focal: return !refine.focal;
     case cc::ParamKind::Principal: return !refine.principal;
@@ -81,6 +79,15 @@ bool intrinsic_held(const RefineIntrinsics &refine, int model, int k) {
     case cc::ParamKind::Size: break;  // no COLMAP option refines it
   }
   return true;
+}
+
+// The parameters of a camera of model `model` that COLMAP's options refine, none when the
+// camera is held: what its sba cameras' vectors carry (CameraModel's kept).
+std::vector<int> refined_params(const RefineIntrinsics &refine, int model, bool held) {
+  std::vector<int> kept;
+  for (int k = 0; !held && k < cc::param_count(model); ++k)
+    if (!intrinsic_held(refine, model, k)) kept.push_back(k);
+  return kept;
 }
 
 // Holds the rotation (first 3) and the translation (last 3) of the pose at fixed as asked.
@@ -201,11 +208,9 @@ void rig_problem(const Model &model, const RefineIntrinsics &refine, const Refin
   rig_images(model, places, camera_index, &camera, p);
   const RigHolds h = rig_holds(model, poses, constants, config, mcon, places, camera_index, p);
   // The parameters held take no column (RigCameraModel's kept), as in image_problem.
-  p->kept.assign(at(ms), {});
   for (int j = 0; j < ms; ++j) {
-    const int c = camera[at(j)], model_id = model.cameras[at(c)].model;
-    for (int k = 0; k < cc::param_count(model_id); ++k)
-      if (!h.camera[at(c)] && !intrinsic_held(refine, model_id, k)) p->kept[at(j)].push_back(k);
+    const int c = camera[at(j)];
+    p->kept.push_back(refined_params(refine, model.cameras[at(c)].model, h.camera[at(c)]));
   }
   const int cnp = p->cnp = cc::rig_camera_params(cc::largest_kept(p->kept));
   p->cam_fixed.assign(at(ms) * at(cnp), 0);
@@ -260,9 +265,7 @@ void image_problem(const Model &model, const RefineIntrinsics &refine, const Ref
     });
     const bool held = u.front() < mcon || flagged(constants.intrinsics, c) || outside;  // u ascends
     camera_held[c] = held;
-    std::vector<int> kept;
-    for (int k = 0; k < cc::param_count(model.cameras[c].model); ++k)
-      if (!held && !intrinsic_held(refine, model.cameras[c].model, k)) kept.push_back(k);
+    const std::vector<int> kept = refined_params(refine, model.cameras[c].model, held);
     for (int j : u) p->kept[at(j)] = kept;
   }
   const int cnp = p->cnp = cc::camera_params(cc::largest_kept(p->kept));
@@ -314,13 +317,6 @@ struct Chosen {
   }
 };
 
-// Whether COLMAP's options refine any parameter of a camera of model `model`.
-bool any_intrinsic_refined(const RefineIntrinsics &refine, int model) {
-  for (int k = 0; k < cc::param_count(model); ++k)
-    if (!intrinsic_held(refine, model, k)) return true;
-  return false;
-}
-
 // The selection of o over the model (image_index: an IMAGE_ID's image, places: the images' in a
 // model with rigs), before the gauge.
 Chosen choose(const Model &model, const Options &o, const std::unordered_map<std::uint32_t, int> &image_index,
@@ -355,7 +351,8 @@ Chosen choose(const Model &model, const Options &o, const std::unordered_map<std
     if (ch.config[i]) continue;
     const std::size_t c = at(camera_index.at(model.images[i].camera_id));
     if (!camera_config[c]) continue;
-    const bool intrinsics = !flagged(o.constants.intrinsics, c) && any_intrinsic_refined(o.intrinsics, model.cameras[c].model);
+    const bool intrinsics =
+        !flagged(o.constants.intrinsics, c) && !refined_params(o.intrinsics, model.cameras[c].model, false).empty();
     const bool sensor = model.has_rigs && places[i].sensor > 0 && o.poses.sensor_from_rig &&
                         !flagged(o.constants.sensor_from_rig, c);
     ch.moving[i] = intrinsics || sensor;
@@ -999,7 +996,9 @@ void Problem::camera_covariances(const double *camcov, Covariances *out) const {
     const int count = static_cast<int>(
         rigged_ ? rig_model_->input_image(j).params.size() : image_model_->input_camera(j).params.size());
     int columns[cc::kMaxParams];
-    for (int k = 0; k < count; ++k) columns[k] = with_model([&](const auto &sm) { return sm.param_column(j, k); });
+    with_model([&](const auto &sm) {
+      for (int k = 0; k < count; ++k) columns[k] = sm.param_column(j, k);
+    });
     CovarianceBlock b =
         param_covariance(camcov + at(j) * at(cnp_) * at(cnp_), &cam_fixed_[at(j) * at(cnp_)], cnp_, columns, count);
     b.id = r.camera;
