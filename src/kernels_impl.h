@@ -561,29 +561,46 @@ class KernelsT final : public Kernels {
   // the same for any number of threads. U_j[a][c] and U_j[c][a] get the same products in
   // the same order, so U_j is exactly symmetric: only its upper triangle is accumulated, and
   // copied down at the end. Blocks in single precision give U_j alone (normal_matrices).
-  // held: null, or jac itself, whose blocks get their held columns zeroed first.
+  // held: null, or jac itself, whose blocks get their held columns zeroed first. The points
+  // [i0, i1) get their V_i and e_b,i in the same walk, as gram_points makes them: the walk
+  // reads their blocks anyway, and a pass of their own would read them again.
   template <class J>
   __attribute__((noinline)) void gram_cameras(const J *jac, const double *e, double *U, double *ea,
-                                              int j0, int j1, Scratch *sc, double *wide, double *held) const {
+                                              int j0, int j1, Scratch *sc, double *wide, double *held,
+                                              double *V, double *eb, i64 i0, i64 i1) const {
     constexpr bool grad = std::is_same_v<J, double>;
     const Layout &lay = lay_;
-    const int mn = mnp(), cn = cnp(), jb = lay.jblk();
+    const int mn = mnp(), cn = cnp(), pn = pnp(), jb = lay.jblk();
     const i64 nu = i64(j1 - j0) * cn * cn, nea = grad ? i64(j1 - j0) * cn : 0;
     double *Uo = U + i64(j0) * cn * cn, *eao = grad ? ea + i64(j0) * cn : nullptr;
     double *Ut = sc ? align_to_line(sc->gram.data()) : Uo;
     double *eat = sc ? Ut + nu : eao;
     std::fill(Ut, Ut + nu, 0.0);
     std::fill(eat, eat + nea, 0.0);
-    const int *colidx = lay.colidx.data();
-    double wl[M * C > 0 ? M * C : 1];
-    if (M * C > 0) wide = wl;
-    for (i64 k = 0; k < lay.nvis; ++k) {
-      const int j = colidx[k];
-      if (j < j0 || j >= j1) continue;
-      if (held) lay.cams.zero_held(j, mn, held + k * jb);
-      const double *A = widened<M * C>(jac + k * jb, mn * cn, wide);
-      gram_update<M, C, grad, true>(mn, cn, A, grad ? e + k * mn : nullptr, Ut + i64(j - j0) * cn * cn,
-                                    grad ? eat + i64(j - j0) * cn : nullptr);
+    const int *colidx = lay.colidx.data(), *rowptr = lay.rowptr.data();
+    double wl[M * C > 0 ? M * C : 1], wp[M * P > 0 ? M * P : 1];
+    double *wa = M * C > 0 ? wl : wide, *wb = M * P > 0 ? wp : wide;
+    for (i64 i = 0; i < lay.n; ++i) {
+      const bool point = i >= i0 && i < i1;
+      double *__restrict Vi = point ? V + i * pn * pn : nullptr;
+      double *__restrict ebi = point && grad ? eb + i * pn : nullptr;
+      if (point) {
+        std::fill(Vi, Vi + pn * pn, 0.0);
+        if constexpr (grad) std::fill(ebi, ebi + pn, 0.0);
+      }
+      for (i64 k = rowptr[i]; k < rowptr[i + 1]; ++k) {
+        const int j = colidx[k];
+        if (j >= j0 && j < j1) {
+          if (held) lay.cams.zero_held(j, mn, held + k * jb);
+          const double *A = widened<M * C>(jac + k * jb, mn * cn, wa);
+          gram_update<M, C, grad, true>(mn, cn, A, grad ? e + k * mn : nullptr, Ut + i64(j - j0) * cn * cn,
+                                        grad ? eat + i64(j - j0) * cn : nullptr);
+        }
+        if (point) {
+          const double *B = widened<M * P>(jac + k * jb + mn * cn, mn * pn, wb);
+          gram_update<M, P, grad>(mn, pn, B, grad ? e + k * mn : nullptr, Vi, ebi);
+        }
+      }
     }
     for (int j = j0; j < j1; ++j) mirror_lower<C>(cn, Ut + i64(j - j0) * cn * cn);
     if (sc) {
@@ -636,16 +653,19 @@ class KernelsT final : public Kernels {
   template <class J>
   void gram(ThreadPool &pool, const J *jac, const double *e, double *U, double *V, double *ea,
             double *eb, double *held = nullptr) const {
-    // One job for both parts: a thread that finishes its cameras early starts on its
-    // points instead of waiting for the others.
+    // One job for both parts: a thread with cameras forms its points' blocks in the walk
+    // over the projections that its cameras take; one without, in a pass over its points.
     const int T = pool.size();
     auto part = [&](int t) {
       const i64 c0 = cameras_[size_t(t)], c1 = cameras_[size_t(t) + 1];
-      const i64 p0 = points_[size_t(t)], p1 = points_[size_t(t) + 1];
-      if (cnp() > 0 && c0 < c1)
+      i64 p0 = points_[size_t(t)], p1 = points_[size_t(t) + 1];
+      if (pnp() == 0) p0 = p1 = 0;
+      if (cnp() > 0 && c0 < c1) {
         gram_cameras(jac, e, U, ea, int(c0), int(c1), T > 1 ? &scratch_[size_t(t)] : nullptr,
-                     scratch_[size_t(t)].wide.data(), held);
-      if (pnp() > 0 && p0 < p1) gram_points(jac, e, V, eb, p0, p1, scratch_[size_t(t)].wide.data());
+                     scratch_[size_t(t)].wide.data(), held, V, eb, p0, p1);
+        return;
+      }
+      if (p0 < p1) gram_points(jac, e, V, eb, p0, p1, scratch_[size_t(t)].wide.data());
     };
     if (T == 1)
       part(0);
