@@ -110,7 +110,7 @@ void radtan(const int *roles, int ne, const double *extra, double x, double y, D
 // these two are the most common COLMAP models, projected for every observation at every
 // evaluation.
 template <bool kDerivatives>
-void radial(int ne, const double *k, double x, double y, Distortion *out) {
+inline __attribute__((always_inline)) void radial(int ne, const double *k, double x, double y, Distortion *out) {
   const double s = x * x + y * y;
   const double R = ne > 1 ? 1 + s * (k[0] + s * k[1]) : 1 + s * k[0];
   out->ud = x * R;
@@ -232,7 +232,8 @@ void rad_tan_thin_prism(const double *extra, double u, double v, Distortion *out
 
 // The polynomial models' distortion; false for another model.
 template <bool kDerivatives>
-bool polynomial(int model, const double *extra, double u, double v, Distortion *out) {
+inline __attribute__((always_inline)) bool polynomial(int model, const double *extra, double u, double v,
+                                                      Distortion *out) {
   static constexpr int kRolesOpenCV[4] = {N1, N2, P1, P2};
   static constexpr int kRolesFull[8] = {N1, N2, P1, P2, N3, D1, D2, D3};
   switch (model) {
@@ -245,7 +246,8 @@ bool polynomial(int model, const double *extra, double u, double v, Distortion *
 }
 
 // derivatives false: only (ud, vd) are wanted; the polynomial models then form nothing else.
-void distort(int model, const double *extra, double u, double v, Distortion *out, bool derivatives) {
+inline __attribute__((always_inline)) void distort(int model, const double *extra, double u, double v,
+                                                   Distortion *out, bool derivatives) {
   if (derivatives ? polynomial<true>(model, extra, u, v, out) : polynomial<false>(model, extra, u, v, out))
     return;
   switch (model) {
@@ -320,7 +322,8 @@ void equirectangular(const double *X, Distortion *d, double *J) {
 
 // (ud, vd) of the camera-frame point Xc through a model's extra parameters, with (derivatives)
 // J = d(ud, vd)/dXc and the derivatives in the extra parameters.
-void map_point(int model, const double *extra, const double Xc[3], Distortion *d, double J[6], bool derivatives) {
+inline __attribute__((always_inline)) void map_point(int model, const double *extra, const double Xc[3],
+                                                     Distortion *d, double J[6], bool derivatives) {
   switch (model) {
     case kSimpleDivision: case kDivision: return division(extra[0], Xc, d, J);
     case kEucm: return eucm(extra, Xc, d, J);
@@ -367,7 +370,18 @@ ParamKind param_kind(int model, int k) {
   return ParamKind::Extra;
 }
 
-void project(int model, const double *params, const double Xc[3], double x[2], double *Jp, double *Jx) {
+namespace {
+
+// project's body, inlined where the model is a constant (eval_as), so that the model's
+// branches, its table's counts and the loops over its parameters are resolved as it compiles.
+// Inlined so, GCC sees d.Eu read under Jp and written under Jp || Jx, and warns that it may be
+// read unset: Jp implies the derivatives, which write every Eu and Ev the model has.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+inline __attribute__((always_inline)) void project_model(int model, const double *params, const double Xc[3],
+                                                         double x[2], double *Jp, double *Jx) {
   const int nf = kModels[model].focals, np = kModels[model].params;
   const bool panorama = model == kEquirectangular;
   // x = fx ud + cx, y = fy vd + cy: the panorama's scales and centre are its size's.
@@ -407,6 +421,15 @@ void project(int model, const double *params, const double Xc[3], double x[2], d
       Jx[c] = fx * J[c];
       Jx[3 + c] = fy * J[3 + c];
     }
+}
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
+
+}  // namespace
+
+void project(int model, const double *params, const double Xc[3], double x[2], double *Jp, double *Jx) {
+  project_model(model, params, Xc, x, Jp, Jx);
 }
 
 // ---- the sba camera models ----
@@ -479,16 +502,23 @@ int largest_carried(const std::vector<C> &cameras, const std::vector<std::vector
 
 }  // namespace
 
-bool refused(int model, const double *params, const double Xc[3]) {
+namespace {
+
+// refused's body, inlined where the model is a constant (eval_as).
+inline __attribute__((always_inline)) bool refused_model(int model, const double *params, const double Xc[3]) {
   switch (model) {
     case kSimpleDivision: case kDivision: {
-      const double k = params[param_count(model) - 1];
+      const double k = params[kModels[model].params - 1];
       return Xc[2] * Xc[2] - 4 * k * (Xc[0] * Xc[0] + Xc[1] * Xc[1]) < 0;
     }
     case kEquirectangular: return false;
     default: return Xc[2] < DBL_EPSILON;
   }
 }
+
+}  // namespace
+
+bool refused(int model, const double *params, const double Xc[3]) { return refused_model(model, params, Xc); }
 
 SbaCameraModel::SbaCameraModel(int m, int cnp, int first, std::vector<double> points, std::vector<char> held)
     : m_(m), cnp_(cnp), first_(first), held_(std::move(held)), points0_(std::move(points)) {
@@ -641,7 +671,7 @@ LocalRotation local_rotation(const double *v, const double *R0, bool tangent) {
 }
 
 // A = H J for H 2x3 and J 3x3, into columns col..col+2 of the 2 x cnp A.
-void columns(const double *H, const double *J, int cnp, int col, double *A) {
+inline __attribute__((always_inline)) void columns(const double *H, const double *J, int cnp, int col, double *A) {
   for (int r = 0; r < 2; ++r)
     for (int c = 0; c < 3; ++c)
       A[r * cnp + col + c] = H[r * 3] * J[c] + H[r * 3 + 1] * J[3 + c] + H[r * 3 + 2] * J[6 + c];
@@ -650,10 +680,11 @@ void columns(const double *H, const double *J, int cnp, int col, double *A) {
 // The camera model's pixels and derivatives at Xc: x, Jx = dx/dXc and the parameters' columns
 // of A (parameter k at col + slots[k] where that is not -1, then zero padding to cnp), the held
 // columns zeroed afterwards by zero_held.
-void project_at(int model, int np, const double *params, const double Xc[3], int cnp, int col,
-                const signed char *slots, double *x, double *A, double Jx[6]) {
+inline __attribute__((always_inline)) void project_at(int model, int np, const double *params, const double Xc[3],
+                                                      int cnp, int col, const signed char *slots, double *x,
+                                                      double *A, double Jx[6]) {
   double Jp[2 * kMaxParams];
-  project(model, params, Xc, x, A ? Jp : nullptr, Jx);
+  project_model(model, params, Xc, x, A ? Jp : nullptr, Jx);
   if (!A) return;
   for (int r = 0; r < 2; ++r) {
     double *Ar = A + r * cnp;
@@ -721,15 +752,18 @@ bool cost_nothing(const double *obs, int cnp, double *x, double *A, double *B) {
 }
 
 // The projection of b and its Jacobian (any of x, A, B null), false where COLMAP refuses it;
-// there, with obs (the projection's measurement), as cost_nothing says.
-bool eval(const Frame &f, int cnp, const double *b, const double *obs, double *x, double *A, double *B) {
+// there, with obs (the projection's measurement), as cost_nothing says. kModel is f.model as a
+// constant, or -1 (any model, read from f): see eval below.
+template <int kModel>
+bool eval_as(const Frame &f, int cnp, const double *b, const double *obs, double *x, double *A, double *B) {
+  const int model = kModel < 0 ? f.model : kModel, np = kModel < 0 ? f.np : kModels[model].params;
   double MX[3], Xc[3];
   sbaeuc_mat3_vec(f.rot.M, b, MX);
   for (int r = 0; r < 3; ++r) Xc[r] = MX[r] + f.t()[r];
-  const bool shown = !refused(f.model, f.params(), Xc);
+  const bool shown = !refused_model(model, f.params(), Xc);
   if (!shown && obs) return cost_nothing(obs, cnp, x, A, B);
   double Jx[6];
-  project_at(f.model, f.np, f.params(), Xc, cnp, kPoseParams, f.slots, x, A, (A || B) ? Jx : nullptr);
+  project_at(model, np, f.params(), Xc, cnp, kPoseParams, f.slots, x, A, (A || B) ? Jx : nullptr);
   if (B) columns(Jx, f.rot.M, 3, 0, B);
   if (!A) return shown;
   rotation_columns(Jx, MX, f.rot.G, cnp, 0, A);
@@ -767,16 +801,18 @@ RigFrame frame_of(const RigCameraModel &model, int j, const double *a, bool tang
 
 // X_r = R_f X + t_f in the rig, X_c = R_s X_r + t_s: dX_c/dv_f = R_s dR_f X/dv_f, dX_c/dt_f =
 // R_s, dX_c/dv_s = dR_s X_r/dv_s, dX_c/dt_s = I, dX_c/dX = R_s R_f.
-bool eval(const RigFrame &f, int cnp, const double *b, const double *obs, double *x, double *A, double *B) {
+template <int kModel>
+bool eval_as(const RigFrame &f, int cnp, const double *b, const double *obs, double *x, double *A, double *B) {
+  const int model = kModel < 0 ? f.model : kModel, np = kModel < 0 ? f.np : kModels[model].params;
   double MfX[3], Xr[3], MsXr[3], Xc[3];
   sbaeuc_mat3_vec(f.frame.M, b, MfX);
   for (int r = 0; r < 3; ++r) Xr[r] = MfX[r] + f.t_frame()[r];
   sbaeuc_mat3_vec(f.sensor.M, Xr, MsXr);
   for (int r = 0; r < 3; ++r) Xc[r] = MsXr[r] + f.t_sensor()[r];
-  const bool shown = !refused(f.model, f.params(), Xc);
+  const bool shown = !refused_model(model, f.params(), Xc);
   if (!shown && obs) return cost_nothing(obs, cnp, x, A, B);
   double Jx[6];
-  project_at(f.model, f.np, f.params(), Xc, cnp, kRigPoseParams, f.slots, x, A, (A || B) ? Jx : nullptr);
+  project_at(model, np, f.params(), Xc, cnp, kRigPoseParams, f.slots, x, A, (A || B) ? Jx : nullptr);
   if (B) columns(Jx, f.M, 3, 0, B);
   if (!A) return shown;
   double H[6];  // H = dx/dX_r = Jx R_s
@@ -790,6 +826,23 @@ bool eval(const RigFrame &f, int cnp, const double *b, const double *obs, double
     }
   zero_held(f.held, cnp, A);
   return shown;
+}
+
+// eval_as for f's model: compiled for each of the models COLMAP's users project most (the
+// pinholes and the radial and OpenCV models, COLMAP's defaults), with the model a constant;
+// through the run-time model for the others. Every instance does the same arithmetic in the
+// same order, so the bits do not depend on which one runs (the callbacks' tests compare them
+// with project_jacobian, which runs the code for any model).
+template <class FrameT>
+bool eval(const FrameT &f, int cnp, const double *b, const double *obs, double *x, double *A, double *B) {
+  switch (f.model) {
+    case kSimplePinhole: return eval_as<kSimplePinhole>(f, cnp, b, obs, x, A, B);
+    case kPinhole: return eval_as<kPinhole>(f, cnp, b, obs, x, A, B);
+    case kSimpleRadial: return eval_as<kSimpleRadial>(f, cnp, b, obs, x, A, B);
+    case kRadial: return eval_as<kRadial>(f, cnp, b, obs, x, A, B);
+    case kOpenCV: return eval_as<kOpenCV>(f, cnp, b, obs, x, A, B);
+    default: return eval_as<-1>(f, cnp, b, obs, x, A, B);
+  }
 }
 
 inline std::size_t off(int index, int stride) {
@@ -882,13 +935,15 @@ bool CachedProjection<Model>::project(int j, const double *a, const double *b, d
 template class CachedProjection<CameraModel>;
 template class CachedProjection<RigCameraModel>;
 
+// One projection at a time, through the code for any model: the reference that the callbacks'
+// code for each model is tested against (their bits are the same).
 bool CameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const {
-  return eval(frame_of(*this, j, a, A != nullptr), cnp(), b, nullptr, x, A, B);
+  return eval_as<-1>(frame_of(*this, j, a, A != nullptr), cnp(), b, nullptr, x, A, B);
 }
 
 bool RigCameraModel::project_jacobian(int j, const double *a, const double *b, double *x, double *A,
                                       double *B) const {
-  return eval(frame_of(*this, j, a, A != nullptr), cnp(), b, nullptr, x, A, B);
+  return eval_as<-1>(frame_of(*this, j, a, A != nullptr), cnp(), b, nullptr, x, A, B);
 }
 
 void motstr_func(double *p, sba_crsm *idx, int *, int *, double *hx, void *adata) {

@@ -267,7 +267,8 @@ class CameraModel : public SbaCameraModel {
 
   // The projection of point b in camera j with parameters a, and A = dx/da (2 x cnp), B =
   // dx/db (2 x 3), row-major; any of x, A, B may be null. The numbers of the callbacks without
-  // measurements: the formula's, where COLMAP refuses the point too. False where it does.
+  // measurements, bit for bit: the formula's, where COLMAP refuses the point too. False where it
+  // does. The callbacks run code compiled for each common model; this runs the code for any.
   bool project_jacobian(int j, const double *a, const double *b, double *x, double *A, double *B) const;
   bool project(int j, const double *a, const double *b, double x[2]) const {
     return project_jacobian(j, a, b, x, nullptr, nullptr);
