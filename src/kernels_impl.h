@@ -241,6 +241,51 @@ inline __attribute__((always_inline)) void column_pairs(int n, int pn, const dou
     pair_update<N, D>(n, pn, Yt + i64(q) * stride, Wt, S + i64(cols[q] - mcon) * rowstride, ld, rows[cols[q]]);
 }
 
+#if defined(__AVX2__) && defined(__FMA__)
+// Where 9-wide blocks are stored split (the assembly's packed copy): a block's first eight
+// columns as rows of eight, its ninth column after them (at + 72) as one vector.
+constexpr bool kSplitNine = true;
+
+// column_pairs for such blocks. Row by row, the ninth column would take a scalar operation for
+// each row and term, a third of the row's operations for a ninth of its entries; as one vector
+// it takes a row's. Every entry gets the fused operations pair_rows gives it, in the same order,
+// so the bits are the same. The ninth column of a held row (left out by the mask) is updated
+// too: its Y^T entries are zero, as the row's A_ij column is, and the +0 it holds stays +0.
+template <int D>
+inline __attribute__((always_inline)) void column_pairs_split(const double *Yt, int stride, int count, const int *cols,
+                                                              int mcon, const double *Wt, double *S, i64 rowstride,
+                                                              const RowMask *rows) {
+  constexpr int N = 9, T = 72;
+  Row<8> w[D];
+  double w8[D];
+#pragma GCC unroll 4
+  for (int d = 0; d < D; ++d) w[d] = Row<8>::load(Wt + d * N), w8[d] = Wt[d * N + 8];
+  for (int q = 0; q < count; ++q) {
+    const double *Y = Yt + i64(q) * stride;
+    double *B = S + i64(cols[q] - mcon) * rowstride;
+    const RowMask mask = rows[cols[q]];
+    const bool diagonal = q == count - 1;  // its strict lower triangle is never read
+#pragma GCC unroll 16
+    for (int a = 0; a < N; ++a) {
+      if (!updates(mask, a)) continue;
+      const int k0 = diagonal ? a / 4 : 0;
+      Row<8> acc = Row<8>::load(B + a * 8, k0);
+#pragma GCC unroll 4
+      for (int d = 0; d < D; ++d) acc.fnmadd(Y[d * N + a], w[d], k0);
+      acc.store(B + a * 8, k0);
+    }
+    Row<N> last = Row<N>::load(B + T);
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d) last.fnmadd(w8[d], Row<N>::load(Y + d * N));
+    last.store(B + T);
+  }
+}
+#else
+constexpr bool kSplitNine = false;
+template <int D>  // never called: kSplitNine is false
+void column_pairs_split(const double *, int, int, const int *, int, const double *, double *, i64, const RowMask *);
+#endif
+
 // One projection's W_ij^T = B^T A and Y_ij^T = V*_i^-1 W_ij^T (pnp x cnp each; A is mnp x cnp,
 // B mnp x pnp, Vi pnp x pnp, all row-major). Every sum starts from its first term. With the
 // sizes fixed, both products are built in locals (with AVX2, rows of registers) and stored
@@ -713,15 +758,20 @@ class KernelsT final : public Kernels {
 
   // Where the assembly writes dense S's block columns: block j of column k at
   // column(k) + j * rowstride, its rows ld apart; in S itself, or in the thread's packed copy.
+  // A packed copy of 9-wide blocks (kSplit) stores them split, its last column at + tail.
   struct DenseColumns {
     double *base;
     i64 rowstride, ld;
     bool packed;
     int k0, cn;
+    i64 tail;  // 0: not split
     // The blocks of a packed copy's columns k0 .. k - 1, each holding blocks 0 .. its own.
     static i64 blocks_before(int k0, int k) { return i64(k - k0) * (k0 + 1) + i64(k - k0) * (k - k0 - 1) / 2; }
     double *column(int k) const { return packed ? base + blocks_before(k0, k) * rowstride : base + i64(k) * cn; }
+    // Entry (a, c) of the block at blk.
+    double &entry(double *blk, int a, int c) const { return tail && c == cn - 1 ? blk[tail + a] : blk[a * ld + c]; }
   };
+  static constexpr bool kSplit = kSplitNine && C == 9 && P > 0;
 
   // S's block columns [k0, k1) and their blocks of rhs before the points' terms: the diagonal
   // blocks U_k + mu D_k, the rest zero. A dense S is assembled in the thread's packed copy of
@@ -734,10 +784,11 @@ class KernelsT final : public Kernels {
     const Layout &lay = lay_;
     const int cn = cnp(), nc = lay.free_cams();
     const bool packed = !S.perm && i64(nc) * (nc + 1) / 2 * cn * cn <= max_packed_;
-    DenseColumns out{S.base, i64(cn) * S.ld, S.ld, false, k0, cn};
+    DenseColumns out{S.base, i64(cn) * S.ld, S.ld, false, k0, cn, 0};
     if (packed) {
       sc.packed.assign(size_t(DenseColumns::blocks_before(k0, k1) * cn * cn), 0.0);
-      out = DenseColumns{sc.packed.data(), i64(cn) * cn, cn, true, k0, cn};
+      out = kSplit ? DenseColumns{sc.packed.data(), i64(cn) * cn, cn - 1, true, k0, cn, i64(cn - 1) * cn}
+                   : DenseColumns{sc.packed.data(), i64(cn) * cn, cn, true, k0, cn, 0};
     }
     if (!S.perm)  // dense S: block rows 0 .. k1 - 1 of these columns; packed, those below the
       for (i64 r = 0; r < i64(k1) * cn; ++r) {  // diagonal alone, the rest copied in at the end
@@ -750,10 +801,11 @@ class KernelsT final : public Kernels {
           S.perm ? S.block(k, k) : BlockMap::Block{out.column(k) + k * out.rowstride, out.ld, false};
       double *Skk = blk.p;
       const i64 ld = blk.ld;
+      const auto entry = [&](int a, int c) -> double & { return S.perm ? Skk[a * ld + c] : out.entry(Skk, a, c); };
       const double *Uk = ne.U + i64(k + lay.mcon) * cn * cn;
       for (int a = 0; a < cn; ++a) {
-        for (int c = 0; c < cn; ++c) Skk[a * ld + c] = Uk[a * cn + c];
-        Skk[a * ld + a] += ne.damping ? mu * ne.damping[lay.a_off(k + lay.mcon) + a] : mu;
+        for (int c = 0; c < cn; ++c) entry(a, c) = Uk[a * cn + c];
+        entry(a, a) += ne.damping ? mu * ne.damping[lay.a_off(k + lay.mcon) + a] : mu;
       }
       const double *eak = ne.ea + i64(k + lay.mcon) * cn;
       for (int a = 0; a < cn; ++a) rhs[i64(k) * cn + a] = eak[a];
@@ -769,9 +821,9 @@ class KernelsT final : public Kernels {
       for (int j = 0; j <= k; ++j)
         for (int a = 0; a < cn; ++a) {
           // A row of a block, too short for a call to memmove to pay.
-          const double *from = dc.column(k) + j * dc.rowstride + a * dc.ld;
+          double *from = dc.column(k) + j * dc.rowstride;
           double *to = S.base + (i64(j) * cn + a) * S.ld + i64(k) * cn;
-          for (int c = 0; c < cn; ++c) to[c] = from[c];
+          for (int c = 0; c < cn; ++c) to[c] = dc.entry(from, a, c);
         }
   }
 
@@ -808,6 +860,13 @@ class KernelsT final : public Kernels {
           // whole, like the others (its strict lower triangle is never read), which keeps the
           // rows vectorized.
           if (!S.perm) {  // dense S: the hot loop of the default solver, without the map's lookups
+            if constexpr (kSplit) {
+              if (dc.tail) {
+                column_pairs_split<P>(sc.Yt.data(), cp, q2 - f + 1, lay.colidx.data() + f, lay.mcon, Wt2,
+                                      dc.column(k), dc.rowstride, rows_.data());
+                continue;
+              }
+            }
             column_pairs<C, P>(cn, pn, sc.Yt.data(), cp, q2 - f + 1, lay.colidx.data() + f, lay.mcon, Wt2,
                                dc.column(k), dc.rowstride, dc.ld, rows_.data());
             continue;
