@@ -42,10 +42,13 @@ Fixture *fixture(const std::string &key) {
   if (auto it = cache.find(key); it != cache.end()) return it->second.get();
   auto f = std::make_unique<Fixture>();
   std::string error;
-  bool ok = key == "54cams"
+  // 54cams: 6 parameters a camera; 54camsvarK: 11 (varying intrinsics); bal49: 9.
+  bool ok = key == "bal49" ? sbabench::load_bal(kData + "/bal/problem-49-7776-pre.txt.bz2", &f->prob, &error)
+            : key == "54cams"
                 ? sbabench::load_eucsba(kData + "/sba-demo/54cams.txt", kData + "/sba-demo/54pts.txt",
                                         kData + "/sba-demo/calib.txt", &f->prob, &error)
-                : sbabench::load_bal(kData + "/bal/problem-49-7776-pre.txt.bz2", &f->prob, &error);
+                : sbabench::load_eucsba(kData + "/sba-demo/54camsvarK.txt", kData + "/sba-demo/54pts.txt", "",
+                                        &f->prob, &error);
   std::string msg;
   Problem &p = f->prob;
   ok = ok && sba::build_layout(f->lay, sba::Mode::MotStr, p.n, p.m, 0, 0, p.cnp, 3, 2, p.vmask.data(), &msg);
@@ -244,7 +247,7 @@ void register_all() {
                {"DenseCholeskyOfS", Step::DenseCholesky},
                {"LapackCholeskyOfS", Step::LapackCholesky}};
   const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  for (const char *key : {"54cams", "bal49"})
+  for (const char *key : {"54cams", "54camsvarK", "bal49"})
     for (const auto &s : steps)
       for (bool portable : {true, false}) {
         if (!portable && !avx2) continue;

@@ -242,24 +242,32 @@ inline __attribute__((always_inline)) void column_pairs(int n, int pn, const dou
 }
 
 #if defined(__AVX2__) && defined(__FMA__)
-// Where 9-wide blocks are stored split (the assembly's packed copy): a block's first eight
-// columns as rows of eight, its ninth column after them (at + 72) as one vector.
-constexpr bool kSplitNine = true;
+// Blocks N wide, N not a multiple of four, are stored split in the assembly's packed copy: a
+// block's first L = N - N % 4 columns as rows of L, then each of its last N % 4 columns as one
+// vector of N (the tail, at + N L).
+constexpr bool kSplitBlocks = true;
 
-// column_pairs for such blocks. Row by row, the ninth column would take a scalar operation for
-// each row and term, a third of the row's operations for a ninth of its entries; as one vector
-// it takes a row's. Every entry gets the fused operations pair_rows gives it, in the same order,
-// so the bits are the same. The ninth column of a held row (left out by the mask) is updated
-// too: its Y^T entries are zero, as the row's A_ij column is, and the +0 it holds stays +0.
-template <int D>
+// column_pairs for such blocks. Row by row, each column past the last vector of four takes an
+// operation of its own for each row and term (a third of a 9-wide row's operations for a ninth
+// of its entries); as a vector, a column takes a row's. Every entry gets the fused operations
+// pair_rows gives it, in the same order, so the bits are the same. The diagonal block's tail
+// columns are updated whole, as pair_rows_upper updates the vectors that hold them, and a held
+// row's (left out of the rows by the mask) with them: its Y^T entries are zero, as the row's
+// A_ij column is, and the +0 its entries hold stays +0.
+template <int N, int D>
 inline __attribute__((always_inline)) void column_pairs_split(const double *Yt, int stride, int count, const int *cols,
                                                               int mcon, const double *Wt, double *S, i64 rowstride,
                                                               const RowMask *rows) {
-  constexpr int N = 9, T = 72;
-  Row<8> w[D];
-  double w8[D];
+  constexpr int R = N % 4, L = N - R, T = N * L;
+  static_assert(R > 0 && L > 0, "blocks with a tail and rows");
+  Row<L> w[D];
+  double wt[D][R];
 #pragma GCC unroll 4
-  for (int d = 0; d < D; ++d) w[d] = Row<8>::load(Wt + d * N), w8[d] = Wt[d * N + 8];
+  for (int d = 0; d < D; ++d) {
+    w[d] = Row<L>::load(Wt + d * N);
+#pragma GCC unroll 4
+    for (int r = 0; r < R; ++r) wt[d][r] = Wt[d * N + L + r];
+  }
   for (int q = 0; q < count; ++q) {
     const double *Y = Yt + i64(q) * stride;
     double *B = S + i64(cols[q] - mcon) * rowstride;
@@ -269,20 +277,26 @@ inline __attribute__((always_inline)) void column_pairs_split(const double *Yt, 
     for (int a = 0; a < N; ++a) {
       if (!updates(mask, a)) continue;
       const int k0 = diagonal ? a / 4 : 0;
-      Row<8> acc = Row<8>::load(B + a * 8, k0);
+      Row<L> acc = Row<L>::load(B + a * L, k0);
 #pragma GCC unroll 4
       for (int d = 0; d < D; ++d) acc.fnmadd(Y[d * N + a], w[d], k0);
-      acc.store(B + a * 8, k0);
+      acc.store(B + a * L, k0);
     }
-    Row<N> last = Row<N>::load(B + T);
+    Row<N> y[D];  // loaded once: the stores through B might alias Y for all the compiler knows
 #pragma GCC unroll 4
-    for (int d = 0; d < D; ++d) last.fnmadd(w8[d], Row<N>::load(Y + d * N));
-    last.store(B + T);
+    for (int d = 0; d < D; ++d) y[d] = Row<N>::load(Y + d * N);
+#pragma GCC unroll 4
+    for (int r = 0; r < R; ++r) {
+      Row<N> col = Row<N>::load(B + T + r * N);
+#pragma GCC unroll 4
+      for (int d = 0; d < D; ++d) col.fnmadd(wt[d][r], y[d]);
+      col.store(B + T + r * N);
+    }
   }
 }
 #else
-constexpr bool kSplitNine = false;
-template <int D>  // never called: kSplitNine is false
+constexpr bool kSplitBlocks = false;
+template <int N, int D>  // never called: kSplitBlocks is false
 void column_pairs_split(const double *, int, int, const int *, int, const double *, double *, i64, const RowMask *);
 #endif
 
@@ -758,7 +772,8 @@ class KernelsT final : public Kernels {
 
   // Where the assembly writes dense S's block columns: block j of column k at
   // column(k) + j * rowstride, its rows ld apart; in S itself, or in the thread's packed copy.
-  // A packed copy of 9-wide blocks (kSplit) stores them split, its last column at + tail.
+  // A packed copy of blocks whose width is not a multiple of four (kSplit) stores them split
+  // (column_pairs_split): their first ld columns as rows, the rest from + tail, a column each.
   struct DenseColumns {
     double *base;
     i64 rowstride, ld;
@@ -769,9 +784,11 @@ class KernelsT final : public Kernels {
     static i64 blocks_before(int k0, int k) { return i64(k - k0) * (k0 + 1) + i64(k - k0) * (k - k0 - 1) / 2; }
     double *column(int k) const { return packed ? base + blocks_before(k0, k) * rowstride : base + i64(k) * cn; }
     // Entry (a, c) of the block at blk.
-    double &entry(double *blk, int a, int c) const { return tail && c == cn - 1 ? blk[tail + a] : blk[a * ld + c]; }
+    double &entry(double *blk, int a, int c) const {
+      return tail && c >= ld ? blk[tail + (c - ld) * cn + a] : blk[a * ld + c];
+    }
   };
-  static constexpr bool kSplit = kSplitNine && C == 9 && P > 0;
+  static constexpr bool kSplit = kSplitBlocks && C > 4 && C % 4 != 0 && P > 0;
 
   // S's block columns [k0, k1) and their blocks of rhs before the points' terms: the diagonal
   // blocks U_k + mu D_k, the rest zero. A dense S is assembled in the thread's packed copy of
@@ -787,8 +804,8 @@ class KernelsT final : public Kernels {
     DenseColumns out{S.base, i64(cn) * S.ld, S.ld, false, k0, cn, 0};
     if (packed) {
       sc.packed.assign(size_t(DenseColumns::blocks_before(k0, k1) * cn * cn), 0.0);
-      out = kSplit ? DenseColumns{sc.packed.data(), i64(cn) * cn, cn - 1, true, k0, cn, i64(cn - 1) * cn}
-                   : DenseColumns{sc.packed.data(), i64(cn) * cn, cn, true, k0, cn, 0};
+      const int rowlen = kSplit ? cn - cn % 4 : cn;
+      out = DenseColumns{sc.packed.data(), i64(cn) * cn, rowlen, true, k0, cn, kSplit ? i64(cn) * rowlen : 0};
     }
     if (!S.perm)  // dense S: block rows 0 .. k1 - 1 of these columns; packed, those below the
       for (i64 r = 0; r < i64(k1) * cn; ++r) {  // diagonal alone, the rest copied in at the end
@@ -862,7 +879,7 @@ class KernelsT final : public Kernels {
           if (!S.perm) {  // dense S: the hot loop of the default solver, without the map's lookups
             if constexpr (kSplit) {
               if (dc.tail) {
-                column_pairs_split<P>(sc.Yt.data(), cp, q2 - f + 1, lay.colidx.data() + f, lay.mcon, Wt2,
+                column_pairs_split<C, P>(sc.Yt.data(), cp, q2 - f + 1, lay.colidx.data() + f, lay.mcon, Wt2,
                                       dc.column(k), dc.rowstride, rows_.data());
                 continue;
               }

@@ -512,7 +512,9 @@ TEST_P(KernelsLayout, HeldNormalEquationsZeroTheHeldColumnsAsTheyRead) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Kernels, KernelsLayout, ::testing::Values(6, 9, 5),
+// Every fixed width (the packed assembly splits those that are not a multiple of four, by
+// the remainder), and a run-time one.
+INSTANTIATE_TEST_SUITE_P(Kernels, KernelsLayout, ::testing::Values(6, 7, 9, 11, 16, 5),
                          [](const ::testing::TestParamInfo<int> &p) { return "cnp" + std::to_string(p.param); });
 
 // A damped point block that is indefinite is inverted (sba 1.6's retries make such blocks and
