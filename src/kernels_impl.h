@@ -242,32 +242,29 @@ inline __attribute__((always_inline)) void column_pairs(int n, int pn, const dou
 }
 
 #if defined(__AVX2__) && defined(__FMA__)
-// Blocks N wide, N not a multiple of four, are stored split in the assembly's packed copy: a
-// block's first L = N - N % 4 columns as rows of L, then each of its last N % 4 columns as one
-// vector of N (the tail, at + N L).
+// Blocks one wider than a multiple of four (9 wide: BAL's cameras and COLMAP's common ones)
+// are stored split in the assembly's packed copy: a block's first N - 1 columns as rows, its
+// last column after them (at + N (N - 1)) as one vector. Row by row, that column took a scalar
+// operation for each row and term, a third of a 9-wide row's operations for a ninth of its
+// entries; as a vector it takes a row's. Where two or three columns are left over, a row
+// already holds two of them in one vector, and splitting them off gained nothing
+// (block_kernels_benchmark's AssembleS on 54cams and 54camsvarK).
 constexpr bool kSplitBlocks = true;
 
-// column_pairs for such blocks. Row by row, each column past the last vector of four takes an
-// operation of its own for each row and term (a third of a 9-wide row's operations for a ninth
-// of its entries); as a vector, a column takes a row's. Every entry gets the fused operations
-// pair_rows gives it, in the same order, so the bits are the same. The diagonal block's tail
-// columns are updated whole, as pair_rows_upper updates the vectors that hold them, and a held
-// row's (left out of the rows by the mask) with them: its Y^T entries are zero, as the row's
-// A_ij column is, and the +0 its entries hold stays +0.
+// column_pairs for such blocks. Every entry gets the fused operations pair_rows gives it, in
+// the same order, so the bits are the same. The last column of a held row (left out of the
+// rows by the mask) is updated with the others: the row's Y^T entries are zero, as its A_ij
+// column is, and the +0 its entries hold stays +0.
 template <int N, int D>
 inline __attribute__((always_inline)) void column_pairs_split(const double *Yt, int stride, int count, const int *cols,
                                                               int mcon, const double *Wt, double *S, i64 rowstride,
                                                               const RowMask *rows) {
-  constexpr int R = N % 4, L = N - R, T = N * L;
-  static_assert(R > 0 && L > 0, "blocks with a tail and rows");
+  constexpr int L = N - 1, T = N * L;
+  static_assert(L % 4 == 0 && L > 0, "rows of whole vectors and one column left over");
   Row<L> w[D];
-  double wt[D][R];
+  double wl[D];
 #pragma GCC unroll 4
-  for (int d = 0; d < D; ++d) {
-    w[d] = Row<L>::load(Wt + d * N);
-#pragma GCC unroll 4
-    for (int r = 0; r < R; ++r) wt[d][r] = Wt[d * N + L + r];
-  }
+  for (int d = 0; d < D; ++d) w[d] = Row<L>::load(Wt + d * N), wl[d] = Wt[d * N + L];
   for (int q = 0; q < count; ++q) {
     const double *Y = Yt + i64(q) * stride;
     double *B = S + i64(cols[q] - mcon) * rowstride;
@@ -282,16 +279,10 @@ inline __attribute__((always_inline)) void column_pairs_split(const double *Yt, 
       for (int d = 0; d < D; ++d) acc.fnmadd(Y[d * N + a], w[d], k0);
       acc.store(B + a * L, k0);
     }
-    Row<N> y[D];  // loaded once: the stores through B might alias Y for all the compiler knows
+    Row<N> last = Row<N>::load(B + T);
 #pragma GCC unroll 4
-    for (int d = 0; d < D; ++d) y[d] = Row<N>::load(Y + d * N);
-#pragma GCC unroll 4
-    for (int r = 0; r < R; ++r) {
-      Row<N> col = Row<N>::load(B + T + r * N);
-#pragma GCC unroll 4
-      for (int d = 0; d < D; ++d) col.fnmadd(wt[d][r], y[d]);
-      col.store(B + T + r * N);
-    }
+    for (int d = 0; d < D; ++d) last.fnmadd(wl[d], Row<N>::load(Y + d * N));
+    last.store(B + T);
   }
 }
 #else
@@ -772,8 +763,8 @@ class KernelsT final : public Kernels {
 
   // Where the assembly writes dense S's block columns: block j of column k at
   // column(k) + j * rowstride, its rows ld apart; in S itself, or in the thread's packed copy.
-  // A packed copy of blocks whose width is not a multiple of four (kSplit) stores them split
-  // (column_pairs_split): their first ld columns as rows, the rest from + tail, a column each.
+  // A packed copy of blocks one wider than a multiple of four (kSplit) stores them split
+  // (column_pairs_split): their first ld columns as rows, the last one at + tail.
   struct DenseColumns {
     double *base;
     i64 rowstride, ld;
@@ -784,11 +775,9 @@ class KernelsT final : public Kernels {
     static i64 blocks_before(int k0, int k) { return i64(k - k0) * (k0 + 1) + i64(k - k0) * (k - k0 - 1) / 2; }
     double *column(int k) const { return packed ? base + blocks_before(k0, k) * rowstride : base + i64(k) * cn; }
     // Entry (a, c) of the block at blk.
-    double &entry(double *blk, int a, int c) const {
-      return tail && c >= ld ? blk[tail + (c - ld) * cn + a] : blk[a * ld + c];
-    }
+    double &entry(double *blk, int a, int c) const { return tail && c == ld ? blk[tail + a] : blk[a * ld + c]; }
   };
-  static constexpr bool kSplit = kSplitBlocks && C > 4 && C % 4 != 0 && P > 0;
+  static constexpr bool kSplit = kSplitBlocks && C > 4 && C % 4 == 1 && P > 0;
 
   // S's block columns [k0, k1) and their blocks of rhs before the points' terms: the diagonal
   // blocks U_k + mu D_k, the rest zero. A dense S is assembled in the thread's packed copy of
@@ -804,7 +793,7 @@ class KernelsT final : public Kernels {
     DenseColumns out{S.base, i64(cn) * S.ld, S.ld, false, k0, cn, 0};
     if (packed) {
       sc.packed.assign(size_t(DenseColumns::blocks_before(k0, k1) * cn * cn), 0.0);
-      const int rowlen = kSplit ? cn - cn % 4 : cn;
+      const int rowlen = kSplit ? cn - 1 : cn;
       out = DenseColumns{sc.packed.data(), i64(cn) * cn, rowlen, true, k0, cn, kSplit ? i64(cn) * rowlen : 0};
     }
     if (!S.perm)  // dense S: block rows 0 .. k1 - 1 of these columns; packed, those below the

@@ -512,8 +512,7 @@ TEST_P(KernelsLayout, HeldNormalEquationsZeroTheHeldColumnsAsTheyRead) {
   }
 }
 
-// Every fixed width (the packed assembly splits those that are not a multiple of four, by
-// the remainder), and a run-time one.
+// Every fixed width (the packed assembly splits the 9-wide blocks), and a run-time one.
 INSTANTIATE_TEST_SUITE_P(Kernels, KernelsLayout, ::testing::Values(6, 7, 9, 11, 16, 5),
                          [](const ::testing::TestParamInfo<int> &p) { return "cnp" + std::to_string(p.param); });
 
