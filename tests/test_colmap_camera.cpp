@@ -178,10 +178,6 @@ TEST(ColmapCamera, ProjectionsByHand) {
   }
 }
 
-// COLMAP's own projections: recorded from pycolmap 4.2.1 (tests/colmap_real/pycolmap_models.py
-// --cpp prints them: Camera(model, params=the sample parameters above).img_from_cam(points,
-// check_cheirality=False)), at points in front of the camera, on its axis, far off it, behind
-// it, and one outside DIVISION's field of view, where COLMAP has no pixel either.
 // SIMPLE_RADIAL and RADIAL are OPENCV with the terms they lack at zero: their pixels and
 // derivatives are OPENCV's, bit for bit, at points on and off the axis, with distortion of
 // either sign (their own code writes out only the terms that are not zero).
@@ -218,6 +214,10 @@ TEST(ColmapCamera, RadialModelsAreOpenCVWithoutTheirTerms) {
       }
 }
 
+// COLMAP's own projections: recorded from pycolmap 4.2.1 (tests/colmap_real/pycolmap_models.py
+// --cpp prints them: Camera(model, params=the sample parameters above).img_from_cam(points,
+// check_cheirality=False)), at points in front of the camera, on its axis, far off it, behind
+// it, and one outside DIVISION's field of view, where COLMAP has no pixel either.
 TEST(ColmapCamera, ProjectionsAsPycolmap) {
   const double points[6][3] = {{0.3, -0.45, 1.0}, {-0.8, 0.6, 1.2}, {0.0, 0.0, 2.0},
                                {1.5, 0.4, 1.0},   {0.2, -0.1, -1.0}, {3.0, 2.0, 1.0}};
