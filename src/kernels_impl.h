@@ -826,10 +826,12 @@ class KernelsT final : public Kernels {
     for (int k = k0; k < k1; ++k)
       for (int j = 0; j <= k; ++j)
         for (int a = 0; a < cn; ++a) {
-          // A row of a block, too short for a call to memmove to pay.
-          double *from = dc.column(k) + j * dc.rowstride;
+          // A row of a block, too short for a call to memmove to pay: its first ld entries as
+          // they lie, and a split block's last one from the block's tail.
+          const double *from = dc.column(k) + j * dc.rowstride;
           double *to = S.base + (i64(j) * cn + a) * S.ld + i64(k) * cn;
-          for (int c = 0; c < cn; ++c) to[c] = dc.entry(from, a, c);
+          for (int c = 0; c < dc.ld; ++c) to[c] = from[a * dc.ld + c];
+          if (dc.tail) to[dc.ld] = from[dc.tail + a];
         }
   }
 
