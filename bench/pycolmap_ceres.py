@@ -41,9 +41,12 @@ there shows "-". Seconds are the solver's own: Ceres's total_time column (from t
 ceres::Solve, its preprocessing included, COLMAP's building of the problem not) and sbarefine's
 solve (its --json "seconds" and per-iteration times: reading the model not included). The
 Python call's wall time around pycolmap.bundle_adjustment (with COLMAP's building of the
-problem) is in the JSON as call_seconds.
+problem) is in the JSON as call_seconds. A Ceres run that --timeout stops is reported with
+what it printed until then: its times to the tolerances it reached, the last cost it printed
+as its final one, and "> TIMEOUT" to the end; an sba run that it stops is left out.
 
-Writes OUT.md (the tables and the exact commands) and OUT.json (one JSON object a run).
+Writes OUT.md (the tables and the exact commands) and OUT.json (one JSON object a run, each
+written as its run ends).
 """
 import argparse
 import bz2
@@ -167,24 +170,39 @@ def worker_ceres(inp, config, threads, report, out):
         so.linear_solver_type = getattr(pyceres.LinearSolverType, forced[0])
         if forced[1]:
             so.preconditioner_type = getattr(pyceres.PreconditionerType, forced[1])
+    facts = {"images": rec.num_reg_images(), "dense_max": o.ceres.max_num_images_direct_dense_cpu_solver,
+             "sparse_max": o.ceres.max_num_images_direct_sparse_cpu_solver}
+    # Written before the solve too, so that a run stopped at --timeout still tells its solver.
+    with open(report, "w", encoding="utf-8") as f:
+        json.dump(facts, f)
     sys.stdout.flush()
     t0 = time.perf_counter()
     pycolmap.bundle_adjustment(rec, o)
-    seconds = time.perf_counter() - t0
+    facts["call_seconds"] = time.perf_counter() - t0
     sys.stdout.flush()
     os.makedirs(out, exist_ok=True)
     rec.write_binary(out)
     with open(report, "w", encoding="utf-8") as f:
-        json.dump({"call_seconds": seconds, "images": rec.num_reg_images(),
-                   "dense_max": o.ceres.max_num_images_direct_dense_cpu_solver,
-                   "sparse_max": o.ceres.max_num_images_direct_sparse_cpu_solver}, f)
+        json.dump(facts, f)
 
 
 def run_ceres(a, inp, config, work):
     report, out = os.path.join(work, "ceres-%s.json" % config), os.path.join(work, "ceres-%s" % config)
     cmd = [sys.executable, os.path.abspath(__file__), "--worker", "ceres", inp, config, str(a.threads), report, out]
-    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, timeout=a.timeout, check=True)
-    trace = [(float(mt.group(3)), float(mt.group(2))) for mt in map(PROGRESS.match, p.stdout.splitlines()) if mt]
+    if os.path.exists(report):
+        os.remove(report)
+    try:
+        stdout = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, timeout=a.timeout,
+                                check=True).stdout
+        stopped = False
+    except subprocess.TimeoutExpired as e:
+        # What it printed until then (bytes: the run was killed before its output was decoded).
+        stdout, stopped = e.stdout or b"", True
+        if isinstance(stdout, bytes):
+            stdout = stdout.decode("utf-8", "replace")
+    trace = [(float(mt.group(3)), float(mt.group(2))) for mt in map(PROGRESS.match, stdout.splitlines()) if mt]
+    if stopped and (len(trace) < 2 or not os.path.exists(report)):
+        raise subprocess.TimeoutExpired(cmd, a.timeout)
     with open(report, encoding="utf-8") as f:
         r = json.load(f)
     if config == "default":
@@ -197,8 +215,13 @@ def run_ceres(a, inp, config, work):
     # rejected step repeats the cost of the iterate kept. The final cost to all its digits is
     # the written model's, measured as sbarefine measures its own (its --itmax 0, which, as
     # COLMAP does, leaves out an observation behind its camera; own_final: Ceres's).
-    r.update(initial=trace[0][1], final=score(a, out, work), own_final=trace[-1][1], trace=trace[1:],
-             seconds=trace[-1][0], iterations=len(trace) - 1, cmd=cmd[1:])
+    r.update(initial=trace[0][1], own_final=trace[-1][1], trace=trace[1:], iterations=len(trace) - 1, cmd=cmd[1:])
+    if stopped:
+        # Stopped at --timeout: no model was written, so its final cost is the last it printed,
+        # and its time to the end is more than the timeout; its times to the tolerances stand.
+        r.update(final=trace[-1][1], seconds=a.timeout, stopped=True)
+    else:
+        r.update(final=score(a, out, work), seconds=trace[-1][0])
     return r
 
 
@@ -293,6 +316,10 @@ def main(argv):
         return write_report(a, pycolmap.__version__, runs)
     work = a.work or tempfile.mkdtemp(prefix="pycolmap_ceres.")
     runs = []
+    # Each run's record is written as soon as it is made: a command stopped during a long run
+    # leaves those before it for --report-only.
+    with open(a.out + ".json", "w", encoding="utf-8"):
+        pass
     for spec in a.problems.split(","):
         name, inp, made, images, nobs = make_problem(a, spec, work)
         for program, configs in (("ceres", a.ceres), ("sba", a.sba)):
@@ -309,11 +336,10 @@ def main(argv):
                              date=datetime.date.today().isoformat(),
                              command="build/pycolmap-venv/bin/python3 bench/pycolmap_ceres.py " + " ".join(argv))
                     runs.append(r)
+                    with open(a.out + ".json", "a", encoding="utf-8") as f:
+                        f.write(json.dumps(r) + "\n")
                     print("%s %s: %.3f s, %d iterations, cost %.6e -> %.9e" % (name, r["run"], r["seconds"],
                           r["iterations"], r["initial"], r["final"]), file=sys.stderr, flush=True)
-    with open(a.out + ".json", "w", encoding="utf-8") as f:
-        for r in runs:
-            f.write(json.dumps(r) + "\n")
     write_report(a, pycolmap.__version__, runs)
 
 
@@ -351,10 +377,13 @@ def write_report(a, version, runs):
                   "|---|---|---:|---:|---:|---:|---:|---:|"]
         for r in rows:
             final = "%.9e" % r["final"]
-            if "own_final" in r and abs(r["final"] - r["own_final"]) > 1e-6 * r["own_final"]:
+            if r.get("stopped"):
+                final = "%.6e (stopped at the timeout)" % r["final"]
+            elif "own_final" in r and abs(r["final"] - r["own_final"]) > 1e-6 * r["own_final"]:
                 final += " (Ceres's: %.6e)" % r["own_final"]
-            lines.append("| %s | %s | %d | %s | %s | %s | %s | %.3f |" % (
-                r["run"], r["solver"], r["iterations"], final, *map(cell, r["to"]), r["seconds"]))
+            lines.append("| %s | %s | %d | %s | %s | %s | %s | %s%.3f |" % (
+                r["run"], r["solver"], r["iterations"], final, *map(cell, r["to"]), "> " if r.get("stopped") else "",
+                r["seconds"]))
         ceres = [r for r in rows if r["run"].startswith("ceres:")]
         for r in rows:
             if r["run"].startswith("sba:") and ceres:
@@ -364,8 +393,9 @@ def write_report(a, version, runs):
                     ratios.append("-" if r["to"][k] is None or not peer else "%.2fx" % (r["to"][k] / min(peer)))
                 lines.append("")
                 end = min(c["seconds"] for c in ceres)
+                bound = all(c.get("stopped") for c in ceres if c["seconds"] == end)
                 lines.append("%s against the best Ceres run at each tolerance: %s (10%%, 1%%, 0.3%%); to the end "
-                             "%.2fx." % (r["run"], ", ".join(ratios), r["seconds"] / end))
+                             "%s%.2fx." % (r["run"], ", ".join(ratios), "under " if bound else "", r["seconds"] / end))
                 peer_final = min(c["final"] for c in ceres)
                 if r["final"] > peer_final * (1 + SAME_COST):
                     lines[-1] += " It ends %.1e above Ceres's lowest final cost: a loss whatever its time." % (
