@@ -32,7 +32,7 @@ phase is n times its floor.
 
 Runs (--runs): 54cams (eucsbademo, fixed K), problem-16 (balsba, BAL problem-16), and each
 COLMAP model of --colmap NAME=DIR (sbarefine at its defaults), each with every strategy of
---strategies.
+--strategies; --runs '' runs the COLMAP models alone.
 
 Writes OUT.md (the table and the commands) and OUT.json (one object a run).
 """
@@ -142,7 +142,7 @@ def runs_of(a, work):
     sba_demo, bal = os.path.join(a.data, "sba-demo"), os.path.join(a.data, "bal")
     out = []
     for strategy in a.strategies.split(","):
-        for name in a.runs.split(","):
+        for name in filter(None, a.runs.split(",")):
             js = os.path.join(work, "%s-%s.json" % (name.replace("/", "_"), strategy))
             common = ["--threads", str(a.threads), "--strategy", strategy, "--json", js, "--no-progress"]
             if name == "54cams":
@@ -175,6 +175,9 @@ def main(argv):
     ap.add_argument("--out", default=os.path.join(HERE, "results", "phase_profile"))
     ap.add_argument("--work", default="")
     a = ap.parse_args(argv)
+    runs = runs_of(a, "")
+    if not runs:
+        raise SystemExit("phase_profile.py: nothing to run (--runs and --colmap both empty)")
     work = a.work or tempfile.mkdtemp(prefix="phase_profile.")
     os.makedirs(work, exist_ok=True)
     bw, peak = bandwidth(), dgemm_rate(a.threads)
