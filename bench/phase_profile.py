@@ -175,14 +175,14 @@ def main(argv):
     ap.add_argument("--out", default=os.path.join(HERE, "results", "phase_profile"))
     ap.add_argument("--work", default="")
     a = ap.parse_args(argv)
-    runs = runs_of(a, "")
-    if not runs:
-        raise SystemExit("phase_profile.py: nothing to run (--runs and --colmap both empty)")
     work = a.work or tempfile.mkdtemp(prefix="phase_profile.")
     os.makedirs(work, exist_ok=True)
+    runs = runs_of(a, work)
+    if not runs:
+        raise SystemExit("phase_profile.py: nothing to run (--runs and --colmap both empty)")
     bw, peak = bandwidth(), dgemm_rate(a.threads)
     results = []
-    for name, program, strategy, cmd, js, blocks in runs_of(a, work):
+    for name, program, strategy, cmd, js, blocks in runs:
         phases, top, wall = profile(cmd, work, "%s-%s" % (name, strategy))
         with open(js, encoding="utf-8") as f:
             d = json.load(f)
